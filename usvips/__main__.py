@@ -1,0 +1,5 @@
+import sys
+
+from usvips.cli import main
+
+sys.exit(main())

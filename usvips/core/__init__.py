@@ -1,0 +1,1 @@
+"""Pure computation: camera model, refraction, intersection, adjustment. No Qt, no SQLite, no files."""

@@ -1,0 +1,320 @@
+"""A camera: interior orientation ∘ housing ∘ exterior orientation.
+
+``Camera.rays(pixels)`` traces observed pixels into object-space rays (thesis 2.2.4: eq. 2.14 to 2.27);
+``Camera.project(points)`` back-projects object points to pixels through the housing by an iterative
+solve. Both are vectorised over N rows, float64, metres and pixels.
+
+Exterior orientation (X0, Y0, Z0, omega, phi, kappa): the perspective centre in object space (metres)
+and the omega-phi-kappa angles (radians) of M, the object → image rotation (``rotation.py``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from usvips.core import validation
+from usvips.core.housing import AirHousing, Housing
+from usvips.core.interior import Interior
+from usvips.core.rays import RayBundle, RayStatus
+from usvips.core.rotation import rotation_matrix
+
+EXTERIOR_PARAMETERS = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
+
+#: Back-projection stops when the pixel update is below this (pixels).
+PROJECTION_TOLERANCE_PX = 1e-9
+
+
+@dataclass(frozen=True)
+class Exterior:
+    """Perspective centre (X0, Y0, Z0) in metres and omega, phi, kappa in radians."""
+
+    X0: float
+    Y0: float
+    Z0: float
+    omega: float = 0.0
+    phi: float = 0.0
+    kappa: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in EXTERIOR_PARAMETERS:
+            object.__setattr__(self, name, validation.finite(name, getattr(self, name)))
+
+    @cached_property
+    def rotation(self) -> np.ndarray:
+        """M, object → image rotation (3, 3)."""
+        return rotation_matrix(self.omega, self.phi, self.kappa)
+
+    @property
+    def position(self) -> np.ndarray:
+        return np.array([self.X0, self.Y0, self.Z0])
+
+    def to_camera(self, points: np.ndarray) -> np.ndarray:
+        """Object points (N, 3) → camera frame: M · (P − X0)."""
+        return (points - self.position) @ self.rotation.T
+
+    def to_object(self, points: np.ndarray) -> np.ndarray:
+        """Camera-frame points (N, 3) → object space: X0 + Mᵀ · p."""
+        return points @ self.rotation + self.position
+
+    def with_values(self, **changes: float) -> Exterior:
+        values = {name: getattr(self, name) for name in EXTERIOR_PARAMETERS}
+        values.update(changes)
+        return Exterior(**values)
+
+
+@dataclass(frozen=True)
+class Projection:
+    """Back-projected pixels (N, 2) and a :class:`RayStatus` per point.
+
+    Rows whose status is not OK hold the finite last iterate (or the pinhole guess) and must not be used.
+    """
+
+    pixels: np.ndarray
+    status: np.ndarray
+
+    @property
+    def ok(self) -> np.ndarray:
+        return self.status == RayStatus.OK
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Interior + exterior orientation + housing; ``width``/``height`` (pixels) bound the frame if given."""
+
+    interior: Interior
+    exterior: Exterior
+    housing: Housing = field(default_factory=AirHousing)
+    width: int | None = None
+    height: int | None = None
+
+    # ---------------------------------------------------------------- pixel -> object-space ray
+    def camera_rays(self, pixels: np.ndarray) -> RayBundle:
+        """Trace pixels (N, 2) through the lens and housing; the result is in the camera frame."""
+        pixels = validation.finite_array("pixels", pixels, 2)
+        uv = self.interior.pixels_to_normalised(pixels)
+        directions = np.column_stack([uv, -np.ones(len(uv))])
+        return self.housing.trace(np.zeros_like(directions), directions)
+
+    def rays(self, pixels: np.ndarray) -> RayBundle:
+        """Object-space rays (N) of observed pixels (N, 2): origin on the outer cover surface, unit
+        direction in the water, with a status per ray (see :class:`RayBundle`)."""
+        bundle = self.camera_rays(pixels)
+        return RayBundle(self.exterior.to_object(bundle.origins), bundle.directions @ self.exterior.rotation,
+                         bundle.status, bundle.failed_surface)
+
+    # ---------------------------------------------------------------- object point -> pixel
+    def project(self, points: np.ndarray) -> Projection:
+        """Back-project object points (N, 3) to observed pixels through the housing.
+
+        Converges to 1e-9 px wherever the point is visible. Status per point: BEHIND_CAMERA (not in
+        front of the housing), MISSED_SURFACE / TOTAL_INTERNAL_REFLECTION (no ray of the camera reaches
+        it), NOT_CONVERGED, OUTSIDE_FRAME (when the frame size is known).
+        """
+        points = validation.finite_array("points", points, 3)
+        local = self.exterior.to_camera(points)
+        uv, status = _back_project(self.housing, local)
+        pixels = self.interior.normalised_to_pixels(uv)
+        if self.width is not None and self.height is not None:
+            outside = (
+                (pixels[:, 0] < -0.5) | (pixels[:, 0] > self.width - 0.5)
+                | (pixels[:, 1] < -0.5) | (pixels[:, 1] > self.height - 0.5)
+            )
+            status[(status == RayStatus.OK) & outside] = RayStatus.OUTSIDE_FRAME
+        return Projection(pixels, status)
+
+    def with_exterior(self, exterior: Exterior) -> Camera:
+        return Camera(self.interior, exterior, self.housing, self.width, self.height)
+
+
+# ---------------------------------------------------------------------------------------------------
+# back-projection solvers (camera frame)
+# ---------------------------------------------------------------------------------------------------
+
+def _back_project(housing: Housing, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ideal normalised coordinates (N, 2) of the rays that reach camera-frame points, and a status."""
+    n = local.shape[0]
+    status = np.zeros(n, dtype=np.uint8)
+    in_front = local[:, 2] < 0.0
+    safe_z = np.where(in_front, local[:, 2], -1.0)
+    uv = -local[:, :2] / safe_z[:, None]  # pinhole direction: the answer in air, the start otherwise
+    status[~in_front] = RayStatus.BEHIND_CAMERA
+    if not housing.is_refractive and not housing.surfaces:
+        return uv, status
+    live = np.flatnonzero(in_front)
+    if live.size == 0:
+        return uv, status
+    if housing.is_planar_stack:
+        solved, sub_status = _back_project_planar(housing, local[live])
+    elif housing.axis is not None:
+        solved, sub_status = _back_project_axial(housing, local[live])
+    else:
+        solved, sub_status = _back_project_general(housing, local[live], uv[live])
+    uv[live] = solved
+    status[live] = sub_status
+    return uv, status
+
+
+def _final_segment_check(housing: Housing, uv: np.ndarray, points: np.ndarray,
+                         status: np.ndarray) -> np.ndarray:
+    """Mark points that the solved ray reaches only backwards (inside the housing) or not at all."""
+    directions = np.column_stack([uv, -np.ones(len(uv))])
+    bundle = housing.trace(np.zeros_like(directions), directions)
+    out = status.copy()
+    failed = (bundle.status != RayStatus.OK) & (out == RayStatus.OK)
+    out[failed] = bundle.status[failed]
+    along = np.einsum("ij,ij->i", points - bundle.origins, bundle.directions)
+    out[(out == RayStatus.OK) & (along <= 0.0)] = RayStatus.BEHIND_CAMERA
+    return out
+
+
+def _back_project_planar(housing: Housing, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Parallel planes about an axis through the perspective centre: a 1-D Newton solve in the plane of
+    refraction with the closed-form radial offset (n_i sin θ_i is the same in every medium)."""
+    planes = housing.surfaces
+    axis = housing.axis
+    indices = np.asarray(housing.indices)
+    # distances along the axis from the centre to each plane (plane: n·p + h = 0, n = ±axis)
+    distances = np.array([-p.offset * float(p.normal @ axis) for p in planes])
+    if np.any(distances <= 0.0) or np.any(np.diff(distances) <= 0.0):
+        # planes behind the camera or out of order: let the general solver say what happens
+        return _back_project_general(housing, points, -points[:, :2] / points[:, 2:3])
+    thickness = np.diff(np.concatenate([[0.0], distances]))  # air gap, then each glass layer
+    depth = points @ axis
+    radial_vec = points - depth[:, None] * axis
+    radial = np.linalg.norm(radial_vec, axis=1)
+    status = np.zeros(len(points), dtype=np.uint8)
+    beyond = depth > distances[-1]
+    status[~beyond] = RayStatus.BEHIND_CAMERA
+    water = np.where(beyond, depth - distances[-1], 1.0)
+    # unknown: q = n1·sin θ1 (the invariant); layer i has sin θ = q / n_i
+    layers_n = indices[:-1]  # media before each plane: n1, n2, ...
+    n_water = indices[-1]
+    q_max = min(indices.min(), n_water) * (1.0 - 1e-15)
+    # start from a pinhole-like guess in water
+    q = np.minimum(n_water * np.sin(np.arctan2(radial, depth)), 0.999 * q_max)
+    for _ in range(60):
+        total = np.zeros_like(q)
+        slope = np.zeros_like(q)
+        for thick, n_layer in zip(thickness, layers_n, strict=True):
+            s = q / n_layer
+            c = np.sqrt(1.0 - s * s)
+            total += thick * s / c
+            slope += thick / (n_layer * c * c * c)
+        s = q / n_water
+        c = np.sqrt(1.0 - s * s)
+        total += water * s / c
+        slope += water / (n_water * c * c * c)
+        step = (total - radial) / slope
+        new_q = np.clip(q - step, 0.0, q_max)
+        new_q = np.where(new_q >= q_max, 0.5 * (q + q_max), new_q)
+        change = np.abs(new_q - q)
+        q = new_q
+        if np.all(change < 1e-16):
+            break
+    sin1 = q / indices[0]
+    cos1 = np.sqrt(1.0 - sin1 * sin1)
+    safe_radial = np.where(radial > 0, radial, 1.0)
+    e_r = np.where((radial > 0)[:, None], radial_vec / safe_radial[:, None], 0.0)
+    direction = cos1[:, None] * axis + sin1[:, None] * e_r
+    status[(direction[:, 2] >= 0.0) & (status == RayStatus.OK)] = RayStatus.BEHIND_CAMERA
+    dz = np.where(direction[:, 2] < 0, direction[:, 2], -1.0)
+    uv = -direction[:, :2] / dz[:, None]
+    return uv, _final_segment_check(housing, uv, points, status)
+
+
+def _radial_miss(housing: Housing, axis: np.ndarray, e_r: np.ndarray, depth: np.ndarray,
+                 radial: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Radial offset (metres) of the traced ray from the point at the point's axial depth."""
+    directions = np.cos(theta)[:, None] * axis + np.sin(theta)[:, None] * e_r
+    bundle = housing.trace(np.zeros_like(directions), directions)
+    along_axis = bundle.directions @ axis
+    safe = np.where(np.abs(along_axis) > 1e-15, along_axis, 1e-15)
+    s = (depth - bundle.origins @ axis) / safe
+    reached = bundle.origins + s[:, None] * bundle.directions
+    return np.einsum("ij,ij->i", reached, e_r) - radial, bundle.status
+
+
+def _back_project_axial(housing: Housing, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotationally symmetric housing: secant iteration on the ray's angle θ from the axis, in the plane
+    that holds the axis and the point."""
+    axis = housing.axis
+    depth = points @ axis
+    radial_vec = points - depth[:, None] * axis
+    radial = np.linalg.norm(radial_vec, axis=1)
+    safe_radial = np.where(radial > 0, radial, 1.0)
+    e_r = np.where((radial > 0)[:, None], radial_vec / safe_radial[:, None],
+                   np.array([1.0, 0.0, 0.0]) - axis[0] * axis)
+    e_r /= np.linalg.norm(e_r, axis=1, keepdims=True)
+    theta0 = np.arctan2(radial, depth)
+    theta1 = theta0 * 0.98 + 1e-9
+    f0, status = _radial_miss(housing, axis, e_r, depth, radial, theta0)
+    f1, status1 = _radial_miss(housing, axis, e_r, depth, radial, theta1)
+    for _ in range(60):
+        denominator = f1 - f0
+        safe = np.where(np.abs(denominator) > 1e-300, denominator, 1e-300)
+        theta2 = np.where(np.abs(denominator) > 1e-300, theta1 - f1 * (theta1 - theta0) / safe, theta1)
+        theta2 = np.clip(theta2, 0.0, 0.5 * np.pi - 1e-9)
+        theta0, f0 = theta1, f1
+        theta1 = theta2
+        f1, status1 = _radial_miss(housing, axis, e_r, depth, radial, theta1)
+        if np.all(np.abs(theta1 - theta0) < 1e-15):
+            break
+    status = status1.astype(np.uint8)
+    direction = np.cos(theta1)[:, None] * axis + np.sin(theta1)[:, None] * e_r
+    dz = np.where(direction[:, 2] < 0, direction[:, 2], -1.0)
+    status[(direction[:, 2] >= 0.0) & (status == RayStatus.OK)] = RayStatus.BEHIND_CAMERA
+    uv = -direction[:, :2] / dz[:, None]
+    status[(np.abs(f1) > 1e-9 * np.maximum(1.0, np.abs(depth))) & (status == RayStatus.OK)] = \
+        RayStatus.NOT_CONVERGED
+    return uv, _final_segment_check(housing, uv, points, status)
+
+
+def _perpendicular_miss(housing: Housing, uv: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vector (N, 3) from the point to the nearest point of the traced ray of uv, and the trace status."""
+    directions = np.column_stack([uv, -np.ones(len(uv))])
+    bundle = housing.trace(np.zeros_like(directions), directions)
+    offset = points - bundle.origins
+    along = np.einsum("ij,ij->i", offset, bundle.directions)
+    return offset - along[:, None] * bundle.directions, bundle.status
+
+
+def _back_project_general(housing: Housing, points: np.ndarray,
+                          start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Any housing: Gauss–Newton on the normalised image coordinates (u, v) so that the traced ray
+    passes through the point; the Jacobian by forward differences (two extra traces)."""
+    uv = start.copy()
+    n = len(points)
+    status = np.zeros(n, dtype=np.uint8)
+    active = np.ones(n, dtype=bool)
+    step = 1e-7
+    for _ in range(40):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        current = uv[idx]
+        p = points[idx]
+        stacked = np.concatenate([current, current + [step, 0.0], current + [0.0, step]])
+        miss, trace_status = _perpendicular_miss(housing, stacked, np.concatenate([p, p, p]))
+        m0, mu, mv = np.split(miss, 3)
+        s0 = np.split(trace_status, 3)[0]
+        ju, jv = (m0 - mu) / step, (m0 - mv) / step  # ∂(−miss)/∂u: the miss shrinks along the solution
+        a11, a12, a22 = (np.einsum("ij,ij->i", ju, ju), np.einsum("ij,ij->i", ju, jv),
+                         np.einsum("ij,ij->i", jv, jv))
+        b1, b2 = np.einsum("ij,ij->i", ju, m0), np.einsum("ij,ij->i", jv, m0)
+        det = a11 * a22 - a12 * a12
+        ok_det = np.abs(det) > 1e-300
+        safe = np.where(ok_det, det, 1.0)
+        du = np.where(ok_det, (a22 * b1 - a12 * b2) / safe, 0.0)
+        dv = np.where(ok_det, (a11 * b2 - a12 * b1) / safe, 0.0)
+        failed = (s0 != RayStatus.OK) | ~ok_det
+        status[idx[failed]] = np.where(s0[failed] != RayStatus.OK, s0[failed], RayStatus.NOT_CONVERGED)
+        du[failed] = dv[failed] = 0.0
+        uv[idx, 0] += du
+        uv[idx, 1] += dv
+        done = failed | (np.maximum(np.abs(du), np.abs(dv)) < 1e-13)
+        active[idx[done]] = False
+    status[active] = RayStatus.NOT_CONVERGED
+    return uv, _final_segment_check(housing, uv, points, status)
