@@ -1,0 +1,1 @@
+"""File formats: control and observation CSV, calibration JSON, images, video frames."""
