@@ -1,0 +1,173 @@
+"""Sample-project manifests (``project.json``): what a self-describing project directory holds.
+
+A manifest names, relative to its own directory: the control file, the stereo image pairs, the
+observation files and their role, calibration files and which pairs they serve, an optional stereo
+video and an optional truth file (synthetic samples). The store imports a manifest into a project
+database; nothing else in a sample directory is needed to open it.
+
+    {"format": "usvips-sample", "version": 1, "name": "...", "description": "...",
+     "control": "control.csv",
+     "pairs": [{"label": "air1", "left": "images/air1_left.png", "right": "images/air1_right.png",
+                "medium": "air"}],
+     "observations": [{"file": "obs.csv", "role": "calibration-air", "pairs": ["air1"]}],
+     "calibrations": [{"file": "cal.json", "active_for": ["w1"]}],
+     "video": {"left": "video_left.avi", "right": "video_right.avi", "frame_offset": 3},
+     "truth": "truth.json"}
+
+Roles: ``calibration-air``, ``calibration-water``, ``check``, ``measurement``. ``medium``: ``air`` or
+``water``. Every path must stay inside the directory.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from usvips.core.errors import InputFileError
+
+FORMAT = "usvips-sample"
+VERSION = 1
+ROLES = ("calibration-air", "calibration-water", "check", "measurement")
+MEDIA = ("air", "water")
+_TOP_KEYS = {"format", "version", "name", "description", "control", "pairs", "observations",
+             "calibrations", "video", "truth"}
+
+
+@dataclass(frozen=True)
+class ImagePairEntry:
+    label: str
+    left: Path | None
+    right: Path | None
+    medium: str = "water"
+
+
+@dataclass(frozen=True)
+class ObservationEntry:
+    file: Path
+    role: str
+    pairs: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class CalibrationEntry:
+    file: Path
+    active_for: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class VideoEntry:
+    left: Path
+    right: Path
+    frame_offset: int = 0
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """A parsed ``project.json``; every path is absolute."""
+
+    path: Path
+    name: str
+    description: str = ""
+    control: Path | None = None
+    pairs: tuple[ImagePairEntry, ...] = ()
+    observations: tuple[ObservationEntry, ...] = ()
+    calibrations: tuple[CalibrationEntry, ...] = ()
+    video: VideoEntry | None = None
+    truth: Path | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def directory(self) -> Path:
+        return self.path.parent
+
+
+def _inside(manifest: Path, key: str, value: object, must_exist: bool = True) -> Path:
+    if not isinstance(value, str) or not value:
+        raise InputFileError(str(manifest), f"key {key!r}: expected a relative file path, got {value!r}")
+    base = manifest.parent.resolve()
+    target = (base / value).resolve()
+    if base != target and base not in target.parents:
+        raise InputFileError(str(manifest), f"key {key!r}: {value!r} points outside the project directory")
+    if must_exist and not target.exists():
+        raise InputFileError(str(manifest), f"key {key!r}: file {value!r} does not exist")
+    return target
+
+
+def _entries(manifest: Path, data: dict, key: str) -> list[dict]:
+    value = data.get(key, [])
+    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+        raise InputFileError(str(manifest), f"key {key!r}: expected a list of objects")
+    return value
+
+
+def _unknown(manifest: Path, where: str, entry: dict, allowed: set[str]) -> None:
+    unknown = sorted(set(entry) - allowed)
+    if unknown:
+        raise InputFileError(str(manifest), f"{where}: unknown key(s) {', '.join(map(repr, unknown))}")
+
+
+def read_manifest(path: str | Path) -> Manifest:
+    """Read and validate a manifest (``project.json`` or the directory holding one)."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "project.json"
+    if not path.is_file():
+        raise InputFileError(str(path), "no such project manifest")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as error:
+        raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise InputFileError(str(path), f"not a USVIPS sample manifest (\"format\" must be {FORMAT!r})")
+    if data.get("version") != VERSION:
+        raise InputFileError(str(path), f"manifest version {data.get('version')!r} is not supported "
+                             f"(this USVIPS reads version {VERSION})")
+    _unknown(path, "manifest", data, _TOP_KEYS)
+    if not isinstance(data.get("name"), str) or not data["name"]:
+        raise InputFileError(str(path), "key 'name': a non-empty name is required")
+    pairs = []
+    for entry in _entries(path, data, "pairs"):
+        _unknown(path, "pairs entry", entry, {"label", "left", "right", "medium"})
+        label = entry.get("label")
+        if not isinstance(label, str) or not label:
+            raise InputFileError(str(path), "pairs entry: 'label' is required")
+        medium = entry.get("medium", "water")
+        if medium not in MEDIA:
+            raise InputFileError(str(path), f"pair {label!r}: medium must be one of {MEDIA}, got {medium!r}")
+        left = _inside(path, f"pairs[{label}].left", entry["left"]) if entry.get("left") else None
+        right = _inside(path, f"pairs[{label}].right", entry["right"]) if entry.get("right") else None
+        pairs.append(ImagePairEntry(label, left, right, medium))
+    labels = [p.label for p in pairs]
+    if len(set(labels)) != len(labels):
+        raise InputFileError(str(path), "pairs: duplicate pair label")
+    observations = []
+    for entry in _entries(path, data, "observations"):
+        _unknown(path, "observations entry", entry, {"file", "role", "pairs"})
+        role = entry.get("role")
+        if role not in ROLES:
+            raise InputFileError(str(path), f"observations entry: role must be one of {ROLES}, got {role!r}")
+        observations.append(ObservationEntry(_inside(path, "observations.file", entry.get("file")), role,
+                                             tuple(entry.get("pairs", ()))))
+    calibrations = []
+    for entry in _entries(path, data, "calibrations"):
+        _unknown(path, "calibrations entry", entry, {"file", "active_for"})
+        calibrations.append(CalibrationEntry(_inside(path, "calibrations.file", entry.get("file")),
+                                             tuple(entry.get("active_for", ()))))
+    video = None
+    if data.get("video") is not None:
+        v = data["video"]
+        if not isinstance(v, dict):
+            raise InputFileError(str(path), "key 'video': expected an object")
+        _unknown(path, "video", v, {"left", "right", "frame_offset"})
+        offset = v.get("frame_offset", 0)
+        if not isinstance(offset, int):
+            raise InputFileError(str(path), f"video.frame_offset must be an integer, got {offset!r}")
+        video = VideoEntry(_inside(path, "video.left", v.get("left")), _inside(path, "video.right", v.get("right")),
+                           offset)
+    return Manifest(
+        path=path.resolve(), name=data["name"], description=str(data.get("description", "")),
+        control=_inside(path, "control", data["control"]) if data.get("control") else None,
+        pairs=tuple(pairs), observations=tuple(observations), calibrations=tuple(calibrations), video=video,
+        truth=_inside(path, "truth", data["truth"]) if data.get("truth") else None,
+    )
