@@ -30,7 +30,8 @@ def best_time(function: Callable[[], object], repeats: int = 3) -> float:
 def ratio_row(name: str, n: int, ours: Callable[[], object], baseline: Callable[[], object],
               baseline_name: str, target: float | None, repeats: int = 3, **extra: object) -> dict:
     """Time ``ours`` and ``baseline`` alternately and return one result row."""
-    ours(); baseline()  # warm caches and lazy imports before timing
+    ours()  # warm caches and lazy imports before timing
+    baseline()
     ours_s = best_time(ours, repeats)
     baseline_s = best_time(baseline, repeats)
     ratio = ours_s / baseline_s if baseline_s > 0 else float("inf")

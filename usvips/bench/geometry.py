@@ -81,7 +81,7 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
         def ours_project(camera=camera, points=points) -> object:
             return camera.project(points)
 
-        def cv_project(points=points) -> object:
+        def cv_project(points=points, rvec=rvec, tvec=tvec, k=k, dist=dist) -> object:
             return cv2.projectPoints(points, rvec, tvec, k, dist)
 
         back = camera.project(points)

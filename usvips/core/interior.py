@@ -133,7 +133,12 @@ class Interior:
             done = np.maximum(np.abs(du), np.abs(dv)) < tolerance
             active[idx[done]] = False
         residual = np.max(np.abs(self.distort(uv) - target), axis=1)
-        bad = ~np.isfinite(residual) | (residual > 1e3 * tolerance)
+        jac = self.distortion_jacobian(uv)
+        det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
+        # a root on the far side of a fold (Jacobian not positive, or the point flipped through the
+        # centre) reproduces the pixel but is not the ray the lens formed
+        folded = (det <= 0.0) | (np.einsum("ij,ij->i", uv, target) < 0.0)
+        bad = ~np.isfinite(residual) | (residual > 1e3 * tolerance) | folded
         if np.any(bad):
             first = int(np.flatnonzero(bad)[0])
             raise ConvergenceError(

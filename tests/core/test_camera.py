@@ -1,0 +1,155 @@
+import numpy as np
+import pytest
+
+from tests.core.scenes import HOUSINGS, frame_grid, make_camera
+from usvips.core.camera import Camera, Exterior
+from usvips.core.errors import InvalidParameterError
+from usvips.core.housing import (
+    AirHousing,
+    DomeCoverHousing,
+    FlatPortHousing,
+    GeneralHousing,
+    dome_cover_from_object_space,
+    flat_port_from_object_space,
+)
+from usvips.core.interior import Interior
+from usvips.core.rays import RayStatus
+from usvips.core.surfaces import Plane, Sphere
+
+
+def _same_indices(housing):
+    if isinstance(housing, DomeCoverHousing):
+        return DomeCoverHousing(housing.a, housing.b, housing.c, housing.r, housing.d, housing.e, housing.g,
+                                n2=1.0, n3=1.0)
+    if isinstance(housing, FlatPortHousing):
+        return FlatPortHousing(housing.d, housing.e, housing.g, housing.t, n2=1.0, n3=1.0)
+    return GeneralHousing(housing.surfaces, (1.0,) * len(housing.indices))
+
+
+@pytest.mark.parametrize("name", sorted(HOUSINGS))
+def test_trace_then_back_project_returns_to_the_pixel(name):
+    camera = make_camera(HOUSINGS[name])
+    pixels = frame_grid(40)
+    rays = camera.rays(pixels).require_ok()
+    for depth in (0.3, 1.0, 4.0, 20.0):
+        points = rays.origins + depth * rays.directions
+        projection = camera.project(points)
+        assert projection.ok.all(), name
+        assert np.max(np.abs(projection.pixels - pixels)) < 1e-6
+
+
+@pytest.mark.parametrize("name", sorted(set(HOUSINGS) - {"air"}))
+def test_equal_indices_reduce_every_housing_to_the_pinhole(name):
+    pinhole = make_camera(AirHousing())
+    camera = make_camera(_same_indices(HOUSINGS[name]))
+    pixels = frame_grid(80)
+    a, b = pinhole.rays(pixels), camera.rays(pixels)
+    np.testing.assert_allclose(b.directions, a.directions, atol=1e-15)
+    # the traced origin lies on the pinhole ray
+    offset = b.origins - a.origins
+    perpendicular = offset - np.einsum("ij,ij->i", offset, a.directions)[:, None] * a.directions
+    assert np.max(np.linalg.norm(perpendicular, axis=1)) < 1e-15 * 10
+    points = a.origins + 2.5 * a.directions
+    np.testing.assert_allclose(camera.project(points).pixels, pinhole.project(points).pixels, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", sorted(set(HOUSINGS) - {"air"}))
+def test_refraction_really_bends_the_rays(name):
+    pixels = frame_grid(160)
+    a = make_camera(AirHousing()).rays(pixels)
+    b = make_camera(HOUSINGS[name]).rays(pixels)
+    angle = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", a.directions, b.directions), -1, 1)))
+    assert angle.max() > 2.0
+
+
+def test_flat_port_matches_the_closed_form_of_parallel_planes():
+    # a ray at angle θ in air leaves a flat port at sin θw = sin θ / n3 whatever the glass
+    housing = FlatPortHousing(0.0, 0.0, 0.05, 0.02, 1.7, 1.33)
+    theta = np.radians([0.0, 10.0, 25.0, 40.0])
+    directions = np.column_stack([np.sin(theta), np.zeros(4), -np.cos(theta)])
+    bundle = housing.trace(np.zeros_like(directions), directions)
+    sin_water = np.hypot(bundle.directions[:, 0], bundle.directions[:, 1])
+    np.testing.assert_allclose(sin_water, np.sin(theta) / 1.33, atol=1e-15)
+    lateral = 0.05 * np.tan(theta) + 0.02 * np.tan(np.arcsin(np.sin(theta) / 1.7))
+    np.testing.assert_allclose(bundle.origins[:, 0], lateral, atol=1e-15)
+    np.testing.assert_allclose(bundle.origins[:, 2], -0.07, atol=1e-15)
+
+
+def test_points_behind_the_camera_or_inside_the_housing_are_reported():
+    camera = make_camera(HOUSINGS["flat-port"], exterior=Exterior(0, 0, 0))
+    points = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -0.03], [0.1, 0.1, -2.0]])
+    projection = camera.project(points)
+    assert projection.status[0] == RayStatus.BEHIND_CAMERA
+    assert projection.status[1] == RayStatus.BEHIND_CAMERA   # between lens and port: not in the water
+    assert projection.status[2] == RayStatus.OK
+    assert np.all(np.isfinite(projection.pixels))
+
+
+def test_points_outside_the_frame_are_reported():
+    camera = make_camera(HOUSINGS["dome-cover"], exterior=Exterior(0, 0, 0))
+    projection = camera.project(np.array([[0.8, 0.0, -1.0], [0.0, 0.0, -1.0]]))
+    assert list(projection.status) == [RayStatus.OUTSIDE_FRAME, RayStatus.OK]
+
+
+def test_total_internal_reflection_and_missed_surfaces_have_a_status_not_nan():
+    # a camera in water looking out into air through a flat window: steep rays reflect totally
+    wide = Interior(f=300.0, xp=640.0, yp=480.0)
+    housing = GeneralHousing((Plane.from_deg(0, 0, 0.05),), (1.33, 1.0))
+    camera = Camera(wide, Exterior(0, 0, 0), housing)
+    bundle = camera.rays(np.array([[640.0, 480.0], [1279.0, 959.0]]))
+    assert list(bundle.status) == [RayStatus.OK, RayStatus.TOTAL_INTERNAL_REFLECTION]
+    assert bundle.failed_surface[1] == 0
+    assert np.all(np.isfinite(bundle.origins)) and np.all(np.isfinite(bundle.directions))
+    # a strongly tilted cover plane that rays on one side never reach
+    tilted = GeneralHousing((Plane.from_deg(-3.0, 0, 0.05),), (1.0, 1.33))
+    bundle = Camera(wide, Exterior(0, 0, 0), tilted).rays(np.array([[640.0, 480.0], [0.0, 480.0]]))
+    assert list(bundle.status) == [RayStatus.OK, RayStatus.MISSED_SURFACE]
+    with pytest.raises(Exception, match="misses a cover surface"):
+        bundle.require_ok()
+
+
+def test_object_space_housing_parameters_convert_to_the_camera_frame():
+    exterior = Exterior(100.65, 100.61, -98.24, 0.003, -0.034, -0.033)
+    a, b, c, r = 100.6451, 100.6069, -98.2102, 0.0885
+    d, e, g = 0.001, -0.002, 98.4 - 0.001 * 100.65 + 0.002 * 100.61
+    housing = dome_cover_from_object_space(a, b, c, r, d, e, g, 1.6, 1.34, exterior.rotation, exterior.position)
+    # the same surfaces held in object space trace the same object-space rays
+    sphere = Sphere(np.array([a, b, c]), r)
+    plane = Plane.from_deg(d, e, g)
+    object_housing = GeneralHousing((sphere, plane), (1.0, 1.6, 1.34))
+    camera = Camera(Interior(570.0, 284.0, 244.0), exterior, housing)
+    pixels = np.array([[10.0, 20.0], [284.0, 244.0], [500.0, 400.0]])
+    rays = camera.rays(pixels).require_ok()
+    start = camera.with_exterior(exterior)
+    local = Camera(start.interior, exterior, AirHousing()).rays(pixels)
+    traced = object_housing.trace(local.origins, local.directions).require_ok()
+    np.testing.assert_allclose(rays.directions, traced.directions, atol=1e-12)
+    np.testing.assert_allclose(rays.origins, traced.origins, atol=1e-12)
+    # the 1997 paper's System II: camera at Z0 = -97.79 looking down, port plane Z = -97.87
+    level = Exterior(100.39, 100.67, -97.79)
+    port = flat_port_from_object_space(0.0, 0.0, 97.87, 0.016, 1.65, 1.34, level.rotation, level.position)
+    assert (port.d, port.e) == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert port.g == pytest.approx(0.08, abs=1e-9)
+
+
+@pytest.mark.parametrize("build, parameter", [
+    (lambda: DomeCoverHousing(0, 0, 0, -0.1, 0, 0, 0.1), "parameter r"),
+    (lambda: DomeCoverHousing(0, 0, 0, 0.1, 0, 0, 0.1, n2=0.0), "parameter n2"),
+    (lambda: DomeCoverHousing(0, 0, 0.2, 0.1, 0, 0, 0.1), "parameter r"),
+    (lambda: FlatPortHousing(0, 0, 0.1, 0.0, 1.5, 1.33), "parameter t"),
+    (lambda: FlatPortHousing(0, 0, -0.1, 0.01, 1.5, 1.33), "parameter g"),
+    (lambda: FlatPortHousing(0, 0, 0.1, 0.01, 1.5, -1.0), "parameter n3"),
+    (lambda: Exterior(0, 0, float("nan")), "parameter Z0"),
+    (lambda: GeneralHousing((Plane.from_deg(0, 0, 1),), (1.0,)), "parameter indices"),
+])
+def test_invalid_housing_parameters_are_named(build, parameter):
+    with pytest.raises(InvalidParameterError, match=parameter):
+        build()
+
+
+def test_non_finite_pixels_and_points_are_refused():
+    camera = make_camera(HOUSINGS["flat-port"])
+    with pytest.raises(InvalidParameterError, match="pixels"):
+        camera.rays(np.array([[1.0, np.nan]]))
+    with pytest.raises(InvalidParameterError, match="points"):
+        camera.project(np.array([[1.0, 2.0, np.inf]]))

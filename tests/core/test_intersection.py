@@ -1,0 +1,113 @@
+import numpy as np
+import pytest
+
+from tests.core.scenes import HOUSINGS, make_interior
+from usvips.core.camera import Camera, Exterior
+from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
+from usvips.core.housing import GeneralHousing
+from usvips.core.interior import Interior
+from usvips.core.intersection import intersect, intersect_rays
+from usvips.core.rays import RayStatus
+from usvips.core.rig import RelativeOrientation, StereoRig
+from usvips.core.surfaces import Plane
+
+
+def make_rig(housing_name: str, baseline: float = 0.3) -> StereoRig:
+    housing = HOUSINGS[housing_name]
+    left = Camera(make_interior(), Exterior(0.1, -0.05, 0.2, 0.02, 0.03, -0.01), housing, 1280, 960)
+    return StereoRig.from_relative(left, left, RelativeOrientation(baseline, 0.01, -0.02, 0.01, -0.06, 0.005))
+
+
+def scene_points(n: int, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(-0.3, 0.6, n), rng.uniform(-0.4, 0.3, n), rng.uniform(-3.0, -1.2, n)])
+
+
+@pytest.mark.parametrize("name", sorted(HOUSINGS))
+def test_noise_free_rays_intersect_at_the_true_point(name):
+    rig = make_rig(name)
+    points = scene_points(300)
+    left, right = rig.left.project(points), rig.right.project(points)
+    keep = left.ok & right.ok
+    assert keep.sum() > 100
+    result = intersect(rig.cameras, [left.pixels[keep], right.pixels[keep]], sigma_px=0.5)
+    assert result.ok.all()
+    assert np.max(np.linalg.norm(result.points - points[keep], axis=1)) < 1e-9
+    assert np.max(result.residuals_px) < 1e-5
+
+
+@pytest.mark.parametrize("name", ["air", "flat-port", "dome-cover"])
+def test_covariance_matches_a_monte_carlo_of_2000_noisy_trials(name):
+    rig = make_rig(name)
+    truth = np.array([[0.15, -0.05, -2.2], [0.4, 0.2, -1.5]])
+    sigma = 0.4
+    pl, pr = rig.left.project(truth).pixels, rig.right.project(truth).pixels
+    rng = np.random.default_rng(11)
+    trials = 2000
+    noisy_l = (pl[None] + rng.normal(0, sigma, (trials,) + pl.shape)).reshape(-1, 2)
+    noisy_r = (pr[None] + rng.normal(0, sigma, (trials,) + pr.shape)).reshape(-1, 2)
+    result = intersect(rig.cameras, [noisy_l, noisy_r], sigma_px=sigma)
+    assert result.ok.all()
+    points = result.points.reshape(trials, len(truth), 3)
+    predicted = intersect(rig.cameras, [pl, pr], sigma_px=sigma).covariance
+    for k in range(len(truth)):
+        empirical = np.cov(points[:, k].T)
+        sd_emp, sd_pred = np.sqrt(np.diag(empirical)), np.sqrt(np.diag(predicted[k]))
+        np.testing.assert_allclose(sd_emp, sd_pred, rtol=0.10)
+        # the shape too: correlation of the depth with the lateral coordinates
+        corr_emp = empirical / np.outer(sd_emp, sd_emp)
+        corr_pred = predicted[k] / np.outer(sd_pred, sd_pred)
+        np.testing.assert_allclose(corr_emp, corr_pred, atol=0.08)
+        # chi-square of the errors against the predicted covariance averages 3 (dimensions)
+        errors = points[:, k] - truth[k]
+        chi2 = np.einsum("ni,ij,nj->n", errors, np.linalg.inv(predicted[k]), errors)
+        assert 2.7 < chi2.mean() < 3.3
+        # and the pixel residuals of the two rays follow from 4 observations - 3 unknowns
+    residual_sq = (result.residuals_px**2).sum(axis=1) / sigma**2
+    assert 0.9 < residual_sq.mean() < 1.1
+
+
+def test_three_rays_are_intersected_too():
+    rig = make_rig("flat-port")
+    third = rig.left.with_exterior(Exterior(0.5, 0.4, 0.3, -0.1, -0.1, 0.0))
+    points = scene_points(50, seed=2)
+    cams = [rig.left, rig.right, third]
+    pix = [c.project(points) for c in cams]
+    keep = np.all([p.ok for p in pix], axis=0)
+    result = intersect(cams, [p.pixels[keep] for p in pix], sigma_px=np.array([0.3, 0.3, 1.0]))
+    assert result.residuals_px.shape == (keep.sum(), 3)
+    assert np.max(np.linalg.norm(result.points - points[keep], axis=1)) < 1e-9
+
+
+def test_parallel_and_diverging_rays_are_reported():
+    origins = np.array([[[0.0, 0, 0], [1.0, 0, 0]]])
+    directions = np.array([[[0.0, 0, -1], [0.0, 0, -1]]])
+    _, _, good = intersect_rays(origins, directions)
+    assert not good[0]
+    rig = make_rig("air", baseline=0.3)
+    # a point seen 'in front' by the left camera but matched to the right camera's far side
+    left = rig.left.project(np.array([[0.1, 0.0, -2.0]])).pixels
+    right = rig.right.project(np.array([[0.1, 0.0, -2.0]])).pixels + [[-400.0, 0.0]]
+    result = intersect(rig.cameras, [left, right], 0.5)
+    assert result.status[0] in (RayStatus.BEHIND_CAMERA, RayStatus.OK)
+    assert np.all(np.isfinite(result.points))
+
+
+def test_failed_rays_mark_the_point():
+    rig = make_rig("air")
+    window = GeneralHousing((Plane.from_deg(0, 0, 0.05),), (1.33, 1.0))  # from water out into air
+    left = Camera(Interior(300.0, 640.0, 480.0), rig.left.exterior, window)
+    result = intersect([left, rig.right], [np.array([[1279.0, 959.0]]), np.array([[600.0, 400.0]])], 0.5)
+    assert result.status[0] == RayStatus.FAILED_RAY
+    with pytest.raises(DegenerateGeometryError, match="could not be traced"):
+        result.require_ok()
+
+
+def test_bad_arguments():
+    rig = make_rig("air")
+    with pytest.raises(DegenerateGeometryError, match="at least two cameras"):
+        intersect([rig.left], [np.zeros((1, 2))])
+    with pytest.raises(InvalidParameterError, match="sigma_px"):
+        intersect(rig.cameras, [np.zeros((1, 2)), np.zeros((1, 2))], sigma_px=0.0)
+    with pytest.raises(InvalidParameterError, match="same number of rows"):
+        intersect(rig.cameras, [np.zeros((1, 2)), np.zeros((2, 2))])
