@@ -153,3 +153,21 @@ def test_non_finite_pixels_and_points_are_refused():
         camera.rays(np.array([[1.0, np.nan]]))
     with pytest.raises(InvalidParameterError, match="points"):
         camera.project(np.array([[1.0, 2.0, np.inf]]))
+
+
+@pytest.mark.parametrize("name", sorted(HOUSINGS))
+def test_ray_derivatives_match_finite_differences(name):
+    camera = make_camera(HOUSINGS[name])
+    pixels = frame_grid(160)
+    bundle, d_origins, d_directions = camera.rays_with_derivatives(pixels)
+    np.testing.assert_allclose(bundle.directions, camera.rays(pixels).directions, atol=1e-15)
+    h = 1e-3
+    for column in range(2):
+        step = np.zeros(2)
+        step[column] = h
+        ahead, behind = camera.rays(pixels + step), camera.rays(pixels - step)
+        numeric_o = (ahead.origins - behind.origins) / (2 * h)
+        numeric_d = (ahead.directions - behind.directions) / (2 * h)
+        scale_o = np.abs(numeric_o).max()
+        np.testing.assert_allclose(d_origins[:, :, column], numeric_o, atol=1e-6 * max(scale_o, 1e-9))
+        np.testing.assert_allclose(d_directions[:, :, column], numeric_d, atol=1e-6 * np.abs(numeric_d).max())

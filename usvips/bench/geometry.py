@@ -35,11 +35,15 @@ def _pinhole_matrices(rig: StereoRig) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _scene(rig: StereoRig, n: int, seed: int = 7) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """n points seen by both cameras: left pixels over the frame at 1.5-4 m along their rays."""
     rng = np.random.default_rng(seed)
-    points = np.column_stack([rng.uniform(-0.8, 1.2, n), rng.uniform(-0.7, 0.7, n), rng.uniform(-4.0, -1.5, n)])
+    count = int(n * 1.6)
+    pixels = np.column_stack([rng.uniform(0, 1279, count), rng.uniform(0, 959, count)])
+    rays = rig.left.rays(pixels)
+    points = rays.origins + rng.uniform(1.5, 4.0, count)[:, None] * rays.directions
     left = rig.left.project(points)
     right = rig.right.project(points)
-    keep = left.ok & right.ok
+    keep = np.flatnonzero(rays.ok & left.ok & right.ok)[:n]
     return points[keep], left.pixels[keep], right.pixels[keep]
 
 

@@ -16,10 +16,11 @@ from functools import cached_property
 import numpy as np
 
 from usvips.core import validation
-from usvips.core.housing import AirHousing, Housing
+from usvips.core.housing import AirHousing, GeneralHousing, Housing
 from usvips.core.interior import Interior
 from usvips.core.rays import RayBundle, RayStatus
 from usvips.core.rotation import rotation_matrix
+from usvips.core.surfaces import Plane
 
 EXTERIOR_PARAMETERS = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
 
@@ -97,6 +98,37 @@ class Camera:
         uv = self.interior.pixels_to_normalised(pixels)
         directions = np.column_stack([uv, -np.ones(len(uv))])
         return self.housing.trace(np.zeros_like(directions), directions)
+
+    def rays_with_derivatives(self, pixels: np.ndarray) -> tuple[RayBundle, np.ndarray, np.ndarray]:
+        """Object-space rays of pixels (N, 2) and how they move with the pixel.
+
+        Returns the bundle and the derivatives of the origins and unit directions with respect to the
+        pixel coordinates, each (N, 3, 2): column 0 per pixel of x, column 1 per pixel of y (metres per
+        pixel and 1 per pixel). Exact (forward-mode through distortion and every refraction).
+        """
+        pixels = validation.finite_array("pixels", pixels, 2)
+        interior = self.interior
+        uv = interior.pixels_to_normalised(pixels)
+        jac = interior.distortion_jacobian(uv) if interior.has_distortion else None
+        directions = np.column_stack([uv, -np.ones(len(uv))])
+        tangents = []
+        for column, scale in ((0, 1.0 / interior.f), (1, -interior.sy / interior.f)):
+            d_uv = np.zeros_like(uv)
+            d_uv[:, column] = scale
+            if jac is not None:  # d(uv)/d(uv_d) = J⁻¹
+                det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
+                du = (jac[:, 1, 1] * d_uv[:, 0] - jac[:, 0, 1] * d_uv[:, 1]) / det
+                dv = (-jac[:, 1, 0] * d_uv[:, 0] + jac[:, 0, 0] * d_uv[:, 1]) / det
+                d_uv = np.column_stack([du, dv])
+            d_direction = np.column_stack([d_uv, np.zeros(len(uv))])
+            tangents.append((np.zeros_like(directions), d_direction))
+        bundle, carried = self.housing.trace_with_tangents(np.zeros_like(directions), directions, tuple(tangents))
+        m = self.exterior.rotation
+        d_origins = np.stack([do @ m for do, _ in carried], axis=2)
+        d_directions = np.stack([dd @ m for _, dd in carried], axis=2)
+        world = RayBundle(self.exterior.to_object(bundle.origins), bundle.directions @ m,
+                          bundle.status, bundle.failed_surface)
+        return world, d_origins, d_directions
 
     def rays(self, pixels: np.ndarray) -> RayBundle:
         """Object-space rays (N) of observed pixels (N, 2): origin on the outer cover surface, unit
@@ -196,23 +228,21 @@ def _back_project_planar(housing: Housing, points: np.ndarray) -> tuple[np.ndarr
     # start from a pinhole-like guess in water
     q = np.minimum(n_water * np.sin(np.arctan2(radial, depth)), 0.999 * q_max)
     for _ in range(60):
-        total = np.zeros_like(q)
+        # radial offset at the point's depth as a function of q, and its derivative
+        total = -radial
         slope = np.zeros_like(q)
-        for thick, n_layer in zip(thickness, layers_n, strict=True):
+        for width, n_layer in zip([*thickness, water], [*layers_n, n_water], strict=True):
             s = q / n_layer
-            c = np.sqrt(1.0 - s * s)
-            total += thick * s / c
-            slope += thick / (n_layer * c * c * c)
-        s = q / n_water
-        c = np.sqrt(1.0 - s * s)
-        total += water * s / c
-        slope += water / (n_water * c * c * c)
-        step = (total - radial) / slope
+            inv_c = 1.0 / np.sqrt(1.0 - s * s)
+            tan = s * inv_c
+            total = total + width * tan
+            slope = slope + (width / n_layer) * inv_c * inv_c * inv_c
+        step = total / slope
         new_q = np.clip(q - step, 0.0, q_max)
         new_q = np.where(new_q >= q_max, 0.5 * (q + q_max), new_q)
-        change = np.abs(new_q - q)
+        change = float(np.max(np.abs(new_q - q)))
         q = new_q
-        if np.all(change < 1e-16):
+        if change < 1e-14:
             break
     sin1 = q / indices[0]
     cos1 = np.sqrt(1.0 - sin1 * sin1)
@@ -222,7 +252,9 @@ def _back_project_planar(housing: Housing, points: np.ndarray) -> tuple[np.ndarr
     status[(direction[:, 2] >= 0.0) & (status == RayStatus.OK)] = RayStatus.BEHIND_CAMERA
     dz = np.where(direction[:, 2] < 0, direction[:, 2], -1.0)
     uv = -direction[:, :2] / dz[:, None]
-    return uv, _final_segment_check(housing, uv, points, status)
+    # q stays below every index, so no layer reflects totally, and every plane lies ahead along the
+    # axis: the solved ray reaches the point without a further trace
+    return uv, status
 
 
 def _radial_miss(housing: Housing, axis: np.ndarray, e_r: np.ndarray, depth: np.ndarray,
@@ -272,49 +304,96 @@ def _back_project_axial(housing: Housing, points: np.ndarray) -> tuple[np.ndarra
     return uv, _final_segment_check(housing, uv, points, status)
 
 
-def _perpendicular_miss(housing: Housing, uv: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Vector (N, 3) from the point to the nearest point of the traced ray of uv, and the trace status."""
-    directions = np.column_stack([uv, -np.ones(len(uv))])
-    bundle = housing.trace(np.zeros_like(directions), directions)
-    offset = points - bundle.origins
-    along = np.einsum("ij,ij->i", offset, bundle.directions)
-    return offset - along[:, None] * bundle.directions, bundle.status
-
-
 def _back_project_general(housing: Housing, points: np.ndarray,
                           start: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Any housing: Gauss–Newton on the normalised image coordinates (u, v) so that the traced ray
-    passes through the point; the Jacobian by forward differences (two extra traces)."""
-    uv = start.copy()
+    passes through the point, with the exact Jacobian carried through the trace (forward mode).
+
+    The start is the flat-port solution of the outer plane alone where the housing ends in a plane
+    (it absorbs most of the bending), else the pinhole direction. A step that leads to a ray that fails
+    (misses a surface, reflects totally) is halved until it does not."""
+    uv = _proxy_start(housing, points, start)
     n = len(points)
     status = np.zeros(n, dtype=np.uint8)
-    active = np.ones(n, dtype=bool)
-    step = 1e-7
-    for _ in range(40):
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
+    last_good = np.full((n, 2), np.nan)
+    last_step = np.zeros((n, 2))
+    halvings = np.zeros(n, dtype=np.int16)
+    active = np.arange(n)
+    for _ in range(80):
+        if active.size == 0:
             break
-        current = uv[idx]
-        p = points[idx]
-        stacked = np.concatenate([current, current + [step, 0.0], current + [0.0, step]])
-        miss, trace_status = _perpendicular_miss(housing, stacked, np.concatenate([p, p, p]))
-        m0, mu, mv = np.split(miss, 3)
-        s0 = np.split(trace_status, 3)[0]
-        ju, jv = (m0 - mu) / step, (m0 - mv) / step  # ∂(−miss)/∂u: the miss shrinks along the solution
-        a11, a12, a22 = (np.einsum("ij,ij->i", ju, ju), np.einsum("ij,ij->i", ju, jv),
-                         np.einsum("ij,ij->i", jv, jv))
-        b1, b2 = np.einsum("ij,ij->i", ju, m0), np.einsum("ij,ij->i", jv, m0)
+        m = active.size
+        zero = np.zeros((m, 3))
+        unit_u, unit_v = zero.copy(), zero.copy()
+        unit_u[:, 0] = 1.0
+        unit_v[:, 1] = 1.0
+        current = uv[active]
+        directions = np.column_stack([current, -np.ones(m)])
+        bundle, carried = housing.trace_with_tangents(zero, directions, ((zero, unit_u), (zero, unit_v)))
+        traced = bundle.status == RayStatus.OK
+        # rays that failed: back off half-way towards the last good iterate, or give up
+        failed = np.flatnonzero(~traced)
+        if failed.size:
+            idx = active[failed]
+            can_retry = np.isfinite(last_good[idx, 0]) & (halvings[idx] < 40)
+            first = np.isnan(last_good[idx, 0]) & (halvings[idx] == 0)
+            retry = idx[can_retry]
+            last_step[retry] *= 0.5
+            uv[retry] = last_good[retry] + last_step[retry]
+            halvings[retry] += 1
+            restart = idx[first]            # a failing start: fall back to the pinhole direction once
+            uv[restart] = start[restart]
+            halvings[restart] = 1
+            give_up = idx[~can_retry & ~first]
+            status[give_up] = bundle.status[failed][~can_retry & ~first]
+        p = points[active]
+        w = p - bundle.origins
+        along = _dot3(w, bundle.directions)
+        miss = w - along[:, None] * bundle.directions
+        columns = []
+        for d_origin, d_direction in carried:
+            d_along = -_dot3(d_origin, bundle.directions) + _dot3(w, d_direction)
+            columns.append(-d_origin - d_along[:, None] * bundle.directions - along[:, None] * d_direction)
+        ju, jv = columns
+        a11, a12, a22 = _dot3(ju, ju), _dot3(ju, jv), _dot3(jv, jv)
+        b1, b2 = _dot3(ju, miss), _dot3(jv, miss)
         det = a11 * a22 - a12 * a12
-        ok_det = np.abs(det) > 1e-300
+        ok_det = det > 1e-300
         safe = np.where(ok_det, det, 1.0)
-        du = np.where(ok_det, (a22 * b1 - a12 * b2) / safe, 0.0)
-        dv = np.where(ok_det, (a11 * b2 - a12 * b1) / safe, 0.0)
-        failed = (s0 != RayStatus.OK) | ~ok_det
-        status[idx[failed]] = np.where(s0[failed] != RayStatus.OK, s0[failed], RayStatus.NOT_CONVERGED)
-        du[failed] = dv[failed] = 0.0
-        uv[idx, 0] += du
-        uv[idx, 1] += dv
-        done = failed | (np.maximum(np.abs(du), np.abs(dv)) < 1e-13)
-        active[idx[done]] = False
+        du = np.where(ok_det, -(a22 * b1 - a12 * b2) / safe, 0.0)
+        dv = np.where(ok_det, -(a11 * b2 - a12 * b1) / safe, 0.0)
+        good = np.flatnonzero(traced & ok_det)
+        idx = active[good]
+        last_good[idx] = uv[idx]
+        last_step[idx, 0], last_step[idx, 1] = du[good], dv[good]
+        halvings[idx] = 0
+        uv[idx, 0] += du[good]
+        uv[idx, 1] += dv[good]
+        singular = active[traced & ~ok_det]
+        status[singular] = RayStatus.NOT_CONVERGED
+        # quadratic convergence: once a step is below 1e-10 (1e-7 px at f = 1000 px) the next would be
+        # below 1e-18, so the iterate just updated is final
+        converged = np.zeros(m, dtype=bool)
+        converged[good] = np.maximum(np.abs(du[good]), np.abs(dv[good])) < 1e-10
+        behind = converged & (along <= 0.0)
+        status[active[behind]] = RayStatus.BEHIND_CAMERA
+        active = active[~converged & (status[active] == RayStatus.OK)]
     status[active] = RayStatus.NOT_CONVERGED
-    return uv, _final_segment_check(housing, uv, points, status)
+    return uv, status
+
+
+def _dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def _proxy_start(housing: Housing, points: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """A starting (u, v): the exact solution through the outer plane alone (air straight to water) when
+    the housing ends in a plane in front of the camera, else the pinhole direction."""
+    outer = housing.surfaces[-1] if housing.surfaces else None
+    if not isinstance(outer, Plane):
+        return start.copy()
+    proxy = GeneralHousing((outer,), (housing.indices[0], housing.indices[-1]))
+    if not proxy.is_planar_stack or (proxy.surfaces[0].offset * (proxy.surfaces[0].normal @ proxy.axis)) >= 0:
+        return start.copy()
+    uv, status = _back_project_planar(proxy, points)
+    return np.where((status == RayStatus.OK)[:, None], uv, start)

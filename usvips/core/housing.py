@@ -29,7 +29,7 @@ import numpy as np
 from usvips.core import validation
 from usvips.core.errors import InvalidParameterError
 from usvips.core.rays import RayBundle, RayStatus
-from usvips.core.surfaces import Plane, Sphere, Surface, refract
+from usvips.core.surfaces import Plane, Sphere, Surface, _dot, refract_with_derivatives
 
 
 class Housing:
@@ -56,30 +56,65 @@ class Housing:
         refraction, a status per ray and, for failed rays, the index of the surface at fault. Rays are
         vectorised; a failed ray keeps the finite state it had when it stopped.
         """
+        return self.trace_with_tangents(origins, directions)[0]
+
+    def trace_with_tangents(self, origins: np.ndarray, directions: np.ndarray,
+                            tangents: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+                            ) -> tuple[RayBundle, list[tuple[np.ndarray, np.ndarray]]]:
+        """:meth:`trace`, and carry first derivatives along (forward-mode differentiation).
+
+        ``tangents`` holds, per differentiation variable, the derivatives (dorigins, ddirections), each
+        (N, 3), of the starting rays (directions need not be unit: the derivative of normalising them
+        is included). Returns the bundle and the derivatives of its origins and unit directions.
+        """
         origins = np.array(origins, dtype=np.float64, copy=True)
         directions = np.array(directions, dtype=np.float64, copy=True)
-        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+        length = np.sqrt(_dot(directions, directions))[:, None]
+        directions /= length
+        carried = []
+        for d_origin, d_direction in tangents:
+            d_direction = d_direction / length
+            d_direction = d_direction - _dot(d_direction, directions)[:, None] * directions
+            carried.append((np.array(d_origin, dtype=np.float64), d_direction))
         n = origins.shape[0]
         status = np.zeros(n, dtype=np.uint8)
         failed_surface = np.full(n, -1, dtype=np.int16)
         indices = self.indices
         for k, surface in enumerate(self.surfaces):
-            live = np.flatnonzero(status == RayStatus.OK)
-            if live.size == 0:
-                break
-            o, d = origins[live], directions[live]
-            t, hit = surface.intersect(o, d)
-            points = o + t[:, None] * d
-            new_d, tir = refract(d, surface.normals(points), indices[k], indices[k + 1])
-            missed = ~hit
-            tir &= hit
-            status[live[missed]] = RayStatus.MISSED_SURFACE
-            status[live[tir]] = RayStatus.TOTAL_INTERNAL_REFLECTION
-            failed_surface[live[missed | tir]] = k
-            good = hit & ~tir
-            origins[live[good]] = points[good]
-            directions[live[good]] = new_d[good]
-        return RayBundle(origins, directions, status, failed_surface)
+            t, hit = surface.intersect(origins, directions)
+            points = origins + t[:, None] * directions
+            normals = surface.normals(points)
+            point_derivatives = []
+            if carried:
+                slope = _safe(_dot(normals, directions))
+                for d_origin, d_direction in carried:
+                    d_t = -(_dot(normals, d_origin) + t * _dot(normals, d_direction)) / slope
+                    d_points = d_origin + d_t[:, None] * directions + t[:, None] * d_direction
+                    point_derivatives.append((d_points, d_direction,
+                                              surface.normal_derivative(points, normals, d_points)))
+            new_d, tir, direction_derivatives = refract_with_derivatives(
+                directions, normals, indices[k], indices[k + 1], tuple((dd, dn) for _, dd, dn in point_derivatives))
+            good = hit & ~tir & (status == RayStatus.OK)
+            all_good = bool(good.all())
+            if not all_good:
+                fresh = status == RayStatus.OK
+                status[fresh & ~hit] = RayStatus.MISSED_SURFACE
+                status[fresh & hit & tir] = RayStatus.TOTAL_INTERNAL_REFLECTION
+                failed_surface[fresh & ~good] = k
+            updated = []
+            for (d_origin, d_direction), (d_points, _, _), d_new in zip(carried, point_derivatives,
+                                                                         direction_derivatives, strict=True):
+                if not all_good:
+                    d_points = np.where(good[:, None], d_points, d_origin)
+                    d_new = np.where(good[:, None], d_new, d_direction)
+                updated.append((d_points, d_new))
+            carried = updated
+            if all_good:
+                origins, directions = points, new_d
+            else:
+                origins = np.where(good[:, None], points, origins)
+                directions = np.where(good[:, None], new_d, directions)
+        return RayBundle(origins, directions, status, failed_surface), carried
 
     @cached_property
     def axis(self) -> np.ndarray | None:
@@ -124,6 +159,10 @@ class Housing:
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v:.6g}" for k, v in self.parameters().items())
         return f"{type(self).__name__}({params})"
+
+
+def _safe(values: np.ndarray) -> np.ndarray:
+    return np.where(np.abs(values) > 1e-300, values, 1e-300)
 
 
 def _index(name: str, value: float) -> float:

@@ -79,30 +79,34 @@ class Interior:
         return out
 
     # distortion ------------------------------------------------------------------------------
+    def _distort_components(self, u: np.ndarray, v: np.ndarray, with_jacobian: bool):
+        r2 = u * u + v * v
+        radial = self.k1 * r2 + self.k2 * r2 * r2
+        ud = u + u * radial + self.p1 * (r2 + 2 * u * u) + 2 * self.p2 * u * v
+        vd = v + v * radial + self.p2 * (r2 + 2 * v * v) + 2 * self.p1 * u * v
+        if not with_jacobian:
+            return ud, vd
+        dradial = 2 * self.k1 + 4 * self.k2 * r2  # ∂radial/∂u = dradial·u
+        uv_cross = u * v * dradial
+        j00 = 1 + radial + u * u * dradial + 6 * self.p1 * u + 2 * self.p2 * v
+        j01 = uv_cross + 2 * self.p1 * v + 2 * self.p2 * u
+        j10 = uv_cross + 2 * self.p2 * u + 2 * self.p1 * v
+        j11 = 1 + radial + v * v * dradial + 6 * self.p2 * v + 2 * self.p1 * u
+        return ud, vd, j00, j01, j10, j11
+
     def distort(self, uv: np.ndarray) -> np.ndarray:
         """Ideal normalised coordinates (N, 2) → observed (distorted) normalised coordinates."""
         uv = np.asarray(uv, dtype=np.float64)
         if not self.has_distortion:
             return uv.copy()
-        u, v = uv[..., 0], uv[..., 1]
-        r2 = u * u + v * v
-        radial = self.k1 * r2 + self.k2 * r2 * r2
-        out = np.empty_like(uv)
-        out[..., 0] = u + u * radial + self.p1 * (r2 + 2 * u * u) + 2 * self.p2 * u * v
-        out[..., 1] = v + v * radial + self.p2 * (r2 + 2 * v * v) + 2 * self.p1 * u * v
-        return out
+        ud, vd = self._distort_components(uv[..., 0], uv[..., 1], False)
+        return np.stack([ud, vd], axis=-1)
 
     def distortion_jacobian(self, uv: np.ndarray) -> np.ndarray:
         """∂(u_d, v_d)/∂(u, v) at ideal normalised coordinates, shape (N, 2, 2)."""
-        u, v = uv[..., 0], uv[..., 1]
-        r2 = u * u + v * v
-        radial = self.k1 * r2 + self.k2 * r2 * r2
-        dradial = 2 * self.k1 + 4 * self.k2 * r2  # ∂radial/∂u = dradial·u
+        _, _, j00, j01, j10, j11 = self._distort_components(uv[..., 0], uv[..., 1], True)
         jac = np.empty(uv.shape[:-1] + (2, 2))
-        jac[..., 0, 0] = 1 + radial + u * dradial * u + 6 * self.p1 * u + 2 * self.p2 * v
-        jac[..., 0, 1] = u * dradial * v + 2 * self.p1 * v + 2 * self.p2 * u
-        jac[..., 1, 0] = v * dradial * u + 2 * self.p2 * u + 2 * self.p1 * v
-        jac[..., 1, 1] = 1 + radial + v * dradial * v + 6 * self.p2 * v + 2 * self.p1 * u
+        jac[..., 0, 0], jac[..., 0, 1], jac[..., 1, 0], jac[..., 1, 1] = j00, j01, j10, j11
         return jac
 
     def undistort(self, uv_distorted: np.ndarray, tolerance: float = 1e-13) -> np.ndarray:
@@ -115,29 +119,24 @@ class Interior:
         target = np.asarray(uv_distorted, dtype=np.float64)
         if not self.has_distortion:
             return target.copy()
-        uv = target.copy()
-        active = np.ones(uv.shape[0], dtype=bool)
-        for _ in range(50):
-            idx = np.flatnonzero(active)
-            if idx.size == 0:
+        tu, tv = target[:, 0], target[:, 1]
+        u, v = tu.copy(), tv.copy()
+        for _ in range(60):
+            ud, vd, j00, j01, j10, j11 = self._distort_components(u, v, True)
+            ru, rv = ud - tu, vd - tv
+            det = j00 * j11 - j01 * j10
+            det = np.where(np.abs(det) > 1e-12, det, 1e-12)
+            du = (j11 * ru - j01 * rv) / det
+            dv = (j00 * rv - j10 * ru) / det
+            u -= du
+            v -= dv
+            if np.max(np.abs(du)) < tolerance and np.max(np.abs(dv)) < tolerance:
                 break
-            current = uv[idx]
-            residual = self.distort(current) - target[idx]
-            jac = self.distortion_jacobian(current)
-            det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
-            safe = np.where(np.abs(det) > 1e-12, det, 1e-12)
-            du = (jac[:, 1, 1] * residual[:, 0] - jac[:, 0, 1] * residual[:, 1]) / safe
-            dv = (-jac[:, 1, 0] * residual[:, 0] + jac[:, 0, 0] * residual[:, 1]) / safe
-            uv[idx, 0] -= du
-            uv[idx, 1] -= dv
-            done = np.maximum(np.abs(du), np.abs(dv)) < tolerance
-            active[idx[done]] = False
-        residual = np.max(np.abs(self.distort(uv) - target), axis=1)
-        jac = self.distortion_jacobian(uv)
-        det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
+        ud, vd, j00, j01, j10, j11 = self._distort_components(u, v, True)
+        residual = np.maximum(np.abs(ud - tu), np.abs(vd - tv))
         # a root on the far side of a fold (Jacobian not positive, or the point flipped through the
         # centre) reproduces the pixel but is not the ray the lens formed
-        folded = (det <= 0.0) | (np.einsum("ij,ij->i", uv, target) < 0.0)
+        folded = (j00 * j11 - j01 * j10 <= 0.0) | (u * tu + v * tv < 0.0)
         bad = ~np.isfinite(residual) | (residual > 1e3 * tolerance) | folded
         if np.any(bad):
             first = int(np.flatnonzero(bad)[0])
@@ -146,7 +145,7 @@ class Interior:
                 f"cannot be inverted at normalised point {target[first].tolist()} (row {first}): "
                 "the distortion polynomial folds over there"
             )
-        return uv
+        return np.column_stack([u, v])
 
     # the whole chain ------------------------------------------------------------------------
     def pixels_to_normalised(self, pixels: np.ndarray) -> np.ndarray:

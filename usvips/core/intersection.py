@@ -20,9 +20,6 @@ from usvips.core.camera import Camera
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
 from usvips.core.rays import RayStatus, describe_status
 
-#: Pixel step (pixels) of the forward differences that give each ray's sensitivity to its pixel.
-SENSITIVITY_STEP_PX = 1e-3
-
 
 @dataclass(frozen=True)
 class Intersection:
@@ -99,6 +96,38 @@ def intersect_rays(origins: np.ndarray, directions: np.ndarray,
     return _solve3(normal, rhs)
 
 
+def _symmetric(xx, xy, xz, yy, yz, zz) -> np.ndarray:
+    out = np.empty(xx.shape + (3, 3))
+    out[..., 0, 0], out[..., 0, 1], out[..., 0, 2] = xx, xy, xz
+    out[..., 1, 0], out[..., 1, 1], out[..., 1, 2] = xy, yy, yz
+    out[..., 2, 0], out[..., 2, 1], out[..., 2, 2] = xz, yz, zz
+    return out
+
+
+def _pixel_jacobian(direction: np.ndarray, d_origin: np.ndarray, d_direction: np.ndarray,
+                    along: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows a0, a1 (N, 3) of ∂pixel/∂X for points ``along`` metres down each ray, and a validity mask.
+
+    A pixel step moves the ray at that depth by B = (I − d dᵀ)(∂o/∂p + s ∂d/∂p) (3 × 2); the point's
+    pixel then moves by A = (BᵀB)⁻¹Bᵀ per metre of the point's motion.
+    """
+    moved0 = d_origin[:, :, 0] + along[:, None] * d_direction[:, :, 0]
+    moved1 = d_origin[:, :, 1] + along[:, None] * d_direction[:, :, 1]
+    b0 = moved0 - _dot(direction, moved0)[:, None] * direction
+    b1 = moved1 - _dot(direction, moved1)[:, None] * direction
+    g00, g01, g11 = _dot(b0, b0), _dot(b0, b1), _dot(b1, b1)
+    det = g00 * g11 - g01 * g01
+    valid = det > 1e-30 * np.maximum(g00 * g11, 1e-300)
+    det = np.where(valid, det, 1.0)
+    a0 = (g11[:, None] * b0 - g01[:, None] * b1) / det[:, None]
+    a1 = (g00[:, None] * b1 - g01[:, None] * b0) / det[:, None]
+    return a0, a1, valid
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
 def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px: float | np.ndarray = 0.5
               ) -> Intersection:
     """Intersect conjugate pixels of two or more cameras (thesis 2.4) with covariance.
@@ -116,54 +145,65 @@ def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px:
     if any(a.shape[0] != n for a in arrays):
         raise InvalidParameterError("pixels", "every camera needs the same number of rows")
     k = len(cameras)
-    sigma = np.broadcast_to(np.asarray(sigma_px, dtype=np.float64).reshape(
-        (1, k) if np.ndim(sigma_px) == 1 else np.shape(sigma_px)), (n, k))
+    try:
+        sigma = np.broadcast_to(np.asarray(sigma_px, dtype=np.float64).reshape(
+            (1, k) if np.ndim(sigma_px) == 1 else np.shape(sigma_px)), (n, k))
+    except ValueError:
+        raise InvalidParameterError("sigma_px", f"must be a scalar, ({k},) or ({n}, {k})") from None
     if not np.all(np.isfinite(sigma)) or np.any(sigma <= 0):
         raise InvalidParameterError("sigma_px", "must be finite and > 0")
 
-    origins = np.empty((n, k, 3))
-    directions = np.empty((n, k, 3))
-    d_origin = np.empty((n, k, 3, 2))
-    d_direction = np.empty((n, k, 3, 2))
     status = np.zeros(n, dtype=np.uint8)
-    h = SENSITIVITY_STEP_PX
-    for j, (camera, pix) in enumerate(zip(cameras, arrays, strict=True)):
-        stacked = np.concatenate([pix, pix + [h, 0.0], pix + [0.0, h]])
-        bundle = camera.rays(stacked)
-        o0, ox, oy = np.split(bundle.origins, 3)
-        d0, dx, dy = np.split(bundle.directions, 3)
-        failed = np.any(np.stack(np.split(bundle.status, 3)) != RayStatus.OK, axis=0)
-        status[failed & (status == RayStatus.OK)] = RayStatus.FAILED_RAY
-        origins[:, j], directions[:, j] = o0, d0
-        d_origin[:, j, :, 0], d_origin[:, j, :, 1] = (ox - o0) / h, (oy - o0) / h
-        d_direction[:, j, :, 0], d_direction[:, j, :, 1] = (dx - d0) / h, (dy - d0) / h
+    rays = []
+    for camera, pix in zip(cameras, arrays, strict=True):
+        bundle, d_origin, d_direction = camera.rays_with_derivatives(pix)
+        status[(bundle.status != RayStatus.OK) & (status == RayStatus.OK)] = RayStatus.FAILED_RAY
+        rays.append((bundle.origins, bundle.directions, d_origin, d_direction))
 
-    # pass 1: midpoint, to know how far along each ray the point lies
-    points, _, good = intersect_rays(origins, directions)
-    # pass 2: weight each ray by the inverse covariance of its perpendicular miss at that depth
-    for _ in range(2):
-        along = np.einsum("nkj,nkj->nk", points[:, None, :] - origins, directions)
-        projector = np.eye(3) - directions[..., :, None] * directions[..., None, :]
-        moved = d_origin + along[..., None, None] * d_direction                 # (n, k, 3, 2)
-        b = np.einsum("nkij,nkjl->nkil", projector, moved)                       # perpendicular motion
-        gram = np.einsum("nkil,nkim->nklm", b, b)                                 # (n, k, 2, 2)
-        det = gram[..., 0, 0] * gram[..., 1, 1] - gram[..., 0, 1] * gram[..., 1, 0]
-        det = np.where(np.abs(det) > 0, det, 1e-300)
-        inv = np.empty_like(gram)
-        inv[..., 0, 0], inv[..., 1, 1] = gram[..., 1, 1] / det, gram[..., 0, 0] / det
-        inv[..., 0, 1] = inv[..., 1, 0] = -gram[..., 0, 1] / det
-        inv2 = np.einsum("nkab,nkbc->nkac", inv, inv)
-        weights = np.einsum("nkia,nkab,nkjb->nkij", b, inv2, b) / (sigma ** 2)[..., None, None]
-        points, covariance, good = intersect_rays(origins, directions, weights)
+    # pass 1: the midpoint (equal weights), to know how far along each ray the point lies
+    zero = np.zeros(n)
+    acc = [zero.copy() for _ in range(6)]
+    rhs = np.zeros((n, 3))
+    for origin, direction, _, _ in rays:
+        dx, dy, dz = direction[:, 0], direction[:, 1], direction[:, 2]
+        parts = (1 - dx * dx, -dx * dy, -dx * dz, 1 - dy * dy, -dy * dz, 1 - dz * dz)
+        for a, part in zip(acc, parts, strict=True):
+            a += part
+        rhs += origin - _dot(direction, origin)[:, None] * direction
+    points, covariance, good = _solve3(_symmetric(*acc), rhs)
+    # pass 2: weight each ray by how its pixel measures the point (the pixel Jacobian at the midpoint's
+    # depth; the depth error of the midpoint changes these weights only to second order)
+    for _ in range(1):
+        acc = [zero.copy() for _ in range(6)]
+        rhs = np.zeros((n, 3))
+        jacobians = []
+        for j, (origin, direction, d_origin, d_direction) in enumerate(rays):
+            along = _dot(points - origin, direction)
+            a0, a1, valid = _pixel_jacobian(direction, d_origin, d_direction, along)
+            good &= valid
+            weight = 1.0 / sigma[:, j] ** 2
+            parts = (a0[:, 0] * a0[:, 0] + a1[:, 0] * a1[:, 0], a0[:, 0] * a0[:, 1] + a1[:, 0] * a1[:, 1],
+                     a0[:, 0] * a0[:, 2] + a1[:, 0] * a1[:, 2], a0[:, 1] * a0[:, 1] + a1[:, 1] * a1[:, 1],
+                     a0[:, 1] * a0[:, 2] + a1[:, 1] * a1[:, 2], a0[:, 2] * a0[:, 2] + a1[:, 2] * a1[:, 2])
+            for a, part in zip(acc, parts, strict=True):
+                a += weight * part
+            rhs += weight[:, None] * (_dot(a0, origin)[:, None] * a0 + _dot(a1, origin)[:, None] * a1)
+            jacobians.append((a0, a1))
+        points, covariance, solved = _solve3(_symmetric(*acc), rhs)
+        good &= solved
 
-    miss = points[:, None, :] - origins
-    along = np.einsum("nkj,nkj->nk", miss, directions)
-    perpendicular = miss - along[..., None] * directions
-    residuals_m = np.linalg.norm(perpendicular, axis=2)
-    residuals_px = np.sqrt(np.clip(np.einsum("nki,nkij,nkj->nk", perpendicular, weights, perpendicular),
-                                   0.0, None)) * sigma
+    residuals_m = np.empty((n, k))
+    residuals_px = np.empty((n, k))
+    behind = np.zeros(n, dtype=bool)
+    for j, ((origin, direction, _, _), (a0, a1)) in enumerate(zip(rays, jacobians, strict=True)):
+        miss = points - origin
+        along = _dot(miss, direction)
+        behind |= along <= 0.0
+        perpendicular = miss - along[:, None] * direction
+        residuals_m[:, j] = np.sqrt(_dot(perpendicular, perpendicular))
+        residuals_px[:, j] = np.hypot(_dot(a0, perpendicular), _dot(a1, perpendicular))
     status[~good & (status == RayStatus.OK)] = RayStatus.PARALLEL_RAYS
-    status[np.any(along <= 0.0, axis=1) & (status == RayStatus.OK)] = RayStatus.BEHIND_CAMERA
+    status[behind & (status == RayStatus.OK)] = RayStatus.BEHIND_CAMERA
     bad = status != RayStatus.OK
     if np.any(bad):
         points[bad] = 0.0
