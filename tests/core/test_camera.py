@@ -171,3 +171,16 @@ def test_ray_derivatives_match_finite_differences(name):
         scale_o = np.abs(numeric_o).max()
         np.testing.assert_allclose(d_origins[:, :, column], numeric_o, atol=1e-6 * max(scale_o, 1e-9))
         np.testing.assert_allclose(d_directions[:, :, column], numeric_d, atol=1e-6 * np.abs(numeric_d).max())
+
+
+def test_single_point_projection_raises_with_the_reason():
+    from usvips.core.errors import DegenerateGeometryError
+
+    camera = make_camera(HOUSINGS["flat-port"], exterior=Exterior(0, 0, 0))
+    assert camera.project_point([0.05, 0.02, -2.0]).shape == (2,)
+    with pytest.raises(DegenerateGeometryError, match="not in front of the camera"):
+        camera.project_point([0.0, 0.0, 2.0])
+    with pytest.raises(DegenerateGeometryError, match="point 0: .*not in front"):
+        camera.project(np.array([[0.0, 0.0, 2.0]])).require_ok()
+    with pytest.raises(InvalidParameterError, match="parameter point"):
+        camera.project_point([0.0, np.nan, 2.0])

@@ -18,7 +18,8 @@ import numpy as np
 from usvips.core import validation
 from usvips.core.housing import AirHousing, GeneralHousing, Housing
 from usvips.core.interior import Interior
-from usvips.core.rays import RayBundle, RayStatus
+from usvips.core.errors import DegenerateGeometryError
+from usvips.core.rays import RayBundle, RayStatus, describe_status
 from usvips.core.rotation import rotation_matrix
 from usvips.core.surfaces import Plane
 
@@ -79,6 +80,15 @@ class Projection:
     @property
     def ok(self) -> np.ndarray:
         return self.status == RayStatus.OK
+
+    def require_ok(self, what: str = "point") -> Projection:
+        """Return self, or raise :class:`DegenerateGeometryError` naming the first point not visible."""
+        bad = np.flatnonzero(~self.ok)
+        if bad.size:
+            first = int(bad[0])
+            raise DegenerateGeometryError(
+                f"{what} {first}: {RayStatus(int(self.status[first])).reason} ({describe_status(self.status)})")
+        return self
 
 
 @dataclass(frozen=True)
@@ -156,6 +166,15 @@ class Camera:
             )
             status[(status == RayStatus.OK) & outside] = RayStatus.OUTSIDE_FRAME
         return Projection(pixels, status)
+
+    def project_point(self, point) -> np.ndarray:
+        """Pixel (2,) of one object point (X, Y, Z) in metres; raises :class:`DegenerateGeometryError`
+        saying why when the point is not visible (behind the camera, unreachable, outside the frame)."""
+        projection = self.project(validation.finite_vector("point", point, 3)[None, :])
+        status = RayStatus(int(projection.status[0]))
+        if status != RayStatus.OK:
+            raise DegenerateGeometryError(f"point {tuple(float(v) for v in point)}: {status.reason}")
+        return projection.pixels[0]
 
     def with_exterior(self, exterior: Exterior) -> Camera:
         return Camera(self.interior, exterior, self.housing, self.width, self.height)
