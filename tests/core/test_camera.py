@@ -184,3 +184,21 @@ def test_single_point_projection_raises_with_the_reason():
         camera.project(np.array([[0.0, 0.0, 2.0]])).require_ok()
     with pytest.raises(InvalidParameterError, match="parameter point"):
         camera.project_point([0.0, np.nan, 2.0])
+
+
+def test_planar_stacks_of_any_depth_and_order_of_indices_round_trip():
+    # three parallel planes (a laminated port), and a camera in water looking out into air
+    normal = np.array([0.02, -0.03, 1.0])
+    laminated = GeneralHousing((Plane(normal, 0.05), Plane(normal, 0.06), Plane(normal, 0.075)),
+                               (1.0, 1.5, 1.7, 1.33))
+    inverted = GeneralHousing((Plane(normal, 0.05), Plane(normal, 0.06)), (1.33, 1.5, 1.0))
+    for housing in (laminated, inverted):
+        assert housing.is_planar_stack
+        camera = make_camera(housing)
+        bundle = camera.rays(frame_grid(80))
+        pixels = frame_grid(80)[bundle.ok]
+        assert len(pixels) > 100
+        points = bundle.origins[bundle.ok] + 1.7 * bundle.directions[bundle.ok]
+        projection = camera.project(points)
+        assert projection.ok.all()
+        assert np.max(np.abs(projection.pixels - pixels)) < 1e-6

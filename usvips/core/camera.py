@@ -263,6 +263,8 @@ def _back_project_planar(housing: Housing, points: np.ndarray) -> tuple[np.ndarr
         q = new_q
         if change < 1e-14:
             break
+    unconverged = np.abs(step) * slope > 1e-9 * np.maximum(1.0, radial)
+    status[unconverged & (status == RayStatus.OK)] = RayStatus.NOT_CONVERGED
     sin1 = q / indices[0]
     cos1 = np.sqrt(1.0 - sin1 * sin1)
     safe_radial = np.where(radial > 0, radial, 1.0)
