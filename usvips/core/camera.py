@@ -16,9 +16,9 @@ from functools import cached_property
 import numpy as np
 
 from usvips.core import validation
+from usvips.core.errors import DegenerateGeometryError
 from usvips.core.housing import AirHousing, GeneralHousing, Housing
 from usvips.core.interior import Interior
-from usvips.core.errors import DegenerateGeometryError
 from usvips.core.rays import RayBundle, RayStatus, describe_status
 from usvips.core.rotation import rotation_matrix
 from usvips.core.surfaces import Plane
