@@ -239,6 +239,13 @@ class DomeCoverHousing(Housing):
             raise InvalidParameterError(
                 "r", f"the perspective centre must lie inside the cover sphere: |(a, b, c)| = "
                 f"{np.linalg.norm([self.a, self.b, self.c]):.4g} m >= r = {self.r:.4g} m")
+        if self.g <= 0:
+            raise InvalidParameterError("g", f"the cover plane must be in front of the camera (g > 0), got {self.g:g}")
+        clearance = (self.d * self.a + self.e * self.b + self.c + self.g) / np.sqrt(self.d**2 + self.e**2 + 1.0)
+        if clearance < self.r:
+            raise InvalidParameterError(
+                "g", f"the cover plane cuts the cover sphere (the sphere centre is {clearance:.4g} m from the plane, "
+                f"less than r = {self.r:.4g} m): the glass would have no thickness somewhere")
 
     @cached_property
     def surfaces(self) -> tuple[Surface, ...]:

@@ -1,0 +1,412 @@
+"""One weighted least-squares engine for every calibration (thesis 2.3.2.3, 2.5, App. C).
+
+A problem is a residual function of named parameters. Each parameter is ``free``, ``fixed`` or
+``prior`` (free, but pulled towards a value ± sigma by a pseudo-observation). Observations are pixel
+coordinates with a-priori standard deviations; residuals are observed − computed, in pixels.
+
+The solver is Levenberg–Marquardt on the dense normal equations with column equilibration, a
+Jacobian by central differences evaluated group-wise (a parameter perturbs only the observations that
+depend on it), a robust start (iteratively reweighted least squares with Huber weights) so that one
+gross error cannot drag the solution, and iterated data snooping (Baarda's w-test) afterwards.
+
+Statistics follow the textbook (Mikhail & Ackermann 1976; Baarda 1968; Förstner):
+sigma0² = vᵀPv / r with redundancy r = n_obs + n_prior − n_free; Qxx = N⁻¹; parameter sigma =
+sigma0·sqrt(Qxx_ii); redundancy numbers r_i = (Qvv P)_ii; w_i = v_i / (σ_i sqrt(r_i / p_i…)) — see
+:func:`_statistics`; minimal detectable blunder ∇_i = δ0 σ_i / sqrt(r_i) with δ0 = 4.13 (α = 0.1 %,
+power 80 %); the global test compares r·sigma0² with the χ²(r) distribution.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from usvips.core.errors import ConvergenceError, DegenerateGeometryError, InvalidParameterError
+
+STATUSES = ("free", "fixed", "prior")
+W_CRITICAL = 3.29          # two-sided normal quantile for α0 = 0.1 %
+DELTA0 = 4.13              # non-centrality for α0 = 0.1 % and power 80 %
+HUBER_K = 2.0              # Huber threshold in standard deviations for the robust start
+
+
+@dataclass
+class Parameter:
+    """A named unknown: ``value``; ``status`` free | fixed | prior; for a prior, ``prior`` ± ``sigma``;
+    ``step`` is the finite-difference step (in the parameter's unit)."""
+
+    name: str
+    value: float
+    status: str = "free"
+    prior: float | None = None
+    sigma: float | None = None
+    step: float = 1e-6
+
+    def __post_init__(self) -> None:
+        if self.status not in STATUSES:
+            raise InvalidParameterError(self.name, f"status must be one of {STATUSES}, got {self.status!r}")
+        if not np.isfinite(self.value):
+            raise InvalidParameterError(self.name, f"must be finite, got {self.value}")
+        if self.status == "prior":
+            if self.sigma is None or not np.isfinite(self.sigma) or self.sigma <= 0:
+                raise InvalidParameterError(self.name, f"a prior needs a sigma > 0, got {self.sigma}")
+            if self.prior is None:
+                self.prior = self.value
+
+
+@dataclass
+class Observations:
+    """Observed values (n,), their a-priori sigmas (n,), and labels: ``point`` id, ``side`` ('l'/'r'),
+    ``coordinate`` ('x'/'y') and ``group`` (station label) per observation."""
+
+    values: np.ndarray
+    sigmas: np.ndarray
+    point: list[str]
+    side: list[str]
+    coordinate: list[str]
+    group: list[str]
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+
+@dataclass
+class Problem:
+    """``evaluate(values: dict[str, float], blocks: Sequence[int] | None) -> (computed, ok)`` returns the
+    model values of all observations (or of the observations in the given blocks, concatenated in block
+    order) and a validity mask. ``blocks`` (list of index arrays) partitions the observations;
+    ``depends`` maps each parameter name to the blocks it influences (default: all)."""
+
+    parameters: list[Parameter]
+    observations: Observations
+    evaluate: Callable[[dict[str, float], Sequence[int] | None], tuple[np.ndarray, np.ndarray]]
+    blocks: list[np.ndarray]
+    depends: dict[str, list[int]] = field(default_factory=dict)
+
+    def free(self) -> list[Parameter]:
+        return [p for p in self.parameters if p.status != "fixed"]
+
+    def values(self) -> dict[str, float]:
+        return {p.name: p.value for p in self.parameters}
+
+
+@dataclass
+class Suspect:
+    """An observation that data snooping rejects: point id, side, coordinate, station, its w-test value,
+    residual (px) and minimal detectable blunder (px)."""
+
+    point: str
+    side: str
+    coordinate: str
+    group: str
+    w: float | None
+    residual: float | None
+    mdb: float | None
+    reason: str = "w-test"
+
+
+@dataclass
+class Adjustment:
+    """The result: falsy when it did not converge (``reason`` says why)."""
+
+    parameters: list[Parameter]
+    converged: bool
+    reason: str
+    iterations: int
+    sigma0: float
+    rms: float
+    redundancy: int
+    residuals: np.ndarray
+    covariance_names: list[str]
+    covariance: np.ndarray
+    sigmas: dict[str, float]
+    correlations_over: list[tuple[str, str, float]]
+    condition_number: float
+    weak_directions: list[list[tuple[str, float]]]
+    redundancy_numbers: np.ndarray
+    w: np.ndarray
+    mdb: np.ndarray
+    global_test: dict
+    suspects: list[Suspect]
+    excluded: list[Suspect]
+    observations: Observations
+    used: np.ndarray
+
+    def __bool__(self) -> bool:
+        return self.converged
+
+    def value(self, name: str) -> float:
+        for p in self.parameters:
+            if p.name == name:
+                return p.value
+        raise KeyError(name)
+
+
+def _jacobian(problem: Problem, values: dict[str, float], free: list[Parameter], base: np.ndarray
+              ) -> np.ndarray:
+    """Central differences, evaluating for each parameter only the blocks that depend on it."""
+    n_obs = len(problem.observations)
+    jac = np.zeros((n_obs, len(free)))
+    all_blocks = list(range(len(problem.blocks)))
+    for j, parameter in enumerate(free):
+        blocks = problem.depends.get(parameter.name, all_blocks)
+        if not blocks:
+            continue
+        index = np.concatenate([problem.blocks[b] for b in blocks])
+        h = parameter.step
+        ahead = dict(values)
+        ahead[parameter.name] = values[parameter.name] + h
+        behind = dict(values)
+        behind[parameter.name] = values[parameter.name] - h
+        plus, ok_plus = problem.evaluate(ahead, blocks)
+        minus, ok_minus = problem.evaluate(behind, blocks)
+        column = (plus - minus) / (2 * h)
+        # at the edge of the valid region (a ray about to miss a surface) fall back to one side
+        here = base[index]
+        only_plus = ok_plus & ~ok_minus
+        only_minus = ok_minus & ~ok_plus
+        column[only_plus] = (plus[only_plus] - here[only_plus]) / h
+        column[only_minus] = (here[only_minus] - minus[only_minus]) / h
+        column[~ok_plus & ~ok_minus] = 0.0
+        jac[index, j] = column
+    return jac
+
+
+def _normal_system(jac, residual, weights, free, values):
+    """Weighted normal equations including prior pseudo-observations; returns N, b and vᵀPv."""
+    weighted = jac * weights[:, None]
+    normal = jac.T @ weighted
+    rhs = weighted.T @ residual
+    cost = float(residual @ (weights * residual))
+    for j, parameter in enumerate(free):
+        if parameter.status == "prior":
+            weight = 1.0 / parameter.sigma**2
+            misfit = parameter.prior - values[parameter.name]
+            normal[j, j] += weight
+            rhs[j] += weight * misfit
+            cost += weight * misfit * misfit
+    return normal, rhs, cost
+
+
+def _prior_cost(free: list[Parameter], values: dict[str, float]) -> float:
+    return sum(((p.prior - values[p.name]) / p.sigma) ** 2 for p in free if p.status == "prior")
+
+
+def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], used: np.ndarray,
+           max_iterations: int, tolerance: float) -> tuple[dict[str, float], bool, str, int]:
+    """Levenberg–Marquardt from the problem's current values; returns values, converged, reason, count.
+
+    Converged means the last accepted step changed no parameter by more than ``tolerance`` of its
+    standard error scale (the square root of the normal matrix diagonal), or no step could lower the
+    weighted squared residuals any further (the minimum at machine precision).
+    """
+    free = problem.free()
+    values = problem.values()
+    observed = problem.observations.values
+    sigmas = problem.observations.sigmas
+    computed, ok = problem.evaluate(values, None)
+    if not np.all(ok[used]):
+        bad = int(np.flatnonzero(~ok & used)[0])
+        obs = problem.observations
+        raise ConvergenceError(
+            f"the starting values cannot reproduce the observation of point {obs.point[bad]!r} "
+            f"({obs.side[bad]} image, station {obs.group[bad]}): its ray does not reach the point; "
+            "check the housing's starting values and priors")
+    lam = 1e-3
+    converged, reason = False, f"no convergence in {max_iterations} iterations"
+    iteration = 0
+    for iteration in range(1, max_iterations + 1):
+        residual = np.where(used, observed - computed, 0.0)
+        weights = np.where(used, weights_of(residual / sigmas) / sigmas**2, 0.0)
+        jac = _jacobian(problem, values, free, computed)
+        normal, rhs, cost = _normal_system(jac, residual, weights, free, values)
+        scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
+        scaled = normal / np.outer(scale, scale)
+        accepted = None
+        while lam <= 1e12:
+            try:
+                step = np.linalg.solve(scaled + lam * np.eye(len(free)), rhs / scale) / scale
+            except np.linalg.LinAlgError:
+                lam *= 10
+                continue
+            trial = dict(values)
+            for j, parameter in enumerate(free):
+                trial[parameter.name] = values[parameter.name] + step[j]
+            trial_computed, trial_ok = problem.evaluate(trial, None)
+            if np.all(trial_ok[used]) and np.all(np.isfinite(trial_computed[used])):
+                trial_residual = np.where(used, observed - trial_computed, 0.0)
+                trial_cost = float(trial_residual @ (weights * trial_residual)) + _prior_cost(free, trial)
+                if trial_cost < cost:
+                    accepted = step
+                    values, computed = trial, trial_computed
+                    lam = max(lam / 10, 1e-12)
+                    break
+            lam *= 10
+        if accepted is None:
+            converged, reason = True, "converged (no step lowers the weighted squared residuals further)"
+            break
+        if np.max(np.abs(accepted) * scale) < tolerance:
+            converged, reason = True, "converged"
+            break
+    if not np.all(np.isfinite(list(values.values()))):
+        raise ConvergenceError("the adjustment diverged (non-finite parameters)")
+    for parameter in problem.parameters:
+        parameter.value = values[parameter.name]
+    return values, converged, reason, iteration
+
+
+def _huber(k: float) -> Callable[[np.ndarray], np.ndarray]:
+    def weights(normalised: np.ndarray) -> np.ndarray:
+        size = np.abs(normalised)
+        return np.where(size <= k, 1.0, k / np.maximum(size, 1e-300))
+    return weights
+
+
+def _unit(normalised: np.ndarray) -> np.ndarray:
+    return np.ones_like(normalised)
+
+
+def _statistics(problem: Problem, used: np.ndarray) -> dict:
+    free = problem.free()
+    names = [p.name for p in free]
+    values = problem.values()
+    obs = problem.observations
+    computed, ok = problem.evaluate(values, None)
+    residual = np.where(used, obs.values - computed, 0.0)
+    weights = np.where(used, 1.0 / obs.sigmas**2, 0.0)
+    jac = _jacobian(problem, values, free, computed)
+    normal, _, cost = _normal_system(jac, residual, weights, free, values)
+    n_used = int(used.sum())
+    n_prior = sum(1 for p in free if p.status == "prior")
+    redundancy = n_used + n_prior - len(free)
+    if redundancy <= 0:
+        raise DegenerateGeometryError(
+            f"{n_used} observations and {n_prior} priors cannot determine {len(free)} unknowns "
+            f"(redundancy {redundancy}); measure more points or fix parameters")
+    scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
+    scaled = normal / np.outer(scale, scale)
+    singular = np.linalg.svd(scaled, compute_uv=True)
+    u_mat, s_values, vt = singular
+    condition = float(s_values[0] / s_values[-1]) if s_values[-1] > 0 else float("inf")
+    if not np.isfinite(condition) or condition > 1e14:
+        weakest = vt[-1]
+        order = np.argsort(-np.abs(weakest))[:4]
+        raise DegenerateGeometryError(
+            "the normal matrix is singular: no information on the combination of "
+            + ", ".join(f"{names[i]} ({weakest[i]:+.2f})" for i in order)
+            + "; fix one of them or give it a prior")
+    q_scaled = (vt.T / s_values) @ vt
+    qxx = q_scaled / np.outer(scale, scale)
+    sigma0 = float(np.sqrt(cost / redundancy))
+    sigmas = {name: float(sigma0 * np.sqrt(max(qxx[j, j], 0.0))) for j, name in enumerate(names)}
+    diag = np.sqrt(np.maximum(np.diag(qxx), 1e-300))
+    correlation = qxx / np.outer(diag, diag)
+    over = [(names[i], names[j], float(correlation[i, j]))
+            for i in range(len(names)) for j in range(i + 1, len(names)) if abs(correlation[i, j]) > 0.95]
+    weak = []
+    for k in range(1, min(3, len(s_values)) + 1):
+        vector = vt[-k]
+        order = np.argsort(-np.abs(vector))[:4]
+        weak.append([(names[i], float(vector[i])) for i in order if abs(vector[i]) > 0.1])
+    # redundancy numbers r_i = 1 − p_i a_i Qxx a_iᵀ for uncorrelated observations
+    leverage = np.einsum("ij,jk,ik->i", jac, qxx, jac) * weights
+    red_numbers = np.where(used, np.clip(1.0 - leverage, 0.0, 1.0), 0.0)
+    safe_r = np.maximum(red_numbers, 1e-12)
+    standardised = np.where(used, residual / (obs.sigmas * np.sqrt(safe_r)), 0.0)
+    # the test statistic uses a robust a-posteriori variance factor (median of the standardised residuals
+    # of observations that carry redundancy), so that neither a wrong a-priori pixel sigma nor the blunder
+    # itself decides what is flagged (Pope's tau with a robust scale; critical value 3.29 as Baarda's w)
+    informative = used & (red_numbers > 0.05)
+    robust_scale = 1.4826 * float(np.median(np.abs(standardised[informative]))) if informative.any() else 1.0
+    robust_scale = robust_scale if robust_scale > 0 else 1.0
+    w = standardised / robust_scale
+    mdb = np.where(used, DELTA0 * robust_scale * obs.sigmas / np.sqrt(safe_r), np.inf)
+    chi2 = cost
+    lower, upper = stats.chi2.ppf([0.025, 0.975], redundancy)
+    global_test = {
+        "redundancy": redundancy, "chi2": float(chi2), "variance_factor": float(sigma0**2),
+        "accepted_95": bool(lower <= chi2 <= upper), "p_value": float(stats.chi2.sf(chi2, redundancy)),
+        "interval_95": [float(lower), float(upper)],
+        "meaning": "sigma0 is in units of the a-priori pixel sigma: 1 means the residuals are as large as "
+                   "the assumed pointing precision",
+    }
+    rms = float(np.sqrt(np.mean(residual[used] ** 2)))
+    return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale, sigmas=sigmas, over=over, condition=condition,
+                weak=weak, red_numbers=red_numbers, w=w, mdb=mdb, global_test=global_test,
+                redundancy=redundancy, residual=residual, rms=rms)
+
+
+def adjust(problem: Problem, max_iterations: int = 50, tolerance: float = 1e-5, robust: bool = True,
+           snooping: bool = True, max_rejections: int | None = None,
+           snoop_unit: Callable[[int], np.ndarray] | None = None) -> Adjustment:
+    """Adjust ``problem`` (its parameters' values are the start and are updated in place).
+
+    robust: start with IRLS/Huber so that a gross error cannot drag the solution; snooping: then
+    iteratively exclude the observation unit with the largest |w| > 3.29 and re-adjust, at most
+    ``max_rejections`` times (default: one per ten observations, at least two). ``snoop_unit(i)`` returns the
+    indices of the observations rejected together with observation i (e.g. both coordinates of a
+    point in one image); default: the observation alone.
+    """
+    n = len(problem.observations)
+    used = np.ones(n, dtype=bool)
+    excluded: list[Suspect] = []
+    obs = problem.observations
+    # observations the starting model cannot reach at all (e.g. a control point with a wrong sign puts it
+    # behind the camera) are excluded at once and reported
+    _, reachable = problem.evaluate(problem.values(), None)
+    if not reachable.all():
+        if reachable.sum() < n / 2:
+            bad = int(np.flatnonzero(~reachable)[0])
+            raise ConvergenceError(
+                f"the starting values cannot reproduce {int((~reachable).sum())} of {n} observations (e.g. point "
+                f"{obs.point[bad]!r}, {obs.side[bad]} image, station {obs.group[bad]}): its ray does not reach the "
+                "point; check the control coordinates and the housing's starting values and priors")
+        for i in np.flatnonzero(~reachable):
+            excluded.append(Suspect(obs.point[i], obs.side[i], obs.coordinate[i], obs.group[i], None, None, None,
+                                    "the point is not visible from the starting orientation (wrong coordinates?)"))
+        used &= reachable
+    free = problem.free()
+    if n + sum(1 for p in free if p.status == "prior") <= len(free):
+        raise DegenerateGeometryError(
+            f"{n} observations cannot determine {len(free)} unknowns ({', '.join(p.name for p in free[:6])}"
+            f"{'...' if len(free) > 6 else ''}); measure more points or fix parameters")
+    if robust:
+        _solve(problem, _huber(HUBER_K), used, max_iterations, 1e-6)
+    _, converged, reason, iterations = _solve(problem, _unit, used, max_iterations, tolerance)
+    limit = max_rejections if max_rejections is not None else max(2, n // 10)
+    statistics = _statistics(problem, used)
+    rounds = 0
+    while snooping and rounds < limit:
+        rounds += 1
+        w = np.abs(statistics["w"])
+        worst = int(np.argmax(np.where(used, w, 0.0)))
+        if w[worst] <= W_CRITICAL or statistics["redundancy"] <= 2:
+            break
+        unit = snoop_unit(worst) if snoop_unit else np.array([worst])
+        obs = problem.observations
+        for i in unit:
+            if used[i]:
+                excluded.append(Suspect(obs.point[i], obs.side[i], obs.coordinate[i], obs.group[i],
+                                        float(statistics["w"][i]), float(statistics["residual"][i]),
+                                        float(statistics["mdb"][i])))
+        trial_used = used.copy()
+        trial_used[unit] = False
+        try:
+            _, converged, reason, iterations = _solve(problem, _unit, trial_used, max_iterations, tolerance)
+            statistics = _statistics(problem, trial_used)
+        except DegenerateGeometryError:
+            excluded = excluded[: len(excluded) - len(unit)]
+            break
+        used = trial_used
+    suspects = [s for s in excluded]
+    return Adjustment(
+        parameters=problem.parameters, converged=converged, reason=reason, iterations=iterations,
+        sigma0=statistics["sigma0"], rms=statistics["rms"], redundancy=statistics["redundancy"],
+        residuals=statistics["residual"], covariance_names=statistics["names"],
+        covariance=statistics["qxx"] * statistics["sigma0"] ** 2, sigmas=statistics["sigmas"],
+        correlations_over=statistics["over"], condition_number=statistics["condition"],
+        weak_directions=statistics["weak"], redundancy_numbers=statistics["red_numbers"], w=statistics["w"],
+        mdb=statistics["mdb"], global_test=statistics["global_test"], suspects=suspects, excluded=excluded,
+        observations=problem.observations, used=used)

@@ -1,0 +1,238 @@
+"""The stereo calibration model: named parameters → cameras at each station → computed pixels.
+
+Parameters carry the seeds' symbols with ``_l`` / ``_r`` (ARCHITECTURE.md):
+
+* interior, per camera: f, xp, yp, sy, k1, k2, p1, p2 (pixels; sy, k dimensionless);
+* exterior at the first station (the object frame of the control): X0_l … kappa_l and X0_r … kappa_r;
+  at every further station the left camera's pose ``X0_l@<pair>`` …, the right camera following it
+  rigidly (the rig's relative orientation is the one of the first station);
+* housing, in each camera's own frame (metres): System I ``dome-cover`` — a, b, c, r per camera and
+  one cover plane d, e in the left camera's frame shared by both, placed by the glass thickness t at the
+  left cover's thinnest point (g is derived from it: :func:`dome_cover_g`), n2, n3; System II ``flat-port`` —
+  d, e, g per camera, t, n2, n3;
+* control coordinates ``X@<id>``, ``Y@<id>``, ``Z@<id>`` when the control file gives sigmas.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from usvips.core.adjustment import Observations, Parameter, Problem
+from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
+from usvips.core.errors import DegenerateGeometryError, UsvipsError
+from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing, shared_plane_in_camera
+from usvips.core.interior import INTERIOR_PARAMETERS, Interior
+from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.core.rig import relative_orientation, right_exterior
+
+HOUSING_KINDS = ("air", "dome-cover", "flat-port")
+SIDES = ("l", "r")
+
+_STEPS = {"f": 1e-3, "xp": 1e-3, "yp": 1e-3, "sy": 1e-7, "k1": 1e-7, "k2": 1e-7, "p1": 1e-8, "p2": 1e-8,
+          "X0": 1e-6, "Y0": 1e-6, "Z0": 1e-6, "omega": 1e-7, "phi": 1e-7, "kappa": 1e-7,
+          "a": 1e-6, "b": 1e-6, "c": 1e-6, "r": 1e-6, "d": 1e-6, "e": 1e-6, "g": 1e-6, "t": 1e-6,
+          "n2": 1e-6, "n3": 1e-6, "X": 1e-6, "Y": 1e-6, "Z": 1e-6}
+
+
+def symbol(name: str) -> str:
+    """The seeds' symbol of a parameter name (``f_l`` → ``f``, ``X0_l@2`` → ``X0``, ``Z@7`` → ``Z``)."""
+    base = name.split("@")[0]
+    for suffix in ("_l", "_r"):
+        if base.endswith(suffix):
+            return base[: -len(suffix)]
+    return base
+
+
+def housing_parameter_names(kind: str) -> list[str]:
+    if kind == "air":
+        return []
+    if kind == "dome-cover":
+        return [f"{s}_{side}" for side in SIDES for s in ("a", "b", "c", "r")] + ["d", "e", "t", "n2", "n3"]
+    if kind == "flat-port":
+        return [f"{s}_{side}" for side in SIDES for s in ("d", "e", "g")] + ["t", "n2", "n3"]
+    raise UsvipsError(f"unknown housing {kind!r}; choose one of {', '.join(HOUSING_KINDS)}")
+
+
+def dome_cover_g(values: dict[str, float]) -> float:
+    """The cover plane's g (left camera frame) from the glass thickness ``t`` at the left cover's thinnest
+    point: the plane lies t beyond the left sphere, g = t + r·sqrt(d² + e² + 1) − (d·a + e·b + c).
+
+    The adjustment estimates t rather than g: t > 0 keeps the plane outside the sphere, far from the wall
+    that a free g would run into while the sphere's radius is barely observable."""
+    d, e = values["d"], values["e"]
+    return (values["t"] + values["r_l"] * np.sqrt(d * d + e * e + 1.0)
+            - (d * values["a_l"] + e * values["b_l"] + values["c_l"]))
+
+
+def build_housings(kind: str, values: dict[str, float]) -> tuple[Housing, Housing]:
+    """Left and right housings (each in its camera frame) from parameter values."""
+    if kind == "air":
+        return AirHousing(), AirHousing()
+    if kind == "dome-cover":
+        g = dome_cover_g(values)
+        left = DomeCoverHousing(values["a_l"], values["b_l"], values["c_l"], values["r_l"], values["d"],
+                                values["e"], g, values["n2"], values["n3"])
+        rel = relative_orientation(_exterior(values, "l"), _exterior(values, "r"))
+        d_r, e_r, g_r = shared_plane_in_camera(values["d"], values["e"], g, rel.rotation,
+                                               -rel.rotation @ rel.base)
+        right = DomeCoverHousing(values["a_r"], values["b_r"], values["c_r"], values["r_r"], d_r, e_r, g_r,
+                                 values["n2"], values["n3"])
+        return left, right
+    return tuple(FlatPortHousing(values[f"d_{s}"], values[f"e_{s}"], values[f"g_{s}"], values["t"],
+                                 values["n2"], values["n3"]) for s in SIDES)
+
+
+def _exterior(values: dict[str, float], side: str, station: str | None = None) -> Exterior:
+    suffix = f"_{side}" + (f"@{station}" if station else "")
+    return Exterior(*(values[f"{p}{suffix}"] for p in EXTERIOR_PARAMETERS))
+
+
+def _interior(values: dict[str, float], side: str) -> Interior:
+    return Interior(*(values[f"{p}_{side}"] for p in INTERIOR_PARAMETERS))
+
+
+@dataclass
+class StereoModel:
+    """A calibration problem: control, observations (with their pair labels = stations), housing kind."""
+
+    kind: str
+    control: ControlPoints
+    observations: StereoObservations
+    sigma_px: float = 0.5
+    size: tuple[int | None, int | None] = (None, None)
+    stations: tuple[str, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        if self.kind not in HOUSING_KINDS:
+            raise UsvipsError(f"unknown housing {self.kind!r}; choose one of {', '.join(HOUSING_KINDS)}")
+        self.stations = self.observations.pair_labels
+        self._index = self.control.index_of(list(self.observations.ids), "observation")
+        self.control_parameters = self.control.sigmas is not None and bool(np.any(self.control.sigmas > 0))
+        # observation layout: blocks (station, side); in each block x0, y0, x1, y1, ...
+        self.block_keys: list[tuple[str, str]] = []
+        self.block_rows: list[np.ndarray] = []
+        values, sigmas, point, side_l, coord, group, blocks = [], [], [], [], [], [], []
+        offset = 0
+        for station in self.stations:
+            rows = np.flatnonzero([p == station for p in self.observations.pairs])
+            for side in SIDES:
+                pixels = (self.observations.left if side == "l" else self.observations.right)[rows]
+                values.append(pixels.reshape(-1))
+                count = 2 * len(rows)
+                blocks.append(np.arange(offset, offset + count))
+                offset += count
+                self.block_keys.append((station, side))
+                self.block_rows.append(rows)
+                for r in rows:
+                    for c in ("x", "y"):
+                        point.append(self.observations.ids[r])
+                        side_l.append(side)
+                        coord.append(c)
+                        group.append(station)
+        values = np.concatenate(values)
+        self.observation_set = Observations(values, np.full(len(values), float(self.sigma_px)), point, side_l,
+                                            coord, group)
+        self.blocks = blocks
+
+    # ---------------------------------------------------------------------------------- cameras
+    def control_xyz(self, values: dict[str, float]) -> np.ndarray:
+        xyz = self.control.xyz.copy()
+        if self.control_parameters:
+            for i, pid in enumerate(self.control.ids):
+                for k, axis in enumerate("XYZ"):
+                    name = f"{axis}@{pid}"
+                    if name in values:
+                        xyz[i, k] = values[name]
+        return xyz
+
+    def cameras(self, values: dict[str, float], station: str | None = None,
+                bounded: bool = True) -> tuple[Camera, Camera]:
+        """The two cameras at a station (default: the first) for the given parameter values; ``bounded``
+        gives them the image size (the adjustment itself does not clip at the frame)."""
+        station = station or self.stations[0]
+        left_0, right_0 = _exterior(values, "l"), _exterior(values, "r")
+        if station == self.stations[0]:
+            left, right = left_0, right_0
+        else:
+            left = _exterior(values, "l", station)
+            right = right_exterior(left, relative_orientation(left_0, right_0))
+        housing_l, housing_r = build_housings(self.kind, values)
+        width, height = self.size if bounded else (None, None)
+        return (Camera(_interior(values, "l"), left, housing_l, width, height),
+                Camera(_interior(values, "r"), right, housing_r, width, height))
+
+    def evaluate(self, values: dict[str, float], blocks=None) -> tuple[np.ndarray, np.ndarray]:
+        """Computed pixels of the observations (all, or of the given blocks), and a validity mask."""
+        chosen = range(len(self.blocks)) if blocks is None else blocks
+        xyz = self.control_xyz(values)
+        out, ok = [], []
+        cache: dict[str, tuple[Camera, Camera]] = {}
+        for b in chosen:
+            station, side = self.block_keys[b]
+            try:
+                if station not in cache:
+                    cache[station] = self.cameras(values, station, bounded=False)
+                camera = cache[station][0 if side == "l" else 1]
+                projection = camera.project(xyz[self._index[self.block_rows[b]]])
+                out.append(projection.pixels.reshape(-1))
+                ok.append(np.repeat(projection.status == 0, 2))
+            except UsvipsError:  # impossible parameters at a trial step (e.g. r <= 0): reject the step
+                n = len(self.blocks[b])
+                out.append(np.zeros(n))
+                ok.append(np.zeros(n, dtype=bool))
+        return np.concatenate(out), np.concatenate(ok)
+
+    # ---------------------------------------------------------------------------------- parameters
+    def parameter_names(self) -> list[str]:
+        names = [f"{p}_{s}" for s in SIDES for p in INTERIOR_PARAMETERS]
+        names += [f"{p}_{s}" for s in SIDES for p in EXTERIOR_PARAMETERS]
+        for station in self.stations[1:]:
+            names += [f"{p}_l@{station}" for p in EXTERIOR_PARAMETERS]
+        names += housing_parameter_names(self.kind)
+        if self.control_parameters:
+            for pid in self.control.ids:
+                names += [f"{axis}@{pid}" for axis in "XYZ"]
+        return names
+
+    def dependencies(self) -> dict[str, list[int]]:
+        """Which observation blocks each parameter influences (for a cheap numerical Jacobian)."""
+        blocks_of = {key: i for i, key in enumerate(self.block_keys)}
+        first = self.stations[0]
+        all_blocks = list(range(len(self.blocks)))
+        right_blocks = [i for i, (_, s) in enumerate(self.block_keys) if s == "r"]
+        depends: dict[str, list[int]] = {}
+        for name in self.parameter_names():
+            base = name.split("@")[0]
+            station = name.split("@")[1] if "@" in name and base in {f"{p}_l" for p in EXTERIOR_PARAMETERS} else None
+            if base in {f"{p}_l" for p in INTERIOR_PARAMETERS} or base in {"a_l", "b_l", "c_l", "r_l", "d_l", "e_l",
+                                                                              "g_l"}:
+                depends[name] = [i for i, (_, s) in enumerate(self.block_keys) if s == "l"]
+            elif base in {f"{p}_r" for p in INTERIOR_PARAMETERS} or base in {"a_r", "b_r", "c_r", "r_r", "d_r",
+                                                                                "e_r", "g_r"}:
+                depends[name] = right_blocks
+            elif station is not None:
+                depends[name] = [blocks_of[(station, "l")], blocks_of[(station, "r")]]
+            elif base in {f"{p}_l" for p in EXTERIOR_PARAMETERS}:
+                # the first station's left pose places the left camera there and, through the relative
+                # orientation, every right camera (and, for a shared cover plane, every right housing)
+                depends[name] = sorted({blocks_of[(first, "l")], *right_blocks})
+            elif base in {f"{p}_r" for p in EXTERIOR_PARAMETERS}:
+                depends[name] = right_blocks
+            else:
+                depends[name] = all_blocks
+        return depends
+
+    def problem(self, parameters: list[Parameter]) -> Problem:
+        names = {p.name for p in parameters}
+        missing = [n for n in self.parameter_names() if n not in names]
+        if missing:
+            raise DegenerateGeometryError(f"no value for parameter(s) {', '.join(missing[:6])}")
+        for p in parameters:
+            p.step = _STEPS.get(symbol(p.name), 1e-6)
+
+        def evaluate(values, blocks):
+            return self.evaluate(values, blocks)
+
+        return Problem(parameters, self.observation_set, evaluate, self.blocks, self.dependencies())

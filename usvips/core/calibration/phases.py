@@ -1,0 +1,338 @@
+"""The two calibration phases of the thesis (2.3, 3.4.4), and their joint multi-pair form.
+
+Phase 1 (``calibrate_air``): both cameras from one or more in-air pairs by collinearity with distortion
+and y-scale (the model of ``camera.py`` with no housing), started by the DLT. Phase 2
+(``calibrate_water``): the phase-1 interior fixed (or weighted by its phase-1 sigmas), the housing and
+the exterior orientations by ray tracing. Observations with several pair labels adjust all those
+stations at once, sharing the interior, the housing and the rig's relative orientation (the joint mode
+the thesis recommends, 4.2).
+
+Port tilt and decentring correlate almost perfectly with the principal point and decentring
+distortion, and a sphere centred near the perspective centre hardly bends the rays, so its radius is
+barely observable: the housing parameters enter with priors (value ± sigma) by default. The report
+names every correlation above 0.95 and the parameters of the weakest directions, so a user sees which
+figures the data did not determine.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from usvips.core.adjustment import Adjustment, Parameter, adjust
+from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
+from usvips.core.camera import EXTERIOR_PARAMETERS, Exterior
+from usvips.core.dlt import robust_dlt
+from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
+from usvips.core.interior import INTERIOR_PARAMETERS
+from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.core.rig import relative_orientation, right_exterior
+from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
+
+#: Phase 1 frees these interior parameters by default; the others stay fixed (at 0, or sy at 1 → DLT).
+DEFAULT_AIR_FREE = ("f", "xp", "yp", "sy", "k1")
+
+#: Phase 2 defaults: (start value, prior sigma or None for fixed), camera frame, metres.
+DEFAULT_HOUSING = {
+    "dome-cover": {"a": (0.0, 0.03), "b": (0.0, 0.03), "c": (0.0, 0.03), "r": (0.09, 0.02),
+                   "d": (0.0, 0.05), "e": (0.0, 0.05), "t": (0.03, 0.02), "n2": (1.6, 0.02), "n3": (1.34, 0.01)},
+    "flat-port": {"d": (0.0, 0.05), "e": (0.0, 0.05), "g": (0.05, 0.05), "t": (0.01, None), "n2": (1.5, None),
+                  "n3": (1.34, 0.01)},
+}
+
+
+@dataclass
+class CalibrationOptions:
+    """free / fix: parameter names (or seeds' symbols applying to both cameras, e.g. ``k2``); fix_values
+    and priors: name → value and name → (value, sigma); sigma_px: a-priori pointing precision (px);
+    interior: ``fixed`` or ``weighted`` (phase 2); robust, snooping: blunder handling."""
+
+    free: tuple[str, ...] = ()
+    fix: tuple[str, ...] = ()
+    fix_values: dict[str, float] = field(default_factory=dict)
+    priors: dict[str, tuple[float, float]] = field(default_factory=dict)
+    sigma_px: float = 0.5
+    interior: str = "fixed"
+    robust: bool = True
+    snooping: bool = True
+    image_size: tuple[int | None, int | None] = (None, None)
+
+
+@dataclass
+class CalibrationResult:
+    calibration: StereoCalibration
+    adjustment: Adjustment
+    model: StereoModel
+    report: dict
+
+    def __bool__(self) -> bool:
+        return bool(self.adjustment)
+
+
+def _expand(names, all_names: list[str], what: str) -> set[str]:
+    """Names or seeds' symbols (``k2`` = k2_l and k2_r) → parameter names; unknown names raise."""
+    out: set[str] = set()
+    for name in names:
+        matches = [n for n in all_names if n == name or symbol(n) == name and "@" not in n]
+        if not matches:
+            raise InvalidParameterError(what, f"unknown parameter {name!r}; known: {', '.join(all_names[:40])}")
+        out.update(matches)
+    return out
+
+
+def _dlt_starts(control: ControlPoints, observations: StereoObservations) -> dict:
+    """Robust DLT of every (station, side): interior and exterior starting values."""
+    starts = {}
+    for station in observations.pair_labels:
+        pair = observations.pair(station)
+        xyz = control.xyz[control.index_of(list(pair.ids), "observation")]
+        for side in SIDES:
+            try:
+                starts[(station, side)] = robust_dlt(xyz, pair.left if side == "l" else pair.right)
+            except DegenerateGeometryError as error:
+                raise DegenerateGeometryError(f"pair {station!r}, {'left' if side == 'l' else 'right'} image: "
+                                              f"{error}") from None
+    return starts
+
+
+def _exterior_values(starts: dict, stations: tuple[str, ...]) -> dict[str, float]:
+    values = {}
+    first = stations[0]
+    for side in SIDES:
+        ext = starts[(first, side)].exterior
+        values.update({f"{p}_{side}": getattr(ext, p) for p in EXTERIOR_PARAMETERS})
+    for station in stations[1:]:
+        ext = starts[(station, "l")].exterior
+        values.update({f"{p}_l@{station}": getattr(ext, p) for p in EXTERIOR_PARAMETERS})
+    return values
+
+
+def _apply_options(parameters: list[Parameter], options: CalibrationOptions) -> None:
+    names = [p.name for p in parameters]
+    by_name = {p.name: p for p in parameters}
+    for name in _expand(options.free, names, "--free"):
+        by_name[name].status = "free"
+    for name in _expand(options.fix, names, "--fix"):
+        by_name[name].status = "fixed"
+    for key, value in options.fix_values.items():
+        for name in _expand([key], names, "--fix"):
+            by_name[name].status, by_name[name].value = "fixed", float(value)
+    for key, (value, sigma) in options.priors.items():
+        if not sigma > 0:
+            raise InvalidParameterError("--prior", f"{key}: the sigma must be > 0, got {sigma}")
+        for name in _expand([key], names, "--prior"):
+            p = by_name[name]
+            p.status, p.value, p.prior, p.sigma = "prior", float(value), float(value), float(sigma)
+
+
+def _snoop_unit(model: StereoModel):
+    obs = model.observation_set
+
+    def unit(i: int) -> np.ndarray:
+        # a pointing blunder spoils a point in one image: reject its x and y together
+        start = i - (i % 2)
+        return np.array([start, start + 1]) if obs.coordinate[start] == "x" else np.array([i])
+
+    return unit
+
+
+def _solve(model: StereoModel, parameters: list[Parameter], options: CalibrationOptions, phase: str,
+           source: dict) -> CalibrationResult:
+    problem = model.problem(parameters)
+    adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model))
+    values = problem.values()
+    left, right = model.cameras(values)
+    poses = [left.exterior] + [model.cameras(values, s)[0].exterior for s in model.stations[1:]]
+    sigma0_px = adjustment.sigma0 * options.sigma_px
+    estimates = {p.name: ParameterEstimate(p.value, adjustment.sigmas.get(p.name), p.status) for p in parameters}
+    statistics = {"rms_px": adjustment.rms, "redundancy": adjustment.redundancy,
+                  "condition_number": adjustment.condition_number, "iterations": adjustment.iterations,
+                  "converged": adjustment.converged, "global_test": adjustment.global_test,
+                  "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px}
+    calibration = StereoCalibration(
+        left, right, model.stations, tuple(poses), relative_orientation(left.exterior, right.exterior), phase,
+        max(sigma0_px, 1e-12), estimates, (tuple(adjustment.covariance_names), adjustment.covariance),
+        statistics, source)
+    result = CalibrationResult(calibration, adjustment, model, {})
+    result.report = build_report(result)
+    return result
+
+
+def build_report(result: CalibrationResult) -> dict:
+    """The report JSON: sigma0_px, rms_px, parameters, correlations_over_0_95, condition_number, suspects,
+    converged, and the details (residuals, redundancy numbers, global test, weak directions, notes)."""
+    adj, model, cal = result.adjustment, result.model, result.calibration
+    obs = adj.observations
+    residuals = []
+    for i in range(0, len(obs), 2):
+        residuals.append({"id": obs.point[i], "side": obs.side[i], "station": obs.group[i],
+                          "vx": float(adj.residuals[i]), "vy": float(adj.residuals[i + 1]),
+                          "wx": float(adj.w[i]), "wy": float(adj.w[i + 1]),
+                          "redundancy_x": float(adj.redundancy_numbers[i]),
+                          "redundancy_y": float(adj.redundancy_numbers[i + 1]),
+                          "used": bool(adj.used[i] and adj.used[i + 1])})
+    notes = []
+    if model.kind == "dome-cover":
+        notes.append("System I: the sphere centre (a, b, c) and radius r of each cover, the shared cover plane "
+                     "(d, e, g; left camera frame) and the indices n2, n3 enter with priors by default: a sphere "
+                     "centred near the perspective centre hardly bends the rays, and cover tilt correlates with "
+                     "the principal point and decentring distortion.")
+    if model.kind == "flat-port":
+        notes.append("System II: port tilt (d, e) and distance g of each camera enter with priors; glass "
+                     "thickness t and n2 are fixed unless given, since they are nearly inseparable from g.")
+    if adj.correlations_over:
+        notes.append(f"{len(adj.correlations_over)} parameter pairs correlate above 0.95: their individual values "
+                     "are not determined by the data (their combination is); see correlations_over_0_95.")
+    return {
+        "phase": cal.phase, "housing": model.kind, "stations": list(model.stations),
+        "converged": adj.converged, "reason": adj.reason, "iterations": adj.iterations,
+        "sigma0_px": cal.sigma0_px, "rms_px": adj.rms, "redundancy": adj.redundancy,
+        "parameters": {name: {"value": p.value, "sigma": p.sigma, "status": p.status}
+                       for name, p in cal.parameters.items()},
+        "correlations_over_0_95": [{"a": a, "b": b, "r": r} for a, b, r in adj.correlations_over],
+        "condition_number": adj.condition_number,
+        "weak_directions": [[{"parameter": n, "weight": w} for n, w in d] for d in adj.weak_directions],
+        "suspects": [{"id": s.point, "side": s.side, "coordinate": s.coordinate, "station": s.group, "w": s.w,
+                      "residual_px": s.residual, "mdb_px": s.mdb, "reason": s.reason} for s in adj.suspects],
+        "global_test": adj.global_test, "residuals": residuals, "notes": notes,
+    }
+
+
+def _interior_from_dlt(starts: dict, side: str) -> dict[str, float]:
+    results = [r for (station, s), r in starts.items() if s == side]
+    values = {p: float(np.median([getattr(r, p) for r in results])) for p in ("f", "xp", "yp", "sy")}
+    values.update({"k1": 0.0, "k2": 0.0, "p1": 0.0, "p2": 0.0})
+    return values
+
+
+def calibrate_air(control: ControlPoints, observations: StereoObservations,
+                  options: CalibrationOptions | None = None, source: dict | None = None) -> CalibrationResult:
+    """Phase 1: both cameras in air from one or more pairs (collinearity with distortion), DLT start."""
+    options = options or CalibrationOptions()
+    model = StereoModel("air", control, observations, options.sigma_px, options.image_size)
+    starts = _dlt_starts(control, observations)
+    values = _exterior_values(starts, model.stations)
+    for side in SIDES:
+        values.update({f"{p}_{side}": v for p, v in _interior_from_dlt(starts, side).items()})
+    parameters = []
+    for name in model.parameter_names():
+        status = "free"
+        if symbol(name) in INTERIOR_PARAMETERS and symbol(name) not in DEFAULT_AIR_FREE:
+            status = "fixed"
+        if "@" in name and symbol(name) in "XYZ":
+            continue
+        parameters.append(Parameter(name, values[name], status))
+    parameters += _control_parameters(model)
+    _apply_options(parameters, options)
+    return _solve(model, parameters, options, "air", source or {})
+
+
+def _control_parameters(model: StereoModel) -> list[Parameter]:
+    out = []
+    if model.control_parameters:
+        for i, pid in enumerate(model.control.ids):
+            for k, axis in enumerate("XYZ"):
+                sigma = float(model.control.sigmas[i, k])
+                value = float(model.control.xyz[i, k])
+                out.append(Parameter(f"{axis}@{pid}", value, "prior" if sigma > 0 else "fixed", value,
+                                     sigma if sigma > 0 else None))
+    return out
+
+
+def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoints,
+                    observations: StereoObservations, options: CalibrationOptions | None = None,
+                    source: dict | None = None) -> CalibrationResult:
+    """Phase 2 (and joint): housing and exterior orientations by ray tracing, phase-1 interior fixed or
+    weighted. Observations with several pair labels adjust all those stations together."""
+    options = options or CalibrationOptions()
+    if options.interior not in ("fixed", "weighted"):
+        raise InvalidParameterError("--interior", f"must be 'fixed' or 'weighted', got {options.interior!r}")
+    if housing not in DEFAULT_HOUSING:
+        raise InvalidParameterError("--housing", f"must be one of {', '.join(DEFAULT_HOUSING)}, got {housing!r}")
+    size = options.image_size if options.image_size != (None, None) else (base.left.width, base.left.height)
+    model = StereoModel(housing, control, observations, options.sigma_px, size)
+    starts = _dlt_starts(control, observations)
+    values = _exterior_values(starts, model.stations)
+    # the cameras are rigidly mounted: start the right camera from the left one's DLT pose and the phase-1
+    # relative orientation (a pinhole DLT through a housing is a poor start on its own)
+    right_start = right_exterior(exterior_of(values, "l"), base.relative)
+    values.update({f"{p}_r": getattr(right_start, p) for p in EXTERIOR_PARAMETERS})
+    parameters = []
+    for side, camera in (("l", base.left), ("r", base.right)):
+        for p in INTERIOR_PARAMETERS:
+            name = f"{p}_{side}"
+            value = getattr(camera.interior, p)
+            estimate = base.parameters.get(name)
+            if options.interior == "weighted" and estimate is not None and estimate.sigma:
+                parameters.append(Parameter(name, value, "prior", value, estimate.sigma))
+            else:
+                parameters.append(Parameter(name, value, "fixed"))
+    for name in model.parameter_names():
+        if name in values:
+            parameters.append(Parameter(name, values[name], "free"))
+    for name in housing_parameter_names(housing):
+        value, sigma = DEFAULT_HOUSING[housing][symbol(name)]
+        parameters.append(Parameter(name, value, "prior" if sigma else "fixed", value, sigma))
+    parameters += _control_parameters(model)
+    _apply_options(parameters, options)
+    _choose_start(model, parameters)
+    merged = dict(source or {})
+    merged.setdefault("base_calibration", base.source)
+    return _solve(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged)
+
+
+#: Starting values tried for the least observable, most non-linear housing parameters (metres).
+START_GRID = {"dome-cover": {"c": (-0.03, 0.0, 0.03), "t": (0.01, 0.03, 0.06)},
+              "flat-port": {"g": (0.02, 0.05, 0.1)}}
+
+
+def _fit_exteriors(model: StereoModel, parameters: list[Parameter]) -> float:
+    """Adjust the exterior orientations alone (everything else held) and return the weighted cost."""
+    held = {p.name: p.status for p in parameters}
+    saved = {p.name: p.value for p in parameters}
+    for p in parameters:
+        if symbol(p.name) not in EXTERIOR_PARAMETERS:
+            p.status = "fixed"
+    try:
+        result = adjust(model.problem(parameters), max_iterations=15, robust=True, snooping=False)
+        cost = float(np.sum((result.residuals[result.used] / model.observation_set.sigmas[result.used]) ** 2))
+        cost /= max(int(result.used.sum()), 1)
+        return cost if np.isfinite(cost) else np.inf
+    except UsvipsError:
+        for p in parameters:
+            p.value = saved[p.name]
+        return np.inf
+    finally:
+        for p in parameters:
+            p.status = held[p.name]
+
+
+def _choose_start(model: StereoModel, parameters: list[Parameter]) -> None:
+    """Try a small grid of starting values for the housing parameters the data hardly fix (a sphere's
+    axial offset and the glass thickness; a port's distance) and keep the one whose exterior-only fit
+    leaves the smallest residuals; the DLT ignores refraction, and from a poor start the full
+    adjustment can settle against the edge of the valid region (a cover plane cutting the sphere)."""
+    grid = START_GRID.get(model.kind, {})
+    by_name = {p.name: p for p in parameters}
+    candidates = [dict()]
+    for symbol_name, starts in grid.items():
+        names = [n for n in by_name if symbol(n) == symbol_name and by_name[n].status != "fixed"]
+        if names:
+            candidates = [dict(c, **{n: v for n in names}) for c in candidates for v in starts]
+    initial = {p.name: p.value for p in parameters}
+    best_cost, best_values = np.inf, initial
+    for candidate in candidates:
+        for p in parameters:
+            p.value = initial[p.name]
+        for name, value in candidate.items():
+            by_name[name].value = value
+        cost = _fit_exteriors(model, parameters)
+        if cost < best_cost:
+            best_cost, best_values = cost, {p.name: p.value for p in parameters}
+    for p in parameters:
+        p.value = best_values[p.name]
+
+
+def exterior_of(values: dict[str, float], side: str) -> Exterior:
+    return Exterior(*(values[f"{p}_{side}"] for p in EXTERIOR_PARAMETERS))

@@ -1,0 +1,202 @@
+"""Direct linear transformation (11 parameters) and its decomposition into starting values.
+
+The DLT maps object points (X, Y, Z) to pixels by a 3 × 4 projective matrix; it needs at least six
+well-spread, non-coplanar control points and ignores distortion and refraction, so it serves as the
+starting value of every calibration (thesis 3.5.1, Table 3.3). The decomposition returns f, xp, yp, sy
+and the exterior orientation in USVIPS's conventions (``interior.py``, ``rotation.py``).
+
+``robust_dlt`` tries random minimal subsets and keeps the one whose median reprojection error is least
+(least median of squares), so that one gross error in the control or the pixels does not spoil the start.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import rq
+
+from usvips.core.camera import Exterior
+from usvips.core.errors import DegenerateGeometryError
+from usvips.core.rotation import angles_from_matrix
+
+#: Flip from OpenCV's camera frame (x right, y down, z forward) to ours (x right, y up, z backward).
+FLIP = np.diag([1.0, -1.0, -1.0])
+
+
+@dataclass(frozen=True)
+class DltResult:
+    """The 3 × 4 projection (pixels), its decomposition and its reprojection residuals (pixels)."""
+
+    matrix: np.ndarray
+    f: float
+    xp: float
+    yp: float
+    sy: float
+    skew: float
+    exterior: Exterior
+    residuals: np.ndarray
+    inliers: np.ndarray
+
+    @property
+    def rms_px(self) -> float:
+        return float(np.sqrt(np.mean(np.sum(self.residuals[self.inliers] ** 2, axis=1))))
+
+
+def check_spread(points: np.ndarray, minimum: int = 6, what: str = "control points") -> None:
+    """Raise :class:`DegenerateGeometryError` if there are too few points or they are (nearly) coplanar."""
+    points = np.asarray(points, dtype=np.float64)
+    if len(points) < minimum:
+        raise DegenerateGeometryError(f"the DLT needs at least {minimum} {what}, got {len(points)}")
+    centred = points - points.mean(axis=0)
+    singular = np.linalg.svd(centred, compute_uv=False)
+    if singular[0] == 0 or singular[2] / singular[0] < 1e-3:
+        raise DegenerateGeometryError(
+            f"the {len(points)} {what} are (nearly) coplanar (thickness/extent = "
+            f"{singular[2] / max(singular[0], 1e-300):.1e}); the DLT needs 3-D spread: add points off the plane")
+
+
+def _normalisation(values: np.ndarray) -> np.ndarray:
+    centre = values.mean(axis=0)
+    spread = np.sqrt(np.mean(np.sum((values - centre) ** 2, axis=1)))
+    dim = values.shape[1]
+    scale = np.sqrt(dim) / max(spread, 1e-300)
+    transform = np.eye(dim + 1)
+    transform[:dim, :dim] *= scale
+    transform[:dim, dim] = -scale * centre
+    return transform
+
+
+def _solve_matrix(points: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+    t_obj = _normalisation(points)
+    t_img = _normalisation(pixels)
+    x = (t_obj @ np.column_stack([points, np.ones(len(points))]).T).T
+    u = (t_img @ np.column_stack([pixels, np.ones(len(pixels))]).T).T
+    rows = []
+    for xi, ui in zip(x, u, strict=True):
+        rows.append(np.concatenate([xi, np.zeros(4), -ui[0] * xi]))
+        rows.append(np.concatenate([np.zeros(4), xi, -ui[1] * xi]))
+    _, _, vt = np.linalg.svd(np.array(rows))
+    normalised = vt[-1].reshape(3, 4)
+    return np.linalg.inv(t_img) @ normalised @ t_obj
+
+
+def reproject(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
+    homogeneous = np.column_stack([points, np.ones(len(points))]) @ matrix.T
+    return homogeneous[:, :2] / homogeneous[:, 2:3]
+
+
+def decompose(matrix: np.ndarray, points: np.ndarray, pixels: np.ndarray,
+              inliers: np.ndarray | None = None) -> DltResult:
+    """Split a projection matrix into interior (f, xp, yp, sy) and exterior orientation."""
+    matrix = np.asarray(matrix, dtype=np.float64)
+    # orient so that the control lies in front of the camera (positive depth in OpenCV's frame)
+    depth = np.column_stack([points, np.ones(len(points))]) @ matrix[2]
+    if np.median(depth) < 0:
+        matrix = -matrix
+    left = matrix[:, :3]
+    if abs(np.linalg.det(left)) < 1e-300:
+        raise DegenerateGeometryError("the DLT solution is singular: the control does not fix the camera")
+    centre = -np.linalg.solve(left, matrix[:, 3])
+    k, r = rq(left)
+    signs = np.diag(np.sign(np.diag(k)))
+    k, r = k @ signs, signs @ r
+    if np.linalg.det(r) < 0:  # a reflection: the overall sign of P was wrong
+        r = -r
+        k = -k
+    k = k / k[2, 2]
+    rotation = FLIP @ r
+    omega, phi, kappa = angles_from_matrix(rotation)
+    residuals = pixels - reproject(matrix, points)
+    fx, fy = float(k[0, 0]), float(k[1, 1])
+    return DltResult(matrix / np.linalg.norm(matrix), fx, float(k[0, 2]), float(k[1, 2]), fx / fy, float(k[0, 1]),
+                     Exterior(*centre, omega, phi, kappa), residuals,
+                     np.ones(len(points), bool) if inliers is None else inliers)
+
+
+def dlt(points: np.ndarray, pixels: np.ndarray) -> DltResult:
+    """Least-squares DLT from control points (N, 3) metres and their pixels (N, 2); N >= 6, non-coplanar."""
+    points = np.asarray(points, dtype=np.float64)
+    pixels = np.asarray(pixels, dtype=np.float64)
+    check_spread(points)
+    return decompose(_solve_matrix(points, pixels), points, pixels)
+
+
+def _fit_sigma(points: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, float]:
+    matrix = _solve_matrix(points, pixels)
+    errors = pixels - reproject(matrix, points)
+    dof = 2 * len(points) - 11
+    return matrix, float(np.sqrt(np.sum(errors**2) / dof)) if dof > 0 else 0.0
+
+
+def robust_dlt(points: np.ndarray, pixels: np.ndarray, trials: int = 300, seed: int = 0,
+               threshold_px: float = 3.0) -> DltResult:
+    """DLT that one or two gross errors cannot spoil.
+
+    Up to 12 points: every subset that leaves out none, one or two points (keeping at least 7, so that
+    each fit has redundancy) is fitted, and a point is left out only if that lowers the fit's standard
+    deviation more than twofold (least trimmed squares). More points: least median of squares over random
+    6-point subsets, judged by the h-th smallest error, h = (n + 7) // 2. Points whose error under the
+    chosen solution exceeds max(threshold_px, 3 × its scale) are left out of the final fit
+    (``inliers``).
+    """
+    from itertools import combinations
+
+    points = np.asarray(points, dtype=np.float64)
+    pixels = np.asarray(pixels, dtype=np.float64)
+    check_spread(points)
+    n = len(points)
+    if n <= 7:
+        return dlt(points, pixels)
+    if n <= 12:
+        everything = np.arange(n)
+        _, best_sigma = _fit_sigma(points, pixels)
+        best_keep = everything
+        for leave in (1, 2):
+            if n - leave < 7:
+                break
+            level_best, level_keep = np.inf, None
+            for dropped in combinations(range(n), leave):
+                keep = np.setdiff1d(everything, dropped)
+                try:
+                    check_spread(points[keep])
+                    _, sigma = _fit_sigma(points[keep], pixels[keep])
+                except (DegenerateGeometryError, np.linalg.LinAlgError):
+                    continue
+                if sigma < level_best:
+                    level_best, level_keep = sigma, keep
+            if level_keep is None or not level_best * 2.0 < best_sigma:
+                break
+            best_sigma, best_keep = level_best, level_keep
+        matrix, _ = _fit_sigma(points[best_keep], pixels[best_keep])
+        scale = best_sigma
+    else:
+        rng = np.random.default_rng(seed)
+        h = (n + 7) // 2
+        matrix, best_statistic = None, np.inf
+        for _ in range(trials):
+            subset = rng.choice(n, 6, replace=False)
+            try:
+                check_spread(points[subset])
+                candidate = _solve_matrix(points[subset], pixels[subset])
+                errors = np.linalg.norm(pixels - reproject(candidate, points), axis=1)
+            except (DegenerateGeometryError, np.linalg.LinAlgError):
+                continue
+            if not np.all(np.isfinite(errors)):
+                continue
+            statistic = float(np.sort(errors)[h - 1])
+            if statistic < best_statistic:
+                matrix, best_statistic = candidate, statistic
+        if matrix is None:
+            return dlt(points, pixels)
+        scale = 1.4826 * best_statistic
+    errors = np.linalg.norm(pixels - reproject(matrix, points), axis=1)
+    inliers = errors <= max(threshold_px, 3.0 * scale)
+    try:
+        if inliers.sum() < 7:
+            raise DegenerateGeometryError("too few inliers")
+        check_spread(points[inliers])
+    except DegenerateGeometryError:
+        return dlt(points, pixels)
+    matrix = _solve_matrix(points[inliers], pixels[inliers])
+    return decompose(matrix, points, pixels, inliers)
