@@ -14,7 +14,7 @@ from usvips import __version__
 from usvips.core.errors import UsvipsError
 
 #: (module name, description) of every subcommand; each module defines ``register(subparsers)``.
-COMMANDS: tuple[str, ...] = ("bench",)
+COMMANDS: tuple[str, ...] = ("calibrate", "intersect", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -42,6 +42,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsvipsError as error:
         print(f"usvips {args.command}: error: {error}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into a pager or head that closed early
+        return 0
     except KeyboardInterrupt:
         print(f"usvips {args.command}: interrupted", file=sys.stderr)
         return 130

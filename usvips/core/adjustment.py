@@ -146,7 +146,12 @@ class Adjustment:
 
 def _jacobian(problem: Problem, values: dict[str, float], free: list[Parameter], base: np.ndarray
               ) -> np.ndarray:
-    """Central differences, evaluating for each parameter only the blocks that depend on it."""
+    """Forward differences with each parameter's own step, evaluating only the blocks that depend on it.
+
+    Steps are chosen per parameter kind (``calibration.model``) so that the change they cause is
+    ~1e-4 px: far above the back-projection's 1e-7 px convergence noise, far below the non-linearity.
+    Where the step leaves the valid region (a ray about to miss a surface), the step is taken backwards.
+    """
     n_obs = len(problem.observations)
     jac = np.zeros((n_obs, len(free)))
     all_blocks = list(range(len(problem.blocks)))
@@ -155,21 +160,18 @@ def _jacobian(problem: Problem, values: dict[str, float], free: list[Parameter],
         if not blocks:
             continue
         index = np.concatenate([problem.blocks[b] for b in blocks])
+        here = base[index]
         h = parameter.step
         ahead = dict(values)
         ahead[parameter.name] = values[parameter.name] + h
-        behind = dict(values)
-        behind[parameter.name] = values[parameter.name] - h
         plus, ok_plus = problem.evaluate(ahead, blocks)
-        minus, ok_minus = problem.evaluate(behind, blocks)
-        column = (plus - minus) / (2 * h)
-        # at the edge of the valid region (a ray about to miss a surface) fall back to one side
-        here = base[index]
-        only_plus = ok_plus & ~ok_minus
-        only_minus = ok_minus & ~ok_plus
-        column[only_plus] = (plus[only_plus] - here[only_plus]) / h
-        column[only_minus] = (here[only_minus] - minus[only_minus]) / h
-        column[~ok_plus & ~ok_minus] = 0.0
+        column = (plus - here) / h
+        if not ok_plus.all():
+            behind = dict(values)
+            behind[parameter.name] = values[parameter.name] - h
+            minus, ok_minus = problem.evaluate(behind, blocks)
+            column = np.where(ok_plus, column, (here - minus) / h)
+            column[~ok_plus & ~ok_minus] = 0.0
         jac[index, j] = column
     return jac
 
@@ -217,7 +219,7 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
     lam = 1e-3
     converged, reason = False, f"no convergence in {max_iterations} iterations"
     iteration = 0
-    for iteration in range(1, max_iterations + 1):
+    for iteration in range(1, max_iterations + 1):  # noqa: B007 (the count is returned)
         residual = np.where(used, observed - computed, 0.0)
         weights = np.where(used, weights_of(residual / sigmas) / sigmas**2, 0.0)
         jac = _jacobian(problem, values, free, computed)
@@ -333,8 +335,8 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
                    "the assumed pointing precision",
     }
     rms = float(np.sqrt(np.mean(residual[used] ** 2)))
-    return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale, sigmas=sigmas, over=over, condition=condition,
-                weak=weak, red_numbers=red_numbers, w=w, mdb=mdb, global_test=global_test,
+    return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale, sigmas=sigmas, over=over,
+                condition=condition, weak=weak, red_numbers=red_numbers, w=w, mdb=mdb, global_test=global_test,
                 redundancy=redundancy, residual=residual, rms=rms)
 
 

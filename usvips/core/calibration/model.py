@@ -113,7 +113,7 @@ class StereoModel:
         # observation layout: blocks (station, side); in each block x0, y0, x1, y1, ...
         self.block_keys: list[tuple[str, str]] = []
         self.block_rows: list[np.ndarray] = []
-        values, sigmas, point, side_l, coord, group, blocks = [], [], [], [], [], [], []
+        values, point, side_l, coord, group, blocks = [], [], [], [], [], []
         offset = 0
         for station in self.stations:
             rows = np.flatnonzero([p == station for p in self.observations.pairs])
@@ -132,6 +132,7 @@ class StereoModel:
                         coord.append(c)
                         group.append(station)
         values = np.concatenate(values)
+        self._warm: dict[int, np.ndarray] = {}
         self.observation_set = Observations(values, np.full(len(values), float(self.sigma_px)), point, side_l,
                                             coord, group)
         self.blocks = blocks
@@ -175,9 +176,12 @@ class StereoModel:
                 if station not in cache:
                     cache[station] = self.cameras(values, station, bounded=False)
                 camera = cache[station][0 if side == "l" else 1]
-                projection = camera.project(xyz[self._index[self.block_rows[b]]])
+                # start from this block's last answer: parameters change little between evaluations
+                projection = camera.project(xyz[self._index[self.block_rows[b]]], self._warm.get(b))
+                valid = projection.status == 0
+                self._warm[b] = np.where(valid[:, None], projection.pixels, np.nan)
                 out.append(projection.pixels.reshape(-1))
-                ok.append(np.repeat(projection.status == 0, 2))
+                ok.append(np.repeat(valid, 2))
             except UsvipsError:  # impossible parameters at a trial step (e.g. r <= 0): reject the step
                 n = len(self.blocks[b])
                 out.append(np.zeros(n))

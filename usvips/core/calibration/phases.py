@@ -283,7 +283,7 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
 
 
 #: Starting values tried for the least observable, most non-linear housing parameters (metres).
-START_GRID = {"dome-cover": {"c": (-0.03, 0.0, 0.03), "t": (0.01, 0.03, 0.06)},
+START_GRID = {"dome-cover": {"c": (-0.03, 0.0, 0.03), "t": (0.02, 0.05)},
               "flat-port": {"g": (0.02, 0.05, 0.1)}}
 
 

@@ -1,0 +1,109 @@
+"""``usvips calibrate air|water``: phase 1 and phase 2 (or joint) calibration from CSV files."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from usvips.cli.common import parse_assignment, parse_prior, write_text_atomic
+from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
+from usvips.core.errors import ConvergenceError, InvalidParameterError
+from usvips.io.calibration_file import calibration_to_dict, load_calibration
+from usvips.io.tables import read_control, read_observations
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--control", required=True, help="control CSV: id,X,Y,Z[,sX,sY,sZ] (metres)")
+    parser.add_argument("--obs", required=True, help="observations CSV: id,xl,yl,xr,yr[,pair] (pixels)")
+    parser.add_argument("--out", required=True, help="calibration file to write (JSON)")
+    parser.add_argument("--report", help="adjustment report to write (JSON)")
+    parser.add_argument("--free", nargs="+", default=[], metavar="NAME",
+                        help="parameters to free (seeds' symbols apply to both cameras, e.g. k2 p1)")
+    parser.add_argument("--fix", nargs="+", default=[], metavar="NAME[=VALUE]",
+                        help="parameters to hold fixed, at a value if given (e.g. t=0.016 k1_r)")
+    parser.add_argument("--prior", nargs="+", default=[], metavar="NAME=VALUE:SIGMA",
+                        help="weight a parameter towards a value (e.g. n2=1.60:0.01)")
+    parser.add_argument("--sigma-px", type=float, default=0.5,
+                        help="a-priori standard deviation of a measured pixel coordinate (default 0.5)")
+    parser.add_argument("--image-size", metavar="WxH", help="image size in pixels, e.g. 568x488")
+    parser.add_argument("--no-snooping", action="store_true", help="do not exclude blunders")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("calibrate", help="calibrate a stereo rig (phase 1 in air, phase 2 underwater)")
+    phases = parser.add_subparsers(dest="phase", metavar="PHASE", required=True)
+    air = phases.add_parser("air", help="phase 1: both cameras in air (collinearity with distortion, DLT start)")
+    _common(air)
+    air.set_defaults(handler=run_air)
+    water = phases.add_parser("water", help="phase 2: housing and exterior by ray tracing; several pairs = joint")
+    water.add_argument("--base", required=True, help="the phase-1 calibration file")
+    water.add_argument("--housing", required=True, choices=["dome-cover", "flat-port"],
+                       help="dome-cover: System I (concave sphere + shared plane); flat-port: System II")
+    water.add_argument("--interior", choices=["fixed", "weighted"], default="fixed",
+                       help="phase-1 interior held fixed (thesis) or weighted by its phase-1 sigmas")
+    _common(water)
+    water.set_defaults(handler=run_water)
+
+
+def _options(args: argparse.Namespace) -> CalibrationOptions:
+    fix_names, fix_values = [], {}
+    for item in args.fix:
+        if "=" in item:
+            name, value = parse_assignment("--fix", item)
+            fix_values[name] = value
+        else:
+            fix_names.append(item)
+    priors = dict(parse_prior(item) for item in args.prior)
+    if not args.sigma_px > 0:
+        raise InvalidParameterError("--sigma-px", f"must be > 0, got {args.sigma_px}")
+    size = (None, None)
+    if args.image_size:
+        width, sep, height = args.image_size.lower().partition("x")
+        if not sep or not width.isdigit() or not height.isdigit():
+            raise InvalidParameterError("--image-size", f"expected WIDTHxHEIGHT, got {args.image_size!r}")
+        size = (int(width), int(height))
+    return CalibrationOptions(free=tuple(args.free), fix=tuple(fix_names), fix_values=fix_values, priors=priors,
+                              sigma_px=args.sigma_px, interior=getattr(args, "interior", "fixed"),
+                              snooping=not args.no_snooping, image_size=size)
+
+
+def _finish(result, args: argparse.Namespace) -> int:
+    if not result.adjustment.converged:
+        raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing written")
+    report = result.report
+    # write both files only once everything has succeeded
+    calibration_text = json.dumps(calibration_to_dict(result.calibration), indent=2, allow_nan=False) + "\n"
+    report_text = json.dumps(report, indent=2, allow_nan=False) + "\n" if args.report else None
+    write_text_atomic(args.out, calibration_text)
+    if report_text is not None:
+        write_text_atomic(args.report, report_text)
+    print(f"{report['phase']} calibration ({report['housing']}, stations {', '.join(report['stations'])}): "
+          f"sigma0 {report['sigma0_px']:.3f} px, RMS {report['rms_px']:.3f} px, redundancy {report['redundancy']}, "
+          f"condition {report['condition_number']:.3g}")
+    for suspect in report["suspects"]:
+        w = f"w = {suspect['w']:.1f}" if suspect["w"] is not None else suspect["reason"]
+        print(f"  excluded: point {suspect['id']} {suspect['side']} {suspect['coordinate']} "
+              f"(pair {suspect['station']}): {w}")
+    for pair in report["correlations_over_0_95"][:10]:
+        print(f"  correlation {pair['a']} ~ {pair['b']}: {pair['r']:+.3f}")
+    print(f"wrote {args.out}" + (f" and {args.report}" if args.report else ""))
+    return 0
+
+
+def _source(args: argparse.Namespace) -> dict:
+    return {"control": str(args.control), "observations": str(args.obs),
+            **({"base": str(args.base)} if getattr(args, "base", None) else {})}
+
+
+def run_air(args: argparse.Namespace) -> int:
+    control = read_control(args.control)
+    observations = read_observations(args.obs)
+    return _finish(calibrate_air(control, observations, _options(args), _source(args)), args)
+
+
+def run_water(args: argparse.Namespace) -> int:
+    base = load_calibration(args.base)
+    control = read_control(args.control)
+    observations = read_observations(args.obs)
+    result = calibrate_water(base, args.housing, control, observations, _options(args), _source(args))
+    return _finish(result, args)

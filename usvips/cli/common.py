@@ -1,0 +1,58 @@
+"""Small helpers shared by subcommands: parsing ``name=value`` options, atomic output files."""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import tempfile
+from pathlib import Path
+
+from usvips.core.errors import InvalidParameterError, UsvipsError
+
+
+def parse_assignment(option: str, text: str) -> tuple[str, float]:
+    """``name=value`` → (name, value)."""
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise InvalidParameterError(option, f"expected NAME=VALUE, got {text!r}")
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise InvalidParameterError(option, f"{text!r}: {value!r} is not a number") from None
+
+
+def parse_prior(text: str) -> tuple[str, tuple[float, float]]:
+    """``name=value:sigma`` → (name, (value, sigma))."""
+    name, sep, rest = text.partition("=")
+    value, sep2, sigma = rest.partition(":")
+    if not sep or not sep2 or not name:
+        raise InvalidParameterError("--prior", f"expected NAME=VALUE:SIGMA, got {text!r}")
+    try:
+        return name.strip(), (float(value), float(sigma))
+    except ValueError:
+        raise InvalidParameterError("--prior", f"{text!r}: value and sigma must be numbers") from None
+
+
+def write_text_atomic(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder, then rename."""
+    path = Path(path)
+    if not path.parent.exists():
+        raise UsvipsError(f"{path}: the folder {path.parent} does not exist")
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=str(path.parent))
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
+            stream.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+        raise
+
+
+def csv_text(header: list[str], rows: list[list]) -> str:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(rows)
+    return buffer.getvalue()
