@@ -1,0 +1,138 @@
+"""Two-phase and joint calibration on synthetic rigs with known truth, and on the thesis's tables."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.core.calibration_scenes import (
+    FLAT,
+    NOISE_PX,
+    control_frame,
+    joined,
+    observe,
+    rig_at,
+)
+from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
+from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
+from usvips.core.intersection import intersect
+from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict
+from usvips.io.tables import read_control, read_observations
+
+SAMPLE = Path(__file__).resolve().parents[2] / "sample_projects" / "tank_1995"
+
+
+@pytest.fixture(scope="module")
+def control():
+    return control_frame()
+
+
+@pytest.fixture(scope="module")
+def air(control):
+    pair = observe(rig_at(0), control.xyz, control.ids, "a1", seed=1)
+    return calibrate_air(control, pair.observations, CalibrationOptions(sigma_px=NOISE_PX))
+
+
+@pytest.fixture(scope="module")
+def water(control, air):
+    pairs = [observe(rig_at(k, FLAT), control.xyz, control.ids, f"w{k}", seed=10 + k) for k in range(2)]
+    options = CalibrationOptions(sigma_px=NOISE_PX, interior="weighted", fix_values={"t": 0.016, "n2": 1.65})
+    return calibrate_water(air.calibration, "flat-port", control, joined(pairs), options)
+
+
+def _within(result, truth: dict[str, float], k: float = 3.0) -> None:
+    for name, value in truth.items():
+        estimate = result.calibration.parameters[name]
+        assert estimate.sigma is not None and estimate.sigma > 0, name
+        assert abs(estimate.value - value) < k * estimate.sigma, (name, estimate.value, value, estimate.sigma)
+
+
+def test_phase1_recovers_the_cameras_within_three_sigma(air):
+    assert air and air.report["converged"]
+    assert air.report["sigma0_px"] == pytest.approx(NOISE_PX, rel=0.25)
+    _within(air, {"f_l": 1100.0, "xp_l": 652.0, "yp_l": 471.0, "sy_l": 1.02, "k1_l": -0.09,
+                  "f_r": 1085.0, "xp_r": 628.0, "yp_r": 488.0, "sy_r": 1.01, "k1_r": -0.07,
+                  "X0_l": 0.5, "Y0_l": 0.7, "Z0_l": 2.6, "omega_l": 0.02, "phi_l": 0.03, "kappa_l": 0.01})
+    assert air.report["suspects"] == []
+
+
+def test_joint_phase2_recovers_the_flat_ports_within_three_sigma(water):
+    assert water and water.calibration.phase == "joint"
+    assert water.calibration.stations == ("w0", "w1")
+    assert water.report["sigma0_px"] == pytest.approx(NOISE_PX, rel=0.25)
+    _within(water, {"d_l": 0.01, "e_l": -0.015, "g_l": 0.06, "d_r": -0.012, "e_r": 0.008, "g_r": 0.07,
+                    "n3": 1.34, "X0_l": 0.5, "Y0_l": 0.7, "Z0_l": 2.6, "X0_l@w1": 0.3, "Z0_l@w1": 2.9})
+    assert water.calibration.parameters["t"].status == "fixed"
+    assert water.calibration.parameters["n3"].status == "prior"
+
+
+def test_check_points_are_as_precise_as_the_covariance_says(water):
+    rng = np.random.default_rng(99)
+    n = 400
+    truth = np.column_stack([rng.uniform(0, 1.4, n), rng.uniform(0, 1.4, n), rng.uniform(-0.7, 0, n)])
+    pair = observe(rig_at(0, FLAT), truth, [str(i) for i in range(n)], "c", seed=77)
+    rig = water.calibration.rig(0)
+    result = intersect(rig.cameras, [pair.observations.left, pair.observations.right], NOISE_PX)
+    assert result.ok.all()
+    errors = result.points - truth[[int(i) for i in pair.observations.ids]]
+    rms = np.sqrt(np.mean(errors**2, axis=0))
+    predicted = np.sqrt(np.mean(result.sigmas**2, axis=0))
+    np.testing.assert_allclose(rms, predicted, rtol=0.20)
+    normalised = np.einsum("ni,nij,nj->n", errors, np.linalg.inv(result.covariance), errors) / 3
+    assert 0.8 < normalised.mean() < 1.35  # the calibration's own error adds a little
+
+
+def test_a_planted_5_px_blunder_is_named(control):
+    pair = observe(rig_at(0), control.xyz, control.ids, "a1", seed=5)
+    left = pair.observations.left.copy()
+    left[7, 1] += 5.0
+    obs = pair.observations.__class__(pair.observations.ids, left, pair.observations.right, pair.observations.pairs)
+    result = calibrate_air(control, obs, CalibrationOptions(sigma_px=NOISE_PX))
+    named = {(s["id"], s["side"]) for s in result.report["suspects"]}
+    assert named == {(obs.ids[7], "l")}
+    suspect = next(s for s in result.report["suspects"] if s["coordinate"] == "y")
+    assert abs(suspect["w"]) > 3.29 and suspect["mdb_px"] < 5.0
+    assert result.report["sigma0_px"] == pytest.approx(NOISE_PX, rel=0.3)
+
+
+def test_calibration_file_round_trip(water):
+    again = calibration_from_dict(calibration_to_dict(water.calibration))
+    points = np.array([[0.7, 0.7, -0.3]])
+    for a, b in zip(again.rig(1).cameras, water.calibration.rig(1).cameras, strict=True):
+        np.testing.assert_allclose(a.project(points).pixels, b.project(points).pixels, atol=1e-9)
+    assert again.parameters["n3"].sigma == water.calibration.parameters["n3"].sigma
+
+
+def test_bad_problems_are_reported(control):
+    pair = observe(rig_at(0), control.xyz, control.ids, "a1", seed=1)
+    few = pair.observations.take(np.arange(5))
+    with pytest.raises(DegenerateGeometryError, match="at least 6"):
+        calibrate_air(control, few)
+    with pytest.raises(InvalidParameterError, match="unknown parameter 'k9'"):
+        calibrate_air(control, pair.observations, CalibrationOptions(free=("k9",)))
+    flat = control.__class__(control.ids, control.xyz * [1, 1, 0])
+    with pytest.raises(DegenerateGeometryError, match="coplanar"):
+        calibrate_air(flat, pair.observations)
+
+
+def test_the_thesis_water_tank_run_finds_its_typos():
+    """Tables 3.1, 3.2, 3.5: phase 1, phase 2 (System I), check points of Table 3.8."""
+    control = read_control(SAMPLE / "control_table3_1.csv")
+    air = calibrate_air(control, read_observations(SAMPLE / "air_pair1_table3_2.csv"),
+                        CalibrationOptions(image_size=(568, 488)))
+    assert air and 0.2 < air.report["sigma0_px"] < 1.5
+    flagged = {(s["id"], s["side"]) for s in air.report["suspects"]}
+    assert ("3", "l") in flagged and ("3", "r") in flagged  # Table 3.1 prints Z = +100 for target 3
+    water = calibrate_water(air.calibration, "dome-cover", control,
+                            read_observations(SAMPLE / "water_pair2_calibration_table3_5.csv"))
+    assert water and water.report["sigma0_px"] < 1.5
+    suspects = {(s["id"], s["side"], s["coordinate"]) for s in water.report["suspects"] if s["w"] is not None}
+    assert ("2", "l", "y") in suspects  # Table 3.5 prints yl = 404 for target 2 (yr = 213)
+    values = [p.value for p in water.calibration.parameters.values()]
+    assert np.all(np.isfinite(values))
+    check = read_observations(SAMPLE / "water_pair2_check_table3_8.csv")
+    result = intersect(water.calibration.rig(0).cameras, [check.left, check.right], water.calibration.sigma0_px)
+    assert result.ok.all()
+    errors = result.points - control.xyz[control.index_of(list(check.ids))]
+    rms = np.sqrt(np.mean(errors**2, axis=0))
+    assert np.all(rms < [0.15, 0.15, 0.5])  # plausible: centimetres to decimetres at 2.5 m with a 7 cm base
