@@ -33,7 +33,10 @@ def station(k: int) -> Exterior:
     return poses[k]
 
 
-def rig_at(k: int, housings=(AirHousing(), AirHousing())) -> StereoRig:
+IN_AIR = (AirHousing(), AirHousing())
+
+
+def rig_at(k: int, housings=IN_AIR) -> StereoRig:
     left = Camera(LEFT, station(k), housings[0], WIDTH, HEIGHT)
     right = Camera(RIGHT, station(k), housings[1], WIDTH, HEIGHT)
     return StereoRig.from_relative(left, right, RELATIVE)

@@ -152,9 +152,9 @@ class Camera:
         """Back-project object points (N, 3) to observed pixels through the housing.
 
         Converges to far below 1e-6 px wherever the point is visible; ``start_pixels`` (N, 2), e.g. the
-        answer for slightly different parameters, speeds up a non-axial housing's solve. Status per point: BEHIND_CAMERA (not in
-        front of the housing), MISSED_SURFACE / TOTAL_INTERNAL_REFLECTION (no ray of the camera reaches
-        it), NOT_CONVERGED, OUTSIDE_FRAME (when the frame size is known).
+        answer for slightly different parameters, speeds up a non-axial housing's solve. Status per point:
+        BEHIND_CAMERA (not in front of the housing), MISSED_SURFACE / TOTAL_INTERNAL_REFLECTION (no ray of
+        the camera reaches it), NOT_CONVERGED, OUTSIDE_FRAME (when the frame size is known).
         """
         points = validation.finite_array("points", points, 3)
         local = self.exterior.to_camera(points)
