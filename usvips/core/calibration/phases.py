@@ -206,9 +206,9 @@ def _interior_from_dlt(starts: dict, side: str) -> dict[str, float]:
     return values
 
 
-def calibrate_air(control: ControlPoints, observations: StereoObservations,
-                  options: CalibrationOptions | None = None, source: dict | None = None) -> CalibrationResult:
-    """Phase 1: both cameras in air from one or more pairs (collinearity with distortion), DLT start."""
+def air_start(control: ControlPoints, observations: StereoObservations,
+              options: CalibrationOptions | None = None) -> tuple[StereoModel, list[Parameter]]:
+    """Phase 1's model and its parameters at their DLT starting values, options applied."""
     options = options or CalibrationOptions()
     model = StereoModel("air", control, observations, options.sigma_px, options.image_size)
     starts = _dlt_starts(control, observations)
@@ -225,6 +225,14 @@ def calibrate_air(control: ControlPoints, observations: StereoObservations,
         parameters.append(Parameter(name, values[name], status))
     parameters += _control_parameters(model)
     _apply_options(parameters, options)
+    return model, parameters
+
+
+def calibrate_air(control: ControlPoints, observations: StereoObservations,
+                  options: CalibrationOptions | None = None, source: dict | None = None) -> CalibrationResult:
+    """Phase 1: both cameras in air from one or more pairs (collinearity with distortion), DLT start."""
+    options = options or CalibrationOptions()
+    model, parameters = air_start(control, observations, options)
     return _solve(model, parameters, options, "air", source or {})
 
 
@@ -287,6 +295,10 @@ START_GRID = {"dome-cover": {"c": (-0.03, 0.0, 0.03), "t": (0.02, 0.05)},
               "flat-port": {"g": (0.02, 0.05, 0.1)}}
 
 
+#: Mean squared normalised residual below which the default housing start is good enough (σ0 < 2).
+GOOD_START = 4.0
+
+
 def _fit_exteriors(model: StereoModel, parameters: list[Parameter]) -> float:
     """Adjust the exterior orientations alone (everything else held) and return the weighted cost."""
     held = {p.name: p.status for p in parameters}
@@ -321,7 +333,9 @@ def _choose_start(model: StereoModel, parameters: list[Parameter]) -> None:
         if names:
             candidates = [dict(c, **{n: v for n in names}) for c in candidates for v in starts]
     initial = {p.name: p.value for p in parameters}
-    best_cost, best_values = np.inf, initial
+    best_cost, best_values = _fit_exteriors(model, parameters), {p.name: p.value for p in parameters}
+    if best_cost < GOOD_START:
+        return  # the default housing already explains the pixels to about their noise
     for candidate in candidates:
         for p in parameters:
             p.value = initial[p.name]
