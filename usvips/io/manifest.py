@@ -6,7 +6,7 @@ video and an optional truth file (synthetic samples). The store imports a manife
 database; nothing else in a sample directory is needed to open it.
 
     {"format": "usvips-sample", "version": 1, "name": "...", "description": "...",
-     "control": "control.csv",
+     "control": "control.csv", "housing": "dome-cover",
      "pairs": [{"label": "air1", "left": "images/air1_left.png", "right": "images/air1_right.png",
                 "medium": "air"}],
      "observations": [{"file": "obs.csv", "role": "calibration-air", "pairs": ["air1"]}],
@@ -30,8 +30,9 @@ FORMAT = "usvips-sample"
 VERSION = 1
 ROLES = ("calibration-air", "calibration-water", "check", "measurement")
 MEDIA = ("air", "water")
-_TOP_KEYS = {"format", "version", "name", "description", "control", "pairs", "observations",
+_TOP_KEYS = {"format", "version", "name", "description", "control", "housing", "pairs", "observations",
              "calibrations", "video", "truth"}
+HOUSINGS = ("air", "dome-cover", "flat-port")
 
 
 @dataclass(frozen=True)
@@ -75,6 +76,7 @@ class Manifest:
     calibrations: tuple[CalibrationEntry, ...] = ()
     video: VideoEntry | None = None
     truth: Path | None = None
+    housing: str | None = None
     extra: dict = field(default_factory=dict)
 
     @property
@@ -165,8 +167,11 @@ def read_manifest(path: str | Path) -> Manifest:
             raise InputFileError(str(path), f"video.frame_offset must be an integer, got {offset!r}")
         video = VideoEntry(_inside(path, "video.left", v.get("left")), _inside(path, "video.right", v.get("right")),
                            offset)
+    housing = data.get("housing")
+    if housing is not None and housing not in HOUSINGS:
+        raise InputFileError(str(path), f"key 'housing': must be one of {HOUSINGS}, got {housing!r}")
     return Manifest(
-        path=path.resolve(), name=data["name"], description=str(data.get("description", "")),
+        path=path.resolve(), name=data["name"], description=str(data.get("description", "")), housing=housing,
         control=_inside(path, "control", data["control"]) if data.get("control") else None,
         pairs=tuple(pairs), observations=tuple(observations), calibrations=tuple(calibrations), video=video,
         truth=_inside(path, "truth", data["truth"]) if data.get("truth") else None,

@@ -1,0 +1,53 @@
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from usvips.core.errors import InputFileError
+from usvips.io.tables import read_control, read_observations, write_control, write_observations
+
+SAMPLE = Path(__file__).resolve().parents[2] / "sample_projects" / "tank_1995"
+
+
+def test_the_thesis_tables_read_as_published():
+    control = read_control(SAMPLE / "control_table3_1.csv")
+    assert len(control) == 24 and control.sigmas is None
+    assert control.xyz[control.index_of(["3"])[0], 2] == 100.0  # the typo is kept, not edited
+    check = read_observations(SAMPLE / "water_pair2_check_table3_8.csv")
+    assert check.ids[0] == "6" and set(check.extra) == {"dX", "dY", "dZ"}
+    assert check.lines[0] == 3  # two comment lines before the header
+
+
+@pytest.mark.parametrize("text, message", [
+    ("", "no header line"),
+    ("# only a comment\n", "no header line"),
+    ("id,X,Y,Z\n", "no data rows"),
+    ("id,X,Y\n1,2,3\n", "missing column(s) Z"),
+    ("id,X,Y,Z\n1,2,3\n", "line 2: 3 fields but the header has 4"),
+    ("id,X,Y,Z\n1,2,3,nan\n", "line 2: column Z: 'nan' is not a finite number"),
+    ("id,X,Y,Z\n1,2,3,4\n1,5,6,7\n", "line 3: duplicate id '1' (first on line 2)"),
+    ("id,X,Y,Z,sX,sY,sZ\n1,2,3,4,0.1,-1,0\n", "line 2: control sigmas must be >= 0"),
+])
+def test_bad_control_files_name_file_and_line(tmp_path, text, message):
+    path = tmp_path / "c.csv"
+    path.write_text(text)
+    with pytest.raises(InputFileError) as error:
+        read_control(path)
+    assert str(path) in str(error.value) and message in str(error.value)
+
+
+def test_observation_pairs_and_round_trip(tmp_path):
+    path = tmp_path / "o.csv"
+    path.write_text("# pixels\nid,xl,yl,xr,yr,pair\n1,1,2,3,4,A\n1,5,6,7,8,B\n2,1,1,1,1,A\n")
+    obs = read_observations(path)
+    assert obs.pair_labels == ("A", "B") and len(obs.pair("A")) == 2
+    write_observations(tmp_path / "back.csv", obs)
+    again = read_observations(tmp_path / "back.csv")
+    np.testing.assert_allclose(again.left, obs.left)
+    assert again.pairs == obs.pairs
+    path.write_text("id,xl,yl,xr,yr,pair\n1,1,2,3,4,A\n1,5,6,7,8,A\n")
+    with pytest.raises(InputFileError, match="duplicate id '1' in pair 'A'"):
+        read_observations(path)
+    control = read_control(SAMPLE / "control_table3_1.csv")
+    write_control(tmp_path / "c.csv", control)
+    np.testing.assert_allclose(read_control(tmp_path / "c.csv").xyz, control.xyz)
