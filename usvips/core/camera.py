@@ -159,6 +159,7 @@ class Camera:
         points = validation.finite_array("points", points, 3)
         local = self.exterior.to_camera(points)
         start = None
+        # (a flat port's 1-D solve is cheaper from its own start than undistorting a warm one)
         if start_pixels is not None and len(start_pixels) == len(points) and not self.housing.is_planar_stack:
             start_pixels = np.asarray(start_pixels, dtype=np.float64)
             rows = np.all(np.isfinite(start_pixels), axis=1)

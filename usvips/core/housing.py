@@ -300,6 +300,16 @@ class FlatPortHousing(Housing):
     def parameters(self) -> dict[str, float]:
         return {k: getattr(self, k) for k in ("d", "e", "g", "t", "n2", "n3")}
 
+    @cached_property
+    def axis(self) -> np.ndarray:
+        """A flat port is always axial: the port normal through the perspective centre, outwards."""
+        normal = np.array([self.d, self.e, 1.0]) / np.sqrt(self.d**2 + self.e**2 + 1.0)
+        return -normal
+
+    @property
+    def is_planar_stack(self) -> bool:
+        return True
+
 
 # --- conversions between the seeds' object-space parameters and the camera frame ----------------------
 
