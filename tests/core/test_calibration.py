@@ -136,3 +136,21 @@ def test_the_thesis_water_tank_run_finds_its_typos():
     errors = result.points - control.xyz[control.index_of(list(check.ids))]
     rms = np.sqrt(np.mean(errors**2, axis=0))
     assert np.all(rms < [0.15, 0.15, 0.5])  # plausible: centimetres to decimetres at 2.5 m with a 7 cm base
+
+
+def test_weighted_control_and_several_in_air_pairs(control):
+    pairs = [observe(rig_at(k), control.xyz, control.ids, f"a{k}", seed=20 + k) for k in range(2)]
+    sigmas = np.full_like(control.xyz, 0.002)
+    weighted = control.__class__(control.ids, control.xyz, sigmas)
+    result = calibrate_air(weighted, joined(pairs), CalibrationOptions(sigma_px=NOISE_PX))
+    assert result and result.calibration.stations == ("a0", "a1")
+    estimate = result.calibration.parameters[f"Z@{control.ids[0]}"]
+    assert estimate.status == "prior" and 0 < estimate.sigma <= 0.002
+    _within(result, {"f_l": 1100.0, "X0_l@a1": 0.3, "Z0_l@a1": 2.9, "f_r": 1085.0})
+
+
+def test_more_unknowns_than_observations_is_refused(control):
+    pair = observe(rig_at(0), control.xyz, control.ids, "a1", seed=1)
+    six = pair.observations.take(np.arange(6))
+    with pytest.raises(DegenerateGeometryError, match="cannot determine"):
+        calibrate_air(control, six, CalibrationOptions(free=("k2", "p1", "p2")))
