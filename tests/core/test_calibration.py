@@ -154,3 +154,46 @@ def test_more_unknowns_than_observations_is_refused(control):
     six = pair.observations.take(np.arange(6))
     with pytest.raises(DegenerateGeometryError, match="cannot determine"):
         calibrate_air(control, six, CalibrationOptions(free=("k2", "p1", "p2")))
+
+
+@pytest.mark.parametrize("kind", ["air", "flat-port", "dome-cover"])
+def test_exact_exterior_derivatives_match_differences(control, kind):
+    from tests.core.calibration_scenes import dome_housings
+    from usvips.core.adjustment import _jacobian
+    from usvips.core.calibration.model import StereoModel
+
+    housings = {"air": None, "flat-port": FLAT, "dome-cover": dome_housings()}[kind]
+    pairs = [observe(rig_at(k, housings) if housings else rig_at(k), control.xyz, control.ids, f"s{k}", seed=k)
+             for k in range(2)]
+    model = StereoModel(kind, control, joined(pairs), NOISE_PX)
+    truth = {}
+    for k, station in enumerate(model.stations):
+        rig = pairs[k].rig
+        for side, camera in (("l", rig.left), ("r", rig.right)):
+            if k == 0 or side == "l":
+                suffix = f"_{side}" + ("" if k == 0 else f"@{station}")
+                for name in ("X0", "Y0", "Z0", "omega", "phi", "kappa"):
+                    truth[name + suffix] = getattr(camera.exterior, name)
+            if k == 0:
+                for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2"):
+                    truth[f"{name}_{side}"] = getattr(camera.interior, name)
+    h_left, h_right = housings or (None, None)
+    if kind == "flat-port":
+        truth.update({"d_l": h_left.d, "e_l": h_left.e, "g_l": h_left.g, "d_r": h_right.d, "e_r": h_right.e,
+                      "g_r": h_right.g, "t": h_left.t, "n2": h_left.n2, "n3": h_left.n3})
+    if kind == "dome-cover":
+        truth.update({"a_l": h_left.a, "b_l": h_left.b, "c_l": h_left.c, "r_l": h_left.r, "a_r": h_right.a,
+                      "b_r": h_right.b, "c_r": h_right.c, "r_r": h_right.r, "d": 0.0, "e": 0.0,
+                      "t": h_left.g - h_left.r + h_left.c, "n2": h_left.n2, "n3": h_left.n3})
+    from usvips.core.adjustment import Parameter
+
+    parameters = [Parameter(name, value) for name, value in truth.items()]
+    problem = model.problem(parameters)
+    free = problem.free()
+    computed, ok = problem.evaluate(truth, None)
+    assert ok.all()
+    exact = _jacobian(problem, truth, free, computed)
+    problem.analytic = None
+    differences = _jacobian(problem, truth, free, computed)
+    scale = np.abs(differences).max(axis=0) + 1e-9
+    assert np.max(np.abs(exact - differences) / scale) < 2e-3

@@ -104,7 +104,7 @@ def _symmetric(xx, xy, xz, yy, yz, zz) -> np.ndarray:
     return out
 
 
-def _pixel_jacobian(direction: np.ndarray, d_origin: np.ndarray, d_direction: np.ndarray,
+def pixel_jacobian(direction: np.ndarray, d_origin: np.ndarray, d_direction: np.ndarray,
                     along: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rows a0, a1 (N, 3) of ∂pixel/∂X for points ``along`` metres down each ray, and a validity mask.
 
@@ -179,7 +179,7 @@ def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px:
         jacobians = []
         for j, (origin, direction, d_origin, d_direction) in enumerate(rays):
             along = _dot(points - origin, direction)
-            a0, a1, valid = _pixel_jacobian(direction, d_origin, d_direction, along)
+            a0, a1, valid = pixel_jacobian(direction, d_origin, d_direction, along)
             good &= valid
             weight = 1.0 / sigma[:, j] ** 2
             parts = (a0[:, 0] * a0[:, 0] + a1[:, 0] * a1[:, 0], a0[:, 0] * a0[:, 1] + a1[:, 0] * a1[:, 1],

@@ -24,8 +24,10 @@ from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing, shared_plane_in_camera
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
+from usvips.core.intersection import pixel_jacobian
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.rig import relative_orientation, right_exterior
+from usvips.core.rotation import rotation_matrix
 
 HOUSING_KINDS = ("air", "dome-cover", "flat-port")
 SIDES = ("l", "r")
@@ -239,4 +241,60 @@ class StereoModel:
         def evaluate(values, blocks):
             return self.evaluate(values, blocks)
 
-        return Problem(parameters, self.observation_set, evaluate, self.blocks, self.dependencies())
+        return Problem(parameters, self.observation_set, evaluate, self.blocks, self.dependencies(),
+                       analytic=self.exterior_derivatives)
+
+    def exterior_derivatives(self, values: dict[str, float], computed: np.ndarray) -> dict[str, dict[int, np.ndarray]]:
+        """Exact derivatives of each block's pixels with respect to its own camera's exterior orientation.
+
+        One ray trace with forward-mode derivatives per block gives ∂pixel/∂X for every point (the pixel
+        Jacobian of the intersection); a shift of the perspective centre moves the point the other way,
+        and a rotation turns it about the centre: ∂p/∂angle = (∂p/∂X) Mᵀ (∂M/∂angle)(X − X0).
+        Where a camera's housing also moves with its exterior (the right camera under System I's shared
+        plane) or the camera follows the rig (the right camera at further stations), differences remain.
+        """
+        xyz = self.control_xyz(values)
+        out: dict[str, dict[int, np.ndarray]] = {}
+        first = self.stations[0]
+        for b, (station, side) in enumerate(self.block_keys):
+            # the right camera further on follows the rig; under a shared cover plane its housing moves
+            # with the relative orientation too: those keep their differences
+            if side == "r" and (station != first or self.kind == "dome-cover"):
+                continue
+            suffix = f"_{side}" + ("" if station == first else f"@{station}")
+            rows = self.blocks[b]
+            pixels = computed[rows].reshape(-1, 2)
+            if not np.all(np.isfinite(pixels)):
+                continue
+            try:
+                camera = self.cameras(values, station, bounded=False)[0 if side == "l" else 1]
+                bundle, d_origin, d_direction = camera.rays_with_derivatives(pixels)
+            except UsvipsError:
+                continue
+            if not bundle.ok.all():
+                continue
+            points = xyz[self._index[self.block_rows[b]]]
+            along = np.einsum("ij,ij->i", points - bundle.origins, bundle.directions)
+            a0, a1, valid = pixel_jacobian(bundle.directions, d_origin, d_direction, along)
+            if not valid.all():
+                continue
+            exterior = camera.exterior
+            relative = points - exterior.position
+            columns = {}
+            for k, name in enumerate(("X0", "Y0", "Z0")):
+                columns[name] = (-a0[:, k], -a1[:, k])
+            m = exterior.rotation
+            for name in ("omega", "phi", "kappa"):
+                h = 1e-7
+                angles = {"omega": exterior.omega, "phi": exterior.phi, "kappa": exterior.kappa}
+                ahead, behind = dict(angles), dict(angles)
+                ahead[name] += h
+                behind[name] -= h
+                d_m = (rotation_matrix(**ahead) - rotation_matrix(**behind)) / (2 * h)
+                moved = relative @ d_m.T @ m  # Mᵀ (∂M/∂angle)(X − X0), as rows
+                columns[name] = (np.einsum("ij,ij->i", a0, moved), np.einsum("ij,ij->i", a1, moved))
+            for name, (dx, dy) in columns.items():
+                column = np.empty(2 * len(points))
+                column[0::2], column[1::2] = dx, dy
+                out.setdefault(f"{name}{suffix}", {})[b] = column
+        return out
