@@ -197,3 +197,29 @@ def test_exact_exterior_derivatives_match_differences(control, kind):
     differences = _jacobian(problem, truth, free, computed)
     scale = np.abs(differences).max(axis=0) + 1e-9
     assert np.max(np.abs(exact - differences) / scale) < 2e-3
+
+
+def test_the_calibrations_own_uncertainty_reaches_the_points():
+    """Over 30 calibrations from independent noise, the scatter of noise-free check pixels' points is
+    what the propagated calibration covariance says (inside and outside the control volume)."""
+    from usvips.core.calibration.uncertainty import intersect_with_calibration
+
+    control = control_frame(14)
+    truth = np.array([[0.7, 0.7, -0.35], [0.2, 1.2, -0.6], [1.3, 0.1, 0.3]])
+    rig = rig_at(0)
+    left, right = rig.left.project(truth).pixels, rig.right.project(truth).pixels
+    points, parts = [], []
+    for k in range(30):
+        pair = observe(rig, control.xyz, control.ids, "a", seed=100 + k)
+        result = calibrate_air(control, pair.observations,
+                               CalibrationOptions(sigma_px=NOISE_PX, robust=False, snooping=False))
+        full = intersect_with_calibration(result.calibration, left, right)
+        pointing = intersect_with_calibration(result.calibration, left, right, include_calibration=False)
+        points.append(full.points)
+        parts.append(full.covariance - pointing.covariance)
+        assert np.all(full.sigmas >= pointing.sigmas)
+    points = np.array(points)
+    for i in range(len(truth)):
+        empirical = np.sqrt(np.diag(np.cov(points[:, i].T)))
+        predicted = np.sqrt(np.diag(np.mean([p[i] for p in parts], axis=0)))
+        np.testing.assert_allclose(empirical, predicted, rtol=0.3)

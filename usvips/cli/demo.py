@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
+from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import UsvipsError
-from usvips.core.intersection import intersect
 from usvips.io.manifest import read_manifest
 from usvips.io.tables import read_control, read_observations
 
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"\n{entry.file.name}: skipped (pair {', '.join(entry.pairs)} has no calibration of its own)")
             continue
         check = read_observations(entry.file)
-        result = intersect(calibration.rig(0).cameras, [check.left, check.right], calibration.sigma0_px)
+        result = intersect_with_calibration(calibration, check.left, check.right)
         known = [i for i, pid in enumerate(check.ids) if pid in control.ids and result.ok[i]]
         print(f"\n{entry.file.name}: {len(check)} check points (computed − control, centimetres)")
         print(f"  {'id':>4} {'dX':>7} {'dY':>7} {'dZ':>7}   {'sX':>6} {'sY':>6} {'sZ':>6}")

@@ -1,4 +1,7 @@
-"""``usvips intersect``: 3-D points with sigmas from conjugate pixels and a calibration."""
+"""``usvips intersect``: 3-D points with sigmas from conjugate pixels and a calibration.
+
+The sigmas combine the pointing precision (the calibration's a-posteriori sigma0) and the calibration's
+own uncertainty (its parameter covariance, propagated to every point)."""
 
 from __future__ import annotations
 
@@ -7,8 +10,8 @@ import argparse
 import numpy as np
 
 from usvips.cli.common import csv_text, write_text_atomic
+from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError
-from usvips.core.intersection import intersect
 from usvips.core.rays import RayStatus
 from usvips.io.calibration_file import load_calibration
 from usvips.io.tables import read_observations
@@ -23,6 +26,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="calibrated station (index or pair label) whose object frame to use (default: first)")
     parser.add_argument("--frame", choices=["object", "rig"], default="object",
                         help="object: the control frame at the station; rig: left perspective centre, left axes")
+    parser.add_argument("--pointing-only", action="store_true",
+                        help="sigmas from the pointing precision alone, without the calibration's own uncertainty")
     parser.add_argument("--skip-failed", action="store_true",
                         help="write the points that intersect and list the others, instead of stopping")
     parser.set_defaults(handler=run)
@@ -32,8 +37,8 @@ def run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration)
     observations = read_observations(args.obs)
     station = int(args.station) if args.station.isdigit() else args.station
-    rig = calibration.rig(station, frame=args.frame)
-    result = intersect(rig.cameras, [observations.left, observations.right], calibration.sigma0_px)
+    result = intersect_with_calibration(calibration, observations.left, observations.right, station, args.frame,
+                                        include_calibration=not args.pointing_only)
     failed = np.flatnonzero(~result.ok)
     if failed.size and not args.skip_failed:
         first = int(failed[0])

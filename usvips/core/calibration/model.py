@@ -95,6 +95,28 @@ def _interior(values: dict[str, float], side: str) -> Interior:
     return Interior(*(values[f"{p}_{side}"] for p in INTERIOR_PARAMETERS))
 
 
+def stereo_cameras(kind: str, values: dict[str, float], stations: tuple[str, ...], station: str,
+                   size: tuple[int | None, int | None] = (None, None), frame: str = "object") -> tuple[Camera, Camera]:
+    """The two cameras at ``station`` from named parameter values (see the module docstring).
+
+    frame ``object``: placed in the control frame; ``rig``: the left camera at the origin with its own
+    axes, the right one by the relative orientation of the first station."""
+    left_0, right_0 = _exterior(values, "l"), _exterior(values, "r")
+    relative = relative_orientation(left_0, right_0)
+    if frame == "rig":
+        left = Exterior(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        right = right_exterior(left, relative)
+    elif station == stations[0]:
+        left, right = left_0, right_0
+    else:
+        left = _exterior(values, "l", station)
+        right = right_exterior(left, relative)
+    housing_l, housing_r = build_housings(kind, values)
+    width, height = size
+    return (Camera(_interior(values, "l"), left, housing_l, width, height),
+            Camera(_interior(values, "r"), right, housing_r, width, height))
+
+
 @dataclass
 class StereoModel:
     """A calibration problem: control, observations (with their pair labels = stations), housing kind."""
@@ -154,17 +176,8 @@ class StereoModel:
                 bounded: bool = True) -> tuple[Camera, Camera]:
         """The two cameras at a station (default: the first) for the given parameter values; ``bounded``
         gives them the image size (the adjustment itself does not clip at the frame)."""
-        station = station or self.stations[0]
-        left_0, right_0 = _exterior(values, "l"), _exterior(values, "r")
-        if station == self.stations[0]:
-            left, right = left_0, right_0
-        else:
-            left = _exterior(values, "l", station)
-            right = right_exterior(left, relative_orientation(left_0, right_0))
-        housing_l, housing_r = build_housings(self.kind, values)
-        width, height = self.size if bounded else (None, None)
-        return (Camera(_interior(values, "l"), left, housing_l, width, height),
-                Camera(_interior(values, "r"), right, housing_r, width, height))
+        return stereo_cameras(self.kind, values, self.stations, station or self.stations[0],
+                              self.size if bounded else (None, None))
 
     def evaluate(self, values: dict[str, float], blocks=None) -> tuple[np.ndarray, np.ndarray]:
         """Computed pixels of the observations (all, or of the given blocks), and a validity mask."""
