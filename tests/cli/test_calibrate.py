@@ -36,7 +36,11 @@ def test_two_phases_and_intersection_from_the_command_line(files, capsys):
     assert report["converged"] and report["parameters"]["f_l"]["sigma"] > 0
     assert main(["calibrate", "water", "--base", str(d / "air.json"), "--housing", "flat-port",
                  "--control", str(d / "control.csv"), "--obs", str(d / "water.csv"), "--out", str(d / "water.json"),
-                 "--fix", "t=0.016", "n2=1.65", "--prior", "n3=1.34:0.01", "--sigma-px", str(NOISE_PX)]) == 0
+                 "--fix", "t=0.016", "--fix", "n2=1.65", "--prior", "n3=1.34:0.01", "--sigma-px", str(NOISE_PX),
+                 "--report", str(d / "water_report.json")]) == 0
+    water_report = json.loads((d / "water_report.json").read_text())
+    assert water_report["parameters"]["t"] == {"value": 0.016, "sigma": None, "status": "fixed"}
+    assert water_report["parameters"]["n2"]["status"] == "fixed"  # a repeated --fix adds, not replaces
     assert main(["intersect", "--calibration", str(d / "water.json"), "--obs", str(d / "check.csv"),
                  "--out", str(d / "points.csv")]) == 0
     lines = (d / "points.csv").read_text().splitlines()

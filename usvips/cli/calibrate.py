@@ -17,11 +17,11 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--obs", required=True, help="observations CSV: id,xl,yl,xr,yr[,pair] (pixels)")
     parser.add_argument("--out", required=True, help="calibration file to write (JSON)")
     parser.add_argument("--report", help="adjustment report to write (JSON)")
-    parser.add_argument("--free", nargs="+", default=[], metavar="NAME",
+    parser.add_argument("--free", nargs="+", action="extend", default=[], metavar="NAME",
                         help="parameters to free (seeds' symbols apply to both cameras, e.g. k2 p1)")
-    parser.add_argument("--fix", nargs="+", default=[], metavar="NAME[=VALUE]",
+    parser.add_argument("--fix", nargs="+", action="extend", default=[], metavar="NAME[=VALUE]",
                         help="parameters to hold fixed, at a value if given (e.g. t=0.016 k1_r)")
-    parser.add_argument("--prior", nargs="+", default=[], metavar="NAME=VALUE:SIGMA",
+    parser.add_argument("--prior", nargs="+", action="extend", default=[], metavar="NAME=VALUE:SIGMA",
                         help="weight a parameter towards a value (e.g. n2=1.60:0.01)")
     parser.add_argument("--sigma-px", type=float, default=0.5,
                         help="a-priori standard deviation of a measured pixel coordinate (default 0.5)")
