@@ -129,3 +129,11 @@ def test_unsupported_images_are_refused():
         Pipeline().apply(np.zeros((4, 4, 4), np.uint8))
     with pytest.raises(InvalidParameterError, match="outside"):
         apply(np.zeros((4, 4, 3), np.uint8), "white_balance", method="patch", patch=[0, 0, 9, 9])
+
+
+def test_clahe_is_opencvs_on_grey_and_16_bit(grey):
+    expected = cv2.createCLAHE(clipLimit=3.0, tileGridSize=(4, 4)).apply(grey)
+    np.testing.assert_array_equal(apply(grey, "clahe", clip_limit=3.0, tiles=4), expected)
+    wide = grey.astype(np.uint16) * 257
+    np.testing.assert_array_equal(apply(wide, "clahe", clip_limit=3.0, tiles=4),
+                                  cv2.createCLAHE(clipLimit=3.0, tileGridSize=(4, 4)).apply(wide))

@@ -14,7 +14,7 @@ import time
 from collections.abc import Callable, Iterable
 
 #: Modules of this package that contribute benchmarks, in the order they run.
-BENCH_MODULES: tuple[str, ...] = ("geometry", "calibration")
+BENCH_MODULES: tuple[str, ...] = ("geometry", "calibration", "imaging")
 
 
 def best_time(function: Callable[[], object], repeats: int = 3) -> float:

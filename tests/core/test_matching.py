@@ -1,0 +1,105 @@
+"""Conjugate matching on rendered stereo pairs through refractive housings, with known truth."""
+
+import numpy as np
+import pytest
+
+from tests.core.scenes import HOUSINGS
+from usvips.core.camera import Camera, Exterior
+from usvips.core.errors import InvalidParameterError
+from usvips.core.interior import Interior
+from usvips.core.matching import epipolar_curve, match_along_curve
+from usvips.core.rig import RelativeOrientation, StereoRig
+
+W, H = 320, 240
+PLANE_Z = -1.8  # a textured seafloor facing the cameras
+
+
+CELL = 0.025  # metres: a random value every 2.5 cm, smoothly (cubic) interpolated
+GRID = np.random.default_rng(5).uniform(40, 200, (200, 200))
+
+
+def texture(x, y):
+    """A dense, non-repeating, band-limited texture on the seafloor (grey levels)."""
+    from scipy.ndimage import map_coordinates
+
+    return map_coordinates(GRID, [(y + 2.5) / CELL, (x + 2.5) / CELL], order=3, mode="reflect")
+
+
+def render(camera: Camera, textured: bool = True) -> np.ndarray:
+    s = 2
+    ys, xs = np.mgrid[0:H * s, 0:W * s]
+    pixels = np.column_stack([(xs.ravel() + 0.5) / s - 0.5, (ys.ravel() + 0.5) / s - 0.5])
+    bundle = camera.rays(pixels)
+    t = (PLANE_Z - bundle.origins[:, 2]) / bundle.directions[:, 2]
+    hit = bundle.origins + t[:, None] * bundle.directions
+    values = texture(hit[:, 0], hit[:, 1]) if textured else np.full(len(hit), 120.0)
+    image = values.reshape(H * s, W * s).reshape(H, s, W, s).mean(axis=(1, 3))
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+def rig(housing_name: str, distortion: bool = True) -> StereoRig:
+    interior = Interior(300.0, 160.0, 120.0, 1.0, k1=-0.05 if distortion else 0.0)
+    left = Camera(interior, Exterior(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), HOUSINGS[housing_name], W, H)
+    return StereoRig.from_relative(left, left, RelativeOrientation(0.3, 0.0, 0.0, 0.0, -0.05, 0.0))
+
+
+def true_conjugate(stereo: StereoRig, pixel) -> np.ndarray:
+    bundle = stereo.left.rays(np.array([pixel]))
+    t = (PLANE_Z - bundle.origins[0, 2]) / bundle.directions[0, 2]
+    return stereo.right.project((bundle.origins[0] + t * bundle.directions[0])[None]).pixels[0]
+
+
+@pytest.mark.parametrize("name", ["flat-port", "dome-cover"])
+def test_the_epipolar_curve_passes_through_the_true_conjugate(name):
+    stereo = rig(name)
+    for pixel in ([200.0, 90.0], [230.5, 160.25], [280.0, 200.0]):
+        curve = epipolar_curve(stereo.left, stereo.right, pixel, near=0.5, far=6.0, samples=400)
+        assert curve.distance_to(true_conjugate(stereo, pixel)) < 0.05
+
+
+def test_without_refraction_or_distortion_the_curve_is_a_line_and_with_a_port_it_is_not():
+    def bend(stereo):
+        curve = epipolar_curve(stereo.left, stereo.right, [300.0, 230.0], near=0.3, far=20.0)
+        p = curve.pixels
+        direction = (p[-1] - p[0]) / np.linalg.norm(p[-1] - p[0])
+        offsets = (p - p[0]) @ np.array([-direction[1], direction[0]])
+        return np.max(np.abs(offsets))
+
+    assert bend(rig("air", distortion=False)) < 1e-6
+    assert bend(rig("flat-port", distortion=False)) > 2.0  # pixels, near the corner of the frame
+
+
+@pytest.mark.parametrize("name", ["flat-port", "dome-cover"])
+def test_matching_finds_the_true_conjugate_within_a_third_of_a_pixel(name):
+    stereo = rig(name)
+    left, right = render(stereo.left), render(stereo.right)
+    errors = []
+    for pixel in ([220.0, 100.0], [200.0, 130.0], [250.3, 80.7], [270.0, 150.0]):
+        curve = epipolar_curve(stereo.left, stereo.right, pixel, near=0.5, far=6.0, samples=300)
+        result = match_along_curve(left, right, pixel, curve, window=21)
+        assert result, result.reason
+        errors.append(np.linalg.norm(np.subtract(result.pixel, true_conjugate(stereo, pixel))))
+    assert max(errors) < 0.3
+
+
+def test_a_textureless_patch_is_refused_and_bad_arguments_raise():
+    stereo = rig("flat-port")
+    flat = render(stereo.left, textured=False)
+    curve = epipolar_curve(stereo.left, stereo.right, [160.0, 120.0])
+    result = match_along_curve(flat, flat, [160.0, 120.0], curve)
+    assert not result and "textureless" in result.reason
+    with pytest.raises(InvalidParameterError, match="window"):
+        match_along_curve(flat, flat, [160.0, 120.0], curve, window=8)
+    with pytest.raises(InvalidParameterError, match="too close to the edge"):
+        match_along_curve(flat, flat, [2.0, 120.0], curve)
+    with pytest.raises(InvalidParameterError, match="far"):
+        epipolar_curve(stereo.left, stereo.right, [10.0, 10.0], near=2.0, far=1.0)
+
+
+def test_a_repetitive_pattern_is_reported_as_ambiguous():
+    stereo = rig("air", distortion=False)
+    ys, xs = np.mgrid[0:H, 0:W]
+    stripes = (120 + 80 * np.sin(2 * np.pi * xs / 12.0)).astype(np.uint8)
+    curve = epipolar_curve(stereo.left, stereo.right, [160.0, 120.0], near=0.3, far=20.0)
+    result = match_along_curve(stripes, stripes, [160.0, 120.0], curve, window=11)
+    assert result.ambiguous and not result and "ambiguous" in result.reason
