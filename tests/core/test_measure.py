@@ -37,7 +37,8 @@ def monte_carlo(function, points, covs, trials=2000, seed=1):
 CASES = [
     ("distance", distance, np.array([[0, 0, -2.0], [0.35, 0.1, -2.2]])),
     ("polyline", polyline_length, np.array([[0, 0, -2.0], [0.3, 0.1, -2.1], [0.5, 0.4, -2.0], [0.8, 0.3, -2.3]])),
-    ("area", lambda p, c: polygon_figures(p, c)["area"], np.array([[0, 0, -2], [1, 0, -2.1], [1.2, 0.8, -2], [0.1, 1, -1.9]])),
+    ("area", lambda p, c: polygon_figures(p, c)["area"],
+     np.array([[0, 0, -2], [1, 0, -2.1], [1.2, 0.8, -2], [0.1, 1, -1.9]])),
     ("perimeter", lambda p, c: polygon_figures(p, c)["perimeter"], np.array([[0, 0, -2], [1, 0, -2], [0.5, 0.9, -2]])),
     ("angle", angle_between_lines, np.array([[0, 0, -2], [1, 0.2, -2], [0, 0, -2.1], [0.3, 1, -2.0]])),
     ("point-line", point_to_line, np.array([[0.2, 0.5, -2], [0, 0, -2], [1, 0.1, -2.2]])),
