@@ -1,0 +1,41 @@
+import csv
+import io
+import json
+
+import numpy as np
+import pytest
+
+from usvips.core.errors import InvalidParameterError
+from usvips.core.measure import MeasuredObject
+from usvips.io.export import export, geojson, objects_csv, ply, vertices_csv
+
+COV = np.diag([1e-6, 1e-6, 4e-6])
+
+
+def _objects():
+    return [MeasuredObject("1", "point", np.array([[0.1, 0.2, -2.0]]), COV[None], "rock"),
+            MeasuredObject("2", "line", np.array([[0, 0, -2.0], [0.3, 0.4, -2.0]]), np.stack([COV, COV]), "cod"),
+            MeasuredObject("3", "polygon", np.array([[0, 0, -2.0], [1, 0, -2], [1, 1, -2], [0, 1, -2]]),
+                           np.stack([COV] * 4), "sponge")]
+
+
+def test_csv_geojson_and_ply_carry_the_figures():
+    rows = list(csv.DictReader(io.StringIO(objects_csv(_objects()))))
+    assert float(rows[1]["length"]) == pytest.approx(0.5) and float(rows[1]["s_length"]) > 0
+    assert float(rows[2]["area"]) == pytest.approx(1.0) and float(rows[0]["sZ"]) == pytest.approx(0.002)
+    assert len(list(csv.DictReader(io.StringIO(vertices_csv(_objects()))))) == 7
+    collection = json.loads(geojson(_objects()))
+    kinds = [f["geometry"]["type"] for f in collection["features"]]
+    assert kinds == ["Point", "LineString", "Polygon"]
+    ring = collection["features"][2]["geometry"]["coordinates"][0]
+    assert ring[0] == ring[-1] and len(ring[0]) == 3
+    text = ply(_objects())
+    assert "element vertex 7" in text and "element edge 5" in text
+
+
+def test_export_by_suffix_and_unknown_formats(tmp_path):
+    export(_objects(), tmp_path / "objects.geojson")
+    assert json.loads((tmp_path / "objects.geojson").read_text())["type"] == "FeatureCollection"
+    with pytest.raises(InvalidParameterError, match="unknown export format"):
+        export(_objects(), tmp_path / "objects.xyz")
+    assert not (tmp_path / "objects.xyz").exists()
