@@ -345,3 +345,4 @@ class Project:
     def enhancement(self, image_key: str) -> str | None:
         row = self._db.execute("SELECT pipeline FROM enhancements WHERE image_key = ?", (image_key,)).fetchone()
         return None if row is None else row[0]
+

@@ -1,0 +1,125 @@
+"""``usvips project new|info|import|export``: the project database from the command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from usvips.core.errors import UsvipsError
+from usvips.core.measure import MeasuredObject
+from usvips.io.calibration_file import calibration_to_dict, load_calibration
+from usvips.io.export import export
+from usvips.io.manifest import read_manifest
+from usvips.io.tables import read_control, read_observations
+from usvips.store import Project
+
+
+def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
+    """A new project at ``out`` holding a sample directory's pairs, control, observations and calibrations."""
+    manifest = read_manifest(directory)
+    project = Project.create(out)
+    try:
+        for pair in manifest.pairs:
+            project.add_pair(pair.label, pair.left, pair.right, pair.medium)
+        if manifest.control is not None:
+            project.set_control(read_control(manifest.control))
+        for entry in manifest.observations:
+            observations = read_observations(entry.file)
+            labels = entry.pairs or observations.pair_labels
+            for label in labels:
+                rows = observations.pair(label) if label in observations.pair_labels else observations
+                project.add_control_observations(rows, entry.role, label)
+        for entry in manifest.calibrations:
+            project.add_calibration(entry.file.stem, json.loads(entry.file.read_text(encoding="utf-8")),
+                                    entry.active_for)
+    except BaseException:
+        project.close()
+        Path(out).unlink(missing_ok=True)
+        raise
+    return project
+
+
+def open_or_create_from_manifest(directory: str | Path) -> Project:
+    """Open ``<directory>/project.usvips``, creating it from the directory's ``project.json`` first."""
+    path = Path(directory) / "project.usvips"
+    return Project.open(path) if path.exists() else create_from_manifest(directory, path)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("project", help="create, inspect, import into and export from a project file")
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    new = actions.add_parser("new", help="create a project file (optionally from a sample directory)")
+    new.add_argument("out", help="the project file to create (*.usvips)")
+    new.add_argument("--from", dest="source", help="a sample project directory with project.json")
+    new.set_defaults(handler=run_new)
+    info = actions.add_parser("info", help="summarise a project file")
+    info.add_argument("project")
+    info.set_defaults(handler=run_info)
+    imp = actions.add_parser("import", help="import control, observations or a calibration into a project")
+    imp.add_argument("project")
+    imp.add_argument("--control", help="control CSV")
+    imp.add_argument("--obs", help="observations CSV (with --pair and --role)")
+    imp.add_argument("--pair", help="the image pair the observations belong to (created if new)")
+    imp.add_argument("--role", default="calibration-water", help="observation role (default calibration-water)")
+    imp.add_argument("--calibration", help="calibration JSON (with --active-for PAIR ...)")
+    imp.add_argument("--active-for", nargs="+", default=[], help="pairs the calibration becomes active for")
+    imp.set_defaults(handler=run_import)
+    exp = actions.add_parser("export", help="export measured objects: .csv, .vertices.csv, .geojson, .ply")
+    exp.add_argument("project")
+    exp.add_argument("out")
+    exp.set_defaults(handler=run_export)
+
+
+def run_new(args: argparse.Namespace) -> int:
+    project = create_from_manifest(args.source, args.out) if args.source else Project.create(args.out)
+    project.close()
+    print(f"created {args.out}")
+    return 0
+
+
+def run_info(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        pairs = project.pairs()
+        print(f"{args.project}: schema {project.version}, {len(pairs)} image pairs, "
+              f"{len(project.control())} control points, {len(project.objects())} objects")
+        for pair in pairs:
+            active = project.active_calibration(pair["label"])
+            print(f"  pair {pair['label']} ({pair['medium']}): {pair['left'] or '-'} | {pair['right'] or '-'}"
+                  + (f"; calibration {active}" if active else ""))
+    return 0
+
+
+def run_import(args: argparse.Namespace) -> int:
+    if not (args.control or args.obs or args.calibration):
+        raise UsvipsError("nothing to import: give --control, --obs or --calibration")
+    with Project.open(args.project) as project:
+        if args.control:
+            project.set_control(read_control(args.control))
+        if args.obs:
+            if not args.pair:
+                raise UsvipsError("--obs needs --pair (the image pair the observations belong to)")
+            if args.pair not in {p["label"] for p in project.pairs()}:
+                project.add_pair(args.pair)
+            project.add_control_observations(read_observations(args.obs), args.role, args.pair)
+        if args.calibration:
+            path = Path(args.calibration)
+            project.add_calibration(path.stem, calibration_to_dict(load_calibration(path)), tuple(args.active_for))
+    print(f"imported into {args.project}")
+    return 0
+
+
+def run_export(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        objects = []
+        for stored in project.objects():
+            usable = [v for v in stored.vertices if v.xyz is not None and v.covariance is not None]
+            if len(usable) != len(stored.vertices):
+                continue
+            objects.append(MeasuredObject(str(stored.id), stored.kind, np.array([v.xyz for v in usable]),
+                                          np.array([v.covariance for v in usable]), stored.attribute, stored.notes))
+    export(objects, args.out)
+    print(f"exported {len(objects)} objects to {args.out}")
+    return 0
