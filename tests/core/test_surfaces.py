@@ -19,6 +19,8 @@ def test_snell_law_and_coplanarity_hold(direction, normal, n_in, n_out):
     n = normal / np.linalg.norm(normal)
     refracted, tir = refract(d[None], n[None], n_in, n_out)
     sin_in = np.linalg.norm(np.cross(d, n))
+    if abs(n_in * sin_in - n_out) < 1e-9 * n_out:
+        return  # grazing the critical angle: either answer is right to rounding
     if n_in * sin_in > n_out:
         assert tir[0]
         return
