@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import csv
 import io
-import os
-import tempfile
-from pathlib import Path
 
-from usvips.core.errors import InvalidParameterError, UsvipsError
+from usvips.core.errors import InvalidParameterError
+from usvips.io.atomic import write_text_atomic
+
+__all__ = ["csv_text", "parse_assignment", "parse_prior", "write_text_atomic"]
 
 
 def parse_assignment(option: str, text: str) -> tuple[str, float]:
@@ -32,22 +32,6 @@ def parse_prior(text: str) -> tuple[str, tuple[float, float]]:
         return name.strip(), (float(value), float(sigma))
     except ValueError:
         raise InvalidParameterError("--prior", f"{text!r}: value and sigma must be numbers") from None
-
-
-def write_text_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder, then rename."""
-    path = Path(path)
-    if not path.parent.exists():
-        raise UsvipsError(f"{path}: the folder {path.parent} does not exist")
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=str(path.parent))
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
-            stream.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
 
 
 def csv_text(header: list[str], rows: list[list]) -> str:

@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +32,7 @@ from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, H
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
 from usvips.core.rig import RelativeOrientation
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
+from usvips.io.atomic import write_text_atomic
 
 FORMAT = "usvips-calibration"
 VERSION = 1
@@ -179,18 +178,8 @@ def load_calibration(path: str | Path) -> StereoCalibration:
 
 
 def write_json_atomic(path: str | Path, data: dict) -> None:
-    """Write JSON to ``path`` through a temporary file in the same directory, then rename."""
-    path = Path(path)
-    text = json.dumps(data, indent=2, allow_nan=False)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=str(path.parent or "."))
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(text + "\n")
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
+    """Write JSON to ``path`` atomically (no partial file on error)."""
+    write_text_atomic(path, json.dumps(data, indent=2, allow_nan=False) + "\n")
 
 
 def save_calibration(calibration: StereoCalibration, path: str | Path) -> None:

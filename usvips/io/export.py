@@ -10,27 +10,13 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measure import MeasuredObject, polygon_figures, polyline_length
-
-
-def _write(path: str | Path, text: str) -> None:
-    path = Path(path)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=str(path.parent))
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
-            stream.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
+from usvips.io.atomic import write_text_atomic
 
 
 def object_figures(obj: MeasuredObject) -> dict[str, tuple[float, float]]:
@@ -120,4 +106,4 @@ def export(objects: list[MeasuredObject], path: str | Path, kind: str | None = N
     writers = {"csv": objects_csv, "vertices": vertices_csv, "geojson": geojson, "json": geojson, "ply": ply}
     if kind not in writers:
         raise InvalidParameterError("format", f"unknown export format {kind!r}; use csv, vertices, geojson or ply")
-    _write(path, writers[kind](objects))
+    write_text_atomic(path, writers[kind](objects))
