@@ -132,13 +132,17 @@ class Adjustment:
     w: np.ndarray
     mdb: np.ndarray
     global_test: dict
-    suspects: list[Suspect]
     excluded: list[Suspect]
     observations: Observations
     used: np.ndarray
 
     def __bool__(self) -> bool:
         return self.converged
+
+    @property
+    def suspects(self) -> list[Suspect]:
+        """The observations left out: unreachable from the start, or rejected by data snooping."""
+        return self.excluded
 
     def value(self, name: str) -> float:
         for p in self.parameters:
@@ -427,7 +431,6 @@ def adjust(problem: Problem, max_iterations: int = 50, tolerance: float = 1e-5, 
             excluded = excluded[: len(excluded) - len(unit)]
             break
         used = trial_used
-    suspects = [s for s in excluded]
     return Adjustment(
         parameters=problem.parameters, converged=converged, reason=reason, iterations=iterations,
         sigma0=statistics["sigma0"], rms=statistics["rms"], redundancy=statistics["redundancy"],
@@ -435,5 +438,5 @@ def adjust(problem: Problem, max_iterations: int = 50, tolerance: float = 1e-5, 
         covariance=statistics["qxx"] * statistics["sigma0"] ** 2, sigmas=statistics["sigmas"],
         correlations_over=statistics["over"], condition_number=statistics["condition"],
         weak_directions=statistics["weak"], redundancy_numbers=statistics["red_numbers"], w=statistics["w"],
-        mdb=statistics["mdb"], global_test=statistics["global_test"], suspects=suspects, excluded=excluded,
+        mdb=statistics["mdb"], global_test=statistics["global_test"], excluded=excluded,
         observations=problem.observations, used=used)

@@ -19,7 +19,7 @@ from usvips.core import validation
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.housing import AirHousing, GeneralHousing, Housing
 from usvips.core.interior import Interior
-from usvips.core.rays import RayBundle, RayStatus, describe_status
+from usvips.core.rays import RayBundle, RayStatus, require_all_ok
 from usvips.core.rotation import rotation_matrix
 from usvips.core.surfaces import Plane
 
@@ -83,11 +83,7 @@ class Projection:
 
     def require_ok(self, what: str = "point") -> Projection:
         """Return self, or raise :class:`DegenerateGeometryError` naming the first point not visible."""
-        bad = np.flatnonzero(~self.ok)
-        if bad.size:
-            first = int(bad[0])
-            raise DegenerateGeometryError(
-                f"{what} {first}: {RayStatus(int(self.status[first])).reason} ({describe_status(self.status)})")
+        require_all_ok(self.status, what)
         return self
 
 

@@ -18,7 +18,7 @@ import numpy as np
 from usvips.core import validation
 from usvips.core.camera import Camera
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
-from usvips.core.rays import RayStatus, describe_status
+from usvips.core.rays import RayStatus, require_all_ok
 
 
 @dataclass(frozen=True)
@@ -48,11 +48,7 @@ class Intersection:
         return np.sqrt(np.clip(np.einsum("nii->ni", self.covariance), 0.0, None))
 
     def require_ok(self) -> Intersection:
-        bad = np.flatnonzero(~self.ok)
-        if bad.size:
-            first = int(bad[0])
-            raise DegenerateGeometryError(
-                f"point {first}: {RayStatus(int(self.status[first])).reason} ({describe_status(self.status)})")
+        require_all_ok(self.status, "point")
         return self
 
 

@@ -55,6 +55,18 @@ def describe_status(status: np.ndarray) -> str:
     return f"{int(failed.sum())} of {status.size} failed: " + "; ".join(parts)
 
 
+def require_all_ok(status: np.ndarray, what: str, where: np.ndarray | None = None) -> None:
+    """Raise :class:`DegenerateGeometryError` naming the first row whose status is not OK (and, with
+    ``where``, the surface at fault) with a summary of all failures."""
+    bad = np.flatnonzero(np.asarray(status) != RayStatus.OK)
+    if bad.size:
+        first = int(bad[0])
+        surface = int(where[first]) if where is not None else -1
+        at = f" at surface {surface}" if surface >= 0 else ""
+        raise DegenerateGeometryError(
+            f"{what} {first}: {RayStatus(int(status[first])).reason}{at} ({describe_status(status)})")
+
+
 @dataclass(frozen=True)
 class RayBundle:
     """N rays: ``origins`` (N, 3) and unit ``directions`` (N, 3) in one frame (metres).
