@@ -39,3 +39,27 @@ def test_export_by_suffix_and_unknown_formats(tmp_path):
     with pytest.raises(InvalidParameterError, match="unknown export format"):
         export(_objects(), tmp_path / "objects.xyz")
     assert not (tmp_path / "objects.xyz").exists()
+
+
+def test_eventmeasure_style_tables():
+    from usvips.io.export import LENGTH_COLUMNS, POINT_COLUMNS, eventmeasure_tables
+
+    objects = _objects() + [MeasuredObject("4", "line", np.array([[0, 0, -2.0], [0, 0.3, -2.0]]),
+                                           np.stack([COV, COV]), "Sparidae Pagrus auratus")]
+    lengths, points = eventmeasure_tables(objects, opcode="OP1", rms_m={"2": 0.004})
+    rows = [line.split("\t") for line in lengths.rstrip("\n").splitlines()]
+    assert rows[0] == LENGTH_COLUMNS and len(rows) == 3
+    first = dict(zip(LENGTH_COLUMNS, rows[1], strict=True))
+    assert first["Length (mm)"] == "500.0" and first["RMS (mm)"] == "4.00" and first["Species"] == "cod"
+    assert float(first["Direction"]) == pytest.approx(90.0, abs=15)  # across the line of sight
+    second = dict(zip(LENGTH_COLUMNS, rows[2], strict=True))
+    assert (second["Family"], second["Genus"], second["Species"]) == ("Sparidae", "Pagrus", "auratus")
+    point_rows = [line.split("\t") for line in points.rstrip("\n").splitlines()]
+    assert point_rows[0] == POINT_COLUMNS
+    assert dict(zip(POINT_COLUMNS, point_rows[1], strict=True))["Z (mm)"] == "-2000.0"
+
+
+def test_eventmeasure_files_by_suffix(tmp_path):
+    export(_objects(), tmp_path / "survey.em.txt")
+    assert (tmp_path / "survey_Lengths.txt").read_text().startswith("OpCode\t")
+    assert "\t-2000.0\t" in (tmp_path / "survey_3DPoints.txt").read_text()

@@ -100,10 +100,67 @@ def ply(objects: list[MeasuredObject]) -> str:
 
 
 def export(objects: list[MeasuredObject], path: str | Path, kind: str | None = None) -> None:
-    """Write objects as ``csv`` (objects), ``vertices.csv``, ``geojson`` or ``ply``, by suffix or ``kind``."""
+    """Write objects as ``csv`` (objects), ``vertices.csv``, ``geojson`` or ``ply``, by suffix or ``kind``;
+    a path ending ``.em.txt`` writes the EventMeasure-style pair ``<name>_Lengths.txt`` and
+    ``<name>_3DPoints.txt`` beside it."""
     path = Path(path)
+    if path.name.endswith(".em.txt") or kind == "eventmeasure":
+        stem = path.name[: -len(".em.txt")] if path.name.endswith(".em.txt") else path.stem
+        lengths, points = eventmeasure_tables(objects)
+        write_text_atomic(path.with_name(f"{stem}_Lengths.txt"), lengths)
+        write_text_atomic(path.with_name(f"{stem}_3DPoints.txt"), points)
+        return
     kind = kind or ("vertices" if path.name.endswith(".vertices.csv") else path.suffix.lstrip("."))
     writers = {"csv": objects_csv, "vertices": vertices_csv, "geojson": geojson, "json": geojson, "ply": ply}
     if kind not in writers:
         raise InvalidParameterError("format", f"unknown export format {kind!r}; use csv, vertices, geojson or ply")
     write_text_atomic(path, writers[kind](objects))
+
+
+# --- EventMeasure-style tables (read by survey pipelines such as CheckEM) ------------------------------
+# Columns follow EventMeasure's "Lengths" and "3D Points" text exports as we understand them (tab-
+# separated, millimetres); check them against your pipeline's reader. The object's attribute goes to
+# "Species" (with "Genus" and "Family" when it has three words: Family Genus species).
+
+LENGTH_COLUMNS = ["OpCode", "Filename", "Frame", "Time (mins)", "Length (mm)", "Precision (mm)", "Direction",
+                  "Mid X (mm)", "Mid Y (mm)", "Mid Z (mm)", "RMS (mm)", "Range (mm)", "Family", "Genus",
+                  "Species", "Number", "Comment"]
+POINT_COLUMNS = ["OpCode", "Filename", "Frame", "Time (mins)", "X (mm)", "Y (mm)", "Z (mm)", "SX (mm)", "SY (mm)",
+                 "SZ (mm)", "RMS (mm)", "Range (mm)", "Family", "Genus", "Species", "Number", "Comment"]
+
+
+def _taxonomy(attribute: str) -> tuple[str, str, str]:
+    words = attribute.split()
+    if len(words) == 3:
+        return words[0], words[1], words[2]
+    return "", "", attribute
+
+
+def eventmeasure_tables(objects: list[MeasuredObject], opcode: str = "", camera_centre=(0.0, 0.0, 0.0),
+                        rms_m: dict[str, float] | None = None) -> tuple[str, str]:
+    """(lengths, 3-D points) as tab-separated text: two-vertex lines become lengths (snout to fork),
+    points become 3-D points; ``rms_m`` gives each object's ray-intersection RMS (metres) if known."""
+    centre = np.asarray(camera_centre, dtype=np.float64)
+    rms_m = rms_m or {}
+    lengths = ["\t".join(LENGTH_COLUMNS)]
+    points = ["\t".join(POINT_COLUMNS)]
+    for obj in objects:
+        family, genus, species = _taxonomy(obj.attribute)
+        rms = f"{rms_m[obj.id] * 1000:.2f}" if obj.id in rms_m else ""
+        if obj.kind == "line" and len(obj.points) == 2:
+            figure = polyline_length(obj.points, obj.covariances)
+            middle = obj.points.mean(axis=0)
+            segment = obj.points[1] - obj.points[0]
+            view = middle - centre
+            direction = np.degrees(np.arccos(abs(segment @ view) / (np.linalg.norm(segment) * np.linalg.norm(view))))
+            row = [opcode, "", "", "", f"{figure.value * 1000:.1f}", f"{figure.sigma * 1000:.1f}", f"{direction:.1f}",
+                   *(f"{v * 1000:.1f}" for v in middle), rms, f"{np.linalg.norm(view) * 1000:.0f}", family, genus,
+                   species, "1", obj.notes]
+            lengths.append("\t".join(row))
+        elif obj.kind == "point":
+            p = obj.points[0]
+            sigma = np.sqrt(np.diag(obj.covariances[0]))
+            row = [opcode, "", "", "", *(f"{v * 1000:.1f}" for v in p), *(f"{v * 1000:.1f}" for v in sigma), rms,
+                   f"{np.linalg.norm(p - centre) * 1000:.0f}", family, genus, species, "1", obj.notes]
+            points.append("\t".join(row))
+    return "\n".join(lengths) + "\n", "\n".join(points) + "\n"
