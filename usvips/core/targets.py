@@ -87,9 +87,12 @@ def locate_disc(image: np.ndarray, click: tuple[float, float], window: int = 41)
     patch, top, left = cut
     ring = np.concatenate([patch[0], patch[-1], patch[:, 0], patch[:, -1]])
     background = float(np.median(ring))
-    noise = float(1.4826 * np.median(np.abs(ring - background))) + 1e-6
-    centre_value = float(np.median(patch[half - 1:half + 2, half - 1:half + 2]))
-    bright = centre_value >= background
+    # pixel noise from neighbour differences along the ring: a smooth textured background does not count
+    steps = np.concatenate([np.diff(patch[0]), np.diff(patch[-1]), np.diff(patch[:, 0]), np.diff(patch[:, -1])])
+    noise = float(1.4826 * np.median(np.abs(steps)) / np.sqrt(2.0)) + 0.5
+    # a white disc with a black cross is bright: decide the polarity by the stronger departure from the
+    # background, not by the pixel under the click (which may sit on the cross)
+    bright = float(np.percentile(patch, 99)) - background >= background - float(np.percentile(patch, 1))
     signal = patch - background if bright else background - patch
     level = float(np.percentile(signal, 99))
     if level < 6 * noise:
