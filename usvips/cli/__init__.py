@@ -14,7 +14,7 @@ from usvips import __version__
 from usvips.core.errors import UsvipsError
 
 #: (module name, description) of every subcommand; each module defines ``register(subparsers)``.
-COMMANDS: tuple[str, ...] = ("demo", "calibrate", "intersect", "measure", "project", "bench")
+COMMANDS: tuple[str, ...] = ("demo", "calibrate", "intersect", "measure", "project", "render", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,110 @@
+"""``usvips render SCENE.json --out DIR``: render a sample project (images, control, observations, truth)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from usvips.core.errors import InputFileError
+from usvips.core.observations import StereoObservations
+from usvips.core.synth import Disc, Seafloor, Water, render
+from usvips.io.atomic import write_text_atomic
+from usvips.io.images import write_image
+from usvips.io.scene import read_scene
+from usvips.io.tables import read_control, write_control, write_observations
+
+RESOURCES = Path(__file__).resolve().parents[2] / "resources"
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("render", help="render a sample project from a scene description")
+    parser.add_argument("scene", help="scene description (JSON)")
+    parser.add_argument("--out", required=True, help="output directory (created if needed)")
+    parser.set_defaults(handler=run)
+
+
+def _targets_file(scene, name: str) -> Path:
+    for candidate in (scene.path.parent / name, RESOURCES / name):
+        if candidate.is_file():
+            return candidate
+    raise InputFileError(str(scene.path), f"frame.targets: no file {name!r} beside the scene or in resources/")
+
+
+def _camera_truth(camera) -> dict:
+    interior = {k: getattr(camera.interior, k) for k in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2")}
+    exterior = {k: getattr(camera.exterior, k) for k in ("X0", "Y0", "Z0", "omega", "phi", "kappa")}
+    return {"interior": interior, "exterior": exterior, "housing": {"kind": camera.housing.kind,
+                                                                     **camera.housing.parameters()}}
+
+
+def run(args: argparse.Namespace) -> int:
+    scene = read_scene(args.scene)
+    data = scene.data
+    out = Path(args.out)
+    (out / "images").mkdir(parents=True, exist_ok=True)
+    frame = data.get("frame")
+    control = read_control(_targets_file(scene, frame["targets"])) if frame else None
+    discs = [Disc(tuple(p), (0.0, 0.0, 1.0), radius=frame.get("radius", 0.04), cross_width=0.2 * frame.get(
+        "radius", 0.04)) for p in control.xyz] if control is not None else []
+    floor_spec = data.get("floor")
+    floor = Seafloor((0.0, 0.0, floor_spec["z"]), cell=floor_spec.get("cell", 0.03), mean=floor_spec.get("mean", 70),
+                     contrast=floor_spec.get("contrast", 25), seed=floor_spec.get("seed", 0)) if floor_spec else None
+    water = Water(**data["water"]) if "water" in data else Water()
+    image = data["image"]
+    noise_px = float(data.get("observation_noise_px", 0.3))
+    rng = np.random.default_rng(scene.seed)
+    truth = {"scene": scene.name, "pairs": []}
+    observations: dict[str, list] = {"air": [], "water": []}
+    pairs_manifest = []
+    for index, pair in enumerate(data["pairs"]):
+        rig = scene.rig(pair)
+        medium = pair.get("medium", "water")
+        entry = {"label": pair["label"], "medium": medium, "cameras": {}}
+        projections = []
+        for side, camera in (("left", rig.left), ("right", rig.right)):
+            picture = render(camera, discs, floor, water if medium == "water" else None,
+                             supersample=image.get("supersample", 3),
+                             seed=scene.seed * 100 + index * 2 + (side == "right"))
+            write_image(out / "images" / f"{pair['label']}_{side}.png", picture)
+            entry["cameras"][side] = _camera_truth(camera)
+            projection = camera.project(control.xyz) if control is not None else None
+            projections.append(projection)
+            if projection is not None:
+                entry["cameras"][side]["targets"] = {
+                    pid: (projection.pixels[i].tolist() if projection.ok[i] else None)
+                    for i, pid in enumerate(control.ids)}
+        if control is not None:
+            seen = projections[0].ok & projections[1].ok
+            if seen.sum() < 6:
+                raise InputFileError(str(scene.path), f"pairs[{index}]: only {int(seen.sum())} targets are seen by "
+                                     "both cameras: is the frame behind the cameras or out of view?")
+            idx = np.flatnonzero(seen)
+            left = projections[0].pixels[idx] + rng.normal(0, noise_px, (idx.size, 2))
+            right = projections[1].pixels[idx] + rng.normal(0, noise_px, (idx.size, 2))
+            observations[medium].append(StereoObservations(tuple(control.ids[i] for i in idx), left, right,
+                                                           (pair["label"],) * idx.size))
+        truth["pairs"].append(entry)
+        pairs_manifest.append({"label": pair["label"], "medium": medium, "left": f"images/{pair['label']}_left.png",
+                               "right": f"images/{pair['label']}_right.png"})
+    manifest = {"format": "usvips-sample", "version": 1, "name": scene.name,
+                "description": data.get("description", f"rendered from {Path(args.scene).name}"),
+                "housing": data["housing"]["kind"], "pairs": pairs_manifest, "observations": [], "truth": "truth.json"}
+    if control is not None:
+        write_control(out / "control.csv", control)
+        manifest["control"] = "control.csv"
+        for medium, role in (("air", "calibration-air"), ("water", "calibration-water")):
+            if observations[medium]:
+                joined = observations[medium]
+                merged = StereoObservations(sum((o.ids for o in joined), ()), np.vstack([o.left for o in joined]),
+                                            np.vstack([o.right for o in joined]), sum((o.pairs for o in joined), ()))
+                write_observations(out / f"observations_{medium}.csv", merged)
+                manifest["observations"].append({"file": f"observations_{medium}.csv", "role": role,
+                                                 "pairs": list(dict.fromkeys(merged.pairs))})
+    truth["observation_noise_px"] = noise_px
+    write_text_atomic(out / "truth.json", json.dumps(truth, indent=1, allow_nan=False) + "\n")
+    write_text_atomic(out / "project.json", json.dumps(manifest, indent=2) + "\n")
+    print(f"rendered {len(data['pairs'])} pairs of {scene.name} into {out}")
+    return 0

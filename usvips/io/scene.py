@@ -1,0 +1,116 @@
+"""Scene descriptions (``scene.json``) for ``usvips render``: a stereo rig, its housing, the stations of
+its image pairs, the water, and what is in the scene (the calibration frame, a seafloor).
+
+    {"format": "usvips-scene", "version": 1, "name": "rov_flatport", "seed": 1,
+     "image": {"width": 640, "height": 480, "supersample": 3},
+     "left": {"f": 700, "xp": 319.5, "yp": 239.5, ...}, "right": {...},          # interior, seeds' names
+     "relative": {"bx": 0.4, "by": 0, "bz": 0, "omega": 0, "phi": -0.1, "kappa": 0},
+     "housing": {"kind": "flat-port", "left": {"d": 0, ...}, "right": {...}},    # camera frames, metres
+     "water": {"attenuation": 0.3, "backscatter": 70, "blur": 0.7, "noise": 2.0},
+     "frame": {"targets": "calibration_frame.csv", "radius": 0.04},               # resources/ file
+     "floor": {"z": -100.6, "cell": 0.03, "mean": 70, "contrast": 25},
+     "observation_noise_px": 0.3,
+     "pairs": [{"label": "air1", "medium": "air", "pose": {"X0": ..., "Y0": ..., "Z0": ..., "omega": ...,
+                "phi": ..., "kappa": ...}}, ...]}
+
+Every key is checked: an unknown or missing one is an :class:`InputFileError` naming it, and so is
+impossible geometry (the frame behind a camera, a camera inside the frame).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
+from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing
+from usvips.core.interior import INTERIOR_PARAMETERS, Interior
+from usvips.core.rig import RelativeOrientation, StereoRig
+
+FORMAT = "usvips-scene"
+TOP = {"format", "version", "name", "seed", "image", "left", "right", "relative", "housing", "water", "frame",
+       "floor", "observation_noise_px", "pairs", "description"}
+HOUSINGS = {"air": AirHousing, "dome-cover": DomeCoverHousing, "flat-port": FlatPortHousing}
+
+
+@dataclass(frozen=True)
+class Scene:
+    path: Path
+    data: dict
+
+    @property
+    def name(self) -> str:
+        return self.data["name"]
+
+    @property
+    def seed(self) -> int:
+        return int(self.data.get("seed", 0))
+
+    def rig(self, pair: dict) -> StereoRig:
+        """The rig at a pair's pose, with the scene's housing underwater and none in air."""
+        width, height = self.data["image"]["width"], self.data["image"]["height"]
+        kind = self.data["housing"]["kind"] if pair.get("medium", "water") == "water" else "air"
+        housings = [self._housing(kind, side) for side in ("left", "right")]
+        pose = Exterior(**pair["pose"])
+        left = Camera(Interior(**self.data["left"]), pose, housings[0], width, height)
+        right = Camera(Interior(**self.data["right"]), pose, housings[1], width, height)
+        return StereoRig.from_relative(left, right, RelativeOrientation(**self.data["relative"]))
+
+    def _housing(self, kind: str, side: str) -> Housing:
+        if kind == "air":
+            return AirHousing()
+        return HOUSINGS[kind](**self.data["housing"][side])
+
+
+def _keys(path: Path, where: str, value: object, required: set[str], allowed: set[str]) -> dict:
+    if not isinstance(value, dict):
+        raise InputFileError(str(path), f"{where}: expected an object")
+    unknown = sorted(set(value) - allowed)
+    if unknown:
+        raise InputFileError(str(path), f"{where}: unknown key {unknown[0]!r}")
+    missing = sorted(required - set(value))
+    if missing:
+        raise InputFileError(str(path), f"{where}: missing key {missing[0]!r}")
+    return value
+
+
+def read_scene(path: str | Path) -> Scene:
+    path = Path(path)
+    if not path.is_file():
+        raise InputFileError(str(path), "no such scene description")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as error:
+        raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
+    _keys(path, "scene", data, {"format", "version", "name", "image", "left", "right", "relative", "housing",
+                                "pairs"}, TOP)
+    if data["format"] != FORMAT or data["version"] != 1:
+        raise InputFileError(str(path), f"not a version-1 USVIPS scene (format must be {FORMAT!r})")
+    _keys(path, "image", data["image"], {"width", "height"}, {"width", "height", "supersample"})
+    for side in ("left", "right"):
+        _keys(path, side, data[side], {"f", "xp", "yp"}, set(INTERIOR_PARAMETERS))
+    _keys(path, "relative", data["relative"], {"bx"}, {"bx", "by", "bz", "omega", "phi", "kappa"})
+    housing = _keys(path, "housing", data["housing"], {"kind"}, {"kind", "left", "right"})
+    if housing["kind"] not in HOUSINGS:
+        raise InputFileError(str(path), f"housing.kind: must be one of {', '.join(HOUSINGS)}")
+    if "water" in data:
+        _keys(path, "water", data["water"], set(), {"attenuation", "backscatter", "blur", "noise"})
+    if "frame" in data:
+        _keys(path, "frame", data["frame"], {"targets"}, {"targets", "radius"})
+    if "floor" in data:
+        _keys(path, "floor", data["floor"], {"z"}, {"z", "cell", "mean", "contrast", "seed"})
+    if not isinstance(data["pairs"], list) or not data["pairs"]:
+        raise InputFileError(str(path), "pairs: at least one pair is needed")
+    scene = Scene(path, data)
+    for i, pair in enumerate(data["pairs"]):
+        _keys(path, f"pairs[{i}]", pair, {"label", "pose"}, {"label", "medium", "pose"})
+        _keys(path, f"pairs[{i}].pose", pair["pose"], set(EXTERIOR_PARAMETERS), set(EXTERIOR_PARAMETERS))
+        if pair.get("medium", "water") not in ("air", "water"):
+            raise InputFileError(str(path), f"pairs[{i}].medium: must be 'air' or 'water'")
+        try:
+            scene.rig(pair)
+        except UsvipsError as error:
+            raise InputFileError(str(path), f"pairs[{i}]: {error}") from None
+    return scene
