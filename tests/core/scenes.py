@@ -31,7 +31,7 @@ def _ellipsoid_port() -> GeneralHousing:
         return 2 * (p - center) / semi**2
 
     surface = ImplicitSurface(function, gradient, reach=0.5, steps=50)
-    return GeneralHousing((surface, Plane.from_deg(0.02, -0.01, 0.14)), (1.0, 1.52, 1.34))
+    return GeneralHousing((surface, Plane.from_coefficients(0.02, -0.01, 0.14)), (1.0, 1.52, 1.34))
 
 
 HOUSINGS = {

@@ -94,14 +94,14 @@ def test_points_outside_the_frame_are_reported():
 def test_total_internal_reflection_and_missed_surfaces_have_a_status_not_nan():
     # a camera in water looking out into air through a flat window: steep rays reflect totally
     wide = Interior(f=300.0, xp=640.0, yp=480.0)
-    housing = GeneralHousing((Plane.from_deg(0, 0, 0.05),), (1.33, 1.0))
+    housing = GeneralHousing((Plane.from_coefficients(0, 0, 0.05),), (1.33, 1.0))
     camera = Camera(wide, Exterior(0, 0, 0), housing)
     bundle = camera.rays(np.array([[640.0, 480.0], [1279.0, 959.0]]))
     assert list(bundle.status) == [RayStatus.OK, RayStatus.TOTAL_INTERNAL_REFLECTION]
     assert bundle.failed_surface[1] == 0
     assert np.all(np.isfinite(bundle.origins)) and np.all(np.isfinite(bundle.directions))
     # a strongly tilted cover plane that rays on one side never reach
-    tilted = GeneralHousing((Plane.from_deg(-3.0, 0, 0.05),), (1.0, 1.33))
+    tilted = GeneralHousing((Plane.from_coefficients(-3.0, 0, 0.05),), (1.0, 1.33))
     bundle = Camera(wide, Exterior(0, 0, 0), tilted).rays(np.array([[640.0, 480.0], [0.0, 480.0]]))
     assert list(bundle.status) == [RayStatus.OK, RayStatus.MISSED_SURFACE]
     with pytest.raises(Exception, match="misses a cover surface"):
@@ -115,7 +115,7 @@ def test_object_space_housing_parameters_convert_to_the_camera_frame():
     housing = dome_cover_from_object_space(a, b, c, r, d, e, g, 1.6, 1.34, exterior.rotation, exterior.position)
     # the same surfaces held in object space trace the same object-space rays
     sphere = Sphere(np.array([a, b, c]), r)
-    plane = Plane.from_deg(d, e, g)
+    plane = Plane.from_coefficients(d, e, g)
     object_housing = GeneralHousing((sphere, plane), (1.0, 1.6, 1.34))
     camera = Camera(Interior(570.0, 284.0, 244.0), exterior, housing)
     pixels = np.array([[10.0, 20.0], [284.0, 244.0], [500.0, 400.0]])
@@ -140,7 +140,7 @@ def test_object_space_housing_parameters_convert_to_the_camera_frame():
     (lambda: FlatPortHousing(0, 0, -0.1, 0.01, 1.5, 1.33), "parameter g"),
     (lambda: FlatPortHousing(0, 0, 0.1, 0.01, 1.5, -1.0), "parameter n3"),
     (lambda: Exterior(0, 0, float("nan")), "parameter Z0"),
-    (lambda: GeneralHousing((Plane.from_deg(0, 0, 1),), (1.0,)), "parameter indices"),
+    (lambda: GeneralHousing((Plane.from_coefficients(0, 0, 1),), (1.0,)), "parameter indices"),
 ])
 def test_invalid_housing_parameters_are_named(build, parameter):
     with pytest.raises(InvalidParameterError, match=parameter):

@@ -95,7 +95,7 @@ def test_parallel_and_diverging_rays_are_reported():
 
 def test_failed_rays_mark_the_point():
     rig = make_rig("air")
-    window = GeneralHousing((Plane.from_deg(0, 0, 0.05),), (1.33, 1.0))  # from water out into air
+    window = GeneralHousing((Plane.from_coefficients(0, 0, 0.05),), (1.33, 1.0))  # from water out into air
     left = Camera(Interior(300.0, 640.0, 480.0), rig.left.exterior, window)
     result = intersect([left, rig.right], [np.array([[1279.0, 959.0]]), np.array([[600.0, 400.0]])], 0.5)
     assert result.status[0] == RayStatus.FAILED_RAY

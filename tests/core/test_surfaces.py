@@ -51,7 +51,7 @@ def test_sphere_intersection_takes_the_first_crossing_ahead():
 
 
 def test_plane_intersection_sign_fixes_eq_2_22():
-    plane = Plane.from_deg(0.0, 0.0, 2.0)  # z = -2
+    plane = Plane.from_coefficients(0.0, 0.0, 2.0)  # z = -2
     t, hit = plane.intersect(np.zeros((1, 3)), np.array([[0.0, 0.0, -1.0]]))
     assert hit[0] and t[0] == pytest.approx(2.0)
     t, hit = plane.intersect(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
@@ -78,7 +78,7 @@ def test_implicit_sphere_agrees_with_analytic_sphere():
 def test_transformed_surfaces_are_the_same_set():
     rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     shift = np.array([0.1, 0.2, 0.3])
-    plane = Plane.from_deg(0.1, -0.2, 0.5)
+    plane = Plane.from_coefficients(0.1, -0.2, 0.5)
     point_on_plane = np.array([[1.0, 2.0, -0.5 - 0.1 + 0.4]])
     assert abs(plane.evaluate(point_on_plane)[0]) < 1e-12
     moved = point_on_plane @ rotation.T + shift
@@ -93,7 +93,7 @@ def test_transformed_surfaces_are_the_same_set():
     (lambda: Sphere(np.zeros(3), -1.0), "parameter r"),
     (lambda: Sphere(np.array([0.0, np.nan, 0.0]), 1.0), "parameter sphere center"),
     (lambda: Plane(np.zeros(3), 1.0), "parameter plane normal"),
-    (lambda: Plane.from_deg(0.0, 0.0, float("inf")), "parameter g"),
+    (lambda: Plane.from_coefficients(0.0, 0.0, float("inf")), "parameter g"),
 ])
 def test_invalid_surfaces_name_the_parameter(build, name):
     with pytest.raises(InvalidParameterError, match=name):

@@ -249,7 +249,7 @@ class DomeCoverHousing(Housing):
 
     @cached_property
     def surfaces(self) -> tuple[Surface, ...]:
-        return (Sphere(np.array([self.a, self.b, self.c]), self.r), Plane.from_deg(self.d, self.e, self.g))
+        return (Sphere(np.array([self.a, self.b, self.c]), self.r), Plane.from_coefficients(self.d, self.e, self.g))
 
     @property
     def indices(self) -> tuple[float, ...]:
@@ -288,7 +288,7 @@ class FlatPortHousing(Housing):
 
     @cached_property
     def surfaces(self) -> tuple[Surface, ...]:
-        inner = Plane.from_deg(self.d, self.e, self.g)
+        inner = Plane.from_coefficients(self.d, self.e, self.g)
         # the outer face is the inner one moved t further along the viewing direction (−normal side)
         outer = Plane(inner.normal, inner.offset + self.t)
         return (inner, outer)
@@ -318,7 +318,7 @@ def _to_camera(rotation: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, 
     return rotation, -rotation @ position
 
 
-def plane_to_deg(plane: Plane) -> tuple[float, float, float]:
+def plane_coefficients(plane: Plane) -> tuple[float, float, float]:
     """(d, e, g) of a plane, scaled so that its z coefficient is 1 (raises if the plane contains z)."""
     nz = plane.normal[2]
     if abs(nz) < 1e-9:
@@ -335,7 +335,7 @@ def dome_cover_from_object_space(a: float, b: float, c: float, r: float, d: floa
     """
     rot, shift = _to_camera(np.asarray(rotation, float), np.asarray(position, float))
     center = rot @ np.array([a, b, c], dtype=float) + shift
-    dc, ec, gc = plane_to_deg(Plane.from_deg(d, e, g).transformed(rot, shift))
+    dc, ec, gc = plane_coefficients(Plane.from_coefficients(d, e, g).transformed(rot, shift))
     return DomeCoverHousing(*center, r, dc, ec, gc, n2=n2, n3=n3, n1=n1)
 
 
@@ -344,7 +344,7 @@ def flat_port_from_object_space(d: float, e: float, g: float, t: float, n2: floa
                                 n1: float = 1.0) -> FlatPortHousing:
     """System II housing in the camera frame from the seeds' object-space plane (d, e, g)."""
     rot, shift = _to_camera(np.asarray(rotation, float), np.asarray(position, float))
-    dc, ec, gc = plane_to_deg(Plane.from_deg(d, e, g).transformed(rot, shift))
+    dc, ec, gc = plane_coefficients(Plane.from_coefficients(d, e, g).transformed(rot, shift))
     return FlatPortHousing(dc, ec, gc, t, n2=n2, n3=n3, n1=n1)
 
 
@@ -355,5 +355,5 @@ def shared_plane_in_camera(d: float, e: float, g: float, rotation: np.ndarray,
     ``rotation`` and ``translation`` map points of the first frame into the second:
     p_second = rotation · p_first + translation. Used for System I's cover plane shared by both cameras.
     """
-    plane = Plane.from_deg(d, e, g).transformed(np.asarray(rotation, float), np.asarray(translation, float))
-    return plane_to_deg(plane)
+    plane = Plane.from_coefficients(d, e, g).transformed(np.asarray(rotation, float), np.asarray(translation, float))
+    return plane_coefficients(plane)

@@ -94,7 +94,7 @@ class Plane:
         object.__setattr__(self, "offset", validation.finite("plane offset", self.offset) / length)
 
     @classmethod
-    def from_deg(cls, d: float, e: float, g: float) -> Plane:
+    def from_coefficients(cls, d: float, e: float, g: float) -> Plane:
         """The seeds' plane d·X + e·Y + Z + g = 0 (thesis eq. 2.21)."""
         return cls(np.array([validation.finite("d", d), validation.finite("e", e), 1.0]),
                    validation.finite("g", g))
