@@ -11,23 +11,20 @@ from usvips.core.targets import locate_disc
 from usvips.io.images import read_image
 from usvips.io.manifest import read_manifest
 
-SAMPLE = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport"
+SAMPLES = Path(__file__).resolve().parents[2] / "sample_projects"
+SAMPLE = SAMPLES / "rov_flatport"
 
 
-@pytest.fixture(scope="module")
-def rendered(tmp_path_factory):
-    out = tmp_path_factory.mktemp("render")
-    assert main(["render", str(SAMPLE / "scene.json"), "--out", str(out)]) == 0
-    return out
-
-
-def test_the_committed_sample_is_reproduced_byte_for_byte(rendered):
-    committed = sorted(p.relative_to(SAMPLE) for p in SAMPLE.rglob("*") if p.is_file()
+@pytest.mark.parametrize("name", ["rov_flatport", "tank_system1"])
+def test_the_committed_samples_are_reproduced_byte_for_byte(tmp_path, name):
+    sample = SAMPLES / name
+    assert main(["render", str(sample / "scene.json"), "--out", str(tmp_path)]) == 0
+    committed = sorted(p.relative_to(sample) for p in sample.rglob("*") if p.is_file()
                        and p.name not in ("scene.json", "README.md")
                        and not p.name.startswith("project.usvips"))
-    assert committed, "the sample has files"
+    assert len(committed) >= 10, "images, control, observations, truth and manifest"
     for relative in committed:
-        assert (rendered / relative).read_bytes() == (SAMPLE / relative).read_bytes(), relative
+        assert (tmp_path / relative).read_bytes() == (sample / relative).read_bytes(), relative
 
 
 def test_the_sample_opens_and_its_truth_matches_its_images():
