@@ -8,13 +8,15 @@ from pathlib import Path
 
 import numpy as np
 
-from usvips.core.errors import InputFileError
+from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
+from usvips.core.errors import ConvergenceError, InputFileError
 from usvips.core.observations import StereoObservations
 from usvips.core.synth import Disc, Seafloor, Water, render
 from usvips.io.atomic import write_text_atomic
+from usvips.io.calibration_file import calibration_to_dict
 from usvips.io.images import write_image
 from usvips.io.scene import read_scene
-from usvips.io.tables import read_control, write_control, write_observations
+from usvips.io.tables import read_control, read_observations, write_control, write_observations
 
 RESOURCES = Path(__file__).resolve().parents[2] / "resources"
 
@@ -40,6 +42,49 @@ def _camera_truth(camera) -> dict:
                                                                      **camera.housing.parameters()}}
 
 
+def _object_truth(label: str, kind: str, item) -> dict:
+    truth = {"label": label, "kind": kind, "points": item.points()}
+    if kind in ("fish", "pipe"):
+        truth["length"] = item.length
+    return truth
+
+
+def _object_pixels(scene, index: int, camera, objects) -> dict:
+    """Exact pixel positions of every object's named points; an object point out of view is an error."""
+    pixels = {}
+    for label, _, item in objects:
+        names, points = zip(*item.points().items(), strict=True)
+        projection = camera.project(np.asarray(points, float))
+        if not projection.ok.all():
+            raise InputFileError(str(scene.path), f"pairs[{index}]: object {label!r} is not seen by every camera "
+                                 "(behind a camera or through no housing surface)")
+        pixels[label] = {name: projection.pixels[i].tolist() for i, name in enumerate(names)}
+    return pixels
+
+
+def _calibrate(out: Path, scene, control, manifest: dict, size: tuple[int, int]) -> None:
+    """Calibrate the rendered rig as a user would (phase 1 in air, then all water pairs jointly) from the
+    written observation files, so that the sample opens ready to measure: ``calibration.json`` is active
+    for every underwater pair."""
+    options = CalibrationOptions(sigma_px=0.5, image_size=size)
+    air = calibrate_air(control, read_observations(out / "observations_air.csv"), options,
+                        {"control": "control.csv", "observations": "observations_air.csv"})
+    if not air.adjustment.converged:
+        raise ConvergenceError(f"{scene.path}: phase 1 of the sample's calibration did not converge")
+    water = calibrate_water(air.calibration, scene.data["housing"]["kind"], control,
+                            read_observations(out / "observations_water.csv"), options,
+                            {"control": "control.csv", "observations": "observations_water.csv",
+                             "base": "calibration_air.json"})
+    if not water.adjustment.converged:
+        raise ConvergenceError(f"{scene.path}: phase 2 of the sample's calibration did not converge")
+    for name, result in (("calibration_air.json", air), ("calibration.json", water)):
+        write_text_atomic(out / name, json.dumps(calibration_to_dict(result.calibration), indent=2,
+                                                 allow_nan=False) + "\n")
+    manifest["calibrations"] = [
+        {"file": "calibration_air.json", "active_for": [p["label"] for p in manifest["pairs"] if p["medium"] == "air"]},
+        {"file": "calibration.json", "active_for": [p["label"] for p in manifest["pairs"] if p["medium"] == "water"]}]
+
+
 def run(args: argparse.Namespace) -> int:
     scene = read_scene(args.scene)
     data = scene.data
@@ -56,27 +101,36 @@ def run(args: argparse.Namespace) -> int:
     image = data["image"]
     noise_px = float(data.get("observation_noise_px", 0.3))
     rng = np.random.default_rng(scene.seed)
-    truth = {"scene": scene.name, "pairs": []}
+    objects = scene.objects()
+    truth = {"scene": scene.name, "pairs": [], "objects": [_object_truth(label, kind, item)
+                                                         for label, kind, item in objects]}
     observations: dict[str, list] = {"air": [], "water": []}
     pairs_manifest = []
     for index, pair in enumerate(data["pairs"]):
         rig = scene.rig(pair)
         medium = pair.get("medium", "water")
         entry = {"label": pair["label"], "medium": medium, "cameras": {}}
+        contents = scene.contents(pair)
+        shown = [item for _, _, item in objects] if "objects" in contents else []
         projections = []
         for side, camera in (("left", rig.left), ("right", rig.right)):
-            picture = render(camera, discs, floor, water if medium == "water" else None,
-                             supersample=image.get("supersample", 3),
-                             seed=scene.seed * 100 + index * 2 + (side == "right"))
+            picture = render(camera, discs if "frame" in contents else [], floor if "floor" in contents else None,
+                             water if medium == "water" else None, supersample=image.get("supersample", 3),
+                             seed=scene.seed * 100 + index * 2 + (side == "right"), objects=shown,
+                             colour=bool(pair.get("colour", image.get("colour", False))),
+                             lighting=float(pair.get("lighting", image.get("lighting", 0.0))),
+                             interlace=float(image.get("interlace", 0.0)))
             write_image(out / "images" / f"{pair['label']}_{side}.png", picture)
             entry["cameras"][side] = _camera_truth(camera)
-            projection = camera.project(control.xyz) if control is not None else None
+            if shown:
+                entry["cameras"][side]["objects"] = _object_pixels(scene, index, camera, objects)
+            projection = camera.project(control.xyz) if control is not None and "frame" in contents else None
             projections.append(projection)
             if projection is not None:
                 entry["cameras"][side]["targets"] = {
                     pid: (projection.pixels[i].tolist() if projection.ok[i] else None)
                     for i, pid in enumerate(control.ids)}
-        if control is not None:
+        if projections[0] is not None:
             seen = projections[0].ok & projections[1].ok
             if seen.sum() < 6:
                 raise InputFileError(str(scene.path), f"pairs[{index}]: only {int(seen.sum())} targets are seen by "
@@ -87,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
             observations[medium].append(StereoObservations(tuple(control.ids[i] for i in idx), left, right,
                                                            (pair["label"],) * idx.size))
         truth["pairs"].append(entry)
+        entry["contents"] = list(contents)
         pairs_manifest.append({"label": pair["label"], "medium": medium, "left": f"images/{pair['label']}_left.png",
                                "right": f"images/{pair['label']}_right.png"})
     manifest = {"format": "usvips-sample", "version": 1, "name": scene.name,
@@ -103,6 +158,8 @@ def run(args: argparse.Namespace) -> int:
                 write_observations(out / f"observations_{medium}.csv", merged)
                 manifest["observations"].append({"file": f"observations_{medium}.csv", "role": role,
                                                  "pairs": list(dict.fromkeys(merged.pairs))})
+        if observations["air"] and observations["water"]:
+            _calibrate(out, scene, control, manifest, (image["width"], image["height"]))
     truth["observation_noise_px"] = noise_px
     write_text_atomic(out / "truth.json", json.dumps(truth, indent=1, allow_nan=False) + "\n")
     write_text_atomic(out / "project.json", json.dumps(manifest, indent=2) + "\n")

@@ -9,9 +9,17 @@ its image pairs, the water, and what is in the scene (the calibration frame, a s
      "water": {"attenuation": 0.3, "backscatter": 70, "blur": 0.7, "noise": 2.0},
      "frame": {"targets": "calibration_frame.csv", "radius": 0.04},               # resources/ file
      "floor": {"z": -100.6, "cell": 0.03, "mean": 70, "contrast": 25},
+     "objects": [{"kind": "fish", "label": "fish1", "snout": [X, Y, Z], "fork": [X, Y, Z], "up": [0, 1, 0]},
+                 {"kind": "pipe", "label": "pipe1", "start": [...], "end": [...], "radius": 0.05},
+                 {"kind": "rock", "label": "rock1", "centre": [...], "semi_axes": [0.12, 0.09, 0.06]}],
      "observation_noise_px": 0.3,
-     "pairs": [{"label": "air1", "medium": "air", "pose": {"X0": ..., "Y0": ..., "Z0": ..., "omega": ...,
-                "phi": ..., "kappa": ...}}, ...]}
+     "pairs": [{"label": "air1", "medium": "air", "contents": ["frame", "floor"],
+                "pose": {"X0": ..., "Y0": ..., "Z0": ..., "omega": ..., "phi": ..., "kappa": ...}}, ...]}
+
+``image`` may also say ``"colour": true`` (RGB with red absorbed most), ``"lighting": 0.4`` (lamp falloff
+towards the corners) and ``"interlace": 1.5`` (odd rows shifted, pixels). A pair's ``contents`` (default:
+everything) chooses which of ``frame``, ``floor``, ``objects`` it shows; a pair may override ``colour`` and
+``lighting``.
 
 Every key is checked: an unknown or missing one is an :class:`InputFileError` naming it, and so is
 impossible geometry (the frame behind a camera, a camera inside the frame).
@@ -28,10 +36,18 @@ from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
 from usvips.core.rig import RelativeOrientation, StereoRig
+from usvips.core.synth import Fish, Pipe, Rock
 
 FORMAT = "usvips-scene"
 TOP = {"format", "version", "name", "seed", "image", "left", "right", "relative", "housing", "water", "frame",
-       "floor", "observation_noise_px", "pairs", "description"}
+       "floor", "objects", "observation_noise_px", "pairs", "description"}
+CONTENTS = ("frame", "floor", "objects")
+OBJECT_KEYS = {
+    "fish": ({"snout", "fork"}, {"up", "depth", "brightness", "colour"}),
+    "pipe": ({"start", "end"}, {"radius", "ring_spacing", "ring_width", "brightness", "colour"}),
+    "rock": ({"centre"}, {"semi_axes", "brightness", "seed", "colour"}),
+}
+OBJECT_TYPES = {"fish": Fish, "pipe": Pipe, "rock": Rock}
 HOUSINGS = {"air": AirHousing, "dome-cover": DomeCoverHousing, "flat-port": FlatPortHousing}
 
 
@@ -47,6 +63,19 @@ class Scene:
     @property
     def seed(self) -> int:
         return int(self.data.get("seed", 0))
+
+    def objects(self) -> list[tuple[str, str, Fish | Pipe | Rock]]:
+        """(label, kind, object) for every object in the scene."""
+        result = []
+        for entry in self.data.get("objects", []):
+            parameters = {k: (tuple(v) if isinstance(v, list) else v) for k, v in entry.items()
+                          if k not in ("kind", "label")}
+            result.append((entry["label"], entry["kind"], OBJECT_TYPES[entry["kind"]](**parameters)))
+        return result
+
+    @staticmethod
+    def contents(pair: dict) -> tuple[str, ...]:
+        return tuple(pair.get("contents", CONTENTS))
 
     def rig(self, pair: dict) -> StereoRig:
         """The rig at a pair's pose, with the scene's housing underwater and none in air."""
@@ -88,7 +117,8 @@ def read_scene(path: str | Path) -> Scene:
                                 "pairs"}, TOP)
     if data["format"] != FORMAT or data["version"] != 1:
         raise InputFileError(str(path), f"not a version-1 USVIPS scene (format must be {FORMAT!r})")
-    _keys(path, "image", data["image"], {"width", "height"}, {"width", "height", "supersample"})
+    _keys(path, "image", data["image"], {"width", "height"},
+          {"width", "height", "supersample", "colour", "lighting", "interlace"})
     for side in ("left", "right"):
         _keys(path, side, data[side], {"f", "xp", "yp"}, set(INTERIOR_PARAMETERS))
     _keys(path, "relative", data["relative"], {"bx"}, {"bx", "by", "bz", "omega", "phi", "kappa"})
@@ -101,11 +131,32 @@ def read_scene(path: str | Path) -> Scene:
         _keys(path, "frame", data["frame"], {"targets"}, {"targets", "radius"})
     if "floor" in data:
         _keys(path, "floor", data["floor"], {"z"}, {"z", "cell", "mean", "contrast", "seed"})
+    objects = data.get("objects", [])
+    if not isinstance(objects, list):
+        raise InputFileError(str(path), "objects: expected a list")
+    labels = set()
+    for i, entry in enumerate(objects):
+        kind = entry.get("kind") if isinstance(entry, dict) else None
+        if kind not in OBJECT_KEYS:
+            raise InputFileError(str(path), f"objects[{i}].kind: must be one of {', '.join(OBJECT_KEYS)}")
+        required, optional = OBJECT_KEYS[kind]
+        _keys(path, f"objects[{i}]", entry, required | {"kind", "label"}, required | optional | {"kind", "label"})
+        if entry["label"] in labels:
+            raise InputFileError(str(path), f"objects[{i}].label: {entry['label']!r} is used twice")
+        labels.add(entry["label"])
     if not isinstance(data["pairs"], list) or not data["pairs"]:
         raise InputFileError(str(path), "pairs: at least one pair is needed")
     scene = Scene(path, data)
+    try:
+        scene.objects()
+    except (UsvipsError, TypeError, ValueError) as error:
+        raise InputFileError(str(path), f"objects: {error}") from None
     for i, pair in enumerate(data["pairs"]):
-        _keys(path, f"pairs[{i}]", pair, {"label", "pose"}, {"label", "medium", "pose"})
+        _keys(path, f"pairs[{i}]", pair, {"label", "pose"},
+              {"label", "medium", "pose", "contents", "colour", "lighting"})
+        unknown = [c for c in pair.get("contents", CONTENTS) if c not in CONTENTS]
+        if unknown:
+            raise InputFileError(str(path), f"pairs[{i}].contents: unknown {unknown[0]!r} (use {', '.join(CONTENTS)})")
         _keys(path, f"pairs[{i}].pose", pair["pose"], set(EXTERIOR_PARAMETERS), set(EXTERIOR_PARAMETERS))
         if pair.get("medium", "water") not in ("air", "water"):
             raise InputFileError(str(path), f"pairs[{i}].medium: must be 'air' or 'water'")

@@ -11,7 +11,9 @@ at (0, 0)). Deterministic for a given ``seed``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import cv2
 import numpy as np
@@ -19,6 +21,14 @@ from scipy.ndimage import map_coordinates
 
 from usvips.core import validation
 from usvips.core.camera import Camera
+
+
+class SceneObject(Protocol):
+    """Anything with ``hit(origins, directions) -> (t, grey)`` and a ``colour`` tint."""
+
+    colour: tuple[float, float, float]
+
+    def hit(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 @dataclass(frozen=True)
@@ -62,6 +72,18 @@ class Water:
     backscatter: float = 70.0
     blur: float = 0.7
     noise: float = 2.0
+    #: Colour mode: attenuation (1/m) and backscatter per channel (red, green, blue); ``None`` derives them
+    #: from the grey values with red absorbed most, as in coastal water.
+    attenuation_rgb: tuple[float, float, float] | None = None
+    backscatter_rgb: tuple[float, float, float] | None = None
+
+    def channels(self, colour: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Attenuation (1/m) and backscatter (grey) as arrays of 1 (grey) or 3 (colour) channels."""
+        if not colour:
+            return np.array([self.attenuation]), np.array([self.backscatter])
+        attenuation = self.attenuation_rgb or tuple(self.attenuation * k for k in (2.2, 1.0, 0.85))
+        backscatter = self.backscatter_rgb or tuple(self.backscatter * k for k in (0.35, 1.0, 0.95))
+        return np.asarray(attenuation, float), np.asarray(backscatter, float)
 
 
 def _basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -73,8 +95,13 @@ def _basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def render(camera: Camera, discs: list[Disc] = (), floor: Seafloor | None = None, water: Water | None = None,
            size: tuple[int, int] | None = None, supersample: int = 3, background: float = 60.0,
-           seed: int = 0) -> np.ndarray:
-    """Render a grey uint8 image (height, width) of the scene as ``camera`` sees it."""
+           seed: int = 0, objects: Sequence[SceneObject] = (), colour: bool = False, lighting: float = 0.0,
+           interlace: float = 0.0) -> np.ndarray:
+    """Render the scene as ``camera`` sees it: grey uint8 (height, width), or RGB uint8 (height, width, 3)
+    with ``colour``. ``objects`` are fish, pipes, rocks (:mod:`usvips.core.synth.objects`). ``lighting``
+    (0-1) darkens the image towards its corners as an artificial lamp does (1 − lighting·r², r = 1 at a
+    corner); ``interlace`` shifts the odd rows by that many pixels to the right, as motion between the
+    two fields of an interlaced video frame does."""
     width, height = size if size else (camera.width, camera.height)
     if not width or not height:
         raise validation.InvalidParameterError("size", "give the image size or a camera with width and height")
@@ -116,13 +143,43 @@ def render(camera: Camera, discs: list[Disc] = (), floor: Seafloor | None = None
             a * a + b * b < (disc.cross_extent * disc.radius) ** 2)
         value[index] = np.where(cross, disc.cross_brightness, disc.brightness)
         nearest[index] = t[index]
+    tint = np.ones((len(pixels), 3)) if colour else None
+    for element in objects:
+        t, shade = element.hit(o, d)
+        front = (t < nearest) & bundle.ok
+        value[front] = shade[front]
+        nearest[front] = t[front]
+        if tint is not None:
+            tint[front] = element.colour
+    if colour:
+        value = value[:, None] * tint
+    if lighting:
+        r2 = (((pixels[:, 0] - (width - 1) / 2) / (width / 2)) ** 2
+              + ((pixels[:, 1] - (height - 1) / 2) / (height / 2)) ** 2) / 2
+        falloff = 1 - float(lighting) * r2
+        value = value * (falloff[:, None] if colour else falloff)
     if water is not None:
         path = np.where(np.isfinite(nearest), nearest, 50.0)
-        transmission = np.exp(-water.attenuation * path)
-        value = value * transmission + water.backscatter * (1 - transmission)
-    image = value.reshape(height, s, width, s).mean(axis=(1, 3))
+        attenuation, backscatter = water.channels(colour)
+        if colour:
+            transmission = np.exp(-attenuation[None, :] * path[:, None])
+        else:
+            attenuation, backscatter = attenuation[0], backscatter[0]
+            transmission = np.exp(-attenuation * path)
+        value = value * transmission + backscatter * (1 - transmission)
+    channels = (3,) if colour else ()
+    image = value.reshape(height, s, width, s, *channels).mean(axis=(1, 3))
     if water is not None:
         if water.blur > 0:
             image = cv2.GaussianBlur(image, (0, 0), water.blur)
         image = image + np.random.default_rng(seed).normal(0, water.noise, image.shape)
+    if interlace:
+        shifted = np.empty_like(image[1::2])
+        columns = np.arange(width) - float(interlace)
+        for row, line in enumerate(image[1::2]):
+            if colour:
+                shifted[row] = np.stack([np.interp(columns, np.arange(width), line[:, k]) for k in range(3)], axis=1)
+            else:
+                shifted[row] = np.interp(columns, np.arange(width), line)
+        image[1::2] = shifted
     return np.clip(np.rint(image), 0, 255).astype(np.uint8)
