@@ -14,7 +14,7 @@ from usvips import __version__
 from usvips.core.errors import UsvipsError
 
 #: (module name, description) of every subcommand; each module defines ``register(subparsers)``.
-COMMANDS: tuple[str, ...] = ("demo", "calibrate", "intersect", "measure", "project", "render", "bench")
+COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure", "project", "render", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,7 +32,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parser.parse_args(argv or ["open"])  # no arguments: the workstation window
     handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)
     if handler is None:
         parser.print_help()

@@ -1,0 +1,152 @@
+"""The workstation window end to end (offscreen): open a sample, pick with the mouse, see the epipolar
+curve and the proposal, measure a fish, undo/redo, enhance, reopen."""
+
+import numpy as np
+import pytest
+
+from tests.gui.conftest import click_pixel, isolated_targets, open_sample, true_length, truth_pixels, wait_for_pair
+from usvips.core.matching import EpipolarCurve
+from usvips.gui.pane import pixel_from_item
+
+
+def _drawn_curve(pane) -> np.ndarray:
+    x, y = pane.curve_item.getData()
+    return np.array([pixel_from_item(a, b) for a, b in zip(x, y, strict=True)])
+
+
+def _drawn_points(item) -> np.ndarray:
+    return np.array([pixel_from_item(p.x(), p.y()) for p in (s.pos() for s in item.points())]).reshape(-1, 2)
+
+
+def test_the_window_opens_a_sample_and_shows_both_images(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    for side in ("left", "right"):
+        assert window.panes[side].image_size() == (window.workspace.images[side].shape[1],
+                                                   window.workspace.images[side].shape[0])
+    assert [window.pair_box.itemText(i) for i in range(window.pair_box.count())] == \
+        ["air1", "water1", "water2", "measure1"]
+    assert "rig frame" in window.log.toPlainText()
+
+
+def test_a_mouse_pick_draws_the_epipolar_curve_through_the_true_conjugate(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("rov_flatport")
+    open_sample(qtbot, window, directory, "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    proposed = 0
+    for number in isolated_targets(left, right)[:6]:
+        window.cancel_pick()
+        click_pixel(qtbot, window.panes["left"], left[number])
+        curve = _drawn_curve(window.panes["right"])
+        assert EpipolarCurve(curve, np.zeros(len(curve))).distance_to(np.array(right[number])) < 0.5
+        drawn = _drawn_points(window.panes["right"].proposal_item)
+        if len(drawn) == 0:  # refused (ambiguous or at the image edge): the status bar says so
+            assert "no automatic match" in window.statusBar().currentMessage()
+            continue
+        proposed += 1
+        assert np.linalg.norm(drawn[0] - right[number]) < 0.5
+        (pick,) = _drawn_points(window.panes["left"].pick_item)
+        assert np.linalg.norm(pick - left[number]) < 0.2  # the click at 8× zoom
+    assert proposed >= 4
+
+
+def test_measuring_a_fish_with_the_mouse_stores_it_with_its_true_length(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.actions["tool_line"].trigger()
+    assert window.workspace.tool == "line"
+    window.attribute_box.setEditText("fish")
+    for point in ("snout", "fork"):
+        click_pixel(qtbot, window.panes["left"], left["fish1"][point])
+        assert window.workspace.state.proposal is not None
+        click_pixel(qtbot, window.panes["right"], right["fish1"][point])  # correct the proposal by hand
+        assert "±" in window.point_label.text()
+    window.actions["accept"].trigger()  # no proposal pending: Enter finishes the object
+    (stored,) = window.workspace.project.objects()
+    assert stored.kind == "line" and stored.attribute == "fish"
+    figure = window.workspace.figures([stored.id]).figures[0]
+    assert abs(figure.value - true_length(directory, "fish1")) < figure.sigma
+    assert window.object_list.table.rowCount() == 1
+    assert "mm" in window.object_list.table.item(0, 4).text()
+    window.object_list.table.selectRow(0)
+    assert "length" in window.calculator.output.toPlainText()
+    x, _ = window.panes["left"].selected_item.getData()
+    assert len(x) >= 2  # the selected fish is drawn highlighted
+    window.actions["undo"].trigger()
+    assert window.workspace.project.objects() == [] and window.object_list.table.rowCount() == 0
+    window.actions["redo"].trigger()
+    assert len(window.workspace.project.objects()) == 1 and window.object_list.table.rowCount() == 1
+
+
+def test_enhancement_changes_the_display_but_not_the_coordinates(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    pane = window.panes["left"]
+
+    def measure() -> np.ndarray:
+        click_pixel(qtbot, pane, left["fish2"]["snout"])
+        click_pixel(qtbot, window.panes["right"], right["fish2"]["snout"])
+        return window.workspace.last_point.xyz.copy()
+
+    before_display = pane.display.copy()
+    before = measure()
+    window.enhancement.target.setCurrentText("both")
+    window.enhancement.operation.setCurrentText("equalize")
+    window.enhancement.add_button.click()
+    qtbot.waitUntil(lambda: not window.busy and not np.array_equal(pane.display, before_display), timeout=10000)
+    assert np.array_equal(window.workspace.images["left"], before_display)  # the original is untouched
+    assert np.array_equal(measure(), before)
+    assert window.enhancement.steps.count() == 1
+
+
+def test_reopening_restores_objects_enhancement_pair_and_layout(qtbot, make_window, sample_copy, tmp_path):
+    settings = tmp_path / "layout.ini"
+    window = make_window(settings)
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("point")
+    click_pixel(qtbot, window.panes["left"], left["rock1"]["centre"])
+    click_pixel(qtbot, window.panes["right"], right["rock1"]["centre"])
+    from usvips.core.enhance import Pipeline
+
+    window.workspace.set_pipeline("right", Pipeline().then("gamma", gamma=0.7))
+    qtbot.waitUntil(lambda: not window.busy, timeout=10000)
+    window.docks["plan"].hide()
+    window.close()
+
+    again = make_window(settings)
+    assert str(directory / "project.usvips") in again.recent_projects()[0]
+    assert again.open_path(again.recent_projects()[0])
+    wait_for_pair(qtbot, again, "measure1")  # the pair last shown
+    (stored,) = again.workspace.project.objects()
+    assert stored.kind == "point"
+    assert again.workspace.pipelines["right"].operations[0].name == "gamma"
+    assert again.workspace.pipelines["left"].operations == ()
+    assert not again.docks["plan"].isVisible()
+    assert again.object_list.table.rowCount() == 1
+
+
+def test_bad_input_is_reported_not_raised(qtbot, make_window, tmp_path):
+    window = make_window()
+    assert not window.open_path(tmp_path / "missing.usvips")
+    assert "no such project" in window.statusBar().currentMessage()
+    junk = tmp_path / "junk.usvips"
+    junk.write_text("not a database")
+    assert not window.open_path(junk)
+    assert "junk.usvips" in window.statusBar().currentMessage()
+    window.accept_or_finish()
+    assert "nothing to accept" in window.statusBar().currentMessage()
+
+
+@pytest.mark.parametrize("tool", ["point", "polygon"])
+def test_tools_are_chosen_from_actions(qtbot, make_window, tool):
+    window = make_window()
+    window.actions[f"tool_{tool}"].trigger()
+    assert window.workspace.tool == tool

@@ -1,0 +1,26 @@
+"""``usvips open [PROJECT]``: the workstation window (also what ``usvips`` with no arguments runs).
+
+The one place outside ``usvips.gui`` that reaches into it: the import is deferred so that every other
+command starts without loading Qt (declared in the import-linter contracts of pyproject.toml).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from usvips.core.errors import InputFileError
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("open", help="the workstation window, optionally on a project or sample")
+    parser.add_argument("project", nargs="?", help="a project file (*.usvips) or a sample directory")
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.project is not None and not Path(args.project).exists():
+        raise InputFileError(args.project, "no such project file or sample directory")
+    from usvips.gui.app import run as run_window
+
+    return run_window(args.project)

@@ -1,0 +1,35 @@
+"""Start the workstation: a QApplication, the main window, optionally a project opened in it."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pyqtgraph as pg
+from PySide6 import QtWidgets
+
+
+def configure() -> None:
+    """Global pyqtgraph settings, once at start-up: row-major images (ARCHITECTURE.md) and antialiased marks."""
+    pg.setConfigOptions(imageAxisOrder="row-major", antialias=True)
+
+
+def application() -> QtWidgets.QApplication:
+    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
+    app.setOrganizationName("USVIPS")
+    app.setApplicationName("usvips")
+    return app
+
+
+def run(project: str | Path | None = None) -> int:
+    """Show the main window (opening ``project``, a ``*.usvips`` file or a sample directory) and run the
+    event loop; returns the exit code."""
+    configure()
+    app = application()
+    from usvips.gui.main_window import MainWindow
+
+    window = MainWindow()
+    window.show()
+    if project is not None:
+        window.open_path(project)
+    return app.exec()

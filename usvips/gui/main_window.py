@@ -1,0 +1,569 @@
+"""The workstation window: two stereo panes in a splitter, docks for enhancement, objects, the
+geo-calculator, the plan view and the log; menus, toolbar, shortcuts and a status bar with the pixel
+under the cursor and the last 3-D point with its sigmas.
+
+The window is a controller: it forwards clicks to the :class:`Workspace`, draws what the workspace holds,
+and runs image reading and enhancement in worker threads (progress and cancel in the status bar).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+from PySide6 import QtCore, QtGui, QtWidgets
+
+import usvips
+from usvips.core.errors import UsvipsError
+from usvips.gui.pane import StereoPane
+from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, PlanView
+from usvips.gui.worker import Cancelled, Worker
+from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
+from usvips.samples import open_or_create_from_manifest
+from usvips.store import Project
+
+SAMPLES = Path(usvips.__file__).resolve().parents[1] / "sample_projects"
+MAX_RECENT = 8
+TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
+             "point": "Point: each intersected point is stored as an object",
+             "line": "Line: digitise a polyline vertex by vertex (Enter finishes; a fish is snout then fork)",
+             "polygon": "Polygon: digitise an area vertex by vertex (Enter finishes)"}
+
+
+def luminance_histogram(image: np.ndarray) -> np.ndarray:
+    """Counts of the 256 grey levels (uint16 images binned to 256)."""
+    grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY) if image.ndim == 3 else image
+    top = 256 if grey.dtype == np.uint8 else 65536
+    return cv2.calcHist([grey], [0], None, [256], [0, top]).ravel()
+
+
+class MainWindow(QtWidgets.QMainWindow):
+    def __init__(self, workspace: Workspace | None = None, settings: QtCore.QSettings | None = None) -> None:
+        super().__init__()
+        self.workspace = workspace or Workspace()
+        self.settings = settings or QtCore.QSettings("USVIPS", "usvips")
+        self.setWindowTitle("USVIPS")
+        self.setObjectName("usvips_main")
+        self.pool = QtCore.QThreadPool(self)  # its own pool: finished with the window
+        self.workers: set[Worker] = set()
+        self._display_tokens = dict.fromkeys(SIDES, 0)
+        self._pair_worker: Worker | None = None
+        self.selection: list[int] = []
+        self.panes = {side: StereoPane(side) for side in SIDES}
+        self.splitter = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
+        self.splitter.setObjectName("stereo_splitter")
+        for side in SIDES:
+            self.splitter.addWidget(self.panes[side])
+            self.panes[side].clicked.connect(lambda x, y, s=side: self._on_clicked(s, x, y))
+            self.panes[side].hovered.connect(lambda x, y, s=side: self._on_hovered(s, x, y))
+        self.setCentralWidget(self.splitter)
+        self._build_docks()
+        self._build_status_bar()
+        self._build_actions()
+        self._build_menus_and_toolbar()
+        ws = self.workspace
+        ws.pair_changed.connect(self._on_pair_changed)
+        ws.picks_changed.connect(self._on_picks_changed)
+        ws.objects_changed.connect(self._on_objects_changed)
+        ws.enhancement_changed.connect(self._on_enhancement_changed)
+        ws.message.connect(self.show_message)
+        ws.undo.changed.connect(self._on_undo_changed)
+        self.resize(1366, 768)
+        self._restore_layout()
+        self._on_undo_changed()
+        self.show_message("info", "Open a project (Ctrl+O) or a sample (File › Open sample) to begin.")
+
+    # ------------------------------------------------------------------ construction
+    def _dock(self, title: str, widget: QtWidgets.QWidget, area: QtCore.Qt.DockWidgetArea) -> QtWidgets.QDockWidget:
+        dock = QtWidgets.QDockWidget(title, self)
+        dock.setObjectName(f"dock_{title.lower().replace(' ', '_').replace('-', '_')}")
+        dock.setWidget(widget)
+        self.addDockWidget(area, dock)
+        return dock
+
+    def _build_docks(self) -> None:
+        ws = self.workspace
+        self.enhancement = EnhancementPanel(ws)
+        self.object_list = ObjectList(ws)
+        self.calculator = CalculatorPanel(ws)
+        self.plan = PlanView(ws)
+        self.log = LogPanel()
+        right = QtCore.Qt.DockWidgetArea.RightDockWidgetArea
+        bottom = QtCore.Qt.DockWidgetArea.BottomDockWidgetArea
+        self.docks = {"enhancement": self._dock("Enhancement", self.enhancement, right),
+                      "calculator": self._dock("Geo-calculator", self.calculator, right),
+                      "objects": self._dock("Objects", self.object_list, bottom),
+                      "plan": self._dock("Plan view", self.plan, bottom),
+                      "log": self._dock("Log", self.log, bottom)}
+        self.tabifyDockWidget(self.docks["objects"], self.docks["plan"])
+        self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
+        self.docks["objects"].raise_()
+        self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
+        self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
+        self.object_list.selection_changed.connect(self._on_selection_changed)
+        self.object_list.zoom_requested.connect(self.zoom_to_object)
+
+    def _build_status_bar(self) -> None:
+        bar = self.statusBar()
+        self.pixel_label = QtWidgets.QLabel("")
+        self.pixel_label.setMinimumWidth(260)
+        self.point_label = QtWidgets.QLabel("")
+        self.progress = QtWidgets.QProgressBar()
+        self.progress.setMaximumWidth(160)
+        self.progress.hide()
+        self.cancel_button = QtWidgets.QPushButton("Cancel")
+        self.cancel_button.hide()
+        self.cancel_button.clicked.connect(self.cancel_work)
+        bar.addPermanentWidget(self.point_label)
+        bar.addPermanentWidget(self.pixel_label)
+        bar.addPermanentWidget(self.progress)
+        bar.addPermanentWidget(self.cancel_button)
+
+    def _action(self, text: str, slot, shortcut: str | QtGui.QKeySequence | None = None, tip: str = "",
+                checkable: bool = False) -> QtGui.QAction:
+        action = QtGui.QAction(text, self)
+        if shortcut:
+            action.setShortcut(QtGui.QKeySequence(shortcut))
+        action.setToolTip(f"{tip or text}" + (f" ({action.shortcut().toString()})" if shortcut else ""))
+        action.setStatusTip(tip or text)
+        action.setCheckable(checkable)
+        action.triggered.connect(slot)
+        self.addAction(action)
+        return action
+
+    def _build_actions(self) -> None:
+        key = QtGui.QKeySequence.StandardKey
+        self.actions: dict[str, QtGui.QAction] = {
+            "open": self._action("&Open project…", self.open_dialog, key.Open,
+                                 "open a project file (*.usvips) or a sample directory"),
+            "quit": self._action("&Quit", self.close, key.Quit),
+            "undo": self._action("&Undo", self.undo, key.Undo),
+            "redo": self._action("&Redo", self.redo, key.Redo),
+            "accept": self._action("Accept match / finish", self.accept_or_finish, "Return",
+                                   "accept the proposed match; with no proposal, finish the object"),
+            "finish": self._action("&Finish object", self.finish_object, "Ctrl+Return", "store the object"),
+            "cancel": self._action("Cancel pick", self.cancel_pick, "Escape", "drop the half-made vertex"),
+            "snap": self._action("&Snap to targets", self._on_snap, "S",
+                                 "snap each click to the sub-pixel centre of a target disc", checkable=True),
+            "auto_match": self._action("&Auto-match", self._on_auto_match, "M",
+                                       "propose the conjugate along the epipolar curve", checkable=True),
+            "fit": self._action("&Fit", lambda: self._each_pane("fit"), "F", "whole image in view"),
+            "one": self._action("1:&1", lambda: self._each_pane("one_to_one"), "1", "one image pixel per screen pixel"),
+            "zoom_in": self._action("Zoom &in", lambda: self._each_pane("zoom_by", 1.25), key.ZoomIn),
+            "zoom_out": self._action("Zoom &out", lambda: self._each_pane("zoom_by", 0.8), key.ZoomOut),
+            "box": self._action("&Box zoom", self._on_box_zoom, "B", "drag a box to zoom into", checkable=True),
+            "link": self._action("&Link zoom", self._on_link, "L", "zoom and pan both panes together",
+                                 checkable=True),
+            "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
+        }
+        self.actions["auto_match"].setChecked(self.workspace.auto_match)
+        self.actions["snap"].setChecked(self.workspace.snap)
+        self.actions["loupe"].setChecked(True)
+        self.tool_actions = QtGui.QActionGroup(self)
+        for number, tool in enumerate(TOOLS, 1):
+            action = self._action(tool.capitalize(), lambda _=False, t=tool: self.set_tool(t), f"Ctrl+{number}",
+                                  TOOL_TIPS[tool], checkable=True)
+            self.tool_actions.addAction(action)
+            self.actions[f"tool_{tool}"] = action
+        self.actions["tool_pick"].setChecked(True)
+
+    def _build_menus_and_toolbar(self) -> None:
+        a = self.actions
+        menu = self.menuBar().addMenu("&File")
+        menu.addAction(a["open"])
+        self.samples_menu = menu.addMenu("Open &sample")
+        for sample in sorted(SAMPLES.glob("*/project.json")) if SAMPLES.is_dir() else []:
+            self.samples_menu.addAction(sample.parent.name, lambda p=sample.parent: self.open_path(p))
+        self.samples_menu.setEnabled(bool(self.samples_menu.actions()))
+        self.recent_menu = menu.addMenu("&Recent projects")
+        self._fill_recent_menu()
+        menu.addSeparator()
+        menu.addAction(a["quit"])
+        edit = self.menuBar().addMenu("&Edit")
+        for name in ("undo", "redo"):
+            edit.addAction(a[name])
+        view = self.menuBar().addMenu("&View")
+        for name in ("fit", "one", "zoom_in", "zoom_out", "box", "link", "loupe"):
+            view.addAction(a[name])
+        view.addSeparator()
+        for dock in self.docks.values():
+            view.addAction(dock.toggleViewAction())
+        measure = self.menuBar().addMenu("&Measure")
+        for tool in TOOLS:
+            measure.addAction(a[f"tool_{tool}"])
+        measure.addSeparator()
+        for name in ("accept", "finish", "cancel", "snap", "auto_match"):
+            measure.addAction(a[name])
+        bar = self.addToolBar("Main")
+        bar.setObjectName("main_toolbar")
+        bar.addAction(a["open"])
+        bar.addWidget(QtWidgets.QLabel(" Pair "))
+        self.pair_box = QtWidgets.QComboBox()
+        self.pair_box.setMinimumContentsLength(10)
+        self.pair_box.setToolTip("the image pair shown")
+        self.pair_box.activated.connect(lambda _: self.load_pair(self.pair_box.currentText()))
+        bar.addWidget(self.pair_box)
+        bar.addSeparator()
+        for tool in TOOLS:
+            bar.addAction(a[f"tool_{tool}"])
+        bar.addWidget(QtWidgets.QLabel(" Attribute "))
+        self.attribute_box = QtWidgets.QComboBox()
+        self.attribute_box.setEditable(True)
+        self.attribute_box.setMinimumContentsLength(12)
+        self.attribute_box.setToolTip("attribute of the next stored object (from the vocabulary, or type a new one)")
+        bar.addWidget(self.attribute_box)
+        bar.addAction(a["finish"])
+        bar.addSeparator()
+        for name in ("snap", "auto_match", "undo", "redo"):
+            bar.addAction(a[name])
+        bar.addSeparator()
+        for name in ("fit", "one", "box", "link", "loupe"):
+            bar.addAction(a[name])
+
+    # ------------------------------------------------------------------ settings
+    def _restore_layout(self) -> None:
+        geometry = self.settings.value("window/geometry")
+        if geometry is not None:
+            self.restoreGeometry(geometry)
+        state = self.settings.value("window/state")
+        if state is not None:
+            self.restoreState(state)
+        splitter = self.settings.value("window/splitter")
+        if splitter is not None:
+            self.splitter.restoreState(splitter)
+        self.actions["link"].setChecked(self.settings.value("view/link", False, type=bool))
+        self._on_link()
+
+    def save_layout(self) -> None:
+        self.settings.setValue("window/geometry", self.saveGeometry())
+        self.settings.setValue("window/state", self.saveState())
+        self.settings.setValue("window/splitter", self.splitter.saveState())
+        self.settings.setValue("view/link", self.actions["link"].isChecked())
+        if self.workspace.project is not None and self.workspace.pair:
+            self.settings.setValue(f"pair/{self.workspace.project.path}", self.workspace.pair)
+        self.settings.sync()
+
+    def recent_projects(self) -> list[str]:
+        value = self.settings.value("recent", [])
+        return [value] if isinstance(value, str) else list(value or [])
+
+    def _remember(self, path: Path) -> None:
+        recent = [str(path)] + [p for p in self.recent_projects() if p != str(path)]
+        self.settings.setValue("recent", recent[:MAX_RECENT])
+        self._fill_recent_menu()
+
+    def _fill_recent_menu(self) -> None:
+        self.recent_menu.clear()
+        for path in self.recent_projects():
+            self.recent_menu.addAction(path, lambda p=path: self.open_path(p))
+        self.recent_menu.setEnabled(bool(self.recent_projects()))
+
+    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt's name)
+        self.save_layout()
+        self.cancel_work()
+        self.pool.waitForDone(5000)
+        for panel in (self.enhancement, self.object_list, self.calculator, self.plan):
+            panel.cleanup()
+        self.workspace.close_project()
+        super().closeEvent(event)
+
+    # ------------------------------------------------------------------ messages
+    def show_message(self, level: str, text: str) -> None:
+        """Errors and warnings go to the status bar (red / amber) and the log; nothing raises into Qt."""
+        self.log.add(level, text)
+        colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
+        self.statusBar().setStyleSheet(f"QStatusBar {{ color: {colour}; }}" if colour else "")
+        self.statusBar().showMessage(text, 0 if level != "info" else 15000)
+
+    def _guarded(self, function, *args) -> bool:
+        try:
+            function(*args)
+        except UsvipsError as error:
+            self.show_message("error", str(error))
+            return False
+        return True
+
+    # ------------------------------------------------------------------ project and pairs
+    def open_dialog(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(
+            self, "Open project", str(SAMPLES if SAMPLES.is_dir() else Path.home()),
+            "USVIPS projects (*.usvips);;Sample descriptions (project.json)")
+        if path:
+            self.open_path(Path(path).parent if Path(path).name == "project.json" else path)
+
+    def open_path(self, path: str | Path) -> bool:
+        """Open a project file, or a sample directory (its project file is created on first use)."""
+        path = Path(path)
+        try:
+            if path.is_dir():
+                project = open_or_create_from_manifest(path)
+            elif path.is_file():
+                project = Project.open(path)
+            else:
+                raise UsvipsError(f"{path}: no such project file or sample directory")
+        except UsvipsError as error:
+            self.show_message("error", str(error))
+            return False
+        self.workspace.open_project(project)
+        self._remember(project.path.resolve())
+        self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent})")
+        self.attribute_box.clear()
+        self.attribute_box.addItems(project.vocabulary())
+        labels = self.workspace.image_pairs()
+        self.pair_box.clear()
+        self.pair_box.addItems(labels)
+        if not labels:
+            self.show_message("warning", f"{project.path.name} has no image pairs (observations only): "
+                                         "use the calibration commands on it")
+            return True
+        last = self.settings.value(f"pair/{project.path}")
+        self.load_pair(last if last in labels else labels[0])
+        self.show_message("info", f"opened {project.path}")
+        return True
+
+    def load_pair(self, label: str) -> None:
+        """Read the pair's images in a worker, then show them."""
+        project = self.workspace.project
+        if project is None or not label:
+            return
+        self.pair_box.setCurrentText(label)
+        try:
+            paths = pair_image_paths(project, label)
+        except UsvipsError as error:
+            self.show_message("error", str(error))
+            return
+
+        def job(progress, cancelled):
+            images = read_pair(paths)
+            if cancelled():
+                raise Cancelled
+            return images
+
+        def show(images) -> None:
+            if worker is self._pair_worker:  # a pair chosen later wins over one still loading
+                self.workspace.set_pair(label, *images)
+
+        if self._pair_worker is not None:
+            self._pair_worker.cancel()
+        worker = self._pair_worker = self.run_worker(job, f"reading pair {label}", show)
+
+    # ------------------------------------------------------------------ workers
+    @property
+    def busy(self) -> bool:
+        return bool(self.workers)
+
+    def run_worker(self, job, label: str, on_done) -> Worker:
+        worker = Worker(job, label)
+        self.workers.add(worker)
+
+        def done(result) -> None:
+            self._worker_ended(worker)
+            self._guarded(on_done, result)
+
+        def failed(message: str) -> None:
+            self._worker_ended(worker)
+            self.show_message("error", message)
+
+        def cancelled() -> None:
+            self._worker_ended(worker)
+            self.show_message("info", f"{label}: cancelled")
+
+        worker.signals.finished.connect(done)
+        worker.signals.failed.connect(failed)
+        worker.signals.cancelled.connect(cancelled)
+        worker.signals.progress.connect(lambda f: self.progress.setValue(int(100 * f)))
+        self.progress.setRange(0, 0)
+        self.progress.setFormat(label)
+        self.progress.show()
+        self.cancel_button.show()
+        self.pool.start(worker)
+        return worker
+
+    def _worker_ended(self, worker: Worker) -> None:
+        self.workers.discard(worker)
+        if not self.workers:
+            self.progress.hide()
+            self.cancel_button.hide()
+
+    def cancel_work(self) -> None:
+        for worker in list(self.workers):
+            worker.cancel()
+
+    # ------------------------------------------------------------------ display
+    def _on_pair_changed(self) -> None:
+        ws = self.workspace
+        if ws.pair is None:
+            for pane in self.panes.values():
+                pane.set_image(None)
+            self.pair_box.clear()
+            return
+        for side in SIDES:
+            self.panes[side].title.setText(f"{side.capitalize()} — {ws.pair}  "
+                                           f"({ws.images[side].shape[1]} × {ws.images[side].shape[0]} px)")
+            self._refresh_display(side)
+        self._on_objects_changed()
+
+    def _on_enhancement_changed(self, side: str) -> None:
+        self._refresh_display(side)
+
+    def _refresh_display(self, side: str) -> None:
+        """Show the original at once, or the enhanced image computed in a worker (newest request wins)."""
+        ws = self.workspace
+        original = ws.images.get(side)
+        if original is None:
+            return
+        pipeline = ws.pipelines[side]
+        self._display_tokens[side] += 1
+        token = self._display_tokens[side]
+        if not pipeline.operations:
+            self._show_display(side, original, token, None)
+            return
+
+        def job(progress, cancelled):
+            display = pipeline.apply(original)
+            return display, luminance_histogram(display)
+
+        self.run_worker(job, f"enhancing the {side} image",
+                        lambda result: self._show_display(side, result[0], token, result[1]))
+
+    def _show_display(self, side: str, display: np.ndarray, token: int, histogram: np.ndarray | None) -> None:
+        if token != self._display_tokens[side]:
+            return  # a newer enhancement is on its way
+        self.panes[side].set_image(display)
+        if side == self.enhancement._sides()[0]:
+            original = luminance_histogram(self.workspace.images[side])
+            self.enhancement.show_histograms(original, original if histogram is None else histogram)
+
+    def _each_pane(self, method: str, *args) -> None:
+        for pane in self.panes.values():
+            getattr(pane, method)(*args)
+
+    def _on_box_zoom(self) -> None:
+        self._each_pane("set_box_zoom", self.actions["box"].isChecked())
+
+    def _on_link(self) -> None:
+        left, right = (self.panes[s].viewbox for s in SIDES)
+        linked = self.actions["link"].isChecked()
+        right.setXLink(left if linked else None)
+        right.setYLink(left if linked else None)
+
+    def _on_loupe(self) -> None:
+        for pane in self.panes.values():
+            pane.set_loupe_enabled(self.actions["loupe"].isChecked())
+
+    # ------------------------------------------------------------------ picking and measuring
+    def _on_clicked(self, side: str, x: float, y: float) -> None:
+        self._guarded(self.workspace.pick, side, (x, y))
+
+    def _on_hovered(self, side: str, x: float, y: float) -> None:
+        image = self.workspace.images.get(side)
+        if image is None or not np.isfinite(x):
+            self.pixel_label.setText("")
+            return
+        column, row = int(round(x)), int(round(y))
+        value = image[row, column]
+        grey = f"{int(value)}" if np.ndim(value) == 0 else "/".join(str(int(v)) for v in value)
+        self.pixel_label.setText(f"{side}  x {x:8.2f}  y {y:8.2f}  value {grey}")
+
+    def set_tool(self, tool: str) -> None:
+        self._guarded(self.workspace.set_tool, tool)
+        self.actions[f"tool_{tool}"].setChecked(True)
+
+    def accept_or_finish(self) -> None:
+        if self.workspace.state.proposal is not None:
+            self._guarded(self.workspace.accept_proposal)
+        elif self.workspace.digitising.vertices:
+            self.finish_object()
+        else:
+            self.show_message("warning", "nothing to accept: pick a point first")
+
+    def finish_object(self) -> None:
+        attribute = self.attribute_box.currentText().strip()
+        if self._guarded(self.workspace.finish_object, attribute, ""):
+            if attribute and self.attribute_box.findText(attribute) < 0:
+                self.attribute_box.addItem(attribute)
+
+    def cancel_pick(self) -> None:
+        self.workspace.cancel_vertex()
+
+    def undo(self) -> None:
+        label = None
+        try:
+            label = self.workspace.undo.undo()
+        except UsvipsError as error:
+            self.show_message("error", f"cannot undo: {error}")
+        if label:
+            self.show_message("info", f"undone: {label}")
+
+    def redo(self) -> None:
+        label = None
+        try:
+            label = self.workspace.undo.redo()
+        except UsvipsError as error:
+            self.show_message("error", f"cannot redo: {error}")
+        if label:
+            self.show_message("info", f"redone: {label}")
+
+    def _on_undo_changed(self) -> None:
+        undo, redo = self.workspace.undo.undo_label, self.workspace.undo.redo_label
+        self.actions["undo"].setEnabled(undo is not None)
+        self.actions["redo"].setEnabled(redo is not None)
+        self.actions["undo"].setText(f"&Undo {undo}" if undo else "&Undo")
+        self.actions["redo"].setText(f"&Redo {redo}" if redo else "&Redo")
+
+    def _on_snap(self) -> None:
+        self.workspace.snap = self.actions["snap"].isChecked()
+
+    def _on_auto_match(self) -> None:
+        self.workspace.auto_match = self.actions["auto_match"].isChecked()
+
+    def _on_picks_changed(self) -> None:
+        ws = self.workspace
+        state = ws.state
+        for side in SIDES:
+            opposite = state.source is not None and state.source != side
+            self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
+                                       state.curve if opposite else None)
+        if state.note:
+            self.statusBar().showMessage(state.note, 15000)
+        self.point_label.setText(describe_point(ws.last_point) if ws.last_point is not None else "")
+        self._draw_objects()
+
+    def _on_objects_changed(self) -> None:
+        self._draw_objects()
+
+    def _on_selection_changed(self, ids: list[int]) -> None:
+        self.selection = ids
+        self.calculator.set_selection(ids)
+        self._draw_objects()
+
+    def _draw_objects(self) -> None:
+        ws = self.workspace
+        outlines: dict[str, list] = {side: [] for side in SIDES}
+        if ws.pair is not None:
+            for stored in ws.objects():
+                vertices = [v for v in stored.vertices if v.pair == ws.pair]
+                if not vertices:
+                    continue
+                label = f"{stored.id} {stored.attribute}".strip()
+                closed = stored.kind == "polygon"
+                selected = stored.id in self.selection
+                outlines["left"].append((label, np.array([[v.xl, v.yl] for v in vertices]), closed, selected))
+                outlines["right"].append((label, np.array([[v.xr, v.yr] for v in vertices]), closed, selected))
+            current = ws.digitising.vertices
+            if current:
+                outlines["left"].append(("new", np.array([v.left for v in current]), False, True))
+                outlines["right"].append(("new", np.array([v.right for v in current]), False, True))
+        for side in SIDES:
+            self.panes[side].set_objects(outlines[side])
+
+    def zoom_to_object(self, object_id: int) -> None:
+        stored = self.workspace.project.object(object_id)
+        vertices = [v for v in stored.vertices if v.pair == self.workspace.pair]
+        if not vertices:
+            self.show_message("warning", f"object {object_id} was measured on another pair")
+            return
+        for side, columns in (("left", ("xl", "yl")), ("right", ("xr", "yr"))):
+            pixels = np.array([[getattr(v, c) for c in columns] for v in vertices])
+            self.panes[side].centre_on(tuple(pixels.mean(axis=0)))

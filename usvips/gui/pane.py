@@ -1,0 +1,266 @@
+"""One stereo pane: an image in a pyqtgraph ViewBox with zoom, pan, a crosshair cursor, a loupe, and
+the marks (picks, proposal, epipolar curve, objects) the window asks it to draw.
+
+The pane converts between the view and image pixels in exactly one place (:func:`pixel_from_item` and
+:func:`item_from_pixels`): pyqtgraph's ImageItem puts pixel (i, j) on the square [i, i+1) × [j, j+1) of
+its own coordinates, while USVIPS pixels have their origin at the centre of the top-left pixel
+(ARCHITECTURE.md), so the two differ by half a pixel. Scene → item goes through the item's transform
+(``mapFromScene``), never by hand.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pyqtgraph as pg
+from PySide6 import QtCore, QtGui, QtWidgets
+
+#: ImageItem coordinate of the centre of pixel 0.
+PIXEL_CENTRE = 0.5
+LOUPE_RADIUS = 10  # image pixels each side of the cursor
+LOUPE_SCALE = 8
+
+COLOURS = {"cursor": (0, 230, 0), "pick": (255, 40, 40), "proposal": (255, 220, 0), "curve": (255, 140, 0),
+           "object": (0, 200, 255), "selected": (255, 0, 255), "label": (230, 230, 230)}
+
+
+def pixel_from_item(x: float, y: float) -> tuple[float, float]:
+    """ImageItem coordinates → USVIPS pixels."""
+    return x - PIXEL_CENTRE, y - PIXEL_CENTRE
+
+
+def item_from_pixels(pixels: np.ndarray) -> np.ndarray:
+    """USVIPS pixels (N, 2) → ImageItem (= view) coordinates."""
+    return np.asarray(pixels, dtype=np.float64).reshape(-1, 2) + PIXEL_CENTRE
+
+
+def to_qimage(array: np.ndarray) -> QtGui.QImage:
+    """A uint8 grey or RGB array as a QImage (copied; uint16 is scaled to 8 bits)."""
+    if array.dtype != np.uint8:
+        array = (array.astype(np.float32) * (255.0 / 65535.0)).astype(np.uint8)
+    array = np.ascontiguousarray(array)
+    h, w = array.shape[:2]
+    if array.ndim == 2:
+        return QtGui.QImage(array.data, w, h, w, QtGui.QImage.Format.Format_Grayscale8).copy()
+    return QtGui.QImage(array.data, w, h, 3 * w, QtGui.QImage.Format.Format_RGB888).copy()
+
+
+class StereoPane(QtWidgets.QWidget):
+    """``clicked(x, y)`` in pixels on a left click without drag; ``hovered(x, y)`` as the cursor moves
+    (NaN when it leaves the image)."""
+
+    clicked = QtCore.Signal(float, float)
+    hovered = QtCore.Signal(float, float)
+
+    def __init__(self, side: str, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.side = side
+        self.setObjectName(f"{side}_pane")
+        self.graphics = pg.GraphicsView(background=(24, 24, 28))
+        self.viewbox = pg.ViewBox(lockAspect=True, invertY=True, enableMenu=False)
+        self.graphics.setCentralItem(self.viewbox)
+        self.image_item = pg.ImageItem(axisOrder="row-major", autoDownsample=True)
+        self.viewbox.addItem(self.image_item)
+        self.title = QtWidgets.QLabel(side.capitalize())
+        self.title.setStyleSheet("font-weight: bold; padding: 2px 4px;")
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(0)
+        layout.addWidget(self.title)
+        layout.addWidget(self.graphics)
+        self._add_overlays()
+        self.loupe = QtWidgets.QLabel(self.graphics)
+        side_px = (2 * LOUPE_RADIUS + 1) * LOUPE_SCALE + 2
+        self.loupe.setFixedSize(side_px, side_px)
+        self.loupe.setStyleSheet("border: 1px solid #00e600; background: black;")
+        self.loupe.setScaledContents(True)
+        self.loupe.hide()
+        self.loupe_enabled = True
+        self.display: np.ndarray | None = None
+        scene = self.graphics.scene()
+        scene.sigMouseMoved.connect(self._on_mouse_moved)
+        scene.sigMouseClicked.connect(self._on_mouse_clicked)
+
+    def _add_overlays(self) -> None:
+        pen = pg.mkPen(COLOURS["cursor"], width=1)
+        self.cross_v = pg.InfiniteLine(angle=90, movable=False, pen=pen)
+        self.cross_h = pg.InfiniteLine(angle=0, movable=False, pen=pen)
+        self.curve_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["curve"], width=1.5, style=QtCore.Qt.PenStyle.DashLine))
+        self.objects_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
+        self.selected_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["selected"], width=3), connect="finite")
+        self.vertex_item = pg.ScatterPlotItem(size=7, pen=pg.mkPen(COLOURS["object"]), brush=None, symbol="s")
+        self.pick_item = pg.ScatterPlotItem(size=15, pen=pg.mkPen(COLOURS["pick"], width=2), brush=None, symbol="+")
+        self.proposal_item = pg.ScatterPlotItem(size=17, pen=pg.mkPen(COLOURS["proposal"], width=2), brush=None,
+                                                symbol="o")
+        for item in (self.objects_item, self.selected_item, self.vertex_item, self.curve_item, self.pick_item,
+                     self.proposal_item, self.cross_v, self.cross_h):
+            self.viewbox.addItem(item, ignoreBounds=True)
+        self.labels: list[pg.TextItem] = []
+        self.cross_v.hide()
+        self.cross_h.hide()
+
+    # ------------------------------------------------------------------ image
+    def set_image(self, display: np.ndarray | None) -> None:
+        """Show an image (uint8/uint16, grey or RGB); keeps the current zoom when the size is unchanged."""
+        previous = None if self.display is None else self.display.shape[:2]
+        self.display = display
+        if display is None:
+            self.image_item.clear()
+            return
+        top = 255 if display.dtype == np.uint8 else 65535
+        self.image_item.setImage(display, autoLevels=False, levels=(0, top))
+        if previous != display.shape[:2]:
+            self.fit()
+
+    def image_size(self) -> tuple[int, int]:
+        """(width, height) in pixels, (0, 0) without an image."""
+        return (0, 0) if self.display is None else (self.display.shape[1], self.display.shape[0])
+
+    # ------------------------------------------------------------------ zoom
+    def fit(self) -> None:
+        w, h = self.image_size()
+        if w:
+            self.viewbox.setRange(xRange=(0, w), yRange=(0, h), padding=0.02)
+
+    def one_to_one(self, centre: tuple[float, float] | None = None) -> None:
+        """One image pixel per screen pixel, around ``centre`` (pixels; default the view's centre)."""
+        self.zoom_to(1.0, centre)
+
+    def zoom_to(self, screen_per_pixel: float, centre: tuple[float, float] | None = None) -> None:
+        """Set the zoom (screen pixels per image pixel) around ``centre`` (image pixels)."""
+        rect = self.viewbox.viewRect()
+        if centre is None:
+            cx, cy = rect.center().x(), rect.center().y()
+        else:
+            cx, cy = item_from_pixels(np.array(centre))[0]
+        size = self.viewbox.size()
+        half_w = size.width() / screen_per_pixel / 2
+        half_h = size.height() / screen_per_pixel / 2
+        self.viewbox.setRange(xRange=(cx - half_w, cx + half_w), yRange=(cy - half_h, cy + half_h), padding=0)
+
+    def zoom_by(self, factor: float) -> None:
+        """Zoom in (factor > 1) or out around the view's centre."""
+        self.viewbox.scaleBy((1.0 / factor, 1.0 / factor))
+
+    def zoom_level(self) -> float:
+        """Screen pixels per image pixel (horizontally)."""
+        return self.viewbox.size().width() / max(self.viewbox.viewRect().width(), 1e-12)
+
+    def set_box_zoom(self, on: bool) -> None:
+        self.viewbox.setMouseMode(pg.ViewBox.RectMode if on else pg.ViewBox.PanMode)
+
+    # ------------------------------------------------------------------ mouse
+    def pixel_at_scene(self, scene_pos: QtCore.QPointF) -> tuple[float, float]:
+        """The one scene → pixel conversion: through the image item's transform."""
+        item = self.image_item.mapFromScene(scene_pos)
+        return pixel_from_item(item.x(), item.y())
+
+    def _inside(self, x: float, y: float) -> bool:
+        w, h = self.image_size()
+        return -0.5 <= x <= w - 0.5 and -0.5 <= y <= h - 0.5
+
+    def _on_mouse_moved(self, scene_pos: QtCore.QPointF) -> None:
+        x, y = self.pixel_at_scene(scene_pos)
+        if self.display is None or not self._inside(x, y):
+            self.cross_v.hide()
+            self.cross_h.hide()
+            self.loupe.hide()
+            self.hovered.emit(float("nan"), float("nan"))
+            return
+        vx, vy = item_from_pixels(np.array([x, y]))[0]
+        self.cross_v.setPos(vx)
+        self.cross_h.setPos(vy)
+        self.cross_v.show()
+        self.cross_h.show()
+        self._update_loupe(x, y)
+        self.hovered.emit(x, y)
+
+    def _on_mouse_clicked(self, event) -> None:
+        if event.button() != QtCore.Qt.MouseButton.LeftButton or event.double():
+            return
+        if self.viewbox.state["mouseMode"] == pg.ViewBox.RectMode:
+            return
+        x, y = self.pixel_at_scene(event.scenePos())
+        if self.display is not None and self._inside(x, y):
+            event.accept()
+            self.clicked.emit(x, y)
+
+    def _update_loupe(self, x: float, y: float) -> None:
+        if not self.loupe_enabled or self.display is None:
+            self.loupe.hide()
+            return
+        r = LOUPE_RADIUS
+        patch = cv2.getRectSubPix(self._grey_or_rgb8(), (2 * r + 1, 2 * r + 1), (float(round(x)), float(round(y))))
+        big = cv2.resize(patch, None, fx=LOUPE_SCALE, fy=LOUPE_SCALE, interpolation=cv2.INTER_NEAREST)
+        image = to_qimage(big)
+        if image.format() == QtGui.QImage.Format.Format_Grayscale8:
+            image = image.convertToFormat(QtGui.QImage.Format.Format_RGB888)
+        painter = QtGui.QPainter(image)
+        painter.setPen(QtGui.QPen(QtGui.QColor(*COLOURS["cursor"]), 1))
+        # the exact cursor position inside the magnified patch (sub-pixel)
+        cx = (x - round(x) + r + 0.5) * LOUPE_SCALE
+        cy = (y - round(y) + r + 0.5) * LOUPE_SCALE
+        painter.drawLine(QtCore.QPointF(cx, 0), QtCore.QPointF(cx, image.height()))
+        painter.drawLine(QtCore.QPointF(0, cy), QtCore.QPointF(image.width(), cy))
+        painter.end()
+        self.loupe.setPixmap(QtGui.QPixmap.fromImage(image))
+        self.loupe.move(self.graphics.width() - self.loupe.width() - 6, 6)
+        self.loupe.show()
+
+    def set_loupe_enabled(self, on: bool) -> None:
+        self.loupe_enabled = bool(on)
+        if not on:
+            self.loupe.hide()
+
+    def _grey_or_rgb8(self) -> np.ndarray:
+        display = self.display
+        if display.dtype != np.uint8:
+            display = (display.astype(np.float32) * (255.0 / 65535.0)).astype(np.uint8)
+        return display
+
+    def leaveEvent(self, event: QtCore.QEvent) -> None:  # noqa: N802 (Qt's name)
+        self.loupe.hide()
+        self.cross_v.hide()
+        self.cross_h.hide()
+        super().leaveEvent(event)
+
+    # ------------------------------------------------------------------ marks
+    def set_picks(self, pick: tuple[float, float] | None, proposal: tuple[float, float] | None,
+                  curve: np.ndarray | None) -> None:
+        """The temporary marks: this image's pick (red), the proposed conjugate (yellow), the epipolar
+        curve (orange, dashed)."""
+        self.pick_item.setData(pos=item_from_pixels(np.array([pick])) if pick is not None else np.zeros((0, 2)))
+        self.proposal_item.setData(pos=item_from_pixels(np.array([proposal])) if proposal is not None
+                                   else np.zeros((0, 2)))
+        if curve is not None and len(curve) > 1:
+            view = item_from_pixels(curve)
+            self.curve_item.setData(view[:, 0], view[:, 1])
+        else:
+            self.curve_item.setData([], [])
+
+    def set_objects(self, outlines: list[tuple[str, np.ndarray, bool, bool]]) -> None:
+        """Permanent marks: (label, vertex pixels (N, 2), closed, selected) per object."""
+        for label in self.labels:
+            self.viewbox.removeItem(label)
+        self.labels = []
+        lines: list[np.ndarray] = []
+        selected: list[np.ndarray] = []
+        vertices: list[np.ndarray] = []
+        for label, pixels, closed, is_selected in outlines:
+            view = item_from_pixels(pixels)
+            vertices.append(view)
+            path = np.vstack([view, view[:1]]) if closed and len(view) > 2 else view
+            (selected if is_selected else lines).append(np.vstack([path, [[np.nan, np.nan]]]))
+            text = pg.TextItem(label, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
+            text.setPos(float(view[0, 0]) + 4, float(view[0, 1]) - 4)
+            self.viewbox.addItem(text, ignoreBounds=True)
+            self.labels.append(text)
+        for item, parts in ((self.objects_item, lines), (self.selected_item, selected)):
+            data = np.vstack(parts) if parts else np.zeros((0, 2))
+            item.setData(data[:, 0], data[:, 1], connect="finite")
+        all_vertices = np.vstack(vertices) if vertices else np.zeros((0, 2))
+        self.vertex_item.setData(pos=all_vertices)
+
+    def centre_on(self, pixel: tuple[float, float]) -> None:
+        """Pan so that ``pixel`` is in the middle, keeping the zoom."""
+        self.zoom_to(self.zoom_level(), pixel)

@@ -1,0 +1,374 @@
+"""The dock panels: enhancement with histograms, the object list, the geo-calculator, the plan view and
+the log. Each takes the :class:`~usvips.gui.workspace.Workspace` in ``__init__``, listens to its events
+and writes user input back through its methods; ``cleanup()`` disconnects."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6 import QtCore, QtWidgets
+
+from usvips.core.enhance import OPERATIONS, Operation, Pipeline
+from usvips.core.errors import UsvipsError
+from usvips.gui.calculator import format_figure
+from usvips.gui.workspace import SIDES, Workspace
+
+#: Starting values for operations whose parameters have no default in core.
+STARTING_PARAMETERS = {"piecewise": {"points": [[0, 0], [64, 32], [192, 224], [255, 255]]},
+                       "convolve": {"kernel": [[0, -1, 0], [-1, 5, -1], [0, -1, 0]]}}
+
+
+def default_operation(name: str) -> Operation:
+    return Operation(name, dict(STARTING_PARAMETERS.get(name, {})))
+
+
+class EnhancementPanel(QtWidgets.QWidget):
+    """Build a pipeline for the left, right or both images; every change is previewed at once (the
+    window recomputes the display off the GUI thread) and saved per image in the project."""
+
+    def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.workspace = workspace
+        self.target = QtWidgets.QComboBox()
+        self.target.addItems(["both", "left", "right"])
+        self.operation = QtWidgets.QComboBox()
+        self.operation.addItems(list(OPERATIONS))
+        self.add_button = add = QtWidgets.QPushButton("Add")
+        add.setToolTip("append the operation to the pipeline of the chosen image(s)")
+        self.steps = QtWidgets.QListWidget()
+        self.steps.setMaximumHeight(110)
+        self.parameters = QtWidgets.QLineEdit()
+        self.parameters.setPlaceholderText("parameters of the selected step, e.g. {\"clip_limit\": 2.0}")
+        remove = QtWidgets.QPushButton("Remove")
+        reset = QtWidgets.QPushButton("Reset")
+        reset.setToolTip("back to the original image(s)")
+        balance = QtWidgets.QPushButton("Balance right to left")
+        balance.setToolTip("levels on the right image so that its mean and spread match the left (thesis 3.4.3)")
+        self.histogram = pg.PlotWidget(background=None)
+        self.histogram.setMinimumHeight(120)
+        self.histogram.hideAxis("left")
+        self.histogram.setMouseEnabled(False, False)
+        self.histogram.addLegend(offset=(5, 5))
+        self.original_curve = self.histogram.plot(pen=pg.mkPen((150, 150, 150), width=1), name="original")
+        self.processed_curve = self.histogram.plot(pen=pg.mkPen((255, 140, 0), width=1.5), name="processed")
+        self.status = QtWidgets.QLabel("")
+        self.status.setWordWrap(True)
+        row = QtWidgets.QHBoxLayout()
+        row.addWidget(QtWidgets.QLabel("Image"))
+        row.addWidget(self.target)
+        row.addWidget(self.operation, 1)
+        row.addWidget(add)
+        buttons = QtWidgets.QHBoxLayout()
+        for button in (remove, reset, balance):
+            buttons.addWidget(button)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addLayout(row)
+        layout.addWidget(self.steps)
+        layout.addWidget(self.parameters)
+        layout.addLayout(buttons)
+        layout.addWidget(self.histogram, 1)
+        layout.addWidget(self.status)
+        add.clicked.connect(self._on_add)
+        remove.clicked.connect(self._on_remove)
+        reset.clicked.connect(self._on_reset)
+        balance.clicked.connect(self._on_balance)
+        self.target.currentTextChanged.connect(self._refresh_steps)
+        self.steps.currentRowChanged.connect(self._on_step_selected)
+        self.parameters.editingFinished.connect(self._on_parameters_edited)
+        workspace.pair_changed.connect(self._refresh_steps)
+        workspace.enhancement_changed.connect(self._on_enhancement_changed)
+
+    def cleanup(self) -> None:
+        self.workspace.pair_changed.disconnect(self._refresh_steps)
+        self.workspace.enhancement_changed.disconnect(self._on_enhancement_changed)
+
+    def _sides(self) -> tuple[str, ...]:
+        target = self.target.currentText()
+        return SIDES if target == "both" else (target,)
+
+    def _pipeline(self) -> Pipeline:
+        return self.workspace.pipelines[self._sides()[0]]
+
+    def _apply(self, pipeline: Pipeline) -> None:
+        if not self.workspace.images:
+            self.status.setText("open an image pair first")
+            return
+        for side in self._sides():
+            self.workspace.set_pipeline(side, pipeline)
+
+    def _on_add(self) -> None:
+        try:
+            step = default_operation(self.operation.currentText())
+        except UsvipsError as error:
+            self.status.setText(str(error))
+            return
+        pipeline = self._pipeline()
+        self._apply(Pipeline(pipeline.operations + (step,)))
+        self.steps.setCurrentRow(self.steps.count() - 1)
+
+    def _on_remove(self) -> None:
+        row = self.steps.currentRow()
+        operations = list(self._pipeline().operations)
+        if 0 <= row < len(operations):
+            del operations[row]
+            self._apply(Pipeline(tuple(operations)))
+
+    def _on_reset(self) -> None:
+        self._apply(Pipeline())
+
+    def _on_balance(self) -> None:
+        from usvips.core.enhance import balance_pair
+
+        if not self.workspace.images:
+            return
+        step = balance_pair(self.workspace.images["left"], self.workspace.images["right"])
+        pipeline = self.workspace.pipelines["right"]
+        self.workspace.set_pipeline("right", Pipeline(pipeline.operations + (step,)))
+
+    def _on_step_selected(self, row: int) -> None:
+        operations = self._pipeline().operations
+        self.parameters.setText(json.dumps(operations[row].params) if 0 <= row < len(operations) else "")
+
+    def _on_parameters_edited(self) -> None:
+        row = self.steps.currentRow()
+        operations = list(self._pipeline().operations)
+        if not 0 <= row < len(operations):
+            return
+        try:
+            params = json.loads(self.parameters.text() or "{}")
+            if not isinstance(params, dict):
+                raise UsvipsError("parameters must be a JSON object such as {\"gamma\": 0.8}")
+            operations[row] = Operation(operations[row].name, params)
+        except json.JSONDecodeError as error:
+            self.status.setText(f"parameters: not valid JSON ({error.msg}); the step is unchanged")
+            return
+        except UsvipsError as error:
+            self.status.setText(f"{error}; the step is unchanged")
+            return
+        self.status.setText("")
+        self._apply(Pipeline(tuple(operations)))
+        self.steps.setCurrentRow(row)
+
+    def _refresh_steps(self, *_: object) -> None:
+        row = self.steps.currentRow()
+        self.steps.blockSignals(True)
+        self.steps.clear()
+        for operation in self._pipeline().operations:
+            params = ", ".join(f"{k}={v}" for k, v in operation.params.items() if not isinstance(v, list))
+            self.steps.addItem(f"{operation.name}" + (f" ({params})" if params else ""))
+        self.steps.blockSignals(False)
+        if self.steps.count():
+            self.steps.setCurrentRow(min(max(row, 0), self.steps.count() - 1))
+        else:
+            self.parameters.clear()
+
+    def _on_enhancement_changed(self, side: str) -> None:
+        if side in self._sides():
+            self._refresh_steps()
+
+    def show_histograms(self, original: np.ndarray | None, processed: np.ndarray | None) -> None:
+        """Luminance histograms (counts per grey level, normalised) of the original and processed image."""
+        for curve, counts in ((self.original_curve, original), (self.processed_curve, processed)):
+            if counts is None:
+                curve.setData([], [])
+            else:
+                curve.setData(np.arange(len(counts)), counts / max(counts.max(), 1))
+
+
+class ObjectList(QtWidgets.QWidget):
+    """The measured objects: select (drives the geo-calculator and the highlight), edit attribute and
+    notes in place, delete, zoom to."""
+
+    zoom_requested = QtCore.Signal(int)
+    selection_changed = QtCore.Signal(list)
+
+    COLUMNS = ("id", "type", "attribute", "vertices", "figure", "quality", "notes")
+
+    def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.workspace = workspace
+        self.table = QtWidgets.QTableWidget(0, len(self.COLUMNS))
+        self.table.setHorizontalHeaderLabels([c.capitalize() for c in self.COLUMNS])
+        self.table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectionBehavior.SelectRows)
+        self.table.verticalHeader().hide()
+        self.table.horizontalHeader().setStretchLastSection(True)
+        self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.DoubleClicked
+                                   | QtWidgets.QAbstractItemView.EditTrigger.EditKeyPressed)
+        delete = QtWidgets.QPushButton("Delete")
+        zoom = QtWidgets.QPushButton("Zoom to")
+        buttons = QtWidgets.QHBoxLayout()
+        buttons.addWidget(zoom)
+        buttons.addWidget(delete)
+        buttons.addStretch(1)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(2, 2, 2, 2)
+        layout.addWidget(self.table)
+        layout.addLayout(buttons)
+        delete.clicked.connect(self._on_delete)
+        zoom.clicked.connect(self._on_zoom)
+        self.table.itemSelectionChanged.connect(lambda: self.selection_changed.emit(self.selected_ids()))
+        self.table.itemChanged.connect(self._on_item_changed)
+        workspace.objects_changed.connect(self.refresh)
+        self._filling = False
+
+    def cleanup(self) -> None:
+        self.workspace.objects_changed.disconnect(self.refresh)
+
+    def selected_ids(self) -> list[int]:
+        rows = sorted({index.row() for index in self.table.selectedIndexes()})
+        return [int(self.table.item(r, 0).text()) for r in rows if self.table.item(r, 0)]
+
+    def refresh(self) -> None:
+        selected = set(self.selected_ids())
+        self._filling = True
+        self.table.setRowCount(0)
+        for stored in self.workspace.objects():
+            row = self.table.rowCount()
+            self.table.insertRow(row)
+            result = self.workspace.figures([stored.id])
+            main = format_figure(result.figures[0]) if result.figures and stored.kind != "point" else (
+                "Z " + format_figure(result.figures[2]).split(" ", 1)[1] if result.figures else result.reason)
+            values = (str(stored.id), stored.kind, stored.attribute, str(len(stored.vertices)), main,
+                      "; ".join(result.failures) or "ok", stored.notes)
+            for column, value in enumerate(values):
+                item = QtWidgets.QTableWidgetItem(value)
+                if self.COLUMNS[column] not in ("attribute", "notes"):
+                    item.setFlags(item.flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable)
+                self.table.setItem(row, column, item)
+            if stored.id in selected:
+                self.table.selectRow(row)
+        self.table.resizeColumnsToContents()
+        self._filling = False
+
+    def _on_item_changed(self, item: QtWidgets.QTableWidgetItem) -> None:
+        if self._filling:
+            return
+        row = item.row()
+        object_id = int(self.table.item(row, 0).text())
+        attribute = self.table.item(row, self.COLUMNS.index("attribute")).text()
+        notes = self.table.item(row, self.COLUMNS.index("notes")).text()
+        self.workspace.edit_object(object_id, attribute, notes)
+
+    def _on_delete(self) -> None:
+        for object_id in self.selected_ids():
+            self.workspace.delete_object(object_id)
+
+    def _on_zoom(self) -> None:
+        ids = self.selected_ids()
+        if ids:
+            self.zoom_requested.emit(ids[0])
+
+
+class CalculatorPanel(QtWidgets.QWidget):
+    """The geo-calculator on the selected objects, with sigmas and the quality rules (editable)."""
+
+    def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.workspace = workspace
+        self.selection: list[int] = []
+        self.output = QtWidgets.QPlainTextEdit()
+        self.output.setReadOnly(True)
+        rules = workspace.rules
+        self.max_rms = self._spin(rules.max_ray_rms_m * 1000, 0.1, 1000, " mm", "largest ray-intersection RMS")
+        self.max_precision = self._spin(rules.max_relative_precision * 100, 0.1, 100, " %",
+                                        "largest sigma relative to the length or area")
+        self.max_range = self._spin(rules.max_range_m, 0.1, 1000, " m", "largest range from the left camera")
+        form = QtWidgets.QHBoxLayout()
+        for label, spin in (("ray RMS ≤", self.max_rms), ("σ/value ≤", self.max_precision),
+                            ("range ≤", self.max_range)):
+            form.addWidget(QtWidgets.QLabel(label))
+            form.addWidget(spin)
+        form.addStretch(1)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(2, 2, 2, 2)
+        layout.addLayout(form)
+        layout.addWidget(self.output)
+        workspace.objects_changed.connect(self.refresh)
+
+    def _spin(self, value: float, low: float, high: float, suffix: str, tip: str) -> QtWidgets.QDoubleSpinBox:
+        spin = QtWidgets.QDoubleSpinBox()
+        spin.setRange(low, high)
+        spin.setDecimals(1)
+        spin.setValue(value)
+        spin.setSuffix(suffix)
+        spin.setToolTip(tip)
+        spin.valueChanged.connect(self._on_rules_changed)
+        return spin
+
+    def cleanup(self) -> None:
+        self.workspace.objects_changed.disconnect(self.refresh)
+
+    def _on_rules_changed(self) -> None:
+        from dataclasses import replace
+
+        self.workspace.rules = replace(self.workspace.rules, max_ray_rms_m=self.max_rms.value() / 1000,
+                                       max_relative_precision=self.max_precision.value() / 100,
+                                       max_range_m=self.max_range.value())
+        self.workspace.objects_changed.emit()
+
+    def set_selection(self, object_ids: list[int]) -> None:
+        self.selection = list(object_ids)
+        self.refresh()
+
+    def refresh(self) -> None:
+        existing = {o.id for o in self.workspace.objects()}
+        self.selection = [i for i in self.selection if i in existing]
+        if not self.selection:
+            self.output.setPlainText("Select one object for its figures, or two for the figures between them "
+                                     "(distance, point–line, point–plane, angle).")
+            return
+        result = self.workspace.figures(self.selection)
+        head = "objects " + " and ".join(str(i) for i in self.selection)
+        lines = [head, ""] + [format_figure(f) for f in result.figures]
+        if result.reason:
+            lines.append(result.reason)
+        if result.figures and not result.reason:
+            lines.append("")
+            lines.append("quality: " + ("; ".join(result.failures) if result.failures else "passes the rules"))
+        self.output.setPlainText("\n".join(lines))
+
+
+class PlanView(QtWidgets.QWidget):
+    """Measured objects seen from above (X right, Y up, metres) — a plan plot that runs offscreen."""
+
+    def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.workspace = workspace
+        self.plot = pg.PlotWidget(background=None)
+        self.plot.setAspectLocked(True)
+        self.plot.setLabel("bottom", "X", units="m")
+        self.plot.setLabel("left", "Y", units="m")
+        self.curve = self.plot.plot(pen=pg.mkPen((0, 200, 255), width=2), connect="finite", symbol="o",
+                                    symbolSize=5)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(2, 2, 2, 2)
+        layout.addWidget(self.plot)
+        workspace.objects_changed.connect(self.refresh)
+
+    def cleanup(self) -> None:
+        self.workspace.objects_changed.disconnect(self.refresh)
+
+    def refresh(self) -> None:
+        parts = []
+        for stored in self.workspace.objects():
+            points = np.array([v.xyz for v in stored.vertices if v.xyz is not None], float).reshape(-1, 3)
+            if stored.kind == "polygon" and len(points) > 2:
+                points = np.vstack([points, points[:1]])
+            parts.append(np.vstack([points[:, :2], [[np.nan, np.nan]]]))
+        data = np.vstack(parts) if parts else np.zeros((0, 2))
+        self.curve.setData(data[:, 0], data[:, 1], connect="finite")
+
+
+class LogPanel(QtWidgets.QPlainTextEdit):
+    """Every message of the session, newest last."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setReadOnly(True)
+        self.setMaximumBlockCount(2000)
+
+    def add(self, level: str, text: str) -> None:
+        stamp = QtCore.QTime.currentTime().toString("HH:mm:ss")
+        self.appendPlainText(f"{stamp} {level:7s} {text}")

@@ -1,0 +1,65 @@
+"""Long work off the GUI thread: a QRunnable with finished / failed / progress signals and a cancel flag.
+
+The job is a plain function ``job(progress, cancelled)`` (``progress(fraction)`` and ``cancelled()``
+are callables) so that the work itself stays testable without Qt.
+"""
+
+from __future__ import annotations
+
+import threading
+import traceback
+from collections.abc import Callable
+
+from PySide6 import QtCore
+
+from usvips.core.errors import UsvipsError
+
+
+class Cancelled(Exception):
+    """Raised by a job that noticed ``cancelled()``."""
+
+
+class _Signals(QtCore.QObject):
+    finished = QtCore.Signal(object)
+    failed = QtCore.Signal(str)
+    progress = QtCore.Signal(float)
+    cancelled = QtCore.Signal()
+
+
+class Worker(QtCore.QRunnable):
+    """Runs ``job(progress, cancelled)`` in the global thread pool; results arrive as signals on the GUI
+    thread. ``cancel()`` asks the job to stop; a job that stops early emits ``cancelled``."""
+
+    def __init__(self, job: Callable[[Callable[[float], None], Callable[[], bool]], object], label: str) -> None:
+        super().__init__()
+        self.job = job
+        self.label = label
+        self.signals = _Signals()
+        self._cancel = threading.Event()
+        self.setAutoDelete(False)
+
+    def cancel(self) -> None:
+        self._cancel.set()
+
+    @property
+    def is_cancelled(self) -> bool:
+        return self._cancel.is_set()
+
+    def run(self) -> None:
+        try:
+            result = self.job(self.signals.progress.emit, self._cancel.is_set)
+        except Cancelled:
+            self.signals.cancelled.emit()
+        except UsvipsError as error:
+            self.signals.failed.emit(str(error))
+        except MemoryError:
+            self.signals.failed.emit(f"{self.label}: not enough memory")
+        except Exception as error:  # a bug: say what and where, never crash the window
+            where = traceback.extract_tb(error.__traceback__)[-1]
+            self.signals.failed.emit(f"{self.label} failed: {type(error).__name__}: {error} "
+                                     f"({where.filename.rsplit('/', 1)[-1]}:{where.lineno})")
+        else:
+            if self._cancel.is_set():
+                self.signals.cancelled.emit()
+            else:
+                self.signals.finished.emit(result)

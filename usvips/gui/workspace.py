@@ -1,0 +1,582 @@
+"""The workstation's model, free of Qt: the open project and image pair, the picking and measuring tool,
+the enhancement pipelines, and undo/redo. The window only draws what this holds and forwards clicks.
+
+Pixels follow ARCHITECTURE.md: x right, y down, origin at the centre of the top-left pixel (float64).
+3-D points are metres in the frame of the pair's calibration: the object frame when the pair is a
+calibrated station, otherwise the rig frame (origin at the left camera's perspective centre).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from usvips.core.calibration.uncertainty import joint_covariance
+from usvips.core.enhance import Pipeline
+from usvips.core.errors import UsvipsError
+from usvips.core.matching import epipolar_curve, match_along_curve
+from usvips.core.measure import QualityRules
+from usvips.core.rays import RayStatus
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.core.targets import locate_disc
+from usvips.gui.calculator import Geometry, Result, object_figures, pair_figures
+from usvips.gui.signals import Signal
+from usvips.io.calibration_file import calibration_from_dict
+from usvips.io.images import read_image
+from usvips.store import Project
+from usvips.store.project import Vertex
+
+SIDES = ("left", "right")
+TOOLS = ("pick", "point", "line", "polygon")
+MINIMUM_VERTICES = {"point": 1, "line": 2, "polygon": 3}
+
+
+def other(side: str) -> str:
+    return "right" if side == "left" else "left"
+
+
+@dataclass(frozen=True)
+class PickState:
+    """The vertex being digitised: its picks (pixels), the epipolar curve drawn in the image opposite
+    ``source`` (the side picked first), the auto-match ``proposal`` there, and a note for the user."""
+
+    left: tuple[float, float] | None = None
+    right: tuple[float, float] | None = None
+    source: str | None = None
+    curve: np.ndarray | None = None
+    proposal: tuple[float, float] | None = None
+    note: str = ""
+
+    def pick(self, side: str) -> tuple[float, float] | None:
+        return self.left if side == "left" else self.right
+
+
+@dataclass(frozen=True)
+class MeasuredVertex:
+    """A vertex with both picks intersected: X, Y, Z (m), its 3 × 3 covariance (m²), the distance of the
+    point from the rays (m, RMS) and its range from the left camera (m)."""
+
+    left: tuple[float, float]
+    right: tuple[float, float]
+    xyz: np.ndarray
+    covariance: np.ndarray
+    ray_rms_m: float
+    range_m: float
+
+    @property
+    def sigmas(self) -> np.ndarray:
+        return np.sqrt(np.clip(np.diag(self.covariance), 0, None))
+
+
+@dataclass
+class Command:
+    """One undoable step: ``redo`` does it (again), ``undo`` takes it back."""
+
+    label: str
+    redo: Callable[[], None]
+    undo: Callable[[], None]
+
+
+class UndoStack:
+    """Undo and redo of every pick and edit; ``changed`` fires after each push, undo and redo."""
+
+    def __init__(self) -> None:
+        self._done: list[Command] = []
+        self._undone: list[Command] = []
+        self.changed = Signal()
+
+    def push(self, command: Command) -> None:
+        command.redo()
+        self._done.append(command)
+        self._undone.clear()
+        self.changed.emit()
+
+    def undo(self) -> str | None:
+        if not self._done:
+            return None
+        command = self._done.pop()
+        command.undo()
+        self._undone.append(command)
+        self.changed.emit()
+        return command.label
+
+    def redo(self) -> str | None:
+        if not self._undone:
+            return None
+        command = self._undone.pop()
+        command.redo()
+        self._done.append(command)
+        self.changed.emit()
+        return command.label
+
+    def clear(self) -> None:
+        self._done.clear()
+        self._undone.clear()
+        self.changed.emit()
+
+    @property
+    def undo_label(self) -> str | None:
+        return self._done[-1].label if self._done else None
+
+    @property
+    def redo_label(self) -> str | None:
+        return self._undone[-1].label if self._undone else None
+
+
+@dataclass(frozen=True)
+class PairGeometry:
+    """The calibration used for a pair, the station and frame it is placed in, and a line saying so."""
+
+    calibration: StereoCalibration
+    calibration_id: int
+    station: int | str
+    frame: str
+
+    @property
+    def description(self) -> str:
+        where = (f"station {self.station}, object frame" if self.frame == "object"
+                 else "rig frame (origin at the left camera; the pair is not a calibrated station)")
+        return f"calibration {self.calibration_id} ({self.calibration.phase}), {where}"
+
+
+def pair_geometry(project: Project, label: str) -> PairGeometry | None:
+    """The active calibration of a pair placed at its station, or None when the pair has none."""
+    calibration_id = project.active_calibration(label)
+    if calibration_id is None:
+        return None
+    calibration = calibration_from_dict(project.calibration(calibration_id),
+                                        f"{project.path} calibration {calibration_id}")
+    if label in calibration.stations:
+        return PairGeometry(calibration, calibration_id, label, "object")
+    return PairGeometry(calibration, calibration_id, 0, "rig")
+
+
+def pair_image_paths(project: Project, label: str) -> tuple[Path, Path]:
+    """The absolute paths of a pair's two images (raises when the pair has none or a file is missing)."""
+    pair = next((p for p in project.pairs() if p["label"] == label), None)
+    if pair is None:
+        raise UsvipsError(f"{project.path}: no image pair {label!r}")
+    if not pair["left"] or not pair["right"]:
+        raise UsvipsError(f"pair {label!r} has no images (observations only)")
+    return project.image_path(pair["left"]), project.image_path(pair["right"])
+
+
+def read_pair(paths: tuple[Path, Path]) -> tuple[np.ndarray, np.ndarray]:
+    """Read a pair's two images (may take a while for large ones: the window calls it off the GUI thread;
+    the project itself stays on the GUI thread, SQLite connections are not shared between threads)."""
+    return read_image(paths[0]), read_image(paths[1])
+
+
+def load_pair_images(project: Project, label: str) -> tuple[np.ndarray, np.ndarray]:
+    """Both steps at once, for scripts and tests."""
+    return read_pair(pair_image_paths(project, label))
+
+
+@dataclass
+class _Digitising:
+    """The object being digitised: its kind and the vertices measured so far."""
+
+    kind: str
+    vertices: tuple[MeasuredVertex, ...] = ()
+
+
+@dataclass
+class Workspace:
+    """The open project, the current pair with its images and calibration, the tool and its state.
+
+    Events (:class:`Signal`): ``pair_changed()``, ``picks_changed()`` (the pick state, the object being
+    digitised or the last measured point changed), ``objects_changed()``, ``enhancement_changed(side)``,
+    ``message(level, text)`` with level ``info``, ``warning`` or ``error``.
+    """
+
+    project: Project | None = None
+    snap: bool = False
+    auto_match: bool = True
+    rules: QualityRules = field(default_factory=QualityRules)
+    near_m: float = 0.2
+    far_m: float = 20.0
+
+    def __post_init__(self) -> None:
+        self.pair: str | None = None
+        self.images: dict[str, np.ndarray] = {}
+        self.pipelines: dict[str, Pipeline] = {side: Pipeline() for side in SIDES}
+        self.geometry: PairGeometry | None = None
+        self.state = PickState()
+        self.digitising: _Digitising = _Digitising("pick")
+        self.last_point: MeasuredVertex | None = None
+        self.undo = UndoStack()
+        self.pair_changed = Signal()
+        self.picks_changed = Signal()
+        self.objects_changed = Signal()
+        self.enhancement_changed = Signal()
+        self.message = Signal()
+
+    # ------------------------------------------------------------------ project and pair
+    def open_project(self, project: Project) -> None:
+        if self.project is not None and self.project is not project:
+            self.project.close()
+        self.project = project
+        self.pair, self.images, self.geometry = None, {}, None
+        self._reset_picks()
+        self.undo.clear()
+        self.objects_changed.emit()
+        self.pair_changed.emit()
+
+    def close_project(self) -> None:
+        if self.project is not None:
+            self.project.close()
+        self.project = None
+        self.pair, self.images, self.geometry = None, {}, None
+        self._reset_picks()
+        self.undo.clear()
+        self.objects_changed.emit()
+        self.pair_changed.emit()
+
+    def image_pairs(self) -> list[str]:
+        """Labels of the project's pairs that have images."""
+        if self.project is None:
+            return []
+        return [p["label"] for p in self.project.pairs() if p["left"] and p["right"]]
+
+    def set_pair(self, label: str, left: np.ndarray, right: np.ndarray) -> None:
+        """Show a pair (images already read, see :func:`load_pair_images`); its calibration and saved
+        enhancements come from the project."""
+        if self.project is None:
+            raise UsvipsError("open a project first")
+        self.pair = label
+        self.images = {"left": left, "right": right}
+        try:
+            self.geometry = pair_geometry(self.project, label)
+        except UsvipsError as error:
+            self.geometry = None
+            self.message.emit("error", f"the calibration of pair {label!r} cannot be used: {error}")
+        for side in SIDES:
+            self.pipelines[side] = self._stored_pipeline(side)
+        self._reset_picks()
+        self.undo.clear()
+        self.pair_changed.emit()
+        if self.geometry is None:
+            self.message.emit("warning", f"pair {label!r} has no active calibration: picks are shown, "
+                                         "nothing can be intersected")
+        else:
+            self.message.emit("info", f"pair {label}: {self.geometry.description}")
+
+    def image_key(self, side: str) -> str:
+        """The project's key for an image's settings: its stored relative path."""
+        pair = next(p for p in self.project.pairs() if p["label"] == self.pair)
+        return str(pair[side])
+
+    def _stored_pipeline(self, side: str) -> Pipeline:
+        text = self.project.enhancement(self.image_key(side))
+        if not text:
+            return Pipeline()
+        try:
+            return Pipeline.from_json(text)
+        except UsvipsError as error:
+            self.message.emit("warning", f"the saved enhancement of the {side} image is ignored: {error}")
+            return Pipeline()
+
+    # ------------------------------------------------------------------ enhancement
+    def set_pipeline(self, side: str, pipeline: Pipeline) -> None:
+        """Change an image's enhancement (display only: picks and coordinates use the original) and save
+        it in the project."""
+        if side not in SIDES:
+            raise UsvipsError(f"side must be 'left' or 'right', got {side!r}")
+        self.pipelines[side] = pipeline
+        if self.project is not None and self.pair is not None:
+            self.project.set_enhancement(self.image_key(side), pipeline.to_json())
+        self.enhancement_changed.emit(side)
+
+    # ------------------------------------------------------------------ tool
+    @property
+    def tool(self) -> str:
+        return self.digitising.kind
+
+    def set_tool(self, tool: str) -> None:
+        if tool not in TOOLS:
+            raise UsvipsError(f"unknown tool {tool!r}; tools: {', '.join(TOOLS)}")
+        if self.digitising.vertices:
+            self.message.emit("warning", f"the unfinished {self.digitising.kind} "
+                                         f"({len(self.digitising.vertices)} vertices) was dropped")
+        self.digitising = _Digitising(tool)
+        self._reset_picks()
+
+    def _reset_picks(self) -> None:
+        self.state = PickState()
+        self.digitising = _Digitising(self.digitising.kind)
+        self.picks_changed.emit()
+
+    def _snapshot(self) -> tuple:
+        return self.state, self.digitising.vertices, self.last_point
+
+    def _restore(self, snapshot: tuple) -> None:
+        self.state, vertices, self.last_point = snapshot
+        self.digitising = _Digitising(self.digitising.kind, vertices)
+        self.picks_changed.emit()
+
+    def _change(self, label: str, apply: Callable[[], None]) -> None:
+        """Run a change of the pick state as one undoable command."""
+        before = self._snapshot()
+        apply()
+        after = self._snapshot()
+        self.undo.push(Command(label, lambda: self._restore(after), lambda: self._restore(before)))
+
+    # ------------------------------------------------------------------ picking
+    def _check_pixel(self, side: str, pixel) -> tuple[float, float]:
+        if not self.images:
+            raise UsvipsError("no image pair is shown")
+        x, y = (float(v) for v in pixel)
+        h, w = self.images[side].shape[:2]
+        if not (np.isfinite(x) and np.isfinite(y) and -0.5 <= x <= w - 0.5 and -0.5 <= y <= h - 0.5):
+            raise UsvipsError(f"({x:.1f}, {y:.1f}) is outside the {side} image ({w} × {h} px)")
+        return x, y
+
+    def _snapped(self, side: str, pixel: tuple[float, float]) -> tuple[tuple[float, float], str]:
+        if not self.snap:
+            return pixel, ""
+        found = locate_disc(self.images[side], pixel)
+        if found:
+            return (float(found.center[0]), float(found.center[1])), f"snapped to a target centre ({side})"
+        return pixel, f"not snapped ({side}): {found.reason}; your click is kept"
+
+    def pick(self, side: str, pixel) -> None:
+        """A click in one image. First pick of a vertex: draw the epipolar curve in the other image and
+        propose the conjugate. A click in the other image corrects the proposal and completes the vertex."""
+        pixel = self._check_pixel(side, pixel)
+        pixel, note = self._snapped(side, pixel)
+        state = self.state
+        if state.source is not None and state.source != side:
+            self._complete_vertex(replace(state, **{side: pixel}), note)
+            return
+        new = self._first_pick(side, pixel, note)
+        self._change(f"pick ({side})", lambda: self._set_state(new))
+
+    def _set_state(self, state: PickState) -> None:
+        self.state = state
+
+    def _first_pick(self, side: str, pixel: tuple[float, float], note: str) -> PickState:
+        if self.geometry is None:
+            return PickState(**{side: pixel}, source=side, note=note or "no calibration: no epipolar curve")
+        rig = self.geometry.calibration.rig(self.geometry.station, self.geometry.frame)
+        cameras = {"left": rig.left, "right": rig.right}
+        curve = epipolar_curve(cameras[side], cameras[other(side)], pixel, self.near_m, self.far_m, samples=400)
+        notes = [note] if note else []
+        proposal = None
+        if len(curve.pixels) == 0:
+            notes.append(f"the epipolar curve of this point does not enter the {other(side)} image")
+        elif self.auto_match:
+            try:
+                match = match_along_curve(self.images[side], self.images[other(side)], pixel, curve)
+            except UsvipsError as error:
+                match, reason = None, str(error)
+            else:
+                reason = match.reason
+            if match:
+                proposal, snap_note = self._snapped(other(side), match.pixel)
+                notes.append(f"proposed match (correlation {match.score:.2f}); Enter accepts, a click corrects"
+                             + (f"; {snap_note}" if snap_note else ""))
+            else:
+                notes.append(f"no automatic match: {reason}; click the point in the {other(side)} image")
+        return PickState(**{side: pixel}, source=side, curve=curve.pixels, proposal=proposal, note="; ".join(notes))
+
+    def accept_proposal(self) -> None:
+        """Take the auto-match proposal as the second pick and complete the vertex."""
+        state = self.state
+        if state.proposal is None:
+            raise UsvipsError("there is no proposed match to accept: click the point in the other image")
+        self._complete_vertex(replace(state, **{other(state.source): state.proposal}), "")
+
+    def cancel_vertex(self) -> None:
+        if self.state.source is not None:
+            self._change("cancel pick", lambda: self._set_state(PickState()))
+
+    def _complete_vertex(self, state: PickState, note: str) -> None:
+        """Intersect a vertex's two picks; a failed intersection leaves the first pick standing."""
+        try:
+            vertex = self.intersect(state.left, state.right)
+        except UsvipsError as error:
+            self.message.emit("error", f"{error}; pick the point again")
+            return
+        kind = self.digitising.kind
+        self.message.emit("info", describe_point(vertex))
+        if kind == "point":
+            self.finish_object(vertices=(vertex,))
+            return
+
+        def add() -> None:
+            self.state = PickState(note=note)
+            self.last_point = vertex
+            if kind != "pick":
+                self.digitising = _Digitising(kind, self.digitising.vertices + (vertex,))
+
+        self._change("vertex", add)
+
+    def intersect(self, left, right) -> MeasuredVertex:
+        """Intersect one pair of picks with the pair's calibration (pointing and calibration covariance)."""
+        if self.geometry is None:
+            raise UsvipsError(f"pair {self.pair!r} has no active calibration: nothing can be intersected")
+        g = self.geometry
+        result, covariance = joint_covariance(g.calibration, np.array([left], float), np.array([right], float),
+                                              g.station, g.frame)
+        if not result.ok[0]:
+            raise UsvipsError(f"the rays do not intersect: {RayStatus(int(result.status[0])).reason}")
+        camera = g.calibration.rig(g.station, g.frame).left.exterior.position
+        point = result.points[0]
+        return MeasuredVertex(tuple(left), tuple(right), point, covariance[:3, :3],
+                              float(np.sqrt(np.mean(result.residuals_m[0] ** 2))),
+                              float(np.linalg.norm(point - camera)))
+
+    # ------------------------------------------------------------------ objects
+    def finish_object(self, attribute: str = "", notes: str = "",
+                      vertices: tuple[MeasuredVertex, ...] | None = None) -> int:
+        """Store the object being digitised (one transaction; undoable) and start the next one.
+        ``vertices``: store these instead (a point object is stored as its vertex completes)."""
+        kind = self.digitising.kind
+        last = vertices[-1] if vertices else None
+        vertices = self.digitising.vertices if vertices is None else self.digitising.vertices + vertices
+        if kind == "pick":
+            raise UsvipsError("the pick tool measures single points without storing them: choose point, line "
+                              "or polygon to measure an object")
+        if len(vertices) < MINIMUM_VERTICES[kind]:
+            raise UsvipsError(f"a {kind} needs at least {MINIMUM_VERTICES[kind]} vertices, it has {len(vertices)}")
+        if self.project is None:
+            raise UsvipsError("open a project first")
+        stored = self._vertices_for_store(vertices)
+        holder = {"id": None}
+        before = self._snapshot()
+
+        def store() -> None:
+            holder["id"] = self.project.add_object(kind, stored, attribute, notes, creator="usvips")
+            if attribute:
+                self.project.add_term(attribute)
+            self.digitising = _Digitising(kind)
+            self.state = PickState()
+            if last is not None:
+                self.last_point = last
+            self.objects_changed.emit()
+            self.picks_changed.emit()
+
+        def unstore() -> None:
+            self.project.delete_object(holder["id"])
+            self._restore(before)
+            self.objects_changed.emit()
+
+        self.undo.push(Command(f"store {kind}", store, unstore))
+        result = self.figures([holder["id"]])
+        main = result.figures[0] if result.figures and kind != "point" else None
+        self.message.emit("warning" if result.failures else "info",
+                          f"stored {kind} {holder['id']}" + (f": {_short(main)}" if main else "")
+                          + (f" — quality: {'; '.join(result.failures)}" if result.failures else ""))
+        return holder["id"]
+
+    def _vertices_for_store(self, vertices: tuple[MeasuredVertex, ...]) -> list[Vertex]:
+        g = self.geometry
+        return [Vertex(*v.left, *v.right, tuple(float(c) for c in v.xyz), v.covariance,
+                       g.calibration_id if g else None, self.pair) for v in vertices]
+
+    def delete_object(self, object_id: int) -> None:
+        saved = self.project.object(object_id)
+        holder = {"id": object_id}
+
+        def delete() -> None:
+            self.project.delete_object(holder["id"])
+            self.objects_changed.emit()
+
+        def restore() -> None:
+            holder["id"] = self.project.add_object(saved.kind, list(saved.vertices), saved.attribute, saved.notes,
+                                                   saved.creator)
+            self.objects_changed.emit()
+
+        self.undo.push(Command(f"delete {saved.kind} {object_id}", delete, restore))
+
+    def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
+        saved = self.project.object(object_id)
+
+        def apply(a: str, n: str) -> Callable[[], None]:
+            def run() -> None:
+                self.project.update_object(object_id, attribute=a, notes=n)
+                if a:
+                    self.project.add_term(a)
+                self.objects_changed.emit()
+            return run
+
+        self.undo.push(Command(f"edit object {object_id}", apply(attribute, notes),
+                               apply(saved.attribute, saved.notes)))
+
+    def objects(self) -> list:
+        return [] if self.project is None else self.project.objects()
+
+    # ------------------------------------------------------------------ geo-calculator
+    def object_geometry(self, object_id: int) -> Geometry:
+        """An object's vertices recomputed from its picks with the calibration they were measured with
+        (full covariance, calibration included); stored values when that calibration is gone."""
+        stored = self.project.object(object_id)
+        return self._geometry(stored.kind, list(stored.vertices))
+
+    def _geometry(self, kind: str, vertices: list[Vertex]) -> Geometry:
+        ids = {(v.calibration_id, v.pair) for v in vertices}
+        if len(ids) == 1 and None not in next(iter(ids)):
+            calibration_id, label = next(iter(ids))
+            try:
+                g = pair_geometry(self.project, label)
+                if g is not None and g.calibration_id != calibration_id:
+                    calibration = calibration_from_dict(self.project.calibration(calibration_id))
+                    station, frame = (label, "object") if label in calibration.stations else (0, "rig")
+                    g = PairGeometry(calibration, calibration_id, station, frame)
+            except UsvipsError:
+                g = None
+            if g is not None:
+                left = np.array([[v.xl, v.yl] for v in vertices])
+                right = np.array([[v.xr, v.yr] for v in vertices])
+                result, covariance = joint_covariance(g.calibration, left, right, g.station, g.frame)
+                if result.ok.all():
+                    camera = g.calibration.rig(g.station, g.frame).left.exterior.position
+                    return Geometry(kind, result.points, covariance,
+                                    float(np.sqrt(np.mean(result.residuals_m ** 2))),
+                                    float(np.max(np.linalg.norm(result.points - camera, axis=1))))
+        points = np.array([v.xyz if v.xyz is not None else (np.nan,) * 3 for v in vertices], float)
+        covariance = np.zeros((3 * len(vertices),) * 2)
+        for i, v in enumerate(vertices):
+            if v.covariance is not None:
+                covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] = v.covariance
+        return Geometry(kind, points, covariance)
+
+    def figures(self, object_ids: list[int]) -> Result:
+        """The geo-calculator on a selection of one or two objects."""
+        if self.project is None or not object_ids:
+            return Result((), (), "select one or two objects")
+        if len(object_ids) == 1:
+            geometry = self.object_geometry(object_ids[0])
+            if not np.all(np.isfinite(geometry.points)):
+                return Result((), (), f"object {object_ids[0]} has vertices without 3-D coordinates")
+            return object_figures(geometry, self.rules)
+        if len(object_ids) != 2:
+            return Result((), (), "select one object (its own figures) or two (figures between them)")
+        first, second = (self.project.object(i) for i in object_ids)
+        combined = self._geometry("point", list(first.vertices) + list(second.vertices))
+        n = 3 * len(first.vertices)
+        a = Geometry(first.kind, combined.points[: n // 3], combined.covariance[:n, :n])
+        b = Geometry(second.kind, combined.points[n // 3:], combined.covariance[n:, n:])
+        return pair_figures(a, b, combined.covariance)
+
+    # ------------------------------------------------------------------ persistence helpers
+    def settings_json(self) -> str:
+        return json.dumps({"snap": self.snap, "auto_match": self.auto_match, "tool": self.tool})
+
+
+def _short(figure) -> str:
+    from usvips.gui.calculator import format_figure
+
+    return format_figure(figure)
+
+
+def describe_point(vertex: MeasuredVertex) -> str:
+    """``X Y Z (m) ± sX sY sZ (mm)``, ray RMS and range: the status-bar readout of an intersection."""
+    x, y, z = vertex.xyz
+    sx, sy, sz = vertex.sigmas * 1000
+    return (f"X {x:.4f}  Y {y:.4f}  Z {z:.4f} m   ± {sx:.1f} / {sy:.1f} / {sz:.1f} mm   "
+            f"ray RMS {vertex.ray_rms_m * 1000:.1f} mm, range {vertex.range_m:.2f} m")
