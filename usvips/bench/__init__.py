@@ -13,8 +13,10 @@ import importlib
 import time
 from collections.abc import Callable, Iterable
 
-#: Modules of this package that contribute benchmarks, in the order they run.
-BENCH_MODULES: tuple[str, ...] = ("geometry", "calibration", "imaging")
+#: Areas that contribute benchmarks, in the order they run: modules of this package, except ``gui``,
+#: which lives in ``usvips.gui.bench`` (Qt stays inside the GUI package; it is imported only when run).
+BENCH_MODULES: tuple[str, ...] = ("geometry", "calibration", "imaging", "gui")
+BENCH_PATHS: dict[str, str] = {"gui": "usvips.gui.bench"}
 
 
 def best_time(function: Callable[[], object], repeats: int = 3) -> float:
@@ -49,6 +51,6 @@ def run(only: Iterable[str] | None = None, scale: float = 1.0) -> list[dict]:
     for name in BENCH_MODULES:
         if wanted is not None and name not in wanted:
             continue
-        module = importlib.import_module(f"usvips.bench.{name}")
+        module = importlib.import_module(BENCH_PATHS.get(name, f"usvips.bench.{name}"))
         rows.extend(module.benchmarks(scale))
     return rows

@@ -79,8 +79,8 @@ class MatchResult:
 
 def _grey(image: np.ndarray) -> np.ndarray:
     image = check_image(image)
-    if image.ndim == 3:
-        image = image.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32)
+    if image.ndim == 3:  # luminance, BT.601 weights (0.299, 0.587, 0.114), in float: no rounding
+        return cv2.cvtColor(np.ascontiguousarray(image, dtype=np.float32), cv2.COLOR_RGB2GRAY)
     return np.ascontiguousarray(image, dtype=np.float32)
 
 
@@ -107,20 +107,23 @@ def match_along_curve(source_image: np.ndarray, target_image: np.ndarray, pixel,
     window = int(window)
     if window < 5 or window % 2 == 0:
         raise InvalidParameterError("window", f"must be odd and >= 5, got {window}")
-    source, target = _grey(source_image), _grey(target_image)
+    source_image, target_image = check_image(source_image, "source"), check_image(target_image, "target")
     x, y = validation.finite_vector("pixel", pixel, 2)
-    h, w = source.shape
+    h, w = source_image.shape[:2]
     half = window // 2
     if not (half <= x <= w - 1 - half and half <= y <= h - 1 - half):
         raise InvalidParameterError("pixel", f"({x:g}, {y:g}) is too close to the edge of the {w} × {h} image "
                                     f"for a {window} px template")
-    template = cv2.getRectSubPix(source, (window, window), (float(x), float(y)))
+    # grey only the regions used (a whole 4000 × 3000 colour image would cost more than the search)
+    sx0, sy0 = max(int(x) - half - 2, 0), max(int(y) - half - 2, 0)
+    source = _grey(source_image[sy0:int(y) + half + 3, sx0:int(x) + half + 3])
+    template = cv2.getRectSubPix(source, (window, window), (float(x - sx0), float(y - sy0)))
     if float(template.std()) < min_contrast:
         return MatchResult(None, 0.0, None, False, f"textureless: the template's contrast "
                            f"({template.std():.1f}) is below {min_contrast:g} grey levels")
     if len(curve.pixels) == 0:
         return MatchResult(None, 0.0, None, False, "the epipolar curve does not enter the other image")
-    th, tw = target.shape
+    th, tw = target_image.shape[:2]
     samples, depths = _resample(curve, 1.0)
     inside = ((samples[:, 0] >= half + 2) & (samples[:, 0] <= tw - 3 - half)
               & (samples[:, 1] >= half + 2) & (samples[:, 1] <= th - 3 - half))
@@ -132,7 +135,11 @@ def match_along_curve(source_image: np.ndarray, target_image: np.ndarray, pixel,
     y0 = int(np.floor(samples[:, 1].min())) - half
     x1 = int(np.ceil(samples[:, 0].max())) + half + 1
     y1 = int(np.ceil(samples[:, 1].max())) + half + 1
-    surface = cv2.matchTemplate(np.ascontiguousarray(target[y0:y1 + 1, x0:x1 + 1]), template, cv2.TM_CCOEFF_NORMED)
+    # the grey target region: the box plus the margin of the 2-D refinement below
+    cx0, cy0 = max(x0 - 4, 0), max(y0 - 4, 0)
+    target = _grey(target_image[cy0:min(y1 + 5, th), cx0:min(x1 + 5, tw)])
+    surface = cv2.matchTemplate(np.ascontiguousarray(target[y0 - cy0:y1 + 1 - cy0, x0 - cx0:x1 + 1 - cx0]), template,
+                                cv2.TM_CCOEFF_NORMED)
     map_x = (samples[:, 0] - x0 - half).astype(np.float32).reshape(1, -1)
     map_y = (samples[:, 1] - y0 - half).astype(np.float32).reshape(1, -1)
     scores = cv2.remap(surface, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).ravel()
@@ -142,7 +149,7 @@ def match_along_curve(source_image: np.ndarray, target_image: np.ndarray, pixel,
     second = float(scores[far_away].max()) if far_away.any() else -1.0
     # refine in 2-D around the best sample: correlation on a 7 x 7 grid, quadratic peak
     u0, v0 = samples[best]
-    region = cv2.getRectSubPix(target, (window + 6, window + 6), (float(u0), float(v0)))
+    region = cv2.getRectSubPix(target, (window + 6, window + 6), (float(u0 - cx0), float(v0 - cy0)))
     surface = cv2.matchTemplate(region, template, cv2.TM_CCOEFF_NORMED)
     py, px = np.unravel_index(int(np.argmax(surface)), surface.shape)
     peak = float(surface[py, px])

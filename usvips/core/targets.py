@@ -42,8 +42,8 @@ class TargetResult:
 
 def _grey(image: np.ndarray) -> np.ndarray:
     image = check_image(image)
-    if image.ndim == 3:
-        image = image.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32)
+    if image.ndim == 3:  # luminance, BT.601 weights (0.299, 0.587, 0.114), in float: no rounding
+        return cv2.cvtColor(np.ascontiguousarray(image, dtype=np.float32), cv2.COLOR_RGB2GRAY)
     return image.astype(np.float32)
 
 
@@ -80,11 +80,11 @@ def locate_disc(image: np.ndarray, click: tuple[float, float], window: int = 41)
     half = int(window) // 2
     if half < 3:
         raise InvalidParameterError("window", f"must be at least 7 pixels, got {window}")
-    grey = _grey(image)
-    cut = _window(grey, click, half)
+    cut = _window(check_image(image), click, half)
     if cut is None:
         return TargetResult(None, 0.0, "clipped: the window around the click reaches the image edge")
     patch, top, left = cut
+    patch = _grey(patch)  # only the window: a full 4000 × 3000 conversion would cost more than the fit
     ring = np.concatenate([patch[0], patch[-1], patch[:, 0], patch[:, -1]])
     background = float(np.median(ring))
     # pixel noise from neighbour differences along the ring: a smooth textured background does not count
@@ -151,11 +151,11 @@ def locate_cross(image: np.ndarray, click: tuple[float, float], window: int = 41
     size = int(template_size) | 1
     if size >= window:
         raise InvalidParameterError("template_size", f"must be smaller than the window ({window}), got {size}")
-    grey = _grey(image)
-    cut = _window(grey, click, half)
+    cut = _window(check_image(image), click, half)
     if cut is None:
         return TargetResult(None, 0.0, "clipped: the window around the click reaches the image edge")
     patch, top, left = cut
+    patch = _grey(patch)  # only the window: a full 4000 × 3000 conversion would cost more than the fit
     if float(patch.std()) < 1e-3:
         return TargetResult(None, 0.0, "no target: the patch is uniform")
     template = cross_template(size, arm_width)

@@ -31,6 +31,24 @@ TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
              "polygon": "Polygon: digitise an area vertex by vertex (Enter finishes)"}
 
 
+GUIDE = """<b>Measuring</b><ol>
+<li>Choose a pair (toolbar) and a tool: <i>Pick</i> shows a 3-D point without storing it, <i>Point</i>,
+<i>Line</i> (a fish: snout, then fork) and <i>Polygon</i> store objects.</li>
+<li>Click the point in either image. The dashed orange curve in the other image is where its partner
+must lie (the refractive epipolar curve); the yellow circle is the automatic match.</li>
+<li>Press <b>Enter</b> to accept the match, or click the right spot on the curve to correct it.
+X, Y, Z with their standard deviations appear in the status bar.</li>
+<li>For lines and polygons, go on vertex by vertex; <b>Enter</b> (or <b>Ctrl+Enter</b>) stores the object
+with the attribute from the toolbar. <b>Esc</b> drops a half-made vertex; <b>Ctrl+Z</b> undoes any step.</li>
+</ol>
+<b>Pointing precisely</b>: zoom with the wheel or <b>B</b> (box zoom), <b>1</b> for 1:1, <b>F</b> to fit;
+the loupe (<b>G</b>) magnifies around the cursor; <b>S</b> snaps clicks to the centre of target discs.<br>
+<b>Figures</b>: select one object in the list for its length or area, two for the distance, angle or
+offset between them; the geo-calculator shows each figure with its standard deviation and the quality
+rules it breaks.<br>
+<b>Enhancement</b> changes only what you see; picks and coordinates always use the original image."""
+
+
 def luminance_histogram(image: np.ndarray) -> np.ndarray:
     """Counts of the 256 grey levels (uint16 images binned to 256)."""
     grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY) if image.ndim == 3 else image
@@ -69,7 +87,6 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.enhancement_changed.connect(self._on_enhancement_changed)
         ws.message.connect(self.show_message)
         ws.undo.changed.connect(self._on_undo_changed)
-        self.resize(1366, 768)
         self._restore_layout()
         self._on_undo_changed()
         self.show_message("info", "Open a project (Ctrl+O) or a sample (File › Open sample) to begin.")
@@ -195,6 +212,8 @@ class MainWindow(QtWidgets.QMainWindow):
         measure.addSeparator()
         for name in ("accept", "finish", "cancel", "snap", "auto_match"):
             measure.addAction(a[name])
+        help_menu = self.menuBar().addMenu("&Help")
+        help_menu.addAction("&Quick guide", self.show_guide, QtGui.QKeySequence("F1"))
         bar = self.addToolBar("Main")
         bar.setObjectName("main_toolbar")
         bar.addAction(a["open"])
@@ -221,11 +240,18 @@ class MainWindow(QtWidgets.QMainWindow):
         for name in ("fit", "one", "box", "link", "loupe"):
             bar.addAction(a[name])
 
+    def show_guide(self) -> None:
+        QtWidgets.QMessageBox.information(self, "USVIPS — quick guide", GUIDE)
+
     # ------------------------------------------------------------------ settings
     def _restore_layout(self) -> None:
         geometry = self.settings.value("window/geometry")
         if geometry is not None:
             self.restoreGeometry(geometry)
+        elif self.screen() is not None:  # first start: most of the screen, centred
+            available = self.screen().availableGeometry()
+            self.resize(int(available.width() * 0.9), int(available.height() * 0.9))
+            self.move(available.center() - self.rect().center())
         state = self.settings.value("window/state")
         if state is not None:
             self.restoreState(state)
@@ -467,8 +493,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.pixel_label.setText(f"{side}  x {x:8.2f}  y {y:8.2f}  value {grey}")
 
     def set_tool(self, tool: str) -> None:
-        self._guarded(self.workspace.set_tool, tool)
-        self.actions[f"tool_{tool}"].setChecked(True)
+        if self._guarded(self.workspace.set_tool, tool):
+            self.actions[f"tool_{tool}"].setChecked(True)
+            self.statusBar().showMessage(TOOL_TIPS[tool], 10000)
 
     def accept_or_finish(self) -> None:
         if self.workspace.state.proposal is not None:
@@ -509,8 +536,9 @@ class MainWindow(QtWidgets.QMainWindow):
         undo, redo = self.workspace.undo.undo_label, self.workspace.undo.redo_label
         self.actions["undo"].setEnabled(undo is not None)
         self.actions["redo"].setEnabled(redo is not None)
-        self.actions["undo"].setText(f"&Undo {undo}" if undo else "&Undo")
-        self.actions["redo"].setText(f"&Redo {redo}" if redo else "&Redo")
+        # the toolbar keeps short names; what would be undone is in the tooltip and the status tip
+        self.actions["undo"].setToolTip(f"Undo {undo} (Ctrl+Z)" if undo else "nothing to undo")
+        self.actions["redo"].setToolTip(f"Redo {redo} (Ctrl+Shift+Z)" if redo else "nothing to redo")
 
     def _on_snap(self) -> None:
         self.workspace.snap = self.actions["snap"].isChecked()

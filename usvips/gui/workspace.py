@@ -338,7 +338,10 @@ class Workspace:
     def _snapped(self, side: str, pixel: tuple[float, float]) -> tuple[tuple[float, float], str]:
         if not self.snap:
             return pixel, ""
-        found = locate_disc(self.images[side], pixel)
+        for window in (41, 81):  # large targets (near the camera, big images) need the wider window
+            found = locate_disc(self.images[side], pixel, window=window)
+            if found or "window edge" not in found.reason:
+                break
         if found:
             return (float(found.center[0]), float(found.center[1])), f"snapped to a target centre ({side})"
         return pixel, f"not snapped ({side}): {found.reason}; your click is kept"

@@ -1,0 +1,262 @@
+"""Benchmarks of the workstation window, offscreen: start-up, memory with two 4000 × 3000 colour images
+and an enhancement, a pick to the 3-D readout, a zoom step. Run by ``usvips bench`` (area ``gui``).
+
+Start-up and memory run in fresh processes (what a user's session pays); the pick and the zoom run in
+this process on an offscreen window. Each row names its baseline, measured in the same run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+SAMPLE = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport"
+BIG = (4000, 3000)  # width, height of the large-image rows
+
+_STARTUP = """
+import sys, time
+start = float(sys.argv[1])
+from PySide6 import QtCore, QtWidgets
+if sys.argv[2] == "usvips":
+    from usvips.gui.app import application, configure
+    configure()
+    app = application()
+    from usvips.gui.main_window import MainWindow
+    window = MainWindow(settings=QtCore.QSettings(sys.argv[3], QtCore.QSettings.Format.IniFormat))
+else:
+    app = QtWidgets.QApplication(sys.argv[:1])
+    window = QtWidgets.QMainWindow()
+window.show()
+app.processEvents()
+window.grab()
+print(time.time() - start)
+"""
+
+_MEMORY = """
+import json, sys, time
+from PySide6 import QtCore, QtWidgets
+from usvips.io.images import read_image
+
+def resident_mb():
+    fields = dict(line.split(":", 1) for line in open("/proc/self/status"))
+    return int(fields["VmRSS"].split()[0]) / 1024, int(fields["VmHWM"].split()[0]) / 1024
+
+left, right, project_path, settings, mode = sys.argv[1:6]
+if mode == "baseline":  # Qt, a window and the two decoded images: what any viewer must hold
+    app = QtWidgets.QApplication(sys.argv[:1])
+    window = QtWidgets.QMainWindow()
+    window.show()
+    images = [read_image(left), read_image(right)]
+    app.processEvents()
+else:
+    from usvips.core.enhance import Pipeline
+    from usvips.gui.app import application, configure
+    configure()
+    app = application()
+    from usvips.gui.main_window import MainWindow
+    window = MainWindow(settings=QtCore.QSettings(settings, QtCore.QSettings.Format.IniFormat))
+    window.show()
+    window.open_path(project_path)
+    deadline = time.time() + 120
+    while (window.busy or window.workspace.pair is None) and time.time() < deadline:
+        app.processEvents()
+        time.sleep(0.01)
+    for side in ("left", "right"):
+        window.workspace.set_pipeline(side, Pipeline().then("clahe", clip_limit=2.0))
+    while window.busy and time.time() < deadline:
+        app.processEvents()
+        time.sleep(0.01)
+    window.grab()
+rss, peak = resident_mb()
+print(json.dumps({"rss_mb": rss, "peak_mb": peak}))
+"""
+
+
+def _run(script: str, *args: str) -> str:
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen")
+    result = subprocess.run([sys.executable, "-c", script, *args], capture_output=True, text=True, env=env,
+                            timeout=600)
+    if result.returncode != 0:
+        raise RuntimeError(result.stderr[-1500:])
+    return result.stdout.strip().splitlines()[-1]
+
+
+def _startup_row(settings: str) -> dict:
+    def best(kind: str) -> float:
+        return min(float(_run(_STARTUP, repr(time.time()), kind, settings)) for _ in range(3))
+
+    ours, bare = best("usvips"), best("bare")
+    return {"name": "gui: start-up to a shown main window", "n": 1, "ours_s": round(ours, 4),
+            "baseline": "an empty QMainWindow in a fresh interpreter", "baseline_s": round(bare, 4),
+            "ratio": round(ours / bare, 3), "target": None, "target_s": 2.0, "met": bool(ours <= 2.0)}
+
+
+def _big_pair(directory: Path) -> Path:
+    """A project with the ROV sample's measurement pair at 4000 × 3000 (colour) and its calibration with
+    the interior scaled to match (distortion is in normalised coordinates, so only f, xp, yp change)."""
+    from usvips.samples import create_from_manifest
+
+    scale = BIG[0] / 640
+    calibration = json.loads((SAMPLE / "calibration.json").read_text())
+    for side, suffix in (("left", "_l"), ("right", "_r")):
+        camera = calibration["cameras"][side]
+        camera["interior"]["f"] *= scale
+        for key in ("xp", "yp"):
+            camera["interior"][key] = (camera["interior"][key] + 0.5) * scale - 0.5
+        camera["width"], camera["height"] = BIG
+        for key in ("f", "xp", "yp"):
+            if key + suffix in calibration["parameters"]:
+                calibration["parameters"][key + suffix]["value"] = camera["interior"][key]
+    images = directory / "images"
+    images.mkdir(parents=True, exist_ok=True)
+    for side in ("left", "right"):
+        small = cv2.imread(str(SAMPLE / "images" / f"measure1_{side}.png"), cv2.IMREAD_COLOR)
+        big = cv2.resize(small, BIG, interpolation=cv2.INTER_LINEAR)
+        cv2.imwrite(str(images / f"big_{side}.png"), big, [cv2.IMWRITE_PNG_COMPRESSION, 1])
+    (directory / "calibration.json").write_text(json.dumps(calibration))
+    manifest = {"format": "usvips-sample", "version": 1, "name": "big", "description": "bench",
+                "pairs": [{"label": "big", "medium": "water", "left": "images/big_left.png",
+                           "right": "images/big_right.png"}],
+                "calibrations": [{"file": "calibration.json", "active_for": ["big"]}]}
+    (directory / "project.json").write_text(json.dumps(manifest))
+    project = create_from_manifest(directory, directory / "project.usvips")
+    project.close()
+    return directory / "project.usvips"
+
+
+def _memory_row(directory: Path, project: Path, settings: str) -> dict:
+    left, right = (str(directory / "images" / f"big_{s}.png") for s in ("left", "right"))
+    ours = json.loads(_run(_MEMORY, left, right, str(project), settings, "usvips"))
+    bare = json.loads(_run(_MEMORY, left, right, str(project), settings, "baseline"))
+    return {"name": "gui: resident memory, two 4000×3000 colour images + CLAHE on both", "n": 2,
+            "ours_mb": round(ours["rss_mb"]), "peak_mb": round(ours["peak_mb"]),
+            "baseline": "Qt window + the two decoded images", "baseline_mb": round(bare["rss_mb"]),
+            "ratio": round(ours["rss_mb"] / bare["rss_mb"], 3), "target": None, "target_mb": 1500,
+            "met": bool(ours["peak_mb"] <= 1500)}
+
+
+def _wait(app, window) -> None:
+    deadline = time.time() + 120
+    while (window.busy or window.workspace.pair is None) and time.time() < deadline:
+        app.processEvents()
+        time.sleep(0.005)
+
+
+def _pick_rows(window, app, label: str, left_px, right_px) -> Iterator[dict]:
+    from usvips.core.intersection import intersect
+
+    ws = window.workspace
+    g = ws.geometry
+    rig = g.calibration.rig(g.station, g.frame)
+    panes = window.panes.values()
+
+    def first() -> None:
+        ws.cancel_vertex()
+        window._on_clicked("left", *left_px)
+        for pane in panes:
+            pane.graphics.viewport().repaint()
+
+    def second() -> None:
+        window._on_clicked("right", *right_px)
+        for pane in panes:
+            pane.graphics.viewport().repaint()
+
+    def baseline() -> None:
+        intersect(rig.cameras, [np.array([left_px]), np.array([right_px])], 0.3)
+
+    first_s, second_s = [], []
+    for _ in range(5):
+        t0 = time.perf_counter()
+        first()
+        t1 = time.perf_counter()
+        second()
+        t2 = time.perf_counter()
+        first_s.append(t1 - t0)
+        second_s.append(t2 - t1)
+    assert "±" in window.point_label.text()
+    base = min(_timed(baseline) for _ in range(5))
+    for name, times in (("first pick: epipolar curve, auto-match, drawing", first_s),
+                        ("second pick: intersection with covariance, 3-D readout, drawing", second_s)):
+        ours = min(times)
+        yield {"name": f"gui: {name} ({label})", "n": 1, "ours_s": round(ours, 5),
+               "baseline": "core intersect() of the same two picks", "baseline_s": round(base, 6),
+               "ratio": round(ours / base, 2), "target": None, "target_s": 0.05, "met": bool(ours <= 0.05)}
+
+
+def _timed(function) -> float:
+    start = time.perf_counter()
+    function()
+    return time.perf_counter() - start
+
+
+def _zoom_row(window) -> dict:
+    pane = window.panes["left"]
+    viewport = pane.graphics.viewport()
+    pane.fit()
+    viewport.repaint()
+
+    def step(factor: float) -> float:
+        start = time.perf_counter()
+        pane.zoom_by(factor)
+        viewport.repaint()
+        return time.perf_counter() - start
+
+    steps = [step(1.25) for _ in range(6)] + [step(0.8) for _ in range(6)]
+    redraw = min(_timed(viewport.repaint) for _ in range(5))
+    ours = float(np.median(steps))
+    return {"name": "gui: zoom step redrawn, 4000×3000 colour with CLAHE (median of 12)", "n": 12,
+            "ours_s": round(ours, 5), "worst_s": round(max(steps), 5), "baseline": "a repaint without zooming",
+            "baseline_s": round(redraw, 5), "ratio": round(ours / redraw, 2), "target": None, "target_s": 0.03,
+            "met": bool(ours <= 0.03)}
+
+
+def benchmarks(scale: float = 1.0) -> Iterator[dict]:
+    from PySide6 import QtCore
+
+    from usvips.core.enhance import Pipeline
+    from usvips.gui.app import application, configure
+    from usvips.gui.main_window import MainWindow
+    from usvips.samples import create_from_manifest
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        settings = str(tmp / "settings.ini")
+        yield _startup_row(settings)
+        project = _big_pair(tmp / "big")
+        yield _memory_row(tmp / "big", project, settings)
+        configure()
+        app = application()
+        window = MainWindow(settings=QtCore.QSettings(settings, QtCore.QSettings.Format.IniFormat))
+        window.resize(1366, 768)
+        window.show()
+        try:
+            truth = json.loads((SAMPLE / "truth.json").read_text())
+            cameras = next(p for p in truth["pairs"] if p["label"] == "measure1")["cameras"]
+            snout_l, snout_r = (cameras[s]["objects"]["fish1"]["snout"] for s in ("left", "right"))
+            sample = create_from_manifest(SAMPLE, tmp / "sample.usvips")
+            window.workspace.open_project(sample)
+            window.load_pair("measure1")
+            _wait(app, window)
+            yield from _pick_rows(window, app, "640×480 sample", snout_l, snout_r)
+            window.open_path(project)
+            _wait(app, window)
+            scale_px = BIG[0] / 640
+            big_l, big_r = ([(c + 0.5) * scale_px - 0.5 for c in p] for p in (snout_l, snout_r))
+            yield from _pick_rows(window, app, "4000×3000 colour pair", big_l, big_r)
+            for side in ("left", "right"):
+                window.workspace.set_pipeline(side, Pipeline().then("clahe", clip_limit=2.0))
+            _wait(app, window)
+            yield _zoom_row(window)
+        finally:
+            window.close()
