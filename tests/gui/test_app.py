@@ -59,6 +59,11 @@ def test_open_starts_the_window_on_a_sample(tmp_path, sample_copy):
     assert (directory / "project.usvips").is_file()
 
 
+def test_open_shows_the_pair_asked_for(tmp_path, sample_copy):
+    seen = _probe(tmp_path, "open", str(sample_copy("tank_system1")), "--pair", "measure1")
+    assert seen["code"] == 0 and seen["pair"] == "measure1"
+
+
 def test_no_arguments_starts_an_empty_window(tmp_path):
     seen = _probe(tmp_path)
     assert seen["code"] == 0 and seen["windows"] == 1 and seen.get("pair") is None

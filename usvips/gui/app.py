@@ -21,9 +21,9 @@ def application() -> QtWidgets.QApplication:
     return app
 
 
-def run(project: str | Path | None = None) -> int:
-    """Show the main window (opening ``project``, a ``*.usvips`` file or a sample directory) and run the
-    event loop; returns the exit code."""
+def run(project: str | Path | None = None, pair: str | None = None) -> int:
+    """Show the main window (opening ``project``, a ``*.usvips`` file or a sample directory, on ``pair``)
+    and run the event loop; returns the exit code."""
     configure()
     app = application()
     from usvips.gui.main_window import MainWindow
@@ -31,5 +31,5 @@ def run(project: str | Path | None = None) -> int:
     window = MainWindow()
     window.show()
     if project is not None:
-        window.open_path(project)
+        window.open_path(project, pair)
     return app.exec()

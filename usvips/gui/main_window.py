@@ -318,8 +318,9 @@ class MainWindow(QtWidgets.QMainWindow):
         if path:
             self.open_path(Path(path).parent if Path(path).name == "project.json" else path)
 
-    def open_path(self, path: str | Path) -> bool:
-        """Open a project file, or a sample directory (its project file is created on first use)."""
+    def open_path(self, path: str | Path, pair: str | None = None) -> bool:
+        """Open a project file, or a sample directory (its project file is created on first use), showing
+        ``pair`` (default: the pair shown last in this project, else the first)."""
         path = Path(path)
         try:
             if path.is_dir():
@@ -336,6 +337,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent})")
         self.attribute_box.clear()
         self.attribute_box.addItems(project.vocabulary())
+        self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
         self.pair_box.clear()
         self.pair_box.addItems(labels)
@@ -343,9 +345,11 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_message("warning", f"{project.path.name} has no image pairs (observations only): "
                                          "use the calibration commands on it")
             return True
+        if pair is not None and pair not in labels:
+            self.show_message("error", f"{project.path.name} has no image pair {pair!r}; pairs: {', '.join(labels)}")
+            pair = None
         last = self.settings.value(f"pair/{project.path}")
-        self.load_pair(last if last in labels else labels[0])
-        self.show_message("info", f"opened {project.path}")
+        self.load_pair(pair or (last if last in labels else labels[0]))
         return True
 
     def load_pair(self, label: str) -> None:
