@@ -106,6 +106,14 @@ def test_the_sample_opens_and_its_truth_matches_its_images():
     (lambda s: s["objects"][0].update(fork=s["objects"][0]["snout"]), "fish fork"),
     (lambda s: s["pairs"][3].update(contents=["fish"]), "pairs[3].contents: unknown 'fish'"),
     (lambda s: (s.update(pairs=s["pairs"][3:]), s["pairs"][0]["pose"].update(Z0=-101.5)), "object 'fish1' is not seen"),
+    (lambda s: s["video"].update(speed=1), "video: unknown key 'speed'"),
+    (lambda s: s["video"].pop("fps"), "video: missing key 'fps'"),
+    (lambda s: s["video"].update(pair="nope"), "video.pair: no pair labelled 'nope'"),
+    (lambda s: s["video"].update(pair="water1"), "does not show the objects"),
+    (lambda s: s["video"].update(object="shark"), "video.object: no object labelled 'shark'"),
+    (lambda s: s["video"].update(fps=12.5), "video.fps"),
+    (lambda s: s["video"].update(frame_offset=30), "video.frame_offset"),
+    (lambda s: s["video"].update(velocity=[1, 2]), "video.velocity"),
 ])
 def test_bad_scenes_are_refused_naming_the_key(tmp_path, capsys, edit, message):
     scene = json.loads((SAMPLE / "scene.json").read_text())
@@ -115,3 +123,53 @@ def test_bad_scenes_are_refused_naming_the_key(tmp_path, capsys, edit, message):
     path.write_text(json.dumps(scene))
     assert main(["render", str(path), "--out", str(tmp_path / "out")]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_the_sample_video_has_its_frame_offset_where_the_truth_says():
+    """Each left frame's fish snout is matched along its refractive epipolar curve into right frames
+    with trial offsets: only the true offset puts the match on the curve (the fish also moves across it)."""
+    from usvips.core.matching import epipolar_curve, match_along_curve
+    from usvips.io.video import read_frames, video_info
+
+    manifest = read_manifest(SAMPLE)
+    truth = json.loads((SAMPLE / "truth.json").read_text())["video"]
+    offset = manifest.video.frame_offset
+    assert offset == truth["frame_offset"] == 3
+    info = video_info(manifest.video.right)
+    assert (info.frames, info.fps, info.width, info.height) == (30, 10.0, 640, 480)
+    left, right = list(read_frames(manifest.video.left)), list(read_frames(manifest.video.right))
+    rig = load_calibration(SAMPLE / "calibration.json").rig(0, "rig")
+    off_curve = {}
+    for trial in range(-2, 8):
+        distances = []
+        for i in range(0, 30, 2):
+            if not 0 <= i + trial < 30:
+                continue
+            snout = truth["left"][i]["pixels"]["snout"]
+            curve = epipolar_curve(rig.left, rig.right, snout, 0.3, 10.0, samples=400)
+            match = match_along_curve(left[i], right[i + trial], snout, curve, window=21)
+            if match.pixel is not None:
+                distances.append(curve.distance_to(np.array(match.pixel)))
+        off_curve[trial] = float(np.mean(distances))
+    assert min(off_curve, key=off_curve.get) == offset
+    assert off_curve[offset] < 0.5 and all(v > 1.0 for k, v in off_curve.items() if k != offset)
+
+
+def test_the_video_truth_pairs_frames_at_the_same_instant():
+    """Truth pixels of left frame i and right frame i + offset intersect to the fish's true snout and fork."""
+    truth = json.loads((SAMPLE / "truth.json").read_text())["video"]
+    offset = truth["frame_offset"]
+    rig = load_calibration(SAMPLE / "calibration.json").rig(0, "rig")
+    fish = next(o for o in json.loads((SAMPLE / "truth.json").read_text())["objects"] if o["label"] == truth["object"])
+    for i in (0, 10, 26):
+        left, right = truth["left"][i], truth["right"][i + offset]
+        assert left["time_s"] == pytest.approx(right["time_s"]) == pytest.approx(i / truth["fps"])
+        assert left["points"] == right["points"]
+        moved = np.subtract(left["points"]["snout"], fish["points"]["snout"])
+        assert moved == pytest.approx(np.multiply(truth["velocity"], i / truth["fps"]))
+        from usvips.core.intersection import intersect
+
+        pixels = [np.array([left["pixels"][p] for p in ("snout", "fork")]),
+                  np.array([right["pixels"][p] for p in ("snout", "fork")])]
+        points = intersect(rig.cameras, pixels, 0.3).require_ok().points
+        assert np.linalg.norm(points[1] - points[0]) == pytest.approx(fish["length"], abs=0.01)

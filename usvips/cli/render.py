@@ -17,6 +17,7 @@ from usvips.io.calibration_file import calibration_to_dict
 from usvips.io.images import write_image
 from usvips.io.scene import read_scene
 from usvips.io.tables import read_control, read_observations, write_control, write_observations
+from usvips.io.video import write_video
 
 RESOURCES = Path(__file__).resolve().parents[2] / "resources"
 
@@ -83,6 +84,60 @@ def _calibrate(out: Path, scene, control, manifest: dict, size: tuple[int, int])
     manifest["calibrations"] = [
         {"file": "calibration_air.json", "active_for": [p["label"] for p in manifest["pairs"] if p["medium"] == "air"]},
         {"file": "calibration.json", "active_for": [p["label"] for p in manifest["pairs"] if p["medium"] == "water"]}]
+
+
+def _frame_truth(camera, item, size: tuple[int, int], time_s: float, index: int) -> dict:
+    """The moving object's named points (m) at one frame and their pixels (None when out of the image)."""
+    names, points = zip(*item.points().items(), strict=True)
+    projection = camera.project(np.asarray(points, float))
+    w, h = size
+    pixels = {}
+    for i, name in enumerate(names):
+        x, y = projection.pixels[i]
+        inside = bool(projection.ok[i]) and -0.5 <= x <= w - 0.5 and -0.5 <= y <= h - 0.5
+        pixels[name] = [float(x), float(y)] if inside else None
+    return {"frame": index, "time_s": time_s, "points": dict(zip(names, map(list, points), strict=True)),
+            "pixels": pixels}
+
+
+def _render_video(out: Path, scene, discs, floor, water, objects) -> dict:
+    """``video_left.avi`` and ``video_right.avi``: the object moving at constant velocity; the right video
+    lags by ``frame_offset`` frames. Returns the truth: per camera and frame, the time, the object's
+    points and their pixels."""
+    video = scene.data["video"]
+    index = next(i for i, p in enumerate(scene.data["pairs"]) if p["label"] == video["pair"])
+    pair = scene.data["pairs"][index]
+    rig = scene.rig(pair)
+    image = scene.data["image"]
+    contents = scene.contents(pair)
+    medium = pair.get("medium", "water")
+    moving = next(item for label, _, item in objects if label == video["object"])
+    still = [item for label, _, item in objects if label != video["object"]]
+    fps, offset, velocity = video["fps"], video["frame_offset"], np.asarray(video["velocity"], float)
+    size = (image["width"], image["height"])
+    truth = {"pair": video["pair"], "object": video["object"], "fps": fps, "frames": video["frames"],
+             "frame_offset": offset, "velocity": velocity.tolist(),
+             "convention": "right frame j shows the instant of left frame j - frame_offset; time = "
+                           "(frame - lag) / fps seconds, lag 0 (left) or frame_offset (right)"}
+    for side, camera in (("left", rig.left), ("right", rig.right)):
+        lag = offset if side == "right" else 0
+        frames_truth = []
+
+        def frames(camera=camera, lag=lag, side=side, frames_truth=frames_truth):
+            for j in range(video["frames"]):
+                time_s = (j - lag) / fps
+                item = moving.translated(velocity * time_s)
+                frames_truth.append(_frame_truth(camera, item, size, time_s, j))
+                yield render(camera, discs if "frame" in contents else [], floor if "floor" in contents else None,
+                             water if medium == "water" else None, supersample=video.get("supersample", 1),
+                             seed=scene.seed * 100_000 + 10_000 + 2 * j + (side == "right"),
+                             objects=still + [item], colour=bool(pair.get("colour", image.get("colour", False))),
+                             lighting=float(pair.get("lighting", image.get("lighting", 0.0))),
+                             interlace=float(image.get("interlace", 0.0)))
+
+        write_video(out / f"video_{side}.avi", frames(), fps)
+        truth[side] = frames_truth
+    return truth
 
 
 def run(args: argparse.Namespace) -> int:
@@ -160,6 +215,10 @@ def run(args: argparse.Namespace) -> int:
                                                  "pairs": list(dict.fromkeys(merged.pairs))})
         if observations["air"] and observations["water"]:
             _calibrate(out, scene, control, manifest, (image["width"], image["height"]))
+    if "video" in data:
+        truth["video"] = _render_video(out, scene, discs, floor, water, objects)
+        manifest["video"] = {"left": "video_left.avi", "right": "video_right.avi",
+                             "frame_offset": data["video"]["frame_offset"]}
     truth["observation_noise_px"] = noise_px
     write_text_atomic(out / "truth.json", json.dumps(truth, indent=1, allow_nan=False) + "\n")
     write_text_atomic(out / "project.json", json.dumps(manifest, indent=2) + "\n")

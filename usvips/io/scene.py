@@ -16,6 +16,12 @@ its image pairs, the water, and what is in the scene (the calibration frame, a s
      "pairs": [{"label": "air1", "medium": "air", "contents": ["frame", "floor"],
                 "pose": {"X0": ..., "Y0": ..., "Z0": ..., "omega": ..., "phi": ..., "kappa": ...}}, ...]}
 
+An optional ``video`` renders a short stereo video of one object moving at a constant velocity (m/s)
+through a pair's scene: ``{"pair": "measure1", "frames": 30, "fps": 10, "frame_offset": 3,
+"object": "fish1", "velocity": [0.2, 0.05, 0.0], "supersample": 1}``. The right camera lags by
+``frame_offset`` frames: right frame j shows the instant of left frame j − frame_offset, time
+t = frame / fps seconds with the object at its described position at t = 0.
+
 ``image`` may also say ``"colour": true`` (RGB with red absorbed most), ``"lighting": 0.4`` (lamp falloff
 towards the corners) and ``"interlace": 1.5`` (odd rows shifted, pixels). A pair's ``contents`` (default:
 everything) chooses which of ``frame``, ``floor``, ``objects`` it shows; a pair may override ``colour`` and
@@ -40,7 +46,8 @@ from usvips.core.synth import Fish, Pipe, Rock
 
 FORMAT = "usvips-scene"
 TOP = {"format", "version", "name", "seed", "image", "left", "right", "relative", "housing", "water", "frame",
-       "floor", "objects", "observation_noise_px", "pairs", "description"}
+       "floor", "objects", "observation_noise_px", "pairs", "description", "video"}
+VIDEO_REQUIRED = {"pair", "frames", "fps", "frame_offset", "object", "velocity"}
 CONTENTS = ("frame", "floor", "objects")
 OBJECT_KEYS = {
     "fish": ({"snout", "fork"}, {"up", "depth", "brightness", "colour"}),
@@ -164,4 +171,34 @@ def read_scene(path: str | Path) -> Scene:
             scene.rig(pair)
         except UsvipsError as error:
             raise InputFileError(str(path), f"pairs[{i}]: {error}") from None
+    if "video" in data:
+        _check_video(path, data["video"], data["pairs"], labels)
     return scene
+
+
+def _whole(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _check_video(path: Path, video: object, pairs: list, objects: set[str]) -> None:
+    _keys(path, "video", video, VIDEO_REQUIRED, VIDEO_REQUIRED | {"supersample"})
+    pair = next((p for p in pairs if p["label"] == video["pair"]), None)
+    if pair is None:
+        raise InputFileError(str(path), f"video.pair: no pair labelled {video['pair']!r}")
+    if "objects" not in pair.get("contents", CONTENTS):
+        raise InputFileError(str(path), f"video.pair: pair {video['pair']!r} does not show the objects")
+    if video["object"] not in objects:
+        raise InputFileError(str(path), f"video.object: no object labelled {video['object']!r}")
+    if not _whole(video["frames"]) or not 2 <= video["frames"] <= 1000:
+        raise InputFileError(str(path), f"video.frames: must be a whole number from 2 to 1000, got {video['frames']!r}")
+    if not _whole(video["fps"]) or video["fps"] <= 0:
+        raise InputFileError(str(path), f"video.fps: must be a positive whole number, got {video['fps']!r}")
+    if not _whole(video["frame_offset"]) or abs(video["frame_offset"]) >= video["frames"]:
+        raise InputFileError(str(path), "video.frame_offset: must be a whole number of frames, smaller in size "
+                             f"than video.frames, got {video['frame_offset']!r}")
+    velocity = video["velocity"]
+    if (not isinstance(velocity, list) or len(velocity) != 3
+            or not all(isinstance(v, int | float) and not isinstance(v, bool) and abs(v) < 1e6 for v in velocity)):
+        raise InputFileError(str(path), "video.velocity: must be three numbers (m/s)")
+    if "supersample" in video and (not _whole(video["supersample"]) or not 1 <= video["supersample"] <= 4):
+        raise InputFileError(str(path), "video.supersample: must be 1, 2, 3 or 4")

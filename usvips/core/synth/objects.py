@@ -8,7 +8,7 @@ the ray parameter t (m, ``inf`` where the ray misses) and the grey value (0-255)
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -96,6 +96,11 @@ class Fish:
         values[index] = value[inside]
         return hit_t, values
 
+    def translated(self, offset) -> Fish:
+        """The same fish moved by ``offset`` (m): a frame of a fish swimming."""
+        d = validation.finite_vector("offset", offset, 3)
+        return replace(self, snout=tuple(np.add(self.snout, d)), fork=tuple(np.add(self.fork, d)))
+
     def points(self) -> dict[str, list[float]]:
         return {"snout": list(map(float, self.snout)), "fork": list(map(float, self.fork))}
 
@@ -147,6 +152,10 @@ class Pipe:
         values = np.where(keep, self.brightness * (0.3 + 0.7 * lit) * np.where(ring, 0.25, 1.0), 0.0)
         return t, values
 
+    def translated(self, offset) -> Pipe:
+        d = validation.finite_vector("offset", offset, 3)
+        return replace(self, start=tuple(np.add(self.start, d)), end=tuple(np.add(self.end, d)))
+
     def points(self) -> dict[str, list[float]]:
         return {"start": list(map(float, self.start)), "end": list(map(float, self.end))}
 
@@ -189,6 +198,10 @@ class Rock:
         mottle = np.sin(unit @ waves.T + phases).mean(axis=1)
         values = np.where(hit, self.brightness * (0.35 + 0.65 * lit) * (1 + 0.35 * mottle), 0.0)
         return t, values
+
+    def translated(self, offset) -> Rock:
+        d = validation.finite_vector("offset", offset, 3)
+        return replace(self, centre=tuple(np.add(self.centre, d)))
 
     def points(self) -> dict[str, list[float]]:
         return {"centre": list(map(float, self.centre))}
