@@ -212,6 +212,10 @@ class MainWindow(QtWidgets.QMainWindow):
         measure.addSeparator()
         for name in ("accept", "finish", "cancel", "snap", "auto_match"):
             measure.addAction(a[name])
+        calibration = self.menuBar().addMenu("&Calibration")
+        for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
+                            ("joint", "&Joint underwater calibration…")):
+            calibration.addAction(text, lambda p=phase: self.open_calibration_wizard(p))
         help_menu = self.menuBar().addMenu("&Help")
         help_menu.addAction("&Quick guide", self.show_guide, QtGui.QKeySequence("F1"))
         bar = self.addToolBar("Main")
@@ -239,6 +243,40 @@ class MainWindow(QtWidgets.QMainWindow):
         bar.addSeparator()
         for name in ("fit", "one", "box", "link", "loupe"):
             bar.addAction(a[name])
+
+    def open_calibration_wizard(self, phase: str, resume: bool | None = None):
+        """Start (or resume) a calibration wizard on the open project; returns the wizard, shown."""
+        from usvips.gui.calibration_session import CalibrationSession
+        from usvips.gui.calibration_wizard import CalibrationWizard
+
+        project = self.workspace.project
+        if project is None:
+            self.show_message("error", "open a project first: the calibration uses its pairs and control")
+            return None
+        try:
+            session = None
+            if project.draft(f"calibration-{phase}") is not None:
+                if resume is None:
+                    answer = QtWidgets.QMessageBox.question(
+                        self, "Resume?", "A half-finished calibration of this kind is saved in the project. "
+                        "Resume it? (No starts afresh and forgets it.)")
+                    resume = answer == QtWidgets.QMessageBox.StandardButton.Yes
+                session = CalibrationSession.resume(project, phase) if resume else None
+            session = session or CalibrationSession(project, phase)
+        except UsvipsError as error:
+            self.show_message("error", str(error))
+            return None
+        wizard = CalibrationWizard(session, self)
+        wizard.saved.connect(self._on_calibration_saved)
+        wizard.show()
+        self.wizard = wizard
+        return wizard
+
+    def _on_calibration_saved(self, calibration_id: int) -> None:
+        self.show_message("info", f"calibration {calibration_id} stored and made active")
+        ws = self.workspace
+        if ws.pair is not None and ws.images:
+            ws.set_pair(ws.pair, ws.images["left"], ws.images["right"])  # pick up the new calibration
 
     def show_guide(self) -> None:
         QtWidgets.QMessageBox.information(self, "USVIPS — quick guide", GUIDE)

@@ -32,6 +32,8 @@ from usvips.store.project import Vertex
 
 SIDES = ("left", "right")
 TOOLS = ("pick", "point", "line", "polygon")
+#: The calibration wizards' tool: both picks of a control point, reported by ``observed``, not intersected.
+OBSERVE = "observe"
 MINIMUM_VERTICES = {"point": 1, "line": 2, "polygon": 3}
 
 
@@ -190,7 +192,8 @@ class Workspace:
 
     Events (:class:`Signal`): ``pair_changed()``, ``picks_changed()`` (the pick state, the object being
     digitised or the last measured point changed), ``objects_changed()``, ``enhancement_changed(side)``,
-    ``message(level, text)`` with level ``info``, ``warning`` or ``error``.
+    ``message(level, text)`` with level ``info``, ``warning`` or ``error``, and ``observed(left, right)``
+    when the observe tool has both picks of a point.
     """
 
     project: Project | None = None
@@ -214,6 +217,7 @@ class Workspace:
         self.objects_changed = Signal()
         self.enhancement_changed = Signal()
         self.message = Signal()
+        self.observed = Signal()
 
     # ------------------------------------------------------------------ project and pair
     def open_project(self, project: Project) -> None:
@@ -297,7 +301,7 @@ class Workspace:
         return self.digitising.kind
 
     def set_tool(self, tool: str) -> None:
-        if tool not in TOOLS:
+        if tool not in TOOLS + (OBSERVE,):
             raise UsvipsError(f"unknown tool {tool!r}; tools: {', '.join(TOOLS)}")
         if self.digitising.vertices:
             self.message.emit("warning", f"the unfinished {self.digitising.kind} "
@@ -399,6 +403,10 @@ class Workspace:
 
     def _complete_vertex(self, state: PickState, note: str) -> None:
         """Intersect a vertex's two picks; a failed intersection leaves the first pick standing."""
+        if self.digitising.kind == OBSERVE:
+            self._change("observation", lambda: self._set_state(PickState(note=note)))
+            self.observed.emit(state.left, state.right)
+            return
         try:
             vertex = self.intersect(state.left, state.right)
         except UsvipsError as error:

@@ -245,12 +245,18 @@ class Project:
         return ControlPoints(tuple(r[0] for r in rows), np.array([r[1:4] for r in rows], float).reshape(-1, 3),
                              sigmas, str(self.path))
 
-    def add_control_observations(self, observations: StereoObservations, role: str, pair: str) -> None:
+    def add_control_observations(self, observations: StereoObservations, role: str, pair: str,
+                                 replace: bool = False) -> None:
+        """Store a pair's control observations for a role; ``replace`` swaps the stored set for this one
+        in the same transaction (a calibration wizard saving what it used)."""
         pair_id = self.pair_id(pair)
         rows = [(pair_id, pid, *map(float, observations.left[i]), *map(float, observations.right[i]), role)
                 for i, pid in enumerate(observations.ids)]
         try:
             with self._db:
+                if replace:
+                    self._db.execute("DELETE FROM control_observations WHERE pair_id = ? AND role = ?",
+                                     (pair_id, role))
                 self._db.executemany("INSERT INTO control_observations (pair_id, point_id, xl, yl, xr, yr, role) "
                                      "VALUES (?, ?, ?, ?, ?, ?, ?)", rows)
         except sqlite3.IntegrityError as error:
@@ -341,6 +347,23 @@ class Project:
 
     def set_enhancement(self, image_key: str, pipeline_json: str) -> None:
         self._edit("INSERT OR REPLACE INTO enhancements VALUES (?, ?)", (image_key, pipeline_json))
+
+    def set_draft(self, name: str, text: str | None) -> None:
+        """Keep (or, with None, drop) a half-finished piece of work, e.g. a calibration wizard's state."""
+        if text is None:
+            self._edit("DELETE FROM meta WHERE key = ?", (f"draft:{name}",))
+        else:
+            self._edit("INSERT OR REPLACE INTO meta VALUES (?, ?)", (f"draft:{name}", text))
+
+    def draft(self, name: str) -> str | None:
+        row = self._db.execute("SELECT value FROM meta WHERE key = ?", (f"draft:{name}",)).fetchone()
+        return None if row is None else row[0]
+
+    def calibrations(self) -> list[dict]:
+        """id, name, phase, sigma0_px and created of every stored calibration, oldest first."""
+        rows = self._db.execute("SELECT id, name, json, sigma0_px, created FROM calibrations ORDER BY id").fetchall()
+        return [{"id": r[0], "name": r[1], "phase": json.loads(r[2]).get("phase"), "sigma0_px": r[3],
+                 "created": r[4]} for r in rows]
 
     def enhancement(self, image_key: str) -> str | None:
         row = self._db.execute("SELECT pipeline FROM enhancements WHERE image_key = ?", (image_key,)).fetchone()

@@ -1,0 +1,716 @@
+"""The calibration wizards (phase 1 in air, phase 2 underwater, joint): choose, measure, compute, judge,
+save — one ``QWizard`` over a :class:`~usvips.gui.calibration_session.CalibrationSession`.
+
+Pages: what to calibrate (pairs, control, housing with its known values), measuring the control (import,
+the project's observations, or clicks in the two images with snapping and the epipolar help), the
+computation in a worker thread with the results (parameters, correlations, residuals drawn on the
+images, blunders to exclude, check points, comparison), and saving as the active calibration. Going
+back never loses what was measured; "Save progress" keeps the wizard in the project to resume later.
+"""
+
+from __future__ import annotations
+
+import datetime
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6 import QtCore, QtGui, QtWidgets
+
+from usvips.core.calibration.phases import DEFAULT_HOUSING
+from usvips.core.errors import UsvipsError
+from usvips.gui.calibration_session import PHASES, CalibrationSession
+from usvips.gui.pane import StereoPane, item_from_pixels
+from usvips.gui.worker import Worker
+from usvips.gui.workspace import OBSERVE, SIDES, Workspace, pair_image_paths, read_pair
+
+FLAG_COLOUR = QtGui.QColor(255, 170, 170)
+CHECK_COLOUR = QtGui.QColor(200, 220, 255)
+RESIDUAL_SCALE = 50.0
+
+
+def _item(text: str, editable: bool = False) -> QtWidgets.QTableWidgetItem:
+    item = QtWidgets.QTableWidgetItem(text)
+    if not editable:
+        item.setFlags(item.flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable)
+    return item
+
+
+def _table(headers: list[str]) -> QtWidgets.QTableWidget:
+    table = QtWidgets.QTableWidget(0, len(headers))
+    table.setHorizontalHeaderLabels(headers)
+    table.verticalHeader().hide()
+    table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectionBehavior.SelectRows)
+    table.horizontalHeader().setStretchLastSection(True)
+    return table
+
+
+def parse_known(text: str) -> tuple[float, float | None] | None:
+    """``"0.016"`` → fixed at 0.016; ``"1.34 ± 0.01"`` (or ``+-``) → a prior; blank → None (default)."""
+    text = text.strip().replace("+-", "±").replace("+/-", "±")
+    if not text:
+        return None
+    value, _, sigma = text.partition("±")
+    try:
+        return float(value), (float(sigma) if sigma.strip() else None)
+    except ValueError:
+        raise UsvipsError(f"{text!r}: type a value (fixed) or 'value ± sigma' (a prior)") from None
+
+
+class SetupPage(QtWidgets.QWizardPage):
+    """What to calibrate: the pairs, the control, and for phase 2 the base calibration and the housing."""
+
+    def __init__(self, session: CalibrationSession) -> None:
+        super().__init__()
+        self.session = session
+        self.setTitle(PHASES[session.phase])
+        water = session.phase != "air"
+        self.setSubTitle("Choose the image pair(s) showing the calibration frame, and the control points' 3-D "
+                         "coordinates." + (" Phase 2 starts from a phase-1 (in-air) calibration; give the housing "
+                                           "values you know." if water else ""))
+        self.pairs = QtWidgets.QListWidget()
+        for label in session.candidate_pairs():
+            item = QtWidgets.QListWidgetItem(label)
+            item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
+            item.setCheckState(QtCore.Qt.CheckState.Checked if label in session.pairs
+                               else QtCore.Qt.CheckState.Unchecked)
+            self.pairs.addItem(item)
+        self.pairs.itemChanged.connect(self._on_pair_checked)
+        self.control_label = QtWidgets.QLabel()
+        load = QtWidgets.QPushButton("Load control file…")
+        load.clicked.connect(self._on_load_control)
+        self.automatic = QtWidgets.QCheckBox("Handle blunders automatically (robust weights and data snooping, as "
+                                             "the command line does)")
+        self.automatic.setChecked(session.automatic_blunders)
+        self.sigma = QtWidgets.QDoubleSpinBox()
+        self.sigma.setRange(0.01, 20.0)
+        self.sigma.setDecimals(2)
+        self.sigma.setSuffix(" px")
+        self.sigma.setValue(session.sigma_px)
+        self.sigma.setToolTip("a-priori standard deviation of one measured pixel coordinate")
+        form = QtWidgets.QFormLayout()
+        form.addRow("Pairs", self.pairs)
+        row = QtWidgets.QHBoxLayout()
+        row.addWidget(self.control_label, 1)
+        row.addWidget(load)
+        form.addRow("Control", row)
+        form.addRow("Pointing σ", self.sigma)
+        form.addRow("", self.automatic)
+        self.known: dict[str, QtWidgets.QLineEdit] = {}
+        if water:
+            self.base = QtWidgets.QComboBox()
+            for calibration in session.base_calibrations():
+                self.base.addItem(f"{calibration['id']}: {calibration['name']} (σ0 "
+                                  f"{calibration['sigma0_px'] or float('nan'):.3f} px)", calibration["id"])
+            if session.base_id is not None:
+                self.base.setCurrentIndex(max(self.base.findData(session.base_id), 0))
+            self.housing = QtWidgets.QComboBox()
+            self.housing.addItems(list(DEFAULT_HOUSING))
+            self.housing.setCurrentText(session.housing)
+            self.housing.currentTextChanged.connect(self._fill_known)
+            form.addRow("Phase-1 calibration", self.base)
+            form.addRow("Housing", self.housing)
+            self.known_box = QtWidgets.QGroupBox("Known housing values: a value holds it fixed, 'value ± sigma' "
+                                                 "weights it; blank keeps the default shown")
+            self.known_form = QtWidgets.QFormLayout(self.known_box)
+            form.addRow(self.known_box)
+            self._fill_known(session.housing)
+        self.message = QtWidgets.QLabel()
+        self.message.setStyleSheet("color: #c0392b;")
+        form.addRow(self.message)
+        self.setLayout(form)
+        self._refresh_control()
+
+    def _fill_known(self, housing: str) -> None:
+        while self.known_form.rowCount():
+            self.known_form.removeRow(0)
+        self.known = {}
+        for name, (value, sigma) in DEFAULT_HOUSING[housing].items():
+            edit = QtWidgets.QLineEdit()
+            default = f"{value:g}" + (f" ± {sigma:g}" if sigma else " (fixed)")
+            edit.setPlaceholderText(f"default {default}")
+            if name in self.session.known and housing == self.session.housing:
+                known_value, known_sigma = self.session.known[name]
+                edit.setText(f"{known_value:g}" + (f" ± {known_sigma:g}" if known_sigma else ""))
+            self.known_form.addRow(name, edit)
+            self.known[name] = edit
+
+    def _refresh_control(self) -> None:
+        control = self.session.control
+        self.control_label.setText("none: load a control file" if control is None else
+                                   f"{len(control.ids)} points from {self.session.control_source}")
+
+    def _on_load_control(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Control points", "", "CSV (*.csv *.txt)")
+        if path:
+            try:
+                self.session.load_control(path)
+            except UsvipsError as error:
+                self.message.setText(str(error))
+            self._refresh_control()
+            self.completeChanged.emit()
+
+    def _on_pair_checked(self, item: QtWidgets.QListWidgetItem) -> None:
+        if self.session.phase == "water" and item.checkState() == QtCore.Qt.CheckState.Checked:
+            self.pairs.blockSignals(True)
+            for i in range(self.pairs.count()):  # phase 2 on one pair: the others are unchecked
+                if self.pairs.item(i) is not item:
+                    self.pairs.item(i).setCheckState(QtCore.Qt.CheckState.Unchecked)
+            self.pairs.blockSignals(False)
+        self.completeChanged.emit()
+
+    def checked_pairs(self) -> list[str]:
+        return [self.pairs.item(i).text() for i in range(self.pairs.count())
+                if self.pairs.item(i).checkState() == QtCore.Qt.CheckState.Checked]
+
+    def set_checked_pairs(self, labels: list[str]) -> None:
+        for i in range(self.pairs.count()):
+            item = self.pairs.item(i)
+            item.setCheckState(QtCore.Qt.CheckState.Checked if item.text() in labels
+                               else QtCore.Qt.CheckState.Unchecked)
+
+    def isComplete(self) -> bool:  # noqa: N802 (Qt's name)
+        return bool(self.checked_pairs()) and self.session.control is not None
+
+    def validatePage(self) -> bool:  # noqa: N802 (Qt's name)
+        session = self.session
+        try:
+            session.set_pairs(self.checked_pairs())
+            session.sigma_px = self.sigma.value()
+            session.automatic_blunders = self.automatic.isChecked()
+            if session.phase != "air":
+                if self.base.currentData() is None:
+                    raise UsvipsError("the project has no phase-1 (in-air) calibration: run phase 1 first")
+                session.base_id = int(self.base.currentData())
+                if self.housing.currentText() != session.housing:
+                    session.known = {}
+                session.housing = self.housing.currentText()
+                for name, edit in self.known.items():
+                    parsed = parse_known(edit.text())
+                    if parsed is None:
+                        session.known.pop(name, None)
+                    else:
+                        session.set_known(name, *parsed)
+        except UsvipsError as error:
+            self.message.setText(str(error))
+            return False
+        self.message.setText("")
+        return True
+
+
+class MeasurePage(QtWidgets.QWizardPage):
+    """Measure the control: import, take the project's observations, or point at targets in both images."""
+
+    COLUMNS = ["pair", "id", "X", "Y", "Z", "xl", "yl", "xr", "yr", "check"]
+
+    def __init__(self, session: CalibrationSession, pool: QtCore.QThreadPool) -> None:
+        super().__init__()
+        self.session = session
+        self.pool = pool
+        self.setTitle("Measure the control points")
+        self.setSubTitle("Import observations or take the project's, or measure: type the target's number, click "
+                         "its centre in the left image, then in the right (snapping finds the centre; after a first "
+                         "calibration the epipolar curve helps). Tick 'check' to hold a point out as a check point.")
+        self.table = _table(self.COLUMNS)
+        self.table.itemChanged.connect(self._on_item_changed)
+        project_button = QtWidgets.QPushButton("Take the project's observations")
+        project_button.clicked.connect(self._on_project)
+        import_button = QtWidgets.QPushButton("Import CSV…")
+        import_button.clicked.connect(self._on_import)
+        remove_button = QtWidgets.QPushButton("Remove selected")
+        remove_button.clicked.connect(self._on_remove)
+        self.spread = QtWidgets.QLabel()
+        self.spread.setWordWrap(True)
+        self.message = QtWidgets.QLabel()
+        self.message.setWordWrap(True)
+        buttons = QtWidgets.QHBoxLayout()
+        for button in (project_button, import_button, remove_button):
+            buttons.addWidget(button)
+        buttons.addStretch(1)
+        left = QtWidgets.QVBoxLayout()
+        left.addLayout(buttons)
+        left.addWidget(self.table, 1)
+        left.addWidget(self.spread)
+        # the measuring area: a pair chooser, the target number, both images
+        self.pair = QtWidgets.QComboBox()
+        self.pair.currentTextChanged.connect(self._load_images)
+        self.target = QtWidgets.QComboBox()
+        self.target.setEditable(True)
+        self.target.setToolTip("the number printed on the target you are about to click")
+        self.snap = QtWidgets.QCheckBox("Snap to target centres")
+        self.snap.setChecked(True)
+        top = QtWidgets.QHBoxLayout()
+        for widget in (QtWidgets.QLabel("Pair"), self.pair, QtWidgets.QLabel("Target"), self.target, self.snap):
+            top.addWidget(widget)
+        top.addStretch(1)
+        self.panes = {side: StereoPane(side) for side in SIDES}
+        images = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
+        for side in SIDES:
+            images.addWidget(self.panes[side])
+            self.panes[side].setMinimumSize(240, 200)
+            self.panes[side].clicked.connect(lambda x, y, s=side: self._on_clicked(s, x, y))
+        right = QtWidgets.QVBoxLayout()
+        right.addLayout(top)
+        right.addWidget(images, 1)
+        right.addWidget(self.message)
+        layout = QtWidgets.QHBoxLayout(self)
+        layout.addLayout(left, 2)
+        layout.addLayout(right, 3)
+        self.workspace = Workspace(project=session.project)
+        self.workspace.set_tool(OBSERVE)
+        self.workspace.observed.connect(self._on_observed)
+        self.workspace.picks_changed.connect(self._on_picks_changed)
+        self.workspace.message.connect(lambda level, text: self.message.setText(text))
+        self._filling = False
+
+    def initializePage(self) -> None:  # noqa: N802 (Qt's name)
+        session = self.session
+        if not session.observations:
+            session.load_project_observations()
+        self.pair.blockSignals(True)
+        self.pair.clear()
+        self.pair.addItems(session.pairs)
+        self.pair.blockSignals(False)
+        self.target.clear()
+        if session.control is not None:
+            self.target.addItems(list(session.control.ids))
+        self.refresh()
+        self._load_images(self.pair.currentText())
+
+    def _load_images(self, label: str) -> None:
+        if not label:
+            return
+        try:
+            paths = pair_image_paths(self.session.project, label)
+        except UsvipsError as error:
+            self.message.setText(f"{error}: import the observations instead")
+            return
+        worker = Worker(lambda progress, cancelled: read_pair(paths), f"reading pair {label}")
+        worker.signals.finished.connect(lambda images: self._show_images(label, images))
+        worker.signals.failed.connect(self.message.setText)
+        self._image_worker = worker  # kept alive until it reports
+        self.pool.start(worker)
+
+    def _show_images(self, label: str, images) -> None:
+        if label != self.pair.currentText():
+            return
+        self.workspace.set_pair(label, *images)
+        self.workspace.set_tool(OBSERVE)
+        if self.session.image_size == (None, None):
+            self.session.image_size = (images[0].shape[1], images[0].shape[0])
+        for side, image in zip(SIDES, images, strict=True):
+            self.panes[side].set_image(image)
+        self.message.setText(f"pair {label}: type a target number, then click it left and right")
+
+    def _on_clicked(self, side: str, x: float, y: float) -> None:
+        self.workspace.snap = self.snap.isChecked()
+        try:
+            self.workspace.pick(side, (x, y))
+        except UsvipsError as error:
+            self.message.setText(str(error))
+
+    def _on_picks_changed(self) -> None:
+        state = self.workspace.state
+        for side in SIDES:
+            opposite = state.source is not None and state.source != side
+            self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
+                                       state.curve if opposite else None)
+        if state.note:
+            self.message.setText(state.note)
+
+    def _on_observed(self, left, right) -> None:
+        point = self.target.currentText().strip()
+        try:
+            self.session.set_observation(self.pair.currentText(), point, left, right)
+        except UsvipsError as error:
+            self.message.setText(str(error))
+            return
+        self.message.setText(f"target {point} measured in pair {self.pair.currentText()}")
+        index = self.target.findText(point)
+        if 0 <= index < self.target.count() - 1:
+            self.target.setCurrentIndex(index + 1)  # the next target, as the operator works through them
+        self.refresh()
+
+    def _on_project(self) -> None:
+        count = self.session.load_project_observations()
+        self.message.setText(f"{count} observations taken from the project")
+        self.refresh()
+
+    def _on_import(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Observations", "", "CSV (*.csv *.txt)")
+        if path:
+            self.import_file(path)
+
+    def import_file(self, path: str) -> None:
+        try:
+            count = self.session.import_observations(path, self.pair.currentText() or None)
+        except UsvipsError as error:
+            self.message.setText(str(error))
+            return
+        self.message.setText(f"{count} observations imported from {path}")
+        self.refresh()
+
+    def _on_remove(self) -> None:
+        rows = sorted({index.row() for index in self.table.selectedIndexes()})
+        for row in rows:
+            self.session.remove_observation(self.table.item(row, 0).text(), self.table.item(row, 1).text())
+        self.refresh()
+
+    def _on_item_changed(self, item: QtWidgets.QTableWidgetItem) -> None:
+        if self._filling or item.column() != self.COLUMNS.index("check"):
+            return
+        key = (self.table.item(item.row(), 0).text(), self.table.item(item.row(), 1).text())
+        if item.checkState() == QtCore.Qt.CheckState.Checked:
+            self.session.check.add(key)
+        else:
+            self.session.check.discard(key)
+        self.session.result = None
+        self.refresh()
+
+    def refresh(self) -> None:
+        session = self.session
+        self._filling = True
+        self.table.setRowCount(0)
+        index = {pid: i for i, pid in enumerate(session.control.ids)} if session.control is not None else {}
+        for (pair, pid), values in sorted(session.observations.items()):
+            if pair not in session.pairs:
+                continue
+            row = self.table.rowCount()
+            self.table.insertRow(row)
+            xyz = session.control.xyz[index[pid]] if pid in index else (np.nan,) * 3
+            cells = [pair, pid, *(f"{v:.4f}" for v in xyz), *(f"{v:.2f}" for v in values)]
+            for column, text in enumerate(cells):
+                self.table.setItem(row, column, _item(text))
+            check = _item("")
+            check.setFlags(check.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
+            check.setCheckState(QtCore.Qt.CheckState.Checked if (pair, pid) in session.check
+                                else QtCore.Qt.CheckState.Unchecked)
+            self.table.setItem(row, len(cells), check)
+            if (pair, pid) in session.excluded:
+                for column in range(self.table.columnCount()):
+                    self.table.item(row, column).setBackground(FLAG_COLOUR)
+                    self.table.item(row, column).setToolTip("excluded as a blunder")
+        self.table.resizeColumnsToContents()
+        self._filling = False
+        lines = []
+        for pair in session.pairs:
+            spread = session.spread(pair)
+            mark = "✓" if spread.ok else "✗"
+            lines.append(f"{mark} {pair}: {spread.message}")
+        ok, reason = session.readiness()
+        if not ok and not any(pair in reason for pair in session.pairs):
+            lines.append(f"✗ {reason}")
+        self.spread.setText("\n".join(lines))
+        self.completeChanged.emit()
+
+    def isComplete(self) -> bool:  # noqa: N802 (Qt's name)
+        return self.session.readiness()[0]
+
+
+class ResultsPage(QtWidgets.QWizardPage):
+    """Compute (worker thread, progress, cancel) and judge the result."""
+
+    def __init__(self, session: CalibrationSession, pool: QtCore.QThreadPool) -> None:
+        super().__init__()
+        self.session = session
+        self.pool = pool
+        self.worker: Worker | None = None
+        self.setTitle("Compute and judge the calibration")
+        self.setSubTitle("DLT start, then the least-squares adjustment. Rows in red are likely blunders "
+                         f"(w-test above 3.29); exclude the worst with one click and compute again. Residual vectors "
+                         f"are drawn ×{RESIDUAL_SCALE:g} on the first pair's images.")
+        self.progress = QtWidgets.QProgressBar()
+        self.progress.setRange(0, 0)
+        self.progress.hide()
+        self.compute_button = QtWidgets.QPushButton("Compute")
+        self.compute_button.clicked.connect(self.compute)
+        self.cancel_button = QtWidgets.QPushButton("Cancel computation")
+        self.cancel_button.clicked.connect(self.cancel)
+        self.cancel_button.hide()
+        self.exclude_button = QtWidgets.QPushButton("Exclude the worst and compute again")
+        self.exclude_button.setToolTip("leave out the observation with the largest w-test (one at a time, as "
+                                       "data snooping does) and adjust again")
+        self.exclude_button.clicked.connect(self.exclude_and_rerun)
+        self.exclude_button.setEnabled(False)
+        self.summary = QtWidgets.QLabel("Not computed yet.")
+        self.summary.setWordWrap(True)
+        self.summary.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.parameters = _table(["parameter", "value", "sigma", "status"])
+        self.residuals = _table(["pair", "id", "side", "vx px", "vy px", "w x", "w y", "used"])
+        self.checks = _table(["pair", "id", "dX mm", "dY mm", "dZ mm"])
+        self.comparison = _table(["parameter", "before", "now", "change / sigma"])
+        tabs = QtWidgets.QTabWidget()
+        tabs.addTab(self.parameters, "Parameters")
+        tabs.addTab(self.residuals, "Residuals")
+        tabs.addTab(self.checks, "Check points")
+        tabs.addTab(self.comparison, "Comparison")
+        self.tabs = tabs
+        self.panes = {side: StereoPane(side) for side in SIDES}
+        self.vectors = {}
+        images = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
+        for side in SIDES:
+            self.panes[side].setMinimumSize(220, 180)
+            self.panes[side].set_loupe_enabled(False)
+            images.addWidget(self.panes[side])
+            self.vectors[side] = pg.PlotCurveItem(pen=pg.mkPen((255, 60, 60), width=2), connect="pairs")
+            self.panes[side].viewbox.addItem(self.vectors[side], ignoreBounds=True)
+        self.legend = QtWidgets.QLabel(f"red: residual vectors ×{RESIDUAL_SCALE:g} (a 0.5 px residual is drawn "
+                                       f"{0.5 * RESIDUAL_SCALE:g} image pixels long)")
+        buttons = QtWidgets.QHBoxLayout()
+        for widget in (self.compute_button, self.cancel_button, self.progress, self.exclude_button):
+            buttons.addWidget(widget)
+        buttons.addStretch(1)
+        left = QtWidgets.QVBoxLayout()
+        left.addLayout(buttons)
+        left.addWidget(self.summary)
+        left.addWidget(tabs, 1)
+        right = QtWidgets.QVBoxLayout()
+        right.addWidget(images, 1)
+        right.addWidget(self.legend)
+        layout = QtWidgets.QHBoxLayout(self)
+        layout.addLayout(left, 3)
+        layout.addLayout(right, 2)
+
+    def initializePage(self) -> None:  # noqa: N802 (Qt's name)
+        measure = self.wizard().measure_page
+        for side in SIDES:
+            self.panes[side].set_image(measure.panes[side].display)
+        if self.session.result is None:
+            self.compute()
+        else:
+            self.show_result()
+
+    @property
+    def busy(self) -> bool:
+        return self.worker is not None
+
+    def compute(self) -> None:
+        if self.worker is not None:
+            return
+        try:
+            job = self.session.job()
+        except UsvipsError as error:
+            self.summary.setText(f"Cannot compute: {error}")
+            return
+        self.worker = worker = Worker(job, "calibration")
+        worker.signals.finished.connect(self._on_finished)
+        worker.signals.failed.connect(self._on_failed)
+        worker.signals.cancelled.connect(self._on_cancelled)
+        self.progress.show()
+        self.cancel_button.show()
+        self.compute_button.setEnabled(False)
+        self.summary.setText("Computing: DLT start, then the adjustment …")
+        self.pool.start(worker)
+
+    def cancel(self) -> None:
+        """Stop waiting for the computation: its result, when it comes, is dropped."""
+        if self.worker is not None:
+            self.worker.cancel()
+            self._done()
+            self.summary.setText("Cancelled: nothing was computed. Compute again, or go back.")
+
+    def _done(self) -> None:
+        self.worker = None
+        self.progress.hide()
+        self.cancel_button.hide()
+        self.compute_button.setEnabled(True)
+
+    def _on_finished(self, result) -> None:
+        if self.sender() is not None and self.worker is None:
+            return
+        self._done()
+        self.session.set_result(result)
+        self.show_result()
+
+    def _on_failed(self, message: str) -> None:
+        self._done()
+        self.summary.setText(f"The computation failed: {message}")
+        self.completeChanged.emit()
+
+    def _on_cancelled(self) -> None:
+        self._done()
+
+    def exclude_and_rerun(self) -> None:
+        excluded = self.session.exclude_flagged()
+        if excluded:
+            self.wizard().measure_page.refresh()
+            self.compute()
+
+    def show_result(self) -> None:
+        session = self.session
+        result = session.result
+        report = result.report
+        adjustment = result.adjustment
+        flagged = session.flagged()
+        words = [f"<b>{'Converged' if adjustment.converged else 'Did not converge: ' + adjustment.reason}</b>",
+                 f"σ0 = {result.calibration.sigma0_px:.3f} px, RMS = {adjustment.rms:.3f}, redundancy "
+                 f"{adjustment.redundancy}, condition number {adjustment.condition_number:.3g}, "
+                 f"{adjustment.iterations} iterations."]
+        if report["correlations_over_0_95"]:
+            pairs = ", ".join(f"{c['a']}–{c['b']} ({c['r']:.3f})" for c in report["correlations_over_0_95"][:6])
+            words.append(f"<span style='color:#b9770e'>Correlations above 0.95: {pairs}"
+                         f"{' …' if len(report['correlations_over_0_95']) > 6 else ''} — their separate values are "
+                         "not determined by these data.</span>")
+        if flagged:
+            words.append(f"<span style='color:#c0392b'>{len(flagged)} observation(s) look like blunders (red in "
+                         "Residuals).</span>")
+        rows, rms = session.check_points()
+        if rms is not None:
+            words.append(f"Check points: {len(rows)}, RMS of the 3-D differences {rms * 1000:.1f} mm.")
+        self.summary.setText("<br>".join(words))
+        self.exclude_button.setEnabled(bool(flagged))
+        self._fill_parameters(report)
+        self._fill_residuals(report, flagged)
+        self._fill_checks(rows)
+        self._fill_comparison(session.comparison())
+        self._draw_vectors(report)
+        self.completeChanged.emit()
+
+    def _fill_parameters(self, report: dict) -> None:
+        self.parameters.setRowCount(0)
+        order = sorted(report["parameters"].items(), key=lambda item: item[1]["status"] == "fixed")
+        for name, p in order:  # estimated parameters first, the fixed ones after
+            if "@" in name and p["status"] == "fixed":
+                continue
+            row = self.parameters.rowCount()
+            self.parameters.insertRow(row)
+            sigma = "" if p["sigma"] is None else f"{p['sigma']:.3g}"
+            for column, text in enumerate([name, f"{p['value']:.6g}", sigma, p["status"]]):
+                self.parameters.setItem(row, column, _item(text))
+        self.parameters.resizeColumnsToContents()
+
+    def _fill_residuals(self, report: dict, flagged: list[dict]) -> None:
+        self.residuals.setRowCount(0)
+        bad = {(r["station"], r["id"], r["side"]) for r in flagged}
+        for r in sorted(report["residuals"], key=lambda r: -max(abs(r["wx"]), abs(r["wy"]))):
+            row = self.residuals.rowCount()
+            self.residuals.insertRow(row)
+            cells = [r["station"], r["id"], r["side"], f"{r['vx']:.3f}", f"{r['vy']:.3f}", f"{r['wx']:.2f}",
+                     f"{r['wy']:.2f}", "yes" if r["used"] else "no"]
+            for column, text in enumerate(cells):
+                item = _item(text)
+                if (r["station"], r["id"], r["side"]) in bad:
+                    item.setBackground(FLAG_COLOUR)
+                self.residuals.setItem(row, column, item)
+        self.residuals.resizeColumnsToContents()
+
+    def _fill_checks(self, rows: list[dict]) -> None:
+        self.checks.setRowCount(0)
+        for r in rows:
+            row = self.checks.rowCount()
+            self.checks.insertRow(row)
+            for column, text in enumerate([r["pair"], r["id"], *(f"{r[k] * 1000:.1f}" for k in ("dX", "dY", "dZ"))]):
+                self.checks.setItem(row, column, _item(text))
+
+    def _fill_comparison(self, rows: list[dict]) -> None:
+        self.comparison.setRowCount(0)
+        for r in rows[:40]:
+            row = self.comparison.rowCount()
+            self.comparison.insertRow(row)
+            change = "" if r["change_sigmas"] is None else f"{r['change_sigmas']:.2f}"
+            for column, text in enumerate([r["name"], f"{r['old']:.6g}", f"{r['new']:.6g}", change]):
+                self.comparison.setItem(row, column, _item(text))
+
+    def _draw_vectors(self, report: dict) -> None:
+        first = self.session.pairs[0] if self.session.pairs else None
+        for side, letter in (("left", "l"), ("right", "r")):
+            segments = []
+            for r in report["residuals"]:
+                key = (r["station"], r["id"])
+                if r["station"] != first or r["side"] != letter or key not in self.session.observations:
+                    continue
+                values = self.session.observations[key]
+                start = np.array(values[:2] if side == "left" else values[2:])
+                segments += [start, start + RESIDUAL_SCALE * np.array([r["vx"], r["vy"]])]
+            data = item_from_pixels(np.array(segments)) if segments else np.zeros((0, 2))
+            self.vectors[side].setData(data[:, 0], data[:, 1], connect="pairs")
+
+    def isComplete(self) -> bool:  # noqa: N802 (Qt's name)
+        result = self.session.result
+        return result is not None and bool(result.adjustment.converged) and self.worker is None
+
+
+class SavePage(QtWidgets.QWizardPage):
+    """Name the calibration and choose the pairs it becomes active for; Finish stores it."""
+
+    def __init__(self, session: CalibrationSession) -> None:
+        super().__init__()
+        self.session = session
+        self.setTitle("Save the calibration")
+        self.setSubTitle("It is stored in the project with the observations it used, and becomes the active "
+                         "calibration of the pairs ticked below. Cancel discards it; the project stays as it was.")
+        self.name = QtWidgets.QLineEdit()
+        self.active = QtWidgets.QListWidget()
+        self.message = QtWidgets.QLabel()
+        self.message.setStyleSheet("color: #c0392b;")
+        form = QtWidgets.QFormLayout(self)
+        form.addRow("Name", self.name)
+        form.addRow("Active for", self.active)
+        form.addRow(self.message)
+        self.saved_id: int | None = None
+
+    def initializePage(self) -> None:  # noqa: N802 (Qt's name)
+        session = self.session
+        stamp = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
+        sigma = session.result.calibration.sigma0_px
+        self.name.setText(f"{session.phase} {'+'.join(session.pairs)} σ0 {sigma:.3f} px {stamp}")
+        self.active.clear()
+        medium = "air" if session.phase == "air" else "water"
+        for pair in session.project.pairs():
+            if pair["medium"] != medium:
+                continue
+            item = QtWidgets.QListWidgetItem(pair["label"])
+            item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
+            item.setCheckState(QtCore.Qt.CheckState.Checked)
+            self.active.addItem(item)
+
+    def active_for(self) -> list[str]:
+        return [self.active.item(i).text() for i in range(self.active.count())
+                if self.active.item(i).checkState() == QtCore.Qt.CheckState.Checked]
+
+    def validatePage(self) -> bool:  # noqa: N802 (Qt's name)
+        try:
+            self.saved_id = self.session.save(self.name.text(), self.active_for())
+        except UsvipsError as error:
+            self.message.setText(str(error))
+            return False
+        self.wizard().saved.emit(self.saved_id)
+        return True
+
+
+class CalibrationWizard(QtWidgets.QWizard):
+    """``saved(calibration_id)`` fires when Finish stored a calibration."""
+
+    saved = QtCore.Signal(int)
+
+    def __init__(self, session: CalibrationSession, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.session = session
+        self.pool = QtCore.QThreadPool(self)
+        self.setWindowTitle(f"USVIPS — {PHASES[session.phase]}")
+        self.setWizardStyle(QtWidgets.QWizard.WizardStyle.ClassicStyle)
+        self.setOption(QtWidgets.QWizard.WizardOption.HaveCustomButton1, True)
+        self.setButtonText(QtWidgets.QWizard.WizardButton.CustomButton1, "Save progress")
+        self.customButtonClicked.connect(self._on_custom)
+        self.setup_page = SetupPage(session)
+        self.measure_page = MeasurePage(session, self.pool)
+        self.results_page = ResultsPage(session, self.pool)
+        self.save_page = SavePage(session)
+        for page in (self.setup_page, self.measure_page, self.results_page, self.save_page):
+            self.addPage(page)
+        self.resize(1200, 760)
+
+    def _on_custom(self, which: int) -> None:
+        if self.currentPage() is self.setup_page:
+            self.setup_page.validatePage()
+        self.session.save_draft()
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Information, "Progress saved",
+                                    "The wizard's state is kept in the project: choose the same calibration again "
+                                    "later to resume it.", QtWidgets.QMessageBox.StandardButton.Ok, self)
+        box.setModal(False)
+        box.show()
+        self._saved_box = box
+
+    def done(self, result: int) -> None:
+        self.results_page.cancel()
+        self.pool.waitForDone(100)
+        super().done(result)
