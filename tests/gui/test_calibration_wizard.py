@@ -220,3 +220,22 @@ def test_main_window_opens_the_wizards(qtbot, make_window, sample_copy):
     assert set(wizard.session.candidate_pairs()) == {"water1", "water2", "measure1"}
     wizard.reject()
     QtCore.QCoreApplication.processEvents()
+
+
+def test_going_back_keeps_what_was_measured(qtbot, project):
+    p, _ = project()
+    session = CalibrationSession(p, "water")
+    wizard = _wizard(qtbot, session)
+    measure = _to_results(qtbot, wizard, ["water1"])
+    session.remove_observation("water1", session.measured("water1")[0])
+    session.check.add(("water1", session.measured("water1")[0]))
+    measure.refresh()
+    kept = dict(session.observations), set(session.check)
+    _compute(qtbot, wizard)
+    wizard.back()
+    wizard.back()
+    assert wizard.currentPage() is wizard.setup_page
+    wizard.next()
+    assert (dict(session.observations), set(session.check)) == kept
+    assert measure.table.rowCount() == len(kept[0])
+    assert "not measured" in measure.spread.text()

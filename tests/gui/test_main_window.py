@@ -150,3 +150,33 @@ def test_tools_are_chosen_from_actions(qtbot, make_window, tool):
     window = make_window()
     window.actions[f"tool_{tool}"].trigger()
     assert window.workspace.tool == tool
+
+
+def test_measured_control_points_are_marked_with_their_numbers(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "water1")
+    stored = window.workspace.project.control_observations("calibration-water", "water1")
+    pane = window.panes["left"]
+    drawn = _drawn_points(pane.control_item)
+    assert len(drawn) == len(stored.ids) > 10
+    assert np.allclose(np.sort(drawn, axis=0), np.sort(stored.left, axis=0))
+    assert sorted(t.textItem.toPlainText() for t in pane.control_labels) == sorted(stored.ids)
+
+
+def test_the_plan_view_shows_stored_objects_in_plan_and_profile(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("line")
+    for point in ("snout", "fork"):
+        window.workspace.pick("left", left["fish1"][point])
+        window.workspace.pick("right", right["fish1"][point])
+    window.finish_object()
+    (stored,) = window.workspace.project.objects()
+    x, y = window.plan.curve.getData()
+    assert np.allclose(np.column_stack([x, y])[:2], [[v.xyz[0], v.xyz[1]] for v in stored.vertices])
+    window.plan.view.setCurrentText("profile (X–Z)")
+    x, z = window.plan.curve.getData()
+    assert np.allclose(z[:2], [v.xyz[2] for v in stored.vertices])

@@ -20,7 +20,7 @@ from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui.calibration_session import PHASES, CalibrationSession
 from usvips.gui.pane import StereoPane, item_from_pixels
-from usvips.gui.worker import Worker
+from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import OBSERVE, SIDES, Workspace, pair_image_paths, read_pair
 
 FLAG_COLOUR = QtGui.QColor(255, 170, 170)
@@ -284,13 +284,14 @@ class MeasurePage(QtWidgets.QWizardPage):
         except UsvipsError as error:
             self.message.setText(f"{error}: import the observations instead")
             return
-        worker = Worker(lambda progress, cancelled: read_pair(paths), f"reading pair {label}")
-        worker.signals.finished.connect(lambda images: self._show_images(label, images))
+        worker = Worker(lambda progress, cancelled: (label, read_pair(paths)), f"reading pair {label}")
+        # bound methods of this page: Qt drops the connection if the page goes before the worker reports
+        worker.signals.finished.connect(self._show_images)
         worker.signals.failed.connect(self.message.setText)
-        self._image_worker = worker  # kept alive until it reports
-        self.pool.start(worker)
+        start(worker, self.pool)
 
-    def _show_images(self, label: str, images) -> None:
+    def _show_images(self, read) -> None:
+        label, images = read
         if label != self.pair.currentText():
             return
         self.workspace.set_pair(label, *images)
@@ -395,7 +396,10 @@ class MeasurePage(QtWidgets.QWizardPage):
         for pair in session.pairs:
             spread = session.spread(pair)
             mark = "✓" if spread.ok else "✗"
-            lines.append(f"{mark} {pair}: {spread.message}")
+            left = [pid for pid in (session.control.ids if session.control is not None else ())
+                    if pid not in session.measured(pair)]
+            more = f"; not measured: {', '.join(left[:12])}{' …' if len(left) > 12 else ''}" if left else ""
+            lines.append(f"{mark} {pair}: {spread.message}{more}")
         ok, reason = session.readiness()
         if not ok and not any(pair in reason for pair in session.pairs):
             lines.append(f"✗ {reason}")
@@ -499,7 +503,7 @@ class ResultsPage(QtWidgets.QWizardPage):
         self.cancel_button.show()
         self.compute_button.setEnabled(False)
         self.summary.setText("Computing: DLT start, then the adjustment …")
-        self.pool.start(worker)
+        start(worker, self.pool)
 
     def cancel(self) -> None:
         """Stop waiting for the computation: its result, when it comes, is dropped."""
@@ -685,7 +689,9 @@ class CalibrationWizard(QtWidgets.QWizard):
     def __init__(self, session: CalibrationSession, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.session = session
-        self.pool = QtCore.QThreadPool(self)
+        # the global pool, not one owned by the wizard: closing must not wait for a running adjustment
+        # (its result is dropped; the pages' connections go with them)
+        self.pool = QtCore.QThreadPool.globalInstance()
         self.setWindowTitle(f"USVIPS — {PHASES[session.phase]}")
         self.setWizardStyle(QtWidgets.QWizard.WizardStyle.ClassicStyle)
         self.setOption(QtWidgets.QWizard.WizardOption.HaveCustomButton1, True)
@@ -712,5 +718,4 @@ class CalibrationWizard(QtWidgets.QWizard):
 
     def done(self, result: int) -> None:
         self.results_page.cancel()
-        self.pool.waitForDone(100)
         super().done(result)

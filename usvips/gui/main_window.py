@@ -277,6 +277,7 @@ class MainWindow(QtWidgets.QMainWindow):
         ws = self.workspace
         if ws.pair is not None and ws.images:
             ws.set_pair(ws.pair, ws.images["left"], ws.images["right"])  # pick up the new calibration
+        self._draw_control()
 
     def show_guide(self) -> None:
         QtWidgets.QMessageBox.information(self, "USVIPS — quick guide", GUIDE)
@@ -470,7 +471,21 @@ class MainWindow(QtWidgets.QMainWindow):
             self.panes[side].title.setText(f"{side.capitalize()} — {ws.pair}  "
                                            f"({ws.images[side].shape[1]} × {ws.images[side].shape[0]} px)")
             self._refresh_display(side)
+        self._draw_control()
         self._on_objects_changed()
+
+    def _draw_control(self) -> None:
+        """The pair's measured control points (any role), green with their numbers, on both images."""
+        marks: dict[str, dict[str, tuple[float, float]]] = {side: {} for side in SIDES}
+        ws = self.workspace
+        if ws.project is not None and ws.pair is not None:
+            for role in ("calibration-air", "calibration-water", "check"):
+                stored = ws.project.control_observations(role, ws.pair)
+                for i, pid in enumerate(stored.ids):
+                    marks["left"][pid] = tuple(stored.left[i])
+                    marks["right"][pid] = tuple(stored.right[i])
+        for side in SIDES:
+            self.panes[side].set_control(list(marks[side].items()))
 
     def _on_enhancement_changed(self, side: str) -> None:
         self._refresh_display(side)

@@ -20,8 +20,8 @@ PIXEL_CENTRE = 0.5
 LOUPE_RADIUS = 10  # image pixels each side of the cursor
 LOUPE_SCALE = 8
 
-COLOURS = {"cursor": (0, 230, 0), "pick": (255, 40, 40), "proposal": (255, 220, 0), "curve": (255, 140, 0),
-           "object": (0, 200, 255), "selected": (255, 0, 255), "label": (230, 230, 230)}
+COLOURS = {"control": (60, 220, 120), "cursor": (0, 230, 0), "pick": (255, 40, 40), "proposal": (255, 220, 0),
+           "curve": (255, 140, 0), "object": (0, 200, 255), "selected": (255, 0, 255), "label": (230, 230, 230)}
 
 
 def pixel_from_item(x: float, y: float) -> tuple[float, float]:
@@ -97,6 +97,10 @@ class StereoPane(QtWidgets.QWidget):
         for item in (self.objects_item, self.selected_item, self.vertex_item, self.curve_item, self.pick_item,
                      self.proposal_item, self.cross_v, self.cross_h):
             self.viewbox.addItem(item, ignoreBounds=True)
+        self.control_item = pg.ScatterPlotItem(size=11, pen=pg.mkPen(COLOURS["control"], width=1.5), brush=None,
+                                               symbol="o")
+        self.viewbox.addItem(self.control_item, ignoreBounds=True)
+        self.control_labels: list[pg.TextItem] = []
         self.labels: list[pg.TextItem] = []
         self.cross_v.hide()
         self.cross_h.hide()
@@ -262,6 +266,19 @@ class StereoPane(QtWidgets.QWidget):
             item.setData(data[:, 0], data[:, 1], connect="finite")
         all_vertices = np.vstack(vertices) if vertices else np.zeros((0, 2))
         self.vertex_item.setData(pos=all_vertices)
+
+    def set_control(self, marks: list[tuple[str, tuple[float, float]]]) -> None:
+        """Measured control points of this image: (target number, pixel), drawn as green rings with numbers."""
+        for label in self.control_labels:
+            self.viewbox.removeItem(label)
+        self.control_labels = []
+        pixels = np.array([pixel for _, pixel in marks], float).reshape(-1, 2)
+        self.control_item.setData(pos=item_from_pixels(pixels) if len(pixels) else np.zeros((0, 2)))
+        for (name, _), view in zip(marks, item_from_pixels(pixels), strict=True):
+            text = pg.TextItem(name, color=COLOURS["control"], anchor=(-0.3, 1.1))
+            text.setPos(float(view[0]), float(view[1]))
+            self.viewbox.addItem(text, ignoreBounds=True)
+            self.control_labels.append(text)
 
     def centre_on(self, pixel: tuple[float, float]) -> None:
         """Pan so that ``pixel`` is in the middle, keeping the zoom."""

@@ -331,32 +331,41 @@ class CalculatorPanel(QtWidgets.QWidget):
 
 
 class PlanView(QtWidgets.QWidget):
-    """Measured objects seen from above (X right, Y up, metres) — a plan plot that runs offscreen."""
+    """Measured objects in plan (X–Y, seen from above) or in profile (X–Z, Y–Z), metres — a plot that runs
+    offscreen, where a 3-D view might not."""
+
+    VIEWS = {"plan (X–Y)": (0, 1), "profile (X–Z)": (0, 2), "profile (Y–Z)": (1, 2)}
 
     def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.workspace = workspace
+        self.view = QtWidgets.QComboBox()
+        self.view.addItems(list(self.VIEWS))
+        self.view.currentTextChanged.connect(self.refresh)
         self.plot = pg.PlotWidget(background=None)
         self.plot.setAspectLocked(True)
-        self.plot.setLabel("bottom", "X", units="m")
-        self.plot.setLabel("left", "Y", units="m")
         self.curve = self.plot.plot(pen=pg.mkPen((0, 200, 255), width=2), connect="finite", symbol="o",
                                     symbolSize=5)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
+        layout.addWidget(self.view)
         layout.addWidget(self.plot)
         workspace.objects_changed.connect(self.refresh)
+        self.refresh()
 
     def cleanup(self) -> None:
         self.workspace.objects_changed.disconnect(self.refresh)
 
-    def refresh(self) -> None:
+    def refresh(self, *_: object) -> None:
+        a, b = self.VIEWS[self.view.currentText()]
+        self.plot.setLabel("bottom", "XYZ"[a], units="m")
+        self.plot.setLabel("left", "XYZ"[b], units="m")
         parts = []
         for stored in self.workspace.objects():
             points = np.array([v.xyz for v in stored.vertices if v.xyz is not None], float).reshape(-1, 3)
             if stored.kind == "polygon" and len(points) > 2:
                 points = np.vstack([points, points[:1]])
-            parts.append(np.vstack([points[:, :2], [[np.nan, np.nan]]]))
+            parts.append(np.vstack([points[:, [a, b]], [[np.nan, np.nan]]]))
         data = np.vstack(parts) if parts else np.zeros((0, 2))
         self.curve.setData(data[:, 0], data[:, 1], connect="finite")
 

@@ -63,3 +63,17 @@ class Worker(QtCore.QRunnable):
                 self.signals.cancelled.emit()
             else:
                 self.signals.finished.emit(result)
+
+
+#: Workers still running, kept alive here so that a window or page closing before its worker reports
+#: cannot free the worker under its thread.
+_RUNNING: set[Worker] = set()
+
+
+def start(worker: Worker, pool: QtCore.QThreadPool | None = None) -> Worker:
+    """Run ``worker`` in ``pool`` (default: the global pool), holding it until it reports."""
+    _RUNNING.add(worker)
+    for signal in (worker.signals.finished, worker.signals.failed, worker.signals.cancelled):
+        signal.connect(lambda *_: _RUNNING.discard(worker))
+    (pool or QtCore.QThreadPool.globalInstance()).start(worker)
+    return worker
