@@ -174,6 +174,10 @@ class MainWindow(QtWidgets.QMainWindow):
                                  checkable=True),
             "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
         }
+        # short toolbar labels (the menus keep the full names): the toolbar fits 1366 px without overflow
+        for name, short in (("open", "Open"), ("snap", "Snap"), ("finish", "Finish"), ("box", "Box"),
+                            ("link", "Link"), ("loupe", "Loupe"), ("auto_match", "Auto-match"), ("one", "1:1")):
+            self.actions[name].setIconText(short)
         self.actions["auto_match"].setChecked(self.workspace.auto_match)
         self.actions["snap"].setChecked(self.workspace.snap)
         self.actions["loupe"].setChecked(True)
