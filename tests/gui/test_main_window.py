@@ -180,3 +180,24 @@ def test_the_plan_view_shows_stored_objects_in_plan_and_profile(qtbot, make_wind
     window.plan.view.setCurrentText("profile (X–Z)")
     x, z = window.plan.curve.getData()
     assert np.allclose(z[:2], [v.xyz[2] for v in stored.vertices])
+
+
+def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("line")
+    for point in ("snout", "fork"):
+        window.workspace.pick("left", left["fish1"][point])
+        window.workspace.pick("right", right["fish1"][point])
+    window.finish_object()
+    (first,) = window.workspace.project.objects()
+    for _ in range(6):  # stored behind the window's back: the list meets them all at once
+        window.workspace.project.add_object("line", list(first.vertices), "copy")
+    window.object_list._figures.clear()
+    window.object_list.refresh()
+    assert window.object_list.table.rowCount() == 7
+    assert "computing" in window.object_list.table.item(3, 4).text()
+    qtbot.waitUntil(lambda: "mm" in window.object_list.table.item(6, 4).text(), timeout=20000)
+    assert window.object_list.table.item(6, 4).text() == window.object_list.table.item(0, 4).text()

@@ -230,3 +230,18 @@ def test_enhancement_is_saved_per_image_and_never_moves_a_pick(workspace):
     ws.pick("left", left["fish1"]["snout"])
     ws.pick("right", right["fish1"]["snout"])
     assert np.array_equal(ws.last_point.xyz, before)
+
+
+def test_enhancement_changes_are_undone_and_redone(workspace):
+    from usvips.core.enhance import Pipeline
+
+    ws, _ = workspace("tank_system1", "measure1")
+    changed = []
+    ws.enhancement_changed.connect(changed.append)
+    ws.set_pipelines({"left": Pipeline().then("equalize"), "right": Pipeline().then("gamma", gamma=0.8)})
+    assert ws.undo.undo_label == "enhancement (left and right)" and sorted(changed) == ["left", "right"]
+    ws.undo.undo()
+    assert ws.pipelines["left"].operations == () and ws.project.enhancement(ws.image_key("left")) == "[]"
+    ws.undo.redo()
+    assert ws.pipelines["right"].operations[0].name == "gamma"
+    assert "gamma" in ws.project.enhancement(ws.image_key("right"))

@@ -13,6 +13,7 @@ from PySide6 import QtCore, QtWidgets
 from usvips.core.enhance import OPERATIONS, Operation, Pipeline
 from usvips.core.errors import UsvipsError
 from usvips.gui.calculator import format_figure
+from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import SIDES, Workspace
 
 #: Starting values for operations whose parameters have no default in core.
@@ -95,8 +96,7 @@ class EnhancementPanel(QtWidgets.QWidget):
         if not self.workspace.images:
             self.status.setText("open an image pair first")
             return
-        for side in self._sides():
-            self.workspace.set_pipeline(side, pipeline)
+        self.workspace.set_pipelines(dict.fromkeys(self._sides(), pipeline))
 
     def _on_add(self) -> None:
         try:
@@ -212,6 +212,8 @@ class ObjectList(QtWidgets.QWidget):
         self.table.itemChanged.connect(self._on_item_changed)
         workspace.objects_changed.connect(self.refresh)
         self._filling = False
+        self._figures: dict[tuple, object] = {}
+        self._keys: dict[int, tuple] = {}
 
     def cleanup(self) -> None:
         self.workspace.objects_changed.disconnect(self.refresh)
@@ -220,18 +222,52 @@ class ObjectList(QtWidgets.QWidget):
         rows = sorted({index.row() for index in self.table.selectedIndexes()})
         return [int(self.table.item(r, 0).text()) for r in rows if self.table.item(r, 0)]
 
+    #: Objects whose figures are computed at once when they change; more go to a worker thread.
+    SYNCHRONOUS = 2
+
+    def _key(self, stored) -> tuple:
+        rules = self.workspace.rules
+        picks = tuple((v.xl, v.yl, v.xr, v.yr, v.calibration_id, v.pair) for v in stored.vertices)
+        return (stored.id, stored.kind, picks, rules.max_ray_rms_m, rules.max_relative_precision, rules.max_range_m,
+                tuple(sorted(rules.extra.items())))
+
     def refresh(self) -> None:
+        """Rows at once; figures from the cache, the missing ones computed (in a worker when many)."""
+        objects = self.workspace.objects()
+        missing = [o.id for o in objects if self._key(o) not in self._figures]
+        if 0 < len(missing) <= self.SYNCHRONOUS:
+            for stored in objects:
+                if stored.id in missing:
+                    self._figures[self._key(stored)] = self.workspace.figures([stored.id])
+        elif missing:
+            self._keys = {o.id: self._key(o) for o in objects}
+            worker = Worker(self.workspace.figures_job(missing), "computing the objects' figures")
+            worker.signals.finished.connect(self._on_figures)
+            start(worker)
+        self._fill(objects)
+
+    def _on_figures(self, results: dict) -> None:
+        for object_id, result in results.items():
+            if object_id in self._keys:
+                self._figures[self._keys[object_id]] = result
+        self._fill(self.workspace.objects())
+
+    def _fill(self, objects: list) -> None:
         selected = set(self.selected_ids())
         self._filling = True
         self.table.setRowCount(0)
-        for stored in self.workspace.objects():
+        for stored in objects:
             row = self.table.rowCount()
             self.table.insertRow(row)
-            result = self.workspace.figures([stored.id])
-            main = format_figure(result.figures[0]) if result.figures and stored.kind != "point" else (
-                "Z " + format_figure(result.figures[2]).split(" ", 1)[1] if result.figures else result.reason)
-            values = (str(stored.id), stored.kind, stored.attribute, str(len(stored.vertices)), main,
-                      "; ".join(result.failures) or "ok", stored.notes)
+            result = self._figures.get(self._key(stored))
+            if result is None:
+                main, quality = "computing…", ""
+            else:
+                main = format_figure(result.figures[0]) if result.figures and stored.kind != "point" else (
+                    "Z " + format_figure(result.figures[2]).split(" ", 1)[1] if result.figures else result.reason)
+                quality = "; ".join(result.failures) or "ok"
+            values = (str(stored.id), stored.kind, stored.attribute, str(len(stored.vertices)), main, quality,
+                      stored.notes)
             for column, value in enumerate(values):
                 item = QtWidgets.QTableWidgetItem(value)
                 if self.COLUMNS[column] not in ("attribute", "notes"):

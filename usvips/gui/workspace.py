@@ -212,6 +212,7 @@ class Workspace:
         self.digitising: _Digitising = _Digitising("pick")
         self.last_point: MeasuredVertex | None = None
         self.undo = UndoStack()
+        self._geometries: dict[tuple[int, str], PairGeometry | None] = {}
         self.pair_changed = Signal()
         self.picks_changed = Signal()
         self.objects_changed = Signal()
@@ -224,6 +225,7 @@ class Workspace:
         if self.project is not None and self.project is not project:
             self.project.close()
         self.project = project
+        self._geometries = {}
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
         self.undo.clear()
@@ -234,6 +236,7 @@ class Workspace:
         if self.project is not None:
             self.project.close()
         self.project = None
+        self._geometries = {}
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
         self.undo.clear()
@@ -287,13 +290,26 @@ class Workspace:
     # ------------------------------------------------------------------ enhancement
     def set_pipeline(self, side: str, pipeline: Pipeline) -> None:
         """Change an image's enhancement (display only: picks and coordinates use the original) and save
-        it in the project."""
-        if side not in SIDES:
-            raise UsvipsError(f"side must be 'left' or 'right', got {side!r}")
-        self.pipelines[side] = pipeline
-        if self.project is not None and self.pair is not None:
-            self.project.set_enhancement(self.image_key(side), pipeline.to_json())
-        self.enhancement_changed.emit(side)
+        it in the project; undoable."""
+        self.set_pipelines({side: pipeline})
+
+    def set_pipelines(self, changes: dict[str, Pipeline]) -> None:
+        """Change the enhancement of one or both images as one undoable step."""
+        unknown = [side for side in changes if side not in SIDES]
+        if unknown:
+            raise UsvipsError(f"side must be 'left' or 'right', got {unknown[0]!r}")
+        before = {side: self.pipelines[side] for side in changes}
+        if all(before[side] == changes[side] for side in changes):
+            return
+        label = "enhancement (" + " and ".join(changes) + ")"
+        self.undo.push(Command(label, lambda: self._apply_pipelines(changes), lambda: self._apply_pipelines(before)))
+
+    def _apply_pipelines(self, pipelines: dict[str, Pipeline]) -> None:
+        for side, pipeline in pipelines.items():
+            self.pipelines[side] = pipeline
+            if self.project is not None and self.pair is not None:
+                self.project.set_enhancement(self.image_key(side), pipeline.to_json())
+            self.enhancement_changed.emit(side)
 
     # ------------------------------------------------------------------ tool
     @property
@@ -528,43 +544,54 @@ class Workspace:
         stored = self.project.object(object_id)
         return self._geometry(stored.kind, list(stored.vertices))
 
-    def _geometry(self, kind: str, vertices: list[Vertex]) -> Geometry:
-        ids = {(v.calibration_id, v.pair) for v in vertices}
-        if len(ids) == 1 and None not in next(iter(ids)):
-            calibration_id, label = next(iter(ids))
+    def _calibration_for(self, calibration_id: int, label: str) -> PairGeometry | None:
+        """The calibration a vertex was measured with, placed as its pair was (cached; GUI thread)."""
+        key = (calibration_id, label)
+        if key not in self._geometries:
             try:
-                g = pair_geometry(self.project, label)
-                if g is not None and g.calibration_id != calibration_id:
-                    calibration = calibration_from_dict(self.project.calibration(calibration_id))
-                    station, frame = (label, "object") if label in calibration.stations else (0, "rig")
-                    g = PairGeometry(calibration, calibration_id, station, frame)
+                calibration = calibration_from_dict(self.project.calibration(calibration_id))
             except UsvipsError:
-                g = None
-            if g is not None:
-                left = np.array([[v.xl, v.yl] for v in vertices])
-                right = np.array([[v.xr, v.yr] for v in vertices])
-                result, covariance = joint_covariance(g.calibration, left, right, g.station, g.frame)
-                if result.ok.all():
-                    camera = g.calibration.rig(g.station, g.frame).left.exterior.position
-                    return Geometry(kind, result.points, covariance,
-                                    float(np.sqrt(np.mean(result.residuals_m ** 2))),
-                                    float(np.max(np.linalg.norm(result.points - camera, axis=1))))
-        points = np.array([v.xyz if v.xyz is not None else (np.nan,) * 3 for v in vertices], float)
-        covariance = np.zeros((3 * len(vertices),) * 2)
-        for i, v in enumerate(vertices):
-            if v.covariance is not None:
-                covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] = v.covariance
-        return Geometry(kind, points, covariance)
+                self._geometries[key] = None
+            else:
+                station, frame = (label, "object") if label in calibration.stations else (0, "rig")
+                self._geometries[key] = PairGeometry(calibration, calibration_id, station, frame)
+        return self._geometries[key]
+
+    def geometry_input(self, kind: str, vertices: list[Vertex]) -> tuple:
+        """What :func:`compute_geometry` needs, read from the project now (call on the GUI thread)."""
+        ids = {(v.calibration_id, v.pair) for v in vertices}
+        g = None
+        if len(ids) == 1 and None not in next(iter(ids)):
+            g = self._calibration_for(*next(iter(ids)))
+        return kind, list(vertices), g
+
+    def _geometry(self, kind: str, vertices: list[Vertex]) -> Geometry:
+        return compute_geometry(*self.geometry_input(kind, vertices))
+
+    def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
+        """The figures of many objects as a function of copied inputs (run it off the GUI thread)."""
+        inputs = [(i, self.geometry_input(o.kind, list(o.vertices))) for i, o in
+                  ((i, self.project.object(i)) for i in object_ids)]
+        rules = self.rules
+
+        def run(progress=None, cancelled=None) -> dict[int, Result]:
+            out = {}
+            for n, (object_id, arguments) in enumerate(inputs):
+                if cancelled is not None and cancelled():
+                    break
+                out[object_id] = _figures_of(compute_geometry(*arguments), rules, object_id)
+                if progress is not None:
+                    progress((n + 1) / len(inputs))
+            return out
+
+        return run
 
     def figures(self, object_ids: list[int]) -> Result:
         """The geo-calculator on a selection of one or two objects."""
         if self.project is None or not object_ids:
             return Result((), (), "select one or two objects")
         if len(object_ids) == 1:
-            geometry = self.object_geometry(object_ids[0])
-            if not np.all(np.isfinite(geometry.points)):
-                return Result((), (), f"object {object_ids[0]} has vertices without 3-D coordinates")
-            return object_figures(geometry, self.rules)
+            return _figures_of(self.object_geometry(object_ids[0]), self.rules, object_ids[0])
         if len(object_ids) != 2:
             return Result((), (), "select one object (its own figures) or two (figures between them)")
         first, second = (self.project.object(i) for i in object_ids)
@@ -577,6 +604,31 @@ class Workspace:
     # ------------------------------------------------------------------ persistence helpers
     def settings_json(self) -> str:
         return json.dumps({"snap": self.snap, "auto_match": self.auto_match, "tool": self.tool})
+
+
+def compute_geometry(kind: str, vertices: list[Vertex], g: PairGeometry | None) -> Geometry:
+    """An object's vertices recomputed from its picks with the calibration ``g`` (full covariance,
+    calibration included), or its stored values when there is no calibration to use. Pure: any thread."""
+    if g is not None:
+        left = np.array([[v.xl, v.yl] for v in vertices])
+        right = np.array([[v.xr, v.yr] for v in vertices])
+        result, covariance = joint_covariance(g.calibration, left, right, g.station, g.frame)
+        if result.ok.all():
+            camera = g.calibration.rig(g.station, g.frame).left.exterior.position
+            return Geometry(kind, result.points, covariance, float(np.sqrt(np.mean(result.residuals_m ** 2))),
+                            float(np.max(np.linalg.norm(result.points - camera, axis=1))))
+    points = np.array([v.xyz if v.xyz is not None else (np.nan,) * 3 for v in vertices], float)
+    covariance = np.zeros((3 * len(vertices),) * 2)
+    for i, v in enumerate(vertices):
+        if v.covariance is not None:
+            covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] = v.covariance
+    return Geometry(kind, points, covariance)
+
+
+def _figures_of(geometry: Geometry, rules: QualityRules, object_id: int) -> Result:
+    if not np.all(np.isfinite(geometry.points)):
+        return Result((), (), f"object {object_id} has vertices without 3-D coordinates")
+    return object_figures(geometry, rules)
 
 
 def _short(figure) -> str:
