@@ -119,6 +119,8 @@ def test_reopening_restores_objects_enhancement_pair_and_layout(qtbot, make_wind
     window.workspace.set_pipeline("right", Pipeline().then("gamma", gamma=0.7))
     qtbot.waitUntil(lambda: not window.busy, timeout=10000)
     window.docks["plan"].hide()
+    window.actions["snap"].trigger()
+    assert window.workspace.snap
     window.close()
 
     again = make_window(settings)
@@ -130,6 +132,7 @@ def test_reopening_restores_objects_enhancement_pair_and_layout(qtbot, make_wind
     assert again.workspace.pipelines["right"].operations[0].name == "gamma"
     assert again.workspace.pipelines["left"].operations == ()
     assert not again.docks["plan"].isVisible()
+    assert again.actions["snap"].isChecked() and again.workspace.snap
     assert again.object_list.table.rowCount() == 1
 
 

@@ -303,12 +303,18 @@ class MainWindow(QtWidgets.QMainWindow):
             self.splitter.restoreState(splitter)
         self.actions["link"].setChecked(self.settings.value("view/link", False, type=bool))
         self._on_link()
+        for name, default in (("snap", False), ("auto_match", True), ("loupe", True)):
+            self.actions[name].setChecked(self.settings.value(f"view/{name}", default, type=bool))
+        self._on_snap()
+        self._on_auto_match()
+        self._on_loupe()
 
     def save_layout(self) -> None:
         self.settings.setValue("window/geometry", self.saveGeometry())
         self.settings.setValue("window/state", self.saveState())
         self.settings.setValue("window/splitter", self.splitter.saveState())
-        self.settings.setValue("view/link", self.actions["link"].isChecked())
+        for name in ("link", "snap", "auto_match", "loupe"):
+            self.settings.setValue(f"view/{name}", self.actions[name].isChecked())
         if self.workspace.project is not None and self.workspace.pair:
             self.settings.setValue(f"pair/{self.workspace.project.path}", self.workspace.pair)
         self.settings.sync()

@@ -8,7 +8,6 @@ calibrated station, otherwise the rig frame (origin at the left camera's perspec
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -600,10 +599,6 @@ class Workspace:
         a = Geometry(first.kind, combined.points[: n // 3], combined.covariance[:n, :n])
         b = Geometry(second.kind, combined.points[n // 3:], combined.covariance[n:, n:])
         return pair_figures(a, b, combined.covariance)
-
-    # ------------------------------------------------------------------ persistence helpers
-    def settings_json(self) -> str:
-        return json.dumps({"snap": self.snap, "auto_match": self.auto_match, "tool": self.tool})
 
 
 def compute_geometry(kind: str, vertices: list[Vertex], g: PairGeometry | None) -> Geometry:
