@@ -2,6 +2,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from usvips.cli import main
 from usvips.store import Project
@@ -40,3 +41,38 @@ def test_project_errors_are_one_line(tmp_path, capsys):
     (bad / "project.json").write_text('{"format": "usvips-sample", "version": 1, "name": "x", "control": "no.csv"}')
     assert main(["project", "new", str(tmp_path / "q.usvips"), "--from", str(bad)]) == 2
     assert not (tmp_path / "q.usvips").exists()
+
+
+def test_export_for_checkem_fills_opcode_rms_range_and_image_names(tmp_path):
+    """A fish measured in the rendered sample, exported as EventMeasure-style tables: the columns CheckEM
+    filters on (RMS, range, precision) are filled, so its default filters keep the row."""
+    import json
+    import shutil
+
+    from usvips.gui.workspace import Workspace, load_pair_images
+    from usvips.samples import open_or_create_from_manifest
+
+    sample = tmp_path / "rov"
+    shutil.copytree(Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport", sample,
+                    ignore=shutil.ignore_patterns("project.usvips*"))
+    project = open_or_create_from_manifest(sample)
+    truth = json.loads((sample / "truth.json").read_text())
+    cameras = next(p for p in truth["pairs"] if p["label"] == "measure1")["cameras"]
+    ws = Workspace()
+    ws.open_project(project)
+    ws.set_pair("measure1", *load_pair_images(project, "measure1"))
+    ws.set_tool("line")
+    for point in ("snout", "fork"):
+        ws.pick("left", cameras["left"]["objects"]["fish1"][point])
+        ws.pick("right", cameras["right"]["objects"]["fish1"][point])
+    ws.finish_object("Sparidae Pagrus auratus")
+    ws.close_project()
+    assert main(["project", "export", str(sample / "project.usvips"), str(tmp_path / "survey.em.txt"),
+                 "--opcode", "DEP01"]) == 0
+    header, row = [line.split("\t") for line in (tmp_path / "survey_Lengths.txt").read_text().splitlines()]
+    values = dict(zip(header, row, strict=True))
+    assert values["OpCode"] == "DEP01" and values["FilenameLeft"] == "measure1_left.png"
+    assert float(values["Length"]) == pytest.approx(truth["objects"][0]["length"] * 1000, abs=3 * float(
+        values["Precision"]))
+    assert 0 < float(values["RMS"]) < 20 and 1000 < float(values["Range"]) < 10_000
+    assert float(values["Precision"]) / float(values["Length"]) < 0.10

@@ -41,22 +41,50 @@ def test_export_by_suffix_and_unknown_formats(tmp_path):
     assert not (tmp_path / "objects.xyz").exists()
 
 
-def test_eventmeasure_style_tables():
+def _checkem_names(header: list[str]) -> list[str]:
+    """Column names as CheckEM's clean_names() makes them: trim, '%' → 'percent', R's make.names (every
+    character outside letters, digits, '.' and '_' becomes '.'), dots collapsed to '_', lower case."""
+    import re
+
+    names = []
+    for name in header:
+        name = name.strip().replace("%", "percent")
+        name = re.sub(r"[^A-Za-z0-9._]", ".", name)
+        name = re.sub(r"\.+", "_", name)
+        names.append(name.lower())
+    return names
+
+
+def test_eventmeasure_style_tables_read_as_checkem_reads_them():
     from usvips.io.export import LENGTH_COLUMNS, POINT_COLUMNS, eventmeasure_tables
 
     objects = _objects() + [MeasuredObject("4", "line", np.array([[0, 0, -2.0], [0, 0.3, -2.0]]),
-                                           np.stack([COV, COV]), "Sparidae Pagrus auratus")]
-    lengths, points = eventmeasure_tables(objects, opcode="OP1", rms_m={"2": 0.004})
+                                           np.stack([COV, COV]), "Sparidae Pagrus auratus", "tail\tbent")]
+    lengths, points = eventmeasure_tables(objects, opcode="OP1", rms_m={"2": 0.004},
+                                          images={"2": ("L001.MP4", "1200", "R001.MP4", "1203")})
     rows = [line.split("\t") for line in lengths.rstrip("\n").splitlines()]
-    assert rows[0] == LENGTH_COLUMNS and len(rows) == 3
-    first = dict(zip(LENGTH_COLUMNS, rows[1], strict=True))
-    assert first["Length (mm)"] == "500.0" and first["RMS (mm)"] == "4.00" and first["Species"] == "cod"
-    assert float(first["Direction"]) == pytest.approx(90.0, abs=15)  # across the line of sight
-    second = dict(zip(LENGTH_COLUMNS, rows[2], strict=True))
-    assert (second["Family"], second["Genus"], second["Species"]) == ("Sparidae", "Pagrus", "auratus")
+    assert rows[0] == LENGTH_COLUMNS and len(rows) == 3 and all(len(r) == len(LENGTH_COLUMNS) for r in rows)
+    # what CheckEM's server.R selects and converts from a lengths file, after its clean_names()
+    names = _checkem_names(rows[0])
+    for needed in ("opcode", "period", "family", "genus", "species", "number", "code", "length", "precision",
+                   "rms", "range", "comment", "frameleft", "frameright", "periodtime", "time"):
+        assert needed in names, needed
+    first = dict(zip(names, rows[1], strict=True))
+    assert first["opcode"] == "OP1" and first["length"] == "500.0" and first["rms"] == "4.00"
+    assert first["species"] == "cod" and first["number"] == "1" and first["frameleft"] == "1200"
+    # CheckEM's default filters: range < 10 m, RMS < 20 mm, precision / length < 10 %
+    assert float(first["range"]) < 10_000 and float(first["rms"]) < 20
+    assert float(first["precision"]) / float(first["length"]) * 100 < 10
+    assert float(first["direction"]) == pytest.approx(90.0, abs=15)  # across the line of sight
+    second = dict(zip(names, rows[2], strict=True))
+    assert (second["family"], second["genus"], second["species"]) == ("Sparidae", "Pagrus", "auratus")
+    assert second["comment"] == "tail bent"  # a tab in the notes must not break the table
     point_rows = [line.split("\t") for line in points.rstrip("\n").splitlines()]
     assert point_rows[0] == POINT_COLUMNS
-    assert dict(zip(POINT_COLUMNS, point_rows[1], strict=True))["Z (mm)"] == "-2000.0"
+    point_names = _checkem_names(point_rows[0])
+    for needed in ("opcode", "x", "y", "z", "sx", "sy", "sz", "rms", "range", "species", "number"):
+        assert needed in point_names, needed
+    assert dict(zip(point_names, point_rows[1], strict=True))["z"] == "-2000.0"
 
 
 def test_eventmeasure_files_by_suffix(tmp_path):

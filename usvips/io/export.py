@@ -99,14 +99,14 @@ def ply(objects: list[MeasuredObject]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def export(objects: list[MeasuredObject], path: str | Path, kind: str | None = None) -> None:
+def export(objects: list[MeasuredObject], path: str | Path, kind: str | None = None, **eventmeasure) -> None:
     """Write objects as ``csv`` (objects), ``vertices.csv``, ``geojson`` or ``ply``, by suffix or ``kind``;
     a path ending ``.em.txt`` writes the EventMeasure-style pair ``<name>_Lengths.txt`` and
-    ``<name>_3DPoints.txt`` beside it."""
+    ``<name>_3DPoints.txt`` beside it (``eventmeasure``: the keywords of :func:`eventmeasure_tables`)."""
     path = Path(path)
     if path.name.endswith(".em.txt") or kind == "eventmeasure":
         stem = path.name[: -len(".em.txt")] if path.name.endswith(".em.txt") else path.stem
-        lengths, points = eventmeasure_tables(objects)
+        lengths, points = eventmeasure_tables(objects, **eventmeasure)
         write_text_atomic(path.with_name(f"{stem}_Lengths.txt"), lengths)
         write_text_atomic(path.with_name(f"{stem}_3DPoints.txt"), points)
         return
@@ -118,15 +118,20 @@ def export(objects: list[MeasuredObject], path: str | Path, kind: str | None = N
 
 
 # --- EventMeasure-style tables (read by survey pipelines such as CheckEM) ------------------------------
-# Columns follow EventMeasure's "Lengths" and "3D Points" text exports as we understand them (tab-
-# separated, millimetres); check them against your pipeline's reader. The object's attribute goes to
-# "Species" (with "Genus" and "Family" when it has three words: Family Genus species).
+# The headers are those of EventMeasure's "Lengths" and "3D Points" text exports as CheckEM's example data
+# carry them (GlobalArchiveManual/CheckEM, inst/shiny/CheckEM/data/examples/*_Lengths.txt, *_3DPoints.txt):
+# tab-separated, no units in the names, lengths, coordinates, precision, RMS and range in millimetres.
+# CheckEM takes the campaign from the file name (before "_Lengths.txt") and the sample from OpCode, and
+# by default keeps range < 10 m, RMS < 20 mm and precision/length < 10 %. Columns we have no value for
+# (image point pair, time, period, HorzDir, VertDir, CAAB code, stage, activity) are left empty.
 
-LENGTH_COLUMNS = ["OpCode", "Filename", "Frame", "Time (mins)", "Length (mm)", "Precision (mm)", "Direction",
-                  "Mid X (mm)", "Mid Y (mm)", "Mid Z (mm)", "RMS (mm)", "Range (mm)", "Family", "Genus",
-                  "Species", "Number", "Comment"]
-POINT_COLUMNS = ["OpCode", "Filename", "Frame", "Time (mins)", "X (mm)", "Y (mm)", "Z (mm)", "SX (mm)", "SY (mm)",
-                 "SZ (mm)", "RMS (mm)", "Range (mm)", "Family", "Genus", "Species", "Number", "Comment"]
+LENGTH_COLUMNS = ["OpCode", "ImagePtPair", "FilenameLeft", "FrameLeft", "FilenameRight", "FrameRight", "Time",
+                  "Period", "PeriodTime", "Length", "Precision", "RMS", "Range", "Direction", "HorzDir", "VertDir",
+                  "MidX", "MidY", "MidZ", "Family", "Genus", "Species", "Code", "Number", "Stage", "Activity",
+                  "Comment", "Attribute9", "Attribute10"]
+POINT_COLUMNS = ["OpCode", "ImagePtPair", "FilenameLeft", "FrameLeft", "FilenameRight", "FrameRight", "Time",
+                 "Period", "PeriodTime", "X", "Y", "Z", "sX", "sY", "sZ", "RMS", "Range", "Direction", "Family",
+                 "Genus", "Species", "Code", "Number", "Stage", "Activity", "Comment", "Attribute9", "Attribute10"]
 
 
 def _taxonomy(attribute: str) -> tuple[str, str, str]:
@@ -137,30 +142,40 @@ def _taxonomy(attribute: str) -> tuple[str, str, str]:
 
 
 def eventmeasure_tables(objects: list[MeasuredObject], opcode: str = "", camera_centre=(0.0, 0.0, 0.0),
-                        rms_m: dict[str, float] | None = None) -> tuple[str, str]:
+                        rms_m: dict[str, float] | None = None,
+                        images: dict[str, tuple[str, str, str, str]] | None = None) -> tuple[str, str]:
     """(lengths, 3-D points) as tab-separated text: two-vertex lines become lengths (snout to fork),
-    points become 3-D points; ``rms_m`` gives each object's ray-intersection RMS (metres) if known."""
-    centre = np.asarray(camera_centre, dtype=np.float64)
+    points become 3-D points (their Direction left empty). ``rms_m``: each object's ray-intersection RMS
+    (metres) if known (CheckEM drops rows without one when it filters on RMS); ``images``:
+    object id → (left file, left frame, right file, right frame). Direction is the angle (degrees) between
+    the measured line and the line of sight to its middle from ``camera_centre`` (90° = across the view);
+    ``camera_centre`` is one point (m) for all objects or a mapping object id → point, since objects
+    measured at different stations see the left camera at different places."""
     rms_m = rms_m or {}
+    images = images or {}
     lengths = ["\t".join(LENGTH_COLUMNS)]
     points = ["\t".join(POINT_COLUMNS)]
     for obj in objects:
+        centre = np.asarray(camera_centre[obj.id] if isinstance(camera_centre, dict) else camera_centre, float)
         family, genus, species = _taxonomy(obj.attribute)
         rms = f"{rms_m[obj.id] * 1000:.2f}" if obj.id in rms_m else ""
+        file_left, frame_left, file_right, frame_right = images.get(obj.id, ("", "", "", ""))
+        head = [opcode, "", file_left, frame_left, file_right, frame_right, "", "", ""]
+        tail = [family, genus, species, "", "1", "", "", obj.notes.replace("\t", " ").replace("\n", " "), "", ""]
         if obj.kind == "line" and len(obj.points) == 2:
             figure = polyline_length(obj.points, obj.covariances)
             middle = obj.points.mean(axis=0)
             segment = obj.points[1] - obj.points[0]
             view = middle - centre
             direction = np.degrees(np.arccos(abs(segment @ view) / (np.linalg.norm(segment) * np.linalg.norm(view))))
-            row = [opcode, "", "", "", f"{figure.value * 1000:.1f}", f"{figure.sigma * 1000:.1f}", f"{direction:.1f}",
-                   *(f"{v * 1000:.1f}" for v in middle), rms, f"{np.linalg.norm(view) * 1000:.0f}", family, genus,
-                   species, "1", obj.notes]
+            row = head + [f"{figure.value * 1000:.1f}", f"{figure.sigma * 1000:.1f}", rms,
+                          f"{np.linalg.norm(view) * 1000:.0f}", f"{direction:.1f}", "", "",
+                          *(f"{v * 1000:.1f}" for v in middle)] + tail
             lengths.append("\t".join(row))
         elif obj.kind == "point":
             p = obj.points[0]
             sigma = np.sqrt(np.diag(obj.covariances[0]))
-            row = [opcode, "", "", "", *(f"{v * 1000:.1f}" for v in p), *(f"{v * 1000:.1f}" for v in sigma), rms,
-                   f"{np.linalg.norm(p - centre) * 1000:.0f}", family, genus, species, "1", obj.notes]
+            row = head + [*(f"{v * 1000:.1f}" for v in p), *(f"{v * 1000:.1f}" for v in sigma), rms,
+                          f"{np.linalg.norm(p - centre) * 1000:.0f}", ""] + tail
             points.append("\t".join(row))
     return "\n".join(lengths) + "\n", "\n".join(points) + "\n"
