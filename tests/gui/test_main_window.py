@@ -204,3 +204,19 @@ def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, s
     assert "computing" in window.object_list.table.item(3, 4).text()
     qtbot.waitUntil(lambda: "mm" in window.object_list.table.item(6, 4).text(), timeout=20000)
     assert window.object_list.table.item(6, 4).text() == window.object_list.table.item(0, 4).text()
+
+
+def test_objects_are_exported_from_the_window(qtbot, make_window, sample_copy, tmp_path):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("point")
+    window.workspace.pick("left", left["rock1"]["centre"])
+    window.workspace.pick("right", right["rock1"]["centre"])
+    window.export_objects(tmp_path / "objects.geojson")
+    assert "exported 1 objects" in window.statusBar().currentMessage()
+    assert '"Point"' in (tmp_path / "objects.geojson").read_text()
+    window.export_objects(tmp_path / "objects.xyz")
+    assert "nothing written" in window.statusBar().currentMessage()
+    assert not (tmp_path / "objects.xyz").exists()

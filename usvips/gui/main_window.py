@@ -198,6 +198,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.samples_menu.addAction(sample.parent.name, lambda p=sample.parent: self.open_path(p))
         self.samples_menu.setEnabled(bool(self.samples_menu.actions()))
         self.recent_menu = menu.addMenu("&Recent projects")
+        menu.addAction("&Export objects…", self.export_dialog)
         self._fill_recent_menu()
         menu.addSeparator()
         menu.addAction(a["quit"])
@@ -400,6 +401,32 @@ class MainWindow(QtWidgets.QMainWindow):
         last = self.settings.value(f"pair/{project.path}")
         self.load_pair(pair or (last if last in labels else labels[0]))
         return True
+
+    EXPORT_FILTERS = {"Objects CSV (*.csv)": ".csv", "Vertices CSV (*.vertices.csv)": ".vertices.csv",
+                      "GeoJSON (*.geojson)": ".geojson", "PLY (*.ply)": ".ply",
+                      "EventMeasure / CheckEM tables (*.em.txt)": ".em.txt"}
+
+    def export_dialog(self) -> None:
+        if self.workspace.project is None:
+            self.show_message("error", "open a project first")
+            return
+        start = str(self.workspace.project.path.with_suffix(".csv"))
+        path, chosen = QtWidgets.QFileDialog.getSaveFileName(self, "Export objects", start,
+                                                             ";;".join(self.EXPORT_FILTERS))
+        if path:
+            suffix = self.EXPORT_FILTERS.get(chosen, "")
+            self.export_objects(path if path.endswith(suffix) else path + suffix)
+
+    def export_objects(self, path: str | Path) -> None:
+        """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
+        from usvips.project_export import export_project
+
+        try:
+            count = export_project(self.workspace.project, path)
+        except UsvipsError as error:
+            self.show_message("error", f"export failed, nothing written: {error}")
+            return
+        self.show_message("info", f"exported {count} objects to {path}")
 
     def load_pair(self, label: str) -> None:
         """Read the pair's images in a worker, then show them."""
