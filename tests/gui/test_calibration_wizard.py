@@ -202,10 +202,13 @@ def test_the_spread_check_needs_six_non_coplanar_points(project):
 
     rng = np.random.default_rng(3)
     xy = rng.uniform(0, 1.4, (10, 2))
-    tilted = ControlPoints(tuple(str(i) for i in range(10)),
-                           np.column_stack([xy, 0.3 * xy[:, 0] + rng.normal(0, 0.002, 10)]))
-    spread = control_spread(tilted, list(tilted.ids))
-    assert not spread.ok and "coplanar" in spread.message
+    ids = tuple(str(i) for i in range(10))
+    flat = ControlPoints(ids, np.column_stack([xy, 0.3 * xy[:, 0] + rng.normal(0, 1e-5, 10)]))
+    spread = control_spread(flat, list(flat.ids))
+    assert not spread.ok and "coplanar" in spread.message and "cannot start" in spread.message
+    weak = ControlPoints(flat.ids, np.column_stack([xy, 0.3 * xy[:, 0] + rng.normal(0, 0.01, 10)]))
+    spread = control_spread(weak, list(weak.ids))
+    assert spread.ok and "weak" in spread.message
     assert control_spread(control, list(control.ids)).ok
 
 
@@ -239,3 +242,32 @@ def test_going_back_keeps_what_was_measured(qtbot, project):
     assert (dict(session.observations), set(session.check)) == kept
     assert measure.table.rowCount() == len(kept[0])
     assert "not measured" in measure.spread.text()
+
+
+def test_the_thesis_tank_without_images_calibrates_from_its_observations(qtbot, project):
+    """tank_1995 has only the published tables: the wizard works from the project's observations and
+    flags the tables' typos as blunders."""
+    p, directory = project("tank_1995")
+    air = CalibrationSession(p, "air")
+    air.load_control(str(directory / "control_table3_2.csv"))  # the in-air test field of Table 3.2
+    air.set_pairs(["air1"])
+    air.load_project_observations()
+    air.set_result(air.job()())
+    air.save("phase 1", ["air1"])
+    session = CalibrationSession(p, "water")
+    wizard = _wizard(qtbot, session)
+    wizard.setup_page.housing.setCurrentText("dome-cover")
+    wizard.setup_page.set_checked_pairs(["water2"])
+    wizard.next()
+    measure = wizard.measure_page
+    assert "no images" in measure.message.text() and measure.table.rowCount() >= 6
+    assert "weak" in measure.spread.text()  # Table 3.5's points lie nearly in one plane
+    first = _compute(qtbot, wizard)
+    sigma = [first.calibration.sigma0_px]
+    for _ in range(5):
+        if not session.flagged():
+            break
+        wizard.results_page.exclude_button.click()
+        qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)
+        sigma.append(session.result.calibration.sigma0_px)
+    assert len(sigma) > 1 and sigma[-1] < sigma[0]

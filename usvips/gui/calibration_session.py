@@ -21,7 +21,8 @@ import numpy as np
 from usvips.core.adjustment import W_CRITICAL
 from usvips.core.calibration import CalibrationOptions, CalibrationResult, calibrate_air, calibrate_water
 from usvips.core.calibration.phases import DEFAULT_HOUSING
-from usvips.core.errors import UsvipsError
+from usvips.core.dlt import check_spread
+from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.intersection import intersect
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict
@@ -32,9 +33,9 @@ PHASES = {"air": "Phase 1 — cameras in air", "water": "Phase 2 — housing and
           "joint": "Phase 2 — joint calibration of several underwater pairs"}
 ROLES = {"air": "calibration-air", "water": "calibration-water", "joint": "calibration-water"}
 MINIMUM_POINTS = 6
-#: Smallest spread of the control across its weakest direction, relative to its largest, below which the
-#: points are taken as coplanar (the DLT needs non-coplanar control).
-COPLANAR_RATIO = 0.05
+#: Below this spread across the weakest direction (relative to the largest) the control is called weak:
+#: the DLT still runs (it refuses below 1e-3, core/dlt.py) but determines the start poorly.
+WEAK_RATIO = 0.05
 
 
 @dataclass(frozen=True)
@@ -49,16 +50,23 @@ class Spread:
 
 
 def control_spread(control: ControlPoints, ids: list[str]) -> Spread:
-    """Enough points (6) and not coplanar (the DLT's needs); a warning when the geometry is weak."""
+    """Enough points (6) and not coplanar (the DLT's needs, as core/dlt.py checks them); a warning when
+    the geometry is weak."""
     if len(ids) < MINIMUM_POINTS:
         return Spread(len(ids), 0.0, f"{len(ids)} of at least {MINIMUM_POINTS} points measured", False)
     index = {pid: i for i, pid in enumerate(control.ids)}
     xyz = control.xyz[[index[i] for i in ids]]
     singular = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
     flatness = float(singular[-1] / singular[0]) if singular[0] > 0 else 0.0
-    if flatness < COPLANAR_RATIO:
-        return Spread(len(ids), flatness, f"{len(ids)} points, but nearly coplanar (depth spread {flatness:.1%} "
-                      "of the width): measure points at other depths of the frame", False)
+    try:
+        check_spread(xyz)
+    except DegenerateGeometryError:
+        return Spread(len(ids), flatness, f"{len(ids)} points, but coplanar (depth spread {flatness:.2%} of the "
+                      "width): the DLT cannot start; measure points at other depths of the frame", False)
+    if flatness < WEAK_RATIO:
+        return Spread(len(ids), flatness, f"{len(ids)} points, nearly coplanar (depth spread {flatness:.1%} of the "
+                      "width): weak geometry — the start and the parameters will be poorly determined; points at "
+                      "other depths of the frame would strengthen it", True)
     if len(ids) < 10 or flatness < 0.15:
         return Spread(len(ids), flatness, f"{len(ids)} points, depth spread {flatness:.0%} of the width: enough "
                       "to compute, but more points at other depths will strengthen the result", True)

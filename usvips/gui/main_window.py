@@ -392,8 +392,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.pair_box.clear()
         self.pair_box.addItems(labels)
         if not labels:
-            self.show_message("warning", f"{project.path.name} has no image pairs (observations only): "
-                                         "use the calibration commands on it")
+            self.show_message("warning", f"{project.path.name} has no images (observations only): calibrate it "
+                                         "from its observations with the Calibration menu")
             return True
         if pair is not None and pair not in labels:
             self.show_message("error", f"{project.path.name} has no image pair {pair!r}; pairs: {', '.join(labels)}")
