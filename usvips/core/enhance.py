@@ -50,6 +50,15 @@ def check_image(image: np.ndarray, name: str = "image") -> np.ndarray:
     return image
 
 
+def luminance(image: np.ndarray) -> np.ndarray:
+    """Grey values as float32 (H, W): a grey image as it is, a colour one by the BT.601 weights
+    (0.299, 0.587, 0.114) without rounding."""
+    image = check_image(image)
+    if image.ndim == 3:
+        return cv2.cvtColor(np.ascontiguousarray(image, dtype=np.float32), cv2.COLOR_RGB2GRAY)
+    return np.ascontiguousarray(image, dtype=np.float32)
+
+
 def _maximum(image: np.ndarray) -> int:
     return int(np.iinfo(image.dtype).max)
 

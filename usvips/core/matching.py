@@ -17,7 +17,7 @@ import numpy as np
 
 from usvips.core import validation
 from usvips.core.camera import Camera
-from usvips.core.enhance import check_image
+from usvips.core.enhance import check_image, luminance
 from usvips.core.errors import InvalidParameterError
 
 
@@ -77,13 +77,6 @@ class MatchResult:
         return self.pixel is not None and not self.ambiguous
 
 
-def _grey(image: np.ndarray) -> np.ndarray:
-    image = check_image(image)
-    if image.ndim == 3:  # luminance, BT.601 weights (0.299, 0.587, 0.114), in float: no rounding
-        return cv2.cvtColor(np.ascontiguousarray(image, dtype=np.float32), cv2.COLOR_RGB2GRAY)
-    return np.ascontiguousarray(image, dtype=np.float32)
-
-
 def _resample(curve: EpipolarCurve, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """Points along the curve every ``spacing`` pixels, with interpolated depths."""
     steps = np.linalg.norm(np.diff(curve.pixels, axis=0), axis=1)
@@ -116,7 +109,7 @@ def match_along_curve(source_image: np.ndarray, target_image: np.ndarray, pixel,
                                     f"for a {window} px template")
     # grey only the regions used (a whole 4000 × 3000 colour image would cost more than the search)
     sx0, sy0 = max(int(x) - half - 2, 0), max(int(y) - half - 2, 0)
-    source = _grey(source_image[sy0:int(y) + half + 3, sx0:int(x) + half + 3])
+    source = luminance(source_image[sy0:int(y) + half + 3, sx0:int(x) + half + 3])
     template = cv2.getRectSubPix(source, (window, window), (float(x - sx0), float(y - sy0)))
     if float(template.std()) < min_contrast:
         return MatchResult(None, 0.0, None, False, f"textureless: the template's contrast "
@@ -137,7 +130,7 @@ def match_along_curve(source_image: np.ndarray, target_image: np.ndarray, pixel,
     y1 = int(np.ceil(samples[:, 1].max())) + half + 1
     # the grey target region: the box plus the margin of the 2-D refinement below
     cx0, cy0 = max(x0 - 4, 0), max(y0 - 4, 0)
-    target = _grey(target_image[cy0:min(y1 + 5, th), cx0:min(x1 + 5, tw)])
+    target = luminance(target_image[cy0:min(y1 + 5, th), cx0:min(x1 + 5, tw)])
     surface = cv2.matchTemplate(np.ascontiguousarray(target[y0 - cy0:y1 + 1 - cy0, x0 - cx0:x1 + 1 - cx0]), template,
                                 cv2.TM_CCOEFF_NORMED)
     map_x = (samples[:, 0] - x0 - half).astype(np.float32).reshape(1, -1)

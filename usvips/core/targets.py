@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from usvips.core.enhance import check_image
+from usvips.core.enhance import check_image, luminance
 from usvips.core.errors import InvalidParameterError
 
 
@@ -38,13 +38,6 @@ class TargetResult:
 
     def __bool__(self) -> bool:
         return self.center is not None
-
-
-def _grey(image: np.ndarray) -> np.ndarray:
-    image = check_image(image)
-    if image.ndim == 3:  # luminance, BT.601 weights (0.299, 0.587, 0.114), in float: no rounding
-        return cv2.cvtColor(np.ascontiguousarray(image, dtype=np.float32), cv2.COLOR_RGB2GRAY)
-    return image.astype(np.float32)
 
 
 def _window(image: np.ndarray, click: tuple[float, float], half: int) -> tuple[np.ndarray, int, int] | None:
@@ -84,7 +77,7 @@ def locate_disc(image: np.ndarray, click: tuple[float, float], window: int = 41)
     if cut is None:
         return TargetResult(None, 0.0, "clipped: the window around the click reaches the image edge")
     patch, top, left = cut
-    patch = _grey(patch)  # only the window: a full 4000 × 3000 conversion would cost more than the fit
+    patch = luminance(patch)  # only the window: a full 4000 × 3000 conversion would cost more than the fit
     ring = np.concatenate([patch[0], patch[-1], patch[:, 0], patch[:, -1]])
     background = float(np.median(ring))
     # pixel noise from neighbour differences along the ring: a smooth textured background does not count
@@ -155,7 +148,7 @@ def locate_cross(image: np.ndarray, click: tuple[float, float], window: int = 41
     if cut is None:
         return TargetResult(None, 0.0, "clipped: the window around the click reaches the image edge")
     patch, top, left = cut
-    patch = _grey(patch)  # only the window: a full 4000 × 3000 conversion would cost more than the fit
+    patch = luminance(patch)  # only the window: a full 4000 × 3000 conversion would cost more than the fit
     if float(patch.std()) < 1e-3:
         return TargetResult(None, 0.0, "no target: the patch is uniform")
     template = cross_template(size, arm_width)
