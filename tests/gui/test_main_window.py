@@ -167,16 +167,21 @@ def test_measured_control_points_are_marked_with_their_numbers(qtbot, make_windo
     assert sorted(t.textItem.toPlainText() for t in pane.control_labels) == sorted(stored.ids)
 
 
-def test_the_plan_view_shows_stored_objects_in_plan_and_profile(qtbot, make_window, sample_copy):
-    window = make_window()
-    directory = sample_copy("tank_system1")
-    open_sample(qtbot, window, directory, "measure1")
+def _store_fish(window, directory) -> None:
+    """fish1 of the measurement pair, picked at its true pixels, stored as a line."""
     left, right = truth_pixels(directory, "measure1", "objects")
     window.set_tool("line")
     for point in ("snout", "fork"):
         window.workspace.pick("left", left["fish1"][point])
         window.workspace.pick("right", right["fish1"][point])
     window.finish_object()
+
+
+def test_the_plan_view_shows_stored_objects_in_plan_and_profile(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    _store_fish(window, directory)
     (stored,) = window.workspace.project.objects()
     x, y = window.plan.curve.getData()
     assert np.allclose(np.column_stack([x, y])[:2], [[v.xyz[0], v.xyz[1]] for v in stored.vertices])
@@ -189,12 +194,7 @@ def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, s
     window = make_window()
     directory = sample_copy("tank_system1")
     open_sample(qtbot, window, directory, "measure1")
-    left, right = truth_pixels(directory, "measure1", "objects")
-    window.set_tool("line")
-    for point in ("snout", "fork"):
-        window.workspace.pick("left", left["fish1"][point])
-        window.workspace.pick("right", right["fish1"][point])
-    window.finish_object()
+    _store_fish(window, directory)
     (first,) = window.workspace.project.objects()
     for _ in range(6):  # stored behind the window's back: the list meets them all at once
         window.workspace.project.add_object("line", list(first.vertices), "copy")

@@ -528,7 +528,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._refresh_display(side)
 
     def _refresh_display(self, side: str) -> None:
-        """Show the original at once, or the enhanced image computed in a worker (newest request wins)."""
+        """Show the original at once, or the enhanced image computed in a worker (newest request wins);
+        the histograms (original and shown) come with it."""
         ws = self.workspace
         original = ws.images.get(side)
         if original is None:
@@ -537,23 +538,23 @@ class MainWindow(QtWidgets.QMainWindow):
         self._display_tokens[side] += 1
         token = self._display_tokens[side]
         if not pipeline.operations:
-            self._show_display(side, original, token, None)
+            counts = luminance_histogram(original)
+            self._show_display(side, token, (original, counts, counts))
             return
 
         def job(progress, cancelled):
             display = pipeline.apply(original)
-            return display, luminance_histogram(display)
+            return display, luminance_histogram(original), luminance_histogram(display)
 
-        self.run_worker(job, f"enhancing the {side} image",
-                        lambda result: self._show_display(side, result[0], token, result[1]))
+        self.run_worker(job, f"enhancing the {side} image", lambda result: self._show_display(side, token, result))
 
-    def _show_display(self, side: str, display: np.ndarray, token: int, histogram: np.ndarray | None) -> None:
+    def _show_display(self, side: str, token: int, result: tuple) -> None:
+        display, original_counts, shown_counts = result
         if token != self._display_tokens[side]:
             return  # a newer enhancement is on its way
         self.panes[side].set_image(display)
         if side == self.enhancement._sides()[0]:
-            original = luminance_histogram(self.workspace.images[side])
-            self.enhancement.show_histograms(original, original if histogram is None else histogram)
+            self.enhancement.show_histograms(original_counts, shown_counts)
 
     def _each_pane(self, method: str, *args) -> None:
         for pane in self.panes.values():
@@ -609,22 +610,19 @@ class MainWindow(QtWidgets.QMainWindow):
         self.workspace.cancel_vertex()
 
     def undo(self) -> None:
-        label = None
-        try:
-            label = self.workspace.undo.undo()
-        except UsvipsError as error:
-            self.show_message("error", f"cannot undo: {error}")
-        if label:
-            self.show_message("info", f"undone: {label}")
+        self._step("undo", "undone")
 
     def redo(self) -> None:
-        label = None
+        self._step("redo", "redone")
+
+    def _step(self, verb: str, done: str) -> None:
         try:
-            label = self.workspace.undo.redo()
+            label = getattr(self.workspace.undo, verb)()
         except UsvipsError as error:
-            self.show_message("error", f"cannot redo: {error}")
+            self.show_message("error", f"cannot {verb}: {error}")
+            return
         if label:
-            self.show_message("info", f"redone: {label}")
+            self.show_message("info", f"{done}: {label}")
 
     def _on_undo_changed(self) -> None:
         undo, redo = self.workspace.undo.undo_label, self.workspace.undo.redo_label

@@ -10,7 +10,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
-from usvips.core.enhance import OPERATIONS, Operation, Pipeline
+from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
 from usvips.gui.calculator import format_figure
 from usvips.gui.worker import Worker, start
@@ -119,8 +119,6 @@ class EnhancementPanel(QtWidgets.QWidget):
         self._apply(Pipeline())
 
     def _on_balance(self) -> None:
-        from usvips.core.enhance import balance_pair
-
         if not self.workspace.images:
             return
         step = balance_pair(self.workspace.images["left"], self.workspace.images["right"])

@@ -22,7 +22,7 @@ from usvips.core.measure import QualityRules
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
-from usvips.gui.calculator import Geometry, Result, object_figures, pair_figures
+from usvips.gui.calculator import Geometry, Result, format_figure, object_figures, pair_figures
 from usvips.gui.signals import Signal
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image
@@ -97,20 +97,19 @@ class UndoStack:
         self.changed.emit()
 
     def undo(self) -> str | None:
-        if not self._done:
-            return None
-        command = self._done.pop()
-        command.undo()
-        self._undone.append(command)
-        self.changed.emit()
-        return command.label
+        """Take back the last step; returns its label (None when there is nothing to undo)."""
+        return self._move(self._done, self._undone, "undo")
 
     def redo(self) -> str | None:
-        if not self._undone:
+        """Do the last undone step again; returns its label (None when there is nothing to redo)."""
+        return self._move(self._undone, self._done, "redo")
+
+    def _move(self, source: list[Command], target: list[Command], action: str) -> str | None:
+        if not source:
             return None
-        command = self._undone.pop()
-        command.redo()
-        self._done.append(command)
+        command = source.pop()
+        getattr(command, action)()
+        target.append(command)
         self.changed.emit()
         return command.label
 
@@ -495,7 +494,7 @@ class Workspace:
         result = self.figures([holder["id"]])
         main = result.figures[0] if result.figures and kind != "point" else None
         self.message.emit("warning" if result.failures else "info",
-                          f"stored {kind} {holder['id']}" + (f": {_short(main)}" if main else "")
+                          f"stored {kind} {holder['id']}" + (f": {format_figure(main)}" if main else "")
                           + (f" — quality: {'; '.join(result.failures)}" if result.failures else ""))
         return holder["id"]
 
@@ -624,12 +623,6 @@ def _figures_of(geometry: Geometry, rules: QualityRules, object_id: int) -> Resu
     if not np.all(np.isfinite(geometry.points)):
         return Result((), (), f"object {object_id} has vertices without 3-D coordinates")
     return object_figures(geometry, rules)
-
-
-def _short(figure) -> str:
-    from usvips.gui.calculator import format_figure
-
-    return format_figure(figure)
 
 
 def describe_point(vertex: MeasuredVertex) -> str:
