@@ -220,20 +220,16 @@ class Workspace:
 
     # ------------------------------------------------------------------ project and pair
     def open_project(self, project: Project) -> None:
+        self._switch_project(project)
+
+    def close_project(self) -> None:
+        self._switch_project(None)
+
+    def _switch_project(self, project: Project | None) -> None:
+        """Close the open project (unless it is ``project``) and start afresh on ``project``."""
         if self.project is not None and self.project is not project:
             self.project.close()
         self.project = project
-        self._geometries = {}
-        self.pair, self.images, self.geometry = None, {}, None
-        self._reset_picks()
-        self.undo.clear()
-        self.objects_changed.emit()
-        self.pair_changed.emit()
-
-    def close_project(self) -> None:
-        if self.project is not None:
-            self.project.close()
-        self.project = None
         self._geometries = {}
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
