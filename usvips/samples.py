@@ -9,37 +9,56 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from usvips.core.errors import InputFileError
+from usvips.io.calibration_file import load_calibration
 from usvips.io.manifest import read_manifest
 from usvips.io.tables import read_control, read_observations
-from usvips.store import Project
+from usvips.store import Project, ProjectError
 
 
 def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
     """A new project at ``out`` holding a sample directory's pairs, control, observations and calibrations."""
     manifest = read_manifest(directory)
+    control = read_control(manifest.control) if manifest.control is not None else None
+    observation_files = [(entry, read_observations(entry.file)) for entry in manifest.observations]
+    calibrations = []
+    for entry in manifest.calibrations:
+        load_calibration(entry.file)                      # checked whole before anything is stored
+        try:
+            calibrations.append((entry, json.loads(entry.file.read_text(encoding="utf-8"))))
+        except (OSError, ValueError) as error:
+            raise InputFileError(str(entry.file), f"cannot read the calibration: {error}") from None
     project = Project.create(out)
     try:
-        for pair in manifest.pairs:
-            project.add_pair(pair.label, pair.left, pair.right, pair.medium)
-        if manifest.control is not None:
-            project.set_control(read_control(manifest.control))
-        for entry in manifest.observations:
-            observations = read_observations(entry.file)
-            labels = entry.pairs or observations.pair_labels
-            for label in labels:
-                rows = observations.pair(label) if label in observations.pair_labels else observations
-                project.add_control_observations(rows, entry.role, label)
-        for entry in manifest.calibrations:
-            project.add_calibration(entry.file.stem, json.loads(entry.file.read_text(encoding="utf-8")),
-                                    entry.active_for)
+        with project.transaction():
+            _fill(project, manifest, control, observation_files, calibrations)
     except BaseException:
         project.close()
-        Path(out).unlink(missing_ok=True)
+        for suffix in ("", "-wal", "-shm", "-journal"):
+            Path(f"{out}{suffix}").unlink(missing_ok=True)
         raise
     return project
+
+
+def _fill(project: Project, manifest, control, observation_files, calibrations) -> None:
+    """Store a manifest's contents (already read and checked) in a new project."""
+    for pair in manifest.pairs:
+        project.add_pair(pair.label, pair.left, pair.right, pair.medium)
+    if control is not None:
+        project.set_control(control)
+    for entry, observations in observation_files:
+        labels = entry.pairs or observations.pair_labels
+        for label in labels:
+            rows = observations.pair(label) if label in observations.pair_labels else observations
+            project.add_control_observations(rows, entry.role, label)
+    for entry, data in calibrations:
+        project.add_calibration(entry.file.stem, data, entry.active_for)
 
 
 def open_or_create_from_manifest(directory: str | Path) -> Project:
     """Open ``<directory>/project.usvips``, creating it from the directory's ``project.json`` first."""
     path = Path(directory) / "project.usvips"
+    if path.is_symlink():
+        raise ProjectError(f"{path}: a symbolic link; a sample's project file must be a plain file in its "
+                           "folder (remove the link)")
     return Project.open(path) if path.exists() else create_from_manifest(directory, path)

@@ -49,7 +49,7 @@ def run_new(args: argparse.Namespace) -> int:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
+    with Project.open(args.project, read_only=True) as project:
         pairs = project.pairs()
         print(f"{args.project}: schema {project.version}, {len(pairs)} image pairs, "
               f"{len(project.control())} control points, {len(project.objects())} objects")
@@ -63,24 +63,27 @@ def run_info(args: argparse.Namespace) -> int:
 def run_import(args: argparse.Namespace) -> int:
     if not (args.control or args.obs or args.calibration):
         raise UsvipsError("nothing to import: give --control, --obs or --calibration")
-    with Project.open(args.project) as project:
-        if args.control:
-            project.set_control(read_control(args.control))
-        if args.obs:
-            if not args.pair:
-                raise UsvipsError("--obs needs --pair (the image pair the observations belong to)")
+    if args.obs and not args.pair:
+        raise UsvipsError("--obs needs --pair (the image pair the observations belong to)")
+    # every file is read and checked before the project is opened; then all goes in one transaction
+    control = read_control(args.control) if args.control else None
+    observations = read_observations(args.obs) if args.obs else None
+    calibration = calibration_to_dict(load_calibration(args.calibration)) if args.calibration else None
+    with Project.open(args.project) as project, project.transaction():
+        if control is not None:
+            project.set_control(control)
+        if observations is not None:
             if args.pair not in {p["label"] for p in project.pairs()}:
                 project.add_pair(args.pair)
-            project.add_control_observations(read_observations(args.obs), args.role, args.pair)
-        if args.calibration:
-            path = Path(args.calibration)
-            project.add_calibration(path.stem, calibration_to_dict(load_calibration(path)), tuple(args.active_for))
+            project.add_control_observations(observations, args.role, args.pair)
+        if calibration is not None:
+            project.add_calibration(Path(args.calibration).stem, calibration, tuple(args.active_for))
     print(f"imported into {args.project}")
     return 0
 
 
 def run_export(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
+    with Project.open(args.project, read_only=True) as project:
         count = export_project(project, args.out, args.opcode)
     print(f"exported {count} objects to {args.out}")
     return 0

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +15,7 @@ from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate
 from usvips.core.errors import ConvergenceError, InputFileError
 from usvips.core.observations import StereoObservations
 from usvips.core.synth import Disc, Seafloor, Water, render
-from usvips.io.atomic import write_text_atomic
+from usvips.io.atomic import OutputFileError, write_text_atomic
 from usvips.io.calibration_file import calibration_to_dict
 from usvips.io.images import write_image
 from usvips.io.scene import read_scene
@@ -30,8 +33,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _targets_file(scene, name: str) -> Path:
-    for candidate in (scene.path.parent / name, RESOURCES / name):
-        if candidate.is_file():
+    """The frame's target file: a plain ``.csv`` name (checked by the scene reader) beside the scene or in
+    resources/; never a path that leads elsewhere."""
+    for folder in (scene.path.parent, RESOURCES):
+        candidate = folder / name
+        if candidate.is_file() and candidate.resolve().parent == folder.resolve():
             return candidate
     raise InputFileError(str(scene.path), f"frame.targets: no file {name!r} beside the scene or in resources/")
 
@@ -141,10 +147,51 @@ def _render_video(out: Path, scene, discs, floor, water, objects) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Render into a staging folder beside ``--out`` and move the result in only when everything was
+    written: a failure leaves ``--out`` as it was. Every file name comes from this module (pair labels
+    are checked as plain names by the scene reader), so nothing is written outside ``--out``."""
     scene = read_scene(args.scene)
-    data = scene.data
     out = Path(args.out)
-    (out / "images").mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise OutputFileError(str(out), "--out must be a folder (it is a file)")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.render-", dir=str(out.parent)))
+    except OSError as error:
+        raise OutputFileError(str(out), f"cannot create the output folder: {error.strerror or error}") from None
+    try:
+        _render(scene, staging, Path(args.scene).name)
+        _publish(staging, out)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    print(f"rendered {len(scene.data['pairs'])} pairs of {scene.name} into {out}")
+    return 0
+
+
+def _publish(staging: Path, out: Path) -> None:
+    """Move a complete rendering into ``out`` (renamed whole when ``out`` does not exist yet)."""
+    try:
+        if not out.exists():
+            os.rename(staging, out)
+            return
+        for source in sorted(staging.rglob("*")):
+            target = out / source.relative_to(staging)
+            if source.is_dir():
+                if target.exists() and not target.is_dir():
+                    raise OutputFileError(str(target), "is a file where the rendering needs a folder")
+                target.mkdir(exist_ok=True)
+            else:
+                if target.is_dir():
+                    raise OutputFileError(str(target), "is a folder where the rendering writes a file")
+                os.replace(source, target)
+    except OSError as error:
+        raise OutputFileError(str(out), f"cannot move the rendering in: {error.strerror or error}") from None
+
+
+def _render(scene, out: Path, scene_name: str) -> None:
+    """Everything ``usvips render`` writes, into the (new, empty) folder ``out``."""
+    data = scene.data
+    (out / "images").mkdir()
     frame = data.get("frame")
     control = read_control(_targets_file(scene, frame["targets"])) if frame else None
     discs = [Disc(tuple(p), (0.0, 0.0, 1.0), radius=frame.get("radius", 0.04), cross_width=0.2 * frame.get(
@@ -200,7 +247,7 @@ def run(args: argparse.Namespace) -> int:
         pairs_manifest.append({"label": pair["label"], "medium": medium, "left": f"images/{pair['label']}_left.png",
                                "right": f"images/{pair['label']}_right.png"})
     manifest = {"format": "usvips-sample", "version": 1, "name": scene.name,
-                "description": data.get("description", f"rendered from {Path(args.scene).name}"),
+                "description": data.get("description", f"rendered from {scene_name}"),
                 "housing": data["housing"]["kind"], "pairs": pairs_manifest, "observations": [], "truth": "truth.json"}
     if control is not None:
         write_control(out / "control.csv", control)
@@ -222,5 +269,3 @@ def run(args: argparse.Namespace) -> int:
     truth["observation_noise_px"] = noise_px
     write_text_atomic(out / "truth.json", json.dumps(truth, indent=1, allow_nan=False) + "\n")
     write_text_atomic(out / "project.json", json.dumps(manifest, indent=2) + "\n")
-    print(f"rendered {len(data['pairs'])} pairs of {scene.name} into {out}")
-    return 0

@@ -34,6 +34,8 @@ impossible geometry (the frame behind a camera, a camera inside the frame).
 from __future__ import annotations
 
 import json
+import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -112,47 +114,158 @@ def _keys(path: Path, where: str, value: object, required: set[str], allowed: se
     return value
 
 
+#: A plain name that is safe as part of a file name (pair labels become image file names).
+SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
+#: Largest image side (pixels) and largest JSON file (bytes) a scene may ask for.
+MAX_SIDE = 16384
+MAX_FILE_BYTES = 4 << 20
+
+
+@dataclass(frozen=True)
+class Rule:
+    """What one value of a scene must be: ``kind`` is ``int``, ``number``, ``bool``, ``text``, ``name``
+    (a :data:`SAFE_NAME`), ``csv`` (a plain ``.csv`` file name) or ``point`` (three numbers); numbers lie in
+    ``[low, high]`` (``low_open``: strictly above ``low``)."""
+
+    kind: str
+    low: float = -1e6
+    high: float = 1e6
+    low_open: bool = False
+
+    def problem(self, value: object) -> str | None:
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if self.kind == "bool":
+            return None if isinstance(value, bool) else "must be true or false"
+        if self.kind == "text":
+            return None if isinstance(value, str) else "must be a string"
+        if self.kind == "name":
+            return None if isinstance(value, str) and SAFE_NAME.fullmatch(value) else (
+                "must be a plain name of letters, digits, '.', '_' or '-' (at most 64, no path)")
+        if self.kind == "csv":
+            return None if isinstance(value, str) and SAFE_NAME.fullmatch(value) and value.endswith(".csv") else (
+                "must be a plain .csv file name beside the scene or in resources/ (no folder, no '..')")
+        if self.kind == "point":
+            if not (isinstance(value, list) and len(value) == 3 and all(
+                    isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and abs(v) <= 1e6
+                    for v in value)):
+                return "must be three finite numbers (metres)"
+            return None
+        if self.kind == "int" and not (number and float(value).is_integer() and isinstance(value, int)):
+            return f"must be a whole number, got {_show(value)}"
+        if not number or not math.isfinite(value):
+            return f"must be a finite number, got {_show(value)}"
+        if value < self.low or (self.low_open and value == self.low) or value > self.high:
+            left = "(" if self.low_open else "["
+            return f"must be in {left}{self.low:g}, {self.high:g}], got {_show(value)}"
+        return None
+
+
+def _show(value: object) -> str:
+    text = json.dumps(value) if isinstance(value, int | float | bool | str | None) else type(value).__name__
+    return text if len(text) <= 24 else text[:23] + "…"
+
+
+#: The scene format as one table: "section.key" → rule ("*" = every key of that object).
+RULES: dict[str, Rule] = {
+    "name": Rule("name"), "description": Rule("text"), "seed": Rule("int", 0, 2**31 - 1),
+    "observation_noise_px": Rule("number", 0, 100),
+    "image.width": Rule("int", 8, MAX_SIDE), "image.height": Rule("int", 8, MAX_SIDE),
+    "image.supersample": Rule("int", 1, 8), "image.colour": Rule("bool"), "image.lighting": Rule("number", 0, 1),
+    "image.interlace": Rule("number", -100, 100),
+    "left.*": Rule("number"), "right.*": Rule("number"),
+    "left.f": Rule("number", 0, 1e6, True), "right.f": Rule("number", 0, 1e6, True),
+    "left.sy": Rule("number", 0, 10, True), "right.sy": Rule("number", 0, 10, True),
+    "relative.*": Rule("number", -1e4, 1e4),
+    "housing.kind": Rule("text"), "housing.left.*": Rule("number"), "housing.right.*": Rule("number"),
+    "water.attenuation": Rule("number", 0, 100), "water.backscatter": Rule("number", 0, 255),
+    "water.blur": Rule("number", 0, 50), "water.noise": Rule("number", 0, 255),
+    "frame.targets": Rule("csv"), "frame.radius": Rule("number", 0, 10, True),
+    "floor.z": Rule("number"), "floor.cell": Rule("number", 1e-4, 1e3), "floor.mean": Rule("number", 0, 255),
+    "floor.contrast": Rule("number", 0, 255), "floor.seed": Rule("int", 0, 2**31 - 1),
+    "objects.label": Rule("text"), "objects.kind": Rule("text"), "objects.snout": Rule("point"),
+    "objects.fork": Rule("point"), "objects.up": Rule("point"), "objects.start": Rule("point"),
+    "objects.end": Rule("point"), "objects.centre": Rule("point"), "objects.semi_axes": Rule("point"),
+    "objects.colour": Rule("point"), "objects.depth": Rule("number", 0, 100),
+    "objects.brightness": Rule("number", 0, 255), "objects.radius": Rule("number", 0, 100, True),
+    "objects.ring_spacing": Rule("number", 0, 100, True), "objects.ring_width": Rule("number", 0, 100),
+    "objects.seed": Rule("int", 0, 2**31 - 1),
+    "pairs.label": Rule("name"), "pairs.medium": Rule("text"), "pairs.colour": Rule("bool"),
+    "pairs.lighting": Rule("number", 0, 1), "pairs.pose.*": Rule("number", -1e4, 1e4),
+}
+
+
+def _check_values(path: Path, where: str, section: str, value: dict) -> None:
+    """Apply :data:`RULES` to the keys of one object of the scene (``section`` is its table prefix)."""
+    for key, item in value.items():
+        rule = RULES.get(f"{section}.{key}" if section else key) or RULES.get(f"{section}.*")
+        if rule is None:
+            continue
+        problem = rule.problem(item)
+        if problem:
+            raise InputFileError(str(path), f"{where}{'.' if where else ''}{key}: {problem}")
+
+
 def read_scene(path: str | Path) -> Scene:
+    """Read and check a scene description; any problem is an :class:`InputFileError` naming the key."""
     path = Path(path)
     if not path.is_file():
         raise InputFileError(str(path), "no such scene description")
+    if path.stat().st_size > MAX_FILE_BYTES:
+        raise InputFileError(str(path), f"too large for a scene description (over {MAX_FILE_BYTES >> 20} MiB)")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as error:
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
+    except UnicodeDecodeError:
+        raise InputFileError(str(path), "not a text (UTF-8) file") from None
+    except RecursionError:
+        raise InputFileError(str(path), "nested too deeply to be a scene description") from None
     _keys(path, "scene", data, {"format", "version", "name", "image", "left", "right", "relative", "housing",
                                 "pairs"}, TOP)
-    if data["format"] != FORMAT or data["version"] != 1:
-        raise InputFileError(str(path), f"not a version-1 USVIPS scene (format must be {FORMAT!r})")
+    if data["format"] != FORMAT or data["version"] != 1 or isinstance(data["version"], bool):
+        raise InputFileError(str(path), f"not a version-1 USVIPS scene (format must be {FORMAT!r}, version 1)")
+    _check_values(path, "", "", data)
     _keys(path, "image", data["image"], {"width", "height"},
           {"width", "height", "supersample", "colour", "lighting", "interlace"})
+    _check_values(path, "image", "image", data["image"])
     for side in ("left", "right"):
         _keys(path, side, data[side], {"f", "xp", "yp"}, set(INTERIOR_PARAMETERS))
+        _check_values(path, side, side, data[side])
     _keys(path, "relative", data["relative"], {"bx"}, {"bx", "by", "bz", "omega", "phi", "kappa"})
+    _check_values(path, "relative", "relative", data["relative"])
     housing = _keys(path, "housing", data["housing"], {"kind"}, {"kind", "left", "right"})
-    if housing["kind"] not in HOUSINGS:
+    if not isinstance(housing["kind"], str) or housing["kind"] not in HOUSINGS:
         raise InputFileError(str(path), f"housing.kind: must be one of {', '.join(HOUSINGS)}")
+    if housing["kind"] != "air":
+        for side in ("left", "right"):
+            _keys(path, f"housing.{side}", housing.get(side), set(), set(housing.get(side) or ()))
+            _check_values(path, f"housing.{side}", f"housing.{side}", housing[side])
     if "water" in data:
         _keys(path, "water", data["water"], set(), {"attenuation", "backscatter", "blur", "noise"})
+        _check_values(path, "water", "water", data["water"])
     if "frame" in data:
         _keys(path, "frame", data["frame"], {"targets"}, {"targets", "radius"})
+        _check_values(path, "frame", "frame", data["frame"])
     if "floor" in data:
         _keys(path, "floor", data["floor"], {"z"}, {"z", "cell", "mean", "contrast", "seed"})
+        _check_values(path, "floor", "floor", data["floor"])
     objects = data.get("objects", [])
     if not isinstance(objects, list):
         raise InputFileError(str(path), "objects: expected a list")
     labels = set()
     for i, entry in enumerate(objects):
         kind = entry.get("kind") if isinstance(entry, dict) else None
-        if kind not in OBJECT_KEYS:
+        if not isinstance(kind, str) or kind not in OBJECT_KEYS:
             raise InputFileError(str(path), f"objects[{i}].kind: must be one of {', '.join(OBJECT_KEYS)}")
         required, optional = OBJECT_KEYS[kind]
         _keys(path, f"objects[{i}]", entry, required | {"kind", "label"}, required | optional | {"kind", "label"})
+        _check_values(path, f"objects[{i}]", "objects", entry)
         if entry["label"] in labels:
             raise InputFileError(str(path), f"objects[{i}].label: {entry['label']!r} is used twice")
         labels.add(entry["label"])
     if not isinstance(data["pairs"], list) or not data["pairs"]:
         raise InputFileError(str(path), "pairs: at least one pair is needed")
+    pair_labels: set[str] = set()
     scene = Scene(path, data)
     try:
         scene.objects()
@@ -161,15 +274,23 @@ def read_scene(path: str | Path) -> Scene:
     for i, pair in enumerate(data["pairs"]):
         _keys(path, f"pairs[{i}]", pair, {"label", "pose"},
               {"label", "medium", "pose", "contents", "colour", "lighting"})
+        _check_values(path, f"pairs[{i}]", "pairs", pair)
+        if pair["label"] in pair_labels:
+            raise InputFileError(str(path), f"pairs[{i}].label: {pair['label']!r} is used twice")
+        pair_labels.add(pair["label"])
+        contents = pair.get("contents", list(CONTENTS))
+        if not isinstance(contents, list) or not all(isinstance(c, str) for c in contents):
+            raise InputFileError(str(path), f"pairs[{i}].contents: must be a list of names ({', '.join(CONTENTS)})")
         unknown = [c for c in pair.get("contents", CONTENTS) if c not in CONTENTS]
         if unknown:
             raise InputFileError(str(path), f"pairs[{i}].contents: unknown {unknown[0]!r} (use {', '.join(CONTENTS)})")
         _keys(path, f"pairs[{i}].pose", pair["pose"], set(EXTERIOR_PARAMETERS), set(EXTERIOR_PARAMETERS))
+        _check_values(path, f"pairs[{i}].pose", "pairs.pose", pair["pose"])
         if pair.get("medium", "water") not in ("air", "water"):
             raise InputFileError(str(path), f"pairs[{i}].medium: must be 'air' or 'water'")
         try:
             scene.rig(pair)
-        except UsvipsError as error:
+        except (UsvipsError, TypeError, ValueError) as error:
             raise InputFileError(str(path), f"pairs[{i}]: {error}") from None
     if "video" in data:
         _check_video(path, data["video"], data["pairs"], labels)
@@ -182,6 +303,8 @@ def _whole(value: object) -> bool:
 
 def _check_video(path: Path, video: object, pairs: list, objects: set[str]) -> None:
     _keys(path, "video", video, VIDEO_REQUIRED, VIDEO_REQUIRED | {"supersample"})
+    if not isinstance(video["pair"], str) or not isinstance(video["object"], str):
+        raise InputFileError(str(path), "video.pair and video.object: must be labels (strings)")
     pair = next((p for p in pairs if p["label"] == video["pair"]), None)
     if pair is None:
         raise InputFileError(str(path), f"video.pair: no pair labelled {video['pair']!r}")

@@ -1,15 +1,33 @@
 """A USVIPS project: images, calibrations, control, picks and measured objects in one SQLite file.
 
 WAL journal, foreign keys on, every user edit one transaction (a crash loses at most the edit in
-progress). Paths of images are stored relative to the project file. A project made by an older USVIPS
-is migrated forward on opening; one made by a newer USVIPS is refused.
+progress); :meth:`Project.transaction` groups several edits into one (an import either completes or
+changes nothing). Paths of images are stored relative to the project file.
+
+Opening (:meth:`Project.open`) first checks, through a read-only connection that changes nothing, that
+the file is a USVIPS project of a schema this USVIPS reads; only then is a writing connection made (and
+the file switched to WAL).
+
+* ``Project.open(path, read_only=True)``: for commands that only read (``project info``, exports). The
+  file is never written and never migrated; a project of an older schema is read as it is.
+* ``Project.open(path)`` (``read_only=False``): for editing. A project made by an older USVIPS is first
+  copied aside as ``NAME.usvips.schemaN.bak`` (N = its old schema version) and then migrated forward in
+  ONE transaction, so a failed migration leaves the file as it was. A project made by a newer USVIPS is
+  refused either way.
+
+Every failure of the database (locked by another program, disk full, a damaged file, no permission) is a
+:class:`ProjectError` whose one line names the project file and what to do; nothing is half-written.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
 import sqlite3
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -21,6 +39,7 @@ from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
 FORMAT = "usvips-project"
+SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
 class ProjectError(UsvipsError):
@@ -37,6 +56,25 @@ def file_hash(path: Path) -> str:
         for chunk in iter(lambda: stream.read(1 << 20), b""):
             digest.update(chunk)
     return digest.hexdigest()
+
+
+def database_problem(error: sqlite3.Error) -> str:
+    """What an SQLite error means for the person using the project, in a few words (no traceback)."""
+    message = str(error)
+    lowered = message.lower()
+    if "locked" in lowered or "busy" in lowered:
+        return "it is locked by another program; close it there and try again"
+    if "full" in lowered:
+        return "the disk is full; free some space and try again"
+    if "malformed" in lowered or "not a database" in lowered or "corrupt" in lowered:
+        return f"the file is damaged ({message}); restore it from a backup"
+    if "readonly" in lowered or "read-only" in lowered:
+        return "the file or its folder is read-only"
+    if "unable to open" in lowered or "permission" in lowered or "access" in lowered:
+        return f"cannot access the file ({message}); check its permissions"
+    if "disk i/o" in lowered:
+        return f"the disk failed to read or write ({message})"
+    return message
 
 
 @dataclass(frozen=True)
@@ -66,74 +104,162 @@ class StoredObject:
     vertices: tuple[Vertex, ...]
 
 
+def _remove_database(path: Path) -> None:
+    for suffix in ("", "-wal", "-shm", "-journal"):
+        Path(f"{path}{suffix}").unlink(missing_ok=True)
+
+
+def backup_path(path: Path, version: int) -> Path:
+    """Where the copy of a project is kept before it is migrated from schema ``version``."""
+    return path.with_name(f"{path.name}.schema{version}.bak")
+
+
 class Project:
     """Open with :meth:`open` or :meth:`create`; use as a context manager or call :meth:`close`."""
 
-    def __init__(self, path: Path, connection: sqlite3.Connection):
+    def __init__(self, path: Path, connection: sqlite3.Connection, read_only: bool = False):
         self.path = path
+        self.read_only = read_only
         self._db = connection
+        self._depth = 0
 
     # ---------------------------------------------------------------------------- opening
     @classmethod
     def create(cls, path: str | Path) -> Project:
+        """A new, empty project at ``path``. It is built in a temporary file beside ``path`` and put in
+        place only when complete: on any failure (a full disk ...) nothing is left behind."""
         path = Path(path)
-        if path.exists():
+        if path.exists() or path.is_symlink():
             raise ProjectError(f"{path}: already exists; open it instead")
-        if not path.parent.exists():
+        if not path.parent.is_dir():
             raise ProjectError(f"{path}: the folder {path.parent} does not exist")
-        project = cls(path, cls._connect(path))
-        migrate(project._db)
-        with project._db:
-            project._db.executemany("INSERT INTO meta VALUES (?, ?)",
-                                    [("format", FORMAT), ("created", _now())])
-        return project
+        temporary: Path | None = None
+        try:
+            handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=str(path.parent))
+            os.close(handle)
+            temporary = Path(name)
+            connection = sqlite3.connect(str(temporary), isolation_level=None)
+            try:
+                connection.execute("PRAGMA journal_mode = DELETE")
+                migrate(connection)
+                connection.executescript(f"BEGIN; INSERT INTO meta VALUES ('format', '{FORMAT}'); "
+                                         f"INSERT INTO meta VALUES ('created', '{_now()}'); COMMIT;")
+            finally:
+                connection.close()
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(temporary, 0o666 & ~umask)
+            try:
+                os.link(temporary, path)          # never replaces a file that appeared meanwhile
+            except FileExistsError:
+                raise ProjectError(f"{path}: already exists; open it instead") from None
+            except OSError:
+                if path.exists() or path.is_symlink():
+                    raise ProjectError(f"{path}: already exists; open it instead") from None
+                os.replace(temporary, path)       # a file system without hard links
+        except sqlite3.Error as error:
+            raise ProjectError(f"{path}: cannot create the project: {database_problem(error)}") from None
+        except OSError as error:
+            raise ProjectError(f"{path}: cannot create the project: {error.strerror or error}") from None
+        finally:
+            if temporary is not None:
+                _remove_database(temporary)
+        return cls.open(path)
 
     @classmethod
-    def open(cls, path: str | Path) -> Project:
+    def open(cls, path: str | Path, read_only: bool = False) -> Project:
+        """Open an existing project; ``read_only=True`` never writes the file (see the module docstring)."""
         path = Path(path)
+        version = cls._check(path)
+        if read_only:
+            connection = cls._connect(path, read_only=True)
+            return cls(path, connection, read_only=True)
+        if not os.access(path, os.W_OK) or not os.access(path.parent, os.W_OK):
+            raise ProjectError(f"{path}: cannot write the project: the file or its folder is read-only")
+        if version < SCHEMA_VERSION:
+            cls._migrate(path, version)
+        return cls(path, cls._connect(path))
+
+    @staticmethod
+    def _check(path: Path) -> int:
+        """The schema version of a USVIPS project; refuses anything else without changing a byte."""
+        if path.is_symlink() and not path.exists():
+            raise ProjectError(f"{path}: a symbolic link to a file that does not exist")
         if not path.is_file():
             raise ProjectError(f"{path}: no such project file")
-        with open(path, "rb") as stream:
-            if stream.read(16) != b"SQLite format 3\x00":
-                raise ProjectError(f"{path}: not a USVIPS project (not an SQLite database)")
-        connection = cls._connect(path)
+        try:
+            with open(path, "rb") as stream:
+                magic = stream.read(16)
+        except OSError as error:
+            raise ProjectError(f"{path}: cannot read the project: {error.strerror or error}") from None
+        if magic != SQLITE_MAGIC:
+            raise ProjectError(f"{path}: not a USVIPS project (not an SQLite database)")
+        try:
+            connection = Project._connect(path, read_only=True)
+        except ProjectError:
+            raise
         try:
             version = connection.execute("PRAGMA user_version").fetchone()[0]
-            if version > SCHEMA_VERSION:
-                raise ProjectError(f"{path}: made by a newer USVIPS (schema {version}; this one reads up to "
-                                   f"{SCHEMA_VERSION}); update USVIPS to open it")
             tables = {r[0] for r in connection.execute("SELECT name FROM sqlite_master WHERE type='table'")}
             if "meta" not in tables or connection.execute(
                     "SELECT value FROM meta WHERE key='format'").fetchone() != (FORMAT,):
                 raise ProjectError(f"{path}: not a USVIPS project (an SQLite database of something else)")
-            if version < SCHEMA_VERSION:
-                migrate(connection)
-        except sqlite3.OperationalError as error:
+        except sqlite3.Error as error:
+            raise ProjectError(f"{path}: cannot open the project: {database_problem(error)}") from None
+        finally:
             connection.close()
-            raise ProjectError(f"{path}: cannot open the project: {error}") from None
-        except ProjectError:
-            connection.close()
-            raise
-        return cls(path, connection)
+        if version > SCHEMA_VERSION:
+            raise ProjectError(f"{path}: made by a newer USVIPS (schema {version}; this one reads up to "
+                               f"{SCHEMA_VERSION}); update USVIPS to open it")
+        if version < 1:
+            raise ProjectError(f"{path}: not a USVIPS project (schema version {version})")
+        return int(version)
 
     @staticmethod
-    def _connect(path: Path) -> sqlite3.Connection:
+    def _migrate(path: Path, version: int) -> None:
+        """Copy the project aside (a consistent copy, WAL included), then migrate it in one transaction."""
+        backup = backup_path(path, version)
         try:
-            connection = sqlite3.connect(str(path), timeout=2.0, isolation_level=None)
+            source = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=2.0)
+            try:
+                temporary = backup.with_name(backup.name + ".tmp")
+                target = sqlite3.connect(str(temporary))
+                try:
+                    source.backup(target)
+                finally:
+                    target.close()
+                os.replace(temporary, backup)
+            finally:
+                source.close()
+        except (sqlite3.Error, OSError) as error:
+            Path(f"{backup}.tmp").unlink(missing_ok=True)
+            problem = database_problem(error) if isinstance(error, sqlite3.Error) else (error.strerror or str(error))
+            raise ProjectError(f"{path}: cannot copy the project aside to {backup.name} before upgrading it "
+                               f"from schema {version}: {problem} (nothing was changed)") from None
+        connection = Project._connect(path)
+        try:
+            migrate(connection)
+        except sqlite3.Error as error:
+            raise ProjectError(f"{path}: cannot upgrade the project from schema {version}: "
+                               f"{database_problem(error)} (nothing was changed; a copy is in {backup.name})") from None
+        finally:
+            connection.close()
+
+    @staticmethod
+    def _connect(path: Path, read_only: bool = False) -> sqlite3.Connection:
+        try:
+            if read_only:
+                connection = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=2.0, isolation_level=None)
+                connection.execute("PRAGMA query_only = ON")
+            else:
+                connection = sqlite3.connect(str(path), timeout=2.0, isolation_level=None)
+                mode = connection.execute("PRAGMA journal_mode = WAL").fetchone()[0]
+                if mode.lower() != "wal":
+                    connection.execute("PRAGMA journal_mode = DELETE")
             connection.execute("PRAGMA foreign_keys = ON")
-            mode = connection.execute("PRAGMA journal_mode = WAL").fetchone()[0]
-            if mode.lower() != "wal":
-                connection.execute("PRAGMA journal_mode = DELETE")
-            connection.isolation_level = "DEFERRED"
             return connection
-        except sqlite3.OperationalError as error:
-            message = str(error)
-            if "readonly" in message or "read-only" in message or "unable to open" in message:
-                raise ProjectError(f"{path}: cannot write the project ({message}); is the file or its folder "
-                                   "read-only?") from None
-            if "locked" in message:
-                raise ProjectError(f"{path}: the project is locked by another program; close it there") from None
-            raise ProjectError(f"{path}: {message}") from None
+        except sqlite3.Error as error:
+            raise ProjectError(f"{path}: cannot open the project: {database_problem(error)}") from None
 
     def close(self) -> None:
         self._db.close()
@@ -146,20 +272,83 @@ class Project:
 
     @property
     def version(self) -> int:
-        return self._db.execute("PRAGMA user_version").fetchone()[0]
+        return self._query("PRAGMA user_version")[0][0]
+
+    # ---------------------------------------------------------------------------- transactions
+    @contextmanager
+    def transaction(self) -> Iterator[None]:
+        """Group edits into one transaction: all of them are stored, or (on any error) none.
+
+        Nested uses join the outermost one. Errors of the database become :class:`ProjectError`.
+        """
+        if self.read_only:
+            raise ProjectError(f"{self.path}: opened read-only; nothing can be changed")
+        if self._depth:
+            self._depth += 1
+            try:
+                yield
+            finally:
+                self._depth -= 1
+            return
+        try:
+            self._db.execute("BEGIN IMMEDIATE")
+        except sqlite3.Error as error:
+            raise ProjectError(f"{self.path}: cannot write the project: {database_problem(error)} "
+                               "(nothing was changed)") from None
+        self._depth = 1
+        try:
+            yield
+            self._db.execute("COMMIT")
+        except BaseException as error:
+            if self._db.in_transaction:
+                try:
+                    self._db.execute("ROLLBACK")
+                except sqlite3.Error:
+                    pass
+            if isinstance(error, sqlite3.Error):
+                raise ProjectError(f"{self.path}: cannot write the project: {database_problem(error)} "
+                                   "(nothing was changed)") from None
+            raise
+        finally:
+            self._depth = 0
+
+    @contextmanager
+    def _reading(self) -> Iterator[None]:
+        """One read transaction (a consistent snapshot while other programs write)."""
+        own = not self._db.in_transaction
+        try:
+            if own:
+                self._db.execute("BEGIN")
+            yield
+        except sqlite3.Error as error:
+            raise ProjectError(f"{self.path}: cannot read the project: {database_problem(error)}") from None
+        finally:
+            if own and self._db.in_transaction:
+                try:
+                    self._db.execute("COMMIT")
+                except sqlite3.Error:
+                    pass
+
+    def _query(self, sql: str, parameters=()) -> list[tuple]:
+        """All rows of one query, with errors a person can act on."""
+        try:
+            return self._db.execute(sql, parameters).fetchall()
+        except sqlite3.Error as error:
+            raise ProjectError(f"{self.path}: cannot read the project: {database_problem(error)}") from None
 
     def _edit(self, sql: str, parameters=()) -> sqlite3.Cursor:
-        """One statement as one transaction, with errors a person can act on."""
-        try:
-            with self._db:
+        """One statement as one transaction (or part of the one in progress)."""
+        with self.transaction():
+            try:
                 return self._db.execute(sql, parameters)
-        except sqlite3.IntegrityError as error:
-            raise ProjectError(f"{self.path}: {error}") from None
-        except sqlite3.OperationalError as error:
-            if "locked" in str(error):
-                raise ProjectError(f"{self.path}: cannot write the project: it is locked by another program; "
-                                   "close it there and try again (nothing was changed)") from None
-            raise ProjectError(f"{self.path}: cannot write the project: {error}") from None
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: {error}") from None
+
+    def _json(self, text: str, what: str):
+        try:
+            return json.loads(text)
+        except (json.JSONDecodeError, TypeError, RecursionError):
+            raise ProjectError(f"{self.path}: {what} is damaged (not valid JSON)") from None
 
     # ---------------------------------------------------------------------------- pairs
     def _relative(self, path: str | Path | None) -> str | None:
@@ -176,7 +365,11 @@ class Project:
         for side, image in (("left", left), ("right", right)):
             if image is not None and not Path(image).is_file():
                 raise ProjectError(f"pair {label!r}: the {side} image {image} does not exist")
-        hashes = [file_hash(Path(p)) if p is not None else None for p in (left, right)]
+        try:
+            hashes = [file_hash(Path(p)) if p is not None else None for p in (left, right)]
+        except OSError as error:
+            raise ProjectError(f"pair {label!r}: cannot read the image {error.filename}: "
+                               f"{error.strerror or error}") from None
         width, height = size if size else (None, None)
         cursor = self._edit("INSERT INTO image_pairs (label, left_path, right_path, width, height, left_hash, "
                             "right_hash, frame, medium) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
@@ -184,16 +377,16 @@ class Project:
         return int(cursor.lastrowid)
 
     def pairs(self) -> list[dict]:
-        rows = self._db.execute("SELECT id, label, left_path, right_path, width, height, frame, medium "
-                                "FROM image_pairs ORDER BY id").fetchall()
+        rows = self._query("SELECT id, label, left_path, right_path, width, height, frame, medium "
+                           "FROM image_pairs ORDER BY id")
         keys = ("id", "label", "left", "right", "width", "height", "frame", "medium")
         return [dict(zip(keys, row, strict=True)) for row in rows]
 
     def pair_id(self, label: str) -> int:
-        row = self._db.execute("SELECT id FROM image_pairs WHERE label = ?", (label,)).fetchone()
-        if row is None:
+        rows = self._query("SELECT id FROM image_pairs WHERE label = ?", (label,))
+        if not rows:
             raise ProjectError(f"{self.path}: no image pair {label!r}")
-        return int(row[0])
+        return int(rows[0][0])
 
     def image_path(self, relative: str) -> Path:
         """The absolute path of a stored image path; raises if the image has gone missing."""
@@ -205,40 +398,52 @@ class Project:
     # ---------------------------------------------------------------------------- calibrations
     def add_calibration(self, name: str, calibration: dict, active_for: tuple[str, ...] = ()) -> int:
         try:
-            with self._db:
-                cursor = self._db.execute(
-                    "INSERT INTO calibrations (name, json, sigma0_px, created) VALUES (?, ?, ?, ?)",
-                    (name, json.dumps(calibration, allow_nan=False), calibration.get("sigma0_px"), _now()))
-                calibration_id = int(cursor.lastrowid)
-                for label in active_for:
-                    self._db.execute("INSERT OR REPLACE INTO active_calibrations VALUES (?, ?)",
-                                     (self.pair_id(label), calibration_id))
-            return calibration_id
-        except sqlite3.Error as error:
-            raise ProjectError(f"{self.path}: cannot store the calibration: {error}") from None
+            text = json.dumps(calibration, allow_nan=False)
+        except (TypeError, ValueError) as error:
+            raise ProjectError(f"{self.path}: cannot store the calibration {name!r}: {error}") from None
+        sigma0 = calibration.get("sigma0_px")
+        if not (isinstance(sigma0, int | float) and not isinstance(sigma0, bool)):
+            sigma0 = None
+        with self.transaction():
+            try:
+                cursor = self._db.execute("INSERT INTO calibrations (name, json, sigma0_px, created) "
+                                          "VALUES (?, ?, ?, ?)", (name, text, sigma0, _now()))
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: cannot store the calibration: {error}") from None
+            calibration_id = int(cursor.lastrowid)
+            for label in active_for:
+                self._db.execute("INSERT OR REPLACE INTO active_calibrations VALUES (?, ?)",
+                                 (self.pair_id(label), calibration_id))
+        return calibration_id
 
     def calibration(self, calibration_id: int) -> dict:
-        row = self._db.execute("SELECT json FROM calibrations WHERE id = ?", (calibration_id,)).fetchone()
-        if row is None:
+        rows = self._query("SELECT json FROM calibrations WHERE id = ?", (calibration_id,))
+        if not rows:
             raise ProjectError(f"{self.path}: no calibration {calibration_id}")
-        return json.loads(row[0])
+        data = self._json(rows[0][0], f"the stored calibration {calibration_id}")
+        if not isinstance(data, dict):
+            raise ProjectError(f"{self.path}: the stored calibration {calibration_id} is damaged (not an object)")
+        return data
 
     def active_calibration(self, label: str) -> int | None:
-        row = self._db.execute("SELECT calibration_id FROM active_calibrations WHERE pair_id = ?",
-                               (self.pair_id(label),)).fetchone()
-        return None if row is None else int(row[0])
+        rows = self._query("SELECT calibration_id FROM active_calibrations WHERE pair_id = ?",
+                           (self.pair_id(label),))
+        return None if not rows else int(rows[0][0])
 
     # ---------------------------------------------------------------------------- control
     def set_control(self, control: ControlPoints) -> None:
         sig = control.sigmas if control.sigmas is not None else np.full((len(control), 3), np.nan)
         rows = [(pid, *map(float, control.xyz[i]), *(None if np.isnan(v) else float(v) for v in sig[i]))
                 for i, pid in enumerate(control.ids)]
-        with self._db:
+        with self.transaction():
             self._db.execute("DELETE FROM control_points")
-            self._db.executemany("INSERT INTO control_points VALUES (?, ?, ?, ?, ?, ?, ?)", rows)
+            try:
+                self._db.executemany("INSERT INTO control_points VALUES (?, ?, ?, ?, ?, ?, ?)", rows)
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: cannot store the control points: {error}") from None
 
     def control(self) -> ControlPoints:
-        rows = self._db.execute("SELECT id, x, y, z, sx, sy, sz FROM control_points ORDER BY rowid").fetchall()
+        rows = self._query("SELECT id, x, y, z, sx, sy, sz FROM control_points ORDER BY rowid")
         sigmas = None
         if rows and all(r[4] is not None for r in rows):
             sigmas = np.array([r[4:] for r in rows], dtype=float)
@@ -249,22 +454,23 @@ class Project:
                                  replace: bool = False) -> None:
         """Store a pair's control observations for a role; ``replace`` swaps the stored set for this one
         in the same transaction (a calibration wizard saving what it used)."""
-        pair_id = self.pair_id(pair)
-        rows = [(pair_id, pid, *map(float, observations.left[i]), *map(float, observations.right[i]), role)
-                for i, pid in enumerate(observations.ids)]
-        try:
-            with self._db:
-                if replace:
-                    self._db.execute("DELETE FROM control_observations WHERE pair_id = ? AND role = ?",
-                                     (pair_id, role))
+        with self.transaction():
+            pair_id = self.pair_id(pair)
+            rows = [(pair_id, pid, *map(float, observations.left[i]), *map(float, observations.right[i]), role)
+                    for i, pid in enumerate(observations.ids)]
+            if replace:
+                self._db.execute("DELETE FROM control_observations WHERE pair_id = ? AND role = ?",
+                                 (pair_id, role))
+            try:
                 self._db.executemany("INSERT INTO control_observations (pair_id, point_id, xl, yl, xr, yr, role) "
                                      "VALUES (?, ?, ?, ?, ?, ?, ?)", rows)
-        except sqlite3.IntegrityError as error:
-            raise ProjectError(f"{self.path}: {error} (an observation is already stored)") from None
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: pair {pair!r}, role {role!r}: an observation of a point is "
+                                   f"already stored ({error}); nothing was imported") from None
 
     def control_observations(self, role: str, pair: str) -> StereoObservations:
-        rows = self._db.execute("SELECT point_id, xl, yl, xr, yr FROM control_observations WHERE role = ? AND "
-                                "pair_id = ? ORDER BY id", (role, self.pair_id(pair))).fetchall()
+        rows = self._query("SELECT point_id, xl, yl, xr, yr FROM control_observations WHERE role = ? AND "
+                           "pair_id = ? ORDER BY id", (role, self.pair_id(pair)))
         return StereoObservations(tuple(r[0] for r in rows), np.array([r[1:3] for r in rows], float).reshape(-1, 2),
                                   np.array([r[3:5] for r in rows], float).reshape(-1, 2), (pair,) * len(rows))
 
@@ -276,15 +482,15 @@ class Project:
             if any(v is None or not np.isfinite(v) for v in values):
                 raise ProjectError(f"vertex {i}: a vertex needs both picks (left and right pixel)")
         now = _now()
-        try:
-            with self._db:
+        with self.transaction():
+            try:
                 cursor = self._db.execute("INSERT INTO objects (kind, attribute, notes, creator, created, modified) "
                                           "VALUES (?, ?, ?, ?, ?, ?)", (kind, attribute, notes, creator, now, now))
                 object_id = int(cursor.lastrowid)
                 self._insert_vertices(object_id, vertices)
-            return object_id
-        except sqlite3.IntegrityError as error:
-            raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
+        return object_id
 
     def _insert_vertices(self, object_id: int, vertices: list[Vertex]) -> None:
         rows = []
@@ -298,8 +504,8 @@ class Project:
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
                       vertices: list[Vertex] | None = None) -> None:
         """Change an object in one transaction; replaced 3-D values go to the vertex history."""
-        self.object(object_id)
-        with self._db:
+        with self.transaction():
+            self.object(object_id)
             if attribute is not None:
                 self._db.execute("UPDATE objects SET attribute = ? WHERE id = ?", (attribute, object_id))
             if notes is not None:
@@ -313,37 +519,54 @@ class Project:
             self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_now(), object_id))
 
     def delete_object(self, object_id: int) -> None:
-        self.object(object_id)
-        self._edit("DELETE FROM objects WHERE id = ?", (object_id,))
+        with self.transaction():
+            self.object(object_id)
+            self._edit("DELETE FROM objects WHERE id = ?", (object_id,))
 
     def object(self, object_id: int) -> StoredObject:
-        row = self._db.execute("SELECT id, kind, attribute, notes, creator, created, modified FROM objects "
-                               "WHERE id = ?", (object_id,)).fetchone()
-        if row is None:
+        found = self._objects("WHERE id = ?", (object_id,))
+        if not found:
             raise ProjectError(f"{self.path}: no object {object_id}")
-        vertices = []
-        for v in self._db.execute("SELECT v.xl, v.yl, v.xr, v.yr, v.x, v.y, v.z, v.covariance, v.calibration_id, "
-                                  "p.label FROM vertices v LEFT JOIN image_pairs p ON p.id = v.pair_id "
-                                  "WHERE v.object_id = ? ORDER BY v.idx", (object_id,)):
-            xyz = None if v[4] is None else (v[4], v[5], v[6])
-            cov = None if v[7] is None else np.array(json.loads(v[7])).reshape(3, 3)
-            vertices.append(Vertex(v[0], v[1], v[2], v[3], xyz, cov, v[8], v[9]))
-        return StoredObject(*row, vertices=tuple(vertices))
+        return found[0]
 
     def objects(self) -> list[StoredObject]:
-        return [self.object(r[0]) for r in self._db.execute("SELECT id FROM objects ORDER BY id").fetchall()]
+        """Every object, read in one transaction (a consistent snapshot while another program edits)."""
+        return self._objects("", ())
+
+    def _objects(self, where: str, parameters: tuple) -> list[StoredObject]:
+        with self._reading():
+            rows = self._db.execute("SELECT id, kind, attribute, notes, creator, created, modified FROM objects "
+                                    f"{where} ORDER BY id", parameters).fetchall()
+            wanted = f"WHERE v.object_id IN (SELECT id FROM objects {where})" if where else ""
+            vertex_rows = self._db.execute(
+                "SELECT v.object_id, v.xl, v.yl, v.xr, v.yr, v.x, v.y, v.z, v.covariance, v.calibration_id, "
+                f"p.label FROM vertices v LEFT JOIN image_pairs p ON p.id = v.pair_id {wanted} "
+                "ORDER BY v.object_id, v.idx", parameters).fetchall()
+        vertices: dict[int, list[Vertex]] = {}
+        for v in vertex_rows:
+            xyz = None if v[5] is None else (v[5], v[6], v[7])
+            cov = None
+            if v[8] is not None:
+                values = self._json(v[8], f"object {v[0]}: a stored covariance")
+                try:
+                    cov = np.array(values, dtype=float).reshape(3, 3)
+                except (TypeError, ValueError):
+                    raise ProjectError(f"{self.path}: object {v[0]}: a stored covariance is damaged "
+                                       "(not 9 numbers)") from None
+            vertices.setdefault(v[0], []).append(Vertex(v[1], v[2], v[3], v[4], xyz, cov, v[9], v[10]))
+        return [StoredObject(*row, vertices=tuple(vertices.get(row[0], ()))) for row in rows]
 
     def vertex_history(self, object_id: int) -> list[tuple]:
-        return self._db.execute("SELECT idx, x, y, z, calibration_id, replaced FROM vertex_history "
-                                "WHERE object_id = ? ORDER BY id", (object_id,)).fetchall()
+        return self._query("SELECT idx, x, y, z, calibration_id, replaced FROM vertex_history "
+                           "WHERE object_id = ? ORDER BY id", (object_id,))
 
     # ---------------------------------------------------------------------------- vocabulary, settings
     def add_term(self, term: str, category: str = "attribute") -> None:
         self._edit("INSERT OR IGNORE INTO vocabulary VALUES (?, ?)", (term, category))
 
     def vocabulary(self, category: str = "attribute") -> list[str]:
-        return [r[0] for r in self._db.execute("SELECT term FROM vocabulary WHERE category = ? ORDER BY term",
-                                               (category,))]
+        return [r[0] for r in self._query("SELECT term FROM vocabulary WHERE category = ? ORDER BY term",
+                                          (category,))]
 
     def set_enhancement(self, image_key: str, pipeline_json: str) -> None:
         self._edit("INSERT OR REPLACE INTO enhancements VALUES (?, ?)", (image_key, pipeline_json))
@@ -356,16 +579,20 @@ class Project:
             self._edit("INSERT OR REPLACE INTO meta VALUES (?, ?)", (f"draft:{name}", text))
 
     def draft(self, name: str) -> str | None:
-        row = self._db.execute("SELECT value FROM meta WHERE key = ?", (f"draft:{name}",)).fetchone()
-        return None if row is None else row[0]
+        rows = self._query("SELECT value FROM meta WHERE key = ?", (f"draft:{name}",))
+        return None if not rows else rows[0][0]
 
     def calibrations(self) -> list[dict]:
         """id, name, phase, sigma0_px and created of every stored calibration, oldest first."""
-        rows = self._db.execute("SELECT id, name, json, sigma0_px, created FROM calibrations ORDER BY id").fetchall()
-        return [{"id": r[0], "name": r[1], "phase": json.loads(r[2]).get("phase"), "sigma0_px": r[3],
-                 "created": r[4]} for r in rows]
+        rows = self._query("SELECT id, name, json, sigma0_px, created FROM calibrations ORDER BY id")
+        result = []
+        for r in rows:
+            data = self._json(r[2], f"the stored calibration {r[0]}")
+            result.append({"id": r[0], "name": r[1], "phase": data.get("phase") if isinstance(data, dict) else None,
+                           "sigma0_px": r[3], "created": r[4]})
+        return result
 
     def enhancement(self, image_key: str) -> str | None:
-        row = self._db.execute("SELECT pipeline FROM enhancements WHERE image_key = ?", (image_key,)).fetchone()
-        return None if row is None else row[0]
+        rows = self._query("SELECT pipeline FROM enhancements WHERE image_key = ?", (image_key,))
+        return None if not rows else rows[0][0]
 

@@ -2,6 +2,9 @@
 
 ``PRAGMA user_version`` holds the schema version. Version 1 is the first release; every later version
 is reached from the previous one by a migration below, so a project made by any older USVIPS opens.
+A new version is one new entry of ``MIGRATIONS`` (SQL statements, no BEGIN/COMMIT of their own): the
+store copies an older project aside and runs all pending entries in one transaction (see
+``usvips.store.project``); read-only opens never migrate.
 """
 
 from __future__ import annotations
@@ -52,13 +55,17 @@ SCHEMA_VERSION = max(MIGRATIONS)
 
 
 def migrate(connection: sqlite3.Connection, target: int = SCHEMA_VERSION) -> int:
-    """Bring the schema from its ``user_version`` up to ``target``, each step one transaction."""
+    """Bring the schema from its ``user_version`` up to ``target`` in ONE transaction: every step is
+    applied, or (on any error) none and the file is as it was. ``connection`` must be in autocommit
+    mode (``isolation_level=None``) with no transaction open."""
     current = connection.execute("PRAGMA user_version").fetchone()[0]
-    for version in range(current + 1, target + 1):
-        try:
-            connection.executescript("BEGIN;" + MIGRATIONS[version] + f"PRAGMA user_version = {version};COMMIT;")
-        except sqlite3.Error:
-            if connection.in_transaction:
-                connection.execute("ROLLBACK")
-            raise
+    if current >= target:
+        return current
+    script = "".join(MIGRATIONS[version] for version in range(current + 1, target + 1))
+    try:
+        connection.executescript(f"BEGIN IMMEDIATE;{script}PRAGMA user_version = {target};COMMIT;")
+    except sqlite3.Error:
+        if connection.in_transaction:
+            connection.execute("ROLLBACK")
+        raise
     return connection.execute("PRAGMA user_version").fetchone()[0]
