@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.core.adjustment import STATUSES
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing
@@ -38,6 +39,8 @@ FORMAT = "usvips-calibration"
 VERSION = 1
 HOUSING_KINDS = {"air": AirHousing, "dome-cover": DomeCoverHousing, "flat-port": FlatPortHousing}
 RELATIVE_KEYS = ("bx", "by", "bz", "omega", "phi", "kappa")
+#: Largest calibration file read (bytes); a real one is a few kB.
+MAX_FILE_BYTES = 16 << 20
 
 
 def housing_to_dict(housing: Housing) -> dict[str, float]:
@@ -104,11 +107,73 @@ def _numbers(path: str, where: str, data: dict, keys: tuple[str, ...], optional:
     return out
 
 
+def _show(value: object) -> str:
+    text = json.dumps(value) if isinstance(value, int | float | bool | str | None) else type(value).__name__
+    return text if len(text) <= 24 else text[:23] + "…"
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _parameters(path: str, data: object) -> dict[str, ParameterEstimate]:
+    """``parameters``: name → {"value": number, "sigma": number >= 0 or null, "status": free|fixed|prior}."""
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise InputFileError(path, f"parameters: must be an object of name → {{value, sigma, status}}, got "
+                             f"{type(data).__name__}")
+    parameters = {}
+    for name, entry in data.items():
+        if not isinstance(entry, dict) or "value" not in entry:
+            raise InputFileError(path, f"parameters.{name}: expected {{'value': ..., 'sigma': ...}}")
+        if not _finite(entry["value"]):
+            raise InputFileError(path, f"parameters.{name}.value: must be a finite number, got {_show(entry['value'])}")
+        sigma = entry.get("sigma")
+        if sigma is not None and not (_finite(sigma) and sigma >= 0):
+            raise InputFileError(path, f"parameters.{name}.sigma: must be a finite number >= 0 or null, got "
+                                 f"{_show(sigma)}")
+        status = entry.get("status", "free")
+        if not isinstance(status, str) or status not in STATUSES:
+            raise InputFileError(path, f"parameters.{name}.status: must be one of {', '.join(STATUSES)}, got "
+                                 f"{_show(status)}")
+        parameters[name] = ParameterEstimate(float(entry["value"]), None if sigma is None else float(sigma), status)
+    return parameters
+
+
+def _covariance(path: str, data: object) -> tuple[tuple[str, ...], np.ndarray] | None:
+    """``covariance``: {"names": [n strings], "matrix": n × n finite numbers, symmetric positive semi-definite}."""
+    if data is None:
+        return None
+    if not isinstance(data, dict):
+        raise InputFileError(path, f"covariance: must be an object {{names, matrix}}, got {type(data).__name__}")
+    names, rows = data.get("names"), data.get("matrix")
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names) or len(set(names)) != len(names):
+        raise InputFileError(path, "covariance.names: must be a list of distinct parameter names")
+    if (not isinstance(rows, list) or len(rows) != len(names)
+            or not all(isinstance(r, list) and len(r) == len(names) and all(_finite(v) for v in r) for r in rows)):
+        raise InputFileError(path, f"covariance.matrix: must be {len(names)} × {len(names)} finite numbers "
+                             "(one row and column per name)")
+    matrix = np.array(rows, dtype=np.float64).reshape(len(names), len(names))
+    scale = float(np.max(np.abs(matrix))) if matrix.size else 0.0
+    if not np.allclose(matrix, matrix.T, rtol=1e-9, atol=1e-12 * scale):
+        raise InputFileError(path, "covariance.matrix: not symmetric")
+    negative = [names[i] for i in np.flatnonzero(np.diag(matrix) < 0)]
+    if negative:
+        raise InputFileError(path, f"covariance.matrix: negative variance of {negative[0]} (not a covariance)")
+    if matrix.size and float(np.linalg.eigvalsh(matrix).min()) < -1e-9 * max(scale, 1e-300):
+        raise InputFileError(path, "covariance.matrix: not positive semi-definite (a negative eigenvalue); "
+                             "not a covariance")
+    return tuple(names), matrix
+
+
 def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCalibration:
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise InputFileError(path, f"not a USVIPS calibration file (\"format\" must be {FORMAT!r})")
     version = data.get("version")
-    if not isinstance(version, int) or version > VERSION:
+    if not isinstance(version, int) or isinstance(version, bool) or version < 1:
+        raise InputFileError(path, f"version: must be a whole number from 1, got {_show(version)}")
+    if version > VERSION:
         raise InputFileError(path, f"calibration file version {version!r} is newer than this USVIPS reads "
                              f"({VERSION}); update USVIPS")
     try:
@@ -124,6 +189,13 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
             housing = housing_from_dict(kind, _numbers(path, f"{side} housing", housing_values,
                                                        tuple(housing_values)))
             width, height = cam.get("width"), cam.get("height")
+            if (width is None) != (height is None):
+                raise InputFileError(path, f"cameras.{side}: give both width and height, or neither")
+            for key, value in (("width", width), ("height", height)):
+                if value is not None and not (isinstance(value, int) and not isinstance(value, bool)
+                                              and 1 <= value <= 1_000_000):
+                    raise InputFileError(path, f"cameras.{side}.{key}: must be a positive whole number of pixels, "
+                                         f"got {_show(value)}")
             built[side] = (interior, housing, width, height)
         relative = RelativeOrientation(**_numbers(path, "relative_orientation",
                                                   _require(path, data, "relative_orientation", dict), RELATIVE_KEYS))
@@ -138,23 +210,18 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
             raise InputFileError(path, "the calibration has no station")
         left = Camera(built["left"][0], poses[0], built["left"][1], built["left"][2], built["left"][3])
         right = Camera(built["right"][0], poses[0], built["right"][1], built["right"][2], built["right"][3])
-        parameters = {}
-        for name, entry in (data.get("parameters") or {}).items():
-            if not isinstance(entry, dict) or "value" not in entry:
-                raise InputFileError(path, f"parameters.{name}: expected {{'value': ..., 'sigma': ...}}")
-            parameters[name] = ParameterEstimate(float(entry["value"]),
-                                                 None if entry.get("sigma") is None else float(entry["sigma"]),
-                                                 str(entry.get("status", "free")))
-        covariance = None
-        if data.get("covariance") is not None:
-            cov = data["covariance"]
-            names = tuple(cov.get("names", ()))
-            matrix = np.asarray(cov.get("matrix", ()), dtype=np.float64)
-            if matrix.shape != (len(names), len(names)) or not np.all(np.isfinite(matrix)):
-                raise InputFileError(path, "covariance: matrix must be square, finite, one row per name")
-            covariance = (names, matrix)
+        parameters = _parameters(path, data.get("parameters"))
+        covariance = _covariance(path, data.get("covariance"))
         sigma0 = _numbers(path, "calibration", data, ("sigma0_px",))["sigma0_px"]
-        return StereoCalibration(left, right, tuple(labels), tuple(poses), relative, str(data.get("phase")),
+        if sigma0 < 0:
+            raise InputFileError(path, f"sigma0_px: must be >= 0, got {sigma0!r}")
+        for key in ("statistics", "source"):
+            if data.get(key) is not None and not isinstance(data[key], dict):
+                raise InputFileError(path, f"{key}: must be an object, got {type(data[key]).__name__}")
+        phase = data.get("phase")
+        if phase is not None and not isinstance(phase, str):
+            raise InputFileError(path, f"phase: must be a string, got {_show(phase)}")
+        return StereoCalibration(left, right, tuple(labels), tuple(poses), relative, str(phase),
                                  sigma0, parameters, covariance, dict(data.get("statistics") or {}),
                                  dict(data.get("source") or {}))
     except InputFileError:
@@ -169,11 +236,17 @@ def load_calibration(path: str | Path) -> StereoCalibration:
     if not path.is_file():
         raise InputFileError(str(path), "no such calibration file")
     try:
+        if path.stat().st_size > MAX_FILE_BYTES:
+            raise InputFileError(str(path), f"too large for a calibration file (over {MAX_FILE_BYTES >> 20} MiB)")
         data = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as error:
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
     except UnicodeDecodeError:
         raise InputFileError(str(path), "not a text file") from None
+    except RecursionError:
+        raise InputFileError(str(path), "nested too deeply to be a calibration file") from None
+    except OSError as error:
+        raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
     return calibration_from_dict(data, str(path))
 
 

@@ -33,6 +33,8 @@ MEDIA = ("air", "water")
 _TOP_KEYS = {"format", "version", "name", "description", "control", "housing", "pairs", "observations",
              "calibrations", "video", "truth"}
 HOUSINGS = ("air", "dome-cover", "flat-port")
+#: Largest manifest read (bytes).
+MAX_FILE_BYTES = 4 << 20
 
 
 @dataclass(frozen=True)
@@ -86,14 +88,29 @@ class Manifest:
 
 def _inside(manifest: Path, key: str, value: object, must_exist: bool = True) -> Path:
     if not isinstance(value, str) or not value:
-        raise InputFileError(str(manifest), f"key {key!r}: expected a relative file path, got {value!r}")
+        raise InputFileError(str(manifest), f"key {key!r}: expected a relative file path")
+    if "\x00" in value or len(value) > 1024:
+        raise InputFileError(str(manifest), f"key {key!r}: not a usable file path")
     base = manifest.parent.resolve()
-    target = (base / value).resolve()
+    try:
+        target = (base / value).resolve()
+    except (OSError, RuntimeError):
+        raise InputFileError(str(manifest), f"key {key!r}: not a usable file path") from None
     if base != target and base not in target.parents:
-        raise InputFileError(str(manifest), f"key {key!r}: {value!r} points outside the project directory")
-    if must_exist and not target.exists():
-        raise InputFileError(str(manifest), f"key {key!r}: file {value!r} does not exist")
+        raise InputFileError(str(manifest), f"key {key!r}: {value[:80]!r} points outside the project directory")
+    if must_exist and not target.is_file():
+        raise InputFileError(str(manifest), f"key {key!r}: file {value[:80]!r} does not exist")
     return target
+
+
+def _labels(manifest: Path, where: str, value: object, known: set[str]) -> tuple[str, ...]:
+    """A list of pair labels, each one of the manifest's pairs."""
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise InputFileError(str(manifest), f"{where}: expected a list of pair labels")
+    unknown = [v for v in value if v not in known]
+    if unknown:
+        raise InputFileError(str(manifest), f"{where}: no pair labelled {unknown[0][:40]!r}")
+    return tuple(value)
 
 
 def _entries(manifest: Path, data: dict, key: str) -> list[dict]:
@@ -117,9 +134,17 @@ def read_manifest(path: str | Path) -> Manifest:
     if not path.is_file():
         raise InputFileError(str(path), "no such project manifest")
     try:
+        if path.stat().st_size > MAX_FILE_BYTES:
+            raise InputFileError(str(path), f"too large for a manifest (over {MAX_FILE_BYTES >> 20} MiB)")
         data = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as error:
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
+    except UnicodeDecodeError:
+        raise InputFileError(str(path), "not a text (UTF-8) file") from None
+    except RecursionError:
+        raise InputFileError(str(path), "nested too deeply to be a manifest") from None
+    except OSError as error:
+        raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise InputFileError(str(path), f"not a USVIPS sample manifest (\"format\" must be {FORMAT!r})")
     if data.get("version") != VERSION:
@@ -128,6 +153,8 @@ def read_manifest(path: str | Path) -> Manifest:
     _unknown(path, "manifest", data, _TOP_KEYS)
     if not isinstance(data.get("name"), str) or not data["name"]:
         raise InputFileError(str(path), "key 'name': a non-empty name is required")
+    if not isinstance(data.get("description", ""), str):
+        raise InputFileError(str(path), "key 'description': must be a string")
     pairs = []
     for entry in _entries(path, data, "pairs"):
         _unknown(path, "pairs entry", entry, {"label", "left", "right", "medium"})
@@ -135,7 +162,7 @@ def read_manifest(path: str | Path) -> Manifest:
         if not isinstance(label, str) or not label:
             raise InputFileError(str(path), "pairs entry: 'label' is required")
         medium = entry.get("medium", "water")
-        if medium not in MEDIA:
+        if not isinstance(medium, str) or medium not in MEDIA:
             raise InputFileError(str(path), f"pair {label!r}: medium must be one of {MEDIA}, got {medium!r}")
         left = _inside(path, f"pairs[{label}].left", entry["left"]) if entry.get("left") else None
         right = _inside(path, f"pairs[{label}].right", entry["right"]) if entry.get("right") else None
@@ -147,15 +174,17 @@ def read_manifest(path: str | Path) -> Manifest:
     for entry in _entries(path, data, "observations"):
         _unknown(path, "observations entry", entry, {"file", "role", "pairs"})
         role = entry.get("role")
-        if role not in ROLES:
-            raise InputFileError(str(path), f"observations entry: role must be one of {ROLES}, got {role!r}")
+        if not isinstance(role, str) or role not in ROLES:
+            raise InputFileError(str(path), f"observations entry: role must be one of {ROLES}")
         observations.append(ObservationEntry(_inside(path, "observations.file", entry.get("file")), role,
-                                             tuple(entry.get("pairs", ()))))
+                                             _labels(path, "observations.pairs", entry.get("pairs", []),
+                                                     set(labels))))
     calibrations = []
     for entry in _entries(path, data, "calibrations"):
         _unknown(path, "calibrations entry", entry, {"file", "active_for"})
         calibrations.append(CalibrationEntry(_inside(path, "calibrations.file", entry.get("file")),
-                                             tuple(entry.get("active_for", ()))))
+                                             _labels(path, "calibrations.active_for", entry.get("active_for", []),
+                                                     set(labels))))
     video = None
     if data.get("video") is not None:
         v = data["video"]
@@ -163,13 +192,13 @@ def read_manifest(path: str | Path) -> Manifest:
             raise InputFileError(str(path), "key 'video': expected an object")
         _unknown(path, "video", v, {"left", "right", "frame_offset"})
         offset = v.get("frame_offset", 0)
-        if not isinstance(offset, int):
+        if not isinstance(offset, int) or isinstance(offset, bool):
             raise InputFileError(str(path), f"video.frame_offset must be an integer, got {offset!r}")
         video = VideoEntry(_inside(path, "video.left", v.get("left")), _inside(path, "video.right", v.get("right")),
                            offset)
     housing = data.get("housing")
-    if housing is not None and housing not in HOUSINGS:
-        raise InputFileError(str(path), f"key 'housing': must be one of {HOUSINGS}, got {housing!r}")
+    if housing is not None and (not isinstance(housing, str) or housing not in HOUSINGS):
+        raise InputFileError(str(path), f"key 'housing': must be one of {HOUSINGS}")
     return Manifest(
         path=path.resolve(), name=data["name"], description=str(data.get("description", "")), housing=housing,
         control=_inside(path, "control", data["control"]) if data.get("control") else None,

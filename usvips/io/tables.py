@@ -11,6 +11,7 @@ names the file and the line.
 from __future__ import annotations
 
 import csv
+import io
 import math
 from pathlib import Path
 
@@ -18,26 +19,51 @@ import numpy as np
 
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.io.atomic import write_text_atomic
 
 CONTROL_COLUMNS = ("id", "X", "Y", "Z")
 CONTROL_SIGMA_COLUMNS = ("sX", "sY", "sZ")
 OBSERVATION_COLUMNS = ("id", "xl", "yl", "xr", "yr")
 
 
+#: Largest CSV file (bytes) and field (characters) read; a control or observation table is far smaller.
+MAX_FILE_BYTES = 256 << 20
+MAX_FIELD_CHARS = 4096
+
+
+def _show(text: str) -> str:
+    """A field as quoted in an error message, cut short (a message is one line, not the file's content)."""
+    return repr(text) if len(text) <= 24 else repr(text[:21]) + "…"
+
+
 def _rows(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
     if not path.is_file():
         raise InputFileError(str(path), "no such file")
     try:
+        if path.stat().st_size > MAX_FILE_BYTES:
+            raise InputFileError(str(path), f"too large for a CSV table (over {MAX_FILE_BYTES >> 20} MiB)")
         text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputFileError(str(path), "not a text (UTF-8) CSV file") from None
+    except UnicodeDecodeError as error:
+        line = error.object[:error.start].count(b"\n") + 1
+        raise InputFileError(str(path), "not a text (UTF-8) CSV file", line) from None
+    except OSError as error:
+        raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
     header: list[str] | None = None
     rows: list[tuple[int, list[str]]] = []
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
         if not stripped or stripped.startswith("#"):
             continue
-        fields = [f.strip() for f in next(csv.reader([stripped]))]
+        if "\x00" in stripped:
+            raise InputFileError(str(path), "binary data (a NUL byte); not a CSV text file", number)
+        try:
+            fields = [f.strip() for f in next(csv.reader([stripped]))]
+        except csv.Error as error:
+            raise InputFileError(str(path), f"not a valid CSV line ({error})", number) from None
+        long = next((i for i, f in enumerate(fields) if len(f) > MAX_FIELD_CHARS), None)
+        if long is not None:
+            raise InputFileError(str(path), f"field {long + 1} is {len(fields[long])} characters long (at most "
+                                 f"{MAX_FIELD_CHARS})", number)
         if header is None:
             header = fields
             header_line = number
@@ -46,7 +72,8 @@ def _rows(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
     if header is None:
         raise InputFileError(str(path), "the file has no header line")
     if len(set(header)) != len(header):
-        raise InputFileError(str(path), f"duplicate column names in the header {header}", header_line)
+        raise InputFileError(str(path), f"duplicate column names in the header {','.join(header)[:80]}",
+                             header_line)
     if not rows:
         raise InputFileError(str(path), "the file has a header but no data rows")
     return header, rows
@@ -56,7 +83,7 @@ def _column_index(path: Path, header: list[str], required: tuple[str, ...]) -> d
     missing = [c for c in required if c not in header]
     if missing:
         raise InputFileError(str(path), f"missing column(s) {', '.join(missing)}; the header has "
-                             f"{', '.join(header)} (expected {','.join(required)})")
+                             f"{', '.join(header)[:80]} (expected {','.join(required)})")
     return {name: header.index(name) for name in header}
 
 
@@ -64,15 +91,16 @@ def _number(path: Path, line: int, column: str, text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise InputFileError(str(path), f"column {column}: {text!r} is not a number", line) from None
+        raise InputFileError(str(path), f"column {column}: {_show(text)} is not a number", line) from None
     if not math.isfinite(value):
-        raise InputFileError(str(path), f"column {column}: {text!r} is not a finite number", line)
+        raise InputFileError(str(path), f"column {column}: {_show(text)} is not a finite number", line)
     return value
 
 
 def _check_width(path: Path, line: int, fields: list[str], header: list[str]) -> None:
     if len(fields) != len(header):
-        raise InputFileError(str(path), f"{len(fields)} fields but the header has {len(header)}", line)
+        raise InputFileError(str(path), f"{len(fields)} fields but the header has {len(header)} "
+                             f"({','.join(header)[:80]})", line)
 
 
 def _check_id(path: Path, line: int, text: str) -> str:
@@ -93,7 +121,7 @@ def read_control(path: str | Path) -> ControlPoints:
         _check_width(path, line, fields, header)
         pid = _check_id(path, line, fields[columns["id"]])
         if pid in first_line:
-            raise InputFileError(str(path), f"duplicate id {pid!r} (first on line {first_line[pid]})", line)
+            raise InputFileError(str(path), f"duplicate id {_show(pid)} (first on line {first_line[pid]})", line)
         first_line[pid] = line
         ids.append(pid)
         lines.append(line)
@@ -127,7 +155,7 @@ def read_observations(path: str | Path) -> StereoObservations:
             raise InputFileError(str(path), "empty pair label", line)
         key = (pair, pid)
         if key in first_line:
-            raise InputFileError(str(path), f"duplicate id {pid!r} in pair {pair!r} "
+            raise InputFileError(str(path), f"duplicate id {_show(pid)} in pair {_show(pair)} "
                                  f"(first on line {first_line[key]})", line)
         first_line[key] = line
         ids.append(pid)
@@ -144,27 +172,27 @@ def read_observations(path: str | Path) -> StereoObservations:
 
 
 def write_control(path: str | Path, control: ControlPoints) -> None:
-    """Write control points as ``id,X,Y,Z[,sX,sY,sZ]`` (metres, 6 decimals = micrometres)."""
-    path = Path(path)
-    with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle)
-        header = list(CONTROL_COLUMNS) + (list(CONTROL_SIGMA_COLUMNS) if control.sigmas is not None else [])
-        writer.writerow(header)
-        for i, pid in enumerate(control.ids):
-            row = [pid] + [f"{v:.6f}" for v in control.xyz[i]]
-            if control.sigmas is not None:
-                row += [f"{v:.6f}" for v in control.sigmas[i]]
-            writer.writerow(row)
+    """Write control points as ``id,X,Y,Z[,sX,sY,sZ]`` (metres, 6 decimals = micrometres), atomically."""
+    handle = io.StringIO()
+    writer = csv.writer(handle)
+    header = list(CONTROL_COLUMNS) + (list(CONTROL_SIGMA_COLUMNS) if control.sigmas is not None else [])
+    writer.writerow(header)
+    for i, pid in enumerate(control.ids):
+        row = [pid] + [f"{v:.6f}" for v in control.xyz[i]]
+        if control.sigmas is not None:
+            row += [f"{v:.6f}" for v in control.sigmas[i]]
+        writer.writerow(row)
+    write_text_atomic(path, handle.getvalue())
 
 
 def write_observations(path: str | Path, observations: StereoObservations, with_pair: bool = True) -> None:
-    """Write observations as ``id,xl,yl,xr,yr[,pair]`` (pixels, 4 decimals)."""
-    path = Path(path)
-    with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(list(OBSERVATION_COLUMNS) + (["pair"] if with_pair else []))
-        for i, pid in enumerate(observations.ids):
-            row = [pid] + [f"{v:.4f}" for v in (*observations.left[i], *observations.right[i])]
-            if with_pair:
-                row.append(observations.pairs[i])
-            writer.writerow(row)
+    """Write observations as ``id,xl,yl,xr,yr[,pair]`` (pixels, 4 decimals), atomically."""
+    handle = io.StringIO()
+    writer = csv.writer(handle)
+    writer.writerow(list(OBSERVATION_COLUMNS) + (["pair"] if with_pair else []))
+    for i, pid in enumerate(observations.ids):
+        row = [pid] + [f"{v:.4f}" for v in (*observations.left[i], *observations.right[i])]
+        if with_pair:
+            row.append(observations.pairs[i])
+        writer.writerow(row)
+    write_text_atomic(path, handle.getvalue())
