@@ -25,8 +25,22 @@ def project(sample_copy):
         return made[-1], directory
 
     yield make
+    # teardown: every worker has reported before its wizard and project go (no "Signal source has been deleted")
+    QtCore.QThreadPool.globalInstance().waitForDone(WORK_BOUND_MS)
+    QtWidgets.QApplication.processEvents()
     for p in made:
         p.close()
+
+
+#: A generous bound on background work (a calibration on a loaded 2-core machine), not an expected duration.
+WORK_BOUND_MS = 600_000
+
+
+def _wait_idle(qtbot, page):
+    """Wait until ``page``'s worker has reported: join the thread pool (the condition, bounded generously
+    instead of guessing how long the work takes), then let its queued report arrive."""
+    assert QtCore.QThreadPool.globalInstance().waitForDone(WORK_BOUND_MS), "background work did not end"
+    qtbot.waitUntil(lambda: not page.busy, timeout=WORK_BOUND_MS)
 
 
 def _wizard(qtbot, session):
@@ -53,7 +67,7 @@ def _to_results(qtbot, wizard, pairs):
 def _compute(qtbot, wizard):
     wizard.next()
     assert wizard.currentPage() is wizard.results_page
-    qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)
+    _wait_idle(qtbot, wizard.results_page)
     assert wizard.results_page.isComplete(), wizard.results_page.summary.text()
     return wizard.session.result
 
@@ -123,7 +137,7 @@ def test_a_planted_blunder_is_flagged_excluded_with_one_action_and_sigma0_improv
            if wizard.results_page.residuals.item(r, 1).background().color().red() == 255]
     assert key[1] in red
     wizard.results_page.exclude_button.click()
-    qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)
+    _wait_idle(qtbot, wizard.results_page)
     second = session.result
     assert key in session.excluded
     assert second.calibration.sigma0_px < 0.6 * first.calibration.sigma0_px
@@ -268,6 +282,6 @@ def test_the_thesis_tank_without_images_calibrates_from_its_observations(qtbot, 
         if not session.flagged():
             break
         wizard.results_page.exclude_button.click()
-        qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)
+        _wait_idle(qtbot, wizard.results_page)
         sigma.append(session.result.calibration.sigma0_px)
     assert len(sigma) > 1 and sigma[-1] < sigma[0]

@@ -1,5 +1,6 @@
 """The project database: round trips, migration, crash safety, bad files."""
 
+import os
 import shutil
 import sqlite3
 import subprocess
@@ -139,3 +140,181 @@ def test_a_locked_project_is_reported_and_nothing_is_lost(tmp_path):
         holder.close()
     with Project.open(path) as p:
         assert p.vocabulary() == ["kept"]
+
+
+# ------------------------------------------------------------------------------------------ hardening
+def _digest(path: Path) -> bytes:
+    return path.read_bytes()
+
+
+def test_another_programs_database_is_refused_without_a_single_byte_changed(tmp_path):
+    other = tmp_path / "other.db"
+    connection = sqlite3.connect(str(other))
+    connection.execute("CREATE TABLE t (a)")
+    connection.commit()
+    connection.close()
+    before = _digest(other)
+    for read_only in (False, True):
+        with pytest.raises(ProjectError, match="something else"):
+            Project.open(other, read_only=read_only)
+    assert _digest(other) == before and sorted(p.name for p in tmp_path.iterdir()) == ["other.db"]
+
+
+def test_a_read_only_open_never_migrates_nor_writes(tmp_path):
+    copy = tmp_path / "old.usvips"
+    shutil.copy(DATA / "project_v1.usvips", copy)
+    before = _digest(copy)
+    with Project.open(copy, read_only=True) as p:
+        assert p.version == 1 and p.objects()[0].attribute == "cod"
+        with pytest.raises(ProjectError, match="read-only"):
+            p.add_term("x")
+    assert _digest(copy) == before and sorted(q.name for q in tmp_path.iterdir()) == ["old.usvips"]
+
+
+def test_migration_copies_the_old_file_aside_first(tmp_path):
+    copy = tmp_path / "old.usvips"
+    shutil.copy(DATA / "project_v1.usvips", copy)
+    before = _digest(copy)
+    with Project.open(copy) as p:
+        assert p.version == SCHEMA_VERSION
+    backup = tmp_path / "old.usvips.schema1.bak"
+    assert backup.is_file()
+    with Project.open(backup, read_only=True) as old:   # the copy is the old project, readable as it was
+        assert old.version == 1 and [o.attribute for o in old.objects()] == ["cod"]
+    assert before[:16] == _digest(backup)[:16]
+
+
+def test_a_failed_migration_leaves_the_original_intact(tmp_path, monkeypatch):
+    from usvips.store import schema
+
+    copy = tmp_path / "old.usvips"
+    shutil.copy(DATA / "project_v1.usvips", copy)
+    broken = dict(schema.MIGRATIONS)
+    broken[SCHEMA_VERSION] = schema.MIGRATIONS[SCHEMA_VERSION] + "CREATE TABLE objects (a);"   # fails at the end
+    monkeypatch.setattr(schema, "MIGRATIONS", broken)
+    with pytest.raises(ProjectError, match="cannot upgrade.*nothing was changed"):
+        Project.open(copy)
+    monkeypatch.undo()
+    with Project.open(copy, read_only=True) as p:
+        assert p.version == 1 and len(p.objects()) == 1
+        with pytest.raises(ProjectError):
+            p.vertex_history(1)                # the version-2 table was rolled back with the rest
+
+
+def test_create_leaves_nothing_behind_on_failure(tmp_path, monkeypatch):
+    from usvips.store import project as module
+
+    def full(*_):
+        raise sqlite3.OperationalError("database or disk is full")
+
+    monkeypatch.setattr(module, "migrate", full)
+    with pytest.raises(ProjectError, match="disk is full"):
+        Project.create(tmp_path / "p.usvips")
+    assert list(tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    Project.create(tmp_path / "p.usvips").close()          # and it can be created afterwards
+
+
+def test_a_dangling_symlink_is_not_followed(tmp_path):
+    link = tmp_path / "p.usvips"
+    link.symlink_to(tmp_path / "elsewhere.usvips")
+    with pytest.raises(ProjectError, match="already exists"):
+        Project.create(link)
+    with pytest.raises(ProjectError, match="symbolic link"):
+        Project.open(link)
+    assert not (tmp_path / "elsewhere.usvips").exists()
+
+
+def test_a_transaction_is_all_or_nothing(project):
+    project.add_term("kept")
+    with pytest.raises(ProjectError, match="no image pair"):
+        with project.transaction():
+            project.set_control(ControlPoints(("1",), np.zeros((1, 3))))
+            project.add_term("lost")
+            project.add_control_observations(StereoObservations(("1",), np.zeros((1, 2)), np.zeros((1, 2))),
+                                             "check", "no-such-pair")
+    assert project.vocabulary() == ["kept"] and len(project.control()) == 0
+
+
+def test_damaged_files_and_stored_json_are_one_line_errors(tmp_path):
+    path = tmp_path / "p.usvips"
+    with Project.create(path) as p:
+        for i in range(200):
+            p.add_term(f"term{i:03d}")
+        calibration = p.add_calibration("c", {"sigma0_px": 0.5})
+        oid = p.add_object("point", [Vertex(1, 2, 3, 4, (0, 0, -1), np.eye(3))])
+        p._db.execute("UPDATE calibrations SET json = '{not json' WHERE id = ?", (calibration,))
+        p._db.execute("UPDATE vertices SET covariance = '[1, 2' WHERE object_id = ?", (oid,))
+        with pytest.raises(ProjectError, match="calibration 1 is damaged"):
+            p.calibration(calibration)
+        with pytest.raises(ProjectError, match="covariance is damaged"):
+            p.objects()
+    data = bytearray(path.read_bytes())
+    data[4096:len(data)] = b"\x5a" * (len(data) - 4096)        # every page after the first overwritten
+    path.write_bytes(bytes(data))
+    with pytest.raises(ProjectError) as caught:
+        with Project.open(path, read_only=True) as p:
+            p.vocabulary()
+    assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
+
+
+def test_a_read_only_file_is_refused_for_writing_but_opens_read_only(tmp_path, monkeypatch):
+    path = tmp_path / "p.usvips"
+    with Project.create(path) as p:
+        p.add_term("kept")
+    before = _digest(path)
+    real = os.access
+    # the file is read-only for this user (simulated: the tests may run as root, whom chmod does not stop)
+    monkeypatch.setattr(os, "access", lambda f, mode: False if mode & os.W_OK and Path(f) == path else real(f, mode))
+    with pytest.raises(ProjectError, match="read-only"):
+        Project.open(path)
+    with Project.open(path, read_only=True) as p:
+        assert p.vocabulary() == ["kept"]
+    assert _digest(path) == before
+
+
+def test_a_write_while_locked_says_so_and_keeps_the_project(tmp_path):
+    path = tmp_path / "p.usvips"
+    with Project.create(path) as p:
+        p.add_object("point", [Vertex(1, 2, 3, 4)], attribute="kept")
+    holder = sqlite3.connect(str(path), isolation_level=None, timeout=0.1)
+    holder.execute("BEGIN EXCLUSIVE")
+    try:
+        with Project.open(path) as p:
+            for edit in (lambda: p.add_object("point", [Vertex(1, 2, 3, 4)]),
+                         lambda: p.update_object(1, attribute="changed"),
+                         lambda: p.set_control(ControlPoints(("1",), np.zeros((1, 3))))):
+                with pytest.raises(ProjectError, match="locked by another program"):
+                    edit()
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+    with Project.open(path) as p:
+        assert [o.attribute for o in p.objects()] == ["kept"]
+
+
+def test_listing_objects_while_another_process_deletes_them_is_consistent(tmp_path):
+    """A deleting process runs while this one lists: every listing is a consistent snapshot (objects
+    complete with their vertices), never a misleading 'no object N'."""
+    path = tmp_path / "p.usvips"
+    with Project.create(path) as p, p.transaction():
+        for i in range(300):
+            p.add_object("line", [Vertex(i, 2, 3, 4), Vertex(5, 6, 7, 8)], attribute=f"o{i}")
+    script = f"""
+from usvips.store import Project
+with Project.open({str(path)!r}) as p:
+    for i in range(1, 301):
+        p.delete_object(i)
+"""
+    deleter = subprocess.Popen([sys.executable, "-c", script], cwd=ROOT)
+    counts = []
+    try:
+        with Project.open(path, read_only=True) as p:
+            while deleter.poll() is None:
+                listing = p.objects()
+                assert all(len(o.vertices) == 2 for o in listing)
+                counts.append(len(listing))
+    finally:
+        deleter.wait()
+    assert deleter.returncode == 0
+    assert counts == sorted(counts, reverse=True)          # snapshots only ever shrink

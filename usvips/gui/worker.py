@@ -47,22 +47,37 @@ class Worker(QtCore.QRunnable):
 
     def run(self) -> None:
         try:
-            result = self.job(self.signals.progress.emit, self._cancel.is_set)
+            result = self.job(self._progress, self._cancel.is_set)
         except Cancelled:
-            self.signals.cancelled.emit()
+            self._report(self.signals.cancelled)
         except UsvipsError as error:
-            self.signals.failed.emit(str(error))
+            self._report(self.signals.failed, str(error))
         except MemoryError:
-            self.signals.failed.emit(f"{self.label}: not enough memory")
+            self._report(self.signals.failed, f"{self.label}: not enough memory")
+        except OSError as error:
+            names = " ".join(str(n) for n in (error.filename, error.filename2) if n is not None)
+            self._report(self.signals.failed, f"{self.label}: {names + ': ' if names else ''}"
+                                              f"{error.strerror or error}")
         except Exception as error:  # a bug: say what and where, never crash the window
             where = traceback.extract_tb(error.__traceback__)[-1]
-            self.signals.failed.emit(f"{self.label} failed: {type(error).__name__}: {error} "
-                                     f"({where.filename.rsplit('/', 1)[-1]}:{where.lineno})")
+            self._report(self.signals.failed, f"{self.label} failed: {type(error).__name__}: {error} "
+                                              f"({where.filename.rsplit('/', 1)[-1]}:{where.lineno})")
         else:
             if self._cancel.is_set():
-                self.signals.cancelled.emit()
+                self._report(self.signals.cancelled)
             else:
-                self.signals.finished.emit(result)
+                self._report(self.signals.finished, result)
+
+    def _progress(self, fraction: float) -> None:
+        self._report(self.signals.progress, fraction)
+
+    @staticmethod
+    def _report(signal, *args) -> None:
+        """Emit a report; if its receiver's side has gone (the window closed while the work ran), drop it."""
+        try:
+            signal.emit(*args)
+        except RuntimeError:  # "Signal source has been deleted": nobody is left to tell
+            pass
 
 
 #: Workers still running, kept alive here so that a window or page closing before its worker reports
