@@ -8,6 +8,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 #: Runs ``usvips`` with the given arguments and, once the window has settled, prints what it shows.
 PROBE = """
 import json, sys
@@ -67,3 +69,51 @@ def test_open_shows_the_pair_asked_for(tmp_path, sample_copy):
 def test_no_arguments_starts_an_empty_window(tmp_path):
     seen = _probe(tmp_path)
     assert seen["code"] == 0 and seen["windows"] == 1 and seen.get("pair") is None
+
+
+def test_an_unexpected_exception_is_logged_and_shown_as_one_sentence(make_window, tmp_path, monkeypatch):
+    """A bug: its traceback goes to the log file and the log panel, the window shows one sentence."""
+    import usvips.gui.app as app_module
+
+    monkeypatch.setattr(app_module, "log_path", lambda: tmp_path / "data" / "usvips.log")
+    window = make_window()
+    try:
+        {}["missing"]
+    except KeyError as error:
+        sentence = app_module.report_unexpected(type(error), error, error.__traceback__)
+    assert "\n" not in sentence and "KeyError" in sentence and "usvips.log" in sentence
+    assert window.statusBar().currentMessage() == sentence
+    assert "Traceback" in window.log.toPlainText()
+    assert "Traceback" in (tmp_path / "data" / "usvips.log").read_text()
+
+
+@pytest.mark.qt_no_exception_capture
+def test_an_exception_in_a_qt_slot_reaches_the_handler_and_the_window_stays(qtbot, make_window, tmp_path,
+                                                                             monkeypatch):
+    from PySide6 import QtCore
+
+    import usvips.gui.app as app_module
+
+    monkeypatch.setattr(app_module, "log_path", lambda: tmp_path / "usvips.log")
+    monkeypatch.setattr(sys, "excepthook", sys.excepthook)     # restored after the test
+    window = make_window()
+    app_module.install_error_handler()
+
+    def broken_slot():
+        raise ZeroDivisionError("a bug in a slot")
+
+    QtCore.QTimer.singleShot(0, broken_slot)
+    qtbot.waitUntil(lambda: "a bug in a slot" in window.statusBar().currentMessage(), timeout=10000)
+    assert "ZeroDivisionError" in (tmp_path / "usvips.log").read_text()
+    assert window.isVisible()
+
+
+def test_an_expected_error_in_a_handler_is_its_own_line(make_window, tmp_path, monkeypatch):
+    import usvips.gui.app as app_module
+    from usvips.core.errors import UsvipsError
+
+    monkeypatch.setattr(app_module, "log_path", lambda: tmp_path / "usvips.log")
+    window = make_window()
+    error = UsvipsError("p.usvips: cannot write the project: the disk is full")
+    assert app_module.report_unexpected(UsvipsError, error, None) == str(error)
+    assert window.statusBar().currentMessage() == str(error) and not (tmp_path / "usvips.log").exists()
