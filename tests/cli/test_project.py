@@ -76,3 +76,72 @@ def test_export_for_checkem_fills_opcode_rms_range_and_image_names(tmp_path):
         values["Precision"]))
     assert 0 < float(values["RMS"]) < 20 and 1000 < float(values["Range"]) < 10_000
     assert float(values["Precision"]) / float(values["Length"]) < 0.10
+
+
+def _snapshot(path: Path) -> dict:
+    with Project.open(path, read_only=True) as project:
+        return {"pairs": project.pairs(), "control": project.control().ids,
+                "calibrations": [c["id"] for c in project.calibrations()],
+                "obs": {p["label"]: project.control_observations("calibration-water", p["label"]).ids
+                        for p in project.pairs()}}
+
+
+def test_a_failed_import_changes_nothing(tmp_path, capsys):
+    """Control that reads, then observations whose pair cannot take them: neither is stored."""
+    out = tmp_path / "tank.usvips"
+    assert main(["project", "new", str(out), "--from", str(SAMPLE)]) == 0
+    before = _snapshot(out)
+    bad_obs = tmp_path / "bad.csv"
+    bad_obs.write_text("id,xl,yl,xr,yr\n1,1,2,3,4\n2,1,2,3\n")
+    assert main(["project", "import", str(out), "--control", str(SAMPLE / "control_table3_2.csv"),
+                 "--obs", str(bad_obs), "--pair", "new-pair"]) == 2
+    assert "bad.csv, line 3" in capsys.readouterr().err
+    good_obs = tmp_path / "good.csv"
+    good_obs.write_text("id,xl,yl,xr,yr\n1,1,2,3,4\n")
+    assert main(["project", "import", str(out), "--obs", str(good_obs), "--pair", "fresh"]) == 0
+    capsys.readouterr()
+    with_fresh = _snapshot(out)
+    # the same observation again: the stored one collides, after the control was replaced in the transaction
+    assert main(["project", "import", str(out), "--control", str(SAMPLE / "control_table3_2.csv"),
+                 "--obs", str(good_obs), "--pair", "fresh"]) == 2
+    err = capsys.readouterr().err
+    assert "already stored" in err and err.count("\n") == 1
+    assert _snapshot(out) == with_fresh and before["control"] == with_fresh["control"]
+
+
+def test_info_and_export_never_change_an_older_project(tmp_path, capsys):
+    old = tmp_path / "old.usvips"
+    old.write_bytes((Path(__file__).resolve().parents[1] / "store" / "data" / "project_v1.usvips").read_bytes())
+    before = old.read_bytes()
+    assert main(["project", "info", str(old)]) == 0
+    assert "schema 1" in capsys.readouterr().out
+    assert main(["project", "export", str(old), str(tmp_path / "objects.geojson")]) == 0
+    assert old.read_bytes() == before and not list(tmp_path.glob("*.bak"))
+    assert main(["project", "import", str(old), "--control", str(SAMPLE / "control_table3_2.csv")]) == 0
+    assert (tmp_path / "old.usvips.schema1.bak").read_bytes()[:16] == before[:16]
+
+
+def test_output_paths_that_cannot_be_written_are_one_line(tmp_path, capsys):
+    out = tmp_path / "p.usvips"
+    assert main(["project", "new", str(out), "--from", str(SAMPLE)]) == 0
+    capsys.readouterr()
+    (tmp_path / "folder.csv").mkdir()
+    for target, message in ((tmp_path / "folder.csv", "is a folder"), (tmp_path / ("x" * 300 + ".csv"), "too long"),
+                            (tmp_path / "missing" / "o.csv", "does not exist")):
+        assert main(["project", "export", str(out), str(target)]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1, err
+
+
+def test_new_on_a_dangling_symlink_in_a_sample_folder_is_refused(tmp_path, capsys):
+    import shutil
+
+    from usvips.samples import open_or_create_from_manifest
+    from usvips.store import ProjectError
+
+    sample = tmp_path / "tank"
+    shutil.copytree(SAMPLE, sample, ignore=shutil.ignore_patterns("project.usvips*"))
+    (sample / "project.usvips").symlink_to(tmp_path / "target.usvips")
+    with pytest.raises(ProjectError, match="symbolic link"):
+        open_or_create_from_manifest(sample)
+    assert not (tmp_path / "target.usvips").exists()

@@ -132,6 +132,19 @@ def test_the_sample_opens_and_its_truth_matches_its_images():
     (lambda s: s["video"].update(fps=12.5), "video.fps"),
     (lambda s: s["video"].update(frame_offset=30), "video.frame_offset"),
     (lambda s: s["video"].update(velocity=[1, 2]), "video.velocity"),
+    (lambda s: s["image"].update(width="64"), "image.width: must be a whole number"),
+    (lambda s: s["image"].update(supersample=0), "image.supersample: must be in [1, 8]"),
+    (lambda s: s["image"].update(height=64.5), "image.height: must be a whole number"),
+    (lambda s: s["housing"].pop("left"), "housing.left: expected an object"),
+    (lambda s: s["water"].update(attenuation=-0.1), "water.attenuation: must be in [0"),
+    (lambda s: s["floor"].update(cell=0), "floor.cell: must be in"),
+    (lambda s: s.update(seed=[[[[1]]]]), "seed: must be a whole number"),
+    (lambda s: s["pairs"][0].update(label="../escape"), "pairs[0].label: must be a plain name"),
+    (lambda s: s["pairs"][1].update(label=s["pairs"][0]["label"]), "pairs[1].label: 'air1' is used twice"),
+    (lambda s: s["frame"].update(targets="/etc/passwd"), "frame.targets: must be a plain .csv file name"),
+    (lambda s: s["frame"].update(targets="../control.csv"), "frame.targets: must be a plain .csv file name"),
+    (lambda s: s["objects"][0].update(kind=["fish"]), "objects[0].kind"),
+    (lambda s: s["left"].update(f=0), "left.f: must be in (0"),
 ])
 def test_bad_scenes_are_refused_naming_the_key(tmp_path, capsys, edit, message):
     scene = json.loads((SAMPLE / "scene.json").read_text())
@@ -191,3 +204,41 @@ def test_the_video_truth_pairs_frames_at_the_same_instant():
                   np.array([right["pixels"][p] for p in ("snout", "fork")])]
         points = intersect(rig.cameras, pixels, 0.3).require_ok().points
         assert np.linalg.norm(points[1] - points[0]) == pytest.approx(fish["length"], abs=0.01)
+
+
+def test_render_is_all_or_nothing_and_stays_inside_out(tmp_path, capsys):
+    """A pair that fails late leaves neither the earlier pairs' images nor anything else in --out, and
+    nothing is written beside it."""
+    scene = json.loads((SAMPLE / "scene.json").read_text())
+    scene["image"].update(width=96, height=72, supersample=1)
+    scene.pop("video")
+    scene["pairs"][-1]["pose"].update(Z0=-101.5)          # the last pair fails after the others were drawn
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    assert main(["render", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "scene.json"]
+
+
+def test_a_scene_that_names_another_file_reads_nothing_and_echoes_nothing(tmp_path, capsys):
+    secret = tmp_path / "secret.csv"
+    secret.write_text("id,X,Y,Z\ntop-secret-line-of-a-private-file,1,2,3,4\n")
+    scene = json.loads((SAMPLE / "scene.json").read_text())
+    scene["frame"]["targets"] = "secret.csv"
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    assert main(["render", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "top-secret" not in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
+def test_render_to_a_file_is_refused(tmp_path, capsys):
+    target = tmp_path / "a_file"
+    target.write_text("x")
+    assert main(["render", str(SAMPLE / "scene.json"), "--out", str(target)]) == 2
+    assert "must be a folder" in capsys.readouterr().err and target.read_text() == "x"
