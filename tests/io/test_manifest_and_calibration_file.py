@@ -42,3 +42,66 @@ def test_bad_calibration_files_are_refused(tmp_path, text, message):
     path.write_text(text)
     with pytest.raises(InputFileError, match=message):
         load_calibration(path)
+
+
+CALIBRATION = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport" / "calibration.json"
+
+
+def _negative_eigenvalue(data):
+    names = data["covariance"]["names"][:2]
+    data["covariance"] = {"names": names, "matrix": [[1.0, 2.0], [2.0, 1.0]]}   # eigenvalues 3 and -1
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d.update(version=0), "version: must be a whole number from 1"),
+    (lambda d: d.update(version=True), "version: must be a whole number from 1"),
+    (lambda d: d["cameras"]["left"].update(width=-640), "cameras.left.width: must be a positive whole number"),
+    (lambda d: d["cameras"]["right"].update(height=480.5), "cameras.right.height"),
+    (lambda d: d.update(parameters=[1, 2]), "parameters: must be an object"),
+    (lambda d: d.update(parameters={"f_l": {"value": "700"}}), "parameters.f_l.value: must be a finite number"),
+    (lambda d: d.update(parameters={"f_l": {"value": 700, "sigma": -1}}), "parameters.f_l.sigma"),
+    (lambda d: d.update(parameters={"f_l": {"value": 700, "status": "maybe"}}), "parameters.f_l.status"),
+    (lambda d: d.update(covariance="none"), "covariance: must be an object"),
+    (lambda d: d["covariance"].update(matrix=[[1]]), "covariance.matrix: must be"),
+    (lambda d: d["covariance"]["matrix"][0].__setitem__(0, -1e-3), "negative variance"),
+    (_negative_eigenvalue, "not positive semi-definite"),
+    (lambda d: d.update(sigma0_px=-0.5), "sigma0_px: must be >= 0"),
+    (lambda d: d.update(statistics=[1]), "statistics: must be an object"),
+])
+def test_calibration_values_are_checked_by_name(tmp_path, edit, message):
+    data = json.loads(CALIBRATION.read_text())
+    edit(data)
+    path = tmp_path / "c.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(InputFileError, match=message.replace("(", r"\(").replace(".", r"\.")):
+        load_calibration(path)
+
+
+def test_a_deeply_nested_calibration_is_one_error(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(InputFileError, match="nested too deeply|not a USVIPS calibration"):
+        load_calibration(path)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: d["observations"][0].update(pairs="air1"), "observations.pairs: expected a list"),
+    (lambda d: d["observations"][0].update(pairs=["nope"]), "no pair labelled 'nope'"),
+    (lambda d: d["calibrations"][0].update(active_for=[1]), "calibrations.active_for"),
+    (lambda d: d["pairs"][0].update(medium=["air"]), "medium must be one of"),
+    (lambda d: d.update(control="a\x00b"), "not a usable file path"),
+    (lambda d: d.update(description=5), "key 'description'"),
+])
+def test_manifest_values_are_checked_by_name(tmp_path, edit, message):
+    import shutil
+
+    sample = tmp_path / "rov"
+    shutil.copytree(CALIBRATION.parent, sample, ignore=shutil.ignore_patterns("project.usvips*", "*.avi",
+                                                                              "images"))
+    shutil.copytree(CALIBRATION.parent / "images", sample / "images")
+    data = json.loads((sample / "project.json").read_text())
+    data.pop("video")                                   # the videos are not copied
+    edit(data)
+    (sample / "project.json").write_text(json.dumps(data))
+    with pytest.raises(InputFileError, match=message):
+        read_manifest(sample)

@@ -51,3 +51,26 @@ def test_observation_pairs_and_round_trip(tmp_path):
     control = read_control(SAMPLE / "control_table3_1.csv")
     write_control(tmp_path / "c.csv", control)
     np.testing.assert_allclose(read_control(tmp_path / "c.csv").xyz, control.xyz)
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"id,X,Y,Z\n1,2,3,\x004\n", "line 2: binary data"),
+    (b"id,X,Y,Z\n1," + b"9" * 200_000 + b",3,4\n", "line 2: the line is 200006 characters long"),
+    (b"id,X,Y,Z\n1,2,3,4\n\xff\xfe,1,2,3\n", "line 3: not a text"),
+    (b'id,X,Y,Z\n1,2,3,"4\n', "line 2: not a valid CSV line"),
+    (b"id,X,Y,Z\n1," + b"9" * 5000 + b",3,4\n", "line 2: field 2 is 5000 characters long"),
+    (b"id,X,Y,Z\n1,2,3,four-point-" + b"x" * 100 + b"\n", "'four-point-xxxxxxxxxx'… is not a number"),
+])
+def test_hostile_csv_content_is_one_line_naming_the_line(tmp_path, content, message):
+    path = tmp_path / "c.csv"
+    path.write_bytes(content)
+    with pytest.raises(InputFileError) as caught:
+        read_control(path)
+    assert message in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_short_rows_in_a_picks_file_are_named(tmp_path):
+    path = tmp_path / "picks.csv"
+    path.write_text("id,xl,yl,xr,yr,pair\n1,1,2,3,4,a\n2,1,2\n")
+    with pytest.raises(InputFileError, match="line 3: 3 fields but the header has 6"):
+        read_observations(path)

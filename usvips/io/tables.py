@@ -29,6 +29,7 @@ OBSERVATION_COLUMNS = ("id", "xl", "yl", "xr", "yr")
 #: Largest CSV file (bytes) and field (characters) read; a control or observation table is far smaller.
 MAX_FILE_BYTES = 256 << 20
 MAX_FIELD_CHARS = 4096
+MAX_LINE_CHARS = 65536
 
 
 def _show(text: str) -> str:
@@ -56,8 +57,11 @@ def _rows(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
             continue
         if "\x00" in stripped:
             raise InputFileError(str(path), "binary data (a NUL byte); not a CSV text file", number)
+        if len(stripped) > MAX_LINE_CHARS:
+            raise InputFileError(str(path), f"the line is {len(stripped)} characters long (at most {MAX_LINE_CHARS})",
+                                 number)
         try:
-            fields = [f.strip() for f in next(csv.reader([stripped]))]
+            fields = [f.strip() for f in next(csv.reader([stripped], strict=True))]
         except csv.Error as error:
             raise InputFileError(str(path), f"not a valid CSV line ({error})", number) from None
         long = next((i for i, f in enumerate(fields) if len(f) > MAX_FIELD_CHARS), None)
