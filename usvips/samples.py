@@ -21,6 +21,12 @@ def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
     manifest = read_manifest(directory)
     control = read_control(manifest.control) if manifest.control is not None else None
     observation_files = [(entry, read_observations(entry.file)) for entry in manifest.observations]
+    known = {pair.label for pair in manifest.pairs}
+    for entry, observations in observation_files:
+        unknown = [label for label in (entry.pairs or observations.pair_labels) if label not in known]
+        if unknown:
+            raise InputFileError(str(manifest.path), f"observations {entry.file.name}: pair {unknown[0][:40]!r} is "
+                                 "not one of the manifest's pairs (give the entry's 'pairs')")
     calibrations = []
     for entry in manifest.calibrations:
         load_calibration(entry.file)                      # checked whole before anything is stored

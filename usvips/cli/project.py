@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import InputFileError, UsvipsError
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
 from usvips.project_export import export_project
@@ -27,7 +27,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     imp.add_argument("project")
     imp.add_argument("--control", help="control CSV")
     imp.add_argument("--obs", help="observations CSV (with --pair and --role)")
-    imp.add_argument("--pair", help="the image pair the observations belong to (created if new)")
+    imp.add_argument("--pair", help="the image pair the observations belong to (created if new); a file with a "
+                     "pair column of several pairs gives this pair's rows")
     imp.add_argument("--role", default="calibration-water", help="observation role (default calibration-water)")
     imp.add_argument("--calibration", help="calibration JSON (with --active-for PAIR ...)")
     imp.add_argument("--active-for", nargs="+", default=[], help="pairs the calibration becomes active for")
@@ -68,6 +69,11 @@ def run_import(args: argparse.Namespace) -> int:
     # every file is read and checked before the project is opened; then all goes in one transaction
     control = read_control(args.control) if args.control else None
     observations = read_observations(args.obs) if args.obs else None
+    if observations is not None and len(observations.pair_labels) > 1:
+        if args.pair not in observations.pair_labels:
+            raise InputFileError(args.obs, f"holds observations of {len(observations.pair_labels)} pairs "
+                                 f"({', '.join(observations.pair_labels)[:80]}); --pair must name one of them")
+        observations = observations.pair(args.pair)
     calibration = calibration_to_dict(load_calibration(args.calibration)) if args.calibration else None
     with Project.open(args.project) as project, project.transaction():
         if control is not None:

@@ -1,0 +1,236 @@
+"""Property-based bad input: valid files of every format, mutated, fed to the command line.
+
+The contract for every mutation: the command either succeeds (the mutation kept the file valid) or exits
+with status 2 and exactly one line on stderr that names the file at fault; never a traceback, never an
+internal error, no partial output (no file or folder left behind), and nothing committed in a project
+changed. Formats: control CSV, observation (picks) CSV, calibration JSON, scene JSON, sample manifest and
+the project file's own bytes.
+
+Examples are derandomised (the same every run, so CI replays exactly what failed) and few per format, so
+the suite runs in tens of seconds.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import io
+import json
+import shutil
+import sqlite3
+import tempfile
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from usvips.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+TANK = ROOT / "sample_projects" / "tank_1995"
+ROV = ROOT / "sample_projects" / "rov_flatport"
+
+REPLAY = settings(derandomize=True, deadline=None, max_examples=40, database=None,
+                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+
+#: Pieces a careless user or a hostile file puts into a text file.
+TOKENS = ["", ",", ",,", "\n", "\r\n", "\x00", '"', "'", "nan", "inf", "-1", "0", "1e999", "-0", "1,2",
+          "999999999999999999999", "\ufeff", "é", "#", "x" * 300, "\t", "{", "}", "[", "]", ":", "null",
+          "true", "../", "/etc/passwd", "\\", "\xff", "\u202e"]
+
+#: Values a JSON mutation puts in place of another.
+VALUES = [None, True, False, 0, -1, 1, 0.5, -1e-9, 1e308, -1e308, 2**64, "", "64", "x" * 500, [], {}, [1, 2],
+          [[[[[[[[[[1]]]]]]]]]], {"a": 1}, "../../escape", "nan"]
+
+
+def run(args: list[str]) -> tuple[int, str]:
+    """``usvips ARGS`` in this process: (exit status, stderr). stdout is discarded."""
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(args)
+    return code, err.getvalue()
+
+
+def assert_contract(code: int, err: str, culprits: tuple[str, ...]) -> None:
+    """Success, or status 2 with one line on stderr naming one of ``culprits``."""
+    assert code in (0, 2), f"exit {code}: {err}"
+    if code == 2:
+        assert err.endswith("\n") and err.count("\n") == 1, f"not one line: {err!r}"
+        assert "Traceback" not in err and "internal error" not in err, err
+        assert any(c in err for c in culprits), f"names none of {culprits}: {err}"
+
+
+def dump(project: Path) -> list[str]:
+    """Everything committed in a project, read without writing."""
+    connection = sqlite3.connect(f"file:{project}?mode=ro", uri=True)
+    try:
+        return list(connection.iterdump())
+    finally:
+        connection.close()
+
+
+@st.composite
+def text_mutation(draw, text: str) -> str:
+    """``text`` with one to three edits: a span replaced by a token, a line dropped or doubled, cut short."""
+    for _ in range(draw(st.integers(1, 3))):
+        kind = draw(st.sampled_from(["replace", "replace", "drop", "double", "truncate"]))
+        lines = text.splitlines(keepends=True) or [""]
+        if kind == "replace" and text:
+            start = draw(st.integers(0, len(text) - 1))
+            end = draw(st.integers(start, min(len(text), start + 12)))
+            text = text[:start] + draw(st.sampled_from(TOKENS)) + text[end:]
+        elif kind == "drop":
+            del lines[draw(st.integers(0, len(lines) - 1))]
+            text = "".join(lines)
+        elif kind == "double":
+            i = draw(st.integers(0, len(lines) - 1))
+            text = "".join(lines[:i + 1] + lines[i:])
+        else:
+            text = text[:draw(st.integers(0, len(text)))]
+    return text
+
+
+def _paths(data, prefix=()):
+    """Every (path, value) inside a JSON value."""
+    yield prefix, data
+    if isinstance(data, dict):
+        for key, value in data.items():
+            yield from _paths(value, (*prefix, key))
+    elif isinstance(data, list):
+        for i, value in enumerate(data):
+            yield from _paths(value, (*prefix, i))
+
+
+@st.composite
+def json_mutation(draw, data: dict) -> str:
+    """``data`` with one to three values replaced or keys removed, or (sometimes) its text mutated."""
+    data = json.loads(json.dumps(data))
+    if draw(st.integers(0, 4)) == 0:
+        return draw(text_mutation(json.dumps(data, indent=1)))
+    for _ in range(draw(st.integers(1, 3))):
+        paths = [p for p, _ in _paths(data) if p]
+        path = draw(st.sampled_from(paths))
+        parent = data
+        for key in path[:-1]:
+            parent = parent[key]
+        if isinstance(parent, dict) and draw(st.booleans()):
+            del parent[path[-1]]
+        else:
+            parent[path[-1]] = copy.deepcopy(draw(st.sampled_from(VALUES)))
+    return json.dumps(data)
+
+
+@pytest.fixture(scope="module")
+def base(tmp_path_factory) -> dict[str, Path]:
+    """A project made from the thesis-tank sample, and the valid files the mutations start from."""
+    folder = tmp_path_factory.mktemp("base")
+    project = folder / "tank.usvips"
+    assert run(["project", "new", str(project), "--from", str(TANK)])[0] == 0
+    scene = json.loads((ROV / "scene.json").read_text())
+    for key in ("frame", "video", "description"):
+        scene.pop(key)
+    scene["image"] = {"width": 64, "height": 48, "supersample": 1}    # the rig scaled to a tenth
+    for side in ("left", "right"):
+        scene[side].update({k: scene[side][k] / 10 for k in ("f", "xp", "yp")})
+    scene["pairs"] = [p for p in scene["pairs"] if p["label"] == "measure1"]
+    (folder / "scene.json").write_text(json.dumps(scene))
+    assert run(["render", str(folder / "scene.json"), "--out", str(folder / "rendered")])[0] == 0
+    return {"folder": folder, "project": project, "scene": folder / "scene.json"}
+
+
+def _import_case(base, name: str, text: str, option: list[str]) -> None:
+    with tempfile.TemporaryDirectory() as work:
+        work = Path(work)
+        project = work / "p.usvips"
+        shutil.copy(base["project"], project)
+        before = dump(project)
+        path = work / name
+        path.write_bytes(text.encode("utf-8", "surrogatepass"))
+        code, err = run(["project", "import", str(project), *option[:1], str(path), *option[1:]])
+        assert_contract(code, err, (name, "p.usvips: pair"))   # the file, or a clash with what is stored
+        if code == 2:
+            assert dump(project) == before, "a failed import changed the project"
+        assert _files(work) == sorted(["p.usvips", name])
+
+
+def _files(folder: Path) -> list[str]:
+    """The files in ``folder``, without SQLite's own -wal/-shm companions of a project."""
+    return sorted(p.name for p in folder.iterdir() if not p.name.endswith(("-wal", "-shm")))
+
+
+@REPLAY
+@given(data=st.data())
+def test_mutated_control_files(base, data):
+    text = data.draw(text_mutation((TANK / "control_table3_2.csv").read_text()))
+    _import_case(base, "control.csv", text, ["--control"])
+
+
+@REPLAY
+@given(data=st.data())
+def test_mutated_picks_files(base, data):
+    text = data.draw(text_mutation((ROV / "observations_water.csv").read_text()[:3000]))
+    _import_case(base, "picks.csv", text, ["--obs", "--pair", "water2", "--role", "measurement"])
+
+
+@REPLAY
+@given(data=st.data())
+def test_mutated_calibration_files(base, data):
+    text = data.draw(json_mutation(json.loads((ROV / "calibration.json").read_text())))
+    _import_case(base, "calibration.json", text, ["--calibration", "--active-for", "water2"])
+
+
+@REPLAY
+@given(data=st.data())
+def test_mutated_scenes(base, data):
+    text = data.draw(json_mutation(json.loads(base["scene"].read_text())))
+    with tempfile.TemporaryDirectory() as work:
+        work = Path(work)
+        scene = work / "scene.json"
+        scene.write_text(text)
+        code, err = run(["render", str(scene), "--out", str(work / "out")])
+        assert_contract(code, err, ("scene.json",))
+        if code == 2:
+            assert sorted(p.name for p in work.iterdir()) == ["scene.json"], "a failed render left files"
+
+
+@REPLAY
+@given(data=st.data())
+def test_mutated_manifests(base, data):
+    text = data.draw(json_mutation(json.loads((TANK / "project.json").read_text())))
+    with tempfile.TemporaryDirectory() as work:
+        work = Path(work)
+        sample = work / "tank"
+        shutil.copytree(TANK, sample, ignore=shutil.ignore_patterns("project.usvips*"))
+        (sample / "project.json").write_text(text)
+        code, err = run(["project", "new", str(work / "new.usvips"), "--from", str(sample)])
+        assert_contract(code, err, (str(sample),))
+        if code == 2:
+            assert sorted(p.name for p in work.iterdir()) == ["tank"], "a failed 'project new' left files"
+
+
+@REPLAY
+@given(data=st.data())
+def test_mutated_project_files(base, data):
+    """Damaged bytes of a project: 'project info' reads it or says in one line what is wrong, and (a
+    read-only command) never changes a byte."""
+    original = base["project"].read_bytes()
+    damaged = bytearray(original)
+    for _ in range(data.draw(st.integers(1, 4))):
+        kind = data.draw(st.sampled_from(["bytes", "bytes", "truncate", "page"]))
+        if kind == "bytes":
+            at = data.draw(st.integers(0, len(damaged) - 1))
+            damaged[at:at + 8] = data.draw(st.binary(min_size=1, max_size=8))
+        elif kind == "truncate":
+            damaged = damaged[:data.draw(st.integers(0, len(damaged)))]
+        elif len(damaged) >= 4096:
+            page = data.draw(st.integers(0, len(damaged) // 4096 - 1))
+            damaged[page * 4096:(page + 1) * 4096] = bytes(4096)
+    with tempfile.TemporaryDirectory() as work:
+        project = Path(work) / "p.usvips"
+        project.write_bytes(bytes(damaged))
+        for command in (["project", "info", str(project)],
+                        ["project", "export", str(project), str(Path(work) / "objects.csv")]):
+            code, err = run(command)
+            assert_contract(code, err, ("p.usvips",))
+            assert project.read_bytes() == bytes(damaged), f"{command[1]} changed the project"
