@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 TANK = ROOT / "sample_projects" / "tank_1995"
 ROV = ROOT / "sample_projects" / "rov_flatport"
 
-REPLAY = settings(derandomize=True, deadline=None, max_examples=40, database=None,
+REPLAY = settings(derandomize=True, deadline=None, max_examples=80, database=None,
                   suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 
 #: Pieces a careless user or a hostile file puts into a text file.
@@ -218,7 +218,7 @@ def test_mutated_project_files(base, data):
     damaged = bytearray(original)
     for _ in range(data.draw(st.integers(1, 4))):
         kind = data.draw(st.sampled_from(["bytes", "bytes", "truncate", "page"]))
-        if kind == "bytes":
+        if kind == "bytes" and damaged:
             at = data.draw(st.integers(0, len(damaged) - 1))
             damaged[at:at + 8] = data.draw(st.binary(min_size=1, max_size=8))
         elif kind == "truncate":
