@@ -173,6 +173,32 @@ def test_mutated_picks_files(base, data):
     _import_case(base, "picks.csv", text, ["--obs", "--pair", "water2", "--role", "measurement"])
 
 
+def _measure_picks() -> str:
+    """A valid picks file: the ROV sample's fish, snout to fork, at their true pixels."""
+    truth = json.loads((ROV / "truth.json").read_text())
+    cameras = next(p for p in truth["pairs"] if p["label"] == "measure1")["cameras"]
+    rows = ["object,type,vertex,xl,yl,xr,yr,attribute"]
+    for number, fish in enumerate(("fish1", "fish2"), start=1):
+        for vertex, point in enumerate(("snout", "fork")):
+            left, right = cameras["left"]["objects"][fish][point], cameras["right"]["objects"][fish][point]
+            rows.append(f"{fish},line,{vertex},{left[0]:.3f},{left[1]:.3f},{right[0]:.3f},{right[1]:.3f},fish{number}")
+    return "\n".join(rows) + "\n"
+
+
+@REPLAY
+@given(data=st.data())
+def test_mutated_measurement_picks(data):
+    text = data.draw(text_mutation(_measure_picks()))
+    with tempfile.TemporaryDirectory() as work:
+        work = Path(work)
+        (work / "picks.csv").write_text(text, encoding="utf-8", errors="surrogatepass")
+        code, err = run(["measure", "--calibration", str(ROV / "calibration.json"), "--picks",
+                         str(work / "picks.csv"), "--out", str(work / "objects.csv")])
+        assert_contract(code, err, ("picks.csv", "object"))
+        if code == 2:
+            assert _files(work) == ["picks.csv"], "a failed measure left files"
+
+
 @REPLAY
 @given(data=st.data())
 def test_mutated_calibration_files(base, data):

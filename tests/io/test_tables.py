@@ -74,3 +74,19 @@ def test_short_rows_in_a_picks_file_are_named(tmp_path):
     path.write_text("id,xl,yl,xr,yr,pair\n1,1,2,3,4,a\n2,1,2\n")
     with pytest.raises(InputFileError, match="line 3: 3 fields but the header has 6"):
         read_observations(path)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("object,type,vertex,xl,yl,xr,yr\nf,line,0,1,2\n", "line 2: 5 fields but the header has 7"),
+    ("object,type,vertex,xl,yl,xr,yr\nf,line,0,1,2,3,\x004\n", "line 2: binary data"),
+    ("object,type,vertex,xl,yl,xr,yr\nf,line,0.5,1,2,3,4\n", "line 2: vertex and pixel columns must be numbers"),
+    ("object,type,vertex,xl,yl,xr,yr\n,line,0,1,2,3,4\n", "line 2: empty id"),
+    ("object,type,vertex,xl,yl\nf,line,0,1,2\n", "missing column(s) xr, yr"),
+])
+def test_bad_picks_name_the_line(tmp_path, text, message):
+    from usvips.io.tables import read_picks
+
+    path = tmp_path / "picks.csv"
+    path.write_text(text)
+    with pytest.raises(InputFileError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        read_picks(path)

@@ -9,16 +9,16 @@ the correlation a common calibration puts between the vertices of one object.
 from __future__ import annotations
 
 import argparse
-import csv
 from pathlib import Path
 
 import numpy as np
 
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.calibration.uncertainty import joint_covariance
-from usvips.core.errors import DegenerateGeometryError, InputFileError
-from usvips.core.measure import KINDS, Figure, QualityRules, polygon_figures, polyline_length
+from usvips.core.errors import DegenerateGeometryError, InputFileError, InvalidParameterError
+from usvips.core.measure import Figure, QualityRules, polygon_figures, polyline_length
 from usvips.core.rays import RayStatus
+from usvips.io import tables
 from usvips.io.calibration_file import load_calibration
 
 COLUMNS = ("object", "type", "vertex", "xl", "yl", "xr", "yr")
@@ -35,34 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def read_picks(path: str | Path) -> list[dict]:
-    path = Path(path)
-    if not path.is_file():
-        raise InputFileError(str(path), "no such file")
-    lines = [(n, line) for n, line in enumerate(path.read_text(encoding="utf-8-sig").splitlines(), 1)
-             if line.strip() and not line.lstrip().startswith("#")]
-    if not lines:
-        raise InputFileError(str(path), "the file is empty")
-    header = next(csv.reader([lines[0][1]]))
-    missing = [c for c in COLUMNS if c not in header]
-    if missing:
-        raise InputFileError(str(path), f"missing column(s) {', '.join(missing)} (expected {','.join(COLUMNS)})",
-                             lines[0][0])
-    rows = []
-    for number, line in lines[1:]:
-        fields = dict(zip(header, next(csv.reader([line])), strict=False))
-        if fields["type"] not in KINDS:
-            raise InputFileError(str(path), f"type {fields['type']!r} is not one of {', '.join(KINDS)}", number)
-        try:
-            values = [float(fields[c]) for c in ("xl", "yl", "xr", "yr")]
-            vertex = int(fields["vertex"])
-        except (TypeError, ValueError):
-            raise InputFileError(str(path), "vertex and pixel columns must be numbers (both picks are needed)",
-                                 number) from None
-        if not np.all(np.isfinite(values)):
-            raise InputFileError(str(path), "a vertex needs both picks (finite pixels)", number)
-        rows.append({"object": fields["object"], "type": fields["type"], "vertex": vertex, "pixels": values,
-                     "attribute": fields.get("attribute", ""), "line": number})
-    return rows
+    """The picks file's rows, read and checked by :func:`usvips.io.tables.read_picks`."""
+    return tables.read_picks(path)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -87,14 +61,17 @@ def run(args: argparse.Namespace) -> int:
             raise DegenerateGeometryError(f"{args.picks}, line {bad['line']}: object {object_id!r} vertex "
                                           f"{bad['vertex']}: {RayStatus(int(result.status[failed[0]])).reason}")
         points = result.points
-        if kind == "point":
-            figure_name, value, sigma = "Z", points[0, 2], float(np.sqrt(covariance[2, 2]))
-        elif kind == "line":
-            figure = polyline_length(points, covariance)
-            figure_name, value, sigma = "length", figure.value, figure.sigma
-        else:
-            figure = polygon_figures(points, covariance)["area"]
-            figure_name, value, sigma = "area", figure.value, figure.sigma
+        try:  # a figure that cannot be computed (too few vertices ...) is named by file, line and object
+            if kind == "point":
+                figure_name, value, sigma = "Z", points[0, 2], float(np.sqrt(covariance[2, 2]))
+            elif kind == "line":
+                figure = polyline_length(points, covariance)
+                figure_name, value, sigma = "length", figure.value, figure.sigma
+            else:
+                figure = polygon_figures(points, covariance)["area"]
+                figure_name, value, sigma = "area", figure.value, figure.sigma
+        except (DegenerateGeometryError, InvalidParameterError) as error:
+            raise InputFileError(args.picks, f"object {object_id!r}: {error}", vertices[0]["line"]) from None
         ray_rms = float(np.sqrt(np.mean(result.residuals_m**2)))
         ranges = float(np.max(np.linalg.norm(points - calibration.rig(station, args.frame).left.exterior.position,
                                              axis=1)))

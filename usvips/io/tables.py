@@ -1,8 +1,9 @@
-"""Control and observation CSV files.
+"""Control, observation and picks CSV files.
 
 * Control: ``id,X,Y,Z[,sX,sY,sZ]`` — metres.
 * Observations: ``id,xl,yl,xr,yr[,pair]`` — pixels (x right, y down, origin at the centre of the top-left
   pixel); any further numeric columns are kept (``extra``), e.g. the seeds' ``dX,dY,dZ``.
+* Picks: ``object,type,vertex,xl,yl,xr,yr[,attribute]`` — pixels; the vertices of measured objects.
 
 Lines starting with ``#`` and blank lines are ignored; the first other line is the header. Every error
 names the file and the line.
@@ -18,12 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.measure import KINDS
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.io.atomic import write_text_atomic
 
 CONTROL_COLUMNS = ("id", "X", "Y", "Z")
 CONTROL_SIGMA_COLUMNS = ("sX", "sY", "sZ")
 OBSERVATION_COLUMNS = ("id", "xl", "yl", "xr", "yr")
+PICKS_COLUMNS = ("object", "type", "vertex", "xl", "yl", "xr", "yr")
 
 
 #: Largest CSV file (bytes) and field (characters) read; a control or observation table is far smaller.
@@ -173,6 +176,37 @@ def read_observations(path: str | Path) -> StereoObservations:
     numeric_extra = {c: np.array(v) for c, v in extra.items()}
     return StereoObservations(tuple(ids), np.array(left), np.array(right), tuple(pairs), numeric_extra,
                               str(path), tuple(lines))
+
+
+def read_picks(path: str | Path) -> list[dict]:
+    """Read a picks file ``object,type,vertex,xl,yl,xr,yr[,attribute]`` (pixels; ``type`` a measurement
+    kind; ``vertex`` a whole number). Returns one dict per row (object, type, vertex, pixels [xl, yl, xr,
+    yr], attribute, line); raises :class:`InputFileError` naming the file and line."""
+    path = Path(path)
+    header, rows = _rows(path)
+    columns = _column_index(path, header, PICKS_COLUMNS)
+    picks = []
+    for line, fields in rows:
+        _check_width(path, line, fields, header)
+        kind = fields[columns["type"]]
+        if kind not in KINDS:
+            raise InputFileError(str(path), f"type {_show(kind)} is not one of {', '.join(KINDS)}", line)
+        pixels = []
+        for column in ("vertex", "xl", "yl", "xr", "yr"):
+            text = fields[columns[column]]
+            try:
+                value = float(text) if column != "vertex" else int(text)
+            except ValueError:
+                value = math.nan
+            if not math.isfinite(value):
+                raise InputFileError(str(path), "vertex and pixel columns must be numbers (both picks are needed); "
+                                     f"column {column}: {_show(text)}", line)
+            pixels.append(value)
+        vertex = int(pixels.pop(0))
+        picks.append({"object": _check_id(path, line, fields[columns["object"]]), "type": kind, "vertex": vertex,
+                      "pixels": pixels, "attribute": fields[columns["attribute"]] if "attribute" in columns else "",
+                      "line": line})
+    return picks
 
 
 def write_control(path: str | Path, control: ControlPoints) -> None:
