@@ -145,6 +145,7 @@ def test_the_sample_opens_and_its_truth_matches_its_images():
     (lambda s: s["frame"].update(targets="../control.csv"), "frame.targets: must be a plain .csv file name"),
     (lambda s: s["objects"][0].update(kind=["fish"]), "objects[0].kind"),
     (lambda s: s["left"].update(f=0), "left.f: must be in (0"),
+    (lambda s: s["image"].update(width=16384, height=16384, supersample=8), "image: width × height × supersample²"),
 ])
 def test_bad_scenes_are_refused_naming_the_key(tmp_path, capsys, edit, message):
     scene = json.loads((SAMPLE / "scene.json").read_text())

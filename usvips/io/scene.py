@@ -119,6 +119,8 @@ SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
 #: Largest image side (pixels) and largest JSON file (bytes) a scene may ask for.
 MAX_SIDE = 16384
 MAX_FILE_BYTES = 4 << 20
+#: Largest rendering (pixels × supersample²) a scene may ask for: about 1.5 GB of float64 work arrays.
+MAX_SAMPLES = 64_000_000
 
 
 @dataclass(frozen=True)
@@ -228,6 +230,11 @@ def read_scene(path: str | Path) -> Scene:
     _keys(path, "image", data["image"], {"width", "height"},
           {"width", "height", "supersample", "colour", "lighting", "interlace"})
     _check_values(path, "image", "image", data["image"])
+    image = data["image"]
+    samples = image["width"] * image["height"] * image.get("supersample", 3) ** 2
+    if samples > MAX_SAMPLES:
+        raise InputFileError(str(path), f"image: width × height × supersample² is {samples:,} samples, more than "
+                             f"{MAX_SAMPLES:,}; make the image or the supersampling smaller")
     for side in ("left", "right"):
         _keys(path, side, data[side], {"f", "xp", "yp"}, set(INTERIOR_PARAMETERS))
         _check_values(path, side, side, data[side])
