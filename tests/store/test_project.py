@@ -318,3 +318,17 @@ with Project.open({str(path)!r}) as p:
         deleter.wait()
     assert deleter.returncode == 0
     assert counts == sorted(counts, reverse=True)          # snapshots only ever shrink
+
+
+def test_a_full_disk_is_one_line_and_nothing_half_written(project):
+    project.add_object("point", [Vertex(1, 2, 3, 4)], attribute="kept")
+    pages = project._db.execute("PRAGMA page_count").fetchone()[0]
+    project._db.execute(f"PRAGMA max_page_count = {pages}")     # the file cannot grow: as on a full disk
+    big = "x" * 200_000
+    for edit in (lambda: project.add_object("line", [Vertex(1, 2, 3, 4)] * 2, attribute=big),
+                 lambda: project.update_object(1, notes=big),
+                 lambda: project.set_control(ControlPoints(tuple(f"{big[:50]}{i}" for i in range(3000)),
+                                                           np.zeros((3000, 3))))):
+        with pytest.raises(ProjectError, match="the disk is full.*nothing was changed"):
+            edit()
+    assert [(o.attribute, o.notes) for o in project.objects()] == [("kept", "")] and len(project.control()) == 0
