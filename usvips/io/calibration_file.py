@@ -15,6 +15,9 @@ Layout (version 1; lengths in metres, angles in radians, image quantities in pix
      "covariance": {"names": [...], "matrix": [[...]]},   # optional
      "statistics": {...}, "source": {...}}
 
+The interior's ``k3`` (OpenCV's third radial term) is optional: files written before it existed load
+with k3 = 0.
+
 Files are written atomically (temporary file, then rename).
 """
 
