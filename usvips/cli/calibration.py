@@ -53,6 +53,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     reporter = verbs.add_parser("report", help="a printable PDF report of a calibration")
     reporter.add_argument("calibration", help="USVIPS calibration file (JSON)")
     reporter.add_argument("--out", required=True, help="PDF to write")
+    reporter.add_argument("--check", metavar="OBS.csv",
+                          help="check points (id,xl,yl,xr,yr) not used in the calibration, ids in the control")
+    reporter.add_argument("--check-control", metavar="CONTROL.csv",
+                          help="their true coordinates (default: the calibration's own control file)")
     reporter.set_defaults(handler=run_report)
 
 
@@ -77,9 +81,10 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_report(args: argparse.Namespace) -> int:
+    # deferred: matplotlib takes ~0.5 s to import, and every `usvips` command builds the whole parser
     from usvips.io.calibration_report import write_calibration_report
 
     calibration = load_calibration(args.calibration)
-    pages = write_calibration_report(calibration, args.out, args.calibration)
+    pages = write_calibration_report(calibration, args.out, args.calibration, args.check, args.check_control)
     print(f"wrote {args.out} ({pages} pages)")
     return 0

@@ -148,6 +148,11 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
             parameters[name] = ParameterEstimate(float(entry["value"]),
                                                  None if entry.get("sigma") is None else float(entry["sigma"]),
                                                  str(entry.get("status", "free")))
+        if parameters:  # an interior term the file predates (k3) enters as fixed at the camera's value
+            for side, camera in (("l", left), ("r", right)):
+                for name in INTERIOR_PARAMETERS:
+                    parameters.setdefault(f"{name}_{side}",
+                                          ParameterEstimate(float(getattr(camera.interior, name)), None, "fixed"))
         covariance = None
         if data.get("covariance") is not None:
             cov = data["covariance"]
