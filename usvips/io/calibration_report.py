@@ -20,8 +20,6 @@ from __future__ import annotations
 import datetime
 import hashlib
 import io
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,6 +33,7 @@ from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import UsvipsError
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
+from usvips.io.atomic import write_bytes_atomic
 from usvips.io.tables import read_control, read_observations
 
 A4 = (8.27, 11.69)  # inches, portrait
@@ -369,20 +368,6 @@ def write_calibration_report(calibration: StereoCalibration, out: str | Path,
             _histogram_page(pdf, calibration, residuals)
         _text_page(pdf, "Check points", _check_lines(checks, check_reason))
         pages = pdf.get_pagecount()
-    _write_bytes_atomic(out, buffer.getvalue())
+    write_bytes_atomic(out, buffer.getvalue())
     return pages
 
-
-def _write_bytes_atomic(path: Path, payload: bytes) -> None:
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=str(path.parent if str(path.parent) else "."))
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(payload)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
