@@ -18,6 +18,7 @@ The map gives the RMS and the largest of those sigmas over the orientations whos
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -142,8 +143,11 @@ def planned_rig(f_px: float, width: int, height: int, baseline_m: float, toe_in_
 
 
 def precision_map(calibration: StereoCalibration, across: np.ndarray, ranges: np.ndarray, length: float = 0.3,
-                  height: float = 0.0, orientations: int = 12, include_calibration: bool = True) -> PrecisionMap:
+                  height: float = 0.0, orientations: int = 12, include_calibration: bool = True,
+                  on_row: Callable[[int, int], None] | None = None) -> PrecisionMap:
     """The expected sigma of a point and of a ``length`` (metres) over the grid (module docstring).
+
+    ``on_row(done, total)`` is called after each range (for progress; it may raise to stop the work).
 
     Raises :class:`DegenerateGeometryError` naming the first range at which no position is seen by both
     cameras (with the ranges that are), and :class:`InvalidParameterError` for a bad grid or length."""
@@ -215,6 +219,8 @@ def precision_map(calibration: StereoCalibration, across: np.ndarray, ranges: np
                 seen_count[k, i] = len(sigmas)
                 length_rms[k, i] = float(np.sqrt(np.mean(np.square(sigmas))))
                 length_worst[k, i] = float(np.max(sigmas))
+        if on_row is not None:
+            on_row(k + 1, nz)
     return PrecisionMap(across, ranges, float(height), visible, point_sigma, length_rms, length_worst, seen_count,
                         float(length), calibration.sigma0_px, with_calibration)
 
