@@ -1,6 +1,5 @@
 """``usvips calibration import|export``: OpenCV files in and out, warnings and bad input on one line."""
 
-import json
 from pathlib import Path
 
 import cv2
@@ -72,4 +71,3 @@ def test_rational_terms_are_refused_by_name(tmp_path, capsys):
     assert main(["calibration", "import", path, "--out", str(tmp_path / "cal.json")]) == 2
     err = capsys.readouterr().err
     assert "rational model (k4=0.3, k5=0.1)" in err and err.count("\n") == 1
-    json.dumps(err)
