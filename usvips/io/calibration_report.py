@@ -49,7 +49,7 @@ class ReportData:
 
     control: ControlPoints | None
     observations: StereoObservations | None
-    files: list[tuple[str, str, str]]  # (role, path as recorded, SHA-256 or a reason it is missing)
+    files: list[tuple[str, str, str]]  # (role, path read (or as recorded), SHA-256 or why it is missing)
 
 
 @dataclass
@@ -76,9 +76,11 @@ class CheckPoints:
 
 
 def _resolve(recorded: str, base: Path | None) -> Path | None:
+    """A recorded data path: beside the calibration file first (samples, moved folders), then as recorded
+    (relative to the working folder, as the command line recorded it)."""
     candidates = [Path(recorded)]
     if base is not None and not Path(recorded).is_absolute():
-        candidates.append(base / recorded)
+        candidates.insert(0, base / recorded)
     return next((c for c in candidates if c.is_file()), None)
 
 
@@ -98,7 +100,7 @@ def find_data(calibration: StereoCalibration, calibration_path: str | Path | Non
         if path is None:
             files.append((role, recorded, "not found: not used in this report"))
             continue
-        files.append((role, recorded, _sha256(path)))
+        files.append((role, str(path), _sha256(path)))
         if role == "control":
             control = read_control(path)
         elif role == "observations":
