@@ -175,7 +175,7 @@ def test_exact_exterior_derivatives_match_differences(control, kind):
                 for name in ("X0", "Y0", "Z0", "omega", "phi", "kappa"):
                     truth[name + suffix] = getattr(camera.exterior, name)
             if k == 0:
-                for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2"):
+                for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3"):
                     truth[f"{name}_{side}"] = getattr(camera.interior, name)
     h_left, h_right = housings or (None, None)
     if kind == "flat-port":

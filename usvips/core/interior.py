@@ -12,14 +12,18 @@ Conventions (ARCHITECTURE.md; thesis 2.2.2, 2.29-2.31):
 Lens distortion (Brown 1968, eq. 2.31) is applied to normalised coordinates and maps the *ideal*
 (distortion-free, collinear) position to the *observed* one:
 
-    u_d = u + K1·u·r² + K2·u·r⁴ + P1·(r² + 2u²) + 2·P2·u·v
-    v_d = v + K1·v·r² + K2·v·r⁴ + P2·(r² + 2v²) + 2·P1·u·v,        r² = u² + v².
+    u_d = u + K1·u·r² + K2·u·r⁴ + K3·u·r⁶ + P1·(r² + 2u²) + 2·P2·u·v
+    v_d = v + K1·v·r² + K2·v·r⁴ + K3·v·r⁶ + P2·(r² + 2v²) + 2·P1·u·v,        r² = u² + v².
+
+K3 is not in the seeds: it is OpenCV's default third radial term (``cv2.calibrateCamera`` estimates it
+unless told not to), carried so that OpenCV calibrations import exactly. It defaults to 0 and the
+calibration adjustment keeps it fixed at 0 unless it is freed.
 
 The seeds write δx as a "correction" without saying whether it is added to the measured or to the
 computed coordinate; we choose the direction in which projection (object → pixel, the hot path of
 every adjustment) is closed-form, as OpenCV does. Parameters published as corrections of *measured*
 coordinates are, to first order, the negatives of ours, and in the seeds' (unstated) image units. With
-OpenCV's (x right, y down) normalised coordinates: K1 = k1, K2 = k2, P1 = p2_cv, P2 = −p1_cv,
+OpenCV's (x right, y down) normalised coordinates: K1 = k1, K2 = k2, K3 = k3, P1 = p2_cv, P2 = −p1_cv,
 fx = f, fy = f / sy.
 """
 
@@ -39,7 +43,8 @@ class Interior:
 
     f: principal distance, pixels (x spacing); xp, yp: principal point, pixel coordinates;
     sy: y-scale factor Psy / Psx (dimensionless); k1, k2: radial, p1, p2: decentring distortion
-    coefficients on normalised coordinates (dimensionless).
+    coefficients on normalised coordinates (dimensionless); k3: OpenCV's third radial coefficient (r⁶
+    term, dimensionless, default 0; it comes last so that positional construction keeps its meaning).
     """
 
     f: float
@@ -50,16 +55,17 @@ class Interior:
     k2: float = 0.0
     p1: float = 0.0
     p2: float = 0.0
+    k3: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "f", validation.positive("f", self.f))
         object.__setattr__(self, "sy", validation.positive("sy", self.sy))
-        for name in ("xp", "yp", "k1", "k2", "p1", "p2"):
+        for name in ("xp", "yp", "k1", "k2", "p1", "p2", "k3"):
             object.__setattr__(self, name, validation.finite(name, getattr(self, name)))
 
     @property
     def has_distortion(self) -> bool:
-        return any((self.k1, self.k2, self.p1, self.p2))
+        return any((self.k1, self.k2, self.k3, self.p1, self.p2))
 
     # pixels <-> image coordinates ------------------------------------------------------------
     def pixels_to_image(self, pixels: np.ndarray) -> np.ndarray:
@@ -81,12 +87,12 @@ class Interior:
     # distortion ------------------------------------------------------------------------------
     def _distort_components(self, u: np.ndarray, v: np.ndarray, with_jacobian: bool):
         r2 = u * u + v * v
-        radial = self.k1 * r2 + self.k2 * r2 * r2
+        radial = self.k1 * r2 + (self.k2 + self.k3 * r2) * r2 * r2
         ud = u + u * radial + self.p1 * (r2 + 2 * u * u) + 2 * self.p2 * u * v
         vd = v + v * radial + self.p2 * (r2 + 2 * v * v) + 2 * self.p1 * u * v
         if not with_jacobian:
             return ud, vd
-        dradial = 2 * self.k1 + 4 * self.k2 * r2  # ∂radial/∂u = dradial·u
+        dradial = 2 * self.k1 + (4 * self.k2 + 6 * self.k3 * r2) * r2  # ∂radial/∂u = dradial·u
         uv_cross = u * v * dradial
         j00 = 1 + radial + u * u * dradial + 6 * self.p1 * u + 2 * self.p2 * v
         j01 = uv_cross + 2 * self.p1 * v + 2 * self.p2 * u
@@ -141,7 +147,7 @@ class Interior:
         if np.any(bad):
             first = int(np.flatnonzero(bad)[0])
             raise ConvergenceError(
-                f"lens distortion (k1={self.k1:g}, k2={self.k2:g}, p1={self.p1:g}, p2={self.p2:g}) "
+                f"lens distortion (k1={self.k1:g}, k2={self.k2:g}, k3={self.k3:g}, p1={self.p1:g}, p2={self.p2:g}) "
                 f"cannot be inverted at normalised point {target[first].tolist()} (row {first}): "
                 "the distortion polynomial folds over there"
             )
@@ -163,4 +169,5 @@ class Interior:
         return Interior(**values)
 
 
-INTERIOR_PARAMETERS = ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2")
+INTERIOR_PARAMETERS = ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3")
+"""Every interior parameter, in the order of :class:`Interior`'s fields (k3 last: older files lack it)."""

@@ -18,6 +18,7 @@ import usvips
 from usvips.core.errors import UsvipsError
 from usvips.gui.pane import StereoPane
 from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, PlanView
+from usvips.gui.planner_dock import PlannerDock
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.samples import open_or_create_from_manifest
@@ -113,6 +114,10 @@ class MainWindow(QtWidgets.QMainWindow):
                       "objects": self._dock("Objects", self.object_list, bottom),
                       "plan": self._dock("Plan view", self.plan, bottom),
                       "log": self._dock("Log", self.log, bottom)}
+        self.planner = PlannerDock(ws, self.pool, self.workers)
+        self.docks["planner"] = self._dock("Precision planner", self.planner, right)
+        self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
+        self.docks["calculator"].raise_()
         self.tabifyDockWidget(self.docks["objects"], self.docks["plan"])
         self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
         self.docks["objects"].raise_()
@@ -339,7 +344,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.save_layout()
         self.cancel_work()
         self.pool.waitForDone(5000)
-        for panel in (self.enhancement, self.object_list, self.calculator, self.plan):
+        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner):
             panel.cleanup()
         self.workspace.close_project()
         super().closeEvent(event)

@@ -15,6 +15,9 @@ Layout (version 1; lengths in metres, angles in radians, image quantities in pix
      "covariance": {"names": [...], "matrix": [[...]]},   # optional
      "statistics": {...}, "source": {...}}
 
+The interior's ``k3`` (OpenCV's third radial term) is optional: files written before it existed load
+with k3 = 0.
+
 Files are written atomically (temporary file, then rename).
 """
 
@@ -212,6 +215,11 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
         right = Camera(built["right"][0], poses[0], built["right"][1], built["right"][2], built["right"][3])
         parameters = _parameters(path, data.get("parameters"))
         covariance = _covariance(path, data.get("covariance"))
+        if parameters:  # an interior term the file predates (k3) enters as fixed at the camera's value
+            for side, camera in (("l", left), ("r", right)):
+                for name in INTERIOR_PARAMETERS:
+                    parameters.setdefault(f"{name}_{side}",
+                                          ParameterEstimate(float(getattr(camera.interior, name)), None, "fixed"))
         sigma0 = _numbers(path, "calibration", data, ("sigma0_px",))["sigma0_px"]
         if sigma0 < 0:
             raise InputFileError(path, f"sigma0_px: must be >= 0, got {sigma0!r}")

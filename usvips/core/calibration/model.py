@@ -2,7 +2,7 @@
 
 Parameters carry the seeds' symbols with ``_l`` / ``_r`` (ARCHITECTURE.md):
 
-* interior, per camera: f, xp, yp, sy, k1, k2, p1, p2 (pixels; sy, k dimensionless);
+* interior, per camera: f, xp, yp, sy, k1, k2, p1, p2, k3 (pixels; sy, k dimensionless; k3 fixed at 0 unless freed);
 * exterior at the first station (the object frame of the control): X0_l … kappa_l and X0_r … kappa_r;
   at every further station the left camera's pose ``X0_l@<pair>`` …, the right camera following it
   rigidly (the rig's relative orientation is the one of the first station);
@@ -32,7 +32,7 @@ from usvips.core.rotation import rotation_matrix
 HOUSING_KINDS = ("air", "dome-cover", "flat-port")
 SIDES = ("l", "r")
 
-_STEPS = {"f": 1e-3, "xp": 1e-3, "yp": 1e-3, "sy": 1e-7, "k1": 1e-7, "k2": 1e-7, "p1": 1e-8, "p2": 1e-8,
+_STEPS = {"f": 1e-3, "xp": 1e-3, "yp": 1e-3, "sy": 1e-7, "k1": 1e-7, "k2": 1e-7, "p1": 1e-8, "p2": 1e-8, "k3": 1e-7,
           "X0": 1e-6, "Y0": 1e-6, "Z0": 1e-6, "omega": 1e-7, "phi": 1e-7, "kappa": 1e-7,
           "a": 1e-6, "b": 1e-6, "c": 1e-6, "r": 1e-6, "d": 1e-6, "e": 1e-6, "g": 1e-6, "t": 1e-6,
           "n2": 1e-6, "n3": 1e-6, "X": 1e-6, "Y": 1e-6, "Z": 1e-6}

@@ -202,7 +202,7 @@ def build_report(result: CalibrationResult) -> dict:
 def _interior_from_dlt(starts: dict, side: str) -> dict[str, float]:
     results = [r for (station, s), r in starts.items() if s == side]
     values = {p: float(np.median([getattr(r, p) for r in results])) for p in ("f", "xp", "yp", "sy")}
-    values.update({"k1": 0.0, "k2": 0.0, "p1": 0.0, "p2": 0.0})
+    values.update({"k1": 0.0, "k2": 0.0, "p1": 0.0, "p2": 0.0, "k3": 0.0})
     return values
 
 

@@ -1,0 +1,221 @@
+"""OpenCV stereo calibrations both ways: our cameras must project exactly as cv2.projectPoints does with
+what cv2.stereoCalibrate wrote, and OpenCV must project exactly as we do with what we write."""
+
+import cv2
+import numpy as np
+import pytest
+
+from usvips.core.camera import Camera, Exterior
+from usvips.core.errors import InputFileError, InvalidParameterError
+from usvips.core.housing import FlatPortHousing
+from usvips.core.interior import Interior
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.io.calibration_file import load_calibration, save_calibration
+from usvips.io.opencv_calibration import read_opencv_stereo, write_opencv_stereo
+
+WIDTH, HEIGHT = 1280, 960
+
+
+def _random_opencv_rig(rng):
+    """A random stereo rig in OpenCV's terms (5-term distortion, k3 included; T in metres)."""
+    cams = []
+    for _ in range(2):
+        fx = rng.uniform(700, 1600)
+        matrix = np.array([[fx, 0, rng.uniform(600, 680)], [0, fx * rng.uniform(0.97, 1.03), rng.uniform(440, 520)],
+                           [0, 0, 1]])
+        distortion = np.array([rng.uniform(-0.25, 0.05), rng.uniform(-0.05, 0.12), rng.uniform(-1e-3, 1e-3),
+                               rng.uniform(-1e-3, 1e-3), rng.uniform(-0.03, 0.03)])
+        cams.append((matrix, distortion))
+    rvec = np.array([rng.uniform(-0.05, 0.05), rng.uniform(-0.25, 0.05), rng.uniform(-0.05, 0.05)])
+    tvec = np.array([-rng.uniform(0.15, 0.6), rng.uniform(-0.02, 0.02), rng.uniform(-0.03, 0.03)])
+    return cams, rvec, tvec
+
+
+def _board_views(rng, cams, rvec, tvec, views=8):
+    """Chessboard corners seen by both cameras (exact pixels, then a little noise)."""
+    grid = np.array([[i * 0.04, j * 0.04, 0.0] for j in range(6) for i in range(9)], np.float32)
+    objects, left, right = [], [], []
+    rotation = cv2.Rodrigues(rvec)[0]
+    for _ in range(views):
+        board_r = cv2.Rodrigues(rng.uniform(-0.4, 0.4, 3))[0]
+        board_t = np.array([rng.uniform(-0.3, 0.1), rng.uniform(-0.2, 0.1), rng.uniform(1.0, 2.0)])
+        in_left = grid @ board_r.T + board_t
+        pl, _ = cv2.projectPoints(in_left, np.zeros(3), np.zeros(3), *cams[0])
+        pr, _ = cv2.projectPoints(in_left @ rotation.T + tvec, np.zeros(3), np.zeros(3), *cams[1])
+        objects.append(grid)
+        left.append((pl + rng.normal(0, 0.2, pl.shape)).astype(np.float32))
+        right.append((pr + rng.normal(0, 0.2, pr.shape)).astype(np.float32))
+    return objects, left, right
+
+
+def _points_cv(rng, n=60):
+    return np.column_stack([rng.uniform(-0.6, 0.6, n), rng.uniform(-0.45, 0.45, n), rng.uniform(1.2, 4.0, n)])
+
+
+def _assert_projects_like_opencv(calibration, m1, d1, m2, d2, rotation, translation, rng):
+    points_cv = _points_cv(rng)              # OpenCV's left camera frame (y down, z forward)
+    points_ours = points_cv * [1, -1, -1]    # the same points in our rig frame (left camera, y up, −z)
+    rig = calibration.rig(frame="rig")
+    left_cv, _ = cv2.projectPoints(points_cv, np.zeros(3), np.zeros(3), m1, d1)
+    right_cv, _ = cv2.projectPoints(points_cv, cv2.Rodrigues(np.asarray(rotation))[0], translation, m2, d2)
+    np.testing.assert_allclose(rig.left.project(points_ours).pixels, left_cv.reshape(-1, 2), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(rig.right.project(points_ours).pixels, right_cv.reshape(-1, 2), rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_stereo_calibrate_output_imports_exactly(tmp_path, seed):
+    """cv2.stereoCalibrate (k3 estimated, OpenCV's default) → the stereo sample's two files → USVIPS."""
+    rng = np.random.default_rng(seed)
+    cams, rvec, tvec = _random_opencv_rig(rng)
+    objects, left, right = _board_views(rng, cams, rvec, tvec)
+    rms, m1, d1, m2, d2, rotation, translation, _, _ = cv2.stereoCalibrate(
+        objects, left, right, cams[0][0].copy(), cams[0][1].copy(), cams[1][0].copy(), cams[1][1].copy(),
+        (WIDTH, HEIGHT), flags=cv2.CALIB_USE_INTRINSIC_GUESS)
+    assert d1.size == 5 and d1.ravel()[4] != 0  # k3 estimated
+    intrinsics, extrinsics = tmp_path / "intrinsics.yml", tmp_path / "extrinsics.yml"
+    storage = cv2.FileStorage(str(intrinsics), cv2.FILE_STORAGE_WRITE)   # as OpenCV's stereo_calib sample
+    for name, value in (("M1", m1), ("D1", d1), ("M2", m2), ("D2", d2)):
+        storage.write(name, value)
+    storage.release()
+    storage = cv2.FileStorage(str(extrinsics), cv2.FILE_STORAGE_WRITE)
+    r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(m1, d1, m2, d2, (WIDTH, HEIGHT), rotation, translation)
+    for name, value in (("R", rotation), ("T", translation), ("R1", r1), ("R2", r2), ("P1", p1), ("P2", p2),
+                        ("Q", q)):
+        storage.write(name, value)
+    storage.release()
+    calibration = read_opencv_stereo([intrinsics, extrinsics], size=(WIDTH, HEIGHT))
+    _assert_projects_like_opencv(calibration, m1, d1, m2, d2, rotation, translation, rng)
+    assert (calibration.left.width, calibration.left.height) == (WIDTH, HEIGHT)
+    # through our own file and back out to OpenCV: the same numbers
+    save_calibration(calibration, tmp_path / "cal.json")
+    write_opencv_stereo(load_calibration(tmp_path / "cal.json"), tmp_path / "back.yml")
+    storage = cv2.FileStorage(str(tmp_path / "back.yml"), cv2.FILE_STORAGE_READ)
+    back = {k: storage.getNode(k).mat() for k in ("M1", "D1", "M2", "D2", "R", "T")}
+    assert storage.getNode("image_width").real() == WIDTH
+    storage.release()
+    for name, original in (("M1", m1), ("D1", d1), ("M2", m2), ("D2", d2), ("R", rotation), ("T", translation)):
+        np.testing.assert_allclose(back[name].ravel(), np.ravel(original), rtol=1e-12, atol=1e-14)
+
+
+def _random_usvips_calibration(rng, housing=None):
+    cameras = []
+    for side in range(2):
+        interior = Interior(f=rng.uniform(700, 1600), xp=rng.uniform(600, 680), yp=rng.uniform(440, 520),
+                            sy=rng.uniform(0.97, 1.03), k1=rng.uniform(-0.25, 0.05), k2=rng.uniform(-0.05, 0.1),
+                            p1=rng.uniform(-1e-3, 1e-3), p2=rng.uniform(-1e-3, 1e-3), k3=rng.uniform(-0.03, 0.03))
+        exterior = Exterior(0, 0, 0) if side == 0 else Exterior(
+            rng.uniform(0.15, 0.6), rng.uniform(-0.02, 0.02), rng.uniform(-0.03, 0.03),
+            rng.uniform(-0.05, 0.05), rng.uniform(-0.2, 0.2), rng.uniform(-0.05, 0.05))
+        kwargs = {} if housing is None else {"housing": housing}
+        cameras.append(Camera(interior, exterior, width=WIDTH, height=HEIGHT, **kwargs))
+    return StereoCalibration.from_cameras(*cameras, "air" if housing is None else "water", 0.4, station="rig")
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_export_projects_in_opencv_as_we_do(tmp_path, seed):
+    rng = np.random.default_rng(100 + seed)
+    calibration = _random_usvips_calibration(rng)
+    left_out = write_opencv_stereo(calibration, tmp_path / "stereo.xml")
+    assert left_out == []  # an in-air, one-station rig without sigmas loses nothing
+    storage = cv2.FileStorage(str(tmp_path / "stereo.xml"), cv2.FILE_STORAGE_READ)
+    arrays = {k: storage.getNode(k).mat() for k in ("M1", "D1", "M2", "D2", "R", "T")}
+    storage.release()
+    _assert_projects_like_opencv(calibration, arrays["M1"], arrays["D1"], arrays["M2"], arrays["D2"], arrays["R"],
+                                 arrays["T"], rng)
+    # and in again: the same calibration
+    again = read_opencv_stereo(tmp_path / "stereo.xml")
+    for side in ("left", "right"):
+        ours, theirs = getattr(calibration, side).interior, getattr(again, side).interior
+        for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3"):
+            assert getattr(theirs, name) == pytest.approx(getattr(ours, name), rel=1e-12, abs=1e-15)
+
+
+def test_the_pair_layout_is_written_and_read(tmp_path):
+    calibration = _random_usvips_calibration(np.random.default_rng(7))
+    write_opencv_stereo(calibration, tmp_path)
+    storage = cv2.FileStorage(str(tmp_path / "intrinsics.yml"), cv2.FILE_STORAGE_READ)
+    assert set(storage.root().keys()) >= {"M1", "D1", "M2", "D2"} and storage.getNode("R").empty()
+    storage.release()
+    storage = cv2.FileStorage(str(tmp_path / "extrinsics.yml"), cv2.FILE_STORAGE_READ)
+    assert set(storage.root().keys()) >= {"R", "T", "R1", "R2", "P1", "P2", "Q"}
+    storage.release()
+    again = read_opencv_stereo([tmp_path / "intrinsics.yml", tmp_path / "extrinsics.yml"])
+    points = _points_cv(np.random.default_rng(8)) * [1, -1, -1]
+    np.testing.assert_allclose(again.rig(frame="rig").right.project(points).pixels,
+                               calibration.rig(frame="rig").right.project(points).pixels, atol=1e-6)
+
+
+def test_export_of_a_refractive_calibration_says_what_is_left_out(tmp_path):
+    housing = FlatPortHousing(0.0, 0.0, 0.05, 0.01, 1.5, 1.34)
+    calibration = _random_usvips_calibration(np.random.default_rng(3), housing)
+    left_out = write_opencv_stereo(calibration, tmp_path / "stereo.yml")
+    assert any("flat-port housing is left out" in line for line in left_out)
+    assert all("\n" not in line for line in left_out)
+
+
+def test_npz_and_millimetres(tmp_path):
+    rng = np.random.default_rng(11)
+    cams, rvec, tvec = _random_opencv_rig(rng)
+    rotation = cv2.Rodrigues(rvec)[0]
+    np.savez(tmp_path / "stereo.npz", K1=cams[0][0], D1=cams[0][1], K2=cams[1][0], D2=cams[1][1], R=rotation,
+             T=tvec * 1000.0, image_size=np.array([WIDTH, HEIGHT]))
+    calibration = read_opencv_stereo(tmp_path / "stereo.npz", unit="mm")
+    _assert_projects_like_opencv(calibration, cams[0][0], cams[0][1], cams[1][0], cams[1][1], rotation, tvec, rng)
+    assert calibration.left.width == WIDTH
+
+
+def _write(path, **arrays):
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for name, value in arrays.items():
+        storage.write(name, value)
+    storage.release()
+    return path
+
+
+GOOD = dict(M1=np.array([[810.0, 0, 641.5], [0, 798.0, 478.25], [0, 0, 1]]),
+            D1=np.array([[-0.12, 0.03, 1e-3, 0, 0.01]]),
+            M2=np.array([[805.0, 0, 630.0], [0, 801.0, 482.0], [0, 0, 1]]), D2=np.array([[-0.10, 0.02, 0, 1e-3]]),
+            R=cv2.Rodrigues(np.array([0.01, -0.09, 0.004]))[0], T=np.array([[-0.39], [0.006], [0.012]]))
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"D1": np.array([[-0.1, 0.02, 0, 0, 0.05, 0.1, 0, 0]])}, "rational model .*k4=0.1"),
+    ({"D2": np.array([[-0.1, 0.02, 0, 0, 0, 0, 0, 0, 0.01, 0, 0, 0]])}, "thin-prism model .*s1=0.01"),
+    ({"D1": np.array([[-0.1, 0.02, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0.002, 0]])}, "tilted-sensor model .*taux"),
+    ({"D1": np.array([[-0.1, 0.02, 0]])}, "4, 5, 8, 12 or 14"),
+    ({"R": np.array([[1.0, 0.1, 0], [0, 1, 0], [0, 0, 1]])}, "R is not a rotation"),
+    ({"R": np.diag([1.0, 1.0, -1.0])}, r"R is not a rotation .*det R = -1"),
+    ({"M1": np.array([[810.0, 3.0, 641.5], [0, 798.0, 478.25], [0, 0, 1]])}, "skew"),
+    ({"T": np.zeros((3, 1))}, "T is zero"),
+])
+def test_bad_files_are_refused_in_one_line(tmp_path, change, message):
+    path = _write(tmp_path / "bad.yml", **(GOOD | change))
+    with pytest.raises(InputFileError, match=message) as caught:
+        read_opencv_stereo(path)
+    assert "\n" not in str(caught.value) and "bad.yml" in str(caught.value)
+
+
+def test_zero_extra_terms_are_accepted(tmp_path):
+    path = _write(tmp_path / "eight.yml", **(GOOD | {"D1": np.array([[-0.12, 0.03, 1e-3, 0, 0.01, 0, 0, 0]])}))
+    assert read_opencv_stereo(path).left.interior.k3 == pytest.approx(0.01)
+
+
+def test_missing_fields_sizes_and_junk_are_refused(tmp_path):
+    intrinsics = _write(tmp_path / "intrinsics.yml", **{k: GOOD[k] for k in ("M1", "D1", "M2", "D2")},
+                        image_width=1280, image_height=960)
+    with pytest.raises(InputFileError, match="missing R, T .*give both files"):
+        read_opencv_stereo(intrinsics)
+    extrinsics = _write(tmp_path / "extrinsics.yml", R=GOOD["R"], T=GOOD["T"], image_width=640, image_height=480)
+    with pytest.raises(InputFileError, match="mismatched image sizes: 640x480 here, 1280x960"):
+        read_opencv_stereo([intrinsics, extrinsics])
+    extrinsics = _write(tmp_path / "extrinsics.yml", R=GOOD["R"], T=GOOD["T"])
+    assert read_opencv_stereo([intrinsics, extrinsics]).right.width == 1280
+    with pytest.raises(InputFileError, match="mismatched image sizes: the file says 1280x960, --image-size says"):
+        read_opencv_stereo([intrinsics, extrinsics], size=(640, 480))
+    (tmp_path / "junk.yml").write_text("not: [a, calibration")
+    with pytest.raises(InputFileError):
+        read_opencv_stereo(tmp_path / "junk.yml")
+    with pytest.raises(InputFileError, match="no such file"):
+        read_opencv_stereo(tmp_path / "absent.yml")
+    with pytest.raises(InvalidParameterError, match="--unit"):
+        read_opencv_stereo(_write(tmp_path / "good.yml", **GOOD), unit="furlong")

@@ -1,0 +1,90 @@
+"""``usvips calibration import|export|report``: calibrations exchanged with OpenCV, and their printable report.
+
+import: OpenCV FileStorage YAML/XML (one file or the stereo sample's intrinsics.yml + extrinsics.yml) or
+NumPy .npz → a USVIPS calibration file. export: a USVIPS calibration → OpenCV's stereo file (the in-air
+model; what OpenCV cannot hold is named on one warning line each). report: a PDF a survey archives.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from usvips.core.errors import InvalidParameterError
+from usvips.io.calibration_file import load_calibration, save_calibration
+from usvips.io.opencv_calibration import UNITS, read_opencv_stereo, write_opencv_stereo
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``WxH`` (pixels) → (width, height)."""
+    width, sep, height = text.lower().partition("x")
+    try:
+        size = int(width), int(height)
+    except ValueError:
+        size = None
+    if not sep or size is None or min(size) <= 0:
+        raise InvalidParameterError("--image-size", f"expected WIDTHxHEIGHT in whole pixels > 0, got {text!r}")
+    return size
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("calibration", help="import, export or report a calibration")
+    verbs = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
+
+    importer = verbs.add_parser("import", help="OpenCV YAML/XML (one file or intrinsics + extrinsics) or .npz → JSON")
+    importer.add_argument("files", nargs="+", metavar="FILE", help="OpenCV stereo calibration file(s)")
+    importer.add_argument("--out", required=True, help="USVIPS calibration file to write (JSON)")
+    importer.add_argument("--image-size", metavar="WxH", help="image size in pixels, where the files do not carry it")
+    importer.add_argument("--unit", choices=sorted(UNITS), default="m",
+                          help="unit of OpenCV's T (the board's unit; default m)")
+    importer.add_argument("--sigma0", type=float, default=0.5,
+                          help="pointing precision to carry as sigma0 (pixels; OpenCV files hold none)")
+    importer.set_defaults(handler=run_import)
+
+    exporter = verbs.add_parser("export", help="a USVIPS calibration → OpenCV's stereo file (in-air model)")
+    exporter.add_argument("calibration", help="USVIPS calibration file (JSON)")
+    exporter.add_argument("--format", choices=["opencv"], default="opencv", help="target format")
+    exporter.add_argument("--out", required=True,
+                          help="file (.yml, .xml, .json) or an existing folder (intrinsics.yml + extrinsics.yml)")
+    exporter.set_defaults(handler=run_export)
+
+    reporter = verbs.add_parser("report", help="a printable PDF report of a calibration")
+    reporter.add_argument("calibration", help="USVIPS calibration file (JSON)")
+    reporter.add_argument("--out", required=True, help="PDF to write")
+    reporter.add_argument("--check", metavar="OBS.csv",
+                          help="check points (id,xl,yl,xr,yr) not used in the calibration, ids in the control")
+    reporter.add_argument("--check-control", metavar="CONTROL.csv",
+                          help="their true coordinates (default: the calibration's own control file)")
+    reporter.set_defaults(handler=run_report)
+
+
+def run_import(args: argparse.Namespace) -> int:
+    size = parse_size(args.image_size) if args.image_size else None
+    calibration = read_opencv_stereo(args.files, size, args.unit, args.sigma0)
+    save_calibration(calibration, args.out)
+    left, right = calibration.left, calibration.right
+    where = f"{left.width}x{left.height} px" if left.width else "image size unknown (--image-size)"
+    baseline = float(np.linalg.norm(calibration.relative.base))
+    print(f"wrote {args.out}: in-air stereo rig, baseline {baseline:.4f} m, "
+          f"f {left.interior.f:.2f} / {right.interior.f:.2f} px, {where}")
+    return 0
+
+
+def run_export(args: argparse.Namespace) -> int:
+    calibration = load_calibration(args.calibration)
+    for line in write_opencv_stereo(calibration, args.out):
+        print(f"usvips calibration export: warning: {line}", file=sys.stderr)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def run_report(args: argparse.Namespace) -> int:
+    # deferred: matplotlib takes ~0.5 s to import, and every `usvips` command builds the whole parser
+    from usvips.io.calibration_report import write_calibration_report
+
+    calibration = load_calibration(args.calibration)
+    pages = write_calibration_report(calibration, args.out, args.calibration, args.check, args.check_control)
+    print(f"wrote {args.out} ({pages} pages)")
+    return 0

@@ -1,0 +1,109 @@
+"""``usvips plan``: the expected sigma of a point and of a length over the field of view and range, for a
+calibration or for a rig on paper (``usvips/core/planner.py``)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from usvips.cli.calibration import parse_size
+from usvips.core.calibration.phases import DEFAULT_HOUSING
+from usvips.core.errors import InvalidParameterError
+from usvips.core.housing import FlatPortHousing
+from usvips.core.planner import default_grid, planned_rig, precision_map
+from usvips.io.calibration_file import load_calibration
+
+#: The flat port's values a planned rig takes (metres; indices), with the calibration's defaults.
+PORT = ("g", "t", "n2", "n3")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("plan", help="map the expected sigma of a point and a length (precision planner)")
+    parser.add_argument("--calibration", help="a calibration file (JSON); or describe a rig with the options below")
+    rig = parser.add_argument_group("a rig on paper (instead of --calibration)")
+    rig.add_argument("--focal-px", type=float, help="principal distance (pixels)")
+    rig.add_argument("--image-size", metavar="WxH", help="image size (pixels)")
+    rig.add_argument("--baseline", type=float, help="distance between the perspective centres (m)")
+    rig.add_argument("--toe-in", type=float, default=0.0, help="each camera turned inward by this (degrees)")
+    rig.add_argument("--housing", choices=["air", "flat-port"], default="air",
+                     help="flat-port: a port perpendicular to each optical axis (g, t, n2, n3 by --port)")
+    rig.add_argument("--port", action="append", default=[], metavar="NAME=VALUE",
+                     help="flat-port values: g (port distance, m), t (glass, m), n2, n3; defaults "
+                          + ", ".join(f"{k}={DEFAULT_HOUSING['flat-port'][k][0]:g}" for k in PORT))
+    rig.add_argument("--sigma-px", type=float, default=0.3, help="pointing precision (pixels, default 0.3)")
+    parser.add_argument("--length", type=float, default=0.3, help="the length to plan for (m, default 0.3)")
+    parser.add_argument("--range", dest="ranges", metavar="NEAR:FAR[:N]", help="ranges (m; default: the common view)")
+    parser.add_argument("--across", metavar="LEFT:RIGHT[:N]", help="positions along the baseline (m)")
+    parser.add_argument("--height", type=float, default=0.0, help="height above the baseline (m)")
+    parser.add_argument("--orientations", type=int, default=12, help="directions of the length (default 12)")
+    parser.add_argument("--pointing-only", action="store_true", help="leave out the calibration's own uncertainty")
+    parser.add_argument("--out", help="the map as a picture (.png, .pdf, .svg)")
+    parser.add_argument("--json", action="store_true", help="print the figures per range as JSON")
+    parser.set_defaults(handler=run)
+
+
+def _span(option: str, text: str, count: int) -> np.ndarray:
+    parts = text.split(":")
+    try:
+        values = [float(p) for p in parts[:2]]
+        n = int(parts[2]) if len(parts) == 3 else count
+    except ValueError:
+        values, n = [], 0
+    if len(parts) not in (2, 3) or len(values) != 2 or n < 1 or not np.all(np.isfinite(values)):
+        raise InvalidParameterError(option, f"expected FROM:TO[:COUNT] in metres, got {text!r}")
+    return np.linspace(values[0], values[1], n)
+
+
+def _rig(args: argparse.Namespace):
+    if args.calibration:
+        return load_calibration(args.calibration), args.calibration
+    missing = [o for o, v in (("--focal-px", args.focal_px), ("--image-size", args.image_size),
+                              ("--baseline", args.baseline)) if v is None]
+    if missing:
+        raise InvalidParameterError("--calibration", f"give a calibration, or a rig with {', '.join(missing)}")
+    width, height = parse_size(args.image_size)
+    housing = None
+    if args.housing == "flat-port":
+        values = {k: DEFAULT_HOUSING["flat-port"][k][0] for k in PORT}
+        for item in args.port:
+            name, _, value = item.partition("=")
+            if name not in values:
+                raise InvalidParameterError("--port", f"unknown {name!r}; give g, t, n2 or n3 as NAME=VALUE")
+            try:
+                values[name] = float(value)
+            except ValueError:
+                raise InvalidParameterError("--port", f"{item!r}: {value!r} is not a number") from None
+        housing = FlatPortHousing(0.0, 0.0, values["g"], values["t"], values["n2"], values["n3"])
+    label = (f"f {args.focal_px:g} px, {width}x{height}, baseline {args.baseline:g} m, toe-in {args.toe_in:g}°, "
+             f"{args.housing}")
+    return planned_rig(args.focal_px, width, height, args.baseline, np.radians(args.toe_in), housing,
+                       args.sigma_px), label
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.out and not args.json:
+        raise InvalidParameterError("--out", "give --out PICTURE and/or --json")
+    calibration, label = _rig(args)
+    across, ranges = default_grid(calibration)
+    if args.ranges:
+        ranges = _span("--range", args.ranges, 10)
+    if args.across:
+        across = _span("--across", args.across, 15)
+    plan = precision_map(calibration, across, ranges, args.length, args.height, args.orientations,
+                         include_calibration=not args.pointing_only)
+    if args.out:
+        from usvips.io.plan_figure import write_plan_figure  # deferred: matplotlib takes ~0.5 s to import
+
+        write_plan_figure(plan, args.out, label)
+    if args.json:
+        print(json.dumps(plan.summary(), indent=2))
+    else:
+        for row in plan.summary()["ranges"]:
+            figure = row["length_sigma_rms_m"]
+            text = f"{figure[0] * 1e3:.2f}..{figure[1] * 1e3:.2f} mm" if figure else "- (no end pair in view)"
+            print(f"range {row['range_m']:.2f} m: {args.length:g} m length sigma {text} "
+                  f"({row['positions_seen']} of {len(plan.across)} positions seen)")
+        print(f"wrote {args.out}")
+    return 0

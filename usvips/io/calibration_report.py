@@ -1,0 +1,375 @@
+"""The printable calibration report (PDF): what a survey archives with its data.
+
+Pages: summary and provenance (phase, housing, stations, sigma0, RMS, redundancy, global test, condition,
+the data files with their SHA-256); the parameters with sigmas and status; the correlation matrix of the
+free parameters and the pairs above 0.9; residual vectors per image; residual histograms against the
+a-posteriori sigma0; the check-point table (intersected with the calibration, differences against the
+control with their predicted sigmas).
+
+Why matplotlib's PDF backend: the command is headless and Qt-free (the CLI must not load Qt, see the
+import-linter contracts), matplotlib writes vector PDF directly with no external program (no LaTeX, no
+browser engine for an HTML route), and its quiver and histogram plots are the figures we need. We use
+``Figure`` objects with ``PdfPages``, never ``pyplot``, so no global backend or GUI state is touched.
+
+Residuals are v = observed − computed (pixels), computed with the calibration model's own evaluation
+(``core/calibration/model.StereoModel``), the one the adjustment used.
+"""
+
+from __future__ import annotations
+
+import datetime
+import hashlib
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.figure import Figure
+
+from usvips import __version__
+from usvips.core.calibration.model import StereoModel
+from usvips.core.calibration.uncertainty import intersect_with_calibration
+from usvips.core.errors import UsvipsError
+from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.io.atomic import write_bytes_atomic
+from usvips.io.tables import read_control, read_observations
+
+A4 = (8.27, 11.69)  # inches, portrait
+LINES_PER_PAGE = 62
+UNITS = {"f": "px", "xp": "px", "yp": "px", "sy": "", "k1": "", "k2": "", "k3": "", "p1": "", "p2": "",
+         "X0": "m", "Y0": "m", "Z0": "m", "omega": "rad", "phi": "rad", "kappa": "rad", "a": "m", "b": "m",
+         "c": "m", "r": "m", "d": "", "e": "", "g": "m", "t": "m", "n2": "", "n3": "", "X": "m", "Y": "m", "Z": "m"}
+
+
+@dataclass
+class ReportData:
+    """The data a calibration was computed from, found through its ``source`` (None where not found)."""
+
+    control: ControlPoints | None
+    observations: StereoObservations | None
+    files: list[tuple[str, str, str]]  # (role, path read (or as recorded), SHA-256 or why it is missing)
+
+
+@dataclass
+class Residuals:
+    """v = observed − computed per observation (pixels): ids, station, side ('l'/'r'), observed pixel
+    (N, 2), residual (N, 2), used (N,): False where the adjustment excluded a coordinate (a blunder)."""
+
+    ids: list[str]
+    station: list[str]
+    side: list[str]
+    observed: np.ndarray
+    residual: np.ndarray
+    used: np.ndarray
+
+
+@dataclass
+class CheckPoints:
+    """Check points intersected with the calibration: ids, difference computed − control (N, 3, metres),
+    predicted sigma (N, 3, metres: pointing and the calibration's own uncertainty)."""
+
+    ids: list[str]
+    difference: np.ndarray
+    sigma: np.ndarray
+
+
+def _resolve(recorded: str, base: Path | None) -> Path | None:
+    """A recorded data path: beside the calibration file first (samples, moved folders), then as recorded
+    (relative to the working folder, as the command line recorded it)."""
+    candidates = [Path(recorded)]
+    if base is not None and not Path(recorded).is_absolute():
+        candidates.insert(0, base / recorded)
+    return next((c for c in candidates if c.is_file()), None)
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def find_data(calibration: StereoCalibration, calibration_path: str | Path | None) -> ReportData:
+    """Control and observations of the calibration's ``source`` (paths as recorded, else beside the file)."""
+    base = Path(calibration_path).parent if calibration_path else None
+    files, control, observations = [], None, None
+    for role in ("control", "observations", "base"):
+        recorded = calibration.source.get(role)
+        if not isinstance(recorded, str):
+            continue
+        path = _resolve(recorded, base)
+        if path is None:
+            files.append((role, recorded, "not found: not used in this report"))
+            continue
+        files.append((role, str(path), _sha256(path)))
+        if role == "control":
+            control = read_control(path)
+        elif role == "observations":
+            observations = read_observations(path)
+    return ReportData(control, observations, files)
+
+
+def calibration_residuals(calibration: StereoCalibration, control: ControlPoints,
+                          observations: StereoObservations) -> Residuals:
+    """Residuals of the calibration's own observations, v = observed − computed (pixels), by the model's
+    evaluation at the calibration's parameter values. Observations of pairs the calibration does not hold
+    are left out."""
+    values = {name: p.value for name, p in calibration.parameters.items()}
+    if not values:
+        raise UsvipsError("the calibration carries no parameters (imported?): its residuals cannot be recomputed")
+    labels = set(calibration.stations)
+    if not observations.pairs:
+        observations = StereoObservations(observations.ids, observations.left, observations.right,
+                                          (calibration.stations[0],) * len(observations.ids))
+    keep = np.array([p in labels for p in observations.pairs])
+    if not keep.any():
+        raise UsvipsError(f"none of the observations belongs to the calibrated pairs {sorted(labels)}")
+    observations = observations.take(np.flatnonzero(keep))
+    model = StereoModel(calibration.left.housing.kind, control, observations, calibration.sigma0_px,
+                        (calibration.left.width, calibration.left.height))
+    if model.stations != calibration.stations:
+        raise UsvipsError(f"the observations' pairs {list(model.stations)} are not the calibration's "
+                          f"{list(calibration.stations)}")
+    computed, ok = model.evaluate(values)
+    observed = model.observation_set.values
+    residual = np.where(ok, observed - computed, np.nan).reshape(-1, 2)
+    obs = model.observation_set
+    excluded = {(str(e.get("point")), str(e.get("side")), str(e.get("group")))
+                for e in calibration.statistics.get("excluded") or [] if isinstance(e, dict)}
+    used = np.array([(p, s, g) not in excluded for p, s, g in zip(obs.point[0::2], obs.side[0::2], obs.group[0::2],
+                                                                   strict=True)], dtype=bool)
+    return Residuals(obs.point[0::2], obs.group[0::2], obs.side[0::2], observed.reshape(-1, 2), residual, used)
+
+
+def check_points(calibration: StereoCalibration, control: ControlPoints, observations: StereoObservations,
+                 station: int | str = 0) -> CheckPoints:
+    """Intersect check observations with the calibration and compare with the control coordinates."""
+    index = control.index_of(list(observations.ids), "check point")
+    result = intersect_with_calibration(calibration, observations.left, observations.right, station)
+    difference = np.where(result.ok[:, None], result.points - control.xyz[index], np.nan)
+    sigma = np.sqrt(np.einsum("nii->ni", result.covariance))
+    return CheckPoints(list(observations.ids), difference, np.where(result.ok[:, None], sigma, np.nan))
+
+
+# ------------------------------------------------------------------------------------------ pages
+def _text_page(pdf: PdfPages, title: str, lines: list[str]) -> None:
+    for start in range(0, max(len(lines), 1), LINES_PER_PAGE):
+        figure = Figure(figsize=A4)
+        figure.text(0.07, 0.96, title + ("" if start == 0 else " (continued)"), fontsize=13, weight="bold")
+        figure.text(0.07, 0.93, "\n".join(lines[start:start + LINES_PER_PAGE]), family="monospace", fontsize=7.2,
+                    va="top")
+        pdf.savefig(figure)
+
+
+def _summary_lines(calibration: StereoCalibration, data: ReportData, calibration_path) -> list[str]:
+    stats = calibration.statistics
+    lines = [f"calibration file : {calibration_path or '(in memory)'}",
+             f"phase            : {calibration.phase}",
+             f"housing          : {calibration.left.housing.kind}",
+             f"stations (pairs) : {', '.join(calibration.stations)}",
+             f"image size       : {calibration.left.width} x {calibration.left.height} px"
+             if calibration.left.width else "image size       : not recorded",
+             f"sigma0           : {calibration.sigma0_px:.4f} px (a posteriori)"]
+    for key, label, unit in (("sigma_px_a_priori", "sigma a priori   ", " px"), ("rms_px", "RMS residual     ", " px"),
+                             ("redundancy", "redundancy       ", ""), ("iterations", "iterations       ", ""),
+                             ("converged", "converged        ", ""), ("condition_number", "condition number ", "")):
+        if key in stats:
+            value = stats[key]
+            lines.append(f"{label}: {value:.4g}{unit}" if isinstance(value, float) else f"{label}: {value}{unit}")
+    test = stats.get("global_test")
+    if isinstance(test, dict) and "chi2" in test:
+        lines.append(f"global test      : chi2 = {test['chi2']:.2f} on {test.get('redundancy')} d.o.f., "
+                     f"95 % interval {test.get('interval_95')}, accepted: {test.get('accepted_95')}")
+    excluded = stats.get("excluded") or []
+    lines.append(f"excluded obs.    : {len(excluded)}")
+    for item in excluded[:20]:
+        lines.append(f"   {item.get('point')} {item.get('side')} {item.get('coordinate')} pair {item.get('group')}: "
+                     f"{item.get('reason', '')}"[:110])
+    lines += ["", "DATA USED AND PROVENANCE"]
+    if not data.files:
+        lines.append("  the calibration records no data files (e.g. imported from OpenCV)")
+    for role, recorded, digest in data.files:
+        lines.append(f"  {role:<13}: {recorded}")
+        lines.append(f"  {'':<13}  sha256 {digest}")
+    if data.control is not None:
+        lines.append(f"  control points: {len(data.control.ids)}"
+                     + (" (with sigmas)" if data.control.sigmas is not None else ""))
+    if data.observations is not None:
+        lines.append(f"  observations  : {len(data.observations.ids)} conjugate pairs of pixels")
+    for key, value in calibration.source.items():
+        if key not in ("control", "observations", "base"):
+            lines.append(f"  source {key}: {value}"[:110])
+    lines += ["", f"report written by USVIPS {__version__} on "
+              f"{datetime.datetime.now(datetime.UTC).strftime('%Y-%m-%d %H:%M UTC')}"]
+    return lines
+
+
+def _parameter_lines(calibration: StereoCalibration) -> list[str]:
+    lines = [f"{'parameter':<22}{'value':>20}{'sigma':>14}  {'unit':<5}{'status':<8}", "-" * 72]
+    for name, estimate in calibration.parameters.items():
+        unit = UNITS.get(name.split("@")[0].rsplit("_", 1)[0] if "_" in name.split("@")[0] else name.split("@")[0],
+                         "")
+        sigma = "" if estimate.sigma is None else f"{estimate.sigma:.6g}"
+        lines.append(f"{name:<22}{estimate.value:>20.10g}{sigma:>14}  {unit:<5}{estimate.status:<8}")
+    if not calibration.parameters:
+        lines.append("(no parameters recorded)")
+    lines += ["", "free: estimated; prior: estimated with a prior value and sigma; fixed: held (no sigma)."]
+    return lines
+
+
+def correlation_matrix(calibration: StereoCalibration) -> tuple[list[str], np.ndarray] | None:
+    """Correlations of the free parameters from the calibration's covariance (None without one)."""
+    if calibration.covariance is None:
+        return None
+    names, covariance = calibration.covariance
+    covariance = np.asarray(covariance, dtype=np.float64)
+    sigma = np.sqrt(np.clip(np.diag(covariance), 1e-300, None))
+    return list(names), covariance / np.outer(sigma, sigma)
+
+
+def _correlation_page(pdf: PdfPages, calibration: StereoCalibration) -> None:
+    figure = Figure(figsize=A4)
+    figure.text(0.07, 0.96, "Correlations of the free parameters", fontsize=13, weight="bold")
+    found = correlation_matrix(calibration)
+    if found is None:
+        figure.text(0.07, 0.9, "The calibration carries no covariance.", fontsize=10)
+        pdf.savefig(figure)
+        return
+    names, corr = found
+    axes = figure.add_axes((0.17, 0.38, 0.7, 0.52))
+    image = axes.imshow(corr, vmin=-1, vmax=1, cmap="RdBu_r")
+    size = 6 if len(names) <= 40 else 4
+    axes.set_xticks(range(len(names)), names, rotation=90, fontsize=size)
+    axes.set_yticks(range(len(names)), names, fontsize=size)
+    figure.colorbar(image, ax=axes, fraction=0.04)
+    upper = [(abs(corr[i, j]), names[i], names[j], corr[i, j]) for i in range(len(names))
+             for j in range(i + 1, len(names)) if abs(corr[i, j]) > 0.9]
+    upper.sort(reverse=True)
+    text = [f"{len(upper)} pairs with |r| > 0.9" + (" (the strongest 24):" if len(upper) > 24 else ":")]
+    text += [f"  {a:<18} {b:<18} r = {r:+.3f}" for _, a, b, r in upper[:24]]
+    figure.text(0.07, 0.3, "\n".join(text), family="monospace", fontsize=7, va="top")
+    pdf.savefig(figure)
+
+
+def _residual_pages(pdf: PdfPages, calibration: StereoCalibration, residuals: Residuals) -> None:
+    width = calibration.left.width or float(np.nanmax(residuals.observed[:, 0])) + 1
+    height = calibration.left.height or float(np.nanmax(residuals.observed[:, 1])) + 1
+    finite = np.isfinite(residuals.residual).all(axis=1) & residuals.used
+    longest = float(np.max(np.hypot(*residuals.residual[finite].T))) if finite.any() else 1.0
+    scale = 0.08 * max(width, height) / max(longest, 1e-9)  # drawn length per pixel of residual
+    stations = list(dict.fromkeys(residuals.station))
+    for start in range(0, len(stations), 2):
+        figure = Figure(figsize=A4)
+        figure.text(0.07, 0.96, "Residual vectors per image (v = observed − computed)", fontsize=13, weight="bold")
+        figure.text(0.07, 0.945, f"arrows drawn {scale:.3g} × their length in pixels; the frame is the image "
+                    f"({width} × {height} px, y down);\nx: observations the adjustment excluded (not drawn, not in "
+                    "the RMS)", fontsize=8, va="top")
+        for row, station in enumerate(stations[start:start + 2]):
+            for col, side in enumerate(("l", "r")):
+                axes = figure.add_axes((0.08 + 0.46 * col, 0.52 - 0.45 * row, 0.4, 0.36))
+                chosen = np.array([s == station and d == side for s, d in zip(residuals.station, residuals.side,
+                                                                                  strict=True)])
+                dropped = residuals.observed[chosen & ~residuals.used]
+                chosen &= residuals.used
+                pts, res = residuals.observed[chosen], residuals.residual[chosen]
+                axes.plot(pts[:, 0], pts[:, 1], ".", color="0.4", markersize=3)
+                axes.plot(dropped[:, 0], dropped[:, 1], "x", color="0.3", markersize=5)
+                axes.quiver(pts[:, 0], pts[:, 1], res[:, 0], res[:, 1], angles="xy", scale_units="xy",
+                            scale=1.0 / scale, color="tab:red", width=0.004)
+                axes.set_xlim(0, width)
+                axes.set_ylim(height, 0)
+                axes.set_aspect("equal")
+                axes.tick_params(labelsize=6)
+                rms = float(np.sqrt(np.nanmean(res ** 2))) if len(res) else float("nan")
+                axes.set_title(f"pair {station}, {'left' if side == 'l' else 'right'}: {len(res)} points, "
+                               f"RMS {rms:.3f} px" + (f", {len(dropped)} excluded" if len(dropped) else ""),
+                               fontsize=8)
+        pdf.savefig(figure)
+
+
+def _histogram_page(pdf: PdfPages, calibration: StereoCalibration, residuals: Residuals) -> None:
+    figure = Figure(figsize=A4)
+    figure.text(0.07, 0.96, "Residual histograms", fontsize=13, weight="bold")
+    sigma = calibration.sigma0_px
+    for k, (axis_name, column) in enumerate((("x", 0), ("y", 1))):
+        values = residuals.residual[residuals.used, column]
+        values = values[np.isfinite(values)]
+        axes = figure.add_axes((0.12, 0.55 - 0.43 * k, 0.78, 0.33))
+        edges = np.linspace(-4 * sigma, 4 * sigma, 33) if len(values) else 10
+        if len(values) and np.max(np.abs(values)) > 4 * sigma:
+            edges = np.linspace(-np.max(np.abs(values)), np.max(np.abs(values)), 33)
+        axes.hist(values, bins=edges, color="tab:blue", alpha=0.7, label="residuals")
+        if len(values):
+            grid = np.linspace(edges[0], edges[-1], 200)
+            density = np.exp(-0.5 * (grid / sigma) ** 2) / (sigma * np.sqrt(2 * np.pi))
+            axes.plot(grid, density * len(values) * (edges[1] - edges[0]), color="k",
+                      label=f"normal, sigma0 = {sigma:.3f} px")
+        axes.set_xlabel(f"{axis_name} residual (px)", fontsize=8)
+        axes.set_ylabel("count", fontsize=8)
+        rms = float(np.sqrt(np.mean(values ** 2))) if len(values) else float("nan")
+        axes.set_title(f"{axis_name}: {len(values)} residuals, RMS {rms:.3f} px", fontsize=9)
+        axes.legend(fontsize=7)
+        axes.tick_params(labelsize=7)
+    pdf.savefig(figure)
+
+
+def _check_lines(checks: CheckPoints | None, reason: str) -> list[str]:
+    if checks is None:
+        return [reason]
+    lines = [f"{'id':<10}{'dX':>10}{'dY':>10}{'dZ':>10}{'sX':>10}{'sY':>10}{'sZ':>10}   (mm; d = computed − control,",
+             f"{'':<70}    s = predicted sigma)", "-" * 84]
+    for pid, d, s in zip(checks.ids, checks.difference * 1e3, checks.sigma * 1e3, strict=True):
+        if np.all(np.isfinite(d)):
+            lines.append(f"{pid:<10}" + "".join(f"{v:>10.2f}" for v in d) + "".join(f"{v:>10.2f}" for v in s))
+        else:
+            lines.append(f"{pid:<10}  (the rays do not intersect)")
+    ok = np.isfinite(checks.difference).all(axis=1)
+    if ok.any():
+        rms = np.sqrt(np.mean(checks.difference[ok] ** 2, axis=0)) * 1e3
+        normalised = np.mean((checks.difference[ok] / checks.sigma[ok]) ** 2)
+        lines += ["-" * 84, f"{'RMS':<10}" + "".join(f"{v:>10.2f}" for v in rms),
+                  f"mean squared normalised difference (d/s)²: {normalised:.2f} (near 1 when the predicted sigmas "
+                  "are right)"]
+    return lines
+
+
+def write_calibration_report(calibration: StereoCalibration, out: str | Path,
+                             calibration_path: str | Path | None = None, check: str | Path | None = None,
+                             check_control: str | Path | None = None) -> int:
+    """Write the report PDF atomically; returns its number of pages. ``check``: observations CSV of check
+    points (ids in the control, or in ``check_control``), intersected at the first station."""
+    out = Path(out)
+    if out.suffix.lower() != ".pdf":
+        raise UsvipsError(f"{out}: the report is a PDF; give a name ending in .pdf")
+    if not (out.parent if str(out.parent) else Path(".")).is_dir():
+        raise UsvipsError(f"{out}: the folder {out.parent} does not exist")
+    data = find_data(calibration, calibration_path)
+    residuals, residual_note = None, ""
+    if data.control is not None and data.observations is not None and calibration.parameters:
+        residuals = calibration_residuals(calibration, data.control, data.observations)
+    else:
+        residual_note = "the calibration's control and observations were not found: no residual plots"
+    checks, check_reason = None, "No check points given (usvips calibration report ... --check OBS.csv)."
+    if check is not None:
+        control = read_control(check_control) if check_control else data.control
+        if control is None:
+            raise UsvipsError("--check: no control to compare with (give --check-control CONTROL.csv)")
+        checks = check_points(calibration, control, read_observations(check))
+    buffer = io.BytesIO()
+    metadata = {"Title": f"USVIPS calibration report: {Path(calibration_path).name if calibration_path else ''}",
+                "Creator": f"USVIPS {__version__}"}
+    with PdfPages(buffer, metadata=metadata) as pdf:
+        summary = _summary_lines(calibration, data, calibration_path)
+        if residual_note:
+            summary += ["", residual_note]
+        _text_page(pdf, "USVIPS calibration report", summary)
+        _text_page(pdf, "Parameters (seeds' symbols; _l left, _r right, @pair further stations)",
+                   _parameter_lines(calibration))
+        _correlation_page(pdf, calibration)
+        if residuals is not None:
+            _residual_pages(pdf, calibration, residuals)
+            _histogram_page(pdf, calibration, residuals)
+        _text_page(pdf, "Check points", _check_lines(checks, check_reason))
+        pages = pdf.get_pagecount()
+    write_bytes_atomic(out, buffer.getvalue())
+    return pages
+

@@ -1,0 +1,327 @@
+"""Stereo calibrations exchanged with OpenCV, both directions.
+
+Read: ``cv2.FileStorage`` YAML/XML (one file, or OpenCV's stereo-sample pair ``intrinsics.yml`` (M1, D1,
+M2, D2) + ``extrinsics.yml`` (R, T, R1, R2, P1, P2, Q), the layout VIAME reads) and NumPy ``.npz``.
+Write: one FileStorage file (YAML or XML by its extension) or that pair, for the in-air model.
+
+Conventions. OpenCV's camera frame is x right, y down, z forward; ours is x right, y up, looking along −z
+(``core/interior.py``): a point's coordinates differ by FLIP = diag(1, −1, −1). The camera matrix gives
+f = fx, sy = fx / fy, (xp, yp) = (cx, cy) (both use pixel centres at integers). Distortion (k1, k2, p1,
+p2, k3 on x-right/y-down normalised coordinates) becomes K1 = k1, K2 = k2, K3 = k3, P1 = p2, P2 = −p1.
+OpenCV's stereo extrinsics (R, T) map the left camera frame into the right one, x_r = R·x_l + T; the
+left camera is placed at the origin of our rig frame with its own axes, so the right camera's rotation
+is M = FLIP·R·FLIP and its centre FLIP·(−Rᵀ·T). T is in the unit the board was measured in: metres by
+default, ``unit`` says otherwise (metres in every USVIPS file).
+
+OpenCV's rational (k4, k5, k6), thin-prism (s1…s4) and tilted-sensor (τx, τy) terms have no place in
+our model: non-zero ones are refused by name; a camera matrix with skew is refused.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from usvips.core.camera import Camera, Exterior
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.core.interior import Interior
+from usvips.core.rotation import angles_from_matrix
+from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
+from usvips.io.atomic import write_text_atomic
+
+FLIP = np.diag([1.0, -1.0, -1.0])
+
+#: OpenCV's distortion vector, in its order (4, 5, 8, 12 or 14 entries).
+DISTORTION_TERMS = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6", "s1", "s2", "s3", "s4", "taux", "tauy")
+DISTORTION_LENGTHS = (4, 5, 8, 12, 14)
+#: Terms beyond the five we model, grouped by the OpenCV model they belong to.
+UNSUPPORTED_TERMS = {"rational model": ("k4", "k5", "k6"), "thin-prism model": ("s1", "s2", "s3", "s4"),
+                     "tilted-sensor model": ("taux", "tauy")}
+
+#: Our key → the names other tools write it under (first one is what we write).
+NAMES = {"K1": ("M1", "K1", "cameraMatrix1", "camera_matrix_left", "mtx_l", "mtxL"),
+         "D1": ("D1", "dist1", "distCoeffs1", "distortion_left", "dist_l", "distL"),
+         "K2": ("M2", "K2", "cameraMatrix2", "camera_matrix_right", "mtx_r", "mtxR"),
+         "D2": ("D2", "dist2", "distCoeffs2", "distortion_right", "dist_r", "distR"),
+         "R": ("R", "rotation"), "T": ("T", "translation")}
+#: Where files carry the image size: (width key, height key) pairs, or one key holding (width, height).
+SIZE_PAIRS = (("image_width", "image_height"), ("imageWidth", "imageHeight"), ("width", "height"))
+SIZE_KEYS = ("image_size", "imageSize", "size")
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+#: Rotation matrices are accepted when RᵀR is within this of the identity (OpenCV writes 15-17 digits).
+ROTATION_TOLERANCE = 1e-6
+
+
+# --------------------------------------------------------------------------------- the conventions
+def interior_from_opencv(matrix: np.ndarray, distortion: np.ndarray, path: str, which: str) -> Interior:
+    """Camera matrix (3, 3) and distortion vector (4, 5, 8, 12 or 14 terms) → :class:`Interior`.
+
+    ``path`` and ``which`` (the camera) name the source in errors. Raises :class:`InputFileError`."""
+    matrix = np.asarray(matrix, dtype=np.float64)
+    if matrix.size != 9 or not np.all(np.isfinite(matrix)):
+        raise InputFileError(path, f"{which}: the camera matrix must be 3 × 3 finite numbers, got shape "
+                             f"{matrix.shape}")
+    matrix = matrix.reshape(3, 3)
+    coefficients = np.asarray(distortion, dtype=np.float64).ravel()
+    if coefficients.size not in DISTORTION_LENGTHS or not np.all(np.isfinite(coefficients)):
+        raise InputFileError(path, f"{which}: the distortion vector must hold 4, 5, 8, 12 or 14 finite numbers "
+                             f"(OpenCV's k1, k2, p1, p2[, k3[, k4, k5, k6[, s1..s4[, taux, tauy]]]]), got "
+                             f"{coefficients.size}")
+    values = dict(zip(DISTORTION_TERMS, coefficients.tolist(), strict=False))
+    for model, terms in UNSUPPORTED_TERMS.items():
+        used = [f"{t}={values[t]:g}" for t in terms if values.get(t, 0.0) != 0.0]
+        if used:
+            raise InputFileError(path, f"{which}: OpenCV's {model} ({', '.join(used)}) is not supported; "
+                                 "USVIPS models k1, k2, k3, p1, p2 (recalibrate without CALIB_RATIONAL_MODEL, "
+                                 "CALIB_THIN_PRISM_MODEL, CALIB_TILTED_MODEL)")
+    if abs(matrix[0, 1]) > 1e-9 * abs(matrix[0, 0]):
+        raise InputFileError(path, f"{which}: the camera matrix has skew {matrix[0, 1]:g}; USVIPS has none")
+    if np.any(np.abs(matrix[1:, 0]) > 0) or abs(matrix[2, 1]) > 0 or matrix[2, 2] != 1.0:
+        raise InputFileError(path, f"{which}: not a camera matrix [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]: "
+                             f"{matrix.tolist()}")
+    fx, fy = matrix[0, 0], matrix[1, 1]
+    if fx <= 0 or fy <= 0:
+        raise InputFileError(path, f"{which}: focal lengths must be > 0, got fx={fx:g}, fy={fy:g}")
+    try:
+        return Interior(f=fx, xp=matrix[0, 2], yp=matrix[1, 2], sy=fx / fy, k1=values["k1"], k2=values["k2"],
+                        p1=values["p2"], p2=-values["p1"], k3=values.get("k3", 0.0))
+    except UsvipsError as error:
+        raise InputFileError(path, f"{which}: {error}") from None
+
+
+def interior_to_opencv(interior: Interior) -> tuple[np.ndarray, np.ndarray]:
+    """:class:`Interior` → OpenCV camera matrix (3, 3) and distortion (1, 5): k1, k2, p1, p2, k3."""
+    fy = interior.f / interior.sy
+    matrix = np.array([[interior.f, 0.0, interior.xp], [0.0, fy, interior.yp], [0.0, 0.0, 1.0]])
+    distortion = np.array([[interior.k1, interior.k2, -interior.p2, interior.p1, interior.k3]])
+    return matrix, distortion
+
+
+def rotation_from_opencv(value: np.ndarray, path: str, which: str = "R") -> np.ndarray:
+    """R as a 3 × 3 matrix or a Rodrigues vector → a proper rotation matrix; anything else is refused."""
+    value = np.asarray(value, dtype=np.float64)
+    if not np.all(np.isfinite(value)):
+        raise InputFileError(path, f"{which}: R holds a value that is not a finite number")
+    if value.size == 3:
+        return cv2.Rodrigues(value.reshape(3, 1))[0]
+    if value.size != 9:
+        raise InputFileError(path, f"{which}: R must be a 3 × 3 matrix or a Rodrigues vector of 3, got "
+                             f"{value.size} numbers")
+    rotation = value.reshape(3, 3)
+    off = float(np.max(np.abs(rotation.T @ rotation - np.eye(3))))
+    det = float(np.linalg.det(rotation))
+    if off > ROTATION_TOLERANCE or det < 0:
+        raise InputFileError(path, f"{which}: R is not a rotation (RᵀR differs from the identity by {off:.3g}, "
+                             f"det R = {det:.6g}; a rotation has RᵀR = I and det R = +1)")
+    return rotation
+
+
+def stereo_from_opencv(arrays: dict[str, np.ndarray], size: tuple[int, int] | None, where: str,
+                       unit: str = "m", sigma0_px: float = 0.5, source: dict | None = None) -> StereoCalibration:
+    """K1, D1, K2, D2, R, T (OpenCV's stereo calibration) → a pinhole StereoCalibration in the rig frame
+    (phase ``air``, no housing, one station ``rig``). ``unit`` is T's unit (m, cm, mm)."""
+    path = where
+    if unit not in UNITS:
+        raise InvalidParameterError("--unit", f"must be one of {', '.join(UNITS)}, got {unit!r}")
+    left = interior_from_opencv(arrays["K1"], arrays["D1"], path, "left camera (M1, D1)")
+    right = interior_from_opencv(arrays["K2"], arrays["D2"], path, "right camera (M2, D2)")
+    rotation = rotation_from_opencv(arrays["R"], path)
+    translation = np.asarray(arrays["T"], dtype=np.float64).ravel()
+    if translation.size != 3 or not np.all(np.isfinite(translation)):
+        raise InputFileError(path, f"T must be 3 finite numbers, got {translation.size}")
+    translation = translation * UNITS[unit]
+    if np.linalg.norm(translation) == 0:
+        raise InputFileError(path, "T is zero: the two cameras share one centre, which is not a stereo rig")
+    centre_cv = -rotation.T @ translation  # the right centre in the left camera frame (OpenCV axes)
+    m_right = FLIP @ rotation @ FLIP      # left frame (our axes) → right image frame (our axes)
+    width, height = size if size else (None, None)
+    left_camera = Camera(left, Exterior(0, 0, 0), width=width, height=height)
+    right_camera = Camera(right, Exterior(*(FLIP @ centre_cv), *angles_from_matrix(m_right)),
+                          width=width, height=height)
+    parameters = {}
+    for side, interior in (("l", left), ("r", right)):
+        for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3"):
+            parameters[f"{name}_{side}"] = ParameterEstimate(float(getattr(interior, name)), None, "fixed")
+    return StereoCalibration.from_cameras(left_camera, right_camera, "air", sigma0_px, station="rig",
+                                          parameters=parameters, source=dict(source or {"opencv": path}))
+
+
+def opencv_from_stereo(calibration: StereoCalibration) -> tuple[dict[str, np.ndarray], list[str]]:
+    """A StereoCalibration → OpenCV's stereo arrays (M1, D1, M2, D2, R, T in metres; with the image size,
+    also R1, R2, P1, P2, Q from ``cv2.stereoRectify``) and one line for each thing OpenCV cannot hold."""
+    rig = calibration.rig(frame="rig")
+    m1, d1 = interior_to_opencv(rig.left.interior)
+    m2, d2 = interior_to_opencv(rig.right.interior)
+    m_right = rig.right.exterior.rotation
+    rotation = FLIP @ m_right @ FLIP
+    translation = -(FLIP @ m_right @ rig.right.exterior.position)
+    out = {"M1": m1, "D1": d1, "M2": m2, "D2": d2, "R": rotation, "T": translation.reshape(3, 1)}
+    left_out = []
+    kind = calibration.left.housing.kind
+    if kind != "air":
+        housing = ", ".join(f"{k}={v:.6g}" for k, v in calibration.left.housing.parameters().items())
+        left_out.append(f"the {kind} housing is left out (OpenCV has no refraction; left camera: {housing}): "
+                        "the file is the in-air model, its pixels do not match underwater images")
+    if len(calibration.stations) > 1 or calibration.stations != ("rig",):
+        left_out.append(f"the pose{'s' if len(calibration.stations) > 1 else ''} of station(s) "
+                        f"{', '.join(calibration.stations)} in the object frame "
+                        f"{'are' if len(calibration.stations) > 1 else 'is'} left out: "
+                        "OpenCV's stereo file holds the rig (left camera at the origin) only")
+    if calibration.covariance is not None or any(p.sigma for p in calibration.parameters.values()):
+        left_out.append("the parameters' sigmas and covariance are left out (OpenCV's file has no place for them)")
+    sizes = {(c.width, c.height) for c in (calibration.left, calibration.right)}
+    if len(sizes) == 1 and None not in next(iter(sizes)):
+        width, height = next(iter(sizes))
+        out["image_width"], out["image_height"] = int(width), int(height)
+        r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(m1, d1, m2, d2, (int(width), int(height)), rotation,
+                                                    translation.reshape(3, 1))
+        out.update({"R1": r1, "R2": r2, "P1": p1, "P2": p2, "Q": q})
+    elif len(sizes) > 1:
+        left_out.append(f"the cameras' image sizes differ ({sorted(sizes)}): OpenCV's stereo file holds one, "
+                        "none is written and R1, R2, P1, P2, Q are left out")
+    else:
+        left_out.append("the image size is unknown: R1, R2, P1, P2, Q (rectification) are left out")
+    return out, left_out
+
+
+# --------------------------------------------------------------------------------- files
+def _node_value(node) -> np.ndarray | float | None:
+    if node.empty():
+        return None
+    if node.isInt() or node.isReal():
+        return float(node.real())
+    if node.isSeq():
+        items = [node.at(i) for i in range(node.size())]
+        if all(item.isInt() or item.isReal() for item in items):
+            return np.array([item.real() for item in items], dtype=np.float64)
+        return None
+    if node.isMap():
+        value = node.mat()
+        return None if value is None else np.asarray(value)
+    return None
+
+
+def _read_file(path: Path) -> dict[str, object]:
+    """Every top-level numeric entry of one file (arrays and numbers), by its name in the file."""
+    if not path.is_file():
+        raise InputFileError(str(path), "no such file")
+    if path.suffix.lower() == ".npz":
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                return {k: np.asarray(data[k]) for k in data.files}
+        except (OSError, ValueError, EOFError) as error:
+            raise InputFileError(str(path), f"not a readable .npz file: {error}") from None
+    try:
+        storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError) as error:
+        detail = str(error).strip().splitlines()[-1][:200]
+        raise InputFileError(str(path), f"not a readable OpenCV FileStorage file (YAML/XML): {detail}") from None
+    if not storage.isOpened():
+        raise InputFileError(str(path), "not an OpenCV FileStorage file (YAML/XML)")
+    try:
+        out = {}
+        for key in storage.root().keys():
+            value = _node_value(storage.getNode(key))
+            if value is not None:
+                out[key] = value
+        return out
+    finally:
+        storage.release()
+
+
+def _size_of(data: dict[str, object], path: str) -> tuple[int, int] | None:
+    found = None
+    for width_key, height_key in SIZE_PAIRS:
+        if width_key in data and height_key in data:
+            found = (data[width_key], data[height_key])
+            break
+    else:
+        for key in SIZE_KEYS:
+            if key in data:
+                value = np.asarray(data[key], dtype=np.float64).ravel()
+                if value.size != 2:
+                    raise InputFileError(path, f"{key} must hold (width, height), got {value.size} numbers")
+                found = tuple(value)
+                break
+    if found is None:
+        return None
+    width, height = (float(np.asarray(v).ravel()[0]) for v in found)
+    if not (width.is_integer() and height.is_integer() and width > 0 and height > 0):
+        raise InputFileError(path, f"image size {width:g} × {height:g} is not a whole number of pixels > 0")
+    return int(width), int(height)
+
+
+def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int, int] | None = None,
+                       unit: str = "m", sigma0_px: float = 0.5) -> StereoCalibration:
+    """A pinhole stereo calibration (phase ``air``, no housing) from one file or the intrinsics +
+    extrinsics pair. ``size`` (width, height in pixels) where the files do not carry it; a size that
+    disagrees with a file's, or two files that disagree, is refused."""
+    paths = [Path(paths)] if isinstance(paths, str | Path) else [Path(p) for p in paths]
+    if not paths:
+        raise InvalidParameterError("FILE", "give one calibration file or the intrinsics + extrinsics pair")
+    merged: dict[str, np.ndarray] = {}
+    origin: dict[str, Path] = {}
+    file_size, size_origin = None, None
+    for path in paths:
+        data = _read_file(path)
+        this_size = _size_of(data, str(path))
+        if this_size is not None:
+            if file_size is not None and this_size != file_size:
+                raise InputFileError(str(path), f"mismatched image sizes: {this_size[0]}x{this_size[1]} here, "
+                                     f"{file_size[0]}x{file_size[1]} in {size_origin}")
+            file_size, size_origin = this_size, path
+        for key, names in NAMES.items():
+            name = next((n for n in names if n in data), None)
+            if name is None:
+                continue
+            value = np.asarray(data[name], dtype=np.float64)
+            if key in merged and (merged[key].shape != value.shape or not np.array_equal(merged[key], value)):
+                raise InputFileError(str(path), f"{name} differs from the one in {origin[key]}")
+            merged[key], origin[key] = value, path
+    where = " + ".join(str(p) for p in paths)
+    missing = [key for key in NAMES if key not in merged]
+    if missing:
+        looked = "; ".join(f"{key}: {', '.join(NAMES[key])}" for key in missing)
+        hint = " (OpenCV's stereo sample writes R and T to extrinsics.yml: give both files)" \
+            if {"R", "T"} & set(missing) and len(paths) == 1 else ""
+        raise InputFileError(where, f"missing {', '.join(missing)} (looked for {looked}){hint}")
+    if size is not None and file_size is not None and tuple(size) != file_size:
+        raise InputFileError(str(size_origin), f"mismatched image sizes: the file says {file_size[0]}x"
+                             f"{file_size[1]}, --image-size says {size[0]}x{size[1]}")
+    source = {"opencv": [str(p) for p in paths], "unit": unit}
+    return stereo_from_opencv(merged, tuple(size) if size else file_size, where, unit, sigma0_px, source)
+
+
+def _storage_text(path: Path, entries: dict[str, object], comment: str) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in (".yml", ".yaml", ".xml", ".json"):
+        raise InvalidParameterError("--out", f"{path}: the extension must be .yml, .yaml, .xml or .json "
+                                    "(OpenCV FileStorage chooses the format by it)")
+    storage = cv2.FileStorage(suffix, cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
+    if suffix != ".json":
+        storage.writeComment(comment)
+    for key, value in entries.items():
+        storage.write(key, value)
+    return storage.releaseAndGetString()
+
+
+def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> list[str]:
+    """Write OpenCV's stereo file (YAML, XML or JSON by the extension); a folder gets the stereo sample's
+    pair ``intrinsics.yml`` (M1, D1, M2, D2) + ``extrinsics.yml`` (R, T, R1, R2, P1, P2, Q). Each file is
+    written atomically. Returns one line per thing the file cannot hold (see :func:`opencv_from_stereo`)."""
+    path = Path(path)
+    arrays, left_out = opencv_from_stereo(calibration)
+    comment = "written by USVIPS from a calibration; T in metres; USVIPS's in-air model of each camera"
+    if path.is_dir():
+        intrinsics = {k: arrays[k] for k in ("M1", "D1", "M2", "D2", "image_width", "image_height") if k in arrays}
+        extrinsics = {k: v for k, v in arrays.items() if k not in intrinsics or k.startswith("image_")}
+        texts = [(path / "intrinsics.yml", _storage_text(path / "intrinsics.yml", intrinsics, comment)),
+                 (path / "extrinsics.yml", _storage_text(path / "extrinsics.yml", extrinsics, comment))]
+    else:
+        texts = [(path, _storage_text(path, arrays, comment))]
+    for target, text in texts:
+        write_text_atomic(target, text)
+    return left_out
