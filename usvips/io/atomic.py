@@ -27,3 +27,48 @@ def write_text_atomic(path: str | Path, text: str) -> None:
         if os.path.exists(temporary):
             os.unlink(temporary)
         raise
+
+
+def write_files_atomic(files: dict[Path, str]) -> None:
+    """Write a set of text files all or nothing: every text goes to a temporary file beside its target
+    first; only when all are written are they renamed into place, and if a rename fails the targets
+    already replaced get their old contents back (or are removed when they did not exist)."""
+    temporaries: dict[Path, str] = {}
+    backups: dict[Path, str | None] = {}
+    try:
+        for path, text in files.items():
+            path = Path(path)
+            folder = path.parent if str(path.parent) else Path(".")
+            if not folder.is_dir():
+                raise UsvipsError(f"{path}: the folder {folder} does not exist")
+            if path.is_dir():
+                raise UsvipsError(f"{path}: is a folder, not a file")
+            handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=str(folder))
+            temporaries[path] = temporary
+            with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
+                stream.write(text)
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(temporary, 0o666 & ~umask)
+        for path, temporary in temporaries.items():
+            if path.exists():
+                handle, backup = tempfile.mkstemp(prefix=f".{path.name}.old.", dir=str(path.parent))
+                os.close(handle)
+                os.replace(path, backup)
+                backups[path] = backup
+            else:
+                backups[path] = None
+            os.replace(temporary, path)
+    except BaseException:
+        for path, backup in backups.items():
+            if backup is not None:
+                os.replace(backup, path)
+            elif not os.path.exists(temporaries[path]) and path.exists():
+                path.unlink()  # it did not exist before and was already put in place
+        for temporary in temporaries.values():
+            if os.path.exists(temporary):
+                os.unlink(temporary)
+        raise
+    for backup in backups.values():
+        if backup is not None and os.path.exists(backup):
+            os.unlink(backup)
