@@ -106,7 +106,7 @@ def test_a_fish_measured_by_picks_has_its_true_length_within_its_sigma(workspace
         assert abs(error) < 2 * figure.sigma, (label, error, figure.sigma)
         assert 0 < figure.sigma < 0.05
         stored = ws.project.object(object_id)
-        assert stored.kind == "line" and stored.attribute == "fish" and len(stored.vertices) == 2
+        assert stored.kind == "length" and stored.attribute == "fish" and len(stored.vertices) == 2
         assert all(v.xyz is not None and v.covariance is not None and v.pair == "measure1" for v in stored.vertices)
     assert "fish" in ws.project.vocabulary()
 
