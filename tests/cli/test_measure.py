@@ -60,6 +60,15 @@ def test_bad_picks_are_one_line_errors(tmp_path, capsys):
     (tmp_path / "q.csv").write_text("object,type,vertex,xl,yl,xr,yr\nf,hexagon,0,1,2,3,4\n")
     with pytest.raises(InputFileError, match="line 2: type 'hexagon'"):
         read_picks(tmp_path / "q.csv")
+    (tmp_path / "big.csv").write_text("object,type,vertex,xl,yl,xr,yr\n\"" + "f" * 200_000 + "\",point,0,1,2,3,4\n")
+    with pytest.raises(InputFileError, match="line 2: not a valid CSV line"):
+        read_picks(tmp_path / "big.csv")
+    (tmp_path / "nul.csv").write_bytes(b"object,type,vertex,xl,yl,xr,yr\nf,point,0\x00,1,2,3,4\n")
+    with pytest.raises(InputFileError, match="line 2: holds a NUL byte"):
+        read_picks(tmp_path / "nul.csv")
+    (tmp_path / "short.csv").write_text("object,type,vertex,xl,yl,xr,yr\nf,point,0,1\n")
+    with pytest.raises(InputFileError, match="line 2: vertex and pixel columns must be numbers"):
+        read_picks(tmp_path / "short.csv")
     assert not (tmp_path / "o.csv").exists()
 
 

@@ -61,7 +61,10 @@ def read_picks(path: str | Path) -> list[dict]:
              if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise InputFileError(str(path), "the file is empty")
-    header = next(csv.reader([lines[0][1]]))
+    if any("\x00" in line for _, line in lines):
+        number_ = next(n for n, line in lines if "\x00" in line)
+        raise InputFileError(str(path), "holds a NUL byte: not a text CSV", number_)
+    header = _fields(path, lines[0])
     missing = [c for c in COLUMNS if c not in header]
     if missing:
         raise InputFileError(str(path), f"missing column(s) {', '.join(missing)} (expected {','.join(COLUMNS)})",
@@ -69,7 +72,7 @@ def read_picks(path: str | Path) -> list[dict]:
     known = (*names(), *LEGACY)
     rows = []
     for number_, line in lines[1:]:
-        fields = dict(zip(header, next(csv.reader(io.StringIO(line))), strict=False))
+        fields = dict(zip(header, _fields(path, (number_, line)), strict=False))
         if fields.get("type") not in known:
             raise InputFileError(str(path), f"type {fields.get('type')!r} is not one of {', '.join(known)}", number_)
         try:
@@ -83,6 +86,16 @@ def read_picks(path: str | Path) -> list[dict]:
         rows.append({"object": fields["object"], "type": fields["type"], "vertex": vertex, "pixels": values,
                      "attribute": fields.get("attribute") or "", "line": number_})
     return rows
+
+
+def _fields(path: Path, numbered: tuple[int, str]) -> list[str]:
+    """One CSV line's fields; a malformed line (e.g. a field over the csv module's size limit) is an
+    :class:`InputFileError` naming the line."""
+    number_, line = numbered
+    try:
+        return next(csv.reader(io.StringIO(line)), [])
+    except csv.Error as error:
+        raise InputFileError(str(path), f"not a valid CSV line ({error})", number_) from None
 
 
 def group_picks(path: str | Path, rows: list[dict]) -> list[tuple[str, str, np.ndarray, str]]:

@@ -14,7 +14,7 @@ import numpy as np
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measure import angle_between_lines, distance, point_to_line, point_to_plane
-from usvips.core.measurements import Figure, Measurement, QualityRules, kind, measure
+from usvips.core.measurements import Figure, Measurement, kind
 
 
 @dataclass(frozen=True)
@@ -43,16 +43,6 @@ def result_of(measurement: Measurement) -> Result:
     """The calculator's view of a measured object: its figures, main one first, and the rules it breaks."""
     main = measurement.main
     return Result((main, *(f for f in measurement.figures if f is not main)), measurement.failures)
-
-
-def object_figures(geometry: Geometry, rules: QualityRules | None = None) -> Result:
-    """The figures of one object, by its kind (``usvips.core.measurements``: the one function that
-    computes them for every place), checked against ``rules``; a reason instead when there are none."""
-    try:
-        return result_of(measure(geometry.kind, geometry.points, geometry.covariance, geometry.ray_rms_m,
-                                 geometry.range_m, rules))
-    except UsvipsError as error:
-        return Result((), (), str(error))
 
 
 def _joined(first: Geometry, second: Geometry, joint: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:

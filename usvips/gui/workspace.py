@@ -539,18 +539,6 @@ class Workspace:
         calibrations read are cached until the project changes."""
         return measurement_input(self.project, stored, self._calibrations)
 
-    def object_geometry(self, object_id: int) -> Geometry:
-        """An object's vertices recomputed from its picks with the calibration they were measured with
-        (full covariance, calibration included); stored values when that calibration is gone."""
-        stored = self.project.object(object_id)
-        source = self._input(stored)
-        try:
-            m = evaluate(source, self.rules)
-        except UsvipsError:
-            points, covariance, _ = joint_vertices(source)
-            return Geometry(stored.kind, points, covariance)
-        return Geometry(m.kind, m.points, m.covariance, m.ray_rms_m, m.range_m)
-
     def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
         """The figures of many objects as a function of copied inputs (run it off the GUI thread)."""
         inputs = [(i, self._input(self.project.object(i))) for i in object_ids]
