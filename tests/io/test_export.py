@@ -165,3 +165,10 @@ def test_eventmeasure_files_by_suffix_all_or_nothing(tmp_path, monkeypatch):
         export(_objects(), fresh / "survey.em.txt")
     monkeypatch.setattr(os, "replace", real)
     assert list(fresh.iterdir()) == []
+
+
+def test_a_closed_arc_has_no_direction_rather_than_a_nan():
+    loop = measure("arc", np.array([[0, 0, -2.0], [0.3, 0, -2.0], [0.3, 0.3, -2.0], [0, 0, -2.0]]),
+                   np.stack([COV] * 4), id="7")
+    row = dict(zip(LENGTH_COLUMNS, eventmeasure_tables([loop])["Lengths"].splitlines()[1].split("\t"), strict=True))
+    assert row["Direction"] == "" and float(row["Length"]) == pytest.approx(300 + 300 + 300 * np.sqrt(2))

@@ -272,8 +272,8 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_cen
             ends = obj.points[[0, -1]]
             middle = ends.mean(axis=0)
             segment, view = ends[1] - ends[0], middle - centre
-            direction = np.degrees(np.arccos(min(1.0, abs(segment @ view)
-                                                 / (np.linalg.norm(segment) * np.linalg.norm(view)))))
+            scale = np.linalg.norm(segment) * np.linalg.norm(view)
+            direction = np.degrees(np.arccos(min(1.0, abs(segment @ view) / scale))) if scale > 0 else ""
             rows[table].append(head + [length.value * 1000, length.sigma * 1000, rms, np.linalg.norm(view) * 1000,
                                        direction, "", "", *(middle * 1000)]
                                + [family, genus, species, "", 1, "", "", comment, "", ""])
