@@ -423,11 +423,14 @@ class MainWindow(QtWidgets.QMainWindow):
         """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
         from usvips.project_export import export_project
 
+        skipped: list[str] = []
         try:
-            count = export_project(self.workspace.project, path)
+            count = export_project(self.workspace.project, path, skipped=skipped)
         except UsvipsError as error:
             self.show_message("error", f"export failed, nothing written: {error}")
             return
+        for reason in skipped:
+            self.show_message("warning", f"not exported: {reason}")
         self.show_message("info", f"exported {count} objects to {path}")
 
     def load_pair(self, label: str) -> None:
