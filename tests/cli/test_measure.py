@@ -170,3 +170,18 @@ def test_measure_into_a_project_is_all_or_nothing_and_refuses_contradictions(tmp
     with Project.open(project_path) as project:
         assert [(o.kind, o.creator, o.vertices[0].pair) for o in project.objects()] == [("length", "usvips",
                                                                                          "measure1")]
+
+
+def test_project_export_names_the_objects_it_leaves_out(tmp_path, capsys):
+    from usvips.store import Project
+    from usvips.store.project import Vertex
+
+    cov = np.eye(3) * 1e-6
+    with Project.create(tmp_path / "p.usvips") as project:
+        project.add_object("point", [Vertex(1, 2, 3, 4)], "no 3-D")
+        project.add_object("length", [Vertex(1, 2, 3, 4, (0, 0, -2.0), cov), Vertex(5, 6, 7, 8, (0.3, 0.4, -2.0), cov)])
+    assert main(["project", "export", str(tmp_path / "p.usvips"), str(tmp_path / "o.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "skipped object 1: it has vertices without 3-D coordinates" in out and "exported 1 objects" in out
+    (row,) = csv.DictReader((tmp_path / "o.csv").open())
+    assert row["covariance"] == "per-vertex" and float(row["length"]) == pytest.approx(0.5)
