@@ -55,6 +55,7 @@ def test_csv_geojson_and_ply_carry_the_figures():
     ring = collection["features"][2]["geometry"]["coordinates"][0]
     assert ring[0] == ring[-1] and len(ring[0]) == 3
     circle = np.array(collection["features"][4]["geometry"]["coordinates"][0])
+    assert len(circle) == 73 and np.array_equal(circle[0], circle[-1])
     assert np.allclose(np.linalg.norm(circle[:, :2], axis=1), 0.5)
     text = ply(objects[:3])
     assert "element vertex 7" in text and "element edge 5" in text

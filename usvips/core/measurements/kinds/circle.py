@@ -35,4 +35,6 @@ class Circle(MeasurementKind):
         centre, radius, normal = fit_circle(points)
         u, v = plane_axes(normal)
         angles = np.linspace(0.0, 2 * np.pi, samples + 1)
-        return centre + radius * (np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v)
+        ring = centre + radius * (np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v)
+        ring[-1] = ring[0]  # closed exactly
+        return ring
