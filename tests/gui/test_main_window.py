@@ -67,7 +67,7 @@ def test_measuring_a_fish_with_the_mouse_stores_it_with_its_true_length(qtbot, m
         assert "±" in window.point_label.text()
     window.actions["accept"].trigger()  # no proposal pending: Enter finishes the object
     (stored,) = window.workspace.project.objects()
-    assert stored.kind == "line" and stored.attribute == "fish"
+    assert stored.kind == "length" and stored.attribute == "fish"
     figure = window.workspace.figures([stored.id]).figures[0]
     assert abs(figure.value - true_length(directory, "fish1")) < figure.sigma
     assert window.object_list.table.rowCount() == 1

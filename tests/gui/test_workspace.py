@@ -106,7 +106,7 @@ def test_a_fish_measured_by_picks_has_its_true_length_within_its_sigma(workspace
         assert abs(error) < 2 * figure.sigma, (label, error, figure.sigma)
         assert 0 < figure.sigma < 0.05
         stored = ws.project.object(object_id)
-        assert stored.kind == "line" and stored.attribute == "fish" and len(stored.vertices) == 2
+        assert stored.kind == "length" and stored.attribute == "fish" and len(stored.vertices) == 2
         assert all(v.xyz is not None and v.covariance is not None and v.pair == "measure1" for v in stored.vertices)
     assert "fish" in ws.project.vocabulary()
 
@@ -245,3 +245,39 @@ def test_enhancement_changes_are_undone_and_redone(workspace):
     ws.undo.redo()
     assert ws.pipelines["right"].operations[0].name == "gamma"
     assert "gamma" in ws.project.enhancement(ws.image_key("right"))
+
+
+def test_circle_and_arc_tools_store_their_kinds_with_figures_and_outlines(workspace):
+    """The circle and arc tools come from the registry; a circle is drawn as its fitted 3-D circle projected
+    into both images (through the picks), its figures are the registry's with sigmas; a line of three
+    vertices is an arc."""
+    from usvips.gui.workspace import TOOLS
+
+    assert {"arc", "circle"} <= set(TOOLS)
+    ws, directory = workspace("tank_system1", "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    rim = [("fish1", "snout"), ("fish1", "fork"), ("fish2", "snout")]
+    ids = {}
+    for tool in ("circle", "arc", "line"):
+        ws.set_tool(tool)
+        for fish, point in rim:
+            ws.pick("left", left[fish][point])
+            ws.pick("right", right[fish][point])
+        ids[tool] = ws.finish_object(tool)
+    kinds = {tool: ws.project.object(i).kind for tool, i in ids.items()}
+    assert kinds == {"circle": "circle", "arc": "arc", "line": "arc"}
+    circle = ws.figures([ids["circle"]])
+    assert circle.figures[0].name == "diameter" and all(f.sigma > 0 for f in circle.figures)
+    assert {f.name for f in circle.figures} >= {"centre_X", "normal_Z"}
+    arc = ws.figures([ids["arc"]]).figures[0]
+    assert arc.name == "length" and arc.value == pytest.approx(ws.figures([ids["line"]]).figures[0].value)
+    stored = ws.project.object(ids["circle"])
+    drawn_left, drawn_right, closed = ws.outline(stored)
+    assert len(drawn_left) > 40 and len(drawn_right) > 40 and not closed
+    for drawn, picks in ((drawn_left, [(v.xl, v.yl) for v in stored.vertices]),
+                         (drawn_right, [(v.xr, v.yr) for v in stored.vertices])):
+        for pick in picks:  # the projected circle passes (within a pixel) through each pick
+            a, b = drawn[:-1], drawn[1:]
+            t = np.clip(np.sum((pick - a) * (b - a), axis=1) / np.sum((b - a) ** 2, axis=1), 0, 1)
+            assert np.min(np.linalg.norm(a + t[:, None] * (b - a) - pick, axis=1)) < 1.5
+    assert ws.outline(ws.project.object(ids["arc"]))[2] is False

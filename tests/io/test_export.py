@@ -1,35 +1,63 @@
+"""Exports: CSV, GeoJSON, PLY and EventMeasure-style tables carry the figures of the one figure path,
+written with the csv module, sanitised, all files or none."""
+
 import csv
 import io
 import json
+import os
 
 import numpy as np
 import pytest
 
 from usvips.core.errors import InvalidParameterError
-from usvips.core.measure import MeasuredObject
-from usvips.io.export import export, geojson, objects_csv, ply, vertices_csv
+from usvips.core.measurements import measure
+from usvips.io.export import (
+    LENGTH_COLUMNS,
+    POINT_COLUMNS,
+    cell,
+    eventmeasure_tables,
+    export,
+    geojson,
+    object_columns,
+    objects_csv,
+    ply,
+    vertices_csv,
+)
 
 COV = np.diag([1e-6, 1e-6, 4e-6])
 
 
 def _objects():
-    return [MeasuredObject("1", "point", np.array([[0.1, 0.2, -2.0]]), COV[None], "rock"),
-            MeasuredObject("2", "line", np.array([[0, 0, -2.0], [0.3, 0.4, -2.0]]), np.stack([COV, COV]), "cod"),
-            MeasuredObject("3", "polygon", np.array([[0, 0, -2.0], [1, 0, -2], [1, 1, -2], [0, 1, -2]]),
-                           np.stack([COV] * 4), "sponge")]
+    return [measure("point", np.array([[0.1, 0.2, -2.0]]), COV[None], 0.004, 2.0, id="1", attribute="rock"),
+            measure("length", np.array([[0, 0, -2.0], [0.3, 0.4, -2.0]]), np.stack([COV, COV]), 0.004, 2.0, id="2",
+                    attribute="cod"),
+            measure("polygon", np.array([[0, 0, -2.0], [1, 0, -2], [1, 1, -2], [0, 1, -2]]), np.stack([COV] * 4),
+                    id="3", attribute="sponge"),
+            measure("arc", np.array([[0, 0, -2.0], [0.3, 0, -2.0], [0.3, 0.4, -2.0]]), np.stack([COV] * 3), id="4"),
+            measure("circle", np.array([[0.5, 0, -2.0], [0, 0.5, -2.0], [-0.5, 0, -2.0]]), np.stack([COV] * 3),
+                    id="5", attribute="burrow")]
 
 
 def test_csv_geojson_and_ply_carry_the_figures():
-    rows = list(csv.DictReader(io.StringIO(objects_csv(_objects()))))
-    assert float(rows[1]["length"]) == pytest.approx(0.5) and float(rows[1]["s_length"]) > 0
+    objects = _objects()
+    rows = list(csv.DictReader(io.StringIO(objects_csv(objects))))
+    assert list(rows[0]) == object_columns()
+    assert float(rows[1]["length"]) == pytest.approx(0.5) and float(rows[1]["s_length"]) == objects[1].main.sigma
     assert float(rows[2]["area"]) == pytest.approx(1.0) and float(rows[0]["sZ"]) == pytest.approx(0.002)
-    assert len(list(csv.DictReader(io.StringIO(vertices_csv(_objects()))))) == 7
-    collection = json.loads(geojson(_objects()))
+    assert float(rows[2]["s_planarity_rms"]) > 0 and rows[2]["ray_rms_m"] == "" and rows[1]["ray_rms_m"] == "0.004"
+    assert float(rows[3]["length"]) == pytest.approx(0.7) and rows[3]["kind"] == "arc"
+    assert float(rows[4]["diameter"]) == pytest.approx(1.0) and float(rows[4]["s_diameter"]) > 0
+    assert rows[0]["covariance"] == "per-vertex"
+    assert len(list(csv.DictReader(io.StringIO(vertices_csv(objects))))) == 13
+    collection = json.loads(geojson(objects))
     kinds = [f["geometry"]["type"] for f in collection["features"]]
-    assert kinds == ["Point", "LineString", "Polygon"]
+    assert kinds == ["Point", "LineString", "Polygon", "LineString", "Polygon"]
     ring = collection["features"][2]["geometry"]["coordinates"][0]
     assert ring[0] == ring[-1] and len(ring[0]) == 3
-    text = ply(_objects())
+    circle = np.array(collection["features"][4]["geometry"]["coordinates"][0])
+    assert len(circle) == 73 and np.array_equal(circle[0], circle[-1])
+    assert np.allclose(np.linalg.norm(circle[:, :2], axis=1), 0.5)
+    text = ply(objects[:3])
     assert "element vertex 7" in text and "element edge 5" in text
 
 
@@ -39,6 +67,23 @@ def test_export_by_suffix_and_unknown_formats(tmp_path):
     with pytest.raises(InvalidParameterError, match="unknown export format"):
         export(_objects(), tmp_path / "objects.xyz")
     assert not (tmp_path / "objects.xyz").exists()
+
+
+def test_cells_are_sanitised_for_spreadsheets_and_tab_tables():
+    assert cell("=HYPERLINK(1)") == "'=HYPERLINK(1)" and cell("+1 cod") == "'+1 cod" and cell("@a") == "'@a"
+    assert cell("-0.5") == "-0.5" and cell(-0.5) == "-0.5" and cell("-cod") == "'-cod" and cell(3) == "3"
+    assert cell("a\tb\nc", flatten=True) == "a b c" and cell("cod") == "cod"
+    hostile = measure("length", np.array([[0, 0, -2.0], [0.3, 0.4, -2.0]]), np.stack([COV, COV]), id="x\ty",
+                      attribute="=cmd|' /C calc'!A0", notes="two\nlines\tand tab")
+    rows = list(csv.reader(io.StringIO(objects_csv([hostile]))))
+    assert len(rows) == 2 and len(rows[1]) == len(rows[0])
+    record = dict(zip(rows[0], rows[1], strict=True))
+    assert record["attribute"].startswith("'=") and record["notes"] == "two\nlines\tand tab"  # quoted, kept
+    tables = eventmeasure_tables([hostile], opcode="OP\t1\n")
+    lines = tables["Lengths"].rstrip("\n").split("\n")
+    assert len(lines) == 2 and all(len(line.split("\t")) == len(LENGTH_COLUMNS) for line in lines)
+    fields = dict(zip(LENGTH_COLUMNS, lines[1].split("\t"), strict=True))
+    assert fields["OpCode"] == "OP 1 " and fields["Comment"] == "two lines and tab"
 
 
 def _checkem_names(header: list[str]) -> list[str]:
@@ -56,38 +101,75 @@ def _checkem_names(header: list[str]) -> list[str]:
 
 
 def test_eventmeasure_style_tables_read_as_checkem_reads_them():
-    from usvips.io.export import LENGTH_COLUMNS, POINT_COLUMNS, eventmeasure_tables
-
-    objects = _objects() + [MeasuredObject("4", "line", np.array([[0, 0, -2.0], [0, 0.3, -2.0]]),
-                                           np.stack([COV, COV]), "Sparidae Pagrus auratus", "tail\tbent")]
-    lengths, points = eventmeasure_tables(objects, opcode="OP1", rms_m={"2": 0.004},
-                                          images={"2": ("L001.MP4", "1200", "R001.MP4", "1203")})
-    rows = [line.split("\t") for line in lengths.rstrip("\n").splitlines()]
-    assert rows[0] == LENGTH_COLUMNS and len(rows) == 3 and all(len(r) == len(LENGTH_COLUMNS) for r in rows)
+    objects = _objects() + [measure("length", np.array([[0, 0, -2.0], [0, 0.3, -2.0]]), np.stack([COV, COV]),
+                                    0.003, 2.0, id="6", attribute="Sparidae Pagrus auratus", notes="tail\tbent")]
+    tables = eventmeasure_tables(objects, opcode="OP1", images={"2": ("L001.MP4", "1200", "R001.MP4", "1203")})
+    assert set(tables) >= {"Lengths", "3DPoints", "Polygons", "Circles"}
+    rows = [line.split("\t") for line in tables["Lengths"].rstrip("\n").splitlines()]
+    assert rows[0] == LENGTH_COLUMNS and len(rows) == 4 and all(len(r) == len(LENGTH_COLUMNS) for r in rows)
     # what CheckEM's server.R selects and converts from a lengths file, after its clean_names()
     names = _checkem_names(rows[0])
     for needed in ("opcode", "period", "family", "genus", "species", "number", "code", "length", "precision",
                    "rms", "range", "comment", "frameleft", "frameright", "periodtime", "time"):
         assert needed in names, needed
     first = dict(zip(names, rows[1], strict=True))
-    assert first["opcode"] == "OP1" and first["length"] == "500.0" and first["rms"] == "4.00"
+    assert first["opcode"] == "OP1" and first["length"] == "500.0" and first["rms"] == "4.0"
+    assert float(first["precision"]) == objects[1].main.sigma * 1000
     assert first["species"] == "cod" and first["number"] == "1" and first["frameleft"] == "1200"
     # CheckEM's default filters: range < 10 m, RMS < 20 mm, precision / length < 10 %
     assert float(first["range"]) < 10_000 and float(first["rms"]) < 20
     assert float(first["precision"]) / float(first["length"]) * 100 < 10
     assert float(first["direction"]) == pytest.approx(90.0, abs=15)  # across the line of sight
-    second = dict(zip(names, rows[2], strict=True))
+    arc = dict(zip(names, rows[2], strict=True))
+    assert float(arc["length"]) == pytest.approx(700.0) and arc["comment"] == "arc of 3 vertices"
+    second = dict(zip(names, rows[3], strict=True))
     assert (second["family"], second["genus"], second["species"]) == ("Sparidae", "Pagrus", "auratus")
     assert second["comment"] == "tail bent"  # a tab in the notes must not break the table
-    point_rows = [line.split("\t") for line in points.rstrip("\n").splitlines()]
+    point_rows = [line.split("\t") for line in tables["3DPoints"].rstrip("\n").splitlines()]
     assert point_rows[0] == POINT_COLUMNS
     point_names = _checkem_names(point_rows[0])
     for needed in ("opcode", "x", "y", "z", "sx", "sy", "sz", "rms", "range", "species", "number"):
         assert needed in point_names, needed
     assert dict(zip(point_names, point_rows[1], strict=True))["z"] == "-2000.0"
+    polygons = list(csv.DictReader(io.StringIO(tables["Polygons"]), dialect="excel-tab"))
+    assert len(polygons) == 1 and float(polygons[0]["Area"]) == pytest.approx(1e6)
+    assert float(polygons[0]["sPlanarityRms"]) > 0 and polygons[0]["Species"] == "sponge"
+    circles = list(csv.DictReader(io.StringIO(tables["Circles"]), dialect="excel-tab"))
+    assert float(circles[0]["Diameter"]) == pytest.approx(1000.0) and circles[0]["Vertices"] == "3"
 
 
-def test_eventmeasure_files_by_suffix(tmp_path):
-    export(_objects(), tmp_path / "survey.em.txt")
+def test_eventmeasure_files_by_suffix_all_or_nothing(tmp_path, monkeypatch):
+    written = export(_objects(), tmp_path / "survey.em.txt")
+    assert sorted(p.name for p in written) == sorted(p.name for p in tmp_path.iterdir())
     assert (tmp_path / "survey_Lengths.txt").read_text().startswith("OpCode\t")
     assert "\t-2000.0\t" in (tmp_path / "survey_3DPoints.txt").read_text()
+    before = {p.name: p.read_text() for p in tmp_path.iterdir()}
+    calls = {"n": 0}
+    real = os.replace
+
+    def failing(source, target):
+        calls["n"] += 1
+        if calls["n"] == 4:  # the second table's rename into place
+            raise OSError(28, "No space left on device")
+        return real(source, target)
+
+    monkeypatch.setattr(os, "replace", failing)
+    with pytest.raises(OSError):
+        export(_objects()[:2], tmp_path / "survey.em.txt")
+    monkeypatch.setattr(os, "replace", real)
+    assert {p.name: p.read_text() for p in tmp_path.iterdir()} == before  # old set intact, no temporaries
+    fresh = tmp_path / "fresh"
+    fresh.mkdir()
+    calls["n"] = 0
+    monkeypatch.setattr(os, "replace", failing)
+    with pytest.raises(OSError):
+        export(_objects(), fresh / "survey.em.txt")
+    monkeypatch.setattr(os, "replace", real)
+    assert list(fresh.iterdir()) == []
+
+
+def test_a_closed_arc_has_no_direction_rather_than_a_nan():
+    loop = measure("arc", np.array([[0, 0, -2.0], [0.3, 0, -2.0], [0.3, 0.3, -2.0], [0, 0, -2.0]]),
+                   np.stack([COV] * 4), id="7")
+    row = dict(zip(LENGTH_COLUMNS, eventmeasure_tables([loop])["Lengths"].splitlines()[1].split("\t"), strict=True))
+    assert row["Direction"] == "" and float(row["Length"]) == pytest.approx(300 + 300 + 300 * np.sqrt(2))

@@ -45,7 +45,7 @@ def test_every_table_round_trips(project, tmp_path):
                 Vertex(30, 40, 25, 41, (0.5, 0.2, -2.1), cov, cal)]
     oid = project.add_object("line", vertices, attribute="cod", notes="snout to fork", creator="me")
     obj = project.object(oid)
-    assert obj.kind == "line" and obj.attribute == "cod" and obj.vertices[0].pair == "w1"
+    assert obj.kind == "length" and obj.attribute == "cod" and obj.vertices[0].pair == "w1"
     assert np.allclose(obj.vertices[1].covariance, cov) and obj.vertices[1].xyz == (0.5, 0.2, -2.1)
     project.add_term("cod")
     project.add_term("haddock")

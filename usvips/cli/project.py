@@ -34,7 +34,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     imp.add_argument("--active-for", nargs="+", default=[], help="pairs the calibration becomes active for")
     imp.set_defaults(handler=run_import)
     exp = actions.add_parser("export", help="export measured objects: .csv, .vertices.csv, .geojson, .ply, "
-                             "or NAME.em.txt for EventMeasure-style NAME_Lengths.txt and NAME_3DPoints.txt")
+                             "or NAME.em.txt for EventMeasure-style NAME_Lengths.txt, NAME_3DPoints.txt and "
+                             "tables of their own (NAME_Polygons.txt, NAME_Circles.txt), all or nothing")
     exp.add_argument("project")
     exp.add_argument("out")
     exp.add_argument("--opcode", help="EventMeasure OpCode (the sample, e.g. the deployment); default: the "
@@ -89,7 +90,10 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    skipped: list[str] = []
     with Project.open(args.project, read_only=True) as project:
-        count = export_project(project, args.out, args.opcode)
+        count = export_project(project, args.out, args.opcode, skipped=skipped)
+    for reason in skipped:
+        print(f"skipped {reason}")
     print(f"exported {count} objects to {args.out}")
     return 0

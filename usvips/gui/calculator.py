@@ -13,17 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from usvips.core.errors import UsvipsError
-from usvips.core.measure import (
-    Figure,
-    QualityRules,
-    angle_between_lines,
-    bearing_and_slope,
-    distance,
-    point_to_line,
-    point_to_plane,
-    polygon_figures,
-    polyline_length,
-)
+from usvips.core.measure import angle_between_lines, distance, point_to_line, point_to_plane
+from usvips.core.measurements import Figure, Measurement, kind
 
 
 @dataclass(frozen=True)
@@ -34,8 +25,8 @@ class Geometry:
     kind: str
     points: np.ndarray
     covariance: np.ndarray
-    ray_rms_m: float = 0.0
-    range_m: float = 0.0
+    ray_rms_m: float | None = None
+    range_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -48,32 +39,10 @@ class Result:
     reason: str = ""
 
 
-def _point_figures(points: np.ndarray, covariance: np.ndarray) -> list[Figure]:
-    sigmas = np.sqrt(np.clip(np.diag(covariance)[:3], 0, None))
-    return [Figure(axis, float(points[0, i]), float(sigmas[i]), "m") for i, axis in enumerate("XYZ")]
-
-
-def object_figures(geometry: Geometry, rules: QualityRules | None = None) -> Result:
-    """Point: X, Y, Z; line: length (and bearing, slope for two vertices); polygon: area, perimeter,
-    planarity RMS. The main figure (length or area) is checked against ``rules``."""
-    rules = rules or QualityRules()
-    p, c = geometry.points, geometry.covariance
-    try:
-        if geometry.kind == "point":
-            return Result(tuple(_point_figures(p, c)))
-        if geometry.kind == "line":
-            main = polyline_length(p, c)
-            figures = [main]
-            if len(p) == 2:
-                figures.extend(bearing_and_slope(p, c))
-        else:
-            polygon = polygon_figures(p, c)
-            main = polygon["area"]
-            figures = [main, polygon["perimeter"], polygon["planarity_rms"]]
-    except UsvipsError as error:
-        return Result((), (), str(error))
-    failures = rules.check(main, geometry.ray_rms_m, geometry.range_m)
-    return Result(tuple(figures), tuple(failures))
+def result_of(measurement: Measurement) -> Result:
+    """The calculator's view of a measured object: its figures, main one first, and the rules it breaks."""
+    main = measurement.main
+    return Result((main, *(f for f in measurement.figures if f is not main)), measurement.failures)
 
 
 def _joined(first: Geometry, second: Geometry, joint: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
@@ -87,27 +56,44 @@ def _joined(first: Geometry, second: Geometry, joint: np.ndarray | None) -> tupl
     return points, covariance
 
 
+def _role(geometry: Geometry) -> str:
+    """What an object is to the figures between objects, from how its kind is drawn: a ``point`` (a
+    marker), a ``segment`` (a two-vertex polyline) or a ``plane`` (a closed outline of 3+ vertices)."""
+    try:
+        measurement_kind = kind(geometry.kind)
+    except UsvipsError:
+        return ""
+    n = len(geometry.points)
+    if measurement_kind.drawing == "marker" and n == 1:
+        return "point"
+    if measurement_kind.drawing == "polyline" and n == 2:
+        return "segment"
+    return "plane" if measurement_kind.closes and n >= 3 else ""
+
+
+#: (role of the first object, role of the second) → the figure between them.
+_BETWEEN = {("point", "point"): distance, ("point", "segment"): point_to_line, ("point", "plane"): point_to_plane,
+            ("segment", "segment"): angle_between_lines}
+
+
 def pair_figures(first: Geometry, second: Geometry, joint: np.ndarray | None = None) -> Result:
-    """Figures between two objects: point–point distance, point–line distance, point–plane distance (the
-    plane of a polygon), angle between two two-vertex lines. ``joint`` is their common (3N, 3N)
-    covariance when known (same calibration), otherwise the objects are taken as uncorrelated."""
-    if second.kind == "point" and first.kind != "point":
+    """Figures between two objects: point–point distance, point–line distance (a two-vertex length or
+    arc), point–plane distance (the plane of a polygon or circle), angle between two two-vertex lines.
+    ``joint`` is their common (3N, 3N) covariance when known (same calibration), otherwise the objects
+    are taken as uncorrelated."""
+    if _role(second) == "point" and _role(first) != "point":
         return pair_figures(second, first, None if joint is None else _swap(joint, len(first.points)))
     points, covariance = _joined(first, second, joint)
+    figure = _BETWEEN.get((_role(first), _role(second)))
+    if figure is None:
+        return Result((), (), f"no figure between a {first.kind} with {len(first.points)} vertices and a "
+                              f"{second.kind} with {len(second.points)}: select two points, a point and a "
+                              "two-vertex length, a point and a polygon or circle (its plane), or two "
+                              "two-vertex lengths")
     try:
-        if first.kind == "point" and second.kind == "point":
-            return Result((distance(points, covariance),))
-        if first.kind == "point" and second.kind == "line" and len(second.points) == 2:
-            return Result((point_to_line(points, covariance),))
-        if first.kind == "point" and second.kind == "polygon":
-            return Result((point_to_plane(points, covariance),))
-        if first.kind == "line" and second.kind == "line" and len(first.points) == len(second.points) == 2:
-            return Result((angle_between_lines(points, covariance),))
+        return Result((figure(points, covariance),))
     except UsvipsError as error:
         return Result((), (), str(error))
-    return Result((), (), f"no figure between a {first.kind} with {len(first.points)} vertices and a "
-                          f"{second.kind} with {len(second.points)}: select two points, a point and a "
-                          "two-vertex line, a point and a polygon, or two two-vertex lines")
 
 
 def _swap(joint: np.ndarray, n_first: int) -> np.ndarray:
@@ -118,10 +104,13 @@ def _swap(joint: np.ndarray, n_first: int) -> np.ndarray:
 
 def format_figure(figure: Figure) -> str:
     """``name value ± sigma unit`` in readable units (mm below a metre, degrees for angles)."""
+    name = figure.label
     if figure.unit == "rad":
-        return f"{figure.name} {np.degrees(figure.value):.2f}° ± {np.degrees(figure.sigma):.2f}°"
+        return f"{name} {np.degrees(figure.value):.2f}° ± {np.degrees(figure.sigma):.2f}°"
     if figure.unit == "m²":
-        return f"{figure.name} {figure.value:.4f} m² ± {figure.sigma:.4f} m²"
-    if figure.unit == "m" and abs(figure.value) < 1.0 and figure.name not in "XYZ":
-        return f"{figure.name} {figure.value * 1000:.1f} mm ± {figure.sigma * 1000:.1f} mm"
-    return f"{figure.name} {figure.value:.4f} m ± {figure.sigma * 1000:.1f} mm"
+        return f"{name} {figure.value:.4f} m² ± {figure.sigma:.4f} m²"
+    if figure.unit == "1":
+        return f"{name} {figure.value:.4f} ± {figure.sigma:.4f}"
+    if figure.unit == "m" and abs(figure.value) < 1.0 and figure.name not in "XYZ" and "centre" not in name:
+        return f"{name} {figure.value * 1000:.1f} mm ± {figure.sigma * 1000:.1f} mm"
+    return f"{name} {figure.value:.4f} m ± {figure.sigma * 1000:.1f} mm"

@@ -16,6 +16,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 import usvips
 from usvips.core.errors import UsvipsError
+from usvips.core.measurements import kind as measurement_kind
 from usvips.gui.pane import StereoPane
 from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, PlanView
 from usvips.gui.planner_dock import PlannerDock
@@ -30,6 +31,7 @@ TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
              "point": "Point: each intersected point is stored as an object",
              "line": "Line: digitise a polyline vertex by vertex (Enter finishes; a fish is snout then fork)",
              "polygon": "Polygon: digitise an area vertex by vertex (Enter finishes)"}
+TOOL_TIPS.update({tool: measurement_kind(tool).description for tool in TOOLS if tool not in TOOL_TIPS})
 
 
 GUIDE = """<b>Measuring</b><ol>
@@ -426,11 +428,14 @@ class MainWindow(QtWidgets.QMainWindow):
         """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
         from usvips.project_export import export_project
 
+        skipped: list[str] = []
         try:
-            count = export_project(self.workspace.project, path)
+            count = export_project(self.workspace.project, path, skipped=skipped)
         except UsvipsError as error:
             self.show_message("error", f"export failed, nothing written: {error}")
             return
+        for reason in skipped:
+            self.show_message("warning", f"not exported: {reason}")
         self.show_message("info", f"exported {count} objects to {path}")
 
     def load_pair(self, label: str) -> None:
@@ -668,14 +673,14 @@ class MainWindow(QtWidgets.QMainWindow):
         outlines: dict[str, list] = {side: [] for side in SIDES}
         if ws.pair is not None:
             for stored in ws.objects():
-                vertices = [v for v in stored.vertices if v.pair == ws.pair]
-                if not vertices:
+                drawn = ws.outline(stored)
+                if drawn is None:
                     continue
                 label = f"{stored.id} {stored.attribute}".strip()
-                closed = stored.kind == "polygon"
                 selected = stored.id in self.selection
-                outlines["left"].append((label, np.array([[v.xl, v.yl] for v in vertices]), closed, selected))
-                outlines["right"].append((label, np.array([[v.xr, v.yr] for v in vertices]), closed, selected))
+                picks = [v for v in stored.vertices if v.pair == ws.pair]
+                outlines["left"].append((label, drawn[0], drawn[2], selected, [(v.xl, v.yl) for v in picks]))
+                outlines["right"].append((label, drawn[1], drawn[2], selected, [(v.xr, v.yr) for v in picks]))
             current = ws.digitising.vertices
             if current:
                 outlines["left"].append(("new", np.array([v.left for v in current]), False, True))

@@ -244,17 +244,18 @@ class StereoPane(QtWidgets.QWidget):
         else:
             self.curve_item.setData([], [])
 
-    def set_objects(self, outlines: list[tuple[str, np.ndarray, bool, bool]]) -> None:
-        """Permanent marks: (label, vertex pixels (N, 2), closed, selected) per object."""
+    def set_objects(self, outlines: list[tuple]) -> None:
+        """Permanent marks: (label, outline pixels (N, 2), closed, selected[, vertex pixels (M, 2)]) per
+        object; the vertices are marked where given (a circle's picks), else at the outline's points."""
         for label in self.labels:
             self.viewbox.removeItem(label)
         self.labels = []
         lines: list[np.ndarray] = []
         selected: list[np.ndarray] = []
         vertices: list[np.ndarray] = []
-        for label, pixels, closed, is_selected in outlines:
+        for label, pixels, closed, is_selected, *marks in outlines:
             view = item_from_pixels(pixels)
-            vertices.append(view)
+            vertices.append(item_from_pixels(marks[0]) if marks else view)
             path = np.vstack([view, view[:1]]) if closed and len(view) > 2 else view
             (selected if is_selected else lines).append(np.vstack([path, [[np.nan, np.nan]]]))
             text = pg.TextItem(label, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))

@@ -12,6 +12,7 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
+from usvips.core.measurements import kind as measurement_kind
 from usvips.gui.calculator import format_figure
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import SIDES, Workspace
@@ -261,8 +262,7 @@ class ObjectList(QtWidgets.QWidget):
             if result is None:
                 main, quality = "computing…", ""
             else:
-                main = format_figure(result.figures[0]) if result.figures and stored.kind != "point" else (
-                    "Z " + format_figure(result.figures[2]).split(" ", 1)[1] if result.figures else result.reason)
+                main = format_figure(result.figures[0]) if result.figures else result.reason
                 quality = "; ".join(result.failures) or "ok"
             values = (str(stored.id), stored.kind, stored.attribute, str(len(stored.vertices)), main, quality,
                       stored.notes)
@@ -397,8 +397,11 @@ class PlanView(QtWidgets.QWidget):
         parts = []
         for stored in self.workspace.objects():
             points = np.array([v.xyz for v in stored.vertices if v.xyz is not None], float).reshape(-1, 3)
-            if stored.kind == "polygon" and len(points) > 2:
-                points = np.vstack([points, points[:1]])
+            if len(points) == len(stored.vertices) and points.size:
+                try:
+                    points = measurement_kind(stored.kind).outline(points)
+                except UsvipsError:
+                    pass  # drawn through its vertices
             parts.append(np.vstack([points[:, [a, b]], [[np.nan, np.nan]]]))
         data = np.vstack(parts) if parts else np.zeros((0, 2))
         self.curve.setData(data[:, 0], data[:, 1], connect="finite")

@@ -18,22 +18,27 @@ from usvips.core.calibration.uncertainty import joint_covariance
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
 from usvips.core.matching import epipolar_curve, match_along_curve
-from usvips.core.measure import QualityRules
+from usvips.core.measurements import QualityRules, names, placement, resolve
+from usvips.core.measurements import kind as measurement_kind
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
-from usvips.gui.calculator import Geometry, Result, format_figure, object_figures, pair_figures
+from usvips.gui.calculator import Geometry, Result, format_figure, pair_figures, result_of
 from usvips.gui.signals import Signal
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image
+from usvips.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
 from usvips.store import Project
 from usvips.store.project import Vertex
 
 SIDES = ("left", "right")
-TOOLS = ("pick", "point", "line", "polygon")
+#: The "line" tool digitises a polyline stored as the kind the registry's legacy rule makes of it
+#: (``length`` with two vertices, a fish; ``arc`` with more), so no separate length tool; every other
+#: registered measurement kind is a tool of its own (a new kind appears here by itself).
+LINE = "line"
+TOOLS = ("pick", "point", LINE, "polygon") + tuple(n for n in names() if n not in ("point", "polygon", "length"))
 #: The calibration wizards' tool: both picks of a control point, reported by ``observed``, not intersected.
 OBSERVE = "observe"
-MINIMUM_VERTICES = {"point": 1, "line": 2, "polygon": 3}
 
 
 def other(side: str) -> str:
@@ -150,9 +155,7 @@ def pair_geometry(project: Project, label: str) -> PairGeometry | None:
         return None
     calibration = calibration_from_dict(project.calibration(calibration_id),
                                         f"{project.path} calibration {calibration_id}")
-    if label in calibration.stations:
-        return PairGeometry(calibration, calibration_id, label, "object")
-    return PairGeometry(calibration, calibration_id, 0, "rig")
+    return PairGeometry(calibration, calibration_id, *placement(calibration, label))
 
 
 def pair_image_paths(project: Project, label: str) -> tuple[Path, Path]:
@@ -210,7 +213,7 @@ class Workspace:
         self.digitising: _Digitising = _Digitising("pick")
         self.last_point: MeasuredVertex | None = None
         self.undo = UndoStack()
-        self._geometries: dict[tuple[int, str], PairGeometry | None] = {}
+        self._calibrations: dict[int, StereoCalibration | None] = {}
         self.pair_changed = Signal()
         self.picks_changed = Signal()
         self.objects_changed = Signal()
@@ -230,7 +233,7 @@ class Workspace:
         if self.project is not None and self.project is not project:
             self.project.close()
         self.project = project
-        self._geometries = {}
+        self._calibrations = {}
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
         self.undo.clear()
@@ -424,8 +427,8 @@ class Workspace:
             return
         kind = self.digitising.kind
         self.message.emit("info", describe_point(vertex))
-        if kind == "point":
-            self.finish_object(vertices=(vertex,))
+        if kind not in ("pick", LINE) and measurement_kind(kind).maximum_vertices == len(self.digitising.vertices) + 1:
+            self.finish_object(vertices=(vertex,))  # a point (or any kind whose last vertex is now in)
             return
 
         def add() -> None:
@@ -456,14 +459,13 @@ class Workspace:
                       vertices: tuple[MeasuredVertex, ...] | None = None) -> int:
         """Store the object being digitised (one transaction; undoable) and start the next one.
         ``vertices``: store these instead (a point object is stored as its vertex completes)."""
-        kind = self.digitising.kind
         last = vertices[-1] if vertices else None
         vertices = self.digitising.vertices if vertices is None else self.digitising.vertices + vertices
-        if kind == "pick":
-            raise UsvipsError("the pick tool measures single points without storing them: choose point, line "
-                              "or polygon to measure an object")
-        if len(vertices) < MINIMUM_VERTICES[kind]:
-            raise UsvipsError(f"a {kind} needs at least {MINIMUM_VERTICES[kind]} vertices, it has {len(vertices)}")
+        if self.digitising.kind == "pick":
+            raise UsvipsError("the pick tool measures single points without storing them: choose "
+                              f"{', '.join(TOOLS[1:])} to measure an object")
+        kind = resolve(self.digitising.kind, len(vertices))
+        measurement_kind(kind).check_count(len(vertices))
         if self.project is None:
             raise UsvipsError("open a project first")
         stored = self._vertices_for_store(vertices)
@@ -474,7 +476,7 @@ class Workspace:
             holder["id"] = self.project.add_object(kind, stored, attribute, notes, creator="usvips")
             if attribute:
                 self.project.add_term(attribute)
-            self.digitising = _Digitising(kind)
+            self.digitising = _Digitising(self.digitising.kind)
             self.state = PickState()
             if last is not None:
                 self.last_point = last
@@ -532,48 +534,22 @@ class Workspace:
         return [] if self.project is None else self.project.objects()
 
     # ------------------------------------------------------------------ geo-calculator
-    def object_geometry(self, object_id: int) -> Geometry:
-        """An object's vertices recomputed from its picks with the calibration they were measured with
-        (full covariance, calibration included); stored values when that calibration is gone."""
-        stored = self.project.object(object_id)
-        return self._geometry(stored.kind, list(stored.vertices))
-
-    def _calibration_for(self, calibration_id: int, label: str) -> PairGeometry | None:
-        """The calibration a vertex was measured with, placed as its pair was (cached; GUI thread)."""
-        key = (calibration_id, label)
-        if key not in self._geometries:
-            try:
-                calibration = calibration_from_dict(self.project.calibration(calibration_id))
-            except UsvipsError:
-                self._geometries[key] = None
-            else:
-                station, frame = (label, "object") if label in calibration.stations else (0, "rig")
-                self._geometries[key] = PairGeometry(calibration, calibration_id, station, frame)
-        return self._geometries[key]
-
-    def geometry_input(self, kind: str, vertices: list[Vertex]) -> tuple:
-        """What :func:`compute_geometry` needs, read from the project now (call on the GUI thread)."""
-        ids = {(v.calibration_id, v.pair) for v in vertices}
-        g = None
-        if len(ids) == 1 and None not in next(iter(ids)):
-            g = self._calibration_for(*next(iter(ids)))
-        return kind, list(vertices), g
-
-    def _geometry(self, kind: str, vertices: list[Vertex]) -> Geometry:
-        return compute_geometry(*self.geometry_input(kind, vertices))
+    def _input(self, stored) -> MeasurementInput:
+        """What the figures of a stored object need, read from the project now (GUI thread); the
+        calibrations read are cached until the project changes."""
+        return measurement_input(self.project, stored, self._calibrations)
 
     def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
         """The figures of many objects as a function of copied inputs (run it off the GUI thread)."""
-        inputs = [(i, self.geometry_input(o.kind, list(o.vertices))) for i, o in
-                  ((i, self.project.object(i)) for i in object_ids)]
+        inputs = [(i, self._input(self.project.object(i))) for i in object_ids]
         rules = self.rules
 
         def run(progress=None, cancelled=None) -> dict[int, Result]:
             out = {}
-            for n, (object_id, arguments) in enumerate(inputs):
+            for n, (object_id, source) in enumerate(inputs):
                 if cancelled is not None and cancelled():
                     break
-                out[object_id] = _figures_of(compute_geometry(*arguments), rules, object_id)
+                out[object_id] = _figures_of(source, rules)
                 if progress is not None:
                     progress((n + 1) / len(inputs))
             return out
@@ -585,40 +561,50 @@ class Workspace:
         if self.project is None or not object_ids:
             return Result((), (), "select one or two objects")
         if len(object_ids) == 1:
-            return _figures_of(self.object_geometry(object_ids[0]), self.rules, object_ids[0])
+            return _figures_of(self._input(self.project.object(object_ids[0])), self.rules)
         if len(object_ids) != 2:
             return Result((), (), "select one object (its own figures) or two (figures between them)")
         first, second = (self.project.object(i) for i in object_ids)
-        combined = self._geometry("point", list(first.vertices) + list(second.vertices))
+        both = replace(first, vertices=first.vertices + second.vertices)
+        points, covariance, _ = joint_vertices(self._input(both))
         n = 3 * len(first.vertices)
-        a = Geometry(first.kind, combined.points[: n // 3], combined.covariance[:n, :n])
-        b = Geometry(second.kind, combined.points[n // 3:], combined.covariance[n:, n:])
-        return pair_figures(a, b, combined.covariance)
+        a = Geometry(first.kind, points[: n // 3], covariance[:n, :n])
+        b = Geometry(second.kind, points[n // 3:], covariance[n:, n:])
+        return pair_figures(a, b, covariance)
 
-
-def compute_geometry(kind: str, vertices: list[Vertex], g: PairGeometry | None) -> Geometry:
-    """An object's vertices recomputed from its picks with the calibration ``g`` (full covariance,
-    calibration included), or its stored values when there is no calibration to use. Pure: any thread."""
-    if g is not None:
+    def outline(self, stored) -> tuple[np.ndarray, np.ndarray, bool] | None:
+        """How a stored object is drawn on the current pair: pixels (M, 2) on the left and right image and
+        whether the outline closes; None when it was measured on another pair. Markers, polylines and
+        polygons go through the picks; a circle is its fitted 3-D circle projected through the pair's
+        calibration (an ellipse in the image), or the polygon of its picks when it cannot be projected."""
+        vertices = [v for v in stored.vertices if v.pair == self.pair]
+        if not vertices:
+            return None
         left = np.array([[v.xl, v.yl] for v in vertices])
         right = np.array([[v.xr, v.yr] for v in vertices])
-        result, covariance = joint_covariance(g.calibration, left, right, g.station, g.frame)
-        if result.ok.all():
-            camera = g.calibration.rig(g.station, g.frame).left.exterior.position
-            return Geometry(kind, result.points, covariance, float(np.sqrt(np.mean(result.residuals_m ** 2))),
-                            float(np.max(np.linalg.norm(result.points - camera, axis=1))))
-    points = np.array([v.xyz if v.xyz is not None else (np.nan,) * 3 for v in vertices], float)
-    covariance = np.zeros((3 * len(vertices),) * 2)
-    for i, v in enumerate(vertices):
-        if v.covariance is not None:
-            covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] = v.covariance
-    return Geometry(kind, points, covariance)
+        try:
+            k = measurement_kind(stored.kind)
+        except UsvipsError:
+            return left, right, False
+        if k.drawing == "circle" and self.geometry is not None and all(v.xyz is not None for v in vertices):
+            try:
+                ring = k.outline(np.array([v.xyz for v in vertices], float))
+                rig = self.geometry.calibration.rig(self.geometry.station, self.geometry.frame)
+                projected = [rig.left.project(ring), rig.right.project(ring)]
+                if all(p.ok.all() for p in projected):
+                    return projected[0].pixels, projected[1].pixels, False
+            except UsvipsError:
+                pass
+        return left, right, k.closes
 
 
-def _figures_of(geometry: Geometry, rules: QualityRules, object_id: int) -> Result:
-    if not np.all(np.isfinite(geometry.points)):
-        return Result((), (), f"object {object_id} has vertices without 3-D coordinates")
-    return object_figures(geometry, rules)
+def _figures_of(source: MeasurementInput, rules: QualityRules) -> Result:
+    """The object's figures through the one figure path (``project_figures.evaluate``); a reason when
+    there are none. Pure: any thread."""
+    try:
+        return result_of(evaluate(source, rules))
+    except UsvipsError as error:
+        return Result((), (), str(error))
 
 
 def describe_point(vertex: MeasuredVertex) -> str:

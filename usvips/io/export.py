@@ -1,8 +1,15 @@
-"""Exports of measured objects: CSV (objects with figures, and vertices), GeoJSON (3-D), PLY.
+"""Exports of measured objects: CSV (objects with figures, and vertices), GeoJSON (3-D), PLY, and
+EventMeasure-style tab-separated tables for CheckEM.
 
-Objects are :class:`usvips.core.measure.MeasuredObject` (metres, project frame). Figures per object:
-point — X, Y, Z; line — length; polygon — area, perimeter, planarity; each with its sigma. Files are
-written atomically (a temporary file, then renamed).
+Objects are :class:`usvips.core.measurements.Measurement` (metres, project frame): their figures and
+sigmas were computed by the one figure path (``usvips.core.measurements.measure``); nothing here
+computes a figure. The columns of the objects CSV are the figures of every registered measurement kind
+(``X, sX, …, length, s_length, …``), so a new kind brings its columns with it.
+
+Every table is written with the :mod:`csv` module (the tab dialect for EventMeasure) and every text
+cell is sanitised (:func:`cell`): a tab or newline in an attribute, note or OpCode never shifts a column,
+and a cell starting with ``= + - @`` is neutralised for spreadsheets while numbers stay numbers. A set of
+files is written all or nothing (:func:`usvips.io.atomic.write_files_atomic`).
 """
 
 from __future__ import annotations
@@ -15,80 +22,138 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.errors import InvalidParameterError
-from usvips.core.measure import MeasuredObject, polygon_figures, polyline_length
-from usvips.io.atomic import write_text_atomic
+from usvips.core.measurements import Measurement, kinds
+from usvips.core.measurements import kind as measurement_kind
+from usvips.io.atomic import write_files_atomic
+
+#: Characters that make a spreadsheet read a cell as a formula (and tab / carriage return, which some
+#: spreadsheets strip before looking) — OWASP's CSV-injection list.
+FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 
 
-def object_figures(obj: MeasuredObject) -> dict[str, tuple[float, float]]:
-    """name → (value, sigma) for an object (metres, m²)."""
-    if obj.kind == "point":
-        sigmas = np.sqrt(np.diag(obj.covariances[0]))
-        return {axis: (float(obj.points[0, k]), float(sigmas[k])) for k, axis in enumerate("XYZ")}
-    if obj.kind == "line":
-        figure = polyline_length(obj.points, obj.covariances)
-        return {"length": (figure.value, figure.sigma)}
-    figures = polygon_figures(obj.points, obj.covariances)
-    return {name: (figures[name].value, figures[name].sigma) for name in ("area", "perimeter", "planarity_rms")}
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
-OBJECT_COLUMNS = ["id", "kind", "attribute", "vertices", "X", "sX", "Y", "sY", "Z", "sZ", "length", "s_length",
-                  "area", "s_area", "perimeter", "s_perimeter", "planarity_rms", "notes"]
+def cell(value: object, flatten: bool = False) -> str:
+    """A table cell: numbers as they are; text with a leading ``'`` when it would start a formula
+    (``=1+1`` → ``'=1+1``; ``-0.5`` stays a number), and with ``flatten`` (tab-separated tables, read by
+    tools that do not honour quotes) tabs and line breaks replaced by spaces."""
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return number(value)
+    text = "" if value is None else str(value)
+    if flatten:
+        text = " ".join(text.replace("\r\n", "\n").replace("\r", "\n").replace("\t", " ").split("\n"))
+    if text.startswith(FORMULA_START) and not _is_number(text):
+        text = "'" + text
+    return text
 
 
-def objects_csv(objects: list[MeasuredObject]) -> str:
+def number(value: float) -> str:
+    """A float as the shortest text that reads back to the same float (no rounding: the exported
+    figures equal the window's)."""
+    return repr(float(value))
+
+
+def _table(header: list[str], rows: list[list], dialect: str = "excel", flatten: bool = False) -> str:
     buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(OBJECT_COLUMNS)
+    writer = csv.writer(buffer, dialect=dialect, lineterminator="\n")
+    writer.writerow([cell(h, flatten) for h in header])
+    writer.writerows([[cell(v, flatten) if v != "" else "" for v in row] for row in rows])
+    return buffer.getvalue()
+
+
+def _sigma_column(name: str) -> str:
+    return f"s{name}" if name in ("X", "Y", "Z") else f"s_{name}"
+
+
+def figure_columns() -> list[str]:
+    """Value and sigma columns of every registered kind's figures, in registry order, each once."""
+    columns: list[str] = []
+    for measurement in kinds():
+        for name, _ in measurement.figure_names:
+            if name not in columns:
+                columns.append(name)
+    return [c for name in columns for c in (name, _sigma_column(name))]
+
+
+def object_columns() -> list[str]:
+    return (["id", "kind", "attribute", "vertices"] + figure_columns()
+            + ["ray_rms_m", "range_m", "covariance", "quality", "notes"])
+
+
+def _covariance_word(obj: Measurement) -> str:
+    return "joint" if obj.joint else "per-vertex"
+
+
+def objects_csv(objects: list[Measurement]) -> str:
+    """One row per object: its figures with sigmas (metres, m², radians), ray RMS and range (m) when
+    known, whether the sigmas come from the joint covariance, and the quality rules it breaks."""
+    columns = object_columns()
+    rows = []
     for obj in objects:
-        figures = object_figures(obj)
         row = {"id": obj.id, "kind": obj.kind, "attribute": obj.attribute, "vertices": len(obj.points),
-               "notes": obj.notes}
-        for name, (value, sigma) in figures.items():
-            row[name] = f"{value:.6f}"
-            key = {"X": "sX", "Y": "sY", "Z": "sZ"}.get(name, f"s_{name}")
-            if key in OBJECT_COLUMNS:
-                row[key] = f"{sigma:.6f}"
-        writer.writerow([row.get(c, "") for c in OBJECT_COLUMNS])
-    return buffer.getvalue()
+               "notes": obj.notes, "covariance": _covariance_word(obj), "quality": "; ".join(obj.failures)}
+        row.update({"ray_rms_m": obj.ray_rms_m, "range_m": obj.range_m})
+        for figure in obj.figures:
+            row[figure.name] = figure.value
+            row[_sigma_column(figure.name)] = figure.sigma
+        rows.append(["" if row.get(c) is None else row.get(c, "") for c in columns])
+    return _table(columns, rows)
 
 
-def vertices_csv(objects: list[MeasuredObject]) -> str:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["object", "vertex", "X", "Y", "Z", "sX", "sY", "sZ"])
+def vertices_csv(objects: list[Measurement]) -> str:
+    """One row per vertex: X, Y, Z and their sigmas (m)."""
+    rows = []
     for obj in objects:
-        for i, (p, c) in enumerate(zip(obj.points, obj.covariances, strict=True)):
-            writer.writerow([obj.id, i, *(f"{v:.6f}" for v in p), *(f"{v:.6f}" for v in np.sqrt(np.diag(c)))])
-    return buffer.getvalue()
+        for i, (p, s) in enumerate(zip(obj.points, obj.vertex_sigmas, strict=True)):
+            rows.append([obj.id, i, *p, *s])
+    return _table(["object", "vertex", "X", "Y", "Z", "sX", "sY", "sZ"], rows)
 
 
-def geojson(objects: list[MeasuredObject]) -> str:
-    """A FeatureCollection with 3-D coordinates (X, Y, Z in metres, the project frame — not WGS 84)."""
+_GEOJSON = {"marker": "Point", "polyline": "LineString", "polygon": "Polygon", "circle": "Polygon"}
+
+
+def geojson(objects: list[Measurement]) -> str:
+    """A FeatureCollection with 3-D coordinates (X, Y, Z in metres, the project frame — not WGS 84): a
+    point, a line string, a polygon, and a circle as the polygon of its fitted outline."""
     features = []
     for obj in objects:
+        drawing = measurement_kind(obj.kind).drawing
         coordinates = obj.points.tolist()
-        if obj.kind == "point":
+        if drawing == "marker":
             geometry = {"type": "Point", "coordinates": coordinates[0]}
-        elif obj.kind == "line":
+        elif drawing == "polyline":
             geometry = {"type": "LineString", "coordinates": coordinates}
         else:
-            geometry = {"type": "Polygon", "coordinates": [coordinates + [coordinates[0]]]}
-        properties = {"id": obj.id, "kind": obj.kind, "attribute": obj.attribute, "notes": obj.notes}
-        properties.update({name: {"value": v, "sigma": s} for name, (v, s) in object_figures(obj).items()})
+            ring = measurement_kind(obj.kind).outline(obj.points).tolist()
+            geometry = {"type": _GEOJSON[drawing], "coordinates": [ring if ring[0] == ring[-1] else ring + ring[:1]]}
+        properties = {"id": obj.id, "kind": obj.kind, "attribute": obj.attribute, "notes": obj.notes,
+                      "covariance": _covariance_word(obj), "quality": list(obj.failures)}
+        properties.update({f.name: {"value": f.value, "sigma": f.sigma, "unit": f.unit} for f in obj.figures})
         features.append({"type": "Feature", "geometry": geometry, "properties": properties})
     return json.dumps({"type": "FeatureCollection", "crs_note": "project frame, metres", "features": features},
                       indent=1, allow_nan=False)
 
 
-def ply(objects: list[MeasuredObject]) -> str:
-    """ASCII PLY: every vertex, and the edges of lines and (closed) polygons."""
+def ply(objects: list[Measurement]) -> str:
+    """ASCII PLY: every vertex, and the edges of polylines, (closed) polygons and circles (a circle's
+    vertices are its fitted outline)."""
     vertices, edges = [], []
     for obj in objects:
+        measurement = measurement_kind(obj.kind)
+        points = measurement.outline(obj.points)[:-1] if measurement.drawing == "circle" else obj.points
         start = len(vertices)
-        vertices.extend(obj.points.tolist())
-        n = len(obj.points)
-        links = [(i, i + 1) for i in range(n - 1)] if obj.kind != "point" else []
-        if obj.kind == "polygon":
+        vertices.extend(points.tolist())
+        n = len(points)
+        links = [(i, i + 1) for i in range(n - 1)] if measurement.drawing != "marker" else []
+        if measurement.closes and n > 2:
             links.append((n - 1, 0))
         edges.extend((start + a, start + b) for a, b in links)
     lines = ["ply", "format ascii 1.0", "comment USVIPS measured objects, metres, project frame",
@@ -99,22 +164,32 @@ def ply(objects: list[MeasuredObject]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def export(objects: list[MeasuredObject], path: str | Path, kind: str | None = None, **eventmeasure) -> None:
+def eventmeasure_paths(path: str | Path) -> dict[str, Path]:
+    """Table name → file of the EventMeasure-style set for ``path`` (``survey.em.txt`` →
+    ``survey_Lengths.txt``, ``survey_3DPoints.txt`` and a table per kind that has its own)."""
+    path = Path(path)
+    stem = path.name[: -len(".em.txt")] if path.name.endswith(".em.txt") else path.stem
+    return {table: path.with_name(f"{stem}_{table}.txt") for table in eventmeasure_table_names()}
+
+
+def export(objects: list[Measurement], path: str | Path, kind: str | None = None, **eventmeasure) -> list[Path]:
     """Write objects as ``csv`` (objects), ``vertices.csv``, ``geojson`` or ``ply``, by suffix or ``kind``;
-    a path ending ``.em.txt`` writes the EventMeasure-style pair ``<name>_Lengths.txt`` and
-    ``<name>_3DPoints.txt`` beside it (``eventmeasure``: the keywords of :func:`eventmeasure_tables`)."""
+    a path ending ``.em.txt`` writes the EventMeasure-style set (:func:`eventmeasure_paths`) beside it,
+    all files or none (``eventmeasure``: the keywords of :func:`eventmeasure_tables`). Returns the files
+    written."""
     path = Path(path)
     if path.name.endswith(".em.txt") or kind == "eventmeasure":
-        stem = path.name[: -len(".em.txt")] if path.name.endswith(".em.txt") else path.stem
-        lengths, points = eventmeasure_tables(objects, **eventmeasure)
-        write_text_atomic(path.with_name(f"{stem}_Lengths.txt"), lengths)
-        write_text_atomic(path.with_name(f"{stem}_3DPoints.txt"), points)
-        return
+        tables = eventmeasure_tables(objects, **eventmeasure)
+        files = {target: tables[table] for table, target in eventmeasure_paths(path).items()}
+        write_files_atomic(files)
+        return list(files)
     kind = kind or ("vertices" if path.name.endswith(".vertices.csv") else path.suffix.lstrip("."))
     writers = {"csv": objects_csv, "vertices": vertices_csv, "geojson": geojson, "json": geojson, "ply": ply}
     if kind not in writers:
-        raise InvalidParameterError("format", f"unknown export format {kind!r}; use csv, vertices, geojson or ply")
-    write_text_atomic(path, writers[kind](objects))
+        raise InvalidParameterError("format", f"unknown export format {kind!r}; use csv, vertices, geojson, ply "
+                                              "or a name ending .em.txt (EventMeasure)")
+    write_files_atomic({path: writers[kind](objects)})
+    return [path]
 
 
 # --- EventMeasure-style tables (read by survey pipelines such as CheckEM) ------------------------------
@@ -124,6 +199,11 @@ def export(objects: list[MeasuredObject], path: str | Path, kind: str | None = N
 # CheckEM takes the campaign from the file name (before "_Lengths.txt") and the sample from OpCode, and
 # by default keeps range < 10 m, RMS < 20 mm and precision/length < 10 %. Columns we have no value for
 # (image point pair, time, period, HorzDir, VertDir, CAAB code, stage, activity) are left empty.
+# EventMeasure's lengths are two-point; an arc (polyline) goes to the lengths table as its length along
+# the polyline, its Direction and Mid from the chord between its ends, its Comment saying "arc of N
+# vertices" so that a reader can tell it. Kinds EventMeasure has no table for (polygons, circles) get a
+# table of their own, NAME_Polygons.txt, NAME_Circles.txt: the same image and taxonomy columns, then every
+# figure of the kind in millimetres (mm², degrees) with its sigma, "s" before the name.
 
 LENGTH_COLUMNS = ["OpCode", "ImagePtPair", "FilenameLeft", "FrameLeft", "FilenameRight", "FrameRight", "Time",
                   "Period", "PeriodTime", "Length", "Precision", "RMS", "Range", "Direction", "HorzDir", "VertDir",
@@ -132,6 +212,32 @@ LENGTH_COLUMNS = ["OpCode", "ImagePtPair", "FilenameLeft", "FrameLeft", "Filenam
 POINT_COLUMNS = ["OpCode", "ImagePtPair", "FilenameLeft", "FrameLeft", "FilenameRight", "FrameRight", "Time",
                  "Period", "PeriodTime", "X", "Y", "Z", "sX", "sY", "sZ", "RMS", "Range", "Direction", "Family",
                  "Genus", "Species", "Code", "Number", "Stage", "Activity", "Comment", "Attribute9", "Attribute10"]
+_HEAD = ["OpCode", "ImagePtPair", "FilenameLeft", "FrameLeft", "FilenameRight", "FrameRight", "Time", "Period",
+         "PeriodTime"]
+_TAIL = ["Family", "Genus", "Species", "Code", "Number", "Stage", "Activity", "Comment", "Attribute9", "Attribute10"]
+_SCALE = {"m": 1000.0, "m²": 1e6, "rad": 180.0 / np.pi, "1": 1.0}
+
+
+def eventmeasure_table_names() -> list[str]:
+    """Lengths, 3DPoints, then the tables of their own that registered kinds ask for."""
+    names = ["Lengths", "3DPoints"]
+    for measurement in kinds():
+        if measurement.eventmeasure not in names:
+            names.append(measurement.eventmeasure)
+    return names
+
+
+def _own_columns(table: str) -> list[str]:
+    figures: list[str] = []
+    for measurement in kinds():
+        if measurement.eventmeasure == table:
+            figures += [n for n, _ in measurement.figure_names if n not in figures]
+    columns = [c for name in figures for c in (_camel(name), f"s{_camel(name)}")]
+    return _HEAD + ["Vertices", *columns, "RMS", "Range", "MidX", "MidY", "MidZ"] + _TAIL
+
+
+def _camel(name: str) -> str:
+    return "".join(part[:1].upper() + part[1:] for part in name.split("_"))
 
 
 def _taxonomy(attribute: str) -> tuple[str, str, str]:
@@ -141,41 +247,51 @@ def _taxonomy(attribute: str) -> tuple[str, str, str]:
     return "", "", attribute
 
 
-def eventmeasure_tables(objects: list[MeasuredObject], opcode: str = "", camera_centre=(0.0, 0.0, 0.0),
-                        rms_m: dict[str, float] | None = None,
-                        images: dict[str, tuple[str, str, str, str]] | None = None) -> tuple[str, str]:
-    """(lengths, 3-D points) as tab-separated text: two-vertex lines become lengths (snout to fork),
-    points become 3-D points (their Direction left empty). ``rms_m``: each object's ray-intersection RMS
-    (metres) if known (CheckEM drops rows without one when it filters on RMS); ``images``:
-    object id → (left file, left frame, right file, right frame). Direction is the angle (degrees) between
-    the measured line and the line of sight to its middle from ``camera_centre`` (90° = across the view);
-    ``camera_centre`` is one point (m) for all objects or a mapping object id → point, since objects
-    measured at different stations see the left camera at different places."""
-    rms_m = rms_m or {}
+def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_centre=(0.0, 0.0, 0.0),
+                        images: dict[str, tuple[str, str, str, str]] | None = None) -> dict[str, str]:
+    """Table name (:func:`eventmeasure_table_names`) → tab-separated text. Lengths and arcs become lengths
+    (Length and Precision are the length figure and its sigma, in mm), points 3-D points (Direction
+    empty), other kinds rows of their own table. RMS: the object's ray-intersection RMS (mm) when known
+    (CheckEM drops rows without one when it filters on RMS); ``images``: object id → (left file, left
+    frame, right file, right frame). Direction is the angle (degrees) between the measured line and the
+    line of sight to its middle from ``camera_centre`` (90° = across the view); ``camera_centre`` is one
+    point (m) for all objects or a mapping object id → point."""
     images = images or {}
-    lengths = ["\t".join(LENGTH_COLUMNS)]
-    points = ["\t".join(POINT_COLUMNS)]
+    rows: dict[str, list[list]] = {name: [] for name in eventmeasure_table_names()}
     for obj in objects:
         centre = np.asarray(camera_centre[obj.id] if isinstance(camera_centre, dict) else camera_centre, float)
         family, genus, species = _taxonomy(obj.attribute)
-        rms = f"{rms_m[obj.id] * 1000:.2f}" if obj.id in rms_m else ""
-        file_left, frame_left, file_right, frame_right = images.get(obj.id, ("", "", "", ""))
-        head = [opcode, "", file_left, frame_left, file_right, frame_right, "", "", ""]
-        tail = [family, genus, species, "", "1", "", "", obj.notes.replace("\t", " ").replace("\n", " "), "", ""]
-        if obj.kind == "line" and len(obj.points) == 2:
-            figure = polyline_length(obj.points, obj.covariances)
+        rms = "" if obj.ray_rms_m is None else obj.ray_rms_m * 1000
+        head = [opcode, "", *images.get(obj.id, ("", "", "", "")), "", "", ""]
+        comment = obj.notes
+        table = measurement_kind(obj.kind).eventmeasure
+        if table == "Lengths":
+            if len(obj.points) > 2:
+                comment = f"{obj.kind} of {len(obj.points)} vertices" + (f"; {obj.notes}" if obj.notes else "")
+            length = obj.main
+            ends = obj.points[[0, -1]]
+            middle = ends.mean(axis=0)
+            segment, view = ends[1] - ends[0], middle - centre
+            scale = np.linalg.norm(segment) * np.linalg.norm(view)
+            direction = np.degrees(np.arccos(min(1.0, abs(segment @ view) / scale))) if scale > 0 else ""
+            rows[table].append(head + [length.value * 1000, length.sigma * 1000, rms, np.linalg.norm(view) * 1000,
+                                       direction, "", "", *(middle * 1000)]
+                               + [family, genus, species, "", 1, "", "", comment, "", ""])
+        elif table == "3DPoints":
+            p, sigma = obj.points[0], obj.vertex_sigmas[0]
+            rows[table].append(head + [*(p * 1000), *(sigma * 1000), rms, np.linalg.norm(p - centre) * 1000, ""]
+                               + [family, genus, species, "", 1, "", "", comment, "", ""])
+        else:
+            values = {}
+            for f in obj.figures:
+                values[_camel(f.name)] = f.value * _SCALE.get(f.unit, 1.0)
+                values[f"s{_camel(f.name)}"] = f.sigma * _SCALE.get(f.unit, 1.0)
             middle = obj.points.mean(axis=0)
-            segment = obj.points[1] - obj.points[0]
-            view = middle - centre
-            direction = np.degrees(np.arccos(abs(segment @ view) / (np.linalg.norm(segment) * np.linalg.norm(view))))
-            row = head + [f"{figure.value * 1000:.1f}", f"{figure.sigma * 1000:.1f}", rms,
-                          f"{np.linalg.norm(view) * 1000:.0f}", f"{direction:.1f}", "", "",
-                          *(f"{v * 1000:.1f}" for v in middle)] + tail
-            lengths.append("\t".join(row))
-        elif obj.kind == "point":
-            p = obj.points[0]
-            sigma = np.sqrt(np.diag(obj.covariances[0]))
-            row = head + [*(f"{v * 1000:.1f}" for v in p), *(f"{v * 1000:.1f}" for v in sigma), rms,
-                          f"{np.linalg.norm(p - centre) * 1000:.0f}", ""] + tail
-            points.append("\t".join(row))
-    return "\n".join(lengths) + "\n", "\n".join(points) + "\n"
+            columns = _own_columns(table)
+            figures = [values.get(c, "") for c in columns[len(_HEAD) + 1:-len(_TAIL) - 5]]
+            rows[table].append(head + [len(obj.points), *figures, rms,
+                                       np.linalg.norm(middle - centre) * 1000, *(middle * 1000)]
+                               + [family, genus, species, "", 1, "", "", comment, "", ""])
+    headers = {"Lengths": LENGTH_COLUMNS, "3DPoints": POINT_COLUMNS}
+    return {name: _table(headers.get(name) or _own_columns(name), table_rows, "excel-tab", flatten=True)
+            for name, table_rows in rows.items()}

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.errors import InputFileError, UsvipsError
-from usvips.core.measure import KINDS
+from usvips.core.measurements import LEGACY, names
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.io.atomic import write_text_atomic
 
@@ -189,8 +189,9 @@ def read_picks(path: str | Path) -> list[dict]:
     for line, fields in rows:
         _check_width(path, line, fields, header)
         kind = fields[columns["type"]]
-        if kind not in KINDS:
-            raise InputFileError(str(path), f"type {_show(kind)} is not one of {', '.join(KINDS)}", line)
+        if kind not in (*names(), *LEGACY):
+            raise InputFileError(str(path), f"type {_show(kind)} is not one of {', '.join((*names(), *LEGACY))}",
+                                 line)
         pixels = []
         for column in ("vertex", "xl", "yl", "xr", "yr"):
             text = fields[columns[column]]

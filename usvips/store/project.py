@@ -35,6 +35,8 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.errors import UsvipsError
+from usvips.core.measurements import kind as measurement_kind
+from usvips.core.measurements import resolve as resolve_kind
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
@@ -477,20 +479,38 @@ class Project:
     # ---------------------------------------------------------------------------- objects
     def add_object(self, kind: str, vertices: list[Vertex], attribute: str = "", notes: str = "",
                    creator: str = "") -> int:
-        for i, vertex in enumerate(vertices):
-            values = (vertex.xl, vertex.yl, vertex.xr, vertex.yr)
-            if any(v is None or not np.isfinite(v) for v in values):
-                raise ProjectError(f"vertex {i}: a vertex needs both picks (left and right pixel)")
-        now = _now()
-        with self.transaction():
+        """Store one object (one transaction). ``kind`` is a registered measurement kind (or the legacy
+        ``line``, stored as ``length`` or ``arc`` by its vertex count); its vertex count is checked."""
+        return self.add_objects([(kind, vertices, attribute, notes, creator)])[0]
+
+    def add_objects(self, objects: list[tuple[str, list[Vertex], str, str, str]]) -> list[int]:
+        """Store several objects, each (kind, vertices, attribute, notes, creator), in ONE transaction:
+        all of them or, on any error, none."""
+        checked = []
+        for kind, vertices, attribute, notes, creator in objects:
+            for i, vertex in enumerate(vertices):
+                values = (vertex.xl, vertex.yl, vertex.xr, vertex.yr)
+                if any(v is None or not np.isfinite(v) for v in values):
+                    raise ProjectError(f"vertex {i}: a vertex needs both picks (left and right pixel)")
             try:
-                cursor = self._db.execute("INSERT INTO objects (kind, attribute, notes, creator, created, modified) "
-                                          "VALUES (?, ?, ?, ?, ?, ?)", (kind, attribute, notes, creator, now, now))
-                object_id = int(cursor.lastrowid)
-                self._insert_vertices(object_id, vertices)
-            except sqlite3.IntegrityError as error:
+                name = resolve_kind(kind, len(vertices))
+                measurement_kind(name).check_count(len(vertices))
+            except UsvipsError as error:
                 raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
-        return object_id
+            checked.append((name, vertices, attribute, notes, creator))
+        now = _now()
+        ids = []
+        try:
+            with self.transaction():
+                for kind, vertices, attribute, notes, creator in checked:
+                    cursor = self._db.execute("INSERT INTO objects (kind, attribute, notes, creator, created, "
+                                              "modified) VALUES (?, ?, ?, ?, ?, ?)",
+                                              (kind, attribute, notes, creator, now, now))
+                    ids.append(int(cursor.lastrowid))
+                    self._insert_vertices(ids[-1], vertices)
+            return ids
+        except sqlite3.IntegrityError as error:
+            raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
 
     def _insert_vertices(self, object_id: int, vertices: list[Vertex]) -> None:
         rows = []

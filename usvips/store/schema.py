@@ -50,7 +50,33 @@ CREATE TABLE vertex_history (
 CREATE INDEX vertex_history_object ON vertex_history(object_id, idx);
 """
 
-MIGRATIONS = {1: VERSION_1, 2: VERSION_2}
+# version 3: measurement kinds are validated by the registry (usvips.core.measurements), not by a CHECK,
+# so that a new kind needs no schema change; the old 'line' becomes 'length' (two vertices) or 'arc'
+# (more), as usvips.core.measurements.registry.LEGACY says. SQLite drops a CHECK only by rebuilding the
+# table; dropping `objects` would cascade into the vertices and their history, so both are kept aside in
+# temporary tables and put back (explicitly emptied first, whether or not foreign keys are enforced).
+VERSION_3 = """
+CREATE TABLE objects_v3 (
+    id INTEGER PRIMARY KEY, kind TEXT NOT NULL,
+    attribute TEXT NOT NULL DEFAULT '', notes TEXT NOT NULL DEFAULT '', creator TEXT NOT NULL DEFAULT '',
+    created TEXT NOT NULL, modified TEXT NOT NULL);
+INSERT INTO objects_v3 SELECT o.id,
+    CASE WHEN o.kind = 'line' THEN
+        (CASE WHEN (SELECT count(*) FROM vertices v WHERE v.object_id = o.id) = 2 THEN 'length' ELSE 'arc' END)
+    ELSE o.kind END, o.attribute, o.notes, o.creator, o.created, o.modified FROM objects o;
+CREATE TEMP TABLE vertices_v3 AS SELECT * FROM vertices;
+CREATE TEMP TABLE vertex_history_v3 AS SELECT * FROM vertex_history;
+DROP TABLE objects;
+ALTER TABLE objects_v3 RENAME TO objects;
+DELETE FROM vertices;
+DELETE FROM vertex_history;
+INSERT INTO vertices SELECT * FROM temp.vertices_v3;
+INSERT INTO vertex_history SELECT * FROM temp.vertex_history_v3;
+DROP TABLE temp.vertices_v3;
+DROP TABLE temp.vertex_history_v3;
+"""
+
+MIGRATIONS = {1: VERSION_1, 2: VERSION_2, 3: VERSION_3}
 SCHEMA_VERSION = max(MIGRATIONS)
 
 

@@ -1,0 +1,20 @@
+"""Measured objects: the measurement-kind registry (one module per kind in ``kinds``), figures with
+sigmas from the vertices' joint covariance, the quality rules, and the one function that computes every
+object's figures (:func:`measure`, :func:`measure_picks`)."""
+
+from usvips.core.measurements.evaluate import Measurement, intersect_vertices, measure, measure_picks, placement
+from usvips.core.measurements.figures import Figure, QualityRules, propagate, propagate_all
+from usvips.core.measurements.registry import (
+    DRAWINGS,
+    LEGACY,
+    MeasurementKind,
+    UnknownKindError,
+    kind,
+    kinds,
+    names,
+    resolve,
+)
+
+__all__ = ["DRAWINGS", "LEGACY", "Figure", "Measurement", "MeasurementKind", "QualityRules", "UnknownKindError",
+           "intersect_vertices", "kind", "kinds", "measure", "measure_picks", "names", "placement", "propagate",
+           "propagate_all", "resolve"]

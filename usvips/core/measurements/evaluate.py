@@ -1,0 +1,115 @@
+"""The one function that computes every figure of a measured object and its sigma, and checks it
+against the quality rules — for the window, the geo-calculator, ``usvips measure`` and every export.
+
+:func:`measure_picks` is the path from the picks: every vertex is intersected with the calibration, and
+the figures' sigmas come from the JOINT (3N, 3N) covariance of the object's vertices (pointing, and the
+calibration's part, which is common to all of them and correlates them; a length partly cancels it).
+:func:`measure` takes vertices and a covariance directly (e.g. stored values when the calibration an
+object was measured with is no longer available: then the vertices are uncorrelated, ``joint=False``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from usvips.core.calibration.uncertainty import joint_covariance
+from usvips.core.errors import DegenerateGeometryError
+from usvips.core.measurements.figures import Figure, QualityRules, full_covariance
+from usvips.core.measurements.registry import kind as kind_named
+from usvips.core.rays import RayStatus
+from usvips.core.stereo_calibration import StereoCalibration
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """A measured object: kind, vertices (N, 3) m, their joint covariance (3N, 3N) m², its figures
+    (in the kind's order; :attr:`main` is the main one) and the quality rules it breaks; the
+    ray-intersection RMS (m) over its vertices and the largest range (m) from the left camera when
+    known; ``joint``: whether the covariance carries the correlation between the vertices (False for
+    stored per-vertex covariances)."""
+
+    kind: str
+    points: np.ndarray
+    covariance: np.ndarray
+    figures: tuple[Figure, ...]
+    failures: tuple[str, ...] = ()
+    ray_rms_m: float | None = None
+    range_m: float | None = None
+    joint: bool = True
+    id: str = ""
+    attribute: str = ""
+    notes: str = ""
+
+    @property
+    def main(self) -> Figure:
+        """The kind's main figure (length, area, diameter; Z of a point)."""
+        return self.figure(kind_named(self.kind).main_name())
+
+    def figure(self, name: str) -> Figure:
+        for figure in self.figures:
+            if figure.name == name:
+                return figure
+        raise KeyError(name)
+
+    @property
+    def vertex_sigmas(self) -> np.ndarray:
+        """(N, 3) standard deviations (m) of the vertices' X, Y, Z."""
+        return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None)).reshape(-1, 3)
+
+
+def measure(kind: str, points: np.ndarray, covariance: np.ndarray, ray_rms_m: float | None = None,
+            range_m: float | None = None, rules: QualityRules | None = None, joint: bool | None = None,
+            id: str = "", attribute: str = "", notes: str = "") -> Measurement:
+    """Figures with sigmas and quality of an object of ``kind`` (a registered name) from its vertices
+    (N, 3) m and their covariance, (3N, 3N) joint or (N, 3, 3) per vertex (m²). Degenerate geometry
+    raises :class:`DegenerateGeometryError`, an unknown kind :class:`UnknownKindError`."""
+    measurement_kind = kind_named(kind)
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if not np.all(np.isfinite(points)):
+        raise DegenerateGeometryError(f"a {kind} with vertices without 3-D coordinates")
+    given = np.asarray(covariance, dtype=np.float64)
+    full = full_covariance(points, given)
+    figures = measurement_kind.figures(points, full)
+    rules = rules or QualityRules()
+    main = next(f for f in figures if f.name == measurement_kind.main_name())
+    failures = rules.check(main, ray_rms_m, range_m, relative=measurement_kind.relative_rule)
+    return Measurement(measurement_kind.name, points, full, figures, tuple(failures), ray_rms_m, range_m,
+                       given.ndim == 2 if joint is None else joint, id, attribute, notes)
+
+
+def placement(calibration: StereoCalibration, label: str | None) -> tuple[int | str, str]:
+    """Where a pair measures: (station, frame) — the object frame at its station when the pair is a
+    calibrated station, otherwise the rig frame (origin at the left camera's perspective centre)."""
+    if label is not None and label in calibration.stations:
+        return label, "object"
+    return 0, "rig"
+
+
+def intersect_vertices(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
+                       station: int | str = 0, frame: str = "object") -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Vertices (N, 3) m of picks (N, 2) px with their JOINT covariance (3N, 3N) m², the ray-intersection
+    RMS (m) over them and their largest range (m) from the left camera. A vertex whose rays fail is a
+    :class:`DegenerateGeometryError` naming the vertex (0-based) and why."""
+    left = np.asarray(left, dtype=np.float64).reshape(-1, 2)
+    right = np.asarray(right, dtype=np.float64).reshape(-1, 2)
+    result, covariance = joint_covariance(calibration, left, right, station, frame)
+    failed = np.flatnonzero(~result.ok)
+    if failed.size:
+        raise DegenerateGeometryError(f"vertex {int(failed[0])}: {RayStatus(int(result.status[failed[0]])).reason}")
+    camera = calibration.rig(station, frame).left.exterior.position
+    ray_rms = float(np.sqrt(np.mean(result.residuals_m ** 2)))
+    range_m = float(np.max(np.linalg.norm(result.points - camera, axis=1)))
+    return result.points, covariance, ray_rms, range_m
+
+
+def measure_picks(kind: str, calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
+                  station: int | str = 0, frame: str = "object", rules: QualityRules | None = None,
+                  id: str = "", attribute: str = "", notes: str = "") -> Measurement:
+    """Intersect the picks (N, 2) px of an object's vertices with ``calibration`` at ``station`` in
+    ``frame`` (:func:`intersect_vertices`) and :func:`measure` it from their joint covariance."""
+    measurement_kind = kind_named(kind)
+    measurement_kind.check_count(len(np.asarray(left).reshape(-1, 2)))
+    points, covariance, ray_rms, range_m = intersect_vertices(calibration, left, right, station, frame)
+    return measure(measurement_kind.name, points, covariance, ray_rms, range_m, rules, True, id, attribute, notes)

@@ -1,0 +1,148 @@
+"""The measurement-kind registry: every kind of measured object is one class in one module of
+``usvips.core.measurements.kinds``; defining the class registers it, and the registry imports every
+module of that package the first time it is asked (nothing lists the kinds by hand).
+
+A kind states its minimum (and maximum) number of vertices, whether its outline closes, how it is
+drawn (:data:`DRAWINGS`, a Qt-free word the panes and the exports translate), and its figures: their
+names and units and the formula (:meth:`MeasurementKind.values`); the sigmas from the joint (3N, 3N)
+covariance of its vertices follow by first-order propagation. An unknown kind is an error, never a default.
+
+Legacy name: projects of schema ≤ 2 and picks CSVs know ``line``: with two vertices it is a
+``length``, with more an ``arc`` (:func:`resolve`; the store's migration to schema 3 renames stored rows
+the same way).
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from typing import ClassVar
+
+import numpy as np
+
+from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
+from usvips.core.measurements.figures import Figure, figures_of
+
+#: How a kind is drawn: a marker per vertex; an open polyline through the vertices; a closed polygon;
+#: the fitted circle (its outline, :meth:`MeasurementKind.outline`, sampled in 3-D).
+DRAWINGS = ("marker", "polyline", "polygon", "circle")
+#: Old kind names → the kind they mean for a number of vertices.
+LEGACY = {"line": lambda n: "length" if n == 2 else "arc"}
+
+_KINDS: dict[str, type[MeasurementKind]] = {}
+_discovered = False
+
+
+class UnknownKindError(InvalidParameterError):
+    """A measurement kind the registry does not know."""
+
+    def __init__(self, name: object):
+        super().__init__("kind", f"unknown measurement kind {name!r}; known: {', '.join(names())}")
+
+
+class MeasurementKind:
+    """Base of the measurement kinds. Subclasses set the class attributes and :meth:`compute`.
+
+    ``figure_names``: (name, unit) of the figures :meth:`compute` returns, the first one the main
+    figure unless ``main_figure`` names another (the main figure is shown in the object list, and the
+    quality rules' precision/value rule checks it when ``relative_rule``).
+    ``eventmeasure``: the EventMeasure-style table its rows go to (``Lengths``, ``3DPoints``, or a table
+    of its own such as ``Polygons``).
+    """
+
+    name: ClassVar[str]
+    order: ClassVar[int] = 100
+    description: ClassVar[str]
+    minimum_vertices: ClassVar[int]
+    maximum_vertices: ClassVar[int | None] = None
+    closes: ClassVar[bool] = False
+    drawing: ClassVar[str]
+    figure_names: ClassVar[tuple[tuple[str, str], ...]]
+    relative_rule: ClassVar[bool] = True
+    main_figure: ClassVar[str | None] = None
+    eventmeasure: ClassVar[str]
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if "name" not in cls.__dict__:
+            return
+        if cls.drawing not in DRAWINGS:
+            raise TypeError(f"measurement kind {cls.name!r}: drawing must be one of {DRAWINGS}")
+        if cls.name in _KINDS and _KINDS[cls.name].__qualname__ != cls.__qualname__:
+            raise TypeError(f"measurement kind {cls.name!r} is defined twice")
+        _KINDS[cls.name] = cls
+
+    # -------------------------------------------------------------- what each kind supplies
+    @classmethod
+    def values(cls, points: np.ndarray) -> np.ndarray:
+        """The figures' values (K,), in the order of ``figure_names``, of vertices (N, 3) m: the kind's
+        formula; degenerate geometry raises :class:`DegenerateGeometryError`."""
+        raise NotImplementedError
+
+    @classmethod
+    def compute(cls, points: np.ndarray, covariance: np.ndarray) -> tuple[Figure, ...]:
+        """The figures of vertices (N, 3) m with their joint covariance (3N, 3N) m²: :meth:`values` with
+        first-order sigmas (one Jacobian by central differences)."""
+        return figures_of(cls.values, cls.figure_names, points, covariance)
+
+    @classmethod
+    def outline(cls, points: np.ndarray) -> np.ndarray:
+        """3-D points (M, 3) m to draw (closed outlines repeat their first point)."""
+        return np.vstack([points, points[:1]]) if cls.closes and len(points) > 2 else points
+
+    # -------------------------------------------------------------- shared
+    @classmethod
+    def main_name(cls) -> str:
+        """The main figure's name: ``main_figure``, by default the first of ``figure_names``."""
+        return cls.main_figure or cls.figure_names[0][0]
+
+    @classmethod
+    def check_count(cls, count: int) -> None:
+        """Raise :class:`DegenerateGeometryError` when ``count`` vertices cannot make this kind."""
+        if count < cls.minimum_vertices:
+            raise DegenerateGeometryError(f"a {cls.name} needs at least {cls.minimum_vertices} vertices, "
+                                          f"got {count}")
+        if cls.maximum_vertices is not None and count > cls.maximum_vertices:
+            raise DegenerateGeometryError(f"a {cls.name} has at most {cls.maximum_vertices} vertices, got {count}")
+
+    @classmethod
+    def figures(cls, points: np.ndarray, covariance: np.ndarray) -> tuple[Figure, ...]:
+        """Checked vertex count, then :meth:`compute`."""
+        cls.check_count(len(points))
+        return cls.compute(points, covariance)
+
+
+def _discover() -> None:
+    global _discovered
+    if _discovered:
+        return
+    package = importlib.import_module(f"{__package__}.kinds")
+    for module in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
+        importlib.import_module(f"{package.__name__}.{module.name}")
+    _discovered = True
+
+
+def names() -> tuple[str, ...]:
+    """Every registered kind, in the order the kinds ask for (``order``), then by name."""
+    _discover()
+    return tuple(sorted(_KINDS, key=lambda n: (_KINDS[n].order, n)))
+
+
+def kinds() -> tuple[type[MeasurementKind], ...]:
+    return tuple(_KINDS[n] for n in names())
+
+
+def kind(name: str) -> type[MeasurementKind]:
+    """The kind called ``name`` (legacy names are not accepted here: see :func:`resolve`)."""
+    _discover()
+    if not isinstance(name, str) or name not in _KINDS:
+        raise UnknownKindError(name)
+    return _KINDS[name]
+
+
+def resolve(name: str, vertex_count: int) -> str:
+    """The registered kind meant by ``name`` for an object of ``vertex_count`` vertices: the name itself,
+    or what a legacy name (``line``) means; anything else is an :class:`UnknownKindError`."""
+    if isinstance(name, str) and name in LEGACY:
+        name = LEGACY[name](vertex_count)
+    return kind(name).name

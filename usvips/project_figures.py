@@ -1,0 +1,162 @@
+"""Figures of a project's stored objects, for the window, ``usvips measure`` and every export alike.
+
+What the store keeps, and why: each vertex keeps its picks (pixels), the calibration it was measured
+with (``calibration_id``) and its pair, besides its own X, Y, Z and 3 × 3 covariance. The figures of an
+object are RECOMPUTED from the picks with that stored calibration (:func:`usvips.core.measurements.
+measure_picks`), which gives the joint (3N, 3N) covariance of the object's vertices with the correlation
+that the common calibration puts between them. We do not store a joint covariance per object: it is
+derived data (the picks and the calibration determine it exactly), it would grow with N², and it would
+go stale whenever the numbers engineer improves the propagation — recomputing keeps one source of truth.
+Only when the calibration is gone or unreadable, or the vertices were measured with different
+calibrations, do the stored per-vertex values serve (uncorrelated; ``Measurement.joint`` is False and
+the exports say ``per-vertex``).
+
+Reading (:func:`measurement_input`, on the thread that owns the project) is split from computing
+(:func:`evaluate`, pure, any thread) so that the window can compute many objects in a worker.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from usvips.core.errors import DegenerateGeometryError, UsvipsError
+from usvips.core.measurements import (
+    Measurement,
+    QualityRules,
+    intersect_vertices,
+    measure,
+    measure_picks,
+    placement,
+)
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.io.calibration_file import calibration_from_dict
+from usvips.store import Project
+from usvips.store.project import StoredObject, Vertex
+
+
+@dataclass(frozen=True)
+class MeasurementInput:
+    """Everything :func:`evaluate` needs, copied out of the project: picks (N, 2) px per side, stored
+    X, Y, Z (N, 3) m (NaN where none) and covariances (N, 3, 3) m², and the calibration with the station
+    and frame the object's pair measures in (None when there is no single usable calibration)."""
+
+    id: str
+    kind: str
+    left: np.ndarray
+    right: np.ndarray
+    xyz: np.ndarray
+    covariances: np.ndarray
+    calibration: StereoCalibration | None
+    station: int | str = 0
+    frame: str = "rig"
+    attribute: str = ""
+    notes: str = ""
+    pair: str | None = None
+
+
+def stored_calibration(project: Project, calibration_id: int,
+                       cache: dict[int, StereoCalibration | None] | None = None) -> StereoCalibration | None:
+    """A stored calibration (None when it is gone or unreadable); ``cache`` keeps what was read."""
+    cache = {} if cache is None else cache
+    if calibration_id not in cache:
+        try:
+            cache[calibration_id] = calibration_from_dict(project.calibration(calibration_id),
+                                                          f"{project.path} calibration {calibration_id}")
+        except UsvipsError:
+            cache[calibration_id] = None
+    return cache[calibration_id]
+
+
+def measurement_input(project: Project, stored: StoredObject,
+                      cache: dict[int, StereoCalibration | None] | None = None) -> MeasurementInput:
+    """Copy what the figures of ``stored`` need out of ``project`` (call on the project's thread)."""
+    vertices = stored.vertices
+    keys = {(v.calibration_id, v.pair) for v in vertices}
+    calibration, station, frame, pair = None, 0, "rig", vertices[0].pair if vertices else None
+    if len(keys) == 1 and next(iter(keys))[0] is not None:
+        calibration_id, pair = next(iter(keys))
+        calibration = stored_calibration(project, calibration_id, cache)
+        if calibration is not None:
+            station, frame = placement(calibration, pair)
+    xyz = np.array([v.xyz if v.xyz is not None else (np.nan,) * 3 for v in vertices], float).reshape(-1, 3)
+    covariances = np.array([v.covariance if v.covariance is not None else np.full((3, 3), np.nan)
+                            for v in vertices], float).reshape(-1, 3, 3)
+    return MeasurementInput(str(stored.id), stored.kind, np.array([[v.xl, v.yl] for v in vertices], float),
+                            np.array([[v.xr, v.yr] for v in vertices], float), xyz, covariances, calibration,
+                            station, frame, stored.attribute, stored.notes, pair)
+
+
+def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Measurement:
+    """The object's :class:`Measurement`: from its picks with its calibration (joint covariance), or from
+    the stored per-vertex values when that is not possible. Raises :class:`UsvipsError` naming the
+    object when neither gives figures."""
+    labels = {"id": source.id, "attribute": source.attribute, "notes": source.notes}
+    try:
+        if source.calibration is not None:
+            try:
+                return measure_picks(source.kind, source.calibration, source.left, source.right, source.station,
+                                     source.frame, rules, **labels)
+            except DegenerateGeometryError:
+                pass  # rays that no longer meet with this calibration: the stored values still stand
+        if not np.all(np.isfinite(source.xyz)) or not np.all(np.isfinite(source.covariances)):
+            raise DegenerateGeometryError("it has vertices without 3-D coordinates")
+        return measure(source.kind, source.xyz, source.covariances, rules=rules, joint=False, **labels)
+    except UsvipsError as error:
+        raise UsvipsError(f"object {source.id}: {error}") from None
+
+
+def joint_vertices(source: MeasurementInput) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Vertices (N, 3) m and their (3N, 3N) covariance m² of any set of vertices (e.g. two objects'
+    together, for the figures between them): joint through the calibration where possible, else the
+    stored per-vertex values (the bool says which)."""
+    if source.calibration is not None:
+        try:
+            points, covariance, _, _ = intersect_vertices(source.calibration, source.left, source.right,
+                                                          source.station, source.frame)
+            return points, covariance, True
+        except UsvipsError:
+            pass  # as in evaluate: the stored values still stand
+    covariance = np.zeros((3 * len(source.xyz),) * 2)
+    for i, c in enumerate(np.nan_to_num(source.covariances)):
+        covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] = c
+    return source.xyz, covariance, False
+
+
+def measure_stored(project: Project, stored: StoredObject, rules: QualityRules | None = None,
+                   cache: dict[int, StereoCalibration | None] | None = None) -> Measurement:
+    """:func:`measurement_input` then :func:`evaluate`."""
+    return evaluate(measurement_input(project, stored, cache), rules)
+
+
+def store_measurements(project: Project, pair: str, objects: list[tuple[str, str, np.ndarray, str]],
+                       rules: QualityRules | None = None, where: str = "") -> tuple[list[Measurement], list[int]]:
+    """Measure objects — (id, kind, pixels (N, 4) xl yl xr yr, attribute) — with the calibration active
+    for ``pair``, placed as the pair measures, and store them as the window does (each vertex with its
+    picks, X, Y, Z, 3 × 3 covariance, the calibration and the pair; creator ``usvips``; the attribute
+    added to the vocabulary): all in one transaction, or nothing when any object fails. ``where`` (e.g.
+    the picks file) starts the error messages. Returns the measurements and the new objects' ids."""
+    calibration_id = project.active_calibration(pair)
+    if calibration_id is None:
+        raise UsvipsError(f"{project.path}: pair {pair!r} has no active calibration: nothing can be measured")
+    calibration = calibration_from_dict(project.calibration(calibration_id),
+                                        f"{project.path} calibration {calibration_id}")
+    station, frame = placement(calibration, pair)
+    measured, rows = [], []
+    for object_id, kind, pixels, attribute in objects:
+        try:
+            m = measure_picks(kind, calibration, pixels[:, :2], pixels[:, 2:], station, frame, rules,
+                              id=object_id, attribute=attribute)
+        except DegenerateGeometryError as error:
+            prefix = f"{where}: " if where else ""
+            raise DegenerateGeometryError(f"{prefix}object {object_id!r}: {error}") from None
+        blocks = [m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(len(m.points))]
+        vertices = [Vertex(*map(float, p), tuple(map(float, xyz)), c, calibration_id, pair)
+                    for p, xyz, c in zip(pixels, m.points, blocks, strict=True)]
+        measured.append(m)
+        rows.append((m.kind, vertices, attribute, "", "usvips"))
+    ids = project.add_objects(rows)
+    for attribute in sorted({a for *_, a in objects if a}):
+        project.add_term(attribute)
+    return measured, ids
