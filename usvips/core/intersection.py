@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from usvips.core import validation
+from usvips.core import kernels, validation
 from usvips.core.camera import Camera
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
 from usvips.core.rays import RayStatus, require_all_ok
@@ -149,10 +149,36 @@ def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px:
     if not np.all(np.isfinite(sigma)) or np.any(sigma <= 0):
         raise InvalidParameterError("sigma_px", "must be finite and > 0")
 
+    if all(kernels.wanted(n, camera.housing.surfaces) for camera in cameras):
+        result = _intersect_compiled(cameras, arrays, sigma)
+        if result is not None:
+            return result
+    return _intersect_reference(cameras, arrays, sigma)
+
+
+def _intersect_compiled(cameras: Sequence[Camera], arrays: list[np.ndarray], sigma: np.ndarray
+                        ) -> Intersection | None:
+    """The compiled path of :func:`intersect` (same numbers); None when a lens distortion cannot be
+    inverted at some pixel, for the reference path to name it."""
+    k, n = len(cameras), arrays[0].shape[0]
+    origins, directions = np.empty((k, n, 3)), np.empty((k, n, 3))
+    d_origins, d_directions = np.empty((k, n, 3, 2)), np.empty((k, n, 3, 2))
+    status, failed = np.empty((k, n), dtype=np.uint8), np.empty((k, n), dtype=np.int16)
+    for j, (camera, pix) in enumerate(zip(cameras, arrays, strict=True)):
+        if not kernels.trace_into(camera, pix, origins[j], directions[j], d_origins[j], d_directions[j],
+                                  status[j], failed[j]):
+            return None
+    return Intersection(*kernels.intersect_rays(origins, directions, d_origins, d_directions,
+                                                status == RayStatus.OK, sigma))
+
+
+def _intersect_reference(cameras: Sequence[Camera], arrays: list[np.ndarray], sigma: np.ndarray) -> Intersection:
+    """The numpy path of :func:`intersect` (the reference the compiled kernels are tested against)."""
+    k, n = len(cameras), arrays[0].shape[0]
     status = np.zeros(n, dtype=np.uint8)
     rays = []
     for camera, pix in zip(cameras, arrays, strict=True):
-        bundle, d_origin, d_direction = camera.rays_with_derivatives(pix)
+        bundle, d_origin, d_direction = camera._rays_with_derivatives_reference(pix)
         status[(bundle.status != RayStatus.OK) & (status == RayStatus.OK)] = RayStatus.FAILED_RAY
         rays.append((bundle.origins, bundle.directions, d_origin, d_direction))
 
