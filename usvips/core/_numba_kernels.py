@@ -1,6 +1,8 @@
 """The numba code behind :mod:`usvips.core.kernels` (imported only through it; needs numba).
 
-One point at a time, in scalars: no temporaries over whole arrays. Status codes are those of
+One point at a time, in scalars: no temporaries over whole arrays. Each kernel's loop is a ``_range``
+function over rows lo..hi, so that blocks of rows could be handed to threads; they run on one thread
+(numba's ``parallel=True`` ran slower here on two cores shared by other jobs). Status codes are those of
 :class:`usvips.core.rays.RayStatus`. Compiled code is cached next to this file (``cache=True``), so a
 run pays the compilation once per installation, then only for loading it.
 """
@@ -126,13 +128,19 @@ def trace_pixels(pixels, interior, rotation, position, kinds, geometry, indices,
     arrays (origins, directions (N, 3); d_origins, d_directions (N, 3, 2); status, failed (N,)).
     Returns how many rows have a distortion that cannot be inverted there (the caller lets the reference
     path say which and why)."""
-    n = pixels.shape[0]
+    return _trace_pixels_range(0, pixels.shape[0], pixels, interior, rotation, position, kinds, geometry, indices,
+                               min_advance, origins, directions, d_origins, d_directions, status, failed)
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
+def _trace_pixels_range(lo, hi, pixels, interior, rotation, position, kinds, geometry, indices, min_advance,
+                        origins, directions, d_origins, d_directions, status, failed):
     unusable = 0
     f, xp, yp, sy, k1, k2, p1, p2 = (interior[0], interior[1], interior[2], interior[3], interior[4],
                                      interior[5], interior[6], interior[7])
     distorted = k1 != 0.0 or k2 != 0.0 or p1 != 0.0 or p2 != 0.0
     s = np.empty(18)
-    for i in range(n):
+    for i in range(lo, hi):
         tu = (pixels[i, 0] - xp) / f
         tv = (yp - pixels[i, 1]) * sy / f
         u, v = tu, tv
@@ -207,29 +215,39 @@ def _solve3(m, b, x, inverse):
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
 def intersect_weighted(origins, directions, d_origins, d_directions, ray_ok, sigma):
-    """The two passes of ``intersection.intersect`` per point: the midpoint, then each ray weighted by
-    its pixel Jacobian at the midpoint's depth; covariance, residuals (metres, pixels) and status."""
-    k, n = origins.shape[0], origins.shape[1]
+    """The two passes of ``intersection.intersect`` per point, over tuples of the k cameras' arrays:
+    the midpoint, then each ray weighted by its pixel Jacobian at the midpoint's depth; covariance,
+    residuals (metres, pixels) and status."""
+    k, n = len(origins), origins[0].shape[0]
     points = np.zeros((n, 3))
     covariance = np.zeros((n, 3, 3))
     residuals_m = np.zeros((n, k))
     residuals_px = np.zeros((n, k))
     status = np.zeros(n, dtype=np.uint8)
+    _intersect_range(0, n, origins, directions, d_origins, d_directions, ray_ok, sigma, points, covariance,
+                     residuals_m, residuals_px, status)
+    return points, covariance, residuals_m, residuals_px, status
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
+def _intersect_range(lo, hi, origins, directions, d_origins, d_directions, ray_ok, sigma,
+                     points, covariance, residuals_m, residuals_px, status):
+    k = len(origins)
     m = np.empty(6)
     b = np.empty(3)
     x = np.empty(3)
     inverse = np.empty(9)
     rows = np.empty((k, 6))
-    for i in range(n):
+    for i in range(lo, hi):
         code = OK
         for j in range(k):
-            if not ray_ok[j, i]:
+            if not ray_ok[j][i]:
                 code = FAILED_RAY
         m[:] = 0.0
         b[:] = 0.0
         for j in range(k):
-            dx, dy, dz = directions[j, i, 0], directions[j, i, 1], directions[j, i, 2]
-            ox, oy, oz = origins[j, i, 0], origins[j, i, 1], origins[j, i, 2]
+            dx, dy, dz = directions[j][i, 0], directions[j][i, 1], directions[j][i, 2]
+            ox, oy, oz = origins[j][i, 0], origins[j][i, 1], origins[j][i, 2]
             m[0] += 1 - dx * dx
             m[1] -= dx * dy
             m[2] -= dx * dz
@@ -244,15 +262,15 @@ def intersect_weighted(origins, directions, d_origins, d_directions, ray_ok, sig
         m[:] = 0.0
         b[:] = 0.0
         for j in range(k):
-            dx, dy, dz = directions[j, i, 0], directions[j, i, 1], directions[j, i, 2]
-            ox, oy, oz = origins[j, i, 0], origins[j, i, 1], origins[j, i, 2]
+            dx, dy, dz = directions[j][i, 0], directions[j][i, 1], directions[j][i, 2]
+            ox, oy, oz = origins[j][i, 0], origins[j][i, 1], origins[j][i, 2]
             along = (x[0] - ox) * dx + (x[1] - oy) * dy + (x[2] - oz) * dz
-            m0x = d_origins[j, i, 0, 0] + along * d_directions[j, i, 0, 0]
-            m0y = d_origins[j, i, 1, 0] + along * d_directions[j, i, 1, 0]
-            m0z = d_origins[j, i, 2, 0] + along * d_directions[j, i, 2, 0]
-            m1x = d_origins[j, i, 0, 1] + along * d_directions[j, i, 0, 1]
-            m1y = d_origins[j, i, 1, 1] + along * d_directions[j, i, 1, 1]
-            m1z = d_origins[j, i, 2, 1] + along * d_directions[j, i, 2, 1]
+            m0x = d_origins[j][i, 0, 0] + along * d_directions[j][i, 0, 0]
+            m0y = d_origins[j][i, 1, 0] + along * d_directions[j][i, 1, 0]
+            m0z = d_origins[j][i, 2, 0] + along * d_directions[j][i, 2, 0]
+            m1x = d_origins[j][i, 0, 1] + along * d_directions[j][i, 0, 1]
+            m1y = d_origins[j][i, 1, 1] + along * d_directions[j][i, 1, 1]
+            m1z = d_origins[j][i, 2, 1] + along * d_directions[j][i, 2, 1]
             p0 = dx * m0x + dy * m0y + dz * m0z
             p1 = dx * m1x + dy * m1y + dz * m1z
             b0x, b0y, b0z = m0x - p0 * dx, m0y - p0 * dy, m0z - p0 * dz
@@ -283,8 +301,8 @@ def intersect_weighted(origins, directions, d_origins, d_directions, ray_ok, sig
             good = False
         behind = False
         for j in range(k):
-            dx, dy, dz = directions[j, i, 0], directions[j, i, 1], directions[j, i, 2]
-            wx, wy, wz = x[0] - origins[j, i, 0], x[1] - origins[j, i, 1], x[2] - origins[j, i, 2]
+            dx, dy, dz = directions[j][i, 0], directions[j][i, 1], directions[j][i, 2]
+            wx, wy, wz = x[0] - origins[j][i, 0], x[1] - origins[j][i, 1], x[2] - origins[j][i, 2]
             along = wx * dx + wy * dy + wz * dz
             if along <= 0.0:
                 behind = True
@@ -307,7 +325,6 @@ def intersect_weighted(origins, directions, d_origins, d_directions, ray_ok, sig
             points[i, r] = x[r]
             for c in range(3):
                 covariance[i, r, c] = inverse[3 * r + c]
-    return points, covariance, residuals_m, residuals_px, status
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
@@ -358,8 +375,14 @@ def back_project(points, start, warm, kinds, geometry, indices, proxy, min_advan
     n = points.shape[0]
     uv = np.empty((n, 2))
     status = np.zeros(n, dtype=np.uint8)
+    _back_project_range(0, n, points, start, warm, kinds, geometry, indices, proxy, min_advance, uv, status)
+    return uv, status
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
+def _back_project_range(lo, hi, points, start, warm, kinds, geometry, indices, proxy, min_advance, uv, status):
     s = np.empty(18)
-    for i in range(n):
+    for i in range(lo, hi):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
         if math.isfinite(warm[i, 0]) and math.isfinite(warm[i, 1]):
             u, v = warm[i, 0], warm[i, 1]
@@ -427,4 +450,3 @@ def back_project(points, start, warm, kinds, geometry, indices, proxy, min_advan
             previous = size
         uv[i, 0], uv[i, 1] = u, v
         status[i] = code
-    return uv, status

@@ -63,8 +63,8 @@ def surface_table(surfaces) -> tuple[np.ndarray, np.ndarray] | None:
     return kinds, geometry
 
 
-def wanted(rows: int, surfaces) -> bool:
-    """Whether to run the compiled kernel on ``rows`` rows through ``surfaces`` (see :func:`mode`)."""
+def wanted(rows: int, surfaces=()) -> bool:
+    """Whether to run a compiled kernel on ``rows`` rows (traced through ``surfaces``; see :func:`mode`)."""
     current = _state["mode"]
     if current == "never" or (current == "auto" and rows < MIN_ROWS):
         return False
@@ -108,8 +108,13 @@ def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.n
 
 def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, sigma):
     """Compiled two-pass weighted intersection of k rays per point (see ``intersection.intersect``):
-    all arrays stacked over cameras first, (k, N, ...); ``sigma`` (N, k) pixels."""
-    return _load().intersect_weighted(origins, directions, d_origins, d_directions, ray_ok,
+    tuples over the k cameras of origins, directions (N, 3), their derivatives per pixel (N, 3, 2) and
+    whether each ray is valid (N,); ``sigma`` (N, k) pixels. Returns points, covariance, residuals in
+    metres and pixels, and a status per point."""
+    def contiguous(arrays, dtype=np.float64):
+        return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
+    return _load().intersect_weighted(contiguous(origins), contiguous(directions), contiguous(d_origins),
+                                      contiguous(d_directions), contiguous(ray_ok, np.bool_),
                                       np.ascontiguousarray(sigma, dtype=np.float64))
 
 
