@@ -219,11 +219,11 @@ def intersect_weighted(origins, directions, d_origins, d_directions, ray_ok, sig
     the midpoint, then each ray weighted by its pixel Jacobian at the midpoint's depth; covariance,
     residuals (metres, pixels) and status."""
     k, n = len(origins), origins[0].shape[0]
-    points = np.zeros((n, 3))
-    covariance = np.zeros((n, 3, 3))
-    residuals_m = np.zeros((n, k))
-    residuals_px = np.zeros((n, k))
-    status = np.zeros(n, dtype=np.uint8)
+    points = np.empty((n, 3))  # every row is written below (zeros where the point failed)
+    covariance = np.empty((n, 3, 3))
+    residuals_m = np.empty((n, k))
+    residuals_px = np.empty((n, k))
+    status = np.empty(n, dtype=np.uint8)
     _intersect_range(0, n, origins, directions, d_origins, d_directions, ray_ok, sigma, points, covariance,
                      residuals_m, residuals_px, status)
     return points, covariance, residuals_m, residuals_px, status
@@ -320,6 +320,10 @@ def _intersect_range(lo, hi, origins, directions, d_origins, d_directions, ray_o
             for j in range(k):
                 residuals_m[i, j] = 0.0
                 residuals_px[i, j] = 0.0
+            for r in range(3):
+                points[i, r] = 0.0
+                for c in range(3):
+                    covariance[i, r, c] = 0.0
             continue
         for r in range(3):
             points[i, r] = x[r]
