@@ -4,7 +4,8 @@ One point at a time, in scalars: no temporaries over whole arrays. Each kernel's
 function over rows lo..hi, so that blocks of rows could be handed to threads; they run on one thread
 (numba's ``parallel=True`` ran slower here on two cores shared by other jobs). Status codes are those of
 :class:`usvips.core.rays.RayStatus`. Compiled code is cached next to this file (``cache=True``), so a
-run pays the compilation once per installation, then only for loading it.
+run pays the compilation once per installation, then only for loading it. The entry points release the
+GIL (``nogil``), so a worker thread running one does not freeze the window.
 """
 
 from __future__ import annotations
@@ -121,7 +122,7 @@ def _distort(u, v, k1, k2, p1, p2):
     return ud, vd, j00, j01, j10, j11
 
 
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
 def trace_pixels(pixels, interior, rotation, position, kinds, geometry, indices, min_advance,
                  origins, directions, d_origins, d_directions, status, failed):
     """Pixels (N, 2) → object-space rays with their derivatives per pixel, written into the given
@@ -213,7 +214,7 @@ def _solve3(m, b, x, inverse):
     return True
 
 
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
 def intersect_weighted(origins, directions, d_origins, d_directions, ray_ok, sigma):
     """The two passes of ``intersection.intersect`` per point, over tuples of the k cameras' arrays:
     the midpoint, then each ray weighted by its pixel Jacobian at the midpoint's depth; covariance,
@@ -372,7 +373,7 @@ def _proxy_start(px, py, pz, indices, proxy):
     return -dx / dz, -dy / dz
 
 
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
 def back_project(points, start, warm, kinds, geometry, indices, proxy, min_advance):
     """``camera._back_project_general`` per point: Gauss–Newton on (u, v) so that the traced ray passes
     through the camera-frame point, halving a step whose ray fails; returns uv (N, 2) and a status."""
