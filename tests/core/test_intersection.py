@@ -6,7 +6,7 @@ from usvips.core.camera import Camera, Exterior
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
 from usvips.core.housing import GeneralHousing
 from usvips.core.interior import Interior
-from usvips.core.intersection import intersect, intersect_rays
+from usvips.core.intersection import intersect, intersect_rays, intersect_traced, retrace, trace
 from usvips.core.rays import RayStatus
 from usvips.core.rig import RelativeOrientation, StereoRig
 from usvips.core.surfaces import Plane
@@ -111,3 +111,27 @@ def test_bad_arguments():
         intersect(rig.cameras, [np.zeros((1, 2)), np.zeros((1, 2))], sigma_px=0.0)
     with pytest.raises(InvalidParameterError, match="same number of rows"):
         intersect(rig.cameras, [np.zeros((1, 2)), np.zeros((2, 2))])
+
+
+@pytest.mark.parametrize("name", ["flat-port", "dome-cover", "implicit"])
+def test_traced_rays_are_kept_for_an_unchanged_camera_and_retraced_for_a_changed_one(name):
+    rig = make_rig(name)
+    points = scene_points(200, seed=3)
+    left, right = rig.left.project(points), rig.right.project(points)
+    keep = left.ok & right.ok
+    pixels = [left.pixels[keep], right.pixels[keep]]
+    traced = [trace(camera, pix) for camera, pix in zip(rig.cameras, pixels, strict=True)]
+    direct = intersect(rig.cameras, pixels, 0.4)
+    again = intersect_traced(traced, 0.4)
+    np.testing.assert_array_equal(again.points, direct.points)
+    np.testing.assert_array_equal(again.covariance, direct.covariance)
+    # an equal camera (not the same object) keeps the rays; a moved one gets its own
+    same = rig.left.with_exterior(rig.left.exterior.with_values())
+    assert retrace(traced[0], same) is traced[0] or name == "implicit"
+    moved = rig.right.with_exterior(rig.right.exterior.with_values(X0=rig.right.exterior.X0 + 0.01))
+    fresh = retrace(traced[1], moved)
+    assert fresh is not traced[1]
+    shifted = intersect_traced([traced[0], fresh], 0.4)
+    expected = intersect([rig.left, moved], pixels, 0.4)
+    np.testing.assert_array_equal(shifted.points, expected.points)
+    assert np.all(np.abs(shifted.points - direct.points).max(axis=1) > 1e-4)

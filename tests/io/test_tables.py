@@ -90,3 +90,25 @@ def test_bad_picks_name_the_line(tmp_path, text, message):
     path.write_text(text)
     with pytest.raises(InputFileError, match=message.replace("(", r"\(").replace(")", r"\)")):
         read_picks(path)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("id,xl,yl,xr,yr\n1,1,2,3,4\n2,1,x,3,4\n", "line 3: column yl: 'x' is not a number"),
+    ("id,xl,yl,xr,yr\n1,1,2,3,4\n2,1,2,3,inf\n", "line 3: column yr: 'inf' is not a finite number"),
+    ("id,xl,yl,xr,yr\n1,1,2,3,4\n\n# note\n2,1,2,,4\n", "line 5: column xr: '' is not a number"),
+])
+def test_bad_observation_pixels_are_named_by_line_and_column(tmp_path, text, message):
+    path = tmp_path / "o.csv"
+    path.write_text(text)
+    with pytest.raises(InputFileError) as error:
+        read_observations(path)
+    assert str(path) in str(error.value) and message in str(error.value)
+
+
+def test_quoted_fields_are_read_as_csv(tmp_path):
+    path = tmp_path / "o.csv"
+    path.write_text('id,xl,yl,xr,yr\n"fish 1, snout", 1.5 ,2,3,4\nplain,5,6,7,8\n')
+    obs = read_observations(path)
+    assert obs.ids == ("fish 1, snout", "plain")
+    np.testing.assert_array_equal(obs.left, [[1.5, 2.0], [5.0, 6.0]])
+    np.testing.assert_array_equal(obs.right, [[3.0, 4.0], [7.0, 8.0]])

@@ -44,7 +44,8 @@ def _scene(rig: StereoRig, n: int, seed: int = 7) -> tuple[np.ndarray, np.ndarra
     left = rig.left.project(points)
     right = rig.right.project(points)
     keep = np.flatnonzero(rays.ok & left.ok & right.ok)[:n]
-    return points[keep], left.pixels[keep], right.pixels[keep]
+    # the left pixels the points were traced from (the truth that back-projection must return to)
+    return points[keep], pixels[keep], right.pixels[keep]
 
 
 def benchmarks(scale: float = 1.0) -> Iterator[dict]:

@@ -12,6 +12,7 @@ import numpy as np
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError
+from usvips.core.intersection import Intersection
 from usvips.core.rays import RayStatus
 from usvips.io.calibration_file import load_calibration
 from usvips.io.tables import read_observations
@@ -46,15 +47,22 @@ def run(args: argparse.Namespace) -> int:
         raise DegenerateGeometryError(
             f"{args.obs}{line}: point {observations.ids[first]!r}: {RayStatus(int(result.status[first])).reason}"
             f" ({failed.size} of {len(observations)} points failed; --skip-failed writes the others)")
-    rows = []
-    for i, pid in enumerate(observations.ids):
-        if not result.ok[i]:
-            continue
-        rows.append([pid, *(f"{v:.6f}" for v in result.points[i]), *(f"{v:.6f}" for v in result.sigmas[i])])
-    write_text_atomic(args.out, csv_text(["id", "X", "Y", "Z", "sX", "sY", "sZ"], rows))
+    write_text_atomic(args.out, csv_text(["id", "X", "Y", "Z", "sX", "sY", "sZ"], point_rows(observations.ids, result)))
+    written = int(result.ok.sum())
     rms = float(np.sqrt(np.mean(result.residuals_px[result.ok] ** 2))) if result.ok.any() else 0.0
-    print(f"intersected {len(rows)} of {len(observations)} points (ray residual RMS {rms:.3f} px, "
+    print(f"intersected {written} of {len(observations)} points (ray residual RMS {rms:.3f} px, "
           f"sigma0 {calibration.sigma0_px:.3f} px); wrote {args.out}")
     for i in failed:
         print(f"  skipped point {observations.ids[i]}: {RayStatus(int(result.status[i])).reason}")
     return 0
+
+
+def point_rows(ids: tuple[str, ...], result: Intersection) -> list[list[str]]:
+    """CSV rows ``id, X, Y, Z, sX, sY, sZ`` (metres, 6 decimals) of the intersected points, in input order.
+
+    Linear in the number of points: the sigmas are computed once for all rows and every number is
+    formatted in one pass over a flat list (no per-row work on whole arrays)."""
+    ok = np.flatnonzero(result.ok)
+    table = np.column_stack([result.points[ok], result.sigmas[ok]])
+    texts = [f"{v:.6f}" for v in table.ravel().tolist()]
+    return [[ids[i], *texts[6 * row:6 * row + 6]] for row, i in enumerate(ok.tolist())]

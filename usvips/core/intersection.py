@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from usvips.core import validation
+from usvips.core import kernels, validation
 from usvips.core.camera import Camera
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
-from usvips.core.rays import RayStatus, require_all_ok
+from usvips.core.rays import RayBundle, RayStatus, require_all_ok
 
 
 @dataclass(frozen=True)
@@ -124,6 +124,40 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
+@dataclass(frozen=True)
+class TracedRays:
+    """The object-space rays of N pixels of one camera, and how they move with the pixel.
+
+    ``rays`` is the :class:`RayBundle` (metres, unit directions, a status per ray); ``d_origins`` and
+    ``d_directions`` (N, 3, 2) their derivatives per pixel x (column 0) and y (column 1), metres per
+    pixel and 1 per pixel. Tracing is most of an intersection's cost: a camera that did not change
+    keeps its traced rays (e.g. while differentiating by the other camera's parameters).
+    """
+
+    camera: Camera
+    pixels: np.ndarray
+    rays: RayBundle
+    d_origins: np.ndarray
+    d_directions: np.ndarray
+
+
+def trace(camera: Camera, pixels: np.ndarray, what: str = "pixels") -> TracedRays:
+    """Trace observed pixels (N, 2) of ``camera`` for :func:`intersect_traced` (``what`` names them)."""
+    pixels = validation.finite_array(what, pixels, 2)
+    bundle, d_origins, d_directions = camera.rays_with_derivatives(pixels)
+    return TracedRays(camera, pixels, bundle, d_origins, d_directions)
+
+
+def retrace(traced: TracedRays, camera: Camera) -> TracedRays:
+    """``traced`` itself when ``camera`` equals the camera it was traced with, else its pixels traced
+    anew through ``camera``."""
+    try:
+        same = camera is traced.camera or bool(camera == traced.camera)
+    except (ValueError, TypeError):  # a housing holding arrays does not compare by value
+        same = False
+    return traced if same else trace(camera, traced.pixels)
+
+
 def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px: float | np.ndarray = 0.5
               ) -> Intersection:
     """Intersect conjugate pixels of two or more cameras (thesis 2.4) with covariance.
@@ -140,7 +174,11 @@ def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px:
     n = arrays[0].shape[0]
     if any(a.shape[0] != n for a in arrays):
         raise InvalidParameterError("pixels", "every camera needs the same number of rows")
-    k = len(cameras)
+    _sigma(sigma_px, len(cameras), n)  # bad sigmas are named before any tracing
+    return intersect_traced([trace(camera, pix) for camera, pix in zip(cameras, arrays, strict=True)], sigma_px)
+
+
+def _sigma(sigma_px: float | np.ndarray, k: int, n: int) -> np.ndarray:
     try:
         sigma = np.broadcast_to(np.asarray(sigma_px, dtype=np.float64).reshape(
             (1, k) if np.ndim(sigma_px) == 1 else np.shape(sigma_px)), (n, k))
@@ -148,13 +186,34 @@ def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px:
         raise InvalidParameterError("sigma_px", f"must be a scalar, ({k},) or ({n}, {k})") from None
     if not np.all(np.isfinite(sigma)) or np.any(sigma <= 0):
         raise InvalidParameterError("sigma_px", "must be finite and > 0")
+    return sigma
 
+
+def intersect_traced(traced: Sequence[TracedRays], sigma_px: float | np.ndarray = 0.5) -> Intersection:
+    """:func:`intersect` of rays already traced by :func:`trace` (k cameras, N rows each)."""
+    if len(traced) < 2:
+        raise DegenerateGeometryError(f"intersection needs the rays of at least two cameras, got {len(traced)}")
+    n = len(traced[0].rays)
+    if any(len(t.rays) != n for t in traced):
+        raise InvalidParameterError("pixels", "every camera needs the same number of rows")
+    sigma = _sigma(sigma_px, len(traced), n)
+    if kernels.wanted(n):
+        return Intersection(*kernels.intersect_rays(
+            tuple(t.rays.origins for t in traced), tuple(t.rays.directions for t in traced),
+            tuple(t.d_origins for t in traced), tuple(t.d_directions for t in traced),
+            tuple(t.rays.ok for t in traced), sigma))
+    return _intersect_reference(traced, sigma)
+
+
+def _intersect_reference(traced: Sequence[TracedRays], sigma: np.ndarray) -> Intersection:
+    """The numpy path of :func:`intersect_traced` (the reference the compiled kernel is tested against)."""
+    k, n = len(traced), len(traced[0].rays)
     status = np.zeros(n, dtype=np.uint8)
     rays = []
-    for camera, pix in zip(cameras, arrays, strict=True):
-        bundle, d_origin, d_direction = camera.rays_with_derivatives(pix)
+    for one in traced:
+        bundle = one.rays
         status[(bundle.status != RayStatus.OK) & (status == RayStatus.OK)] = RayStatus.FAILED_RAY
-        rays.append((bundle.origins, bundle.directions, d_origin, d_direction))
+        rays.append((bundle.origins, bundle.directions, one.d_origins, one.d_directions))
 
     # pass 1: the midpoint (equal weights), to know how far along each ray the point lies
     zero = np.zeros(n)

@@ -12,7 +12,7 @@ import numpy as np
 
 from usvips.core.calibration.model import _STEPS, stereo_cameras, symbol
 from usvips.core.errors import InvalidParameterError, UsvipsError
-from usvips.core.intersection import Intersection, intersect
+from usvips.core.intersection import Intersection, intersect_traced, retrace, trace
 from usvips.core.stereo_calibration import StereoCalibration
 
 
@@ -32,7 +32,7 @@ def intersect_with_calibration(calibration: StereoCalibration, left: np.ndarray,
                                                             include_calibration)
     if derivatives is None:
         return result
-    calibration_part = np.einsum("jni,jk,knl->nil", derivatives, sigma, derivatives)
+    calibration_part = np.einsum("jni,jk,knl->nil", derivatives, sigma, derivatives, optimize=True)
     covariance = result.covariance + np.where(result.ok[:, None, None], calibration_part, 0.0)
     return Intersection(result.points, covariance, result.residuals_m, result.residuals_px, result.status)
 
@@ -57,7 +57,9 @@ def _intersect_and_derivatives(calibration, left, right, station, frame, include
     if frame not in ("object", "rig"):
         raise InvalidParameterError("frame", f"must be 'object' or 'rig', got {frame!r}")
     rig = calibration.rig(station, frame=frame)
-    result = intersect(rig.cameras, [left, right], calibration.sigma0_px)
+    traced = [trace(camera, pixels, f"pixels of camera {i}")
+              for i, (camera, pixels) in enumerate(zip(rig.cameras, (left, right), strict=True))]
+    result = intersect_traced(traced, calibration.sigma0_px)
     if not include_calibration or calibration.covariance is None or not result.ok.any():
         return result, None, None
     names, sigma = calibration.covariance
@@ -77,7 +79,9 @@ def _intersect_and_derivatives(calibration, left, right, station, frame, include
             cameras = stereo_cameras(kind, moved, calibration.stations, label, size, frame)
         except UsvipsError:  # a step outside the valid region: leave this column at zero
             continue
-        again = intersect(cameras, [left, right], calibration.sigma0_px)
+        # (a camera the step did not change keeps its traced rays)
+        again = intersect_traced([retrace(one, camera) for one, camera in zip(traced, cameras, strict=True)],
+                                 calibration.sigma0_px)
         usable = ok & again.ok
         derivatives[j, usable] = (again.points[usable] - result.points[usable]) / step
     return result, derivatives, np.asarray(sigma)

@@ -1,0 +1,85 @@
+"""How batch work grows with its input: ``usvips intersect`` at 10³ … 10⁶ points.
+
+Each row times the whole command in this process (read the observations CSV, intersect with the
+calibration's covariance propagated to every point, write the points CSV) at one size, against the same
+command at a tenth of that size timed in the same run: a linear path shows a ratio near 10 (less at small
+sizes, where fixed costs dominate), a quadratic one near 100. The calibration is the bundled ROV sample's
+(flat ports, 25 calibrated parameters with their covariance).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from usvips.bench import best_time
+from usvips.cli import intersect as intersect_command
+from usvips.io.calibration_file import load_calibration
+
+#: Promise: each tenfold step of the input costs at most this many times the step before (linear,
+#: with room for a loaded machine's noise; quadratic growth would show about 100).
+TARGET_RATIO = 13.0
+
+CALIBRATION = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport" / "calibration.json"
+
+
+def write_observations(calibration, n: int, path: Path, seed: int = 11) -> int:
+    """A stereo observation CSV of ``n`` points 1.5-4 m in front of the rig, seen by both cameras,
+    with 0.3 px of noise; returns the number of rows written."""
+    rng = np.random.default_rng(seed)
+    rig = calibration.rig(0, frame="object")
+    width, height = calibration.left.width, calibration.left.height
+    count = 3 * n + 50
+    pixels = np.column_stack([rng.uniform(20, width - 20, count), rng.uniform(20, height - 20, count)])
+    rays = rig.left.rays(pixels)
+    points = rays.origins + rng.uniform(1.5, 4.0, count)[:, None] * rays.directions
+    left, right = rig.left.project(points), rig.right.project(points)
+    keep = np.flatnonzero(rays.ok & left.ok & right.ok)[:n]
+    table = np.column_stack([left.pixels[keep], right.pixels[keep]]) + rng.normal(0, 0.3, (keep.size, 4))
+    lines = [f"p{i},{a:.4f},{b:.4f},{c:.4f},{d:.4f}" for i, (a, b, c, d) in enumerate(table.tolist())]
+    path.write_text("id,xl,yl,xr,yr\n" + "\n".join(lines) + "\n", encoding="utf-8")
+    return int(keep.size)
+
+
+def sizes(scale: float = 1.0) -> list[int]:
+    """10³ … 10⁶ points times ``scale`` (at least 10 points)."""
+    return [max(10, int(round(10**exponent * scale))) for exponent in range(3, 7)]
+
+
+def benchmarks(scale: float = 1.0) -> Iterator[dict]:
+    calibration = load_calibration(CALIBRATION)
+    with tempfile.TemporaryDirectory(prefix="usvips-bench-") as folder:
+        timed: list[tuple[int, float, float]] = []
+        for n in sizes(scale):
+            obs = Path(folder) / f"obs_{n}.csv"
+            out = Path(folder) / f"points_{n}.csv"
+            count = write_observations(calibration, n, obs)
+            args = argparse.Namespace(calibration=str(CALIBRATION), obs=str(obs), out=str(out), station="0",
+                                      frame="object", pointing_only=False, skip_failed=True)
+
+            def command(args=args) -> None:
+                with contextlib.redirect_stdout(io.StringIO()):
+                    intersect_command.run(args)
+
+            if not timed:
+                command()  # load the compiled kernels and warm caches once
+            repeats = 3 if count <= 10_000 else 1
+            cpu_start = time.process_time()
+            wall = best_time(command, repeats)
+            cpu = (time.process_time() - cpu_start) / repeats
+            timed.append((count, wall, cpu))
+        for (small, small_s, small_cpu), (large, large_s, large_cpu) in zip(timed, timed[1:], strict=False):
+            ratio = large_s / small_s if small_s > 0 else float("inf")
+            yield {"name": "usvips intersect (read CSV, intersect with the calibration's covariance, write CSV)",
+                   "n": large, "ours_s": round(large_s, 6),
+                   "baseline": f"the same command on {small} points", "baseline_s": round(small_s, 6),
+                   "ratio": round(ratio, 4), "target": TARGET_RATIO, "met": bool(ratio <= TARGET_RATIO),
+                   "ours_cpu_s": round(large_cpu, 6), "baseline_cpu_s": round(small_cpu, 6),
+                   "points_per_s": round(large / large_s) if large_s > 0 else None}

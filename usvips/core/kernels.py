@@ -1,0 +1,145 @@
+"""Compiled per-point kernels (numba) of the hot paths: the refractive trace with pixel derivatives,
+the weighted intersection with covariance, and the back-projection through a non-axial housing.
+
+Each kernel does, point by point in registers, exactly what the vectorised numpy code does over whole
+arrays (``Interior.undistort``, ``Housing.trace_with_tangents``, ``intersection.intersect``,
+``camera._back_project_general``); that numpy code stays the reference the tests compare against (to
+1e-9 m / 1e-6 px over random cameras and housings). Conventions as there: camera frame with the camera
+looking along −z, normalised coordinates (u, v) with the ray (u, v, −1), metres, pixels.
+
+Only planes and spheres compile (every parametric housing); a housing with an implicit surface, or a
+machine without numba, takes the numpy path. :func:`mode` chooses: ``"auto"`` (compiled for batches of
+at least :data:`MIN_ROWS` rows, where it pays for loading the compiled code), ``"always"`` or
+``"never"``. numba is imported only when a kernel first runs, so a window that never intersects a
+batch does not pay for it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+
+from usvips.core.surfaces import MIN_ADVANCE, Plane, Sphere
+
+#: Batches smaller than this use the numpy path in ``"auto"`` mode (rows).
+MIN_ROWS = 512
+
+_MODES = ("auto", "always", "never")
+_state = {"mode": "auto"}
+_compiled: dict[str, object] = {}
+
+PLANE, SPHERE = 0, 1
+
+
+@contextmanager
+def mode(name: str) -> Iterator[None]:
+    """Within the block, use the compiled kernels ``"always"``, ``"never"`` or ``"auto"``."""
+    if name not in _MODES:
+        raise ValueError(f"kernel mode must be one of {_MODES}, got {name!r}")
+    previous = _state["mode"]
+    _state["mode"] = name
+    try:
+        yield
+    finally:
+        _state["mode"] = previous
+
+
+def surface_table(surfaces) -> tuple[np.ndarray, np.ndarray] | None:
+    """(kinds (m,), geometry (m, 4)) of a stack of planes (normal, offset) and spheres (centre, radius),
+    or None when a surface is of another kind."""
+    kinds = np.empty(len(surfaces), dtype=np.int64)
+    geometry = np.empty((len(surfaces), 4))
+    for i, surface in enumerate(surfaces):
+        if isinstance(surface, Plane):
+            kinds[i] = PLANE
+            geometry[i, :3], geometry[i, 3] = surface.normal, surface.offset
+        elif isinstance(surface, Sphere):
+            kinds[i] = SPHERE
+            geometry[i, :3], geometry[i, 3] = surface.center, surface.radius
+        else:
+            return None
+    return kinds, geometry
+
+
+def wanted(rows: int, surfaces=()) -> bool:
+    """Whether to run a compiled kernel on ``rows`` rows (traced through ``surfaces``; see :func:`mode`)."""
+    current = _state["mode"]
+    if current == "never" or (current == "auto" and rows < MIN_ROWS):
+        return False
+    if surface_table(surfaces) is None:
+        return False
+    return _load() is not None
+
+
+def _load():
+    """The compiled functions (a dict), or None when numba is not installed."""
+    if "kernels" not in _compiled:
+        try:
+            from usvips.core import _numba_kernels
+        except ImportError:  # numba missing: the numpy path serves
+            _compiled["kernels"] = None
+        else:
+            _compiled["kernels"] = _numba_kernels
+    return _compiled["kernels"]
+
+
+def _interior_row(interior) -> np.ndarray:
+    return np.array([interior.f, interior.xp, interior.yp, interior.sy,
+                     interior.k1, interior.k2, interior.p1, interior.p2])
+
+
+def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.ndarray,
+               d_origins: np.ndarray, d_directions: np.ndarray, status: np.ndarray, failed: np.ndarray) -> bool:
+    """Compiled :meth:`Camera.rays_with_derivatives` of pixels (N, 2), written into the given arrays:
+    object-space origins and unit directions (N, 3), their derivatives per pixel x and y (N, 3, 2),
+    :class:`RayStatus` codes (N,) uint8 and failed surfaces (N,) int16. Returns False when the lens
+    distortion cannot be inverted at some pixel (the reference path then names it)."""
+    kinds, geometry = surface_table(camera.housing.surfaces)
+    exterior = camera.exterior
+    unusable = _load().trace_pixels(
+        np.ascontiguousarray(pixels, dtype=np.float64), _interior_row(camera.interior),
+        np.ascontiguousarray(exterior.rotation), exterior.position, kinds, geometry,
+        np.asarray(camera.housing.indices, dtype=np.float64), MIN_ADVANCE,
+        origins, directions, d_origins, d_directions, status, failed)
+    return unusable == 0
+
+
+def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, sigma):
+    """Compiled two-pass weighted intersection of k rays per point (see ``intersection.intersect``):
+    tuples over the k cameras of origins, directions (N, 3), their derivatives per pixel (N, 3, 2) and
+    whether each ray is valid (N,); ``sigma`` (N, k) pixels. Returns points, covariance, residuals in
+    metres and pixels, and a status per point."""
+    def contiguous(arrays, dtype=np.float64):
+        return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
+    return _load().intersect_weighted(contiguous(origins), contiguous(directions), contiguous(d_origins),
+                                      contiguous(d_directions), contiguous(ray_ok, np.bool_),
+                                      np.ascontiguousarray(sigma, dtype=np.float64))
+
+
+def back_project_general(housing, points: np.ndarray, start: np.ndarray, warm: np.ndarray | None,
+                         outer: Plane | None):
+    """Compiled ``camera._back_project_general``: (uv (N, 2), status (N,)) of camera-frame points (N, 3);
+    ``start`` the pinhole (u, v), ``warm`` given starts (rows of NaN: none), ``outer`` the plane whose
+    air-to-water solve starts the others (None: the pinhole start)."""
+    kinds, geometry = surface_table(housing.surfaces)
+    proxy = np.zeros(4)
+    if outer is not None:
+        axis = -outer.normal if outer.normal[2] > 0 else outer.normal
+        proxy[:3], proxy[3] = axis, -outer.offset * float(outer.normal @ axis)
+    if warm is None:
+        warm = np.full((len(points), 2), np.nan)
+    return _load().back_project(np.ascontiguousarray(points, dtype=np.float64),
+                                np.ascontiguousarray(start, dtype=np.float64),
+                                np.ascontiguousarray(warm, dtype=np.float64), kinds, geometry,
+                                np.asarray(housing.indices, dtype=np.float64), proxy, MIN_ADVANCE)
+
+
+def available() -> bool:
+    """True when numba is installed and the compiled kernels can run."""
+    return _load() is not None
+
+
+__all__ = ["MIN_ROWS", "available", "back_project_general", "intersect_rays", "mode",
+           "surface_table", "trace_into", "wanted"]
