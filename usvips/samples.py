@@ -12,6 +12,7 @@ from pathlib import Path
 from usvips.io.manifest import read_manifest
 from usvips.io.tables import read_control, read_observations
 from usvips.store import Project
+from usvips.video_project import add_sample_video
 
 
 def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
@@ -32,6 +33,8 @@ def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
         for entry in manifest.calibrations:
             project.add_calibration(entry.file.stem, json.loads(entry.file.read_text(encoding="utf-8")),
                                     entry.active_for)
+        if manifest.video is not None:  # the sample's stereo video with its known offset
+            add_sample_video(project, manifest.video.left, manifest.video.right, manifest.video.frame_offset)
     except BaseException:
         project.close()
         Path(out).unlink(missing_ok=True)

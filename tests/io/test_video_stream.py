@@ -2,33 +2,24 @@
 forwards and backwards, for every codec/container this FFmpeg writes; chapters as one stream; variable
 frame rate, duplicated and dropped frames reported; bad input named in one line."""
 
-import cv2
 import numpy as np
 import pytest
 
 from usvips.core.errors import InputFileError
+from usvips.core.synth.frame_numbers import frame_number, numbered_frame
 from usvips.io.video import write_video
 from usvips.io.video_stream import VideoStream
 from usvips.io.video_writer import CODECS, encode_video, encoders_available
 
-WIDTH, HEIGHT, BITS = 160, 120, 10
+WIDTH, HEIGHT = 160, 120
 
 
-def numbered(i: int, seed: int = 0) -> np.ndarray:
-    """A frame whose number is written into the picture as 10 bright/dark blocks (bit b at column 16 b),
-    over a textured background that changes every frame (so that codecs have something to predict)."""
-    rng = np.random.default_rng(seed * 10_000 + i)
-    frame = cv2.GaussianBlur(rng.integers(0, 255, (HEIGHT, WIDTH, 3), dtype=np.uint8), (0, 0), 2)
-    frame[40:80] = 40
-    for b in range(BITS):
-        if (i >> b) & 1:
-            frame[40:80, 16 * b:16 * (b + 1)] = 215
-    return frame
+def numbered(i: int) -> np.ndarray:
+    return numbered_frame(i, WIDTH, HEIGHT)
 
 
 def number_of(frame: np.ndarray) -> int:
-    row = frame[50:70].reshape(20, WIDTH, -1).mean(axis=(0, 2))
-    return sum(1 << b for b in range(BITS) if row[16 * b + 4:16 * b + 12].mean() > 128)
+    return frame_number(frame)
 
 
 CONTAINERS = {"h264": ".mp4", "mpeg4": ".avi", "mjpeg": ".avi", "ffv1": ".mkv"}

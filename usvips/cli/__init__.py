@@ -14,7 +14,8 @@ from usvips import __version__
 from usvips.core.errors import UsvipsError
 
 #: (module name, description) of every subcommand; each module defines ``register(subparsers)``.
-COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure", "project", "render", "bench")
+COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure", "project", "render", "bench",
+                             "video")
 
 
 def build_parser() -> argparse.ArgumentParser:

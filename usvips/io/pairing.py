@@ -1,0 +1,75 @@
+"""Pairing a user's left and right images (or video files) given as folders or lists.
+
+Two rules, tried in this order by :func:`pair_images` with ``by="auto"``:
+
+- ``stem``: the files share a stem once the camera's mark is taken off (``IMG_0042_L.jpg`` ↔
+  ``IMG_0042_R.jpg``, ``left/0042.png`` ↔ ``right/0042.png``, ``L0042`` ↔ ``R0042``);
+- ``order``: the n-th left file (sorted by name, numbers compared as numbers) with the n-th right file;
+  the two lists must then be as long as each other.
+
+Pairing by EXIF capture time is not available (it needs an EXIF reader the project does not depend on).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from pathlib import Path
+
+from usvips.core.errors import InputFileError
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".mts", ".m4v")
+_CAMERA_MARK = re.compile(r"(^|[_\-. ])(l|r|left|right|links|rechts|cam[12])($|[_\-. ])|^(l|r)(?=\d)",
+                          re.IGNORECASE)
+
+
+def natural_key(path: Path) -> list:
+    """Sort key comparing runs of digits as numbers (``img2`` before ``img10``)."""
+    return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", path.name)]
+
+
+def expand(items: Sequence[str | Path], suffixes: Sequence[str], option: str) -> list[Path]:
+    """Files of a list of files and folders (a folder gives its files with one of ``suffixes``, in
+    natural order); a missing file or an empty folder is named."""
+    files: list[Path] = []
+    for item in items:
+        path = Path(item)
+        if path.is_dir():
+            found = sorted((p for p in path.iterdir() if p.is_file() and p.suffix.lower() in suffixes), key=natural_key)
+            if not found:
+                raise InputFileError(str(path), f"{option}: the folder holds no {'/'.join(suffixes)} files")
+            files.extend(found)
+        elif path.is_file():
+            files.append(path)
+        else:
+            raise InputFileError(str(path), f"{option}: no such file or folder")
+    if not files:
+        raise InputFileError("(nothing)", f"{option}: no files given")
+    return files
+
+
+def shared_stem(path: Path) -> str:
+    """The file's stem without the camera's mark (``IMG_0042_L`` → ``img_0042``)."""
+    return _CAMERA_MARK.sub(lambda m: (m.group(1) or "") if m.group(4) is None else "", path.stem).lower().strip("_-. ")
+
+
+def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto") -> tuple[list[tuple[Path, Path]], str]:
+    """(left, right) pairs and the rule used (``stem`` or ``order``)."""
+    if by not in ("auto", "stem", "order"):
+        raise InputFileError("--pair-by", f"{by!r}: choose auto, stem or order")
+    if by in ("auto", "stem"):
+        left_stems = {shared_stem(p): p for p in left}
+        right_stems = {shared_stem(p): p for p in right}
+        unique = len(left_stems) == len(left) and len(right_stems) == len(right)
+        if unique and left_stems.keys() == right_stems.keys():
+            pairs = [(left_stems[s], right_stems[s]) for s in sorted(left_stems, key=lambda s: natural_key(Path(s)))]
+            return pairs, "stem"
+        if by == "stem":
+            missing = sorted(set(left_stems) ^ set(right_stems))
+            raise InputFileError(str(left[0].parent), f"cannot pair by stem: {len(missing)} file(s) without a partner, "
+                                 f"e.g. {missing[0]!r}" if missing else "cannot pair by stem: stems repeat")
+    if len(left) != len(right):
+        raise InputFileError(str(left[0].parent), f"cannot pair by order: {len(left)} left and {len(right)} right "
+                             "files (and their stems do not match)")
+    return list(zip(left, right, strict=True)), "order"
