@@ -159,7 +159,9 @@ def _brightness(stream: VideoStream, limit: int | None, progress: Callable[[int,
     return values
 
 
-def _calibration_for(project: Project, calibration_id: int | None):
+def _calibration_for(project: Project, calibration_id: int | None, label: str):
+    if calibration_id is None:
+        calibration_id = project.active_calibration(label)
     if calibration_id is None:
         stored = project.calibrations()
         if not stored:
@@ -200,7 +202,7 @@ def estimate_offset(project: Project, label: str, method: str | None = None, max
             except UsvipsError:
                 if method == "flash":
                     raise
-        rig = _calibration_for(project, calibration_id)
+        rig = _calibration_for(project, calibration_id, label)
         n = min(count, frame_limit or count, 200)
         step = max(1, n // 15)
         left_frames = [left.frame(i) for i in range(n)]
@@ -210,6 +212,11 @@ def estimate_offset(project: Project, label: str, method: str | None = None, max
 
 
 def add_sample_video(project: Project, left: Path, right: Path, offset: int, label: str = "video") -> None:
-    """A sample's stereo video with its known offset (used when a sample directory becomes a project)."""
+    """A sample's stereo video with its known offset (used when a sample directory becomes a project),
+    measured with the calibration that is active for most of the sample's underwater pairs."""
     add_video(project, [left], [right], label)
     project.set_video_offset(label, offset, {"method": "sample truth"})
+    active = [project.active_calibration(p["label"]) for p in project.pairs() if p["medium"] == "water"]
+    active = [a for a in active if a is not None]
+    if active:
+        project.activate_calibration(label, max(set(active), key=active.count))

@@ -19,7 +19,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     sync.add_argument("--method", choices=("flash", "audio", "image"),
                       help="default: audio when both files have sound, else a clear flash, else the images")
     sync.add_argument("--max-offset", type=int, help="frames searched either way (default: a third of the video)")
-    sync.add_argument("--calibration", type=int, help="calibration id for --method image (default: the latest)")
+    sync.add_argument("--calibration", type=int, help="calibration id for --method image (default: the one "
+                      "active for the video, else the latest)")
     sync.add_argument("--json", action="store_true", help="print the estimate as JSON")
     sync.add_argument("--dry-run", action="store_true", help="print the estimate, store nothing")
     sync.set_defaults(handler=run_sync)

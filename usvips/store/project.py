@@ -465,6 +465,9 @@ class Project:
                     "VALUES (?, ?, ?, ?, ?, ?, ?)",
                     (label, float(fps), int(frame_count), *map(int, size), report, _now()))
                 video_id = int(cursor.lastrowid)
+                # the video is also a pair (no image files): its calibration is made active for it as for
+                # any pair, and its vertices refer to it
+                self._db.execute("INSERT INTO image_pairs (label, medium) VALUES (?, 'water')", (label,))
                 for camera, files in (("left", left), ("right", right)):
                     for idx, (path, frames, file_fps) in enumerate(files):
                         self._db.execute("INSERT INTO video_files VALUES (?, ?, ?, ?, ?, ?)",
@@ -473,6 +476,11 @@ class Project:
             raise ProjectError(f"{self.path}: cannot add video {label!r}: {error} "
                                "(is the label already used?)") from None
         return video_id
+
+    def activate_calibration(self, label: str, calibration_id: int) -> None:
+        """Make a stored calibration the active one of a pair (or video)."""
+        self.calibration(calibration_id)
+        self._edit("INSERT OR REPLACE INTO active_calibrations VALUES (?, ?)", (self.pair_id(label), calibration_id))
 
     def _video_row(self, label: str) -> tuple:
         row = self._db.execute("SELECT id, label, fps, frame_count, width, height, offset_frames, offset_estimate, "
