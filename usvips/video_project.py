@@ -70,11 +70,26 @@ def add_image_pairs(project: Project, plan: Sequence[tuple[str, Path, Path]], me
 
 
 # ---------------------------------------------------------------------------- videos
-def add_video(project: Project, left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
-              scan_pictures: bool = False) -> AddedVideo:
-    """Add a stereo video: each camera's files in order (chapters of one recording). Refuses left and
-    right of different picture sizes or frame rates; reports variable frame rate, duplicated and dropped
-    frames (``scan_pictures`` decodes every frame to find repeated pictures too)."""
+@dataclass(frozen=True)
+class VideoPlan:
+    """A stereo video read and checked, ready to store (:func:`store_video`): its label, each camera's
+    files as (path, frames, fps), the pair's fps, frame count and size (px), and the problems found."""
+
+    label: str
+    left: tuple[tuple[Path, int, float], ...]
+    right: tuple[tuple[Path, int, float], ...]
+    fps: float
+    frame_count: int
+    size: tuple[int, int]
+    warnings: tuple[str, ...]
+
+
+def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
+                  scan_pictures: bool = False) -> VideoPlan:
+    """Read a stereo video's files (each camera's files in order: chapters of one recording). Refuses
+    left and right of different picture sizes or frame rates; reports variable frame rate, duplicated
+    and dropped frames (``scan_pictures`` decodes every frame to find repeated pictures too). Touches no
+    project (may run in a worker thread)."""
     left_files = expand(left, VIDEO_SUFFIXES, "--left")
     right_files = expand(right, VIDEO_SUFFIXES, "--right")
     label = label or shared_stem(left_files[0]) or left_files[0].stem
@@ -92,11 +107,22 @@ def add_video(project: Project, left: Sequence[str | Path], right: Sequence[str 
             report = stream.scan_pictures() if scan_pictures else stream.report
             if not report.clean:
                 warnings.append(f"{files[0]} ({side}): {report.summary()}")
-        files = {side: [(p, c.count, 1.0 / float(np.median(np.diff(c.pts)) * c.time_base) if c.count > 1 else s.fps)
-                        for p, c in zip(s.paths, s.chapters, strict=True)]
+        files = {side: tuple((p, c.count, 1.0 / float(np.median(np.diff(c.pts)) * c.time_base) if c.count > 1
+                              else s.fps) for p, c in zip(s.paths, s.chapters, strict=True))
                  for side, s in (("left", a), ("right", b))}
-        project.add_video(label, files["left"], files["right"], a.fps, a.frame_count, a.size, "\n".join(warnings))
-        return AddedVideo(label, a.frame_count, a.fps, tuple(warnings))
+        return VideoPlan(label, files["left"], files["right"], a.fps, a.frame_count, a.size, tuple(warnings))
+
+
+def store_video(project: Project, plan: VideoPlan) -> AddedVideo:
+    project.add_video(plan.label, plan.left, plan.right, plan.fps, plan.frame_count, plan.size,
+                      "\n".join(plan.warnings))
+    return AddedVideo(plan.label, plan.frame_count, plan.fps, plan.warnings)
+
+
+def add_video(project: Project, left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
+              scan_pictures: bool = False) -> AddedVideo:
+    """:func:`inspect_video` then :func:`store_video`."""
+    return store_video(project, inspect_video(left, right, label, scan_pictures))
 
 
 def open_streams(project: Project, label: str) -> tuple[dict, VideoStream, VideoStream]:

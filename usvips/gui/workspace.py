@@ -217,6 +217,7 @@ class Workspace:
         self.enhancement_changed = Signal()
         self.message = Signal()
         self.observed = Signal()
+        self.video_frame: tuple[str, int, int, float] | None = None  # video, left and right frame, time (s)
 
     # ------------------------------------------------------------------ project and pair
     def open_project(self, project: Project) -> None:
@@ -249,6 +250,7 @@ class Workspace:
         if self.project is None:
             raise UsvipsError("open a project first")
         self.pair = label
+        self.video_frame = None  # a video's frame pair sets it after showing the images
         self.images = {"left": left, "right": right}
         try:
             self.geometry = pair_geometry(self.project, label)
@@ -497,7 +499,7 @@ class Workspace:
     def _vertices_for_store(self, vertices: tuple[MeasuredVertex, ...]) -> list[Vertex]:
         g = self.geometry
         return [Vertex(*v.left, *v.right, tuple(float(c) for c in v.xyz), v.covariance,
-                       g.calibration_id if g else None, self.pair) for v in vertices]
+                       g.calibration_id if g else None, self.pair, *(self.video_frame or ())) for v in vertices]
 
     def delete_object(self, object_id: int) -> None:
         saved = self.project.object(object_id)
