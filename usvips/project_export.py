@@ -14,6 +14,7 @@ from usvips.core.measure import MeasuredObject
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.export import export
 from usvips.store import Project
+from usvips.video_project import eventmeasure_frame_columns
 
 
 def _ray_geometry(project: Project, stored, cache: dict) -> tuple[float, np.ndarray] | None:
@@ -61,6 +62,9 @@ def export_project(project: Project, out: str | Path, opcode: str | None = None)
         if pair is not None:
             frame = "" if pair["frame"] is None else str(pair["frame"])
             images[key] = (Path(pair["left"] or "").name, frame, Path(pair["right"] or "").name, frame)
+        video_columns = eventmeasure_frame_columns(project, stored.vertices[0]) if stored.vertices else None
+        if video_columns is not None:  # measured on a video: its files, frames, time and period
+            images[key] = video_columns
     opcode = opcode if opcode is not None else project.path.stem
     export(objects, out, opcode=opcode, rms_m=rms, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0))
                                                                   for o in objects}, images=images)

@@ -237,6 +237,32 @@ def estimate_offset(project: Project, label: str, method: str | None = None, max
                                             range(-limit, limit + 1), step=step)
 
 
+def eventmeasure_frame_columns(project: Project, vertex) -> tuple[str, str, str, str, str, str, str] | None:
+    """EventMeasure's FilenameLeft, FrameLeft, FilenameRight, FrameRight, Time, Period, PeriodTime of a
+    vertex measured on a video (None otherwise): the chapter file holding each frame and the frame's
+    number within it, the time in minutes from the first frame (as EventMeasure), the period holding the
+    left frame and the minutes since it began."""
+    if vertex.video is None:
+        return None
+    video = project.video(vertex.video)
+
+    def locate(camera: str, frame: int) -> tuple[str, str]:
+        first = 0
+        for path, count in zip(video[camera], video[f"{camera}_frames"], strict=True):
+            if frame < first + count:
+                return Path(path).name, str(frame - first)
+            first += count
+        return "", str(frame)
+
+    (file_left, frame_left), (file_right, frame_right) = locate("left", vertex.frame_left), locate(
+        "right", vertex.frame_right)
+    period, period_time = "", ""
+    for name, start, end in project.periods(vertex.video):
+        if start <= vertex.frame_left <= end:
+            period, period_time = name, f"{(vertex.time_s - start / video['fps']) / 60:.4f}"
+    return file_left, frame_left, file_right, frame_right, f"{vertex.time_s / 60:.4f}", period, period_time
+
+
 def add_sample_video(project: Project, left: Path, right: Path, offset: int, label: str = "video") -> None:
     """A sample's stereo video with its known offset (used when a sample directory becomes a project),
     measured with the calibration that is active for most of the sample's underwater pairs."""

@@ -95,6 +95,11 @@ def test_sync_by_sound_dry_run_stores_nothing_and_set_offset_by_hand(tmp_path, c
         assert p.video("v")["offset_frames"] == 5 and p.video("v")["offset_estimate"] == {"method": "by hand"}
     code, out, _ = _run(capsys, "video", "sync", project, "--pair", "v")
     assert "offset +7.00 frames (+0.2800 s) by audio" in out and "stored" in out
+    assert _run(capsys, "video", "period", project, "--pair", "v", "--add", "descent", "0", "20")[0] == 0
+    code, out, _ = _run(capsys, "video", "period", project, "--pair", "v")
+    assert out == "descent: frames 0 to 20\n"
+    code, _, err = _run(capsys, "video", "period", project, "--pair", "v", "--add", "late", "70", "90")
+    assert code == 2 and "not an interval within the video (0 to 79)" in err
 
 
 def test_the_sample_project_opens_on_its_video_and_finds_its_lag(tmp_path, capsys):
@@ -200,3 +205,24 @@ def test_image_pairs_from_folders_by_stem_or_order_stored_relative_and_checked(t
     (tmp_path / "r2" / "b2.png").unlink()
     code, _, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "l2", "--right", tmp_path / "r2")
     assert code == 2 and "3 left and 2 right files" in err
+
+
+def test_the_samples_h264_version_is_the_same_video_and_synchronises_alike(tmp_path, capsys):
+    """video_left.mp4 / video_right.mp4: the sample's AVI frames encoded as H.264 (GOP 10, B-frames)."""
+    from usvips.io.video_stream import VideoStream
+
+    assert (SAMPLE / "video_left.mp4").stat().st_size + (SAMPLE / "video_right.mp4").stat().st_size < 2 * 2**20
+    for side in ("left", "right"):
+        with VideoStream(SAMPLE / f"video_{side}.avi") as avi, VideoStream(SAMPLE / f"video_{side}.mp4") as mp4:
+            assert (mp4.frame_count, mp4.fps, mp4.size, mp4.codec) == (30, pytest.approx(10), (640, 480), "h264")
+            for i in (29, 0, 13, 14, 7):
+                assert np.abs(mp4.frame(i).astype(int) - avi.frame(i)).mean() < 3.0
+    project = tmp_path / "rov.usvips"
+    main(["project", "new", str(project), "--from", str(SAMPLE)])
+    assert _run(capsys, "project", "add-video", project, "--left", SAMPLE / "video_left.mp4", "--right",
+                SAMPLE / "video_right.mp4", "--label", "h264")[0] == 0
+    with Project.open(project) as p:
+        p.activate_calibration("h264", p.active_calibration("video"))
+    code, out, err = _run(capsys, "video", "sync", project, "--pair", "h264", "--json")
+    assert code == 0, err
+    assert json.loads(out)["offset_frames_used"] == 3 and json.loads(out)["method"] == "image"

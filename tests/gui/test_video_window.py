@@ -86,3 +86,28 @@ def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tm
     assert media_dialogs.relocate_media(window, {"left.mp4": str(tmp_path / "right.mp4")}) == 0
     assert media_dialogs.relocate_media(window, {"left.mp4": str(tmp_path / "moved.mp4")}) == 1
     assert window.workspace.project.video("dive")["left"] == ["moved.mp4"]
+
+
+def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make_window, sample_copy, tmp_path):
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "video")
+    _wait_frame(qtbot, window, 0)
+    project = window.workspace.project
+    project.add_period("video", "bait", 10, 26)
+    window.video.request(20)
+    _wait_frame(qtbot, window, 20)
+    truth = json.loads((directory / "truth.json").read_text())["video"]
+    window.actions["tool_line"].trigger()
+    for point in ("snout", "fork"):
+        window.workspace.pick("left", truth["left"][20]["pixels"][point])
+        window.workspace.pick("right", truth["right"][23]["pixels"][point])
+    window.workspace.finish_object("Sparidae Pagrus auratus")
+    window.export_objects(tmp_path / "dive.em.txt")
+    header, row = (tmp_path / "dive_Lengths.txt").read_text().splitlines()
+    values = dict(zip(header.split("\t"), row.split("\t"), strict=True))
+    assert (values["FilenameLeft"], values["FrameLeft"], values["FilenameRight"], values["FrameRight"]) == \
+        ("video_left.avi", "20", "video_right.avi", "23")
+    assert float(values["Time"]) == pytest.approx(2.0 / 60, abs=1e-4)  # minutes, as EventMeasure
+    assert values["Period"] == "bait" and float(values["PeriodTime"]) == pytest.approx(1.0 / 60, abs=1e-4)
+    assert values["Species"] == "auratus"

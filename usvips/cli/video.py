@@ -7,6 +7,7 @@ import argparse
 import json
 
 from usvips import video_project
+from usvips.core.errors import UsvipsError
 from usvips.store import Project
 
 
@@ -36,6 +37,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     export.add_argument("--frame", type=int, required=True)
     export.add_argument("--out", required=True, help="the folder to write into (created if needed)")
     export.set_defaults(handler=run_export_frame)
+    period = actions.add_parser("period", help="mark a named period (left frames START to END) of a video pair, "
+                                "or list them")
+    period.add_argument("project")
+    period.add_argument("--pair", required=True)
+    period.add_argument("--add", nargs=3, metavar=("NAME", "START", "END"),
+                        help="mark a period from left frame START to END (inclusive)")
+    period.set_defaults(handler=run_period)
 
 
 def register_project_actions(actions: argparse._SubParsersAction) -> None:
@@ -109,4 +117,18 @@ def run_export_frame(args: argparse.Namespace) -> int:
         video = project.video(args.pair)
         left, right = video_project.export_frame(project, args.pair, args.frame, args.out)
     print(f"wrote {left} (left frame {args.frame}) and {right} (right frame {args.frame + video['offset_frames']})")
+    return 0
+
+
+def run_period(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        if args.add:
+            name, start, end = args.add
+            try:
+                start, end = int(start), int(end)
+            except ValueError:
+                raise UsvipsError(f"--add {name} {start} {end}: START and END must be frame numbers") from None
+            project.add_period(args.pair, name, start, end)
+        for name, start, end in project.periods(args.pair):
+            print(f"{name}: frames {start} to {end}")
     return 0

@@ -147,8 +147,9 @@ def eventmeasure_tables(objects: list[MeasuredObject], opcode: str = "", camera_
     """(lengths, 3-D points) as tab-separated text: two-vertex lines become lengths (snout to fork),
     points become 3-D points (their Direction left empty). ``rms_m``: each object's ray-intersection RMS
     (metres) if known (CheckEM drops rows without one when it filters on RMS); ``images``:
-    object id → (left file, left frame, right file, right frame). Direction is the angle (degrees) between
-    the measured line and the line of sight to its middle from ``camera_centre`` (90° = across the view);
+    object id → (left file, left frame, right file, right frame[, time (min), period, period time (min)]).
+    Direction is the angle (degrees) between the measured line and the line of sight to its middle from
+    ``camera_centre`` (90° = across the view);
     ``camera_centre`` is one point (m) for all objects or a mapping object id → point, since objects
     measured at different stations see the left camera at different places."""
     rms_m = rms_m or {}
@@ -159,8 +160,8 @@ def eventmeasure_tables(objects: list[MeasuredObject], opcode: str = "", camera_
         centre = np.asarray(camera_centre[obj.id] if isinstance(camera_centre, dict) else camera_centre, float)
         family, genus, species = _taxonomy(obj.attribute)
         rms = f"{rms_m[obj.id] * 1000:.2f}" if obj.id in rms_m else ""
-        file_left, frame_left, file_right, frame_right = images.get(obj.id, ("", "", "", ""))
-        head = [opcode, "", file_left, frame_left, file_right, frame_right, "", "", ""]
+        file_left, frame_left, file_right, frame_right, *timing = images.get(obj.id, ("", "", "", ""))
+        head = [opcode, "", file_left, frame_left, file_right, frame_right, *(list(timing) + ["", "", ""])[:3]]
         tail = [family, genus, species, "", "1", "", "", obj.notes.replace("\t", " ").replace("\n", " "), "", ""]
         if obj.kind == "line" and len(obj.points) == 2:
             figure = polyline_length(obj.points, obj.covariances)

@@ -493,14 +493,17 @@ class Project:
 
     def video(self, label: str) -> dict:
         """label, fps, frame_count, width, height, offset_frames, offset_estimate (dict or None), report, and
-        ``left``/``right``: the stored paths of each camera's files in order."""
+        ``left``/``right``: the stored paths of each camera's files in order, ``left_frames``/``right_frames``
+        their frame counts."""
         row = self._video_row(label)
         keys = ("id", "label", "fps", "frame_count", "width", "height", "offset_frames", "offset_estimate", "report")
         video = dict(zip(keys, row, strict=True))
         video["offset_estimate"] = json.loads(row[7]) if row[7] else None
         for camera in ("left", "right"):
-            video[camera] = [r[0] for r in self._db.execute(
-                "SELECT path FROM video_files WHERE video_id = ? AND camera = ? ORDER BY idx", (row[0], camera))]
+            files = self._db.execute("SELECT path, frame_count FROM video_files WHERE video_id = ? AND camera = ? "
+                                     "ORDER BY idx", (row[0], camera)).fetchall()
+            video[camera] = [r[0] for r in files]
+            video[f"{camera}_frames"] = [r[1] for r in files]
         return video
 
     def videos(self) -> list[dict]:
