@@ -22,7 +22,7 @@ from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image, write_image
-from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, expand, pair_images, shared_stem
+from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
 from usvips.io.video_stream import VideoStream
 from usvips.store import Project
 
@@ -92,6 +92,8 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
     project (may run in a worker thread)."""
     left_files = expand(left, VIDEO_SUFFIXES, "--left")
     right_files = expand(right, VIDEO_SUFFIXES, "--right")
+    check_chapters(left_files, "--left")
+    check_chapters(right_files, "--right")
     label = label or shared_stem(left_files[0]) or left_files[0].stem
     with VideoStream(left_files) as a, VideoStream(right_files) as b:
         if a.size != b.size:

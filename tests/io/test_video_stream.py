@@ -153,3 +153,17 @@ def test_bad_input_is_named_in_one_line(tmp_path):
         with pytest.raises(InputFileError, match=message):
             encode_video(tmp_path / "x.mov", [numbered(0)], 25, "xvid" if "codec" in message else "mjpeg")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["junk.mp4", "short.mkv", "small.mkv"]
+
+
+def test_gopro_chapters_must_be_one_recording_in_order_with_none_missing():
+    from pathlib import Path
+
+    from usvips.io.pairing import check_chapters
+
+    check_chapters([Path("GX010042.MP4"), Path("GX020042.MP4"), Path("GX030042.MP4")], "--left")
+    check_chapters([Path("dive_b.mp4"), Path("dive_a.mp4")], "--left")  # other names: the order given
+    for files, message in [(("GX010042.MP4", "GX030042.MP4"), "chapter GX020042.MP4 is missing before it"),
+                           (("GH020042.MP4", "GH010042.MP4"), "chapters out of order"),
+                           (("GX010042.MP4", "GX020043.MP4"), "chapters of different recordings")]:
+        with pytest.raises(InputFileError, match=message):
+            check_chapters([Path(f) for f in files], "--left")

@@ -73,3 +73,26 @@ def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto") -
         raise InputFileError(str(left[0].parent), f"cannot pair by order: {len(left)} left and {len(right)} right "
                              "files (and their stems do not match)")
     return list(zip(left, right, strict=True)), "order"
+
+
+_GOPRO_CHAPTER = re.compile(r"^(G[HXP])(\d{2})(\d{4})$", re.IGNORECASE)
+
+
+def check_chapters(files: Sequence[Path], option: str) -> None:
+    """Chapters named as GoPro names them (``GX010042``, ``GX020042`` …: chapter, then recording number)
+    must be of one recording, in order, with none missing; other names are taken in the order given."""
+    parsed = [_GOPRO_CHAPTER.match(p.stem) for p in files]
+    if len(files) < 2 or not all(parsed):
+        return
+    recordings = {m.group(3) for m in parsed}
+    if len(recordings) > 1:
+        raise InputFileError(str(files[0]), f"{option}: chapters of different recordings "
+                             f"({', '.join(sorted(recordings))}) given as one")
+    numbers = [int(m.group(2)) for m in parsed]
+    for previous, (path, number, m) in zip(numbers, list(zip(files, numbers, parsed, strict=True))[1:], strict=False):
+        if number <= previous:
+            raise InputFileError(str(path), f"{option}: chapters out of order (chapter {number:02d} after "
+                                 f"{previous:02d}); give them in recording order")
+        if number != previous + 1:
+            missing = f"{m.group(1)}{previous + 1:02d}{m.group(3)}{path.suffix}"
+            raise InputFileError(str(path), f"{option}: chapter {missing} is missing before it")
