@@ -677,7 +677,8 @@ class MainWindow(QtWidgets.QMainWindow):
         outlines: dict[str, list] = {side: [] for side in SIDES}
         if ws.pair is not None:
             for stored in ws.objects():
-                vertices = [v for v in stored.vertices if v.pair == ws.pair]
+                vertices = [v for v in stored.vertices if v.pair == ws.pair
+                            and (ws.video_frame is None or v.frame_left == ws.video_frame[1])]  # video: this frame
                 if not vertices:
                     continue
                 label = f"{stored.id} {stored.attribute}".strip()

@@ -210,6 +210,7 @@ class VideoController(QtCore.QObject):
         ws = self.window.workspace
         ws.set_pair(nav.label, left, right)
         ws.video_frame = (nav.label, frame, partner, time_s)
+        self.window._draw_objects()  # only the objects measured on this frame
         d = self.dock_widget
         d.timeline.blockSignals(True)
         d.timeline.setValue(frame)
