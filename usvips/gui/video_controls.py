@@ -20,6 +20,7 @@ from usvips.gui.video_model import (
     measured_frames,
     parse_position,
     prefetch_order,
+    video_frame_of,
 )
 from usvips.gui.worker import Cancelled, Worker
 
@@ -117,6 +118,10 @@ class VideoController(QtCore.QObject):
         d.offset.editingFinished.connect(self._on_offset)
         for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
             widget.installEventFilter(self)
+        # double-click on an object (or Zoom to) goes to the frame it was measured on
+        window.object_list.zoom_requested.connect(self.go_to_object)
+        window.object_list.table.cellDoubleClicked.connect(
+            lambda row, _: self.go_to_object(int(window.object_list.table.item(row, 0).text())))
 
     # ------------------------------------------------------------------ videos
     def project_opened(self, project) -> None:
@@ -311,6 +316,18 @@ class VideoController(QtCore.QObject):
         self.navigator.marks = nav.marks
         self.dock_widget.timeline.setRange(self.navigator.first, self.navigator.last)
         self.window.show_message("info", f"video {nav.label}: offset set to {value:+d} frames (stored)")
+        self.request(frame)
+
+    def go_to_object(self, object_id: int) -> None:
+        project = self.window.workspace.project
+        where = video_frame_of(project.object(object_id)) if project is not None else None
+        if where is None:
+            return
+        video, frame = where
+        if self.navigator is None or self.navigator.label != video:
+            if not self.open_video(video):
+                return
+        self.direction = 1
         self.request(frame)
 
     def objects_changed(self) -> None:

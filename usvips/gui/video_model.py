@@ -197,10 +197,25 @@ def measured_frames(project: Project, label: str) -> set[int]:
             if v.video == label and v.frame_left is not None}
 
 
+def video_frame_text(stored) -> str:
+    """``video: left | right frame  mm:ss.sss`` of an object measured on a video (its first vertex), else ''."""
+    vertex = stored.vertices[0] if stored.vertices else None
+    if vertex is None or vertex.video is None:
+        return ""
+    return f"{vertex.video}: {vertex.frame_left} | {vertex.frame_right}  {format_timecode(vertex.time_s)}"
+
+
+def video_frame_of(stored) -> tuple[str, int] | None:
+    """(video, left frame) an object was measured on, or None."""
+    vertex = stored.vertices[0] if stored.vertices else None
+    return None if vertex is None or vertex.video is None else (vertex.video, int(vertex.frame_left))
+
+
 def cache_bytes(width: int, height: int, pairs: int) -> int:
     """Bytes of ``pairs`` cached RGB frame pairs at ``width`` × ``height`` px."""
     return int(pairs) * 2 * int(width) * int(height) * 3
 
 
 __all__ = ["CACHE_BYTES", "FrameCache", "FrameSource", "VideoNavigator", "cache_bytes",
-           "format_timecode", "measured_frames", "parse_position", "prefetch_order"]
+           "format_timecode", "measured_frames", "parse_position", "prefetch_order", "video_frame_of",
+           "video_frame_text"]
