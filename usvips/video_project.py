@@ -176,6 +176,18 @@ def export_frame(project: Project, label: str, frame: int, out: str | Path) -> t
     return paths
 
 
+def take_pair(project: Project, label: str, frame: int, pair_label: str | None = None,
+              medium: str = "water") -> str:
+    """Make the synchronised frames of left frame ``frame`` an image pair of the project (e.g. the
+    calibration frame filmed in air and underwater): written as PNG beside the project under
+    ``frames/`` and added like any pair. Returns the pair's label."""
+    pair_label = pair_label or f"{label}-{frame}"
+    folder = project.path.parent / "frames"
+    paths = export_frame(project, label, frame, folder / pair_label)
+    add_image_pairs(project, [(pair_label, *paths)], medium)
+    return pair_label
+
+
 # ---------------------------------------------------------------------------- synchronisation
 def _brightness(stream: VideoStream, limit: int | None, progress: Callable[[int, int], None] | None) -> np.ndarray:
     count = stream.frame_count if limit is None else min(limit, stream.frame_count)

@@ -71,6 +71,12 @@ def test_a_stereo_video_is_added_synchronised_by_its_flash_and_exported_exactly(
     assert estimate["offset_s"] == pytest.approx(estimate["offset_frames"] / FPS, abs=1e-5)
     code, out, _ = _run(capsys, "project", "info", project)
     assert f"video dive1: 80 frames at 25 fps, offset {lag:+d} frames" in out
+    code, out, err = _run(capsys, "video", "take-pair", project, "--pair", "dive1", "--frame", 33, "--medium", "air")
+    assert code == 0, err
+    with Project.open(project) as p:
+        taken = next(q for q in p.pairs() if q["label"] == "dive1-33")
+        assert taken["medium"] == "air" and taken["left"] == "frames/dive1-33/left.png"
+        assert frame_number(read_image(p.media_path(taken["right"]))) == 1033
     for frame in (40, 10, 55):
         assert _run(capsys, "video", "export-frame", project, "--pair", "dive1", "--frame", frame,
                     "--out", tmp_path / "out")[0] == 0

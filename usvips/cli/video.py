@@ -37,6 +37,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     export.add_argument("--frame", type=int, required=True)
     export.add_argument("--out", required=True, help="the folder to write into (created if needed)")
     export.set_defaults(handler=run_export_frame)
+    take = actions.add_parser("take-pair", help="make a synchronised frame pair an image pair of the project "
+                              "(e.g. the calibration frame filmed in air or underwater)")
+    take.add_argument("project")
+    take.add_argument("--pair", required=True, help="the video pair")
+    take.add_argument("--frame", type=int, required=True, help="the left frame")
+    take.add_argument("--label", help="the new image pair's label (default VIDEO-FRAME)")
+    take.add_argument("--medium", choices=("water", "air"), default="water")
+    take.set_defaults(handler=run_take_pair)
     period = actions.add_parser("period", help="mark a named period (left frames START to END) of a video pair, "
                                 "or list them")
     period.add_argument("project")
@@ -131,4 +139,11 @@ def run_period(args: argparse.Namespace) -> int:
             project.add_period(args.pair, name, start, end)
         for name, start, end in project.periods(args.pair):
             print(f"{name}: frames {start} to {end}")
+    return 0
+
+
+def run_take_pair(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        label = video_project.take_pair(project, args.pair, args.frame, args.label, args.medium)
+    print(f"added image pair {label!r} (left frame {args.frame} of {args.pair} and its partner)")
     return 0
