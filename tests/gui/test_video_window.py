@@ -106,7 +106,9 @@ def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make
     assert window.open_path(directory, "video")
     _wait_frame(qtbot, window, 0)
     project = window.workspace.project
-    project.add_period("video", "bait", 10, 26)
+    assert window.video.mark_period("bait 10 26")
+    assert not window.video.mark_period("late 20 40") and "not an interval" in window.statusBar().currentMessage()
+    assert not window.video.mark_period("26") and project.periods("video") == [("bait", 10, 26)]
     window.video.request(20)
     _wait_frame(qtbot, window, 20)
     truth = json.loads((directory / "truth.json").read_text())["video"]

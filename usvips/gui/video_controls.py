@@ -75,8 +75,10 @@ class VideoDock(QtWidgets.QWidget):
         self.offset.setRange(-100_000, 100_000)
         self.offset.setPrefix("offset ")
         self.offset.setToolTip("right frame = left frame + offset (nudge while both panes show; stored)")
+        self.period = QtWidgets.QPushButton("Period…")
+        self.period.setToolTip("mark a named period from this frame (EventMeasure's periods)")
         top = QtWidgets.QHBoxLayout()
-        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto):
+        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto, self.period):
             top.addWidget(widget)
         top.addStretch(1)
         top.addWidget(self.frame_label)
@@ -116,6 +118,7 @@ class VideoController(QtCore.QObject):
         d.rate.currentTextChanged.connect(self._on_rate)
         d.jump.valueChanged.connect(self._on_jump)
         d.offset.editingFinished.connect(self._on_offset)
+        d.period.clicked.connect(self._on_period)
         for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
             widget.installEventFilter(self)
         # double-click on an object (or Zoom to) goes to the frame it was measured on
@@ -317,6 +320,31 @@ class VideoController(QtCore.QObject):
         self.dock_widget.timeline.setRange(self.navigator.first, self.navigator.last)
         self.window.show_message("info", f"video {nav.label}: offset set to {value:+d} frames (stored)")
         self.request(frame)
+
+    def _on_period(self) -> None:
+        nav = self.navigator
+        if nav is None:
+            return
+        text, ok = QtWidgets.QInputDialog.getText(self.dock_widget, "Mark period", "Name, first and last left frame:",
+                                                  text=f"period {nav.frame} {nav.last}")
+        if ok:
+            self.mark_period(text)
+
+    def mark_period(self, text: str) -> bool:
+        """Store a period typed as ``NAME FIRST LAST`` (left frames; the name may hold spaces)."""
+        parts = text.split()
+        try:
+            name, start, end = " ".join(parts[:-2]), int(parts[-2]), int(parts[-1])
+        except (ValueError, IndexError):
+            self.window.show_message("error", f"period {text!r}: type a name, then the first and last frame")
+            return False
+        try:
+            self.window.workspace.project.add_period(self.navigator.label, name, start, end)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return False
+        self.window.show_message("info", f"period {name!r}: frames {start} to {end} (stored)")
+        return True
 
     def go_to_object(self, object_id: int) -> None:
         project = self.window.workspace.project
