@@ -47,12 +47,12 @@ class AddedVideo:
 
 # ---------------------------------------------------------------------------- image pairs
 def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], label_prefix: str = "",
-                     by: str = "auto") -> tuple[list[tuple[str, Path, Path]], str]:
+                     by: str = "auto", max_dt: float = 1.0) -> tuple[list[tuple[str, Path, Path]], str]:
     """The (label, left, right) pairs that :func:`add_image_pairs` would add, and the rule used (for a
     person to confirm). Labels: prefix + the shared stem (or the pair's number when paired by order)."""
     left_files = expand(left, IMAGE_SUFFIXES, "--left")
     right_files = expand(right, IMAGE_SUFFIXES, "--right")
-    pairs, rule = pair_images(left_files, right_files, by)
+    pairs, rule = pair_images(left_files, right_files, by, max_dt)
     labels = [f"{label_prefix}{shared_stem(a) if rule == 'stem' else f'{n + 1:03d}'}" for n, (a, _) in enumerate(pairs)]
     return [(label, a, b) for label, (a, b) in zip(labels, pairs, strict=True)], rule
 

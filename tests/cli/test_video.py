@@ -232,3 +232,37 @@ def test_the_samples_h264_version_is_the_same_video_and_synchronises_alike(tmp_p
     code, out, err = _run(capsys, "video", "sync", project, "--pair", "h264", "--json")
     assert code == 0, err
     assert json.loads(out)["offset_frames_used"] == 3 and json.loads(out)["method"] == "image"
+
+
+def test_jpeg_pairs_by_exif_capture_time(tmp_path, capsys):
+    """Two cameras' JPEGs named by their own counters, paired by the capture time in their EXIF."""
+    from datetime import datetime, timedelta
+
+    import cv2
+
+    from usvips.io.exif import capture_time, exif_jpeg
+
+    start = datetime(2026, 5, 1, 9, 30, 0)
+    rng = np.random.default_rng(4)
+    shots = sorted(rng.uniform(0, 600, 6))
+    for side, first in (("left", 100), ("right", 7000)):
+        (tmp_path / side).mkdir()
+        order = rng.permutation(6) if side == "right" else np.arange(6)  # counters unrelated to time order
+        for k, shot in enumerate(shots):
+            when = start + timedelta(seconds=float(shot) + (rng.uniform(-0.2, 0.2) if side == "right" else 0))
+            ok, jpeg = cv2.imencode(".jpg", numbered_frame(k + (1000 if side == "right" else 0))[:, :, ::-1])
+            (tmp_path / side / f"DSC{first + int(order[k]):05d}.JPG").write_bytes(exif_jpeg(jpeg.tobytes(), when))
+            assert abs((capture_time(tmp_path / side / f"DSC{first + int(order[k]):05d}.JPG") - when)
+                       .total_seconds()) < 1e-3
+    project = tmp_path / "p.usvips"
+    main(["project", "new", str(project)])
+    code, out, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "left", "--right",
+                          tmp_path / "right")
+    assert code == 0 and "6 pairs by capture time" in out, err
+    with Project.open(project) as p:
+        for pair in p.pairs():
+            assert frame_number(read_image(p.media_path(pair["right"]))) == \
+                1000 + frame_number(read_image(p.media_path(pair["left"])))
+    code, _, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "left", "--right",
+                        tmp_path / "right", "--pair-by", "time", "--max-dt", "0.01", "--dry-run")
+    assert code == 2 and "no right image captured within 0.01 s" in err

@@ -8,6 +8,7 @@ import json
 
 from usvips import video_project
 from usvips.core.errors import UsvipsError
+from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project
 
 
@@ -61,9 +62,10 @@ def register_project_actions(actions: argparse._SubParsersAction) -> None:
     pairs.add_argument("--left", nargs="+", required=True, help="left images or a folder of them")
     pairs.add_argument("--right", nargs="+", required=True, help="right images or a folder of them")
     pairs.add_argument("--label-prefix", default="", help="put before every pair's label")
-    pairs.add_argument("--pair-by", choices=("auto", "stem", "order"), default="auto",
-                       help="shared stem (IMG_0042_L ↔ IMG_0042_R) or name order; auto: stem when every file "
-                       "has a partner, else order")
+    pairs.add_argument("--pair-by", choices=("auto", "stem", "time", "order"), default="auto",
+                       help="shared stem (IMG_0042_L ↔ IMG_0042_R), EXIF capture time, or name order; auto: stem "
+                       "when every file has a partner, else capture time (JPEGs), else order")
+    pairs.add_argument("--max-dt", type=float, default=1.0, help="seconds between partners' capture times (time)")
     pairs.add_argument("--medium", choices=("water", "air"), default="water")
     pairs.add_argument("--dry-run", action="store_true", help="print the pairing, store nothing")
     pairs.set_defaults(handler=run_add_pairs)
@@ -77,8 +79,8 @@ def register_project_actions(actions: argparse._SubParsersAction) -> None:
 
 
 def run_add_pairs(args: argparse.Namespace) -> int:
-    plan, rule = video_project.plan_image_pairs(args.left, args.right, args.label_prefix, args.pair_by)
-    print(f"{len(plan)} pairs by {'shared stem' if rule == 'stem' else 'name order'}:")
+    plan, rule = video_project.plan_image_pairs(args.left, args.right, args.label_prefix, args.pair_by, args.max_dt)
+    print(f"{len(plan)} pairs by {RULE_NAMES[rule]}:")
     for label, left, right in plan:
         print(f"  {label}: {left} | {right}")
     if args.dry_run:

@@ -11,6 +11,7 @@ from PySide6 import QtWidgets
 
 from usvips import video_project
 from usvips.core.errors import UsvipsError
+from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project
 
 VIDEO_FILTER = "Videos (*.mp4 *.MP4 *.mov *.MOV *.avi *.AVI *.mkv *.mts *.MTS *.m4v);;All files (*)"
@@ -55,7 +56,7 @@ def confirm_pairs(window, plan, rule: str) -> bool:
     buttons.rejected.connect(dialog.reject)
     layout = QtWidgets.QVBoxLayout(dialog)
     layout.addWidget(QtWidgets.QLabel(f"{len(plan)} pairs, paired by "
-                                      f"{'shared file stem' if rule == 'stem' else 'name order'}:"))
+                                      f"{RULE_NAMES[rule]}:"))
     layout.addWidget(table)
     layout.addWidget(buttons)
     dialog.resize(640, 420)

@@ -1,13 +1,13 @@
 """Pairing a user's left and right images (or video files) given as folders or lists.
 
-Two rules, tried in this order by :func:`pair_images` with ``by="auto"``:
+Three rules, tried in this order by :func:`pair_images` with ``by="auto"``:
 
 - ``stem``: the files share a stem once the camera's mark is taken off (``IMG_0042_L.jpg`` ↔
   ``IMG_0042_R.jpg``, ``left/0042.png`` ↔ ``right/0042.png``, ``L0042`` ↔ ``R0042``);
+- ``time``: the capture times in the JPEGs' EXIF, each left image with the right one taken nearest in
+  time, within ``max_dt`` seconds (cameras triggered together; their clocks set alike);
 - ``order``: the n-th left file (sorted by name, numbers compared as numbers) with the n-th right file;
   the two lists must then be as long as each other.
-
-Pairing by EXIF capture time is not available (it needs an EXIF reader the project does not depend on).
 """
 
 from __future__ import annotations
@@ -17,7 +17,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from usvips.core.errors import InputFileError
+from usvips.io.exif import capture_time
 
+#: how each pairing rule is named to a person
+RULE_NAMES = {"stem": "shared stem", "time": "capture time", "order": "name order"}
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".mts", ".m4v")
 _CAMERA_MARK = re.compile(r"(^|[_\-. ])(l|r|left|right|links|rechts|cam[12])($|[_\-. ])|^(l|r)(?=\d)",
@@ -54,10 +57,32 @@ def shared_stem(path: Path) -> str:
     return _CAMERA_MARK.sub(lambda m: (m.group(1) or "") if m.group(4) is None else "", path.stem).lower().strip("_-. ")
 
 
-def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto") -> tuple[list[tuple[Path, Path]], str]:
-    """(left, right) pairs and the rule used (``stem`` or ``order``)."""
-    if by not in ("auto", "stem", "order"):
-        raise InputFileError("--pair-by", f"{by!r}: choose auto, stem or order")
+def pair_by_time(left: Sequence[Path], right: Sequence[Path], max_dt: float = 1.0) -> list[tuple[Path, Path]]:
+    """Each left image with the right image captured nearest in time (EXIF), within ``max_dt`` seconds,
+    each used once; in order of capture."""
+    left_times = sorted((capture_time(p), p) for p in left)
+    right_times = [(capture_time(p), p) for p in right]
+    used: set[Path] = set()
+    pairs = []
+    for when, path in left_times:
+        free = [(abs((t - when).total_seconds()), p) for t, p in right_times if p not in used]
+        if not free or min(free)[0] > max_dt:
+            raise InputFileError(str(path), f"no right image captured within {max_dt:g} s of it (EXIF time "
+                                 f"{when.isoformat(sep=' ')})")
+        partner = min(free)[1]
+        used.add(partner)
+        pairs.append((path, partner))
+    if len(used) != len(right):
+        extra = next(p for _, p in right_times if p not in used)
+        raise InputFileError(str(extra), "no left image captured at its time: cannot pair by time")
+    return pairs
+
+
+def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto",
+                max_dt: float = 1.0) -> tuple[list[tuple[Path, Path]], str]:
+    """(left, right) pairs and the rule used (``stem``, ``time`` or ``order``)."""
+    if by not in ("auto", "stem", "time", "order"):
+        raise InputFileError("--pair-by", f"{by!r}: choose auto, stem, time or order")
     if by in ("auto", "stem"):
         left_stems = {shared_stem(p): p for p in left}
         right_stems = {shared_stem(p): p for p in right}
@@ -69,6 +94,13 @@ def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto") -
             missing = sorted(set(left_stems) ^ set(right_stems))
             raise InputFileError(str(left[0].parent), f"cannot pair by stem: {len(missing)} file(s) without a partner, "
                                  f"e.g. {missing[0]!r}" if missing else "cannot pair by stem: stems repeat")
+    if by == "time":
+        return pair_by_time(left, right, max_dt), "time"
+    if by == "auto" and all(p.suffix.lower() in (".jpg", ".jpeg") for p in (*left, *right)):
+        try:
+            return pair_by_time(left, right, max_dt), "time"
+        except InputFileError:
+            pass  # no usable capture times: by order below
     if len(left) != len(right):
         raise InputFileError(str(left[0].parent), f"cannot pair by order: {len(left)} left and {len(right)} right "
                              "files (and their stems do not match)")
