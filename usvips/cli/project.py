@@ -55,13 +55,18 @@ def run_info(args: argparse.Namespace) -> int:
         pairs = project.pairs()
         print(f"{args.project}: schema {project.version}, {len(pairs)} image pairs, "
               f"{len(project.control())} control points, {len(project.objects())} objects")
+        videos = project.videos()
         for pair in pairs:
+            if pair["label"] in {v["label"] for v in videos}:
+                continue  # a video's own pair: listed with the video below
             active = project.active_calibration(pair["label"])
             print(f"  pair {pair['label']} ({pair['medium']}): {pair['left'] or '-'} | {pair['right'] or '-'}"
                   + (f"; calibration {active}" if active else ""))
-        for video in project.videos():
+        for video in videos:
             print(f"  video {video['label']}: {video['frame_count']} frames at {video['fps']:.6g} fps, offset "
-                  f"{video['offset_frames']:+d} frames (left frame i ↔ right frame i {video['offset_frames']:+d})")
+                  f"{video['offset_frames']:+d} frames (left frame i ↔ right frame i {video['offset_frames']:+d})"
+                  + (f"; calibration {project.active_calibration(video['label'])}"
+                     if project.active_calibration(video["label"]) else ""))
     return 0
 
 
