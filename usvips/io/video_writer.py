@@ -17,6 +17,7 @@ import av
 import numpy as np
 
 from usvips.core.errors import InputFileError
+from usvips.io.video_stream import VideoStream
 
 #: codec → (FFmpeg encoder, pixel format, containers it may go in)
 CODECS: dict[str, tuple[str, str, tuple[str, ...]]] = {
@@ -108,6 +109,19 @@ def encode_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, cod
         if os.path.exists(temporary):
             os.unlink(temporary)
     return count
+
+
+def transcode_h264(source: str | Path, target: str | Path, gop: int = 10, quality: int = 20) -> bool:
+    """Write ``source``'s frames (decoded exactly) as an H.264 MP4 at its frame rate (GOP ``gop`` with
+    B-frames, CRF ``quality``); False, writing nothing, when this FFmpeg has no H.264 encoder. Used for
+    the samples' H.264 versions (deterministic for one FFmpeg build: one encoder thread)."""
+    if "libx264" not in av.codecs_available:
+        return False
+    with VideoStream(source) as video:
+        frames = [video.frame(i) for i in range(video.frame_count)]
+        fps = video.fps
+    encode_video(target, frames, round(fps, 6), "h264", gop=gop, bframes=2, quality=quality)
+    return True
 
 
 def _write_audio(container, stream, samples: np.ndarray, rate: int) -> None:
