@@ -17,6 +17,7 @@ from usvips.core.measurements import QualityRules
 from usvips.io.export import export
 from usvips.project_figures import evaluate, measurement_input
 from usvips.store import Project
+from usvips.video_project import eventmeasure_frame_columns
 
 
 def export_project(project: Project, out: str | Path, opcode: str | None = None,
@@ -42,6 +43,9 @@ def export_project(project: Project, out: str | Path, opcode: str | None = None,
         if pair is not None:
             frame = "" if pair["frame"] is None else str(pair["frame"])
             images[measurement.id] = (Path(pair["left"] or "").name, frame, Path(pair["right"] or "").name, frame)
+        video_columns = eventmeasure_frame_columns(project, stored.vertices[0]) if stored.vertices else None
+        if video_columns is not None:  # measured on a video: its files, frames, time and period
+            images[measurement.id] = video_columns
     opcode = opcode if opcode is not None else project.path.stem
     export(objects, out, opcode=opcode, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects},
            images=images)

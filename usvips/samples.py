@@ -14,6 +14,7 @@ from usvips.io.calibration_file import load_calibration
 from usvips.io.manifest import read_manifest
 from usvips.io.tables import read_control, read_observations
 from usvips.store import Project, ProjectError
+from usvips.video_project import add_sample_video
 
 
 def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
@@ -59,6 +60,8 @@ def _fill(project: Project, manifest, control, observation_files, calibrations) 
             project.add_control_observations(rows, entry.role, label)
     for entry, data in calibrations:
         project.add_calibration(entry.file.stem, data, entry.active_for)
+    if manifest.video is not None:  # the sample's stereo video with its known offset
+        add_sample_video(project, manifest.video.left, manifest.video.right, manifest.video.frame_offset)
 
 
 def open_or_create_from_manifest(directory: str | Path) -> Project:

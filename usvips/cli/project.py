@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from usvips.cli.video import register_project_actions
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
@@ -41,6 +42,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     exp.add_argument("--opcode", help="EventMeasure OpCode (the sample, e.g. the deployment); default: the "
                      "project file's name")
     exp.set_defaults(handler=run_export)
+    register_project_actions(actions)  # add-pairs, add-video: handlers in usvips/cli/video.py
 
 
 def run_new(args: argparse.Namespace) -> int:
@@ -55,10 +57,18 @@ def run_info(args: argparse.Namespace) -> int:
         pairs = project.pairs()
         print(f"{args.project}: schema {project.version}, {len(pairs)} image pairs, "
               f"{len(project.control())} control points, {len(project.objects())} objects")
+        videos = project.videos()
         for pair in pairs:
+            if pair["label"] in {v["label"] for v in videos}:
+                continue  # a video's own pair: listed with the video below
             active = project.active_calibration(pair["label"])
             print(f"  pair {pair['label']} ({pair['medium']}): {pair['left'] or '-'} | {pair['right'] or '-'}"
                   + (f"; calibration {active}" if active else ""))
+        for video in videos:
+            print(f"  video {video['label']}: {video['frame_count']} frames at {video['fps']:.6g} fps, offset "
+                  f"{video['offset_frames']:+d} frames (left frame i ↔ right frame i {video['offset_frames']:+d})"
+                  + (f"; calibration {project.active_calibration(video['label'])}"
+                     if project.active_calibration(video["label"]) else ""))
     return 0
 
 

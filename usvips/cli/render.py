@@ -21,6 +21,7 @@ from usvips.io.images import write_image
 from usvips.io.scene import read_scene
 from usvips.io.tables import read_control, read_observations, write_control, write_observations
 from usvips.io.video import write_video
+from usvips.io.video_writer import transcode_h264
 
 RESOURCES = Path(__file__).resolve().parents[2] / "resources"
 
@@ -142,6 +143,7 @@ def _render_video(out: Path, scene, discs, floor, water, objects) -> dict:
                              interlace=float(image.get("interlace", 0.0)))
 
         write_video(out / f"video_{side}.avi", frames(), fps)
+        transcode_h264(out / f"video_{side}.avi", out / f"video_{side}.mp4")  # when FFmpeg has an H.264 encoder
         truth[side] = frames_truth
     return truth
 

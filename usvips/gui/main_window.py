@@ -17,9 +17,11 @@ from PySide6 import QtCore, QtGui, QtWidgets
 import usvips
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
+from usvips.gui import media_dialogs
 from usvips.gui.pane import StereoPane
 from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, PlanView
 from usvips.gui.planner_dock import PlannerDock
+from usvips.gui.video_controls import VideoController
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.samples import open_or_create_from_manifest
@@ -83,7 +85,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_status_bar()
         self._build_actions()
         self._build_menus_and_toolbar()
+        self.video = VideoController(self)  # stereo video: its dock, keys on the panes, decoding in workers
+        self.docks["video"] = self._dock("Video", self.video.dock_widget, QtCore.Qt.DockWidgetArea.TopDockWidgetArea)
+        self.video.dock_widget.setEnabled(False)
         ws = self.workspace
+        ws.objects_changed.connect(self.video.objects_changed)
         ws.pair_changed.connect(self._on_pair_changed)
         ws.picks_changed.connect(self._on_picks_changed)
         ws.objects_changed.connect(self._on_objects_changed)
@@ -200,6 +206,10 @@ class MainWindow(QtWidgets.QMainWindow):
         a = self.actions
         menu = self.menuBar().addMenu("&File")
         menu.addAction(a["open"])
+        menu.addAction("&New project…", lambda: media_dialogs.new_project(self))
+        menu.addAction("Add &image pairs…", lambda: media_dialogs.add_image_pairs(self))
+        menu.addAction("Add stereo &video…", lambda: media_dialogs.add_video(self))
+        menu.addAction("Re&locate missing media…", lambda: media_dialogs.relocate_media(self))
         self.samples_menu = menu.addMenu("Open &sample")
         for sample in sorted(SAMPLES.glob("*/project.json")) if SAMPLES.is_dir() else []:
             self.samples_menu.addAction(sample.parent.name, lambda p=sample.parent: self.open_path(p))
@@ -390,6 +400,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_message("error", str(error))
             return False
         self.workspace.open_project(project)
+        self.video.project_opened(project)
         self._remember(project.path.resolve())
         self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent})")
         self.attribute_box.clear()
@@ -398,6 +409,9 @@ class MainWindow(QtWidgets.QMainWindow):
         labels = self.workspace.image_pairs()
         self.pair_box.clear()
         self.pair_box.addItems(labels)
+        videos = [v["label"] for v in project.videos()]
+        if (not labels and videos) or (pair is not None and pair in videos):  # show a stereo video
+            return self.video.open_video(pair if pair in videos else videos[0])
         if not labels:
             self.show_message("warning", f"{project.path.name} has no images (observations only): calibrate it "
                                          "from its observations with the Calibration menu")
@@ -678,7 +692,7 @@ class MainWindow(QtWidgets.QMainWindow):
                     continue
                 label = f"{stored.id} {stored.attribute}".strip()
                 selected = stored.id in self.selection
-                picks = [v for v in stored.vertices if v.pair == ws.pair]
+                picks = ws.vertices_shown(stored)
                 outlines["left"].append((label, drawn[0], drawn[2], selected, [(v.xl, v.yl) for v in picks]))
                 outlines["right"].append((label, drawn[1], drawn[2], selected, [(v.xr, v.yr) for v in picks]))
             current = ws.digitising.vertices

@@ -14,6 +14,7 @@ from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui.calculator import format_figure
+from usvips.gui.video_model import video_frame_text
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import SIDES, Workspace
 
@@ -183,7 +184,7 @@ class ObjectList(QtWidgets.QWidget):
     zoom_requested = QtCore.Signal(int)
     selection_changed = QtCore.Signal(list)
 
-    COLUMNS = ("id", "type", "attribute", "vertices", "figure", "quality", "notes")
+    COLUMNS = ("id", "type", "attribute", "vertices", "figure", "quality", "notes", "frame")
 
     def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -265,7 +266,7 @@ class ObjectList(QtWidgets.QWidget):
                 main = format_figure(result.figures[0]) if result.figures else result.reason
                 quality = "; ".join(result.failures) or "ok"
             values = (str(stored.id), stored.kind, stored.attribute, str(len(stored.vertices)), main, quality,
-                      stored.notes)
+                      stored.notes, video_frame_text(stored))
             for column, value in enumerate(values):
                 item = QtWidgets.QTableWidgetItem(value)
                 if self.COLUMNS[column] not in ("attribute", "notes"):

@@ -220,6 +220,7 @@ class Workspace:
         self.enhancement_changed = Signal()
         self.message = Signal()
         self.observed = Signal()
+        self.video_frame: tuple[str, int, int, float] | None = None  # video, left and right frame, time (s)
 
     # ------------------------------------------------------------------ project and pair
     def open_project(self, project: Project) -> None:
@@ -252,6 +253,7 @@ class Workspace:
         if self.project is None:
             raise UsvipsError("open a project first")
         self.pair = label
+        self.video_frame = None  # a video's frame pair sets it after showing the images
         self.images = {"left": left, "right": right}
         try:
             self.geometry = pair_geometry(self.project, label)
@@ -499,7 +501,7 @@ class Workspace:
     def _vertices_for_store(self, vertices: tuple[MeasuredVertex, ...]) -> list[Vertex]:
         g = self.geometry
         return [Vertex(*v.left, *v.right, tuple(float(c) for c in v.xyz), v.covariance,
-                       g.calibration_id if g else None, self.pair) for v in vertices]
+                       g.calibration_id if g else None, self.pair, *(self.video_frame or ())) for v in vertices]
 
     def delete_object(self, object_id: int) -> None:
         saved = self.project.object(object_id)
@@ -572,12 +574,17 @@ class Workspace:
         b = Geometry(second.kind, points[n // 3:], covariance[n:, n:])
         return pair_figures(a, b, covariance)
 
+    def vertices_shown(self, stored) -> list:
+        """The stored object's vertices measured on the current pair and, on a video, on the frame shown."""
+        return [v for v in stored.vertices if v.pair == self.pair
+                and (self.video_frame is None or v.frame_left == self.video_frame[1])]
+
     def outline(self, stored) -> tuple[np.ndarray, np.ndarray, bool] | None:
         """How a stored object is drawn on the current pair: pixels (M, 2) on the left and right image and
         whether the outline closes; None when it was measured on another pair. Markers, polylines and
         polygons go through the picks; a circle is its fitted 3-D circle projected through the pair's
         calibration (an ellipse in the image), or the polygon of its picks when it cannot be projected."""
-        vertices = [v for v in stored.vertices if v.pair == self.pair]
+        vertices = self.vertices_shown(stored)
         if not vertices:
             return None
         left = np.array([[v.xl, v.yl] for v in vertices])

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.errors import InvalidParameterError
-from usvips.core.measurements import Measurement, kinds
+from usvips.core.measurements import Measurement, registered_kinds
 from usvips.core.measurements import kind as measurement_kind
 from usvips.io.atomic import write_files_atomic
 
@@ -76,7 +76,7 @@ def _sigma_column(name: str) -> str:
 def figure_columns() -> list[str]:
     """Value and sigma columns of every registered kind's figures, in registry order, each once."""
     columns: list[str] = []
-    for measurement in kinds():
+    for measurement in registered_kinds():
         for name, _ in measurement.figure_names:
             if name not in columns:
                 columns.append(name)
@@ -221,7 +221,7 @@ _SCALE = {"m": 1000.0, "m²": 1e6, "rad": 180.0 / np.pi, "1": 1.0}
 def eventmeasure_table_names() -> list[str]:
     """Lengths, 3DPoints, then the tables of their own that registered kinds ask for."""
     names = ["Lengths", "3DPoints"]
-    for measurement in kinds():
+    for measurement in registered_kinds():
         if measurement.eventmeasure not in names:
             names.append(measurement.eventmeasure)
     return names
@@ -229,7 +229,7 @@ def eventmeasure_table_names() -> list[str]:
 
 def _own_columns(table: str) -> list[str]:
     figures: list[str] = []
-    for measurement in kinds():
+    for measurement in registered_kinds():
         if measurement.eventmeasure == table:
             figures += [n for n, _ in measurement.figure_names if n not in figures]
     columns = [c for name in figures for c in (_camel(name), f"s{_camel(name)}")]
@@ -248,21 +248,22 @@ def _taxonomy(attribute: str) -> tuple[str, str, str]:
 
 
 def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_centre=(0.0, 0.0, 0.0),
-                        images: dict[str, tuple[str, str, str, str]] | None = None) -> dict[str, str]:
+                        images: dict[str, tuple[str, ...]] | None = None) -> dict[str, str]:
     """Table name (:func:`eventmeasure_table_names`) → tab-separated text. Lengths and arcs become lengths
     (Length and Precision are the length figure and its sigma, in mm), points 3-D points (Direction
     empty), other kinds rows of their own table. RMS: the object's ray-intersection RMS (mm) when known
     (CheckEM drops rows without one when it filters on RMS); ``images``: object id → (left file, left
-    frame, right file, right frame). Direction is the angle (degrees) between the measured line and the
-    line of sight to its middle from ``camera_centre`` (90° = across the view); ``camera_centre`` is one
-    point (m) for all objects or a mapping object id → point."""
+    frame, right file, right frame[, time (min), period, period time (min)]). Direction is the angle
+    (degrees) between the measured line and the line of sight to its middle from ``camera_centre`` (90° =
+    across the view); ``camera_centre`` is one point (m) for all objects or a mapping object id → point."""
     images = images or {}
     rows: dict[str, list[list]] = {name: [] for name in eventmeasure_table_names()}
     for obj in objects:
         centre = np.asarray(camera_centre[obj.id] if isinstance(camera_centre, dict) else camera_centre, float)
         family, genus, species = _taxonomy(obj.attribute)
         rms = "" if obj.ray_rms_m is None else obj.ray_rms_m * 1000
-        head = [opcode, "", *images.get(obj.id, ("", "", "", "")), "", "", ""]
+        file_left, frame_left, file_right, frame_right, *timing = images.get(obj.id, ("", "", "", ""))
+        head = [opcode, "", file_left, frame_left, file_right, frame_right, *(list(timing) + ["", "", ""])[:3]]
         comment = obj.notes
         table = measurement_kind(obj.kind).eventmeasure
         if table == "Lengths":

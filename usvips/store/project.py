@@ -21,12 +21,13 @@ Every failure of the database (locked by another program, disk full, a damaged f
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
 import sqlite3
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -92,6 +93,11 @@ class Vertex:
     covariance: np.ndarray | None = None
     calibration_id: int | None = None
     pair: str | None = None
+    # on a stereo video: its label, the left and right frame numbers and the time (s) of the left frame
+    video: str | None = None
+    frame_left: int | None = None
+    frame_right: int | None = None
+    time_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -500,17 +506,17 @@ class Project:
             checked.append((name, vertices, attribute, notes, creator))
         now = _now()
         ids = []
-        try:
-            with self.transaction():
+        with self.transaction():
+            try:
                 for kind, vertices, attribute, notes, creator in checked:
                     cursor = self._db.execute("INSERT INTO objects (kind, attribute, notes, creator, created, "
                                               "modified) VALUES (?, ?, ?, ?, ?, ?)",
                                               (kind, attribute, notes, creator, now, now))
                     ids.append(int(cursor.lastrowid))
                     self._insert_vertices(ids[-1], vertices)
-            return ids
-        except sqlite3.IntegrityError as error:
-            raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
+        return ids
 
     def _insert_vertices(self, object_id: int, vertices: list[Vertex]) -> None:
         rows = []
@@ -520,6 +526,7 @@ class Project:
             pair_id = self.pair_id(v.pair) if v.pair else None
             rows.append((object_id, i, pair_id, v.xl, v.yl, v.xr, v.yr, *xyz, cov, v.calibration_id))
         self._db.executemany("INSERT INTO vertices VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", rows)
+        self._insert_vertex_frames(object_id, vertices)
 
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
                       vertices: list[Vertex] | None = None) -> None:
@@ -562,6 +569,8 @@ class Project:
                 "SELECT v.object_id, v.xl, v.yl, v.xr, v.yr, v.x, v.y, v.z, v.covariance, v.calibration_id, "
                 f"p.label FROM vertices v LEFT JOIN image_pairs p ON p.id = v.pair_id {wanted} "
                 "ORDER BY v.object_id, v.idx", parameters).fetchall()
+            frame_rows = self._vertex_frame_rows(where, parameters)
+        frames = {(r[0], r[1]): r[2:] for r in frame_rows}
         vertices: dict[int, list[Vertex]] = {}
         for v in vertex_rows:
             xyz = None if v[5] is None else (v[5], v[6], v[7])
@@ -573,7 +582,12 @@ class Project:
                 except (TypeError, ValueError):
                     raise ProjectError(f"{self.path}: object {v[0]}: a stored covariance is damaged "
                                        "(not 9 numbers)") from None
-            vertices.setdefault(v[0], []).append(Vertex(v[1], v[2], v[3], v[4], xyz, cov, v[9], v[10]))
+            vertex = Vertex(v[1], v[2], v[3], v[4], xyz, cov, v[9], v[10])
+            frame = frames.get((v[0], len(vertices.get(v[0], ()))))
+            if frame is not None:
+                vertex = dataclasses.replace(vertex, video=frame[0], frame_left=frame[1], frame_right=frame[2],
+                                             time_s=frame[3])
+            vertices.setdefault(v[0], []).append(vertex)
         return [StoredObject(*row, vertices=tuple(vertices.get(row[0], ()))) for row in rows]
 
     def vertex_history(self, object_id: int) -> list[tuple]:
@@ -616,3 +630,196 @@ class Project:
         rows = self._query("SELECT pipeline FROM enhancements WHERE image_key = ?", (image_key,))
         return None if not rows else rows[0][0]
 
+
+    # ---------------------------------------------------------------------------- media (schema 4)
+    def _media(self, path: str | Path) -> str:
+        """Record a media file's size and SHA-256 (inside the caller's transaction); returns the stored
+        (relative when inside the project's folder) path."""
+        path = Path(path)
+        if not path.is_file():
+            raise ProjectError(f"{path}: no such media file")
+        stored = self._relative(path)
+        self._db.execute("INSERT OR REPLACE INTO media VALUES (?, ?, ?)",
+                         (stored, path.stat().st_size, file_hash(path)))
+        return stored
+
+    def media_problems(self, check_hash: bool = True) -> list[tuple[str, str]]:
+        """(stored path, problem) for every recorded media file that is missing, has changed size or
+        content, or now holds what another recorded file held (swapped)."""
+        if not self._has_table("media"):
+            return []
+        rows = self._db.execute("SELECT path, size, sha256 FROM media ORDER BY path").fetchall()
+        owners = {sha: path for path, _, sha in rows}
+        problems = []
+        for stored, size, sha in rows:
+            path = self.path.parent / stored
+            if not path.is_file():
+                problems.append((stored, "missing (moved or deleted?)"))
+            elif path.stat().st_size != size or check_hash:
+                now = file_hash(path)
+                if now != sha:
+                    other = owners.get(now)
+                    problems.append((stored, f"holds what {other} held when added (swapped?)" if other else
+                                     f"changed since it was added ({path.stat().st_size} bytes, {size} then; "
+                                     "its SHA-256 differs)"))
+        return problems
+
+    def relocate_media(self, stored: str, new_path: str | Path) -> str:
+        """Point a recorded media file at its new place; the file there must be the same (size and SHA-256)."""
+        row = self._db.execute("SELECT size, sha256 FROM media WHERE path = ?", (stored,)).fetchone()
+        if row is None:
+            raise ProjectError(f"{self.path}: no media file {stored!r} in the project")
+        new_path = Path(new_path)
+        if not new_path.is_file():
+            raise ProjectError(f"{new_path}: no such file")
+        if new_path.stat().st_size != row[0] or file_hash(new_path) != row[1]:
+            raise ProjectError(f"{new_path}: not the file that was added as {stored} (size or SHA-256 differs)")
+        new = self._relative(new_path)
+        with self.transaction():
+            try:
+                self._db.execute("UPDATE media SET path = ? WHERE path = ?", (new, stored))
+                self._db.execute("UPDATE image_pairs SET left_path = ? WHERE left_path = ?", (new, stored))
+                self._db.execute("UPDATE image_pairs SET right_path = ? WHERE right_path = ?", (new, stored))
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: cannot relocate {stored}: {error}") from None
+        return new
+
+    def add_image_pairs(self, pairs: Sequence[tuple[str, Path, Path]], medium: str = "water",
+                        sizes: Sequence[tuple[int, int]] | None = None) -> list[int]:
+        """Add (label, left image, right image) pairs in one transaction (all or none), recording the
+        media's size and SHA-256; ``sizes``: (width, height) pixels per pair."""
+        ids = []
+        with self.transaction():
+            try:
+                for k, (label, left, right) in enumerate(pairs):
+                    stored = [self._media(left), self._media(right)]
+                    hashes = [self._db.execute("SELECT sha256 FROM media WHERE path = ?", (p,)).fetchone()[0]
+                              for p in stored]
+                    width, height = sizes[k] if sizes else (None, None)
+                    cursor = self._db.execute(
+                        "INSERT INTO image_pairs (label, left_path, right_path, width, height, left_hash, right_hash, "
+                        "medium) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", (label, *stored, width, height, *hashes, medium))
+                    ids.append(int(cursor.lastrowid))
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: cannot add the pairs: {error} (is a label already used?)") from None
+        return ids
+
+    # ---------------------------------------------------------------------------- videos (schema 4)
+    def add_video(self, label: str, left: Sequence[tuple[Path, int, float]], right: Sequence[tuple[Path, int, float]],
+                  fps: float, frame_count: int, size: tuple[int, int], report: str = "") -> int:
+        """A stereo video: ``left``/``right`` the chapter files of each camera in order, each as (path,
+        frames, fps); ``fps`` and ``frame_count`` of the pair (the left stream's), ``size`` (width,
+        height) px, ``report`` what was found when the streams were read (frame-rate problems)."""
+        if not label:
+            raise ProjectError("a video needs a label")
+        with self.transaction():
+            try:
+                cursor = self._db.execute(
+                    "INSERT INTO videos (label, fps, frame_count, width, height, report, created) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    (label, float(fps), int(frame_count), *map(int, size), report, _now()))
+                video_id = int(cursor.lastrowid)
+                # the video is also a pair (no image files): its calibration is made active for it as for
+                # any pair, and its vertices refer to it
+                self._db.execute("INSERT INTO image_pairs (label, medium) VALUES (?, 'water')", (label,))
+                for camera, files in (("left", left), ("right", right)):
+                    for idx, (path, frames, file_fps) in enumerate(files):
+                        self._db.execute("INSERT INTO video_files VALUES (?, ?, ?, ?, ?, ?)",
+                                         (video_id, camera, idx, self._media(path), int(frames), float(file_fps)))
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: cannot add video {label!r}: {error} "
+                                   "(is the label already used?)") from None
+        return video_id
+
+    def activate_calibration(self, label: str, calibration_id: int) -> None:
+        """Make a stored calibration the active one of a pair (or video)."""
+        self.calibration(calibration_id)
+        self._edit("INSERT OR REPLACE INTO active_calibrations VALUES (?, ?)", (self.pair_id(label), calibration_id))
+
+    def _video_row(self, label: str) -> tuple:
+        row = self._db.execute("SELECT id, label, fps, frame_count, width, height, offset_frames, offset_estimate, "
+                               "report FROM videos WHERE label = ?", (label,)).fetchone()
+        if row is None:
+            known = [r[0] for r in self._db.execute("SELECT label FROM videos ORDER BY id")]
+            raise ProjectError(f"{self.path}: no video pair {label!r}" + (f" (there are: {', '.join(known)})"
+                                                                          if known else " (the project has no videos)"))
+        return row
+
+    def video(self, label: str) -> dict:
+        """label, fps, frame_count, width, height, offset_frames, offset_estimate (dict or None), report, and
+        ``left``/``right``: the stored paths of each camera's files in order, ``left_frames``/``right_frames``
+        their frame counts."""
+        row = self._video_row(label)
+        keys = ("id", "label", "fps", "frame_count", "width", "height", "offset_frames", "offset_estimate", "report")
+        video = dict(zip(keys, row, strict=True))
+        video["offset_estimate"] = json.loads(row[7]) if row[7] else None
+        for camera in ("left", "right"):
+            files = self._db.execute("SELECT path, frame_count FROM video_files WHERE video_id = ? AND camera = ? "
+                                     "ORDER BY idx", (row[0], camera)).fetchall()
+            video[camera] = [r[0] for r in files]
+            video[f"{camera}_frames"] = [r[1] for r in files]
+        return video
+
+    def videos(self) -> list[dict]:
+        """Every stereo video (none in a project older than schema 4, opened read-only)."""
+        if not self._has_table("videos"):
+            return []
+        return [self.video(r[0]) for r in self._db.execute("SELECT label FROM videos ORDER BY id").fetchall()]
+
+    def _has_table(self, name: str) -> bool:
+        return self._db.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)
+                                ).fetchone() is not None
+
+    def set_video_offset(self, label: str, frames: int, estimate: dict | None = None) -> None:
+        """Left frame i and right frame i + ``frames`` show the same instant; ``estimate``: how it was found."""
+        row = self._video_row(label)
+        if not isinstance(frames, (int, np.integer)) or abs(int(frames)) >= row[3]:
+            raise ProjectError(f"video {label!r}: offset {frames} frames is not a whole number smaller than the "
+                               f"video ({row[3]} frames)")
+        self._edit("UPDATE videos SET offset_frames = ?, offset_estimate = ? WHERE id = ?",
+                   (int(frames), json.dumps(estimate) if estimate else None, row[0]))
+
+    def media_path(self, stored: str) -> Path:
+        """The absolute path of a stored media path; raises (naming it) if it has gone missing."""
+        path = (self.path.parent / stored).resolve()
+        if not path.is_file():
+            raise ProjectError(f"{self.path}: the media file {stored} is missing (moved or deleted?); relocate it")
+        return path
+
+    def add_period(self, video: str, name: str, start: int, end: int) -> int:
+        """A named period of a video from frame ``start`` to ``end`` (left frames, inclusive)."""
+        row = self._video_row(video)
+        if not name:
+            raise ProjectError("a period needs a name")
+        if not (0 <= int(start) <= int(end) < row[3]):
+            raise ProjectError(f"period {name!r}: frames {start} to {end} are not an interval within the video "
+                               f"(0 to {row[3] - 1})")
+        return int(self._edit("INSERT INTO periods (video_id, name, start_frame, end_frame) VALUES (?, ?, ?, ?)",
+                              (row[0], name, int(start), int(end))).lastrowid)
+
+    def periods(self, video: str) -> list[tuple[str, int, int]]:
+        row = self._video_row(video)
+        return [tuple(r) for r in self._db.execute("SELECT name, start_frame, end_frame FROM periods WHERE "
+                                                   "video_id = ? ORDER BY start_frame, id", (row[0],))]
+
+    def _insert_vertex_frames(self, object_id: int, vertices: list[Vertex]) -> None:
+        rows = []
+        for i, v in enumerate(vertices):
+            if v.video is None:
+                continue
+            if v.frame_left is None or v.frame_right is None or v.time_s is None:
+                raise ProjectError(f"vertex {i}: a vertex on video {v.video!r} needs its left and right frames "
+                                   "and time")
+            rows.append((object_id, i, self._video_row(v.video)[0], int(v.frame_left), int(v.frame_right),
+                         float(v.time_s)))
+        self._db.executemany("INSERT INTO vertex_frames VALUES (?, ?, ?, ?, ?, ?)", rows)
+
+    def _vertex_frame_rows(self, where: str, parameters: tuple) -> list[tuple]:
+        """(object id, vertex index, video label, left frame, right frame, time s) of the vertices measured
+        on a video; none in a project older than schema 4 (opened read-only, it is not migrated)."""
+        if not self._has_table("vertex_frames"):
+            return []
+        wanted = f"WHERE f.object_id IN (SELECT id FROM objects {where})" if where else ""
+        return self._db.execute("SELECT f.object_id, f.idx, v.label, f.frame_left, f.frame_right, f.time_s "
+                                f"FROM vertex_frames f JOIN videos v ON v.id = f.video_id {wanted}",
+                                parameters).fetchall()

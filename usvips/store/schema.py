@@ -77,6 +77,33 @@ DROP TABLE temp.vertex_history_v3;
 """
 
 MIGRATIONS = {1: VERSION_1, 2: VERSION_2, 3: VERSION_3}
+
+# version 4 (video): every media file's size and SHA-256 (moved, changed or swapped files are detected);
+# stereo videos (a pair of recordings, each one or more chapter files in order) with their left/right
+# offset (left frame i and right frame i + offset_frames show the same instant); periods; and the video
+# frames and time of each vertex
+VERSION_4 = """
+CREATE TABLE media (path TEXT PRIMARY KEY, size INTEGER NOT NULL, sha256 TEXT NOT NULL);
+CREATE TABLE videos (
+    id INTEGER PRIMARY KEY, label TEXT NOT NULL UNIQUE, fps REAL NOT NULL CHECK (fps > 0),
+    frame_count INTEGER NOT NULL CHECK (frame_count > 0), width INTEGER NOT NULL, height INTEGER NOT NULL,
+    offset_frames INTEGER NOT NULL DEFAULT 0, offset_estimate TEXT, report TEXT NOT NULL DEFAULT '',
+    created TEXT NOT NULL);
+CREATE TABLE video_files (
+    video_id INTEGER NOT NULL REFERENCES videos(id) ON DELETE CASCADE,
+    camera TEXT NOT NULL CHECK (camera IN ('left', 'right')), idx INTEGER NOT NULL,
+    path TEXT NOT NULL REFERENCES media(path) ON UPDATE CASCADE, frame_count INTEGER NOT NULL, fps REAL NOT NULL,
+    PRIMARY KEY (video_id, camera, idx));
+CREATE TABLE periods (
+    id INTEGER PRIMARY KEY, video_id INTEGER NOT NULL REFERENCES videos(id) ON DELETE CASCADE,
+    name TEXT NOT NULL, start_frame INTEGER NOT NULL, end_frame INTEGER NOT NULL,
+    CHECK (start_frame >= 0 AND end_frame >= start_frame), UNIQUE (video_id, name));
+CREATE TABLE vertex_frames (
+    object_id INTEGER NOT NULL, idx INTEGER NOT NULL, video_id INTEGER NOT NULL REFERENCES videos(id),
+    frame_left INTEGER NOT NULL, frame_right INTEGER NOT NULL, time_s REAL NOT NULL,
+    PRIMARY KEY (object_id, idx), FOREIGN KEY (object_id, idx) REFERENCES vertices(object_id, idx) ON DELETE CASCADE);
+"""
+MIGRATIONS[4] = VERSION_4
 SCHEMA_VERSION = max(MIGRATIONS)
 
 

@@ -10,11 +10,11 @@ from usvips.core.measurements.registry import (
     MeasurementKind,
     UnknownKindError,
     kind,
-    kinds,
     names,
+    registered_kinds,
     resolve,
 )
 
 __all__ = ["DRAWINGS", "LEGACY", "Figure", "Measurement", "MeasurementKind", "QualityRules", "UnknownKindError",
-           "intersect_vertices", "kind", "kinds", "measure", "measure_picks", "names", "placement", "propagate",
-           "propagate_all", "resolve"]
+           "intersect_vertices", "kind", "measure", "measure_picks", "names", "placement", "propagate",
+           "propagate_all", "registered_kinds", "resolve"]

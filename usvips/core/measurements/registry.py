@@ -128,7 +128,7 @@ def names() -> tuple[str, ...]:
     return tuple(sorted(_KINDS, key=lambda n: (_KINDS[n].order, n)))
 
 
-def kinds() -> tuple[type[MeasurementKind], ...]:
+def registered_kinds() -> tuple[type[MeasurementKind], ...]:
     return tuple(_KINDS[n] for n in names())
 
 

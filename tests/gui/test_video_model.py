@@ -1,0 +1,84 @@
+"""The video model without a window: stepping within the synchronised frames, time codes, the bounded
+cache, prefetch order, and the frame source returning the frame pair asked for."""
+
+import numpy as np
+import pytest
+
+from usvips.core.errors import InvalidParameterError
+from usvips.core.synth.frame_numbers import frame_number, numbered_frame
+from usvips.gui.video_model import (
+    FrameCache,
+    FrameSource,
+    VideoNavigator,
+    cache_bytes,
+    format_timecode,
+    parse_position,
+    prefetch_order,
+)
+from usvips.io.video_writer import encode_video
+from usvips.store import Project
+from usvips.video_project import add_video
+
+
+@pytest.mark.parametrize("offset, first, last", [(3, 0, 96), (-5, 5, 99), (0, 0, 99)])
+def test_the_navigator_stays_on_frames_with_a_partner(offset, first, last):
+    nav = VideoNavigator("v", 100, 100, offset, 25.0)
+    assert (nav.first, nav.last) == (first, last)
+    assert nav.home() == first and nav.end() == last
+    nav.go(50)
+    assert nav.step(1) == 51 and nav.step(-nav.jump) == 41 and nav.partner == 41 + offset
+    assert nav.step(10_000) == last and nav.step(-10_000) == first
+    nav.marks = {10, 60, 80}
+    nav.go(60)
+    assert nav.next_mark(1) == 80 and nav.next_mark(-1) == 10
+    nav.rate = 0.5
+    assert nav.play_interval_ms() == 80
+
+
+def test_positions_typed_by_a_person():
+    assert parse_position("1234", 25) == 1234
+    assert parse_position("12.5s", 25) == 312 or parse_position("12.5s", 25) == 313
+    assert parse_position("01:02.000", 10) == 620
+    assert parse_position("1:00:00.5", 2) == 7201
+    times = np.array([0.0, 0.03, 0.1, 0.2])
+    assert parse_position("0.15s", 10, times) == 2  # variable frame rate: by presentation time
+    with pytest.raises(InvalidParameterError, match="type a frame number"):
+        parse_position("frame ten", 25)
+    assert format_timecode(62.5) == "01:02.500" and format_timecode(3725.25) == "1:02:05.250"
+
+
+def test_the_cache_is_bounded_and_keeps_the_recently_used():
+    frame = np.zeros((108, 192, 3), np.uint8)
+    pair = (frame, frame.copy(), 0, 0.0)
+    budget = cache_bytes(192, 108, 5)
+    cache = FrameCache(budget)
+    for i in range(5):
+        cache.put(i, pair)
+    cache.get(0)  # used: kept
+    cache.put(5, pair)
+    assert 0 in cache and 1 not in cache and len(cache) == 5 and cache.used <= budget
+    assert cache_bytes(1920, 1080, 48) == 48 * 2 * 1920 * 1080 * 3  # about 0.6 GB at 1080p
+    with pytest.raises(InvalidParameterError):
+        FrameCache(0)
+
+
+def test_prefetch_goes_ahead_in_the_direction_of_travel():
+    assert prefetch_order(10, 0, 99, 1, ahead=3, behind=1) == [11, 12, 13, 9]
+    assert prefetch_order(10, 0, 99, -1, ahead=2, behind=1) == [9, 8, 11]
+    assert prefetch_order(98, 0, 99, 1, ahead=3, behind=0) == [99]
+
+
+def test_the_frame_source_returns_the_synchronised_pair(tmp_path):
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=20)
+    with Project.create(tmp_path / "p.usvips") as project:
+        add_video(project, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "v")
+        project.set_video_offset("v", 4)
+        source = FrameSource(project, "v")
+        nav = source.navigator()
+        assert (nav.first, nav.last, nav.offset) == (0, 35, 4)
+        for frame in (30, 2, 17, 18, 35):
+            left, right, partner, time_s = source.pair(frame)
+            assert (frame_number(left), frame_number(right), partner) == (frame, 1004 + frame, frame + 4)
+            assert time_s == pytest.approx(frame / 25)
+        source.close()

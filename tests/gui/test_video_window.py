@@ -1,0 +1,127 @@
+"""Stereo video in the window (offscreen): the sample opens on its synchronised frames, keys step on the
+panes, a fish is measured on a synchronised frame within its sigma of the truth and its vertices record
+the frames; a new project gets its own video and image pairs through the File menu's actions."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+from PySide6 import QtCore
+
+from usvips.core.synth.frame_numbers import frame_number, numbered_frame
+from usvips.gui import media_dialogs
+from usvips.io.images import write_image
+from usvips.io.video_stream import VideoStream
+from usvips.io.video_writer import encode_video
+
+
+def _wait_frame(qtbot, window, frame: int) -> None:
+    qtbot.waitUntil(lambda: window.workspace.video_frame is not None and window.workspace.video_frame[1] == frame
+                    and not window.busy, timeout=10000)
+
+
+def test_the_sample_video_shows_synchronised_frames_and_a_fish_measures_true(qtbot, make_window, sample_copy):
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "video")
+    _wait_frame(qtbot, window, 0)
+    truth = json.loads((directory / "truth.json").read_text())["video"]
+    with VideoStream(directory / "video_right.avi") as right:
+        assert np.array_equal(window.workspace.images["right"], right.frame(3))  # offset 3 from the sample
+    graphics = window.panes["left"].graphics
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Right)
+    _wait_frame(qtbot, window, 1)
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Right, QtCore.Qt.KeyboardModifier.ShiftModifier)
+    _wait_frame(qtbot, window, 11)
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_End)
+    _wait_frame(qtbot, window, 26)  # the last left frame whose partner exists (29 − 3)
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Home)
+    _wait_frame(qtbot, window, 0)
+    window.video.dock_widget.goto.setText("1.2s")
+    window.video.dock_widget.goto.returnPressed.emit()
+    _wait_frame(qtbot, window, 12)
+    assert window.workspace.video_frame == ("video", 12, 15, pytest.approx(1.2))
+    # measure the moving fish on this instant from the truth's pixels
+    window.actions["tool_line"].trigger()
+    left_truth, right_truth = truth["left"][12]["pixels"], truth["right"][15]["pixels"]
+    for point in ("snout", "fork"):
+        window.workspace.pick("left", left_truth[point])
+        window.workspace.pick("right", right_truth[point])
+    object_id = window.workspace.finish_object("fish2")
+    stored = window.workspace.project.object(object_id)
+    assert [(v.video, v.frame_left, v.frame_right) for v in stored.vertices] == [("video", 12, 15)] * 2
+    assert stored.vertices[0].time_s == pytest.approx(1.2)
+    figure = window.workspace.figures([object_id]).figures[0]
+    fish = next(o for o in json.loads((directory / "truth.json").read_text())["objects"] if o["label"] == "fish2")
+    assert abs(figure.value - fish["length"]) < figure.sigma
+    assert 12 in window.video.navigator.marks and 12 in window.video.dock_widget.timeline.marks
+    x, _ = window.panes["left"].objects_item.getData()
+    assert x is not None and len(x) >= 2  # drawn on its frame ...
+    window.video.request(13)
+    _wait_frame(qtbot, window, 13)
+    x, _ = window.panes["left"].objects_item.getData()
+    assert x is None or len(x) == 0  # ... and not on the next
+    # the object list shows where it was measured; double-click goes there
+    table = window.object_list.table
+    column = window.object_list.COLUMNS.index("frame")
+    assert table.item(0, column).text() == "video: 12 | 15  00:01.200"
+    table.cellDoubleClicked.emit(0, column)
+    _wait_frame(qtbot, window, 12)
+    # stepping reads from the prefetched cache
+    qtbot.waitUntil(lambda: 13 in window.video.cache and not window.busy, timeout=10000)
+
+
+def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tmp_path):
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(30)], 25, "h264", gop=15)
+        (tmp_path / f"{side}_images").mkdir()
+        for n in range(2):
+            write_image(tmp_path / f"{side}_images" / f"st{n}_{side[0].upper()}.png", numbered_frame(base + n))
+    window = make_window()
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    assert window.workspace.project.path.name == "mine.usvips"
+    shown = []
+    assert media_dialogs.add_image_pairs(window, [tmp_path / "left_images"], [tmp_path / "right_images"], "a-",
+                                         confirm=lambda w, plan, rule: shown.append((plan, rule)) or True) == 2
+    assert shown[0][1] == "stem" and [p[0] for p in shown[0][0]] == ["a-st0", "a-st1"]
+    qtbot.waitUntil(lambda: window.workspace.pair == "a-st0" and not window.busy, timeout=10000)
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    _wait_frame(qtbot, window, 0)
+    assert frame_number(window.workspace.images["right"]) == 1000
+    window.video.dock_widget.offset.setValue(2)
+    window.video.dock_widget.offset.editingFinished.emit()
+    qtbot.waitUntil(lambda: frame_number(window.workspace.images["right"]) == 1002 and not window.busy, timeout=10000)
+    assert window.workspace.project.video("dive")["offset_frames"] == 2
+    # a moved video is relocated; a wrong file is refused
+    shutil.move(tmp_path / "left.mp4", tmp_path / "moved.mp4")
+    assert media_dialogs.relocate_media(window, {"left.mp4": str(tmp_path / "right.mp4")}) == 0
+    assert media_dialogs.relocate_media(window, {"left.mp4": str(tmp_path / "moved.mp4")}) == 1
+    assert window.workspace.project.video("dive")["left"] == ["moved.mp4"]
+
+
+def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make_window, sample_copy, tmp_path):
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "video")
+    _wait_frame(qtbot, window, 0)
+    project = window.workspace.project
+    assert window.video.mark_period("bait 10 26")
+    assert not window.video.mark_period("late 20 40") and "not an interval" in window.statusBar().currentMessage()
+    assert not window.video.mark_period("26") and project.periods("video") == [("bait", 10, 26)]
+    window.video.request(20)
+    _wait_frame(qtbot, window, 20)
+    truth = json.loads((directory / "truth.json").read_text())["video"]
+    window.actions["tool_line"].trigger()
+    for point in ("snout", "fork"):
+        window.workspace.pick("left", truth["left"][20]["pixels"][point])
+        window.workspace.pick("right", truth["right"][23]["pixels"][point])
+    window.workspace.finish_object("Sparidae Pagrus auratus")
+    window.export_objects(tmp_path / "dive.em.txt")
+    header, row = (tmp_path / "dive_Lengths.txt").read_text().splitlines()
+    values = dict(zip(header.split("\t"), row.split("\t"), strict=True))
+    assert (values["FilenameLeft"], values["FrameLeft"], values["FilenameRight"], values["FrameRight"]) == \
+        ("video_left.avi", "20", "video_right.avi", "23")
+    assert float(values["Time"]) == pytest.approx(2.0 / 60, abs=1e-4)  # minutes, as EventMeasure
+    assert values["Period"] == "bait" and float(values["PeriodTime"]) == pytest.approx(1.0 / 60, abs=1e-4)
+    assert values["Species"] == "auratus"

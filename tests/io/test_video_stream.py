@@ -1,0 +1,169 @@
+"""Frame-exact reading (PyAV): videos whose frames carry their own number, read back after random seeks
+forwards and backwards, for every codec/container this FFmpeg writes; chapters as one stream; variable
+frame rate, duplicated and dropped frames reported; bad input named in one line."""
+
+import numpy as np
+import pytest
+
+from usvips.core.errors import InputFileError
+from usvips.core.synth.frame_numbers import frame_number, numbered_frame
+from usvips.io.video import write_video
+from usvips.io.video_stream import VideoStream
+from usvips.io.video_writer import CODECS, encode_video, encoders_available
+
+WIDTH, HEIGHT = 160, 120
+
+
+def numbered(i: int) -> np.ndarray:
+    return numbered_frame(i, WIDTH, HEIGHT)
+
+
+def number_of(frame: np.ndarray) -> int:
+    return frame_number(frame)
+
+
+CONTAINERS = {"h264": ".mp4", "mpeg4": ".avi", "mjpeg": ".avi", "ffv1": ".mkv"}
+
+
+def test_every_codec_this_ffmpeg_writes_is_tested():
+    assert set(encoders_available()) <= set(CONTAINERS)
+    assert "h264" in encoders_available()  # PyAV's wheels carry libx264; the H.264 tests below need it
+    assert set(CONTAINERS) == set(CODECS)
+
+
+@pytest.mark.parametrize("codec", sorted(CONTAINERS))
+def test_random_seeks_return_the_frame_asked_for(tmp_path, codec):
+    path = tmp_path / f"numbered{CONTAINERS[codec]}"
+    # long GOP for inter codecs: one key frame every 50 frames, B-frames in between
+    encode_video(path, (numbered(i) for i in range(120)), 25, codec, gop=50)
+    rng = np.random.default_rng(hash(codec) % 2**32)
+    with VideoStream(path) as video:
+        assert video.frame_count == 120 and (video.width, video.height) == (WIDTH, HEIGHT)
+        assert video.fps == pytest.approx(25)
+        assert video.report.clean, video.report.summary()
+        order = list(rng.integers(0, 120, 60)) + list(range(119, 90, -1)) + list(range(10, 40))
+        for index in order:
+            assert number_of(video.frame(int(index))) == index
+        assert video.frame_at(video.time_of(77)) == 77
+        assert video.time_of(50) == pytest.approx(2.0)
+
+
+def test_opencv_written_motion_jpeg_is_read_exactly(tmp_path):
+    path = tmp_path / "opencv.avi"
+    write_video(path, (numbered(i) for i in range(40)), 10)
+    with VideoStream(path) as video:
+        assert video.frame_count == 40
+        for index in (39, 0, 17, 16, 18, 5):
+            assert number_of(video.frame(index)) == index
+        grey = video.frame(3, grey=True)
+        assert grey.shape == (HEIGHT, WIDTH)
+
+
+def test_a_chaptered_recording_reads_as_one_stream(tmp_path):
+    paths = [tmp_path / "GX010042.MP4", tmp_path / "GX020042.MP4", tmp_path / "GX030042.MP4"]
+    bounds = [(0, 45), (45, 90), (90, 110)]
+    for path, (a, b) in zip(paths, bounds, strict=True):
+        encode_video(path, (numbered(i) for i in range(a, b)), 30, "h264", gop=30)
+    with VideoStream(paths) as video:
+        assert video.frame_count == 110
+        assert [c.first for c in video.chapters] == [0, 45, 90]
+        np.testing.assert_allclose(np.diff(video.times_s), 1 / 30, atol=1e-4)  # time continues across files
+        for index in (44, 45, 46, 89, 90, 3, 109, 60, 44):
+            assert number_of(video.frame(index)) == index
+        # stepping forward across the file boundary
+        assert [number_of(video.frame(i)) for i in range(40, 50)] == list(range(40, 50))
+    with pytest.raises(InputFileError, match=r"GX020042.MP4x: no such video file \(a missing chapter"):
+        VideoStream([paths[0], tmp_path / "GX020042.MP4x"])
+
+
+def test_variable_frame_rate_is_detected_and_frames_are_numbered_by_timestamp(tmp_path):
+    rng = np.random.default_rng(3)
+    times = np.cumsum(rng.uniform(0.025, 0.06, 80))
+    path = tmp_path / "vfr.mkv"
+    encode_video(path, (numbered(i) for i in range(80)), 25, "ffv1", times_s=times)
+    with VideoStream(path) as video:
+        assert video.report.variable_frame_rate
+        assert "variable frame rate" in video.report.summary()
+        np.testing.assert_allclose(video.times_s, times - times[0], atol=1.5e-3)
+        for index in rng.permutation(80)[:30]:
+            assert number_of(video.frame(int(index))) == index
+            # the frame shown at a time between two frames is the earlier one
+            t = video.time_of(int(index)) + 0.4 * (times[min(index + 1, 79)] - times[index])
+            assert video.frame_at(t) == index
+
+
+def test_duplicated_and_dropped_frames_are_reported(tmp_path):
+    content = [0, 1, 2, 3, 3, 4, 5, 6, 7, 8]  # frame 4 repeats frame 3
+    intra = tmp_path / "duplicated.avi"  # Motion-JPEG at constant quality: the same bytes, found at opening
+    encode_video(intra, (numbered(i) for i in content), 10, "mjpeg")
+    with VideoStream(intra) as video:
+        assert video.report.duplicated == (4,) and not video.report.dropped
+        assert "1 duplicated frame(s), first at frame 4" in video.report.summary()
+    inter = tmp_path / "duplicated.mp4"  # H.264 codes the repeat as a predicted frame: only decoding finds it
+    encode_video(inter, (numbered(i) for i in [*content, *range(9, 119)]), 10, "h264", gop=50)
+    with VideoStream(inter) as video:
+        assert video.report.clean
+        calls = []
+        video.scan_pictures(lambda done, total: calls.append((done, total)))
+        assert video.report.duplicated == (4,) and calls == [(100, 120)]
+    times = np.array([0, 1, 2, 3, 6, 7, 8, 9, 10, 12]) / 25  # 2 missing before frame 4, 1 before frame 9
+    dropped = tmp_path / "dropped.mkv"
+    encode_video(dropped, (numbered(i) for i in range(10)), 25, "ffv1", times_s=times)
+    with VideoStream(dropped) as video:
+        assert video.report.dropped == ((4, 2), (9, 1))
+        assert not video.report.variable_frame_rate and not video.report.duplicated
+        assert "3 dropped frame(s)" in video.report.summary()
+
+
+def test_soundtrack_is_read_as_one_mono_signal(tmp_path):
+    rate = 16000
+    signal = np.sin(2 * np.pi * 440 * np.arange(rate) / rate) * 0.5
+    path = tmp_path / "sound.mkv"
+    encode_video(path, (numbered(i) for i in range(25)), 25, "ffv1", audio=(signal, rate))
+    with VideoStream(path) as video:
+        samples, got_rate = video.audio()
+    assert got_rate == rate and abs(len(samples) - rate) < 64
+    assert np.abs(samples[: rate // 2] - signal[: rate // 2]).max() < 1e-3
+    silent = tmp_path / "silent.mkv"
+    encode_video(silent, (numbered(i) for i in range(5)), 25, "ffv1")
+    with VideoStream(silent) as video:
+        assert video.audio() is None
+
+
+def test_bad_input_is_named_in_one_line(tmp_path):
+    junk = tmp_path / "junk.mp4"
+    junk.write_bytes(b"this is not a video at all" * 10)
+    with pytest.raises(InputFileError, match="junk.mp4: not a video"):
+        VideoStream(junk)
+    with pytest.raises(InputFileError, match="missing.mp4: no such video file"):
+        VideoStream(tmp_path / "missing.mp4")
+    path = tmp_path / "short.mkv"
+    encode_video(path, (numbered(i) for i in range(5)), 25, "ffv1")
+    small = tmp_path / "small.mkv"
+    encode_video(small, (numbered(i)[:60, :80] for i in range(5)), 25, "ffv1")
+    with VideoStream(path) as video:
+        for bad in (5, -1, 100):
+            with pytest.raises(InputFileError, match=rf"frame {bad} is out of range: the video has frames 0 to 4"):
+                video.frame(bad)
+        with pytest.raises(InputFileError, match="outside the video"):
+            video.frame_at(3.0)
+    with pytest.raises(InputFileError, match=r"small.mkv: chapter is 80 × 60 px"):
+        VideoStream([path, small])
+    for message in ("codec 'xvid'", "go in"):
+        with pytest.raises(InputFileError, match=message):
+            encode_video(tmp_path / "x.mov", [numbered(0)], 25, "xvid" if "codec" in message else "mjpeg")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["junk.mp4", "short.mkv", "small.mkv"]
+
+
+def test_gopro_chapters_must_be_one_recording_in_order_with_none_missing():
+    from pathlib import Path
+
+    from usvips.io.pairing import check_chapters
+
+    check_chapters([Path("GX010042.MP4"), Path("GX020042.MP4"), Path("GX030042.MP4")], "--left")
+    check_chapters([Path("dive_b.mp4"), Path("dive_a.mp4")], "--left")  # other names: the order given
+    for files, message in [(("GX010042.MP4", "GX030042.MP4"), "chapter GX020042.MP4 is missing before it"),
+                           (("GH020042.MP4", "GH010042.MP4"), "chapters out of order"),
+                           (("GX010042.MP4", "GX020043.MP4"), "chapters of different recordings")]:
+        with pytest.raises(InputFileError, match=message):
+            check_chapters([Path(f) for f in files], "--left")

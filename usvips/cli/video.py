@@ -1,0 +1,151 @@
+"""``usvips video sync|set-offset|export-frame`` and the handlers of ``usvips project add-pairs|add-video``:
+a user's own media and stereo video from the command line (the work is in :mod:`usvips.video_project`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from usvips import video_project
+from usvips.core.errors import UsvipsError
+from usvips.io.pairing import RULE_NAMES
+from usvips.store import Project
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("video", help="synchronise a stereo video, set its offset, export a frame pair")
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    sync = actions.add_parser("sync", help="estimate the left/right frame offset and store it")
+    sync.add_argument("project")
+    sync.add_argument("--pair", required=True, help="the video pair's label")
+    sync.add_argument("--method", choices=("flash", "audio", "image"),
+                      help="default: audio when both files have sound, else a clear flash, else the images")
+    sync.add_argument("--max-offset", type=int, help="frames searched either way (default: a third of the video)")
+    sync.add_argument("--calibration", type=int, help="calibration id for --method image (default: the one "
+                      "active for the video, else the latest)")
+    sync.add_argument("--json", action="store_true", help="print the estimate as JSON")
+    sync.add_argument("--dry-run", action="store_true", help="print the estimate, store nothing")
+    sync.set_defaults(handler=run_sync)
+    offset = actions.add_parser("set-offset", help="set the offset by hand: left frame i ↔ right frame i + FRAMES")
+    offset.add_argument("project")
+    offset.add_argument("--pair", required=True)
+    offset.add_argument("frames", type=int)
+    offset.set_defaults(handler=run_set_offset)
+    export = actions.add_parser("export-frame", help="write DIR/left.png (left frame N) and DIR/right.png "
+                                "(right frame N + offset), exactly as decoded")
+    export.add_argument("project")
+    export.add_argument("--pair", required=True)
+    export.add_argument("--frame", type=int, required=True)
+    export.add_argument("--out", required=True, help="the folder to write into (created if needed)")
+    export.set_defaults(handler=run_export_frame)
+    take = actions.add_parser("take-pair", help="make a synchronised frame pair an image pair of the project "
+                              "(e.g. the calibration frame filmed in air or underwater)")
+    take.add_argument("project")
+    take.add_argument("--pair", required=True, help="the video pair")
+    take.add_argument("--frame", type=int, required=True, help="the left frame")
+    take.add_argument("--label", help="the new image pair's label (default VIDEO-FRAME)")
+    take.add_argument("--medium", choices=("water", "air"), default="water")
+    take.set_defaults(handler=run_take_pair)
+    period = actions.add_parser("period", help="mark a named period (left frames START to END) of a video pair, "
+                                "or list them")
+    period.add_argument("project")
+    period.add_argument("--pair", required=True)
+    period.add_argument("--add", nargs=3, metavar=("NAME", "START", "END"),
+                        help="mark a period from left frame START to END (inclusive)")
+    period.set_defaults(handler=run_period)
+
+
+def register_project_actions(actions: argparse._SubParsersAction) -> None:
+    """``project add-pairs`` and ``project add-video`` (called by :mod:`usvips.cli.project`)."""
+    pairs = actions.add_parser("add-pairs", help="add image pairs from two folders or lists of files")
+    pairs.add_argument("project")
+    pairs.add_argument("--left", nargs="+", required=True, help="left images or a folder of them")
+    pairs.add_argument("--right", nargs="+", required=True, help="right images or a folder of them")
+    pairs.add_argument("--label-prefix", default="", help="put before every pair's label")
+    pairs.add_argument("--pair-by", choices=("auto", "stem", "time", "order"), default="auto",
+                       help="shared stem (IMG_0042_L ↔ IMG_0042_R), EXIF capture time, or name order; auto: stem "
+                       "when every file has a partner, else capture time (JPEGs), else order")
+    pairs.add_argument("--max-dt", type=float, default=1.0, help="seconds between partners' capture times (time)")
+    pairs.add_argument("--medium", choices=("water", "air"), default="water")
+    pairs.add_argument("--dry-run", action="store_true", help="print the pairing, store nothing")
+    pairs.set_defaults(handler=run_add_pairs)
+    video = actions.add_parser("add-video", help="add a stereo video (each camera one file or its chapters in order)")
+    video.add_argument("project")
+    video.add_argument("--left", nargs="+", required=True, help="the left camera's file(s), in recording order")
+    video.add_argument("--right", nargs="+", required=True, help="the right camera's file(s), in recording order")
+    video.add_argument("--label", help="the video pair's label (default: the left file's stem)")
+    video.add_argument("--scan", action="store_true", help="decode every frame to find repeated pictures too")
+    video.set_defaults(handler=run_add_video)
+
+
+def run_add_pairs(args: argparse.Namespace) -> int:
+    plan, rule = video_project.plan_image_pairs(args.left, args.right, args.label_prefix, args.pair_by, args.max_dt)
+    print(f"{len(plan)} pairs by {RULE_NAMES[rule]}:")
+    for label, left, right in plan:
+        print(f"  {label}: {left} | {right}")
+    if args.dry_run:
+        return 0
+    with Project.open(args.project) as project:
+        video_project.add_image_pairs(project, plan, args.medium)
+    print(f"added {len(plan)} pairs to {args.project}")
+    return 0
+
+
+def run_add_video(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        added = video_project.add_video(project, args.left, args.right, args.label, args.scan)
+    print(f"added video {added.label!r}: {added.frame_count} frames at {added.fps:.6g} fps")
+    for warning in added.warnings:
+        print(f"  warning: {warning}")
+    return 0
+
+
+def run_sync(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        estimate = video_project.estimate_offset(project, args.pair, args.method, args.max_offset, args.calibration)
+        if not args.dry_run:
+            project.set_video_offset(args.pair, estimate.frames, estimate.as_dict())
+    if args.json:
+        print(json.dumps({**estimate.as_dict(), "stored": not args.dry_run}))
+        return 0
+    print(f"offset {estimate.offset_frames:+.2f} frames ({estimate.offset_s:+.4f} s) by {estimate.method}, "
+          f"confidence {estimate.confidence:.2f}"
+          + (f"; using the nearest frame, {estimate.frames:+d}" if estimate.rounded else "")
+          + ("" if args.dry_run else "; stored"))
+    return 0
+
+
+def run_set_offset(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        project.set_video_offset(args.pair, args.frames, {"method": "by hand"})
+    print(f"video {args.pair!r}: left frame i shows the instant of right frame i {args.frames:+d}")
+    return 0
+
+
+def run_export_frame(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        video = project.video(args.pair)
+        left, right = video_project.export_frame(project, args.pair, args.frame, args.out)
+    print(f"wrote {left} (left frame {args.frame}) and {right} (right frame {args.frame + video['offset_frames']})")
+    return 0
+
+
+def run_period(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        if args.add:
+            name, start, end = args.add
+            try:
+                start, end = int(start), int(end)
+            except ValueError:
+                raise UsvipsError(f"--add {name} {start} {end}: START and END must be frame numbers") from None
+            project.add_period(args.pair, name, start, end)
+        for name, start, end in project.periods(args.pair):
+            print(f"{name}: frames {start} to {end}")
+    return 0
+
+
+def run_take_pair(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        label = video_project.take_pair(project, args.pair, args.frame, args.label, args.medium)
+    print(f"added image pair {label!r} (left frame {args.frame} of {args.pair} and its partner)")
+    return 0

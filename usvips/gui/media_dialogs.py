@@ -1,0 +1,156 @@
+"""File › New project…, Add image pairs…, Add stereo video…, Relocate missing media…: a user's own
+material into the open project. Each action asks with dialogs, then does its work through
+:mod:`usvips.video_project`; the paths can also be handed in (tests, scripts), skipping the dialogs.
+Reading a video's files runs in a worker; the project is written on the GUI thread."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from PySide6 import QtWidgets
+
+from usvips import video_project
+from usvips.core.errors import UsvipsError
+from usvips.io.pairing import RULE_NAMES
+from usvips.store import Project
+
+VIDEO_FILTER = "Videos (*.mp4 *.MP4 *.mov *.MOV *.avi *.AVI *.mkv *.mts *.MTS *.m4v);;All files (*)"
+
+
+def _need_project(window) -> Project | None:
+    project = window.workspace.project
+    if project is None:
+        window.show_message("error", "open or create a project first (File › New project…)")
+    return project
+
+
+def new_project(window, path: str | Path | None = None) -> bool:
+    """Create an empty project file and open it."""
+    if path is None:
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(window, "New project", str(Path.home() / "survey.usvips"),
+                                                        "USVIPS projects (*.usvips)")
+        if not path:
+            return False
+        path = path if path.endswith(".usvips") else path + ".usvips"
+    try:
+        Project.create(path).close()
+    except UsvipsError as error:
+        window.show_message("error", str(error))
+        return False
+    return window.open_path(path)
+
+
+def confirm_pairs(window, plan, rule: str) -> bool:
+    """Show the pairing for confirmation (a table: label, left file, right file)."""
+    dialog = QtWidgets.QDialog(window)
+    dialog.setWindowTitle("Add image pairs")
+    table = QtWidgets.QTableWidget(len(plan), 3)
+    table.setHorizontalHeaderLabels(["Label", "Left", "Right"])
+    for row, (label, left, right) in enumerate(plan):
+        for column, text in enumerate((label, left.name, right.name)):
+            table.setItem(row, column, QtWidgets.QTableWidgetItem(text))
+    table.resizeColumnsToContents()
+    buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Ok
+                                         | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
+    buttons.accepted.connect(dialog.accept)
+    buttons.rejected.connect(dialog.reject)
+    layout = QtWidgets.QVBoxLayout(dialog)
+    layout.addWidget(QtWidgets.QLabel(f"{len(plan)} pairs, paired by "
+                                      f"{RULE_NAMES[rule]}:"))
+    layout.addWidget(table)
+    layout.addWidget(buttons)
+    dialog.resize(640, 420)
+    return dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted
+
+
+def add_image_pairs(window, left: list | None = None, right: list | None = None, prefix: str = "",
+                    confirm=confirm_pairs) -> int:
+    """Pair two folders (or lists) of images, confirm, add; returns the number of pairs added."""
+    project = _need_project(window)
+    if project is None:
+        return 0
+    if left is None:
+        folder = QtWidgets.QFileDialog.getExistingDirectory(window, "Folder of LEFT images")
+        if not folder:
+            return 0
+        other = QtWidgets.QFileDialog.getExistingDirectory(window, "Folder of RIGHT images", folder)
+        if not other:
+            return 0
+        left, right = [folder], [other]
+    try:
+        plan, rule = video_project.plan_image_pairs(left, right, prefix)
+        if not confirm(window, plan, rule):
+            return 0
+        video_project.add_image_pairs(project, plan)
+    except UsvipsError as error:
+        window.show_message("error", f"no pairs added: {error}")
+        return 0
+    window.pair_box.clear()
+    window.pair_box.addItems(window.workspace.image_pairs())
+    window.show_message("info", f"added {len(plan)} image pairs (by {rule})")
+    if window.workspace.pair is None and plan:
+        window.load_pair(plan[0][0])
+    return len(plan)
+
+
+def add_video(window, left: list | None = None, right: list | None = None, label: str | None = None) -> None:
+    """Choose each camera's file(s) (several = chapters in order), read and check them in a worker, then
+    store the video and show it."""
+    project = _need_project(window)
+    if project is None:
+        return
+    if left is None:
+        left, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "LEFT camera: file or chapters", "", VIDEO_FILTER)
+        if not left:
+            return
+        right, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "RIGHT camera: file or chapters",
+                                                          str(Path(left[0]).parent), VIDEO_FILTER)
+        if not right:
+            return
+        text, ok = QtWidgets.QInputDialog.getText(window, "Add stereo video", "Label:",
+                                                  text=Path(left[0]).stem)
+        if not ok:
+            return
+        label = text.strip() or None
+
+    def job(progress, cancelled):
+        return video_project.inspect_video(sorted(left, key=lambda p: Path(p).name),
+                                           sorted(right, key=lambda p: Path(p).name), label)
+
+    def store(plan) -> None:
+        added = video_project.store_video(project, plan)
+        for warning in added.warnings:
+            window.show_message("warning", warning)
+        window.video.project_opened(project)
+        window.video.open_video(added.label)
+        window.show_message("info", f"added video {added.label}: {added.frame_count} frames at {added.fps:.6g} fps; "
+                                    "set its offset (Video › Synchronise) before measuring")
+
+    window.run_worker(job, "reading the video files", store)
+
+
+def relocate_media(window, answers: dict[str, str] | None = None) -> int:
+    """For every missing media file, ask where it is now (or take ``answers``: stored path → new path);
+    a file that is not the one added (size, SHA-256) is refused. Returns the number relocated."""
+    project = _need_project(window)
+    if project is None:
+        return 0
+    missing = [stored for stored, problem in project.media_problems(check_hash=False) if problem.startswith("missing")]
+    if not missing:
+        window.show_message("info", "no media file is missing")
+        return 0
+    done = 0
+    for stored in missing:
+        if answers is not None:
+            new = answers.get(stored)
+        else:
+            new, _ = QtWidgets.QFileDialog.getOpenFileName(window, f"Where is {stored} now?", str(project.path.parent))
+        if not new:
+            continue
+        try:
+            project.relocate_media(stored, new)
+            done += 1
+        except UsvipsError as error:
+            window.show_message("error", str(error))
+    window.show_message("info", f"relocated {done} of {len(missing)} missing media files")
+    return done

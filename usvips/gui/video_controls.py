@@ -1,0 +1,383 @@
+"""Stereo video in the workstation: a dock with the video chooser, frame and time, go-to, a timeline
+with the frames that hold measurements marked, play/pause at a rate and the offset nudge; and the
+controller that decodes frame pairs in workers (bounded cache, prefetch around the current frame) so
+that the GUI never waits on a decoder.
+
+Keys (on the panes and this dock, never window-wide: text fields keep their arrows): ←/→ one frame,
+Shift+←/→ the jump (default 10), Home/End, Space play/pause.
+"""
+
+from __future__ import annotations
+
+from PySide6 import QtCore, QtGui, QtWidgets
+
+from usvips.core.errors import UsvipsError
+from usvips.gui.video_model import (
+    FrameCache,
+    FrameSource,
+    VideoNavigator,
+    format_timecode,
+    measured_frames,
+    parse_position,
+    prefetch_order,
+    video_frame_of,
+)
+from usvips.gui.worker import Cancelled, Worker
+
+
+class Timeline(QtWidgets.QSlider):
+    """A frame slider that paints a tick at every frame holding a measurement."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(QtCore.Qt.Orientation.Horizontal, parent)
+        self.marks: set[int] = set()
+        self.setObjectName("video_timeline")
+
+    def paintEvent(self, event: QtGui.QPaintEvent) -> None:  # noqa: N802 (Qt's name)
+        super().paintEvent(event)
+        if not self.marks or self.maximum() <= self.minimum():
+            return
+        painter = QtGui.QPainter(self)
+        painter.setPen(QtGui.QPen(QtGui.QColor(255, 140, 0), 2))
+        span = self.maximum() - self.minimum()
+        width = self.width() - 12
+        for mark in self.marks:
+            x = 6 + width * (mark - self.minimum()) / span
+            painter.drawLine(int(x), 0, int(x), 6)
+        painter.end()
+
+
+class VideoDock(QtWidgets.QWidget):
+    """The controls; owns no decoder (see :class:`VideoController`)."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setObjectName("video_controls")
+        self.chooser = QtWidgets.QComboBox()
+        self.chooser.setToolTip("the stereo video shown")
+        self.timeline = Timeline()
+        self.frame_label = QtWidgets.QLabel("—")
+        self.frame_label.setMinimumWidth(320)
+        self.goto = QtWidgets.QLineEdit()
+        self.goto.setPlaceholderText("go to frame / 12.5s / mm:ss.sss")
+        self.goto.setMaximumWidth(200)
+        self.play = QtWidgets.QPushButton("Play")
+        self.play.setCheckable(True)
+        self.rate = QtWidgets.QComboBox()
+        self.rate.addItems(["0.1×", "0.25×", "0.5×", "1×", "2×", "4×"])
+        self.rate.setCurrentText("1×")
+        self.jump = QtWidgets.QSpinBox()
+        self.jump.setRange(2, 10_000)
+        self.jump.setValue(10)
+        self.jump.setPrefix("jump ")
+        self.jump.setToolTip("frames stepped by Shift+←/→")
+        self.offset = QtWidgets.QSpinBox()
+        self.offset.setRange(-100_000, 100_000)
+        self.offset.setPrefix("offset ")
+        self.offset.setToolTip("right frame = left frame + offset (nudge while both panes show; stored)")
+        self.period = QtWidgets.QPushButton("Period…")
+        self.period.setToolTip("mark a named period from this frame (EventMeasure's periods)")
+        top = QtWidgets.QHBoxLayout()
+        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto, self.period):
+            top.addWidget(widget)
+        top.addStretch(1)
+        top.addWidget(self.frame_label)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(4, 2, 4, 2)
+        layout.addLayout(top)
+        layout.addWidget(self.timeline)
+
+
+class VideoController(QtCore.QObject):
+    """Shows a stored video's synchronised frame pairs in the window's panes.
+
+    ``request(frame)`` shows a cached pair at once, or decodes it in a worker (the latest request wins);
+    after each pair is shown, the frames around it are decoded into the cache (one prefetch at a time,
+    cancelled by the next request)."""
+
+    shown = QtCore.Signal(int)
+
+    def __init__(self, window, cache: FrameCache | None = None) -> None:
+        super().__init__(window)
+        self.window = window
+        self.dock_widget = VideoDock()
+        self.cache = cache or FrameCache()
+        self.source: FrameSource | None = None
+        self.navigator: VideoNavigator | None = None
+        self.direction = 1
+        self._request: Worker | None = None
+        self._prefetch: Worker | None = None
+        self._pending: int | None = None
+        self.timer = QtCore.QTimer(self)
+        self.timer.timeout.connect(self._tick)
+        d = self.dock_widget
+        d.chooser.activated.connect(lambda _: self.open_video(d.chooser.currentText()))
+        d.timeline.valueChanged.connect(self._on_slider)
+        d.goto.returnPressed.connect(self._on_goto)
+        d.play.toggled.connect(self.set_playing)
+        d.rate.currentTextChanged.connect(self._on_rate)
+        d.jump.valueChanged.connect(self._on_jump)
+        d.offset.editingFinished.connect(self._on_offset)
+        d.period.clicked.connect(self._on_period)
+        for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
+            widget.installEventFilter(self)
+        # double-click on an object (or Zoom to) goes to the frame it was measured on
+        window.object_list.zoom_requested.connect(self.go_to_object)
+        window.object_list.table.cellDoubleClicked.connect(
+            lambda row, _: self.go_to_object(int(window.object_list.table.item(row, 0).text())))
+
+    # ------------------------------------------------------------------ videos
+    def project_opened(self, project) -> None:
+        """Fill the chooser with the project's videos (and forget the previous project's)."""
+        self.close_video()
+        d = self.dock_widget
+        d.chooser.clear()
+        labels = [v["label"] for v in project.videos()] if project is not None else []
+        d.chooser.addItems(labels)
+        d.setEnabled(bool(labels))
+
+    def open_video(self, label: str) -> bool:
+        project = self.window.workspace.project
+        if project is None or not label:
+            return False
+        self.close_video()
+        try:
+            self.source = FrameSource(project, label)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return False
+        self.navigator = self.source.navigator()
+        self.navigator.marks = measured_frames(project, label)
+        d = self.dock_widget
+        d.chooser.setCurrentText(label)
+        d.timeline.blockSignals(True)
+        d.timeline.setRange(self.navigator.first, self.navigator.last)
+        d.timeline.marks = set(self.navigator.marks)
+        d.timeline.blockSignals(False)
+        d.offset.setValue(self.navigator.offset)
+        self.window.show_message("info", f"video {label}: {self.navigator.frame_count} frames at "
+                                 f"{self.navigator.fps:.6g} fps, offset {self.navigator.offset:+d} "
+                                 + (f"— {self.source.video['report']}" if self.source.video["report"] else ""))
+        self.request(self.navigator.first)
+        return True
+
+    def close_video(self) -> None:
+        self.set_playing(False)
+        for worker in (self._request, self._prefetch):
+            if worker is not None:
+                worker.cancel()
+        self._request = self._prefetch = None
+        self.cache.clear()
+        if self.source is not None:
+            self.source.close()
+        self.source, self.navigator = None, None
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, frames: int) -> None:
+        if self.navigator is not None:
+            self.direction = 1 if frames >= 0 else -1
+            self.request(self.navigator.frame + frames)
+
+    def request(self, frame: int) -> None:
+        """Show left frame ``frame`` (clamped) and its partner, from the cache or a worker."""
+        if self.navigator is None or self.source is None:
+            return
+        frame = self.navigator.clamp(frame)
+        cached = self.cache.get(frame)
+        if cached is not None:
+            self._show(frame, cached)
+            return
+        self._pending = frame
+        if self._prefetch is not None:
+            self._prefetch.cancel()
+        if self._request is not None:
+            self._request.cancel()
+        source, offset = self.source, self.navigator.offset
+
+        def job(progress, cancelled):
+            if cancelled():
+                raise Cancelled
+            return frame, source.pair(frame, offset)
+
+        worker = self._request = Worker(job, f"decoding frame {frame}")
+        worker.signals.finished.connect(lambda result, w=worker: self._decoded(w, *result))
+        worker.signals.failed.connect(lambda message: self.window.show_message("error", message))
+        self.window.pool.start(worker)
+
+    def _decoded(self, worker: Worker, frame: int, item: tuple) -> None:
+        if self.source is None:
+            return
+        self.cache.put(frame, item)
+        if worker is self._request and frame == self._pending:
+            self._show(frame, item)
+
+    def _show(self, frame: int, item: tuple) -> None:
+        left, right, partner, time_s = item
+        nav = self.navigator
+        nav.go(frame)
+        ws = self.window.workspace
+        ws.set_pair(nav.label, left, right)
+        ws.video_frame = (nav.label, frame, partner, time_s)
+        self.window._draw_objects()  # only the objects measured on this frame
+        d = self.dock_widget
+        d.timeline.blockSignals(True)
+        d.timeline.setValue(frame)
+        d.timeline.blockSignals(False)
+        d.frame_label.setText(f"left {frame} | right {partner}  {format_timecode(time_s)}  "
+                              f"({nav.first}–{nav.last})" + ("  ●" if frame in nav.marks else ""))
+        for side, number in (("left", frame), ("right", partner)):
+            pane = self.window.panes[side]
+            pane.title.setText(f"{side.capitalize()} — {nav.label}, frame {number}  {format_timecode(time_s)}")
+        self.shown.emit(frame)
+        self._start_prefetch(frame)
+
+    def _start_prefetch(self, frame: int) -> None:
+        nav, source, cache = self.navigator, self.source, self.cache
+        todo = [f for f in prefetch_order(frame, nav.first, nav.last, self.direction) if f not in cache]
+        if not todo or (self._prefetch is not None and not self._prefetch.is_cancelled
+                        and self._prefetch in self.window.workers):
+            return
+        if self._prefetch is not None:
+            self._prefetch.cancel()
+        offset = nav.offset
+
+        def job(progress, cancelled):
+            for f in todo:
+                if cancelled():
+                    raise Cancelled
+                if f not in cache:
+                    cache.put(f, source.pair(f, offset))
+            return len(todo)
+
+        self._prefetch = Worker(job, "prefetching frames")
+        self.window.pool.start(self._prefetch)
+
+    # ------------------------------------------------------------------ controls
+    def set_playing(self, on: bool) -> None:
+        d = self.dock_widget
+        if d.play.isChecked() != on:
+            d.play.setChecked(on)
+        d.play.setText("Pause" if on else "Play")
+        if on and self.navigator is not None:
+            self.direction = 1
+            self.timer.start(self.navigator.play_interval_ms())
+        else:
+            self.timer.stop()
+
+    def _tick(self) -> None:
+        nav = self.navigator
+        if nav is None or nav.frame >= nav.last:
+            self.set_playing(False)
+            return
+        if self._request is not None and self._pending != nav.frame and self._pending not in self.cache:
+            return  # still decoding: drop this tick rather than queue work
+        self.step(1)
+
+    def _on_slider(self, value: int) -> None:
+        self.direction = 1 if self.navigator is None or value >= self.navigator.frame else -1
+        self.request(value)
+
+    def _on_goto(self) -> None:
+        if self.navigator is None:
+            return
+        try:
+            frame = parse_position(self.dock_widget.goto.text(), self.navigator.fps, self.source.times_s)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return
+        if not self.navigator.first <= frame <= self.navigator.last:
+            self.window.show_message("error", f"frame {frame} has no synchronised pair (frames "
+                                     f"{self.navigator.first} to {self.navigator.last})")
+            return
+        self.request(frame)
+
+    def _on_rate(self, text: str) -> None:
+        if self.navigator is not None:
+            self.navigator.rate = float(text.rstrip("×"))
+            if self.timer.isActive():
+                self.timer.start(self.navigator.play_interval_ms())
+
+    def _on_jump(self, value: int) -> None:
+        if self.navigator is not None:
+            self.navigator.jump = int(value)
+
+    def _on_offset(self) -> None:
+        nav = self.navigator
+        value = self.dock_widget.offset.value()
+        if nav is None or value == nav.offset:
+            return
+        try:
+            self.window.workspace.project.set_video_offset(nav.label, value, {"method": "by hand"})
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            self.dock_widget.offset.setValue(nav.offset)
+            return
+        frame = nav.frame
+        self.cache.clear()
+        self.source.video["offset_frames"] = value
+        self.navigator = self.source.navigator()
+        self.navigator.marks = nav.marks
+        self.dock_widget.timeline.setRange(self.navigator.first, self.navigator.last)
+        self.window.show_message("info", f"video {nav.label}: offset set to {value:+d} frames (stored)")
+        self.request(frame)
+
+    def _on_period(self) -> None:
+        nav = self.navigator
+        if nav is None:
+            return
+        text, ok = QtWidgets.QInputDialog.getText(self.dock_widget, "Mark period", "Name, first and last left frame:",
+                                                  text=f"period {nav.frame} {nav.last}")
+        if ok:
+            self.mark_period(text)
+
+    def mark_period(self, text: str) -> bool:
+        """Store a period typed as ``NAME FIRST LAST`` (left frames; the name may hold spaces)."""
+        parts = text.split()
+        try:
+            name, start, end = " ".join(parts[:-2]), int(parts[-2]), int(parts[-1])
+        except (ValueError, IndexError):
+            self.window.show_message("error", f"period {text!r}: type a name, then the first and last frame")
+            return False
+        try:
+            self.window.workspace.project.add_period(self.navigator.label, name, start, end)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return False
+        self.window.show_message("info", f"period {name!r}: frames {start} to {end} (stored)")
+        return True
+
+    def go_to_object(self, object_id: int) -> None:
+        project = self.window.workspace.project
+        where = video_frame_of(project.object(object_id)) if project is not None else None
+        if where is None:
+            return
+        video, frame = where
+        if self.navigator is None or self.navigator.label != video:
+            if not self.open_video(video):
+                return
+        self.direction = 1
+        self.request(frame)
+
+    def objects_changed(self) -> None:
+        if self.navigator is not None and self.window.workspace.project is not None:
+            self.navigator.marks = measured_frames(self.window.workspace.project, self.navigator.label)
+            self.dock_widget.timeline.marks = set(self.navigator.marks)
+            self.dock_widget.timeline.update()
+
+    def eventFilter(self, watched: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt's name)
+        if event.type() != QtCore.QEvent.Type.KeyPress or self.navigator is None:
+            return False
+        key, shift = event.key(), bool(event.modifiers() & QtCore.Qt.KeyboardModifier.ShiftModifier)
+        Key = QtCore.Qt.Key
+        if key in (Key.Key_Left, Key.Key_Right):
+            self.step((self.navigator.jump if shift else 1) * (1 if key == Key.Key_Right else -1))
+        elif key == Key.Key_Home:
+            self.direction = -1
+            self.request(self.navigator.first)
+        elif key == Key.Key_End:
+            self.request(self.navigator.last)
+        elif key == Key.Key_Space:
+            self.set_playing(not self.timer.isActive())
+        else:
+            return False
+        return True

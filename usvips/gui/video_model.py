@@ -1,0 +1,221 @@
+"""The workstation's stereo-video model, Qt-free: which frame pair is shown, stepping and going to a
+frame or time code, the frames holding measurements, a bounded frame cache and what to prefetch, and a
+thread-safe source of synchronised frame pairs.
+
+Frames are the left stream's numbers; the right partner of left frame ``i`` is ``i + offset``. Only left
+frames whose partner exists are shown (``first`` … ``last``).
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from usvips.core.errors import InvalidParameterError
+from usvips.store import Project
+from usvips.video_project import open_streams, partner_frame
+
+#: default frame-cache budget (bytes): 48 frame pairs at 1920 × 1080 RGB
+CACHE_BYTES = 48 * 2 * 1920 * 1080 * 3
+
+
+def format_timecode(seconds: float) -> str:
+    """``h:mm:ss.sss`` (hours only when there are any)."""
+    seconds = max(float(seconds), 0.0)
+    hours, rest = divmod(seconds, 3600)
+    minutes, secs = divmod(rest, 60)
+    return (f"{int(hours)}:" if hours >= 1 else "") + f"{int(minutes):02d}:{secs:06.3f}"
+
+
+_TIME = re.compile(r"^(?:(\d+):)?(\d+):(\d+(?:\.\d*)?)$")
+
+
+def parse_position(text: str, fps: float, times_s: np.ndarray | None = None) -> int:
+    """A frame from what a person typed: a frame number (``1234``), seconds (``12.5s``) or a time code
+    (``mm:ss.sss``, ``h:mm:ss.sss``). Times go to the frame shown at that time (by presentation time when
+    ``times_s`` are given, else ``round(t · fps)``)."""
+    text = text.strip()
+    if re.fullmatch(r"\d+", text):
+        return int(text)
+    seconds = None
+    if re.fullmatch(r"\d+(\.\d*)?\s*s", text):
+        seconds = float(text.rstrip("s "))
+    else:
+        match = _TIME.match(text)
+        if match:
+            hours, minutes, secs = match.groups()
+            seconds = int(hours or 0) * 3600 + int(minutes) * 60 + float(secs)
+    if seconds is None:
+        raise InvalidParameterError("go to", f"{text!r}: type a frame number, seconds (12.5s) or a time (mm:ss.sss)")
+    if times_s is not None:
+        return int(max(0, np.searchsorted(times_s, seconds + 1e-9, side="right") - 1))
+    return int(round(seconds * fps))
+
+
+@dataclass
+class VideoNavigator:
+    """Where the viewer is in a stereo video. ``frame_count``/``right_count`` frames per stream,
+    ``offset`` (right = left + offset), ``fps``; ``jump`` is the Shift+arrow step (frames)."""
+
+    label: str
+    frame_count: int
+    right_count: int
+    offset: int
+    fps: float
+    frame: int = 0
+    jump: int = 10
+    rate: float = 1.0
+    marks: set[int] = field(default_factory=set)
+
+    def __post_init__(self) -> None:
+        self.frame = self.clamp(self.frame)
+
+    @property
+    def first(self) -> int:
+        return max(0, -self.offset)
+
+    @property
+    def last(self) -> int:
+        return min(self.frame_count, self.right_count - self.offset) - 1
+
+    @property
+    def partner(self) -> int:
+        return self.frame + self.offset
+
+    def clamp(self, frame: int) -> int:
+        return int(min(max(int(frame), self.first), self.last))
+
+    def go(self, frame: int) -> int:
+        """Go to ``frame`` (clamped to the frames that have a partner); returns it."""
+        self.frame = self.clamp(frame)
+        return self.frame
+
+    def step(self, frames: int) -> int:
+        return self.go(self.frame + frames)
+
+    def home(self) -> int:
+        return self.go(self.first)
+
+    def end(self) -> int:
+        return self.go(self.last)
+
+    def play_interval_ms(self) -> int:
+        """Timer interval (ms) for playing at ``rate`` × real time."""
+        return max(int(round(1000.0 / (self.fps * self.rate))), 1)
+
+    def next_mark(self, direction: int) -> int | None:
+        """The nearest marked frame after (direction > 0) or before the current one."""
+        candidates = [m for m in self.marks if (m - self.frame) * direction > 0]
+        return (min if direction > 0 else max)(candidates) if candidates else None
+
+
+def prefetch_order(frame: int, first: int, last: int, direction: int = 1, ahead: int = 8, behind: int = 2) -> list[int]:
+    """Frames to decode after ``frame`` is shown: ``ahead`` in the direction of travel, then ``behind``."""
+    direction = 1 if direction >= 0 else -1
+    order = [frame + direction * k for k in range(1, ahead + 1)] + [frame - direction * k for k in range(1, behind + 1)]
+    return [f for f in order if first <= f <= last]
+
+
+class FrameCache:
+    """Decoded frame pairs by left frame number, least recently used dropped beyond ``budget`` bytes.
+    Thread-safe (the decoder fills it, the GUI reads it)."""
+
+    def __init__(self, budget: int = CACHE_BYTES) -> None:
+        if budget <= 0:
+            raise InvalidParameterError("budget", f"must be positive bytes, got {budget}")
+        self.budget = int(budget)
+        self.used = 0
+        self._items: OrderedDict[int, tuple] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def __contains__(self, frame: int) -> bool:
+        with self._lock:
+            return frame in self._items
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def get(self, frame: int) -> tuple | None:
+        with self._lock:
+            item = self._items.get(frame)
+            if item is not None:
+                self._items.move_to_end(frame)
+            return item
+
+    def put(self, frame: int, item: tuple) -> None:
+        size = sum(a.nbytes for a in item if isinstance(a, np.ndarray))
+        with self._lock:
+            if frame in self._items:
+                return
+            self._items[frame] = item
+            self.used += size
+            while self.used > self.budget and len(self._items) > 1:
+                _, old = self._items.popitem(last=False)
+                self.used -= sum(a.nbytes for a in old if isinstance(a, np.ndarray))
+
+    def clear(self) -> None:
+        with self._lock:
+            self._items.clear()
+            self.used = 0
+
+
+class FrameSource:
+    """The two streams of a stored video, decoded one request at a time (a lock: PyAV decoders are not
+    shared between threads). ``pair(frame)`` → (left RGB, right RGB, right frame, time s)."""
+
+    def __init__(self, project: Project, label: str) -> None:
+        self.video, self.left, self.right = open_streams(project, label)
+        self._lock = threading.Lock()
+
+    @property
+    def times_s(self) -> np.ndarray:
+        return self.left.times_s
+
+    def navigator(self) -> VideoNavigator:
+        return VideoNavigator(self.video["label"], self.left.frame_count, self.right.frame_count,
+                              int(self.video["offset_frames"]), self.left.fps)
+
+    def pair(self, frame: int, offset: int | None = None) -> tuple[np.ndarray, np.ndarray, int, float]:
+        video = dict(self.video, offset_frames=self.video["offset_frames"] if offset is None else offset)
+        with self._lock:
+            partner = partner_frame(video, frame, self.right.frame_count)
+            return self.left.frame(frame), self.right.frame(partner), partner, self.left.time_of(frame)
+
+    def close(self) -> None:
+        with self._lock:
+            for stream in (self.left, self.right):
+                stream.close()
+
+
+def measured_frames(project: Project, label: str) -> set[int]:
+    """Left frames of the video that hold vertices of stored objects."""
+    return {v.frame_left for o in project.objects() for v in o.vertices
+            if v.video == label and v.frame_left is not None}
+
+
+def video_frame_text(stored) -> str:
+    """``video: left | right frame  mm:ss.sss`` of an object measured on a video (its first vertex), else ''."""
+    vertex = stored.vertices[0] if stored.vertices else None
+    if vertex is None or vertex.video is None:
+        return ""
+    return f"{vertex.video}: {vertex.frame_left} | {vertex.frame_right}  {format_timecode(vertex.time_s)}"
+
+
+def video_frame_of(stored) -> tuple[str, int] | None:
+    """(video, left frame) an object was measured on, or None."""
+    vertex = stored.vertices[0] if stored.vertices else None
+    return None if vertex is None or vertex.video is None else (vertex.video, int(vertex.frame_left))
+
+
+def cache_bytes(width: int, height: int, pairs: int) -> int:
+    """Bytes of ``pairs`` cached RGB frame pairs at ``width`` × ``height`` px."""
+    return int(pairs) * 2 * int(width) * int(height) * 3
+
+
+__all__ = ["CACHE_BYTES", "FrameCache", "FrameSource", "VideoNavigator", "cache_bytes",
+           "format_timecode", "measured_frames", "parse_position", "prefetch_order", "video_frame_of",
+           "video_frame_text"]

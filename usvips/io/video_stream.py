@@ -1,0 +1,351 @@
+"""Frame-exact reading of a camera's recording (one file or a chaptered list of files) through FFmpeg (PyAV).
+
+Why PyAV and not OpenCV's reader: OpenCV seeks by ``CAP_PROP_POS_FRAMES``, which FFmpeg's back end turns
+into a *time* (frame / nominal fps); on a variable-frame-rate file, or one with dropped or duplicated
+timestamps, the frame it returns is not the frame asked for, and it cannot tell. Here every frame is known
+by its presentation timestamp (pts), read once from the container's packets when the stream is opened
+(no decoding), so that
+
+- frame ``i`` is the ``i``-th presentation timestamp of the stream, whatever the frame rate does;
+- a random seek goes to the last key frame at or before the frame's pts (from the same index) and
+  decodes forward until the decoder returns exactly that pts: frame-exact in long-GOP H.264/HEVC files;
+- stepping forward continues the running decoder (no seek);
+- a chaptered recording (GoPro's GX010042.MP4, GX020042.MP4 …) is one stream: the frames of chapter 2
+  follow those of chapter 1, its times continue after chapter 1's last frame.
+
+Frames are RGB uint8 ``(H, W, 3)`` (or grey ``(H, W)``), indices count from 0, times are seconds from the
+first frame of the first chapter.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import av
+import numpy as np
+
+from usvips.core.errors import InputFileError
+
+#: relative spread of frame intervals above which a stream is called variable-frame-rate
+VFR_TOLERANCE = 0.01
+#: forward decoding from the current position instead of seeking, up to this many frames
+CONTINUE_LIMIT = 48
+#: mean absolute difference (grey levels, 64 × 48 thumbnail) below which a frame repeats the one before
+DUPLICATE_LEVEL = 0.5
+
+
+@dataclass(frozen=True)
+class Chapter:
+    """One file of a recording: its frames are ``first`` … ``first + count − 1`` of the stream."""
+
+    path: Path
+    first: int
+    count: int
+    pts: np.ndarray          # presentation timestamps of its frames, in its time base, increasing
+    keyframe: np.ndarray     # bool per frame: a decoder can start here
+    time_base: float         # seconds per pts unit
+    digests: tuple[str, ...] = field(repr=False, default=())  # hash of each frame's packet (duplicates)
+
+
+@dataclass(frozen=True)
+class StreamReport:
+    """What was found when the stream was indexed: ``variable_frame_rate``, the frames that repeat the
+    one before (``duplicated``: same timestamp or the same coded bytes), the gaps where frames are missing
+    (``dropped``: (frame index after the gap, frames missing)), with a one-line ``summary()``."""
+
+    fps: float
+    variable_frame_rate: bool
+    interval_spread: float
+    duplicated: tuple[int, ...]
+    dropped: tuple[tuple[int, int], ...]
+
+    @property
+    def clean(self) -> bool:
+        return not (self.variable_frame_rate or self.duplicated or self.dropped)
+
+    def summary(self) -> str:
+        if self.clean:
+            return f"constant {self.fps:.6g} fps, no duplicated or dropped frames"
+        parts = []
+        if self.variable_frame_rate:
+            parts.append(f"variable frame rate (frame intervals spread {100 * self.interval_spread:.1f} %)")
+        if self.duplicated:
+            parts.append(f"{len(self.duplicated)} duplicated frame(s), first at frame {self.duplicated[0]}")
+        if self.dropped:
+            index, missing = self.dropped[0]
+            parts.append(f"{sum(m for _, m in self.dropped)} dropped frame(s), first {missing} before frame {index}")
+        return "; ".join(parts)
+
+
+def _index_chapter(path: Path, first: int) -> tuple[Chapter, tuple[int, int], str]:
+    """Read a file's packets (no decoding): pts, key frames and packet hashes of its first video stream."""
+    if not path.is_file():
+        raise InputFileError(str(path), "no such video file (a missing chapter of the recording?)")
+    try:
+        container = av.open(str(path))
+    except (av.error.FFmpegError, ValueError, UnicodeDecodeError) as error:
+        raise InputFileError(str(path), f"not a video FFmpeg can read ({error.__class__.__name__})") from None
+    try:
+        if not container.streams.video:
+            raise InputFileError(str(path), "not a video (the file has no video stream)")
+        stream = container.streams.video[0]
+        if stream.time_base is None:
+            raise InputFileError(str(path), "the video stream has no time base; cannot number its frames")
+        rows = []
+        try:
+            for packet in container.demux(stream):
+                if packet.size == 0:
+                    continue
+                timestamp = packet.pts if packet.pts is not None else packet.dts
+                if timestamp is None:
+                    raise InputFileError(str(path), "a video packet carries no timestamp; cannot number its frames")
+                rows.append((int(timestamp), bool(packet.is_keyframe), hashlib.blake2b(bytes(packet), digest_size=8)
+                             .hexdigest()))
+        except av.error.FFmpegError as error:
+            raise InputFileError(str(path), f"the video cannot be read past packet {len(rows)}: {error}") from None
+        if not rows:
+            raise InputFileError(str(path), "the video has no frames")
+        rows.sort(key=lambda r: r[0])
+        pts = np.array([r[0] for r in rows], dtype=np.int64)
+        keyframe = np.array([r[1] for r in rows], dtype=bool)
+        if not keyframe[0]:
+            keyframe[0] = True  # a decoder starts at the first packet whatever its flag says
+        size = (int(stream.codec_context.width), int(stream.codec_context.height))
+        if size[0] <= 0 or size[1] <= 0:
+            raise InputFileError(str(path), "the video stream has no picture size")
+        chapter = Chapter(path, first, len(rows), pts, keyframe, float(stream.time_base),
+                          tuple(r[2] for r in rows))
+        return chapter, size, stream.codec_context.name
+    finally:
+        container.close()
+
+
+def _report(times: np.ndarray, digests: Sequence[str], same_picture: Sequence[int] = ()) -> StreamReport:
+    if len(times) < 2:
+        return StreamReport(float("nan"), False, 0.0, (), ())
+    intervals = np.diff(times)
+    positive = intervals[intervals > 0]
+    nominal = float(np.median(positive)) if positive.size else float("nan")
+    duplicated = sorted({i + 1 for i, dt in enumerate(intervals) if dt <= 0 or digests[i + 1] == digests[i]}
+                        | set(same_picture))
+    steps = intervals / nominal
+    dropped = [(i + 1, round(s) - 1) for i, s in enumerate(steps) if s > 1.5 and abs(s - round(s)) < 0.25]
+    gap_free = np.ones(intervals.size, bool)
+    for i, _ in dropped:
+        gap_free[i - 1] = False
+    regular = intervals[(intervals > 0) & gap_free]
+    spread = float((regular.max() - regular.min()) / nominal) if regular.size else 0.0
+    irregular_gaps = any(s > 1.5 and abs(s - round(s)) >= 0.25 for s in steps)
+    return StreamReport(1.0 / nominal, spread > VFR_TOLERANCE or irregular_gaps, spread, tuple(duplicated),
+                        tuple(dropped))
+
+
+class VideoStream:
+    """A camera's recording, one or more files, read frame-exactly. Use as a context manager or
+    :meth:`close`. Not thread-safe: one decoder per thread (the GUI's worker owns its own)."""
+
+    def __init__(self, paths: str | Path | Sequence[str | Path]):
+        if isinstance(paths, (str, Path)):
+            paths = [paths]
+        paths = [Path(p) for p in paths]
+        if not paths:
+            raise InputFileError("(no files)", "a video needs at least one file")
+        chapters: list[Chapter] = []
+        first = 0
+        self.size: tuple[int, int] | None = None
+        self.codec = ""
+        for path in paths:
+            chapter, size, codec = _index_chapter(path, first)
+            if self.size is None:
+                self.size, self.codec = size, codec
+            elif size != self.size:
+                raise InputFileError(str(path), f"chapter is {size[0]} × {size[1]} px, but {paths[0].name} is "
+                                     f"{self.size[0]} × {self.size[1]} px: not one recording")
+            chapters.append(chapter)
+            first += chapter.count
+        self.paths = tuple(paths)
+        self.chapters = tuple(chapters)
+        self.frame_count = first
+        times = []
+        offset = 0.0
+        for k, chapter in enumerate(chapters):
+            local = (chapter.pts - chapter.pts[0]) * chapter.time_base
+            if k:
+                # a chapter starts one nominal interval after the previous chapter's last frame
+                previous = times[-1]
+                step = np.median(np.diff(previous)) if previous.size > 1 else (
+                    np.median(np.diff(local)) if local.size > 1 else 0.0)
+                offset = previous[-1] + step
+            times.append(local + offset)
+        self.times_s = np.concatenate(times)
+        self.report = _report(self.times_s, [d for c in chapters for d in c.digests])
+        self.fps = self.report.fps if np.isfinite(self.report.fps) else float("nan")
+        self._container: av.container.InputContainer | None = None
+        self._chapter = -1
+        self._decoder = None
+        self._position = -1  # index of the last frame the running decoder returned
+
+    # ---------------------------------------------------------------------------- numbering
+    @property
+    def width(self) -> int:
+        return self.size[0]
+
+    @property
+    def height(self) -> int:
+        return self.size[1]
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.times_s[-1] - self.times_s[0] + (1.0 / self.fps if self.fps > 0 else 0.0))
+
+    def check_index(self, index: int) -> int:
+        if not isinstance(index, (int, np.integer)) or not 0 <= index < self.frame_count:
+            raise InputFileError(str(self.paths[0]), f"frame {index} is out of range: the video has frames 0 to "
+                                 f"{self.frame_count - 1}")
+        return int(index)
+
+    def time_of(self, index: int) -> float:
+        """Presentation time of frame ``index`` (s from the first frame)."""
+        return float(self.times_s[self.check_index(index)])
+
+    def frame_at(self, time_s: float) -> int:
+        """The frame shown at ``time_s`` (s): the last frame whose presentation time is not after it."""
+        if not np.isfinite(time_s) or time_s < self.times_s[0] - 1e-9 or time_s > self.times_s[-1] + 1.0 / self.fps:
+            raise InputFileError(str(self.paths[0]), f"time {time_s} s is outside the video (0 to "
+                                 f"{self.duration_s:.3f} s)")
+        return int(max(0, np.searchsorted(self.times_s, time_s + 1e-9, side="right") - 1))
+
+    def _locate(self, index: int) -> tuple[int, int]:
+        for k, chapter in enumerate(self.chapters):
+            if index < chapter.first + chapter.count:
+                return k, index - chapter.first
+        raise AssertionError("index checked before")
+
+    # ---------------------------------------------------------------------------- decoding
+    def frame(self, index: int, grey: bool = False) -> np.ndarray:
+        """Frame ``index`` exactly as decoded, RGB uint8 (H, W, 3) or grey (H, W)."""
+        index = self.check_index(index)
+        k, local = self._locate(index)
+        chapter = self.chapters[k]
+        target = int(chapter.pts[local])
+        continuing = (k == self._chapter and self._position < index <= self._position + CONTINUE_LIMIT
+                      and self._decoder is not None)
+        if not continuing:
+            self._seek(k, local)
+        frame = self._decode_until(chapter, target, index)
+        self._position = index
+        return frame.to_ndarray(format="gray" if grey else "rgb24")
+
+    def _open_chapter(self, k: int) -> None:
+        if self._chapter != k or self._container is None:
+            self._close_container()
+            try:
+                self._container = av.open(str(self.chapters[k].path))
+            except av.error.FFmpegError as error:
+                raise InputFileError(str(self.chapters[k].path), f"cannot be opened any more: {error}") from None
+            self._container.streams.video[0].thread_type = "AUTO"
+            self._chapter = k
+
+    def _seek(self, k: int, local: int) -> None:
+        self._open_chapter(k)
+        chapter = self.chapters[k]
+        keys = np.flatnonzero(chapter.keyframe[: local + 1])
+        start = int(keys[-1]) if keys.size else 0
+        stream = self._container.streams.video[0]
+        try:
+            self._container.seek(int(chapter.pts[start]), stream=stream, backward=True, any_frame=False)
+        except av.error.FFmpegError as error:
+            raise InputFileError(str(chapter.path), f"cannot seek to frame {chapter.first + local}: {error}") from None
+        self._decoder = self._container.decode(stream)
+        self._position = -1
+
+    def _decode_until(self, chapter: Chapter, target: int, index: int):
+        for attempt in range(2):
+            try:
+                for frame in self._decoder:
+                    timestamp = frame.pts if frame.pts is not None else frame.dts
+                    if timestamp is None or timestamp < target:
+                        continue
+                    if timestamp == target:
+                        return frame
+                    break  # overshot: the seek landed after the key frame we need
+            except av.error.FFmpegError as error:
+                raise InputFileError(str(chapter.path), f"frame {index} cannot be decoded: {error}") from None
+            if attempt == 0:
+                # start from the beginning of the chapter: slow, but exact
+                self._open_chapter(self._chapter)
+                stream = self._container.streams.video[0]
+                self._container.seek(int(chapter.pts[0]), stream=stream, backward=True, any_frame=False)
+                self._decoder = self._container.decode(stream)
+        raise InputFileError(str(chapter.path), f"frame {index} (pts {target}) is in the file's index but the "
+                             "decoder never returns it: the file is damaged")
+
+    def scan_pictures(self, progress=None) -> StreamReport:
+        """Decode every frame once (as a 64 × 48 grey thumbnail) and add the frames whose picture repeats
+        the one before (mean difference below :data:`DUPLICATE_LEVEL` grey levels) to the report's
+        duplicates: a camera or capture that repeats a frame re-encodes it, so its bytes differ.
+        ``progress(done, total)`` is called every 100 frames; returns (and keeps) the new report."""
+        same = []
+        previous = None
+        index = 0
+        for chapter in self.chapters:
+            with av.open(str(chapter.path)) as container:
+                stream = container.streams.video[0]
+                stream.thread_type = "AUTO"
+                try:
+                    for frame in container.decode(stream):
+                        thumb = frame.reformat(width=64, height=48, format="gray").to_ndarray().astype(np.int16)
+                        if previous is not None and np.abs(thumb - previous).mean() < DUPLICATE_LEVEL:
+                            same.append(index)
+                        previous = thumb
+                        index += 1
+                        if progress is not None and index % 100 == 0:
+                            progress(index, self.frame_count)
+                except av.error.FFmpegError as error:
+                    raise InputFileError(str(chapter.path), f"frame {index} cannot be decoded: {error}") from None
+        self.report = _report(self.times_s, [d for c in self.chapters for d in c.digests], same)
+        return self.report
+
+    def audio(self) -> tuple[np.ndarray, float] | None:
+        """The soundtrack of all chapters as one mono float array (mean of the channels) and its sample
+        rate (Hz); None when the files carry no audio."""
+        pieces: list[np.ndarray] = []
+        rate = None
+        for chapter in self.chapters:
+            with av.open(str(chapter.path)) as container:
+                if not container.streams.audio:
+                    return None
+                stream = container.streams.audio[0]
+                rate = rate or stream.codec_context.sample_rate
+                resampler = av.AudioResampler(format="flt", layout="mono", rate=rate)
+                try:
+                    for frame in container.decode(stream):
+                        for out in resampler.resample(frame):
+                            pieces.append(out.to_ndarray().reshape(-1))
+                    for out in resampler.resample(None):
+                        pieces.append(out.to_ndarray().reshape(-1))
+                except av.error.FFmpegError as error:
+                    raise InputFileError(str(chapter.path), f"the soundtrack cannot be decoded: {error}") from None
+        if not pieces:
+            return None
+        return np.concatenate(pieces).astype(np.float64), float(rate)
+
+    def _close_container(self) -> None:
+        if self._container is not None:
+            self._container.close()
+        self._container = None
+        self._decoder = None
+        self._chapter = -1
+        self._position = -1
+
+    def close(self) -> None:
+        self._close_container()
+
+    def __enter__(self) -> VideoStream:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -1,0 +1,288 @@
+"""A user's own media in a project: image pairs from folders or lists, stereo videos (frame-exact,
+synchronised), and the synchronised frame pair written out.
+
+Sits above io and store like :mod:`usvips.samples` (it joins files read by io to the project written by
+store); the command line and the workstation both go through here.
+
+Convention: a video pair's offset ``k`` (frames) means left frame ``i`` and right frame ``i + k`` show the
+same instant; frame numbers and times of a vertex are the left stream's frame ``i``, the right's ``i + k``
+and the left frame's presentation time (s).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from usvips.core import synchronisation
+from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.synchronisation import SyncEstimate
+from usvips.io.calibration_file import calibration_from_dict
+from usvips.io.images import read_image, write_image
+from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
+from usvips.io.video_stream import VideoStream
+from usvips.store import Project
+
+#: left and right frame rates further apart than this (relative) are not one stereo video
+FPS_TOLERANCE = 1e-3
+
+
+class VideoError(UsvipsError):
+    """A stereo video that cannot be used as asked; the message names the file or pair."""
+
+
+@dataclass(frozen=True)
+class AddedVideo:
+    """What :func:`add_video` stored: its label, frames, frame rate (fps), and the problems found in the
+    streams (one line each; empty when both are clean)."""
+
+    label: str
+    frame_count: int
+    fps: float
+    warnings: tuple[str, ...]
+
+
+# ---------------------------------------------------------------------------- image pairs
+def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], label_prefix: str = "",
+                     by: str = "auto", max_dt: float = 1.0) -> tuple[list[tuple[str, Path, Path]], str]:
+    """The (label, left, right) pairs that :func:`add_image_pairs` would add, and the rule used (for a
+    person to confirm). Labels: prefix + the shared stem (or the pair's number when paired by order)."""
+    left_files = expand(left, IMAGE_SUFFIXES, "--left")
+    right_files = expand(right, IMAGE_SUFFIXES, "--right")
+    pairs, rule = pair_images(left_files, right_files, by, max_dt)
+    labels = [f"{label_prefix}{shared_stem(a) if rule == 'stem' else f'{n + 1:03d}'}" for n, (a, _) in enumerate(pairs)]
+    return [(label, a, b) for label, (a, b) in zip(labels, pairs, strict=True)], rule
+
+
+def add_image_pairs(project: Project, plan: Sequence[tuple[str, Path, Path]], medium: str = "water") -> list[int]:
+    """Add planned pairs (all or none); left and right must be readable images of one size."""
+    sizes = []
+    for label, left, right in plan:
+        a, b = read_image(left), read_image(right)
+        if a.shape[:2] != b.shape[:2]:
+            raise InputFileError(str(right), f"pair {label!r}: {b.shape[1]} × {b.shape[0]} px, but the left image "
+                                 f"{left.name} is {a.shape[1]} × {a.shape[0]} px")
+        sizes.append((a.shape[1], a.shape[0]))
+    return project.add_image_pairs(plan, medium, sizes)
+
+
+# ---------------------------------------------------------------------------- videos
+@dataclass(frozen=True)
+class VideoPlan:
+    """A stereo video read and checked, ready to store (:func:`store_video`): its label, each camera's
+    files as (path, frames, fps), the pair's fps, frame count and size (px), and the problems found."""
+
+    label: str
+    left: tuple[tuple[Path, int, float], ...]
+    right: tuple[tuple[Path, int, float], ...]
+    fps: float
+    frame_count: int
+    size: tuple[int, int]
+    warnings: tuple[str, ...]
+
+
+def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
+                  scan_pictures: bool = False) -> VideoPlan:
+    """Read a stereo video's files (each camera's files in order: chapters of one recording). Refuses
+    left and right of different picture sizes or frame rates; reports variable frame rate, duplicated
+    and dropped frames (``scan_pictures`` decodes every frame to find repeated pictures too). Touches no
+    project (may run in a worker thread)."""
+    left_files = expand(left, VIDEO_SUFFIXES, "--left")
+    right_files = expand(right, VIDEO_SUFFIXES, "--right")
+    check_chapters(left_files, "--left")
+    check_chapters(right_files, "--right")
+    label = label or shared_stem(left_files[0]) or left_files[0].stem
+    with VideoStream(left_files) as a, VideoStream(right_files) as b:
+        if a.size != b.size:
+            raise VideoError(f"{right_files[0]}: {b.width} × {b.height} px, but the left video {left_files[0].name} "
+                             f"is {a.width} × {a.height} px")
+        if not (np.isfinite(a.fps) and np.isfinite(b.fps)):
+            raise VideoError(f"{left_files[0]}: a video needs at least two frames to have a frame rate")
+        if abs(a.fps - b.fps) > FPS_TOLERANCE * a.fps:
+            raise VideoError(f"{right_files[0]}: {b.fps:.6g} fps, but the left video {left_files[0].name} runs at "
+                             f"{a.fps:.6g} fps: frames cannot be paired by number")
+        warnings = []
+        for side, stream, files in (("left", a, left_files), ("right", b, right_files)):
+            report = stream.scan_pictures() if scan_pictures else stream.report
+            if not report.clean:
+                warnings.append(f"{files[0]} ({side}): {report.summary()}")
+        files = {side: tuple((p, c.count, 1.0 / float(np.median(np.diff(c.pts)) * c.time_base) if c.count > 1
+                              else s.fps) for p, c in zip(s.paths, s.chapters, strict=True))
+                 for side, s in (("left", a), ("right", b))}
+        return VideoPlan(label, files["left"], files["right"], a.fps, a.frame_count, a.size, tuple(warnings))
+
+
+def store_video(project: Project, plan: VideoPlan) -> AddedVideo:
+    project.add_video(plan.label, plan.left, plan.right, plan.fps, plan.frame_count, plan.size,
+                      "\n".join(plan.warnings))
+    return AddedVideo(plan.label, plan.frame_count, plan.fps, plan.warnings)
+
+
+def add_video(project: Project, left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
+              scan_pictures: bool = False) -> AddedVideo:
+    """:func:`inspect_video` then :func:`store_video`."""
+    return store_video(project, inspect_video(left, right, label, scan_pictures))
+
+
+def open_streams(project: Project, label: str) -> tuple[dict, VideoStream, VideoStream]:
+    """The stored video (as :meth:`Project.video`) and its two streams, opened; close them after use."""
+    video = project.video(label)
+    left = VideoStream([project.media_path(p) for p in video["left"]])
+    try:
+        right = VideoStream([project.media_path(p) for p in video["right"]])
+    except BaseException:
+        left.close()
+        raise
+    return video, left, right
+
+
+def partner_frame(video: dict, frame: int, right_count: int | None = None) -> int:
+    """The right frame showing left frame ``frame``'s instant; named error when outside either video."""
+    count = video["frame_count"]
+    right_count = count if right_count is None else right_count
+    partner = int(frame) + int(video["offset_frames"])
+    if not 0 <= int(frame) < count:
+        raise VideoError(f"video {video['label']!r}: frame {frame} is out of range (0 to {count - 1})")
+    if not 0 <= partner < right_count:
+        raise VideoError(f"video {video['label']!r}: left frame {frame} has no right partner (right frame {partner} "
+                         f"with offset {video['offset_frames']}; the right video has frames 0 to {right_count - 1})")
+    return partner
+
+
+def frame_pair(project: Project, label: str, frame: int) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """Left frame ``frame`` and its synchronised right frame, decoded exactly; the right frame's number
+    and the left frame's time (s)."""
+    video, left, right = open_streams(project, label)
+    with left, right:
+        partner = partner_frame(video, frame, right.frame_count)
+        return left.frame(frame), right.frame(partner), partner, left.time_of(frame)
+
+
+def export_frame(project: Project, label: str, frame: int, out: str | Path) -> tuple[Path, Path]:
+    """``out/left.png`` (left frame ``frame``) and ``out/right.png`` (right frame ``frame + offset``)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputFileError(str(out), "not a folder")
+    left, right, _, _ = frame_pair(project, label, frame)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = out / "left.png", out / "right.png"
+    for path, image in zip(paths, (left, right), strict=True):
+        temporary = path.with_name(f".{path.name}.partial.png")
+        write_image(temporary, image)
+        temporary.replace(path)
+    return paths
+
+
+def take_pair(project: Project, label: str, frame: int, pair_label: str | None = None,
+              medium: str = "water") -> str:
+    """Make the synchronised frames of left frame ``frame`` an image pair of the project (e.g. the
+    calibration frame filmed in air and underwater): written as PNG beside the project under
+    ``frames/`` and added like any pair. Returns the pair's label."""
+    pair_label = pair_label or f"{label}-{frame}"
+    folder = project.path.parent / "frames"
+    paths = export_frame(project, label, frame, folder / pair_label)
+    add_image_pairs(project, [(pair_label, *paths)], medium)
+    return pair_label
+
+
+# ---------------------------------------------------------------------------- synchronisation
+def _brightness(stream: VideoStream, limit: int | None, progress: Callable[[int, int], None] | None) -> np.ndarray:
+    count = stream.frame_count if limit is None else min(limit, stream.frame_count)
+    values = np.empty(count)
+    for i in range(count):
+        values[i] = float(stream.frame(i, grey=True).mean())
+        if progress is not None and i % 50 == 0:
+            progress(i, count)
+    return values
+
+
+def _calibration_for(project: Project, calibration_id: int | None, label: str):
+    if calibration_id is None:
+        calibration_id = project.active_calibration(label)
+    if calibration_id is None:
+        stored = project.calibrations()
+        if not stored:
+            raise VideoError(f"{project.path}: image synchronisation needs a calibration of the rig; the project "
+                             "has none (import one, or use --method flash or audio)")
+        water = [c for c in stored if c.get("phase") not in ("air", "phase1")]
+        calibration_id = (water or stored)[-1]["id"]
+    return calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}").rig(0, "rig")
+
+
+def estimate_offset(project: Project, label: str, method: str | None = None, max_offset: int | None = None,
+                    calibration_id: int | None = None, frame_limit: int | None = 3000,
+                    progress: Callable[[int, int], None] | None = None) -> SyncEstimate:
+    """Estimate the video pair's offset by ``method`` (flash, audio or image; default: audio when both files
+    carry sound, otherwise a flash when one is clear, otherwise the images). ``max_offset``: frames
+    searched either way (default: a third of the video, at most 300); ``frame_limit``: frames read for
+    flash and image estimation."""
+    if method is not None and method not in synchronisation.METHODS:
+        raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
+    video, left, right = open_streams(project, label)
+    with left, right:
+        count = min(left.frame_count, right.frame_count)
+        limit = int(max_offset) if max_offset is not None else max(1, min(count // 3, 300))
+        fps = left.fps
+        if method in (None, "audio"):
+            a, b = left.audio(), right.audio()
+            if a is not None and b is not None and a[1] == b[1]:
+                return synchronisation.audio_offset(a[0], b[0], a[1], fps, limit / fps)
+            if method == "audio":
+                raise VideoError(f"video {label!r}: " + ("the two soundtracks have different sample rates"
+                                 if a is not None and b is not None else "the files carry no soundtrack"))
+        if method in (None, "flash"):
+            try:
+                estimate = synchronisation.flash_offset(_brightness(left, frame_limit, progress),
+                                                        _brightness(right, frame_limit, progress), fps, limit)
+                if method == "flash" or estimate.confidence >= 0.5:
+                    return estimate
+            except UsvipsError:
+                if method == "flash":
+                    raise
+        rig = _calibration_for(project, calibration_id, label)
+        n = min(count, frame_limit or count, 200)
+        step = max(1, n // 15)
+        left_frames = [left.frame(i) for i in range(n)]
+        right_frames = [right.frame(i) for i in range(min(right.frame_count, n + limit))]
+        return synchronisation.image_offset(left_frames, right_frames, rig.left, rig.right, fps,
+                                            range(-limit, limit + 1), step=step)
+
+
+def eventmeasure_frame_columns(project: Project, vertex) -> tuple[str, str, str, str, str, str, str] | None:
+    """EventMeasure's FilenameLeft, FrameLeft, FilenameRight, FrameRight, Time, Period, PeriodTime of a
+    vertex measured on a video (None otherwise): the chapter file holding each frame and the frame's
+    number within it, the time in minutes from the first frame (as EventMeasure), the period holding the
+    left frame and the minutes since it began."""
+    if vertex.video is None:
+        return None
+    video = project.video(vertex.video)
+
+    def locate(camera: str, frame: int) -> tuple[str, str]:
+        first = 0
+        for path, count in zip(video[camera], video[f"{camera}_frames"], strict=True):
+            if frame < first + count:
+                return Path(path).name, str(frame - first)
+            first += count
+        return "", str(frame)
+
+    (file_left, frame_left), (file_right, frame_right) = locate("left", vertex.frame_left), locate(
+        "right", vertex.frame_right)
+    period, period_time = "", ""
+    for name, start, end in project.periods(vertex.video):
+        if start <= vertex.frame_left <= end:
+            period, period_time = name, f"{(vertex.time_s - start / video['fps']) / 60:.4f}"
+    return file_left, frame_left, file_right, frame_right, f"{vertex.time_s / 60:.4f}", period, period_time
+
+
+def add_sample_video(project: Project, left: Path, right: Path, offset: int, label: str = "video") -> None:
+    """A sample's stereo video with its known offset (used when a sample directory becomes a project),
+    measured with the calibration that is active for most of the sample's underwater pairs."""
+    add_video(project, [left], [right], label)
+    project.set_video_offset(label, offset, {"method": "sample truth"})
+    active = [project.active_calibration(p["label"]) for p in project.pairs() if p["medium"] == "water"]
+    active = [a for a in active if a is not None]
+    if active:
+        project.activate_calibration(label, max(set(active), key=active.count))
