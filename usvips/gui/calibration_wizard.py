@@ -331,6 +331,29 @@ class MeasurePage(QtWidgets.QWizardPage):
             self.target.setCurrentIndex(index + 1)  # the next target, as the operator works through them
         self.refresh()
 
+    def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt's name)
+        """Enter on this page accepts the proposed match and never advances the wizard (Next does)."""
+        if event.key() in (QtCore.Qt.Key.Key_Return, QtCore.Qt.Key.Key_Enter):
+            event.accept()
+            self.accept_pick()
+            return
+        super().keyPressEvent(event)
+
+    def accept_pick(self) -> None:
+        """Take the proposed match as the second pick of the target; without one, say what to do."""
+        state = self.workspace.state
+        if state.proposal is not None:
+            try:
+                self.workspace.accept_proposal()
+            except UsvipsError as error:
+                self.message.setText(str(error))
+        elif state.source is not None:
+            opposite = "right" if state.source == "left" else "left"
+            self.message.setText(f"no proposed match to accept: click the target in the {opposite} image")
+        else:
+            self.message.setText("Enter accepts a proposed match: click a target first. Next (below) goes on "
+                                 "to the computation.")
+
     def _on_project(self) -> None:
         count = self.session.load_project_observations()
         self.message.setText(f"{count} observations taken from the project")

@@ -16,7 +16,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 import usvips
 from usvips.core.errors import UsvipsError
-from usvips.gui.pane import StereoPane
+from usvips.gui.pane import LOUPE_SCALES, StereoPane
 from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, PlanView
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
@@ -24,6 +24,8 @@ from usvips.samples import open_or_create_from_manifest
 from usvips.store import Project
 
 SAMPLES = Path(usvips.__file__).resolve().parents[1] / "sample_projects"
+#: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Shift+arrow 1 px.
+NUDGES = {"Left": (-1.0, 0.0), "Right": (1.0, 0.0), "Up": (0.0, -1.0), "Down": (0.0, 1.0)}
 MAX_RECENT = 8
 TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
              "point": "Point: each intersected point is stored as an object",
@@ -31,22 +33,33 @@ TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
              "polygon": "Polygon: digitise an area vertex by vertex (Enter finishes)"}
 
 
-GUIDE = """<b>Measuring</b><ol>
-<li>Choose a pair (toolbar) and a tool: <i>Pick</i> shows a 3-D point without storing it, <i>Point</i>,
-<i>Line</i> (a fish: snout, then fork) and <i>Polygon</i> store objects.</li>
+GUIDE = """<b>Measuring</b> (the project is saved as you go: every stored object, edit and setting is in the
+project file at once; there is nothing to save)<ol>
+<li>Choose a pair (toolbar, or <b>Page Down</b> / <b>Page Up</b> for the next / previous pair) and a tool:
+<i>Pick</i> shows a 3-D point without storing it, <i>Point</i>, <i>Line</i> (a fish: snout, then fork) and
+<i>Polygon</i> store objects.</li>
+<li>Type the <b>Attribute</b> (e.g. the species) in the toolbar box and press <b>Enter</b>: it is kept for the
+next objects and the keyboard goes back to the images.</li>
 <li>Click the point in either image. The dashed orange curve in the other image is where its partner
 must lie (the refractive epipolar curve); the yellow circle is the automatic match.</li>
 <li>Press <b>Enter</b> to accept the match, or click the right spot on the curve to correct it.
 X, Y, Z with their standard deviations appear in the status bar.</li>
-<li>For lines and polygons, go on vertex by vertex; <b>Enter</b> (or <b>Ctrl+Enter</b>) stores the object
-with the attribute from the toolbar. <b>Esc</b> drops a half-made vertex; <b>Ctrl+Z</b> undoes any step.</li>
+<li>Fine-tune before accepting: <b>Ctrl+arrow</b> moves the current pick 0.1 px, <b>Shift+arrow</b> 1 px
+(the yellow proposal when there is one, otherwise your red pick; <b>Ctrl+Z</b> undoes each step).</li>
+<li>For lines and polygons, go on vertex by vertex; <b>Enter</b> with nothing picked (or <b>Ctrl+Enter</b>)
+stores the object with the attribute. <b>Esc</b> drops a half-made vertex; <b>Ctrl+Z</b> undoes any step.</li>
 </ol>
+<b>Keys and focus</b>: Enter, Esc, the nudging arrows and Page Up/Down act on the images once an image has
+the keyboard (click it); in a text field or a table they do what they always do (Enter stores the text or
+the cell).<br>
 <b>Pointing precisely</b>: zoom with the wheel or <b>B</b> (box zoom), <b>1</b> for 1:1, <b>F</b> to fit;
-the loupe (<b>G</b>) magnifies around the cursor; <b>S</b> snaps clicks to the centre of target discs.<br>
+the loupe (<b>G</b>) follows the cursor at an offset and never takes a click (View › Loupe magnification);
+<b>S</b> snaps clicks to the centre of target discs.<br>
 <b>Figures</b>: select one object in the list for its length or area, two for the distance, angle or
 offset between them; the geo-calculator shows each figure with its standard deviation and the quality
 rules it breaks.<br>
-<b>Enhancement</b> changes only what you see; picks and coordinates always use the original image."""
+<b>Enhancement</b> changes only what you see; picks and coordinates always use the original image.<br>
+<b>Quitting</b> or opening another project with a half-made object asks whether to store it."""
 
 
 def luminance_histogram(image: np.ndarray) -> np.ndarray:
@@ -137,16 +150,23 @@ class MainWindow(QtWidgets.QMainWindow):
         bar.addPermanentWidget(self.progress)
         bar.addPermanentWidget(self.cancel_button)
 
-    def _action(self, text: str, slot, shortcut: str | QtGui.QKeySequence | None = None, tip: str = "",
-                checkable: bool = False) -> QtGui.QAction:
+    def _action(self, text: str, slot, shortcut: str | QtGui.QKeySequence | list | None = None, tip: str = "",
+                checkable: bool = False, images: bool = False) -> QtGui.QAction:
+        """A menu/toolbar action. ``images``: its keys work only while the images have the focus (click
+        an image), so that text fields and tables keep Enter, Esc and the arrows."""
         action = QtGui.QAction(text, self)
         if shortcut:
-            action.setShortcut(QtGui.QKeySequence(shortcut))
+            keys = shortcut if isinstance(shortcut, list) else [shortcut]
+            action.setShortcuts([QtGui.QKeySequence(k) for k in keys])
         action.setToolTip(f"{tip or text}" + (f" ({action.shortcut().toString()})" if shortcut else ""))
         action.setStatusTip(tip or text)
         action.setCheckable(checkable)
         action.triggered.connect(slot)
-        self.addAction(action)
+        if images:
+            action.setShortcutContext(QtCore.Qt.ShortcutContext.WidgetWithChildrenShortcut)
+            self.splitter.addAction(action)
+        else:
+            self.addAction(action)
         return action
 
     def _build_actions(self) -> None:
@@ -157,10 +177,16 @@ class MainWindow(QtWidgets.QMainWindow):
             "quit": self._action("&Quit", self.close, key.Quit),
             "undo": self._action("&Undo", self.undo, key.Undo),
             "redo": self._action("&Redo", self.redo, key.Redo),
-            "accept": self._action("Accept match / finish", self.accept_or_finish, "Return",
-                                   "accept the proposed match; with no proposal, finish the object"),
-            "finish": self._action("&Finish object", self.finish_object, "Ctrl+Return", "store the object"),
-            "cancel": self._action("Cancel pick", self.cancel_pick, "Escape", "drop the half-made vertex"),
+            "accept": self._action("Accept match / finish", self.accept_or_finish, ["Return", "Enter"],
+                                   "accept the proposed match; with no proposal, finish the object", images=True),
+            "finish": self._action("&Finish object", self.finish_object, ["Ctrl+Return", "Ctrl+Enter"],
+                                   "store the object", images=True),
+            "cancel": self._action("Cancel pick", self.cancel_pick, "Escape", "drop the half-made vertex",
+                                   images=True),
+            "next_pair": self._action("&Next pair", lambda: self.step_pair(1), "PgDown", "show the next image pair",
+                                      images=True),
+            "previous_pair": self._action("&Previous pair", lambda: self.step_pair(-1), "PgUp",
+                                          "show the previous image pair", images=True),
             "snap": self._action("&Snap to targets", self._on_snap, "S",
                                  "snap each click to the sub-pixel centre of a target disc", checkable=True),
             "auto_match": self._action("&Auto-match", self._on_auto_match, "M",
@@ -181,6 +207,17 @@ class MainWindow(QtWidgets.QMainWindow):
         self.actions["auto_match"].setChecked(self.workspace.auto_match)
         self.actions["snap"].setChecked(self.workspace.snap)
         self.actions["loupe"].setChecked(True)
+        for arrow, (dx, dy) in NUDGES.items():
+            for modifier, step in (("Ctrl", 0.1), ("Shift", 1.0)):
+                self.actions[f"nudge_{arrow.lower()}_{step:g}"] = self._action(
+                    f"Nudge {arrow.lower()} {step:g} px", lambda _=False, d=(dx * step, dy * step): self.nudge(*d),
+                    f"{modifier}+{arrow}", f"move the current pick {step:g} px {arrow.lower()}", images=True)
+        self.loupe_actions = QtGui.QActionGroup(self)
+        for scale in LOUPE_SCALES:
+            action = self._action(f"Loupe {scale}×", lambda _=False, k=scale: self.set_loupe_scale(k),
+                                  tip=f"the loupe shows {scale} screen pixels per image pixel", checkable=True)
+            self.loupe_actions.addAction(action)
+            self.actions[f"loupe_{scale}"] = action
         self.tool_actions = QtGui.QActionGroup(self)
         for number, tool in enumerate(TOOLS, 1):
             action = self._action(tool.capitalize(), lambda _=False, t=tool: self.set_tool(t), f"Ctrl+{number}",
@@ -208,6 +245,9 @@ class MainWindow(QtWidgets.QMainWindow):
         view = self.menuBar().addMenu("&View")
         for name in ("fit", "one", "zoom_in", "zoom_out", "box", "link", "loupe"):
             view.addAction(a[name])
+        magnification = view.addMenu("Loupe &magnification")
+        for scale in LOUPE_SCALES:
+            magnification.addAction(a[f"loupe_{scale}"])
         view.addSeparator()
         for dock in self.docks.values():
             view.addAction(dock.toggleViewAction())
@@ -216,6 +256,13 @@ class MainWindow(QtWidgets.QMainWindow):
             measure.addAction(a[f"tool_{tool}"])
         measure.addSeparator()
         for name in ("accept", "finish", "cancel", "snap", "auto_match"):
+            measure.addAction(a[name])
+        nudge = measure.addMenu("N&udge the current pick")
+        for name in a:
+            if name.startswith("nudge_"):
+                nudge.addAction(a[name])
+        measure.addSeparator()
+        for name in ("previous_pair", "next_pair"):
             measure.addAction(a[name])
         calibration = self.menuBar().addMenu("&Calibration")
         for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
@@ -239,7 +286,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.attribute_box = QtWidgets.QComboBox()
         self.attribute_box.setEditable(True)
         self.attribute_box.setMinimumContentsLength(12)
-        self.attribute_box.setToolTip("attribute of the next stored object (from the vocabulary, or type a new one)")
+        self.attribute_box.setToolTip("attribute of the next stored object (from the vocabulary, or type a new one "
+                                      "and press Enter to keep it)")
+        self.attribute_box.setInsertPolicy(QtWidgets.QComboBox.InsertPolicy.NoInsert)
+        self.attribute_box.lineEdit().returnPressed.connect(self._on_attribute_entered)
+        self.attribute_box.currentTextChanged.connect(self._on_attribute_changed)
         bar.addWidget(self.attribute_box)
         bar.addAction(a["finish"])
         bar.addSeparator()
@@ -336,6 +387,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.recent_menu.setEnabled(bool(self.recent_projects()))
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt's name)
+        if not self.confirm_drop_unfinished("quit"):
+            event.ignore()
+            return
         self.save_layout()
         self.cancel_work()
         self.pool.waitForDone(5000)
@@ -343,6 +397,24 @@ class MainWindow(QtWidgets.QMainWindow):
             panel.cleanup()
         self.workspace.close_project()
         super().closeEvent(event)
+
+    def confirm_drop_unfinished(self, doing: str) -> bool:
+        """Ask before ``doing`` something that drops the object being digitised: store it, drop it or stay."""
+        digitising = self.workspace.digitising
+        if not digitising.vertices or self.workspace.project is None:
+            return True
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Unfinished object",
+                                    f"The {digitising.kind} being digitised has {len(digitising.vertices)} "
+                                    f"vertices and is not stored. Store it before you {doing}?", parent=self)
+        buttons = QtWidgets.QMessageBox.StandardButton
+        box.setStandardButtons(buttons.Save | buttons.Discard | buttons.Cancel)
+        box.setDefaultButton(buttons.Save)
+        answer = box.exec()
+        if answer == buttons.Cancel:
+            return False
+        if answer == buttons.Save:
+            return self._guarded(self.workspace.finish_object, self.workspace.attribute, "")
+        return True
 
     # ------------------------------------------------------------------ messages
     def show_message(self, level: str, text: str) -> None:
@@ -372,6 +444,8 @@ class MainWindow(QtWidgets.QMainWindow):
         """Open a project file, or a sample directory (its project file is created on first use), showing
         ``pair`` (default: the pair shown last in this project, else the first)."""
         path = Path(path)
+        if not self.confirm_drop_unfinished("open another project"):
+            return False
         try:
             if path.is_dir():
                 project = open_or_create_from_manifest(path)
@@ -382,11 +456,13 @@ class MainWindow(QtWidgets.QMainWindow):
         except UsvipsError as error:
             self.show_message("error", str(error))
             return False
+        self._forget_project_state()
         self.workspace.open_project(project)
         self._remember(project.path.resolve())
-        self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent})")
-        self.attribute_box.clear()
+        self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent}) — every step is saved as you go")
         self.attribute_box.addItems(project.vocabulary())
+        self.attribute_box.setCurrentIndex(-1)
+        self.attribute_box.setEditText("")  # no term preselected: the user chooses
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
         self.pair_box.clear()
@@ -414,8 +490,15 @@ class MainWindow(QtWidgets.QMainWindow):
         path, chosen = QtWidgets.QFileDialog.getSaveFileName(self, "Export objects", start,
                                                              ";;".join(self.EXPORT_FILTERS))
         if path:
-            suffix = self.EXPORT_FILTERS.get(chosen, "")
-            self.export_objects(path if path.endswith(suffix) else path + suffix)
+            self.export_objects(self.export_path(path, chosen))
+
+    @classmethod
+    def export_path(cls, path: str, chosen_filter: str) -> str:
+        """The file to write: the name as typed when it already ends with a known export suffix (typing
+        ``fish.geojson`` with the CSV filter writes GeoJSON), else with the chosen filter's suffix."""
+        if any(path.lower().endswith(suffix) for suffix in cls.EXPORT_FILTERS.values()):
+            return path
+        return path + cls.EXPORT_FILTERS.get(chosen_filter, "")
 
     def export_objects(self, path: str | Path) -> None:
         """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
@@ -510,6 +593,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self._refresh_display(side)
         self._draw_control()
         self._on_objects_changed()
+        if not isinstance(QtWidgets.QApplication.focusWidget(), (QtWidgets.QLineEdit, QtWidgets.QAbstractItemView)):
+            self.focus_images()
 
     def _draw_control(self) -> None:
         """The pair's measured control points (any role), green with their numbers, on both images."""
@@ -593,8 +678,15 @@ class MainWindow(QtWidgets.QMainWindow):
             self.statusBar().showMessage(TOOL_TIPS[tool], 10000)
 
     def accept_or_finish(self) -> None:
-        if self.workspace.state.proposal is not None:
+        """Enter on the images: accept the proposed match; with a first pick but no proposal, say why and
+        what to do; with no pick, finish the object being digitised."""
+        state = self.workspace.state
+        if state.proposal is not None:
             self._guarded(self.workspace.accept_proposal)
+        elif state.source is not None:
+            opposite = "right" if state.source == "left" else "left"
+            self.show_message("warning", f"no proposed match to accept: click the point in the {opposite} image"
+                                         + (f" ({state.note})" if state.note else ""))
         elif self.workspace.digitising.vertices:
             self.finish_object()
         else:
@@ -608,6 +700,72 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def cancel_pick(self) -> None:
         self.workspace.cancel_vertex()
+
+    def nudge(self, dx: float, dy: float) -> None:
+        """Move the current pick by (dx, dy) image pixels (the proposal when there is one)."""
+        try:
+            text = self.workspace.nudge(dx, dy)
+        except UsvipsError as error:
+            self.show_message("warning", str(error))
+            return
+        self.statusBar().showMessage(text, 10000)
+
+    def step_pair(self, step: int) -> None:
+        """Show the next (``step`` = 1) or previous (-1) image pair of the project."""
+        labels = self.workspace.image_pairs()
+        if not labels:
+            self.show_message("warning", "no image pairs: open a project with images first")
+            return
+        current = labels.index(self.workspace.pair) if self.workspace.pair in labels else -step
+        index = current + step
+        if not 0 <= index < len(labels):
+            self.show_message("info", f"{'last' if step > 0 else 'first'} pair reached ({labels[current]})")
+            return
+        if self.workspace.digitising.vertices:
+            self.show_message("warning", "finish (Ctrl+Enter) or cancel the object being digitised before "
+                                         "changing pairs")
+            return
+        self.load_pair(labels[index])
+
+    def set_loupe_scale(self, scale: int) -> None:
+        for pane in self.panes.values():
+            pane.set_loupe_scale(scale)
+        self.actions[f"loupe_{scale}"].setChecked(True)
+
+    def _on_attribute_changed(self, text: str) -> None:
+        self.workspace.attribute = text.strip()
+
+    def _on_attribute_entered(self) -> None:
+        """Enter in the Attribute box: keep the text for the next stored objects (and in the project's
+        vocabulary), then give the keyboard back to the images."""
+        text = self.attribute_box.currentText().strip()
+        self.workspace.attribute = text
+        if text and self.workspace.project is not None:
+            self.workspace.project.add_term(text)
+            if self.attribute_box.findText(text) < 0:
+                self.attribute_box.addItem(text)
+            self.attribute_box.setCurrentText(text)
+        self.show_message("info", f"attribute of the next objects: {text!r}" if text else
+                                  "the next objects are stored without an attribute")
+        self.focus_images()
+
+    def focus_images(self, side: str = "left") -> None:
+        """Give the keyboard to an image pane (Enter, Esc, nudging and Page Up/Down then work)."""
+        self.panes[side].graphics.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
+
+    def _forget_project_state(self) -> None:
+        """What the previous project left on screen: readouts, titles, histograms, attribute, colours."""
+        self.point_label.setText("")
+        self.pixel_label.setText("")
+        for side in SIDES:
+            self.panes[side].title.setText(side.capitalize())
+            self.panes[side].set_image(None)
+        self.enhancement.show_histograms(None, None)
+        self.attribute_box.clear()
+        self.attribute_box.setEditText("")
+        self.selection = []
+        self.statusBar().setStyleSheet("")
+        self.statusBar().clearMessage()
 
     def undo(self) -> None:
         self._step("undo", "undone")

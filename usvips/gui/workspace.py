@@ -209,6 +209,8 @@ class Workspace:
         self.state = PickState()
         self.digitising: _Digitising = _Digitising("pick")
         self.last_point: MeasuredVertex | None = None
+        #: The attribute given to the next stored object (the window's Attribute box keeps it current).
+        self.attribute = ""
         self.undo = UndoStack()
         self._geometries: dict[tuple[int, str], PairGeometry | None] = {}
         self.pair_changed = Signal()
@@ -230,6 +232,7 @@ class Workspace:
         if self.project is not None and self.project is not project:
             self.project.close()
         self.project = project
+        self.attribute = ""
         self._geometries = {}
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
@@ -375,7 +378,7 @@ class Workspace:
     def _set_state(self, state: PickState) -> None:
         self.state = state
 
-    def _first_pick(self, side: str, pixel: tuple[float, float], note: str) -> PickState:
+    def _first_pick(self, side: str, pixel: tuple[float, float], note: str, match: bool = True) -> PickState:
         if self.geometry is None:
             return PickState(**{side: pixel}, source=side, note=note or "no calibration: no epipolar curve")
         rig = self.geometry.calibration.rig(self.geometry.station, self.geometry.frame)
@@ -385,7 +388,7 @@ class Workspace:
         proposal = None
         if len(curve.pixels) == 0:
             notes.append(f"the epipolar curve of this point does not enter the {other(side)} image")
-        elif self.auto_match:
+        elif self.auto_match and match:
             try:
                 match = match_along_curve(self.images[side], self.images[other(side)], pixel, curve)
             except UsvipsError as error:
@@ -407,6 +410,29 @@ class Workspace:
             raise UsvipsError("there is no proposed match to accept: click the point in the other image")
         self._complete_vertex(replace(state, **{other(state.source): state.proposal}), "")
 
+    def nudge(self, dx: float, dy: float) -> str:
+        """Move the current pick by (``dx``, ``dy``) image pixels (x right, y down), as one undoable step:
+        the proposed match when there is one (it is what Enter accepts), otherwise the first pick (its
+        epipolar curve is redrawn; no new proposal is made, so the next nudge moves the same pick).
+        Returns a line saying what moved and where."""
+        state = self.state
+        if state.source is None:
+            raise UsvipsError("nothing to nudge: click a point first (Ctrl+arrows move it 0.1 px, "
+                              "Shift+arrows 1 px)")
+        if state.proposal is not None:
+            side = other(state.source)
+            x, y = self._check_pixel(side, (state.proposal[0] + dx, state.proposal[1] + dy))
+            text = f"proposed match ({side}) moved to ({x:.2f}, {y:.2f}); Enter accepts"
+            new = replace(state, proposal=(x, y), note=text)
+        else:
+            side = state.source
+            pick = state.pick(side)
+            x, y = self._check_pixel(side, (pick[0] + dx, pick[1] + dy))
+            text = f"pick ({side}) moved to ({x:.2f}, {y:.2f})"
+            new = self._first_pick(side, (x, y), text, match=False)
+        self._change(f"nudge ({side})", lambda: self._set_state(new))
+        return text
+
     def cancel_vertex(self) -> None:
         if self.state.source is not None:
             self._change("cancel pick", lambda: self._set_state(PickState()))
@@ -425,7 +451,7 @@ class Workspace:
         kind = self.digitising.kind
         self.message.emit("info", describe_point(vertex))
         if kind == "point":
-            self.finish_object(vertices=(vertex,))
+            self.finish_object(self.attribute, vertices=(vertex,))
             return
 
         def add() -> None:
