@@ -2,6 +2,7 @@
 rendered samples, against their truth files, without a window."""
 
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -245,3 +246,62 @@ def test_enhancement_changes_are_undone_and_redone(workspace):
     ws.undo.redo()
     assert ws.pipelines["right"].operations[0].name == "gamma"
     assert "gamma" in ws.project.enhancement(ws.image_key("right"))
+
+
+def _off_curve(curve: np.ndarray, near: np.ndarray, offset: float) -> np.ndarray:
+    """A pixel ``offset`` px from the curve, across it at the sample nearest ``near``."""
+    i = int(np.argmin(np.linalg.norm(curve - near, axis=1)))
+    tangent = curve[min(i + 1, len(curve) - 1)] - curve[max(i - 1, 0)]
+    normal = np.array([-tangent[1], tangent[0]]) / np.linalg.norm(tangent)
+    return curve[i] + offset * normal
+
+
+def test_a_second_pick_off_the_curve_is_held_until_kept_and_then_stored_flagged(workspace):
+    ws, directory = workspace("rov_flatport", "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    ws.set_tool("point")
+    ws.auto_match = False
+    rng = np.random.default_rng(18)
+    held = stored = 0
+    for number in isolated_targets(left, right)[:8]:
+        ws.pick("left", left[number])
+        curve = ws.state.curve
+        offset = float(rng.choice([-1, 1]) * rng.uniform(8.0, 40.0))
+        before = len(ws.project.objects())
+        ws.pick("right", _off_curve(curve, np.array(right[number]), offset))
+        assert ws.state.pending is not None, number  # held: nothing stored yet
+        assert len(ws.project.objects()) == before
+        assert f"{abs(offset):.1f} px off the epipolar curve" in ws.messages[-1][1]
+        held += 1
+        ws.accept_proposal()  # Enter keeps it, flagged
+        last = ws.project.objects()[-1]
+        assert "flagged" in last.notes and "off the epipolar curve" in last.notes
+        # a pick within a pixel of the curve is stored at once, unflagged
+        ws.pick("left", left[number])
+        ws.pick("right", _off_curve(ws.state.curve, np.array(right[number]), rng.uniform(-1.0, 1.0)))
+        assert ws.state.pending is None
+        assert "flagged" not in ws.project.objects()[-1].notes
+        stored += 1
+    assert held == stored >= 5
+
+
+def test_the_rules_hold_a_vertex_and_flag_stored_points(workspace):
+    ws, directory = workspace("rov_flatport", "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    number = isolated_targets(left, right)[0]
+    ws.set_tool("line")
+    ws.rules = replace(ws.rules, max_range_m=0.05)  # every point is farther than 5 cm
+    ws.pick("left", left[number])
+    ws.pick("right", right[number])
+    assert ws.state.pending is not None and "range" in ws.messages[-1][1]
+    ws.cancel_vertex()  # Esc drops it
+    assert ws.state.pending is None and ws.digitising.vertices == ()
+    ws.set_tool("point")
+    ws.pick("left", left[number])
+    ws.pick("right", right[number])
+    ws.accept_proposal()
+    (stored,) = ws.project.objects()
+    result = ws.figures([stored.id])
+    assert any("range" in failure for failure in result.failures)  # a point is checked by the rules too
+    ws.rules = replace(ws.rules, max_range_m=100.0)
+    assert ws.figures([stored.id]).failures == ()

@@ -60,7 +60,8 @@ def object_figures(geometry: Geometry, rules: QualityRules | None = None) -> Res
     p, c = geometry.points, geometry.covariance
     try:
         if geometry.kind == "point":
-            return Result(tuple(_point_figures(p, c)))
+            return Result(tuple(_point_figures(p, c)), tuple(vertex_failures(rules, geometry.ray_rms_m,
+                                                                             geometry.range_m)))
         if geometry.kind == "line":
             main = polyline_length(p, c)
             figures = [main]
@@ -74,6 +75,12 @@ def object_figures(geometry: Geometry, rules: QualityRules | None = None) -> Res
         return Result((), (), str(error))
     failures = rules.check(main, geometry.ray_rms_m, geometry.range_m)
     return Result(tuple(figures), tuple(failures))
+
+
+def vertex_failures(rules: QualityRules, ray_rms_m: float, range_m: float) -> list[str]:
+    """The rules an intersected point breaks by itself: ray-intersection RMS (m) and range (m); the
+    precision rule needs a figure and is checked on lengths and areas."""
+    return rules.check(Figure("position", 1.0, 0.0, "m"), ray_rms_m, range_m)
 
 
 def _joined(first: Geometry, second: Geometry, joint: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:

@@ -681,7 +681,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Enter on the images: accept the proposed match; with a first pick but no proposal, say why and
         what to do; with no pick, finish the object being digitised."""
         state = self.workspace.state
-        if state.proposal is not None:
+        if state.proposal is not None or state.pending is not None:
             self._guarded(self.workspace.accept_proposal)
         elif state.source is not None:
             opposite = "right" if state.source == "left" else "left"

@@ -17,12 +17,12 @@ import numpy as np
 from usvips.core.calibration.uncertainty import joint_covariance
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
-from usvips.core.matching import epipolar_curve, match_along_curve
+from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
 from usvips.core.measure import QualityRules
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
-from usvips.gui.calculator import Geometry, Result, format_figure, object_figures, pair_figures
+from usvips.gui.calculator import Geometry, Result, format_figure, object_figures, pair_figures, vertex_failures
 from usvips.gui.signals import Signal
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image
@@ -51,6 +51,8 @@ class PickState:
     curve: np.ndarray | None = None
     proposal: tuple[float, float] | None = None
     note: str = ""
+    #: A vertex intersected from both picks but held back by a guard rail until the user keeps it (Enter).
+    pending: MeasuredVertex | None = None
 
     def pick(self, side: str) -> tuple[float, float] | None:
         return self.left if side == "left" else self.right
@@ -67,6 +69,8 @@ class MeasuredVertex:
     covariance: np.ndarray
     ray_rms_m: float
     range_m: float
+    #: Guard-rail warnings the user overrode when keeping this vertex (stored with the object's notes).
+    flags: tuple[str, ...] = ()
 
     @property
     def sigmas(self) -> np.ndarray:
@@ -200,6 +204,8 @@ class Workspace:
     rules: QualityRules = field(default_factory=QualityRules)
     near_m: float = 0.2
     far_m: float = 20.0
+    #: A second pick farther than this (pixels) from the first pick's epipolar curve is held for a check.
+    max_off_curve_px: float = 5.0
 
     def __post_init__(self) -> None:
         self.pair: str | None = None
@@ -404,8 +410,12 @@ class Workspace:
         return PickState(**{side: pixel}, source=side, curve=curve.pixels, proposal=proposal, note="; ".join(notes))
 
     def accept_proposal(self) -> None:
-        """Take the auto-match proposal as the second pick and complete the vertex."""
+        """Take the auto-match proposal as the second pick and complete the vertex; with a vertex held by
+        a guard rail, keep it as it is (flagged)."""
         state = self.state
+        if state.pending is not None:
+            self._take_vertex(replace(state.pending, flags=self.vertex_warnings(state, state.pending)), "")
+            return
         if state.proposal is None:
             raise UsvipsError("there is no proposed match to accept: click the point in the other image")
         self._complete_vertex(replace(state, **{other(state.source): state.proposal}), "")
@@ -448,8 +458,34 @@ class Workspace:
         except UsvipsError as error:
             self.message.emit("error", f"{error}; pick the point again")
             return
+        warnings = self.vertex_warnings(state, vertex)
+        if warnings and self.digitising.kind != "pick":
+            text = (f"check before storing: {'; '.join(warnings)}. Enter keeps it (flagged), a click in the "
+                    f"{other(state.source)} image corrects it, Esc drops it")
+            held = replace(state, pending=vertex, proposal=None, note=text)
+            self.message.emit("warning", text)
+            self._change("held vertex", lambda: self._set_state(held))
+            return
+        self._take_vertex(replace(vertex, flags=warnings), note)  # the pick tool only shows its warnings
+
+    def vertex_warnings(self, state: PickState, vertex: MeasuredVertex) -> tuple[str, ...]:
+        """The guard rails a vertex breaks: its second pick off the epipolar curve of the first by more
+        than :attr:`max_off_curve_px`, and the quality rules on ray RMS and range."""
+        warnings = []
+        second = state.pick(other(state.source)) if state.source is not None else None
+        if second is not None and state.curve is not None and len(state.curve) > 1:
+            off = EpipolarCurve(state.curve, np.zeros(len(state.curve))).distance_to(np.array(second))
+            if off > self.max_off_curve_px:
+                warnings.append(f"the {other(state.source)} pick is {off:.1f} px off the epipolar curve "
+                                f"(> {self.max_off_curve_px:g} px)")
+        warnings.extend(vertex_failures(self.rules, vertex.ray_rms_m, vertex.range_m))
+        return tuple(warnings)
+
+    def _take_vertex(self, vertex: MeasuredVertex, note: str) -> None:
+        """Add an intersected vertex to the object being digitised (a point object is stored at once)."""
         kind = self.digitising.kind
-        self.message.emit("info", describe_point(vertex))
+        self.message.emit("warning" if vertex.flags else "info", describe_point(vertex)
+                          + (f" — kept, flagged: {'; '.join(vertex.flags)}" if vertex.flags else ""))
         if kind == "point":
             self.finish_object(self.attribute, vertices=(vertex,))
             return
@@ -492,6 +528,9 @@ class Workspace:
             raise UsvipsError(f"a {kind} needs at least {MINIMUM_VERTICES[kind]} vertices, it has {len(vertices)}")
         if self.project is None:
             raise UsvipsError("open a project first")
+        flags = [f"vertex {i + 1}: {flag}" for i, v in enumerate(vertices) for flag in v.flags]
+        if flags:
+            notes = "; ".join(filter(None, [notes, "flagged: " + "; ".join(flags)]))
         stored = self._vertices_for_store(vertices)
         holder = {"id": None}
         before = self._snapshot()
