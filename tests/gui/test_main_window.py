@@ -220,3 +220,51 @@ def test_objects_are_exported_from_the_window(qtbot, make_window, sample_copy, t
     window.export_objects(tmp_path / "objects.xyz")
     assert "nothing written" in window.statusBar().currentMessage()
     assert not (tmp_path / "objects.xyz").exists()
+
+
+def test_nothing_of_one_project_is_left_in_the_next(qtbot, make_window, sample_copy):
+    window = make_window()
+    first = sample_copy("tank_system1")
+    open_sample(qtbot, window, first, "measure1")
+    left, _ = truth_pixels(first, "measure1", "objects")
+    window.attribute_box.setEditText("snapper")
+    click_pixel(qtbot, window.panes["left"], left["fish1"]["snout"])
+    window.accept_or_finish()
+    assert window.point_label.text()  # a 3-D readout
+    window.show_message("error", "something went wrong")
+    assert "snapper" in window.workspace.attribute
+    second = sample_copy("rov_flatport")
+    assert window.open_path(second)
+    wait_for_pair(qtbot, window, "air1")
+    assert window.point_label.text() == "" and window.workspace.attribute == ""
+    assert window.attribute_box.currentText() == ""
+    assert "measure1" not in window.panes["left"].title.text() and "air1" in window.panes["left"].title.text()
+    assert window.statusBar().styleSheet() == "" and "something went wrong" not in window.hint.text()
+    assert "saved as you go" in window.windowTitle() and "rov_flatport" in window.windowTitle()
+
+
+def test_save_as_copies_the_project_and_goes_on_in_the_copy(qtbot, make_window, sample_copy, tmp_path):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    window.workspace.project.add_term("kept")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    target = elsewhere / "copy.usvips"
+    assert window.save_as(target)
+    wait_for_pair(qtbot, window, "measure1")
+    assert window.workspace.project.path == target
+    assert "kept" in window.workspace.project.vocabulary()
+    assert window.workspace.images["left"].shape[0] > 0  # the images are found from the new folder
+    assert not window.save_as(target)  # never over an existing file
+    assert "already exists" in window.hint.text()
+    assert not (elsewhere / "copy.usvips.part").exists()
+
+
+@pytest.mark.parametrize(("typed", "chosen", "written"), [
+    ("fish.geojson", "Objects CSV (*.csv)", "fish.geojson"), ("fish", "GeoJSON (*.geojson)", "fish.geojson"),
+    ("fish.em.txt", "Objects CSV (*.csv)", "fish.em.txt"), ("fish.CSV", "PLY (*.ply)", "fish.CSV")])
+def test_the_export_dialog_keeps_a_typed_suffix(typed, chosen, written):
+    from usvips.gui.main_window import MainWindow
+
+    assert MainWindow.export_path(typed, chosen) == written

@@ -88,7 +88,20 @@ class MainWindow(QtWidgets.QMainWindow):
             self.splitter.addWidget(self.panes[side])
             self.panes[side].clicked.connect(lambda x, y, s=side: self._on_clicked(s, x, y))
             self.panes[side].hovered.connect(lambda x, y, s=side: self._on_hovered(s, x, y))
-        self.setCentralWidget(self.splitter)
+        # one line above the images for what the user must act on now (held vertices, refused matches):
+        # the status bar clips long messages under the readouts; the log keeps every message
+        self.hint = QtWidgets.QLabel("")
+        self.hint.setObjectName("hint_line")
+        self.hint.setContentsMargins(6, 1, 6, 1)
+        self.hint.setTextFormat(QtCore.Qt.TextFormat.PlainText)
+        self.hint.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Fixed)
+        central = QtWidgets.QWidget()
+        column = QtWidgets.QVBoxLayout(central)
+        column.setContentsMargins(0, 0, 0, 0)
+        column.setSpacing(0)
+        column.addWidget(self.hint)
+        column.addWidget(self.splitter, 1)
+        self.setCentralWidget(central)
         self._build_docks()
         self._build_status_bar()
         self._build_actions()
@@ -235,6 +248,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.samples_menu.addAction(sample.parent.name, lambda p=sample.parent: self.open_path(p))
         self.samples_menu.setEnabled(bool(self.samples_menu.actions()))
         self.recent_menu = menu.addMenu("&Recent projects")
+        menu.addAction("Save &as… (a copy, then work on it)", self.save_as_dialog, QtGui.QKeySequence("Ctrl+Shift+S"))
         menu.addAction("&Export objects…", self.export_dialog)
         self._fill_recent_menu()
         menu.addSeparator()
@@ -423,6 +437,14 @@ class MainWindow(QtWidgets.QMainWindow):
         colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
         self.statusBar().setStyleSheet(f"QStatusBar {{ color: {colour}; }}" if colour else "")
         self.statusBar().showMessage(text, 0 if level != "info" else 15000)
+        self.set_hint(text, level)
+
+    def set_hint(self, text: str, level: str = "info") -> None:
+        """The line above the images (full text in its tooltip when the window is narrow)."""
+        colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
+        self.hint.setStyleSheet(f"color: {colour};" if colour else "")
+        self.hint.setText(text)
+        self.hint.setToolTip(text)
 
     def _guarded(self, function, *args) -> bool:
         try:
@@ -499,6 +521,33 @@ class MainWindow(QtWidgets.QMainWindow):
         if any(path.lower().endswith(suffix) for suffix in cls.EXPORT_FILTERS.values()):
             return path
         return path + cls.EXPORT_FILTERS.get(chosen_filter, "")
+
+    def save_as_dialog(self) -> None:
+        if self.workspace.project is None:
+            self.show_message("error", "open a project first")
+            return
+        start = self.workspace.project.path.with_name(self.workspace.project.path.stem + "-copy.usvips")
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save the project as", str(start),
+                                                        "USVIPS projects (*.usvips)")
+        if path:
+            self.save_as(path if path.endswith(".usvips") else path + ".usvips")
+
+    def save_as(self, path: str | Path) -> bool:
+        """Copy the open project to ``path`` (a new file) and go on working in the copy, on the same pair."""
+        project = self.workspace.project
+        if project is None:
+            self.show_message("error", "open a project first")
+            return False
+        if not self.confirm_drop_unfinished("save a copy"):
+            return False
+        try:
+            copy = project.copy_to(path)
+        except UsvipsError as error:
+            self.show_message("error", f"nothing saved: {error}")
+            return False
+        if self.open_path(copy, self.workspace.pair):
+            self.show_message("info", f"saved a copy as {copy}; you are now working in the copy (saved as you go)")
+        return True
 
     def export_objects(self, path: str | Path) -> None:
         """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
@@ -766,6 +815,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.selection = []
         self.statusBar().setStyleSheet("")
         self.statusBar().clearMessage()
+        self.set_hint("")
 
     def undo(self) -> None:
         self._step("undo", "undone")
@@ -805,6 +855,7 @@ class MainWindow(QtWidgets.QMainWindow):
                                        state.curve if opposite else None)
         if state.note:
             self.statusBar().showMessage(state.note, 15000)
+            self.set_hint(state.note, "warning" if state.pending is not None else "info")
         self.point_label.setText(describe_point(ws.last_point) if ws.last_point is not None else "")
         self._draw_objects()
 

@@ -239,6 +239,7 @@ class Workspace:
             self.project.close()
         self.project = project
         self.attribute = ""
+        self.last_point = None
         self._geometries = {}
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()

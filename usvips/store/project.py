@@ -369,3 +369,42 @@ class Project:
         row = self._db.execute("SELECT pipeline FROM enhancements WHERE image_key = ?", (image_key,)).fetchone()
         return None if row is None else row[0]
 
+
+    def copy_to(self, path: str | Path) -> Path:
+        """Write a consistent copy of the project to the new file ``path`` (SQLite's online backup, whole
+        even while the project is open). Image paths stored relative to this project's folder are
+        rewritten relative to the copy's folder (absolute where that is not possible), so the copy finds
+        its images. Written to ``<path>.part`` and renamed: a failure leaves nothing half-written."""
+        target = Path(path)
+        if target.exists():
+            raise ProjectError(f"{target}: already exists; choose a new file name for the copy")
+        if not target.parent.is_dir():
+            raise ProjectError(f"{target}: the folder {target.parent} does not exist")
+        part = target.with_name(target.name + ".part")
+        old_folder, new_folder = self.path.resolve().parent, target.resolve().parent
+
+        def moved(stored: str | None) -> str | None:
+            if stored is None:
+                return None
+            absolute = (old_folder / stored).resolve()
+            try:
+                return str(absolute.relative_to(new_folder))
+            except ValueError:
+                return str(absolute)
+
+        try:
+            copy = sqlite3.connect(str(part))
+            try:
+                self._db.backup(copy)
+                rows = copy.execute("SELECT id, left_path, right_path FROM image_pairs").fetchall()
+                with copy:
+                    copy.executemany("UPDATE image_pairs SET left_path = ?, right_path = ? WHERE id = ?",
+                                     [(moved(left), moved(right), pair_id) for pair_id, left, right in rows])
+                copy.execute("PRAGMA journal_mode = DELETE")
+            finally:
+                copy.close()
+            part.replace(target)
+        except (sqlite3.Error, OSError) as error:
+            part.unlink(missing_ok=True)
+            raise ProjectError(f"{target}: cannot write the copy of the project: {error}") from None
+        return target
