@@ -7,6 +7,7 @@ import pytest
 from tests.gui.conftest import click_pixel, isolated_targets, open_sample, true_length, truth_pixels, wait_for_pair
 from usvips.core.matching import EpipolarCurve
 from usvips.gui.pane import pixel_from_item
+from usvips.store import Project
 
 
 def _drawn_curve(pane) -> np.ndarray:
@@ -268,3 +269,27 @@ def test_the_export_dialog_keeps_a_typed_suffix(typed, chosen, written):
     from usvips.gui.main_window import MainWindow
 
     assert MainWindow.export_path(typed, chosen) == written
+
+
+def test_quitting_with_a_half_made_object_asks_and_can_store_it(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("line")
+    window.attribute_box.setEditText("fish")
+    click_pixel(qtbot, window.panes["left"], left["fish1"]["snout"])
+    click_pixel(qtbot, window.panes["right"], right["fish1"]["snout"])
+    click_pixel(qtbot, window.panes["left"], left["fish1"]["fork"])
+    click_pixel(qtbot, window.panes["right"], right["fish1"]["fork"])
+    assert len(window.workspace.digitising.vertices) == 2
+    questions = []
+    answers = ["stay", "save"]
+    window.ask_unfinished = lambda question: questions.append(question) or answers.pop(0)
+    window.close()
+    assert window.isVisible() and "2 vertices" in questions[0]  # "stay": nothing lost, the window stays
+    project = window.workspace.project
+    window.close()
+    assert not window.isVisible()
+    (stored,) = Project.open(project.path).objects()
+    assert stored.kind == "line" and stored.attribute == "fish"

@@ -417,18 +417,22 @@ class MainWindow(QtWidgets.QMainWindow):
         digitising = self.workspace.digitising
         if not digitising.vertices or self.workspace.project is None:
             return True
-        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Unfinished object",
-                                    f"The {digitising.kind} being digitised has {len(digitising.vertices)} "
-                                    f"vertices and is not stored. Store it before you {doing}?", parent=self)
-        buttons = QtWidgets.QMessageBox.StandardButton
-        box.setStandardButtons(buttons.Save | buttons.Discard | buttons.Cancel)
-        box.setDefaultButton(buttons.Save)
-        answer = box.exec()
-        if answer == buttons.Cancel:
+        answer = self.ask_unfinished(f"The {digitising.kind} being digitised has {len(digitising.vertices)} "
+                                     f"vertices and is not stored. Store it before you {doing}?")
+        if answer == "stay":
             return False
-        if answer == buttons.Save:
+        if answer == "save":
             return self._guarded(self.workspace.finish_object, self.workspace.attribute, "")
         return True
+
+    def ask_unfinished(self, question: str) -> str:
+        """Ask about a half-made object: ``"save"`` (store it), ``"discard"`` or ``"stay"``."""
+        buttons = QtWidgets.QMessageBox.StandardButton
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Unfinished object", question,
+                                    buttons.Save | buttons.Discard | buttons.Cancel, self)
+        box.setDefaultButton(buttons.Save)
+        answer = box.exec()
+        return {buttons.Save: "save", buttons.Discard: "discard"}.get(answer, "stay")
 
     # ------------------------------------------------------------------ messages
     def show_message(self, level: str, text: str) -> None:
