@@ -3,6 +3,7 @@ curve and the proposal, measure a fish, undo/redo, enhance, reopen."""
 
 import numpy as np
 import pytest
+from PySide6 import QtCore
 
 from tests.gui.conftest import click_pixel, isolated_targets, open_sample, true_length, truth_pixels, wait_for_pair
 from usvips.core.matching import EpipolarCurve
@@ -293,3 +294,28 @@ def test_quitting_with_a_half_made_object_asks_and_can_store_it(qtbot, make_wind
     assert not window.isVisible()
     (stored,) = Project.open(project.path).objects()
     assert stored.kind == "line" and stored.attribute == "fish"
+
+
+def test_a_stored_vertex_is_re_picked_from_the_object_list_with_the_mouse(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("line")
+    for point in ("snout", "fork"):
+        click_pixel(qtbot, window.panes["left"], left["fish1"][point])
+        click_pixel(qtbot, window.panes["right"], right["fish1"][point])
+    window.accept_or_finish()
+    figure = window.object_list.table.item(0, 4).text()
+    window.object_list.table.selectRow(0)
+    window.object_list.vertex.setValue(2)
+    qtbot.mouseClick(window.object_list.repick_button, QtCore.Qt.MouseButton.LeftButton)
+    assert window.workspace.repick is not None and "re-pick vertex 2" in window.hint.text()
+    wrong = [np.add(p["fork"], 0.2 * np.subtract(p["fork"], p["snout"])) for p in (left["fish1"], right["fish1"])]
+    click_pixel(qtbot, window.panes["left"], wrong[0])
+    click_pixel(qtbot, window.panes["right"], wrong[1])
+    if window.workspace.state.pending is not None:
+        window.accept_or_finish()
+    assert window.object_list.table.item(0, 4).text() != figure
+    window.undo()
+    assert window.object_list.table.item(0, 4).text() == figure

@@ -305,3 +305,56 @@ def test_the_rules_hold_a_vertex_and_flag_stored_points(workspace):
     assert any("range" in failure for failure in result.failures)  # a point is checked by the rules too
     ws.rules = replace(ws.rules, max_range_m=100.0)
     assert ws.figures([stored.id]).failures == ()
+
+
+def test_re_picking_a_stored_vertex_changes_the_figures_and_undo_restores_them(workspace):
+    ws, directory = workspace("tank_system1", "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    fish = left["fish1"], right["fish1"]
+    ws.set_tool("line")
+    for point in ("snout", "fork"):
+        ws.pick("left", fish[0][point])
+        ws.pick("right", fish[1][point])
+    object_id = ws.finish_object("fish")
+    truth = true_length(directory, "fish1")
+    good = ws.figures([object_id]).figures[0]
+    assert abs(good.value - truth) < 3 * good.sigma
+    rng = np.random.default_rng(4)
+    for _ in range(3):  # a fork moved along the fish's own axis by a random amount, then undone
+        ws.start_repick(object_id, 1)
+        shift = rng.uniform(0.1, 0.3)
+        wrong = [np.add(fish[k]["fork"], shift * np.subtract(fish[k]["fork"], fish[k]["snout"])) for k in (0, 1)]
+        ws.pick("left", wrong[0])
+        ws.pick("right", wrong[1])
+        if ws.state.pending is not None:
+            ws.accept_proposal()
+        moved = ws.figures([object_id]).figures[0]
+        assert ws.repick is None and len(ws.project.object(object_id).vertices) == 2
+        assert moved.value > good.value * (1 + 0.5 * shift)  # the fish got longer by about the shift
+        ws.undo.undo()
+        assert ws.figures([object_id]).figures[0].value == pytest.approx(good.value, rel=1e-9)
+    ws.undo.redo()
+    assert ws.figures([object_id]).figures[0].value > good.value
+
+
+def test_a_vertex_is_deleted_only_while_the_object_keeps_enough(workspace):
+    ws, directory = workspace("tank_system1", "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    ws.set_tool("line")
+    for point in ("snout", "fork", "snout"):
+        ws.pick("left", left["fish1"][point])
+        ws.pick("right", right["fish1"][point])
+    object_id = ws.finish_object("fish")
+    three = ws.figures([object_id]).figures[0].value
+    ws.delete_vertex(object_id, 2)
+    assert len(ws.project.object(object_id).vertices) == 2
+    assert ws.figures([object_id]).figures[0].value == pytest.approx(three / 2, rel=1e-9)
+    with pytest.raises(UsvipsError, match="at least 2 vertices"):
+        ws.delete_vertex(object_id, 0)
+    with pytest.raises(UsvipsError, match="vertices 1 to 2"):
+        ws.start_repick(object_id, 5)
+    ws.undo.undo()
+    assert len(ws.project.object(object_id).vertices) == 3
+    ws.start_repick(object_id, 0)
+    ws.cancel_vertex()  # Esc before a pick: nothing changes
+    assert ws.repick is None and len(ws.project.object(object_id).vertices) == 3

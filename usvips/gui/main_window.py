@@ -59,6 +59,9 @@ the loupe (<b>G</b>) follows the cursor at an offset and never takes a click (Vi
 offset between them; the geo-calculator shows each figure with its standard deviation and the quality
 rules it breaks.<br>
 <b>Enhancement</b> changes only what you see; picks and coordinates always use the original image.<br>
+<b>Editing</b>: select an object in the list, choose its vertex and press <i>Re-pick</i> (then click the
+point again, left and right) or <i>Delete vertex</i>; edit the attribute or notes in the list's cells
+(Enter stores). Every edit is undoable (Ctrl+Z) and the figures follow.<br>
 <b>Quitting</b> or opening another project with a half-made object asks whether to store it."""
 
 

@@ -199,7 +199,22 @@ class ObjectList(QtWidgets.QWidget):
         buttons = QtWidgets.QHBoxLayout()
         buttons.addWidget(zoom)
         buttons.addWidget(delete)
+        # editing a stored object's vertices (undoable): re-pick one, or delete it
+        self.vertex = QtWidgets.QSpinBox()
+        self.vertex.setRange(1, 1)
+        self.vertex.setPrefix("vertex ")
+        self.vertex.setToolTip("the vertex of the selected object to re-pick or delete (1 = the first measured)")
+        repick = QtWidgets.QPushButton("Re-pick")
+        repick.setToolTip("measure the chosen vertex again: click it in either image, then its partner")
+        delete_vertex = QtWidgets.QPushButton("Delete vertex")
+        self.repick_button, self.delete_vertex_button = repick, delete_vertex
+        buttons.addSpacing(12)
+        for widget in (self.vertex, repick, delete_vertex):
+            buttons.addWidget(widget)
         buttons.addStretch(1)
+        repick.clicked.connect(lambda: self._edit_vertex(self.workspace.start_repick))
+        delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.delete_vertex))
+        self.table.itemSelectionChanged.connect(self._on_vertex_range)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
         layout.addWidget(self.table)
@@ -284,6 +299,22 @@ class ObjectList(QtWidgets.QWidget):
         attribute = self.table.item(row, self.COLUMNS.index("attribute")).text()
         notes = self.table.item(row, self.COLUMNS.index("notes")).text()
         self.workspace.edit_object(object_id, attribute, notes)
+
+    def _on_vertex_range(self) -> None:
+        ids = self.selected_ids()
+        count = len(self.workspace.project.object(ids[0]).vertices) if len(ids) == 1 else 1
+        self.vertex.setRange(1, max(count, 1))
+
+    def _edit_vertex(self, action) -> None:
+        """Re-pick or delete the chosen vertex of the one selected object; errors go to the window."""
+        ids = self.selected_ids()
+        if len(ids) != 1:
+            self.workspace.message.emit("warning", "select one object in the list to edit its vertices")
+            return
+        try:
+            action(ids[0], self.vertex.value() - 1)
+        except UsvipsError as error:
+            self.workspace.message.emit("error", str(error))
 
     def _on_delete(self) -> None:
         for object_id in self.selected_ids():

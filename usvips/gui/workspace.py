@@ -217,6 +217,8 @@ class Workspace:
         self.last_point: MeasuredVertex | None = None
         #: The attribute given to the next stored object (the window's Attribute box keeps it current).
         self.attribute = ""
+        #: (object id, vertex index from 0) that the next measured vertex replaces, or None.
+        self.repick: tuple[int, int] | None = None
         self.undo = UndoStack()
         self._geometries: dict[tuple[int, str], PairGeometry | None] = {}
         self.pair_changed = Signal()
@@ -240,6 +242,7 @@ class Workspace:
         self.project = project
         self.attribute = ""
         self.last_point = None
+        self.repick = None
         self._geometries = {}
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
@@ -445,6 +448,11 @@ class Workspace:
         return text
 
     def cancel_vertex(self) -> None:
+        if self.state.source is None and self.repick is not None:
+            self.repick = None
+            self.message.emit("info", "re-picking cancelled: the vertex stays where it was")
+            self.picks_changed.emit()
+            return
         if self.state.source is not None:
             self._change("cancel pick", lambda: self._set_state(PickState()))
 
@@ -460,7 +468,7 @@ class Workspace:
             self.message.emit("error", f"{error}; pick the point again")
             return
         warnings = self.vertex_warnings(state, vertex)
-        if warnings and self.digitising.kind != "pick":
+        if warnings and (self.digitising.kind != "pick" or self.repick is not None):
             text = (f"check before storing: {'; '.join(warnings)}. Enter keeps it (flagged), a click in the "
                     f"{other(state.source)} image corrects it, Esc drops it")
             held = replace(state, pending=vertex, proposal=None, note=text)
@@ -483,7 +491,11 @@ class Workspace:
         return tuple(warnings)
 
     def _take_vertex(self, vertex: MeasuredVertex, note: str) -> None:
-        """Add an intersected vertex to the object being digitised (a point object is stored at once)."""
+        """Add an intersected vertex to the object being digitised (a point object is stored at once), or
+        put it in place of the stored vertex being re-picked."""
+        if self.repick is not None:
+            self._replace_vertex(vertex)
+            return
         kind = self.digitising.kind
         self.message.emit("warning" if vertex.flags else "info", describe_point(vertex)
                           + (f" — kept, flagged: {'; '.join(vertex.flags)}" if vertex.flags else ""))
@@ -564,6 +576,59 @@ class Workspace:
         g = self.geometry
         return [Vertex(*v.left, *v.right, tuple(float(c) for c in v.xyz), v.covariance,
                        g.calibration_id if g else None, self.pair) for v in vertices]
+
+    def start_repick(self, object_id: int, index: int) -> None:
+        """Re-pick vertex ``index`` (0-based) of a stored object: the next vertex measured (both picks, the
+        guard rails as usual) replaces it, as one undoable step; Esc before the first pick cancels."""
+        if self.project is None:
+            raise UsvipsError("open a project first")
+        stored = self.project.object(object_id)
+        if not 0 <= index < len(stored.vertices):
+            raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
+        pair = stored.vertices[index].pair
+        if pair != self.pair:
+            raise UsvipsError(f"vertex {index + 1} of {stored.kind} {object_id} was measured on pair {pair!r}: "
+                              "show that pair first")
+        if self.digitising.vertices:
+            raise UsvipsError(f"finish or cancel the {self.digitising.kind} being digitised first")
+        self.repick = (object_id, index)
+        self.state = PickState(note=f"re-pick vertex {index + 1} of {stored.kind} {object_id}: click it in "
+                                    "either image (Esc cancels)")
+        self.picks_changed.emit()
+
+    def _replace_vertex(self, vertex: MeasuredVertex) -> None:
+        object_id, index = self.repick
+        self.repick = None
+        saved = list(self.project.object(object_id).vertices)
+        new = list(saved)
+        new[index] = self._vertices_for_store((vertex,))[0]
+        self._set_vertices(f"re-pick vertex {index + 1} of object {object_id}", object_id, saved, new)
+        self.last_point = vertex
+
+    def delete_vertex(self, object_id: int, index: int) -> None:
+        """Remove vertex ``index`` (0-based) of a stored object (undoable); an object keeps at least the
+        vertices its kind needs (delete the object instead)."""
+        stored = self.project.object(object_id)
+        if not 0 <= index < len(stored.vertices):
+            raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
+        least = MINIMUM_VERTICES.get(stored.kind, 1)
+        if len(stored.vertices) - 1 < least:
+            raise UsvipsError(f"a {stored.kind} needs at least {least} vertices: delete the object instead")
+        saved = list(stored.vertices)
+        self._set_vertices(f"delete vertex {index + 1} of object {object_id}", object_id, saved,
+                           saved[:index] + saved[index + 1:])
+
+    def _set_vertices(self, label: str, object_id: int, before: list[Vertex], after: list[Vertex]) -> None:
+        def apply(vertices: list[Vertex]) -> Callable[[], None]:
+            def run() -> None:
+                self.project.update_object(object_id, vertices=vertices)
+                self.state = PickState()
+                self.objects_changed.emit()
+                self.picks_changed.emit()
+            return run
+
+        self.undo.push(Command(label, apply(after), apply(before)))
+        self.message.emit("info", f"{label}: done (Ctrl+Z undoes it)")
 
     def delete_object(self, object_id: int) -> None:
         saved = self.project.object(object_id)
