@@ -319,3 +319,22 @@ def test_a_stored_vertex_is_re_picked_from_the_object_list_with_the_mouse(qtbot,
     assert window.object_list.table.item(0, 4).text() != figure
     window.undo()
     assert window.object_list.table.item(0, 4).text() == figure
+
+
+def test_linked_navigation_brings_the_other_pane_to_the_conjugate_region(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("rov_flatport")
+    open_sample(qtbot, window, directory, "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    window.actions["link"].setChecked(True)
+    window._on_link()
+    targets = isolated_targets(left, right)[:5]
+    for number in targets:
+        window.workspace.last_point = window.workspace.intersect(left[number], right[number])  # working depth
+        window.panes["left"].zoom_to(4.0, tuple(left[number]))  # zoom and pan the left pane only
+        rect = window.panes["right"].viewbox.viewRect()
+        centre = np.array(pixel_from_item(rect.center().x(), rect.center().y()))
+        assert np.linalg.norm(centre - right[number]) < 1.0, number  # the same target, not the same pixel
+        assert window.panes["right"].zoom_level() == pytest.approx(4.0, rel=1e-3)
+        parallax = np.linalg.norm(np.subtract(left[number], right[number]))
+        assert parallax > 20  # identical pixel coordinates would have missed it

@@ -16,7 +16,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 import usvips
 from usvips.core.errors import UsvipsError
-from usvips.gui.pane import LOUPE_SCALES, StereoPane
+from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, PlanView
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
@@ -53,6 +53,8 @@ stores the object with the attribute. <b>Esc</b> drops a half-made vertex; <b>Ct
 the keyboard (click it); in a text field or a table they do what they always do (Enter stores the text or
 the cell).<br>
 <b>Pointing precisely</b>: zoom with the wheel or <b>B</b> (box zoom), <b>1</b> for 1:1, <b>F</b> to fit;
+<b>L</b> links the panes: moving one brings the other to the same place in the scene (at the depth of
+the last measured point);
 the loupe (<b>G</b>) follows the cursor at an offset and never takes a click (View › Loupe magnification);
 <b>S</b> snaps clicks to the centre of target discs.<br>
 <b>Figures</b>: select one object in the list for its length or area, two for the distance, angle or
@@ -212,8 +214,9 @@ class MainWindow(QtWidgets.QMainWindow):
             "zoom_in": self._action("Zoom &in", lambda: self._each_pane("zoom_by", 1.25), key.ZoomIn),
             "zoom_out": self._action("Zoom &out", lambda: self._each_pane("zoom_by", 0.8), key.ZoomOut),
             "box": self._action("&Box zoom", self._on_box_zoom, "B", "drag a box to zoom into", checkable=True),
-            "link": self._action("&Link zoom", self._on_link, "L", "zoom and pan both panes together",
-                                 checkable=True),
+            "link": self._action("&Link zoom", self._on_link, "L", "zooming or panning one image brings the other "
+                                 "to the same place in the scene (through the calibration, at the depth of the last "
+                                 "measured point)", checkable=True),
             "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
         }
         # short toolbar labels (the menus keep the full names): the toolbar fits 1366 px without overflow
@@ -705,10 +708,32 @@ class MainWindow(QtWidgets.QMainWindow):
         self._each_pane("set_box_zoom", self.actions["box"].isChecked())
 
     def _on_link(self) -> None:
-        left, right = (self.panes[s].viewbox for s in SIDES)
-        linked = self.actions["link"].isChecked()
-        right.setXLink(left if linked else None)
-        right.setYLink(left if linked else None)
+        """Linked navigation: zooming or panning one pane brings the other to the conjugate region (through
+        the calibration, at the depth of the last measured point), at the same zoom."""
+        if not hasattr(self, "_following"):
+            self._following = False
+            for side in SIDES:
+                self.panes[side].viewbox.sigRangeChanged.connect(lambda *_, s=side: self._follow(s))
+        if self.actions["link"].isChecked():
+            self._follow("left")
+
+    def _follow(self, side: str) -> None:
+        if self._following or not self.actions["link"].isChecked() or self.workspace.pair is None:
+            return
+        source, target = self.panes[side], self.panes["right" if side == "left" else "left"]
+        if source.display is None or target.display is None:
+            return
+        rect = source.viewbox.viewRect()
+        centre = pixel_from_item(rect.center().x(), rect.center().y())
+        try:
+            conjugate = self.workspace.conjugate(side, centre)
+        except UsvipsError:
+            conjugate = None
+        self._following = True
+        try:
+            target.zoom_to(source.zoom_level(), conjugate or centre)  # no calibration: the same pixel
+        finally:
+            self._following = False
 
     def _on_loupe(self) -> None:
         for pane in self.panes.values():

@@ -34,6 +34,8 @@ TOOLS = ("pick", "point", "line", "polygon")
 #: The calibration wizards' tool: both picks of a control point, reported by ``observed``, not intersected.
 OBSERVE = "observe"
 MINIMUM_VERTICES = {"point": 1, "line": 2, "polygon": 3}
+#: Depth (m along the ray in the water) linked navigation assumes before anything has been measured.
+LINK_DEPTH_M = 2.0
 
 
 def other(side: str) -> str:
@@ -510,6 +512,25 @@ class Workspace:
                 self.digitising = _Digitising(kind, self.digitising.vertices + (vertex,))
 
         self._change("vertex", add)
+
+    def conjugate(self, side: str, pixel, depth_m: float | None = None) -> tuple[float, float] | None:
+        """Where ``pixel`` (x, y) of the ``side`` image appears in the other image for a point ``depth_m``
+        metres along its ray in the water: by default as far along it as the last measured point (the
+        current working depth), else :data:`LINK_DEPTH_M`. None without a calibration, or when the point
+        falls outside the other camera's view. Linked navigation follows this, not the same pixel."""
+        if self.geometry is None:
+            return None
+        rig = self.geometry.calibration.rig(self.geometry.station, self.geometry.frame)
+        cameras = {"left": rig.left, "right": rig.right}
+        bundle = cameras[side].rays(np.array([pixel], dtype=np.float64))
+        if not bundle.ok[0]:
+            return None
+        origin, direction = bundle.origins[0], bundle.directions[0]
+        if depth_m is None:
+            depth_m = (float(np.linalg.norm(self.last_point.xyz - origin)) if self.last_point is not None
+                       else LINK_DEPTH_M)
+        projection = cameras[other(side)].project((origin + depth_m * direction)[None, :])
+        return (float(projection.pixels[0, 0]), float(projection.pixels[0, 1])) if projection.ok[0] else None
 
     def intersect(self, left, right) -> MeasuredVertex:
         """Intersect one pair of picks with the pair's calibration (pointing and calibration covariance)."""
