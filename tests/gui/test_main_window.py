@@ -190,6 +190,30 @@ def test_the_plan_view_shows_stored_objects_in_plan_and_profile(qtbot, make_wind
     window.plan.view.setCurrentText("profile (X–Z)")
     x, z = window.plan.curve.getData()
     assert np.allclose(z[:2], [v.xyz[2] for v in stored.vertices])
+    # 1σ ellipses: a 1σ ellipse reaches sqrt(C_xx) either side of its centre in x
+    ex, ez = window.plan.ellipses.getData()
+    first = np.column_stack([ex, ez])[:49]
+    centre, covariance = stored.vertices[0].xyz, stored.vertices[0].covariance
+    assert first[:, 0].max() - centre[0] == pytest.approx(np.sqrt(covariance[0, 0]), rel=5e-3)
+    assert first[:, 1].max() - centre[2] == pytest.approx(np.sqrt(covariance[2, 2]), rel=5e-3)
+    cx, _ = window.plan.cameras.getData()
+    assert len(cx) == 2 and "L" in [label.toPlainText() for label in window.plan.labels]
+    assert f"{stored.id} {stored.attribute}".strip() in [label.toPlainText() for label in window.plan.labels]
+    assert "frame" in window.plan.frame.text()
+    window.docks["plan"].setFloating(True)  # a plan view of a fair size, as a user would open it
+    window.docks["plan"].resize(700, 450)
+    window.docks["plan"].show()
+    qtbot.waitUntil(lambda: window.plan.plot.height() > 200, timeout=3000)
+    window.plan.refresh()
+    (xmin, xmax), (zmin, zmax) = window.plan.plot.getViewBox().viewRange()
+    _, cz = window.plan.cameras.getData()
+    xs, zs = np.concatenate([x[np.isfinite(x)], cx]), np.concatenate([z[np.isfinite(z)], cz])
+    assert xmin <= xs.min() and xmax >= xs.max() and zmin <= zs.min() and zmax >= zs.max()
+    # fitted to the data: the tighter axis spans at most about twice what is drawn (not −9 … 10 m)
+    assert min((xmax - xmin) / np.ptp(xs), (zmax - zmin) / np.ptp(zs)) < 2.0
+    window.object_list.table.selectRow(0)  # bearing and slope say which frame they are in
+    assert "rig frame" in window.calculator.output.toPlainText() or "object frame" in \
+        window.calculator.output.toPlainText()
 
 
 def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, sample_copy):

@@ -392,12 +392,17 @@ class CalculatorPanel(QtWidgets.QWidget):
         if result.figures and not result.reason:
             lines.append("")
             lines.append("quality: " + ("; ".join(result.failures) if result.failures else "passes the rules"))
+        if any(f.name in ("bearing", "slope") for f in result.figures):
+            lines.append(f"bearing (clockwise from +Y towards +X) and slope (above the X–Y plane) are in "
+                         f"{self.workspace.frame_description(self.selection[0])}")
         self.output.setPlainText("\n".join(lines))
 
 
 class PlanView(QtWidgets.QWidget):
-    """Measured objects in plan (X–Y, seen from above) or in profile (X–Z, Y–Z), metres — a plot that runs
-    offscreen, where a 3-D view might not."""
+    """Measured objects in plan (X–Y, seen from above) or in profile (X–Z, Y–Z), metres on both axes at
+    the same scale, with their labels, 1σ error ellipses of the vertices, the pair's two cameras, the
+    frame named, and the range fitted to what is drawn — a plot that runs offscreen, where a 3-D view
+    might not."""
 
     VIEWS = {"plan (X–Y)": (0, 1), "profile (X–Z)": (0, 2), "profile (Y–Z)": (1, 2)}
 
@@ -407,32 +412,80 @@ class PlanView(QtWidgets.QWidget):
         self.view = QtWidgets.QComboBox()
         self.view.addItems(list(self.VIEWS))
         self.view.currentTextChanged.connect(self.refresh)
+        self.frame = QtWidgets.QLabel("")
+        self.frame.setWordWrap(True)
         self.plot = pg.PlotWidget(background=None)
         self.plot.setAspectLocked(True)
+        for axis in ("bottom", "left"):
+            self.plot.getAxis(axis).enableAutoSIPrefix(False)  # metres on both axes, never m against mm
         self.curve = self.plot.plot(pen=pg.mkPen((0, 200, 255), width=2), connect="finite", symbol="o",
                                     symbolSize=5)
+        self.ellipses = self.plot.plot(pen=pg.mkPen((255, 140, 0), width=1), connect="finite")
+        self.cameras = self.plot.plot(pen=None, symbol="t", symbolSize=12, symbolBrush=(60, 220, 120))
+        self.labels: list[pg.TextItem] = []
+        top = QtWidgets.QHBoxLayout()
+        top.addWidget(self.view)
+        top.addWidget(self.frame, 1)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
-        layout.addWidget(self.view)
+        layout.addLayout(top)
         layout.addWidget(self.plot)
         workspace.objects_changed.connect(self.refresh)
+        workspace.pair_changed.connect(self.refresh)
         self.refresh()
 
     def cleanup(self) -> None:
         self.workspace.objects_changed.disconnect(self.refresh)
+        self.workspace.pair_changed.disconnect(self.refresh)
+
+    def _label(self, text: str, position, colour) -> None:
+        item = pg.TextItem(text, color=colour, anchor=(0, 1))
+        item.setPos(float(position[0]), float(position[1]))
+        self.plot.addItem(item, ignoreBounds=True)
+        self.labels.append(item)
 
     def refresh(self, *_: object) -> None:
         a, b = self.VIEWS[self.view.currentText()]
-        self.plot.setLabel("bottom", "XYZ"[a], units="m")
-        self.plot.setLabel("left", "XYZ"[b], units="m")
-        parts = []
+        self.plot.setLabel("bottom", "XYZ"[a] + " (m)")
+        self.plot.setLabel("left", "XYZ"[b] + " (m)")
+        for item in self.labels:
+            self.plot.removeItem(item)
+        self.labels = []
+        parts, rings = [], []
+        circle = np.column_stack([np.cos(np.linspace(0, 2 * np.pi, 49)), np.sin(np.linspace(0, 2 * np.pi, 49))])
         for stored in self.workspace.objects():
-            points = np.array([v.xyz for v in stored.vertices if v.xyz is not None], float).reshape(-1, 3)
+            vertices = [v for v in stored.vertices if v.xyz is not None]
+            points = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
+            if not len(points):
+                continue
+            self._label(f"{stored.id} {stored.attribute}".strip(), points[0, [a, b]], (230, 230, 230))
+            for v, point in zip(vertices, points, strict=True):
+                if v.covariance is None:
+                    continue
+                block = np.asarray(v.covariance, float)[np.ix_([a, b], [a, b])]
+                values, vectors = np.linalg.eigh(block)
+                ring = point[[a, b]] + (circle * np.sqrt(np.clip(values, 0, None))) @ vectors.T
+                rings.append(np.vstack([ring, [[np.nan, np.nan]]]))
             if stored.kind == "polygon" and len(points) > 2:
                 points = np.vstack([points, points[:1]])
             parts.append(np.vstack([points[:, [a, b]], [[np.nan, np.nan]]]))
         data = np.vstack(parts) if parts else np.zeros((0, 2))
         self.curve.setData(data[:, 0], data[:, 1], connect="finite")
+        ring_data = np.vstack(rings) if rings else np.zeros((0, 2))
+        self.ellipses.setData(ring_data[:, 0], ring_data[:, 1], connect="finite")
+        geometry = self.workspace.geometry
+        if geometry is not None:
+            rig = geometry.calibration.rig(geometry.station, geometry.frame)
+            cameras = np.array([rig.left.exterior.position, rig.right.exterior.position])[:, [a, b]]
+            self.cameras.setData(cameras[:, 0], cameras[:, 1])
+            for name, position in zip(("L", "R"), cameras, strict=True):
+                self._label(name, position, (60, 220, 120))
+            self.frame.setText(f"{geometry.description}; orange: 1σ ellipses, green: the cameras")
+        else:
+            self.cameras.setData([], [])
+            self.frame.setText("no calibrated pair shown: coordinates as measured; orange: 1σ ellipses")
+        self.plot.enableAutoRange()
+        self.plot.autoRange()
 
 
 class LogPanel(QtWidgets.QPlainTextEdit):

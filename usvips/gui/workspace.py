@@ -680,6 +680,16 @@ class Workspace:
         self.undo.push(Command(f"edit object {object_id}", apply(attribute, notes),
                                apply(saved.attribute, saved.notes)))
 
+    def frame_description(self, object_id: int) -> str:
+        """The frame an object's coordinates (and so its bearing and slope) are given in, in words."""
+        stored = self.project.object(object_id)
+        g = self.geometry_input(stored.kind, list(stored.vertices))[2]
+        if g is None:
+            return "the frame it was measured in (its calibration is no longer in the project)"
+        if g.frame == "object":
+            return f"the object frame of station {g.station} (the control points' axes)"
+        return "the rig frame (origin at the left camera; X right, Y up, the camera looking along −Z)"
+
     def objects(self) -> list:
         return [] if self.project is None else self.project.objects()
 
