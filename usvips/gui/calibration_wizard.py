@@ -86,6 +86,14 @@ def _split(first: QtWidgets.QLayout, second: QtWidgets.QLayout, ratio: tuple[int
     return splitter
 
 
+def _fill_height(page: QtWidgets.QWizardPage) -> None:
+    """Let a page with images take the wizard's whole height (QWizard otherwise leaves the extra height
+    to a spacer under the page, and the images stay small on a large screen)."""
+    policy = QtWidgets.QSizePolicy(QtWidgets.QSizePolicy.Policy.Expanding, QtWidgets.QSizePolicy.Policy.Expanding)
+    policy.setVerticalStretch(1)
+    page.setSizePolicy(policy)
+
+
 def _table(headers: list[str]) -> QtWidgets.QTableWidget:
     table = QtWidgets.QTableWidget(0, len(headers))
     table.setHorizontalHeaderLabels(headers)
@@ -317,6 +325,7 @@ class MeasurePage(QtWidgets.QWizardPage):
         right.addWidget(self.message)
         # the table and the images share the page in a splitter the user can move (images get most of it)
         self.splitter = _split(left, right, (1, 2))
+        _fill_height(self)
         layout = QtWidgets.QHBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.splitter)
@@ -566,6 +575,7 @@ class ResultsPage(QtWidgets.QWizardPage):
         right.addWidget(images, 1)
         right.addWidget(self.legend)
         self.splitter = _split(left, right, (3, 2))
+        _fill_height(self)
         layout = QtWidgets.QHBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.splitter)

@@ -471,8 +471,8 @@ class Workspace:
             return
         warnings = self.vertex_warnings(state, vertex)
         if warnings and (self.digitising.kind != "pick" or self.repick is not None):
-            text = (f"check before storing: {'; '.join(warnings)}. Enter keeps it (flagged), a click in the "
-                    f"{other(state.source)} image corrects it, Esc drops it")
+            text = (f"held, not stored — Enter keeps it (flagged), a click in the {other(state.source)} image "
+                    f"corrects it, Esc drops it: {'; '.join(warnings)}")
             held = replace(state, pending=vertex, proposal=None, note=text)
             self.message.emit("warning", text)
             self._change("held vertex", lambda: self._set_state(held))
