@@ -17,9 +17,10 @@ from PySide6 import QtCore, QtGui, QtWidgets
 import usvips
 from usvips.core.errors import UsvipsError
 from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
-from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, PlanView
+from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, ObservationForm, PlanView
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
+from usvips.io.species_list import read_species_list
 from usvips.samples import open_or_create_from_manifest
 from usvips.store import Project
 
@@ -137,20 +138,25 @@ class MainWindow(QtWidgets.QMainWindow):
         self.calculator = CalculatorPanel(ws)
         self.plan = PlanView(ws)
         self.log = LogPanel()
+        self.observation = ObservationForm(ws)
         right = QtCore.Qt.DockWidgetArea.RightDockWidgetArea
         bottom = QtCore.Qt.DockWidgetArea.BottomDockWidgetArea
         self.docks = {"enhancement": self._dock("Enhancement", self.enhancement, right),
                       "calculator": self._dock("Geo-calculator", self.calculator, right),
                       "objects": self._dock("Objects", self.object_list, bottom),
                       "plan": self._dock("Plan view", self.plan, bottom),
-                      "log": self._dock("Log", self.log, bottom)}
-        self.tabifyDockWidget(self.docks["objects"], self.docks["plan"])
+                      "log": self._dock("Log", self.log, bottom),
+                      "observation": self._dock("Observation", self.observation, bottom)}
+        self.tabifyDockWidget(self.docks["objects"], self.docks["observation"])
+        self.tabifyDockWidget(self.docks["observation"], self.docks["plan"])
         self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
         self.docks["objects"].raise_()
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
         self.object_list.selection_changed.connect(self._on_selection_changed)
         self.object_list.zoom_requested.connect(self.zoom_to_object)
+        self.observation.finished.connect(self.focus_images)
+        ws.stored.connect(self._on_stored)
 
     def _build_status_bar(self) -> None:
         bar = self.statusBar()
@@ -256,6 +262,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.recent_menu = menu.addMenu("&Recent projects")
         menu.addAction("Save &as… (a copy, then work on it)", self.save_as_dialog, QtGui.QKeySequence("Ctrl+Shift+S"))
         menu.addAction("&Export objects…", self.export_dialog)
+        menu.addAction("Import species &list…", self.species_dialog)
         self._fill_recent_menu()
         menu.addSeparator()
         menu.addAction(a["quit"])
@@ -495,6 +502,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.attribute_box.addItems(project.vocabulary())
         self.attribute_box.setCurrentIndex(-1)
         self.attribute_box.setEditText("")  # no term preselected: the user chooses
+        self.observation.object_id = None
+        self.observation.refresh_species()
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
         self.pair_box.clear()
@@ -558,6 +567,36 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.open_path(copy, self.workspace.pair):
             self.show_message("info", f"saved a copy as {copy}; you are now working in the copy (saved as you go)")
         return True
+
+    def species_dialog(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Species list (family, genus, species, code)",
+                                                        str(Path.home()), "CSV (*.csv *.txt)")
+        if path:
+            self.import_species(path)
+
+    def import_species(self, path: str | Path) -> bool:
+        """Make a CSV species list the project's (type-ahead in the observation form)."""
+        if self.workspace.project is None:
+            self.show_message("error", "open a project first")
+            return False
+        try:
+            species = read_species_list(path)
+            self.workspace.project.set_species_list(species)
+        except UsvipsError as error:
+            self.show_message("error", f"species list not imported: {error}")
+            return False
+        self.observation.refresh_species()
+        self.show_message("info", f"{len(species)} species from {path} are the project's species list")
+        return True
+
+    def _on_stored(self, object_id: int) -> None:
+        """After a measurement: the observation form, if the user wants it, takes the keyboard."""
+        if self.observation.ask.isChecked():
+            self.docks["observation"].show()
+            self.docks["observation"].raise_()
+            self.observation.begin(object_id)
+        else:
+            self.observation.load(object_id)
 
     def export_objects(self, path: str | Path) -> None:
         """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
@@ -896,6 +935,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _on_selection_changed(self, ids: list[int]) -> None:
         self.selection = ids
+        if len(ids) == 1:
+            self.observation.load(ids[0])  # every stored object's record is editable
         self.calculator.set_selection(ids)
         self._draw_objects()
 

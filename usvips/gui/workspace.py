@@ -19,6 +19,7 @@ from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
 from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
 from usvips.core.measure import QualityRules
+from usvips.core.observation_record import ObservationRecord
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
@@ -229,6 +230,8 @@ class Workspace:
         self.enhancement_changed = Signal()
         self.message = Signal()
         self.observed = Signal()
+        #: ``stored(object_id)`` after a newly measured object is stored (its observation record may follow).
+        self.stored = Signal()
 
     # ------------------------------------------------------------------ project and pair
     def open_project(self, project: Project) -> None:
@@ -579,6 +582,7 @@ class Workspace:
                 self.last_point = last
             self.objects_changed.emit()
             self.picks_changed.emit()
+            self.stored.emit(holder["id"])
 
         def unstore() -> None:
             self.project.delete_object(holder["id"])
@@ -689,6 +693,18 @@ class Workspace:
         if g.frame == "object":
             return f"the object frame of station {g.station} (the control points' axes)"
         return "the rig frame (origin at the left camera; X right, Y up, the camera looking along −Z)"
+
+    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
+        """Store an object's observation record (species, number, stage, activity, comment); undoable."""
+        before = self.project.record(object_id)
+
+        def apply(value: ObservationRecord | None) -> Callable[[], None]:
+            def run() -> None:
+                self.project.set_record(object_id, value)
+                self.objects_changed.emit()
+            return run
+
+        self.undo.push(Command(f"observation record of object {object_id}", apply(record), apply(before)))
 
     def objects(self) -> list:
         return [] if self.project is None else self.project.objects()

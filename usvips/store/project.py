@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.errors import UsvipsError
+from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
@@ -408,3 +409,36 @@ class Project:
             part.unlink(missing_ok=True)
             raise ProjectError(f"{target}: cannot write the copy of the project: {error}") from None
         return target
+
+    # ---------------------------------------------------------------------------- species and records
+    def set_species_list(self, species: list[Species]) -> None:
+        """Replace the project's species list (one transaction)."""
+        try:
+            with self._db:
+                self._db.execute("DELETE FROM species")
+                self._db.executemany("INSERT INTO species (family, genus, species, code) VALUES (?, ?, ?, ?)",
+                                     [(s.family, s.genus, s.species, s.code) for s in species])
+        except sqlite3.Error as error:
+            raise ProjectError(f"{self.path}: cannot store the species list: {error}") from None
+
+    def species_list(self) -> list[Species]:
+        """The project's species list, sorted by genus and species."""
+        rows = self._db.execute("SELECT family, genus, species, code FROM species ORDER BY genus, species")
+        return [Species(*row) for row in rows.fetchall()]
+
+    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
+        """Store (or with None remove) an object's observation record."""
+        self.object(object_id)
+        if record is None:
+            self._edit("DELETE FROM observation_records WHERE object_id = ?", (object_id,))
+            return
+        self._edit("INSERT OR REPLACE INTO observation_records (object_id, family, genus, species, code, number, "
+                   "stage, activity, comment) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                   (object_id, record.family, record.genus, record.species, record.code, record.number,
+                    record.stage, record.activity, record.comment))
+
+    def record(self, object_id: int) -> ObservationRecord | None:
+        """An object's observation record, None when none was entered."""
+        row = self._db.execute("SELECT family, genus, species, code, number, stage, activity, comment FROM "
+                               "observation_records WHERE object_id = ?", (object_id,)).fetchone()
+        return None if row is None else ObservationRecord(*row)

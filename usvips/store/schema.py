@@ -48,6 +48,23 @@ CREATE INDEX vertex_history_object ON vertex_history(object_id, idx);
 """
 
 MIGRATIONS = {1: VERSION_1, 2: VERSION_2}
+
+# version 5: the observation record (EventMeasure / CheckEM fields) of each object, and the project's
+# species list it is typed from
+VERSION_5 = """
+CREATE TABLE species (
+    family TEXT NOT NULL DEFAULT '', genus TEXT NOT NULL, species TEXT NOT NULL DEFAULT '',
+    code TEXT NOT NULL DEFAULT '', PRIMARY KEY (genus, species));
+CREATE TABLE observation_records (
+    object_id INTEGER PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
+    family TEXT NOT NULL DEFAULT '', genus TEXT NOT NULL DEFAULT '', species TEXT NOT NULL DEFAULT '',
+    code TEXT NOT NULL DEFAULT '', number INTEGER NOT NULL DEFAULT 1 CHECK (number >= 1),
+    stage TEXT NOT NULL DEFAULT '', activity TEXT NOT NULL DEFAULT '', comment TEXT NOT NULL DEFAULT '');
+"""
+# versions 3 and 4 come from other branches; until they are merged here they change nothing
+MIGRATIONS.setdefault(3, "")
+MIGRATIONS.setdefault(4, "")
+MIGRATIONS[5] = VERSION_5
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
