@@ -62,6 +62,10 @@ the loupe (<b>G</b>) follows the cursor at an offset and never takes a click (Vi
 offset between them; the geo-calculator shows each figure with its standard deviation and the quality
 rules it breaks.<br>
 <b>Enhancement</b> changes only what you see; picks and coordinates always use the original image.<br>
+<b>Observation record</b>: import the project's species list (File › Import species list…, CSV with
+family, genus, species, code). After each stored object the Observation form takes the keyboard: type
+part of the species name or its code, Tab through number, stage, activity and comment, <b>Enter</b>
+stores, <b>Esc</b> skips; both give the keyboard back to the images.<br>
 <b>Editing</b>: select an object in the list, choose its vertex and press <i>Re-pick</i> (then click the
 point again, left and right) or <i>Delete vertex</i>; edit the attribute or notes in the list's cells
 (Enter stores). Every edit is undoable (Ctrl+Z) and the figures follow.<br>
