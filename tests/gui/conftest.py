@@ -14,6 +14,17 @@ ROOT = Path(__file__).resolve().parents[2]
 SAMPLES = ROOT / "sample_projects"
 
 
+@pytest.fixture(autouse=True)
+def no_modal_questions(monkeypatch):
+    """Windows closed at the end of a test must not wait for a person: the questions asked before
+    discarding work answer "discard" unless a test sets its own answer (on the instance)."""
+    from usvips.gui.calibration_wizard import CalibrationWizard
+    from usvips.gui.main_window import MainWindow
+
+    monkeypatch.setattr(CalibrationWizard, "ask_discard", lambda self: "discard")
+    monkeypatch.setattr(MainWindow, "ask_unfinished", lambda self, question: "discard")
+
+
 @pytest.fixture
 def sample_copy(tmp_path):
     """``sample_copy(name)`` → a fresh copy of a sample directory (its project file is created on open)."""

@@ -192,7 +192,13 @@ def test_cancel_leaves_the_project_unchanged_and_a_draft_resumes(qtbot, project)
     session.remove_observation("water1", session.measured("water1")[0])
     measure.refresh()
     _compute(qtbot, wizard)
+    answers = ["stay", "discard"]
+    asked = []
+    wizard.ask_discard = lambda: asked.append(1) or answers.pop(0)
+    qtbot.keyClick(wizard, QtCore.Qt.Key.Key_Escape)  # Esc asks; "stay" keeps the wizard open
+    assert wizard.isVisible() and asked == [1]
     wizard.reject()
+    assert asked == [1, 1] and not wizard.isVisible()
     assert (p.calibrations(), p.control_observations("calibration-water", "water1").ids) == before
     assert p.draft("calibration-water") is None
     # a half-finished wizard is kept and resumed with what was measured
@@ -276,7 +282,12 @@ def test_the_thesis_tank_without_images_calibrates_from_its_observations(qtbot, 
     measure = wizard.measure_page
     assert "no images" in measure.message.text() and measure.table.rowCount() >= 6
     assert "weak" in measure.spread.text()  # Table 3.5's points lie nearly in one plane
-    first = _compute(qtbot, wizard)
+    wizard.next()
+    qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)
+    first = session.result
+    # the typos make σ0 many times the pointing σ: the verdict says so and Next waits for a confirmation
+    assert wizard.results_page.implausible() and not wizard.results_page.isComplete()
+    assert "Global test failed badly" in wizard.results_page.summary.text()
     sigma = [first.calibration.sigma0_px]
     for _ in range(5):
         if not session.flagged():
@@ -285,3 +296,78 @@ def test_the_thesis_tank_without_images_calibrates_from_its_observations(qtbot, 
         _wait_idle(qtbot, wizard.results_page)
         sigma.append(session.result.calibration.sigma0_px)
     assert len(sigma) > 1 and sigma[-1] < sigma[0]
+    print("sigma0 / pointing sigma after each exclusion:", [round(v / session.sigma_px, 2) for v in sigma])
+
+
+def test_every_housing_parameter_has_a_unit_and_a_meaning_and_the_kind_comes_from_the_project(qtbot, project):
+    from usvips.core.calibration.phases import DEFAULT_HOUSING
+    from usvips.gui.calibration_wizard import HOUSING_PARAMETERS
+
+    for kind, parameters in DEFAULT_HOUSING.items():
+        assert set(HOUSING_PARAMETERS[kind]) == set(parameters), kind
+    p, _ = project("tank_system1")  # System I: its underwater calibration says dome-cover
+    session = CalibrationSession(p, "water")
+    wizard = _wizard(qtbot, session)
+    page = wizard.setup_page
+    assert page.housing.currentText() == "dome-cover"
+    assert "calibration" in page.housing_source.text()
+    labels = [page.known_form.itemAt(i, QtWidgets.QFormLayout.ItemRole.LabelRole).widget().text()
+              for i in range(page.known_form.rowCount())]
+    assert labels[:4] == ["a (m)", "b (m)", "c (m)", "r (m)"] and "n3 (no unit)" in labels
+    assert "spherical" in page.known["a"].toolTip() and "thickness" in page.known["t"].toolTip()
+    page.housing.setCurrentText("flat-port")
+    assert "in front of the camera" in page.known["g"].toolTip()
+
+
+def test_ids_sort_as_numbers_and_the_images_get_most_of_the_page(qtbot, project):
+    from usvips.gui.calibration_wizard import natural_key
+
+    assert sorted(["15", "2", "1", "16", "A3", "A10"], key=natural_key) == ["1", "2", "15", "16", "A3", "A10"]
+    p, _ = project()
+    wizard = _wizard(qtbot, CalibrationSession(p, "water"))
+    wizard.resize(1300, 720)  # as on a 1366 × 768 screen
+    measure = _to_results(qtbot, wizard, ["water1"])
+    ids = [measure.table.item(r, 1).text() for r in range(measure.table.rowCount())]
+    assert ids == sorted(ids, key=natural_key) and ids != sorted(ids)
+    table_width, images_width = measure.splitter.sizes()
+    assert images_width > 1.5 * table_width
+
+
+def test_an_absurd_sigma0_says_so_and_next_needs_a_confirmation(qtbot, project):
+    p, _ = project()
+    session = CalibrationSession(p, "water")
+    wizard = _wizard(qtbot, session)
+    wizard.setup_page.sigma.setValue(0.01)  # claims 0.01 px pointing: the residuals are tens of times larger
+    _to_results(qtbot, wizard, ["water1"])
+    wizard.next()
+    results = wizard.results_page
+    qtbot.waitUntil(lambda: not results.busy, timeout=60000)
+    assert results.sigma0_ratio() > 5
+    assert "Global test failed badly" in results.summary.text()
+    assert not results.isComplete() and results.accept_anyway.isVisible()
+    results.accept_anyway.setChecked(True)
+    assert results.isComplete()
+
+
+def test_blunder_counts_leave_out_what_is_already_left_out(qtbot, project):
+    p, _ = project()
+    session = CalibrationSession(p, "joint")
+    wizard = _wizard(qtbot, session)
+    measure = _to_results(qtbot, wizard, ["water1", "water2"])
+    keys = [("water1", session.measured("water1")[3]), ("water2", session.measured("water2")[5])]
+    for key in keys:
+        xl, yl, xr, yr = session.observations[key]
+        session.observations[key] = (xl + 7.0, yl - 5.0, xr, yr)
+    measure.refresh()
+    _compute(qtbot, wizard)
+    first = {(r["station"], r["id"]) for r in session.flagged()}
+    assert set(keys) <= first
+    wizard.results_page.exclude_button.click()
+    qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)
+    (excluded,) = session.excluded
+    flagged = {(r["station"], r["id"]) for r in session.flagged()}
+    assert excluded not in flagged and all(r["used"] for r in session.flagged())
+    assert "1 by you" in wizard.results_page.summary.text()
+    wizard.results_page.exclude_button.click()  # the next one excluded is the other blunder, not the first again
+    qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)
+    assert session.excluded == set(keys)

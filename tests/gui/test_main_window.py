@@ -3,10 +3,12 @@ curve and the proposal, measure a fish, undo/redo, enhance, reopen."""
 
 import numpy as np
 import pytest
+from PySide6 import QtCore
 
 from tests.gui.conftest import click_pixel, isolated_targets, open_sample, true_length, truth_pixels, wait_for_pair
 from usvips.core.matching import EpipolarCurve
 from usvips.gui.pane import pixel_from_item
+from usvips.store import Project
 
 
 def _drawn_curve(pane) -> np.ndarray:
@@ -188,6 +190,30 @@ def test_the_plan_view_shows_stored_objects_in_plan_and_profile(qtbot, make_wind
     window.plan.view.setCurrentText("profile (X–Z)")
     x, z = window.plan.curve.getData()
     assert np.allclose(z[:2], [v.xyz[2] for v in stored.vertices])
+    # 1σ ellipses: a 1σ ellipse reaches sqrt(C_xx) either side of its centre in x
+    ex, ez = window.plan.ellipses.getData()
+    first = np.column_stack([ex, ez])[:49]
+    centre, covariance = stored.vertices[0].xyz, stored.vertices[0].covariance
+    assert first[:, 0].max() - centre[0] == pytest.approx(np.sqrt(covariance[0, 0]), rel=5e-3)
+    assert first[:, 1].max() - centre[2] == pytest.approx(np.sqrt(covariance[2, 2]), rel=5e-3)
+    cx, _ = window.plan.cameras.getData()
+    assert len(cx) == 2 and "L" in [label.toPlainText() for label in window.plan.labels]
+    assert f"{stored.id} {stored.attribute}".strip() in [label.toPlainText() for label in window.plan.labels]
+    assert "frame" in window.plan.frame.text()
+    window.docks["plan"].setFloating(True)  # a plan view of a fair size, as a user would open it
+    window.docks["plan"].resize(700, 450)
+    window.docks["plan"].show()
+    qtbot.waitUntil(lambda: window.plan.plot.height() > 200, timeout=3000)
+    window.plan.refresh()
+    (xmin, xmax), (zmin, zmax) = window.plan.plot.getViewBox().viewRange()
+    _, cz = window.plan.cameras.getData()
+    xs, zs = np.concatenate([x[np.isfinite(x)], cx]), np.concatenate([z[np.isfinite(z)], cz])
+    assert xmin <= xs.min() and xmax >= xs.max() and zmin <= zs.min() and zmax >= zs.max()
+    # fitted to the data: the tighter axis spans at most about twice what is drawn (not −9 … 10 m)
+    assert min((xmax - xmin) / np.ptp(xs), (zmax - zmin) / np.ptp(zs)) < 2.0
+    window.object_list.table.selectRow(0)  # bearing and slope say which frame they are in
+    assert "rig frame" in window.calculator.output.toPlainText() or "object frame" in \
+        window.calculator.output.toPlainText()
 
 
 def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, sample_copy):
@@ -220,3 +246,119 @@ def test_objects_are_exported_from_the_window(qtbot, make_window, sample_copy, t
     window.export_objects(tmp_path / "objects.xyz")
     assert "nothing written" in window.statusBar().currentMessage()
     assert not (tmp_path / "objects.xyz").exists()
+
+
+def test_nothing_of_one_project_is_left_in_the_next(qtbot, make_window, sample_copy):
+    window = make_window()
+    first = sample_copy("tank_system1")
+    open_sample(qtbot, window, first, "measure1")
+    left, _ = truth_pixels(first, "measure1", "objects")
+    window.attribute_box.setEditText("snapper")
+    click_pixel(qtbot, window.panes["left"], left["fish1"]["snout"])
+    window.accept_or_finish()
+    assert window.point_label.text()  # a 3-D readout
+    window.show_message("error", "something went wrong")
+    assert "snapper" in window.workspace.attribute
+    second = sample_copy("rov_flatport")
+    assert window.open_path(second)
+    wait_for_pair(qtbot, window, "air1")
+    assert window.point_label.text() == "" and window.workspace.attribute == ""
+    assert window.attribute_box.currentText() == ""
+    assert "measure1" not in window.panes["left"].title.text() and "air1" in window.panes["left"].title.text()
+    assert window.statusBar().styleSheet() == "" and "something went wrong" not in window.hint.text()
+    assert "saved as you go" in window.windowTitle() and "rov_flatport" in window.windowTitle()
+
+
+def test_save_as_copies_the_project_and_goes_on_in_the_copy(qtbot, make_window, sample_copy, tmp_path):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    window.workspace.project.add_term("kept")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    target = elsewhere / "copy.usvips"
+    assert window.save_as(target)
+    wait_for_pair(qtbot, window, "measure1")
+    assert window.workspace.project.path == target
+    assert "kept" in window.workspace.project.vocabulary()
+    assert window.workspace.images["left"].shape[0] > 0  # the images are found from the new folder
+    assert not window.save_as(target)  # never over an existing file
+    assert "already exists" in window.hint.text()
+    assert not (elsewhere / "copy.usvips.part").exists()
+
+
+@pytest.mark.parametrize(("typed", "chosen", "written"), [
+    ("fish.geojson", "Objects CSV (*.csv)", "fish.geojson"), ("fish", "GeoJSON (*.geojson)", "fish.geojson"),
+    ("fish.em.txt", "Objects CSV (*.csv)", "fish.em.txt"), ("fish.CSV", "PLY (*.ply)", "fish.CSV")])
+def test_the_export_dialog_keeps_a_typed_suffix(typed, chosen, written):
+    from usvips.gui.main_window import MainWindow
+
+    assert MainWindow.export_path(typed, chosen) == written
+
+
+def test_quitting_with_a_half_made_object_asks_and_can_store_it(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("line")
+    window.attribute_box.setEditText("fish")
+    click_pixel(qtbot, window.panes["left"], left["fish1"]["snout"])
+    click_pixel(qtbot, window.panes["right"], right["fish1"]["snout"])
+    click_pixel(qtbot, window.panes["left"], left["fish1"]["fork"])
+    click_pixel(qtbot, window.panes["right"], right["fish1"]["fork"])
+    assert len(window.workspace.digitising.vertices) == 2
+    questions = []
+    answers = ["stay", "save"]
+    window.ask_unfinished = lambda question: questions.append(question) or answers.pop(0)
+    window.close()
+    assert window.isVisible() and "2 vertices" in questions[0]  # "stay": nothing lost, the window stays
+    project = window.workspace.project
+    window.close()
+    assert not window.isVisible()
+    (stored,) = Project.open(project.path).objects()
+    assert stored.kind == "length" and stored.attribute == "fish"
+
+
+def test_a_stored_vertex_is_re_picked_from_the_object_list_with_the_mouse(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("line")
+    for point in ("snout", "fork"):
+        click_pixel(qtbot, window.panes["left"], left["fish1"][point])
+        click_pixel(qtbot, window.panes["right"], right["fish1"][point])
+    window.accept_or_finish()
+    figure = window.object_list.table.item(0, 4).text()
+    window.object_list.table.selectRow(0)
+    window.object_list.vertex.setValue(2)
+    qtbot.mouseClick(window.object_list.repick_button, QtCore.Qt.MouseButton.LeftButton)
+    assert window.workspace.repick is not None and "re-pick vertex 2" in window.hint.text()
+    wrong = [np.add(p["fork"], 0.2 * np.subtract(p["fork"], p["snout"])) for p in (left["fish1"], right["fish1"])]
+    click_pixel(qtbot, window.panes["left"], wrong[0])
+    click_pixel(qtbot, window.panes["right"], wrong[1])
+    if window.workspace.state.pending is not None:
+        window.accept_or_finish()
+    assert window.object_list.table.item(0, 4).text() != figure
+    window.undo()
+    assert window.object_list.table.item(0, 4).text() == figure
+
+
+def test_linked_navigation_brings_the_other_pane_to_the_conjugate_region(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("rov_flatport")
+    open_sample(qtbot, window, directory, "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    window.actions["link"].setChecked(True)
+    window._on_link()
+    targets = isolated_targets(left, right)[:5]
+    for number in targets:
+        window.workspace.last_point = window.workspace.intersect(left[number], right[number])  # working depth
+        window.panes["left"].zoom_to(4.0, tuple(left[number]))  # zoom and pan the left pane only
+        rect = window.panes["right"].viewbox.viewRect()
+        centre = np.array(pixel_from_item(rect.center().x(), rect.center().y()))
+        assert np.linalg.norm(centre - right[number]) < 1.0, number  # the same target, not the same pixel
+        assert window.panes["right"].zoom_level() == pytest.approx(4.0, rel=1e-3)
+        parallax = np.linalg.norm(np.subtract(left[number], right[number]))
+        assert parallax > 20  # identical pixel coordinates would have missed it

@@ -88,3 +88,53 @@ def test_the_loupe_shows_the_neighbourhood_of_the_cursor(qtbot, pane):
     assert not pane.loupe.isVisible()
     pane._update_loupe(110.0, 104.0)  # what the next mouse move calls
     assert not pane.loupe.isVisible()
+
+
+def _hover(qtbot, pane, pixel):
+    pos = viewport_point(pane, pixel)
+    qtbot.mouseMove(pane.graphics.viewport(), pos + QtCore.QPoint(3, 2))  # the cursor may already be there
+    qtbot.wait(60)  # pyqtgraph's scene drops mouse moves that follow one another too closely
+    with qtbot.waitSignal(pane.hovered, timeout=2000):
+        qtbot.mouseMove(pane.graphics.viewport(), pos)
+    return pos
+
+
+@pytest.mark.parametrize("scale", [8, 16])
+@pytest.mark.parametrize("pixel", [(100.0, 100.0), (20.0, 20.0), (150.0, 110.0), (30.0, 110.0)])
+def test_the_loupe_follows_the_cursor_without_covering_it(qtbot, pane, pixel, scale):
+    pane.set_loupe_scale(scale)
+    pane.zoom_to(4.0, (90.0, 60.0))
+    pos = _hover(qtbot, pane, pixel)
+    assert pane.loupe.isVisible()
+    area = pane.loupe.geometry()
+    around = QtCore.QRect(pos.x() - 10, pos.y() - 10, 21, 21)  # the cursor and the pixels next to it
+    assert not area.intersects(around)
+    assert pane.graphics.viewport().rect().contains(area.topLeft())
+
+
+def test_a_click_where_the_loupe_is_lands_on_the_image(qtbot, pane):
+    pane.zoom_to(4.0, (100.0, 100.0))
+    _hover(qtbot, pane, (100.0, 100.0))
+    area = pane.loupe.geometry()
+    assert pane.loupe.isVisible()
+    under = area.center()
+    viewport = pane.graphics.viewport()
+    target = viewport.childAt(under) or viewport  # the widget a real click there is delivered to
+    assert target is viewport
+    expected = pane.pixel_at_scene(pane.graphics.mapToScene(under))
+    with qtbot.waitSignal(pane.clicked, timeout=2000) as blocker:
+        qtbot.mouseClick(target, QtCore.Qt.MouseButton.LeftButton, pos=under)
+    assert np.allclose(blocker.args, expected, atol=0.5)
+
+
+def test_the_loupe_magnification_is_adjustable(qtbot, pane):
+    pane.zoom_to(2.0, (100.0, 100.0))
+    sizes = []
+    for scale in (4, 16):
+        pane.set_loupe_scale(scale)
+        _hover(qtbot, pane, (100.0 + scale, 100.0))
+        sizes.append(pane.loupe.width())
+        assert pane.loupe.pixmap().width() == (2 * pane.loupe_radius + 1) * scale
+    assert sizes[1] > 2 * sizes[0]
+    with pytest.raises(ValueError):
+        pane.set_loupe_scale(5)

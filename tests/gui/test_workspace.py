@@ -2,6 +2,7 @@
 rendered samples, against their truth files, without a window."""
 
 import sys
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -281,3 +282,115 @@ def test_circle_and_arc_tools_store_their_kinds_with_figures_and_outlines(worksp
             t = np.clip(np.sum((pick - a) * (b - a), axis=1) / np.sum((b - a) ** 2, axis=1), 0, 1)
             assert np.min(np.linalg.norm(a + t[:, None] * (b - a) - pick, axis=1)) < 1.5
     assert ws.outline(ws.project.object(ids["arc"]))[2] is False
+
+
+def _off_curve(curve: np.ndarray, near: np.ndarray, offset: float) -> np.ndarray:
+    """A pixel ``offset`` px from the curve, across it at the sample nearest ``near``."""
+    i = int(np.argmin(np.linalg.norm(curve - near, axis=1)))
+    tangent = curve[min(i + 1, len(curve) - 1)] - curve[max(i - 1, 0)]
+    normal = np.array([-tangent[1], tangent[0]]) / np.linalg.norm(tangent)
+    return curve[i] + offset * normal
+
+
+def test_a_second_pick_off_the_curve_is_held_until_kept_and_then_stored_flagged(workspace):
+    ws, directory = workspace("rov_flatport", "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    ws.set_tool("point")
+    ws.auto_match = False
+    rng = np.random.default_rng(18)
+    held = stored = 0
+    for number in isolated_targets(left, right)[:8]:
+        ws.pick("left", left[number])
+        curve = ws.state.curve
+        offset = float(rng.choice([-1, 1]) * rng.uniform(8.0, 40.0))
+        before = len(ws.project.objects())
+        ws.pick("right", _off_curve(curve, np.array(right[number]), offset))
+        assert ws.state.pending is not None, number  # held: nothing stored yet
+        assert len(ws.project.objects()) == before
+        assert f"{abs(offset):.1f} px off the epipolar curve" in ws.messages[-1][1]
+        held += 1
+        ws.accept_proposal()  # Enter keeps it, flagged
+        last = ws.project.objects()[-1]
+        assert "flagged" in last.notes and "off the epipolar curve" in last.notes
+        # a pick within a pixel of the curve is stored at once, unflagged
+        ws.pick("left", left[number])
+        ws.pick("right", _off_curve(ws.state.curve, np.array(right[number]), rng.uniform(-1.0, 1.0)))
+        assert ws.state.pending is None
+        assert "flagged" not in ws.project.objects()[-1].notes
+        stored += 1
+    assert held == stored >= 5
+
+
+def test_the_rules_hold_a_vertex_and_flag_stored_points(workspace):
+    ws, directory = workspace("rov_flatport", "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    number = isolated_targets(left, right)[0]
+    ws.set_tool("line")
+    ws.rules = replace(ws.rules, max_range_m=0.05)  # every point is farther than 5 cm
+    ws.pick("left", left[number])
+    ws.pick("right", right[number])
+    assert ws.state.pending is not None and "range" in ws.messages[-1][1]
+    ws.cancel_vertex()  # Esc drops it
+    assert ws.state.pending is None and ws.digitising.vertices == ()
+    ws.set_tool("point")
+    ws.pick("left", left[number])
+    ws.pick("right", right[number])
+    ws.accept_proposal()
+    (stored,) = ws.project.objects()
+    result = ws.figures([stored.id])
+    assert any("range" in failure for failure in result.failures)  # a point is checked by the rules too
+    ws.rules = replace(ws.rules, max_range_m=100.0)
+    assert ws.figures([stored.id]).failures == ()
+
+
+def test_re_picking_a_stored_vertex_changes_the_figures_and_undo_restores_them(workspace):
+    ws, directory = workspace("tank_system1", "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    fish = left["fish1"], right["fish1"]
+    ws.set_tool("line")
+    for point in ("snout", "fork"):
+        ws.pick("left", fish[0][point])
+        ws.pick("right", fish[1][point])
+    object_id = ws.finish_object("fish")
+    truth = true_length(directory, "fish1")
+    good = ws.figures([object_id]).figures[0]
+    assert abs(good.value - truth) < 3 * good.sigma
+    rng = np.random.default_rng(4)
+    for _ in range(3):  # a fork moved along the fish's own axis by a random amount, then undone
+        ws.start_repick(object_id, 1)
+        shift = rng.uniform(0.1, 0.3)
+        wrong = [np.add(fish[k]["fork"], shift * np.subtract(fish[k]["fork"], fish[k]["snout"])) for k in (0, 1)]
+        ws.pick("left", wrong[0])
+        ws.pick("right", wrong[1])
+        if ws.state.pending is not None:
+            ws.accept_proposal()
+        moved = ws.figures([object_id]).figures[0]
+        assert ws.repick is None and len(ws.project.object(object_id).vertices) == 2
+        assert moved.value > good.value * (1 + 0.5 * shift)  # the fish got longer by about the shift
+        ws.undo.undo()
+        assert ws.figures([object_id]).figures[0].value == pytest.approx(good.value, rel=1e-9)
+    ws.undo.redo()
+    assert ws.figures([object_id]).figures[0].value > good.value
+
+
+def test_a_vertex_is_deleted_only_while_the_object_keeps_enough(workspace):
+    ws, directory = workspace("tank_system1", "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    ws.set_tool("line")
+    for point in ("snout", "fork", "snout"):
+        ws.pick("left", left["fish1"][point])
+        ws.pick("right", right["fish1"][point])
+    object_id = ws.finish_object("fish")
+    three = ws.figures([object_id]).figures[0].value
+    ws.delete_vertex(object_id, 2)
+    assert len(ws.project.object(object_id).vertices) == 2
+    assert ws.figures([object_id]).figures[0].value == pytest.approx(three / 2, rel=1e-9)
+    with pytest.raises(UsvipsError, match="at least 2 vertices"):
+        ws.delete_vertex(object_id, 0)
+    with pytest.raises(UsvipsError, match="vertices 1 to 2"):
+        ws.start_repick(object_id, 5)
+    ws.undo.undo()
+    assert len(ws.project.object(object_id).vertices) == 3
+    ws.start_repick(object_id, 0)
+    ws.cancel_vertex()  # Esc before a pick: nothing changes
+    assert ws.repick is None and len(ws.project.object(object_id).vertices) == 3

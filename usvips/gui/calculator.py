@@ -14,7 +14,7 @@ import numpy as np
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measure import angle_between_lines, distance, point_to_line, point_to_plane
-from usvips.core.measurements import Figure, Measurement, kind
+from usvips.core.measurements import Figure, Measurement, QualityRules, kind
 
 
 @dataclass(frozen=True)
@@ -43,6 +43,12 @@ def result_of(measurement: Measurement) -> Result:
     """The calculator's view of a measured object: its figures, main one first, and the rules it breaks."""
     main = measurement.main
     return Result((main, *(f for f in measurement.figures if f is not main)), measurement.failures)
+
+
+def vertex_failures(rules: QualityRules, ray_rms_m: float, range_m: float) -> list[str]:
+    """The rules an intersected point breaks by itself: ray-intersection RMS (m) and range (m); the
+    precision rule needs a figure and is checked on lengths and areas."""
+    return rules.check(Figure("position", 1.0, 0.0, "m"), ray_rms_m, range_m)
 
 
 def _joined(first: Geometry, second: Geometry, joint: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:

@@ -109,6 +109,14 @@ class CalibrationSession:
             housing = self.project.calibration(water[-1]["id"]).get("housing")
             if housing in DEFAULT_HOUSING:
                 self.housing = housing
+                self._housing_from = water[-1]["id"]
+
+    def housing_source(self) -> str:
+        """Where the housing kind shown first comes from (a line for the wizard)."""
+        calibration_id = getattr(self, "_housing_from", None)
+        if calibration_id is not None:
+            return f"as in the project's calibration {calibration_id}"
+        return "no underwater calibration in the project yet: check the housing kind"
 
     # ------------------------------------------------------------------ choices
     def candidate_pairs(self) -> list[str]:
@@ -251,11 +259,16 @@ class CalibrationSession:
 
     # ------------------------------------------------------------------ results
     def flagged(self) -> list[dict]:
-        """Residual rows whose w-test exceeds Baarda's critical value (3.29): likely blunders."""
+        """Residual rows still used by the adjustment whose w-test exceeds Baarda's critical value (3.29):
+        likely blunders. Rows the adjustment already left out (robust weights, snooping) are not counted."""
         if self.result is None:
             return []
         rows = self.result.report["residuals"]
-        return [r for r in rows if max(abs(r["wx"]), abs(r["wy"])) > W_CRITICAL or not r["used"]]
+        return [r for r in rows if r["used"] and max(abs(r["wx"]), abs(r["wy"])) > W_CRITICAL]
+
+    def left_out(self) -> list[dict]:
+        """Residual rows the adjustment itself left out (robust weights and data snooping)."""
+        return [] if self.result is None else [r for r in self.result.report["residuals"] if not r["used"]]
 
     def exclude_flagged(self) -> list[tuple[str, str]]:
         """Leave out the flagged observation with the largest w-test (to be re-run); returns what was
@@ -264,7 +277,7 @@ class CalibrationSession:
         flagged = self.flagged()
         if not flagged:
             return []
-        worst = max(flagged, key=lambda r: max(abs(r["wx"]), abs(r["wy"])) if r["used"] else np.inf)
+        worst = max(flagged, key=lambda r: max(abs(r["wx"]), abs(r["wy"])))
         key = (worst["station"], worst["id"])
         self.excluded.add(key)
         return [key]

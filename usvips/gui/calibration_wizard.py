@@ -11,6 +11,8 @@ back never loses what was measured; "Save progress" keeps the wizard in the proj
 from __future__ import annotations
 
 import datetime
+import json
+import re
 
 import numpy as np
 import pyqtgraph as pg
@@ -28,11 +30,68 @@ CHECK_COLOUR = QtGui.QColor(200, 220, 255)
 RESIDUAL_SCALE = 50.0
 
 
+#: σ0 above this many times the a-priori pointing σ is not a calibration to keep without a confirmation:
+#: the data or the model are wrong (blunders, the wrong control file or housing, a bad start).
+ABSURD_SIGMA0_RATIO = 5.0
+
+#: Unit and one-line meaning of each housing parameter (camera frame: x right, y up, the camera looking
+#: along −z; see usvips/core/housing.py).
+HOUSING_PARAMETERS = {
+    "dome-cover": {
+        "a": ("m", "x of the centre of the concave spherical inner cover surface (each camera's own)"),
+        "b": ("m", "y of the centre of that sphere"),
+        "c": ("m", "z of the centre of that sphere (along the optical axis)"),
+        "r": ("m", "radius of the spherical inner cover surface"),
+        "d": ("—", "x slope of the plane outer cover surface d·x + e·y + z + g = 0 (0: square to the axis)"),
+        "e": ("—", "y slope of that cover plane (0: square to the axis)"),
+        "t": ("m", "glass thickness at the cover's thinnest point (places the cover plane, its g)"),
+        "n2": ("—", "refractive index of the cover glass (acrylic ≈ 1.49, glass ≈ 1.5–1.6)"),
+        "n3": ("—", "refractive index of the water (fresh ≈ 1.333, sea ≈ 1.34)"),
+    },
+    "flat-port": {
+        "d": ("—", "x slope of the port's inner face d·x + e·y + z + g = 0 (0: square to the axis)"),
+        "e": ("—", "y slope of the port's inner face (0: square to the axis)"),
+        "g": ("m", "distance of the port's inner face in front of the camera (g > 0)"),
+        "t": ("m", "thickness of the port glass (outer face parallel, t beyond the inner)"),
+        "n2": ("—", "refractive index of the port glass (acrylic ≈ 1.49, glass ≈ 1.5–1.6)"),
+        "n3": ("—", "refractive index of the water (fresh ≈ 1.333, sea ≈ 1.34)"),
+    },
+}
+
+
+def natural_key(text: str) -> tuple:
+    """Sort key that puts target numbers in numeric order (1, 2, 15, 16) and names alphabetically."""
+    parts = re.split(r"(\d+)", str(text))
+    return tuple((0, int(p), "") if p.isdigit() else (1, 0, p) for p in parts if p)
+
+
 def _item(text: str, editable: bool = False) -> QtWidgets.QTableWidgetItem:
     item = QtWidgets.QTableWidgetItem(text)
     if not editable:
         item.setFlags(item.flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable)
     return item
+
+
+def _split(first: QtWidgets.QLayout, second: QtWidgets.QLayout, ratio: tuple[int, int]) -> QtWidgets.QSplitter:
+    """Two layouts side by side in a splitter, sized in ``ratio`` at first."""
+    splitter = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
+    for layout in (first, second):
+        holder = QtWidgets.QWidget()
+        layout.setContentsMargins(2, 2, 2, 2)
+        holder.setLayout(layout)
+        splitter.addWidget(holder)
+    splitter.setStretchFactor(0, ratio[0])
+    splitter.setStretchFactor(1, ratio[1])
+    splitter.setChildrenCollapsible(False)
+    return splitter
+
+
+def _fill_height(page: QtWidgets.QWizardPage) -> None:
+    """Let a page with images take the wizard's whole height (QWizard otherwise leaves the extra height
+    to a spacer under the page, and the images stay small on a large screen)."""
+    policy = QtWidgets.QSizePolicy(QtWidgets.QSizePolicy.Policy.Expanding, QtWidgets.QSizePolicy.Policy.Expanding)
+    policy.setVerticalStretch(1)
+    page.setSizePolicy(policy)
 
 
 def _table(headers: list[str]) -> QtWidgets.QTableWidget:
@@ -107,8 +166,12 @@ class SetupPage(QtWidgets.QWizardPage):
             self.housing.addItems(list(DEFAULT_HOUSING))
             self.housing.setCurrentText(session.housing)
             self.housing.currentTextChanged.connect(self._fill_known)
+            self.housing_source = QtWidgets.QLabel(session.housing_source())
+            housing_row = QtWidgets.QHBoxLayout()
+            housing_row.addWidget(self.housing)
+            housing_row.addWidget(self.housing_source, 1)
             form.addRow("Phase-1 calibration", self.base)
-            form.addRow("Housing", self.housing)
+            form.addRow("Housing", housing_row)
             self.known_box = QtWidgets.QGroupBox("Known housing values: a value holds it fixed, 'value ± sigma' "
                                                  "weights it; blank keeps the default shown")
             self.known_form = QtWidgets.QFormLayout(self.known_box)
@@ -125,13 +188,21 @@ class SetupPage(QtWidgets.QWizardPage):
             self.known_form.removeRow(0)
         self.known = {}
         for name, (value, sigma) in DEFAULT_HOUSING[housing].items():
+            unit, meaning = HOUSING_PARAMETERS.get(housing, {}).get(name, ("", ""))
             edit = QtWidgets.QLineEdit()
+            edit.setMaximumWidth(170)
             default = f"{value:g}" + (f" ± {sigma:g}" if sigma else " (fixed)")
             edit.setPlaceholderText(f"default {default}")
+            edit.setToolTip(f"{name}: {meaning} ({unit})")
             if name in self.session.known and housing == self.session.housing:
                 known_value, known_sigma = self.session.known[name]
                 edit.setText(f"{known_value:g}" + (f" ± {known_sigma:g}" if known_sigma else ""))
-            self.known_form.addRow(name, edit)
+            explanation = QtWidgets.QLabel(meaning)
+            explanation.setStyleSheet("color: #666;")
+            row = QtWidgets.QHBoxLayout()
+            row.addWidget(edit)
+            row.addWidget(explanation, 1)
+            self.known_form.addRow(f"{name} ({unit})" if unit != "—" else f"{name} (no unit)", row)
             self.known[name] = edit
 
     def _refresh_control(self) -> None:
@@ -252,9 +323,12 @@ class MeasurePage(QtWidgets.QWizardPage):
         right.addLayout(top)
         right.addWidget(images, 1)
         right.addWidget(self.message)
+        # the table and the images share the page in a splitter the user can move (images get most of it)
+        self.splitter = _split(left, right, (1, 2))
+        _fill_height(self)
         layout = QtWidgets.QHBoxLayout(self)
-        layout.addLayout(left, 2)
-        layout.addLayout(right, 3)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.splitter)
         self.workspace = Workspace(project=session.project)
         self.workspace.set_tool(OBSERVE)
         self.workspace.observed.connect(self._on_observed)
@@ -264,6 +338,8 @@ class MeasurePage(QtWidgets.QWizardPage):
 
     def initializePage(self) -> None:  # noqa: N802 (Qt's name)
         session = self.session
+        width = max(self.wizard().width() if self.wizard() is not None else 0, 600)
+        self.splitter.setSizes([width // 3, width - width // 3])  # the images get two thirds
         if not session.observations:
             session.load_project_observations()
         self.pair.blockSignals(True)
@@ -331,6 +407,29 @@ class MeasurePage(QtWidgets.QWizardPage):
             self.target.setCurrentIndex(index + 1)  # the next target, as the operator works through them
         self.refresh()
 
+    def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt's name)
+        """Enter on this page accepts the proposed match and never advances the wizard (Next does)."""
+        if event.key() in (QtCore.Qt.Key.Key_Return, QtCore.Qt.Key.Key_Enter):
+            event.accept()
+            self.accept_pick()
+            return
+        super().keyPressEvent(event)
+
+    def accept_pick(self) -> None:
+        """Take the proposed match as the second pick of the target; without one, say what to do."""
+        state = self.workspace.state
+        if state.proposal is not None:
+            try:
+                self.workspace.accept_proposal()
+            except UsvipsError as error:
+                self.message.setText(str(error))
+        elif state.source is not None:
+            opposite = "right" if state.source == "left" else "left"
+            self.message.setText(f"no proposed match to accept: click the target in the {opposite} image")
+        else:
+            self.message.setText("Enter accepts a proposed match: click a target first. Next (below) goes on "
+                                 "to the computation.")
+
     def _on_project(self) -> None:
         count = self.session.load_project_observations()
         self.message.setText(f"{count} observations taken from the project")
@@ -372,7 +471,8 @@ class MeasurePage(QtWidgets.QWizardPage):
         self._filling = True
         self.table.setRowCount(0)
         index = {pid: i for i, pid in enumerate(session.control.ids)} if session.control is not None else {}
-        for (pair, pid), values in sorted(session.observations.items()):
+        for (pair, pid), values in sorted(session.observations.items(),
+                                          key=lambda item: (natural_key(item[0][0]), natural_key(item[0][1]))):
             if pair not in session.pairs:
                 continue
             row = self.table.rowCount()
@@ -467,12 +567,18 @@ class ResultsPage(QtWidgets.QWizardPage):
         left.addLayout(buttons)
         left.addWidget(self.summary)
         left.addWidget(tabs, 1)
+        self.accept_anyway = QtWidgets.QCheckBox("Keep this calibration anyway (σ0 is implausible)")
+        self.accept_anyway.hide()
+        self.accept_anyway.toggled.connect(lambda _: self.completeChanged.emit())
+        left.addWidget(self.accept_anyway)
         right = QtWidgets.QVBoxLayout()
         right.addWidget(images, 1)
         right.addWidget(self.legend)
+        self.splitter = _split(left, right, (3, 2))
+        _fill_height(self)
         layout = QtWidgets.QHBoxLayout(self)
-        layout.addLayout(left, 3)
-        layout.addLayout(right, 2)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.splitter)
 
     def initializePage(self) -> None:  # noqa: N802 (Qt's name)
         measure = self.wizard().measure_page
@@ -554,13 +660,20 @@ class ResultsPage(QtWidgets.QWizardPage):
             words.append(f"<span style='color:#b9770e'>Correlations above 0.95: {pairs}"
                          f"{' …' if len(report['correlations_over_0_95']) > 6 else ''} — their separate values are "
                          "not determined by these data.</span>")
+        words.append(self.verdict())
         if flagged:
             words.append(f"<span style='color:#c0392b'>{len(flagged)} observation(s) look like blunders (red in "
                          "Residuals).</span>")
+        left_out = session.left_out()
+        if left_out or session.excluded:
+            words.append(f"Left out: {len(session.excluded)} by you, {len(left_out)} by the adjustment's robust "
+                         "weights (not counted as blunders above).")
         rows, rms = session.check_points()
         if rms is not None:
             words.append(f"Check points: {len(rows)}, RMS of the 3-D differences {rms * 1000:.1f} mm.")
         self.summary.setText("<br>".join(words))
+        self.accept_anyway.setChecked(False)
+        self.accept_anyway.setVisible(self.implausible())
         self.exclude_button.setEnabled(bool(flagged))
         self._fill_parameters(report)
         self._fill_residuals(report, flagged)
@@ -628,9 +741,35 @@ class ResultsPage(QtWidgets.QWizardPage):
             data = item_from_pixels(np.array(segments)) if segments else np.zeros((0, 2))
             self.vectors[side].setData(data[:, 0], data[:, 1], connect="pairs")
 
+    def sigma0_ratio(self) -> float | None:
+        """σ0 in units of the a-priori pointing σ (1: residuals as large as assumed), None before a result."""
+        result = self.session.result
+        return None if result is None else float(result.calibration.sigma0_px / self.session.sigma_px)
+
+    def implausible(self) -> bool:
+        """σ0 over :data:`ABSURD_SIGMA0_RATIO` times the pointing σ: Next needs a confirmation."""
+        ratio = self.sigma0_ratio()
+        return ratio is not None and ratio > ABSURD_SIGMA0_RATIO
+
+    def verdict(self) -> str:
+        """The global (χ², 95 %) test of the adjustment in one line, with what to do when it fails."""
+        test = self.session.result.report.get("global_test") or {}
+        ratio = self.sigma0_ratio()
+        scale = f"σ0 is {ratio:.2f} × the a-priori pointing σ of {self.session.sigma_px:g} px (1 expected)"
+        if self.implausible():
+            return (f"<span style='color:#c0392b'><b>Global test failed badly:</b> {scale}. The measurements or the "
+                    "model are wrong (blunders, wrong control file, wrong housing kind or start): fix them and "
+                    "compute again; Next needs 'Keep this calibration anyway'.</span>")
+        if test.get("accepted_95", True):
+            return f"<b>Global test passed</b> (χ², 95 %): {scale}."
+        hint = ("the pointing is better than assumed: lower the pointing σ" if ratio < 1 else
+                "residuals larger than assumed: look for blunders, or raise the pointing σ if it was optimistic")
+        return f"<span style='color:#b9770e'><b>Global test rejected</b> (χ², 95 %): {scale}; {hint}.</span>"
+
     def isComplete(self) -> bool:  # noqa: N802 (Qt's name)
         result = self.session.result
-        return result is not None and bool(result.adjustment.converged) and self.worker is None
+        return (result is not None and bool(result.adjustment.converged) and self.worker is None
+                and (not self.implausible() or self.accept_anyway.isChecked()))
 
 
 class SavePage(QtWidgets.QWizardPage):
@@ -703,7 +842,13 @@ class CalibrationWizard(QtWidgets.QWizard):
         self.save_page = SavePage(session)
         for page in (self.setup_page, self.measure_page, self.results_page, self.save_page):
             self.addPage(page)
-        self.resize(1200, 760)
+        self._baseline: str | None = None
+        self.currentIdChanged.connect(self._on_page_changed)
+        screen = self.screen().availableGeometry() if self.screen() is not None else None
+        if screen is not None:  # most of the screen: the measure page needs room for two images
+            self.resize(min(1500, int(screen.width() * 0.95)), min(950, int(screen.height() * 0.92)))
+        else:
+            self.resize(1200, 760)
 
     def _on_custom(self, which: int) -> None:
         if self.currentPage() is self.setup_page:
@@ -715,6 +860,42 @@ class CalibrationWizard(QtWidgets.QWizard):
         box.setModal(False)
         box.show()
         self._saved_box = box
+
+    def measured_state(self) -> str:
+        """What the user measured and decided in this wizard (observations, check points, exclusions)."""
+        data = json.loads(self.session.to_json())
+        return json.dumps([data["observations"], data["check"], data["excluded"]], sort_keys=True)
+
+    def has_unsaved_work(self) -> bool:
+        """Measured work or a computed result that Cancel would discard."""
+        if self._baseline is None:
+            return False
+        return self.session.result is not None or self.measured_state() != self._baseline
+
+    def _on_page_changed(self, _id: int) -> None:
+        if self._baseline is None and self.currentPage() is self.measure_page:
+            self._baseline = self.measured_state()  # what the project already had when measuring began
+
+    def ask_discard(self) -> str:
+        """Ask what to do with unsaved work: ``"save"`` (keep a draft), ``"discard"`` or ``"stay"``."""
+        buttons = QtWidgets.QMessageBox.StandardButton
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Discard the calibration?",
+                                    "What you measured or computed in this wizard is not saved. Keep it as a draft "
+                                    "in the project (resume it later), discard it, or go back to the wizard?",
+                                    buttons.Save | buttons.Discard | buttons.Cancel, self)
+        box.setDefaultButton(buttons.Cancel)
+        answer = box.exec()
+        return {buttons.Save: "save", buttons.Discard: "discard"}.get(answer, "stay")
+
+    def reject(self) -> None:
+        """Cancel, Esc and the window's close button: ask before discarding measured work."""
+        if self.has_unsaved_work():
+            answer = self.ask_discard()
+            if answer == "stay":
+                return
+            if answer == "save":
+                self.session.save_draft()
+        super().reject()
 
     def done(self, result: int) -> None:
         self.results_page.cancel()

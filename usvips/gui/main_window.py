@@ -18,16 +18,20 @@ import usvips
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import media_dialogs
-from usvips.gui.pane import StereoPane
-from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, PlanView
+from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
+from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, ObservationForm, PlanView
 from usvips.gui.planner_dock import PlannerDock
 from usvips.gui.video_controls import VideoController
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
+from usvips.io.species_list import read_species_list
 from usvips.samples import open_or_create_from_manifest
 from usvips.store import Project
 
 SAMPLES = Path(usvips.__file__).resolve().parents[1] / "sample_projects"
+#: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
+#: px (plain and Shift+arrows step a video's frames).
+NUDGES = {"Left": (-1.0, 0.0), "Right": (1.0, 0.0), "Up": (0.0, -1.0), "Down": (0.0, 1.0)}
 MAX_RECENT = 8
 TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
              "point": "Point: each intersected point is stored as an object",
@@ -36,22 +40,42 @@ TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
 TOOL_TIPS.update({tool: measurement_kind(tool).description for tool in TOOLS if tool not in TOOL_TIPS})
 
 
-GUIDE = """<b>Measuring</b><ol>
-<li>Choose a pair (toolbar) and a tool: <i>Pick</i> shows a 3-D point without storing it, <i>Point</i>,
-<i>Line</i> (a fish: snout, then fork) and <i>Polygon</i> store objects.</li>
+GUIDE = """<b>Measuring</b> (the project is saved as you go: every stored object, edit and setting is in the
+project file at once; there is nothing to save)<ol>
+<li>Choose a pair (toolbar, or <b>Page Down</b> / <b>Page Up</b> for the next / previous pair) and a tool:
+<i>Pick</i> shows a 3-D point without storing it, <i>Point</i>, <i>Line</i> (a fish: snout, then fork) and
+<i>Polygon</i> store objects.</li>
+<li>Type the <b>Attribute</b> (e.g. the species) in the toolbar box and press <b>Enter</b>: it is kept for the
+next objects and the keyboard goes back to the images.</li>
 <li>Click the point in either image. The dashed orange curve in the other image is where its partner
 must lie (the refractive epipolar curve); the yellow circle is the automatic match.</li>
 <li>Press <b>Enter</b> to accept the match, or click the right spot on the curve to correct it.
 X, Y, Z with their standard deviations appear in the status bar.</li>
-<li>For lines and polygons, go on vertex by vertex; <b>Enter</b> (or <b>Ctrl+Enter</b>) stores the object
-with the attribute from the toolbar. <b>Esc</b> drops a half-made vertex; <b>Ctrl+Z</b> undoes any step.</li>
+<li>Fine-tune before accepting: <b>Ctrl+arrow</b> moves the current pick 0.1 px, <b>Ctrl+Shift+arrow</b> 1 px
+(the yellow proposal when there is one, otherwise your red pick; <b>Ctrl+Z</b> undoes each step).</li>
+<li>For lines and polygons, go on vertex by vertex; <b>Enter</b> with nothing picked (or <b>Ctrl+Enter</b>)
+stores the object with the attribute. <b>Esc</b> drops a half-made vertex; <b>Ctrl+Z</b> undoes any step.</li>
 </ol>
+<b>Keys and focus</b>: Enter, Esc, the nudging arrows and Page Up/Down act on the images once an image has
+the keyboard (click it); in a text field or a table they do what they always do (Enter stores the text or
+the cell).<br>
 <b>Pointing precisely</b>: zoom with the wheel or <b>B</b> (box zoom), <b>1</b> for 1:1, <b>F</b> to fit;
-the loupe (<b>G</b>) magnifies around the cursor; <b>S</b> snaps clicks to the centre of target discs.<br>
+<b>L</b> links the panes: moving one brings the other to the same place in the scene (at the depth of
+the last measured point);
+the loupe (<b>G</b>) follows the cursor at an offset and never takes a click (View › Loupe magnification);
+<b>S</b> snaps clicks to the centre of target discs.<br>
 <b>Figures</b>: select one object in the list for its length or area, two for the distance, angle or
 offset between them; the geo-calculator shows each figure with its standard deviation and the quality
 rules it breaks.<br>
-<b>Enhancement</b> changes only what you see; picks and coordinates always use the original image."""
+<b>Enhancement</b> changes only what you see; picks and coordinates always use the original image.<br>
+<b>Observation record</b>: import the project's species list (File › Import species list…, CSV with
+family, genus, species, code). After each stored object the Observation form takes the keyboard: type
+part of the species name or its code, Tab through number, stage, activity and comment, <b>Enter</b>
+stores, <b>Esc</b> skips; both give the keyboard back to the images.<br>
+<b>Editing</b>: select an object in the list, choose its vertex and press <i>Re-pick</i> (then click the
+point again, left and right) or <i>Delete vertex</i>; edit the attribute or notes in the list's cells
+(Enter stores). Every edit is undoable (Ctrl+Z) and the figures follow.<br>
+<b>Quitting</b> or opening another project with a half-made object asks whether to store it."""
 
 
 def luminance_histogram(image: np.ndarray) -> np.ndarray:
@@ -80,7 +104,20 @@ class MainWindow(QtWidgets.QMainWindow):
             self.splitter.addWidget(self.panes[side])
             self.panes[side].clicked.connect(lambda x, y, s=side: self._on_clicked(s, x, y))
             self.panes[side].hovered.connect(lambda x, y, s=side: self._on_hovered(s, x, y))
-        self.setCentralWidget(self.splitter)
+        # one line above the images for what the user must act on now (held vertices, refused matches):
+        # the status bar clips long messages under the readouts; the log keeps every message
+        self.hint = QtWidgets.QLabel("")
+        self.hint.setObjectName("hint_line")
+        self.hint.setContentsMargins(6, 1, 6, 1)
+        self.hint.setTextFormat(QtCore.Qt.TextFormat.PlainText)
+        self.hint.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Fixed)
+        central = QtWidgets.QWidget()
+        column = QtWidgets.QVBoxLayout(central)
+        column.setContentsMargins(0, 0, 0, 0)
+        column.setSpacing(0)
+        column.addWidget(self.hint)
+        column.addWidget(self.splitter, 1)
+        self.setCentralWidget(central)
         self._build_docks()
         self._build_status_bar()
         self._build_actions()
@@ -115,24 +152,29 @@ class MainWindow(QtWidgets.QMainWindow):
         self.calculator = CalculatorPanel(ws)
         self.plan = PlanView(ws)
         self.log = LogPanel()
+        self.observation = ObservationForm(ws)
         right = QtCore.Qt.DockWidgetArea.RightDockWidgetArea
         bottom = QtCore.Qt.DockWidgetArea.BottomDockWidgetArea
         self.docks = {"enhancement": self._dock("Enhancement", self.enhancement, right),
                       "calculator": self._dock("Geo-calculator", self.calculator, right),
                       "objects": self._dock("Objects", self.object_list, bottom),
                       "plan": self._dock("Plan view", self.plan, bottom),
-                      "log": self._dock("Log", self.log, bottom)}
+                      "log": self._dock("Log", self.log, bottom),
+                      "observation": self._dock("Observation", self.observation, bottom)}
         self.planner = PlannerDock(ws, self.pool, self.workers)
         self.docks["planner"] = self._dock("Precision planner", self.planner, right)
         self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
         self.docks["calculator"].raise_()
-        self.tabifyDockWidget(self.docks["objects"], self.docks["plan"])
+        self.tabifyDockWidget(self.docks["objects"], self.docks["observation"])
+        self.tabifyDockWidget(self.docks["observation"], self.docks["plan"])
         self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
         self.docks["objects"].raise_()
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
         self.object_list.selection_changed.connect(self._on_selection_changed)
         self.object_list.zoom_requested.connect(self.zoom_to_object)
+        self.observation.finished.connect(self.focus_images)
+        ws.stored.connect(self._on_stored)
 
     def _build_status_bar(self) -> None:
         bar = self.statusBar()
@@ -150,16 +192,23 @@ class MainWindow(QtWidgets.QMainWindow):
         bar.addPermanentWidget(self.progress)
         bar.addPermanentWidget(self.cancel_button)
 
-    def _action(self, text: str, slot, shortcut: str | QtGui.QKeySequence | None = None, tip: str = "",
-                checkable: bool = False) -> QtGui.QAction:
+    def _action(self, text: str, slot, shortcut: str | QtGui.QKeySequence | list | None = None, tip: str = "",
+                checkable: bool = False, images: bool = False) -> QtGui.QAction:
+        """A menu/toolbar action. ``images``: its keys work only while the images have the focus (click
+        an image), so that text fields and tables keep Enter, Esc and the arrows."""
         action = QtGui.QAction(text, self)
         if shortcut:
-            action.setShortcut(QtGui.QKeySequence(shortcut))
+            keys = shortcut if isinstance(shortcut, list) else [shortcut]
+            action.setShortcuts([QtGui.QKeySequence(k) for k in keys])
         action.setToolTip(f"{tip or text}" + (f" ({action.shortcut().toString()})" if shortcut else ""))
         action.setStatusTip(tip or text)
         action.setCheckable(checkable)
         action.triggered.connect(slot)
-        self.addAction(action)
+        if images:
+            action.setShortcutContext(QtCore.Qt.ShortcutContext.WidgetWithChildrenShortcut)
+            self.splitter.addAction(action)
+        else:
+            self.addAction(action)
         return action
 
     def _build_actions(self) -> None:
@@ -170,10 +219,16 @@ class MainWindow(QtWidgets.QMainWindow):
             "quit": self._action("&Quit", self.close, key.Quit),
             "undo": self._action("&Undo", self.undo, key.Undo),
             "redo": self._action("&Redo", self.redo, key.Redo),
-            "accept": self._action("Accept match / finish", self.accept_or_finish, "Return",
-                                   "accept the proposed match; with no proposal, finish the object"),
-            "finish": self._action("&Finish object", self.finish_object, "Ctrl+Return", "store the object"),
-            "cancel": self._action("Cancel pick", self.cancel_pick, "Escape", "drop the half-made vertex"),
+            "accept": self._action("Accept match / finish", self.accept_or_finish, ["Return", "Enter"],
+                                   "accept the proposed match; with no proposal, finish the object", images=True),
+            "finish": self._action("&Finish object", self.finish_object, ["Ctrl+Return", "Ctrl+Enter"],
+                                   "store the object", images=True),
+            "cancel": self._action("Cancel pick", self.cancel_pick, "Escape", "drop the half-made vertex",
+                                   images=True),
+            "next_pair": self._action("&Next pair", lambda: self.step_pair(1), "PgDown", "show the next image pair",
+                                      images=True),
+            "previous_pair": self._action("&Previous pair", lambda: self.step_pair(-1), "PgUp",
+                                          "show the previous image pair", images=True),
             "snap": self._action("&Snap to targets", self._on_snap, "S",
                                  "snap each click to the sub-pixel centre of a target disc", checkable=True),
             "auto_match": self._action("&Auto-match", self._on_auto_match, "M",
@@ -183,8 +238,9 @@ class MainWindow(QtWidgets.QMainWindow):
             "zoom_in": self._action("Zoom &in", lambda: self._each_pane("zoom_by", 1.25), key.ZoomIn),
             "zoom_out": self._action("Zoom &out", lambda: self._each_pane("zoom_by", 0.8), key.ZoomOut),
             "box": self._action("&Box zoom", self._on_box_zoom, "B", "drag a box to zoom into", checkable=True),
-            "link": self._action("&Link zoom", self._on_link, "L", "zoom and pan both panes together",
-                                 checkable=True),
+            "link": self._action("&Link zoom", self._on_link, "L", "zooming or panning one image brings the other "
+                                 "to the same place in the scene (through the calibration, at the depth of the last "
+                                 "measured point)", checkable=True),
             "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
         }
         # short toolbar labels (the menus keep the full names): the toolbar fits 1366 px without overflow
@@ -194,6 +250,17 @@ class MainWindow(QtWidgets.QMainWindow):
         self.actions["auto_match"].setChecked(self.workspace.auto_match)
         self.actions["snap"].setChecked(self.workspace.snap)
         self.actions["loupe"].setChecked(True)
+        for arrow, (dx, dy) in NUDGES.items():
+            for modifier, step in (("Ctrl", 0.1), ("Ctrl+Shift", 1.0)):
+                self.actions[f"nudge_{arrow.lower()}_{step:g}"] = self._action(
+                    f"Nudge {arrow.lower()} {step:g} px", lambda _=False, d=(dx * step, dy * step): self.nudge(*d),
+                    f"{modifier}+{arrow}", f"move the current pick {step:g} px {arrow.lower()}", images=True)
+        self.loupe_actions = QtGui.QActionGroup(self)
+        for scale in LOUPE_SCALES:
+            action = self._action(f"Loupe {scale}×", lambda _=False, k=scale: self.set_loupe_scale(k),
+                                  tip=f"the loupe shows {scale} screen pixels per image pixel", checkable=True)
+            self.loupe_actions.addAction(action)
+            self.actions[f"loupe_{scale}"] = action
         self.tool_actions = QtGui.QActionGroup(self)
         for number, tool in enumerate(TOOLS, 1):
             action = self._action(tool.capitalize(), lambda _=False, t=tool: self.set_tool(t), f"Ctrl+{number}",
@@ -215,7 +282,9 @@ class MainWindow(QtWidgets.QMainWindow):
             self.samples_menu.addAction(sample.parent.name, lambda p=sample.parent: self.open_path(p))
         self.samples_menu.setEnabled(bool(self.samples_menu.actions()))
         self.recent_menu = menu.addMenu("&Recent projects")
+        menu.addAction("Save &as… (a copy, then work on it)", self.save_as_dialog, QtGui.QKeySequence("Ctrl+Shift+S"))
         menu.addAction("&Export objects…", self.export_dialog)
+        menu.addAction("Import species &list…", self.species_dialog)
         self._fill_recent_menu()
         menu.addSeparator()
         menu.addAction(a["quit"])
@@ -225,6 +294,9 @@ class MainWindow(QtWidgets.QMainWindow):
         view = self.menuBar().addMenu("&View")
         for name in ("fit", "one", "zoom_in", "zoom_out", "box", "link", "loupe"):
             view.addAction(a[name])
+        magnification = view.addMenu("Loupe &magnification")
+        for scale in LOUPE_SCALES:
+            magnification.addAction(a[f"loupe_{scale}"])
         view.addSeparator()
         for dock in self.docks.values():
             view.addAction(dock.toggleViewAction())
@@ -233,6 +305,13 @@ class MainWindow(QtWidgets.QMainWindow):
             measure.addAction(a[f"tool_{tool}"])
         measure.addSeparator()
         for name in ("accept", "finish", "cancel", "snap", "auto_match"):
+            measure.addAction(a[name])
+        nudge = measure.addMenu("N&udge the current pick")
+        for name in a:
+            if name.startswith("nudge_"):
+                nudge.addAction(a[name])
+        measure.addSeparator()
+        for name in ("previous_pair", "next_pair"):
             measure.addAction(a[name])
         calibration = self.menuBar().addMenu("&Calibration")
         for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
@@ -256,7 +335,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.attribute_box = QtWidgets.QComboBox()
         self.attribute_box.setEditable(True)
         self.attribute_box.setMinimumContentsLength(12)
-        self.attribute_box.setToolTip("attribute of the next stored object (from the vocabulary, or type a new one)")
+        self.attribute_box.setToolTip("attribute of the next stored object (from the vocabulary, or type a new one "
+                                      "and press Enter to keep it)")
+        self.attribute_box.setInsertPolicy(QtWidgets.QComboBox.InsertPolicy.NoInsert)
+        self.attribute_box.lineEdit().returnPressed.connect(self._on_attribute_entered)
+        self.attribute_box.currentTextChanged.connect(self._on_attribute_changed)
         bar.addWidget(self.attribute_box)
         bar.addAction(a["finish"])
         bar.addSeparator()
@@ -353,6 +436,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.recent_menu.setEnabled(bool(self.recent_projects()))
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt's name)
+        if not self.confirm_drop_unfinished("quit"):
+            event.ignore()
+            return
         self.save_layout()
         self.cancel_work()
         self.pool.waitForDone(5000)
@@ -361,6 +447,28 @@ class MainWindow(QtWidgets.QMainWindow):
         self.workspace.close_project()
         super().closeEvent(event)
 
+    def confirm_drop_unfinished(self, doing: str) -> bool:
+        """Ask before ``doing`` something that drops the object being digitised: store it, drop it or stay."""
+        digitising = self.workspace.digitising
+        if not digitising.vertices or self.workspace.project is None:
+            return True
+        answer = self.ask_unfinished(f"The {digitising.kind} being digitised has {len(digitising.vertices)} "
+                                     f"vertices and is not stored. Store it before you {doing}?")
+        if answer == "stay":
+            return False
+        if answer == "save":
+            return self._guarded(self.workspace.finish_object, self.workspace.attribute, "")
+        return True
+
+    def ask_unfinished(self, question: str) -> str:
+        """Ask about a half-made object: ``"save"`` (store it), ``"discard"`` or ``"stay"``."""
+        buttons = QtWidgets.QMessageBox.StandardButton
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Unfinished object", question,
+                                    buttons.Save | buttons.Discard | buttons.Cancel, self)
+        box.setDefaultButton(buttons.Save)
+        answer = box.exec()
+        return {buttons.Save: "save", buttons.Discard: "discard"}.get(answer, "stay")
+
     # ------------------------------------------------------------------ messages
     def show_message(self, level: str, text: str) -> None:
         """Errors and warnings go to the status bar (red / amber) and the log; nothing raises into Qt."""
@@ -368,6 +476,14 @@ class MainWindow(QtWidgets.QMainWindow):
         colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
         self.statusBar().setStyleSheet(f"QStatusBar {{ color: {colour}; }}" if colour else "")
         self.statusBar().showMessage(text, 0 if level != "info" else 15000)
+        self.set_hint(text, level)
+
+    def set_hint(self, text: str, level: str = "info") -> None:
+        """The line above the images (full text in its tooltip when the window is narrow)."""
+        colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
+        self.hint.setStyleSheet(f"color: {colour};" if colour else "")
+        self.hint.setText(text)
+        self.hint.setToolTip(text)
 
     def _guarded(self, function, *args) -> bool:
         try:
@@ -389,6 +505,8 @@ class MainWindow(QtWidgets.QMainWindow):
         """Open a project file, or a sample directory (its project file is created on first use), showing
         ``pair`` (default: the pair shown last in this project, else the first)."""
         path = Path(path)
+        if not self.confirm_drop_unfinished("open another project"):
+            return False
         try:
             if path.is_dir():
                 project = open_or_create_from_manifest(path)
@@ -399,12 +517,16 @@ class MainWindow(QtWidgets.QMainWindow):
         except UsvipsError as error:
             self.show_message("error", str(error))
             return False
+        self._forget_project_state()
         self.workspace.open_project(project)
         self.video.project_opened(project)
         self._remember(project.path.resolve())
-        self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent})")
-        self.attribute_box.clear()
+        self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent}) — every step is saved as you go")
         self.attribute_box.addItems(project.vocabulary())
+        self.attribute_box.setCurrentIndex(-1)
+        self.attribute_box.setEditText("")  # no term preselected: the user chooses
+        self.observation.object_id = None
+        self.observation.refresh_species()
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
         self.pair_box.clear()
@@ -435,8 +557,72 @@ class MainWindow(QtWidgets.QMainWindow):
         path, chosen = QtWidgets.QFileDialog.getSaveFileName(self, "Export objects", start,
                                                              ";;".join(self.EXPORT_FILTERS))
         if path:
-            suffix = self.EXPORT_FILTERS.get(chosen, "")
-            self.export_objects(path if path.endswith(suffix) else path + suffix)
+            self.export_objects(self.export_path(path, chosen))
+
+    @classmethod
+    def export_path(cls, path: str, chosen_filter: str) -> str:
+        """The file to write: the name as typed when it already ends with a known export suffix (typing
+        ``fish.geojson`` with the CSV filter writes GeoJSON), else with the chosen filter's suffix."""
+        if any(path.lower().endswith(suffix) for suffix in cls.EXPORT_FILTERS.values()):
+            return path
+        return path + cls.EXPORT_FILTERS.get(chosen_filter, "")
+
+    def save_as_dialog(self) -> None:
+        if self.workspace.project is None:
+            self.show_message("error", "open a project first")
+            return
+        start = self.workspace.project.path.with_name(self.workspace.project.path.stem + "-copy.usvips")
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save the project as", str(start),
+                                                        "USVIPS projects (*.usvips)")
+        if path:
+            self.save_as(path if path.endswith(".usvips") else path + ".usvips")
+
+    def save_as(self, path: str | Path) -> bool:
+        """Copy the open project to ``path`` (a new file) and go on working in the copy, on the same pair."""
+        project = self.workspace.project
+        if project is None:
+            self.show_message("error", "open a project first")
+            return False
+        if not self.confirm_drop_unfinished("save a copy"):
+            return False
+        try:
+            copy = project.copy_to(path)
+        except UsvipsError as error:
+            self.show_message("error", f"nothing saved: {error}")
+            return False
+        if self.open_path(copy, self.workspace.pair):
+            self.show_message("info", f"saved a copy as {copy}; you are now working in the copy (saved as you go)")
+        return True
+
+    def species_dialog(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Species list (family, genus, species, code)",
+                                                        str(Path.home()), "CSV (*.csv *.txt)")
+        if path:
+            self.import_species(path)
+
+    def import_species(self, path: str | Path) -> bool:
+        """Make a CSV species list the project's (type-ahead in the observation form)."""
+        if self.workspace.project is None:
+            self.show_message("error", "open a project first")
+            return False
+        try:
+            species = read_species_list(path)
+            self.workspace.project.set_species_list(species)
+        except UsvipsError as error:
+            self.show_message("error", f"species list not imported: {error}")
+            return False
+        self.observation.refresh_species()
+        self.show_message("info", f"{len(species)} species from {path} are the project's species list")
+        return True
+
+    def _on_stored(self, object_id: int) -> None:
+        """After a measurement: the observation form, if the user wants it, takes the keyboard."""
+        if self.observation.ask.isChecked():
+            self.docks["observation"].show()
+            self.docks["observation"].raise_()
+            self.observation.begin(object_id)
+        else:
+            self.observation.load(object_id)
 
     def export_objects(self, path: str | Path) -> None:
         """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
@@ -534,6 +720,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self._refresh_display(side)
         self._draw_control()
         self._on_objects_changed()
+        if not isinstance(QtWidgets.QApplication.focusWidget(), (QtWidgets.QLineEdit, QtWidgets.QAbstractItemView)):
+            self.focus_images()
 
     def _draw_control(self) -> None:
         """The pair's measured control points (any role), green with their numbers, on both images."""
@@ -588,10 +776,32 @@ class MainWindow(QtWidgets.QMainWindow):
         self._each_pane("set_box_zoom", self.actions["box"].isChecked())
 
     def _on_link(self) -> None:
-        left, right = (self.panes[s].viewbox for s in SIDES)
-        linked = self.actions["link"].isChecked()
-        right.setXLink(left if linked else None)
-        right.setYLink(left if linked else None)
+        """Linked navigation: zooming or panning one pane brings the other to the conjugate region (through
+        the calibration, at the depth of the last measured point), at the same zoom."""
+        if not hasattr(self, "_following"):
+            self._following = False
+            for side in SIDES:
+                self.panes[side].viewbox.sigRangeChanged.connect(lambda *_, s=side: self._follow(s))
+        if self.actions["link"].isChecked():
+            self._follow("left")
+
+    def _follow(self, side: str) -> None:
+        if self._following or not self.actions["link"].isChecked() or self.workspace.pair is None:
+            return
+        source, target = self.panes[side], self.panes["right" if side == "left" else "left"]
+        if source.display is None or target.display is None:
+            return
+        rect = source.viewbox.viewRect()
+        centre = pixel_from_item(rect.center().x(), rect.center().y())
+        try:
+            conjugate = self.workspace.conjugate(side, centre)
+        except UsvipsError:
+            conjugate = None
+        self._following = True
+        try:
+            target.zoom_to(source.zoom_level(), conjugate or centre)  # no calibration: the same pixel
+        finally:
+            self._following = False
 
     def _on_loupe(self) -> None:
         for pane in self.panes.values():
@@ -617,8 +827,15 @@ class MainWindow(QtWidgets.QMainWindow):
             self.statusBar().showMessage(TOOL_TIPS[tool], 10000)
 
     def accept_or_finish(self) -> None:
-        if self.workspace.state.proposal is not None:
+        """Enter on the images: accept the proposed match; with a first pick but no proposal, say why and
+        what to do; with no pick, finish the object being digitised."""
+        state = self.workspace.state
+        if state.proposal is not None or state.pending is not None:
             self._guarded(self.workspace.accept_proposal)
+        elif state.source is not None:
+            opposite = "right" if state.source == "left" else "left"
+            self.show_message("warning", f"no proposed match to accept: click the point in the {opposite} image"
+                                         + (f" ({state.note})" if state.note else ""))
         elif self.workspace.digitising.vertices:
             self.finish_object()
         else:
@@ -632,6 +849,73 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def cancel_pick(self) -> None:
         self.workspace.cancel_vertex()
+
+    def nudge(self, dx: float, dy: float) -> None:
+        """Move the current pick by (dx, dy) image pixels (the proposal when there is one)."""
+        try:
+            text = self.workspace.nudge(dx, dy)
+        except UsvipsError as error:
+            self.show_message("warning", str(error))
+            return
+        self.statusBar().showMessage(text, 10000)
+
+    def step_pair(self, step: int) -> None:
+        """Show the next (``step`` = 1) or previous (-1) image pair of the project."""
+        labels = self.workspace.image_pairs()
+        if not labels:
+            self.show_message("warning", "no image pairs: open a project with images first")
+            return
+        current = labels.index(self.workspace.pair) if self.workspace.pair in labels else -step
+        index = current + step
+        if not 0 <= index < len(labels):
+            self.show_message("info", f"{'last' if step > 0 else 'first'} pair reached ({labels[current]})")
+            return
+        if self.workspace.digitising.vertices:
+            self.show_message("warning", "finish (Ctrl+Enter) or cancel the object being digitised before "
+                                         "changing pairs")
+            return
+        self.load_pair(labels[index])
+
+    def set_loupe_scale(self, scale: int) -> None:
+        for pane in self.panes.values():
+            pane.set_loupe_scale(scale)
+        self.actions[f"loupe_{scale}"].setChecked(True)
+
+    def _on_attribute_changed(self, text: str) -> None:
+        self.workspace.attribute = text.strip()
+
+    def _on_attribute_entered(self) -> None:
+        """Enter in the Attribute box: keep the text for the next stored objects (and in the project's
+        vocabulary), then give the keyboard back to the images."""
+        text = self.attribute_box.currentText().strip()
+        self.workspace.attribute = text
+        if text and self.workspace.project is not None:
+            self.workspace.project.add_term(text)
+            if self.attribute_box.findText(text) < 0:
+                self.attribute_box.addItem(text)
+            self.attribute_box.setCurrentText(text)
+        self.show_message("info", f"attribute of the next objects: {text!r}" if text else
+                                  "the next objects are stored without an attribute")
+        self.focus_images()
+
+    def focus_images(self, side: str = "left") -> None:
+        """Give the keyboard to an image pane (Enter, Esc, nudging and Page Up/Down then work)."""
+        self.panes[side].graphics.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
+
+    def _forget_project_state(self) -> None:
+        """What the previous project left on screen: readouts, titles, histograms, attribute, colours."""
+        self.point_label.setText("")
+        self.pixel_label.setText("")
+        for side in SIDES:
+            self.panes[side].title.setText(side.capitalize())
+            self.panes[side].set_image(None)
+        self.enhancement.show_histograms(None, None)
+        self.attribute_box.clear()
+        self.attribute_box.setEditText("")
+        self.selection = []
+        self.statusBar().setStyleSheet("")
+        self.statusBar().clearMessage()
+        self.set_hint("")
 
     def undo(self) -> None:
         self._step("undo", "undone")
@@ -671,6 +955,7 @@ class MainWindow(QtWidgets.QMainWindow):
                                        state.curve if opposite else None)
         if state.note:
             self.statusBar().showMessage(state.note, 15000)
+            self.set_hint(state.note, "warning" if state.pending is not None else "info")
         self.point_label.setText(describe_point(ws.last_point) if ws.last_point is not None else "")
         self._draw_objects()
 
@@ -679,6 +964,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _on_selection_changed(self, ids: list[int]) -> None:
         self.selection = ids
+        if len(ids) == 1:
+            self.observation.load(ids[0])  # every stored object's record is editable
         self.calculator.set_selection(ids)
         self._draw_objects()
 

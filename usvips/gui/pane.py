@@ -19,6 +19,10 @@ from PySide6 import QtCore, QtGui, QtWidgets
 PIXEL_CENTRE = 0.5
 LOUPE_RADIUS = 10  # image pixels each side of the cursor
 LOUPE_SCALE = 8
+#: Magnifications the loupe offers (screen pixels per image pixel).
+LOUPE_SCALES = (4, 8, 12, 16)
+#: Gap (screen pixels) between the cursor and the loupe's nearest corner: the loupe never covers the cursor.
+LOUPE_OFFSET = 24
 
 COLOURS = {"control": (60, 220, 120), "cursor": (0, 230, 0), "pick": (255, 40, 40), "proposal": (255, 220, 0),
            "curve": (255, 140, 0), "object": (0, 200, 255), "selected": (255, 0, 255), "label": (230, 230, 230)}
@@ -71,13 +75,18 @@ class StereoPane(QtWidgets.QWidget):
         layout.addWidget(self.title)
         layout.addWidget(self.graphics)
         self._add_overlays()
-        self.loupe = QtWidgets.QLabel(self.graphics)
-        side_px = (2 * LOUPE_RADIUS + 1) * LOUPE_SCALE + 2
-        self.loupe.setFixedSize(side_px, side_px)
+        # the loupe follows the cursor at an offset (never under it) and lets every mouse event through
+        self.loupe = QtWidgets.QLabel(self.graphics.viewport())
+        self.loupe.setObjectName(f"{side}_loupe")
+        self.loupe.setAttribute(QtCore.Qt.WidgetAttribute.WA_TransparentForMouseEvents, True)
         self.loupe.setStyleSheet("border: 1px solid #00e600; background: black;")
         self.loupe.setScaledContents(True)
         self.loupe.hide()
         self.loupe_enabled = True
+        self.loupe_scale = LOUPE_SCALE
+        self._fit_loupe()
+        # keys (accept, nudge, ...) reach the window's image shortcuts once an image has the focus
+        self.graphics.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
         self.display: np.ndarray | None = None
         scene = self.graphics.scene()
         scene.sigMouseMoved.connect(self._on_mouse_moved)
@@ -187,30 +196,65 @@ class StereoPane(QtWidgets.QWidget):
         if self.viewbox.state["mouseMode"] == pg.ViewBox.RectMode:
             return
         x, y = self.pixel_at_scene(event.scenePos())
+        self.graphics.setFocus(QtCore.Qt.FocusReason.MouseFocusReason)
         if self.display is not None and self._inside(x, y):
             event.accept()
             self.clicked.emit(x, y)
+
+    def _fit_loupe(self) -> None:
+        """Size the loupe for its magnification; in a small pane it shows fewer pixels around the cursor
+        (at most half the viewport less the offset, so that it always fits beside the cursor)."""
+        viewport = self.graphics.viewport()
+        room = min(viewport.width(), viewport.height()) // 2 - LOUPE_OFFSET - 2
+        self.loupe_radius = int(max(1, min(LOUPE_RADIUS, (room // self.loupe_scale - 1) // 2)))
+        side_px = (2 * self.loupe_radius + 1) * self.loupe_scale + 2
+        self.loupe.setFixedSize(side_px, side_px)
+
+    def set_loupe_scale(self, scale: int) -> None:
+        """Magnification of the loupe (screen pixels per image pixel; one of :data:`LOUPE_SCALES`)."""
+        if scale not in LOUPE_SCALES:
+            raise ValueError(f"loupe magnification {scale} is not one of {LOUPE_SCALES}")
+        self.loupe_scale = int(scale)
+        self._fit_loupe()
+        self.loupe.hide()  # shown again, at the new size, when the cursor moves
+
+    def loupe_position(self, cursor: QtCore.QPoint) -> QtCore.QPoint:
+        """Top-left corner of the loupe (viewport pixels) for the cursor at ``cursor``: below right of it
+        by :data:`LOUPE_OFFSET`, flipped to the other side where the viewport's edge is near, so that the
+        cursor and the pixels around it stay visible."""
+        viewport = self.graphics.viewport()
+        w, h = self.loupe.width(), self.loupe.height()
+        x = cursor.x() + LOUPE_OFFSET
+        if x + w > viewport.width():
+            x = cursor.x() - LOUPE_OFFSET - w
+        y = cursor.y() + LOUPE_OFFSET
+        if y + h > viewport.height():
+            y = cursor.y() - LOUPE_OFFSET - h
+        return QtCore.QPoint(max(x, 0), max(y, 0))
 
     def _update_loupe(self, x: float, y: float) -> None:
         if not self.loupe_enabled or self.display is None:
             self.loupe.hide()
             return
-        r = LOUPE_RADIUS
+        self._fit_loupe()
+        r, scale = self.loupe_radius, self.loupe_scale
         patch = cv2.getRectSubPix(self._grey_or_rgb8(), (2 * r + 1, 2 * r + 1), (float(round(x)), float(round(y))))
-        big = cv2.resize(patch, None, fx=LOUPE_SCALE, fy=LOUPE_SCALE, interpolation=cv2.INTER_NEAREST)
+        big = cv2.resize(patch, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
         image = to_qimage(big)
         if image.format() == QtGui.QImage.Format.Format_Grayscale8:
             image = image.convertToFormat(QtGui.QImage.Format.Format_RGB888)
         painter = QtGui.QPainter(image)
         painter.setPen(QtGui.QPen(QtGui.QColor(*COLOURS["cursor"]), 1))
         # the exact cursor position inside the magnified patch (sub-pixel)
-        cx = (x - round(x) + r + 0.5) * LOUPE_SCALE
-        cy = (y - round(y) + r + 0.5) * LOUPE_SCALE
+        cx = (x - round(x) + r + 0.5) * scale
+        cy = (y - round(y) + r + 0.5) * scale
         painter.drawLine(QtCore.QPointF(cx, 0), QtCore.QPointF(cx, image.height()))
         painter.drawLine(QtCore.QPointF(0, cy), QtCore.QPointF(image.width(), cy))
         painter.end()
         self.loupe.setPixmap(QtGui.QPixmap.fromImage(image))
-        self.loupe.move(self.graphics.width() - self.loupe.width() - 6, 6)
+        vx, vy = item_from_pixels(np.array([x, y]))[0]
+        cursor = self.graphics.mapFromScene(self.image_item.mapToScene(QtCore.QPointF(vx, vy)))
+        self.loupe.move(self.loupe_position(cursor))
         self.loupe.show()
 
     def set_loupe_enabled(self, on: bool) -> None:

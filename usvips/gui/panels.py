@@ -13,6 +13,7 @@ from PySide6 import QtCore, QtWidgets
 from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.observation_record import STAGES, ObservationRecord, Species
 from usvips.gui.calculator import format_figure
 from usvips.gui.video_model import video_frame_text
 from usvips.gui.worker import Worker, start
@@ -201,7 +202,22 @@ class ObjectList(QtWidgets.QWidget):
         buttons = QtWidgets.QHBoxLayout()
         buttons.addWidget(zoom)
         buttons.addWidget(delete)
+        # editing a stored object's vertices (undoable): re-pick one, or delete it
+        self.vertex = QtWidgets.QSpinBox()
+        self.vertex.setRange(1, 1)
+        self.vertex.setPrefix("vertex ")
+        self.vertex.setToolTip("the vertex of the selected object to re-pick or delete (1 = the first measured)")
+        repick = QtWidgets.QPushButton("Re-pick")
+        repick.setToolTip("measure the chosen vertex again: click it in either image, then its partner")
+        delete_vertex = QtWidgets.QPushButton("Delete vertex")
+        self.repick_button, self.delete_vertex_button = repick, delete_vertex
+        buttons.addSpacing(12)
+        for widget in (self.vertex, repick, delete_vertex):
+            buttons.addWidget(widget)
         buttons.addStretch(1)
+        repick.clicked.connect(lambda: self._edit_vertex(self.workspace.start_repick))
+        delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.delete_vertex))
+        self.table.itemSelectionChanged.connect(self._on_vertex_range)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
         layout.addWidget(self.table)
@@ -286,6 +302,22 @@ class ObjectList(QtWidgets.QWidget):
         notes = self.table.item(row, self.COLUMNS.index("notes")).text()
         self.workspace.edit_object(object_id, attribute, notes)
 
+    def _on_vertex_range(self) -> None:
+        ids = self.selected_ids()
+        count = len(self.workspace.project.object(ids[0]).vertices) if len(ids) == 1 else 1
+        self.vertex.setRange(1, max(count, 1))
+
+    def _edit_vertex(self, action) -> None:
+        """Re-pick or delete the chosen vertex of the one selected object; errors go to the window."""
+        ids = self.selected_ids()
+        if len(ids) != 1:
+            self.workspace.message.emit("warning", "select one object in the list to edit its vertices")
+            return
+        try:
+            action(ids[0], self.vertex.value() - 1)
+        except UsvipsError as error:
+            self.workspace.message.emit("error", str(error))
+
     def _on_delete(self) -> None:
         for object_id in self.selected_ids():
             self.workspace.delete_object(object_id)
@@ -362,12 +394,17 @@ class CalculatorPanel(QtWidgets.QWidget):
         if result.figures and not result.reason:
             lines.append("")
             lines.append("quality: " + ("; ".join(result.failures) if result.failures else "passes the rules"))
+        if any(f.name in ("bearing", "slope") for f in result.figures):
+            lines.append(f"bearing (clockwise from +Y towards +X) and slope (above the X–Y plane) are in "
+                         f"{self.workspace.frame_description(self.selection[0])}")
         self.output.setPlainText("\n".join(lines))
 
 
 class PlanView(QtWidgets.QWidget):
-    """Measured objects in plan (X–Y, seen from above) or in profile (X–Z, Y–Z), metres — a plot that runs
-    offscreen, where a 3-D view might not."""
+    """Measured objects in plan (X–Y, seen from above) or in profile (X–Z, Y–Z), metres on both axes at
+    the same scale, with their labels, 1σ error ellipses of the vertices, the pair's two cameras, the
+    frame named, and the range fitted to what is drawn — a plot that runs offscreen, where a 3-D view
+    might not."""
 
     VIEWS = {"plan (X–Y)": (0, 1), "profile (X–Z)": (0, 2), "profile (Y–Z)": (1, 2)}
 
@@ -377,28 +414,61 @@ class PlanView(QtWidgets.QWidget):
         self.view = QtWidgets.QComboBox()
         self.view.addItems(list(self.VIEWS))
         self.view.currentTextChanged.connect(self.refresh)
+        self.frame = QtWidgets.QLabel("")
+        self.frame.setWordWrap(True)
         self.plot = pg.PlotWidget(background=None)
         self.plot.setAspectLocked(True)
+        for axis in ("bottom", "left"):
+            self.plot.getAxis(axis).enableAutoSIPrefix(False)  # metres on both axes, never m against mm
         self.curve = self.plot.plot(pen=pg.mkPen((0, 200, 255), width=2), connect="finite", symbol="o",
                                     symbolSize=5)
+        self.ellipses = self.plot.plot(pen=pg.mkPen((255, 140, 0), width=1), connect="finite")
+        self.cameras = self.plot.plot(pen=None, symbol="t", symbolSize=12, symbolBrush=(60, 220, 120))
+        self.labels: list[pg.TextItem] = []
+        top = QtWidgets.QHBoxLayout()
+        top.addWidget(self.view)
+        top.addWidget(self.frame, 1)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
-        layout.addWidget(self.view)
+        layout.addLayout(top)
         layout.addWidget(self.plot)
         workspace.objects_changed.connect(self.refresh)
+        workspace.pair_changed.connect(self.refresh)
         self.refresh()
 
     def cleanup(self) -> None:
         self.workspace.objects_changed.disconnect(self.refresh)
+        self.workspace.pair_changed.disconnect(self.refresh)
+
+    def _label(self, text: str, position, colour) -> None:
+        item = pg.TextItem(text, color=colour, anchor=(0, 1))
+        item.setPos(float(position[0]), float(position[1]))
+        self.plot.addItem(item, ignoreBounds=True)
+        self.labels.append(item)
 
     def refresh(self, *_: object) -> None:
         a, b = self.VIEWS[self.view.currentText()]
-        self.plot.setLabel("bottom", "XYZ"[a], units="m")
-        self.plot.setLabel("left", "XYZ"[b], units="m")
-        parts = []
+        self.plot.setLabel("bottom", "XYZ"[a] + " (m)")
+        self.plot.setLabel("left", "XYZ"[b] + " (m)")
+        for item in self.labels:
+            self.plot.removeItem(item)
+        self.labels = []
+        parts, rings = [], []
+        circle = np.column_stack([np.cos(np.linspace(0, 2 * np.pi, 49)), np.sin(np.linspace(0, 2 * np.pi, 49))])
         for stored in self.workspace.objects():
-            points = np.array([v.xyz for v in stored.vertices if v.xyz is not None], float).reshape(-1, 3)
-            if len(points) == len(stored.vertices) and points.size:
+            vertices = [v for v in stored.vertices if v.xyz is not None]
+            points = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
+            if not len(points):
+                continue
+            self._label(f"{stored.id} {stored.attribute}".strip(), points[0, [a, b]], (230, 230, 230))
+            for v, point in zip(vertices, points, strict=True):
+                if v.covariance is None:
+                    continue
+                block = np.asarray(v.covariance, float)[np.ix_([a, b], [a, b])]
+                values, vectors = np.linalg.eigh(block)
+                ring = point[[a, b]] + (circle * np.sqrt(np.clip(values, 0, None))) @ vectors.T
+                rings.append(np.vstack([ring, [[np.nan, np.nan]]]))
+            if len(points) == len(stored.vertices):
                 try:
                     points = measurement_kind(stored.kind).outline(points)
                 except UsvipsError:
@@ -406,6 +476,164 @@ class PlanView(QtWidgets.QWidget):
             parts.append(np.vstack([points[:, [a, b]], [[np.nan, np.nan]]]))
         data = np.vstack(parts) if parts else np.zeros((0, 2))
         self.curve.setData(data[:, 0], data[:, 1], connect="finite")
+        ring_data = np.vstack(rings) if rings else np.zeros((0, 2))
+        self.ellipses.setData(ring_data[:, 0], ring_data[:, 1], connect="finite")
+        geometry = self.workspace.geometry
+        if geometry is not None:
+            rig = geometry.calibration.rig(geometry.station, geometry.frame)
+            cameras = np.array([rig.left.exterior.position, rig.right.exterior.position])[:, [a, b]]
+            self.cameras.setData(cameras[:, 0], cameras[:, 1])
+            for name, position in zip(("L", "R"), cameras, strict=True):
+                self._label(name, position, (60, 220, 120))
+            self.frame.setText(f"{geometry.description}; orange: 1σ ellipses, green: the cameras")
+        else:
+            self.cameras.setData([], [])
+            self.frame.setText("no calibrated pair shown: coordinates as measured; orange: 1σ ellipses")
+        self.plot.enableAutoRange()
+        self.plot.autoRange()
+
+
+class ObservationForm(QtWidgets.QWidget):
+    """The observation record of the object just stored (or the one selected), typed from the keyboard:
+    species with type-ahead from the project's species list, number, stage, activity, comment. Enter
+    stores it and hands the keyboard back to the images, Esc leaves it blank; *Keep values* starts the
+    next record with these values. ``finished()`` fires after either."""
+
+    finished = QtCore.Signal()
+
+    def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.workspace = workspace
+        self.object_id: int | None = None
+        self.target = QtWidgets.QLabel("no object")
+        self.species = QtWidgets.QComboBox()
+        self.species.setEditable(True)
+        self.species.setInsertPolicy(QtWidgets.QComboBox.InsertPolicy.NoInsert)
+        self.species.setMinimumContentsLength(18)
+        self.species.setToolTip("type part of the genus, species or code; the list is the project's "
+                                "(File › Import species list…); blank: not identified")
+        self.number = QtWidgets.QSpinBox()
+        self.number.setRange(1, 100000)
+        self.number.setToolTip("number of individuals")
+        self.stage = QtWidgets.QComboBox()
+        self.stage.setEditable(True)
+        self.stage.addItems(["", *STAGES])
+        self.stage.setToolTip("life stage: AD adult, J juvenile, F female, M male, U unknown (or type one)")
+        self.activity = QtWidgets.QLineEdit()
+        self.activity.setPlaceholderText("activity")
+        self.comment = QtWidgets.QLineEdit()
+        self.comment.setPlaceholderText("comment")
+        self.keep = QtWidgets.QCheckBox("Keep values")
+        self.keep.setToolTip("start the next record with these values")
+        self.ask = QtWidgets.QCheckBox("Ask after each measurement")
+        self.ask.setChecked(True)
+        store = QtWidgets.QPushButton("Store (Enter)")
+        store.clicked.connect(self.store)
+        self.status = QtWidgets.QLabel("")
+        row = QtWidgets.QHBoxLayout()
+        for label, widget in (("", self.target), ("Species", self.species), ("No.", self.number),
+                              ("Stage", self.stage), ("", self.activity), ("", self.comment)):
+            if label:
+                row.addWidget(QtWidgets.QLabel(label))
+            row.addWidget(widget, 2 if widget in (self.species, self.comment) else 0)
+        row.addWidget(store)
+        options = QtWidgets.QHBoxLayout()
+        options.addWidget(self.keep)
+        options.addWidget(self.ask)
+        options.addWidget(self.status, 1)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(2, 2, 2, 2)
+        layout.addLayout(row)
+        layout.addLayout(options)
+        layout.addStretch(1)
+        self.refresh_species()
+
+    def refresh_species(self) -> None:
+        """Reload the type-ahead list from the open project."""
+        project = self.workspace.project
+        self._species = {} if project is None else {s.name.lower(): s for s in project.species_list()}
+        text = self.species.currentText()
+        self.species.clear()
+        self.species.addItems([""] + [self._label(s) for s in self._species.values()])
+        completer = QtWidgets.QCompleter([self.species.itemText(i) for i in range(1, self.species.count())], self)
+        completer.setCaseSensitivity(QtCore.Qt.CaseSensitivity.CaseInsensitive)
+        completer.setFilterMode(QtCore.Qt.MatchFlag.MatchContains)
+        self.species.setCompleter(completer)
+        self.species.setEditText(text)
+
+    @staticmethod
+    def _label(species: Species) -> str:
+        return f"{species.name} — {species.family}" + (f" ({species.code})" if species.code else "")
+
+    def begin(self, object_id: int) -> None:
+        """Show the record of ``object_id`` and take the keyboard (after a measurement)."""
+        self.load(object_id)
+        self.status.setText("type the species (type-ahead), Tab to the next field, Enter stores, Esc skips")
+        self.species.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
+        self.species.lineEdit().selectAll()
+
+    def load(self, object_id: int) -> None:
+        """Show the record of ``object_id`` (its stored one, else blank or the kept values)."""
+        self.object_id = object_id
+        stored = self.workspace.project.object(object_id)
+        self.target.setText(f"{stored.kind} {object_id}")
+        record = self.workspace.project.record(object_id)
+        if record is not None:
+            self._show(record)
+        elif not self.keep.isChecked():
+            self._show(ObservationRecord())
+        self.status.setText("")
+
+    def _show(self, record: ObservationRecord) -> None:
+        match = self._species.get(record.name.lower())
+        self.species.setEditText(self._label(match) if match else record.name)
+        self.number.setValue(record.number)
+        self.stage.setEditText(record.stage)
+        self.activity.setText(record.activity)
+        self.comment.setText(record.comment)
+
+    def chosen_species(self) -> Species | None:
+        """The species typed: its list entry (by 'Genus species', the list's text or its code); None when
+        blank; an error naming the text when it is not in the project's list."""
+        text = self.species.currentText().split(" — ")[0].strip()
+        if not text:
+            return None
+        found = self._species.get(text.lower()) or next(
+            (s for s in self._species.values() if s.code and s.code.lower() == text.lower()), None)
+        if found is None:
+            raise UsvipsError(f"species {text!r} is not in the project's species list (File › Import species "
+                              "list…); leave it blank if not identified")
+        return found
+
+    def store(self) -> bool:
+        if self.object_id is None or self.workspace.project is None:
+            self.status.setText("measure an object first (or select one in the object list)")
+            return False
+        try:
+            record = ObservationRecord.of(self.chosen_species(), number=self.number.value(),
+                                          stage=self.stage.currentText(), activity=self.activity.text(),
+                                          comment=self.comment.text())
+            self.workspace.set_record(self.object_id, record)
+        except UsvipsError as error:
+            self.status.setText(str(error))  # nothing typed is lost: the fields keep it
+            return False
+        self.status.setText(f"stored for object {self.object_id}: {record.name or 'not identified'} × {record.number}")
+        if not self.keep.isChecked():
+            self._show(ObservationRecord())
+        self.finished.emit()
+        return True
+
+    def keyPressEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        if event.key() in (QtCore.Qt.Key.Key_Return, QtCore.Qt.Key.Key_Enter):
+            event.accept()
+            self.store()
+            return
+        if event.key() == QtCore.Qt.Key.Key_Escape:
+            event.accept()
+            self.status.setText(f"object {self.object_id} left without a record")
+            self.finished.emit()
+            return
+        super().keyPressEvent(event)
 
 
 class LogPanel(QtWidgets.QPlainTextEdit):

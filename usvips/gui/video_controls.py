@@ -368,6 +368,8 @@ class VideoController(QtCore.QObject):
         if event.type() != QtCore.QEvent.Type.KeyPress or self.navigator is None:
             return False
         key, shift = event.key(), bool(event.modifiers() & QtCore.Qt.KeyboardModifier.ShiftModifier)
+        if event.modifiers() & (QtCore.Qt.KeyboardModifier.ControlModifier | QtCore.Qt.KeyboardModifier.AltModifier):
+            return False  # Ctrl(+Shift)+arrows nudge the current pick
         Key = QtCore.Qt.Key
         if key in (Key.Key_Left, Key.Key_Right):
             self.step((self.navigator.jump if shift else 1) * (1 if key == Key.Key_Right else -1))

@@ -17,13 +17,14 @@ import numpy as np
 from usvips.core.calibration.uncertainty import joint_covariance
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
-from usvips.core.matching import epipolar_curve, match_along_curve
+from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
 from usvips.core.measurements import QualityRules, names, placement, resolve
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.observation_record import ObservationRecord
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
-from usvips.gui.calculator import Geometry, Result, format_figure, pair_figures, result_of
+from usvips.gui.calculator import Geometry, Result, format_figure, pair_figures, result_of, vertex_failures
 from usvips.gui.signals import Signal
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image
@@ -39,6 +40,8 @@ LINE = "line"
 TOOLS = ("pick", "point", LINE, "polygon") + tuple(n for n in names() if n not in ("point", "polygon", "length"))
 #: The calibration wizards' tool: both picks of a control point, reported by ``observed``, not intersected.
 OBSERVE = "observe"
+#: Depth (m along the ray in the water) linked navigation assumes before anything has been measured.
+LINK_DEPTH_M = 2.0
 
 
 def other(side: str) -> str:
@@ -56,6 +59,8 @@ class PickState:
     curve: np.ndarray | None = None
     proposal: tuple[float, float] | None = None
     note: str = ""
+    #: A vertex intersected from both picks but held back by a guard rail until the user keeps it (Enter).
+    pending: MeasuredVertex | None = None
 
     def pick(self, side: str) -> tuple[float, float] | None:
         return self.left if side == "left" else self.right
@@ -72,6 +77,8 @@ class MeasuredVertex:
     covariance: np.ndarray
     ray_rms_m: float
     range_m: float
+    #: Guard-rail warnings the user overrode when keeping this vertex (stored with the object's notes).
+    flags: tuple[str, ...] = ()
 
     @property
     def sigmas(self) -> np.ndarray:
@@ -203,6 +210,8 @@ class Workspace:
     rules: QualityRules = field(default_factory=QualityRules)
     near_m: float = 0.2
     far_m: float = 20.0
+    #: A second pick farther than this (pixels) from the first pick's epipolar curve is held for a check.
+    max_off_curve_px: float = 5.0
 
     def __post_init__(self) -> None:
         self.pair: str | None = None
@@ -212,6 +221,10 @@ class Workspace:
         self.state = PickState()
         self.digitising: _Digitising = _Digitising("pick")
         self.last_point: MeasuredVertex | None = None
+        #: The attribute given to the next stored object (the window's Attribute box keeps it current).
+        self.attribute = ""
+        #: (object id, vertex index from 0) that the next measured vertex replaces, or None.
+        self.repick: tuple[int, int] | None = None
         self.undo = UndoStack()
         self._calibrations: dict[int, StereoCalibration | None] = {}
         self.pair_changed = Signal()
@@ -221,6 +234,8 @@ class Workspace:
         self.message = Signal()
         self.observed = Signal()
         self.video_frame: tuple[str, int, int, float] | None = None  # video, left and right frame, time (s)
+        #: ``stored(object_id)`` after a newly measured object is stored (its observation record may follow).
+        self.stored = Signal()
 
     # ------------------------------------------------------------------ project and pair
     def open_project(self, project: Project) -> None:
@@ -235,6 +250,9 @@ class Workspace:
             self.project.close()
         self.project = project
         self._calibrations = {}
+        self.attribute = ""
+        self.last_point = None
+        self.repick = None
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
         self.undo.clear()
@@ -380,7 +398,7 @@ class Workspace:
     def _set_state(self, state: PickState) -> None:
         self.state = state
 
-    def _first_pick(self, side: str, pixel: tuple[float, float], note: str) -> PickState:
+    def _first_pick(self, side: str, pixel: tuple[float, float], note: str, match: bool = True) -> PickState:
         if self.geometry is None:
             return PickState(**{side: pixel}, source=side, note=note or "no calibration: no epipolar curve")
         rig = self.geometry.calibration.rig(self.geometry.station, self.geometry.frame)
@@ -390,7 +408,7 @@ class Workspace:
         proposal = None
         if len(curve.pixels) == 0:
             notes.append(f"the epipolar curve of this point does not enter the {other(side)} image")
-        elif self.auto_match:
+        elif self.auto_match and match:
             try:
                 match = match_along_curve(self.images[side], self.images[other(side)], pixel, curve)
             except UsvipsError as error:
@@ -406,13 +424,45 @@ class Workspace:
         return PickState(**{side: pixel}, source=side, curve=curve.pixels, proposal=proposal, note="; ".join(notes))
 
     def accept_proposal(self) -> None:
-        """Take the auto-match proposal as the second pick and complete the vertex."""
+        """Take the auto-match proposal as the second pick and complete the vertex; with a vertex held by
+        a guard rail, keep it as it is (flagged)."""
         state = self.state
+        if state.pending is not None:
+            self._take_vertex(replace(state.pending, flags=self.vertex_warnings(state, state.pending)), "")
+            return
         if state.proposal is None:
             raise UsvipsError("there is no proposed match to accept: click the point in the other image")
         self._complete_vertex(replace(state, **{other(state.source): state.proposal}), "")
 
+    def nudge(self, dx: float, dy: float) -> str:
+        """Move the current pick by (``dx``, ``dy``) image pixels (x right, y down), as one undoable step:
+        the proposed match when there is one (it is what Enter accepts), otherwise the first pick (its
+        epipolar curve is redrawn; no new proposal is made, so the next nudge moves the same pick).
+        Returns a line saying what moved and where."""
+        state = self.state
+        if state.source is None:
+            raise UsvipsError("nothing to nudge: click a point first (Ctrl+arrows move it 0.1 px, "
+                              "Ctrl+Shift+arrows 1 px)")
+        if state.proposal is not None:
+            side = other(state.source)
+            x, y = self._check_pixel(side, (state.proposal[0] + dx, state.proposal[1] + dy))
+            text = f"proposed match ({side}) moved to ({x:.2f}, {y:.2f}); Enter accepts"
+            new = replace(state, proposal=(x, y), note=text)
+        else:
+            side = state.source
+            pick = state.pick(side)
+            x, y = self._check_pixel(side, (pick[0] + dx, pick[1] + dy))
+            text = f"pick ({side}) moved to ({x:.2f}, {y:.2f})"
+            new = self._first_pick(side, (x, y), text, match=False)
+        self._change(f"nudge ({side})", lambda: self._set_state(new))
+        return text
+
     def cancel_vertex(self) -> None:
+        if self.state.source is None and self.repick is not None:
+            self.repick = None
+            self.message.emit("info", "re-picking cancelled: the vertex stays where it was")
+            self.picks_changed.emit()
+            return
         if self.state.source is not None:
             self._change("cancel pick", lambda: self._set_state(PickState()))
 
@@ -427,10 +477,40 @@ class Workspace:
         except UsvipsError as error:
             self.message.emit("error", f"{error}; pick the point again")
             return
+        warnings = self.vertex_warnings(state, vertex)
+        if warnings and (self.digitising.kind != "pick" or self.repick is not None):
+            text = (f"held, not stored — Enter keeps it (flagged), a click in the {other(state.source)} image "
+                    f"corrects it, Esc drops it: {'; '.join(warnings)}")
+            held = replace(state, pending=vertex, proposal=None, note=text)
+            self.message.emit("warning", text)
+            self._change("held vertex", lambda: self._set_state(held))
+            return
+        self._take_vertex(replace(vertex, flags=warnings), note)  # the pick tool only shows its warnings
+
+    def vertex_warnings(self, state: PickState, vertex: MeasuredVertex) -> tuple[str, ...]:
+        """The guard rails a vertex breaks: its second pick off the epipolar curve of the first by more
+        than :attr:`max_off_curve_px`, and the quality rules on ray RMS and range."""
+        warnings = []
+        second = state.pick(other(state.source)) if state.source is not None else None
+        if second is not None and state.curve is not None and len(state.curve) > 1:
+            off = EpipolarCurve(state.curve, np.zeros(len(state.curve))).distance_to(np.array(second))
+            if off > self.max_off_curve_px:
+                warnings.append(f"the {other(state.source)} pick is {off:.1f} px off the epipolar curve "
+                                f"(> {self.max_off_curve_px:g} px)")
+        warnings.extend(vertex_failures(self.rules, vertex.ray_rms_m, vertex.range_m))
+        return tuple(warnings)
+
+    def _take_vertex(self, vertex: MeasuredVertex, note: str) -> None:
+        """Add an intersected vertex to the object being digitised (a point object is stored at once), or
+        put it in place of the stored vertex being re-picked."""
+        if self.repick is not None:
+            self._replace_vertex(vertex)
+            return
         kind = self.digitising.kind
-        self.message.emit("info", describe_point(vertex))
+        self.message.emit("warning" if vertex.flags else "info", describe_point(vertex)
+                          + (f" — kept, flagged: {'; '.join(vertex.flags)}" if vertex.flags else ""))
         if kind not in ("pick", LINE) and measurement_kind(kind).maximum_vertices == len(self.digitising.vertices) + 1:
-            self.finish_object(vertices=(vertex,))  # a point (or any kind whose last vertex is now in)
+            self.finish_object(self.attribute, vertices=(vertex,))  # a point (or any kind whose last vertex is in)
             return
 
         def add() -> None:
@@ -440,6 +520,25 @@ class Workspace:
                 self.digitising = _Digitising(kind, self.digitising.vertices + (vertex,))
 
         self._change("vertex", add)
+
+    def conjugate(self, side: str, pixel, depth_m: float | None = None) -> tuple[float, float] | None:
+        """Where ``pixel`` (x, y) of the ``side`` image appears in the other image for a point ``depth_m``
+        metres along its ray in the water: by default as far along it as the last measured point (the
+        current working depth), else :data:`LINK_DEPTH_M`. None without a calibration, or when the point
+        falls outside the other camera's view. Linked navigation follows this, not the same pixel."""
+        if self.geometry is None:
+            return None
+        rig = self.geometry.calibration.rig(self.geometry.station, self.geometry.frame)
+        cameras = {"left": rig.left, "right": rig.right}
+        bundle = cameras[side].rays(np.array([pixel], dtype=np.float64))
+        if not bundle.ok[0]:
+            return None
+        origin, direction = bundle.origins[0], bundle.directions[0]
+        if depth_m is None:
+            depth_m = (float(np.linalg.norm(self.last_point.xyz - origin)) if self.last_point is not None
+                       else LINK_DEPTH_M)
+        projection = cameras[other(side)].project((origin + depth_m * direction)[None, :])
+        return (float(projection.pixels[0, 0]), float(projection.pixels[0, 1])) if projection.ok[0] else None
 
     def intersect(self, left, right) -> MeasuredVertex:
         """Intersect one pair of picks with the pair's calibration (pointing and calibration covariance)."""
@@ -470,6 +569,9 @@ class Workspace:
         measurement_kind(kind).check_count(len(vertices))
         if self.project is None:
             raise UsvipsError("open a project first")
+        flags = [f"vertex {i + 1}: {flag}" for i, v in enumerate(vertices) for flag in v.flags]
+        if flags:
+            notes = "; ".join(filter(None, [notes, "flagged: " + "; ".join(flags)]))
         stored = self._vertices_for_store(vertices)
         holder = {"id": None}
         before = self._snapshot()
@@ -484,6 +586,7 @@ class Workspace:
                 self.last_point = last
             self.objects_changed.emit()
             self.picks_changed.emit()
+            self.stored.emit(holder["id"])
 
         def unstore() -> None:
             self.project.delete_object(holder["id"])
@@ -502,6 +605,59 @@ class Workspace:
         g = self.geometry
         return [Vertex(*v.left, *v.right, tuple(float(c) for c in v.xyz), v.covariance,
                        g.calibration_id if g else None, self.pair, *(self.video_frame or ())) for v in vertices]
+
+    def start_repick(self, object_id: int, index: int) -> None:
+        """Re-pick vertex ``index`` (0-based) of a stored object: the next vertex measured (both picks, the
+        guard rails as usual) replaces it, as one undoable step; Esc before the first pick cancels."""
+        if self.project is None:
+            raise UsvipsError("open a project first")
+        stored = self.project.object(object_id)
+        if not 0 <= index < len(stored.vertices):
+            raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
+        pair = stored.vertices[index].pair
+        if pair != self.pair:
+            raise UsvipsError(f"vertex {index + 1} of {stored.kind} {object_id} was measured on pair {pair!r}: "
+                              "show that pair first")
+        if self.digitising.vertices:
+            raise UsvipsError(f"finish or cancel the {self.digitising.kind} being digitised first")
+        self.repick = (object_id, index)
+        self.state = PickState(note=f"re-pick vertex {index + 1} of {stored.kind} {object_id}: click it in "
+                                    "either image (Esc cancels)")
+        self.picks_changed.emit()
+
+    def _replace_vertex(self, vertex: MeasuredVertex) -> None:
+        object_id, index = self.repick
+        self.repick = None
+        saved = list(self.project.object(object_id).vertices)
+        new = list(saved)
+        new[index] = self._vertices_for_store((vertex,))[0]
+        self._set_vertices(f"re-pick vertex {index + 1} of object {object_id}", object_id, saved, new)
+        self.last_point = vertex
+
+    def delete_vertex(self, object_id: int, index: int) -> None:
+        """Remove vertex ``index`` (0-based) of a stored object (undoable); an object keeps at least the
+        vertices its kind needs (delete the object instead)."""
+        stored = self.project.object(object_id)
+        if not 0 <= index < len(stored.vertices):
+            raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
+        least = measurement_kind(resolve(stored.kind, len(stored.vertices))).minimum_vertices
+        if len(stored.vertices) - 1 < least:
+            raise UsvipsError(f"a {stored.kind} needs at least {least} vertices: delete the object instead")
+        saved = list(stored.vertices)
+        self._set_vertices(f"delete vertex {index + 1} of object {object_id}", object_id, saved,
+                           saved[:index] + saved[index + 1:])
+
+    def _set_vertices(self, label: str, object_id: int, before: list[Vertex], after: list[Vertex]) -> None:
+        def apply(vertices: list[Vertex]) -> Callable[[], None]:
+            def run() -> None:
+                self.project.update_object(object_id, vertices=vertices)
+                self.state = PickState()
+                self.objects_changed.emit()
+                self.picks_changed.emit()
+            return run
+
+        self.undo.push(Command(label, apply(after), apply(before)))
+        self.message.emit("info", f"{label}: done (Ctrl+Z undoes it)")
 
     def delete_object(self, object_id: int) -> None:
         saved = self.project.object(object_id)
@@ -531,6 +687,28 @@ class Workspace:
 
         self.undo.push(Command(f"edit object {object_id}", apply(attribute, notes),
                                apply(saved.attribute, saved.notes)))
+
+    def frame_description(self, object_id: int) -> str:
+        """The frame an object's coordinates (and so its bearing and slope) are given in, in words."""
+        stored = self.project.object(object_id)
+        g = measurement_input(self.project, stored, self._calibrations)
+        if g.calibration is None:
+            return "the frame it was measured in (its calibration is no longer in the project)"
+        if g.frame == "object":
+            return f"the object frame of station {g.station} (the control points' axes)"
+        return "the rig frame (origin at the left camera; X right, Y up, the camera looking along −Z)"
+
+    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
+        """Store an object's observation record (species, number, stage, activity, comment); undoable."""
+        before = self.project.record(object_id)
+
+        def apply(value: ObservationRecord | None) -> Callable[[], None]:
+            def run() -> None:
+                self.project.set_record(object_id, value)
+                self.objects_changed.emit()
+            return run
+
+        self.undo.push(Command(f"observation record of object {object_id}", apply(record), apply(before)))
 
     def objects(self) -> list:
         return [] if self.project is None else self.project.objects()

@@ -38,6 +38,7 @@ import numpy as np
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.measurements import resolve as resolve_kind
+from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
@@ -823,3 +824,79 @@ class Project:
         return self._db.execute("SELECT f.object_id, f.idx, v.label, f.frame_left, f.frame_right, f.time_s "
                                 f"FROM vertex_frames f JOIN videos v ON v.id = f.video_id {wanted}",
                                 parameters).fetchall()
+
+    def copy_to(self, path: str | Path) -> Path:
+        """Write a consistent copy of the project to the new file ``path`` (SQLite's online backup, whole
+        even while the project is open). Image paths stored relative to this project's folder are
+        rewritten relative to the copy's folder (absolute where that is not possible), so the copy finds
+        its images. Written to ``<path>.part`` and renamed: a failure leaves nothing half-written."""
+        target = Path(path)
+        if target.exists():
+            raise ProjectError(f"{target}: already exists; choose a new file name for the copy")
+        if not target.parent.is_dir():
+            raise ProjectError(f"{target}: the folder {target.parent} does not exist")
+        part = target.with_name(target.name + ".part")
+        old_folder, new_folder = self.path.resolve().parent, target.resolve().parent
+
+        def moved(stored: str | None) -> str | None:
+            if stored is None:
+                return None
+            absolute = (old_folder / stored).resolve()
+            try:
+                return str(absolute.relative_to(new_folder))
+            except ValueError:
+                return str(absolute)
+
+        try:
+            copy = sqlite3.connect(str(part))
+            try:
+                self._db.backup(copy)
+                rows = copy.execute("SELECT id, left_path, right_path FROM image_pairs").fetchall()
+                with copy:
+                    copy.executemany("UPDATE image_pairs SET left_path = ?, right_path = ? WHERE id = ?",
+                                     [(moved(left), moved(right), pair_id) for pair_id, left, right in rows])
+                copy.execute("PRAGMA journal_mode = DELETE")
+            finally:
+                copy.close()
+            part.replace(target)
+        except (sqlite3.Error, OSError) as error:
+            part.unlink(missing_ok=True)
+            raise ProjectError(f"{target}: cannot write the copy of the project: {error}") from None
+        return target
+
+    # ---------------------------------------------------------------------------- species and records
+    def set_species_list(self, species: list[Species]) -> None:
+        """Replace the project's species list (one transaction)."""
+        with self.transaction():
+            try:
+                self._db.execute("DELETE FROM species")
+                self._db.executemany("INSERT INTO species (family, genus, species, code) VALUES (?, ?, ?, ?)",
+                                     [(s.family, s.genus, s.species, s.code) for s in species])
+            except sqlite3.IntegrityError as error:
+                raise ProjectError(f"{self.path}: cannot store the species list: {error}") from None
+
+    def species_list(self) -> list[Species]:
+        """The project's species list, sorted by genus and species (none before schema 5)."""
+        if not self._has_table("species"):
+            return []
+        rows = self._db.execute("SELECT family, genus, species, code FROM species ORDER BY genus, species")
+        return [Species(*row) for row in rows.fetchall()]
+
+    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
+        """Store (or with None remove) an object's observation record."""
+        self.object(object_id)
+        if record is None:
+            self._edit("DELETE FROM observation_records WHERE object_id = ?", (object_id,))
+            return
+        self._edit("INSERT OR REPLACE INTO observation_records (object_id, family, genus, species, code, number, "
+                   "stage, activity, comment) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                   (object_id, record.family, record.genus, record.species, record.code, record.number,
+                    record.stage, record.activity, record.comment))
+
+    def record(self, object_id: int) -> ObservationRecord | None:
+        """An object's observation record, None when none was entered (or before schema 5)."""
+        if not self._has_table("observation_records"):
+            return None
+        row = self._db.execute("SELECT family, genus, species, code, number, stage, activity, comment FROM "
+                               "observation_records WHERE object_id = ?", (object_id,)).fetchone()
+        return None if row is None else ObservationRecord(*row)

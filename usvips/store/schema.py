@@ -104,6 +104,20 @@ CREATE TABLE vertex_frames (
     PRIMARY KEY (object_id, idx), FOREIGN KEY (object_id, idx) REFERENCES vertices(object_id, idx) ON DELETE CASCADE);
 """
 MIGRATIONS[4] = VERSION_4
+
+# version 5: the observation record (EventMeasure / CheckEM fields) of each object, and the project's
+# species list it is typed from
+VERSION_5 = """
+CREATE TABLE species (
+    family TEXT NOT NULL DEFAULT '', genus TEXT NOT NULL, species TEXT NOT NULL DEFAULT '',
+    code TEXT NOT NULL DEFAULT '', PRIMARY KEY (genus, species));
+CREATE TABLE observation_records (
+    object_id INTEGER PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
+    family TEXT NOT NULL DEFAULT '', genus TEXT NOT NULL DEFAULT '', species TEXT NOT NULL DEFAULT '',
+    code TEXT NOT NULL DEFAULT '', number INTEGER NOT NULL DEFAULT 1 CHECK (number >= 1),
+    stage TEXT NOT NULL DEFAULT '', activity TEXT NOT NULL DEFAULT '', comment TEXT NOT NULL DEFAULT '');
+"""
+MIGRATIONS[5] = VERSION_5
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
