@@ -47,6 +47,7 @@ def export_project(project: Project, out: str | Path, opcode: str | None = None,
         if video_columns is not None:  # measured on a video: its files, frames, time and period
             images[measurement.id] = video_columns
     opcode = opcode if opcode is not None else project.path.stem
+    records = {o.id: record for o in objects if (record := project.record(int(o.id))) is not None}
     export(objects, out, opcode=opcode, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects},
-           images=images)
+           images=images, records=records)
     return len(objects)

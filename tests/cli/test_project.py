@@ -145,3 +145,35 @@ def test_new_on_a_dangling_symlink_in_a_sample_folder_is_refused(tmp_path, capsy
     with pytest.raises(ProjectError, match="symbolic link"):
         open_or_create_from_manifest(sample)
     assert not (tmp_path / "target.usvips").exists()
+
+
+def test_a_species_list_and_records_reach_the_checkem_tables(tmp_path):
+    """A species list imported into a project, a record typed for a stored fish: `project export` writes
+    the record's family, genus, species, code, number, stage and activity into the Lengths table."""
+    import shutil
+
+    from usvips.core.observation_record import ObservationRecord
+    from usvips.io.species_list import read_species_list
+    from usvips.samples import open_or_create_from_manifest
+    from usvips.store.project import Vertex
+
+    sample = tmp_path / "rov"
+    shutil.copytree(Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport", sample,
+                    ignore=shutil.ignore_patterns("project.usvips*"))
+    (tmp_path / "species.csv").write_text("family,genus,species,code\nSparidae,Chrysophrys,auratus,37353001\n"
+                                          "Labridae,Notolabrus,tetricus,37384045\n")
+    project = open_or_create_from_manifest(sample)
+    species = read_species_list(tmp_path / "species.csv")
+    project.set_species_list(species)
+    measured = [Vertex(100.0, 200.0, 80.0, 200.0, (0.0, 0.0, -2.0), np.eye(3) * 1e-6),
+                Vertex(300.0, 200.0, 280.0, 200.0, (0.3, 0.0, -2.0), np.eye(3) * 1e-6)]
+    fish = project.add_object("length", measured, attribute="snapper")
+    snapper = next(s for s in project.species_list() if s.genus == "Chrysophrys")
+    project.set_record(fish, ObservationRecord(snapper.family, snapper.genus, snapper.species, snapper.code, 2,
+                                               "J", "passing"))
+    project.close()
+    assert main(["project", "export", str(sample / "project.usvips"), str(tmp_path / "s.em.txt")]) == 0
+    header, row = [line.split("\t") for line in (tmp_path / "s_Lengths.txt").read_text().splitlines()]
+    values = dict(zip(header, row, strict=True))
+    assert [values[k] for k in ("Family", "Genus", "Species", "Code", "Number", "Stage", "Activity")] == [
+        "Sparidae", "Chrysophrys", "auratus", "37353001", "2", "J", "passing"]

@@ -173,3 +173,23 @@ def test_a_closed_arc_has_no_direction_rather_than_a_nan():
                    np.stack([COV] * 4), id="7")
     row = dict(zip(LENGTH_COLUMNS, eventmeasure_tables([loop])["Lengths"].splitlines()[1].split("\t"), strict=True))
     assert row["Direction"] == "" and float(row["Length"]) == pytest.approx(300 + 300 + 300 * np.sqrt(2))
+
+
+def test_a_binomial_attribute_is_genus_and_species_and_a_record_fills_every_field():
+    """Without a record, "Genus species" splits into Genus and Species (not "Unknown Unknown genusspecies");
+    with an observation record, its taxon, code, number, stage, activity and comment fill EventMeasure's
+    columns, whatever the attribute says."""
+    from usvips.core.observation_record import ObservationRecord
+
+    fish = [measure("length", np.array([[0, 0, -2.0], [0.3, 0.0, -2.0]]), np.stack([COV, COV]), 0.003, 2.0,
+                    id=str(i), attribute=attribute, notes=notes)
+            for i, (attribute, notes) in enumerate([("Pagrus auratus", ""), ("snapper", "near the bait")], 1)]
+    record = ObservationRecord("Sparidae", "Chrysophrys", "auratus", "37353001", 3, "AD", "feeding", "school")
+    tables = eventmeasure_tables(fish, opcode="OP", records={"2": record})
+    rows = list(csv.DictReader(io.StringIO(tables["Lengths"]), dialect="excel-tab"))
+    assert (rows[0]["Family"], rows[0]["Genus"], rows[0]["Species"]) == ("", "Pagrus", "auratus")
+    assert rows[0]["Number"] == "1" and rows[0]["Code"] == ""
+    second = {k: rows[1][k] for k in ("Family", "Genus", "Species", "Code", "Number", "Stage", "Activity",
+                                       "Comment")}
+    assert second == {"Family": "Sparidae", "Genus": "Chrysophrys", "Species": "auratus", "Code": "37353001",
+                      "Number": "3", "Stage": "AD", "Activity": "feeding", "Comment": "school; near the bait"}

@@ -141,7 +141,12 @@ class MainWindow(QtWidgets.QMainWindow):
     def _dock(self, title: str, widget: QtWidgets.QWidget, area: QtCore.Qt.DockWidgetArea) -> QtWidgets.QDockWidget:
         dock = QtWidgets.QDockWidget(title, self)
         dock.setObjectName(f"dock_{title.lower().replace(' ', '_').replace('-', '_')}")
-        dock.setWidget(widget)
+        # in a scroll area, so that no panel's minimum size pushes the window past a 1366 x 768 screen
+        scroll = QtWidgets.QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
+        scroll.setWidget(widget)
+        dock.setWidget(scroll)
         self.addDockWidget(area, dock)
         return dock
 
@@ -326,6 +331,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.pair_box = QtWidgets.QComboBox()
         self.pair_box.setMinimumContentsLength(10)
         self.pair_box.setToolTip("the image pair shown")
+        self.pair_box.setPlaceholderText("(video)")
         self.pair_box.activated.connect(lambda _: self.load_pair(self.pair_box.currentText()))
         bar.addWidget(self.pair_box)
         bar.addSeparator()

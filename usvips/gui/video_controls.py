@@ -218,6 +218,7 @@ class VideoController(QtCore.QObject):
         ws = self.window.workspace
         ws.set_pair(nav.label, left, right)
         ws.video_frame = (nav.label, frame, partner, time_s)
+        self.window.pair_box.setCurrentIndex(-1)  # a video, not one of the image pairs listed there
         self.window._draw_objects()  # only the objects measured on this frame
         d = self.dock_widget
         d.timeline.blockSignals(True)

@@ -24,6 +24,7 @@ import numpy as np
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import Measurement, registered_kinds
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.observation_record import ObservationRecord
 from usvips.io.atomic import write_files_atomic
 
 #: Characters that make a spreadsheet read a cell as a formula (and tab / carriage return, which some
@@ -241,26 +242,44 @@ def _camel(name: str) -> str:
 
 
 def _taxonomy(attribute: str) -> tuple[str, str, str]:
+    """Family, genus, species of a free-text attribute when no observation record says them: "Family
+    Genus species" (three words), "Genus species" (a binomial, two words); anything else stays whole in
+    Species. Records typed from the species list (:class:`ObservationRecord`) are used instead when given."""
     words = attribute.split()
     if len(words) == 3:
         return words[0], words[1], words[2]
+    if len(words) == 2 and words[0][:1].isupper() and words[1][:1].islower():
+        return "", words[0], words[1]
     return "", "", attribute
 
 
+def _record_columns(obj: Measurement, record: ObservationRecord | None, comment: str) -> list:
+    """EventMeasure's Family … Attribute10 of one object: from its observation record when it has one
+    (the comment joins the record's and the object's own), else the taxonomy read from the attribute."""
+    if record is None:
+        family, genus, species = _taxonomy(obj.attribute)
+        return [family, genus, species, "", 1, "", "", comment, "", ""]
+    comment = "; ".join(filter(None, [record.comment, comment]))
+    return [record.family, record.genus, record.species, record.code, record.number, record.stage,
+            record.activity, comment, "", ""]
+
+
 def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_centre=(0.0, 0.0, 0.0),
-                        images: dict[str, tuple[str, ...]] | None = None) -> dict[str, str]:
+                        images: dict[str, tuple[str, ...]] | None = None,
+                        records: dict[str, ObservationRecord] | None = None) -> dict[str, str]:
     """Table name (:func:`eventmeasure_table_names`) → tab-separated text. Lengths and arcs become lengths
     (Length and Precision are the length figure and its sigma, in mm), points 3-D points (Direction
     empty), other kinds rows of their own table. RMS: the object's ray-intersection RMS (mm) when known
     (CheckEM drops rows without one when it filters on RMS); ``images``: object id → (left file, left
     frame, right file, right frame[, time (min), period, period time (min)]). Direction is the angle
     (degrees) between the measured line and the line of sight to its middle from ``camera_centre`` (90° =
-    across the view); ``camera_centre`` is one point (m) for all objects or a mapping object id → point."""
+    across the view); ``camera_centre`` is one point (m) for all objects or a mapping object id → point.
+    ``records``: object id → its observation record (taxon, code, number, stage, activity, comment)."""
     images = images or {}
+    records = records or {}
     rows: dict[str, list[list]] = {name: [] for name in eventmeasure_table_names()}
     for obj in objects:
         centre = np.asarray(camera_centre[obj.id] if isinstance(camera_centre, dict) else camera_centre, float)
-        family, genus, species = _taxonomy(obj.attribute)
         rms = "" if obj.ray_rms_m is None else obj.ray_rms_m * 1000
         file_left, frame_left, file_right, frame_right, *timing = images.get(obj.id, ("", "", "", ""))
         head = [opcode, "", file_left, frame_left, file_right, frame_right, *(list(timing) + ["", "", ""])[:3]]
@@ -277,11 +296,11 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_cen
             direction = np.degrees(np.arccos(min(1.0, abs(segment @ view) / scale))) if scale > 0 else ""
             rows[table].append(head + [length.value * 1000, length.sigma * 1000, rms, np.linalg.norm(view) * 1000,
                                        direction, "", "", *(middle * 1000)]
-                               + [family, genus, species, "", 1, "", "", comment, "", ""])
+                               + _record_columns(obj, records.get(obj.id), comment))
         elif table == "3DPoints":
             p, sigma = obj.points[0], obj.vertex_sigmas[0]
             rows[table].append(head + [*(p * 1000), *(sigma * 1000), rms, np.linalg.norm(p - centre) * 1000, ""]
-                               + [family, genus, species, "", 1, "", "", comment, "", ""])
+                               + _record_columns(obj, records.get(obj.id), comment))
         else:
             values = {}
             for f in obj.figures:
@@ -292,7 +311,7 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_cen
             figures = [values.get(c, "") for c in columns[len(_HEAD) + 1:-len(_TAIL) - 5]]
             rows[table].append(head + [len(obj.points), *figures, rms,
                                        np.linalg.norm(middle - centre) * 1000, *(middle * 1000)]
-                               + [family, genus, species, "", 1, "", "", comment, "", ""])
+                               + _record_columns(obj, records.get(obj.id), comment))
     headers = {"Lengths": LENGTH_COLUMNS, "3DPoints": POINT_COLUMNS}
     return {name: _table(headers.get(name) or _own_columns(name), table_rows, "excel-tab", flatten=True)
             for name, table_rows in rows.items()}
