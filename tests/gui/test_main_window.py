@@ -362,3 +362,24 @@ def test_linked_navigation_brings_the_other_pane_to_the_conjugate_region(qtbot, 
         assert window.panes["right"].zoom_level() == pytest.approx(4.0, rel=1e-3)
         parallax = np.linalg.norm(np.subtract(left[number], right[number]))
         assert parallax > 20  # identical pixel coordinates would have missed it
+
+
+def test_the_object_list_changes_an_objects_kind_with_the_mouse(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    window.set_tool("line")
+    for fish, point in [("fish1", "snout"), ("fish1", "fork"), ("fish2", "fork")]:
+        click_pixel(qtbot, window.panes["left"], left[fish][point])
+        click_pixel(qtbot, window.panes["right"], right[fish][point])
+        if window.workspace.state.pending is not None:
+            window.accept_or_finish()
+    window.accept_or_finish()
+    (stored,) = window.workspace.objects()
+    assert stored.kind == "arc"
+    window.object_list.table.selectRow(0)
+    window.object_list.kind.setCurrentText("polygon")
+    qtbot.mouseClick(window.object_list.set_kind_button, QtCore.Qt.MouseButton.LeftButton)
+    assert window.workspace.project.object(stored.id).kind == "polygon"
+    assert "polygon" in window.object_list.table.item(0, 1).text()

@@ -394,3 +394,32 @@ def test_a_vertex_is_deleted_only_while_the_object_keeps_enough(workspace):
     ws.start_repick(object_id, 0)
     ws.cancel_vertex()  # Esc before a pick: nothing changes
     assert ws.repick is None and len(ws.project.object(object_id).vertices) == 3
+
+
+def test_a_stored_object_changes_kind_where_its_vertices_allow_and_undo_restores_it(workspace):
+    """An arc of four vertices measured round a patch becomes a polygon (its figures become an area) and
+    back with undo; a length of two vertices cannot become a polygon or a circle (refused by name)."""
+    ws, directory = workspace("tank_system1", "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    rim = [("fish1", "snout"), ("fish1", "fork"), ("fish2", "fork"), ("fish2", "snout")]
+    ws.set_tool("line")
+    for fish, point in rim:
+        ws.pick("left", left[fish][point])
+        ws.pick("right", right[fish][point])
+    patch = ws.finish_object("patch")
+    assert ws.project.object(patch).kind == "arc"
+    assert ws.kinds_for(patch)[0] == "arc" and {"polygon", "circle"} <= set(ws.kinds_for(patch))
+    ws.change_kind(patch, "polygon")
+    assert ws.project.object(patch).kind == "polygon"
+    assert ws.figures([patch]).figures[0].name == "area" and ws.figures([patch]).figures[0].value > 0
+    ws.undo.undo()
+    assert ws.project.object(patch).kind == "arc" and ws.figures([patch]).figures[0].name == "length"
+    ws.set_tool("line")
+    for point in ("snout", "fork"):
+        ws.pick("left", left["fish1"][point])
+        ws.pick("right", right["fish1"][point])
+    fish = ws.finish_object("fish")
+    assert "polygon" not in ws.kinds_for(fish) and "circle" not in ws.kinds_for(fish)
+    with pytest.raises(UsvipsError, match="cannot be a polygon"):
+        ws.change_kind(fish, "polygon")
+    assert ws.project.object(fish).kind == "length"

@@ -211,8 +211,15 @@ class ObjectList(QtWidgets.QWidget):
         repick.setToolTip("measure the chosen vertex again: click it in either image, then its partner")
         delete_vertex = QtWidgets.QPushButton("Delete vertex")
         self.repick_button, self.delete_vertex_button = repick, delete_vertex
+        # changing the kind where the vertices allow it (an arc measured round a patch becomes a polygon)
+        self.kind = QtWidgets.QComboBox()
+        self.kind.setToolTip("the kinds the selected object's vertices can make")
+        set_kind = QtWidgets.QPushButton("Set kind")
+        set_kind.setToolTip("make the selected object the chosen kind, keeping its vertices (undoable)")
+        self.set_kind_button = set_kind
+        set_kind.clicked.connect(self._on_set_kind)
         buttons.addSpacing(12)
-        for widget in (self.vertex, repick, delete_vertex):
+        for widget in (self.vertex, repick, delete_vertex, self.kind, set_kind):
             buttons.addWidget(widget)
         buttons.addStretch(1)
         repick.clicked.connect(lambda: self._edit_vertex(self.workspace.start_repick))
@@ -306,6 +313,19 @@ class ObjectList(QtWidgets.QWidget):
         ids = self.selected_ids()
         count = len(self.workspace.project.object(ids[0]).vertices) if len(ids) == 1 else 1
         self.vertex.setRange(1, max(count, 1))
+        self.kind.clear()
+        if len(ids) == 1:
+            self.kind.addItems(self.workspace.kinds_for(ids[0]))
+
+    def _on_set_kind(self) -> None:
+        ids = self.selected_ids()
+        if len(ids) != 1 or not self.kind.currentText():
+            self.workspace.message.emit("warning", "select one object in the list to change its kind")
+            return
+        try:
+            self.workspace.change_kind(ids[0], self.kind.currentText())
+        except UsvipsError as error:
+            self.workspace.message.emit("error", str(error))
 
     def _edit_vertex(self, action) -> None:
         """Re-pick or delete the chosen vertex of the one selected object; errors go to the window."""

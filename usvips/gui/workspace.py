@@ -18,7 +18,7 @@ from usvips.core.calibration.uncertainty import joint_covariance
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
 from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
-from usvips.core.measurements import QualityRules, names, placement, resolve
+from usvips.core.measurements import QualityRules, names, placement, registered_kinds, resolve
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.observation_record import ObservationRecord
 from usvips.core.rays import RayStatus
@@ -673,6 +673,33 @@ class Workspace:
             self.objects_changed.emit()
 
         self.undo.push(Command(f"delete {saved.kind} {object_id}", delete, restore))
+
+    def kinds_for(self, object_id: int) -> list[str]:
+        """The registered measurement kinds a stored object's vertices can make (its own first)."""
+        stored = self.project.object(object_id)
+        count = len(stored.vertices)
+        fitting = [k.name for k in registered_kinds() if k.minimum_vertices <= count
+                   and (k.maximum_vertices is None or count <= k.maximum_vertices)]
+        return sorted(fitting, key=lambda name: name != stored.kind)
+
+    def change_kind(self, object_id: int, kind: str) -> None:
+        """Make a stored object another measurement kind (an arc a polygon, say), keeping its vertices;
+        undoable. Refused by name when the vertices cannot make that kind."""
+        stored = self.project.object(object_id)
+        if kind == stored.kind:
+            return
+        if kind not in self.kinds_for(object_id):
+            raise UsvipsError(f"{stored.kind} {object_id} has {len(stored.vertices)} vertices: it cannot be a "
+                              f"{kind} (it can be {', '.join(self.kinds_for(object_id))})")
+
+        def apply(name: str) -> Callable[[], None]:
+            def run() -> None:
+                self.project.update_object(object_id, kind=name)
+                self.objects_changed.emit()
+            return run
+
+        self.undo.push(Command(f"make object {object_id} a {kind}", apply(kind), apply(stored.kind)))
+        self.message.emit("info", f"object {object_id} is now a {kind} (Ctrl+Z undoes it)")
 
     def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
         saved = self.project.object(object_id)

@@ -530,10 +530,19 @@ class Project:
         self._insert_vertex_frames(object_id, vertices)
 
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
-                      vertices: list[Vertex] | None = None) -> None:
-        """Change an object in one transaction; replaced 3-D values go to the vertex history."""
+                      vertices: list[Vertex] | None = None, kind: str | None = None) -> None:
+        """Change an object in one transaction; replaced 3-D values go to the vertex history. ``kind``: a
+        registered measurement kind that suits the (new) vertex count."""
         with self.transaction():
-            self.object(object_id)
+            stored = self.object(object_id)
+            if kind is not None:
+                count = len(vertices) if vertices is not None else len(stored.vertices)
+                try:
+                    kind = resolve_kind(kind, count)
+                    measurement_kind(kind).check_count(count)
+                except UsvipsError as error:
+                    raise ProjectError(f"{self.path}: object {object_id}: {error}") from None
+                self._db.execute("UPDATE objects SET kind = ? WHERE id = ?", (kind, object_id))
             if attribute is not None:
                 self._db.execute("UPDATE objects SET attribute = ? WHERE id = ?", (attribute, object_id))
             if notes is not None:
