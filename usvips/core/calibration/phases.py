@@ -41,6 +41,10 @@ DEFAULT_HOUSING = {
                   "n3": (1.34, 0.01)},
 }
 
+#: The physical range of housing parameters (open interval, by symbol): glass has a thickness, a sphere a
+#: radius, a port lies in front of the camera, and glass and water are denser than air.
+HOUSING_BOUNDS = {"t": (0.0, None), "r": (0.0, None), "g": (0.0, None), "n2": (1.0, None), "n3": (1.0, None)}
+
 
 @dataclass
 class CalibrationOptions:
@@ -149,7 +153,8 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     statistics = {"rms_px": adjustment.rms, "redundancy": adjustment.redundancy,
                   "condition_number": adjustment.condition_number, "iterations": adjustment.iterations,
                   "converged": adjustment.converged, "global_test": adjustment.global_test,
-                  "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px}
+                  "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px,
+                  "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adjustment.on_bound]}
     calibration = StereoCalibration(
         left, right, model.stations, tuple(poses), relative_orientation(left.exterior, right.exterior), phase,
         max(sigma0_px, 1e-12), estimates, (tuple(adjustment.covariance_names), adjustment.covariance),
@@ -174,19 +179,32 @@ def build_report(result: CalibrationResult) -> dict:
                           "used": bool(adj.used[i] and adj.used[i + 1])})
     notes = []
     if model.kind == "dome-cover":
-        notes.append("System I: the sphere centre (a, b, c) and radius r of each cover, the shared cover plane "
-                     "(d, e, g; left camera frame) and the indices n2, n3 enter with priors by default: a sphere "
-                     "centred near the perspective centre hardly bends the rays, and cover tilt correlates with "
-                     "the principal point and decentring distortion.")
+        notes.append("System I: the sphere centre (a, b, c) of each cover, the left radius r_l, the glass "
+                     "thickness at each cover's thinnest point (t left, t_r right; the plane's g and the right "
+                     "radius follow from them), the shared cover plane's tilt (d, e; left camera frame) and the "
+                     "indices n2, n3 enter with priors by default: a sphere centred near the perspective centre "
+                     "hardly bends the rays, and cover tilt correlates with the principal point and decentring "
+                     "distortion.")
     if model.kind == "flat-port":
         notes.append("System II: port tilt (d, e) and distance g of each camera enter with priors; glass "
                      "thickness t and n2 are fixed unless given, since they are nearly inseparable from g.")
+    for name, side, bound in adj.on_bound:
+        notes.append(f"{name} ends on its {side} bound ({bound:g}): the data push it to the edge of its physical "
+                     "range, so the housing model or its priors do not fit the data there; its sigma (and those of "
+                     "the parameters correlated with it) assume an interior minimum and understate the doubt.")
+    if adj.model_doubt:
+        notes.append(adj.model_doubt)
+    notes.append(f"global test: {adj.global_test['verdict']}.")
+    if not adj.converged:
+        notes.append(f"NOT converged: {adj.reason}. Do not use this calibration for measurement.")
     if adj.correlations_over:
         notes.append(f"{len(adj.correlations_over)} parameter pairs correlate above 0.95: their individual values "
                      "are not determined by the data (their combination is); see correlations_over_0_95.")
     return {
         "phase": cal.phase, "housing": model.kind, "stations": list(model.stations),
         "converged": adj.converged, "reason": adj.reason, "iterations": adj.iterations,
+        "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adj.on_bound],
+        "model_doubt": adj.model_doubt,
         "sigma0_px": cal.sigma0_px, "rms_px": adj.rms, "redundancy": adj.redundancy,
         "parameters": {name: {"value": p.value, "sigma": p.sigma, "status": p.status}
                        for name, p in cal.parameters.items()},
@@ -281,7 +299,9 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
             parameters.append(Parameter(name, values[name], "free"))
     for name in housing_parameter_names(housing):
         value, sigma = DEFAULT_HOUSING[housing][symbol(name)]
-        parameters.append(Parameter(name, value, "prior" if sigma else "fixed", value, sigma))
+        lower, upper = HOUSING_BOUNDS.get(symbol(name), (None, None))
+        parameters.append(Parameter(name, value, "prior" if sigma else "fixed", value, sigma, lower=lower,
+                                    upper=upper))
     parameters += _control_parameters(model)
     _apply_options(parameters, options)
     _choose_start(model, parameters)
