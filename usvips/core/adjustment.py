@@ -40,6 +40,29 @@ GROSS = 10.0               # residuals of the robust start beyond this many robu
 BACKTRACKS = 4             # halvings of a step that leaves the valid region before the damping grows
 
 
+@dataclass(eq=False)
+class PriorGroup:
+    """A correlated prior on several parameters: ``names``, their prior ``mean`` and ``covariance`` (e.g.
+    the phase-1 interior with its full covariance entering phase 2). Every member must be free with status
+    ``prior``; each keeps its marginal sigma for display, the group's weight is the inverse covariance."""
+
+    names: tuple[str, ...]
+    mean: np.ndarray
+    covariance: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.mean = np.asarray(self.mean, float)
+        self.covariance = np.asarray(self.covariance, float)
+        eigen = np.linalg.eigvalsh((self.covariance + self.covariance.T) / 2)
+        if not np.all(np.isfinite(eigen)) or eigen.min() <= 1e-12 * max(eigen.max(), 1e-300):
+            raise InvalidParameterError(", ".join(self.names[:3]), "the prior covariance is not positive definite")
+        self.weight = np.linalg.inv(self.covariance)
+        self.weight = (self.weight + self.weight.T) / 2
+
+    def misfit(self, values: dict[str, float]) -> np.ndarray:
+        return self.mean - np.array([values[n] for n in self.names])
+
+
 @dataclass
 class Parameter:
     """A named unknown: ``value``; ``status`` free | fixed | prior; for a prior, ``prior`` ± ``sigma``;
@@ -55,6 +78,7 @@ class Parameter:
     step: float = 1e-6
     lower: float | None = None
     upper: float | None = None
+    group: PriorGroup | None = None
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:
@@ -216,17 +240,44 @@ def _normal_system(jac, residual, weights, free, values):
     rhs = weighted.T @ residual
     cost = float(residual @ (weights * residual))
     for j, parameter in enumerate(free):
-        if parameter.status == "prior":
+        if parameter.status == "prior" and parameter.group is None:
             weight = 1.0 / parameter.sigma**2
             misfit = parameter.prior - values[parameter.name]
             normal[j, j] += weight
             rhs[j] += weight * misfit
             cost += weight * misfit * misfit
+    for group, index in _groups(free):
+        misfit = group.misfit(values)
+        normal[np.ix_(index, index)] += group.weight
+        rhs[index] += group.weight @ misfit
+        cost += float(misfit @ group.weight @ misfit)
     return normal, rhs, cost
 
 
+def _groups(free: list[Parameter]) -> list[tuple[PriorGroup, np.ndarray]]:
+    """The correlated prior groups among the free parameters, each restricted to the members still in it
+    (free, status prior; the sub-covariance of those is their marginal prior), with their columns."""
+    position = {p.name: j for j, p in enumerate(free) if p.group is not None and p.status == "prior"}
+    seen: dict[int, PriorGroup] = {}
+    for p in free:
+        if p.name in position:
+            seen.setdefault(id(p.group), p.group)
+    out = []
+    for group in seen.values():
+        keep = [k for k, n in enumerate(group.names) if n in position and free[position[n]].group is group]
+        if len(keep) < len(group.names):
+            group = PriorGroup(tuple(group.names[k] for k in keep), group.mean[keep],
+                               group.covariance[np.ix_(keep, keep)])
+        out.append((group, np.array([position[n] for n in group.names], dtype=int)))
+    return out
+
+
 def _prior_cost(free: list[Parameter], values: dict[str, float]) -> float:
-    return sum(((p.prior - values[p.name]) / p.sigma) ** 2 for p in free if p.status == "prior")
+    single = sum(((p.prior - values[p.name]) / p.sigma) ** 2 for p in free if p.status == "prior" and p.group is None)
+    for group, _ in _groups(free):
+        misfit = group.misfit(values)
+        single += float(misfit @ group.weight @ misfit)
+    return single
 
 
 def _to_boundary(free: list[Parameter], values: dict[str, float], step: np.ndarray) -> float:

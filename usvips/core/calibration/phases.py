@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from usvips.core.adjustment import Adjustment, Parameter, adjust
+from usvips.core.adjustment import Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
 from usvips.core.camera import EXTERIOR_PARAMETERS, Exterior
 from usvips.core.dlt import robust_dlt
@@ -57,7 +57,7 @@ class CalibrationOptions:
     fix_values: dict[str, float] = field(default_factory=dict)
     priors: dict[str, tuple[float, float]] = field(default_factory=dict)
     sigma_px: float = 0.5
-    interior: str = "fixed"
+    interior: str = "weighted"
     robust: bool = True
     snooping: bool = True
     image_size: tuple[int | None, int | None] = (None, None)
@@ -122,12 +122,14 @@ def _apply_options(parameters: list[Parameter], options: CalibrationOptions) -> 
     for key, value in options.fix_values.items():
         for name in _expand([key], names, "--fix"):
             by_name[name].status, by_name[name].value = "fixed", float(value)
+            by_name[name].group = None
     for key, (value, sigma) in options.priors.items():
         if not sigma > 0:
             raise InvalidParameterError("--prior", f"{key}: the sigma must be > 0, got {sigma}")
         for name in _expand([key], names, "--prior"):
             p = by_name[name]
             p.status, p.value, p.prior, p.sigma = "prior", float(value), float(value), float(sigma)
+            p.group = None  # the user's own prior replaces phase 1's
 
 
 def _snoop_unit(model: StereoModel):
@@ -194,6 +196,10 @@ def build_report(result: CalibrationResult) -> dict:
                      "the parameters correlated with it) assume an interior minimum and understate the doubt.")
     if adj.model_doubt:
         notes.append(adj.model_doubt)
+    interior = [n for n, p in cal.parameters.items() if symbol(n) in INTERIOR_PARAMETERS and "@" not in n]
+    if cal.phase != "air" and interior and all(cal.parameters[n].status == "fixed" for n in interior):
+        notes.append("The interior orientation is held fixed: the reported sigmas (and every point's) leave its "
+                     "uncertainty out; use --interior weighted to carry it.")
     notes.append(f"global test: {adj.global_test['verdict']}.")
     if not adj.converged:
         notes.append(f"NOT converged: {adj.reason}. Do not use this calibration for measurement.")
@@ -254,6 +260,21 @@ def calibrate_air(control: ControlPoints, observations: StereoObservations,
     return _solve(model, parameters, options, "air", source or {})
 
 
+def _interior_prior(base: StereoCalibration) -> PriorGroup | None:
+    """Phase 1's estimated interior with its full covariance (both cameras, every free interior parameter,
+    their correlations kept) as one correlated prior for phase 2; None when phase 1 has no covariance."""
+    if base.covariance is None:
+        return None
+    names, matrix = base.covariance
+    chosen = [i for i, n in enumerate(names) if symbol(n) in INTERIOR_PARAMETERS and "@" not in n
+              and n in base.parameters and base.parameters[n].sigma]
+    if not chosen:
+        return None
+    matrix = np.asarray(matrix, float)
+    return PriorGroup(tuple(names[i] for i in chosen), np.array([base.parameters[names[i]].value for i in chosen]),
+                      matrix[np.ix_(chosen, chosen)])
+
+
 def _control_parameters(model: StereoModel) -> list[Parameter]:
     out = []
     if model.control_parameters:
@@ -285,12 +306,15 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     right_start = right_exterior(exterior_of(values, "l"), base.relative)
     values.update({f"{p}_r": getattr(right_start, p) for p in EXTERIOR_PARAMETERS})
     parameters = []
+    group = _interior_prior(base) if options.interior == "weighted" else None
     for side, camera in (("l", base.left), ("r", base.right)):
         for p in INTERIOR_PARAMETERS:
             name = f"{p}_{side}"
             value = getattr(camera.interior, p)
             estimate = base.parameters.get(name)
-            if options.interior == "weighted" and estimate is not None and estimate.sigma:
+            if group is not None and name in group.names:
+                parameters.append(Parameter(name, value, "prior", value, estimate.sigma, group=group))
+            elif options.interior == "weighted" and estimate is not None and estimate.sigma:
                 parameters.append(Parameter(name, value, "prior", value, estimate.sigma))
             else:
                 parameters.append(Parameter(name, value, "fixed"))
