@@ -89,3 +89,23 @@ def test_too_few_points_and_bad_options(files, capsys):
     assert main(["intersect", "--calibration", str(d / "missing.json"), "--obs", str(d / "check.csv"),
                  "--out", str(d / "p.csv")]) == 2
     assert "no such calibration file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--free", "k2", "--fix", "k2"], "k2 is both freed and fixed"),
+    (["--free", "k2", "--prior", "k2=0:0.1"], "k2 is both freed and given a prior"),
+    (["--image-size", "0x0"], "--image-size.*no image"),
+    (["--report", "SAME"], "--report.*same file as --out"),
+])
+def test_contradictory_options_are_refused_by_name(tmp_path, capsys, extra, message):
+    import re
+    from pathlib import Path
+
+    sample = Path(__file__).resolve().parents[2] / "sample_projects" / "tank_1995"
+    out = tmp_path / "air.json"
+    extra = [str(out) if item == "SAME" else item for item in extra]
+    code = main(["calibrate", "air", "--control", str(sample / "control_table3_1.csv"), "--obs",
+                 str(sample / "air_pair1_table3_2.csv"), "--out", str(out), *extra])
+    assert code == 2 and not out.exists()
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and re.search(message, error)

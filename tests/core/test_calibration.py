@@ -183,8 +183,11 @@ def test_exact_exterior_derivatives_match_differences(control, kind):
                       "g_r": h_right.g, "t": h_left.t, "n2": h_left.n2, "n3": h_left.n3})
     if kind == "dome-cover":
         truth.update({"a_l": h_left.a, "b_l": h_left.b, "c_l": h_left.c, "r_l": h_left.r, "a_r": h_right.a,
-                      "b_r": h_right.b, "c_r": h_right.c, "r_r": h_right.r, "d": 0.0, "e": 0.0,
+                      "b_r": h_right.b, "c_r": h_right.c, "t_r": 0.01, "d": 0.0, "e": 0.0,
                       "t": h_left.g - h_left.r + h_left.c, "n2": h_left.n2, "n3": h_left.n3})
+        # the right glass thickness that gives the right sphere its radius under the shared plane
+        from usvips.core.calibration.model import build_housings
+        truth["t_r"] = 0.01 + build_housings(kind, truth)[1].r - h_right.r
     from usvips.core.adjustment import Parameter
 
     parameters = [Parameter(name, value) for name, value in truth.items()]

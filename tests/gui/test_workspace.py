@@ -70,10 +70,15 @@ def test_epipolar_curves_pass_the_true_conjugates_and_auto_match_finds_them(work
 def test_a_pick_in_the_right_image_draws_the_curve_in_the_left(workspace):
     ws, directory = workspace("tank_system1", "water1")
     left, right = truth_pixels(directory, "water1", "targets")
-    number = isolated_targets(left, right)[0]
-    ws.pick("right", right[number])
-    assert ws.state.source == "right"
-    assert _curve_distance(ws, left[number]) < 0.5
+    # identical targets: one whose epipolar curve also crosses another is genuinely ambiguous (the matcher
+    # says so and proposes nothing); take the first isolated target whose curve meets no other
+    for number in isolated_targets(left, right):
+        ws.pick("right", right[number])
+        assert ws.state.source == "right"
+        assert _curve_distance(ws, left[number]) < 0.5
+        if "ambiguous" not in ws.state.note:
+            break
+        ws.cancel_vertex()
     assert np.linalg.norm(np.subtract(ws.state.proposal, left[number])) < 0.5
 
 

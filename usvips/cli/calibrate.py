@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from usvips.cli.common import parse_assignment, parse_prior, write_text_atomic
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
@@ -39,8 +40,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     water.add_argument("--base", required=True, help="the phase-1 calibration file")
     water.add_argument("--housing", required=True, choices=["dome-cover", "flat-port"],
                        help="dome-cover: System I (concave sphere + shared plane); flat-port: System II")
-    water.add_argument("--interior", choices=["fixed", "weighted"], default="fixed",
-                       help="phase-1 interior held fixed (thesis) or weighted by its phase-1 sigmas")
+    water.add_argument("--interior", choices=["fixed", "weighted"], default="weighted",
+                       help="phase-1 interior weighted by its phase-1 covariance (default: its uncertainty "
+                            "reaches every point) or held fixed as in the thesis (the sigmas then leave it out)")
     _common(water)
     water.set_defaults(handler=run_water)
 
@@ -54,6 +56,16 @@ def _options(args: argparse.Namespace) -> CalibrationOptions:
         else:
             fix_names.append(item)
     priors = dict(parse_prior(item) for item in args.prior)
+    freed = set(args.free)
+    both = sorted(freed & (set(fix_names) | set(fix_values)))
+    if both:
+        raise InvalidParameterError("--free/--fix", f"{both[0]} is both freed and fixed; choose one")
+    both = sorted(freed & set(priors))
+    if both:
+        raise InvalidParameterError("--free/--prior", f"{both[0]} is both freed and given a prior; choose one")
+    if args.report and Path(args.report).resolve() == Path(args.out).resolve():
+        raise InvalidParameterError("--report", f"is the same file as --out ({args.out}); the report would "
+                                    "overwrite the calibration")
     if not args.sigma_px > 0:
         raise InvalidParameterError("--sigma-px", f"must be > 0, got {args.sigma_px}")
     size = (None, None)
@@ -62,8 +74,11 @@ def _options(args: argparse.Namespace) -> CalibrationOptions:
         if not sep or not width.isdigit() or not height.isdigit():
             raise InvalidParameterError("--image-size", f"expected WIDTHxHEIGHT, got {args.image_size!r}")
         size = (int(width), int(height))
+        if min(size) < 16:
+            raise InvalidParameterError("--image-size", f"{args.image_size} is no image (each side must be at "
+                                        "least 16 pixels)")
     return CalibrationOptions(free=tuple(args.free), fix=tuple(fix_names), fix_values=fix_values, priors=priors,
-                              sigma_px=args.sigma_px, interior=getattr(args, "interior", "fixed"),
+                              sigma_px=args.sigma_px, interior=getattr(args, "interior", "weighted"),
                               snooping=not args.no_snooping, image_size=size)
 
 
@@ -103,6 +118,9 @@ def run_air(args: argparse.Namespace) -> int:
 
 def run_water(args: argparse.Namespace) -> int:
     base = load_calibration(args.base)
+    if base.phase != "air":
+        raise InvalidParameterError("--base", f"{args.base} is a {base.phase} (phase-2) calibration; phase 2 "
+                                    "starts from the in-air (phase-1) calibration of the same cameras")
     control = read_control(args.control)
     observations = read_observations(args.obs)
     result = calibrate_water(base, args.housing, control, observations, _options(args), _source(args))

@@ -12,8 +12,11 @@ gross error cannot drag the solution, and iterated data snooping (Baarda's w-tes
 Statistics follow the textbook (Mikhail & Ackermann 1976; Baarda 1968; Förstner):
 sigma0² = vᵀPv / r with redundancy r = n_obs + n_prior − n_free; Qxx = N⁻¹; parameter sigma =
 sigma0·sqrt(Qxx_ii); redundancy numbers r_i = (Qvv P)_ii; w_i = v_i / (σ_i sqrt(r_i / p_i…)) — see
-:func:`_statistics`; minimal detectable blunder ∇_i = δ0 σ_i / sqrt(r_i) with δ0 = 4.13 (α = 0.1 %,
-power 80 %); the global test compares r·sigma0² with the χ²(r) distribution.
+:func:`_statistics`; minimal detectable blunder ∇_i = δ0 σ̂ σ_i / sqrt(r_i) with δ0 = 4.13 (α = 0.1 %,
+power 80 %). The a-priori sigma is a starting value: the observations' variance factor is estimated
+(variance-component estimation against the priors, :func:`_variance_component`), and the global test
+compares vᵀPv of the observations with χ²(r_obs), reporting an a-priori sigma too optimistic or too
+pessimistic instead of rejecting the run; w is Pope's tau with the estimated factor.
 """
 
 from __future__ import annotations
@@ -27,15 +30,45 @@ from scipy import stats
 from usvips.core.errors import ConvergenceError, DegenerateGeometryError, InvalidParameterError
 
 STATUSES = ("free", "fixed", "prior")
-W_CRITICAL = 3.29          # two-sided normal quantile for α0 = 0.1 %
+W_CRITICAL = 3.29          # two-sided normal quantile for α0 = 0.1 % (tau's limit for large redundancy)
+ALPHA0 = 0.001             # data snooping's level per observation
 DELTA0 = 4.13              # non-centrality for α0 = 0.1 % and power 80 %
 HUBER_K = 2.0              # Huber threshold in standard deviations for the robust start
+TO_BOUNDARY = 0.9          # a step goes at most this fraction of the way to a parameter's bound
+SNOOP_SHARE = 40           # data snooping rejects at most one observation unit per this many observations
+GROSS = 10.0               # residuals of the robust start beyond this many robust sigmas are set aside
+BACKTRACKS = 4             # halvings of a step that leaves the valid region before the damping grows
+
+
+@dataclass(eq=False)
+class PriorGroup:
+    """A correlated prior on several parameters: ``names``, their prior ``mean`` and ``covariance`` (e.g.
+    the phase-1 interior with its full covariance entering phase 2). Every member must be free with status
+    ``prior``; each keeps its marginal sigma for display, the group's weight is the inverse covariance."""
+
+    names: tuple[str, ...]
+    mean: np.ndarray
+    covariance: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.mean = np.asarray(self.mean, float)
+        self.covariance = np.asarray(self.covariance, float)
+        eigen = np.linalg.eigvalsh((self.covariance + self.covariance.T) / 2)
+        if not np.all(np.isfinite(eigen)) or eigen.min() <= 1e-12 * max(eigen.max(), 1e-300):
+            raise InvalidParameterError(", ".join(self.names[:3]), "the prior covariance is not positive definite")
+        self.weight = np.linalg.inv(self.covariance)
+        self.weight = (self.weight + self.weight.T) / 2
+
+    def misfit(self, values: dict[str, float]) -> np.ndarray:
+        return self.mean - np.array([values[n] for n in self.names])
 
 
 @dataclass
 class Parameter:
     """A named unknown: ``value``; ``status`` free | fixed | prior; for a prior, ``prior`` ± ``sigma``;
-    ``step`` is the finite-difference step (in the parameter's unit)."""
+    ``step`` is the finite-difference step (in the parameter's unit); ``lower`` / ``upper``: the open
+    interval of physical values (e.g. a glass thickness > 0). The solver never steps onto or past a bound
+    (it goes at most :data:`TO_BOUNDARY` of the way) and reports a parameter that ends on one."""
 
     name: str
     value: float
@@ -43,6 +76,9 @@ class Parameter:
     prior: float | None = None
     sigma: float | None = None
     step: float = 1e-6
+    lower: float | None = None
+    upper: float | None = None
+    group: PriorGroup | None = None
 
     def __post_init__(self) -> None:
         if self.status not in STATUSES:
@@ -54,6 +90,11 @@ class Parameter:
                 raise InvalidParameterError(self.name, f"a prior needs a sigma > 0, got {self.sigma}")
             if self.prior is None:
                 self.prior = self.value
+        if (self.lower is not None and not self.value > self.lower) or \
+                (self.upper is not None and not self.value < self.upper):
+            raise InvalidParameterError(self.name, f"{self.value:g} is outside its physical range "
+                                        f"({self.lower if self.lower is not None else '-inf'}, "
+                                        f"{self.upper if self.upper is not None else 'inf'})")
 
 
 @dataclass
@@ -135,6 +176,10 @@ class Adjustment:
     excluded: list[Suspect]
     observations: Observations
     used: np.ndarray
+    #: free parameters that end on a bound (within a tenth of their sigma of it): (name, side, bound)
+    on_bound: list[tuple[str, str, float]] = field(default_factory=list)
+    #: set when data snooping reached its cap with observations still failing: the model is in doubt
+    model_doubt: str | None = None
 
     def __bool__(self) -> bool:
         return self.converged
@@ -195,26 +240,74 @@ def _normal_system(jac, residual, weights, free, values):
     rhs = weighted.T @ residual
     cost = float(residual @ (weights * residual))
     for j, parameter in enumerate(free):
-        if parameter.status == "prior":
+        if parameter.status == "prior" and parameter.group is None:
             weight = 1.0 / parameter.sigma**2
             misfit = parameter.prior - values[parameter.name]
             normal[j, j] += weight
             rhs[j] += weight * misfit
             cost += weight * misfit * misfit
+    for group, index in _groups(free):
+        misfit = group.misfit(values)
+        normal[np.ix_(index, index)] += group.weight
+        rhs[index] += group.weight @ misfit
+        cost += float(misfit @ group.weight @ misfit)
     return normal, rhs, cost
 
 
+def _groups(free: list[Parameter]) -> list[tuple[PriorGroup, np.ndarray]]:
+    """The correlated prior groups among the free parameters, each restricted to the members still in it
+    (free, status prior; the sub-covariance of those is their marginal prior), with their columns."""
+    position = {p.name: j for j, p in enumerate(free) if p.group is not None and p.status == "prior"}
+    seen: dict[int, PriorGroup] = {}
+    for p in free:
+        if p.name in position:
+            seen.setdefault(id(p.group), p.group)
+    out = []
+    for group in seen.values():
+        keep = [k for k, n in enumerate(group.names) if n in position and free[position[n]].group is group]
+        if len(keep) < len(group.names):
+            group = PriorGroup(tuple(group.names[k] for k in keep), group.mean[keep],
+                               group.covariance[np.ix_(keep, keep)])
+        out.append((group, np.array([position[n] for n in group.names], dtype=int)))
+    return out
+
+
 def _prior_cost(free: list[Parameter], values: dict[str, float]) -> float:
-    return sum(((p.prior - values[p.name]) / p.sigma) ** 2 for p in free if p.status == "prior")
+    single = sum(((p.prior - values[p.name]) / p.sigma) ** 2 for p in free if p.status == "prior" and p.group is None)
+    for group, _ in _groups(free):
+        misfit = group.misfit(values)
+        single += float(misfit @ group.weight @ misfit)
+    return single
+
+
+def _to_boundary(free: list[Parameter], values: dict[str, float], step: np.ndarray) -> float:
+    """The largest factor ≤ 1 that keeps ``values + factor·step`` at most TO_BOUNDARY of the way to
+    every bound (1 when no bound is in the way)."""
+    factor = 1.0
+    for j, parameter in enumerate(free):
+        here = values[parameter.name]
+        if parameter.lower is not None and step[j] < 0:
+            factor = min(factor, TO_BOUNDARY * (here - parameter.lower) / -step[j])
+        if parameter.upper is not None and step[j] > 0:
+            factor = min(factor, TO_BOUNDARY * (parameter.upper - here) / step[j])
+    return max(factor, 0.0)
 
 
 def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], used: np.ndarray,
            max_iterations: int, tolerance: float) -> tuple[dict[str, float], bool, str, int]:
     """Levenberg–Marquardt from the problem's current values; returns values, converged, reason, count.
 
-    Converged means the last accepted step changed no parameter by more than ``tolerance`` of its
-    standard error scale (the square root of the normal matrix diagonal), or no step could lower the
-    weighted squared residuals any further (the minimum at machine precision).
+    Every visited state is valid: a step is shortened so that it stops short of each parameter's bound,
+    and a trial the model cannot evaluate (a ray missing a surface, a cover plane cutting a sphere) is
+    halved along its direction before the damping grows. Converged means the distance still to go is
+    below ``tolerance`` of every parameter's marginal a-priori sigma (the square root of the inverse normal
+    matrix's diagonal, not the far smaller one it would have with every other parameter held): the last
+    step is below a tenth of that, or steps shrink geometrically (Gauss–Newton creeping along a curved
+    valley of weakly determined housing parameters) and the sum of those still to come is below it; and
+    the last step lowered the weighted squared residuals by less than a hundredth of a χ² unit. A
+    run where no valid step lowers the weighted squared residuals is at a minimum (machine precision).
+    When the only steps that would lower them leave the valid region, the run is NOT
+    converged: it is stuck against the edge of the model's valid region, and the reason says so.
     """
     free = problem.free()
     values = problem.values()
@@ -231,6 +324,7 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
     lam = 1e-3
     converged, reason = False, f"no convergence in {max_iterations} iterations"
     iteration = 0
+    previous = None
     for iteration in range(1, max_iterations + 1):  # noqa: B007 (the count is returned)
         residual = np.where(used, observed - computed, 0.0)
         weights = np.where(used, weights_of(residual / sigmas) / sigmas**2, 0.0)
@@ -240,17 +334,26 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
         scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
         scaled = normal / np.outer(scale, scale)
         accepted = None
+        before = cost
+        invalid_tail = False  # the last damping levels tried only produced invalid states
         while lam <= 1e12:
             try:
-                step = np.linalg.solve(scaled + lam * np.eye(len(free)), rhs / scale) / scale
+                full_step = np.linalg.solve(scaled + lam * np.eye(len(free)), rhs / scale) / scale
             except np.linalg.LinAlgError:
                 lam *= 10
                 continue
-            trial = dict(values)
-            for j, parameter in enumerate(free):
-                trial[parameter.name] = values[parameter.name] + step[j]
-            trial_computed, trial_ok = problem.evaluate(trial, None)
-            if np.all(trial_ok[used]) and np.all(np.isfinite(trial_computed[used])):
+            step = full_step * _to_boundary(free, values, full_step)
+            valid_seen = False
+            for _ in range(BACKTRACKS + 1):
+                trial = dict(values)
+                for j, parameter in enumerate(free):
+                    trial[parameter.name] = values[parameter.name] + step[j]
+                trial_computed, trial_ok = problem.evaluate(trial, None)
+                if np.all(trial_ok[used]) and np.all(np.isfinite(trial_computed[used])):
+                    valid_seen = True
+                    break
+                step = step / 2
+            if valid_seen:
                 trial_residual = np.where(used, observed - trial_computed, 0.0)
                 trial_cost = float(trial_residual @ (weights * trial_residual)) + _prior_cost(free, trial)
                 if trial_cost < cost:
@@ -258,11 +361,32 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
                     values, computed = trial, trial_computed
                     lam = max(lam / 10, 1e-12)
                     break
+            invalid_tail = not valid_seen
             lam *= 10
         if accepted is None:
-            converged, reason = True, "converged (no step lowers the weighted squared residuals further)"
+            if invalid_tail:
+                reason = ("stuck: every further step leaves the model's valid region (a ray missing a surface "
+                          "or a housing surface cutting another); the result is not a minimum")
+            else:
+                converged, reason = True, "converged (no step lowers the weighted squared residuals further)"
             break
-        if np.max(np.abs(accepted) * scale) < tolerance:
+        try:
+            marginal = np.sqrt(np.maximum(np.diag(np.linalg.inv(scaled)), 1e-300)) / scale
+        except np.linalg.LinAlgError:
+            marginal = 1.0 / scale
+        size = float(np.max(np.abs(accepted) / marginal))
+        rate = size / previous if previous is not None and previous > 0 else None
+        # the distance still to go: the step itself, or, when steps shrink geometrically (Gauss–Newton
+        # creeping along a curved valley of weakly determined housing parameters), the rest of that series
+        remaining = size / (1.0 - rate) if rate is not None and rate < 1.0 else np.inf
+        previous = size
+        # and the objective has settled: the last step lowered it by less than a hundredth of one χ² unit
+        # (scaled by the variance factor, so a too optimistic a-priori sigma does not hold the run back)
+        left_over = np.where(used, observed - computed, 0.0)
+        new_cost = float(left_over @ (weights * left_over)) + _prior_cost(free, values)
+        dof = max(int(used.sum()) + sum(1 for p in free if p.status == "prior") - len(free), 1)
+        settled = before - new_cost < 0.01 * max(1.0, new_cost / dof)
+        if settled and (size < tolerance / 10 or remaining < tolerance):
             converged, reason = True, "converged"
             break
     if not np.all(np.isfinite(list(values.values()))):
@@ -330,7 +454,11 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
             + "; fix one of them or give it a prior")
     q_scaled = (vt.T / s_values) @ vt
     qxx = q_scaled / np.outer(scale, scale)
-    sigma0 = float(np.sqrt(cost / redundancy))
+    variance, observation_cost, observation_redundancy = _variance_component(jac, weights, normal, residual, cost,
+                                                                             redundancy, n_used)
+    qxx = qxx if variance is None else _prior_weighted_inverse(jac, weights, normal, variance[1])
+    variance = cost / redundancy if variance is None else variance[0]
+    sigma0 = float(np.sqrt(variance))
     sigmas = {name: float(sigma0 * np.sqrt(max(qxx[j, j], 0.0))) for j, name in enumerate(names)}
     diag = np.sqrt(np.maximum(np.diag(qxx), 1e-300))
     correlation = qxx / np.outer(diag, diag)
@@ -346,37 +474,60 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
     red_numbers = np.where(used, np.clip(1.0 - leverage, 0.0, 1.0), 0.0)
     safe_r = np.maximum(red_numbers, 1e-12)
     standardised = np.where(used, residual / (obs.sigmas * np.sqrt(safe_r)), 0.0)
-    # the test statistic uses a robust a-posteriori variance factor (median of the standardised residuals
-    # of observations that carry redundancy), so that neither a wrong a-priori pixel sigma nor the blunder
-    # itself decides what is flagged (Pope's tau with a robust scale; critical value 3.29 as Baarda's w)
-    informative = used & (red_numbers > 0.05)
-    robust_scale = 1.4826 * float(np.median(np.abs(standardised[informative]))) if informative.any() else 1.0
-    robust_scale = robust_scale if robust_scale > 0 else 1.0
+    # Pope's tau test: the residual standardised by the estimated variance factor (so that a wrong a-priori
+    # pixel sigma does not decide what is flagged), against the tau distribution's critical value for
+    # α0 = 0.1 % per observation. A robust scale (the median's) would be noisier than the estimate and
+    # flag about twice as many blunder-free observations as the level says; the robust start and the
+    # setting aside of gross errors keep a blunder from hiding behind the inflated estimate.
+    robust_scale = sigma0 if sigma0 > 0 else 1.0
     w = standardised / robust_scale
     mdb = np.where(used, DELTA0 * robust_scale * obs.sigmas / np.sqrt(safe_r), np.inf)
-    chi2 = cost
-    lower, upper = stats.chi2.ppf([0.025, 0.975], redundancy)
+    # an observation left out is tested by its prediction residual: were it included, its redundancy
+    # number would be 1/(1 + h) with h = a Qxx aᵀ / σ² (its leverage against the others)
+    outside = ~used & ok & np.isfinite(computed)
+    if outside.any():
+        raw = obs.values - computed
+        h = np.einsum("ij,jk,ik->i", jac[outside], qxx, jac[outside]) / obs.sigmas[outside] ** 2
+        w[outside] = raw[outside] / (obs.sigmas[outside] * np.sqrt(1.0 + h)) / robust_scale
+        mdb[outside] = DELTA0 * robust_scale * obs.sigmas[outside] * np.sqrt(1.0 + h)
+    chi2 = observation_cost
+    lower, upper = stats.chi2.ppf([0.025, 0.975], observation_redundancy)
+    if chi2 > upper:
+        verdict = (f"a-priori pointing sigma too optimistic: the residuals say {sigma0:.2f} times it; the "
+                   "estimated variance factor is used for every sigma")
+    elif chi2 < lower:
+        verdict = (f"a-priori pointing sigma too pessimistic: the residuals say {sigma0:.2f} times it; the "
+                   "estimated variance factor is used for every sigma")
+    else:
+        verdict = "a-priori pointing sigma consistent with the residuals (95 %)"
     global_test = {
-        "redundancy": redundancy, "chi2": float(chi2), "variance_factor": float(sigma0**2),
-        "accepted_95": bool(lower <= chi2 <= upper), "p_value": float(stats.chi2.sf(chi2, redundancy)),
-        "interval_95": [float(lower), float(upper)],
+        "redundancy": redundancy, "observation_redundancy": float(observation_redundancy), "chi2": float(chi2),
+        "variance_factor": float(sigma0**2),
+        "accepted_95": bool(lower <= chi2 <= upper), "p_value": float(stats.chi2.sf(chi2, observation_redundancy)),
+        "interval_95": [float(lower), float(upper)], "verdict": verdict,
         "meaning": "sigma0 is in units of the a-priori pixel sigma: 1 means the residuals are as large as "
-                   "the assumed pointing precision",
+                   "the assumed pointing precision. The a-priori sigma is only a starting value: sigma0² is "
+                   "the estimated variance factor of the image observations (variance-component estimation; "
+                   "priors keep their stated sigmas), and it scales every reported sigma",
     }
     rms = float(np.sqrt(np.mean(residual[used] ** 2)))
-    return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale, sigmas=sigmas, over=over,
+    return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale,
+                critical=tau_critical(observation_redundancy), sigmas=sigmas, over=over,
                 condition=condition, weak=weak, red_numbers=red_numbers, w=w, mdb=mdb, global_test=global_test,
                 redundancy=redundancy, residual=residual, rms=rms)
 
 
-def adjust(problem: Problem, max_iterations: int = 50, tolerance: float = 1e-5, robust: bool = True,
+def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2, robust: bool = True,
            snooping: bool = True, max_rejections: int | None = None,
            snoop_unit: Callable[[int], np.ndarray] | None = None) -> Adjustment:
     """Adjust ``problem`` (its parameters' values are the start and are updated in place).
 
     robust: start with IRLS/Huber so that a gross error cannot drag the solution; snooping: then
-    iteratively exclude the observation unit with the largest |w| > 3.29 and re-adjust, at most
-    ``max_rejections`` times (default: one per ten observations, at least two). ``snoop_unit(i)`` returns the
+    iteratively exclude the observation unit with the largest |w| beyond Pope's tau critical value
+    (:func:`tau_critical`, α0 = 0.1 % per observation; 3.29 for a large redundancy) and re-adjust, at most
+    ``max_rejections`` times (default: one per SNOOP_SHARE observations, at least two); when that cap
+    is reached with observations still failing, ``model_doubt`` says the model or set-up is wrong
+    rather than removing more data. ``snoop_unit(i)`` returns the
     indices of the observations rejected together with observation i (e.g. both coordinates of a
     point in one image); default: the observation alone.
     """
@@ -404,16 +555,17 @@ def adjust(problem: Problem, max_iterations: int = 50, tolerance: float = 1e-5, 
             f"{n} observations cannot determine {len(free)} unknowns ({', '.join(p.name for p in free[:6])}"
             f"{'...' if len(free) > 6 else ''}); measure more points or fix parameters")
     if robust:
-        _solve(problem, _huber(HUBER_K), used, max_iterations, 1e-6)
+        _solve(problem, _huber(HUBER_K), used, max_iterations, 1e-2)
+        used = _set_aside_gross_errors(problem, used, excluded, snoop_unit)
     _, converged, reason, iterations = _solve(problem, _unit, used, max_iterations, tolerance)
-    limit = max_rejections if max_rejections is not None else max(2, n // 10)
+    limit = max_rejections if max_rejections is not None else max(2, n // SNOOP_SHARE)
     statistics = _statistics(problem, used)
     rounds = 0
     while snooping and rounds < limit:
         rounds += 1
         w = np.abs(statistics["w"])
         worst = int(np.argmax(np.where(used, w, 0.0)))
-        if w[worst] <= W_CRITICAL or statistics["redundancy"] <= 2:
+        if w[worst] <= statistics["critical"] or statistics["redundancy"] <= 2:
             break
         unit = snoop_unit(worst) if snoop_unit else np.array([worst])
         obs = problem.observations
@@ -431,6 +583,16 @@ def adjust(problem: Problem, max_iterations: int = 50, tolerance: float = 1e-5, 
             excluded = excluded[: len(excluded) - len(unit)]
             break
         used = trial_used
+    model_doubt = None
+    if snooping and rounds >= limit and np.max(np.abs(np.where(used, statistics["w"], 0.0))) > statistics["critical"]:
+        model_doubt = (f"after {rounds} rejections observations still fail the w-test: so many cannot be "
+                       "blunders; the model or the set-up is wrong (housing kind, fixed parameters, "
+                       "mismatched control or pairs)")
+    for suspect in excluded:
+        if suspect.mdb is None and suspect.reason.startswith("gross error"):
+            i = _index_of(problem.observations, suspect)
+            if i is not None and np.isfinite(statistics["mdb"][i]):
+                suspect.w, suspect.mdb = float(statistics["w"][i]), float(statistics["mdb"][i])
     return Adjustment(
         parameters=problem.parameters, converged=converged, reason=reason, iterations=iterations,
         sigma0=statistics["sigma0"], rms=statistics["rms"], redundancy=statistics["redundancy"],
@@ -439,4 +601,99 @@ def adjust(problem: Problem, max_iterations: int = 50, tolerance: float = 1e-5, 
         correlations_over=statistics["over"], condition_number=statistics["condition"],
         weak_directions=statistics["weak"], redundancy_numbers=statistics["red_numbers"], w=statistics["w"],
         mdb=statistics["mdb"], global_test=statistics["global_test"], excluded=excluded,
-        observations=problem.observations, used=used)
+        observations=problem.observations, used=used,
+        on_bound=_on_bound(problem.free(), statistics["sigmas"]), model_doubt=model_doubt)
+
+
+def tau_critical(redundancy: float, alpha: float = ALPHA0) -> float:
+    """Critical value of Pope's tau test (two-sided, level ``alpha`` per observation) for ``redundancy``:
+    τ = t·sqrt(r) / sqrt(r − 1 + t²), t the Student quantile with r − 1 degrees of freedom."""
+    r = float(redundancy)
+    if r <= 1.5:
+        return float("inf")
+    t = float(stats.t.ppf(1.0 - alpha / 2.0, r - 1.0))
+    return float(t * np.sqrt(r) / np.sqrt(r - 1.0 + t * t))
+
+
+def _variance_component(jac, weights, normal, residual, cost, redundancy, n_used):
+    """Variance-component estimation (Förstner 1979) for two groups, image observations and priors.
+
+    The priors are statements about the housing and the interior from outside the data; their group has
+    almost no redundancy, so its variance component is not estimable and it keeps its stated sigmas. The
+    observations' component σ̂² = vᵀPv / r_obs, with r_obs = n − tr(Q N_obs) their share of the redundancy,
+    is iterated with the priors reweighted against it. Returns ((σ̂², σ̂²), vᵀPv, r_obs), or (None, cost,
+    redundancy) when there are no priors (then σ̂² = vᵀPv / r, the classical estimate)."""
+    observation_cost = float(residual @ (weights * residual))
+    data = jac.T @ (jac * weights[:, None])
+    prior = normal - data
+    if not np.any(np.abs(prior) > 0):
+        return None, cost, redundancy
+    variance = max(cost / redundancy, 1e-12)
+    share = float(redundancy)
+    for _ in range(20):
+        q = _prior_weighted_inverse(jac, weights, normal, variance) * variance
+        share = n_used - float(np.sum(q * data)) / variance
+        if share < 0.5:
+            return None, cost, redundancy
+        new = max(observation_cost / share, 1e-12)
+        done = abs(new / variance - 1.0) < 1e-4
+        variance = new
+        if done:
+            break
+    return (variance, variance), observation_cost, share
+
+
+def _prior_weighted_inverse(jac, weights, normal, variance):
+    """Qxx in units of the observations' variance factor: (N_obs + σ̂² P_prior)⁻¹, so that σ̂²·Qxx is the
+    covariance with the observations at σ̂ and the priors at their own sigmas."""
+    data = jac.T @ (jac * weights[:, None])
+    matrix = data + variance * (normal - data)
+    scale = np.sqrt(np.maximum(np.diag(matrix), 1e-300))
+    return np.linalg.pinv(matrix / np.outer(scale, scale), rcond=1e-15) / np.outer(scale, scale)
+
+
+def _index_of(obs: Observations, suspect: Suspect) -> int | None:
+    for i in range(len(obs)):
+        if (obs.point[i], obs.side[i], obs.coordinate[i], obs.group[i]) == \
+                (suspect.point, suspect.side, suspect.coordinate, suspect.group):
+            return i
+    return None
+
+
+def _set_aside_gross_errors(problem: Problem, used: np.ndarray, excluded: list[Suspect],
+                            snoop_unit: Callable[[int], np.ndarray] | None) -> np.ndarray:
+    """After the robust start, set aside observations whose residual exceeds GROSS robust standard
+    deviations (the median absolute residual's scale): the unweighted adjustment that follows would
+    otherwise be dragged by them as far as the robust start was not. They are reported as suspects."""
+    obs = problem.observations
+    computed, ok = problem.evaluate(problem.values(), None)
+    normalised = np.where(used & ok, (obs.values - computed) / obs.sigmas, 0.0)
+    scale = 1.4826 * float(np.median(np.abs(normalised[used & ok]))) if (used & ok).any() else 0.0
+    if not scale > 0:
+        return used
+    gross = np.flatnonzero(used & (np.abs(normalised) > GROSS * scale))
+    if len(gross) > len(obs) // 20:  # many at once: a wrong model or start, not blunders; snooping decides
+        return used
+    used = used.copy()
+    for i in gross:
+        for k in (snoop_unit(int(i)) if snoop_unit else np.array([i])):
+            if used[k]:
+                used[k] = False
+                excluded.append(Suspect(obs.point[k], obs.side[k], obs.coordinate[k], obs.group[k],
+                                        float(normalised[k] / scale), float(obs.values[k] - computed[k]), None,
+                                        f"gross error: residual over {GROSS:g} robust standard deviations"))
+    return used
+
+
+def _on_bound(free: list[Parameter], sigmas: dict[str, float]) -> list[tuple[str, str, float]]:
+    """Free parameters whose value lies within a tenth of its a-posteriori sigma of a bound: the data
+    push them against the edge of the physical range, and their sigma (from a quadratic model about an
+    interior minimum) does not describe them."""
+    out = []
+    for p in free:
+        near = 0.1 * sigmas.get(p.name, 0.0)
+        if p.lower is not None and p.value - p.lower <= near:
+            out.append((p.name, "lower", float(p.lower)))
+        if p.upper is not None and p.upper - p.value <= near:
+            out.append((p.name, "upper", float(p.upper)))
+    return out

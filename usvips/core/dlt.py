@@ -83,7 +83,8 @@ def _solve_matrix(points: np.ndarray, pixels: np.ndarray) -> np.ndarray:
 
 def reproject(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
     homogeneous = np.column_stack([points, np.ones(len(points))]) @ matrix.T
-    return homogeneous[:, :2] / homogeneous[:, 2:3]
+    with np.errstate(divide="ignore", invalid="ignore"):  # a point in the camera's plane: inf/nan, an outlier
+        return homogeneous[:, :2] / homogeneous[:, 2:3]
 
 
 def decompose(matrix: np.ndarray, points: np.ndarray, pixels: np.ndarray,

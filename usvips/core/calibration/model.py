@@ -6,10 +6,13 @@ Parameters carry the seeds' symbols with ``_l`` / ``_r`` (ARCHITECTURE.md):
 * exterior at the first station (the object frame of the control): X0_l … kappa_l and X0_r … kappa_r;
   at every further station the left camera's pose ``X0_l@<pair>`` …, the right camera following it
   rigidly (the rig's relative orientation is the one of the first station);
-* housing, in each camera's own frame (metres): System I ``dome-cover`` — a, b, c, r per camera and
-  one cover plane d, e in the left camera's frame shared by both, placed by the glass thickness t at the
-  left cover's thinnest point (g is derived from it: :func:`dome_cover_g`), n2, n3; System II ``flat-port`` —
-  d, e, g per camera, t, n2, n3;
+* housing, in each camera's own frame (metres): System I ``dome-cover`` — the sphere centre a, b, c per
+  camera, the left sphere's radius r_l and one cover plane d, e in the left camera's frame shared by both,
+  placed by the glass thickness t at the left cover's thinnest point (g is derived from it:
+  :func:`dome_cover_g`); the right cover's glass thickness t_r at its thinnest point (its radius r_r is
+  derived from it: :func:`dome_cover_right_radius`); n2, n3. Every state with t > 0, t_r > 0 and each
+  perspective centre inside its sphere is physical for both cameras (the plane outside both spheres);
+  System II ``flat-port`` — d, e, g per camera, t, n2, n3;
 * control coordinates ``X@<id>``, ``Y@<id>``, ``Z@<id>`` when the control file gives sigmas.
 """
 
@@ -21,7 +24,7 @@ import numpy as np
 
 from usvips.core.adjustment import Observations, Parameter, Problem
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
-from usvips.core.errors import DegenerateGeometryError, UsvipsError
+from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
 from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing, shared_plane_in_camera
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
 from usvips.core.intersection import pixel_jacobian
@@ -51,7 +54,8 @@ def housing_parameter_names(kind: str) -> list[str]:
     if kind == "air":
         return []
     if kind == "dome-cover":
-        return [f"{s}_{side}" for side in SIDES for s in ("a", "b", "c", "r")] + ["d", "e", "t", "n2", "n3"]
+        return (["a_l", "b_l", "c_l", "r_l", "a_r", "b_r", "c_r", "t_r"]
+                + ["d", "e", "t", "n2", "n3"])
     if kind == "flat-port":
         return [f"{s}_{side}" for side in SIDES for s in ("d", "e", "g")] + ["t", "n2", "n3"]
     raise UsvipsError(f"unknown housing {kind!r}; choose one of {', '.join(HOUSING_KINDS)}")
@@ -68,18 +72,33 @@ def dome_cover_g(values: dict[str, float]) -> float:
             - (d * values["a_l"] + e * values["b_l"] + values["c_l"]))
 
 
+def dome_cover_right_radius(values: dict[str, float], d_r: float, e_r: float, g_r: float) -> float:
+    """The right sphere's radius from its glass thickness ``t_r`` at its thinnest point and the shared plane
+    in the right camera's frame (d_r, e_r, g_r): r_r = (d_r·a_r + e_r·b_r + c_r + g_r)/sqrt(d_r² + e_r² + 1) − t_r.
+
+    Estimating t_r instead of r_r keeps the plane outside the right sphere whatever the relative orientation
+    does: a free r_r let the right camera's pose push its sphere into the plane, where every step is invalid."""
+    clearance = (d_r * values["a_r"] + e_r * values["b_r"] + values["c_r"] + g_r) / np.sqrt(d_r * d_r + e_r * e_r + 1.0)
+    return float(clearance - values["t_r"])
+
+
 def build_housings(kind: str, values: dict[str, float]) -> tuple[Housing, Housing]:
     """Left and right housings (each in its camera frame) from parameter values."""
     if kind == "air":
         return AirHousing(), AirHousing()
     if kind == "dome-cover":
+        for name in ("t", "t_r"):
+            if name in values and not values[name] > 0:
+                raise InvalidParameterError(name, f"the glass must have a thickness, got {values[name]:.4g} m")
         g = dome_cover_g(values)
         left = DomeCoverHousing(values["a_l"], values["b_l"], values["c_l"], values["r_l"], values["d"],
                                 values["e"], g, values["n2"], values["n3"])
         rel = relative_orientation(_exterior(values, "l"), _exterior(values, "r"))
         d_r, e_r, g_r = shared_plane_in_camera(values["d"], values["e"], g, rel.rotation,
                                                -rel.rotation @ rel.base)
-        right = DomeCoverHousing(values["a_r"], values["b_r"], values["c_r"], values["r_r"], d_r, e_r, g_r,
+        # calibrations written before t_r was estimated carry the right radius r_r itself
+        r_r = values["r_r"] if "t_r" not in values else dome_cover_right_radius(values, d_r, e_r, g_r)
+        right = DomeCoverHousing(values["a_r"], values["b_r"], values["c_r"], r_r, d_r, e_r, g_r,
                                  values["n2"], values["n3"])
         return left, right
     return tuple(FlatPortHousing(values[f"d_{s}"], values[f"e_{s}"], values[f"g_{s}"], values["t"],
@@ -225,11 +244,14 @@ class StereoModel:
         for name in self.parameter_names():
             base = name.split("@")[0]
             station = name.split("@")[1] if "@" in name and base in {f"{p}_l" for p in EXTERIOR_PARAMETERS} else None
-            if base in {f"{p}_l" for p in INTERIOR_PARAMETERS} or base in {"a_l", "b_l", "c_l", "r_l", "d_l", "e_l",
-                                                                              "g_l"}:
+            if self.kind == "dome-cover" and base in {"a_l", "b_l", "c_l", "r_l"}:
+                # they place the shared cover plane (through g), hence the right housing too
+                depends[name] = all_blocks
+            elif base in {f"{p}_l" for p in INTERIOR_PARAMETERS} or base in {"a_l", "b_l", "c_l", "r_l", "d_l", "e_l",
+                                                                                "g_l"}:
                 depends[name] = [i for i, (_, s) in enumerate(self.block_keys) if s == "l"]
-            elif base in {f"{p}_r" for p in INTERIOR_PARAMETERS} or base in {"a_r", "b_r", "c_r", "r_r", "d_r",
-                                                                                "e_r", "g_r"}:
+            elif base in {f"{p}_r" for p in INTERIOR_PARAMETERS} or base in {"a_r", "b_r", "c_r", "r_r", "t_r",
+                                                                                "d_r", "e_r", "g_r"}:
                 depends[name] = right_blocks
             elif station is not None:
                 depends[name] = [blocks_of[(station, "l")], blocks_of[(station, "r")]]

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from usvips.core.adjustment import Adjustment, Parameter, adjust
+from usvips.core.adjustment import Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
 from usvips.core.camera import EXTERIOR_PARAMETERS, Exterior
 from usvips.core.dlt import robust_dlt
@@ -41,6 +41,10 @@ DEFAULT_HOUSING = {
                   "n3": (1.34, 0.01)},
 }
 
+#: The physical range of housing parameters (open interval, by symbol): glass has a thickness, a sphere a
+#: radius, a port lies in front of the camera, and glass and water are denser than air.
+HOUSING_BOUNDS = {"t": (0.0, None), "r": (0.0, None), "g": (0.0, None), "n2": (1.0, None), "n3": (1.0, None)}
+
 
 @dataclass
 class CalibrationOptions:
@@ -53,7 +57,7 @@ class CalibrationOptions:
     fix_values: dict[str, float] = field(default_factory=dict)
     priors: dict[str, tuple[float, float]] = field(default_factory=dict)
     sigma_px: float = 0.5
-    interior: str = "fixed"
+    interior: str = "weighted"
     robust: bool = True
     snooping: bool = True
     image_size: tuple[int | None, int | None] = (None, None)
@@ -118,12 +122,14 @@ def _apply_options(parameters: list[Parameter], options: CalibrationOptions) -> 
     for key, value in options.fix_values.items():
         for name in _expand([key], names, "--fix"):
             by_name[name].status, by_name[name].value = "fixed", float(value)
+            by_name[name].group = None
     for key, (value, sigma) in options.priors.items():
         if not sigma > 0:
             raise InvalidParameterError("--prior", f"{key}: the sigma must be > 0, got {sigma}")
         for name in _expand([key], names, "--prior"):
             p = by_name[name]
             p.status, p.value, p.prior, p.sigma = "prior", float(value), float(value), float(sigma)
+            p.group = None  # the user's own prior replaces phase 1's
 
 
 def _snoop_unit(model: StereoModel):
@@ -149,7 +155,8 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     statistics = {"rms_px": adjustment.rms, "redundancy": adjustment.redundancy,
                   "condition_number": adjustment.condition_number, "iterations": adjustment.iterations,
                   "converged": adjustment.converged, "global_test": adjustment.global_test,
-                  "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px}
+                  "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px,
+                  "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adjustment.on_bound]}
     calibration = StereoCalibration(
         left, right, model.stations, tuple(poses), relative_orientation(left.exterior, right.exterior), phase,
         max(sigma0_px, 1e-12), estimates, (tuple(adjustment.covariance_names), adjustment.covariance),
@@ -174,19 +181,36 @@ def build_report(result: CalibrationResult) -> dict:
                           "used": bool(adj.used[i] and adj.used[i + 1])})
     notes = []
     if model.kind == "dome-cover":
-        notes.append("System I: the sphere centre (a, b, c) and radius r of each cover, the shared cover plane "
-                     "(d, e, g; left camera frame) and the indices n2, n3 enter with priors by default: a sphere "
-                     "centred near the perspective centre hardly bends the rays, and cover tilt correlates with "
-                     "the principal point and decentring distortion.")
+        notes.append("System I: the sphere centre (a, b, c) of each cover, the left radius r_l, the glass "
+                     "thickness at each cover's thinnest point (t left, t_r right; the plane's g and the right "
+                     "radius follow from them), the shared cover plane's tilt (d, e; left camera frame) and the "
+                     "indices n2, n3 enter with priors by default: a sphere centred near the perspective centre "
+                     "hardly bends the rays, and cover tilt correlates with the principal point and decentring "
+                     "distortion.")
     if model.kind == "flat-port":
         notes.append("System II: port tilt (d, e) and distance g of each camera enter with priors; glass "
                      "thickness t and n2 are fixed unless given, since they are nearly inseparable from g.")
+    for name, side, bound in adj.on_bound:
+        notes.append(f"{name} ends on its {side} bound ({bound:g}): the data push it to the edge of its physical "
+                     "range, so the housing model or its priors do not fit the data there; its sigma (and those of "
+                     "the parameters correlated with it) assume an interior minimum and understate the doubt.")
+    if adj.model_doubt:
+        notes.append(adj.model_doubt)
+    interior = [n for n, p in cal.parameters.items() if symbol(n) in INTERIOR_PARAMETERS and "@" not in n]
+    if cal.phase != "air" and interior and all(cal.parameters[n].status == "fixed" for n in interior):
+        notes.append("The interior orientation is held fixed: the reported sigmas (and every point's) leave its "
+                     "uncertainty out; use --interior weighted to carry it.")
+    notes.append(f"global test: {adj.global_test['verdict']}.")
+    if not adj.converged:
+        notes.append(f"NOT converged: {adj.reason}. Do not use this calibration for measurement.")
     if adj.correlations_over:
         notes.append(f"{len(adj.correlations_over)} parameter pairs correlate above 0.95: their individual values "
                      "are not determined by the data (their combination is); see correlations_over_0_95.")
     return {
         "phase": cal.phase, "housing": model.kind, "stations": list(model.stations),
         "converged": adj.converged, "reason": adj.reason, "iterations": adj.iterations,
+        "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adj.on_bound],
+        "model_doubt": adj.model_doubt,
         "sigma0_px": cal.sigma0_px, "rms_px": adj.rms, "redundancy": adj.redundancy,
         "parameters": {name: {"value": p.value, "sigma": p.sigma, "status": p.status}
                        for name, p in cal.parameters.items()},
@@ -236,6 +260,21 @@ def calibrate_air(control: ControlPoints, observations: StereoObservations,
     return _solve(model, parameters, options, "air", source or {})
 
 
+def _interior_prior(base: StereoCalibration) -> PriorGroup | None:
+    """Phase 1's estimated interior with its full covariance (both cameras, every free interior parameter,
+    their correlations kept) as one correlated prior for phase 2; None when phase 1 has no covariance."""
+    if base.covariance is None:
+        return None
+    names, matrix = base.covariance
+    chosen = [i for i, n in enumerate(names) if symbol(n) in INTERIOR_PARAMETERS and "@" not in n
+              and n in base.parameters and base.parameters[n].sigma]
+    if not chosen:
+        return None
+    matrix = np.asarray(matrix, float)
+    return PriorGroup(tuple(names[i] for i in chosen), np.array([base.parameters[names[i]].value for i in chosen]),
+                      matrix[np.ix_(chosen, chosen)])
+
+
 def _control_parameters(model: StereoModel) -> list[Parameter]:
     out = []
     if model.control_parameters:
@@ -267,12 +306,15 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     right_start = right_exterior(exterior_of(values, "l"), base.relative)
     values.update({f"{p}_r": getattr(right_start, p) for p in EXTERIOR_PARAMETERS})
     parameters = []
+    group = _interior_prior(base) if options.interior == "weighted" else None
     for side, camera in (("l", base.left), ("r", base.right)):
         for p in INTERIOR_PARAMETERS:
             name = f"{p}_{side}"
             value = getattr(camera.interior, p)
             estimate = base.parameters.get(name)
-            if options.interior == "weighted" and estimate is not None and estimate.sigma:
+            if group is not None and name in group.names:
+                parameters.append(Parameter(name, value, "prior", value, estimate.sigma, group=group))
+            elif options.interior == "weighted" and estimate is not None and estimate.sigma:
                 parameters.append(Parameter(name, value, "prior", value, estimate.sigma))
             else:
                 parameters.append(Parameter(name, value, "fixed"))
@@ -281,7 +323,9 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
             parameters.append(Parameter(name, values[name], "free"))
     for name in housing_parameter_names(housing):
         value, sigma = DEFAULT_HOUSING[housing][symbol(name)]
-        parameters.append(Parameter(name, value, "prior" if sigma else "fixed", value, sigma))
+        lower, upper = HOUSING_BOUNDS.get(symbol(name), (None, None))
+        parameters.append(Parameter(name, value, "prior" if sigma else "fixed", value, sigma, lower=lower,
+                                    upper=upper))
     parameters += _control_parameters(model)
     _apply_options(parameters, options)
     _choose_start(model, parameters)
