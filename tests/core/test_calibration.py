@@ -226,3 +226,13 @@ def test_the_calibrations_own_uncertainty_reaches_the_points():
         empirical = np.sqrt(np.diag(np.cov(points[:, i].T)))
         predicted = np.sqrt(np.diag(np.mean([p[i] for p in parts], axis=0)))
         np.testing.assert_allclose(empirical, predicted, rtol=0.3)
+
+
+def test_a_rig_with_no_baseline_is_refused_by_name(control):
+    """The same camera's observations given as left and right (a zero baseline) are refused, not
+    calibrated into a rig whose every intersection is a pair of parallel rays."""
+    pair = observe(rig_at(0), control.xyz, control.ids, "a1", seed=1)
+    obs = pair.observations
+    one_camera = obs.__class__(obs.ids, obs.left, obs.left.copy(), obs.pairs)
+    with pytest.raises(DegenerateGeometryError, match="zero baseline"):
+        calibrate_air(control, one_camera, CalibrationOptions(sigma_px=NOISE_PX))

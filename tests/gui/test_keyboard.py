@@ -120,7 +120,8 @@ def test_enter_accepts_and_nudging_moves_the_pick_by_a_tenth_and_one_pixel(qtbot
     pick, curve = np.array(ws.state.left), ws.state.curve.copy()
     _key(qtbot, Key.Key_Up, Modifier.ControlModifier)
     assert np.allclose(np.array(ws.state.left) - pick, (0.0, -0.1), atol=1e-12)
-    assert not np.allclose(ws.state.curve, curve)
+    moved = ws.state.curve  # a new curve (its number of samples may differ too)
+    assert moved.shape != curve.shape or not np.allclose(moved, curve)
     _key(qtbot, Key.Key_Escape)
     assert ws.state.source is None
 

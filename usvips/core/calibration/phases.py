@@ -22,7 +22,7 @@ import numpy as np
 
 from usvips.core.adjustment import Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
-from usvips.core.camera import EXTERIOR_PARAMETERS, Exterior
+from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.dlt import robust_dlt
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
 from usvips.core.interior import INTERIOR_PARAMETERS
@@ -149,6 +149,7 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model))
     values = problem.values()
     left, right = model.cameras(values)
+    _require_baseline(left, right, model.control.xyz)
     poses = [left.exterior] + [model.cameras(values, s)[0].exterior for s in model.stations[1:]]
     sigma0_px = adjustment.sigma0 * options.sigma_px
     estimates = {p.name: ParameterEstimate(p.value, adjustment.sigmas.get(p.name), p.status) for p in parameters}
@@ -164,6 +165,23 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     result = CalibrationResult(calibration, adjustment, model, {})
     result.report = build_report(result)
     return result
+
+
+#: A rig whose baseline is below this share of its range to the control has no usable stereo geometry.
+MIN_BASELINE_TO_RANGE = 1e-3
+
+
+def _require_baseline(left: Camera, right: Camera, control_xyz: np.ndarray) -> None:
+    """Refuse a rig whose two perspective centres (m) coincide: every intersection would be a pair of
+    parallel rays. The threshold is relative (:data:`MIN_BASELINE_TO_RANGE` of the median range to the
+    control points) so that it holds for a tank and a survey alike."""
+    baseline = float(np.linalg.norm(right.exterior.position - left.exterior.position))
+    ranges = np.linalg.norm(np.asarray(control_xyz, float) - left.exterior.position, axis=1)
+    reach = float(np.median(ranges)) if ranges.size else 0.0
+    if not baseline >= MIN_BASELINE_TO_RANGE * reach:
+        raise DegenerateGeometryError(
+            f"zero baseline: the left and right cameras come out {baseline * 1000:.3g} mm apart at a range of "
+            f"{reach:.3g} m, so their rays cannot intersect (are the left and right observations of one camera?)")
 
 
 def build_report(result: CalibrationResult) -> dict:
