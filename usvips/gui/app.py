@@ -11,10 +11,12 @@ from __future__ import annotations
 import datetime
 import sys
 import traceback
+import weakref
 from pathlib import Path
 from types import TracebackType
 
 import pyqtgraph as pg
+import shiboken6
 from PySide6 import QtCore, QtWidgets
 
 from usvips.core.errors import UsvipsError
@@ -66,12 +68,22 @@ def _append_log(text: str) -> Path | None:
         return None
 
 
+#: The workstation windows that are open (each registers itself); errors are shown in the first visible one.
+_WINDOWS: weakref.WeakSet = weakref.WeakSet()
+
+
+def register_window(window: QtWidgets.QWidget) -> None:
+    """Let :func:`report_unexpected` show errors in ``window`` (it has ``show_message`` and ``log``)."""
+    _WINDOWS.add(window)
+
+
 def _window() -> QtWidgets.QWidget | None:
-    """The main window if one is open (it has ``show_message``)."""
-    app = QtWidgets.QApplication.instance()
-    if app is None:
-        return None
-    return next((w for w in app.topLevelWidgets() if hasattr(w, "show_message") and w.isVisible()), None)
+    """The first open workstation window, or None. Only registered windows are asked, never every
+    top-level widget: a widget Qt is tearing down must not be touched."""
+    for window in list(_WINDOWS):
+        if shiboken6.isValid(window) and window.isVisible():
+            return window
+    return None
 
 
 def report_unexpected(kind: type[BaseException], error: BaseException, trace: TracebackType | None) -> str:

@@ -18,6 +18,7 @@ import usvips
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import media_dialogs
+from usvips.gui.app import register_window
 from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, ObservationForm, PlanView
 from usvips.gui.planner_dock import PlannerDock
@@ -88,6 +89,7 @@ def luminance_histogram(image: np.ndarray) -> np.ndarray:
 class MainWindow(QtWidgets.QMainWindow):
     def __init__(self, workspace: Workspace | None = None, settings: QtCore.QSettings | None = None) -> None:
         super().__init__()
+        register_window(self)  # unexpected errors in Qt handlers are shown here (usvips.gui.app)
         self.workspace = workspace or Workspace()
         self.settings = settings or QtCore.QSettings("USVIPS", "usvips")
         self.setWindowTitle("USVIPS")

@@ -135,6 +135,9 @@ class VideoController(QtCore.QObject):
         labels = [v["label"] for v in project.videos()] if project is not None else []
         d.chooser.addItems(labels)
         d.setEnabled(bool(labels))
+        dock = getattr(self.window, "docks", {}).get("video")
+        if dock is not None:  # shown for a project with videos (View › Video brings it back by hand)
+            dock.setVisible(bool(labels))
 
     def open_video(self, label: str) -> bool:
         project = self.window.workspace.project
