@@ -22,12 +22,13 @@ import numpy as np
 from usvips.bench import best_time
 from usvips.cli import intersect as intersect_command
 from usvips.io.calibration_file import load_calibration
+from usvips.locations import sample_project
 
 #: Promise: each tenfold step of the input costs at most this many times the step before (linear,
 #: with room for a loaded machine's noise; quadratic growth would show about 100).
 TARGET_RATIO = 13.0
 
-CALIBRATION = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport" / "calibration.json"
+CALIBRATION = sample_project("rov_flatport") / "calibration.json"
 
 
 def write_observations(calibration, n: int, path: Path, seed: int = 11) -> int:

@@ -8,7 +8,6 @@ was calibrated and compares with the control coordinates.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
@@ -17,8 +16,9 @@ from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import UsvipsError
 from usvips.io.manifest import read_manifest
 from usvips.io.tables import read_control, read_observations
+from usvips.locations import sample_project
 
-DEFAULT_PROJECT = Path(__file__).resolve().parents[2] / "sample_projects" / "tank_1995"
+DEFAULT_PROJECT = sample_project("tank_1995")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -22,8 +22,9 @@ from usvips.io.scene import read_scene
 from usvips.io.tables import read_control, read_observations, write_control, write_observations
 from usvips.io.video import write_video
 from usvips.io.video_writer import transcode_h264
+from usvips.locations import resources_folder
 
-RESOURCES = Path(__file__).resolve().parents[2] / "resources"
+RESOURCES = resources_folder()
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

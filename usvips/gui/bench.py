@@ -19,9 +19,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from usvips.locations import sample_project
+
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
-SAMPLE = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport"
+SAMPLE = sample_project("rov_flatport")
 BIG = (4000, 3000)  # width, height of the large-image rows
 
 _STARTUP = """

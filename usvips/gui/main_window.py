@@ -14,7 +14,6 @@ import cv2
 import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
-import usvips
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import media_dialogs
@@ -26,10 +25,11 @@ from usvips.gui.video_controls import VideoController
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
+from usvips.locations import sample_projects
 from usvips.samples import open_or_create_from_manifest
 from usvips.store import Project
 
-SAMPLES = Path(usvips.__file__).resolve().parents[1] / "sample_projects"
+SAMPLES = sample_projects()
 #: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
 #: px (plain and Shift+arrows step a video's frames).
 NUDGES = {"Left": (-1.0, 0.0), "Right": (1.0, 0.0), "Up": (0.0, -1.0), "Down": (0.0, 1.0)}
