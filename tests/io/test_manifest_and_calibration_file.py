@@ -105,3 +105,31 @@ def test_manifest_values_are_checked_by_name(tmp_path, edit, message):
     (sample / "project.json").write_text(json.dumps(data))
     with pytest.raises(InputFileError, match=message):
         read_manifest(sample)
+
+
+def test_k3_bumps_the_file_version_so_an_older_usvips_refuses_rather_than_drops_it(tmp_path, monkeypatch):
+    """k3 = 0 keeps version 1 (every USVIPS reads it); k3 ≠ 0 is version 2, which a reader of version 1
+    refuses by name; both load here with every interior value."""
+    from dataclasses import replace
+
+    from usvips.io import calibration_file
+    from usvips.io.calibration_file import calibration_to_dict, save_calibration
+
+    plain = load_calibration(SAMPLE.parent / "rov_flatport" / "calibration.json")
+    assert plain.left.interior.k3 == 0 and plain.right.interior.k3 == 0
+    assert calibration_to_dict(plain)["version"] == 1
+    for side, k3 in (("left", 0.012), ("right", -3e-4)):
+        camera = getattr(plain, side)
+        bent = replace(plain, **{side: replace(camera, interior=replace(camera.interior, k3=k3))})
+        assert calibration_to_dict(bent)["version"] == 2
+        save_calibration(bent, tmp_path / f"{side}.json")
+        again = load_calibration(tmp_path / f"{side}.json")
+        assert getattr(again, side).interior.k3 == k3 and getattr(again, side).interior.f == camera.interior.f
+        monkeypatch.setattr(calibration_file, "VERSION", 1)  # a USVIPS from before k3
+        with pytest.raises(InputFileError, match="version 2 is newer than this USVIPS reads"):
+            load_calibration(tmp_path / f"{side}.json")
+        monkeypatch.undo()
+    save_calibration(plain, tmp_path / "plain.json")
+    assert json.loads((tmp_path / "plain.json").read_text())["version"] == 1
+    monkeypatch.setattr(calibration_file, "VERSION", 1)
+    assert load_calibration(tmp_path / "plain.json").left.interior.f == plain.left.interior.f

@@ -16,7 +16,9 @@ Layout (version 1; lengths in metres, angles in radians, image quantities in pix
      "statistics": {...}, "source": {...}}
 
 The interior's ``k3`` (OpenCV's third radial term) is optional: files written before it existed load
-with k3 = 0.
+with k3 = 0. A calibration with k3 ≠ 0 is written as version 2 (:data:`K3_VERSION`), so that a USVIPS
+from before k3 refuses it ("newer than this USVIPS reads") instead of dropping the term silently;
+with k3 = 0 the file stays version 1, readable by every USVIPS. Both versions load.
 
 Files are written atomically (temporary file, then rename).
 """
@@ -39,7 +41,10 @@ from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.atomic import write_text_atomic
 
 FORMAT = "usvips-calibration"
-VERSION = 1
+#: The newest file version read; written only when needed (:func:`file_version`).
+VERSION = 2
+#: The version a file needs when a camera's k3 is not zero (version 1 readers know no k3).
+K3_VERSION = 2
 HOUSING_KINDS = {"air": AirHousing, "dome-cover": DomeCoverHousing, "flat-port": FlatPortHousing}
 RELATIVE_KEYS = ("bx", "by", "bz", "omega", "phi", "kappa")
 #: Largest calibration file read (bytes); a real one is a few kB.
@@ -67,9 +72,16 @@ def _camera_to_dict(camera: Camera) -> dict:
     return out
 
 
+def file_version(calibration: StereoCalibration) -> int:
+    """The oldest file version that holds ``calibration`` whole: 1, or :data:`K3_VERSION` when a
+    camera's k3 is not zero."""
+    k3 = (calibration.left.interior.k3, calibration.right.interior.k3)
+    return K3_VERSION if any(value != 0.0 for value in k3) else 1
+
+
 def calibration_to_dict(calibration: StereoCalibration) -> dict:
     data = {
-        "format": FORMAT, "version": VERSION, "phase": calibration.phase,
+        "format": FORMAT, "version": file_version(calibration), "phase": calibration.phase,
         "housing": calibration.left.housing.kind,
         "cameras": {"left": _camera_to_dict(calibration.left), "right": _camera_to_dict(calibration.right)},
         "relative_orientation": {k: getattr(calibration.relative, k) for k in RELATIVE_KEYS},
