@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from usvips.core.deployment import Deployment
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
 from usvips.io.export import export
@@ -20,13 +21,30 @@ from usvips.store import Project
 from usvips.video_project import eventmeasure_frame_columns
 
 
+def checkem_samples(project: Project) -> list[tuple[Deployment, str]]:
+    """The samples of CheckEM's ``_Metadata.csv``: each stored deployment, once per period of the videos it
+    covers (a video's own deployment covers that video, the project's covers the rest), or once without a
+    period when they have none."""
+    stored = project.deployments()
+    videos = [v["label"] for v in project.videos()]
+    samples = []
+    for scope, deployment in stored.items():
+        covered = [scope] if scope else [v for v in videos if v not in stored]
+        periods = [name for video in covered for name, _, _ in project.periods(video)]
+        samples += [(deployment, period) for period in dict.fromkeys(periods)] or [(deployment, "")]
+    return samples
+
+
 def export_project(project: Project, out: str | Path, opcode: str | None = None,
                    rules: QualityRules | None = None, skipped: list[str] | None = None) -> int:
     """Write the project's objects that have figures to ``out`` (format by suffix, see
     :func:`usvips.io.export.export`); returns how many were written. Objects without figures (no 3-D
     vertices) are left out and named in ``skipped`` ("object N: why") when a list is given. ``opcode``
-    (EventMeasure tables): default the project file's name. ``rules``: the quality rules (defaults)."""
-    objects, centres, images, cache = [], {}, {}, {}
+    (EventMeasure tables): the OpCode of objects whose video (or project) has no stored deployment
+    (:meth:`Project.deployment`); default the project file's name. The set of tables includes CheckEM's
+    ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults)."""
+    objects, centres, images, cache, opcodes = [], {}, {}, {}, {}
+    fallback = opcode if opcode is not None else project.path.stem
     pairs = {p["label"]: p for p in project.pairs()}
     for stored in project.objects():
         source = measurement_input(project, stored, cache)
@@ -37,6 +55,8 @@ def export_project(project: Project, out: str | Path, opcode: str | None = None,
                 skipped.append(str(error))
             continue
         objects.append(measurement)
+        deployment = project.deployment(stored.vertices[0].video if stored.vertices else None)
+        opcodes[measurement.id] = deployment.opcode if deployment is not None else fallback
         if source.calibration is not None:
             centres[measurement.id] = source.calibration.rig(source.station, source.frame).left.exterior.position
         pair = pairs.get(source.pair)
@@ -46,8 +66,7 @@ def export_project(project: Project, out: str | Path, opcode: str | None = None,
         video_columns = eventmeasure_frame_columns(project, stored.vertices[0]) if stored.vertices else None
         if video_columns is not None:  # measured on a video: its files, frames, time and period
             images[measurement.id] = video_columns
-    opcode = opcode if opcode is not None else project.path.stem
     records = {o.id: record for o in objects if (record := project.record(int(o.id))) is not None}
-    export(objects, out, opcode=opcode, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects},
-           images=images, records=records)
+    export(objects, out, opcode=opcodes, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects},
+           images=images, records=records, samples=checkem_samples(project))
     return len(objects)

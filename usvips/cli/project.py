@@ -1,4 +1,5 @@
-"""``usvips project new|info|import|export``: the project database from the command line."""
+"""``usvips project new|info|import|export|set-metadata|set-georeference``: the project database from the
+command line."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from usvips.cli.video import register_project_actions
+from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
@@ -39,10 +41,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "tables of their own (NAME_Polygons.txt, NAME_Circles.txt), all or nothing")
     exp.add_argument("project")
     exp.add_argument("out")
-    exp.add_argument("--opcode", help="EventMeasure OpCode (the sample, e.g. the deployment); default: the "
-                     "project file's name")
+    exp.add_argument("--opcode", help="EventMeasure OpCode of objects with no stored deployment (see "
+                     "set-metadata); default: the project file's name")
     exp.set_defaults(handler=run_export)
     register_project_actions(actions)  # add-pairs, add-video: handlers in usvips/cli/video.py
+    register_metadata_actions(actions)  # set-metadata, set-georeference: below
 
 
 def run_new(args: argparse.Namespace) -> int:
@@ -64,6 +67,14 @@ def run_info(args: argparse.Namespace) -> int:
             active = project.active_calibration(pair["label"])
             print(f"  pair {pair['label']} ({pair['medium']}): {pair['left'] or '-'} | {pair['right'] or '-'}"
                   + (f"; calibration {active}" if active else ""))
+        for scope, deployment in project.deployments().items():
+            print(f"  deployment {deployment.opcode}" + (f" (video {scope})" if scope else "") + ": "
+                  + ", ".join(f"{name} {getattr(deployment, name)}" for name in DEPLOYMENT_FIELDS[1:]
+                              if getattr(deployment, name) not in ("", None)))
+        georeference = project.georeference()
+        if georeference is not None:
+            print(f"  georeference: origin {georeference.latitude:.7f}°, {georeference.longitude:.7f}°, depth "
+                  f"{georeference.depth_m:g} m, +X heading {georeference.heading_deg:g}°")
         for video in videos:
             print(f"  video {video['label']}: {video['frame_count']} frames at {video['fps']:.6g} fps, offset "
                   f"{video['offset_frames']:+d} frames (left frame i ↔ right frame i {video['offset_frames']:+d})"
@@ -106,4 +117,71 @@ def run_export(args: argparse.Namespace) -> int:
     for reason in skipped:
         print(f"skipped {reason}")
     print(f"exported {count} objects to {args.out}")
+    return 0
+
+
+# ---------------------------------------------------------------------------- deployment metadata
+_METADATA_OPTIONS = {
+    "opcode": "the sample id of the deployment (required the first time)",
+    "date": "YYYY-MM-DD", "time": "HH:MM or HH:MM:SS (local)",
+    "latitude": "decimal degrees, WGS 84, north positive", "longitude": "decimal degrees, east positive",
+    "depth_m": "metres below the surface", "site": "", "location": "", "status": "e.g. Fished or No-take",
+    "successful_count": "yes or no: usable for counts", "successful_length": "yes or no: usable for lengths",
+    "observer": "", "comment": ""}
+
+
+def register_metadata_actions(actions: argparse._SubParsersAction) -> None:
+    meta = actions.add_parser("set-metadata", help="store the deployment metadata (CheckEM's _Metadata.csv) of "
+                              "the project or of one video; options not given keep their stored values")
+    meta.add_argument("project")
+    meta.add_argument("--video", help="the stereo video this deployment is (default: the whole project)")
+    for name, text in _METADATA_OPTIONS.items():
+        option = "--depth" if name == "depth_m" else "--" + name.replace("_", "-")
+        meta.add_argument(option, dest=name, help=text or None)
+    meta.add_argument("--clear", action="store_true", help="remove the stored deployment metadata")
+    meta.set_defaults(handler=run_set_metadata)
+    geo = actions.add_parser("set-georeference", help="store where the object frame lies on the Earth (for "
+                             "GeoJSON): its origin and the heading of its +X axis; Z is up")
+    geo.add_argument("project")
+    geo.add_argument("--latitude", help="origin latitude, decimal degrees WGS 84")
+    geo.add_argument("--longitude", help="origin longitude, decimal degrees WGS 84")
+    geo.add_argument("--depth", default="0", help="origin depth, metres below the surface (default 0)")
+    geo.add_argument("--heading", default="0", help="direction of +X, degrees clockwise from true north (default 0)")
+    geo.add_argument("--clear", action="store_true", help="remove the georeference")
+    geo.set_defaults(handler=run_set_georeference)
+
+
+def run_set_metadata(args: argparse.Namespace) -> int:
+    given = {name: getattr(args, name) for name in _METADATA_OPTIONS if getattr(args, name) is not None}
+    with Project.open(args.project) as project:
+        if args.clear:
+            if given:
+                raise UsvipsError("--clear removes the deployment metadata; give no other values with it")
+            project.set_deployment(None, args.video)
+            print(f"cleared the deployment metadata of {args.video or 'the project'}")
+            return 0
+        stored = project.deployments().get(args.video or "")
+        values = {} if stored is None else {name: getattr(stored, name) for name in DEPLOYMENT_FIELDS}
+        values.update(given)
+        if not values.get("opcode"):
+            raise UsvipsError("--opcode is needed: no deployment is stored for "
+                              + (f"video {args.video!r}" if args.video else "the project"))
+        deployment = Deployment(**values)
+        project.set_deployment(deployment, args.video)
+    print(f"stored deployment {deployment.opcode}" + (f" for video {args.video}" if args.video else ""))
+    return 0
+
+
+def run_set_georeference(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        if args.clear:
+            project.set_georeference(None)
+            print("cleared the georeference")
+            return 0
+        if args.latitude is None or args.longitude is None:
+            raise UsvipsError("set-georeference needs --latitude and --longitude (or --clear)")
+        georeference = Georeference(args.latitude, args.longitude, args.depth, args.heading)
+        project.set_georeference(georeference)
+    print(f"stored the georeference: origin {georeference.latitude:.7f}°, {georeference.longitude:.7f}°, depth "
+          f"{georeference.depth_m:g} m, +X heading {georeference.heading_deg:g}°")
     return 0

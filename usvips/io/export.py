@@ -21,11 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.core.deployment import Deployment
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import Measurement, registered_kinds
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.observation_record import ObservationRecord
 from usvips.io.atomic import write_files_atomic
+from usvips.io.checkem import METADATA_COLUMNS, metadata_rows
 
 #: Characters that make a spreadsheet read a cell as a formula (and tab / carriage return, which some
 #: spreadsheets strip before looking) — OWASP's CSV-injection list.
@@ -167,10 +169,13 @@ def ply(objects: list[Measurement]) -> str:
 
 def eventmeasure_paths(path: str | Path) -> dict[str, Path]:
     """Table name → file of the EventMeasure-style set for ``path`` (``survey.em.txt`` →
-    ``survey_Lengths.txt``, ``survey_3DPoints.txt`` and a table per kind that has its own)."""
+    ``survey_Lengths.txt``, ``survey_3DPoints.txt``, a table per kind that has its own, and CheckEM's
+    sample metadata ``survey_Metadata.csv``)."""
     path = Path(path)
     stem = path.name[: -len(".em.txt")] if path.name.endswith(".em.txt") else path.stem
-    return {table: path.with_name(f"{stem}_{table}.txt") for table in eventmeasure_table_names()}
+    files = {table: path.with_name(f"{stem}_{table}.txt") for table in eventmeasure_table_names()}
+    files["Metadata"] = path.with_name(f"{stem}_Metadata.csv")
+    return files
 
 
 def export(objects: list[Measurement], path: str | Path, kind: str | None = None, **eventmeasure) -> list[Path]:
@@ -264,9 +269,10 @@ def _record_columns(obj: Measurement, record: ObservationRecord | None, comment:
             record.activity, comment, "", ""]
 
 
-def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_centre=(0.0, 0.0, 0.0),
+def eventmeasure_tables(objects: list[Measurement], opcode: str | dict[str, str] = "", camera_centre=(0.0, 0.0, 0.0),
                         images: dict[str, tuple[str, ...]] | None = None,
-                        records: dict[str, ObservationRecord] | None = None) -> dict[str, str]:
+                        records: dict[str, ObservationRecord] | None = None,
+                        samples: list[tuple[Deployment, str]] | None = None) -> dict[str, str]:
     """Table name (:func:`eventmeasure_table_names`) → tab-separated text. Lengths and arcs become lengths
     (Length and Precision are the length figure and its sigma, in mm), points 3-D points (Direction
     empty), other kinds rows of their own table. RMS: the object's ray-intersection RMS (mm) when known
@@ -274,7 +280,11 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_cen
     frame, right file, right frame[, time (min), period, period time (min)]). Direction is the angle
     (degrees) between the measured line and the line of sight to its middle from ``camera_centre`` (90° =
     across the view); ``camera_centre`` is one point (m) for all objects or a mapping object id → point.
-    ``records``: object id → its observation record (taxon, code, number, stage, activity, comment)."""
+    ``records``: object id → its observation record (taxon, code, number, stage, activity, comment).
+    ``opcode``: one for all objects or a mapping object id → OpCode. ``samples``: the (deployment,
+    period) samples of CheckEM's ``Metadata`` table (:mod:`usvips.io.checkem`), measured on or not; a
+    sample of an exported row that they do not hold gets a row of its own (the metadata of a deployment
+    with its OpCode, else the OpCode and Period only), so that every measurement has its sample there."""
     images = images or {}
     records = records or {}
     rows: dict[str, list[list]] = {name: [] for name in eventmeasure_table_names()}
@@ -282,7 +292,8 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_cen
         centre = np.asarray(camera_centre[obj.id] if isinstance(camera_centre, dict) else camera_centre, float)
         rms = "" if obj.ray_rms_m is None else obj.ray_rms_m * 1000
         file_left, frame_left, file_right, frame_right, *timing = images.get(obj.id, ("", "", "", ""))
-        head = [opcode, "", file_left, frame_left, file_right, frame_right, *(list(timing) + ["", "", ""])[:3]]
+        sample = opcode.get(obj.id, "") if isinstance(opcode, dict) else opcode
+        head = [sample, "", file_left, frame_left, file_right, frame_right, *(list(timing) + ["", "", ""])[:3]]
         comment = obj.notes
         table = measurement_kind(obj.kind).eventmeasure
         if table == "Lengths":
@@ -313,5 +324,16 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str = "", camera_cen
                                        np.linalg.norm(middle - centre) * 1000, *(middle * 1000)]
                                + _record_columns(obj, records.get(obj.id), comment))
     headers = {"Lengths": LENGTH_COLUMNS, "3DPoints": POINT_COLUMNS}
-    return {name: _table(headers.get(name) or _own_columns(name), table_rows, "excel-tab", flatten=True)
-            for name, table_rows in rows.items()}
+    tables = {name: _table(headers.get(name) or _own_columns(name), table_rows, "excel-tab", flatten=True)
+              for name, table_rows in rows.items()}
+    measured = list(samples or [])
+    known = {(d.opcode, period) for d, period in measured}
+    deployments = {d.opcode: d for d, _ in measured}
+    for table_rows in rows.values():
+        for row in table_rows:
+            opcode_cell, period = cell(row[0], flatten=True).strip(), cell(row[7], flatten=True).strip()
+            if opcode_cell and (opcode_cell, period) not in known:
+                known.add((opcode_cell, period))
+                measured.append((deployments.get(opcode_cell) or Deployment(opcode_cell), period))
+    tables["Metadata"] = _table(METADATA_COLUMNS, metadata_rows(measured))
+    return tables

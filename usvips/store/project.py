@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.measurements import resolve as resolve_kind
@@ -909,3 +910,52 @@ class Project:
         row = self._db.execute("SELECT family, genus, species, code, number, stage, activity, comment FROM "
                                "observation_records WHERE object_id = ?", (object_id,)).fetchone()
         return None if row is None else ObservationRecord(*row)
+
+    # ---------------------------------------------------------------------------- deployment and georeference
+    def set_deployment(self, deployment: Deployment | None, video: str | None = None) -> None:
+        """Store (or with None remove) the deployment metadata of the whole project, or of one stereo
+        ``video`` (its label) when the project holds several deployments."""
+        if video is not None:
+            self._video_row(video)
+        scope = video or ""
+        if deployment is None:
+            self._edit("DELETE FROM deployments WHERE scope = ?", (scope,))
+            return
+        values = [getattr(deployment, name) for name in DEPLOYMENT_FIELDS]
+        marks = ", ".join("?" * (len(values) + 1))
+        self._edit(f"INSERT OR REPLACE INTO deployments (scope, {', '.join(DEPLOYMENT_FIELDS)}) VALUES ({marks})",
+                   (scope, *[int(v) if isinstance(v, bool) else v for v in values]))
+
+    def deployments(self) -> dict[str, Deployment]:
+        """Scope ('' for the project, else a video's label) → its deployment; none before schema 6."""
+        if not self._has_table("deployments"):
+            return {}
+        rows = self._db.execute(f"SELECT scope, {', '.join(DEPLOYMENT_FIELDS)} FROM deployments ORDER BY scope")
+        out = {}
+        for scope, *values in rows.fetchall():
+            record = dict(zip(DEPLOYMENT_FIELDS, values, strict=True))
+            record["successful_count"] = bool(record["successful_count"])
+            record["successful_length"] = bool(record["successful_length"])
+            out[scope] = Deployment(**record)
+        return out
+
+    def deployment(self, video: str | None = None) -> Deployment | None:
+        """The deployment of ``video`` when it has its own, else the project's; None when none was entered."""
+        stored = self.deployments()
+        return stored.get(video or "", stored.get(""))
+
+    def set_georeference(self, georeference: Georeference | None) -> None:
+        """Store (or with None remove) where the object frame lies on the Earth."""
+        if georeference is None:
+            self._edit("DELETE FROM georeference")
+            return
+        g = georeference
+        self._edit("INSERT OR REPLACE INTO georeference (id, latitude, longitude, depth_m, heading_deg) "
+                   "VALUES (1, ?, ?, ?, ?)", (g.latitude, g.longitude, g.depth_m, g.heading_deg))
+
+    def georeference(self) -> Georeference | None:
+        """The object frame's georeference; None when none was entered (or before schema 6)."""
+        if not self._has_table("georeference"):
+            return None
+        row = self._db.execute("SELECT latitude, longitude, depth_m, heading_deg FROM georeference").fetchone()
+        return None if row is None else Georeference(*row)

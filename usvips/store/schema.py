@@ -118,6 +118,23 @@ CREATE TABLE observation_records (
     stage TEXT NOT NULL DEFAULT '', activity TEXT NOT NULL DEFAULT '', comment TEXT NOT NULL DEFAULT '');
 """
 MIGRATIONS[5] = VERSION_5
+
+# version 6: deployment metadata (usvips.core.deployment.Deployment; the sample of CheckEM's _Metadata.csv)
+# for the whole project (scope '') or for one stereo video (scope = its label), and the georeference of
+# the object frame (origin latitude / longitude in degrees WGS 84, depth in m, heading of +X in degrees
+# clockwise from north; one row)
+VERSION_6 = """
+CREATE TABLE deployments (
+    scope TEXT PRIMARY KEY, opcode TEXT NOT NULL CHECK (opcode <> ''), date TEXT NOT NULL DEFAULT '',
+    time TEXT NOT NULL DEFAULT '', latitude REAL, longitude REAL, depth_m REAL, site TEXT NOT NULL DEFAULT '',
+    location TEXT NOT NULL DEFAULT '', status TEXT NOT NULL DEFAULT '',
+    successful_count INTEGER NOT NULL DEFAULT 1, successful_length INTEGER NOT NULL DEFAULT 1,
+    observer TEXT NOT NULL DEFAULT '', comment TEXT NOT NULL DEFAULT '');
+CREATE TABLE georeference (
+    id INTEGER PRIMARY KEY CHECK (id = 1), latitude REAL NOT NULL, longitude REAL NOT NULL,
+    depth_m REAL NOT NULL, heading_deg REAL NOT NULL);
+"""
+MIGRATIONS[6] = VERSION_6
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
