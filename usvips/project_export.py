@@ -1,6 +1,6 @@
-"""Exporting a project's measured objects (objects CSV, vertices CSV, GeoJSON, PLY, EventMeasure-style
-tables for CheckEM): joins the store (the objects, their picks and calibrations) to io's writers, for the
-command line and the workstation alike.
+"""Exporting a project's measured objects (objects CSV, vertices CSV, GeoJSON through the project's
+georeference, PLY, EventMeasure-style tables and _Metadata.csv for CheckEM): joins the store (the
+objects, their picks and calibrations) to io's writers, for the command line and the workstation alike.
 
 The figures are those of :func:`usvips.project_figures.measure_stored` — recomputed from the picks with
 the calibration each object was measured with, so with the joint covariance of its vertices — the very
@@ -68,5 +68,5 @@ def export_project(project: Project, out: str | Path, opcode: str | None = None,
             images[measurement.id] = video_columns
     records = {o.id: record for o in objects if (record := project.record(int(o.id))) is not None}
     export(objects, out, opcode=opcodes, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects},
-           images=images, records=records, samples=checkem_samples(project))
+           images=images, records=records, samples=checkem_samples(project), georeference=project.georeference())
     return len(objects)

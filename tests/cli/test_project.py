@@ -22,9 +22,12 @@ def test_project_from_the_sample_and_export(tmp_path, capsys):
         cov = np.diag([1e-6, 1e-6, 4e-6])
         project.add_object("line", [Vertex(1, 2, 3, 4, (0, 0, -2.0), cov), Vertex(5, 6, 7, 8, (0.3, 0.4, -2.0), cov)],
                            attribute="cod")
+    assert main(["project", "export", str(out), str(tmp_path / "objects.geojson")]) == 2
+    assert "no georeference" in capsys.readouterr().err and not (tmp_path / "objects.geojson").exists()
+    assert main(["project", "set-georeference", str(out), "--latitude", "-32", "--longitude", "115"]) == 0
     assert main(["project", "export", str(out), str(tmp_path / "objects.geojson")]) == 0
     feature = json.loads((tmp_path / "objects.geojson").read_text())["features"][0]
-    assert feature["properties"]["length"]["value"] == 0.5
+    assert feature["properties"]["length"] == 0.5
 
 
 def test_project_errors_are_one_line(tmp_path, capsys):
@@ -115,7 +118,7 @@ def test_info_and_export_never_change_an_older_project(tmp_path, capsys):
     before = old.read_bytes()
     assert main(["project", "info", str(old)]) == 0
     assert "schema 1" in capsys.readouterr().out
-    assert main(["project", "export", str(old), str(tmp_path / "objects.geojson")]) == 0
+    assert main(["project", "export", str(old), str(tmp_path / "objects.csv")]) == 0
     assert old.read_bytes() == before and not list(tmp_path.glob("*.bak"))
     assert main(["project", "import", str(old), "--control", str(SAMPLE / "control_table3_2.csv")]) == 0
     assert (tmp_path / "old.usvips.schema1.bak").read_bytes()[:16] == before[:16]

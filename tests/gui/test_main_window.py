@@ -240,6 +240,10 @@ def test_objects_are_exported_from_the_window(qtbot, make_window, sample_copy, t
     window.set_tool("point")
     window.workspace.pick("left", left["rock1"]["centre"])
     window.workspace.pick("right", right["rock1"]["centre"])
+    window.export_objects(tmp_path / "objects.geojson")  # GeoJSON needs a georeference (issue 19)
+    assert "no georeference" in window.statusBar().currentMessage()
+    from usvips.core.deployment import Georeference
+    window.workspace.project.set_georeference(Georeference(-32.0, 115.5))
     window.export_objects(tmp_path / "objects.geojson")
     assert "exported 1 objects" in window.statusBar().currentMessage()
     assert '"Point"' in (tmp_path / "objects.geojson").read_text()

@@ -9,6 +9,7 @@ import os
 import numpy as np
 import pytest
 
+from usvips.core.deployment import Georeference
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import measure
 from usvips.io.export import (
@@ -49,21 +50,25 @@ def test_csv_geojson_and_ply_carry_the_figures():
     assert float(rows[4]["diameter"]) == pytest.approx(1.0) and float(rows[4]["s_diameter"]) > 0
     assert rows[0]["covariance"] == "per-vertex"
     assert len(list(csv.DictReader(io.StringIO(vertices_csv(objects))))) == 13
-    collection = json.loads(geojson(objects))
+    collection = json.loads(geojson(objects, Georeference(-32.0, 115.5, 10.0, 0.0)))
     kinds = [f["geometry"]["type"] for f in collection["features"]]
     assert kinds == ["Point", "LineString", "Polygon", "LineString", "Polygon"]
     ring = collection["features"][2]["geometry"]["coordinates"][0]
     assert ring[0] == ring[-1] and len(ring[0]) == 3
-    circle = np.array(collection["features"][4]["geometry"]["coordinates"][0])
-    assert len(circle) == 73 and np.array_equal(circle[0], circle[-1])
-    assert np.allclose(np.linalg.norm(circle[:, :2], axis=1), 0.5)
+    assert collection["features"][1]["properties"]["length"] == pytest.approx(0.5)
+    assert collection["features"][1]["properties"]["s_length"] == objects[1].main.sigma
+    circle = collection["features"][4]["geometry"]["coordinates"][0]
+    assert len(circle) == 73 and circle[0] == circle[-1]
     text = ply(objects[:3])
     assert "element vertex 7" in text and "element edge 5" in text
 
 
 def test_export_by_suffix_and_unknown_formats(tmp_path):
-    export(_objects(), tmp_path / "objects.geojson")
+    export(_objects(), tmp_path / "objects.geojson", georeference=Georeference(10.0, 20.0))
     assert json.loads((tmp_path / "objects.geojson").read_text())["type"] == "FeatureCollection"
+    with pytest.raises(InvalidParameterError, match="no georeference.*export CSV"):
+        export(_objects(), tmp_path / "local.geojson")
+    assert not (tmp_path / "local.geojson").exists()
     with pytest.raises(InvalidParameterError, match="unknown export format"):
         export(_objects(), tmp_path / "objects.xyz")
     assert not (tmp_path / "objects.xyz").exists()

@@ -36,9 +36,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     imp.add_argument("--calibration", help="calibration JSON (with --active-for PAIR ...)")
     imp.add_argument("--active-for", nargs="+", default=[], help="pairs the calibration becomes active for")
     imp.set_defaults(handler=run_import)
-    exp = actions.add_parser("export", help="export measured objects: .csv, .vertices.csv, .geojson, .ply, "
-                             "or NAME.em.txt for EventMeasure-style NAME_Lengths.txt, NAME_3DPoints.txt and "
-                             "tables of their own (NAME_Polygons.txt, NAME_Circles.txt), all or nothing")
+    exp = actions.add_parser("export", help="export measured objects: .csv, .vertices.csv, .geojson (WGS 84; needs "
+                             "set-georeference), .ply (ASCII) or .binary.ply, or NAME.em.txt for EventMeasure-style "
+                             "NAME_Lengths.txt, NAME_3DPoints.txt, tables of their own (NAME_Polygons.txt, "
+                             "NAME_Circles.txt) and CheckEM's NAME_Metadata.csv, all or nothing")
     exp.add_argument("project")
     exp.add_argument("out")
     exp.add_argument("--opcode", help="EventMeasure OpCode of objects with no stored deployment (see "

@@ -1,5 +1,6 @@
-"""Exports of measured objects: CSV (objects with figures, and vertices), GeoJSON (3-D), PLY, and
-EventMeasure-style tab-separated tables for CheckEM.
+"""Exports of measured objects: CSV (objects with figures, and vertices), GeoJSON (RFC 7946, WGS 84, through
+the project's georeference), PLY (ASCII or binary, with sigmas and attributes per vertex), and
+EventMeasure-style tab-separated tables with CheckEM's sample metadata.
 
 Objects are :class:`usvips.core.measurements.Measurement` (metres, project frame): their figures and
 sigmas were computed by the one figure path (``usvips.core.measurements.measure``); nothing here
@@ -21,13 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from usvips.core.deployment import Deployment
+from usvips.core.deployment import Deployment, Georeference
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import Measurement, registered_kinds
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.observation_record import ObservationRecord
-from usvips.io.atomic import write_files_atomic
+from usvips.io.atomic import write_bytes_atomic, write_files_atomic
 from usvips.io.checkem import METADATA_COLUMNS, metadata_rows
+from usvips.io.georeference import object_to_geographic
 
 #: Characters that make a spreadsheet read a cell as a formula (and tab / carriage return, which some
 #: spreadsheets strip before looking) — OWASP's CSV-injection list.
@@ -123,48 +125,131 @@ def vertices_csv(objects: list[Measurement]) -> str:
 _GEOJSON = {"marker": "Point", "polyline": "LineString", "polygon": "Polygon", "circle": "Polygon"}
 
 
-def geojson(objects: list[Measurement]) -> str:
-    """A FeatureCollection with 3-D coordinates (X, Y, Z in metres, the project frame — not WGS 84): a
-    point, a line string, a polygon, and a circle as the polygon of its fitted outline."""
-    features = []
+def _counter_clockwise(ring: np.ndarray) -> np.ndarray:
+    """A closed lon/lat ring (N, ≥2) wound counter-clockwise (RFC 7946's right-hand rule for exterior
+    rings): the shoelace sign on longitude scaled by cos(latitude)."""
+    x = ring[:, 0] * np.cos(np.radians(ring[:, 1].mean()))
+    y = ring[:, 1]
+    signed = np.sum(x[:-1] * y[1:] - x[1:] * y[:-1])
+    return ring if signed >= 0 else ring[::-1]
+
+
+def _feature_properties(obj: Measurement) -> dict:
+    """Flat properties a GIS shows as columns: the object's id, kind, attribute and notes, every figure
+    and its sigma (the objects CSV's names and units), ray RMS and range (m), and the quality rules it
+    breaks."""
+    properties = {"id": obj.id, "kind": obj.kind, "attribute": obj.attribute, "notes": obj.notes,
+                  "covariance": _covariance_word(obj), "quality": "; ".join(obj.failures)}
+    for figure in obj.figures:
+        properties[figure.name] = figure.value
+        properties[_sigma_column(figure.name)] = figure.sigma
+    properties.update({"ray_rms_m": obj.ray_rms_m, "range_m": obj.range_m})
+    return properties
+
+
+def geojson(objects: list[Measurement], georeference: Georeference | None = None) -> str:
+    """An RFC 7946 FeatureCollection: WGS 84 longitude, latitude and height (m, −depth) through the
+    project's ``georeference`` (:mod:`usvips.io.georeference`); a point, a line string, a polygon (its
+    exterior ring counter-clockwise), a circle as the polygon of its fitted outline; figures, sigmas and
+    units as properties (:func:`_feature_properties`). Without a georeference there are no longitudes
+    and latitudes to write: an :class:`InvalidParameterError` says to set one or to export CSV."""
+    if georeference is None:
+        raise InvalidParameterError("georeference", "GeoJSON holds WGS 84 longitude/latitude and this project has "
+                                    "no georeference; set one (usvips project set-georeference, or Project › "
+                                    "Deployment and georeference… in the window) or export CSV (.csv, "
+                                    ".vertices.csv) for the project frame's metres")
+    features, units = [], {}
     for obj in objects:
-        drawing = measurement_kind(obj.kind).drawing
-        coordinates = obj.points.tolist()
-        if drawing == "marker":
-            geometry = {"type": "Point", "coordinates": coordinates[0]}
-        elif drawing == "polyline":
-            geometry = {"type": "LineString", "coordinates": coordinates}
+        measurement = measurement_kind(obj.kind)
+        drawing = measurement.drawing
+        if drawing in ("marker", "polyline"):
+            coordinates = object_to_geographic(georeference, obj.points)
+            geometry = {"type": _GEOJSON[drawing],
+                        "coordinates": coordinates[0].tolist() if drawing == "marker" else coordinates.tolist()}
         else:
-            ring = measurement_kind(obj.kind).outline(obj.points).tolist()
-            geometry = {"type": _GEOJSON[drawing], "coordinates": [ring if ring[0] == ring[-1] else ring + ring[:1]]}
-        properties = {"id": obj.id, "kind": obj.kind, "attribute": obj.attribute, "notes": obj.notes,
-                      "covariance": _covariance_word(obj), "quality": list(obj.failures)}
-        properties.update({f.name: {"value": f.value, "sigma": f.sigma, "unit": f.unit} for f in obj.figures})
-        features.append({"type": "Feature", "geometry": geometry, "properties": properties})
-    return json.dumps({"type": "FeatureCollection", "crs_note": "project frame, metres", "features": features},
+            outline = np.asarray(measurement.outline(obj.points), float)
+            if not np.array_equal(outline[0], outline[-1]):
+                outline = np.vstack([outline, outline[:1]])
+            ring = _counter_clockwise(object_to_geographic(georeference, outline))
+            geometry = {"type": _GEOJSON[drawing], "coordinates": [ring.tolist()]}
+        units.update({f.name: f.unit for f in obj.figures})
+        features.append({"type": "Feature", "id": obj.id, "geometry": geometry,
+                         "properties": _feature_properties(obj)})
+    g = georeference
+    return json.dumps({"type": "FeatureCollection", "features": features,
+                       "usvips": {"units": units, "height": "metres up from the sea surface (-depth)",
+                                  "georeference": {"latitude": g.latitude, "longitude": g.longitude,
+                                                   "depth_m": g.depth_m, "heading_deg": g.heading_deg}}},
                       indent=1, allow_nan=False)
 
 
-def ply(objects: list[Measurement]) -> str:
-    """ASCII PLY: every vertex, and the edges of polylines, (closed) polygons and circles (a circle's
-    vertices are its fitted outline)."""
-    vertices, edges = [], []
-    for obj in objects:
+#: PLY's kind property: an index into the registered kinds, named in the header's comments.
+def _kind_codes() -> dict[str, int]:
+    return {measurement.name: i for i, measurement in enumerate(registered_kinds())}
+
+
+_PLY_VERTEX = [("x", "f8", "double"), ("y", "f8", "double"), ("z", "f8", "double"), ("sx", "f8", "double"),
+               ("sy", "f8", "double"), ("sz", "f8", "double"), ("object", "i4", "int"), ("vertex", "i4", "int"),
+               ("kind", "u1", "uchar"), ("ray_rms", "f8", "double"), ("main", "f8", "double"),
+               ("s_main", "f8", "double")]
+
+
+def ply_vertices(objects: list[Measurement]) -> tuple[np.ndarray, np.ndarray]:
+    """The PLY vertex records (a structured array, :data:`_PLY_VERTEX`) and edges (M, 2) of objects: every
+    vertex with its sigmas (m; a circle's vertices are its fitted outline, with the sigmas of its picked
+    vertices' mean), its object (id; the position in the list when the id is not a whole number), its index
+    in the object, its kind (:func:`_kind_codes`), the object's ray RMS (m; NaN when unknown) and main
+    figure with its sigma; edges along polylines, closed around polygons and circles."""
+    codes = _kind_codes()
+    records, edges = [], []
+    for number, obj in enumerate(objects):
         measurement = measurement_kind(obj.kind)
-        points = measurement.outline(obj.points)[:-1] if measurement.drawing == "circle" else obj.points
-        start = len(vertices)
-        vertices.extend(points.tolist())
+        if measurement.drawing == "circle":
+            points = np.asarray(measurement.outline(obj.points), float)[:-1]
+            sigmas = np.repeat(np.asarray(obj.vertex_sigmas, float).mean(axis=0, keepdims=True), len(points), axis=0)
+        else:
+            points, sigmas = np.asarray(obj.points, float), np.asarray(obj.vertex_sigmas, float)
+        object_id = int(obj.id) if str(obj.id).isdigit() else number
+        rms = np.nan if obj.ray_rms_m is None else obj.ray_rms_m
+        start = len(records)
+        records += [(*p, *sg, object_id, i, codes[obj.kind], rms, obj.main.value, obj.main.sigma)
+                    for i, (p, sg) in enumerate(zip(points, sigmas, strict=True))]
         n = len(points)
         links = [(i, i + 1) for i in range(n - 1)] if measurement.drawing != "marker" else []
         if measurement.closes and n > 2:
             links.append((n - 1, 0))
         edges.extend((start + a, start + b) for a, b in links)
-    lines = ["ply", "format ascii 1.0", "comment USVIPS measured objects, metres, project frame",
-             f"element vertex {len(vertices)}", "property double x", "property double y", "property double z",
-             f"element edge {len(edges)}", "property int vertex1", "property int vertex2", "end_header"]
-    lines += [f"{x:.6f} {y:.6f} {z:.6f}" for x, y, z in vertices]
-    lines += [f"{a} {b}" for a, b in edges]
+    vertices = np.array(records, dtype=[(name, kind) for name, kind, _ in _PLY_VERTEX])
+    return vertices, np.array(edges, dtype="<i4").reshape(-1, 2)
+
+
+def _ply_header(objects: list[Measurement], form: str, vertices: int, edges: int) -> str:
+    lines = ["ply", f"format {form} 1.0", "comment USVIPS measured objects: metres, project frame; sx sy sz: "
+             "standard deviations (m); ray_rms (m, nan when unknown); main, s_main: the kind's main figure and its "
+             "sigma (m, m^2)"]
+    lines += [f"comment kind {code} {name}" for name, code in _kind_codes().items()]
+    lines += [f"comment object {cell(obj.id, True)} attribute {cell(obj.attribute, True)}" for obj in objects
+              if obj.attribute]
+    lines += [f"element vertex {vertices}"] + [f"property {ply_type} {name}" for name, _, ply_type in _PLY_VERTEX]
+    lines += [f"element edge {edges}", "property int vertex1", "property int vertex2", "end_header"]
     return "\n".join(lines) + "\n"
+
+
+def ply(objects: list[Measurement]) -> str:
+    """ASCII PLY: every vertex with its sigmas and attributes (:func:`ply_vertices`) and the edges of
+    polylines, (closed) polygons and circles."""
+    vertices, edges = ply_vertices(objects)
+    rows = [" ".join(number(v) if isinstance(v, float) else str(v) for v in record.tolist()) for record in vertices]
+    rows += [f"{a} {b}" for a, b in edges]
+    return _ply_header(objects, "ascii", len(vertices), len(edges)) + "".join(row + "\n" for row in rows)
+
+
+def ply_binary(objects: list[Measurement]) -> bytes:
+    """Binary little-endian PLY with the same elements and properties as :func:`ply`."""
+    vertices, edges = ply_vertices(objects)
+    little = vertices.astype(vertices.dtype.newbyteorder("<"))
+    return (_ply_header(objects, "binary_little_endian", len(vertices), len(edges)).encode("ascii")
+            + little.tobytes() + edges.astype("<i4").tobytes())
 
 
 def eventmeasure_paths(path: str | Path) -> dict[str, Path]:
@@ -178,22 +263,29 @@ def eventmeasure_paths(path: str | Path) -> dict[str, Path]:
     return files
 
 
-def export(objects: list[Measurement], path: str | Path, kind: str | None = None, **eventmeasure) -> list[Path]:
-    """Write objects as ``csv`` (objects), ``vertices.csv``, ``geojson`` or ``ply``, by suffix or ``kind``;
-    a path ending ``.em.txt`` writes the EventMeasure-style set (:func:`eventmeasure_paths`) beside it,
-    all files or none (``eventmeasure``: the keywords of :func:`eventmeasure_tables`). Returns the files
-    written."""
+def export(objects: list[Measurement], path: str | Path, kind: str | None = None,
+           georeference: Georeference | None = None, **eventmeasure) -> list[Path]:
+    """Write objects as ``csv`` (objects), ``vertices.csv``, ``geojson`` (needs ``georeference``),
+    ``ply`` (ASCII) or ``binary.ply`` (a name ending ``.binary.ply``), by suffix or ``kind``; a path
+    ending ``.em.txt`` writes the EventMeasure-style set (:func:`eventmeasure_paths`) beside it, all files
+    or none (``eventmeasure``: the keywords of :func:`eventmeasure_tables`). Returns the files written."""
     path = Path(path)
     if path.name.endswith(".em.txt") or kind == "eventmeasure":
         tables = eventmeasure_tables(objects, **eventmeasure)
         files = {target: tables[table] for table, target in eventmeasure_paths(path).items()}
         write_files_atomic(files)
         return list(files)
-    kind = kind or ("vertices" if path.name.endswith(".vertices.csv") else path.suffix.lstrip("."))
-    writers = {"csv": objects_csv, "vertices": vertices_csv, "geojson": geojson, "json": geojson, "ply": ply}
+    if kind is None:
+        kind = next((k for k, suffix in (("vertices", ".vertices.csv"), ("binary.ply", ".binary.ply"))
+                     if path.name.endswith(suffix)), path.suffix.lstrip("."))
+    writers = {"csv": objects_csv, "vertices": vertices_csv, "ply": ply,
+               "geojson": lambda o: geojson(o, georeference), "json": lambda o: geojson(o, georeference)}
+    if kind == "binary.ply":
+        write_bytes_atomic(path, ply_binary(objects))
+        return [path]
     if kind not in writers:
-        raise InvalidParameterError("format", f"unknown export format {kind!r}; use csv, vertices, geojson, ply "
-                                              "or a name ending .em.txt (EventMeasure)")
+        raise InvalidParameterError("format", f"unknown export format {kind!r}; use csv, vertices, geojson, ply, "
+                                              "binary.ply or a name ending .em.txt (EventMeasure)")
     write_files_atomic({path: writers[kind](objects)})
     return [path]
 
