@@ -21,6 +21,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui.calibration_session import PHASES, CalibrationSession
+from usvips.gui.exchange_dialogs import WizardReport
 from usvips.gui.pane import StereoPane, item_from_pixels
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import OBSERVE, SIDES, Workspace, pair_image_paths, read_pair
@@ -790,6 +791,8 @@ class SavePage(QtWidgets.QWizardPage):
         form.addRow("Active for", self.active)
         form.addRow(self.message)
         self.saved_id: int | None = None
+        self.report = WizardReport(self, session)  # Report (PDF)… (usvips/gui/exchange_dialogs.py)
+        form.addRow(self.report.button, self.report.status)
 
     def initializePage(self) -> None:  # noqa: N802 (Qt's name)
         session = self.session

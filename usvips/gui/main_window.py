@@ -16,7 +16,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.gui import media_dialogs
+from usvips.gui import exchange_dialogs, media_dialogs
 from usvips.gui.app import register_window
 from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, ObservationForm, PlanView
@@ -292,6 +292,11 @@ class MainWindow(QtWidgets.QMainWindow):
         menu.addAction("Save &as… (a copy, then work on it)", self.save_as_dialog, QtGui.QKeySequence("Ctrl+Shift+S"))
         menu.addAction("&Export objects…", self.export_dialog)
         menu.addAction("Import species &list…", self.species_dialog)
+        menu.addSeparator()  # exchange with other tools (usvips/gui/exchange_dialogs.py)
+        menu.addAction("Import &calibration (OpenCV)…", lambda: exchange_dialogs.import_calibration(self))
+        menu.addAction("Export calibration (&OpenCV)…", lambda: exchange_dialogs.export_calibration(self))
+        menu.addAction("Calibration &report (PDF)…", lambda: exchange_dialogs.calibration_report(self))
+        menu.addAction("&Deployment and georeference…", lambda: exchange_dialogs.edit_deployment(self))
         self._fill_recent_menu()
         menu.addSeparator()
         menu.addAction(a["quit"])

@@ -334,15 +334,16 @@ def _check_lines(checks: CheckPoints | None, reason: str) -> list[str]:
 
 def write_calibration_report(calibration: StereoCalibration, out: str | Path,
                              calibration_path: str | Path | None = None, check: str | Path | None = None,
-                             check_control: str | Path | None = None) -> int:
+                             check_control: str | Path | None = None, data: ReportData | None = None) -> int:
     """Write the report PDF atomically; returns its number of pages. ``check``: observations CSV of check
-    points (ids in the control, or in ``check_control``), intersected at the first station."""
+    points (ids in the control, or in ``check_control``), intersected at the first station. ``data``:
+    the control and observations used when they are not files named in the calibration (the wizard's)."""
     out = Path(out)
     if out.suffix.lower() != ".pdf":
         raise UsvipsError(f"{out}: the report is a PDF; give a name ending in .pdf")
     if not (out.parent if str(out.parent) else Path(".")).is_dir():
         raise UsvipsError(f"{out}: the folder {out.parent} does not exist")
-    data = find_data(calibration, calibration_path)
+    data = data if data is not None else find_data(calibration, calibration_path)
     residuals, residual_note = None, ""
     if data.control is not None and data.observations is not None and calibration.parameters:
         residuals = calibration_residuals(calibration, data.control, data.observations)

@@ -1,0 +1,160 @@
+"""File › Import calibration (OpenCV)…, Export calibration (OpenCV)…, Calibration report (PDF)…, Deployment and
+georeference…, and the calibration wizard's Report (PDF)… button, driven offscreen with file names and
+answers handed in (no modal dialog left open)."""
+
+import cv2
+import numpy as np
+import pytest
+from PySide6 import QtCore, QtWidgets
+
+from tests.gui.conftest import open_sample
+from usvips.gui import exchange_dialogs
+from usvips.gui.worker import Cancelled
+from usvips.io.calibration_file import load_calibration
+from usvips.io.opencv_calibration import read_opencv_stereo
+
+WORK_BOUND_MS = 600_000  # a generous bound on background work on a loaded machine, not an expected duration
+
+
+def _menu_texts(window) -> list[str]:
+    file_menu = next(a.menu() for a in window.menuBar().actions() if a.text() == "&File")
+    return [a.text() for a in file_menu.actions()]
+
+
+def _opencv_file_without_size(path):
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    matrix = np.array([[800.0, 0, 320], [0, 800, 240], [0, 0, 1]])
+    for name, value in (("M1", matrix), ("D1", np.array([[0.1, -0.2, 0.001, 0.0005, 0.03]])), ("M2", matrix),
+                        ("D2", np.zeros((1, 5))), ("R", np.eye(3)), ("T", np.array([[-0.3], [0.0], [0.01]]))):
+        storage.write(name, value)
+    storage.release()
+
+
+def _wait_idle(qtbot, window):
+    assert window.pool.waitForDone(WORK_BOUND_MS), "background work did not end"
+    qtbot.waitUntil(lambda: not window.busy, timeout=WORK_BOUND_MS)
+
+
+def test_the_file_menu_holds_the_exchange_entries(make_window):
+    texts = _menu_texts(make_window())
+    for entry in ("Import &calibration (OpenCV)…", "Export calibration (&OpenCV)…", "Calibration &report (PDF)…",
+                  "&Deployment and georeference…"):
+        assert entry in texts
+
+
+def test_import_asks_the_image_size_the_file_lacks_and_stores_the_calibration(qtbot, make_window, sample_copy,
+                                                                               tmp_path):
+    window = make_window()
+    open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
+    before = len(window.workspace.project.calibrations())
+    source = tmp_path / "stereo.yml"
+    _opencv_file_without_size(source)
+    asked = []
+    assert exchange_dialogs.import_calibration(window, [source], tmp_path / "cal.json",
+                                               ask_size=lambda w: asked.append(1) or None) is None
+    assert asked and not (tmp_path / "cal.json").exists()
+    assert "image size is needed" in window.statusBar().currentMessage()
+    out = exchange_dialogs.import_calibration(window, [source], tmp_path / "cal.json", ask_size=lambda w: (640, 480))
+    imported = load_calibration(out)
+    assert (imported.left.width, imported.left.height) == (640, 480) and imported.left.interior.k3 == 0.03
+    assert len(window.workspace.project.calibrations()) == before + 1
+    assert QtWidgets.QApplication.activeModalWidget() is None
+    exchange_dialogs.import_calibration(window, [tmp_path / "missing.yml"], tmp_path / "x.json")
+    assert "import failed" in window.statusBar().currentMessage() and not (tmp_path / "x.json").exists()
+
+
+def test_export_to_opencv_shows_what_is_left_out_and_round_trips(qtbot, make_window, sample_copy, tmp_path):
+    window = make_window()
+    open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
+    left_out = exchange_dialogs.export_calibration(window, out=tmp_path / "stereo.yml")
+    assert left_out  # an underwater calibration: the housing cannot be held by OpenCV
+    assert "left out" in window.statusBar().currentMessage()
+    assert window.log.toPlainText().count("OpenCV cannot hold") == len(left_out)
+    again = read_opencv_stereo(tmp_path / "stereo.yml")
+    active = window.workspace.project.active_calibration("measure1")
+    stored = window.workspace.project.calibration(active)
+    assert again.left.interior.f == pytest.approx(stored["cameras"]["left"]["interior"]["f"], rel=1e-12)
+
+
+def test_the_calibration_report_is_written_in_the_worker(qtbot, make_window, sample_copy, tmp_path):
+    window = make_window()
+    open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
+    worker = exchange_dialogs.calibration_report(window, out=tmp_path / "report.pdf")
+    assert worker is not None and worker in window.workers or (tmp_path / "report.pdf").exists()
+    _wait_idle(qtbot, window)
+    assert (tmp_path / "report.pdf").read_bytes().startswith(b"%PDF")
+    assert "pages)" in window.statusBar().currentMessage()
+    assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".part.pdf")] == []
+
+
+def test_a_cancelled_report_leaves_nothing(tmp_path):
+    from usvips.locations import sample_project
+
+    calibration = load_calibration(sample_project("rov_flatport") / "calibration.json")
+    job = exchange_dialogs.report_job(calibration, tmp_path / "r.pdf")
+    with pytest.raises(Cancelled):
+        job(lambda f: None, lambda: True)
+    assert list(tmp_path.iterdir()) == []
+    assert job(lambda f: None, lambda: False) >= 3 and (tmp_path / "r.pdf").read_bytes().startswith(b"%PDF")
+
+
+def test_the_deployment_dialog_names_a_bad_value_keeps_the_typing_and_stores_both(qtbot, make_window, sample_copy):
+    window = make_window()
+    open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
+    project = window.workspace.project
+    seen = {}
+
+    def fill(dialog):
+        dialog.fields["opcode"].setText("BRUV-07")
+        dialog.fields["date"].setText("2024-03-01")
+        dialog.fields["latitude"].setText("-32.2")
+        dialog.fields["successful_length"].setChecked(False)
+        dialog.georeferenced.setChecked(True)
+        dialog.geo_fields["latitude"].setText("-132.2")  # out of range
+        dialog.geo_fields["longitude"].setText("115.1")
+        assert not dialog.store()
+        seen["message"] = dialog.message.text()
+        assert dialog.fields["opcode"].text() == "BRUV-07" and project.deployment() is None
+        dialog.geo_fields["latitude"].setText("-32.2")
+        dialog.geo_fields["heading_deg"].setText("45")
+        assert dialog.store()
+
+    assert exchange_dialogs.edit_deployment(window, fill)
+    assert "latitude: must be between -90 and 90" in seen["message"]
+    assert project.deployment().opcode == "BRUV-07" and project.deployment().successful_length is False
+    assert project.georeference().heading_deg == 45.0 and project.georeference().latitude == -32.2
+    assert exchange_dialogs.edit_deployment(window, lambda d: d.reject()) is False
+    assert project.deployment().opcode == "BRUV-07"
+    assert QtWidgets.QApplication.activeModalWidget() is None
+
+
+def test_the_wizards_last_page_writes_the_report_of_its_result(qtbot, sample_copy, tmp_path):
+    """The Save page's Report (PDF)… button writes the session's result with the observations it used,
+    in a worker, and says so; pressed while it runs it would cancel."""
+    from usvips.gui.app import configure
+    from usvips.gui.calibration_session import CalibrationSession
+    from usvips.gui.calibration_wizard import SavePage
+    from usvips.samples import open_or_create_from_manifest
+
+    configure()
+    project = open_or_create_from_manifest(sample_copy("rov_flatport"))
+    try:
+        session = CalibrationSession(project, "air", automatic_blunders=True)
+        session.set_pairs(["air1"])
+        assert session.load_project_observations() > 6
+        session.set_result(session.job()(lambda f: None, lambda: False))
+        page = SavePage(session)
+        qtbot.addWidget(page)
+        page.show()
+        assert page.report.button.text() == "Report (PDF)…"
+        worker = page.report.write(tmp_path / "wizard.pdf")
+        assert worker is not None and page.report.button.text() == "Cancel the report"
+        assert QtCore.QThreadPool.globalInstance().waitForDone(WORK_BOUND_MS)
+        qtbot.waitUntil(lambda: page.report.worker is None, timeout=WORK_BOUND_MS)
+        assert "Wrote" in page.report.status.text() and "pages" in page.report.status.text()
+        assert (tmp_path / "wizard.pdf").read_bytes().startswith(b"%PDF")
+        data = page.report.report_data()
+        assert len(data.observations.ids) == len(session.measured("air1")) > 6
+    finally:
+        QtCore.QThreadPool.globalInstance().waitForDone(WORK_BOUND_MS)
+        project.close()

@@ -1,0 +1,331 @@
+"""Exchange with other tools from the window: File › Import calibration (OpenCV)…, Export calibration
+(OpenCV)…, Calibration report (PDF)…, Deployment and georeference…, and the calibration wizard's
+Report (PDF)… button.
+
+Each entry asks with dialogs, then does its work through io (the command line's functions: one reader,
+one writer); file names and answers can be handed in (tests, scripts), skipping the dialogs. Reports are
+written by a worker off the GUI thread (:mod:`usvips.gui.worker`) with a real cancel: the PDF is written
+beside its target and moved into place only when the job was not cancelled.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from PySide6 import QtCore, QtWidgets
+
+from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
+from usvips.core.errors import UsvipsError
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.gui.worker import Cancelled, Worker, start
+from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict, load_calibration, save_calibration
+from usvips.io.opencv_calibration import read_opencv_stereo, write_opencv_stereo
+
+OPENCV_FILTER = "OpenCV calibrations (*.yml *.yaml *.xml *.json *.npz);;All files (*)"
+
+
+# ---------------------------------------------------------------------------- reports (worker jobs)
+def report_job(calibration: StereoCalibration, out: str | Path, calibration_path: str | Path | None = None,
+               data=None) -> Callable:
+    """A worker job writing the calibration report to ``out``: the PDF goes to a temporary file beside
+    it and replaces ``out`` only when the job was not cancelled (then nothing is left behind). Returns the
+    number of pages. ``data``: the report's data (:class:`usvips.io.calibration_report.ReportData`)
+    when they are not files named in the calibration (the wizard's)."""
+    from usvips.io.calibration_report import write_calibration_report
+
+    out = Path(out)
+
+    def job(progress, cancelled) -> int:
+        progress(0.0)
+        part = out.with_name(f".{out.stem}.part.pdf")
+        try:
+            pages = write_calibration_report(calibration, part, calibration_path, data=data)
+            if cancelled():
+                raise Cancelled()
+            os.replace(part, out)
+        finally:
+            part.unlink(missing_ok=True)
+        progress(1.0)
+        return pages
+
+    return job
+
+
+def _need_project(window):
+    project = window.workspace.project
+    if project is None:
+        window.show_message("error", "open or create a project first (File › New project…)")
+    return project
+
+
+def _current_calibration(window) -> tuple[StereoCalibration, str] | None:
+    """The open project's calibration for the current pair (its active one, else the newest stored), or
+    one chosen from a file; with a name for messages. None when there is none or the choice was cancelled."""
+    project = window.workspace.project
+    if project is not None and project.calibrations():
+        pair = window.workspace.pair
+        chosen = project.active_calibration(pair) if pair else None
+        chosen = chosen if chosen is not None else project.calibrations()[-1]["id"]
+        name = next(c["name"] for c in project.calibrations() if c["id"] == chosen)
+        return calibration_from_dict(project.calibration(chosen), f"{project.path} calibration {chosen}"), name
+    path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", "", "Calibrations (*.json)")
+    if not path:
+        return None
+    return load_calibration(path), path
+
+
+def _source(window, source: str | Path | StereoCalibration | None) -> tuple[StereoCalibration, str] | None:
+    if isinstance(source, StereoCalibration):
+        return source, "calibration"
+    if source is not None:
+        return load_calibration(source), str(source)
+    return _current_calibration(window)
+
+
+# ---------------------------------------------------------------------------- File menu entries
+def ask_image_size(window) -> tuple[int, int] | None:
+    """Ask the image size (pixels) that an OpenCV file does not carry."""
+    text, ok = QtWidgets.QInputDialog.getText(window, "Image size", "The file does not say the image size. "
+                                              "Width x height in pixels (e.g. 1920x1080):")
+    if not ok:
+        return None
+    from usvips.cli.calibration import parse_size  # the command line's parser: one rule for WxH
+
+    return parse_size(text.strip())
+
+
+def import_calibration(window, files: list[str | Path] | None = None, out: str | Path | None = None,
+                       ask_size: Callable = ask_image_size) -> Path | None:
+    """OpenCV YAML/XML (one file or intrinsics + extrinsics) or .npz → a USVIPS calibration file (and into
+    the open project's calibrations). The image size is asked when the files lack it."""
+    if files is None:
+        files, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "OpenCV calibration (one file, or intrinsics + "
+                                                          "extrinsics)", "", OPENCV_FILTER)
+        if not files:
+            return None
+    try:
+        calibration = read_opencv_stereo(files)
+        if calibration.left.width is None:
+            size = ask_size(window)
+            if size is None:
+                window.show_message("info", "import cancelled: the image size is needed")
+                return None
+            calibration = read_opencv_stereo(files, size)
+        if out is None:
+            start = str(Path(files[0]).with_name(Path(files[0]).stem + "_usvips.json"))
+            out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Save as a USVIPS calibration", start,
+                                                           "Calibrations (*.json)")
+            if not out:
+                return None
+        save_calibration(calibration, out)
+        project = window.workspace.project
+        if project is not None:
+            project.add_calibration(Path(out).stem, calibration_to_dict(calibration))
+    except UsvipsError as error:
+        window.show_message("error", f"import failed, nothing written: {error}")
+        return None
+    where = " and stored in the project" if window.workspace.project is not None else ""
+    window.show_message("info", f"imported {len(files)} OpenCV file(s) into {out}{where} "
+                                f"({calibration.left.width}x{calibration.left.height} px)")
+    return Path(out)
+
+
+def export_calibration(window, source: str | Path | StereoCalibration | None = None,
+                       out: str | Path | None = None) -> list[str] | None:
+    """A calibration (default: the current pair's in the open project, else a file) → OpenCV's stereo
+    file; what OpenCV cannot hold (the housing, …) is shown as warnings and returned."""
+    try:
+        chosen = _source(window, source)
+        if chosen is None:
+            return None
+        calibration, name = chosen
+        if out is None:
+            out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Export calibration (OpenCV)", "stereo.yml",
+                                                           "OpenCV FileStorage (*.yml *.yaml *.xml *.json)")
+            if not out:
+                return None
+        left_out = write_opencv_stereo(calibration, out)
+    except UsvipsError as error:
+        window.show_message("error", f"export failed, nothing written: {error}")
+        return None
+    for line in left_out:
+        window.show_message("warning", f"OpenCV cannot hold: {line}")
+    window.show_message("warning" if left_out else "info",
+                        f"exported {name} to {out}" + (f"; {len(left_out)} thing(s) left out (see the log)"
+                                                       if left_out else ""))
+    return left_out
+
+
+def calibration_report(window, source: str | Path | StereoCalibration | None = None,
+                       out: str | Path | None = None) -> Worker | None:
+    """Write a calibration's PDF report in the window's worker (progress and Cancel in the status bar)."""
+    try:
+        chosen = _source(window, source)
+    except UsvipsError as error:
+        window.show_message("error", str(error))
+        return None
+    if chosen is None:
+        return None
+    calibration, name = chosen
+    if out is None:
+        out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Calibration report", "calibration_report.pdf",
+                                                       "PDF (*.pdf)")
+        if not out:
+            return None
+    path = name if isinstance(source, str | Path) else None
+    return window.run_worker(report_job(calibration, out, path), "calibration report",
+                             lambda pages: window.show_message("info", f"wrote {out} ({pages} pages)"))
+
+
+# ---------------------------------------------------------------------------- deployment and georeference
+_LABELS = {"opcode": "OpCode (sample id)", "date": "Date (YYYY-MM-DD)", "time": "Time (HH:MM[:SS], local)",
+           "latitude": "Latitude (°, WGS 84)", "longitude": "Longitude (°, WGS 84)", "depth_m": "Depth (m)",
+           "site": "Site", "location": "Location", "status": "Status (e.g. Fished, No-take)",
+           "successful_count": "Successful for counts", "successful_length": "Successful for lengths",
+           "observer": "Observer", "comment": "Comment"}
+_GEO = {"latitude": "Origin latitude (°)", "longitude": "Origin longitude (°)", "depth_m": "Origin depth (m)",
+        "heading_deg": "Heading of +X (° from north, clockwise)"}
+
+
+class DeploymentDialog(QtWidgets.QDialog):
+    """The project's deployment metadata (CheckEM's _Metadata.csv) and the georeference of its object
+    frame (for GeoJSON). OK stores both in one transaction; a bad value is named under the form and the
+    dialog stays open with everything typed."""
+
+    def __init__(self, project, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.project = project
+        self.setWindowTitle("Deployment and georeference")
+        self.fields: dict[str, QtWidgets.QWidget] = {}
+        form = QtWidgets.QFormLayout()
+        stored = project.deployment()
+        for name in DEPLOYMENT_FIELDS:
+            value = None if stored is None else getattr(stored, name)
+            if name.startswith("successful_"):
+                widget = QtWidgets.QCheckBox()
+                widget.setChecked(True if value is None else bool(value))
+            else:
+                widget = QtWidgets.QLineEdit("" if value is None else str(value))
+            self.fields[name] = widget
+            form.addRow(_LABELS[name], widget)
+        self.georeferenced = QtWidgets.QGroupBox("Georeference of the object frame (Z up)")
+        self.georeferenced.setCheckable(True)
+        geo = project.georeference()
+        self.georeferenced.setChecked(geo is not None)
+        geo_form = QtWidgets.QFormLayout(self.georeferenced)
+        self.geo_fields: dict[str, QtWidgets.QLineEdit] = {}
+        for name, label in _GEO.items():
+            widget = QtWidgets.QLineEdit("" if geo is None else repr(getattr(geo, name)))
+            self.geo_fields[name] = widget
+            geo_form.addRow(label, widget)
+        self.message = QtWidgets.QLabel()
+        self.message.setStyleSheet("color: #c0392b;")
+        self.message.setWordWrap(True)
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Ok
+                                             | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
+        buttons.accepted.connect(self.store)
+        buttons.rejected.connect(self.reject)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addLayout(form)
+        layout.addWidget(self.georeferenced)
+        layout.addWidget(self.message)
+        layout.addWidget(buttons)
+
+    def values(self) -> tuple[Deployment | None, Georeference | None]:
+        """What the form says (raises :class:`UsvipsError` naming a bad value); no OpCode: no deployment."""
+        typed = {name: (w.isChecked() if isinstance(w, QtWidgets.QCheckBox) else w.text())
+                 for name, w in self.fields.items()}
+        deployment = Deployment(**typed) if typed["opcode"].strip() else None
+        georeference = None
+        if self.georeferenced.isChecked():
+            georeference = Georeference(*(self.geo_fields[n].text() or None for n in ("latitude", "longitude")),
+                                        self.geo_fields["depth_m"].text() or 0.0,
+                                        self.geo_fields["heading_deg"].text() or 0.0)
+        return deployment, georeference
+
+    def store(self) -> bool:
+        """Store the form (OK); on a bad value say which and stay open."""
+        try:
+            deployment, georeference = self.values()
+            with self.project.transaction():
+                self.project.set_deployment(deployment)
+                self.project.set_georeference(georeference)
+        except UsvipsError as error:
+            self.message.setText(str(error))
+            return False
+        self.accept()
+        return True
+
+
+def edit_deployment(window, run: Callable[[DeploymentDialog], object] = lambda d: d.exec()) -> bool:
+    """Project › Deployment and georeference…; ``run`` shows the dialog (tests fill it and press OK)."""
+    project = _need_project(window)
+    if project is None:
+        return False
+    dialog = DeploymentDialog(project, window)
+    run(dialog)
+    accepted = dialog.result() == QtWidgets.QDialog.DialogCode.Accepted
+    if accepted:
+        window.show_message("info", "stored the deployment metadata and georeference")
+    dialog.deleteLater()
+    return accepted
+
+
+# ---------------------------------------------------------------------------- the wizard's button
+class WizardReport(QtCore.QObject):
+    """The calibration wizard's Report (PDF)… button: the session's result with the control and
+    observations it used, written in a worker; pressing again while it runs cancels it."""
+
+    def __init__(self, page: QtWidgets.QWizardPage, session, pool: QtCore.QThreadPool | None = None) -> None:
+        super().__init__(page)
+        self.page, self.session, self.pool = page, session, pool
+        self.button = QtWidgets.QPushButton("Report (PDF)…")
+        self.button.setToolTip("A printable record of this calibration: parameters with sigmas, correlations, "
+                               "residual plots, data and provenance")
+        self.status = QtWidgets.QLabel()
+        self.button.clicked.connect(lambda: self.cancel() if self.worker is not None else self.write())
+        self.worker: Worker | None = None
+
+    def report_data(self):
+        """The report's data: the session's control and the observations of the pairs it used."""
+        import numpy as np
+
+        from usvips.core.observations import StereoObservations
+        from usvips.io.calibration_report import ReportData
+
+        rows = [(pair, i) for pair in self.session.pairs for i in self.session.measured(pair)]
+        values = np.array([self.session.observations[key] for key in rows], float).reshape(-1, 4)
+        observations = StereoObservations(tuple(i for _, i in rows), values[:, :2], values[:, 2:],
+                                          tuple(pair for pair, _ in rows))
+        files = [("project", str(self.session.project.path), "the project (the wizard's session)")]
+        return ReportData(self.session.control, observations, files)
+
+    def write(self, out: str | Path | None = None) -> Worker | None:
+        result = self.session.result
+        if result is None:
+            self.status.setText("Compute a calibration first.")
+            return None
+        if out is None:
+            out, _ = QtWidgets.QFileDialog.getSaveFileName(self.page, "Calibration report",
+                                                           "calibration_report.pdf", "PDF (*.pdf)")
+            if not out:
+                return None
+        worker = self.worker = Worker(report_job(result.calibration, out, None, self.report_data()),
+                                      "calibration report")
+        worker.signals.finished.connect(lambda pages: self._ended(f"Wrote {out} ({pages} pages)."))
+        worker.signals.failed.connect(lambda message: self._ended(f"No report: {message}"))
+        worker.signals.cancelled.connect(lambda: self._ended("Report cancelled; nothing written."))
+        self.button.setText("Cancel the report")
+        self.status.setText("Writing the report …")
+        return start(worker, self.pool)
+
+    def cancel(self) -> None:
+        if self.worker is not None:
+            self.worker.cancel()
+
+    def _ended(self, text: str) -> None:
+        self.worker = None
+        self.button.setText("Report (PDF)…")
+        self.status.setText(text)
