@@ -37,7 +37,7 @@ def _wait_idle(qtbot, window):
 
 def test_the_file_menu_holds_the_exchange_entries(make_window):
     texts = _menu_texts(make_window())
-    for entry in ("Import &calibration (OpenCV)…", "Export calibration (&OpenCV)…", "Calibration &report (PDF)…",
+    for entry in ("Import &calibration (OpenCV)…", "Ex&port calibration (OpenCV)…", "Calibration repor&t (PDF)…",
                   "&Deployment and georeference…"):
         assert entry in texts
 
@@ -158,3 +158,20 @@ def test_the_wizards_last_page_writes_the_report_of_its_result(qtbot, sample_cop
     finally:
         QtCore.QThreadPool.globalInstance().waitForDone(WORK_BOUND_MS)
         project.close()
+
+
+def test_the_entries_are_reached_with_the_keyboard(qtbot, make_window, sample_copy, monkeypatch):
+    """Alt+F opens File; each exchange entry has its own accelerator letter there (none taken twice)."""
+    window = make_window()
+    open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
+    shown = []
+    monkeypatch.setattr(exchange_dialogs.DeploymentDialog, "exec", lambda self: shown.append(self) or self.reject())
+    menu = next(a.menu() for a in window.menuBar().actions() if a.text() == "&File")
+    letters = [a.text().split("&")[1][0].lower() for a in menu.actions() if "&" in a.text()]
+    for letter in "cptd":
+        assert letters.count(letter) == 1, letter
+    menu.popup(window.mapToGlobal(QtCore.QPoint(0, 0)))
+    qtbot.waitExposed(menu)
+    qtbot.keyClick(menu, QtCore.Qt.Key.Key_D)
+    qtbot.waitUntil(lambda: len(shown) == 1, timeout=5000)
+    assert not menu.isVisible() and QtWidgets.QApplication.activeModalWidget() is None

@@ -132,9 +132,9 @@ class Georeference:
     heading_deg: float = 0.0
 
     def __post_init__(self) -> None:
-        for name, low, high, unit in (("latitude", -90, 90, "degrees"), ("longitude", -180, 180, "degrees"),
-                                      ("depth", 0, MAX_DEPTH_M, "metres")):
-            attribute = "depth_m" if name == "depth" else name
+        for attribute, low, high, unit in (("latitude", -90, 90, "degrees"), ("longitude", -180, 180, "degrees"),
+                                           ("depth_m", 0, MAX_DEPTH_M, "metres")):
+            name = "origin " + attribute.removesuffix("_m")  # not the deployment's own latitude, …
             value = _optional_number(name, getattr(self, attribute), low, high, unit)
             if value is None:
                 raise InvalidParameterError(name, "is required for a georeference")
