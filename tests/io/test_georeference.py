@@ -186,3 +186,106 @@ def test_ply_carries_sigmas_and_attributes_per_vertex(binary):
     again = read_ply(ply_binary(objects) if not binary else ply(objects).encode("ascii"))[0]["vertex"]
     for name in vertices.dtype.names:
         assert np.array_equal(again[name], vertices[name], equal_nan=True)
+
+
+# ---------------------------------------------------------------------------- georeference from points
+def _geographic(georeference, xyz, noise_m=0.0, rng=None):
+    """id → (latitude, longitude, depth) of object-frame points through ``georeference``, with Gaussian
+    noise (m) in east, north and depth."""
+    from usvips.io.georeference import object_to_enu
+
+    enu_noise = rng.normal(0, noise_m, (len(xyz), 3)) if noise_m else np.zeros((len(xyz), 3))
+    heading = np.radians(georeference.heading_deg)
+    # a noise vector in east/north is an object-frame offset turned back by the heading
+    back = np.array([[np.sin(heading), np.cos(heading)], [-np.cos(heading), np.sin(heading)]])
+    shifted = xyz.copy()
+    shifted[:, :2] += enu_noise[:, :2] @ back.T
+    shifted[:, 2] += enu_noise[:, 2]
+    assert np.allclose(object_to_enu(georeference, shifted)[:, :2] - object_to_enu(georeference, xyz)[:, :2],
+                       enu_noise[:, :2])
+    geo = object_to_geographic(georeference, shifted)
+    return {str(i): (lat, lon, -h) for i, (lon, lat, h) in enumerate(geo)}
+
+
+def test_the_georeference_is_recovered_from_control_points_with_geographic_coordinates():
+    from usvips.core.observations import ControlPoints
+    from usvips.io.georeference import georeference_from_points
+
+    rng = np.random.default_rng(11)
+    for _ in range(40):
+        truth = _random_georeference(rng)
+        xyz = rng.uniform(-30, 30, (int(rng.integers(2, 9)), 3))
+        control = ControlPoints(tuple(str(i) for i in range(len(xyz))), xyz)
+        fitted, fit, ids = georeference_from_points(control, _geographic(truth, xyz))
+        assert len(ids) == len(xyz) and fit.rms_horizontal_m < 1e-6 and abs(fit.scale - 1) < 1e-8
+        moved = GEOD.inv(truth.longitude, truth.latitude, fitted.longitude, fitted.latitude)[2]
+        assert moved < 1e-6 and fitted.depth_m == pytest.approx(truth.depth_m, abs=1e-9)
+        assert (fitted.heading_deg - truth.heading_deg + 180) % 360 - 180 == pytest.approx(0, abs=1e-7)
+
+
+def test_with_noisy_positions_the_fit_residual_is_the_noise():
+    """GNSS-like noise σ on east, north and depth of 12 points: the horizontal residual RMS over many
+    cases is σ·√((2n − 3)/(2n)) per point (3 fitted parameters from 2n coordinates) and the depth RMS
+    σ·√((n − 1)/n); the mean of their squares over the cases, normalised, is 1."""
+    from usvips.core.observations import ControlPoints
+    from usvips.io.georeference import georeference_from_points
+
+    rng = np.random.default_rng(12)
+    sigma, n, horizontal, depth = 0.05, 12, [], []
+    for _ in range(120):
+        truth = _random_georeference(rng)
+        xyz = rng.uniform(-30, 30, (n, 3))
+        control = ControlPoints(tuple(str(i) for i in range(n)), xyz)
+        _, fit, _ = georeference_from_points(control, _geographic(truth, xyz, sigma, rng))
+        horizontal.append(fit.rms_horizontal_m ** 2 / (sigma ** 2 * (2 * n - 3) / n))
+        depth.append(fit.rms_depth_m ** 2 / (sigma ** 2 * (n - 1) / n))
+    assert np.mean(horizontal) == pytest.approx(1.0, abs=0.12) and np.mean(depth) == pytest.approx(1.0, abs=0.15)
+
+
+def test_points_that_cannot_fix_a_frame_are_named(tmp_path):
+    from usvips.core.errors import DegenerateGeometryError, InputFileError
+    from usvips.core.observations import ControlPoints
+    from usvips.io.georeference import georeference_from_points, read_geographic_points
+
+    control = ControlPoints(("a", "b", "c"), np.array([[1.0, 2, 0], [1.0, 2, -1], [5, 5, 0]]))
+    with pytest.raises(InvalidParameterError, match="1 of their ids are control points"):
+        georeference_from_points(control, {"a": (-32, 115, 5), "zz": (-32, 115, 5)})
+    with pytest.raises(DegenerateGeometryError, match="one horizontal position"):
+        georeference_from_points(control, {"a": (-32, 115, 5), "b": (-32, 115, 6)})
+    path = tmp_path / "geo.csv"
+    path.write_text("id,latitude,longitude,depth\na,-32,115,5\nb,-95,115,5\n")
+    with pytest.raises(InputFileError, match=r"line 3.*latitude: -95 is not between -90 and 90"):
+        read_geographic_points(path)
+    path.write_text("id,lat,lon\na,1,2\n")
+    with pytest.raises(InputFileError, match="missing column"):
+        read_geographic_points(path)
+
+
+def test_set_georeference_from_points_on_the_command_line(tmp_path, capsys):
+    from usvips.cli import main
+    from usvips.core.observations import ControlPoints
+    from usvips.store import Project
+
+    rng = np.random.default_rng(13)
+    truth = Georeference(-32.01, 115.52, 9.0, 123.0)
+    xyz = rng.uniform(-10, 10, (5, 3))
+    path = tmp_path / "p.usvips"
+    with Project.create(path) as project:
+        project.set_control(ControlPoints(tuple(f"c{i}" for i in range(5)), xyz))
+    rows = [f"c{i},{float(lat)!r},{float(lon)!r},{float(depth)!r}"
+            for i, (lat, lon, depth) in _geographic(truth, xyz).items()]
+    (tmp_path / "geo.csv").write_text("id,latitude,longitude,depth\n" + "\n".join(rows) + "\n")
+    assert main(["project", "set-georeference", str(path), "--points", str(tmp_path / "geo.csv")]) == 0
+    assert "fitted to 5 points" in capsys.readouterr().out
+    with Project.open(path, read_only=True) as project:
+        stored = project.georeference()
+    assert stored.heading_deg == pytest.approx(123.0, abs=1e-7) and stored.depth_m == pytest.approx(9.0)
+    # geographic points of other places: a scale far from 1, refused in one line, nothing stored
+    far = [f"c{i},{float(lat)!r},{float(lon)!r},{float(depth)!r}"
+           for i, (lat, lon, depth) in _geographic(truth, xyz * [3, 3, 1]).items()]
+    (tmp_path / "bad.csv").write_text("id,latitude,longitude,depth\n" + "\n".join(far) + "\n")
+    assert main(["project", "set-georeference", str(path), "--points", str(tmp_path / "bad.csv")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "would scale them by 3.0" in err
+    with Project.open(path, read_only=True) as project:
+        assert project.georeference() == stored

@@ -148,6 +148,8 @@ def register_metadata_actions(actions: argparse._SubParsersAction) -> None:
     geo.add_argument("--longitude", help="origin longitude, decimal degrees WGS 84")
     geo.add_argument("--depth", default="0", help="origin depth, metres below the surface (default 0)")
     geo.add_argument("--heading", default="0", help="direction of +X, degrees clockwise from true north (default 0)")
+    geo.add_argument("--points", metavar="GEO.csv", help="instead of the origin: control points of the project "
+                     "with geographic coordinates (id,latitude,longitude,depth); origin and heading are fitted")
     geo.add_argument("--clear", action="store_true", help="remove the georeference")
     geo.set_defaults(handler=run_set_georeference)
 
@@ -179,10 +181,33 @@ def run_set_georeference(args: argparse.Namespace) -> int:
             project.set_georeference(None)
             print("cleared the georeference")
             return 0
-        if args.latitude is None or args.longitude is None:
-            raise UsvipsError("set-georeference needs --latitude and --longitude (or --clear)")
-        georeference = Georeference(args.latitude, args.longitude, args.depth, args.heading)
+        if args.points is not None:
+            if args.latitude is not None or args.longitude is not None:
+                raise UsvipsError("give either --points or --latitude/--longitude, not both")
+            georeference = _fit_georeference(project, args.points)
+        else:
+            if args.latitude is None or args.longitude is None:
+                raise UsvipsError("set-georeference needs --latitude and --longitude, --points, or --clear")
+            georeference = Georeference(args.latitude, args.longitude, args.depth, args.heading)
         project.set_georeference(georeference)
     print(f"stored the georeference: origin {georeference.latitude:.7f}°, {georeference.longitude:.7f}°, depth "
           f"{georeference.depth_m:g} m, +X heading {georeference.heading_deg:g}°")
     return 0
+
+
+#: A fitted frame whose best similarity scale is further from 1 than this is refused: the points'
+#: geographic and object-frame coordinates do not describe the same places.
+MAX_SCALE_MISMATCH = 0.01
+
+
+def _fit_georeference(project: Project, points: str) -> Georeference:
+    from usvips.io.georeference import georeference_from_points, read_geographic_points
+
+    geographic = read_geographic_points(points)
+    georeference, fit, ids = georeference_from_points(project.control(), geographic)
+    if abs(fit.scale - 1) > MAX_SCALE_MISMATCH:
+        raise InputFileError(points, f"the points do not match the project's control: a similarity would scale "
+                             f"them by {fit.scale:.4f} (their horizontal RMS residual is {fit.rms_horizontal_m:.3f} m)")
+    print(f"fitted to {len(ids)} points ({', '.join(ids)[:60]}): horizontal RMS {fit.rms_horizontal_m:.4f} m, "
+          f"depth RMS {fit.rms_depth_m:.4f} m, similarity scale {fit.scale:.6f}")
+    return georeference

@@ -17,7 +17,10 @@ import datetime as _dt
 import math
 from dataclasses import dataclass, fields
 
-from usvips.core.errors import InvalidParameterError
+import numpy as np
+
+from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
+from usvips.core.validation import finite_array
 
 #: Deepest point of the ocean, with a margin (m): a depth beyond is a typing error, not a deployment.
 MAX_DEPTH_M = 11_500.0
@@ -141,3 +144,55 @@ class Georeference:
             object.__setattr__(self, attribute, value)
         heading = _optional_number("heading", self.heading_deg, -360, 360, "degrees")
         object.__setattr__(self, "heading_deg", 0.0 if heading is None else heading % 360.0)
+
+
+@dataclass(frozen=True)
+class FrameFit:
+    """The object frame fitted to points known in both frames: the heading (degrees clockwise from north
+    of +X), the origin in the local east/north (m) of the reference the east/north were given in, the
+    origin's depth (m), the RMS of the horizontal and depth residuals (m) and the scale a similarity would
+    have used (1 for a metric frame; far from 1 means the points do not match)."""
+
+    heading_deg: float
+    origin_en: tuple[float, float]
+    depth_m: float
+    rms_horizontal_m: float
+    rms_depth_m: float
+    scale: float
+
+
+def fit_frame_to_east_north(object_xyz, east_north, depths) -> FrameFit:
+    """Heading and origin of the object frame from N ≥ 2 points with object-frame coordinates (N, 3) m
+    (Z up), local east/north (N, 2) m and depths (N,) m: the least-squares rotation + translation of the
+    horizontal coordinates (Umeyama; the object frame is metric, so no scale is fitted — the scale a
+    similarity transform would take is reported as a check) and the origin depth as the mean of depth + Z.
+    Points that do not span a horizontal direction are a :class:`DegenerateGeometryError`."""
+    xyz = finite_array("object points", object_xyz, 3)
+    en = finite_array("east/north", east_north, 2)
+    depth = np.asarray(depths, dtype=np.float64).reshape(-1)
+    if not (len(xyz) == len(en) == len(depth)):
+        raise InvalidParameterError("points", f"{len(xyz)} object points, {len(en)} east/north, {len(depth)} depths")
+    if len(xyz) < 2:
+        raise InvalidParameterError("points", f"need at least 2 points known in both frames, got {len(xyz)}")
+    if not np.all(np.isfinite(depth)):
+        raise InvalidParameterError("depth", "must be finite numbers")
+    a = xyz[:, :2] - xyz[:, :2].mean(axis=0)
+    b = en - en.mean(axis=0)
+    spread = np.sqrt((a ** 2).sum(axis=1).mean())
+    if spread < 1e-6 * max(1.0, float(np.abs(xyz[:, :2]).max())):
+        raise DegenerateGeometryError("the points known in both frames are at one horizontal position: the "
+                                      "heading cannot be found")
+    # the rotation R (object XY → east/north) maximising trace(Rᵀ Σ bᵢ aᵢᵀ), proper (det +1)
+    cross = b.T @ a
+    u, s, vt = np.linalg.svd(cross)
+    d = np.diag([1.0, np.sign(np.linalg.det(u @ vt)) or 1.0])
+    rotation = u @ d @ vt
+    origin = en.mean(axis=0) - rotation @ xyz[:, :2].mean(axis=0)
+    residual = en - (xyz[:, :2] @ rotation.T + origin)
+    # +X goes to rotation[:, 0] = (east, north) = (sin h, cos h)
+    heading = float(np.degrees(np.arctan2(rotation[0, 0], rotation[1, 0])) % 360.0)
+    origin_depth = depth + xyz[:, 2]
+    scale = float((s * np.diag(d)).sum() / (a ** 2).sum())
+    return FrameFit(heading, (float(origin[0]), float(origin[1])), float(origin_depth.mean()),
+                    float(np.sqrt((residual ** 2).sum(axis=1).mean())),
+                    float(np.sqrt(((origin_depth - origin_depth.mean()) ** 2).mean())), scale)

@@ -16,11 +16,14 @@ micrometres.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from pyproj import Transformer
 
-from usvips.core.deployment import Georeference
-from usvips.core.errors import DegenerateGeometryError
+from usvips.core.deployment import FrameFit, Georeference, fit_frame_to_east_north
+from usvips.core.errors import DegenerateGeometryError, InputFileError, InvalidParameterError
+from usvips.core.observations import ControlPoints
 
 
 def object_to_enu(georeference: Georeference, points: np.ndarray) -> np.ndarray:
@@ -37,7 +40,7 @@ def _transformer(georeference: Georeference) -> Transformer:
     g = georeference
     return Transformer.from_pipeline(
         "+proj=pipeline "
-        f"+step +inv +proj=topocentric +ellps=WGS84 +lat_0={g.latitude!r} +lon_0={g.longitude!r} +h_0=0 "
+        f"+step +inv +proj=topocentric +ellps=WGS84 +lat_0={float(g.latitude)!r} +lon_0={float(g.longitude)!r} +h_0=0 "
         "+step +inv +proj=cart +ellps=WGS84 "
         "+step +proj=unitconvert +xy_in=rad +xy_out=deg")
 
@@ -52,3 +55,72 @@ def object_to_geographic(georeference: Georeference, points: np.ndarray) -> np.n
     if not np.all(np.isfinite(out)):
         raise DegenerateGeometryError("the georeference cannot place these points on the Earth")
     return out
+
+
+def _topocentric(latitude: float, longitude: float) -> Transformer:
+    """Geodetic (lon, lat in degrees, height m) → east, north, up (m) around a point of the ellipsoid."""
+    return Transformer.from_pipeline(
+        "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad +step +proj=cart +ellps=WGS84 "
+        f"+step +proj=topocentric +ellps=WGS84 +lat_0={float(latitude)!r} +lon_0={float(longitude)!r} +h_0=0")
+
+
+def georeference_from_points(control: ControlPoints, geographic: dict[str, tuple[float, float, float]]
+                             ) -> tuple[Georeference, FrameFit, list[str]]:
+    """The georeference of the object frame from control points with geographic coordinates: ``control``
+    (object frame, m, Z up) and ``geographic`` id → (latitude, longitude in degrees WGS 84, depth m) of
+    the same points. Their east/north around the first one (at the surface, as :func:`object_to_geographic`
+    places points) are fitted by :func:`usvips.core.deployment.fit_frame_to_east_north`; returns the
+    georeference, the fit (residual RMS, scale) and the ids used. Ids in only one of the two are left out;
+    fewer than two in both is an :class:`InvalidParameterError`."""
+    ids = [pid for pid in control.ids if pid in geographic]
+    if len(ids) < 2:
+        raise InvalidParameterError("geographic points", f"{len(ids)} of their ids are control points of the "
+                                    "project; at least 2 are needed")
+    index = {pid: i for i, pid in enumerate(control.ids)}
+    xyz = control.xyz[[index[pid] for pid in ids]]
+    geo = np.array([geographic[pid] for pid in ids], dtype=np.float64)
+    # east/north around the first point, then around the fitted origin (a heading is measured from north
+    # at the origin: meridians converge, 4e-4° over 20 m at 66° latitude), until the origin stays put
+    lat, lon = float(geo[0, 0]), float(geo[0, 1])  # plain floats: PROJ reads their repr
+    for _ in range(4):
+        east, north, _ = _topocentric(lat, lon).transform(geo[:, 1], geo[:, 0], np.zeros(len(geo)))
+        fit = fit_frame_to_east_north(xyz, np.column_stack([east, north]), geo[:, 2])
+        to_geographic = Transformer.from_pipeline(
+            "+proj=pipeline "
+            f"+step +inv +proj=topocentric +ellps=WGS84 +lat_0={lat!r} +lon_0={lon!r} +h_0=0 "
+            "+step +inv +proj=cart +ellps=WGS84 +step +proj=unitconvert +xy_in=rad +xy_out=deg")
+        new_lon, new_lat, _ = (float(v) for v in to_geographic.transform(fit.origin_en[0], fit.origin_en[1], 0.0))
+        moved = float(np.hypot(*fit.origin_en))
+        lat, lon = new_lat, new_lon
+        if moved < 1e-9:
+            break
+    if fit.depth_m < 0:
+        raise InvalidParameterError("geographic points", f"their depths put the object frame's origin "
+                                    f"{-fit.depth_m:.3f} m above the surface (depth is positive down, Z up)")
+    return Georeference(lat, lon, fit.depth_m, fit.heading_deg), fit, ids
+
+
+GEOGRAPHIC_COLUMNS = ("id", "latitude", "longitude", "depth")
+
+
+def read_geographic_points(path: str | Path) -> dict[str, tuple[float, float, float]]:
+    """A CSV of points with geographic coordinates: ``id,latitude,longitude,depth`` (degrees WGS 84,
+    metres below the surface); errors name the file, line and column."""
+    from usvips.io.tables import _check_id, _check_width, _column_index, _number, _rows
+
+    path = Path(path)
+    header, rows = _rows(path)
+    columns = _column_index(path, header, GEOGRAPHIC_COLUMNS)
+    points: dict[str, tuple[float, float, float]] = {}
+    for line, fields in rows:
+        _check_width(path, line, fields, header)
+        pid = _check_id(path, line, fields[columns["id"]])
+        if pid in points:
+            raise InputFileError(str(path), f"duplicate id {pid[:40]!r}", line)
+        lat, lon, depth = (_number(path, line, c, fields[columns[c]]) for c in GEOGRAPHIC_COLUMNS[1:])
+        for name, value, low, high in (("latitude", lat, -90, 90), ("longitude", lon, -180, 180),
+                                       ("depth", depth, -100, 11_500)):
+            if not low <= value <= high:
+                raise InputFileError(str(path), f"column {name}: {value:g} is not between {low} and {high}", line)
+        points[pid] = (lat, lon, depth)
+    return points
