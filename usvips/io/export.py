@@ -155,7 +155,7 @@ def geojson(objects: list[Measurement], georeference: Georeference | None = None
     and latitudes to write: an :class:`InvalidParameterError` says to set one or to export CSV."""
     if georeference is None:
         raise InvalidParameterError("georeference", "GeoJSON holds WGS 84 longitude/latitude and this project has "
-                                    "no georeference; set one (usvips project set-georeference, or Project › "
+                                    "no georeference; set one (usvips project set-georeference, or File › "
                                     "Deployment and georeference… in the window) or export CSV (.csv, "
                                     ".vertices.csv) for the project frame's metres")
     features, units = [], {}
