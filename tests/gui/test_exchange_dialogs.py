@@ -175,3 +175,35 @@ def test_the_entries_are_reached_with_the_keyboard(qtbot, make_window, sample_co
     qtbot.keyClick(menu, QtCore.Qt.Key.Key_D)
     qtbot.waitUntil(lambda: len(shown) == 1, timeout=5000)
     assert not menu.isVisible() and QtWidgets.QApplication.activeModalWidget() is None
+
+
+def test_a_video_gets_a_deployment_of_its_own_in_the_dialog(qtbot, make_window, tmp_path):
+    from usvips.core.deployment import Deployment
+    from usvips.gui import media_dialogs
+
+    window = make_window()
+    assert media_dialogs.new_project(window, tmp_path / "p.usvips")
+    project = window.workspace.project
+    files = []
+    for side in ("l", "r"):
+        files.append(tmp_path / f"{side}.mp4")
+        files[-1].write_bytes(side.encode())
+    project.add_video("T1", [(files[0], 10, 25.0)], [(files[1], 10, 25.0)], 25.0, 10, (64, 48))
+    project.set_deployment(Deployment("ALL", site="Bay"))
+
+    def fill(dialog):
+        assert dialog.fields["opcode"].text() == "ALL" and dialog.fields["site"].text() == "Bay"
+        dialog.scope.setCurrentIndex(dialog.scope.findData("T1"))
+        assert dialog.fields["opcode"].text() == "" and dialog.fields["site"].text() == ""
+        dialog.fields["opcode"].setText("DOV-3")
+        dialog.fields["successful_count"].setChecked(False)
+        dialog.scope.setCurrentIndex(0)
+        assert dialog.fields["opcode"].text() == "ALL"  # the project's, as stored
+        dialog.fields["site"].setText("Reef")
+        dialog.scope.setCurrentIndex(dialog.scope.findData("T1"))
+        assert dialog.fields["opcode"].text() == "DOV-3"  # kept while switching
+        assert dialog.store()
+
+    assert exchange_dialogs.edit_deployment(window, fill)
+    assert project.deployment().site == "Reef"
+    assert project.deployment("T1").opcode == "DOV-3" and not project.deployment("T1").successful_count

@@ -200,16 +200,19 @@ class DeploymentDialog(QtWidgets.QDialog):
         self.setWindowTitle("Deployment and georeference")
         self.fields: dict[str, QtWidgets.QWidget] = {}
         form = QtWidgets.QFormLayout()
-        stored = project.deployment()
+        self.scope = QtWidgets.QComboBox()  # the whole project, or one stereo video (a deployment of its own)
+        self.scope.addItem("the whole project", "")
+        for video in project.videos():
+            self.scope.addItem(f"video {video['label']}", video["label"])
+        form.addRow("Deployment of", self.scope)
         for name in DEPLOYMENT_FIELDS:
-            value = None if stored is None else getattr(stored, name)
-            if name.startswith("successful_"):
-                widget = QtWidgets.QCheckBox()
-                widget.setChecked(True if value is None else bool(value))
-            else:
-                widget = QtWidgets.QLineEdit("" if value is None else str(value))
+            widget = QtWidgets.QCheckBox() if name.startswith("successful_") else QtWidgets.QLineEdit()
             self.fields[name] = widget
             form.addRow(_LABELS[name], widget)
+        self._shown = ""
+        self._typed: dict[str, dict] = {}
+        self._show_scope("")
+        self.scope.currentIndexChanged.connect(lambda _: self._show_scope(self.scope.currentData()))
         self.georeferenced = QtWidgets.QGroupBox("Georeference of the object frame (Z up)")
         self.georeferenced.setCheckable(True)
         geo = project.georeference()
@@ -233,11 +236,42 @@ class DeploymentDialog(QtWidgets.QDialog):
         layout.addWidget(self.message)
         layout.addWidget(buttons)
 
+    def _typed_now(self) -> dict:
+        return {name: (w.isChecked() if isinstance(w, QtWidgets.QCheckBox) else w.text())
+                for name, w in self.fields.items()}
+
+    def _show_scope(self, scope: str) -> None:
+        """Show one scope's fields: what was typed for it in this dialog, else what is stored."""
+        if self._shown in self._typed:
+            self._typed[self._shown] = self._typed_now()
+        values = self._typed.get(scope)
+        if values is None:
+            stored = self.project.deployments().get(scope)
+            values = {name: (None if stored is None else getattr(stored, name)) for name in DEPLOYMENT_FIELDS}
+        for name, widget in self.fields.items():
+            value = values[name]
+            if isinstance(widget, QtWidgets.QCheckBox):
+                widget.setChecked(True if value is None else bool(value))
+            else:
+                widget.setText("" if value is None else str(value))
+        self._shown = scope
+        self._typed[scope] = self._typed_now()
+
+    def deployments(self) -> dict[str, Deployment | None]:
+        """Scope → the deployment typed for it (None: no OpCode, none); raises :class:`UsvipsError` naming
+        a bad value and the scope."""
+        self._typed[self._shown] = self._typed_now()
+        out = {}
+        for scope, typed in self._typed.items():
+            try:
+                out[scope] = Deployment(**typed) if str(typed["opcode"]).strip() else None
+            except UsvipsError as error:
+                raise UsvipsError(f"{'video ' + scope if scope else 'the project'}: {error}") from None
+        return out
+
     def values(self) -> tuple[Deployment | None, Georeference | None]:
-        """What the form says (raises :class:`UsvipsError` naming a bad value); no OpCode: no deployment."""
-        typed = {name: (w.isChecked() if isinstance(w, QtWidgets.QCheckBox) else w.text())
-                 for name, w in self.fields.items()}
-        deployment = Deployment(**typed) if typed["opcode"].strip() else None
+        """What the form shows (raises :class:`UsvipsError` naming a bad value); no OpCode: no deployment."""
+        deployment = self.deployments()[self._shown]
         georeference = None
         if self.georeferenced.isChecked():
             georeference = Georeference(*(self.geo_fields[n].text() or None for n in ("latitude", "longitude")),
@@ -248,9 +282,11 @@ class DeploymentDialog(QtWidgets.QDialog):
     def store(self) -> bool:
         """Store the form (OK); on a bad value say which and stay open."""
         try:
-            deployment, georeference = self.values()
+            deployments = self.deployments()
+            _, georeference = self.values()
             with self.project.transaction():
-                self.project.set_deployment(deployment)
+                for scope, deployment in deployments.items():
+                    self.project.set_deployment(deployment, scope or None)
                 self.project.set_georeference(georeference)
         except UsvipsError as error:
             self.message.setText(str(error))
