@@ -45,6 +45,7 @@ def export_project(project: Project, out: str | Path, opcode: str | None = None,
     ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults)."""
     objects, centres, images, cache, opcodes = [], {}, {}, {}, {}
     fallback = opcode if opcode is not None else project.path.stem
+    deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
     for stored in project.objects():
         source = measurement_input(project, stored, cache)
@@ -55,7 +56,8 @@ def export_project(project: Project, out: str | Path, opcode: str | None = None,
                 skipped.append(str(error))
             continue
         objects.append(measurement)
-        deployment = project.deployment(stored.vertices[0].video if stored.vertices else None)
+        video = (stored.vertices[0].video if stored.vertices else None) or ""
+        deployment = deployments.get(video, deployments.get(""))  # as Project.deployment(video), read once
         opcodes[measurement.id] = deployment.opcode if deployment is not None else fallback
         if source.calibration is not None:
             centres[measurement.id] = source.calibration.rig(source.station, source.frame).left.exterior.position

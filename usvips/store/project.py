@@ -930,9 +930,9 @@ class Project:
         """Scope ('' for the project, else a video's label) → its deployment; none before schema 6."""
         if not self._has_table("deployments"):
             return {}
-        rows = self._db.execute(f"SELECT scope, {', '.join(DEPLOYMENT_FIELDS)} FROM deployments ORDER BY scope")
+        rows = self._query(f"SELECT scope, {', '.join(DEPLOYMENT_FIELDS)} FROM deployments ORDER BY scope")
         out = {}
-        for scope, *values in rows.fetchall():
+        for scope, *values in rows:
             record = dict(zip(DEPLOYMENT_FIELDS, values, strict=True))
             record["successful_count"] = bool(record["successful_count"])
             record["successful_length"] = bool(record["successful_length"])
@@ -957,5 +957,5 @@ class Project:
         """The object frame's georeference; None when none was entered (or before schema 6)."""
         if not self._has_table("georeference"):
             return None
-        row = self._db.execute("SELECT latitude, longitude, depth_m, heading_deg FROM georeference").fetchone()
-        return None if row is None else Georeference(*row)
+        rows = self._query("SELECT latitude, longitude, depth_m, heading_deg FROM georeference")
+        return Georeference(*rows[0]) if rows else None
