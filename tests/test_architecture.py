@@ -26,3 +26,19 @@ def test_the_code_is_ruff_clean():
     result = subprocess.run([sys.executable, "-m", "ruff", "check", "usvips", "tests"], capture_output=True,
                             text=True, cwd=ROOT)
     assert result.returncode == 0, result.stdout[-3000:]
+
+
+def test_every_package_sits_in_a_layer():
+    """No module floats between layers: each subpackage of usvips is named in the layers contract (bench, the
+    timing harness beside the command line, is held by the forbidden contracts instead), and the only
+    top-level modules are the package's entry points and its resource finder."""
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"]
+    layers = next(c for c in config if c["type"] == "layers")["layers"]
+    layered = {name.strip() for layer in layers for name in layer.split("|")}
+    package = ROOT / "usvips"
+    subpackages = {f"usvips.{p.name}" for p in package.iterdir() if (p / "__init__.py").is_file()}
+    assert subpackages - {"usvips.bench"} == layered
+    modules = {p.name for p in package.glob("*.py")}
+    assert modules == {"__init__.py", "__main__.py", "locations.py"}

@@ -19,13 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.app.project_figures import store_measurements
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.errors import DegenerateGeometryError, InputFileError, UsvipsError
 from usvips.core.measurements import Measurement, kind, measure_picks, resolve
 from usvips.io import tables
 from usvips.io.calibration_file import load_calibration
 from usvips.io.export import cell, number
-from usvips.project_figures import store_measurements
 from usvips.store import Project
 
 COLUMNS = ("object", "type", "vertex", "xl", "yl", "xr", "yr")

@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from usvips.app.project_export import export_project
+from usvips.app.samples import create_from_manifest
 from usvips.cli.video import register_project_actions
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
-from usvips.project_export import export_project
-from usvips.samples import create_from_manifest
 from usvips.store import Project
 
 

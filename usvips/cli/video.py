@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from usvips import video_project
+from usvips.app import video_project
 from usvips.core.errors import UsvipsError
 from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project

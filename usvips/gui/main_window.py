@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips.app.samples import open_or_create_from_manifest
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import media_dialogs
@@ -26,7 +27,6 @@ from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
 from usvips.locations import sample_projects
-from usvips.samples import open_or_create_from_manifest
 from usvips.store import Project
 
 SAMPLES = sample_projects()
@@ -634,7 +634,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def export_objects(self, path: str | Path) -> None:
         """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
-        from usvips.project_export import export_project
+        from usvips.app.project_export import export_project
 
         skipped: list[str] = []
         try:

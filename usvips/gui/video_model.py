@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usvips.app.video_project import open_streams, partner_frame
 from usvips.core.errors import InvalidParameterError
 from usvips.store import Project
-from usvips.video_project import open_streams, partner_frame
 
 #: default frame-cache budget (bytes): 48 frame pairs at 1920 × 1080 RGB
 CACHE_BYTES = 48 * 2 * 1920 * 1080 * 3

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
 from usvips.core.calibration.uncertainty import joint_covariance
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
@@ -28,7 +29,6 @@ from usvips.gui.calculator import Geometry, Result, format_figure, pair_figures,
 from usvips.gui.signals import Signal
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image
-from usvips.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
 from usvips.store import Project
 from usvips.store.project import Vertex
 

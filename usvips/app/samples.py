@@ -9,12 +9,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from usvips.app.video_project import add_sample_video
 from usvips.core.errors import InputFileError
 from usvips.io.calibration_file import load_calibration
 from usvips.io.manifest import read_manifest
 from usvips.io.tables import read_control, read_observations
 from usvips.store import Project, ProjectError
-from usvips.video_project import add_sample_video
 
 
 def create_from_manifest(directory: str | Path, out: str | Path) -> Project:

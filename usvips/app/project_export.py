@@ -12,12 +12,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from usvips.app.project_figures import evaluate, measurement_input
+from usvips.app.video_project import eventmeasure_frame_columns
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
 from usvips.io.export import export
-from usvips.project_figures import evaluate, measurement_input
 from usvips.store import Project
-from usvips.video_project import eventmeasure_frame_columns
 
 
 def export_project(project: Project, out: str | Path, opcode: str | None = None,
