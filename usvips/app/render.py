@@ -1,8 +1,11 @@
-"""``usvips render SCENE.json --out DIR``: render a sample project (images, control, observations, truth)."""
+"""Rendering a sample project from a scene description: images, control, observations, truth, a
+calibration and optionally a stereo video (for ``usvips render`` and anyone else who renders a scene).
+
+:func:`render_scene` renders into a staging folder beside the output and moves the result in only when
+everything was written. Units: metres for the scene, pixels for images and observations."""
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -18,20 +21,13 @@ from usvips.core.synth import Disc, Seafloor, Water, render
 from usvips.io.atomic import OutputFileError, write_text_atomic
 from usvips.io.calibration_file import calibration_to_dict
 from usvips.io.images import write_image
-from usvips.io.scene import read_scene
+from usvips.io.scene import Scene, read_scene
 from usvips.io.tables import read_control, read_observations, write_control, write_observations
 from usvips.io.video import write_video
 from usvips.io.video_writer import transcode_h264
 from usvips.locations import resources_folder
 
 RESOURCES = resources_folder()
-
-
-def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser("render", help="render a sample project from a scene description")
-    parser.add_argument("scene", help="scene description (JSON)")
-    parser.add_argument("--out", required=True, help="output directory (created if needed)")
-    parser.set_defaults(handler=run)
 
 
 def _targets_file(scene, name: str) -> Path:
@@ -149,12 +145,13 @@ def _render_video(out: Path, scene, discs, floor, water, objects) -> dict:
     return truth
 
 
-def run(args: argparse.Namespace) -> int:
-    """Render into a staging folder beside ``--out`` and move the result in only when everything was
-    written: a failure leaves ``--out`` as it was. Every file name comes from this module (pair labels
-    are checked as plain names by the scene reader), so nothing is written outside ``--out``."""
-    scene = read_scene(args.scene)
-    out = Path(args.out)
+def render_scene(scene_path: str | Path, out: str | Path) -> Scene:
+    """Render the scene described at ``scene_path`` (JSON) into the folder ``out`` (created if needed) and
+    return the scene read. It is rendered into a staging folder beside ``out`` and moved in only when
+    everything was written: a failure leaves ``out`` as it was. Every file name comes from this module
+    (pair labels are checked as plain names by the scene reader), so nothing is written outside ``out``."""
+    scene = read_scene(scene_path)
+    out = Path(out)
     if out.exists() and not out.is_dir():
         raise OutputFileError(str(out), "--out must be a folder (it is a file)")
     try:
@@ -163,12 +160,11 @@ def run(args: argparse.Namespace) -> int:
     except OSError as error:
         raise OutputFileError(str(out), f"cannot create the output folder: {error.strerror or error}") from None
     try:
-        _render(scene, staging, Path(args.scene).name)
+        _render(scene, staging, Path(scene_path).name)
         _publish(staging, out)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    print(f"rendered {len(scene.data['pairs'])} pairs of {scene.name} into {out}")
-    return 0
+    return scene
 
 
 def _publish(staging: Path, out: Path) -> None:
