@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usvips.app.pair_geometry import pair_geometry, read_calibration
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.measurements import (
     Measurement,
@@ -31,7 +32,6 @@ from usvips.core.measurements import (
     placement,
 )
 from usvips.core.stereo_calibration import StereoCalibration
-from usvips.io.calibration_file import calibration_from_dict
 from usvips.store import Project
 from usvips.store.project import StoredObject, Vertex
 
@@ -62,8 +62,7 @@ def stored_calibration(project: Project, calibration_id: int,
     cache = {} if cache is None else cache
     if calibration_id not in cache:
         try:
-            cache[calibration_id] = calibration_from_dict(project.calibration(calibration_id),
-                                                          f"{project.path} calibration {calibration_id}")
+            cache[calibration_id] = read_calibration(project, calibration_id)
         except UsvipsError:
             cache[calibration_id] = None
     return cache[calibration_id]
@@ -137,12 +136,11 @@ def store_measurements(project: Project, pair: str, objects: list[tuple[str, str
     picks, X, Y, Z, 3 × 3 covariance, the calibration and the pair; creator ``usvips``; the attribute
     added to the vocabulary): all in one transaction, or nothing when any object fails. ``where`` (e.g.
     the picks file) starts the error messages. Returns the measurements and the new objects' ids."""
-    calibration_id = project.active_calibration(pair)
-    if calibration_id is None:
+    geometry = pair_geometry(project, pair)
+    if geometry is None:
         raise UsvipsError(f"{project.path}: pair {pair!r} has no active calibration: nothing can be measured")
-    calibration = calibration_from_dict(project.calibration(calibration_id),
-                                        f"{project.path} calibration {calibration_id}")
-    station, frame = placement(calibration, pair)
+    calibration, calibration_id, station, frame = (geometry.calibration, geometry.calibration_id,
+                                                   geometry.station, geometry.frame)
     measured, rows = [], []
     for object_id, kind, pixels, attribute in objects:
         try:
