@@ -2,7 +2,7 @@
 tables for CheckEM): joins the store (the objects, their picks and calibrations) to io's writers, for the
 command line and the workstation alike.
 
-The figures are those of :func:`usvips.project_figures.measure_stored` — recomputed from the picks with
+The figures are those of :func:`usvips.app.project_figures.measure_stored` — recomputed from the picks with
 the calibration each object was measured with, so with the joint covariance of its vertices — the very
 function the window's object list and geo-calculator call: an exported s_length, the EventMeasure
 Precision and the window's sigma are one number.
@@ -17,10 +17,10 @@ from usvips.app.video_project import eventmeasure_frame_columns
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
 from usvips.io.export import export
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
 
 
-def export_project(project: Project, out: str | Path, opcode: str | None = None,
+def export_project(project: ProjectStore, out: str | Path, opcode: str | None = None,
                    rules: QualityRules | None = None, skipped: list[str] | None = None) -> int:
     """Write the project's objects that have figures to ``out`` (format by suffix, see
     :func:`usvips.io.export.export`); returns how many were written. Objects without figures (no 3-D

@@ -32,7 +32,7 @@ from usvips.core.measurements import (
     placement,
 )
 from usvips.core.stereo_calibration import StereoCalibration
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
 
 
@@ -56,7 +56,7 @@ class MeasurementInput:
     pair: str | None = None
 
 
-def stored_calibration(project: Project, calibration_id: int,
+def stored_calibration(project: ProjectStore, calibration_id: int,
                        cache: dict[int, StereoCalibration | None] | None = None) -> StereoCalibration | None:
     """A stored calibration (None when it is gone or unreadable); ``cache`` keeps what was read."""
     cache = {} if cache is None else cache
@@ -68,7 +68,7 @@ def stored_calibration(project: Project, calibration_id: int,
     return cache[calibration_id]
 
 
-def measurement_input(project: Project, stored: StoredObject,
+def measurement_input(project: ProjectStore, stored: StoredObject,
                       cache: dict[int, StereoCalibration | None] | None = None) -> MeasurementInput:
     """Copy what the figures of ``stored`` need out of ``project`` (call on the project's thread)."""
     vertices = stored.vertices
@@ -123,13 +123,13 @@ def joint_vertices(source: MeasurementInput) -> tuple[np.ndarray, np.ndarray, bo
     return source.xyz, covariance, False
 
 
-def measure_stored(project: Project, stored: StoredObject, rules: QualityRules | None = None,
+def measure_stored(project: ProjectStore, stored: StoredObject, rules: QualityRules | None = None,
                    cache: dict[int, StereoCalibration | None] | None = None) -> Measurement:
     """:func:`measurement_input` then :func:`evaluate`."""
     return evaluate(measurement_input(project, stored, cache), rules)
 
 
-def store_measurements(project: Project, pair: str, objects: list[tuple[str, str, np.ndarray, str]],
+def store_measurements(project: ProjectStore, pair: str, objects: list[tuple[str, str, np.ndarray, str]],
                        rules: QualityRules | None = None, where: str = "") -> tuple[list[Measurement], list[int]]:
     """Measure objects — (id, kind, pixels (N, 4) xl yl xr yr, attribute) — with the calibration active
     for ``pair``, placed as the pair measures, and store them as the window does (each vertex with its

@@ -1,5 +1,5 @@
 """``usvips video sync|set-offset|export-frame`` and the handlers of ``usvips project add-pairs|add-video``:
-a user's own media and stereo video from the command line (the work is in :mod:`usvips.video_project`)."""
+a user's own media and stereo video from the command line (the work is in :mod:`usvips.app.video_project`)."""
 
 from __future__ import annotations
 

@@ -27,7 +27,7 @@ from usvips.core.targets import locate_disc
 from usvips.gui.calculator import Geometry, Result, format_figure, pair_figures, result_of, vertex_failures
 from usvips.gui.signals import Signal
 from usvips.io.images import read_image
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
 from usvips.store.project import Vertex
 
 SIDES = ("left", "right")
@@ -137,7 +137,7 @@ class UndoStack:
         return self._undone[-1].label if self._undone else None
 
 
-def pair_image_paths(project: Project, label: str) -> tuple[Path, Path]:
+def pair_image_paths(project: ProjectStore, label: str) -> tuple[Path, Path]:
     """The absolute paths of a pair's two images (raises when the pair has none or a file is missing)."""
     pair = next((p for p in project.pairs() if p["label"] == label), None)
     if pair is None:
@@ -153,7 +153,7 @@ def read_pair(paths: tuple[Path, Path]) -> tuple[np.ndarray, np.ndarray]:
     return read_image(paths[0]), read_image(paths[1])
 
 
-def load_pair_images(project: Project, label: str) -> tuple[np.ndarray, np.ndarray]:
+def load_pair_images(project: ProjectStore, label: str) -> tuple[np.ndarray, np.ndarray]:
     """Both steps at once, for scripts and tests."""
     return read_pair(pair_image_paths(project, label))
 
@@ -176,7 +176,7 @@ class Workspace:
     when the observe tool has both picks of a point.
     """
 
-    project: Project | None = None
+    project: ProjectStore | None = None
     snap: bool = False
     auto_match: bool = True
     rules: QualityRules = field(default_factory=QualityRules)
@@ -210,13 +210,13 @@ class Workspace:
         self.stored = Signal()
 
     # ------------------------------------------------------------------ project and pair
-    def open_project(self, project: Project) -> None:
+    def open_project(self, project: ProjectStore) -> None:
         self._switch_project(project)
 
     def close_project(self) -> None:
         self._switch_project(None)
 
-    def _switch_project(self, project: Project | None) -> None:
+    def _switch_project(self, project: ProjectStore | None) -> None:
         """Close the open project (unless it is ``project``) and start afresh on ``project``."""
         if self.project is not None and self.project is not project:
             self.project.close()
