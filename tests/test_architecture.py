@@ -42,3 +42,16 @@ def test_every_package_sits_in_a_layer():
     assert subpackages - {"usvips.bench"} == layered
     modules = {p.name for p in package.glob("*.py")}
     assert modules == {"__init__.py", "__main__.py", "locations.py"}
+
+
+def test_app_and_the_window_take_a_project_through_the_storage_interface():
+    """Where app or gui takes a project (a parameter or field annotated with a project type), the type is
+    the storage interface ``ProjectStore``, never SQLite's ``Project`` (which only creating or opening names)."""
+    import re
+
+    annotated = re.compile(r"\b\w*project\w*\s*:\s*(?:\"|')?Project\b(?!Store)", re.IGNORECASE)
+    offenders = [f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
+                 for folder in ("app", "gui") for path in sorted((ROOT / "usvips" / folder).rglob("*.py"))
+                 for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+                 if annotated.search(line)]
+    assert offenders == [], "take a usvips.store.interface.ProjectStore:\n" + "\n".join(offenders)
