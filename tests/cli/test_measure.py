@@ -77,7 +77,7 @@ def _rov_project(tmp_path):
     import shutil
     from pathlib import Path
 
-    from usvips.samples import open_or_create_from_manifest
+    from usvips.app.samples import open_or_create_from_manifest
 
     sample = tmp_path / "rov"
     shutil.copytree(Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport", sample,

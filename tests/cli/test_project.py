@@ -52,8 +52,8 @@ def test_export_for_checkem_fills_opcode_rms_range_and_image_names(tmp_path):
     import json
     import shutil
 
+    from usvips.app.samples import open_or_create_from_manifest
     from usvips.gui.workspace import Workspace, load_pair_images
-    from usvips.samples import open_or_create_from_manifest
 
     sample = tmp_path / "rov"
     shutil.copytree(Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport", sample,
@@ -139,7 +139,7 @@ def test_output_paths_that_cannot_be_written_are_one_line(tmp_path, capsys):
 def test_new_on_a_dangling_symlink_in_a_sample_folder_is_refused(tmp_path, capsys):
     import shutil
 
-    from usvips.samples import open_or_create_from_manifest
+    from usvips.app.samples import open_or_create_from_manifest
     from usvips.store import ProjectError
 
     sample = tmp_path / "tank"
@@ -155,9 +155,9 @@ def test_a_species_list_and_records_reach_the_checkem_tables(tmp_path):
     the record's family, genus, species, code, number, stage and activity into the Lengths table."""
     import shutil
 
+    from usvips.app.samples import open_or_create_from_manifest
     from usvips.core.observation_record import ObservationRecord
     from usvips.io.species_list import read_species_list
-    from usvips.samples import open_or_create_from_manifest
     from usvips.store.project import Vertex
 
     sample = tmp_path / "rov"

@@ -10,9 +10,9 @@ import pytest
 from PySide6 import QtCore, QtWidgets
 
 from tests.gui.conftest import click_pixel, isolated_targets, truth_pixels
+from usvips.app.samples import open_or_create_from_manifest
 from usvips.cli import main
 from usvips.gui.calibration_session import CalibrationSession, control_spread
-from usvips.samples import open_or_create_from_manifest
 
 
 @pytest.fixture

@@ -131,10 +131,10 @@ def test_the_deployment_dialog_names_a_bad_value_keeps_the_typing_and_stores_bot
 def test_the_wizards_last_page_writes_the_report_of_its_result(qtbot, sample_copy, tmp_path):
     """The Save page's Report (PDF)… button writes the session's result with the observations it used,
     in a worker, and says so; pressed while it runs it would cancel."""
+    from usvips.app.samples import open_or_create_from_manifest
     from usvips.gui.app import configure
     from usvips.gui.calibration_session import CalibrationSession
     from usvips.gui.calibration_wizard import SavePage
-    from usvips.samples import open_or_create_from_manifest
 
     configure()
     project = open_or_create_from_manifest(sample_copy("rov_flatport"))

@@ -160,9 +160,9 @@ def test_measuring_keys_are_in_the_menus_and_the_guide():
 
 
 def test_enter_in_the_wizards_measure_page_accepts_and_never_advances(qtbot, sample_copy):
+    from usvips.app.samples import open_or_create_from_manifest
     from usvips.gui.app import configure
     from usvips.gui.calibration_wizard import CalibrationWizard
-    from usvips.samples import open_or_create_from_manifest
 
     configure()
     directory = sample_copy("rov_flatport")

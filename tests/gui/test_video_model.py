@@ -4,6 +4,7 @@ cache, prefetch order, and the frame source returning the frame pair asked for."
 import numpy as np
 import pytest
 
+from usvips.app.video_project import add_video
 from usvips.core.errors import InvalidParameterError
 from usvips.core.synth.frame_numbers import frame_number, numbered_frame
 from usvips.gui.video_model import (
@@ -17,7 +18,6 @@ from usvips.gui.video_model import (
 )
 from usvips.io.video_writer import encode_video
 from usvips.store import Project
-from usvips.video_project import add_video
 
 
 @pytest.mark.parametrize("offset, first, last", [(3, 0, 96), (-5, 5, 99), (0, 0, 99)])

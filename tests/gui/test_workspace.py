@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from tests.gui.conftest import isolated_targets, true_length, truth_pixels
+from usvips.app.samples import open_or_create_from_manifest
 from usvips.core.errors import UsvipsError
 from usvips.core.matching import EpipolarCurve
 from usvips.gui.workspace import Workspace, load_pair_images
-from usvips.samples import open_or_create_from_manifest
 from usvips.store import Project
 
 

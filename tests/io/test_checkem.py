@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from usvips.app.project_export import export_project
 from usvips.core.deployment import Deployment
 from usvips.core.errors import InvalidParameterError
 from usvips.core.observation_record import ObservationRecord
 from usvips.io.checkem import METADATA_COLUMNS
-from usvips.project_export import export_project
 from usvips.store import Project
 from usvips.store.project import Vertex
 

@@ -12,21 +12,8 @@ import sys
 
 import numpy as np
 
-from usvips.core.errors import InvalidParameterError
 from usvips.io.calibration_file import load_calibration, save_calibration
-from usvips.io.opencv_calibration import UNITS, read_opencv_stereo, write_opencv_stereo
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    """``WxH`` (pixels) → (width, height)."""
-    width, sep, height = text.lower().partition("x")
-    try:
-        size = int(width), int(height)
-    except ValueError:
-        size = None
-    if not sep or size is None or min(size) <= 0:
-        raise InvalidParameterError("--image-size", f"expected WIDTHxHEIGHT in whole pixels > 0, got {text!r}")
-    return size
+from usvips.io.opencv_calibration import UNITS, parse_image_size, read_opencv_stereo, write_opencv_stereo
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -61,7 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_import(args: argparse.Namespace) -> int:
-    size = parse_size(args.image_size) if args.image_size else None
+    size = parse_image_size(args.image_size) if args.image_size else None
     calibration = read_opencv_stereo(args.files, size, args.unit, args.sigma0)
     save_calibration(calibration, args.out)
     left, right = calibration.left, calibration.right

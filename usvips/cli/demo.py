@@ -1,24 +1,14 @@
 """``usvips demo [PROJECT]``: run a sample project's calibration and check points headless, print results.
 
-Reads the project's manifest: phase 1 from its ``calibration-air`` observations, phase 2 from its
-``calibration-water`` ones (housing from the manifest), then intersects every ``check`` file whose pair
-was calibrated and compares with the control coordinates.
+The work is :func:`usvips.app.demo.run_demo`; this module parses the arguments and prints each step as it
+comes (check points in centimetres).
 """
 
 from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
-from usvips.core.calibration.uncertainty import intersect_with_calibration
-from usvips.core.errors import UsvipsError
-from usvips.io.manifest import read_manifest
-from usvips.io.tables import read_control, read_observations
-from usvips.locations import sample_project
-
-DEFAULT_PROJECT = sample_project("tank_1995")
+from usvips.app.demo import DEFAULT_PROJECT, CheckSummary, DemoStart, PhaseSummary, SkippedCheck, run_demo
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -28,58 +18,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def _files(manifest, role: str) -> list:
-    return [entry for entry in manifest.observations if entry.role == role]
-
-
-def _summary(result, title: str) -> None:
-    report = result.report
-    print(f"{title}: sigma0 {report['sigma0_px']:.3f} px, residual RMS {report['rms_px']:.3f} px, "
-          f"redundancy {report['redundancy']}")
-    seen = set()
-    for suspect in sorted(report["suspects"], key=lambda s: s["coordinate"] != "y"):
-        key = (suspect["id"], suspect["side"])
-        if key in seen:
-            continue
-        seen.add(key)
-        what = f"w = {suspect['w']:.1f}" if suspect["w"] is not None else suspect["reason"]
-        image = "left" if suspect["side"] == "l" else "right"
-        print(f"  excluded target {suspect['id']} in the {image} image: {what}")
-
-
 def run(args: argparse.Namespace) -> int:
-    manifest = read_manifest(args.project)
-    if manifest.control is None:
-        raise UsvipsError(f"{manifest.path}: the project has no control file to calibrate with")
-    control = read_control(manifest.control)
-    air_files, water_files = _files(manifest, "calibration-air"), _files(manifest, "calibration-water")
-    if not air_files:
-        raise UsvipsError(f"{manifest.path}: the project has no in-air calibration observations")
-    print(f"{manifest.name}: {manifest.description}\n")
-    air = calibrate_air(control, read_observations(air_files[0].file), CalibrationOptions())
-    _summary(air, f"phase 1 (in air, {air_files[0].file.name})")
-    calibration = air.calibration
-    if water_files and manifest.housing in ("dome-cover", "flat-port"):
-        water = calibrate_water(calibration, manifest.housing, control, read_observations(water_files[0].file))
-        _summary(water, f"phase 2 ({manifest.housing}, {water_files[0].file.name})")
-        calibration = water.calibration
-        calibrated_pairs = set(water_files[0].pairs)
-    else:
-        calibrated_pairs = set(air_files[0].pairs)
-    for entry in _files(manifest, "check"):
-        if entry.pairs and not set(entry.pairs) <= calibrated_pairs:
-            print(f"\n{entry.file.name}: skipped (pair {', '.join(entry.pairs)} has no calibration of its own)")
-            continue
-        check = read_observations(entry.file)
-        result = intersect_with_calibration(calibration, check.left, check.right)
-        known = [i for i, pid in enumerate(check.ids) if pid in control.ids and result.ok[i]]
-        print(f"\n{entry.file.name}: {len(check)} check points (computed − control, centimetres)")
-        print(f"  {'id':>4} {'dX':>7} {'dY':>7} {'dZ':>7}   {'sX':>6} {'sY':>6} {'sZ':>6}")
-        truth = control.xyz[control.index_of([check.ids[i] for i in known])]
-        errors = result.points[known] - truth
-        for row, i in enumerate(known):
-            d, s = errors[row] * 100, result.sigmas[i] * 100
-            print(f"  {check.ids[i]:>4} {d[0]:7.2f} {d[1]:7.2f} {d[2]:7.2f}   {s[0]:6.2f} {s[1]:6.2f} {s[2]:6.2f}")
-        rms = np.sqrt(np.mean(errors**2, axis=0)) * 100
-        print(f"  RMS  {rms[0]:7.2f} {rms[1]:7.2f} {rms[2]:7.2f}")
+    for step in run_demo(args.project):
+        if isinstance(step, DemoStart):
+            print(f"{step.name}: {step.description}\n")
+        elif isinstance(step, PhaseSummary):
+            _print_phase(step)
+        elif isinstance(step, SkippedCheck):
+            print(f"\n{step.file}: skipped (pair {', '.join(step.pairs)} has no calibration of its own)")
+        elif isinstance(step, CheckSummary):
+            _print_check(step)
     return 0
+
+
+def _print_phase(phase: PhaseSummary) -> None:
+    print(f"{phase.title}: sigma0 {phase.sigma0_px:.3f} px, residual RMS {phase.rms_px:.3f} px, "
+          f"redundancy {phase.redundancy}")
+    for target in phase.excluded:
+        what = f"w = {target.w:.1f}" if target.w is not None else target.reason
+        print(f"  excluded target {target.id} in the {target.side} image: {what}")
+
+
+def _print_check(check: CheckSummary) -> None:
+    print(f"\n{check.file}: {check.count} check points (computed − control, centimetres)")
+    print(f"  {'id':>4} {'dX':>7} {'dY':>7} {'dZ':>7}   {'sX':>6} {'sY':>6} {'sZ':>6}")
+    for pid, error, sigma in zip(check.ids, check.errors, check.sigmas, strict=True):
+        d, s = error * 100, sigma * 100
+        print(f"  {pid:>4} {d[0]:7.2f} {d[1]:7.2f} {d[2]:7.2f}   {s[0]:6.2f} {s[1]:6.2f} {s[2]:6.2f}")
+    rms = check.rms * 100
+    print(f"  RMS  {rms[0]:7.2f} {rms[1]:7.2f} {rms[2]:7.2f}")

@@ -5,7 +5,8 @@ length, arc, polygon, circle, …; the legacy ``line`` is a length with two vert
 rows of one object share its id and are ordered by ``vertex``. Every vertex is intersected with the
 calibration; the figures' sigmas carry the pointing and the calibration's own uncertainty, including the
 correlation a common calibration puts between the vertices of one object (the one figure path,
-``usvips.core.measurements.measure_picks``).
+``usvips.core.measurements.measure_picks``). The work is in :mod:`usvips.app.measure`; this module
+parses the arguments, writes the table and prints.
 
 With ``--project P --pair LABEL`` the objects are measured with the calibration active for that pair and
 stored in the project exactly as the window stores them (all of them in one transaction, or none);
@@ -15,22 +16,23 @@ stored in the project exactly as the window stores them (all of them in one tran
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-import numpy as np
-
+from usvips.app.measure import (
+    MEASUREMENT_COLUMNS,
+    group_picks,
+    measure_into_project,
+    measure_objects,
+    measurement_row,
+    read_picks,
+)
 from usvips.cli.common import csv_text, write_text_atomic
-from usvips.core.errors import DegenerateGeometryError, InputFileError, UsvipsError
-from usvips.core.measurements import Measurement, kind, measure_picks, resolve
-from usvips.io import tables
+from usvips.core.errors import UsvipsError
 from usvips.io.calibration_file import load_calibration
-from usvips.io.export import cell, number
-from usvips.project_figures import store_measurements
 from usvips.store import Project
 
-COLUMNS = ("object", "type", "vertex", "xl", "yl", "xr", "yr")
-OUT_COLUMNS = ["object", "type", "attribute", "vertices", "figure", "value", "sigma", "X", "Y", "Z", "ray_rms_mm",
-               "range_m", "quality"]
+__all__ = ["group_picks", "read_picks", "register", "run"]
+
+OUT_COLUMNS = MEASUREMENT_COLUMNS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -48,30 +50,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def read_picks(path: str | Path) -> list[dict]:
-    """The picks file's rows, read and checked by :func:`usvips.io.tables.read_picks`."""
-    return tables.read_picks(path)
-
-
-def group_picks(path: str | Path, rows: list[dict]) -> list[tuple[str, str, np.ndarray, str]]:
-    """(object id, registered kind, pixels (N, 4) xl yl xr yr, attribute) per object, in file order."""
-    objects: dict[str, list[dict]] = {}
-    for row in rows:
-        objects.setdefault(row["object"], []).append(row)
-    out = []
-    for object_id, vertices in objects.items():
-        vertices.sort(key=lambda r: r["vertex"])
-        if any(v["type"] != vertices[0]["type"] for v in vertices):
-            raise InputFileError(str(path), f"object {object_id!r} mixes types", vertices[0]["line"])
-        try:
-            name = resolve(vertices[0]["type"], len(vertices))
-            kind(name).check_count(len(vertices))
-        except UsvipsError as error:
-            raise InputFileError(str(path), f"object {object_id!r}: {error}", vertices[0]["line"]) from None
-        out.append((object_id, name, np.array([v["pixels"] for v in vertices]), vertices[0]["attribute"]))
-    return out
-
-
 def run(args: argparse.Namespace) -> int:
     if args.project is None and (args.calibration is None or args.out is None):
         raise UsvipsError("measure needs --calibration and --out, or --project with --pair")
@@ -85,32 +63,13 @@ def run(args: argparse.Namespace) -> int:
     objects = group_picks(args.picks, read_picks(args.picks))
     if args.project is not None:
         with Project.open(args.project) as project:
-            measured, ids = store_measurements(project, args.pair, objects, where=args.picks)
+            measured, ids = measure_into_project(project, args.pair, objects, where=args.picks)
         print(f"stored {len(ids)} objects in {args.project} (pair {args.pair}): ids {', '.join(map(str, ids))}")
     else:
         station = args.station if args.station is not None else "0"
         station = int(station) if station.isdigit() else station
-        frame = args.frame or "object"
-        measured = [_measure(args.picks, calibration, object_id, name, pixels, attribute, station, frame)
-                    for object_id, name, pixels, attribute in objects]
+        measured = measure_objects(calibration, objects, station, args.frame or "object", where=args.picks)
     if args.out is not None:
-        write_text_atomic(args.out, csv_text(OUT_COLUMNS, [_row(m) for m in measured]))
+        write_text_atomic(args.out, csv_text(OUT_COLUMNS, [measurement_row(m) for m in measured]))
         print(f"measured {len(measured)} objects; wrote {args.out}")
     return 0
-
-
-def _measure(picks: str, calibration, object_id: str, name: str, pixels: np.ndarray, attribute: str,
-             station, frame) -> Measurement:
-    try:
-        return measure_picks(name, calibration, pixels[:, :2], pixels[:, 2:], station, frame, id=object_id,
-                             attribute=attribute)
-    except DegenerateGeometryError as error:
-        raise DegenerateGeometryError(f"{picks}: object {object_id!r}: {error}") from None
-
-
-def _row(m: Measurement) -> list[str]:
-    centre = m.points.mean(axis=0)
-    return [cell(m.id), m.kind, cell(m.attribute), str(len(m.points)), m.main.name, number(m.main.value),
-            number(m.main.sigma), *(number(c) for c in centre), number(m.ray_rms_m * 1000), number(m.range_m),
-            "; ".join(m.failures)]
-

@@ -8,12 +8,12 @@ import json
 
 import numpy as np
 
-from usvips.cli.calibration import parse_size
 from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import InvalidParameterError
 from usvips.core.housing import FlatPortHousing
 from usvips.core.planner import default_grid, planned_rig, precision_map
 from usvips.io.calibration_file import load_calibration
+from usvips.io.opencv_calibration import parse_image_size
 
 #: The flat port's values a planned rig takes (metres; indices), with the calibration's defaults.
 PORT = ("g", "t", "n2", "n3")
@@ -63,7 +63,7 @@ def _rig(args: argparse.Namespace):
                               ("--baseline", args.baseline)) if v is None]
     if missing:
         raise InvalidParameterError("--calibration", f"give a calibration, or a rig with {', '.join(missing)}")
-    width, height = parse_size(args.image_size)
+    width, height = parse_image_size(args.image_size)
     housing = None
     if args.housing == "flat-port":
         values = {k: DEFAULT_HOUSING["flat-port"][k][0] for k in PORT}

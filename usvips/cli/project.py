@@ -4,15 +4,13 @@ command line."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from usvips.app.project_contents import plan_import, store_import, summarise
+from usvips.app.project_export import export_project
+from usvips.app.samples import create_from_manifest
 from usvips.cli.video import register_project_actions
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
-from usvips.io.calibration_file import calibration_to_dict, load_calibration
-from usvips.io.tables import read_control, read_observations
-from usvips.project_export import export_project
-from usvips.samples import create_from_manifest
 from usvips.store import Project
 
 
@@ -58,55 +56,32 @@ def run_new(args: argparse.Namespace) -> int:
 
 def run_info(args: argparse.Namespace) -> int:
     with Project.open(args.project, read_only=True) as project:
-        pairs = project.pairs()
-        print(f"{args.project}: schema {project.version}, {len(pairs)} image pairs, "
-              f"{len(project.control())} control points, {len(project.objects())} objects")
-        videos = project.videos()
-        for pair in pairs:
-            if pair["label"] in {v["label"] for v in videos}:
-                continue  # a video's own pair: listed with the video below
-            active = project.active_calibration(pair["label"])
-            print(f"  pair {pair['label']} ({pair['medium']}): {pair['left'] or '-'} | {pair['right'] or '-'}"
-                  + (f"; calibration {active}" if active else ""))
-        for scope, deployment in project.deployments().items():
-            print(f"  deployment {deployment.opcode}" + (f" (video {scope})" if scope else "") + ": "
-                  + ", ".join(f"{name} {getattr(deployment, name)}" for name in DEPLOYMENT_FIELDS[1:]
-                              if getattr(deployment, name) not in ("", None)))
-        georeference = project.georeference()
-        if georeference is not None:
-            print(f"  georeference: origin {georeference.latitude:.7f}°, {georeference.longitude:.7f}°, depth "
-                  f"{georeference.depth_m:g} m, +X heading {georeference.heading_deg:g}°")
-        for video in videos:
-            print(f"  video {video['label']}: {video['frame_count']} frames at {video['fps']:.6g} fps, offset "
-                  f"{video['offset_frames']:+d} frames (left frame i ↔ right frame i {video['offset_frames']:+d})"
-                  + (f"; calibration {project.active_calibration(video['label'])}"
-                     if project.active_calibration(video["label"]) else ""))
+        summary = summarise(project)
+    print(f"{args.project}: schema {summary.version}, {summary.pair_count} image pairs, "
+          f"{summary.control_count} control points, {summary.object_count} objects")
+    for pair in summary.pairs:
+        print(f"  pair {pair.label} ({pair.medium}): {pair.left or '-'} | {pair.right or '-'}"
+              + (f"; calibration {pair.calibration_id}" if pair.calibration_id else ""))
+    for scope, deployment in summary.deployments.items():
+        print(f"  deployment {deployment.opcode}" + (f" (video {scope})" if scope else "") + ": "
+              + ", ".join(f"{name} {getattr(deployment, name)}" for name in DEPLOYMENT_FIELDS[1:]
+                          if getattr(deployment, name) not in ("", None)))
+    georeference = summary.georeference
+    if georeference is not None:
+        print(f"  georeference: origin {georeference.latitude:.7f}°, {georeference.longitude:.7f}°, depth "
+              f"{georeference.depth_m:g} m, +X heading {georeference.heading_deg:g}°")
+    for video in summary.videos:
+        print(f"  video {video.label}: {video.frame_count} frames at {video.fps:.6g} fps, offset "
+              f"{video.offset_frames:+d} frames (left frame i ↔ right frame i {video.offset_frames:+d})"
+              + (f"; calibration {video.calibration_id}" if video.calibration_id else ""))
     return 0
 
 
 def run_import(args: argparse.Namespace) -> int:
-    if not (args.control or args.obs or args.calibration):
-        raise UsvipsError("nothing to import: give --control, --obs or --calibration")
-    if args.obs and not args.pair:
-        raise UsvipsError("--obs needs --pair (the image pair the observations belong to)")
     # every file is read and checked before the project is opened; then all goes in one transaction
-    control = read_control(args.control) if args.control else None
-    observations = read_observations(args.obs) if args.obs else None
-    if observations is not None and len(observations.pair_labels) > 1:
-        if args.pair not in observations.pair_labels:
-            raise InputFileError(args.obs, f"holds observations of {len(observations.pair_labels)} pairs "
-                                 f"({', '.join(observations.pair_labels)[:80]}); --pair must name one of them")
-        observations = observations.pair(args.pair)
-    calibration = calibration_to_dict(load_calibration(args.calibration)) if args.calibration else None
-    with Project.open(args.project) as project, project.transaction():
-        if control is not None:
-            project.set_control(control)
-        if observations is not None:
-            if args.pair not in {p["label"] for p in project.pairs()}:
-                project.add_pair(args.pair)
-            project.add_control_observations(observations, args.role, args.pair)
-        if calibration is not None:
-            project.add_calibration(Path(args.calibration).stem, calibration, tuple(args.active_for))
+    plan = plan_import(args.control, args.obs, args.pair, args.role, args.calibration, tuple(args.active_for))
+    with Project.open(args.project) as project:
+        store_import(project, plan)
     print(f"imported into {args.project}")
     return 0
 

@@ -1,12 +1,12 @@
 """``usvips video sync|set-offset|export-frame`` and the handlers of ``usvips project add-pairs|add-video``:
-a user's own media and stereo video from the command line (the work is in :mod:`usvips.video_project`)."""
+a user's own media and stereo video from the command line (the work is in :mod:`usvips.app.video_project`)."""
 
 from __future__ import annotations
 
 import argparse
 import json
 
-from usvips import video_project
+from usvips.app import video_project
 from usvips.core.errors import UsvipsError
 from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project

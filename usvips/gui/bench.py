@@ -107,7 +107,7 @@ def _startup_row(settings: str) -> dict:
 def _big_pair(directory: Path) -> Path:
     """A project with the ROV sample's measurement pair at 4000 × 3000 (colour) and its calibration with
     the interior scaled to match (distortion is in normalised coordinates, so only f, xp, yp change)."""
-    from usvips.samples import create_from_manifest
+    from usvips.app.samples import create_from_manifest
 
     scale = BIG[0] / 640
     calibration = json.loads((SAMPLE / "calibration.json").read_text())
@@ -226,10 +226,10 @@ def _zoom_row(window) -> dict:
 def benchmarks(scale: float = 1.0) -> Iterator[dict]:
     from PySide6 import QtCore
 
+    from usvips.app.samples import create_from_manifest
     from usvips.core.enhance import Pipeline
     from usvips.gui.app import application, configure
     from usvips.gui.main_window import MainWindow
-    from usvips.samples import create_from_manifest
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

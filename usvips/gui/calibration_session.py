@@ -27,7 +27,7 @@ from usvips.core.intersection import intersect
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict
 from usvips.io.tables import read_control, read_observations
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
 
 PHASES = {"air": "Phase 1 — cameras in air", "water": "Phase 2 — housing and water (one pair)",
           "joint": "Phase 2 — joint calibration of several underwater pairs"}
@@ -78,7 +78,7 @@ class CalibrationSession:
     """The state of one wizard. ``observations``: (pair, point id) → (xl, yl, xr, yr) pixels; ``check``:
     the (pair, id) held out of the adjustment as check points; ``excluded``: those the operator left out."""
 
-    project: Project
+    project: ProjectStore
     phase: str
     pairs: list[str] = field(default_factory=list)
     control: ControlPoints | None = None
@@ -371,7 +371,7 @@ class CalibrationSession:
         self.project.set_draft(self.draft_name, self.to_json())
 
     @classmethod
-    def resume(cls, project: Project, phase: str) -> CalibrationSession | None:
+    def resume(cls, project: ProjectStore, phase: str) -> CalibrationSession | None:
         """The saved draft of a phase, or None."""
         text = project.draft(f"calibration-{phase}")
         if text is None:

@@ -21,7 +21,7 @@ from usvips.core.errors import UsvipsError
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.worker import Cancelled, Worker, start
 from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict, load_calibration, save_calibration
-from usvips.io.opencv_calibration import read_opencv_stereo, write_opencv_stereo
+from usvips.io.opencv_calibration import parse_image_size, read_opencv_stereo, write_opencv_stereo
 
 OPENCV_FILTER = "OpenCV calibrations (*.yml *.yaml *.xml *.json *.npz);;All files (*)"
 
@@ -91,9 +91,7 @@ def ask_image_size(window) -> tuple[int, int] | None:
                                               "Width x height in pixels (e.g. 1920x1080):")
     if not ok:
         return None
-    from usvips.cli.calibration import parse_size  # the command line's parser: one rule for WxH
-
-    return parse_size(text.strip())
+    return parse_image_size(text.strip(), "image size")
 
 
 def import_calibration(window, files: list[str | Path] | None = None, out: str | Path | None = None,

@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import exchange_dialogs, media_dialogs
@@ -26,8 +27,6 @@ from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
 from usvips.locations import sample_projects
-from usvips.samples import open_or_create_from_manifest
-from usvips.store import Project
 
 SAMPLES = sample_projects()
 #: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
@@ -521,12 +520,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if not self.confirm_drop_unfinished("open another project"):
             return False
         try:
-            if path.is_dir():
-                project = open_or_create_from_manifest(path)
-            elif path.is_file():
-                project = Project.open(path)
-            else:
-                raise UsvipsError(f"{path}: no such project file or sample directory")
+            project = open_project(path)
         except UsvipsError as error:
             self.show_message("error", str(error))
             return False
@@ -639,7 +633,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def export_objects(self, path: str | Path) -> None:
         """Write the project's objects (format by suffix; ``.em.txt`` writes EventMeasure-style tables)."""
-        from usvips.project_export import export_project
+        from usvips.app.project_export import export_project
 
         skipped: list[str] = []
         try:

@@ -1,6 +1,6 @@
 """File › New project…, Add image pairs…, Add stereo video…, Relocate missing media…: a user's own
 material into the open project. Each action asks with dialogs, then does its work through
-:mod:`usvips.video_project`; the paths can also be handed in (tests, scripts), skipping the dialogs.
+:mod:`usvips.app.video_project`; the paths can also be handed in (tests, scripts), skipping the dialogs.
 Reading a video's files runs in a worker; the project is written on the GUI thread."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 
 from PySide6 import QtWidgets
 
-from usvips import video_project
+from usvips.app import video_project
 from usvips.core.errors import UsvipsError
 from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project

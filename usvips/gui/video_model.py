@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usvips.app.video_project import open_streams, partner_frame
 from usvips.core.errors import InvalidParameterError
-from usvips.store import Project
-from usvips.video_project import open_streams, partner_frame
+from usvips.store.interface import ProjectStore
 
 #: default frame-cache budget (bytes): 48 frame pairs at 1920 × 1080 RGB
 CACHE_BYTES = 48 * 2 * 1920 * 1080 * 3
@@ -167,7 +167,7 @@ class FrameSource:
     """The two streams of a stored video, decoded one request at a time (a lock: PyAV decoders are not
     shared between threads). ``pair(frame)`` → (left RGB, right RGB, right frame, time s)."""
 
-    def __init__(self, project: Project, label: str) -> None:
+    def __init__(self, project: ProjectStore, label: str) -> None:
         self.video, self.left, self.right = open_streams(project, label)
         self._lock = threading.Lock()
 
@@ -191,7 +191,7 @@ class FrameSource:
                 stream.close()
 
 
-def measured_frames(project: Project, label: str) -> set[int]:
+def measured_frames(project: ProjectStore, label: str) -> set[int]:
     """Left frames of the video that hold vertices of stored objects."""
     return {v.frame_left for o in project.objects() for v in o.vertices
             if v.video == label and v.frame_left is not None}

@@ -14,22 +14,20 @@ from pathlib import Path
 
 import numpy as np
 
-from usvips.core.calibration.uncertainty import joint_covariance
+from usvips.app.pair_geometry import PairGeometry, pair_geometry
+from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
 from usvips.core.enhance import Pipeline
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
-from usvips.core.measurements import QualityRules, names, placement, registered_kinds, resolve
+from usvips.core.measurements import QualityRules, intersect_vertices, names, registered_kinds, resolve
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.observation_record import ObservationRecord
-from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
 from usvips.gui.calculator import Geometry, Result, format_figure, pair_figures, result_of, vertex_failures
 from usvips.gui.signals import Signal
-from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image
-from usvips.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
 from usvips.store.project import Vertex
 
 SIDES = ("left", "right")
@@ -139,33 +137,7 @@ class UndoStack:
         return self._undone[-1].label if self._undone else None
 
 
-@dataclass(frozen=True)
-class PairGeometry:
-    """The calibration used for a pair, the station and frame it is placed in, and a line saying so."""
-
-    calibration: StereoCalibration
-    calibration_id: int
-    station: int | str
-    frame: str
-
-    @property
-    def description(self) -> str:
-        where = (f"station {self.station}, object frame" if self.frame == "object"
-                 else "rig frame (origin at the left camera; the pair is not a calibrated station)")
-        return f"calibration {self.calibration_id} ({self.calibration.phase}), {where}"
-
-
-def pair_geometry(project: Project, label: str) -> PairGeometry | None:
-    """The active calibration of a pair placed at its station, or None when the pair has none."""
-    calibration_id = project.active_calibration(label)
-    if calibration_id is None:
-        return None
-    calibration = calibration_from_dict(project.calibration(calibration_id),
-                                        f"{project.path} calibration {calibration_id}")
-    return PairGeometry(calibration, calibration_id, *placement(calibration, label))
-
-
-def pair_image_paths(project: Project, label: str) -> tuple[Path, Path]:
+def pair_image_paths(project: ProjectStore, label: str) -> tuple[Path, Path]:
     """The absolute paths of a pair's two images (raises when the pair has none or a file is missing)."""
     pair = next((p for p in project.pairs() if p["label"] == label), None)
     if pair is None:
@@ -181,7 +153,7 @@ def read_pair(paths: tuple[Path, Path]) -> tuple[np.ndarray, np.ndarray]:
     return read_image(paths[0]), read_image(paths[1])
 
 
-def load_pair_images(project: Project, label: str) -> tuple[np.ndarray, np.ndarray]:
+def load_pair_images(project: ProjectStore, label: str) -> tuple[np.ndarray, np.ndarray]:
     """Both steps at once, for scripts and tests."""
     return read_pair(pair_image_paths(project, label))
 
@@ -204,7 +176,7 @@ class Workspace:
     when the observe tool has both picks of a point.
     """
 
-    project: Project | None = None
+    project: ProjectStore | None = None
     snap: bool = False
     auto_match: bool = True
     rules: QualityRules = field(default_factory=QualityRules)
@@ -238,13 +210,13 @@ class Workspace:
         self.stored = Signal()
 
     # ------------------------------------------------------------------ project and pair
-    def open_project(self, project: Project) -> None:
+    def open_project(self, project: ProjectStore) -> None:
         self._switch_project(project)
 
     def close_project(self) -> None:
         self._switch_project(None)
 
-    def _switch_project(self, project: Project | None) -> None:
+    def _switch_project(self, project: ProjectStore | None) -> None:
         """Close the open project (unless it is ``project``) and start afresh on ``project``."""
         if self.project is not None and self.project is not project:
             self.project.close()
@@ -545,15 +517,12 @@ class Workspace:
         if self.geometry is None:
             raise UsvipsError(f"pair {self.pair!r} has no active calibration: nothing can be intersected")
         g = self.geometry
-        result, covariance = joint_covariance(g.calibration, np.array([left], float), np.array([right], float),
-                                              g.station, g.frame)
-        if not result.ok[0]:
-            raise UsvipsError(f"the rays do not intersect: {RayStatus(int(result.status[0])).reason}")
-        camera = g.calibration.rig(g.station, g.frame).left.exterior.position
-        point = result.points[0]
-        return MeasuredVertex(tuple(left), tuple(right), point, covariance[:3, :3],
-                              float(np.sqrt(np.mean(result.residuals_m[0] ** 2))),
-                              float(np.linalg.norm(point - camera)))
+        try:  # the one intersection with ray RMS and range (usvips.core.measurements.intersect_vertices)
+            points, covariance, ray_rms_m, range_m = intersect_vertices(g.calibration, np.array([left], float),
+                                                                        np.array([right], float), g.station, g.frame)
+        except DegenerateGeometryError as error:
+            raise UsvipsError(f"the rays do not intersect: {str(error).removeprefix('vertex 0: ')}") from None
+        return MeasuredVertex(tuple(left), tuple(right), points[0], covariance, ray_rms_m, range_m)
 
     # ------------------------------------------------------------------ objects
     def finish_object(self, attribute: str = "", notes: str = "",

@@ -325,3 +325,15 @@ def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> lis
     for target, text in texts:
         write_text_atomic(target, text)
     return left_out
+
+
+def parse_image_size(text: str, parameter: str = "--image-size") -> tuple[int, int]:
+    """``WxH`` (pixels) → (width, height); a malformed text is one error naming ``parameter``."""
+    width, sep, height = text.lower().partition("x")
+    try:
+        size = int(width), int(height)
+    except ValueError:
+        size = None
+    if not sep or size is None or min(size) <= 0:
+        raise InvalidParameterError(parameter, f"expected WIDTHxHEIGHT in whole pixels > 0, got {text!r}")
+    return size

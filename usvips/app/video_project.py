@@ -1,7 +1,7 @@
 """A user's own media in a project: image pairs from folders or lists, stereo videos (frame-exact,
 synchronised), and the synchronised frame pair written out.
 
-Sits above io and store like :mod:`usvips.samples` (it joins files read by io to the project written by
+Sits above io and store like :mod:`usvips.app.samples` (it joins files read by io to the project written by
 store); the command line and the workstation both go through here.
 
 Convention: a video pair's offset ``k`` (frames) means left frame ``i`` and right frame ``i + k`` show the
@@ -24,7 +24,7 @@ from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image, write_image
 from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
 from usvips.io.video_stream import VideoStream
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
 
 #: left and right frame rates further apart than this (relative) are not one stereo video
 FPS_TOLERANCE = 1e-3
@@ -57,7 +57,7 @@ def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], la
     return [(label, a, b) for label, (a, b) in zip(labels, pairs, strict=True)], rule
 
 
-def add_image_pairs(project: Project, plan: Sequence[tuple[str, Path, Path]], medium: str = "water") -> list[int]:
+def add_image_pairs(project: ProjectStore, plan: Sequence[tuple[str, Path, Path]], medium: str = "water") -> list[int]:
     """Add planned pairs (all or none); left and right must be readable images of one size."""
     sizes = []
     for label, left, right in plan:
@@ -115,19 +115,19 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
         return VideoPlan(label, files["left"], files["right"], a.fps, a.frame_count, a.size, tuple(warnings))
 
 
-def store_video(project: Project, plan: VideoPlan) -> AddedVideo:
+def store_video(project: ProjectStore, plan: VideoPlan) -> AddedVideo:
     project.add_video(plan.label, plan.left, plan.right, plan.fps, plan.frame_count, plan.size,
                       "\n".join(plan.warnings))
     return AddedVideo(plan.label, plan.frame_count, plan.fps, plan.warnings)
 
 
-def add_video(project: Project, left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
+def add_video(project: ProjectStore, left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
               scan_pictures: bool = False) -> AddedVideo:
     """:func:`inspect_video` then :func:`store_video`."""
     return store_video(project, inspect_video(left, right, label, scan_pictures))
 
 
-def open_streams(project: Project, label: str) -> tuple[dict, VideoStream, VideoStream]:
+def open_streams(project: ProjectStore, label: str) -> tuple[dict, VideoStream, VideoStream]:
     """The stored video (as :meth:`Project.video`) and its two streams, opened; close them after use."""
     video = project.video(label)
     left = VideoStream([project.media_path(p) for p in video["left"]])
@@ -152,7 +152,7 @@ def partner_frame(video: dict, frame: int, right_count: int | None = None) -> in
     return partner
 
 
-def frame_pair(project: Project, label: str, frame: int) -> tuple[np.ndarray, np.ndarray, int, float]:
+def frame_pair(project: ProjectStore, label: str, frame: int) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Left frame ``frame`` and its synchronised right frame, decoded exactly; the right frame's number
     and the left frame's time (s)."""
     video, left, right = open_streams(project, label)
@@ -161,7 +161,7 @@ def frame_pair(project: Project, label: str, frame: int) -> tuple[np.ndarray, np
         return left.frame(frame), right.frame(partner), partner, left.time_of(frame)
 
 
-def export_frame(project: Project, label: str, frame: int, out: str | Path) -> tuple[Path, Path]:
+def export_frame(project: ProjectStore, label: str, frame: int, out: str | Path) -> tuple[Path, Path]:
     """``out/left.png`` (left frame ``frame``) and ``out/right.png`` (right frame ``frame + offset``)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -176,7 +176,7 @@ def export_frame(project: Project, label: str, frame: int, out: str | Path) -> t
     return paths
 
 
-def take_pair(project: Project, label: str, frame: int, pair_label: str | None = None,
+def take_pair(project: ProjectStore, label: str, frame: int, pair_label: str | None = None,
               medium: str = "water") -> str:
     """Make the synchronised frames of left frame ``frame`` an image pair of the project (e.g. the
     calibration frame filmed in air and underwater): written as PNG beside the project under
@@ -199,7 +199,7 @@ def _brightness(stream: VideoStream, limit: int | None, progress: Callable[[int,
     return values
 
 
-def _calibration_for(project: Project, calibration_id: int | None, label: str):
+def _calibration_for(project: ProjectStore, calibration_id: int | None, label: str):
     if calibration_id is None:
         calibration_id = project.active_calibration(label)
     if calibration_id is None:
@@ -212,7 +212,7 @@ def _calibration_for(project: Project, calibration_id: int | None, label: str):
     return calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}").rig(0, "rig")
 
 
-def estimate_offset(project: Project, label: str, method: str | None = None, max_offset: int | None = None,
+def estimate_offset(project: ProjectStore, label: str, method: str | None = None, max_offset: int | None = None,
                     calibration_id: int | None = None, frame_limit: int | None = 3000,
                     progress: Callable[[int, int], None] | None = None) -> SyncEstimate:
     """Estimate the video pair's offset by ``method`` (flash, audio or image; default: audio when both files
@@ -251,7 +251,7 @@ def estimate_offset(project: Project, label: str, method: str | None = None, max
                                             range(-limit, limit + 1), step=step)
 
 
-def eventmeasure_frame_columns(project: Project, vertex) -> tuple[str, str, str, str, str, str, str] | None:
+def eventmeasure_frame_columns(project: ProjectStore, vertex) -> tuple[str, str, str, str, str, str, str] | None:
     """EventMeasure's FilenameLeft, FrameLeft, FilenameRight, FrameRight, Time, Period, PeriodTime of a
     vertex measured on a video (None otherwise): the chapter file holding each frame and the frame's
     number within it, the time in minutes from the first frame (as EventMeasure), the period holding the
@@ -277,7 +277,7 @@ def eventmeasure_frame_columns(project: Project, vertex) -> tuple[str, str, str,
     return file_left, frame_left, file_right, frame_right, f"{vertex.time_s / 60:.4f}", period, period_time
 
 
-def add_sample_video(project: Project, left: Path, right: Path, offset: int, label: str = "video") -> None:
+def add_sample_video(project: ProjectStore, left: Path, right: Path, offset: int, label: str = "video") -> None:
     """A sample's stereo video with its known offset (used when a sample directory becomes a project),
     measured with the calibration that is active for most of the sample's underwater pairs."""
     add_video(project, [left], [right], label)

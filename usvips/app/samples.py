@@ -9,12 +9,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from usvips.app.video_project import add_sample_video
 from usvips.core.errors import InputFileError
 from usvips.io.calibration_file import load_calibration
 from usvips.io.manifest import read_manifest
 from usvips.io.tables import read_control, read_observations
 from usvips.store import Project, ProjectError
-from usvips.video_project import add_sample_video
+from usvips.store.interface import ProjectStore
 
 
 def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
@@ -47,7 +48,7 @@ def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
     return project
 
 
-def _fill(project: Project, manifest, control, observation_files, calibrations) -> None:
+def _fill(project: ProjectStore, manifest, control, observation_files, calibrations) -> None:
     """Store a manifest's contents (already read and checked) in a new project."""
     for pair in manifest.pairs:
         project.add_pair(pair.label, pair.left, pair.right, pair.medium)

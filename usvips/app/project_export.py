@@ -2,7 +2,7 @@
 georeference, PLY, EventMeasure-style tables and _Metadata.csv for CheckEM): joins the store (the
 objects, their picks and calibrations) to io's writers, for the command line and the workstation alike.
 
-The figures are those of :func:`usvips.project_figures.measure_stored` — recomputed from the picks with
+The figures are those of :func:`usvips.app.project_figures.measure_stored` — recomputed from the picks with
 the calibration each object was measured with, so with the joint covariance of its vertices — the very
 function the window's object list and geo-calculator call: an exported s_length, the EventMeasure
 Precision and the window's sigma are one number.
@@ -12,16 +12,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from usvips.app.project_figures import evaluate, measurement_input
+from usvips.app.video_project import eventmeasure_frame_columns
 from usvips.core.deployment import Deployment
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
 from usvips.io.export import export
-from usvips.project_figures import evaluate, measurement_input
-from usvips.store import Project
-from usvips.video_project import eventmeasure_frame_columns
+from usvips.store.interface import ProjectStore
 
 
-def checkem_samples(project: Project) -> list[tuple[Deployment, str]]:
+def checkem_samples(project: ProjectStore) -> list[tuple[Deployment, str]]:
     """The samples of CheckEM's ``_Metadata.csv``: each stored deployment, once per period of the videos it
     covers (a video's own deployment covers that video, the project's covers the rest), or once without a
     period when they have none."""
@@ -35,7 +35,7 @@ def checkem_samples(project: Project) -> list[tuple[Deployment, str]]:
     return samples
 
 
-def export_project(project: Project, out: str | Path, opcode: str | None = None,
+def export_project(project: ProjectStore, out: str | Path, opcode: str | None = None,
                    rules: QualityRules | None = None, skipped: list[str] | None = None) -> int:
     """Write the project's objects that have figures to ``out`` (format by suffix, see
     :func:`usvips.io.export.export`); returns how many were written. Objects without figures (no 3-D

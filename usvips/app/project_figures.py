@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usvips.app.pair_geometry import pair_geometry, read_calibration
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.measurements import (
     Measurement,
@@ -31,8 +32,7 @@ from usvips.core.measurements import (
     placement,
 )
 from usvips.core.stereo_calibration import StereoCalibration
-from usvips.io.calibration_file import calibration_from_dict
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
 
 
@@ -56,20 +56,19 @@ class MeasurementInput:
     pair: str | None = None
 
 
-def stored_calibration(project: Project, calibration_id: int,
+def stored_calibration(project: ProjectStore, calibration_id: int,
                        cache: dict[int, StereoCalibration | None] | None = None) -> StereoCalibration | None:
     """A stored calibration (None when it is gone or unreadable); ``cache`` keeps what was read."""
     cache = {} if cache is None else cache
     if calibration_id not in cache:
         try:
-            cache[calibration_id] = calibration_from_dict(project.calibration(calibration_id),
-                                                          f"{project.path} calibration {calibration_id}")
+            cache[calibration_id] = read_calibration(project, calibration_id)
         except UsvipsError:
             cache[calibration_id] = None
     return cache[calibration_id]
 
 
-def measurement_input(project: Project, stored: StoredObject,
+def measurement_input(project: ProjectStore, stored: StoredObject,
                       cache: dict[int, StereoCalibration | None] | None = None) -> MeasurementInput:
     """Copy what the figures of ``stored`` need out of ``project`` (call on the project's thread)."""
     vertices = stored.vertices
@@ -124,25 +123,24 @@ def joint_vertices(source: MeasurementInput) -> tuple[np.ndarray, np.ndarray, bo
     return source.xyz, covariance, False
 
 
-def measure_stored(project: Project, stored: StoredObject, rules: QualityRules | None = None,
+def measure_stored(project: ProjectStore, stored: StoredObject, rules: QualityRules | None = None,
                    cache: dict[int, StereoCalibration | None] | None = None) -> Measurement:
     """:func:`measurement_input` then :func:`evaluate`."""
     return evaluate(measurement_input(project, stored, cache), rules)
 
 
-def store_measurements(project: Project, pair: str, objects: list[tuple[str, str, np.ndarray, str]],
+def store_measurements(project: ProjectStore, pair: str, objects: list[tuple[str, str, np.ndarray, str]],
                        rules: QualityRules | None = None, where: str = "") -> tuple[list[Measurement], list[int]]:
     """Measure objects — (id, kind, pixels (N, 4) xl yl xr yr, attribute) — with the calibration active
     for ``pair``, placed as the pair measures, and store them as the window does (each vertex with its
     picks, X, Y, Z, 3 × 3 covariance, the calibration and the pair; creator ``usvips``; the attribute
     added to the vocabulary): all in one transaction, or nothing when any object fails. ``where`` (e.g.
     the picks file) starts the error messages. Returns the measurements and the new objects' ids."""
-    calibration_id = project.active_calibration(pair)
-    if calibration_id is None:
+    geometry = pair_geometry(project, pair)
+    if geometry is None:
         raise UsvipsError(f"{project.path}: pair {pair!r} has no active calibration: nothing can be measured")
-    calibration = calibration_from_dict(project.calibration(calibration_id),
-                                        f"{project.path} calibration {calibration_id}")
-    station, frame = placement(calibration, pair)
+    calibration, calibration_id, station, frame = (geometry.calibration, geometry.calibration_id,
+                                                   geometry.station, geometry.frame)
     measured, rows = [], []
     for object_id, kind, pixels, attribute in objects:
         try:

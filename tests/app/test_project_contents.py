@@ -1,0 +1,51 @@
+"""A project's contents summarised, and files imported all or nothing."""
+
+import numpy as np
+import pytest
+
+from usvips.app.project_contents import plan_import, store_import, summarise
+from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.io.tables import write_control, write_observations
+from usvips.store import Project, ProjectError
+
+
+def test_the_summary_counts_everything_and_lists_a_video_once(tmp_path):
+    (tmp_path / "l.mp4").write_bytes(b"left")
+    (tmp_path / "r.mp4").write_bytes(b"right")
+    with Project.create(tmp_path / "p.usvips") as project:
+        project.add_pair("air1", medium="air")
+        project.add_pair("w1")
+        calibration = project.add_calibration("c", {"phase": "water"}, ("w1",))
+        project.add_video("dive", [(tmp_path / "l.mp4", 10, 25.0)], [(tmp_path / "r.mp4", 10, 25.0)], 25.0, 10,
+                          (64, 48))
+        project.set_video_offset("dive", -2)
+        project.set_control(ControlPoints(("1", "2"), np.zeros((2, 3))))
+        summary = summarise(project)
+    assert (summary.pair_count, summary.control_count, summary.object_count) == (3, 2, 0)
+    assert [(p.label, p.medium, p.calibration_id) for p in summary.pairs] == [("air1", "air", None),
+                                                                               ("w1", "water", calibration)]
+    assert [(v.label, v.frame_count, v.fps, v.offset_frames) for v in summary.videos] == [("dive", 10, 25.0, -2)]
+
+
+def test_an_import_is_checked_before_anything_is_stored_and_stored_all_or_nothing(tmp_path):
+    rng = np.random.default_rng(1)
+    write_control(tmp_path / "c.csv", ControlPoints(("1", "2", "3"), rng.normal(size=(3, 3))))
+    observations = StereoObservations(("1", "2"), rng.uniform(0, 99, (2, 2)), rng.uniform(0, 99, (2, 2)),
+                                      ("a", "b"))
+    write_observations(tmp_path / "o.csv", observations)
+    with pytest.raises(UsvipsError, match="nothing to import"):
+        plan_import()
+    with pytest.raises(UsvipsError, match="--obs needs --pair"):
+        plan_import(observations=tmp_path / "o.csv")
+    with pytest.raises(InputFileError, match="o.csv: holds observations of 2 pairs"):
+        plan_import(observations=tmp_path / "o.csv", pair="z")
+    plan = plan_import(tmp_path / "c.csv", tmp_path / "o.csv", "a")
+    assert plan.observations.ids == ("1",)
+    with Project.create(tmp_path / "p.usvips") as project:
+        store_import(project, plan)
+        assert len(project.control()) == 3 and project.control_observations("calibration-water", "a").ids == ("1",)
+        moved = ControlPoints(("9",), np.ones((1, 3)))
+        with pytest.raises(ProjectError):  # the same observation again: the new control must not stay either
+            store_import(project, plan.__class__(moved, plan.observations, "a"))
+        assert project.control().ids == ("1", "2", "3")

@@ -1,0 +1,456 @@
+"""The storage contract: what any implementation of :class:`usvips.store.interface.ProjectStore` must do.
+
+Parametrised over the implementations in ``IMPLEMENTATIONS`` (SQLite's ``Project`` today; a team server
+adds its own opener here and must pass every test unchanged): round trips of pairs, objects, vertices,
+calibrations, control, media and videos, vocabularies and records; transactions all or nothing;
+read-only refusals that change nothing; two handles on one project.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import inspect
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from usvips.core.deployment import Deployment, Georeference
+from usvips.core.errors import UsvipsError
+from usvips.core.observation_record import ObservationRecord, Species
+from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.store import Project, ProjectError
+from usvips.store.interface import ProjectStore
+from usvips.store.project import Vertex
+
+
+@dataclass(frozen=True)
+class Implementation:
+    """How a test makes and reopens a store: ``create(where)`` a new empty store named by ``where`` (a
+    path in the test's folder), ``open(where, read_only)`` another handle on it, and ``snapshot(where)``
+    something that changes whenever the stored data change (to prove that nothing was written)."""
+
+    name: str
+    create: Callable[[Path], ProjectStore]
+    open: Callable[[Path, bool], ProjectStore]
+    snapshot: Callable[[Path], str]
+
+
+def _sqlite_snapshot(path: Path) -> str:
+    with Project.open(path, read_only=True) as project:  # the data, not the file's bytes (WAL checkpoints)
+        return hashlib.sha256(repr((project.pairs(), [(o.id, o.kind, o.attribute, o.notes) for o in
+                                                       project.objects()], project.calibrations(),
+                                                      project.vocabulary(), project.videos())).encode()).hexdigest()
+
+
+IMPLEMENTATIONS = [
+    Implementation("sqlite", lambda where: Project.create(where),
+                   lambda where, read_only=False: Project.open(where, read_only=read_only), _sqlite_snapshot),
+]
+
+
+@pytest.fixture(params=IMPLEMENTATIONS, ids=lambda i: i.name)
+def impl(request) -> Implementation:
+    return request.param
+
+
+@pytest.fixture
+def where(tmp_path) -> Path:
+    return tmp_path / "contract.usvips"
+
+
+@pytest.fixture
+def store(impl, where):
+    project = impl.create(where)
+    yield project
+    project.close()
+
+
+def _vertex(rng, pair=None, calibration_id=None) -> Vertex:
+    a = rng.normal(size=(3, 3)) * 1e-3
+    return Vertex(*map(float, rng.uniform(0, 2000, 4)), tuple(map(float, rng.normal(size=3))), a @ a.T,
+                  calibration_id, pair)
+
+
+def _images(folder: Path, count: int) -> list[tuple[str, Path, Path]]:
+    out = []
+    for k in range(count):
+        left, right = folder / f"p{k}_left.png", folder / f"p{k}_right.png"
+        left.write_bytes(b"left image %d" % k)
+        right.write_bytes(b"right image %d" % k)
+        out.append((f"p{k}", left, right))
+    return out
+
+
+def _assert_same_object(got, want) -> None:
+    """Two stored objects hold the same (vertex covariances compared as arrays, bit for bit)."""
+    assert (got.id, got.kind, got.attribute, got.notes, got.creator, got.created, got.modified) == (
+        want.id, want.kind, want.attribute, want.notes, want.creator, want.created, want.modified)
+    assert len(got.vertices) == len(want.vertices)
+    for a, b in zip(got.vertices, want.vertices, strict=True):
+        assert dataclasses.replace(a, covariance=None) == dataclasses.replace(b, covariance=None)
+        assert (a.covariance is None) == (b.covariance is None)
+        if a.covariance is not None:
+            np.testing.assert_array_equal(a.covariance, b.covariance)
+
+
+# ------------------------------------------------------------------------------------------ the interface
+def test_the_implementation_has_every_operation_of_the_interface_with_its_parameters(store):
+    assert isinstance(store, ProjectStore)
+    for name, member in vars(ProjectStore).items():
+        if name.startswith("_") and name not in ("__enter__", "__exit__") or not callable(member):
+            continue
+        wanted = list(inspect.signature(member).parameters)
+        got = list(inspect.signature(getattr(type(store), name)).parameters)
+        assert got == wanted, f"{name}: parameters {got}, the interface says {wanted}"
+    assert isinstance(store.version, int) and store.version >= 1
+    assert isinstance(store.path, Path) and store.read_only is False
+
+
+# ------------------------------------------------------------------------------------------ round trips
+def test_pairs_round_trip_in_order_and_a_used_label_is_refused(store, where):
+    ids = [store.add_pair("a", medium="air"), store.add_pair("b", frame=12, size=(640, 480))]
+    pairs = store.pairs()
+    assert [p["label"] for p in pairs] == ["a", "b"] and [p["id"] for p in pairs] == ids
+    assert pairs[0]["medium"] == "air" and pairs[1]["medium"] == "water" and pairs[1]["frame"] == 12
+    assert (pairs[1]["width"], pairs[1]["height"]) == (640, 480)
+    with pytest.raises(ProjectError):
+        store.add_pair("a")
+    assert [p["label"] for p in store.pairs()] == ["a", "b"]
+
+
+def test_objects_and_their_vertices_round_trip_exactly(store):
+    rng = np.random.default_rng(5)
+    store.add_pair("a")
+    calibration_id = store.add_calibration("c", {"phase": "water", "sigma0_px": 0.4})
+    made = {}
+    for kind, count in (("point", 1), ("length", 2), ("arc", 4), ("polygon", 5), ("circle", 3)):
+        vertices = [_vertex(rng, "a", calibration_id) for _ in range(count)]
+        made[store.add_object(kind, vertices, f"{kind} attr", "a note", "tester")] = (kind, vertices)
+    stored = store.objects()
+    assert [o.id for o in stored] == sorted(made)
+    for obj in stored:
+        kind, vertices = made[obj.id]
+        assert (obj.kind, obj.attribute, obj.notes, obj.creator) == (kind, f"{kind} attr", "a note", "tester")
+        assert len(obj.vertices) == len(vertices)
+        for got, want in zip(obj.vertices, vertices, strict=True):
+            assert (got.xl, got.yl, got.xr, got.yr) == (want.xl, want.yl, want.xr, want.yr)
+            assert got.xyz == want.xyz  # float64 kept bit for bit
+            np.testing.assert_array_equal(got.covariance, want.covariance)
+            assert (got.calibration_id, got.pair) == (calibration_id, "a")
+        _assert_same_object(store.object(obj.id), obj)
+
+
+def test_a_vertex_without_3d_values_keeps_its_picks_only(store):
+    object_id = store.add_object("point", [Vertex(1.5, 2.5, 3.5, 4.5)])
+    vertex = store.object(object_id).vertices[0]
+    assert (vertex.xl, vertex.yl, vertex.xr, vertex.yr) == (1.5, 2.5, 3.5, 4.5)
+    assert vertex.xyz is None and vertex.covariance is None and vertex.calibration_id is None and vertex.pair is None
+
+
+def test_objects_update_and_delete_and_unknown_ids_and_kinds_are_errors(store):
+    rng = np.random.default_rng(6)
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    replacement = [_vertex(rng), _vertex(rng), _vertex(rng)]
+    store.update_object(object_id, attribute="haddock", notes="re-picked", vertices=replacement, kind="arc")
+    obj = store.object(object_id)
+    assert (obj.kind, obj.attribute, obj.notes) == ("arc", "haddock", "re-picked")
+    assert [v.xyz for v in obj.vertices] == [v.xyz for v in replacement]
+    store.delete_object(object_id)
+    assert store.objects() == []
+    for call in (lambda: store.object(object_id), lambda: store.delete_object(object_id)):
+        with pytest.raises(ProjectError, match=str(object_id)):
+            call()
+    with pytest.raises(UsvipsError):
+        store.add_object("hexagon", [_vertex(rng)])
+    with pytest.raises(UsvipsError):
+        store.add_object("length", [_vertex(rng)])  # one vertex is not a length
+    assert store.objects() == []
+
+
+def test_calibrations_round_trip_with_their_active_pairs(store):
+    for label in ("a", "b", "c"):
+        store.add_pair(label)
+    data = {"format": "usvips-calibration", "phase": "water", "sigma0_px": 0.43, "nested": {"k": [1.5, -2e-9]}}
+    first = store.add_calibration("first", data, ("a", "b"))
+    second = store.add_calibration("second", {"phase": "air"})
+    assert store.calibration(first) == data
+    assert [(c["id"], c["name"], c["phase"]) for c in store.calibrations()] == [(first, "first", "water"),
+                                                                                 (second, "second", "air")]
+    assert store.calibrations()[0]["sigma0_px"] == 0.43
+    assert (store.active_calibration("a"), store.active_calibration("b"), store.active_calibration("c")) == (
+        first, first, None)
+    store.activate_calibration("b", second)
+    assert store.active_calibration("b") == second
+    with pytest.raises(ProjectError):
+        store.calibration(second + 100)
+    with pytest.raises(ProjectError):
+        store.activate_calibration("c", second + 100)
+    with pytest.raises(ProjectError):
+        store.add_calibration("bad", {"x": float("nan")})
+    assert len(store.calibrations()) == 2
+
+
+def test_control_and_its_observations_round_trip(store):
+    rng = np.random.default_rng(7)
+    control = ControlPoints(("1", "2", "10"), rng.normal(size=(3, 3)), np.abs(rng.normal(size=(3, 3))) * 1e-3)
+    store.set_control(control)
+    got = store.control()
+    assert got.ids == control.ids
+    np.testing.assert_array_equal(got.xyz, control.xyz)
+    np.testing.assert_array_equal(got.sigmas, control.sigmas)
+    store.add_pair("w")
+    observations = StereoObservations(("1", "10"), rng.uniform(0, 999, (2, 2)), rng.uniform(0, 999, (2, 2)))
+    store.add_control_observations(observations, "calibration-water", "w")
+    back = store.control_observations("calibration-water", "w")
+    assert back.ids == ("1", "10") and back.pairs == ("w", "w")
+    np.testing.assert_array_equal(back.left, observations.left)
+    np.testing.assert_array_equal(back.right, observations.right)
+    assert len(store.control_observations("check", "w")) == 0
+    with pytest.raises(ProjectError):
+        store.add_control_observations(observations, "calibration-water", "w")  # the same points again
+    fewer = StereoObservations(("2",), rng.uniform(0, 999, (1, 2)), rng.uniform(0, 999, (1, 2)))
+    store.add_control_observations(fewer, "calibration-water", "w", replace=True)
+    assert store.control_observations("calibration-water", "w").ids == ("2",)
+
+
+def test_media_and_image_pairs_round_trip_and_changes_are_found(store, where):
+    folder = where.parent
+    plan = _images(folder, 3)
+    ids = store.add_image_pairs(plan, "water", [(640, 480)] * 3)
+    assert len(ids) == 3 and [p["label"] for p in store.pairs()] == ["p0", "p1", "p2"]
+    for (label, left, right), pair in zip(plan, store.pairs(), strict=True):
+        assert pair["label"] == label
+        assert store.image_path(pair["left"]) == left.resolve() and store.media_path(pair["right"]) == right.resolve()
+    assert store.media_problems() == []
+    plan[1][1].write_bytes(b"something else entirely")
+    moved = folder / "moved"
+    moved.mkdir()
+    plan[2][2].rename(moved / plan[2][2].name)
+    problems = dict(store.media_problems())
+    assert set(problems) == {store.pairs()[1]["left"], store.pairs()[2]["right"]}
+    new = store.relocate_media(store.pairs()[2]["right"], moved / plan[2][2].name)
+    assert store.media_path(new) == (moved / plan[2][2].name).resolve()
+    assert set(dict(store.media_problems())) == {store.pairs()[1]["left"]}
+    with pytest.raises(ProjectError):
+        store.image_path("no/such/image.png")
+
+
+def test_videos_with_offsets_and_periods_round_trip(store, where):
+    folder = where.parent
+    chapters = {}
+    for side in ("left", "right"):
+        chapters[side] = []
+        for k in range(2):
+            path = folder / f"{side}{k}.mp4"
+            path.write_bytes(f"{side} chapter {k}".encode())
+            chapters[side].append((path, 100 + k, 25.0))
+    store.add_video("dive", chapters["left"], chapters["right"], 25.0, 201, (1920, 1080), "fine")
+    video = store.video("dive")
+    assert (video["label"], video["fps"], video["frame_count"], video["width"], video["height"]) == (
+        "dive", 25.0, 201, 1920, 1080)
+    assert video["offset_frames"] == 0 and video["report"] == "fine"
+    assert [v["label"] for v in store.videos()] == ["dive"]
+    assert "dive" in [p["label"] for p in store.pairs()]  # a video is measured like a pair
+    store.set_video_offset("dive", -3, {"method": "audio", "confidence": 0.9})
+    video = store.video("dive")
+    assert video["offset_frames"] == -3 and video["offset_estimate"] == {"method": "audio", "confidence": 0.9}
+    store.add_period("dive", "transect 1", 10, 150)
+    assert store.periods("dive") == [("transect 1", 10, 150)]
+    with pytest.raises(ProjectError, match="dive"):
+        store.add_video("dive", chapters["left"], chapters["right"], 25.0, 201, (1920, 1080))
+    with pytest.raises(ProjectError):
+        store.video("no such video")
+
+
+def test_vocabulary_species_records_enhancements_and_drafts_round_trip(store):
+    rng = np.random.default_rng(8)
+    for term in ("cod", "haddock", "cod"):
+        store.add_term(term)
+    store.add_term("murky", "visibility")
+    assert store.vocabulary() == ["cod", "haddock"] and store.vocabulary("visibility") == ["murky"]
+    species = [Species("Gadidae", "Gadus", "morhua", "COD"), Species("Gadidae", "Melanogrammus", "aeglefinus")]
+    store.set_species_list(species)
+    assert store.species_list() == sorted(species, key=lambda s: (s.genus, s.species))
+    object_id = store.add_object("point", [_vertex(rng)])
+    record = ObservationRecord("Gadidae", "Gadus", "morhua", "COD", 3, "adult", "feeding", "near the rock")
+    assert store.record(object_id) is None
+    store.set_record(object_id, record)
+    assert store.record(object_id) == record
+    store.set_record(object_id, None)
+    assert store.record(object_id) is None
+    store.set_enhancement("p1/left", '{"steps": []}')
+    assert store.enhancement("p1/left") == '{"steps": []}' and store.enhancement("p2/left") is None
+    store.set_draft("wizard", "half done")
+    assert store.draft("wizard") == "half done"
+    store.set_draft("wizard", None)
+    assert store.draft("wizard") is None
+
+
+def test_deployments_and_the_georeference_round_trip(store, where):
+    folder = where.parent
+    (folder / "v0.mp4").write_bytes(b"video")
+    store.add_video("v", [(folder / "v0.mp4", 10, 25.0)], [(folder / "v0.mp4", 10, 25.0)], 25.0, 10, (64, 48))
+    assert store.deployments() == {} and store.deployment() is None and store.georeference() is None
+    project_wide = Deployment(opcode="OP1", site="reef", depth_m=12.5)
+    own = Deployment(opcode="OP2", location="bay")
+    store.set_deployment(project_wide)
+    store.set_deployment(own, "v")
+    assert store.deployments() == {"": project_wide, "v": own}
+    assert store.deployment("v") == own and store.deployment("other") == project_wide
+    store.set_deployment(None, "v")
+    assert store.deployment("v") == project_wide
+    georeference = Georeference(-33.8, 151.2, 12.0, 45.0)
+    store.set_georeference(georeference)
+    assert store.georeference() == georeference
+    store.set_georeference(None)
+    assert store.georeference() is None
+
+
+def test_a_copy_holds_everything_and_the_original_carries_on(impl, store, where):
+    rng = np.random.default_rng(9)
+    store.add_pair("a")
+    object_id = store.add_object("length", [_vertex(rng, "a"), _vertex(rng, "a")], "cod")
+    copy = store.copy_to(where.parent / "copy.usvips")
+    with impl.open(copy, False) as other:
+        _assert_same_object(other.object(object_id), store.object(object_id))
+        assert other.pairs() == store.pairs()
+    store.delete_object(object_id)
+    with impl.open(copy, True) as other:
+        assert [o.id for o in other.objects()] == [object_id]
+
+
+# ------------------------------------------------------------------------------------------ transactions
+def test_a_transaction_keeps_all_or_on_any_error_nothing(store):
+    rng = np.random.default_rng(10)
+    with store.transaction():
+        store.add_pair("kept")
+        store.add_object("point", [_vertex(rng)])
+    with pytest.raises(RuntimeError), store.transaction():
+        store.add_pair("lost")
+        with store.transaction():  # nested: joins the outer one
+            store.add_object("point", [_vertex(rng)])
+            store.add_term("lost")
+        store.add_calibration("lost", {"phase": "air"}, ("lost",))
+        raise RuntimeError("the user's operation failed half way")
+    assert [p["label"] for p in store.pairs()] == ["kept"]
+    assert len(store.objects()) == 1 and store.vocabulary() == [] and store.calibrations() == []
+
+
+def test_several_objects_are_stored_all_or_none(store):
+    rng = np.random.default_rng(11)
+    good = ("point", [_vertex(rng)], "", "", "")
+    with pytest.raises(UsvipsError):
+        store.add_objects([good, good, ("length", [_vertex(rng)], "", "", "")])
+    assert store.objects() == []
+    with pytest.raises(UsvipsError):
+        store.add_image_pairs([("x", Path("/no/such/left.png"), Path("/no/such/right.png"))])
+    assert store.pairs() == []
+    assert len(store.add_objects([good, good])) == 2
+
+
+# ------------------------------------------------------------------------------------------ read-only
+WRITES = {
+    "add_pair": lambda s, f: s.add_pair("new"),
+    "add_image_pairs": lambda s, f: s.add_image_pairs(_images(f, 1)),
+    "add_calibration": lambda s, f: s.add_calibration("c", {"phase": "air"}),
+    "activate_calibration": lambda s, f: s.activate_calibration("a", 1),
+    "set_control": lambda s, f: s.set_control(ControlPoints(("9",), np.zeros((1, 3)))),
+    "add_control_observations": lambda s, f: s.add_control_observations(
+        StereoObservations(("9",), np.zeros((1, 2)), np.zeros((1, 2))), "check", "a"),
+    "add_object": lambda s, f: s.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)]),
+    "update_object": lambda s, f: s.update_object(1, attribute="changed"),
+    "delete_object": lambda s, f: s.delete_object(1),
+    "add_term": lambda s, f: s.add_term("new"),
+    "set_enhancement": lambda s, f: s.set_enhancement("k", "{}"),
+    "set_draft": lambda s, f: s.set_draft("d", "text"),
+    "set_species_list": lambda s, f: s.set_species_list([]),
+    "set_record": lambda s, f: s.set_record(1, ObservationRecord(genus="Gadus")),
+    "set_video_offset": lambda s, f: s.set_video_offset("v", 2),
+    "set_deployment": lambda s, f: s.set_deployment(Deployment(opcode="OP1")),
+    "set_georeference": lambda s, f: s.set_georeference(Georeference(-33.8, 151.2, 12.0, 45.0)),
+    "add_period": lambda s, f: s.add_period("v", "p", 0, 1),
+    "relocate_media": lambda s, f: s.relocate_media("v0.mp4", f / "v0.mp4"),
+    "transaction": lambda s, f: s.transaction().__enter__(),
+}
+
+
+@pytest.mark.parametrize("write", sorted(WRITES))
+def test_a_read_only_store_refuses_every_write_and_changes_nothing(impl, where, write):
+    folder = where.parent
+    with impl.create(where) as store:
+        store.add_pair("a")
+        store.add_calibration("c", {"phase": "air"}, ("a",))
+        store.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)], "cod")
+        (folder / "v0.mp4").write_bytes(b"video")
+        store.add_video("v", [(folder / "v0.mp4", 10, 25.0)], [(folder / "v0.mp4", 10, 25.0)], 25.0, 10, (64, 48))
+    before = impl.snapshot(where)
+    with impl.open(where, True) as store:
+        assert store.read_only is True
+        with pytest.raises(ProjectError, match="read-only|readonly|read only"):
+            WRITES[write](store, folder)
+        assert store.object(1).attribute == "cod"  # reading still works
+    assert impl.snapshot(where) == before
+
+
+# ------------------------------------------------------------------------------------------ two handles
+def test_two_handles_see_each_others_committed_writes_and_never_uncommitted_ones(impl, store, where):
+    rng = np.random.default_rng(12)
+    with impl.open(where, False) as other:
+        first = store.add_object("point", [_vertex(rng)])
+        assert [o.id for o in other.objects()] == [first]
+        with store.transaction():
+            second = store.add_object("point", [_vertex(rng)])
+            assert [o.id for o in other.objects()] == [first]  # not yet committed
+        assert [o.id for o in other.objects()] == [first, second]
+        other.update_object(first, attribute="from the other handle")
+        assert store.object(first).attribute == "from the other handle"
+
+
+def test_a_write_while_another_handle_holds_a_transaction_is_a_one_line_error_and_loses_nothing(impl, store,
+                                                                                                  where):
+    rng = np.random.default_rng(13)
+    with impl.open(where, False) as other:
+        with store.transaction():
+            kept = store.add_object("point", [_vertex(rng)])
+            with pytest.raises(ProjectError) as refused:
+                other.add_object("point", [_vertex(rng)])
+            assert "\n" not in str(refused.value) and str(where) in str(refused.value)
+        assert [o.id for o in other.objects()] == [kept]
+
+
+def test_two_handles_writing_from_two_threads_lose_no_object(impl, store, where):
+    """Each thread opens its own handle and stores objects one transaction at a time; every object of
+    both arrives once, with its own id."""
+    count, results, errors = 40, {}, []
+
+    def worker(name: str) -> None:
+        rng = np.random.default_rng(len(name))
+        try:
+            with impl.open(where, False) as handle:
+                ids = []
+                for _ in range(count):
+                    for _attempt in range(50):  # a busy store is an error the caller may retry
+                        try:
+                            ids.append(handle.add_object("point", [_vertex(rng)], name))
+                            break
+                        except ProjectError:
+                            continue
+                results[name] = ids
+        except Exception as error:  # noqa: BLE001 - reported below
+            errors.append(error)
+
+    threads = [threading.Thread(target=worker, args=(name,)) for name in ("first", "second")]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == []
+    stored = store.objects()
+    assert len(stored) == 2 * count and len({o.id for o in stored}) == 2 * count
+    for name, ids in results.items():
+        assert len(ids) == count and {o.id for o in stored if o.attribute == name} == set(ids)

@@ -1,0 +1,94 @@
+"""Measuring objects from a picks file: with a calibration file at a station and frame, or with the
+calibration active for a project's pair and stored there (:func:`usvips.app.project_figures.
+store_measurements`). The figures are those of the one figure path, ``usvips.core.measurements.
+measure_picks``; rows for a table of them come from :func:`measurement_row`.
+
+Picks file: ``object,type,vertex,xl,yl,xr,yr[,attribute]`` — pixels; ``type`` a measurement kind (point,
+length, arc, polygon, circle, …; the legacy ``line`` is a length with two vertices, an arc with more);
+rows of one object share its id and are ordered by ``vertex``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from usvips.app.project_figures import store_measurements
+from usvips.core.errors import DegenerateGeometryError, InputFileError, UsvipsError
+from usvips.core.measurements import Measurement, QualityRules, kind, measure_picks, resolve
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.io import tables
+from usvips.io.export import cell, number
+from usvips.store.interface import ProjectStore
+
+#: an object per picked object: (object id, registered kind, pixels (N, 4) xl yl xr yr, attribute)
+PickedObject = tuple[str, str, np.ndarray, str]
+
+#: the columns of a measured objects table (:func:`measurement_row`): X, Y, Z the vertices' centre (m),
+#: the ray-intersection RMS in millimetres, the largest range from the left camera in metres
+MEASUREMENT_COLUMNS = ["object", "type", "attribute", "vertices", "figure", "value", "sigma", "X", "Y", "Z",
+                       "ray_rms_mm", "range_m", "quality"]
+
+
+def read_picks(path: str | Path) -> list[dict]:
+    """The picks file's rows, read and checked by :func:`usvips.io.tables.read_picks`."""
+    return tables.read_picks(path)
+
+
+def group_picks(path: str | Path, rows: list[dict]) -> list[PickedObject]:
+    """(object id, registered kind, pixels (N, 4) xl yl xr yr, attribute) per object, in file order; an
+    object mixing types or with a count of vertices its kind refuses is an :class:`InputFileError` naming
+    the file, the line and the object."""
+    objects: dict[str, list[dict]] = {}
+    for row in rows:
+        objects.setdefault(row["object"], []).append(row)
+    out = []
+    for object_id, vertices in objects.items():
+        vertices.sort(key=lambda r: r["vertex"])
+        if any(v["type"] != vertices[0]["type"] for v in vertices):
+            raise InputFileError(str(path), f"object {object_id!r} mixes types", vertices[0]["line"])
+        try:
+            name = resolve(vertices[0]["type"], len(vertices))
+            kind(name).check_count(len(vertices))
+        except UsvipsError as error:
+            raise InputFileError(str(path), f"object {object_id!r}: {error}", vertices[0]["line"]) from None
+        out.append((object_id, name, np.array([v["pixels"] for v in vertices]), vertices[0]["attribute"]))
+    return out
+
+
+def picked_objects(path: str | Path) -> list[PickedObject]:
+    """The objects of the picks file at ``path`` (:func:`read_picks` then :func:`group_picks`)."""
+    return group_picks(path, read_picks(path))
+
+
+def measure_objects(calibration: StereoCalibration, objects: list[PickedObject], station: int | str = 0,
+                    frame: str = "object", rules: QualityRules | None = None, where: str = "") -> list[Measurement]:
+    """Each object measured with ``calibration`` at ``station`` in ``frame`` ("object" or "rig"). A
+    vertex whose rays fail is a :class:`DegenerateGeometryError` naming ``where`` (e.g. the picks file)
+    and the object."""
+    measured = []
+    for object_id, name, pixels, attribute in objects:
+        try:
+            measured.append(measure_picks(name, calibration, pixels[:, :2], pixels[:, 2:], station, frame, rules,
+                                          id=object_id, attribute=attribute))
+        except DegenerateGeometryError as error:
+            prefix = f"{where}: " if where else ""
+            raise DegenerateGeometryError(f"{prefix}object {object_id!r}: {error}") from None
+    return measured
+
+
+def measure_into_project(project: ProjectStore, pair: str, objects: list[PickedObject],
+                         rules: QualityRules | None = None, where: str = "") -> tuple[list[Measurement], list[int]]:
+    """The objects measured with the calibration active for ``pair`` in the frame the pair measures in, and
+    stored in ``project`` as the window stores them, all or none (:func:`usvips.app.project_figures.
+    store_measurements`). Returns the measurements and the new objects' ids."""
+    return store_measurements(project, pair, objects, rules, where)
+
+
+def measurement_row(m: Measurement) -> list[str]:
+    """A measurement as text cells in :data:`MEASUREMENT_COLUMNS` order."""
+    centre = m.points.mean(axis=0)
+    return [cell(m.id), m.kind, cell(m.attribute), str(len(m.points)), m.main.name, number(m.main.value),
+            number(m.main.sigma), *(number(c) for c in centre), number(m.ray_rms_m * 1000), number(m.range_m),
+            "; ".join(m.failures)]

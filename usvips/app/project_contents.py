@@ -1,0 +1,118 @@
+"""A project's contents summarised, and files imported into it: the command line's ``project info`` and
+``project import`` (and anyone else) ask here.
+
+Importing reads and checks every file first, then stores everything in ONE transaction: all of it, or
+(on any error) nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from usvips.core.deployment import Deployment, Georeference
+from usvips.core.errors import InputFileError, UsvipsError
+from usvips.io.calibration_file import calibration_to_dict, load_calibration
+from usvips.io.tables import read_control, read_observations
+from usvips.store.interface import ProjectStore
+
+
+@dataclass(frozen=True)
+class PairSummary:
+    """An image pair: label, medium ("air"/"water"), stored image paths (None when none), active calibration."""
+
+    label: str
+    medium: str
+    left: str | None
+    right: str | None
+    calibration_id: int | None
+
+
+@dataclass(frozen=True)
+class VideoSummary:
+    """A stereo video: label, frames, frame rate (frames/s), offset (right frame = left frame + offset),
+    active calibration."""
+
+    label: str
+    frame_count: int
+    fps: float
+    offset_frames: int
+    calibration_id: int | None
+
+
+@dataclass(frozen=True)
+class ProjectSummary:
+    """Schema version, counts of pairs (a video's own pair included), control points and objects; the
+    image pairs that are not a video's, and the videos; the deployments by scope ("" = the project's, else a
+    video's label) and the georeference (None when the project has none)."""
+
+    version: int
+    pair_count: int
+    control_count: int
+    object_count: int
+    pairs: tuple[PairSummary, ...]
+    videos: tuple[VideoSummary, ...]
+    deployments: dict[str, Deployment]
+    georeference: Georeference | None
+
+
+def summarise(project: ProjectStore) -> ProjectSummary:
+    """What ``project`` holds (reads only)."""
+    pairs = project.pairs()
+    videos = project.videos()
+    video_labels = {v["label"] for v in videos}
+    return ProjectSummary(
+        project.version, len(pairs), len(project.control()), len(project.objects()),
+        tuple(PairSummary(p["label"], p["medium"], p["left"], p["right"], project.active_calibration(p["label"]))
+              for p in pairs if p["label"] not in video_labels),
+        tuple(VideoSummary(v["label"], v["frame_count"], v["fps"], v["offset_frames"],
+                           project.active_calibration(v["label"])) for v in videos),
+        project.deployments(), project.georeference())
+
+
+@dataclass(frozen=True)
+class ImportPlan:
+    """Files read and checked, ready to store: control points, one pair's observations for a role, a
+    calibration (its file dictionary, name and the pairs it becomes active for)."""
+
+    control: object | None = None
+    observations: object | None = None
+    pair: str | None = None
+    role: str = "calibration-water"
+    calibration: dict | None = None
+    calibration_name: str = ""
+    active_for: tuple[str, ...] = ()
+
+
+def plan_import(control: str | Path | None = None, observations: str | Path | None = None, pair: str | None = None,
+                role: str = "calibration-water", calibration: str | Path | None = None,
+                active_for: tuple[str, ...] = ()) -> ImportPlan:
+    """Read and check every file to import, before any project is touched. ``observations`` needs
+    ``pair``; a file holding several pairs gives that pair's rows (it must be one of them)."""
+    if not (control or observations or calibration):
+        raise UsvipsError("nothing to import: give --control, --obs or --calibration")
+    if observations and not pair:
+        raise UsvipsError("--obs needs --pair (the image pair the observations belong to)")
+    control_points = read_control(control) if control else None
+    rows = read_observations(observations) if observations else None
+    if rows is not None and len(rows.pair_labels) > 1:
+        if pair not in rows.pair_labels:
+            raise InputFileError(str(observations), f"holds observations of {len(rows.pair_labels)} pairs "
+                                 f"({', '.join(rows.pair_labels)[:80]}); --pair must name one of them")
+        rows = rows.pair(pair)
+    data = calibration_to_dict(load_calibration(calibration)) if calibration else None
+    return ImportPlan(control_points, rows, pair, role, data, Path(calibration).stem if calibration else "",
+                      tuple(active_for))
+
+
+def store_import(project: ProjectStore, plan: ImportPlan) -> None:
+    """Store a checked :class:`ImportPlan` in ``project`` in one transaction (a new pair is created)."""
+    with project.transaction():
+        if plan.control is not None:
+            project.set_control(plan.control)
+        if plan.observations is not None:
+            if plan.pair not in {p["label"] for p in project.pairs()}:
+                project.add_pair(plan.pair)
+            project.add_control_observations(plan.observations, plan.role, plan.pair)
+        if plan.calibration is not None:
+            project.add_calibration(plan.calibration_name, plan.calibration, plan.active_for)

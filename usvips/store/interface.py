@@ -1,0 +1,250 @@
+"""The storage interface: the operations the rest of the program asks of a project.
+
+:class:`ProjectStore` lists them — what the application services (``usvips.app``), the command line and
+the window call on a project, nothing more. The SQLite file (:class:`usvips.store.project.Project`) is
+its one implementation today; a later one (a team server) implements the same methods with the same
+meaning and passes the same contract suite (``tests/store/test_storage_contract.py``). Code that takes a
+project takes a ``ProjectStore``; only the code that creates or opens one names an implementation.
+
+Conventions every implementation keeps:
+
+- Units: image coordinates in pixels, vertex X, Y, Z in metres, covariances in m².
+- Failures are :class:`usvips.store.project.ProjectError` (or another ``UsvipsError``) with one line that
+  names the project (``path``) and what is wrong; a store error never leaks as another kind of exception.
+- Every write is all or nothing. :meth:`ProjectStore.transaction` groups writes: all are kept or, on any
+  error, none; nested uses join the outermost one.
+- A store opened read-only refuses every write with a ``ProjectError`` and changes nothing.
+- Paths of images and media are recorded relative to the project where possible; :meth:`image_path` and
+  :meth:`media_path` give them back absolute (naming the file when it has gone missing).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from contextlib import AbstractContextManager
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+from usvips.core.deployment import Deployment, Georeference
+from usvips.core.observation_record import ObservationRecord, Species
+from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.store.project import StoredObject, Vertex
+
+
+@runtime_checkable
+class ProjectStore(Protocol):
+    """A project: image pairs and videos, control, calibrations, measured objects and what goes with them.
+
+    ``path`` names the project in messages (a file for SQLite; an address for a server) and anchors
+    relative media paths. ``read_only`` is True when every write is refused.
+    """
+
+    path: Path
+    read_only: bool
+
+    # ------------------------------------------------------------------------ life cycle
+    @property
+    def version(self) -> int:
+        """The schema version the project is stored in."""
+        ...
+
+    def close(self) -> None:
+        """Release the project (the handle is not used afterwards)."""
+        ...
+
+    def __enter__(self) -> ProjectStore: ...
+
+    def __exit__(self, *exc) -> None: ...
+
+    def transaction(self) -> AbstractContextManager[None]:
+        """A context in which writes are kept together: all of them, or none on any error."""
+        ...
+
+    def copy_to(self, path: str | Path) -> Path:
+        """A consistent copy of the whole project at the new ``path``; returns its path."""
+        ...
+
+    # ------------------------------------------------------------------------ pairs and media
+    def add_pair(self, label: str, left: str | Path | None = None, right: str | Path | None = None,
+                 medium: str = "water", frame: int | None = None, size: tuple[int, int] | None = None) -> int:
+        """A new image pair (``medium`` "air" or "water"); a label already used is a ``ProjectError``."""
+        ...
+
+    def pairs(self) -> list[dict]:
+        """Every pair: label, left, right (stored paths or None), medium, frame, …; in insertion order."""
+        ...
+
+    def add_image_pairs(self, pairs: Sequence[tuple[str, Path, Path]], medium: str = "water",
+                        sizes: Sequence[tuple[int, int]] | None = None) -> list[int]:
+        """(label, left image, right image) pairs, recording each file's size and hash; all or none."""
+        ...
+
+    def image_path(self, relative: str) -> Path:
+        """The absolute path of a stored image path."""
+        ...
+
+    def media_path(self, stored: str) -> Path:
+        """The absolute path of a stored media path."""
+        ...
+
+    def media_problems(self, check_hash: bool = True) -> list[tuple[str, str]]:
+        """(stored path, problem) of every recorded media file missing or changed."""
+        ...
+
+    def relocate_media(self, stored: str, new_path: str | Path) -> str:
+        """Point a recorded media file at its new place (the same file); returns the new stored path."""
+        ...
+
+    # ------------------------------------------------------------------------ videos
+    def add_video(self, label: str, left: Sequence[tuple[Path, int, float]], right: Sequence[tuple[Path, int, float]],
+                  fps: float, frame_count: int, size: tuple[int, int], report: str = "") -> int:
+        """A stereo video: each camera's chapters as (path, frames, seconds); fps in frames per second."""
+        ...
+
+    def video(self, label: str) -> dict:
+        """A stored video: label, fps, frame_count, width, height, offset_frames, offset_estimate, …"""
+        ...
+
+    def videos(self) -> list[dict]:
+        """Every stored video."""
+        ...
+
+    def set_video_offset(self, label: str, frames: int, estimate: dict | None = None) -> None:
+        """Left frame i and right frame i + ``frames`` show the same instant."""
+        ...
+
+    def add_period(self, video: str, name: str, start: int, end: int) -> int:
+        """A named period of a video, left frames ``start`` … ``end`` inclusive."""
+        ...
+
+    def periods(self, video: str) -> list[tuple[str, int, int]]:
+        """The video's periods as (name, start, end)."""
+        ...
+
+    # ------------------------------------------------------------------------ control and calibrations
+    def set_control(self, control: ControlPoints) -> None:
+        """Replace the control points (metres)."""
+        ...
+
+    def control(self) -> ControlPoints:
+        """The control points (none when none were stored)."""
+        ...
+
+    def add_control_observations(self, observations: StereoObservations, role: str, pair: str,
+                                 replace: bool = False) -> None:
+        """A pair's control observations (pixels) for a role ("calibration-air", "calibration-water",
+        "check", …); ``replace`` swaps the stored set for this one."""
+        ...
+
+    def control_observations(self, role: str, pair: str) -> StereoObservations:
+        """A pair's control observations for a role."""
+        ...
+
+    def add_calibration(self, name: str, calibration: dict, active_for: tuple[str, ...] = ()) -> int:
+        """Store a calibration (its file dictionary), active for the pairs named; returns its id."""
+        ...
+
+    def calibration(self, calibration_id: int) -> dict:
+        """A stored calibration's dictionary; an unknown id is a ``ProjectError``."""
+        ...
+
+    def calibrations(self) -> list[dict]:
+        """id, name, phase, sigma0_px and created of every calibration, oldest first."""
+        ...
+
+    def active_calibration(self, label: str) -> int | None:
+        """The id of the calibration active for a pair or video, None when none is."""
+        ...
+
+    def activate_calibration(self, label: str, calibration_id: int) -> None:
+        """Make a stored calibration the active one of a pair or video."""
+        ...
+
+    # ------------------------------------------------------------------------ measured objects
+    def add_object(self, kind: str, vertices: list[Vertex], attribute: str = "", notes: str = "",
+                   creator: str = "") -> int:
+        """Store one object of a registered measurement kind; returns its id."""
+        ...
+
+    def add_objects(self, objects: list[tuple[str, list[Vertex], str, str, str]]) -> list[int]:
+        """Several objects, each (kind, vertices, attribute, notes, creator), all or none."""
+        ...
+
+    def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
+                      vertices: list[Vertex] | None = None, kind: str | None = None) -> None:
+        """Change what is given of an object (replaced 3-D values are kept in its history)."""
+        ...
+
+    def delete_object(self, object_id: int) -> None:
+        """Remove an object and its vertices."""
+        ...
+
+    def object(self, object_id: int) -> StoredObject:
+        """One object with its vertices in order; an unknown id is a ``ProjectError``."""
+        ...
+
+    def objects(self) -> list[StoredObject]:
+        """Every object, a consistent snapshot, by id."""
+        ...
+
+    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
+        """Store (None: remove) an object's observation record."""
+        ...
+
+    def record(self, object_id: int) -> ObservationRecord | None:
+        """An object's observation record, None when none was entered."""
+        ...
+
+    # ------------------------------------------------------------------------ deployment and georeference
+    def set_deployment(self, deployment: Deployment | None, video: str | None = None) -> None:
+        """Store (None: remove) the deployment metadata of the project, or of one stereo ``video``."""
+        ...
+
+    def deployments(self) -> dict[str, Deployment]:
+        """Scope ('' for the project, else a video's label) → its deployment."""
+        ...
+
+    def deployment(self, video: str | None = None) -> Deployment | None:
+        """The deployment of ``video`` when it has its own, else the project's; None when none was entered."""
+        ...
+
+    def set_georeference(self, georeference: Georeference | None) -> None:
+        """Store (None: remove) where the object frame lies on the Earth."""
+        ...
+
+    def georeference(self) -> Georeference | None:
+        """The object frame's georeference; None when none was entered."""
+        ...
+
+    # ------------------------------------------------------------------------ vocabularies, lists, settings
+    def add_term(self, term: str, category: str = "attribute") -> None:
+        """Add a term to a vocabulary (once)."""
+        ...
+
+    def vocabulary(self, category: str = "attribute") -> list[str]:
+        """A vocabulary's terms, sorted."""
+        ...
+
+    def set_species_list(self, species: list[Species]) -> None:
+        """Replace the species list."""
+        ...
+
+    def species_list(self) -> list[Species]:
+        """The species list, by genus and species."""
+        ...
+
+    def set_enhancement(self, image_key: str, pipeline_json: str) -> None:
+        """Keep an image's enhancement pipeline (JSON)."""
+        ...
+
+    def enhancement(self, image_key: str) -> str | None:
+        """An image's enhancement pipeline (JSON), None when none was kept."""
+        ...
+
+    def set_draft(self, name: str, text: str | None) -> None:
+        """Keep (None: drop) a half-finished piece of work, e.g. a wizard's state."""
+        ...
+
+    def draft(self, name: str) -> str | None:
+        """A kept draft, None when there is none."""
+        ...
