@@ -20,6 +20,7 @@ from usvips.gui.video_model import (
     measured_frames,
     parse_position,
     prefetch_order,
+    rgb_pair,
     video_frame_of,
 )
 from usvips.gui.worker import Cancelled, Worker
@@ -200,7 +201,7 @@ class VideoController(QtCore.QObject):
         def job(progress, cancelled):
             if cancelled():
                 raise Cancelled
-            return frame, source.pair(frame, offset)
+            return frame, source.pictures(frame, offset)
 
         worker = self._request = Worker(job, f"decoding frame {frame}")
         worker.signals.finished.connect(lambda result, w=worker: self._decoded(w, *result))
@@ -215,7 +216,7 @@ class VideoController(QtCore.QObject):
             self._show(frame, item)
 
     def _show(self, frame: int, item: tuple) -> None:
-        left, right, partner, time_s = item
+        left, right, partner, time_s = rgb_pair(item)
         nav = self.navigator
         nav.go(frame)
         ws = self.window.workspace
@@ -250,7 +251,7 @@ class VideoController(QtCore.QObject):
                 if cancelled():
                     raise Cancelled
                 if f not in cache:
-                    cache.put(f, source.pair(f, offset))
+                    cache.put(f, source.pictures(f, offset))
             return len(todo)
 
         self._prefetch = Worker(job, "prefetching frames")
