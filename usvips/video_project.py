@@ -161,12 +161,12 @@ def frame_pair(project: Project, label: str, frame: int) -> tuple[np.ndarray, np
         return left.frame(frame), right.frame(partner), partner, left.time_of(frame)
 
 
-def export_frame(project: Project, label: str, frame: int, out: str | Path) -> tuple[Path, Path]:
-    """``out/left.png`` (left frame ``frame``) and ``out/right.png`` (right frame ``frame + offset``)."""
+def write_frame_pair(left: np.ndarray, right: np.ndarray, out: str | Path) -> tuple[Path, Path]:
+    """Write a synchronised frame pair as ``out/left.png`` and ``out/right.png`` (lossless; each file
+    written whole under a temporary name and then moved into place)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputFileError(str(out), "not a folder")
-    left, right, _, _ = frame_pair(project, label, frame)
     out.mkdir(parents=True, exist_ok=True)
     paths = out / "left.png", out / "right.png"
     for path, image in zip(paths, (left, right), strict=True):
@@ -176,16 +176,43 @@ def export_frame(project: Project, label: str, frame: int, out: str | Path) -> t
     return paths
 
 
+def export_frame(project: Project, label: str, frame: int, out: str | Path) -> tuple[Path, Path]:
+    """``out/left.png`` (left frame ``frame``) and ``out/right.png`` (right frame ``frame + offset``)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputFileError(str(out), "not a folder")
+    left, right, _, _ = frame_pair(project, label, frame)
+    return write_frame_pair(left, right, out)
+
+
+def plan_taken_pair(project: Project, label: str, frame: int, pair_label: str | None = None) -> tuple[str, Path]:
+    """The label (default ``VIDEO-FRAME``) and folder (``frames/LABEL`` beside the project) of the image
+    pair :func:`take_pair` makes of left frame ``frame``; refuses a label already used before anything
+    is written (so no stored pair's images are overwritten)."""
+    pair_label = (pair_label or f"{label}-{frame}").strip()
+    if not pair_label or "/" in pair_label or "\\" in pair_label or pair_label.startswith("."):
+        raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
+    if pair_label in {p["label"] for p in project.pairs()}:
+        raise VideoError(f"{project.path}: pair label {pair_label!r} is already used; choose another")
+    return pair_label, project.path.parent / "frames" / pair_label
+
+
+def add_taken_pair(project: Project, pair_label: str, paths: tuple[Path, Path], medium: str = "water") -> str:
+    """Add frames written by :func:`write_frame_pair` as the image pair ``pair_label``."""
+    add_image_pairs(project, [(pair_label, *paths)], medium)
+    return pair_label
+
+
 def take_pair(project: Project, label: str, frame: int, pair_label: str | None = None,
               medium: str = "water") -> str:
     """Make the synchronised frames of left frame ``frame`` an image pair of the project (e.g. the
     calibration frame filmed in air and underwater): written as PNG beside the project under
-    ``frames/`` and added like any pair. Returns the pair's label."""
-    pair_label = pair_label or f"{label}-{frame}"
-    folder = project.path.parent / "frames"
-    paths = export_frame(project, label, frame, folder / pair_label)
-    add_image_pairs(project, [(pair_label, *paths)], medium)
-    return pair_label
+    ``frames/`` and added like any pair. Returns the pair's label. The window does the same steps with
+    the decoding and writing in a worker (:func:`plan_taken_pair`, :func:`write_frame_pair`,
+    :func:`add_taken_pair`)."""
+    pair_label, folder = plan_taken_pair(project, label, frame, pair_label)
+    left, right, _, _ = frame_pair(project, label, frame)
+    return add_taken_pair(project, pair_label, write_frame_pair(left, right, folder), medium)
 
 
 # ---------------------------------------------------------------------------- synchronisation
@@ -254,8 +281,13 @@ def estimate_offset(project: Project, label: str, method: str | None = None, max
 def eventmeasure_frame_columns(project: Project, vertex) -> tuple[str, str, str, str, str, str, str] | None:
     """EventMeasure's FilenameLeft, FrameLeft, FilenameRight, FrameRight, Time, Period, PeriodTime of a
     vertex measured on a video (None otherwise): the chapter file holding each frame and the frame's
-    number within it, the time in minutes from the first frame (as EventMeasure), the period holding the
-    left frame and the minutes since it began."""
+    number within it, the time in minutes from the first frame of the recording, the period holding the
+    left frame and the minutes since it began.
+
+    The convention is EventMeasure's, checked on its exports that CheckEM ships (e.g. a 2020 stereo-BRUV
+    Lengths.txt: 62 frames further on, Time grows by 0.01724 = 62 / 59.94 fps / 60, so minutes; in the
+    next GoPro chapter FrameLeft starts again near 0 while Time continues from the recording's start;
+    PeriodTime = Time − the period's start time), written with 5 decimals as EventMeasure does."""
     if vertex.video is None:
         return None
     video = project.video(vertex.video)
@@ -273,8 +305,8 @@ def eventmeasure_frame_columns(project: Project, vertex) -> tuple[str, str, str,
     period, period_time = "", ""
     for name, start, end in project.periods(vertex.video):
         if start <= vertex.frame_left <= end:
-            period, period_time = name, f"{(vertex.time_s - start / video['fps']) / 60:.4f}"
-    return file_left, frame_left, file_right, frame_right, f"{vertex.time_s / 60:.4f}", period, period_time
+            period, period_time = name, f"{(vertex.time_s - start / video['fps']) / 60:.5f}"
+    return file_left, frame_left, file_right, frame_right, f"{vertex.time_s / 60:.5f}", period, period_time
 
 
 def add_sample_video(project: Project, left: Path, right: Path, offset: int, label: str = "video") -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips import video_project
 from usvips.core.errors import UsvipsError
 from usvips.gui.video_model import (
     FrameCache,
@@ -78,8 +79,11 @@ class VideoDock(QtWidgets.QWidget):
         self.offset.setToolTip("right frame = left frame + offset (nudge while both panes show; stored)")
         self.period = QtWidgets.QPushButton("Period…")
         self.period.setToolTip("mark a named period from this frame (EventMeasure's periods)")
+        self.take = QtWidgets.QPushButton("&Take as pair…")
+        self.take.setToolTip("make the synchronised frames shown an image pair of the project (e.g. the calibration "
+                             "frame filmed in air or underwater), written as PNG under frames/ beside the project")
         top = QtWidgets.QHBoxLayout()
-        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto, self.period):
+        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto, self.period, self.take):
             top.addWidget(widget)
         top.addStretch(1)
         top.addWidget(self.frame_label)
@@ -87,6 +91,26 @@ class VideoDock(QtWidgets.QWidget):
         layout.setContentsMargins(4, 2, 4, 2)
         layout.addLayout(top)
         layout.addWidget(self.timeline)
+
+
+class TakePairDialog(QtWidgets.QDialog):
+    """The label and medium of an image pair taken from the video frames shown."""
+
+    def __init__(self, label: str, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Take the frames shown as an image pair")
+        self.label = QtWidgets.QLineEdit(label)
+        self.medium = QtWidgets.QComboBox()
+        self.medium.addItem("underwater (phase 2, measuring)", "water")
+        self.medium.addItem("in air (phase 1 calibration)", "air")
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Ok
+                                             | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form = QtWidgets.QFormLayout(self)
+        form.addRow("&Label", self.label)
+        form.addRow("&Filmed", self.medium)
+        form.addRow(buttons)
 
 
 class VideoController(QtCore.QObject):
@@ -120,6 +144,7 @@ class VideoController(QtCore.QObject):
         d.jump.valueChanged.connect(self._on_jump)
         d.offset.editingFinished.connect(self._on_offset)
         d.period.clicked.connect(self._on_period)
+        d.take.clicked.connect(self._on_take_pair)
         for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
             widget.installEventFilter(self)
         # double-click on an object (or Zoom to) goes to the frame it was measured on
@@ -350,6 +375,54 @@ class VideoController(QtCore.QObject):
             return False
         self.window.show_message("info", f"period {name!r}: frames {start} to {end} (stored)")
         return True
+
+    def _on_take_pair(self) -> None:
+        nav = self.navigator
+        if nav is None:
+            return
+        dialog = TakePairDialog(f"{nav.label}-{nav.frame}", self.dock_widget)
+        if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted:
+            self.take_pair(dialog.label.text(), dialog.medium.currentData())
+
+    def take_pair(self, pair_label: str | None = None, medium: str = "water") -> Worker | None:
+        """Make the synchronised frames shown an image pair ``pair_label`` (default ``VIDEO-FRAME``) taken in
+        ``medium`` ("air" or "water"): decoded exactly and written as PNG in a worker, then added to the
+        project on this thread (the service the command line's ``video take-pair`` uses). Returns the
+        worker, or None when nothing is shown or the label is refused (a message says why)."""
+        nav, source, project = self.navigator, self.source, self.window.workspace.project
+        if nav is None or source is None or project is None:
+            return None
+        frame, offset = nav.frame, nav.offset
+        try:
+            pair_label, folder = video_project.plan_taken_pair(project, nav.label, frame, pair_label)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return None
+
+        def job(progress, cancelled):
+            left, right, partner, _ = source.pair(frame, offset)
+            if cancelled():
+                raise Cancelled
+            return partner, video_project.write_frame_pair(left, right, folder)
+
+        def store(result) -> None:
+            partner, paths = result
+            try:
+                video_project.add_taken_pair(project, pair_label, paths, medium)
+            except UsvipsError:
+                for path in paths:  # nothing half-made stays behind
+                    path.unlink(missing_ok=True)
+                raise
+            box = self.window.pair_box
+            shown = box.currentIndex()
+            box.clear()
+            box.addItems(self.window.workspace.image_pairs())
+            box.setCurrentIndex(shown if shown < 0 else box.findText(self.window.workspace.pair or ""))
+            self.window.show_message("info", f"left frame {frame} and right frame {partner} of {nav.label} are now "
+                                             f"the {'in-air' if medium == 'air' else 'underwater'} image pair "
+                                             f"{pair_label!r} (Calibration menu: calibrate from it)")
+
+        return self.window.run_worker(job, f"taking frame {frame} as a pair", store)
 
     def go_to_object(self, object_id: int) -> None:
         project = self.window.workspace.project
