@@ -108,10 +108,7 @@ def run_sync(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({**estimate.as_dict(), "stored": not args.dry_run}))
         return 0
-    print(f"offset {estimate.offset_frames:+.2f} frames ({estimate.offset_s:+.4f} s) by {estimate.method}, "
-          f"confidence {estimate.confidence:.2f}"
-          + (f"; using the nearest frame, {estimate.frames:+d}" if estimate.rounded else "")
-          + ("" if args.dry_run else "; stored"))
+    print(estimate.summary() + ("" if args.dry_run else "; stored"))
     return 0
 
 
