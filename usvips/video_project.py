@@ -20,6 +20,7 @@ import numpy as np
 from usvips.core import synchronisation
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
+from usvips.io import video_proxy
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image, write_image
 from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
@@ -128,7 +129,8 @@ def add_video(project: Project, left: Sequence[str | Path], right: Sequence[str 
 
 
 def open_streams(project: Project, label: str) -> tuple[dict, VideoStream, VideoStream]:
-    """The stored video (as :meth:`Project.video`) and its two streams, opened; close them after use."""
+    """The stored video (as :meth:`Project.video`) and its two streams, opened (seeking through their
+    proxies where :func:`build_proxies` made them); close them after use."""
     video = project.video(label)
     left = VideoStream([project.media_path(p) for p in video["left"]])
     try:
@@ -136,7 +138,49 @@ def open_streams(project: Project, label: str) -> tuple[dict, VideoStream, Video
     except BaseException:
         left.close()
         raise
+    for stream in (left, right):
+        video_proxy.attach_proxy(stream, proxy_folder(project))
     return video, left, right
+
+
+def proxy_folder(project: Project) -> Path:
+    """Where a project's seek proxies live: ``proxies/`` beside the project file."""
+    return project.path.parent / "proxies"
+
+
+def plan_proxies(project: Project, label: str) -> list[tuple[list[Path], Path]]:
+    """The proxies :func:`build_proxies` would write for the video pair: (the camera's files, proxy path)
+    for each camera that has none yet for its current files."""
+    video = project.video(label)
+    plan = []
+    for side in ("left", "right"):
+        files = [project.media_path(p) for p in video[side]]
+        with VideoStream(files) as stream:
+            path = video_proxy.proxy_path(proxy_folder(project), stream)
+        if not path.is_file():
+            plan.append((files, path))
+    return plan
+
+
+def build_proxies(plan: Sequence[tuple[Sequence[Path], Path]], progress: Callable[[int, int], None] | None = None,
+                  cancelled: Callable[[], bool] | None = None) -> list[Path]:
+    """Build the planned seek proxies (:mod:`usvips.io.video_proxy`); reads and writes files only (no
+    project), so the window runs it in a worker. ``progress(done, total)`` over all frames."""
+    streams = [VideoStream(files) for files, _ in plan]
+    try:
+        total = sum(s.frame_count for s in streams) or 1
+        done_before = 0
+        written = []
+        for stream, (_, path) in zip(streams, plan, strict=True):
+            def report(done: int, _: int, before: int = done_before) -> None:
+                if progress is not None:
+                    progress(before + done, total)
+            written.append(video_proxy.build_proxy(stream, path, report, cancelled))
+            done_before += stream.frame_count
+        return written
+    finally:
+        for stream in streams:
+            stream.close()
 
 
 def partner_frame(video: dict, frame: int, right_count: int | None = None) -> int:

@@ -184,3 +184,26 @@ def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, m
     assert "already used" in window.statusBar().currentMessage()
     assert (directory / "frames" / "cube-air" / "left.png").stat().st_mtime_ns == written
     assert {p["label"] for p in project.pairs()} == pairs_before | {"cube-air"}
+
+
+def test_seek_proxies_are_built_from_the_dock_in_a_worker_and_then_used(qtbot, make_window, tmp_path):
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=40)
+    window = make_window()
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    _wait_frame(qtbot, window, 0)
+    window.video.request(9)
+    _wait_frame(qtbot, window, 9)
+    assert not window.video.source.left.has_proxy
+    window.video.dock_widget.proxy.click()
+    qtbot.waitUntil(lambda: window.video.source is not None and window.video.source.left.has_proxy
+                    and window.video.source.right.has_proxy and not window.busy, timeout=20000)
+    _wait_frame(qtbot, window, 9)  # reopened on the same frame
+    assert "seek proxies built" in window.statusBar().currentMessage()
+    window.video.request(31)
+    _wait_frame(qtbot, window, 31)
+    assert frame_number(window.workspace.images["left"]) == 31
+    assert frame_number(window.workspace.images["right"]) == 1031
+    assert window.video.build_proxies() is None  # nothing left to build
+    assert "already built" in window.statusBar().currentMessage()

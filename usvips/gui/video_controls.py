@@ -82,8 +82,12 @@ class VideoDock(QtWidgets.QWidget):
         self.take = QtWidgets.QPushButton("&Take as pair…")
         self.take.setToolTip("make the synchronised frames shown an image pair of the project (e.g. the calibration "
                              "frame filmed in air or underwater), written as PNG under frames/ beside the project")
+        self.proxy = QtWidgets.QPushButton("Seek pro&xy")
+        self.proxy.setToolTip("build lossless all-intra copies of this video (proxies/ beside the project, about 1–2.5 "
+                              "MB a 1080p frame) so that a random seek decodes one frame; pixels stay identical")
         top = QtWidgets.QHBoxLayout()
-        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto, self.period, self.take):
+        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto, self.period, self.take,
+                       self.proxy):
             top.addWidget(widget)
         top.addStretch(1)
         top.addWidget(self.frame_label)
@@ -145,6 +149,7 @@ class VideoController(QtCore.QObject):
         d.offset.editingFinished.connect(self._on_offset)
         d.period.clicked.connect(self._on_period)
         d.take.clicked.connect(self._on_take_pair)
+        d.proxy.clicked.connect(self.build_proxies)
         for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
             widget.installEventFilter(self)
         # double-click on an object (or Zoom to) goes to the frame it was measured on
@@ -423,6 +428,37 @@ class VideoController(QtCore.QObject):
                                              f"{pair_label!r} (Calibration menu: calibrate from it)")
 
         return self.window.run_worker(job, f"taking frame {frame} as a pair", store)
+
+    def build_proxies(self) -> Worker | None:
+        """Build the shown video's seek proxies in a worker (progress, cancel), then reopen it on the same
+        frame so that seeks go through them. None when there is nothing to build (a message says so)."""
+        nav, project = self.navigator, self.window.workspace.project
+        if nav is None or project is None:
+            return None
+        try:
+            plan = video_project.plan_proxies(project, nav.label)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return None
+        if not plan:
+            self.window.show_message("info", f"video {nav.label}: its seek proxies are already built and in use")
+            return None
+        label, frame = nav.label, nav.frame
+
+        def job(progress, cancelled):
+            try:
+                return video_project.build_proxies(plan, lambda done, total: progress(done / total), cancelled)
+            except InterruptedError:
+                raise Cancelled from None
+
+        def done(paths) -> None:
+            if self.window.workspace.project is project and self.open_video(label):
+                self.request(frame)
+            size = sum(p.stat().st_size for p in paths) / 2**20
+            self.window.show_message("info", f"video {label}: seek proxies built ({size:.0f} MiB in "
+                                             f"{paths[0].parent}); random seeks now decode one frame")
+
+        return self.window.run_worker(job, f"building seek proxies of {label}", done)
 
     def go_to_object(self, object_id: int) -> None:
         project = self.window.workspace.project

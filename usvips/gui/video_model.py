@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usvips.core.errors import InvalidParameterError
-from usvips.io.video_stream import Picture
+from usvips.io.video_stream import PairReader, Picture
 from usvips.store import Project
 from usvips.video_project import open_streams, partner_frame
 
@@ -183,6 +183,7 @@ class FrameSource:
 
     def __init__(self, project: Project, label: str) -> None:
         self.video, self.left, self.right = open_streams(project, label)
+        self._reader = PairReader(self.left, self.right)
         self._lock = threading.Lock()
 
     @property
@@ -197,13 +198,15 @@ class FrameSource:
         video = dict(self.video, offset_frames=self.video["offset_frames"] if offset is None else offset)
         with self._lock:
             partner = partner_frame(video, frame, self.right.frame_count)
-            return self.left.picture(frame), self.right.picture(partner), partner, self.left.time_of(frame)
+            left, right = self._reader.pictures(frame, partner)  # both cameras at once
+            return left, right, partner, self.left.time_of(frame)
 
     def pair(self, frame: int, offset: int | None = None) -> tuple[np.ndarray, np.ndarray, int, float]:
         return rgb_pair(self.pictures(frame, offset))
 
     def close(self) -> None:
         with self._lock:
+            self._reader.close()
             for stream in (self.left, self.right):
                 stream.close()
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import hashlib
 from collections import deque
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,7 +33,8 @@ from usvips.core.errors import InputFileError
 
 #: relative spread of frame intervals above which a stream is called variable-frame-rate
 VFR_TOLERANCE = 0.01
-#: forward decoding from the current position instead of seeking, up to this many frames
+#: forward decoding from the current position instead of seeking, up to this many frames (and never
+#: more than a seek would decode)
 CONTINUE_LIMIT = 48
 #: mean absolute difference (grey levels, 64 × 48 thumbnail) below which a frame repeats the one before
 DUPLICATE_LEVEL = 0.5
@@ -165,6 +167,29 @@ class Picture:
         return self._frame.to_ndarray(format="gray" if grey else "rgb24")
 
 
+class PairReader:
+    """Decodes a left and a right frame together: the right one in a helper thread while the left one
+    decodes on the caller's (FFmpeg releases the GIL while decoding), so a frame pair costs about one
+    frame's decoding on two cores. The two streams must not be used elsewhere meanwhile."""
+
+    def __init__(self, left: VideoStream, right: VideoStream) -> None:
+        self.left, self.right = left, right
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="usvips-right-decoder")
+
+    def pictures(self, left_index: int, right_index: int) -> tuple[Picture, Picture]:
+        pending = self._pool.submit(self.right.picture, right_index)
+        try:
+            left = self.left.picture(left_index)
+        finally:
+            right = pending.result() if pending.exception() is None else None  # never leave it running
+        if right is None:
+            raise pending.exception()
+        return left, right
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)
+
+
 class VideoStream:
     """A camera's recording, one or more files, read frame-exactly. Use as a context manager or
     :meth:`close`. Not thread-safe: one decoder per thread (the GUI's worker owns its own)."""
@@ -209,6 +234,8 @@ class VideoStream:
         #: non-reference frames before its target (see :meth:`_next_frames`); both leave frames exact
         self.thread_type = "AUTO"
         self.skip_unneeded = True
+        self._proxy: VideoStream | None = None  # a lossless all-intra copy seeks go through (io.video_proxy)
+        self._proxy_after = 0
         self._container: av.container.InputContainer | None = None
         self._chapter = -1
         self._packets = None  # the running demuxer (packets after the last one decoded)
@@ -263,13 +290,33 @@ class VideoStream:
         k, local = self._locate(index)
         chapter = self.chapters[k]
         target = int(chapter.pts[local])
-        continuing = (k == self._chapter and self._position < index <= self._position + CONTINUE_LIMIT
+        keys = np.flatnonzero(chapter.keyframe[: local + 1])
+        behind = local - (int(keys[-1]) if keys.size else 0)  # frames a seek decodes before the target
+        # continue the running decoder when that decodes no more frames than a seek would
+        continuing = (k == self._chapter and self._position < index <= self._position + min(CONTINUE_LIMIT, behind + 1)
                       and self._packets is not None)
+        if not continuing and self._proxy is not None and behind > self._proxy_after:
+            return self._proxy.picture(index)  # the same planes, one intra frame away
         if not continuing:
             self._seek(k, local)
         frame = self._decode_until(chapter, target, index)
         self._position = index
         return Picture(frame)
+
+    def attach_proxy(self, proxy: VideoStream, after: int) -> None:
+        """Serve a seek from ``proxy`` (same frames, every one a key frame, decoding to the same pixels:
+        :mod:`usvips.io.video_proxy`) when this stream would decode more than ``after`` frames to reach
+        its target; stepping on from there continues in the proxy until the original is cheaper again."""
+        if proxy.frame_count != self.frame_count or proxy.size != self.size:
+            raise InputFileError(str(proxy.paths[0]), f"{proxy.frame_count} frames of {proxy.size}, but the "
+                                 f"recording has {self.frame_count} of {self.size}: not its proxy")
+        if self._proxy is not None:
+            self._proxy.close()
+        self._proxy, self._proxy_after = proxy, int(after)
+
+    @property
+    def has_proxy(self) -> bool:
+        return self._proxy is not None
 
     def _open_chapter(self, k: int) -> None:
         if self._chapter != k or self._container is None:
@@ -400,8 +447,14 @@ class VideoStream:
         self._chapter = -1
         self._position = -1
 
+    def reset_decoder(self) -> None:
+        """Close the running decoder (the next frame is a true seek); a proxy stays open."""
+        self._close_container()
+
     def close(self) -> None:
         self._close_container()
+        if self._proxy is not None:
+            self._proxy.close()
 
     def __enter__(self) -> VideoStream:
         return self
