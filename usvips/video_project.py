@@ -283,6 +283,30 @@ def _calibration_for(project: Project, calibration_id: int | None, label: str):
     return calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}").rig(0, "rig")
 
 
+@dataclass(frozen=True)
+class SyncJob:
+    """What estimating a video pair's offset needs, read from the project (on its thread): each camera's
+    files, and the rig (for the image method) or why there is none."""
+
+    label: str
+    left: tuple[Path, ...]
+    right: tuple[Path, ...]
+    rig: object | None
+    no_rig: str = ""
+
+
+def plan_sync(project: Project, label: str, calibration_id: int | None = None) -> SyncJob:
+    """Read what :func:`run_sync` needs from the project (so the estimate can run in a worker)."""
+    video = project.video(label)
+    rig, why = None, ""
+    try:
+        rig = _calibration_for(project, calibration_id, label)
+    except UsvipsError as error:
+        why = str(error)
+    return SyncJob(label, tuple(project.media_path(p) for p in video["left"]),
+                   tuple(project.media_path(p) for p in video["right"]), rig, why)
+
+
 def estimate_offset(project: Project, label: str, method: str | None = None, max_offset: int | None = None,
                     calibration_id: int | None = None, frame_limit: int | None = 3000,
                     progress: Callable[[int, int], None] | None = None) -> SyncEstimate:
@@ -292,7 +316,21 @@ def estimate_offset(project: Project, label: str, method: str | None = None, max
     flash and image estimation."""
     if method is not None and method not in synchronisation.METHODS:
         raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
-    video, left, right = open_streams(project, label)
+    return run_sync(plan_sync(project, label, calibration_id), method, max_offset, frame_limit, progress)
+
+
+def run_sync(job: SyncJob, method: str | None = None, max_offset: int | None = None, frame_limit: int | None = 3000,
+             progress: Callable[[int, int], None] | None = None) -> SyncEstimate:
+    """:func:`estimate_offset` on what :func:`plan_sync` read: files only, no project."""
+    if method is not None and method not in synchronisation.METHODS:
+        raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
+    label = job.label
+    left = VideoStream(job.left)
+    try:
+        right = VideoStream(job.right)
+    except BaseException:
+        left.close()
+        raise
     with left, right:
         count = min(left.frame_count, right.frame_count)
         limit = int(max_offset) if max_offset is not None else max(1, min(count // 3, 300))
@@ -313,7 +351,9 @@ def estimate_offset(project: Project, label: str, method: str | None = None, max
             except UsvipsError:
                 if method == "flash":
                     raise
-        rig = _calibration_for(project, calibration_id, label)
+        if job.rig is None:
+            raise VideoError(job.no_rig)
+        rig = job.rig
         n = min(count, frame_limit or count, 200)
         step = max(1, n // 15)
         left_frames = [left.frame(i) for i in range(n)]

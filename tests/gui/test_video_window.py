@@ -207,3 +207,26 @@ def test_seek_proxies_are_built_from_the_dock_in_a_worker_and_then_used(qtbot, m
     assert frame_number(window.workspace.images["right"]) == 1031
     assert window.video.build_proxies() is None  # nothing left to build
     assert "already built" in window.statusBar().currentMessage()
+
+
+@pytest.mark.parametrize("lag", [4, -3])
+def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tmp_path, lag):
+    """A light switched on, seen by both cameras: Sync… estimates the offset in a worker, stores it, says
+    so with its confidence, and both panes then show the same instant."""
+    for side, shift, base in (("left", 0, 0), ("right", lag, 1000)):
+        frames = [numbered_frame(base + j - shift if j - shift >= 0 else 3000 + j, seed=1,
+                                 brightness=60.0 if j - shift >= 30 else 0.0) for j in range(70)]
+        encode_video(tmp_path / f"{side}.mp4", frames, 25, "h264", gop=25)
+    window = make_window()
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    _wait_frame(qtbot, window, 0)
+    assert window.video.synchronise("flash") is not None
+    qtbot.waitUntil(lambda: window.workspace.project.video("dive")["offset_frames"] == lag and not window.busy,
+                    timeout=60000)
+    assert "by flash, confidence" in window.statusBar().currentMessage()
+    assert window.video.dock_widget.offset.value() == lag
+    frame = 40
+    window.video.request(frame)
+    _wait_frame(qtbot, window, frame)
+    assert frame_number(window.workspace.images["right"]) == 1000 + frame  # the same instant

@@ -82,12 +82,15 @@ class VideoDock(QtWidgets.QWidget):
         self.take = QtWidgets.QPushButton("&Take as pair…")
         self.take.setToolTip("make the synchronised frames shown an image pair of the project (e.g. the calibration "
                              "frame filmed in air or underwater), written as PNG under frames/ beside the project")
+        self.sync = QtWidgets.QPushButton("S&ync…")
+        self.sync.setToolTip("estimate the offset from the soundtracks, a flash seen by both cameras or the images "
+                             "(epipolar consistency of moving things), with its confidence; stored")
         self.proxy = QtWidgets.QPushButton("Seek pro&xy")
         self.proxy.setToolTip("build lossless all-intra copies of this video (proxies/ beside the project, about 1–2.5 "
                               "MB a 1080p frame) so that a random seek decodes one frame; pixels stay identical")
         top = QtWidgets.QHBoxLayout()
-        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto, self.period, self.take,
-                       self.proxy):
+        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.sync, self.goto, self.period,
+                       self.take, self.proxy):
             top.addWidget(widget)
         top.addStretch(1)
         top.addWidget(self.frame_label)
@@ -150,6 +153,7 @@ class VideoController(QtCore.QObject):
         d.period.clicked.connect(self._on_period)
         d.take.clicked.connect(self._on_take_pair)
         d.proxy.clicked.connect(self.build_proxies)
+        d.sync.clicked.connect(self._on_sync)
         for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
             widget.installEventFilter(self)
         # double-click on an object (or Zoom to) goes to the frame it was measured on
@@ -239,8 +243,8 @@ class VideoController(QtCore.QObject):
         self.window.pool.start(worker)
 
     def _decoded(self, worker: Worker, frame: int, item: tuple) -> None:
-        if self.source is None:
-            return
+        if self.source is None or self.navigator is None or item[2] != frame + self.navigator.offset:
+            return  # closed, or decoded at an offset since changed
         self.cache.put(frame, item)
         if worker is self._request and frame == self._pending:
             self._show(frame, item)
@@ -336,19 +340,67 @@ class VideoController(QtCore.QObject):
         if self.navigator is not None:
             self.navigator.jump = int(value)
 
+    SYNC_METHODS = {"automatic: sound, else a flash, else the images": None, "flash": "flash",
+                    "sound (audio)": "audio", "images (needs the rig's calibration)": "image"}
+
+    def _on_sync(self) -> None:
+        if self.navigator is None:
+            return
+        choice, ok = QtWidgets.QInputDialog.getItem(self.dock_widget, "Synchronise", "Estimate the offset from:",
+                                                    list(self.SYNC_METHODS), 0, False)
+        if ok:
+            self.synchronise(self.SYNC_METHODS[choice])
+
+    def synchronise(self, method: str | None = None) -> Worker | None:
+        """Estimate the shown video's offset by ``method`` (None: sound, else a flash, else the images) in a
+        worker, then store it (as ``usvips video sync``) and show the pair at the new offset; the message
+        gives the sub-frame offset, its confidence and the whole frame used."""
+        nav, project = self.navigator, self.window.workspace.project
+        if nav is None or project is None:
+            return None
+        try:
+            job_data = video_project.plan_sync(project, nav.label)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return None
+        label = nav.label
+
+        def job(progress, cancelled):
+            def report(done: int, total: int) -> None:
+                if cancelled():
+                    raise Cancelled
+                progress(done / max(total, 1))
+            return video_project.run_sync(job_data, method, progress=report)
+
+        def done(estimate) -> None:
+            if self.navigator is None or self.navigator.label != label:
+                return
+            self._store_offset(estimate.frames, estimate.as_dict())
+            self.window.show_message("info", f"video {label}: {estimate.summary()}; stored")
+
+        return self.window.run_worker(job, f"synchronising {label}", done)
+
     def _on_offset(self) -> None:
         nav = self.navigator
         value = self.dock_widget.offset.value()
         if nav is None or value == nav.offset:
             return
+        self._store_offset(value, {"method": "by hand"})
+
+    def _store_offset(self, value: int, how: dict) -> None:
+        nav = self.navigator
         try:
-            self.window.workspace.project.set_video_offset(nav.label, value, {"method": "by hand"})
+            self.window.workspace.project.set_video_offset(nav.label, value, how)
         except UsvipsError as error:
             self.window.show_message("error", str(error))
             self.dock_widget.offset.setValue(nav.offset)
             return
         frame = nav.frame
-        self.cache.clear()
+        for worker in (self._request, self._prefetch):
+            if worker is not None:
+                worker.cancel()
+        self.cache = FrameCache(self.cache.budget)  # a decode still running fills the old one, never this
+        self.dock_widget.offset.setValue(value)
         self.source.video["offset_frames"] = value
         self.navigator = self.source.navigator()
         self.navigator.marks = nav.marks
