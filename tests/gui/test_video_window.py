@@ -230,3 +230,16 @@ def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tm
     window.video.request(frame)
     _wait_frame(qtbot, window, frame)
     assert frame_number(window.workspace.images["right"]) == 1000 + frame  # the same instant
+
+
+def test_quick_steps_add_up_while_a_frame_is_still_decoding(qtbot, make_window, sample_copy):
+    window = make_window()
+    assert window.open_path(sample_copy("rov_flatport"), "video")
+    _wait_frame(qtbot, window, 0)
+    window.video.cache.clear()  # nothing prefetched: both steps must decode
+    graphics = window.panes["left"].graphics
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Right, QtCore.Qt.KeyboardModifier.ShiftModifier)
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Right, QtCore.Qt.KeyboardModifier.ShiftModifier)
+    _wait_frame(qtbot, window, 20)
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Left)
+    _wait_frame(qtbot, window, 19)

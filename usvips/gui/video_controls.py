@@ -140,6 +140,7 @@ class VideoController(QtCore.QObject):
         self._request: Worker | None = None
         self._prefetch: Worker | None = None
         self._pending: int | None = None
+        self._target: int | None = None  # the frame last asked for
         self.timer = QtCore.QTimer(self)
         self.timer.timeout.connect(self._tick)
         d = self.dock_widget
@@ -205,6 +206,7 @@ class VideoController(QtCore.QObject):
             if worker is not None:
                 worker.cancel()
         self._request = self._prefetch = None
+        self._target = None
         self.cache.clear()
         if self.source is not None:
             self.source.close()
@@ -212,15 +214,18 @@ class VideoController(QtCore.QObject):
 
     # ------------------------------------------------------------------ stepping
     def step(self, frames: int) -> None:
+        """Step from the frame last asked for (shown or still decoding): two quick Shift+→ go 20 frames."""
         if self.navigator is not None:
             self.direction = 1 if frames >= 0 else -1
-            self.request(self.navigator.frame + frames)
+            base = self._target if self._target is not None else self.navigator.frame
+            self.request(base + frames)
 
     def request(self, frame: int) -> None:
         """Show left frame ``frame`` (clamped) and its partner, from the cache or a worker."""
         if self.navigator is None or self.source is None:
             return
         frame = self.navigator.clamp(frame)
+        self._target = frame
         cached = self.cache.get(frame)
         if cached is not None:
             self._show(frame, cached)
@@ -239,8 +244,12 @@ class VideoController(QtCore.QObject):
 
         worker = self._request = Worker(job, f"decoding frame {frame}")
         worker.signals.finished.connect(lambda result, w=worker: self._decoded(w, *result))
-        worker.signals.failed.connect(lambda message: self.window.show_message("error", message))
+        worker.signals.failed.connect(lambda message: self._failed(message))
         self.window.pool.start(worker)
+
+    def _failed(self, message: str) -> None:
+        self._target = None  # step on from the frame shown
+        self.window.show_message("error", message)
 
     def _decoded(self, worker: Worker, frame: int, item: tuple) -> None:
         if self.source is None or self.navigator is None or item[2] != frame + self.navigator.offset:
