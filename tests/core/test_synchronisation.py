@@ -92,3 +92,101 @@ def test_the_sample_videos_lag_is_found_from_its_images(sample_video, trim_left,
     assert estimate.frames == 3 + trim_left - trim_right
     assert estimate.confidence > 0.3
     assert estimate.scores[estimate.frames] > max(v for k, v in estimate.scores.items() if k != estimate.frames)
+
+
+# ---------------------------------------------------------------------------- sub-frame offsets from images
+SYNTH_W, SYNTH_H = 320, 240
+CELL = 0.02  # m: texture cell on the floor and the moving board
+
+
+def _texture(grid: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    from scipy.ndimage import map_coordinates
+
+    return map_coordinates(grid, [v / CELL + grid.shape[0] / 2, u / CELL + grid.shape[1] / 2], order=3,
+                           mode="reflect")
+
+
+def _synthetic_stereo_video(lag: float, rng: np.random.Generator, frames: int = 14, fps: float = 25.0,
+                            angle: float | None = None):
+    """Two flat-port cameras 0.3 m apart over a textured floor (1.8 m) with a textured board (0.35 m
+    square, 1.1–1.4 m away) moving across at constant velocity. Left frame j shows instant j / fps, right
+    frame j instant (j − lag) / fps: an offset of ``lag`` frames (fractional). ``angle`` (rad from the
+    baseline): the board's direction of motion (default: random, at least 35° across the baseline).
+    Returns the frames (grey) and the rig."""
+    from usvips.core.camera import Camera, Exterior
+    from usvips.core.housing import FlatPortHousing
+    from usvips.core.interior import Interior
+    from usvips.core.rig import RelativeOrientation, StereoRig
+
+    interior = Interior(300.0, 160.0, 120.0, 1.0, k1=-0.03)
+    housing = FlatPortHousing(0.02, -0.01, 0.05, 0.012, 1.5, 1.34)
+    left = Camera(interior, Exterior(0.0, 0.0, 0.0), housing, SYNTH_W, SYNTH_H)
+    rig = StereoRig.from_relative(left, left, RelativeOrientation(0.3, 0.0, 0.0, 0.0, -0.08, 0.0))
+    floor_grid = rng.uniform(40, 200, (260, 260))
+    board_grid = rng.uniform(20, 235, (40, 40))
+    depth = float(rng.uniform(1.1, 1.4))
+    # across the (nearly horizontal) epipolar lines: motion along them carries no timing
+    if angle is None:
+        angle = rng.uniform(np.radians(35), np.radians(145)) * rng.choice([-1, 1])
+    speed = rng.uniform(0.15, 0.4) * np.array([np.cos(angle), np.sin(angle)])
+    start = np.array([0.15, -0.05]) - speed * frames / fps / 2
+    s = 2  # supersampling
+    ys, xs = np.mgrid[0:SYNTH_H * s, 0:SYNTH_W * s]
+    pixels = np.column_stack([(xs.ravel() + 0.5) / s - 0.5, (ys.ravel() + 0.5) / s - 0.5])
+    videos = []
+    for camera, shift in ((rig.left, 0.0), (rig.right, lag)):
+        bundle = camera.rays(pixels)
+        to_floor = (-1.8 - bundle.origins[:, 2]) / bundle.directions[:, 2]
+        floor_hit = bundle.origins + to_floor[:, None] * bundle.directions
+        floor = _texture(floor_grid, floor_hit[:, 0], floor_hit[:, 1])
+        to_board = (-depth - bundle.origins[:, 2]) / bundle.directions[:, 2]
+        board_hit = bundle.origins + to_board[:, None] * bundle.directions
+        video = []
+        for j in range(frames):
+            centre = start + speed * (j - shift) / fps
+            u, v = board_hit[:, 0] - centre[0], board_hit[:, 1] - centre[1]
+            on = (np.abs(u) < 0.175) & (np.abs(v) < 0.175)
+            values = np.where(on, _texture(board_grid, u, v), floor)
+            image = values.reshape(SYNTH_H * s, SYNTH_W * s).reshape(SYNTH_H, s, SYNTH_W, s).mean(axis=(1, 3))
+            image = image + rng.normal(0, 1.0, image.shape)
+            video.append(np.clip(np.rint(image), 0, 255).astype(np.uint8))
+        videos.append(video)
+    return videos[0], videos[1], rig
+
+
+SUBFRAME_TOLERANCE = 0.15  # frames, for estimates of confidence >= CONFIDENT
+CONFIDENT = 0.3
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_image_synchronisation_reports_a_sub_frame_offset_within_its_tolerance(case):
+    """Random fractional lags, board speeds and directions: a confident sub-frame offset from the images
+    (confidence >= 0.3) is within 0.15 frame of the truth and uses the nearest whole frame; a less
+    confident one is still within 3 sigma (its sigma says how far to trust it); the sigma is honest
+    (the error within 4 sigma, or 0.05 frame)."""
+    rng = np.random.default_rng(100 + case)
+    lag = float(rng.integers(-3, 4) + rng.uniform(-0.45, 0.45))
+    left, right, rig = _synthetic_stereo_video(lag, rng)
+    estimate = image_offset(left, right, rig.left, rig.right, 25.0, range(-4, 5), step=2, near=0.5, far=4.0)
+    assert estimate.sigma_frames is not None and estimate.method == "image"
+    error = abs(estimate.offset_frames - lag)
+    assert error < max(4 * estimate.sigma_frames, 0.05), (lag, estimate)
+    if estimate.confidence >= CONFIDENT:
+        assert error < SUBFRAME_TOLERANCE, (lag, estimate)
+        assert estimate.frames == int(np.round(lag))
+        assert estimate.scores[estimate.frames] == max(estimate.scores.values())
+    if estimate.rounded:
+        assert f"using the nearest frame, {estimate.frames:+d}" in estimate.summary()
+    assert estimate.as_dict()["offset_sigma_frames"] == pytest.approx(estimate.sigma_frames, abs=1e-3)
+
+
+def test_image_synchronisation_without_motion_across_the_curves_says_so():
+    """A board moving exactly along the (horizontal) epipolar lines carries no timing: the estimate is
+    refused, or says it is not to be trusted (confidence below 0.3)."""
+    rng = np.random.default_rng(7)
+    left, right, rig = _synthetic_stereo_video(1.4, rng, angle=0.0)
+    try:
+        estimate = image_offset(left, right, rig.left, rig.right, 25.0, range(-4, 5), step=2, near=0.5, far=4.0)
+    except DegenerateGeometryError:
+        return
+    assert estimate.confidence < CONFIDENT, estimate

@@ -15,6 +15,7 @@ from usvips.gui.video_model import (
     format_timecode,
     parse_position,
     prefetch_order,
+    rgb_pair,
 )
 from usvips.io.video_writer import encode_video
 from usvips.store import Project
@@ -50,21 +51,21 @@ def test_positions_typed_by_a_person():
 def test_the_cache_is_bounded_and_keeps_the_recently_used():
     frame = np.zeros((108, 192, 3), np.uint8)
     pair = (frame, frame.copy(), 0, 0.0)
-    budget = cache_bytes(192, 108, 5)
+    budget = cache_bytes(192, 108, 5, bytes_per_pixel=3)  # RGB arrays
     cache = FrameCache(budget)
     for i in range(5):
         cache.put(i, pair)
     cache.get(0)  # used: kept
     cache.put(5, pair)
     assert 0 in cache and 1 not in cache and len(cache) == 5 and cache.used <= budget
-    assert cache_bytes(1920, 1080, 48) == 48 * 2 * 1920 * 1080 * 3  # about 0.6 GB at 1080p
+    assert cache_bytes(1920, 1080, 48) == 48 * 2 * 1920 * 1080 * 3 // 2  # YUV 4:2:0: about 0.3 GB at 1080p
     with pytest.raises(InvalidParameterError):
         FrameCache(0)
 
 
 def test_prefetch_goes_ahead_in_the_direction_of_travel():
     assert prefetch_order(10, 0, 99, 1, ahead=3, behind=1) == [11, 12, 13, 9]
-    assert prefetch_order(10, 0, 99, -1, ahead=2, behind=1) == [9, 8, 11]
+    assert prefetch_order(10, 0, 99, -1, ahead=3, behind=1) == [7, 8, 9, 11]  # backwards: one seek, then forwards
     assert prefetch_order(98, 0, 99, 1, ahead=3, behind=0) == [99]
 
 
@@ -81,4 +82,16 @@ def test_the_frame_source_returns_the_synchronised_pair(tmp_path):
             left, right, partner, time_s = source.pair(frame)
             assert (frame_number(left), frame_number(right), partner) == (frame, 1004 + frame, frame + 4)
             assert time_s == pytest.approx(frame / 25)
+        # the cache holds pictures in the decoder's YUV 4:2:0 (half of RGB) that show the same pixels
+        first = source.pictures(12)
+        pair_bytes = first[0].nbytes + first[1].nbytes  # YUV planes, rows padded by the decoder
+        assert cache_bytes(160, 120, 1) <= pair_bytes < cache_bytes(160, 120, 1, bytes_per_pixel=3)
+        cache = FrameCache(3 * pair_bytes)
+        cache.put(12, first)
+        for frame in (13, 14, 5):
+            cache.put(frame, source.pictures(frame))
+        assert 12 not in cache and 5 in cache and cache.used == 3 * pair_bytes
+        left, right, partner, _ = rgb_pair(cache.get(14))
+        fresh_left, fresh_right, _, _ = source.pair(14)
+        assert np.array_equal(left, fresh_left) and np.array_equal(right, fresh_right) and partner == 18
         source.close()

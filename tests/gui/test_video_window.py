@@ -125,3 +125,121 @@ def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make
     assert float(values["Time"]) == pytest.approx(2.0 / 60, abs=1e-4)  # minutes, as EventMeasure
     assert values["Period"] == "bait" and float(values["PeriodTime"]) == pytest.approx(1.0 / 60, abs=1e-4)
     assert values["Species"] == "auratus"
+
+
+def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, make_window, sample_copy, monkeypatch):
+    """The cube filmed in air: Take as pair… in the Video dock (keyboard: Alt+T, type the label, Tab, ↓ for
+    'in air', Enter) writes the synchronised frames exactly and adds them as an in-air pair that the
+    phase-1 calibration offers; a used label is refused before anything is written."""
+    from PySide6 import QtWidgets
+
+    from usvips.gui.calibration_session import CalibrationSession
+    from usvips.gui.video_controls import TakePairDialog
+    from usvips.io.images import read_image
+
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "video")
+    _wait_frame(qtbot, window, 0)
+    window.video.request(7)
+    _wait_frame(qtbot, window, 7)
+    project = window.workspace.project
+    pairs_before = {p["label"] for p in project.pairs()}
+
+    answers = []
+
+    def fill_in(dialog: TakePairDialog) -> int:  # what a person types into the dialog, by keyboard only
+        dialog.show()
+        qtbot.waitExposed(dialog)
+        assert dialog.label.text() == "video-7"
+        dialog.label.selectAll()
+        qtbot.keyClicks(dialog.label, "cube-air")
+        following = dialog.label.nextInFocusChain()
+        while not following.focusPolicy() & QtCore.Qt.FocusPolicy.TabFocus:
+            following = following.nextInFocusChain()
+        assert following is dialog.medium  # Tab goes from the label to the medium
+        dialog.medium.setFocus()
+        qtbot.keyClick(dialog.medium, QtCore.Qt.Key.Key_Down)
+        answers.append((dialog.label.text(), dialog.medium.currentData()))
+        return QtWidgets.QDialog.DialogCode.Accepted
+
+    monkeypatch.setattr(TakePairDialog, "exec", fill_in)
+    window.video.dock_widget.take.click()
+    assert answers == [("cube-air", "air")]
+    qtbot.waitUntil(lambda: "cube-air" in {p["label"] for p in project.pairs()} and not window.busy, timeout=10000)
+    pair = next(p for p in project.pairs() if p["label"] == "cube-air")
+    assert pair["medium"] == "air" and (pair["width"], pair["height"]) == (VideoStream(directory / "video_left.avi")
+                                                                           .size)
+    with VideoStream(directory / "video_left.avi") as left, VideoStream(directory / "video_right.avi") as right:
+        assert np.array_equal(read_image(project.image_path(pair["left"])), left.frame(7))
+        assert np.array_equal(read_image(project.image_path(pair["right"])), right.frame(10))  # offset 3
+    assert "cube-air" in [window.pair_box.itemText(i) for i in range(window.pair_box.count())]
+    assert window.workspace.video_frame[1] == 7  # still on the video
+    assert "cube-air" in CalibrationSession(project, "air").candidate_pairs()
+    # a label already used is refused before anything is written
+    written = (directory / "frames" / "cube-air" / "left.png").stat().st_mtime_ns
+    window.video.request(9)
+    _wait_frame(qtbot, window, 9)
+    assert window.video.take_pair("cube-air", "air") is None
+    assert "already used" in window.statusBar().currentMessage()
+    assert (directory / "frames" / "cube-air" / "left.png").stat().st_mtime_ns == written
+    assert {p["label"] for p in project.pairs()} == pairs_before | {"cube-air"}
+
+
+def test_seek_proxies_are_built_from_the_dock_in_a_worker_and_then_used(qtbot, make_window, tmp_path):
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=40)
+    window = make_window()
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    _wait_frame(qtbot, window, 0)
+    window.video.request(9)
+    _wait_frame(qtbot, window, 9)
+    assert not window.video.source.left.has_proxy
+    window.video.dock_widget.proxy.click()
+    qtbot.waitUntil(lambda: window.video.source is not None and window.video.source.left.has_proxy
+                    and window.video.source.right.has_proxy and not window.busy, timeout=20000)
+    _wait_frame(qtbot, window, 9)  # reopened on the same frame
+    assert "seek proxies built" in window.statusBar().currentMessage()
+    window.video.request(31)
+    _wait_frame(qtbot, window, 31)
+    assert frame_number(window.workspace.images["left"]) == 31
+    assert frame_number(window.workspace.images["right"]) == 1031
+    assert window.video.build_proxies() is None  # nothing left to build
+    assert "already built" in window.statusBar().currentMessage()
+
+
+@pytest.mark.parametrize("lag", [4, -3])
+def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tmp_path, lag):
+    """A light switched on, seen by both cameras: Sync… estimates the offset in a worker, stores it, says
+    so with its confidence, and both panes then show the same instant."""
+    for side, shift, base in (("left", 0, 0), ("right", lag, 1000)):
+        frames = [numbered_frame(base + j - shift if j - shift >= 0 else 3000 + j, seed=1,
+                                 brightness=60.0 if j - shift >= 30 else 0.0) for j in range(70)]
+        encode_video(tmp_path / f"{side}.mp4", frames, 25, "h264", gop=25)
+    window = make_window()
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    _wait_frame(qtbot, window, 0)
+    assert window.video.synchronise("flash") is not None
+    qtbot.waitUntil(lambda: window.workspace.project.video("dive")["offset_frames"] == lag and not window.busy,
+                    timeout=60000)
+    assert "by flash, confidence" in window.statusBar().currentMessage()
+    assert window.video.dock_widget.offset.value() == lag
+    frame = 40
+    window.video.request(frame)
+    _wait_frame(qtbot, window, frame)
+    assert frame_number(window.workspace.images["right"]) == 1000 + frame  # the same instant
+
+
+def test_quick_steps_add_up_while_a_frame_is_still_decoding(qtbot, make_window, sample_copy):
+    window = make_window()
+    assert window.open_path(sample_copy("rov_flatport"), "video")
+    _wait_frame(qtbot, window, 0)
+    window.video.cache.clear()  # nothing prefetched: both steps must decode
+    graphics = window.panes["left"].graphics
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Right, QtCore.Qt.KeyboardModifier.ShiftModifier)
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Right, QtCore.Qt.KeyboardModifier.ShiftModifier)
+    _wait_frame(qtbot, window, 20)
+    qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Left)
+    _wait_frame(qtbot, window, 19)

@@ -2,11 +2,12 @@
 forwards and backwards, for every codec/container this FFmpeg writes; chapters as one stream; variable
 frame rate, duplicated and dropped frames reported; bad input named in one line."""
 
+import av
 import numpy as np
 import pytest
 
 from usvips.core.errors import InputFileError
-from usvips.core.synth.frame_numbers import frame_number, numbered_frame
+from usvips.core.synth.frame_numbers import frame_number, numbered_frame, panning_numbered_frame
 from usvips.io.video import write_video
 from usvips.io.video_stream import VideoStream
 from usvips.io.video_writer import CODECS, encode_video, encoders_available
@@ -46,6 +47,27 @@ def test_random_seeks_return_the_frame_asked_for(tmp_path, codec):
             assert number_of(video.frame(int(index))) == index
         assert video.frame_at(video.time_of(77)) == 77
         assert video.time_of(50) == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("codec, suffix", [("h264", ".mp4"), ("h264", ".mkv"), ("mpeg4", ".avi")])
+def test_seeks_that_skip_unneeded_b_frames_stay_frame_exact(tmp_path, codec, suffix):
+    """Panning footage gets B-frames (pyramids of them in H.264); a seek skips the non-reference ones
+    before its target undecoded. Frames and pixels are those of a decode that skips nothing."""
+    path = tmp_path / f"panning{suffix}"
+    encode_video(path, (panning_numbered_frame(i, WIDTH, HEIGHT) for i in range(150)), 30, codec, gop=40,
+                 bframes=3)
+    rng = np.random.default_rng(len(suffix) + len(codec))
+    with VideoStream(path) as skipping, VideoStream(path) as plain:
+        plain.skip_unneeded = False
+        order = [int(i) for i in rng.integers(0, 150, 40)] + list(range(60, 90)) + list(range(149, 120, -3))
+        for index in order:
+            picture = skipping.frame(index)
+            assert number_of(picture) == index
+            if index % 5 == 0:
+                assert np.array_equal(picture, plain.frame(index))
+    with av.open(str(path)) as container:  # the file really has frames shown out of order
+        pts = [p.pts for p in container.demux(video=0) if p.pts is not None]
+    assert pts != sorted(pts)
 
 
 def test_opencv_written_motion_jpeg_is_read_exactly(tmp_path):

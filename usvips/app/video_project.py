@@ -1,7 +1,7 @@
 """A user's own media in a project: image pairs from folders or lists, stereo videos (frame-exact,
 synchronised), and the synchronised frame pair written out.
 
-Sits above io and store like :mod:`usvips.app.samples` (it joins files read by io to the project written by
+Sits above io and store like :mod:`usvips.samples` (it joins files read by io to the project written by
 store); the command line and the workstation both go through here.
 
 Convention: a video pair's offset ``k`` (frames) means left frame ``i`` and right frame ``i + k`` show the
@@ -20,6 +20,7 @@ import numpy as np
 from usvips.core import synchronisation
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
+from usvips.io import video_proxy
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image, write_image
 from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
@@ -128,7 +129,8 @@ def add_video(project: ProjectStore, left: Sequence[str | Path], right: Sequence
 
 
 def open_streams(project: ProjectStore, label: str) -> tuple[dict, VideoStream, VideoStream]:
-    """The stored video (as :meth:`Project.video`) and its two streams, opened; close them after use."""
+    """The stored video (as :meth:`Project.video`) and its two streams, opened (seeking through their
+    proxies where :func:`build_proxies` made them); close them after use."""
     video = project.video(label)
     left = VideoStream([project.media_path(p) for p in video["left"]])
     try:
@@ -136,7 +138,49 @@ def open_streams(project: ProjectStore, label: str) -> tuple[dict, VideoStream, 
     except BaseException:
         left.close()
         raise
+    for stream in (left, right):
+        video_proxy.attach_proxy(stream, proxy_folder(project))
     return video, left, right
+
+
+def proxy_folder(project: ProjectStore) -> Path:
+    """Where a project's seek proxies live: ``proxies/`` beside the project file."""
+    return project.path.parent / "proxies"
+
+
+def plan_proxies(project: ProjectStore, label: str) -> list[tuple[list[Path], Path]]:
+    """The proxies :func:`build_proxies` would write for the video pair: (the camera's files, proxy path)
+    for each camera that has none yet for its current files."""
+    video = project.video(label)
+    plan = []
+    for side in ("left", "right"):
+        files = [project.media_path(p) for p in video[side]]
+        with VideoStream(files) as stream:
+            path = video_proxy.proxy_path(proxy_folder(project), stream)
+        if not path.is_file():
+            plan.append((files, path))
+    return plan
+
+
+def build_proxies(plan: Sequence[tuple[Sequence[Path], Path]], progress: Callable[[int, int], None] | None = None,
+                  cancelled: Callable[[], bool] | None = None) -> list[Path]:
+    """Build the planned seek proxies (:mod:`usvips.io.video_proxy`); reads and writes files only (no
+    project), so the window runs it in a worker. ``progress(done, total)`` over all frames."""
+    streams = [VideoStream(files) for files, _ in plan]
+    try:
+        total = sum(s.frame_count for s in streams) or 1
+        done_before = 0
+        written = []
+        for stream, (_, path) in zip(streams, plan, strict=True):
+            def report(done: int, _: int, before: int = done_before) -> None:
+                if progress is not None:
+                    progress(before + done, total)
+            written.append(video_proxy.build_proxy(stream, path, report, cancelled))
+            done_before += stream.frame_count
+        return written
+    finally:
+        for stream in streams:
+            stream.close()
 
 
 def partner_frame(video: dict, frame: int, right_count: int | None = None) -> int:
@@ -161,12 +205,12 @@ def frame_pair(project: ProjectStore, label: str, frame: int) -> tuple[np.ndarra
         return left.frame(frame), right.frame(partner), partner, left.time_of(frame)
 
 
-def export_frame(project: ProjectStore, label: str, frame: int, out: str | Path) -> tuple[Path, Path]:
-    """``out/left.png`` (left frame ``frame``) and ``out/right.png`` (right frame ``frame + offset``)."""
+def write_frame_pair(left: np.ndarray, right: np.ndarray, out: str | Path) -> tuple[Path, Path]:
+    """Write a synchronised frame pair as ``out/left.png`` and ``out/right.png`` (lossless; each file
+    written whole under a temporary name and then moved into place)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputFileError(str(out), "not a folder")
-    left, right, _, _ = frame_pair(project, label, frame)
     out.mkdir(parents=True, exist_ok=True)
     paths = out / "left.png", out / "right.png"
     for path, image in zip(paths, (left, right), strict=True):
@@ -176,16 +220,43 @@ def export_frame(project: ProjectStore, label: str, frame: int, out: str | Path)
     return paths
 
 
+def export_frame(project: ProjectStore, label: str, frame: int, out: str | Path) -> tuple[Path, Path]:
+    """``out/left.png`` (left frame ``frame``) and ``out/right.png`` (right frame ``frame + offset``)."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputFileError(str(out), "not a folder")
+    left, right, _, _ = frame_pair(project, label, frame)
+    return write_frame_pair(left, right, out)
+
+
+def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: str | None = None) -> tuple[str, Path]:
+    """The label (default ``VIDEO-FRAME``) and folder (``frames/LABEL`` beside the project) of the image
+    pair :func:`take_pair` makes of left frame ``frame``; refuses a label already used before anything
+    is written (so no stored pair's images are overwritten)."""
+    pair_label = (pair_label or f"{label}-{frame}").strip()
+    if not pair_label or "/" in pair_label or "\\" in pair_label or pair_label.startswith("."):
+        raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
+    if pair_label in {p["label"] for p in project.pairs()}:
+        raise VideoError(f"{project.path}: pair label {pair_label!r} is already used; choose another")
+    return pair_label, project.path.parent / "frames" / pair_label
+
+
+def add_taken_pair(project: ProjectStore, pair_label: str, paths: tuple[Path, Path], medium: str = "water") -> str:
+    """Add frames written by :func:`write_frame_pair` as the image pair ``pair_label``."""
+    add_image_pairs(project, [(pair_label, *paths)], medium)
+    return pair_label
+
+
 def take_pair(project: ProjectStore, label: str, frame: int, pair_label: str | None = None,
               medium: str = "water") -> str:
     """Make the synchronised frames of left frame ``frame`` an image pair of the project (e.g. the
     calibration frame filmed in air and underwater): written as PNG beside the project under
-    ``frames/`` and added like any pair. Returns the pair's label."""
-    pair_label = pair_label or f"{label}-{frame}"
-    folder = project.path.parent / "frames"
-    paths = export_frame(project, label, frame, folder / pair_label)
-    add_image_pairs(project, [(pair_label, *paths)], medium)
-    return pair_label
+    ``frames/`` and added like any pair. Returns the pair's label. The window does the same steps with
+    the decoding and writing in a worker (:func:`plan_taken_pair`, :func:`write_frame_pair`,
+    :func:`add_taken_pair`)."""
+    pair_label, folder = plan_taken_pair(project, label, frame, pair_label)
+    left, right, _, _ = frame_pair(project, label, frame)
+    return add_taken_pair(project, pair_label, write_frame_pair(left, right, folder), medium)
 
 
 # ---------------------------------------------------------------------------- synchronisation
@@ -212,6 +283,30 @@ def _calibration_for(project: ProjectStore, calibration_id: int | None, label: s
     return calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}").rig(0, "rig")
 
 
+@dataclass(frozen=True)
+class SyncJob:
+    """What estimating a video pair's offset needs, read from the project (on its thread): each camera's
+    files, and the rig (for the image method) or why there is none."""
+
+    label: str
+    left: tuple[Path, ...]
+    right: tuple[Path, ...]
+    rig: object | None
+    no_rig: str = ""
+
+
+def plan_sync(project: ProjectStore, label: str, calibration_id: int | None = None) -> SyncJob:
+    """Read what :func:`run_sync` needs from the project (so the estimate can run in a worker)."""
+    video = project.video(label)
+    rig, why = None, ""
+    try:
+        rig = _calibration_for(project, calibration_id, label)
+    except UsvipsError as error:
+        why = str(error)
+    return SyncJob(label, tuple(project.media_path(p) for p in video["left"]),
+                   tuple(project.media_path(p) for p in video["right"]), rig, why)
+
+
 def estimate_offset(project: ProjectStore, label: str, method: str | None = None, max_offset: int | None = None,
                     calibration_id: int | None = None, frame_limit: int | None = 3000,
                     progress: Callable[[int, int], None] | None = None) -> SyncEstimate:
@@ -221,7 +316,21 @@ def estimate_offset(project: ProjectStore, label: str, method: str | None = None
     flash and image estimation."""
     if method is not None and method not in synchronisation.METHODS:
         raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
-    video, left, right = open_streams(project, label)
+    return run_sync(plan_sync(project, label, calibration_id), method, max_offset, frame_limit, progress)
+
+
+def run_sync(job: SyncJob, method: str | None = None, max_offset: int | None = None, frame_limit: int | None = 3000,
+             progress: Callable[[int, int], None] | None = None) -> SyncEstimate:
+    """:func:`estimate_offset` on what :func:`plan_sync` read: files only, no project."""
+    if method is not None and method not in synchronisation.METHODS:
+        raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
+    label = job.label
+    left = VideoStream(job.left)
+    try:
+        right = VideoStream(job.right)
+    except BaseException:
+        left.close()
+        raise
     with left, right:
         count = min(left.frame_count, right.frame_count)
         limit = int(max_offset) if max_offset is not None else max(1, min(count // 3, 300))
@@ -242,7 +351,9 @@ def estimate_offset(project: ProjectStore, label: str, method: str | None = None
             except UsvipsError:
                 if method == "flash":
                     raise
-        rig = _calibration_for(project, calibration_id, label)
+        if job.rig is None:
+            raise VideoError(job.no_rig)
+        rig = job.rig
         n = min(count, frame_limit or count, 200)
         step = max(1, n // 15)
         left_frames = [left.frame(i) for i in range(n)]
@@ -254,8 +365,13 @@ def estimate_offset(project: ProjectStore, label: str, method: str | None = None
 def eventmeasure_frame_columns(project: ProjectStore, vertex) -> tuple[str, str, str, str, str, str, str] | None:
     """EventMeasure's FilenameLeft, FrameLeft, FilenameRight, FrameRight, Time, Period, PeriodTime of a
     vertex measured on a video (None otherwise): the chapter file holding each frame and the frame's
-    number within it, the time in minutes from the first frame (as EventMeasure), the period holding the
-    left frame and the minutes since it began."""
+    number within it, the time in minutes from the first frame of the recording, the period holding the
+    left frame and the minutes since it began.
+
+    The convention is EventMeasure's, checked on its exports that CheckEM ships (e.g. a 2020 stereo-BRUV
+    Lengths.txt: 62 frames further on, Time grows by 0.01724 = 62 / 59.94 fps / 60, so minutes; in the
+    next GoPro chapter FrameLeft starts again near 0 while Time continues from the recording's start;
+    PeriodTime = Time − the period's start time), written with 5 decimals as EventMeasure does."""
     if vertex.video is None:
         return None
     video = project.video(vertex.video)
@@ -273,8 +389,8 @@ def eventmeasure_frame_columns(project: ProjectStore, vertex) -> tuple[str, str,
     period, period_time = "", ""
     for name, start, end in project.periods(vertex.video):
         if start <= vertex.frame_left <= end:
-            period, period_time = name, f"{(vertex.time_s - start / video['fps']) / 60:.4f}"
-    return file_left, frame_left, file_right, frame_right, f"{vertex.time_s / 60:.4f}", period, period_time
+            period, period_time = name, f"{(vertex.time_s - start / video['fps']) / 60:.5f}"
+    return file_left, frame_left, file_right, frame_right, f"{vertex.time_s / 60:.5f}", period, period_time
 
 
 def add_sample_video(project: ProjectStore, left: Path, right: Path, offset: int, label: str = "video") -> None:

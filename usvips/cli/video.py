@@ -46,6 +46,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     take.add_argument("--label", help="the new image pair's label (default VIDEO-FRAME)")
     take.add_argument("--medium", choices=("water", "air"), default="water")
     take.set_defaults(handler=run_take_pair)
+    proxy = actions.add_parser("proxy", help="build lossless all-intra seek proxies of a video pair (proxies/ beside "
+                               "the project): random seeks decode one frame, pixels identical")
+    proxy.add_argument("project")
+    proxy.add_argument("--pair", required=True, help="the video pair")
+    proxy.set_defaults(handler=run_proxy)
     period = actions.add_parser("period", help="mark a named period (left frames START to END) of a video pair, "
                                 "or list them")
     period.add_argument("project")
@@ -108,10 +113,7 @@ def run_sync(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({**estimate.as_dict(), "stored": not args.dry_run}))
         return 0
-    print(f"offset {estimate.offset_frames:+.2f} frames ({estimate.offset_s:+.4f} s) by {estimate.method}, "
-          f"confidence {estimate.confidence:.2f}"
-          + (f"; using the nearest frame, {estimate.frames:+d}" if estimate.rounded else "")
-          + ("" if args.dry_run else "; stored"))
+    print(estimate.summary() + ("" if args.dry_run else "; stored"))
     return 0
 
 
@@ -148,4 +150,15 @@ def run_take_pair(args: argparse.Namespace) -> int:
     with Project.open(args.project) as project:
         label = video_project.take_pair(project, args.pair, args.frame, args.label, args.medium)
     print(f"added image pair {label!r} (left frame {args.frame} of {args.pair} and its partner)")
+    return 0
+
+
+def run_proxy(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        plan = video_project.plan_proxies(project, args.pair)
+    if not plan:
+        print(f"video {args.pair!r}: its seek proxies are already built")
+        return 0
+    for path in video_project.build_proxies(plan):
+        print(f"wrote {path} ({path.stat().st_size / 2**20:.1f} MiB)")
     return 0

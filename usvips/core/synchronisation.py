@@ -21,7 +21,7 @@ from scipy import signal
 from usvips.core.camera import Camera
 from usvips.core.enhance import luminance
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
-from usvips.core.matching import epipolar_curve, match_along_curve
+from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
 
 METHODS = ("flash", "audio", "image")
 
@@ -36,6 +36,8 @@ class SyncEstimate:
     method: str
     confidence: float
     scores: dict[int, float] | None = None
+    #: standard deviation (frames) of the sub-frame part, where the method measures one (images)
+    sigma_frames: float | None = None
 
     @property
     def frames(self) -> int:
@@ -52,9 +54,19 @@ class SyncEstimate:
         return abs(self.offset_frames - self.frames) > 0.05
 
     def as_dict(self) -> dict:
-        return {"offset_frames": round(self.offset_frames, 3), "offset_frames_used": self.frames,
-                "offset_s": round(self.offset_s, 6), "method": self.method,
-                "confidence": round(self.confidence, 3)}
+        row = {"offset_frames": round(self.offset_frames, 3), "offset_frames_used": self.frames,
+               "offset_s": round(self.offset_s, 6), "method": self.method,
+               "confidence": round(self.confidence, 3)}
+        if self.sigma_frames is not None:
+            row["offset_sigma_frames"] = round(self.sigma_frames, 3)
+        return row
+
+    def summary(self) -> str:
+        """One line: the (sub-frame) offset, its sigma where known, the confidence, and the whole frame used."""
+        sigma = f" ± {self.sigma_frames:.2f}" if self.sigma_frames is not None else ""
+        return (f"offset {self.offset_frames:+.2f}{sigma} frames ({self.offset_s:+.4f} s) by {self.method}, "
+                f"confidence {self.confidence:.2f}"
+                + (f"; using the nearest frame, {self.frames:+d}" if self.rounded else ""))
 
 
 def _check_fps(fps: float) -> float:
@@ -179,13 +191,18 @@ def moving_features(grey: np.ndarray, background: np.ndarray, count: int = 12, w
 def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.ndarray], left: Camera,
                  right: Camera, fps: float, candidates: Sequence[int], step: int = 2, near: float = 0.3,
                  far: float = 10.0) -> SyncEstimate:
-    """The offset from the images by epipolar consistency: corners on moving things in left frame ``i``
-    are matched along their refractive epipolar curves in right frame ``i + k``; only at the true offset
-    do the matches lie on the curves (a moving object has left its curve in the other frames). Score of
-    a candidate ``k``: minus the median distance (pixels) of the matches from their curves.
+    """The offset from the images by epipolar consistency: a moving thing seen by both cameras lies on
+    the refractive epipolar curve of its left pixel only in the right frame of the same instant.
+
+    Corners on moving things in every ``step``-th left frame ``i`` are found within a band around their
+    curves in right frames ``i + k`` (``k`` in ``candidates``); where a feature's signed distance from its
+    curve changes sign, it votes for the fractional offset at which it crosses
+    (:func:`_crossing_votes`). The estimate is the votes' median, to a fraction of a frame, with its
+    ``sigma_frames``; the nearest whole frame is the one used. When fewer than three features cross, the
+    whole frame whose matches (along the curves) lie closest to them is returned instead.
 
     ``left``/``right``: the calibrated cameras (with housings); ``candidates``: whole-frame offsets to
-    try; every ``step``-th left frame is used; ``near``/``far``: range along the rays (m)."""
+    try; ``near``/``far``: range along the rays (m)."""
     fps = _check_fps(fps)
     candidates = [int(k) for k in candidates]
     if not candidates:
@@ -193,18 +210,24 @@ def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.nd
     n_left, n_right = len(left_frames), len(right_frames)
     grey_left = [luminance(f) for f in left_frames]
     background = np.median(np.stack(grey_left), axis=0)
-    distances: dict[int, list[float]] = {k: [] for k in candidates}
+    features: list[tuple[int, np.ndarray, EpipolarCurve]] = []
     for i in range(0, n_left, max(int(step), 1)):
         for pixel in moving_features(grey_left[i], background):
             curve = epipolar_curve(left, right, pixel, near, far, samples=300)
-            if len(curve.pixels) == 0:
+            if len(curve.pixels) > 0:
+                features.append((i, pixel, curve))
+    votes = _crossing_votes(features, grey_left, right_frames, candidates)
+    if len(votes) >= 3:
+        return _from_votes(votes, fps, candidates)
+    # too few features cross their curve: the whole frame whose matches lie closest to the curves
+    distances: dict[int, list[float]] = {k: [] for k in candidates}
+    for i, pixel, curve in features:
+        for k in candidates:
+            if not 0 <= i + k < n_right:
                 continue
-            for k in candidates:
-                if not 0 <= i + k < n_right:
-                    continue
-                match = match_along_curve(left_frames[i], right_frames[i + k], pixel, curve, window=21)
-                if match.pixel is not None and match.score > 0.5:
-                    distances[k].append(curve.distance_to(np.array(match.pixel)))
+            match = match_along_curve(left_frames[i], right_frames[i + k], pixel, curve, window=21)
+            if match.pixel is not None and match.score > 0.5:
+                distances[k].append(curve.distance_to(np.array(match.pixel)))
     scores = {k: -float(np.median(d)) for k, d in distances.items() if len(d) >= 3}
     if len(scores) < 2:
         raise DegenerateGeometryError("image synchronisation found too few moving features matched in both "
@@ -216,3 +239,131 @@ def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.nd
     # confidence: how far the runner-up's distance is above the best's, relative to it (0 … 1)
     confidence = float(np.clip(1.0 - (ordered[0] + 0.25) / (ordered[1] + 0.25), 0.0, 1.0))
     return SyncEstimate(float(ks[best]), fps, "image", confidence, {int(k): float(scores[k]) for k in ks})
+
+
+#: a feature's match counts when its normalised cross-correlation exceeds this
+MATCH_SCORE = 0.6
+
+
+def _crossing_votes(features: list[tuple[int, np.ndarray, EpipolarCurve]], grey_left: Sequence[np.ndarray],
+                    right_frames: Sequence[np.ndarray], candidates: Sequence[int], window: int = 21,
+                    band: int = 12) -> list[float]:
+    """Each moving feature's own estimate of the offset (frames, fractional), from its motion across its
+    epipolar curve.
+
+    The feature of left frame ``i`` is found (normalised cross-correlation) within ``band`` px of its
+    curve in right frames ``i + k`` for every candidate ``k``; its signed distance from the curve
+    changes sign where the right camera sees it at the left frame's instant. Between consecutive frames
+    ``j``, ``j + 1`` whose matches lie on either side (both clear, at most ``band`` px away), the zero of the
+    straight line through the two distances is the crossing ``j*``; the vote is ``j* − i``. A feature
+    moving along its curve never crosses it and does not vote."""
+    n_right = len(right_frames)
+    grey_right: dict[int, np.ndarray] = {}
+    half = window // 2
+    ks = sorted(int(k) for k in candidates)
+    votes = []
+    for i, pixel, curve in features:
+        if len(curve.pixels) < 2:
+            continue
+        template = cv2.getRectSubPix(np.asarray(grey_left[i], np.float32), (window, window),
+                                     (float(pixel[0]), float(pixel[1])))
+        if float(template.std()) < 4.0:
+            continue
+        track: dict[int, float] = {}
+        for k in ks:
+            j = i + k
+            if not 0 <= j < n_right:
+                continue
+            if j not in grey_right:
+                grey_right[j] = np.asarray(luminance(right_frames[j]), np.float32)
+            found = _best_near_curve(grey_right[j], template, curve, band, half)
+            if found is not None:
+                track[k] = found
+        crossings = [(k + track[k] / (track[k] - track[k + 1]), abs(track[k]) + abs(track[k + 1]))
+                     for k in ks if _crosses(track, k)]
+        if crossings:
+            votes.append(min(crossings, key=lambda c: c[1])[0])  # the crossing nearest the curve
+    return votes
+
+
+#: a feature must move across its curve by at least this much a frame (pixels) to time it: a still one
+#: (or one moving along its curve) lies on it in every frame, its distance only noise
+MIN_CROSSING_SPEED = 0.5
+
+
+def _crosses(track: dict[int, float], k: int) -> bool:
+    """Whether the signed distances ``track`` (by candidate offset) cross zero between ``k`` and ``k + 1``,
+    moving steadily: at least :data:`MIN_CROSSING_SPEED` a frame, and in the same direction as the
+    neighbouring frames' where they were found."""
+    if k not in track or k + 1 not in track or track[k] * track[k + 1] > 0:
+        return False
+    change = track[k + 1] - track[k]
+    if abs(change) < MIN_CROSSING_SPEED:
+        return False
+    for a, b in ((k - 1, k), (k + 1, k + 2)):
+        if a in track and b in track and (track[b] - track[a]) * change <= 0:
+            return False
+    return True
+
+
+def _best_near_curve(target: np.ndarray, template: np.ndarray, curve: EpipolarCurve, band: int,
+                     half: int) -> float | None:
+    """Signed distance (pixels) from ``curve`` of ``template``'s best match within ``band`` px of it in the
+    grey ``target``; None when nothing there correlates above :data:`MATCH_SCORE`."""
+    height, width = target.shape[:2]
+    margin = band + half + 2
+    x0 = max(int(np.floor(curve.pixels[:, 0].min())) - margin, 0)
+    y0 = max(int(np.floor(curve.pixels[:, 1].min())) - margin, 0)
+    x1 = min(int(np.ceil(curve.pixels[:, 0].max())) + margin, width - 1)
+    y1 = min(int(np.ceil(curve.pixels[:, 1].max())) + margin, height - 1)
+    if x1 - x0 < 2 * half + 3 or y1 - y0 < 2 * half + 3:
+        return None
+    surface = cv2.matchTemplate(np.ascontiguousarray(target[y0:y1 + 1, x0:x1 + 1]), template, cv2.TM_CCOEFF_NORMED)
+    # the band: surface position (u, v) is the template centred at (x0 + u + half, y0 + v + half)
+    line = np.zeros(surface.shape, np.uint8)
+    points = np.round(curve.pixels - [x0 + half, y0 + half]).astype(np.int32)
+    cv2.polylines(line, [points.reshape(-1, 1, 2)], False, 255, 1)
+    if not line.any():
+        return None
+    distance = cv2.distanceTransform(255 - line, cv2.DIST_L2, 5)
+    masked = np.where(distance <= band, surface, -1.0)
+    v, u = np.unravel_index(int(np.argmax(masked)), masked.shape)
+    peak = float(masked[v, u])
+    if peak < MATCH_SCORE:
+        return None
+    du = dv = 0.0
+    if 0 < u < surface.shape[1] - 1:
+        a, c = surface[v, u - 1], surface[v, u + 1]
+        du = float(np.clip(0.5 * (a - c) / (a - 2 * peak + c), -0.5, 0.5)) if a - 2 * peak + c < 0 else 0.0
+    if 0 < v < surface.shape[0] - 1:
+        a, c = surface[v - 1, u], surface[v + 1, u]
+        dv = float(np.clip(0.5 * (a - c) / (a - 2 * peak + c), -0.5, 0.5)) if a - 2 * peak + c < 0 else 0.0
+    return _signed_distance(curve, np.array([x0 + half + u + du, y0 + half + v + dv]))
+
+
+def _from_votes(votes: Sequence[float], fps: float, candidates: Sequence[int]) -> SyncEstimate:
+    """The offset from the features' votes: their median (sub-frame), its sigma 1.4826 · MAD / √n, per
+    whole candidate the share of votes nearest it (``scores``), and the confidence 1 − (runner-up's
+    share / best share)."""
+    values = np.asarray(votes, float)
+    middle = float(np.median(values))
+    sigma = max(1.4826 * float(np.median(np.abs(values - middle))) / np.sqrt(len(values)), 0.01)
+    nearest = np.round(values).astype(int)
+    scores = {int(k): float(np.mean(nearest == k)) for k in candidates}
+    ordered = sorted(scores.values(), reverse=True)
+    confidence = float(np.clip(1.0 - ordered[1] / ordered[0], 0.0, 1.0)) if ordered[0] > 0 and len(ordered) > 1 \
+        else 0.0
+    return SyncEstimate(middle, fps, "image", confidence, scores, sigma)
+
+
+def _signed_distance(curve: EpipolarCurve, point: np.ndarray) -> float:
+    """Distance (pixels) from ``point`` to the curve's polyline, positive on the left of its direction of
+    increasing depth (the side the z-component of tangent × offset points to)."""
+    a, b = curve.pixels[:-1], curve.pixels[1:]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+    nearest = a + t[:, None] * ab
+    j = int(np.argmin(np.linalg.norm(nearest - point, axis=1)))
+    offset = point - nearest[j]
+    cross = ab[j, 0] * offset[1] - ab[j, 1] * offset[0]
+    return float(np.copysign(np.linalg.norm(offset), cross))

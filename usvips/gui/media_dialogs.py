@@ -124,7 +124,7 @@ def add_video(window, left: list | None = None, right: list | None = None, label
         window.video.project_opened(project)
         window.video.open_video(added.label)
         window.show_message("info", f"added video {added.label}: {added.frame_count} frames at {added.fps:.6g} fps; "
-                                    "set its offset (Video › Synchronise) before measuring")
+                                    "set its offset (the Video dock's Sync… or offset) before measuring")
 
     window.run_worker(job, "reading the video files", store)
 

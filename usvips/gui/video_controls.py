@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips.app import video_project
 from usvips.core.errors import UsvipsError
 from usvips.gui.video_model import (
     FrameCache,
@@ -20,6 +21,7 @@ from usvips.gui.video_model import (
     measured_frames,
     parse_position,
     prefetch_order,
+    rgb_pair,
     video_frame_of,
 )
 from usvips.gui.worker import Cancelled, Worker
@@ -77,8 +79,18 @@ class VideoDock(QtWidgets.QWidget):
         self.offset.setToolTip("right frame = left frame + offset (nudge while both panes show; stored)")
         self.period = QtWidgets.QPushButton("Period…")
         self.period.setToolTip("mark a named period from this frame (EventMeasure's periods)")
+        self.take = QtWidgets.QPushButton("&Take as pair…")
+        self.take.setToolTip("make the synchronised frames shown an image pair of the project (e.g. the calibration "
+                             "frame filmed in air or underwater), written as PNG under frames/ beside the project")
+        self.sync = QtWidgets.QPushButton("S&ync…")
+        self.sync.setToolTip("estimate the offset from the soundtracks, a flash seen by both cameras or the images "
+                             "(epipolar consistency of moving things), with its confidence; stored")
+        self.proxy = QtWidgets.QPushButton("Seek pro&xy")
+        self.proxy.setToolTip("build lossless all-intra copies of this video (proxies/ beside the project, about 1–2.5 "
+                              "MB a 1080p frame) so that a random seek decodes one frame; pixels stay identical")
         top = QtWidgets.QHBoxLayout()
-        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.goto, self.period):
+        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.sync, self.goto, self.period,
+                       self.take, self.proxy):
             top.addWidget(widget)
         top.addStretch(1)
         top.addWidget(self.frame_label)
@@ -86,6 +98,26 @@ class VideoDock(QtWidgets.QWidget):
         layout.setContentsMargins(4, 2, 4, 2)
         layout.addLayout(top)
         layout.addWidget(self.timeline)
+
+
+class TakePairDialog(QtWidgets.QDialog):
+    """The label and medium of an image pair taken from the video frames shown."""
+
+    def __init__(self, label: str, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Take the frames shown as an image pair")
+        self.label = QtWidgets.QLineEdit(label)
+        self.medium = QtWidgets.QComboBox()
+        self.medium.addItem("underwater (phase 2, measuring)", "water")
+        self.medium.addItem("in air (phase 1 calibration)", "air")
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Ok
+                                             | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form = QtWidgets.QFormLayout(self)
+        form.addRow("&Label", self.label)
+        form.addRow("&Filmed", self.medium)
+        form.addRow(buttons)
 
 
 class VideoController(QtCore.QObject):
@@ -108,6 +140,7 @@ class VideoController(QtCore.QObject):
         self._request: Worker | None = None
         self._prefetch: Worker | None = None
         self._pending: int | None = None
+        self._target: int | None = None  # the frame last asked for
         self.timer = QtCore.QTimer(self)
         self.timer.timeout.connect(self._tick)
         d = self.dock_widget
@@ -119,6 +152,9 @@ class VideoController(QtCore.QObject):
         d.jump.valueChanged.connect(self._on_jump)
         d.offset.editingFinished.connect(self._on_offset)
         d.period.clicked.connect(self._on_period)
+        d.take.clicked.connect(self._on_take_pair)
+        d.proxy.clicked.connect(self.build_proxies)
+        d.sync.clicked.connect(self._on_sync)
         for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
             widget.installEventFilter(self)
         # double-click on an object (or Zoom to) goes to the frame it was measured on
@@ -170,6 +206,7 @@ class VideoController(QtCore.QObject):
             if worker is not None:
                 worker.cancel()
         self._request = self._prefetch = None
+        self._target = None
         self.cache.clear()
         if self.source is not None:
             self.source.close()
@@ -177,15 +214,18 @@ class VideoController(QtCore.QObject):
 
     # ------------------------------------------------------------------ stepping
     def step(self, frames: int) -> None:
+        """Step from the frame last asked for (shown or still decoding): two quick Shift+→ go 20 frames."""
         if self.navigator is not None:
             self.direction = 1 if frames >= 0 else -1
-            self.request(self.navigator.frame + frames)
+            base = self._target if self._target is not None else self.navigator.frame
+            self.request(base + frames)
 
     def request(self, frame: int) -> None:
         """Show left frame ``frame`` (clamped) and its partner, from the cache or a worker."""
         if self.navigator is None or self.source is None:
             return
         frame = self.navigator.clamp(frame)
+        self._target = frame
         cached = self.cache.get(frame)
         if cached is not None:
             self._show(frame, cached)
@@ -200,22 +240,26 @@ class VideoController(QtCore.QObject):
         def job(progress, cancelled):
             if cancelled():
                 raise Cancelled
-            return frame, source.pair(frame, offset)
+            return frame, source.pictures(frame, offset)
 
         worker = self._request = Worker(job, f"decoding frame {frame}")
         worker.signals.finished.connect(lambda result, w=worker: self._decoded(w, *result))
-        worker.signals.failed.connect(lambda message: self.window.show_message("error", message))
+        worker.signals.failed.connect(lambda message: self._failed(message))
         self.window.pool.start(worker)
 
+    def _failed(self, message: str) -> None:
+        self._target = None  # step on from the frame shown
+        self.window.show_message("error", message)
+
     def _decoded(self, worker: Worker, frame: int, item: tuple) -> None:
-        if self.source is None:
-            return
+        if self.source is None or self.navigator is None or item[2] != frame + self.navigator.offset:
+            return  # closed, or decoded at an offset since changed
         self.cache.put(frame, item)
         if worker is self._request and frame == self._pending:
             self._show(frame, item)
 
     def _show(self, frame: int, item: tuple) -> None:
-        left, right, partner, time_s = item
+        left, right, partner, time_s = rgb_pair(item)
         nav = self.navigator
         nav.go(frame)
         ws = self.window.workspace
@@ -250,7 +294,7 @@ class VideoController(QtCore.QObject):
                 if cancelled():
                     raise Cancelled
                 if f not in cache:
-                    cache.put(f, source.pair(f, offset))
+                    cache.put(f, source.pictures(f, offset))
             return len(todo)
 
         self._prefetch = Worker(job, "prefetching frames")
@@ -305,19 +349,67 @@ class VideoController(QtCore.QObject):
         if self.navigator is not None:
             self.navigator.jump = int(value)
 
+    SYNC_METHODS = {"automatic: sound, else a flash, else the images": None, "flash": "flash",
+                    "sound (audio)": "audio", "images (needs the rig's calibration)": "image"}
+
+    def _on_sync(self) -> None:
+        if self.navigator is None:
+            return
+        choice, ok = QtWidgets.QInputDialog.getItem(self.dock_widget, "Synchronise", "Estimate the offset from:",
+                                                    list(self.SYNC_METHODS), 0, False)
+        if ok:
+            self.synchronise(self.SYNC_METHODS[choice])
+
+    def synchronise(self, method: str | None = None) -> Worker | None:
+        """Estimate the shown video's offset by ``method`` (None: sound, else a flash, else the images) in a
+        worker, then store it (as ``usvips video sync``) and show the pair at the new offset; the message
+        gives the sub-frame offset, its confidence and the whole frame used."""
+        nav, project = self.navigator, self.window.workspace.project
+        if nav is None or project is None:
+            return None
+        try:
+            job_data = video_project.plan_sync(project, nav.label)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return None
+        label = nav.label
+
+        def job(progress, cancelled):
+            def report(done: int, total: int) -> None:
+                if cancelled():
+                    raise Cancelled
+                progress(done / max(total, 1))
+            return video_project.run_sync(job_data, method, progress=report)
+
+        def done(estimate) -> None:
+            if self.navigator is None or self.navigator.label != label:
+                return
+            self._store_offset(estimate.frames, estimate.as_dict())
+            self.window.show_message("info", f"video {label}: {estimate.summary()}; stored")
+
+        return self.window.run_worker(job, f"synchronising {label}", done)
+
     def _on_offset(self) -> None:
         nav = self.navigator
         value = self.dock_widget.offset.value()
         if nav is None or value == nav.offset:
             return
+        self._store_offset(value, {"method": "by hand"})
+
+    def _store_offset(self, value: int, how: dict) -> None:
+        nav = self.navigator
         try:
-            self.window.workspace.project.set_video_offset(nav.label, value, {"method": "by hand"})
+            self.window.workspace.project.set_video_offset(nav.label, value, how)
         except UsvipsError as error:
             self.window.show_message("error", str(error))
             self.dock_widget.offset.setValue(nav.offset)
             return
         frame = nav.frame
-        self.cache.clear()
+        for worker in (self._request, self._prefetch):
+            if worker is not None:
+                worker.cancel()
+        self.cache = FrameCache(self.cache.budget)  # a decode still running fills the old one, never this
+        self.dock_widget.offset.setValue(value)
         self.source.video["offset_frames"] = value
         self.navigator = self.source.navigator()
         self.navigator.marks = nav.marks
@@ -349,6 +441,85 @@ class VideoController(QtCore.QObject):
             return False
         self.window.show_message("info", f"period {name!r}: frames {start} to {end} (stored)")
         return True
+
+    def _on_take_pair(self) -> None:
+        nav = self.navigator
+        if nav is None:
+            return
+        dialog = TakePairDialog(f"{nav.label}-{nav.frame}", self.dock_widget)
+        if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted:
+            self.take_pair(dialog.label.text(), dialog.medium.currentData())
+
+    def take_pair(self, pair_label: str | None = None, medium: str = "water") -> Worker | None:
+        """Make the synchronised frames shown an image pair ``pair_label`` (default ``VIDEO-FRAME``) taken in
+        ``medium`` ("air" or "water"): decoded exactly and written as PNG in a worker, then added to the
+        project on this thread (the service the command line's ``video take-pair`` uses). Returns the
+        worker, or None when nothing is shown or the label is refused (a message says why)."""
+        nav, source, project = self.navigator, self.source, self.window.workspace.project
+        if nav is None or source is None or project is None:
+            return None
+        frame, offset = nav.frame, nav.offset
+        try:
+            pair_label, folder = video_project.plan_taken_pair(project, nav.label, frame, pair_label)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return None
+
+        def job(progress, cancelled):
+            left, right, partner, _ = source.pair(frame, offset)
+            if cancelled():
+                raise Cancelled
+            return partner, video_project.write_frame_pair(left, right, folder)
+
+        def store(result) -> None:
+            partner, paths = result
+            try:
+                video_project.add_taken_pair(project, pair_label, paths, medium)
+            except UsvipsError:
+                for path in paths:  # nothing half-made stays behind
+                    path.unlink(missing_ok=True)
+                raise
+            box = self.window.pair_box
+            shown = box.currentIndex()
+            box.clear()
+            box.addItems(self.window.workspace.image_pairs())
+            box.setCurrentIndex(shown if shown < 0 else box.findText(self.window.workspace.pair or ""))
+            self.window.show_message("info", f"left frame {frame} and right frame {partner} of {nav.label} are now "
+                                             f"the {'in-air' if medium == 'air' else 'underwater'} image pair "
+                                             f"{pair_label!r} (Calibration menu: calibrate from it)")
+
+        return self.window.run_worker(job, f"taking frame {frame} as a pair", store)
+
+    def build_proxies(self) -> Worker | None:
+        """Build the shown video's seek proxies in a worker (progress, cancel), then reopen it on the same
+        frame so that seeks go through them. None when there is nothing to build (a message says so)."""
+        nav, project = self.navigator, self.window.workspace.project
+        if nav is None or project is None:
+            return None
+        try:
+            plan = video_project.plan_proxies(project, nav.label)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return None
+        if not plan:
+            self.window.show_message("info", f"video {nav.label}: its seek proxies are already built and in use")
+            return None
+        label, frame = nav.label, nav.frame
+
+        def job(progress, cancelled):
+            try:
+                return video_project.build_proxies(plan, lambda done, total: progress(done / total), cancelled)
+            except InterruptedError:
+                raise Cancelled from None
+
+        def done(paths) -> None:
+            if self.window.workspace.project is project and self.open_video(label):
+                self.request(frame)
+            size = sum(p.stat().st_size for p in paths) / 2**20
+            self.window.show_message("info", f"video {label}: seek proxies built ({size:.0f} MiB in "
+                                             f"{paths[0].parent}); random seeks now decode one frame")
+
+        return self.window.run_worker(job, f"building seek proxies of {label}", done)
 
     def go_to_object(self, object_id: int) -> None:
         project = self.window.workspace.project

@@ -17,10 +17,14 @@ import numpy as np
 
 from usvips.app.video_project import open_streams, partner_frame
 from usvips.core.errors import InvalidParameterError
+from usvips.io.video_stream import PairReader, Picture
 from usvips.store.interface import ProjectStore
 
-#: default frame-cache budget (bytes): 48 frame pairs at 1920 × 1080 RGB
-CACHE_BYTES = 48 * 2 * 1920 * 1080 * 3
+#: bytes a pixel of a cached frame takes: frames are cached as the decoder returned them (YUV 4:2:0 for
+#: H.264/HEVC cameras) and converted to RGB only when shown (about 1 ms a 1080p frame)
+CACHED_BYTES_PER_PIXEL = 1.5
+#: default frame-cache budget (bytes): 48 frame pairs at 1920 × 1080 YUV 4:2:0 (285 MiB), 12 pairs at 4K
+CACHE_BYTES = int(48 * 2 * 1920 * 1080 * CACHED_BYTES_PER_PIXEL)
 
 
 def format_timecode(seconds: float) -> str:
@@ -114,10 +118,19 @@ class VideoNavigator:
 
 
 def prefetch_order(frame: int, first: int, last: int, direction: int = 1, ahead: int = 8, behind: int = 2) -> list[int]:
-    """Frames to decode after ``frame`` is shown: ``ahead`` in the direction of travel, then ``behind``."""
+    """Frames to decode after ``frame`` is shown: ``ahead`` in the direction of travel, then ``behind``.
+    Each group is in increasing frame order, since a decoder only runs forward: the frames before
+    ``frame`` cost one seek (to the key frame before the earliest) and then one decode each, where
+    decoding them nearest-first would seek again for every frame."""
     direction = 1 if direction >= 0 else -1
-    order = [frame + direction * k for k in range(1, ahead + 1)] + [frame - direction * k for k in range(1, behind + 1)]
-    return [f for f in order if first <= f <= last]
+    ahead_frames = sorted(frame + direction * k for k in range(1, ahead + 1))
+    behind_frames = sorted(frame - direction * k for k in range(1, behind + 1))
+    return [f for f in ahead_frames + behind_frames if first <= f <= last]
+
+
+def _item_bytes(item: tuple) -> int:
+    """Bytes of the pictures or arrays in a cached item (numbers, labels: none)."""
+    return sum(int(a.nbytes) for a in item if isinstance(a, (np.ndarray, Picture)))
 
 
 class FrameCache:
@@ -147,7 +160,7 @@ class FrameCache:
             return item
 
     def put(self, frame: int, item: tuple) -> None:
-        size = sum(a.nbytes for a in item if isinstance(a, np.ndarray))
+        size = _item_bytes(item)
         with self._lock:
             if frame in self._items:
                 return
@@ -155,7 +168,7 @@ class FrameCache:
             self.used += size
             while self.used > self.budget and len(self._items) > 1:
                 _, old = self._items.popitem(last=False)
-                self.used -= sum(a.nbytes for a in old if isinstance(a, np.ndarray))
+                self.used -= _item_bytes(old)
 
     def clear(self) -> None:
         with self._lock:
@@ -165,10 +178,12 @@ class FrameCache:
 
 class FrameSource:
     """The two streams of a stored video, decoded one request at a time (a lock: PyAV decoders are not
-    shared between threads). ``pair(frame)`` → (left RGB, right RGB, right frame, time s)."""
+    shared between threads). ``pictures(frame)`` → (left picture, right picture, right frame, time s),
+    the compact form the cache holds; ``pair(frame)`` → the same with RGB arrays."""
 
     def __init__(self, project: ProjectStore, label: str) -> None:
         self.video, self.left, self.right = open_streams(project, label)
+        self._reader = PairReader(self.left, self.right)
         self._lock = threading.Lock()
 
     @property
@@ -179,16 +194,27 @@ class FrameSource:
         return VideoNavigator(self.video["label"], self.left.frame_count, self.right.frame_count,
                               int(self.video["offset_frames"]), self.left.fps)
 
-    def pair(self, frame: int, offset: int | None = None) -> tuple[np.ndarray, np.ndarray, int, float]:
+    def pictures(self, frame: int, offset: int | None = None) -> tuple[Picture, Picture, int, float]:
         video = dict(self.video, offset_frames=self.video["offset_frames"] if offset is None else offset)
         with self._lock:
             partner = partner_frame(video, frame, self.right.frame_count)
-            return self.left.frame(frame), self.right.frame(partner), partner, self.left.time_of(frame)
+            left, right = self._reader.pictures(frame, partner)  # both cameras at once
+            return left, right, partner, self.left.time_of(frame)
+
+    def pair(self, frame: int, offset: int | None = None) -> tuple[np.ndarray, np.ndarray, int, float]:
+        return rgb_pair(self.pictures(frame, offset))
 
     def close(self) -> None:
         with self._lock:
+            self._reader.close()
             for stream in (self.left, self.right):
                 stream.close()
+
+
+def rgb_pair(item: tuple) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """A cached (left picture, right picture, right frame, time) as RGB arrays, for showing."""
+    left, right, partner, time_s = item
+    return left.array(), right.array(), partner, time_s
 
 
 def measured_frames(project: ProjectStore, label: str) -> set[int]:
@@ -211,11 +237,11 @@ def video_frame_of(stored) -> tuple[str, int] | None:
     return None if vertex is None or vertex.video is None else (vertex.video, int(vertex.frame_left))
 
 
-def cache_bytes(width: int, height: int, pairs: int) -> int:
-    """Bytes of ``pairs`` cached RGB frame pairs at ``width`` × ``height`` px."""
-    return int(pairs) * 2 * int(width) * int(height) * 3
+def cache_bytes(width: int, height: int, pairs: int, bytes_per_pixel: float = CACHED_BYTES_PER_PIXEL) -> int:
+    """Bytes of ``pairs`` cached frame pairs at ``width`` × ``height`` px (YUV 4:2:0 by default; 3 for RGB)."""
+    return int(pairs * 2 * int(width) * int(height) * bytes_per_pixel)
 
 
-__all__ = ["CACHE_BYTES", "FrameCache", "FrameSource", "VideoNavigator", "cache_bytes",
-           "format_timecode", "measured_frames", "parse_position", "prefetch_order", "video_frame_of",
+__all__ = ["CACHED_BYTES_PER_PIXEL", "CACHE_BYTES", "FrameCache", "FrameSource", "VideoNavigator", "cache_bytes",
+           "format_timecode", "measured_frames", "parse_position", "prefetch_order", "rgb_pair", "video_frame_of",
            "video_frame_text"]

@@ -20,7 +20,9 @@ first frame of the first chapter.
 from __future__ import annotations
 
 import hashlib
+from collections import deque
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,7 +33,8 @@ from usvips.core.errors import InputFileError
 
 #: relative spread of frame intervals above which a stream is called variable-frame-rate
 VFR_TOLERANCE = 0.01
-#: forward decoding from the current position instead of seeking, up to this many frames
+#: forward decoding from the current position instead of seeking, up to this many frames (and never
+#: more than a seek would decode)
 CONTINUE_LIMIT = 48
 #: mean absolute difference (grey levels, 64 × 48 thumbnail) below which a frame repeats the one before
 DUPLICATE_LEVEL = 0.5
@@ -143,6 +146,50 @@ def _report(times: np.ndarray, digests: Sequence[str], same_picture: Sequence[in
                         tuple(dropped))
 
 
+class Picture:
+    """A decoded frame in the decoder's own pixel format (YUV 4:2:0 for most cameras: 1.5 bytes a pixel
+    against RGB's 3), converted to RGB or grey by :meth:`array` on demand, always by the same FFmpeg
+    conversion (so a cached picture gives the same pixels as a fresh decode)."""
+
+    __slots__ = ("_frame", "nbytes")
+
+    def __init__(self, frame: av.VideoFrame) -> None:
+        self._frame = frame
+        self.nbytes = int(sum(plane.buffer_size for plane in frame.planes))
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(width, height) in pixels."""
+        return int(self._frame.width), int(self._frame.height)
+
+    def array(self, grey: bool = False) -> np.ndarray:
+        """RGB uint8 (H, W, 3) or grey (H, W)."""
+        return self._frame.to_ndarray(format="gray" if grey else "rgb24")
+
+
+class PairReader:
+    """Decodes a left and a right frame together: the right one in a helper thread while the left one
+    decodes on the caller's (FFmpeg releases the GIL while decoding), so a frame pair costs about one
+    frame's decoding on two cores. The two streams must not be used elsewhere meanwhile."""
+
+    def __init__(self, left: VideoStream, right: VideoStream) -> None:
+        self.left, self.right = left, right
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="usvips-right-decoder")
+
+    def pictures(self, left_index: int, right_index: int) -> tuple[Picture, Picture]:
+        pending = self._pool.submit(self.right.picture, right_index)
+        try:
+            left = self.left.picture(left_index)
+        finally:
+            right = pending.result() if pending.exception() is None else None  # never leave it running
+        if right is None:
+            raise pending.exception()
+        return left, right
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)
+
+
 class VideoStream:
     """A camera's recording, one or more files, read frame-exactly. Use as a context manager or
     :meth:`close`. Not thread-safe: one decoder per thread (the GUI's worker owns its own)."""
@@ -183,9 +230,16 @@ class VideoStream:
         self.times_s = np.concatenate(times)
         self.report = _report(self.times_s, [d for c in chapters for d in c.digests])
         self.fps = self.report.fps if np.isfinite(self.report.fps) else float("nan")
+        #: FFmpeg's decoder threading ("AUTO", "FRAME", "SLICE" or "NONE") and whether a seek skips the
+        #: non-reference frames before its target (see :meth:`_next_frames`); both leave frames exact
+        self.thread_type = "AUTO"
+        self.skip_unneeded = True
+        self._proxy: VideoStream | None = None  # a lossless all-intra copy seeks go through (io.video_proxy)
+        self._proxy_after = 0
         self._container: av.container.InputContainer | None = None
         self._chapter = -1
-        self._decoder = None
+        self._packets = None  # the running demuxer (packets after the last one decoded)
+        self._ready: deque = deque()  # frames decoded but not yet returned, in presentation order
         self._position = -1  # index of the last frame the running decoder returned
 
     # ---------------------------------------------------------------------------- numbering
@@ -227,17 +281,42 @@ class VideoStream:
     # ---------------------------------------------------------------------------- decoding
     def frame(self, index: int, grey: bool = False) -> np.ndarray:
         """Frame ``index`` exactly as decoded, RGB uint8 (H, W, 3) or grey (H, W)."""
+        return self.picture(index).array(grey)
+
+    def picture(self, index: int) -> Picture:
+        """Frame ``index`` as the decoder returned it (its native pixel format, e.g. YUV 4:2:0: half the
+        bytes of RGB), converted on demand by :meth:`Picture.array`."""
         index = self.check_index(index)
         k, local = self._locate(index)
         chapter = self.chapters[k]
         target = int(chapter.pts[local])
-        continuing = (k == self._chapter and self._position < index <= self._position + CONTINUE_LIMIT
-                      and self._decoder is not None)
+        keys = np.flatnonzero(chapter.keyframe[: local + 1])
+        behind = local - (int(keys[-1]) if keys.size else 0)  # frames a seek decodes before the target
+        # continue the running decoder when that decodes no more frames than a seek would
+        continuing = (k == self._chapter and self._position < index <= self._position + min(CONTINUE_LIMIT, behind + 1)
+                      and self._packets is not None)
+        if not continuing and self._proxy is not None and behind > self._proxy_after:
+            return self._proxy.picture(index)  # the same planes, one intra frame away
         if not continuing:
             self._seek(k, local)
         frame = self._decode_until(chapter, target, index)
         self._position = index
-        return frame.to_ndarray(format="gray" if grey else "rgb24")
+        return Picture(frame)
+
+    def attach_proxy(self, proxy: VideoStream, after: int) -> None:
+        """Serve a seek from ``proxy`` (same frames, every one a key frame, decoding to the same pixels:
+        :mod:`usvips.io.video_proxy`) when this stream would decode more than ``after`` frames to reach
+        its target; stepping on from there continues in the proxy until the original is cheaper again."""
+        if proxy.frame_count != self.frame_count or proxy.size != self.size:
+            raise InputFileError(str(proxy.paths[0]), f"{proxy.frame_count} frames of {proxy.size}, but the "
+                                 f"recording has {self.frame_count} of {self.size}: not its proxy")
+        if self._proxy is not None:
+            self._proxy.close()
+        self._proxy, self._proxy_after = proxy, int(after)
+
+    @property
+    def has_proxy(self) -> bool:
+        return self._proxy is not None
 
     def _open_chapter(self, k: int) -> None:
         if self._chapter != k or self._container is None:
@@ -246,26 +325,54 @@ class VideoStream:
                 self._container = av.open(str(self.chapters[k].path))
             except av.error.FFmpegError as error:
                 raise InputFileError(str(self.chapters[k].path), f"cannot be opened any more: {error}") from None
-            self._container.streams.video[0].thread_type = "AUTO"
+            self._container.streams.video[0].thread_type = self.thread_type
             self._chapter = k
 
-    def _seek(self, k: int, local: int) -> None:
-        self._open_chapter(k)
+    def _start_at(self, k: int, start: int) -> None:
+        """Position the demuxer on chapter ``k``'s key frame ``start`` (local index), decoder flushed."""
         chapter = self.chapters[k]
-        keys = np.flatnonzero(chapter.keyframe[: local + 1])
-        start = int(keys[-1]) if keys.size else 0
         stream = self._container.streams.video[0]
         try:
             self._container.seek(int(chapter.pts[start]), stream=stream, backward=True, any_frame=False)
         except av.error.FFmpegError as error:
-            raise InputFileError(str(chapter.path), f"cannot seek to frame {chapter.first + local}: {error}") from None
-        self._decoder = self._container.decode(stream)
+            raise InputFileError(str(chapter.path), f"cannot seek to frame {chapter.first + start}: {error}") from None
+        stream.codec_context.flush_buffers()
+        self._packets = self._container.demux(stream)
+        self._ready.clear()
         self._position = -1
+
+    def _seek(self, k: int, local: int) -> None:
+        self._open_chapter(k)
+        keys = np.flatnonzero(self.chapters[k].keyframe[: local + 1])
+        self._start_at(k, int(keys[-1]) if keys.size else 0)
+
+    def _next_frames(self, target: int) -> bool:
+        """Decode the next packet into ``_ready``; False at the end of the file. Packets shown before
+        ``target`` that no other frame refers to (non-reference B-frames) are skipped undecoded: exact,
+        since nothing at or after ``target`` depends on them, and a third to a half of a long-GOP seek's
+        work in files with B-frames."""
+        context = self._container.streams.video[0].codec_context
+        packet = next(self._packets, None)
+        if packet is None or packet.size == 0:
+            context.skip_frame = "DEFAULT"
+            self._ready.extend(context.decode(None))
+            self._packets = iter(())
+            return bool(self._ready)
+        timestamp = packet.pts if packet.pts is not None else packet.dts
+        context.skip_frame = "NONREF" if (self.skip_unneeded and timestamp is not None
+                                          and timestamp < target) else "DEFAULT"
+        self._ready.extend(context.decode(packet))
+        return True
 
     def _decode_until(self, chapter: Chapter, target: int, index: int):
         for attempt in range(2):
             try:
-                for frame in self._decoder:
+                while True:
+                    if not self._ready and not self._next_frames(target):
+                        break
+                    if not self._ready:
+                        continue
+                    frame = self._ready.popleft()
                     timestamp = frame.pts if frame.pts is not None else frame.dts
                     if timestamp is None or timestamp < target:
                         continue
@@ -277,9 +384,7 @@ class VideoStream:
             if attempt == 0:
                 # start from the beginning of the chapter: slow, but exact
                 self._open_chapter(self._chapter)
-                stream = self._container.streams.video[0]
-                self._container.seek(int(chapter.pts[0]), stream=stream, backward=True, any_frame=False)
-                self._decoder = self._container.decode(stream)
+                self._start_at(self._chapter, 0)
         raise InputFileError(str(chapter.path), f"frame {index} (pts {target}) is in the file's index but the "
                              "decoder never returns it: the file is damaged")
 
@@ -337,12 +442,19 @@ class VideoStream:
         if self._container is not None:
             self._container.close()
         self._container = None
-        self._decoder = None
+        self._packets = None
+        self._ready.clear()
         self._chapter = -1
         self._position = -1
 
+    def reset_decoder(self) -> None:
+        """Close the running decoder (the next frame is a true seek); a proxy stays open."""
+        self._close_container()
+
     def close(self) -> None:
         self._close_container()
+        if self._proxy is not None:
+            self._proxy.close()
 
     def __enter__(self) -> VideoStream:
         return self

@@ -43,3 +43,27 @@ def frame_number(frame: np.ndarray) -> int:
     row = band.mean(axis=0)
     quarter = max(block // 4, 1)
     return sum(1 << b for b in range(BITS) if row[block * b + quarter: block * (b + 1) - quarter].mean() > 128)
+
+
+def panning_numbered_frame(number: int, width: int = 160, height: int = 120, seed: int = 0,
+                           speed: int = 3) -> np.ndarray:
+    """Like :func:`numbered_frame`, but the background is one texture panning ``speed`` px a frame (a
+    camera turning): consecutive frames predict each other, so encoders write B-frames (and pyramids of
+    them) as they do for camera footage, where :func:`numbered_frame`'s fresh texture gets P-frames only."""
+    if not 0 <= number < 2**BITS:
+        raise InvalidParameterError("number", f"must be in 0 … {2**BITS - 1}, got {number}")
+    block = width // BITS
+    if block < 4 or height < 24:
+        raise InvalidParameterError("width", f"a {width} × {height} frame is too small for {BITS} blocks")
+    shift = (speed * number) % 4096
+    rng = np.random.default_rng(seed)
+    small = rng.integers(0, 255, (max(height // 8, 1), (width + 4096) // 8 + 1, 3), dtype=np.uint8)
+    strip = small[:, shift // 8: shift // 8 + width // 8 + 2]
+    wide = cv2.resize(strip, (strip.shape[1] * 8, height), interpolation=cv2.INTER_LINEAR)
+    frame = (wide[:, shift % 8: shift % 8 + width].astype(np.float32) * 0.6 + 30).astype(np.uint8)
+    top, bottom = height // 3, 2 * height // 3
+    frame[top:bottom] = 40
+    for b in range(BITS):
+        if (number >> b) & 1:
+            frame[top:bottom, block * b:block * (b + 1)] = 215
+    return np.ascontiguousarray(frame)
