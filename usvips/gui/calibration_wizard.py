@@ -172,7 +172,8 @@ class SetupPage(QtWidgets.QWizardPage):
         for name, (value, sigma) in DEFAULT_HOUSING[housing].items():
             unit, meaning = HOUSING_PARAMETERS.get(housing, {}).get(name, ("", ""))
             edit = QtWidgets.QLineEdit()
-            edit.setMaximumWidth(170)
+            edit.setMaximumWidth(200)
+            edit.setMinimumWidth(200)  # "default 0.05 ± 0.001" shows whole
             default = f"{value:g}" + (f" ± {sigma:g}" if sigma else " (fixed)")
             edit.setPlaceholderText(f"default {default}")
             edit.setToolTip(f"{name}: {meaning} ({unit})")

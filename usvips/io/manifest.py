@@ -207,7 +207,7 @@ def read_manifest(path: str | Path) -> Manifest:
     housing = data.get("housing")
     if housing is not None and (not isinstance(housing, str) or housing not in housings.names()):
         raise InputFileError(str(path), f"key 'housing': must be one of {', '.join(housings.names())}")
-    known = _housing_known(path, housing, data.get("housing_known"))
+    known = housing_known_values(path, housing, data.get("housing_known"), "housing_known")
     return Manifest(
         path=path.resolve(), name=data["name"], description=str(data.get("description", "")), housing=housing,
         housing_known=known,
@@ -217,14 +217,16 @@ def read_manifest(path: str | Path) -> Manifest:
     )
 
 
-def _housing_known(path: Path, kind: str | None, value: object) -> dict[str, tuple[float, float | None]]:
-    """``housing_known``: name → number (fixed) or [value, sigma] (prior), names checked against the kind."""
+def housing_known_values(path: Path, kind: str | None, value: object,
+                         key: str) -> dict[str, tuple[float, float | None]]:
+    """Known housing values (a manifest's ``housing_known``, a scene's ``housing.known``): name → number
+    (fixed) or [value, sigma] (prior), names checked against the kind; ``key`` names them in errors."""
     if value is None:
         return {}
     if not isinstance(value, dict):
-        raise InputFileError(str(path), "key 'housing_known': expected an object of name: value or [value, sigma]")
+        raise InputFileError(str(path), f"{key}: expected an object of name: value or [value, sigma]")
     if kind is None:
-        raise InputFileError(str(path), "key 'housing_known': give the 'housing' kind the values belong to")
+        raise InputFileError(str(path), f"{key}: give the housing kind the values belong to")
     cls = housings.kind(kind)
     known = {}
     for name, item in value.items():
@@ -232,12 +234,12 @@ def _housing_known(path: Path, kind: str | None, value: object) -> dict[str, tup
             cls.spec(name.rpartition("_")[0] if name in cls.calibration_names and "_" in name else name)
         except UsvipsError:
             names = sorted({s.symbol for s in cls.specs} | set(cls.calibration_names))
-            raise InputFileError(str(path), f"housing_known.{name}: not a parameter of the {kind} housing; "
+            raise InputFileError(str(path), f"{key}.{name}: not a parameter of the {kind} housing; "
                                  f"parameters: {', '.join(names) or 'none'}") from None
         pair = item if isinstance(item, list) else [item]
         if (len(pair) not in (1, 2) or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in pair)
                 or not all(math.isfinite(v) for v in pair) or (len(pair) == 2 and not pair[1] > 0)):
-            raise InputFileError(str(path), f"housing_known.{name}: expected a number or [value, sigma > 0], "
+            raise InputFileError(str(path), f"{key}.{name}: expected a number or [value, sigma > 0], "
                                  f"got {item!r}"[:200])
         known[name] = (float(pair[0]), float(pair[1]) if len(pair) == 2 else None)
     return known

@@ -5,7 +5,8 @@ its image pairs, the water, and what is in the scene (the calibration frame, a s
      "image": {"width": 640, "height": 480, "supersample": 3},
      "left": {"f": 700, "xp": 319.5, "yp": 239.5, ...}, "right": {...},          # interior, seeds' names
      "relative": {"bx": 0.4, "by": 0, "bz": 0, "omega": 0, "phi": -0.1, "kappa": 0},
-     "housing": {"kind": "flat-port", "left": {"d": 0, ...}, "right": {...}},    # a registered kind's values
+     "housing": {"kind": "flat-port", "left": {"d": 0, ...}, "right": {...},     # a registered kind's values
+                 "known": {"t": 0.016, "n2": 1.65}},       # optional: what its calibration may take as known
      "water": {"attenuation": 0.3, "backscatter": 70, "blur": 0.7, "noise": 2.0},
      "frame": {"targets": "calibration_frame.csv", "radius": 0.04},               # resources/ file
      "floor": {"z": -100.6, "cell": 0.03, "mean": 70, "contrast": 25},
@@ -46,6 +47,7 @@ from usvips.core.housing import AirHousing, Housing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
 from usvips.core.rig import RelativeOrientation, StereoRig
 from usvips.core.synth import Fish, Pipe, Rock
+from usvips.io.manifest import housing_known_values
 
 FORMAT = "usvips-scene"
 TOP = {"format", "version", "name", "seed", "image", "left", "right", "relative", "housing", "water", "frame",
@@ -95,6 +97,13 @@ class Scene:
         left = Camera(Interior(**self.data["left"]), pose, cameras[0], width, height)
         right = Camera(Interior(**self.data["right"]), pose, cameras[1], width, height)
         return StereoRig.from_relative(left, right, RelativeOrientation(**self.data["relative"]))
+
+    @property
+    def housing_known(self) -> dict[str, tuple[float, float | None]]:
+        """The housing values a user of this rig knows beforehand (``housing.known``): name → (value, sigma
+        or None for fixed), for its calibration and its sample's manifest."""
+        return housing_known_values(self.path, self.data["housing"]["kind"], self.data["housing"].get("known"),
+                                    "housing.known")
 
     def housing(self, side: str) -> Housing:
         """The scene's housing of one camera (``left``/``right``), built by its registered kind."""
@@ -244,7 +253,7 @@ def read_scene(path: str | Path) -> Scene:
         _check_values(path, side, side, data[side])
     _keys(path, "relative", data["relative"], {"bx"}, {"bx", "by", "bz", "omega", "phi", "kappa"})
     _check_values(path, "relative", "relative", data["relative"])
-    housing = _keys(path, "housing", data["housing"], {"kind"}, {"kind", "left", "right"})
+    housing = _keys(path, "housing", data["housing"], {"kind"}, {"kind", "left", "right", "known"})
     if not isinstance(housing["kind"], str) or housing["kind"] not in housings.names():
         raise InputFileError(str(path), f"housing.kind: must be one of {', '.join(housings.names())}")
     if housings.kind(housing["kind"]).field_names():
@@ -255,6 +264,7 @@ def read_scene(path: str | Path) -> Scene:
                 _housing(housing, side)
             except UsvipsError as error:
                 raise InputFileError(str(path), f"housing.{side}: {error}") from None
+    housing_known_values(path, housing["kind"], housing.get("known"), "housing.known")
     if "water" in data:
         _keys(path, "water", data["water"], set(), {"attenuation", "backscatter", "blur", "noise"})
         _check_values(path, "water", "water", data["water"])

@@ -338,8 +338,6 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     return _solve(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged)
 
 
-
-
 #: Mean squared normalised residual below which the default housing start is good enough (σ0 < 2).
 GOOD_START = 4.0
 
