@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from usvips.core.camera import Camera, Exterior
-from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, GeneralHousing
+from usvips.core.housing import AirHousing, DomeCoverHousing, DomePortHousing, FlatPortHousing, GeneralHousing
 from usvips.core.interior import Interior
 from usvips.core.surfaces import ImplicitSurface, Plane
 
@@ -40,6 +40,7 @@ HOUSINGS = {
     "dome-cover": DomeCoverHousing(0.004, -0.003, 0.02, 0.09, 0.01, -0.02, 0.11, 1.6, 1.34),
     "dome-axial": DomeCoverHousing(0.0, 0.0, 0.02, 0.09, 0.0, 0.0, 0.12, 1.6, 1.34),
     "implicit": _ellipsoid_port(),
+    "dome-port": DomePortHousing(0.003, -0.002, 0.006, 0.05, 0.008, 1.49, 1.34),
 }
 
 

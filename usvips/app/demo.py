@@ -15,10 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import UsvipsError
-from usvips.io.manifest import read_manifest
+from usvips.io.manifest import read_manifest, split_known
 from usvips.io.tables import read_control, read_observations
 from usvips.locations import sample_project
 
@@ -98,8 +99,10 @@ def run_demo(project: str | Path = DEFAULT_PROJECT) -> Iterator[DemoStep]:
     air = calibrate_air(control, read_observations(air_files[0].file), CalibrationOptions())
     yield phase_summary(air.report, f"phase 1 (in air, {air_files[0].file.name})")
     calibration = air.calibration
-    if water_files and manifest.housing in ("dome-cover", "flat-port"):
-        water = calibrate_water(calibration, manifest.housing, control, read_observations(water_files[0].file))
+    if water_files and manifest.housing in housings.water_names():
+        fix_values, priors = split_known(manifest.housing_known)
+        water = calibrate_water(calibration, manifest.housing, control, read_observations(water_files[0].file),
+                                CalibrationOptions(fix_values=fix_values, priors=priors))
         yield phase_summary(water.report, f"phase 2 ({manifest.housing}, {water_files[0].file.name})")
         calibration = water.calibration
         calibrated_pairs = set(water_files[0].pairs)

@@ -21,6 +21,7 @@ from usvips.core.synth import Disc, Seafloor, Water, render
 from usvips.io.atomic import OutputFileError, write_text_atomic
 from usvips.io.calibration_file import calibration_to_dict
 from usvips.io.images import write_image
+from usvips.io.manifest import split_known
 from usvips.io.scene import Scene, read_scene
 from usvips.io.tables import read_control, read_observations, write_control, write_observations
 from usvips.io.video import write_video
@@ -76,8 +77,10 @@ def _calibrate(out: Path, scene, control, manifest: dict, size: tuple[int, int])
                         {"control": "control.csv", "observations": "observations_air.csv"})
     if not air.adjustment.converged:
         raise ConvergenceError(f"{scene.path}: phase 1 of the sample's calibration did not converge")
+    fix_values, priors = split_known(scene.housing_known)  # what the rig's user knows of its housing
+    known = CalibrationOptions(sigma_px=0.5, image_size=size, fix_values=fix_values, priors=priors)
     water = calibrate_water(air.calibration, scene.data["housing"]["kind"], control,
-                            read_observations(out / "observations_water.csv"), options,
+                            read_observations(out / "observations_water.csv"), known,
                             {"control": "control.csv", "observations": "observations_water.csv",
                              "base": "calibration_air.json"})
     if not water.adjustment.converged:
@@ -248,6 +251,8 @@ def _render(scene, out: Path, scene_name: str) -> None:
     manifest = {"format": "usvips-sample", "version": 1, "name": scene.name,
                 "description": data.get("description", f"rendered from {scene_name}"),
                 "housing": data["housing"]["kind"], "pairs": pairs_manifest, "observations": [], "truth": "truth.json"}
+    if scene.housing_known:
+        manifest["housing_known"] = {k: v if s is None else [v, s] for k, (v, s) in scene.housing_known.items()}
     if control is not None:
         write_control(out / "control.csv", control)
         manifest["control"] = "control.csv"

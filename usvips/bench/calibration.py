@@ -93,7 +93,7 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
            "baseline_s": round(scipy_s, 3), "ratio": round(engine_s / scipy_s, 3), "target": None, "met": None}
     control_w, water = _observations(40, 3, PORTS, seed=2)
     start = time.perf_counter()
-    phase2 = calibrate_water(phase1.calibration, "flat-port", control_w, water,
+    phase2 = calibrate_water(phase1.calibration, FlatPortHousing.kind, control_w, water,
                              CalibrationOptions(sigma_px=NOISE, fix_values={"t": 0.016, "n2": 1.65}))
     phase2_s = time.perf_counter() - start
     yield {"name": "two-phase System II calibration, 3 pairs x 40 points (phase 1 + phase 2 joint)",
@@ -106,7 +106,7 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
     pairs = max(1, int(round(5 * scale)))
     control_j, joint = _observations(500, pairs, PORTS, seed=3)
     start = time.perf_counter()
-    result = calibrate_water(phase1.calibration, "flat-port", control_j, joint,
+    result = calibrate_water(phase1.calibration, FlatPortHousing.kind, control_j, joint,
                              CalibrationOptions(sigma_px=NOISE, fix_values={"t": 0.016, "n2": 1.65}))
     joint_s = time.perf_counter() - start
     yield {"name": f"joint System II adjustment, {pairs} pairs, {len(joint) * 4} observations",

@@ -50,12 +50,11 @@ def _scene(rig: StereoRig, n: int, seed: int = 7) -> tuple[np.ndarray, np.ndarra
 
 def benchmarks(scale: float = 1.0) -> Iterator[dict]:
     n = max(1000, int(100_000 * scale))
-    housings = {
-        "flat-port": (FlatPortHousing(0.0, 0.0, 0.08, 0.016, 1.65, 1.34),
-                      FlatPortHousing(0.01, -0.005, 0.08, 0.016, 1.65, 1.34)),
-        "dome-cover": (DomeCoverHousing(0.001, -0.002, 0.03, 0.09, 0.004, -0.003, 0.11, 1.6, 1.34),
-                       DomeCoverHousing(-0.002, 0.001, 0.03, 0.09, 0.01, 0.002, 0.12, 1.6, 1.34)),
-    }
+    pairs = ((FlatPortHousing(0.0, 0.0, 0.08, 0.016, 1.65, 1.34),
+              FlatPortHousing(0.01, -0.005, 0.08, 0.016, 1.65, 1.34)),
+             (DomeCoverHousing(0.001, -0.002, 0.03, 0.09, 0.004, -0.003, 0.11, 1.6, 1.34),
+              DomeCoverHousing(-0.002, 0.001, 0.03, 0.09, 0.01, 0.002, 0.12, 1.6, 1.34)))
+    housings = {left.kind: (left, right) for left, right in pairs}
     air = _rig(AirHousing(), AirHousing())
     cv_left, cv_right = _pinhole_matrices(air)
     proj_left = cv_left[0] @ np.column_stack([cv_left[1], cv_left[2]])

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from usvips.cli.common import parse_assignment, parse_prior, write_text_atomic
+from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
 from usvips.core.errors import ConvergenceError, InvalidParameterError
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
@@ -38,8 +39,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     air.set_defaults(handler=run_air)
     water = phases.add_parser("water", help="phase 2: housing and exterior by ray tracing; several pairs = joint")
     water.add_argument("--base", required=True, help="the phase-1 calibration file")
-    water.add_argument("--housing", required=True, choices=["dome-cover", "flat-port"],
-                       help="dome-cover: System I (concave sphere + shared plane); flat-port: System II")
+    water.add_argument("--housing", required=True, choices=housings.water_names(),
+                       help="; ".join(f"{k.kind}: {k.description}" for k in housings.registered_kinds()
+                                      if k.kind in housings.water_names()))
     water.add_argument("--interior", choices=["fixed", "weighted"], default="weighted",
                        help="phase-1 interior weighted by its phase-1 covariance (default: its uncertainty "
                             "reaches every point) or held fixed as in the thesis (the sigmas then leave it out)")

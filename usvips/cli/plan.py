@@ -8,15 +8,11 @@ import json
 
 import numpy as np
 
-from usvips.core.calibration.phases import DEFAULT_HOUSING
+from usvips.core import housing as housings
 from usvips.core.errors import InvalidParameterError
-from usvips.core.housing import FlatPortHousing
 from usvips.core.planner import default_grid, planned_rig, precision_map
 from usvips.io.calibration_file import load_calibration
 from usvips.io.opencv_calibration import parse_image_size
-
-#: The flat port's values a planned rig takes (metres; indices), with the calibration's defaults.
-PORT = ("g", "t", "n2", "n3")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -27,11 +23,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     rig.add_argument("--image-size", metavar="WxH", help="image size (pixels)")
     rig.add_argument("--baseline", type=float, help="distance between the perspective centres (m)")
     rig.add_argument("--toe-in", type=float, default=0.0, help="each camera turned inward by this (degrees)")
-    rig.add_argument("--housing", choices=["air", "flat-port"], default="air",
-                     help="flat-port: a port perpendicular to each optical axis (g, t, n2, n3 by --port)")
+    rig.add_argument("--housing", choices=housings.names(), default="air",
+                     help="the housing of each camera, square to its optical axis (values by --port); "
+                          + "; ".join(f"{k.kind}: {k.description}" for k in housings.registered_kinds()))
     rig.add_argument("--port", action="append", default=[], metavar="NAME=VALUE",
-                     help="flat-port values: g (port distance, m), t (glass, m), n2, n3; defaults "
-                          + ", ".join(f"{k}={DEFAULT_HOUSING['flat-port'][k][0]:g}" for k in PORT))
+                     help="the housing's values (the kind's parameters, e.g. g, t, n2, n3 of a flat port; "
+                          "metres); the others take the calibration's defaults")
     rig.add_argument("--sigma-px", type=float, default=0.3, help="pointing precision (pixels, default 0.3)")
     parser.add_argument("--length", type=float, default=0.3, help="the length to plan for (m, default 0.3)")
     parser.add_argument("--range", dest="ranges", metavar="NEAR:FAR[:N]", help="ranges (m; default: the common view)")
@@ -64,18 +61,18 @@ def _rig(args: argparse.Namespace):
     if missing:
         raise InvalidParameterError("--calibration", f"give a calibration, or a rig with {', '.join(missing)}")
     width, height = parse_image_size(args.image_size)
-    housing = None
-    if args.housing == "flat-port":
-        values = {k: DEFAULT_HOUSING["flat-port"][k][0] for k in PORT}
-        for item in args.port:
-            name, _, value = item.partition("=")
-            if name not in values:
-                raise InvalidParameterError("--port", f"unknown {name!r}; give g, t, n2 or n3 as NAME=VALUE")
-            try:
-                values[name] = float(value)
-            except ValueError:
-                raise InvalidParameterError("--port", f"{item!r}: {value!r} is not a number") from None
-        housing = FlatPortHousing(0.0, 0.0, values["g"], values["t"], values["n2"], values["n3"])
+    kind = housings.kind(args.housing)
+    values: dict[str, float] = {}
+    for item in args.port:
+        name, _, value = item.partition("=")
+        if name not in kind.priors():
+            raise InvalidParameterError("--port", f"unknown {name!r}; the {kind.kind} housing takes "
+                                        f"{', '.join(kind.priors()) or 'no values'} as NAME=VALUE")
+        try:
+            values[name] = float(value)
+        except ValueError:
+            raise InvalidParameterError("--port", f"{item!r}: {value!r} is not a number") from None
+    housing = kind.from_symbols(values)
     label = (f"f {args.focal_px:g} px, {width}x{height}, baseline {args.baseline:g} m, toe-in {args.toe_in:g}°, "
              f"{args.housing}")
     return planned_rig(args.focal_px, width, height, args.baseline, np.radians(args.toe_in), housing,

@@ -18,6 +18,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips.core import housing as housings
 from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui.calibration_session import PHASES, CalibrationSession
@@ -36,28 +37,9 @@ RESIDUAL_SCALE = 50.0
 ABSURD_SIGMA0_RATIO = 5.0
 
 #: Unit and one-line meaning of each housing parameter (camera frame: x right, y up, the camera looking
-#: along −z; see usvips/core/housing.py).
-HOUSING_PARAMETERS = {
-    "dome-cover": {
-        "a": ("m", "x of the centre of the concave spherical inner cover surface (each camera's own)"),
-        "b": ("m", "y of the centre of that sphere"),
-        "c": ("m", "z of the centre of that sphere (along the optical axis)"),
-        "r": ("m", "radius of the spherical inner cover surface"),
-        "d": ("—", "x slope of the plane outer cover surface d·x + e·y + z + g = 0 (0: square to the axis)"),
-        "e": ("—", "y slope of that cover plane (0: square to the axis)"),
-        "t": ("m", "glass thickness at the cover's thinnest point (places the cover plane, its g)"),
-        "n2": ("—", "refractive index of the cover glass (acrylic ≈ 1.49, glass ≈ 1.5–1.6)"),
-        "n3": ("—", "refractive index of the water (fresh ≈ 1.333, sea ≈ 1.34)"),
-    },
-    "flat-port": {
-        "d": ("—", "x slope of the port's inner face d·x + e·y + z + g = 0 (0: square to the axis)"),
-        "e": ("—", "y slope of the port's inner face (0: square to the axis)"),
-        "g": ("m", "distance of the port's inner face in front of the camera (g > 0)"),
-        "t": ("m", "thickness of the port glass (outer face parallel, t beyond the inner)"),
-        "n2": ("—", "refractive index of the port glass (acrylic ≈ 1.49, glass ≈ 1.5–1.6)"),
-        "n3": ("—", "refractive index of the water (fresh ≈ 1.333, sea ≈ 1.34)"),
-    },
-}
+#: along −z), as each housing kind states them (usvips/core/housing/kinds/).
+HOUSING_PARAMETERS = {name: {s.symbol: (s.unit, s.meaning) for s in housings.kind(name).specs}
+                      for name in housings.water_names()}
 
 
 def natural_key(text: str) -> tuple:
@@ -191,7 +173,8 @@ class SetupPage(QtWidgets.QWizardPage):
         for name, (value, sigma) in DEFAULT_HOUSING[housing].items():
             unit, meaning = HOUSING_PARAMETERS.get(housing, {}).get(name, ("", ""))
             edit = QtWidgets.QLineEdit()
-            edit.setMaximumWidth(170)
+            edit.setMaximumWidth(200)
+            edit.setMinimumWidth(200)  # "default 0.05 ± 0.001" shows whole
             default = f"{value:g}" + (f" ± {sigma:g}" if sigma else " (fixed)")
             edit.setPlaceholderText(f"default {default}")
             edit.setToolTip(f"{name}: {meaning} ({unit})")

@@ -3,9 +3,9 @@
 Layout (version 1; lengths in metres, angles in radians, image quantities in pixels)::
 
     {"format": "usvips-calibration", "version": 1, "phase": "water",
-     "housing": "dome-cover",                       # air | dome-cover | flat-port
+     "housing": "dome-cover",                       # a registered kind: usvips.core.housing.names()
      "cameras": {"left":  {"interior": {"f":..., "xp":..., "yp":..., "sy":..., "k1":..., "k2":..., "p1":..., "p2":...},
-                           "housing": {"a":..., ...},   # camera frame, seeds' symbols
+                           "housing": {"a":..., ...},   # the kind's to_values(): camera frame, seeds' symbols
                            "width": 568, "height": 488},
                  "right": {...}},
      "relative_orientation": {"bx":..., "by":..., "bz":..., "omega":..., "phi":..., "kappa":...},
@@ -31,10 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.core import housing as housings
 from usvips.core.adjustment import STATUSES
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import InputFileError, UsvipsError
-from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing
+from usvips.core.housing import Housing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
 from usvips.core.rig import RelativeOrientation
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
@@ -45,23 +46,19 @@ FORMAT = "usvips-calibration"
 VERSION = 2
 #: The version a file needs when a camera's k3 is not zero (version 1 readers know no k3).
 K3_VERSION = 2
-HOUSING_KINDS = {"air": AirHousing, "dome-cover": DomeCoverHousing, "flat-port": FlatPortHousing}
 RELATIVE_KEYS = ("bx", "by", "bz", "omega", "phi", "kappa")
 #: Largest calibration file read (bytes); a real one is a few kB.
 MAX_FILE_BYTES = 16 << 20
 
 
 def housing_to_dict(housing: Housing) -> dict[str, float]:
-    values = housing.parameters()
-    if isinstance(housing, DomeCoverHousing | FlatPortHousing) and housing.n1 != 1.0:
-        values["n1"] = housing.n1
-    return values
+    """A camera's housing as the file holds it (its kind's :meth:`Housing.to_values`)."""
+    return housing.to_values()
 
 
 def housing_from_dict(kind: str, values: dict[str, float]) -> Housing:
-    if kind not in HOUSING_KINDS:
-        raise UsvipsError(f"unknown housing kind {kind!r}; known: {', '.join(HOUSING_KINDS)}")
-    return HOUSING_KINDS[kind](**values)
+    """A camera's housing from the file's kind and values (the registry's kind; names checked)."""
+    return housings.kind(kind).from_values(values)
 
 
 def _camera_to_dict(camera: Camera) -> dict:

@@ -7,12 +7,17 @@ database; nothing else in a sample directory is needed to open it.
 
     {"format": "usvips-sample", "version": 1, "name": "...", "description": "...",
      "control": "control.csv", "housing": "dome-cover",
+     "housing_known": {"t": 0.016, "n2": [1.65, 0.01]},    # optional: value (fixed) or [value, sigma]
      "pairs": [{"label": "air1", "left": "images/air1_left.png", "right": "images/air1_right.png",
                 "medium": "air"}],
      "observations": [{"file": "obs.csv", "role": "calibration-air", "pairs": ["air1"]}],
      "calibrations": [{"file": "cal.json", "active_for": ["w1"]}],
      "video": {"left": "video_left.avi", "right": "video_right.avi", "frame_offset": 3},
      "truth": "truth.json"}
+
+``housing_known`` holds housing values known beforehand (a manufacturer's glass thickness, an index),
+by the housing kind's parameter symbols or its calibration names (``g_l``); a number holds the parameter
+fixed, ``[value, sigma]`` makes it a prior. Names are checked against the kind (the registry).
 
 Roles: ``calibration-air``, ``calibration-water``, ``check``, ``measurement``. ``medium``: ``air`` or
 ``water``. Every path must stay inside the directory.
@@ -21,18 +26,19 @@ Roles: ``calibration-air``, ``calibration-water``, ``check``, ``measurement``. `
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from usvips.core.errors import InputFileError
+from usvips.core import housing as housings
+from usvips.core.errors import InputFileError, UsvipsError
 
 FORMAT = "usvips-sample"
 VERSION = 1
 ROLES = ("calibration-air", "calibration-water", "check", "measurement")
 MEDIA = ("air", "water")
-_TOP_KEYS = {"format", "version", "name", "description", "control", "housing", "pairs", "observations",
+_TOP_KEYS = {"format", "version", "name", "description", "control", "housing", "housing_known", "pairs", "observations",
              "calibrations", "video", "truth"}
-HOUSINGS = ("air", "dome-cover", "flat-port")
 #: Largest manifest read (bytes).
 MAX_FILE_BYTES = 4 << 20
 
@@ -79,6 +85,8 @@ class Manifest:
     video: VideoEntry | None = None
     truth: Path | None = None
     housing: str | None = None
+    #: name → (value, sigma or None for fixed): the housing values known beforehand (``housing_known``).
+    housing_known: dict[str, tuple[float, float | None]] = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
 
     @property
@@ -197,11 +205,48 @@ def read_manifest(path: str | Path) -> Manifest:
         video = VideoEntry(_inside(path, "video.left", v.get("left")), _inside(path, "video.right", v.get("right")),
                            offset)
     housing = data.get("housing")
-    if housing is not None and (not isinstance(housing, str) or housing not in HOUSINGS):
-        raise InputFileError(str(path), f"key 'housing': must be one of {HOUSINGS}")
+    if housing is not None and (not isinstance(housing, str) or housing not in housings.names()):
+        raise InputFileError(str(path), f"key 'housing': must be one of {', '.join(housings.names())}")
+    known = housing_known_values(path, housing, data.get("housing_known"), "housing_known")
     return Manifest(
         path=path.resolve(), name=data["name"], description=str(data.get("description", "")), housing=housing,
+        housing_known=known,
         control=_inside(path, "control", data["control"]) if data.get("control") else None,
         pairs=tuple(pairs), observations=tuple(observations), calibrations=tuple(calibrations), video=video,
         truth=_inside(path, "truth", data["truth"]) if data.get("truth") else None,
     )
+
+
+def housing_known_values(path: Path, kind: str | None, value: object,
+                         key: str) -> dict[str, tuple[float, float | None]]:
+    """Known housing values (a manifest's ``housing_known``, a scene's ``housing.known``): name → number
+    (fixed) or [value, sigma] (prior), names checked against the kind; ``key`` names them in errors."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise InputFileError(str(path), f"{key}: expected an object of name: value or [value, sigma]")
+    if kind is None:
+        raise InputFileError(str(path), f"{key}: give the housing kind the values belong to")
+    cls = housings.kind(kind)
+    known = {}
+    for name, item in value.items():
+        try:
+            cls.spec(name.rpartition("_")[0] if name in cls.calibration_names and "_" in name else name)
+        except UsvipsError:
+            names = sorted({s.symbol for s in cls.specs} | set(cls.calibration_names))
+            raise InputFileError(str(path), f"{key}.{name}: not a parameter of the {kind} housing; "
+                                 f"parameters: {', '.join(names) or 'none'}") from None
+        pair = item if isinstance(item, list) else [item]
+        if (len(pair) not in (1, 2) or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in pair)
+                or not all(math.isfinite(v) for v in pair) or (len(pair) == 2 and not pair[1] > 0)):
+            raise InputFileError(str(path), f"{key}.{name}: expected a number or [value, sigma > 0], "
+                                 f"got {item!r}"[:200])
+        known[name] = (float(pair[0]), float(pair[1]) if len(pair) == 2 else None)
+    return known
+
+
+def split_known(known: dict[str, tuple[float, float | None]]) -> tuple[dict[str, float],
+                                                                      dict[str, tuple[float, float]]]:
+    """Known housing values as a calibration's options: (fixed name → value, prior name → (value, sigma))."""
+    return ({n: v for n, (v, s) in known.items() if s is None},
+            {n: (v, s) for n, (v, s) in known.items() if s is not None})

@@ -5,7 +5,8 @@ its image pairs, the water, and what is in the scene (the calibration frame, a s
      "image": {"width": 640, "height": 480, "supersample": 3},
      "left": {"f": 700, "xp": 319.5, "yp": 239.5, ...}, "right": {...},          # interior, seeds' names
      "relative": {"bx": 0.4, "by": 0, "bz": 0, "omega": 0, "phi": -0.1, "kappa": 0},
-     "housing": {"kind": "flat-port", "left": {"d": 0, ...}, "right": {...}},    # camera frames, metres
+     "housing": {"kind": "flat-port", "left": {"d": 0, ...}, "right": {...},     # a registered kind's values
+                 "known": {"t": 0.016, "n2": 1.65}},       # optional: what its calibration may take as known
      "water": {"attenuation": 0.3, "backscatter": 70, "blur": 0.7, "noise": 2.0},
      "frame": {"targets": "calibration_frame.csv", "radius": 0.04},               # resources/ file
      "floor": {"z": -100.6, "cell": 0.03, "mean": 70, "contrast": 25},
@@ -39,12 +40,14 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from usvips.core import housing as housings
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import InputFileError, UsvipsError
-from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing
+from usvips.core.housing import AirHousing, Housing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
 from usvips.core.rig import RelativeOrientation, StereoRig
 from usvips.core.synth import Fish, Pipe, Rock
+from usvips.io.manifest import housing_known_values
 
 FORMAT = "usvips-scene"
 TOP = {"format", "version", "name", "seed", "image", "left", "right", "relative", "housing", "water", "frame",
@@ -57,7 +60,6 @@ OBJECT_KEYS = {
     "rock": ({"centre"}, {"semi_axes", "brightness", "seed", "colour"}),
 }
 OBJECT_TYPES = {"fish": Fish, "pipe": Pipe, "rock": Rock}
-HOUSINGS = {"air": AirHousing, "dome-cover": DomeCoverHousing, "flat-port": FlatPortHousing}
 
 
 @dataclass(frozen=True)
@@ -89,17 +91,28 @@ class Scene:
     def rig(self, pair: dict) -> StereoRig:
         """The rig at a pair's pose, with the scene's housing underwater and none in air."""
         width, height = self.data["image"]["width"], self.data["image"]["height"]
-        kind = self.data["housing"]["kind"] if pair.get("medium", "water") == "water" else "air"
-        housings = [self._housing(kind, side) for side in ("left", "right")]
+        underwater = pair.get("medium", "water") == "water"
+        cameras = [self.housing(side) if underwater else AirHousing() for side in ("left", "right")]
         pose = Exterior(**pair["pose"])
-        left = Camera(Interior(**self.data["left"]), pose, housings[0], width, height)
-        right = Camera(Interior(**self.data["right"]), pose, housings[1], width, height)
+        left = Camera(Interior(**self.data["left"]), pose, cameras[0], width, height)
+        right = Camera(Interior(**self.data["right"]), pose, cameras[1], width, height)
         return StereoRig.from_relative(left, right, RelativeOrientation(**self.data["relative"]))
 
-    def _housing(self, kind: str, side: str) -> Housing:
-        if kind == "air":
-            return AirHousing()
-        return HOUSINGS[kind](**self.data["housing"][side])
+    @property
+    def housing_known(self) -> dict[str, tuple[float, float | None]]:
+        """The housing values a user of this rig knows beforehand (``housing.known``): name → (value, sigma
+        or None for fixed), for its calibration and its sample's manifest."""
+        return housing_known_values(self.path, self.data["housing"]["kind"], self.data["housing"].get("known"),
+                                    "housing.known")
+
+    def housing(self, side: str) -> Housing:
+        """The scene's housing of one camera (``left``/``right``), built by its registered kind."""
+        return _housing(self.data["housing"], side)
+
+
+def _housing(housing: dict, side: str) -> Housing:
+    cls = housings.kind(housing["kind"])
+    return cls.from_values(housing.get(side, {}) if cls.field_names() else {})
 
 
 def _keys(path: Path, where: str, value: object, required: set[str], allowed: set[str]) -> dict:
@@ -240,13 +253,18 @@ def read_scene(path: str | Path) -> Scene:
         _check_values(path, side, side, data[side])
     _keys(path, "relative", data["relative"], {"bx"}, {"bx", "by", "bz", "omega", "phi", "kappa"})
     _check_values(path, "relative", "relative", data["relative"])
-    housing = _keys(path, "housing", data["housing"], {"kind"}, {"kind", "left", "right"})
-    if not isinstance(housing["kind"], str) or housing["kind"] not in HOUSINGS:
-        raise InputFileError(str(path), f"housing.kind: must be one of {', '.join(HOUSINGS)}")
-    if housing["kind"] != "air":
+    housing = _keys(path, "housing", data["housing"], {"kind"}, {"kind", "left", "right", "known"})
+    if not isinstance(housing["kind"], str) or housing["kind"] not in housings.names():
+        raise InputFileError(str(path), f"housing.kind: must be one of {', '.join(housings.names())}")
+    if housings.kind(housing["kind"]).field_names():
         for side in ("left", "right"):
             _keys(path, f"housing.{side}", housing.get(side), set(), set(housing.get(side) or ()))
             _check_values(path, f"housing.{side}", f"housing.{side}", housing[side])
+            try:
+                _housing(housing, side)
+            except UsvipsError as error:
+                raise InputFileError(str(path), f"housing.{side}: {error}") from None
+    housing_known_values(path, housing["kind"], housing.get("known"), "housing.known")
     if "water" in data:
         _keys(path, "water", data["water"], set(), {"attenuation", "backscatter", "blur", "noise"})
         _check_values(path, "water", "water", data["water"])

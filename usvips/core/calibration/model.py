@@ -6,13 +6,9 @@ Parameters carry the seeds' symbols with ``_l`` / ``_r`` (ARCHITECTURE.md):
 * exterior at the first station (the object frame of the control): X0_l … kappa_l and X0_r … kappa_r;
   at every further station the left camera's pose ``X0_l@<pair>`` …, the right camera following it
   rigidly (the rig's relative orientation is the one of the first station);
-* housing, in each camera's own frame (metres): System I ``dome-cover`` — the sphere centre a, b, c per
-  camera, the left sphere's radius r_l and one cover plane d, e in the left camera's frame shared by both,
-  placed by the glass thickness t at the left cover's thinnest point (g is derived from it:
-  :func:`dome_cover_g`); the right cover's glass thickness t_r at its thinnest point (its radius r_r is
-  derived from it: :func:`dome_cover_right_radius`); n2, n3. Every state with t > 0, t_r > 0 and each
-  perspective centre inside its sphere is physical for both cameras (the plane outside both spheres);
-  System II ``flat-port`` — d, e, g per camera, t, n2, n3;
+* housing, in each camera's own frame (metres): the names its kind gives (``calibration_names`` of the
+  kind's class in ``usvips/core/housing/kinds/``; ``_l``/``_r`` for one camera's, none for shared ones),
+  built into the two housings by the kind (:meth:`Housing.build`);
 * control coordinates ``X@<id>``, ``Y@<id>``, ``Z@<id>`` when the control file gives sigmas.
 """
 
@@ -22,23 +18,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usvips.core import housing as housings
 from usvips.core.adjustment import Observations, Parameter, Problem
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
-from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
-from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing, shared_plane_in_camera
+from usvips.core.errors import DegenerateGeometryError, UsvipsError
+from usvips.core.housing import Housing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
 from usvips.core.intersection import pixel_jacobian
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.rig import relative_orientation, right_exterior
 from usvips.core.rotation import rotation_matrix
 
-HOUSING_KINDS = ("air", "dome-cover", "flat-port")
 SIDES = ("l", "r")
 
 _STEPS = {"f": 1e-3, "xp": 1e-3, "yp": 1e-3, "sy": 1e-7, "k1": 1e-7, "k2": 1e-7, "p1": 1e-8, "p2": 1e-8, "k3": 1e-7,
           "X0": 1e-6, "Y0": 1e-6, "Z0": 1e-6, "omega": 1e-7, "phi": 1e-7, "kappa": 1e-7,
-          "a": 1e-6, "b": 1e-6, "c": 1e-6, "r": 1e-6, "d": 1e-6, "e": 1e-6, "g": 1e-6, "t": 1e-6,
-          "n2": 1e-6, "n3": 1e-6, "X": 1e-6, "Y": 1e-6, "Z": 1e-6}
+          "X": 1e-6, "Y": 1e-6, "Z": 1e-6}
 
 
 def symbol(name: str) -> str:
@@ -51,58 +46,19 @@ def symbol(name: str) -> str:
 
 
 def housing_parameter_names(kind: str) -> list[str]:
-    if kind == "air":
-        return []
-    if kind == "dome-cover":
-        return (["a_l", "b_l", "c_l", "r_l", "a_r", "b_r", "c_r", "t_r"]
-                + ["d", "e", "t", "n2", "n3"])
-    if kind == "flat-port":
-        return [f"{s}_{side}" for side in SIDES for s in ("d", "e", "g")] + ["t", "n2", "n3"]
-    raise UsvipsError(f"unknown housing {kind!r}; choose one of {', '.join(HOUSING_KINDS)}")
-
-
-def dome_cover_g(values: dict[str, float]) -> float:
-    """The cover plane's g (left camera frame) from the glass thickness ``t`` at the left cover's thinnest
-    point: the plane lies t beyond the left sphere, g = t + r·sqrt(d² + e² + 1) − (d·a + e·b + c).
-
-    The adjustment estimates t rather than g: t > 0 keeps the plane outside the sphere, far from the wall
-    that a free g would run into while the sphere's radius is barely observable."""
-    d, e = values["d"], values["e"]
-    return (values["t"] + values["r_l"] * np.sqrt(d * d + e * e + 1.0)
-            - (d * values["a_l"] + e * values["b_l"] + values["c_l"]))
-
-
-def dome_cover_right_radius(values: dict[str, float], d_r: float, e_r: float, g_r: float) -> float:
-    """The right sphere's radius from its glass thickness ``t_r`` at its thinnest point and the shared plane
-    in the right camera's frame (d_r, e_r, g_r): r_r = (d_r·a_r + e_r·b_r + c_r + g_r)/sqrt(d_r² + e_r² + 1) − t_r.
-
-    Estimating t_r instead of r_r keeps the plane outside the right sphere whatever the relative orientation
-    does: a free r_r let the right camera's pose push its sphere into the plane, where every step is invalid."""
-    clearance = (d_r * values["a_r"] + e_r * values["b_r"] + values["c_r"] + g_r) / np.sqrt(d_r * d_r + e_r * e_r + 1.0)
-    return float(clearance - values["t_r"])
+    """The calibration's parameter names of a housing kind (the registry's ``calibration_names``)."""
+    return list(housings.kind(kind).calibration_names)
 
 
 def build_housings(kind: str, values: dict[str, float]) -> tuple[Housing, Housing]:
-    """Left and right housings (each in its camera frame) from parameter values."""
-    if kind == "air":
-        return AirHousing(), AirHousing()
-    if kind == "dome-cover":
-        for name in ("t", "t_r"):
-            if name in values and not values[name] > 0:
-                raise InvalidParameterError(name, f"the glass must have a thickness, got {values[name]:.4g} m")
-        g = dome_cover_g(values)
-        left = DomeCoverHousing(values["a_l"], values["b_l"], values["c_l"], values["r_l"], values["d"],
-                                values["e"], g, values["n2"], values["n3"])
+    """Left and right housings (each in its camera frame) from parameter values: the kind builds them, given
+    the rig's relative orientation when its right housing follows the rig."""
+    cls = housings.kind(kind)
+    rotation, translation = np.eye(3), np.zeros(3)
+    if cls.right_follows_rig:
         rel = relative_orientation(_exterior(values, "l"), _exterior(values, "r"))
-        d_r, e_r, g_r = shared_plane_in_camera(values["d"], values["e"], g, rel.rotation,
-                                               -rel.rotation @ rel.base)
-        # calibrations written before t_r was estimated carry the right radius r_r itself
-        r_r = values["r_r"] if "t_r" not in values else dome_cover_right_radius(values, d_r, e_r, g_r)
-        right = DomeCoverHousing(values["a_r"], values["b_r"], values["c_r"], r_r, d_r, e_r, g_r,
-                                 values["n2"], values["n3"])
-        return left, right
-    return tuple(FlatPortHousing(values[f"d_{s}"], values[f"e_{s}"], values[f"g_{s}"], values["t"],
-                                 values["n2"], values["n3"]) for s in SIDES)
+        rotation, translation = rel.rotation, -rel.rotation @ rel.base
+    return cls.build(values, rotation, translation)
 
 
 def _exterior(values: dict[str, float], side: str, station: str | None = None) -> Exterior:
@@ -148,8 +104,7 @@ class StereoModel:
     stations: tuple[str, ...] = field(init=False)
 
     def __post_init__(self) -> None:
-        if self.kind not in HOUSING_KINDS:
-            raise UsvipsError(f"unknown housing {self.kind!r}; choose one of {', '.join(HOUSING_KINDS)}")
+        self.housing_kind = housings.kind(self.kind)
         self.stations = self.observations.pair_labels
         self._index = self.control.index_of(list(self.observations.ids), "observation")
         self.control_parameters = self.control.sigmas is not None and bool(np.any(self.control.sigmas > 0))
@@ -241,17 +196,17 @@ class StereoModel:
         all_blocks = list(range(len(self.blocks)))
         right_blocks = [i for i, (_, s) in enumerate(self.block_keys) if s == "r"]
         depends: dict[str, list[int]] = {}
+        housing_names = set(self.housing_kind.calibration_names)
         for name in self.parameter_names():
             base = name.split("@")[0]
             station = name.split("@")[1] if "@" in name and base in {f"{p}_l" for p in EXTERIOR_PARAMETERS} else None
-            if self.kind == "dome-cover" and base in {"a_l", "b_l", "c_l", "r_l"}:
-                # they place the shared cover plane (through g), hence the right housing too
-                depends[name] = all_blocks
-            elif base in {f"{p}_l" for p in INTERIOR_PARAMETERS} or base in {"a_l", "b_l", "c_l", "r_l", "d_l", "e_l",
-                                                                                "g_l"}:
+            if name in housing_names:
+                side = self.housing_kind.side_of(name)
+                depends[name] = (all_blocks if side is None
+                                 else [i for i, (_, s) in enumerate(self.block_keys) if s == side])
+            elif base in {f"{p}_l" for p in INTERIOR_PARAMETERS}:
                 depends[name] = [i for i, (_, s) in enumerate(self.block_keys) if s == "l"]
-            elif base in {f"{p}_r" for p in INTERIOR_PARAMETERS} or base in {"a_r", "b_r", "c_r", "r_r", "t_r",
-                                                                                "d_r", "e_r", "g_r"}:
+            elif base in {f"{p}_r" for p in INTERIOR_PARAMETERS}:
                 depends[name] = right_blocks
             elif station is not None:
                 depends[name] = [blocks_of[(station, "l")], blocks_of[(station, "r")]]
@@ -270,8 +225,10 @@ class StereoModel:
         missing = [n for n in self.parameter_names() if n not in names]
         if missing:
             raise DegenerateGeometryError(f"no value for parameter(s) {', '.join(missing[:6])}")
+        housing_names = set(self.housing_kind.calibration_names)
         for p in parameters:
-            p.step = _STEPS.get(symbol(p.name), 1e-6)
+            p.step = (self.housing_kind.spec(symbol(p.name)).step if p.name in housing_names
+                      else _STEPS.get(symbol(p.name), 1e-6))
 
         def evaluate(values, blocks):
             return self.evaluate(values, blocks)
@@ -294,7 +251,7 @@ class StereoModel:
         for b, (station, side) in enumerate(self.block_keys):
             # the right camera further on follows the rig; under a shared cover plane its housing moves
             # with the relative orientation too: those keep their differences
-            if side == "r" and (station != first or self.kind == "dome-cover"):
+            if side == "r" and (station != first or self.housing_kind.right_follows_rig):
                 continue
             suffix = f"_{side}" + ("" if station == first else f"@{station}")
             rows = self.blocks[b]

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usvips.core import housing as housings
 from usvips.core.adjustment import Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
@@ -33,17 +34,9 @@ from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 #: Phase 1 frees these interior parameters by default; the others stay fixed (at 0, or sy at 1 → DLT).
 DEFAULT_AIR_FREE = ("f", "xp", "yp", "sy", "k1")
 
-#: Phase 2 defaults: (start value, prior sigma or None for fixed), camera frame, metres.
-DEFAULT_HOUSING = {
-    "dome-cover": {"a": (0.0, 0.03), "b": (0.0, 0.03), "c": (0.0, 0.03), "r": (0.09, 0.02),
-                   "d": (0.0, 0.05), "e": (0.0, 0.05), "t": (0.03, 0.02), "n2": (1.6, 0.02), "n3": (1.34, 0.01)},
-    "flat-port": {"d": (0.0, 0.05), "e": (0.0, 0.05), "g": (0.05, 0.05), "t": (0.01, None), "n2": (1.5, None),
-                  "n3": (1.34, 0.01)},
-}
-
-#: The physical range of housing parameters (open interval, by symbol): glass has a thickness, a sphere a
-#: radius, a port lies in front of the camera, and glass and water are denser than air.
-HOUSING_BOUNDS = {"t": (0.0, None), "r": (0.0, None), "g": (0.0, None), "n2": (1.0, None), "n3": (1.0, None)}
+#: Phase 2 defaults per housing kind: symbol → (start value, prior sigma or None for fixed), camera frame,
+#: metres; each kind states and documents its own (``usvips/core/housing/kinds/``).
+DEFAULT_HOUSING = {name: housings.kind(name).priors() for name in housings.water_names()}
 
 
 @dataclass
@@ -198,16 +191,8 @@ def build_report(result: CalibrationResult) -> dict:
                           "redundancy_y": float(adj.redundancy_numbers[i + 1]),
                           "used": bool(adj.used[i] and adj.used[i + 1])})
     notes = []
-    if model.kind == "dome-cover":
-        notes.append("System I: the sphere centre (a, b, c) of each cover, the left radius r_l, the glass "
-                     "thickness at each cover's thinnest point (t left, t_r right; the plane's g and the right "
-                     "radius follow from them), the shared cover plane's tilt (d, e; left camera frame) and the "
-                     "indices n2, n3 enter with priors by default: a sphere centred near the perspective centre "
-                     "hardly bends the rays, and cover tilt correlates with the principal point and decentring "
-                     "distortion.")
-    if model.kind == "flat-port":
-        notes.append("System II: port tilt (d, e) and distance g of each camera enter with priors; glass "
-                     "thickness t and n2 are fixed unless given, since they are nearly inseparable from g.")
+    if model.housing_kind.report_note:
+        notes.append(model.housing_kind.report_note)
     for name, side, bound in adj.on_bound:
         notes.append(f"{name} ends on its {side} bound ({bound:g}): the data push it to the edge of its physical "
                      "range, so the housing model or its priors do not fit the data there; its sigma (and those of "
@@ -315,6 +300,7 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
         raise InvalidParameterError("--interior", f"must be 'fixed' or 'weighted', got {options.interior!r}")
     if housing not in DEFAULT_HOUSING:
         raise InvalidParameterError("--housing", f"must be one of {', '.join(DEFAULT_HOUSING)}, got {housing!r}")
+    housing_kind = housings.kind(housing)
     size = options.image_size if options.image_size != (None, None) else (base.left.width, base.left.height)
     model = StereoModel(housing, control, observations, options.sigma_px, size)
     starts = _dlt_starts(control, observations)
@@ -340,8 +326,8 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
         if name in values:
             parameters.append(Parameter(name, values[name], "free"))
     for name in housing_parameter_names(housing):
-        value, sigma = DEFAULT_HOUSING[housing][symbol(name)]
-        lower, upper = HOUSING_BOUNDS.get(symbol(name), (None, None))
+        spec = housing_kind.spec(symbol(name))
+        value, sigma, lower, upper = spec.start, spec.sigma, spec.lower, spec.upper
         parameters.append(Parameter(name, value, "prior" if sigma else "fixed", value, sigma, lower=lower,
                                     upper=upper))
     parameters += _control_parameters(model)
@@ -350,11 +336,6 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     merged = dict(source or {})
     merged.setdefault("base_calibration", base.source)
     return _solve(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged)
-
-
-#: Starting values tried for the least observable, most non-linear housing parameters (metres).
-START_GRID = {"dome-cover": {"c": (-0.03, 0.0, 0.03), "t": (0.02, 0.05)},
-              "flat-port": {"g": (0.02, 0.05, 0.1)}}
 
 
 #: Mean squared normalised residual below which the default housing start is good enough (σ0 < 2).
@@ -387,7 +368,7 @@ def _choose_start(model: StereoModel, parameters: list[Parameter]) -> None:
     axial offset and the glass thickness; a port's distance) and keep the one whose exterior-only fit
     leaves the smallest residuals; the DLT ignores refraction, and from a poor start the full
     adjustment can settle against the edge of the valid region (a cover plane cutting the sphere)."""
-    grid = START_GRID.get(model.kind, {})
+    grid = model.housing_kind.start_grid
     by_name = {p.name: p for p in parameters}
     candidates = [dict()]
     for symbol_name, starts in grid.items():

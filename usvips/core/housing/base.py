@@ -1,41 +1,156 @@
-"""Housings: an ordered stack of refracting surfaces and the media between them.
+"""Housings: an ordered stack of refracting surfaces and the media between them, and the base of every
+housing kind.
 
 A housing is held in its camera's own frame (the image frame of ``interior.py``: origin at the
 perspective centre, x̄ right, ȳ up, the camera looking along −z̄; metres), so that it moves with the
 camera from station to station. ``indices[0]`` is the medium around the lens (air, n1), ``indices[i+1]``
 the medium after crossing ``surfaces[i]``; the last is the water (n3).
 
-The two housings of the seeds are instances of the general stack:
-
-* :class:`DomeCoverHousing` (System I, thesis 2.2.4): a concave spherical inner cover surface
-  |p − (a, b, c)| = r, then a plane outer surface d·x + e·y + z + g = 0, glass (n2) between, water (n3)
-  outside. The thesis's rig has one cover plane for both cameras; each camera's housing holds that
-  plane expressed in its own frame (see :func:`shared_plane_in_camera`).
-* :class:`FlatPortHousing` (System II, 1997 paper V.C): a flat glass port per camera, inner face
-  d·x + e·y + z + g = 0 and the outer face parallel to it, ``t`` metres further from the camera.
-
-In the camera frame a port straight ahead of the camera at distance D has d = e = 0 and g = D > 0.
-The seeds print (a, b, c) and (d, e, g) in object space for one station: convert with
-:func:`dome_cover_from_object_space` / :func:`flat_port_from_object_space`.
+A housing *kind* (air, flat port, dome cover, dome port, ...) is one subclass of :class:`Housing` in one
+module of ``usvips.core.housing.kinds``; defining the class with a ``kind`` name registers it
+(``registry.py``). The class owns its surfaces, its parameters (names, units, meanings, default start
+values and priors, physical bounds: :class:`~usvips.core.housing.registry.HousingParameter`), which states
+are physical (its constructor raises :class:`InvalidParameterError` naming the parameter), the start grid
+of the calibration, how the calibration's named parameters build the left and right housings
+(:meth:`Housing.build`), and its (de)serialisation to the calibration file and scene dicts
+(:meth:`Housing.to_values` / :meth:`Housing.from_values`). Nothing else names a kind.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass, fields, is_dataclass
 from functools import cached_property
+from typing import ClassVar
 
 import numpy as np
 
 from usvips.core import validation
 from usvips.core.errors import InvalidParameterError
+from usvips.core.housing import registry
+from usvips.core.housing.registry import HousingParameter
 from usvips.core.rays import RayBundle, RayStatus
 from usvips.core.surfaces import Plane, Sphere, Surface, _dot, refract_with_derivatives
 
 
 class Housing:
-    """An ordered stack of surfaces and media in the camera frame (base of every housing)."""
+    """An ordered stack of surfaces and media in the camera frame (base of every housing).
 
-    kind = "general"
+    Kind-level attributes a registered kind sets (class attributes):
+
+    * ``kind``: its name (``flat-port``); ``order``: where it sorts in lists; ``description``: one line;
+    * ``specs``: a :class:`HousingParameter` per symbol (unit, meaning, start, prior sigma, bounds);
+    * ``calibration_names``: the names the calibration estimates, ``_l``/``_r`` for one camera's, none for
+      both cameras' (shared); ``affects_both``: names with a side suffix that still move both cameras;
+    * ``right_follows_rig``: the right housing moves with the rig's relative orientation (a shared cover);
+    * ``start_grid``: symbol → start values tried for the least observable parameters;
+    * ``report_note``: what the calibration report says about this kind's parameters.
+    """
+
+    kind: ClassVar[str] = "general"
+    order: ClassVar[int] = 100
+    description: ClassVar[str] = "any ordered stack of surfaces"
+    specs: ClassVar[tuple[HousingParameter, ...]] = ()
+    calibration_names: ClassVar[tuple[str, ...]] = ()
+    affects_both: ClassVar[frozenset[str]] = frozenset()
+    right_follows_rig: ClassVar[bool] = False
+    start_grid: ClassVar[dict[str, tuple[float, ...]]] = {}
+    report_note: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if "kind" in cls.__dict__:
+            registry.register(cls)
+
+    # ---------------------------------------------------------------- the kind's parameters
+    @classmethod
+    def spec(cls, symbol: str) -> HousingParameter:
+        """The parameter called ``symbol`` (``t``, ``dx`` ...) of this kind."""
+        for spec in cls.specs:
+            if spec.symbol == symbol:
+                return spec
+        raise InvalidParameterError(symbol, f"is not a parameter of the {cls.kind} housing; parameters: "
+                                    f"{', '.join(s.symbol for s in cls.specs) or 'none'}")
+
+    @classmethod
+    def priors(cls) -> dict[str, tuple[float, float | None]]:
+        """symbol → (start value, prior sigma or None for fixed): the calibration's defaults."""
+        return {s.symbol: (s.start, s.sigma) for s in cls.specs}
+
+    @classmethod
+    def side_of(cls, name: str) -> str | None:
+        """The camera (``l``/``r``) a calibration parameter of this kind moves alone, or None for both."""
+        if name in cls.affects_both:
+            return None
+        for side in ("l", "r"):
+            if name.endswith(f"_{side}"):
+                return side
+        return None
+
+    @classmethod
+    def build(cls, values: dict[str, float], rotation: np.ndarray,
+              translation: np.ndarray) -> tuple[Housing, Housing]:
+        """Left and right housings (each in its camera frame) from the calibration's named values.
+
+        ``rotation``, ``translation`` map left-camera points into the right camera's frame
+        (p_r = rotation · p_l + translation) for kinds whose housing is shared by the rig. The default:
+        each field of the class is the camera's ``<field>_<side>`` value, or the shared ``<field>``."""
+        out = []
+        for side in ("l", "r"):
+            kwargs = {}
+            for name in cls.field_names():
+                for key in (f"{name}_{side}", name):
+                    if key in values:
+                        kwargs[name] = values[key]
+                        break
+            out.append(cls(**kwargs))
+        return out[0], out[1]
+
+    @classmethod
+    def calibration_values(cls, left: Housing, right: Housing, rotation: np.ndarray,
+                           translation: np.ndarray) -> dict[str, float]:
+        """The calibration's named values of a left and right housing (the inverse of :meth:`build`)."""
+        out = {}
+        for name in cls.calibration_names:
+            base, _, side = name.rpartition("_")
+            if side in ("l", "r") and base:
+                out[name] = float(getattr(left if side == "l" else right, base))
+            else:
+                out[name] = float(getattr(left, name))
+        return out
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        """The constructor's parameters (the file's and scene's keys)."""
+        return tuple(f.name for f in fields(cls)) if is_dataclass(cls) else ()
+
+    @classmethod
+    def from_values(cls, values: dict[str, float]) -> Housing:
+        """A housing from its file or scene dict (the keys of :meth:`to_values`); an unknown or missing
+        key is an :class:`InvalidParameterError` naming it."""
+        known = cls.field_names()
+        unknown = [k for k in values if k not in known]
+        if unknown:
+            raise InvalidParameterError(unknown[0], f"is not a parameter of the {cls.kind} housing; parameters: "
+                                        f"{', '.join(known) or 'none'}")
+        required = [f.name for f in fields(cls) if f.default is MISSING] if is_dataclass(cls) else []
+        missing = [k for k in required if k not in values]
+        if missing:
+            raise InvalidParameterError(missing[0], f"missing: the {cls.kind} housing needs {', '.join(required)}")
+        return cls(**values)
+
+    def to_values(self) -> dict[str, float]:
+        """The file's and scene's dict of this housing: :meth:`parameters`, and n1 when it is not air's 1."""
+        values = self.parameters()
+        n1 = getattr(self, "n1", 1.0)
+        if n1 != 1.0:
+            values["n1"] = n1
+        return values
+
+    @classmethod
+    def from_symbols(cls, values: dict[str, float] | None = None) -> Housing:
+        """One camera's housing from symbol values, the rest at their defaults (a rig on paper, tests)."""
+        chosen = {s.symbol: s.start for s in cls.specs} | dict(values or {})
+        return cls.from_values({k: v for k, v in chosen.items() if k in cls.field_names()})
 
     @property
     def surfaces(self) -> tuple[Surface, ...]:
@@ -194,123 +309,6 @@ class GeneralHousing(Housing):
         return self.index_stack
 
 
-@dataclass(frozen=True, repr=False)
-class AirHousing(Housing):
-    """No housing: the camera in air (the pinhole model with distortion)."""
-
-    kind = "air"
-
-    @property
-    def surfaces(self) -> tuple[Surface, ...]:
-        return ()
-
-    @property
-    def indices(self) -> tuple[float, ...]:
-        return (1.0,)
-
-
-@dataclass(frozen=True, repr=False)
-class DomeCoverHousing(Housing):
-    """System I: concave sphere (a, b, c, r) then cover plane (d, e, g), camera frame, metres.
-
-    n1 (inside, air), n2 (glass), n3 (water) are refractive indices.
-    """
-
-    a: float
-    b: float
-    c: float
-    r: float
-    d: float
-    e: float
-    g: float
-    n2: float = 1.6
-    n3: float = 1.34
-    n1: float = 1.0
-
-    kind = "dome-cover"
-
-    def __post_init__(self) -> None:
-        for name in ("a", "b", "c", "d", "e", "g"):
-            object.__setattr__(self, name, validation.finite(name, getattr(self, name)))
-        object.__setattr__(self, "r", validation.positive("r", self.r))
-        for name in ("n1", "n2", "n3"):
-            object.__setattr__(self, name, _index(name, getattr(self, name)))
-        if np.linalg.norm([self.a, self.b, self.c]) >= self.r:
-            raise InvalidParameterError(
-                "r", f"the perspective centre must lie inside the cover sphere: |(a, b, c)| = "
-                f"{np.linalg.norm([self.a, self.b, self.c]):.4g} m >= r = {self.r:.4g} m")
-        if self.g <= 0:
-            raise InvalidParameterError("g", f"the cover plane must be in front of the camera (g > 0), got {self.g:g}")
-        clearance = (self.d * self.a + self.e * self.b + self.c + self.g) / np.sqrt(self.d**2 + self.e**2 + 1.0)
-        if clearance < self.r:
-            raise InvalidParameterError(
-                "g", f"the cover plane cuts the cover sphere (the sphere centre is {clearance:.4g} m from the plane, "
-                f"less than r = {self.r:.4g} m): the glass would have no thickness somewhere")
-
-    @cached_property
-    def surfaces(self) -> tuple[Surface, ...]:
-        return (Sphere(np.array([self.a, self.b, self.c]), self.r), Plane.from_coefficients(self.d, self.e, self.g))
-
-    @property
-    def indices(self) -> tuple[float, ...]:
-        return (self.n1, self.n2, self.n3)
-
-    def parameters(self) -> dict[str, float]:
-        return {k: getattr(self, k) for k in ("a", "b", "c", "r", "d", "e", "g", "n2", "n3")}
-
-
-@dataclass(frozen=True, repr=False)
-class FlatPortHousing(Housing):
-    """System II: a flat glass port, inner face d·x + e·y + z + g = 0 (camera frame), thickness t.
-
-    g: distance-like offset (metres; g > 0 puts the port in front of the camera), t: glass thickness
-    (metres), n1 (air), n2 (glass), n3 (water).
-    """
-
-    d: float
-    e: float
-    g: float
-    t: float
-    n2: float = 1.5
-    n3: float = 1.34
-    n1: float = 1.0
-
-    kind = "flat-port"
-
-    def __post_init__(self) -> None:
-        for name in ("d", "e", "g"):
-            object.__setattr__(self, name, validation.finite(name, getattr(self, name)))
-        object.__setattr__(self, "t", validation.positive("t", self.t))
-        for name in ("n1", "n2", "n3"):
-            object.__setattr__(self, name, _index(name, getattr(self, name)))
-        if self.g <= 0:
-            raise InvalidParameterError("g", f"the port must be in front of the camera (g > 0), got {self.g:g}")
-
-    @cached_property
-    def surfaces(self) -> tuple[Surface, ...]:
-        inner = Plane.from_coefficients(self.d, self.e, self.g)
-        # the outer face is the inner one moved t further along the viewing direction (−normal side)
-        outer = Plane(inner.normal, inner.offset + self.t)
-        return (inner, outer)
-
-    @property
-    def indices(self) -> tuple[float, ...]:
-        return (self.n1, self.n2, self.n3)
-
-    def parameters(self) -> dict[str, float]:
-        return {k: getattr(self, k) for k in ("d", "e", "g", "t", "n2", "n3")}
-
-    @cached_property
-    def axis(self) -> np.ndarray:
-        """A flat port is always axial: the port normal through the perspective centre, outwards."""
-        normal = np.array([self.d, self.e, 1.0]) / np.sqrt(self.d**2 + self.e**2 + 1.0)
-        return -normal
-
-    @property
-    def is_planar_stack(self) -> bool:
-        return True
-
-
 # --- conversions between the seeds' object-space parameters and the camera frame ----------------------
 
 def _to_camera(rotation: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -324,28 +322,6 @@ def plane_coefficients(plane: Plane) -> tuple[float, float, float]:
     if abs(nz) < 1e-9:
         raise InvalidParameterError("plane", "is parallel to the z axis and has no (d, e, g) form")
     return float(plane.normal[0] / nz), float(plane.normal[1] / nz), float(plane.offset / nz)
-
-
-def dome_cover_from_object_space(a: float, b: float, c: float, r: float, d: float, e: float, g: float,
-                                 n2: float, n3: float, rotation: np.ndarray, position: np.ndarray,
-                                 n1: float = 1.0) -> DomeCoverHousing:
-    """System I housing in the camera frame from the seeds' object-space (a, b, c, r, d, e, g).
-
-    ``rotation`` is the camera's M (object → image), ``position`` its perspective centre (X0, Y0, Z0).
-    """
-    rot, shift = _to_camera(np.asarray(rotation, float), np.asarray(position, float))
-    center = rot @ np.array([a, b, c], dtype=float) + shift
-    dc, ec, gc = plane_coefficients(Plane.from_coefficients(d, e, g).transformed(rot, shift))
-    return DomeCoverHousing(*center, r, dc, ec, gc, n2=n2, n3=n3, n1=n1)
-
-
-def flat_port_from_object_space(d: float, e: float, g: float, t: float, n2: float, n3: float,
-                                rotation: np.ndarray, position: np.ndarray,
-                                n1: float = 1.0) -> FlatPortHousing:
-    """System II housing in the camera frame from the seeds' object-space plane (d, e, g)."""
-    rot, shift = _to_camera(np.asarray(rotation, float), np.asarray(position, float))
-    dc, ec, gc = plane_coefficients(Plane.from_coefficients(d, e, g).transformed(rot, shift))
-    return FlatPortHousing(dc, ec, gc, t, n2=n2, n3=n3, n1=n1)
 
 
 def shared_plane_in_camera(d: float, e: float, g: float, rotation: np.ndarray,

@@ -1,0 +1,94 @@
+"""The housing-kind registry: every kind of housing is one :class:`~usvips.core.housing.base.Housing`
+subclass in one module of ``usvips.core.housing.kinds``; defining the class (with a ``kind`` name)
+registers it, and the registry imports every module of that package the first time it is asked
+(nothing lists the kinds by hand). The calibration, the calibration file, scenes, manifests, the command
+line and the wizard ask the registry; an unknown kind is an error naming the known ones.
+
+A new kind: write ``kinds/<name>.py`` with the class (its surfaces, ``specs``, ``calibration_names``,
+validity in the constructor; :meth:`Housing.build` when its calibration's names are not simply the
+fields per camera or shared) and its test; nothing else.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from usvips.core.errors import InvalidParameterError
+
+if TYPE_CHECKING:
+    from usvips.core.housing.base import Housing
+
+_KINDS: dict[str, type[Housing]] = {}
+_discovered = False
+
+
+@dataclass(frozen=True)
+class HousingParameter:
+    """One parameter of a housing kind, by its symbol (``t``, ``dx``; camera frame, metres).
+
+    ``unit`` (``m``, or ``—`` for none) and ``meaning`` are shown to the user; ``start`` is the
+    calibration's default start value and ``sigma`` its default prior sigma (None: held fixed unless the
+    user frees it); ``lower``/``upper`` bound the physical range (open interval; None: unbounded); ``step``
+    is the numerical-derivative step.
+    """
+
+    symbol: str
+    unit: str
+    meaning: str
+    start: float
+    sigma: float | None
+    lower: float | None = None
+    upper: float | None = None
+    step: float = 1e-6
+
+
+class UnknownHousingError(InvalidParameterError):
+    """A housing kind the registry does not know."""
+
+    def __init__(self, name: object, known: tuple[str, ...] | None = None):
+        super().__init__("housing", f"unknown housing kind {name!r}; known: {', '.join(known or names())}")
+
+
+def register(cls: type[Housing]) -> None:
+    """Called by ``Housing.__init_subclass__`` for every class that names its ``kind``."""
+    name = cls.__dict__["kind"]
+    if name in _KINDS and _KINDS[name].__qualname__ != cls.__qualname__:
+        raise TypeError(f"housing kind {name!r} is defined twice")
+    _KINDS[name] = cls
+
+
+def _discover() -> None:
+    global _discovered
+    if _discovered:
+        return
+    package = importlib.import_module(f"{__package__}.kinds")
+    for module in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
+        importlib.import_module(f"{package.__name__}.{module.name}")
+    _discovered = True
+
+
+def names() -> tuple[str, ...]:
+    """Every registered kind, in the order the kinds ask for (``order``), then by name."""
+    _discover()
+    return tuple(sorted(_KINDS, key=lambda n: (_KINDS[n].order, n)))
+
+
+def registered_kinds() -> tuple[type[Housing], ...]:
+    return tuple(_KINDS[n] for n in names())
+
+
+def water_names() -> tuple[str, ...]:
+    """The kinds a phase-2 (underwater) calibration estimates: those with parameters (not air)."""
+    return tuple(n for n in names() if _KINDS[n].calibration_names)
+
+
+def kind(name: str, among: tuple[str, ...] | None = None) -> type[Housing]:
+    """The kind called ``name`` (optionally only among ``among``); anything else is an
+    :class:`UnknownHousingError` listing the known kinds."""
+    _discover()
+    if not isinstance(name, str) or name not in _KINDS or (among is not None and name not in among):
+        raise UnknownHousingError(name, among)
+    return _KINDS[name]
