@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usvips.core.adjustment import Adjustment, Parameter, PriorGroup, adjust
+from usvips.core.calibration.control_blunders import ControlBlunder, demote_control_blunders, is_control_coordinate
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.dlt import robust_dlt
@@ -69,6 +70,8 @@ class CalibrationResult:
     adjustment: Adjustment
     model: StereoModel
     report: dict
+    #: control points demoted to tie points (:class:`ControlBlunder`), in the order found
+    control_blunders: list = field(default_factory=list)
 
     def __bool__(self) -> bool:
         return bool(self.adjustment)
@@ -147,22 +150,30 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
            source: dict) -> CalibrationResult:
     problem = model.problem(parameters)
     adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model))
+    blunders: list[ControlBlunder] = []
+    if options.snooping:
+        model, parameters, adjustment, blunders = demote_control_blunders(model, parameters, adjustment, options.robust,
+                                                                          _snoop_unit)
+        problem = model.problem(parameters)
     values = problem.values()
     left, right = model.cameras(values)
     _require_baseline(left, right, model.control.xyz)
     poses = [left.exterior] + [model.cameras(values, s)[0].exterior for s in model.stations[1:]]
     sigma0_px = adjustment.sigma0 * options.sigma_px
-    estimates = {p.name: ParameterEstimate(p.value, adjustment.sigmas.get(p.name), p.status) for p in parameters}
+    # a fixed control coordinate is the control file's value, not an estimate
+    estimates = {p.name: ParameterEstimate(p.value, adjustment.sigmas.get(p.name), p.status) for p in parameters
+                 if not (p.status == "fixed" and is_control_coordinate(p.name))}
     statistics = {"rms_px": adjustment.rms, "redundancy": adjustment.redundancy,
                   "condition_number": adjustment.condition_number, "iterations": adjustment.iterations,
                   "converged": adjustment.converged, "global_test": adjustment.global_test,
                   "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px,
-                  "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adjustment.on_bound]}
+                  "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adjustment.on_bound],
+                  "control_blunders": [b.as_dict() for b in blunders]}
     calibration = StereoCalibration(
         left, right, model.stations, tuple(poses), relative_orientation(left.exterior, right.exterior), phase,
         max(sigma0_px, 1e-12), estimates, (tuple(adjustment.covariance_names), adjustment.covariance),
         statistics, source)
-    result = CalibrationResult(calibration, adjustment, model, {})
+    result = CalibrationResult(calibration, adjustment, model, {}, blunders)
     result.report = build_report(result)
     return result
 
@@ -212,6 +223,7 @@ def build_report(result: CalibrationResult) -> dict:
         notes.append(f"{name} ends on its {side} bound ({bound:g}): the data push it to the edge of its physical "
                      "range, so the housing model or its priors do not fit the data there; its sigma (and those of "
                      "the parameters correlated with it) assume an interior minimum and understate the doubt.")
+    notes += [blunder.message for blunder in result.control_blunders]
     if adj.model_doubt:
         notes.append(adj.model_doubt)
     interior = [n for n, p in cal.parameters.items() if symbol(n) in INTERIOR_PARAMETERS and "@" not in n]
@@ -235,6 +247,7 @@ def build_report(result: CalibrationResult) -> dict:
         "correlations_over_0_95": [{"a": a, "b": b, "r": r} for a, b, r in adj.correlations_over],
         "condition_number": adj.condition_number,
         "weak_directions": [[{"parameter": n, "weight": w} for n, w in d] for d in adj.weak_directions],
+        "control_blunders": [b.as_dict() for b in result.control_blunders],
         "suspects": [{"id": s.point, "side": s.side, "coordinate": s.coordinate, "station": s.group, "w": s.w,
                       "residual_px": s.residual, "mdb_px": s.mdb, "reason": s.reason} for s in adj.suspects],
         "global_test": adj.global_test, "residuals": residuals, "notes": notes,
