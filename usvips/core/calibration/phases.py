@@ -30,7 +30,7 @@ are tried (``START_GRID``) and the best by the objective is kept.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -424,10 +424,9 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     parameters += _control_parameters(model)
     _apply_options(parameters, options)
     _require_rays(model, parameters)
-    _choose_start(model, parameters)
     merged = dict(source or {})
     merged.setdefault("base_calibration", base.source)
-    return _solve(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged)
+    return _solve_from_starts(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged)
 
 
 #: Starting values tried for the least observable, most non-linear housing parameters (metres).
@@ -460,32 +459,89 @@ def _fit_exteriors(model: StereoModel, parameters: list[Parameter]) -> float:
             p.status = held[p.name]
 
 
-def _choose_start(model: StereoModel, parameters: list[Parameter]) -> None:
-    """Try a small grid of starting values for the housing parameters the data hardly fix (a sphere's
-    axial offset and the glass thickness; a port's distance) and keep the one whose exterior-only fit
-    leaves the smallest residuals; the DLT ignores refraction, and from a poor start the full
-    adjustment can settle against the edge of the valid region (a cover plane cutting the sphere)."""
+def _candidates(model: StereoModel, parameters: list[Parameter]) -> list[dict[str, float]]:
+    """The physically distinct housing starts: the default ({}), then every combination of
+    :data:`START_GRID`'s values for the free parameters it names (both cameras' alike)."""
     grid = START_GRID.get(model.kind, {})
     by_name = {p.name: p for p in parameters}
-    candidates = [dict()]
+    candidates: list[dict[str, float]] = [{}]
     for symbol_name, starts in grid.items():
         names = [n for n in by_name if symbol(n) == symbol_name and by_name[n].status != "fixed"]
         if names:
             candidates = [dict(c, **{n: v for n in names}) for c in candidates for v in starts]
-    initial = {p.name: p.value for p in parameters}
-    best_cost, best_values = _fit_exteriors(model, parameters), {p.name: p.value for p in parameters}
-    if best_cost < GOOD_START:
-        return  # the default housing already explains the pixels to about their noise
-    for candidate in candidates:
-        for p in parameters:
-            p.value = initial[p.name]
-        for name, value in candidate.items():
-            by_name[name].value = value
-        cost = _fit_exteriors(model, parameters)
-        if cost < best_cost:
-            best_cost, best_values = cost, {p.name: p.value for p in parameters}
+    return [{}] + [c for c in candidates if c] if grid else [{}]
+
+
+def _start(model: StereoModel, parameters: list[Parameter], initial: dict[str, float],
+           candidate: dict[str, float]) -> tuple[float, dict[str, float]]:
+    """The exterior-only fit from the initial values with ``candidate``'s housing values: (cost, values)."""
     for p in parameters:
-        p.value = best_values[p.name]
+        p.value = initial[p.name]
+    for name, value in candidate.items():
+        next(p for p in parameters if p.name == name).value = value
+    cost = _fit_exteriors(model, parameters)
+    return cost, {p.name: p.value for p in parameters}
+
+
+#: Further full adjustments from the next-best distinct starts when the first run is not clean.
+EXTRA_STARTS = 2
+
+
+def _needs_other_starts(result: CalibrationResult) -> bool:
+    """The symptoms of a run caught in a local minimum or against the valid region's edge: not converged,
+    a parameter on a bound, the model in doubt, or two or more observation units rejected by the tau test
+    (one clear blunder is the data's, not the start's)."""
+    adj = result.adjustment
+    rejected = {(s.point, s.side, s.group) for s in adj.excluded if s.reason == "w-test"}
+    return not adj.converged or bool(adj.on_bound) or bool(adj.model_doubt) or len(rejected) >= 2
+
+
+def _rank(result: CalibrationResult) -> tuple:
+    """The objective by which runs from different starts compare (smaller is better): converged first,
+    then fewer parameters on a bound, fewer observations set aside, then the estimated variance factor."""
+    adj = result.adjustment
+    return (not adj.converged, len(adj.on_bound), len(adj.excluded), adj.sigma0)
+
+
+def _solve_from_starts(model: StereoModel, parameters: list[Parameter], options: CalibrationOptions, phase: str,
+                       source: dict) -> CalibrationResult:
+    """Phase 2 from several physically distinct starts, keeping the best by :func:`_rank`.
+
+    Each start (:func:`_candidates`: the default housing and the grid of :data:`START_GRID`) is first
+    fitted by the exterior orientations alone (the DLT ignores refraction); the full adjustment runs from
+    the start with the smallest residuals — or from the default when it already explains the pixels to
+    about their noise (:data:`GOOD_START`). When that run shows the symptoms of a poor start
+    (:func:`_needs_other_starts`), it is repeated from up to :data:`EXTRA_STARTS` of the next-best starts."""
+    initial = {p.name: p.value for p in parameters}
+    candidates = _candidates(model, parameters)
+    fitted: dict[int, tuple[float, dict[str, float]]] = {0: _start(model, parameters, initial, candidates[0])}
+    if not fitted[0][0] < GOOD_START:
+        for k in range(1, len(candidates)):
+            fitted[k] = _start(model, parameters, initial, candidates[k])
+    first = min(fitted, key=lambda k: fitted[k][0])
+
+    def run(k: int) -> CalibrationResult:
+        trial = [replace(p) for p in parameters]
+        values = fitted[k][1] if np.isfinite(fitted[k][0]) else initial
+        for p in trial:
+            p.value = values[p.name]
+        return _solve(model, trial, options, phase, source)
+
+    best = run(first)
+    if not _needs_other_starts(best) or len(candidates) == 1:
+        return best
+    for k in range(len(candidates)):
+        if k not in fitted:
+            fitted[k] = _start(model, parameters, initial, candidates[k])
+    others = sorted((k for k in fitted if k != first and np.isfinite(fitted[k][0])), key=lambda k: fitted[k][0])
+    for k in others[:EXTRA_STARTS]:
+        try:
+            result = run(k)
+        except UsvipsError:
+            continue
+        if _rank(result) < _rank(best):
+            best = result
+    return best
 
 
 def exterior_of(values: dict[str, float], side: str) -> Exterior:
