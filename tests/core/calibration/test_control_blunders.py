@@ -126,3 +126,12 @@ def test_the_tank_check_points_through_usvips_demo(tank, capsys):
     errors = result.points - control.xyz[control.index_of(list(check.ids))]
     normalised = np.einsum("ni,nij,nj->n", errors, np.linalg.inv(result.covariance), errors) / 3
     assert 0.5 < normalised.mean() < 2.0
+
+
+def test_usvips_calibrate_prints_the_demotion(tmp_path, capsys):
+    argv = ["calibrate", "air", "--control", str(SAMPLE / "control_table3_1.csv"), "--obs",
+            str(SAMPLE / "air_pair1_table3_2.csv"), "--image-size", "568x488", "--out", str(tmp_path / "air.json")]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "control blunder: control Z of target 3 is 200 m off its fitted value" in out
+    assert "excluded: point 3 " not in out

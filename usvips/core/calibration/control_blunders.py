@@ -118,6 +118,7 @@ def _trial(model: StereoModel, demoted: StereoModel, parameters: list[Parameter]
         for p in trial:
             p.status, p.group = "fixed", None
     old = {p.name: p for p in parameters if is_control_coordinate(p.name)}
+    xyz = model.control_xyz({p.name: p.value for p in parameters})
     for i, pid in enumerate(demoted.control.ids):
         for k, axis in enumerate(AXES):
             name = f"{axis}@{pid}"
@@ -126,8 +127,7 @@ def _trial(model: StereoModel, demoted: StereoModel, parameters: list[Parameter]
             elif name in old and others == "keep":  # a control file with sigmas: keep its state
                 trial.append(replace(old[name]))
             else:
-                trial.append(Parameter(name, float(model.control_xyz({p.name: p.value for p in parameters})[i, k]),
-                                       "fixed"))
+                trial.append(Parameter(name, float(xyz[i, k]), "fixed"))
     return trial
 
 
