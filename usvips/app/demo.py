@@ -49,13 +49,15 @@ class ExcludedTarget:
 @dataclass(frozen=True)
 class PhaseSummary:
     """One calibration phase: ``title`` (phase, housing, file), σ0 and residual RMS (px), redundancy, and
-    the targets left out (one per target and image, the y coordinate's verdict first)."""
+    the targets left out (one per target and image, the y coordinate's verdict first), and the control
+    points demoted to tie points as control-coordinate blunders (one message each)."""
 
     title: str
     sigma0_px: float
     rms_px: float
     redundancy: int
     excluded: tuple[ExcludedTarget, ...]
+    demoted: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -122,8 +124,9 @@ def run_demo(project: str | Path = DEFAULT_PROJECT) -> Iterator[DemoStep]:
 
 
 def phase_summary(report: dict, title: str) -> PhaseSummary:
-    """A calibration result's report (``sigma0_px``, ``rms_px``, ``redundancy``, ``suspects``) as a
-    :class:`PhaseSummary`: each suspect target once per image, the y coordinate's verdict first."""
+    """A calibration result's report (``sigma0_px``, ``rms_px``, ``redundancy``, ``suspects``,
+    ``control_blunders``) as a :class:`PhaseSummary`: each suspect target once per image, the y
+    coordinate's verdict first; each demoted control point's message."""
     seen, excluded = set(), []
     for suspect in sorted(report["suspects"], key=lambda s: s["coordinate"] != "y"):
         key = (suspect["id"], suspect["side"])
@@ -132,7 +135,9 @@ def phase_summary(report: dict, title: str) -> PhaseSummary:
         seen.add(key)
         excluded.append(ExcludedTarget(str(suspect["id"]), "left" if suspect["side"] == "l" else "right",
                                        suspect["w"], str(suspect.get("reason") or "")))
-    return PhaseSummary(title, report["sigma0_px"], report["rms_px"], report["redundancy"], tuple(excluded))
+    demoted = tuple(str(blunder["message"]) for blunder in report.get("control_blunders", []))
+    return PhaseSummary(title, report["sigma0_px"], report["rms_px"], report["redundancy"], tuple(excluded),
+                        demoted)
 
 
 def _files(manifest, role: str) -> list:

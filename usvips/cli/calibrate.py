@@ -101,6 +101,8 @@ def _finish(result, args: argparse.Namespace) -> int:
         w = f"w = {suspect['w']:.1f}" if suspect["w"] is not None else suspect["reason"]
         print(f"  excluded: point {suspect['id']} {suspect['side']} {suspect['coordinate']} "
               f"(pair {suspect['station']}): {w}")
+    for blunder in report.get("control_blunders", []):
+        print(f"  control blunder: {blunder['message']}")
     for pair in report["correlations_over_0_95"][:10]:
         print(f"  correlation {pair['a']} ~ {pair['b']}: {pair['r']:+.3f}")
     print(f"wrote {args.out}" + (f" and {args.report}" if args.report else ""))

@@ -34,6 +34,8 @@ def run(args: argparse.Namespace) -> int:
 def _print_phase(phase: PhaseSummary) -> None:
     print(f"{phase.title}: sigma0 {phase.sigma0_px:.3f} px, residual RMS {phase.rms_px:.3f} px, "
           f"redundancy {phase.redundancy}")
+    for message in phase.demoted:
+        print(f"  demoted to a tie point: {message}")
     for target in phase.excluded:
         what = f"w = {target.w:.1f}" if target.w is not None else target.reason
         print(f"  excluded target {target.id} in the {target.side} image: {what}")

@@ -72,6 +72,8 @@ def _intersect_and_derivatives(calibration, left, right, station, frame, include
     derivatives = np.zeros((len(names),) + result.points.shape)
     ok = result.ok
     for j, name in enumerate(names):
+        if "@" in name and symbol(name) in ("X", "Y", "Z"):
+            continue  # a control (or demoted tie) point's coordinate moves no camera: its column is zero
         step = _STEPS.get(symbol(name), 1e-6)
         moved = dict(values)
         moved[name] += step
