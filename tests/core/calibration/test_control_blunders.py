@@ -117,6 +117,9 @@ def test_the_tank_check_points_through_usvips_demo(tank, capsys):
     independent careful solution of the same tables 1.3 / 1.1 / 8.6 cm."""
     assert main(["demo"]) == 0
     lines = capsys.readouterr().out.splitlines()
+    demoted = [line for line in lines if line.strip().startswith("demoted to a tie point:")]
+    assert len(demoted) == 2 and all("control Z of target 3 is 200 m off" in line for line in demoted)
+    assert "  excluded target 2 in the left image" in "\n".join(lines)
     start = next(i for i, line in enumerate(lines) if line.startswith("water_pair2_check_table3_8.csv"))
     rms = next(line for line in lines[start:] if line.strip().startswith("RMS"))
     assert np.all(np.array([float(v) for v in rms.split()[1:]]) < [2.0, 1.5, 9.5]), rms
