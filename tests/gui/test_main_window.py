@@ -224,8 +224,7 @@ def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, s
     (first,) = window.workspace.project.objects()
     for _ in range(6):  # stored behind the window's back: the list meets them all at once
         window.workspace.project.add_object("line", list(first.vertices), "copy")
-    window.object_list._figures.clear()
-    window.object_list.refresh()
+    window.workspace.reload_objects()  # the model reads them all by one query
     assert window.object_list.table.rowCount() == 7
     assert "computing" in window.object_list.table.item(3, 4).text()
     qtbot.waitUntil(lambda: "mm" in window.object_list.table.item(6, 4).text(), timeout=20000)

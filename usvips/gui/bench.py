@@ -148,6 +148,43 @@ def _memory_row(directory: Path, project: Path, settings: str) -> dict:
             "met": bool(ours["peak_mb"] <= 1500)}
 
 
+def survey_project(directory: Path, count: int, seed: int = 0) -> Path:
+    """A copy of the ROV sample with ``count`` stored length objects (fish: two vertices each) measured on
+    its pair ``measure1``: random points 1.5–4 m along rays of the left image, projected into the right
+    image through the pair's calibration, stored with their X, Y, Z (m) as the window stores them. For the
+    survey-size rows of the bench and for looking at the window with many objects."""
+    from usvips.gui.workspace import pair_geometry
+    from usvips.samples import create_from_manifest
+    from usvips.store.project import Vertex
+
+    directory.mkdir(parents=True, exist_ok=True)
+    project = create_from_manifest(SAMPLE, directory / "survey.usvips")
+    try:
+        geometry = pair_geometry(project, "measure1")
+        rig = geometry.calibration.rig(geometry.station, geometry.frame)
+        rng = np.random.default_rng(seed)
+        objects = []
+        while len(objects) < count:
+            left = rng.uniform([60.0, 60.0], [580.0, 420.0], size=(2 * count, 2))
+            bundle = rig.left.rays(left)
+            depth = rng.uniform(1.5, 4.0, size=(2 * count, 1))
+            points = bundle.origins + depth * bundle.directions
+            right = rig.right.project(points)
+            inside = (bundle.ok & right.ok & (right.pixels[:, 0] > 5) & (right.pixels[:, 0] < 635)
+                      & (right.pixels[:, 1] > 5) & (right.pixels[:, 1] < 475))
+            for a, b in zip(*(np.flatnonzero(inside)[: 2 * (len(np.flatnonzero(inside)) // 2)].reshape(-1, 2).T),
+                            strict=True):
+                vertices = [Vertex(*left[i], *right.pixels[i], tuple(points[i]), np.eye(3) * 1e-6,
+                                   geometry.calibration_id, "measure1") for i in (a, b)]
+                objects.append(("length", vertices, f"fish {len(objects) + 1}", "", "bench"))
+                if len(objects) == count:
+                    break
+        project.add_objects(objects)
+    finally:
+        project.close()
+    return directory / "survey.usvips"
+
+
 def _wait(app, window) -> None:
     deadline = time.time() + 120
     while (window.busy or window.workspace.pair is None) and time.time() < deadline:

@@ -103,8 +103,11 @@ class StereoPane(QtWidgets.QWidget):
         self.pick_item = pg.ScatterPlotItem(size=15, pen=pg.mkPen(COLOURS["pick"], width=2), brush=None, symbol="+")
         self.proposal_item = pg.ScatterPlotItem(size=17, pen=pg.mkPen(COLOURS["proposal"], width=2), brush=None,
                                                 symbol="o")
-        for item in (self.objects_item, self.selected_item, self.vertex_item, self.curve_item, self.pick_item,
-                     self.proposal_item, self.cross_v, self.cross_h):
+        # the object being digitised, drawn on its own: a pick redraws it, never the stored objects
+        self.digitising_item = pg.PlotDataItem(pen=pg.mkPen(COLOURS["selected"], width=3), symbol="s", symbolSize=7,
+                                               symbolPen=pg.mkPen(COLOURS["selected"]), symbolBrush=None)
+        for item in (self.objects_item, self.selected_item, self.vertex_item, self.digitising_item, self.curve_item,
+                     self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
             self.viewbox.addItem(item, ignoreBounds=True)
         self.control_item = pg.ScatterPlotItem(size=11, pen=pg.mkPen(COLOURS["control"], width=1.5), brush=None,
                                                symbol="o")
@@ -288,9 +291,18 @@ class StereoPane(QtWidgets.QWidget):
         else:
             self.curve_item.setData([], [])
 
+    def set_digitising(self, pixels: np.ndarray | None) -> None:
+        """The vertices (N, 2) of the object being digitised, joined in order (None or none: nothing)."""
+        if pixels is None or not len(pixels):
+            self.digitising_item.setData([], [])
+            return
+        view = item_from_pixels(np.asarray(pixels, float).reshape(-1, 2))
+        self.digitising_item.setData(view[:, 0], view[:, 1])
+
     def set_objects(self, outlines: list[tuple]) -> None:
         """Permanent marks: (label, outline pixels (N, 2), closed, selected[, vertex pixels (M, 2)]) per
-        object; the vertices are marked where given (a circle's picks), else at the outline's points."""
+        object; the vertices are marked where given (a circle's picks), else at the outline's points. An
+        empty label draws none (at survey size only the selected objects are labelled)."""
         for label in self.labels:
             self.viewbox.removeItem(label)
         self.labels = []
@@ -302,6 +314,8 @@ class StereoPane(QtWidgets.QWidget):
             vertices.append(item_from_pixels(marks[0]) if marks else view)
             path = np.vstack([view, view[:1]]) if closed and len(view) > 2 else view
             (selected if is_selected else lines).append(np.vstack([path, [[np.nan, np.nan]]]))
+            if not label:
+                continue
             text = pg.TextItem(label, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
             text.setPos(float(view[0, 0]) + 4, float(view[0, 1]) - 4)
             self.viewbox.addItem(text, ignoreBounds=True)
