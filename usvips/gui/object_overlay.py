@@ -3,7 +3,8 @@
 Each object's outline on the current pair (image pixels, x right, y down, origin at the centre of the
 top-left pixel) is computed once and cached by object id; an event recomputes only the ids it names, and a
 pick redraws only the object being digitised. With more than :data:`MAX_LABELS` objects on the pair only
-the selected ones carry a label (ten thousand labels would hide the image and cost a second a redraw).
+the selected ones carry a label and vertex marks (ten thousand labels would hide the image, and the marks
+of 20,000 vertices cost pyqtgraph about a second per change).
 """
 
 from __future__ import annotations
@@ -55,23 +56,41 @@ class ObjectOverlay:
             if drawn is None:
                 continue  # measured on another pair (or frame)
             picks = self.workspace.vertices_shown(stored)
-            self.outlines[object_id] = (f"{stored.id} {stored.attribute}".strip(), drawn[0], drawn[1], drawn[2],
-                                        [(v.xl, v.yl) for v in picks], [(v.xr, v.yr) for v in picks])
+            paths = tuple(_path(pixels, drawn[2]) for pixels in drawn[:2])
+            marks = (np.array([(v.xl, v.yl) for v in picks], float).reshape(-1, 2),
+                     np.array([(v.xr, v.yr) for v in picks], float).reshape(-1, 2))
+            self.outlines[object_id] = (f"{stored.id} {stored.attribute}".strip(), paths, marks)
         self.draw()
 
     def draw(self, *_: object) -> None:
-        """Hand the cached outlines to the panes, the selected ones highlighted."""
+        """Hand the cached outlines to the panes, joined into one array per kind of mark, the selected
+        ones highlighted."""
         selection = set(self.workspace.selection)
         labelled = len(self.outlines) <= MAX_LABELS
+        empty = np.zeros((0, 2))
         for index, side in enumerate(SIDES):
-            outlines = []
-            for object_id, (label, left, right, closed, picks_left, picks_right) in self.outlines.items():
+            lines, chosen, vertices, labels = [], [], [], []
+            for object_id, (label, paths, marks) in self.outlines.items():
                 selected = object_id in selection
-                outlines.append((label if labelled or selected else "", (left, right)[index], closed, selected,
-                                 (picks_left, picks_right)[index]))
-            self.panes[side].set_objects(outlines)
+                (chosen if selected else lines).append(paths[index])
+                if labelled or selected:  # at survey size the outlines' ends show the vertices well enough
+                    vertices.append(marks[index])
+                if label and (labelled or selected):
+                    labels.append((label, tuple(paths[index][0]), selected))
+            self.panes[side].set_object_marks(np.concatenate(lines) if lines else empty,
+                                              np.concatenate(chosen) if chosen else empty,
+                                              np.concatenate(vertices) if vertices else empty, labels,
+                                              len(self.outlines))
 
     def draw_digitising(self, *_: object) -> None:
         current = self.workspace.digitising.vertices
         for side in SIDES:
             self.panes[side].set_digitising(np.array([getattr(v, side) for v in current]) if current else None)
+
+
+def _path(pixels: np.ndarray, closed: bool) -> np.ndarray:
+    """An outline's pixels (N, 2), back to the start when it closes, ended by a NaN row (the separator)."""
+    pixels = np.asarray(pixels, float).reshape(-1, 2)
+    if closed and len(pixels) > 2:
+        pixels = np.vstack([pixels, pixels[:1]])
+    return np.vstack([pixels, [[np.nan, np.nan]]])

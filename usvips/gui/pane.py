@@ -106,6 +106,9 @@ class StereoPane(QtWidgets.QWidget):
         # the object being digitised, drawn on its own: a pick redraws it, never the stored objects
         self.digitising_item = pg.PlotDataItem(pen=pg.mkPen(COLOURS["selected"], width=3), symbol="s", symbolSize=7,
                                                symbolPen=pg.mkPen(COLOURS["selected"]), symbolBrush=None)
+        # the stored objects change on a store or an edit, not on a pick: drawn from a cached pixmap meanwhile
+        self.objects_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+        self.vertex_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
         for item in (self.objects_item, self.selected_item, self.vertex_item, self.digitising_item, self.curve_item,
                      self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
             self.viewbox.addItem(item, ignoreBounds=True)
@@ -298,6 +301,31 @@ class StereoPane(QtWidgets.QWidget):
             return
         view = item_from_pixels(np.asarray(pixels, float).reshape(-1, 2))
         self.digitising_item.setData(view[:, 0], view[:, 1])
+
+    #: Above this many outlines the stored objects are drawn with a thin, aliased pen (a wide antialiased
+    #: pen costs Qt's stroker about a second per redraw of 10,000 outlines).
+    THIN_ABOVE = 300
+
+    def set_object_marks(self, lines: np.ndarray, selected: np.ndarray, vertices: np.ndarray,
+                         labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
+        """Permanent marks already joined by the caller: ``lines`` and ``selected`` (K, 2) pixels, one
+        outline after another separated by NaN rows; ``vertices`` (M, 2) pixels; ``labels`` (text, pixel of
+        the first vertex, selected); ``count`` outlines in all."""
+        for label in self.labels:
+            self.viewbox.removeItem(label)
+        self.labels = []
+        thin = count > self.THIN_ABOVE
+        self.objects_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+        for item, data in ((self.objects_item, lines), (self.selected_item, selected)):
+            view = item_from_pixels(data)
+            item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+        self.vertex_item.setData(pos=item_from_pixels(vertices))
+        for text, pixel, is_selected in labels:
+            item = pg.TextItem(text, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
+            view = item_from_pixels(np.array([pixel]))[0]
+            item.setPos(float(view[0]) + 4, float(view[1]) - 4)
+            self.viewbox.addItem(item, ignoreBounds=True)
+            self.labels.append(item)
 
     def set_objects(self, outlines: list[tuple]) -> None:
         """Permanent marks: (label, outline pixels (N, 2), closed, selected[, vertex pixels (M, 2)]) per

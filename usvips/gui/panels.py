@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6 import QtCore, QtWidgets
+from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
@@ -232,6 +232,11 @@ class ObjectList(QtWidgets.QWidget):
         layout.addLayout(buttons)
         delete.clicked.connect(self._on_delete)
         zoom.clicked.connect(self._on_zoom)
+        delete.setToolTip("delete the selected objects (Delete in the list; Ctrl+Z undoes it)")
+        # the Delete key in the list (not while a cell is being edited: the editor has the key then)
+        self.delete_shortcut = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_Delete), self.table)
+        self.delete_shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+        self.delete_shortcut.activated.connect(self._on_delete)
         self.table.itemSelectionChanged.connect(self._on_table_selection)
         self.table.itemChanged.connect(self._on_item_changed)
         self._filling = False
@@ -562,7 +567,8 @@ class PlanView(QtWidgets.QWidget):
         layout.addWidget(self.plot)
         self._parts: dict[int, tuple] = {}  # object id -> (label, label position, outline, 1σ rings) in this view
         self._dirty = True
-        self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self.refresh),
+        self._stale: set[int] = set()  # ids whose drawing is not computed yet (done when the view is shown)
+        self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self._on_pair),
                         (workspace.objects_added, self._on_objects), (workspace.objects_updated, self._on_objects),
                         (workspace.objects_removed, self._on_objects),
                         (workspace.selection_changed, self._on_selection))
@@ -584,13 +590,27 @@ class PlanView(QtWidgets.QWidget):
         self.labels.append(item)
 
     def refresh(self, *_: object) -> None:
-        """Every object again (another view, project or pair)."""
+        """Every object again (another view or project)."""
         self._parts = {}
         self._on_objects(tuple(self.workspace.object_ids()))
 
+    def _on_pair(self) -> None:
+        """Another pair: its cameras and frame (the objects stay as they are)."""
+        self._dirty = True
+        if self.isVisible() or len(self.workspace.object_ids()) <= self.MAX_LABELS:
+            self.redraw()
+
     def _on_objects(self, ids: tuple[int, ...]) -> None:
-        """Recompute the drawing of just ``ids``; redraw now if shown, else when shown."""
+        """Recompute the drawing of just ``ids``; now if the view is shown (or the project small), else
+        when it is shown."""
+        self._stale.update(ids)
+        self._dirty = True
+        if self.isVisible() or len(self.workspace.object_ids()) <= self.MAX_LABELS:
+            self.redraw()
+
+    def _update_parts(self) -> None:
         a, b = self.VIEWS[self.view.currentText()]
+        ids, self._stale = sorted(self._stale), set()
         for object_id in ids:
             try:
                 stored = self.workspace.stored_object(object_id)
@@ -602,9 +622,8 @@ class PlanView(QtWidgets.QWidget):
                 self._parts.pop(object_id, None)
             else:
                 self._parts[object_id] = part
-        self._dirty = True
-        if self.isVisible() or len(self._parts) <= self.MAX_LABELS:
-            self.redraw()
+        if ids:
+            self._parts = dict(sorted(self._parts.items()))
 
     def _on_selection(self, _ids) -> None:
         if len(self._parts) > self.MAX_LABELS:
@@ -624,14 +643,14 @@ class PlanView(QtWidgets.QWidget):
         points = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
         if not len(points):
             return None
-        rings = []
-        for v, point in zip(vertices, points, strict=True):
-            if v.covariance is None:
-                continue
-            block = np.asarray(v.covariance, float)[np.ix_([a, b], [a, b])]
-            values, vectors = np.linalg.eigh(block)
-            ring = point[[a, b]] + (self.CIRCLE * np.sqrt(np.clip(values, 0, None))) @ vectors.T
-            rings.append(np.vstack([ring, [[np.nan, np.nan]]]))
+        rings = np.zeros((0, 2))
+        known = [i for i, v in enumerate(vertices) if v.covariance is not None]
+        if known:  # the 2 x 2 blocks of every vertex at once: (M, 49, 2) rings, NaN-separated
+            blocks = np.array([vertices[i].covariance for i in known], float)[:, [a, b]][:, :, [a, b]]
+            values, vectors = np.linalg.eigh(blocks)
+            scaled = self.CIRCLE[None] * np.sqrt(np.clip(values, 0, None))[:, None, :]
+            ring = points[known][:, None, [a, b]] + np.einsum("mkj,mij->mki", scaled, vectors)
+            rings = np.concatenate([ring, np.full((len(known), 1, 2), np.nan)], axis=1).reshape(-1, 2)
         label = (f"{stored.id} {stored.attribute}".strip(), points[0, [a, b]])
         if len(points) == len(stored.vertices):
             try:
@@ -639,9 +658,10 @@ class PlanView(QtWidgets.QWidget):
             except UsvipsError:
                 pass  # drawn through its vertices
         outline = np.vstack([points[:, [a, b]], [[np.nan, np.nan]]])
-        return label, outline, np.vstack(rings) if rings else np.zeros((0, 2))
+        return label, outline, rings
 
     def redraw(self) -> None:
+        self._update_parts()
         self._dirty = False
         a, b = self.VIEWS[self.view.currentText()]
         self.plot.setLabel("bottom", "XYZ"[a] + " (m)")
