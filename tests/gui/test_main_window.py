@@ -185,6 +185,8 @@ def test_the_plan_view_shows_stored_objects_in_plan_and_profile(qtbot, make_wind
     open_sample(qtbot, window, directory, "measure1")
     _store_fish(window, directory)
     (stored,) = window.workspace.project.objects()
+    window.docks["plan"].raise_()  # a hidden plan view draws when its tab is brought to the front
+    qtbot.waitUntil(lambda: not window.plan._dirty, timeout=3000)
     x, y = window.plan.curve.getData()
     assert np.allclose(np.column_stack([x, y])[:2], [[v.xyz[0], v.xyz[1]] for v in stored.vertices])
     window.plan.view.setCurrentText("profile (X–Z)")
@@ -224,8 +226,7 @@ def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, s
     (first,) = window.workspace.project.objects()
     for _ in range(6):  # stored behind the window's back: the list meets them all at once
         window.workspace.project.add_object("line", list(first.vertices), "copy")
-    window.object_list._figures.clear()
-    window.object_list.refresh()
+    window.workspace.reload_objects()  # the model reads them all by one query
     assert window.object_list.table.rowCount() == 7
     assert "computing" in window.object_list.table.item(3, 4).text()
     qtbot.waitUntil(lambda: "mm" in window.object_list.table.item(6, 4).text(), timeout=20000)

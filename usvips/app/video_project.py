@@ -1,7 +1,7 @@
 """A user's own media in a project: image pairs from folders or lists, stereo videos (frame-exact,
 synchronised), and the synchronised frame pair written out.
 
-Sits above io and store like :mod:`usvips.samples` (it joins files read by io to the project written by
+Sits above io and store like :mod:`usvips.app.samples` (it joins files read by io to the project written by
 store); the command line and the workstation both go through here.
 
 Convention: a video pair's offset ``k`` (frames) means left frame ``i`` and right frame ``i + k`` show the

@@ -25,6 +25,7 @@ from usvips.core.dlt import check_spread
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.intersection import intersect
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.gui.signals import Signal
 from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict
 from usvips.io.tables import read_control, read_observations
 from usvips.store.interface import ProjectStore
@@ -98,6 +99,13 @@ class CalibrationSession:
             raise UsvipsError(f"unknown calibration phase {self.phase!r}; phases: {', '.join(PHASES)}")
         self.result: CalibrationResult | None = None
         self.previous_result: CalibrationResult | None = None
+        #: Events: ``step_changed(step)`` (the wizard's page, a name), ``data_changed(what, keys)`` with
+        #: ``what`` one of pairs, control, known, observations, exclusions and ``keys`` the (pair, point)
+        #: changed (empty: all of that kind), ``result_changed()`` (a result was set or dropped).
+        self.step = ""
+        self.step_changed = Signal()
+        self.data_changed = Signal()
+        self.result_changed = Signal()
         if self.control is None:
             control = self.project.control()
             self.control = control if len(control.ids) else None
@@ -131,10 +139,12 @@ class CalibrationSession:
         if self.phase == "water" and len(pairs) > 1:
             raise UsvipsError("phase 2 on one pair: choose one pair, or use the joint calibration for several")
         self.pairs = list(pairs)
+        self.data_changed.emit("pairs", ())
 
     def load_control(self, path: str) -> None:
         self.control = read_control(path)
         self.control_source = str(path)
+        self.data_changed.emit("control", ())
 
     def base_calibrations(self) -> list[dict]:
         return [c for c in self.project.calibrations() if c["phase"] == "air"]
@@ -147,6 +157,7 @@ class CalibrationSession:
         if not np.isfinite(value) or (sigma is not None and not (np.isfinite(sigma) and sigma > 0)):
             raise UsvipsError(f"{name}: the value must be a number and its sigma a positive number")
         self.known[name] = (float(value), None if sigma is None else float(sigma))
+        self.data_changed.emit("known", ())
 
     # ------------------------------------------------------------------ observations
     def load_project_observations(self) -> int:
@@ -157,6 +168,7 @@ class CalibrationSession:
             for i, pid in enumerate(stored.ids):
                 self.observations[(pair, pid)] = (*map(float, stored.left[i]), *map(float, stored.right[i]))
                 count += 1
+        self._observations_changed(())
         return count
 
     def import_observations(self, path: str, pair: str | None = None) -> int:
@@ -179,6 +191,7 @@ class CalibrationSession:
             count += 1
         if count == 0:
             raise UsvipsError(f"{path}: no observations of the chosen pair(s) {', '.join(self.pairs)}")
+        self._observations_changed(())
         return count
 
     def set_observation(self, pair: str, point: str, left, right) -> None:
@@ -188,13 +201,27 @@ class CalibrationSession:
         if not np.all(np.isfinite(values)):
             raise UsvipsError("an observation needs both picks")
         self.observations[(pair, point)] = values
-        self.result = None
+        self._observations_changed(((pair, point),))
 
     def remove_observation(self, pair: str, point: str) -> None:
         self.observations.pop((pair, point), None)
         self.check.discard((pair, point))
         self.excluded.discard((pair, point))
+        self._observations_changed(((pair, point),))
+
+    def _observations_changed(self, keys: tuple) -> None:
+        """The observations changed (``keys``: which; empty: many): any result is of other data."""
+        had = self.result is not None
         self.result = None
+        self.data_changed.emit("observations", keys)
+        if had:
+            self.result_changed.emit()
+
+    def set_step(self, step: str) -> None:
+        """The wizard shows another step (page); announced when it changes."""
+        if step != self.step:
+            self.step = step
+            self.step_changed.emit(step)
 
     def measured(self, pair: str) -> list[str]:
         return [pid for (p, pid) in self.observations if p == pair]
@@ -256,6 +283,7 @@ class CalibrationSession:
         if self.result is not None:
             self.previous_result = self.result
         self.result = result
+        self.result_changed.emit()
 
     # ------------------------------------------------------------------ results
     def flagged(self) -> list[dict]:
@@ -280,6 +308,7 @@ class CalibrationSession:
         worst = max(flagged, key=lambda r: max(abs(r["wx"]), abs(r["wy"])))
         key = (worst["station"], worst["id"])
         self.excluded.add(key)
+        self.data_changed.emit("exclusions", (key,))
         return [key]
 
     def check_points(self) -> tuple[list[dict], float | None]:

@@ -19,6 +19,7 @@ from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import exchange_dialogs, media_dialogs
 from usvips.gui.app import register_window
+from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, ObservationForm, PlanView
 from usvips.gui.planner_dock import PlannerDock
@@ -130,7 +131,8 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.objects_changed.connect(self.video.objects_changed)
         ws.pair_changed.connect(self._on_pair_changed)
         ws.picks_changed.connect(self._on_picks_changed)
-        ws.objects_changed.connect(self._on_objects_changed)
+        self.overlay = ObjectOverlay(ws, self.panes)  # the stored objects on the panes, redrawn by id
+        ws.selection_changed.connect(self._on_selection_changed)
         ws.enhancement_changed.connect(self._on_enhancement_changed)
         ws.message.connect(self.show_message)
         ws.undo.changed.connect(self._on_undo_changed)
@@ -177,7 +179,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["objects"].raise_()
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
-        self.object_list.selection_changed.connect(self._on_selection_changed)
         self.object_list.zoom_requested.connect(self.zoom_to_object)
         self.observation.finished.connect(self.focus_images)
         ws.stored.connect(self._on_stored)
@@ -726,7 +727,6 @@ class MainWindow(QtWidgets.QMainWindow):
                                            f"({ws.images[side].shape[1]} × {ws.images[side].shape[0]} px)")
             self._refresh_display(side)
         self._draw_control()
-        self._on_objects_changed()
         if not isinstance(QtWidgets.QApplication.focusWidget(), (QtWidgets.QLineEdit, QtWidgets.QAbstractItemView)):
             self.focus_images()
 
@@ -964,40 +964,19 @@ class MainWindow(QtWidgets.QMainWindow):
             self.statusBar().showMessage(state.note, 15000)
             self.set_hint(state.note, "warning" if state.pending is not None else "info")
         self.point_label.setText(describe_point(ws.last_point) if ws.last_point is not None else "")
-        self._draw_objects()
 
-    def _on_objects_changed(self) -> None:
-        self._draw_objects()
-
-    def _on_selection_changed(self, ids: list[int]) -> None:
-        self.selection = ids
+    def _on_selection_changed(self, ids) -> None:
+        """The model's selection (the geo-calculator, the plan and the panes follow it themselves)."""
+        self.selection = list(ids)
         if len(ids) == 1:
             self.observation.load(ids[0])  # every stored object's record is editable
-        self.calculator.set_selection(ids)
-        self._draw_objects()
 
     def _draw_objects(self) -> None:
-        ws = self.workspace
-        outlines: dict[str, list] = {side: [] for side in SIDES}
-        if ws.pair is not None:
-            for stored in ws.objects():
-                drawn = ws.outline(stored)
-                if drawn is None:
-                    continue
-                label = f"{stored.id} {stored.attribute}".strip()
-                selected = stored.id in self.selection
-                picks = ws.vertices_shown(stored)
-                outlines["left"].append((label, drawn[0], drawn[2], selected, [(v.xl, v.yl) for v in picks]))
-                outlines["right"].append((label, drawn[1], drawn[2], selected, [(v.xr, v.yr) for v in picks]))
-            current = ws.digitising.vertices
-            if current:
-                outlines["left"].append(("new", np.array([v.left for v in current]), False, True))
-                outlines["right"].append(("new", np.array([v.right for v in current]), False, True))
-        for side in SIDES:
-            self.panes[side].set_objects(outlines[side])
+        """Every stored object's outline again (a video frame was shown: others belong to it)."""
+        self.overlay.refresh()
 
     def zoom_to_object(self, object_id: int) -> None:
-        stored = self.workspace.project.object(object_id)
+        stored = self.workspace.stored_object(object_id)
         vertices = [v for v in stored.vertices if v.pair == self.workspace.pair]
         if not vertices:
             self.show_message("warning", f"object {object_id} was measured on another pair")

@@ -103,8 +103,14 @@ class StereoPane(QtWidgets.QWidget):
         self.pick_item = pg.ScatterPlotItem(size=15, pen=pg.mkPen(COLOURS["pick"], width=2), brush=None, symbol="+")
         self.proposal_item = pg.ScatterPlotItem(size=17, pen=pg.mkPen(COLOURS["proposal"], width=2), brush=None,
                                                 symbol="o")
-        for item in (self.objects_item, self.selected_item, self.vertex_item, self.curve_item, self.pick_item,
-                     self.proposal_item, self.cross_v, self.cross_h):
+        # the object being digitised, drawn on its own: a pick redraws it, never the stored objects
+        self.digitising_item = pg.PlotDataItem(pen=pg.mkPen(COLOURS["selected"], width=3), symbol="s", symbolSize=7,
+                                               symbolPen=pg.mkPen(COLOURS["selected"]), symbolBrush=None)
+        # the stored objects change on a store or an edit, not on a pick: drawn from a cached pixmap meanwhile
+        self.objects_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+        self.vertex_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+        for item in (self.objects_item, self.selected_item, self.vertex_item, self.digitising_item, self.curve_item,
+                     self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
             self.viewbox.addItem(item, ignoreBounds=True)
         self.control_item = pg.ScatterPlotItem(size=11, pen=pg.mkPen(COLOURS["control"], width=1.5), brush=None,
                                                symbol="o")
@@ -288,9 +294,43 @@ class StereoPane(QtWidgets.QWidget):
         else:
             self.curve_item.setData([], [])
 
+    def set_digitising(self, pixels: np.ndarray | None) -> None:
+        """The vertices (N, 2) of the object being digitised, joined in order (None or none: nothing)."""
+        if pixels is None or not len(pixels):
+            self.digitising_item.setData([], [])
+            return
+        view = item_from_pixels(np.asarray(pixels, float).reshape(-1, 2))
+        self.digitising_item.setData(view[:, 0], view[:, 1])
+
+    #: Above this many outlines the stored objects are drawn with a thin, aliased pen (a wide antialiased
+    #: pen costs Qt's stroker about a second per redraw of 10,000 outlines).
+    THIN_ABOVE = 300
+
+    def set_object_marks(self, lines: np.ndarray, selected: np.ndarray, vertices: np.ndarray,
+                         labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
+        """Permanent marks already joined by the caller: ``lines`` and ``selected`` (K, 2) pixels, one
+        outline after another separated by NaN rows; ``vertices`` (M, 2) pixels; ``labels`` (text, pixel of
+        the first vertex, selected); ``count`` outlines in all."""
+        for label in self.labels:
+            self.viewbox.removeItem(label)
+        self.labels = []
+        thin = count > self.THIN_ABOVE
+        self.objects_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+        for item, data in ((self.objects_item, lines), (self.selected_item, selected)):
+            view = item_from_pixels(data)
+            item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+        self.vertex_item.setData(pos=item_from_pixels(vertices))
+        for text, pixel, is_selected in labels:
+            item = pg.TextItem(text, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
+            view = item_from_pixels(np.array([pixel]))[0]
+            item.setPos(float(view[0]) + 4, float(view[1]) - 4)
+            self.viewbox.addItem(item, ignoreBounds=True)
+            self.labels.append(item)
+
     def set_objects(self, outlines: list[tuple]) -> None:
         """Permanent marks: (label, outline pixels (N, 2), closed, selected[, vertex pixels (M, 2)]) per
-        object; the vertices are marked where given (a circle's picks), else at the outline's points."""
+        object; the vertices are marked where given (a circle's picks), else at the outline's points. An
+        empty label draws none (at survey size only the selected objects are labelled)."""
         for label in self.labels:
             self.viewbox.removeItem(label)
         self.labels = []
@@ -302,6 +342,8 @@ class StereoPane(QtWidgets.QWidget):
             vertices.append(item_from_pixels(marks[0]) if marks else view)
             path = np.vstack([view, view[:1]]) if closed and len(view) > 2 else view
             (selected if is_selected else lines).append(np.vstack([path, [[np.nan, np.nan]]]))
+            if not label:
+                continue
             text = pg.TextItem(label, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
             text.setPos(float(view[0, 0]) + 4, float(view[0, 1]) - 4)
             self.viewbox.addItem(text, ignoreBounds=True)

@@ -4,11 +4,12 @@ and writes user input back through its methods; ``cleanup()`` disconnects."""
 
 from __future__ import annotations
 
+import bisect
 import json
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6 import QtCore, QtWidgets
+from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
@@ -231,74 +232,177 @@ class ObjectList(QtWidgets.QWidget):
         layout.addLayout(buttons)
         delete.clicked.connect(self._on_delete)
         zoom.clicked.connect(self._on_zoom)
-        self.table.itemSelectionChanged.connect(lambda: self.selection_changed.emit(self.selected_ids()))
+        delete.setToolTip("delete the selected objects (Delete in the list; Ctrl+Z undoes it)")
+        # the Delete key in the list (not while a cell is being edited: the editor has the key then)
+        self.delete_shortcut = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_Delete), self.table)
+        self.delete_shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+        self.delete_shortcut.activated.connect(self._on_delete)
+        self.table.itemSelectionChanged.connect(self._on_table_selection)
         self.table.itemChanged.connect(self._on_item_changed)
-        workspace.objects_changed.connect(self.refresh)
         self._filling = False
-        self._figures: dict[tuple, object] = {}
-        self._keys: dict[int, tuple] = {}
+        self._ids: list[int] = []  # the object id of each row, ascending (rows are in id order)
+        self._worker: Worker | None = None
+        self._pending: list[int] = []  # the ids the running figures worker computes
+        self._events = ((workspace.objects_reset, self.refresh), (workspace.objects_added, self._on_added),
+                        (workspace.objects_updated, self._on_updated), (workspace.objects_removed, self._on_removed),
+                        (workspace.rules_changed, self._on_rules_changed),
+                        (workspace.selection_changed, self._on_model_selection))
+        for signal, slot in self._events:
+            signal.connect(slot)
+        self.refresh()
 
     def cleanup(self) -> None:
-        self.workspace.objects_changed.disconnect(self.refresh)
+        for signal, slot in self._events:
+            signal.disconnect(slot)
 
     def selected_ids(self) -> list[int]:
         rows = sorted({index.row() for index in self.table.selectedIndexes()})
-        return [int(self.table.item(r, 0).text()) for r in rows if self.table.item(r, 0)]
+        return [self._ids[r] for r in rows if r < len(self._ids)]
 
     #: Objects whose figures are computed at once when they change; more go to a worker thread.
     SYNCHRONOUS = 2
+    #: Up to this many rows the columns are fitted to their contents on every change.
+    FIT_ROWS = 200
 
-    def _key(self, stored) -> tuple:
-        rules = self.workspace.rules
-        picks = tuple((v.xl, v.yl, v.xr, v.yr, v.calibration_id, v.pair) for v in stored.vertices)
-        return (stored.id, stored.kind, picks, rules.max_ray_rms_m, rules.max_relative_precision, rules.max_range_m,
-                tuple(sorted(rules.extra.items())))
+    def row_of(self, object_id: int) -> int | None:
+        """The table row showing ``object_id`` (None when it has none)."""
+        row = bisect.bisect_left(self._ids, object_id)
+        return row if row < len(self._ids) and self._ids[row] == object_id else None
 
-    def refresh(self) -> None:
-        """Rows at once; figures from the cache, the missing ones computed (in a worker when many)."""
+    # ------------------------------------------------------------------ the model's events
+    def refresh(self, *_: object) -> None:
+        """Every row again (another project, new rules): the objects come from the model's cache, the
+        figures that are not known yet are computed (in a worker when many)."""
         objects = self.workspace.objects()
-        missing = [o.id for o in objects if self._key(o) not in self._figures]
-        if 0 < len(missing) <= self.SYNCHRONOUS:
-            for stored in objects:
-                if stored.id in missing:
-                    self._figures[self._key(stored)] = self.workspace.figures([stored.id])
-        elif missing:
-            self._keys = {o.id: self._key(o) for o in objects}
-            worker = Worker(self.workspace.figures_job(missing), "computing the objects' figures")
-            worker.signals.finished.connect(self._on_figures)
-            start(worker)
-        self._fill(objects)
-
-    def _on_figures(self, results: dict) -> None:
-        for object_id, result in results.items():
-            if object_id in self._keys:
-                self._figures[self._keys[object_id]] = result
-        self._fill(self.workspace.objects())
-
-    def _fill(self, objects: list) -> None:
-        selected = set(self.selected_ids())
         self._filling = True
-        self.table.setRowCount(0)
-        for stored in objects:
-            row = self.table.rowCount()
-            self.table.insertRow(row)
-            result = self._figures.get(self._key(stored))
-            if result is None:
-                main, quality = "computing…", ""
-            else:
-                main = format_figure(result.figures[0]) if result.figures else result.reason
-                quality = "; ".join(result.failures) or "ok"
-            values = (str(stored.id), stored.kind, stored.attribute, str(len(stored.vertices)), main, quality,
-                      stored.notes, video_frame_text(stored))
-            for column, value in enumerate(values):
-                item = QtWidgets.QTableWidgetItem(value)
-                if self.COLUMNS[column] not in ("attribute", "notes"):
-                    item.setFlags(item.flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable)
-                self.table.setItem(row, column, item)
-            if stored.id in selected:
-                self.table.selectRow(row)
-        self.table.resizeColumnsToContents()
-        self._filling = False
+        self.table.setUpdatesEnabled(False)
+        try:
+            self.table.clearContents()
+            self.table.setRowCount(len(objects))
+            self._ids = [o.id for o in objects]
+            for row, stored in enumerate(objects):
+                self._set_row(row, stored)
+        finally:
+            self.table.setUpdatesEnabled(True)
+            self._filling = False
+        self._compute([o.id for o in objects])
+        self._fit()
+        self._on_model_selection(self.workspace.selection)
+
+    def _on_added(self, ids: tuple[int, ...]) -> None:
+        self._filling = True
+        try:
+            for object_id in ids:
+                row = bisect.bisect_left(self._ids, object_id)
+                self._ids.insert(row, object_id)
+                self.table.insertRow(row)
+                self._set_row(row, self.workspace.stored_object(object_id))
+        finally:
+            self._filling = False
+        self._compute(list(ids))
+        self._fit()
+
+    def _on_updated(self, ids: tuple[int, ...]) -> None:
+        self._filling = True
+        try:
+            for object_id in ids:
+                row = self.row_of(object_id)
+                if row is not None:
+                    self._set_row(row, self.workspace.stored_object(object_id))
+        finally:
+            self._filling = False
+        self._compute(list(ids))
+        self._on_vertex_range()
+
+    def _on_removed(self, ids: tuple[int, ...]) -> None:
+        for object_id in ids:
+            row = self.row_of(object_id)
+            if row is not None:
+                self.table.removeRow(row)
+                del self._ids[row]
+
+    def _on_rules_changed(self, _rules) -> None:
+        self._compute(list(self._ids))
+
+    def _on_model_selection(self, ids: tuple[int, ...]) -> None:
+        """Show the model's selection (when the list did not make it)."""
+        if set(ids) == set(self.selected_ids()):
+            return
+        self.table.blockSignals(True)
+        try:
+            self.table.clearSelection()
+            for object_id in ids:
+                row = self.row_of(object_id)
+                if row is not None:
+                    self.table.selectRow(row)
+        finally:
+            self.table.blockSignals(False)
+        self.table.viewport().update()
+        self._on_vertex_range()
+
+    def _on_table_selection(self) -> None:
+        ids = self.selected_ids()
+        self.workspace.select(ids)
+        self.selection_changed.emit(ids)
+
+    # ------------------------------------------------------------------ rows and figures
+    def _set_row(self, row: int, stored) -> None:
+        values = (str(stored.id), stored.kind, stored.attribute, str(len(stored.vertices)), "", "",
+                  stored.notes, video_frame_text(stored))
+        for column, value in enumerate(values):
+            item = QtWidgets.QTableWidgetItem(value)
+            if self.COLUMNS[column] not in ("attribute", "notes"):
+                item.setFlags(item.flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable)
+            self.table.setItem(row, column, item)
+        self._show_figures(row, stored.id)
+
+    def _show_figures(self, row: int, object_id: int) -> None:
+        result = self.workspace.object_figures(object_id)
+        if result is None:
+            main, quality = "computing…", ""
+        else:
+            main = format_figure(result.figures[0]) if result.figures else result.reason
+            quality = "; ".join(result.failures) or "ok"
+        filling, self._filling = self._filling, True
+        try:
+            for column, value in (("figure", main), ("quality", quality)):
+                item = self.table.item(row, self.COLUMNS.index(column))
+                if item is not None and item.text() != value:
+                    item.setText(value)
+        finally:
+            self._filling = filling
+
+    def _compute(self, ids: list[int]) -> None:
+        """Figures of ``ids`` not yet known: at once for a few, else in a worker (the newest job wins)."""
+        missing = [i for i in ids if self.workspace.object_figures(i) is None]
+        if 0 < len(missing) <= self.SYNCHRONOUS:
+            for object_id in missing:
+                self.workspace.figures([object_id])
+                row = self.row_of(object_id)
+                if row is not None:
+                    self._show_figures(row, object_id)
+        elif missing:
+            if self._worker is not None:
+                self._worker.cancel()
+                missing = sorted(set(missing) | set(self._pending))
+            self._pending = missing
+            job = self.workspace.figures_job(missing)
+            worker = self._worker = Worker(job, "computing the objects' figures")
+            worker.signals.finished.connect(lambda results, j=job, w=worker: self._on_figures(j, w, results))
+            start(worker)
+
+    def _on_figures(self, job, worker: Worker, results: dict) -> None:
+        if worker is self._worker:
+            self._worker, self._pending = None, []
+        for object_id in self.workspace.remember_figures(job, results):
+            row = self.row_of(object_id)
+            if row is not None:
+                self._show_figures(row, object_id)
+        self._fit()
+
+    def _fit(self) -> None:
+        if len(self._ids) <= self.FIT_ROWS:
+            self.table.resizeColumnsToContents()
 
     def _on_item_changed(self, item: QtWidgets.QTableWidgetItem) -> None:
         if self._filling:
@@ -311,7 +415,7 @@ class ObjectList(QtWidgets.QWidget):
 
     def _on_vertex_range(self) -> None:
         ids = self.selected_ids()
-        count = len(self.workspace.project.object(ids[0]).vertices) if len(ids) == 1 else 1
+        count = len(self.workspace.stored_object(ids[0]).vertices) if len(ids) == 1 else 1
         self.vertex.setRange(1, max(count, 1))
         self.kind.clear()
         if len(ids) == 1:
@@ -372,7 +476,11 @@ class CalculatorPanel(QtWidgets.QWidget):
         layout.setContentsMargins(2, 2, 2, 2)
         layout.addLayout(form)
         layout.addWidget(self.output)
-        workspace.objects_changed.connect(self.refresh)
+        self._events = ((workspace.selection_changed, self.set_selection), (workspace.objects_reset, self.refresh),
+                        (workspace.objects_updated, self._on_objects), (workspace.objects_removed, self._on_objects),
+                        (workspace.rules_changed, self.refresh))
+        for signal, slot in self._events:
+            signal.connect(slot)
 
     def _spin(self, value: float, low: float, high: float, suffix: str, tip: str) -> QtWidgets.QDoubleSpinBox:
         spin = QtWidgets.QDoubleSpinBox()
@@ -385,22 +493,27 @@ class CalculatorPanel(QtWidgets.QWidget):
         return spin
 
     def cleanup(self) -> None:
-        self.workspace.objects_changed.disconnect(self.refresh)
+        for signal, slot in self._events:
+            signal.disconnect(slot)
 
     def _on_rules_changed(self) -> None:
         from dataclasses import replace
 
-        self.workspace.rules = replace(self.workspace.rules, max_ray_rms_m=self.max_rms.value() / 1000,
-                                       max_relative_precision=self.max_precision.value() / 100,
-                                       max_range_m=self.max_range.value())
-        self.workspace.objects_changed.emit()
+        self.workspace.set_rules(replace(self.workspace.rules, max_ray_rms_m=self.max_rms.value() / 1000,
+                                         max_relative_precision=self.max_precision.value() / 100,
+                                         max_range_m=self.max_range.value()))
 
-    def set_selection(self, object_ids: list[int]) -> None:
+    def set_selection(self, object_ids) -> None:
         self.selection = list(object_ids)
         self.refresh()
 
-    def refresh(self) -> None:
-        existing = {o.id for o in self.workspace.objects()}
+    def _on_objects(self, ids: tuple[int, ...]) -> None:
+        """Only a change of a shown object is redrawn."""
+        if set(ids) & set(self.selection):
+            self.refresh()
+
+    def refresh(self, *_: object) -> None:
+        existing = set(self.workspace.object_ids())
         self.selection = [i for i in self.selection if i in existing]
         if not self.selection:
             self.output.setPlainText("Select one object for its figures, or two for the figures between them "
@@ -452,13 +565,23 @@ class PlanView(QtWidgets.QWidget):
         layout.setContentsMargins(2, 2, 2, 2)
         layout.addLayout(top)
         layout.addWidget(self.plot)
-        workspace.objects_changed.connect(self.refresh)
-        workspace.pair_changed.connect(self.refresh)
+        self._parts: dict[int, tuple] = {}  # object id -> (label, label position, outline, 1σ rings) in this view
+        self._dirty = True
+        self._stale: set[int] = set()  # ids whose drawing is not computed yet (done when the view is shown)
+        self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self._on_pair),
+                        (workspace.objects_added, self._on_objects), (workspace.objects_updated, self._on_objects),
+                        (workspace.objects_removed, self._on_objects),
+                        (workspace.selection_changed, self._on_selection))
+        for signal, slot in self._events:
+            signal.connect(slot)
         self.refresh()
 
+    #: Above this many objects only the selected ones are labelled (thousands of labels hide the plot).
+    MAX_LABELS = 300
+
     def cleanup(self) -> None:
-        self.workspace.objects_changed.disconnect(self.refresh)
-        self.workspace.pair_changed.disconnect(self.refresh)
+        for signal, slot in self._events:
+            signal.disconnect(slot)
 
     def _label(self, text: str, position, colour) -> None:
         item = pg.TextItem(text, color=colour, anchor=(0, 1))
@@ -467,33 +590,91 @@ class PlanView(QtWidgets.QWidget):
         self.labels.append(item)
 
     def refresh(self, *_: object) -> None:
+        """Every object again (another view or project)."""
+        self._parts = {}
+        self._on_objects(tuple(self.workspace.object_ids()))
+
+    def _on_pair(self) -> None:
+        """Another pair: its cameras and frame (the objects stay as they are)."""
+        self._dirty = True
+        if self.isVisible():
+            self.redraw()
+
+    def _on_objects(self, ids: tuple[int, ...]) -> None:
+        """Recompute the drawing of just ``ids``: now if the view is shown, else when it is shown (a hidden
+        plan view costs nothing: labelling a few hundred objects takes seconds of the GUI thread)."""
+        self._stale.update(ids)
+        self._dirty = True
+        if self.isVisible():
+            self.redraw()
+
+    def _update_parts(self) -> None:
+        a, b = self.VIEWS[self.view.currentText()]
+        ids, self._stale = sorted(self._stale), set()
+        for object_id in ids:
+            try:
+                stored = self.workspace.stored_object(object_id)
+            except UsvipsError:
+                self._parts.pop(object_id, None)
+                continue
+            part = self._part(stored, a, b)
+            if part is None:
+                self._parts.pop(object_id, None)
+            else:
+                self._parts[object_id] = part
+        if ids:
+            self._parts = dict(sorted(self._parts.items()))
+
+    def _on_selection(self, _ids) -> None:
+        if len(self._parts) > self.MAX_LABELS:
+            self._dirty = True
+            if self.isVisible():
+                self.redraw()
+
+    def showEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        super().showEvent(event)
+        if self._dirty:
+            self.redraw()
+
+    CIRCLE = np.column_stack([np.cos(np.linspace(0, 2 * np.pi, 49)), np.sin(np.linspace(0, 2 * np.pi, 49))])
+
+    def _part(self, stored, a: int, b: int) -> tuple | None:
+        vertices = [v for v in stored.vertices if v.xyz is not None]
+        points = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
+        if not len(points):
+            return None
+        rings = np.zeros((0, 2))
+        known = [i for i, v in enumerate(vertices) if v.covariance is not None]
+        if known:  # the 2 x 2 blocks of every vertex at once: (M, 49, 2) rings, NaN-separated
+            blocks = np.array([vertices[i].covariance for i in known], float)[:, [a, b]][:, :, [a, b]]
+            values, vectors = np.linalg.eigh(blocks)
+            scaled = self.CIRCLE[None] * np.sqrt(np.clip(values, 0, None))[:, None, :]
+            ring = points[known][:, None, [a, b]] + np.einsum("mkj,mij->mki", scaled, vectors)
+            rings = np.concatenate([ring, np.full((len(known), 1, 2), np.nan)], axis=1).reshape(-1, 2)
+        label = (f"{stored.id} {stored.attribute}".strip(), points[0, [a, b]])
+        if len(points) == len(stored.vertices):
+            try:
+                points = measurement_kind(stored.kind).outline(points)
+            except UsvipsError:
+                pass  # drawn through its vertices
+        outline = np.vstack([points[:, [a, b]], [[np.nan, np.nan]]])
+        return label, outline, rings
+
+    def redraw(self) -> None:
+        self._update_parts()
+        self._dirty = False
         a, b = self.VIEWS[self.view.currentText()]
         self.plot.setLabel("bottom", "XYZ"[a] + " (m)")
         self.plot.setLabel("left", "XYZ"[b] + " (m)")
         for item in self.labels:
             self.plot.removeItem(item)
         self.labels = []
-        parts, rings = [], []
-        circle = np.column_stack([np.cos(np.linspace(0, 2 * np.pi, 49)), np.sin(np.linspace(0, 2 * np.pi, 49))])
-        for stored in self.workspace.objects():
-            vertices = [v for v in stored.vertices if v.xyz is not None]
-            points = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
-            if not len(points):
-                continue
-            self._label(f"{stored.id} {stored.attribute}".strip(), points[0, [a, b]], (230, 230, 230))
-            for v, point in zip(vertices, points, strict=True):
-                if v.covariance is None:
-                    continue
-                block = np.asarray(v.covariance, float)[np.ix_([a, b], [a, b])]
-                values, vectors = np.linalg.eigh(block)
-                ring = point[[a, b]] + (circle * np.sqrt(np.clip(values, 0, None))) @ vectors.T
-                rings.append(np.vstack([ring, [[np.nan, np.nan]]]))
-            if len(points) == len(stored.vertices):
-                try:
-                    points = measurement_kind(stored.kind).outline(points)
-                except UsvipsError:
-                    pass  # drawn through its vertices
-            parts.append(np.vstack([points[:, [a, b]], [[np.nan, np.nan]]]))
+        labelled = (self._parts if len(self._parts) <= self.MAX_LABELS
+                    else {i: self._parts[i] for i in self.workspace.selection if i in self._parts})
+        for label, _, _ in labelled.values():
+            self._label(label[0], label[1], (230, 230, 230))
+        parts = [p[1] for p in self._parts.values()]
+        rings = [p[2] for p in self._parts.values() if len(p[2])]
         data = np.vstack(parts) if parts else np.zeros((0, 2))
         self.curve.setData(data[:, 0], data[:, 1], connect="finite")
         ring_data = np.vstack(rings) if rings else np.zeros((0, 2))

@@ -17,6 +17,7 @@ import numpy as np
 
 from usvips.app.video_project import open_streams, partner_frame
 from usvips.core.errors import InvalidParameterError
+from usvips.gui.signals import Signal
 from usvips.io.video_stream import PairReader, Picture
 from usvips.store.interface import ProjectStore
 
@@ -77,6 +78,8 @@ class VideoNavigator:
 
     def __post_init__(self) -> None:
         self.frame = self.clamp(self.frame)
+        #: ``frame_changed(frame)`` when :meth:`go` (and the steps) move to another left frame.
+        self.frame_changed = Signal()
 
     @property
     def first(self) -> int:
@@ -95,7 +98,9 @@ class VideoNavigator:
 
     def go(self, frame: int) -> int:
         """Go to ``frame`` (clamped to the frames that have a partner); returns it."""
-        self.frame = self.clamp(frame)
+        before, self.frame = self.frame, self.clamp(frame)
+        if self.frame != before:
+            self.frame_changed.emit(self.frame)
         return self.frame
 
     def step(self, frames: int) -> int:

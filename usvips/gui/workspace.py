@@ -170,10 +170,21 @@ class _Digitising:
 class Workspace:
     """The open project, the current pair with its images and calibration, the tool and its state.
 
-    Events (:class:`Signal`): ``pair_changed()``, ``picks_changed()`` (the pick state, the object being
-    digitised or the last measured point changed), ``objects_changed()``, ``enhancement_changed(side)``,
-    ``message(level, text)`` with level ``info``, ``warning`` or ``error``, and ``observed(left, right)``
-    when the observe tool has both picks of a point.
+    Events (:class:`Signal`), each saying what changed so that a view redraws just that:
+
+    - ``pair_changed()``; ``tool_changed(tool)``; ``picks_changed()`` (the pick state, the object being
+      digitised or the last measured point changed); ``enhancement_changed(side)``;
+    - ``objects_added(ids)``, ``objects_updated(ids)``, ``objects_removed(ids)`` (tuples of object ids,
+      after the model's cache of the stored objects holds the change), ``objects_reset()`` (another
+      project: every object is new), and ``objects_changed()`` after any of these, for views that only
+      recount (the video timeline's marks);
+    - ``selection_changed(ids)``; ``rules_changed(rules)`` (the quality rules: every figure's verdict);
+    - ``message(level, text)`` with level ``info``, ``warning`` or ``error``, ``observed(left, right)``
+      when the observe tool has both picks of a point, ``stored(object_id)`` after a new object.
+
+    The stored objects are read from the project by ONE query when a project opens and then kept here,
+    updated by id as they change (:meth:`objects`, :meth:`stored_object`); each object's figures are
+    computed once per change of the object or the rules (:meth:`object_figures`).
     """
 
     project: ProjectStore | None = None
@@ -202,6 +213,18 @@ class Workspace:
         self.pair_changed = Signal()
         self.picks_changed = Signal()
         self.objects_changed = Signal()
+        self.objects_added = Signal()
+        self.objects_updated = Signal()
+        self.objects_removed = Signal()
+        self.objects_reset = Signal()
+        self.tool_changed = Signal()
+        self.selection_changed = Signal()
+        self.rules_changed = Signal()
+        #: The selected objects' ids (the object list and the geo-calculator show them).
+        self.selection: tuple[int, ...] = ()
+        self._objects: dict[int, object] = {}  # id -> StoredObject, in id order
+        self._figures: dict[int, tuple[QualityRules, Result]] = {}  # id -> the rules and its figures under them
+        self._versions: dict[int, int] = {}  # id -> how often it changed (stale worker results are dropped)
         self.enhancement_changed = Signal()
         self.message = Signal()
         self.observed = Signal()
@@ -228,7 +251,12 @@ class Workspace:
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
         self.undo.clear()
+        self._objects = {} if project is None else {o.id: o for o in project.objects()}
+        self._figures, self._versions = {}, {}
+        self.selection = ()
+        self.objects_reset.emit()
         self.objects_changed.emit()
+        self.selection_changed.emit(self.selection)
         self.pair_changed.emit()
 
     def image_pairs(self) -> list[str]:
@@ -313,6 +341,7 @@ class Workspace:
                                          f"({len(self.digitising.vertices)} vertices) was dropped")
         self.digitising = _Digitising(tool)
         self._reset_picks()
+        self.tool_changed.emit(tool)
 
     def _reset_picks(self) -> None:
         self.state = PickState()
@@ -553,14 +582,14 @@ class Workspace:
             self.state = PickState()
             if last is not None:
                 self.last_point = last
-            self.objects_changed.emit()
+            self._objects_changed_in_store(added=(holder["id"],))
             self.picks_changed.emit()
             self.stored.emit(holder["id"])
 
         def unstore() -> None:
             self.project.delete_object(holder["id"])
             self._restore(before)
-            self.objects_changed.emit()
+            self._objects_changed_in_store(removed=(holder["id"],))
 
         self.undo.push(Command(f"store {kind}", store, unstore))
         result = self.figures([holder["id"]])
@@ -580,7 +609,7 @@ class Workspace:
         guard rails as usual) replaces it, as one undoable step; Esc before the first pick cancels."""
         if self.project is None:
             raise UsvipsError("open a project first")
-        stored = self.project.object(object_id)
+        stored = self.stored_object(object_id)
         if not 0 <= index < len(stored.vertices):
             raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
         pair = stored.vertices[index].pair
@@ -597,7 +626,7 @@ class Workspace:
     def _replace_vertex(self, vertex: MeasuredVertex) -> None:
         object_id, index = self.repick
         self.repick = None
-        saved = list(self.project.object(object_id).vertices)
+        saved = list(self.stored_object(object_id).vertices)
         new = list(saved)
         new[index] = self._vertices_for_store((vertex,))[0]
         self._set_vertices(f"re-pick vertex {index + 1} of object {object_id}", object_id, saved, new)
@@ -606,7 +635,7 @@ class Workspace:
     def delete_vertex(self, object_id: int, index: int) -> None:
         """Remove vertex ``index`` (0-based) of a stored object (undoable); an object keeps at least the
         vertices its kind needs (delete the object instead)."""
-        stored = self.project.object(object_id)
+        stored = self.stored_object(object_id)
         if not 0 <= index < len(stored.vertices):
             raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
         least = measurement_kind(resolve(stored.kind, len(stored.vertices))).minimum_vertices
@@ -621,7 +650,7 @@ class Workspace:
             def run() -> None:
                 self.project.update_object(object_id, vertices=vertices)
                 self.state = PickState()
-                self.objects_changed.emit()
+                self._objects_changed_in_store(updated=(object_id,))
                 self.picks_changed.emit()
             return run
 
@@ -629,23 +658,23 @@ class Workspace:
         self.message.emit("info", f"{label}: done (Ctrl+Z undoes it)")
 
     def delete_object(self, object_id: int) -> None:
-        saved = self.project.object(object_id)
+        saved = self.stored_object(object_id)
         holder = {"id": object_id}
 
         def delete() -> None:
             self.project.delete_object(holder["id"])
-            self.objects_changed.emit()
+            self._objects_changed_in_store(removed=(holder["id"],))
 
         def restore() -> None:
             holder["id"] = self.project.add_object(saved.kind, list(saved.vertices), saved.attribute, saved.notes,
                                                    saved.creator)
-            self.objects_changed.emit()
+            self._objects_changed_in_store(added=(holder["id"],))
 
         self.undo.push(Command(f"delete {saved.kind} {object_id}", delete, restore))
 
     def kinds_for(self, object_id: int) -> list[str]:
         """The registered measurement kinds a stored object's vertices can make (its own first)."""
-        stored = self.project.object(object_id)
+        stored = self.stored_object(object_id)
         count = len(stored.vertices)
         fitting = [k.name for k in registered_kinds() if k.minimum_vertices <= count
                    and (k.maximum_vertices is None or count <= k.maximum_vertices)]
@@ -654,7 +683,7 @@ class Workspace:
     def change_kind(self, object_id: int, kind: str) -> None:
         """Make a stored object another measurement kind (an arc a polygon, say), keeping its vertices;
         undoable. Refused by name when the vertices cannot make that kind."""
-        stored = self.project.object(object_id)
+        stored = self.stored_object(object_id)
         if kind == stored.kind:
             return
         if kind not in self.kinds_for(object_id):
@@ -664,21 +693,21 @@ class Workspace:
         def apply(name: str) -> Callable[[], None]:
             def run() -> None:
                 self.project.update_object(object_id, kind=name)
-                self.objects_changed.emit()
+                self._objects_changed_in_store(updated=(object_id,))
             return run
 
         self.undo.push(Command(f"make object {object_id} a {kind}", apply(kind), apply(stored.kind)))
         self.message.emit("info", f"object {object_id} is now a {kind} (Ctrl+Z undoes it)")
 
     def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
-        saved = self.project.object(object_id)
+        saved = self.stored_object(object_id)
 
         def apply(a: str, n: str) -> Callable[[], None]:
             def run() -> None:
                 self.project.update_object(object_id, attribute=a, notes=n)
                 if a:
                     self.project.add_term(a)
-                self.objects_changed.emit()
+                self._objects_changed_in_store(updated=(object_id,))
             return run
 
         self.undo.push(Command(f"edit object {object_id}", apply(attribute, notes),
@@ -686,7 +715,7 @@ class Workspace:
 
     def frame_description(self, object_id: int) -> str:
         """The frame an object's coordinates (and so its bearing and slope) are given in, in words."""
-        stored = self.project.object(object_id)
+        stored = self.stored_object(object_id)
         g = measurement_input(self.project, stored, self._calibrations)
         if g.calibration is None:
             return "the frame it was measured in (its calibration is no longer in the project)"
@@ -701,13 +730,87 @@ class Workspace:
         def apply(value: ObservationRecord | None) -> Callable[[], None]:
             def run() -> None:
                 self.project.set_record(object_id, value)
-                self.objects_changed.emit()
+                self._objects_changed_in_store(updated=(object_id,))
             return run
 
         self.undo.push(Command(f"observation record of object {object_id}", apply(record), apply(before)))
 
+    # ------------------------------------------------------------------ the stored objects (cached)
     def objects(self) -> list:
-        return [] if self.project is None else self.project.objects()
+        """The project's stored objects in id order, from the model's cache (no query)."""
+        return list(self._objects.values())
+
+    def object_ids(self) -> list[int]:
+        return list(self._objects)
+
+    def stored_object(self, object_id: int):
+        """One stored object from the cache (raises by name when there is none)."""
+        try:
+            return self._objects[object_id]
+        except KeyError:
+            raise UsvipsError(f"there is no object {object_id} in the project") from None
+
+    def _objects_changed_in_store(self, added: tuple[int, ...] = (), updated: tuple[int, ...] = (),
+                                  removed: tuple[int, ...] = ()) -> None:
+        """Bring the cache up to date with what was just written (re-reading only those ids, by one query)
+        and announce it by id."""
+        fresh = {o.id: o for o in self.project.objects_with_ids(added + updated)} if added + updated else {}
+        gone = tuple(i for i in removed + updated if i not in fresh and i in self._objects)
+        for object_id in gone:
+            del self._objects[object_id]
+        for object_id in (*added, *updated, *removed):
+            self._figures.pop(object_id, None)
+            self._versions[object_id] = self._versions.get(object_id, 0) + 1
+        new = tuple(i for i in added if i in fresh)
+        changed = tuple(i for i in updated if i in fresh)
+        highest = max(self._objects, default=0)
+        for object_id in new:
+            self._objects[object_id] = fresh[object_id]
+        if any(i <= highest for i in new):  # keep id order (SQLite gives new ids above the highest, but...)
+            self._objects = dict(sorted(self._objects.items()))
+        for object_id in changed:
+            self._objects[object_id] = fresh[object_id]
+        if gone:
+            self.objects_removed.emit(gone)
+            if set(gone) & set(self.selection):
+                self.select([i for i in self.selection if i not in gone])
+        if new:
+            self.objects_added.emit(new)
+        if changed:
+            self.objects_updated.emit(changed)
+        self.objects_changed.emit()
+
+    def reload_objects(self) -> None:
+        """Read every stored object again (by one query), e.g. after another program changed the project."""
+        self._objects = {} if self.project is None else {o.id: o for o in self.project.objects()}
+        self._figures, self._versions = {}, {}
+        self.objects_reset.emit()
+        self.objects_changed.emit()
+        self.select(self.selection)
+
+    def select(self, object_ids) -> None:
+        """Make ``object_ids`` the selection (ids not stored are left out); announced when it changes."""
+        selection = tuple(int(i) for i in object_ids if int(i) in self._objects)
+        if selection != self.selection:
+            self.selection = selection
+            self.selection_changed.emit(selection)
+
+    def set_rules(self, rules: QualityRules) -> None:
+        """New quality rules: every object's verdict may change (its figures are computed again)."""
+        if rules == self.rules:
+            return
+        self.rules = rules
+        self._figures = {}
+        self.rules_changed.emit(rules)
+
+    def object_figures(self, object_id: int) -> Result | None:
+        """An object's figures when they are known under the current rules (None: not yet computed)."""
+        known = self._figures.get(object_id)
+        return known[1] if known is not None and known[0] == self.rules else None
+
+    def forget_figures(self) -> None:
+        """Drop every computed figure (they are computed again when asked for)."""
+        self._figures = {}
 
     # ------------------------------------------------------------------ geo-calculator
     def _input(self, stored) -> MeasurementInput:
@@ -716,8 +819,9 @@ class Workspace:
         return measurement_input(self.project, stored, self._calibrations)
 
     def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
-        """The figures of many objects as a function of copied inputs (run it off the GUI thread)."""
-        inputs = [(i, self._input(self.project.object(i))) for i in object_ids]
+        """The figures of many objects as a function of copied inputs (run it off the GUI thread); give its
+        result to :meth:`remember_figures`."""
+        inputs = [(i, self._input(self.stored_object(i))) for i in object_ids]
         rules = self.rules
 
         def run(progress=None, cancelled=None) -> dict[int, Result]:
@@ -730,17 +834,37 @@ class Workspace:
                     progress((n + 1) / len(inputs))
             return out
 
+        versions = {i: self._versions.get(i, 0) for i in object_ids}
+        run.versions = versions  # what the results are of: see remember_figures
+        run.rules = rules
         return run
 
+    def remember_figures(self, job: Callable[..., dict[int, Result]], results: dict[int, Result]) -> list[int]:
+        """Keep what :meth:`figures_job`'s ``job`` computed, except for objects changed (or rules changed)
+        since it was made; returns the ids kept."""
+        if job.rules != self.rules:
+            return []
+        kept = [i for i, result in results.items()
+                if i in self._objects and self._versions.get(i, 0) == job.versions.get(i)]
+        for object_id in kept:
+            self._figures[object_id] = (job.rules, results[object_id])
+        return kept
+
     def figures(self, object_ids: list[int]) -> Result:
-        """The geo-calculator on a selection of one or two objects."""
+        """The geo-calculator on a selection of one or two objects (one object's figures are computed once
+        per change and kept)."""
         if self.project is None or not object_ids:
             return Result((), (), "select one or two objects")
         if len(object_ids) == 1:
-            return _figures_of(self._input(self.project.object(object_ids[0])), self.rules)
+            object_id = object_ids[0]
+            known = self.object_figures(object_id)
+            if known is None:
+                known = _figures_of(self._input(self.stored_object(object_id)), self.rules)
+                self._figures[object_id] = (self.rules, known)
+            return known
         if len(object_ids) != 2:
             return Result((), (), "select one object (its own figures) or two (figures between them)")
-        first, second = (self.project.object(i) for i in object_ids)
+        first, second = (self.stored_object(i) for i in object_ids)
         both = replace(first, vertices=first.vertices + second.vertices)
         points, covariance, _ = joint_vertices(self._input(both))
         n = 3 * len(first.vertices)

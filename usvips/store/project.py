@@ -571,6 +571,16 @@ class Project:
         """Every object, read in one transaction (a consistent snapshot while another program edits)."""
         return self._objects("", ())
 
+    def objects_with_ids(self, object_ids: Sequence[int]) -> list[StoredObject]:
+        """The objects of ``object_ids`` that exist, by id, read by one query in one transaction (the
+        window re-reads just what an edit changed; an id no longer stored is simply absent)."""
+        ids = sorted({int(i) for i in object_ids})
+        found: list[StoredObject] = []
+        for start in range(0, len(ids), 500):  # SQLite's limit on bound parameters
+            chunk = tuple(ids[start:start + 500])
+            found.extend(self._objects(f"WHERE id IN ({', '.join('?' * len(chunk))})", chunk))
+        return found
+
     def _objects(self, where: str, parameters: tuple) -> list[StoredObject]:
         with self._reading():
             rows = self._db.execute("SELECT id, kind, attribute, notes, creator, created, modified FROM objects "

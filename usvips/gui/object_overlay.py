@@ -1,0 +1,96 @@
+"""The stored objects drawn over both stereo panes, kept up to date by the workspace's events.
+
+Each object's outline on the current pair (image pixels, x right, y down, origin at the centre of the
+top-left pixel) is computed once and cached by object id; an event recomputes only the ids it names, and a
+pick redraws only the object being digitised. With more than :data:`MAX_LABELS` objects on the pair only
+the selected ones carry a label and vertex marks (ten thousand labels would hide the image, and the marks
+of 20,000 vertices cost pyqtgraph about a second per change).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from usvips.core.errors import UsvipsError
+from usvips.gui.workspace import SIDES, Workspace
+
+#: Above this many objects on the pair, only the selected objects are labelled.
+MAX_LABELS = 300
+
+
+class ObjectOverlay:
+    """Draws the workspace's stored objects (and the one being digitised) on ``panes`` (side -> pane)."""
+
+    def __init__(self, workspace: Workspace, panes: dict) -> None:
+        self.workspace = workspace
+        self.panes = panes
+        #: id -> (label, left outline, right outline, closed, left vertex picks, right vertex picks)
+        self.outlines: dict[int, tuple] = {}
+        self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self.refresh),
+                        (workspace.objects_added, self._on_objects), (workspace.objects_updated, self._on_objects),
+                        (workspace.objects_removed, self._on_objects), (workspace.selection_changed, self.draw),
+                        (workspace.picks_changed, self.draw_digitising))
+        for signal, slot in self._events:
+            signal.connect(slot)
+
+    def cleanup(self) -> None:
+        for signal, slot in self._events:
+            signal.disconnect(slot)
+
+    def refresh(self, *_: object) -> None:
+        """Every object's outline again (another project or pair)."""
+        self.outlines = {}
+        self._on_objects(tuple(self.workspace.object_ids()))
+        self.draw_digitising()
+
+    def _on_objects(self, ids: tuple[int, ...]) -> None:
+        for object_id in ids:
+            self.outlines.pop(object_id, None)
+            if self.workspace.pair is None:
+                continue
+            try:
+                stored = self.workspace.stored_object(object_id)
+            except UsvipsError:
+                continue  # removed
+            drawn = self.workspace.outline(stored)
+            if drawn is None:
+                continue  # measured on another pair (or frame)
+            picks = self.workspace.vertices_shown(stored)
+            paths = tuple(_path(pixels, drawn[2]) for pixels in drawn[:2])
+            marks = (np.array([(v.xl, v.yl) for v in picks], float).reshape(-1, 2),
+                     np.array([(v.xr, v.yr) for v in picks], float).reshape(-1, 2))
+            self.outlines[object_id] = (f"{stored.id} {stored.attribute}".strip(), paths, marks)
+        self.draw()
+
+    def draw(self, *_: object) -> None:
+        """Hand the cached outlines to the panes, joined into one array per kind of mark, the selected
+        ones highlighted."""
+        selection = set(self.workspace.selection)
+        labelled = len(self.outlines) <= MAX_LABELS
+        empty = np.zeros((0, 2))
+        for index, side in enumerate(SIDES):
+            lines, chosen, vertices, labels = [], [], [], []
+            for object_id, (label, paths, marks) in self.outlines.items():
+                selected = object_id in selection
+                (chosen if selected else lines).append(paths[index])
+                if labelled or selected:  # at survey size the outlines' ends show the vertices well enough
+                    vertices.append(marks[index])
+                if label and (labelled or selected):
+                    labels.append((label, tuple(paths[index][0]), selected))
+            self.panes[side].set_object_marks(np.concatenate(lines) if lines else empty,
+                                              np.concatenate(chosen) if chosen else empty,
+                                              np.concatenate(vertices) if vertices else empty, labels,
+                                              len(self.outlines))
+
+    def draw_digitising(self, *_: object) -> None:
+        current = self.workspace.digitising.vertices
+        for side in SIDES:
+            self.panes[side].set_digitising(np.array([getattr(v, side) for v in current]) if current else None)
+
+
+def _path(pixels: np.ndarray, closed: bool) -> np.ndarray:
+    """An outline's pixels (N, 2), back to the start when it closes, ended by a NaN row (the separator)."""
+    pixels = np.asarray(pixels, float).reshape(-1, 2)
+    if closed and len(pixels) > 2:
+        pixels = np.vstack([pixels, pixels[:1]])
+    return np.vstack([pixels, [[np.nan, np.nan]]])
