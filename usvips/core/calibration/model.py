@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usvips.core.adjustment import Observations, Parameter, Problem
+from usvips.core.calibration.derivatives import stereo_derivatives
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
 from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, Housing, shared_plane_in_camera
@@ -277,7 +278,7 @@ class StereoModel:
             return self.evaluate(values, blocks)
 
         return Problem(parameters, self.observation_set, evaluate, self.blocks, self.dependencies(),
-                       analytic=self.exterior_derivatives)
+                       analytic=lambda values, computed: stereo_derivatives(self, values, computed))
 
     def exterior_derivatives(self, values: dict[str, float], computed: np.ndarray) -> dict[str, dict[int, np.ndarray]]:
         """Exact derivatives of each block's pixels with respect to its own camera's exterior orientation.
