@@ -173,3 +173,19 @@ def test_the_modes_choose_the_path():
     with pytest.raises(ValueError, match="kernel mode"), kernels.mode("fast"):
         pass
     assert RayStatus.OK == 0
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_compiled_flat_port_back_projection_matches_the_reference(seed):
+    rng = np.random.default_rng(300 + seed)
+    camera = random_camera(rng, "flat-port")
+    assert camera.housing.is_planar_stack
+    with kernels.mode("never"):
+        rays = camera.rays(frame_pixels(rng, 900))
+    points = rays.origins + rng.uniform(0.05, 6.0, len(rays))[:, None] * rays.directions
+    points[-10:] = camera.exterior.to_object(rng.uniform(-1, 1, (10, 3)) * [1, 1, 0] + [0, 0, 1.0])  # behind
+    points[-20:-10] = camera.exterior.to_object(rng.uniform(-0.01, 0.01, (10, 3)) - [0, 0, 0.03])  # in the port
+    ref, fast = both(lambda: camera.project(points))
+    np.testing.assert_array_equal(fast.status, ref.status)
+    assert ref.ok.sum() > 600 and (~ref.ok).sum() >= 20
+    np.testing.assert_allclose(fast.pixels[ref.ok], ref.pixels[ref.ok], rtol=0, atol=1e-6)

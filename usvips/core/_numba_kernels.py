@@ -455,3 +455,73 @@ def _back_project_range(lo, hi, points, start, warm, kinds, geometry, indices, p
             previous = size
         uv[i, 0], uv[i, 1] = u, v
         status[i] = code
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def back_project_planar(points, axis, distances, indices):
+    """``camera._back_project_planar`` per point: parallel planes at ``distances`` (m,) metres along
+    ``axis`` from the perspective centre, media ``indices`` (m + 1,) (air, glass..., water). A 1-D Newton
+    solve for the invariant q = n1·sin θ1 so that the refracted path reaches the point's radial offset;
+    returns uv (N, 2) and a status."""
+    n = points.shape[0]
+    m = distances.shape[0]
+    uv = np.empty((n, 2))
+    status = np.zeros(n, dtype=np.uint8)
+    widths = np.empty(m + 1)
+    previous = 0.0
+    for k in range(m):
+        widths[k] = distances[k] - previous
+        previous = distances[k]
+    last = distances[m - 1]
+    n_water = indices[m]
+    lowest = n_water
+    for k in range(m + 1):
+        lowest = min(lowest, indices[k])
+    q_max = lowest * (1.0 - 1e-15)
+    ax, ay, az = axis[0], axis[1], axis[2]
+    for i in range(n):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        depth = px * ax + py * ay + pz * az
+        rx, ry, rz = px - depth * ax, py - depth * ay, pz - depth * az
+        radial = math.sqrt(rx * rx + ry * ry + rz * rz)
+        code = OK
+        if depth > last:
+            widths[m] = depth - last
+        else:
+            code = BEHIND_CAMERA
+            widths[m] = 1.0
+        q = min(n_water * math.sin(math.atan2(radial, depth)), 0.999 * q_max)
+        step, slope = 0.0, 1.0
+        for _ in range(60):
+            total = -radial
+            slope = 0.0
+            for k in range(m + 1):
+                layer = indices[k]
+                s = q / layer
+                inv_c = 1.0 / math.sqrt(1.0 - s * s)
+                total += widths[k] * s * inv_c
+                slope += (widths[k] / layer) * inv_c * inv_c * inv_c
+            step = total / slope
+            new_q = min(max(q - step, 0.0), q_max)
+            if new_q >= q_max:
+                new_q = 0.5 * (q + q_max)
+            change = abs(new_q - q)
+            q = new_q
+            if change < 1e-14:
+                break
+        if code == OK and abs(step) * slope > 1e-9 * max(1.0, radial):
+            code = NOT_CONVERGED
+        sin1 = q / indices[0]
+        cos1 = math.sqrt(1.0 - sin1 * sin1)
+        ex, ey, ez = 0.0, 0.0, 0.0
+        if radial > 0:
+            ex, ey, ez = rx / radial, ry / radial, rz / radial
+        dx, dy, dz = cos1 * ax + sin1 * ex, cos1 * ay + sin1 * ey, cos1 * az + sin1 * ez
+        if dz >= 0.0:
+            if code == OK:
+                code = BEHIND_CAMERA
+            dz = -1.0
+        uv[i, 0] = -dx / dz
+        uv[i, 1] = -dy / dz
+        status[i] = code
+    return uv, status

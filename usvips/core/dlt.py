@@ -76,7 +76,7 @@ def _solve_matrix(points: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     for xi, ui in zip(x, u, strict=True):
         rows.append(np.concatenate([xi, np.zeros(4), -ui[0] * xi]))
         rows.append(np.concatenate([np.zeros(4), xi, -ui[1] * xi]))
-    _, _, vt = np.linalg.svd(np.array(rows))
+    _, _, vt = np.linalg.svd(np.array(rows), full_matrices=False)  # only V is needed: no 2n × 2n U
     normalised = vt[-1].reshape(3, 4)
     return np.linalg.inv(t_img) @ normalised @ t_obj
 

@@ -136,10 +136,20 @@ def back_project_general(housing, points: np.ndarray, start: np.ndarray, warm: n
                                 np.asarray(housing.indices, dtype=np.float64), proxy, MIN_ADVANCE)
 
 
+def back_project_planar(points: np.ndarray, axis: np.ndarray, distances: np.ndarray, indices) -> tuple:
+    """Compiled ``camera._back_project_planar``: (uv (N, 2), status (N,)) of camera-frame points (N, 3)
+    behind parallel planes at ``distances`` (metres, increasing, > 0) along the unit ``axis``, media
+    ``indices`` (air, glass..., water)."""
+    return _load().back_project_planar(np.ascontiguousarray(points, dtype=np.float64),
+                                       np.ascontiguousarray(axis, dtype=np.float64),
+                                       np.ascontiguousarray(distances, dtype=np.float64),
+                                       np.asarray(indices, dtype=np.float64))
+
+
 def available() -> bool:
     """True when numba is installed and the compiled kernels can run."""
     return _load() is not None
 
 
-__all__ = ["MIN_ROWS", "available", "back_project_general", "intersect_rays", "mode",
+__all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "intersect_rays", "mode",
            "surface_table", "trace_into", "wanted"]
