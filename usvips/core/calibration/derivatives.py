@@ -126,13 +126,21 @@ def pose_derivatives(values: dict[str, float], station: str, side: str, first: s
 def pose_columns(m: np.ndarray, c: np.ndarray, derivatives: dict[str, tuple[np.ndarray, np.ndarray]],
                  a0: np.ndarray, a1: np.ndarray, points: np.ndarray) -> dict[str, np.ndarray]:
     """∂pixel/∂θ for each pose parameter θ: the equivalent object-point motion
-    dP = Mᵀ (∂M/∂θ)(P − C) − ∂C/∂θ through the pixel Jacobian rows ``a0``, ``a1`` (N, 3)."""
+    dP = Mᵀ (∂M/∂θ)(P − C) − ∂C/∂θ through the pixel Jacobian rows ``a0``, ``a1`` (N, 3).
+
+    All parameters at once: a·dP = Σ_ij a_j (P − C)_i T_θ[i, j] − a·∂C/∂θ with T_θ = (Mᵀ ∂M/∂θ)ᵀ, one
+    (N, 9) × (9, k) product per pixel coordinate."""
+    if not derivatives:
+        return {}
+    names = list(derivatives)
+    turns = np.stack([(m.T @ derivatives[n][0]).T for n in names]).reshape(len(names), 9)
+    shifts = np.stack([derivatives[n][1] for n in names])
     relative = points - c
-    out = {}
-    for name, (d_m, d_c) in derivatives.items():
-        moved = relative @ (m.T @ d_m).T - d_c
-        out[name] = _interleave(np.einsum("ij,ij->i", a0, moved), np.einsum("ij,ij->i", a1, moved))
-    return out
+    columns = np.empty((2 * len(points), len(names)))
+    for k, a in enumerate((a0, a1)):
+        outer = (relative[:, :, None] * a[:, None, :]).reshape(-1, 9)
+        columns[k::2] = outer @ turns.T - a @ shifts.T
+    return {name: columns[:, j] for j, name in enumerate(names)}
 
 
 def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray) -> Columns:
