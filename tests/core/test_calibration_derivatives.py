@@ -10,7 +10,7 @@ import pytest
 from tests.core.calibration_scenes import FLAT, LEFT, RIGHT, dome_housings, joined, observe
 from usvips.core.adjustment import Parameter, adjust
 from usvips.core.calibration.derivatives import stereo_derivatives
-from usvips.core.calibration.model import StereoModel, build_housings
+from usvips.core.calibration.model import StereoModel, build_housings, housing_parameter_names
 from usvips.core.camera import Camera, Exterior
 from usvips.core.observations import ControlPoints
 from usvips.core.rig import RelativeOrientation, StereoRig
@@ -18,7 +18,9 @@ from usvips.core.rig import RelativeOrientation, StereoRig
 #: central-difference steps per parameter symbol: a change of ~0.01-0.1 px, far above the back-projection's
 #: convergence noise and where the truncation error is ~1e-8 of the column
 STEPS = {"f": 1e-2, "xp": 1e-2, "yp": 1e-2, "sy": 1e-5, "k1": 1e-5, "k2": 1e-5, "k3": 1e-5, "p1": 1e-6, "p2": 1e-6,
-         "X0": 1e-5, "Y0": 1e-5, "Z0": 1e-5, "omega": 1e-6, "phi": 1e-6, "kappa": 1e-6}
+         "X0": 1e-5, "Y0": 1e-5, "Z0": 1e-5, "omega": 1e-6, "phi": 1e-6, "kappa": 1e-6,
+         "a": 1e-5, "b": 1e-5, "c": 1e-5, "r": 1e-5, "d": 1e-5, "e": 1e-5, "g": 1e-5, "t": 1e-5, "n2": 1e-5,
+         "n3": 1e-5}
 
 
 def _scene(rng: np.random.Generator, kind: str, stations: int = 3, points: int = 30):
@@ -73,9 +75,11 @@ def test_block_derivatives_match_central_differences_over_random_rigs(kind):
         model, truth = _scene(rng, kind)
         computed, ok = model.evaluate(truth)
         assert ok.all()
-        exact = stereo_derivatives(model, truth, computed)
-        # every interior column of every block; every pose column but the shared plane's right camera's
+        exact = stereo_derivatives(model, truth, computed, frozenset(truth))
+        # every interior column of every block, every housing column; every pose column but the shared
+        # plane's right camera's
         expected = {f"{p}_{s}" for p in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3") for s in "lr"}
+        expected |= set(housing_parameter_names(kind))
         assert expected <= set(exact)
         for name, blocks in exact.items():
             h = STEPS[_symbol(name)]

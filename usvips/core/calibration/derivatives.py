@@ -17,23 +17,33 @@ block. Here one ray trace with forward-mode derivatives per block gives every co
   ∂M/∂θ and ∂C/∂θ follow from the pose composition (3 × 3 matrices, no trace) with ∂M/∂angle by
   central differences of the rotation matrix (error ~1e-12 relative).
 
-The housing parameters (and, under System I's shared cover plane, the first station's poses for the right
-camera, whose housing moves with the relative orientation) keep the reference path's differences: the
-solver differentiates what this returns no column for. Units: pixels per parameter unit (metres, radians,
-pixels, dimensionless).
+* **housing** — a housing parameter h moves the ray a fixed pixel traces: by ∂o/∂h + s ∂d/∂h at the point's
+  distance s along it. The point is then reached by the pixel that moved by −(∂pixel/∂P)·(∂o/∂h + s ∂d/∂h).
+  ∂o/∂h and ∂d/∂h are central differences of the forward trace of the block's pixels through the housing
+  rebuilt at h ± step (closed-form refractions, no back-projection; error ~1e-10 relative). Only the free
+  parameters that change this camera's housing get a column.
+
+Under System I's shared cover plane the first station's poses also move the right camera's housing; those
+right-camera columns keep the reference path's differences: the solver differentiates what this returns
+no column for. Units: pixels per parameter unit (metres, radians, pixels, dimensionless).
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
 from usvips.core.errors import UsvipsError
 from usvips.core.interior import INTERIOR_PARAMETERS
 from usvips.core.intersection import pixel_jacobian
+from usvips.core.rays import RayStatus
 from usvips.core.rotation import rotation_matrix
 
 #: central-difference step of the pose composition (metres for positions, radians for angles)
 POSE_STEP = 1e-6
+#: central-difference step of a housing parameter (metres; refractive indices: dimensionless)
+HOUSING_STEP = 1e-6
 
 Columns = dict[str, dict[int, np.ndarray]]
 
@@ -143,11 +153,27 @@ def pose_columns(m: np.ndarray, c: np.ndarray, derivatives: dict[str, tuple[np.n
     return {name: columns[:, j] for j, name in enumerate(names)}
 
 
-def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray) -> Columns:
+def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
+                       free: frozenset[str] | None = None) -> Columns:
     """Exact columns of the Jacobian of ``model`` (a :class:`~usvips.core.calibration.model.StereoModel`)
     at ``values`` whose computed pixels are ``computed``: ``{parameter: {block: column}}`` for the
-    interior and pose parameters of every block (see the module docstring); a block whose pixels are not
-    all valid, or whose rays cannot be traced, is left to the reference path's differences."""
+    interior, pose and (those in ``free``; default none) housing parameters of every block (see the module
+    docstring); a block whose pixels are not all valid, or whose rays cannot be traced, is left to the
+    reference path's differences."""
+    from usvips.core.calibration.model import build_housings, housing_parameter_names
+
+    housing_names = [n for n in housing_parameter_names(model.kind) if free is not None and n in free]
+    housings = {}
+    if housing_names:
+        try:
+            housings[None] = build_housings(model.kind, values)
+            for name in housing_names:
+                for sign in (1, -1):
+                    shifted = dict(values)
+                    shifted[name] += sign * HOUSING_STEP
+                    housings[(name, sign)] = build_housings(model.kind, shifted)
+        except UsvipsError:  # a step leaves the valid region: the reference path's differences serve
+            housings, housing_names = {}, []
     xyz = model.control_xyz(values)
     out: Columns = {}
     first = model.stations[0]
@@ -182,4 +208,42 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray) ->
             derivatives = {n: d for n, d in derivatives.items() if "@" in n}
         for name, column in pose_columns(m, c, derivatives, a0, a1, points).items():
             out.setdefault(name, {})[b] = column
+        if housing_names:
+            index = 0 if side == "l" else 1
+            columns = housing_columns(housings, housing_names, index, camera, pixels, a0, a1, along)
+            for name, column in columns.items():
+                out.setdefault(name, {})[b] = column
     return out
+
+
+def housing_columns(housings: dict, names: list[str], index: int, camera, pixels: np.ndarray,
+                    a0: np.ndarray, a1: np.ndarray, along: np.ndarray) -> dict[str, np.ndarray]:
+    """∂pixel/∂h for the housing parameters ``names`` of ``camera`` (``index`` 0 left, 1 right): its
+    ``pixels`` traced through the housings rebuilt at h ± step (``housings`` keyed (name, ±1), the
+    unshifted one under None); the rays' motion at distance ``along`` (metres) through the pixel Jacobian
+    rows ``a0``, ``a1``. A parameter that does not change this camera's housing gets no column; one whose
+    shifted rays fail is left to the reference path."""
+    base = housings[None][index]
+    out = {}
+    for name in names:
+        ahead, behind = housings[(name, 1)][index], housings[(name, -1)][index]
+        if _same(ahead, base) and _same(behind, base):
+            continue
+        plus = replace(camera, housing=ahead).rays_with_derivatives(pixels)[0]
+        minus = replace(camera, housing=behind).rays_with_derivatives(pixels)[0]
+        if not (np.all(plus.status == RayStatus.OK) and np.all(minus.status == RayStatus.OK)):
+            continue
+        moved = ((plus.origins - minus.origins) + along[:, None] * (plus.directions - minus.directions)) \
+            / (2 * HOUSING_STEP)
+        column = np.empty(2 * len(pixels))
+        column[0::2] = -(a0 * moved).sum(axis=1)
+        column[1::2] = -(a1 * moved).sum(axis=1)
+        out[name] = column
+    return out
+
+
+def _same(one, other) -> bool:
+    try:
+        return bool(one == other)
+    except (ValueError, TypeError):  # a housing holding arrays does not compare by value
+        return False

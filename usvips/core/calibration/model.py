@@ -273,12 +273,13 @@ class StereoModel:
             raise DegenerateGeometryError(f"no value for parameter(s) {', '.join(missing[:6])}")
         for p in parameters:
             p.step = _STEPS.get(symbol(p.name), 1e-6)
+        free = frozenset(p.name for p in parameters if p.status != "fixed")
 
         def evaluate(values, blocks):
             return self.evaluate(values, blocks)
 
         return Problem(parameters, self.observation_set, evaluate, self.blocks, self.dependencies(),
-                       analytic=lambda values, computed: stereo_derivatives(self, values, computed))
+                       analytic=lambda values, computed: stereo_derivatives(self, values, computed, free))
 
     def exterior_derivatives(self, values: dict[str, float], computed: np.ndarray) -> dict[str, dict[int, np.ndarray]]:
         """Exact derivatives of each block's pixels with respect to its own camera's exterior orientation.
