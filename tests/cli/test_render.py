@@ -57,8 +57,10 @@ def _assert_same_numbers(fresh, committed, where: str) -> None:
 
 def _assert_same_calibration(fresh, committed) -> None:
     """The same calibration up to rounding: the same structure and statuses, every estimated parameter
-    within a thousandth of its sigma, sigmas within 0.1 %, and the same pixels (to 1e-6 px) for points
-    spread over both cameras' views at every station."""
+    within a thousandth of its sigma, sigmas within 0.1 %, and the same pixels (to a thousandth of the
+    pointing sigma sigma0; an adjustment stops when its steps fall below a small fraction of the sigmas,
+    so another BLAS or another derivative route ends a few 1e-6 px away) for points spread over both
+    cameras' views at every station."""
     assert (fresh.phase, fresh.stations, fresh.left.housing.kind) == (committed.phase, committed.stations,
                                                                       committed.left.housing.kind)
     assert fresh.parameters.keys() == committed.parameters.keys()
@@ -86,7 +88,8 @@ def _assert_same_calibration(fresh, committed) -> None:
                 got = getattr(fresh.rig(station), side).project(points)
                 ok = expected.status == 0
                 assert ok.sum() >= 5 and np.array_equal(got.status == 0, ok), (station, side, depth)
-                np.testing.assert_allclose(got.pixels[ok], expected.pixels[ok], rtol=0, atol=1e-6,
+                np.testing.assert_allclose(got.pixels[ok], expected.pixels[ok], rtol=0,
+                                           atol=1e-3 * committed.sigma0_px,
                                            err_msg=f"{station} {side} at {depth} m")
 
 

@@ -173,3 +173,47 @@ def test_the_modes_choose_the_path():
     with pytest.raises(ValueError, match="kernel mode"), kernels.mode("fast"):
         pass
     assert RayStatus.OK == 0
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_compiled_flat_port_back_projection_matches_the_reference(seed):
+    rng = np.random.default_rng(300 + seed)
+    camera = random_camera(rng, "flat-port")
+    assert camera.housing.is_planar_stack
+    with kernels.mode("never"):
+        rays = camera.rays(frame_pixels(rng, 900))
+    points = rays.origins + rng.uniform(0.05, 6.0, len(rays))[:, None] * rays.directions
+    points[-10:] = camera.exterior.to_object(rng.uniform(-1, 1, (10, 3)) * [1, 1, 0] + [0, 0, 1.0])  # behind
+    points[-20:-10] = camera.exterior.to_object(rng.uniform(-0.01, 0.01, (10, 3)) - [0, 0, 0.03])  # in the port
+    ref, fast = both(lambda: camera.project(points))
+    np.testing.assert_array_equal(fast.status, ref.status)
+    assert ref.ok.sum() > 600 and (~ref.ok).sum() >= 20
+    np.testing.assert_allclose(fast.pixels[ref.ok], ref.pixels[ref.ok], rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_compiled_undistortion_matches_the_reference_with_every_term(seed):
+    rng = np.random.default_rng(400 + seed)
+    interior = random_interior(rng).with_values(k3=rng.uniform(-0.05, 0.05))
+    target = interior.pixels_to_image(frame_pixels(rng, 700)) / interior.f
+    ref, fast = both(lambda: interior.undistort(target))
+    np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(interior.distort(fast), target, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", SEEDS[:4])
+def test_compiled_trace_honours_k3(seed):
+    rng = np.random.default_rng(500 + seed)
+    camera = random_camera(rng, "flat-port")
+    camera = Camera(camera.interior.with_values(k3=rng.uniform(-0.05, 0.05)), camera.exterior, camera.housing)
+    pixels = frame_pixels(rng, 600)
+    (ref, _, _), (fast, _, _) = both(lambda: camera.rays_with_derivatives(pixels))
+    np.testing.assert_array_equal(fast.status, ref.status)
+    np.testing.assert_allclose(fast.directions[ref.ok], ref.directions[ref.ok], rtol=0, atol=1e-12)
+
+
+def test_an_undistortion_that_folds_is_named_by_the_reference_path():
+    interior = Interior(f=1000.0, xp=640.0, yp=480.0, k1=-0.6)
+    target = np.vstack([np.zeros((600, 2)), [[0.64, 0.48]]])
+    with kernels.mode("always"), pytest.raises(ConvergenceError, match="row 600"):
+        interior.undistort(target)

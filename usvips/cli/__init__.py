@@ -19,6 +19,7 @@ from usvips.core.errors import UsvipsError
 #: (module name, description) of every subcommand; each module defines ``register(subparsers)``.
 COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure", "project", "render", "bench",
                              "calibration", "plan", "video")
+COMMANDS += ("batch",)
 
 
 def build_parser() -> argparse.ArgumentParser:

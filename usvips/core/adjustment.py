@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
+from usvips.core.batch_mode import batch_computation
 from usvips.core.errors import ConvergenceError, DegenerateGeometryError, InvalidParameterError
 
 STATUSES = ("free", "fixed", "prior")
@@ -517,6 +518,7 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
                 redundancy=redundancy, residual=residual, rms=rms)
 
 
+@batch_computation  # one BLAS thread for its small dense algebra, compiled kernels (core/batch_mode.py)
 def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2, robust: bool = True,
            snooping: bool = True, max_rejections: int | None = None,
            snoop_unit: Callable[[int], np.ndarray] | None = None) -> Adjustment:

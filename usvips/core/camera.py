@@ -271,6 +271,8 @@ def _back_project_planar(housing: Housing, points: np.ndarray) -> tuple[np.ndarr
     if np.any(distances <= 0.0) or np.any(np.diff(distances) <= 0.0):
         # planes behind the camera or out of order: let the general solver say what happens
         return _back_project_general(housing, points, -points[:, :2] / points[:, 2:3])
+    if kernels.wanted(len(points), planes):  # the compiled per-point solve (core/kernels.py)
+        return kernels.back_project_planar(points, axis, distances, indices)
     thickness = np.diff(np.concatenate([[0.0], distances]))  # air gap, then each glass layer
     depth = points @ axis
     radial_vec = points - depth[:, None] * axis

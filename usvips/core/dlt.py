@@ -72,11 +72,10 @@ def _solve_matrix(points: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     t_img = _normalisation(pixels)
     x = (t_obj @ np.column_stack([points, np.ones(len(points))]).T).T
     u = (t_img @ np.column_stack([pixels, np.ones(len(pixels))]).T).T
-    rows = []
-    for xi, ui in zip(x, u, strict=True):
-        rows.append(np.concatenate([xi, np.zeros(4), -ui[0] * xi]))
-        rows.append(np.concatenate([np.zeros(4), xi, -ui[1] * xi]))
-    _, _, vt = np.linalg.svd(np.array(rows))
+    rows = np.zeros((2 * len(x), 12))  # per point: [X, 0, −u X] and [0, X, −v X]
+    rows[0::2, :4], rows[0::2, 8:] = x, -u[:, :1] * x
+    rows[1::2, 4:8], rows[1::2, 8:] = x, -u[:, 1:2] * x
+    _, _, vt = np.linalg.svd(rows, full_matrices=False)  # only V is needed: no 2n × 2n U
     normalised = vt[-1].reshape(3, 4)
     return np.linalg.inv(t_img) @ normalised @ t_obj
 

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from usvips.core import validation
+from usvips.core import kernels, validation
 from usvips.core.errors import ConvergenceError
 
 
@@ -125,6 +125,10 @@ class Interior:
         target = np.asarray(uv_distorted, dtype=np.float64)
         if not self.has_distortion:
             return target.copy()
+        if kernels.wanted(len(target)):  # the compiled per-point solve (core/kernels.py)
+            solved = kernels.undistort(self, target, tolerance)
+            if solved is not None:
+                return solved
         tu, tv = target[:, 0], target[:, 1]
         u, v = tu.copy(), tv.copy()
         for _ in range(60):

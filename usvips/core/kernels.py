@@ -87,7 +87,7 @@ def _load():
 
 def _interior_row(interior) -> np.ndarray:
     return np.array([interior.f, interior.xp, interior.yp, interior.sy,
-                     interior.k1, interior.k2, interior.p1, interior.p2])
+                     interior.k1, interior.k2, interior.p1, interior.p2, interior.k3])
 
 
 def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.ndarray,
@@ -136,10 +136,29 @@ def back_project_general(housing, points: np.ndarray, start: np.ndarray, warm: n
                                 np.asarray(housing.indices, dtype=np.float64), proxy, MIN_ADVANCE)
 
 
+def back_project_planar(points: np.ndarray, axis: np.ndarray, distances: np.ndarray, indices) -> tuple:
+    """Compiled ``camera._back_project_planar``: (uv (N, 2), status (N,)) of camera-frame points (N, 3)
+    behind parallel planes at ``distances`` (metres, increasing, > 0) along the unit ``axis``, media
+    ``indices`` (air, glass..., water)."""
+    return _load().back_project_planar(np.ascontiguousarray(points, dtype=np.float64),
+                                       np.ascontiguousarray(axis, dtype=np.float64),
+                                       np.ascontiguousarray(distances, dtype=np.float64),
+                                       np.asarray(indices, dtype=np.float64))
+
+
+def undistort(interior, target: np.ndarray, tolerance: float) -> np.ndarray | None:
+    """Compiled ``Interior.undistort`` of observed normalised coordinates (N, 2); None when the distortion
+    cannot be inverted at some row (the reference path then names it)."""
+    out, unusable = _load().undistort(np.ascontiguousarray(target, dtype=np.float64), float(interior.k1),
+                                      float(interior.k2), float(interior.k3), float(interior.p1),
+                                      float(interior.p2), float(tolerance))
+    return None if unusable else out
+
+
 def available() -> bool:
     """True when numba is installed and the compiled kernels can run."""
     return _load() is not None
 
 
-__all__ = ["MIN_ROWS", "available", "back_project_general", "intersect_rays", "mode",
-           "surface_table", "trace_into", "wanted"]
+__all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "intersect_rays", "mode",
+           "surface_table", "trace_into", "undistort", "wanted"]

@@ -20,6 +20,7 @@ import numpy as np
 
 from usvips.core import housing as housings
 from usvips.core.adjustment import Observations, Parameter, Problem
+from usvips.core.calibration.derivatives import stereo_derivatives
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.housing import Housing
@@ -229,12 +230,13 @@ class StereoModel:
         for p in parameters:
             p.step = (self.housing_kind.spec(symbol(p.name)).step if p.name in housing_names
                       else _STEPS.get(symbol(p.name), 1e-6))
+        free = frozenset(p.name for p in parameters if p.status != "fixed")
 
         def evaluate(values, blocks):
             return self.evaluate(values, blocks)
 
         return Problem(parameters, self.observation_set, evaluate, self.blocks, self.dependencies(),
-                       analytic=self.exterior_derivatives)
+                       analytic=lambda values, computed: stereo_derivatives(self, values, computed, free))
 
     def exterior_derivatives(self, values: dict[str, float], computed: np.ndarray) -> dict[str, dict[int, np.ndarray]]:
         """Exact derivatives of each block's pixels with respect to its own camera's exterior orientation.

@@ -1,0 +1,109 @@
+"""usvips batch: one task over many projects or pairs on every core, a line per task, exit status."""
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+from usvips.cli import main
+
+ROV = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport"
+
+
+def _project_with_objects(tmp_path: Path, name: str) -> Path:
+    """A project made from the rov_flatport sample with two fish measured from their true pixels."""
+    import json
+
+    from usvips.samples import open_or_create_from_manifest
+
+    sample = tmp_path / name
+    shutil.copytree(ROV, sample, ignore=shutil.ignore_patterns("project.usvips*"))
+    open_or_create_from_manifest(sample).close()
+    truth = json.loads((sample / "truth.json").read_text())
+    cameras = next(p for p in truth["pairs"] if p["label"] == "measure1")["cameras"]
+    left, right = cameras["left"]["objects"], cameras["right"]["objects"]
+    rows = ["object,type,vertex,xl,yl,xr,yr,attribute"]
+    for fish in ("fish1", "fish2"):
+        for v, point in enumerate(("snout", "fork")):
+            rows.append(f"{fish},length,{v},{left[fish][point][0]},{left[fish][point][1]},{right[fish][point][0]},"
+                        f"{right[fish][point][1]},{fish}")
+    (sample / "picks.csv").write_text("\n".join(rows) + "\n")
+    project = sample / "project.usvips"
+    assert main(["measure", "--picks", str(sample / "picks.csv"), "--project", str(project), "--pair", "measure1",
+                 "--out", str(sample / "measured.csv")]) == 0
+    renamed = sample / f"{name}.usvips"
+    project.rename(renamed)
+    return renamed
+
+
+def test_batch_export_recomputes_every_project_and_names_the_one_that_fails(tmp_path, capsys):
+    projects = [_project_with_objects(tmp_path, name) for name in ("reef_a", "reef_b")]
+    broken = tmp_path / "broken.usvips"
+    broken.write_text("not a project\n")
+    capsys.readouterr()
+    code = main(["batch", "export", str(projects[0]), str(broken), str(projects[1]), "--out-dir",
+                 str(tmp_path / "out"), "--jobs", "2"])
+    captured = capsys.readouterr()
+    assert code == 2
+    lines = [line for line in captured.out.splitlines() if line.startswith("[")]
+    assert len(lines) == 3
+    failing = [line for line in lines if "FAILED" in line]
+    assert len(failing) == 1 and str(broken) in failing[0]
+    assert "1 failed" in captured.err
+    for project in projects:
+        assert main(["project", "export", str(project), str(tmp_path / f"{project.stem}.csv")]) == 0
+        ours = (tmp_path / "out" / f"{project.stem}.csv").read_text()
+        assert ours == (tmp_path / f"{project.stem}.csv").read_text()
+        assert len(ours.splitlines()) == 3  # header and the two fish
+    assert not (tmp_path / "out" / "broken.csv").exists()
+
+
+def test_batch_intersect_all_succeed_exit_zero(tmp_path, capsys):
+    for k in range(3):
+        shutil.copy(ROV / "observations_water.csv", tmp_path / f"dive{k}.csv")
+    code = main(["batch", "intersect", *(str(tmp_path / f"dive{k}.csv") for k in range(3)), "--calibration",
+                 str(ROV / "calibration.json"), "--out-dir", str(tmp_path / "points")])
+    out = capsys.readouterr().out
+    assert code == 0 and "3 of 3 succeeded" in out
+    assert sorted(p.name for p in (tmp_path / "points").iterdir()) == [f"dive{k}.points.csv" for k in range(3)]
+
+
+def test_bad_invocations_are_one_line(tmp_path, capsys):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    for folder in ("a", "b"):
+        shutil.copy(ROV / "observations_water.csv", tmp_path / folder / "dive.csv")
+    code = main(["batch", "intersect", str(tmp_path / "a" / "dive.csv"), str(tmp_path / "b" / "dive.csv"),
+                 "--calibration", str(ROV / "calibration.json"), "--out-dir", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "dive.points.csv" in err
+    assert not (tmp_path / "out").exists()
+    code = main(["batch", "intersect", str(tmp_path / "a" / "dive.csv"), "--calibration", "c.json", "--out-dir",
+                 str(tmp_path / "out"), "--jobs", "0"])
+    assert code == 2 and "--jobs" in capsys.readouterr().err
+
+
+def test_ctrl_c_cancels_what_has_not_started_and_keeps_whole_outputs(tmp_path):
+    inputs = []
+    for k in range(16):
+        shutil.copy(ROV / "observations_water.csv", tmp_path / f"dive{k:02d}.csv")
+        inputs.append(str(tmp_path / f"dive{k:02d}.csv"))
+    process = subprocess.Popen(
+        [sys.executable, "-m", "usvips", "batch", "intersect", *inputs, "--calibration", str(ROV / "calibration.json"),
+         "--out-dir", str(tmp_path / "out"), "--jobs", "1"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    first = process.stdout.readline()
+    assert first.startswith("[1/16] ok")
+    process.send_signal(signal.SIGINT)
+    rest, err = process.communicate(timeout=300)
+    assert process.returncode == 130
+    assert "Traceback" not in err and "cancelled (interrupted)" in err
+    lines = [first, *rest.splitlines()]
+    done = [line for line in lines if " ok " in line]
+    assert any("cancelled" in line for line in lines)
+    written = sorted((tmp_path / "out").iterdir())
+    assert len(written) == len(done)  # the finished ones, whole; no temporary or partial files
+    reference = written[0].read_text()
+    assert all(path.read_text() == reference for path in written)

@@ -1,0 +1,99 @@
+"""``usvips batch``: run one task over many pairs or projects on every core (usvips/app/batch.py).
+
+``usvips batch intersect --calibration CAL --out-dir DIR OBS...`` re-intersects each observations file
+with the calibration (DIR/<name>.points.csv); ``usvips batch export --out-dir DIR --format csv
+PROJECT...`` recomputes each project's figures and exports them (DIR/<name>.<format>). One progress line
+per finished task; a failing one prints one line and the others go on. Exit status: 0 when every task
+succeeded, 2 when any failed, 130 when interrupted (Ctrl-C: running tasks finish, the rest are cancelled).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from usvips.app import batch
+from usvips.core.errors import InvalidParameterError
+
+#: export formats and the suffix of the file each writes
+EXPORT_SUFFIXES = {"csv": ".csv", "vertices": ".vertices.csv", "geojson": ".geojson", "ply": ".ply",
+                   "eventmeasure": ".em.txt"}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("batch", help="run a task over many pairs or projects on every core")
+    tasks = parser.add_subparsers(dest="task", metavar="TASK", required=True)
+    intersect = tasks.add_parser("intersect", help="re-intersect observation files with a calibration")
+    intersect.add_argument("observations", nargs="+", help="observations CSV files (id,xl,yl,xr,yr)")
+    intersect.add_argument("--calibration", required=True, help="calibration file (JSON)")
+    intersect.add_argument("--station", default="0", help="calibrated station (index or pair label; default first)")
+    intersect.add_argument("--frame", choices=["object", "rig"], default="object")
+    export = tasks.add_parser("export", help="recompute figures and export the objects of projects")
+    export.add_argument("projects", nargs="+", help="project files (*.usvips)")
+    export.add_argument("--format", choices=sorted(EXPORT_SUFFIXES), default="csv")
+    for sub in (intersect, export):
+        sub.add_argument("--out-dir", required=True, help="folder for the outputs (created if missing)")
+        sub.add_argument("--jobs", type=int, default=None,
+                         help=f"worker processes (default: every core, {batch.default_jobs()} here)")
+        sub.set_defaults(handler=run)
+
+
+def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
+    inputs = args.observations if args.task == "intersect" else args.projects
+    suffix = ".points.csv" if args.task == "intersect" else EXPORT_SUFFIXES[args.format]
+    seen: dict[str, str] = {}
+    tasks = []
+    for given in inputs:
+        name = Path(given).stem
+        if name in seen:
+            raise InvalidParameterError("inputs", f"{seen[name]} and {given} would both write {name}{suffix}; "
+                                                  "rename one or run them separately")
+        seen[name] = given
+        out = str(out_dir / f"{name}{suffix}")
+        if args.task == "intersect":
+            tasks.append(batch.Task(given, batch.intersect_task, {
+                "observations": given, "calibration": args.calibration, "out": out, "station": args.station,
+                "frame": args.frame}))
+        else:
+            tasks.append(batch.Task(given, batch.export_project_task, {"project": given, "out": out}))
+    return tasks
+
+
+def _line(outcome: batch.Outcome, finished: int, total: int) -> str:
+    head = f"[{finished}/{total}]"
+    if outcome.status == "ok":
+        summary = outcome.summary or {}
+        if "points" in summary:
+            counts = f"{summary['points']} points" + (
+                f", {summary['failed']} not intersected" if summary["failed"] else "")
+        else:
+            counts = f"{summary.get('objects', 0)} objects" + (
+                f", {len(summary['skipped'])} skipped" if summary.get("skipped") else "")
+        return f"{head} ok {outcome.task.label} -> {summary.get('out')} ({counts})"
+    if outcome.status == "cancelled":
+        return f"{head} cancelled {outcome.task.label}"
+    message = outcome.message  # usually names the input itself
+    return f"{head} FAILED " + (message if outcome.task.label in message else f"{outcome.task.label}: {message}")
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.jobs is not None and args.jobs < 1:
+        raise InvalidParameterError("--jobs", f"must be at least 1, got {args.jobs}")
+    out_dir = Path(args.out_dir)
+    tasks = _tasks(args, out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+
+    def progress(outcome: batch.Outcome, finished: int, total: int) -> None:
+        print(_line(outcome, finished, total), flush=True)
+
+    outcomes = batch.run(tasks, args.jobs, progress)
+    done = sum(o.ok for o in outcomes)
+    failed = sum(o.status == "failed" for o in outcomes)
+    cancelled = sum(o.status == "cancelled" for o in outcomes)
+    print(f"batch {args.task}: {done} of {len(outcomes)} succeeded"
+          + (f", {failed} failed" if failed else "") + (f", {cancelled} cancelled (interrupted)" if cancelled else ""),
+          file=sys.stdout if not (failed or cancelled) else sys.stderr, flush=True)
+    if cancelled:
+        return 130
+    return 2 if failed else 0

@@ -1,0 +1,51 @@
+"""How a batch computation (an adjustment) runs: its dense linear algebra on one BLAS thread, and the
+compiled kernels (:mod:`usvips.core.kernels`) for batches of any size.
+
+A calibration's normal equations are small (tens to a few hundred unknowns) and are formed and solved
+hundreds of times per run (Jacobian products, damped solves, inverses, SVDs, the variance components).
+Threaded OpenBLAS wakes its worker threads for each of these calls; on a shared 2-core machine those
+threads spin while they wait for a core, and a 7,372 × 53 product that takes 2 ms on one thread took
+120-190 ms (measured with ``usvips bench --only calibration``). One thread is what such sizes need.
+
+:func:`batch_computation` wraps a function so that BLAS and LAPACK run on one thread while it runs (the
+previous limits are restored afterwards, also on an exception). It uses ``threadpoolctl``, which finds
+the BLAS that numpy and SciPy actually loaded; the controller is created once, on first use.
+
+A calibration evaluates its model block by block (one camera at one station: tens to hundreds of
+points), below the size from which the kernels' ``"auto"`` mode compiles (that threshold keeps a window's
+single pick from loading numba); an adjustment loads them once and then gains on every block, so within
+it the kernels run ``"always"``. They give the numpy reference's numbers (tests/core/test_kernels.py).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from typing import TypeVar
+
+from usvips.core import kernels
+
+Function = TypeVar("Function", bound=Callable)
+
+_controller = None
+
+
+def _blas_controller():
+    global _controller
+    if _controller is None:
+        from threadpoolctl import ThreadpoolController
+
+        _controller = ThreadpoolController()
+    return _controller
+
+
+def batch_computation(function: Function) -> Function:
+    """``function`` with BLAS/LAPACK limited to one thread and the compiled kernels at any batch size for
+    the duration of each call."""
+
+    @functools.wraps(function)
+    def wrapper(*args, **kwargs):
+        with _blas_controller().limit(limits=1, user_api="blas"), kernels.mode("always"):
+            return function(*args, **kwargs)
+
+    return wrapper  # type: ignore[return-value]

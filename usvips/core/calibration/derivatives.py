@@ -1,0 +1,249 @@
+"""Exact derivatives of a stereo calibration's computed pixels, block by block (the survey-size engine).
+
+A calibration's Jacobian has a structure: each observation block (one camera at one station) depends on
+that camera's interior (9 parameters), its pose at the station (6 parameters, or, for a right camera that
+follows the rig, the 18 that compose it), its housing, and the control points it sees. Differentiating
+every column by re-tracing every point of every block it touches (the reference path:
+:func:`usvips.core.adjustment._jacobian`, forward differences) costs one back-projection per parameter and
+block. Here one ray trace with forward-mode derivatives per block gives every column but the housing's:
+
+* **interior** — the pixel is ``x = xp + f·ud``, ``y = yp − f·vd/sy`` of the distorted ideal coordinates
+  (ud, vd) of the ray's ideal normalised coordinates (u, v), which the interior does not move (the housing
+  back-projection happens in the camera frame). Closed form, no trace at all.
+* **pose** — a parameter θ that moves the camera (its own exterior, or through the relative orientation
+  the rig's right camera) moves its pixels as the object point would move by
+  dP = Mᵀ (∂M/∂θ)(P − C) − ∂C/∂θ (M the object → image rotation, C the perspective centre). dP enters
+  through ∂pixel/∂P, the pixel Jacobian of the traced ray (:func:`usvips.core.intersection.pixel_jacobian`).
+  ∂M/∂θ and ∂C/∂θ follow from the pose composition (3 × 3 matrices, no trace) with ∂M/∂angle by
+  central differences of the rotation matrix (error ~1e-12 relative).
+
+* **housing** — a housing parameter h moves the ray a fixed pixel traces: by ∂o/∂h + s ∂d/∂h at the point's
+  distance s along it. The point is then reached by the pixel that moved by −(∂pixel/∂P)·(∂o/∂h + s ∂d/∂h).
+  ∂o/∂h and ∂d/∂h are central differences of the forward trace of the block's pixels through the housing
+  rebuilt at h ± step (closed-form refractions, no back-projection; error ~1e-10 relative). Only the free
+  parameters that change this camera's housing get a column.
+
+Under System I's shared cover plane the first station's poses also move the right camera's housing; those
+right-camera columns keep the reference path's differences: the solver differentiates what this returns
+no column for. Units: pixels per parameter unit (metres, radians, pixels, dimensionless).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from usvips.core.errors import UsvipsError
+from usvips.core.interior import INTERIOR_PARAMETERS
+from usvips.core.intersection import pixel_jacobian
+from usvips.core.rays import RayStatus
+from usvips.core.rotation import rotation_matrix
+
+#: central-difference step of the pose composition (metres for positions, radians for angles)
+POSE_STEP = 1e-6
+#: central-difference step of a housing parameter (metres; refractive indices: dimensionless)
+HOUSING_STEP = 1e-6
+
+Columns = dict[str, dict[int, np.ndarray]]
+
+
+def interior_columns(interior, uv: np.ndarray) -> dict[str, np.ndarray]:
+    """∂pixel/∂(f, xp, yp, sy, k1, k2, p1, p2, k3) at ideal normalised coordinates ``uv`` (N, 2): each an
+    interleaved column (2N,) x0, y0, x1, y1, … in pixels per unit of the parameter."""
+    u, v = uv[:, 0], uv[:, 1]
+    r2 = u * u + v * v
+    radial = interior.k1 * r2 + (interior.k2 + interior.k3 * r2) * r2 * r2
+    ud = u + u * radial + interior.p1 * (r2 + 2 * u * u) + 2 * interior.p2 * u * v
+    vd = v + v * radial + interior.p2 * (r2 + 2 * v * v) + 2 * interior.p1 * u * v
+    f, sy = interior.f, interior.sy
+    zero, one = np.zeros_like(u), np.ones_like(u)
+    r4 = r2 * r2
+    pairs = {
+        "f": (ud, -vd / sy),
+        "xp": (one, zero),
+        "yp": (zero, one),
+        "sy": (zero, f * vd / (sy * sy)),
+        "k1": (f * u * r2, -f * v * r2 / sy),
+        "k2": (f * u * r4, -f * v * r4 / sy),
+        "k3": (f * u * r4 * r2, -f * v * r4 * r2 / sy),
+        "p1": (f * (r2 + 2 * u * u), -f * 2 * u * v / sy),
+        "p2": (f * 2 * u * v, -f * (r2 + 2 * v * v) / sy),
+    }
+    return {name: _interleave(*pairs[name]) for name in INTERIOR_PARAMETERS}
+
+
+def _interleave(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
+    column = np.empty(2 * len(dx))
+    column[0::2], column[1::2] = dx, dy
+    return column
+
+
+ANGLES = ("omega", "phi", "kappa")
+
+
+def _rotation_and_derivatives(values: dict[str, float], suffix: str) -> tuple[np.ndarray, list[np.ndarray]]:
+    """M(omega, phi, kappa) of the named camera and ∂M/∂angle for each angle (central differences)."""
+    angles = [values[f"{a}{suffix}"] for a in ANGLES]
+    derivatives = []
+    for k in range(3):
+        ahead, behind = list(angles), list(angles)
+        ahead[k] += POSE_STEP
+        behind[k] -= POSE_STEP
+        derivatives.append((rotation_matrix(*ahead) - rotation_matrix(*behind)) / (2 * POSE_STEP))
+    return rotation_matrix(*angles), derivatives
+
+
+def _centre(values: dict[str, float], suffix: str) -> np.ndarray:
+    return np.array([values[f"{p}{suffix}"] for p in ("X0", "Y0", "Z0")])
+
+
+def pose_derivatives(values: dict[str, float], station: str, side: str, first: str
+                     ) -> tuple[np.ndarray, np.ndarray, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """The camera's rotation M and centre C at ``station`` and ``{parameter: (∂M/∂θ, ∂C/∂θ)}`` for every
+    parameter of its pose. The first station's cameras have their own parameters; a further station's
+    left camera has ``…_l@station``; the right camera there follows the rig (as
+    :func:`usvips.core.rig.right_exterior` composes it):
+    M = M_r0 M_l0ᵀ M_ls, C = C_ls + M_lsᵀ M_l0 (C_r0 − C_l0)."""
+    unit = np.eye(3)
+    zero_m, zero_c = np.zeros((3, 3)), np.zeros(3)
+    own = f"_{side}" if station == first else f"_l@{station}"
+    m_own, d_own = _rotation_and_derivatives(values, own)
+    c_own = _centre(values, own)
+    if station == first or side == "l":
+        columns = {f"{p}{own}": (zero_m, unit[k]) for k, p in enumerate(("X0", "Y0", "Z0"))}
+        columns.update({f"{a}{own}": (d_own[k], zero_c) for k, a in enumerate(ANGLES)})
+        return m_own, c_own, columns
+    m_l0, d_l0 = _rotation_and_derivatives(values, "_l")
+    m_r0, d_r0 = _rotation_and_derivatives(values, "_r")
+    c_l0, c_r0 = _centre(values, "_l"), _centre(values, "_r")
+    gap = c_r0 - c_l0
+    base = m_l0 @ gap
+    m_rel = m_r0 @ m_l0.T
+    carry = m_own.T @ m_l0  # object-frame gap → the right centre's offset at this station
+    columns = {}
+    for k, p in enumerate(("X0", "Y0", "Z0")):
+        columns[f"{p}{own}"] = (zero_m, unit[k])
+        columns[f"{p}_l"] = (zero_m, -carry[:, k])
+        columns[f"{p}_r"] = (zero_m, carry[:, k])
+    for k, a in enumerate(ANGLES):
+        columns[f"{a}{own}"] = (m_rel @ d_own[k], d_own[k].T @ base)
+        columns[f"{a}_l"] = (m_r0 @ d_l0[k].T @ m_own, m_own.T @ (d_l0[k] @ gap))
+        columns[f"{a}_r"] = (d_r0[k] @ m_l0.T @ m_own, zero_c)
+    return m_rel @ m_own, c_own + m_own.T @ base, columns
+
+
+def pose_columns(m: np.ndarray, c: np.ndarray, derivatives: dict[str, tuple[np.ndarray, np.ndarray]],
+                 a0: np.ndarray, a1: np.ndarray, points: np.ndarray) -> dict[str, np.ndarray]:
+    """∂pixel/∂θ for each pose parameter θ: the equivalent object-point motion
+    dP = Mᵀ (∂M/∂θ)(P − C) − ∂C/∂θ through the pixel Jacobian rows ``a0``, ``a1`` (N, 3).
+
+    All parameters at once: a·dP = Σ_ij a_j (P − C)_i T_θ[i, j] − a·∂C/∂θ with T_θ = (Mᵀ ∂M/∂θ)ᵀ, one
+    (N, 9) × (9, k) product per pixel coordinate."""
+    if not derivatives:
+        return {}
+    names = list(derivatives)
+    turns = np.stack([(m.T @ derivatives[n][0]).T for n in names]).reshape(len(names), 9)
+    shifts = np.stack([derivatives[n][1] for n in names])
+    relative = points - c
+    columns = np.empty((2 * len(points), len(names)))
+    for k, a in enumerate((a0, a1)):
+        outer = (relative[:, :, None] * a[:, None, :]).reshape(-1, 9)
+        columns[k::2] = outer @ turns.T - a @ shifts.T
+    return {name: columns[:, j] for j, name in enumerate(names)}
+
+
+def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
+                       free: frozenset[str] | None = None) -> Columns:
+    """Exact columns of the Jacobian of ``model`` (a :class:`~usvips.core.calibration.model.StereoModel`)
+    at ``values`` whose computed pixels are ``computed``: ``{parameter: {block: column}}`` for the
+    interior, pose and (those in ``free``; default none) housing parameters of every block (see the module
+    docstring); a block whose pixels are not all valid, or whose rays cannot be traced, is left to the
+    reference path's differences."""
+    from usvips.core.calibration.model import build_housings, housing_parameter_names
+
+    housing_names = [n for n in housing_parameter_names(model.kind) if free is not None and n in free]
+    housings = {}
+    if housing_names:
+        try:
+            housings[None] = build_housings(model.kind, values)
+            for name in housing_names:
+                for sign in (1, -1):
+                    shifted = dict(values)
+                    shifted[name] += sign * HOUSING_STEP
+                    housings[(name, sign)] = build_housings(model.kind, shifted)
+        except UsvipsError:  # a step leaves the valid region: the reference path's differences serve
+            housings, housing_names = {}, []
+    xyz = model.control_xyz(values)
+    out: Columns = {}
+    first = model.stations[0]
+    shared_plane = model.kind == "dome-cover"
+    cameras: dict[str, tuple] = {}
+    for b, (station, side) in enumerate(model.block_keys):
+        rows = model.blocks[b]
+        pixels = computed[rows].reshape(-1, 2)
+        if not np.all(np.isfinite(pixels)):
+            continue
+        try:
+            if station not in cameras:
+                cameras[station] = model.cameras(values, station, bounded=False)
+            camera = cameras[station][0 if side == "l" else 1]
+            uv = camera.interior.pixels_to_normalised(pixels)
+            bundle, d_origin, d_direction = camera.rays_with_derivatives(pixels)
+        except UsvipsError:
+            continue
+        suffix = f"_{side}"
+        for name, column in interior_columns(camera.interior, uv).items():
+            out.setdefault(f"{name}{suffix}", {})[b] = column
+        if not bundle.ok.all():
+            continue
+        points = xyz[model._index[model.block_rows[b]]]
+        along = np.einsum("ij,ij->i", points - bundle.origins, bundle.directions)
+        a0, a1, valid = pixel_jacobian(bundle.directions, d_origin, d_direction, along)
+        if not valid.all():
+            continue
+        m, c, derivatives = pose_derivatives(values, station, side, first)
+        if shared_plane and side == "r":
+            # the right housing follows the relative orientation: the first station's poses move it too
+            derivatives = {n: d for n, d in derivatives.items() if "@" in n}
+        for name, column in pose_columns(m, c, derivatives, a0, a1, points).items():
+            out.setdefault(name, {})[b] = column
+        if housing_names:
+            index = 0 if side == "l" else 1
+            columns = housing_columns(housings, housing_names, index, camera, pixels, a0, a1, along)
+            for name, column in columns.items():
+                out.setdefault(name, {})[b] = column
+    return out
+
+
+def housing_columns(housings: dict, names: list[str], index: int, camera, pixels: np.ndarray,
+                    a0: np.ndarray, a1: np.ndarray, along: np.ndarray) -> dict[str, np.ndarray]:
+    """∂pixel/∂h for the housing parameters ``names`` of ``camera`` (``index`` 0 left, 1 right): its
+    ``pixels`` traced through the housings rebuilt at h ± step (``housings`` keyed (name, ±1), the
+    unshifted one under None); the rays' motion at distance ``along`` (metres) through the pixel Jacobian
+    rows ``a0``, ``a1``. A parameter that does not change this camera's housing gets no column; one whose
+    shifted rays fail is left to the reference path."""
+    base = housings[None][index]
+    out = {}
+    for name in names:
+        ahead, behind = housings[(name, 1)][index], housings[(name, -1)][index]
+        if _same(ahead, base) and _same(behind, base):
+            continue
+        plus = replace(camera, housing=ahead).rays_with_derivatives(pixels)[0]
+        minus = replace(camera, housing=behind).rays_with_derivatives(pixels)[0]
+        if not (np.all(plus.status == RayStatus.OK) and np.all(minus.status == RayStatus.OK)):
+            continue
+        moved = ((plus.origins - minus.origins) + along[:, None] * (plus.directions - minus.directions)) \
+            / (2 * HOUSING_STEP)
+        column = np.empty(2 * len(pixels))
+        column[0::2] = -(a0 * moved).sum(axis=1)
+        column[1::2] = -(a1 * moved).sum(axis=1)
+        out[name] = column
+    return out
+
+
+def _same(one, other) -> bool:
+    try:
+        return bool(one == other)
+    except (ValueError, TypeError):  # a housing holding arrays does not compare by value
+        return False
