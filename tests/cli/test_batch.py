@@ -16,7 +16,7 @@ def _project_with_objects(tmp_path: Path, name: str) -> Path:
     """A project made from the rov_flatport sample with two fish measured from their true pixels."""
     import json
 
-    from usvips.samples import open_or_create_from_manifest
+    from usvips.app.samples import open_or_create_from_manifest
 
     sample = tmp_path / name
     shutil.copytree(ROV, sample, ignore=shutil.ignore_patterns("project.usvips*"))

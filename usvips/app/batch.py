@@ -67,7 +67,7 @@ def _csv_cell(text: str) -> str:
 def export_project_task(project: str, out: str, opcode: str | None = None) -> dict:
     """Recompute the figures of every object of ``project`` (a .usvips file, opened read-only) and export
     them to ``out``. Returns {"objects": written, "skipped": [why, ...], "out": out}."""
-    from usvips.project_export import export_project
+    from usvips.app.project_export import export_project
     from usvips.store import Project
 
     skipped: list[str] = []

@@ -270,7 +270,7 @@ class Workspace:
         enhancements come from the project."""
         if self.project is None:
             raise UsvipsError("open a project first")
-        self.pair = label
+        another_pair, self.pair = label != self.pair, label
         self.video_frame = None  # a video's frame pair sets it after showing the images
         self.images = {"left": left, "right": right}
         try:
@@ -283,6 +283,8 @@ class Workspace:
         self._reset_picks()
         self.undo.clear()
         self.pair_changed.emit()
+        if not another_pair:
+            return  # the next frame of a video, or the pair shown again: its frame rule was said
         if self.geometry is None:
             self.message.emit("warning", f"pair {label!r} has no active calibration: picks are shown, "
                                          "nothing can be intersected")

@@ -415,7 +415,8 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     _require_rays(model, parameters)
     merged = dict(source or {})
     merged.setdefault("base_calibration", base.source)
-    return _solve_from_starts(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged)
+    return _solve_from_starts(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged,
+                              _pointing_in_air(base))
 
 
 #: Mean squared normalised residual below which the default housing start is good enough (σ0 < 2).
@@ -480,6 +481,29 @@ def _needs_other_starts(result: CalibrationResult) -> bool:
     return not adj.converged or bool(adj.on_bound) or bool(adj.model_doubt) or len(rejected) >= 2
 
 
+def _significantly_smaller(a: CalibrationResult, b: CalibrationResult) -> bool:
+    """``a``'s variance factor is smaller than ``b``'s beyond chance (F test at :data:`POINTING_TEST_ALPHA`)."""
+    ra, rb = a.adjustment.redundancy, b.adjustment.redundancy
+    sa, sb = a.calibration.sigma0_px, b.calibration.sigma0_px
+    if ra <= 0 or rb <= 0 or not (np.isfinite(sa) and np.isfinite(sb)) or sa <= 0:
+        return False
+    from scipy.stats import f as f_distribution
+
+    return (sb / sa) ** 2 > f_distribution.ppf(1 - POINTING_TEST_ALPHA, rb, ra)
+
+
+def _better(a: CalibrationResult, b: CalibrationResult) -> bool:
+    """Whether run ``a`` beats run ``b``: converged first, then fewer parameters on a bound, then a variance
+    factor smaller beyond chance (a local minimum leaves residuals several times the noise, and its data
+    snooping may set aside fewer observations than the true fit's), then :func:`_rank`."""
+    ka, kb = _rank(a), _rank(b)
+    if ka[:2] != kb[:2]:
+        return ka[:2] < kb[:2]
+    if _significantly_smaller(a, b) or _significantly_smaller(b, a):
+        return _significantly_smaller(a, b)
+    return ka < kb
+
+
 def _rank(result: CalibrationResult) -> tuple:
     """The objective by which runs from different starts compare (smaller is better): converged first,
     then fewer parameters on a bound, fewer observations set aside, then the estimated variance factor."""
@@ -487,15 +511,44 @@ def _rank(result: CalibrationResult) -> tuple:
     return (not adj.converged, len(adj.on_bound), len(adj.excluded), adj.sigma0)
 
 
+def _pointing_in_air(base: StereoCalibration) -> tuple[float, int] | None:
+    """Phase 1's estimated pointing sigma (px) and its redundancy, when the base calibration has them."""
+    redundancy = base.statistics.get("redundancy")
+    if base.sigma0_px is None or not redundancy or not np.isfinite(base.sigma0_px) or base.sigma0_px <= 0:
+        return None
+    return float(base.sigma0_px), int(redundancy)
+
+
+#: Significance of the test "phase 2 explains the pixels worse than phase 1 explained the same cameras'
+#: pointing in air" (an F test of the two variance factors), which sends phase 2 to further starts.
+POINTING_TEST_ALPHA = 0.01
+
+
+def _fits_worse_than_in_air(result: CalibrationResult, in_air: tuple[float, int] | None) -> bool:
+    """The same cameras point at the same kind of targets in air and under water, so phase 2's variance
+    factor should not exceed phase 1's beyond chance; a fit far worse is a local minimum of the housing
+    (a converged run, nothing on a bound, yet residuals several times the noise)."""
+    redundancy, sigma_water = result.adjustment.redundancy, result.calibration.sigma0_px
+    if in_air is None or redundancy <= 0 or not np.isfinite(sigma_water):
+        return False
+    from scipy.stats import f as f_distribution  # scipy.stats is slow to import; only phase 2 needs it
+
+    sigma_air, redundancy_air = in_air
+    critical = f_distribution.ppf(1 - POINTING_TEST_ALPHA, redundancy, redundancy_air)
+    return (sigma_water / sigma_air) ** 2 > critical
+
+
 def _solve_from_starts(model: StereoModel, parameters: list[Parameter], options: CalibrationOptions, phase: str,
-                       source: dict) -> CalibrationResult:
+                       source: dict, in_air: tuple[float, int] | None = None) -> CalibrationResult:
     """Phase 2 from several physically distinct starts, keeping the best by :func:`_rank`.
 
     Each start (:func:`_candidates`: the default housing and the grid of :data:`START_GRID`) is first
     fitted by the exterior orientations alone (the DLT ignores refraction); the full adjustment runs from
     the start with the smallest residuals — or from the default when it already explains the pixels to
     about their noise (:data:`GOOD_START`). When that run shows the symptoms of a poor start
-    (:func:`_needs_other_starts`), it is repeated from up to :data:`EXTRA_STARTS` of the next-best starts."""
+    (:func:`_needs_other_starts`, or residuals significantly larger than phase 1's with the same cameras:
+    :func:`_fits_worse_than_in_air`), it is repeated from up to :data:`EXTRA_STARTS` of the next-best
+    starts."""
     initial = {p.name: p.value for p in parameters}
     candidates = _candidates(model, parameters)
     fitted: dict[int, tuple[float, dict[str, float]]] = {0: _start(model, parameters, initial, candidates[0])}
@@ -512,7 +565,7 @@ def _solve_from_starts(model: StereoModel, parameters: list[Parameter], options:
         return _solve(model, trial, options, phase, source)
 
     best = run(first)
-    if not _needs_other_starts(best) or len(candidates) == 1:
+    if not (_needs_other_starts(best) or _fits_worse_than_in_air(best, in_air)) or len(candidates) == 1:
         return best
     for k in range(len(candidates)):
         if k not in fitted:
@@ -523,7 +576,7 @@ def _solve_from_starts(model: StereoModel, parameters: list[Parameter], options:
             result = run(k)
         except UsvipsError:
             continue
-        if _rank(result) < _rank(best):
+        if _better(result, best):
             best = result
     return best
 
