@@ -25,7 +25,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from usvips.core.batch_mode import batch_computation
 from usvips.core.errors import ConvergenceError, DegenerateGeometryError, InvalidParameterError
@@ -492,6 +491,8 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
         w[outside] = raw[outside] / (obs.sigmas[outside] * np.sqrt(1.0 + h)) / robust_scale
         mdb[outside] = DELTA0 * robust_scale * obs.sigmas[outside] * np.sqrt(1.0 + h)
     chi2 = observation_cost
+    from scipy import stats  # deferred: scipy.stats takes most of a second to import (the window's start-up)
+
     lower, upper = stats.chi2.ppf([0.025, 0.975], observation_redundancy)
     if chi2 > upper:
         verdict = (f"a-priori pointing sigma too optimistic: the residuals say {sigma0:.2f} times it; the "
@@ -613,6 +614,8 @@ def tau_critical(redundancy: float, alpha: float = ALPHA0) -> float:
     r = float(redundancy)
     if r <= 1.5:
         return float("inf")
+    from scipy import stats  # deferred, as above
+
     t = float(stats.t.ppf(1.0 - alpha / 2.0, r - 1.0))
     return float(t * np.sqrt(r) / np.sqrt(r - 1.0 + t * t))
 

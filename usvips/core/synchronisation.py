@@ -16,7 +16,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy import signal
 
 from usvips.core.camera import Camera
 from usvips.core.enhance import luminance
@@ -122,6 +121,8 @@ def flash_offset(left_brightness: np.ndarray, right_brightness: np.ndarray, fps:
         raise DegenerateGeometryError("no brightness change in one of the videos: film a flash seen by both")
     lags = np.arange(-limit, limit + 1)
     # correlation[k] = sum_i dl[i] dr[i + k] / norms
+    from scipy import signal  # deferred: scipy.signal (and scipy.stats with it) take ~1 s to import
+
     full = signal.correlate(dr, dl, mode="full")  # index n ↔ lag n − (len(dl) − 1)
     centre = len(dl) - 1
     values = np.array([full[centre + k] if 0 <= centre + k < len(full) else 0.0 for k in lags])
@@ -165,6 +166,8 @@ def audio_offset(left_audio: np.ndarray, right_audio: np.ndarray, rate: float, f
     left, right = left - left.mean(), right - right.mean()
     if np.linalg.norm(left) == 0 or np.linalg.norm(right) == 0:
         raise DegenerateGeometryError("one of the soundtracks is silent")
+    from scipy import signal  # deferred, as above
+
     full = signal.correlate(right, left, mode="full", method="fft")
     centre = len(left) - 1
     limit = int((max_offset_s if max_offset_s is not None else min(len(left), len(right)) / (2 * rate)) * rate)

@@ -24,7 +24,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import stats
 
 from usvips.core.adjustment import ALPHA0, Adjustment, Parameter, adjust, tau_critical
 from usvips.core.calibration.model import StereoModel
@@ -205,6 +204,8 @@ def _demote(model: StereoModel, parameters: list[Parameter], adjustment: Adjustm
             fits[axis] = (misfit, first)
     attempts = [((axis,), fits[axis][1]) for axis in sorted(fits, key=lambda a: fits[a][0])[:1]]
     attempts.append((AXES, start))
+    from scipy import stats  # deferred: scipy.stats is slow to import (the window's start-up)
+
     for axes, first in attempts:
         outcome = _try_demotion(model, demoted, parameters, point, axes, first, robust, snoop_unit_of)
         if outcome is None:
