@@ -122,6 +122,25 @@ def _distort(u, v, k1, k2, k3, p1, p2):
     return ud, vd, j00, j01, j10, j11
 
 
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
+def _undistort_newton(u, v, tu, tv, k1, k2, k3, p1, p2, tolerance):
+    """Newton's method from (u, v) for the ideal normalised coordinates whose distortion is (tu, tv); at
+    most 60 steps, until both components of a step are below ``tolerance``."""
+    for _ in range(60):
+        ud, vd, j00, j01, j10, j11 = _distort(u, v, k1, k2, k3, p1, p2)
+        ru, rv = ud - tu, vd - tv
+        det = j00 * j11 - j01 * j10
+        if not abs(det) > 1e-12:
+            det = 1e-12
+        step_u = (j11 * ru - j01 * rv) / det
+        step_v = (j00 * rv - j10 * ru) / det
+        u -= step_u
+        v -= step_v
+        if abs(step_u) < tolerance and abs(step_v) < tolerance:
+            break
+    return u, v
+
+
 @njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
 def trace_pixels(pixels, interior, rotation, position, kinds, geometry, indices, min_advance,
                  origins, directions, d_origins, d_directions, status, failed):
@@ -151,18 +170,7 @@ def _trace_pixels_range(lo, hi, pixels, interior, rotation, position, kinds, geo
             # then Newton to the reference's tolerance
             ud, vd, j00, j01, j10, j11 = _distort(u, v, k1, k2, k3, p1, p2)
             u, v = tu - (ud - tu), tv - (vd - tv)
-            for _ in range(60):
-                ud, vd, j00, j01, j10, j11 = _distort(u, v, k1, k2, k3, p1, p2)
-                ru, rv = ud - tu, vd - tv
-                det = j00 * j11 - j01 * j10
-                if not abs(det) > 1e-12:
-                    det = 1e-12
-                step_u = (j11 * ru - j01 * rv) / det
-                step_v = (j00 * rv - j10 * ru) / det
-                u -= step_u
-                v -= step_v
-                if abs(step_u) < 1e-13 and abs(step_v) < 1e-13:
-                    break
+            u, v = _undistort_newton(u, v, tu, tv, k1, k2, k3, p1, p2, 1e-13)
             ud, vd, j00, j01, j10, j11 = _distort(u, v, k1, k2, k3, p1, p2)
             residual = max(abs(ud - tu), abs(vd - tv))
             det = j00 * j11 - j01 * j10
@@ -537,19 +545,7 @@ def undistort(target, k1, k2, k3, p1, p2, tolerance):
     unusable = 0
     for i in range(n):
         tu, tv = target[i, 0], target[i, 1]
-        u, v = tu, tv
-        for _ in range(60):
-            ud, vd, j00, j01, j10, j11 = _distort(u, v, k1, k2, k3, p1, p2)
-            ru, rv = ud - tu, vd - tv
-            det = j00 * j11 - j01 * j10
-            if not abs(det) > 1e-12:
-                det = 1e-12
-            step_u = (j11 * ru - j01 * rv) / det
-            step_v = (j00 * rv - j10 * ru) / det
-            u -= step_u
-            v -= step_v
-            if abs(step_u) < tolerance and abs(step_v) < tolerance:
-                break
+        u, v = _undistort_newton(tu, tv, tu, tv, k1, k2, k3, p1, p2, tolerance)
         ud, vd, j00, j01, j10, j11 = _distort(u, v, k1, k2, k3, p1, p2)
         residual = max(abs(ud - tu), abs(vd - tv))
         if not residual <= 1e3 * tolerance or j00 * j11 - j01 * j10 <= 0.0 or u * tu + v * tv < 0.0:

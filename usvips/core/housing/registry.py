@@ -11,12 +11,11 @@ fields per camera or shared) and its test; nothing else.
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from usvips.core.errors import InvalidParameterError
+from usvips.core.kind_modules import import_kind_modules
 
 if TYPE_CHECKING:
     from usvips.core.housing.base import Housing
@@ -64,9 +63,7 @@ def _discover() -> None:
     global _discovered
     if _discovered:
         return
-    package = importlib.import_module(f"{__package__}.kinds")
-    for module in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-        importlib.import_module(f"{package.__name__}.{module.name}")
+    import_kind_modules(__package__)
     _discovered = True
 
 

@@ -14,13 +14,12 @@ the same way).
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from typing import ClassVar
 
 import numpy as np
 
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
+from usvips.core.kind_modules import import_kind_modules
 from usvips.core.measurements.figures import Figure, figures_of
 
 #: How a kind is drawn: a marker per vertex; an open polyline through the vertices; a closed polygon;
@@ -116,9 +115,7 @@ def _discover() -> None:
     global _discovered
     if _discovered:
         return
-    package = importlib.import_module(f"{__package__}.kinds")
-    for module in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-        importlib.import_module(f"{package.__name__}.{module.name}")
+    import_kind_modules(__package__)
     _discovered = True
 
 
