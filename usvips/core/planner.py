@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usvips.core import housing as housings
 from usvips.core.calibration.uncertainty import joint_covariance
 from usvips.core.camera import Camera, Exterior
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
@@ -137,7 +138,7 @@ def planned_rig(f_px: float, width: int, height: int, baseline_m: float, toe_in_
         m = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
         exterior = Exterior(-sign * baseline_m / 2, 0.0, 0.0, *angles_from_matrix(m))
         cameras.append(Camera(interior, exterior, housing, int(width), int(height)))
-    phase = "air" if housing.kind == "air" else "water"
+    phase = "water" if housing.kind in housings.water_names() else "air"
     return StereoCalibration.from_cameras(cameras[0], cameras[1], phase, sigma_px, station="plan",
                                           source={"planned": True})
 

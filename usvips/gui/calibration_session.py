@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usvips.core import housing as housings
 from usvips.core.adjustment import W_CRITICAL
 from usvips.core.calibration import CalibrationOptions, CalibrationResult, calibrate_air, calibrate_water
 from usvips.core.calibration.phases import DEFAULT_HOUSING
@@ -84,7 +85,7 @@ class CalibrationSession:
     pairs: list[str] = field(default_factory=list)
     control: ControlPoints | None = None
     control_source: str = "project"
-    housing: str = "flat-port"
+    housing: str = field(default_factory=lambda: housings.water_names()[0])  # the registry's first water kind
     base_id: int | None = None
     known: dict[str, tuple[float, float | None]] = field(default_factory=dict)
     observations: dict[tuple[str, str], tuple[float, float, float, float]] = field(default_factory=dict)

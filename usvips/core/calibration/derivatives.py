@@ -177,7 +177,7 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
     xyz = model.control_xyz(values)
     out: Columns = {}
     first = model.stations[0]
-    shared_plane = model.kind == "dome-cover"
+    shared_plane = model.housing_kind.right_follows_rig  # the right housing moves with the rig (a shared cover)
     cameras: dict[str, tuple] = {}
     for b, (station, side) in enumerate(model.block_keys):
         rows = model.blocks[b]
