@@ -527,7 +527,9 @@ POINTING_TEST_ALPHA = 0.01
 def _fits_worse_than_in_air(result: CalibrationResult, in_air: tuple[float, int] | None) -> bool:
     """The same cameras point at the same kind of targets in air and under water, so phase 2's variance
     factor should not exceed phase 1's beyond chance; a fit far worse is a local minimum of the housing
-    (a converged run, nothing on a bound, yet residuals several times the noise)."""
+    (a converged run, nothing on a bound, yet residuals several times the noise). Murky water that truly
+    blurs the targets also fails this test: then the further starts cost time, never the result (the
+    best run by :func:`_better` is kept)."""
     redundancy, sigma_water = result.adjustment.redundancy, result.calibration.sigma0_px
     if in_air is None or redundancy <= 0 or not np.isfinite(sigma_water):
         return False
@@ -540,9 +542,9 @@ def _fits_worse_than_in_air(result: CalibrationResult, in_air: tuple[float, int]
 
 def _solve_from_starts(model: StereoModel, parameters: list[Parameter], options: CalibrationOptions, phase: str,
                        source: dict, in_air: tuple[float, int] | None = None) -> CalibrationResult:
-    """Phase 2 from several physically distinct starts, keeping the best by :func:`_rank`.
+    """Phase 2 from several physically distinct starts, keeping the best by :func:`_better`.
 
-    Each start (:func:`_candidates`: the default housing and the grid of :data:`START_GRID`) is first
+    Each start (:func:`_candidates`: the default housing and the housing kind's start grid) is first
     fitted by the exterior orientations alone (the DLT ignores refraction); the full adjustment runs from
     the start with the smallest residuals — or from the default when it already explains the pixels to
     about their noise (:data:`GOOD_START`). When that run shows the symptoms of a poor start
