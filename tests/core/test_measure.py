@@ -260,3 +260,12 @@ def test_a_kind_is_one_class():
     finally:
         del measurement_registry._KINDS["test-triangle"]
     assert "test-triangle" not in names()
+
+
+def test_a_kind_without_its_formula_is_refused_when_it_is_defined():
+    with pytest.raises(TypeError, match="'test-nothing' defines no values"):
+        class Nothing(MeasurementKind):  # noqa: F841 (defining it is the test)
+            name = "test-nothing"
+            drawing = "marker"
+            figure_names = (("x", "m"),)
+    assert "test-nothing" not in names()

@@ -15,13 +15,13 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from usvips.core.errors import InvalidParameterError
-from usvips.core.kind_modules import import_kind_modules
+from usvips.core.kind_modules import KindTable
 
 if TYPE_CHECKING:
     from usvips.core.housing.base import Housing
 
-_KINDS: dict[str, type[Housing]] = {}
-_discovered = False
+_TABLE: KindTable[Housing] = KindTable(__package__, "housing")
+_KINDS = _TABLE.kinds
 
 
 @dataclass(frozen=True)
@@ -54,27 +54,16 @@ class UnknownHousingError(InvalidParameterError):
 def register(cls: type[Housing]) -> None:
     """Called by ``Housing.__init_subclass__`` for every class that names its ``kind``."""
     name = cls.__dict__["kind"]
-    if name in _KINDS and _KINDS[name].__qualname__ != cls.__qualname__:
-        raise TypeError(f"housing kind {name!r} is defined twice")
-    _KINDS[name] = cls
-
-
-def _discover() -> None:
-    global _discovered
-    if _discovered:
-        return
-    import_kind_modules(__package__)
-    _discovered = True
+    _TABLE.add(name, cls)
 
 
 def names() -> tuple[str, ...]:
     """Every registered kind, in the order the kinds ask for (``order``), then by name."""
-    _discover()
-    return tuple(sorted(_KINDS, key=lambda n: (_KINDS[n].order, n)))
+    return _TABLE.names()
 
 
 def registered_kinds() -> tuple[type[Housing], ...]:
-    return tuple(_KINDS[n] for n in names())
+    return _TABLE.classes()
 
 
 def water_names() -> tuple[str, ...]:
@@ -85,7 +74,7 @@ def water_names() -> tuple[str, ...]:
 def kind(name: str, among: tuple[str, ...] | None = None) -> type[Housing]:
     """The kind called ``name`` (optionally only among ``among``); anything else is an
     :class:`UnknownHousingError` listing the known kinds."""
-    _discover()
+    _TABLE.discover()
     if not isinstance(name, str) or name not in _KINDS or (among is not None and name not in among):
         raise UnknownHousingError(name, among)
     return _KINDS[name]

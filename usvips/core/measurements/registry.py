@@ -14,12 +14,13 @@ the same way).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
 
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
-from usvips.core.kind_modules import import_kind_modules
+from usvips.core.kind_modules import KindTable
 from usvips.core.measurements.figures import Figure, figures_of
 
 #: How a kind is drawn: a marker per vertex; an open polyline through the vertices; a closed polygon;
@@ -28,8 +29,8 @@ DRAWINGS = ("marker", "polyline", "polygon", "circle")
 #: Old kind names → the kind they mean for a number of vertices.
 LEGACY = {"line": lambda n: "length" if n == 2 else "arc"}
 
-_KINDS: dict[str, type[MeasurementKind]] = {}
-_discovered = False
+_TABLE: KindTable[MeasurementKind] = KindTable(__package__, "measurement")
+_KINDS = _TABLE.kinds
 
 
 class UnknownKindError(InvalidParameterError):
@@ -67,16 +68,15 @@ class MeasurementKind:
             return
         if cls.drawing not in DRAWINGS:
             raise TypeError(f"measurement kind {cls.name!r}: drawing must be one of {DRAWINGS}")
-        if cls.name in _KINDS and _KINDS[cls.name].__qualname__ != cls.__qualname__:
-            raise TypeError(f"measurement kind {cls.name!r} is defined twice")
-        _KINDS[cls.name] = cls
+        if not callable(getattr(cls, "values", None)):
+            raise TypeError(f"measurement kind {cls.name!r} defines no values(points), its formula")
+        _TABLE.add(cls.name, cls)
 
     # -------------------------------------------------------------- what each kind supplies
-    @classmethod
-    def values(cls, points: np.ndarray) -> np.ndarray:
-        """The figures' values (K,), in the order of ``figure_names``, of vertices (N, 3) m: the kind's
-        formula; degenerate geometry raises :class:`DegenerateGeometryError`."""
-        raise NotImplementedError
+    #: ``values(points)`` (a classmethod every named kind defines): the figures' values (K,), in the order
+    #: of ``figure_names``, of vertices (N, 3) m — the kind's formula; degenerate geometry raises
+    #: :class:`DegenerateGeometryError`. A named kind without it is refused when it is defined.
+    values: ClassVar[Callable[[np.ndarray], np.ndarray]]
 
     @classmethod
     def compute(cls, points: np.ndarray, covariance: np.ndarray) -> tuple[Figure, ...]:
@@ -111,27 +111,18 @@ class MeasurementKind:
         return cls.compute(points, covariance)
 
 
-def _discover() -> None:
-    global _discovered
-    if _discovered:
-        return
-    import_kind_modules(__package__)
-    _discovered = True
-
-
 def names() -> tuple[str, ...]:
     """Every registered kind, in the order the kinds ask for (``order``), then by name."""
-    _discover()
-    return tuple(sorted(_KINDS, key=lambda n: (_KINDS[n].order, n)))
+    return _TABLE.names()
 
 
 def registered_kinds() -> tuple[type[MeasurementKind], ...]:
-    return tuple(_KINDS[n] for n in names())
+    return _TABLE.classes()
 
 
 def kind(name: str) -> type[MeasurementKind]:
     """The kind called ``name`` (legacy names are not accepted here: see :func:`resolve`)."""
-    _discover()
+    _TABLE.discover()
     if not isinstance(name, str) or name not in _KINDS:
         raise UnknownKindError(name)
     return _KINDS[name]
