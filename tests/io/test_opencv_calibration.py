@@ -219,3 +219,19 @@ def test_missing_fields_sizes_and_junk_are_refused(tmp_path):
         read_opencv_stereo(tmp_path / "absent.yml")
     with pytest.raises(InvalidParameterError, match="--unit"):
         read_opencv_stereo(_write(tmp_path / "good.yml", **GOOD), unit="furlong")
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda text: text.replace("rows: 3", "rows: 4", 1), "entry 'M1' is not a readable matrix"),
+    (lambda text: text.replace("rows: 3", "rows: 3000000000", 1), "entry 'M1': a matrix of 3000000000"),
+    (lambda text: text.replace("data: [", "data: [ abc, ", 1), "entry 'M1' is not a readable matrix"),
+    (lambda text: "%YAML:1.0\n---\n- 1\n- 2\n", "named entries at its top level"),
+])
+def test_damaged_matrices_are_refused_in_one_line(tmp_path, damage, message):
+    """A hand-edited or truncated file: OpenCV's own assertion (or a 50 GB allocation) becomes one line
+    naming the file and the entry."""
+    path = _write(tmp_path / "good.yml", **GOOD)
+    path.write_text(damage(path.read_text()))
+    with pytest.raises(InputFileError, match=message) as caught:
+        read_opencv_stereo(path)
+    assert "\n" not in str(caught.value) and "good.yml" in str(caught.value)

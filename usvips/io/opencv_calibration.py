@@ -199,9 +199,28 @@ def _node_value(node) -> np.ndarray | float | None:
             return np.array([item.real() for item in items], dtype=np.float64)
         return None
     if node.isMap():
+        shape = _declared_shape(node)
+        if any(not 0 <= side <= _MAX_MATRIX_SIDE for side in shape):
+            raise ValueError(f"a matrix of {' × '.join(map(str, shape))} is not a calibration matrix")
         value = node.mat()
         return None if value is None else np.asarray(value)
     return None
+
+
+def _declared_shape(node) -> list[int]:
+    """The shape a matrix node declares: rows and cols (opencv-matrix) or sizes (opencv-nd-matrix)."""
+    rows, cols = node.getNode("rows"), node.getNode("cols")
+    if rows.isInt() and cols.isInt():
+        return [int(rows.real()), int(cols.real())]
+    sizes = node.getNode("sizes")
+    if sizes.isSeq():
+        return [int(sizes.at(i).real()) for i in range(sizes.size())]
+    return []
+
+
+#: the largest matrix side a calibration file holds (a 4 × 4 Q, a 1 × 14 distortion vector, …) with
+#: room to spare; a larger rows/cols is a damaged file, refused before OpenCV allocates it
+_MAX_MATRIX_SIDE = 1000
 
 
 def _read_file(path: Path) -> dict[str, object]:
@@ -222,9 +241,19 @@ def _read_file(path: Path) -> dict[str, object]:
     if not storage.isOpened():
         raise InputFileError(str(path), "not an OpenCV FileStorage file (YAML/XML)")
     try:
+        root = storage.root()
+        if not root.isMap():
+            raise InputFileError(str(path), "an OpenCV FileStorage file holds named entries at its top level; "
+                                            "this one does not")
         out = {}
-        for key in storage.root().keys():
-            value = _node_value(storage.getNode(key))
+        for key in root.keys():
+            try:
+                value = _node_value(storage.getNode(key))
+            except ValueError as error:
+                raise InputFileError(str(path), f"entry {key!r}: {error}") from None
+            except cv2.error:
+                raise InputFileError(str(path), f"entry {key!r} is not a readable matrix: its rows, cols and data do "
+                                                "not agree, or its data hold something that is not a number") from None
             if value is not None:
                 out[key] = value
         return out
