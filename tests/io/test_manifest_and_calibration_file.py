@@ -67,6 +67,12 @@ def _negative_eigenvalue(data):
     (_negative_eigenvalue, "not positive semi-definite"),
     (lambda d: d.update(sigma0_px=-0.5), "sigma0_px: must be >= 0"),
     (lambda d: d.update(statistics=[1]), "statistics: must be an object"),
+    (lambda d: d["parameters"].pop("X0_l"), "parameters: missing X0_l"),
+    (lambda d: d["cameras"]["right"]["housing"].update(d=1e300),
+     "cameras.right.housing.d: 1e"),
+    (lambda d: d["covariance"]["names"].__setitem__(0, "q_l"), "covariance: names q_l, which are not in parameters"),
+    (lambda d: d["parameters"].pop([n for n in d["parameters"] if n.startswith("kappa_r")][0]),
+     "parameters: missing kappa_r"),
 ])
 def test_calibration_values_are_checked_by_name(tmp_path, edit, message):
     data = json.loads(CALIBRATION.read_text())

@@ -222,14 +222,16 @@ def test_missing_fields_sizes_and_junk_are_refused(tmp_path):
 
 
 @pytest.mark.parametrize("damage, message", [
-    (lambda text: text.replace("rows: 3", "rows: 4", 1), "entry 'M1' is not a readable matrix"),
+    (lambda text: text.replace("rows: 3", "rows: 4", 1), "entry 'M1': its data hold 9 numbers, its size says 12"),
     (lambda text: text.replace("rows: 3", "rows: 3000000000", 1), "entry 'M1': a matrix of 3000000000"),
-    (lambda text: text.replace("data: [", "data: [ abc, ", 1), "entry 'M1' is not a readable matrix"),
+    (lambda text: text.replace("data: [", "data: [ abc, ", 1), "entry 'M1': its data hold 10 numbers"),
+    (lambda text: text.replace("data: [ 810.", "data: [ abc", 1), "entry 'M1': its data hold something that is not"),
+    (lambda text: text.replace("   cols: 3\n", "", 1), "entry 'M1': a matrix without its rows and cols"),
     (lambda text: "%YAML:1.0\n---\n- 1\n- 2\n", "named entries at its top level"),
 ])
 def test_damaged_matrices_are_refused_in_one_line(tmp_path, damage, message):
-    """A hand-edited or truncated file: OpenCV's own assertion (or a 50 GB allocation) becomes one line
-    naming the file and the entry."""
+    """A hand-edited or truncated file: OpenCV's own assertion, a 50 GB allocation or (a missing cols) a
+    corrupted heap that ends the process becomes one line naming the file and the entry."""
     path = _write(tmp_path / "good.yml", **GOOD)
     path.write_text(damage(path.read_text()))
     with pytest.raises(InputFileError, match=message) as caught:

@@ -105,6 +105,10 @@ def _require(path: str, data: dict, key: str, kind: type | tuple[type, ...]) -> 
     return value
 
 
+#: no housing parameter (metres, slopes, refractive indices) is this large: a larger one is a damaged file
+HOUSING_VALUE_LIMIT = 1000.0
+
+
 def _numbers(path: str, where: str, data: dict, keys: tuple[str, ...], optional: bool = False) -> dict:
     out = {}
     for key in keys:
@@ -198,8 +202,12 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
                                            INTERIOR_PARAMETERS[:3]) |
                                 _numbers(path, f"{side} interior", cam["interior"], INTERIOR_PARAMETERS[3:], True))
             housing_values = _require(path, cam, "housing", dict)
-            housing = housing_from_dict(kind, _numbers(path, f"{side} housing", housing_values,
-                                                       tuple(housing_values)))
+            housing_numbers = _numbers(path, f"{side} housing", housing_values, tuple(housing_values))
+            for key, value in housing_numbers.items():
+                if abs(value) > HOUSING_VALUE_LIMIT:
+                    raise InputFileError(path, f"cameras.{side}.housing.{key}: {value:g} is not a housing value "
+                                               f"(metres, slopes and indices are within ±{HOUSING_VALUE_LIMIT:g})")
+            housing = housing_from_dict(kind, housing_numbers)
             width, height = cam.get("width"), cam.get("height")
             if (width is None) != (height is None):
                 raise InputFileError(path, f"cameras.{side}: give both width and height, or neither")
@@ -229,6 +237,8 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
                 for name in INTERIOR_PARAMETERS:
                     parameters.setdefault(f"{name}_{side}",
                                           ParameterEstimate(float(getattr(camera.interior, name)), None, "fixed"))
+        if covariance is not None:
+            _require_model_parameters(path, kind, tuple(labels), parameters, covariance)
         sigma0 = _numbers(path, "calibration", data, ("sigma0_px",))["sigma0_px"]
         if sigma0 < 0:
             raise InputFileError(path, f"sigma0_px: must be >= 0, got {sigma0!r}")
@@ -245,6 +255,23 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
         raise
     except (UsvipsError, TypeError, ValueError) as error:
         raise InputFileError(path, str(error)) from None
+
+
+def _require_model_parameters(path: str, kind: str, stations: tuple[str, ...],
+                              parameters: dict[str, ParameterEstimate], covariance) -> None:
+    """With a covariance, every parameter the calibration's model is built from is in ``parameters`` (the
+    uncertainty propagation rebuilds the cameras from them) and the covariance names only parameters.
+    (Without one, parameters may list a part, e.g. an OpenCV import's interior.)"""
+    needed = [f"{p}_{side}" for side in ("l", "r") for p in EXTERIOR_PARAMETERS]
+    needed += [f"{p}_l@{station}" for station in stations[1:] for p in EXTERIOR_PARAMETERS]
+    needed += list(housings.kind(kind).calibration_names)
+    missing = [name for name in needed if name not in parameters]
+    if missing:
+        raise InputFileError(path, f"parameters: missing {', '.join(missing)} (the {kind} model with stations "
+                                   f"{', '.join(stations)} and a covariance needs each of them)")
+    unknown = [name for name in covariance[0] if name not in parameters]
+    if unknown:
+        raise InputFileError(path, f"covariance: names {', '.join(unknown)}, which are not in parameters")
 
 
 def load_calibration(path: str | Path) -> StereoCalibration:

@@ -19,6 +19,8 @@ our model: non-zero ones are refused by name; a camera matrix with skew is refus
 
 from __future__ import annotations
 
+import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -199,23 +201,41 @@ def _node_value(node) -> np.ndarray | float | None:
             return np.array([item.real() for item in items], dtype=np.float64)
         return None
     if node.isMap():
-        shape = _declared_shape(node)
-        if any(not 0 <= side <= _MAX_MATRIX_SIDE for side in shape):
-            raise ValueError(f"a matrix of {' × '.join(map(str, shape))} is not a calibration matrix")
+        _check_matrix_node(node)
         value = node.mat()
         return None if value is None else np.asarray(value)
     return None
 
 
-def _declared_shape(node) -> list[int]:
+def _check_matrix_node(node) -> None:
+    """Refuse a damaged matrix before OpenCV reads it: a missing rows/cols, or data that do not match them,
+    can corrupt OpenCV's heap and end the process instead of raising (seen with OpenCV 5.0)."""
+    data = node.getNode("data")
+    shape = _declared_shape(node)
+    if shape is None:
+        if data.empty():
+            return  # a map that is not a matrix: OpenCV reads it as no matrix
+        raise ValueError("a matrix without its rows and cols (or sizes)")
+    if any(not 0 <= side <= _MAX_MATRIX_SIDE for side in shape):
+        raise ValueError(f"a matrix of {' × '.join(map(str, shape))} is not a calibration matrix")
+    channels = re.match(r"\d*", node.getNode("dt").string() or "")
+    expected = math.prod(shape) * int(channels.group() or 1)
+    count = data.size() if data.isSeq() else (1 if data.isInt() or data.isReal() else 0)
+    if count != expected:
+        raise ValueError(f"its data hold {count} numbers, its size says {expected}")
+    if data.isSeq() and not all(data.at(i).isInt() or data.at(i).isReal() for i in range(count)):
+        raise ValueError("its data hold something that is not a number")
+
+
+def _declared_shape(node) -> list[int] | None:
     """The shape a matrix node declares: rows and cols (opencv-matrix) or sizes (opencv-nd-matrix)."""
     rows, cols = node.getNode("rows"), node.getNode("cols")
     if rows.isInt() and cols.isInt():
         return [int(rows.real()), int(cols.real())]
     sizes = node.getNode("sizes")
-    if sizes.isSeq():
+    if sizes.isSeq() and sizes.size() and all(sizes.at(i).isInt() for i in range(sizes.size())):
         return [int(sizes.at(i).real()) for i in range(sizes.size())]
-    return []
+    return None
 
 
 #: the largest matrix side a calibration file holds (a 4 × 4 Q, a 1 × 14 distortion vector, …) with
