@@ -341,6 +341,18 @@ def test_a_transaction_keeps_all_or_on_any_error_nothing(store):
     assert len(store.objects()) == 1 and store.vocabulary() == [] and store.calibrations() == []
 
 
+def test_a_used_label_or_one_file_on_both_sides_adds_nothing(store, where):
+    plan = _images(where.parent, 2)
+    store.add_image_pairs(plan[:1])
+    with pytest.raises(ProjectError, match="label.*'p0' already used"):
+        store.add_image_pairs(plan)  # p1 is new, p0 is not: neither is added
+    with pytest.raises(ProjectError, match="label.*'p1' already used"):
+        store.add_image_pairs([plan[1], plan[1]])
+    with pytest.raises(ProjectError, match="'same'.*both the left and the right image"):
+        store.add_image_pairs([("same", plan[1][1], plan[1][1])])
+    assert [p["label"] for p in store.pairs()] == ["p0"]
+
+
 def test_several_objects_are_stored_all_or_none(store):
     rng = np.random.default_rng(11)
     good = ("point", [_vertex(rng)], "", "", "")
