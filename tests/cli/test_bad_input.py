@@ -260,3 +260,48 @@ def test_mutated_project_files(base, data):
             code, err = run(command)
             assert_contract(code, err, ("p.usvips",))
             assert project.read_bytes() == bytes(damaged), f"{command[1]} changed the project"
+
+
+def _opencv_stereo_file(folder: Path) -> str:
+    """A valid OpenCV stereo calibration file (YAML, as cv2.FileStorage writes it)."""
+    import cv2
+    import numpy as np
+
+    path = folder / "stereo.yml"
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for name, value in dict(M1=np.array([[810.0, 0, 641.5], [0, 798.0, 478.25], [0, 0, 1]]),
+                            D1=np.array([[-0.12, 0.03, 1e-3, 0, 0.01]]),
+                            M2=np.array([[805.0, 0, 630.0], [0, 801.0, 482.0], [0, 0, 1]]),
+                            D2=np.array([[-0.10, 0.02, 0, 1e-3]]), R=np.eye(3),
+                            T=np.array([[-0.39], [0.006], [0.012]])).items():
+        storage.write(name, value)
+    storage.write("image_width", 1280)
+    storage.write("image_height", 960)
+    storage.release()
+    return path.read_text()
+
+
+@REPLAY
+@given(data=st.data())
+def test_mutated_opencv_calibrations(tmp_path_factory, data):
+    """A damaged OpenCV file (a line dropped, a number replaced, cut short) never reaches OpenCV's reader in a
+    form that ends the process or raises its own assertion."""
+    text = data.draw(text_mutation(_opencv_stereo_file(tmp_path_factory.mktemp("opencv"))))
+    with tempfile.TemporaryDirectory() as work:
+        work = Path(work)
+        (work / "stereo.yml").write_text(text, encoding="utf-8", errors="surrogatepass")
+        code, err = run(["calibration", "import", str(work / "stereo.yml"), "--out", str(work / "c.json")])
+        assert_contract(code, err, ("stereo.yml",))
+        if code == 2:
+            assert _files(work) == ["stereo.yml"], "a failed import left files"
+
+
+def test_an_overflowing_value_is_still_one_line(tmp_path):
+    """numpy's overflow warnings on an absurd value do not print above the error line."""
+    data = json.loads((ROV / "calibration.json").read_text())
+    data["cameras"]["right"]["interior"]["k2"] = 1e300
+    (tmp_path / "c.json").write_text(json.dumps(data))
+    (tmp_path / "picks.csv").write_text(_measure_picks())
+    code, err = run(["measure", "--calibration", str(tmp_path / "c.json"), "--picks", str(tmp_path / "picks.csv"),
+                     "--out", str(tmp_path / "objects.csv")])
+    assert code == 2 and err.count("\n") == 1 and "k2=1e+300" in err, err

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 
 from usvips import __version__
@@ -43,6 +44,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if handler is None:
         parser.print_help()
         return 0
+    if not os.environ.get("USVIPS_DEBUG"):
+        # numpy's floating-point warnings (an overflow on an absurd input value) would print file and line
+        # above the one-line error that names the input; results are checked for finiteness where made
+        warnings.simplefilter("ignore", RuntimeWarning)
     try:
         return int(handler(args) or 0)
     except UsvipsError as error:
