@@ -289,3 +289,44 @@ def test_set_georeference_from_points_on_the_command_line(tmp_path, capsys):
     assert err.count("\n") == 1 and "would scale them by 3.0" in err
     with Project.open(path, read_only=True) as project:
         assert project.georeference() == stored
+
+
+def test_features_across_the_antimeridian_are_cut_there_and_keep_their_lengths_and_areas():
+    """RFC 7946 §3.1.9 over random plots straddling ±180° (Fiji, the Aleutians): a crossing line or polygon
+    becomes a MultiLineString or MultiPolygon whose parts lie each on one side within [−180, 180], are
+    counter-clockwise, and add up to the measured length and area on the ellipsoid."""
+    rng = np.random.default_rng(180)
+    crossing, worst = 0, 0.0
+    for _ in range(40):
+        latitude = rng.uniform(-70, 70)
+        longitude = 180.0 - rng.uniform(-1, 1) * 300.0 / (111_320.0 * np.cos(np.radians(latitude)))
+        georeference = Georeference(latitude, (longitude + 180.0) % 360.0 - 180.0, rng.uniform(0, 60),
+                                    rng.uniform(0, 360))
+        objects = _random_objects(rng, scale=100.0)
+        angles = np.linspace(0, 2 * np.pi, 6)[:-1] + rng.uniform(-0.5, 0.5, 5)  # gaps < π: a simple polygon
+        outline = np.column_stack([np.cos(angles), np.sin(angles)]) * rng.uniform(50, 200, (5, 1))
+        polygon = np.column_stack([outline + objects[2].points[:, :2].mean(axis=0),
+                                   np.full(5, objects[2].points[0, 2])])
+        objects[2] = measure("polygon", polygon if rng.random() < 0.5 else polygon[::-1], objects[2].covariance,
+                             id="3")
+        features = {f["id"]: f for f in json.loads(geojson(objects, georeference))["features"]}
+        for key in ("1", "2", "3", "4"):
+            geometry = features[key]["geometry"]
+            obj = next(o for o in objects if o.id == key)
+            multi = geometry["type"].startswith("Multi")
+            parts = geometry["coordinates"] if multi else [geometry["coordinates"]]
+            crossing += multi
+            for part in parts:
+                lon = np.array(part[0] if key in ("3", "4") else part)[:, 0]
+                assert lon.min() >= -180 and lon.max() <= 180
+                assert lon.max() - lon.min() < 1.0, "a part jumps across the map"
+            if key in ("1", "2"):
+                length = sum(GEOD.line_length(*np.array(part).T[:2]) for part in parts)
+                worst = max(worst, abs(length / obj.main.value - 1))
+            else:
+                areas = [GEOD.polygon_area_perimeter(*np.array(part[0]).T[:2])[0] for part in parts]
+                assert min(areas) > 0
+                expected = obj.figure("area").value if key == "3" else _shoelace(obj)
+                worst = max(worst, abs(sum(areas) / expected - 1))
+    assert crossing >= 20, crossing  # the test places most plots across the antimeridian
+    assert worst < 1e-6, worst

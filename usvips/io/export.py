@@ -29,7 +29,7 @@ from usvips.core.measurements import kind as measurement_kind
 from usvips.core.observation_record import ObservationRecord
 from usvips.io.atomic import write_bytes_atomic, write_files_atomic
 from usvips.io.checkem import METADATA_COLUMNS, metadata_rows
-from usvips.io.georeference import object_to_geographic
+from usvips.io.georeference import meridian_crossing, object_to_geographic
 
 #: Characters that make a spreadsheet read a cell as a formula (and tab / carriage return, which some
 #: spreadsheets strip before looking) — OWASP's CSV-injection list.
@@ -134,6 +134,90 @@ def _counter_clockwise(ring: np.ndarray) -> np.ndarray:
     return ring if signed >= 0 else ring[::-1]
 
 
+def _unwrapped(lonlat: np.ndarray) -> np.ndarray:
+    """Longitudes made continuous from the first vertex (a feature of a few metres that straddles the
+    antimeridian gets longitudes beyond ±180 instead of a jump of 360°)."""
+    out = np.array(lonlat, dtype=np.float64)
+    out[:, 0] = out[0, 0] + (out[:, 0] - out[0, 0] + 180.0) % 360.0 - 180.0
+    return out
+
+
+def _crossing_meridian(unwrapped: np.ndarray) -> float | None:
+    """The antimeridian (+180 or −180 in unwrapped longitudes) a feature crosses, or None."""
+    for meridian in (180.0, -180.0):
+        side = unwrapped[:, 0] - meridian
+        if side.min() < 0 < side.max():
+            return meridian
+    return None
+
+
+def _wrapped(part: np.ndarray) -> np.ndarray:
+    """Longitudes back into [−180, 180], a vertex on the cut staying on its part's side (+180 or −180)."""
+    part = np.array(part, dtype=np.float64)
+    middle = float(np.mean(part[:, 0]))
+    shift = 360.0 * np.round(middle / 360.0)
+    part[:, 0] -= shift
+    return part
+
+
+def _on_cut(a: np.ndarray, b: np.ndarray, meridian: float) -> np.ndarray:
+    """The point of the geodesic a→b (unwrapped lon, lat, height) on the meridian; its height
+    interpolated along the geodesic."""
+    latitude, fraction = meridian_crossing(a[:2], b[:2], meridian)
+    return np.array([meridian, latitude, *(a[2:] + fraction * (b[2:] - a[2:]))])
+
+
+def _cut_line(unwrapped: np.ndarray, meridian: float) -> list[np.ndarray]:
+    """A line string cut where it crosses the meridian: its parts, each on one side."""
+    parts, current = [], [unwrapped[0]]
+    for a, b in zip(unwrapped[:-1], unwrapped[1:], strict=True):
+        if (a[0] - meridian) * (b[0] - meridian) < 0:
+            cut = _on_cut(a, b, meridian)
+            parts.append(np.array([*current, cut]))
+            current = [cut]
+        current.append(b)
+    parts.append(np.array(current))
+    return [_wrapped(part) for part in parts if len(part) >= 2]
+
+
+def _clip_ring(ring: np.ndarray, meridian: float, keep_west: bool) -> np.ndarray | None:
+    """The part of a closed ring west (or east) of the meridian (Sutherland–Hodgman against one line),
+    closed again; None when nothing is left."""
+    inside = (lambda p: p[0] <= meridian) if keep_west else (lambda p: p[0] >= meridian)  # noqa: E731
+    out = []
+    points = ring[:-1]
+    for i, current in enumerate(points):
+        previous = points[i - 1]
+        if inside(current):
+            if not inside(previous):
+                out.append(_on_cut(previous, current, meridian))
+            out.append(current)
+        elif inside(previous):
+            out.append(_on_cut(previous, current, meridian))
+    if len(out) < 3:
+        return None
+    out.append(out[0])
+    return np.array(out)
+
+
+def _geometry(kind: str, lonlat: np.ndarray) -> dict:
+    """A GeoJSON geometry of lon/lat/height vertices; RFC 7946 §3.1.9: a feature that crosses the
+    antimeridian is cut there into a MultiLineString or MultiPolygon, each part within [−180, 180]."""
+    if kind == "Point":
+        return {"type": "Point", "coordinates": lonlat[0].tolist()}
+    unwrapped = _unwrapped(lonlat)
+    meridian = _crossing_meridian(unwrapped)
+    if kind == "LineString":
+        if meridian is None:
+            return {"type": "LineString", "coordinates": _wrapped(unwrapped).tolist()}
+        return {"type": "MultiLineString", "coordinates": [p.tolist() for p in _cut_line(unwrapped, meridian)]}
+    if meridian is None:
+        return {"type": "Polygon", "coordinates": [_counter_clockwise(_wrapped(unwrapped)).tolist()]}
+    parts = [_clip_ring(unwrapped, meridian, keep_west) for keep_west in (True, False)]
+    return {"type": "MultiPolygon",
+            "coordinates": [[_counter_clockwise(_wrapped(part)).tolist()] for part in parts if part is not None]}
+
+
 def _feature_properties(obj: Measurement) -> dict:
     """Flat properties a GIS shows as columns: the object's id, kind, attribute and notes, every figure
     and its sigma (the objects CSV's names and units), ray RMS and range (m), and the quality rules it
@@ -150,7 +234,8 @@ def _feature_properties(obj: Measurement) -> dict:
 def geojson(objects: list[Measurement], georeference: Georeference | None = None) -> str:
     """An RFC 7946 FeatureCollection: WGS 84 longitude, latitude and height (m, −depth) through the
     project's ``georeference`` (:mod:`usvips.io.georeference`); a point, a line string, a polygon (its
-    exterior ring counter-clockwise), a circle as the polygon of its fitted outline; figures, sigmas and
+    exterior ring counter-clockwise), a circle as the polygon of its fitted outline, each cut at the
+    antimeridian where it crosses it (:func:`_geometry`); figures, sigmas and
     units as properties (:func:`_feature_properties`). Without a georeference there are no longitudes
     and latitudes to write: an :class:`InvalidParameterError` says to set one or to export CSV."""
     if georeference is None:
@@ -163,15 +248,12 @@ def geojson(objects: list[Measurement], georeference: Georeference | None = None
         measurement = measurement_kind(obj.kind)
         drawing = measurement.drawing
         if drawing in ("marker", "polyline"):
-            coordinates = object_to_geographic(georeference, obj.points)
-            geometry = {"type": _GEOJSON[drawing],
-                        "coordinates": coordinates[0].tolist() if drawing == "marker" else coordinates.tolist()}
+            geometry = _geometry(_GEOJSON[drawing], object_to_geographic(georeference, obj.points))
         else:
             outline = np.asarray(measurement.outline(obj.points), float)
             if not np.array_equal(outline[0], outline[-1]):
                 outline = np.vstack([outline, outline[:1]])
-            ring = _counter_clockwise(object_to_geographic(georeference, outline))
-            geometry = {"type": _GEOJSON[drawing], "coordinates": [ring.tolist()]}
+            geometry = _geometry(_GEOJSON[drawing], object_to_geographic(georeference, outline))
         units.update({f.name: f.unit for f in obj.figures})
         features.append({"type": "Feature", "id": obj.id, "geometry": geometry,
                          "properties": _feature_properties(obj)})

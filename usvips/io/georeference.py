@@ -19,7 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from pyproj import Transformer
+from pyproj import Geod, Transformer
 
 from usvips.core.deployment import FrameFit, Georeference, fit_frame_to_east_north
 from usvips.core.errors import DegenerateGeometryError, InputFileError, InvalidParameterError
@@ -124,3 +124,32 @@ def read_geographic_points(path: str | Path) -> dict[str, tuple[float, float, fl
                 raise InputFileError(str(path), f"column {name}: {value:g} is not between {low} and {high}", line)
         points[pid] = (lat, lon, depth)
     return points
+
+
+_WGS84 = Geod(ellps="WGS84")
+
+
+def meridian_crossing(start: np.ndarray, end: np.ndarray, meridian: float) -> tuple[float, float]:
+    """Where the geodesic from ``start`` to ``end`` (longitude, latitude in degrees, WGS 84; longitudes
+    continuous, e.g. 179.9999 and 180.0002) crosses the meridian ``meridian`` (degrees, between them):
+    (latitude in degrees, fraction of the geodesic's length from ``start``). A line cut there stays on the
+    geodesics a GIS draws and measures between the vertices."""
+    azimuth, _, distance = _WGS84.inv(start[0], start[1], end[0], end[1])
+
+    def offset(s: float) -> tuple[float, float]:
+        lon, lat, _ = _WGS84.fwd(start[0], start[1], azimuth, s)
+        return start[0] + (lon - start[0] + 180.0) % 360.0 - 180.0 - meridian, lat
+
+    low, high = 0.0, distance
+    f_low, f_high = start[0] - meridian, end[0] - meridian
+    s, latitude = distance * f_low / (f_low - f_high), float(start[1])
+    for _ in range(60):  # regula falsi (Illinois): the longitude is nearly linear in s over a short line
+        f, latitude = offset(s)
+        if abs(f) < 1e-13 or high - low < 1e-9:
+            break
+        if (f < 0) == (f_low < 0):
+            low, f_low, f_high = s, f, f_high / 2
+        else:
+            high, f_high, f_low = s, f, f_low / 2
+        s = low + (high - low) * f_low / (f_low - f_high)
+    return float(latitude), (s / distance if distance > 0 else 0.0)
