@@ -237,3 +237,21 @@ def test_damaged_matrices_are_refused_in_one_line(tmp_path, damage, message):
     with pytest.raises(InputFileError, match=message) as caught:
         read_opencv_stereo(path)
     assert "\n" not in str(caught.value) and "good.yml" in str(caught.value)
+
+
+@pytest.mark.parametrize("t_value, unit, hint", [
+    (-120.0, "m", "mm or cm (--unit mm)"), (-0.39, "m", None), (-390.0, "mm", None),
+    (-0.39, "mm", "m (--unit m)"), (-4000.0, "m", "mm (--unit mm)"), (-1e6, "mm", ""),
+])
+def test_an_implausible_baseline_says_which_unit_would_fit(tmp_path, t_value, unit, hint):
+    """OpenCV's T is in the board's unit, which the file does not say: a baseline no stereo rig has is
+    flagged with the unit that makes it plausible."""
+    from usvips.io.opencv_calibration import baseline_doubt
+
+    path = _write(tmp_path / "stereo.yml", **(GOOD | {"T": np.array([[t_value], [0.0], [0.0]])}))
+    doubt = baseline_doubt(read_opencv_stereo(path, unit=unit), unit)
+    if hint is None:
+        assert doubt is None
+    else:
+        assert doubt is not None and "outside the 0.01–5 m of stereo rigs" in doubt and doubt.endswith(
+            f"{hint}?" if hint else unit), doubt

@@ -13,7 +13,13 @@ import sys
 import numpy as np
 
 from usvips.io.calibration_file import load_calibration, save_calibration
-from usvips.io.opencv_calibration import UNITS, parse_image_size, read_opencv_stereo, write_opencv_stereo
+from usvips.io.opencv_calibration import (
+    UNITS,
+    baseline_doubt,
+    parse_image_size,
+    read_opencv_stereo,
+    write_opencv_stereo,
+)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -50,6 +56,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run_import(args: argparse.Namespace) -> int:
     size = parse_image_size(args.image_size) if args.image_size else None
     calibration = read_opencv_stereo(args.files, size, args.unit, args.sigma0)
+    doubt = baseline_doubt(calibration, args.unit)
+    if doubt:
+        print(f"usvips calibration import: warning: {doubt}", file=sys.stderr)
     save_calibration(calibration, args.out)
     left, right = calibration.left, calibration.right
     where = f"{left.width}x{left.height} px" if left.width else "image size unknown (--image-size)"

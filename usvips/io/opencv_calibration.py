@@ -376,6 +376,27 @@ def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> lis
     return left_out
 
 
+#: baselines (m) of the stereo rigs the field uses, diver-held to ROV frames, with a wide margin
+PLAUSIBLE_BASELINE_M = (0.01, 5.0)
+#: the unit suggested first is the one that gives the baseline nearest this (m)
+TYPICAL_BASELINE_M = 0.3
+
+
+def baseline_doubt(calibration: StereoCalibration, unit: str) -> str | None:
+    """A warning when the imported baseline is no stereo rig's (OpenCV's T is in the calibration board's
+    unit, which the file does not record): the unit that would make it plausible, or None."""
+    baseline = float(np.linalg.norm(calibration.relative.base))
+    low, high = PLAUSIBLE_BASELINE_M
+    if low <= baseline <= high:
+        return None
+    scale = UNITS[unit]
+    fits = sorted((name for name, factor in UNITS.items() if name != unit and low <= baseline / scale * factor <= high),
+                  key=lambda name: abs(np.log(baseline / scale * UNITS[name] / TYPICAL_BASELINE_M)))
+    hint = f": is T in {' or '.join(fits)} (--unit {fits[0]})?" if fits else ""
+    return (f"the baseline is {baseline:.4g} m, outside the {low:g}–{high:g} m of stereo rigs, reading T in "
+            f"{unit}{hint}")
+
+
 def parse_image_size(text: str, parameter: str = "--image-size") -> tuple[int, int]:
     """``WxH`` (pixels) → (width, height); a malformed text is one error naming ``parameter``."""
     width, sep, height = text.lower().partition("x")
