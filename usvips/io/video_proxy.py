@@ -29,7 +29,7 @@ import hashlib
 import json
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -71,22 +71,32 @@ def recording_stamp(stream: VideoStream) -> dict:
 
 
 def proxy_path(folder: str | Path, stream: VideoStream) -> Path:
-    """Where the proxy of ``stream`` lives in ``folder``: named for its first file and the names of its
-    chapters (so a changed recording's proxy is found, and found stale)."""
-    names = json.dumps([c.path.name for c in stream.chapters])
-    key = hashlib.blake2b(names.encode(), digest_size=6).hexdigest()
-    return Path(folder) / f"{stream.chapters[0].path.stem}.{key}{SUFFIX}"
+    """Where the proxy of ``stream`` lives in ``folder`` (:func:`proxy_path_for` its files)."""
+    return proxy_path_for(folder, stream.paths)
 
 
-def related_proxies(folder: str | Path, stream: VideoStream) -> list[Path]:
-    """Every proxy file in ``folder`` made from a recording whose first file has this stream's name: the
-    current one (fresh or stale) and those of older proxy formats, which were named otherwise."""
+def proxy_path_for(folder: str | Path, paths: Sequence[str | Path]) -> Path:
+    """Where the proxy of the recording made of ``paths`` (its chapters in order) lives in ``folder``:
+    named for its first file and a digest of its files' absolute paths (two cameras' files of the same
+    name in different folders get different proxies; a changed recording's proxy is found, and found
+    stale by :func:`proxy_state`); needs no decoding or indexing."""
+    names = [str(Path(p).resolve()) for p in paths]
+    key = hashlib.blake2b(json.dumps(names).encode(), digest_size=6).hexdigest()
+    return Path(folder) / f"{Path(paths[0]).stem}.{key}{SUFFIX}"
+
+
+def related_proxies(folder: str | Path, stream: VideoStream | Sequence[str | Path]) -> list[Path]:
+    """The proxy files in ``folder`` of a recording (a stream, or its files): its current proxy (fresh or
+    stale) and those of older proxy formats (named for the recording's first file)."""
     folder = Path(folder)
     if not folder.is_dir():
         return []
-    stem = stream.chapters[0].path.stem
-    return sorted(p for suffix in SUFFIXES for p in folder.glob(f"{glob_escape(stem)}.*{suffix}")
-                  if p.name[len(stem) + 1:-len(suffix)].isalnum())
+    paths = stream.paths if isinstance(stream, VideoStream) else stream
+    stem = Path(paths[0]).stem
+    current = proxy_path_for(folder, paths)
+    legacy = [p for suffix in SUFFIXES[1:] for p in folder.glob(f"{glob_escape(stem)}.*{suffix}")
+              if p.name[len(stem) + 1:-len(suffix)].isalnum()]
+    return ([current] if current.is_file() else []) + sorted(legacy)
 
 
 def glob_escape(text: str) -> str:
@@ -278,8 +288,9 @@ def attach_proxy(stream: VideoStream, folder: str | Path) -> bool:
     return True
 
 
-def delete_proxy(folder: str | Path, stream: VideoStream) -> int:
-    """Remove ``stream``'s proxy and those of older formats from ``folder``; returns the bytes freed."""
+def delete_proxy(folder: str | Path, stream: VideoStream | Sequence[str | Path]) -> int:
+    """Remove the proxy of a recording (a stream, or its files) and those of older formats from
+    ``folder``; returns the bytes freed."""
     freed = 0
     for path in related_proxies(folder, stream):
         freed += path.stat().st_size
