@@ -10,11 +10,22 @@ import numpy as np
 import pytest
 
 from usvips.app.video_project import add_video, build_proxies, open_streams, plan_proxies
-from usvips.core.synth.frame_numbers import frame_number, numbered_frame, panning_numbered_frame
 from usvips.core.errors import InputFileError
+from usvips.core.synth.frame_numbers import frame_number, numbered_frame, panning_numbered_frame
 from usvips.io import video_proxy
-from usvips.io.video_proxy import (ENCODINGS, PROXY_FORMAT, attach_proxy, build_proxy, delete_proxy, encoding_for,
-                                   proxy_path, proxy_state, read_stamp, related_proxies, verify_proxy)
+from usvips.io.video_proxy import (
+    ENCODINGS,
+    PROXY_FORMAT,
+    attach_proxy,
+    build_proxy,
+    delete_proxy,
+    encoding_for,
+    proxy_path,
+    proxy_state,
+    read_stamp,
+    related_proxies,
+    verify_proxy,
+)
 from usvips.io.video_stream import VideoStream
 from usvips.io.video_writer import encode_video
 from usvips.store import Project

@@ -174,8 +174,9 @@ def proxy_files(project: ProjectStore, label: str) -> list[Path]:
     """The seek-proxy files on disk for the video pair (current and older formats; fresh or stale), found
     by name alone (no decoding): what :func:`delete_proxies` removes and ``project info`` adds up."""
     video = project.video(label)
+    folder = proxy_folder(project)
     return [path for side in ("left", "right")
-            for path in video_proxy.related_proxies(proxy_folder(project), [project.media_path(p) for p in video[side]])]
+            for path in video_proxy.related_proxies(folder, [project.media_path(p) for p in video[side]])]
 
 
 def proxy_bytes(project: ProjectStore, label: str) -> int:
