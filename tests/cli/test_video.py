@@ -278,7 +278,7 @@ def test_seek_proxies_are_built_listed_by_project_info_rebuilt_when_stale_and_de
     assert code == 0 and out.count("wrote ") == 2
     proxies = sorted((tmp_path / "proxies").iterdir())
     total = sum(p.stat().st_size for p in proxies)
-    assert len(proxies) == 2
+    assert len(proxies) == 4  # two proxies and their stamps
     assert f"seek proxies {total / 2**20:.1f} MiB" in _run(capsys, "project", "info", project)[1]
     assert "already built" in _run(capsys, "video", "proxy", project, "--pair", "v")[1]
     # the left recording replaced by other pictures of the same length: its proxy is stale and rebuilt

@@ -24,6 +24,7 @@ from usvips.io.video_proxy import (
     proxy_state,
     read_stamp,
     related_proxies,
+    stamp_path,
     verify_proxy,
 )
 from usvips.io.video_stream import VideoStream
@@ -109,7 +110,7 @@ def test_a_proxy_of_a_changed_recording_or_an_older_format_is_stale_never_used_a
         assert proxy_state(folder, stream).state == "missing"
         out = build_proxy(stream, proxy_path(folder, stream))
         state = proxy_state(folder, stream)
-        assert state.state == "fresh" and state.bytes == out.stat().st_size > 0
+        assert state.state == "fresh" and state.bytes == out.stat().st_size + stamp_path(out).stat().st_size
         assert read_stamp(out)["format"] == PROXY_FORMAT
     # the same number of frames, other pictures (a re-encoded or swapped file): stale, whatever its size
     _recording(path, base=500)
@@ -126,7 +127,10 @@ def test_a_proxy_of_a_changed_recording_or_an_older_format_is_stale_never_used_a
     with VideoStream(path) as stream:
         assert legacy in related_proxies(folder, stream)
         current = proxy_path(folder, stream)
-        current.write_bytes(b"\x00" * 100)  # damaged: no stamp can be read
+        current.write_bytes(b"\x00" * 100)  # overwritten or truncated
+        state = proxy_state(folder, stream)
+        assert state.state == "stale" and "damaged" in state.reason and not attach_proxy(stream, folder)
+        stamp_path(current).unlink()  # a build that never finished has no stamp
         state = proxy_state(folder, stream)
         assert state.state == "stale" and "stamp" in state.reason and not attach_proxy(stream, folder)
         build_proxy(stream, current)
@@ -163,7 +167,7 @@ def test_a_full_disk_or_read_only_folder_is_one_line_and_leaves_no_partial_proxy
             build_proxy(stream, out)
         message = str(raised.value)
         assert words in message and "\n" not in message and str(out) in message
-        assert not out.exists() and list(folder.iterdir()) == []  # the partial file is gone
+        assert not out.exists() and list(folder.iterdir()) == []  # the partial file is gone, no stamp written
         assert proxy_state(folder, stream).state == "missing" and not attach_proxy(stream, folder)
 
 
@@ -188,8 +192,8 @@ def test_deleting_a_proxy_frees_its_bytes_and_seeks_decode_the_original(tmp_path
     path = _recording(tmp_path / "a.mp4", frames=60, gop=60)
     with VideoStream(path) as stream:
         out = build_proxy(stream, proxy_path(folder, stream))
-        size = out.stat().st_size
-        assert delete_proxy(folder, stream) == size and not out.exists()
+        size = out.stat().st_size + stamp_path(out).stat().st_size
+        assert delete_proxy(folder, stream) == size and not out.exists() and not stamp_path(out).exists()
         assert not attach_proxy(stream, folder) and frame_number(stream.frame(47)) == 47
         assert delete_proxy(folder, stream) == 0
 

@@ -13,13 +13,15 @@ Frame ``i`` of the proxy is frame ``i`` of the recording (all chapters, in order
 the original's. Disk: about 1.3–2.5 MB a 1080p frame (a minute at 30 fps ≈ 2.5–4.5 GB per camera).
 
 Life cycle: a proxy is written to a temporary file beside its place, checked (frame count, every frame a
-key frame, and frames at random indices decoded from proxy and original compared pixel for pixel) and only
-then moved into place, so a cancelled, failed or half-written build never leaves a file that is used. The
-proxy carries a stamp (container tag ``usvips_proxy``): the proxy format (:data:`PROXY_FORMAT`) and the
-recording it was made from (each chapter's name, size in bytes, frame count, and a digest of all its coded
-packets, which the stream's index reads anyway: a re-encoded, trimmed or swapped file changes it even when
-its size does not). :func:`proxy_state` tells ``fresh``, ``missing`` or ``stale`` (and why); a stale proxy
-is never attached and is replaced by the next build.
+key frame at regular timestamps, and frames at random indices decoded from proxy and original compared
+pixel for pixel) and only then moved into place, its stamp (``<proxy>.json``) written last: a cancelled,
+failed or half-written build never leaves a proxy that is used. The stamp holds the proxy format
+(:data:`PROXY_FORMAT`), the recording it was made from (each chapter's name, size in bytes, frame count,
+and a digest of all its coded packets, which the stream's index reads anyway: a re-encoded, trimmed or
+swapped file changes it even when its size does not) and the proxy's own index (frame count and
+timestamps), so that opening a proxy reads no packets (a proxy of a long recording is gigabytes).
+:func:`proxy_state` tells ``fresh``, ``missing`` or ``stale`` (and why); a stale proxy is never
+attached and is replaced by the next build.
 """
 
 from __future__ import annotations
@@ -57,7 +59,7 @@ SUFFIXES = (SUFFIX, ".proxy.mkv")
 PROXY_FORMAT = 2
 #: frames at random indices compared pixel for pixel against the original before a proxy is used
 VERIFY_FRAMES = 6
-TAG = "usvips_proxy"
+STAMP_SUFFIX = ".json"
 
 
 def recording_stamp(stream: VideoStream) -> dict:
@@ -67,7 +69,7 @@ def recording_stamp(stream: VideoStream) -> dict:
     for chapter in stream.chapters:
         digest = hashlib.blake2b("".join(chapter.digests).encode(), digest_size=8).hexdigest()
         chapters.append([chapter.path.name, chapter.path.stat().st_size, chapter.count, digest])
-    return {"format": PROXY_FORMAT, "size": list(stream.size), "chapters": chapters}
+    return {"size": list(stream.size), "chapters": chapters}
 
 
 def proxy_path(folder: str | Path, stream: VideoStream) -> Path:
@@ -96,7 +98,13 @@ def related_proxies(folder: str | Path, stream: VideoStream | Sequence[str | Pat
     current = proxy_path_for(folder, paths)
     legacy = [p for suffix in SUFFIXES[1:] for p in folder.glob(f"{glob_escape(stem)}.*{suffix}")
               if p.name[len(stem) + 1:-len(suffix)].isalnum()]
-    return ([current] if current.is_file() else []) + sorted(legacy)
+    found = [p for p in (current, stamp_path(current)) if p.is_file()]
+    return found + sorted(legacy)
+
+
+def stamp_path(proxy: str | Path) -> Path:
+    """The stamp file beside a proxy (:func:`read_stamp`)."""
+    return Path(f"{proxy}{STAMP_SUFFIX}")
 
 
 def glob_escape(text: str) -> str:
@@ -115,16 +123,13 @@ class ProxyState:
 
 
 def read_stamp(path: str | Path) -> dict | None:
-    """The stamp a proxy file carries, or None (no stamp: format 1; or not readable)."""
+    """The stamp of the proxy at ``path`` (see the module's docstring), or None (no stamp: a proxy of
+    format 1, or one whose build did not finish; or an unreadable stamp)."""
     try:
-        with av.open(str(path)) as container:
-            text = {k.lower(): v for k, v in container.metadata.items()}.get(TAG)
-    except (av.error.FFmpegError, OSError, ValueError):
+        stamp = json.loads(stamp_path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
         return None
-    try:
-        return json.loads(text) if text else None
-    except ValueError:
-        return None
+    return stamp if isinstance(stamp, dict) else None
 
 
 def proxy_state(folder: str | Path, stream: VideoStream) -> ProxyState:
@@ -133,14 +138,17 @@ def proxy_state(folder: str | Path, stream: VideoStream) -> ProxyState:
     path = proxy_path(folder, stream)
     if not path.is_file():
         return ProxyState("missing", path)
-    size = path.stat().st_size
+    size = path.stat().st_size + (stamp_path(path).stat().st_size if stamp_path(path).is_file() else 0)
     stamp = read_stamp(path)
     if stamp is None:
         return ProxyState("stale", path, "no proxy stamp (an older proxy format, or a damaged file)", size)
     if stamp.get("format") != PROXY_FORMAT:
         return ProxyState("stale", path, f"proxy format {stamp.get('format')}, this version writes {PROXY_FORMAT}",
                           size)
-    if stamp != recording_stamp(stream):
+    if stamp.get("bytes") != path.stat().st_size:
+        return ProxyState("stale", path, f"the proxy file is damaged ({path.stat().st_size} bytes, built with "
+                          f"{stamp.get('bytes')})", size)
+    if stamp.get("recording") != recording_stamp(stream):
         return ProxyState("stale", path, "the recording changed since the proxy was built (files, sizes, frames "
                           "or content)", size)
     return ProxyState("fresh", path, "", size)
@@ -160,13 +168,19 @@ def build_proxy(stream: VideoStream, out: str | Path, progress: Callable[[int, i
         os.close(handle)
     except OSError as error:
         raise InputFileError(str(out.parent), f"cannot write a seek proxy here: {_os_reason(error)}") from None
+    stamp_temporary = None
     try:
         _encode(stream, temporary, progress, cancelled)
-        verify_proxy(stream, temporary)
+        index = verify_proxy(stream, temporary)
+        stamp = {"format": PROXY_FORMAT, "recording": recording_stamp(stream), "index": index,
+                 "bytes": os.path.getsize(temporary)}
+        handle, stamp_temporary = tempfile.mkstemp(prefix=f".{out.name}.", suffix=STAMP_SUFFIX, dir=str(out.parent))
+        with os.fdopen(handle, "w", encoding="utf-8") as file:
+            json.dump(stamp, file)
         for old in related_proxies(out.parent, stream):
-            if old != out:
-                old.unlink(missing_ok=True)
+            old.unlink(missing_ok=True)  # the stamp first: a proxy without its stamp is never used
         os.replace(temporary, out)
+        os.replace(stamp_temporary, stamp_path(out))
     except InterruptedError:
         raise  # cancelled (an OSError too, but not a failure to write)
     except av.error.FFmpegError as error:
@@ -174,8 +188,9 @@ def build_proxy(stream: VideoStream, out: str | Path, progress: Callable[[int, i
     except OSError as error:
         raise InputFileError(str(out), f"cannot write the seek proxy: {_os_reason(error)}") from None
     finally:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
+        for path in (temporary, stamp_temporary):
+            if path is not None and os.path.exists(path):
+                os.unlink(path)
     return out
 
 
@@ -196,7 +211,6 @@ def _ffmpeg_reason(error: av.error.FFmpegError) -> str:
 def _encode(stream: VideoStream, temporary: str, progress, cancelled) -> None:
     done = 0
     with av.open(temporary, "w", format="nut") as container:
-        container.metadata[TAG] = json.dumps(recording_stamp(stream))
         target = None
         for chapter in stream.chapters:
             with av.open(str(chapter.path)) as source:
@@ -251,16 +265,21 @@ def _open_target(container, frame: av.VideoFrame, stream: VideoStream, path: Pat
     return target, 1 / rate
 
 
-def verify_proxy(stream: VideoStream, path: str | Path, frames: int = VERIFY_FRAMES, seed: int = 0) -> None:
+def verify_proxy(stream: VideoStream, path: str | Path, frames: int = VERIFY_FRAMES, seed: int = 0) -> dict:
     """Raise :class:`InputFileError` unless the proxy at ``path`` has the recording's frame count and size,
-    every frame a key frame, and decodes at the first, the last and ``frames`` random indices (visited in
-    random order: forwards and backwards) to exactly the original's pixels."""
+    every frame a key frame at regular timestamps, and decodes at the first, the last and ``frames``
+    random indices (visited in random order: forwards and backwards) to exactly the original's pixels.
+    Returns the proxy's index for its stamp (``count``, ``size``, ``codec``, ``pts_first``, ``pts_step``,
+    ``time_base`` as [numerator, denominator]), read from every packet of the file."""
     with VideoStream(path) as proxy, VideoStream(stream.paths) as original:
         if proxy.frame_count != original.frame_count or proxy.size != original.size:
             raise InputFileError(str(path), f"the proxy has {proxy.frame_count} frames of {proxy.size}, the "
                                  f"recording {original.frame_count} of {original.size}: not its proxy")
-        if not all(c.keyframe.all() for c in proxy.chapters):
-            raise InputFileError(str(path), "not every frame of the proxy is a key frame")
+        chapter = proxy.chapters[0]
+        step = int(chapter.pts[1] - chapter.pts[0]) if chapter.count > 1 else 1
+        regular = chapter.pts[0] + step * np.arange(chapter.count)
+        if not chapter.keyframe.all() or not np.array_equal(chapter.pts, regular):
+            raise InputFileError(str(path), "the proxy's frames are not all key frames at regular timestamps")
         rng = np.random.default_rng(seed)
         count = original.frame_count
         indices = [0, count - 1] + [int(i) for i in rng.permutation(count)[:frames]]
@@ -268,6 +287,11 @@ def verify_proxy(stream: VideoStream, path: str | Path, frames: int = VERIFY_FRA
             if not np.array_equal(proxy.picture(index).array(), original.picture(index).array()):
                 raise InputFileError(str(path), f"frame {index} of the proxy differs from the recording's: "
                                      "the proxy is not used")
+        with av.open(str(path)) as container:
+            time_base = container.streams.video[0].time_base
+        return {"count": int(chapter.count), "size": list(proxy.size), "codec": proxy.codec,
+                "pts_first": int(chapter.pts[0]), "pts_step": step,
+                "time_base": [time_base.numerator, time_base.denominator]}
 
 
 def attach_proxy(stream: VideoStream, folder: str | Path) -> bool:
@@ -276,9 +300,11 @@ def attach_proxy(stream: VideoStream, folder: str | Path) -> bool:
     state = proxy_state(folder, stream)
     if state.state != "fresh":
         return False
+    index = read_stamp(state.path)["index"]
     try:
-        proxy = VideoStream(state.path)
-    except InputFileError:
+        proxy = VideoStream.from_index(state.path, index["count"], tuple(index["size"]), index["codec"],
+                                       index["pts_first"], index["pts_step"], Fraction(*index["time_base"]))
+    except (InputFileError, KeyError, TypeError, ValueError, ZeroDivisionError):
         return False
     if proxy.frame_count != stream.frame_count or proxy.size != stream.size:
         proxy.close()

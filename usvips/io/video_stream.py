@@ -215,9 +215,31 @@ class VideoStream:
                                      f"{self.size[0]} × {self.size[1]} px: not one recording")
             chapters.append(chapter)
             first += chapter.count
+        self._setup(paths, chapters)
+
+    @classmethod
+    def from_index(cls, path: str | Path, count: int, size: tuple[int, int], codec: str, pts_first: int,
+                   pts_step: int, time_base: float) -> VideoStream:
+        """A one-file stream whose index is known without reading its packets: ``count`` frames, every one a
+        key frame, at presentation timestamps ``pts_first + i · pts_step`` (units of ``time_base`` s). For
+        seek proxies (:mod:`usvips.io.video_proxy`), whose index was checked against the file when they were
+        built: indexing a proxy by reading it would read gigabytes."""
+        path = Path(path)
+        if not path.is_file():
+            raise InputFileError(str(path), "no such video file")
+        pts = pts_first + pts_step * np.arange(int(count), dtype=np.int64)
+        chapter = Chapter(path, 0, int(count), pts, np.ones(int(count), bool), float(time_base),
+                          tuple(str(i) for i in range(int(count))))
+        stream = cls.__new__(cls)
+        stream.size, stream.codec = (int(size[0]), int(size[1])), codec
+        stream._setup([path], [chapter])
+        return stream
+
+    def _setup(self, paths: Sequence[Path], chapters: Sequence[Chapter]) -> None:
+        """Number the indexed chapters' frames and times; no decoder open yet."""
         self.paths = tuple(paths)
         self.chapters = tuple(chapters)
-        self.frame_count = first
+        self.frame_count = sum(c.count for c in chapters)
         times = []
         offset = 0.0
         for k, chapter in enumerate(chapters):
