@@ -294,6 +294,17 @@ def verify_proxy(stream: VideoStream, path: str | Path, frames: int = VERIFY_FRA
                 "time_base": [time_base.numerator, time_base.denominator]}
 
 
+def needs_proxy(stream: VideoStream) -> bool:
+    """Whether a seek in ``stream`` can decode more than :data:`PROXY_AFTER` frames (a key frame further
+    back than that): long-GOP H.264/HEVC does, all-intra recordings (Motion-JPEG, FFV1) do not."""
+    for chapter in stream.chapters:
+        keys = np.flatnonzero(chapter.keyframe)
+        gaps = np.diff(np.append(keys, chapter.count))
+        if gaps.size and int(gaps.max()) - 1 > PROXY_AFTER:
+            return True
+    return False
+
+
 def attach_proxy(stream: VideoStream, folder: str | Path) -> bool:
     """Let ``stream`` seek through its proxy in ``folder`` when a fresh one exists (:func:`proxy_state`);
     returns whether it did. A stale or unreadable proxy is never used."""

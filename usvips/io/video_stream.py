@@ -341,6 +341,12 @@ class VideoStream:
             self._proxy.close()
         self._proxy, self._proxy_after = proxy, int(after)
 
+    def detach_proxy(self) -> None:
+        """Seek in the original again (closing the proxy, e.g. before it is deleted)."""
+        if self._proxy is not None:
+            self._proxy.close()
+        self._proxy = None
+
     @property
     def has_proxy(self) -> bool:
         return self._proxy is not None
