@@ -279,6 +279,10 @@ def test_the_video_dock_fits_1366_px_and_is_driven_by_the_keyboard(qtbot, make_w
         assert "&" in button.text(), button.text()
     buddies = {label.buddy() for label in dock.findChildren(QtWidgets.QLabel) if "&" in label.text()}
     assert {dock.chooser, dock.jump, dock.offset, dock.goto} <= buddies
+    for letter, field in (("D", dock.chooser), ("J", dock.jump), ("S", dock.offset), ("G", dock.goto)):
+        pane.setFocus()
+        qtbot.keyClick(pane, getattr(QtCore.Qt.Key, f"Key_{letter}"), QtCore.Qt.KeyboardModifier.AltModifier)
+        assert field.hasFocus(), letter
 
 
 @pytest.mark.parametrize("lag", [4, -3])
