@@ -297,6 +297,8 @@ def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tm
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
+    # the seek proxies built by themselves first (their message would otherwise replace the estimate's)
+    qtbot.waitUntil(lambda: window.video.source is not None and window.video.source.has_proxies, timeout=20000)
     assert window.video.synchronise("flash") is not None
     qtbot.waitUntil(lambda: window.workspace.project.video("dive")["offset_frames"] == lag and not window.busy,
                     timeout=60000)
