@@ -321,3 +321,24 @@ def test_quick_steps_add_up_while_a_frame_is_still_decoding(qtbot, make_window, 
     _wait_frame(qtbot, window, 20)
     qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Left)
     _wait_frame(qtbot, window, 19)
+
+
+def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_one_line(qtbot, make_window, tmp_path):
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=40)
+    (tmp_path / "proxies").write_text("a file where the proxies' folder would be")
+    window = make_window()
+    said = []
+    show = window.show_message
+    window.show_message = lambda kind, text: said.append((kind, text)) or show(kind, text)
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    _wait_frame(qtbot, window, 0)
+    qtbot.waitUntil(lambda: any("not built" in text for _, text in said), timeout=20000)
+    kind, message = next((k, text) for k, text in said if "not built" in text)
+    assert kind == "warning"
+    assert "cannot write a seek proxy here" in message and "\n" not in message and str(tmp_path / "proxies") in message
+    assert window.video._proxy_worker is None and not window.video.source.has_proxies
+    window.video.request(33)
+    _wait_frame(qtbot, window, 33)
+    assert frame_number(window.workspace.images["left"]) == 33

@@ -600,7 +600,9 @@ class VideoController(QtCore.QObject):
         self._proxy_label, self._proxy_progress = label, 0.0
         worker.signals.progress.connect(lambda fraction, w=worker: self._proxy_advanced(w, fraction))
         worker.signals.finished.connect(lambda paths, w=worker: self._proxies_built(w, project, label, folder, paths))
-        worker.signals.failed.connect(lambda message, w=worker: self._proxy_ended(w, "error", message))
+        worker.signals.failed.connect(lambda message, w=worker: self._proxy_ended(
+            w, "warning" if automatic else "error",
+            f"seek proxies of {label} not built (seeks decode the original): {message}" if automatic else message))
         worker.signals.cancelled.connect(lambda w=worker: self._proxy_ended(
             w, "info", f"seek proxies of {label}: cancelled (seeks decode the original)"))
         self.proxy_pool.start(worker)
