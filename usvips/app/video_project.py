@@ -148,19 +148,21 @@ def proxy_folder(project: ProjectStore) -> Path:
     return project.path.parent / "proxies"
 
 
-def plan_proxies(project: ProjectStore, label: str) -> list[tuple[list[Path], Path]]:
+ProxyStates = Sequence[tuple[list[Path], video_proxy.ProxyState]]
+
+
+def plan_proxies(project: ProjectStore, label: str, states: ProxyStates | None = None) -> list[tuple[list[Path], Path]]:
     """The proxies :func:`build_proxies` would write for the video pair: (the camera's files, proxy path)
-    for each camera that has no fresh one (none yet, or a stale one: see :func:`proxy_states`)."""
-    return [(files, state.path) for files, state in _proxy_states(project, label) if state.state != "fresh"]
+    for each camera that has no fresh one (none yet, or a stale one: see :func:`proxy_states`); pass
+    ``states`` from :func:`proxy_states` not to index the recordings again."""
+    states = proxy_states(project, label) if states is None else states
+    return [(files, state.path) for files, state in states if state.state != "fresh"]
 
 
-def proxy_states(project: ProjectStore, label: str) -> list[video_proxy.ProxyState]:
-    """Each camera's seek proxy: fresh (used), missing, or stale with its reason (never used; rebuilt by
-    :func:`build_proxies`), with its size on disk. Indexes both recordings (reads their packets)."""
-    return [state for _, state in _proxy_states(project, label)]
-
-
-def _proxy_states(project: ProjectStore, label: str) -> list[tuple[list[Path], video_proxy.ProxyState]]:
+def proxy_states(project: ProjectStore, label: str) -> list[tuple[list[Path], video_proxy.ProxyState]]:
+    """Each camera's files and its seek proxy's state: fresh (used), missing, or stale with its reason
+    (never used; rebuilt by :func:`build_proxies`), with its size on disk. Indexes both recordings (reads
+    their packets)."""
     video = project.video(label)
     states = []
     for side in ("left", "right"):

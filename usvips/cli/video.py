@@ -163,13 +163,13 @@ def run_proxy(args: argparse.Namespace) -> int:
                                               else "it has no seek proxies"))
             return 0
         states = video_project.proxy_states(project, args.pair)
-        plan = video_project.plan_proxies(project, args.pair)
-    for state in states:
+        plan = video_project.plan_proxies(project, args.pair, states)
+    for _, state in states:
         if state.state == "stale":
             print(f"{state.path.name}: stale ({state.reason}); rebuilding")
     if not plan:
         print(f"video {args.pair!r}: its seek proxies are already built "
-              f"({sum(s.bytes for s in states) / 2**20:.1f} MiB)")
+              f"({sum(state.bytes for _, state in states) / 2**20:.1f} MiB)")
         return 0
     for path in video_project.build_proxies(plan):
         print(f"wrote {path} ({path.stat().st_size / 2**20:.1f} MiB)")
