@@ -266,3 +266,28 @@ def test_jpeg_pairs_by_exif_capture_time(tmp_path, capsys):
     code, _, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "left", "--right",
                         tmp_path / "right", "--pair-by", "time", "--max-dt", "0.01", "--dry-run")
     assert code == 2 and "no right image captured within 0.01 s" in err
+
+
+def test_seek_proxies_are_built_listed_by_project_info_rebuilt_when_stale_and_deleted(tmp_path, capsys):
+    left, right = _stereo(tmp_path / "media", lag=2, frames=40)
+    project = tmp_path / "p.usvips"
+    assert _run(capsys, "project", "new", project)[0] == 0
+    assert _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right, "--label", "v")[0] == 0
+    assert "seek proxies" not in _run(capsys, "project", "info", project)[1]
+    code, out, _ = _run(capsys, "video", "proxy", project, "--pair", "v")
+    assert code == 0 and out.count("wrote ") == 2
+    proxies = sorted((tmp_path / "proxies").iterdir())
+    total = sum(p.stat().st_size for p in proxies)
+    assert len(proxies) == 4  # two proxies and their stamps
+    assert f"seek proxies {total / 2**20:.1f} MiB" in _run(capsys, "project", "info", project)[1]
+    assert "already built" in _run(capsys, "video", "proxy", project, "--pair", "v")[1]
+    # the left recording replaced by other pictures of the same length: its proxy is stale and rebuilt
+    encode_video(left[0], (numbered_frame(3000 + i, 160, 120, seed=1) for i in range(40)), FPS, "h264", gop=40)
+    code, out, _ = _run(capsys, "video", "proxy", project, "--pair", "v")
+    assert code == 0 and "stale" in out and out.count("wrote ") == 1
+    code, out, _ = _run(capsys, "video", "proxy", project, "--pair", "v", "--delete")
+    assert code == 0 and "MiB freed" in out and not any((tmp_path / "proxies").iterdir())
+    assert "seek proxies" not in _run(capsys, "project", "info", project)[1]
+    assert "no seek proxies" in _run(capsys, "video", "proxy", project, "--pair", "v", "--delete")[1]
+    code, out, err = _run(capsys, "video", "proxy", project, "--pair", "nope", "--delete")
+    assert code == 2 and len(err.strip().splitlines()) == 1

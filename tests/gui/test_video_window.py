@@ -7,7 +7,7 @@ import shutil
 
 import numpy as np
 import pytest
-from PySide6 import QtCore
+from PySide6 import QtCore, QtWidgets
 
 from usvips.core.synth.frame_numbers import frame_number, numbered_frame
 from usvips.gui import media_dialogs
@@ -186,27 +186,103 @@ def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, m
     assert {p["label"] for p in project.pairs()} == pairs_before | {"cube-air"}
 
 
-def test_seek_proxies_are_built_from_the_dock_in_a_worker_and_then_used(qtbot, make_window, tmp_path):
+def test_seek_proxies_are_built_in_the_background_when_a_video_is_opened_used_cancelled_and_deleted(
+        qtbot, make_window, tmp_path):
     for side, base in (("left", 0), ("right", 1000)):
         encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=40)
     window = make_window()
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    video, dock = window.video, window.video.dock_widget
+    _wait_frame(qtbot, window, 0)  # shown from the originals while the proxies are built
+    # nobody asked: the proxies are built in the background, checked, then used
+    qtbot.waitUntil(lambda: video.source is not None and video.source.has_proxies, timeout=20000)
+    assert "seek proxies built and checked" in window.statusBar().currentMessage()
+    assert dock.proxy_status.text() == "proxy ✓" and dock.proxy.text() == "Seek pro&xy"
+    folder = tmp_path / "proxies"
+    assert len(list(folder.glob("*.proxy.nut"))) == 2
+    for frame in (31, 3, 22):  # random seeks through the proxies, forwards and backwards
+        video.request(frame)
+        _wait_frame(qtbot, window, frame)
+        assert frame_number(window.workspace.images["left"]) == frame
+        assert frame_number(window.workspace.images["right"]) == 1000 + frame
+    assert video.build_proxies() is None and "already built" in window.statusBar().currentMessage()
+    # Delete seek proxy: gone from the disk, seeks decode the originals, not rebuilt by itself
+    dock.delete_proxy_action.trigger()
+    assert not any(folder.iterdir()) and not video.source.left.has_proxy and not video.source.right.has_proxy
+    assert "seek proxies deleted" in window.statusBar().currentMessage() and dock.proxy_status.text() == ""
+    video.request(29)
+    _wait_frame(qtbot, window, 29)
+    assert frame_number(window.workspace.images["right"]) == 1029
+    assert video.open_video("dive") and video._proxy_worker is None
+    # built by hand and cancelled at once: nothing half-written stays, the originals keep being used
+    assert video.build_proxies() is not None and dock.proxy.text() == "Cancel pro&xy"
+    dock.proxy.click()  # the button cancels while building
+    qtbot.waitUntil(lambda: video._proxy_worker is None, timeout=20000)
+    assert "cancelled" in window.statusBar().currentMessage()
+    assert not any(folder.iterdir()) and not video.source.has_proxies
+    dock.proxy.click()  # and builds again
+    qtbot.waitUntil(lambda: video.source is not None and video.source.has_proxies, timeout=20000)
+    video.request(35)
+    _wait_frame(qtbot, window, 35)
+    assert frame_number(window.workspace.images["left"]) == 35
+
+
+def test_the_video_dock_fits_1366_px_and_is_driven_by_the_keyboard(qtbot, make_window, tmp_path):
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(60)], 25, "h264", gop=60)
+    window = make_window()  # 1366 × 768
+    window.video.auto_proxies = False
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
-    window.video.request(9)
-    _wait_frame(qtbot, window, 9)
-    assert not window.video.source.left.has_proxy
-    window.video.dock_widget.proxy.click()
-    qtbot.waitUntil(lambda: window.video.source is not None and window.video.source.left.has_proxy
-                    and window.video.source.right.has_proxy and not window.busy, timeout=20000)
-    _wait_frame(qtbot, window, 9)  # reopened on the same frame
-    assert "seek proxies built" in window.statusBar().currentMessage()
-    window.video.request(31)
-    _wait_frame(qtbot, window, 31)
-    assert frame_number(window.workspace.images["left"]) == 31
-    assert frame_number(window.workspace.images["right"]) == 1031
-    assert window.video.build_proxies() is None  # nothing left to build
-    assert "already built" in window.statusBar().currentMessage()
+    dock = window.video.dock_widget
+    qtbot.waitUntil(lambda: dock.isVisible() and dock.width() > 0, timeout=5000)
+    assert window.width() <= 1366
+    # nothing cut: every control lies inside the dock and gets at least the width it asks for
+    controls = (dock.chooser, dock.play, dock.rate, dock.jump, dock.offset, dock.sync, dock.period, dock.take,
+                dock.proxy, dock.goto, dock.timeline, dock.frame_label)
+    qtbot.waitUntil(lambda: all(w.width() >= w.minimumSizeHint().width() for w in controls), timeout=5000)
+    for widget in controls:
+        assert widget.isVisible()
+        rect = QtCore.QRect(widget.mapTo(dock, QtCore.QPoint(0, 0)), widget.size())
+        assert dock.rect().contains(rect), widget
+    metrics = dock.goto.fontMetrics()
+    assert dock.goto.width() >= metrics.horizontalAdvance(dock.goto.placeholderText()) + 8
+    assert dock.frame_label.width() >= dock.frame_label.fontMetrics().horizontalAdvance(dock.frame_label.text())
+    # the tab order runs through every control of the dock
+    seen, widget = [], dock.chooser
+    for _ in range(len(controls)):
+        seen.append(widget)
+        widget = widget.nextInFocusChain()
+        while widget.focusPolicy() == QtCore.Qt.FocusPolicy.NoFocus or widget.parent() is None:
+            widget = widget.nextInFocusChain()
+    for widget in controls[:-1]:
+        assert widget in seen or widget is dock.timeline, widget
+    # Ctrl+G goes to the go-to field; a time code and Enter show that frame
+    window.panes["left"].graphics.setFocus()
+    qtbot.keyClick(window, QtCore.Qt.Key.Key_G, QtCore.Qt.KeyboardModifier.ControlModifier)
+    assert dock.goto.hasFocus()
+    qtbot.keyClicks(dock.goto, "1.2s")
+    qtbot.keyClick(dock.goto, QtCore.Qt.Key.Key_Return)
+    _wait_frame(qtbot, window, 30)
+    # arrows, Shift+arrows, Home/End on the panes
+    pane = window.panes["left"].graphics
+    for key, modifier, frame in ((QtCore.Qt.Key.Key_Right, QtCore.Qt.KeyboardModifier.NoModifier, 31),
+                                 (QtCore.Qt.Key.Key_Left, QtCore.Qt.KeyboardModifier.ShiftModifier, 21),
+                                 (QtCore.Qt.Key.Key_End, QtCore.Qt.KeyboardModifier.NoModifier, 59),
+                                 (QtCore.Qt.Key.Key_Home, QtCore.Qt.KeyboardModifier.NoModifier, 0)):
+        qtbot.keyClick(pane, key, modifier)
+        _wait_frame(qtbot, window, frame)
+    # every button has its Alt mnemonic, every field a label with one
+    for button in (dock.play, dock.sync, dock.period, dock.take, dock.proxy):
+        assert "&" in button.text(), button.text()
+    buddies = {label.buddy() for label in dock.findChildren(QtWidgets.QLabel) if "&" in label.text()}
+    assert {dock.chooser, dock.jump, dock.offset, dock.goto} <= buddies
+    for letter, field in (("D", dock.chooser), ("J", dock.jump), ("S", dock.offset), ("G", dock.goto)):
+        pane.setFocus()
+        qtbot.keyClick(pane, getattr(QtCore.Qt.Key, f"Key_{letter}"), QtCore.Qt.KeyboardModifier.AltModifier)
+        assert field.hasFocus(), letter
 
 
 @pytest.mark.parametrize("lag", [4, -3])
@@ -221,6 +297,8 @@ def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tm
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
+    # the seek proxies built by themselves first (their message would otherwise replace the estimate's)
+    qtbot.waitUntil(lambda: window.video.source is not None and window.video.source.has_proxies, timeout=20000)
     assert window.video.synchronise("flash") is not None
     qtbot.waitUntil(lambda: window.workspace.project.video("dive")["offset_frames"] == lag and not window.busy,
                     timeout=60000)
@@ -243,3 +321,24 @@ def test_quick_steps_add_up_while_a_frame_is_still_decoding(qtbot, make_window, 
     _wait_frame(qtbot, window, 20)
     qtbot.keyClick(graphics, QtCore.Qt.Key.Key_Left)
     _wait_frame(qtbot, window, 19)
+
+
+def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_one_line(qtbot, make_window, tmp_path):
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=40)
+    (tmp_path / "proxies").write_text("a file where the proxies' folder would be")
+    window = make_window()
+    said = []
+    show = window.show_message
+    window.show_message = lambda kind, text: said.append((kind, text)) or show(kind, text)
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    _wait_frame(qtbot, window, 0)
+    qtbot.waitUntil(lambda: any("not built" in text for _, text in said), timeout=20000)
+    kind, message = next((k, text) for k, text in said if "not built" in text)
+    assert kind == "warning"
+    assert "cannot write a seek proxy here" in message and "\n" not in message and str(tmp_path / "proxies") in message
+    assert window.video._proxy_worker is None and not window.video.source.has_proxies
+    window.video.request(33)
+    _wait_frame(qtbot, window, 33)
+    assert frame_number(window.workspace.images["left"]) == 33

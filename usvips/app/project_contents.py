@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from usvips.app.video_project import proxy_bytes
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
@@ -38,6 +39,7 @@ class VideoSummary:
     fps: float
     offset_frames: int
     calibration_id: int | None
+    proxy_bytes: int = 0  # its seek proxies on disk (usvips.app.video_project.proxy_bytes)
 
 
 @dataclass(frozen=True)
@@ -66,7 +68,7 @@ def summarise(project: ProjectStore) -> ProjectSummary:
         tuple(PairSummary(p["label"], p["medium"], p["left"], p["right"], project.active_calibration(p["label"]))
               for p in pairs if p["label"] not in video_labels),
         tuple(VideoSummary(v["label"], v["frame_count"], v["fps"], v["offset_frames"],
-                           project.active_calibration(v["label"])) for v in videos),
+                           project.active_calibration(v["label"]), proxy_bytes(project, v["label"])) for v in videos),
         project.deployments(), project.georeference())
 
 

@@ -148,18 +148,59 @@ def proxy_folder(project: ProjectStore) -> Path:
     return project.path.parent / "proxies"
 
 
-def plan_proxies(project: ProjectStore, label: str) -> list[tuple[list[Path], Path]]:
+ProxyStates = Sequence[tuple[list[Path], video_proxy.ProxyState]]
+
+
+def plan_proxies(project: ProjectStore, label: str, states: ProxyStates | None = None) -> list[tuple[list[Path], Path]]:
     """The proxies :func:`build_proxies` would write for the video pair: (the camera's files, proxy path)
-    for each camera that has none yet for its current files."""
+    for each camera that has no fresh one (none yet, or a stale one: see :func:`proxy_states`); pass
+    ``states`` from :func:`proxy_states` not to index the recordings again."""
+    states = proxy_states(project, label) if states is None else states
+    return [(files, state.path) for files, state in states if state.state != "fresh"]
+
+
+def proxy_states(project: ProjectStore, label: str) -> list[tuple[list[Path], video_proxy.ProxyState]]:
+    """Each camera's files and its seek proxy's state: fresh (used), missing, or stale with its reason
+    (never used; rebuilt by :func:`build_proxies`), with its size on disk. Indexes both recordings (reads
+    their packets)."""
     video = project.video(label)
-    plan = []
+    states = []
     for side in ("left", "right"):
         files = [project.media_path(p) for p in video[side]]
         with VideoStream(files) as stream:
-            path = video_proxy.proxy_path(proxy_folder(project), stream)
-        if not path.is_file():
-            plan.append((files, path))
-    return plan
+            states.append((files, video_proxy.proxy_state(proxy_folder(project), stream)))
+    return states
+
+
+def proxy_files(project: ProjectStore, label: str) -> list[Path]:
+    """The seek-proxy files on disk for the video pair (current and older formats; fresh or stale), found
+    by name alone (no decoding): what :func:`delete_proxies` removes and ``project info`` adds up."""
+    video = project.video(label)
+    folder = proxy_folder(project)
+    return [path for side in ("left", "right")
+            for path in video_proxy.related_proxies(folder, [project.media_path(p) for p in video[side]])]
+
+
+def proxy_bytes(project: ProjectStore, label: str) -> int:
+    """Bytes the video pair's seek proxies take on disk (0 when it has none)."""
+    return sum(path.stat().st_size for path in proxy_files(project, label))
+
+
+def delete_proxies(project: ProjectStore, label: str) -> int:
+    """Remove the video pair's seek proxies (every format); returns the bytes freed. Seeks then decode the
+    original again (exact, slower). Called when a video is removed from a project, by ``usvips video proxy
+    --delete`` and by the window's *Delete seek proxy*."""
+    freed = 0
+    for path in proxy_files(project, label):
+        try:
+            size = path.stat().st_size
+            path.unlink()
+        except FileNotFoundError:
+            continue
+        except OSError as error:
+            raise VideoError(f"{path}: cannot delete the seek proxy: {error.strerror or error}") from None
+        freed += size
+    return freed
 
 
 def build_proxies(plan: Sequence[tuple[Sequence[Path], Path]], progress: Callable[[int, int], None] | None = None,

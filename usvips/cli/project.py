@@ -73,7 +73,8 @@ def run_info(args: argparse.Namespace) -> int:
     for video in summary.videos:
         print(f"  video {video.label}: {video.frame_count} frames at {video.fps:.6g} fps, offset "
               f"{video.offset_frames:+d} frames (left frame i ↔ right frame i {video.offset_frames:+d})"
-              + (f"; calibration {video.calibration_id}" if video.calibration_id else ""))
+              + (f"; calibration {video.calibration_id}" if video.calibration_id else "")
+              + (f"; seek proxies {video.proxy_bytes / 2**20:.1f} MiB" if video.proxy_bytes else ""))
     return 0
 
 

@@ -50,6 +50,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                "the project): random seeks decode one frame, pixels identical")
     proxy.add_argument("project")
     proxy.add_argument("--pair", required=True, help="the video pair")
+    proxy.add_argument("--delete", action="store_true", help="delete the pair's seek proxies (seeks then decode "
+                       "the original again: exact, slower)")
     proxy.set_defaults(handler=run_proxy)
     period = actions.add_parser("period", help="mark a named period (left frames START to END) of a video pair, "
                                 "or list them")
@@ -154,10 +156,20 @@ def run_take_pair(args: argparse.Namespace) -> int:
 
 
 def run_proxy(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
-        plan = video_project.plan_proxies(project, args.pair)
+    with Project.open(args.project, read_only=True) as project:
+        if args.delete:
+            freed = video_project.delete_proxies(project, args.pair)
+            print(f"video {args.pair!r}: " + (f"deleted its seek proxies ({freed / 2**20:.1f} MiB freed)" if freed
+                                              else "it has no seek proxies"))
+            return 0
+        states = video_project.proxy_states(project, args.pair)
+        plan = video_project.plan_proxies(project, args.pair, states)
+    for _, state in states:
+        if state.state == "stale":
+            print(f"{state.path.name}: stale ({state.reason}); rebuilding")
     if not plan:
-        print(f"video {args.pair!r}: its seek proxies are already built")
+        print(f"video {args.pair!r}: its seek proxies are already built "
+              f"({sum(state.bytes for _, state in states) / 2**20:.1f} MiB)")
         return 0
     for path in video_project.build_proxies(plan):
         print(f"wrote {path} ({path.stat().st_size / 2**20:.1f} MiB)")

@@ -454,6 +454,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         self.save_layout()
         self.cancel_work()
+        self.video.shutdown()  # the seek-proxy build in the background
         self.pool.waitForDone(5000)
         for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner):
             panel.cleanup()

@@ -9,6 +9,10 @@ Shift+←/→ the jump (default 10), Home/End, Space play/pause.
 
 from __future__ import annotations
 
+import itertools
+import os
+import threading
+
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.app import video_project
@@ -25,6 +29,7 @@ from usvips.gui.video_model import (
     video_frame_of,
 )
 from usvips.gui.worker import Cancelled, Worker
+from usvips.io import video_proxy
 
 
 class Timeline(QtWidgets.QSlider):
@@ -50,34 +55,42 @@ class Timeline(QtWidgets.QSlider):
 
 
 class VideoDock(QtWidgets.QWidget):
-    """The controls; owns no decoder (see :class:`VideoController`)."""
+    """The controls; owns no decoder (see :class:`VideoController`). Two rows that fit a 1366 px wide
+    window: the video and its actions (Alt+D video, Alt+P play, Alt+J jump, Alt+S offset, Alt+Y sync,
+    Alt+O period, Alt+T take as pair, Alt+X seek proxy, with its menu: build, cancel, delete), then go-to
+    (Alt+G, or Ctrl+G from the panes), the timeline and the frame shown."""
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.setObjectName("video_controls")
         self.chooser = QtWidgets.QComboBox()
         self.chooser.setToolTip("the stereo video shown")
+        self.chooser.setSizeAdjustPolicy(QtWidgets.QComboBox.SizeAdjustPolicy.AdjustToContents)
         self.timeline = Timeline()
+        self.timeline.setToolTip("the frames; a tick marks a frame holding measurements")
         self.frame_label = QtWidgets.QLabel("—")
-        self.frame_label.setMinimumWidth(320)
+        self.frame_label.setMinimumWidth(self.fontMetrics().horizontalAdvance("left 000000 | right 000000  "
+                                                                              "0:00:00.000  (00000–000000)  ●"))
         self.goto = QtWidgets.QLineEdit()
-        self.goto.setPlaceholderText("go to frame / 12.5s / mm:ss.sss")
-        self.goto.setMaximumWidth(200)
-        self.play = QtWidgets.QPushButton("Play")
+        self.goto.setPlaceholderText("frame, 12.5s or mm:ss.sss")
+        self.goto.setToolTip("go to a left frame number, a time in seconds (12.5s) or a time code (mm:ss.sss); Enter")
+        self.goto.setMinimumWidth(self.goto.fontMetrics().horizontalAdvance(self.goto.placeholderText()) + 24)
+        self.goto.setMaximumWidth(self.goto.minimumWidth() + 40)
+        self.play = QtWidgets.QPushButton("&Play")
         self.play.setCheckable(True)
+        self.play.setToolTip("play / pause at the rate chosen (Space on the panes)")
         self.rate = QtWidgets.QComboBox()
         self.rate.addItems(["0.1×", "0.25×", "0.5×", "1×", "2×", "4×"])
         self.rate.setCurrentText("1×")
+        self.rate.setToolTip("playing rate (× real time)")
         self.jump = QtWidgets.QSpinBox()
         self.jump.setRange(2, 10_000)
         self.jump.setValue(10)
-        self.jump.setPrefix("jump ")
         self.jump.setToolTip("frames stepped by Shift+←/→")
         self.offset = QtWidgets.QSpinBox()
         self.offset.setRange(-100_000, 100_000)
-        self.offset.setPrefix("offset ")
         self.offset.setToolTip("right frame = left frame + offset (nudge while both panes show; stored)")
-        self.period = QtWidgets.QPushButton("Period…")
+        self.period = QtWidgets.QPushButton("Peri&od…")
         self.period.setToolTip("mark a named period from this frame (EventMeasure's periods)")
         self.take = QtWidgets.QPushButton("&Take as pair…")
         self.take.setToolTip("make the synchronised frames shown an image pair of the project (e.g. the calibration "
@@ -85,19 +98,50 @@ class VideoDock(QtWidgets.QWidget):
         self.sync = QtWidgets.QPushButton("S&ync…")
         self.sync.setToolTip("estimate the offset from the soundtracks, a flash seen by both cameras or the images "
                              "(epipolar consistency of moving things), with its confidence; stored")
-        self.proxy = QtWidgets.QPushButton("Seek pro&xy")
-        self.proxy.setToolTip("build lossless all-intra copies of this video (proxies/ beside the project, about 1–2.5 "
-                              "MB a 1080p frame) so that a random seek decodes one frame; pixels stay identical")
+        self.proxy = QtWidgets.QToolButton()
+        self.proxy.setText("Seek pro&xy")
+        self.proxy.setPopupMode(QtWidgets.QToolButton.ToolButtonPopupMode.MenuButtonPopup)
+        self.proxy.setToolButtonStyle(QtCore.Qt.ToolButtonStyle.ToolButtonTextOnly)
+        self.proxy.setToolTip("lossless all-intra copies of this video (proxies/ beside the project, 1.3–2.5 MB a "
+                              "1080p frame) so that a random seek decodes one frame; pixels stay identical. Built "
+                              "in the background when a video is first opened; click to build or cancel")
+        self.proxy_menu = QtWidgets.QMenu(self.proxy)
+        self.build_proxy_action = self.proxy_menu.addAction("&Build seek proxy")
+        self.cancel_proxy_action = self.proxy_menu.addAction("&Cancel building")
+        self.delete_proxy_action = self.proxy_menu.addAction("&Delete seek proxy")
+        self.proxy.setMenu(self.proxy_menu)
+        self.proxy_status = QtWidgets.QLabel("")
+        self.proxy_status.setObjectName("proxy_status")
+        self.proxy_status.setToolTip("the seek proxy: built and in use, building (in the background, at low "
+                                     "priority), or none (seeks decode the original: exact, slower)")
+
+        def labelled(text: str, buddy: QtWidgets.QWidget) -> QtWidgets.QLabel:
+            label = QtWidgets.QLabel(text)
+            label.setBuddy(buddy)
+            return label
+
         top = QtWidgets.QHBoxLayout()
-        for widget in (self.chooser, self.play, self.rate, self.jump, self.offset, self.sync, self.goto, self.period,
-                       self.take, self.proxy):
+        top.setSpacing(4)
+        for widget in (labelled("Vi&deo", self.chooser), self.chooser, self.play, self.rate,
+                       labelled("&Jump", self.jump), self.jump, labelled("Off&set", self.offset), self.offset,
+                       self.sync, self.period, self.take, self.proxy, self.proxy_status):
             top.addWidget(widget)
         top.addStretch(1)
-        top.addWidget(self.frame_label)
+        bottom = QtWidgets.QHBoxLayout()
+        bottom.setSpacing(4)
+        bottom.addWidget(labelled("&Go to", self.goto))
+        bottom.addWidget(self.goto)
+        bottom.addWidget(self.timeline, 1)
+        bottom.addWidget(self.frame_label)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(4, 2, 4, 2)
+        layout.setSpacing(2)
         layout.addLayout(top)
-        layout.addWidget(self.timeline)
+        layout.addLayout(bottom)
+        order = (self.chooser, self.play, self.rate, self.jump, self.offset, self.sync, self.period, self.take,
+                 self.proxy, self.goto, self.timeline)
+        for first, second in itertools.pairwise(order):
+            QtWidgets.QWidget.setTabOrder(first, second)
 
 
 class TakePairDialog(QtWidgets.QDialog):
@@ -128,6 +172,10 @@ class VideoController(QtCore.QObject):
     cancelled by the next request)."""
 
     shown = QtCore.Signal(int)
+    #: build a video's seek proxies in the background when it is opened and has none (and needs them)
+    auto_proxies = True
+    #: the niceness of the thread that builds proxies (Linux: per thread; its FFmpeg threads inherit it)
+    PROXY_NICENESS = 15
 
     def __init__(self, window, cache: FrameCache | None = None) -> None:
         super().__init__(window)
@@ -143,6 +191,13 @@ class VideoController(QtCore.QObject):
         self._target: int | None = None  # the frame last asked for
         self.timer = QtCore.QTimer(self)
         self.timer.timeout.connect(self._tick)
+        # seek proxies are built one at a time in a pool of their own, whose thread runs at low priority
+        self.proxy_pool = QtCore.QThreadPool(self)
+        self.proxy_pool.setMaxThreadCount(1)
+        self._proxy_worker: Worker | None = None
+        self._proxy_label: str | None = None
+        self._proxy_progress = 0.0
+        self._proxies_deleted: set[str] = set()  # not rebuilt by themselves in this session
         d = self.dock_widget
         d.chooser.activated.connect(lambda _: self.open_video(d.chooser.currentText()))
         d.timeline.valueChanged.connect(self._on_slider)
@@ -153,7 +208,12 @@ class VideoController(QtCore.QObject):
         d.offset.editingFinished.connect(self._on_offset)
         d.period.clicked.connect(self._on_period)
         d.take.clicked.connect(self._on_take_pair)
-        d.proxy.clicked.connect(self.build_proxies)
+        d.proxy.clicked.connect(self._on_proxy_button)
+        d.build_proxy_action.triggered.connect(lambda: self.build_proxies())
+        d.cancel_proxy_action.triggered.connect(self.cancel_proxies)
+        d.delete_proxy_action.triggered.connect(self.delete_proxies)
+        goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
+        goto.activated.connect(self.focus_goto)
         d.sync.clicked.connect(self._on_sync)
         for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
             widget.installEventFilter(self)
@@ -166,6 +226,8 @@ class VideoController(QtCore.QObject):
     def project_opened(self, project) -> None:
         """Fill the chooser with the project's videos (and forget the previous project's)."""
         self.close_video()
+        self.cancel_proxies()
+        self._proxies_deleted.clear()
         d = self.dock_widget
         d.chooser.clear()
         labels = [v["label"] for v in project.videos()] if project is not None else []
@@ -198,6 +260,9 @@ class VideoController(QtCore.QObject):
                                  f"{self.navigator.fps:.6g} fps, offset {self.navigator.offset:+d} "
                                  + (f"— {self.source.video['report']}" if self.source.video["report"] else ""))
         self.request(self.navigator.first)
+        self._show_proxy_status()
+        if self.auto_proxies and label not in self._proxies_deleted:
+            self.build_proxies(automatic=True)
         return True
 
     def close_video(self) -> None:
@@ -305,7 +370,7 @@ class VideoController(QtCore.QObject):
         d = self.dock_widget
         if d.play.isChecked() != on:
             d.play.setChecked(on)
-        d.play.setText("Pause" if on else "Play")
+        d.play.setText("&Pause" if on else "&Play")
         if on and self.navigator is not None:
             self.direction = 1
             self.timer.start(self.navigator.play_interval_ms())
@@ -490,36 +555,136 @@ class VideoController(QtCore.QObject):
 
         return self.window.run_worker(job, f"taking frame {frame} as a pair", store)
 
-    def build_proxies(self) -> Worker | None:
-        """Build the shown video's seek proxies in a worker (progress, cancel), then reopen it on the same
-        frame so that seeks go through them. None when there is nothing to build (a message says so)."""
-        nav, project = self.navigator, self.window.workspace.project
-        if nav is None or project is None:
+    # ------------------------------------------------------------------ seek proxies
+    def _on_proxy_button(self) -> None:
+        if self._proxy_worker is not None and self.navigator is not None and self._proxy_label == self.navigator.label:
+            self.cancel_proxies()
+        else:
+            self.build_proxies()
+
+    def build_proxies(self, automatic: bool = False) -> Worker | None:
+        """Build the shown video's seek proxies in the background (a pool of their own, at low priority,
+        progress in the dock, cancel from the dock), then seek through them as soon as they are built and
+        verified (the original is used until then). ``automatic``: when a video is opened; then only for
+        a recording that needs one (:func:`usvips.io.video_proxy.needs_proxy`), quietly. None when there
+        is nothing to build or a build is running (a message says so unless automatic)."""
+        nav, project, source = self.navigator, self.window.workspace.project, self.source
+        if nav is None or project is None or source is None:
             return None
+        if self._proxy_worker is not None:
+            if not automatic:
+                self.window.show_message("info", f"seek proxies of {self._proxy_label} are being built")
+            return None
+        if automatic and not (video_proxy.needs_proxy(source.left) or video_proxy.needs_proxy(source.right)):
+            return None
+        folder = video_project.proxy_folder(project)
         try:
-            plan = video_project.plan_proxies(project, nav.label)
+            plan = source.proxy_plan(folder)
         except UsvipsError as error:
             self.window.show_message("error", str(error))
             return None
         if not plan:
-            self.window.show_message("info", f"video {nav.label}: its seek proxies are already built and in use")
+            if not automatic:
+                self.window.show_message("info", f"video {nav.label}: its seek proxies are already built and in use")
             return None
-        label, frame = nav.label, nav.frame
+        label, niceness = nav.label, self.PROXY_NICENESS
 
         def job(progress, cancelled):
+            _lower_thread_priority(niceness)
             try:
                 return video_project.build_proxies(plan, lambda done, total: progress(done / total), cancelled)
             except InterruptedError:
                 raise Cancelled from None
 
-        def done(paths) -> None:
-            if self.window.workspace.project is project and self.open_video(label):
-                self.request(frame)
-            size = sum(p.stat().st_size for p in paths) / 2**20
-            self.window.show_message("info", f"video {label}: seek proxies built ({size:.0f} MiB in "
-                                             f"{paths[0].parent}); random seeks now decode one frame")
+        worker = self._proxy_worker = Worker(job, f"building seek proxies of {label}")
+        self._proxy_label, self._proxy_progress = label, 0.0
+        worker.signals.progress.connect(lambda fraction, w=worker: self._proxy_advanced(w, fraction))
+        worker.signals.finished.connect(lambda paths, w=worker: self._proxies_built(w, project, label, folder, paths))
+        worker.signals.failed.connect(lambda message, w=worker: self._proxy_ended(
+            w, "warning" if automatic else "error",
+            f"seek proxies of {label} not built (seeks decode the original): {message}" if automatic else message))
+        worker.signals.cancelled.connect(lambda w=worker: self._proxy_ended(
+            w, "info", f"seek proxies of {label}: cancelled (seeks decode the original)"))
+        self.proxy_pool.start(worker)
+        self._show_proxy_status()
+        return worker
 
-        return self.window.run_worker(job, f"building seek proxies of {label}", done)
+    def _proxy_advanced(self, worker: Worker, fraction: float) -> None:
+        if worker is self._proxy_worker:
+            self._proxy_progress = fraction
+            self._show_proxy_status()
+
+    def _proxy_ended(self, worker: Worker, kind: str, message: str) -> None:
+        if worker is not self._proxy_worker:
+            return
+        self._proxy_worker, self._proxy_label = None, None
+        self._show_proxy_status()
+        self.window.show_message(kind, message)
+
+    def _proxies_built(self, worker: Worker, project, label: str, folder, paths) -> None:
+        if worker is not self._proxy_worker:
+            return
+        self._proxy_worker, self._proxy_label = None, None
+        size = sum(p.stat().st_size for p in paths if p.exists()) / 2**20
+        in_use = (self.source is not None and self.navigator is not None and self.navigator.label == label
+                  and self.window.workspace.project is project and self.source.attach_proxies(folder))
+        self._show_proxy_status()
+        self.window.show_message("info", f"video {label}: seek proxies built and checked ({size:.0f} MiB in "
+                                         f"{folder})" + ("; random seeks now decode one frame" if in_use else ""))
+
+    def cancel_proxies(self) -> None:
+        """Stop the seek-proxy build running (nothing half-written stays; the original keeps being used)."""
+        if self._proxy_worker is not None:
+            self._proxy_worker.cancel()
+
+    def delete_proxies(self) -> int:
+        """Delete the shown video's seek proxies (cancelling a build of them): seeks decode the original
+        again, and they are not rebuilt by themselves in this session. Returns the bytes freed."""
+        nav, project = self.navigator, self.window.workspace.project
+        if nav is None or project is None:
+            return 0
+        if self._proxy_label == nav.label:
+            self.cancel_proxies()
+        self._proxies_deleted.add(nav.label)
+        if self.source is not None:
+            self.source.detach_proxies()
+        try:
+            freed = video_project.delete_proxies(project, nav.label)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+            return 0
+        self._show_proxy_status()
+        self.window.show_message("info", f"video {nav.label}: " + (
+            f"seek proxies deleted ({freed / 2**20:.1f} MiB freed); seeks decode the original" if freed
+            else "it has no seek proxies"))
+        return freed
+
+    def _show_proxy_status(self) -> None:
+        d, nav = self.dock_widget, self.navigator
+        building = self._proxy_worker is not None and nav is not None and self._proxy_label == nav.label
+        if nav is None or self.source is None:
+            text = ""
+        elif building:
+            text = f"proxy {100 * self._proxy_progress:.0f} %"
+        elif self.source.has_proxies:
+            text = "proxy ✓"
+        else:
+            text = ""
+        d.proxy_status.setText(text)
+        d.proxy.setText("Cancel pro&xy" if building else "Seek pro&xy")
+        d.cancel_proxy_action.setEnabled(building)
+        d.build_proxy_action.setEnabled(not building)
+
+    def shutdown(self) -> None:
+        """Before the window closes: stop the proxy build and wait for its thread (it stops within a frame)."""
+        self.cancel_proxies()
+        self.proxy_pool.waitForDone(10000)
+
+    def focus_goto(self) -> None:
+        """Ctrl+G: type a frame, seconds or a time code into the go-to field."""
+        if self.navigator is not None:
+            self.dock_widget.goto.setFocus(QtCore.Qt.FocusReason.ShortcutFocusReason)
+            self.dock_widget.goto.selectAll()
 
     def go_to_object(self, object_id: int) -> None:
         project = self.window.workspace.project
@@ -558,3 +723,12 @@ class VideoController(QtCore.QObject):
         else:
             return False
         return True
+
+
+def _lower_thread_priority(niceness: int) -> None:
+    """Run the calling thread (and the threads it starts) at ``niceness`` (Linux: ``setpriority`` on a
+    thread id affects that thread only); where that cannot be done, the work runs as it is."""
+    try:
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), niceness)
+    except (AttributeError, OSError):
+        pass

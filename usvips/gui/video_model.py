@@ -18,6 +18,7 @@ import numpy as np
 from usvips.app.video_project import open_streams, partner_frame
 from usvips.core.errors import InvalidParameterError
 from usvips.gui.signals import Signal
+from usvips.io import video_proxy
 from usvips.io.video_stream import PairReader, Picture
 from usvips.store.interface import ProjectStore
 
@@ -208,6 +209,36 @@ class FrameSource:
 
     def pair(self, frame: int, offset: int | None = None) -> tuple[np.ndarray, np.ndarray, int, float]:
         return rgb_pair(self.pictures(frame, offset))
+
+    @property
+    def has_proxies(self) -> bool:
+        """Whether both cameras seek through seek proxies."""
+        return self.left.has_proxy and self.right.has_proxy
+
+    def proxy_plan(self, folder) -> list[tuple[tuple, object]]:
+        """(a camera's files, its proxy path) for each camera without a fresh proxy in ``folder`` (reads
+        the proxies' stamps only: the recordings are indexed already)."""
+        plan = []
+        for stream in (self.left, self.right):
+            state = video_proxy.proxy_state(folder, stream)
+            if state.state != "fresh":
+                plan.append((stream.paths, state.path))
+        return plan
+
+    def attach_proxies(self, folder) -> bool:
+        """Seek through the fresh proxies in ``folder`` from the next request on (waits for a decode
+        running); returns whether both cameras now have one."""
+        with self._lock:
+            for stream in (self.left, self.right):
+                if not stream.has_proxy:
+                    video_proxy.attach_proxy(stream, folder)
+            return self.has_proxies
+
+    def detach_proxies(self) -> None:
+        """Seek in the originals again (before the proxies are deleted)."""
+        with self._lock:
+            for stream in (self.left, self.right):
+                stream.detach_proxy()
 
     def close(self) -> None:
         with self._lock:
