@@ -70,6 +70,37 @@ def test_seeks_that_skip_unneeded_b_frames_stay_frame_exact(tmp_path, codec, suf
     assert pts != sorted(pts)
 
 
+def _encode_plainly(path, encoder: str, count: int, gop: int, bframes: int) -> None:
+    """Numbered frames straight through PyAV, into containers our writer does not offer (MPEG-TS/PS)."""
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream(encoder, rate=25)
+        stream.width, stream.height, stream.pix_fmt = WIDTH, HEIGHT, "yuv420p"
+        stream.options = {"g": str(gop), "bf": str(bframes)}
+        for i in range(count):
+            for packet in stream.encode(av.VideoFrame.from_ndarray(numbered(i), format="rgb24")):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+
+
+@pytest.mark.parametrize("encoder, suffix", [("libx264", ".ts"), ("mpeg2video", ".ts"), ("mpeg2video", ".mpg"),
+                                             ("libx264", ".mkv")])
+def test_seeks_in_byte_seeked_containers_stay_frame_exact(tmp_path, encoder, suffix):
+    """MPEG transport and program streams have no index: FFmpeg seeks them by byte position and lands just
+    after the key frame asked for, where the decoder cannot make the target (and AV1's decoders mark
+    frames a skipping seek loses). The stream notices that the key frame never came, seeks one key frame
+    earlier from then on, and still returns every frame asked for; an indexed file keeps its fast seeks."""
+    path = tmp_path / f"numbered{suffix}"
+    _encode_plainly(path, encoder, 90, gop=15, bframes=2)
+    rng = np.random.default_rng(len(encoder) + len(suffix))
+    with VideoStream(path) as video:
+        assert video.frame_count == 90
+        order = [int(i) for i in rng.integers(0, 90, 40)] + [0, 1, 2, 89, 88, 15, 14, 16, 30, 3]
+        for index in order:
+            assert number_of(video.frame(index)) == index
+        assert (video._keys_back > 0) == (suffix != ".mkv")
+
+
 def test_opencv_written_motion_jpeg_is_read_exactly(tmp_path):
     path = tmp_path / "opencv.avi"
     write_video(path, (numbered(i) for i in range(40)), 10)

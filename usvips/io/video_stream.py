@@ -268,6 +268,8 @@ class VideoStream:
         self._packets = None  # the running demuxer (packets after the last one decoded)
         self._ready: deque = deque()  # frames decoded but not yet returned, in presentation order
         self._position = -1  # index of the last frame the running decoder returned
+        self._keys_back = 0  # key frames a seek starts before the one it needs (see _seek)
+        self._read_from_start = False  # whether the running decoder started at the file's first packet
 
     # ---------------------------------------------------------------------------- numbering
     @property
@@ -324,9 +326,15 @@ class VideoStream:
                       and self._packets is not None)
         if not continuing and self._proxy is not None and behind > self._proxy_after:
             return self._proxy.picture(index)  # the same planes, one intra frame away
-        if not continuing:
-            self._seek(k, local)
-        frame = self._decode_until(chapter, target, index)
+        frame = None
+        while frame is None:
+            if not continuing:
+                self._seek(k, local)
+            frame = self._decode_until(chapter, target, index, int(chapter.pts[keys[-1]]) if keys.size else target,
+                                       continuing)
+            if frame is None:  # the seek landed after the key frame the target needs: start earlier
+                self._seek_unreliable()
+                continuing = False
         self._position = index
         return Picture(frame)
 
@@ -373,11 +381,35 @@ class VideoStream:
         self._packets = self._container.demux(stream)
         self._ready.clear()
         self._position = -1
+        self._read_from_start = False
 
     def _seek(self, k: int, local: int) -> None:
+        """Position the decoder before frame ``local`` of chapter ``k``: at the key frame it needs, or
+        :attr:`_keys_back` key frames earlier where this file's seeks proved imprecise (MPEG-PS/TS are
+        seeked by byte position and land just after the key frame asked for); at key frame 0 the file is
+        read from its start, which needs no seek at all."""
         self._open_chapter(k)
         keys = np.flatnonzero(self.chapters[k].keyframe[: local + 1])
-        self._start_at(k, int(keys[-1]) if keys.size else 0)
+        chosen = len(keys) - 1 - self._keys_back
+        if chosen < 0 or (chosen == 0 and self._keys_back > 0):
+            self._start_from_beginning(k)
+        else:
+            self._start_at(k, int(keys[chosen]) if keys.size else 0)
+
+    def _start_from_beginning(self, k: int) -> None:
+        """Read chapter ``k`` from the first packet of its file: reopened, no seek."""
+        self._close_container()
+        self._open_chapter(k)
+        self._packets = self._container.demux(self._container.streams.video[0])
+        self._ready.clear()
+        self._position = -1
+        self._read_from_start = True
+
+    def _seek_unreliable(self) -> None:
+        """A seek or the skipping of non-reference frames lost a frame the target needs: from now on this
+        file is seeked one more key frame back and decoded without skipping (exact, a little slower)."""
+        self._keys_back += 1
+        self.skip_unneeded = False
 
     def _next_frames(self, target: int) -> bool:
         """Decode the next packet into ``_ready``; False at the end of the file. Packets shown before
@@ -397,29 +429,32 @@ class VideoStream:
         self._ready.extend(context.decode(packet))
         return True
 
-    def _decode_until(self, chapter: Chapter, target: int, index: int):
-        for attempt in range(2):
-            try:
-                while True:
-                    if not self._ready and not self._next_frames(target):
-                        break
-                    if not self._ready:
-                        continue
-                    frame = self._ready.popleft()
-                    timestamp = frame.pts if frame.pts is not None else frame.dts
-                    if timestamp is None or timestamp < target:
-                        continue
-                    if timestamp == target:
-                        return frame
-                    break  # overshot: the seek landed after the key frame we need
-            except av.error.FFmpegError as error:
-                raise InputFileError(str(chapter.path), f"frame {index} cannot be decoded: {error}") from None
-            if attempt == 0:
-                # start from the beginning of the chapter: slow, but exact
-                self._open_chapter(self._chapter)
-                self._start_at(self._chapter, 0)
-        raise InputFileError(str(chapter.path), f"frame {index} (pts {target}) is in the file's index but the "
-                             "decoder never returns it: the file is damaged")
+    def _decode_until(self, chapter: Chapter, target: int, index: int, key: int, continuing: bool):
+        """The decoded frame with timestamp ``target``, or None when the decoder cannot have decoded it
+        from all its references: the key frame it needs (timestamp ``key``) was not among the frames this
+        run of the decoder returned (a seek that landed after it), or the target never came."""
+        seen_key = continuing  # a running decoder already passed its key frame
+        try:
+            while True:
+                if not self._ready and not self._next_frames(target):
+                    break
+                if not self._ready:
+                    continue
+                frame = self._ready.popleft()
+                timestamp = frame.pts if frame.pts is not None else frame.dts
+                if timestamp is not None and timestamp == key:
+                    seen_key = True
+                if timestamp is None or timestamp < target:
+                    continue
+                if timestamp == target and seen_key:
+                    return frame
+                break  # overshot, or the target came without its key frame
+        except av.error.FFmpegError as error:
+            raise InputFileError(str(chapter.path), f"frame {index} cannot be decoded: {error}") from None
+        if self._read_from_start and not self.skip_unneeded:
+            raise InputFileError(str(chapter.path), f"frame {index} (pts {target}) is in the file's index but the "
+                                 "decoder never returns it, even reading from the start: the file is damaged")
+        return None
 
     def scan_pictures(self, progress=None) -> StreamReport:
         """Decode every frame once (as a 64 × 48 grey thumbnail) and add the frames whose picture repeats
