@@ -39,7 +39,8 @@ def test_the_normal_matrix_by_blocks_is_the_dense_product():
         dense = jac.T @ np.diag(weights) @ jac
         assert np.allclose(fast, dense, rtol=1e-12, atol=1e-12 * np.abs(dense).max())
         with batch_mode.reference():
-            assert np.array_equal(normal_equations.weighted_gram(jac, weights, pattern), jac.T @ (jac * weights[:, None]))
+            reference = normal_equations.weighted_gram(jac, weights, pattern)
+        assert np.array_equal(reference, jac.T @ (jac * weights[:, None]))
 
 
 def test_leverages_are_the_hat_matrix_diagonal():
