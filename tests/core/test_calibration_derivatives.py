@@ -141,3 +141,26 @@ def test_adjustments_through_the_block_derivatives_give_the_reference_numbers(ki
             assert abs(p.value - slow.value(p.name)) < 1e-3 * sigma, p.name
             assert fast.sigmas[p.name] == pytest.approx(sigma, rel=1e-3), p.name
         assert fast.sigma0 == pytest.approx(slow.sigma0, rel=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["flat-port", "dome-cover"])
+def test_housing_columns_traced_per_side_match_the_per_block_reference(kind):
+    from usvips.core import batch_mode
+
+    rng = np.random.default_rng({"flat-port": 31, "dome-cover": 32}[kind])
+    compared = 0
+    for _ in range(4):
+        model, truth = _scene(rng, kind, stations=int(rng.integers(1, 4)))
+        computed, ok = model.evaluate(truth)
+        assert ok.all()
+        fast = stereo_derivatives(model, truth, computed, frozenset(truth))
+        with batch_mode.reference():
+            reference = stereo_derivatives(model, truth, computed, frozenset(truth))
+        assert set(fast) == set(reference)
+        for name in housing_parameter_names(kind):
+            assert set(fast.get(name, {})) == set(reference.get(name, {})), name
+            for b, column in reference.get(name, {}).items():
+                scale = max(float(np.abs(column).max()), 1e-9)
+                assert np.max(np.abs(fast[name][b] - column)) < 1e-7 * scale, (name, b)
+                compared += 1
+    assert compared > 40

@@ -21,7 +21,11 @@ block. Here one ray trace with forward-mode derivatives per block gives every co
   distance s along it. The point is then reached by the pixel that moved by −(∂pixel/∂P)·(∂o/∂h + s ∂d/∂h).
   ∂o/∂h and ∂d/∂h are central differences of the forward trace of the block's pixels through the housing
   rebuilt at h ± step (closed-form refractions, no back-projection; error ~1e-10 relative). Only the free
-  parameters that change this camera's housing get a column.
+  parameters that change this camera's housing get a column. The housing sits in the camera frame and
+  the interior is the camera's at every station, so each side's pixels of all stations are traced in one
+  batch per shifted housing from their ideal directions (u, v, −1), and each block's ray motion is turned
+  into the object frame by its own rotation (:func:`side_housing_columns`; the per-block traces of
+  :func:`housing_columns` are the reference path, under :func:`usvips.core.batch_mode.reference`).
 
 Under System I's shared cover plane the first station's poses also move the right camera's housing; those
 right-camera columns keep the reference path's differences: the solver differentiates what this returns
@@ -34,6 +38,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from usvips.core.batch_mode import using_reference
 from usvips.core.errors import UsvipsError
 from usvips.core.interior import INTERIOR_PARAMETERS
 from usvips.core.intersection import pixel_jacobian
@@ -179,6 +184,7 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
     first = model.stations[0]
     shared_plane = model.housing_kind.right_follows_rig  # the right housing moves with the rig (a shared cover)
     cameras: dict[str, tuple] = {}
+    batched: dict[int, list[tuple]] = {0: [], 1: []}  # per side: the blocks whose housing columns are due
     for b, (station, side) in enumerate(model.block_keys):
         rows = model.blocks[b]
         pixels = computed[rows].reshape(-1, 2)
@@ -210,9 +216,52 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
             out.setdefault(name, {})[b] = column
         if housing_names:
             index = 0 if side == "l" else 1
-            columns = housing_columns(housings, housing_names, index, camera, pixels, a0, a1, along)
-            for name, column in columns.items():
-                out.setdefault(name, {})[b] = column
+            if using_reference():
+                columns = housing_columns(housings, housing_names, index, camera, pixels, a0, a1, along)
+                for name, column in columns.items():
+                    out.setdefault(name, {})[b] = column
+            else:
+                batched[index].append((b, camera, uv, a0, a1, along))
+    for index, blocks in batched.items():
+        if blocks:
+            for name, columns in side_housing_columns(housings, housing_names, index, blocks).items():
+                out.setdefault(name, {}).update(columns)
+    return out
+
+
+def side_housing_columns(housings: dict, names: list[str], index: int, blocks: list[tuple]
+                         ) -> dict[str, dict[int, np.ndarray]]:
+    """:func:`housing_columns` of every block of one side (``index`` 0 left, 1 right) at once: ``blocks``
+    holds (block, camera, ideal normalised coordinates uv (N, 2), pixel Jacobian rows a0, a1 (N, 3), the
+    points' distances along their rays (N,), metres). One trace of all their rays (camera frame) per
+    shifted housing; a block with a ray that fails in a shifted housing gets no column (the reference
+    path's differences serve). Returns {parameter: {block: column}}."""
+    base = housings[None][index]
+    uv = np.vstack([entry[2] for entry in blocks])
+    directions = np.column_stack([uv, -np.ones(len(uv))])
+    origins = np.zeros_like(directions)
+    ends = np.cumsum([0] + [len(entry[2]) for entry in blocks])
+    out: dict[str, dict[int, np.ndarray]] = {}
+    for name in names:
+        ahead, behind = housings[(name, 1)][index], housings[(name, -1)][index]
+        if _same(ahead, base) and _same(behind, base):
+            continue
+        try:
+            plus, minus = ahead.trace(origins, directions), behind.trace(origins, directions)
+        except UsvipsError:
+            continue
+        fine = (plus.status == RayStatus.OK) & (minus.status == RayStatus.OK)
+        shift_o, shift_d = plus.origins - minus.origins, plus.directions - minus.directions
+        for k, (b, camera, _, a0, a1, along) in enumerate(blocks):
+            rows = slice(ends[k], ends[k + 1])
+            if not fine[rows].all():
+                continue
+            # the ray's motion in the camera frame, turned into the object frame (vectors: rows @ M)
+            moved = ((shift_o[rows] + along[:, None] * shift_d[rows]) / (2 * HOUSING_STEP)) @ camera.exterior.rotation
+            column = np.empty(2 * len(along))
+            column[0::2] = -(a0 * moved).sum(axis=1)
+            column[1::2] = -(a1 * moved).sum(axis=1)
+            out.setdefault(name, {})[b] = column
     return out
 
 
