@@ -216,7 +216,7 @@ def _structured_jacobian(problem: Problem, values: dict[str, float], free: list[
     Where the step leaves the valid region (a ray about to miss a surface), the step is taken backwards.
     """
     n_obs = len(problem.observations)
-    jac = np.zeros((n_obs, len(free)))
+    jac = np.zeros((n_obs, len(free)), order="F")  # column-major: each column is written in one piece
     all_blocks = list(range(len(problem.blocks)))
     exact = problem.analytic(values, base) if problem.analytic is not None else {}
     rows = [normal_equations._as_rows(block) for block in problem.blocks]

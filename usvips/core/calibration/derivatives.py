@@ -87,8 +87,14 @@ def _interleave(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
 ANGLES = ("omega", "phi", "kappa")
 
 
-def _rotation_and_derivatives(values: dict[str, float], suffix: str) -> tuple[np.ndarray, list[np.ndarray]]:
-    """M(omega, phi, kappa) of the named camera and ∂M/∂angle for each angle (central differences)."""
+def _rotation_and_derivatives(values: dict[str, float], suffix: str, cache: dict | None = None
+                              ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """M(omega, phi, kappa) of the named camera and ∂M/∂angle for each angle (central differences);
+    ``cache`` (suffix → result) keeps them for the other blocks of one Jacobian."""
+    if cache is not None:
+        if suffix not in cache:
+            cache[suffix] = _rotation_and_derivatives(values, suffix)
+        return cache[suffix]
     angles = [values[f"{a}{suffix}"] for a in ANGLES]
     derivatives = []
     for k in range(3):
@@ -103,24 +109,24 @@ def _centre(values: dict[str, float], suffix: str) -> np.ndarray:
     return np.array([values[f"{p}{suffix}"] for p in ("X0", "Y0", "Z0")])
 
 
-def pose_derivatives(values: dict[str, float], station: str, side: str, first: str
+def pose_derivatives(values: dict[str, float], station: str, side: str, first: str, cache: dict | None = None
                      ) -> tuple[np.ndarray, np.ndarray, dict[str, tuple[np.ndarray, np.ndarray]]]:
     """The camera's rotation M and centre C at ``station`` and ``{parameter: (∂M/∂θ, ∂C/∂θ)}`` for every
     parameter of its pose. The first station's cameras have their own parameters; a further station's
     left camera has ``…_l@station``; the right camera there follows the rig (as
     :func:`usvips.core.rig.right_exterior` composes it):
-    M = M_r0 M_l0ᵀ M_ls, C = C_ls + M_lsᵀ M_l0 (C_r0 − C_l0)."""
+    M = M_r0 M_l0ᵀ M_ls, C = C_ls + M_lsᵀ M_l0 (C_r0 − C_l0). ``cache``: see :func:`_rotation_and_derivatives`."""
     unit = np.eye(3)
     zero_m, zero_c = np.zeros((3, 3)), np.zeros(3)
     own = f"_{side}" if station == first else f"_l@{station}"
-    m_own, d_own = _rotation_and_derivatives(values, own)
+    m_own, d_own = _rotation_and_derivatives(values, own, cache)
     c_own = _centre(values, own)
     if station == first or side == "l":
         columns = {f"{p}{own}": (zero_m, unit[k]) for k, p in enumerate(("X0", "Y0", "Z0"))}
         columns.update({f"{a}{own}": (d_own[k], zero_c) for k, a in enumerate(ANGLES)})
         return m_own, c_own, columns
-    m_l0, d_l0 = _rotation_and_derivatives(values, "_l")
-    m_r0, d_r0 = _rotation_and_derivatives(values, "_r")
+    m_l0, d_l0 = _rotation_and_derivatives(values, "_l", cache)
+    m_r0, d_r0 = _rotation_and_derivatives(values, "_r", cache)
     c_l0, c_r0 = _centre(values, "_l"), _centre(values, "_r")
     gap = c_r0 - c_l0
     base = m_l0 @ gap
@@ -184,6 +190,7 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
     first = model.stations[0]
     shared_plane = model.housing_kind.right_follows_rig  # the right housing moves with the rig (a shared cover)
     cameras: dict[str, tuple] = {}
+    rotations: dict = {}  # each camera's M and ∂M/∂angle, once per Jacobian
     batched: dict[int, list[tuple]] = {0: [], 1: []}  # per side: the blocks whose housing columns are due
     for b, (station, side) in enumerate(model.block_keys):
         rows = model.blocks[b]
@@ -208,7 +215,7 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
         a0, a1, valid = pixel_jacobian(bundle.directions, d_origin, d_direction, along)
         if not valid.all():
             continue
-        m, c, derivatives = pose_derivatives(values, station, side, first)
+        m, c, derivatives = pose_derivatives(values, station, side, first, rotations)
         if shared_plane and side == "r":
             # the right housing follows the relative orientation: the first station's poses move it too
             derivatives = {n: d for n, d in derivatives.items() if "@" in n}

@@ -213,8 +213,13 @@ class StereoModel:
                 depends[name] = [blocks_of[(station, "l")], blocks_of[(station, "r")]]
             elif base in {f"{p}_l" for p in EXTERIOR_PARAMETERS}:
                 # the first station's left pose places the left camera there and, through the relative
-                # orientation, every right camera (and, for a shared cover plane, every right housing)
-                depends[name] = sorted({blocks_of[(first, "l")], *right_blocks})
+                # orientation, every right camera (and, for a shared cover plane, every right housing);
+                # the first station's right camera has its own pose, so only a right housing that follows
+                # the rig makes it depend on the left one's
+                moved = {blocks_of[(first, "l")], *right_blocks}
+                if not self.housing_kind.right_follows_rig:
+                    moved.discard(blocks_of[(first, "r")])
+                depends[name] = sorted(moved)
             elif base in {f"{p}_r" for p in EXTERIOR_PARAMETERS}:
                 depends[name] = right_blocks
             else:
