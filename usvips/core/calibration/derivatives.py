@@ -191,6 +191,7 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
     shared_plane = model.housing_kind.right_follows_rig  # the right housing moves with the rig (a shared cover)
     cameras: dict[str, tuple] = {}
     rotations: dict = {}  # each camera's M and ∂M/∂angle, once per Jacobian
+    shared: dict = {}  # the housings and the relative orientation, once for every station
     batched: dict[int, list[tuple]] = {0: [], 1: []}  # per side: the blocks whose housing columns are due
     for b, (station, side) in enumerate(model.block_keys):
         rows = model.blocks[b]
@@ -199,7 +200,7 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
             continue
         try:
             if station not in cameras:
-                cameras[station] = model.cameras(values, station, bounded=False)
+                cameras[station] = model.cameras(values, station, bounded=False, shared=shared)
             camera = cameras[station][0 if side == "l" else 1]
             uv = camera.interior.pixels_to_normalised(pixels)
             bundle, d_origin, d_direction = camera.rays_with_derivatives(pixels)
