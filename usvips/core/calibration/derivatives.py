@@ -27,9 +27,12 @@ block. Here one ray trace with forward-mode derivatives per block gives every co
   into the object frame by its own rotation (:func:`side_housing_columns`; the per-block traces of
   :func:`housing_columns` are the reference path, under :func:`usvips.core.batch_mode.reference`).
 
-Under System I's shared cover plane the first station's poses also move the right camera's housing; those
-right-camera columns keep the reference path's differences: the solver differentiates what this returns
-no column for. Units: pixels per parameter unit (metres, radians, pixels, dimensionless).
+Under System I's shared cover plane the first station's poses also move the right camera's housing (it
+follows the rig's relative orientation): those right-camera columns are the camera's motion (as above)
+plus the housing's, formed as the housing columns are, with the housings rebuilt at each pose parameter
+± step. A block or column this cannot give (a ray failing, a step leaving the valid region) is left to the
+reference path's differences: the solver differentiates what this returns no column for. Units: pixels
+per parameter unit (metres, radians, pixels, dimensionless).
 """
 
 from __future__ import annotations
@@ -189,6 +192,7 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
     out: Columns = {}
     first = model.stations[0]
     shared_plane = model.housing_kind.right_follows_rig  # the right housing moves with the rig (a shared cover)
+    following: list[tuple] = []  # right blocks whose first-station pose columns await their housing term
     cameras: dict[str, tuple] = {}
     rotations: dict = {}  # each camera's M and ∂M/∂angle, once per Jacobian
     shared: dict = {}  # the housings and the relative orientation, once for every station
@@ -218,8 +222,12 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
             continue
         m, c, derivatives = pose_derivatives(values, station, side, first, rotations)
         if shared_plane and side == "r":
-            # the right housing follows the relative orientation: the first station's poses move it too
+            # the right housing follows the relative orientation: the first station's poses move it too;
+            # their columns get that housing term added below (or are left to the reference path)
+            moving = {n: d for n, d in derivatives.items() if "@" not in n}
             derivatives = {n: d for n, d in derivatives.items() if "@" in n}
+            if moving:
+                following.append(((b, camera, uv, a0, a1, along), pose_columns(m, c, moving, a0, a1, points), pixels))
         for name, column in pose_columns(m, c, derivatives, a0, a1, points).items():
             out.setdefault(name, {})[b] = column
         if housing_names:
@@ -234,7 +242,41 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
         if blocks:
             for name, columns in side_housing_columns(housings, housing_names, index, blocks).items():
                 out.setdefault(name, {}).update(columns)
+    rig_housings, rig_names = _rig_housings(model, values) if following else ({}, [])
+    if rig_names:
+        if using_reference():  # each block's own traces
+            terms: dict[str, dict[int, np.ndarray]] = {}
+            for (b, camera, _, a0, a1, along), _, pixels in following:
+                for name, column in housing_columns(rig_housings, rig_names, 1, camera, pixels, a0, a1, along).items():
+                    terms.setdefault(name, {})[b] = column
+        else:
+            terms = side_housing_columns(rig_housings, rig_names, 1, [entry for entry, _, _ in following])
+        for entry, motion, _ in following:
+            b = entry[0]
+            for name, column in motion.items():
+                if b in terms.get(name, {}):  # the camera's motion plus its housing's
+                    out.setdefault(name, {})[b] = column + terms[name][b]
     return out
+
+
+def _rig_housings(model, values: dict[str, float]) -> tuple[dict, list[str]]:
+    """The housings rebuilt with each first-station pose parameter at ± :data:`HOUSING_STEP` (metres,
+    radians), for a kind whose right housing follows the rig's relative orientation: keyed like
+    :func:`housing_columns`' ``housings``, and the parameter names. ({}, []) when a step leaves the
+    valid region (the reference path's differences then serve)."""
+    from usvips.core.calibration.model import build_housings
+
+    names = [f"{p}_{side}" for side in ("l", "r") for p in ("X0", "Y0", "Z0", *ANGLES)]
+    try:
+        built = {None: build_housings(model.kind, values)}
+        for name in names:
+            for sign in (1, -1):
+                shifted = dict(values)
+                shifted[name] += sign * HOUSING_STEP
+                built[(name, sign)] = build_housings(model.kind, shifted)
+    except UsvipsError:
+        return {}, []
+    return built, names
 
 
 def side_housing_columns(housings: dict, names: list[str], index: int, blocks: list[tuple]
