@@ -219,7 +219,7 @@ def _structured_jacobian(problem: Problem, values: dict[str, float], free: list[
     jac = np.zeros((n_obs, len(free)), order="F")  # column-major: each column is written in one piece
     all_blocks = list(range(len(problem.blocks)))
     exact = problem.analytic(values, base) if problem.analytic is not None else {}
-    rows = [normal_equations._as_rows(block) for block in problem.blocks]
+    rows = [normal_equations.as_rows(block) for block in problem.blocks]
     columns: list[list[int]] = [[] for _ in problem.blocks]
     for j, parameter in enumerate(free):
         blocks = problem.depends.get(parameter.name, all_blocks)

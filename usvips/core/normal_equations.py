@@ -33,12 +33,12 @@ class Pattern:
     columns that may be non-zero in its rows. Every entry outside these (block, columns) pairs is zero."""
 
     def __init__(self, blocks: Sequence[np.ndarray], columns: Sequence[np.ndarray], width: int) -> None:
-        self.blocks = [_as_rows(b) for b in blocks]
+        self.blocks = [as_rows(b) for b in blocks]
         self.columns = [np.asarray(c, dtype=int) for c in columns]
         self.width = int(width)
 
 
-def _as_rows(rows: np.ndarray) -> slice | np.ndarray:
+def as_rows(rows: np.ndarray) -> slice | np.ndarray:
     """A slice for a contiguous ascending run of row indices (a view, no copy), else the index array."""
     rows = np.asarray(rows, dtype=int)
     if rows.size and rows[-1] - rows[0] == rows.size - 1 and np.all(np.diff(rows) == 1):
