@@ -5,9 +5,11 @@ A problem is a residual function of named parameters. Each parameter is ``free``
 coordinates with a-priori standard deviations; residuals are observed − computed, in pixels.
 
 The solver is Levenberg–Marquardt on the dense normal equations with column equilibration, a
-Jacobian by central differences evaluated group-wise (a parameter perturbs only the observations that
-depend on it), a robust start (iteratively reweighted least squares with Huber weights) so that one
-gross error cannot drag the solution, and iterated data snooping (Baarda's w-test) afterwards.
+Jacobian of the problem's exact block columns (``Problem.analytic``) or forward differences evaluated
+group-wise (a parameter perturbs only the observations that depend on it), a robust start (iteratively
+reweighted least squares with Huber weights) so that one gross error cannot drag the solution, and
+iterated data snooping (Baarda's w-test) afterwards. The Jacobian records which columns each observation
+block can touch, and the normal matrix is summed block by block over those (:mod:`normal_equations`).
 
 Statistics follow the textbook (Mikhail & Ackermann 1976; Baarda 1968; Förstner):
 sigma0² = vᵀPv / r with redundancy r = n_obs + n_prior − n_free; Qxx = N⁻¹; parameter sigma =
