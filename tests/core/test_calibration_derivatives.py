@@ -95,9 +95,9 @@ def test_block_derivatives_match_central_differences_over_random_rigs(kind):
                 assert np.max(np.abs(column - reference)) < 1e-5 * scale, (name, b)
                 checked += 1
         # a right camera at a further station follows the rig: its block has columns for the first
-        # station's poses (except under System I's shared cover plane, which moves with them)
+        # station's poses (under System I's shared cover plane with the housing's motion added)
         right_further = [b for b, (st, side) in enumerate(model.block_keys) if side == "r" and st != model.stations[0]]
-        assert all((right_further[0] in exact.get("omega_l", {})) == (kind != "dome-cover") for _ in [0])
+        assert right_further[0] in exact.get("omega_l", {})
     assert checked > 100
 
 
@@ -141,3 +141,63 @@ def test_adjustments_through_the_block_derivatives_give_the_reference_numbers(ki
             assert abs(p.value - slow.value(p.name)) < 1e-3 * sigma, p.name
             assert fast.sigmas[p.name] == pytest.approx(sigma, rel=1e-3), p.name
         assert fast.sigma0 == pytest.approx(slow.sigma0, rel=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["flat-port", "dome-cover"])
+def test_housing_columns_traced_per_side_match_the_per_block_reference(kind):
+    from usvips.core import batch_mode
+
+    rng = np.random.default_rng({"flat-port": 31, "dome-cover": 32}[kind])
+    compared = 0
+    for _ in range(4):
+        model, truth = _scene(rng, kind, stations=int(rng.integers(1, 4)))
+        computed, ok = model.evaluate(truth)
+        assert ok.all()
+        fast = stereo_derivatives(model, truth, computed, frozenset(truth))
+        with batch_mode.reference():
+            reference = stereo_derivatives(model, truth, computed, frozenset(truth))
+        assert set(fast) == set(reference)
+        for name in housing_parameter_names(kind):
+            assert set(fast.get(name, {})) == set(reference.get(name, {})), name
+            for b, column in reference.get(name, {}).items():
+                scale = max(float(np.abs(column).max()), 1e-9)
+                assert np.max(np.abs(fast[name][b] - column)) < 1e-7 * scale, (name, b)
+                compared += 1
+    assert compared > 40
+
+
+def test_system_one_adjustments_with_the_right_cameras_exact_columns_give_the_reference_numbers():
+    """System I's right camera follows the rig with its housing: its first-station pose columns (camera
+    motion plus housing motion) against the reference path (forward differences for them)."""
+    rng = np.random.default_rng(13)
+    for _ in range(3):
+        model, truth = _scene(rng, "dome-cover", stations=int(rng.integers(1, 4)), points=36)
+        start_rng = np.random.default_rng(int(rng.integers(1 << 30)))
+        start = []
+        for name, value in truth.items():
+            symbol = _symbol(name)
+            if name in {"t", "n2", "k3_l", "k3_r", "t_r"}:
+                start.append(Parameter(name, value, "fixed"))
+            elif symbol in {"a", "b", "c", "r", "d", "e", "n3", "k2", "p1", "p2"}:
+                start.append(Parameter(name, value, "prior", value, 0.01 if symbol in "abcrden3" else 1e-3))
+            else:
+                shift = {"f": 2.0, "xp": 1.0, "yp": 1.0, "X0": 2e-3, "Y0": 2e-3, "Z0": 2e-3, "omega": 1e-3,
+                         "phi": 1e-3, "kappa": 1e-3}.get(symbol, 0.0)
+                start.append(Parameter(name, value + shift * start_rng.normal(), "free"))
+        runs = []
+        for reference in (False, True):
+            problem = StereoModel("dome-cover", model.control, model.observations, 0.3).problem(
+                [Parameter(p.name, p.value, p.status, p.prior, p.sigma) for p in start])
+            if reference:
+                problem.analytic = problem.analytic and model.exterior_derivatives
+            # converged a thousand times closer than by default: on a single System I station the default
+            # criterion lets the reference path stop up to 0.1 sigma short along the weak housing valley
+            runs.append(adjust(problem, robust=False, snooping=False, tolerance=1e-5))
+        fast, slow = runs
+        assert fast.converged and slow.converged
+        # the reference's forward differences through the dome's iterative back-projection err by ~1e-4
+        # of a column, which moves its stationary point by ~1e-3 sigma (measured: up to 1.2e-3)
+        for name, sigma in slow.sigmas.items():
+            assert abs(fast.value(name) - slow.value(name)) < 5e-3 * sigma, name
+            assert fast.sigmas[name] == pytest.approx(sigma, rel=1e-3), name
+        assert fast.sigma0 == pytest.approx(slow.sigma0, rel=1e-5)

@@ -52,3 +52,29 @@ def test_coplanar_or_too_few_points_are_refused():
         dlt(points, pixels)
     with pytest.raises(DegenerateGeometryError, match="at least 6"):
         dlt(_frame(5), pixels[:5])
+
+
+def test_robust_dlt_trials_as_one_stack_give_the_trial_loops_result():
+    from usvips.core import batch_mode
+
+    rng = np.random.default_rng(7)
+    for case in range(12):
+        n = int(rng.integers(13, 400))
+        points = _frame(n, seed=100 + case)
+        if case % 4 == 0:  # a flat frame with few points off it: many subsets fail the spread check
+            points[: n - 8, 2] = 0.0
+        camera = Camera(Interior(f=rng.uniform(600, 1200), xp=rng.uniform(280, 340), yp=rng.uniform(220, 260),
+                                 sy=rng.uniform(0.9, 1.1)),
+                        Exterior(rng.uniform(0.5, 0.9), rng.uniform(0.5, 0.9), rng.uniform(2.2, 3.0),
+                                 *rng.normal(0, 0.08, 3)))
+        pixels = camera.project(points).require_ok().pixels + rng.normal(0, 0.3, (n, 2))
+        gross = rng.choice(n, max(1, n // 10), replace=False)
+        offsets = rng.normal(0, 60, (gross.size, 2))
+        pixels[gross] += offsets  # a tenth of the pixels gross errors
+        fast = robust_dlt(points, pixels, seed=case)
+        with batch_mode.reference():
+            loop = robust_dlt(points, pixels, seed=case)
+        assert np.array_equal(fast.inliers, loop.inliers)
+        np.testing.assert_allclose(fast.matrix, loop.matrix, rtol=1e-9, atol=1e-12)
+        assert fast.f == pytest.approx(loop.f, rel=1e-9)
+        assert not fast.inliers[gross[np.linalg.norm(offsets, axis=1) > 20]].any()

@@ -5,9 +5,11 @@ A problem is a residual function of named parameters. Each parameter is ``free``
 coordinates with a-priori standard deviations; residuals are observed − computed, in pixels.
 
 The solver is Levenberg–Marquardt on the dense normal equations with column equilibration, a
-Jacobian by central differences evaluated group-wise (a parameter perturbs only the observations that
-depend on it), a robust start (iteratively reweighted least squares with Huber weights) so that one
-gross error cannot drag the solution, and iterated data snooping (Baarda's w-test) afterwards.
+Jacobian of the problem's exact block columns (``Problem.analytic``) or forward differences evaluated
+group-wise (a parameter perturbs only the observations that depend on it), a robust start (iteratively
+reweighted least squares with Huber weights) so that one gross error cannot drag the solution, and
+iterated data snooping (Baarda's w-test) afterwards. The Jacobian records which columns each observation
+block can touch, and the normal matrix is summed block by block over those (:mod:`normal_equations`).
 
 Statistics follow the textbook (Mikhail & Ackermann 1976; Baarda 1968; Förstner):
 sigma0² = vᵀPv / r with redundancy r = n_obs + n_prior − n_free; Qxx = N⁻¹; parameter sigma =
@@ -26,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usvips.core import normal_equations
 from usvips.core.batch_mode import batch_computation
 from usvips.core.errors import ConvergenceError, DegenerateGeometryError, InvalidParameterError
 
@@ -125,7 +128,8 @@ class Problem:
     evaluate: Callable[[dict[str, float], Sequence[int] | None], tuple[np.ndarray, np.ndarray]]
     blocks: list[np.ndarray]
     depends: dict[str, list[int]] = field(default_factory=dict)
-    last_jacobian: tuple[np.ndarray, tuple[float, ...]] | None = None
+    #: the solver's last Jacobian, the free values it was taken at, and where it can be non-zero
+    last_jacobian: tuple[np.ndarray, tuple[float, ...], normal_equations.Pattern] | None = None
     #: optional exact derivatives: (values, computed) -> {parameter: {block: column over that block}}
     analytic: Callable[[dict[str, float], np.ndarray], dict[str, dict[int, np.ndarray]]] | None = None
 
@@ -198,21 +202,34 @@ class Adjustment:
 
 def _jacobian(problem: Problem, values: dict[str, float], free: list[Parameter], base: np.ndarray
               ) -> np.ndarray:
-    """Forward differences with each parameter's own step, evaluating only the blocks that depend on it.
+    """The Jacobian (n_obs × n_free, observation units per parameter unit): see :func:`_structured_jacobian`."""
+    return _structured_jacobian(problem, values, free, base)[0]
+
+
+def _structured_jacobian(problem: Problem, values: dict[str, float], free: list[Parameter], base: np.ndarray
+                         ) -> tuple[np.ndarray, normal_equations.Pattern]:
+    """The Jacobian and its pattern (per observation block, the columns that may be non-zero there).
+
+    The problem's exact columns where it gives them (``analytic``, one call per Jacobian), else
+    forward differences with each parameter's own step, evaluating only the blocks that depend on it.
 
     Steps are chosen per parameter kind (``calibration.model``) so that the change they cause is
     ~1e-4 px: far above the back-projection's 1e-7 px convergence noise, far below the non-linearity.
     Where the step leaves the valid region (a ray about to miss a surface), the step is taken backwards.
     """
     n_obs = len(problem.observations)
-    jac = np.zeros((n_obs, len(free)))
+    jac = np.zeros((n_obs, len(free)), order="F")  # column-major: each column is written in one piece
     all_blocks = list(range(len(problem.blocks)))
     exact = problem.analytic(values, base) if problem.analytic is not None else {}
+    rows = [normal_equations.as_rows(block) for block in problem.blocks]
+    columns: list[list[int]] = [[] for _ in problem.blocks]
     for j, parameter in enumerate(free):
         blocks = problem.depends.get(parameter.name, all_blocks)
         known = exact.get(parameter.name, {})
+        for b in {*blocks, *known}:
+            columns[b].append(j)
         for b, column in known.items():
-            jac[problem.blocks[b], j] = column
+            jac[rows[b], j] = column
         blocks = [b for b in blocks if b not in known]
         if not blocks:
             continue
@@ -230,14 +247,14 @@ def _jacobian(problem: Problem, values: dict[str, float], free: list[Parameter],
             column = np.where(ok_plus, column, (here - minus) / h)
             column[~ok_plus & ~ok_minus] = 0.0
         jac[index, j] = column
-    return jac
+    return jac, normal_equations.Pattern(problem.blocks, [sorted(c) for c in columns], len(free))
 
 
-def _normal_system(jac, residual, weights, free, values):
-    """Weighted normal equations including prior pseudo-observations; returns N, b and vᵀPv."""
-    weighted = jac * weights[:, None]
-    normal = jac.T @ weighted
-    rhs = weighted.T @ residual
+def _normal_system(jac, residual, weights, free, values, pattern=None, data=None):
+    """Weighted normal equations including prior pseudo-observations; returns N, b and vᵀPv. ``data``:
+    the observations' share JᵀWJ when already formed (else formed here, by ``pattern`` when given)."""
+    normal = normal_equations.weighted_gram(jac, weights, pattern) if data is None else data.copy()
+    rhs = jac.T @ (weights * residual)
     cost = float(residual @ (weights * residual))
     for j, parameter in enumerate(free):
         if parameter.status == "prior" and parameter.group is None:
@@ -328,9 +345,9 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
     for iteration in range(1, max_iterations + 1):  # noqa: B007 (the count is returned)
         residual = np.where(used, observed - computed, 0.0)
         weights = np.where(used, weights_of(residual / sigmas) / sigmas**2, 0.0)
-        jac = _jacobian(problem, values, free, computed)
-        problem.last_jacobian = (jac, tuple(values[p.name] for p in free))
-        normal, rhs, cost = _normal_system(jac, residual, weights, free, values)
+        jac, pattern = _structured_jacobian(problem, values, free, computed)
+        problem.last_jacobian = (jac, tuple(values[p.name] for p in free), pattern)
+        normal, rhs, cost = _normal_system(jac, residual, weights, free, values, pattern)
         scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
         scaled = normal / np.outer(scale, scale)
         accepted = None
@@ -407,18 +424,19 @@ def _unit(normalised: np.ndarray) -> np.ndarray:
     return np.ones_like(normalised)
 
 
-def _reusable_jacobian(problem: Problem, values: dict[str, float], free: list[Parameter]) -> np.ndarray | None:
+def _reusable_jacobian(problem: Problem, values: dict[str, float], free: list[Parameter]
+                       ) -> tuple[np.ndarray, normal_equations.Pattern] | None:
     """The solver's last Jacobian if it was taken within a hair (1e-9 relative) of ``values``: after
     convergence the last step is far below the parameters' precision, and the covariance it gives
     differs from a fresh one only in that order."""
     cached = getattr(problem, "last_jacobian", None)
     if cached is None:
         return None
-    jac, at = cached
+    jac, at, pattern = cached
     now = np.array([values[p.name] for p in free])
     if jac.shape[1] != len(free) or not np.allclose(now, at, rtol=1e-9, atol=1e-12):
         return None
-    return jac
+    return jac, pattern
 
 
 def _statistics(problem: Problem, used: np.ndarray) -> dict:
@@ -429,10 +447,10 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
     computed, ok = problem.evaluate(values, None)
     residual = np.where(used, obs.values - computed, 0.0)
     weights = np.where(used, 1.0 / obs.sigmas**2, 0.0)
-    jac = _reusable_jacobian(problem, values, free)
-    if jac is None:
-        jac = _jacobian(problem, values, free, computed)
-    normal, _, cost = _normal_system(jac, residual, weights, free, values)
+    reused = _reusable_jacobian(problem, values, free)
+    jac, pattern = reused if reused is not None else _structured_jacobian(problem, values, free, computed)
+    data = normal_equations.weighted_gram(jac, weights, pattern)  # JᵀWJ of the observations, formed once
+    normal, _, cost = _normal_system(jac, residual, weights, free, values, data=data)
     n_used = int(used.sum())
     n_prior = sum(1 for p in free if p.status == "prior")
     redundancy = n_used + n_prior - len(free)
@@ -454,9 +472,9 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
             + "; fix one of them or give it a prior")
     q_scaled = (vt.T / s_values) @ vt
     qxx = q_scaled / np.outer(scale, scale)
-    variance, observation_cost, observation_redundancy = _variance_component(jac, weights, normal, residual, cost,
+    variance, observation_cost, observation_redundancy = _variance_component(data, normal, residual, weights, cost,
                                                                              redundancy, n_used)
-    qxx = qxx if variance is None else _prior_weighted_inverse(jac, weights, normal, variance[1])
+    qxx = qxx if variance is None else _prior_weighted_inverse(data, normal, variance[1])
     variance = cost / redundancy if variance is None else variance[0]
     sigma0 = float(np.sqrt(variance))
     sigmas = {name: float(sigma0 * np.sqrt(max(qxx[j, j], 0.0))) for j, name in enumerate(names)}
@@ -470,7 +488,7 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
         order = np.argsort(-np.abs(vector))[:4]
         weak.append([(names[i], float(vector[i])) for i in order if abs(vector[i]) > 0.1])
     # redundancy numbers r_i = 1 − p_i a_i Qxx a_iᵀ for uncorrelated observations
-    leverage = np.einsum("ij,jk,ik->i", jac, qxx, jac) * weights
+    leverage = normal_equations.leverage(jac, qxx) * weights
     red_numbers = np.where(used, np.clip(1.0 - leverage, 0.0, 1.0), 0.0)
     safe_r = np.maximum(red_numbers, 1e-12)
     standardised = np.where(used, residual / (obs.sigmas * np.sqrt(safe_r)), 0.0)
@@ -487,7 +505,7 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
     outside = ~used & ok & np.isfinite(computed)
     if outside.any():
         raw = obs.values - computed
-        h = np.einsum("ij,jk,ik->i", jac[outside], qxx, jac[outside]) / obs.sigmas[outside] ** 2
+        h = normal_equations.leverage(jac[outside], qxx) / obs.sigmas[outside] ** 2
         w[outside] = raw[outside] / (obs.sigmas[outside] * np.sqrt(1.0 + h)) / robust_scale
         mdb[outside] = DELTA0 * robust_scale * obs.sigmas[outside] * np.sqrt(1.0 + h)
     chi2 = observation_cost
@@ -620,23 +638,23 @@ def tau_critical(redundancy: float, alpha: float = ALPHA0) -> float:
     return float(t * np.sqrt(r) / np.sqrt(r - 1.0 + t * t))
 
 
-def _variance_component(jac, weights, normal, residual, cost, redundancy, n_used):
+def _variance_component(data, normal, residual, weights, cost, redundancy, n_used):
     """Variance-component estimation (Förstner 1979) for two groups, image observations and priors.
 
     The priors are statements about the housing and the interior from outside the data; their group has
     almost no redundancy, so its variance component is not estimable and it keeps its stated sigmas. The
     observations' component σ̂² = vᵀPv / r_obs, with r_obs = n − tr(Q N_obs) their share of the redundancy,
     is iterated with the priors reweighted against it. Returns ((σ̂², σ̂²), vᵀPv, r_obs), or (None, cost,
-    redundancy) when there are no priors (then σ̂² = vᵀPv / r, the classical estimate)."""
+    redundancy) when there are no priors (then σ̂² = vᵀPv / r, the classical estimate). ``data`` is the
+    observations' JᵀWJ, ``normal`` the full normal matrix (data and priors)."""
     observation_cost = float(residual @ (weights * residual))
-    data = jac.T @ (jac * weights[:, None])
     prior = normal - data
     if not np.any(np.abs(prior) > 0):
         return None, cost, redundancy
     variance = max(cost / redundancy, 1e-12)
     share = float(redundancy)
     for _ in range(20):
-        q = _prior_weighted_inverse(jac, weights, normal, variance) * variance
+        q = _prior_weighted_inverse(data, normal, variance) * variance
         share = n_used - float(np.sum(q * data)) / variance
         if share < 0.5:
             return None, cost, redundancy
@@ -648,10 +666,10 @@ def _variance_component(jac, weights, normal, residual, cost, redundancy, n_used
     return (variance, variance), observation_cost, share
 
 
-def _prior_weighted_inverse(jac, weights, normal, variance):
+def _prior_weighted_inverse(data, normal, variance):
     """Qxx in units of the observations' variance factor: (N_obs + σ̂² P_prior)⁻¹, so that σ̂²·Qxx is the
-    covariance with the observations at σ̂ and the priors at their own sigmas."""
-    data = jac.T @ (jac * weights[:, None])
+    covariance with the observations at σ̂ and the priors at their own sigmas (``data`` = N_obs = JᵀWJ,
+    ``normal`` = N_obs + P_prior)."""
     matrix = data + variance * (normal - data)
     scale = np.sqrt(np.maximum(np.diag(matrix), 1e-300))
     return np.linalg.pinv(matrix / np.outer(scale, scale), rcond=1e-15) / np.outer(scale, scale)

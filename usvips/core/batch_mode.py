@@ -15,12 +15,18 @@ A calibration evaluates its model block by block (one camera at one station: ten
 points), below the size from which the kernels' ``"auto"`` mode compiles (that threshold keeps a window's
 single pick from loading numba); an adjustment loads them once and then gains on every block, so within
 it the kernels run ``"always"``. They give the numpy reference's numbers (tests/core/test_kernels.py).
+
+The engine's structured fast paths (the normal equations summed block by block,
+:mod:`usvips.core.normal_equations`; the housing columns of a side traced in one batch,
+:mod:`usvips.core.calibration.derivatives`) keep the straightforward computation as their reference:
+``with reference(): ...`` makes them take it, so that tests compare both on the same problem.
 """
 
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import TypeVar
 
 from usvips.core import kernels
@@ -28,6 +34,23 @@ from usvips.core import kernels
 Function = TypeVar("Function", bound=Callable)
 
 _controller = None
+_reference = {"on": False}
+
+
+@contextmanager
+def reference() -> Iterator[None]:
+    """Within this block the engine's structured fast paths take their straightforward dense reference."""
+    before = _reference["on"]
+    _reference["on"] = True
+    try:
+        yield
+    finally:
+        _reference["on"] = before
+
+
+def using_reference() -> bool:
+    """Whether :func:`reference` is in force."""
+    return _reference["on"]
 
 
 def _blas_controller():

@@ -7,6 +7,8 @@ and the exterior orientation in USVIPS's conventions (``interior.py``, ``rotatio
 
 ``robust_dlt`` tries random minimal subsets and keeps the one whose median reprojection error is least
 (least median of squares), so that one gross error in the control or the pixels does not spoil the start.
+Its trials are solved as one stack (:func:`_least_median_trials`: batched SVDs, all reprojections in one
+product); the loop over trials stays as the reference path (:func:`usvips.core.batch_mode.reference`).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import rq
 
+from usvips.core.batch_mode import using_reference
 from usvips.core.camera import Exterior
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.rotation import angles_from_matrix
@@ -129,6 +132,67 @@ def _fit_sigma(points: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, floa
     return matrix, float(np.sqrt(np.sum(errors**2) / dof)) if dof > 0 else 0.0
 
 
+def _least_median_loop(points: np.ndarray, pixels: np.ndarray, subsets: np.ndarray, h: int
+                       ) -> tuple[np.ndarray | None, float]:
+    """The least-median-of-squares trial (projection matrix, its h-th smallest error in pixels) over the
+    6-point ``subsets`` (trials, 6), one trial at a time (the reference path); (None, inf) if none is usable."""
+    matrix, best_statistic = None, np.inf
+    for subset in subsets:
+        try:
+            check_spread(points[subset])
+            candidate = _solve_matrix(points[subset], pixels[subset])
+            errors = np.linalg.norm(pixels - reproject(candidate, points), axis=1)
+        except (DegenerateGeometryError, np.linalg.LinAlgError):
+            continue
+        if not np.all(np.isfinite(errors)):
+            continue
+        statistic = float(np.sort(errors)[h - 1])
+        if statistic < best_statistic:
+            matrix, best_statistic = candidate, statistic
+    return matrix, best_statistic
+
+
+def _batch_normalisation(values: np.ndarray) -> np.ndarray:
+    """:func:`_normalisation` of each stacked point set (trials, k, dim) → (trials, dim + 1, dim + 1)."""
+    trials, _, dim = values.shape
+    centre = values.mean(axis=1)
+    spread = np.sqrt(np.mean(np.sum((values - centre[:, None, :]) ** 2, axis=2), axis=1))
+    scale = np.sqrt(dim) / np.maximum(spread, 1e-300)
+    transform = np.zeros((trials, dim + 1, dim + 1))
+    transform[:, np.arange(dim), np.arange(dim)] = scale[:, None]
+    transform[:, :dim, dim] = -scale[:, None] * centre
+    transform[:, dim, dim] = 1.0
+    return transform
+
+
+def _least_median_trials(points: np.ndarray, pixels: np.ndarray, subsets: np.ndarray, h: int
+                         ) -> tuple[np.ndarray | None, float]:
+    """:func:`_least_median_loop` with every trial at once: the spread check, the normalised DLT of each
+    subset (a stack of 12 × 12 SVDs), the reprojection of all points by every candidate in one product and
+    the h-th smallest error by partition; the first trial with the least statistic wins, as in the loop.
+    Raises ``LinAlgError`` when an SVD of the stack does not converge."""
+    chosen, seen = points[subsets], pixels[subsets]  # (trials, 6, 3), (trials, 6, 2)
+    singular = np.linalg.svd(chosen - chosen.mean(axis=1, keepdims=True), compute_uv=False)
+    spread = (singular[:, 0] != 0) & ~(singular[:, 2] / np.where(singular[:, 0] != 0, singular[:, 0], 1.0) < 1e-3)
+    t_obj, t_img = _batch_normalisation(chosen), _batch_normalisation(seen)
+    x = np.concatenate([chosen, np.ones(chosen.shape[:2] + (1,))], axis=2) @ t_obj.transpose(0, 2, 1)
+    u = np.concatenate([seen, np.ones(seen.shape[:2] + (1,))], axis=2) @ t_img.transpose(0, 2, 1)
+    rows = np.zeros((len(subsets), 12, 12))  # per point: [X, 0, −u X] and [0, X, −v X]
+    rows[:, 0::2, :4], rows[:, 0::2, 8:] = x, -u[:, :, :1] * x
+    rows[:, 1::2, 4:8], rows[:, 1::2, 8:] = x, -u[:, :, 1:2] * x
+    normalised = np.linalg.svd(rows)[2][:, -1].reshape(-1, 3, 4)
+    candidates = np.linalg.inv(t_img) @ normalised @ t_obj
+    homogeneous = np.concatenate([points, np.ones((len(points), 1))], axis=1) @ candidates.transpose(0, 2, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a point in the camera's plane: an outlier
+        errors = np.linalg.norm(pixels - homogeneous[:, :, :2] / homogeneous[:, :, 2:3], axis=2)
+    usable = spread & np.all(np.isfinite(errors), axis=1)
+    if not usable.any():
+        return None, np.inf
+    statistic = np.partition(np.where(usable[:, None], errors, np.inf), h - 1, axis=1)[:, h - 1]
+    best = int(np.argmin(np.where(usable, statistic, np.inf)))
+    return candidates[best], float(statistic[best])
+
+
 def robust_dlt(points: np.ndarray, pixels: np.ndarray, trials: int = 300, seed: int = 0,
                threshold_px: float = 3.0) -> DltResult:
     """DLT that one or two gross errors cannot spoil.
@@ -173,20 +237,13 @@ def robust_dlt(points: np.ndarray, pixels: np.ndarray, trials: int = 300, seed: 
     else:
         rng = np.random.default_rng(seed)
         h = (n + 7) // 2
-        matrix, best_statistic = None, np.inf
-        for _ in range(trials):
-            subset = rng.choice(n, 6, replace=False)
-            try:
-                check_spread(points[subset])
-                candidate = _solve_matrix(points[subset], pixels[subset])
-                errors = np.linalg.norm(pixels - reproject(candidate, points), axis=1)
-            except (DegenerateGeometryError, np.linalg.LinAlgError):
-                continue
-            if not np.all(np.isfinite(errors)):
-                continue
-            statistic = float(np.sort(errors)[h - 1])
-            if statistic < best_statistic:
-                matrix, best_statistic = candidate, statistic
+        subsets = np.array([rng.choice(n, 6, replace=False) for _ in range(trials)]).reshape(trials, 6)
+        try:
+            if using_reference():
+                raise np.linalg.LinAlgError("the reference path")
+            matrix, best_statistic = _least_median_trials(points, pixels, subsets, h)
+        except np.linalg.LinAlgError:  # an SVD of the stack did not converge: the trials one by one
+            matrix, best_statistic = _least_median_loop(points, pixels, subsets, h)
         if matrix is None:
             return dlt(points, pixels)
         scale = 1.4826 * best_statistic

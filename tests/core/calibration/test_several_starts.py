@@ -43,3 +43,21 @@ def test_phase_two_far_worse_than_phase_one_sends_it_to_other_starts():
     assert _fits_worse_than_in_air(_run(0.95, redundancy=88), (0.38, 78))
     assert not _fits_worse_than_in_air(_run(0.42, redundancy=88), (0.38, 78))
     assert not _fits_worse_than_in_air(_run(0.95, redundancy=88), None)
+
+
+def test_tau_rejections_send_a_run_to_other_starts_only_beyond_chance():
+    from scipy.stats import poisson
+
+    from usvips.core.adjustment import ALPHA0
+    from usvips.core.calibration.phases import CHANCE_REJECTIONS_LEVEL, chance_rejections
+
+    assert chance_rejections(100) == 2  # a tank's hundred observations: two rejections are no chance
+    previous = 2
+    for n in (10, 300, 1000, 3000, 7372, 10384, 30000, 100000):
+        count, expected = chance_rejections(n), n * ALPHA0
+        assert count >= previous and count >= 2
+        # blunder-free data reach ``count`` rejections rarely, ``count - 1`` too often to call it a symptom
+        assert poisson.sf(count - 1, expected) <= CHANCE_REJECTIONS_LEVEL
+        assert count == 2 or poisson.sf(count - 2, expected) > CHANCE_REJECTIONS_LEVEL
+        previous = count
+    assert chance_rejections(10384) > 10384 * ALPHA0  # a survey's ~10 false alarms do not trigger them

@@ -21,11 +21,18 @@ block. Here one ray trace with forward-mode derivatives per block gives every co
   distance s along it. The point is then reached by the pixel that moved by −(∂pixel/∂P)·(∂o/∂h + s ∂d/∂h).
   ∂o/∂h and ∂d/∂h are central differences of the forward trace of the block's pixels through the housing
   rebuilt at h ± step (closed-form refractions, no back-projection; error ~1e-10 relative). Only the free
-  parameters that change this camera's housing get a column.
+  parameters that change this camera's housing get a column. The housing sits in the camera frame and
+  the interior is the camera's at every station, so each side's pixels of all stations are traced in one
+  batch per shifted housing from their ideal directions (u, v, −1), and each block's ray motion is turned
+  into the object frame by its own rotation (:func:`side_housing_columns`; the per-block traces of
+  :func:`housing_columns` are the reference path, under :func:`usvips.core.batch_mode.reference`).
 
-Under System I's shared cover plane the first station's poses also move the right camera's housing; those
-right-camera columns keep the reference path's differences: the solver differentiates what this returns
-no column for. Units: pixels per parameter unit (metres, radians, pixels, dimensionless).
+Under System I's shared cover plane the first station's poses also move the right camera's housing (it
+follows the rig's relative orientation): those right-camera columns are the camera's motion (as above)
+plus the housing's, formed as the housing columns are, with the housings rebuilt at each pose parameter
+± step. A block or column this cannot give (a ray failing, a step leaving the valid region) is left to the
+reference path's differences: the solver differentiates what this returns no column for. Units: pixels
+per parameter unit (metres, radians, pixels, dimensionless).
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from usvips.core.batch_mode import using_reference
 from usvips.core.errors import UsvipsError
 from usvips.core.interior import INTERIOR_PARAMETERS
 from usvips.core.intersection import pixel_jacobian
@@ -82,8 +90,14 @@ def _interleave(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
 ANGLES = ("omega", "phi", "kappa")
 
 
-def _rotation_and_derivatives(values: dict[str, float], suffix: str) -> tuple[np.ndarray, list[np.ndarray]]:
-    """M(omega, phi, kappa) of the named camera and ∂M/∂angle for each angle (central differences)."""
+def _rotation_and_derivatives(values: dict[str, float], suffix: str, cache: dict | None = None
+                              ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """M(omega, phi, kappa) of the named camera and ∂M/∂angle for each angle (central differences);
+    ``cache`` (suffix → result) keeps them for the other blocks of one Jacobian."""
+    if cache is not None:
+        if suffix not in cache:
+            cache[suffix] = _rotation_and_derivatives(values, suffix)
+        return cache[suffix]
     angles = [values[f"{a}{suffix}"] for a in ANGLES]
     derivatives = []
     for k in range(3):
@@ -98,24 +112,24 @@ def _centre(values: dict[str, float], suffix: str) -> np.ndarray:
     return np.array([values[f"{p}{suffix}"] for p in ("X0", "Y0", "Z0")])
 
 
-def pose_derivatives(values: dict[str, float], station: str, side: str, first: str
+def pose_derivatives(values: dict[str, float], station: str, side: str, first: str, cache: dict | None = None
                      ) -> tuple[np.ndarray, np.ndarray, dict[str, tuple[np.ndarray, np.ndarray]]]:
     """The camera's rotation M and centre C at ``station`` and ``{parameter: (∂M/∂θ, ∂C/∂θ)}`` for every
     parameter of its pose. The first station's cameras have their own parameters; a further station's
     left camera has ``…_l@station``; the right camera there follows the rig (as
     :func:`usvips.core.rig.right_exterior` composes it):
-    M = M_r0 M_l0ᵀ M_ls, C = C_ls + M_lsᵀ M_l0 (C_r0 − C_l0)."""
+    M = M_r0 M_l0ᵀ M_ls, C = C_ls + M_lsᵀ M_l0 (C_r0 − C_l0). ``cache``: see :func:`_rotation_and_derivatives`."""
     unit = np.eye(3)
     zero_m, zero_c = np.zeros((3, 3)), np.zeros(3)
     own = f"_{side}" if station == first else f"_l@{station}"
-    m_own, d_own = _rotation_and_derivatives(values, own)
+    m_own, d_own = _rotation_and_derivatives(values, own, cache)
     c_own = _centre(values, own)
     if station == first or side == "l":
         columns = {f"{p}{own}": (zero_m, unit[k]) for k, p in enumerate(("X0", "Y0", "Z0"))}
         columns.update({f"{a}{own}": (d_own[k], zero_c) for k, a in enumerate(ANGLES)})
         return m_own, c_own, columns
-    m_l0, d_l0 = _rotation_and_derivatives(values, "_l")
-    m_r0, d_r0 = _rotation_and_derivatives(values, "_r")
+    m_l0, d_l0 = _rotation_and_derivatives(values, "_l", cache)
+    m_r0, d_r0 = _rotation_and_derivatives(values, "_r", cache)
     c_l0, c_r0 = _centre(values, "_l"), _centre(values, "_r")
     gap = c_r0 - c_l0
     base = m_l0 @ gap
@@ -178,7 +192,11 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
     out: Columns = {}
     first = model.stations[0]
     shared_plane = model.housing_kind.right_follows_rig  # the right housing moves with the rig (a shared cover)
+    following: list[tuple] = []  # right blocks whose first-station pose columns await their housing term
     cameras: dict[str, tuple] = {}
+    rotations: dict = {}  # each camera's M and ∂M/∂angle, once per Jacobian
+    shared: dict = {}  # the housings and the relative orientation, once for every station
+    batched: dict[int, list[tuple]] = {0: [], 1: []}  # per side: the blocks whose housing columns are due
     for b, (station, side) in enumerate(model.block_keys):
         rows = model.blocks[b]
         pixels = computed[rows].reshape(-1, 2)
@@ -186,7 +204,7 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
             continue
         try:
             if station not in cameras:
-                cameras[station] = model.cameras(values, station, bounded=False)
+                cameras[station] = model.cameras(values, station, bounded=False, shared=shared)
             camera = cameras[station][0 if side == "l" else 1]
             uv = camera.interior.pixels_to_normalised(pixels)
             bundle, d_origin, d_direction = camera.rays_with_derivatives(pixels)
@@ -202,17 +220,98 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
         a0, a1, valid = pixel_jacobian(bundle.directions, d_origin, d_direction, along)
         if not valid.all():
             continue
-        m, c, derivatives = pose_derivatives(values, station, side, first)
+        m, c, derivatives = pose_derivatives(values, station, side, first, rotations)
         if shared_plane and side == "r":
-            # the right housing follows the relative orientation: the first station's poses move it too
+            # the right housing follows the relative orientation: the first station's poses move it too;
+            # their columns get that housing term added below (or are left to the reference path)
+            moving = {n: d for n, d in derivatives.items() if "@" not in n}
             derivatives = {n: d for n, d in derivatives.items() if "@" in n}
+            if moving:
+                following.append(((b, camera, uv, a0, a1, along), pose_columns(m, c, moving, a0, a1, points), pixels))
         for name, column in pose_columns(m, c, derivatives, a0, a1, points).items():
             out.setdefault(name, {})[b] = column
         if housing_names:
             index = 0 if side == "l" else 1
-            columns = housing_columns(housings, housing_names, index, camera, pixels, a0, a1, along)
-            for name, column in columns.items():
-                out.setdefault(name, {})[b] = column
+            if using_reference():
+                columns = housing_columns(housings, housing_names, index, camera, pixels, a0, a1, along)
+                for name, column in columns.items():
+                    out.setdefault(name, {})[b] = column
+            else:
+                batched[index].append((b, camera, uv, a0, a1, along))
+    for index, blocks in batched.items():
+        if blocks:
+            for name, columns in side_housing_columns(housings, housing_names, index, blocks).items():
+                out.setdefault(name, {}).update(columns)
+    rig_housings, rig_names = _rig_housings(model, values) if following else ({}, [])
+    if rig_names:
+        if using_reference():  # each block's own traces
+            terms: dict[str, dict[int, np.ndarray]] = {}
+            for (b, camera, _, a0, a1, along), _, pixels in following:
+                for name, column in housing_columns(rig_housings, rig_names, 1, camera, pixels, a0, a1, along).items():
+                    terms.setdefault(name, {})[b] = column
+        else:
+            terms = side_housing_columns(rig_housings, rig_names, 1, [entry for entry, _, _ in following])
+        for entry, motion, _ in following:
+            b = entry[0]
+            for name, column in motion.items():
+                if b in terms.get(name, {}):  # the camera's motion plus its housing's
+                    out.setdefault(name, {})[b] = column + terms[name][b]
+    return out
+
+
+def _rig_housings(model, values: dict[str, float]) -> tuple[dict, list[str]]:
+    """The housings rebuilt with each first-station pose parameter at ± :data:`HOUSING_STEP` (metres,
+    radians), for a kind whose right housing follows the rig's relative orientation: keyed like
+    :func:`housing_columns`' ``housings``, and the parameter names. ({}, []) when a step leaves the
+    valid region (the reference path's differences then serve)."""
+    from usvips.core.calibration.model import build_housings
+
+    names = [f"{p}_{side}" for side in ("l", "r") for p in ("X0", "Y0", "Z0", *ANGLES)]
+    try:
+        built = {None: build_housings(model.kind, values)}
+        for name in names:
+            for sign in (1, -1):
+                shifted = dict(values)
+                shifted[name] += sign * HOUSING_STEP
+                built[(name, sign)] = build_housings(model.kind, shifted)
+    except UsvipsError:
+        return {}, []
+    return built, names
+
+
+def side_housing_columns(housings: dict, names: list[str], index: int, blocks: list[tuple]
+                         ) -> dict[str, dict[int, np.ndarray]]:
+    """:func:`housing_columns` of every block of one side (``index`` 0 left, 1 right) at once: ``blocks``
+    holds (block, camera, ideal normalised coordinates uv (N, 2), pixel Jacobian rows a0, a1 (N, 3), the
+    points' distances along their rays (N,), metres). One trace of all their rays (camera frame) per
+    shifted housing; a block with a ray that fails in a shifted housing gets no column (the reference
+    path's differences serve). Returns {parameter: {block: column}}."""
+    base = housings[None][index]
+    uv = np.vstack([entry[2] for entry in blocks])
+    directions = np.column_stack([uv, -np.ones(len(uv))])
+    origins = np.zeros_like(directions)
+    ends = np.cumsum([0] + [len(entry[2]) for entry in blocks])
+    out: dict[str, dict[int, np.ndarray]] = {}
+    for name in names:
+        ahead, behind = housings[(name, 1)][index], housings[(name, -1)][index]
+        if _same(ahead, base) and _same(behind, base):
+            continue
+        try:
+            plus, minus = ahead.trace(origins, directions), behind.trace(origins, directions)
+        except UsvipsError:
+            continue
+        fine = (plus.status == RayStatus.OK) & (minus.status == RayStatus.OK)
+        shift_o, shift_d = plus.origins - minus.origins, plus.directions - minus.directions
+        for k, (b, camera, _, a0, a1, along) in enumerate(blocks):
+            rows = slice(ends[k], ends[k + 1])
+            if not fine[rows].all():
+                continue
+            # the ray's motion in the camera frame, turned into the object frame (vectors: rows @ M)
+            moved = ((shift_o[rows] + along[:, None] * shift_d[rows]) / (2 * HOUSING_STEP)) @ camera.exterior.rotation
+            column = np.empty(2 * len(along))
+            column[0::2] = -(a0 * moved).sum(axis=1)
+            column[1::2] = -(a1 * moved).sum(axis=1)
+            out.setdefault(name, {})[b] = column
     return out
 
 

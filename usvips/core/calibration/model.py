@@ -72,13 +72,20 @@ def _interior(values: dict[str, float], side: str) -> Interior:
 
 
 def stereo_cameras(kind: str, values: dict[str, float], stations: tuple[str, ...], station: str,
-                   size: tuple[int | None, int | None] = (None, None), frame: str = "object") -> tuple[Camera, Camera]:
+                   size: tuple[int | None, int | None] = (None, None), frame: str = "object",
+                   shared: dict | None = None) -> tuple[Camera, Camera]:
     """The two cameras at ``station`` from named parameter values (see the module docstring).
 
     frame ``object``: placed in the control frame; ``rig``: the left camera at the origin with its own
-    axes, the right one by the relative orientation of the first station."""
+    axes, the right one by the relative orientation of the first station. ``shared``: a dict that keeps
+    what every station of one set of values has in common (the housings, the relative orientation) for
+    the next call with the same values."""
+    shared = {} if shared is None else shared
     left_0, right_0 = _exterior(values, "l"), _exterior(values, "r")
-    relative = relative_orientation(left_0, right_0)
+    if frame == "rig" or station != stations[0]:
+        if "relative" not in shared:
+            shared["relative"] = relative_orientation(left_0, right_0)
+        relative = shared["relative"]
     if frame == "rig":
         left = Exterior(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         right = right_exterior(left, relative)
@@ -87,7 +94,9 @@ def stereo_cameras(kind: str, values: dict[str, float], stations: tuple[str, ...
     else:
         left = _exterior(values, "l", station)
         right = right_exterior(left, relative)
-    housing_l, housing_r = build_housings(kind, values)
+    if "housings" not in shared:
+        shared["housings"] = build_housings(kind, values)
+    housing_l, housing_r = shared["housings"]
     width, height = size
     return (Camera(_interior(values, "l"), left, housing_l, width, height),
             Camera(_interior(values, "r"), right, housing_r, width, height))
@@ -148,11 +157,12 @@ class StereoModel:
         return xyz
 
     def cameras(self, values: dict[str, float], station: str | None = None,
-                bounded: bool = True) -> tuple[Camera, Camera]:
+                bounded: bool = True, shared: dict | None = None) -> tuple[Camera, Camera]:
         """The two cameras at a station (default: the first) for the given parameter values; ``bounded``
-        gives them the image size (the adjustment itself does not clip at the frame)."""
+        gives them the image size (the adjustment itself does not clip at the frame); ``shared``: see
+        :func:`stereo_cameras` (one dict per set of values)."""
         return stereo_cameras(self.kind, values, self.stations, station or self.stations[0],
-                              self.size if bounded else (None, None))
+                              self.size if bounded else (None, None), shared=shared)
 
     def evaluate(self, values: dict[str, float], blocks=None) -> tuple[np.ndarray, np.ndarray]:
         """Computed pixels of the observations (all, or of the given blocks), and a validity mask."""
@@ -160,11 +170,12 @@ class StereoModel:
         xyz = self.control_xyz(values)
         out, ok = [], []
         cache: dict[str, tuple[Camera, Camera]] = {}
+        shared: dict = {}  # the housings and the relative orientation, built once for every station
         for b in chosen:
             station, side = self.block_keys[b]
             try:
                 if station not in cache:
-                    cache[station] = self.cameras(values, station, bounded=False)
+                    cache[station] = self.cameras(values, station, bounded=False, shared=shared)
                 camera = cache[station][0 if side == "l" else 1]
                 # start from this block's last answer: parameters change little between evaluations
                 projection = camera.project(xyz[self._index[self.block_rows[b]]], self._warm.get(b))
@@ -213,8 +224,13 @@ class StereoModel:
                 depends[name] = [blocks_of[(station, "l")], blocks_of[(station, "r")]]
             elif base in {f"{p}_l" for p in EXTERIOR_PARAMETERS}:
                 # the first station's left pose places the left camera there and, through the relative
-                # orientation, every right camera (and, for a shared cover plane, every right housing)
-                depends[name] = sorted({blocks_of[(first, "l")], *right_blocks})
+                # orientation, every right camera (and, for a shared cover plane, every right housing);
+                # the first station's right camera has its own pose, so only a right housing that follows
+                # the rig makes it depend on the left one's
+                moved = {blocks_of[(first, "l")], *right_blocks}
+                if not self.housing_kind.right_follows_rig:
+                    moved.discard(blocks_of[(first, "r")])
+                depends[name] = sorted(moved)
             elif base in {f"{p}_r" for p in EXTERIOR_PARAMETERS}:
                 depends[name] = right_blocks
             else:

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from usvips.core import housing as housings
-from usvips.core.adjustment import Adjustment, Parameter, PriorGroup, adjust
+from usvips.core.adjustment import ALPHA0, Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.control_blunders import ControlBlunder, demote_control_blunders, is_control_coordinate
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
@@ -472,13 +472,34 @@ def _start(model: StereoModel, parameters: list[Parameter], initial: dict[str, f
 EXTRA_STARTS = 2
 
 
+#: Probability with which blunder-free data may reach :func:`chance_rejections`'s count of tau rejections.
+CHANCE_REJECTIONS_LEVEL = 0.05
+
+
+def chance_rejections(observations: int) -> int:
+    """The number of observation units whose tau rejection says more than chance: at least two (one clear
+    blunder is the data's, not the start's), and more than blunder-free data reach with probability
+    :data:`CHANCE_REJECTIONS_LEVEL`. The tau test rejects a correct observation with probability
+    :data:`~usvips.core.adjustment.ALPHA0`, so ``observations`` of them give about Poisson(n·α0) false
+    alarms: none to speak of at a tank's hundred observations, about ten at a survey's ten thousand,
+    which would otherwise send every survey-size run to the further starts."""
+    from scipy.stats import poisson  # deferred, as every scipy.stats import
+
+    expected = observations * ALPHA0
+    count = 2
+    while poisson.sf(count - 1, expected) > CHANCE_REJECTIONS_LEVEL:
+        count += 1
+    return count
+
+
 def _needs_other_starts(result: CalibrationResult) -> bool:
     """The symptoms of a run caught in a local minimum or against the valid region's edge: not converged,
-    a parameter on a bound, the model in doubt, or two or more observation units rejected by the tau test
-    (one clear blunder is the data's, not the start's)."""
+    a parameter on a bound, the model in doubt, or more observation units rejected by the tau test than
+    chance explains (:func:`chance_rejections`: two or more at a tank's size)."""
     adj = result.adjustment
     rejected = {(s.point, s.side, s.group) for s in adj.excluded if s.reason == "w-test"}
-    return not adj.converged or bool(adj.on_bound) or bool(adj.model_doubt) or len(rejected) >= 2
+    return (not adj.converged or bool(adj.on_bound) or bool(adj.model_doubt)
+            or len(rejected) >= chance_rejections(len(adj.observations)))
 
 
 def _significantly_smaller(a: CalibrationResult, b: CalibrationResult) -> bool:
