@@ -143,9 +143,11 @@ def test_stepped_cameras_are_kept_per_calibration_and_station():
     assert uncertainty.stepped_cameras(one, "s0", "object") is kept
     assert uncertainty.stepped_cameras(one, 1, "object") is not kept
     assert uncertainty.stepped_cameras(other, 0, "object") is not kept
-    # a pose step of the first station moves only the poses (rigidly, no retrace) in the object frame
+    # a pose step of the first station moves only that pose (rigidly, no retrace) in the object frame
     names = one.covariance[0]
     moved = {names[c.index]: c.moved for c in kept}
-    assert moved["omega_l"] == (uncertainty.POSE, uncertainty.UNMOVED)
-    assert moved["f_r"] == (uncertainty.UNMOVED, uncertainty.RETRACE)
+    assert moved["omega_l"] == (uncertainty.MAPPED, uncertainty.UNMOVED)
+    # the principal distance reads the same lens at other pixels; a distortion coefficient needs a new trace
+    assert moved["f_r"] == (uncertainty.UNMOVED, uncertainty.MAPPED)
+    assert moved["k1_l"] == (uncertainty.RETRACE, uncertainty.UNMOVED)
     assert "X@T1" not in moved and "X0_l@s1" not in moved

@@ -8,9 +8,12 @@ by the model's step, ``model._STEPS``).
 
 The differences are batched. The cameras with one parameter stepped do not depend on the picks: they are
 built once per (calibration, station, frame) and kept (:func:`stepped_cameras`). A pick then only moves its
-rays: a step that moves a camera's pose alone (its housing and interior unchanged) moves the traced rays
-rigidly, with no new trace; any other step retraces the pixels through the stepped camera. All stepped
-rays are intersected in one call. :func:`reference_derivatives` is the plain loop (rebuild, retrace,
+rays. A step of a camera's pose moves its traced rays rigidly, with no new trace. A step of the principal
+distance, the principal point or the y scale (the affine map of pixels to image coordinates, ahead of the
+lens distortion) reads, through the same lens and housing, what the calibration's camera reads at other
+pixels: those are traced for all such steps at once, and their pixel derivatives carried through the
+affine map. Any other step (distortion, housing) retraces the pixels through the stepped camera. All
+stepped rays are intersected in one call. :func:`reference_derivatives` is the plain loop (rebuild, retrace,
 re-intersect per parameter) the batched path is tested against.
 """
 
@@ -18,13 +21,14 @@ from __future__ import annotations
 
 import threading
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from usvips.core.calibration.model import _STEPS, stereo_cameras, symbol
 from usvips.core.camera import Camera
 from usvips.core.errors import InvalidParameterError, UsvipsError
+from usvips.core.interior import Interior
 from usvips.core.intersection import Intersection, TracedRays, intersect_traced, retrace, trace
 from usvips.core.rays import RayBundle
 from usvips.core.stereo_calibration import StereoCalibration
@@ -34,15 +38,19 @@ BATCH_ROWS = 200_000
 #: calibrations (with their station and frame) whose stepped cameras are kept
 KEPT = 8
 
-#: how a step moves one camera: not at all, its pose alone (the traced rays move rigidly), or otherwise
-UNMOVED, POSE, RETRACE = 0, 1, 2
+#: how a step moves one camera: not at all; its pose and/or its affine pixel map (:data:`AFFINE`) only, so
+#: that its rays follow from the calibration camera's; or otherwise (a new trace)
+UNMOVED, MAPPED, RETRACE = 0, 1, 2
+#: the interior parameters of the affine map pixels → image coordinates (x̄ = x − xp, ȳ = (yp − y)·sy),
+#: divided by f into the distorted normalised coordinates
+AFFINE = ("f", "xp", "yp", "sy")
 
 
 @dataclass(frozen=True)
 class SteppedColumn:
     """One free parameter of the calibration's covariance stepped: its row ``index`` in the covariance,
     the ``step`` (parameter units), the two cameras with it stepped and how each moved (``UNMOVED``,
-    ``POSE``, ``RETRACE``)."""
+    ``MAPPED``, ``RETRACE``)."""
 
     index: int
     step: float
@@ -179,9 +187,10 @@ def _how_moved(base: Camera, unstepped: Camera | None, stepped: Camera) -> int:
     """How a step moved a camera from ``base`` (the calibration's, which the picks are traced with)."""
     if _equal(stepped, base) or (unstepped is not None and _equal(stepped, unstepped)):
         return UNMOVED
-    if (_equal(stepped.housing, base.housing) and stepped.interior == base.interior
+    affine = {name: getattr(base.interior, name) for name in AFFINE}
+    if (_equal(stepped.housing, base.housing) and replace(stepped.interior, **affine) == base.interior
             and (stepped.width, stepped.height) == (base.width, base.height)):
-        return POSE
+        return MAPPED
     return RETRACE
 
 
@@ -205,6 +214,49 @@ def _moved_rigidly(traced: TracedRays, camera: Camera) -> TracedRays:
     return TracedRays(camera, traced.pixels, bundle, d_origins, d_directions)
 
 
+def _pixel_map(base: Interior, stepped: Interior, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pixels (N, 2) at which ``base`` reads the distorted normalised coordinates ``stepped`` reads at
+    ``pixels`` (the two differ in :data:`AFFINE` only), and the map's constant Jacobian ∂q/∂p (2, 2)."""
+
+    def mapped(p: np.ndarray) -> np.ndarray:
+        return base.image_to_pixels(stepped.pixels_to_image(p) * (base.f / stepped.f))
+
+    corners = mapped(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
+    return mapped(pixels), (corners[1:] - corners[0]).T
+
+
+def _split(traced: TracedRays, count: int) -> list[TracedRays]:
+    """``traced`` of ``count`` equal blocks of rows, one TracedRays each."""
+    n = len(traced.rays) // max(count, 1)
+    rays = traced.rays
+    return [TracedRays(traced.camera, traced.pixels[k * n:(k + 1) * n],
+                       RayBundle(rays.origins[k * n:(k + 1) * n], rays.directions[k * n:(k + 1) * n],
+                                 rays.status[k * n:(k + 1) * n], rays.failed_surface[k * n:(k + 1) * n]),
+                       traced.d_origins[k * n:(k + 1) * n], traced.d_directions[k * n:(k + 1) * n])
+            for k in range(count)]
+
+
+def _mapped(base: TracedRays, columns: tuple[SteppedColumn, ...], side: int) -> dict[int, TracedRays]:
+    """The rays of the ``MAPPED`` columns of ``side`` (by position in ``columns``): the pixels of every
+    column whose affine map moved traced at once through the calibration's camera, their pixel derivatives
+    carried through the map (∂ray/∂p = ∂ray/∂q · ∂q/∂p), then moved rigidly to the stepped pose."""
+    camera = base.camera
+    moved = [k for k, c in enumerate(columns) if c.moved[side] == MAPPED]
+    remapped = [k for k in moved if columns[k].cameras[side].interior != camera.interior]
+    out = {k: base for k in moved if k not in remapped}
+    if remapped:
+        maps = [_pixel_map(camera.interior, columns[k].cameras[side].interior, base.pixels) for k in remapped]
+        traced = trace(camera, np.concatenate([q for q, _ in maps]))
+        for k, (_, jacobian), part in zip(remapped, maps, _split(traced, len(remapped)), strict=True):
+            out[k] = TracedRays(camera, base.pixels, part.rays, part.d_origins @ jacobian,
+                                part.d_directions @ jacobian)
+    for k in moved:
+        stepped = columns[k].cameras[side]
+        if stepped.exterior != camera.exterior:
+            out[k] = _moved_rigidly(out[k], stepped)
+    return out
+
+
 def _stacked(parts: list[TracedRays]) -> TracedRays:
     rays = [p.rays for p in parts]
     bundle = RayBundle(np.concatenate([r.origins for r in rays]), np.concatenate([r.directions for r in rays]),
@@ -225,11 +277,12 @@ def _batched_derivatives(traced: list[TracedRays], result: Intersection, columns
         batch = columns[start:start + per_batch]
         sides = []
         for side, base in enumerate(traced):
+            mapped = _mapped(base, batch, side)
             parts = [base]
-            for column in batch:
-                how, camera = column.moved[side], column.cameras[side]
-                parts.append(base if how == UNMOVED else _moved_rigidly(base, camera) if how == POSE
-                             else trace(camera, base.pixels))
+            for k, column in enumerate(batch):
+                how = column.moved[side]
+                parts.append(base if how == UNMOVED else mapped[k] if how == MAPPED
+                             else trace(column.cameras[side], base.pixels))
             sides.append(_stacked(parts))
         again = intersect_traced(sides, sigma0_px)
         points = again.points.reshape(len(batch) + 1, n, 3)
