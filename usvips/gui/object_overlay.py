@@ -4,7 +4,9 @@ Each object's outline on the current pair (image pixels, x right, y down, origin
 top-left pixel) is computed once and cached by object id; an event recomputes only the ids it names, and a
 pick redraws only the object being digitised. With more than :data:`MAX_LABELS` objects on the pair only
 the selected ones carry a label and vertex marks (ten thousand labels would hide the image, and the marks
-of 20,000 vertices cost pyqtgraph about a second per change).
+of 20,000 vertices cost pyqtgraph about a second per change). At that size an object stored (added, not
+selected) is drawn on its own beside the cached picture of the others, which is redrawn whole only at the
+next other change (or after :data:`MAX_ADDED` additions).
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ from usvips.gui.workspace import SIDES, Workspace
 
 #: Above this many objects on the pair, only the selected objects are labelled.
 MAX_LABELS = 300
+#: Objects drawn on their own after being added, before the whole picture is redrawn.
+MAX_ADDED = 200
 
 
 class ObjectOverlay:
@@ -26,8 +30,9 @@ class ObjectOverlay:
         self.panes = panes
         #: id -> (label, left outline, right outline, closed, left vertex picks, right vertex picks)
         self.outlines: dict[int, tuple] = {}
+        self._added: list[int] = []  # ids drawn on their own since the last whole drawing
         self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self.refresh),
-                        (workspace.objects_added, self._on_objects), (workspace.objects_updated, self._on_objects),
+                        (workspace.objects_added, self._on_added), (workspace.objects_updated, self._on_objects),
                         (workspace.objects_removed, self._on_objects), (workspace.selection_changed, self.draw),
                         (workspace.picks_changed, self.draw_digitising))
         for signal, slot in self._events:
@@ -43,7 +48,27 @@ class ObjectOverlay:
         self._on_objects(tuple(self.workspace.object_ids()))
         self.draw_digitising()
 
+    def _on_added(self, ids: tuple[int, ...]) -> None:
+        """New objects: at survey size, unselected and after every object drawn, only they are drawn."""
+        last = max(self.outlines, default=0)
+        alone = (len(self.outlines) > MAX_LABELS and len(self._added) + len(ids) <= MAX_ADDED
+                 and min(ids, default=0) > last and not set(ids) & set(self.workspace.selection))
+        if not alone:
+            self._on_objects(ids)
+            return
+        self._outline(ids)
+        self._added.extend(i for i in ids if i in self.outlines)
+        for index, side in enumerate(SIDES):
+            lines = [self.outlines[i][1][index] for i in self._added]
+            self.panes[side].set_added_lines(np.concatenate(lines) if lines else np.zeros((0, 2)),
+                                             len(self.outlines))
+
     def _on_objects(self, ids: tuple[int, ...]) -> None:
+        self._outline(ids)
+        self.draw()
+
+    def _outline(self, ids: tuple[int, ...]) -> None:
+        """Compute (or drop) the cached outlines of ``ids``."""
         for object_id in ids:
             self.outlines.pop(object_id, None)
             if self.workspace.pair is None:
@@ -60,11 +85,11 @@ class ObjectOverlay:
             marks = (np.array([(v.xl, v.yl) for v in picks], float).reshape(-1, 2),
                      np.array([(v.xr, v.yr) for v in picks], float).reshape(-1, 2))
             self.outlines[object_id] = (f"{stored.id} {stored.attribute}".strip(), paths, marks)
-        self.draw()
 
     def draw(self, *_: object) -> None:
         """Hand the cached outlines to the panes, joined into one array per kind of mark, the selected
         ones highlighted."""
+        self._added = []
         selection = set(self.workspace.selection)
         labelled = len(self.outlines) <= MAX_LABELS
         empty = np.zeros((0, 2))

@@ -557,6 +557,12 @@ class PlanView(QtWidgets.QWidget):
                                     symbolSize=5)
         self.ellipses = self.plot.plot(pen=pg.mkPen((255, 140, 0), width=1), connect="finite")
         self.cameras = self.plot.plot(pen=None, symbol="t", symbolSize=12, symbolBrush=(60, 220, 120))
+        # objects stored since the last whole drawing (at survey size): items of their own, so that one more
+        # fish among thousands does not rebuild the others' outlines, vertex marks and ellipses
+        self.added_curve = self.plot.plot(pen=pg.mkPen((0, 200, 255), width=2), connect="finite", symbol="o",
+                                          symbolSize=5)
+        self.added_ellipses = self.plot.plot(pen=pg.mkPen((255, 140, 0), width=1), connect="finite")
+        self._added: list[int] = []
         self.labels: list[pg.TextItem] = []
         top = QtWidgets.QHBoxLayout()
         top.addWidget(self.view)
@@ -569,7 +575,7 @@ class PlanView(QtWidgets.QWidget):
         self._dirty = True
         self._stale: set[int] = set()  # ids whose drawing is not computed yet (done when the view is shown)
         self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self._on_pair),
-                        (workspace.objects_added, self._on_objects), (workspace.objects_updated, self._on_objects),
+                        (workspace.objects_added, self._on_added), (workspace.objects_updated, self._on_objects),
                         (workspace.objects_removed, self._on_objects),
                         (workspace.selection_changed, self._on_selection))
         for signal, slot in self._events:
@@ -578,6 +584,8 @@ class PlanView(QtWidgets.QWidget):
 
     #: Above this many objects only the selected ones are labelled (thousands of labels hide the plot).
     MAX_LABELS = 300
+    #: Objects drawn on their own after being added, before the whole plot is redrawn.
+    MAX_ADDED = 200
 
     def cleanup(self) -> None:
         for signal, slot in self._events:
@@ -608,9 +616,30 @@ class PlanView(QtWidgets.QWidget):
         if self.isVisible():
             self.redraw()
 
+    def _on_added(self, ids: tuple[int, ...]) -> None:
+        """New objects: shown, at survey size, unselected and after every object drawn, only they are drawn
+        (on their own items); otherwise as any change."""
+        alone = (self.isVisible() and not self._dirty and len(self._parts) > self.MAX_LABELS
+                 and len(self._added) + len(ids) <= self.MAX_ADDED and min(ids, default=0) > max(self._parts, default=0)
+                 and not set(ids) & set(self.workspace.selection))
+        if not alone:
+            self._on_objects(ids)
+            return
+        self._stale.update(ids)
+        self._update_parts()
+        self._added.extend(i for i in ids if i in self._parts)
+        parts = [self._parts[i] for i in self._added]
+        data = np.vstack([p[1] for p in parts]) if parts else np.zeros((0, 2))
+        self.added_curve.setData(data[:, 0], data[:, 1], connect="finite")
+        rings = [p[2] for p in parts if len(p[2])]
+        ring_data = np.vstack(rings) if rings else np.zeros((0, 2))
+        self.added_ellipses.setData(ring_data[:, 0], ring_data[:, 1], connect="finite")
+        self.plot.autoRange()
+
     def _update_parts(self) -> None:
         a, b = self.VIEWS[self.view.currentText()]
         ids, self._stale = sorted(self._stale), set()
+        ordered = not ids or ids[0] > max(self._parts, default=0)  # new ids above all others keep the order
         for object_id in ids:
             try:
                 stored = self.workspace.stored_object(object_id)
@@ -622,7 +651,7 @@ class PlanView(QtWidgets.QWidget):
                 self._parts.pop(object_id, None)
             else:
                 self._parts[object_id] = part
-        if ids:
+        if not ordered:
             self._parts = dict(sorted(self._parts.items()))
 
     def _on_selection(self, _ids) -> None:
@@ -663,6 +692,9 @@ class PlanView(QtWidgets.QWidget):
     def redraw(self) -> None:
         self._update_parts()
         self._dirty = False
+        self._added = []
+        self.added_curve.setData([], [])
+        self.added_ellipses.setData([], [])
         a, b = self.VIEWS[self.view.currentText()]
         self.plot.setLabel("bottom", "XYZ"[a] + " (m)")
         self.plot.setLabel("left", "XYZ"[b] + " (m)")
