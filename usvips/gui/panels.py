@@ -620,7 +620,7 @@ class PlanView(QtWidgets.QWidget):
         """New objects: shown, at survey size, unselected and after every object drawn, only they are drawn
         (on their own items); otherwise as any change."""
         alone = (self.isVisible() and not self._dirty and len(self._parts) > self.MAX_LABELS
-                 and len(self._added) + len(ids) <= self.MAX_ADDED and min(ids, default=0) > max(self._parts, default=0)
+                 and len(self._added) + len(ids) <= self.MAX_ADDED and min(ids, default=0) > self._last_id()
                  and not set(ids) & set(self.workspace.selection))
         if not alone:
             self._on_objects(ids)
@@ -636,10 +636,14 @@ class PlanView(QtWidgets.QWidget):
         self.added_ellipses.setData(ring_data[:, 0], ring_data[:, 1], connect="finite")
         self.plot.autoRange()
 
+    def _last_id(self) -> int:
+        """The highest id drawn (``_parts`` is kept in id order)."""
+        return next(reversed(self._parts), 0)
+
     def _update_parts(self) -> None:
         a, b = self.VIEWS[self.view.currentText()]
         ids, self._stale = sorted(self._stale), set()
-        ordered = not ids or ids[0] > max(self._parts, default=0)  # new ids above all others keep the order
+        ordered = not ids or ids[0] > self._last_id()  # new ids above all others keep the order
         for object_id in ids:
             try:
                 stored = self.workspace.stored_object(object_id)

@@ -151,3 +151,29 @@ def test_stepped_cameras_are_kept_per_calibration_and_station():
     assert moved["f_r"] == (uncertainty.UNMOVED, uncertainty.MAPPED)
     assert moved["k1_l"] == (uncertainty.RETRACE, uncertainty.UNMOVED)
     assert "X@T1" not in moved and "X0_l@s1" not in moved
+
+
+def test_a_vertex_picked_alone_serves_the_object_stored_from_it(monkeypatch):
+    rng = np.random.default_rng(11)
+    calibration = _random_calibration(rng, "flat-port")
+    left, right = _noisy_picks(rng, calibration, 0, "rig", 2)
+    fresh = uncertainty.joint_covariance(calibration, left, right, 0, "rig")[1]
+    monkeypatch.setattr(uncertainty, "_KEPT_ROWS", {})
+    for i in range(2):  # the picks, one vertex at a time
+        uncertainty.joint_covariance(calibration, left[i:i + 1], right[i:i + 1], 0, "rig")
+
+    def no_steps(*_):
+        raise AssertionError("the stepped rays were computed again")
+
+    monkeypatch.setattr(uncertainty, "_batched_derivatives", no_steps)
+    kept = uncertainty.joint_covariance(calibration, left, right, 0, "rig")[1]
+    # each row's derivatives depend on its own pixels only: the numbers computed together, but for the
+    # rounding of the undistortion's Newton iterations (run until every row of a call converged) over a step
+    scale = np.sqrt(np.outer(np.diag(fresh), np.diag(fresh)))
+    assert np.max(np.abs(kept - fresh) / scale) < 1e-6
+    assert np.abs(kept[:3, 3:]).max() > 0  # the calibration's part correlates the two vertices
+    # other pixels, another calibration or another frame are not served from what was kept
+    for args in ((calibration, left + 0.01, right, 0, "rig"), (_random_calibration(rng, "flat-port"), left, right, 0,
+                                                                  "rig"), (calibration, left, right, 0, "object")):
+        with pytest.raises(AssertionError, match="computed again"):
+            uncertainty.joint_covariance(*args)
