@@ -1,6 +1,6 @@
-"""Storing one more fish among hundreds: the panes and the plan view draw it on items of their own and leave
-the picture of all the others as it is; the next other change (here a selection) draws everything whole
-again, the new fish included."""
+"""The window at survey size draws what changed, not everything: a stored fish goes on items of its own
+beside the cached picture of all the others; a selection draws the selected outline over that picture (and,
+in the plan view, only the labels and 1σ ellipses of the selection); a removal draws everything whole again."""
 
 import numpy as np
 
@@ -21,19 +21,19 @@ def _points(item) -> np.ndarray:
 
 
 def _contains(points: np.ndarray, expected: np.ndarray) -> bool:
-    return all(np.min(np.linalg.norm(points - p, axis=1)) < 1e-6 for p in expected)
+    return len(points) > 0 and all(np.min(np.linalg.norm(points - p, axis=1)) < 1e-6 for p in expected)
 
 
-def _store_fish(qtbot, window) -> None:
+def _store_fish(qtbot, window, shift: float) -> None:
     left, right = truth_pixels(sample_project("rov_flatport"), "measure1", "objects")
     window.actions["tool_line"].trigger()
     for point in ("snout", "fork"):
-        click_pixel(qtbot, window.panes["left"], left["fish1"][point])
-        click_pixel(qtbot, window.panes["right"], right["fish1"][point])
+        click_pixel(qtbot, window.panes["left"], np.add(left["fish1"][point], shift))
+        click_pixel(qtbot, window.panes["right"], np.add(right["fish1"][point], shift))
     window.actions["accept"].trigger()
 
 
-def test_a_stored_fish_is_drawn_alone_until_the_next_change(qtbot, make_window, tmp_path):
+def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, make_window, tmp_path):
     window = make_window()
     assert window.open_path(survey_project(tmp_path / "survey", COUNT), "measure1")
     wait_for_pair(qtbot, window, "measure1")
@@ -42,30 +42,38 @@ def test_a_stored_fish_is_drawn_alone_until_the_next_change(qtbot, make_window, 
     window.observation.ask.setChecked(False)  # the observation form would be raised over the plan view
     window.docks["plan"].raise_()
     qtbot.waitUntil(window.plan.isVisible)
-    pane, plan = window.panes["left"], window.plan
-    others = {"pane": _points(pane.objects_item), "plan": _points(plan.curve.curve),
-              "ellipses": _points(plan.ellipses.curve)}
+    ws, pane, plan = window.workspace, window.panes["left"], window.plan
+    others = {"pane": _points(pane.objects_item), "plan": _points(plan.curve.curve)}
     assert len(others["pane"]) == 2 * COUNT and len(_points(pane.added_item)) == 0
+    assert len(_points(plan.ellipses.curve)) == 0  # at survey size only the selection's ellipses
 
-    _store_fish(qtbot, window)
-    stored = window.workspace.objects()[-1]
-    picks = item_from_pixels(np.array([[v.xl, v.yl] for v in stored.vertices]))
-    xyz = np.array([v.xyz for v in stored.vertices])[:, :2]  # plan (X–Y)
+    _store_fish(qtbot, window, 0.0)
+    first = ws.objects()[-1]
+    picks = item_from_pixels(np.array([[v.xl, v.yl] for v in first.vertices]))
+    xyz = np.array([v.xyz for v in first.vertices])[:, :2]  # plan (X–Y)
     # the new outline alone on the added items; the others' pictures untouched (not even re-set)
     assert np.allclose(_points(pane.added_item), picks)
     assert np.array_equal(_points(pane.objects_item), others["pane"])
     assert np.allclose(_points(plan.added_curve.curve), xyz)
-    assert len(_points(plan.added_ellipses.curve)) == 2 * 49
     assert np.array_equal(_points(plan.curve.curve), others["plan"])
-    assert np.array_equal(_points(plan.ellipses.curve), others["ellipses"])
-    # a second fish joins the first on the added items
-    window.workspace.cancel_vertex()
-    _store_fish(qtbot, window)
+    ws.cancel_vertex()
+    _store_fish(qtbot, window, 3.0)  # a second fish joins the first on the added items
     assert len(_points(pane.added_item)) == 4 and len(_points(plan.added_curve.curve)) == 4
 
-    # a selection draws everything whole again: the fish are in the pictures, the added items empty
-    window.workspace.select([window.workspace.objects()[0].id])
-    assert len(_points(pane.added_item)) == 0 and len(_points(pane.objects_item)) == 2 * (COUNT + 2) - 2
+    # selecting draws the selected outline over the pictures, which stay as they are; the plan view
+    # labels it and draws its 1σ ellipses (49 points a vertex)
+    ws.select([first.id])
+    assert np.allclose(_points(pane.selected_item), picks)
+    assert np.array_equal(_points(pane.objects_item), others["pane"]) and len(_points(pane.added_item)) == 4
+    assert [label.toPlainText() for label in pane.labels] == [str(first.id)]
+    assert np.array_equal(_points(plan.curve.curve), others["plan"])
+    assert len(_points(plan.ellipses.curve)) == 2 * 49
+    assert str(first.id) in [label.toPlainText() for label in plan.labels]
+    ws.select([])
+    assert len(_points(pane.selected_item)) == 0 and len(_points(plan.ellipses.curve)) == 0
+
+    # a removal draws everything whole again: the fish are in the pictures, the added items empty
+    ws.delete_object(ws.objects()[0].id)
+    assert len(_points(pane.added_item)) == 0 and len(_points(pane.objects_item)) == 2 * (COUNT + 1)
     assert _contains(_points(pane.objects_item), picks)
-    assert len(_points(plan.added_curve.curve)) == 0
-    assert _contains(_points(plan.curve.curve), xyz)
+    assert len(_points(plan.added_curve.curve)) == 0 and _contains(_points(plan.curve.curve), xyz)

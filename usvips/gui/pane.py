@@ -313,15 +313,29 @@ class StereoPane(QtWidgets.QWidget):
                          labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
         """Permanent marks already joined by the caller: ``lines`` and ``selected`` (K, 2) pixels, one
         outline after another separated by NaN rows; ``vertices`` (M, 2) pixels; ``labels`` (text, pixel of
-        the first vertex, selected); ``count`` outlines in all."""
+        the first vertex, selected); ``count`` outlines in all. (:meth:`set_object_lines`, then
+        :meth:`set_selection_marks`.)"""
+        self.set_object_lines(lines, count)
+        self.set_selection_marks(selected, vertices, labels, count)
+
+    def set_object_lines(self, lines: np.ndarray, count: int) -> None:
+        """The stored objects' outlines (K, 2) pixels, NaN-separated, ``count`` of them: the cached picture,
+        redrawn only when it is set (the selected outlines are drawn over it, the added ones beside it)."""
+        thin = count > self.THIN_ABOVE
+        self.objects_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+        for item, data in ((self.objects_item, lines), (self.added_item, ())):
+            view = item_from_pixels(data)
+            item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+
+    def set_selection_marks(self, selected: np.ndarray, vertices: np.ndarray,
+                            labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
+        """What changes with the selection: the selected outlines (K, 2) pixels, NaN-separated, drawn over
+        the others; vertex marks (M, 2) pixels; labels (text, pixel of the first vertex, selected)."""
         for label in self.labels:
             self.viewbox.removeItem(label)
         self.labels = []
-        thin = count > self.THIN_ABOVE
-        self.objects_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
-        for item, data in ((self.objects_item, lines), (self.selected_item, selected), (self.added_item, ())):
-            view = item_from_pixels(data)
-            item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+        view = item_from_pixels(selected)
+        self.selected_item.setData(view[:, 0], view[:, 1], connect="finite", antialias=count <= self.THIN_ABOVE)
         self.vertex_item.setData(pos=item_from_pixels(vertices))
         for text, pixel, is_selected in labels:
             item = pg.TextItem(text, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
@@ -331,7 +345,7 @@ class StereoPane(QtWidgets.QWidget):
             self.labels.append(item)
 
     def set_added_lines(self, lines: np.ndarray, count: int) -> None:
-        """The outlines stored since the last :meth:`set_object_marks` (K, 2) pixels, NaN-separated, unselected
+        """The outlines stored since the last :meth:`set_object_lines` (K, 2) pixels, NaN-separated, unselected
         and unlabelled; ``count`` outlines in all. The others' cached picture stays as it is."""
         thin = count > self.THIN_ABOVE
         self.added_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
