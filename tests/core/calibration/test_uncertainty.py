@@ -130,10 +130,12 @@ def test_the_rov_sample_in_its_object_frame_and_in_batches_of_a_few_rows(monkeyp
     for station, frame in ((0, "object"), (1, "object"), (0, "rig")):
         whole = uncertainty.joint_covariance(calibration, left, right, station, frame)[1]
         _assert_close(whole, _reference_covariance(calibration, left, right, station, frame))
-        monkeypatch.setattr(uncertainty, "BATCH_ROWS", 7)  # two parameters a batch: many intersect calls
-        split = uncertainty.joint_covariance(calibration, left, right, station, frame)[1]
-        monkeypatch.undo()
-        _assert_close(split, whole)
+        for rows in (7, 3):  # two parameters a batch (with the unstepped rows), then one (against the result)
+            monkeypatch.setattr(uncertainty, "BATCH_ROWS", rows)
+            monkeypatch.setattr(uncertainty, "_KEPT_ROWS", {})  # nothing kept from the call before
+            split = uncertainty.joint_covariance(calibration, left, right, station, frame)[1]
+            monkeypatch.undo()
+            _assert_close(split, whole)
 
 
 def test_stepped_cameras_are_kept_per_calibration_and_station():

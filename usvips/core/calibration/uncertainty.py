@@ -291,28 +291,35 @@ def _stacked(parts: list[TracedRays]) -> TracedRays:
 def _batched_derivatives(traced: list[TracedRays], result: Intersection, columns: tuple[SteppedColumn, ...],
                          count: int, sigma0_px: float) -> np.ndarray:
     """∂point/∂parameter (count, N, 3), metres per parameter unit: forward differences of the intersection
-    over ``columns``, all stepped rays of a batch intersected in one call. The batch's first rows are the
-    unstepped rays, so both sides of a difference come from the same intersection kernel."""
+    over ``columns``, the stepped rays of a batch of columns intersected in one call. When a batch holds
+    several columns its first rows are the unstepped rays, so that both sides of a difference come from the
+    same intersection kernel (which depends on the rows of a call); a batch of one column (many points) has
+    as many rows as ``result`` and is differenced against it."""
     n = len(result.points)
     derivatives = np.zeros((count, n, 3))
     per_batch = max(1, BATCH_ROWS // max(n, 1) - 1)
+    with_base = per_batch > 1
     for start in range(0, len(columns), per_batch):
         batch = columns[start:start + per_batch]
         sides = []
         for side, base in enumerate(traced):
             mapped = _mapped(base, batch, side)
-            parts = [base]
+            parts = [base] if with_base else []
             for k, column in enumerate(batch):
                 how = column.moved[side]
                 parts.append(base if how == UNMOVED else mapped[k] if how == MAPPED
                              else trace(column.cameras[side], base.pixels))
-            sides.append(_stacked(parts))
+            sides.append(_stacked(parts) if len(parts) > 1 else parts[0])
         again = intersect_traced(sides, sigma0_px)
-        points = again.points.reshape(len(batch) + 1, n, 3)
-        ok = again.ok.reshape(len(batch) + 1, n) & result.ok & again.ok[:n]
-        for k, column in enumerate(batch, start=1):
+        rows = len(batch) + with_base
+        points = again.points.reshape(rows, n, 3)
+        ok = again.ok.reshape(rows, n) & result.ok
+        reference = points[0] if with_base else result.points
+        if with_base:
+            ok &= ok[0]
+        for k, column in enumerate(batch, start=int(with_base)):
             usable = ok[k]
-            derivatives[column.index, usable] = (points[k, usable] - points[0, usable]) / column.step
+            derivatives[column.index, usable] = (points[k, usable] - reference[usable]) / column.step
     return derivatives
 
 
