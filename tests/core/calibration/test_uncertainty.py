@@ -179,3 +179,15 @@ def test_a_vertex_picked_alone_serves_the_object_stored_from_it(monkeypatch):
                                                                   "rig"), (calibration, left, right, 0, "object")):
         with pytest.raises(AssertionError, match="computed again"):
             uncertainty.joint_covariance(*args)
+
+
+def test_without_a_parameter_covariance_only_the_pointing_part():
+    from dataclasses import replace
+
+    rng = np.random.default_rng(5)
+    calibration = replace(_random_calibration(rng, "flat-port"), covariance=None)
+    left, right = _noisy_picks(rng, calibration, 0, "rig", 2)
+    assert uncertainty.stepped_cameras(calibration, 0, "rig") == ()
+    result, full = uncertainty.joint_covariance(calibration, left, right, 0, "rig")
+    pointing = uncertainty.intersect_with_calibration(calibration, left, right, 0, "rig", False)
+    assert np.array_equal(full[:3, :3], pointing.covariance[0]) and np.all(full[:3, 3:] == 0)

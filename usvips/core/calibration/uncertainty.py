@@ -179,8 +179,11 @@ def stepped_cameras(calibration: StereoCalibration, station: int | str = 0, fram
                     ) -> tuple[SteppedColumn, ...]:
     """The cameras of ``calibration`` at ``station`` in ``frame`` with each free parameter of its covariance
     stepped, for the parameters whose step moves a camera. They do not depend on the picks, so they are
-    built once and kept for the last :data:`KEPT` calibrations (a calibration is immutable)."""
+    built once and kept for the last :data:`KEPT` calibrations (a calibration is immutable). Empty without
+    a parameter covariance."""
     label = _station_label(calibration, station)
+    if calibration.covariance is None:
+        return ()
     key = (id(calibration), label, frame)
     with _KEEPING:
         kept = _KEPT.get(key)
