@@ -428,3 +428,28 @@ def test_a_stored_object_changes_kind_where_its_vertices_allow_and_undo_restores
     with pytest.raises(UsvipsError, match="cannot be a polygon"):
         ws.change_kind(fish, "polygon")
     assert ws.project.object(fish).kind == "length"
+
+
+def test_a_fish_stored_from_its_picks_reuses_their_calibration_work(workspace, monkeypatch):
+    """The pair's geometry and the stored objects' figures hold one calibration object, so the derivatives
+    kept from each vertex's pick serve the stored fish's figures: storing traces no stepped ray."""
+    from usvips.core.calibration import uncertainty
+
+    ws, directory = workspace("rov_flatport", "measure1")
+    kept = ws.geometry.calibration
+    assert kept is ws._calibrations[ws.geometry.calibration_id]
+    ws.set_pair("measure1", *load_pair_images(ws.project, "measure1"))  # read again: the kept one serves
+    assert ws.geometry.calibration is kept
+    left, right = truth_pixels(directory, "measure1", "objects")
+    ws.set_tool("line")
+    for point in ("snout", "fork"):
+        ws.pick("left", left["fish1"][point])
+        ws.pick("right", right["fish1"][point])
+
+    def no_steps(*_):
+        raise AssertionError("the stepped rays were computed again")
+
+    monkeypatch.setattr(uncertainty, "_batched_derivatives", no_steps)
+    new_id = ws.finish_object()
+    result = ws.figures([new_id])
+    assert result.figures and result.figures[0].sigma > 0

@@ -200,14 +200,14 @@ def _pick_rows(window, app, label: str, left_px, right_px) -> Iterator[dict]:
     rig = g.calibration.rig(g.station, g.frame)
     panes = window.panes.values()
 
-    def first() -> None:
+    def first(shift: float) -> None:
         ws.cancel_vertex()
-        window._on_clicked("left", *left_px)
+        window._on_clicked("left", *(c + shift for c in left_px))
         for pane in panes:
             pane.graphics.viewport().repaint()
 
-    def second() -> None:
-        window._on_clicked("right", *right_px)
+    def second(shift: float) -> None:
+        window._on_clicked("right", *(c + shift for c in right_px))
         for pane in panes:
             pane.graphics.viewport().repaint()
 
@@ -215,22 +215,22 @@ def _pick_rows(window, app, label: str, left_px, right_px) -> Iterator[dict]:
         intersect(rig.cameras, [np.array([left_px]), np.array([right_px])], 0.3)
 
     first_s, second_s = [], []
-    for _ in range(5):
+    for repetition in range(5):  # each time other pixels (by 0.01 px): no pick's work is kept for the next
         t0 = time.perf_counter()
-        first()
+        first(0.01 * repetition)
         t1 = time.perf_counter()
-        second()
+        second(0.01 * repetition)
         t2 = time.perf_counter()
         first_s.append(t1 - t0)
         second_s.append(t2 - t1)
     assert "±" in window.point_label.text()
     base = min(_timed(baseline) for _ in range(5))
-    for name, times in (("first pick: epipolar curve, auto-match, drawing", first_s),
-                        ("second pick: intersection with covariance, 3-D readout, drawing", second_s)):
+    for name, times, target in (("first pick: epipolar curve, auto-match, drawing", first_s, 0.05),
+                                ("second pick: intersection with covariance, 3-D readout, drawing", second_s, 0.02)):
         ours = min(times)
         yield {"name": f"gui: {name} ({label})", "n": 1, "ours_s": round(ours, 5),
                "baseline": "core intersect() of the same two picks", "baseline_s": round(base, 6),
-               "ratio": round(ours / base, 2), "target": None, "target_s": 0.05, "met": bool(ours <= 0.05)}
+               "ratio": round(ours / base, 2), "target": None, "target_s": target, "met": bool(ours <= target)}
 
 
 #: Objects in the survey-size project of the window's rows.
@@ -244,11 +244,12 @@ def _store_row(window, label: str, *pixels) -> dict:
     snout_l, snout_r, fork_l, fork_r = pixels
     window.set_tool("line")
     times, writes = [], []
-    for _ in range(3):
-        window._on_clicked("left", *snout_l)
-        window._on_clicked("right", *snout_r)
-        window._on_clicked("left", *fork_l)
-        window._on_clicked("right", *fork_r)
+    for repetition in range(3):  # each fish picked at other pixels (by 0.01 px)
+        shift = 0.01 * (repetition + 1)
+        window._on_clicked("left", *(c + shift for c in snout_l))
+        window._on_clicked("right", *(c + shift for c in snout_r))
+        window._on_clicked("left", *(c + shift for c in fork_l))
+        window._on_clicked("right", *(c + shift for c in fork_r))
         start = time.perf_counter()
         window.accept_or_finish()
         for pane in window.panes.values():

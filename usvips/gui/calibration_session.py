@@ -101,7 +101,7 @@ class CalibrationSession:
         self.result: CalibrationResult | None = None
         self.previous_result: CalibrationResult | None = None
         #: Events: ``step_changed(step)`` (the wizard's page, a name), ``data_changed(what, keys)`` with
-        #: ``what`` one of pairs, control, known, observations, exclusions and ``keys`` the (pair, point)
+        #: ``what`` one of pairs, control, known, observations, check, exclusions and ``keys`` the (pair, point)
         #: changed (empty: all of that kind), ``result_changed()`` (a result was set or dropped).
         self.step = ""
         self.step_changed = Signal()
@@ -210,11 +210,20 @@ class CalibrationSession:
         self.excluded.discard((pair, point))
         self._observations_changed(((pair, point),))
 
-    def _observations_changed(self, keys: tuple) -> None:
-        """The observations changed (``keys``: which; empty: many): any result is of other data."""
+    def set_check(self, pair: str, point: str, checked: bool) -> None:
+        """Use the observation of ``point`` in ``pair`` as a check point (left out of the adjustment) or not."""
+        key = (pair, point)
+        if (key in self.check) == checked:
+            return
+        (self.check.add if checked else self.check.discard)(key)
+        self._observations_changed((key,), "check")
+
+    def _observations_changed(self, keys: tuple, what: str = "observations") -> None:
+        """The observations (or their use, ``what``) changed (``keys``: which; empty: many): any result is
+        of other data."""
         had = self.result is not None
         self.result = None
-        self.data_changed.emit("observations", keys)
+        self.data_changed.emit(what, keys)
         if had:
             self.result_changed.emit()
 

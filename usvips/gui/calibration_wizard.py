@@ -319,6 +319,14 @@ class MeasurePage(QtWidgets.QWizardPage):
         self.workspace.picks_changed.connect(self._on_picks_changed)
         self.workspace.message.connect(lambda level, text: self.message.setText(text))
         self._filling = False
+        session.data_changed.connect(self._on_data)  # the table follows the session, whoever changed it
+
+    #: the session's data the table and the spread show
+    SHOWN = frozenset({"pairs", "control", "observations", "check", "exclusions"})
+
+    def _on_data(self, what: str, _keys: tuple) -> None:
+        if what in self.SHOWN:
+            self.refresh()
 
     def initializePage(self) -> None:  # noqa: N802 (Qt's name)
         session = self.session
@@ -389,7 +397,6 @@ class MeasurePage(QtWidgets.QWizardPage):
         index = self.target.findText(point)
         if 0 <= index < self.target.count() - 1:
             self.target.setCurrentIndex(index + 1)  # the next target, as the operator works through them
-        self.refresh()
 
     def keyPressEvent(self, event: QtGui.QKeyEvent) -> None:  # noqa: N802 (Qt's name)
         """Enter on this page accepts the proposed match and never advances the wizard (Next does)."""
@@ -417,7 +424,6 @@ class MeasurePage(QtWidgets.QWizardPage):
     def _on_project(self) -> None:
         count = self.session.load_project_observations()
         self.message.setText(f"{count} observations taken from the project")
-        self.refresh()
 
     def _on_import(self) -> None:
         path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Observations", "", "CSV (*.csv *.txt)")
@@ -431,24 +437,18 @@ class MeasurePage(QtWidgets.QWizardPage):
             self.message.setText(str(error))
             return
         self.message.setText(f"{count} observations imported from {path}")
-        self.refresh()
 
     def _on_remove(self) -> None:
         rows = sorted({index.row() for index in self.table.selectedIndexes()})
-        for row in rows:
-            self.session.remove_observation(self.table.item(row, 0).text(), self.table.item(row, 1).text())
-        self.refresh()
+        keys = [(self.table.item(row, 0).text(), self.table.item(row, 1).text()) for row in rows]
+        for pair, point in keys:
+            self.session.remove_observation(pair, point)
 
     def _on_item_changed(self, item: QtWidgets.QTableWidgetItem) -> None:
         if self._filling or item.column() != self.COLUMNS.index("check"):
             return
-        key = (self.table.item(item.row(), 0).text(), self.table.item(item.row(), 1).text())
-        if item.checkState() == QtCore.Qt.CheckState.Checked:
-            self.session.check.add(key)
-        else:
-            self.session.check.discard(key)
-        self.session.result = None
-        self.refresh()
+        pair, point = self.table.item(item.row(), 0).text(), self.table.item(item.row(), 1).text()
+        self.session.set_check(pair, point, item.checkState() == QtCore.Qt.CheckState.Checked)
 
     def refresh(self) -> None:
         session = self.session
@@ -563,6 +563,15 @@ class ResultsPage(QtWidgets.QWizardPage):
         layout = QtWidgets.QHBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.splitter)
+        session.result_changed.connect(self._on_result)
+
+    def _on_result(self) -> None:
+        """The session's result was set (show it) or dropped because its data changed (say so)."""
+        if self.session.result is not None:
+            self.show_result()
+        elif self.worker is None:
+            self.summary.setText("The observations changed since the last computation: compute again.")
+            self.completeChanged.emit()
 
     def initializePage(self) -> None:  # noqa: N802 (Qt's name)
         measure = self.wizard().measure_page
@@ -612,8 +621,7 @@ class ResultsPage(QtWidgets.QWizardPage):
         if self.sender() is not None and self.worker is None:
             return
         self._done()
-        self.session.set_result(result)
-        self.show_result()
+        self.session.set_result(result)  # shown by the session's result event
 
     def _on_failed(self, message: str) -> None:
         self._done()
@@ -624,9 +632,7 @@ class ResultsPage(QtWidgets.QWizardPage):
         self._done()
 
     def exclude_and_rerun(self) -> None:
-        excluded = self.session.exclude_flagged()
-        if excluded:
-            self.wizard().measure_page.refresh()
+        if self.session.exclude_flagged():  # the measure page follows by the session's data event
             self.compute()
 
     def show_result(self) -> None:
@@ -830,6 +836,9 @@ class CalibrationWizard(QtWidgets.QWizard):
             self.addPage(page)
         self._baseline: str | None = None
         self.currentIdChanged.connect(self._on_page_changed)
+        self._listening = ((session.step_changed, self._on_step), (session.data_changed, self.measure_page._on_data),
+                           (session.result_changed, self.results_page._on_result))
+        session.step_changed.connect(self._on_step)
         screen = self.screen().availableGeometry() if self.screen() is not None else None
         if screen is not None:  # most of the screen: the measure page needs room for two images
             self.resize(min(1500, int(screen.width() * 0.95)), min(950, int(screen.height() * 0.92)))
@@ -858,9 +867,19 @@ class CalibrationWizard(QtWidgets.QWizard):
             return False
         return self.session.result is not None or self.measured_state() != self._baseline
 
+    #: the wizard's steps (the session's ``step``), page by page, and how the title names them
+    STEPS = {"setup": "set-up", "measure": "measure the targets", "results": "compute and judge", "save": "save"}
+
     def _on_page_changed(self, _id: int) -> None:
         if self._baseline is None and self.currentPage() is self.measure_page:
             self._baseline = self.measured_state()  # what the project already had when measuring began
+        pages = (self.setup_page, self.measure_page, self.results_page, self.save_page)
+        if self.currentPage() in pages:
+            self.session.set_step(list(self.STEPS)[pages.index(self.currentPage())])
+
+    def _on_step(self, step: str) -> None:
+        """The session is at another step: the title says which."""
+        self.setWindowTitle(f"USVIPS — {PHASES[self.session.phase]} — {self.STEPS.get(step, step)}")
 
     def ask_discard(self) -> str:
         """Ask what to do with unsaved work: ``"save"`` (keep a draft), ``"discard"`` or ``"stay"``."""
@@ -885,4 +904,6 @@ class CalibrationWizard(QtWidgets.QWizard):
 
     def done(self, result: int) -> None:
         self.results_page.cancel()
+        for signal, slot in self._listening:  # the session may outlive this wizard
+            signal.disconnect(slot)
         super().done(result)

@@ -4,7 +4,10 @@ Each object's outline on the current pair (image pixels, x right, y down, origin
 top-left pixel) is computed once and cached by object id; an event recomputes only the ids it names, and a
 pick redraws only the object being digitised. With more than :data:`MAX_LABELS` objects on the pair only
 the selected ones carry a label and vertex marks (ten thousand labels would hide the image, and the marks
-of 20,000 vertices cost pyqtgraph about a second per change).
+of 20,000 vertices cost pyqtgraph about a second per change). The outlines are one cached picture, redrawn
+only when an outline changes: a selection draws the selected outlines over it, and at survey size an object
+stored (added, not selected) is drawn on its own beside it until the next other change of the outlines (or
+:data:`MAX_ADDED` additions).
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ from usvips.gui.workspace import SIDES, Workspace
 
 #: Above this many objects on the pair, only the selected objects are labelled.
 MAX_LABELS = 300
+#: Objects drawn on their own after being added, before the whole picture is redrawn.
+MAX_ADDED = 200
 
 
 class ObjectOverlay:
@@ -26,8 +31,10 @@ class ObjectOverlay:
         self.panes = panes
         #: id -> (label, left outline, right outline, closed, left vertex picks, right vertex picks)
         self.outlines: dict[int, tuple] = {}
+        self._added: list[int] = []  # ids drawn on their own since the last whole drawing
+        self._lines_drawn = False  # whether the panes' picture of all outlines is up to date
         self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self.refresh),
-                        (workspace.objects_added, self._on_objects), (workspace.objects_updated, self._on_objects),
+                        (workspace.objects_added, self._on_added), (workspace.objects_updated, self._on_objects),
                         (workspace.objects_removed, self._on_objects), (workspace.selection_changed, self.draw),
                         (workspace.picks_changed, self.draw_digitising))
         for signal, slot in self._events:
@@ -43,7 +50,28 @@ class ObjectOverlay:
         self._on_objects(tuple(self.workspace.object_ids()))
         self.draw_digitising()
 
+    def _on_added(self, ids: tuple[int, ...]) -> None:
+        """New objects: at survey size, unselected and after every object drawn, only they are drawn."""
+        last = max(self.outlines, default=0)
+        alone = (len(self.outlines) > MAX_LABELS and len(self._added) + len(ids) <= MAX_ADDED
+                 and min(ids, default=0) > last and not set(ids) & set(self.workspace.selection))
+        if not alone:
+            self._on_objects(ids)
+            return
+        self._outline(ids)
+        self._added.extend(i for i in ids if i in self.outlines)
+        for index, side in enumerate(SIDES):
+            lines = [self.outlines[i][1][index] for i in self._added]
+            self.panes[side].set_added_lines(np.concatenate(lines) if lines else np.zeros((0, 2)),
+                                             len(self.outlines))
+
     def _on_objects(self, ids: tuple[int, ...]) -> None:
+        self._outline(ids)
+        self._lines_drawn = False
+        self.draw()
+
+    def _outline(self, ids: tuple[int, ...]) -> None:
+        """Compute (or drop) the cached outlines of ``ids``."""
         for object_id in ids:
             self.outlines.pop(object_id, None)
             if self.workspace.pair is None:
@@ -60,27 +88,31 @@ class ObjectOverlay:
             marks = (np.array([(v.xl, v.yl) for v in picks], float).reshape(-1, 2),
                      np.array([(v.xr, v.yr) for v in picks], float).reshape(-1, 2))
             self.outlines[object_id] = (f"{stored.id} {stored.attribute}".strip(), paths, marks)
-        self.draw()
 
     def draw(self, *_: object) -> None:
-        """Hand the cached outlines to the panes, joined into one array per kind of mark, the selected
-        ones highlighted."""
+        """Hand the cached outlines to the panes, joined into one array per kind of mark: all of them (when
+        one changed), and the selected ones highlighted over them."""
         selection = set(self.workspace.selection)
         labelled = len(self.outlines) <= MAX_LABELS
+        shown = self.outlines if labelled else {i: self.outlines[i] for i in selection if i in self.outlines}
         empty = np.zeros((0, 2))
         for index, side in enumerate(SIDES):
-            lines, chosen, vertices, labels = [], [], [], []
-            for object_id, (label, paths, marks) in self.outlines.items():
+            if not self._lines_drawn:
+                lines = [paths[index] for _, paths, _ in self.outlines.values()]
+                self.panes[side].set_object_lines(np.concatenate(lines) if lines else empty, len(self.outlines))
+            chosen, vertices, labels = [], [], []
+            for object_id, (label, paths, marks) in shown.items():
                 selected = object_id in selection
-                (chosen if selected else lines).append(paths[index])
-                if labelled or selected:  # at survey size the outlines' ends show the vertices well enough
-                    vertices.append(marks[index])
-                if label and (labelled or selected):
+                if selected:
+                    chosen.append(paths[index])
+                vertices.append(marks[index])  # at survey size the outlines' ends show the vertices well enough
+                if label:
                     labels.append((label, tuple(paths[index][0]), selected))
-            self.panes[side].set_object_marks(np.concatenate(lines) if lines else empty,
-                                              np.concatenate(chosen) if chosen else empty,
-                                              np.concatenate(vertices) if vertices else empty, labels,
-                                              len(self.outlines))
+            self.panes[side].set_selection_marks(np.concatenate(chosen) if chosen else empty,
+                                                 np.concatenate(vertices) if vertices else empty, labels,
+                                                 len(self.outlines))
+        if not self._lines_drawn:
+            self._added, self._lines_drawn = [], True
 
     def draw_digitising(self, *_: object) -> None:
         current = self.workspace.digitising.vertices

@@ -98,6 +98,9 @@ class StereoPane(QtWidgets.QWidget):
         self.cross_h = pg.InfiniteLine(angle=0, movable=False, pen=pen)
         self.curve_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["curve"], width=1.5, style=QtCore.Qt.PenStyle.DashLine))
         self.objects_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
+        # outlines stored since the objects were last drawn whole: a small item of their own, so that storing
+        # one more object among thousands neither rebuilds nor redraws the cached picture of the others
+        self.added_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
         self.selected_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["selected"], width=3), connect="finite")
         self.vertex_item = pg.ScatterPlotItem(size=7, pen=pg.mkPen(COLOURS["object"]), brush=None, symbol="s")
         self.pick_item = pg.ScatterPlotItem(size=15, pen=pg.mkPen(COLOURS["pick"], width=2), brush=None, symbol="+")
@@ -109,8 +112,8 @@ class StereoPane(QtWidgets.QWidget):
         # the stored objects change on a store or an edit, not on a pick: drawn from a cached pixmap meanwhile
         self.objects_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
         self.vertex_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
-        for item in (self.objects_item, self.selected_item, self.vertex_item, self.digitising_item, self.curve_item,
-                     self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
+        for item in (self.objects_item, self.added_item, self.selected_item, self.vertex_item, self.digitising_item,
+                     self.curve_item, self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
             self.viewbox.addItem(item, ignoreBounds=True)
         self.control_item = pg.ScatterPlotItem(size=11, pen=pg.mkPen(COLOURS["control"], width=1.5), brush=None,
                                                symbol="o")
@@ -310,15 +313,29 @@ class StereoPane(QtWidgets.QWidget):
                          labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
         """Permanent marks already joined by the caller: ``lines`` and ``selected`` (K, 2) pixels, one
         outline after another separated by NaN rows; ``vertices`` (M, 2) pixels; ``labels`` (text, pixel of
-        the first vertex, selected); ``count`` outlines in all."""
+        the first vertex, selected); ``count`` outlines in all. (:meth:`set_object_lines`, then
+        :meth:`set_selection_marks`.)"""
+        self.set_object_lines(lines, count)
+        self.set_selection_marks(selected, vertices, labels, count)
+
+    def set_object_lines(self, lines: np.ndarray, count: int) -> None:
+        """The stored objects' outlines (K, 2) pixels, NaN-separated, ``count`` of them: the cached picture,
+        redrawn only when it is set (the selected outlines are drawn over it, the added ones beside it)."""
+        thin = count > self.THIN_ABOVE
+        self.objects_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+        for item, data in ((self.objects_item, lines), (self.added_item, ())):
+            view = item_from_pixels(data)
+            item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+
+    def set_selection_marks(self, selected: np.ndarray, vertices: np.ndarray,
+                            labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
+        """What changes with the selection: the selected outlines (K, 2) pixels, NaN-separated, drawn over
+        the others; vertex marks (M, 2) pixels; labels (text, pixel of the first vertex, selected)."""
         for label in self.labels:
             self.viewbox.removeItem(label)
         self.labels = []
-        thin = count > self.THIN_ABOVE
-        self.objects_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
-        for item, data in ((self.objects_item, lines), (self.selected_item, selected)):
-            view = item_from_pixels(data)
-            item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+        view = item_from_pixels(selected)
+        self.selected_item.setData(view[:, 0], view[:, 1], connect="finite", antialias=count <= self.THIN_ABOVE)
         self.vertex_item.setData(pos=item_from_pixels(vertices))
         for text, pixel, is_selected in labels:
             item = pg.TextItem(text, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
@@ -326,6 +343,14 @@ class StereoPane(QtWidgets.QWidget):
             item.setPos(float(view[0]) + 4, float(view[1]) - 4)
             self.viewbox.addItem(item, ignoreBounds=True)
             self.labels.append(item)
+
+    def set_added_lines(self, lines: np.ndarray, count: int) -> None:
+        """The outlines stored since the last :meth:`set_object_lines` (K, 2) pixels, NaN-separated, unselected
+        and unlabelled; ``count`` outlines in all. The others' cached picture stays as it is."""
+        thin = count > self.THIN_ABOVE
+        self.added_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+        view = item_from_pixels(lines)
+        self.added_item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
 
     def set_objects(self, outlines: list[tuple]) -> None:
         """Permanent marks: (label, outline pixels (N, 2), closed, selected[, vertex pixels (M, 2)]) per

@@ -557,6 +557,10 @@ class PlanView(QtWidgets.QWidget):
                                     symbolSize=5)
         self.ellipses = self.plot.plot(pen=pg.mkPen((255, 140, 0), width=1), connect="finite")
         self.cameras = self.plot.plot(pen=None, symbol="t", symbolSize=12, symbolBrush=(60, 220, 120))
+        # objects stored since the last whole drawing (at survey size): an item of their own, so that one more
+        # fish among thousands does not rebuild the others' outlines
+        self.added_curve = self.plot.plot(pen=pg.mkPen((0, 200, 255), width=1), connect="finite")
+        self._added: list[int] = []
         self.labels: list[pg.TextItem] = []
         top = QtWidgets.QHBoxLayout()
         top.addWidget(self.view)
@@ -569,7 +573,7 @@ class PlanView(QtWidgets.QWidget):
         self._dirty = True
         self._stale: set[int] = set()  # ids whose drawing is not computed yet (done when the view is shown)
         self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self._on_pair),
-                        (workspace.objects_added, self._on_objects), (workspace.objects_updated, self._on_objects),
+                        (workspace.objects_added, self._on_added), (workspace.objects_updated, self._on_objects),
                         (workspace.objects_removed, self._on_objects),
                         (workspace.selection_changed, self._on_selection))
         for signal, slot in self._events:
@@ -578,6 +582,8 @@ class PlanView(QtWidgets.QWidget):
 
     #: Above this many objects only the selected ones are labelled (thousands of labels hide the plot).
     MAX_LABELS = 300
+    #: Objects drawn on their own after being added, before the whole plot is redrawn.
+    MAX_ADDED = 200
 
     def cleanup(self) -> None:
         for signal, slot in self._events:
@@ -608,9 +614,31 @@ class PlanView(QtWidgets.QWidget):
         if self.isVisible():
             self.redraw()
 
+    def _on_added(self, ids: tuple[int, ...]) -> None:
+        """New objects: shown, at survey size, unselected and after every object drawn, only they are drawn
+        (on their own items); otherwise as any change."""
+        alone = (self.isVisible() and not self._dirty and len(self._parts) > self.MAX_LABELS
+                 and len(self._added) + len(ids) <= self.MAX_ADDED and min(ids, default=0) > self._last_id()
+                 and not set(ids) & set(self.workspace.selection))
+        if not alone:
+            self._on_objects(ids)
+            return
+        self._stale.update(ids)
+        self._update_parts()
+        self._added.extend(i for i in ids if i in self._parts)
+        parts = [self._parts[i] for i in self._added]
+        data = np.vstack([p[1] for p in parts]) if parts else np.zeros((0, 2))
+        self.added_curve.setData(data[:, 0], data[:, 1], connect="finite")
+        self.plot.autoRange()
+
+    def _last_id(self) -> int:
+        """The highest id drawn (``_parts`` is kept in id order)."""
+        return next(reversed(self._parts), 0)
+
     def _update_parts(self) -> None:
         a, b = self.VIEWS[self.view.currentText()]
         ids, self._stale = sorted(self._stale), set()
+        ordered = not ids or ids[0] > self._last_id()  # new ids above all others keep the order
         for object_id in ids:
             try:
                 stored = self.workspace.stored_object(object_id)
@@ -622,14 +650,18 @@ class PlanView(QtWidgets.QWidget):
                 self._parts.pop(object_id, None)
             else:
                 self._parts[object_id] = part
-        if ids:
+        if not ordered:
             self._parts = dict(sorted(self._parts.items()))
 
     def _on_selection(self, _ids) -> None:
+        """At survey size the selected objects are labelled: only the labels change."""
         if len(self._parts) > self.MAX_LABELS:
-            self._dirty = True
-            if self.isVisible():
+            if not self.isVisible():
+                self._dirty = True
+            elif self._dirty:
                 self.redraw()
+            else:
+                self._draw_labels()
 
     def showEvent(self, event) -> None:  # noqa: N802 (Qt's name)
         super().showEvent(event)
@@ -663,9 +695,38 @@ class PlanView(QtWidgets.QWidget):
     def redraw(self) -> None:
         self._update_parts()
         self._dirty = False
+        self._added = []
+        self.added_curve.setData([], [])
         a, b = self.VIEWS[self.view.currentText()]
         self.plot.setLabel("bottom", "XYZ"[a] + " (m)")
         self.plot.setLabel("left", "XYZ"[b] + " (m)")
+        parts = [p[1] for p in self._parts.values()]
+        data = np.vstack(parts) if parts else np.zeros((0, 2))
+        # at survey size no vertex marks (20,000 of them cost pyqtgraph about half a second per drawing) and a
+        # thin pen (a wide one costs Qt's stroker a quarter of a second per repaint of 10,000 outlines)
+        survey = len(self._parts) > self.MAX_LABELS
+        self.curve.setSymbol(None if survey else "o")
+        self.curve.setPen(pg.mkPen((0, 200, 255), width=1 if survey else 2))
+        self.curve.setData(data[:, 0], data[:, 1], connect="finite", antialias=not survey)
+        self._draw_labels()
+        geometry = self.workspace.geometry
+        if geometry is not None:
+            rig = geometry.calibration.rig(geometry.station, geometry.frame)
+            cameras = np.array([rig.left.exterior.position, rig.right.exterior.position])[:, [a, b]]
+            self.cameras.setData(cameras[:, 0], cameras[:, 1])
+            self.frame.setText(f"{geometry.description}; orange: 1σ ellipses{self._which()}, green: the cameras")
+        else:
+            self.cameras.setData([], [])
+            self.frame.setText(f"no calibrated pair shown: coordinates as measured; orange: 1σ ellipses{self._which()}")
+        self.plot.enableAutoRange()
+        self.plot.autoRange()
+
+    def _which(self) -> str:
+        return "" if len(self._parts) <= self.MAX_LABELS else " (of the selected objects)"
+
+    def _draw_labels(self) -> None:
+        """The objects' labels and 1σ ellipses (at survey size the selected ones only: 20,000 ellipses cost
+        Qt half a second per repaint, and at that scale they are specks) and the cameras' labels."""
         for item in self.labels:
             self.plot.removeItem(item)
         self.labels = []
@@ -673,25 +734,15 @@ class PlanView(QtWidgets.QWidget):
                     else {i: self._parts[i] for i in self.workspace.selection if i in self._parts})
         for label, _, _ in labelled.values():
             self._label(label[0], label[1], (230, 230, 230))
-        parts = [p[1] for p in self._parts.values()]
-        rings = [p[2] for p in self._parts.values() if len(p[2])]
-        data = np.vstack(parts) if parts else np.zeros((0, 2))
-        self.curve.setData(data[:, 0], data[:, 1], connect="finite")
+        rings = [p[2] for p in labelled.values() if len(p[2])]
         ring_data = np.vstack(rings) if rings else np.zeros((0, 2))
         self.ellipses.setData(ring_data[:, 0], ring_data[:, 1], connect="finite")
         geometry = self.workspace.geometry
         if geometry is not None:
+            a, b = self.VIEWS[self.view.currentText()]
             rig = geometry.calibration.rig(geometry.station, geometry.frame)
-            cameras = np.array([rig.left.exterior.position, rig.right.exterior.position])[:, [a, b]]
-            self.cameras.setData(cameras[:, 0], cameras[:, 1])
-            for name, position in zip(("L", "R"), cameras, strict=True):
-                self._label(name, position, (60, 220, 120))
-            self.frame.setText(f"{geometry.description}; orange: 1σ ellipses, green: the cameras")
-        else:
-            self.cameras.setData([], [])
-            self.frame.setText("no calibrated pair shown: coordinates as measured; orange: 1σ ellipses")
-        self.plot.enableAutoRange()
-        self.plot.autoRange()
+            for name, camera in zip(("L", "R"), rig.cameras, strict=True):
+                self._label(name, camera.exterior.position[[a, b]], (60, 220, 120))
 
 
 class ObservationForm(QtWidgets.QWidget):

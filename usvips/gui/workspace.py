@@ -259,6 +259,18 @@ class Workspace:
         self.selection_changed.emit(self.selection)
         self.pair_changed.emit()
 
+    def _shared(self, geometry: PairGeometry | None) -> PairGeometry | None:
+        """``geometry`` with the very calibration object the stored objects' figures use (read once per
+        project): what is kept per calibration for the picks (the stepped cameras, a vertex's derivatives)
+        then serves the figures of the object stored from them."""
+        if geometry is None:
+            return None
+        known = self._calibrations.get(geometry.calibration_id)
+        if known is None:
+            self._calibrations[geometry.calibration_id] = geometry.calibration
+            return geometry
+        return replace(geometry, calibration=known)
+
     def image_pairs(self) -> list[str]:
         """Labels of the project's pairs that have images."""
         if self.project is None:
@@ -274,7 +286,7 @@ class Workspace:
         self.video_frame = None  # a video's frame pair sets it after showing the images
         self.images = {"left": left, "right": right}
         try:
-            self.geometry = pair_geometry(self.project, label)
+            self.geometry = self._shared(pair_geometry(self.project, label))
         except UsvipsError as error:
             self.geometry = None
             self.message.emit("error", f"the calibration of pair {label!r} cannot be used: {error}")

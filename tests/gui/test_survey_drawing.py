@@ -1,0 +1,79 @@
+"""The window at survey size draws what changed, not everything: a stored fish goes on items of its own
+beside the cached picture of all the others; a selection draws the selected outline over that picture (and,
+in the plan view, only the labels and 1σ ellipses of the selection); a removal draws everything whole again."""
+
+import numpy as np
+
+from tests.gui.conftest import click_pixel, truth_pixels, wait_for_pair
+from usvips.gui.bench import survey_project
+from usvips.gui.pane import item_from_pixels
+from usvips.locations import sample_project
+
+COUNT = 400
+
+
+def _points(item) -> np.ndarray:
+    x, y = item.getData()
+    if x is None or not item.isVisible():  # pyqtgraph hides a curve given no data (and keeps the old)
+        return np.zeros((0, 2))
+    points = np.column_stack([x, y])
+    return points[np.isfinite(points).all(axis=1)]
+
+
+def _contains(points: np.ndarray, expected: np.ndarray) -> bool:
+    return len(points) > 0 and all(np.min(np.linalg.norm(points - p, axis=1)) < 1e-6 for p in expected)
+
+
+def _store_fish(qtbot, window, shift: float) -> None:
+    left, right = truth_pixels(sample_project("rov_flatport"), "measure1", "objects")
+    window.actions["tool_line"].trigger()
+    for point in ("snout", "fork"):
+        click_pixel(qtbot, window.panes["left"], np.add(left["fish1"][point], shift))
+        click_pixel(qtbot, window.panes["right"], np.add(right["fish1"][point], shift))
+    window.actions["accept"].trigger()
+
+
+def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, make_window, tmp_path):
+    window = make_window()
+    assert window.open_path(survey_project(tmp_path / "survey", COUNT), "measure1")
+    wait_for_pair(qtbot, window, "measure1")
+    if window.object_list._worker is not None:
+        window.object_list._worker.cancel()
+    window.observation.ask.setChecked(False)  # the observation form would be raised over the plan view
+    window.docks["plan"].raise_()
+    qtbot.waitUntil(window.plan.isVisible)
+    ws, pane, plan = window.workspace, window.panes["left"], window.plan
+    others = {"pane": _points(pane.objects_item), "plan": _points(plan.curve.curve)}
+    assert len(others["pane"]) == 2 * COUNT and len(_points(pane.added_item)) == 0
+    assert len(_points(plan.ellipses.curve)) == 0  # at survey size only the selection's ellipses
+
+    _store_fish(qtbot, window, 0.0)
+    first = ws.objects()[-1]
+    picks = item_from_pixels(np.array([[v.xl, v.yl] for v in first.vertices]))
+    xyz = np.array([v.xyz for v in first.vertices])[:, :2]  # plan (X–Y)
+    # the new outline alone on the added items; the others' pictures untouched (not even re-set)
+    assert np.allclose(_points(pane.added_item), picks)
+    assert np.array_equal(_points(pane.objects_item), others["pane"])
+    assert np.allclose(_points(plan.added_curve.curve), xyz)
+    assert np.array_equal(_points(plan.curve.curve), others["plan"])
+    ws.cancel_vertex()
+    _store_fish(qtbot, window, 3.0)  # a second fish joins the first on the added items
+    assert len(_points(pane.added_item)) == 4 and len(_points(plan.added_curve.curve)) == 4
+
+    # selecting draws the selected outline over the pictures, which stay as they are; the plan view
+    # labels it and draws its 1σ ellipses (49 points a vertex)
+    ws.select([first.id])
+    assert np.allclose(_points(pane.selected_item), picks)
+    assert np.array_equal(_points(pane.objects_item), others["pane"]) and len(_points(pane.added_item)) == 4
+    assert [label.toPlainText() for label in pane.labels] == [str(first.id)]
+    assert np.array_equal(_points(plan.curve.curve), others["plan"])
+    assert len(_points(plan.ellipses.curve)) == 2 * 49
+    assert str(first.id) in [label.toPlainText() for label in plan.labels]
+    ws.select([])
+    assert len(_points(pane.selected_item)) == 0 and len(_points(plan.ellipses.curve)) == 0
+
+    # a removal draws everything whole again: the fish are in the pictures, the added items empty
+    ws.delete_object(ws.objects()[0].id)
+    assert len(_points(pane.added_item)) == 0 and len(_points(pane.objects_item)) == 2 * (COUNT + 1)
+    assert _contains(_points(pane.objects_item), picks)
+    assert len(_points(plan.added_curve.curve)) == 0 and _contains(_points(plan.curve.curve), xyz)
