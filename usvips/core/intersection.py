@@ -174,7 +174,14 @@ def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px:
     n = arrays[0].shape[0]
     if any(a.shape[0] != n for a in arrays):
         raise InvalidParameterError("pixels", "every camera needs the same number of rows")
-    _sigma(sigma_px, len(cameras), n)  # bad sigmas are named before any tracing
+    sigma = _sigma(sigma_px, len(cameras), n)  # bad sigmas are named before any tracing
+    if all(kernels.wanted(n, camera.housing.surfaces) for camera in cameras):
+        # compiled, block by block: pixels to points and covariance with no per-ray arrays in between;
+        # one row of weights when every point has the same sigmas (a broadcast scalar or (k,))
+        weights = 1.0 / (sigma[:1] if sigma.strides[0] == 0 else sigma) ** 2
+        fused = kernels.intersect_pixels(cameras, arrays, weights)
+        if fused is not None:
+            return Intersection(*fused)
     return intersect_traced([trace(camera, pix) for camera, pix in zip(cameras, arrays, strict=True)], sigma_px)
 
 
