@@ -267,13 +267,29 @@ def _to_object(m, s, camera):
     m20, m21, m22, p0, p1, p2 = camera[15], camera[16], camera[17], camera[18], camera[19], camera[20]
     for i in range(m):
         x, y, z = s[OX + i], s[OY + i], s[OZ + i]
-        s[OX + i], s[OY + i], s[OZ + i] = (p0 + m00 * x + m10 * y + m20 * z, p1 + m01 * x + m11 * y + m21 * z,
-                                           p2 + m02 * x + m12 * y + m22 * z)
-        for row in (DX, AOX, ADX, BOX, BDX):
-            x, y, z = s[row + i], s[row + _B + i], s[row + 2 * _B + i]
-            s[row + i] = m00 * x + m10 * y + m20 * z
-            s[row + _B + i] = m01 * x + m11 * y + m21 * z
-            s[row + 2 * _B + i] = m02 * x + m12 * y + m22 * z
+        s[OX + i] = p0 + m00 * x + m10 * y + m20 * z
+        s[OY + i] = p1 + m01 * x + m11 * y + m21 * z
+        s[OZ + i] = p2 + m02 * x + m12 * y + m22 * z
+        x, y, z = s[DX + i], s[DY + i], s[DZ + i]
+        s[DX + i] = m00 * x + m10 * y + m20 * z
+        s[DY + i] = m01 * x + m11 * y + m21 * z
+        s[DZ + i] = m02 * x + m12 * y + m22 * z
+        x, y, z = s[AOX + i], s[AOY + i], s[AOZ + i]
+        s[AOX + i] = m00 * x + m10 * y + m20 * z
+        s[AOY + i] = m01 * x + m11 * y + m21 * z
+        s[AOZ + i] = m02 * x + m12 * y + m22 * z
+        x, y, z = s[ADX + i], s[ADY + i], s[ADZ + i]
+        s[ADX + i] = m00 * x + m10 * y + m20 * z
+        s[ADY + i] = m01 * x + m11 * y + m21 * z
+        s[ADZ + i] = m02 * x + m12 * y + m22 * z
+        x, y, z = s[BOX + i], s[BOY + i], s[BOZ + i]
+        s[BOX + i] = m00 * x + m10 * y + m20 * z
+        s[BOY + i] = m01 * x + m11 * y + m21 * z
+        s[BOZ + i] = m02 * x + m12 * y + m22 * z
+        x, y, z = s[BDX + i], s[BDY + i], s[BDZ + i]
+        s[BDX + i] = m00 * x + m10 * y + m20 * z
+        s[BDY + i] = m01 * x + m11 * y + m21 * z
+        s[BDZ + i] = m02 * x + m12 * y + m22 * z
 
 
 @njit(**_OPTIONS)
