@@ -10,7 +10,7 @@ from usvips.core.camera import Camera, Exterior
 from usvips.core.errors import ConvergenceError
 from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, GeneralHousing
 from usvips.core.interior import Interior
-from usvips.core.intersection import intersect
+from usvips.core.intersection import intersect, intersect_traced, trace
 from usvips.core.rays import RayStatus
 from usvips.core.surfaces import Plane, Sphere
 
@@ -113,9 +113,15 @@ def assert_same_intersection(fast, ref):
     np.testing.assert_allclose(fast.residuals_px, ref.residuals_px, rtol=0, atol=1e-6)
 
 
+def traced_then_intersected(cameras, pixels, sigma):
+    """:func:`intersect` by its two public steps (trace each camera, then intersect the traced rays)."""
+    return intersect_traced([trace(camera, p) for camera, p in zip(cameras, pixels, strict=True)], sigma)
+
+
+@pytest.mark.parametrize("route", [intersect, traced_then_intersected])
 @pytest.mark.parametrize("kind", KINDS)
 @pytest.mark.parametrize("seed", SEEDS)
-def test_compiled_intersection_matches_the_reference(kind, seed):
+def test_compiled_intersection_matches_the_reference(kind, seed, route):
     rng = np.random.default_rng(100 + seed)
     left, right, points, pix_left, pix_right = _pair_scene(rng, kind, 700)
     sigma = rng.uniform(0.2, 1.0, (len(points) + 2, 2))  # pixels, per observation
@@ -124,7 +130,7 @@ def test_compiled_intersection_matches_the_reference(kind, seed):
     # a row far outside the frame (its ray fails or points away), and one that pairs unrelated pixels
     pix_left = np.vstack([pix_left, [[-5000.0, -5000.0]], pix_left[:1]])
     pix_right = np.vstack([pix_right, pix_right[:1], pix_left[:1]])
-    ref, fast = both(lambda: intersect([left, right], [pix_left, pix_right], sigma))
+    ref, fast = both(lambda: route([left, right], [pix_left, pix_right], sigma))
     np.testing.assert_array_equal(fast.status, ref.status)
     ok = ref.ok
     assert ok.sum() >= 400 and not ok[-2]

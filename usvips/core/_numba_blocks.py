@@ -447,6 +447,22 @@ def _zero_failed(m, status, residuals_m, residuals_px):
         residuals_px[i] = residuals_px[i] if ok else 0.0
 
 
+@njit(**_OPTIONS)
+def _intersect_block(m, k, scratch, shared, weight_rows, points, covariance, residuals_m, residuals_px, status):
+    """The block's points from the k cameras' rays in ``scratch`` (object space) whose midpoint rows are in
+    ``shared``: the midpoint, the weighted solution with covariance, residuals and statuses into the
+    block's slices of the outputs (points (m, 3), covariance (m, 3, 3), residuals (k, m), status (m,))."""
+    _solve_block(m, shared, True)
+    for j in range(k):
+        _add_weighted_rows(m, scratch[j], shared, weight_rows[j], j == 0)
+    _solve_block(m, shared, False)
+    for j in range(k):
+        _residuals_block(m, scratch[j], shared, residuals_m[j], residuals_px[j], j == 0)
+    _write_points(m, shared, points, covariance, status)
+    for j in range(k):
+        _zero_failed(m, status, residuals_m[j], residuals_px[j])
+
+
 @njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
 def intersect_pixels(pixels, cameras, surfaces, counts, weights, min_advance):
     """Pixels of k cameras → intersected points with covariance, block by block (the compiled
@@ -465,7 +481,6 @@ def intersect_pixels(pixels, cameras, surfaces, counts, weights, min_advance):
     scratch = np.empty((k, CAMERA_ROWS))
     shared = np.empty(SHARED_ROWS)
     weight_rows = np.empty((k, BLOCK))
-    per_row = weights.shape[0] > 1
     unusable = 0
     for lo in range(0, n, BLOCK):
         m = min(BLOCK, n - lo)
@@ -474,17 +489,85 @@ def intersect_pixels(pixels, cameras, surfaces, counts, weights, min_advance):
             unusable += _trace_block(m, pixels[j][lo:lo + m], cameras[j], surfaces[j], counts[j], min_advance, s)
             _to_object(m, s, cameras[j])
             _add_midpoint_rows(m, s, shared, j == 0)
-            if per_row:
+            if weights.shape[0] > 1:
                 weight_rows[j, :m] = weights[lo:lo + m, j]
             else:
                 weight_rows[j, :m] = weights[0, j]
-        _solve_block(m, shared, True)
-        for j in range(k):
-            _add_weighted_rows(m, scratch[j], shared, weight_rows[j], j == 0)
-        _solve_block(m, shared, False)
-        for j in range(k):
-            _residuals_block(m, scratch[j], shared, residuals_m[j, lo:lo + m], residuals_px[j, lo:lo + m], j == 0)
-        _write_points(m, shared, points[lo:lo + m], covariance[lo:lo + m], status[lo:lo + m])
-        for j in range(k):
-            _zero_failed(m, status[lo:lo + m], residuals_m[j, lo:lo + m], residuals_px[j, lo:lo + m])
+        _intersect_block(m, k, scratch, shared, weight_rows, points[lo:lo + m], covariance[lo:lo + m],
+                         residuals_m[:, lo:lo + m], residuals_px[:, lo:lo + m], status[lo:lo + m])
     return points, covariance, residuals_m.T.copy(), residuals_px.T.copy(), status, unusable
+
+
+@njit(**_OPTIONS)
+def _load_rays(m, origins, directions, d_origins, d_directions, ok, s):
+    """Traced object-space rays (m, 3), their derivatives per pixel (m, 3, 2) and validity (m,) into the
+    scratch ``s``."""
+    for i in range(m):
+        s[OX + i], s[OY + i], s[OZ + i] = origins[i, 0], origins[i, 1], origins[i, 2]
+        s[DX + i], s[DY + i], s[DZ + i] = directions[i, 0], directions[i, 1], directions[i, 2]
+        s[AOX + i], s[AOY + i], s[AOZ + i] = d_origins[i, 0, 0], d_origins[i, 1, 0], d_origins[i, 2, 0]
+        s[ADX + i], s[ADY + i], s[ADZ + i] = d_directions[i, 0, 0], d_directions[i, 1, 0], d_directions[i, 2, 0]
+        s[BOX + i], s[BOY + i], s[BOZ + i] = d_origins[i, 0, 1], d_origins[i, 1, 1], d_origins[i, 2, 1]
+        s[BDX + i], s[BDY + i], s[BDZ + i] = d_directions[i, 0, 1], d_directions[i, 1, 1], d_directions[i, 2, 1]
+        s[CODE + i] = 0.0 if ok[i] else 1.0
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, sigma):
+    """``intersection.intersect_traced`` block by block: tuples over the k cameras of object-space
+    origins, unit directions (N, 3), their derivatives per pixel (N, 3, 2) and whether each ray is valid
+    (N,); ``sigma`` (N, k) pixels. Returns points, covariance, residuals (metres, pixels), status."""
+    k, n = len(origins), origins[0].shape[0]
+    points = np.empty((n, 3))
+    covariance = np.empty((n, 3, 3))
+    residuals_m = np.empty((k, n))
+    residuals_px = np.empty((k, n))
+    status = np.empty(n, dtype=np.uint8)
+    scratch = np.empty((k, CAMERA_ROWS))
+    shared = np.empty(SHARED_ROWS)
+    weight_rows = np.empty((k, BLOCK))
+    for lo in range(0, n, BLOCK):
+        m = min(BLOCK, n - lo)
+        for j in range(k):
+            s = scratch[j]
+            _load_rays(m, origins[j][lo:lo + m], directions[j][lo:lo + m], d_origins[j][lo:lo + m],
+                       d_directions[j][lo:lo + m], ray_ok[j][lo:lo + m], s)
+            _add_midpoint_rows(m, s, shared, j == 0)
+            for i in range(m):
+                weight_rows[j, i] = 1.0 / (sigma[lo + i, j] * sigma[lo + i, j])
+        _intersect_block(m, k, scratch, shared, weight_rows, points[lo:lo + m], covariance[lo:lo + m],
+                         residuals_m[:, lo:lo + m], residuals_px[:, lo:lo + m], status[lo:lo + m])
+    return points, covariance, residuals_m.T.copy(), residuals_px.T.copy(), status
+
+
+@njit(**_OPTIONS)
+def _write_rays(m, s, origins, directions, d_origins, d_directions, status, failed):
+    """The block's object-space rays and derivatives from the scratch into (m, 3) and (m, 3, 2) outputs,
+    with the ray status and the surface where a ray failed (−1)."""
+    for i in range(m):
+        origins[i, 0], origins[i, 1], origins[i, 2] = s[OX + i], s[OY + i], s[OZ + i]
+        directions[i, 0], directions[i, 1], directions[i, 2] = s[DX + i], s[DY + i], s[DZ + i]
+        d_origins[i, 0, 0], d_origins[i, 1, 0], d_origins[i, 2, 0] = s[AOX + i], s[AOY + i], s[AOZ + i]
+        d_directions[i, 0, 0], d_directions[i, 1, 0], d_directions[i, 2, 0] = s[ADX + i], s[ADY + i], s[ADZ + i]
+        d_origins[i, 0, 1], d_origins[i, 1, 1], d_origins[i, 2, 1] = s[BOX + i], s[BOY + i], s[BOZ + i]
+        d_directions[i, 0, 1], d_directions[i, 1, 1], d_directions[i, 2, 1] = s[BDX + i], s[BDY + i], s[BDZ + i]
+        status[i] = np.uint8(s[CODE + i])
+        failed[i] = np.int16(s[SURFACE + i])
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def trace_pixels(pixels, camera, table, count, min_advance, origins, directions, d_origins, d_directions, status,
+                 failed):
+    """``Camera.rays_with_derivatives`` block by block: pixels (N, 2) of one camera (its row, surface rows
+    and their count, as for :func:`intersect_pixels`) → object-space origins, unit directions (N, 3) and
+    their derivatives per pixel (N, 3, 2), status (N,) and failed surface (N,), written into the given
+    arrays. Returns how many pixels cannot be undistorted (the reference path then names them)."""
+    scratch = np.empty(CAMERA_ROWS)
+    unusable = 0
+    for lo in range(0, pixels.shape[0], BLOCK):
+        m = min(BLOCK, pixels.shape[0] - lo)
+        unusable += _trace_block(m, pixels[lo:lo + m], camera, table, count, min_advance, scratch)
+        _to_object(m, scratch, camera)
+        _write_rays(m, scratch, origins[lo:lo + m], directions[lo:lo + m], d_origins[lo:lo + m],
+                    d_directions[lo:lo + m], status[lo:lo + m], failed[lo:lo + m])
+    return unusable

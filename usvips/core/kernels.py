@@ -110,13 +110,10 @@ def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.n
     object-space origins and unit directions (N, 3), their derivatives per pixel x and y (N, 3, 2),
     :class:`RayStatus` codes (N,) uint8 and failed surfaces (N,) int16. Returns False when the lens
     distortion cannot be inverted at some pixel (the reference path then names it)."""
-    kinds, geometry = surface_table(camera.housing.surfaces)
-    exterior = camera.exterior
-    unusable = _load().trace_pixels(
-        np.ascontiguousarray(pixels, dtype=np.float64), _interior_row(camera.interior),
-        np.ascontiguousarray(exterior.rotation), exterior.position, kinds, geometry,
-        np.asarray(camera.housing.indices, dtype=np.float64), MIN_ADVANCE,
-        origins, directions, d_origins, d_directions, status, failed)
+    rows, surfaces, counts = camera_table((camera,))
+    unusable = _load_blocks().trace_pixels(np.ascontiguousarray(pixels, dtype=np.float64), rows[0], surfaces[0],
+                                           counts[0], MIN_ADVANCE, origins, directions, d_origins, d_directions,
+                                           status, failed)
     return unusable == 0
 
 
@@ -127,33 +124,35 @@ def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, sigma):
     metres and pixels, and a status per point."""
     def contiguous(arrays, dtype=np.float64):
         return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
-    return _load().intersect_weighted(contiguous(origins), contiguous(directions), contiguous(d_origins),
-                                      contiguous(d_directions), contiguous(ray_ok, np.bool_),
-                                      np.ascontiguousarray(sigma, dtype=np.float64))
+    return _load_blocks().intersect_rays(contiguous(origins), contiguous(directions), contiguous(d_origins),
+                                         contiguous(d_directions), contiguous(ray_ok, np.bool_),
+                                         np.ascontiguousarray(sigma, dtype=np.float64))
 
 
 def camera_table(cameras) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The cameras of a fused intersection as rows for the compiled kernel: (cameras (k, 21): f, xp, yp,
-    sy, k1, k2, p1, p2, k3, the rotation M row by row, X0, Y0, Z0; surfaces (k, m, 7): kind (0 plane,
-    1 sphere), normal or centre (3), offset or radius (metres), n_in / n_out, 1 / radius; counts (k,))."""
-    rows = np.empty((len(cameras), 21))
-    deepest = max([len(camera.housing.surfaces) for camera in cameras] + [1])
-    surfaces = np.zeros((len(cameras), deepest, 7))
-    counts = np.empty(len(cameras), dtype=np.int64)
-    for j, camera in enumerate(cameras):
-        rows[j, :9] = _interior_row(camera.interior)
-        rows[j, 9:18] = np.asarray(camera.exterior.rotation).ravel()
-        rows[j, 18:21] = camera.exterior.position
-        kinds, geometry = surface_table(camera.housing.surfaces)
-        indices = np.asarray(camera.housing.indices, dtype=np.float64)
-        count = len(kinds)
-        counts[j] = count
-        surfaces[j, :count, 0] = kinds
-        surfaces[j, :count, 1:5] = geometry
-        surfaces[j, :count, 5] = indices[:-1] / indices[1:]
-        spheres = kinds == SPHERE
-        surfaces[j, :count, 6][spheres] = 1.0 / geometry[spheres, 3]
-    return rows, surfaces, counts
+    """Cameras as rows for the block kernels: (cameras (k, 21): f, xp, yp, sy, k1, k2, p1, p2, k3, the
+    rotation M row by row, X0, Y0, Z0; surfaces (k, m, 7): kind (0 plane, 1 sphere), normal or centre (3),
+    offset or radius (metres), n_in / n_out, 1 / radius (spheres); counts (k,): surfaces per camera)."""
+    rows = []
+    tables = []
+    for camera in cameras:
+        interior, exterior = camera.interior, camera.exterior
+        rows.append([interior.f, interior.xp, interior.yp, interior.sy, interior.k1, interior.k2, interior.p1,
+                     interior.p2, interior.k3, *exterior.rotation.ravel().tolist(), *exterior.position.tolist()])
+        indices = camera.housing.indices
+        table = []
+        for q, surface in enumerate(camera.housing.surfaces):
+            ratio = indices[q] / indices[q + 1]
+            if isinstance(surface, Plane):
+                table.append([PLANE, *surface.normal.tolist(), surface.offset, ratio, 0.0])
+            else:
+                table.append([SPHERE, *surface.center.tolist(), surface.radius, ratio, 1.0 / surface.radius])
+        tables.append(table)
+    surfaces = np.zeros((len(tables), max([len(t) for t in tables] + [1]), 7))
+    for j, table in enumerate(tables):
+        if table:
+            surfaces[j, :len(table)] = table
+    return np.array(rows, dtype=np.float64), surfaces, np.array([len(t) for t in tables], dtype=np.int64)
 
 
 def intersect_pixels(cameras, pixels, weights: np.ndarray) -> tuple | None:
