@@ -26,9 +26,9 @@ import math
 import numpy as np
 from numba import njit
 
-from usvips.core._numba_kernels import _FAST, _distort
+from usvips.core._numba_kernels import _FAST, _distort, _proxy_start
 
-OK, BEHIND_CAMERA, PARALLEL_RAYS, FAILED_RAY = 0, 3, 6, 7
+OK, BEHIND_CAMERA, NOT_CONVERGED, PARALLEL_RAYS, FAILED_RAY = 0, 3, 4, 6, 7
 
 #: Rows per block (a multiple of the SIMD width; the scratch of two cameras then fits the L2 cache).
 BLOCK = 256
@@ -43,7 +43,11 @@ CODE, U, V, I00, I01, I10, I11, STEP, RES, DET, TU, TV = (18 * _B, 19 * _B, 20 *
                                                         24 * _B, 25 * _B, 26 * _B, 27 * _B, 28 * _B, 29 * _B)
 Q0X, Q0Y, Q0Z, Q1X, Q1Y, Q1Z = 30 * _B, 31 * _B, 32 * _B, 33 * _B, 34 * _B, 35 * _B
 SURFACE = 36 * _B
-CAMERA_ROWS = 37 * _B
+# the back-projection's Gauss–Newton state: last good (u, v), last step, halvings, previous step size,
+# state (−1 open, else the final status), the pinhole start
+GOOD_U, GOOD_V, STEP_U, STEP_V, HALVINGS, PREVIOUS, STATE, START_U, START_V = (
+    37 * _B, 38 * _B, 39 * _B, 40 * _B, 41 * _B, 42 * _B, 43 * _B, 44 * _B, 45 * _B)
+CAMERA_ROWS = 46 * _B
 # rows of the scratch the cameras share: the normal equations (A, r), the point X, the inverse C, flags
 A00, A01, A02, A11, A12, A22, R0, R1, R2 = 0, _B, 2 * _B, 3 * _B, 4 * _B, 5 * _B, 6 * _B, 7 * _B, 8 * _B
 X0, X1, X2 = 9 * _B, 10 * _B, 11 * _B
@@ -138,10 +142,15 @@ def _count_unusable(m, s):
 @njit(**_OPTIONS)
 def _start_rays(m, s, f, sy, distorted):
     """The camera-frame rays (u, v, −1) from the perspective centre, normalised, with their derivatives
-    per pixel x (A) and y (B) projected off the direction (as ``Housing.trace_with_tangents``)."""
-    fx, fy = 1.0 / f, -sy / f
+    per pixel x (A) and y (B) projected off the direction (as ``Housing.trace_with_tangents``); with
+    ``f`` = 0 the derivatives per u (A) and v (B) of the rays of (U, V)."""
+    per_uv = f == 0.0
+    fx, fy = (1.0, 1.0) if per_uv else (1.0 / f, -sy / f)
     for i in range(m):
-        if distorted:  # d(u, v)/d(pixel) = J⁻¹ · (1/f, 0) and J⁻¹ · (0, −sy/f)
+        if per_uv:
+            uu, vv = s[U + i], s[V + i]
+            ux, vx, uy, vy = 1.0, 0.0, 0.0, 1.0
+        elif distorted:  # d(u, v)/d(pixel) = J⁻¹ · (1/f, 0) and J⁻¹ · (0, −sy/f)
             uu, vv = s[U + i], s[V + i]
             ux, vx, uy, vy = s[I00 + i] * fx, s[I10 + i] * fx, s[I01 + i] * fy, s[I11 + i] * fy
         else:
@@ -571,3 +580,115 @@ def trace_pixels(pixels, camera, table, count, min_advance, origins, directions,
         _write_rays(m, scratch, origins[lo:lo + m], directions[lo:lo + m], d_origins[lo:lo + m],
                     d_directions[lo:lo + m], status[lo:lo + m], failed[lo:lo + m])
     return unusable
+
+
+@njit(**_OPTIONS)
+def _gauss_newton_pass(m, s, points):
+    """One Gauss–Newton step on (u, v) for every open row of the block, whose rays (U, V) were just traced
+    with their derivatives per u and v, so that the ray passes through the camera-frame point (m, 3): a
+    ray that failed backs off half-way towards the last good iterate (at most 40 times), a failing start
+    falls back to the pinhole direction once, else the row ends with the ray's status; a singular
+    Jacobian ends it NOT_CONVERGED; a step below 1e-10, or one that with the step before predicts the
+    next below 1e-13 (quadratic convergence), ends it OK (BEHIND_CAMERA where the point lies behind the
+    ray's origin). Returns how many rows are still open."""
+    open_rows = 0
+    for i in range(m):
+        state, code = s[STATE + i], s[CODE + i]
+        u, v, good_u, good_v = s[U + i], s[V + i], s[GOOD_U + i], s[GOOD_V + i]
+        step_u, step_v, halvings, previous = s[STEP_U + i], s[STEP_V + i], s[HALVINGS + i], s[PREVIOUS + i]
+        live = state < 0.0
+        traced = code == 0.0
+        # the miss of the point by the ray and its columns per u and v
+        dx, dy, dz = s[DX + i], s[DY + i], s[DZ + i]
+        wx, wy, wz = points[i, 0] - s[OX + i], points[i, 1] - s[OY + i], points[i, 2] - s[OZ + i]
+        along = wx * dx + wy * dy + wz * dz
+        mx, my, mz = wx - along * dx, wy - along * dy, wz - along * dz
+        a0, a1, a2, a3, a4, a5 = s[AOX + i], s[AOY + i], s[AOZ + i], s[ADX + i], s[ADY + i], s[ADZ + i]
+        d_along = -(a0 * dx + a1 * dy + a2 * dz) + (wx * a3 + wy * a4 + wz * a5)
+        ux, uy, uz = -a0 - d_along * dx - along * a3, -a1 - d_along * dy - along * a4, -a2 - d_along * dz - along * a5
+        b0, b1, b2, b3, b4, b5 = s[BOX + i], s[BOY + i], s[BOZ + i], s[BDX + i], s[BDY + i], s[BDZ + i]
+        d_along = -(b0 * dx + b1 * dy + b2 * dz) + (wx * b3 + wy * b4 + wz * b5)
+        vx, vy, vz = -b0 - d_along * dx - along * b3, -b1 - d_along * dy - along * b4, -b2 - d_along * dz - along * b5
+        a11 = ux * ux + uy * uy + uz * uz
+        a12 = ux * vx + uy * vy + uz * vz
+        a22 = vx * vx + vy * vy + vz * vz
+        r1 = ux * mx + uy * my + uz * mz
+        r2 = vx * mx + vy * my + vz * mz
+        det = a11 * a22 - a12 * a12
+        regular = det > 1e-300
+        inv = 1.0 / (det if regular else 1.0)
+        du = -(a22 * r1 - a12 * r2) * inv
+        dv = -(a11 * r2 - a12 * r1) * inv
+        size = max(abs(du), abs(dv))
+        converged = size < 1e-10 or (size < 1e-5 and size * size * size < 1e-13 * previous * previous)
+        known = good_u == good_u  # a good iterate exists (not NaN)
+        retry = live and not traced and known and halvings < 40.0
+        restart = live and not traced and not known and halvings == 0.0
+        advance = live and traced and regular
+        if retry:
+            step_u, step_v = 0.5 * step_u, 0.5 * step_v
+            u, v = good_u + step_u, good_v + step_v
+            halvings += 1.0
+            previous = math.inf
+        elif restart:
+            u, v = s[START_U + i], s[START_V + i]
+            halvings = 1.0
+        elif advance:
+            good_u, good_v = u, v
+            step_u, step_v = du, dv
+            u, v = u + du, v + dv
+            halvings = 0.0
+            previous = size
+        if live and not traced and not retry and not restart:
+            state = code
+        elif live and traced and not regular:
+            state = float(NOT_CONVERGED)
+        elif advance and converged:
+            state = float(BEHIND_CAMERA) if along <= 0.0 else float(OK)
+        s[U + i], s[V + i], s[GOOD_U + i], s[GOOD_V + i] = u, v, good_u, good_v
+        s[STEP_U + i], s[STEP_V + i], s[HALVINGS + i], s[PREVIOUS + i] = step_u, step_v, halvings, previous
+        s[STATE + i] = state
+        open_rows += state < 0.0
+    return open_rows
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def back_project(points, start, warm, table, count, indices, proxy, min_advance):
+    """``camera._back_project_general`` block by block: the ideal normalised (u, v) (N, 2) of the rays
+    through camera-frame points (N, 3) and a status (N,); ``start`` the pinhole (u, v), ``warm`` given
+    starts (rows of NaN: none), ``table`` and ``count`` the surface rows (as for
+    :func:`intersect_pixels`), ``indices`` the media's refractive indices, ``proxy`` the outer plane
+    whose air-to-water solve starts the others (axis, distance; distance 0: the pinhole start). At most
+    80 Gauss–Newton passes over a block."""
+    n = points.shape[0]
+    uv = np.empty((n, 2))
+    status = np.empty(n, dtype=np.uint8)
+    s = np.empty(CAMERA_ROWS)
+    for lo in range(0, n, BLOCK):
+        m = min(BLOCK, n - lo)
+        for i in range(m):
+            r = lo + i
+            u, v = warm[r, 0], warm[r, 1]
+            if not (math.isfinite(u) and math.isfinite(v)):
+                u, v = _proxy_start(points[r, 0], points[r, 1], points[r, 2], indices, proxy)
+                if not (math.isfinite(u) and math.isfinite(v)):
+                    u, v = start[r, 0], start[r, 1]
+            s[U + i], s[V + i] = u, v
+            s[START_U + i], s[START_V + i] = start[r, 0], start[r, 1]
+            s[GOOD_U + i] = s[GOOD_V + i] = math.nan
+            s[STEP_U + i] = s[STEP_V + i] = s[HALVINGS + i] = 0.0
+            s[PREVIOUS + i] = math.inf
+            s[STATE + i] = -1.0
+        block = points[lo:lo + m]
+        for _ in range(80):
+            _start_rays(m, s, 0.0, 1.0, False)
+            for q in range(count):
+                _refract_block(m, s, q, table[q, 0] == 1.0, table[q, 1], table[q, 2], table[q, 3], table[q, 4],
+                               table[q, 5], table[q, 6], min_advance)
+            if _gauss_newton_pass(m, s, block) == 0:
+                break
+        for i in range(m):
+            state = s[STATE + i]
+            uv[lo + i, 0], uv[lo + i, 1] = s[U + i], s[V + i]
+            status[lo + i] = NOT_CONVERGED if state < 0.0 else np.uint8(state)
+    return uv, status

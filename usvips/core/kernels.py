@@ -129,6 +129,19 @@ def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, sigma):
                                          np.ascontiguousarray(sigma, dtype=np.float64))
 
 
+def _surface_rows(housing) -> list[list[float]]:
+    """A housing's planes and spheres as rows for the block kernels (see :func:`camera_table`)."""
+    indices = housing.indices
+    rows = []
+    for q, surface in enumerate(housing.surfaces):
+        ratio = indices[q] / indices[q + 1]
+        if isinstance(surface, Plane):
+            rows.append([PLANE, *surface.normal.tolist(), surface.offset, ratio, 0.0])
+        else:
+            rows.append([SPHERE, *surface.center.tolist(), surface.radius, ratio, 1.0 / surface.radius])
+    return rows
+
+
 def camera_table(cameras) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cameras as rows for the block kernels: (cameras (k, 21): f, xp, yp, sy, k1, k2, p1, p2, k3, the
     rotation M row by row, X0, Y0, Z0; surfaces (k, m, 7): kind (0 plane, 1 sphere), normal or centre (3),
@@ -139,15 +152,7 @@ def camera_table(cameras) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         interior, exterior = camera.interior, camera.exterior
         rows.append([interior.f, interior.xp, interior.yp, interior.sy, interior.k1, interior.k2, interior.p1,
                      interior.p2, interior.k3, *exterior.rotation.ravel().tolist(), *exterior.position.tolist()])
-        indices = camera.housing.indices
-        table = []
-        for q, surface in enumerate(camera.housing.surfaces):
-            ratio = indices[q] / indices[q + 1]
-            if isinstance(surface, Plane):
-                table.append([PLANE, *surface.normal.tolist(), surface.offset, ratio, 0.0])
-            else:
-                table.append([SPHERE, *surface.center.tolist(), surface.radius, ratio, 1.0 / surface.radius])
-        tables.append(table)
+        tables.append(_surface_rows(camera.housing))
     surfaces = np.zeros((len(tables), max([len(t) for t in tables] + [1]), 7))
     for j, table in enumerate(tables):
         if table:
@@ -172,17 +177,18 @@ def back_project_general(housing, points: np.ndarray, start: np.ndarray, warm: n
     """Compiled ``camera._back_project_general``: (uv (N, 2), status (N,)) of camera-frame points (N, 3);
     ``start`` the pinhole (u, v), ``warm`` given starts (rows of NaN: none), ``outer`` the plane whose
     air-to-water solve starts the others (None: the pinhole start)."""
-    kinds, geometry = surface_table(housing.surfaces)
     proxy = np.zeros(4)
     if outer is not None:
         axis = -outer.normal if outer.normal[2] > 0 else outer.normal
         proxy[:3], proxy[3] = axis, -outer.offset * float(outer.normal @ axis)
     if warm is None:
         warm = np.full((len(points), 2), np.nan)
-    return _load().back_project(np.ascontiguousarray(points, dtype=np.float64),
-                                np.ascontiguousarray(start, dtype=np.float64),
-                                np.ascontiguousarray(warm, dtype=np.float64), kinds, geometry,
-                                np.asarray(housing.indices, dtype=np.float64), proxy, MIN_ADVANCE)
+    rows = _surface_rows(housing)
+    table = np.array(rows, dtype=np.float64) if rows else np.zeros((1, 7))
+    return _load_blocks().back_project(np.ascontiguousarray(points, dtype=np.float64),
+                                       np.ascontiguousarray(start, dtype=np.float64),
+                                       np.ascontiguousarray(warm, dtype=np.float64), table, len(rows),
+                                       np.asarray(housing.indices, dtype=np.float64), proxy, MIN_ADVANCE)
 
 
 def back_project_planar(points: np.ndarray, axis: np.ndarray, distances: np.ndarray, indices) -> tuple:
