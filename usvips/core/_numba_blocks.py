@@ -1,18 +1,20 @@
-"""Block-wise compiled kernels (numba, behind :mod:`usvips.core.kernels`): pixels → undistortion →
-refractive trace with the pixel derivatives → weighted intersection with covariance, for blocks of
-:data:`BLOCK` rows at a time.
+"""Block-wise compiled kernels (numba, behind :mod:`usvips.core.kernels`), for blocks of :data:`BLOCK`
+rows at a time: pixels → undistortion → refractive trace with the pixel derivatives → weighted
+intersection with covariance (:func:`intersect_pixels`), the trace alone (:func:`trace_pixels`), the
+intersection of traced rays (:func:`intersect_rays`) and the non-axial back-projection
+(:func:`back_project`).
 
-Why blocks. One point at a time in scalars (``_numba_kernels``) the CPU runs one long chain of dependent
-operations per ray (Newton steps, divisions, square roots) and waits on each; a point costs 400-500 ns
+Why blocks. One point at a time in scalars the CPU runs one long chain of dependent operations per ray
+(Newton steps, divisions, square roots) and waits on each; a point of the intersection cost 800-900 ns
 whatever the memory traffic. Here every stage is one loop over a block of rows whose state lives in
-rows of a flat scratch array at constant offsets (structure of arrays, 30-40 kB, in the L1/L2 cache):
-the loops have no early exits and no aliasing the compiler cannot see through, so LLVM runs them four
-rows at a time (AVX2), and independent rows hide each other's latency. The Newton undistortion takes a
-fixed three steps in the first pass (enough for every pixel of a usual lens: the fixed-point start is
-within 4e-3, three steps bring it below 1e-12) and one more pass over the block while any row has not
-converged. The same arithmetic as the per-point kernels and the numpy reference
-(``Interior.undistort``, ``Housing.trace_with_tangents``, ``intersection.intersect``), which the tests
-compare it with.
+rows of a flat scratch array at constant offsets (structure of arrays, in the L1/L2 cache): the loops
+have no early exits and no aliasing the compiler cannot see through, so LLVM runs them four rows at a
+time (AVX2), and independent rows hide each other's latency. Iterative solves run in passes over the
+block while any row is open: the Newton undistortion takes the fixed-point start and three steps in
+its first pass (enough for a usual lens: the start is within 4e-3, three steps bring it below 1e-12),
+the back-projection one Gauss–Newton step per pass. The arithmetic is that of the numpy reference
+(``Interior.undistort``, ``Housing.trace_with_tangents``, ``intersection.intersect``,
+``camera._back_project_general``), which the tests compare it with.
 
 Conventions: camera frame looking along −z, normalised coordinates (u, v) with the ray (u, v, −1),
 metres, pixels; status codes are :class:`usvips.core.rays.RayStatus`'s. Compiled code is cached next to

@@ -1,17 +1,20 @@
 """Compiled kernels (numba) of the hot paths: the refractive trace with pixel derivatives, the weighted
-intersection with covariance, and the back-projection through a non-axial housing.
+intersection with covariance, and the back-projection through a housing.
 
-Two kinds: per-point kernels (``_numba_kernels``: a point at a time in scalars) and block kernels
-(``_numba_blocks``: every stage one loop over a block of rows, which the compiler runs several rows at a
-time in SIMD registers). :func:`intersect_pixels`, pixels of k cameras straight to points with
-covariance, is a block kernel: about 4 × faster than the per-point trace and intersection it replaces,
-whose chains of dependent divisions and square roots keep the CPU waiting one point at a time.
+Two kinds. Block kernels (``_numba_blocks``: every stage one loop over a block of 256 rows, which the
+compiler runs several rows at a time in SIMD registers) for the trace, the intersection (from pixels:
+:func:`intersect_pixels`; from traced rays: :func:`intersect_rays`) and the non-axial back-projection.
+Per-point kernels (``_numba_kernels``: a point at a time in scalars) for the flat port's back-projection
+and the batch undistortion. A point at a time, the CPU waits on each ray's chain of dependent divisions,
+square roots and Newton steps; blocks of independent rows hide that latency (the intersection became
+about 4 × faster, see the README's speed section).
 
-Each kernel does, point by point in registers, exactly what the vectorised numpy code does over whole
-arrays (``Interior.undistort``, ``Housing.trace_with_tangents``, ``intersection.intersect``,
-``camera._back_project_general``); that numpy code stays the reference the tests compare against (to
-1e-9 m / 1e-6 px over random cameras and housings). Conventions as there: camera frame with the camera
-looking along −z, normalised coordinates (u, v) with the ray (u, v, −1), metres, pixels.
+Each kernel does exactly what the vectorised numpy code does over whole arrays
+(``Interior.undistort``, ``Housing.trace_with_tangents``, ``intersection.intersect``,
+``camera._back_project_general``, ``camera._back_project_planar``); that numpy code stays the reference
+the tests compare against (1e-9 m, covariances to 1e-9 relative, 1e-6 px, identical statuses, over
+random cameras and housings). Conventions as there: camera frame with the camera looking along −z,
+normalised coordinates (u, v) with the ray (u, v, −1), metres, pixels.
 
 Only planes and spheres compile (every parametric housing); a housing with an implicit surface, or a
 machine without numba, takes the numpy path. :func:`mode` chooses: ``"auto"`` (compiled for batches of
@@ -97,11 +100,6 @@ def _load_blocks():
         from usvips.core import _numba_blocks
         _compiled["blocks"] = _numba_blocks
     return _compiled["blocks"]
-
-
-def _interior_row(interior) -> np.ndarray:
-    return np.array([interior.f, interior.xp, interior.yp, interior.sy,
-                     interior.k1, interior.k2, interior.p1, interior.p2, interior.k3])
 
 
 def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.ndarray,
@@ -215,5 +213,5 @@ def available() -> bool:
     return _load() is not None
 
 
-__all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "intersect_rays", "mode",
-           "surface_table", "trace_into", "undistort", "wanted"]
+__all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "camera_table", "intersect_pixels",
+           "intersect_rays", "mode", "surface_table", "trace_into", "undistort", "wanted"]
