@@ -524,10 +524,11 @@ def _load_rays(m, origins, directions, d_origins, d_directions, ok, s):
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
-def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, sigma):
+def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, weights):
     """``intersection.intersect_traced`` block by block: tuples over the k cameras of object-space
     origins, unit directions (N, 3), their derivatives per pixel (N, 3, 2) and whether each ray is valid
-    (N,); ``sigma`` (N, k) pixels. Returns points, covariance, residuals (metres, pixels), status."""
+    (N,); ``weights`` (1 or N, k) 1/σ² (1/px²). Returns points, covariance, residuals (metres, pixels)
+    and status."""
     k, n = len(origins), origins[0].shape[0]
     points = np.empty((n, 3))
     covariance = np.empty((n, 3, 3))
@@ -544,8 +545,10 @@ def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, sigma):
             _load_rays(m, origins[j][lo:lo + m], directions[j][lo:lo + m], d_origins[j][lo:lo + m],
                        d_directions[j][lo:lo + m], ray_ok[j][lo:lo + m], s)
             _add_midpoint_rows(m, s, shared, j == 0)
-            for i in range(m):
-                weight_rows[j, i] = 1.0 / (sigma[lo + i, j] * sigma[lo + i, j])
+            if weights.shape[0] > 1:
+                weight_rows[j, :m] = weights[lo:lo + m, j]
+            else:
+                weight_rows[j, :m] = weights[0, j]
         _intersect_block(m, k, scratch, shared, weight_rows, points[lo:lo + m], covariance[lo:lo + m],
                          residuals_m[:, lo:lo + m], residuals_px[:, lo:lo + m], status[lo:lo + m])
     return points, covariance, residuals_m.T.copy(), residuals_px.T.copy(), status

@@ -115,16 +115,16 @@ def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.n
     return unusable == 0
 
 
-def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, sigma):
+def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, weights):
     """Compiled two-pass weighted intersection of k rays per point (see ``intersection.intersect``):
     tuples over the k cameras of origins, directions (N, 3), their derivatives per pixel (N, 3, 2) and
-    whether each ray is valid (N,); ``sigma`` (N, k) pixels. Returns points, covariance, residuals in
-    metres and pixels, and a status per point."""
+    whether each ray is valid (N,); ``weights`` (1 or N, k) 1/σ² (1/px²). Returns points, covariance,
+    residuals in metres and pixels, and a status per point."""
     def contiguous(arrays, dtype=np.float64):
         return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
     return _load_blocks().intersect_rays(contiguous(origins), contiguous(directions), contiguous(d_origins),
                                          contiguous(d_directions), contiguous(ray_ok, np.bool_),
-                                         np.ascontiguousarray(sigma, dtype=np.float64))
+                                         np.ascontiguousarray(weights, dtype=np.float64))
 
 
 def _surface_rows(housing) -> list[list[float]]:
