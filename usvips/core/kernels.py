@@ -1,10 +1,10 @@
 """Compiled kernels (numba) of the hot paths: the refractive trace with pixel derivatives, the weighted
 intersection with covariance, and the back-projection through a housing.
 
-Two kinds. Block kernels (``_numba_blocks``: every stage one loop over a block of 256 rows, which the
-compiler runs several rows at a time in SIMD registers) for the trace, the intersection (from pixels:
-:func:`intersect_pixels`; from traced rays: :func:`intersect_rays`) and the non-axial back-projection.
-Per-point kernels (``_numba_kernels``: a point at a time in scalars) for the flat port's back-projection
+Two kinds, both in ``_numba_kernels``. Block kernels (every stage one loop over a block of 256 rows,
+which the compiler runs several rows at a time in SIMD registers) for the trace, the intersection (from
+pixels: :func:`intersect_pixels`; from traced rays: :func:`intersect_rays`) and the non-axial
+back-projection. Per-point kernels (a point at a time in scalars) for the flat port's back-projection
 and the batch undistortion. A point at a time, the CPU waits on each ray's chain of dependent divisions,
 square roots and Newton steps; blocks of independent rows hide that latency (the intersection became
 about 4 × faster, see the README's speed section).
@@ -94,14 +94,6 @@ def _load():
     return _compiled["kernels"]
 
 
-def _load_blocks():
-    """The block-wise compiled functions (``_numba_blocks``); only called once :func:`_load` found numba."""
-    if "blocks" not in _compiled:
-        from usvips.core import _numba_blocks
-        _compiled["blocks"] = _numba_blocks
-    return _compiled["blocks"]
-
-
 def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.ndarray,
                d_origins: np.ndarray, d_directions: np.ndarray, status: np.ndarray, failed: np.ndarray) -> bool:
     """Compiled :meth:`Camera.rays_with_derivatives` of pixels (N, 2), written into the given arrays:
@@ -109,7 +101,7 @@ def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.n
     :class:`RayStatus` codes (N,) uint8 and failed surfaces (N,) int16. Returns False when the lens
     distortion cannot be inverted at some pixel (the reference path then names it)."""
     rows, surfaces, counts = camera_table((camera,))
-    unusable = _load_blocks().trace_pixels(np.ascontiguousarray(pixels, dtype=np.float64), rows[0], surfaces[0],
+    unusable = _load().trace_pixels(np.ascontiguousarray(pixels, dtype=np.float64), rows[0], surfaces[0],
                                            counts[0], MIN_ADVANCE, origins, directions, d_origins, d_directions,
                                            status, failed)
     return unusable == 0
@@ -122,7 +114,7 @@ def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, weights
     residuals in metres and pixels, and a status per point."""
     def contiguous(arrays, dtype=np.float64):
         return tuple(np.ascontiguousarray(a, dtype=dtype) for a in arrays)
-    return _load_blocks().intersect_rays(contiguous(origins), contiguous(directions), contiguous(d_origins),
+    return _load().intersect_rays(contiguous(origins), contiguous(directions), contiguous(d_origins),
                                          contiguous(d_directions), contiguous(ray_ok, np.bool_),
                                          np.ascontiguousarray(weights, dtype=np.float64))
 
@@ -164,7 +156,7 @@ def intersect_pixels(cameras, pixels, weights: np.ndarray) -> tuple | None:
     between; ``weights`` (1 or N, k) are 1/σ² (1/px²). None when the distortion cannot be inverted at
     some pixel (the reference path then names it)."""
     rows, surfaces, counts = camera_table(cameras)
-    *result, unusable = _load_blocks().intersect_pixels(
+    *result, unusable = _load().intersect_pixels(
         tuple(np.ascontiguousarray(p, dtype=np.float64) for p in pixels), rows, surfaces, counts,
         np.ascontiguousarray(weights, dtype=np.float64), MIN_ADVANCE)
     return None if unusable else tuple(result)
@@ -183,7 +175,7 @@ def back_project_general(housing, points: np.ndarray, start: np.ndarray, warm: n
         warm = np.full((len(points), 2), np.nan)
     rows = _surface_rows(housing)
     table = np.array(rows, dtype=np.float64) if rows else np.zeros((1, 7))
-    return _load_blocks().back_project(np.ascontiguousarray(points, dtype=np.float64),
+    return _load().back_project(np.ascontiguousarray(points, dtype=np.float64),
                                        np.ascontiguousarray(start, dtype=np.float64),
                                        np.ascontiguousarray(warm, dtype=np.float64), table, len(rows),
                                        np.asarray(housing.indices, dtype=np.float64), proxy, MIN_ADVANCE)
