@@ -8,9 +8,9 @@ from tests.core.scenes import HOUSINGS
 from usvips.core import kernels
 from usvips.core.camera import Camera, Exterior
 from usvips.core.errors import ConvergenceError
-from usvips.core.housing import DomeCoverHousing, FlatPortHousing, GeneralHousing
+from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, GeneralHousing
 from usvips.core.interior import Interior
-from usvips.core.intersection import intersect
+from usvips.core.intersection import intersect, intersect_traced, trace
 from usvips.core.rays import RayStatus
 from usvips.core.surfaces import Plane, Sphere
 
@@ -102,9 +102,26 @@ def _pair_scene(rng, kind, n):
     return left, right, points[keep], pl.pixels[keep], pr.pixels[keep]
 
 
+def assert_same_intersection(fast, ref):
+    """The same statuses, points to 1e-9 m, covariances to 1e-9 of their largest entry, residuals to
+    1e-9 m and 1e-6 px."""
+    np.testing.assert_array_equal(fast.status, ref.status)
+    np.testing.assert_allclose(fast.points, ref.points, rtol=0, atol=1e-9)
+    scale = np.abs(ref.covariance).max(axis=(1, 2), keepdims=True) + 1e-300
+    np.testing.assert_allclose(fast.covariance / scale, ref.covariance / scale, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(fast.residuals_m, ref.residuals_m, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(fast.residuals_px, ref.residuals_px, rtol=0, atol=1e-6)
+
+
+def traced_then_intersected(cameras, pixels, sigma):
+    """:func:`intersect` by its two public steps (trace each camera, then intersect the traced rays)."""
+    return intersect_traced([trace(camera, p) for camera, p in zip(cameras, pixels, strict=True)], sigma)
+
+
+@pytest.mark.parametrize("route", [intersect, traced_then_intersected])
 @pytest.mark.parametrize("kind", KINDS)
 @pytest.mark.parametrize("seed", SEEDS)
-def test_compiled_intersection_matches_the_reference(kind, seed):
+def test_compiled_intersection_matches_the_reference(kind, seed, route):
     rng = np.random.default_rng(100 + seed)
     left, right, points, pix_left, pix_right = _pair_scene(rng, kind, 700)
     sigma = rng.uniform(0.2, 1.0, (len(points) + 2, 2))  # pixels, per observation
@@ -113,21 +130,94 @@ def test_compiled_intersection_matches_the_reference(kind, seed):
     # a row far outside the frame (its ray fails or points away), and one that pairs unrelated pixels
     pix_left = np.vstack([pix_left, [[-5000.0, -5000.0]], pix_left[:1]])
     pix_right = np.vstack([pix_right, pix_right[:1], pix_left[:1]])
-    ref, fast = both(lambda: intersect([left, right], [pix_left, pix_right], sigma))
+    ref, fast = both(lambda: route([left, right], [pix_left, pix_right], sigma))
     np.testing.assert_array_equal(fast.status, ref.status)
     ok = ref.ok
     assert ok.sum() >= 400 and not ok[-2]
-    np.testing.assert_allclose(fast.points, ref.points, rtol=0, atol=1e-9)
-    scale = np.abs(ref.covariance).max(axis=(1, 2), keepdims=True) + 1e-300
-    np.testing.assert_allclose(fast.covariance / scale, ref.covariance / scale, rtol=0, atol=1e-6)
-    np.testing.assert_allclose(fast.residuals_m, ref.residuals_m, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(fast.residuals_px, ref.residuals_px, rtol=0, atol=1e-6)
+    assert_same_intersection(fast, ref)
     # and both are the truth to within the noise: mean squared normalised error near 1 over the points
     m = len(points)
     error = fast.points[:m][ok[:m]] - points[ok[:m]]
     inverse = np.linalg.inv(fast.covariance[:m][ok[:m]])
     msne = float(np.mean(np.einsum("ni,nij,nj->n", error, inverse, error)) / 3)
     assert 0.7 < msne < 1.4
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_fused_intersection_of_three_cameras_in_different_housings_matches_the_reference(seed):
+    """k = 3 cameras, each in a housing of its own kind (or in air), a sigma per camera, a row count that
+    is no multiple of the compiled block; the points match the truth to within the noise."""
+    rng = np.random.default_rng(600 + seed)
+    kinds = rng.choice(KINDS + ("air",), 3)
+    cameras = []
+    for j, kind in enumerate(kinds):
+        camera = random_camera(rng, "flat-port" if kind == "air" else kind,
+                               position=(0.3 * j, rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05)))
+        cameras.append(Camera(camera.interior, camera.exterior, AirHousing(), WIDTH, HEIGHT) if kind == "air"
+                       else camera)
+    n = 5 * 701
+    with kernels.mode("never"):
+        rays = cameras[0].rays(np.column_stack([rng.uniform(0, WIDTH - 1, n), rng.uniform(0, HEIGHT - 1, n)]))
+        points = rays.origins + rng.uniform(1.5, 5.0, n)[:, None] * rays.directions
+        projections = [camera.project(points) for camera in cameras]
+    keep = np.flatnonzero(rays.ok & np.all([p.ok for p in projections], axis=0))[:701]
+    assert len(keep) == 701
+    sigma = rng.uniform(0.2, 1.0, 3)
+    pixels = [p.pixels[keep] + s * rng.normal(0, 1, (len(keep), 2)) for p, s in zip(projections, sigma, strict=True)]
+    ref, fast = both(lambda: intersect(cameras, pixels, sigma))
+    assert ref.ok.all()
+    assert_same_intersection(fast, ref)
+    error = fast.points - points[keep]
+    msne = float(np.mean(np.einsum("ni,nij,nj->n", error, np.linalg.inv(fast.covariance), error)) / 3)
+    assert 0.7 < msne < 1.4
+
+
+def test_fused_intersection_names_parallel_rays_points_behind_and_rays_that_miss():
+    """Statuses of the compiled fused path are the reference's: two cameras side by side with the same
+    lens and a cover plane tilted so steeply that rays beyond x̄ = f miss it."""
+    rng = np.random.default_rng(700)
+    housing = GeneralHousing((Plane.from_coefficients(1.0, 0.0, 0.1),), (1.0, 1.34))
+    left = Camera(random_interior(rng), Exterior(0.0, 0.0, 0.0, 0.01, -0.02, 0.005), housing, WIDTH, HEIGHT)
+    right = Camera(left.interior, Exterior(0.3, 0.0, 0.0, 0.01, -0.02, 0.005), housing, WIDTH, HEIGHT)
+    n = 600
+    pix_left = frame_pixels(rng, n)
+    pix_right = pix_left + [-120.0, 3.0] + rng.normal(0, 2.0, (n, 2))
+    pix_right[:100] = pix_left[:100]  # the same pixel in both: parallel rays
+    pix_left[100:200, 0], pix_right[100:200, 0] = rng.uniform(0, 50, 100), rng.uniform(1230, 1279, 100)  # diverging
+    pix_left[200:260, 0] = rng.uniform(3000, 4000, 60)  # beyond the tilted plane's reach
+    ref, fast = both(lambda: intersect([left, right], [pix_left, pix_right], 0.5))
+    assert {RayStatus.PARALLEL_RAYS, RayStatus.BEHIND_CAMERA, RayStatus.FAILED_RAY, RayStatus.OK} <= set(ref.status)
+    assert np.all(ref.status[:100] == RayStatus.PARALLEL_RAYS) and np.all(ref.status[200:260] == RayStatus.FAILED_RAY)
+    assert_same_intersection(fast, ref)
+
+
+@pytest.mark.parametrize("rows", [1, 255, 256, 257, 513])
+def test_fused_intersection_at_block_edges(rows):
+    rng = np.random.default_rng(rows)
+    left, right, points, pix_left, pix_right = _pair_scene(rng, "dome-cover", rows)
+    ref, fast = both(lambda: intersect([left, right], [pix_left, pix_right], 0.7))
+    assert len(fast.status) == rows
+    assert_same_intersection(fast, ref)
+
+
+def test_fused_intersection_through_a_strongly_distorting_lens():
+    """Pixels whose undistortion needs more than the first pass's Newton steps give the reference's points."""
+    rng = np.random.default_rng(800)
+    left, right, points, pix_left, pix_right = _pair_scene(rng, "flat-port", 900)
+    strong = left.interior.with_values(k1=-0.3, k2=0.08, k3=-0.01, p1=2e-3, p2=-1.5e-3)
+    left, right = Camera(strong, left.exterior, left.housing), Camera(strong, right.exterior, right.housing)
+    ref, fast = both(lambda: intersect([left, right], [pix_left, pix_right], 0.5))
+    assert ref.ok.sum() > 800
+    assert_same_intersection(fast, ref)
+
+
+def test_a_distortion_that_folds_is_named_when_intersecting():
+    interior = Interior(f=1000.0, xp=640.0, yp=480.0, k1=-0.6)
+    left = Camera(interior, Exterior(0, 0, 0), HOUSINGS["flat-port"], WIDTH, HEIGHT)
+    right = Camera(interior, Exterior(0.3, 0, 0), HOUSINGS["flat-port"], WIDTH, HEIGHT)
+    pixels = np.vstack([np.full((600, 2), 640.0), [[1279.0, 959.0]]])
+    with kernels.mode("always"), pytest.raises(ConvergenceError, match="row 600"):
+        intersect([left, right], [pixels, pixels - [50.0, 0.0]], 0.5)
 
 
 @pytest.mark.parametrize("kind", ("dome-cover", "wedge", "spheres"))

@@ -1,11 +1,34 @@
 """The numba code behind :mod:`usvips.core.kernels` (imported only through it; needs numba).
 
-One point at a time, in scalars: no temporaries over whole arrays. Each kernel's loop is a ``_range``
-function over rows lo..hi, so that blocks of rows could be handed to threads; they run on one thread
-(numba's ``parallel=True`` ran slower here on two cores shared by other jobs). Status codes are those of
-:class:`usvips.core.rays.RayStatus`. Compiled code is cached next to this file (``cache=True``), so a
-run pays the compilation once per installation, then only for loading it. The entry points release the
-GIL (``nogil``), so a worker thread running one does not freeze the window.
+One module on purpose: numba's cache (``cache=True``, next to this file) notices a change to the file
+of a cached function but not to functions it calls from another file, so kernels that share code
+(``_distort``, ``_proxy_start``) live together.
+
+**Block kernels**, for blocks of :data:`BLOCK` rows at a time: pixels → undistortion → refractive trace
+with the pixel derivatives → weighted intersection with covariance (:func:`intersect_pixels`), the trace
+alone (:func:`trace_pixels`), the intersection of traced rays (:func:`intersect_rays`) and the
+non-axial back-projection (:func:`back_project`).
+
+Why blocks. One point at a time in scalars the CPU runs one long chain of dependent operations per ray
+(Newton steps, divisions, square roots) and waits on each; a point of the intersection cost 800-900 ns
+whatever the memory traffic. Here every stage is one loop over a block of rows whose state lives in
+rows of a flat scratch array at constant offsets (structure of arrays, in the L1/L2 cache): the loops
+have no early exits and no aliasing the compiler cannot see through, so LLVM runs them four rows at a
+time (AVX2), and independent rows hide each other's latency. Iterative solves run in passes over the
+block while any row is open: the Newton undistortion takes the fixed-point start and three steps in
+its first pass (enough for a usual lens: the start is within 4e-3, three steps bring it below 1e-12),
+the back-projection one Gauss–Newton step per pass.
+
+**Per-point kernels**, a point at a time in scalars: the flat port's 1-D Newton back-projection
+(:func:`back_project_planar`), the outer plane's start of the non-axial one (:func:`_proxy_start`) and
+the batch undistortion (:func:`undistort`).
+
+The arithmetic is that of the numpy reference (``Interior.undistort``, ``Housing.trace_with_tangents``,
+``intersection.intersect``, ``camera._back_project_general``, ``camera._back_project_planar``), which the
+tests compare the kernels with. Conventions: camera frame looking along −z, normalised coordinates
+(u, v) with the ray (u, v, −1), metres, pixels; status codes are :class:`usvips.core.rays.RayStatus`'s.
+The kernels run on one thread (``prange`` over blocks did not pay on two shared cores); the entry points
+release the GIL (``nogil``), so a worker thread running one does not freeze the window.
 """
 
 from __future__ import annotations
@@ -21,89 +44,7 @@ NOT_CONVERGED, PARALLEL_RAYS, FAILED_RAY = 4, 6, 7
 #: LLVM fast-math flags that keep IEEE semantics for NaN and infinity (the status logic tests them):
 #: fused multiply-add, reciprocal multiplication, no signed zeros.
 _FAST = {"contract", "arcp", "nsz"}
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _trace_state(s, kinds, geometry, indices, min_advance, tangents):
-    """Trace the ray held in ``s`` (origin 0:3, unit direction 3:6, then per tangent its derivatives of
-    origin and direction, 6 values each) through the surfaces, in place. Returns (status, surface)."""
-    for k in range(kinds.shape[0]):
-        ox, oy, oz, dx, dy, dz = s[0], s[1], s[2], s[3], s[4], s[5]
-        gx, gy, gz, gw = geometry[k, 0], geometry[k, 1], geometry[k, 2], geometry[k, 3]
-        sphere = kinds[k] == 1
-        t = 0.0
-        hit = False
-        if not sphere:
-            denominator = dx * gx + dy * gy + dz * gz
-            if abs(denominator) > 1e-15:
-                t = -(ox * gx + oy * gy + oz * gz + gw) / denominator
-                hit = t > min_advance
-        else:
-            fx, fy, fz = ox - gx, oy - gy, oz - gz
-            u = dx * fx + dy * fy + dz * fz
-            w = u * u - (fx * fx + fy * fy + fz * fz - gw * gw)
-            if w >= 0.0:
-                root = math.sqrt(w)
-                t = -u - root
-                if not t > min_advance:
-                    t = -u + root
-                hit = t > min_advance
-        if not hit:
-            return MISSED_SURFACE, k
-        px, py, pz = ox + t * dx, oy + t * dy, oz + t * dz
-        if sphere:
-            nx, ny, nz = (px - gx) / gw, (py - gy) / gw, (pz - gz) / gw
-        else:
-            nx, ny, nz = gx, gy, gz
-        slope = nx * dx + ny * dy + nz * dz
-        sign = -1.0 if slope < 0.0 else 1.0
-        cos_in = slope * sign
-        ratio = indices[k] / indices[k + 1]
-        radicand = 1.0 - ratio * ratio * (1.0 - cos_in * cos_in)
-        if radicand < 0.0:
-            return TOTAL_INTERNAL_REFLECTION, k
-        cos_out = math.sqrt(radicand)
-        bend = (cos_out - ratio * cos_in) * sign
-        factor = ratio * ratio * cos_in / cos_out
-        safe_slope = slope if abs(slope) > 1e-300 else 1e-300
-        for j in range(tangents):
-            b = 6 + 6 * j
-            aox, aoy, aoz, adx, ady, adz = s[b], s[b + 1], s[b + 2], s[b + 3], s[b + 4], s[b + 5]
-            d_t = -((nx * aox + ny * aoy + nz * aoz) + t * (nx * adx + ny * ady + nz * adz)) / safe_slope
-            qx, qy, qz = aox + d_t * dx + t * adx, aoy + d_t * dy + t * ady, aoz + d_t * dz + t * adz
-            d_cos_in = adx * nx + ady * ny + adz * nz
-            if sphere:
-                mx, my, mz = qx / gw, qy / gw, qz / gw
-                d_cos_in += dx * mx + dy * my + dz * mz
-            else:
-                mx, my, mz = 0.0, 0.0, 0.0
-            d_cos_in *= sign
-            along_normal = (factor * d_cos_in - ratio * d_cos_in) * sign
-            s[b], s[b + 1], s[b + 2] = qx, qy, qz
-            s[b + 3] = ratio * adx + along_normal * nx + bend * mx
-            s[b + 4] = ratio * ady + along_normal * ny + bend * my
-            s[b + 5] = ratio * adz + along_normal * nz + bend * mz
-        s[0], s[1], s[2] = px, py, pz
-        s[3] = ratio * dx + bend * nx
-        s[4] = ratio * dy + bend * ny
-        s[5] = ratio * dz + bend * nz
-    return OK, -1
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _start_ray(s, u, v, du0, dv0, du1, dv1):
-    """Load the camera-frame ray (u, v, −1) from the centre and the derivatives of (u, v) per variable
-    into ``s``, normalised as ``Housing.trace_with_tangents`` does."""
-    length = math.sqrt(u * u + v * v + 1.0)
-    dx, dy, dz = u / length, v / length, -1.0 / length
-    s[0], s[1], s[2], s[3], s[4], s[5] = 0.0, 0.0, 0.0, dx, dy, dz
-    for j in range(2):
-        a = (du0 if j == 0 else du1) / length
-        c = (dv0 if j == 0 else dv1) / length
-        along = a * dx + c * dy
-        b = 6 + 6 * j
-        s[b], s[b + 1], s[b + 2] = 0.0, 0.0, 0.0
-        s[b + 3], s[b + 4], s[b + 5] = a - along * dx, c - along * dy, -along * dz
+_OPTIONS = {"cache": True, "error_model": "numpy", "fastmath": _FAST}
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
@@ -139,205 +80,6 @@ def _undistort_newton(u, v, tu, tv, k1, k2, k3, p1, p2, tolerance):
         if abs(step_u) < tolerance and abs(step_v) < tolerance:
             break
     return u, v
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
-def trace_pixels(pixels, interior, rotation, position, kinds, geometry, indices, min_advance,
-                 origins, directions, d_origins, d_directions, status, failed):
-    """Pixels (N, 2) → object-space rays with their derivatives per pixel, written into the given
-    arrays (origins, directions (N, 3); d_origins, d_directions (N, 3, 2); status, failed (N,)).
-    Returns how many rows have a distortion that cannot be inverted there (the caller lets the reference
-    path say which and why)."""
-    return _trace_pixels_range(0, pixels.shape[0], pixels, interior, rotation, position, kinds, geometry, indices,
-                               min_advance, origins, directions, d_origins, d_directions, status, failed)
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _trace_pixels_range(lo, hi, pixels, interior, rotation, position, kinds, geometry, indices, min_advance,
-                        origins, directions, d_origins, d_directions, status, failed):
-    unusable = 0
-    f, xp, yp, sy, k1, k2, p1, p2, k3 = (interior[0], interior[1], interior[2], interior[3], interior[4],
-                                         interior[5], interior[6], interior[7], interior[8])
-    distorted = k1 != 0.0 or k2 != 0.0 or k3 != 0.0 or p1 != 0.0 or p2 != 0.0
-    s = np.empty(18)
-    for i in range(lo, hi):
-        tu = (pixels[i, 0] - xp) / f
-        tv = (yp - pixels[i, 1]) * sy / f
-        u, v = tu, tv
-        du0, dv0, du1, dv1 = 1.0 / f, 0.0, 0.0, -sy / f
-        if distorted:
-            # start one fixed-point step from the observed point (removes the first-order distortion),
-            # then Newton to the reference's tolerance
-            ud, vd, j00, j01, j10, j11 = _distort(u, v, k1, k2, k3, p1, p2)
-            u, v = tu - (ud - tu), tv - (vd - tv)
-            u, v = _undistort_newton(u, v, tu, tv, k1, k2, k3, p1, p2, 1e-13)
-            ud, vd, j00, j01, j10, j11 = _distort(u, v, k1, k2, k3, p1, p2)
-            residual = max(abs(ud - tu), abs(vd - tv))
-            det = j00 * j11 - j01 * j10
-            if not residual <= 1e-10 or det <= 0.0 or u * tu + v * tv < 0.0:
-                unusable += 1
-            # d(uv)/d(uv_d) = J⁻¹ applied to the pixel steps
-            du0, dv0 = j11 * (1.0 / f) / det, -j10 * (1.0 / f) / det
-            du1, dv1 = -j01 * (-sy / f) / det, j00 * (-sy / f) / det
-        _start_ray(s, u, v, du0, dv0, du1, dv1)
-        code, surface = _trace_state(s, kinds, geometry, indices, min_advance, 2)
-        status[i] = code
-        failed[i] = surface
-        for c in range(3):  # camera frame → object space: X0 + Mᵀ p, directions dᵀ M
-            origins[i, c] = position[c] + s[0] * rotation[0, c] + s[1] * rotation[1, c] + s[2] * rotation[2, c]
-            directions[i, c] = s[3] * rotation[0, c] + s[4] * rotation[1, c] + s[5] * rotation[2, c]
-            for j in range(2):
-                b = 6 + 6 * j
-                d_origins[i, c, j] = s[b] * rotation[0, c] + s[b + 1] * rotation[1, c] + s[b + 2] * rotation[2, c]
-                d_directions[i, c, j] = (s[b + 3] * rotation[0, c] + s[b + 4] * rotation[1, c]
-                                         + s[b + 5] * rotation[2, c])
-    return unusable
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _solve3(m, b, x, inverse):
-    """Solve the symmetric 3×3 system m (6: xx, xy, xz, yy, yz, zz) x = b into ``x`` and ``inverse``
-    (9, row-major) by the adjugate, as ``intersection._solve3``; returns whether it is well-conditioned."""
-    a00, a01, a02, a11, a12, a22 = m[0], m[1], m[2], m[3], m[4], m[5]
-    c00 = a11 * a22 - a12 * a12
-    c01 = a12 * a02 - a01 * a22
-    c02 = a01 * a12 - a11 * a02
-    c11 = a00 * a22 - a02 * a02
-    c12 = a01 * a02 - a00 * a12
-    c22 = a00 * a11 - a01 * a01
-    det = a00 * c00 + a01 * c01 + a02 * c02
-    scale = a00 * a00 + a11 * a11 + a22 * a22 + 2.0 * (a01 * a01 + a02 * a02 + a12 * a12)
-    scale = max(scale, 1e-300)
-    good = abs(det) > 1e-12 * scale * math.sqrt(scale)
-    if not good:
-        for q in range(9):
-            inverse[q] = 0.0
-        x[0], x[1], x[2] = 0.0, 0.0, 0.0
-        return False
-    inverse[0], inverse[1], inverse[2] = c00 / det, c01 / det, c02 / det
-    inverse[3], inverse[4], inverse[5] = c01 / det, c11 / det, c12 / det
-    inverse[6], inverse[7], inverse[8] = c02 / det, c12 / det, c22 / det
-    for r in range(3):
-        x[r] = inverse[3 * r] * b[0] + inverse[3 * r + 1] * b[1] + inverse[3 * r + 2] * b[2]
-    return True
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
-def intersect_weighted(origins, directions, d_origins, d_directions, ray_ok, sigma):
-    """The two passes of ``intersection.intersect`` per point, over tuples of the k cameras' arrays:
-    the midpoint, then each ray weighted by its pixel Jacobian at the midpoint's depth; covariance,
-    residuals (metres, pixels) and status."""
-    k, n = len(origins), origins[0].shape[0]
-    points = np.empty((n, 3))  # every row is written below (zeros where the point failed)
-    covariance = np.empty((n, 3, 3))
-    residuals_m = np.empty((n, k))
-    residuals_px = np.empty((n, k))
-    status = np.empty(n, dtype=np.uint8)
-    _intersect_range(0, n, origins, directions, d_origins, d_directions, ray_ok, sigma, points, covariance,
-                     residuals_m, residuals_px, status)
-    return points, covariance, residuals_m, residuals_px, status
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _intersect_range(lo, hi, origins, directions, d_origins, d_directions, ray_ok, sigma,
-                     points, covariance, residuals_m, residuals_px, status):
-    k = len(origins)
-    m = np.empty(6)
-    b = np.empty(3)
-    x = np.empty(3)
-    inverse = np.empty(9)
-    rows = np.empty((k, 6))
-    for i in range(lo, hi):
-        code = OK
-        for j in range(k):
-            if not ray_ok[j][i]:
-                code = FAILED_RAY
-        m[:] = 0.0
-        b[:] = 0.0
-        for j in range(k):
-            dx, dy, dz = directions[j][i, 0], directions[j][i, 1], directions[j][i, 2]
-            ox, oy, oz = origins[j][i, 0], origins[j][i, 1], origins[j][i, 2]
-            m[0] += 1 - dx * dx
-            m[1] -= dx * dy
-            m[2] -= dx * dz
-            m[3] += 1 - dy * dy
-            m[4] -= dy * dz
-            m[5] += 1 - dz * dz
-            along = dx * ox + dy * oy + dz * oz
-            b[0] += ox - along * dx
-            b[1] += oy - along * dy
-            b[2] += oz - along * dz
-        good = _solve3(m, b, x, inverse)
-        m[:] = 0.0
-        b[:] = 0.0
-        for j in range(k):
-            dx, dy, dz = directions[j][i, 0], directions[j][i, 1], directions[j][i, 2]
-            ox, oy, oz = origins[j][i, 0], origins[j][i, 1], origins[j][i, 2]
-            along = (x[0] - ox) * dx + (x[1] - oy) * dy + (x[2] - oz) * dz
-            m0x = d_origins[j][i, 0, 0] + along * d_directions[j][i, 0, 0]
-            m0y = d_origins[j][i, 1, 0] + along * d_directions[j][i, 1, 0]
-            m0z = d_origins[j][i, 2, 0] + along * d_directions[j][i, 2, 0]
-            m1x = d_origins[j][i, 0, 1] + along * d_directions[j][i, 0, 1]
-            m1y = d_origins[j][i, 1, 1] + along * d_directions[j][i, 1, 1]
-            m1z = d_origins[j][i, 2, 1] + along * d_directions[j][i, 2, 1]
-            p0 = dx * m0x + dy * m0y + dz * m0z
-            p1 = dx * m1x + dy * m1y + dz * m1z
-            b0x, b0y, b0z = m0x - p0 * dx, m0y - p0 * dy, m0z - p0 * dz
-            b1x, b1y, b1z = m1x - p1 * dx, m1y - p1 * dy, m1z - p1 * dz
-            g00 = b0x * b0x + b0y * b0y + b0z * b0z
-            g01 = b0x * b1x + b0y * b1y + b0z * b1z
-            g11 = b1x * b1x + b1y * b1y + b1z * b1z
-            det = g00 * g11 - g01 * g01
-            if not det > 1e-30 * max(g00 * g11, 1e-300):
-                good = False
-                det = 1.0
-            a0x, a0y, a0z = (g11 * b0x - g01 * b1x) / det, (g11 * b0y - g01 * b1y) / det, (g11 * b0z - g01 * b1z) / det
-            a1x, a1y, a1z = (g00 * b1x - g01 * b0x) / det, (g00 * b1y - g01 * b0y) / det, (g00 * b1z - g01 * b0z) / det
-            rows[j, 0], rows[j, 1], rows[j, 2], rows[j, 3], rows[j, 4], rows[j, 5] = a0x, a0y, a0z, a1x, a1y, a1z
-            weight = 1.0 / (sigma[i, j] * sigma[i, j])
-            m[0] += weight * (a0x * a0x + a1x * a1x)
-            m[1] += weight * (a0x * a0y + a1x * a1y)
-            m[2] += weight * (a0x * a0z + a1x * a1z)
-            m[3] += weight * (a0y * a0y + a1y * a1y)
-            m[4] += weight * (a0y * a0z + a1y * a1z)
-            m[5] += weight * (a0z * a0z + a1z * a1z)
-            c0 = weight * (a0x * ox + a0y * oy + a0z * oz)
-            c1 = weight * (a1x * ox + a1y * oy + a1z * oz)
-            b[0] += c0 * a0x + c1 * a1x
-            b[1] += c0 * a0y + c1 * a1y
-            b[2] += c0 * a0z + c1 * a1z
-        if not _solve3(m, b, x, inverse):
-            good = False
-        behind = False
-        for j in range(k):
-            dx, dy, dz = directions[j][i, 0], directions[j][i, 1], directions[j][i, 2]
-            wx, wy, wz = x[0] - origins[j][i, 0], x[1] - origins[j][i, 1], x[2] - origins[j][i, 2]
-            along = wx * dx + wy * dy + wz * dz
-            if along <= 0.0:
-                behind = True
-            qx, qy, qz = wx - along * dx, wy - along * dy, wz - along * dz
-            residuals_m[i, j] = math.sqrt(qx * qx + qy * qy + qz * qz)
-            e0 = rows[j, 0] * qx + rows[j, 1] * qy + rows[j, 2] * qz
-            e1 = rows[j, 3] * qx + rows[j, 4] * qy + rows[j, 5] * qz
-            residuals_px[i, j] = math.sqrt(e0 * e0 + e1 * e1)
-        if code == OK and not good:
-            code = PARALLEL_RAYS
-        if code == OK and behind:
-            code = BEHIND_CAMERA
-        status[i] = code
-        if code != OK:
-            for j in range(k):
-                residuals_m[i, j] = 0.0
-                residuals_px[i, j] = 0.0
-            for r in range(3):
-                points[i, r] = 0.0
-                for c in range(3):
-                    covariance[i, r, c] = 0.0
-            continue
-        for r in range(3):
-            points[i, r] = x[r]
-            for c in range(3):
-                covariance[i, r, c] = inverse[3 * r + c]
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
@@ -379,90 +121,6 @@ def _proxy_start(px, py, pz, indices, proxy):
     if dz >= 0.0:
         return math.nan, math.nan
     return -dx / dz, -dy / dz
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
-def back_project(points, start, warm, kinds, geometry, indices, proxy, min_advance):
-    """``camera._back_project_general`` per point: Gauss–Newton on (u, v) so that the traced ray passes
-    through the camera-frame point, halving a step whose ray fails; returns uv (N, 2) and a status."""
-    n = points.shape[0]
-    uv = np.empty((n, 2))
-    status = np.zeros(n, dtype=np.uint8)
-    _back_project_range(0, n, points, start, warm, kinds, geometry, indices, proxy, min_advance, uv, status)
-    return uv, status
-
-
-@njit(cache=True, error_model="numpy", fastmath=_FAST)
-def _back_project_range(lo, hi, points, start, warm, kinds, geometry, indices, proxy, min_advance, uv, status):
-    s = np.empty(18)
-    for i in range(lo, hi):
-        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        if math.isfinite(warm[i, 0]) and math.isfinite(warm[i, 1]):
-            u, v = warm[i, 0], warm[i, 1]
-        else:
-            u, v = _proxy_start(px, py, pz, indices, proxy)
-            if not (math.isfinite(u) and math.isfinite(v)):
-                u, v = start[i, 0], start[i, 1]
-        good_u, good_v = math.nan, math.nan
-        step_u, step_v = 0.0, 0.0
-        halvings = 0
-        previous = math.inf
-        code = NOT_CONVERGED
-        for _ in range(80):
-            _start_ray(s, u, v, 1.0, 0.0, 0.0, 1.0)
-            traced, _surface = _trace_state(s, kinds, geometry, indices, min_advance, 2)
-            if traced != OK:
-                if math.isfinite(good_u) and halvings < 40:
-                    step_u *= 0.5
-                    step_v *= 0.5
-                    u, v = good_u + step_u, good_v + step_v
-                    halvings += 1
-                    previous = math.inf
-                    continue
-                if math.isnan(good_u) and halvings == 0:  # a failing start: the pinhole direction, once
-                    u, v = start[i, 0], start[i, 1]
-                    halvings = 1
-                    continue
-                code = traced
-                break
-            wx, wy, wz = px - s[0], py - s[1], pz - s[2]
-            dx, dy, dz = s[3], s[4], s[5]
-            along = wx * dx + wy * dy + wz * dz
-            mx, my, mz = wx - along * dx, wy - along * dy, wz - along * dz
-            # columns of ∂miss/∂(u, v)
-            d_along = -(s[6] * dx + s[7] * dy + s[8] * dz) + (wx * s[9] + wy * s[10] + wz * s[11])
-            ux = -s[6] - d_along * dx - along * s[9]
-            uy = -s[7] - d_along * dy - along * s[10]
-            uz = -s[8] - d_along * dz - along * s[11]
-            d_along = -(s[12] * dx + s[13] * dy + s[14] * dz) + (wx * s[15] + wy * s[16] + wz * s[17])
-            vx = -s[12] - d_along * dx - along * s[15]
-            vy = -s[13] - d_along * dy - along * s[16]
-            vz = -s[14] - d_along * dz - along * s[17]
-            a11 = ux * ux + uy * uy + uz * uz
-            a12 = ux * vx + uy * vy + uz * vz
-            a22 = vx * vx + vy * vy + vz * vz
-            b1 = ux * mx + uy * my + uz * mz
-            b2 = vx * mx + vy * my + vz * mz
-            det = a11 * a22 - a12 * a12
-            if not det > 1e-300:
-                code = NOT_CONVERGED
-                break
-            step_u = -(a22 * b1 - a12 * b2) / det
-            step_v = -(a11 * b2 - a12 * b1) / det
-            good_u, good_v = u, v
-            halvings = 0
-            u += step_u
-            v += step_v
-            # quadratic convergence: a step below 1e-10 leaves the next below 1e-18; and a step that,
-            # with the one before it, predicts a next one below 1e-13 (1e-10 px at f = 1000 px) ends the
-            # solve without tracing the ray once more
-            size = max(abs(step_u), abs(step_v))
-            if size < 1e-10 or (size < 1e-5 and size * size * size < 1e-13 * previous * previous):
-                code = BEHIND_CAMERA if along <= 0.0 else OK
-                break
-            previous = size
-        uv[i, 0], uv[i, 1] = u, v
-        status[i] = code
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
@@ -552,3 +210,671 @@ def undistort(target, k1, k2, k3, p1, p2, tolerance):
             unusable += 1
         out[i, 0], out[i, 1] = u, v
     return out, unusable
+
+
+# -------------------------------------------------------------------------------------------------
+# block kernels
+# -------------------------------------------------------------------------------------------------
+
+#: Rows per block (a multiple of the SIMD width; the scratch of two cameras then fits the L2 cache).
+BLOCK = 256
+_B = BLOCK
+# rows of one camera's scratch, each BLOCK long: the ray (origin, direction), its derivatives per pixel x
+# (A: origin, direction) and per pixel y (B), the status so far, the undistortion's state, the rows of
+# the pixel Jacobian a0, a1 (Q0, Q1)
+OX, OY, OZ, DX, DY, DZ = 0 * _B, 1 * _B, 2 * _B, 3 * _B, 4 * _B, 5 * _B
+AOX, AOY, AOZ, ADX, ADY, ADZ = 6 * _B, 7 * _B, 8 * _B, 9 * _B, 10 * _B, 11 * _B
+BOX, BOY, BOZ, BDX, BDY, BDZ = 12 * _B, 13 * _B, 14 * _B, 15 * _B, 16 * _B, 17 * _B
+CODE, U, V, I00, I01, I10, I11, STEP, RES, DET, TU, TV = (18 * _B, 19 * _B, 20 * _B, 21 * _B, 22 * _B, 23 * _B,
+                                                        24 * _B, 25 * _B, 26 * _B, 27 * _B, 28 * _B, 29 * _B)
+Q0X, Q0Y, Q0Z, Q1X, Q1Y, Q1Z = 30 * _B, 31 * _B, 32 * _B, 33 * _B, 34 * _B, 35 * _B
+SURFACE = 36 * _B
+# the back-projection's Gauss–Newton state: last good (u, v), last step, halvings, previous step size,
+# state (−1 open, else the final status), the pinhole start
+GOOD_U, GOOD_V, STEP_U, STEP_V, HALVINGS, PREVIOUS, STATE, START_U, START_V = (
+    37 * _B, 38 * _B, 39 * _B, 40 * _B, 41 * _B, 42 * _B, 43 * _B, 44 * _B, 45 * _B)
+CAMERA_ROWS = 46 * _B
+# rows of the scratch the cameras share: the normal equations (A, r), the point X, the inverse C, flags
+A00, A01, A02, A11, A12, A22, R0, R1, R2 = 0, _B, 2 * _B, 3 * _B, 4 * _B, 5 * _B, 6 * _B, 7 * _B, 8 * _B
+X0, X1, X2 = 9 * _B, 10 * _B, 11 * _B
+C00, C01, C02, C11, C12, C22 = 12 * _B, 13 * _B, 14 * _B, 15 * _B, 16 * _B, 17 * _B
+GOOD, BEHIND, FAILED = 18 * _B, 19 * _B, 20 * _B
+SHARED_ROWS = 21 * _B
+
+@njit(**_OPTIONS)
+def _distorted(u, v, k1, k2, k3, p1, p2):
+    """Observed normalised (u_d, v_d) of ideal (u, v) (Interior's model), without the Jacobian."""
+    r2 = u * u + v * v
+    radial = k1 * r2 + (k2 + k3 * r2) * r2 * r2
+    return (u + u * radial + p1 * (r2 + 2 * u * u) + 2 * p2 * u * v,
+            v + v * radial + p2 * (r2 + 2 * v * v) + 2 * p1 * u * v)
+
+
+@njit(**_OPTIONS)
+def _normalise(m, pix, f, xp, yp, sy, s):
+    """Observed normalised coordinates (TU, TV) of a block of pixels (m, 2) (thesis 2.29, divided by f)."""
+    for i in range(m):
+        s[TU + i] = (pix[i, 0] - xp) / f
+        s[TV + i] = (yp - pix[i, 1]) * sy / f
+
+
+@njit(**_OPTIONS)
+def _newton_first(m, s, k1, k2, k3, p1, p2):
+    """From one fixed-point step (which removes the first-order distortion), three Newton steps on every
+    row: the ideal (U, V), the inverse distortion Jacobian (I00..I11) and the last step's size, residual
+    and determinant. The Jacobian is taken one step before the end: within the last step (below 1e-12
+    once converged) of the root's. Returns how many rows have not converged."""
+    open_rows = 0
+    for i in range(m):
+        a, b = s[TU + i], s[TV + i]
+        ud, vd = _distorted(a, b, k1, k2, k3, p1, p2)
+        x, y = a - (ud - a), b - (vd - b)
+        su = sv = ru = rv = 0.0
+        j00 = j11 = det = inv = 1.0
+        j01 = j10 = 0.0
+        for _ in range(3):
+            ud, vd, j00, j01, j10, j11 = _distort(x, y, k1, k2, k3, p1, p2)
+            ru, rv = ud - a, vd - b
+            det = j00 * j11 - j01 * j10
+            inv = 1.0 / (det if abs(det) > 1e-12 else 1e-12)
+            su = (j11 * ru - j01 * rv) * inv
+            sv = (j00 * rv - j10 * ru) * inv
+            x -= su
+            y -= sv
+        s[U + i], s[V + i] = x, y
+        s[I00 + i], s[I01 + i], s[I10 + i], s[I11 + i] = j11 * inv, -j01 * inv, -j10 * inv, j00 * inv
+        step = max(abs(su), abs(sv))
+        s[STEP + i], s[RES + i], s[DET + i] = step, max(abs(ru), abs(rv)), det
+        open_rows += not step < 1e-12
+    return open_rows
+
+
+@njit(**_OPTIONS)
+def _newton_again(m, s, k1, k2, k3, p1, p2):
+    """One more Newton step on every row of the block (a converged row stays where it is); returns how
+    many rows have not converged."""
+    open_rows = 0
+    for i in range(m):
+        a, b, x, y = s[TU + i], s[TV + i], s[U + i], s[V + i]
+        ud, vd, j00, j01, j10, j11 = _distort(x, y, k1, k2, k3, p1, p2)
+        ru, rv = ud - a, vd - b
+        det = j00 * j11 - j01 * j10
+        inv = 1.0 / (det if abs(det) > 1e-12 else 1e-12)
+        su = (j11 * ru - j01 * rv) * inv
+        sv = (j00 * rv - j10 * ru) * inv
+        s[U + i], s[V + i] = x - su, y - sv
+        s[I00 + i], s[I01 + i], s[I10 + i], s[I11 + i] = j11 * inv, -j01 * inv, -j10 * inv, j00 * inv
+        step = max(abs(su), abs(sv))
+        s[STEP + i], s[RES + i], s[DET + i] = step, max(abs(ru), abs(rv)), det
+        open_rows += not step < 1e-12
+    return open_rows
+
+
+@njit(**_OPTIONS)
+def _count_unusable(m, s):
+    """Rows whose distortion cannot be inverted: no convergence, a residual over 1e-10, a fold (Jacobian
+    not positive) or a point flipped through the centre (the reference path then names the first)."""
+    bad = 0
+    for i in range(m):
+        good = (s[STEP + i] < 1e-12 and s[RES + i] <= 1e-10 and s[DET + i] > 0.0
+                and s[U + i] * s[TU + i] + s[V + i] * s[TV + i] >= 0.0)
+        bad += not good
+    return bad
+
+
+@njit(**_OPTIONS)
+def _start_rays(m, s, f, sy, distorted):
+    """The camera-frame rays (u, v, −1) from the perspective centre, normalised, with their derivatives
+    per pixel x (A) and y (B) projected off the direction (as ``Housing.trace_with_tangents``); with
+    ``f`` = 0 the derivatives per u (A) and v (B) of the rays of (U, V)."""
+    per_uv = f == 0.0
+    fx, fy = (1.0, 1.0) if per_uv else (1.0 / f, -sy / f)
+    for i in range(m):
+        if per_uv:
+            uu, vv = s[U + i], s[V + i]
+            ux, vx, uy, vy = 1.0, 0.0, 0.0, 1.0
+        elif distorted:  # d(u, v)/d(pixel) = J⁻¹ · (1/f, 0) and J⁻¹ · (0, −sy/f)
+            uu, vv = s[U + i], s[V + i]
+            ux, vx, uy, vy = s[I00 + i] * fx, s[I10 + i] * fx, s[I01 + i] * fy, s[I11 + i] * fy
+        else:
+            uu, vv = s[TU + i], s[TV + i]
+            ux, vx, uy, vy = fx, 0.0, 0.0, fy
+        inv_length = 1.0 / math.sqrt(uu * uu + vv * vv + 1.0)
+        ex, ey, ez = uu * inv_length, vv * inv_length, -inv_length
+        s[OX + i], s[OY + i], s[OZ + i], s[DX + i], s[DY + i], s[DZ + i] = 0.0, 0.0, 0.0, ex, ey, ez
+        a, c = ux * inv_length, vx * inv_length
+        along = a * ex + c * ey
+        s[AOX + i], s[AOY + i], s[AOZ + i] = 0.0, 0.0, 0.0
+        s[ADX + i], s[ADY + i], s[ADZ + i] = a - along * ex, c - along * ey, -along * ez
+        a, c = uy * inv_length, vy * inv_length
+        along = a * ex + c * ey
+        s[BOX + i], s[BOY + i], s[BOZ + i] = 0.0, 0.0, 0.0
+        s[BDX + i], s[BDY + i], s[BDZ + i] = a - along * ex, c - along * ey, -along * ez
+        s[CODE + i] = 0.0
+        s[SURFACE + i] = -1.0
+
+
+@njit(**_OPTIONS)
+def _refract_block(m, s, surface, sphere, gx, gy, gz, gw, ratio, inv_r, min_advance):
+    """Every live ray of the block through one surface (number ``surface``): a plane (unit normal g, offset
+    gw) or a sphere (centre g, radius gw, 1/radius ``inv_r``), from index n_in to n_out (``ratio`` =
+    n_in/n_out), with both tangents. A ray that misses (code 1) or is totally reflected (2) keeps its
+    state and records the surface."""
+    for i in range(m):
+        o0, o1, o2, d0, d1, d2 = s[OX + i], s[OY + i], s[OZ + i], s[DX + i], s[DY + i], s[DZ + i]
+        if sphere:  # the first crossing strictly ahead of the origin
+            f0, f1, f2 = o0 - gx, o1 - gy, o2 - gz
+            w = d0 * f0 + d1 * f1 + d2 * f2
+            disc = w * w - (f0 * f0 + f1 * f1 + f2 * f2 - gw * gw)
+            root = math.sqrt(max(disc, 0.0))
+            near = -w - root
+            t = near if near > min_advance else -w + root
+            hit = disc >= 0.0 and t > min_advance
+            n0, n1, n2 = (f0 + t * d0) * inv_r, (f1 + t * d1) * inv_r, (f2 + t * d2) * inv_r
+            slope = n0 * d0 + n1 * d1 + n2 * d2
+        else:
+            slope = d0 * gx + d1 * gy + d2 * gz
+            usable = abs(slope) > 1e-15
+            t = -(o0 * gx + o1 * gy + o2 * gz + gw) / (slope if usable else 1.0)
+            hit = usable and t > min_advance
+            n0, n1, n2 = gx, gy, gz
+        # vector Snell (2.13) with the normal oriented along the ray
+        sign = -1.0 if slope < 0.0 else 1.0
+        cos_in = slope * sign
+        radicand = 1.0 - ratio * ratio * (1.0 - cos_in * cos_in)
+        cos_out = math.sqrt(max(radicand, 1e-300))
+        bend = (cos_out - ratio * cos_in) * sign
+        gain = ratio * ratio * cos_in / cos_out - ratio  # d(refracted)/d(cos_in) along the normal
+        inv_slope = 1.0 / (slope if abs(slope) > 1e-300 else 1e-300)
+        # tangent A: the crossing moves by q, the normal (sphere) by q / r, the direction by na
+        a0, a1, a2, a3, a4, a5 = s[AOX + i], s[AOY + i], s[AOZ + i], s[ADX + i], s[ADY + i], s[ADZ + i]
+        d_t = -((n0 * a0 + n1 * a1 + n2 * a2) + t * (n0 * a3 + n1 * a4 + n2 * a5)) * inv_slope
+        q0, q1, q2 = a0 + d_t * d0 + t * a3, a1 + d_t * d1 + t * a4, a2 + d_t * d2 + t * a5
+        d_cos = a3 * n0 + a4 * n1 + a5 * n2
+        if sphere:
+            m0, m1, m2 = q0 * inv_r, q1 * inv_r, q2 * inv_r
+            d_cos += d0 * m0 + d1 * m1 + d2 * m2
+        else:
+            m0 = m1 = m2 = 0.0
+        normal_part = gain * d_cos
+        na3 = ratio * a3 + normal_part * n0 + bend * m0
+        na4 = ratio * a4 + normal_part * n1 + bend * m1
+        na5 = ratio * a5 + normal_part * n2 + bend * m2
+        # tangent B, the same
+        b0, b1, b2, b3, b4, b5 = s[BOX + i], s[BOY + i], s[BOZ + i], s[BDX + i], s[BDY + i], s[BDZ + i]
+        d_t = -((n0 * b0 + n1 * b1 + n2 * b2) + t * (n0 * b3 + n1 * b4 + n2 * b5)) * inv_slope
+        r0, r1, r2 = b0 + d_t * d0 + t * b3, b1 + d_t * d1 + t * b4, b2 + d_t * d2 + t * b5
+        d_cos = b3 * n0 + b4 * n1 + b5 * n2
+        if sphere:
+            m0, m1, m2 = r0 * inv_r, r1 * inv_r, r2 * inv_r
+            d_cos += d0 * m0 + d1 * m1 + d2 * m2
+        normal_part = gain * d_cos
+        nb3 = ratio * b3 + normal_part * n0 + bend * m0
+        nb4 = ratio * b4 + normal_part * n1 + bend * m1
+        nb5 = ratio * b5 + normal_part * n2 + bend * m2
+        code = s[CODE + i]
+        live = code == 0.0
+        good = live and hit and radicand >= 0.0
+        s[CODE + i] = code if not live else (0.0 if good else (1.0 if not hit else 2.0))
+        s[SURFACE + i] = s[SURFACE + i] if good or not live else float(surface)
+        if good:
+            scale = ratio
+        else:  # keep the state the ray had
+            q0, q1, q2, na3, na4, na5, r0, r1, r2, nb3, nb4, nb5 = a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5
+            t, bend, scale = 0.0, 0.0, 1.0
+        s[OX + i], s[OY + i], s[OZ + i] = o0 + t * d0, o1 + t * d1, o2 + t * d2
+        s[DX + i], s[DY + i], s[DZ + i] = scale * d0 + bend * n0, scale * d1 + bend * n1, scale * d2 + bend * n2
+        s[AOX + i], s[AOY + i], s[AOZ + i], s[ADX + i], s[ADY + i], s[ADZ + i] = q0, q1, q2, na3, na4, na5
+        s[BOX + i], s[BOY + i], s[BOZ + i], s[BDX + i], s[BDY + i], s[BDZ + i] = r0, r1, r2, nb3, nb4, nb5
+
+
+@njit(**_OPTIONS)
+def _trace_block(m, pix, camera, table, count, min_advance, s):
+    """Pixels (m, 2) of one camera (a camera row, its surface rows, how many) → camera-frame rays with
+    their derivatives in the scratch ``s``; returns how many rows cannot be undistorted."""
+    f, xp, yp, sy = camera[0], camera[1], camera[2], camera[3]
+    k1, k2, p1, p2, k3 = camera[4], camera[5], camera[6], camera[7], camera[8]
+    _normalise(m, pix, f, xp, yp, sy, s)
+    distorted = k1 != 0.0 or k2 != 0.0 or k3 != 0.0 or p1 != 0.0 or p2 != 0.0
+    unusable = 0
+    if distorted:
+        left = _newton_first(m, s, k1, k2, k3, p1, p2)
+        steps = 3
+        while left > 0 and steps < 60:
+            left = _newton_again(m, s, k1, k2, k3, p1, p2)
+            steps += 1
+        unusable = _count_unusable(m, s)
+    _start_rays(m, s, f, sy, distorted)
+    for q in range(count):
+        _refract_block(m, s, q, table[q, 0] == 1.0, table[q, 1], table[q, 2], table[q, 3], table[q, 4],
+                       table[q, 5], table[q, 6], min_advance)
+    return unusable
+
+
+@njit(**_OPTIONS)
+def _to_object(m, s, camera):
+    """The block's rays and derivatives from the camera frame into object space (in place): origins
+    X0 + Mᵀ p, vectors Mᵀ v."""
+    m00, m01, m02, m10, m11, m12 = camera[9], camera[10], camera[11], camera[12], camera[13], camera[14]
+    m20, m21, m22, p0, p1, p2 = camera[15], camera[16], camera[17], camera[18], camera[19], camera[20]
+    for i in range(m):
+        x, y, z = s[OX + i], s[OY + i], s[OZ + i]
+        s[OX + i] = p0 + m00 * x + m10 * y + m20 * z
+        s[OY + i] = p1 + m01 * x + m11 * y + m21 * z
+        s[OZ + i] = p2 + m02 * x + m12 * y + m22 * z
+        x, y, z = s[DX + i], s[DY + i], s[DZ + i]
+        s[DX + i] = m00 * x + m10 * y + m20 * z
+        s[DY + i] = m01 * x + m11 * y + m21 * z
+        s[DZ + i] = m02 * x + m12 * y + m22 * z
+        x, y, z = s[AOX + i], s[AOY + i], s[AOZ + i]
+        s[AOX + i] = m00 * x + m10 * y + m20 * z
+        s[AOY + i] = m01 * x + m11 * y + m21 * z
+        s[AOZ + i] = m02 * x + m12 * y + m22 * z
+        x, y, z = s[ADX + i], s[ADY + i], s[ADZ + i]
+        s[ADX + i] = m00 * x + m10 * y + m20 * z
+        s[ADY + i] = m01 * x + m11 * y + m21 * z
+        s[ADZ + i] = m02 * x + m12 * y + m22 * z
+        x, y, z = s[BOX + i], s[BOY + i], s[BOZ + i]
+        s[BOX + i] = m00 * x + m10 * y + m20 * z
+        s[BOY + i] = m01 * x + m11 * y + m21 * z
+        s[BOZ + i] = m02 * x + m12 * y + m22 * z
+        x, y, z = s[BDX + i], s[BDY + i], s[BDZ + i]
+        s[BDX + i] = m00 * x + m10 * y + m20 * z
+        s[BDY + i] = m01 * x + m11 * y + m21 * z
+        s[BDZ + i] = m02 * x + m12 * y + m22 * z
+
+
+@njit(**_OPTIONS)
+def _add_midpoint_rows(m, s, shared, first):
+    """Add one camera's rays to the midpoint's normal equations Σ (I − d dᵀ) x = Σ (I − d dᵀ) o (set them
+    when ``first``), and its failures to the shared FAILED flags."""
+    for i in range(m):
+        o0, o1, o2, d0, d1, d2 = s[OX + i], s[OY + i], s[OZ + i], s[DX + i], s[DY + i], s[DZ + i]
+        along = d0 * o0 + d1 * o1 + d2 * o2
+        e00, e01, e02, e11, e12, e22 = 1.0 - d0 * d0, -d0 * d1, -d0 * d2, 1.0 - d1 * d1, -d1 * d2, 1.0 - d2 * d2
+        f0, f1, f2 = o0 - along * d0, o1 - along * d1, o2 - along * d2
+        failed = s[CODE + i] != 0.0
+        if not first:
+            e00 += shared[A00 + i]
+            e01 += shared[A01 + i]
+            e02 += shared[A02 + i]
+            e11 += shared[A11 + i]
+            e12 += shared[A12 + i]
+            e22 += shared[A22 + i]
+            f0 += shared[R0 + i]
+            f1 += shared[R1 + i]
+            f2 += shared[R2 + i]
+            failed = failed or shared[FAILED + i] != 0.0
+        shared[A00 + i], shared[A01 + i], shared[A02 + i] = e00, e01, e02
+        shared[A11 + i], shared[A12 + i], shared[A22 + i] = e11, e12, e22
+        shared[R0 + i], shared[R1 + i], shared[R2 + i] = f0, f1, f2
+        shared[FAILED + i] = 1.0 if failed else 0.0
+
+
+@njit(**_OPTIONS)
+def _solve_block(m, shared, first):
+    """Solve the block's symmetric 3×3 normal equations by the adjugate (as ``intersection._solve3``):
+    the points X, the inverse C (zeros where ill-conditioned) and the GOOD flags (set when ``first``,
+    else combined)."""
+    for i in range(m):
+        a00, a01, a02 = shared[A00 + i], shared[A01 + i], shared[A02 + i]
+        a11, a12, a22 = shared[A11 + i], shared[A12 + i], shared[A22 + i]
+        c00 = a11 * a22 - a12 * a12
+        c01 = a12 * a02 - a01 * a22
+        c02 = a01 * a12 - a11 * a02
+        c11 = a00 * a22 - a02 * a02
+        c12 = a01 * a02 - a00 * a12
+        c22 = a00 * a11 - a01 * a01
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        scale = max(a00 * a00 + a11 * a11 + a22 * a22 + 2.0 * (a01 * a01 + a02 * a02 + a12 * a12), 1e-300)
+        well = abs(det) > 1e-12 * scale * math.sqrt(scale)
+        inv = (1.0 / det) if well else 0.0
+        c00, c01, c02, c11, c12, c22 = c00 * inv, c01 * inv, c02 * inv, c11 * inv, c12 * inv, c22 * inv
+        b0, b1, b2 = shared[R0 + i], shared[R1 + i], shared[R2 + i]
+        shared[X0 + i] = c00 * b0 + c01 * b1 + c02 * b2
+        shared[X1 + i] = c01 * b0 + c11 * b1 + c12 * b2
+        shared[X2 + i] = c02 * b0 + c12 * b1 + c22 * b2
+        shared[C00 + i], shared[C01 + i], shared[C02 + i] = c00, c01, c02
+        shared[C11 + i], shared[C12 + i], shared[C22 + i] = c11, c12, c22
+        good = well if first else (well and shared[GOOD + i] != 0.0)
+        shared[GOOD + i] = 1.0 if good else 0.0
+
+
+@njit(**_OPTIONS)
+def _add_weighted_rows(m, s, shared, weights, first):
+    """Add one camera's rays, each weighted by its pixel Jacobian at the depth of the points X and by
+    ``weights`` (m,) = 1/σ² (1/px²), to the normal equations (set them when ``first``). The Jacobian's
+    rows a0, a1 (∂pixel/∂X, pixels per metre) go to the camera's Q rows: a pixel step moves the ray at
+    depth s by B = (I − d dᵀ)(∂o/∂p + s ∂d/∂p), and the point's pixel moves by A = (BᵀB)⁻¹Bᵀ."""
+    for i in range(m):
+        o0, o1, o2, d0, d1, d2 = s[OX + i], s[OY + i], s[OZ + i], s[DX + i], s[DY + i], s[DZ + i]
+        along = (shared[X0 + i] - o0) * d0 + (shared[X1 + i] - o1) * d1 + (shared[X2 + i] - o2) * d2
+        m0x = s[AOX + i] + along * s[ADX + i]
+        m0y = s[AOY + i] + along * s[ADY + i]
+        m0z = s[AOZ + i] + along * s[ADZ + i]
+        m1x = s[BOX + i] + along * s[BDX + i]
+        m1y = s[BOY + i] + along * s[BDY + i]
+        m1z = s[BOZ + i] + along * s[BDZ + i]
+        p0 = d0 * m0x + d1 * m0y + d2 * m0z
+        p1 = d0 * m1x + d1 * m1y + d2 * m1z
+        b0x, b0y, b0z = m0x - p0 * d0, m0y - p0 * d1, m0z - p0 * d2
+        b1x, b1y, b1z = m1x - p1 * d0, m1y - p1 * d1, m1z - p1 * d2
+        g00 = b0x * b0x + b0y * b0y + b0z * b0z
+        g01 = b0x * b1x + b0y * b1y + b0z * b1z
+        g11 = b1x * b1x + b1y * b1y + b1z * b1z
+        det = g00 * g11 - g01 * g01
+        valid = det > 1e-30 * max(g00 * g11, 1e-300)
+        inv = 1.0 / (det if valid else 1.0)
+        e00, e01, e11 = g11 * inv, -g01 * inv, g00 * inv
+        q0x, q0y, q0z = e00 * b0x + e01 * b1x, e00 * b0y + e01 * b1y, e00 * b0z + e01 * b1z
+        q1x, q1y, q1z = e01 * b0x + e11 * b1x, e01 * b0y + e11 * b1y, e01 * b0z + e11 * b1z
+        s[Q0X + i], s[Q0Y + i], s[Q0Z + i], s[Q1X + i], s[Q1Y + i], s[Q1Z + i] = q0x, q0y, q0z, q1x, q1y, q1z
+        w = weights[i]
+        c0 = w * (q0x * o0 + q0y * o1 + q0z * o2)
+        c1 = w * (q1x * o0 + q1y * o1 + q1z * o2)
+        e0 = w * (q0x * q0x + q1x * q1x)
+        e1 = w * (q0x * q0y + q1x * q1y)
+        e2 = w * (q0x * q0z + q1x * q1z)
+        e3 = w * (q0y * q0y + q1y * q1y)
+        e4 = w * (q0y * q0z + q1y * q1z)
+        e5 = w * (q0z * q0z + q1z * q1z)
+        f0, f1, f2 = c0 * q0x + c1 * q1x, c0 * q0y + c1 * q1y, c0 * q0z + c1 * q1z
+        if not first:
+            e0 += shared[A00 + i]
+            e1 += shared[A01 + i]
+            e2 += shared[A02 + i]
+            e3 += shared[A11 + i]
+            e4 += shared[A12 + i]
+            e5 += shared[A22 + i]
+            f0 += shared[R0 + i]
+            f1 += shared[R1 + i]
+            f2 += shared[R2 + i]
+        shared[A00 + i], shared[A01 + i], shared[A02 + i] = e0, e1, e2
+        shared[A11 + i], shared[A12 + i], shared[A22 + i] = e3, e4, e5
+        shared[R0 + i], shared[R1 + i], shared[R2 + i] = f0, f1, f2
+        shared[GOOD + i] = 1.0 if valid and shared[GOOD + i] != 0.0 else 0.0
+
+
+@njit(**_OPTIONS)
+def _residuals_block(m, s, shared, residuals_m, residuals_px, first):
+    """Each point's perpendicular miss of one camera's ray, in metres and (through the Q rows) in pixels,
+    into the (m,) outputs; a point not ahead of the ray's origin sets BEHIND (set when ``first``)."""
+    for i in range(m):
+        d0, d1, d2 = s[DX + i], s[DY + i], s[DZ + i]
+        w0, w1, w2 = shared[X0 + i] - s[OX + i], shared[X1 + i] - s[OY + i], shared[X2 + i] - s[OZ + i]
+        along = w0 * d0 + w1 * d1 + w2 * d2
+        behind = along <= 0.0 if first else (along <= 0.0 or shared[BEHIND + i] != 0.0)
+        shared[BEHIND + i] = 1.0 if behind else 0.0
+        q0, q1, q2 = w0 - along * d0, w1 - along * d1, w2 - along * d2
+        residuals_m[i] = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+        e0 = s[Q0X + i] * q0 + s[Q0Y + i] * q1 + s[Q0Z + i] * q2
+        e1 = s[Q1X + i] * q0 + s[Q1Y + i] * q1 + s[Q1Z + i] * q2
+        residuals_px[i] = math.sqrt(e0 * e0 + e1 * e1)
+
+
+@njit(**_OPTIONS)
+def _write_points(m, shared, points, covariance, status):
+    """The block's status (FAILED_RAY, else PARALLEL_RAYS, else BEHIND_CAMERA, else OK), points (m, 3)
+    and covariances (m, 3, 3); rows that are not OK get zeros."""
+    for i in range(m):
+        failed, good, behind = shared[FAILED + i] != 0.0, shared[GOOD + i] != 0.0, shared[BEHIND + i] != 0.0
+        code = FAILED_RAY if failed else (PARALLEL_RAYS if not good else (BEHIND_CAMERA if behind else OK))
+        ok = code == OK
+        status[i] = code
+        x0, x1, x2 = (shared[X0 + i], shared[X1 + i], shared[X2 + i]) if ok else (0.0, 0.0, 0.0)
+        points[i, 0], points[i, 1], points[i, 2] = x0, x1, x2
+        c00, c01, c02 = (shared[C00 + i], shared[C01 + i], shared[C02 + i]) if ok else (0.0, 0.0, 0.0)
+        c11, c12, c22 = (shared[C11 + i], shared[C12 + i], shared[C22 + i]) if ok else (0.0, 0.0, 0.0)
+        covariance[i, 0, 0], covariance[i, 0, 1], covariance[i, 0, 2] = c00, c01, c02
+        covariance[i, 1, 0], covariance[i, 1, 1], covariance[i, 1, 2] = c01, c11, c12
+        covariance[i, 2, 0], covariance[i, 2, 1], covariance[i, 2, 2] = c02, c12, c22
+
+
+@njit(**_OPTIONS)
+def _zero_failed(m, status, residuals_m, residuals_px):
+    """Zero one camera's residuals (m,) where the point is not OK."""
+    for i in range(m):
+        ok = status[i] == OK
+        residuals_m[i] = residuals_m[i] if ok else 0.0
+        residuals_px[i] = residuals_px[i] if ok else 0.0
+
+
+@njit(**_OPTIONS)
+def _intersect_block(m, k, scratch, shared, weight_rows, points, covariance, residuals_m, residuals_px, status):
+    """The block's points from the k cameras' rays in ``scratch`` (object space) whose midpoint rows are in
+    ``shared``: the midpoint, the weighted solution with covariance, residuals and statuses into the
+    block's slices of the outputs (points (m, 3), covariance (m, 3, 3), residuals (k, m), status (m,))."""
+    _solve_block(m, shared, True)
+    for j in range(k):
+        _add_weighted_rows(m, scratch[j], shared, weight_rows[j], j == 0)
+    _solve_block(m, shared, False)
+    for j in range(k):
+        _residuals_block(m, scratch[j], shared, residuals_m[j], residuals_px[j], j == 0)
+    _write_points(m, shared, points, covariance, status)
+    for j in range(k):
+        _zero_failed(m, status, residuals_m[j], residuals_px[j])
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def intersect_pixels(pixels, cameras, surfaces, counts, weights, min_advance):
+    """Pixels of k cameras → intersected points with covariance, block by block (the compiled
+    ``intersection.intersect``): ``pixels`` a tuple of k (N, 2) arrays, ``cameras`` (k, 21) rows (f, xp,
+    yp, sy, k1, k2, p1, p2, k3, M row by row, X0, Y0, Z0), ``surfaces`` (k, m, 7) rows (kind 0 plane /
+    1 sphere, normal or centre, offset or radius, n_in/n_out, 1/radius), ``counts`` (k,) surfaces per
+    camera, ``weights`` (1 or N, k) 1/σ² (1/px²). Returns points (N, 3), covariance (N, 3, 3),
+    residuals in metres and pixels (N, k), status (N,) and how many pixels cannot be undistorted (the
+    caller then lets the reference path name them)."""
+    k, n = len(pixels), pixels[0].shape[0]
+    points = np.empty((n, 3))
+    covariance = np.empty((n, 3, 3))
+    residuals_m = np.empty((k, n))
+    residuals_px = np.empty((k, n))
+    status = np.empty(n, dtype=np.uint8)
+    scratch = np.empty((k, CAMERA_ROWS))
+    shared = np.empty(SHARED_ROWS)
+    weight_rows = np.empty((k, BLOCK))
+    unusable = 0
+    for lo in range(0, n, BLOCK):
+        m = min(BLOCK, n - lo)
+        for j in range(k):
+            s = scratch[j]
+            unusable += _trace_block(m, pixels[j][lo:lo + m], cameras[j], surfaces[j], counts[j], min_advance, s)
+            _to_object(m, s, cameras[j])
+            _add_midpoint_rows(m, s, shared, j == 0)
+            if weights.shape[0] > 1:
+                weight_rows[j, :m] = weights[lo:lo + m, j]
+            else:
+                weight_rows[j, :m] = weights[0, j]
+        _intersect_block(m, k, scratch, shared, weight_rows, points[lo:lo + m], covariance[lo:lo + m],
+                         residuals_m[:, lo:lo + m], residuals_px[:, lo:lo + m], status[lo:lo + m])
+    return points, covariance, residuals_m.T.copy(), residuals_px.T.copy(), status, unusable
+
+
+@njit(**_OPTIONS)
+def _load_rays(m, origins, directions, d_origins, d_directions, ok, s):
+    """Traced object-space rays (m, 3), their derivatives per pixel (m, 3, 2) and validity (m,) into the
+    scratch ``s``."""
+    for i in range(m):
+        s[OX + i], s[OY + i], s[OZ + i] = origins[i, 0], origins[i, 1], origins[i, 2]
+        s[DX + i], s[DY + i], s[DZ + i] = directions[i, 0], directions[i, 1], directions[i, 2]
+        s[AOX + i], s[AOY + i], s[AOZ + i] = d_origins[i, 0, 0], d_origins[i, 1, 0], d_origins[i, 2, 0]
+        s[ADX + i], s[ADY + i], s[ADZ + i] = d_directions[i, 0, 0], d_directions[i, 1, 0], d_directions[i, 2, 0]
+        s[BOX + i], s[BOY + i], s[BOZ + i] = d_origins[i, 0, 1], d_origins[i, 1, 1], d_origins[i, 2, 1]
+        s[BDX + i], s[BDY + i], s[BDZ + i] = d_directions[i, 0, 1], d_directions[i, 1, 1], d_directions[i, 2, 1]
+        s[CODE + i] = 0.0 if ok[i] else 1.0
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, weights):
+    """``intersection.intersect_traced`` block by block: tuples over the k cameras of object-space
+    origins, unit directions (N, 3), their derivatives per pixel (N, 3, 2) and whether each ray is valid
+    (N,); ``weights`` (1 or N, k) 1/σ² (1/px²). Returns points, covariance, residuals (metres, pixels)
+    and status."""
+    k, n = len(origins), origins[0].shape[0]
+    points = np.empty((n, 3))
+    covariance = np.empty((n, 3, 3))
+    residuals_m = np.empty((k, n))
+    residuals_px = np.empty((k, n))
+    status = np.empty(n, dtype=np.uint8)
+    scratch = np.empty((k, CAMERA_ROWS))
+    shared = np.empty(SHARED_ROWS)
+    weight_rows = np.empty((k, BLOCK))
+    for lo in range(0, n, BLOCK):
+        m = min(BLOCK, n - lo)
+        for j in range(k):
+            s = scratch[j]
+            _load_rays(m, origins[j][lo:lo + m], directions[j][lo:lo + m], d_origins[j][lo:lo + m],
+                       d_directions[j][lo:lo + m], ray_ok[j][lo:lo + m], s)
+            _add_midpoint_rows(m, s, shared, j == 0)
+            if weights.shape[0] > 1:
+                weight_rows[j, :m] = weights[lo:lo + m, j]
+            else:
+                weight_rows[j, :m] = weights[0, j]
+        _intersect_block(m, k, scratch, shared, weight_rows, points[lo:lo + m], covariance[lo:lo + m],
+                         residuals_m[:, lo:lo + m], residuals_px[:, lo:lo + m], status[lo:lo + m])
+    return points, covariance, residuals_m.T.copy(), residuals_px.T.copy(), status
+
+
+@njit(**_OPTIONS)
+def _write_rays(m, s, origins, directions, d_origins, d_directions, status, failed):
+    """The block's object-space rays and derivatives from the scratch into (m, 3) and (m, 3, 2) outputs,
+    with the ray status and the surface where a ray failed (−1)."""
+    for i in range(m):
+        origins[i, 0], origins[i, 1], origins[i, 2] = s[OX + i], s[OY + i], s[OZ + i]
+        directions[i, 0], directions[i, 1], directions[i, 2] = s[DX + i], s[DY + i], s[DZ + i]
+        d_origins[i, 0, 0], d_origins[i, 1, 0], d_origins[i, 2, 0] = s[AOX + i], s[AOY + i], s[AOZ + i]
+        d_directions[i, 0, 0], d_directions[i, 1, 0], d_directions[i, 2, 0] = s[ADX + i], s[ADY + i], s[ADZ + i]
+        d_origins[i, 0, 1], d_origins[i, 1, 1], d_origins[i, 2, 1] = s[BOX + i], s[BOY + i], s[BOZ + i]
+        d_directions[i, 0, 1], d_directions[i, 1, 1], d_directions[i, 2, 1] = s[BDX + i], s[BDY + i], s[BDZ + i]
+        status[i] = np.uint8(s[CODE + i])
+        failed[i] = np.int16(s[SURFACE + i])
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def trace_pixels(pixels, camera, table, count, min_advance, origins, directions, d_origins, d_directions, status,
+                 failed):
+    """``Camera.rays_with_derivatives`` block by block: pixels (N, 2) of one camera (its row, surface rows
+    and their count, as for :func:`intersect_pixels`) → object-space origins, unit directions (N, 3) and
+    their derivatives per pixel (N, 3, 2), status (N,) and failed surface (N,), written into the given
+    arrays. Returns how many pixels cannot be undistorted (the reference path then names them)."""
+    scratch = np.empty(CAMERA_ROWS)
+    unusable = 0
+    for lo in range(0, pixels.shape[0], BLOCK):
+        m = min(BLOCK, pixels.shape[0] - lo)
+        unusable += _trace_block(m, pixels[lo:lo + m], camera, table, count, min_advance, scratch)
+        _to_object(m, scratch, camera)
+        _write_rays(m, scratch, origins[lo:lo + m], directions[lo:lo + m], d_origins[lo:lo + m],
+                    d_directions[lo:lo + m], status[lo:lo + m], failed[lo:lo + m])
+    return unusable
+
+
+@njit(**_OPTIONS)
+def _gauss_newton_pass(m, s, points):
+    """One Gauss–Newton step on (u, v) for every open row of the block, whose rays (U, V) were just traced
+    with their derivatives per u and v, so that the ray passes through the camera-frame point (m, 3): a
+    ray that failed backs off half-way towards the last good iterate (at most 40 times), a failing start
+    falls back to the pinhole direction once, else the row ends with the ray's status; a singular
+    Jacobian ends it NOT_CONVERGED; a step below 1e-10, or one that with the step before predicts the
+    next below 1e-13 (quadratic convergence), ends it OK (BEHIND_CAMERA where the point lies behind the
+    ray's origin). Returns how many rows are still open."""
+    open_rows = 0
+    for i in range(m):
+        state, code = s[STATE + i], s[CODE + i]
+        u, v, good_u, good_v = s[U + i], s[V + i], s[GOOD_U + i], s[GOOD_V + i]
+        step_u, step_v, halvings, previous = s[STEP_U + i], s[STEP_V + i], s[HALVINGS + i], s[PREVIOUS + i]
+        live = state < 0.0
+        traced = code == 0.0
+        # the miss of the point by the ray and its columns per u and v
+        dx, dy, dz = s[DX + i], s[DY + i], s[DZ + i]
+        wx, wy, wz = points[i, 0] - s[OX + i], points[i, 1] - s[OY + i], points[i, 2] - s[OZ + i]
+        along = wx * dx + wy * dy + wz * dz
+        mx, my, mz = wx - along * dx, wy - along * dy, wz - along * dz
+        a0, a1, a2, a3, a4, a5 = s[AOX + i], s[AOY + i], s[AOZ + i], s[ADX + i], s[ADY + i], s[ADZ + i]
+        d_along = -(a0 * dx + a1 * dy + a2 * dz) + (wx * a3 + wy * a4 + wz * a5)
+        ux, uy, uz = -a0 - d_along * dx - along * a3, -a1 - d_along * dy - along * a4, -a2 - d_along * dz - along * a5
+        b0, b1, b2, b3, b4, b5 = s[BOX + i], s[BOY + i], s[BOZ + i], s[BDX + i], s[BDY + i], s[BDZ + i]
+        d_along = -(b0 * dx + b1 * dy + b2 * dz) + (wx * b3 + wy * b4 + wz * b5)
+        vx, vy, vz = -b0 - d_along * dx - along * b3, -b1 - d_along * dy - along * b4, -b2 - d_along * dz - along * b5
+        a11 = ux * ux + uy * uy + uz * uz
+        a12 = ux * vx + uy * vy + uz * vz
+        a22 = vx * vx + vy * vy + vz * vz
+        r1 = ux * mx + uy * my + uz * mz
+        r2 = vx * mx + vy * my + vz * mz
+        det = a11 * a22 - a12 * a12
+        regular = det > 1e-300
+        inv = 1.0 / (det if regular else 1.0)
+        du = -(a22 * r1 - a12 * r2) * inv
+        dv = -(a11 * r2 - a12 * r1) * inv
+        size = max(abs(du), abs(dv))
+        converged = size < 1e-10 or (size < 1e-5 and size * size * size < 1e-13 * previous * previous)
+        known = good_u == good_u  # a good iterate exists (not NaN)
+        retry = live and not traced and known and halvings < 40.0
+        restart = live and not traced and not known and halvings == 0.0
+        advance = live and traced and regular
+        if retry:
+            step_u, step_v = 0.5 * step_u, 0.5 * step_v
+            u, v = good_u + step_u, good_v + step_v
+            halvings += 1.0
+            previous = math.inf
+        elif restart:
+            u, v = s[START_U + i], s[START_V + i]
+            halvings = 1.0
+        elif advance:
+            good_u, good_v = u, v
+            step_u, step_v = du, dv
+            u, v = u + du, v + dv
+            halvings = 0.0
+            previous = size
+        if live and not traced and not retry and not restart:
+            state = code
+        elif live and traced and not regular:
+            state = float(NOT_CONVERGED)
+        elif advance and converged:
+            state = float(BEHIND_CAMERA) if along <= 0.0 else float(OK)
+        s[U + i], s[V + i], s[GOOD_U + i], s[GOOD_V + i] = u, v, good_u, good_v
+        s[STEP_U + i], s[STEP_V + i], s[HALVINGS + i], s[PREVIOUS + i] = step_u, step_v, halvings, previous
+        s[STATE + i] = state
+        open_rows += state < 0.0
+    return open_rows
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def back_project(points, start, warm, table, count, indices, proxy, min_advance):
+    """``camera._back_project_general`` block by block: the ideal normalised (u, v) (N, 2) of the rays
+    through camera-frame points (N, 3) and a status (N,); ``start`` the pinhole (u, v), ``warm`` given
+    starts (rows of NaN: none), ``table`` and ``count`` the surface rows (as for
+    :func:`intersect_pixels`), ``indices`` the media's refractive indices, ``proxy`` the outer plane
+    whose air-to-water solve starts the others (axis, distance; distance 0: the pinhole start). At most
+    80 Gauss–Newton passes over a block."""
+    n = points.shape[0]
+    uv = np.empty((n, 2))
+    status = np.empty(n, dtype=np.uint8)
+    s = np.empty(CAMERA_ROWS)
+    for lo in range(0, n, BLOCK):
+        m = min(BLOCK, n - lo)
+        for i in range(m):
+            r = lo + i
+            u, v = warm[r, 0], warm[r, 1]
+            if not (math.isfinite(u) and math.isfinite(v)):
+                u, v = _proxy_start(points[r, 0], points[r, 1], points[r, 2], indices, proxy)
+                if not (math.isfinite(u) and math.isfinite(v)):
+                    u, v = start[r, 0], start[r, 1]
+            s[U + i], s[V + i] = u, v
+            s[START_U + i], s[START_V + i] = start[r, 0], start[r, 1]
+            s[GOOD_U + i] = s[GOOD_V + i] = math.nan
+            s[STEP_U + i] = s[STEP_V + i] = s[HALVINGS + i] = 0.0
+            s[PREVIOUS + i] = math.inf
+            s[STATE + i] = -1.0
+        block = points[lo:lo + m]
+        for _ in range(80):
+            _start_rays(m, s, 0.0, 1.0, False)
+            for q in range(count):
+                _refract_block(m, s, q, table[q, 0] == 1.0, table[q, 1], table[q, 2], table[q, 3], table[q, 4],
+                               table[q, 5], table[q, 6], min_advance)
+            if _gauss_newton_pass(m, s, block) == 0:
+                break
+        for i in range(m):
+            state = s[STATE + i]
+            uv[lo + i, 0], uv[lo + i, 1] = s[U + i], s[V + i]
+            status[lo + i] = NOT_CONVERGED if state < 0.0 else np.uint8(state)
+    return uv, status

@@ -174,7 +174,12 @@ def intersect(cameras: Sequence[Camera], pixels: Sequence[np.ndarray], sigma_px:
     n = arrays[0].shape[0]
     if any(a.shape[0] != n for a in arrays):
         raise InvalidParameterError("pixels", "every camera needs the same number of rows")
-    _sigma(sigma_px, len(cameras), n)  # bad sigmas are named before any tracing
+    sigma = _sigma(sigma_px, len(cameras), n)  # bad sigmas are named before any tracing
+    if all(kernels.wanted(n, camera.housing.surfaces) for camera in cameras):
+        # compiled, block by block: pixels to points and covariance with no per-ray arrays in between
+        fused = kernels.intersect_pixels(cameras, arrays, _weights(sigma))
+        if fused is not None:
+            return Intersection(*fused)
     return intersect_traced([trace(camera, pix) for camera, pix in zip(cameras, arrays, strict=True)], sigma_px)
 
 
@@ -189,6 +194,12 @@ def _sigma(sigma_px: float | np.ndarray, k: int, n: int) -> np.ndarray:
     return sigma
 
 
+def _weights(sigma: np.ndarray) -> np.ndarray:
+    """1/σ² (1/px²) of the (N, k) sigmas: one row when every point has the same (a broadcast scalar or
+    (k,)), so that a batch of 10⁶ points does not write and read an (N, k) array of equal weights."""
+    return 1.0 / (sigma[:1] if sigma.strides[0] == 0 else sigma) ** 2
+
+
 def intersect_traced(traced: Sequence[TracedRays], sigma_px: float | np.ndarray = 0.5) -> Intersection:
     """:func:`intersect` of rays already traced by :func:`trace` (k cameras, N rows each)."""
     if len(traced) < 2:
@@ -201,7 +212,7 @@ def intersect_traced(traced: Sequence[TracedRays], sigma_px: float | np.ndarray 
         return Intersection(*kernels.intersect_rays(
             tuple(t.rays.origins for t in traced), tuple(t.rays.directions for t in traced),
             tuple(t.d_origins for t in traced), tuple(t.d_directions for t in traced),
-            tuple(t.rays.ok for t in traced), sigma))
+            tuple(t.rays.ok for t in traced), _weights(sigma)))
     return _intersect_reference(traced, sigma)
 
 
