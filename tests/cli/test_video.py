@@ -108,6 +108,26 @@ def test_sync_by_sound_dry_run_stores_nothing_and_set_offset_by_hand(tmp_path, c
     assert code == 2 and "not an interval within the video (0 to 79)" in err
 
 
+def test_an_estimate_of_little_confidence_is_not_stored_unless_forced(tmp_path, capsys):
+    """No flash in the videos: the flash method's best offset hardly beats the others. It is printed, not
+    stored over the offset there is, and stored with --force."""
+    project = tmp_path / "mine.usvips"
+    main(["project", "new", str(project)])
+    left, right = _stereo(tmp_path / "media", 2)
+    assert _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right, "--label", "v")[0] == 0
+    assert _run(capsys, "video", "set-offset", project, "--pair", "v", "2")[0] == 0
+    code, out, err = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--json")
+    assert code == 0, err
+    estimate = json.loads(out)
+    assert estimate["confidence"] < 0.5 and not estimate["stored"] and "--force" in estimate["not_stored"]
+    with Project.open(project) as p:
+        assert p.video("v")["offset_frames"] == 2 and p.video("v")["offset_estimate"] == {"method": "by hand"}
+    code, out, _ = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--force")
+    assert code == 0 and out.rstrip().endswith("; stored")
+    with Project.open(project) as p:
+        assert p.video("v")["offset_estimate"]["method"] == "flash"
+
+
 def test_the_sample_project_opens_on_its_video_and_finds_its_lag(tmp_path, capsys):
     project = tmp_path / "rov.usvips"
     assert _run(capsys, "project", "new", project, "--from", SAMPLE)[0] == 0
@@ -115,7 +135,10 @@ def test_the_sample_project_opens_on_its_video_and_finds_its_lag(tmp_path, capsy
     assert _run(capsys, "video", "set-offset", project, "--pair", "video", "0")[0] == 0
     code, out, err = _run(capsys, "video", "sync", project, "--pair", "video", "--method", "image", "--json")
     assert code == 0, err
-    assert json.loads(out)["offset_frames_used"] == 3
+    estimate = json.loads(out)
+    assert estimate["offset_frames_used"] == 3
+    # the sigma holds the calibration's own error (its curves' sigma0), which every feature shares
+    assert abs(estimate["offset_frames"] - 3) < 3 * estimate["offset_sigma_frames"]
     assert _run(capsys, "video", "export-frame", project, "--pair", "video", "--frame", 12, "--out", tmp_path)[0] == 0
     truth = json.loads((SAMPLE / "truth.json").read_text())["video"]
     from usvips.io.video_stream import VideoStream

@@ -310,6 +310,30 @@ def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tm
     assert frame_number(window.workspace.images["right"]) == 1000 + frame  # the same instant
 
 
+@pytest.mark.parametrize("answer", ["Return", "Yes"])
+def test_an_estimate_of_little_confidence_is_stored_only_if_the_user_says_so(qtbot, make_window, sample_copy, answer):
+    """The sample has no flash: Sync by flash finds an offset with little confidence, says it is not stored
+    and asks, without blocking the window, whether to store it anyway (Return: No, the default)."""
+    window = make_window()
+    assert window.open_path(sample_copy("rov_flatport"), "video")
+    _wait_frame(qtbot, window, 0)
+    assert window.video.synchronise("flash") is not None
+    qtbot.waitUntil(lambda: window.video.question is not None and window.video.question.isVisible(), timeout=60000)
+    question = window.video.question
+    assert "Store" in question.text() and "confidence" in question.text()
+    assert "not stored" in window.statusBar().currentMessage()
+    if answer == "Return":
+        qtbot.keyClick(question, QtCore.Qt.Key.Key_Return)
+    else:
+        question.button(QtWidgets.QMessageBox.StandardButton.Yes).click()
+    qtbot.waitUntil(lambda: not question.isVisible(), timeout=5000)
+    stored = window.workspace.project.video("video")
+    if answer == "Yes":
+        assert stored["offset_estimate"]["method"] == "flash" and window.video.dock_widget.offset.value() != 3
+    else:
+        assert stored["offset_frames"] == 3 and stored["offset_estimate"].get("method") != "flash"
+
+
 def test_quick_steps_add_up_while_a_frame_is_still_decoding(qtbot, make_window, sample_copy):
     window = make_window()
     assert window.open_path(sample_copy("rov_flatport"), "video")

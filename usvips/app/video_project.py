@@ -321,7 +321,7 @@ def _calibration_for(project: ProjectStore, calibration_id: int | None, label: s
                              "has none (import one, or use --method flash or audio)")
         water = [c for c in stored if c.get("phase") not in ("air", "phase1")]
         calibration_id = (water or stored)[-1]["id"]
-    return calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}").rig(0, "rig")
+    return calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")
 
 
 @dataclass(frozen=True)
@@ -334,18 +334,37 @@ class SyncJob:
     right: tuple[Path, ...]
     rig: object | None
     no_rig: str = ""
+    #: the calibration's pointing precision (px): how far its epipolar curves may lie off
+    pointing_sigma_px: float = 0.0
 
 
 def plan_sync(project: ProjectStore, label: str, calibration_id: int | None = None) -> SyncJob:
     """Read what :func:`run_sync` needs from the project (so the estimate can run in a worker)."""
     video = project.video(label)
-    rig, why = None, ""
+    rig, why, sigma0 = None, "", 0.0
     try:
-        rig = _calibration_for(project, calibration_id, label)
+        calibration = _calibration_for(project, calibration_id, label)
+        rig, sigma0 = calibration.rig(0, "rig"), float(calibration.sigma0_px)
     except UsvipsError as error:
         why = str(error)
     return SyncJob(label, tuple(project.media_path(p) for p in video["left"]),
-                   tuple(project.media_path(p) for p in video["right"]), rig, why)
+                   tuple(project.media_path(p) for p in video["right"]), rig, why, sigma0)
+
+
+#: an estimate is stored without asking only from this confidence up (0 … 1: how clearly the best offset
+#: beats the runner-up); below it the user decides (``--force``, or the window's question). A clean flash
+#: in busy footage scores about 0.45 (the scene's own brightness changes make the runner-up), a video with
+#: no flash about 0.1; image estimates below it were off by most of a frame in our trials.
+STORE_CONFIDENCE = 0.3
+
+
+def doubt_about(estimate: SyncEstimate) -> str | None:
+    """Why ``estimate`` should not replace a stored offset unasked (its confidence below
+    :data:`STORE_CONFIDENCE`), or None."""
+    if estimate.confidence >= STORE_CONFIDENCE:
+        return None
+    return (f"confidence {estimate.confidence:.2f} is below {STORE_CONFIDENCE}: the best offset hardly beats the "
+            "others")
 
 
 def estimate_offset(project: ProjectStore, label: str, method: str | None = None, max_offset: int | None = None,
@@ -400,7 +419,8 @@ def run_sync(job: SyncJob, method: str | None = None, max_offset: int | None = N
         left_frames = [left.frame(i) for i in range(n)]
         right_frames = [right.frame(i) for i in range(min(right.frame_count, n + limit))]
         return synchronisation.image_offset(left_frames, right_frames, rig.left, rig.right, fps,
-                                            range(-limit, limit + 1), step=step)
+                                            range(-limit, limit + 1), step=step,
+                                            epipolar_sigma_px=job.pointing_sigma_px)
 
 
 def eventmeasure_frame_columns(project: ProjectStore, vertex) -> tuple[str, str, str, str, str, str, str] | None:

@@ -25,6 +25,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                       "active for the video, else the latest)")
     sync.add_argument("--json", action="store_true", help="print the estimate as JSON")
     sync.add_argument("--dry-run", action="store_true", help="print the estimate, store nothing")
+    sync.add_argument("--force", action="store_true",
+                      help=f"store the estimate even when its confidence is below {video_project.STORE_CONFIDENCE}")
     sync.set_defaults(handler=run_sync)
     offset = actions.add_parser("set-offset", help="set the offset by hand: left frame i ↔ right frame i + FRAMES")
     offset.add_argument("project")
@@ -110,12 +112,16 @@ def run_add_video(args: argparse.Namespace) -> int:
 def run_sync(args: argparse.Namespace) -> int:
     with Project.open(args.project) as project:
         estimate = video_project.estimate_offset(project, args.pair, args.method, args.max_offset, args.calibration)
-        if not args.dry_run:
+        doubt = None if args.force else video_project.doubt_about(estimate)
+        store = not args.dry_run and doubt is None
+        if store:
             project.set_video_offset(args.pair, estimate.frames, estimate.as_dict())
+    kept = (f"not stored: {doubt} (look at the pair in the window, set the offset with `usvips video set-offset`, "
+            "or store this one with --force)") if doubt and not args.dry_run else ""
     if args.json:
-        print(json.dumps({**estimate.as_dict(), "stored": not args.dry_run}))
+        print(json.dumps({**estimate.as_dict(), "stored": store, **({"not_stored": kept} if kept else {})}))
         return 0
-    print(estimate.summary() + ("" if args.dry_run else "; stored"))
+    print(estimate.summary() + ("; stored" if store else f"; {kept}" if kept else ""))
     return 0
 
 

@@ -193,7 +193,7 @@ def moving_features(grey: np.ndarray, background: np.ndarray, count: int = 12, w
 
 def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.ndarray], left: Camera,
                  right: Camera, fps: float, candidates: Sequence[int], step: int = 2, near: float = 0.3,
-                 far: float = 10.0) -> SyncEstimate:
+                 far: float = 10.0, epipolar_sigma_px: float = 0.0) -> SyncEstimate:
     """The offset from the images by epipolar consistency: a moving thing seen by both cameras lies on
     the refractive epipolar curve of its left pixel only in the right frame of the same instant.
 
@@ -205,7 +205,10 @@ def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.nd
     whole frame whose matches (along the curves) lie closest to them is returned instead.
 
     ``left``/``right``: the calibrated cameras (with housings); ``candidates``: whole-frame offsets to
-    try; ``near``/``far``: range along the rays (m)."""
+    try; ``near``/``far``: range along the rays (m); ``epipolar_sigma_px``: how far the calibration's
+    curves may lie from the true ones (pixels; the calibration's pointing precision sigma0 is a fair
+    figure): an error every feature shares, so it enters the sigma undivided by the number of votes
+    (:func:`_from_votes`)."""
     fps = _check_fps(fps)
     candidates = [int(k) for k in candidates]
     if not candidates:
@@ -219,9 +222,10 @@ def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.nd
             curve = epipolar_curve(left, right, pixel, near, far, samples=300)
             if len(curve.pixels) > 0:
                 features.append((i, pixel, curve))
-    votes = _crossing_votes(features, grey_left, right_frames, candidates)
-    if len(votes) >= 3:
-        return _from_votes(votes, fps, candidates)
+    crossings = _crossing_votes(features, grey_left, right_frames, candidates)
+    if len(crossings) >= 3:
+        votes, speeds = zip(*crossings, strict=True)
+        return _from_votes(votes, fps, candidates, speeds, epipolar_sigma_px)
     # too few features cross their curve: the whole frame whose matches lie closest to the curves
     distances: dict[int, list[float]] = {k: [] for k in candidates}
     for i, pixel, curve in features:
@@ -250,9 +254,9 @@ MATCH_SCORE = 0.6
 
 def _crossing_votes(features: list[tuple[int, np.ndarray, EpipolarCurve]], grey_left: Sequence[np.ndarray],
                     right_frames: Sequence[np.ndarray], candidates: Sequence[int], window: int = 21,
-                    band: int = 12) -> list[float]:
+                    band: int = 12) -> list[tuple[float, float]]:
     """Each moving feature's own estimate of the offset (frames, fractional), from its motion across its
-    epipolar curve.
+    epipolar curve, with the speed of that motion (pixels a frame).
 
     The feature of left frame ``i`` is found (normalised cross-correlation) within ``band`` px of its
     curve in right frames ``i + k`` for every candidate ``k``; its signed distance from the curve
@@ -282,10 +286,11 @@ def _crossing_votes(features: list[tuple[int, np.ndarray, EpipolarCurve]], grey_
             found = _best_near_curve(grey_right[j], template, curve, band, half)
             if found is not None:
                 track[k] = found
-        crossings = [(k + track[k] / (track[k] - track[k + 1]), abs(track[k]) + abs(track[k + 1]))
-                     for k in ks if _crosses(track, k)]
+        crossings = [(k + track[k] / (track[k] - track[k + 1]), abs(track[k]) + abs(track[k + 1]),
+                      abs(track[k + 1] - track[k])) for k in ks if _crosses(track, k)]
         if crossings:
-            votes.append(min(crossings, key=lambda c: c[1])[0])  # the crossing nearest the curve
+            nearest = min(crossings, key=lambda c: c[1])  # the crossing nearest the curve
+            votes.append((nearest[0], nearest[2]))
     return votes
 
 
@@ -344,13 +349,20 @@ def _best_near_curve(target: np.ndarray, template: np.ndarray, curve: EpipolarCu
     return _signed_distance(curve, np.array([x0 + half + u + du, y0 + half + v + dv]))
 
 
-def _from_votes(votes: Sequence[float], fps: float, candidates: Sequence[int]) -> SyncEstimate:
-    """The offset from the features' votes: their median (sub-frame), its sigma 1.4826 · MAD / √n, per
-    whole candidate the share of votes nearest it (``scores``), and the confidence 1 − (runner-up's
-    share / best share)."""
+def _from_votes(votes: Sequence[float], fps: float, candidates: Sequence[int], speeds: Sequence[float] = (),
+                epipolar_sigma_px: float = 0.0) -> SyncEstimate:
+    """The offset from the features' votes: their median (sub-frame), per whole candidate the share of
+    votes nearest it (``scores``), and the confidence 1 − (runner-up's share / best share).
+
+    Its sigma (frames) has two parts: the votes' scatter, 1.4826 · MAD / √n, and what no number of votes
+    averages away: curves that lie ``epipolar_sigma_px`` off make every feature cross that much early or
+    late, ``epipolar_sigma_px`` / (the median speed across the curves, pixels a frame) frames (slow
+    motion across the curves times badly)."""
     values = np.asarray(votes, float)
     middle = float(np.median(values))
-    sigma = max(1.4826 * float(np.median(np.abs(values - middle))) / np.sqrt(len(values)), 0.01)
+    scatter = 1.4826 * float(np.median(np.abs(values - middle))) / np.sqrt(len(values))
+    shared = epipolar_sigma_px / float(np.median(speeds)) if len(speeds) and epipolar_sigma_px > 0 else 0.0
+    sigma = max(float(np.hypot(scatter, shared)), 0.01)
     nearest = np.round(values).astype(int)
     scores = {int(k): float(np.mean(nearest == k)) for k in candidates}
     ordered = sorted(scores.values(), reverse=True)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 import os
 import threading
+from collections.abc import Callable
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
@@ -184,6 +185,7 @@ class VideoController(QtCore.QObject):
         self.cache = cache or FrameCache()
         self.source: FrameSource | None = None
         self.navigator: VideoNavigator | None = None
+        self.question: QtWidgets.QMessageBox | None = None  # "store this uncertain offset?", while open
         self.direction = 1
         self._request: Worker | None = None
         self._prefetch: Worker | None = None
@@ -449,10 +451,33 @@ class VideoController(QtCore.QObject):
         def done(estimate) -> None:
             if self.navigator is None or self.navigator.label != label:
                 return
-            self._store_offset(estimate.frames, estimate.as_dict())
-            self.window.show_message("info", f"video {label}: {estimate.summary()}; stored")
+            def store() -> None:
+                if self.navigator is None or self.navigator.label != label:
+                    return
+                self._store_offset(estimate.frames, estimate.as_dict())
+                self.window.show_message("info", f"video {label}: {estimate.summary()}; stored")
+
+            doubt = video_project.doubt_about(estimate)
+            if doubt is None:
+                store()
+                return
+            self.window.show_message("warning", f"video {label}: {estimate.summary()}; not stored ({doubt})")
+            self.ask_to_store(f"Video {label}: {estimate.summary()}.\n\nThe {doubt}. Store {estimate.frames:+d} "
+                              "frames as the offset anyway?", store)
 
         return self.window.run_worker(job, f"synchronising {label}", done)
+
+    def ask_to_store(self, question: str, store: Callable[[], None]) -> None:
+        """Ask whether to store an offset estimated with little confidence: a Yes/No question (No by
+        default) that does not block the window; ``store`` runs on Yes."""
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Synchronise", question,
+                                    QtWidgets.QMessageBox.StandardButton.Yes | QtWidgets.QMessageBox.StandardButton.No,
+                                    self.dock_widget)
+        box.setDefaultButton(QtWidgets.QMessageBox.StandardButton.No)
+        box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        box.accepted.connect(store)  # Yes is the accept role
+        box.open()
+        self.question = box
 
     def _on_offset(self) -> None:
         nav = self.navigator
