@@ -319,8 +319,9 @@ class VideoController(QtCore.QObject):
         self.window.show_message("error", message)
 
     def _decoded(self, worker: Worker, frame: int, item: tuple) -> None:
-        if self.source is None or self.navigator is None or item[2] != frame + self.navigator.offset:
-            return  # closed, or decoded at an offset since changed
+        if (self.source is None or self.navigator is None or self.window.workspace.project is None
+                or item[2] != frame + self.navigator.offset):
+            return  # closed (the video or the project), or decoded at an offset since changed
         self.cache.put(frame, item)
         if worker is self._request and frame == self._pending:
             self._show(frame, item)
