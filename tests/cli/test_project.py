@@ -180,3 +180,18 @@ def test_a_species_list_and_records_reach_the_checkem_tables(tmp_path):
     values = dict(zip(header, row, strict=True))
     assert [values[k] for k in ("Family", "Genus", "Species", "Code", "Number", "Stage", "Activity")] == [
         "Sparidae", "Chrysophrys", "auratus", "37353001", "2", "J", "passing"]
+
+
+def test_a_calibration_made_active_for_pairs_given_in_several_options_is_active_for_all(tmp_path, capsys):
+    """`--active-for A --active-for B C` makes it active for A, B and C (a second option used to replace the
+    first silently)."""
+    rov = SAMPLE.parent / "rov_flatport"
+    project = tmp_path / "p.usvips"
+    assert main(["project", "new", str(project), "--from", str(rov)]) == 0
+    with Project.open(project) as p:
+        labels = [pair["label"] for pair in p.pairs()][:3]
+    assert main(["project", "import", str(project), "--calibration", str(rov / "calibration_air.json"),
+                 "--active-for", labels[0], "--active-for", *labels[1:]]) == 0
+    with Project.open(project) as p:
+        active = {p.active_calibration(label) for label in labels}
+    assert len(active) == 1 and None not in active

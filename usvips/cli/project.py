@@ -32,7 +32,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "pair column of several pairs gives this pair's rows")
     imp.add_argument("--role", default="calibration-water", help="observation role (default calibration-water)")
     imp.add_argument("--calibration", help="calibration JSON (with --active-for PAIR ...)")
-    imp.add_argument("--active-for", nargs="+", default=[], help="pairs the calibration becomes active for")
+    imp.add_argument("--active-for", nargs="+", action="extend", default=[],
+                     help="pairs (or videos) the calibration becomes active for; may be repeated")
     imp.set_defaults(handler=run_import)
     exp = actions.add_parser("export", help="export measured objects: .csv, .vertices.csv, .geojson (WGS 84; needs "
                              "set-georeference), .ply (ASCII) or .binary.ply, or NAME.em.txt for EventMeasure-style "
