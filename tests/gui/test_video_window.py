@@ -81,6 +81,7 @@ def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tm
     window = make_window()
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     assert window.workspace.project.path.name == "mine.usvips"
+    assert "is empty: add your images" in window.statusBar().currentMessage()  # not "observations only"
     shown = []
     assert media_dialogs.add_image_pairs(window, [tmp_path / "left_images"], [tmp_path / "right_images"], "a-",
                                          confirm=lambda w, plan, rule: shown.append((plan, rule)) or True) == 2

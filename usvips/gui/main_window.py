@@ -543,6 +543,10 @@ class MainWindow(QtWidgets.QMainWindow):
         videos = [v["label"] for v in project.videos()]
         if (not labels and videos) or (pair is not None and pair in videos):  # show a stereo video
             return self.video.open_video(pair if pair in videos else videos[0])
+        if not labels and not project.pairs():
+            self.show_message("info", f"{project.path.name} is empty: add your images (File › Add image pairs…) "
+                                      "or a stereo video (File › Add stereo video…)")
+            return True
         if not labels:
             self.show_message("warning", f"{project.path.name} has no images (observations only): calibrate it "
                                          "from its observations with the Calibration menu")
