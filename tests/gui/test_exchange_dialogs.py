@@ -207,3 +207,40 @@ def test_a_video_gets_a_deployment_of_its_own_in_the_dialog(qtbot, make_window, 
     assert exchange_dialogs.edit_deployment(window, fill)
     assert project.deployment().site == "Reef"
     assert project.deployment("T1").opcode == "DOV-3" and not project.deployment("T1").successful_count
+
+
+def test_a_usvips_calibration_is_imported_and_made_active_for_the_pairs_ticked(qtbot, make_window, sample_copy,
+                                                                                tmp_path):
+    """Calibration › Import a USVIPS calibration…: the file is checked and stored, the dialog that follows
+    ticks the pair shown (keyboard: its list takes Space), and the pair is then measured with it; Use a
+    stored calibration… moves another pair to it; a damaged file stores nothing."""
+    window = make_window()
+    calibration = window.menuBar().actions()[[a.text() for a in window.menuBar().actions()].index("&Calibration")]
+    texts = [a.text() for a in calibration.menu().actions()]
+    assert "&Import a USVIPS calibration…" in texts and "&Use a stored calibration…" in texts
+    folder = sample_copy("rov_flatport")
+    open_sample(qtbot, window, folder, "measure1")
+    project = window.workspace.project
+    before = project.active_calibration("measure1")
+    seen = {}
+
+    def tick_water2_too(dialog):
+        seen["ticked"] = dialog.active_for()
+        water2 = dialog.labels.findItems("water2", QtCore.Qt.MatchFlag.MatchExactly)[0]
+        dialog.labels.setCurrentItem(water2)
+        qtbot.keyClick(dialog.labels, QtCore.Qt.Key.Key_Space)
+        return True
+
+    new = exchange_dialogs.import_usvips_calibration(window, folder / "calibration.json", run=tick_water2_too)
+    assert new is not None and new != before and seen["ticked"] == ["measure1"]
+    assert project.active_calibration("measure1") == new and project.active_calibration("water2") == new
+    assert window.workspace.geometry is not None and f"calibration {new} is active" in \
+        window.statusBar().currentMessage()
+    assert exchange_dialogs.use_calibration(window, before, run=lambda d: True)
+    assert project.active_calibration("measure1") == before and project.active_calibration("water2") == new
+    damaged = tmp_path / "damaged.json"
+    damaged.write_text((folder / "calibration.json").read_text()[:500])
+    count = len(project.calibrations())
+    assert exchange_dialogs.import_usvips_calibration(window, damaged, run=lambda d: True) is None
+    assert len(project.calibrations()) == count and "import failed, nothing stored" in \
+        window.statusBar().currentMessage()

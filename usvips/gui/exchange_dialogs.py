@@ -1,6 +1,6 @@
 """Exchange with other tools from the window: File › Import calibration (OpenCV)…, Export calibration
-(OpenCV)…, Calibration report (PDF)…, Deployment and georeference…, and the calibration wizard's
-Report (PDF)… button.
+(OpenCV)…, Calibration report (PDF)…, Deployment and georeference…, Calibration › Import a USVIPS
+calibration… and Use a stored calibration…, and the calibration wizard's Report (PDF)… button.
 
 Each entry asks with dialogs, then does its work through io (the command line's functions: one reader,
 one writer); file names and answers can be handed in (tests, scripts), skipping the dialogs. Reports are
@@ -128,6 +128,111 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
     window.show_message("info", f"imported {len(files)} OpenCV file(s) into {out}{where} "
                                 f"({calibration.left.width}x{calibration.left.height} px)")
     return Path(out)
+
+
+class UseCalibrationDialog(QtWidgets.QDialog):
+    """Choose a stored calibration and the pairs and videos it becomes active for (the shown one ticked)."""
+
+    def __init__(self, project, current: str | None, chosen: int | None = None,
+                 parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Use a stored calibration")
+        self.calibrations = project.calibrations()
+        self.choice = QtWidgets.QComboBox()
+        for c in self.calibrations:
+            sigma = f", σ0 {c['sigma0_px']:.3g} px" if c.get("sigma0_px") is not None else ""
+            self.choice.addItem(f"{c['id']}: {c['name']} ({c.get('phase') or 'phase unknown'}{sigma})", c["id"])
+        if chosen is not None:
+            self.choice.setCurrentIndex(max(self.choice.findData(chosen), 0))
+        else:
+            self.choice.setCurrentIndex(self.choice.count() - 1)
+        self.labels = QtWidgets.QListWidget()
+        for pair in project.pairs():
+            item = QtWidgets.QListWidgetItem(pair["label"])
+            item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
+            item.setCheckState(QtCore.Qt.CheckState.Checked if pair["label"] == current
+                               else QtCore.Qt.CheckState.Unchecked)
+            self.labels.addItem(item)
+        form = QtWidgets.QFormLayout()
+        calibration_label = QtWidgets.QLabel("&Calibration:")
+        calibration_label.setBuddy(self.choice)
+        labels_label = QtWidgets.QLabel("&Active for (Space ticks):")
+        labels_label.setBuddy(self.labels)
+        form.addRow(calibration_label, self.choice)
+        form.addRow(labels_label, self.labels)
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Ok
+                                             | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addLayout(form)
+        layout.addWidget(buttons)
+
+    def calibration_id(self) -> int | None:
+        return self.choice.currentData()
+
+    def active_for(self) -> list[str]:
+        return [self.labels.item(i).text() for i in range(self.labels.count())
+                if self.labels.item(i).checkState() == QtCore.Qt.CheckState.Checked]
+
+
+def activate_calibration(window, calibration_id: int, labels: list[str]) -> bool:
+    """Make stored calibration ``calibration_id`` the active one of pairs/videos ``labels`` and show the
+    current pair with it; a failure is one message and changes nothing shown."""
+    project = _need_project(window)
+    if project is None:
+        return False
+    try:
+        calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")  # usable?
+        for label in labels:
+            project.activate_calibration(label, calibration_id)
+    except UsvipsError as error:
+        window.show_message("error", f"the calibration was not made active: {error}")
+        return False
+    ws = window.workspace
+    if ws.pair in labels and ws.images:
+        ws.set_pair(ws.pair, ws.images["left"], ws.images["right"])  # pick up the calibration
+    window.show_message("info", f"calibration {calibration_id} is active for {', '.join(labels) or 'no pair'}")
+    return True
+
+
+def use_calibration(window, chosen: int | None = None,
+                    run: Callable[[UseCalibrationDialog], object] = lambda d: d.exec()) -> bool:
+    """Calibration › Use a stored calibration…: choose one and the pairs and videos it is for."""
+    project = _need_project(window)
+    if project is None:
+        return False
+    if not project.calibrations():
+        window.show_message("error", "the project has no calibration yet: import one (Calibration › Import a "
+                                     "USVIPS calibration…, File › Import calibration (OpenCV)…) or calibrate")
+        return False
+    dialog = UseCalibrationDialog(project, window.workspace.pair, chosen, window)
+    if not run(dialog) or dialog.calibration_id() is None:
+        return False
+    return activate_calibration(window, dialog.calibration_id(), dialog.active_for())
+
+
+def import_usvips_calibration(window, path: str | Path | None = None,
+                              run: Callable[[UseCalibrationDialog], object] = lambda d: d.exec()) -> int | None:
+    """Calibration › Import a USVIPS calibration…: a calibration file (`usvips calibrate`, another
+    project's) read and checked, stored in the project, then made active where the user says (the shown
+    pair or video ticked)."""
+    project = _need_project(window)
+    if project is None:
+        return None
+    if path is None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", "", "Calibrations (*.json)")
+        if not path:
+            return None
+    try:
+        calibration = load_calibration(path)
+        calibration_id = project.add_calibration(Path(path).stem, calibration_to_dict(calibration))
+    except UsvipsError as error:
+        window.show_message("error", f"import failed, nothing stored: {error}")
+        return None
+    window.show_message("info", f"{Path(path).name} stored in the project as calibration {calibration_id}")
+    use_calibration(window, calibration_id, run)
+    return calibration_id
 
 
 def export_calibration(window, source: str | Path | StereoCalibration | None = None,

@@ -329,6 +329,9 @@ class MainWindow(QtWidgets.QMainWindow):
         for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
                             ("joint", "&Joint underwater calibration…")):
             calibration.addAction(text, lambda p=phase: self.open_calibration_wizard(p))
+        calibration.addSeparator()
+        calibration.addAction("&Import a USVIPS calibration…", lambda: exchange_dialogs.import_usvips_calibration(self))
+        calibration.addAction("&Use a stored calibration…", lambda: exchange_dialogs.use_calibration(self))
         help_menu = self.menuBar().addMenu("&Help")
         help_menu.addAction("&Quick guide", self.show_guide, QtGui.QKeySequence("F1"))
         bar = self.addToolBar("Main")
