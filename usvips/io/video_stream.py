@@ -433,7 +433,10 @@ class VideoStream:
         """The decoded frame with timestamp ``target``, or None when the decoder cannot have decoded it
         from all its references: the key frame it needs (timestamp ``key``) was not among the frames this
         run of the decoder returned (a seek that landed after it), or the target never came."""
-        seen_key = continuing  # a running decoder already passed its key frame
+        # a running decoder already passed its key frame; one that started at the file's first packet, or
+        # at its first key frame, has every reference there is (a file cut or edited at its start may never
+        # show its first frame)
+        seen_key = continuing or self._read_from_start or key == int(chapter.pts[0])
         try:
             while True:
                 if not self._ready and not self._next_frames(target):
