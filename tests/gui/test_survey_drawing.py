@@ -1,10 +1,12 @@
 """The window at survey size draws what changed, not everything: a stored fish goes on items of its own
 beside the cached picture of all the others; a selection draws the selected outline over that picture (and,
-in the plan view, only the labels and 1σ ellipses of the selection); a removal draws everything whole again."""
+in the plan view, only the labels and 1σ ellipses of the selection); a removal redraws the chunk of the
+picture that held the object."""
 
 import numpy as np
 
 from tests.gui.conftest import click_pixel, truth_pixels, wait_for_pair
+from usvips.gui import object_overlay
 from usvips.gui.bench import survey_project
 from usvips.gui.pane import item_from_pixels
 from usvips.locations import sample_project
@@ -33,7 +35,8 @@ def _store_fish(qtbot, window, shift: float) -> None:
     window.actions["accept"].trigger()
 
 
-def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, make_window, tmp_path):
+def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, make_window, tmp_path, monkeypatch):
+    monkeypatch.setattr(object_overlay, "CHUNK", 100)  # four chunks of the picture here
     window = make_window()
     assert window.open_path(survey_project(tmp_path / "survey", COUNT), "measure1")
     wait_for_pair(qtbot, window, "measure1")
@@ -43,7 +46,7 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     window.docks["plan"].raise_()
     qtbot.waitUntil(window.plan.isVisible)
     ws, pane, plan = window.workspace, window.panes["left"], window.plan
-    others = {"pane": _points(pane.objects_item), "plan": _points(plan.curve.curve)}
+    others = {"pane": pane.object_lines(), "plan": _points(plan.curve.curve)}
     assert len(others["pane"]) == 2 * COUNT and len(_points(pane.added_item)) == 0
     assert len(_points(plan.ellipses.curve)) == 0  # at survey size only the selection's ellipses
 
@@ -53,7 +56,7 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     xyz = np.array([v.xyz for v in first.vertices])[:, :2]  # plan (X–Y)
     # the new outline alone on the added items; the others' pictures untouched (not even re-set)
     assert np.allclose(_points(pane.added_item), picks)
-    assert np.array_equal(_points(pane.objects_item), others["pane"])
+    assert np.array_equal(pane.object_lines(), others["pane"])
     assert np.allclose(_points(plan.added_curve.curve), xyz)
     assert np.array_equal(_points(plan.curve.curve), others["plan"])
     ws.cancel_vertex()
@@ -64,7 +67,7 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     # labels it and draws its 1σ ellipses (49 points a vertex)
     ws.select([first.id])
     assert np.allclose(_points(pane.selected_item), picks)
-    assert np.array_equal(_points(pane.objects_item), others["pane"]) and len(_points(pane.added_item)) == 4
+    assert np.array_equal(pane.object_lines(), others["pane"]) and len(_points(pane.added_item)) == 4
     assert [label.toPlainText() for label in pane.labels] == [str(first.id)]
     assert np.array_equal(_points(plan.curve.curve), others["plan"])
     assert len(_points(plan.ellipses.curve)) == 2 * 49
@@ -72,8 +75,19 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     ws.select([])
     assert len(_points(pane.selected_item)) == 0 and len(_points(plan.ellipses.curve)) == 0
 
-    # a removal draws everything whole again: the fish are in the pictures, the added items empty
-    ws.delete_object(ws.objects()[0].id)
-    assert len(_points(pane.added_item)) == 0 and len(_points(pane.objects_item)) == 2 * (COUNT + 1)
-    assert _contains(_points(pane.objects_item), picks)
+    # a removal redraws the chunk of the picture that held the object, no other (the added fish stay on
+    # their items); the plan view draws whole again
+    chunks = [_points(item) for item in pane.object_items]
+    gone = ws.objects()[0]
+    ws.delete_object(gone.id)
+    after = [_points(item) for item in pane.object_items]
+    changed = [k for k, (a, b) in enumerate(zip(chunks, after, strict=True)) if not np.array_equal(a, b)]
+    assert len(pane.object_items) == 4
+    assert len(changed) == 1 and len(after[changed[0]]) == len(chunks[changed[0]]) - 2
+    gone_picks = item_from_pixels(np.array([[v.xl, v.yl] for v in gone.vertices]))
+    assert _contains(chunks[changed[0]], gone_picks) and not _contains(pane.object_lines(), gone_picks)
+    assert len(_points(pane.added_item)) == 4 and len(pane.object_lines()) == 2 * (COUNT - 1)
     assert len(_points(plan.added_curve.curve)) == 0 and _contains(_points(plan.curve.curve), xyz)
+    # an edit that needs the whole picture (selecting the added fish and deleting it) draws it whole
+    ws.delete_object(first.id)
+    assert len(_points(pane.added_item)) == 0 and len(pane.object_lines()) == 2 * (COUNT - 1 + 1)

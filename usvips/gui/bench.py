@@ -263,6 +263,29 @@ def _store_row(window, label: str, *pixels) -> dict:
             "ratio": round(ours / base, 2), "target": None, "target_s": 0.05, "met": bool(ours <= 0.05)}
 
 
+def _delete_row(window, label: str) -> dict:
+    """Deleting one stored object among many (Delete in the object list): the list row, its chunk of the
+    outlines and the plan updated and both panes repainted; against deleting it from the project alone."""
+    ws = window.workspace
+    ids = ws.object_ids()
+    times, deletes = [], []
+    for k in range(3):  # objects in different chunks of the picture
+        object_id = ids[(k + 1) * len(ids) // 4]
+        start = time.perf_counter()
+        ws.delete_object(object_id)
+        for pane in window.panes.values():
+            pane.graphics.viewport().repaint()
+        times.append(time.perf_counter() - start)
+        # the baseline: the store's own deletion of its neighbour (behind the window's back: the last row)
+        neighbour = ids[(k + 1) * len(ids) // 4 + 1]
+        deletes.append(_timed(lambda i=neighbour: ws.project.delete_object(i)))
+    ours, base = min(times), min(deletes)
+    return {"name": f"gui: delete an object, list row, outlines and plan ({label})", "n": 1,
+            "ours_s": round(ours, 5), "baseline": "Project.delete_object of another object alone",
+            "baseline_s": round(base, 5), "ratio": round(ours / base, 2), "target": None, "target_s": 0.1,
+            "met": bool(ours <= 0.1)}
+
+
 def _timed(function) -> float:
     start = time.perf_counter()
     function()
@@ -336,5 +359,6 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
             label = f"{SURVEY:,} objects stored"
             yield from _pick_rows(window, app, label, snout_l, snout_r)
             yield _store_row(window, label, snout_l, snout_r, fork_l, fork_r)
+            yield _delete_row(window, label)
         finally:
             window.close()

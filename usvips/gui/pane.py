@@ -111,6 +111,9 @@ class StereoPane(QtWidgets.QWidget):
                                                symbolPen=pg.mkPen(COLOURS["selected"]), symbolBrush=None)
         # the stored objects change on a store or an edit, not on a pick: drawn from a cached pixmap meanwhile
         self.objects_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+        #: the stored outlines in chunks (:meth:`set_object_chunks`), each its own cached picture, so that a
+        #: removal or an edit redraws one chunk; the first chunk is ``objects_item``
+        self.object_items = [self.objects_item]
         self.vertex_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
         for item in (self.objects_item, self.added_item, self.selected_item, self.vertex_item, self.digitising_item,
                      self.curve_item, self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
@@ -321,11 +324,42 @@ class StereoPane(QtWidgets.QWidget):
     def set_object_lines(self, lines: np.ndarray, count: int) -> None:
         """The stored objects' outlines (K, 2) pixels, NaN-separated, ``count`` of them: the cached picture,
         redrawn only when it is set (the selected outlines are drawn over it, the added ones beside it)."""
+        self.set_object_chunks([lines], count)
+
+    def set_object_chunks(self, chunks: list[np.ndarray], count: int) -> None:
+        """The stored objects' outlines in chunks, each (K, 2) pixels, NaN-separated; ``count`` outlines in
+        all. Each chunk is a cached picture of its own (:meth:`set_object_chunk` redraws one); the added
+        outlines are cleared."""
+        while len(self.object_items) < len(chunks):
+            item = pg.PlotCurveItem(pen=self.objects_item.opts["pen"], connect="finite")
+            item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+            item.setZValue(self.objects_item.zValue())
+            self.viewbox.addItem(item, ignoreBounds=True)
+            self.object_items.append(item)
         thin = count > self.THIN_ABOVE
-        self.objects_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
-        for item, data in ((self.objects_item, lines), (self.added_item, ())):
-            view = item_from_pixels(data)
-            item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+        for k, item in enumerate(self.object_items):
+            item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+            self._set_lines(item, chunks[k] if k < len(chunks) else (), thin)
+        self._set_lines(self.added_item, (), thin)
+
+    def set_object_chunk(self, k: int, lines: np.ndarray, count: int) -> None:
+        """Redraw chunk ``k`` of the stored outlines alone (its (K, 2) pixels, NaN-separated)."""
+        self._set_lines(self.object_items[k], lines, count > self.THIN_ABOVE)
+
+    def object_lines(self) -> np.ndarray:
+        """Every stored outline point drawn (view coordinates, NaN separators left out), chunk by chunk."""
+        parts = []
+        for item in self.object_items:
+            x, y = item.getData()
+            if x is not None and item.isVisible():
+                points = np.column_stack([x, y])
+                parts.append(points[np.isfinite(points).all(axis=1)])
+        return np.vstack(parts) if parts else np.zeros((0, 2))
+
+    @staticmethod
+    def _set_lines(item, lines, thin: bool) -> None:
+        view = item_from_pixels(lines)
+        item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
 
     def set_selection_marks(self, selected: np.ndarray, vertices: np.ndarray,
                             labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
