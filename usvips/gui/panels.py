@@ -65,9 +65,10 @@ class EnhancementPanel(QtWidgets.QWidget):
         row.addWidget(self.target)
         row.addWidget(self.operation, 1)
         row.addWidget(add)
-        buttons = QtWidgets.QHBoxLayout()
-        for button in (remove, reset, balance):
-            buttons.addWidget(button)
+        buttons = QtWidgets.QGridLayout()  # two rows: the dock is about 330 px wide on a 1366 px screen
+        buttons.addWidget(remove, 0, 0)
+        buttons.addWidget(reset, 0, 1)
+        buttons.addWidget(balance, 1, 0, 1, 2)
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(row)
         layout.addWidget(self.steps)
@@ -466,12 +467,12 @@ class CalculatorPanel(QtWidgets.QWidget):
         self.max_precision = self._spin(rules.max_relative_precision * 100, 0.1, 100, " %",
                                         "largest sigma relative to the length or area")
         self.max_range = self._spin(rules.max_range_m, 0.1, 1000, " m", "largest range from the left camera")
-        form = QtWidgets.QHBoxLayout()
-        for label, spin in (("ray RMS ≤", self.max_rms), ("σ/value ≤", self.max_precision),
-                            ("range ≤", self.max_range)):
-            form.addWidget(QtWidgets.QLabel(label))
-            form.addWidget(spin)
-        form.addStretch(1)
+        form = QtWidgets.QGridLayout()  # two rows, so that the rules fit the dock on a 1366 px screen
+        for k, (label, spin) in enumerate((("ray RMS ≤", self.max_rms), ("σ/value ≤", self.max_precision),
+                                           ("range ≤", self.max_range))):
+            form.addWidget(QtWidgets.QLabel(label), k // 2, 2 * (k % 2))
+            form.addWidget(spin, k // 2, 2 * (k % 2) + 1)
+        form.setColumnStretch(4, 1)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
         layout.addLayout(form)
