@@ -189,9 +189,8 @@ def activate_calibration(window, calibration_id: int, labels: list[str]) -> bool
     except UsvipsError as error:
         window.show_message("error", f"the calibration was not made active: {error}")
         return False
-    ws = window.workspace
-    if ws.pair in labels and ws.images:
-        ws.set_pair(ws.pair, ws.images["left"], ws.images["right"])  # pick up the calibration
+    if window.workspace.pair in labels:
+        window.workspace.reshow_pair()
     window.show_message("info", f"calibration {calibration_id} is active for {', '.join(labels) or 'no pair'}")
     return True
 

@@ -395,9 +395,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _on_calibration_saved(self, calibration_id: int) -> None:
         self.show_message("info", f"calibration {calibration_id} stored and made active")
-        ws = self.workspace
-        if ws.pair is not None and ws.images:
-            ws.set_pair(ws.pair, ws.images["left"], ws.images["right"])  # pick up the new calibration
+        self.workspace.reshow_pair()
         self._draw_control()
 
     def show_guide(self) -> None:

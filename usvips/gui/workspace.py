@@ -277,6 +277,12 @@ class Workspace:
             return []
         return [p["label"] for p in self.project.pairs() if p["left"] and p["right"]]
 
+    def reshow_pair(self) -> None:
+        """Show the current pair again, its images kept, so that a calibration made active for it since is
+        used (nothing when no pair is shown)."""
+        if self.pair is not None and self.images:
+            self.set_pair(self.pair, self.images["left"], self.images["right"])
+
     def set_pair(self, label: str, left: np.ndarray, right: np.ndarray) -> None:
         """Show a pair (images already read, see :func:`load_pair_images`); its calibration and saved
         enhancements come from the project."""

@@ -705,11 +705,26 @@ class Project:
                 raise ProjectError(f"{self.path}: cannot relocate {stored}: {error}") from None
         return new
 
+    def _refuse_unusable_pairs(self, pairs: Sequence[tuple[str, Path, Path]]) -> None:
+        """A label already in the project or given twice, or one file as both left and right: one line
+        naming the pair (nothing is added)."""
+        labels = [label for label, _, _ in pairs]
+        taken = {row[0] for row in self._db.execute("SELECT label FROM image_pairs")}
+        repeated = sorted({label for label in labels if label in taken or labels.count(label) > 1})
+        if repeated:
+            shown = ", ".join(repr(label) for label in repeated[:5]) + (" …" if len(repeated) > 5 else "")
+            raise ProjectError(f"{self.path}: image pair label(s) {shown} already used; choose another label or "
+                               "label prefix (nothing was added)")
+        for label, left, right in pairs:
+            if Path(left).resolve() == Path(right).resolve():
+                raise ProjectError(f"{self.path}: pair {label!r}: {left} is both the left and the right image "
+                                   "(nothing was added)")
+
     def add_image_pairs(self, pairs: Sequence[tuple[str, Path, Path]], medium: str = "water",
                         sizes: Sequence[tuple[int, int]] | None = None) -> list[int]:
         """Add (label, left image, right image) pairs in one transaction (all or none), recording the
         media's size and SHA-256; ``sizes``: (width, height) pixels per pair."""
-        _refuse_unusable_pairs(self, pairs)
+        self._refuse_unusable_pairs(pairs)
         ids = []
         with self.transaction():
             try:
@@ -971,18 +986,3 @@ class Project:
         rows = self._query("SELECT latitude, longitude, depth_m, heading_deg FROM georeference")
         return Georeference(*rows[0]) if rows else None
 
-
-def _refuse_unusable_pairs(project: Project, pairs: Sequence[tuple[str, Path, Path]]) -> None:
-    """A label already in the project or given twice, or one file as both left and right: one line
-    naming the pair (nothing is added)."""
-    labels = [label for label, _, _ in pairs]
-    taken = {row[0] for row in project._db.execute("SELECT label FROM image_pairs")}
-    repeated = sorted({label for label in labels if label in taken or labels.count(label) > 1})
-    if repeated:
-        shown = ", ".join(repr(label) for label in repeated[:5]) + (" …" if len(repeated) > 5 else "")
-        raise ProjectError(f"{project.path}: image pair label(s) {shown} already used; choose another label or "
-                           "label prefix (nothing was added)")
-    for label, left, right in pairs:
-        if Path(left).resolve() == Path(right).resolve():
-            raise ProjectError(f"{project.path}: pair {label!r}: {left} is both the left and the right image "
-                               "(nothing was added)")
