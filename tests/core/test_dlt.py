@@ -77,4 +77,14 @@ def test_robust_dlt_trials_as_one_stack_give_the_trial_loops_result():
         assert np.array_equal(fast.inliers, loop.inliers)
         np.testing.assert_allclose(fast.matrix, loop.matrix, rtol=1e-9, atol=1e-12)
         assert fast.f == pytest.approx(loop.f, rel=1e-9)
-        assert not fast.inliers[gross[np.linalg.norm(offsets, axis=1) > 20]].any()
+        if case % 4 == 0:
+            # a flat frame: the few points off the plane alone fix the depth column, so a gross error on one
+            # of them has no redundancy to show it (the fit passes through it); only the agreement holds
+            continue
+        # with 3-D spread, a point moved far beyond the noise (0.3 px) and beyond the fit's own inlier
+        # threshold (max(3 px, 3 robust sigmas) of the clean points' errors) is never kept
+        clean = np.setdiff1d(np.arange(n), gross)
+        scale = 1.4826 * np.median(np.linalg.norm(fast.residuals[clean], axis=1))
+        assert scale < 1.0  # the gross tenth did not spoil the fit of the rest
+        far = gross[np.linalg.norm(offsets, axis=1) > max(20.0, 2 * max(3.0, 3 * scale))]
+        assert not fast.inliers[far].any()
