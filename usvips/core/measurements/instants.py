@@ -27,13 +27,15 @@ r_i = (y_i − μ̂_(−i)) / sqrt(σ_i² + τ̂²_(−i) + σ²(μ̂_(−i))) e
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
 
 from usvips.core.errors import InvalidParameterError
-from usvips.core.measurements.figures import Figure
+from usvips.core.measurements.evaluate import Measurement
+from usvips.core.measurements.figures import Figure, QualityRules
+from usvips.core.measurements.registry import kind as kind_named
 
 #: significance of the agreement test and of the outlier limit (family-wise over the instants)
 ALPHA = 0.05
@@ -188,3 +190,51 @@ def combine_instants(instants: Sequence[Sequence[Figure]], common_sigmas: dict[s
         combined.append(combine_figure([f.value for f in figures], [f.sigma for f in figures],
                                        common_sigmas.get(name, 0.0), name, figures[0].unit, labels, calibrations))
     return tuple(combined)
+
+
+def combine_measurements(measurements: Sequence[Measurement], independent: Sequence[Measurement] | None = None,
+                         labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
+                         rules: QualityRules | None = None) -> Measurement:
+    """One object from its instants' measurements (each from the one figure function): the first
+    instant's with its figures replaced by the combined ones and ``combined`` set, its ray RMS and range
+    the largest of the instants', and the quality rules checked on the combined main figure.
+
+    ``independent``: the same instants measured with their pointing covariance only (no calibration
+    part); each figure's part common to the instants is then the mean of σ²_total − σ²_pointing and the
+    instants are weighted by their pointing sigmas. Without it the instants' sigmas are taken as
+    independent (correct when the calibration's part is negligible or not known). One measurement is
+    returned as it is."""
+    if not measurements:
+        raise InvalidParameterError("instants", "none given: an object needs at least one instant")
+    first = measurements[0]
+    if len(measurements) == 1:
+        return first
+    kinds = {m.kind for m in measurements}
+    if len(kinds) > 1:
+        raise InvalidParameterError("instants", f"of different kinds ({', '.join(sorted(kinds))}): one object is "
+                                                "one kind")
+    weights = measurements
+    common: dict[str, float] = {}
+    if independent is not None:
+        if len(independent) != len(measurements):
+            raise InvalidParameterError("independent", f"expected {len(measurements)} measurements, got "
+                                                       f"{len(independent)}")
+        weights = independent
+        for j, figure in enumerate(first.figures):
+            parts = [m.figures[j].sigma ** 2 - p.figures[j].sigma ** 2
+                     for m, p in zip(measurements, independent, strict=True)]
+            common[figure.name] = float(np.sqrt(max(0.0, float(np.mean(parts)))))
+    instants = [tuple(Figure(f.name, f.value, max(p.sigma, 1e-15), f.unit) for f, p in zip(m.figures, w.figures,
+                                                                                        strict=True))
+                for m, w in zip(measurements, weights, strict=True)]
+    combined = combine_instants(instants, common, labels, calibrations)
+    figures = tuple(c.figure for c in combined)
+    rms = [m.ray_rms_m for m in measurements if m.ray_rms_m is not None]
+    ranges = [m.range_m for m in measurements if m.range_m is not None]
+    ray_rms = max(rms) if rms else None
+    range_m = max(ranges) if ranges else None
+    measurement_kind = kind_named(first.kind)
+    main = next(f for f in figures if f.name == measurement_kind.main_name())
+    failures = (rules or QualityRules()).check(main, ray_rms, range_m, relative=measurement_kind.relative_rule)
+    return replace(first, figures=figures, failures=tuple(failures), ray_rms_m=ray_rms, range_m=range_m,
+                   joint=all(m.joint for m in measurements), combined=combined)
