@@ -299,7 +299,8 @@ def test_vocabulary_species_records_enhancements_and_drafts_round_trip(store):
         store.add_term(term)
     store.add_term("murky", "visibility")
     assert store.vocabulary() == ["cod", "haddock"] and store.vocabulary("visibility") == ["murky"]
-    species = [Species("Gadidae", "Gadus", "morhua", "COD"), Species("Gadidae", "Melanogrammus", "aeglefinus")]
+    species = [Species("Gadidae", "Gadus", "morhua", "COD"),
+               Species("Gadidae", "Melanogrammus", "aeglefinus", max_length_m=1.12)]
     store.set_species_list(species)
     assert store.species_list() == sorted(species, key=lambda s: (s.genus, s.species))
     object_id = store.add_object("point", [_vertex(rng)])

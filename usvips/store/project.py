@@ -948,8 +948,9 @@ class Project:
         with self.transaction():
             try:
                 self._db.execute("DELETE FROM species")
-                self._db.executemany("INSERT INTO species (family, genus, species, code) VALUES (?, ?, ?, ?)",
-                                     [(s.family, s.genus, s.species, s.code) for s in species])
+                self._db.executemany("INSERT INTO species (family, genus, species, code, max_length_m) "
+                                     "VALUES (?, ?, ?, ?, ?)",
+                                     [(s.family, s.genus, s.species, s.code, s.max_length_m) for s in species])
             except sqlite3.IntegrityError as error:
                 raise ProjectError(f"{self.path}: cannot store the species list: {error}") from None
 
@@ -957,7 +958,9 @@ class Project:
         """The project's species list, sorted by genus and species (none before schema 5)."""
         if not self._has_table("species"):
             return []
-        rows = self._db.execute("SELECT family, genus, species, code FROM species ORDER BY genus, species")
+        columns = {r[1] for r in self._db.execute("PRAGMA table_info(species)")}
+        maximum = "max_length_m" if "max_length_m" in columns else "NULL"  # before schema 7 (read-only)
+        rows = self._db.execute(f"SELECT family, genus, species, code, {maximum} FROM species ORDER BY genus, species")
         return [Species(*row) for row in rows.fetchall()]
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
