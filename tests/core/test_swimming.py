@@ -19,6 +19,7 @@ def test_the_midline_keeps_the_fork_length_while_the_chord_shortens_as_it_bends(
         assert np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)) == pytest.approx(0.4, rel=1e-5)
         chords.append(np.linalg.norm(np.diff(fish.snout_fork(t), axis=0)))
         assert fish.snout_fork(t)[0] == pytest.approx([0.25 * t, 0.0, -2.0])
+        assert fish.snout_fork(t)[1][0] < fish.snout_fork(t)[0][0]  # the body trails the snout
     assert max(chords) <= 0.4 and max(chords) - min(chords) > 0.005
     straight = SwimmingFish(start=(0.0, 0.0, -2.0), length=0.4, bend=0.0)
     assert np.linalg.norm(np.diff(straight.snout_fork(0.3), axis=0)) == pytest.approx(0.4)

@@ -8,9 +8,9 @@ midline bends as a carangiform travelling wave: its tangent turns by
 
 (``bend`` radians at the fork, wavelength λ = ``wavelength`` × L, tail-beat frequency f = ``beat_hz``),
 integrated along s so the body keeps its length exactly (the chord snout → fork shortens as it bends).
-The snout moves along ``heading`` at ``speed`` (m/s) from ``start``. A body point is named by (s, v):
-s (m) along the midline from the snout, v (m) along ``up`` from the midline. Its surface is textured in
-body coordinates (the texture moves with the fish: points on it can be tracked), with an eye near the
+The snout moves along ``heading`` at ``speed`` (m/s) from ``start``; the body trails behind it. A body
+point is named by (s, v): s (m) along the midline from the snout, v (m) along ``up`` from the midline.
+Its surface is textured in body coordinates (the texture moves with the fish: points on it can be tracked), with an eye near the
 snout. ``at(t)`` gives an object for :func:`usvips.core.synth.render.render` at time t (s).
 """
 
@@ -77,7 +77,7 @@ class SwimmingFish:
         a, c = np.interp(s, grid, along), np.interp(s, grid, across)
         heading, up, side = self._axes()
         snout = np.asarray(self.start, float) + self.speed * float(t) * heading
-        return snout + a[:, None] * heading + c[:, None] * side, s
+        return snout - a[:, None] * heading + c[:, None] * side, s
 
     def body_point(self, t: float, s: float, v: float = 0.0) -> np.ndarray:
         """The 3-D position (m) at time ``t`` of the body point ``s`` m from the snout, ``v`` m up."""
@@ -99,9 +99,9 @@ class SwimmingFish:
     def texture(self, s: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Grey value (0-255) of the body at (s, v): smooth random blobs in body coordinates, an eye."""
         rng = np.random.default_rng(self.seed)
-        centres = rng.uniform(0, 1, (40, 2))
-        weights = rng.uniform(-1, 1, 40)
-        width = 0.045
+        centres = rng.uniform(0, 1, (150, 2))
+        weights = rng.uniform(-1, 1, 150)
+        width = 0.035
         u = np.asarray(s, float)[..., None] / self.length
         w = 0.5 + np.asarray(v, float)[..., None] / (self.depth_ratio * self.length)
         blobs = (weights * np.exp(-((u - centres[:, 0]) ** 2 + (w - centres[:, 1]) ** 2) / (2 * width ** 2))).sum(-1)
@@ -126,44 +126,43 @@ class FishAtInstant:
         return self.fish.colour
 
     def hit(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Ray parameter (m, inf where missed) and grey value of N rays against the body sheet."""
+        """Ray parameter (m, inf where missed) and grey value of N rays (unit ``directions``) against the
+        body sheet. The midline is a function across(along) while its tangent turns by less than 90°
+        (``bend`` < π/2), so each ray meets the sheet where o_c + t d_c = across(o_a + t d_a): solved by
+        Newton's method from the plane through the snout, all rays at once."""
         fish = self.fish
         heading, up, side = fish._axes()
-        points, s = fish.midline(self.t)
+        points, s = fish.midline(self.t, np.linspace(0.0, fish.length, SAMPLES * 4 + 1))
         n = len(origins)
         best_t = np.full(n, np.inf)
         values = np.zeros(n)
-        # the sheet is vertical (along up) over the midline: intersect in the horizontal plane
-        o2 = np.column_stack([origins @ heading, origins @ side])
-        d2 = np.column_stack([directions @ heading, directions @ side])
-        p2 = np.column_stack([points @ heading, points @ side])
-        reach = fish.length * (1 + fish.depth_ratio)
-        centre = p2.mean(axis=0)
-        # rays whose horizontal line passes near the fish (cheap cull)
-        normal = np.column_stack([-d2[:, 1], d2[:, 0]])
-        norm = np.linalg.norm(normal, axis=1)
-        near = (norm > 1e-12) & (np.abs(np.einsum("ij,ij->i", centre - o2, normal)) <= reach * norm)
-        index = np.flatnonzero(near)
-        if index.size == 0:
-            return best_t, values
-        o2n, d2n, on, dn = o2[index], d2[index], origins[index], directions[index]
-        a, b = p2[:-1], p2[1:]
-        e = b - a                                           # (M-1, 2)
-        # solve o + t d = a + r e for (t, r) per ray and segment
-        det = d2n[:, None, 0] * (-e[None, :, 1]) - d2n[:, None, 1] * (-e[None, :, 0])
-        rel = a[None, :, :] - o2n[:, None, :]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (rel[..., 0] * (-e[None, :, 1]) - rel[..., 1] * (-e[None, :, 0])) / det
-            r = (d2n[:, None, 0] * rel[..., 1] - d2n[:, None, 1] * rel[..., 0]) / det
-        ok = np.isfinite(t) & (t > 0) & (r >= 0) & (r <= 1)
-        along = s[:-1][None, :] + r * np.diff(s)[None, :]
-        hit_points = on[:, None, :] + np.where(ok, t, 0.0)[..., None] * dn[:, None, :]
-        height = hit_points @ up - (points[:-1] @ up)[None, :]
-        ok &= np.abs(height) <= fish.half_depth(along)
-        t = np.where(ok, t, np.inf)
-        best = np.argmin(t, axis=1)
-        rows = np.arange(len(index))
-        found = np.isfinite(t[rows, best])
-        best_t[index[found]] = t[rows, best][found]
-        values[index[found]] = fish.texture(along[rows, best][found], height[rows, best][found])
+        along, across = points[::-1] @ heading, points[::-1] @ side   # increasing along the heading
+        s = s[::-1]
+        if np.any(np.diff(along) <= 0):
+            raise validation.InvalidParameterError("bend", f"{fish.bend:g} rad turns the body back on itself")
+        slope = np.gradient(across, along)
+        # only the rays passing within the fish's bounding sphere
+        centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+        radius = 0.5 * np.linalg.norm(points.max(axis=0) - points.min(axis=0)) + float(fish.half_depth(s).max())
+        to_centre = centre - origins
+        gap = np.einsum("ij,ij->i", to_centre, to_centre) - np.einsum("ij,ij->i", to_centre, directions) ** 2
+        near = np.flatnonzero(gap <= radius ** 2 * 1.0001)
+        origins, directions = origins[near], directions[near]
+        o_a, o_c, d_a, d_c = origins @ heading, origins @ side, directions @ heading, directions @ side
+        facing = np.abs(d_c) > 1e-9
+        t = np.where(facing, (across[0] - o_c) / np.where(facing, d_c, 1.0), np.inf)
+        for _ in range(8):
+            a = o_a + np.where(facing, t, 0.0) * d_a
+            f = o_c + t * d_c - np.interp(a, along, across)
+            derivative = d_c - np.interp(a, along, slope) * d_a
+            t = np.where(facing & (np.abs(derivative) > 1e-12), t - f / np.where(np.abs(derivative) > 1e-12,
+                                                                                derivative, 1.0), np.inf)
+        a = o_a + np.where(np.isfinite(t), t, 0.0) * d_a
+        at = np.interp(a, along, s)
+        height = (origins + np.where(np.isfinite(t), t, 0.0)[:, None] * directions) @ up - points[0] @ up
+        residual = np.abs(o_c + np.where(np.isfinite(t), t, 0.0) * d_c - np.interp(a, along, across))
+        hit = (np.isfinite(t) & (t > 0) & (a >= along[0]) & (a <= along[-1]) & (residual < 1e-7)
+               & (np.abs(height) <= fish.half_depth(at)))
+        best_t[near[hit]] = t[hit]
+        values[near[hit]] = fish.texture(at[hit], height[hit])
         return best_t, values
