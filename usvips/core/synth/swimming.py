@@ -10,8 +10,9 @@ midline bends as a carangiform travelling wave: its tangent turns by
 integrated along s so the body keeps its length exactly (the chord snout → fork shortens as it bends).
 The snout moves along ``heading`` at ``speed`` (m/s) from ``start``; the body trails behind it. A body
 point is named by (s, v): s (m) along the midline from the snout, v (m) along ``up`` from the midline.
-Its surface is textured in body coordinates (the texture moves with the fish: points on it can be tracked), with an eye near the
-snout. ``at(t)`` gives an object for :func:`usvips.core.synth.render.render` at time t (s).
+Its surface is textured in body coordinates (the texture moves with the fish: points on it can be
+tracked), with an eye near the snout. ``at(t)`` gives an object for
+:func:`usvips.core.synth.render.render` at time t (s).
 """
 
 from __future__ import annotations
