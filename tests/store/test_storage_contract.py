@@ -172,6 +172,32 @@ def test_objects_update_and_delete_and_unknown_ids_and_kinds_are_errors(store):
     assert store.objects() == []
 
 
+def test_an_object_keeps_its_instants_and_links_that_would_chain_or_mix_kinds_are_refused(store):
+    rng = np.random.default_rng(8)
+    first, second, third, other = (store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+                                   for _ in range(4))
+    point = store.add_object("point", [_vertex(rng)])
+    store.add_instant(first, third)
+    store.add_instant(first, second)
+    assert store.instants(first) == [second, third] and store.instants(second) == []
+    assert store.instant_links() == {second: first, third: first}
+    for bad, words in (((first, first), "itself"), ((first, point), "one kind"), ((other, second), "already"),
+                       ((second, other), "itself an instant"), ((other, first), "instants of its own"),
+                       ((first, 999), "999")):
+        with pytest.raises(ProjectError, match=words):
+            store.add_instant(*bad)
+    assert store.instant_links() == {second: first, third: first}
+    store.remove_instant(third)
+    assert store.instants(first) == [second] and store.object(third).kind == "length"
+    with pytest.raises(ProjectError, match="not an instant"):
+        store.remove_instant(third)
+    store.delete_object(second)
+    assert store.instants(first) == []
+    store.add_instant(first, third)
+    store.delete_object(first)  # its instants stay, as objects of their own
+    assert store.instant_links() == {} and store.object(third).attribute == "cod"
+
+
 def test_calibrations_round_trip_with_their_active_pairs(store):
     for label in ("a", "b", "c"):
         store.add_pair(label)
@@ -273,7 +299,8 @@ def test_vocabulary_species_records_enhancements_and_drafts_round_trip(store):
         store.add_term(term)
     store.add_term("murky", "visibility")
     assert store.vocabulary() == ["cod", "haddock"] and store.vocabulary("visibility") == ["murky"]
-    species = [Species("Gadidae", "Gadus", "morhua", "COD"), Species("Gadidae", "Melanogrammus", "aeglefinus")]
+    species = [Species("Gadidae", "Gadus", "morhua", "COD"),
+               Species("Gadidae", "Melanogrammus", "aeglefinus", max_length_m=1.12)]
     store.set_species_list(species)
     assert store.species_list() == sorted(species, key=lambda s: (s.genus, s.species))
     object_id = store.add_object("point", [_vertex(rng)])
@@ -377,6 +404,8 @@ WRITES = {
     "add_object": lambda s, f: s.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)]),
     "update_object": lambda s, f: s.update_object(1, attribute="changed"),
     "delete_object": lambda s, f: s.delete_object(1),
+    "add_instant": lambda s, f: s.add_instant(1, 2),
+    "remove_instant": lambda s, f: s.remove_instant(2),
     "add_term": lambda s, f: s.add_term("new"),
     "set_enhancement": lambda s, f: s.set_enhancement("k", "{}"),
     "set_draft": lambda s, f: s.set_draft("d", "text"),

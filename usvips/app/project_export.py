@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from usvips.app.object_instants import survey_objects
 from usvips.app.project_figures import evaluate, measurement_input
 from usvips.app.video_project import eventmeasure_frame_columns
 from usvips.core.deployment import Deployment
@@ -42,12 +43,14 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
     vertices) are left out and named in ``skipped`` ("object N: why") when a list is given. ``opcode``
     (EventMeasure tables): the OpCode of objects whose video (or project) has no stored deployment
     (:meth:`Project.deployment`); default the project file's name. The set of tables includes CheckEM's
-    ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults)."""
+    ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults). An object
+    measured on several instants is one row with its combined figures and the number of instants; its
+    image columns are those of its first instant."""
     objects, centres, images, cache, opcodes = [], {}, {}, {}, {}
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
-    for stored in project.objects():
+    for stored in survey_objects(project):  # an object on several instants: once, its figures combined
         source = measurement_input(project, stored, cache)
         try:
             measurement = evaluate(source, rules)

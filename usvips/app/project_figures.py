@@ -13,15 +13,22 @@ the exports say ``per-vertex``).
 
 Reading (:func:`measurement_input`, on the thread that owns the project) is split from computing
 (:func:`evaluate`, pure, any thread) so that the window can compute many objects in a worker.
+
+An object measured on several instants (``ProjectStore.add_instant``) is read with its further instants
+(``MeasurementInput.instants``) and :func:`evaluate` gives its figures combined over them
+(:func:`usvips.core.measurements.instants.combine_measurements`: random effects, the calibration's part
+common to the instants kept whole), so the object list, the calculator and every export show the combined
+figure; each instant stays inspectable through :func:`instant_measurements`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from usvips.app.pair_geometry import pair_geometry, read_calibration
+from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.measurements import (
     Measurement,
@@ -31,6 +38,7 @@ from usvips.core.measurements import (
     measure_picks,
     placement,
 )
+from usvips.core.measurements.instants import combine_measurements
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
@@ -54,6 +62,11 @@ class MeasurementInput:
     attribute: str = ""
     notes: str = ""
     pair: str | None = None
+    # where the object (its first instant) was measured ("pair P", "video V frame F"), the calibration id its
+    # vertices share (None: none or several), and its further instants when measured on several
+    where: str = ""
+    calibration_id: int | None = None
+    instants: tuple[MeasurementInput, ...] = ()
 
 
 def stored_calibration(project: ProjectStore, calibration_id: int,
@@ -68,9 +81,34 @@ def stored_calibration(project: ProjectStore, calibration_id: int,
     return cache[calibration_id]
 
 
+def where_measured(stored: StoredObject) -> str:
+    """Where an object was measured, for a person and for jumping there: "video V frame F" (the left
+    frame of its first vertex) or "pair P"; "" when its vertices name neither."""
+    if not stored.vertices:
+        return ""
+    vertex = stored.vertices[0]
+    if vertex.video is not None:
+        return f"video {vertex.video} frame {vertex.frame_left}"
+    return f"pair {vertex.pair}" if vertex.pair is not None else ""
+
+
 def measurement_input(project: ProjectStore, stored: StoredObject,
-                      cache: dict[int, StereoCalibration | None] | None = None) -> MeasurementInput:
-    """Copy what the figures of ``stored`` need out of ``project`` (call on the project's thread)."""
+                      cache: dict[int, StereoCalibration | None] | None = None,
+                      with_instants: bool = True) -> MeasurementInput:
+    """Copy what the figures of ``stored`` need out of ``project`` (call on the project's thread), with
+    its further instants when it was measured on several (``with_instants``)."""
+    cache = {} if cache is None else cache
+    source = _one_instant(project, stored, cache)
+    if with_instants:
+        further = project.instants(stored.id)
+        if further:
+            instants = tuple(_one_instant(project, project.object(i), cache) for i in further)
+            source = replace(source, instants=instants)
+    return source
+
+
+def _one_instant(project: ProjectStore, stored: StoredObject,
+                 cache: dict[int, StereoCalibration | None]) -> MeasurementInput:
     vertices = stored.vertices
     keys = {(v.calibration_id, v.pair) for v in vertices}
     calibration, station, frame, pair = None, 0, "rig", vertices[0].pair if vertices else None
@@ -82,15 +120,59 @@ def measurement_input(project: ProjectStore, stored: StoredObject,
     xyz = np.array([v.xyz if v.xyz is not None else (np.nan,) * 3 for v in vertices], float).reshape(-1, 3)
     covariances = np.array([v.covariance if v.covariance is not None else np.full((3, 3), np.nan)
                             for v in vertices], float).reshape(-1, 3, 3)
+    calibration_ids = {v.calibration_id for v in vertices}
+    calibration_id = next(iter(calibration_ids)) if len(calibration_ids) == 1 else None
     return MeasurementInput(str(stored.id), stored.kind, np.array([[v.xl, v.yl] for v in vertices], float),
                             np.array([[v.xr, v.yr] for v in vertices], float), xyz, covariances, calibration,
-                            station, frame, stored.attribute, stored.notes, pair)
+                            station, frame, stored.attribute, stored.notes, pair, where_measured(stored),
+                            calibration_id)
 
 
 def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Measurement:
     """The object's :class:`Measurement`: from its picks with its calibration (joint covariance), or from
-    the stored per-vertex values when that is not possible. Raises :class:`UsvipsError` naming the
-    object when neither gives figures."""
+    the stored per-vertex values when that is not possible; combined over its instants when it has
+    further ones. Raises :class:`UsvipsError` naming the object (and the instant) when neither gives
+    figures or its instants were measured with different calibrations."""
+    if not source.instants:
+        return _evaluate_one(source, rules)
+    everything = (source, *source.instants)
+    measured = []
+    for instant in everything:
+        try:
+            measured.append(_evaluate_one(instant, rules))
+        except UsvipsError as error:
+            raise UsvipsError(f"object {source.id}, instant {instant.id} ({instant.where or 'unknown place'}): "
+                              f"{str(error).removeprefix(f'object {instant.id}: ')}") from None
+    labels = [f"{i.where or 'object ' + i.id} (object {i.id})" for i in everything]
+    try:
+        combined = combine_measurements(measured, [_pointing_only(i, m) for i, m in zip(everything, measured,
+                                                                                           strict=True)],
+                                        labels, [i.calibration_id for i in everything], rules)
+    except UsvipsError as error:
+        raise UsvipsError(f"object {source.id}: {error}") from None
+    return replace(combined, id=source.id, attribute=source.attribute, notes=source.notes)
+
+
+def instant_measurements(source: MeasurementInput, rules: QualityRules | None = None) -> list[Measurement]:
+    """Each instant of an object measured on its own (the first is the object's own picks), to inspect
+    them; an instant without figures is an :class:`UsvipsError` naming it."""
+    return [_evaluate_one(instant, rules) for instant in (source, *source.instants)]
+
+
+def _pointing_only(source: MeasurementInput, measured: Measurement) -> Measurement:
+    """The instant measured with its pointing covariance only (the part independent between instants);
+    the measurement itself when the calibration's part cannot be told apart (stored per-vertex values)."""
+    if source.calibration is None or not measured.joint:
+        return measured
+    try:
+        result = intersect_with_calibration(source.calibration, source.left, source.right, source.station,
+                                            source.frame, include_calibration=False)
+        return measure(source.kind, result.points, result.covariance, joint=False)
+    except UsvipsError:
+        return measured
+
+
+def _evaluate_one(source: MeasurementInput, rules: QualityRules | None = None) -> Measurement:
     labels = {"id": source.id, "attribute": source.attribute, "notes": source.notes}
     try:
         if source.calibration is not None:

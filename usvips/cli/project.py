@@ -8,6 +8,7 @@ import argparse
 from usvips.app.project_contents import plan_import, store_import, summarise
 from usvips.app.project_export import export_project
 from usvips.app.samples import create_from_manifest
+from usvips.cli.project_check import register_check_action
 from usvips.cli.video import register_project_actions
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
@@ -46,6 +47,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     exp.set_defaults(handler=run_export)
     register_project_actions(actions)  # add-pairs, add-video: handlers in usvips/cli/video.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
+    register_check_action(actions)  # check: usvips/cli/project_check.py
 
 
 def run_new(args: argparse.Namespace) -> int:

@@ -4,6 +4,7 @@ the activity and a comment. Plain values, validated; stored by the project, type
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 from usvips.core.errors import InvalidParameterError
@@ -22,18 +23,27 @@ def _clean(name: str, value: object) -> str:
 @dataclass(frozen=True)
 class Species:
     """One entry of a species list: ``genus`` and ``species`` (the epithet; ``spp`` for unidentified
-    species of a genus), its ``family`` and ``code`` (e.g. a CAAB code)."""
+    species of a genus), its ``family`` and ``code`` (e.g. a CAAB code), and the species' maximum
+    length ``max_length_m`` (metres; None when the list gives none) that a measured length is checked
+    against (CheckEM's rule)."""
 
     family: str
     genus: str
     species: str
     code: str = ""
+    max_length_m: float | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            object.__setattr__(self, f.name, _clean(f.name, getattr(self, f.name)))
+            if f.name != "max_length_m":
+                object.__setattr__(self, f.name, _clean(f.name, getattr(self, f.name)))
         if not self.genus:
             raise InvalidParameterError("genus", "must not be empty")
+        if self.max_length_m is not None:
+            value = self.max_length_m
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+                raise InvalidParameterError("max_length", f"must be a positive length, got {value!r}")
+            object.__setattr__(self, "max_length_m", float(value))
 
     @property
     def name(self) -> str:

@@ -90,7 +90,7 @@ def figure_columns() -> list[str]:
 
 def object_columns() -> list[str]:
     return (["id", "kind", "attribute", "vertices"] + figure_columns()
-            + ["ray_rms_m", "range_m", "covariance", "quality", "notes"])
+            + ["ray_rms_m", "range_m", "covariance", "quality", "instants", "notes"])
 
 
 def _covariance_word(obj: Measurement) -> str:
@@ -104,7 +104,8 @@ def objects_csv(objects: list[Measurement]) -> str:
     rows = []
     for obj in objects:
         row = {"id": obj.id, "kind": obj.kind, "attribute": obj.attribute, "vertices": len(obj.points),
-               "notes": obj.notes, "covariance": _covariance_word(obj), "quality": "; ".join(obj.failures)}
+               "notes": obj.notes, "covariance": _covariance_word(obj), "quality": "; ".join(obj.failures),
+               "instants": obj.instant_count}
         row.update({"ray_rms_m": obj.ray_rms_m, "range_m": obj.range_m})
         for figure in obj.figures:
             row[figure.name] = figure.value
@@ -448,7 +449,8 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str | dict[str, str]
                         records: dict[str, ObservationRecord] | None = None,
                         samples: list[tuple[Deployment, str]] | None = None) -> dict[str, str]:
     """Table name (:func:`eventmeasure_table_names`) → tab-separated text. Lengths and arcs become lengths
-    (Length and Precision are the length figure and its sigma, in mm), points 3-D points (Direction
+    (Length and Precision are the length figure and its sigma, in mm; an object combined over several
+    instants says "mean of N instants" in its Comment), points 3-D points (Direction
     empty), other kinds rows of their own table. RMS: the object's ray-intersection RMS (mm) when known
     (CheckEM drops rows without one when it filters on RMS); ``images``: object id → (left file, left
     frame, right file, right frame[, time (min), period, period time (min)]). Direction is the angle
@@ -469,10 +471,12 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str | dict[str, str]
         sample = opcode.get(obj.id, "") if isinstance(opcode, dict) else opcode
         head = [sample, "", file_left, frame_left, file_right, frame_right, *(list(timing) + ["", "", ""])[:3]]
         comment = obj.notes
+        if obj.instant_count > 1:  # CheckEM: one length, its precision and the number of instants
+            comment = f"mean of {obj.instant_count} instants" + (f"; {comment}" if comment else "")
         table = measurement_kind(obj.kind).eventmeasure
         if table == "Lengths":
             if len(obj.points) > 2:
-                comment = f"{obj.kind} of {len(obj.points)} vertices" + (f"; {obj.notes}" if obj.notes else "")
+                comment = f"{obj.kind} of {len(obj.points)} vertices" + (f"; {comment}" if comment else "")
             length = obj.main
             ends = obj.points[[0, -1]]
             middle = ends.mean(axis=0)

@@ -1,7 +1,11 @@
 """Species lists (CSV): one taxon a line with the columns ``family``, ``genus``, ``species`` and
 ``code`` — the columns of EventMeasure's and CheckEM's species lists (header names are matched without
 case; ``caab``, ``caab_code`` and ``species_code`` are read as ``code``, which may be missing). Lines
-starting with ``#`` and blank lines are ignored. Every error names the file and the line."""
+starting with ``#`` and blank lines are ignored. Every error names the file and the line.
+
+An optional column gives each species' maximum length, its unit in the header: ``max_length_mm``,
+``max_length_cm``, ``max_length_m`` (or ``length_max_mm`` …), or ``fb_length_max`` (FishBase's, in cm).
+An empty cell is a species without a maximum; a header ``max_length`` without a unit is refused."""
 
 from __future__ import annotations
 
@@ -14,6 +18,10 @@ from usvips.core.observation_record import Species
 ALIASES = {"family": "family", "genus": "genus", "species": "species", "code": "code", "caab": "code",
            "caab_code": "code", "species_code": "code", "speciescode": "code"}
 REQUIRED = ("family", "genus", "species")
+#: maximum-length columns and their unit (metres per unit)
+MAX_LENGTH = {"max_length_mm": 0.001, "length_max_mm": 0.001, "maximum_length_mm": 0.001,
+              "max_length_cm": 0.01, "length_max_cm": 0.01, "maximum_length_cm": 0.01, "fb_length_max": 0.01,
+              "max_length_m": 1.0, "length_max_m": 1.0, "maximum_length_m": 1.0}
 
 
 def read_species_list(path: str | Path) -> list[Species]:
@@ -30,6 +38,12 @@ def read_species_list(path: str | Path) -> list[Species]:
         raise InputFileError(str(path), "is empty: expected a header family,genus,species,code and one line a taxon")
     header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))
     columns = {ALIASES.get(h.strip().lower()): i for i, h in enumerate(header) if ALIASES.get(h.strip().lower())}
+    lowered = [h.strip().lower() for h in header]
+    unitless = [h for h in lowered if h in ("max_length", "length_max", "maximum_length")]
+    if unitless:
+        raise InputFileError(str(path), f"the column {unitless[0]!r} needs its unit: name it {unitless[0]}_mm, "
+                             f"{unitless[0]}_cm or {unitless[0]}_m", header_line)
+    maximum = next(((i, MAX_LENGTH[h]) for i, h in enumerate(lowered) if h in MAX_LENGTH), None)
     missing = [c for c in REQUIRED if c not in columns]
     if missing:
         raise InputFileError(str(path), f"the header lacks {', '.join(missing)} (has {', '.join(header)})",
@@ -39,8 +53,15 @@ def read_species_list(path: str | Path) -> list[Species]:
     for number, line in lines[1:]:
         row = next(csv.reader([line]))
         values = {name: (row[i] if i < len(row) else "") for name, i in columns.items()}
+        max_length = None
+        if maximum is not None and maximum[0] < len(row) and row[maximum[0]].strip():
+            text = row[maximum[0]].strip()
+            try:
+                max_length = float(text) * maximum[1]
+            except ValueError:
+                raise InputFileError(str(path), f"the maximum length {text!r} is not a number", number) from None
         try:
-            entry = Species(values["family"], values["genus"], values["species"], values.get("code", ""))
+            entry = Species(values["family"], values["genus"], values["species"], values.get("code", ""), max_length)
         except UsvipsError as error:
             raise InputFileError(str(path), str(error), number) from None
         if entry.name in seen:

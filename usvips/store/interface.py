@@ -195,6 +195,26 @@ class ProjectStore(Protocol):
         """An object's observation record, None when none was entered."""
         ...
 
+    # ------------------------------------------------------------------------ objects over several instants
+    def add_instant(self, object_id: int, instant_id: int) -> None:
+        """Make the stored object ``instant_id`` (of the same kind) a further instant of ``object_id``: one
+        object measured on several instants, its first instant being itself. An unknown id, an object of
+        another kind, or a link that would chain instants (an instant of an instant, an object with
+        instants of its own becoming an instant) is a ``ProjectError``."""
+        ...
+
+    def remove_instant(self, instant_id: int) -> None:
+        """Unlink an instant (it stays, as an object of its own); one that is not an instant is an error."""
+        ...
+
+    def instants(self, object_id: int) -> list[int]:
+        """The ids of the further instants of ``object_id``, by id (empty when it has one instant)."""
+        ...
+
+    def instant_links(self) -> dict[int, int]:
+        """Every further instant's id → the id of the object it is an instant of."""
+        ...
+
     # ------------------------------------------------------------------------ deployment and georeference
     def set_deployment(self, deployment: Deployment | None, video: str | None = None) -> None:
         """Store (None: remove) the deployment metadata of the project, or of one stereo ``video``."""

@@ -611,6 +611,48 @@ class Project:
             vertices.setdefault(v[0], []).append(vertex)
         return [StoredObject(*row, vertices=tuple(vertices.get(row[0], ()))) for row in rows]
 
+    # ---------------------------------------------------------------------------- instants (schema 7)
+    def add_instant(self, object_id: int, instant_id: int) -> None:
+        """Make the stored object ``instant_id`` a further instant of ``object_id`` (see
+        :meth:`ProjectStore.add_instant`)."""
+        with self.transaction():
+            whole, instant = self.object(object_id), self.object(instant_id)
+            if object_id == instant_id:
+                raise ProjectError(f"{self.path}: object {object_id} cannot be an instant of itself")
+            if whole.kind != instant.kind:
+                raise ProjectError(f"{self.path}: object {instant_id} is a {instant.kind}, object {object_id} a "
+                                   f"{whole.kind}: the instants of an object are of one kind")
+            links = self.instant_links()
+            if object_id in links:
+                raise ProjectError(f"{self.path}: object {object_id} is itself an instant of object "
+                                   f"{links[object_id]}; add the instant to that object")
+            if instant_id in links:
+                raise ProjectError(f"{self.path}: object {instant_id} is already an instant of object "
+                                   f"{links[instant_id]}")
+            if any(of == instant_id for of in links.values()):
+                raise ProjectError(f"{self.path}: object {instant_id} has instants of its own; add them to "
+                                   f"object {object_id} one by one")
+            self._edit("INSERT INTO object_instants (object_id, of_object) VALUES (?, ?)", (instant_id, object_id))
+
+    def remove_instant(self, instant_id: int) -> None:
+        """Unlink an instant: it stays, as an object of its own."""
+        with self.transaction():
+            if self._edit("DELETE FROM object_instants WHERE object_id = ?", (instant_id,)).rowcount == 0:
+                raise ProjectError(f"{self.path}: object {instant_id} is not an instant of another object")
+
+    def instants(self, object_id: int) -> list[int]:
+        """The ids of the further instants of ``object_id`` (its first instant is itself), by id."""
+        if not self._has_table("object_instants"):
+            return []
+        return [r[0] for r in self._query("SELECT object_id FROM object_instants WHERE of_object = ? "
+                                          "ORDER BY object_id", (int(object_id),))]
+
+    def instant_links(self) -> dict[int, int]:
+        """Every further instant's id → the id of the object it is an instant of (none before schema 7)."""
+        if not self._has_table("object_instants"):
+            return {}
+        return dict(self._query("SELECT object_id, of_object FROM object_instants ORDER BY object_id"))
+
     def vertex_history(self, object_id: int) -> list[tuple]:
         return self._query("SELECT idx, x, y, z, calibration_id, replaced FROM vertex_history "
                            "WHERE object_id = ? ORDER BY id", (object_id,))
@@ -906,8 +948,9 @@ class Project:
         with self.transaction():
             try:
                 self._db.execute("DELETE FROM species")
-                self._db.executemany("INSERT INTO species (family, genus, species, code) VALUES (?, ?, ?, ?)",
-                                     [(s.family, s.genus, s.species, s.code) for s in species])
+                self._db.executemany("INSERT INTO species (family, genus, species, code, max_length_m) "
+                                     "VALUES (?, ?, ?, ?, ?)",
+                                     [(s.family, s.genus, s.species, s.code, s.max_length_m) for s in species])
             except sqlite3.IntegrityError as error:
                 raise ProjectError(f"{self.path}: cannot store the species list: {error}") from None
 
@@ -915,7 +958,9 @@ class Project:
         """The project's species list, sorted by genus and species (none before schema 5)."""
         if not self._has_table("species"):
             return []
-        rows = self._db.execute("SELECT family, genus, species, code FROM species ORDER BY genus, species")
+        columns = {r[1] for r in self._db.execute("PRAGMA table_info(species)")}
+        maximum = "max_length_m" if "max_length_m" in columns else "NULL"  # before schema 7 (read-only)
+        rows = self._db.execute(f"SELECT family, genus, species, code, {maximum} FROM species ORDER BY genus, species")
         return [Species(*row) for row in rows.fetchall()]
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:

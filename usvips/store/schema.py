@@ -135,6 +135,21 @@ CREATE TABLE georeference (
     depth_m REAL NOT NULL, heading_deg REAL NOT NULL);
 """
 MIGRATIONS[6] = VERSION_6
+
+# version 7: an object measured on several instants (a fish on several video frames or pairs). The object
+# is its first instant; each further instant is an object of its own (same kind, its own vertices, pair or
+# frames) linked here to the object it is an instant of. Deleting the object unlinks its instants (they
+# stay, as objects of their own); deleting an instant removes its link. And each species' maximum length
+# (m, NULL when the list gives none), that a survey's lengths are checked against.
+VERSION_7 = """
+ALTER TABLE species ADD COLUMN max_length_m REAL CHECK (max_length_m IS NULL OR max_length_m > 0);
+CREATE TABLE object_instants (
+    object_id INTEGER PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
+    of_object INTEGER NOT NULL REFERENCES objects(id) ON DELETE CASCADE,
+    CHECK (object_id <> of_object));
+CREATE INDEX object_instants_of ON object_instants(of_object);
+"""
+MIGRATIONS[7] = VERSION_7
 SCHEMA_VERSION = max(MIGRATIONS)
 
 

@@ -11,6 +11,7 @@ object was measured with is no longer available: then the vertices are uncorrela
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from usvips.core.measurements.registry import kind as kind_named
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 
+if TYPE_CHECKING:
+    from usvips.core.measurements.instants import CombinedFigure
+
 
 @dataclass(frozen=True)
 class Measurement:
@@ -28,7 +32,9 @@ class Measurement:
     (in the kind's order; :attr:`main` is the main one) and the quality rules it breaks; the
     ray-intersection RMS (m) over its vertices and the largest range (m) from the left camera when
     known; ``joint``: whether the covariance carries the correlation between the vertices (False for
-    stored per-vertex covariances)."""
+    stored per-vertex covariances); ``combined``: when the object was measured on several instants, its
+    figures combined over them (:mod:`usvips.core.measurements.instants`) — ``figures`` are then those
+    combined figures, ``points`` the first instant's."""
 
     kind: str
     points: np.ndarray
@@ -41,6 +47,12 @@ class Measurement:
     id: str = ""
     attribute: str = ""
     notes: str = ""
+    combined: tuple[CombinedFigure, ...] = ()
+
+    @property
+    def instant_count(self) -> int:
+        """How many instants the figures combine (1: measured once)."""
+        return self.combined[0].count if self.combined else 1
 
     @property
     def main(self) -> Figure:

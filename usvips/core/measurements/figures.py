@@ -94,6 +94,19 @@ def figures_of(function: Callable[[np.ndarray], np.ndarray], names_units: tuple[
 
 
 @dataclass(frozen=True)
+class Breach:
+    """One quality rule a measurement breaks: ``rule`` (``ray_rms``, ``precision``, ``range``,
+    ``max_sigma``), its ``value`` and ``limit`` (in ``unit``: "m", or "1" for precision/value), and
+    ``text``, how a person reads it."""
+
+    rule: str
+    value: float
+    limit: float
+    unit: str
+    text: str
+
+
+@dataclass(frozen=True)
 class QualityRules:
     """Acceptance rules applied to every measured object. Defaults: the stereo-video fish-survey ones —
     ray-intersection RMS ≤ 20 mm, precision/length ≤ 10 %, range ≤ 8 m. ``extra``: ``max_sigma_m``
@@ -104,20 +117,30 @@ class QualityRules:
     max_range_m: float = 8.0
     extra: dict[str, float] = field(default_factory=dict)
 
-    def check(self, figure: Figure, ray_rms_m: float | None, range_m: float | None,
-              relative: bool = True) -> list[str]:
-        """The rules a measurement breaks (empty when it passes). ``relative``: whether the
-        precision/value rule applies to ``figure`` (not to a coordinate); an unknown ray RMS or range
-        (None) is not checked."""
-        failures = []
+    def breaches(self, figure: Figure, ray_rms_m: float | None, range_m: float | None,
+                 relative: bool = True) -> list[Breach]:
+        """The rules a measurement breaks, each with its value and limit (empty when it passes).
+        ``relative``: whether the precision/value rule applies to ``figure`` (not to a coordinate); an
+        unknown ray RMS or range (None) is not checked."""
+        found = []
         if ray_rms_m is not None and ray_rms_m > self.max_ray_rms_m:
-            failures.append(f"ray-intersection RMS {ray_rms_m * 1000:.1f} mm > {self.max_ray_rms_m * 1000:.0f} mm")
+            found.append(Breach("ray_rms", ray_rms_m, self.max_ray_rms_m, "m",
+                                f"ray-intersection RMS {ray_rms_m * 1000:.1f} mm > {self.max_ray_rms_m * 1000:.0f} mm"))
         if relative and figure.relative_precision > self.max_relative_precision:
-            failures.append(f"precision {figure.relative_precision:.1%} of the {figure.label} > "
-                            f"{self.max_relative_precision:.0%}")
+            found.append(Breach("precision", figure.relative_precision, self.max_relative_precision, "1",
+                                f"precision {figure.relative_precision:.1%} of the {figure.label} > "
+                                f"{self.max_relative_precision:.0%}"))
         if range_m is not None and range_m > self.max_range_m:
-            failures.append(f"range {range_m:.2f} m > {self.max_range_m:g} m")
+            found.append(Breach("range", range_m, self.max_range_m, "m",
+                                f"range {range_m:.2f} m > {self.max_range_m:g} m"))
         for name, limit in self.extra.items():
             if name == "max_sigma_m" and figure.unit == "m" and figure.sigma > limit:
-                failures.append(f"sigma {figure.sigma * 1000:.1f} mm > {limit * 1000:.1f} mm")
-        return failures
+                found.append(Breach("max_sigma", figure.sigma, limit, "m",
+                                    f"sigma {figure.sigma * 1000:.1f} mm > {limit * 1000:.1f} mm"))
+        return found
+
+    def check(self, figure: Figure, ray_rms_m: float | None, range_m: float | None,
+              relative: bool = True) -> list[str]:
+        """The rules a measurement breaks as a person reads them (empty when it passes); see
+        :meth:`breaches`."""
+        return [b.text for b in self.breaches(figure, ray_rms_m, range_m, relative)]

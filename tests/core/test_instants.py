@@ -1,0 +1,156 @@
+"""An object measured on several instants: random-effects combination tested against the truth of
+swimming, bending fish (Monte Carlo), with each instant's figure from the one figure function."""
+
+import numpy as np
+import pytest
+
+from usvips.core.errors import InvalidParameterError
+from usvips.core.measurements import measure
+from usvips.core.measurements.instants import combine_figure, combine_instants
+from usvips.core.synth.swimming import SwimmingFish
+
+
+def _fish(rng) -> SwimmingFish:
+    return SwimmingFish(start=tuple(rng.uniform([-0.5, -0.3, -4.0], [0.5, 0.3, -1.5])),
+                        heading=(np.cos(a := rng.uniform(0, 2 * np.pi)), 0.0, np.sin(a)), up=(0.0, 1.0, 0.0),
+                        length=rng.uniform(0.15, 0.6), speed=0.0, bend=rng.uniform(0.0, 0.9),
+                        beat_hz=rng.uniform(1.0, 3.0), phase=rng.uniform(0, 2 * np.pi))
+
+
+def _mean_chord(fish: SwimmingFish) -> float:
+    """The truth the combination estimates: the fish's snout–fork distance averaged over a tail beat."""
+    times = np.linspace(0.0, 1.0 / fish.beat_hz, 120, endpoint=False)
+    return float(np.mean([np.linalg.norm(np.diff(fish.snout_fork(t), axis=0)) for t in times]))
+
+
+def _vertex_covariance(rng, point) -> np.ndarray:
+    """A stereo vertex's covariance: long along the line of sight (3-10 mm), 0.7-2 mm across (m²)."""
+    view = point / np.linalg.norm(point)
+    across = np.linalg.svd(view[None])[2][1:]
+    axes = np.vstack([view, across])
+    sigmas = np.array([rng.uniform(0.003, 0.010), *rng.uniform(0.0007, 0.002, 2)])
+    return axes.T @ np.diag(sigmas ** 2) @ axes
+
+
+def _instants(rng, fish: SwimmingFish, k: int, common: np.ndarray | None = None):
+    """k instants at random times: each a noisy snout and fork and their length Figure with sigma."""
+    figures = []
+    for t in rng.uniform(0.0, 10.0, k):
+        truth = fish.snout_fork(t)
+        covariances = np.array([_vertex_covariance(rng, p) for p in truth])
+        noisy = truth + np.array([rng.multivariate_normal(np.zeros(3), c) for c in covariances])
+        if common is not None:
+            noisy = noisy + common
+        figures.append(measure("length", noisy, covariances).figures)
+    return figures
+
+
+def test_over_many_bending_fish_the_combined_length_is_honest_and_better_than_one_instant():
+    rng = np.random.default_rng(2025)
+    normalised, combined_errors, single_errors = [], [], []
+    for _ in range(400):
+        fish = _fish(rng)
+        instants = _instants(rng, fish, int(rng.integers(3, 11)))
+        length = combine_instants(instants)[0]
+        truth = _mean_chord(fish)
+        normalised.append(((length.value - truth) / length.sigma) ** 2)
+        combined_errors.append(length.value - truth)
+        single_errors.append(instants[0][0].value - truth)
+    msne = float(np.mean(normalised))
+    print(f"MSNE {msne:.3f}")
+    assert 0.7 <= msne <= 1.5, msne
+    assert np.sqrt(np.mean(np.square(combined_errors))) < 0.7 * np.sqrt(np.mean(np.square(single_errors)))
+
+
+def test_a_calibration_error_common_to_all_instants_is_kept_in_sigma_when_given():
+    rng = np.random.default_rng(7)
+    given, ignored = [], []
+    common_sigma = 0.006  # m: the length's part from the calibration, common to every instant
+    for _ in range(300):
+        fish = _fish(rng)
+        # a common scale error of the calibration lengthens every instant alike
+        scale = rng.normal(0.0, common_sigma / fish.length)
+        instants = _instants(rng, fish, 8)
+        shifted = [[f.__class__(f.name, f.value * (1 + scale), f.sigma, f.unit) for f in figs] for figs in instants]
+        truth = _mean_chord(fish)
+        with_common = combine_instants(shifted, {"length": common_sigma * np.mean(
+            [figs[0].value for figs in shifted]) / fish.length})[0]
+        without = combine_instants(shifted)[0]
+        given.append(((with_common.value - truth) / with_common.sigma) ** 2)
+        ignored.append(((without.value - truth) / without.sigma) ** 2)
+    assert 0.7 <= np.mean(given) <= 1.5
+    assert np.mean(ignored) > 1.5  # averaging instants does not average out a common error
+
+
+def test_a_planted_outlying_instant_is_named_and_agreeing_instants_are_not_flagged():
+    rng = np.random.default_rng(11)
+    named, false_alarms, tests = 0, 0, 0
+    for _ in range(200):
+        fish = _fish(rng)
+        instants = [figs[0] for figs in _instants(rng, fish, 7)]
+        values = np.array([f.value for f in instants])
+        sigmas = np.array([f.sigma for f in instants])
+        labels = [f"frame {100 + 25 * i}" for i in range(7)]
+        clean = combine_figure(values, sigmas, labels=labels)
+        false_alarms += len(clean.outliers) > 0
+        tests += 1
+        planted = int(rng.integers(0, 7))
+        wrong = values.copy()
+        wrong[planted] += 0.2 * fish.length  # the fork picked on the wrong fin
+        result = combine_figure(wrong, sigmas, labels=labels)
+        if result.outliers == (planted,):
+            named += 1
+            assert labels[planted] in result.summary()
+    assert named >= 0.95 * tests
+    assert false_alarms <= 0.1 * tests
+
+
+def test_the_chi_square_test_holds_its_size_for_a_rigid_object_and_sees_bending():
+    rng = np.random.default_rng(3)
+    rejected_rigid, rejected_bending = 0, 0
+    for _ in range(300):
+        k = int(rng.integers(4, 10))
+        sigmas = rng.uniform(0.002, 0.008, k)
+        rigid = combine_figure(0.4 + rng.normal(0, sigmas), sigmas)
+        rejected_rigid += not rigid.agree
+        assert rigid.dof == k - 1 and 0 <= rigid.between_share <= 1
+        bending = combine_figure(0.4 + rng.normal(0, 0.03, k) + rng.normal(0, sigmas), sigmas)
+        rejected_bending += not bending.agree
+    assert 0.02 * 300 <= rejected_rigid <= 0.09 * 300
+    assert rejected_bending >= 0.9 * 300
+
+
+def test_between_instant_spread_dominates_sigma_when_the_fish_bends_much_more_than_it_is_measured():
+    rng = np.random.default_rng(5)
+    sigmas = np.full(10, 0.001)
+    result = combine_figure(0.5 + rng.normal(0, 0.02, 10), sigmas)
+    assert result.between_share > 0.9
+    assert result.tau == pytest.approx(0.02, rel=0.6)
+    agreeing = combine_figure(0.5 + rng.normal(0, 1e-6, 10), sigmas)
+    assert agreeing.between_share == 0.0 and agreeing.tau == 0.0
+
+
+def test_a_single_instant_is_itself_and_two_calibrations_are_refused_by_name():
+    one = combine_figure([0.412], [0.004], common_sigma=0.003)
+    assert one.value == 0.412 and one.sigma == pytest.approx(0.005) and one.count == 1
+    assert one.outliers == () and one.agree
+    with pytest.raises(InvalidParameterError, match="frame 12.*calibration 3.*frame 40.*calibration 5"):
+        combine_figure([0.41, 0.42], [0.004, 0.004], labels=["frame 12", "frame 40"], calibrations=[3, 5])
+
+
+@pytest.mark.parametrize("values, sigmas, match", [
+    ([], [], "none given"),
+    ([0.4, 0.41], [0.004], "expected 2 sigmas"),
+    ([0.4, np.nan], [0.004, 0.004], "instant 2"),
+    ([0.4, 0.41], [0.004, 0.0], "positive sigma"),
+])
+def test_bad_instants_are_named(values, sigmas, match):
+    with pytest.raises(InvalidParameterError, match=match):
+        combine_figure(values, sigmas)
+
+
+def test_instants_of_different_kinds_are_refused():
+    length = measure("length", np.array([[0, 0, -2.0], [0.3, 0, -2.0]]), np.eye(6) * 1e-6).figures
+    point = measure("point", np.array([[0, 0, -2.0]]), np.eye(3) * 1e-6).figures
+    with pytest.raises(InvalidParameterError, match="instant 2.*one object is one kind"):
+        combine_instants([length, point])

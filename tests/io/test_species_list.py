@@ -1,0 +1,34 @@
+"""Species lists with the species' maximum length (CheckEM's rule), its unit named by the header."""
+
+import pytest
+
+from usvips.core.errors import InputFileError
+from usvips.io.species_list import read_species_list
+
+
+@pytest.mark.parametrize("header, cell, metres", [("max_length_mm", "450", 0.45), ("max_length_cm", "45", 0.45),
+                                                   ("fb_length_max", "130", 1.3), ("Max_Length_M", "0.9", 0.9)])
+def test_the_maximum_length_is_read_in_its_unit_and_an_empty_cell_is_no_maximum(tmp_path, header, cell, metres):
+    path = tmp_path / "species.csv"
+    path.write_text(f"family,genus,species,code,{header}\nSparidae,Pagrus,auratus,37353001,{cell}\n"
+                    "Labridae,Achoerodus,gouldii,37384040,\n")
+    first, second = read_species_list(path)
+    assert first.max_length_m == pytest.approx(metres) and second.max_length_m is None
+
+
+def test_a_list_without_the_column_has_no_maxima(tmp_path):
+    path = tmp_path / "species.csv"
+    path.write_text("family,genus,species\nSparidae,Pagrus,auratus\n")
+    assert read_species_list(path)[0].max_length_m is None
+
+
+@pytest.mark.parametrize("header, cell, words", [
+    ("max_length", "450", r"line 1: the column 'max_length' needs its unit"),
+    ("max_length_mm", "long", r"line 2: the maximum length 'long' is not a number"),
+    ("max_length_mm", "-3", r"line 2: parameter max_length: must be a positive length"),
+])
+def test_a_bad_maximum_is_named_with_its_file_and_line(tmp_path, header, cell, words):
+    path = tmp_path / "species.csv"
+    path.write_text(f"family,genus,species,{header}\nSparidae,Pagrus,auratus,{cell}\n")
+    with pytest.raises(InputFileError, match=words):
+        read_species_list(path)

@@ -1,0 +1,39 @@
+"""An object measured on several instants: linking a stored object as a further instant of another,
+with the domain's checks (one kind, one calibration) made before anything is stored, and the survey's
+objects listed once each (an instant belongs to its object, not to the list)."""
+
+from __future__ import annotations
+
+from usvips.core.errors import UsvipsError
+from usvips.store.interface import ProjectStore
+from usvips.store.project import StoredObject
+
+
+def _calibration_of(stored: StoredObject) -> int | None:
+    ids = {v.calibration_id for v in stored.vertices}
+    if len(ids) != 1:
+        raise UsvipsError(f"object {stored.id}: its vertices were measured with "
+                          f"{'no calibration' if not ids or ids == {None} else 'different calibrations'}; "
+                          "re-measure it before making it an instant")
+    return next(iter(ids))
+
+
+def add_instant(project: ProjectStore, object_id: int, instant_id: int) -> None:
+    """Make the stored object ``instant_id`` a further instant of ``object_id``: refused, naming both,
+    when they were measured with different calibrations (their common error would not be one) or are of
+    different kinds; nothing is stored then."""
+    whole, instant = project.object(object_id), project.object(instant_id)
+    if whole.kind != instant.kind:
+        raise UsvipsError(f"object {instant_id} is a {instant.kind}, object {object_id} a {whole.kind}: the "
+                          "instants of an object are of one kind")
+    first, other = _calibration_of(whole), _calibration_of(instant)
+    if first != other:
+        raise UsvipsError(f"object {object_id} was measured with calibration {first} but object {instant_id} with "
+                          f"calibration {other}: the instants of an object share one calibration")
+    project.add_instant(object_id, instant_id)
+
+
+def survey_objects(project: ProjectStore) -> list[StoredObject]:
+    """Every stored object that is not a further instant of another (each object once), by id."""
+    links = project.instant_links()
+    return [o for o in project.objects() if o.id not in links]

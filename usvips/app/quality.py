@@ -1,0 +1,192 @@
+"""Quality control of a survey: every object that breaks a rule, with the rule, its value, its limit and
+where it was measured (so the window can jump there and ``usvips project check`` can list it).
+
+The rules are the per-object quality rules every measurement is checked against when it is stored
+(:class:`usvips.core.measurements.QualityRules`: ray-intersection RMS, precision/value, range), and
+CheckEM's check of a length against the species' maximum length from the project's species list: a
+length (of a kind whose main figure is ``length``) of an object whose observation record names a species
+is compared with that species' maximum. A species without a maximum in the list is reported as
+``no maximum`` (a note, not a failure); a species not in the list as ``not in the species list``.
+An object without figures is reported with the reason (rule ``no figures``).
+
+Checking is split from reading, as the figures are (:mod:`usvips.app.project_figures`): :func:`check`
+is pure and fast over measurements already computed (the window's figure cache), :func:`check_project`
+reads and computes a whole project for the command line.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from usvips.app.object_instants import survey_objects
+from usvips.app.project_figures import evaluate, measurement_input, where_measured
+from usvips.core.errors import UsvipsError
+from usvips.core.measurements import Measurement, QualityRules
+from usvips.core.measurements import kind as measurement_kind
+from usvips.core.observation_record import ObservationRecord, Species
+from usvips.store.interface import ProjectStore
+from usvips.store.project import StoredObject
+
+#: the rules' names as reports show them
+RULE_NAMES = {"ray_rms": "ray RMS", "precision": "precision/length", "range": "range", "max_sigma": "sigma",
+              "species_max": "length > species maximum", "no_maximum": "no maximum",
+              "unknown_species": "not in the species list", "no_figures": "no figures"}
+FAIL, NOTE = "fail", "note"
+
+
+@dataclass(frozen=True)
+class Place:
+    """Where an object was measured: its ``pair`` label, or its ``video`` label with the left ``frame``;
+    ``where`` says it for a person ("pair P", "video V frame F")."""
+
+    where: str = ""
+    pair: str | None = None
+    video: str | None = None
+    frame: int | None = None
+
+    @classmethod
+    def of(cls, stored: StoredObject) -> Place:
+        if not stored.vertices:
+            return cls()
+        v = stored.vertices[0]
+        return cls(where_measured(stored), v.pair, v.video, v.frame_left if v.video is not None else None)
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One rule one object breaks (``status`` ``fail``) or could not be checked against (``note``):
+    ``rule`` (a key of :data:`RULE_NAMES`), ``value`` and ``limit`` in ``unit`` ("m", or "1" for
+    precision/value; None where there is no number), the object's kind, species and ``place``, and
+    ``message``, how a person reads it."""
+
+    object_id: str
+    rule: str
+    status: str
+    value: float | None
+    limit: float | None
+    unit: str
+    kind: str
+    species: str
+    place: Place
+    message: str
+
+    @property
+    def rule_name(self) -> str:
+        return RULE_NAMES.get(self.rule, self.rule)
+
+    def as_dict(self) -> dict:
+        row = asdict(self)
+        row.update(row.pop("place"))
+        row["rule_name"] = self.rule_name
+        return row
+
+
+@dataclass(frozen=True)
+class QualityReport:
+    """The issues of a survey (by object id, then rule) and how many objects were checked."""
+
+    issues: tuple[Issue, ...]
+    checked: int
+
+    @property
+    def failures(self) -> tuple[Issue, ...]:
+        return tuple(i for i in self.issues if i.status == FAIL)
+
+    @property
+    def failing_objects(self) -> int:
+        return len({i.object_id for i in self.failures})
+
+
+@dataclass(frozen=True)
+class Checked:
+    """What :func:`check` needs of one object: its measurement (None with ``reason`` when it has no
+    figures), its observation record and its place."""
+
+    object_id: str
+    kind: str
+    measurement: Measurement | None
+    record: ObservationRecord | None
+    place: Place
+    reason: str = ""
+
+
+def species_maxima(species: list[Species]) -> dict[str, Species]:
+    """The species list by the name records carry ("Genus species"), for :func:`check`."""
+    return {s.name.lower(): s for s in species}
+
+
+def check(objects: list[Checked], rules: QualityRules | None = None,
+          species: dict[str, Species] | None = None) -> QualityReport:
+    """Every rule every object breaks (pure: any thread). ``species``: :func:`species_maxima` of the
+    project's list (None: the species rule is not checked)."""
+    rules = rules or QualityRules()
+    issues: list[Issue] = []
+    for item in objects:
+        m = item.measurement
+        name = item.record.name if item.record is not None else ""
+
+        def issue(rule, status, value, limit, unit, message, item=item, name=name):
+            issues.append(Issue(item.object_id, rule, status, value, limit, unit, item.kind, name, item.place,
+                                message))
+
+        if m is None:
+            issue("no_figures", FAIL, None, None, "", item.reason or "no figures")
+            continue
+        measurement_kind_ = measurement_kind(m.kind)
+        main = m.main
+        for breach in rules.breaches(main, m.ray_rms_m, m.range_m, relative=measurement_kind_.relative_rule):
+            issue(breach.rule, FAIL, breach.value, breach.limit, breach.unit, breach.text)
+        if species is None or not name or main.name != "length":
+            continue
+        entry = species.get(name.lower())
+        if entry is None:
+            issue("unknown_species", NOTE, main.value, None, "m", f"{name} is not in the project's species list")
+        elif entry.max_length_m is None:
+            issue("no_maximum", NOTE, main.value, None, "m", f"{name} has no maximum length in the species list")
+        elif main.value > entry.max_length_m:
+            issue("species_max", FAIL, main.value, entry.max_length_m, "m",
+                  f"length {main.value * 1000:.0f} mm > {name}'s maximum {entry.max_length_m * 1000:.0f} mm")
+    return QualityReport(tuple(issues), len(objects))
+
+
+def checked_objects(project: ProjectStore, rules: QualityRules | None = None) -> list[Checked]:
+    """Read and measure every object of the survey (each once; one on several instants combined) for
+    :func:`check`. Call on the project's thread."""
+    cache: dict = {}
+    out = []
+    for stored in survey_objects(project):
+        place = Place.of(stored)
+        record = project.record(stored.id)
+        try:
+            measurement, reason = evaluate(measurement_input(project, stored, cache), rules), ""
+        except UsvipsError as error:
+            measurement, reason = None, str(error)
+        out.append(Checked(str(stored.id), stored.kind, measurement, record, place, reason))
+    return out
+
+
+def check_project(project: ProjectStore, rules: QualityRules | None = None) -> QualityReport:
+    """The quality report of a whole project (its species list's maxima included)."""
+    return check(checked_objects(project, rules), rules, species_maxima(project.species_list()))
+
+
+#: the columns of the exported report (CheckEM's style: one row per object and rule, tab separated)
+REPORT_COLUMNS = ["ObjectId", "Kind", "Genus species", "Rule", "Status", "Value", "Limit", "Unit", "Where",
+                  "Pair", "Video", "FrameLeft", "Message"]
+
+
+def report_rows(report: QualityReport) -> list[list]:
+    """The report as rows of :data:`REPORT_COLUMNS` (lengths, RMS and range in mm as CheckEM gives them;
+    precision/value as a fraction)."""
+    rows = []
+    for i in report.issues:
+        scale = 1000.0 if i.unit == "m" else 1.0
+        unit = "mm" if i.unit == "m" else i.unit
+
+        def number(value, scale=scale):
+            return "" if value is None else f"{value * scale:.6g}"
+
+        rows.append([i.object_id, i.kind, i.species, i.rule_name, i.status, number(i.value), number(i.limit), unit,
+                     i.place.where, i.place.pair or "", i.place.video or "",
+                     "" if i.place.frame is None else i.place.frame, i.message])
+    return rows

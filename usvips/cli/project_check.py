@@ -1,0 +1,63 @@
+"""``usvips project check PROJECT [--json] [--out FILE]``: the quality report of a survey — every object
+that breaks a rule (ray RMS, precision/length, range, length against the species' maximum), with the
+value, the limit and where it was measured."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from usvips.app.quality import REPORT_COLUMNS, check_project, report_rows
+from usvips.cli.common import csv_text, write_text_atomic
+from usvips.core.errors import InvalidParameterError
+from usvips.core.measurements import QualityRules
+from usvips.store import Project
+
+
+def register_check_action(actions: argparse._SubParsersAction) -> None:
+    check = actions.add_parser("check", help="list every object that breaks a quality rule (ray RMS, "
+                               "precision/length, range, length > the species' maximum) and where it is")
+    check.add_argument("project")
+    check.add_argument("--json", action="store_true", help="print the report as JSON")
+    check.add_argument("--out", help="write the report: FILE.csv (comma separated) or any other name (tab "
+                       "separated, as CheckEM's tables)")
+    check.add_argument("--max-rms-mm", type=float, default=20.0, help="ray-intersection RMS limit (default 20)")
+    check.add_argument("--max-precision", type=float, default=10.0,
+                       help="precision/length limit in %% (default 10)")
+    check.add_argument("--max-range-m", type=float, default=8.0, help="range limit in metres (default 8)")
+    check.set_defaults(handler=run_check)
+
+
+def _rules(args: argparse.Namespace) -> QualityRules:
+    for option, value in (("--max-rms-mm", args.max_rms_mm), ("--max-precision", args.max_precision),
+                          ("--max-range-m", args.max_range_m)):
+        if not value > 0 or value == float("inf"):
+            raise InvalidParameterError(option, f"must be a positive number, got {value:g}")
+    return QualityRules(args.max_rms_mm / 1000, args.max_precision / 100, args.max_range_m)
+
+
+def run_check(args: argparse.Namespace) -> int:
+    rules = _rules(args)
+    with Project.open(args.project, read_only=True) as project:
+        report = check_project(project, rules)
+    rows = report_rows(report)
+    if args.out:
+        text = csv_text(REPORT_COLUMNS, rows)
+        if not args.out.lower().endswith(".csv"):
+            text = "\n".join("\t".join(str(c).replace("\t", " ") for c in row)
+                             for row in [REPORT_COLUMNS, *rows]) + "\n"
+        write_text_atomic(args.out, text)
+    if args.json:
+        print(json.dumps({"checked": report.checked, "failing_objects": report.failing_objects,
+                          "issues": [i.as_dict() for i in report.issues]}, indent=1))
+        return 0
+    shown = [REPORT_COLUMNS.index(c) for c in ("ObjectId", "Genus species", "Rule", "Status", "Value", "Limit",
+                                                "Unit", "Where")]
+    table = [[REPORT_COLUMNS[k] for k in shown]] + [[str(row[k]) for k in shown] for row in rows]
+    widths = [max(len(line[k]) for line in table) for k in range(len(shown))]
+    for line in table:
+        print("  ".join(cell.ljust(width) for cell, width in zip(line, widths, strict=True)).rstrip())
+    notes = len(report.issues) - len(report.failures)
+    print(f"{report.checked} objects checked: {report.failing_objects} break a rule, {notes} notes"
+          + (f"; the report is in {args.out}" if args.out else ""))
+    return 0

@@ -1,0 +1,240 @@
+"""One object measured on several instants: its figures combined with an honest sigma.
+
+A free-swimming fish bends, so the snout–fork distance it shows differs from instant to instant by more
+than the measurement's own sigma. The instants are combined by the random-effects model of meta-analysis:
+
+    y_i = μ + b_i + e_i,   b_i ~ N(0, τ²) (the object's own change between instants),
+                           e_i ~ N(0, σ_i²) (the measurement's, σ_i from the one figure function).
+
+τ² is estimated by DerSimonian & Laird's moment estimator (1986), τ̂² = max(0, (Q − (k − 1)) / (S1 − S2/S1)),
+with Cochran's Q = Σ w_i (y_i − ȳ_w)², w_i = 1/σ_i², S1 = Σ w_i, S2 = Σ w_i². The combined value is the
+weighted mean with w*_i = 1/(σ_i² + τ̂²); its variance is that of Hartung & Knapp (2001) — the
+weighted spread of the instants about it, q = Σ w*_i (y_i − μ̂)² / (k − 1), times 1/Σ w*_i — never less than
+the plain 1/Σ w*_i (the adjustment's usual floor), so that the few instants a user measures do not give a
+sigma that trusts τ̂² more than k instants allow. A part of sigma common to every instant (the calibration's,
+which does not average out over instants measured with the same calibration) is added afterwards:
+σ² = max(q, 1)/Σ w*_i + σ_common².
+
+What μ is: the mean of the object's figure over its instants (for a bending fish, its mean snout–fork
+distance, which is shorter than its straight length; measure straight instants when that is wanted).
+
+The χ² test of agreement is Cochran's: Q ~ χ²(k − 1) when the instants differ by their measurement
+sigmas alone. An outlying instant is one whose leave-one-out standardised residual
+r_i = (y_i − μ̂_(−i)) / sqrt(σ_i² + τ̂²_(−i) + σ²(μ̂_(−i))) exceeds the two-sided Bonferroni limit
+Φ⁻¹(1 − α / (2k)) (α = 0.05 by default): it is named, not dropped.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import stats
+
+from usvips.core.errors import InvalidParameterError
+from usvips.core.measurements.evaluate import Measurement
+from usvips.core.measurements.figures import Figure, QualityRules
+from usvips.core.measurements.registry import kind as kind_named
+
+#: significance of the agreement test and of the outlier limit (family-wise over the instants)
+ALPHA = 0.05
+
+
+@dataclass(frozen=True)
+class CombinedFigure:
+    """A figure combined over ``count`` instants (units of ``unit``).
+
+    ``value`` ± ``sigma``: the random-effects mean and its standard deviation (common part included);
+    ``tau``: the estimated between-instant standard deviation; ``between_share``: the share (0..1) of
+    sigma² that the between-instant spread contributes (0 when the instants agree within their sigmas);
+    ``q``, ``dof``, ``p_value``: Cochran's χ² test that the instants agree (``agree`` when p ≥ α);
+    ``residuals``: each instant's leave-one-out standardised residual (NaN with fewer than 3 instants);
+    ``outliers``: the indices of the instants beyond ``limit``; ``labels``: the instants' names.
+    """
+
+    name: str
+    unit: str
+    value: float
+    sigma: float
+    count: int
+    tau: float
+    between_share: float
+    q: float
+    dof: int
+    p_value: float
+    residuals: np.ndarray
+    limit: float
+    outliers: tuple[int, ...]
+    labels: tuple[str, ...]
+
+    @property
+    def agree(self) -> bool:
+        return self.p_value >= ALPHA
+
+    @property
+    def figure(self) -> Figure:
+        """The combined figure as any other figure (the object list, the calculator, the exports)."""
+        return Figure(self.name, self.value, self.sigma, self.unit)
+
+    @property
+    def outlier_labels(self) -> tuple[str, ...]:
+        return tuple(self.labels[i] for i in self.outliers)
+
+    def summary(self) -> str:
+        """One line: value ± sigma over k instants, τ and its share, the test and the outliers."""
+        scale, unit = (1000.0, "mm") if self.unit == "m" else (1.0, self.unit)
+        text = (f"{self.name} {self.value * scale:.1f} ± {self.sigma * scale:.1f} {unit} over {self.count} instants"
+                f" (between-instant sd {self.tau * scale:.1f} {unit}, {self.between_share:.0%} of σ²; "
+                f"χ²({self.dof}) = {self.q:.2f}, p = {self.p_value:.3f})")
+        if self.outliers:
+            text += "; outlying: " + ", ".join(self.outlier_labels)
+        return text
+
+
+def _random_effects(values: np.ndarray, variances: np.ndarray) -> tuple[float, float, float, float, float]:
+    """DerSimonian–Laird with the Hartung–Knapp variance: (μ̂, var(μ̂), τ̂², Q, fixed-effect variance)."""
+    k = len(values)
+    w = 1.0 / variances
+    s1 = w.sum()
+    fixed = float(w @ values / s1)
+    q = float(w @ (values - fixed) ** 2)
+    if k < 2:
+        return fixed, 1.0 / s1, 0.0, 0.0, 1.0 / s1
+    tau2 = max(0.0, (q - (k - 1)) / (s1 - (w @ w) / s1))
+    w_star = 1.0 / (variances + tau2)
+    total = w_star.sum()
+    mean = float(w_star @ values / total)
+    spread = float(w_star @ (values - mean) ** 2) / (k - 1)
+    return mean, max(spread, 1.0) / total, tau2, q, 1.0 / s1
+
+
+def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigma: float = 0.0,
+                   name: str = "length", unit: str = "m", labels: Sequence[str] | None = None,
+                   calibrations: Sequence[object] | None = None, alpha: float = ALPHA) -> CombinedFigure:
+    """Combine one figure measured on k instants (see the module docstring).
+
+    ``values`` (k,) and ``sigmas`` (k,) in ``unit``: each instant's figure and its sigma (independent
+    between instants); ``common_sigma``: the part (same unit) common to all instants, e.g. the
+    calibration's, added to the combined sigma and not reduced by combining; ``labels``: how the instants
+    are named (default "instant 1" …); ``calibrations``: what each instant was measured with — instants
+    on two different calibrations are refused, naming them. One instant is itself.
+    """
+    values = np.asarray(values, dtype=np.float64).ravel()
+    sigmas = np.asarray(sigmas, dtype=np.float64).ravel()
+    k = len(values)
+    if k == 0:
+        raise InvalidParameterError("instants", "none given: an object needs at least one instant")
+    if sigmas.shape != values.shape:
+        raise InvalidParameterError("sigmas", f"expected {k} sigmas for {k} instants, got {sigmas.size}")
+    labels = tuple(labels) if labels is not None else tuple(f"instant {i + 1}" for i in range(k))
+    if len(labels) != k:
+        raise InvalidParameterError("labels", f"expected {k} labels for {k} instants, got {len(labels)}")
+    bad = np.flatnonzero(~np.isfinite(values) | ~np.isfinite(sigmas) | (sigmas <= 0))
+    if bad.size:
+        i = int(bad[0])
+        raise InvalidParameterError(name, f"{labels[i]}: {values[i]:g} ± {sigmas[i]:g} {unit} is not a measured "
+                                          "value with a positive sigma")
+    common_sigma = float(common_sigma)
+    if not np.isfinite(common_sigma) or common_sigma < 0:
+        raise InvalidParameterError("common_sigma", f"must be ≥ 0 and finite, got {common_sigma:g}")
+    if calibrations is not None:
+        calibrations = list(calibrations)
+        if len(calibrations) != k:
+            raise InvalidParameterError("calibrations", f"expected {k} for {k} instants, got {len(calibrations)}")
+        first = calibrations[0]
+        other = next((i for i, c in enumerate(calibrations) if c != first), None)
+        if other is not None:
+            raise InvalidParameterError(
+                "instants", f"{labels[0]} was measured with calibration {first} but {labels[other]} with "
+                            f"calibration {calibrations[other]}: instants of one object must share one calibration "
+                            "(re-measure them with one, or keep them as separate objects)")
+    variances = sigmas ** 2
+    mean, variance, tau2, q, fixed_variance = _random_effects(values, variances)
+    total = variance + common_sigma ** 2
+    between = max(0.0, variance - fixed_variance) / total if total > 0 else 0.0
+    residuals = np.full(k, np.nan)
+    if k >= 3:
+        for i in range(k):
+            keep = np.arange(k) != i
+            m, v, t2, _, _ = _random_effects(values[keep], variances[keep])
+            residuals[i] = (values[i] - m) / np.sqrt(variances[i] + t2 + v)
+    limit = float(stats.norm.isf(alpha / (2 * k)))
+    outliers = tuple(int(i) for i in np.flatnonzero(np.abs(residuals) > limit))
+    dof = k - 1
+    p_value = float(stats.chi2.sf(q, dof)) if dof > 0 else 1.0
+    return CombinedFigure(name, unit, mean, float(np.sqrt(total)), k, float(np.sqrt(tau2)), float(between), q, dof,
+                          p_value, residuals, limit, outliers, labels)
+
+
+def combine_instants(instants: Sequence[Sequence[Figure]], common_sigmas: dict[str, float] | None = None,
+                     labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
+                     ) -> tuple[CombinedFigure, ...]:
+    """Every figure of an object measured on several instants, combined figure by figure.
+
+    ``instants``: per instant the figures of the one figure function (the same names in each);
+    ``common_sigmas``: figure name → the sigma common to all instants (default 0); ``labels`` and
+    ``calibrations`` as :func:`combine_figure`. Returns the combined figures in the first instant's order."""
+    if not instants:
+        raise InvalidParameterError("instants", "none given: an object needs at least one instant")
+    names = [f.name for f in instants[0]]
+    for i, figures in enumerate(instants[1:], 1):
+        if [f.name for f in figures] != names:
+            label = labels[i] if labels is not None else f"instant {i + 1}"
+            raise InvalidParameterError("instants", f"{label} has the figures {[f.name for f in figures]}, "
+                                                    f"the first instant {names}: one object is one kind")
+    common_sigmas = common_sigmas or {}
+    combined = []
+    for j, name in enumerate(names):
+        figures = [fs[j] for fs in instants]
+        combined.append(combine_figure([f.value for f in figures], [f.sigma for f in figures],
+                                       common_sigmas.get(name, 0.0), name, figures[0].unit, labels, calibrations))
+    return tuple(combined)
+
+
+def combine_measurements(measurements: Sequence[Measurement], independent: Sequence[Measurement] | None = None,
+                         labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
+                         rules: QualityRules | None = None) -> Measurement:
+    """One object from its instants' measurements (each from the one figure function): the first
+    instant's with its figures replaced by the combined ones and ``combined`` set, its ray RMS and range
+    the largest of the instants', and the quality rules checked on the combined main figure.
+
+    ``independent``: the same instants measured with their pointing covariance only (no calibration
+    part); each figure's part common to the instants is then the mean of σ²_total − σ²_pointing and the
+    instants are weighted by their pointing sigmas. Without it the instants' sigmas are taken as
+    independent (correct when the calibration's part is negligible or not known). One measurement is
+    returned as it is."""
+    if not measurements:
+        raise InvalidParameterError("instants", "none given: an object needs at least one instant")
+    first = measurements[0]
+    if len(measurements) == 1:
+        return first
+    kinds = {m.kind for m in measurements}
+    if len(kinds) > 1:
+        raise InvalidParameterError("instants", f"of different kinds ({', '.join(sorted(kinds))}): one object is "
+                                                "one kind")
+    weights = measurements
+    common: dict[str, float] = {}
+    if independent is not None:
+        if len(independent) != len(measurements):
+            raise InvalidParameterError("independent", f"expected {len(measurements)} measurements, got "
+                                                       f"{len(independent)}")
+        weights = independent
+        for j, figure in enumerate(first.figures):
+            parts = [m.figures[j].sigma ** 2 - p.figures[j].sigma ** 2
+                     for m, p in zip(measurements, independent, strict=True)]
+            common[figure.name] = float(np.sqrt(max(0.0, float(np.mean(parts)))))
+    instants = [tuple(Figure(f.name, f.value, max(p.sigma, 1e-15), f.unit) for f, p in zip(m.figures, w.figures,
+                                                                                        strict=True))
+                for m, w in zip(measurements, weights, strict=True)]
+    combined = combine_instants(instants, common, labels, calibrations)
+    figures = tuple(c.figure for c in combined)
+    rms = [m.ray_rms_m for m in measurements if m.ray_rms_m is not None]
+    ranges = [m.range_m for m in measurements if m.range_m is not None]
+    ray_rms = max(rms) if rms else None
+    range_m = max(ranges) if ranges else None
+    measurement_kind = kind_named(first.kind)
+    main = next(f for f in figures if f.name == measurement_kind.main_name())
+    failures = (rules or QualityRules()).check(main, ray_rms, range_m, relative=measurement_kind.relative_rule)
+    return replace(first, figures=figures, failures=tuple(failures), ray_rms_m=ray_rms, range_m=range_m,
+                   joint=all(m.joint for m in measurements), combined=combined)

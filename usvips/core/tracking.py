@@ -1,0 +1,278 @@
+"""Tracking a picked vertex through a stereo video, frame by frame, in both cameras.
+
+From a vertex picked on one instant (its left and right pixels on frame ``start``), the left point is
+followed by pyramidal Lucas–Kanade optical flow (``cv2.calcOpticalFlowPyrLK``) with a forward–backward
+check; the right point is followed the same way and then held to the refractive epipolar curve of the new
+left point (:func:`usvips.core.matching.epipolar_curve`): it is moved to the nearest point of the curve.
+Each frame-to-frame position is refined against the start frame's window (LK from the start frame with the
+frame-to-frame position as its first guess, kept when it converges within a pixel), so that the small
+errors of successive steps do not add up to a drift. Each step is scored by the normalised
+cross-correlation of the point's window with its window on the frame before, in each camera. The track
+stops, saying why, when the point
+
+- leaves the frame (its window would leave the image) — ``leaves the frame``;
+- is lost by the flow or fails the forward–backward check — ``lost``;
+- changes appearance (occluded, or turned away): correlation below ``min_score`` — ``correlation too low``;
+- is tracked in the right image off the epipolar curve by more than ``max_epipolar_px``, or the stereo ray
+  RMS of the unconstrained pair jumps above ``rms_jump`` × the track's median (and ``min_rms_m``) —
+  ``ray RMS jumps``;
+- has no frame (the frame source raised a UsvipsError: no partner frame, end of the video) — its message;
+- or the work is cancelled — ``cancelled``.
+
+Pure: the frames come from a callable ``frames(index) -> (left, right)`` (the application decodes, and
+pairs each left frame with its partner right frame); ``cancel()`` is asked before every frame and
+``progress(done, total)`` told after it, so that a worker thread can run it with a cancel that stops it.
+Pixels: x right, y down, origin at the centre of the top-left pixel; frames are indices of the left video.
+
+Known limit: the window must lie on the object. A window over its outline (a snout tip, a tail fork
+against a textured background) is pulled by the background, which does not move with it: track points
+of the body, or expect up to a pixel of bias at the outline.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from usvips.core import validation
+from usvips.core.enhance import luminance
+from usvips.core.errors import InvalidParameterError, UsvipsError
+from usvips.core.intersection import intersect
+from usvips.core.matching import epipolar_curve
+from usvips.core.rig import StereoRig
+
+FrameSource = Callable[[int], tuple[np.ndarray, np.ndarray]]
+
+LEAVES, LOST, LOW, RMS, CANCELLED, END = ("leaves the frame", "lost", "correlation too low", "ray RMS jumps",
+                                          "cancelled", "reached the end")
+
+
+@dataclass(frozen=True)
+class TrackSettings:
+    """``window``: the side (odd, px) of the correlation window and of the flow's window; ``levels``:
+    pyramid levels of the flow; ``min_score``: the NCC (−1..1) below which the point is taken as lost
+    (occluded); ``max_fb_px``: the largest forward–backward disagreement (px); ``max_epipolar_px``: the
+    largest distance (px) of the right flow from the epipolar curve; ``rms_jump``, ``min_rms_m``: the
+    ray-RMS stop (× the median so far, and at least this many metres); ``min_contrast``: the standard
+    deviation (grey levels) below which a start window is featureless."""
+
+    window: int = 15
+    levels: int = 3
+    min_score: float = 0.75
+    max_fb_px: float = 0.5
+    max_epipolar_px: float = 3.0
+    rms_jump: float = 4.0
+    min_rms_m: float = 0.005
+    min_contrast: float = 6.0
+
+    def __post_init__(self) -> None:
+        if int(self.window) < 7 or int(self.window) % 2 == 0:
+            raise InvalidParameterError("window", f"must be odd and >= 7, got {self.window}")
+        if not -1.0 < self.min_score < 1.0:
+            raise InvalidParameterError("min_score", f"must lie between -1 and 1, got {self.min_score}")
+        for name in ("max_fb_px", "max_epipolar_px", "rms_jump", "min_rms_m", "min_contrast"):
+            validation.positive(name, getattr(self, name))
+
+
+@dataclass(frozen=True)
+class Track:
+    """A vertex tracked through frames: ``frames`` (M,) in increasing order, ``left`` and ``right`` (M, 2)
+    pixels, ``scores`` (M, 2) the left and right correlation with the frame before (1 at the start
+    frame), ``ray_rms_m`` (M,) the stereo ray RMS of the unconstrained pair (m); ``start`` the frame
+    picked; ``stopped``: (direction, last frame tracked, reason) for backward (−1) and forward (+1)."""
+
+    frames: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    scores: np.ndarray
+    ray_rms_m: np.ndarray
+    start: int
+    stopped: tuple[tuple[int, int, str], ...]
+
+    def at(self, frame: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The left and right pixels on ``frame``; None where the track does not reach."""
+        found = np.flatnonzero(self.frames == int(frame))
+        return (self.left[found[0]], self.right[found[0]]) if found.size else None
+
+    def reason(self, direction: int) -> str:
+        """Why the track stopped going ``direction`` (+1 forward, −1 backward); '' when not tracked."""
+        return next((why for d, _, why in self.stopped if d == direction), "")
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    grey = luminance(image) if image.ndim == 3 else image
+    return np.ascontiguousarray(grey if grey.dtype == np.uint8 else np.clip(grey, 0, 255).astype(np.uint8))
+
+
+def _window(image: np.ndarray, point: np.ndarray, size: int) -> np.ndarray:
+    return cv2.getRectSubPix(image, (size, size), (float(point[0]), float(point[1]))).astype(np.float32)
+
+
+def _ncc(a: np.ndarray, b: np.ndarray) -> float:
+    a = a - a.mean()
+    b = b - b.mean()
+    denominator = float(np.sqrt((a * a).sum() * (b * b).sum()))
+    return float((a * b).sum() / denominator) if denominator > 0 else 0.0
+
+
+def _inside(point: np.ndarray, shape: tuple[int, ...], margin: float) -> bool:
+    h, w = shape[:2]
+    return bool(margin <= point[0] <= w - 1 - margin and margin <= point[1] <= h - 1 - margin)
+
+
+def _flow(previous: np.ndarray, following: np.ndarray, point: np.ndarray, settings: TrackSettings
+          ) -> tuple[np.ndarray | None, float]:
+    """The point's position on ``following`` by LK, and its forward–backward disagreement (px)."""
+    size = (int(settings.window), int(settings.window))
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
+    start = point.astype(np.float32).reshape(1, 1, 2)
+    ahead, status, _ = cv2.calcOpticalFlowPyrLK(previous, following, start, None, winSize=size,
+                                                maxLevel=settings.levels, criteria=criteria)
+    if ahead is None or not status[0, 0]:
+        return None, np.inf
+    back, status_back, _ = cv2.calcOpticalFlowPyrLK(following, previous, ahead, None, winSize=size,
+                                                    maxLevel=settings.levels, criteria=criteria)
+    if back is None or not status_back[0, 0]:
+        return None, np.inf
+    return ahead.reshape(2).astype(np.float64), float(np.linalg.norm(back.reshape(2) - start.reshape(2)))
+
+
+def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, guess: np.ndarray,
+            settings: TrackSettings) -> np.ndarray:
+    """The frame-to-frame position refined against the start frame's window (no drift accumulates):
+    LK from the start frame with ``guess`` as initial flow, kept when it converges within 1 px of it."""
+    size = (int(settings.window), int(settings.window))
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
+    refined, status, _ = cv2.calcOpticalFlowPyrLK(
+        anchor, current, anchor_point.astype(np.float32).reshape(1, 1, 2), guess.astype(np.float32).reshape(1, 1, 2),
+        winSize=size, maxLevel=0, criteria=criteria, flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
+    if refined is None or not status[0, 0]:
+        return guess
+    refined = refined.reshape(2).astype(np.float64)
+    return refined if np.linalg.norm(refined - guess) < 1.0 else guess
+
+
+def _nearest_on(curve_pixels: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, float]:
+    """The nearest point of a polyline to ``point`` and its distance (px)."""
+    if len(curve_pixels) == 1:
+        return curve_pixels[0], float(np.linalg.norm(curve_pixels[0] - point))
+    a, b = curve_pixels[:-1], curve_pixels[1:]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+    candidates = a + t[:, None] * ab
+    distances = np.linalg.norm(candidates - point, axis=1)
+    best = int(np.argmin(distances))
+    return candidates[best], float(distances[best])
+
+
+def check_trackable(image: np.ndarray, point, settings: TrackSettings | None = None, what: str = "left") -> None:
+    """Refuse a start point whose window is featureless or too near the edge (an
+    :class:`InvalidParameterError` naming the point and why)."""
+    settings = settings or TrackSettings()
+    point = validation.finite_vector(f"{what} pixel", point, 2)
+    grey = _grey(image)
+    if not _inside(point, grey.shape, settings.window / 2 + 1):
+        raise InvalidParameterError(f"{what} pixel", f"({point[0]:.1f}, {point[1]:.1f}) is too near the edge of "
+                                                     f"the image to track with a {settings.window} px window")
+    patch = _window(grey, point, int(settings.window))
+    eigen = cv2.cornerMinEigenVal(patch, 5).astype(np.float64)
+    if float(patch.std()) < settings.min_contrast or float(np.median(eigen)) < 1e-3 * settings.min_contrast ** 2:
+        raise InvalidParameterError(f"{what} pixel", f"({point[0]:.1f}, {point[1]:.1f}) is on a featureless patch "
+                                                     f"(contrast {patch.std():.1f} grey levels over "
+                                                     f"{settings.window} px): pick a textured point to track")
+
+
+def track_vertex(frames: FrameSource, rig: StereoRig, start: int, left, right, first: int, last: int,
+                 settings: TrackSettings | None = None, cancel: Callable[[], bool] | None = None,
+                 progress: Callable[[int, int], None] | None = None, near: float = 0.2, far: float = 30.0) -> Track:
+    """Follow the vertex picked at ``left``/``right`` (px) on frame ``start`` backward to ``first`` and
+    forward to ``last`` (inclusive) through ``frames`` with the cameras of ``rig`` (see the module
+    docstring). ``near``/``far``: the depths (m along the left ray) the epipolar curve spans. A
+    featureless or edge start is an :class:`InvalidParameterError`."""
+    settings = settings or TrackSettings()
+    start, first, last = int(start), int(first), int(last)
+    if not first <= start <= last:
+        raise InvalidParameterError("start", f"frame {start} is not within frames {first} to {last}")
+    left = validation.finite_vector("left pixel", left, 2)
+    right = validation.finite_vector("right pixel", right, 2)
+    images = frames(start)
+    greys = (_grey(images[0]), _grey(images[1]))
+    check_trackable(greys[0], left, settings, "left")
+    check_trackable(greys[1], right, settings, "right")
+    start_rms = _ray_rms(rig, left, right)
+    total = max(last - first, 1)
+    done = [0]
+    rows = {start: (left, right, (1.0, 1.0), start_rms)}
+    stopped = []
+    for direction, end in ((-1, first), (1, last)):
+        if end == start:
+            stopped.append((direction, start, END))
+            continue
+        frame, why = _follow(frames, rig, start, greys, left, right, direction, end, settings, cancel, progress,
+                             total, done, rows, near, far)
+        stopped.append((direction, frame, why))
+        if why == CANCELLED:
+            break
+    order = sorted(rows)
+    return Track(np.array(order), np.array([rows[f][0] for f in order]), np.array([rows[f][1] for f in order]),
+                 np.array([rows[f][2] for f in order], float), np.array([rows[f][3] for f in order], float),
+                 start, tuple(stopped))
+
+
+def _ray_rms(rig: StereoRig, left: np.ndarray, right: np.ndarray) -> float:
+    result = intersect([rig.left, rig.right], [left[None], right[None]])
+    if not result.ok[0]:
+        return float("inf")
+    return float(np.sqrt(np.mean(result.residuals_m[0] ** 2)))
+
+
+def _follow(frames, rig, start, greys, left, right, direction, end, settings, cancel, progress, total, done, rows,
+            near, far) -> tuple[int, str]:
+    """One direction of :func:`track_vertex`: (the last frame tracked, why it stopped)."""
+    margin = settings.window / 2 + 1
+    size = int(settings.window)
+    previous, point_l, point_r, frame = greys, left, right, start
+    rms_history = [rows[start][3]]
+    while frame != end:
+        if cancel is not None and cancel():
+            return frame, CANCELLED
+        following = frame + direction
+        try:
+            images = frames(following)
+        except UsvipsError as error:
+            return frame, str(error)
+        current = (_grey(images[0]), _grey(images[1]))
+        new_l, fb_l = _flow(previous[0], current[0], point_l, settings)
+        new_r, fb_r = _flow(previous[1], current[1], point_r, settings)
+        if new_l is not None and new_r is not None:
+            new_l = _refine(greys[0], left, current[0], new_l, settings)
+            new_r = _refine(greys[1], right, current[1], new_r, settings)
+        done[0] += 1
+        if progress is not None:
+            progress(done[0], total)
+        for new in (new_l, new_r):
+            if new is not None and not _inside(new, current[0].shape, margin):
+                return frame, LEAVES
+        if new_l is None or new_r is None or fb_l > settings.max_fb_px or fb_r > settings.max_fb_px:
+            return frame, LOST
+        score_l = _ncc(_window(previous[0], point_l, size), _window(current[0], new_l, size))
+        score_r = _ncc(_window(previous[1], point_r, size), _window(current[1], new_r, size))
+        if min(score_l, score_r) < settings.min_score:
+            return frame, LOW
+        curve = epipolar_curve(rig.left, rig.right, new_l, near=near, far=far, samples=400)
+        if len(curve.pixels) == 0:
+            return frame, RMS
+        held, off = _nearest_on(curve.pixels, new_r)
+        rms = _ray_rms(rig, new_l, new_r)
+        typical = float(np.median(rms_history))
+        if off > settings.max_epipolar_px or rms > max(settings.min_rms_m, settings.rms_jump * typical):
+            return frame, RMS
+        if not _inside(held, current[1].shape, margin):
+            return frame, LEAVES
+        rms_history.append(rms)
+        rows[following] = (new_l, held, (score_l, score_r), rms)
+        previous, point_l, point_r, frame = current, new_l, held, following
+    return frame, END
