@@ -211,8 +211,8 @@ def test_coverage_advice_names_what_is_missing():
     report = views.coverage(right_half, board(), focal_px=FOCAL)
     text = "\n".join(report.advice)
     assert "only 6 views: film at least 15" in text
-    assert "nothing in the upper left of the left image" in text
-    assert "nothing in the lower left of the right image" in text
+    assert "nothing in the upper left, left and lower left of the left image" in text
+    assert "nothing in the upper left, left and lower left of the right image" in text
     assert "tilt the board more" in text
     assert "vary the distance" in text
     assert report.left.counts.shape == (6, 8) and report.left.counts[:, :2].sum() == 0

@@ -349,6 +349,11 @@ def select_views(views: Sequence[StereoView], max_views: int, target: ControlPoi
 
 
 # ---------------------------------------------------------------------------------------------- coverage
+def _listed(words: list[str]) -> str:
+    """"a", "a and b", "a, b and c"."""
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
 @dataclass(frozen=True)
 class CameraCoverage:
     """One camera's coverage by a set of views.
@@ -441,13 +446,12 @@ def coverage(views: Sequence[StereoView], target: ControlPoints | None = None,
         advice.append(f"only {len(views)} view{'s' if len(views) != 1 else ''}: film at least {recommended_views}")
     if views:
         for cam in cameras:
-            shares = cam.region_shares()
-            for r in range(3):
-                for c in range(3):
-                    if shares[r, c] == 0:
-                        advice.append(f"nothing in the {_REGION_NAMES[r][c]} of the {cam.camera} image")
-                    elif shares[r, c] < 0.5:
-                        advice.append(f"little in the {_REGION_NAMES[r][c]} of the {cam.camera} image")
+            shares = cam.region_shares().ravel()
+            names = [name for row in _REGION_NAMES for name in row]
+            for word, empty in (("nothing", shares == 0), ("little", (shares > 0) & (shares < 0.5))):
+                if empty.any():
+                    advice.append(f"{word} in the {_listed([n for n, e in zip(names, empty, strict=True) if e])} "
+                                  f"of the {cam.camera} image")
         tilts = np.concatenate([left.tilts, right.tilts])
         if np.isfinite(tilts).any():
             largest = float(np.degrees(np.nanmax(tilts)))
