@@ -15,15 +15,18 @@ and raises :class:`InterruptedError` (as a cancelled proxy build does). Nothing 
 
 from __future__ import annotations
 
+import json
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 from usvips.app.video_project import VideoError, open_streams
 from usvips.core import calibration_views
-from usvips.core.calibration_targets import CalibrationTarget, StereoView
+from usvips.core.calibration_targets import CalibrationTarget, StereoView, from_description, stereo_observations
 from usvips.core.calibration_views import Coverage
-from usvips.core.errors import InvalidParameterError
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.io.tables import write_observations
 from usvips.io.video_stream import PairReader, VideoStream
 from usvips.store.interface import ProjectStore
 
@@ -145,3 +148,46 @@ def scan_video(project: ProjectStore, label: str, target: CalibrationTarget, eve
     with left, right:
         return scan_streams(left, right, int(video["offset_frames"]), target, label, every, max_views,
                             max_blur_px, duplicate_px, focal_px, progress, cancel)
+
+
+def read_target(path: str | Path) -> CalibrationTarget:
+    """The calibration target described in the JSON file ``path`` (``{"kind": …, …}``: see
+    :mod:`usvips.core.calibration_targets`); errors name the file."""
+    path = Path(path)
+    try:
+        description = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputFileError(str(path), "no such target file") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise InputFileError(str(path), f"not a JSON target description ({error})") from None
+    try:
+        return from_description(description, str(path))
+    except InputFileError:
+        raise
+    except UsvipsError as error:
+        raise InputFileError(str(path), str(error)) from None
+
+
+def write_views(path: str | Path, views: Sequence[StereoView]) -> int:
+    """Write ``views`` as an observations CSV (``id,xl,yl,xr,yr,pair``; pair = the view's label; the points
+    found in both images), atomically; returns the rows written."""
+    observations = stereo_observations(list(views))
+    write_observations(path, observations)
+    return len(observations)
+
+
+def views_from_video(project: ProjectStore, label: str, target: CalibrationTarget | str | Path,
+                      out: str | Path | None = None,
+                      every: int = 5, max_views: int = DEFAULT_MAX_VIEWS,
+                      max_blur_px: float = calibration_views.MAX_EDGE_WIDTH_PX, focal_px: float | None = None,
+                      progress: Progress | None = None, cancel: Cancel | None = None) -> VideoViews:
+    """The one call for the command line and the wizard: the target (or its description file, read by
+    :func:`read_target`), the project's video ``label`` scanned (:func:`scan_video`) and, if ``out`` is
+    given, the chosen views written there (:func:`write_views`). Nothing is stored in the project."""
+    if not isinstance(target, CalibrationTarget):
+        target = read_target(target)
+    result = scan_video(project, label, target, every, max_views, max_blur_px, focal_px=focal_px, progress=progress,
+                        cancel=cancel)
+    if out is not None:
+        write_views(out, result.views)
+    return result
