@@ -135,3 +135,33 @@ def test_bad_clicks_are_named():
         find_field(image, control, some, shape="square")
     with pytest.raises(InvalidParameterError, match="clicks"):
         find_field(image, control, (list(some), np.zeros((3, 2))))
+
+
+@pytest.mark.parametrize("housing,calibrated,distance", [("air", False, 1.8), ("air", True, 1.8),
+                                                         ("flat-port", True, 2.6)])
+def test_a_misnamed_click_is_doubtful_and_spoils_nothing(housing, calibrated, distance):
+    """Eight clicks, one of them on a target but under another target's id: that click is doubtful
+    ("check its id"), the target actually clicked is found under its own id, no other is misplaced."""
+    rng = np.random.default_rng(60 + calibrated + 5 * (housing != "air"))
+    control = field(rng)
+    camera = camera_at(rng, HOUSINGS[housing], distance)
+    image = picture(camera, control, 1, housing != "air")
+    true, visible = truth(camera, control)
+    order = rng.permutation(np.flatnonzero(visible))
+    clicked, real = order[:8], order[8]
+    wrong = clicked[0]  # the user names `wrong` but clicks on `real`
+    assert np.hypot(*(true[wrong] - true[real])) > 40
+    clicks = {control.ids[i]: true[i] + rng.uniform(-2, 2, 2) for i in clicked}
+    clicks[control.ids[wrong]] = true[real] + rng.uniform(-2, 2, 2)
+    earlier = camera.with_exterior(Exterior(0.0, 0.0, 1.0)) if calibrated else None
+    search = find_field(image, control, clicks, earlier)
+    by_id = {p.id: p for p in search.points}
+    assert by_id[control.ids[wrong]].status == "doubtful"
+    assert "check its id" in by_id[control.ids[wrong]].reason
+    assert by_id[control.ids[real]].status == "found"
+    found = 0
+    for i, pid in enumerate(control.ids):
+        if by_id[pid].status == "found":
+            assert np.hypot(*(np.array(by_id[pid].pixel) - true[i])) < 0.5, pid
+            found += visible[i]
+    assert found >= 0.9 * (visible.sum() - 1)

@@ -11,13 +11,16 @@ predicted and snapped with the sub-pixel locators of :mod:`usvips.core.targets`:
   housing held (least squares on the six exterior parameters from a PnP start), and every target is
   projected through the housing.
 
-The clicks are snapped first; the model is then refitted from all targets found and the rest predicted
-again (``rounds`` times), so that a DLT's neglect of lens distortion shrinks to the local misfit. Each
-target ends as:
+The clicks are snapped first and the model fitted to them robustly (a robust DLT from eight clicks on,
+a Cauchy loss in a resection), so that one click under the wrong id does not spoil it; the model is then
+refitted from all targets found (``rounds`` times), leaving out clicks far from where the others put
+them, and the rest predicted again, so that a DLT's neglect of lens distortion shrinks to the local
+misfit. Each target ends as:
 
 * ``found``: snapped (a good quality, one candidate) within the tolerance of its prediction;
 * ``doubtful``: snapped, but far from its prediction, of low quality, sharing its target with another
-  id, or the locator saw two targets there — for the user to confirm or move;
+  id, or the locator saw two targets there (or one running out of its window); a click far from where
+  the other targets put it ("check its id") — for the user to confirm or move;
 * ``missing``: predicted outside the image or behind the camera, or the locator found nothing there.
 
 Pixels: x right, y down, origin at the centre of the top-left pixel; control in metres.
@@ -109,13 +112,13 @@ class _Model:
 
 
 class _Projective(_Model):
-    def __init__(self, xyz: np.ndarray, pixels: np.ndarray, planar_frame) -> None:
+    def __init__(self, xyz: np.ndarray, pixels: np.ndarray, planar_frame, robust: bool = False) -> None:
         self.frame = planar_frame
         if planar_frame is None:
-            result = dlt_module.dlt(xyz, pixels)
-            self.matrix = result.matrix
+            # from the clicks alone: a DLT that one misnamed click cannot spoil (it needs eight or more)
+            self.matrix = (dlt_module.robust_dlt if robust else dlt_module.dlt)(xyz, pixels).matrix
         else:
-            homography, _ = cv2.findHomography(self._plane(xyz), pixels, 0)
+            homography, _ = cv2.findHomography(self._plane(xyz), pixels, cv2.LMEDS if robust and len(xyz) > 5 else 0)
             if homography is None:
                 raise DegenerateGeometryError("the clicked targets do not fix a homography (three in a line?)")
             self.matrix = homography
@@ -137,13 +140,17 @@ class _Projective(_Model):
 
 
 class _Resected(_Model):
-    """A calibrated camera (interior and housing held) whose exterior is resected from the targets."""
+    """A calibrated camera (interior and housing held) whose exterior is resected from the targets. With
+    ``robust`` (the clicks alone) the start is a RANSAC PnP and only its inliers are fitted, so that a click
+    under the wrong id does not pull the pose."""
 
-    def __init__(self, camera: Camera, xyz: np.ndarray, pixels: np.ndarray, start: Exterior | None = None) -> None:
-        start = _pnp_start(camera, xyz, pixels) if start is None else start
+    def __init__(self, camera: Camera, xyz: np.ndarray, pixels: np.ndarray, start: Exterior | None = None,
+                 robust: bool = False) -> None:
+        if start is None or robust:
+            start, inliers = _pnp_start(camera, xyz, pixels, robust)
+            xyz, pixels = xyz[inliers], pixels[inliers]
         names = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
         x0 = np.array([getattr(start, n) for n in names])
-
         free = Camera(camera.interior, start, camera.housing)  # no frame check: a click may sit on the edge
 
         def residuals(values: np.ndarray) -> np.ndarray:
@@ -161,18 +168,33 @@ class _Resected(_Model):
         return projection.pixels, projection.ok
 
 
-def _pnp_start(camera: Camera, xyz: np.ndarray, pixels: np.ndarray) -> Exterior:
+#: RANSAC's threshold on the clicks in normalised coordinates (the housing's refraction is not modelled
+#: in the start: a flat port's misfit reaches about 1 % of the focal length; a misnamed click is far more)
+_START_THRESHOLD = 0.02
+
+
+def _pnp_start(camera: Camera, xyz: np.ndarray, pixels: np.ndarray, robust: bool) -> tuple[Exterior, np.ndarray]:
     """A pose from OpenCV's PnP on the clicked pixels undistorted by the interior (the housing's
-    refraction ignored: a start only)."""
+    refraction ignored: a start only), and which clicks agree with it (all, unless ``robust``)."""
     uv = camera.interior.pixels_to_normalised(pixels)
-    image = np.column_stack([uv[:, 0], -uv[:, 1]])  # our camera frame (y up, z back) → OpenCV's
-    ok, rvec, tvec = cv2.solvePnP(xyz.reshape(-1, 1, 3), image.reshape(-1, 1, 2), np.eye(3), None,
-                                  flags=cv2.SOLVEPNP_SQPNP)
+    image = np.column_stack([uv[:, 0], -uv[:, 1]]).reshape(-1, 1, 2)  # our camera frame (y up, z back) → OpenCV's
+    objects = xyz.reshape(-1, 1, 3)
+    inliers = np.ones(len(xyz), bool)
+    ok, rvec, tvec = cv2.solvePnP(objects, image, np.eye(3), None, flags=cv2.SOLVEPNP_SQPNP)
+    if robust and len(xyz) >= 6:
+        found, r_ransac, t_ransac, index = cv2.solvePnPRansac(
+            objects, image, np.eye(3), None, iterationsCount=200, reprojectionError=_START_THRESHOLD,
+            confidence=0.999, flags=cv2.SOLVEPNP_EPNP)
+        if found and index is not None and len(index) >= 6:
+            inliers = np.zeros(len(xyz), bool)
+            inliers[index.ravel()] = True
+            ok, rvec, tvec = cv2.solvePnP(objects[inliers], image[inliers], np.eye(3), None,
+                                          flags=cv2.SOLVEPNP_SQPNP)
     if not ok:
         raise DegenerateGeometryError("the clicked targets do not fix the camera's pose")
     rotation = cv2.Rodrigues(rvec)[0]
     centre = -rotation.T @ tvec.ravel()
-    return Exterior(*centre, *angles_from_matrix(dlt_module.FLIP @ rotation))
+    return Exterior(*centre, *angles_from_matrix(dlt_module.FLIP @ rotation)), inliers
 
 
 def _planar_frame(xyz: np.ndarray):
@@ -215,7 +237,7 @@ def _snap(image: np.ndarray, pixel: np.ndarray, size: tuple[int, int], shape: st
 
 def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera | None = None,
                shape: str = "disc", window: int | None = None, tolerance_px: float = TOLERANCE_PX,
-               rounds: int = 2) -> FieldSearch:
+               rounds: int = 1) -> FieldSearch:
     """Find every target of ``control`` in ``image`` from the user's ``clicks`` (a mapping id → (x, y), or
     (ids, pixels (N, 2))), see the module's notes.
 
@@ -223,8 +245,9 @@ def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera
     clicks cannot give one; its interior and housing are held); None in air for a DLT. ``shape``: the
     targets' kind, "disc" or "cross". ``window`` (px) of the locator; by default from the clicked targets'
     size (discs: four times their radius plus 16 px, at least 21; crosses 41). ``tolerance_px``: a target
-    further than this from its prediction is doubtful (or than four times the robust spread of the found
-    targets about the model, when larger: an uncalibrated lens)."""
+    further than this from its prediction is doubtful (without a camera, an uncalibrated lens: or than four
+    times the robust spread of the found targets about the DLT, when larger, up to three times the
+    tolerance)."""
     if shape not in LOCATORS:
         raise InvalidParameterError("shape", f"unknown target shape {shape!r}; known: {', '.join(LOCATORS)}")
     if not tolerance_px > 0:
@@ -258,9 +281,11 @@ def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera
     results: list[TargetResult] = []
     predicted = visible = None
     model: _Model | None = None
-    for _ in range(max(1, int(rounds))):
-        model = (_Resected(camera, xyz_all[fit_index], fit_pixels, None if model is None else model.camera.exterior)
-                 if camera is not None else _Projective(xyz_all[fit_index], fit_pixels, planar))
+    for round_ in range(max(1, int(rounds)) + 1):
+        first = round_ == 0
+        model = (_Resected(camera, xyz_all[fit_index], fit_pixels, None if model is None else model.camera.exterior,
+                           robust=first)
+                 if camera is not None else _Projective(xyz_all[fit_index], fit_pixels, planar, robust=first))
         predicted, visible = model.predict(xyz_all, size)
         results = [_snap(image, p, size, shape, window, least) if v else TargetResult(None, 0.0, "behind the camera")
                    for p, v in zip(predicted, visible, strict=True)]
@@ -268,29 +293,36 @@ def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera
         good[clicked_index] = True
         located = np.array([r.center if r else (np.nan, np.nan) for r in results], dtype=np.float64)
         located[clicked_index] = click_pixels
-        near = good & (np.linalg.norm(located - predicted, axis=1) <= _limit(located, predicted, good, tolerance_px))
-        near[clicked_index] = True
-        fit_index = np.flatnonzero(near)
+        limit = _limit(located, predicted, good, tolerance_px, camera is None)
+        near = good & (np.linalg.norm(located - predicted, axis=1) <= limit)
+        fit_index = np.flatnonzero(near)  # a click far from where the others put it is left out of the next fit
+        if len(fit_index) < minimum + 2:
+            fit_index = clicked_index
         fit_pixels = located[fit_index]
     points, rms = _classify(control, ids, clicked_index, click_pixels, snapped, predicted, visible, results,
-                            tolerance_px, shape)
+                            tolerance_px, shape, camera is None)
     return FieldSearch(tuple(points), size, model.camera, model.matrix, rms, tuple(notes))
 
 
-def _limit(located: np.ndarray, predicted: np.ndarray, good: np.ndarray, tolerance_px: float) -> float:
-    """The distance (px) from its prediction beyond which a target is doubtful: the tolerance, or four
-    times the robust spread (1.4826 · median absolute distance) of the located targets when larger."""
+def _limit(located: np.ndarray, predicted: np.ndarray, good: np.ndarray, tolerance_px: float,
+           adaptive: bool) -> float:
+    """The distance (px) from its prediction beyond which a target is doubtful: the tolerance, or (for an
+    uncalibrated lens, ``adaptive``) four times the robust spread (1.4826 · median distance) of the
+    located targets when larger, up to three times the tolerance."""
+    if not adaptive:
+        return tolerance_px
     distances = np.linalg.norm(located[good] - predicted[good], axis=1)
     distances = distances[np.isfinite(distances)]
     spread = 1.4826 * float(np.median(distances)) if len(distances) else 0.0
-    return max(tolerance_px, 4.0 * spread)
+    return min(max(tolerance_px, 4.0 * spread), 3.0 * tolerance_px)
 
 
-def _classify(control, ids, clicked_index, click_pixels, snapped, predicted, visible, results, tolerance_px, shape):
+def _classify(control, ids, clicked_index, click_pixels, snapped, predicted, visible, results, tolerance_px, shape,
+              adaptive):
     clicked = dict(zip(clicked_index.tolist(), range(len(ids)), strict=True))
     located = np.array([r.center if r else (np.nan, np.nan) for r in results], dtype=np.float64)
     good = np.array([bool(r) for r in results])
-    limit = _limit(located, predicted, good, tolerance_px)
+    limit = _limit(located, predicted, good, tolerance_px, adaptive)
     # two ids snapped onto one target: both doubtful
     shared = np.zeros(len(results), bool)
     rows = np.flatnonzero(good)
@@ -305,9 +337,12 @@ def _classify(control, ids, clicked_index, click_pixels, snapped, predicted, vis
             k = clicked[i]
             quality = snapped[k].quality if snapped[k] else 0.0
             pixel = tuple(float(v) for v in click_pixels[k])
-            reason = "" if snapped[k] else f"as clicked ({snapped[k].reason})"
-            points.append(FieldPoint(pid, prediction, pixel, quality, "found" if snapped[k] else "doubtful", True,
-                                     reason))
+            reasons = [] if snapped[k] else [f"as clicked ({snapped[k].reason})"]
+            off = float(np.hypot(pixel[0] - prediction[0], pixel[1] - prediction[1])) if prediction else np.inf
+            if off > limit:
+                reasons.append(f"clicked, but {off:.1f} px from where the other targets put it: check its id")
+            points.append(FieldPoint(pid, prediction, pixel, quality, "doubtful" if reasons else "found", True,
+                                     "; ".join(reasons)))
             continue
         result = results[i]
         if not visible[i] or not result:
