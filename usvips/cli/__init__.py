@@ -21,6 +21,7 @@ from usvips.core.errors import UsvipsError
 COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure", "project", "render", "bench",
                              "calibration", "plan", "video")
 COMMANDS += ("batch",)
+COMMANDS += ("calibration_views",)  # after "video": it adds the action `video calibration-views`
 
 
 def build_parser() -> argparse.ArgumentParser:

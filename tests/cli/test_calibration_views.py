@@ -1,0 +1,47 @@
+"""``usvips video calibration-views``: the chosen views of a rendered calibration video written as an
+observations CSV that reads back, the coverage printed, and bad target files as one line, exit 2."""
+
+import json
+
+import pytest
+
+from tests.app.test_calibration_video import _film
+from tests.core.board_views import SectorChessboard
+from usvips.app import calibration_video
+from usvips.cli import main
+from usvips.io.tables import read_observations
+
+
+def test_views_written_as_observations(tmp_path, monkeypatch, capsys):
+    path, _, _, _ = _film(tmp_path, 5, 1)
+    target = tmp_path / "board.json"
+    target.write_text(json.dumps({"kind": "test-board"}))
+    read = []
+    monkeypatch.setattr(calibration_video, "read_target", lambda p: read.append(p) or SectorChessboard())
+    out = tmp_path / "views.csv"
+    code = main(["video", "calibration-views", str(path), "--pair", "cal", "--target", str(target), "--every", "2",
+                 "--max-views", "6", "--out", str(out), "--quiet"])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    assert read == [str(target)]
+    observations = read_observations(out)
+    assert len(observations.pair_labels) == 6
+    assert all(label.startswith("cal-") for label in observations.pair_labels)
+    assert len(observations) == 6 * 54
+    assert f"wrote {out}: 6 views, {6 * 54} observations" in printed.out
+    assert "6 views" in printed.out.splitlines()[1]
+    assert printed.err == ""
+
+
+@pytest.mark.parametrize("content,problem", [(None, "no such target file"), ("{", "not a JSON target description"),
+                                             ('{"kind": "no-such-kind"}', "unknown target kind 'no-such-kind'")])
+def test_a_bad_target_file_is_one_line(tmp_path, capsys, content, problem):
+    target = tmp_path / "target.json"
+    if content is not None:
+        target.write_text(content)
+    code = main(["video", "calibration-views", str(tmp_path / "p.usvips"), "--pair", "cal", "--target", str(target),
+                 "--out", str(tmp_path / "v.csv")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and str(target) in err and problem in err
+    assert not (tmp_path / "v.csv").exists()

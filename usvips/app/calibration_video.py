@@ -1,0 +1,193 @@
+"""Views of a calibration target from a project's synchronised stereo video.
+
+The board (or 3-D target) is moved in front of the rig while both cameras film. Every ``every``-th instant
+is decoded in both cameras (left frame ``i`` with right frame ``i + offset``, the stored offset of
+:mod:`usvips.app.video_project`), the target is detected in each, and an instant is kept when both
+cameras see enough of it, it is not blurred (:func:`usvips.core.calibration_views.edge_width`) and it does
+not repeat an instant already kept (:func:`~usvips.core.calibration_views.is_duplicate`). Of those, a
+diverse subset under a cap (:func:`~usvips.core.calibration_views.select_views`) becomes the views to
+calibrate from, with their coverage and advice.
+
+Long work: ``progress(fraction, message)`` after each instant, and ``cancel`` (a :class:`threading.Event`
+or a callable returning True) checked before each instant is decoded: a cancel stops the decoding there
+and raises :class:`InterruptedError` (as a cancelled proxy build does). Nothing is stored in the project.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from usvips.app.video_project import VideoError, open_streams
+from usvips.core import calibration_views
+from usvips.core.calibration_targets import CalibrationTarget, StereoView, from_description, stereo_observations
+from usvips.core.calibration_views import Coverage
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.io.tables import write_observations
+from usvips.io.video_stream import PairReader, VideoStream
+from usvips.store.interface import ProjectStore
+
+#: a view needs at least this many target points found in both images
+MINIMUM_POINTS = 6
+#: views kept when no cap is given
+DEFAULT_MAX_VIEWS = 30
+
+Progress = Callable[[float, str], None]
+Cancel = threading.Event | Callable[[], bool]
+
+
+@dataclass(frozen=True)
+class VideoViews:
+    """What a scan found.
+
+    ``views``: the chosen views, in frame order (label ``<video>-<left frame>``; source ``{"video",
+    "frame", "right_frame"}``); ``blur``: their edge widths (px, the blurrier camera); ``coverage`` of the
+    chosen views; and the tally: instants decoded, instants where both cameras saw the target,
+    rejected as blurred, rejected as near-duplicates."""
+
+    views: tuple[StereoView, ...]
+    blur: tuple[float, ...]
+    coverage: Coverage
+    scanned: int
+    seen: int
+    blurred: int
+    duplicates: int
+
+    def summary(self) -> list[str]:
+        """Lines for a person: the tally, then the coverage and its advice."""
+        return ([f"{self.scanned} instants scanned: the target seen by both cameras in {self.seen}, "
+                 f"{self.blurred} blurred, {self.duplicates} near-duplicates; {len(self.views)} views chosen"]
+                + self.coverage.summary())
+
+
+def _is_cancelled(cancel: Cancel | None) -> bool:
+    if cancel is None:
+        return False
+    if isinstance(cancel, threading.Event):
+        return cancel.is_set()
+    return bool(cancel())
+
+
+def scan_streams(left: VideoStream, right: VideoStream, offset: int, target: CalibrationTarget, label: str,
+                 every: int = 5, max_views: int = DEFAULT_MAX_VIEWS,
+                 max_blur_px: float = calibration_views.MAX_EDGE_WIDTH_PX,
+                 duplicate_px: float = calibration_views.DUPLICATE_PX, focal_px: float | None = None,
+                 progress: Progress | None = None, cancel: Cancel | None = None) -> VideoViews:
+    """Scan two opened streams (see the module's notes); ``label`` names the video in view labels and
+    messages. ``every`` (frames) between instants; ``max_views`` caps the views chosen; ``max_blur_px``
+    the edge width (px) beyond which an instant is blurred; ``duplicate_px`` the near-duplicate
+    tolerance (px); ``focal_px`` a focal length for the tilts (default: a guess, see
+    :func:`~usvips.core.calibration_views.view_geometry`). A video with no usable instant raises
+    :class:`VideoError` saying why."""
+    every, max_views, offset = int(every), int(max_views), int(offset)
+    if every < 1:
+        raise InvalidParameterError("every", f"must be at least 1 frame, got {every}")
+    if max_views < 1:
+        raise InvalidParameterError("max_views", f"must be at least 1, got {max_views}")
+    if not max_blur_px > 0:
+        raise InvalidParameterError("max_blur_px", f"must be a positive number of pixels, got {max_blur_px}")
+    first = max(0, -offset)
+    stop = min(left.frame_count, right.frame_count - offset)
+    instants = list(range(first, stop, every))
+    if not instants:
+        raise VideoError(f"video {label!r}: no left frame has a right partner with offset {offset} "
+                         f"({left.frame_count} left and {right.frame_count} right frames)")
+    points = target.control_points()
+    candidates: list[StereoView] = []
+    widths: list[float] = []
+    found = [0, 0]
+    seen = blurred = duplicates = scanned = 0
+    reader = PairReader(left, right)
+    try:
+        for n, frame in enumerate(instants):
+            if _is_cancelled(cancel):
+                raise InterruptedError(f"video {label!r}: scanning cancelled at frame {frame}")
+            pictures = reader.pictures(frame, frame + offset)
+            scanned += 1
+            detections = [target.detect(p.array(grey=True)) for p in pictures]
+            found[0] += bool(detections[0])
+            found[1] += bool(detections[1])
+            view = StereoView(f"{label}-{frame}", detections[0], detections[1],
+                              {"video": label, "frame": frame, "right_frame": frame + offset})
+            if detections[0] and detections[1] and len(view.common_ids()) >= MINIMUM_POINTS:
+                seen += 1
+                images = [p.array(grey=True) for p in pictures]
+                width = max(calibration_views.edge_width(image, d) for image, d in zip(images, detections, strict=True))
+                if not width <= max_blur_px:  # NaN (no contrast) counts as blurred
+                    blurred += 1
+                elif any(calibration_views.is_duplicate(kept, view, duplicate_px) for kept in candidates[-50:]):
+                    duplicates += 1
+                else:
+                    candidates.append(view)
+                    widths.append(width)
+            if progress is not None:
+                progress((n + 1) / len(instants), f"frame {frame}: {len(candidates)} views so far")
+    finally:
+        reader.close()
+    if not candidates:
+        raise VideoError(
+            f"video {label!r}: no usable instant among {scanned} (every {every} frames): the target was found in "
+            f"{found[0]} left and {found[1]} right frames, in both at {seen} instants, {blurred} of them blurred "
+            f"(edge width over {max_blur_px:g} px)")
+    chosen = calibration_views.select_views(candidates, max_views, points, blur=widths, focal_px=focal_px)
+    width_of = {v.label: w for v, w in zip(candidates, widths, strict=True)}
+    report = calibration_views.coverage(chosen, points, focal_px=focal_px)
+    return VideoViews(tuple(chosen), tuple(width_of[v.label] for v in chosen), report, scanned, seen, blurred,
+                      duplicates)
+
+
+def scan_video(project: ProjectStore, label: str, target: CalibrationTarget, every: int = 5,
+               max_views: int = DEFAULT_MAX_VIEWS, max_blur_px: float = calibration_views.MAX_EDGE_WIDTH_PX,
+               duplicate_px: float = calibration_views.DUPLICATE_PX, focal_px: float | None = None,
+               progress: Progress | None = None, cancel: Cancel | None = None) -> VideoViews:
+    """:func:`scan_streams` on the project's stereo video ``label``, with its stored offset."""
+    video, left, right = open_streams(project, label)
+    with left, right:
+        return scan_streams(left, right, int(video["offset_frames"]), target, label, every, max_views,
+                            max_blur_px, duplicate_px, focal_px, progress, cancel)
+
+
+def read_target(path: str | Path) -> CalibrationTarget:
+    """The calibration target described in the JSON file ``path`` (``{"kind": …, …}``: see
+    :mod:`usvips.core.calibration_targets`); errors name the file."""
+    path = Path(path)
+    try:
+        description = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputFileError(str(path), "no such target file") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise InputFileError(str(path), f"not a JSON target description ({error})") from None
+    try:
+        return from_description(description, str(path))
+    except InputFileError:
+        raise
+    except UsvipsError as error:
+        raise InputFileError(str(path), str(error)) from None
+
+
+def write_views(path: str | Path, views: Sequence[StereoView]) -> int:
+    """Write ``views`` as an observations CSV (``id,xl,yl,xr,yr,pair``; pair = the view's label; the points
+    found in both images), atomically; returns the rows written."""
+    observations = stereo_observations(list(views))
+    write_observations(path, observations)
+    return len(observations)
+
+
+def views_from_video(project: ProjectStore, label: str, target: CalibrationTarget | str | Path,
+                      out: str | Path | None = None,
+                      every: int = 5, max_views: int = DEFAULT_MAX_VIEWS,
+                      max_blur_px: float = calibration_views.MAX_EDGE_WIDTH_PX, focal_px: float | None = None,
+                      progress: Progress | None = None, cancel: Cancel | None = None) -> VideoViews:
+    """The one call for the command line and the wizard: the target (or its description file, read by
+    :func:`read_target`), the project's video ``label`` scanned (:func:`scan_video`) and, if ``out`` is
+    given, the chosen views written there (:func:`write_views`). Nothing is stored in the project."""
+    if not isinstance(target, CalibrationTarget):
+        target = read_target(target)
+    result = scan_video(project, label, target, every, max_views, max_blur_px, focal_px=focal_px, progress=progress,
+                        cancel=cancel)
+    if out is not None:
+        write_views(out, result.views)
+    return result
