@@ -123,21 +123,41 @@ def _inside(point: np.ndarray, shape: tuple[int, ...], margin: float) -> bool:
     return bool(margin <= point[0] <= w - 1 - margin and margin <= point[1] <= h - 1 - margin)
 
 
+def _crop(image: np.ndarray, centre: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray]:
+    """The part of ``image`` within ``half`` px of ``centre`` and its top-left corner (x, y): the flow
+    needs its pyramid over the neighbourhood only, not over a whole 1080p frame."""
+    h, w = image.shape[:2]
+    x0, y0 = max(int(centre[0]) - half, 0), max(int(centre[1]) - half, 0)
+    x1, y1 = min(int(centre[0]) + half + 1, w), min(int(centre[1]) + half + 1, h)
+    return image[y0:y1, x0:x1], np.array([x0, y0], float)
+
+
+def _reach(settings: TrackSettings) -> int:
+    """Half the side (px) of the neighbourhood the flow works in: the window at the coarsest pyramid level
+    plus the motion that level can follow."""
+    return int(settings.window) * 2 ** int(settings.levels) + 64
+
+
 def _flow(previous: np.ndarray, following: np.ndarray, point: np.ndarray, settings: TrackSettings
           ) -> tuple[np.ndarray | None, float]:
     """The point's position on ``following`` by LK, and its forward–backward disagreement (px)."""
     size = (int(settings.window), int(settings.window))
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
-    start = point.astype(np.float32).reshape(1, 1, 2)
-    ahead, status, _ = cv2.calcOpticalFlowPyrLK(previous, following, start, None, winSize=size,
+    half = _reach(settings)
+    before, corner = _crop(previous, point, half)
+    after, _ = _crop(following, point, half)
+    if before.shape != after.shape:
+        return None, np.inf
+    start = (point - corner).astype(np.float32).reshape(1, 1, 2)
+    ahead, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=size,
                                                 maxLevel=settings.levels, criteria=criteria)
     if ahead is None or not status[0, 0]:
         return None, np.inf
-    back, status_back, _ = cv2.calcOpticalFlowPyrLK(following, previous, ahead, None, winSize=size,
+    back, status_back, _ = cv2.calcOpticalFlowPyrLK(after, before, ahead, None, winSize=size,
                                                     maxLevel=settings.levels, criteria=criteria)
     if back is None or not status_back[0, 0]:
         return None, np.inf
-    return ahead.reshape(2).astype(np.float64), float(np.linalg.norm(back.reshape(2) - start.reshape(2)))
+    return ahead.reshape(2).astype(np.float64) + corner, float(np.linalg.norm(back.reshape(2) - start.reshape(2)))
 
 
 def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, guess: np.ndarray,
@@ -146,12 +166,18 @@ def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, g
     LK from the start frame with ``guess`` as initial flow, kept when it converges within 1 px of it."""
     size = (int(settings.window), int(settings.window))
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
+    half = int(settings.window) + 8
+    before, corner_before = _crop(anchor, anchor_point, half)
+    after, corner_after = _crop(current, guess, half)
+    if before.shape != after.shape:  # at an image edge: the frame-to-frame position stands
+        return guess
     refined, status, _ = cv2.calcOpticalFlowPyrLK(
-        anchor, current, anchor_point.astype(np.float32).reshape(1, 1, 2), guess.astype(np.float32).reshape(1, 1, 2),
-        winSize=size, maxLevel=0, criteria=criteria, flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
+        before, after, (anchor_point - corner_before).astype(np.float32).reshape(1, 1, 2),
+        (guess - corner_after).astype(np.float32).reshape(1, 1, 2), winSize=size, maxLevel=0, criteria=criteria,
+        flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
     if refined is None or not status[0, 0]:
         return guess
-    refined = refined.reshape(2).astype(np.float64)
+    refined = refined.reshape(2).astype(np.float64) + corner_after
     return refined if np.linalg.norm(refined - guess) < 1.0 else guess
 
 
