@@ -6,7 +6,7 @@ import pytest
 
 from tests.core.test_tracking import truth, video
 from usvips.app.project_figures import evaluate, measurement_input
-from usvips.app.tracking import add_tracked_instants, track_in_video
+from usvips.app.tracking import add_tracked_instants, propose_on_frame, track_in_video
 from usvips.app.video_project import add_video
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import measure_picks
@@ -89,3 +89,18 @@ def test_a_cancel_stops_tracking_and_a_video_without_calibration_is_refused(surv
         project.add_pair("other")
         with pytest.raises(UsvipsError, match="no active calibration"):
             track_in_video(project, "other", start, (v.xl, v.yl), (v.xr, v.yr), 0, 20)
+
+
+def test_an_objects_vertices_are_proposed_on_another_frame_by_tracking_them_there(survey):
+    path, object_id, fish, stereo, start = survey
+    with Project.open(path) as project:
+        proposals = propose_on_frame(project, object_id, 14)
+        for k, proposal in enumerate(proposals):
+            true_left, true_right = truth(stereo, fish, 14, POINTS[k] * fish.length)
+            assert np.linalg.norm(np.subtract(proposal.left, true_left)) < 0.5
+            assert np.linalg.norm(np.subtract(proposal.right, true_right)) < 0.5
+        beyond = propose_on_frame(project, object_id, FRAMES - 1)  # past the right video's last partner
+        assert all(p.left is None and "no right partner" in p.reason for p in beyond)
+        still = project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0, pair="drop")])
+        with pytest.raises(UsvipsError, match="not measured on a video"):
+            propose_on_frame(project, still, 3)

@@ -6,7 +6,9 @@ in grey — and the cameras of the calibration active for the video; a left fram
 ends the track with that reason. It runs on any thread (it opens its own streams): a worker calls it with
 the cancel and progress callables of the window.
 
-:func:`add_tracked_instants` turns the tracks of an object's vertices into further instants of that object:
+:func:`propose_on_frame` proposes an object's vertices on another frame of its video by tracking them
+there from the frame they were measured on (the window's track-based proposal when the previous instant is
+measured). :func:`add_tracked_instants` turns the tracks of an object's vertices into further instants of that object:
 at each frame asked for, a new object of the same kind with every vertex at its tracked pixels (measured
 with the video's calibration, its frames and time kept), linked as an instant (:func:`usvips.app.
 object_instants.add_instant`); all in one transaction, or nothing.
@@ -15,6 +17,7 @@ object_instants.add_instant`); all in one transaction, or nothing.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -102,3 +105,39 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
         for instant_id in ids:
             add_instant(project, object_id, instant_id)
     return ids
+
+
+@dataclass(frozen=True)
+class VertexProposal:
+    """A vertex of an object proposed on another frame: its ``left`` and ``right`` pixels, or None with
+    ``reason`` (why its track stopped before the frame)."""
+
+    left: tuple[float, float] | None
+    right: tuple[float, float] | None
+    reason: str = ""
+
+
+def propose_on_frame(project: ProjectStore, object_id: int, frame: int, settings: TrackSettings | None = None,
+                     cancel: Callable[[], bool] | None = None,
+                     progress: Callable[[int, int], None] | None = None) -> list[VertexProposal]:
+    """Each vertex of the stored object ``object_id`` (measured on a video) proposed on left frame
+    ``frame`` of that video, tracked from the frame it was measured on; a vertex whose track stops
+    before the frame has no proposal and says why."""
+    stored = project.object(object_id)
+    if not stored.vertices or stored.vertices[0].video is None:
+        raise UsvipsError(f"object {object_id} was not measured on a video: there is no frame to track it from")
+    label, start = stored.vertices[0].video, int(stored.vertices[0].frame_left)
+    first, last = min(start, int(frame)), max(start, int(frame))
+    proposals = []
+    for v in stored.vertices:
+        track = track_in_video(project, label, start, (v.xl, v.yl), (v.xr, v.yr), first, last, settings, cancel,
+                               progress)
+        found = track.at(frame)
+        if found is None:
+            direction = 1 if frame > start else -1
+            proposals.append(VertexProposal(None, None, f"its track stopped at frame "
+                                                        f"{track.frames[-1] if direction > 0 else track.frames[0]}: "
+                                                        f"{track.reason(direction)}"))
+        else:
+            proposals.append(VertexProposal(tuple(map(float, found[0])), tuple(map(float, found[1]))))
+    return proposals
