@@ -57,7 +57,8 @@ class TrackSettings:
     (occluded); ``max_fb_px``: the largest forward–backward disagreement (px); ``max_epipolar_px``: the
     largest distance (px) of the right flow from the epipolar curve; ``rms_jump``, ``min_rms_m``: the
     ray-RMS stop (× the median so far, and at least this many metres); ``min_contrast``: the standard
-    deviation (grey levels) below which a start window is featureless."""
+    deviation (grey levels) below which a start window is featureless; ``min_edge_ratio``: the ratio of
+    the start window's structure-tensor eigenvalues (smaller / larger) below which it is an edge."""
 
     window: int = 15
     levels: int = 3
@@ -67,13 +68,14 @@ class TrackSettings:
     rms_jump: float = 4.0
     min_rms_m: float = 0.005
     min_contrast: float = 6.0
+    min_edge_ratio: float = 0.05
 
     def __post_init__(self) -> None:
         if int(self.window) < 7 or int(self.window) % 2 == 0:
             raise InvalidParameterError("window", f"must be odd and >= 7, got {self.window}")
         if not -1.0 < self.min_score < 1.0:
             raise InvalidParameterError("min_score", f"must lie between -1 and 1, got {self.min_score}")
-        for name in ("max_fb_px", "max_epipolar_px", "rms_jump", "min_rms_m", "min_contrast"):
+        for name in ("max_fb_px", "max_epipolar_px", "rms_jump", "min_rms_m", "min_contrast", "min_edge_ratio"):
             validation.positive(name, getattr(self, name))
 
 
@@ -204,11 +206,18 @@ def check_trackable(image: np.ndarray, point, settings: TrackSettings | None = N
         raise InvalidParameterError(f"{what} pixel", f"({point[0]:.1f}, {point[1]:.1f}) is too near the edge of "
                                                      f"the image to track with a {settings.window} px window")
     patch = _window(grey, point, int(settings.window))
-    eigen = cv2.cornerMinEigenVal(patch, 5).astype(np.float64)
-    if float(patch.std()) < settings.min_contrast or float(np.median(eigen)) < 1e-3 * settings.min_contrast ** 2:
+    if float(patch.std()) < settings.min_contrast:
         raise InvalidParameterError(f"{what} pixel", f"({point[0]:.1f}, {point[1]:.1f}) is on a featureless patch "
                                                      f"(contrast {patch.std():.1f} grey levels over "
                                                      f"{settings.window} px): pick a textured point to track")
+    # the structure tensor of the window: an edge (one direction of texture) lets the flow slide along it
+    gx = cv2.Sobel(patch, cv2.CV_64F, 1, 0, ksize=3)[1:-1, 1:-1]
+    gy = cv2.Sobel(patch, cv2.CV_64F, 0, 1, ksize=3)[1:-1, 1:-1]
+    eigen = np.linalg.eigvalsh(np.array([[np.sum(gx * gx), np.sum(gx * gy)], [np.sum(gx * gy), np.sum(gy * gy)]]))
+    if eigen[0] < settings.min_edge_ratio * eigen[1]:
+        raise InvalidParameterError(f"{what} pixel", f"({point[0]:.1f}, {point[1]:.1f}) lies on an edge (texture in "
+                                                     "one direction only): the track would slide along it; pick a "
+                                                     "corner or a textured point")
 
 
 def track_vertex(frames: FrameSource, rig: StereoRig, start: int, left, right, first: int, last: int,
