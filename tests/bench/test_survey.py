@@ -1,12 +1,14 @@
 """The survey benchmark rows (no timed assertions: the rows' shape and their verdicts)."""
 
+import pytest
+
 from usvips.bench import BENCH_MODULES, survey
 
 
 def test_the_combination_row_states_its_absolute_target_and_verdict():
     assert "survey" in BENCH_MODULES
     rows = list(survey.benchmarks(0.01))
-    combine = rows[0]
+    combine = rows[1]
     assert combine["n"] == 20 and combine["target_s"] == survey.COMBINE_TARGET_S
     assert combine["met"] == (combine["ours_s"] <= combine["target_s"])
     assert combine["ours_s"] > 0 and combine["baseline_s"] > 0
@@ -14,6 +16,13 @@ def test_the_combination_row_states_its_absolute_target_and_verdict():
 
 def test_the_qa_row_checks_a_survey_of_the_size_asked_against_its_absolute_target():
     rows = list(survey.benchmarks(0.01))
-    qa = rows[1]
+    qa = rows[2]
     assert qa["n"] == 100 and "QA of a survey of 100 objects" in qa["name"]
     assert qa["target_s"] == survey.QA_TARGET_S and qa["met"] == (qa["ours_s"] <= qa["target_s"])
+
+
+def test_the_tracking_row_tracks_every_frame_and_reports_tracking_apart_from_decoding():
+    track = next(survey.benchmarks(0.01))
+    assert track["n"] == 20 and track["frames_tracked"] == 20 and track["stopped"] == "reached the end"
+    assert track["target_s"] == survey.TRACK_TARGET_S and track["met"] == (track["ours_s"] <= track["target_s"])
+    assert track["tracking_s"] == pytest.approx(max(track["ours_s"] - track["baseline_s"], 0.0), abs=2e-6)

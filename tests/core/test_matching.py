@@ -103,3 +103,41 @@ def test_a_repetitive_pattern_is_reported_as_ambiguous():
     curve = epipolar_curve(stereo.left, stereo.right, [160.0, 120.0], near=0.3, far=20.0)
     result = match_along_curve(stripes, stripes, [160.0, 120.0], curve, window=11)
     assert result.ambiguous and not result and "ambiguous" in result.reason
+
+
+def test_a_refused_match_still_proposes_its_best_candidate_marked_weak_with_its_score():
+    stereo = rig("flat-port")
+    left, right = render(stereo.left), render(stereo.right)
+    pixel = [220.0, 100.0]
+    truth = true_conjugate(stereo, pixel)
+    curve = epipolar_curve(stereo.left, stereo.right, pixel, near=0.5, far=6.0, samples=300)
+    # a faint texture (contrast below the textureless limit): refused, but the best candidate is the truth
+    faint_left = (120 + (left.astype(float) - left.mean()) * 0.05).astype(np.uint8)
+    faint_right = (120 + (right.astype(float) - right.mean()) * 0.05).astype(np.uint8)
+    faint = match_along_curve(faint_left, faint_right, pixel, curve)
+    assert not faint and faint.weak and "textureless" in faint.reason
+    assert np.linalg.norm(np.subtract(faint.proposal, truth)) < 1.0
+    assert faint.describe().startswith(f"weak proposal (correlation {faint.score:.2f}): textureless")
+    # a right image drowned in noise: the best correlation is low, proposed weak with its score
+    noisy_right = np.clip(right + np.random.default_rng(1).normal(0, 90, right.shape), 0, 255).astype(np.uint8)
+    low = match_along_curve(left, noisy_right, pixel, curve, window=11)
+    assert not low and low.weak and low.score < 0.5 and "below 0.50" in low.reason and low.proposal is not None
+    # a confident match is not weak; the same match under a stricter score is
+    strong = match_along_curve(left, right, pixel, curve, window=21)
+    assert strong and not strong.weak and strong.describe() == f"proposed match (correlation {strong.score:.2f})"
+    strict = match_along_curve(left, right, pixel, curve, window=21, min_score=0.9999)
+    assert not strict and strict.weak and strict.proposal == strong.proposal
+    with pytest.raises(InvalidParameterError, match="min_score"):
+        match_along_curve(left, right, pixel, curve, min_score=1.5)
+
+
+def test_an_ambiguous_match_is_a_weak_proposal_and_a_blank_patch_has_none():
+    stereo = rig("air", distortion=False)
+    ys, xs = np.mgrid[0:H, 0:W]
+    stripes = (120 + 80 * np.sin(2 * np.pi * xs / 12.0)).astype(np.uint8)
+    curve = epipolar_curve(stereo.left, stereo.right, [160.0, 120.0], near=0.3, far=20.0)
+    result = match_along_curve(stripes, stripes, [160.0, 120.0], curve, window=11)
+    assert result.weak and result.proposal is not None and "ambiguous" in result.describe()
+    flat = render(stereo.left, textured=False)
+    blank = match_along_curve(flat, flat, [160.0, 120.0], curve)
+    assert blank.proposal is None and not blank.weak and blank.describe().startswith("no candidate: textureless")

@@ -121,6 +121,17 @@ def test_a_featureless_start_is_refused_by_name():
     with pytest.raises(InvalidParameterError, match="too near the edge"):
         track_vertex(frames, stereo, 0, (3.0, 120.0), (20.0, 120.0), 0, 10)
 
+    def striped(i):
+        left, right = frames(i)
+        left = left.copy()
+        left[100:140, 20:60] = (120 + 60 * np.sin(np.arange(40) / 2.0)).astype(np.uint8)[None, :]
+        return left, right
+
+    with pytest.raises(InvalidParameterError, match="lies on an edge"):
+        track_vertex(striped, stereo, 0, (40.0, 120.0), (10.0, 120.0), 0, 10)
+    with pytest.raises(InvalidParameterError, match="window"):
+        TrackSettings(window=8)
+
 
 def test_a_missing_partner_frame_and_a_cancel_stop_the_track_with_their_reason():
     fish = _fish()

@@ -13,7 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from usvips.app.object_instants import survey_objects
-from usvips.app.project_figures import evaluate, measurement_input
+from usvips.app.project_figures import evaluate, instants_by_object, measurement_input
 from usvips.app.video_project import eventmeasure_frame_columns
 from usvips.core.deployment import Deployment
 from usvips.core.errors import UsvipsError
@@ -50,8 +50,9 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
+    instants = instants_by_object(project)
     for stored in survey_objects(project):  # an object on several instants: once, its figures combined
-        source = measurement_input(project, stored, cache)
+        source = measurement_input(project, stored, cache, instants=instants)
         try:
             measurement = evaluate(source, rules)
         except UsvipsError as error:

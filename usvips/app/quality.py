@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from usvips.app.object_instants import survey_objects
-from usvips.app.project_figures import evaluate, measurement_input, where_measured
+from usvips.app.project_figures import evaluate, instants_by_object, measurement_input, where_measured
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import Measurement, QualityRules
 from usvips.core.measurements import kind as measurement_kind
@@ -153,12 +153,13 @@ def checked_objects(project: ProjectStore, rules: QualityRules | None = None) ->
     """Read and measure every object of the survey (each once; one on several instants combined) for
     :func:`check`. Call on the project's thread."""
     cache: dict = {}
+    instants = instants_by_object(project)
     out = []
     for stored in survey_objects(project):
         place = Place.of(stored)
         record = project.record(stored.id)
         try:
-            measurement, reason = evaluate(measurement_input(project, stored, cache), rules), ""
+            measurement, reason = evaluate(measurement_input(project, stored, cache, instants=instants), rules), ""
         except UsvipsError as error:
             measurement, reason = None, str(error)
         out.append(Checked(str(stored.id), stored.kind, measurement, record, place, reason))

@@ -1,25 +1,43 @@
-"""Benchmarks of measuring a survey: combining an object's instants, the QA of a survey's objects.
+"""Benchmarks of measuring a survey: tracking a pick through a stereo video, combining an object's
+instants, the QA of a survey's objects.
+
+The tracking row tracks one vertex pair through 100 frame pairs of 1920 × 1080 H.264 (a textured plane
+drifting across the view of an in-air rig, so the right image is the left one shifted by the disparity),
+decoding included, against the bare decode of the same frame pairs (the floor): its ``tracking_s`` is
+tracking's own share.
 
 The QA row times :func:`usvips.app.quality.check` over objects whose figures are already computed (the
 window's figure cache holds them; computing figures is timed by the figure rows of other areas)."""
 
 from __future__ import annotations
 
+import tempfile
 from collections.abc import Iterator
+from pathlib import Path
 
+import cv2
 import numpy as np
 
 from usvips.app.quality import Checked, Place, check, species_maxima
 from usvips.bench import best_time
+from usvips.core.camera import Camera, Exterior
+from usvips.core.housing import AirHousing
+from usvips.core.interior import Interior
 from usvips.core.measurements import measure
 from usvips.core.measurements.instants import combine_figure
 from usvips.core.observation_record import ObservationRecord, Species
+from usvips.core.rig import RelativeOrientation, StereoRig
+from usvips.core.tracking import track_vertex
+from usvips.io.video_stream import PairReader, VideoStream
+from usvips.io.video_writer import encode_video
 
 #: absolute targets (s) of the issue: 20 instants combined, per object
 COMBINE_TARGET_S = 0.020
 #: the QA of a survey of 10,000 objects (s)
 QA_TARGET_S = 0.5
 QA_OBJECTS = 10_000
+#: tracking one vertex pair through 100 frames of 1080p H.264, decoding included (s)
+TRACK_TARGET_S = 1.5
 
 
 def _absolute(name: str, n: int, ours: float, baseline: float, baseline_name: str, target_s: float) -> dict:
@@ -28,7 +46,58 @@ def _absolute(name: str, n: int, ours: float, baseline: float, baseline_name: st
             "target": None, "target_s": target_s, "met": bool(ours <= target_s)}
 
 
+def _tracking_row(scale: float) -> dict:
+    width, height, frames = (1920, 1080, 100) if scale >= 1 else (640, 360, 20)
+    disparity, drift = 60, (3.0, 1.0)
+    texture = cv2.GaussianBlur(np.random.default_rng(3).uniform(0, 255, (height + 400, width + 600)), (0, 0), 2.5)
+    texture = cv2.normalize(texture, None, 20, 235, cv2.NORM_MINMAX).astype(np.uint8)
+
+    def view(i: int, shift: int) -> np.ndarray:
+        x0, y0 = int(100 + drift[0] * i + shift), int(100 + drift[1] * i)
+        return np.repeat(texture[y0:y0 + height, x0:x0 + width, None], 3, axis=2)
+
+    f = 1.2 * width
+    interior = Interior(f, (width - 1) / 2, (height - 1) / 2, 1.0)
+    left_camera = Camera(interior, Exterior(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), AirHousing(), width, height)
+    rig = StereoRig.from_relative(left_camera, left_camera, RelativeOrientation(disparity * 2.0 / f, 0.0, 0.0,
+                                                                                0.0, 0.0, 0.0))
+    with tempfile.TemporaryDirectory(prefix="usvips-bench-track-") as folder:
+        paths = [Path(folder) / "left.mp4", Path(folder) / "right.mp4"]
+        for path, shift in zip(paths, (0, disparity), strict=True):
+            encode_video(path, (view(i, shift) for i in range(frames)), 30, "h264", gop=30, bframes=2, quality=20)
+        start = (width / 2, height / 2)
+
+        tracked: list = []
+
+        def run(track: bool) -> None:
+            with VideoStream(paths[0]) as left, VideoStream(paths[1]) as right:
+                reader = PairReader(left, right)
+                try:
+                    def source(i: int) -> tuple[np.ndarray, np.ndarray]:
+                        a, b = reader.pictures(i, i)
+                        return a.array(grey=True), b.array(grey=True)
+
+                    if track:
+                        tracked[:] = [track_vertex(source, rig, 0, start, (start[0] - disparity, start[1]), 0,
+                                                   frames - 1, near=0.5, far=20.0)]
+                    else:
+                        for i in range(frames):
+                            source(i)
+                finally:
+                    reader.close()
+
+        run(True)
+        ours, floor = best_time(lambda: run(True), 2), best_time(lambda: run(False), 2)
+    row = _absolute(f"track one vertex pair through {frames} frames of {width}x{height} H.264, decoding included",
+                    frames, ours, floor, "decoding the same frame pairs (the floor)", TRACK_TARGET_S)
+    row["tracking_s"] = round(max(ours - floor, 0.0), 6)
+    row["frames_tracked"] = len(tracked[0].frames)
+    row["stopped"] = tracked[0].reason(+1)
+    return row
+
+
 def benchmarks(scale: float = 1.0) -> Iterator[dict]:
+    yield _tracking_row(scale)
     rng = np.random.default_rng(1)
     sigmas = rng.uniform(0.002, 0.008, 20)
     values = 0.4 + rng.normal(0, 0.01, 20) + rng.normal(0, sigmas)

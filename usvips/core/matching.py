@@ -4,8 +4,11 @@ Behind a housing the rays of one camera do not image as a straight line in the o
 "line" is a curve. :func:`epipolar_curve` samples the source pixel's ray in the water at depths and
 back-projects each sample into the other camera. :func:`match_along_curve` slides a template of the
 source image along that curve by normalised cross-correlation, refines the best position in 2-D to
-sub-pixel precision, and reports ambiguity (a second, separate peak nearly as good) and textureless
-templates as refusals. Pixels: x right, y down, origin at the centre of the top-left pixel.
+sub-pixel precision, and reports ambiguity (a second, separate peak nearly as good), textureless
+templates and a best correlation below ``min_score`` as refusals. A refusal still carries the best
+candidate on the curve when there is one, marked ``weak`` with its score and why (a weak proposal that
+the user can accept with one key or correct); only a blank template or a curve outside the image give
+no candidate at all. Pixels: x right, y down, origin at the centre of the top-left pixel.
 """
 
 from __future__ import annotations
@@ -64,17 +67,33 @@ def epipolar_curve(source: Camera, target: Camera, pixel, near: float = 0.3, far
 @dataclass(frozen=True)
 class MatchResult:
     """``pixel`` (x, y) in the other image, ``score`` (NCC, −1..1), ``depth`` (m along the source ray),
-    ``ambiguous`` with ``reason`` when a second, separate peak scores nearly as well; falsy when refused
-    or ambiguous."""
+    ``ambiguous`` with ``reason`` when a second, separate peak scores nearly as well; ``weak`` (with
+    ``reason``) when the match was refused (ambiguous, textureless, a low score) but ``pixel`` is still the
+    best candidate on the curve. Truthy only for a confident match; :attr:`proposal` is the pixel to
+    propose either way (None when there is no candidate)."""
 
     pixel: tuple[float, float] | None
     score: float
     depth: float | None
     ambiguous: bool = False
     reason: str = ""
+    weak: bool = False
 
     def __bool__(self) -> bool:
-        return self.pixel is not None and not self.ambiguous
+        return self.pixel is not None and not self.ambiguous and not self.weak
+
+    @property
+    def proposal(self) -> tuple[float, float] | None:
+        """The candidate to propose: the match, or the best weak candidate; None when there is none."""
+        return self.pixel
+
+    def describe(self) -> str:
+        """One line for the status bar: the correlation, and why a proposal is weak."""
+        if self.pixel is None:
+            return f"no candidate: {self.reason}"
+        if self.weak or self.ambiguous:
+            return f"weak proposal (correlation {self.score:.2f}): {self.reason}"
+        return f"proposed match (correlation {self.score:.2f})"
 
 
 def _resample(curve: EpipolarCurve, spacing: float) -> tuple[np.ndarray, np.ndarray]:
@@ -90,13 +109,17 @@ def _resample(curve: EpipolarCurve, spacing: float) -> tuple[np.ndarray, np.ndar
 
 
 def match_along_curve(source_image: np.ndarray, target_image: np.ndarray, pixel, curve: EpipolarCurve,
-                      window: int = 15, min_contrast: float = 4.0, ambiguity: float = 0.9) -> MatchResult:
+                      window: int = 15, min_contrast: float = 4.0, ambiguity: float = 0.9,
+                      min_score: float = 0.5) -> MatchResult:
     """Find the conjugate of ``pixel`` along ``curve`` by normalised cross-correlation.
 
     window: template size (odd, pixels); min_contrast: the template's standard deviation (grey levels)
     below which it is textureless and refused; ambiguity: a second peak at least ``window`` pixels away
-    scoring above this fraction of the best makes the match ambiguous.
+    scoring above this fraction of the best makes the match ambiguous; min_score: the correlation below
+    which the best candidate is refused. Every refusal with a candidate returns it, ``weak``.
     """
+    if not -1.0 <= float(min_score) < 1.0:
+        raise InvalidParameterError("min_score", f"must lie in [-1, 1), got {min_score}")
     window = int(window)
     if window < 5 or window % 2 == 0:
         raise InvalidParameterError("window", f"must be odd and >= 5, got {window}")
@@ -111,9 +134,12 @@ def match_along_curve(source_image: np.ndarray, target_image: np.ndarray, pixel,
     sx0, sy0 = max(int(x) - half - 2, 0), max(int(y) - half - 2, 0)
     source = luminance(source_image[sy0:int(y) + half + 3, sx0:int(x) + half + 3])
     template = cv2.getRectSubPix(source, (window, window), (float(x - sx0), float(y - sy0)))
+    textureless = ""
     if float(template.std()) < min_contrast:
-        return MatchResult(None, 0.0, None, False, f"textureless: the template's contrast "
-                           f"({template.std():.1f}) is below {min_contrast:g} grey levels")
+        textureless = (f"textureless: the template's contrast ({template.std():.1f}) is below {min_contrast:g} "
+                       "grey levels")
+        if float(template.std()) < 0.5:  # blank: no correlation to rank candidates by
+            return MatchResult(None, 0.0, None, False, textureless)
     if len(curve.pixels) == 0:
         return MatchResult(None, 0.0, None, False, "the epipolar curve does not enter the other image")
     th, tw = target_image.shape[:2]
@@ -155,7 +181,12 @@ def match_along_curve(source_image: np.ndarray, target_image: np.ndarray, pixel,
         dy = 0.5 * (surface[py - 1, px] - surface[py + 1, px]) / denominator if denominator < 0 else 0.0
     matched = (float(u0 + px - 3 + np.clip(dx, -0.5, 0.5)), float(v0 + py - 3 + np.clip(dy, -0.5, 0.5)))
     depth = float(depths[best])
+    if textureless:
+        return MatchResult(matched, peak, depth, False, textureless, weak=True)
     if second > ambiguity * max(peak, 1e-9):
         return MatchResult(matched, peak, depth, True,
-                           f"ambiguous: a second peak {second:.2f} against {peak:.2f} elsewhere on the curve")
+                           f"ambiguous: a second peak {second:.2f} against {peak:.2f} elsewhere on the curve", True)
+    if peak < min_score:
+        return MatchResult(matched, peak, depth, False, f"the best correlation {peak:.2f} is below {min_score:.2f}",
+                           True)
     return MatchResult(matched, peak, depth)

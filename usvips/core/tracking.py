@@ -57,7 +57,8 @@ class TrackSettings:
     (occluded); ``max_fb_px``: the largest forward–backward disagreement (px); ``max_epipolar_px``: the
     largest distance (px) of the right flow from the epipolar curve; ``rms_jump``, ``min_rms_m``: the
     ray-RMS stop (× the median so far, and at least this many metres); ``min_contrast``: the standard
-    deviation (grey levels) below which a start window is featureless."""
+    deviation (grey levels) below which a start window is featureless; ``min_edge_ratio``: the ratio of
+    the start window's structure-tensor eigenvalues (smaller / larger) below which it is an edge."""
 
     window: int = 15
     levels: int = 3
@@ -67,13 +68,14 @@ class TrackSettings:
     rms_jump: float = 4.0
     min_rms_m: float = 0.005
     min_contrast: float = 6.0
+    min_edge_ratio: float = 0.05
 
     def __post_init__(self) -> None:
         if int(self.window) < 7 or int(self.window) % 2 == 0:
             raise InvalidParameterError("window", f"must be odd and >= 7, got {self.window}")
         if not -1.0 < self.min_score < 1.0:
             raise InvalidParameterError("min_score", f"must lie between -1 and 1, got {self.min_score}")
-        for name in ("max_fb_px", "max_epipolar_px", "rms_jump", "min_rms_m", "min_contrast"):
+        for name in ("max_fb_px", "max_epipolar_px", "rms_jump", "min_rms_m", "min_contrast", "min_edge_ratio"):
             validation.positive(name, getattr(self, name))
 
 
@@ -123,21 +125,41 @@ def _inside(point: np.ndarray, shape: tuple[int, ...], margin: float) -> bool:
     return bool(margin <= point[0] <= w - 1 - margin and margin <= point[1] <= h - 1 - margin)
 
 
+def _crop(image: np.ndarray, centre: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray]:
+    """The part of ``image`` within ``half`` px of ``centre`` and its top-left corner (x, y): the flow
+    needs its pyramid over the neighbourhood only, not over a whole 1080p frame."""
+    h, w = image.shape[:2]
+    x0, y0 = max(int(centre[0]) - half, 0), max(int(centre[1]) - half, 0)
+    x1, y1 = min(int(centre[0]) + half + 1, w), min(int(centre[1]) + half + 1, h)
+    return image[y0:y1, x0:x1], np.array([x0, y0], float)
+
+
+def _reach(settings: TrackSettings) -> int:
+    """Half the side (px) of the neighbourhood the flow works in: the window at the coarsest pyramid level
+    plus the motion that level can follow."""
+    return int(settings.window) * 2 ** int(settings.levels) + 64
+
+
 def _flow(previous: np.ndarray, following: np.ndarray, point: np.ndarray, settings: TrackSettings
           ) -> tuple[np.ndarray | None, float]:
     """The point's position on ``following`` by LK, and its forward–backward disagreement (px)."""
     size = (int(settings.window), int(settings.window))
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
-    start = point.astype(np.float32).reshape(1, 1, 2)
-    ahead, status, _ = cv2.calcOpticalFlowPyrLK(previous, following, start, None, winSize=size,
+    half = _reach(settings)
+    before, corner = _crop(previous, point, half)
+    after, _ = _crop(following, point, half)
+    if before.shape != after.shape:
+        return None, np.inf
+    start = (point - corner).astype(np.float32).reshape(1, 1, 2)
+    ahead, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=size,
                                                 maxLevel=settings.levels, criteria=criteria)
     if ahead is None or not status[0, 0]:
         return None, np.inf
-    back, status_back, _ = cv2.calcOpticalFlowPyrLK(following, previous, ahead, None, winSize=size,
+    back, status_back, _ = cv2.calcOpticalFlowPyrLK(after, before, ahead, None, winSize=size,
                                                     maxLevel=settings.levels, criteria=criteria)
     if back is None or not status_back[0, 0]:
         return None, np.inf
-    return ahead.reshape(2).astype(np.float64), float(np.linalg.norm(back.reshape(2) - start.reshape(2)))
+    return ahead.reshape(2).astype(np.float64) + corner, float(np.linalg.norm(back.reshape(2) - start.reshape(2)))
 
 
 def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, guess: np.ndarray,
@@ -146,12 +168,18 @@ def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, g
     LK from the start frame with ``guess`` as initial flow, kept when it converges within 1 px of it."""
     size = (int(settings.window), int(settings.window))
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
+    half = int(settings.window) + 8
+    before, corner_before = _crop(anchor, anchor_point, half)
+    after, corner_after = _crop(current, guess, half)
+    if before.shape != after.shape:  # at an image edge: the frame-to-frame position stands
+        return guess
     refined, status, _ = cv2.calcOpticalFlowPyrLK(
-        anchor, current, anchor_point.astype(np.float32).reshape(1, 1, 2), guess.astype(np.float32).reshape(1, 1, 2),
-        winSize=size, maxLevel=0, criteria=criteria, flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
+        before, after, (anchor_point - corner_before).astype(np.float32).reshape(1, 1, 2),
+        (guess - corner_after).astype(np.float32).reshape(1, 1, 2), winSize=size, maxLevel=0, criteria=criteria,
+        flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
     if refined is None or not status[0, 0]:
         return guess
-    refined = refined.reshape(2).astype(np.float64)
+    refined = refined.reshape(2).astype(np.float64) + corner_after
     return refined if np.linalg.norm(refined - guess) < 1.0 else guess
 
 
@@ -178,11 +206,18 @@ def check_trackable(image: np.ndarray, point, settings: TrackSettings | None = N
         raise InvalidParameterError(f"{what} pixel", f"({point[0]:.1f}, {point[1]:.1f}) is too near the edge of "
                                                      f"the image to track with a {settings.window} px window")
     patch = _window(grey, point, int(settings.window))
-    eigen = cv2.cornerMinEigenVal(patch, 5).astype(np.float64)
-    if float(patch.std()) < settings.min_contrast or float(np.median(eigen)) < 1e-3 * settings.min_contrast ** 2:
+    if float(patch.std()) < settings.min_contrast:
         raise InvalidParameterError(f"{what} pixel", f"({point[0]:.1f}, {point[1]:.1f}) is on a featureless patch "
                                                      f"(contrast {patch.std():.1f} grey levels over "
                                                      f"{settings.window} px): pick a textured point to track")
+    # the structure tensor of the window: an edge (one direction of texture) lets the flow slide along it
+    gx = cv2.Sobel(patch, cv2.CV_64F, 1, 0, ksize=3)[1:-1, 1:-1]
+    gy = cv2.Sobel(patch, cv2.CV_64F, 0, 1, ksize=3)[1:-1, 1:-1]
+    eigen = np.linalg.eigvalsh(np.array([[np.sum(gx * gx), np.sum(gx * gy)], [np.sum(gx * gy), np.sum(gy * gy)]]))
+    if eigen[0] < settings.min_edge_ratio * eigen[1]:
+        raise InvalidParameterError(f"{what} pixel", f"({point[0]:.1f}, {point[1]:.1f}) lies on an edge (texture in "
+                                                     "one direction only): the track would slide along it; pick a "
+                                                     "corner or a textured point")
 
 
 def track_vertex(frames: FrameSource, rig: StereoRig, start: int, left, right, first: int, last: int,

@@ -1,0 +1,143 @@
+"""Tracking picks through a project's stereo video, and measuring a tracked object on several instants.
+
+:func:`track_in_video` gives :func:`usvips.core.tracking.track_vertex` its frame source — the video's left
+frame i and its synchronised right partner, decoded together (:class:`usvips.io.video_stream.PairReader`),
+in grey — and the cameras of the calibration active for the video; a left frame without a right partner
+ends the track with that reason. It runs on any thread (it opens its own streams): a worker calls it with
+the cancel and progress callables of the window.
+
+:func:`propose_on_frame` proposes an object's vertices on another frame of its video by tracking them
+there from the frame they were measured on (the window's track-based proposal when the previous instant is
+measured). :func:`add_tracked_instants` turns the tracks of an object's vertices into further instants of that object:
+at each frame asked for, a new object of the same kind with every vertex at its tracked pixels (measured
+with the video's calibration, its frames and time kept), linked as an instant (:func:`usvips.app.
+object_instants.add_instant`); all in one transaction, or nothing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from usvips.app.object_instants import add_instant
+from usvips.app.pair_geometry import pair_geometry
+from usvips.app.video_project import open_streams, partner_frame
+from usvips.core.errors import UsvipsError
+from usvips.core.measurements import measure_picks
+from usvips.core.tracking import Track, TrackSettings, track_vertex
+from usvips.io.video_stream import PairReader
+from usvips.store.interface import ProjectStore
+from usvips.store.project import Vertex
+
+
+def _geometry(project: ProjectStore, label: str):
+    geometry = pair_geometry(project, label)
+    if geometry is None:
+        raise UsvipsError(f"video {label!r} has no active calibration: tracking holds the right point to the "
+                          "epipolar curve, which needs one (make a calibration active for the video)")
+    return geometry
+
+
+def track_in_video(project: ProjectStore, label: str, start: int, left: Sequence[float], right: Sequence[float],
+                   first: int, last: int, settings: TrackSettings | None = None,
+                   cancel: Callable[[], bool] | None = None,
+                   progress: Callable[[int, int], None] | None = None) -> Track:
+    """Track the vertex picked at ``left``/``right`` (px) on left frame ``start`` of video ``label`` back to
+    ``first`` and on to ``last`` (left frames, clipped to the video) — see :func:`track_vertex`."""
+    geometry = _geometry(project, label)
+    rig = geometry.calibration.rig(geometry.station, geometry.frame)
+    video, left_stream, right_stream = open_streams(project, label)
+    with left_stream, right_stream:
+        reader = PairReader(left_stream, right_stream)
+        try:
+            def frames(index: int) -> tuple[np.ndarray, np.ndarray]:
+                partner = partner_frame(video, index, right_stream.frame_count)
+                one, other = reader.pictures(index, partner)
+                return one.array(grey=True), other.array(grey=True)
+
+            first = max(int(first), 0)
+            last = min(int(last), video["frame_count"] - 1)
+            return track_vertex(frames, rig, start, left, right, first, last, settings, cancel, progress)
+        finally:
+            reader.close()
+
+
+def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence[Track], frames: Sequence[int],
+                         label: str) -> list[int]:
+    """Make the stored object ``object_id`` (measured on video ``label``) an object over several instants:
+    one further instant at each of ``frames`` from ``tracks`` (one per vertex, in the object's vertex
+    order). A frame a track does not reach, or the object's own frame, is refused by name; returns the new
+    instants' ids."""
+    stored = project.object(object_id)
+    if len(tracks) != len(stored.vertices):
+        raise UsvipsError(f"object {object_id} has {len(stored.vertices)} vertices but {len(tracks)} tracks were "
+                          "given: track every vertex")
+    own = stored.vertices[0].frame_left if stored.vertices and stored.vertices[0].video == label else None
+    geometry = _geometry(project, label)
+    video = project.video(label)
+    rows = []
+    for frame in frames:
+        frame = int(frame)
+        if frame == own:
+            raise UsvipsError(f"object {object_id} is itself measured on frame {frame}: pick other frames")
+        found = [t.at(frame) for t in tracks]
+        missing = [i for i, f in enumerate(found) if f is None]
+        if missing:
+            raise UsvipsError(f"frame {frame}: the track of vertex {missing[0]} does not reach it (it stopped: "
+                              f"{tracks[missing[0]].stopped})")
+        left = np.array([f[0] for f in found])
+        right = np.array([f[1] for f in found])
+        try:
+            m = measure_picks(stored.kind, geometry.calibration, left, right, geometry.station, geometry.frame)
+        except UsvipsError as error:
+            raise UsvipsError(f"frame {frame}: {error}") from None
+        partner = partner_frame(video, frame)
+        time_s = frame / float(video["fps"])  # the nominal time of the left frame
+        blocks = [m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(len(m.points))]
+        vertices = [Vertex(*map(float, (*lp, *rp)), tuple(map(float, xyz)), block, geometry.calibration_id, label,
+                           label, frame, partner, time_s)
+                    for lp, rp, xyz, block in zip(left, right, m.points, blocks, strict=True)]
+        rows.append((stored.kind, vertices, stored.attribute, f"tracked from frame {tracks[0].start}", "usvips"))
+    with project.transaction():
+        ids = project.add_objects(rows)
+        for instant_id in ids:
+            add_instant(project, object_id, instant_id)
+    return ids
+
+
+@dataclass(frozen=True)
+class VertexProposal:
+    """A vertex of an object proposed on another frame: its ``left`` and ``right`` pixels, or None with
+    ``reason`` (why its track stopped before the frame)."""
+
+    left: tuple[float, float] | None
+    right: tuple[float, float] | None
+    reason: str = ""
+
+
+def propose_on_frame(project: ProjectStore, object_id: int, frame: int, settings: TrackSettings | None = None,
+                     cancel: Callable[[], bool] | None = None,
+                     progress: Callable[[int, int], None] | None = None) -> list[VertexProposal]:
+    """Each vertex of the stored object ``object_id`` (measured on a video) proposed on left frame
+    ``frame`` of that video, tracked from the frame it was measured on; a vertex whose track stops
+    before the frame has no proposal and says why."""
+    stored = project.object(object_id)
+    if not stored.vertices or stored.vertices[0].video is None:
+        raise UsvipsError(f"object {object_id} was not measured on a video: there is no frame to track it from")
+    label, start = stored.vertices[0].video, int(stored.vertices[0].frame_left)
+    first, last = min(start, int(frame)), max(start, int(frame))
+    proposals = []
+    for v in stored.vertices:
+        track = track_in_video(project, label, start, (v.xl, v.yl), (v.xr, v.yr), first, last, settings, cancel,
+                               progress)
+        found = track.at(frame)
+        if found is None:
+            direction = 1 if frame > start else -1
+            proposals.append(VertexProposal(None, None, f"its track stopped at frame "
+                                                        f"{track.frames[-1] if direction > 0 else track.frames[0]}: "
+                                                        f"{track.reason(direction)}"))
+        else:
+            proposals.append(VertexProposal(tuple(map(float, found[0])), tuple(map(float, found[1]))))
+    return proposals
