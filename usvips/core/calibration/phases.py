@@ -38,6 +38,7 @@ from usvips.core import housing as housings
 from usvips.core.adjustment import ALPHA0, Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.control_blunders import ControlBlunder, demote_control_blunders, is_control_coordinate
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
+from usvips.core.calibration.planar import is_coplanar, planar_start, resect_views
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.dlt import robust_dlt
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
@@ -58,7 +59,10 @@ DEFAULT_HOUSING = {name: housings.kind(name).priors() for name in housings.water
 class CalibrationOptions:
     """free / fix: parameter names (or seeds' symbols applying to both cameras, e.g. ``k2``); fix_values
     and priors: name → value and name → (value, sigma); sigma_px: a-priori pointing precision (px);
-    interior: ``fixed`` or ``weighted`` (phase 2); robust, snooping: blunder handling."""
+    interior: ``fixed`` or ``weighted`` (phase 2); robust, snooping: blunder handling; control_exact: the
+    target's geometry is exact by construction (a printed board: ``CalibrationTarget.exact``), so its
+    control coordinates are not searched for misprints (:mod:`.control_blunders`); data snooping of the
+    image observations still runs."""
 
     free: tuple[str, ...] = ()
     fix: tuple[str, ...] = ()
@@ -68,6 +72,7 @@ class CalibrationOptions:
     interior: str = "weighted"
     robust: bool = True
     snooping: bool = True
+    control_exact: bool = False
     image_size: tuple[int | None, int | None] = (None, None)
 
 
@@ -158,7 +163,7 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     problem = model.problem(parameters)
     adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model))
     blunders: list[ControlBlunder] = []
-    if options.snooping:
+    if options.snooping and not options.control_exact:
         model, parameters, adjustment, blunders = demote_control_blunders(model, parameters, adjustment, options.robust,
                                                                           _snoop_unit)
         problem = model.problem(parameters)
@@ -313,15 +318,40 @@ def _interior_from_dlt(starts: dict, side: str) -> dict[str, float]:
     return values
 
 
+def observes_a_plane(control: ControlPoints, observations: StereoObservations) -> bool:
+    """Whether the observed control points lie (nearly) in one plane (a board): the start is then planar
+    (:mod:`.planar`), since the DLT needs 3-D spread."""
+    return is_coplanar(control.xyz[control.index_of(list(dict.fromkeys(observations.ids)), "observation")])
+
+
+def _planar_values(control: ControlPoints, observations: StereoObservations, stations: tuple[str, ...],
+                   image_size: tuple[int | None, int | None]) -> dict[str, float]:
+    """Phase 1's starting values from a planar target: pinhole interiors (sy = 1, no distortion), each
+    view's left pose and the first view's right pose from the median relative orientation."""
+    start = planar_start(control, observations, image_size)
+    values: dict[str, float] = {}
+    for side, interior in zip(SIDES, start.interiors, strict=True):
+        values.update({f"{p}_{side}": float(getattr(interior, p)) for p in INTERIOR_PARAMETERS})
+    first = stations[0]
+    for side, pose in (("l", start.poses[(first, "l")]), ("r", start.right_at(first))):
+        values.update({f"{p}_{side}": getattr(pose, p) for p in EXTERIOR_PARAMETERS})
+    for station in stations[1:]:
+        values.update({f"{p}_l@{station}": getattr(start.poses[(station, "l")], p) for p in EXTERIOR_PARAMETERS})
+    return values
+
+
 def air_start(control: ControlPoints, observations: StereoObservations,
               options: CalibrationOptions | None = None) -> tuple[StereoModel, list[Parameter]]:
     """Phase 1's model and its parameters at their DLT starting values, options applied."""
     options = options or CalibrationOptions()
     model = StereoModel("air", control, observations, options.sigma_px, options.image_size)
-    starts = _dlt_starts(control, observations)
-    values = _exterior_values(starts, model.stations)
-    for side in SIDES:
-        values.update({f"{p}_{side}": v for p, v in _interior_from_dlt(starts, side).items()})
+    if observes_a_plane(control, observations):
+        values = _planar_values(control, observations, model.stations, options.image_size)
+    else:
+        starts = _dlt_starts(control, observations)
+        values = _exterior_values(starts, model.stations)
+        for side in SIDES:
+            values.update({f"{p}_{side}": v for p, v in _interior_from_dlt(starts, side).items()})
     parameters = []
     for name in model.parameter_names():
         status = "free"
@@ -383,10 +413,18 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     housing_kind = housings.kind(housing)
     size = options.image_size if options.image_size != (None, None) else (base.left.width, base.left.height)
     model = StereoModel(housing, control, observations, options.sigma_px, size)
-    starts = _dlt_starts(control, observations)
-    values = _exterior_values(starts, model.stations)
-    # the cameras are rigidly mounted: start the right camera from the left one's DLT pose and the phase-1
-    # relative orientation (a pinhole DLT through a housing is a poor start on its own)
+    if observes_a_plane(control, observations):
+        # a board: each view's left pose by a pinhole resection with the phase-1 interior (the housing's
+        # refraction is then fitted from the housing kind's starts)
+        poses = resect_views(control, observations, base.left.interior, "l")
+        values = {}
+        for k, station in enumerate(model.stations):
+            suffix = "_l" if k == 0 else f"_l@{station}"
+            values.update({f"{p}{suffix}": getattr(poses[station], p) for p in EXTERIOR_PARAMETERS})
+    else:
+        values = _exterior_values(_dlt_starts(control, observations), model.stations)
+    # the cameras are rigidly mounted: start the right camera from the left one's pose and the phase-1
+    # relative orientation (a pinhole start through a housing is a poor start on its own)
     right_start = right_exterior(exterior_of(values, "l"), base.relative)
     values.update({f"{p}_r": getattr(right_start, p) for p in EXTERIOR_PARAMETERS})
     parameters = []
