@@ -95,7 +95,10 @@ def _finish(result, args: argparse.Namespace) -> int:
     if report_text is not None:
         write_text_atomic(args.report, report_text)
     print(f"{report['phase']} calibration ({report['housing']}, stations {', '.join(report['stations'])}): "
-          f"sigma0 {report['sigma0_px']:.3f} px, RMS {report['rms_px']:.3f} px, redundancy {report['redundancy']}, "
+          f"sigma0 {report['sigma0_px']:.3f} px, RMS {report['rms_px']:.3f} px"
+          + (f" over the kept, {report['rms_px_all']:.3f} px over all observations" if report.get("set_aside")
+             and report.get("rms_px_all") is not None else "")
+          + f", redundancy {report['redundancy']}, "
           f"condition {report['condition_number']:.3g}")
     for suspect in report["suspects"]:
         w = f"w = {suspect['w']:.1f}" if suspect["w"] is not None else suspect["reason"]

@@ -172,10 +172,13 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     _require_baseline(left, right, model.control.xyz, adjustment)
     poses = [left.exterior] + [model.cameras(values, s)[0].exterior for s in model.stations[1:]]
     sigma0_px = adjustment.sigma0 * options.sigma_px
+    residuals = prediction_residuals(model, adjustment)
     # a fixed control coordinate is the control file's value, not an estimate
     estimates = {p.name: ParameterEstimate(p.value, adjustment.sigmas.get(p.name), p.status) for p in parameters
                  if not (p.status == "fixed" and is_control_coordinate(p.name))}
-    statistics = {"rms_px": adjustment.rms, "redundancy": adjustment.redundancy,
+    rms_all = _rms(residuals)
+    statistics = {"rms_px": adjustment.rms, "rms_px_all": rms_all if np.isfinite(rms_all) else None,
+                  "redundancy": adjustment.redundancy,
                   "condition_number": adjustment.condition_number, "iterations": adjustment.iterations,
                   "converged": adjustment.converged, "global_test": adjustment.global_test,
                   "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px,
@@ -260,20 +263,50 @@ def _require_rays(model: StereoModel, parameters: list[Parameter]) -> None:
                 f"turned back by a surface): check its fixed or starting values ({described})")
 
 
+def prediction_residuals(model: StereoModel, adjustment: Adjustment) -> np.ndarray:
+    """Every observation's residual, observed − computed (pixels), at the adjusted values: the adjustment's
+    own for the kept ones, the prediction residual for those set aside (NaN where no ray reaches one)."""
+    residuals = np.array(adjustment.residuals, dtype=np.float64)
+    outside = ~np.asarray(adjustment.used, bool)
+    if outside.any():
+        computed, ok = model.evaluate({p.name: p.value for p in adjustment.parameters})
+        predicted = np.where(ok & np.isfinite(computed), model.observation_set.values - computed, np.nan)
+        residuals[outside] = predicted[outside]
+    return residuals
+
+
+def _rms(residuals: np.ndarray) -> float:
+    """RMS (pixels, per coordinate) of the finite residuals."""
+    finite = residuals[np.isfinite(residuals)]
+    return float(np.sqrt(np.mean(finite**2))) if finite.size else float("nan")
+
+
 def build_report(result: CalibrationResult) -> dict:
     """The report JSON: sigma0_px, rms_px, parameters, correlations_over_0_95, condition_number, suspects,
     converged, and the details (residuals, redundancy numbers, global test, weak directions, notes)."""
     adj, model, cal = result.adjustment, result.model, result.calibration
     obs = adj.observations
+    predicted = prediction_residuals(model, adj)
     residuals = []
     for i in range(0, len(obs), 2):
-        residuals.append({"id": obs.point[i], "side": obs.side[i], "station": obs.group[i],
-                          "vx": float(adj.residuals[i]), "vy": float(adj.residuals[i + 1]),
+        vx, vy = (None if not np.isfinite(predicted[k]) else float(predicted[k]) for k in (i, i + 1))
+        residuals.append({"id": obs.point[i], "side": obs.side[i], "station": obs.group[i], "vx": vx, "vy": vy,
                           "wx": float(adj.w[i]), "wy": float(adj.w[i + 1]),
                           "redundancy_x": float(adj.redundancy_numbers[i]),
                           "redundancy_y": float(adj.redundancy_numbers[i + 1]),
                           "used": bool(adj.used[i] and adj.used[i + 1])})
+        if not residuals[-1]["used"]:
+            # set aside: its residual is a prediction (the adjustment did not use it), flagged as such
+            residuals[-1]["set_aside"] = True
+            if vx is None or vy is None:
+                residuals[-1]["note"] = "no ray of the adjusted camera reaches it: no residual"
     notes = []
+    set_aside = int(np.sum(~np.asarray(adj.used, bool)))
+    rms_all = _rms(predicted)
+    if set_aside:
+        notes.append(f"{set_aside} of {len(obs)} image coordinates are set aside (not used): RMS {adj.rms:.3f} px "
+                     f"over the kept ones, {rms_all:.3f} px over all (the set-aside ones by their prediction "
+                     "residuals, in the residual table flagged set_aside).")
     if model.housing_kind.report_note:
         notes.append(model.housing_kind.report_note)
     for name, side, bound in adj.on_bound:
@@ -298,7 +331,9 @@ def build_report(result: CalibrationResult) -> dict:
         "converged": adj.converged, "reason": adj.reason, "iterations": adj.iterations,
         "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adj.on_bound],
         "model_doubt": adj.model_doubt,
-        "sigma0_px": cal.sigma0_px, "rms_px": adj.rms, "redundancy": adj.redundancy,
+        "sigma0_px": cal.sigma0_px, "rms_px": adj.rms, "rms_px_kept": adj.rms,
+        "rms_px_all": rms_all if np.isfinite(rms_all) else None, "set_aside": set_aside,
+        "redundancy": adj.redundancy,
         "parameters": {name: {"value": p.value, "sigma": p.sigma, "status": p.status}
                        for name, p in cal.parameters.items()},
         "correlations_over_0_95": [{"a": a, "b": b, "r": r} for a, b, r in adj.correlations_over],
