@@ -229,11 +229,12 @@ def median_relative(poses: dict[tuple[str, str], Exterior], stations: list[str])
 
 
 def resect_views(control: ControlPoints, observations: StereoObservations, interior: Interior,
-                 side: str = "l") -> dict[str, Exterior]:
+                 side: str = "l", minimum_views: int = MIN_VIEWS) -> dict[str, Exterior]:
     """Each view's pose of one camera (``side`` l/r) by a pinhole resection with a known interior
     (OpenCV's ``solvePnP`` with our distortion): the start of the board's poses in phase 2, where the
     housing's refraction is then fitted. Raises naming a view whose pose cannot be found."""
-    require_views(len(observations.pair_labels))
+    if len(observations.pair_labels) < minimum_views:
+        require_views(len(observations.pair_labels))
     matrix, distortion = camera_matrix(interior)
     pixels = observations.left if side == "l" else observations.right
     poses = {}
