@@ -128,6 +128,13 @@ def observe_views(control: ControlPoints, rig: BoardRig, poses: list[Exterior], 
 
 
 def random_views(control: ControlPoints, rig: BoardRig, rng, count: int, distances=(0.4, 0.9),
-                 tilts=(15.0, 45.0)) -> list[Exterior]:
-    """``count`` view poses at distances (m) and tilts (degrees) drawn uniformly from the ranges."""
-    return [view_pose(control, rig, rng, rng.uniform(*distances), rng.uniform(*tilts)) for _ in range(count)]
+                 tilts=(15.0, 45.0), minimum: int = 12) -> list[Exterior]:
+    """``count`` view poses at distances (m) and tilts (degrees) drawn uniformly from the ranges, each
+    showing at least ``minimum`` corners in both images (a detector would not report fewer)."""
+    poses: list[Exterior] = []
+    while len(poses) < count:
+        pose = view_pose(control, rig, rng, rng.uniform(*distances), rng.uniform(*tilts))
+        stereo = rig.at(pose)
+        if np.sum(stereo.left.project(control.xyz).ok & stereo.right.project(control.xyz).ok) >= minimum:
+            poses.append(pose)
+    return poses

@@ -241,9 +241,11 @@ def resect_views(control: ControlPoints, observations: StereoObservations, inter
     for station in observations.pair_labels:
         index = np.flatnonzero([p == station for p in observations.pairs])
         xyz = control.xyz[control.index_of([observations.ids[i] for i in index], "observation")]
-        if index.size < 4:
-            raise DegenerateGeometryError(f"view {station!r}: only {index.size} target points (at least 4 needed)")
-        ok, rvec, tvec = cv2.solvePnP(xyz.astype(np.float64), pixels[index].astype(np.float64), matrix, distortion,
+        if index.size < MIN_POINTS:
+            raise DegenerateGeometryError(f"view {station!r}: only {index.size} target points in both images (at "
+                                          f"least {MIN_POINTS} needed); drop the view")
+        ok, rvec, tvec = cv2.solvePnP(xyz.reshape(-1, 1, 3).astype(np.float64),
+                                      pixels[index].reshape(-1, 1, 2).astype(np.float64), matrix, distortion,
                                       flags=cv2.SOLVEPNP_ITERATIVE)
         if not ok:
             raise DegenerateGeometryError(f"view {station!r}: no pose of the {'left' if side == 'l' else 'right'} "
