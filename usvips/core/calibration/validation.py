@@ -69,7 +69,8 @@ class DistanceBin:
     rms_relative: float
 
     def as_dict(self) -> dict:
-        return dict(self.__dict__)
+        """JSON-able: an empty bin's figures are None."""
+        return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in self.__dict__.items()}
 
 
 @dataclass
