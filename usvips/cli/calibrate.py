@@ -1,4 +1,6 @@
-"""``usvips calibrate air|water``: phase 1 and phase 2 (or joint) calibration from CSV files."""
+"""``usvips calibrate air|water``: phase 1 and phase 2 (or joint) calibration from CSV files, with the
+control from a control file or a target description (``--target``), optionally validated on held-out
+views (``--holdout``)."""
 
 from __future__ import annotations
 
@@ -9,14 +11,29 @@ from pathlib import Path
 from usvips.cli.common import parse_assignment, parse_prior, write_text_atomic
 from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
-from usvips.core.errors import ConvergenceError, InvalidParameterError
+from usvips.core.calibration.phases import observes_a_plane
+from usvips.core.calibration.validation import validate
+from usvips.core.calibration_targets import from_description
+from usvips.core.errors import ConvergenceError, InputFileError, InvalidParameterError
+from usvips.core.observations import ControlPoints
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--control", required=True, help="control CSV: id,X,Y,Z[,sX,sY,sZ] (metres)")
-    parser.add_argument("--obs", required=True, help="observations CSV: id,xl,yl,xr,yr[,pair] (pixels)")
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument("--control", help="control CSV: id,X,Y,Z[,sX,sY,sZ] (metres)")
+    where.add_argument("--target", metavar="TARGET.json",
+                       help="a calibration target's description (a board or a 3-D field; `usvips target "
+                            "describe` writes one): its points are the control, and a board's printed geometry is "
+                            "taken as exact (not searched for misprints)")
+    parser.add_argument("--obs", required=True, help="observations CSV: id,xl,yl,xr,yr[,pair] (pixels); with a "
+                        "target, the pair column labels the views")
+    parser.add_argument("--holdout", type=float, metavar="SHARE",
+                        help="hold out this share of the views (e.g. 0.2), calibrate on the rest and print how well "
+                             "the calibration predicts the held-out views (reprojection, known distances by range); "
+                             "the calibration written is the one from the rest")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the choice of held-out views (default 0)")
     parser.add_argument("--out", required=True, help="calibration file to write (JSON)")
     parser.add_argument("--report", help="adjustment report to write (JSON)")
     parser.add_argument("--free", nargs="+", action="extend", default=[], metavar="NAME",
@@ -79,12 +96,48 @@ def _options(args: argparse.Namespace) -> CalibrationOptions:
         if min(size) < 16:
             raise InvalidParameterError("--image-size", f"{args.image_size} is no image (each side must be at "
                                         "least 16 pixels)")
+    if args.holdout is not None and not 0.0 < args.holdout < 1.0:
+        raise InvalidParameterError("--holdout", f"the share of views held out must be between 0 and 1, got "
+                                    f"{args.holdout}")
     return CalibrationOptions(free=tuple(args.free), fix=tuple(fix_names), fix_values=fix_values, priors=priors,
                               sigma_px=args.sigma_px, interior=getattr(args, "interior", "weighted"),
                               snooping=not args.no_snooping, image_size=size)
 
 
-def _finish(result, args: argparse.Namespace) -> int:
+def _control(args: argparse.Namespace, options: CalibrationOptions) -> ControlPoints:
+    """The control from ``--control`` or from ``--target`` (then ``options.control_exact`` follows the
+    target: a printed board's geometry is exact by construction)."""
+    if args.control:
+        return read_control(args.control)
+    path = Path(args.target)
+    try:
+        description = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise InputFileError(str(path), "no such file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputFileError(str(path), f"cannot be read: {error}") from None
+    except json.JSONDecodeError as error:
+        raise InputFileError(str(path), f"line {error.lineno}: not JSON ({error.msg})") from None
+    target = from_description(description, str(path))
+    options.control_exact = bool(target.exact)
+    return target.control_points()
+
+
+def _calibrate(fit, control: ControlPoints, observations, args: argparse.Namespace, options: CalibrationOptions,
+               compare_opencv: bool):
+    """Run ``fit(observations)`` — on all views, or with ``--holdout`` on the rest after holding out a share
+    of them — and return (result, validation or None)."""
+    if args.holdout is None:
+        return fit(observations), None
+    validation = validate(control, observations, args.holdout, fit, args.seed,
+                          compare_opencv=compare_opencv and options.image_size != (None, None) and
+                          observes_a_plane(control, observations), image_size=options.image_size)
+    return validation.result, validation
+
+
+def _finish(result, args: argparse.Namespace, validation=None) -> int:
+    if validation is not None:
+        result.report["validation"] = validation.as_dict()
     if not result.adjustment.converged:
         raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing written")
     report = result.report
@@ -95,7 +148,10 @@ def _finish(result, args: argparse.Namespace) -> int:
     if report_text is not None:
         write_text_atomic(args.report, report_text)
     print(f"{report['phase']} calibration ({report['housing']}, stations {', '.join(report['stations'])}): "
-          f"sigma0 {report['sigma0_px']:.3f} px, RMS {report['rms_px']:.3f} px, redundancy {report['redundancy']}, "
+          f"sigma0 {report['sigma0_px']:.3f} px, RMS {report['rms_px']:.3f} px"
+          + (f" over the kept, {report['rms_px_all']:.3f} px over all observations" if report.get("set_aside")
+             and report.get("rms_px_all") is not None else "")
+          + f", redundancy {report['redundancy']}, "
           f"condition {report['condition_number']:.3g}")
     for suspect in report["suspects"]:
         w = f"w = {suspect['w']:.1f}" if suspect["w"] is not None else suspect["reason"]
@@ -105,19 +161,26 @@ def _finish(result, args: argparse.Namespace) -> int:
         print(f"  control blunder: {blunder['message']}")
     for pair in report["correlations_over_0_95"][:10]:
         print(f"  correlation {pair['a']} ~ {pair['b']}: {pair['r']:+.3f}")
+    if validation is not None:
+        for line in validation.lines():
+            print(line)
     print(f"wrote {args.out}" + (f" and {args.report}" if args.report else ""))
     return 0
 
 
 def _source(args: argparse.Namespace) -> dict:
-    return {"control": str(args.control), "observations": str(args.obs),
+    where = {"control": str(args.control)} if args.control else {"target": str(args.target)}
+    return {**where, "observations": str(args.obs),
             **({"base": str(args.base)} if getattr(args, "base", None) else {})}
 
 
 def run_air(args: argparse.Namespace) -> int:
-    control = read_control(args.control)
+    options = _options(args)
+    control = _control(args, options)
     observations = read_observations(args.obs)
-    return _finish(calibrate_air(control, observations, _options(args), _source(args)), args)
+    result, validation = _calibrate(lambda obs: calibrate_air(control, obs, options, _source(args)), control,
+                                    observations, args, options, compare_opencv=True)
+    return _finish(result, args, validation)
 
 
 def run_water(args: argparse.Namespace) -> int:
@@ -125,7 +188,10 @@ def run_water(args: argparse.Namespace) -> int:
     if base.phase != "air":
         raise InvalidParameterError("--base", f"{args.base} is a {base.phase} (phase-2) calibration; phase 2 "
                                     "starts from the in-air (phase-1) calibration of the same cameras")
-    control = read_control(args.control)
+    options = _options(args)
+    control = _control(args, options)
     observations = read_observations(args.obs)
-    result = calibrate_water(base, args.housing, control, observations, _options(args), _source(args))
-    return _finish(result, args)
+    result, validation = _calibrate(
+        lambda obs: calibrate_water(base, args.housing, control, obs, options, _source(args)), control,
+        observations, args, options, compare_opencv=False)
+    return _finish(result, args, validation)

@@ -691,8 +691,9 @@ class ResultsPage(QtWidgets.QWizardPage):
         for r in sorted(report["residuals"], key=lambda r: -max(abs(r["wx"]), abs(r["wy"]))):
             row = self.residuals.rowCount()
             self.residuals.insertRow(row)
-            cells = [r["station"], r["id"], r["side"], f"{r['vx']:.3f}", f"{r['vy']:.3f}", f"{r['wx']:.2f}",
-                     f"{r['wy']:.2f}", "yes" if r["used"] else "no"]
+            # a set-aside observation's residual is its prediction residual (None where no ray reaches it)
+            cells = [r["station"], r["id"], r["side"], *("—" if r[k] is None else f"{r[k]:.3f}" for k in ("vx", "vy")),
+                     f"{r['wx']:.2f}", f"{r['wy']:.2f}", "yes" if r["used"] else "no"]
             for column, text in enumerate(cells):
                 item = _item(text)
                 if (r["station"], r["id"], r["side"]) in bad:
@@ -723,7 +724,8 @@ class ResultsPage(QtWidgets.QWizardPage):
             segments = []
             for r in report["residuals"]:
                 key = (r["station"], r["id"])
-                if r["station"] != first or r["side"] != letter or key not in self.session.observations:
+                if (r["station"] != first or r["side"] != letter or key not in self.session.observations
+                        or r["vx"] is None or r["vy"] is None):
                     continue
                 values = self.session.observations[key]
                 start = np.array(values[:2] if side == "left" else values[2:])

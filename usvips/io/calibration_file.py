@@ -92,7 +92,10 @@ def calibration_to_dict(calibration: StereoCalibration) -> dict:
     }
     if calibration.covariance is not None:
         names, matrix = calibration.covariance
-        data["covariance"] = {"names": list(names), "matrix": np.asarray(matrix).tolist()}
+        matrix = np.asarray(matrix, dtype=np.float64)
+        # the adjustment's inverse is symmetric only to rounding: write the symmetric part, so that what
+        # we write is what our reader accepts
+        data["covariance"] = {"names": list(names), "matrix": (0.5 * (matrix + matrix.T)).tolist()}
     return data
 
 
@@ -157,6 +160,22 @@ def _parameters(path: str, data: object) -> dict[str, ParameterEstimate]:
     return parameters
 
 
+#: Largest accepted |C_ij − C_ji| / sqrt(C_ii C_jj) (the asymmetry in units of the two parameters' sigmas):
+#: a covariance's entries span many orders of magnitude (px² beside rad²), so the tolerance is relative to
+#: each entry's own scale, far above rounding (1e-16) and far below any real disagreement.
+SYMMETRY_TOLERANCE = 1e-9
+
+
+def _relative_asymmetry(matrix: np.ndarray) -> float:
+    """max |C_ij − C_ji| / sqrt(|C_ii C_jj|) (a zero diagonal counts at the matrix's largest entry)."""
+    if not matrix.size:
+        return 0.0
+    diagonal = np.abs(np.diag(matrix))
+    floor = 1e-300 + float(np.max(np.abs(matrix))) * 1e-30
+    scale = np.sqrt(np.maximum(np.outer(diagonal, diagonal), floor ** 2))
+    return float(np.max(np.abs(matrix - matrix.T) / scale))
+
+
 def _covariance(path: str, data: object) -> tuple[tuple[str, ...], np.ndarray] | None:
     """``covariance``: {"names": [n strings], "matrix": n × n finite numbers, symmetric positive semi-definite}."""
     if data is None:
@@ -172,8 +191,10 @@ def _covariance(path: str, data: object) -> tuple[tuple[str, ...], np.ndarray] |
                              "(one row and column per name)")
     matrix = np.array(rows, dtype=np.float64).reshape(len(names), len(names))
     scale = float(np.max(np.abs(matrix))) if matrix.size else 0.0
-    if not np.allclose(matrix, matrix.T, rtol=1e-9, atol=1e-12 * scale):
-        raise InputFileError(path, "covariance.matrix: not symmetric")
+    asymmetry = _relative_asymmetry(matrix)
+    if asymmetry > SYMMETRY_TOLERANCE:
+        raise InputFileError(path, f"covariance.matrix: not symmetric (an asymmetry of {asymmetry:.2g} of the "
+                             f"entries' scale, tolerance {SYMMETRY_TOLERANCE:g})")
     negative = [names[i] for i in np.flatnonzero(np.diag(matrix) < 0)]
     if negative:
         raise InputFileError(path, f"covariance.matrix: negative variance of {negative[0]} (not a covariance)")

@@ -16,6 +16,13 @@ adjusted again with all of its image observations. The demotion is kept only whe
 Otherwise the point stays a control point and its failing observations stay set aside as observation
 blunders. The message names each coordinate that is off by more than the tau test's critical value of
 its sigma (or the worst one): "control Z of target 3 is 200 m off its fitted value (−100.000 ± 0.004 m)".
+
+It scales: the candidates are scored from the ONE adjustment by a test statistic of a shift of each
+point's control coordinates (:func:`shift_statistics`: the share of the point's weighted image residuals,
+prediction residuals of set-aside observations included, that moving the point explains; about χ²(3)
+for a correct point), and only the few worst above that χ²(3) quantile at α0 are re-adjusted
+(:data:`MAX_TRIALS` in all) — never one full adjustment per point. A target whose geometry is exact by
+construction (a printed board) is not searched at all (``CalibrationOptions.control_exact``).
 """
 
 from __future__ import annotations
@@ -228,6 +235,66 @@ def _demote(model: StereoModel, parameters: list[Parameter], adjustment: Adjustm
     return None
 
 
+#: Full re-adjustments the search may spend in one calibration (each tries one candidate's demotion).
+MAX_TRIALS = 4
+
+#: Step (metres) of the numerical derivative of a point's pixels with respect to its coordinates.
+SHIFT_STEP = 1e-5
+
+
+def shift_statistics(model: StereoModel, values: dict[str, float], adjustment: Adjustment,
+                     points: list[str]) -> dict[str, float]:
+    """Per point id, the test statistic of a shift of its control coordinates from the one adjustment:
+    T = gᵀ N⁻¹ g with g = Jᵀ W r and N = Jᵀ W J over every image observation of the point (r: residuals,
+    observed − computed at the adjusted values, set-aside ones included; J: ∂pixel/∂(X, Y, Z) by central
+    differences; W: 1 / (σ0 σ)²). About χ²(3) for a correct point (a little less: the adjustment has
+    absorbed part of its residuals); large when its images agree on a different position."""
+    obs = model.observation_set
+    computed, ok = model.evaluate(values)
+    residual = obs.values - computed
+    scale = max(adjustment.sigma0, 1e-12)
+    weights = 1.0 / (obs.sigmas * scale) ** 2
+    xyz = model.control_xyz(values)
+    wanted = set(points)
+    rows_of: dict[str, list[int]] = {}
+    for i, pid in enumerate(obs.point):
+        if pid in wanted and ok[i] and np.isfinite(computed[i]):
+            rows_of.setdefault(pid, []).append(i)
+    jacobian = np.zeros((len(obs), 3))
+    shared: dict = {}
+    cameras: dict[str, tuple] = {}
+    for pid, rows in rows_of.items():
+        point = xyz[model.control.ids.index(pid)]
+        for start in rows[::2]:  # x and y rows of one image follow each other
+            station, side = obs.group[start], obs.side[start]
+            if station not in cameras:
+                cameras[station] = model.cameras(values, station, bounded=False, shared=shared)
+            camera = cameras[station][0 if side == "l" else 1]
+            probes = np.repeat(point[None, :], 6, axis=0)
+            for k in range(3):
+                probes[2 * k, k] += SHIFT_STEP
+                probes[2 * k + 1, k] -= SHIFT_STEP
+            try:
+                projection = camera.project(probes)
+            except UsvipsError:
+                continue
+            if not np.all(projection.status == 0):
+                continue
+            derivative = (projection.pixels[0::2] - projection.pixels[1::2]).T / (2 * SHIFT_STEP)  # (2, 3)
+            jacobian[start:start + 2] = derivative
+    out = {}
+    for pid, rows in rows_of.items():
+        j = jacobian[rows]
+        w = weights[rows]
+        normal = j.T @ (w[:, None] * j)
+        gradient = j.T @ (w * residual[rows])
+        try:
+            out[pid] = float(gradient @ np.linalg.solve(normal, gradient))
+        except np.linalg.LinAlgError:
+            continue
+    return out
+
+
 def demote_control_blunders(model: StereoModel, parameters: list[Parameter], adjustment: Adjustment,
                             robust: bool, snoop_unit_of: Callable
                             ) -> tuple[StereoModel, list[Parameter], Adjustment, list[ControlBlunder]]:
@@ -235,22 +302,30 @@ def demote_control_blunders(model: StereoModel, parameters: list[Parameter], adj
     images agree once its coordinates are free (module docstring). Returns the model, parameters and
     adjustment to use (the originals when nothing is demoted) and the demotions. ``snoop_unit_of(model)``
     gives the model's snooping unit. The parameters of the returned adjustment hold its values."""
+    from scipy import stats  # deferred: scipy.stats is slow to import (the window's start-up)
+
+    critical = float(stats.chi2.ppf(1.0 - ALPHA0, 3))
     blunders: list[ControlBlunder] = []
     tried: set[str] = set()
-    while True:
+    while len(tried) < MAX_TRIALS:
         free = {p.name.split("@")[1] for p in parameters if is_control_coordinate(p.name) and p.status == "free"}
         troubled = _troubled_images(adjustment, _critical(adjustment))
         candidates = [pid for pid, images in troubled.items()
                       if len(images) >= 2 and pid in model.control.ids and pid not in free and pid not in tried]
         if not candidates:
-            return model, parameters, adjustment, blunders
-        obs = adjustment.observations
-        worst = {pid: max((abs(adjustment.w[i]) if adjustment.used[i] else np.inf)
-                          for i in range(len(obs)) if obs.point[i] == pid) for pid in candidates}
-        point = max(candidates, key=lambda pid: worst[pid])
-        tried.add(point)
-        outcome = _demote(model, parameters, adjustment, point, robust, snoop_unit_of)
-        if outcome is None:
-            continue
-        model, parameters, adjustment, blunder = outcome
-        blunders.append(blunder)
+            break
+        scores = shift_statistics(model, {p.name: p.value for p in parameters}, adjustment, candidates)
+        ranked = sorted((pid for pid in candidates if scores.get(pid, np.inf) > critical),
+                        key=lambda pid: -scores.get(pid, np.inf))
+        if not ranked:
+            break
+        for point in ranked[:MAX_TRIALS - len(tried)]:
+            tried.add(point)
+            outcome = _demote(model, parameters, adjustment, point, robust, snoop_unit_of)
+            if outcome is not None:
+                model, parameters, adjustment, blunder = outcome
+                blunders.append(blunder)
+                break  # the adjustment changed: score the rest again
+        else:
+            break
+    return model, parameters, adjustment, blunders

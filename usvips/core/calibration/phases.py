@@ -38,6 +38,7 @@ from usvips.core import housing as housings
 from usvips.core.adjustment import ALPHA0, Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.control_blunders import ControlBlunder, demote_control_blunders, is_control_coordinate
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
+from usvips.core.calibration.planar import is_coplanar, planar_start, resect_views
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.dlt import robust_dlt
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
@@ -58,7 +59,10 @@ DEFAULT_HOUSING = {name: housings.kind(name).priors() for name in housings.water
 class CalibrationOptions:
     """free / fix: parameter names (or seeds' symbols applying to both cameras, e.g. ``k2``); fix_values
     and priors: name → value and name → (value, sigma); sigma_px: a-priori pointing precision (px);
-    interior: ``fixed`` or ``weighted`` (phase 2); robust, snooping: blunder handling."""
+    interior: ``fixed`` or ``weighted`` (phase 2); robust, snooping: blunder handling; control_exact: the
+    target's geometry is exact by construction (a printed board: ``CalibrationTarget.exact``), so its
+    control coordinates are not searched for misprints (:mod:`.control_blunders`); data snooping of the
+    image observations still runs."""
 
     free: tuple[str, ...] = ()
     fix: tuple[str, ...] = ()
@@ -68,6 +72,7 @@ class CalibrationOptions:
     interior: str = "weighted"
     robust: bool = True
     snooping: bool = True
+    control_exact: bool = False
     image_size: tuple[int | None, int | None] = (None, None)
 
 
@@ -158,7 +163,7 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     problem = model.problem(parameters)
     adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model))
     blunders: list[ControlBlunder] = []
-    if options.snooping:
+    if options.snooping and not options.control_exact:
         model, parameters, adjustment, blunders = demote_control_blunders(model, parameters, adjustment, options.robust,
                                                                           _snoop_unit)
         problem = model.problem(parameters)
@@ -167,10 +172,13 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     _require_baseline(left, right, model.control.xyz, adjustment)
     poses = [left.exterior] + [model.cameras(values, s)[0].exterior for s in model.stations[1:]]
     sigma0_px = adjustment.sigma0 * options.sigma_px
+    residuals = prediction_residuals(model, adjustment)
     # a fixed control coordinate is the control file's value, not an estimate
     estimates = {p.name: ParameterEstimate(p.value, adjustment.sigmas.get(p.name), p.status) for p in parameters
                  if not (p.status == "fixed" and is_control_coordinate(p.name))}
-    statistics = {"rms_px": adjustment.rms, "redundancy": adjustment.redundancy,
+    rms_all = _rms(residuals)
+    statistics = {"rms_px": adjustment.rms, "rms_px_all": rms_all if np.isfinite(rms_all) else None,
+                  "redundancy": adjustment.redundancy,
                   "condition_number": adjustment.condition_number, "iterations": adjustment.iterations,
                   "converged": adjustment.converged, "global_test": adjustment.global_test,
                   "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px,
@@ -255,20 +263,50 @@ def _require_rays(model: StereoModel, parameters: list[Parameter]) -> None:
                 f"turned back by a surface): check its fixed or starting values ({described})")
 
 
+def prediction_residuals(model: StereoModel, adjustment: Adjustment) -> np.ndarray:
+    """Every observation's residual, observed − computed (pixels), at the adjusted values: the adjustment's
+    own for the kept ones, the prediction residual for those set aside (NaN where no ray reaches one)."""
+    residuals = np.array(adjustment.residuals, dtype=np.float64)
+    outside = ~np.asarray(adjustment.used, bool)
+    if outside.any():
+        computed, ok = model.evaluate({p.name: p.value for p in adjustment.parameters})
+        predicted = np.where(ok & np.isfinite(computed), model.observation_set.values - computed, np.nan)
+        residuals[outside] = predicted[outside]
+    return residuals
+
+
+def _rms(residuals: np.ndarray) -> float:
+    """RMS (pixels, per coordinate) of the finite residuals."""
+    finite = residuals[np.isfinite(residuals)]
+    return float(np.sqrt(np.mean(finite**2))) if finite.size else float("nan")
+
+
 def build_report(result: CalibrationResult) -> dict:
     """The report JSON: sigma0_px, rms_px, parameters, correlations_over_0_95, condition_number, suspects,
     converged, and the details (residuals, redundancy numbers, global test, weak directions, notes)."""
     adj, model, cal = result.adjustment, result.model, result.calibration
     obs = adj.observations
+    predicted = prediction_residuals(model, adj)
     residuals = []
     for i in range(0, len(obs), 2):
-        residuals.append({"id": obs.point[i], "side": obs.side[i], "station": obs.group[i],
-                          "vx": float(adj.residuals[i]), "vy": float(adj.residuals[i + 1]),
+        vx, vy = (None if not np.isfinite(predicted[k]) else float(predicted[k]) for k in (i, i + 1))
+        residuals.append({"id": obs.point[i], "side": obs.side[i], "station": obs.group[i], "vx": vx, "vy": vy,
                           "wx": float(adj.w[i]), "wy": float(adj.w[i + 1]),
                           "redundancy_x": float(adj.redundancy_numbers[i]),
                           "redundancy_y": float(adj.redundancy_numbers[i + 1]),
                           "used": bool(adj.used[i] and adj.used[i + 1])})
+        if not residuals[-1]["used"]:
+            # set aside: its residual is a prediction (the adjustment did not use it), flagged as such
+            residuals[-1]["set_aside"] = True
+            if vx is None or vy is None:
+                residuals[-1]["note"] = "no ray of the adjusted camera reaches it: no residual"
     notes = []
+    set_aside = int(np.sum(~np.asarray(adj.used, bool)))
+    rms_all = _rms(predicted)
+    if set_aside:
+        notes.append(f"{set_aside} of {len(obs)} image coordinates are set aside (not used): RMS {adj.rms:.3f} px "
+                     f"over the kept ones, {rms_all:.3f} px over all (the set-aside ones by their prediction "
+                     "residuals, in the residual table flagged set_aside).")
     if model.housing_kind.report_note:
         notes.append(model.housing_kind.report_note)
     for name, side, bound in adj.on_bound:
@@ -293,7 +331,9 @@ def build_report(result: CalibrationResult) -> dict:
         "converged": adj.converged, "reason": adj.reason, "iterations": adj.iterations,
         "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adj.on_bound],
         "model_doubt": adj.model_doubt,
-        "sigma0_px": cal.sigma0_px, "rms_px": adj.rms, "redundancy": adj.redundancy,
+        "sigma0_px": cal.sigma0_px, "rms_px": adj.rms, "rms_px_kept": adj.rms,
+        "rms_px_all": rms_all if np.isfinite(rms_all) else None, "set_aside": set_aside,
+        "redundancy": adj.redundancy,
         "parameters": {name: {"value": p.value, "sigma": p.sigma, "status": p.status}
                        for name, p in cal.parameters.items()},
         "correlations_over_0_95": [{"a": a, "b": b, "r": r} for a, b, r in adj.correlations_over],
@@ -313,15 +353,40 @@ def _interior_from_dlt(starts: dict, side: str) -> dict[str, float]:
     return values
 
 
+def observes_a_plane(control: ControlPoints, observations: StereoObservations) -> bool:
+    """Whether the observed control points lie (nearly) in one plane (a board): the start is then planar
+    (:mod:`.planar`), since the DLT needs 3-D spread."""
+    return is_coplanar(control.xyz[control.index_of(list(dict.fromkeys(observations.ids)), "observation")])
+
+
+def _planar_values(control: ControlPoints, observations: StereoObservations, stations: tuple[str, ...],
+                   image_size: tuple[int | None, int | None]) -> dict[str, float]:
+    """Phase 1's starting values from a planar target: pinhole interiors (sy = 1, no distortion), each
+    view's left pose and the first view's right pose from the median relative orientation."""
+    start = planar_start(control, observations, image_size)
+    values: dict[str, float] = {}
+    for side, interior in zip(SIDES, start.interiors, strict=True):
+        values.update({f"{p}_{side}": float(getattr(interior, p)) for p in INTERIOR_PARAMETERS})
+    first = stations[0]
+    for side, pose in (("l", start.poses[(first, "l")]), ("r", start.right_at(first))):
+        values.update({f"{p}_{side}": getattr(pose, p) for p in EXTERIOR_PARAMETERS})
+    for station in stations[1:]:
+        values.update({f"{p}_l@{station}": getattr(start.poses[(station, "l")], p) for p in EXTERIOR_PARAMETERS})
+    return values
+
+
 def air_start(control: ControlPoints, observations: StereoObservations,
               options: CalibrationOptions | None = None) -> tuple[StereoModel, list[Parameter]]:
     """Phase 1's model and its parameters at their DLT starting values, options applied."""
     options = options or CalibrationOptions()
     model = StereoModel("air", control, observations, options.sigma_px, options.image_size)
-    starts = _dlt_starts(control, observations)
-    values = _exterior_values(starts, model.stations)
-    for side in SIDES:
-        values.update({f"{p}_{side}": v for p, v in _interior_from_dlt(starts, side).items()})
+    if observes_a_plane(control, observations):
+        values = _planar_values(control, observations, model.stations, options.image_size)
+    else:
+        starts = _dlt_starts(control, observations)
+        values = _exterior_values(starts, model.stations)
+        for side in SIDES:
+            values.update({f"{p}_{side}": v for p, v in _interior_from_dlt(starts, side).items()})
     parameters = []
     for name in model.parameter_names():
         status = "free"
@@ -383,10 +448,18 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     housing_kind = housings.kind(housing)
     size = options.image_size if options.image_size != (None, None) else (base.left.width, base.left.height)
     model = StereoModel(housing, control, observations, options.sigma_px, size)
-    starts = _dlt_starts(control, observations)
-    values = _exterior_values(starts, model.stations)
-    # the cameras are rigidly mounted: start the right camera from the left one's DLT pose and the phase-1
-    # relative orientation (a pinhole DLT through a housing is a poor start on its own)
+    if observes_a_plane(control, observations):
+        # a board: each view's left pose by a pinhole resection with the phase-1 interior (the housing's
+        # refraction is then fitted from the housing kind's starts)
+        poses = resect_views(control, observations, base.left.interior, "l")
+        values = {}
+        for k, station in enumerate(model.stations):
+            suffix = "_l" if k == 0 else f"_l@{station}"
+            values.update({f"{p}{suffix}": getattr(poses[station], p) for p in EXTERIOR_PARAMETERS})
+    else:
+        values = _exterior_values(_dlt_starts(control, observations), model.stations)
+    # the cameras are rigidly mounted: start the right camera from the left one's pose and the phase-1
+    # relative orientation (a pinhole start through a housing is a poor start on its own)
     right_start = right_exterior(exterior_of(values, "l"), base.relative)
     values.update({f"{p}_r": getattr(right_start, p) for p in EXTERIOR_PARAMETERS})
     parameters = []
