@@ -140,16 +140,27 @@ def point_quality(grey: np.ndarray, pixels: np.ndarray, half: float) -> np.ndarr
 
 
 def edge_width(grey: np.ndarray, pixels: np.ndarray, half: float) -> np.ndarray:
-    """How wide (pixels) the edges near each point are: the window's contrast (2nd to 98th percentile)
-    over its steepest gradient — about 2.5 σ for a Gaussian blur of σ, the blur length for motion blur."""
+    """How wide (pixels) the blurriest edges near each point are: the window's contrast (2nd to 98th
+    percentile) over the steepest gradient of each of its two main edge directions, the larger of the two
+    — about 2.5 σ for a Gaussian blur of σ, about the blur length across edges smeared by motion (edges
+    along the motion stay sharp; the total gradient of an edge does not change with blur, so the edge
+    directions are found by it)."""
     pixels = np.asarray(pixels, np.float64).reshape(-1, 2)
     if not len(pixels):
         return np.empty(0)
     patches, gx, gy = _patches(grey, pixels, half)
-    flat = patches.reshape(len(pixels), -1)
+    n = len(pixels)
+    flat = patches.reshape(n, -1)
     contrast = np.percentile(flat, 98, axis=1) - np.percentile(flat, 2, axis=1)
-    steepest = np.sqrt(gx * gx + gy * gy).reshape(len(pixels), -1).max(axis=1)
-    return contrast / np.maximum(steepest, 1e-9)
+    magnitude = np.sqrt(gx * gx + gy * gy).reshape(n, -1)
+    bins = 8
+    orientation = (np.floor((np.arctan2(gy, gx) % np.pi) / np.pi * bins).astype(np.int64) % bins).reshape(n, -1)
+    onehot = orientation[:, :, None] == np.arange(bins)[None, None, :]
+    total = (magnitude[:, :, None] * onehot).sum(axis=1)
+    steepest = (magnitude[:, :, None] * onehot).max(axis=1)
+    main = np.argsort(total, axis=1)[:, -2:]
+    weakest = np.take_along_axis(steepest, main, axis=1).min(axis=1)
+    return contrast / np.maximum(weakest, 1e-9)
 
 
 #: Edges wider than this (pixels) mean the target moved or was out of focus: the view is refused.

@@ -100,6 +100,23 @@ class MarkerGrid(PrintedBoard):
     def feature_size(self) -> float:
         return self.marker / (self.dictionary.markerSize + 2)
 
+    def _misplaced(self, point_ids: tuple[str, ...], pixels: np.ndarray) -> bool:
+        """The markers found do not lie as on the board: a homography from the board cannot put their corners
+        within a fifth of a marker of where they are found (a flipped image — some codes read the same
+        mirrored —, or another board with the same ids). One marker alone cannot tell."""
+        if len(point_ids) < 8:
+            return False
+        ids, xy = self.points()
+        index = {pid: k for k, pid in enumerate(ids)}
+        model = xy[[index[pid] for pid in point_ids]]
+        h, _ = cv2.findHomography(model, pixels, 0)
+        if h is None:
+            return True
+        mapped = cv2.perspectiveTransform(model.reshape(-1, 1, 2), h).reshape(-1, 2)
+        quads = pixels.reshape(-1, 4, 2)
+        side = float(np.mean(np.linalg.norm(quads - np.roll(quads, 1, axis=1), axis=2)))
+        return bool(np.max(np.linalg.norm(mapped - pixels, axis=1)) > 0.2 * side)
+
     # ---------------------------------------------------------------------------------- detection
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
@@ -116,4 +133,7 @@ class MarkerGrid(PrintedBoard):
         keep.sort(key=lambda i: found[i])
         point_ids = tuple(f"{found[i]}-{corner}" for i in keep for corner in range(4))
         pixels = np.vstack([np.asarray(corners[i], np.float64).reshape(4, 2) for i in keep])
+        if self._misplaced(point_ids, pixels):
+            return TargetDetection.nothing(size, "the markers found do not lie as on the board: a flipped "
+                                           "(mirrored) image, or another board with the same marker ids in view")
         return _board.finished(grey, point_ids, pixels, notes)
