@@ -21,6 +21,7 @@ from usvips.core.errors import UsvipsError
 COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure", "project", "render", "bench",
                              "calibration", "plan", "video")
 COMMANDS += ("batch",)
+COMMANDS += ("target",)
 
 
 def build_parser() -> argparse.ArgumentParser:
