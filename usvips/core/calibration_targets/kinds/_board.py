@@ -130,7 +130,10 @@ def point_quality(grey: np.ndarray, pixels: np.ndarray, half: float) -> np.ndarr
     pixels = np.asarray(pixels, np.float64).reshape(-1, 2)
     if not len(pixels):
         return np.empty(0)
-    _, gx, gy = _patches(grey, pixels, half)
+    return _quality(*_patches(grey, pixels, half)[1:])
+
+
+def _quality(gx: np.ndarray, gy: np.ndarray) -> np.ndarray:
     n = gx[0].size
     a, b, c = (gx * gx).sum((1, 2)) / n, (gx * gy).sum((1, 2)) / n, (gy * gy).sum((1, 2)) / n
     smallest = (a + c) / 2 - np.sqrt(((a - c) / 2) ** 2 + b * b)
@@ -146,8 +149,11 @@ def edge_width(grey: np.ndarray, pixels: np.ndarray, half: float) -> np.ndarray:
     pixels = np.asarray(pixels, np.float64).reshape(-1, 2)
     if not len(pixels):
         return np.empty(0)
-    patches, gx, gy = _patches(grey, pixels, half)
-    n = len(pixels)
+    return _edge_width(*_patches(grey, pixels, half))
+
+
+def _edge_width(patches: np.ndarray, gx: np.ndarray, gy: np.ndarray) -> np.ndarray:
+    n = len(patches)
     flat = np.sort(patches.reshape(n, -1), axis=1)
     m = flat.shape[1]
     contrast = flat[:, int(0.98 * (m - 1))] - flat[:, int(0.02 * (m - 1))]
@@ -174,11 +180,13 @@ def finished(grey: np.ndarray, ids: tuple[str, ...], pixels: np.ndarray, notes: 
     size = (grey.shape[1], grey.shape[0])
     pixels = np.asarray(pixels, np.float64).reshape(-1, 2)
     half = float(np.clip(0.3 * spacing_px(pixels), 2, 12))
-    width = float(np.median(edge_width(grey, pixels, half)))
+    patches, gx, gy = _patches(grey, pixels, half)
+    sample = np.unique(np.linspace(0, len(pixels) - 1, min(len(pixels), 24)).astype(np.intp))
+    width = float(np.median(_edge_width(patches[sample], gx[sample], gy[sample])))
     if width > max_edge_width:
         return TargetDetection.nothing(size, f"the target is too blurred: its edges are {width:.1f} px wide "
                                        f"(at most {max_edge_width:g}); hold it still, focus, or expose shorter")
-    return TargetDetection(tuple(ids), pixels, point_quality(grey, pixels, half), size, "", tuple(notes))
+    return TargetDetection(tuple(ids), pixels, _quality(gx, gy), size, "", tuple(notes))
 
 
 def spacing_px(pixels: np.ndarray) -> float:
