@@ -167,3 +167,32 @@ def test_quality_falls_with_blur():
     assert sharp and soft
     common = [pid for pid in sharp.ids if pid in soft.ids]
     assert np.median(sharp.subset(common).quality) > 1.1 * np.median(soft.subset(common).quality)
+
+
+ODD_IMAGES = {
+    "8 x 8": np.zeros((8, 8), np.uint8),
+    "a thin strip": np.zeros((8, 3000), np.uint8),
+    "16-bit noise": np.random.default_rng(0).integers(0, 65535, (200, 300)).astype(np.uint16),
+    "16-bit black": np.zeros((100, 100), np.uint16),
+    "RGBA": np.zeros((50, 60, 4), np.uint8),
+}
+
+
+@pytest.mark.parametrize("name", list(BOARDS))
+@pytest.mark.parametrize("image", list(ODD_IMAGES))
+def test_odd_images_give_a_reason_never_an_exception(name, image):
+    detection = BOARDS[name]().detect(ODD_IMAGES[image])
+    assert not detection and detection.reason
+
+
+def test_an_opencv_failure_is_a_reason():
+    import cv2
+
+    from usvips.core.calibration_targets.kinds import _board
+
+    def failing(self, grey):
+        raise cv2.error("the detector gave up")
+
+    detection = _board.guarded(failing)(None, np.zeros((20, 30), np.uint8))
+    assert not detection and detection.reason == "OpenCV could not search the image: the detector gave up"
+    assert detection.image_size == (30, 20)

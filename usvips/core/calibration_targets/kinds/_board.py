@@ -93,6 +93,23 @@ def marker_bits(dictionary: cv2.aruco.Dictionary, ids: np.ndarray) -> np.ndarray
     return out
 
 
+def guarded(detect):
+    """Wrap a kind's ``detect`` so that OpenCV failing on an odd image (too small for the detector's
+    settings, say) is a falsy detection with the reason, never an exception."""
+    import functools
+
+    @functools.wraps(detect)
+    def wrapper(self, image: np.ndarray) -> TargetDetection:
+        grey = to_grey8(image)
+        try:
+            return detect(self, grey)
+        except cv2.error as error:
+            problem = " ".join(str(getattr(error, "err", None) or error).split())[:200]
+            return TargetDetection.nothing((grey.shape[1], grey.shape[0]), f"OpenCV could not search the image: "
+                                           f"{problem}")
+    return wrapper
+
+
 def to_grey8(image: np.ndarray) -> np.ndarray:
     """A grey uint8 image for OpenCV's detectors from grey or RGB, uint8 or uint16 (16-bit images are
     stretched so that their 99.9th percentile is white: 10- and 12-bit data fill the range)."""

@@ -112,6 +112,7 @@ class CharucoBoard(PrintedBoard):
         return self.marker / (self.dictionary.markerSize + 2)
 
     # ---------------------------------------------------------------------------------- detection
+    @_board.guarded
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
         size = (grey.shape[1], grey.shape[0])

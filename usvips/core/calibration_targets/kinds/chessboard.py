@@ -123,6 +123,7 @@ class Chessboard(PrintedBoard):
         return self.square
 
     # ---------------------------------------------------------------------------------- detection
+    @_board.guarded
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
         size = (grey.shape[1], grey.shape[0])

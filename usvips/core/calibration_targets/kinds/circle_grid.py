@@ -109,13 +109,14 @@ class CircleGrid(PrintedBoard):
         return self.diameter
 
     # ---------------------------------------------------------------------------------- detection
+    @_board.guarded
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
         size = (grey.shape[1], grey.shape[0])
         found, centres = cv2.findCirclesGrid(grey, (self.cols, self.rows), flags=self._flags)
         if not found:  # OpenCV's blob detector leaves out blobs over 5,000 px: try again allowing large circles
             parameters = cv2.SimpleBlobDetector_Params()
-            parameters.maxArea = float(grey.shape[0] * grey.shape[1]) / 8
+            parameters.maxArea = max(float(grey.shape[0] * grey.shape[1]) / 8, parameters.minArea + 1)
             found, centres = cv2.findCirclesGrid(grey, (self.cols, self.rows), flags=self._flags,
                                                  blobDetector=cv2.SimpleBlobDetector_create(parameters))
         if not found or centres is None or len(centres) != self.cols * self.rows:

@@ -118,6 +118,7 @@ class MarkerGrid(PrintedBoard):
         return bool(np.max(np.linalg.norm(mapped - pixels, axis=1)) > 0.2 * side)
 
     # ---------------------------------------------------------------------------------- detection
+    @_board.guarded
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
         size = (grey.shape[1], grey.shape[0])
