@@ -1,5 +1,5 @@
-"""Monte Carlo: boards rendered through air, flat-port, dome-port and dome-cover housings at random poses (distance, tilt,
-spin, place in the image) are found whole, every point near its back-projected truth."""
+"""Monte Carlo: boards rendered through air, flat-port, dome-port and dome-cover housings at random poses
+(distance, tilt, spin, place in the image) are found whole, every point near its back-projected truth."""
 
 import numpy as np
 import pytest
