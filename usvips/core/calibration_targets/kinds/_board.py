@@ -216,6 +216,28 @@ def spacing_px(pixels: np.ndarray) -> float:
     return float(np.median(d.min(axis=1)))
 
 
+UPRIGHT_NOTE = "symmetric board: point 0 taken as the one from which the board runs rightwards (upright rule)"
+TURNED_TOO_FAR = ("the symmetric board is turned too near a quarter turn (or half way between two, if square) "
+                  "for the upright rule to tell its point order: hold it more upright")
+#: How much more nearly rightwards (difference of the x step's unit x component) the chosen ordering must
+#: run than the next: the upright rule refuses a board turned within about 15° of a quarter turn (a
+#: square board: within about 30° of half way between two), where two cameras could choose differently.
+UPRIGHT_MARGIN = 0.5
+
+
+def most_upright(candidates: list[np.ndarray]) -> np.ndarray | None:
+    """Of the orderings (rows, cols, 2) of a symmetric board, the one whose x step runs most nearly
+    rightwards in the image; None when another runs nearly as rightwards (see :data:`UPRIGHT_MARGIN`)."""
+    def rightwards(candidate: np.ndarray) -> float:
+        dx = (candidate[:, 1:] - candidate[:, :-1]).reshape(-1, 2).mean(axis=0)
+        return float(dx[0] / np.linalg.norm(dx))
+
+    scores = sorted(((rightwards(c), k) for k, c in enumerate(candidates)), reverse=True)
+    if len(scores) > 1 and scores[0][0] - scores[1][0] < UPRIGHT_MARGIN:
+        return None
+    return candidates[scores[0][1]]
+
+
 class PrintedBoard(CalibrationTarget):
     """A planar board printed on a sheet: its pattern (:meth:`ink`), the sheet it is printed on
     (:meth:`sheet`, with a white quiet zone around the pattern) and its black shapes for printing

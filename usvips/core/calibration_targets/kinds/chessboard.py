@@ -40,14 +40,6 @@ def grid_orderings(grid: np.ndarray) -> list[np.ndarray]:
     return kept
 
 
-def most_upright(candidates: list[np.ndarray]) -> np.ndarray:
-    """The ordering whose x step runs most nearly rightwards in the image."""
-    def rightwards(candidate: np.ndarray) -> float:
-        dx = (candidate[:, 1:] - candidate[:, :-1]).reshape(-1, 2).mean(axis=0)
-        return float(dx[0] / np.linalg.norm(dx))
-    return max(candidates, key=rightwards)
-
-
 def refine_corners(grey: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     """OpenCV's ``cornerSubPix`` on chessboard corners, over a window of 0.35 × the corner spacing each
     side (on rendered boards through every housing it brings findChessboardCornersSB's own estimate from
@@ -137,9 +129,10 @@ class Chessboard(PrintedBoard):
         candidates = grid_orderings(grid)
         notes: tuple[str, ...] = ()
         if self.symmetric:
-            chosen = most_upright(candidates)
-            notes = ("symmetric board: corner 0 taken as the one from which the board runs rightwards "
-                     "(upright rule)",)
+            chosen = _board.most_upright(candidates)
+            if chosen is None:
+                return TargetDetection.nothing(size, _board.TURNED_TOO_FAR)
+            notes = (_board.UPRIGHT_NOTE,)
         else:
             scores = [self._origin_contrast(grey, c) for c in candidates]
             best = int(np.argmax(scores))

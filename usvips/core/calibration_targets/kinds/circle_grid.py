@@ -145,10 +145,11 @@ class CircleGrid(PrintedBoard):
         if len(kept) > 1:
             if not self.upright:
                 return TargetDetection.nothing(size, "the circle grid's orientation cannot be told")
-            from usvips.core.calibration_targets.kinds.chessboard import most_upright
-
-            kept = [most_upright(kept)]
-            notes = ("symmetric grid: point 0 taken as the one from which the board runs rightwards (upright rule)",)
+            chosen = _board.most_upright(kept)
+            if chosen is None:
+                return TargetDetection.nothing(size, _board.TURNED_TOO_FAR)
+            kept = [chosen]
+            notes = (_board.UPRIGHT_NOTE,)
         return _board.finished(grey, ids, kept[0].reshape(-1, 2), notes)
 
 
