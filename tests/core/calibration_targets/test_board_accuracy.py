@@ -48,6 +48,7 @@ CASES = [(housing, name, count) for housing in ("air", "flat-port", "dome-port")
 CASES += [("dome-cover", "chessboard", 4), ("dome-cover", "charuco", 4)]  # the thesis's decentred dome covers
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("housing", "name", "count"), CASES)
 def test_every_point_is_found_near_its_truth_over_random_poses(housing, name, count):
     board = BOARDS[name]()

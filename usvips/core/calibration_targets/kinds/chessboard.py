@@ -12,7 +12,8 @@ image's). What is left differs by a half turn, which only an odd × even board t
 square is black and its opposite corner's white, and that is checked in the image. A board with odd × odd
 or even × even inner corners (or a square one) looks the same turned by half a turn: its description is
 refused unless it says ``"upright": true`` — the rule that the board is never turned by more than a quarter
-turn in the image (corner 0 is then the one from which the board's x runs most nearly rightwards).
+turn in the image (corner 0 is then the one from which the board's x runs most nearly rightwards; a view
+where another order runs nearly as rightwards is refused, :data:`~._board.UPRIGHT_MARGIN`).
 """
 
 from __future__ import annotations
