@@ -22,6 +22,7 @@ COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure"
                              "calibration", "plan", "video")
 COMMANDS += ("batch",)
 COMMANDS += ("calibration_views",)  # after "video": it adds the action `video calibration-views`
+COMMANDS += ("target",)
 
 
 def build_parser() -> argparse.ArgumentParser:
