@@ -129,9 +129,12 @@ def _calibrate(fit, control: ControlPoints, observations, args: argparse.Namespa
     of them — and return (result, validation or None)."""
     if args.holdout is None:
         return fit(observations), None
+    planar_in_air = compare_opencv and observes_a_plane(control, observations)
     validation = validate(control, observations, args.holdout, fit, args.seed,
-                          compare_opencv=compare_opencv and options.image_size != (None, None) and
-                          observes_a_plane(control, observations), image_size=options.image_size)
+                          compare_opencv=planar_in_air and options.image_size != (None, None),
+                          image_size=options.image_size)
+    if planar_in_air and options.image_size == (None, None):
+        validation.notes.append("OpenCV's solution of the same views is put beside ours when --image-size is given")
     return validation.result, validation
 
 
