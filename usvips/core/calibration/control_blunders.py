@@ -21,7 +21,9 @@ It scales: the candidates are scored from the ONE adjustment by a test statistic
 point's control coordinates (:func:`shift_statistics`: the share of the point's weighted image residuals,
 prediction residuals of set-aside observations included, that moving the point explains; about χ²(3)
 for a correct point), and only the few worst above that χ²(3) quantile at α0 are re-adjusted
-(:data:`MAX_TRIALS` in all) — never one full adjustment per point. A target whose geometry is exact by
+(:data:`MAX_TRIALS` in all) — never one full adjustment per point. Each trial is first screened by one
+adjustment without snooping in which the observations already set aside are weighted out; only a
+demotion that passes there is adjusted in full (with snooping) and judged. A target whose geometry is exact by
 construction (a printed board) is not searched at all (``CalibrationOptions.control_exact``).
 """
 

@@ -241,7 +241,7 @@ def opencv_stereo(control: ControlPoints, observations: StereoObservations,
         objects, lefts, rights, k1, d1, k2, d2, size, flags=cv2.CALIB_USE_INTRINSIC_GUESS,
         criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-9))
     return {"f_l": float(k1[0, 0]), "fy_l": float(k1[1, 1]), "f_r": float(k2[0, 0]), "fy_r": float(k2[1, 1]),
-            "baseline_m": float(np.linalg.norm(translation)), "rms_px": float(error) / np.sqrt(2.0),
+            "baseline_m": float(np.linalg.norm(translation)), "rms_px": float(error / np.sqrt(2.0)),
             "rms_px_per_point": float(error)}
 
 
