@@ -51,7 +51,8 @@ def _common(parser: argparse.ArgumentParser) -> None:
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("calibrate", help="calibrate a stereo rig (phase 1 in air, phase 2 underwater)")
     phases = parser.add_subparsers(dest="phase", metavar="PHASE", required=True)
-    air = phases.add_parser("air", help="phase 1: both cameras in air (collinearity with distortion, DLT start)")
+    air = phases.add_parser("air", help="phase 1: both cameras in air (collinearity with distortion; DLT start, "
+                            "or a planar start from board views)")
     _common(air)
     air.set_defaults(handler=run_air)
     water = phases.add_parser("water", help="phase 2: housing and exterior by ray tracing; several pairs = joint")
