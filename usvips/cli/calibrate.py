@@ -51,7 +51,8 @@ def _common(parser: argparse.ArgumentParser) -> None:
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("calibrate", help="calibrate a stereo rig (phase 1 in air, phase 2 underwater)")
     phases = parser.add_subparsers(dest="phase", metavar="PHASE", required=True)
-    air = phases.add_parser("air", help="phase 1: both cameras in air (collinearity with distortion, DLT start)")
+    air = phases.add_parser("air", help="phase 1: both cameras in air (collinearity with distortion; DLT start, "
+                            "or a planar start from board views)")
     _common(air)
     air.set_defaults(handler=run_air)
     water = phases.add_parser("water", help="phase 2: housing and exterior by ray tracing; several pairs = joint")
@@ -129,9 +130,12 @@ def _calibrate(fit, control: ControlPoints, observations, args: argparse.Namespa
     of them — and return (result, validation or None)."""
     if args.holdout is None:
         return fit(observations), None
+    planar_in_air = compare_opencv and observes_a_plane(control, observations)
     validation = validate(control, observations, args.holdout, fit, args.seed,
-                          compare_opencv=compare_opencv and options.image_size != (None, None) and
-                          observes_a_plane(control, observations), image_size=options.image_size)
+                          compare_opencv=planar_in_air and options.image_size != (None, None),
+                          image_size=options.image_size)
+    if planar_in_air and options.image_size == (None, None):
+        validation.notes.append("OpenCV's solution of the same views is put beside ours when --image-size is given")
     return validation.result, validation
 
 

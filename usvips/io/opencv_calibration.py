@@ -27,6 +27,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from usvips.core.calibration import planar
 from usvips.core.camera import Camera, Exterior
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
 from usvips.core.interior import Interior
@@ -34,7 +35,9 @@ from usvips.core.rotation import angles_from_matrix
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.atomic import write_text_atomic
 
-FLIP = np.diag([1.0, -1.0, -1.0])
+# OpenCV's camera axes ↔ ours, and our interior as OpenCV's camera matrix: the core's conversions (the
+# planar calibration start uses them too)
+FLIP = planar.FLIP
 
 #: OpenCV's distortion vector, in its order (4, 5, 8, 12 or 14 entries).
 DISTORTION_TERMS = ("k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6", "s1", "s2", "s3", "s4", "taux", "tauy")
@@ -96,10 +99,8 @@ def interior_from_opencv(matrix: np.ndarray, distortion: np.ndarray, path: str, 
 
 def interior_to_opencv(interior: Interior) -> tuple[np.ndarray, np.ndarray]:
     """:class:`Interior` → OpenCV camera matrix (3, 3) and distortion (1, 5): k1, k2, p1, p2, k3."""
-    fy = interior.f / interior.sy
-    matrix = np.array([[interior.f, 0.0, interior.xp], [0.0, fy, interior.yp], [0.0, 0.0, 1.0]])
-    distortion = np.array([[interior.k1, interior.k2, -interior.p2, interior.p1, interior.k3]])
-    return matrix, distortion
+    matrix, distortion = planar.camera_matrix(interior)
+    return matrix, distortion.reshape(1, 5)
 
 
 def rotation_from_opencv(value: np.ndarray, path: str, which: str = "R") -> np.ndarray:

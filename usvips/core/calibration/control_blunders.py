@@ -21,7 +21,9 @@ It scales: the candidates are scored from the ONE adjustment by a test statistic
 point's control coordinates (:func:`shift_statistics`: the share of the point's weighted image residuals,
 prediction residuals of set-aside observations included, that moving the point explains; about χ²(3)
 for a correct point), and only the few worst above that χ²(3) quantile at α0 are re-adjusted
-(:data:`MAX_TRIALS` in all) — never one full adjustment per point. A target whose geometry is exact by
+(:data:`MAX_TRIALS` in all) — never one full adjustment per point. Each trial is first screened by one
+adjustment without snooping in which the observations already set aside are weighted out; only a
+demotion that passes there is adjusted in full (with snooping) and judged. A target whose geometry is exact by
 construction (a printed board) is not searched at all (``CalibrationOptions.control_exact``).
 """
 
@@ -152,14 +154,33 @@ def _own_misfit(model: StereoModel, demoted: StereoModel, parameters: list[Param
     return float(np.sum((result.residuals[mine] / result.observations.sigmas[mine]) ** 2))
 
 
+#: A-priori sigma factor that takes an observation out of a quick trial (its weight ~1e-12 of the others).
+SET_ASIDE_SCALE = 1e6
+
+
+def _without_set_aside(demoted: StereoModel, adjustment: Adjustment, point: str) -> StereoModel:
+    """The demoted model with the observations the adjustment set aside (other than ``point``'s own)
+    weighted out, so that a quick trial needs no data snooping (the layouts of both models agree)."""
+    obs = demoted.observation_set
+    out = ~np.asarray(adjustment.used, bool) & np.array([pid != point for pid in obs.point])
+    quick = replace(demoted)
+    quick.observation_set = replace(obs, sigmas=np.where(out, obs.sigmas * SET_ASIDE_SCALE, obs.sigmas))
+    return quick
+
+
 def _try_demotion(model: StereoModel, demoted: StereoModel, parameters: list[Parameter], point: str,
-                  axes: tuple[str, ...], start: np.ndarray, robust: bool, snoop_unit_of: Callable
-                  ) -> tuple[list[Parameter], Adjustment] | None:
+                  axes: tuple[str, ...], start: np.ndarray, robust: bool, snoop_unit_of: Callable,
+                  quick: Adjustment | None = None) -> tuple[list[Parameter], Adjustment] | None:
     """Adjust everything with the coordinates ``axes`` of ``point`` free; None when that fails or leaves
-    any of the point's image observations failing the tau test."""
+    any of the point's image observations failing the tau test. ``quick``: the current adjustment, whose
+    set-aside observations are then weighted out and the trial run without snooping (a cheap pre-screen:
+    one adjustment instead of one per rejection)."""
     trial = _trial(model, demoted, parameters, point, axes, start, "keep")
     try:
-        result = adjust(demoted.problem(trial), robust=robust, snooping=True, snoop_unit=snoop_unit_of(demoted))
+        if quick is not None:
+            result = adjust(_without_set_aside(demoted, quick, point).problem(trial), robust=False, snooping=False)
+        else:
+            result = adjust(demoted.problem(trial), robust=robust, snooping=True, snoop_unit=snoop_unit_of(demoted))
     except UsvipsError:
         return None
     if not result.converged:
@@ -214,6 +235,11 @@ def _demote(model: StereoModel, parameters: list[Parameter], adjustment: Adjustm
     from scipy import stats  # deferred: scipy.stats is slow to import (the window's start-up)
 
     for axes, first in attempts:
+        # a cheap pre-screen with the set-aside observations weighted out, then the full adjustment
+        screened = _try_demotion(model, demoted, parameters, point, axes, first, robust, snoop_unit_of, adjustment)
+        if screened is None or not _significance(model, screened[1], point, axes)[3] > stats.chi2.ppf(
+                1.0 - ALPHA0, len(axes)):
+            continue
         outcome = _try_demotion(model, demoted, parameters, point, axes, first, robust, snoop_unit_of)
         if outcome is None:
             continue

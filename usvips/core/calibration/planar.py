@@ -208,7 +208,7 @@ def planar_start(control: ControlPoints, observations: StereoObservations,
             raise DegenerateGeometryError(f"the planar start of the {'left' if side == 'l' else 'right'} camera "
                                           "found no focal length: the views do not fix the interior")
         interiors.append(Interior(float(matrix[0, 0]), float(matrix[0, 2]), float(matrix[1, 2])))
-        rms.append(float(error) / np.sqrt(2.0))
+        rms.append(float(error / np.sqrt(2.0)))
         for station, rvec, tvec in zip(stations, rvecs, tvecs, strict=True):
             # plane coordinates p = A (X − o): x_cv = R p + t = (R A) X + (t − R A o)
             rotation = cv2.Rodrigues(rvec)[0] @ frame.axes

@@ -99,10 +99,11 @@ class Validation:
     result: object  # the CalibrationResult of the fitted views
     opencv: dict | None = None
     ours: dict = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return {"held_out": self.held_out.as_dict(), "fitted": self.fitted.as_dict(), "ours": self.ours,
-                "opencv": self.opencv}
+                "opencv": self.opencv, "notes": list(self.notes)}
 
     def lines(self) -> list[str]:
         """The validation as a user reads it (one figure a line)."""
@@ -119,6 +120,7 @@ class Validation:
             out.append(f"  OpenCV stereoCalibrate on the fitted views: f {o['f_l']:.2f} / {o['f_r']:.2f} px, baseline "
                        f"{o['baseline_m'] * 1000:.2f} mm, RMS {o['rms_px']:.3f} px; ours: f {u['f_l']:.2f} / "
                        f"{u['f_r']:.2f} px, baseline {u['baseline_m'] * 1000:.2f} mm, RMS {u['rms_px']:.3f} px")
+        out += [f"  {note}" for note in self.notes]
         return out
 
 
@@ -239,7 +241,7 @@ def opencv_stereo(control: ControlPoints, observations: StereoObservations,
         objects, lefts, rights, k1, d1, k2, d2, size, flags=cv2.CALIB_USE_INTRINSIC_GUESS,
         criteria=(cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 100, 1e-9))
     return {"f_l": float(k1[0, 0]), "fy_l": float(k1[1, 1]), "f_r": float(k2[0, 0]), "fy_r": float(k2[1, 1]),
-            "baseline_m": float(np.linalg.norm(translation)), "rms_px": float(error) / np.sqrt(2.0),
+            "baseline_m": float(np.linalg.norm(translation)), "rms_px": float(error / np.sqrt(2.0)),
             "rms_px_per_point": float(error)}
 
 
