@@ -219,3 +219,12 @@ def test_an_opencv_failure_is_a_reason():
     detection = _board.guarded(failing)(None, np.zeros((20, 30), np.uint8))
     assert not detection and detection.reason == "OpenCV could not search the image: the detector gave up"
     assert detection.image_size == (30, 20)
+
+
+@pytest.mark.parametrize(("cols", "rows", "legacy"), [(6, 4, False), (7, 4, True), (6, 5, True)])
+def test_a_charuco_board_described_wrongly_gives_no_corner_and_says_what_to_check(cols, rows, legacy):
+    printed = kind("charuco")("4X4_50", 6, 4, 0.035, 0.026, legacy=True)
+    image, _ = _view(printed, distance=0.45)
+    assert printed.detect(image)
+    detection = kind("charuco")("4X4_50", cols, rows, 0.035, 0.026, legacy=legacy).detect(image)
+    assert not detection and "check the squares" in detection.reason and "legacy" in detection.reason
