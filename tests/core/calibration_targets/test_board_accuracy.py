@@ -13,13 +13,13 @@ from usvips.core.synth.boards import BoardPose, board_pixels, render_board
 W, H = 480, 360
 BOARDS = {
     "chessboard": lambda: kind("chessboard")(9, 6, 0.02),
-    "charuco": lambda: kind("charuco")("5X5_100", 7, 5, 0.025, 0.018),
+    "charuco": lambda: kind("charuco")("4X4_50", 6, 4, 0.035, 0.026),  # modules of 4-5 px
     "marker-grid": lambda: kind("marker-grid")("4X4_50", 4, 3, 0.04, 0.01),
     "circle-grid": lambda: kind("circle-grid")(4, 11, 0.012, 0.008, asymmetric=True),
 }
 #: (RMS, largest) error in pixels over every point of every pose. Marker corners are L-corners (OpenCV's
 #: refinement leaves ~0.2 px of rounding bias at a blurred one); the rest are X-corners or blob centres.
-LIMITS = {"chessboard": (0.1, 0.4), "charuco": (0.12, 0.6), "marker-grid": (0.25, 0.6), "circle-grid": (0.1, 0.3)}
+LIMITS = {"chessboard": (0.1, 0.4), "charuco": (0.15, 0.6), "marker-grid": (0.35, 0.6), "circle-grid": (0.1, 0.3)}
 
 
 def _camera(housing: str) -> Camera:
@@ -62,8 +62,8 @@ def test_every_point_is_found_near_its_truth_over_random_poses(housing, name, co
         assert detection, detection.reason
         if name != "charuco":
             assert len(detection) == len(truth)
-        else:  # a ChArUco corner needs its neighbouring markers read: some of 2-px modules are not
-            assert len(detection) >= 0.75 * len(truth)
+        else:  # a ChArUco corner needs its neighbouring markers read: a steeply tilted one may not be
+            assert len(detection) >= 0.9 * len(truth)
         errors += [np.linalg.norm(detection.pixels[k] - truth[pid]) for k, pid in enumerate(detection.ids)]
     errors = np.asarray(errors)
     rms, largest = LIMITS[name]

@@ -219,3 +219,39 @@ def test_an_opencv_failure_is_a_reason():
     detection = _board.guarded(failing)(None, np.zeros((20, 30), np.uint8))
     assert not detection and detection.reason == "OpenCV could not search the image: the detector gave up"
     assert detection.image_size == (30, 20)
+
+
+@pytest.mark.parametrize(("cols", "rows", "legacy"), [(6, 4, False), (7, 4, True), (6, 5, True)])
+def test_a_charuco_board_described_wrongly_gives_no_corner_and_says_what_to_check(cols, rows, legacy):
+    printed = kind("charuco")("4X4_50", 6, 4, 0.035, 0.026, legacy=True)
+    image, _ = _view(printed, distance=0.45)
+    assert printed.detect(image)
+    detection = kind("charuco")("4X4_50", cols, rows, 0.035, 0.026, legacy=legacy).detect(image)
+    assert not detection and "check the squares" in detection.reason and "legacy" in detection.reason
+
+
+def test_a_large_image_is_searched_reduced_and_refined_at_full_resolution():
+    """A 2,800 × 2,100 still (searched at half size): every corner within 0.15 px of its true place."""
+    import cv2
+
+    from usvips.core.calibration_targets.kinds.chessboard import SEARCH_SIDE_PX
+
+    board = kind("chessboard")(9, 6, 0.024)
+    per_metre = 5000.0
+    x0, y0, x1, y1 = board.sheet()
+    width, height = int((x1 - x0) * per_metre), int((y1 - y0) * per_metre)
+    rows, cols = np.mgrid[0:height, 0:width]
+    xy = np.column_stack([(cols.ravel() + 0.5) / per_metre + x0, (rows.ravel() + 0.5) / per_metre + y0])
+    art = (215.0 - 185.0 * board.ink(xy)).reshape(height, width).astype(np.float32)
+    corners = np.float32([[0, 0], [width, 0], [width, height], [0, height]])
+    placed = np.float32([[700, 500], [2100, 620], [2000, 1700], [780, 1560]])
+    homography = cv2.getPerspectiveTransform(corners - 0.5, placed - 0.5)  # pixel centres to pixel centres
+    image = cv2.warpPerspective(art, homography, (2800, 2100), flags=cv2.INTER_AREA, borderValue=100.0)
+    image = np.clip(np.rint(cv2.GaussianBlur(image, (0, 0), 1.0)), 0, 255).astype(np.uint8)
+    assert max(image.shape) > SEARCH_SIDE_PX
+    ids, points = board.points()
+    raster = (points - (x0, y0)) * per_metre - 0.5
+    truth = cv2.perspectiveTransform(raster.reshape(-1, 1, 2), homography).reshape(-1, 2)
+    detection = board.detect(image)
+    assert detection and detection.ids == ids
+    assert np.linalg.norm(detection.pixels - truth, axis=1).max() < 0.15

@@ -164,3 +164,14 @@ def test_dictionary_names_accept_opencvs_spelling():
     b = kind("charuco")("4x4_50", 5, 4, 0.03, 0.02)
     assert a.describe() == b.describe() and a.describe()["dictionary"] == "4X4_50"
     assert cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50).bytesList.shape == a.dictionary.bytesList.shape
+
+
+@pytest.mark.parametrize("name", list(GOOD))
+def test_a_target_pickles_as_its_description(name):
+    import pickle
+
+    target = from_description(GOOD[name])
+    again = pickle.loads(pickle.dumps(target))
+    assert type(again) is type(target) and again.describe() == target.describe()
+    image = np.full((60, 80), 128, np.uint8)
+    assert again.detect(image).reason == target.detect(image).reason

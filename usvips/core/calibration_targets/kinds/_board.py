@@ -243,6 +243,13 @@ class PrintedBoard(CalibrationTarget):
     (:meth:`sheet`, with a white quiet zone around the pattern) and its black shapes for printing
     (:meth:`shapes`). Kinds of boards subclass this (it registers nothing itself)."""
 
+    def __reduce__(self):
+        """Pickled as its description (OpenCV's board and detector objects do not pickle), so a target can
+        go to a worker process."""
+        from usvips.core.calibration_targets.registry import from_description
+
+        return from_description, (self.describe(),)
+
     def ink(self, xy: np.ndarray) -> np.ndarray:
         """The printed pattern at board points ``xy`` (N, 2), metres: 1 where black, 0 where white, NaN off
         the sheet (exact: supersample to anti-alias)."""

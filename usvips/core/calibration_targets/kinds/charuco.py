@@ -119,6 +119,11 @@ class CharucoBoard(PrintedBoard):
         corners, ids, _, marker_ids = self.detector.detectBoard(grey)
         if ids is None or len(ids) == 0:
             seen = 0 if marker_ids is None else len(marker_ids)
+            if seen >= 3:
+                return TargetDetection.nothing(size, f"{seen} {self.dictionary_name} markers seen but no ChArUco "
+                                               f"corner: check the squares, cols × rows ({self.cols} × {self.rows}), "
+                                               "and legacy (a board with an even number of rows printed by "
+                                               "OpenCV before 4.6)")
             return TargetDetection.nothing(size, f"no ChArUco corner found ({seen} {self.dictionary_name} markers "
                                            "of the board seen; a corner needs its two neighbouring markers)")
         ids = np.asarray(ids).ravel()
