@@ -8,31 +8,14 @@ import numpy as np
 import pytest
 
 from tests.core.board_scenes import board, observe_views, random_rig, random_views
-from usvips.cli import calibrate as calibrate_cli
 from usvips.cli import main
 from usvips.io.tables import write_observations
 
 NOISE = 0.3
 
 
-class _Board:
-    """What the command line needs of a target (the kinds arrive in the registry from their own modules)."""
-
-    exact = True
-
-    def control_points(self):
-        return board()
-
-
 @pytest.fixture()
-def views(tmp_path, monkeypatch):
-    described = []
-
-    def from_description(description, source=""):
-        described.append((description, source))
-        return _Board()
-
-    monkeypatch.setattr(calibrate_cli, "from_description", from_description)
+def views(tmp_path):
     rng = np.random.default_rng(41)
     target = board()
     rig = random_rig(rng)
@@ -40,18 +23,19 @@ def views(tmp_path, monkeypatch):
     water = rig.in_water("flat-port", rng)
     write_observations(tmp_path / "water.csv", observe_views(target, water, random_views(target, water, rng, 12,
                                                                                          (0.5, 1.0)), rng, NOISE, "w"))
-    (tmp_path / "board.json").write_text(json.dumps({"kind": "chessboard", "columns": 9, "rows": 6}))
-    return tmp_path, rig, described
+    # the board of board_scenes (9 x 6 inner corners, 30 mm) as a target file, written by the command line
+    assert main(["target", "describe", "chessboard", "--cols", "9", "--rows", "6", "--square", "30",
+                 "--out", str(tmp_path / "board.json")]) == 0
+    return tmp_path, rig
 
 
 def test_a_board_calibrates_in_both_phases_with_validation(views, capsys):
-    d, rig, described = views
+    d, rig = views
     size = f"{rig.size[0]}x{rig.size[1]}"
     assert main(["calibrate", "air", "--target", str(d / "board.json"), "--obs", str(d / "air.csv"),
                  "--out", str(d / "air.json"), "--report", str(d / "air_report.json"), "--sigma-px", str(NOISE),
                  "--image-size", size, "--holdout", "0.25", "--seed", "2"]) == 0
     out = capsys.readouterr().out
-    assert described[0] == ({"kind": "chessboard", "columns": 9, "rows": 6}, str(d / "board.json"))
     assert "validation: 9 views fitted, 3 held out" in out and "OpenCV stereoCalibrate" in out
     report = json.loads((d / "air_report.json").read_text())
     assert report["control_blunders"] == [] and len(report["stations"]) == 9
@@ -74,7 +58,7 @@ def test_a_board_calibrates_in_both_phases_with_validation(views, capsys):
 def test_bad_holdout_is_one_line_exit_2(views, capsys, extra, message):
     import re
 
-    d, _, _ = views
+    d, _ = views
     code = main(["calibrate", "air", "--target", str(d / "board.json"), "--obs", str(d / "air.csv"),
                  "--out", str(d / "out.json"), *extra])
     error = capsys.readouterr().err.strip()
@@ -84,7 +68,9 @@ def test_bad_holdout_is_one_line_exit_2(views, capsys, extra, message):
 
 @pytest.mark.parametrize("text, message", [
     (None, "no such file"),
-    ("{not json", "line 1: not JSON"),
+    ("{not json", "not valid JSON"),
+    ('{"format": "usvips-target", "version": 1, "kind": "chessboard", "cols": 9, "rows": 6, "square": 0}',
+     "square"),
 ])
 def test_a_bad_target_file_is_named(tmp_path, capsys, text, message):
     if text is not None:

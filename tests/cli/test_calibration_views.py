@@ -33,8 +33,9 @@ def test_views_written_as_observations(tmp_path, monkeypatch, capsys):
     assert printed.err == ""
 
 
-@pytest.mark.parametrize("content,problem", [(None, "no such target file"), ("{", "not a JSON target description"),
-                                             ('{"kind": "no-such-kind"}', "unknown target kind 'no-such-kind'")])
+@pytest.mark.parametrize("content,problem", [
+    (None, "no such file"), ("{", "not valid JSON"), ('{"kind": "chessboard"}', "not a USVIPS target file"),
+    ('{"format": "usvips-target", "version": 1, "kind": "no-such-kind"}', "unknown target kind 'no-such-kind'")])
 def test_a_bad_target_file_is_one_line(tmp_path, capsys, content, problem):
     target = tmp_path / "target.json"
     if content is not None:

@@ -15,7 +15,6 @@ and raises :class:`InterruptedError` (as a cancelled proxy build does). Nothing 
 
 from __future__ import annotations
 
-import json
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -23,9 +22,10 @@ from pathlib import Path
 
 from usvips.app.video_project import VideoError, open_streams
 from usvips.core import calibration_views
-from usvips.core.calibration_targets import CalibrationTarget, StereoView, from_description, stereo_observations
+from usvips.core.calibration_targets import CalibrationTarget, StereoView, stereo_observations
 from usvips.core.calibration_views import Coverage
-from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.core.errors import InvalidParameterError
+from usvips.io import target_file
 from usvips.io.tables import write_observations
 from usvips.io.video_stream import PairReader, VideoStream
 from usvips.store.interface import ProjectStore
@@ -151,21 +151,9 @@ def scan_video(project: ProjectStore, label: str, target: CalibrationTarget, eve
 
 
 def read_target(path: str | Path) -> CalibrationTarget:
-    """The calibration target described in the JSON file ``path`` (``{"kind": …, …}``: see
-    :mod:`usvips.core.calibration_targets`); errors name the file."""
-    path = Path(path)
-    try:
-        description = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputFileError(str(path), "no such target file") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise InputFileError(str(path), f"not a JSON target description ({error})") from None
-    try:
-        return from_description(description, str(path))
-    except InputFileError:
-        raise
-    except UsvipsError as error:
-        raise InputFileError(str(path), str(error)) from None
+    """The calibration target described in the file ``path`` (:func:`usvips.io.target_file.read_target`:
+    the one reader of target files; errors name the file and field)."""
+    return target_file.read_target(path)
 
 
 def write_views(path: str | Path, views: Sequence[StereoView]) -> int:

@@ -13,11 +13,11 @@ from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
 from usvips.core.calibration.phases import observes_a_plane
 from usvips.core.calibration.validation import validate
-from usvips.core.calibration_targets import from_description
-from usvips.core.errors import ConvergenceError, InputFileError, InvalidParameterError
+from usvips.core.errors import ConvergenceError, InvalidParameterError
 from usvips.core.observations import ControlPoints
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
+from usvips.io.target_file import read_target
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
@@ -110,16 +110,7 @@ def _control(args: argparse.Namespace, options: CalibrationOptions) -> ControlPo
     target: a printed board's geometry is exact by construction)."""
     if args.control:
         return read_control(args.control)
-    path = Path(args.target)
-    try:
-        description = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputFileError(str(path), "no such file") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise InputFileError(str(path), f"cannot be read: {error}") from None
-    except json.JSONDecodeError as error:
-        raise InputFileError(str(path), f"line {error.lineno}: not JSON ({error.msg})") from None
-    target = from_description(description, str(path))
+    target = read_target(args.target)
     options.control_exact = bool(target.exact)
     return target.control_points()
 
