@@ -305,3 +305,78 @@ def test_an_overflowing_value_is_still_one_line(tmp_path):
     code, err = run(["measure", "--calibration", str(tmp_path / "c.json"), "--picks", str(tmp_path / "picks.csv"),
                      "--out", str(tmp_path / "objects.csv")])
     assert code == 2 and err.count("\n") == 1 and "k2=1e+300" in err, err
+
+
+# ---------------------------------------------------------------------------- never overwrite a source
+def _spellings(path: Path, draw) -> Path:
+    """Another name for ``path``: itself, through ``sub/..``, a symbolic link or a hard link."""
+    how = draw(st.sampled_from(["same", "dotdot", "symlink", "hardlink"]))
+    if how == "dotdot":
+        (path.parent / "sub").mkdir(exist_ok=True)
+        return path.parent / "sub" / ".." / path.name
+    if how in ("symlink", "hardlink"):
+        alias = path.with_name(f"alias_{path.name}")
+        (alias.symlink_to if how == "symlink" else alias.hardlink_to)(path)
+        return alias
+    return path
+
+
+@pytest.fixture(scope="module")
+def sources(base, tmp_path_factory) -> dict[str, Path]:
+    """Inputs of the writing commands: a calibration, picks for it, an OpenCV file, a project with objects."""
+    folder = tmp_path_factory.mktemp("sources")
+    (folder / "stereo.yml").write_text(_opencv_stereo_file(folder))
+    shutil.copy(ROV / "calibration.json", folder / "cal.json")
+    (folder / "picks.csv").write_text(_measure_picks())
+    obs = (ROV / "observations_water.csv").read_text().splitlines()
+    (folder / "obs.csv").write_text("\n".join(obs[:6]) + "\n")
+    shutil.copy(base["project"], folder / "p.usvips")
+    return {"folder": folder}
+
+
+#: command templates: {name: (argv with {out} and the inputs named as files in the folder, inputs)}
+WRITERS = {
+    "calibration export": (["calibration", "export", "cal.json", "--out", "{out}"], ["cal.json"]),
+    "calibration import": (["calibration", "import", "stereo.yml", "--out", "{out}"], ["stereo.yml"]),
+    "intersect": (["intersect", "--calibration", "cal.json", "--obs", "obs.csv", "--out", "{out}"],
+                  ["cal.json", "obs.csv"]),
+    "measure": (["measure", "--calibration", "cal.json", "--picks", "picks.csv", "--out", "{out}"],
+                ["cal.json", "picks.csv"]),
+    "project export": (["project", "export", "p.usvips", "{out}"], ["p.usvips"]),
+}
+
+
+@settings(derandomize=True, deadline=None, max_examples=60, database=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@given(data=st.data())
+def test_no_command_overwrites_its_input_a_project_or_a_calibration(sources, data):
+    """Each writing command pointed at one of its own inputs (by any name of it), at a project or at a
+    calibration: refused in one line with every file untouched — or, with --force, replaced and the old
+    bytes kept as NAME.bak; the project a command works on is never replaced."""
+    name = data.draw(st.sampled_from(sorted(WRITERS)))
+    template, inputs = WRITERS[name]
+    victim = data.draw(st.sampled_from([*inputs, "p.usvips", "cal.json"]))
+    force = data.draw(st.booleans())
+    with tempfile.TemporaryDirectory() as work:
+        work = Path(work)
+        for file in sources["folder"].iterdir():
+            if file.is_file():
+                shutil.copy(file, work / file.name)
+        before = {p.name: p.read_bytes() for p in work.iterdir()}
+        out = _spellings(work / victim, data.draw)
+        argv = [str(out) if a == "{out}" else str(work / a) if (work / a).exists() else a for a in template]
+        code, err = run(argv + (["--force"] if force else []))
+        never = name == "project export" and victim == "p.usvips"
+        after = {p.name: p.read_bytes() for p in work.iterdir() if p.is_file() and not p.name.endswith(
+            ("-wal", "-shm")) and not (p.name.startswith("alias_") and not p.name.endswith(".bak"))}
+        if not force or never:
+            assert code == 2 and err.count("\n") == 1, (argv, err)
+            assert (victim in err or out.name in err) and "destroy" in err, err
+            assert after == before, f"{name} changed a file it refused to write"
+        elif code == 2:  # replacing allowed, but the file cannot take this output (e.g. its extension)
+            assert err.count("\n") == 1 and "Traceback" not in err, err
+            assert after == before, f"{name} changed a file on an error"
+        else:
+            assert code == 0, (argv, err)
+            assert after[f"{out.name}.bak"] == before[victim], "the old file was not kept"
+            assert after.keys() - before.keys() == {f"{out.name}.bak"}, "files besides the backup appeared"

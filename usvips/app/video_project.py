@@ -21,6 +21,7 @@ from usvips.core import synchronisation
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.io import video_proxy
+from usvips.io.atomic import guard_output
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image, write_image
 from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
@@ -266,8 +267,20 @@ def export_frame(project: ProjectStore, label: str, frame: int, out: str | Path)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputFileError(str(out), "not a folder")
+    sources = media_files(project)
+    for target in (out / "left.png", out / "right.png"):  # never over a picture the project measures on
+        if target.exists():
+            guard_output(target, sources, project.path, option="--out", replace_option="another --out")
     left, right, _, _ = frame_pair(project, label, frame)
     return write_frame_pair(left, right, out)
+
+
+def media_files(project: ProjectStore) -> list[Path]:
+    """Where every media file the project records (image pairs' images, videos' files) should be, absolute
+    (whether or not it is there)."""
+    stored = [p[side] for p in project.pairs() for side in ("left", "right") if p[side]]
+    stored += [path for v in project.videos() for side in ("left", "right") for path in v[side]]
+    return [project.path.parent / path for path in stored]
 
 
 def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: str | None = None) -> tuple[str, Path]:

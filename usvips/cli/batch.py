@@ -15,6 +15,7 @@ from pathlib import Path
 
 from usvips.app import batch
 from usvips.core.errors import InvalidParameterError
+from usvips.io.atomic import guard_output
 
 #: export formats and the suffix of the file each writes
 EXPORT_SUFFIXES = {"csv": ".csv", "vertices": ".vertices.csv", "geojson": ".geojson", "ply": ".ply",
@@ -51,6 +52,9 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
                                                   "rename one or run them separately")
         seen[name] = given
         out = str(out_dir / f"{name}{suffix}")
+        if Path(out).exists():  # an output never replaces an input, a project or a calibration
+            guard_output(out, [*inputs, getattr(args, "calibration", None)], option="--out-dir",
+                         replace_option="another --out-dir")
         if args.task == "intersect":
             tasks.append(batch.Task(given, batch.intersect_task, {
                 "observations": given, "calibration": args.calibration, "out": out, "station": args.station,

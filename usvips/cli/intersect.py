@@ -14,6 +14,7 @@ from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.intersection import Intersection
 from usvips.core.rays import RayStatus
+from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
 from usvips.io.tables import read_observations
 
@@ -31,10 +32,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="sigmas from the pointing precision alone, without the calibration's own uncertainty")
     parser.add_argument("--skip-failed", action="store_true",
                         help="write the points that intersect and list the others, instead of stopping")
+    parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
+                        "USVIPS calibration or project (the old file is kept as NAME.bak)")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    with replacing(args.out, [args.calibration, args.obs], replace=args.force):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration)
     observations = read_observations(args.obs)
     station = int(args.station) if args.station.isdigit() else args.station

@@ -27,6 +27,7 @@ from usvips.app.measure import (
 )
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.errors import UsvipsError
+from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
 from usvips.store import Project
 
@@ -47,6 +48,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                           "with --calibration only)")
     parser.add_argument("--frame", choices=["object", "rig"], help="frame (default object; with --calibration "
                                                                    "only)")
+    parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
+                        "USVIPS calibration or project (the old file is kept as NAME.bak); never the --project")
     parser.set_defaults(handler=run)
 
 
@@ -59,6 +62,12 @@ def run(args: argparse.Namespace) -> int:
         if args.calibration is not None or args.station is not None or args.frame is not None:
             raise UsvipsError("--project measures with the pair's active calibration in the pair's frame: "
                               "leave out --calibration, --station and --frame")
+    outputs = [] if args.out is None else [args.out]
+    with replacing(outputs, [args.calibration, args.picks], args.project, replace=args.force):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration) if args.calibration is not None else None
     objects = group_picks(args.picks, read_picks(args.picks))
     if args.project is not None:

@@ -11,6 +11,7 @@ import numpy as np
 from usvips.core import housing as housings
 from usvips.core.errors import InvalidParameterError
 from usvips.core.planner import default_grid, planned_rig, precision_map
+from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
 from usvips.io.opencv_calibration import parse_image_size
 
@@ -38,6 +39,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--pointing-only", action="store_true", help="leave out the calibration's own uncertainty")
     parser.add_argument("--out", help="the map as a picture (.png, .pdf, .svg)")
     parser.add_argument("--json", action="store_true", help="print the figures per range as JSON")
+    parser.add_argument("--force", action="store_true", help="replace --out even when it is the --calibration or "
+                        "holds a USVIPS calibration or project (the old file is kept as NAME.bak)")
     parser.set_defaults(handler=run)
 
 
@@ -82,6 +85,11 @@ def _rig(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     if not args.out and not args.json:
         raise InvalidParameterError("--out", "give --out PICTURE and/or --json")
+    with replacing([args.out] if args.out else [], [args.calibration], replace=args.force):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     calibration, label = _rig(args)
     across, ranges = default_grid(calibration)
     if args.ranges:

@@ -6,11 +6,12 @@ from __future__ import annotations
 import argparse
 
 from usvips.app.project_contents import plan_import, store_import, summarise
-from usvips.app.project_export import export_project
+from usvips.app.project_export import export_project, export_targets
 from usvips.app.samples import create_from_manifest
 from usvips.cli.video import register_project_actions
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
+from usvips.io.atomic import replacing
 from usvips.store import Project
 
 
@@ -43,6 +44,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     exp.add_argument("out")
     exp.add_argument("--opcode", help="EventMeasure OpCode of objects with no stored deployment (see "
                      "set-metadata); default: the project file's name")
+    exp.add_argument("--force", action="store_true", help="replace OUT even when it is a USVIPS project or "
+                     "calibration (the old file is kept as OUT.bak); never the project exported")
     exp.set_defaults(handler=run_export)
     register_project_actions(actions)  # add-pairs, add-video: handlers in usvips/cli/video.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
@@ -90,7 +93,8 @@ def run_import(args: argparse.Namespace) -> int:
 
 def run_export(args: argparse.Namespace) -> int:
     skipped: list[str] = []
-    with Project.open(args.project, read_only=True) as project:
+    with replacing(export_targets(args.out), project=args.project, replace=args.force, option="OUT"), \
+            Project.open(args.project, read_only=True) as project:
         count = export_project(project, args.out, args.opcode, skipped=skipped)
     for reason in skipped:
         print(f"skipped {reason}")

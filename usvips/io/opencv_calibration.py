@@ -357,6 +357,13 @@ def _storage_text(path: Path, entries: dict[str, object], comment: str) -> str:
     return storage.releaseAndGetString()
 
 
+def opencv_targets(path: str | Path) -> list[Path]:
+    """The files :func:`write_opencv_stereo` writes for ``path``: the file itself, or in a folder the
+    stereo sample's ``intrinsics.yml`` and ``extrinsics.yml``."""
+    path = Path(path)
+    return [path / "intrinsics.yml", path / "extrinsics.yml"] if path.is_dir() else [path]
+
+
 def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> list[str]:
     """Write OpenCV's stereo file (YAML, XML or JSON by the extension); a folder gets the stereo sample's
     pair ``intrinsics.yml`` (M1, D1, M2, D2) + ``extrinsics.yml`` (R, T, R1, R2, P1, P2, Q). Each file is
@@ -367,8 +374,8 @@ def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> lis
     if path.is_dir():
         intrinsics = {k: arrays[k] for k in ("M1", "D1", "M2", "D2", "image_width", "image_height") if k in arrays}
         extrinsics = {k: v for k, v in arrays.items() if k not in intrinsics or k.startswith("image_")}
-        texts = [(path / "intrinsics.yml", _storage_text(path / "intrinsics.yml", intrinsics, comment)),
-                 (path / "extrinsics.yml", _storage_text(path / "extrinsics.yml", extrinsics, comment))]
+        inner, outer = opencv_targets(path)
+        texts = [(inner, _storage_text(inner, intrinsics, comment)), (outer, _storage_text(outer, extrinsics, comment))]
     else:
         texts = [(path, _storage_text(path, arrays, comment))]
     for target, text in texts:
