@@ -129,6 +129,30 @@ def test_an_estimate_of_little_confidence_is_not_stored_unless_forced(tmp_path, 
         assert p.video("v")["offset_estimate"]["method"] == "flash"
 
 
+def test_an_offset_at_the_edge_of_its_window_is_never_stored_and_a_bad_window_is_one_line(tmp_path, capsys):
+    """The lag (20 frames) outside the window searched: the best of the window lies at its edge; it is
+    printed and named, and not stored, not even with --force. A window that is no window is refused."""
+    project = tmp_path / "mine.usvips"
+    main(["project", "new", str(project)])
+    left, right = _stereo(tmp_path / "media", 20, flash_at=40)
+    assert _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right, "--label", "v")[0] == 0
+    assert _run(capsys, "video", "set-offset", project, "--pair", "v", "20")[0] == 0
+    for force in ((), ("--force",)):
+        code, out, err = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--max-offset",
+                              "14", "--json", *force)
+        assert code == 0, err
+        estimate = json.loads(out)
+        assert estimate["at_edge"] and not estimate["stored"] and "search window" in estimate["not_stored"]
+    with Project.open(project) as p:
+        assert p.video("v")["offset_frames"] == 20 and p.video("v")["offset_estimate"] == {"method": "by hand"}
+    for window in ("-5", "-1", "0", "3", "nan", "1e8", "2.5", "x", "100000000"):
+        code, _, err = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--max-offset",
+                            window)
+        assert code == 2 and err.count("\n") == 1 and "--max-offset" in err and "Traceback" not in err, (window, err)
+    code, out, err = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--max-offset", "26")
+    assert code == 0 and "; stored" in out, (out, err)
+
+
 def test_the_sample_project_opens_on_its_video_and_finds_its_lag(tmp_path, capsys):
     project = tmp_path / "rov.usvips"
     assert _run(capsys, "project", "new", project, "--from", SAMPLE)[0] == 0

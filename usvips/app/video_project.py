@@ -372,12 +372,24 @@ STORE_CONFIDENCE = 0.3
 
 
 def doubt_about(estimate: SyncEstimate) -> str | None:
-    """Why ``estimate`` should not replace a stored offset unasked (its confidence below
-    :data:`STORE_CONFIDENCE`), or None."""
+    """Why ``estimate`` should not replace a stored offset unasked (found at the edge of its search window,
+    or its confidence below :data:`STORE_CONFIDENCE`), or None."""
+    edge = estimate.edge_problem()
+    if edge is not None:
+        return edge
     if estimate.confidence >= STORE_CONFIDENCE:
         return None
     return (f"confidence {estimate.confidence:.2f} is below {STORE_CONFIDENCE}: the best offset hardly beats the "
             "others")
+
+
+def store_refusal(estimate: SyncEstimate, force: bool = False) -> str | None:
+    """Why ``estimate`` is not stored: an offset at the edge of its search window never is (it is no
+    estimate; ``force`` does not change that), one of low confidence only with ``force``; None to store."""
+    edge = estimate.edge_problem()
+    if edge is not None or force:
+        return edge
+    return doubt_about(estimate)
 
 
 def estimate_offset(project: ProjectStore, label: str, method: str | None = None, max_offset: int | None = None,
@@ -386,7 +398,8 @@ def estimate_offset(project: ProjectStore, label: str, method: str | None = None
     """Estimate the video pair's offset by ``method`` (flash, audio or image; default: audio when both files
     carry sound, otherwise a flash when one is clear, otherwise the images). ``max_offset``: frames
     searched either way (default: a third of the video, at most 300); ``frame_limit``: frames read for
-    flash and image estimation."""
+    flash and image estimation. A window that cannot hold a plausible lag, or is negative, is refused
+    (:func:`usvips.core.synchronisation.search_window`)."""
     if method is not None and method not in synchronisation.METHODS:
         raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
     return run_sync(plan_sync(project, label, calibration_id), method, max_offset, frame_limit, progress)
@@ -406,8 +419,8 @@ def run_sync(job: SyncJob, method: str | None = None, max_offset: int | None = N
         raise
     with left, right:
         count = min(left.frame_count, right.frame_count)
-        limit = int(max_offset) if max_offset is not None else max(1, min(count // 3, 300))
         fps = left.fps
+        limit = synchronisation.search_window(max_offset, fps, count)
         if method in (None, "audio"):
             a, b = left.audio(), right.audio()
             if a is not None and b is not None and a[1] == b[1]:
@@ -419,7 +432,7 @@ def run_sync(job: SyncJob, method: str | None = None, max_offset: int | None = N
             try:
                 estimate = synchronisation.flash_offset(_brightness(left, frame_limit, progress),
                                                         _brightness(right, frame_limit, progress), fps, limit)
-                if method == "flash" or estimate.confidence >= 0.5:
+                if method == "flash" or (estimate.confidence >= 0.5 and not estimate.at_edge):
                     return estimate
             except UsvipsError:
                 if method == "flash":
