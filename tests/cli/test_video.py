@@ -207,6 +207,18 @@ def test_bad_videos_are_refused_in_one_line_and_nothing_is_stored(tmp_path, caps
     shutil.move(left[0], tmp_path / "moved.mp4")
     code, _, err = _run(capsys, "video", "export-frame", project, "--pair", "v", "--frame", 1, "--out", tmp_path / "y")
     assert code == 2 and "a/left_GX010042.mp4 is missing" in err
+    code, out, err = _run(capsys, "project", "info", project)  # a read-only command still shows the project
+    assert code == 0 and "media a/left_GX010042.mp4: missing" in out
+    assert f"recorded at {tmp_path / 'a' / 'left_GX010042.mp4'}" in out
+    # another recording copied over a file of the video: named, refused, until accepted or relocated
+    shutil.copy(right[0], tmp_path / "a" / "left_GX010042.mp4")
+    for argv in (("video", "export-frame", project, "--pair", "v", "--frame", 1, "--out", tmp_path / "y"),
+                 ("video", "take-pair", project, "--pair", "v", "--frame", 1),
+                 ("video", "sync", project, "--pair", "v")):
+        code, _, err = _run(capsys, *argv)
+        assert code == 2 and "a/left_GX010042.mp4 is not the file that was added" in err and err.count("\n") == 1
+    assert _run(capsys, "project", "relocate-media", project, "a/left_GX010042.mp4", tmp_path / "moved.mp4")[0] == 0
+    assert _run(capsys, "video", "export-frame", project, "--pair", "v", "--frame", 1, "--out", tmp_path / "y")[0] == 0
 
 
 def test_image_pairs_from_folders_by_stem_or_order_stored_relative_and_checked(tmp_path, capsys):
@@ -329,8 +341,12 @@ def test_seek_proxies_are_built_listed_by_project_info_rebuilt_when_stale_and_de
     assert len(proxies) == 4  # two proxies and their stamps
     assert f"seek proxies {total / 2**20:.1f} MiB" in _run(capsys, "project", "info", project)[1]
     assert "already built" in _run(capsys, "video", "proxy", project, "--pair", "v")[1]
-    # the left recording replaced by other pictures of the same length: its proxy is stale and rebuilt
+    # the left recording replaced by other pictures of the same length: named and refused until accepted;
+    # then its proxy is stale and rebuilt
     encode_video(left[0], (numbered_frame(3000 + i, 160, 120, seed=1) for i in range(40)), FPS, "h264", gop=40)
+    code, _, err = _run(capsys, "video", "proxy", project, "--pair", "v")
+    assert code == 2 and "media/left_GX010042.mp4 is not the file that was added" in err
+    assert _run(capsys, "project", "accept-media", project, "media/left_GX010042.mp4")[0] == 0
     code, out, _ = _run(capsys, "video", "proxy", project, "--pair", "v")
     assert code == 0 and "stale" in out and out.count("wrote ") == 1
     code, out, _ = _run(capsys, "video", "proxy", project, "--pair", "v", "--delete")

@@ -178,8 +178,9 @@ def proxy_files(project: ProjectStore, label: str) -> list[Path]:
     by name alone (no decoding): what :func:`delete_proxies` removes and ``project info`` adds up."""
     video = project.video(label)
     folder = proxy_folder(project)
+    # where the files were recorded, whether or not they are there now (a missing file's proxies still count)
     return [path for side in ("left", "right")
-            for path in video_proxy.related_proxies(folder, [project.media_path(p) for p in video[side]])]
+            for path in video_proxy.related_proxies(folder, [project.path.parent / p for p in video[side]])]
 
 
 def proxy_bytes(project: ProjectStore, label: str) -> int:

@@ -4,6 +4,7 @@ command line."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from usvips.app.project_contents import plan_import, store_import, summarise
 from usvips.app.project_export import export_project, export_targets
@@ -24,7 +25,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     new.set_defaults(handler=run_new)
     info = actions.add_parser("info", help="summarise a project file")
     info.add_argument("project")
+    info.add_argument("--full-hash", action="store_true", help="check every media file's whole SHA-256 (slow for "
+                      "long videos); by default each file's size and a sampled hash")
     info.set_defaults(handler=run_info)
+    accept = actions.add_parser("accept-media", help="take the file now at a recorded media path as the one meant "
+                                "(after a changed file was named): its size and hashes are recorded anew")
+    accept.add_argument("project")
+    accept.add_argument("media", nargs="+", help="the recorded path(s), as project info shows them")
+    accept.set_defaults(handler=run_accept_media)
+    relocate = actions.add_parser("relocate-media", help="point a recorded media file at its new place (the same "
+                                  "file: size and SHA-256 are checked)")
+    relocate.add_argument("project")
+    relocate.add_argument("media", help="the recorded path, as project info shows it")
+    relocate.add_argument("new", help="where the file is now")
+    relocate.set_defaults(handler=run_relocate_media)
     imp = actions.add_parser("import", help="import control, observations or a calibration into a project")
     imp.add_argument("project")
     imp.add_argument("--control", help="control CSV")
@@ -61,6 +75,8 @@ def run_new(args: argparse.Namespace) -> int:
 def run_info(args: argparse.Namespace) -> int:
     with Project.open(args.project, read_only=True) as project:
         summary = summarise(project)
+        media = project.media_problems(check_hash=args.full_hash)
+        folder = project.path.parent
     print(f"{args.project}: schema {summary.version}, {summary.pair_count} image pairs, "
           f"{summary.control_count} control points, {summary.object_count} objects")
     for pair in summary.pairs:
@@ -79,6 +95,27 @@ def run_info(args: argparse.Namespace) -> int:
               f"{video.offset_frames:+d} frames (left frame i ↔ right frame i {video.offset_frames:+d})"
               + (f"; calibration {video.calibration_id}" if video.calibration_id else "")
               + (f"; seek proxies {video.proxy_bytes / 2**20:.1f} MiB" if video.proxy_bytes else ""))
+    for stored, problem in media:  # what is missing or changed, and where it was
+        print(f"  media {stored}: {problem}" + (f" (recorded at {folder / stored})" if not Path(stored).is_absolute()
+                                                else ""))
+    if media:
+        print(f"  {len(media)} media file(s) cannot be used until relocated or accepted "
+              "(usvips project relocate-media / accept-media)")
+    return 0
+
+
+def run_accept_media(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        for stored in args.media:
+            project.accept_media(stored)
+            print(f"accepted {stored} as it is now")
+    return 0
+
+
+def run_relocate_media(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        new = project.relocate_media(args.media, args.new)
+    print(f"{args.media} is now {new}")
     return 0
 
 
