@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from usvips.core import synchronisation
-from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core import synchronisation, validation
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.io import video_proxy
 from usvips.io.atomic import guard_output
@@ -52,15 +52,56 @@ def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], la
                      by: str = "auto", max_dt: float = 1.0) -> tuple[list[tuple[str, Path, Path]], str]:
     """The (label, left, right) pairs that :func:`add_image_pairs` would add, and the rule used (for a
     person to confirm). Labels: prefix + the shared stem (or the pair's number when paired by order)."""
+    label_prefix = validation.name("--label-prefix", label_prefix, allow_empty=True) if label_prefix else ""
+    max_dt = validation.finite("--max-dt", max_dt)
+    if max_dt <= 0:
+        raise InvalidParameterError("--max-dt", f"must be > 0 seconds, got {max_dt:g}")
     left_files = expand(left, IMAGE_SUFFIXES, "--left")
     right_files = expand(right, IMAGE_SUFFIXES, "--right")
+    _refuse_repeated_files({"--left": left_files, "--right": right_files}, "image")
     pairs, rule = pair_images(left_files, right_files, by, max_dt)
     labels = [f"{label_prefix}{shared_stem(a) if rule == 'stem' else f'{n + 1:03d}'}" for n, (a, _) in enumerate(pairs)]
+    for label, (a, _) in zip(labels, pairs, strict=True):
+        validation.name(f"pair label (from {a.name})", label)
     return [(label, a, b) for label, (a, b) in zip(labels, pairs, strict=True)], rule
 
 
+def _refuse_repeated_files(sides: dict[str, Sequence[Path]], what: str) -> None:
+    """One file given twice — in one camera's list (the same chapter twice) or as both cameras (the same
+    video as left and right) — by the same name or another name of it (a link): one line naming both
+    mentions. (Identical copies are not compared: synthetic test footage may be byte-identical.)"""
+    mentions = []
+    for option, files in sides.items():
+        for path in files:
+            try:
+                stat = path.stat()
+            except OSError:
+                continue  # named missing where it is read
+            mentions.append((option, path, (stat.st_dev, stat.st_ino)))
+    for j, (option, path, inode) in enumerate(mentions):
+        for first_option, first, first_inode in mentions[:j]:
+            if inode != first_inode:
+                continue
+            where = f"as both {first_option} and {option}" if first_option != option else f"twice in {option}"
+            why = ""
+            if what == "video":
+                why = " (the same video as both cameras)" if first_option != option else " (the same chapter twice)"
+            raise InputFileError(str(path), f"the same file as {first} is given {where}{why}")
+
+
 def add_image_pairs(project: ProjectStore, plan: Sequence[tuple[str, Path, Path]], medium: str = "water") -> list[int]:
-    """Add planned pairs (all or none); left and right must be readable images of one size."""
+    """Add planned pairs (all or none); left and right must be readable images of one size, none of them
+    already an image of one of the project's pairs (one image in two pairs)."""
+    taken = {}
+    for pair in project.pairs():
+        for side in ("left", "right"):
+            if pair[side]:
+                taken[(project.path.parent / pair[side]).resolve()] = pair["label"]
+    for label, left, right in plan:
+        for path in (left, right):
+            if Path(path).resolve() in taken:
+                raise InputFileError(str(path), f"is already an image of pair {taken[Path(path).resolve()]!r}; "
+                                     f"pair {label!r} cannot have it too (one image in two pairs)")
     sizes = []
     for label, left, right in plan:
         a, b = read_image(left), read_image(right)
@@ -94,9 +135,11 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
     project (may run in a worker thread)."""
     left_files = expand(left, VIDEO_SUFFIXES, "--left")
     right_files = expand(right, VIDEO_SUFFIXES, "--right")
+    _refuse_repeated_files({"--left": left_files, "--right": right_files}, "video")
     check_chapters(left_files, "--left")
     check_chapters(right_files, "--right")
-    label = label or shared_stem(left_files[0]) or left_files[0].stem
+    label = validation.name("--label", label) if label is not None else \
+        validation.name("--label (from the file name)", shared_stem(left_files[0]) or left_files[0].stem)
     with VideoStream(left_files) as a, VideoStream(right_files) as b:
         if a.size != b.size:
             raise VideoError(f"{right_files[0]}: {b.width} × {b.height} px, but the left video {left_files[0].name} "
@@ -288,7 +331,7 @@ def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: s
     """The label (default ``VIDEO-FRAME``) and folder (``frames/LABEL`` beside the project) of the image
     pair :func:`take_pair` makes of left frame ``frame``; refuses a label already used before anything
     is written (so no stored pair's images are overwritten)."""
-    pair_label = (pair_label or f"{label}-{frame}").strip()
+    pair_label = validation.name("--label", pair_label or f"{label}-{frame}")
     if not pair_label or "/" in pair_label or "\\" in pair_label or pair_label.startswith("."):
         raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
     if pair_label in {p["label"] for p in project.pairs()}:

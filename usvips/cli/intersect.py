@@ -16,7 +16,7 @@ from usvips.core.intersection import Intersection
 from usvips.core.rays import RayStatus
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
-from usvips.io.tables import read_observations
+from usvips.io.tables import read_observations, refuse_outside_image
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -45,6 +45,9 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration)
     observations = read_observations(args.obs)
+    refuse_outside_image(args.obs, list(observations.ids), list(observations.lines), observations.left,
+                         observations.right, ((calibration.left.width, calibration.left.height),
+                                              (calibration.right.width, calibration.right.height)))
     station = int(args.station) if args.station.isdigit() else args.station
     result = intersect_with_calibration(calibration, observations.left, observations.right, station, args.frame,
                                         include_calibration=not args.pointing_only)

@@ -7,6 +7,7 @@ import argparse
 import json
 
 from usvips.app import video_project
+from usvips.core import validation
 from usvips.core.errors import UsvipsError
 from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project
@@ -149,6 +150,7 @@ def run_period(args: argparse.Namespace) -> int:
     with Project.open(args.project) as project:
         if args.add:
             name, start, end = args.add
+            name = validation.name("--add NAME", name)
             try:
                 start, end = int(start), int(end)
             except ValueError:

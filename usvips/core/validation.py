@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import unicodedata
 
 import numpy as np
 
@@ -55,3 +56,38 @@ def finite_array(name: str, value, last_dim: int) -> np.ndarray:
         bad = int(np.flatnonzero(~np.all(np.isfinite(array), axis=1))[0])
         raise InvalidParameterError(name, f"row {bad} is not finite")
     return array
+
+
+#: the longest name (a label, a period, a prefix) taken, in characters
+MAX_NAME_LENGTH = 200
+
+
+def name(parameter: str, text: str, allow_empty: bool = False) -> str:
+    """``text`` stripped, or raise if it holds control or invisible formatting characters (a tab, NUL, an
+    escape, a right-to-left override …: they corrupt tables and terminals), is empty (unless
+    ``allow_empty``) or longer than :data:`MAX_NAME_LENGTH`."""
+    text = str(text)
+    bad = next((c for c in text if unicodedata.category(c) in ("Cc", "Cf", "Cs", "Zl", "Zp")), None)
+    if bad is not None:
+        raise InvalidParameterError(parameter, f"{text.encode('unicode_escape').decode('ascii')[:80]!r} holds a "
+                                    f"control character (U+{ord(bad):04X}); use printable characters")
+    text = text.strip()
+    if not text and not allow_empty:
+        raise InvalidParameterError(parameter, "must not be empty")
+    if len(text) > MAX_NAME_LENGTH:
+        raise InvalidParameterError(parameter, f"is {len(text)} characters long; at most {MAX_NAME_LENGTH}")
+    return text
+
+
+def count(parameter: str, value, low: int, high: int) -> int:
+    """``value`` as a whole number from ``low`` to ``high``, or raise naming ``parameter`` (a count of 10⁸
+    is refused here, by name, rather than by the memory it would take)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(parameter, f"{value!r} is not a whole number") from None
+    if not math.isfinite(number) or number != int(number):
+        raise InvalidParameterError(parameter, f"{value!r} is not a whole number")
+    if not low <= int(number) <= high:
+        raise InvalidParameterError(parameter, f"must be from {low} to {high}, got {int(number)}")
+    return int(number)

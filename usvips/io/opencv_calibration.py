@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import math
 import re
+import zipfile
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -243,20 +245,46 @@ def _declared_shape(node) -> list[int] | None:
 _MAX_MATRIX_SIDE = 1000
 
 
+#: the most bytes one array of an .npz file may unpack to (a calibration's arrays take a few hundred)
+_MAX_NPZ_ARRAY_BYTES = 16 << 20
+
+
+def _read_npz(path: Path) -> dict[str, object]:
+    """Every array of a NumPy .npz file, numbers only: a damaged archive (bad zip, bad CRC, a cut-short
+    member, a corrupt header), an array of text, objects or complex numbers, or one that would unpack to
+    more than :data:`_MAX_NPZ_ARRAY_BYTES` is an :class:`InputFileError` naming the file (and the array)."""
+    out = {}
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            for key in data.files:
+                info = data.zip.getinfo(f"{key}.npy")
+                if info.file_size > _MAX_NPZ_ARRAY_BYTES:
+                    raise InputFileError(str(path), f"array {key!r} unpacks to {info.file_size} bytes; a "
+                                         "calibration's arrays are small (a damaged or a different file?)")
+                value = np.asarray(data[key])
+                if value.dtype.kind not in "biuf":
+                    raise InputFileError(str(path), f"array {key!r} holds {value.dtype} values, not real numbers")
+                out[key] = value
+    except InputFileError:
+        raise
+    except (OSError, ValueError, EOFError, KeyError, RuntimeError, zipfile.BadZipFile, zlib.error) as error:
+        detail = " ".join(str(error).split())[:200] or type(error).__name__
+        raise InputFileError(str(path), f"not a readable .npz file (damaged?): {detail}") from None
+    return out
+
+
 def _read_file(path: Path) -> dict[str, object]:
     """Every top-level numeric entry of one file (arrays and numbers), by its name in the file."""
     if not path.is_file():
         raise InputFileError(str(path), "no such file")
     if path.suffix.lower() == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                return {k: np.asarray(data[k]) for k in data.files}
-        except (OSError, ValueError, EOFError) as error:
-            raise InputFileError(str(path), f"not a readable .npz file: {error}") from None
+        return _read_npz(path)
     try:
         storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as error:
-        detail = str(error).strip().splitlines()[-1][:200]
+        cause = error.__cause__ if isinstance(error, SystemError) and error.__cause__ is not None else error
+        lines = str(cause).strip().splitlines() or ["the file is damaged or cut short"]
+        detail = lines[-1][:200] if "exception set" not in lines[-1] else "the file is damaged or cut short"
         raise InputFileError(str(path), f"not a readable OpenCV FileStorage file (YAML/XML): {detail}") from None
     if not storage.isOpened():
         raise InputFileError(str(path), "not an OpenCV FileStorage file (YAML/XML)")

@@ -85,6 +85,34 @@ class StreamReport:
         return "; ".join(parts)
 
 
+#: a file whose frames end earlier than its container says by more than this many frame intervals …
+CUT_SHORT_FRAMES = 3
+#: … and this share of its stated duration is cut short (a copy that did not finish)
+CUT_SHORT_SHARE = 0.02
+
+
+def _refuse_cut_short(path: Path, container, stream, pts: np.ndarray) -> None:
+    """An :class:`InputFileError` when the frames found end well before the duration the file states
+    (its video stream's, else the container's): a truncated file (Matroska keeps its duration in its
+    header, so a copy cut short still says how long it was) read as a shorter video would pair and time
+    frames wrongly with no word."""
+    if len(pts) < 2:
+        return
+    time_base = float(stream.time_base)
+    interval = float(np.median(np.diff(np.sort(pts)))) * time_base
+    if stream.duration:
+        stated = float(stream.duration) * time_base
+    elif container.duration:
+        stated = float(container.duration) / 1e6  # FFmpeg's AV_TIME_BASE: microseconds
+    else:
+        return
+    found = float(pts.max() - pts.min()) * time_base + interval
+    if stated - found > max(CUT_SHORT_FRAMES * interval, CUT_SHORT_SHARE * stated):
+        raise InputFileError(str(path), f"cut short: the file says it lasts {stated:.3f} s, but its frames end at "
+                             f"{found:.3f} s (about {round((stated - found) / interval)} frames missing; an unfinished "
+                             "copy? give the complete file)")
+
+
 def _index_chapter(path: Path, first: int) -> tuple[Chapter, tuple[int, int], str]:
     """Read a file's packets (no decoding): pts, key frames and packet hashes of its first video stream."""
     if not path.is_file():
@@ -121,6 +149,7 @@ def _index_chapter(path: Path, first: int) -> tuple[Chapter, tuple[int, int], st
         size = (int(stream.codec_context.width), int(stream.codec_context.height))
         if size[0] <= 0 or size[1] <= 0:
             raise InputFileError(str(path), "the video stream has no picture size")
+        _refuse_cut_short(path, container, stream, pts)
         chapter = Chapter(path, first, len(rows), pts, keyframe, float(stream.time_base),
                           tuple(r[2] for r in rows))
         return chapter, size, stream.codec_context.name
