@@ -527,6 +527,8 @@ def test_names_with_control_characters_are_refused_and_nothing_stored(video_proj
         (["project", "add-pairs", str(project), "--left", str(ROV / "images" / "measure1_left.png"), "--right",
           str(ROV / "images" / "measure1_right.png"), f"--label-prefix={name}", "--pair-by", "order"],
          "--label-prefix"),
+        (["project", "set-metadata", str(project), "--opcode", "OP1", f"--site={name}"], "--site"),
+        (["project", "set-metadata", str(project), f"--opcode={name}"], "--opcode"),
     ]))
     before = dump(project)
     code, err = run(command)
@@ -689,3 +691,21 @@ def test_a_cut_short_or_damaged_matroska_video_is_one_line_never_fewer_frames_un
             with Project.open(work / "p.usvips", read_only=True) as project:
                 count = project.video("v")["frame_count"]
             assert count >= 60 - CUT_SHORT_FRAMES or "dropped frame" in out.getvalue(), (count, out.getvalue())
+
+
+def test_contradictory_options_are_refused_as_their_siblings_refuse_them(video_project):
+    """Options that cannot both hold, refused in one line naming them, nothing stored."""
+    project = str(video_project["project"])
+    before = dump(video_project["project"])
+    for argv, named in [
+        (["video", "sync", project, "--pair", "video", "--dry-run", "--force"], "--dry-run"),
+        (["video", "sync", project, "--pair", "video", "--method", "flash", "--calibration", "1"], "--calibration"),
+        (["project", "set-georeference", project, "--clear", "--latitude", "10"], "--latitude"),
+        (["project", "set-georeference", project, "--clear", "--points", "geo.csv"], "--points"),
+        (["project", "set-metadata", project, "--clear", "--site", "x"], "--clear"),
+        (["batch", "intersect", "--calibration", "c.json", "--out-dir", "o", "--jobs", "100000000", "a.csv"],
+         "--jobs"),
+    ]:
+        code, err = run(argv)
+        assert code == 2 and err.count("\n") == 1 and named in err, (argv, err)
+    assert dump(video_project["project"]) == before

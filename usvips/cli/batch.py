@@ -17,6 +17,8 @@ from usvips.app import batch
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import guard_output
 
+#: the most worker processes --jobs starts (each holds its own copy of the libraries)
+MAX_JOBS = 256
 #: export formats and the suffix of the file each writes
 EXPORT_SUFFIXES = {"csv": ".csv", "vertices": ".vertices.csv", "geojson": ".geojson", "ply": ".ply",
                    "eventmeasure": ".em.txt"}
@@ -82,8 +84,8 @@ def _line(outcome: batch.Outcome, finished: int, total: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.jobs is not None and args.jobs < 1:
-        raise InvalidParameterError("--jobs", f"must be at least 1, got {args.jobs}")
+    if args.jobs is not None and not 1 <= args.jobs <= MAX_JOBS:
+        raise InvalidParameterError("--jobs", f"must be from 1 to {MAX_JOBS} worker processes, got {args.jobs}")
     out_dir = Path(args.out_dir)
     tasks = _tasks(args, out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -10,6 +10,7 @@ from usvips.app.project_contents import plan_import, store_import, summarise
 from usvips.app.project_export import export_project, export_targets
 from usvips.app.samples import create_from_manifest
 from usvips.cli.video import register_project_actions
+from usvips.core import validation
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.io.atomic import replacing
@@ -174,6 +175,9 @@ def register_metadata_actions(actions: argparse._SubParsersAction) -> None:
 
 def run_set_metadata(args: argparse.Namespace) -> int:
     given = {name: getattr(args, name) for name in _METADATA_OPTIONS if getattr(args, name) is not None}
+    for name, value in given.items():  # no control characters in what CheckEM's tables will hold
+        option = "--depth" if name == "depth_m" else "--" + name.replace("_", "-")
+        validation.name(option, value, allow_empty=True)
     with Project.open(args.project) as project:
         if args.clear:
             if given:
@@ -194,6 +198,12 @@ def run_set_metadata(args: argparse.Namespace) -> int:
 
 
 def run_set_georeference(args: argparse.Namespace) -> int:
+    if args.clear:
+        given = [o for o, v, default in (("--latitude", args.latitude, None), ("--longitude", args.longitude, None),
+                                         ("--depth", args.depth, "0"), ("--heading", args.heading, "0"),
+                                         ("--points", args.points, None)) if v != default]
+        if given:
+            raise UsvipsError(f"--clear removes the georeference; give no {', '.join(given)} with it")
     with Project.open(args.project) as project:
         if args.clear:
             project.set_georeference(None)

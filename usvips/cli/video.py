@@ -113,6 +113,10 @@ def run_add_video(args: argparse.Namespace) -> int:
 
 
 def run_sync(args: argparse.Namespace) -> int:
+    if args.dry_run and args.force:
+        raise UsvipsError("--dry-run stores nothing and --force stores whatever the confidence: give one of them")
+    if args.calibration is not None and args.method in ("flash", "audio"):
+        raise UsvipsError(f"--calibration is used by --method image only; leave it out with --method {args.method}")
     with Project.open(args.project) as project:
         estimate = video_project.estimate_offset(project, args.pair, args.method, args.max_offset, args.calibration)
         doubt = video_project.store_refusal(estimate, args.force)

@@ -69,8 +69,9 @@ def name(parameter: str, text: str, allow_empty: bool = False) -> str:
     text = str(text)
     bad = next((c for c in text if unicodedata.category(c) in ("Cc", "Cf", "Cs", "Zl", "Zp")), None)
     if bad is not None:
-        raise InvalidParameterError(parameter, f"{text.encode('unicode_escape').decode('ascii')[:80]!r} holds a "
-                                    f"control character (U+{ord(bad):04X}); use printable characters")
+        shown = text.encode("unicode_escape").decode("ascii")[:80]
+        raise InvalidParameterError(parameter, f"'{shown}' holds a control character (U+{ord(bad):04X}); use "
+                                    "printable characters")
     text = text.strip()
     if not text and not allow_empty:
         raise InvalidParameterError(parameter, "must not be empty")
