@@ -98,3 +98,22 @@ def test_a_project_from_before_sampled_hashes_checks_the_whole_file_once(tmp_pat
         data[0] ^= 1
         media.write_bytes(bytes(data))
         assert "sampled hash" in project.media_identity("left.mp4")
+
+
+def test_a_copy_in_another_folder_finds_its_media_as_they_were(tmp_path):
+    rng = np.random.default_rng(3)
+    media = tmp_path / "media"
+    media.mkdir()
+    files = []
+    for side in ("left", "right"):
+        files.append(media / f"{side}.mp4")
+        files[-1].write_bytes(rng.integers(0, 256, 2_000_000, dtype=np.uint8).tobytes())
+    with Project.create(tmp_path / "p.usvips") as project:
+        project.add_video("v", [(files[0], 10, 25.0)], [(files[1], 10, 25.0)], 25.0, 10, (64, 48))
+        (tmp_path / "elsewhere").mkdir()
+        copy = project.copy_to(tmp_path / "elsewhere" / "copy.usvips")
+    with Project.open(copy) as other:
+        video = other.video("v")
+        assert video["left"] == [str(files[0].resolve())] and other.media_problems() == []  # outside: absolute
+        assert [other.media_path(p) for p in video["left"] + video["right"]] == [f.resolve() for f in files]
+        assert other._query("SELECT count(*) FROM meta WHERE key LIKE 'media-sample:/%'") == [(2,)]

@@ -949,7 +949,8 @@ class Project:
         """Write a consistent copy of the project to the new file ``path`` (SQLite's online backup, whole
         even while the project is open). Image paths stored relative to this project's folder are
         rewritten relative to the copy's folder (absolute where that is not possible), so the copy finds
-        its images. Written to ``<path>.part`` and renamed: a failure leaves nothing half-written."""
+        its images and videos (with their recorded sizes and hashes). Written to ``<path>.part`` and
+        renamed: a failure leaves nothing half-written."""
         target = Path(path)
         if target.exists():
             raise ProjectError(f"{target}: already exists; choose a new file name for the copy")
@@ -972,9 +973,17 @@ class Project:
             try:
                 self._db.backup(copy)
                 rows = copy.execute("SELECT id, left_path, right_path FROM image_pairs").fetchall()
+                media = copy.execute("SELECT path FROM media").fetchall() if copy.execute(
+                    "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'media'").fetchone() else []
+                copy.execute("PRAGMA foreign_keys = ON")  # a video's files follow their media rows
                 with copy:
                     copy.executemany("UPDATE image_pairs SET left_path = ?, right_path = ? WHERE id = ?",
                                      [(moved(left), moved(right), pair_id) for pair_id, left, right in rows])
+                    for (stored,) in media:  # the media's records (size, hashes) move with their paths
+                        if moved(stored) != stored:
+                            copy.execute("UPDATE media SET path = ? WHERE path = ?", (moved(stored), stored))
+                            copy.execute("UPDATE meta SET key = ? WHERE key = ?",
+                                         (_sample_key(moved(stored)), _sample_key(stored)))
                 copy.execute("PRAGMA journal_mode = DELETE")
             finally:
                 copy.close()
