@@ -11,6 +11,7 @@ and the left frame's presentation time (s).
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -317,6 +318,44 @@ def export_frame(project: ProjectStore, label: str, frame: int, out: str | Path)
             guard_output(target, sources, project.path, option="--out", replace_option="another --out")
     left, right, _, _ = frame_pair(project, label, frame)
     return write_frame_pair(left, right, out)
+
+
+class Cancelled(UsvipsError):
+    """A long check stopped because the user cancelled it."""
+
+
+def verify_media(records: Sequence[tuple[str, Path, int, str]], progress: Callable[[int, int], None] | None = None,
+                 cancelled: Callable[[], bool] | None = None, chunk: int = 1 << 22) -> list[tuple[str, str]]:
+    """The full check of media files, away from the project (a worker thread may run it): each file of
+    ``records`` (:meth:`Project.media_records`) read whole and its SHA-256 compared with the one recorded;
+    (stored path, problem) for each that is missing, resized or changed. ``progress(bytes done, bytes in
+    all)`` after every ``chunk`` bytes; ``cancelled()`` is asked as often and stops the reading at once
+    (:class:`Cancelled`)."""
+    total = sum(size for _, _, size, _ in records) or 1
+    done = 0
+    problems = []
+    for stored, path, size, sha in records:
+        if not path.is_file():
+            problems.append((stored, "missing (moved or deleted?)"))
+            done += size
+            continue
+        now = path.stat().st_size
+        if now != size:
+            problems.append((stored, f"{now} bytes, but {size} when it was added"))
+            done += size
+            continue
+        digest = hashlib.sha256()
+        with open(path, "rb") as stream:
+            while block := stream.read(chunk):
+                if cancelled is not None and cancelled():
+                    raise Cancelled("the check of the media files was cancelled")
+                digest.update(block)
+                done += len(block)
+                if progress is not None:
+                    progress(min(done, total), total)
+        if digest.hexdigest() != sha:
+            problems.append((stored, "its contents differ from the file added (SHA-256; same size)"))
+    return problems
 
 
 def media_files(project: ProjectStore) -> list[Path]:

@@ -96,6 +96,10 @@ class ProjectStore(Protocol):
         fast (size and a sampled hash) unless ``full`` (the whole SHA-256)."""
         ...
 
+    def media_records(self) -> list[tuple[str, Path, int, str]]:
+        """(stored path, absolute path, size, SHA-256) of every recorded media file."""
+        ...
+
     def accept_media(self, stored: str) -> None:
         """Take the file now at a recorded media path as the one meant (size and hashes recorded anew)."""
         ...

@@ -720,6 +720,15 @@ class Project:
                     self._edit("INSERT OR REPLACE INTO meta VALUES (?, ?)", (_sample_key(stored), sampled_hash(path)))
         return None
 
+    def media_records(self) -> list[tuple[str, Path, int, str]]:
+        """(stored path, where it should be, size in bytes, SHA-256) of every recorded media file: what a
+        worker needs to compare whole files away from the project's connection
+        (:func:`usvips.app.video_project.verify_media`)."""
+        if not self._has_table("media"):
+            return []
+        rows = self._db.execute("SELECT path, size, sha256 FROM media ORDER BY path").fetchall()
+        return [(stored, self.path.parent / stored, int(size), sha) for stored, size, sha in rows]
+
     def accept_media(self, stored: str) -> None:
         """Take the file now at a recorded media path as the one the project means (after the user has
         looked at it): its size, SHA-256 and sampled hash are recorded anew."""
