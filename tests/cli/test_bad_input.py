@@ -678,6 +678,7 @@ def test_a_cut_short_or_damaged_matroska_video_is_one_line_never_fewer_frames_un
         damaged = whole[: int(len(whole) * data.draw(st.floats(0.02, 0.97)))]  # an unfinished copy
     else:
         damaged = data.draw(byte_damage(whole))
+    scan = data.draw(st.booleans())  # every frame decoded, a damaged packet an error
     with tempfile.TemporaryDirectory() as work:
         work = Path(work)
         (work / "cut.mkv").write_bytes(damaged)
@@ -685,7 +686,7 @@ def test_a_cut_short_or_damaged_matroska_video_is_one_line_never_fewer_frames_un
         out, err = io.StringIO(), io.StringIO()
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
             code = main(["project", "add-video", str(work / "p.usvips"), "--left", str(work / "cut.mkv"), "--right",
-                         str(matroska["right"]), "--label", "v"])
+                         str(matroska["right"]), "--label", "v", *(["--scan"] if scan else [])])
         assert_contract(code, err.getvalue(), ("cut.mkv", "right.mkv"))
         if code == 0:  # accepted whole, short by less than the cut-short tolerance, or its gap said
             with Project.open(work / "p.usvips", read_only=True) as project:

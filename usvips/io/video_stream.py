@@ -491,8 +491,9 @@ class VideoStream:
     def scan_pictures(self, progress=None) -> StreamReport:
         """Decode every frame once (as a 64 × 48 grey thumbnail) and add the frames whose picture repeats
         the one before (mean difference below :data:`DUPLICATE_LEVEL` grey levels) to the report's
-        duplicates: a camera or capture that repeats a frame re-encodes it, so its bytes differ.
-        ``progress(done, total)`` is called every 100 frames; returns (and keeps) the new report."""
+        duplicates: a camera or capture that repeats a frame re-encodes it, so its bytes differ. A frame
+        the decoder finds damaged, or fewer frames decoded than indexed, is an :class:`InputFileError`
+        naming the file. ``progress(done, total)`` is called every 100 frames; returns (and keeps) the new report."""
         same = []
         previous = None
         index = 0
@@ -500,6 +501,9 @@ class VideoStream:
             with av.open(str(chapter.path)) as container:
                 stream = container.streams.video[0]
                 stream.thread_type = "AUTO"
+                # a damaged packet is an error here, not a picture the decoder quietly patches up
+                stream.codec_context.options = {"err_detect": "explode"}
+                start = index
                 try:
                     for frame in container.decode(stream):
                         thumb = frame.reformat(width=64, height=48, format="gray").to_ndarray().astype(np.int16)
@@ -510,7 +514,11 @@ class VideoStream:
                         if progress is not None and index % 100 == 0:
                             progress(index, self.frame_count)
                 except av.error.FFmpegError as error:
-                    raise InputFileError(str(chapter.path), f"frame {index} cannot be decoded: {error}") from None
+                    raise InputFileError(str(chapter.path), f"frame {index} cannot be decoded (a damaged file?): "
+                                         f"{error}") from None
+                if index - start != chapter.count:
+                    raise InputFileError(str(chapter.path), f"{index - start} of its {chapter.count} frames could be "
+                                         "decoded (a damaged file?)")
         self.report = _report(self.times_s, [d for c in self.chapters for d in c.digests], same)
         return self.report
 
