@@ -474,6 +474,7 @@ BAD_PLAN_VALUES = {
     "--orientations": ["0", "-3", "100000000", "1e8", "2.5", "nan", "x"],
     "--range": ["1:2:100000000", "1:2:0", "1:2:-4", "1:2:1e9", "nan:2", "1:inf", "1:2:x"],
     "--across": ["-1:1:100000000", "-1:1:0", "-1:nan"],
+    "--image-size": ["99999999x480", "640x100000", "0x0", "nanxnan", "640", "-640x480"],
 }
 
 
@@ -710,3 +711,19 @@ def test_contradictory_options_are_refused_as_their_siblings_refuse_them(video_p
         code, err = run(argv)
         assert code == 2 and err.count("\n") == 1 and named in err, (argv, err)
     assert dump(video_project["project"]) == before
+
+
+def test_a_rendering_never_replaces_a_calibration_unasked(base, tmp_path):
+    """Rendering into a folder where a file it writes holds a calibration (here someone's calibration saved
+    as truth.json): refused before anything is moved in; with --force kept as NAME.bak."""
+    out = tmp_path / "again"
+    shutil.copytree(base["folder"] / "rendered", out)
+    shutil.copy(ROV / "calibration.json", out / "truth.json")
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    code, err = run(["render", str(base["scene"]), "--out", str(out)])
+    assert code == 2 and err.count("\n") == 1 and "USVIPS calibration" in err and "--force" in err, err
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")], "a staging folder was left"
+    assert run(["render", str(base["scene"]), "--out", str(out), "--force"])[0] == 0
+    kept = sorted(p.name for p in out.glob("*.bak"))
+    assert kept and all(before[Path(name[:-4])] == (out / name).read_bytes() for name in kept)

@@ -432,6 +432,10 @@ def baseline_doubt(calibration: StereoCalibration, unit: str) -> str | None:
             f"{unit}{hint}")
 
 
+#: the largest image side (pixels) taken from the command line: well above any camera's
+MAX_IMAGE_SIDE = 65536
+
+
 def parse_image_size(text: str, parameter: str = "--image-size") -> tuple[int, int]:
     """``WxH`` (pixels) → (width, height); a malformed text is one error naming ``parameter``."""
     width, sep, height = text.lower().partition("x")
@@ -441,4 +445,7 @@ def parse_image_size(text: str, parameter: str = "--image-size") -> tuple[int, i
         size = None
     if not sep or size is None or min(size) <= 0:
         raise InvalidParameterError(parameter, f"expected WIDTHxHEIGHT in whole pixels > 0, got {text!r}")
+    if max(size) > MAX_IMAGE_SIDE:
+        raise InvalidParameterError(parameter, f"{size[0]}x{size[1]}: a side over {MAX_IMAGE_SIDE} pixels is no "
+                                    "camera's image")
     return size
