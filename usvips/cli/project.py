@@ -177,7 +177,7 @@ def run_set_metadata(args: argparse.Namespace) -> int:
     given = {name: getattr(args, name) for name in _METADATA_OPTIONS if getattr(args, name) is not None}
     for name, value in given.items():  # no control characters in what CheckEM's tables will hold
         option = "--depth" if name == "depth_m" else "--" + name.replace("_", "-")
-        validation.name(option, value, allow_empty=True)
+        validation.printable(option, value)
     with Project.open(args.project) as project:
         if args.clear:
             if given:

@@ -62,17 +62,28 @@ def finite_array(name: str, value, last_dim: int) -> np.ndarray:
 MAX_NAME_LENGTH = 200
 
 
-def name(parameter: str, text: str, allow_empty: bool = False) -> str:
-    """``text`` stripped, or raise if it holds control or invisible formatting characters (a tab, NUL, an
-    escape, a right-to-left override …: they corrupt tables and terminals), is empty (unless
-    ``allow_empty``) or longer than :data:`MAX_NAME_LENGTH`."""
+#: formatting characters that hide or reorder text (bidirectional overrides and isolates, zero-width space,
+#: byte-order mark, soft hyphen); the joiners some scripts need (U+200C, U+200D) are allowed
+_INVISIBLE = frozenset("\u00ad\u200b\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2060\u2066\u2067\u2068\u2069"
+                       "\ufeff\ufff9\ufffa\ufffb")
+
+
+def printable(parameter: str, text: str) -> str:
+    """``text``, or raise if it holds control or invisible formatting characters (a tab, NUL, an escape, a
+    line separator, a right-to-left override …): they corrupt tables, CSV files and terminals."""
     text = str(text)
-    bad = next((c for c in text if unicodedata.category(c) in ("Cc", "Cf", "Cs", "Zl", "Zp")), None)
+    bad = next((c for c in text if unicodedata.category(c) in ("Cc", "Cs", "Zl", "Zp") or c in _INVISIBLE), None)
     if bad is not None:
         shown = text.encode("unicode_escape").decode("ascii")[:80]
         raise InvalidParameterError(parameter, f"'{shown}' holds a control character (U+{ord(bad):04X}); use "
                                     "printable characters")
-    text = text.strip()
+    return text
+
+
+def name(parameter: str, text: str, allow_empty: bool = False) -> str:
+    """``text`` stripped, or raise if it is not :func:`printable`, is empty (unless ``allow_empty``) or is
+    longer than :data:`MAX_NAME_LENGTH`."""
+    text = printable(parameter, text).strip()
     if not text and not allow_empty:
         raise InvalidParameterError(parameter, "must not be empty")
     if len(text) > MAX_NAME_LENGTH:
