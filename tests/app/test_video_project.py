@@ -3,6 +3,7 @@ FrameRight count within the chapter file named, Time is minutes from the recordi
 on across chapters, PeriodTime is minutes since the period began (EventMeasure's convention, as its own
 exports show: see :func:`usvips.app.video_project.eventmeasure_frame_columns`)."""
 
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -51,3 +52,34 @@ def test_time_is_minutes_from_the_recording_start_across_chapters(tmp_path, case
                 assert float(time) == pytest.approx(frame / fps / 60, abs=1e-5)  # minutes, running on
                 assert period == "bait" and float(period_time) == pytest.approx((frame - 3) / fps / 60, abs=1e-5)
                 assert len(time.split(".")[1]) == 5  # EventMeasure writes 5 decimals
+
+
+def test_the_full_media_check_runs_away_from_the_project_finds_every_damage_and_stops_when_cancelled(tmp_path):
+    from usvips.app.video_project import Cancelled, verify_media
+
+    rng = np.random.default_rng(12)
+    files = []
+    for n in range(6):
+        files.append(tmp_path / f"clip{n}.mp4")
+        files[-1].write_bytes(rng.integers(0, 256, int(rng.integers(1, 3_000_000)), dtype=np.uint8).tobytes())
+    with Project.create(tmp_path / "p.usvips") as project:
+        project.add_video("v", [(f, 10, 25.0) for f in files[:3]], [(f, 10, 25.0) for f in files[3:]], 25.0, 30,
+                          (64, 48))
+        records = project.media_records()
+    assert verify_media(records) == []
+    damaged = {}
+    for path in rng.choice(files, 3, replace=False):
+        data = bytearray(path.read_bytes())
+        data[int(rng.integers(0, len(data)))] ^= 0x5A  # one byte anywhere: only the whole hash sees it
+        path.write_bytes(bytes(data))
+        damaged[path.name] = "contents differ"
+    files[0].rename(tmp_path / "gone.mp4")
+    damaged[files[0].name] = "missing"
+    found = dict(verify_media(records))
+    assert {Path(k).name for k in found} == set(damaged)
+    assert all(damaged[Path(k).name] in v for k, v in found.items())
+    calls = []
+    with pytest.raises(Cancelled):
+        verify_media(records, lambda done, total: calls.append(done), cancelled=lambda: len(calls) >= 2,
+                     chunk=1 << 16)
+    assert len(calls) == 2  # nothing more was read once cancelled

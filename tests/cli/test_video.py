@@ -129,6 +129,30 @@ def test_an_estimate_of_little_confidence_is_not_stored_unless_forced(tmp_path, 
         assert p.video("v")["offset_estimate"]["method"] == "flash"
 
 
+def test_an_offset_at_the_edge_of_its_window_is_never_stored_and_a_bad_window_is_one_line(tmp_path, capsys):
+    """The lag (20 frames) outside the window searched: the best of the window lies at its edge; it is
+    printed and named, and not stored, not even with --force. A window that is no window is refused."""
+    project = tmp_path / "mine.usvips"
+    main(["project", "new", str(project)])
+    left, right = _stereo(tmp_path / "media", 20, flash_at=40)
+    assert _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right, "--label", "v")[0] == 0
+    assert _run(capsys, "video", "set-offset", project, "--pair", "v", "20")[0] == 0
+    for force in ((), ("--force",)):
+        code, out, err = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--max-offset",
+                              "14", "--json", *force)
+        assert code == 0, err
+        estimate = json.loads(out)
+        assert estimate["at_edge"] and not estimate["stored"] and "search window" in estimate["not_stored"]
+    with Project.open(project) as p:
+        assert p.video("v")["offset_frames"] == 20 and p.video("v")["offset_estimate"] == {"method": "by hand"}
+    for window in ("-5", "-1", "0", "3", "nan", "1e8", "2.5", "x", "100000000"):
+        code, _, err = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--max-offset",
+                            window)
+        assert code == 2 and err.count("\n") == 1 and "--max-offset" in err and "Traceback" not in err, (window, err)
+    code, out, err = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--max-offset", "26")
+    assert code == 0 and "; stored" in out, (out, err)
+
+
 def test_the_sample_project_opens_on_its_video_and_finds_its_lag(tmp_path, capsys):
     project = tmp_path / "rov.usvips"
     assert _run(capsys, "project", "new", project, "--from", SAMPLE)[0] == 0
@@ -183,6 +207,18 @@ def test_bad_videos_are_refused_in_one_line_and_nothing_is_stored(tmp_path, caps
     shutil.move(left[0], tmp_path / "moved.mp4")
     code, _, err = _run(capsys, "video", "export-frame", project, "--pair", "v", "--frame", 1, "--out", tmp_path / "y")
     assert code == 2 and "a/left_GX010042.mp4 is missing" in err
+    code, out, err = _run(capsys, "project", "info", project)  # a read-only command still shows the project
+    assert code == 0 and "media a/left_GX010042.mp4: missing" in out
+    assert f"recorded at {tmp_path / 'a' / 'left_GX010042.mp4'}" in out
+    # another recording copied over a file of the video: named, refused, until accepted or relocated
+    shutil.copy(right[0], tmp_path / "a" / "left_GX010042.mp4")
+    for argv in (("video", "export-frame", project, "--pair", "v", "--frame", 1, "--out", tmp_path / "y"),
+                 ("video", "take-pair", project, "--pair", "v", "--frame", 1),
+                 ("video", "sync", project, "--pair", "v")):
+        code, _, err = _run(capsys, *argv)
+        assert code == 2 and "a/left_GX010042.mp4 is not the file that was added" in err and err.count("\n") == 1
+    assert _run(capsys, "project", "relocate-media", project, "a/left_GX010042.mp4", tmp_path / "moved.mp4")[0] == 0
+    assert _run(capsys, "video", "export-frame", project, "--pair", "v", "--frame", 1, "--out", tmp_path / "y")[0] == 0
 
 
 def test_image_pairs_from_folders_by_stem_or_order_stored_relative_and_checked(tmp_path, capsys):
@@ -305,8 +341,12 @@ def test_seek_proxies_are_built_listed_by_project_info_rebuilt_when_stale_and_de
     assert len(proxies) == 4  # two proxies and their stamps
     assert f"seek proxies {total / 2**20:.1f} MiB" in _run(capsys, "project", "info", project)[1]
     assert "already built" in _run(capsys, "video", "proxy", project, "--pair", "v")[1]
-    # the left recording replaced by other pictures of the same length: its proxy is stale and rebuilt
+    # the left recording replaced by other pictures of the same length: named and refused until accepted;
+    # then its proxy is stale and rebuilt
     encode_video(left[0], (numbered_frame(3000 + i, 160, 120, seed=1) for i in range(40)), FPS, "h264", gop=40)
+    code, _, err = _run(capsys, "video", "proxy", project, "--pair", "v")
+    assert code == 2 and "media/left_GX010042.mp4 is not the file that was added" in err
+    assert _run(capsys, "project", "accept-media", project, "media/left_GX010042.mp4")[0] == 0
     code, out, _ = _run(capsys, "video", "proxy", project, "--pair", "v")
     assert code == 0 and "stale" in out and out.count("wrote ") == 1
     code, out, _ = _run(capsys, "video", "proxy", project, "--pair", "v", "--delete")

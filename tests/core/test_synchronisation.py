@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
-from usvips.core.synchronisation import audio_offset, flash_offset, image_offset
+from usvips.core.synchronisation import audio_offset, flash_offset, image_offset, search_window
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport"
 
@@ -210,3 +210,101 @@ def test_the_sigma_holds_the_calibration_error_that_every_feature_shares():
     assert error < 3 * honest.sigma_frames, (lag, honest)
     assert error > 3 * scatter_only.sigma_frames, (lag, scatter_only)
 
+
+
+# ---------------------------------------------------------------------------- estimates that know their limits
+def _flash_case(rng: np.random.Generator, truth: float, fps: float, n: int = 300):
+    event = rng.uniform(100, 200) / fps
+    exposure = rng.uniform(0.8, 1.0) / fps
+    flash = rng.choice([None, rng.uniform(2.0, 4.0) / fps])
+    noise = rng.uniform(0, 2)
+    left = _exposed(np.arange(n) / fps, event, exposure, flash) + rng.normal(0, noise, n)
+    right = _exposed((np.arange(n) - truth) / fps, event, exposure, flash) + rng.normal(0, noise, n)
+    return left, right
+
+
+def _storable(estimate) -> bool:
+    from usvips.app.video_project import store_refusal
+
+    return store_refusal(estimate) is None
+
+
+def test_a_flash_outside_the_window_is_never_stored_and_one_inside_is_over_many_random_cases():
+    """Random lags and random windows (from the narrowest allowed to wide), half of them too narrow for the
+    lag: an estimate that would be stored is always the true lag; a lag inside the window by two frames
+    or more is found, inside the edge, and stored; a lag outside never is."""
+    rng = np.random.default_rng(23)
+    outside = inside = 0
+    for _ in range(300):
+        fps = float(rng.choice([24, 25, 29.97, 30, 50, 60]))
+        window = search_window(int(rng.integers(int(np.ceil(0.5 * fps)), 60)), fps, 300)
+        beyond = rng.random() < 0.5  # the lag outside the window, by 1.5 to 30 frames
+        truth = rng.choice([-1, 1]) * (rng.uniform(window + 1.5, window + 30) if beyond else rng.uniform(0, window - 2))
+        estimate = flash_offset(*_flash_case(rng, truth, fps), fps, max_offset=window)
+        assert estimate.window == (-window, window)
+        if _storable(estimate):
+            assert estimate.frames == round(truth) or abs(truth - round(truth)) > 0.3, (truth, window, estimate)
+        if abs(truth) <= window - 2:
+            inside += 1
+            assert not estimate.at_edge and _storable(estimate), (truth, window, estimate)
+        elif abs(truth) > window + 1:
+            outside += 1
+            assert not _storable(estimate), (truth, window, estimate)
+    assert inside > 100 and outside > 100  # both kinds were tried
+
+
+def test_a_sound_outside_the_window_is_never_stored_over_many_random_cases():
+    rng = np.random.default_rng(8)
+    rate, length = 8000, 8000 * 6
+    for _ in range(40):
+        fps = float(rng.choice([25, 29.97, 30, 60]))
+        truth_s = rng.uniform(-1.5, 1.5)
+        window_s = rng.uniform(0.5, 2.0)
+        scene = rng.normal(0, 1, length + 4 * rate)
+        shift = int(round(truth_s * rate))
+        left = scene[2 * rate:2 * rate + length] + rng.normal(0, 0.5, length)
+        right = scene[2 * rate - shift:2 * rate - shift + length] + rng.normal(0, 0.5, length)
+        estimate = audio_offset(left, right, rate, fps, max_offset_s=window_s)
+        if abs(truth_s) < window_s - 1.5 / fps:
+            assert not estimate.at_edge and _storable(estimate)
+            assert estimate.offset_s == pytest.approx(shift / rate, abs=1.5 / rate)
+        elif abs(truth_s) > window_s + 1 / fps:
+            assert not _storable(estimate), (truth_s, window_s, estimate)
+
+
+def test_a_search_of_one_candidate_has_no_confidence_and_is_at_its_edge():
+    rng = np.random.default_rng(2)
+    for truth in rng.uniform(-20, 20, 20):
+        left, right = _flash_case(rng, truth, 25.0)
+        estimate = flash_offset(left, right, 25.0, max_offset=0)
+        assert estimate.confidence == 0 and estimate.at_edge and not _storable(estimate)
+        for narrow in (1, 2):  # every other candidate inside the best one's own peak
+            assert flash_offset(left, right, 25.0, max_offset=narrow).confidence == 0
+    sound = rng.normal(0, 1, 16000)
+    estimate = audio_offset(sound, np.roll(sound, 400), 8000, 25, max_offset_s=0)
+    assert estimate.confidence == 0 and estimate.at_edge
+
+
+def test_windows_are_whole_non_negative_and_wide_enough_for_a_lag():
+    for bad in (-1, -300, 1.5, float("nan"), float("inf"), "x"):
+        with pytest.raises(InvalidParameterError, match="--max-offset"):
+            search_window(bad, 25, 900)
+        if not isinstance(bad, str):
+            with pytest.raises(InvalidParameterError, match="max_offset"):
+                flash_offset(np.arange(50.0) % 7, np.arange(50.0) % 7, 25, max_offset=bad)
+    with pytest.raises(InvalidParameterError, match="max_offset_s"):
+        audio_offset(np.ones(8000), np.ones(8000), 8000, 25, max_offset_s=-0.5)
+    with pytest.raises(InvalidParameterError, match="cannot hold the lag"):
+        search_window(0, 25, 900)
+    with pytest.raises(InvalidParameterError, match="not smaller than the video"):
+        search_window(900, 25, 900)
+    assert search_window(None, 25, 900) == 300 and search_window(None, 25, 90) == 30
+    assert search_window(13, 25, 900) == 13 and search_window(4, 25, 12) == 4  # a short video's whole third
+
+
+def test_an_image_offset_at_the_edge_of_its_candidates_is_said_to_be(sample_video):
+    rig, (left, right) = sample_video
+    estimate = image_offset(left, right, rig.left, rig.right, 10, range(-6, 4), step=3)  # the truth, 3, at the edge
+    assert estimate.at_edge and "edge of the search window" in estimate.edge_problem()
+    inside = image_offset(left, right, rig.left, rig.right, 10, range(-6, 9), step=3)
+    assert inside.frames == 3 and not inside.at_edge and inside.edge_problem() is None

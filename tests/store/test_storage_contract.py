@@ -416,6 +416,7 @@ WRITES = {
     "set_georeference": lambda s, f: s.set_georeference(Georeference(-33.8, 151.2, 12.0, 45.0)),
     "add_period": lambda s, f: s.add_period("v", "p", 0, 1),
     "relocate_media": lambda s, f: s.relocate_media("v0.mp4", f / "v0.mp4"),
+    "accept_media": lambda s, f: s.accept_media("v0.mp4"),
     "transaction": lambda s, f: s.transaction().__enter__(),
 }
 

@@ -46,6 +46,10 @@ def group_picks(path: str | Path, rows: list[dict]) -> list[PickedObject]:
     out = []
     for object_id, vertices in objects.items():
         vertices.sort(key=lambda r: r["vertex"])
+        for previous, vertex in zip(vertices, vertices[1:], strict=False):
+            if vertex["vertex"] == previous["vertex"]:
+                raise InputFileError(str(path), f"object {object_id!r}: vertex {vertex['vertex']} is given twice "
+                                     f"(lines {previous['line']} and {vertex['line']})", vertex["line"])
         if any(v["type"] != vertices[0]["type"] for v in vertices):
             raise InputFileError(str(path), f"object {object_id!r} mixes types", vertices[0]["line"])
         try:

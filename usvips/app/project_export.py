@@ -18,7 +18,7 @@ from usvips.app.video_project import eventmeasure_frame_columns
 from usvips.core.deployment import Deployment
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
-from usvips.io.export import export
+from usvips.io.export import eventmeasure_paths, export
 from usvips.store.interface import ProjectStore
 
 
@@ -34,6 +34,13 @@ def checkem_samples(project: ProjectStore) -> list[tuple[Deployment, str]]:
         periods = [name for video in covered for name, _, _ in project.periods(video)]
         samples += [(deployment, period) for period in dict.fromkeys(periods)] or [(deployment, "")]
     return samples
+
+
+def export_targets(out: str | Path) -> list[Path]:
+    """The files :func:`export_project` writes for ``out``: ``out`` itself, or the EventMeasure-style set
+    for a name ending ``.em.txt``."""
+    out = Path(out)
+    return list(eventmeasure_paths(out).values()) if out.name.endswith(".em.txt") else [out]
 
 
 def export_project(project: ProjectStore, out: str | Path, opcode: str | None = None,

@@ -18,7 +18,7 @@ from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate
 from usvips.core.errors import ConvergenceError, InputFileError
 from usvips.core.observations import StereoObservations
 from usvips.core.synth import Disc, Seafloor, Water, render
-from usvips.io.atomic import OutputFileError, write_text_atomic
+from usvips.io.atomic import OutputFileError, replacing, write_text_atomic
 from usvips.io.calibration_file import calibration_to_dict
 from usvips.io.images import write_image
 from usvips.io.manifest import split_known
@@ -148,11 +148,14 @@ def _render_video(out: Path, scene, discs, floor, water, objects) -> dict:
     return truth
 
 
-def render_scene(scene_path: str | Path, out: str | Path) -> Scene:
+def render_scene(scene_path: str | Path, out: str | Path, replace: bool = False) -> Scene:
     """Render the scene described at ``scene_path`` (JSON) into the folder ``out`` (created if needed) and
     return the scene read. It is rendered into a staging folder beside ``out`` and moved in only when
     everything was written: a failure leaves ``out`` as it was. Every file name comes from this module
-    (pair labels are checked as plain names by the scene reader), so nothing is written outside ``out``."""
+    (pair labels are checked as plain names by the scene reader), so nothing is written outside ``out``.
+    A file of ``out`` the rendering would replace that is the scene itself or holds a USVIPS calibration
+    or project is refused (:func:`usvips.io.atomic.replacing`, before anything is moved in) unless
+    ``replace``: then it is kept as ``NAME.bak``."""
     scene = read_scene(scene_path)
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -164,7 +167,10 @@ def render_scene(scene_path: str | Path, out: str | Path) -> Scene:
         raise OutputFileError(str(out), f"cannot create the output folder: {error.strerror or error}") from None
     try:
         _render(scene, staging, Path(scene_path).name)
-        _publish(staging, out)
+        targets = [out / f.relative_to(staging) for f in staging.rglob("*") if f.is_file()] if out.exists() else []
+        targets = [t for t in targets if t.exists() or t.is_symlink()]  # only what would be replaced
+        with replacing(targets, [scene_path], replace=replace):
+            _publish(staging, out)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return scene

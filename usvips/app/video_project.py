@@ -11,16 +11,18 @@ and the left frame's presentation time (s).
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from usvips.core import synchronisation
-from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core import synchronisation, validation
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.io import video_proxy
+from usvips.io.atomic import guard_output
 from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image, write_image
 from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
@@ -51,15 +53,56 @@ def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], la
                      by: str = "auto", max_dt: float = 1.0) -> tuple[list[tuple[str, Path, Path]], str]:
     """The (label, left, right) pairs that :func:`add_image_pairs` would add, and the rule used (for a
     person to confirm). Labels: prefix + the shared stem (or the pair's number when paired by order)."""
+    label_prefix = validation.name("--label-prefix", label_prefix, allow_empty=True) if label_prefix else ""
+    max_dt = validation.finite("--max-dt", max_dt)
+    if max_dt <= 0:
+        raise InvalidParameterError("--max-dt", f"must be > 0 seconds, got {max_dt:g}")
     left_files = expand(left, IMAGE_SUFFIXES, "--left")
     right_files = expand(right, IMAGE_SUFFIXES, "--right")
+    _refuse_repeated_files({"--left": left_files, "--right": right_files}, "image")
     pairs, rule = pair_images(left_files, right_files, by, max_dt)
     labels = [f"{label_prefix}{shared_stem(a) if rule == 'stem' else f'{n + 1:03d}'}" for n, (a, _) in enumerate(pairs)]
+    for label, (a, _) in zip(labels, pairs, strict=True):
+        validation.name(f"pair label (from {a.name})", label)
     return [(label, a, b) for label, (a, b) in zip(labels, pairs, strict=True)], rule
 
 
+def _refuse_repeated_files(sides: dict[str, Sequence[Path]], what: str) -> None:
+    """One file given twice — in one camera's list (the same chapter twice) or as both cameras (the same
+    video as left and right) — by the same name or another name of it (a link): one line naming both
+    mentions. (Identical copies are not compared: synthetic test footage may be byte-identical.)"""
+    mentions = []
+    for option, files in sides.items():
+        for path in files:
+            try:
+                stat = path.stat()
+            except OSError:
+                continue  # named missing where it is read
+            mentions.append((option, path, (stat.st_dev, stat.st_ino)))
+    for j, (option, path, inode) in enumerate(mentions):
+        for first_option, first, first_inode in mentions[:j]:
+            if inode != first_inode:
+                continue
+            where = f"as both {first_option} and {option}" if first_option != option else f"twice in {option}"
+            why = ""
+            if what == "video":
+                why = " (the same video as both cameras)" if first_option != option else " (the same chapter twice)"
+            raise InputFileError(str(path), f"the same file as {first} is given {where}{why}")
+
+
 def add_image_pairs(project: ProjectStore, plan: Sequence[tuple[str, Path, Path]], medium: str = "water") -> list[int]:
-    """Add planned pairs (all or none); left and right must be readable images of one size."""
+    """Add planned pairs (all or none); left and right must be readable images of one size, none of them
+    already an image of one of the project's pairs (one image in two pairs)."""
+    taken = {}
+    for pair in project.pairs():
+        for side in ("left", "right"):
+            if pair[side]:
+                taken[(project.path.parent / pair[side]).resolve()] = pair["label"]
+    for label, left, right in plan:
+        for path in (left, right):
+            if Path(path).resolve() in taken:
+                raise InputFileError(str(path), f"is already an image of pair {taken[Path(path).resolve()]!r}; "
+                                     f"pair {label!r} cannot have it too (one image in two pairs)")
     sizes = []
     for label, left, right in plan:
         a, b = read_image(left), read_image(right)
@@ -93,9 +136,11 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
     project (may run in a worker thread)."""
     left_files = expand(left, VIDEO_SUFFIXES, "--left")
     right_files = expand(right, VIDEO_SUFFIXES, "--right")
+    _refuse_repeated_files({"--left": left_files, "--right": right_files}, "video")
     check_chapters(left_files, "--left")
     check_chapters(right_files, "--right")
-    label = label or shared_stem(left_files[0]) or left_files[0].stem
+    label = validation.name("--label", label) if label is not None else \
+        validation.name("--label (from the file name)", shared_stem(left_files[0]) or left_files[0].stem)
     with VideoStream(left_files) as a, VideoStream(right_files) as b:
         if a.size != b.size:
             raise VideoError(f"{right_files[0]}: {b.width} × {b.height} px, but the left video {left_files[0].name} "
@@ -177,8 +222,9 @@ def proxy_files(project: ProjectStore, label: str) -> list[Path]:
     by name alone (no decoding): what :func:`delete_proxies` removes and ``project info`` adds up."""
     video = project.video(label)
     folder = proxy_folder(project)
+    # where the files were recorded, whether or not they are there now (a missing file's proxies still count)
     return [path for side in ("left", "right")
-            for path in video_proxy.related_proxies(folder, [project.media_path(p) for p in video[side]])]
+            for path in video_proxy.related_proxies(folder, [project.path.parent / p for p in video[side]])]
 
 
 def proxy_bytes(project: ProjectStore, label: str) -> int:
@@ -266,15 +312,65 @@ def export_frame(project: ProjectStore, label: str, frame: int, out: str | Path)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise InputFileError(str(out), "not a folder")
+    sources = media_files(project)
+    for target in (out / "left.png", out / "right.png"):  # never over a picture the project measures on
+        if target.exists():
+            guard_output(target, sources, project.path, option="--out", replace_option="another --out")
     left, right, _, _ = frame_pair(project, label, frame)
     return write_frame_pair(left, right, out)
+
+
+class Cancelled(UsvipsError):
+    """A long check stopped because the user cancelled it."""
+
+
+def verify_media(records: Sequence[tuple[str, Path, int, str]], progress: Callable[[int, int], None] | None = None,
+                 cancelled: Callable[[], bool] | None = None, chunk: int = 1 << 22) -> list[tuple[str, str]]:
+    """The full check of media files, away from the project (a worker thread may run it): each file of
+    ``records`` (:meth:`Project.media_records`) read whole and its SHA-256 compared with the one recorded;
+    (stored path, problem) for each that is missing, resized or changed. ``progress(bytes done, bytes in
+    all)`` after every ``chunk`` bytes; ``cancelled()`` is asked as often and stops the reading at once
+    (:class:`Cancelled`)."""
+    total = sum(size for _, _, size, _ in records) or 1
+    done = 0
+    problems = []
+    for stored, path, size, sha in records:
+        if not path.is_file():
+            problems.append((stored, "missing (moved or deleted?)"))
+            done += size
+            continue
+        now = path.stat().st_size
+        if now != size:
+            problems.append((stored, f"{now} bytes, but {size} when it was added"))
+            done += size
+            continue
+        digest = hashlib.sha256()
+        with open(path, "rb") as stream:
+            while block := stream.read(chunk):
+                if cancelled is not None and cancelled():
+                    raise Cancelled("the check of the media files was cancelled")
+                digest.update(block)
+                done += len(block)
+                if progress is not None:
+                    progress(min(done, total), total)
+        if digest.hexdigest() != sha:
+            problems.append((stored, "its contents differ from the file added (SHA-256; same size)"))
+    return problems
+
+
+def media_files(project: ProjectStore) -> list[Path]:
+    """Where every media file the project records (image pairs' images, videos' files) should be, absolute
+    (whether or not it is there)."""
+    stored = [p[side] for p in project.pairs() for side in ("left", "right") if p[side]]
+    stored += [path for v in project.videos() for side in ("left", "right") for path in v[side]]
+    return [project.path.parent / path for path in stored]
 
 
 def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: str | None = None) -> tuple[str, Path]:
     """The label (default ``VIDEO-FRAME``) and folder (``frames/LABEL`` beside the project) of the image
     pair :func:`take_pair` makes of left frame ``frame``; refuses a label already used before anything
     is written (so no stored pair's images are overwritten)."""
-    pair_label = (pair_label or f"{label}-{frame}").strip()
+    pair_label = validation.name("--label", pair_label or f"{label}-{frame}")
     if not pair_label or "/" in pair_label or "\\" in pair_label or pair_label.startswith("."):
         raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
     if pair_label in {p["label"] for p in project.pairs()}:
@@ -359,12 +455,24 @@ STORE_CONFIDENCE = 0.3
 
 
 def doubt_about(estimate: SyncEstimate) -> str | None:
-    """Why ``estimate`` should not replace a stored offset unasked (its confidence below
-    :data:`STORE_CONFIDENCE`), or None."""
+    """Why ``estimate`` should not replace a stored offset unasked (found at the edge of its search window,
+    or its confidence below :data:`STORE_CONFIDENCE`), or None."""
+    edge = estimate.edge_problem()
+    if edge is not None:
+        return edge
     if estimate.confidence >= STORE_CONFIDENCE:
         return None
     return (f"confidence {estimate.confidence:.2f} is below {STORE_CONFIDENCE}: the best offset hardly beats the "
             "others")
+
+
+def store_refusal(estimate: SyncEstimate, force: bool = False) -> str | None:
+    """Why ``estimate`` is not stored: an offset at the edge of its search window never is (it is no
+    estimate; ``force`` does not change that), one of low confidence only with ``force``; None to store."""
+    edge = estimate.edge_problem()
+    if edge is not None or force:
+        return edge
+    return doubt_about(estimate)
 
 
 def estimate_offset(project: ProjectStore, label: str, method: str | None = None, max_offset: int | None = None,
@@ -373,7 +481,8 @@ def estimate_offset(project: ProjectStore, label: str, method: str | None = None
     """Estimate the video pair's offset by ``method`` (flash, audio or image; default: audio when both files
     carry sound, otherwise a flash when one is clear, otherwise the images). ``max_offset``: frames
     searched either way (default: a third of the video, at most 300); ``frame_limit``: frames read for
-    flash and image estimation."""
+    flash and image estimation. A window that cannot hold a plausible lag, or is negative, is refused
+    (:func:`usvips.core.synchronisation.search_window`)."""
     if method is not None and method not in synchronisation.METHODS:
         raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
     return run_sync(plan_sync(project, label, calibration_id), method, max_offset, frame_limit, progress)
@@ -393,8 +502,8 @@ def run_sync(job: SyncJob, method: str | None = None, max_offset: int | None = N
         raise
     with left, right:
         count = min(left.frame_count, right.frame_count)
-        limit = int(max_offset) if max_offset is not None else max(1, min(count // 3, 300))
         fps = left.fps
+        limit = synchronisation.search_window(max_offset, fps, count)
         if method in (None, "audio"):
             a, b = left.audio(), right.audio()
             if a is not None and b is not None and a[1] == b[1]:
@@ -406,7 +515,7 @@ def run_sync(job: SyncJob, method: str | None = None, max_offset: int | None = N
             try:
                 estimate = synchronisation.flash_offset(_brightness(left, frame_limit, progress),
                                                         _brightness(right, frame_limit, progress), fps, limit)
-                if method == "flash" or estimate.confidence >= 0.5:
+                if method == "flash" or (estimate.confidence >= 0.5 and not estimate.at_edge):
                     return estimate
             except UsvipsError:
                 if method == "flash":

@@ -9,10 +9,12 @@ one line too and exits 70, or shows its traceback with ``USVIPS_DEBUG=1``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
+from typing import NoReturn
 
 from usvips import __version__
 from usvips.core.errors import UsvipsError
@@ -25,8 +27,16 @@ COMMANDS += ("calibration_views",)  # after "video": it adds the action `video c
 COMMANDS += ("target",)
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse's parser, its usage errors printed as one line (``usvips COMMAND: error: …``, exit 2) like
+    every other error; ``--help`` shows the usage."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {_one_line(message, 1000)} (--help shows the usage)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="usvips", description="USVIPS: measurement workstation for underwater stereo imagery.")
     parser.add_argument("--version", action="version", version=f"usvips {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -41,15 +51,22 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = parser.parse_args(argv or ["open"])  # no arguments: the workstation window
+    try:
+        args = parser.parse_args(argv or ["open"])  # no arguments: the workstation window
+    except SystemExit as stop:  # --help, --version, or a usage error already printed as one line
+        return stop.code if isinstance(stop.code, int) else 0 if stop.code is None else 2
     handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)
     if handler is None:
         parser.print_help()
         return 0
-    if not os.environ.get("USVIPS_DEBUG"):
-        # numpy's floating-point warnings (an overflow on an absurd input value) would print file and line
-        # above the one-line error that names the input; results are checked for finiteness where made
-        warnings.simplefilter("ignore", RuntimeWarning)
+    with warnings.catch_warnings():  # the caller's warning filters are back afterwards
+        if not os.environ.get("USVIPS_DEBUG"):
+            quiet_libraries()
+        return _run(args, handler)
+
+
+def _run(args: argparse.Namespace, handler: Callable[[argparse.Namespace], int]) -> int:
+    """The command's handler, its errors as one line (see the module docstring)."""
     try:
         return int(handler(args) or 0)
     except UsvipsError as error:
@@ -71,6 +88,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"usvips {args.command}: internal error: {type(error).__name__}: {_one_line(str(error))} "
               "(please report it; USVIPS_DEBUG=1 shows the details)", file=sys.stderr)
         return 70
+
+
+def quiet_libraries() -> None:
+    """Library and decoder chatter never reaches the terminal unasked (``USVIPS_DEBUG=1`` shows it): Python
+    warnings of every kind (numpy's floating-point warnings on an absurd input value would print file and
+    line above the one error line that names the input; results are checked for finiteness where made),
+    OpenCV's own log lines and FFmpeg's (PyAV) decoder messages."""
+    warnings.simplefilter("ignore")
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "OFF")  # for a cv2 imported after this
+    if "cv2" in sys.modules:
+        cv2 = sys.modules["cv2"]
+        with contextlib.suppress(AttributeError):
+            cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+    if "av" in sys.modules:
+        with contextlib.suppress(AttributeError):
+            sys.modules["av"].logging.set_level(None)
 
 
 def _one_line(text: str, limit: int = 300) -> str:

@@ -15,7 +15,10 @@ from pathlib import Path
 
 from usvips.app import batch
 from usvips.core.errors import InvalidParameterError
+from usvips.io.atomic import guard_output
 
+#: the most worker processes --jobs starts (each holds its own copy of the libraries)
+MAX_JOBS = 256
 #: export formats and the suffix of the file each writes
 EXPORT_SUFFIXES = {"csv": ".csv", "vertices": ".vertices.csv", "geojson": ".geojson", "ply": ".ply",
                    "eventmeasure": ".em.txt"}
@@ -51,6 +54,9 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
                                                   "rename one or run them separately")
         seen[name] = given
         out = str(out_dir / f"{name}{suffix}")
+        if Path(out).exists():  # an output never replaces an input, a project or a calibration
+            guard_output(out, [*inputs, getattr(args, "calibration", None)], option="--out-dir",
+                         replace_option="another --out-dir")
         if args.task == "intersect":
             tasks.append(batch.Task(given, batch.intersect_task, {
                 "observations": given, "calibration": args.calibration, "out": out, "station": args.station,
@@ -78,8 +84,8 @@ def _line(outcome: batch.Outcome, finished: int, total: int) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.jobs is not None and args.jobs < 1:
-        raise InvalidParameterError("--jobs", f"must be at least 1, got {args.jobs}")
+    if args.jobs is not None and not 1 <= args.jobs <= MAX_JOBS:
+        raise InvalidParameterError("--jobs", f"must be from 1 to {MAX_JOBS} worker processes, got {args.jobs}")
     out_dir = Path(args.out_dir)
     tasks = _tasks(args, out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

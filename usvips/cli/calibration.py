@@ -12,14 +12,20 @@ import sys
 
 import numpy as np
 
+from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration, save_calibration
 from usvips.io.opencv_calibration import (
     UNITS,
     baseline_doubt,
+    opencv_targets,
     parse_image_size,
     read_opencv_stereo,
     write_opencv_stereo,
 )
+
+#: the help of every verb's --force
+FORCE_HELP = ("replace --out even when it is an input of the command or holds a USVIPS calibration or project "
+              "(the old file is kept as NAME.bak)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -34,6 +40,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                           help="unit of OpenCV's T (the board's unit; default m)")
     importer.add_argument("--sigma0", type=float, default=0.5,
                           help="pointing precision to carry as sigma0 (pixels; OpenCV files hold none)")
+    importer.add_argument("--force", action="store_true", help=FORCE_HELP)
     importer.set_defaults(handler=run_import)
 
     exporter = verbs.add_parser("export", help="a USVIPS calibration → OpenCV's stereo file (in-air model)")
@@ -41,6 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     exporter.add_argument("--format", choices=["opencv"], default="opencv", help="target format")
     exporter.add_argument("--out", required=True,
                           help="file (.yml, .xml, .json) or an existing folder (intrinsics.yml + extrinsics.yml)")
+    exporter.add_argument("--force", action="store_true", help=FORCE_HELP)
     exporter.set_defaults(handler=run_export)
 
     reporter = verbs.add_parser("report", help="a printable PDF report of a calibration")
@@ -50,16 +58,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                           help="check points (id,xl,yl,xr,yr) not used in the calibration, ids in the control")
     reporter.add_argument("--check-control", metavar="CONTROL.csv",
                           help="their true coordinates (default: the calibration's own control file)")
+    reporter.add_argument("--force", action="store_true", help=FORCE_HELP)
     reporter.set_defaults(handler=run_report)
 
 
 def run_import(args: argparse.Namespace) -> int:
     size = parse_image_size(args.image_size) if args.image_size else None
-    calibration = read_opencv_stereo(args.files, size, args.unit, args.sigma0)
-    doubt = baseline_doubt(calibration, args.unit)
-    if doubt:
-        print(f"usvips calibration import: warning: {doubt}", file=sys.stderr)
-    save_calibration(calibration, args.out)
+    with replacing(args.out, args.files, replace=args.force):
+        calibration = read_opencv_stereo(args.files, size, args.unit, args.sigma0)
+        doubt = baseline_doubt(calibration, args.unit)
+        if doubt:
+            print(f"usvips calibration import: warning: {doubt}", file=sys.stderr)
+        save_calibration(calibration, args.out)
     left, right = calibration.left, calibration.right
     where = f"{left.width}x{left.height} px" if left.width else "image size unknown (--image-size)"
     baseline = float(np.linalg.norm(calibration.relative.base))
@@ -69,8 +79,10 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    calibration = load_calibration(args.calibration)
-    for line in write_opencv_stereo(calibration, args.out):
+    with replacing(opencv_targets(args.out), [args.calibration], replace=args.force):
+        calibration = load_calibration(args.calibration)
+        left_out = write_opencv_stereo(calibration, args.out)
+    for line in left_out:
         print(f"usvips calibration export: warning: {line}", file=sys.stderr)
     print(f"wrote {args.out}")
     return 0
@@ -80,7 +92,8 @@ def run_report(args: argparse.Namespace) -> int:
     # deferred: matplotlib takes ~0.5 s to import, and every `usvips` command builds the whole parser
     from usvips.io.calibration_report import write_calibration_report
 
-    calibration = load_calibration(args.calibration)
-    pages = write_calibration_report(calibration, args.out, args.calibration, args.check, args.check_control)
+    with replacing(args.out, [args.calibration, args.check, args.check_control], replace=args.force):
+        calibration = load_calibration(args.calibration)
+        pages = write_calibration_report(calibration, args.out, args.calibration, args.check, args.check_control)
     print(f"wrote {args.out} ({pages} pages)")
     return 0

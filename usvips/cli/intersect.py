@@ -14,8 +14,9 @@ from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.intersection import Intersection
 from usvips.core.rays import RayStatus
+from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
-from usvips.io.tables import read_observations
+from usvips.io.tables import read_observations, refuse_outside_image
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -31,12 +32,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="sigmas from the pointing precision alone, without the calibration's own uncertainty")
     parser.add_argument("--skip-failed", action="store_true",
                         help="write the points that intersect and list the others, instead of stopping")
+    parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
+                        "USVIPS calibration or project (the old file is kept as NAME.bak)")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    with replacing(args.out, [args.calibration, args.obs], replace=args.force):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration)
     observations = read_observations(args.obs)
+    refuse_outside_image(args.obs, list(observations.ids), list(observations.lines), observations.left,
+                         observations.right, ((calibration.left.width, calibration.left.height),
+                                              (calibration.right.width, calibration.right.height)))
     station = int(args.station) if args.station.isdigit() else args.station
     result = intersect_with_calibration(calibration, observations.left, observations.right, station, args.frame,
                                         include_calibration=not args.pointing_only)

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import argparse
 
+import numpy as np
+
 from usvips.app.measure import (
     MEASUREMENT_COLUMNS,
     group_picks,
@@ -27,7 +29,9 @@ from usvips.app.measure import (
 )
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.errors import UsvipsError
+from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
+from usvips.io.tables import refuse_outside_image
 from usvips.store import Project
 
 __all__ = ["group_picks", "read_picks", "register", "run"]
@@ -47,6 +51,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                           "with --calibration only)")
     parser.add_argument("--frame", choices=["object", "rig"], help="frame (default object; with --calibration "
                                                                    "only)")
+    parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
+                        "USVIPS calibration or project (the old file is kept as NAME.bak); never the --project")
     parser.set_defaults(handler=run)
 
 
@@ -59,8 +65,21 @@ def run(args: argparse.Namespace) -> int:
         if args.calibration is not None or args.station is not None or args.frame is not None:
             raise UsvipsError("--project measures with the pair's active calibration in the pair's frame: "
                               "leave out --calibration, --station and --frame")
+    outputs = [] if args.out is None else [args.out]
+    with replacing(outputs, [args.calibration, args.picks], args.project, replace=args.force):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration) if args.calibration is not None else None
-    objects = group_picks(args.picks, read_picks(args.picks))
+    rows = read_picks(args.picks)
+    if calibration is not None:
+        pixels = np.array([row["pixels"] for row in rows], dtype=np.float64).reshape(-1, 4)
+        refuse_outside_image(args.picks, [f"{row['object']}/{row['vertex']}" for row in rows],
+                             [row["line"] for row in rows], pixels[:, :2], pixels[:, 2:],
+                             ((calibration.left.width, calibration.left.height),
+                              (calibration.right.width, calibration.right.height)))
+    objects = group_picks(args.picks, rows)
     if args.project is not None:
         with Project.open(args.project) as project:
             measured, ids = measure_into_project(project, args.pair, objects, where=args.picks)

@@ -9,8 +9,10 @@ import json
 import numpy as np
 
 from usvips.core import housing as housings
+from usvips.core import validation
 from usvips.core.errors import InvalidParameterError
 from usvips.core.planner import default_grid, planned_rig, precision_map
+from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
 from usvips.io.opencv_calibration import parse_image_size
 
@@ -34,23 +36,45 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--range", dest="ranges", metavar="NEAR:FAR[:N]", help="ranges (m; default: the common view)")
     parser.add_argument("--across", metavar="LEFT:RIGHT[:N]", help="positions along the baseline (m)")
     parser.add_argument("--height", type=float, default=0.0, help="height above the baseline (m)")
-    parser.add_argument("--orientations", type=int, default=12, help="directions of the length (default 12)")
+    parser.add_argument("--orientations", default=12, help="directions of the length (default 12)")
     parser.add_argument("--pointing-only", action="store_true", help="leave out the calibration's own uncertainty")
     parser.add_argument("--out", help="the map as a picture (.png, .pdf, .svg)")
     parser.add_argument("--json", action="store_true", help="print the figures per range as JSON")
+    parser.add_argument("--force", action="store_true", help="replace --out even when it is the --calibration or "
+                        "holds a USVIPS calibration or project (the old file is kept as NAME.bak)")
     parser.set_defaults(handler=run)
+
+
+#: the most positions along one axis of the map (ranges, or positions across), and directions of the length
+MAX_GRID = 500
+MAX_ORIENTATIONS = 1000
 
 
 def _span(option: str, text: str, count: int) -> np.ndarray:
     parts = text.split(":")
     try:
         values = [float(p) for p in parts[:2]]
-        n = int(parts[2]) if len(parts) == 3 else count
     except ValueError:
-        values, n = [], 0
-    if len(parts) not in (2, 3) or len(values) != 2 or n < 1 or not np.all(np.isfinite(values)):
+        values = []
+    if len(parts) not in (2, 3) or len(values) != 2 or not np.all(np.isfinite(values)):
         raise InvalidParameterError(option, f"expected FROM:TO[:COUNT] in metres, got {text!r}")
+    n = validation.count(f"{option} COUNT", parts[2], 1, MAX_GRID) if len(parts) == 3 else count
     return np.linspace(values[0], values[1], n)
+
+
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Every number option finite and in its range, named (``--height nan`` is the height's fault)."""
+    for option, value, low in (("--focal-px", args.focal_px, 0.0), ("--baseline", args.baseline, 0.0),
+                               ("--sigma-px", args.sigma_px, 0.0), ("--length", args.length, 0.0),
+                               ("--height", args.height, None), ("--toe-in", args.toe_in, None)):
+        if value is None:
+            continue
+        number = validation.finite(option, value)
+        if low is not None and number <= low:
+            raise InvalidParameterError(option, f"must be > {low:g}, got {number:g}")
+    if abs(args.toe_in) >= 90:
+        raise InvalidParameterError("--toe-in", f"must be less than 90 degrees either way, got {args.toe_in:g}")
+    args.orientations = validation.count("--orientations", args.orientations, 1, MAX_ORIENTATIONS)
 
 
 def _rig(args: argparse.Namespace):
@@ -82,6 +106,12 @@ def _rig(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     if not args.out and not args.json:
         raise InvalidParameterError("--out", "give --out PICTURE and/or --json")
+    with replacing([args.out] if args.out else [], [args.calibration], replace=args.force):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    _check_numbers(args)
     calibration, label = _rig(args)
     across, ranges = default_grid(calibration)
     if args.ranges:

@@ -4,14 +4,17 @@ command line."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from usvips.app.project_contents import plan_import, store_import, summarise
-from usvips.app.project_export import export_project
+from usvips.app.project_export import export_project, export_targets
 from usvips.app.samples import create_from_manifest
 from usvips.cli.project_check import register_check_action
 from usvips.cli.video import register_project_actions
+from usvips.core import validation
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
+from usvips.io.atomic import replacing
 from usvips.store import Project
 
 
@@ -24,7 +27,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     new.set_defaults(handler=run_new)
     info = actions.add_parser("info", help="summarise a project file")
     info.add_argument("project")
+    info.add_argument("--full-hash", action="store_true", help="check every media file's whole SHA-256 (slow for "
+                      "long videos); by default each file's size and a sampled hash")
     info.set_defaults(handler=run_info)
+    accept = actions.add_parser("accept-media", help="take the file now at a recorded media path as the one meant "
+                                "(after a changed file was named): its size and hashes are recorded anew")
+    accept.add_argument("project")
+    accept.add_argument("media", nargs="+", help="the recorded path(s), as project info shows them")
+    accept.set_defaults(handler=run_accept_media)
+    relocate = actions.add_parser("relocate-media", help="point a recorded media file at its new place (the same "
+                                  "file: size and SHA-256 are checked)")
+    relocate.add_argument("project")
+    relocate.add_argument("media", help="the recorded path, as project info shows it")
+    relocate.add_argument("new", help="where the file is now")
+    relocate.set_defaults(handler=run_relocate_media)
     imp = actions.add_parser("import", help="import control, observations or a calibration into a project")
     imp.add_argument("project")
     imp.add_argument("--control", help="control CSV")
@@ -44,6 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     exp.add_argument("out")
     exp.add_argument("--opcode", help="EventMeasure OpCode of objects with no stored deployment (see "
                      "set-metadata); default: the project file's name")
+    exp.add_argument("--force", action="store_true", help="replace OUT even when it is a USVIPS project or "
+                     "calibration (the old file is kept as OUT.bak); never the project exported")
     exp.set_defaults(handler=run_export)
     register_project_actions(actions)  # add-pairs, add-video: handlers in usvips/cli/video.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
@@ -60,6 +78,8 @@ def run_new(args: argparse.Namespace) -> int:
 def run_info(args: argparse.Namespace) -> int:
     with Project.open(args.project, read_only=True) as project:
         summary = summarise(project)
+        media = project.media_problems(check_hash=args.full_hash)
+        folder = project.path.parent
     print(f"{args.project}: schema {summary.version}, {summary.pair_count} image pairs, "
           f"{summary.control_count} control points, {summary.object_count} objects")
     for pair in summary.pairs:
@@ -78,6 +98,27 @@ def run_info(args: argparse.Namespace) -> int:
               f"{video.offset_frames:+d} frames (left frame i ↔ right frame i {video.offset_frames:+d})"
               + (f"; calibration {video.calibration_id}" if video.calibration_id else "")
               + (f"; seek proxies {video.proxy_bytes / 2**20:.1f} MiB" if video.proxy_bytes else ""))
+    for stored, problem in media:  # what is missing or changed, and where it was
+        print(f"  media {stored}: {problem}" + (f" (recorded at {folder / stored})" if not Path(stored).is_absolute()
+                                                else ""))
+    if media:
+        print(f"  {len(media)} media file(s) cannot be used until relocated or accepted "
+              "(usvips project relocate-media / accept-media)")
+    return 0
+
+
+def run_accept_media(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        for stored in args.media:
+            project.accept_media(stored)
+            print(f"accepted {stored} as it is now")
+    return 0
+
+
+def run_relocate_media(args: argparse.Namespace) -> int:
+    with Project.open(args.project) as project:
+        new = project.relocate_media(args.media, args.new)
+    print(f"{args.media} is now {new}")
     return 0
 
 
@@ -92,7 +133,8 @@ def run_import(args: argparse.Namespace) -> int:
 
 def run_export(args: argparse.Namespace) -> int:
     skipped: list[str] = []
-    with Project.open(args.project, read_only=True) as project:
+    with replacing(export_targets(args.out), project=args.project, replace=args.force, option="OUT"), \
+            Project.open(args.project, read_only=True) as project:
         count = export_project(project, args.out, args.opcode, skipped=skipped)
     for reason in skipped:
         print(f"skipped {reason}")
@@ -135,6 +177,9 @@ def register_metadata_actions(actions: argparse._SubParsersAction) -> None:
 
 def run_set_metadata(args: argparse.Namespace) -> int:
     given = {name: getattr(args, name) for name in _METADATA_OPTIONS if getattr(args, name) is not None}
+    for name, value in given.items():  # no control characters in what CheckEM's tables will hold
+        option = "--depth" if name == "depth_m" else "--" + name.replace("_", "-")
+        validation.printable(option, value)
     with Project.open(args.project) as project:
         if args.clear:
             if given:
@@ -155,6 +200,12 @@ def run_set_metadata(args: argparse.Namespace) -> int:
 
 
 def run_set_georeference(args: argparse.Namespace) -> int:
+    if args.clear:
+        given = [o for o, v, default in (("--latitude", args.latitude, None), ("--longitude", args.longitude, None),
+                                         ("--depth", args.depth, "0"), ("--heading", args.heading, "0"),
+                                         ("--points", args.points, None)) if v != default]
+        if given:
+            raise UsvipsError(f"--clear removes the georeference; give no {', '.join(given)} with it")
     with Project.open(args.project) as project:
         if args.clear:
             project.set_georeference(None)

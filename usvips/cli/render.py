@@ -14,10 +14,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("render", help="render a sample project from a scene description")
     parser.add_argument("scene", help="scene description (JSON)")
     parser.add_argument("--out", required=True, help="output directory (created if needed)")
+    parser.add_argument("--force", action="store_true", help="replace files of --out that hold a USVIPS calibration "
+                        "or project, or the scene itself (each kept as NAME.bak)")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    scene = render_scene(args.scene, args.out)
+    scene = render_scene(args.scene, args.out, replace=args.force)
     print(f"rendered {len(scene.data['pairs'])} pairs of {scene.name} into {Path(args.out)}")
     return 0

@@ -7,6 +7,7 @@ import argparse
 import json
 
 from usvips.app import video_project
+from usvips.core import validation
 from usvips.core.errors import UsvipsError
 from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project
@@ -20,13 +21,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     sync.add_argument("--pair", required=True, help="the video pair's label")
     sync.add_argument("--method", choices=("flash", "audio", "image"),
                       help="default: audio when both files have sound, else a clear flash, else the images")
-    sync.add_argument("--max-offset", type=int, help="frames searched either way (default: a third of the video)")
+    sync.add_argument("--max-offset", help="frames searched either way (default: a third of the video, at most "
+                      "300; at least half a second's frames); an offset found at the window's edge is not stored")
     sync.add_argument("--calibration", type=int, help="calibration id for --method image (default: the one "
                       "active for the video, else the latest)")
     sync.add_argument("--json", action="store_true", help="print the estimate as JSON")
     sync.add_argument("--dry-run", action="store_true", help="print the estimate, store nothing")
     sync.add_argument("--force", action="store_true",
-                      help=f"store the estimate even when its confidence is below {video_project.STORE_CONFIDENCE}")
+                      help=f"store the estimate even when its confidence is below {video_project.STORE_CONFIDENCE} "
+                      "(never one at the edge of its search window)")
     sync.set_defaults(handler=run_sync)
     offset = actions.add_parser("set-offset", help="set the offset by hand: left frame i ↔ right frame i + FRAMES")
     offset.add_argument("project")
@@ -110,14 +113,21 @@ def run_add_video(args: argparse.Namespace) -> int:
 
 
 def run_sync(args: argparse.Namespace) -> int:
+    if args.dry_run and args.force:
+        raise UsvipsError("--dry-run stores nothing and --force stores whatever the confidence: give one of them")
+    if args.calibration is not None and args.method in ("flash", "audio"):
+        raise UsvipsError(f"--calibration is used by --method image only; leave it out with --method {args.method}")
     with Project.open(args.project) as project:
         estimate = video_project.estimate_offset(project, args.pair, args.method, args.max_offset, args.calibration)
-        doubt = None if args.force else video_project.doubt_about(estimate)
+        doubt = video_project.store_refusal(estimate, args.force)
         store = not args.dry_run and doubt is None
         if store:
             project.set_video_offset(args.pair, estimate.frames, estimate.as_dict())
-    kept = (f"not stored: {doubt} (look at the pair in the window, set the offset with `usvips video set-offset`, "
-            "or store this one with --force)") if doubt and not args.dry_run else ""
+    remedy = ("search a wider window (--max-offset), or set the offset with `usvips video set-offset`"
+              if estimate.at_edge
+              else "look at the pair in the window, set the offset with `usvips video set-offset`, or store this "
+              "one with --force")
+    kept = f"not stored: {doubt} ({remedy})" if doubt and not args.dry_run else ""
     if args.json:
         print(json.dumps({**estimate.as_dict(), "stored": store, **({"not_stored": kept} if kept else {})}))
         return 0
@@ -144,6 +154,7 @@ def run_period(args: argparse.Namespace) -> int:
     with Project.open(args.project) as project:
         if args.add:
             name, start, end = args.add
+            name = validation.name("--add NAME", name)
             try:
                 start, end = int(start), int(end)
             except ValueError:

@@ -5,6 +5,12 @@ Convention (as the samples' truth): an offset of ``k`` frames means left frame `
 estimated to a fraction of a frame (``offset_frames``, float) and used as the nearest whole frame
 (``frames``); ``confidence`` (0 … 1) says how clearly the best candidate beats the others.
 
+Every estimator searches a window of offsets and knows its limits, by one rule (:func:`search_window`,
+:attr:`SyncEstimate.at_edge`): a window is a whole number of frames either way, not negative; an offset
+whose nearest whole frame is at the window's edge is not an estimate (the true lag may lie beyond it:
+``at_edge``, and the caller refuses to store it); a search with no runner-up (a single candidate, or all
+within the best one's own peak) has confidence 0, not 1.
+
 Pure computation on arrays: brightness series, audio samples, images and cameras; the files are read
 elsewhere (:mod:`usvips.io.video_stream`).
 """
@@ -12,7 +18,7 @@ elsewhere (:mod:`usvips.io.video_stream`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -37,6 +43,31 @@ class SyncEstimate:
     scores: dict[int, float] | None = None
     #: standard deviation (frames) of the sub-frame part, where the method measures one (images)
     sigma_frames: float | None = None
+    #: the offsets searched (frames, lowest and highest); None when not known
+    window: tuple[float, float] | None = None
+    #: a lag (frames) outside the window that the method's own evidence points to (a clear flash seen
+    #: that far apart), or None
+    beyond: float | None = None
+
+    @property
+    def at_edge(self) -> bool:
+        """True when the offset used lies at (or beyond) the edge of the search window: the best candidate
+        may only be the best of those tried, the true lag lying outside; such an offset is not stored."""
+        if self.window is None:
+            return False
+        low, high = self.window
+        return self.beyond is not None or self.frames <= low or self.frames >= high
+
+    def edge_problem(self) -> str | None:
+        """Why the estimate is not one (at the edge of its window), in words; None when it is inside."""
+        if not self.at_edge:
+            return None
+        low, high = self.window
+        if self.beyond is not None:
+            return (f"the flash is seen {self.beyond:+g} frames apart, outside the search window ({low:+g} to "
+                    f"{high:+g} frames): the offset {self.offset_frames:+.2f} found inside it is not the lag")
+        return (f"the offset {self.offset_frames:+.2f} frames lies at the edge of the search window "
+                f"({low:+g} to {high:+g} frames): the true lag may be outside it")
 
     @property
     def frames(self) -> int:
@@ -58,6 +89,11 @@ class SyncEstimate:
                "confidence": round(self.confidence, 3)}
         if self.sigma_frames is not None:
             row["offset_sigma_frames"] = round(self.sigma_frames, 3)
+        if self.window is not None:
+            row["window_frames"] = [round(self.window[0], 3), round(self.window[1], 3)]
+            row["at_edge"] = self.at_edge
+        if self.beyond is not None:
+            row["flash_seen_frames"] = self.beyond
         return row
 
     def summary(self) -> str:
@@ -74,6 +110,43 @@ def _check_fps(fps: float) -> float:
     return float(fps)
 
 
+#: the smallest lag (s) a search window must be able to hold when the user narrows it: two cameras started
+#: by hand are rarely closer than this, and a narrower window finds its edge instead of the lag
+MIN_WINDOW_S = 0.5
+
+
+def search_window(max_offset: float | None, fps: float, frame_count: int, parameter: str = "--max-offset") -> int:
+    """The search window (whole frames either way) for a video pair of ``frame_count`` frames at ``fps``:
+    ``max_offset`` when given — a whole number ≥ 0, smaller than the video, and wide enough to hold a lag
+    of :data:`MIN_WINDOW_S` (or a third of the video when that is shorter) — else a third of the video,
+    at most 300 frames. Anything else is an :class:`InvalidParameterError` naming ``parameter``."""
+    fps = _check_fps(fps)
+    count = int(frame_count)
+    default = max(1, min(count // 3, 300))
+    if max_offset is None:
+        return default
+    window = _window(max_offset, parameter)
+    if window >= count:
+        raise InvalidParameterError(parameter, f"{window} frames is not smaller than the video ({count} frames)")
+    needed = min(int(np.ceil(MIN_WINDOW_S * fps)), default)
+    if window < needed:
+        raise InvalidParameterError(parameter, f"a window of ±{window} frames ({window / fps:.2f} s at {fps:.6g} fps) "
+                                    f"cannot hold the lag of two cameras started by hand; search at least "
+                                    f"±{needed} frames")
+    return window
+
+
+def _window(max_offset: float, parameter: str = "max_offset") -> int:
+    """A window given in whole frames (≥ 0); else :class:`InvalidParameterError`."""
+    try:
+        value = float(max_offset)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if not np.isfinite(value) or value < 0 or value != int(value):
+        raise InvalidParameterError(parameter, f"must be a whole number of frames, 0 or more, got {max_offset!r}")
+    return int(value)
+
+
 def _peak(values: np.ndarray, lags: np.ndarray) -> tuple[float, int]:
     """Sub-sample position of the maximum of ``values`` over ``lags`` (parabola through the top three)."""
     best = int(np.argmax(values))
@@ -86,14 +159,22 @@ def _peak(values: np.ndarray, lags: np.ndarray) -> tuple[float, int]:
     return float(lags[best] + shift), best
 
 
+#: the chance that noise alone passes the bound a change must clear to be a flash (:func:`_clear_change`)
+FALSE_ALARM = 0.01
+
+
 def _confidence(values: np.ndarray, best: int, guard: int) -> float:
-    """1 − (second separate peak / best peak), with peaks at least ``guard`` samples apart; 0 … 1."""
+    """1 − (second separate peak / best peak), with peaks at least ``guard`` samples apart; 0 … 1. A search
+    with fewer separate runner-ups than the peak's own width (2 ``guard`` + 1: one candidate, or a window
+    hardly wider than the peak) has confidence 0: nothing was compared."""
     top = float(values[best])
     if top <= 0:
         return 0.0
     mask = np.ones(len(values), bool)
     mask[max(best - guard, 0): best + guard + 1] = False
-    second = float(values[mask].max()) if mask.any() else 0.0
+    if mask.sum() < 2 * guard + 1:
+        return 0.0
+    second = float(values[mask].max())
     return float(np.clip(1.0 - max(second, 0.0) / top, 0.0, 1.0))
 
 
@@ -116,7 +197,7 @@ def flash_offset(left_brightness: np.ndarray, right_brightness: np.ndarray, fps:
         raise InvalidParameterError("brightness", "the brightness series hold non-finite values")
     dl, dr = np.diff(left), np.diff(right)  # signed: light on and light off are told apart
     dl, dr = dl - np.median(dl), dr - np.median(dr)
-    limit = int(max_offset) if max_offset is not None else min(len(dl), len(dr)) // 2
+    limit = _window(max_offset) if max_offset is not None else min(len(dl), len(dr)) // 2
     if not (np.abs(dl).max() > 0 and np.abs(dr).max() > 0):
         raise DegenerateGeometryError("no brightness change in one of the videos: film a flash seen by both")
     lags = np.arange(-limit, limit + 1)
@@ -133,11 +214,25 @@ def flash_offset(left_brightness: np.ndarray, right_brightness: np.ndarray, fps:
     # on either side; the centroid of the strongest change's frame differences gives its time per camera
     edge = int(np.argmax(np.abs(dl)))
     sign = np.sign(dl[edge])
+    seen = None  # the lag at which the right video shows the left's strongest change, when both are clear
+    partner = int(np.argmax(sign * dr))
+    if _clear_change(dl, edge) and _clear_change(dr, partner) and abs(partner - edge) > limit:
+        seen = float(partner - edge)
     offset = float(whole)
     if 0 <= edge + whole < len(dr):
         offset = float(np.clip(_centroid(dr, edge + whole, sign) - _centroid(dl, edge, sign), whole - 1, whole + 1))
     return SyncEstimate(offset, fps, "flash", _confidence(values, best, 2),
-                        {int(k): float(v) for k, v in zip(lags, values, strict=True)})
+                        {int(k): float(v) for k, v in zip(lags, values, strict=True)}, window=(-limit, limit),
+                        beyond=seen)
+
+
+def _clear_change(changes: np.ndarray, index: int) -> bool:
+    """Whether ``changes[index]`` stands out of the series as a flash does: beyond the median by more than
+    the robust spread (1.4826 · MAD) times √(2 ln(n / :data:`FALSE_ALARM`)), a bound n Gaussian values
+    pass with about that probability."""
+    middle = float(np.median(changes))
+    spread = 1.4826 * float(np.median(np.abs(changes - middle)))
+    return abs(float(changes[index]) - middle) > spread * np.sqrt(2.0 * np.log(len(changes) / FALSE_ALARM))
 
 
 def _centroid(changes: np.ndarray, index: int, sign: float) -> float:
@@ -159,6 +254,8 @@ def audio_offset(left_audio: np.ndarray, right_audio: np.ndarray, rate: float, f
     fps = _check_fps(fps)
     if not (np.isfinite(rate) and rate > 0):
         raise InvalidParameterError("rate", f"must be a positive sample rate (Hz), got {rate!r}")
+    if max_offset_s is not None and not (np.isfinite(max_offset_s) and max_offset_s >= 0):
+        raise InvalidParameterError("max_offset_s", f"must be a number of seconds, 0 or more, got {max_offset_s!r}")
     left = np.asarray(left_audio, float).ravel()
     right = np.asarray(right_audio, float).ravel()
     if min(len(left), len(right)) < rate * 0.1:
@@ -176,7 +273,8 @@ def audio_offset(left_audio: np.ndarray, right_audio: np.ndarray, rate: float, f
     lags = np.arange(lo, hi) - centre
     offset_samples, best = _peak(window, lags)
     guard = max(int(rate / fps), 1)  # another peak within a frame is the same peak's shoulder
-    return SyncEstimate(offset_samples / rate * fps, fps, "audio", _confidence(window, best, guard))
+    edges = (float(lags[0]) / rate * fps, float(lags[-1]) / rate * fps)
+    return SyncEstimate(offset_samples / rate * fps, fps, "audio", _confidence(window, best, guard), window=edges)
 
 
 def moving_features(grey: np.ndarray, background: np.ndarray, count: int = 12, window: int = 21) -> np.ndarray:
@@ -213,6 +311,7 @@ def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.nd
     candidates = [int(k) for k in candidates]
     if not candidates:
         raise InvalidParameterError("candidates", "no candidate offsets to try")
+    window = (float(min(candidates)), float(max(candidates)))
     n_left, n_right = len(left_frames), len(right_frames)
     grey_left = [luminance(f) for f in left_frames]
     background = np.median(np.stack(grey_left), axis=0)
@@ -225,7 +324,7 @@ def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.nd
     crossings = _crossing_votes(features, grey_left, right_frames, candidates)
     if len(crossings) >= 3:
         votes, speeds = zip(*crossings, strict=True)
-        return _from_votes(votes, fps, candidates, speeds, epipolar_sigma_px)
+        return replace(_from_votes(votes, fps, candidates, speeds, epipolar_sigma_px), window=window)
     # too few features cross their curve: the whole frame whose matches lie closest to the curves
     distances: dict[int, list[float]] = {k: [] for k in candidates}
     for i, pixel, curve in features:
@@ -245,7 +344,8 @@ def image_offset(left_frames: Sequence[np.ndarray], right_frames: Sequence[np.nd
     ordered = np.sort(-values)
     # confidence: how far the runner-up's distance is above the best's, relative to it (0 … 1)
     confidence = float(np.clip(1.0 - (ordered[0] + 0.25) / (ordered[1] + 0.25), 0.0, 1.0))
-    return SyncEstimate(float(ks[best]), fps, "image", confidence, {int(k): float(scores[k]) for k in ks})
+    return SyncEstimate(float(ks[best]), fps, "image", confidence, {int(k): float(scores[k]) for k in ks},
+                        window=window)
 
 
 #: a feature's match counts when its normalised cross-correlation exceeds this

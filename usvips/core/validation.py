@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import unicodedata
 
 import numpy as np
 
@@ -55,3 +56,50 @@ def finite_array(name: str, value, last_dim: int) -> np.ndarray:
         bad = int(np.flatnonzero(~np.all(np.isfinite(array), axis=1))[0])
         raise InvalidParameterError(name, f"row {bad} is not finite")
     return array
+
+
+#: the longest name (a label, a period, a prefix) taken, in characters
+MAX_NAME_LENGTH = 200
+
+
+#: formatting characters that hide or reorder text (bidirectional overrides and isolates, zero-width space,
+#: byte-order mark, soft hyphen); the joiners some scripts need (U+200C, U+200D) are allowed
+_INVISIBLE = frozenset("\u00ad\u200b\u200e\u200f\u202a\u202b\u202c\u202d\u202e\u2060\u2066\u2067\u2068\u2069"
+                       "\ufeff\ufff9\ufffa\ufffb")
+
+
+def printable(parameter: str, text: str) -> str:
+    """``text``, or raise if it holds control or invisible formatting characters (a tab, NUL, an escape, a
+    line separator, a right-to-left override …): they corrupt tables, CSV files and terminals."""
+    text = str(text)
+    bad = next((c for c in text if unicodedata.category(c) in ("Cc", "Cs", "Zl", "Zp") or c in _INVISIBLE), None)
+    if bad is not None:
+        shown = text.encode("unicode_escape").decode("ascii")[:80]
+        raise InvalidParameterError(parameter, f"'{shown}' holds a control character (U+{ord(bad):04X}); use "
+                                    "printable characters")
+    return text
+
+
+def name(parameter: str, text: str, allow_empty: bool = False) -> str:
+    """``text`` stripped, or raise if it is not :func:`printable`, is empty (unless ``allow_empty``) or is
+    longer than :data:`MAX_NAME_LENGTH`."""
+    text = printable(parameter, text).strip()
+    if not text and not allow_empty:
+        raise InvalidParameterError(parameter, "must not be empty")
+    if len(text) > MAX_NAME_LENGTH:
+        raise InvalidParameterError(parameter, f"is {len(text)} characters long; at most {MAX_NAME_LENGTH}")
+    return text
+
+
+def count(parameter: str, value, low: int, high: int) -> int:
+    """``value`` as a whole number from ``low`` to ``high``, or raise naming ``parameter`` (a count of 10⁸
+    is refused here, by name, rather than by the memory it would take)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(parameter, f"{value!r} is not a whole number") from None
+    if not math.isfinite(number) or number != int(number):
+        raise InvalidParameterError(parameter, f"{value!r} is not a whole number")
+    if not low <= int(number) <= high:
+        raise InvalidParameterError(parameter, f"must be from {low} to {high}, got {int(number)}")
+    return int(number)

@@ -4,12 +4,22 @@ Every output path is checked first (:func:`check_output_path`): it must not be a
 exist and be writable, its name must not be too long. The data then go to a temporary file in the same
 folder, which is renamed into place only when complete; on any error the temporary file is removed and
 the old file (if any) is untouched. Failures are :class:`OutputFileError` naming the path.
+
+A command never overwrites its own source (:func:`guard_output`, called by every command that writes a
+file before it writes): the output may not be one of the command's inputs, the open project, or an
+existing file of a kind that holds work (a USVIPS project, a USVIPS calibration), unless the user asks
+for replacement (``--force``); then the old file is first copied to ``NAME.bak`` beside it (an older
+``NAME.bak`` is replaced) and the new one is written atomically as always. The project a command works
+on is never replaced, ``--force`` or not.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import shutil
 import tempfile
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from usvips.core.errors import InputFileError
@@ -109,3 +119,109 @@ def write_files_atomic(files: dict[Path, str]) -> None:
     for backup in backups.values():
         if backup is not None and os.path.exists(backup):
             os.unlink(backup)
+
+
+# ---------------------------------------------------------------------------- never overwrite a source
+#: The suffix of the copy an explicitly replaced file is kept as (``cal.json`` → ``cal.json.bak``).
+BACKUP_SUFFIX = ".bak"
+
+#: How a file that holds work begins (its first bytes): replaced only when the user asks.
+_PRECIOUS_HEADS = ((b"SQLite format 3\x00", "a USVIPS project (SQLite database)"),)
+#: Text within the first kilobytes of a USVIPS calibration file.
+_CALIBRATION_MARK = b'"usvips-calibration"'
+
+
+def backup_path(path: str | Path) -> Path:
+    """Where :func:`guard_output` keeps the old contents of a file it was allowed to replace."""
+    path = Path(path)
+    return path.with_name(path.name + BACKUP_SUFFIX)
+
+
+def precious_kind(path: str | Path) -> str | None:
+    """What kind of work an existing file at ``path`` holds ("a USVIPS project …", "a USVIPS calibration"),
+    or None for any other file (or none): judged by its first bytes, never by its name."""
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(4096)
+    except OSError:
+        return None
+    for magic, kind in _PRECIOUS_HEADS:
+        if head.startswith(magic):
+            return kind
+    if _CALIBRATION_MARK in head:
+        return "a USVIPS calibration"
+    return None
+
+
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two paths name one file (the same inode when both exist: hard links and symbolic links
+    count; otherwise the same resolved path)."""
+    try:
+        if os.path.exists(a) and os.path.exists(b):
+            return os.path.samefile(a, b)
+        return Path(a).resolve() == Path(b).resolve()
+    except (OSError, RuntimeError, ValueError):
+        return False
+
+
+def guard_output(path: str | Path, inputs: Iterable[str | Path | None] = (), project: str | Path | None = None,
+                 replace: bool = False, option: str = "--out", replace_option: str = "--force") -> bool:
+    """Check ``path`` for writing (:func:`check_output_path`) and as not a source of the command; returns
+    whether an existing file there is to be kept as a backup when it is replaced (see :func:`replacing`).
+
+    Refused (:class:`OutputFileError`, one line naming ``option``, the file and what it is) when ``path``
+    is one of ``inputs`` or an existing USVIPS project or calibration (:func:`precious_kind`) — unless
+    ``replace`` (the user gave ``replace_option``) — and always when it is the ``project`` the command
+    works on (a project open while its file is replaced would be lost, backup or not)."""
+    path = check_output_path(path)
+    if not (path.exists() or path.is_symlink()):
+        return False
+    if project is not None and same_file(path, project):
+        raise OutputFileError(str(path), f"{option} is the project this command works on; writing there would "
+                              "destroy it: give another file")
+    what = None
+    for source in inputs:
+        if source is not None and str(source) and same_file(path, source):
+            what = "an input of this command"
+            break
+    kind = precious_kind(path)
+    if what is None and kind is None:
+        return False
+    if not replace:
+        described = what + (f", {kind}" if kind else "") if what else kind
+        raise OutputFileError(str(path), f"{option} is {described}; writing there would destroy it (give another "
+                              f"file, or {replace_option} to replace it, the old one kept as "
+                              f"{backup_path(path).name})")
+    return True
+
+
+@contextlib.contextmanager
+def replacing(paths: str | Path | Iterable[str | Path], inputs: Iterable[str | Path | None] = (),
+              project: str | Path | None = None, replace: bool = False, option: str = "--out",
+              replace_option: str = "--force") -> Iterator[None]:
+    """Around a command's writing of ``paths`` (one or several files): each checked by
+    :func:`guard_output` on entry (so a refusal comes before any work); a file that may be replaced only
+    because the user asked is copied aside on entry and the copy becomes ``NAME.bak`` when the block
+    ends without error (on an error the copy is dropped: the old file is untouched anyway, as every
+    writer here writes atomically)."""
+    targets = [Path(paths)] if isinstance(paths, (str, Path)) else [Path(p) for p in paths]
+    inputs = list(inputs)
+    kept: dict[Path, str] = {}
+    try:
+        for target in targets:
+            if guard_output(target, inputs, project, replace, option, replace_option):
+                try:
+                    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".bak.tmp",
+                                                         dir=str(target.parent))
+                    os.close(handle)
+                    kept[target] = temporary
+                    shutil.copy2(target, temporary)
+                except OSError as error:
+                    raise OutputFileError(str(target), f"cannot keep the old file as {backup_path(target).name}: "
+                                          f"{error.strerror or error}; nothing was written") from None
+        yield
+        for target, temporary in kept.items():
+            os.replace(temporary, backup_path(target))
+    finally:
+        for temporary in kept.values():
+            Path(temporary).unlink(missing_ok=True)

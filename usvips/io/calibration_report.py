@@ -17,6 +17,7 @@ Residuals are v = observed − computed (pixels), computed with the calibration 
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import hashlib
 import io
@@ -75,13 +76,28 @@ class CheckPoints:
     sigma: np.ndarray
 
 
-def _resolve(recorded: str, base: Path | None) -> Path | None:
-    """A recorded data path: beside the calibration file first (samples, moved folders), then as recorded
-    (relative to the working folder, as the command line recorded it)."""
-    candidates = [Path(recorded)]
-    if base is not None and not Path(recorded).is_absolute():
-        candidates.insert(0, base / recorded)
-    return next((c for c in candidates if c.is_file()), None)
+def _resolve(recorded: str, base: Path | None) -> Path | str:
+    """A recorded data path, or why it is not read. A path inside a file is information, not an
+    instruction: it is opened only inside the calibration file's own folder (as recorded relative to it,
+    else by its name beside the file); an absolute path, one leading out of that folder (``../../etc/passwd``)
+    or through a link out of it, is shown unread."""
+    if base is None:
+        return "no calibration file to look beside: not read"
+    if any(c in recorded for c in ("\x00", "\n", "\r")):
+        return "not a file name: not read"
+    folder = base.resolve()
+    candidates = [base / recorded, base / Path(recorded).name]  # an absolute ``recorded`` stays itself
+    for candidate in candidates:
+        try:
+            real = candidate.resolve()
+        except (OSError, RuntimeError, ValueError):
+            continue
+        if real.is_relative_to(folder) and real.is_file():
+            return real
+    with contextlib.suppress(OSError, RuntimeError, ValueError):
+        if not (base / recorded).resolve().is_relative_to(folder):
+            return "outside the calibration file's folder: shown, not read"
+    return "not found beside the calibration file: not used in this report"
 
 
 def _sha256(path: Path) -> str:
@@ -89,7 +105,8 @@ def _sha256(path: Path) -> str:
 
 
 def find_data(calibration: StereoCalibration, calibration_path: str | Path | None) -> ReportData:
-    """Control and observations of the calibration's ``source`` (paths as recorded, else beside the file)."""
+    """Control and observations of the calibration's ``source``, read only inside the calibration file's
+    folder (:func:`_resolve`); the others are listed with why they were not read."""
     base = Path(calibration_path).parent if calibration_path else None
     files, control, observations = [], None, None
     for role in ("control", "observations", "base"):
@@ -97,8 +114,8 @@ def find_data(calibration: StereoCalibration, calibration_path: str | Path | Non
         if not isinstance(recorded, str):
             continue
         path = _resolve(recorded, base)
-        if path is None:
-            files.append((role, recorded, "not found: not used in this report"))
+        if isinstance(path, str):
+            files.append((role, recorded, path))
             continue
         files.append((role, str(path), _sha256(path)))
         if role == "control":

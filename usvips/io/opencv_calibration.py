@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import math
 import re
+import zipfile
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -244,20 +246,46 @@ def _declared_shape(node) -> list[int] | None:
 _MAX_MATRIX_SIDE = 1000
 
 
+#: the most bytes one array of an .npz file may unpack to (a calibration's arrays take a few hundred)
+_MAX_NPZ_ARRAY_BYTES = 16 << 20
+
+
+def _read_npz(path: Path) -> dict[str, object]:
+    """Every array of a NumPy .npz file, numbers only: a damaged archive (bad zip, bad CRC, a cut-short
+    member, a corrupt header), an array of text, objects or complex numbers, or one that would unpack to
+    more than :data:`_MAX_NPZ_ARRAY_BYTES` is an :class:`InputFileError` naming the file (and the array)."""
+    out = {}
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            for key in data.files:
+                info = data.zip.getinfo(f"{key}.npy")
+                if info.file_size > _MAX_NPZ_ARRAY_BYTES:
+                    raise InputFileError(str(path), f"array {key!r} unpacks to {info.file_size} bytes; a "
+                                         "calibration's arrays are small (a damaged or a different file?)")
+                value = np.asarray(data[key])
+                if value.dtype.kind not in "biuf":
+                    raise InputFileError(str(path), f"array {key!r} holds {value.dtype} values, not real numbers")
+                out[key] = value
+    except InputFileError:
+        raise
+    except (OSError, ValueError, EOFError, KeyError, RuntimeError, zipfile.BadZipFile, zlib.error) as error:
+        detail = " ".join(str(error).split())[:200] or type(error).__name__
+        raise InputFileError(str(path), f"not a readable .npz file (damaged?): {detail}") from None
+    return out
+
+
 def _read_file(path: Path) -> dict[str, object]:
     """Every top-level numeric entry of one file (arrays and numbers), by its name in the file."""
     if not path.is_file():
         raise InputFileError(str(path), "no such file")
     if path.suffix.lower() == ".npz":
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                return {k: np.asarray(data[k]) for k in data.files}
-        except (OSError, ValueError, EOFError) as error:
-            raise InputFileError(str(path), f"not a readable .npz file: {error}") from None
+        return _read_npz(path)
     try:
         storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     except (cv2.error, SystemError) as error:
-        detail = str(error).strip().splitlines()[-1][:200]
+        cause = error.__cause__ if isinstance(error, SystemError) and error.__cause__ is not None else error
+        lines = str(cause).strip().splitlines() or ["the file is damaged or cut short"]
+        detail = lines[-1][:200] if "exception set" not in lines[-1] else "the file is damaged or cut short"
         raise InputFileError(str(path), f"not a readable OpenCV FileStorage file (YAML/XML): {detail}") from None
     if not storage.isOpened():
         raise InputFileError(str(path), "not an OpenCV FileStorage file (YAML/XML)")
@@ -358,6 +386,13 @@ def _storage_text(path: Path, entries: dict[str, object], comment: str) -> str:
     return storage.releaseAndGetString()
 
 
+def opencv_targets(path: str | Path) -> list[Path]:
+    """The files :func:`write_opencv_stereo` writes for ``path``: the file itself, or in a folder the
+    stereo sample's ``intrinsics.yml`` and ``extrinsics.yml``."""
+    path = Path(path)
+    return [path / "intrinsics.yml", path / "extrinsics.yml"] if path.is_dir() else [path]
+
+
 def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> list[str]:
     """Write OpenCV's stereo file (YAML, XML or JSON by the extension); a folder gets the stereo sample's
     pair ``intrinsics.yml`` (M1, D1, M2, D2) + ``extrinsics.yml`` (R, T, R1, R2, P1, P2, Q). Each file is
@@ -368,8 +403,8 @@ def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> lis
     if path.is_dir():
         intrinsics = {k: arrays[k] for k in ("M1", "D1", "M2", "D2", "image_width", "image_height") if k in arrays}
         extrinsics = {k: v for k, v in arrays.items() if k not in intrinsics or k.startswith("image_")}
-        texts = [(path / "intrinsics.yml", _storage_text(path / "intrinsics.yml", intrinsics, comment)),
-                 (path / "extrinsics.yml", _storage_text(path / "extrinsics.yml", extrinsics, comment))]
+        inner, outer = opencv_targets(path)
+        texts = [(inner, _storage_text(inner, intrinsics, comment)), (outer, _storage_text(outer, extrinsics, comment))]
     else:
         texts = [(path, _storage_text(path, arrays, comment))]
     for target, text in texts:
@@ -398,6 +433,10 @@ def baseline_doubt(calibration: StereoCalibration, unit: str) -> str | None:
             f"{unit}{hint}")
 
 
+#: the largest image side (pixels) taken from the command line: well above any camera's
+MAX_IMAGE_SIDE = 65536
+
+
 def parse_image_size(text: str, parameter: str = "--image-size") -> tuple[int, int]:
     """``WxH`` (pixels) → (width, height); a malformed text is one error naming ``parameter``."""
     width, sep, height = text.lower().partition("x")
@@ -407,4 +446,7 @@ def parse_image_size(text: str, parameter: str = "--image-size") -> tuple[int, i
         size = None
     if not sep or size is None or min(size) <= 0:
         raise InvalidParameterError(parameter, f"expected WIDTHxHEIGHT in whole pixels > 0, got {text!r}")
+    if max(size) > MAX_IMAGE_SIDE:
+        raise InvalidParameterError(parameter, f"{size[0]}x{size[1]}: a side over {MAX_IMAGE_SIDE} pixels is no "
+                                    "camera's image")
     return size

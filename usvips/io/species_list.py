@@ -69,4 +69,7 @@ def read_species_list(path: str | Path) -> list[Species]:
                                  number)
         seen[entry.name] = number
         species.append(entry)
+    if not species:  # it would replace the project's list with nothing
+        raise InputFileError(str(path), "lists no species, only its header (a list replaces the project's whole "
+                             "list: give at least one taxon)", header_line)
     return species

@@ -251,3 +251,28 @@ def write_observations(path: str | Path, observations: StereoObservations, with_
             row.append(observations.pairs[i])
         writer.writerow(row)
     write_text_atomic(path, handle.getvalue())
+
+
+def refuse_outside_image(path: str | Path, labels: list[str], lines: list[int | None], left: np.ndarray,
+                         right: np.ndarray, sizes: tuple[tuple[int | None, int | None], tuple[int | None, int | None]]
+                         ) -> None:
+    """An :class:`InputFileError` naming the file, line and point when a pixel lies outside its image.
+
+    ``left``/``right``: (N, 2) pixels, x right and y down from the centre of the top-left pixel, so an image
+    of ``width`` × ``height`` px spans −0.5 … width − 0.5 and −0.5 … height − 0.5; ``sizes``: (width,
+    height) of the left and right images (None: not known, nothing checked). Such a pixel is a typing or
+    unit error (say, millimetres or a normalised coordinate), named here rather than as a lens that
+    cannot be inverted far outside its frame."""
+    for side, pixels, (width, height) in (("left", left, sizes[0]), ("right", right, sizes[1])):
+        if width is None or height is None or len(pixels) == 0:
+            continue
+        pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+        outside = ((pixels[:, 0] < -0.5) | (pixels[:, 0] > width - 0.5) | (pixels[:, 1] < -0.5)
+                   | (pixels[:, 1] > height - 0.5))
+        if outside.any():
+            k = int(np.flatnonzero(outside)[0])
+            x, y = pixels[k]
+            more = f"; {int(outside.sum())} such pixels in all" if outside.sum() > 1 else ""
+            raise InputFileError(str(path), f"point {labels[k]!r}: the {side} pixel ({x:g}, {y:g}) lies outside the "
+                                 f"{side} image ({width} × {height} px: x from -0.5 to {width - 0.5:g}, y from -0.5 "
+                                 f"to {height - 0.5:g}){more}", lines[k] if k < len(lines) else None)

@@ -85,6 +85,34 @@ class StreamReport:
         return "; ".join(parts)
 
 
+#: a file whose frames end earlier than its container says by more than this many frame intervals …
+CUT_SHORT_FRAMES = 3
+#: … and this share of its stated duration is cut short (a copy that did not finish)
+CUT_SHORT_SHARE = 0.02
+
+
+def _refuse_cut_short(path: Path, container, stream, pts: np.ndarray) -> None:
+    """An :class:`InputFileError` when the frames found end well before the duration the file states
+    (its video stream's, else the container's): a truncated file (Matroska keeps its duration in its
+    header, so a copy cut short still says how long it was) read as a shorter video would pair and time
+    frames wrongly with no word."""
+    if len(pts) < 2:
+        return
+    time_base = float(stream.time_base)
+    interval = float(np.median(np.diff(np.sort(pts)))) * time_base
+    if stream.duration:
+        stated = float(stream.duration) * time_base
+    elif container.duration:
+        stated = float(container.duration) / 1e6  # FFmpeg's AV_TIME_BASE: microseconds
+    else:
+        return
+    found = float(pts.max() - pts.min()) * time_base + interval
+    if stated - found > max(CUT_SHORT_FRAMES * interval, CUT_SHORT_SHARE * stated):
+        raise InputFileError(str(path), f"cut short: the file says it lasts {stated:.3f} s, but its frames end at "
+                             f"{found:.3f} s (about {round((stated - found) / interval)} frames missing; an unfinished "
+                             "copy? give the complete file)")
+
+
 def _index_chapter(path: Path, first: int) -> tuple[Chapter, tuple[int, int], str]:
     """Read a file's packets (no decoding): pts, key frames and packet hashes of its first video stream."""
     if not path.is_file():
@@ -121,6 +149,7 @@ def _index_chapter(path: Path, first: int) -> tuple[Chapter, tuple[int, int], st
         size = (int(stream.codec_context.width), int(stream.codec_context.height))
         if size[0] <= 0 or size[1] <= 0:
             raise InputFileError(str(path), "the video stream has no picture size")
+        _refuse_cut_short(path, container, stream, pts)
         chapter = Chapter(path, first, len(rows), pts, keyframe, float(stream.time_base),
                           tuple(r[2] for r in rows))
         return chapter, size, stream.codec_context.name
@@ -462,8 +491,9 @@ class VideoStream:
     def scan_pictures(self, progress=None) -> StreamReport:
         """Decode every frame once (as a 64 × 48 grey thumbnail) and add the frames whose picture repeats
         the one before (mean difference below :data:`DUPLICATE_LEVEL` grey levels) to the report's
-        duplicates: a camera or capture that repeats a frame re-encodes it, so its bytes differ.
-        ``progress(done, total)`` is called every 100 frames; returns (and keeps) the new report."""
+        duplicates: a camera or capture that repeats a frame re-encodes it, so its bytes differ. A frame
+        the decoder finds damaged, or fewer frames decoded than indexed, is an :class:`InputFileError`
+        naming the file. ``progress(done, total)`` is called every 100 frames; returns (and keeps) the new report."""
         same = []
         previous = None
         index = 0
@@ -471,6 +501,9 @@ class VideoStream:
             with av.open(str(chapter.path)) as container:
                 stream = container.streams.video[0]
                 stream.thread_type = "AUTO"
+                # a damaged packet is an error here, not a picture the decoder quietly patches up
+                stream.codec_context.options = {"err_detect": "explode"}
+                start = index
                 try:
                     for frame in container.decode(stream):
                         thumb = frame.reformat(width=64, height=48, format="gray").to_ndarray().astype(np.int16)
@@ -481,7 +514,11 @@ class VideoStream:
                         if progress is not None and index % 100 == 0:
                             progress(index, self.frame_count)
                 except av.error.FFmpegError as error:
-                    raise InputFileError(str(chapter.path), f"frame {index} cannot be decoded: {error}") from None
+                    raise InputFileError(str(chapter.path), f"frame {index} cannot be decoded (a damaged file?): "
+                                         f"{error}") from None
+                if index - start != chapter.count:
+                    raise InputFileError(str(chapter.path), f"{index - start} of its {chapter.count} frames could be "
+                                         "decoded (a damaged file?)")
         self.report = _report(self.times_s, [d for c in self.chapters for d in c.digests], same)
         return self.report
 

@@ -91,6 +91,19 @@ class ProjectStore(Protocol):
         """(stored path, problem) of every recorded media file missing or changed."""
         ...
 
+    def media_identity(self, stored: str, full: bool = False) -> str | None:
+        """Why the file at a recorded media path is not the one added (missing, size, contents), or None;
+        fast (size and a sampled hash) unless ``full`` (the whole SHA-256)."""
+        ...
+
+    def media_records(self) -> list[tuple[str, Path, int, str]]:
+        """(stored path, absolute path, size, SHA-256) of every recorded media file."""
+        ...
+
+    def accept_media(self, stored: str) -> None:
+        """Take the file now at a recorded media path as the one meant (size and hashes recorded anew)."""
+        ...
+
     def relocate_media(self, stored: str, new_path: str | Path) -> str:
         """Point a recorded media file at its new place (the same file); returns the new stored path."""
         ...

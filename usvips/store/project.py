@@ -21,6 +21,7 @@ Every failure of the database (locked by another program, disk full, a damaged f
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -61,6 +62,34 @@ def file_hash(path: Path) -> str:
         for chunk in iter(lambda: stream.read(1 << 20), b""):
             digest.update(chunk)
     return digest.hexdigest()
+
+
+#: the sampled hash of a media file reads this many blocks …
+SAMPLE_BLOCKS = 16
+#: … of this many bytes, evenly spaced from the file's start to its end (the whole of a small file)
+SAMPLE_BLOCK_BYTES = 1 << 16
+
+
+def sampled_hash(path: Path) -> str:
+    """A fast fingerprint of a media file: SHA-256 of its size and :data:`SAMPLE_BLOCKS` blocks of
+    :data:`SAMPLE_BLOCK_BYTES` spread evenly over it, first and last included (about 1 MiB read however
+    large the file; the whole file when smaller). Another recording of the same name and size differs
+    in its first block already (its own header, time stamps and pictures)."""
+    size = path.stat().st_size
+    digest = hashlib.sha256(str(size).encode())
+    with open(path, "rb") as stream:
+        if size <= SAMPLE_BLOCKS * SAMPLE_BLOCK_BYTES:
+            digest.update(stream.read())
+        else:
+            for start in np.linspace(0, size - SAMPLE_BLOCK_BYTES, SAMPLE_BLOCKS).astype(np.int64).tolist():
+                stream.seek(start)
+                digest.update(stream.read(SAMPLE_BLOCK_BYTES))
+    return digest.hexdigest()
+
+
+def _sample_key(stored: str) -> str:
+    """The ``meta`` key holding a media file's sampled hash (no schema change: older projects lack it)."""
+    return f"media-sample:{stored}"
 
 
 def database_problem(error: sqlite3.Error) -> str:
@@ -704,11 +733,64 @@ class Project:
         stored = self._relative(path)
         self._db.execute("INSERT OR REPLACE INTO media VALUES (?, ?, ?)",
                          (stored, path.stat().st_size, file_hash(path)))
+        self._db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (_sample_key(stored), sampled_hash(path)))
         return stored
+
+    def media_identity(self, stored: str, full: bool = False) -> str | None:
+        """Why the file at a recorded media path is not the one added — missing, another size, other
+        content — or None when it is. The fast check (``full`` False) compares the size and the sampled
+        hash (:func:`sampled_hash`; a project from before sampled hashes compares the full SHA-256 once
+        and, when writable, records the sample); ``full`` compares the whole file's SHA-256."""
+        row = self._db.execute("SELECT size, sha256 FROM media WHERE path = ?", (stored,)).fetchone()
+        path = self.path.parent / stored
+        if not path.is_file():
+            return "missing (moved or deleted?)"
+        if row is None:
+            return None  # not a recorded media file (nothing to compare with)
+        size, sha = row
+        now = path.stat().st_size
+        if now != size:
+            return f"{now} bytes, but {size} when it was added"
+        sample = self._db.execute("SELECT value FROM meta WHERE key = ?", (_sample_key(stored),)).fetchone()
+        if sample is not None and sampled_hash(path) != sample[0]:
+            return "its contents differ from the file added (sampled hash; same size)"
+        if full or sample is None:
+            if file_hash(path) != sha:
+                return "its contents differ from the file added (SHA-256; same size)"
+            if sample is None and not self.read_only:
+                with contextlib.suppress(sqlite3.Error, ProjectError):
+                    self._edit("INSERT OR REPLACE INTO meta VALUES (?, ?)", (_sample_key(stored), sampled_hash(path)))
+        return None
+
+    def media_records(self) -> list[tuple[str, Path, int, str]]:
+        """(stored path, where it should be, size in bytes, SHA-256) of every recorded media file: what a
+        worker needs to compare whole files away from the project's connection
+        (:func:`usvips.app.video_project.verify_media`)."""
+        if not self._has_table("media"):
+            return []
+        rows = self._db.execute("SELECT path, size, sha256 FROM media ORDER BY path").fetchall()
+        return [(stored, self.path.parent / stored, int(size), sha) for stored, size, sha in rows]
+
+    def accept_media(self, stored: str) -> None:
+        """Take the file now at a recorded media path as the one the project means (after the user has
+        looked at it): its size, SHA-256 and sampled hash are recorded anew."""
+        if self._db.execute("SELECT 1 FROM media WHERE path = ?", (stored,)).fetchone() is None:
+            raise ProjectError(f"{self.path}: no media file {stored!r} in the project")
+        path = self.path.parent / stored
+        if not path.is_file():
+            raise ProjectError(f"{self.path}: the media file {stored} is missing; relocate it instead")
+        size, sha = path.stat().st_size, file_hash(path)
+        with self.transaction():
+            self._db.execute("UPDATE media SET size = ?, sha256 = ? WHERE path = ?", (size, sha, stored))
+            self._db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (_sample_key(stored), sampled_hash(path)))
+            self._db.execute("UPDATE image_pairs SET left_hash = ? WHERE left_path = ?", (sha, stored))
+            self._db.execute("UPDATE image_pairs SET right_hash = ? WHERE right_path = ?", (sha, stored))
 
     def media_problems(self, check_hash: bool = True) -> list[tuple[str, str]]:
         """(stored path, problem) for every recorded media file that is missing, has changed size or
-        content, or now holds what another recorded file held (swapped)."""
+        content, or now holds what another recorded file held (swapped). ``check_hash``: compare every
+        file's full SHA-256; else the fast check of :meth:`media_identity` (size and sampled hash), the
+        full hash read only of the files found changed."""
         if not self._has_table("media"):
             return []
         rows = self._db.execute("SELECT path, size, sha256 FROM media ORDER BY path").fetchall()
@@ -718,13 +800,16 @@ class Project:
             path = self.path.parent / stored
             if not path.is_file():
                 problems.append((stored, "missing (moved or deleted?)"))
-            elif path.stat().st_size != size or check_hash:
-                now = file_hash(path)
-                if now != sha:
-                    other = owners.get(now)
-                    problems.append((stored, f"holds what {other} held when added (swapped?)" if other else
-                                     f"changed since it was added ({path.stat().st_size} bytes, {size} then; "
-                                     "its SHA-256 differs)"))
+                continue
+            if self.media_identity(stored, full=check_hash) is None:
+                continue
+            now = file_hash(path)
+            if now == sha:
+                continue  # only its sampled hash was stale (recorded anew by accept_media)
+            other = owners.get(now)
+            problems.append((stored, f"holds what {other} held when added (swapped?)" if other else
+                             f"changed since it was added ({path.stat().st_size} bytes, {size} then; "
+                             "its SHA-256 differs)"))
         return problems
 
     def relocate_media(self, stored: str, new_path: str | Path) -> str:
@@ -741,6 +826,9 @@ class Project:
         with self.transaction():
             try:
                 self._db.execute("UPDATE media SET path = ? WHERE path = ?", (new, stored))
+                self._db.execute("DELETE FROM meta WHERE key = ?", (_sample_key(stored),))
+                self._db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                                 (_sample_key(new), sampled_hash(new_path)))
                 self._db.execute("UPDATE image_pairs SET left_path = ? WHERE left_path = ?", (new, stored))
                 self._db.execute("UPDATE image_pairs SET right_path = ? WHERE right_path = ?", (new, stored))
             except sqlite3.IntegrityError as error:
@@ -859,10 +947,15 @@ class Project:
                    (int(frames), json.dumps(estimate) if estimate else None, row[0]))
 
     def media_path(self, stored: str) -> Path:
-        """The absolute path of a stored media path; raises (naming it) if it has gone missing."""
+        """The absolute path of a stored media path; raises (naming it) if it has gone missing or is not
+        the file that was added (the fast check of :meth:`media_identity`: size and sampled hash)."""
         path = (self.path.parent / stored).resolve()
         if not path.is_file():
             raise ProjectError(f"{self.path}: the media file {stored} is missing (moved or deleted?); relocate it")
+        problem = self.media_identity(stored)
+        if problem is not None:
+            raise ProjectError(f"{self.path}: the media file {stored} is not the file that was added: {problem}; "
+                               "relocate the right file, or accept this one (usvips project accept-media)")
         return path
 
     def add_period(self, video: str, name: str, start: int, end: int) -> int:
@@ -907,7 +1000,8 @@ class Project:
         """Write a consistent copy of the project to the new file ``path`` (SQLite's online backup, whole
         even while the project is open). Image paths stored relative to this project's folder are
         rewritten relative to the copy's folder (absolute where that is not possible), so the copy finds
-        its images. Written to ``<path>.part`` and renamed: a failure leaves nothing half-written."""
+        its images and videos (with their recorded sizes and hashes). Written to ``<path>.part`` and
+        renamed: a failure leaves nothing half-written."""
         target = Path(path)
         if target.exists():
             raise ProjectError(f"{target}: already exists; choose a new file name for the copy")
@@ -930,9 +1024,17 @@ class Project:
             try:
                 self._db.backup(copy)
                 rows = copy.execute("SELECT id, left_path, right_path FROM image_pairs").fetchall()
+                media = copy.execute("SELECT path FROM media").fetchall() if copy.execute(
+                    "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'media'").fetchone() else []
+                copy.execute("PRAGMA foreign_keys = ON")  # a video's files follow their media rows
                 with copy:
                     copy.executemany("UPDATE image_pairs SET left_path = ?, right_path = ? WHERE id = ?",
                                      [(moved(left), moved(right), pair_id) for pair_id, left, right in rows])
+                    for (stored,) in media:  # the media's records (size, hashes) move with their paths
+                        if moved(stored) != stored:
+                            copy.execute("UPDATE media SET path = ? WHERE path = ?", (moved(stored), stored))
+                            copy.execute("UPDATE meta SET key = ? WHERE key = ?",
+                                         (_sample_key(moved(stored)), _sample_key(stored)))
                 copy.execute("PRAGMA journal_mode = DELETE")
             finally:
                 copy.close()
