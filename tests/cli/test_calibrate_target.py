@@ -80,3 +80,20 @@ def test_a_bad_target_file_is_named(tmp_path, capsys, text, message):
                  "--out", str(tmp_path / "out.json")])
     error = capsys.readouterr().err.strip()
     assert code == 2 and "t.json" in error and message in error and len(error.splitlines()) == 1
+
+
+def test_a_calibration_never_overwrites_its_own_inputs_or_an_older_calibration_unasked(views, capsys):
+    d, rig = views
+    observations = (d / "air.csv").read_bytes()
+    base = ["calibrate", "air", "--target", str(d / "board.json"), "--obs", str(d / "air.csv"),
+            "--sigma-px", str(NOISE), "--no-snooping"]
+    for victim in ("air.csv", "board.json"):
+        assert main([*base, "--out", str(d / victim)]) == 2
+        assert "is an input of this command" in capsys.readouterr().err
+    assert (d / "air.csv").read_bytes() == observations
+    assert main([*base, "--out", str(d / "air.json")]) == 0
+    first = (d / "air.json").read_bytes()
+    assert main([*base, "--out", str(d / "air.json")]) == 2  # an older calibration is replaced only when asked
+    assert "USVIPS calibration" in capsys.readouterr().err and (d / "air.json").read_bytes() == first
+    assert main([*base, "--out", str(d / "air.json"), "--force"]) == 0
+    assert (d / "air.json.bak").read_bytes() == first

@@ -15,6 +15,7 @@ from usvips.core.calibration.phases import observes_a_plane
 from usvips.core.calibration.validation import validate
 from usvips.core.errors import ConvergenceError, InvalidParameterError
 from usvips.core.observations import ControlPoints
+from usvips.io.atomic import replacing
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
 from usvips.io.target_file import read_target
@@ -35,6 +36,9 @@ def _common(parser: argparse.ArgumentParser) -> None:
                              "the calibration written is the one from the rest")
     parser.add_argument("--seed", type=int, default=0, help="seed of the choice of held-out views (default 0)")
     parser.add_argument("--out", required=True, help="calibration file to write (JSON)")
+    parser.add_argument("--force", action="store_true",
+                    help="replace --out and --report even when it is an input or holds a USVIPS project or "
+                         "calibration (the old file is kept as NAME.bak)")
     parser.add_argument("--report", help="adjustment report to write (JSON)")
     parser.add_argument("--free", nargs="+", action="extend", default=[], metavar="NAME",
                         help="parameters to free (seeds' symbols apply to both cameras, e.g. k2 p1)")
@@ -139,9 +143,11 @@ def _finish(result, args: argparse.Namespace, validation=None) -> int:
     # write both files only once everything has succeeded
     calibration_text = json.dumps(calibration_to_dict(result.calibration), indent=2, allow_nan=False) + "\n"
     report_text = json.dumps(report, indent=2, allow_nan=False) + "\n" if args.report else None
-    write_text_atomic(args.out, calibration_text)
-    if report_text is not None:
-        write_text_atomic(args.report, report_text)
+    inputs = [getattr(args, name, None) for name in ("control", "target", "obs", "base")]
+    with replacing([args.out] + ([args.report] if args.report else []), inputs, replace=args.force):
+        write_text_atomic(args.out, calibration_text)
+        if report_text is not None:
+            write_text_atomic(args.report, report_text)
     print(f"{report['phase']} calibration ({report['housing']}, stations {', '.join(report['stations'])}): "
           f"sigma0 {report['sigma0_px']:.3f} px, RMS {report['rms_px']:.3f} px"
           + (f" over the kept, {report['rms_px_all']:.3f} px over all observations" if report.get("set_aside")

@@ -11,6 +11,7 @@ import sys
 
 from usvips.app import calibration_video
 from usvips.core.calibration_views import MAX_EDGE_WIDTH_PX
+from usvips.io.atomic import replacing
 from usvips.store import Project
 
 
@@ -36,6 +37,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--focal", type=float, default=None,
                         help="focal length (px) for the tilts (default: the image's larger side)")
     parser.add_argument("--out", required=True, help="observations CSV to write")
+    parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
+                        "USVIPS project or calibration (the old file is kept as NAME.bak)")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
     parser.set_defaults(handler=run)
 
@@ -50,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"{100 * fraction:3.0f} % {message}", file=sys.stderr)
 
     target = calibration_video.read_target(args.target)  # a bad target file is named before the project is opened
-    with Project.open(args.project, read_only=True) as project:
+    with replacing(args.out, [args.target], args.project, replace=args.force), \
+            Project.open(args.project, read_only=True) as project:
         result = calibration_video.views_from_video(project, args.pair, target, args.out, args.every,
                                                      args.max_views, args.max_blur, args.focal, progress)
     for line in result.summary():

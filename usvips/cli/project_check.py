@@ -11,6 +11,7 @@ from usvips.app.quality import REPORT_COLUMNS, check_project, report_rows
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import QualityRules
+from usvips.io.atomic import replacing
 from usvips.store import Project
 
 
@@ -19,6 +20,9 @@ def register_check_action(actions: argparse._SubParsersAction) -> None:
                                "precision/length, range, length > the species' maximum) and where it is")
     check.add_argument("project")
     check.add_argument("--json", action="store_true", help="print the report as JSON")
+    check.add_argument("--force", action="store_true",
+                   help="replace --out even when it is an input or holds a USVIPS project or "
+                        "calibration (the old file is kept as NAME.bak)")
     check.add_argument("--out", help="write the report: FILE.csv (comma separated) or any other name (tab "
                        "separated, as CheckEM's tables)")
     check.add_argument("--max-rms-mm", type=float, default=20.0, help="ray-intersection RMS limit (default 20)")
@@ -46,7 +50,8 @@ def run_check(args: argparse.Namespace) -> int:
         if not args.out.lower().endswith(".csv"):
             text = "\n".join("\t".join(str(c).replace("\t", " ") for c in row)
                              for row in [REPORT_COLUMNS, *rows]) + "\n"
-        write_text_atomic(args.out, text)
+        with replacing(args.out, project=args.project, replace=args.force):
+            write_text_atomic(args.out, text)
     if args.json:
         print(json.dumps({"checked": report.checked, "failing_objects": report.failing_objects,
                           "issues": [i.as_dict() for i in report.issues]}, indent=1))

@@ -13,6 +13,7 @@ import numpy as np
 
 from usvips.core.calibration_targets import kind, names
 from usvips.core.errors import InvalidParameterError
+from usvips.io.atomic import replacing
 from usvips.io.images import read_image
 from usvips.io.target_file import read_target, write_printable, write_target
 
@@ -32,6 +33,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     describe = actions.add_parser("describe", help="write a target description file")
     describe.add_argument("kind", help=f"target kind: {', '.join(names())}")
     describe.add_argument("--out", required=True, help="target file to write (JSON)")
+    describe.add_argument("--force", action="store_true",
+                      help="replace --out even when it is an input or holds a USVIPS project or "
+                           "calibration (the old file is kept as NAME.bak)")
     describe.add_argument("--cols", type=int, help="columns: inner corners (chessboard), squares (charuco), "
                           "markers (marker-grid), circles per row (circle-grid)")
     describe.add_argument("--rows", type=int, help="rows, counted as --cols")
@@ -55,6 +59,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     printable = actions.add_parser("print", help="write a printable PDF of a board at true scale")
     printable.add_argument("target", help="target file")
     printable.add_argument("--out", required=True, help="PDF to write")
+    printable.add_argument("--force", action="store_true",
+                       help="replace --out even when it is an input or holds a USVIPS project or "
+                            "calibration (the old file is kept as NAME.bak)")
     printable.set_defaults(handler=run_print)
 
     detect = actions.add_parser("detect", help="find the target in images: points found and their quality")
@@ -112,14 +119,16 @@ def run_describe(args: argparse.Namespace) -> int:
     from usvips.core.calibration_targets import from_description
 
     target = from_description(description_from_args(args))
-    write_target(args.out, target)
+    with replacing(args.out, replace=args.force):
+        write_target(args.out, target)
     print(f"wrote {args.out}: {_summary(target)}")
     return 0
 
 
 def run_print(args: argparse.Namespace) -> int:
     target = read_target(args.target)
-    width, height = write_printable(args.out, target)
+    with replacing(args.out, [args.target], replace=args.force):
+        width, height = write_printable(args.out, target)
     print(f"wrote {args.out}: {_summary(target)} on a page of {width * 1000:.0f} × {height * 1000:.0f} mm; "
           "print at 100 % and measure the scale bar")
     return 0
