@@ -40,6 +40,8 @@ class Pattern:
 
 def as_rows(rows: np.ndarray) -> slice | np.ndarray:
     """A slice for a contiguous ascending run of row indices (a view, no copy), else the index array."""
+    if isinstance(rows, slice):
+        return rows
     rows = np.asarray(rows, dtype=int)
     if rows.size and rows[-1] - rows[0] == rows.size - 1 and np.all(np.diff(rows) == 1):
         return slice(int(rows[0]), int(rows[-1]) + 1)
@@ -68,3 +70,322 @@ def leverage(jac: np.ndarray, q: np.ndarray) -> np.ndarray:
     if using_reference():
         return np.einsum("ij,jk,ik->i", jac, q, jac)
     return ((jac @ q) * jac).sum(axis=1)
+
+
+# ---------------------------------------------------------------------------------------------------
+# block-sparse Jacobian and the block-arrow (Schur complement) normal equations
+# ---------------------------------------------------------------------------------------------------
+
+class BlockJacobian:
+    """A Jacobian (n × k, observation units per parameter unit) stored by observation block: for block b
+    its rows ``blocks[b]`` (slice or index array), its columns ``columns[b]`` (ascending free-parameter
+    indices) and the dense (rows × columns) sub-matrix ``values[b]``; every other entry is zero. Memory
+    and every product below are linear in the number of blocks: the (n × k) matrix is formed only on
+    request (:meth:`dense`, for small problems and tests)."""
+
+    def __init__(self, n: int, width: int, blocks: Sequence, columns: Sequence[np.ndarray],
+                 values: Sequence[np.ndarray]) -> None:
+        self.n, self.width = int(n), int(width)
+        self.blocks = list(blocks)
+        self.columns = [np.asarray(c, dtype=int) for c in columns]
+        self.values = list(values)
+
+    @property
+    def pattern(self) -> Pattern:
+        return Pattern(self.blocks, self.columns, self.width)
+
+    def dense(self) -> np.ndarray:
+        """The (n × k) matrix."""
+        out = np.zeros((self.n, self.width))
+        for rows, columns, values in zip(self.blocks, self.columns, self.values, strict=True):
+            if columns.size:
+                out[_grid(rows, columns)] = values
+        return out
+
+    def transpose_times(self, vector: np.ndarray) -> np.ndarray:
+        """Jᵀ v (k,) of v (n,)."""
+        out = np.zeros(self.width)
+        for rows, columns, values in zip(self.blocks, self.columns, self.values, strict=True):
+            if columns.size:
+                out[columns] += values.T @ vector[rows]
+        return out
+
+    def gram(self, weights: np.ndarray) -> np.ndarray:
+        """Jᵀ W J (k × k), summed block by block over each block's own columns."""
+        normal = np.zeros((self.width, self.width))
+        for rows, columns, values in zip(self.blocks, self.columns, self.values, strict=True):
+            if columns.size:
+                normal[np.ix_(columns, columns)] += values.T @ (values * weights[rows][:, None])
+        return normal
+
+    def leverage(self, q: np.ndarray) -> np.ndarray:
+        """a_i Q a_iᵀ (n,) of every row a_i with ``q`` (k × k) symmetric (see :func:`leverage`)."""
+        out = np.zeros(self.n)
+        for rows, columns, values in zip(self.blocks, self.columns, self.values, strict=True):
+            if columns.size:
+                out[rows] = ((values @ q[np.ix_(columns, columns)]) * values).sum(axis=1)
+        return out
+
+
+def _grid(rows, columns: np.ndarray):
+    if isinstance(rows, slice):
+        return rows, columns
+    return np.ix_(rows, columns)
+
+
+class Partition:
+    """The free parameters split into global ones and local groups for the Schur complement.
+
+    A local group is a set of parameters that touch the same few observation blocks, which no other
+    group touches (a further station's pose: its left and right block). ``glob`` (g,) holds the global
+    parameters' free indices; ``local`` (s, m) each group's free indices, padded with −1 to the largest
+    group's size m; ``position[j]`` is parameter j's place among the globals or its slot in its group,
+    ``group_of[j]`` its group (−1 for a global one); ``block_group[b]`` the group whose parameters block
+    b touches (−1: none)."""
+
+    def __init__(self, width: int, groups: Sequence[Sequence[int]], block_group: np.ndarray) -> None:
+        self.width = int(width)
+        size = max((len(g) for g in groups), default=0)
+        self.local = np.full((len(groups), size), -1, dtype=int)
+        self.group_of = np.full(width, -1, dtype=int)
+        self.position = np.zeros(width, dtype=int)
+        for s, group in enumerate(groups):
+            self.local[s, : len(group)] = group
+            self.group_of[list(group)] = s
+            self.position[list(group)] = np.arange(len(group))
+        self.glob = np.flatnonzero(self.group_of < 0)
+        self.position[self.glob] = np.arange(self.glob.size)
+        self.mask = self.local >= 0
+        self.block_group = np.asarray(block_group, dtype=int)
+
+    @classmethod
+    def of(cls, pattern: Pattern, eligible: np.ndarray, max_blocks: int, max_size: int = 12
+           ) -> Partition | None:
+        """The partition a Jacobian's ``pattern`` allows: the ``eligible`` (k,) parameters (e.g. not in a
+        correlated prior group) are grouped by the set of blocks they appear in; a group is local when
+        that set has at most ``max_blocks`` blocks shared with no other group, and at most ``max_size``
+        members. None when no group is local."""
+        touched: list[list[int]] = [[] for _ in range(pattern.width)]
+        for b, columns in enumerate(pattern.columns):
+            for j in columns:
+                touched[j].append(b)
+        by_set: dict[tuple[int, ...], list[int]] = {}
+        for j in range(pattern.width):
+            if eligible[j] and 0 < len(touched[j]) <= max_blocks:
+                by_set.setdefault(tuple(touched[j]), []).append(j)
+        owner: dict[int, tuple[int, ...]] = {}
+        clash: set[tuple[int, ...]] = set()
+        for key in by_set:
+            for b in key:
+                if b in owner:
+                    clash.update((key, owner[b]))
+                else:
+                    owner[b] = key
+        keys = [key for key, group in by_set.items() if key not in clash and len(group) <= max_size]
+        if not keys:
+            return None
+        block_group = np.full(len(pattern.columns), -1, dtype=int)
+        for s, key in enumerate(keys):
+            block_group[list(key)] = s
+        return cls(pattern.width, [by_set[key] for key in keys], block_group)
+
+    def split(self, vector: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(global part (g,), local part (s, m), zero in the padding) of a free-parameter vector (k,)."""
+        local = np.where(self.mask, vector[np.maximum(self.local, 0)], 0.0)
+        return vector[self.glob], local
+
+    def join(self, glob: np.ndarray, local: np.ndarray) -> np.ndarray:
+        """The free-parameter vector (k,) of a global (g,) and a local (s, m) part."""
+        out = np.zeros(self.width)
+        out[self.glob] = glob
+        out[self.local[self.mask]] = local[self.mask]
+        return out
+
+
+class ArrowSystem:
+    """Normal equations N = [[U, W], [Wᵀ, V]] in block-arrow form: U (g × g) over the global unknowns,
+    V (s, m, m) block diagonal over the local groups, W (s, g, m) their coupling, right-hand sides bg (g,)
+    and bl (s, m). The observations' share (JᵀWJ, JᵀWv) and the priors' share are kept apart, so that the
+    priors can be reweighted (variance components): :meth:`matrices` gives U, V with the priors times a
+    factor. Single priors may sit on any unknown, correlated prior groups on global ones only.
+
+    Solves eliminate the local unknowns (Schur complement S = U − Σ W V⁻¹ Wᵀ, g × g) with every local block
+    inverted at once (a batched 6 × 6 inverse per station): the cost is linear in the number of groups.
+    Everything is done on the equilibrated system (unit diagonal, as the dense path)."""
+
+    def __init__(self, jac: BlockJacobian, weights: np.ndarray, residual: np.ndarray, partition: Partition
+                 ) -> None:
+        self.partition = p = partition
+        g, (s, m) = p.glob.size, p.local.shape
+        u, v, w = np.zeros((g, g)), np.zeros((s, m, m)), np.zeros((s, g, m))
+        bg, bl = np.zeros(g), np.zeros((s, m))
+        weighted = weights * residual
+        for b, (rows, columns, values) in enumerate(zip(jac.blocks, jac.columns, jac.values, strict=True)):
+            if not columns.size:
+                continue
+            is_global = p.group_of[columns] < 0
+            gi = p.position[columns[is_global]]
+            a = values[:, is_global]
+            weight = weights[rows][:, None]
+            aw = a * weight
+            u[np.ix_(gi, gi)] += a.T @ aw
+            bg[gi] += a.T @ weighted[rows]
+            if is_global.all():
+                continue
+            group = p.block_group[b]
+            local = columns[~is_global]
+            if group < 0 or np.any(p.group_of[local] != group):
+                raise ValueError("a block touches local unknowns of a group it does not belong to")
+            slots = p.position[local]
+            bb = values[:, ~is_global]
+            v[group][np.ix_(slots, slots)] += bb.T @ (bb * weight)
+            w[group][np.ix_(gi, slots)] += aw.T @ bb
+            bl[group, slots] += bb.T @ weighted[rows]
+        self.u_obs, self.v_obs, self.w, self.bg_obs, self.bl_obs = u, v, w, bg, bl
+        self.prior_diagonal = np.zeros(p.width)
+        self.prior_rhs = np.zeros(p.width)
+        self.prior_groups: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def add_priors(self, diagonal: np.ndarray, rhs: np.ndarray,
+                   groups: Sequence[tuple[np.ndarray, np.ndarray]]) -> None:
+        """Prior pseudo-observations: weights on the diagonal (k,), their right-hand side (k,), and
+        correlated groups (free indices, weight matrix) on global unknowns."""
+        self.prior_diagonal = self.prior_diagonal + diagonal
+        self.prior_rhs = self.prior_rhs + rhs
+        for index, weight in groups:
+            if np.any(self.partition.group_of[index] >= 0):
+                raise ValueError("a correlated prior group on local unknowns")
+            self.prior_groups.append((self.partition.position[index], weight))
+
+    @property
+    def has_priors(self) -> bool:
+        return bool(np.any(self.prior_diagonal) or self.prior_groups)
+
+    def matrices(self, factor: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+        """U and V with the priors' weights times ``factor``; V's padding has a unit diagonal."""
+        p = self.partition
+        u = self.u_obs.copy()
+        pg, pl = p.split(self.prior_diagonal)
+        u[np.diag_indices_from(u)] += factor * pg
+        for index, weight in self.prior_groups:
+            u[np.ix_(index, index)] += factor * weight
+        v = self.v_obs.copy()
+        diagonal = np.einsum("sii->si", v)
+        diagonal += factor * pl
+        diagonal[~p.mask] = 1.0
+        return u, v
+
+    def rhs(self) -> tuple[np.ndarray, np.ndarray]:
+        pg, pl = self.partition.split(self.prior_rhs)
+        return self.bg_obs + pg, self.bl_obs + pl
+
+    def scale(self) -> np.ndarray:
+        """The equilibration (k,): the square root of the full normal matrix's diagonal."""
+        u, v = self.matrices()
+        return np.sqrt(np.maximum(self.partition.join(np.diag(u), np.einsum("sii->si", v)), 1e-300))
+
+    def reduced(self, damping: float = 0.0, factor: float = 1.0):
+        """The equilibrated system's pieces: (scale (k,), S (g × g) the Schur complement, V⁻¹ (s, m, m),
+        Y = W V⁻¹ (s, g, m), the scaled W (s, g, m)), all with ``damping`` added to the unit diagonal and
+        the priors times ``factor``. Raises numpy's LinAlgError when a local block is singular."""
+        p = self.partition
+        u, v = self.matrices(factor)
+        scale = np.sqrt(np.maximum(p.join(np.diag(u), np.einsum("sii->si", v)), 1e-300))
+        sg, sl = p.split(scale)
+        sl = np.where(p.mask, sl, 1.0)
+        us = u / np.outer(sg, sg)
+        vs = v / (sl[:, :, None] * sl[:, None, :])
+        ws = self.w / (sg[None, :, None] * sl[:, None, :])
+        if damping:
+            us[np.diag_indices_from(us)] += damping
+            np.einsum("sii->si", vs)[...] += damping
+        v_inverse = np.linalg.inv(vs)
+        y = ws @ v_inverse
+        schur = us - np.tensordot(y, ws, axes=([0, 2], [0, 2]))
+        return scale, (schur + schur.T) / 2, v_inverse, y, ws
+
+    def step(self, damping: float) -> np.ndarray:
+        """The damped step (k,): (N̄ + damping·I) x̄ = b̄ on the equilibrated system, x = x̄ / scale."""
+        scale, schur, v_inverse, y, ws = self.reduced(damping)
+        bg, bl = self.rhs()
+        sg, sl = self.partition.split(scale)
+        rg, rl = bg / sg, np.where(self.partition.mask, bl / np.where(self.partition.mask, sl, 1.0), 0.0)
+        xg = np.linalg.solve(schur, rg - np.einsum("sgm,sm->g", y, rl))
+        xl = np.einsum("smn,sn->sm", v_inverse, rl - np.einsum("sgm,g->sm", ws, xg))
+        return self.partition.join(xg, xl) / scale
+
+    def inverse(self, factor: float = 1.0, reduced=None) -> Inverse:
+        """N⁻¹ (with the priors times ``factor``) in its block form (:class:`Inverse`)."""
+        scale, schur, v_inverse, y, _ = reduced if reduced is not None else self.reduced(0.0, factor)
+        q_scaled = np.linalg.inv(schur)
+        q_scaled = (q_scaled + q_scaled.T) / 2
+        sg, sl = self.partition.split(scale)
+        sl = np.where(self.partition.mask, sl, 1.0)
+        qy = q_scaled @ y                                               # (s, g, m)
+        qgg = q_scaled / np.outer(sg, sg)
+        qgl = -qy / (sg[None, :, None] * sl[:, None, :])
+        qll = (v_inverse + np.swapaxes(y, 1, 2) @ qy) / (sl[:, :, None] * sl[:, None, :])
+        return Inverse(self.partition, qgg, qgl, (qll + np.swapaxes(qll, 1, 2)) / 2)
+
+    def trace_with_observations(self, inverse: Inverse) -> float:
+        """tr(Q N_obs): Q = ``inverse`` against the observations' share of the normal matrix."""
+        return float(np.sum(inverse.qgg * self.u_obs) + 2.0 * np.sum(inverse.qgl * self.w)
+                     + np.sum(inverse.qll * self.v_obs))
+
+
+class Inverse:
+    """N⁻¹ in block form: ``qgg`` (g × g) over the globals, ``qgl`` (s, g, m) between the globals and each
+    group's locals, ``qll`` (s, m, m) within each group (entries of the padding are meaningless). The
+    blocks between two different groups are never formed (they would be quadratic in the groups)."""
+
+    def __init__(self, partition: Partition, qgg: np.ndarray, qgl: np.ndarray, qll: np.ndarray) -> None:
+        self.partition, self.qgg, self.qgl, self.qll = partition, qgg, qgl, qll
+
+    def diagonal(self) -> np.ndarray:
+        """diag(Q) (k,)."""
+        return self.partition.join(np.diag(self.qgg), np.einsum("sii->si", self.qll))
+
+    def leverage(self, jac: BlockJacobian) -> np.ndarray:
+        """a_i Q a_iᵀ (n,) of every row of ``jac``: per block, Q restricted to the block's own columns."""
+        p = self.partition
+        out = np.zeros(jac.n)
+        for b, (rows, columns, values) in enumerate(zip(jac.blocks, jac.columns, jac.values, strict=True)):
+            if not columns.size:
+                continue
+            is_global = p.group_of[columns] < 0
+            gi = p.position[columns[is_global]]
+            group = p.block_group[b]
+            if is_global.all():
+                q = self.qgg[np.ix_(gi, gi)]
+            else:
+                slots = p.position[columns[~is_global]]
+                ig, il = np.flatnonzero(is_global), np.flatnonzero(~is_global)
+                q = np.empty((columns.size, columns.size))
+                q[np.ix_(ig, ig)] = self.qgg[np.ix_(gi, gi)]
+                cross = self.qgl[group][np.ix_(gi, slots)]
+                q[np.ix_(ig, il)] = cross
+                q[np.ix_(il, ig)] = cross.T
+                q[np.ix_(il, il)] = self.qll[group][np.ix_(slots, slots)]
+            out[rows] = ((values @ q) * values).sum(axis=1)
+        return out
+
+    def correlations_over(self, names: Sequence[str], limit: float) -> list[tuple[str, str, float]]:
+        """Pairs (name, name, ρ) with |ρ| > ``limit``: among the globals, within each group and between a
+        group and the globals (never between two groups: those blocks are not formed). Vectorised."""
+        p = self.partition
+        sigma = np.sqrt(np.maximum(self.diagonal(), 1e-300))
+        sg, sl = p.split(sigma)
+        sl = np.where(p.mask, sl, 1.0)
+        out = []
+        corr = self.qgg / np.outer(sg, sg)
+        i, j = np.nonzero(np.triu(np.abs(corr) > limit, 1))
+        out += [(names[p.glob[a]], names[p.glob[b]], float(corr[a, b])) for a, b in zip(i, j, strict=True)]
+        corr = self.qll / (sl[:, :, None] * sl[:, None, :])
+        s, i, j = np.nonzero(np.triu(np.ones(corr.shape[1:], bool), 1)[None] & (np.abs(corr) > limit)
+                             & p.mask[:, :, None] & p.mask[:, None, :])
+        out += [(names[p.local[a, b]], names[p.local[a, c]], float(corr[a, b, c]))
+                for a, b, c in zip(s, i, j, strict=True)]
+        corr = self.qgl / (sg[None, :, None] * sl[:, None, :])
+        s, i, j = np.nonzero((np.abs(corr) > limit) & p.mask[:, None, :])
+        out += [(names[p.glob[b]], names[p.local[a, c]], float(corr[a, b, c])) for a, b, c in zip(s, i, j, strict=True)]
+        return out
