@@ -597,7 +597,7 @@ def _schur_core(jac, residual, weights, free, values, names, n_used, redundancy,
     return dict(cost=cost, variance=variance, observation_cost=observation_cost,
                 observation_redundancy=observation_redundancy, names=global_names, qxx=inverse.qgg,
                 diagonal=inverse.diagonal(), over=inverse.correlations_over(names, 0.95), condition=condition,
-                weak=_weak_directions(global_names, vt), leverage=inverse.leverage(jac))
+                weak=_weak_directions(global_names, vt), leverage=inverse.leverage(jac, arrow.classes))
 
 
 def _warm_step(problem: Problem, used: np.ndarray, statistics: dict) -> bool:

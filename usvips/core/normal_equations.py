@@ -202,6 +202,54 @@ class Partition:
         return out
 
 
+class BlockClass:
+    """Observation blocks of one shape, stacked for batched products: the same number of rows, the same
+    global columns and the same local slots (e.g. every further station's left block of a full board).
+    ``blocks`` (B,) their numbers, ``rows`` (B, r) their observation indices, ``values`` (B, r, c) their
+    Jacobian entries, ``is_global`` (c,) which of the c columns are global, ``gi`` their places among the
+    globals, ``slots`` the local columns' slots, ``groups`` (B,) each block's local group (−1: none)."""
+
+    def __init__(self, blocks, rows, values, is_global, gi, slots, groups) -> None:
+        self.blocks, self.rows, self.values = blocks, rows, values
+        self.is_global, self.gi, self.slots, self.groups = is_global, gi, slots, groups
+        #: no two blocks of the class in one group: scattered sums need no accumulation of duplicates
+        self.distinct = bool(np.unique(groups).size == groups.size)
+
+
+def _scatter_add(target: np.ndarray, index: tuple, values: np.ndarray, distinct: bool) -> None:
+    """target[index] += values, accumulating repeated indices (np.add.at) only where they can occur."""
+    if distinct:
+        target[index] += values
+    else:
+        np.add.at(target, index, values)
+
+
+def block_classes(jac: BlockJacobian, partition: Partition) -> list[BlockClass]:
+    """The blocks of ``jac`` grouped into :class:`BlockClass` es under ``partition`` (blocks without
+    columns left out). Raises ValueError when a block touches another group's local unknowns."""
+    p = partition
+    keys: dict[tuple, list[int]] = {}
+    for b, columns in enumerate(jac.columns):
+        if not columns.size:
+            continue
+        is_global = p.group_of[columns] < 0
+        local = columns[~is_global]
+        group = p.block_group[b]
+        if local.size and (group < 0 or np.any(p.group_of[local] != group)):
+            raise ValueError("a block touches local unknowns of a group it does not belong to")
+        key = (len(jac.values[b]), tuple(is_global), tuple(p.position[columns[is_global]]),
+               tuple(p.position[local]))
+        keys.setdefault(key, []).append(b)
+    out = []
+    for (_, is_global, gi, slots), blocks in keys.items():
+        rows = np.stack([np.arange(r.start, r.stop) if isinstance(r, slice) else np.asarray(r) for r in
+                         (jac.blocks[b] for b in blocks)])
+        values = np.stack([jac.values[b] for b in blocks])
+        out.append(BlockClass(np.array(blocks), rows, values, np.array(is_global, dtype=bool),
+                              np.array(gi, dtype=int), np.array(slots, dtype=int), p.block_group[blocks]))
+    return out
+
+
 class ArrowSystem:
     """Normal equations N = [[U, W], [Wᵀ, V]] in block-arrow form: U (g × g) over the global unknowns,
     V (s, m, m) block diagonal over the local groups, W (s, g, m) their coupling, right-hand sides bg (g,)
@@ -220,27 +268,27 @@ class ArrowSystem:
         u, v, w = np.zeros((g, g)), np.zeros((s, m, m)), np.zeros((s, g, m))
         bg, bl = np.zeros(g), np.zeros((s, m))
         weighted = weights * residual
-        for b, (rows, columns, values) in enumerate(zip(jac.blocks, jac.columns, jac.values, strict=True)):
-            if not columns.size:
+        self.classes = block_classes(jac, partition)
+        for cls in self.classes:  # each class's products batched over its blocks
+            weight = weights[cls.rows][:, :, None]                      # (B, r, 1)
+            wr = weighted[cls.rows]                                     # (B, r)
+            a = cls.values[:, :, cls.is_global]                         # (B, r, cg)
+            gi = cls.gi
+            if gi.size:
+                flat = a.reshape(-1, gi.size)
+                u[np.ix_(gi, gi)] += flat.T @ (flat * weight.reshape(-1, 1))
+                bg[gi] += flat.T @ wr.reshape(-1)
+            if not cls.slots.size:
                 continue
-            is_global = p.group_of[columns] < 0
-            gi = p.position[columns[is_global]]
-            a = values[:, is_global]
-            weight = weights[rows][:, None]
-            aw = a * weight
-            u[np.ix_(gi, gi)] += a.T @ aw
-            bg[gi] += a.T @ weighted[rows]
-            if is_global.all():
-                continue
-            group = p.block_group[b]
-            local = columns[~is_global]
-            if group < 0 or np.any(p.group_of[local] != group):
-                raise ValueError("a block touches local unknowns of a group it does not belong to")
-            slots = p.position[local]
-            bb = values[:, ~is_global]
-            v[group][np.ix_(slots, slots)] += bb.T @ (bb * weight)
-            w[group][np.ix_(gi, slots)] += aw.T @ bb
-            bl[group, slots] += bb.T @ weighted[rows]
+            bb = cls.values[:, :, ~cls.is_global]                       # (B, r, cl)
+            bw = bb * weight
+            groups, slots = cls.groups, cls.slots
+            _scatter_add(v, (groups[:, None, None], slots[None, :, None], slots[None, None, :]),
+                         np.swapaxes(bb, 1, 2) @ bw, cls.distinct)
+            if gi.size:
+                _scatter_add(w, (groups[:, None, None], gi[None, :, None], slots[None, None, :]),
+                             np.swapaxes(a, 1, 2) @ bw, cls.distinct)
+            _scatter_add(bl, (groups[:, None], slots[None, :]), np.einsum("brl,br->bl", bb, wr), cls.distinct)
         self.u_obs, self.v_obs, self.w, self.bg_obs, self.bl_obs = u, v, w, bg, bl
         self.prior_diagonal = np.zeros(p.width)
         self.prior_rhs = np.zeros(p.width)
@@ -345,28 +393,23 @@ class Inverse:
         """diag(Q) (k,)."""
         return self.partition.join(np.diag(self.qgg), np.einsum("sii->si", self.qll))
 
-    def leverage(self, jac: BlockJacobian) -> np.ndarray:
-        """a_i Q a_iᵀ (n,) of every row of ``jac``: per block, Q restricted to the block's own columns."""
-        p = self.partition
+    def leverage(self, jac: BlockJacobian, classes: Sequence[BlockClass] | None = None) -> np.ndarray:
+        """a_i Q a_iᵀ (n,) of every row of ``jac``: per block, Q restricted to the block's own columns,
+        batched over each class of like blocks (``classes``: :func:`block_classes`, formed if not given)."""
         out = np.zeros(jac.n)
-        for b, (rows, columns, values) in enumerate(zip(jac.blocks, jac.columns, jac.values, strict=True)):
-            if not columns.size:
-                continue
-            is_global = p.group_of[columns] < 0
-            gi = p.position[columns[is_global]]
-            group = p.block_group[b]
-            if is_global.all():
-                q = self.qgg[np.ix_(gi, gi)]
-            else:
-                slots = p.position[columns[~is_global]]
-                ig, il = np.flatnonzero(is_global), np.flatnonzero(~is_global)
-                q = np.empty((columns.size, columns.size))
-                q[np.ix_(ig, ig)] = self.qgg[np.ix_(gi, gi)]
-                cross = self.qgl[group][np.ix_(gi, slots)]
-                q[np.ix_(ig, il)] = cross
-                q[np.ix_(il, ig)] = cross.T
-                q[np.ix_(il, il)] = self.qll[group][np.ix_(slots, slots)]
-            out[rows] = ((values @ q) * values).sum(axis=1)
+        for cls in classes if classes is not None else block_classes(jac, self.partition):
+            ig, il = np.flatnonzero(cls.is_global), np.flatnonzero(~cls.is_global)
+            gi, slots, groups = cls.gi, cls.slots, cls.groups
+            c = cls.is_global.size
+            q = np.empty((len(cls.blocks), c, c))
+            q[:, ig[:, None], ig[None, :]] = self.qgg[np.ix_(gi, gi)]
+            if il.size:
+                cross = self.qgl[groups[:, None, None], gi[None, :, None], slots[None, None, :]]  # (B, cg, cl)
+                q[:, ig[:, None], il[None, :]] = cross
+                q[:, il[:, None], ig[None, :]] = np.swapaxes(cross, 1, 2)
+                q[:, il[:, None], il[None, :]] = self.qll[groups[:, None, None], slots[None, :, None],
+                                                          slots[None, None, :]]
+            out[cls.rows] = ((cls.values @ q) * cls.values).sum(axis=2)
         return out
 
     def correlations_over(self, names: Sequence[str], limit: float) -> list[tuple[str, str, float]]:
