@@ -4,12 +4,18 @@ A problem is a residual function of named parameters. Each parameter is ``free``
 ``prior`` (free, but pulled towards a value ± sigma by a pseudo-observation). Observations are pixel
 coordinates with a-priori standard deviations; residuals are observed − computed, in pixels.
 
-The solver is Levenberg–Marquardt on the dense normal equations with column equilibration, a
-Jacobian of the problem's exact block columns (``Problem.analytic``) or forward differences evaluated
-group-wise (a parameter perturbs only the observations that depend on it), a robust start (iteratively
-reweighted least squares with Huber weights) so that one gross error cannot drag the solution, and
-iterated data snooping (Baarda's w-test) afterwards. The Jacobian records which columns each observation
-block can touch, and the normal matrix is summed block by block over those (:mod:`normal_equations`).
+The solver is Levenberg–Marquardt on the equilibrated normal equations, a Jacobian of the problem's
+exact block columns (``Problem.analytic``) or forward differences evaluated group-wise (a parameter
+perturbs only the observations that depend on it), a robust start (iteratively reweighted least squares
+with Huber weights) so that one gross error cannot drag the solution, and iterated data snooping
+(Baarda's w-test) afterwards, each rejection re-adjusted warm (one Gauss–Newton step from the previous
+solution with its Jacobian; the run converged in full once, after the last). The Jacobian is stored by
+observation block, each block over its own columns (:class:`normal_equations.BlockJacobian`). Small
+problems solve the normal equations dense; a problem with many groups of "local" unknowns (each further
+station's pose, touching only that station's two blocks) solves them in block-arrow form, the local
+groups eliminated by a Schur complement onto the global unknowns (:func:`_partition`,
+:class:`normal_equations.ArrowSystem`): every step, statistic and test then costs time and memory linear
+in the number of stations. Both paths give the same numbers (tests/core/test_schur.py).
 
 Statistics follow the textbook (Mikhail & Ackermann 1976; Baarda 1968; Förstner):
 sigma0² = vᵀPv / r with redundancy r = n_obs + n_prior − n_free; Qxx = N⁻¹; parameter sigma =
@@ -160,7 +166,15 @@ class Suspect:
 
 @dataclass
 class Adjustment:
-    """The result: falsy when it did not converge (``reason`` says why)."""
+    """The result: falsy when it did not converge (``reason`` says why).
+
+    ``covariance_names`` / ``covariance`` (the parameters' units squared, symmetric): every free unknown
+    on the dense path; on the block-arrow path (a problem with local groups eliminated by the Schur
+    complement, :func:`_partition`: a calibration from many views) the global unknowns only — interior,
+    first-station poses (the rig), housing, control coordinates —, since the full matrix would grow with
+    the square of the views. ``sigmas`` hold every free unknown on both paths, further stations' poses
+    included; ``correlations_over`` then omit pairs of two different stations' poses. ``condition_number``
+    and ``weak_directions`` are those of the full normal matrix (dense) or of the reduced one (Schur)."""
 
     parameters: list[Parameter]
     converged: bool
@@ -271,7 +285,13 @@ def _partition(problem: Problem, free: list[Parameter], jac: normal_equations.Bl
     if problem.structure == "dense":
         return None
     eligible = np.array([p.group is None for p in free], dtype=bool)
-    partition = normal_equations.Partition.of(jac.pattern, eligible, max(2, len(problem.blocks) // 4))
+    key = (eligible.tobytes(), len(problem.blocks))
+    cached = getattr(jac, "partition_cache", None)
+    if cached is not None and cached[0] == key:
+        partition = cached[1]
+    else:
+        partition = normal_equations.Partition.of(jac.pattern, eligible, max(2, len(problem.blocks) // 4))
+        jac.partition_cache = (key, partition)
     if partition is None or (problem.structure == "auto" and partition.local.shape[0] < SCHUR_MIN_GROUPS):
         return None
     return partition
@@ -539,7 +559,7 @@ def _weak_directions(names: list[str], vt: np.ndarray) -> list[list[tuple[str, f
     return weak
 
 
-def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy) -> dict:
+def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy, variance_start=None) -> dict:
     """The dense statistics' linear algebra: N = JᵀWJ + priors, its SVD (condition, weak directions),
     Qxx (pseudo-inverse; prior-weighted after variance components) and every observation's leverage."""
     data = jac.gram(weights)  # JᵀWJ of the observations, formed once
@@ -553,7 +573,8 @@ def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy)
     qxx = ((vt.T / s_values) @ vt) / np.outer(scale, scale)
     variance, observation_cost, observation_redundancy = _variance_component(
         lambda factor: float(np.sum(_prior_weighted_inverse(data, normal, factor) * data)),
-        bool(np.any(np.abs(normal - data) > 0)), float(residual @ (weights * residual)), cost, redundancy, n_used)
+        bool(np.any(np.abs(normal - data) > 0)), float(residual @ (weights * residual)), cost, redundancy, n_used,
+        variance_start)
     qxx = qxx if variance is None else _prior_weighted_inverse(data, normal, variance)
     qxx = (qxx + qxx.T) / 2
     diagonal = np.sqrt(np.maximum(np.diag(qxx), 1e-300))
@@ -565,14 +586,16 @@ def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy)
                 over=over, condition=condition, weak=_weak_directions(names, vt), leverage=jac.leverage(qxx))
 
 
-def _schur_core(jac, residual, weights, free, values, names, n_used, redundancy, partition) -> dict:
+def _schur_core(jac, residual, weights, free, values, names, n_used, redundancy, partition, arrow=None,
+                variance_start=None) -> dict:
     """The same from the block-arrow normal equations (:class:`normal_equations.ArrowSystem`), linear in
     the number of local groups: each group's block and the reduced system S (the Schur complement onto
     the global unknowns) checked for singularity; condition number and weak directions of S; Qxx in block
     form (globals, each group, globals × group); leverages block by block."""
-    arrow = normal_equations.ArrowSystem(jac, weights, residual, partition)
     diagonal, rhs, prior_cost, groups = _prior_terms(free, values)
-    arrow.add_priors(diagonal, rhs, groups)
+    if arrow is None:  # (a system formed for this Jacobian and these weights has the same matrices)
+        arrow = normal_equations.ArrowSystem(jac, weights, residual, partition)
+        arrow.add_priors(diagonal, rhs, groups)
     observation_cost = float(residual @ (weights * residual))
     cost = observation_cost + prior_cost
     # every local group's block on its own: a station whose pose the data cannot fix is named
@@ -592,7 +615,7 @@ def _schur_core(jac, residual, weights, free, values, names, n_used, redundancy,
         raise _singular(global_names, vt[-1])
     variance, observation_cost, observation_redundancy = _variance_component(
         lambda factor: arrow.trace_with_observations(arrow.inverse(factor)), arrow.has_priors,
-        observation_cost, cost, redundancy, n_used)
+        observation_cost, cost, redundancy, n_used, variance_start)
     inverse = arrow.inverse(reduced=reduced) if variance is None else arrow.inverse(variance)
     return dict(cost=cost, variance=variance, observation_cost=observation_cost,
                 observation_redundancy=observation_redundancy, names=global_names, qxx=inverse.qgg,
@@ -600,12 +623,13 @@ def _schur_core(jac, residual, weights, free, values, names, n_used, redundancy,
                 weak=_weak_directions(global_names, vt), leverage=inverse.leverage(jac, arrow.classes))
 
 
-def _warm_step(problem: Problem, used: np.ndarray, statistics: dict) -> bool:
+def _warm_step(problem: Problem, used: np.ndarray, statistics: dict):
     """One undamped Gauss–Newton step for the observations ``used`` from the problem's current values
     with the Jacobian ``statistics`` were computed with (at these values), as data snooping needs after
     setting one observation unit aside: the solution moves little, and the step of the quadratic model
     is the re-adjustment to second order. Taken (parameters updated) when it stays valid and lowers the
-    weighted squared residuals; False otherwise (the caller then solves in full)."""
+    weighted squared residuals, and then its normal equations (the same matrix the statistics at the new
+    values need: same Jacobian, same weights) are returned; None otherwise (the caller solves in full)."""
     free = problem.free()
     values = problem.values()
     obs = problem.observations
@@ -616,24 +640,24 @@ def _warm_step(problem: Problem, used: np.ndarray, statistics: dict) -> bool:
         system = _system(problem, statistics["jacobian"], residual, weights, free, values)
         step = system.step(0.0)
     except (np.linalg.LinAlgError, ValueError):
-        return False
+        return None
     step = step * _to_boundary(free, values, step)
     trial = dict(values)
     for j, parameter in enumerate(free):
         trial[parameter.name] = values[parameter.name] + step[j]
     trial_computed, trial_ok = problem.evaluate(trial, None)
     if not (np.all(trial_ok[used]) and np.all(np.isfinite(trial_computed[used]))):
-        return False
+        return None
     trial_residual = np.where(used, obs.values - trial_computed, 0.0)
     if float(trial_residual @ (weights * trial_residual)) + _prior_cost(free, trial) >= system.cost:
-        return False
+        return None
     for parameter in problem.parameters:
         parameter.value = trial[parameter.name]
-    return True
+    return system
 
 
-def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.BlockJacobian | None = None
-                ) -> dict:
+def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.BlockJacobian | None = None,
+                system=None, variance_start: float | None = None) -> dict:
     """Sigma0, Qxx, sigmas, correlations, condition, redundancy numbers, w-tests and the global test of the
     adjustment at the problem's current values, by the dense or the block-arrow path (:func:`_partition`).
 
@@ -661,9 +685,11 @@ def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.B
             f"(redundancy {redundancy}); measure more points or fix parameters")
     partition = _partition(problem, free, jac)
     if partition is None:
-        core = _dense_core(jac, residual, weights, free, values, names, n_used, redundancy)
+        core = _dense_core(jac, residual, weights, free, values, names, n_used, redundancy, variance_start)
     else:
-        core = _schur_core(jac, residual, weights, free, values, names, n_used, redundancy, partition)
+        arrow = system.arrow if isinstance(system, _SchurSystem) and system.arrow.partition is partition else None
+        core = _schur_core(jac, residual, weights, free, values, names, n_used, redundancy, partition, arrow,
+                           variance_start)
     cost, variance = core["cost"], core["variance"]
     observation_cost, observation_redundancy = core["observation_cost"], core["observation_redundancy"]
     variance = cost / redundancy if variance is None else variance
@@ -716,6 +742,7 @@ def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.B
     }
     rms = float(np.sqrt(np.mean(residual[used] ** 2)))
     return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale, jacobian=jac, computed=computed,
+                variance=variance,
                 critical=tau_critical(observation_redundancy), sigmas=sigmas, over=over,
                 condition=condition, weak=weak, red_numbers=red_numbers, w=w, mdb=mdb, global_test=global_test,
                 redundancy=redundancy, residual=residual, rms=rms)
@@ -787,9 +814,10 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
             # warm and cheap: one Gauss–Newton step from the previous solution with the Jacobian its
             # statistics used (taken there), then the statistics with that Jacobian; the run is converged
             # properly once, after the last rejection (below). Nothing here grows faster than the data.
-            if not _warm_step(problem, trial_used, statistics):
+            system = _warm_step(problem, trial_used, statistics)
+            if system is None:
                 _, converged, reason, iterations = _solve(problem, _unit, trial_used, max_iterations, tolerance)
-            statistics = _statistics(problem, trial_used, statistics["jacobian"])
+            statistics = _statistics(problem, trial_used, statistics["jacobian"], system, statistics["variance"])
         except DegenerateGeometryError:
             excluded = excluded[: len(excluded) - len(unit)]
             break
@@ -832,7 +860,7 @@ def tau_critical(redundancy: float, alpha: float = ALPHA0) -> float:
 
 
 def _variance_component(trace_of: Callable[[float], float], has_priors: bool, observation_cost: float,
-                        cost: float, redundancy: int, n_used: int):
+                        cost: float, redundancy: int, n_used: int, start: float | None = None):
     """Variance-component estimation (Förstner 1979) for two groups, image observations and priors.
 
     The priors are statements about the housing and the interior from outside the data; their group has
@@ -840,10 +868,11 @@ def _variance_component(trace_of: Callable[[float], float], has_priors: bool, ob
     observations' component σ̂² = vᵀPv / r_obs, with r_obs = n − tr(Q N_obs) their share of the redundancy,
     is iterated with the priors reweighted against it. ``trace_of(σ̂²)`` gives tr((N_obs + σ̂² P_prior)⁻¹
     N_obs) (dense or block-arrow). Returns (σ̂², vᵀPv of the observations, r_obs), or (None, cost,
-    redundancy) when there are no priors (then σ̂² = vᵀPv / r, the classical estimate)."""
+    redundancy) when there are no priors (then σ̂² = vᵀPv / r, the classical estimate). ``start``: the
+    first σ̂² (default vᵀPv / r; data snooping's rounds start from the previous round's estimate)."""
     if not has_priors:
         return None, cost, redundancy
-    variance = max(cost / redundancy, 1e-12)
+    variance = max(cost / redundancy if start is None else start, 1e-12)
     share = float(redundancy)
     for _ in range(20):
         share = n_used - trace_of(variance)

@@ -268,7 +268,10 @@ class ArrowSystem:
         u, v, w = np.zeros((g, g)), np.zeros((s, m, m)), np.zeros((s, g, m))
         bg, bl = np.zeros(g), np.zeros((s, m))
         weighted = weights * residual
-        self.classes = block_classes(jac, partition)
+        cached = getattr(jac, "classes_cache", None)  # one grouping per Jacobian and partition
+        if cached is None or cached[0] is not partition:
+            jac.classes_cache = (partition, block_classes(jac, partition))
+        self.classes = jac.classes_cache[1]
         for cls in self.classes:  # each class's products batched over its blocks
             weight = weights[cls.rows][:, :, None]                      # (B, r, 1)
             wr = weighted[cls.rows]                                     # (B, r)

@@ -251,9 +251,18 @@ def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: f
         a1 = np.einsum("ni,nij->nj", a1, rotation)
         good = bundle.ok & valid
         due: list[tuple] = []
+        vectorised = not (shared_plane and side == 1)
+        if vectorised:  # every block's pose columns at once (the shared cover plane's right side: below)
+            fine = [k for k, _ in enumerate(blocks) if good[ends[k]: ends[k + 1]].all()]
+            _pose_columns_of_side(model, values, side, blocks, fine, ends, which, points - frames_c[which, side],
+                                  a0, a1, out)
         for k, b in enumerate(blocks):
             rows = slice(ends[k], ends[k + 1])
             if not good[rows].all():
+                continue
+            if vectorised:
+                if housing_names:
+                    due.append((b, frames_m[model.block_station[b], side], uv[rows], a0[rows], a1[rows], along[rows]))
                 continue
             station = model.stations[model.block_station[b]]
             m, c, derivatives = pose_derivatives(values, station, side_name, first, rotations)
@@ -272,6 +281,88 @@ def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: f
                 out.setdefault(name, {}).update(columns)
     _add_rig_housing_terms(model, values, following, out)
     return out
+
+
+def _station_rotations(values: dict[str, float], names: list[str]) -> tuple[np.ndarray, list[np.ndarray]]:
+    """M (S, 3, 3) of the cameras whose (omega, phi, kappa) are ``names`` (S entries of three names)
+    and ∂M/∂angle for each angle (central differences, as :func:`_rotation_and_derivatives`)."""
+    angles = np.array([[values[n] for n in triple] for triple in names])
+    derivatives = []
+    for k in range(3):
+        ahead, behind = angles.copy(), angles.copy()
+        ahead[:, k] += POSE_STEP
+        behind[:, k] -= POSE_STEP
+        derivatives.append((rotation_matrix(*ahead.T) - rotation_matrix(*behind.T)) / (2 * POSE_STEP))
+    return rotation_matrix(*angles.T), derivatives
+
+
+def _pose_columns_of_side(model, values, side: int, blocks: list[int], fine: list[int], ends: np.ndarray,
+                          which: np.ndarray, relative: np.ndarray, a0: np.ndarray, a1: np.ndarray,
+                          out: Columns) -> None:
+    """The pose columns of the ``fine`` blocks (positions in ``blocks``) of one side, all at once: for
+    every pose parameter θ that moves a camera, per station G = Mᵀ ∂M/∂θ and ∂C/∂θ (the composition of
+    :func:`pose_derivatives`, stacked over stations), and per row ∂pixel/∂θ = a · (G (P − C) − ∂C/∂θ)
+    with a the object-frame pixel Jacobian rows ``a0``, ``a1`` (N, 3), ``relative`` = P − C (N, 3) and
+    ``which`` (N,) each row's station. Written into ``out`` per block."""
+    stations = model.stations
+    count = len(stations)
+    left_names = [[f"{a}_l" if s == 0 else f"{a}_l@{stations[s]}" for a in ANGLES] for s in range(count)]
+    left_centres = np.array([[values[f"{p}_l" if s == 0 else f"{p}_l@{stations[s]}"] for p in ("X0", "Y0", "Z0")]
+                             for s in range(count)])
+    m_l, d_l = _station_rotations(values, left_names)
+    unit = np.eye(3)
+    zero_g, zero_c = np.zeros((count, 3, 3)), np.zeros((count, 3))
+    # roles: (G (S, 3, 3), dC (S, 3), name of station s or None where the role does not apply)
+    roles: list[tuple[np.ndarray, np.ndarray, object]] = []
+    own = ["X0", "Y0", "Z0"]
+    if side == 0:
+        m = m_l
+        for k, p in enumerate(own):
+            roles.append((zero_g, np.broadcast_to(unit[k], (count, 3)),
+                          lambda s, p=p: f"{p}_l" if s == 0 else f"{p}_l@{stations[s]}"))
+        for k, a in enumerate(ANGLES):
+            roles.append((np.swapaxes(m, 1, 2) @ d_l[k], zero_c,
+                          lambda s, a=a: f"{a}_l" if s == 0 else f"{a}_l@{stations[s]}"))
+    else:
+        m_r0, d_r0 = _station_rotations(values, [[f"{a}_r" for a in ANGLES]])
+        m_r0, d_r0 = m_r0[0], [d[0] for d in d_r0]
+        m_l0, d_l0 = m_l[0], [d[0] for d in d_l]
+        c_l0 = left_centres[0]
+        c_r0 = np.array([values[f"{p}_r"] for p in ("X0", "Y0", "Z0")])
+        gap = c_r0 - c_l0
+        base = m_l0 @ gap
+        m_rel = m_r0 @ m_l0.T
+        m = m_rel @ m_l                                   # (S, 3, 3); station 0 is m_r0 itself
+        m[0] = m_r0
+        m_t = np.swapaxes(m, 1, 2)
+        carry = np.swapaxes(m_l, 1, 2) @ m_l0             # (S, 3, 3)
+        further = lambda name: (lambda s: None if s == 0 else name)  # noqa: E731
+        for k, p in enumerate(own):
+            roles.append((zero_g, np.broadcast_to(unit[k], (count, 3)),
+                          lambda s, p=p: f"{p}_r" if s == 0 else f"{p}_l@{stations[s]}"))
+            roles.append((zero_g, -carry[:, :, k], further(f"{p}_l")))
+            roles.append((zero_g, carry[:, :, k], further(f"{p}_r")))
+        for k, a in enumerate(ANGLES):
+            g_own = m_t @ (m_rel @ d_l[k])
+            g_own[0] = m_r0.T @ d_r0[k]
+            c_own = np.einsum("sji,j->si", d_l[k], base)
+            c_own[0] = 0.0
+            roles.append((g_own, c_own, lambda s, a=a: f"{a}_r" if s == 0 else f"{a}_l@{stations[s]}"))
+            roles.append((m_t @ (m_r0 @ d_l0[k].T @ m_l), np.einsum("sji,j->si", m_l, d_l0[k] @ gap),
+                          further(f"{a}_l")))
+            roles.append((m_t @ (d_r0[k] @ m_l0.T @ m_l), zero_c, further(f"{a}_r")))
+    if not fine:
+        return
+    for g, d_c, name_of in roles:
+        moved = np.einsum("nij,nj->ni", g[which], relative) - d_c[which]
+        column = np.empty(2 * len(which))
+        column[0::2] = np.einsum("ij,ij->i", a0, moved)
+        column[1::2] = np.einsum("ij,ij->i", a1, moved)
+        for k in fine:
+            b = blocks[k]
+            name = name_of(int(model.block_station[b]))
+            if name is not None:
+                out.setdefault(name, {})[b] = column[2 * ends[k]: 2 * ends[k + 1]]
 
 
 def _add_rig_housing_terms(model, values, following: list[tuple], out: Columns) -> None:
