@@ -145,7 +145,8 @@ def start_parameters(scene: BoardViews, rng: np.random.Generator, phase: str = "
 
     ``air``: the interior symbols of :data:`AIR_FREE` free, the others fixed at their true values.
     Water kinds: the interior weighted by a correlated prior (a phase-1 result: ±0.5 px on f, xp, yp,
-    ±1e-3 on the rest), the housing's parameters with a prior where the kind gives one, else fixed."""
+    ±1e-3 on the rest, its mean the truth plus an error drawn from that), the housing's parameters with
+    a prior where the kind gives one, else fixed."""
     model = scene.model()
     cls = housings.kind(scene.kind)
     housing_names = set(housing_parameter_names(scene.kind))
@@ -154,7 +155,9 @@ def start_parameters(scene: BoardViews, rng: np.random.Generator, phase: str = "
     if phase != "air":
         chosen = [n for n in interior if symbol(n) in AIR_FREE]
         sigma = np.array([0.5 if symbol(n) in ("f", "xp", "yp") else 1e-3 for n in chosen])
-        group = PriorGroup(tuple(chosen), np.array([scene.truth[n] for n in chosen]), np.diag(sigma**2))
+        # a phase-1 result: the truth plus an error drawn from its own covariance
+        mean = np.array([scene.truth[n] for n in chosen]) + sigma * rng.standard_normal(len(chosen))
+        group = PriorGroup(tuple(chosen), mean, np.diag(sigma**2))
     out = []
     for name in model.parameter_names():
         value = scene.truth[name]
@@ -172,8 +175,9 @@ def start_parameters(scene: BoardViews, rng: np.random.Generator, phase: str = "
             if key not in AIR_FREE:
                 out.append(Parameter(name, value, "fixed"))
             elif group is not None:
-                out.append(Parameter(name, value, "prior", value, float(np.sqrt(group.covariance[
-                    group.names.index(name), group.names.index(name)])), group=group))
+                k = group.names.index(name)
+                out.append(Parameter(name, float(group.mean[k]), "prior", float(group.mean[k]),
+                                     float(np.sqrt(group.covariance[k, k])), group=group))
             else:
                 moved = value + (rng.normal(0, 3.0) if key in ("f", "xp", "yp") else
                                  rng.normal(0, 0.002) if key == "sy" else 0.05 * value * rng.standard_normal())
