@@ -653,6 +653,7 @@ def _warm_step(problem: Problem, used: np.ndarray, statistics: dict):
         return None
     for parameter in problem.parameters:
         parameter.value = trial[parameter.name]
+    system.evaluated = (trial_computed, trial_ok)  # the model at the new values, for the statistics
     return system
 
 
@@ -671,7 +672,8 @@ def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.B
     names = [p.name for p in free]
     values = problem.values()
     obs = problem.observations
-    computed, ok = problem.evaluate(values, None)
+    evaluated = getattr(system, "evaluated", None)
+    computed, ok = evaluated if evaluated is not None else problem.evaluate(values, None)
     residual = np.where(used, obs.values - computed, 0.0)
     weights = np.where(used, 1.0 / obs.sigmas**2, 0.0)
     reused = jacobian if jacobian is not None else _reusable_jacobian(problem, values, free)
