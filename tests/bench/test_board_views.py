@@ -23,7 +23,8 @@ def test_board_views_are_the_models_pixels_inside_both_images(kind):
 
 def test_a_many_view_row_compares_the_same_job_with_opencv():
     row = calibration._many_views(12, "air", 1.0, None)
-    assert row["ratio"] == pytest.approx(row["ours_s"] / row["baseline_s"], rel=1e-2)
+    # the times are printed to the microsecond, the ratio from the unrounded times
+    assert row["ratio"] == pytest.approx(row["ours_s"] / row["baseline_s"], rel=1e-3)
     assert row["met"] == (row["ratio"] <= 1.0)
     assert row["n"] == 12 * COLUMNS * ROWS * 4
     ours, opencv, truth = row["f_l"]

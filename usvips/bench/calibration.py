@@ -161,10 +161,10 @@ def _many_views(views: int, kind: str, target: float | None, target_s: float | N
     ratio = wall / cv_wall if cv_wall > 0 else float("inf")
     row = {"name": f"{views} stereo views of a 9x6 board {where}: adjustment with statistics, the further "
                    "views' poses eliminated (Schur complement)",
-           "n": n_obs, "ours_s": round(wall, 3), "cpu_s": round(cpu, 3),
+           "n": n_obs, "ours_s": round(wall, 6), "cpu_s": round(cpu, 3),
            "baseline": "cv2.stereoCalibrate, one joint run from initCameraMatrix2D, flags " + " | ".join(OPENCV_FLAGS)
                        + " (both cameras' intrinsics and k1, k2, the rig and every view's pose)",
-           "baseline_s": round(cv_wall, 3), "baseline_cpu_s": round(cv_cpu, 3), "ratio": round(ratio, 3),
+           "baseline_s": round(cv_wall, 6), "baseline_cpu_s": round(cv_cpu, 3), "ratio": round(ratio, 4),
            "ratio_cpu": round(cpu / cv_cpu, 3) if cv_cpu > 0 else None, "target": target, "target_s": target_s,
            "met": bool((target is None or ratio <= target) and (target_s is None or wall <= target_s)),
            "met_cpu": bool((target is None or cpu / max(cv_cpu, 1e-12) <= target)
