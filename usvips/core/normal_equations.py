@@ -6,9 +6,14 @@ sparse: an observation block (one camera at one station) depends on that camera'
 (six parameters, or the eighteen that compose a right camera following the rig at a further station)
 and its housing — typically a third of the columns. The normal matrix N = Jᵀ W J (W the diagonal
 weights, 1/pixel²) is therefore summed block by block over each block's own columns,
-Σ_b J_bᵀ W_b J_b, at a tenth of the dense product's arithmetic. Object points are no unknowns of the
-survey-size case (the control is known), so cameras and housing are all there is and N stays small
-(tens to a few hundred unknowns) and dense: its solves and inverses are not where the time goes.
+Σ_b J_bᵀ W_b J_b, at a tenth of the dense product's arithmetic. With a few stations N stays small (tens
+of unknowns) and dense. A calibration from hundreds of board views has one pose per view: those
+"local" unknowns each touch one station's two blocks, and N takes the block-arrow form
+[[U, W], [Wᵀ, V]] with V block diagonal. :class:`BlockJacobian` stores J by block (never n × k),
+:class:`Partition` finds the local groups in its pattern, :class:`ArrowSystem` forms U, V, W batched
+over classes of like blocks and eliminates V by the Schur complement S = U − W V⁻¹ Wᵀ, and
+:class:`Inverse` holds N⁻¹ in block form (never the blocks between two stations): time and memory
+linear in the number of views.
 
 Redundancy numbers need the leverages h_i = a_i Q aᵀ_i of every observation row a_i (Q = N⁻¹): the
 diagonal of the hat matrix J Q Jᵀ, here ``((J @ Q) * J).sum(1)`` in one matrix product, never the
