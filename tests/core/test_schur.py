@@ -131,7 +131,9 @@ def test_dense_and_schur_adjustments_agree(kind, seeds):
         index = [dense.covariance_names.index(n) for n in schur.covariance_names]
         reference = dense.covariance[np.ix_(index, index)]
         assert np.allclose(schur.covariance, reference, rtol=1e-6, atol=1e-9 * np.abs(reference).max())
+        # exactly symmetric on both paths (a calibration file's reader checks it)
         assert np.array_equal(schur.covariance, schur.covariance.T)
+        assert np.array_equal(dense.covariance, dense.covariance.T)
         dense_pairs = {(a, b) for a, b, _ in dense.correlations_over}
         assert {(a, b) for a, b, _ in schur.correlations_over} <= dense_pairs
         if seed % 2 == 1:
