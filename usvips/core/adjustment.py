@@ -4,12 +4,18 @@ A problem is a residual function of named parameters. Each parameter is ``free``
 ``prior`` (free, but pulled towards a value ± sigma by a pseudo-observation). Observations are pixel
 coordinates with a-priori standard deviations; residuals are observed − computed, in pixels.
 
-The solver is Levenberg–Marquardt on the dense normal equations with column equilibration, a
-Jacobian of the problem's exact block columns (``Problem.analytic``) or forward differences evaluated
-group-wise (a parameter perturbs only the observations that depend on it), a robust start (iteratively
-reweighted least squares with Huber weights) so that one gross error cannot drag the solution, and
-iterated data snooping (Baarda's w-test) afterwards. The Jacobian records which columns each observation
-block can touch, and the normal matrix is summed block by block over those (:mod:`normal_equations`).
+The solver is Levenberg–Marquardt on the equilibrated normal equations, a Jacobian of the problem's
+exact block columns (``Problem.analytic``) or forward differences evaluated group-wise (a parameter
+perturbs only the observations that depend on it), a robust start (iteratively reweighted least squares
+with Huber weights) so that one gross error cannot drag the solution, and iterated data snooping
+(Baarda's w-test) afterwards, each rejection re-adjusted warm (one Gauss–Newton step from the previous
+solution with its Jacobian; the run converged in full once, after the last). The Jacobian is stored by
+observation block, each block over its own columns (:class:`normal_equations.BlockJacobian`). Small
+problems solve the normal equations dense; a problem with many groups of "local" unknowns (each further
+station's pose, touching only that station's two blocks) solves them in block-arrow form, the local
+groups eliminated by a Schur complement onto the global unknowns (:func:`_partition`,
+:class:`normal_equations.ArrowSystem`): every step, statistic and test then costs time and memory linear
+in the number of stations. Both paths give the same numbers (tests/core/test_schur.py).
 
 Statistics follow the textbook (Mikhail & Ackermann 1976; Baarda 1968; Förstner):
 sigma0² = vᵀPv / r with redundancy r = n_obs + n_prior − n_free; Qxx = N⁻¹; parameter sigma =
@@ -132,6 +138,9 @@ class Problem:
     last_jacobian: tuple[np.ndarray, tuple[float, ...], normal_equations.Pattern] | None = None
     #: optional exact derivatives: (values, computed) -> {parameter: {block: column over that block}}
     analytic: Callable[[dict[str, float], np.ndarray], dict[str, dict[int, np.ndarray]]] | None = None
+    #: how the normal equations are solved: ``dense``; ``schur`` (local groups of unknowns eliminated, see
+    #: :func:`_partition`; dense when there are none); ``auto``: schur from :data:`SCHUR_MIN_GROUPS` groups
+    structure: str = "auto"
 
     def free(self) -> list[Parameter]:
         return [p for p in self.parameters if p.status != "fixed"]
@@ -157,7 +166,15 @@ class Suspect:
 
 @dataclass
 class Adjustment:
-    """The result: falsy when it did not converge (``reason`` says why)."""
+    """The result: falsy when it did not converge (``reason`` says why).
+
+    ``covariance_names`` / ``covariance`` (the parameters' units squared, symmetric): every free unknown
+    on the dense path; on the block-arrow path (a problem with local groups eliminated by the Schur
+    complement, :func:`_partition`: a calibration from many views) the global unknowns only — interior,
+    first-station poses (the rig), housing, control coordinates —, since the full matrix would grow with
+    the square of the views. ``sigmas`` hold every free unknown on both paths, further stations' poses
+    included; ``correlations_over`` then omit pairs of two different stations' poses. ``condition_number``
+    and ``weak_directions`` are those of the full normal matrix (dense) or of the reduced one (Schur)."""
 
     parameters: list[Parameter]
     converged: bool
@@ -202,13 +219,15 @@ class Adjustment:
 
 def _jacobian(problem: Problem, values: dict[str, float], free: list[Parameter], base: np.ndarray
               ) -> np.ndarray:
-    """The Jacobian (n_obs × n_free, observation units per parameter unit): see :func:`_structured_jacobian`."""
-    return _structured_jacobian(problem, values, free, base)[0]
+    """The Jacobian (n_obs × n_free, observation units per parameter unit) as a dense matrix (small
+    problems and tests): see :func:`_structured_jacobian`."""
+    return _structured_jacobian(problem, values, free, base).dense()
 
 
 def _structured_jacobian(problem: Problem, values: dict[str, float], free: list[Parameter], base: np.ndarray
-                         ) -> tuple[np.ndarray, normal_equations.Pattern]:
-    """The Jacobian and its pattern (per observation block, the columns that may be non-zero there).
+                         ) -> normal_equations.BlockJacobian:
+    """The Jacobian stored by observation block (each block's rows over its own columns only; never the
+    dense n × k matrix, which grows with the square of the stations).
 
     The problem's exact columns where it gives them (``analytic``, one call per Jacobian), else
     forward differences with each parameter's own step, evaluating only the blocks that depend on it.
@@ -217,19 +236,15 @@ def _structured_jacobian(problem: Problem, values: dict[str, float], free: list[
     ~1e-4 px: far above the back-projection's 1e-7 px convergence noise, far below the non-linearity.
     Where the step leaves the valid region (a ray about to miss a surface), the step is taken backwards.
     """
-    n_obs = len(problem.observations)
-    jac = np.zeros((n_obs, len(free)), order="F")  # column-major: each column is written in one piece
     all_blocks = list(range(len(problem.blocks)))
     exact = problem.analytic(values, base) if problem.analytic is not None else {}
-    rows = [normal_equations.as_rows(block) for block in problem.blocks]
-    columns: list[list[int]] = [[] for _ in problem.blocks]
+    columns: list[dict[int, np.ndarray]] = [{} for _ in problem.blocks]
+    sizes = np.array([len(block) for block in problem.blocks])
     for j, parameter in enumerate(free):
         blocks = problem.depends.get(parameter.name, all_blocks)
         known = exact.get(parameter.name, {})
-        for b in {*blocks, *known}:
-            columns[b].append(j)
         for b, column in known.items():
-            jac[rows[b], j] = column
+            columns[b][j] = column
         blocks = [b for b in blocks if b not in known]
         if not blocks:
             continue
@@ -246,29 +261,118 @@ def _structured_jacobian(problem: Problem, values: dict[str, float], free: list[
             minus, ok_minus = problem.evaluate(behind, blocks)
             column = np.where(ok_plus, column, (here - minus) / h)
             column[~ok_plus & ~ok_minus] = 0.0
-        jac[index, j] = column
-    return jac, normal_equations.Pattern(problem.blocks, [sorted(c) for c in columns], len(free))
+        for b, piece in zip(blocks, np.split(column, np.cumsum(sizes[blocks])[:-1]), strict=True):
+            columns[b][j] = piece
+    rows = [normal_equations.as_rows(block) for block in problem.blocks]
+    order = [np.array(sorted(c), dtype=int) for c in columns]
+    stacked = [np.column_stack([c[j] for j in o]) if o.size else np.zeros((len(block), 0))
+               for c, o, block in zip(columns, order, problem.blocks, strict=True)]
+    return normal_equations.BlockJacobian(len(problem.observations), len(free), rows, order, stacked)
 
 
-def _normal_system(jac, residual, weights, free, values, pattern=None, data=None):
-    """Weighted normal equations including prior pseudo-observations; returns N, b and vᵀPv. ``data``:
-    the observations' share JᵀWJ when already formed (else formed here, by ``pattern`` when given)."""
-    normal = normal_equations.weighted_gram(jac, weights, pattern) if data is None else data.copy()
-    rhs = jac.T @ (weights * residual)
-    cost = float(residual @ (weights * residual))
+#: the fewest local groups (further stations' poses) from which ``structure="auto"`` eliminates them
+SCHUR_MIN_GROUPS = 8
+
+
+def _partition(problem: Problem, free: list[Parameter], jac: normal_equations.BlockJacobian
+               ) -> normal_equations.Partition | None:
+    """The global / local split of the free unknowns for the Schur complement, or None for the dense path.
+
+    Local groups are found in the Jacobian's pattern (:meth:`normal_equations.Partition.of`): unknowns
+    that touch the same few observation blocks (at most two, or a quarter of the blocks) and that no
+    other group touches — in a calibration, each further station's left pose (its left and right block;
+    the right camera follows through the rig). Members of a correlated prior group stay global."""
+    if problem.structure == "dense":
+        return None
+    eligible = np.array([p.group is None for p in free], dtype=bool)
+    key = (eligible.tobytes(), len(problem.blocks))
+    cached = getattr(jac, "partition_cache", None)
+    if cached is not None and cached[0] == key:
+        partition = cached[1]
+    else:
+        partition = normal_equations.Partition.of(jac.pattern, eligible, max(2, len(problem.blocks) // 4))
+        jac.partition_cache = (key, partition)
+    if partition is None or (problem.structure == "auto" and partition.local.shape[0] < SCHUR_MIN_GROUPS):
+        return None
+    return partition
+
+
+def _prior_terms(free: list[Parameter], values: dict[str, float]):
+    """The priors' pseudo-observations: diagonal weights (k,), right-hand side (k,), their weighted
+    squared misfit, and the correlated groups as (columns, weight matrix)."""
+    diagonal, rhs, cost = np.zeros(len(free)), np.zeros(len(free)), 0.0
     for j, parameter in enumerate(free):
         if parameter.status == "prior" and parameter.group is None:
             weight = 1.0 / parameter.sigma**2
             misfit = parameter.prior - values[parameter.name]
-            normal[j, j] += weight
+            diagonal[j] += weight
             rhs[j] += weight * misfit
             cost += weight * misfit * misfit
+    groups = []
     for group, index in _groups(free):
         misfit = group.misfit(values)
-        normal[np.ix_(index, index)] += group.weight
-        rhs[index] += group.weight @ misfit
+        np.add.at(rhs, index, group.weight @ misfit)
         cost += float(misfit @ group.weight @ misfit)
-    return normal, rhs, cost
+        groups.append((index, group.weight))
+    return diagonal, rhs, cost, groups
+
+
+class _DenseSystem:
+    """The damped normal equations of one iteration, dense and equilibrated (small problems)."""
+
+    def __init__(self, jac, residual, weights, free, values) -> None:
+        normal, self.rhs, self.cost = _normal_system(jac, residual, weights, free, values)
+        self.scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
+        self.scaled = normal / np.outer(self.scale, self.scale)
+
+    def step(self, damping: float) -> np.ndarray:
+        return np.linalg.solve(self.scaled + damping * np.eye(len(self.scale)), self.rhs / self.scale) / self.scale
+
+    def marginal(self) -> np.ndarray:
+        """sqrt(diag N⁻¹) (k,): each unknown's marginal a-priori sigma."""
+        try:
+            return np.sqrt(np.maximum(np.diag(np.linalg.inv(self.scaled)), 1e-300)) / self.scale
+        except np.linalg.LinAlgError:
+            return 1.0 / self.scale
+
+
+class _SchurSystem:
+    """The same in block-arrow form, the local groups eliminated (:class:`normal_equations.ArrowSystem`)."""
+
+    def __init__(self, jac, residual, weights, free, values, partition) -> None:
+        self.arrow = normal_equations.ArrowSystem(jac, weights, residual, partition)
+        diagonal, rhs, prior_cost, groups = _prior_terms(free, values)
+        self.arrow.add_priors(diagonal, rhs, groups)
+        self.cost = float(residual @ (weights * residual)) + prior_cost
+
+    def step(self, damping: float) -> np.ndarray:
+        return self.arrow.step(damping)
+
+    def marginal(self) -> np.ndarray:
+        try:
+            return np.sqrt(np.maximum(self.arrow.inverse().diagonal(), 1e-300))
+        except np.linalg.LinAlgError:
+            return 1.0 / self.arrow.scale()
+
+
+def _system(problem, jac, residual, weights, free, values):
+    partition = _partition(problem, free, jac)
+    if partition is None:
+        return _DenseSystem(jac, residual, weights, free, values)
+    return _SchurSystem(jac, residual, weights, free, values, partition)
+
+
+def _normal_system(jac: normal_equations.BlockJacobian, residual, weights, free, values, data=None):
+    """Dense weighted normal equations including prior pseudo-observations; returns N, b and vᵀPv.
+    ``data``: the observations' share JᵀWJ when already formed (else formed here, block by block)."""
+    normal = jac.gram(weights) if data is None else data.copy()
+    rhs = jac.transpose_times(weights * residual)
+    cost = float(residual @ (weights * residual))
+    diagonal, prior_rhs, prior_cost, groups = _prior_terms(free, values)
+    normal[np.diag_indices_from(normal)] += diagonal
+    for index, weight in groups:
+        normal[np.ix_(index, index)] += weight
+    return normal, rhs + prior_rhs, cost + prior_cost
 
 
 def _groups(free: list[Parameter]) -> list[tuple[PriorGroup, np.ndarray]]:
@@ -345,17 +449,16 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
     for iteration in range(1, max_iterations + 1):  # noqa: B007 (the count is returned)
         residual = np.where(used, observed - computed, 0.0)
         weights = np.where(used, weights_of(residual / sigmas) / sigmas**2, 0.0)
-        jac, pattern = _structured_jacobian(problem, values, free, computed)
-        problem.last_jacobian = (jac, tuple(values[p.name] for p in free), pattern)
-        normal, rhs, cost = _normal_system(jac, residual, weights, free, values, pattern)
-        scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
-        scaled = normal / np.outer(scale, scale)
+        jac = _structured_jacobian(problem, values, free, computed)
+        problem.last_jacobian = (jac, tuple(values[p.name] for p in free), jac.pattern)
+        system = _system(problem, jac, residual, weights, free, values)
+        cost = system.cost
         accepted = None
         before = cost
         invalid_tail = False  # the last damping levels tried only produced invalid states
         while lam <= 1e12:
             try:
-                full_step = np.linalg.solve(scaled + lam * np.eye(len(free)), rhs / scale) / scale
+                full_step = system.step(lam)
             except np.linalg.LinAlgError:
                 lam *= 10
                 continue
@@ -387,10 +490,7 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
             else:
                 converged, reason = True, "converged (no step lowers the weighted squared residuals further)"
             break
-        try:
-            marginal = np.sqrt(np.maximum(np.diag(np.linalg.inv(scaled)), 1e-300)) / scale
-        except np.linalg.LinAlgError:
-            marginal = 1.0 / scale
+        marginal = system.marginal()
         size = float(np.max(np.abs(accepted) / marginal))
         rate = size / previous if previous is not None and previous > 0 else None
         # the distance still to go: the step itself, or, when steps shrink geometrically (Gauss–Newton
@@ -425,32 +525,159 @@ def _unit(normalised: np.ndarray) -> np.ndarray:
 
 
 def _reusable_jacobian(problem: Problem, values: dict[str, float], free: list[Parameter]
-                       ) -> tuple[np.ndarray, normal_equations.Pattern] | None:
+                       ) -> normal_equations.BlockJacobian | None:
     """The solver's last Jacobian if it was taken within a hair (1e-9 relative) of ``values``: after
     convergence the last step is far below the parameters' precision, and the covariance it gives
     differs from a fresh one only in that order."""
     cached = getattr(problem, "last_jacobian", None)
     if cached is None:
         return None
-    jac, at, pattern = cached
+    jac, at, _ = cached
     now = np.array([values[p.name] for p in free])
-    if jac.shape[1] != len(free) or not np.allclose(now, at, rtol=1e-9, atol=1e-12):
+    if jac.width != len(free) or not np.allclose(now, at, rtol=1e-9, atol=1e-12):
         return None
-    return jac, pattern
+    return jac
 
 
-def _statistics(problem: Problem, used: np.ndarray) -> dict:
+SINGULAR = 1e14  # condition number of the equilibrated normal matrix beyond which it is singular
+
+
+def _singular(names: list[str], weakest: np.ndarray) -> DegenerateGeometryError:
+    order = np.argsort(-np.abs(weakest))[:4]
+    return DegenerateGeometryError(
+        "the normal matrix is singular: no information on the combination of "
+        + ", ".join(f"{names[i]} ({weakest[i]:+.2f})" for i in order)
+        + "; fix one of them or give it a prior")
+
+
+def _weak_directions(names: list[str], vt: np.ndarray) -> list[list[tuple[str, float]]]:
+    weak = []
+    for k in range(1, min(3, len(vt)) + 1):
+        vector = vt[-k]
+        order = np.argsort(-np.abs(vector))[:4]
+        weak.append([(names[i], float(vector[i])) for i in order if abs(vector[i]) > 0.1])
+    return weak
+
+
+def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy, variance_start=None) -> dict:
+    """The dense statistics' linear algebra: N = JᵀWJ + priors, its SVD (condition, weak directions),
+    Qxx (pseudo-inverse; prior-weighted after variance components) and every observation's leverage."""
+    data = jac.gram(weights)  # JᵀWJ of the observations, formed once
+    normal, _, cost = _normal_system(jac, residual, weights, free, values, data=data)
+    scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
+    scaled = normal / np.outer(scale, scale)
+    _, s_values, vt = np.linalg.svd(scaled, compute_uv=True)
+    condition = float(s_values[0] / s_values[-1]) if s_values[-1] > 0 else float("inf")
+    if not np.isfinite(condition) or condition > SINGULAR:
+        raise _singular(names, vt[-1])
+    qxx = ((vt.T / s_values) @ vt) / np.outer(scale, scale)
+    variance, observation_cost, observation_redundancy = _variance_component(
+        lambda factor: float(np.sum(_prior_weighted_inverse(data, normal, factor) * data)),
+        bool(np.any(np.abs(normal - data) > 0)), float(residual @ (weights * residual)), cost, redundancy, n_used,
+        variance_start)
+    qxx = qxx if variance is None else _prior_weighted_inverse(data, normal, variance)
+    qxx = (qxx + qxx.T) / 2
+    diagonal = np.sqrt(np.maximum(np.diag(qxx), 1e-300))
+    correlation = qxx / np.outer(diagonal, diagonal)
+    i, j = np.nonzero(np.triu(np.abs(correlation) > 0.95, 1))
+    over = [(names[a], names[b], float(correlation[a, b])) for a, b in zip(i, j, strict=True)]
+    return dict(cost=cost, variance=variance, observation_cost=observation_cost,
+                observation_redundancy=observation_redundancy, names=names, qxx=qxx, diagonal=np.diag(qxx),
+                over=over, condition=condition, weak=_weak_directions(names, vt), leverage=jac.leverage(qxx))
+
+
+def _schur_core(jac, residual, weights, free, values, names, n_used, redundancy, partition, arrow=None,
+                variance_start=None) -> dict:
+    """The same from the block-arrow normal equations (:class:`normal_equations.ArrowSystem`), linear in
+    the number of local groups: each group's block and the reduced system S (the Schur complement onto
+    the global unknowns) checked for singularity; condition number and weak directions of S; Qxx in block
+    form (globals, each group, globals × group); leverages block by block."""
+    diagonal, rhs, prior_cost, groups = _prior_terms(free, values)
+    if arrow is None:  # (a system formed for this Jacobian and these weights has the same matrices)
+        arrow = normal_equations.ArrowSystem(jac, weights, residual, partition)
+        arrow.add_priors(diagonal, rhs, groups)
+    observation_cost = float(residual @ (weights * residual))
+    cost = observation_cost + prior_cost
+    # every local group's block on its own: a station whose pose the data cannot fix is named
+    _, v = arrow.matrices()
+    scale_l = np.sqrt(np.maximum(np.einsum("sii->si", v), 1e-300))
+    eigen, vectors = np.linalg.eigh(v / (scale_l[:, :, None] * scale_l[:, None, :]))
+    ratio = eigen[:, -1] / np.maximum(eigen[:, 0], 1e-300)
+    if np.any(~np.isfinite(ratio) | (ratio > SINGULAR) | (eigen[:, 0] <= 0)):
+        s = int(np.argmax(np.where(np.isfinite(ratio), ratio, np.inf)))
+        members = [names[j] if j >= 0 else "-" for j in partition.local[s]]
+        raise _singular(members, np.where(partition.mask[s], vectors[s][:, 0], 0.0))
+    reduced = arrow.reduced(0.0)
+    _, s_values, vt = np.linalg.svd(reduced[1], compute_uv=True)
+    condition = float(s_values[0] / s_values[-1]) if s_values[-1] > 0 else float("inf")
+    global_names = [names[j] for j in partition.glob]
+    if not np.isfinite(condition) or condition > SINGULAR:
+        raise _singular(global_names, vt[-1])
+    variance, observation_cost, observation_redundancy = _variance_component(
+        lambda factor: arrow.trace_with_observations(arrow.inverse(factor)), arrow.has_priors,
+        observation_cost, cost, redundancy, n_used, variance_start)
+    inverse = arrow.inverse(reduced=reduced) if variance is None else arrow.inverse(variance)
+    return dict(cost=cost, variance=variance, observation_cost=observation_cost,
+                observation_redundancy=observation_redundancy, names=global_names, qxx=inverse.qgg,
+                diagonal=inverse.diagonal(), over=inverse.correlations_over(names, 0.95), condition=condition,
+                weak=_weak_directions(global_names, vt), leverage=inverse.leverage(jac, arrow.classes))
+
+
+def _warm_step(problem: Problem, used: np.ndarray, statistics: dict):
+    """One undamped Gauss–Newton step for the observations ``used`` from the problem's current values
+    with the Jacobian ``statistics`` were computed with (at these values), as data snooping needs after
+    setting one observation unit aside: the solution moves little, and the step of the quadratic model
+    is the re-adjustment to second order. Taken (parameters updated) when it stays valid and lowers the
+    weighted squared residuals, and then its normal equations (the same matrix the statistics at the new
+    values need: same Jacobian, same weights) are returned; None otherwise (the caller solves in full)."""
+    free = problem.free()
+    values = problem.values()
+    obs = problem.observations
+    computed = statistics["computed"]
+    residual = np.where(used, obs.values - computed, 0.0)
+    weights = np.where(used, 1.0 / obs.sigmas**2, 0.0)
+    try:
+        system = _system(problem, statistics["jacobian"], residual, weights, free, values)
+        step = system.step(0.0)
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    step = step * _to_boundary(free, values, step)
+    trial = dict(values)
+    for j, parameter in enumerate(free):
+        trial[parameter.name] = values[parameter.name] + step[j]
+    trial_computed, trial_ok = problem.evaluate(trial, None)
+    if not (np.all(trial_ok[used]) and np.all(np.isfinite(trial_computed[used]))):
+        return None
+    trial_residual = np.where(used, obs.values - trial_computed, 0.0)
+    if float(trial_residual @ (weights * trial_residual)) + _prior_cost(free, trial) >= system.cost:
+        return None
+    for parameter in problem.parameters:
+        parameter.value = trial[parameter.name]
+    system.evaluated = (trial_computed, trial_ok)  # the model at the new values, for the statistics
+    return system
+
+
+def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.BlockJacobian | None = None,
+                system=None, variance_start: float | None = None) -> dict:
+    """Sigma0, Qxx, sigmas, correlations, condition, redundancy numbers, w-tests and the global test of the
+    adjustment at the problem's current values, by the dense or the block-arrow path (:func:`_partition`).
+
+    Dense: ``names``/``qxx`` cover every free unknown and the condition number and weak directions are
+    the full normal matrix's. Block-arrow: ``names``/``qxx`` cover the global unknowns (the local groups'
+    covariance blocks exist but are not returned: the blocks between two stations would be quadratic in
+    their number), condition and weak directions are those of the reduced system S (the local blocks are
+    checked for singularity on their own), correlations over 0.95 are those among the globals, within a
+    group and between a group and the globals; sigmas, redundancy numbers and w-tests cover everything."""
     free = problem.free()
     names = [p.name for p in free]
     values = problem.values()
     obs = problem.observations
-    computed, ok = problem.evaluate(values, None)
+    evaluated = getattr(system, "evaluated", None)
+    computed, ok = evaluated if evaluated is not None else problem.evaluate(values, None)
     residual = np.where(used, obs.values - computed, 0.0)
     weights = np.where(used, 1.0 / obs.sigmas**2, 0.0)
-    reused = _reusable_jacobian(problem, values, free)
-    jac, pattern = reused if reused is not None else _structured_jacobian(problem, values, free, computed)
-    data = normal_equations.weighted_gram(jac, weights, pattern)  # JᵀWJ of the observations, formed once
-    normal, _, cost = _normal_system(jac, residual, weights, free, values, data=data)
+    reused = jacobian if jacobian is not None else _reusable_jacobian(problem, values, free)
+    jac = reused if reused is not None else _structured_jacobian(problem, values, free, computed)
     n_used = int(used.sum())
     n_prior = sum(1 for p in free if p.status == "prior")
     redundancy = n_used + n_prior - len(free)
@@ -458,37 +685,21 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
         raise DegenerateGeometryError(
             f"{n_used} observations and {n_prior} priors cannot determine {len(free)} unknowns "
             f"(redundancy {redundancy}); measure more points or fix parameters")
-    scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
-    scaled = normal / np.outer(scale, scale)
-    singular = np.linalg.svd(scaled, compute_uv=True)
-    u_mat, s_values, vt = singular
-    condition = float(s_values[0] / s_values[-1]) if s_values[-1] > 0 else float("inf")
-    if not np.isfinite(condition) or condition > 1e14:
-        weakest = vt[-1]
-        order = np.argsort(-np.abs(weakest))[:4]
-        raise DegenerateGeometryError(
-            "the normal matrix is singular: no information on the combination of "
-            + ", ".join(f"{names[i]} ({weakest[i]:+.2f})" for i in order)
-            + "; fix one of them or give it a prior")
-    q_scaled = (vt.T / s_values) @ vt
-    qxx = q_scaled / np.outer(scale, scale)
-    variance, observation_cost, observation_redundancy = _variance_component(data, normal, residual, weights, cost,
-                                                                             redundancy, n_used)
-    qxx = qxx if variance is None else _prior_weighted_inverse(data, normal, variance[1])
-    variance = cost / redundancy if variance is None else variance[0]
+    partition = _partition(problem, free, jac)
+    if partition is None:
+        core = _dense_core(jac, residual, weights, free, values, names, n_used, redundancy, variance_start)
+    else:
+        arrow = system.arrow if isinstance(system, _SchurSystem) and system.arrow.partition is partition else None
+        core = _schur_core(jac, residual, weights, free, values, names, n_used, redundancy, partition, arrow,
+                           variance_start)
+    cost, variance = core["cost"], core["variance"]
+    observation_cost, observation_redundancy = core["observation_cost"], core["observation_redundancy"]
+    variance = cost / redundancy if variance is None else variance
     sigma0 = float(np.sqrt(variance))
-    sigmas = {name: float(sigma0 * np.sqrt(max(qxx[j, j], 0.0))) for j, name in enumerate(names)}
-    diag = np.sqrt(np.maximum(np.diag(qxx), 1e-300))
-    correlation = qxx / np.outer(diag, diag)
-    over = [(names[i], names[j], float(correlation[i, j]))
-            for i in range(len(names)) for j in range(i + 1, len(names)) if abs(correlation[i, j]) > 0.95]
-    weak = []
-    for k in range(1, min(3, len(s_values)) + 1):
-        vector = vt[-k]
-        order = np.argsort(-np.abs(vector))[:4]
-        weak.append([(names[i], float(vector[i])) for i in order if abs(vector[i]) > 0.1])
+    sigmas = {name: float(sigma0 * np.sqrt(max(q, 0.0))) for name, q in zip(names, core["diagonal"], strict=True)}
+    over, condition, weak = core["over"], core["condition"], core["weak"]
     # redundancy numbers r_i = 1 − p_i a_i Qxx a_iᵀ for uncorrelated observations
-    leverage = normal_equations.leverage(jac, qxx) * weights
+    leverage = core["leverage"] * weights
     red_numbers = np.where(used, np.clip(1.0 - leverage, 0.0, 1.0), 0.0)
     safe_r = np.maximum(red_numbers, 1e-12)
     standardised = np.where(used, residual / (obs.sigmas * np.sqrt(safe_r)), 0.0)
@@ -505,9 +716,10 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
     outside = ~used & ok & np.isfinite(computed)
     if outside.any():
         raw = obs.values - computed
-        h = normal_equations.leverage(jac[outside], qxx) / obs.sigmas[outside] ** 2
+        h = core["leverage"][outside] / obs.sigmas[outside] ** 2
         w[outside] = raw[outside] / (obs.sigmas[outside] * np.sqrt(1.0 + h)) / robust_scale
         mdb[outside] = DELTA0 * robust_scale * obs.sigmas[outside] * np.sqrt(1.0 + h)
+    names, qxx = core["names"], core["qxx"]
     chi2 = observation_cost
     from scipy import stats  # deferred: scipy.stats takes most of a second to import (the window's start-up)
 
@@ -531,7 +743,8 @@ def _statistics(problem: Problem, used: np.ndarray) -> dict:
                    "priors keep their stated sigmas), and it scales every reported sigma",
     }
     rms = float(np.sqrt(np.mean(residual[used] ** 2)))
-    return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale,
+    return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale, jacobian=jac, computed=computed,
+                variance=variance,
                 critical=tau_critical(observation_redundancy), sigmas=sigmas, over=over,
                 condition=condition, weak=weak, red_numbers=red_numbers, w=w, mdb=mdb, global_test=global_test,
                 redundancy=redundancy, residual=residual, rms=rms)
@@ -582,6 +795,7 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
     limit = max_rejections if max_rejections is not None else max(2, n // SNOOP_SHARE)
     statistics = _statistics(problem, used)
     rounds = 0
+    moved = False
     while snooping and rounds < limit:
         rounds += 1
         w = np.abs(statistics["w"])
@@ -597,13 +811,22 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
                                         float(statistics["mdb"][i])))
         trial_used = used.copy()
         trial_used[unit] = False
+        moved = True
         try:
-            _, converged, reason, iterations = _solve(problem, _unit, trial_used, max_iterations, tolerance)
-            statistics = _statistics(problem, trial_used)
+            # warm and cheap: one Gauss–Newton step from the previous solution with the Jacobian its
+            # statistics used (taken there), then the statistics with that Jacobian; the run is converged
+            # properly once, after the last rejection (below). Nothing here grows faster than the data.
+            system = _warm_step(problem, trial_used, statistics)
+            if system is None:
+                _, converged, reason, iterations = _solve(problem, _unit, trial_used, max_iterations, tolerance)
+            statistics = _statistics(problem, trial_used, statistics["jacobian"], system, statistics["variance"])
         except DegenerateGeometryError:
             excluded = excluded[: len(excluded) - len(unit)]
             break
         used = trial_used
+    if moved:
+        _, converged, reason, iterations = _solve(problem, _unit, used, max_iterations, tolerance)
+        statistics = _statistics(problem, used)
     model_doubt = None
     if snooping and rounds >= limit and np.max(np.abs(np.where(used, statistics["w"], 0.0))) > statistics["critical"]:
         model_doubt = (f"after {rounds} rejections observations still fail the w-test: so many cannot be "
@@ -638,24 +861,23 @@ def tau_critical(redundancy: float, alpha: float = ALPHA0) -> float:
     return float(t * np.sqrt(r) / np.sqrt(r - 1.0 + t * t))
 
 
-def _variance_component(data, normal, residual, weights, cost, redundancy, n_used):
+def _variance_component(trace_of: Callable[[float], float], has_priors: bool, observation_cost: float,
+                        cost: float, redundancy: int, n_used: int, start: float | None = None):
     """Variance-component estimation (Förstner 1979) for two groups, image observations and priors.
 
     The priors are statements about the housing and the interior from outside the data; their group has
     almost no redundancy, so its variance component is not estimable and it keeps its stated sigmas. The
     observations' component σ̂² = vᵀPv / r_obs, with r_obs = n − tr(Q N_obs) their share of the redundancy,
-    is iterated with the priors reweighted against it. Returns ((σ̂², σ̂²), vᵀPv, r_obs), or (None, cost,
-    redundancy) when there are no priors (then σ̂² = vᵀPv / r, the classical estimate). ``data`` is the
-    observations' JᵀWJ, ``normal`` the full normal matrix (data and priors)."""
-    observation_cost = float(residual @ (weights * residual))
-    prior = normal - data
-    if not np.any(np.abs(prior) > 0):
+    is iterated with the priors reweighted against it. ``trace_of(σ̂²)`` gives tr((N_obs + σ̂² P_prior)⁻¹
+    N_obs) (dense or block-arrow). Returns (σ̂², vᵀPv of the observations, r_obs), or (None, cost,
+    redundancy) when there are no priors (then σ̂² = vᵀPv / r, the classical estimate). ``start``: the
+    first σ̂² (default vᵀPv / r; data snooping's rounds start from the previous round's estimate)."""
+    if not has_priors:
         return None, cost, redundancy
-    variance = max(cost / redundancy, 1e-12)
+    variance = max(cost / redundancy if start is None else start, 1e-12)
     share = float(redundancy)
     for _ in range(20):
-        q = _prior_weighted_inverse(data, normal, variance) * variance
-        share = n_used - float(np.sum(q * data)) / variance
+        share = n_used - trace_of(variance)
         if share < 0.5:
             return None, cost, redundancy
         new = max(observation_cost / share, 1e-12)
@@ -663,7 +885,7 @@ def _variance_component(data, normal, residual, weights, cost, redundancy, n_use
         variance = new
         if done:
             break
-    return (variance, variance), observation_cost, share
+    return variance, observation_cost, share
 
 
 def _prior_weighted_inverse(data, normal, variance):

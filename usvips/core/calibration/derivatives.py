@@ -167,13 +167,9 @@ def pose_columns(m: np.ndarray, c: np.ndarray, derivatives: dict[str, tuple[np.n
     return {name: columns[:, j] for j, name in enumerate(names)}
 
 
-def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
-                       free: frozenset[str] | None = None) -> Columns:
-    """Exact columns of the Jacobian of ``model`` (a :class:`~usvips.core.calibration.model.StereoModel`)
-    at ``values`` whose computed pixels are ``computed``: ``{parameter: {block: column}}`` for the
-    interior, pose and (those in ``free``; default none) housing parameters of every block (see the module
-    docstring); a block whose pixels are not all valid, or whose rays cannot be traced, is left to the
-    reference path's differences."""
+def _shifted_housings(model, values: dict[str, float], free: frozenset[str] | None) -> tuple[dict, list[str]]:
+    """The housings at ``values`` (key None) and rebuilt with each free housing parameter at ± step (keys
+    (name, ±1)), and those names; ({}, []) when a step leaves the valid region."""
     from usvips.core.calibration.model import build_housings, housing_parameter_names
 
     housing_names = [n for n in housing_parameter_names(model.kind) if free is not None and n in free]
@@ -188,6 +184,206 @@ def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
                     housings[(name, sign)] = build_housings(model.kind, shifted)
         except UsvipsError:  # a step leaves the valid region: the reference path's differences serve
             housings, housing_names = {}, []
+    return housings, housing_names
+
+
+def stereo_derivatives(model, values: dict[str, float], computed: np.ndarray,
+                       free: frozenset[str] | None = None) -> Columns:
+    """Exact columns of the Jacobian of ``model`` (a :class:`~usvips.core.calibration.model.StereoModel`)
+    at ``values`` whose computed pixels are ``computed``: ``{parameter: {block: column}}`` for the
+    interior, pose and (those in ``free``; default none) housing parameters of every block (see the module
+    docstring); a block whose pixels are not all valid, or whose rays cannot be traced, is left to the
+    reference path's differences.
+
+    Each side's pixels of every station are traced in one batch (:func:`_side_batches`: the housing sits in
+    the camera frame); under :func:`usvips.core.batch_mode.reference` each block is traced by its own camera
+    (:func:`_per_block_derivatives`, the reference path)."""
+    if using_reference():
+        return _per_block_derivatives(model, values, computed, free)
+    return _side_batches(model, values, computed, free)
+
+
+def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: frozenset[str] | None) -> Columns:
+    """:func:`stereo_derivatives` with one trace per side: every block's pixels of that side traced from
+    the camera at the origin of its own frame (rays, their pixel derivatives, ideal coordinates), the
+    pixel Jacobian rows ∂pixel/∂P_camera turned into the object frame by each block's rotation
+    (∂pixel/∂P = ∂pixel/∂P_camera · M); the interior columns of a side at once; the pose columns per block."""
+    from usvips.core.calibration.model import ORIGIN, _interior, build_housings
+    from usvips.core.camera import Camera
+
+    housings, housing_names = _shifted_housings(model, values, free)
+    out: Columns = {}
+    try:
+        base = housings[None] if housings else build_housings(model.kind, values)
+        frames_m, frames_c = model.station_frames(values)
+    except UsvipsError:
+        return out
+    xyz = model.control_xyz(values)
+    first = model.stations[0]
+    shared_plane = model.housing_kind.right_follows_rig
+    following: list[tuple] = []
+    rotations: dict = {}
+    for side, side_name in enumerate(("l", "r")):
+        blocks = [b for b in range(len(model.blocks)) if model.block_side[b] == side
+                  and np.all(np.isfinite(computed[model.blocks[b]]))]
+        if not blocks:
+            continue
+        pixels = np.vstack([computed[model.blocks[b]].reshape(-1, 2) for b in blocks])
+        try:
+            interior = _interior(values, side_name)
+            uv = interior.pixels_to_normalised(pixels)
+            bundle, d_origin, d_direction = Camera(interior, ORIGIN, base[side]).rays_with_derivatives(pixels)
+        except UsvipsError:
+            continue
+        counts = [len(model.block_points[b]) for b in blocks]
+        ends = np.cumsum([0, *counts])
+        for name, column in interior_columns(interior, uv).items():
+            into = out.setdefault(f"{name}_{side_name}", {})
+            for k, b in enumerate(blocks):
+                into[b] = column[2 * ends[k]: 2 * ends[k + 1]]
+        points = xyz[np.concatenate([model.block_points[b] for b in blocks])]
+        which = np.repeat(model.block_station[blocks], counts)
+        rotation = frames_m[which, side]
+        local = np.einsum("nij,nj->ni", rotation, points - frames_c[which, side])
+        along = np.einsum("ij,ij->i", local - bundle.origins, bundle.directions)
+        a0, a1, valid = pixel_jacobian(bundle.directions, d_origin, d_direction, along)
+        a0 = np.einsum("ni,nij->nj", a0, rotation)
+        a1 = np.einsum("ni,nij->nj", a1, rotation)
+        good = bundle.ok & valid
+        due: list[tuple] = []
+        vectorised = not (shared_plane and side == 1)
+        if vectorised:  # every block's pose columns at once (the shared cover plane's right side: below)
+            fine = [k for k, _ in enumerate(blocks) if good[ends[k]: ends[k + 1]].all()]
+            _pose_columns_of_side(model, values, side, blocks, fine, ends, which, points - frames_c[which, side],
+                                  a0, a1, out)
+        for k, b in enumerate(blocks):
+            rows = slice(ends[k], ends[k + 1])
+            if not good[rows].all():
+                continue
+            if vectorised:
+                if housing_names:
+                    due.append((b, frames_m[model.block_station[b], side], uv[rows], a0[rows], a1[rows], along[rows]))
+                continue
+            station = model.stations[model.block_station[b]]
+            m, c, derivatives = pose_derivatives(values, station, side_name, first, rotations)
+            entry = (b, m, uv[rows], a0[rows], a1[rows], along[rows])
+            if shared_plane and side == 1:
+                moving = {n: d for n, d in derivatives.items() if "@" not in n}
+                derivatives = {n: d for n, d in derivatives.items() if "@" in n}
+                if moving:
+                    following.append((entry, pose_columns(m, c, moving, a0[rows], a1[rows], points[rows]), None))
+            for name, column in pose_columns(m, c, derivatives, a0[rows], a1[rows], points[rows]).items():
+                out.setdefault(name, {})[b] = column
+            if housing_names:
+                due.append(entry)
+        if due:
+            for name, columns in side_housing_columns(housings, housing_names, side, due).items():
+                out.setdefault(name, {}).update(columns)
+    _add_rig_housing_terms(model, values, following, out)
+    return out
+
+
+def _station_rotations(values: dict[str, float], names: list[str]) -> tuple[np.ndarray, list[np.ndarray]]:
+    """M (S, 3, 3) of the cameras whose (omega, phi, kappa) are ``names`` (S entries of three names)
+    and ∂M/∂angle for each angle (central differences, as :func:`_rotation_and_derivatives`)."""
+    angles = np.array([[values[n] for n in triple] for triple in names])
+    derivatives = []
+    for k in range(3):
+        ahead, behind = angles.copy(), angles.copy()
+        ahead[:, k] += POSE_STEP
+        behind[:, k] -= POSE_STEP
+        derivatives.append((rotation_matrix(*ahead.T) - rotation_matrix(*behind.T)) / (2 * POSE_STEP))
+    return rotation_matrix(*angles.T), derivatives
+
+
+def _pose_columns_of_side(model, values, side: int, blocks: list[int], fine: list[int], ends: np.ndarray,
+                          which: np.ndarray, relative: np.ndarray, a0: np.ndarray, a1: np.ndarray,
+                          out: Columns) -> None:
+    """The pose columns of the ``fine`` blocks (positions in ``blocks``) of one side, all at once: for
+    every pose parameter θ that moves a camera, per station G = Mᵀ ∂M/∂θ and ∂C/∂θ (the composition of
+    :func:`pose_derivatives`, stacked over stations), and per row ∂pixel/∂θ = a · (G (P − C) − ∂C/∂θ)
+    with a the object-frame pixel Jacobian rows ``a0``, ``a1`` (N, 3), ``relative`` = P − C (N, 3) and
+    ``which`` (N,) each row's station. Written into ``out`` per block."""
+    stations = model.stations
+    count = len(stations)
+    left_names = [[f"{a}_l" if s == 0 else f"{a}_l@{stations[s]}" for a in ANGLES] for s in range(count)]
+    left_centres = np.array([[values[f"{p}_l" if s == 0 else f"{p}_l@{stations[s]}"] for p in ("X0", "Y0", "Z0")]
+                             for s in range(count)])
+    m_l, d_l = _station_rotations(values, left_names)
+    unit = np.eye(3)
+    zero_g, zero_c = np.zeros((count, 3, 3)), np.zeros((count, 3))
+    # roles: (G (S, 3, 3), dC (S, 3), name of station s or None where the role does not apply)
+    roles: list[tuple[np.ndarray, np.ndarray, object]] = []
+    own = ["X0", "Y0", "Z0"]
+    if side == 0:
+        m = m_l
+        for k, p in enumerate(own):
+            roles.append((zero_g, np.broadcast_to(unit[k], (count, 3)),
+                          lambda s, p=p: f"{p}_l" if s == 0 else f"{p}_l@{stations[s]}"))
+        for k, a in enumerate(ANGLES):
+            roles.append((np.swapaxes(m, 1, 2) @ d_l[k], zero_c,
+                          lambda s, a=a: f"{a}_l" if s == 0 else f"{a}_l@{stations[s]}"))
+    else:
+        m_r0, d_r0 = _station_rotations(values, [[f"{a}_r" for a in ANGLES]])
+        m_r0, d_r0 = m_r0[0], [d[0] for d in d_r0]
+        m_l0, d_l0 = m_l[0], [d[0] for d in d_l]
+        c_l0 = left_centres[0]
+        c_r0 = np.array([values[f"{p}_r"] for p in ("X0", "Y0", "Z0")])
+        gap = c_r0 - c_l0
+        base = m_l0 @ gap
+        m_rel = m_r0 @ m_l0.T
+        m = m_rel @ m_l                                   # (S, 3, 3); station 0 is m_r0 itself
+        m[0] = m_r0
+        m_t = np.swapaxes(m, 1, 2)
+        carry = np.swapaxes(m_l, 1, 2) @ m_l0             # (S, 3, 3)
+        further = lambda name: (lambda s: None if s == 0 else name)  # noqa: E731
+        for k, p in enumerate(own):
+            roles.append((zero_g, np.broadcast_to(unit[k], (count, 3)),
+                          lambda s, p=p: f"{p}_r" if s == 0 else f"{p}_l@{stations[s]}"))
+            roles.append((zero_g, -carry[:, :, k], further(f"{p}_l")))
+            roles.append((zero_g, carry[:, :, k], further(f"{p}_r")))
+        for k, a in enumerate(ANGLES):
+            g_own = m_t @ (m_rel @ d_l[k])
+            g_own[0] = m_r0.T @ d_r0[k]
+            c_own = np.einsum("sji,j->si", d_l[k], base)
+            c_own[0] = 0.0
+            roles.append((g_own, c_own, lambda s, a=a: f"{a}_r" if s == 0 else f"{a}_l@{stations[s]}"))
+            roles.append((m_t @ (m_r0 @ d_l0[k].T @ m_l), np.einsum("sji,j->si", m_l, d_l0[k] @ gap),
+                          further(f"{a}_l")))
+            roles.append((m_t @ (d_r0[k] @ m_l0.T @ m_l), zero_c, further(f"{a}_r")))
+    if not fine:
+        return
+    for g, d_c, name_of in roles:
+        moved = np.einsum("nij,nj->ni", g[which], relative) - d_c[which]
+        column = np.empty(2 * len(which))
+        column[0::2] = np.einsum("ij,ij->i", a0, moved)
+        column[1::2] = np.einsum("ij,ij->i", a1, moved)
+        for k in fine:
+            b = blocks[k]
+            name = name_of(int(model.block_station[b]))
+            if name is not None:
+                out.setdefault(name, {})[b] = column[2 * ends[k]: 2 * ends[k + 1]]
+
+
+def _add_rig_housing_terms(model, values, following: list[tuple], out: Columns) -> None:
+    """The right camera's first-station pose columns under a shared cover plane: its motion plus its
+    housing's (batched per side), for the blocks where both are known."""
+    rig_housings, rig_names = _rig_housings(model, values) if following else ({}, [])
+    if not rig_names:
+        return
+    terms = side_housing_columns(rig_housings, rig_names, 1, [entry for entry, _, _ in following])
+    for entry, motion, _ in following:
+        b = entry[0]
+        for name, column in motion.items():
+            if b in terms.get(name, {}):
+                out.setdefault(name, {})[b] = column + terms[name][b]
+
+
+def _per_block_derivatives(model, values: dict[str, float], computed: np.ndarray,
+                           free: frozenset[str] | None = None) -> Columns:
+    """:func:`stereo_derivatives` block by block: each block's camera traces its own pixels (the
+    reference path)."""
+    housings, housing_names = _shifted_housings(model, values, free)
     xyz = model.control_xyz(values)
     out: Columns = {}
     first = model.stations[0]
@@ -282,9 +478,9 @@ def _rig_housings(model, values: dict[str, float]) -> tuple[dict, list[str]]:
 def side_housing_columns(housings: dict, names: list[str], index: int, blocks: list[tuple]
                          ) -> dict[str, dict[int, np.ndarray]]:
     """:func:`housing_columns` of every block of one side (``index`` 0 left, 1 right) at once: ``blocks``
-    holds (block, camera, ideal normalised coordinates uv (N, 2), pixel Jacobian rows a0, a1 (N, 3), the
-    points' distances along their rays (N,), metres). One trace of all their rays (camera frame) per
-    shifted housing; a block with a ray that fails in a shifted housing gets no column (the reference
+    holds (block, camera or its rotation M (3 × 3), ideal normalised coordinates uv (N, 2), pixel Jacobian
+    rows a0, a1 (N, 3), the points' distances along their rays (N,), metres). One trace of all their rays
+    (camera frame) per shifted housing; a block with a ray that fails in a shifted housing gets no column (the reference
     path's differences serve). Returns {parameter: {block: column}}."""
     base = housings[None][index]
     uv = np.vstack([entry[2] for entry in blocks])
@@ -306,8 +502,9 @@ def side_housing_columns(housings: dict, names: list[str], index: int, blocks: l
             rows = slice(ends[k], ends[k + 1])
             if not fine[rows].all():
                 continue
+            rotation = camera if isinstance(camera, np.ndarray) else camera.exterior.rotation
             # the ray's motion in the camera frame, turned into the object frame (vectors: rows @ M)
-            moved = ((shift_o[rows] + along[:, None] * shift_d[rows]) / (2 * HOUSING_STEP)) @ camera.exterior.rotation
+            moved = ((shift_o[rows] + along[:, None] * shift_d[rows]) / (2 * HOUSING_STEP)) @ rotation
             column = np.empty(2 * len(along))
             column[0::2] = -(a0 * moved).sum(axis=1)
             column[1::2] = -(a1 * moved).sum(axis=1)

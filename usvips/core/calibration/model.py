@@ -20,6 +20,7 @@ import numpy as np
 
 from usvips.core import housing as housings
 from usvips.core.adjustment import Observations, Parameter, Problem
+from usvips.core.batch_mode import using_reference
 from usvips.core.calibration.derivatives import stereo_derivatives
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
@@ -31,6 +32,8 @@ from usvips.core.rig import relative_orientation, right_exterior
 from usvips.core.rotation import rotation_matrix
 
 SIDES = ("l", "r")
+#: a camera at the origin of its own frame: the batched paths carry points into each camera's frame
+ORIGIN = Exterior(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 _STEPS = {"f": 1e-3, "xp": 1e-3, "yp": 1e-3, "sy": 1e-7, "k1": 1e-7, "k2": 1e-7, "p1": 1e-8, "p2": 1e-8, "k3": 1e-7,
           "X0": 1e-6, "Y0": 1e-6, "Z0": 1e-6, "omega": 1e-7, "phi": 1e-7, "kappa": 1e-7,
@@ -123,8 +126,11 @@ class StereoModel:
         self.block_rows: list[np.ndarray] = []
         values, point, side_l, coord, group, blocks = [], [], [], [], [], []
         offset = 0
+        rows_of: dict[str, list[int]] = {}
+        for i, pair in enumerate(self.observations.pairs):  # one pass: linear in the observations
+            rows_of.setdefault(pair, []).append(i)
         for station in self.stations:
-            rows = np.flatnonzero([p == station for p in self.observations.pairs])
+            rows = np.array(rows_of.get(station, []), dtype=int)
             for side in SIDES:
                 pixels = (self.observations.left if side == "l" else self.observations.right)[rows]
                 values.append(pixels.reshape(-1))
@@ -141,6 +147,12 @@ class StereoModel:
                         group.append(station)
         values = np.concatenate(values)
         self._warm: dict[int, np.ndarray] = {}
+        # per block: its station's place, its side's, and the control rows of its points (batched paths)
+        self.block_station = np.array([self.stations.index(s) for s, _ in self.block_keys], dtype=int)
+        self.block_side = np.array([SIDES.index(side) for _, side in self.block_keys], dtype=int)
+        self.block_points = [self._index[rows] for rows in self.block_rows]
+        self._pose_names = [[f"{p}_l" if k == 0 else f"{p}_l@{s}" for k, s in enumerate(self.stations)]
+                            for p in EXTERIOR_PARAMETERS]
         self.observation_set = Observations(values, np.full(len(values), float(self.sigma_px)), point, side_l,
                                             coord, group)
         self.blocks = blocks
@@ -164,8 +176,86 @@ class StereoModel:
         return stereo_cameras(self.kind, values, self.stations, station or self.stations[0],
                               self.size if bounded else (None, None), shared=shared)
 
+    def station_frames(self, values: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """Every station's camera rotations M (object → image) and perspective centres C (metres), both
+        sides at once: M (stations, 2, 3, 3), C (stations, 2, 3), side 0 left, 1 right. The first
+        station's cameras have their own poses; a further station's right camera follows the rig:
+        M_r = M_rel M_l, C_r = C_l + M_lᵀ b with M_rel = M_r0 M_l0ᵀ and b = M_l0 (C_r0 − C_l0)."""
+        pose = np.array([[values[n] for n in names] for names in self._pose_names])  # (6, stations)
+        m_l = rotation_matrix(pose[3], pose[4], pose[5])
+        c_l = pose[:3].T
+        m_r0 = rotation_matrix(*(values[f"{p}_r"] for p in ("omega", "phi", "kappa")))
+        c_r0 = np.array([values[f"{p}_r"] for p in ("X0", "Y0", "Z0")])
+        m_rel = m_r0 @ m_l[0].T
+        base = m_l[0] @ (c_r0 - c_l[0])
+        m = np.empty((len(self.stations), 2, 3, 3))
+        c = np.empty((len(self.stations), 2, 3))
+        m[:, 0], c[:, 0] = m_l, c_l
+        m[:, 1] = m_rel @ m_l
+        c[:, 1] = c_l + np.einsum("sji,j->si", m_l, base)
+        m[0, 1], c[0, 1] = m_r0, c_r0
+        return m, c
+
     def evaluate(self, values: dict[str, float], blocks=None) -> tuple[np.ndarray, np.ndarray]:
-        """Computed pixels of the observations (all, or of the given blocks), and a validity mask."""
+        """Computed pixels of the observations (all, or of the given blocks, concatenated in block order),
+        and a validity mask.
+
+        One back-projection per side: the housing sits in the camera frame and the interior is the same
+        at every station, so each block's points are carried into its own camera frame, concatenated and
+        back-projected at once (:meth:`_evaluate_side`). Under :func:`usvips.core.batch_mode.reference` each
+        block is projected by its own camera (:meth:`_evaluate_per_block`, the reference path)."""
+        if using_reference():
+            return self._evaluate_per_block(values, blocks)
+        chosen = list(range(len(self.blocks))) if blocks is None else list(blocks)
+        pieces: list[tuple[np.ndarray, np.ndarray] | None] = [None] * len(chosen)
+        try:
+            m, c = self.station_frames(values)
+            housings_lr = build_housings(self.kind, values)
+            interiors = (_interior(values, "l"), _interior(values, "r"))
+        except UsvipsError:  # impossible parameters at a trial step (e.g. r <= 0): reject the step
+            m = None
+        for side in (0, 1):
+            mine = [k for k, b in enumerate(chosen) if self.block_side[b] == side]
+            if not mine:
+                continue
+            picked = [chosen[k] for k in mine]
+            results = None
+            if m is not None:
+                try:
+                    results = self._evaluate_side(values, picked, m, c, interiors[side], housings_lr[side], side)
+                except UsvipsError:
+                    results = None
+            for k, b in zip(mine, picked, strict=True):
+                n = len(self.blocks[b])
+                pieces[k] = results[b] if results is not None else (np.zeros(n), np.zeros(n, dtype=bool))
+        if not pieces:
+            return np.zeros(0), np.zeros(0, dtype=bool)
+        return np.concatenate([p[0] for p in pieces]), np.concatenate([p[1] for p in pieces])
+
+    def _evaluate_side(self, values, blocks, m, c, interior, housing, side) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """The pixels of ``blocks`` (all of one side) in one back-projection through that side's camera
+        at the origin of its own frame; {block: (pixels (2N,), validity (2N,))}."""
+        xyz = self.control_xyz(values)
+        counts = [len(self.block_points[b]) for b in blocks]
+        points = xyz[np.concatenate([self.block_points[b] for b in blocks])]
+        which = np.repeat(self.block_station[blocks], counts)
+        local = np.einsum("nij,nj->ni", m[which, side], points - c[which, side])
+        warm = None
+        if all(b in self._warm for b in blocks):
+            warm = np.vstack([self._warm[b] for b in blocks])
+        camera = Camera(interior, ORIGIN, housing)
+        projection = camera.project(local, warm)
+        valid = projection.status == 0
+        ends = np.cumsum([0, *counts])
+        out = {}
+        for k, b in enumerate(blocks):
+            rows = slice(ends[k], ends[k + 1])
+            self._warm[b] = np.where(valid[rows, None], projection.pixels[rows], np.nan)
+            out[b] = (projection.pixels[rows].reshape(-1), np.repeat(valid[rows], 2))
+        return out
+
+    def _evaluate_per_block(self, values: dict[str, float], blocks=None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`evaluate` block by block, each block's camera built and projecting on its own."""
         chosen = range(len(self.blocks)) if blocks is None else blocks
         xyz = self.control_xyz(values)
         out, ok = [], []
