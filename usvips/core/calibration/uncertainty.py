@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from usvips.core.calibration.model import _STEPS, stereo_cameras, symbol
-from usvips.core.camera import Camera
+from usvips.core.camera import EXTERIOR_PARAMETERS, Camera
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.interior import Interior
 from usvips.core.intersection import Intersection, TracedRays, intersect_traced, retrace, trace
@@ -109,6 +109,7 @@ def _intersect_and_derivatives(calibration, left, right, station, frame, include
         return result, None, None
     names, sigma = covariance
     label = _station_label(calibration, station)
+    _require_pose_covariance(calibration, label, frame, names)
     keys = [(id(calibration), label, frame, one.tobytes(), other.tobytes())
             for one, other in zip(traced[0].pixels, traced[1].pixels, strict=True)]
     with _KEEPING:
@@ -134,6 +135,22 @@ def _traced(calibration, left, right, station, frame) -> tuple[list[TracedRays],
     traced = [trace(camera, pixels, f"pixels of camera {i}")
               for i, (camera, pixels) in enumerate(zip(rig.cameras, (left, right), strict=True))]
     return traced, intersect_traced(traced, calibration.sigma0_px)
+
+
+def _require_pose_covariance(calibration: StereoCalibration, label: str, frame: str, names) -> None:
+    """Refuse a point in the object frame of a further station whose estimated pose the calibration's
+    covariance leaves out (a calibration from many views keeps the covariance of the rig's unknowns only:
+    the views' poses are eliminated as nuisance unknowns), rather than give a sigma without that pose's
+    part. The rig frame needs no station pose."""
+    if frame != "object" or label == calibration.stations[0]:
+        return
+    pose = [n for n in (f"{p}_l@{label}" for p in EXTERIOR_PARAMETERS)
+            if n in calibration.parameters and calibration.parameters[n].sigma]
+    if any(n not in names for n in pose):
+        raise InvalidParameterError(
+            "frame", f"the calibration keeps the covariance of the rig's unknowns only, not of the pose of station "
+            f"{label!r} (one of {len(calibration.stations)} views eliminated as nuisance unknowns): a point in that "
+            "station's object frame would miss its part of the sigma; measure in the rig frame")
 
 
 def _usable_covariance(calibration, result, include_calibration) -> tuple[tuple[str, ...], np.ndarray] | None:
