@@ -28,7 +28,7 @@ from usvips.app.measure import (
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.errors import UsvipsError
 from usvips.io.calibration_file import load_calibration
-from usvips.store import Project
+from usvips.store.opening import open_project
 
 __all__ = ["group_picks", "read_picks", "register", "run"]
 
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration) if args.calibration is not None else None
     objects = group_picks(args.picks, read_picks(args.picks))
     if args.project is not None:
-        with Project.open(args.project) as project:
+        with open_project(args.project) as project:
             measured, ids = measure_into_project(project, args.pair, objects, where=args.picks)
         print(f"stored {len(ids)} objects in {args.project} (pair {args.pair}): ids {', '.join(map(str, ids))}")
     else:

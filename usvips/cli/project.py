@@ -12,7 +12,8 @@ from usvips.cli.project_check import register_check_action
 from usvips.cli.video import register_project_actions
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
+from usvips.store.opening import create_project, open_project
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -51,14 +52,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_new(args: argparse.Namespace) -> int:
-    project = create_from_manifest(args.source, args.out) if args.source else Project.create(args.out)
+    project = create_from_manifest(args.source, args.out) if args.source else create_project(args.out)
     project.close()
     print(f"created {args.out}")
     return 0
 
 
 def run_info(args: argparse.Namespace) -> int:
-    with Project.open(args.project, read_only=True) as project:
+    with open_project(args.project, read_only=True) as project:
         summary = summarise(project)
     print(f"{args.project}: schema {summary.version}, {summary.pair_count} image pairs, "
           f"{summary.control_count} control points, {summary.object_count} objects")
@@ -84,7 +85,7 @@ def run_info(args: argparse.Namespace) -> int:
 def run_import(args: argparse.Namespace) -> int:
     # every file is read and checked before the project is opened; then all goes in one transaction
     plan = plan_import(args.control, args.obs, args.pair, args.role, args.calibration, tuple(args.active_for))
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         store_import(project, plan)
     print(f"imported into {args.project}")
     return 0
@@ -92,7 +93,7 @@ def run_import(args: argparse.Namespace) -> int:
 
 def run_export(args: argparse.Namespace) -> int:
     skipped: list[str] = []
-    with Project.open(args.project, read_only=True) as project:
+    with open_project(args.project, read_only=True) as project:
         count = export_project(project, args.out, args.opcode, skipped=skipped)
     for reason in skipped:
         print(f"skipped {reason}")
@@ -135,7 +136,7 @@ def register_metadata_actions(actions: argparse._SubParsersAction) -> None:
 
 def run_set_metadata(args: argparse.Namespace) -> int:
     given = {name: getattr(args, name) for name in _METADATA_OPTIONS if getattr(args, name) is not None}
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         if args.clear:
             if given:
                 raise UsvipsError("--clear removes the deployment metadata; give no other values with it")
@@ -155,7 +156,7 @@ def run_set_metadata(args: argparse.Namespace) -> int:
 
 
 def run_set_georeference(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         if args.clear:
             project.set_georeference(None)
             print("cleared the georeference")
@@ -179,7 +180,7 @@ def run_set_georeference(args: argparse.Namespace) -> int:
 MAX_SCALE_MISMATCH = 0.01
 
 
-def _fit_georeference(project: Project, points: str) -> Georeference:
+def _fit_georeference(project: ProjectStore, points: str) -> Georeference:
     from usvips.io.georeference import georeference_from_points, read_geographic_points
 
     geographic = read_geographic_points(points)

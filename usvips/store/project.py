@@ -29,7 +29,6 @@ import sqlite3
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -37,18 +36,14 @@ import numpy as np
 
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
-from usvips.core.measurements import kind as measurement_kind
-from usvips.core.measurements import resolve as resolve_kind
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.store import checks
+from usvips.store.records import ProjectError, StoredObject, Vertex  # noqa: F401 - re-exported
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
 FORMAT = "usvips-project"
 SQLITE_MAGIC = b"SQLite format 3\x00"
-
-
-class ProjectError(UsvipsError):
-    """A project file that cannot be opened or written; the message names the file."""
 
 
 def _now() -> str:
@@ -80,38 +75,6 @@ def database_problem(error: sqlite3.Error) -> str:
     if "disk i/o" in lowered:
         return f"the disk failed to read or write ({message})"
     return message
-
-
-@dataclass(frozen=True)
-class Vertex:
-    """One vertex of a measured object: its picks (pixels) and, once intersected, X, Y, Z (m) and the
-    3 × 3 covariance (m²) with the calibration used."""
-
-    xl: float
-    yl: float
-    xr: float
-    yr: float
-    xyz: tuple[float, float, float] | None = None
-    covariance: np.ndarray | None = None
-    calibration_id: int | None = None
-    pair: str | None = None
-    # on a stereo video: its label, the left and right frame numbers and the time (s) of the left frame
-    video: str | None = None
-    frame_left: int | None = None
-    frame_right: int | None = None
-    time_s: float | None = None
-
-
-@dataclass(frozen=True)
-class StoredObject:
-    id: int
-    kind: str
-    attribute: str
-    notes: str
-    creator: str
-    created: str
-    modified: str
-    vertices: tuple[Vertex, ...]
 
 
 def _remove_database(path: Path) -> None:
@@ -372,9 +335,7 @@ class Project:
 
     def add_pair(self, label: str, left: str | Path | None = None, right: str | Path | None = None,
                  medium: str = "water", frame: int | None = None, size: tuple[int, int] | None = None) -> int:
-        for side, image in (("left", left), ("right", right)):
-            if image is not None and not Path(image).is_file():
-                raise ProjectError(f"pair {label!r}: the {side} image {image} does not exist")
+        checks.pair_images(label, left, right)
         try:
             hashes = [file_hash(Path(p)) if p is not None else None for p in (left, right)]
         except OSError as error:
@@ -397,6 +358,10 @@ class Project:
         if not rows:
             raise ProjectError(f"{self.path}: no image pair {label!r}")
         return int(rows[0][0])
+
+    def derived_media_folder(self) -> Path:
+        """The folder of the project file: seek proxies and exported frames are kept beside it."""
+        return self.path.parent
 
     def image_path(self, relative: str) -> Path:
         """The absolute path of a stored image path; raises if the image has gone missing."""
@@ -496,16 +461,7 @@ class Project:
         all of them or, on any error, none."""
         checked = []
         for kind, vertices, attribute, notes, creator in objects:
-            for i, vertex in enumerate(vertices):
-                values = (vertex.xl, vertex.yl, vertex.xr, vertex.yr)
-                if any(v is None or not np.isfinite(v) for v in values):
-                    raise ProjectError(f"vertex {i}: a vertex needs both picks (left and right pixel)")
-            try:
-                name = resolve_kind(kind, len(vertices))
-                measurement_kind(name).check_count(len(vertices))
-            except UsvipsError as error:
-                raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
-            checked.append((name, vertices, attribute, notes, creator))
+            checked.append((checks.object_kind(kind, vertices, self.path), vertices, attribute, notes, creator))
         now = _now()
         ids = []
         with self.transaction():
@@ -539,8 +495,7 @@ class Project:
             if kind is not None:
                 count = len(vertices) if vertices is not None else len(stored.vertices)
                 try:
-                    kind = resolve_kind(kind, count)
-                    measurement_kind(kind).check_count(count)
+                    kind = checks.kind_for_count(kind, count)
                 except UsvipsError as error:
                     raise ProjectError(f"{self.path}: object {object_id}: {error}") from None
                 self._db.execute("UPDATE objects SET kind = ? WHERE id = ?", (kind, object_id))
@@ -750,17 +705,7 @@ class Project:
     def _refuse_unusable_pairs(self, pairs: Sequence[tuple[str, Path, Path]]) -> None:
         """A label already in the project or given twice, or one file as both left and right: one line
         naming the pair (nothing is added)."""
-        labels = [label for label, _, _ in pairs]
-        taken = {row[0] for row in self._db.execute("SELECT label FROM image_pairs")}
-        repeated = sorted({label for label in labels if label in taken or labels.count(label) > 1})
-        if repeated:
-            shown = ", ".join(repr(label) for label in repeated[:5]) + (" …" if len(repeated) > 5 else "")
-            raise ProjectError(f"{self.path}: image pair label(s) {shown} already used; choose another label or "
-                               "label prefix (nothing was added)")
-        for label, left, right in pairs:
-            if Path(left).resolve() == Path(right).resolve():
-                raise ProjectError(f"{self.path}: pair {label!r}: {left} is both the left and the right image "
-                                   "(nothing was added)")
+        checks.image_pairs(pairs, {row[0] for row in self._db.execute("SELECT label FROM image_pairs")}, self.path)
 
     def add_image_pairs(self, pairs: Sequence[tuple[str, Path, Path]], medium: str = "water",
                         sizes: Sequence[tuple[int, int]] | None = None) -> list[int]:
