@@ -15,6 +15,7 @@ import psycopg
 import pytest
 
 _names = itertools.count()
+PASSWORD_USER, PASSWORD = "annotator", "s3cret-Pw"
 
 
 @pytest.fixture(scope="session")
@@ -31,6 +32,10 @@ def postgres_server():
             # cost a minute of flushing at shutdown on a slow, shared disk)
             for setting in ("fsync", "synchronous_commit", "full_page_writes"):
                 connection.execute(f"ALTER SYSTEM SET {setting} = off")
+            # an annotator who must give a password (the rest of the server trusts local users)
+            connection.execute(f"CREATE ROLE {PASSWORD_USER} LOGIN CREATEDB PASSWORD '{PASSWORD}'")
+            hba = Path(server.pgdata) / "pg_hba.conf"
+            hba.write_text(f"local all {PASSWORD_USER} scram-sha-256\n" + hba.read_text())
             connection.execute("SELECT pg_reload_conf()")
         yield server.get_uri()
     finally:

@@ -9,6 +9,7 @@ from usvips.app.project_contents import plan_import, store_import, summarise
 from usvips.app.project_export import export_project
 from usvips.app.samples import create_from_manifest
 from usvips.cli.project_check import register_check_action
+from usvips.cli.project_sync import register_sync_actions
 from usvips.cli.video import register_project_actions
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
@@ -49,6 +50,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     register_project_actions(actions)  # add-pairs, add-video: handlers in usvips/cli/video.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
     register_check_action(actions)  # check: usvips/cli/project_check.py
+    register_sync_actions(actions)  # push, pull: usvips/cli/project_sync.py
 
 
 def run_new(args: argparse.Namespace) -> int:

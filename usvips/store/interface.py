@@ -181,12 +181,16 @@ class ProjectStore(Protocol):
         ...
 
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
-                      vertices: list[Vertex] | None = None, kind: str | None = None) -> None:
-        """Change what is given of an object (replaced 3-D values are kept in its history)."""
+                      vertices: list[Vertex] | None = None, kind: str | None = None,
+                      expected_modified: str | None = None) -> None:
+        """Change what is given of an object (replaced 3-D values are kept in its history); its
+        ``modified`` stamp always moves forward. ``expected_modified``: the stamp the editor read — when
+        the object was changed since (by another annotator), the edit is a
+        :class:`~usvips.store.records.StaleEditError` naming the object, and nothing is changed."""
         ...
 
-    def delete_object(self, object_id: int) -> None:
-        """Remove an object and its vertices."""
+    def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
+        """Remove an object and its vertices (``expected_modified`` as for :meth:`update_object`)."""
         ...
 
     def object(self, object_id: int) -> StoredObject:

@@ -29,7 +29,7 @@ import sqlite3
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +39,7 @@ from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store import checks
-from usvips.store.records import ProjectError, StoredObject, Vertex  # noqa: F401 - re-exported
+from usvips.store.records import ProjectError, StaleEditError, StoredObject, Vertex  # noqa: F401 - re-exported
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
 FORMAT = "usvips-project"
@@ -47,7 +47,28 @@ SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
 def _now() -> str:
-    return datetime.now(UTC).isoformat(timespec="seconds")
+    """The time now, UTC, ISO 8601 to the microsecond (an object's ``modified`` is also its version)."""
+    return datetime.now(UTC).isoformat(timespec="microseconds")
+
+
+def _later(stamp: str) -> str:
+    """A ``modified`` stamp after ``stamp``: now, or ``stamp`` plus a microsecond when the clock has not
+    moved past it (two edits in one tick, or a clock set back) — every edit makes a new version."""
+    now = _now()
+    if now > stamp:
+        return now
+    try:
+        return (datetime.fromisoformat(stamp) + timedelta(microseconds=1)).isoformat(timespec="microseconds")
+    except ValueError:
+        return now
+
+
+def refuse_stale(where: object, stored: StoredObject, expected_modified: str | None) -> None:
+    """An edit made on an object as read at ``expected_modified`` is refused when it has changed since."""
+    if expected_modified is not None and stored.modified != expected_modified:
+        raise StaleEditError(f"{where}: object {stored.id} was changed by someone else since it was read "
+                             f"(now modified {stored.modified}, read at {expected_modified}); reload it and "
+                             "edit again (nothing was changed)")
 
 
 def file_hash(path: Path) -> str:
@@ -487,11 +508,14 @@ class Project:
         self._insert_vertex_frames(object_id, vertices)
 
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
-                      vertices: list[Vertex] | None = None, kind: str | None = None) -> None:
+                      vertices: list[Vertex] | None = None, kind: str | None = None,
+                      expected_modified: str | None = None) -> None:
         """Change an object in one transaction; replaced 3-D values go to the vertex history. ``kind``: a
-        registered measurement kind that suits the (new) vertex count."""
+        registered measurement kind that suits the (new) vertex count. ``expected_modified``: see
+        :meth:`ProjectStore.update_object` (a stale edit is refused)."""
         with self.transaction():
             stored = self.object(object_id)
+            refuse_stale(self.path, stored, expected_modified)
             if kind is not None:
                 count = len(vertices) if vertices is not None else len(stored.vertices)
                 try:
@@ -509,11 +533,11 @@ class Project:
                                  "FROM vertices WHERE object_id = ? AND x IS NOT NULL", (_now(), object_id))
                 self._db.execute("DELETE FROM vertices WHERE object_id = ?", (object_id,))
                 self._insert_vertices(object_id, vertices)
-            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_now(), object_id))
+            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(stored.modified), object_id))
 
-    def delete_object(self, object_id: int) -> None:
+    def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
         with self.transaction():
-            self.object(object_id)
+            refuse_stale(self.path, self.object(object_id), expected_modified)
             self._edit("DELETE FROM objects WHERE id = ?", (object_id,))
 
     def object(self, object_id: int) -> StoredObject:
