@@ -28,7 +28,7 @@ from usvips.app.measure import (
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.errors import UsvipsError
 from usvips.io.calibration_file import load_calibration
-from usvips.store.opening import open_project
+from usvips.store.opening import open_project, shown
 
 __all__ = ["group_picks", "read_picks", "register", "run"]
 
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     if args.project is not None:
         with open_project(args.project) as project:
             measured, ids = measure_into_project(project, args.pair, objects, where=args.picks)
-        print(f"stored {len(ids)} objects in {args.project} (pair {args.pair}): ids {', '.join(map(str, ids))}")
+        print(f"stored {len(ids)} objects in {shown(args.project)} (pair {args.pair}): ids {', '.join(map(str, ids))}")
     else:
         station = args.station if args.station is not None else "0"
         station = int(station) if station.isdigit() else station

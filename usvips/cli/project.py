@@ -14,7 +14,7 @@ from usvips.cli.video import register_project_actions
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.store.interface import ProjectStore
-from usvips.store.opening import create_project, open_project
+from usvips.store.opening import create_project, open_project, shown
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -56,14 +56,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run_new(args: argparse.Namespace) -> int:
     project = create_from_manifest(args.source, args.out) if args.source else create_project(args.out)
     project.close()
-    print(f"created {args.out}")
+    print(f"created {shown(args.out)}")
     return 0
 
 
 def run_info(args: argparse.Namespace) -> int:
     with open_project(args.project, read_only=True) as project:
         summary = summarise(project)
-    print(f"{args.project}: schema {summary.version}, {summary.pair_count} image pairs, "
+    print(f"{shown(args.project)}: schema {summary.version}, {summary.pair_count} image pairs, "
           f"{summary.control_count} control points, {summary.object_count} objects")
     for pair in summary.pairs:
         print(f"  pair {pair.label} ({pair.medium}): {pair.left or '-'} | {pair.right or '-'}"
@@ -89,7 +89,7 @@ def run_import(args: argparse.Namespace) -> int:
     plan = plan_import(args.control, args.obs, args.pair, args.role, args.calibration, tuple(args.active_for))
     with open_project(args.project) as project:
         store_import(project, plan)
-    print(f"imported into {args.project}")
+    print(f"imported into {shown(args.project)}")
     return 0
 
 

@@ -11,7 +11,7 @@ import argparse
 from pathlib import Path
 
 from usvips.core.errors import InvalidParameterError
-from usvips.store.opening import is_server_location
+from usvips.store.opening import is_server_location, public_location
 
 
 def register_sync_actions(actions: argparse._SubParsersAction) -> None:
@@ -42,7 +42,6 @@ def run_push(args: argparse.Namespace) -> int:
 
 
 def run_pull(args: argparse.Namespace) -> int:
-    from usvips.store.postgres import public_location
     from usvips.store.transfer import pull
 
     path, url = _locations(args)

@@ -9,7 +9,7 @@ import json
 from usvips.app import video_project
 from usvips.core.errors import UsvipsError
 from usvips.io.pairing import RULE_NAMES
-from usvips.store.opening import open_project
+from usvips.store.opening import open_project, shown
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -96,7 +96,7 @@ def run_add_pairs(args: argparse.Namespace) -> int:
         return 0
     with open_project(args.project) as project:
         video_project.add_image_pairs(project, plan, args.medium)
-    print(f"added {len(plan)} pairs to {args.project}")
+    print(f"added {len(plan)} pairs to {shown(args.project)}")
     return 0
 
 

@@ -7,15 +7,33 @@ it never names an implementation. A new backend is one module and one branch her
 from __future__ import annotations
 
 from pathlib import Path
+from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 from usvips.store.interface import ProjectStore
 
 SERVER_SCHEMES = ("postgresql://", "postgres://")
+OWN_QUERY = ("media", "cache")  # URL query parameters USVIPS reads itself (not passed to the server)
 
 
 def is_server_location(location: str | Path) -> bool:
     """True when ``location`` names a survey on a server (a ``postgresql://`` URL), not a file."""
     return isinstance(location, str) and location.startswith(SERVER_SCHEMES)
+
+
+def public_location(url: str) -> str:
+    """A server URL without its password (nor USVIPS's own query parameters): what messages show."""
+    parts = urlsplit(url)
+    host = parts.hostname or ""
+    if parts.port:
+        host = f"{host}:{parts.port}"
+    user = f"{parts.username}@" if parts.username else ""
+    query = [(k, v) for k, v in parse_qsl(parts.query) if k not in OWN_QUERY and k != "password"]
+    return urlunsplit((parts.scheme, user + host, parts.path, urlencode(query), ""))
+
+
+def shown(location: str | Path) -> str:
+    """How a location is printed: a file as its path, a server URL without its password."""
+    return public_location(location) if is_server_location(location) else str(location)
 
 
 def open_project(location: str | Path, read_only: bool = False) -> ProjectStore:

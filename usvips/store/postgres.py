@@ -41,6 +41,7 @@ from psycopg import errors as pg_errors
 from psycopg import sql as pg_sql
 from psycopg.pq import TransactionStatus
 
+from usvips.store.opening import OWN_QUERY, public_location
 from usvips.store.postgres_schema import IDENTITY_TABLES, PRIMARY_KEYS, SCHEMA, SERVER_SCHEMA_VERSION, TABLES
 from usvips.store.project import FORMAT, Project, _now
 from usvips.store.records import ProjectError
@@ -48,25 +49,13 @@ from usvips.store.records import ProjectError
 LOCK_WAIT_S = 2.0
 WRITE_LOCK = 0x55535649  # "USVI": the advisory lock key of a survey's writers (per database)
 CONNECT_TIMEOUT_S = 5
-_OWN_QUERY = ("media", "cache")  # URL query parameters USVIPS reads itself (not passed to the server)
 
 
 # ------------------------------------------------------------------------------------------------ locations
-def public_location(url: str) -> str:
-    """The URL without its password (and without USVIPS's own query parameters): what messages show."""
-    parts = urlsplit(url)
-    host = parts.hostname or ""
-    if parts.port:
-        host = f"{host}:{parts.port}"
-    user = f"{parts.username}@" if parts.username else ""
-    query = [(k, v) for k, v in parse_qsl(parts.query) if k not in _OWN_QUERY and k != "password"]
-    return urlunsplit((parts.scheme, user + host, parts.path, urlencode(query), ""))
-
-
 def _server_url(url: str) -> str:
     """The URL handed to the server: without USVIPS's own query parameters."""
     parts = urlsplit(url)
-    query = [(k, v) for k, v in parse_qsl(parts.query) if k not in _OWN_QUERY]
+    query = [(k, v) for k, v in parse_qsl(parts.query) if k not in OWN_QUERY]
     return urlunsplit((parts.scheme, parts.netloc, parts.path, urlencode(query), ""))
 
 
