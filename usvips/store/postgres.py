@@ -135,7 +135,7 @@ def new_survey(url: str, fill, doing: str) -> None:
     except psycopg.OperationalError as error:
         if "does not exist" not in _one_line(error) or "database" not in _one_line(error):
             raise ProjectError(f"{location}: cannot connect: {connection_problem(error, url)}") from None
-        _database_command(url, "CREATE DATABASE {} TEMPLATE template0 ENCODING 'UTF8' LC_COLLATE 'C' LC_CTYPE 'C'")
+        database_command(url, "CREATE DATABASE {} TEMPLATE template0 ENCODING 'UTF8' LC_COLLATE 'C' LC_CTYPE 'C'")
         created = True
         connection = _connect(url, read_only=False)
     except psycopg.Error as error:
@@ -154,14 +154,14 @@ def new_survey(url: str, fill, doing: str) -> None:
     except BaseException as error:
         connection.close()
         if created:
-            _database_command(url, "DROP DATABASE IF EXISTS {}")
+            database_command(url, "DROP DATABASE IF EXISTS {}")
         if isinstance(error, psycopg.Error):
             raise ProjectError(f"{location}: {doing}: {_one_line(error)} (nothing was written)") from None
         raise
     connection.close()
 
 
-def _database_command(url: str, command: str) -> None:
+def database_command(url: str, command: str) -> None:
     """CREATE or DROP the database ``url`` names, through the server's maintenance database."""
     parts = urlsplit(_server_url(url))
     maintenance = urlunsplit((parts.scheme, parts.netloc, "/postgres", parts.query, ""))
