@@ -104,12 +104,14 @@ def connection_problem(error: psycopg.Error, url: str) -> str:
     if "does not exist" in lowered and "database" in lowered:
         return f"the server has no database {database_name(url)!r} (create it with 'usvips project push' or new)"
     if any(words in lowered for words in ("connection refused", "no such file", "could not connect", "timeout",
-                                         "could not translate host", "is the server running", "timed out")):
+                                         "could not translate host", "is the server running", "timed out",
+                                         "resolve host", "name or service not known")):
         return "no server answers there (is it running? are host and port right?)"
     return message
 
 
 def _connect(url: str, read_only: bool) -> psycopg.Connection:
+    database_name(url)  # a URL without a database is refused before anything is asked of a server
     try:
         connection = psycopg.connect(_server_url(url), autocommit=True, connect_timeout=CONNECT_TIMEOUT_S)
     except psycopg.Error as error:
@@ -129,6 +131,7 @@ def new_survey(url: str, fill, doing: str) -> None:
     dropped again when this fails), else it must hold no tables; the schema, the ``meta`` rows and what
     ``fill(connection)`` writes are ONE transaction: all of it, or nothing."""
     location = public_location(url)
+    database_name(url)
     created = False
     try:
         connection = psycopg.connect(_server_url(url), autocommit=True, connect_timeout=CONNECT_TIMEOUT_S)
