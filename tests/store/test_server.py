@@ -293,3 +293,64 @@ def test_every_update_moves_the_version_forward_on_both_backends(tmp_path, new_d
                 store.update_object(object_id, notes=str(k))
                 stamps.append(store.object(object_id).modified)
             assert stamps == sorted(set(stamps)) and len(stamps) == 21
+
+
+_ANNOTATOR = """
+import sys
+from usvips.store.opening import open_project
+from usvips.store.records import ProjectError, StaleEditError, Vertex
+url, name, shared, rounds = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+with open_project(url) as survey:
+    for k in range(rounds):
+        while True:
+            try:
+                survey.add_object("point", [Vertex(1.0 + k, 2.0, 3.0, 4.0)], name)
+                break
+            except ProjectError:
+                continue
+        while True:
+            seen = survey.object(shared)
+            try:
+                survey.update_object(shared, notes=str(int(seen.notes) + 1), expected_modified=seen.modified)
+                break
+            except ProjectError:  # stale (someone else's increment came first) or busy: read again
+                continue
+"""
+
+
+def test_two_annotator_processes_on_one_survey_lose_nothing(new_database, tmp_path):
+    import subprocess
+    import sys
+
+    url = new_database("processes")
+    with create_project(url) as survey:
+        shared = survey.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)], notes="0")
+    rounds = 10
+    script = tmp_path / "annotator.py"
+    script.write_text(_ANNOTATOR)
+    workers = [subprocess.Popen([sys.executable, str(script), url, name, str(shared), str(rounds)],
+                                stderr=subprocess.PIPE, text=True) for name in ("ann", "bob")]
+    for worker in workers:
+        _, err = worker.communicate(timeout=300)
+        assert worker.returncode == 0, err
+    with open_project(url, read_only=True) as survey:
+        assert survey.object(shared).notes == str(2 * rounds)
+        made = [o.attribute for o in survey.objects() if o.id != shared]
+    assert sorted(made) == ["ann"] * rounds + ["bob"] * rounds
+
+
+def test_a_connection_cut_in_the_middle_of_a_transaction_is_one_line_and_keeps_nothing(new_database):
+    rng = np.random.default_rng(31)
+    url = new_database("cut")
+    with create_project(url) as survey:
+        kept = survey.add_object("point", [_vertex(rng)], "kept")
+        backend = survey._db.raw.info.backend_pid
+        with pytest.raises(ProjectError) as refused, survey.transaction():
+            survey.add_object("point", [_vertex(rng)], "lost")
+            with psycopg.connect(url, autocommit=True) as admin:  # the network goes: the server ends the session
+                admin.execute("SELECT pg_terminate_backend(%s)", (backend,))
+            survey.add_object("point", [_vertex(rng)], "lost too")
+        message = str(refused.value)
+        assert "\n" not in message and "connection" in message and str(survey.path) in message
+    with open_project(url, read_only=True) as survey:
+        assert [(o.id, o.attribute) for o in survey.objects()] == [(kept, "kept")]
