@@ -354,3 +354,16 @@ def test_a_connection_cut_in_the_middle_of_a_transaction_is_one_line_and_keeps_n
         assert "\n" not in message and "connection" in message and str(survey.path) in message
     with open_project(url, read_only=True) as survey:
         assert [(o.id, o.attribute) for o in survey.objects()] == [(kept, "kept")]
+
+
+def test_batch_export_takes_a_survey_on_a_server_as_it_takes_a_file(tmp_path, new_database, capsys):
+    original = tmp_path / "reef.usvips"
+    with Project.create(original) as project:
+        _fill(project, tmp_path, np.random.default_rng(41))
+    url = new_database("reef")
+    push(original, url)
+    assert main(["batch", "export", "--out-dir", str(tmp_path / "from_file"), "--jobs", "1", str(original)]) == 0
+    assert main(["batch", "export", "--out-dir", str(tmp_path / "from_server"), "--jobs", "1", url]) == 0
+    name = urlsplit(url).path.strip("/")
+    assert (tmp_path / "from_server" / f"{name}.csv").read_bytes() == (tmp_path / "from_file" / "reef.csv").read_bytes()
+    assert "ok" in capsys.readouterr().out

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from usvips.app import batch
 from usvips.core.errors import InvalidParameterError
+from usvips.store.opening import database_name, is_server_location
 
 #: export formats and the suffix of the file each writes
 EXPORT_SUFFIXES = {"csv": ".csv", "vertices": ".vertices.csv", "geojson": ".geojson", "ply": ".ply",
@@ -32,7 +33,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     intersect.add_argument("--station", default="0", help="calibrated station (index or pair label; default first)")
     intersect.add_argument("--frame", choices=["object", "rig"], default="object")
     export = tasks.add_parser("export", help="recompute figures and export the objects of projects")
-    export.add_argument("projects", nargs="+", help="project files (*.usvips)")
+    export.add_argument("projects", nargs="+", help="project files (*.usvips) or surveys (postgresql://…)")
     export.add_argument("--format", choices=sorted(EXPORT_SUFFIXES), default="csv")
     for sub in (intersect, export):
         sub.add_argument("--out-dir", required=True, help="folder for the outputs (created if missing)")
@@ -49,7 +50,7 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
     seen: dict[str, str] = {}
     tasks = []
     for given in inputs:
-        name = Path(given).stem
+        name = database_name(given) if is_server_location(given) else Path(given).stem
         if name in seen:
             raise InvalidParameterError("inputs", f"{seen[name]} and {given} would both write {name}{suffix}; "
                                                   "rename one or run them separately")

@@ -31,6 +31,11 @@ def public_location(url: str) -> str:
     return urlunsplit((parts.scheme, user + host, parts.path, urlencode(query), ""))
 
 
+def database_name(url: str) -> str:
+    """The name of the database a server URL names (its path); empty when it names none."""
+    return urlsplit(url).path.strip("/")
+
+
 def shown(location: str | Path) -> str:
     """How a location is printed: a file as its path, a server URL without its password."""
     return public_location(location) if is_server_location(location) else str(location)
