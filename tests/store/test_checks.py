@@ -64,3 +64,30 @@ def test_a_location_opens_its_backend_and_is_shown_without_its_password(tmp_path
     assert "hunter2" not in shown(secret)
     with pytest.raises(ProjectError, match="name the survey's database"):
         open_project("postgresql://ann@db.example/")
+
+
+def test_the_server_schema_has_every_table_and_column_of_the_sqlite_schema(tmp_path, new_database):
+    """When the SQLite schema gains a version, this fails until usvips/store/postgres_schema.py follows."""
+    import sqlite3
+
+    import psycopg
+
+    from usvips.store import SCHEMA_VERSION
+    from usvips.store.postgres_schema import SERVER_SCHEMA_VERSION, TABLES
+
+    assert SERVER_SCHEMA_VERSION == SCHEMA_VERSION
+    Project.create(tmp_path / "s.usvips").close()
+    connection = sqlite3.connect(tmp_path / "s.usvips")
+    names = [r[0] for r in connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
+    sqlite_columns = {t: tuple(r[1] for r in connection.execute(f"PRAGMA table_info({t})")) for t in names}
+    connection.close()
+    assert sqlite_columns == TABLES
+    url = new_database("schema")
+    create_project(url).close()
+    with psycopg.connect(url) as server:
+        rows = server.execute("SELECT table_name, column_name FROM information_schema.columns WHERE table_schema = "
+                              "current_schema() ORDER BY table_name, ordinal_position").fetchall()
+    server_columns: dict[str, tuple[str, ...]] = {}
+    for table, column in rows:
+        server_columns[table] = (*server_columns.get(table, ()), column)
+    assert server_columns == {**TABLES, "control_points": (*TABLES["control_points"], "ord")}
