@@ -1,7 +1,8 @@
 """The storage contract: what any implementation of :class:`usvips.store.interface.ProjectStore` must do.
 
-Parametrised over the implementations in ``IMPLEMENTATIONS`` (SQLite's ``Project`` today; a team server
-adds its own opener here and must pass every test unchanged): round trips of pairs, objects, vertices,
+Parametrised over the implementations in ``IMPLEMENTATIONS`` (SQLite's ``Project`` and the PostgreSQL
+server's ``ServerProject``, against a real server the suite starts itself; a further backend adds its
+opener here and must pass every test unchanged): round trips of pairs, objects, vertices,
 calibrations, control, media and videos, vocabularies and records; transactions all or nothing;
 read-only refusals that change nothing; two handles on one project.
 """
@@ -25,6 +26,7 @@ from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store import Project, ProjectError
 from usvips.store.interface import ProjectStore
+from usvips.store.postgres import ServerProject
 from usvips.store.project import Vertex
 
 
@@ -47,14 +49,41 @@ def _sqlite_snapshot(path: Path) -> str:
                                                       project.vocabulary(), project.videos())).encode()).hexdigest()
 
 
+def _server_implementation(new_database: Callable[[str], str]) -> Implementation:
+    """A survey on the session's PostgreSQL server (tests/store/conftest.py), one new database per store
+    the test creates; the store's local name (``path``: messages, media folder) is the test's ``where``.
+    A copy (``copy_to`` a file) is an SQLite project file, opened as one."""
+    urls: dict[Path, str] = {}
+
+    def create(where: Path) -> ProjectStore:
+        urls[where] = new_database("contract")
+        return ServerProject.create(urls[where], path=where)
+
+    def open_(where: Path, read_only: bool = False) -> ProjectStore:
+        if where in urls:
+            return ServerProject.open(urls[where], read_only=read_only, path=where)
+        return Project.open(where, read_only=read_only)
+
+    def snapshot(where: Path) -> str:
+        with open_(where, True) as project:
+            return hashlib.sha256(repr((project.pairs(), [(o.id, o.kind, o.attribute, o.notes) for o in
+                                                           project.objects()], project.calibrations(),
+                                                          project.vocabulary(), project.videos())).encode()).hexdigest()
+
+    return Implementation("postgresql", create, open_, snapshot)
+
+
 IMPLEMENTATIONS = [
     Implementation("sqlite", lambda where: Project.create(where),
                    lambda where, read_only=False: Project.open(where, read_only=read_only), _sqlite_snapshot),
+    "postgresql",  # made per test by _server_implementation (it needs the session's server)
 ]
 
 
-@pytest.fixture(params=IMPLEMENTATIONS, ids=lambda i: i.name)
+@pytest.fixture(params=IMPLEMENTATIONS, ids=lambda i: i if isinstance(i, str) else i.name)
 def impl(request) -> Implementation:
+    if request.param == "postgresql":
+        return _server_implementation(request.getfixturevalue("new_database"))
     return request.param
 
 

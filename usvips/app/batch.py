@@ -68,12 +68,12 @@ def export_project_task(project: str, out: str, opcode: str | None = None) -> di
     """Recompute the figures of every object of ``project`` (a .usvips file, opened read-only) and export
     them to ``out``. Returns {"objects": written, "skipped": [why, ...], "out": out}."""
     from usvips.app.project_export import export_project
-    from usvips.store import Project
+    from usvips.store.opening import is_server_location, open_project
 
     skipped: list[str] = []
-    if not Path(project).is_file():
+    if not is_server_location(project) and not Path(project).is_file():
         raise InputFileError(project, "no such project file")
-    with Project.open(project, read_only=True) as opened:
+    with open_project(project, read_only=True) as opened:
         count = export_project(opened, out, opcode, skipped=skipped)
     return {"objects": count, "skipped": skipped, "out": str(out)}
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from usvips.app.calibrations import active_calibration
 from usvips.core.measurements import placement
 from usvips.core.stereo_calibration import StereoCalibration
-from usvips.io.calibration_file import calibration_from_dict
 from usvips.store.interface import ProjectStore
 
 
@@ -33,11 +33,6 @@ class PairGeometry:
         return f"calibration {self.calibration_id} ({self.calibration.phase}), {where}"
 
 
-def read_calibration(project: ProjectStore, calibration_id: int) -> StereoCalibration:
-    """A stored calibration read and checked (a damaged one is an error naming the project and its id)."""
-    return calibration_from_dict(project.calibration(calibration_id), f"{project.path} calibration {calibration_id}")
-
-
 def placed(calibration: StereoCalibration, calibration_id: int, label: str | None) -> PairGeometry:
     """A calibration placed where the pair ``label`` measures."""
     return PairGeometry(calibration, calibration_id, *placement(calibration, label))
@@ -45,7 +40,7 @@ def placed(calibration: StereoCalibration, calibration_id: int, label: str | Non
 
 def pair_geometry(project: ProjectStore, label: str) -> PairGeometry | None:
     """The active calibration of a pair placed at its station, or None when the pair has none."""
-    calibration_id = project.active_calibration(label)
-    if calibration_id is None:
+    active = active_calibration(project, label)
+    if active is None:
         return None
-    return placed(read_calibration(project, calibration_id), calibration_id, label)
+    return placed(active[1], active[0], label)

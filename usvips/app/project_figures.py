@@ -27,7 +27,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from usvips.app.pair_geometry import pair_geometry, read_calibration
+from usvips.app.calibrations import read_calibration
+from usvips.app.pair_geometry import pair_geometry
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.measurements import (

@@ -9,16 +9,18 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from usvips.app.calibrations import store_calibration
 from usvips.app.video_project import add_sample_video
 from usvips.core.errors import InputFileError
 from usvips.io.calibration_file import load_calibration
 from usvips.io.manifest import read_manifest
 from usvips.io.tables import read_control, read_observations
-from usvips.store import Project, ProjectError
 from usvips.store.interface import ProjectStore
+from usvips.store.opening import create_project, open_project
+from usvips.store.records import ProjectError
 
 
-def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
+def create_from_manifest(directory: str | Path, out: str | Path) -> ProjectStore:
     """A new project at ``out`` holding a sample directory's pairs, control, observations and calibrations."""
     manifest = read_manifest(directory)
     control = read_control(manifest.control) if manifest.control is not None else None
@@ -36,7 +38,7 @@ def create_from_manifest(directory: str | Path, out: str | Path) -> Project:
             calibrations.append((entry, json.loads(entry.file.read_text(encoding="utf-8"))))
         except (OSError, ValueError) as error:
             raise InputFileError(str(entry.file), f"cannot read the calibration: {error}") from None
-    project = Project.create(out)
+    project = create_project(out)
     try:
         with project.transaction():
             _fill(project, manifest, control, observation_files, calibrations)
@@ -60,15 +62,15 @@ def _fill(project: ProjectStore, manifest, control, observation_files, calibrati
             rows = observations.pair(label) if label in observations.pair_labels else observations
             project.add_control_observations(rows, entry.role, label)
     for entry, data in calibrations:
-        project.add_calibration(entry.file.stem, data, entry.active_for)
+        store_calibration(project, entry.file.stem, data, entry.active_for)
     if manifest.video is not None:  # the sample's stereo video with its known offset
         add_sample_video(project, manifest.video.left, manifest.video.right, manifest.video.frame_offset)
 
 
-def open_or_create_from_manifest(directory: str | Path) -> Project:
+def open_or_create_from_manifest(directory: str | Path) -> ProjectStore:
     """Open ``<directory>/project.usvips``, creating it from the directory's ``project.json`` first."""
     path = Path(directory) / "project.usvips"
     if path.is_symlink():
         raise ProjectError(f"{path}: a symbolic link; a sample's project file must be a plain file in its "
                            "folder (remove the link)")
-    return Project.open(path) if path.exists() else create_from_manifest(directory, path)
+    return open_project(path) if path.exists() else create_from_manifest(directory, path)

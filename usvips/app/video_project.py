@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.app.calibrations import make_active, read_calibration
 from usvips.core import synchronisation, validation
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.io import video_proxy
 from usvips.io.atomic import guard_output
-from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image, write_image
 from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
 from usvips.io.video_stream import VideoStream
@@ -189,8 +189,9 @@ def open_streams(project: ProjectStore, label: str) -> tuple[dict, VideoStream, 
 
 
 def proxy_folder(project: ProjectStore) -> Path:
-    """Where a project's seek proxies live: ``proxies/`` beside the project file."""
-    return project.path.parent / "proxies"
+    """Where a project's seek proxies live: ``proxies/`` in the store's derived-media folder (beside the
+    project file of a file project)."""
+    return project.derived_media_folder() / "proxies"
 
 
 ProxyStates = Sequence[tuple[list[Path], video_proxy.ProxyState]]
@@ -375,7 +376,7 @@ def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: s
         raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
     if pair_label in {p["label"] for p in project.pairs()}:
         raise VideoError(f"{project.path}: pair label {pair_label!r} is already used; choose another")
-    return pair_label, project.path.parent / "frames" / pair_label
+    return pair_label, project.derived_media_folder() / "frames" / pair_label
 
 
 def add_taken_pair(project: ProjectStore, pair_label: str, paths: tuple[Path, Path], medium: str = "water") -> str:
@@ -417,7 +418,7 @@ def _calibration_for(project: ProjectStore, calibration_id: int | None, label: s
                              "has none (import one, or use --method flash or audio)")
         water = [c for c in stored if c.get("phase") not in ("air", "phase1")]
         calibration_id = (water or stored)[-1]["id"]
-    return calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")
+    return read_calibration(project, calibration_id)
 
 
 @dataclass(frozen=True)
@@ -571,4 +572,4 @@ def add_sample_video(project: ProjectStore, left: Path, right: Path, offset: int
     active = [project.active_calibration(p["label"]) for p in project.pairs() if p["medium"] == "water"]
     active = [a for a in active if a is not None]
     if active:
-        project.activate_calibration(label, max(set(active), key=active.count))
+        make_active(project, label, max(set(active), key=active.count))

@@ -3,8 +3,10 @@
 ``usvips batch intersect --calibration CAL --out-dir DIR OBS...`` re-intersects each observations file
 with the calibration (DIR/<name>.points.csv); ``usvips batch export --out-dir DIR --format csv
 PROJECT...`` recomputes each project's figures and exports them (DIR/<name>.<format>). One progress line
-per finished task; a failing one prints one line and the others go on. Exit status: 0 when every task
-succeeded, 2 when any failed, 130 when interrupted (Ctrl-C: running tasks finish, the rest are cancelled).
+per finished task; a failing one prints one line and the others go on. ``--scheduler ADDRESS`` runs the
+same tasks on a Dask distributed cluster (``local:N``: N local worker processes; app/batch_cluster.py).
+Exit status: 0 when every task succeeded, 2 when any failed, 130 when interrupted (Ctrl-C: running tasks
+finish, the rest are cancelled).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from pathlib import Path
 from usvips.app import batch
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import guard_output
+from usvips.store.opening import database_name, is_server_location
 
 #: the most worker processes --jobs starts (each holds its own copy of the libraries)
 MAX_JOBS = 256
@@ -33,12 +36,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     intersect.add_argument("--station", default="0", help="calibrated station (index or pair label; default first)")
     intersect.add_argument("--frame", choices=["object", "rig"], default="object")
     export = tasks.add_parser("export", help="recompute figures and export the objects of projects")
-    export.add_argument("projects", nargs="+", help="project files (*.usvips)")
+    export.add_argument("projects", nargs="+", help="project files (*.usvips) or surveys (postgresql://…)")
     export.add_argument("--format", choices=sorted(EXPORT_SUFFIXES), default="csv")
     for sub in (intersect, export):
         sub.add_argument("--out-dir", required=True, help="folder for the outputs (created if missing)")
         sub.add_argument("--jobs", type=int, default=None,
                          help=f"worker processes (default: every core, {batch.default_jobs()} here)")
+        sub.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask distributed cluster instead: its "
+                         "scheduler's address (tcp://HOST:PORT), or local:N for N local worker processes")
         sub.set_defaults(handler=run)
 
 
@@ -48,7 +53,7 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
     seen: dict[str, str] = {}
     tasks = []
     for given in inputs:
-        name = Path(given).stem
+        name = database_name(given) if is_server_location(given) else Path(given).stem
         if name in seen:
             raise InvalidParameterError("inputs", f"{seen[name]} and {given} would both write {name}{suffix}; "
                                                   "rename one or run them separately")
@@ -86,6 +91,13 @@ def _line(outcome: batch.Outcome, finished: int, total: int) -> str:
 def run(args: argparse.Namespace) -> int:
     if args.jobs is not None and not 1 <= args.jobs <= MAX_JOBS:
         raise InvalidParameterError("--jobs", f"must be from 1 to {MAX_JOBS} worker processes, got {args.jobs}")
+    if args.scheduler is not None:
+        from usvips.app.batch_cluster import local_workers
+
+        if args.jobs is not None:
+            raise InvalidParameterError("--jobs", "the cluster's workers run the tasks with --scheduler; give one "
+                                                  "of --jobs and --scheduler")
+        local_workers(args.scheduler)
     out_dir = Path(args.out_dir)
     tasks = _tasks(args, out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -93,7 +105,12 @@ def run(args: argparse.Namespace) -> int:
     def progress(outcome: batch.Outcome, finished: int, total: int) -> None:
         print(_line(outcome, finished, total), flush=True)
 
-    outcomes = batch.run(tasks, args.jobs, progress)
+    if args.scheduler is not None:
+        from usvips.app.batch_cluster import run_on_cluster
+
+        outcomes = run_on_cluster(tasks, args.scheduler, progress)
+    else:
+        outcomes = batch.run(tasks, args.jobs, progress)
     done = sum(o.ok for o in outcomes)
     failed = sum(o.status == "failed" for o in outcomes)
     cancelled = sum(o.status == "cancelled" for o in outcomes)

@@ -32,7 +32,7 @@ from usvips.core.errors import UsvipsError
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
 from usvips.io.tables import refuse_outside_image
-from usvips.store import Project
+from usvips.store.opening import open_project, shown
 
 __all__ = ["group_picks", "read_picks", "register", "run"]
 
@@ -81,9 +81,9 @@ def _run(args: argparse.Namespace) -> int:
                               (calibration.right.width, calibration.right.height)))
     objects = group_picks(args.picks, rows)
     if args.project is not None:
-        with Project.open(args.project) as project:
+        with open_project(args.project) as project:
             measured, ids = measure_into_project(project, args.pair, objects, where=args.picks)
-        print(f"stored {len(ids)} objects in {args.project} (pair {args.pair}): ids {', '.join(map(str, ids))}")
+        print(f"stored {len(ids)} objects in {shown(args.project)} (pair {args.pair}): ids {', '.join(map(str, ids))}")
     else:
         station = args.station if args.station is not None else "0"
         station = int(station) if station.isdigit() else station

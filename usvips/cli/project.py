@@ -10,12 +10,15 @@ from usvips.app.project_contents import plan_import, store_import, summarise
 from usvips.app.project_export import export_project, export_targets
 from usvips.app.samples import create_from_manifest
 from usvips.cli.project_check import register_check_action
+from usvips.cli.project_sync import register_sync_actions
 from usvips.cli.video import register_project_actions
 from usvips.core import validation
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.io.atomic import replacing
 from usvips.store import Project
+from usvips.store.interface import ProjectStore
+from usvips.store.opening import create_project, open_project, shown
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -66,21 +69,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     register_project_actions(actions)  # add-pairs, add-video: handlers in usvips/cli/video.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
     register_check_action(actions)  # check: usvips/cli/project_check.py
+    register_sync_actions(actions)  # push, pull: usvips/cli/project_sync.py
 
 
 def run_new(args: argparse.Namespace) -> int:
-    project = create_from_manifest(args.source, args.out) if args.source else Project.create(args.out)
+    project = create_from_manifest(args.source, args.out) if args.source else create_project(args.out)
     project.close()
-    print(f"created {args.out}")
+    print(f"created {shown(args.out)}")
     return 0
 
 
 def run_info(args: argparse.Namespace) -> int:
-    with Project.open(args.project, read_only=True) as project:
+    with open_project(args.project, read_only=True) as project:
         summary = summarise(project)
         media = project.media_problems(check_hash=args.full_hash)
         folder = project.path.parent
-    print(f"{args.project}: schema {summary.version}, {summary.pair_count} image pairs, "
+    print(f"{shown(args.project)}: schema {summary.version}, {summary.pair_count} image pairs, "
           f"{summary.control_count} control points, {summary.object_count} objects")
     for pair in summary.pairs:
         print(f"  pair {pair.label} ({pair.medium}): {pair.left or '-'} | {pair.right or '-'}"
@@ -125,16 +129,16 @@ def run_relocate_media(args: argparse.Namespace) -> int:
 def run_import(args: argparse.Namespace) -> int:
     # every file is read and checked before the project is opened; then all goes in one transaction
     plan = plan_import(args.control, args.obs, args.pair, args.role, args.calibration, tuple(args.active_for))
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         store_import(project, plan)
-    print(f"imported into {args.project}")
+    print(f"imported into {shown(args.project)}")
     return 0
 
 
 def run_export(args: argparse.Namespace) -> int:
     skipped: list[str] = []
     with replacing(export_targets(args.out), project=args.project, replace=args.force, option="OUT"), \
-            Project.open(args.project, read_only=True) as project:
+            open_project(args.project, read_only=True) as project:
         count = export_project(project, args.out, args.opcode, skipped=skipped)
     for reason in skipped:
         print(f"skipped {reason}")
@@ -180,7 +184,7 @@ def run_set_metadata(args: argparse.Namespace) -> int:
     for name, value in given.items():  # no control characters in what CheckEM's tables will hold
         option = "--depth" if name == "depth_m" else "--" + name.replace("_", "-")
         validation.printable(option, value)
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         if args.clear:
             if given:
                 raise UsvipsError("--clear removes the deployment metadata; give no other values with it")
@@ -206,7 +210,7 @@ def run_set_georeference(args: argparse.Namespace) -> int:
                                          ("--points", args.points, None)) if v != default]
         if given:
             raise UsvipsError(f"--clear removes the georeference; give no {', '.join(given)} with it")
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         if args.clear:
             project.set_georeference(None)
             print("cleared the georeference")
@@ -230,7 +234,7 @@ def run_set_georeference(args: argparse.Namespace) -> int:
 MAX_SCALE_MISMATCH = 0.01
 
 
-def _fit_georeference(project: Project, points: str) -> Georeference:
+def _fit_georeference(project: ProjectStore, points: str) -> Georeference:
     from usvips.io.georeference import georeference_from_points, read_geographic_points
 
     geographic = read_geographic_points(points)

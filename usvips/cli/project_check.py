@@ -12,7 +12,7 @@ from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import QualityRules
 from usvips.io.atomic import replacing
-from usvips.store import Project
+from usvips.store.opening import open_project
 
 
 def register_check_action(actions: argparse._SubParsersAction) -> None:
@@ -42,7 +42,7 @@ def _rules(args: argparse.Namespace) -> QualityRules:
 
 def run_check(args: argparse.Namespace) -> int:
     rules = _rules(args)
-    with Project.open(args.project, read_only=True) as project:
+    with open_project(args.project, read_only=True) as project:
         report = check_project(project, rules)
     rows = report_rows(report)
     if args.out:

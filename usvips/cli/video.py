@@ -10,7 +10,7 @@ from usvips.app import video_project
 from usvips.core import validation
 from usvips.core.errors import UsvipsError
 from usvips.io.pairing import RULE_NAMES
-from usvips.store import Project
+from usvips.store.opening import open_project, shown
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -97,14 +97,14 @@ def run_add_pairs(args: argparse.Namespace) -> int:
         print(f"  {label}: {left} | {right}")
     if args.dry_run:
         return 0
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         video_project.add_image_pairs(project, plan, args.medium)
-    print(f"added {len(plan)} pairs to {args.project}")
+    print(f"added {len(plan)} pairs to {shown(args.project)}")
     return 0
 
 
 def run_add_video(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         added = video_project.add_video(project, args.left, args.right, args.label, args.scan)
     print(f"added video {added.label!r}: {added.frame_count} frames at {added.fps:.6g} fps")
     for warning in added.warnings:
@@ -117,7 +117,7 @@ def run_sync(args: argparse.Namespace) -> int:
         raise UsvipsError("--dry-run stores nothing and --force stores whatever the confidence: give one of them")
     if args.calibration is not None and args.method in ("flash", "audio"):
         raise UsvipsError(f"--calibration is used by --method image only; leave it out with --method {args.method}")
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         estimate = video_project.estimate_offset(project, args.pair, args.method, args.max_offset, args.calibration)
         doubt = video_project.store_refusal(estimate, args.force)
         store = not args.dry_run and doubt is None
@@ -136,14 +136,14 @@ def run_sync(args: argparse.Namespace) -> int:
 
 
 def run_set_offset(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         project.set_video_offset(args.pair, args.frames, {"method": "by hand"})
     print(f"video {args.pair!r}: left frame i shows the instant of right frame i {args.frames:+d}")
     return 0
 
 
 def run_export_frame(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         video = project.video(args.pair)
         left, right = video_project.export_frame(project, args.pair, args.frame, args.out)
     print(f"wrote {left} (left frame {args.frame}) and {right} (right frame {args.frame + video['offset_frames']})")
@@ -151,7 +151,7 @@ def run_export_frame(args: argparse.Namespace) -> int:
 
 
 def run_period(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         if args.add:
             name, start, end = args.add
             name = validation.name("--add NAME", name)
@@ -166,14 +166,14 @@ def run_period(args: argparse.Namespace) -> int:
 
 
 def run_take_pair(args: argparse.Namespace) -> int:
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         label = video_project.take_pair(project, args.pair, args.frame, args.label, args.medium)
     print(f"added image pair {label!r} (left frame {args.frame} of {args.pair} and its partner)")
     return 0
 
 
 def run_proxy(args: argparse.Namespace) -> int:
-    with Project.open(args.project, read_only=True) as project:
+    with open_project(args.project, read_only=True) as project:
         if args.delete:
             freed = video_project.delete_proxies(project, args.pair)
             print(f"video {args.pair!r}: " + (f"deleted its seek proxies ({freed / 2**20:.1f} MiB freed)" if freed

@@ -1,5 +1,8 @@
-"""The project database: one SQLite file per project (``*.usvips``), standard-library sqlite3."""
+"""Where projects are kept: the storage interface (``interface``), its record types and errors
+(``records``), the domain checks above every backend (``checks``), the opener by location (``opening``),
+the SQLite file (``project``) and the PostgreSQL server (``postgres``)."""
 
-from usvips.store.project import SCHEMA_VERSION, Project, ProjectError
+from usvips.store.project import SCHEMA_VERSION, Project
+from usvips.store.records import ProjectError, StoredObject, Vertex
 
-__all__ = ["SCHEMA_VERSION", "Project", "ProjectError"]
+__all__ = ["SCHEMA_VERSION", "Project", "ProjectError", "StoredObject", "Vertex"]

@@ -2,14 +2,19 @@
 
 :class:`ProjectStore` lists them — what the application services (``usvips.app``), the command line and
 the window call on a project, nothing more. The SQLite file (:class:`usvips.store.project.Project`) is
-its one implementation today; a later one (a team server) implements the same methods with the same
-meaning and passes the same contract suite (``tests/store/test_storage_contract.py``). Code that takes a
-project takes a ``ProjectStore``; only the code that creates or opens one names an implementation.
+one implementation, a PostgreSQL server (:class:`usvips.store.postgres.ServerProject`) the other; both
+implement these methods with the same meaning and pass the same contract suite
+(``tests/store/test_storage_contract.py``). Code that takes a project takes a ``ProjectStore``; code that
+creates or opens one calls :func:`usvips.store.opening.open_project` / ``create_project`` with a location
+(a file path or a ``postgresql://`` URL) and never names an implementation. The record types and the
+error family are in :mod:`usvips.store.records`; the domain checks every backend makes before writing
+(kinds, vertex counts, pair files) in :mod:`usvips.store.checks`. Adding a backend = one module that
+passes the contract suite, and one line in the opener.
 
 Conventions every implementation keeps:
 
 - Units: image coordinates in pixels, vertex X, Y, Z in metres, covariances in m².
-- Failures are :class:`usvips.store.project.ProjectError` (or another ``UsvipsError``) with one line that
+- Failures are :class:`usvips.store.records.ProjectError` (or another ``UsvipsError``) with one line that
   names the project (``path``) and what is wrong; a store error never leaks as another kind of exception.
 - Every write is all or nothing. :meth:`ProjectStore.transaction` groups writes: all are kept or, on any
   error, none; nested uses join the outermost one.
@@ -28,7 +33,7 @@ from typing import Protocol, runtime_checkable
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
-from usvips.store.project import StoredObject, Vertex
+from usvips.store.records import StoredObject, Vertex
 
 
 @runtime_checkable
@@ -77,6 +82,11 @@ class ProjectStore(Protocol):
     def add_image_pairs(self, pairs: Sequence[tuple[str, Path, Path]], medium: str = "water",
                         sizes: Sequence[tuple[int, int]] | None = None) -> list[int]:
         """(label, left image, right image) pairs, recording each file's size and hash; all or none."""
+        ...
+
+    def derived_media_folder(self) -> Path:
+        """The folder where media derived from the project (seek proxies, exported frames) are kept: beside
+        the file of a file project, a configurable cache for a server one."""
         ...
 
     def image_path(self, relative: str) -> Path:
@@ -184,12 +194,16 @@ class ProjectStore(Protocol):
         ...
 
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
-                      vertices: list[Vertex] | None = None, kind: str | None = None) -> None:
-        """Change what is given of an object (replaced 3-D values are kept in its history)."""
+                      vertices: list[Vertex] | None = None, kind: str | None = None,
+                      expected_modified: str | None = None) -> None:
+        """Change what is given of an object (replaced 3-D values are kept in its history); its
+        ``modified`` stamp always moves forward. ``expected_modified``: the stamp the editor read — when
+        the object was changed since (by another annotator), the edit is a
+        :class:`~usvips.store.records.StaleEditError` naming the object, and nothing is changed."""
         ...
 
-    def delete_object(self, object_id: int) -> None:
-        """Remove an object and its vertices."""
+    def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
+        """Remove an object and its vertices (``expected_modified`` as for :meth:`update_object`)."""
         ...
 
     def object(self, object_id: int) -> StoredObject:
@@ -198,6 +212,11 @@ class ProjectStore(Protocol):
 
     def objects(self) -> list[StoredObject]:
         """Every object, a consistent snapshot, by id."""
+        ...
+
+    def objects_with_ids(self, object_ids: Sequence[int]) -> list[StoredObject]:
+        """The objects of ``object_ids`` that exist, by id, in one consistent read (an id no longer stored
+        is simply absent)."""
         ...
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:

@@ -30,30 +30,46 @@ import sqlite3
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import numpy as np
 
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
-from usvips.core.measurements import kind as measurement_kind
-from usvips.core.measurements import resolve as resolve_kind
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.store import checks
+from usvips.store.records import ProjectError, StaleEditError, StoredObject, Vertex  # noqa: F401 - re-exported
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
 FORMAT = "usvips-project"
 SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
-class ProjectError(UsvipsError):
-    """A project file that cannot be opened or written; the message names the file."""
-
-
 def _now() -> str:
-    return datetime.now(UTC).isoformat(timespec="seconds")
+    """The time now, UTC, ISO 8601 to the microsecond (an object's ``modified`` is also its version)."""
+    return datetime.now(UTC).isoformat(timespec="microseconds")
+
+
+def _later(stamp: str) -> str:
+    """A ``modified`` stamp after ``stamp``: now, or ``stamp`` plus a microsecond when the clock has not
+    moved past it (two edits in one tick, or a clock set back) — every edit makes a new version."""
+    now = _now()
+    if now > stamp:
+        return now
+    try:
+        return (datetime.fromisoformat(stamp) + timedelta(microseconds=1)).isoformat(timespec="microseconds")
+    except ValueError:
+        return now
+
+
+def refuse_stale(where: object, stored: StoredObject, expected_modified: str | None) -> None:
+    """An edit made on an object as read at ``expected_modified`` is refused when it has changed since."""
+    if expected_modified is not None and stored.modified != expected_modified:
+        raise StaleEditError(f"{where}: object {stored.id} was changed by someone else since it was read "
+                             f"(now modified {stored.modified}, read at {expected_modified}); reload it and "
+                             "edit again (nothing was changed)")
 
 
 def file_hash(path: Path) -> str:
@@ -109,38 +125,6 @@ def database_problem(error: sqlite3.Error) -> str:
     if "disk i/o" in lowered:
         return f"the disk failed to read or write ({message})"
     return message
-
-
-@dataclass(frozen=True)
-class Vertex:
-    """One vertex of a measured object: its picks (pixels) and, once intersected, X, Y, Z (m) and the
-    3 × 3 covariance (m²) with the calibration used."""
-
-    xl: float
-    yl: float
-    xr: float
-    yr: float
-    xyz: tuple[float, float, float] | None = None
-    covariance: np.ndarray | None = None
-    calibration_id: int | None = None
-    pair: str | None = None
-    # on a stereo video: its label, the left and right frame numbers and the time (s) of the left frame
-    video: str | None = None
-    frame_left: int | None = None
-    frame_right: int | None = None
-    time_s: float | None = None
-
-
-@dataclass(frozen=True)
-class StoredObject:
-    id: int
-    kind: str
-    attribute: str
-    notes: str
-    creator: str
-    created: str
-    modified: str
-    vertices: tuple[Vertex, ...]
 
 
 def _remove_database(path: Path) -> None:
@@ -401,9 +385,7 @@ class Project:
 
     def add_pair(self, label: str, left: str | Path | None = None, right: str | Path | None = None,
                  medium: str = "water", frame: int | None = None, size: tuple[int, int] | None = None) -> int:
-        for side, image in (("left", left), ("right", right)):
-            if image is not None and not Path(image).is_file():
-                raise ProjectError(f"pair {label!r}: the {side} image {image} does not exist")
+        checks.pair_images(label, left, right)
         try:
             hashes = [file_hash(Path(p)) if p is not None else None for p in (left, right)]
         except OSError as error:
@@ -426,6 +408,10 @@ class Project:
         if not rows:
             raise ProjectError(f"{self.path}: no image pair {label!r}")
         return int(rows[0][0])
+
+    def derived_media_folder(self) -> Path:
+        """The folder of the project file: seek proxies and exported frames are kept beside it."""
+        return self.path.parent
 
     def image_path(self, relative: str) -> Path:
         """The absolute path of a stored image path; raises if the image has gone missing."""
@@ -525,16 +511,7 @@ class Project:
         all of them or, on any error, none."""
         checked = []
         for kind, vertices, attribute, notes, creator in objects:
-            for i, vertex in enumerate(vertices):
-                values = (vertex.xl, vertex.yl, vertex.xr, vertex.yr)
-                if any(v is None or not np.isfinite(v) for v in values):
-                    raise ProjectError(f"vertex {i}: a vertex needs both picks (left and right pixel)")
-            try:
-                name = resolve_kind(kind, len(vertices))
-                measurement_kind(name).check_count(len(vertices))
-            except UsvipsError as error:
-                raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
-            checked.append((name, vertices, attribute, notes, creator))
+            checked.append((checks.object_kind(kind, vertices, self.path), vertices, attribute, notes, creator))
         now = _now()
         ids = []
         with self.transaction():
@@ -560,16 +537,18 @@ class Project:
         self._insert_vertex_frames(object_id, vertices)
 
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
-                      vertices: list[Vertex] | None = None, kind: str | None = None) -> None:
+                      vertices: list[Vertex] | None = None, kind: str | None = None,
+                      expected_modified: str | None = None) -> None:
         """Change an object in one transaction; replaced 3-D values go to the vertex history. ``kind``: a
-        registered measurement kind that suits the (new) vertex count."""
+        registered measurement kind that suits the (new) vertex count. ``expected_modified``: see
+        :meth:`ProjectStore.update_object` (a stale edit is refused)."""
         with self.transaction():
             stored = self.object(object_id)
+            refuse_stale(self.path, stored, expected_modified)
             if kind is not None:
                 count = len(vertices) if vertices is not None else len(stored.vertices)
                 try:
-                    kind = resolve_kind(kind, count)
-                    measurement_kind(kind).check_count(count)
+                    kind = checks.kind_for_count(kind, count)
                 except UsvipsError as error:
                     raise ProjectError(f"{self.path}: object {object_id}: {error}") from None
                 self._db.execute("UPDATE objects SET kind = ? WHERE id = ?", (kind, object_id))
@@ -583,11 +562,11 @@ class Project:
                                  "FROM vertices WHERE object_id = ? AND x IS NOT NULL", (_now(), object_id))
                 self._db.execute("DELETE FROM vertices WHERE object_id = ?", (object_id,))
                 self._insert_vertices(object_id, vertices)
-            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_now(), object_id))
+            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(stored.modified), object_id))
 
-    def delete_object(self, object_id: int) -> None:
+    def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
         with self.transaction():
-            self.object(object_id)
+            refuse_stale(self.path, self.object(object_id), expected_modified)
             self._edit("DELETE FROM objects WHERE id = ?", (object_id,))
 
     def object(self, object_id: int) -> StoredObject:
@@ -838,17 +817,7 @@ class Project:
     def _refuse_unusable_pairs(self, pairs: Sequence[tuple[str, Path, Path]]) -> None:
         """A label already in the project or given twice, or one file as both left and right: one line
         naming the pair (nothing is added)."""
-        labels = [label for label, _, _ in pairs]
-        taken = {row[0] for row in self._db.execute("SELECT label FROM image_pairs")}
-        repeated = sorted({label for label in labels if label in taken or labels.count(label) > 1})
-        if repeated:
-            shown = ", ".join(repr(label) for label in repeated[:5]) + (" …" if len(repeated) > 5 else "")
-            raise ProjectError(f"{self.path}: image pair label(s) {shown} already used; choose another label or "
-                               "label prefix (nothing was added)")
-        for label, left, right in pairs:
-            if Path(left).resolve() == Path(right).resolve():
-                raise ProjectError(f"{self.path}: pair {label!r}: {left} is both the left and the right image "
-                                   "(nothing was added)")
+        checks.image_pairs(pairs, {row[0] for row in self._db.execute("SELECT label FROM image_pairs")}, self.path)
 
     def add_image_pairs(self, pairs: Sequence[tuple[str, Path, Path]], medium: str = "water",
                         sizes: Sequence[tuple[int, int]] | None = None) -> list[int]:

@@ -1,0 +1,112 @@
+"""Benchmarks of a survey on a PostgreSQL server, each against the SQLite file holding the same data,
+timed in the same run (issue 26): listing 10,000 objects (≤ 3 × SQLite), storing one measured fish
+(≤ 50 ms), opening a survey of 10,000 objects and reading them all (the store's part of opening it in
+the window, ≤ 2 s).
+
+The server: ``$USVIPS_BENCH_POSTGRES`` (a ``postgresql://`` URL of a server where databases may be
+created), else a temporary PostgreSQL started with ``pgserver`` (the test extra) on this machine. With
+neither, one row says so (``met`` null) instead of timing anything.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+from urllib.parse import urlsplit, urlunsplit
+
+import numpy as np
+
+from usvips.bench import best_time, ratio_row
+from usvips.core.observation_record import ObservationRecord
+from usvips.store.opening import create_project, open_project
+from usvips.store.records import Vertex
+
+OBJECTS = 10_000
+LIST_TARGET = 3.0  # × SQLite
+STORE_TARGET_S = 0.050
+OPEN_TARGET_S = 2.0
+
+
+def _server() -> tuple[str | None, object]:
+    """(URL of a server's maintenance database, handle to stop) or (None, reason)."""
+    given = os.environ.get("USVIPS_BENCH_POSTGRES")
+    if given:
+        return given, None
+    try:
+        folder = tempfile.mkdtemp(prefix="usvips-bench-pg-")
+        os.environ.setdefault("XDG_RUNTIME_DIR", folder)
+        import pgserver
+    except ImportError:
+        return None, "no server: set USVIPS_BENCH_POSTGRES or pip install pgserver"
+    server = pgserver.get_server(Path(folder) / "data", cleanup_mode="delete")
+    return server.get_uri(), server
+
+
+def _database(server_url: str, name: str) -> str:
+    parts = urlsplit(server_url)
+    return urlunsplit((parts.scheme, parts.netloc, f"/{name}", parts.query, ""))
+
+
+def _fish(rng: np.random.Generator) -> list[Vertex]:
+    cov = np.diag([1e-6, 1e-6, 4e-6])
+    return [Vertex(*map(float, rng.uniform(0, 2000, 4)), tuple(map(float, rng.normal(size=3))), cov)
+            for _ in range(2)]
+
+
+def _absolute(name: str, n: int, ours: float, baseline: float, baseline_name: str, target_s: float) -> dict:
+    return {"name": name, "n": n, "ours_s": round(ours, 6), "baseline": baseline_name,
+            "baseline_s": round(baseline, 6), "ratio": round(ours / baseline, 2) if baseline > 0 else None,
+            "target": None, "target_s": target_s, "met": bool(ours <= target_s)}
+
+
+def benchmarks(scale: float = 1.0) -> Iterator[dict]:
+    server_url, handle = _server()
+    if server_url is None:
+        yield {"name": "survey on a PostgreSQL server", "n": 0, "ours_s": None, "baseline": str(handle),
+               "baseline_s": None, "ratio": None, "target": None, "met": None}
+        return
+    n = OBJECTS if scale >= 1 else max(50, int(OBJECTS * scale))
+    rng = np.random.default_rng(2)
+    folder = Path(tempfile.mkdtemp(prefix="usvips-bench-"))
+    url = _database(server_url, f"bench_{uuid.uuid4().hex[:12]}")
+    try:
+        rows = [("length", _fish(rng), "cod", "", "bench") for _ in range(n)]
+        with create_project(folder / "bench.usvips") as local, create_project(url) as server:
+            for store in (local, server):
+                store.add_objects(rows)
+            yield ratio_row(f"list {n} objects with their vertices from a PostgreSQL survey", n, server.objects,
+                            local.objects, "the same from the SQLite file", LIST_TARGET, repeats=3)
+            record = ObservationRecord("Sparidae", "Pagrus", "auratus", "SNA", 1)
+
+            def store_fish(store) -> None:
+                with store.transaction():
+                    store.set_record(store.add_object("length", _fish(rng), "snapper"), record)
+
+            yield _absolute("store one measured fish (object, 2 vertices, its record) on the server", 1,
+                            best_time(lambda: store_fish(server), 10), best_time(lambda: store_fish(local), 10),
+                            "the same in the SQLite file", STORE_TARGET_S)
+
+        def open_server() -> object:
+            with open_project(url, read_only=True) as survey:
+                return survey.objects()
+
+        def open_file() -> object:
+            with open_project(folder / "bench.usvips", read_only=True) as project:
+                return project.objects()
+
+        open_server()
+        yield _absolute(f"open a survey of {n} objects on the server and read them all (the store's part of "
+                        "opening it in the window)", n, best_time(open_server, 3), best_time(open_file, 3),
+                        "the same from the SQLite file", OPEN_TARGET_S)
+    finally:
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)
+        from usvips.store.postgres import database_command
+
+        database_command(url, "DROP DATABASE IF EXISTS {}")
+        if handle is not None:
+            handle.cleanup()

@@ -1,0 +1,402 @@
+"""A survey on a PostgreSQL server: the second implementation of :class:`~usvips.store.interface.ProjectStore`.
+
+Open one with ``usvips.store.opening.open_project("postgresql://user:password@host:port/database")``.
+Several annotators work on one survey at once, each with their own connection:
+
+- every edit is one transaction (``BEGIN … COMMIT``), and writers take turns: a write transaction first
+  takes the survey's write lock (a transaction-scoped advisory lock), waiting up to ``LOCK_WAIT_S``; a
+  writer that cannot get it is refused with one line (nothing written; try again), as SQLite refuses a
+  write while another program writes. Reads never wait: each read is one snapshot (``REPEATABLE READ``).
+- optimistic versions: an edit may name the ``modified`` stamp of the object as the editor read it
+  (``update_object(..., expected_modified=...)``); when someone else changed the object since, the edit is
+  refused by a :class:`~usvips.store.records.StaleEditError` naming the object — never silently
+  overwritten.
+
+How: the SQL of :class:`~usvips.store.project.Project` is small and plain, so this class IS a ``Project``
+whose connection is :class:`_ServerConnection`, which runs those statements on PostgreSQL with the few
+SQLite spellings translated (``?`` placeholders, ``INSERT OR REPLACE``/``OR IGNORE``, ``lastrowid``,
+``rowid``, ``PRAGMA table_info``), and which reports PostgreSQL's errors as the ``sqlite3`` exceptions
+``Project`` already turns into one-line :class:`ProjectError` messages. Both backends therefore share
+every domain rule and message and pass the same contract suite. No ORM: the statements are already
+written once, portable, and few; an ORM would add a second description of the schema, a dependency and
+a layer between the contract suite and the SQL it checks, and buy nothing here.
+
+Where media are: paths stored relative resolve against the *media folder* (URL query ``media=FOLDER``,
+else ``$USVIPS_MEDIA_ROOT``, else the working folder); derived media (seek proxies, exported frames) go to
+the *cache* (``cache=FOLDER``, else ``$USVIPS_CACHE``, else ``~/.cache/usvips/<host>/<database>``).
+Messages name the survey by its URL without the password.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import sqlite3
+from functools import lru_cache
+from pathlib import Path
+from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
+
+import psycopg
+from psycopg import errors as pg_errors
+from psycopg import sql as pg_sql
+from psycopg.pq import TransactionStatus
+
+from usvips.store.opening import OWN_QUERY, public_location
+from usvips.store.postgres_schema import IDENTITY_TABLES, PRIMARY_KEYS, SCHEMA, SERVER_SCHEMA_VERSION, TABLES
+from usvips.store.project import FORMAT, Project, _now
+from usvips.store.records import ProjectError
+
+LOCK_WAIT_S = 2.0
+WRITE_LOCK = 0x55535649  # "USVI": the advisory lock key of a survey's writers (per database)
+CONNECT_TIMEOUT_S = 5
+
+
+# ------------------------------------------------------------------------------------------------ locations
+def _server_url(url: str) -> str:
+    """The URL handed to the server: without USVIPS's own query parameters."""
+    parts = urlsplit(url)
+    query = [(k, v) for k, v in parse_qsl(parts.query) if k not in OWN_QUERY]
+    return urlunsplit((parts.scheme, parts.netloc, parts.path, urlencode(query), ""))
+
+
+def database_name(url: str) -> str:
+    name = urlsplit(url).path.lstrip("/")
+    if not name or "/" in name:
+        raise ProjectError(f"{public_location(url)}: name the survey's database at the end of the URL "
+                           "(postgresql://user@host/DATABASE)")
+    return name
+
+
+def _own_option(url: str, key: str, environment: str) -> str | None:
+    return dict(parse_qsl(urlsplit(url).query)).get(key) or os.environ.get(environment) or None
+
+
+def media_folder(url: str) -> Path:
+    """The folder relative media paths of the survey resolve against on this machine."""
+    return Path(_own_option(url, "media", "USVIPS_MEDIA_ROOT") or Path.cwd()).resolve()
+
+
+def cache_folder(url: str) -> Path:
+    """The folder derived media (seek proxies, exported frames) of the survey are kept in on this machine."""
+    chosen = _own_option(url, "cache", "USVIPS_CACHE")
+    if chosen:
+        return Path(chosen).resolve()
+    return Path.home() / ".cache" / "usvips" / (urlsplit(url).hostname or "local") / database_name(url)
+
+
+def _one_line(error: BaseException) -> str:
+    """A server error in one line (psycopg's messages carry DETAIL/HINT lines and the socket's path)."""
+    if isinstance(error, psycopg.Error) and error.diag.message_primary:
+        text = error.diag.message_primary
+        if error.diag.message_detail:
+            text += f" ({error.diag.message_detail})"
+    else:
+        text = str(error)
+    return " ".join(text.split())
+
+
+def connection_problem(error: psycopg.Error, url: str) -> str:
+    """Why a connection failed, in words a person can act on (never the password)."""
+    message = _one_line(error)
+    lowered = message.lower()
+    if "password authentication failed" in lowered or "no password supplied" in lowered:
+        return "the server refused the user name or password"
+    if "does not exist" in lowered and "database" in lowered:
+        return f"the server has no database {database_name(url)!r} (create it with 'usvips project push' or new)"
+    if any(words in lowered for words in ("connection refused", "no such file", "could not connect", "timeout",
+                                         "could not translate host", "is the server running", "timed out",
+                                         "resolve host", "name or service not known")):
+        return "no server answers there (is it running? are host and port right?)"
+    return message
+
+
+def _connect(url: str, read_only: bool) -> psycopg.Connection:
+    database_name(url)  # a URL without a database is refused before anything is asked of a server
+    try:
+        connection = psycopg.connect(_server_url(url), autocommit=True, connect_timeout=CONNECT_TIMEOUT_S)
+    except psycopg.Error as error:
+        raise ProjectError(f"{public_location(url)}: cannot connect: {connection_problem(error, url)}") from None
+    try:
+        if read_only:
+            connection.execute("SET default_transaction_read_only = on")
+        connection.execute(f"SET lock_timeout = '{int(LOCK_WAIT_S * 1000)}ms'")
+    except psycopg.Error as error:
+        connection.close()
+        raise ProjectError(f"{public_location(url)}: cannot connect: {_one_line(error)}") from None
+    return connection
+
+
+def new_survey(url: str, fill, doing: str) -> None:
+    """Make the database ``url`` names a survey: the database is created when it does not exist (and
+    dropped again when this fails), else it must hold no tables; the schema, the ``meta`` rows and what
+    ``fill(connection)`` writes are ONE transaction: all of it, or nothing."""
+    location = public_location(url)
+    database_name(url)
+    created = False
+    try:
+        connection = psycopg.connect(_server_url(url), autocommit=True, connect_timeout=CONNECT_TIMEOUT_S)
+    except psycopg.OperationalError as error:
+        if "does not exist" not in _one_line(error) or "database" not in _one_line(error):
+            raise ProjectError(f"{location}: cannot connect: {connection_problem(error, url)}") from None
+        database_command(url, "CREATE DATABASE {} TEMPLATE template0 ENCODING 'UTF8' LC_COLLATE 'C' LC_CTYPE 'C'")
+        created = True
+        connection = _connect(url, read_only=False)
+    except psycopg.Error as error:
+        raise ProjectError(f"{location}: cannot connect: {connection_problem(error, url)}") from None
+    try:
+        tables = connection.execute("SELECT count(*) FROM information_schema.tables WHERE table_schema = "
+                                    "current_schema()").fetchone()[0]
+        if tables:
+            raise ProjectError(f"{location}: the database already holds tables; give a new or empty database "
+                               "for a survey (nothing was written)")
+        with connection.transaction():
+            connection.execute(SCHEMA)
+            connection.execute("INSERT INTO meta VALUES ('format', %s), ('created', %s), ('schema_version', %s)",
+                               (FORMAT, _now(), str(SERVER_SCHEMA_VERSION)))
+            fill(connection)
+    except BaseException as error:
+        connection.close()
+        if created:
+            database_command(url, "DROP DATABASE IF EXISTS {}")
+        if isinstance(error, psycopg.Error):
+            raise ProjectError(f"{location}: {doing}: {_one_line(error)} (nothing was written)") from None
+        raise
+    connection.close()
+
+
+def database_command(url: str, command: str) -> None:
+    """CREATE or DROP the database ``url`` names, through the server's maintenance database."""
+    parts = urlsplit(_server_url(url))
+    maintenance = urlunsplit((parts.scheme, parts.netloc, "/postgres", parts.query, ""))
+    try:
+        with psycopg.connect(maintenance, autocommit=True, connect_timeout=CONNECT_TIMEOUT_S) as server:
+            server.execute(pg_sql.SQL(command).format(pg_sql.Identifier(database_name(url))))
+    except psycopg.Error as error:
+        raise ProjectError(f"{public_location(url)}: cannot create or remove the database: "
+                           f"{connection_problem(error, url)}") from None
+
+
+# ------------------------------------------------------------------------------------------------ the SQL
+_PLACEHOLDER = re.compile(r"\?")
+_OR_REPLACE = re.compile(r"^\s*INSERT OR (REPLACE|IGNORE) INTO (\w+)\s*(\(([^)]*)\))?\s*(VALUES.*)$", re.S | re.I)
+_INSERT = re.compile(r"^\s*INSERT INTO (\w+)\b(?!.*\bSELECT\b)", re.S | re.I)
+_TABLE_INFO = re.compile(r"^\s*PRAGMA table_info\((\w+)\)\s*$", re.I)
+
+
+@lru_cache(maxsize=512)
+def translate(sql: str) -> tuple[str, bool]:
+    """The PostgreSQL spelling of one of ``Project``'s SQLite statements, and whether it returns the new
+    row's id (as SQLite's ``lastrowid``). A construct not handled here is a programming error, loudly."""
+    info = _TABLE_INFO.match(sql)
+    if info:  # rows whose second value is a column's name, like SQLite's table_info
+        return ("SELECT ordinal_position, column_name::text FROM information_schema.columns WHERE table_name = "
+                f"'{info.group(1)}' AND table_schema = current_schema() ORDER BY ordinal_position"), False
+    if re.search(r"\bPRAGMA\b|\bsqlite_master\b", sql, re.I):
+        raise NotImplementedError(f"no PostgreSQL spelling for: {sql}")
+    text = sql.replace("%", "%%")
+    returning = False
+    replace = _OR_REPLACE.match(text)
+    if replace:
+        verb, table, _, columns, values = replace.groups()
+        table = table.lower()
+        names = [c.strip() for c in columns.split(",")] if columns else list(TABLES[table])
+        keys = PRIMARY_KEYS[table]
+        head = f"INSERT INTO {table} ({', '.join(names)}) {values}"
+        updates = [f"{c} = EXCLUDED.{c}" for c in names if c not in keys]
+        if verb.upper() == "IGNORE" or not updates:
+            text = f"{head} ON CONFLICT DO NOTHING"
+        else:
+            text = f"{head} ON CONFLICT ({', '.join(keys)}) DO UPDATE SET {', '.join(updates)}"
+    else:
+        insert = _INSERT.match(text)
+        if insert and insert.group(1).lower() in IDENTITY_TABLES:
+            text, returning = f"{text.rstrip().rstrip(';')} RETURNING id", True
+    text = re.sub(r"\bORDER BY rowid\b", "ORDER BY ord", text)
+    return _PLACEHOLDER.sub("%s", text), returning
+
+
+class _Cursor:
+    """The rows of one statement, shaped as the part of ``sqlite3.Cursor`` that ``Project`` uses."""
+
+    def __init__(self, rows: list[tuple], rowcount: int, lastrowid: int | None):
+        self._rows, self.rowcount, self.lastrowid = rows, rowcount, lastrowid
+
+    def fetchall(self) -> list[tuple]:
+        return self._rows
+
+    def fetchone(self) -> tuple | None:
+        return self._rows[0] if self._rows else None
+
+    def __iter__(self):
+        return iter(self._rows)
+
+
+def _as_sqlite_error(error: psycopg.Error) -> sqlite3.Error:
+    """PostgreSQL's error as the ``sqlite3`` exception ``Project`` turns into a one-line message."""
+    if isinstance(error, pg_errors.LockNotAvailable):
+        return sqlite3.OperationalError("another annotator is writing to the survey; try again in a moment")
+    if isinstance(error, pg_errors.ReadOnlySqlTransaction):
+        return sqlite3.OperationalError("the survey is opened read-only")
+    if isinstance(error, psycopg.IntegrityError):
+        return sqlite3.IntegrityError(_one_line(error))
+    if isinstance(error, psycopg.OperationalError):
+        return sqlite3.OperationalError(f"the connection to the server failed: {_one_line(error)}")
+    return sqlite3.OperationalError(_one_line(error))
+
+
+class _ServerConnection:
+    """A psycopg connection that runs ``Project``'s statements (see the module docstring).
+
+    A statement that fails inside a transaction is undone alone (a savepoint), as in SQLite, so that the
+    transaction may carry on; ``BEGIN IMMEDIATE`` (a write transaction) takes the survey's write lock.
+    """
+
+    def __init__(self, connection: psycopg.Connection):
+        self.raw = connection
+
+    @property
+    def in_transaction(self) -> bool:
+        return self.raw.info.transaction_status != TransactionStatus.IDLE
+
+    def execute(self, sql: str, parameters=()) -> _Cursor:
+        command = sql.strip().upper()
+        try:
+            if command == "BEGIN IMMEDIATE":
+                self.raw.execute("BEGIN ISOLATION LEVEL READ COMMITTED")
+                self.raw.execute("SELECT pg_advisory_xact_lock(%s)", (WRITE_LOCK,))
+                return _Cursor([], 0, None)
+            if command == "BEGIN":
+                self.raw.execute("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY")
+                return _Cursor([], 0, None)
+            if command in ("COMMIT", "ROLLBACK"):
+                self.raw.execute(command)
+                return _Cursor([], 0, None)
+            text, returning = translate(sql)
+            with self._statement(command), self.raw.cursor() as cursor:
+                cursor.execute(text, tuple(parameters))
+                rows = cursor.fetchall() if cursor.description is not None else []
+                return _Cursor(rows, cursor.rowcount, rows[0][0] if returning and rows else None)
+        except psycopg.Error as error:
+            if command.startswith("BEGIN") and self.in_transaction:
+                self.raw.execute("ROLLBACK")
+            raise _as_sqlite_error(error) from None
+
+    def executemany(self, sql: str, rows) -> _Cursor:
+        text, _ = translate(sql)
+        rows = [tuple(r) for r in rows]
+        if not rows:
+            return _Cursor([], 0, None)
+        try:
+            with self._statement("INSERT"), self.raw.cursor() as cursor:
+                cursor.executemany(text, rows)
+                return _Cursor([], cursor.rowcount, None)
+        except psycopg.Error as error:
+            raise _as_sqlite_error(error) from None
+
+    def _statement(self, command: str):
+        """A savepoint around a write inside a transaction (a failed statement is undone alone)."""
+        if self.in_transaction and not command.startswith("SELECT"):
+            return _Savepoint(self.raw)
+        return _Nothing()
+
+    def close(self) -> None:
+        self.raw.close()
+
+
+class _Nothing:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+
+class _Savepoint:
+    def __init__(self, connection: psycopg.Connection):
+        self.connection = connection
+
+    def __enter__(self):
+        self.connection.execute("SAVEPOINT usvips_statement")
+        return self
+
+    def __exit__(self, kind, error, trace) -> None:
+        if kind is None:
+            self.connection.execute("RELEASE SAVEPOINT usvips_statement")
+        elif self.connection.info.transaction_status == TransactionStatus.INERROR:
+            self.connection.execute("ROLLBACK TO SAVEPOINT usvips_statement")
+            self.connection.execute("RELEASE SAVEPOINT usvips_statement")
+
+
+# ------------------------------------------------------------------------------------------------ the store
+class ServerProject(Project):
+    """A survey in a PostgreSQL database; open with :meth:`open` or :meth:`create` (see the module docstring).
+
+    ``path`` is the survey's local name: its folder is the media folder relative media paths resolve
+    against; ``location`` is the URL without password that messages show.
+    """
+
+    def __init__(self, url: str, connection: psycopg.Connection, read_only: bool = False,
+                 path: Path | None = None):
+        self.url = url
+        self.location = public_location(url)
+        super().__init__(path or media_folder(url) / database_name(url), _ServerConnection(connection), read_only)
+
+    @classmethod
+    def create(cls, url: str, path: str | Path | None = None) -> ServerProject:
+        """A new, empty survey in the database ``url`` names: created on the server when it does not exist
+        yet (byte-wise collation, as SQLite sorts), else it must be empty. All or nothing."""
+        new_survey(url, lambda connection: None, "cannot create the survey")
+        return cls.open(url, path=path)
+
+    @classmethod
+    def open(cls, url: str, read_only: bool = False, path: str | Path | None = None) -> ServerProject:
+        """An existing survey; refuses (one line naming the URL without password) a server that does not
+        answer, a refused login, a database that does not exist or is not a USVIPS survey, and a survey of
+        a newer schema."""
+        location = public_location(url)
+        connection = _connect(url, read_only)
+        try:
+            version = cls._check(connection, location)
+        except BaseException:
+            connection.close()
+            raise
+        if version < SERVER_SCHEMA_VERSION:  # no older server schema exists yet; a later one migrates here
+            connection.close()
+            raise ProjectError(f"{location}: a survey of schema {version}; this USVIPS cannot upgrade it")
+        return cls(url, connection, read_only, Path(path) if path is not None else None)
+
+    @staticmethod
+    def _check(connection: psycopg.Connection, location: str) -> int:
+        try:
+            if connection.execute("SELECT to_regclass('meta')").fetchone()[0] is None:
+                raise ProjectError(f"{location}: not a USVIPS survey (the database has no USVIPS tables)")
+            meta = dict(connection.execute("SELECT key, value FROM meta WHERE key IN ('format', 'schema_version')"))
+        except psycopg.Error as error:
+            raise ProjectError(f"{location}: cannot open the survey: {_one_line(error)}") from None
+        if meta.get("format") != FORMAT or not str(meta.get("schema_version", "")).isdigit():
+            raise ProjectError(f"{location}: not a USVIPS survey (its 'meta' table is something else's)")
+        version = int(meta["schema_version"])
+        if version > SERVER_SCHEMA_VERSION:
+            raise ProjectError(f"{location}: made by a newer USVIPS (schema {version}; this one reads up to "
+                               f"{SERVER_SCHEMA_VERSION}); update USVIPS to open it")
+        return version
+
+    def __enter__(self) -> ServerProject:
+        return self
+
+    @property
+    def version(self) -> int:
+        return int(self._query("SELECT value FROM meta WHERE key = 'schema_version'")[0][0])
+
+    def _has_table(self, name: str) -> bool:
+        return True  # a server survey is always of the current schema (older ones are refused at opening)
+
+    def derived_media_folder(self) -> Path:
+        """This machine's cache for the survey's derived media (see the module docstring)."""
+        return cache_folder(self.url)
+
+    def copy_to(self, path: str | Path) -> Path:
+        """A consistent copy of the whole survey as a new SQLite project file at ``path`` (``pull``)."""
+        from usvips.store.transfer import pull
+
+        return pull(self, path)

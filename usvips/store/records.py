@@ -1,0 +1,60 @@
+"""What a project stores, as the rest of the program sees it, whatever the backend: the record types
+(:class:`Vertex`, :class:`StoredObject`) and the error family (:class:`ProjectError`).
+
+They live apart from every implementation so that the interface (``usvips.store.interface``), the
+services and a new backend import them without importing the SQLite module.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from usvips.core.errors import UsvipsError
+
+
+class ProjectError(UsvipsError):
+    """A project that cannot be opened, read or written; the one-line message names the project (a file,
+    or a server's address without its password) and what is wrong."""
+
+
+class StaleEditError(ProjectError):
+    """An edit refused because someone else changed the same object since it was read (optimistic
+    versions of a shared survey): reload the object and edit again."""
+
+
+@dataclass(frozen=True)
+class Vertex:
+    """One vertex of a measured object: its picks (pixels) and, once intersected, X, Y, Z (m) and the
+    3 × 3 covariance (m²) with the calibration used."""
+
+    xl: float
+    yl: float
+    xr: float
+    yr: float
+    xyz: tuple[float, float, float] | None = None
+    covariance: np.ndarray | None = None
+    calibration_id: int | None = None
+    pair: str | None = None
+    # on a stereo video: its label, the left and right frame numbers and the time (s) of the left frame
+    video: str | None = None
+    frame_left: int | None = None
+    frame_right: int | None = None
+    time_s: float | None = None
+
+
+@dataclass(frozen=True)
+class StoredObject:
+    """A measured object as stored: its id, registered kind, attribute, notes, who made it, when it was
+    created and last modified (ISO 8601 UTC text; ``modified`` is also its version for optimistic edits)
+    and its vertices in order."""
+
+    id: int
+    kind: str
+    attribute: str
+    notes: str
+    creator: str
+    created: str
+    modified: str
+    vertices: tuple[Vertex, ...]
