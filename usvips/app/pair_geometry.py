@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from usvips.app.calibration_size import check_for
 from usvips.core.measurements import placement
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.io.calibration_file import calibration_from_dict
@@ -44,8 +45,11 @@ def placed(calibration: StereoCalibration, calibration_id: int, label: str | Non
 
 
 def pair_geometry(project: ProjectStore, label: str) -> PairGeometry | None:
-    """The active calibration of a pair placed at its station, or None when the pair has none."""
+    """The active calibration of a pair placed at its station, or None when the pair has none; refused
+    by name (both sizes) when the pair's pictures are not the calibration's size."""
     calibration_id = project.active_calibration(label)
     if calibration_id is None:
         return None
-    return placed(read_calibration(project, calibration_id), calibration_id, label)
+    calibration = read_calibration(project, calibration_id)
+    check_for(project, calibration, [label], f"its calibration {calibration_id}")
+    return placed(calibration, calibration_id, label)

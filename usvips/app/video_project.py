@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.app.calibration_size import check_for, check_size
 from usvips.core import synchronisation
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
@@ -279,6 +280,10 @@ def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: s
         raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
     if pair_label in {p["label"] for p in project.pairs()}:
         raise VideoError(f"{project.path}: pair label {pair_label!r} is already used; choose another")
+    active = project.active_calibration(label)
+    if active is not None:  # the video's frames were measured with it: it must fit them
+        check_for(project, calibration_from_dict(project.calibration(active), f"calibration {active}"), [label],
+                  f"its calibration {active}")
     return pair_label, project.path.parent / "frames" / pair_label
 
 
@@ -344,6 +349,7 @@ def plan_sync(project: ProjectStore, label: str, calibration_id: int | None = No
     rig, why, sigma0 = None, "", 0.0
     try:
         calibration = _calibration_for(project, calibration_id, label)
+        check_size(calibration, (video["width"], video["height"]), f"video {label!r}")
         rig, sigma0 = calibration.rig(0, "rig"), float(calibration.sigma0_px)
     except UsvipsError as error:
         why = str(error)

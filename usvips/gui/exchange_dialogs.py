@@ -16,6 +16,7 @@ from pathlib import Path
 
 from PySide6 import QtCore, QtWidgets
 
+from usvips.app import calibration_size
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.stereo_calibration import StereoCalibration
@@ -95,9 +96,11 @@ def ask_image_size(window) -> tuple[int, int] | None:
 
 
 def import_calibration(window, files: list[str | Path] | None = None, out: str | Path | None = None,
-                       ask_size: Callable = ask_image_size) -> Path | None:
+                       ask_size: Callable = ask_image_size,
+                       run: Callable[[UseCalibrationDialog], object] = lambda d: d.exec()) -> Path | None:
     """OpenCV YAML/XML (one file or intrinsics + extrinsics) or .npz → a USVIPS calibration file (and into
-    the open project's calibrations). The image size is asked when the files lack it."""
+    the open project's calibrations, then made active where the user says, as
+    :func:`import_usvips_calibration`). The image size is asked when the files lack it."""
     if files is None:
         files, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "OpenCV calibration (one file, or intrinsics + "
                                                           "extrinsics)", "", OPENCV_FILTER)
@@ -119,14 +122,17 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
                 return None
         save_calibration(calibration, out)
         project = window.workspace.project
+        calibration_id = None
         if project is not None:
-            project.add_calibration(Path(out).stem, calibration_to_dict(calibration))
+            calibration_id = project.add_calibration(Path(out).stem, calibration_to_dict(calibration))
     except UsvipsError as error:
         window.show_message("error", f"import failed, nothing written: {error}")
         return None
     where = " and stored in the project" if window.workspace.project is not None else ""
     window.show_message("info", f"imported {len(files)} OpenCV file(s) into {out}{where} "
-                                f"({calibration.left.width}x{calibration.left.height} px)")
+                                f"({calibration.left.width} × {calibration.left.height} px)")
+    if calibration_id is not None:
+        use_calibration(window, calibration_id, run)
     return Path(out)
 
 
@@ -148,7 +154,10 @@ class UseCalibrationDialog(QtWidgets.QDialog):
             self.choice.setCurrentIndex(self.choice.count() - 1)
         self.labels = QtWidgets.QListWidget()
         for pair in project.pairs():
-            item = QtWidgets.QListWidgetItem(pair["label"])
+            size = calibration_size.media_size(project, pair["label"])
+            shown = pair["label"] + (f"  ({size[0]} × {size[1]} px)" if size else "")
+            item = QtWidgets.QListWidgetItem(shown)
+            item.setData(QtCore.Qt.ItemDataRole.UserRole, pair["label"])
             item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
             item.setCheckState(QtCore.Qt.CheckState.Checked if pair["label"] == current
                                else QtCore.Qt.CheckState.Unchecked)
@@ -172,25 +181,33 @@ class UseCalibrationDialog(QtWidgets.QDialog):
         return self.choice.currentData()
 
     def active_for(self) -> list[str]:
-        return [self.labels.item(i).text() for i in range(self.labels.count())
+        return [self.labels.item(i).data(QtCore.Qt.ItemDataRole.UserRole) for i in range(self.labels.count())
                 if self.labels.item(i).checkState() == QtCore.Qt.CheckState.Checked]
 
 
 def activate_calibration(window, calibration_id: int, labels: list[str]) -> bool:
     """Make stored calibration ``calibration_id`` the active one of pairs/videos ``labels`` and show the
-    current pair with it; a failure is one message and changes nothing shown."""
+    current pair with it. Pairs or videos of another picture size than the calibration's are left as they
+    were and named (both sizes); a failure is one message and changes nothing shown."""
     project = _need_project(window)
     if project is None:
         return False
     try:
-        calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")  # usable?
-        for label in labels:
-            project.activate_calibration(label, calibration_id)
+        calibration = calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")
+        bad = {label: line for label in labels
+               for line in calibration_size.misfits(project, calibration, [label], f"calibration {calibration_id}")}
+        good = [label for label in labels if label not in bad]
+        for label in good:
+            calibration_size.activate(project, label, calibration_id)
     except UsvipsError as error:
         window.show_message("error", f"the calibration was not made active: {error}")
         return False
-    if window.workspace.pair in labels:
+    if window.workspace.pair in good:
         window.workspace.reshow_pair()
+    if bad:
+        window.show_message("error", f"calibration {calibration_id} was not made active for {len(bad)} of "
+                                     f"{len(labels)}: " + "; ".join(bad.values()))
+        return bool(good)
     window.show_message("info", f"calibration {calibration_id} is active for {', '.join(labels) or 'no pair'}")
     return True
 

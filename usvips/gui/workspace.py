@@ -591,23 +591,28 @@ class Workspace:
         if flags:
             notes = "; ".join(filter(None, [notes, "flagged: " + "; ".join(flags)]))
         stored = self._vertices_for_store(vertices)
-        holder = {"id": None}
+        holder: dict = {"id": None, "rows": None}
         before = self._snapshot()
 
         def store() -> None:
-            holder["id"] = self.project.add_object(kind, stored, attribute, notes, creator="usvips")
-            if attribute:
-                self.project.add_term(attribute)
+            first = holder["rows"] is None
+            if first:
+                holder["id"] = self.project.add_object(kind, stored, attribute, notes, creator="usvips")
+                if attribute:
+                    self.project.add_term(attribute)
+            else:  # redo: the very object (id, record, times) that undo took away
+                self.project.put_back(holder["rows"])
             self.digitising = _Digitising(self.digitising.kind)
             self.state = PickState()
             if last is not None:
                 self.last_point = last
             self._objects_changed_in_store(added=(holder["id"],))
             self.picks_changed.emit()
-            self.stored.emit(holder["id"])
+            if first:
+                self.stored.emit(holder["id"])
 
         def unstore() -> None:
-            self.project.delete_object(holder["id"])
+            holder["rows"] = self.project.take_object(holder["id"])
             self._restore(before)
             self._objects_changed_in_store(removed=(holder["id"],))
 
@@ -666,29 +671,56 @@ class Workspace:
                            saved[:index] + saved[index + 1:])
 
     def _set_vertices(self, label: str, object_id: int, before: list[Vertex], after: list[Vertex]) -> None:
-        def apply(vertices: list[Vertex]) -> Callable[[], None]:
-            def run() -> None:
-                self.project.update_object(object_id, vertices=vertices)
-                self.state = PickState()
-                self._objects_changed_in_store(updated=(object_id,))
-                self.picks_changed.emit()
-            return run
+        def picks_reset() -> None:
+            self.state = PickState()
+            self.picks_changed.emit()
 
-        self.undo.push(Command(label, apply(after), apply(before)))
+        self._edit_object(label, object_id, lambda: self.project.update_object(object_id, vertices=after),
+                          picks_reset)
         self.message.emit("info", f"{label}: done (Ctrl+Z undoes it)")
 
+    def _edit_object(self, label: str, object_id: int, edit: Callable[[], None],
+                     then: Callable[[], None] | None = None) -> None:
+        """Run ``edit`` of a stored object as one undoable command. Undo puts back the object's stored rows
+        as they were before (vertices, kind, texts, record, history: exactly, nothing added); redo puts
+        back the rows the edit made."""
+        before = self.project.object_rows(object_id)
+        after: list = []
+
+        def put(rows) -> None:
+            self.project.put_back(rows, replace=True)
+
+        def redo() -> None:
+            if after:
+                put(after[0])
+            else:
+                edit()
+                after.append(self.project.object_rows(object_id))
+            self._objects_changed_in_store(updated=(object_id,))
+            if then is not None:
+                then()
+
+        def undo() -> None:
+            put(before)
+            self._objects_changed_in_store(updated=(object_id,))
+            if then is not None:
+                then()
+
+        self.undo.push(Command(label, redo, undo))
+
     def delete_object(self, object_id: int) -> None:
+        """Delete a stored object (undoable: undo gives back the same id with its vertices, video frames,
+        observation record and history)."""
         saved = self.stored_object(object_id)
-        holder = {"id": object_id}
+        removed: list = []
 
         def delete() -> None:
-            self.project.delete_object(holder["id"])
-            self._objects_changed_in_store(removed=(holder["id"],))
+            removed[:] = [self.project.take_object(object_id)]
+            self._objects_changed_in_store(removed=(object_id,))
 
         def restore() -> None:
-            holder["id"] = self.project.add_object(saved.kind, list(saved.vertices), saved.attribute, saved.notes,
-                                                   saved.creator)
-            self._objects_changed_in_store(added=(holder["id"],))
+            self.project.put_back(removed[0])
+            self._objects_changed_in_store(added=(object_id,))
 
         self.undo.push(Command(f"delete {saved.kind} {object_id}", delete, restore))
 
@@ -710,28 +742,19 @@ class Workspace:
             raise UsvipsError(f"{stored.kind} {object_id} has {len(stored.vertices)} vertices: it cannot be a "
                               f"{kind} (it can be {', '.join(self.kinds_for(object_id))})")
 
-        def apply(name: str) -> Callable[[], None]:
-            def run() -> None:
-                self.project.update_object(object_id, kind=name)
-                self._objects_changed_in_store(updated=(object_id,))
-            return run
-
-        self.undo.push(Command(f"make object {object_id} a {kind}", apply(kind), apply(stored.kind)))
+        self._edit_object(f"make object {object_id} a {kind}", object_id,
+                          lambda: self.project.update_object(object_id, kind=kind))
         self.message.emit("info", f"object {object_id} is now a {kind} (Ctrl+Z undoes it)")
 
     def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
-        saved = self.stored_object(object_id)
+        self.stored_object(object_id)
 
-        def apply(a: str, n: str) -> Callable[[], None]:
-            def run() -> None:
-                self.project.update_object(object_id, attribute=a, notes=n)
-                if a:
-                    self.project.add_term(a)
-                self._objects_changed_in_store(updated=(object_id,))
-            return run
+        def edit() -> None:
+            self.project.update_object(object_id, attribute=attribute, notes=notes)
+            if attribute:
+                self.project.add_term(attribute)
 
-        self.undo.push(Command(f"edit object {object_id}", apply(attribute, notes),
-                               apply(saved.attribute, saved.notes)))
+        self._edit_object(f"edit object {object_id}", object_id, edit)
 
     def frame_description(self, object_id: int) -> str:
         """The frame an object's coordinates (and so its bearing and slope) are given in, in words."""
@@ -745,15 +768,8 @@ class Workspace:
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
         """Store an object's observation record (species, number, stage, activity, comment); undoable."""
-        before = self.project.record(object_id)
-
-        def apply(value: ObservationRecord | None) -> Callable[[], None]:
-            def run() -> None:
-                self.project.set_record(object_id, value)
-                self._objects_changed_in_store(updated=(object_id,))
-            return run
-
-        self.undo.push(Command(f"observation record of object {object_id}", apply(record), apply(before)))
+        self._edit_object(f"observation record of object {object_id}", object_id,
+                          lambda: self.project.set_record(object_id, record))
 
     # ------------------------------------------------------------------ the stored objects (cached)
     def objects(self) -> list:

@@ -28,7 +28,7 @@ from typing import Protocol, runtime_checkable
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
-from usvips.store.project import StoredObject, Vertex
+from usvips.store.project import RemovedObject, StoredObject, Vertex
 
 
 @runtime_checkable
@@ -177,6 +177,19 @@ class ProjectStore(Protocol):
 
     def delete_object(self, object_id: int) -> None:
         """Remove an object and its vertices."""
+        ...
+
+    def take_object(self, object_id: int) -> RemovedObject:
+        """Remove an object and return all that went with it (vertices, video frames, history, record)."""
+        ...
+
+    def object_rows(self, object_id: int) -> RemovedObject:
+        """All that is stored of an object (as :meth:`take_object` would return it), changing nothing."""
+        ...
+
+    def put_back(self, removed: RemovedObject, replace: bool = False) -> None:
+        """Restore exactly what :meth:`take_object` removed or :meth:`object_rows` read (the same id);
+        a used id is refused, or with ``replace`` its object replaced."""
         ...
 
     def object(self, object_id: int) -> StoredObject:

@@ -114,6 +114,21 @@ class StoredObject:
     vertices: tuple[Vertex, ...]
 
 
+@dataclass(frozen=True)
+class RemovedObject:
+    """Everything :meth:`Project.take_object` removed of one object, row for row (its id, kind, texts and
+    times, vertices, video frames, the history of replaced 3-D values, the observation record), for
+    :meth:`Project.put_back` to restore exactly. Opaque to callers: only the store reads ``rows``."""
+
+    object_id: int
+    rows: tuple[tuple[str, tuple[str, ...], tuple[tuple, ...]], ...]
+
+
+#: the tables holding an object's rows, parents first (``put_back`` inserts in this order)
+_OBJECT_TABLES = (("objects", "id"), ("vertices", "object_id"), ("vertex_frames", "object_id"),
+                  ("vertex_history", "object_id"), ("observation_records", "object_id"))
+
+
 def _remove_database(path: Path) -> None:
     for suffix in ("", "-wal", "-shm", "-journal"):
         Path(f"{path}{suffix}").unlink(missing_ok=True)
@@ -560,6 +575,50 @@ class Project:
         with self.transaction():
             self.object(object_id)
             self._edit("DELETE FROM objects WHERE id = ?", (object_id,))
+
+    def object_rows(self, object_id: int) -> RemovedObject:
+        """Everything stored of one object, row for row (read only), for :meth:`put_back` to restore: an
+        undo of an edit puts back exactly what was there (no history row is added by the undo)."""
+        with self._reading():
+            self.object(object_id)
+            rows = []
+            for table, key in _OBJECT_TABLES:
+                if self._has_table(table):
+                    cursor = self._db.execute(f"SELECT * FROM {table} WHERE {key} = ?", (object_id,))
+                    rows.append((table, tuple(c[0] for c in cursor.description), tuple(cursor.fetchall())))
+        return RemovedObject(object_id, tuple(rows))
+
+    def _remove_rows(self, object_id: int) -> None:
+        self._db.execute("DELETE FROM objects WHERE id = ?", (object_id,))
+        for table, key in _OBJECT_TABLES[1:]:  # also where foreign keys are not enforced
+            if self._has_table(table):
+                self._db.execute(f"DELETE FROM {table} WHERE {key} = ?", (object_id,))
+
+    def take_object(self, object_id: int) -> RemovedObject:
+        """Delete an object (one transaction) and return everything that went with it, for
+        :meth:`put_back` (undo of a delete gives back the same id, record and history)."""
+        with self.transaction():
+            removed = self.object_rows(object_id)
+            self._remove_rows(object_id)
+        return removed
+
+    def put_back(self, removed: RemovedObject, replace: bool = False) -> None:
+        """Restore an object as :meth:`take_object` or :meth:`object_rows` found it, row for row (same id).
+        With ``replace`` whatever is stored under that id now is replaced; without, a used id is refused."""
+        with self.transaction():
+            if self._db.execute("SELECT 1 FROM objects WHERE id = ?", (removed.object_id,)).fetchone():
+                if not replace:
+                    raise ProjectError(f"{self.path}: object {removed.object_id} exists again; it cannot be put "
+                                       "back")
+                self._remove_rows(removed.object_id)
+            try:
+                for table, columns, values in removed.rows:
+                    if values:
+                        self._db.executemany(f"INSERT INTO {table} ({', '.join(columns)}) VALUES "
+                                             f"({', '.join('?' * len(columns))})", values)
+            except sqlite3.Error as error:
+                raise ProjectError(f"{self.path}: object {removed.object_id} cannot be put back: "
+                                   f"{database_problem(error)} (nothing was changed)") from None
 
     def object(self, object_id: int) -> StoredObject:
         found = self._objects("WHERE id = ?", (object_id,))
