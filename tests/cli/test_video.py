@@ -62,7 +62,7 @@ def test_a_stereo_video_is_added_synchronised_by_its_flash_and_exported_exactly(
     code, out, err = _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right,
                           "--label", "dive1")
     assert code == 0, err
-    assert "80 frames at 25 fps" in out and "warning" not in out
+    assert "left 80 frames, right 80 frames at 25 fps" in out and "warning" not in out
     code, out, err = _run(capsys, "video", "sync", project, "--pair", "dive1", "--method", "flash", "--json")
     assert code == 0, err
     estimate = json.loads(out)

@@ -84,8 +84,9 @@ def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tm
     assert "is empty: add your images" in window.statusBar().currentMessage()  # not "observations only"
     shown = []
     assert media_dialogs.add_image_pairs(window, [tmp_path / "left_images"], [tmp_path / "right_images"], "a-",
-                                         confirm=lambda w, plan, rule: shown.append((plan, rule)) or True) == 2
-    assert shown[0][1] == "stem" and [p[0] for p in shown[0][0]] == ["a-st0", "a-st1"]
+                                         confirm=lambda w, model: shown.append(model) or True) == 2
+    assert shown[0].rule == "shared stem" and [shown[0].label(i) for i in range(2)] == ["a-st0", "a-st1"]
+    assert window.workspace.image_pairs() == ["a-st0", "a-st1"]
     qtbot.waitUntil(lambda: window.workspace.pair == "a-st0" and not window.busy, timeout=10000)
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)

@@ -45,6 +45,14 @@ class AddedVideo:
     frame_count: int
     fps: float
     warnings: tuple[str, ...]
+    #: the right camera's frames (``frame_count`` is the left's)
+    right_frame_count: int = 0
+
+    @property
+    def summary(self) -> str:
+        """``video 'x': left 1200 frames, right 1198 frames at 25 fps``: both cameras' counts, always."""
+        return (f"video {self.label!r}: left {_frames(self.frame_count)}, right {_frames(self.right_frame_count)} "
+                f"at {self.fps:.6g} fps")
 
 
 # ---------------------------------------------------------------------------- image pairs
@@ -84,6 +92,12 @@ class VideoPlan:
     frame_count: int
     size: tuple[int, int]
     warnings: tuple[str, ...]
+    #: the right camera's frames (``frame_count`` is the left's)
+    right_frame_count: int = 0
+
+
+def _frames(count: int) -> str:
+    return f"{count} frame" + ("" if count == 1 else "s")
 
 
 def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
@@ -101,8 +115,10 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
         if a.size != b.size:
             raise VideoError(f"{right_files[0]}: {b.width} × {b.height} px, but the left video {left_files[0].name} "
                              f"is {a.width} × {a.height} px")
-        if not (np.isfinite(a.fps) and np.isfinite(b.fps)):
-            raise VideoError(f"{left_files[0]}: a video needs at least two frames to have a frame rate")
+        for stream, files in ((a, left_files), (b, right_files)):  # blame the file at fault
+            if not np.isfinite(stream.fps):
+                raise VideoError(f"{files[0]}: a video needs at least two frames to have a frame rate "
+                                 f"(it has {stream.frame_count})")
         if abs(a.fps - b.fps) > FPS_TOLERANCE * a.fps:
             raise VideoError(f"{right_files[0]}: {b.fps:.6g} fps, but the left video {left_files[0].name} runs at "
                              f"{a.fps:.6g} fps: frames cannot be paired by number")
@@ -114,13 +130,18 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
         files = {side: tuple((p, c.count, 1.0 / float(np.median(np.diff(c.pts)) * c.time_base) if c.count > 1
                               else s.fps) for p, c in zip(s.paths, s.chapters, strict=True))
                  for side, s in (("left", a), ("right", b))}
-        return VideoPlan(label, files["left"], files["right"], a.fps, a.frame_count, a.size, tuple(warnings))
+        if a.frame_count != b.frame_count:  # both counts, at add time (the offset pairs them; say it)
+            warnings.append(f"the cameras' frame counts differ: left {_frames(a.frame_count)}, right "
+                            f"{_frames(b.frame_count)} (a file cut short, or the cameras started and stopped "
+                            "apart: synchronise, then frames past the shorter end have no partner)")
+        return VideoPlan(label, files["left"], files["right"], a.fps, a.frame_count, a.size, tuple(warnings),
+                         b.frame_count)
 
 
 def store_video(project: ProjectStore, plan: VideoPlan) -> AddedVideo:
     project.add_video(plan.label, plan.left, plan.right, plan.fps, plan.frame_count, plan.size,
                       "\n".join(plan.warnings))
-    return AddedVideo(plan.label, plan.frame_count, plan.fps, plan.warnings)
+    return AddedVideo(plan.label, plan.frame_count, plan.fps, plan.warnings, plan.right_frame_count)
 
 
 def add_video(project: ProjectStore, left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
