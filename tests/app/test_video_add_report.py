@@ -37,3 +37,22 @@ def test_a_one_frame_file_is_blamed_on_its_own_side(tmp_path, short):
         inspect_video([tmp_path / "left.mp4"], [tmp_path / "right.mp4"])
     assert str(raised.value).startswith(str(tmp_path / f"{short}.mp4"))
     assert "it has 1)" in str(raised.value)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_damaged_file_is_refused_at_add_time_naming_it(tmp_path, seed):
+    import av
+
+    rng = np.random.default_rng(seed)
+    for side in ("left", "right"):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(i) for i in range(10)], 25.0, "h264", gop=5)
+    damaged = str(rng.choice(["left", "right"]))
+    path = tmp_path / f"{damaged}.mp4"
+    with av.open(str(path)) as container:
+        packets = [(p.pos, p.size) for p in container.demux(video=0) if p.size]
+    data = bytearray(path.read_bytes())
+    position, size = packets[-1]  # the last frame's bytes overwritten: the file's index still lists it
+    data[position:position + size] = rng.integers(0, 256, size, dtype=np.uint8).tobytes()
+    path.write_bytes(bytes(data))
+    with pytest.raises(VideoError, match=rf"^{path} \({damaged}\) is damaged: frame 9 cannot be decoded"):
+        inspect_video([tmp_path / "left.mp4"], [tmp_path / "right.mp4"])

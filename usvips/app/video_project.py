@@ -124,6 +124,13 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
                              f"{a.fps:.6g} fps: frames cannot be paired by number")
         warnings = []
         for side, stream, files in (("left", a, left_files), ("right", b, right_files)):
+            for chapter in stream.chapters:  # damage found now, not as a decoding error while measuring
+                for index in {chapter.first, chapter.first + chapter.count - 1}:
+                    try:
+                        stream.frame(index, grey=True)
+                    except UsvipsError as error:
+                        raise VideoError(f"{chapter.path} ({side}) is damaged: "
+                                         f"{str(error).removeprefix(str(chapter.path) + ': ')}") from None
             report = stream.scan_pictures() if scan_pictures else stream.report
             if not report.clean:
                 warnings.append(f"{files[0]} ({side}): {report.summary()}")
