@@ -341,7 +341,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.pair_box = QtWidgets.QComboBox()
         self.pair_box.setMinimumContentsLength(10)
         self.pair_box.setToolTip("the image pair shown")
-        self.pair_box.setPlaceholderText("(video)")
         self.pair_box.activated.connect(lambda _: self.load_pair(self.pair_box.currentText()))
         bar.addWidget(self.pair_box)
         bar.addSeparator()
@@ -539,8 +538,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.observation.refresh_species()
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
-        self.pair_box.clear()
-        self.pair_box.addItems(labels)
+        self.refresh_pair_box()
         videos = [v["label"] for v in project.videos()]
         if (not labels and videos) or (pair is not None and pair in videos):  # show a stereo video
             return self.video.open_video(pair if pair in videos else videos[0])
@@ -657,7 +655,6 @@ class MainWindow(QtWidgets.QMainWindow):
         project = self.workspace.project
         if project is None or not label:
             return
-        self.pair_box.setCurrentText(label)
         try:
             paths = pair_image_paths(project, label)
         except UsvipsError as error:
@@ -721,12 +718,24 @@ class MainWindow(QtWidgets.QMainWindow):
             worker.cancel()
 
     # ------------------------------------------------------------------ display
+    def refresh_pair_box(self) -> None:
+        """The pair box lists the project's image pairs and shows the pair the model shows: an image pair
+        by its label, a video's frame pair as "(video)" (its placeholder), nothing with no project."""
+        labels = self.workspace.image_pairs()
+        box = self.pair_box
+        if [box.itemText(i) for i in range(box.count())] != labels:
+            box.clear()
+            box.addItems(labels)
+        shown = self.workspace.pair
+        box.setPlaceholderText("(video)" if shown is not None and shown not in labels else "")
+        box.setCurrentIndex(labels.index(shown) if shown in labels else -1)
+
     def _on_pair_changed(self) -> None:
         ws = self.workspace
+        self.refresh_pair_box()  # the box follows the model (a video's frames or an image pair)
         if ws.pair is None:
             for pane in self.panes.values():
                 pane.set_image(None)
-            self.pair_box.clear()
             return
         for side in SIDES:
             self.panes[side].title.setText(f"{side.capitalize()} — {ws.pair}  "

@@ -76,8 +76,7 @@ def add_image_pairs(window, left: list | None = None, right: list | None = None,
     except UsvipsError as error:
         window.show_message("error", f"no pairs added: {error}")
         return 0
-    window.pair_box.clear()
-    window.pair_box.addItems(window.workspace.image_pairs())
+    window.refresh_pair_box()
     if left_out:
         window.show_message("warning", f"{plural(len(left_out), 'pair')} not added: " + "; ".join(left_out))
     window.show_message("info" if added else "error",
@@ -117,7 +116,7 @@ def add_video(window, left: list | None = None, right: list | None = None, label
         added = video_project.store_video(project, plan)
         for warning in added.warnings:
             window.show_message("warning", warning)
-        window.video.project_opened(project)
+        window.video.videos_changed(project)
         window.video.open_video(added.label)
         window.show_message("warning" if added.warnings else "info",
                             f"added {added.summary}"

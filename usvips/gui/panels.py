@@ -186,6 +186,8 @@ class ObjectList(QtWidgets.QWidget):
 
     zoom_requested = QtCore.Signal(int)
     selection_changed = QtCore.Signal(list)
+    #: an object's row double-clicked (its id): the video goes to the frame it was measured on
+    object_activated = QtCore.Signal(int)
 
     COLUMNS = ("id", "type", "attribute", "vertices", "figure", "quality", "notes", "frame")
 
@@ -240,6 +242,8 @@ class ObjectList(QtWidgets.QWidget):
         self.delete_shortcut.activated.connect(self._on_delete)
         self.table.itemSelectionChanged.connect(self._on_table_selection)
         self.table.itemChanged.connect(self._on_item_changed)
+        self.table.cellDoubleClicked.connect(
+            lambda row, _: self.object_activated.emit(self._ids[row]) if row < len(self._ids) else None)
         self._filling = False
         self._ids: list[int] = []  # the object id of each row, ascending (rows are in id order)
         self._worker: Worker | None = None

@@ -200,7 +200,17 @@ class VideoController(QtCore.QObject):
         self._proxy_label: str | None = None
         self._proxy_progress = 0.0
         self._proxies_deleted: set[str] = set()  # not rebuilt by themselves in this session
-        d = self.dock_widget
+        goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
+        goto.activated.connect(self.focus_goto)
+        for pane in window.panes.values():
+            pane.graphics.installEventFilter(self)
+        self._connect(self.dock_widget)
+        # double-click on an object (or Zoom to) goes to the frame it was measured on
+        window.object_list.zoom_requested.connect(self.go_to_object)
+        window.object_list.object_activated.connect(self.go_to_object)
+
+    def _connect(self, d: VideoDock) -> None:
+        """Wire a dock's controls to this controller."""
         d.chooser.activated.connect(lambda _: self.open_video(d.chooser.currentText()))
         d.timeline.valueChanged.connect(self._on_slider)
         d.goto.returnPressed.connect(self._on_goto)
@@ -214,15 +224,9 @@ class VideoController(QtCore.QObject):
         d.build_proxy_action.triggered.connect(lambda: self.build_proxies())
         d.cancel_proxy_action.triggered.connect(self.cancel_proxies)
         d.delete_proxy_action.triggered.connect(self.delete_proxies)
-        goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
-        goto.activated.connect(self.focus_goto)
         d.sync.clicked.connect(self._on_sync)
-        for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
+        for widget in (d, d.timeline):
             widget.installEventFilter(self)
-        # double-click on an object (or Zoom to) goes to the frame it was measured on
-        window.object_list.zoom_requested.connect(self.go_to_object)
-        window.object_list.table.cellDoubleClicked.connect(
-            lambda row, _: self.go_to_object(int(window.object_list.table.item(row, 0).text())))
 
     # ------------------------------------------------------------------ videos
     def project_opened(self, project) -> None:
@@ -230,10 +234,25 @@ class VideoController(QtCore.QObject):
         self.close_video()
         self.cancel_proxies()
         self._proxies_deleted.clear()
+        # a new project gets new controls: nothing of the previous one (offset, frame, range, go-to text,
+        # rate, marks) can stay on screen, by construction rather than by a list of fields to clear
+        old, d = self.dock_widget, VideoDock()
+        self.dock_widget = d
+        self._connect(d)
+        dock = getattr(self.window, "docks", {}).get("video")
+        if dock is not None:
+            dock.setWidget(d)
+            old.hide()
+            old.deleteLater()
+        self.videos_changed(project)
+
+    def videos_changed(self, project) -> None:
+        """The project's videos in the chooser (one was added): the dock is shown when there are any."""
         d = self.dock_widget
-        d.chooser.clear()
         labels = [v["label"] for v in project.videos()] if project is not None else []
-        d.chooser.addItems(labels)
+        if [d.chooser.itemText(i) for i in range(d.chooser.count())] != labels:
+            d.chooser.clear()
+            d.chooser.addItems(labels)
         d.setEnabled(bool(labels))
         dock = getattr(self.window, "docks", {}).get("video")
         if dock is not None:  # shown for a project with videos (View › Video brings it back by hand)
@@ -252,6 +271,7 @@ class VideoController(QtCore.QObject):
         self.navigator = self.source.navigator()
         self.navigator.marks = measured_frames(project, label)
         d = self.dock_widget
+        self.navigator.rate, self.navigator.jump = float(d.rate.currentText().rstrip("×")), d.jump.value()
         d.chooser.setCurrentText(label)
         d.timeline.blockSignals(True)
         d.timeline.setRange(self.navigator.first, self.navigator.last)
@@ -333,7 +353,6 @@ class VideoController(QtCore.QObject):
         ws = self.window.workspace
         ws.set_pair(nav.label, left, right)
         ws.video_frame = (nav.label, frame, partner, time_s)
-        self.window.pair_box.setCurrentIndex(-1)  # a video, not one of the image pairs listed there
         self.window._draw_objects()  # only the objects measured on this frame
         d = self.dock_widget
         d.timeline.blockSignals(True)
@@ -570,11 +589,7 @@ class VideoController(QtCore.QObject):
                 for path in paths:  # nothing half-made stays behind
                     path.unlink(missing_ok=True)
                 raise
-            box = self.window.pair_box
-            shown = box.currentIndex()
-            box.clear()
-            box.addItems(self.window.workspace.image_pairs())
-            box.setCurrentIndex(shown if shown < 0 else box.findText(self.window.workspace.pair or ""))
+            self.window.refresh_pair_box()
             self.window.show_message("info", f"left frame {frame} and right frame {partner} of {nav.label} are now "
                                              f"the {'in-air' if medium == 'air' else 'underwater'} image pair "
                                              f"{pair_label!r} (Calibration menu: calibrate from it)")
