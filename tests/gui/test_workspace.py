@@ -513,3 +513,32 @@ def test_undoing_any_sequence_of_edits_and_deletes_restores_every_stored_row(tmp
         ws.undo.redo()
         assert _stored_rows(project) == expected
     ws.close_project()
+
+
+def test_another_project_gets_a_new_object_cache_and_the_views_still_hear_it(tmp_path):
+    from usvips.store.project import Vertex
+
+    projects = []
+    for name, count in (("a", 3), ("b", 1)):
+        project = Project.create(tmp_path / f"{name}.usvips")
+        for k in range(count):
+            project.add_object("point", [Vertex(1.0 + k, 2.0, 3.0, 4.0)], name)
+        projects.append(project)
+    ws = Workspace()
+    heard = []
+    ws.objects_reset.connect(lambda: heard.append("reset"))
+    ws.objects_added.connect(lambda ids: heard.append(("added", ids)))
+    ws.open_project(projects[0])
+    first = ws.cache
+    ws.select(ws.object_ids()[:2])
+    assert ws.figures([ws.object_ids()[0]]) is ws.figures([ws.object_ids()[0]])  # computed once, kept
+    ws.open_project(projects[1])
+    assert ws.cache is not first and ws.cache.project is projects[1]
+    assert [o.attribute for o in ws.objects()] == ["b"] and ws.selection == ()
+    assert ws.object_figures(ws.object_ids()[0]) is None  # nothing computed for a's objects carries over
+    assert heard == ["reset", "reset"]
+    ws.delete_object(ws.object_ids()[0])
+    ws.undo.undo()  # the new cache announces through the same events the views connected to
+    assert heard[-1] == ("added", (1,))
+    ws.close_project()
+    assert ws.objects() == [] and ws.cache.project is None

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.app.pair_geometry import PairGeometry, pair_geometry
-from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
+from usvips.app.project_figures import measurement_input
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
@@ -24,8 +24,10 @@ from usvips.core.measurements import kind as measurement_kind
 from usvips.core.observation_record import ObservationRecord
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
-from usvips.gui.calculator import Geometry, Result, format_figure, pair_figures, result_of, vertex_failures
+from usvips.gui.calculator import Result, format_figure, vertex_failures
+from usvips.gui.object_cache import ObjectCache, ObjectEvents
 from usvips.gui.signals import Signal
+from usvips.gui.undo import Command, UndoStack
 from usvips.io.images import read_image
 from usvips.store.interface import ProjectStore
 from usvips.store.project import Vertex
@@ -81,60 +83,6 @@ class MeasuredVertex:
     @property
     def sigmas(self) -> np.ndarray:
         return np.sqrt(np.clip(np.diag(self.covariance), 0, None))
-
-
-@dataclass
-class Command:
-    """One undoable step: ``redo`` does it (again), ``undo`` takes it back."""
-
-    label: str
-    redo: Callable[[], None]
-    undo: Callable[[], None]
-
-
-class UndoStack:
-    """Undo and redo of every pick and edit; ``changed`` fires after each push, undo and redo."""
-
-    def __init__(self) -> None:
-        self._done: list[Command] = []
-        self._undone: list[Command] = []
-        self.changed = Signal()
-
-    def push(self, command: Command) -> None:
-        command.redo()
-        self._done.append(command)
-        self._undone.clear()
-        self.changed.emit()
-
-    def undo(self) -> str | None:
-        """Take back the last step; returns its label (None when there is nothing to undo)."""
-        return self._move(self._done, self._undone, "undo")
-
-    def redo(self) -> str | None:
-        """Do the last undone step again; returns its label (None when there is nothing to redo)."""
-        return self._move(self._undone, self._done, "redo")
-
-    def _move(self, source: list[Command], target: list[Command], action: str) -> str | None:
-        if not source:
-            return None
-        command = source.pop()
-        getattr(command, action)()
-        target.append(command)
-        self.changed.emit()
-        return command.label
-
-    def clear(self) -> None:
-        self._done.clear()
-        self._undone.clear()
-        self.changed.emit()
-
-    @property
-    def undo_label(self) -> str | None:
-        return self._done[-1].label if self._done else None
-
-    @property
-    def redo_label(self) -> str | None:
-        return self._undone[-1].label if self._undone else None
 
 
 def pair_image_paths(project: ProjectStore, label: str) -> tuple[Path, Path]:
@@ -209,22 +157,21 @@ class Workspace:
         #: (object id, vertex index from 0) that the next measured vertex replaces, or None.
         self.repick: tuple[int, int] | None = None
         self.undo = UndoStack()
-        self._calibrations: dict[int, StereoCalibration | None] = {}
         self.pair_changed = Signal()
         self.picks_changed = Signal()
-        self.objects_changed = Signal()
-        self.objects_added = Signal()
-        self.objects_updated = Signal()
-        self.objects_removed = Signal()
-        self.objects_reset = Signal()
+        #: the stored objects' events; each project's new ObjectCache announces through these
+        self.object_events = ObjectEvents()
+        self.objects_changed = self.object_events.changed
+        self.objects_added = self.object_events.added
+        self.objects_updated = self.object_events.updated
+        self.objects_removed = self.object_events.removed
+        self.objects_reset = self.object_events.reset
+        self.cache = ObjectCache(None, self.object_events, lambda: self.rules)
         self.tool_changed = Signal()
         self.selection_changed = Signal()
         self.rules_changed = Signal()
         #: The selected objects' ids (the object list and the geo-calculator show them).
         self.selection: tuple[int, ...] = ()
-        self._objects: dict[int, object] = {}  # id -> StoredObject, in id order
-        self._figures: dict[int, tuple[QualityRules, Result]] = {}  # id -> the rules and its figures under them
-        self._versions: dict[int, int] = {}  # id -> how often it changed (stale worker results are dropped)
         self.enhancement_changed = Signal()
         self.message = Signal()
         self.observed = Signal()
@@ -244,15 +191,13 @@ class Workspace:
         if self.project is not None and self.project is not project:
             self.project.close()
         self.project = project
-        self._calibrations = {}
+        self.cache = ObjectCache(project, self.object_events, lambda: self.rules)  # new: nothing survives
         self.attribute = ""
         self.last_point = None
         self.repick = None
         self.pair, self.images, self.geometry = None, {}, None
         self._reset_picks()
         self.undo.clear()
-        self._objects = {} if project is None else {o.id: o for o in project.objects()}
-        self._figures, self._versions = {}, {}
         self.selection = ()
         self.objects_reset.emit()
         self.objects_changed.emit()
@@ -772,61 +717,38 @@ class Workspace:
                           lambda: self.project.set_record(object_id, record))
 
     # ------------------------------------------------------------------ the stored objects (cached)
+    # held by ``self.cache`` (usvips.gui.object_cache.ObjectCache), a new one per project; these delegate
     def objects(self) -> list:
         """The project's stored objects in id order, from the model's cache (no query)."""
-        return list(self._objects.values())
+        return self.cache.objects()
 
     def object_ids(self) -> list[int]:
-        return list(self._objects)
+        return self.cache.ids()
 
     def stored_object(self, object_id: int):
         """One stored object from the cache (raises by name when there is none)."""
-        try:
-            return self._objects[object_id]
-        except KeyError:
-            raise UsvipsError(f"there is no object {object_id} in the project") from None
+        return self.cache.get(object_id)
+
+    @property
+    def _calibrations(self) -> dict[int, StereoCalibration | None]:
+        return self.cache.calibrations
 
     def _objects_changed_in_store(self, added: tuple[int, ...] = (), updated: tuple[int, ...] = (),
                                   removed: tuple[int, ...] = ()) -> None:
-        """Bring the cache up to date with what was just written (re-reading only those ids, by one query)
-        and announce it by id."""
-        fresh = {o.id: o for o in self.project.objects_with_ids(added + updated)} if added + updated else {}
-        gone = tuple(i for i in removed + updated if i not in fresh and i in self._objects)
-        for object_id in gone:
-            del self._objects[object_id]
-        for object_id in (*added, *updated, *removed):
-            self._figures.pop(object_id, None)
-            self._versions[object_id] = self._versions.get(object_id, 0) + 1
-        new = tuple(i for i in added if i in fresh)
-        changed = tuple(i for i in updated if i in fresh)
-        highest = max(self._objects, default=0)
-        for object_id in new:
-            self._objects[object_id] = fresh[object_id]
-        if any(i <= highest for i in new):  # keep id order (SQLite gives new ids above the highest, but...)
-            self._objects = dict(sorted(self._objects.items()))
-        for object_id in changed:
-            self._objects[object_id] = fresh[object_id]
-        if gone:
-            self.objects_removed.emit(gone)
-            if set(gone) & set(self.selection):
-                self.select([i for i in self.selection if i not in gone])
-        if new:
-            self.objects_added.emit(new)
-        if changed:
-            self.objects_updated.emit(changed)
-        self.objects_changed.emit()
+        """The cache brought up to date with what was just written (announced by id); the selection
+        drops the objects gone."""
+        gone = self.cache.changed_in_store(added, updated, removed)
+        if set(gone) & set(self.selection):
+            self.select([i for i in self.selection if i not in gone])
 
     def reload_objects(self) -> None:
         """Read every stored object again (by one query), e.g. after another program changed the project."""
-        self._objects = {} if self.project is None else {o.id: o for o in self.project.objects()}
-        self._figures, self._versions = {}, {}
-        self.objects_reset.emit()
-        self.objects_changed.emit()
+        self.cache.reload()
         self.select(self.selection)
 
     def select(self, object_ids) -> None:
         """Make ``object_ids`` the selection (ids not stored are left out); announced when it changes."""
-        selection = tuple(int(i) for i in object_ids if int(i) in self._objects)
+        selection = tuple(int(i) for i in object_ids if int(i) in self.cache)
         if selection != self.selection:
             self.selection = selection
             self.selection_changed.emit(selection)
@@ -836,77 +758,32 @@ class Workspace:
         if rules == self.rules:
             return
         self.rules = rules
-        self._figures = {}
+        self.cache.forget_figures()
         self.rules_changed.emit(rules)
 
     def object_figures(self, object_id: int) -> Result | None:
         """An object's figures when they are known under the current rules (None: not yet computed)."""
-        known = self._figures.get(object_id)
-        return known[1] if known is not None and known[0] == self.rules else None
+        return self.cache.known_figures(object_id)
 
     def forget_figures(self) -> None:
         """Drop every computed figure (they are computed again when asked for)."""
-        self._figures = {}
+        self.cache.forget_figures()
 
     # ------------------------------------------------------------------ geo-calculator
-    def _input(self, stored) -> MeasurementInput:
-        """What the figures of a stored object need, read from the project now (GUI thread); the
-        calibrations read are cached until the project changes."""
-        return measurement_input(self.project, stored, self._calibrations)
-
     def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
         """The figures of many objects as a function of copied inputs (run it off the GUI thread); give its
         result to :meth:`remember_figures`."""
-        inputs = [(i, self._input(self.stored_object(i))) for i in object_ids]
-        rules = self.rules
-
-        def run(progress=None, cancelled=None) -> dict[int, Result]:
-            out = {}
-            for n, (object_id, source) in enumerate(inputs):
-                if cancelled is not None and cancelled():
-                    break
-                out[object_id] = _figures_of(source, rules)
-                if progress is not None:
-                    progress((n + 1) / len(inputs))
-            return out
-
-        versions = {i: self._versions.get(i, 0) for i in object_ids}
-        run.versions = versions  # what the results are of: see remember_figures
-        run.rules = rules
-        return run
+        return self.cache.figures_job(object_ids)
 
     def remember_figures(self, job: Callable[..., dict[int, Result]], results: dict[int, Result]) -> list[int]:
         """Keep what :meth:`figures_job`'s ``job`` computed, except for objects changed (or rules changed)
         since it was made; returns the ids kept."""
-        if job.rules != self.rules:
-            return []
-        kept = [i for i, result in results.items()
-                if i in self._objects and self._versions.get(i, 0) == job.versions.get(i)]
-        for object_id in kept:
-            self._figures[object_id] = (job.rules, results[object_id])
-        return kept
+        return self.cache.remember(job, results)
 
     def figures(self, object_ids: list[int]) -> Result:
         """The geo-calculator on a selection of one or two objects (one object's figures are computed once
         per change and kept)."""
-        if self.project is None or not object_ids:
-            return Result((), (), "select one or two objects")
-        if len(object_ids) == 1:
-            object_id = object_ids[0]
-            known = self.object_figures(object_id)
-            if known is None:
-                known = _figures_of(self._input(self.stored_object(object_id)), self.rules)
-                self._figures[object_id] = (self.rules, known)
-            return known
-        if len(object_ids) != 2:
-            return Result((), (), "select one object (its own figures) or two (figures between them)")
-        first, second = (self.stored_object(i) for i in object_ids)
-        both = replace(first, vertices=first.vertices + second.vertices)
-        points, covariance, _ = joint_vertices(self._input(both))
-        n = 3 * len(first.vertices)
-        a = Geometry(first.kind, points[: n // 3], covariance[:n, :n])
-        b = Geometry(second.kind, points[n // 3:], covariance[n:, n:])
-        return pair_figures(a, b, covariance)
+        return self.cache.figures(object_ids)
 
     def vertices_shown(self, stored) -> list:
         """The stored object's vertices measured on the current pair and, on a video, on the frame shown."""
@@ -937,15 +814,6 @@ class Workspace:
             except UsvipsError:
                 pass
         return left, right, k.closes
-
-
-def _figures_of(source: MeasurementInput, rules: QualityRules) -> Result:
-    """The object's figures through the one figure path (``project_figures.evaluate``); a reason when
-    there are none. Pure: any thread."""
-    try:
-        return result_of(evaluate(source, rules))
-    except UsvipsError as error:
-        return Result((), (), str(error))
 
 
 def describe_point(vertex: MeasuredVertex) -> str:
