@@ -23,7 +23,28 @@ COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure"
 COMMANDS += ("batch",)
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: each subcommand's line in ``usvips --help``, so that the overview imports no subcommand's module (each
+#: imports numpy, OpenCV, SciPy ...: over 0.5 s of CPU all together); a test keeps these equal to the
+#: modules' own ``help``
+SUMMARIES: dict[str, str] = {
+    "open": "the workstation window, optionally on a project or sample",
+    "demo": "calibrate a sample project and intersect its check points (headless)",
+    "calibrate": "calibrate a stereo rig (phase 1 in air, phase 2 underwater)",
+    "intersect": "intersect conjugate pixels: id,X,Y,Z,sX,sY,sZ (metres)",
+    "measure": "measure objects from picks: figures with sigmas (CSV), optionally stored in a project",
+    "project": "create, inspect, import into and export from a project file",
+    "render": "render a sample project from a scene description",
+    "bench": "measure speed as ratios against baselines timed in the same run (JSON)",
+    "calibration": "import, export or report a calibration",
+    "plan": "map the expected sigma of a point and a length (precision planner)",
+    "video": "synchronise a stereo video, set its offset, export a frame pair",
+    "batch": "run a task over many pairs or projects on every core",
+}
+
+
+def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
+    """The parser. ``command``: the subcommand about to run — only its module is imported (the others
+    are listed by their :data:`SUMMARIES`); None: none (the overview, ``usvips --help``); ``"*"``: all."""
     parser = argparse.ArgumentParser(
         prog="usvips", description="USVIPS: measurement workstation for underwater stereo imagery.")
     parser.add_argument("--version", action="version", version=f"usvips {__version__}")
@@ -31,15 +52,23 @@ def build_parser() -> argparse.ArgumentParser:
     import importlib
 
     for name in COMMANDS:
-        module = importlib.import_module(f"usvips.cli.{name}")
-        module.register(subparsers)
+        if command == "*" or name == command:
+            importlib.import_module(f"usvips.cli.{name}").register(subparsers)
+        else:
+            subparsers.add_parser(name, help=SUMMARIES[name] or None, add_help=False)
     return parser
 
 
+def _command_in(argv: Sequence[str]) -> str | None:
+    """The subcommand named in ``argv`` (the first word that is not an option), if it is one."""
+    first = next((word for word in argv if not word.startswith("-")), None)
+    return first if first in COMMANDS else None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = parser.parse_args(argv or ["open"])  # no arguments: the workstation window
+    argv = list(sys.argv[1:] if argv is None else argv) or ["open"]  # no arguments: the workstation window
+    parser = build_parser(_command_in(argv))
+    args = parser.parse_args(argv)
     handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)
     if handler is None:
         parser.print_help()
