@@ -4,7 +4,8 @@ unticked pairs left out, the good pairs added and the bad named (a second dive w
 import numpy as np
 import pytest
 
-from usvips.gui.pair_import import OK, PairImport, plural
+from usvips.gui.pair_import import OK, PairImport
+from usvips.gui.wording import article, plural
 from usvips.io.images import write_image
 from usvips.store import Project
 
@@ -110,5 +111,8 @@ def test_an_unreadable_file_is_named_and_the_rest_added(project, tmp_path):
     assert added == ["a1"] and left_out == ["a2: the left image is not a readable image"]
 
 
-def test_plurals():
+def test_plurals_and_articles():
     assert [plural(n, "pair") for n in (0, 1, 2)] == ["0 pairs", "1 pair", "2 pairs"]
+    assert [plural(n, "vertex") for n in (1, 3)] == ["1 vertex", "3 vertices"]
+    assert [article(k) for k in ("arc", "length", "object", "point")] == ["an arc", "a length", "an object",
+                                                                           "a point"]

@@ -71,7 +71,8 @@ def _current_calibration(window) -> tuple[StereoCalibration, str] | None:
         chosen = chosen if chosen is not None else project.calibrations()[-1]["id"]
         name = next(c["name"] for c in project.calibrations() if c["id"] == chosen)
         return calibration_from_dict(project.calibration(chosen), f"{project.path} calibration {chosen}"), name
-    path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", "", "Calibrations (*.json)")
+    path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
+                                                    "Calibrations (*.json)")
     if not path:
         return None
     return load_calibration(path), path
@@ -103,7 +104,7 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
     :func:`import_usvips_calibration`). The image size is asked when the files lack it."""
     if files is None:
         files, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "OpenCV calibration (one file, or intrinsics + "
-                                                          "extrinsics)", "", OPENCV_FILTER)
+                                                          "extrinsics)", window.start_folder(), OPENCV_FILTER)
         if not files:
             return None
     try:
@@ -237,7 +238,8 @@ def import_usvips_calibration(window, path: str | Path | None = None,
     if project is None:
         return None
     if path is None:
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", "", "Calibrations (*.json)")
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
+                                                    "Calibrations (*.json)")
         if not path:
             return None
     try:
@@ -261,7 +263,8 @@ def export_calibration(window, source: str | Path | StereoCalibration | None = N
             return None
         calibration, name = chosen
         if out is None:
-            out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Export calibration (OpenCV)", "stereo.yml",
+            out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Export calibration (OpenCV)",
+                                                           window.start_folder("stereo.yml"),
                                                            "OpenCV FileStorage (*.yml *.yaml *.xml *.json)")
             if not out:
                 return None
@@ -289,7 +292,8 @@ def calibration_report(window, source: str | Path | StereoCalibration | None = N
         return None
     calibration, name = chosen
     if out is None:
-        out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Calibration report", "calibration_report.pdf",
+        out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Calibration report",
+                                                       window.start_folder("calibration_report.pdf"),
                                                        "PDF (*.pdf)")
         if not out:
             return None

@@ -88,7 +88,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.hint.setObjectName("hint_line")
         self.hint.setContentsMargins(6, 1, 6, 1)
         self.hint.setTextFormat(QtCore.Qt.TextFormat.PlainText)
-        self.hint.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Fixed)
+        self.hint.setWordWrap(True)  # a long error is read whole, on as many lines as it needs
+        self.hint.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Minimum)
         central = QtWidgets.QWidget()
         column = QtWidgets.QVBoxLayout(central)
         column.setContentsMargins(0, 0, 0, 0)
@@ -114,7 +115,8 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.undo.changed.connect(self._on_undo_changed)
         self._restore_layout()
         self._on_undo_changed()
-        self.show_message("info", "Open a project (Ctrl+O) or a sample (File › Open sample) to begin.")
+        self.show_message("info", "To begin: File › New project… (then Add image pairs… or Add stereo video…), "
+                                  "open a project (Ctrl+O), or try a sample (File › Open sample).")
 
     # ------------------------------------------------------------------ construction
     def _dock(self, title: str, widget: QtWidgets.QWidget, area: QtCore.Qt.DockWidgetArea) -> QtWidgets.QDockWidget:
@@ -267,7 +269,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.recent_menu = menu.addMenu("&Recent projects")
         menu.addAction("Save &as… (a copy, then work on it)", self.save_as_dialog, QtGui.QKeySequence("Ctrl+Shift+S"))
         menu.addAction("&Export objects…", self.export_dialog)
-        menu.addAction("Import species &list…", self.species_dialog)
+        menu.addAction("I&mport species list…", self.species_dialog)
         menu.addSeparator()  # exchange with other tools (usvips/gui/exchange_dialogs.py)
         menu.addAction("Import &calibration (OpenCV)…", lambda: exchange_dialogs.import_calibration(self))
         menu.addAction("Ex&port calibration (OpenCV)…", lambda: exchange_dialogs.export_calibration(self))
@@ -484,9 +486,17 @@ class MainWindow(QtWidgets.QMainWindow):
         return True
 
     # ------------------------------------------------------------------ project and pairs
+    def start_folder(self, name: str = "") -> str:
+        """Where a file dialog opens: the open project's folder (else the home folder), with ``name``."""
+        project = self.workspace.project
+        folder = project.path.parent if project is not None else Path.home()
+        return str(folder / name) if name else str(folder)
+
     def open_dialog(self) -> None:
+        start = self.start_folder() if self.workspace.project is not None else str(
+            SAMPLES if SAMPLES.is_dir() else Path.home())
         path, _ = QtWidgets.QFileDialog.getOpenFileName(
-            self, "Open project", str(SAMPLES if SAMPLES.is_dir() else Path.home()),
+            self, "Open project", start,
             "USVIPS projects (*.usvips);;Sample descriptions (project.json)")
         if path:
             self.open_path(Path(path).parent if Path(path).name == "project.json" else path)
@@ -584,7 +594,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def species_dialog(self) -> None:
         path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Species list (family, genus, species, code)",
-                                                        str(Path.home()), "CSV (*.csv *.txt)")
+                                                        self.start_folder(), "CSV (*.csv *.txt)")
         if path:
             self.import_species(path)
 

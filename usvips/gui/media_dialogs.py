@@ -11,8 +11,9 @@ from PySide6 import QtWidgets
 
 from usvips.app import video_project
 from usvips.core.errors import UsvipsError
-from usvips.gui.pair_import import PairImport, plural
+from usvips.gui.pair_import import PairImport
 from usvips.gui.pair_import_dialog import PairImportDialog
+from usvips.gui.wording import plural
 from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project
 

@@ -16,6 +16,7 @@ from pathlib import Path
 from usvips.app import video_project
 from usvips.core.errors import UsvipsError
 from usvips.gui.signals import Signal
+from usvips.gui.wording import plural
 from usvips.io.images import declared_size
 from usvips.store.interface import ProjectStore
 
@@ -30,11 +31,6 @@ def header_size(path: Path) -> tuple[int, int] | None:
             return declared_size(file.read(1 << 16))
     except OSError:
         return None
-
-
-def plural(count: int, noun: str) -> str:
-    """``1 pair``, ``2 pairs`` (``noun`` regular)."""
-    return f"{count} {noun}" + ("" if count == 1 else "s")
 
 
 @dataclass

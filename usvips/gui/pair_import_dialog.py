@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from PySide6 import QtCore, QtWidgets
 
-from usvips.gui.pair_import import MEDIA, OK, PairImport, plural
+from usvips.gui.pair_import import MEDIA, OK, PairImport
+from usvips.gui.wording import plural
 
 COLUMNS = ("Add", "Label", "Left", "Right", "Size (px)", "Status")
 

@@ -28,6 +28,7 @@ from usvips.gui.calculator import Result, format_figure, vertex_failures
 from usvips.gui.object_cache import ObjectCache, ObjectEvents
 from usvips.gui.signals import Signal
 from usvips.gui.undo import Command, UndoStack
+from usvips.gui.wording import article, plural
 from usvips.io.images import read_image
 from usvips.store.interface import ProjectStore
 from usvips.store.project import Vertex
@@ -303,7 +304,7 @@ class Workspace:
             raise UsvipsError(f"unknown tool {tool!r}; tools: {', '.join(TOOLS)}")
         if self.digitising.vertices:
             self.message.emit("warning", f"the unfinished {self.digitising.kind} "
-                                         f"({len(self.digitising.vertices)} vertices) was dropped")
+                                         f"({plural(len(self.digitising.vertices), 'vertex')}) was dropped")
         self.digitising = _Digitising(tool)
         self._reset_picks()
         self.tool_changed.emit(tool)
@@ -610,7 +611,8 @@ class Workspace:
             raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
         least = measurement_kind(resolve(stored.kind, len(stored.vertices))).minimum_vertices
         if len(stored.vertices) - 1 < least:
-            raise UsvipsError(f"a {stored.kind} needs at least {least} vertices: delete the object instead")
+            raise UsvipsError(f"{article(stored.kind)} needs at least {plural(least, 'vertex')}: delete the object "
+                              "instead")
         saved = list(stored.vertices)
         self._set_vertices(f"delete vertex {index + 1} of object {object_id}", object_id, saved,
                            saved[:index] + saved[index + 1:])
@@ -684,12 +686,12 @@ class Workspace:
         if kind == stored.kind:
             return
         if kind not in self.kinds_for(object_id):
-            raise UsvipsError(f"{stored.kind} {object_id} has {len(stored.vertices)} vertices: it cannot be a "
-                              f"{kind} (it can be {', '.join(self.kinds_for(object_id))})")
+            raise UsvipsError(f"{stored.kind} {object_id} has {plural(len(stored.vertices), 'vertex')}: it cannot be "
+                              f"{article(kind)} (it can be {', '.join(self.kinds_for(object_id))})")
 
-        self._edit_object(f"make object {object_id} a {kind}", object_id,
+        self._edit_object(f"make object {object_id} {article(kind)}", object_id,
                           lambda: self.project.update_object(object_id, kind=kind))
-        self.message.emit("info", f"object {object_id} is now a {kind} (Ctrl+Z undoes it)")
+        self.message.emit("info", f"object {object_id} is now {article(kind)} (Ctrl+Z undoes it)")
 
     def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
         self.stored_object(object_id)
