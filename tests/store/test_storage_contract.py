@@ -316,9 +316,9 @@ def test_vocabulary_species_records_enhancements_and_drafts_round_trip(store):
     assert store.species_list() == sorted(species, key=lambda s: (s.genus, s.species))
     object_id = store.add_object("point", [_vertex(rng)])
     record = ObservationRecord("Gadidae", "Gadus", "morhua", "COD", 3, "adult", "feeding", "near the rock")
-    assert store.record(object_id) is None
+    assert store.record(object_id) is None and store.records() == {}
     store.set_record(object_id, record)
-    assert store.record(object_id) == record
+    assert store.record(object_id) == record and store.records() == {object_id: record}
     store.set_record(object_id, None)
     assert store.record(object_id) is None
     store.set_enhancement("p1/left", '{"steps": []}')

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field, replace
 from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
+from usvips.core.observation_record import ObservationRecord
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.calculator import Geometry, Result, pair_figures, result_of
 from usvips.gui.signals import Signal
@@ -56,6 +57,8 @@ class ObjectCache:
         self.events = events
         self._rules = rules
         self._objects: dict[int, object] = {} if project is None else {o.id: o for o in project.objects()}
+        #: each object's observation record (the species is there, and only there)
+        self._records: dict[int, ObservationRecord] = {} if project is None else project.records()
         self._figures: dict[int, tuple[QualityRules, Result]] = {}  # id -> the rules and its figures under them
         self._versions: dict[int, int] = {}  # id -> how often it changed (stale worker results are dropped)
         #: calibrations read for figures and picks, by id (read once per project)
@@ -79,6 +82,10 @@ class ObjectCache:
         except KeyError:
             raise UsvipsError(f"there is no object {object_id} in the project") from None
 
+    def record(self, object_id: int) -> ObservationRecord | None:
+        """An object's observation record (None: none entered), from the cache."""
+        return self._records.get(object_id)
+
     def changed_in_store(self, added: tuple[int, ...] = (), updated: tuple[int, ...] = (),
                          removed: tuple[int, ...] = ()) -> tuple[int, ...]:
         """Bring the cache up to date with what was just written (re-reading only those ids, by one query)
@@ -87,6 +94,13 @@ class ObjectCache:
         gone = tuple(i for i in removed + updated if i not in fresh and i in self._objects)
         for object_id in gone:
             del self._objects[object_id]
+            self._records.pop(object_id, None)
+        for object_id in fresh:
+            record = self.project.record(object_id)
+            if record is None:
+                self._records.pop(object_id, None)
+            else:
+                self._records[object_id] = record
         for object_id in (*added, *updated, *removed):
             self._figures.pop(object_id, None)
             self._versions[object_id] = self._versions.get(object_id, 0) + 1
@@ -111,6 +125,7 @@ class ObjectCache:
     def reload(self) -> None:
         """Read every stored object again (by one query), e.g. after another program changed the project."""
         self._objects = {} if self.project is None else {o.id: o for o in self.project.objects()}
+        self._records = {} if self.project is None else self.project.records()
         self._figures, self._versions = {}, {}
         self.events.reset.emit()
         self.events.changed.emit()

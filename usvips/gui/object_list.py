@@ -14,6 +14,13 @@ from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import Workspace
 
 
+def species_text(record) -> str:
+    """``Gadus morhua``, ``Gadus morhua × 3``; '' without a record or species."""
+    if record is None or not record.name:
+        return ""
+    return record.name + (f" × {record.number}" if record.number != 1 else "")
+
+
 class ObjectList(QtWidgets.QWidget):
     """The measured objects: select (drives the geo-calculator and the highlight), edit attribute and
     notes in place, delete, zoom to."""
@@ -23,7 +30,9 @@ class ObjectList(QtWidgets.QWidget):
     #: an object's row double-clicked (its id): the video goes to the frame it was measured on
     object_activated = QtCore.Signal(int)
 
-    COLUMNS = ("id", "type", "attribute", "vertices", "figure", "quality", "notes", "frame")
+    #: species: the observation record's (the one place a species is kept), × the number when more than one;
+    #: pair: the image pair or video measured on; frame: a video's left | right frame and time
+    COLUMNS = ("id", "type", "species", "attribute", "vertices", "figure", "quality", "notes", "pair", "frame")
 
     def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -186,8 +195,9 @@ class ObjectList(QtWidgets.QWidget):
 
     # ------------------------------------------------------------------ rows and figures
     def _set_row(self, row: int, stored) -> None:
-        values = (str(stored.id), stored.kind, stored.attribute, str(len(stored.vertices)), "", "",
-                  stored.notes, video_frame_text(stored))
+        values = (str(stored.id), stored.kind, species_text(self.workspace.object_record(stored.id)), stored.attribute,
+                  str(len(stored.vertices)), "", "", stored.notes,
+                  ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair)), video_frame_text(stored))
         for column, value in enumerate(values):
             item = QtWidgets.QTableWidgetItem(value)
             if self.COLUMNS[column] not in ("attribute", "notes"):

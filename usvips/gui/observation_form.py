@@ -6,6 +6,7 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import STAGES, ObservationRecord, Species
+from usvips.gui.species_choice import choose_species, species_label, species_of_attribute
 from usvips.gui.workspace import Workspace
 
 
@@ -79,7 +80,7 @@ class ObservationForm(QtWidgets.QWidget):
 
     @staticmethod
     def _label(species: Species) -> str:
-        return f"{species.name} — {species.family}" + (f" ({species.code})" if species.code else "")
+        return species_label(species)
 
     def begin(self, object_id: int) -> None:
         """Show the record of ``object_id`` and take the keyboard (after a measurement)."""
@@ -96,8 +97,9 @@ class ObservationForm(QtWidgets.QWidget):
         record = self.workspace.project.record(object_id)
         if record is not None:
             self._show(record)
-        elif not self.keep.isChecked():
-            self._show(ObservationRecord())
+        elif not self.keep.isChecked():  # the toolbar's attribute, when it names a species, is the default
+            default = species_of_attribute(stored.attribute, self._species.values())
+            self._show(ObservationRecord.of(default) if default is not None else ObservationRecord())
         self.status.setText("")
 
     def _show(self, record: ObservationRecord) -> None:
@@ -109,17 +111,10 @@ class ObservationForm(QtWidgets.QWidget):
         self.comment.setText(record.comment)
 
     def chosen_species(self) -> Species | None:
-        """The species typed: its list entry (by 'Genus species', the list's text or its code); None when
-        blank; an error naming the text when it is not in the project's list."""
-        text = self.species.currentText().split(" — ")[0].strip()
-        if not text:
-            return None
-        found = self._species.get(text.lower()) or next(
-            (s for s in self._species.values() if s.code and s.code.lower() == text.lower()), None)
-        if found is None:
-            raise UsvipsError(f"species {text!r} is not in the project's species list (File › Import species "
-                              "list…); leave it blank if not identified")
-        return found
+        """The species typed: the list entry it names, or the ONE entry containing it (type-ahead: 'morh'
+        is Gadus morhua when nothing else contains it); None when blank; an error naming the text when
+        no entry or several contain it (:func:`usvips.gui.species_choice.choose_species`)."""
+        return choose_species(self.species.currentText(), self._species.values())
 
     def store(self) -> bool:
         if self.object_id is None or self.workspace.project is None:
@@ -133,7 +128,13 @@ class ObservationForm(QtWidgets.QWidget):
         except UsvipsError as error:
             self.status.setText(str(error))  # nothing typed is lost: the fields keep it
             return False
-        self.status.setText(f"stored for object {self.object_id}: {record.name or 'not identified'} × {record.number}")
+        text = f"stored for object {self.object_id}: {record.name or 'not identified'} × {record.number}"
+        attribute = self.workspace.stored_object(self.object_id).attribute
+        named = species_of_attribute(attribute, self._species.values())
+        if named is not None and named.name != record.name:  # one species, one place: say which counts
+            text += (f" — its attribute {attribute!r} names {named.name}: the record's species is the one "
+                     "exported")
+        self.status.setText(text)
         if not self.keep.isChecked():
             self._show(ObservationRecord())
         self.finished.emit()

@@ -731,6 +731,10 @@ class Workspace:
         """One stored object from the cache (raises by name when there is none)."""
         return self.cache.get(object_id)
 
+    def object_record(self, object_id: int) -> ObservationRecord | None:
+        """A stored object's observation record (its species, number ...), from the cache."""
+        return self.cache.record(object_id)
+
     @property
     def _calibrations(self) -> dict[int, StereoCalibration | None]:
         return self.cache.calibrations

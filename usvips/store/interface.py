@@ -204,6 +204,10 @@ class ProjectStore(Protocol):
         """Store (None: remove) an object's observation record."""
         ...
 
+    def records(self) -> dict[int, ObservationRecord]:
+        """Every object's observation record, by object id (objects without one are absent)."""
+        ...
+
     def record(self, object_id: int) -> ObservationRecord | None:
         """An object's observation record, None when none was entered."""
         ...

@@ -988,6 +988,14 @@ class Project:
                    (object_id, record.family, record.genus, record.species, record.code, record.number,
                     record.stage, record.activity, record.comment))
 
+    def records(self) -> dict[int, ObservationRecord]:
+        """Every object's observation record by object id, by one query (none before schema 5)."""
+        if not self._has_table("observation_records"):
+            return {}
+        rows = self._query("SELECT object_id, family, genus, species, code, number, stage, activity, comment FROM "
+                           "observation_records ORDER BY object_id")
+        return {int(row[0]): ObservationRecord(*row[1:]) for row in rows}
+
     def record(self, object_id: int) -> ObservationRecord | None:
         """An object's observation record, None when none was entered (or before schema 5)."""
         if not self._has_table("observation_records"):
