@@ -196,8 +196,13 @@ def test_seek_proxies_are_built_in_the_background_when_a_video_is_opened_used_ca
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     video, dock = window.video, window.video.dock_widget
-    _wait_frame(qtbot, window, 0)  # shown from the originals while the proxies are built
-    # nobody asked: the proxies are built in the background, checked, then used
+    _wait_frame(qtbot, window, 0)  # shown from the originals
+    # the window asks first, saying their size on disk; Yes builds them in the background, checked, then used
+    qtbot.waitUntil(lambda: video.question is not None and video.question.isVisible(), timeout=20000)
+    question = video.question
+    assert "Build seek proxies for video dive?" in question.text() and " on disk " in question.text()
+    assert question.defaultButton() is question.button(QtWidgets.QMessageBox.StandardButton.No)
+    question.button(QtWidgets.QMessageBox.StandardButton.Yes).click()
     qtbot.waitUntil(lambda: video.source is not None and video.source.has_proxies, timeout=20000)
     assert "seek proxies built and checked" in window.statusBar().currentMessage()
     assert dock.proxy_status.text() == "proxy ✓" and dock.proxy.text() == "Seek pro&xy"
@@ -296,6 +301,7 @@ def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tm
                                  brightness=60.0 if j - shift >= 30 else 0.0) for j in range(70)]
         encode_video(tmp_path / f"{side}.mp4", frames, 25, "h264", gop=25)
     window = make_window()
+    window.video.ask_before_proxies = False  # built without the question here (see the proxies' own test)
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
@@ -357,6 +363,7 @@ def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_o
     said = []
     show = window.show_message
     window.show_message = lambda kind, text: said.append((kind, text)) or show(kind, text)
+    window.video.ask_before_proxies = False  # built without the question here (see the proxies' own test)
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)

@@ -22,10 +22,12 @@ from usvips.gui.video_model import (
     FrameCache,
     FrameSource,
     VideoNavigator,
+    format_bytes,
     format_timecode,
     measured_frames,
     parse_position,
     prefetch_order,
+    proxy_disk_bytes,
     rgb_pair,
     video_frame_of,
 )
@@ -490,12 +492,19 @@ class VideoController(QtCore.QObject):
     def ask_to_store(self, question: str, store: Callable[[], None]) -> None:
         """Ask whether to store an offset estimated with little confidence: a Yes/No question (No by
         default) that does not block the window; ``store`` runs on Yes."""
-        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Synchronise", question,
+        self.ask("Synchronise", question, store)
+
+    def ask(self, title: str, question: str, yes: Callable[[], None], no: Callable[[], None] | None = None) -> None:
+        """A Yes/No question (No by default) that does not block the window: ``yes`` runs on Yes, ``no``
+        on No or Esc; :attr:`question` holds it while it is open."""
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, title, question,
                                     QtWidgets.QMessageBox.StandardButton.Yes | QtWidgets.QMessageBox.StandardButton.No,
                                     self.dock_widget)
         box.setDefaultButton(QtWidgets.QMessageBox.StandardButton.No)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
-        box.accepted.connect(store)  # Yes is the accept role
+        box.accepted.connect(yes)  # Yes is the accept role
+        if no is not None:
+            box.rejected.connect(no)
         box.open()
         self.question = box
 
@@ -603,12 +612,18 @@ class VideoController(QtCore.QObject):
         else:
             self.build_proxies()
 
+    #: build seek proxies without asking (scripts, benchmarks); the window asks first, with their size
+    ask_before_proxies = True
+
     def build_proxies(self, automatic: bool = False) -> Worker | None:
         """Build the shown video's seek proxies in the background (a pool of their own, at low priority,
         progress in the dock, cancel from the dock), then seek through them as soon as they are built and
         verified (the original is used until then). ``automatic``: when a video is opened; then only for
-        a recording that needs one (:func:`usvips.io.video_proxy.needs_proxy`), quietly. None when there
-        is nothing to build or a build is running (a message says so unless automatic)."""
+        a recording that needs one (:func:`usvips.io.video_proxy.needs_proxy`), and only after the user
+        says Yes to a question giving their size on disk (:func:`usvips.gui.video_model.proxy_disk_bytes`;
+        No: not asked again for that video in this session, the dock's Seek proxy builds them). None when
+        there is nothing to build, a build is running or a question is open (a message says so unless
+        automatic)."""
         nav, project, source = self.navigator, self.window.workspace.project, self.source
         if nav is None or project is None or source is None:
             return None
@@ -629,6 +644,23 @@ class VideoController(QtCore.QObject):
                 self.window.show_message("info", f"video {nav.label}: its seek proxies are already built and in use")
             return None
         label, niceness = nav.label, self.PROXY_NICENESS
+        if automatic and self.ask_before_proxies:
+            video = project.video(label)
+            low, high = proxy_disk_bytes(video["frame_count"], video["width"], video["height"])
+            question = (f"Build seek proxies for video {label}? They make a jump to any frame fast (an exact "
+                        f"lossless copy of every frame, kept in {folder.name}/ beside the project): about "
+                        f"{format_bytes(low)} to {format_bytes(high)} on disk for its {video['frame_count']} frames "
+                        "a camera, both cameras together, built in the background at low priority. Without "
+                        "them every frame is still exact; far jumps are slower. (The dock's Seek proxy button "
+                        "builds or deletes them later.)")
+
+            def declined() -> None:
+                self._proxies_deleted.add(label)
+                self.window.show_message("info", f"no seek proxies for {label}: the dock's Seek proxy button builds "
+                                                 "them when wanted")
+
+            self.ask("Seek proxies", question, lambda: self.build_proxies(automatic=False), declined)
+            return None
 
         def job(progress, cancelled):
             _lower_thread_priority(niceness)
