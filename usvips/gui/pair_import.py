@@ -100,24 +100,26 @@ class PairImport:
         return f"{found.left_size[0]} × {found.left_size[1]} | {found.right_size[0]} × {found.right_size[1]}"
 
     def status(self, row: int) -> str:
-        """``ok`` or what keeps the pair out (ticked or not)."""
+        """``ok`` or every reason that keeps the pair out (ticked or not), joined by "; ": the files' own
+        faults first (they need other files), then the label's (a prefix or another label mends them)."""
         found = self.rows[row]
         label = self.label(row)
-        if not label or "/" in label or "\\" in label:
-            return "needs a label without slashes"
-        if label in self._taken:
-            return "label already in the project: give a prefix or another label"
-        if sum(self.label(i) == label for i in range(len(self.rows)) if self.rows[i].ticked) > 1 and found.ticked:
-            return "label given twice"
+        problems = []
         if found.left.resolve() == found.right.resolve():
-            return "one file on both sides"
-        for side, size in (("left", found.left_size), ("right", found.right_size)):
-            if size is None:
-                return f"the {side} image is not a readable image"
-        if found.left_size != found.right_size:
-            return (f"left {found.left_size[0]} × {found.left_size[1]} px, right "
-                    f"{found.right_size[0]} × {found.right_size[1]} px")
-        return OK
+            problems.append("one file on both sides")
+        unreadable = [side for side, size in (("left", found.left_size), ("right", found.right_size)) if size is None]
+        if unreadable:
+            problems.append(f"the {unreadable[0]} image is not a readable image")
+        elif found.left_size != found.right_size:
+            problems.append(f"left {found.left_size[0]} × {found.left_size[1]} px, right "
+                            f"{found.right_size[0]} × {found.right_size[1]} px")
+        if not label or "/" in label or "\\" in label:
+            problems.append("needs a label without slashes")
+        elif label in self._taken:
+            problems.append("label already in the project: give a prefix or another label")
+        elif found.ticked and sum(self.label(i) == label for i, r in enumerate(self.rows) if r.ticked) > 1:
+            problems.append("label given twice")
+        return "; ".join(problems) or OK
 
     def good(self) -> list[int]:
         """Rows ticked and fit to add."""

@@ -49,8 +49,11 @@ class PairImportDialog(QtWidgets.QDialog):
         layout.addWidget(self.buttons)
         self._filling = False
         self.refresh()
-        self.table.resizeColumnsToContents()
-        self.table.horizontalHeader().setStretchLastSection(True)
+        self.table.setWordWrap(False)
+        header = self.table.horizontalHeader()
+        for column in range(len(COLUMNS) - 1):  # labels grow with a prefix: the columns follow
+            header.setSectionResizeMode(column, QtWidgets.QHeaderView.ResizeMode.ResizeToContents)
+        header.setStretchLastSection(True)
         self.medium.currentIndexChanged.connect(lambda _: model.set_medium(self.medium.currentData()))
         self.prefix.textEdited.connect(model.set_prefix)
         self.table.itemChanged.connect(self._edited)
