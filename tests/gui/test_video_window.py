@@ -2,6 +2,7 @@
 panes, a fish is measured on a synchronised frame within its sigma of the truth and its vertices record
 the frames; a new project gets its own video and image pairs through the File menu's actions."""
 
+import csv
 import json
 import shutil
 
@@ -118,7 +119,7 @@ def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make
     for point in ("snout", "fork"):
         window.workspace.pick("left", truth["left"][20]["pixels"][point])
         window.workspace.pick("right", truth["right"][23]["pixels"][point])
-    window.workspace.finish_object("Sparidae Pagrus auratus")
+    object_id = window.workspace.finish_object("Sparidae Pagrus auratus")
     window.export_objects(tmp_path / "dive.em.txt")
     header, row = (tmp_path / "dive_Lengths.txt").read_text().splitlines()
     values = dict(zip(header.split("\t"), row.split("\t"), strict=True))
@@ -127,6 +128,17 @@ def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make
     assert float(values["Time"]) == pytest.approx(2.0 / 60, abs=1e-4)  # minutes, as EventMeasure
     assert values["Period"] == "bait" and float(values["PeriodTime"]) == pytest.approx(1.0 / 60, abs=1e-4)
     assert values["Species"] == "auratus"
+    # the objects CSV: the record's species and number, the video, its files, frames and time
+    from usvips.core.observation_record import ObservationRecord
+
+    window.workspace.set_record(object_id, ObservationRecord("Sparidae", "Pagrus", "auratus", "37353001", 2))
+    window.export_objects(tmp_path / "dive.csv")
+    with open(tmp_path / "dive.csv", newline="") as stream:
+        (row,) = list(csv.DictReader(stream))
+    assert (row["species"], row["code"], row["number"]) == ("Pagrus auratus", "37353001", "2")
+    assert (row["pair"], row["file_left"], row["frame_left"], row["file_right"], row["frame_right"]) == (
+        "video", "video_left.avi", "20", "video_right.avi", "23")
+    assert float(row["time_min"]) == pytest.approx(2.0 / 60, abs=1e-4)
 
 
 def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, make_window, sample_copy, monkeypatch):

@@ -43,7 +43,7 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
     (EventMeasure tables): the OpCode of objects whose video (or project) has no stored deployment
     (:meth:`Project.deployment`); default the project file's name. The set of tables includes CheckEM's
     ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults)."""
-    objects, centres, images, cache, opcodes = [], {}, {}, {}, {}
+    objects, centres, images, cache, opcodes, where = [], {}, {}, {}, {}, {}
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
@@ -56,6 +56,7 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
                 skipped.append(str(error))
             continue
         objects.append(measurement)
+        where[measurement.id] = source.pair or ""
         video = (stored.vertices[0].video if stored.vertices else None) or ""
         deployment = deployments.get(video, deployments.get(""))  # as Project.deployment(video), read once
         opcodes[measurement.id] = deployment.opcode if deployment is not None else fallback
@@ -69,6 +70,9 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
         if video_columns is not None:  # measured on a video: its files, frames, time and period
             images[measurement.id] = video_columns
     records = {o.id: record for o in objects if (record := project.record(int(o.id))) is not None}
+    places = {o.id: (where[o.id], *images.get(o.id, ("", "", "", ""))[:4],
+                     images[o.id][4] if len(images.get(o.id, ())) > 4 else "") for o in objects}
     export(objects, out, opcode=opcodes, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects},
-           images=images, records=records, samples=checkem_samples(project), georeference=project.georeference())
+           images=images, records=records, samples=checkem_samples(project), georeference=project.georeference(),
+           places=places)
     return len(objects)
