@@ -114,6 +114,7 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.message.connect(self.show_message)
         ws.undo.changed.connect(self._on_undo_changed)
         self._restore_layout()
+        self.video.videos_changed(None)  # no project, no videos: the Video dock comes with a project that has them
         self._on_undo_changed()
         self.show_message("info", "To begin: File › New project… (then Add image pairs… or Add stereo video…), "
                                   "open a project (Ctrl+O), or try a sample (File › Open sample).")
