@@ -1,5 +1,10 @@
-"""The workstation's model, free of Qt: the open project and image pair, the picking and measuring tool,
-the enhancement pipelines, and undo/redo. The window only draws what this holds and forwards clicks.
+"""The workstation's model, free of Qt: the open project and the pair (or video frame pair) shown, and the
+picking and measuring tool (its state machine; every step a command on one undo stack). It is made of one
+model per concern, each in its own module: the stored objects and their figures
+(:mod:`usvips.gui.object_cache`), the display enhancement (:mod:`usvips.gui.enhancement_model`), undo
+(:mod:`usvips.gui.undo`). Opening a project makes NEW instances of the per-project ones (nothing of the
+previous project can survive); their events belong to the workspace, so views connect once. The window
+only draws what these hold and forwards clicks.
 
 Pixels follow ARCHITECTURE.md: x right, y down, origin at the centre of the top-left pixel (float64).
 3-D points are metres in the frame of the pair's calibration: the object frame when the pair is a
@@ -25,6 +30,7 @@ from usvips.core.observation_record import ObservationRecord
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
 from usvips.gui.calculator import Result, format_figure, vertex_failures
+from usvips.gui.enhancement_model import Enhancement
 from usvips.gui.object_cache import ObjectCache, ObjectEvents
 from usvips.gui.signals import Signal
 from usvips.gui.undo import Command, UndoStack
@@ -148,7 +154,6 @@ class Workspace:
     def __post_init__(self) -> None:
         self.pair: str | None = None
         self.images: dict[str, np.ndarray] = {}
-        self.pipelines: dict[str, Pipeline] = {side: Pipeline() for side in SIDES}
         self.geometry: PairGeometry | None = None
         self.state = PickState()
         self.digitising: _Digitising = _Digitising("pick")
@@ -158,6 +163,10 @@ class Workspace:
         #: (object id, vertex index from 0) that the next measured vertex replaces, or None.
         self.repick: tuple[int, int] | None = None
         self.undo = UndoStack()
+        self.enhancement_changed = Signal()
+        self.message = Signal()
+        #: the display enhancement of the two images (usvips.gui.enhancement_model)
+        self.enhancement = Enhancement(self.undo, self.enhancement_changed, self.message)
         self.pair_changed = Signal()
         self.picks_changed = Signal()
         #: the stored objects' events; each project's new ObjectCache announces through these
@@ -173,8 +182,6 @@ class Workspace:
         self.rules_changed = Signal()
         #: The selected objects' ids (the object list and the geo-calculator show them).
         self.selection: tuple[int, ...] = ()
-        self.enhancement_changed = Signal()
-        self.message = Signal()
         self.observed = Signal()
         self.video_frame: tuple[str, int, int, float] | None = None  # video, left and right frame, time (s)
         #: ``stored(object_id)`` after a newly measured object is stored (its observation record may follow).
@@ -197,6 +204,7 @@ class Workspace:
         self.last_point = None
         self.repick = None
         self.pair, self.images, self.geometry = None, {}, None
+        self.enhancement = Enhancement(self.undo, self.enhancement_changed, self.message)  # new: nothing survives
         self._reset_picks()
         self.undo.clear()
         self.selection = ()
@@ -242,8 +250,7 @@ class Workspace:
         except UsvipsError as error:
             self.geometry = None
             self.message.emit("error", f"the calibration of pair {label!r} cannot be used: {error}")
-        for side in SIDES:
-            self.pipelines[side] = self._stored_pipeline(side)
+        self.enhancement.load(self.project, {side: self.image_key(side) for side in SIDES})
         self._reset_picks()
         self.undo.clear()
         self.pair_changed.emit()
@@ -260,39 +267,19 @@ class Workspace:
         pair = next(p for p in self.project.pairs() if p["label"] == self.pair)
         return str(pair[side])
 
-    def _stored_pipeline(self, side: str) -> Pipeline:
-        text = self.project.enhancement(self.image_key(side))
-        if not text:
-            return Pipeline()
-        try:
-            return Pipeline.from_json(text)
-        except UsvipsError as error:
-            self.message.emit("warning", f"the saved enhancement of the {side} image is ignored: {error}")
-            return Pipeline()
+    # ------------------------------------------------------------------ enhancement (usvips.gui.enhancement_model)
+    @property
+    def pipelines(self) -> dict[str, Pipeline]:
+        return self.enhancement.pipelines
 
-    # ------------------------------------------------------------------ enhancement
     def set_pipeline(self, side: str, pipeline: Pipeline) -> None:
         """Change an image's enhancement (display only: picks and coordinates use the original) and save
         it in the project; undoable."""
-        self.set_pipelines({side: pipeline})
+        self.enhancement.set_pipelines({side: pipeline})
 
     def set_pipelines(self, changes: dict[str, Pipeline]) -> None:
         """Change the enhancement of one or both images as one undoable step."""
-        unknown = [side for side in changes if side not in SIDES]
-        if unknown:
-            raise UsvipsError(f"side must be 'left' or 'right', got {unknown[0]!r}")
-        before = {side: self.pipelines[side] for side in changes}
-        if all(before[side] == changes[side] for side in changes):
-            return
-        label = "enhancement (" + " and ".join(changes) + ")"
-        self.undo.push(Command(label, lambda: self._apply_pipelines(changes), lambda: self._apply_pipelines(before)))
-
-    def _apply_pipelines(self, pipelines: dict[str, Pipeline]) -> None:
-        for side, pipeline in pipelines.items():
-            self.pipelines[side] = pipeline
-            if self.project is not None and self.pair is not None:
-                self.project.set_enhancement(self.image_key(side), pipeline.to_json())
-            self.enhancement_changed.emit(side)
+        self.enhancement.set_pipelines(changes)
 
     # ------------------------------------------------------------------ tool
     @property
