@@ -36,6 +36,16 @@ def test_the_dialog_edits_the_model_and_shows_sizes_and_statuses(qtbot, tmp_path
         assert model.label(2) == "big fish"
         dialog.table.item(1, 0).setCheckState(QtCore.Qt.CheckState.Unchecked)
         assert model.rows[1].ticked is False and ok.text() == "&Add 2 pairs" and ok.isEnabled()
+        # the keyboard: Space on a tick toggles it (here back on), Alt+M reaches the medium
+        dialog.show()
+        qtbot.waitExposed(dialog)
+        dialog.table.setFocus()
+        dialog.table.setCurrentCell(1, 0)
+        qtbot.keyClick(dialog.table, QtCore.Qt.Key.Key_Space)
+        assert model.rows[1].ticked is True and ok.text() == "&Add 2 pairs"  # ticked, but still a misfit
+        dialog.table.setCurrentCell(1, 0)
+        qtbot.keyClick(dialog.table, QtCore.Qt.Key.Key_Space)
+        assert model.rows[1].ticked is False
         dialog.medium.setCurrentIndex(dialog.medium.findData("air"))
         assert model.medium == "air" and "(air)" in dialog.summary.text()
         added, left_out = model.add()
