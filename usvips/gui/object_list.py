@@ -10,15 +10,9 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.core.errors import UsvipsError
 from usvips.gui.calculator import format_figure
 from usvips.gui.video_model import video_frame_text
+from usvips.gui.wording import species_text
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import Workspace
-
-
-def species_text(record) -> str:
-    """``Gadus morhua``, ``Gadus morhua × 3``; '' without a record or species."""
-    if record is None or not record.name:
-        return ""
-    return record.name + (f" × {record.number}" if record.number != 1 else "")
 
 
 class ObjectList(QtWidgets.QWidget):

@@ -17,3 +17,11 @@ def plural(count: int, noun: str) -> str:
 def article(word: str) -> str:
     """``an arc``, ``an object``, ``a length``, ``a point`` (by the first letter: the kinds' names)."""
     return f"{'an' if word[:1].lower() in 'aeiou' else 'a'} {word}"
+
+
+def species_text(record) -> str:
+    """An observation record's species as shown: ``Gadus morhua``, ``Gadus morhua × 3``; '' without a
+    record or a species."""
+    if record is None or not record.name:
+        return ""
+    return record.name + (f" × {record.number}" if record.number != 1 else "")
