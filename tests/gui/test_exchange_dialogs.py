@@ -260,3 +260,22 @@ def test_a_usvips_calibration_is_imported_and_made_active_for_the_pairs_ticked(q
     assert exchange_dialogs.import_usvips_calibration(window, damaged, run=lambda d: True) is None
     assert len(project.calibrations()) == count and "import failed, nothing stored" in \
         window.statusBar().currentMessage()
+
+
+def test_a_project_calibration_is_reported_with_its_data_as_the_command_line_reports_its_file(
+        qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    project = window.workspace.project
+    active = project.active_calibration("measure1")
+    calibration = exchange_dialogs.calibration_from_dict(project.calibration(active), "c")
+    data = exchange_dialogs.project_report_data(project, calibration)
+    assert data.control is not None and data.observations is not None  # residual plots, check points
+    assert all("not found" not in why for _, _, why in data.files)  # the files beside the project
+    for name in ("control.csv", "observations_air.csv", "observations_water.csv"):
+        (directory / name).unlink()
+    data = exchange_dialogs.project_report_data(project, calibration)  # files gone: the project's own data
+    assert data.control is not None and len(data.observations.ids) > 0
+    assert set(data.observations.pairs) <= set(calibration.stations)
+    assert data.files[0][0] == "project" and "held by the project" in data.files[0][2]

@@ -14,11 +14,13 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 from PySide6 import QtCore, QtWidgets
 
 from usvips.app import calibration_size
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
+from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.worker import Cancelled, Worker, start
 from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict, load_calibration, save_calibration
@@ -297,9 +299,37 @@ def calibration_report(window, source: str | Path | StereoCalibration | None = N
                                                        "PDF (*.pdf)")
         if not out:
             return None
-    path = name if isinstance(source, str | Path) else None
-    return window.run_worker(report_job(calibration, out, path), "calibration report",
+    path, data = (name if isinstance(source, str | Path) else None), None
+    project = window.workspace.project
+    if source is None and project is not None and project.calibrations():
+        # a calibration of the project: its data found as the command line finds them (the files it was
+        # made from, beside the project), else the control and observations the project holds
+        path, data = project.path, project_report_data(project, calibration)
+    return window.run_worker(report_job(calibration, out, path, data), "calibration report",
                              lambda pages: window.show_message("info", f"wrote {out} ({pages} pages)"))
+
+
+def project_report_data(project, calibration: StereoCalibration):
+    """What a project's calibration was made from, for its report: the files its ``source`` names when
+    they are beside the project (as for the command line's report of its file), otherwise the project's
+    control points and its observations of the calibration's pairs (the role of its phase)."""
+    from usvips.io.calibration_report import ReportData, find_data
+
+    found = find_data(calibration, project.path)
+    if found.control is not None and found.observations is not None:
+        return found
+    role = "calibration-air" if calibration.phase == "air" else "calibration-water"
+    labels = {p["label"] for p in project.pairs()}
+    parts = [project.control_observations(role, pair) for pair in calibration.stations if pair in labels]
+    parts = [part for part in parts if len(part.ids)]
+    if not parts or not len(project.control().ids):
+        return found
+    observations = StereoObservations(tuple(i for part in parts for i in part.ids),
+                                      np.vstack([part.left for part in parts]),
+                                      np.vstack([part.right for part in parts]),
+                                      tuple(pair for part in parts for pair in part.pairs))
+    held = f"control and observations of {', '.join(calibration.stations)} held by the project"
+    return ReportData(project.control(), observations, [("project", str(project.path), held)])
 
 
 # ---------------------------------------------------------------------------- deployment and georeference
