@@ -91,6 +91,7 @@ def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tm
     qtbot.waitUntil(lambda: window.workspace.pair == "a-st0" and not window.busy, timeout=10000)
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
+    assert "added video 'dive': left 30 frames, right 30 frames at 25 fps" in window.hint.text()
     assert frame_number(window.workspace.images["right"]) == 1000
     window.video.dock_widget.offset.setValue(2)
     window.video.dock_widget.offset.editingFinished.emit()

@@ -118,12 +118,20 @@ def add_video(window, left: list | None = None, right: list | None = None, label
         for warning in added.warnings:
             window.show_message("warning", warning)
         window.video.videos_changed(project)
-        window.video.open_video(added.label)
-        window.show_message("warning" if added.warnings else "info",
-                            f"added {added.summary}"
-                            + (f" — {plural(len(added.warnings), 'problem')} found (see the log)" if added.warnings
-                               else "; both streams clean")
-                            + "; set its offset (the Video dock's Sync… or offset) before measuring")
+        level = "warning" if added.warnings else "info"
+        text = (f"added {added.summary}"
+                + (f" — {plural(len(added.warnings), 'problem')} found (see the log)" if added.warnings
+                   else "; both streams clean")
+                + "; set its offset (the Video dock's Sync… or offset) before measuring")
+
+        def again(_frame: int) -> None:  # said once more above the first frame, over the pair's own notes
+            window.video.shown.disconnect(again)
+            window.set_hint(text, level)
+
+        window.video.shown.connect(again)
+        if not window.video.open_video(added.label):
+            window.video.shown.disconnect(again)
+        window.show_message(level, text)
 
     window.run_worker(job, "reading the video files", store)
 
