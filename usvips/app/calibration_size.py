@@ -93,19 +93,29 @@ def _kind(project: ProjectStore, label: str) -> str:
     return "video" if any(v["label"] == label for v in project.videos()) else "pair"
 
 
+def _misfit(project: ProjectStore, calibration: StereoCalibration, label: str, calibration_name: str) -> str | None:
+    """:func:`size_problem` for pair or video ``label`` (its kind looked up only when the sizes differ:
+    the window asks for every frame of a video it shows)."""
+    size, made_at = media_size(project, label), calibration_size(calibration)
+    if size is None or made_at is None or tuple(int(v) for v in size) == made_at:
+        return None
+    return size_problem(calibration, size, f"{_kind(project, label)} {label!r}", calibration_name)
+
+
 def check_for(project: ProjectStore, calibration: StereoCalibration, labels: Iterable[str],
               calibration_name: str = "the calibration") -> None:
     """Refuse (one line, the first misfit named) when any pair or video of ``labels`` has pictures of
     another size than ``calibration``'s."""
     for label in labels:
-        check_size(calibration, media_size(project, label), f"{_kind(project, label)} {label!r}", calibration_name)
+        problem = _misfit(project, calibration, label, calibration_name)
+        if problem is not None:
+            raise SizeMismatchError(problem)
 
 
 def misfits(project: ProjectStore, calibration: StereoCalibration, labels: Iterable[str],
             calibration_name: str = "the calibration") -> list[str]:
     """One line per pair or video of ``labels`` whose pictures differ in size from ``calibration``'s."""
-    lines = (size_problem(calibration, media_size(project, label), f"{_kind(project, label)} {label!r}",
-                          calibration_name) for label in labels)
+    lines = (_misfit(project, calibration, label, calibration_name) for label in labels)
     return [line for line in lines if line is not None]
 
 
