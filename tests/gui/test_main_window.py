@@ -239,11 +239,12 @@ def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, s
 def test_objects_are_exported_from_the_window(qtbot, make_window, sample_copy, tmp_path):
     window = make_window()
     directory = sample_copy("tank_system1")
-    open_sample(qtbot, window, directory, "measure1")
-    left, right = truth_pixels(directory, "measure1", "objects")
+    open_sample(qtbot, window, directory, "water1")  # a calibrated station: the object frame, on the Earth
+    left, right = truth_pixels(directory, "water1", "targets")
+    target = isolated_targets(left, right)[0]
     window.set_tool("point")
-    window.workspace.pick("left", left["rock1"]["centre"])
-    window.workspace.pick("right", right["rock1"]["centre"])
+    window.workspace.pick("left", left[target])
+    window.workspace.pick("right", right[target])
     window.export_objects(tmp_path / "objects.geojson")  # GeoJSON needs a georeference (issue 19)
     assert "no georeference" in window.statusBar().currentMessage()
     from usvips.core.deployment import Georeference

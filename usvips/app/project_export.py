@@ -42,8 +42,11 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
     vertices) are left out and named in ``skipped`` ("object N: why") when a list is given. ``opcode``
     (EventMeasure tables): the OpCode of objects whose video (or project) has no stored deployment
     (:meth:`Project.deployment`); default the project file's name. The set of tables includes CheckEM's
-    ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults)."""
+    ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults). GeoJSON holds only
+    objects measured in the object frame (on a calibrated station), the frame the georeference places on
+    the Earth; the others are named in ``skipped``."""
     objects, centres, images, cache, opcodes, where = [], {}, {}, {}, {}, {}
+    geographic = Path(out).suffix.lower() in (".geojson", ".json")  # WGS 84 through the object frame's georeference
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
@@ -54,6 +57,12 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
         except UsvipsError as error:
             if skipped is not None:
                 skipped.append(str(error))
+            continue
+        if geographic and source.calibration is not None and source.frame == "rig":  # camera-relative metres
+            if skipped is not None:
+                skipped.append(f"object {stored.id}: measured in the rig frame of pair {source.pair!r} (not a "
+                               "calibrated station), so it has no place on the Earth and no height; it is in the "
+                               "CSV exports")
             continue
         objects.append(measurement)
         where[measurement.id] = source.pair or ""
