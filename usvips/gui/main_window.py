@@ -973,10 +973,6 @@ class MainWindow(QtWidgets.QMainWindow):
         if len(ids) == 1:
             self.observation.load(ids[0])  # every stored object's record is editable
 
-    def _draw_objects(self) -> None:
-        """Every stored object's outline again (a video frame was shown: others belong to it)."""
-        self.overlay.refresh()
-
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)
         vertices = [v for v in stored.vertices if v.pair == self.workspace.pair]

@@ -352,10 +352,8 @@ class VideoController(QtCore.QObject):
         left, right, partner, time_s = rgb_pair(item)
         nav = self.navigator
         nav.go(frame)
-        ws = self.window.workspace
-        ws.set_pair(nav.label, left, right)
-        ws.video_frame = (nav.label, frame, partner, time_s)
-        self.window._draw_objects()  # only the objects measured on this frame
+        # the views follow the model's pair_changed (only the objects measured on this frame are drawn)
+        self.window.workspace.set_pair(nav.label, left, right, (nav.label, frame, partner, time_s))
         d = self.dock_widget
         d.timeline.blockSignals(True)
         d.timeline.setValue(frame)

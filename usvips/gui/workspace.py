@@ -235,15 +235,18 @@ class Workspace:
         """Show the current pair again, its images kept, so that a calibration made active for it since is
         used (nothing when no pair is shown)."""
         if self.pair is not None and self.images:
-            self.set_pair(self.pair, self.images["left"], self.images["right"])
+            self.set_pair(self.pair, self.images["left"], self.images["right"], self.video_frame)
 
-    def set_pair(self, label: str, left: np.ndarray, right: np.ndarray) -> None:
+    def set_pair(self, label: str, left: np.ndarray, right: np.ndarray,
+                 video_frame: tuple[str, int, int, float] | None = None) -> None:
         """Show a pair (images already read, see :func:`load_pair_images`); its calibration and saved
-        enhancements come from the project."""
+        enhancements come from the project. ``video_frame``: (video, left frame, right frame, time s) when
+        the images are a video's frame pair — known before ``pair_changed`` fires, so that every view
+        draws the objects of that frame at once."""
         if self.project is None:
             raise UsvipsError("open a project first")
         another_pair, self.pair = label != self.pair, label
-        self.video_frame = None  # a video's frame pair sets it after showing the images
+        self.video_frame = video_frame
         self.images = {"left": left, "right": right}
         try:
             self.geometry = self._shared(pair_geometry(self.project, label))
