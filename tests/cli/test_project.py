@@ -16,7 +16,7 @@ def test_project_from_the_sample_and_export(tmp_path, capsys):
     assert main(["project", "new", str(out), "--from", str(SAMPLE)]) == 0
     assert main(["project", "info", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "3 image pairs, 24 control points, 0 objects" in text
+    assert "3 image pairs, 0 videos, 24 control points, 0 objects" in text
     with Project.open(out) as project:
         assert len(project.control_observations("check", "water2")) == 9
         cov = np.diag([1e-6, 1e-6, 4e-6])

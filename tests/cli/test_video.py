@@ -62,7 +62,7 @@ def test_a_stereo_video_is_added_synchronised_by_its_flash_and_exported_exactly(
     code, out, err = _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right,
                           "--label", "dive1")
     assert code == 0, err
-    assert "80 frames at 25 fps" in out and "warning" not in out
+    assert "left 80 frames, right 80 frames at 25 fps" in out and "warning" not in out
     code, out, err = _run(capsys, "video", "sync", project, "--pair", "dive1", "--method", "flash", "--json")
     assert code == 0, err
     estimate = json.loads(out)
@@ -72,6 +72,7 @@ def test_a_stereo_video_is_added_synchronised_by_its_flash_and_exported_exactly(
     assert estimate["offset_s"] == pytest.approx(estimate["offset_frames"] / FPS, abs=0.5e-3 / FPS + 0.5e-6)
     code, out, _ = _run(capsys, "project", "info", project)
     assert f"video dive1: 80 frames at 25 fps, offset {lag:+d} frames" in out
+    assert ", 0 image pairs, 1 video, " in out  # the video's own pair is not counted as an image pair
     code, out, err = _run(capsys, "video", "take-pair", project, "--pair", "dive1", "--frame", 33, "--medium", "air")
     assert code == 0, err
     with Project.open(project) as p:

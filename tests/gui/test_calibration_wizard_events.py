@@ -49,3 +49,26 @@ def test_the_wizard_follows_the_sessions_step_data_and_result(qtbot, project):  
     wizard.done(0)  # closing: the session no longer calls into the wizard's pages
     assert len(session.step_changed) == len(session.data_changed) == len(session.result_changed) == 0
     session.remove_observation("water1", point)
+
+
+def test_the_measure_page_labels_its_targets_and_highlights_the_row_selected(qtbot, project):  # noqa: F811
+    p, _ = project()
+    session = CalibrationSession(p, "water")
+    wizard = _wizard(qtbot, session)
+    measure = _to_results(qtbot, wizard, ["water1"])
+    qtbot.waitUntil(lambda: bool(measure.workspace.images), timeout=10000)
+    shown = measure.pair.currentText()
+    measured = sorted(session.measured(shown))
+    for side in ("left", "right"):
+        assert sorted(label.toPlainText() for label in measure.panes[side].control_labels) == measured
+        assert measure.panes[side].selected_control is None
+    rows = [r for r in range(measure.table.rowCount()) if measure.table.item(r, 0).text() == shown]
+    row = rows[len(rows) // 2]
+    target = measure.table.item(row, 1).text()
+    measure.table.selectRow(row)
+    for side in ("left", "right"):
+        assert measure.panes[side].selected_control == target
+        labels = {label.toPlainText(): label for label in measure.panes[side].control_labels}
+        assert labels[target].color.getRgb()[:3] != labels[next(t for t in measured if t != target)].color.getRgb()[:3]
+    measure.table.clearSelection()  # nothing chosen: nothing highlighted
+    assert measure.panes["left"].selected_control is None and len(measure.panes["left"].control_labels) == len(measured)

@@ -54,10 +54,26 @@ def test_import_asks_the_image_size_the_file_lacks_and_stores_the_calibration(qt
                                                ask_size=lambda w: asked.append(1) or None) is None
     assert asked and not (tmp_path / "cal.json").exists()
     assert "image size is needed" in window.statusBar().currentMessage()
-    out = exchange_dialogs.import_calibration(window, [source], tmp_path / "cal.json", ask_size=lambda w: (640, 480))
+    offered = {}
+
+    def tick_the_shown_pair(dialog):  # the import asks what the calibration is active for
+        offered.update({dialog.labels.item(i).text(): dialog.labels.item(i).checkState()
+                        for i in range(dialog.labels.count())})
+        return True
+
+    out = exchange_dialogs.import_calibration(window, [source], tmp_path / "cal.json", ask_size=lambda w: (640, 480),
+                                              run=tick_the_shown_pair)
     imported = load_calibration(out)
     assert (imported.left.width, imported.left.height) == (640, 480) and imported.left.interior.k3 == 0.03
     assert len(window.workspace.project.calibrations()) == before + 1
+    shown = next(text for text in offered if text.startswith("measure1 "))
+    size = shown.split("(")[1].rstrip(")")  # each pair is offered with its size
+    assert offered[shown] == QtCore.Qt.CheckState.Checked and size.endswith(" px")
+    # the sample's pictures are not 640 × 480: the shown pair keeps its calibration, both sizes named
+    project = window.workspace.project
+    assert project.active_calibration("measure1") != project.calibrations()[-1]["id"]
+    message = window.statusBar().currentMessage()
+    assert "not made active" in message and size in message and "640 × 480 px" in message
     assert QtWidgets.QApplication.activeModalWidget() is None
     exchange_dialogs.import_calibration(window, [tmp_path / "missing.yml"], tmp_path / "x.json")
     assert "import failed" in window.statusBar().currentMessage() and not (tmp_path / "x.json").exists()
@@ -226,7 +242,7 @@ def test_a_usvips_calibration_is_imported_and_made_active_for_the_pairs_ticked(q
 
     def tick_water2_too(dialog):
         seen["ticked"] = dialog.active_for()
-        water2 = dialog.labels.findItems("water2", QtCore.Qt.MatchFlag.MatchExactly)[0]
+        water2 = dialog.labels.findItems("water2  (", QtCore.Qt.MatchFlag.MatchStartsWith)[0]  # "label  (W × H px)"
         dialog.labels.setCurrentItem(water2)
         qtbot.keyClick(dialog.labels, QtCore.Qt.Key.Key_Space)
         return True
@@ -244,3 +260,22 @@ def test_a_usvips_calibration_is_imported_and_made_active_for_the_pairs_ticked(q
     assert exchange_dialogs.import_usvips_calibration(window, damaged, run=lambda d: True) is None
     assert len(project.calibrations()) == count and "import failed, nothing stored" in \
         window.statusBar().currentMessage()
+
+
+def test_a_project_calibration_is_reported_with_its_data_as_the_command_line_reports_its_file(
+        qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    project = window.workspace.project
+    active = project.active_calibration("measure1")
+    calibration = exchange_dialogs.calibration_from_dict(project.calibration(active), "c")
+    data = exchange_dialogs.project_report_data(project, calibration)
+    assert data.control is not None and data.observations is not None  # residual plots, check points
+    assert all("not found" not in why for _, _, why in data.files)  # the files beside the project
+    for name in ("control.csv", "observations_air.csv", "observations_water.csv"):
+        (directory / name).unlink()
+    data = exchange_dialogs.project_report_data(project, calibration)  # files gone: the project's own data
+    assert data.control is not None and len(data.observations.ids) > 0
+    assert set(data.observations.pairs) <= set(calibration.stations)
+    assert data.files[0][0] == "project" and "held by the project" in data.files[0][2]

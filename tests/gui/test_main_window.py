@@ -7,8 +7,11 @@ from PySide6 import QtCore
 
 from tests.gui.conftest import click_pixel, isolated_targets, open_sample, true_length, truth_pixels, wait_for_pair
 from usvips.core.matching import EpipolarCurve
+from usvips.gui.object_list import ObjectList
 from usvips.gui.pane import pixel_from_item
 from usvips.store import Project
+
+FIGURE = ObjectList.COLUMNS.index("figure")  # the object list's figure column
 
 
 def _drawn_curve(pane) -> np.ndarray:
@@ -73,7 +76,7 @@ def test_measuring_a_fish_with_the_mouse_stores_it_with_its_true_length(qtbot, m
     figure = window.workspace.figures([stored.id]).figures[0]
     assert abs(figure.value - true_length(directory, "fish1")) < figure.sigma
     assert window.object_list.table.rowCount() == 1
-    assert "mm" in window.object_list.table.item(0, 4).text()
+    assert "mm" in window.object_list.table.item(0, FIGURE).text()
     window.object_list.table.selectRow(0)
     assert "length" in window.calculator.output.toPlainText()
     x, _ = window.panes["left"].selected_item.getData()
@@ -228,19 +231,20 @@ def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, s
         window.workspace.project.add_object("line", list(first.vertices), "copy")
     window.workspace.reload_objects()  # the model reads them all by one query
     assert window.object_list.table.rowCount() == 7
-    assert "computing" in window.object_list.table.item(3, 4).text()
-    qtbot.waitUntil(lambda: "mm" in window.object_list.table.item(6, 4).text(), timeout=20000)
-    assert window.object_list.table.item(6, 4).text() == window.object_list.table.item(0, 4).text()
+    assert "computing" in window.object_list.table.item(3, FIGURE).text()
+    qtbot.waitUntil(lambda: "mm" in window.object_list.table.item(6, FIGURE).text(), timeout=20000)
+    assert window.object_list.table.item(6, FIGURE).text() == window.object_list.table.item(0, FIGURE).text()
 
 
 def test_objects_are_exported_from_the_window(qtbot, make_window, sample_copy, tmp_path):
     window = make_window()
     directory = sample_copy("tank_system1")
-    open_sample(qtbot, window, directory, "measure1")
-    left, right = truth_pixels(directory, "measure1", "objects")
+    open_sample(qtbot, window, directory, "water1")  # a calibrated station: the object frame, on the Earth
+    left, right = truth_pixels(directory, "water1", "targets")
+    target = isolated_targets(left, right)[0]
     window.set_tool("point")
-    window.workspace.pick("left", left["rock1"]["centre"])
-    window.workspace.pick("right", right["rock1"]["centre"])
+    window.workspace.pick("left", left[target])
+    window.workspace.pick("right", right[target])
     window.export_objects(tmp_path / "objects.geojson")  # GeoJSON needs a georeference (issue 19)
     assert "no georeference" in window.statusBar().currentMessage()
     from usvips.core.deployment import Georeference
@@ -335,7 +339,7 @@ def test_a_stored_vertex_is_re_picked_from_the_object_list_with_the_mouse(qtbot,
         click_pixel(qtbot, window.panes["left"], left["fish1"][point])
         click_pixel(qtbot, window.panes["right"], right["fish1"][point])
     window.accept_or_finish()
-    figure = window.object_list.table.item(0, 4).text()
+    figure = window.object_list.table.item(0, FIGURE).text()
     window.object_list.table.selectRow(0)
     window.object_list.vertex.setValue(2)
     qtbot.mouseClick(window.object_list.repick_button, QtCore.Qt.MouseButton.LeftButton)
@@ -345,9 +349,9 @@ def test_a_stored_vertex_is_re_picked_from_the_object_list_with_the_mouse(qtbot,
     click_pixel(qtbot, window.panes["right"], wrong[1])
     if window.workspace.state.pending is not None:
         window.accept_or_finish()
-    assert window.object_list.table.item(0, 4).text() != figure
+    assert window.object_list.table.item(0, FIGURE).text() != figure
     window.undo()
-    assert window.object_list.table.item(0, 4).text() == figure
+    assert window.object_list.table.item(0, FIGURE).text() == figure
 
 
 def test_linked_navigation_brings_the_other_pane_to_the_conjugate_region(qtbot, make_window, sample_copy):

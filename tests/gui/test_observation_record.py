@@ -94,6 +94,10 @@ def test_after_a_measurement_the_form_takes_the_keys_and_stores_the_record(qtbot
     record = window.workspace.project.record(stored.id)
     assert record == ObservationRecord("Labridae", "Notolabrus", "gymnogenis", "37384043", 3, "J", "", "in the kelp")
     assert QtWidgets.QApplication.focusWidget() is window.panes["left"].graphics  # back to measuring
+    table, columns = window.object_list.table, window.object_list.COLUMNS
+    row = window.object_list.row_of(stored.id)
+    assert table.item(row, columns.index("species")).text() == "Notolabrus gymnogenis × 3"  # one place: the record
+    assert table.item(row, columns.index("pair")).text() == "water1"
     # the next measurement starts with the kept values; a species not in the list is refused, nothing lost
     click_pixel(qtbot, window.panes["left"], left[numbers[1]])
     click_pixel(qtbot, window.panes["right"], right[numbers[1]])
@@ -103,11 +107,15 @@ def test_after_a_measurement_the_form_takes_the_keys_and_stores_the_record(qtbot
     assert not form.store()
     assert "not in the project's species list" in form.status.text()
     assert form.species.currentText() == "Nemo unknownus" and window.workspace.project.record(second.id) is None
+    form.species.setEditText("auratu")  # type-ahead: the one entry containing it is taken (Tab or Enter)
+    assert form.store() and window.workspace.project.record(second.id).name == "Pagrus auratus"
     form.species.setEditText("37353001")  # by code
     assert form.store()
     assert window.workspace.project.record(second.id).name == "Pagrus auratus"
     window.undo()
+    window.undo()  # both records of the second object taken back
     assert window.workspace.project.record(second.id) is None
+    window.redo()
     window.redo()
     path = window.workspace.project.path
     window.close()

@@ -95,3 +95,13 @@ def test_the_frame_source_returns_the_synchronised_pair(tmp_path):
         fresh_left, fresh_right, _, _ = source.pair(14)
         assert np.array_equal(left, fresh_left) and np.array_equal(right, fresh_right) and partner == 18
         source.close()
+
+
+def test_the_seek_proxies_size_on_disk_is_estimated_before_asking():
+    from usvips.gui.video_model import format_bytes, proxy_disk_bytes
+
+    low, high = proxy_disk_bytes(30 * 60, 1920, 1080)  # a minute of 1080p at 30 fps, both cameras
+    assert 2 * 2.3e9 < low < high < 2 * 4.6e9  # io.video_proxy: 2.5–4.5 GB a camera-minute
+    assert proxy_disk_bytes(0, 1920, 1080) == (0, 0)
+    assert [format_bytes(n) for n in (512, 93 * 1024, int(2.44 * 2**30), 812 * 2**20)] == [
+        "512 bytes", "93 KiB", "2.4 GiB", "812 MiB"]

@@ -2,6 +2,7 @@
 panes, a fish is measured on a synchronised frame within its sigma of the truth and its vertices record
 the frames; a new project gets its own video and image pairs through the File menu's actions."""
 
+import csv
 import json
 import shutil
 
@@ -84,11 +85,13 @@ def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tm
     assert "is empty: add your images" in window.statusBar().currentMessage()  # not "observations only"
     shown = []
     assert media_dialogs.add_image_pairs(window, [tmp_path / "left_images"], [tmp_path / "right_images"], "a-",
-                                         confirm=lambda w, plan, rule: shown.append((plan, rule)) or True) == 2
-    assert shown[0][1] == "stem" and [p[0] for p in shown[0][0]] == ["a-st0", "a-st1"]
+                                         confirm=lambda w, model: shown.append(model) or True) == 2
+    assert shown[0].rule == "shared stem" and [shown[0].label(i) for i in range(2)] == ["a-st0", "a-st1"]
+    assert window.workspace.image_pairs() == ["a-st0", "a-st1"]
     qtbot.waitUntil(lambda: window.workspace.pair == "a-st0" and not window.busy, timeout=10000)
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
+    assert "added video 'dive': left 30 frames, right 30 frames at 25 fps" in window.hint.text()
     assert frame_number(window.workspace.images["right"]) == 1000
     window.video.dock_widget.offset.setValue(2)
     window.video.dock_widget.offset.editingFinished.emit()
@@ -117,7 +120,7 @@ def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make
     for point in ("snout", "fork"):
         window.workspace.pick("left", truth["left"][20]["pixels"][point])
         window.workspace.pick("right", truth["right"][23]["pixels"][point])
-    window.workspace.finish_object("Sparidae Pagrus auratus")
+    object_id = window.workspace.finish_object("Sparidae Pagrus auratus")
     window.export_objects(tmp_path / "dive.em.txt")
     header, row = (tmp_path / "dive_Lengths.txt").read_text().splitlines()
     values = dict(zip(header.split("\t"), row.split("\t"), strict=True))
@@ -126,6 +129,17 @@ def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make
     assert float(values["Time"]) == pytest.approx(2.0 / 60, abs=1e-4)  # minutes, as EventMeasure
     assert values["Period"] == "bait" and float(values["PeriodTime"]) == pytest.approx(1.0 / 60, abs=1e-4)
     assert values["Species"] == "auratus"
+    # the objects CSV: the record's species and number, the video, its files, frames and time
+    from usvips.core.observation_record import ObservationRecord
+
+    window.workspace.set_record(object_id, ObservationRecord("Sparidae", "Pagrus", "auratus", "37353001", 2))
+    window.export_objects(tmp_path / "dive.csv")
+    with open(tmp_path / "dive.csv", newline="") as stream:
+        (row,) = list(csv.DictReader(stream))
+    assert (row["species"], row["code"], row["number"]) == ("Pagrus auratus", "37353001", "2")
+    assert (row["pair"], row["file_left"], row["frame_left"], row["file_right"], row["frame_right"]) == (
+        "video", "video_left.avi", "20", "video_right.avi", "23")
+    assert float(row["time_min"]) == pytest.approx(2.0 / 60, abs=1e-4)
 
 
 def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, make_window, sample_copy, monkeypatch):
@@ -195,8 +209,13 @@ def test_seek_proxies_are_built_in_the_background_when_a_video_is_opened_used_ca
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     video, dock = window.video, window.video.dock_widget
-    _wait_frame(qtbot, window, 0)  # shown from the originals while the proxies are built
-    # nobody asked: the proxies are built in the background, checked, then used
+    _wait_frame(qtbot, window, 0)  # shown from the originals
+    # the window asks first, saying their size on disk; Yes builds them in the background, checked, then used
+    qtbot.waitUntil(lambda: video.question is not None and video.question.isVisible(), timeout=20000)
+    question = video.question
+    assert "Build seek proxies for video dive?" in question.text() and " on disk " in question.text()
+    assert question.defaultButton() is question.button(QtWidgets.QMessageBox.StandardButton.No)
+    question.button(QtWidgets.QMessageBox.StandardButton.Yes).click()
     qtbot.waitUntil(lambda: video.source is not None and video.source.has_proxies, timeout=20000)
     assert "seek proxies built and checked" in window.statusBar().currentMessage()
     assert dock.proxy_status.text() == "proxy ✓" and dock.proxy.text() == "Seek pro&xy"
@@ -295,6 +314,7 @@ def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tm
                                  brightness=60.0 if j - shift >= 30 else 0.0) for j in range(70)]
         encode_video(tmp_path / f"{side}.mp4", frames, 25, "h264", gop=25)
     window = make_window()
+    window.video.ask_before_proxies = False  # built without the question here (see the proxies' own test)
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
@@ -356,6 +376,7 @@ def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_o
     said = []
     show = window.show_message
     window.show_message = lambda kind, text: said.append((kind, text)) or show(kind, text)
+    window.video.ask_before_proxies = False  # built without the question here (see the proxies' own test)
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)

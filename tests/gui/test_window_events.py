@@ -5,8 +5,11 @@ from PySide6 import QtCore
 
 from tests.gui.conftest import click_pixel, truth_pixels, wait_for_pair
 from usvips.gui.bench import survey_project
+from usvips.gui.object_list import ObjectList
 from usvips.locations import sample_project
 from usvips.store import Project
+
+FIGURE = ObjectList.COLUMNS.index("figure")  # the object list's figure column
 
 COUNT = 400
 
@@ -36,7 +39,7 @@ def test_a_pick_and_a_store_update_one_row_among_many(qtbot, make_window, tmp_pa
     assert table.rowCount() == COUNT + 1
     assert [table.item(row, 0) for row in range(COUNT)] == before
     new_id = window.workspace.objects()[-1].id
-    assert table.item(COUNT, 0).text() == str(new_id) and "mm" in table.item(COUNT, 4).text()
+    assert table.item(COUNT, 0).text() == str(new_id) and "mm" in table.item(COUNT, FIGURE).text()
     # above 300 objects only the selected ones are labelled on the panes
     assert window.panes["left"].labels == []
     # select with the mouse: the model holds the selection; the calculator and the panes follow it

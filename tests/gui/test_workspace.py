@@ -453,3 +453,92 @@ def test_a_fish_stored_from_its_picks_reuses_their_calibration_work(workspace, m
     new_id = ws.finish_object()
     result = ws.figures([new_id])
     assert result.figures and result.figures[0].sigma > 0
+
+
+def _stored_rows(project) -> dict:
+    """Every row stored of every object (ids, vertices, video frames, history, records): what undo restores."""
+    return {o.id: project.object_rows(o.id) for o in project.objects()}
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_undoing_any_sequence_of_edits_and_deletes_restores_every_stored_row(tmp_path, seed):
+    from usvips.core.observation_record import ObservationRecord
+    from usvips.store.project import Vertex
+
+    rng = np.random.default_rng(seed)
+    project = Project.create(tmp_path / "p.usvips")
+    project.add_pair("dive")
+    calibration_id = project.add_calibration("c", {"phase": "water", "sigma0_px": 0.4})
+
+    def vertex() -> Vertex:
+        a = rng.normal(size=(3, 3)) * 1e-3
+        return Vertex(*map(float, rng.uniform(0, 1000, 4)), tuple(map(float, rng.normal(size=3))), a @ a.T,
+                      calibration_id, "dive")
+
+    for kind, count in (("length", 2), ("arc", 4), ("polygon", 5), ("point", 1)):
+        object_id = project.add_object(kind, [vertex() for _ in range(count)], "fish", "", "tester")
+        number = int(rng.integers(1, 5))
+        project.set_record(object_id, ObservationRecord(genus="Gadus", species="morhua", number=number))
+    ws = Workspace()
+    ws.open_project(project)
+    states = [_stored_rows(project)]
+    for _ in range(12):
+        ids = ws.object_ids()
+        object_id = int(rng.choice(ids))
+        stored = ws.stored_object(object_id)
+        action = int(rng.integers(0, 5))
+        done = len(ws.undo._done)
+        try:
+            if action == 0:
+                ws.edit_object(object_id, str(rng.choice(["cod", "", "haddock"])), f"note {rng.integers(99)}")
+            elif action == 1:
+                ws.set_record(object_id, None if rng.random() < 0.3 else ObservationRecord(
+                    genus="Pagrus", species="auratus", number=int(rng.integers(1, 9)), comment="school"))
+            elif action == 2:
+                ws.change_kind(object_id, str(rng.choice(ws.kinds_for(object_id))))
+            elif action == 3:
+                ws.delete_vertex(object_id, int(rng.integers(0, len(stored.vertices))))
+            elif len(ids) > 1:
+                ws.delete_object(object_id)
+        except UsvipsError:
+            continue  # refused by name (too few vertices, say): nothing changed, nothing to undo
+        if len(ws.undo._done) > done:  # one undoable step was made
+            states.append(_stored_rows(project))
+    assert len(states) > 3
+    for expected in reversed(states[:-1]):
+        ws.undo.undo()
+        assert _stored_rows(project) == expected
+        assert [o.id for o in ws.objects()] == sorted(expected)  # the model's cache follows, same ids
+    for expected in states[1:]:
+        ws.undo.redo()
+        assert _stored_rows(project) == expected
+    ws.close_project()
+
+
+def test_another_project_gets_a_new_object_cache_and_the_views_still_hear_it(tmp_path):
+    from usvips.store.project import Vertex
+
+    projects = []
+    for name, count in (("a", 3), ("b", 1)):
+        project = Project.create(tmp_path / f"{name}.usvips")
+        for k in range(count):
+            project.add_object("point", [Vertex(1.0 + k, 2.0, 3.0, 4.0)], name)
+        projects.append(project)
+    ws = Workspace()
+    heard = []
+    ws.objects_reset.connect(lambda: heard.append("reset"))
+    ws.objects_added.connect(lambda ids: heard.append(("added", ids)))
+    ws.open_project(projects[0])
+    first = ws.cache
+    ws.select(ws.object_ids()[:2])
+    assert ws.figures([ws.object_ids()[0]]) is ws.figures([ws.object_ids()[0]])  # computed once, kept
+    ws.open_project(projects[1])
+    assert ws.cache is not first and ws.cache.project is projects[1]
+    assert [o.attribute for o in ws.objects()] == ["b"] and ws.selection == ()
+    assert ws.object_figures(ws.object_ids()[0]) is None  # nothing computed for a's objects carries over
+    assert heard == ["reset", "reset"]
+    ws.delete_object(ws.object_ids()[0])
+    ws.undo.undo()  # the new cache announces through the same events the views connected to
+    assert heard[-1] == ("added", (1,))
+    ws.close_project()
+    assert ws.objects() == [] and ws.cache.project is None

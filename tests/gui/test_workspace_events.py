@@ -7,7 +7,7 @@ import pytest
 
 from tests.gui.conftest import truth_pixels
 from usvips.app.samples import open_or_create_from_manifest
-from usvips.gui import workspace as workspace_module
+from usvips.gui import object_cache
 from usvips.gui.workspace import Workspace, load_pair_images
 from usvips.store import Project
 
@@ -28,7 +28,7 @@ def model(sample_copy, monkeypatch):
     for name in EVENTS:
         getattr(ws, name).connect(lambda *args, n=name: ws.events.append((n, *args)))
     counts = {"listings": 0, "figures": 0}
-    listing, figures = Project.objects, workspace_module._figures_of
+    listing, figures = Project.objects, object_cache._figures_of
 
     def counted_listing(self):
         counts["listings"] += 1
@@ -39,7 +39,7 @@ def model(sample_copy, monkeypatch):
         return figures(*args)
 
     monkeypatch.setattr(Project, "objects", counted_listing)
-    monkeypatch.setattr(workspace_module, "_figures_of", counted_figures)
+    monkeypatch.setattr(object_cache, "_figures_of", counted_figures)
     ws.counts = counts
     yield ws, directory
     ws.close_project()

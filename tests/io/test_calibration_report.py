@@ -78,3 +78,23 @@ def test_bad_output_is_one_line(tmp_path, capsys):
     assert main(["calibration", "report", str(path), "--out", str(tmp_path / "absent" / "r.pdf")]) == 2
     err = capsys.readouterr().err
     assert "does not exist" in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("passed", [True, False])
+def test_the_global_test_is_said_in_words_not_as_accepted_false(passed):
+    from dataclasses import replace
+
+    from usvips.io.calibration_report import ReportData, _summary_lines
+
+    calibration = load_calibration(SAMPLE_CALIBRATIONS[0])
+    test = {"chi2": 812.4 if not passed else 401.0, "redundancy": 400, "interval_95": [346.0, 457.8],
+            "accepted_95": passed, "verdict": "consistent (95 %)" if passed else
+            "a-priori pointing sigma too optimistic: the residuals say 1.42 times it; the estimated variance "
+            "factor is used for every sigma"}
+    calibration = replace(calibration, statistics={**calibration.statistics, "global_test": test})
+    text = "\n".join(_summary_lines(calibration, ReportData(None, None, []), None))
+    assert "accepted: False" not in text and "accepted: True" not in text
+    verdict = next(line for line in text.splitlines() if line.startswith("global test"))
+    assert verdict.endswith("passed" if passed else "rejected")
+    assert ("every sigma is scaled by sigma0" in " ".join(text.split())) != passed  # wrapped lines joined
+    assert all(len(line) <= 120 for line in text.splitlines())

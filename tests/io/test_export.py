@@ -198,3 +198,17 @@ def test_a_binomial_attribute_is_genus_and_species_and_a_record_fills_every_fiel
                                        "Comment")}
     assert second == {"Family": "Sparidae", "Genus": "Chrysophrys", "Species": "auratus", "Code": "37353001",
                       "Number": "3", "Stage": "AD", "Activity": "feeding", "Comment": "school; near the bait"}
+
+
+def test_the_objects_csv_carries_the_record_and_where_each_object_was_measured():
+    from usvips.core.observation_record import ObservationRecord
+
+    objects = _objects()
+    records = {"1": ObservationRecord("Sparidae", "Pagrus", "auratus", "37353001", 3)}
+    places = {"1": ("dive-7", "L0042.png", "", "R0042.png", "", ""),
+              "2": ("video", "GL010042.MP4", "120", "GR010042.MP4", "123", "0.06672")}
+    rows = {r["id"]: r for r in csv.DictReader(io.StringIO(objects_csv(objects, records, places)))}
+    assert (rows["1"]["species"], rows["1"]["code"], rows["1"]["number"]) == ("Pagrus auratus", "37353001", "3")
+    assert rows["1"]["pair"] == "dive-7" and rows["1"]["file_left"] == "L0042.png" and rows["1"]["time_min"] == ""
+    assert (rows["2"]["frame_left"], rows["2"]["frame_right"], rows["2"]["time_min"]) == ("120", "123", "0.06672")
+    assert rows["3"]["species"] == "" and rows["3"]["pair"] == ""  # none given: empty cells, not made up

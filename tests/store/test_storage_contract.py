@@ -225,6 +225,42 @@ def test_an_object_keeps_its_instants_and_links_that_would_chain_or_mix_kinds_ar
     store.add_instant(first, third)
     store.delete_object(first)  # its instants stay, as objects of their own
     assert store.instant_links() == {} and store.object(third).attribute == "cod"
+@pytest.mark.parametrize("seed", range(4))
+def test_an_object_taken_and_put_back_is_exactly_what_it_was(store, where, seed):
+    rng = np.random.default_rng(seed)
+    folder = where.parent
+    (folder / "v.mp4").write_bytes(b"video")
+    store.add_video("v", [(folder / "v.mp4", 50, 25.0)], [(folder / "v.mp4", 50, 25.0)], 25.0, 50, (64, 48))
+    calibration_id = store.add_calibration("c", {"phase": "water", "sigma0_px": 0.4})
+    ids = []
+    for _ in range(3):
+        count = int(rng.integers(2, 6))
+        vertices = [dataclasses.replace(_vertex(rng, "v", calibration_id), video="v", frame_left=int(f),
+                                        frame_right=int(f) + 2, time_s=float(f) / 25.0)
+                    for f in rng.integers(0, 40, count)]
+        ids.append(store.add_object("arc", vertices, "cod", "a note", "tester"))
+    target = ids[int(rng.integers(0, 3))]
+    store.update_object(target, vertices=[_vertex(rng, "v", calibration_id) for _ in range(3)])  # a history
+    record = ObservationRecord("Gadidae", "Gadus", "morhua", "COD", int(rng.integers(1, 9)), "adult", "", "x")
+    store.set_record(target, record)
+    before, history = store.object(target), store.vertex_history(target)
+    assert history
+    assert store.object_rows(target) == store.object_rows(target)  # reading changes nothing
+    removed = store.take_object(target)
+    assert target not in [o.id for o in store.objects()] and store.vertex_history(target) == []
+    store.put_back(removed)
+    _assert_same_object(store.object(target), before)
+    assert store.object(target).modified == before.modified and store.record(target) == record
+    assert store.vertex_history(target) == history
+    assert [o.id for o in store.objects()] == sorted(ids)
+    with pytest.raises(ProjectError, match=f"object {target} exists again"):
+        store.put_back(removed)
+    # an edit undone by its rows: exactly as before, and no history row added by the undo
+    store.update_object(target, attribute="haddock", vertices=[_vertex(rng, "v", calibration_id)] * 2, kind="length")
+    store.set_record(target, None)
+    store.put_back(removed, replace=True)
+    _assert_same_object(store.object(target), before)
+    assert store.vertex_history(target) == history and store.record(target) == record
 
 
 def test_calibrations_round_trip_with_their_active_pairs(store):
@@ -334,9 +370,9 @@ def test_vocabulary_species_records_enhancements_and_drafts_round_trip(store):
     assert store.species_list() == sorted(species, key=lambda s: (s.genus, s.species))
     object_id = store.add_object("point", [_vertex(rng)])
     record = ObservationRecord("Gadidae", "Gadus", "morhua", "COD", 3, "adult", "feeding", "near the rock")
-    assert store.record(object_id) is None
+    assert store.record(object_id) is None and store.records() == {}
     store.set_record(object_id, record)
-    assert store.record(object_id) == record
+    assert store.record(object_id) == record and store.records() == {object_id: record}
     store.set_record(object_id, None)
     assert store.record(object_id) is None
     store.set_enhancement("p1/left", '{"steps": []}')
@@ -435,6 +471,8 @@ WRITES = {
     "delete_object": lambda s, f: s.delete_object(1),
     "add_instant": lambda s, f: s.add_instant(1, 2),
     "remove_instant": lambda s, f: s.remove_instant(2),
+    "take_object": lambda s, f: s.take_object(1),
+    "put_back": lambda s, f: s.put_back(s.object_rows(1), replace=True),
     "add_term": lambda s, f: s.add_term("new"),
     "set_enhancement": lambda s, f: s.set_enhancement("k", "{}"),
     "set_draft": lambda s, f: s.set_draft("d", "text"),

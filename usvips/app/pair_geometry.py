@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from usvips.app.calibration_size import check_for
 from usvips.app.calibrations import active_calibration
 from usvips.core.measurements import placement
 from usvips.core.stereo_calibration import StereoCalibration
@@ -39,8 +40,11 @@ def placed(calibration: StereoCalibration, calibration_id: int, label: str | Non
 
 
 def pair_geometry(project: ProjectStore, label: str) -> PairGeometry | None:
-    """The active calibration of a pair placed at its station, or None when the pair has none."""
+    """The active calibration of a pair placed at its station, or None when the pair has none; refused
+    by name (both sizes) when the pair's pictures are not the calibration's size."""
     active = active_calibration(project, label)
     if active is None:
         return None
-    return placed(active[1], active[0], label)
+    calibration_id, calibration = active
+    check_for(project, calibration, [label], f"its calibration {calibration_id}")
+    return placed(calibration, calibration_id, label)

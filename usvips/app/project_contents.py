@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from usvips.app.calibration_size import calibration_dict_size_check
 from usvips.app.calibrations import store_calibration
 from usvips.app.video_project import proxy_bytes
 from usvips.core.deployment import Deployment, Georeference
@@ -118,4 +119,5 @@ def store_import(project: ProjectStore, plan: ImportPlan) -> None:
                 project.add_pair(plan.pair)
             project.add_control_observations(plan.observations, plan.role, plan.pair)
         if plan.calibration is not None:
+            calibration_dict_size_check(project, plan.calibration, plan.active_for, plan.calibration_name + ".json")
             store_calibration(project, plan.calibration_name, plan.calibration, plan.active_for)

@@ -52,8 +52,11 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
     (:meth:`Project.deployment`); default the project file's name. The set of tables includes CheckEM's
     ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults). An object
     measured on several instants is one row with its combined figures and the number of instants; its
-    image columns are those of its first instant."""
-    objects, centres, images, cache, opcodes = [], {}, {}, {}, {}
+    image columns are those of its first instant. GeoJSON holds only objects measured in the object frame
+    (on a calibrated station), the frame the georeference places on the Earth; the others are named in
+    ``skipped``."""
+    objects, centres, images, cache, opcodes, where = [], {}, {}, {}, {}, {}
+    geographic = Path(out).suffix.lower() in (".geojson", ".json")  # WGS 84 through the object frame's georeference
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
@@ -66,7 +69,14 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
             if skipped is not None:
                 skipped.append(str(error))
             continue
+        if geographic and source.calibration is not None and source.frame == "rig":  # camera-relative metres
+            if skipped is not None:
+                skipped.append(f"object {stored.id}: measured in the rig frame of pair {source.pair!r} (not a "
+                               "calibrated station), so it has no place on the Earth and no height; it is in the "
+                               "CSV exports")
+            continue
         objects.append(measurement)
+        where[measurement.id] = source.pair or ""
         video = (stored.vertices[0].video if stored.vertices else None) or ""
         deployment = deployments.get(video, deployments.get(""))  # as Project.deployment(video), read once
         opcodes[measurement.id] = deployment.opcode if deployment is not None else fallback
@@ -80,6 +90,9 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
         if video_columns is not None:  # measured on a video: its files, frames, time and period
             images[measurement.id] = video_columns
     records = {o.id: record for o in objects if (record := project.record(int(o.id))) is not None}
+    places = {o.id: (where[o.id], *images.get(o.id, ("", "", "", ""))[:4],
+                     images[o.id][4] if len(images.get(o.id, ())) > 4 else "") for o in objects}
     export(objects, out, opcode=opcodes, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects},
-           images=images, records=records, samples=checkem_samples(project), georeference=project.georeference())
+           images=images, records=records, samples=checkem_samples(project), georeference=project.georeference(),
+           places=places)
     return len(objects)

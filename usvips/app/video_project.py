@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.app.calibration_size import check_for, check_size
 from usvips.app.calibrations import make_active, read_calibration
 from usvips.core import synchronisation, validation
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
@@ -46,6 +47,14 @@ class AddedVideo:
     frame_count: int
     fps: float
     warnings: tuple[str, ...]
+    #: the right camera's frames (``frame_count`` is the left's)
+    right_frame_count: int = 0
+
+    @property
+    def summary(self) -> str:
+        """``video 'x': left 1200 frames, right 1198 frames at 25 fps``: both cameras' counts, always."""
+        return (f"video {self.label!r}: left {_frames(self.frame_count)}, right {_frames(self.right_frame_count)} "
+                f"at {self.fps:.6g} fps")
 
 
 # ---------------------------------------------------------------------------- image pairs
@@ -126,6 +135,12 @@ class VideoPlan:
     frame_count: int
     size: tuple[int, int]
     warnings: tuple[str, ...]
+    #: the right camera's frames (``frame_count`` is the left's)
+    right_frame_count: int = 0
+
+
+def _frames(count: int) -> str:
+    return f"{count} frame" + ("" if count == 1 else "s")
 
 
 def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
@@ -145,26 +160,40 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
         if a.size != b.size:
             raise VideoError(f"{right_files[0]}: {b.width} × {b.height} px, but the left video {left_files[0].name} "
                              f"is {a.width} × {a.height} px")
-        if not (np.isfinite(a.fps) and np.isfinite(b.fps)):
-            raise VideoError(f"{left_files[0]}: a video needs at least two frames to have a frame rate")
+        for stream, files in ((a, left_files), (b, right_files)):  # blame the file at fault
+            if not np.isfinite(stream.fps):
+                raise VideoError(f"{files[0]}: a video needs at least two frames to have a frame rate "
+                                 f"(it has {stream.frame_count})")
         if abs(a.fps - b.fps) > FPS_TOLERANCE * a.fps:
             raise VideoError(f"{right_files[0]}: {b.fps:.6g} fps, but the left video {left_files[0].name} runs at "
                              f"{a.fps:.6g} fps: frames cannot be paired by number")
         warnings = []
         for side, stream, files in (("left", a, left_files), ("right", b, right_files)):
+            for chapter in stream.chapters:  # damage found now, not as a decoding error while measuring
+                for index in {chapter.first, chapter.first + chapter.count - 1}:
+                    try:
+                        stream.frame(index, grey=True)
+                    except UsvipsError as error:
+                        raise VideoError(f"{chapter.path} ({side}) is damaged: "
+                                         f"{str(error).removeprefix(str(chapter.path) + ': ')}") from None
             report = stream.scan_pictures() if scan_pictures else stream.report
             if not report.clean:
                 warnings.append(f"{files[0]} ({side}): {report.summary()}")
         files = {side: tuple((p, c.count, 1.0 / float(np.median(np.diff(c.pts)) * c.time_base) if c.count > 1
                               else s.fps) for p, c in zip(s.paths, s.chapters, strict=True))
                  for side, s in (("left", a), ("right", b))}
-        return VideoPlan(label, files["left"], files["right"], a.fps, a.frame_count, a.size, tuple(warnings))
+        if a.frame_count != b.frame_count:  # both counts, at add time (the offset pairs them; say it)
+            warnings.append(f"the cameras' frame counts differ: left {_frames(a.frame_count)}, right "
+                            f"{_frames(b.frame_count)} (a file cut short, or the cameras started and stopped "
+                            "apart: synchronise, then frames past the shorter end have no partner)")
+        return VideoPlan(label, files["left"], files["right"], a.fps, a.frame_count, a.size, tuple(warnings),
+                         b.frame_count)
 
 
 def store_video(project: ProjectStore, plan: VideoPlan) -> AddedVideo:
     project.add_video(plan.label, plan.left, plan.right, plan.fps, plan.frame_count, plan.size,
                       "\n".join(plan.warnings))
-    return AddedVideo(plan.label, plan.frame_count, plan.fps, plan.warnings)
+    return AddedVideo(plan.label, plan.frame_count, plan.fps, plan.warnings, plan.right_frame_count)
 
 
 def add_video(project: ProjectStore, left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
@@ -376,6 +405,9 @@ def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: s
         raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
     if pair_label in {p["label"] for p in project.pairs()}:
         raise VideoError(f"{project.path}: pair label {pair_label!r} is already used; choose another")
+    active = project.active_calibration(label)
+    if active is not None:  # the video's frames were measured with it: it must fit them
+        check_for(project, read_calibration(project, active), [label], f"its calibration {active}")
     return pair_label, project.derived_media_folder() / "frames" / pair_label
 
 
@@ -441,6 +473,7 @@ def plan_sync(project: ProjectStore, label: str, calibration_id: int | None = No
     rig, why, sigma0 = None, "", 0.0
     try:
         calibration = _calibration_for(project, calibration_id, label)
+        check_size(calibration, (video["width"], video["height"]), f"video {label!r}")
         rig, sigma0 = calibration.rig(0, "rig"), float(calibration.sigma0_px)
     except UsvipsError as error:
         why = str(error)

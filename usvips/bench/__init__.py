@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterable
 #: Areas that contribute benchmarks, in the order they run: modules of this package, except ``gui``,
 #: which lives in ``usvips.gui.bench`` (Qt stays inside the GUI package; it is imported only when run).
 BENCH_MODULES: tuple[str, ...] = ("geometry", "scaling", "calibration", "imaging", "gui", "video", "survey",
-                                  "targets", "server")
+                                  "targets", "server", "startup")
 BENCH_PATHS: dict[str, str] = {"gui": "usvips.gui.bench"}
 
 

@@ -26,6 +26,28 @@ COMMANDS += ("batch",)
 COMMANDS += ("calibration_views",)  # after "video": it adds the action `video calibration-views`
 COMMANDS += ("target",)
 
+#: modules that add actions to another command's parser (imported whenever that command is)
+EXTENDS: dict[str, str] = {"calibration_views": "video"}
+
+#: each subcommand's line in ``usvips --help``, so that the overview imports no subcommand's module (each
+#: imports numpy, OpenCV, SciPy ...: over 0.5 s of CPU all together); a test keeps these equal to the
+#: modules' own ``help``
+SUMMARIES: dict[str, str] = {
+    "open": "the workstation window, optionally on a project or sample",
+    "demo": "calibrate a sample project and intersect its check points (headless)",
+    "calibrate": "calibrate a stereo rig (phase 1 in air, phase 2 underwater)",
+    "intersect": "intersect conjugate pixels: id,X,Y,Z,sX,sY,sZ (metres)",
+    "measure": "measure objects from picks: figures with sigmas (CSV), optionally stored in a project",
+    "project": "create, inspect, import into and export from a project file",
+    "render": "render a sample project from a scene description",
+    "bench": "measure speed as ratios against baselines timed in the same run (JSON)",
+    "calibration": "import, export or report a calibration",
+    "plan": "map the expected sigma of a point and a length (precision planner)",
+    "video": "synchronise a stereo video, set its offset, export a frame pair",
+    "batch": "run a task over many pairs or projects on every core",
+    "target": "calibration targets: describe, print, detect",
+}
+
 
 class OneLineParser(argparse.ArgumentParser):
     """argparse's parser, its usage errors printed as one line (``usvips COMMAND: error: …``, exit 2) like
@@ -35,7 +57,10 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {_one_line(message, 1000)} (--help shows the usage)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
+    """The parser. ``command``: the subcommand about to run — only its module (and those that extend it,
+    :data:`EXTENDS`) is imported, the others are listed by their :data:`SUMMARIES`; None: none (the
+    overview, ``usvips --help``); ``"*"``: all."""
     parser = OneLineParser(
         prog="usvips", description="USVIPS: measurement workstation for underwater stereo imagery.")
     parser.add_argument("--version", action="version", version=f"usvips {__version__}")
@@ -43,16 +68,25 @@ def build_parser() -> argparse.ArgumentParser:
     import importlib
 
     for name in COMMANDS:
-        module = importlib.import_module(f"usvips.cli.{name}")
-        module.register(subparsers)
+        extended = EXTENDS.get(name)
+        if command == "*" or name == command or (extended is not None and extended == command):
+            importlib.import_module(f"usvips.cli.{name}").register(subparsers)
+        elif extended is None:
+            subparsers.add_parser(name, help=SUMMARIES[name] or None, add_help=False)
     return parser
 
 
+def _command_in(argv: Sequence[str]) -> str | None:
+    """The subcommand named in ``argv`` (the first word that is not an option), if it is one."""
+    first = next((word for word in argv if not word.startswith("-")), None)
+    return first if first in SUMMARIES else None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    argv = list(sys.argv[1:] if argv is None else argv)
+    argv = list(sys.argv[1:] if argv is None else argv) or ["open"]  # no arguments: the workstation window
+    parser = build_parser(_command_in(argv))
     try:
-        args = parser.parse_args(argv or ["open"])  # no arguments: the workstation window
+        args = parser.parse_args(argv)
     except SystemExit as stop:  # --help, --version, or a usage error already printed as one line
         return stop.code if isinstance(stop.code, int) else 0 if stop.code is None else 2
     handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)

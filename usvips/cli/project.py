@@ -84,8 +84,14 @@ def run_info(args: argparse.Namespace) -> int:
         summary = summarise(project)
         media = project.media_problems(check_hash=args.full_hash)
         folder = project.path.parent
-    print(f"{shown(args.project)}: schema {summary.version}, {summary.pair_count} image pairs, "
-          f"{summary.control_count} control points, {summary.object_count} objects")
+
+    def count(n: int, noun: str) -> str:
+        return f"{n} {noun}" + ("" if n == 1 else "s")
+
+    # a video is stored as a pair too (its calibration and vertices refer to it): counted apart
+    print(f"{shown(args.project)}: schema {summary.version}, {count(len(summary.pairs), 'image pair')}, "
+          f"{count(len(summary.videos), 'video')}, {count(summary.control_count, 'control point')}, "
+          f"{count(summary.object_count, 'object')}")
     for pair in summary.pairs:
         print(f"  pair {pair.label} ({pair.medium}): {pair.left or '-'} | {pair.right or '-'}"
               + (f"; calibration {pair.calibration_id}" if pair.calibration_id else ""))

@@ -106,7 +106,7 @@ def run_add_pairs(args: argparse.Namespace) -> int:
 def run_add_video(args: argparse.Namespace) -> int:
     with open_project(args.project) as project:
         added = video_project.add_video(project, args.left, args.right, args.label, args.scan)
-    print(f"added video {added.label!r}: {added.frame_count} frames at {added.fps:.6g} fps")
+    print(f"added {added.summary}")
     for warning in added.warnings:
         print(f"  warning: {warning}")
     return 0

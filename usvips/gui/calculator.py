@@ -15,6 +15,7 @@ import numpy as np
 from usvips.core.errors import UsvipsError
 from usvips.core.measure import angle_between_lines, distance, point_to_line, point_to_plane
 from usvips.core.measurements import Figure, Measurement, QualityRules, kind
+from usvips.gui.wording import article, plural
 
 
 @dataclass(frozen=True)
@@ -92,8 +93,8 @@ def pair_figures(first: Geometry, second: Geometry, joint: np.ndarray | None = N
     points, covariance = _joined(first, second, joint)
     figure = _BETWEEN.get((_role(first), _role(second)))
     if figure is None:
-        return Result((), (), f"no figure between a {first.kind} with {len(first.points)} vertices and a "
-                              f"{second.kind} with {len(second.points)}: select two points, a point and a "
+        return Result((), (), f"no figure between {article(first.kind)} with {plural(len(first.points), 'vertex')} "
+                              f"and {article(second.kind)} with {len(second.points)}: select two points, a point and a "
                               "two-vertex length, a point and a polygon or circle (its plane), or two "
                               "two-vertex lengths")
     try:

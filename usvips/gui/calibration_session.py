@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usvips.app.calibration_size import check_for
 from usvips.core import housing as housings
 from usvips.core.adjustment import W_CRITICAL
 from usvips.core.calibration import CalibrationOptions, CalibrationResult, calibrate_air, calibrate_water
@@ -380,6 +381,7 @@ class CalibrationSession:
         if self.result is None or not self.result.adjustment.converged:
             raise UsvipsError("there is no converged result to save")
         name = name.strip() or PHASES[self.phase]
+        check_for(self.project, self.result.calibration, active_for, f"the calibration {name!r}")
         calibration_id = self.project.add_calibration(name, calibration_to_dict(self.result.calibration),
                                                       tuple(active_for))
         for pair in self.pairs:

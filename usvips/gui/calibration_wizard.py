@@ -320,6 +320,7 @@ class MeasurePage(QtWidgets.QWizardPage):
         self.workspace.message.connect(lambda level, text: self.message.setText(text))
         self._filling = False
         session.data_changed.connect(self._on_data)  # the table follows the session, whoever changed it
+        self.table.itemSelectionChanged.connect(self._on_row_selected)
 
     #: the session's data the table and the spread show
     SHOWN = frozenset({"pairs", "control", "observations", "check", "exclusions"})
@@ -368,7 +369,42 @@ class MeasurePage(QtWidgets.QWizardPage):
             self.session.image_size = (images[0].shape[1], images[0].shape[0])
         for side, image in zip(SIDES, images, strict=True):
             self.panes[side].set_image(image)
+        self.draw_targets()
         self.message.setText(f"pair {label}: type a target number, then click it left and right")
+
+    def selected_target(self) -> tuple[str, str] | None:
+        """(pair, target) of the table row selected, or None."""
+        rows = sorted({index.row() for index in self.table.selectedIndexes()})
+        if not rows or self.table.item(rows[0], 1) is None:
+            return None
+        return self.table.item(rows[0], 0).text(), self.table.item(rows[0], 1).text()
+
+    def draw_targets(self) -> None:
+        """The shown pair's measured targets, each labelled with its number on both images; the one whose
+        row is selected in the table highlighted."""
+        pair = self.pair.currentText()
+        chosen = self.selected_target()
+        selected = chosen[1] if chosen is not None and chosen[0] == pair else None
+        measured = [(pid, values) for (p, pid), values in self.session.observations.items() if p == pair]
+        self.panes["left"].set_control([(pid, (v[0], v[1])) for pid, v in measured], selected)
+        self.panes["right"].set_control([(pid, (v[2], v[3])) for pid, v in measured], selected)
+
+    def _on_row_selected(self) -> None:
+        """A row chosen in the table: its pair shown (loaded when another), its target highlighted and
+        centred in both images."""
+        chosen = self.selected_target()
+        if chosen is None or self._filling:
+            self.draw_targets()
+            return
+        pair, pid = chosen
+        if pair != self.pair.currentText() and self.pair.findText(pair) >= 0:
+            self.pair.setCurrentText(pair)  # loads its images; they are drawn with the highlight
+            return
+        self.draw_targets()
+        values = self.session.observations.get((pair, pid))
+        if values is not None and self.workspace.images:
+            self.panes["left"].centre_on((values[0], values[1]))
+            self.panes["right"].centre_on((values[2], values[3]))
 
     def _on_clicked(self, side: str, x: float, y: float) -> None:
         self.workspace.snap = self.snap.isChecked()
@@ -488,6 +524,7 @@ class MeasurePage(QtWidgets.QWizardPage):
         if not ok and not any(pair in reason for pair in session.pairs):
             lines.append(f"✗ {reason}")
         self.spread.setText("\n".join(lines))
+        self.draw_targets()
         self.completeChanged.emit()
 
     def isComplete(self) -> bool:  # noqa: N802 (Qt's name)

@@ -14,10 +14,13 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 from PySide6 import QtCore, QtWidgets
 
+from usvips.app import calibration_size
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
+from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.worker import Cancelled, Worker, start
 from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict, load_calibration, save_calibration
@@ -70,7 +73,8 @@ def _current_calibration(window) -> tuple[StereoCalibration, str] | None:
         chosen = chosen if chosen is not None else project.calibrations()[-1]["id"]
         name = next(c["name"] for c in project.calibrations() if c["id"] == chosen)
         return calibration_from_dict(project.calibration(chosen), f"{project.path} calibration {chosen}"), name
-    path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", "", "Calibrations (*.json)")
+    path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
+                                                    "Calibrations (*.json)")
     if not path:
         return None
     return load_calibration(path), path
@@ -95,12 +99,14 @@ def ask_image_size(window) -> tuple[int, int] | None:
 
 
 def import_calibration(window, files: list[str | Path] | None = None, out: str | Path | None = None,
-                       ask_size: Callable = ask_image_size) -> Path | None:
+                       ask_size: Callable = ask_image_size,
+                       run: Callable[[UseCalibrationDialog], object] = lambda d: d.exec()) -> Path | None:
     """OpenCV YAML/XML (one file or intrinsics + extrinsics) or .npz → a USVIPS calibration file (and into
-    the open project's calibrations). The image size is asked when the files lack it."""
+    the open project's calibrations, then made active where the user says, as
+    :func:`import_usvips_calibration`). The image size is asked when the files lack it."""
     if files is None:
         files, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "OpenCV calibration (one file, or intrinsics + "
-                                                          "extrinsics)", "", OPENCV_FILTER)
+                                                          "extrinsics)", window.start_folder(), OPENCV_FILTER)
         if not files:
             return None
     try:
@@ -119,14 +125,17 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
                 return None
         save_calibration(calibration, out)
         project = window.workspace.project
+        calibration_id = None
         if project is not None:
-            project.add_calibration(Path(out).stem, calibration_to_dict(calibration))
+            calibration_id = project.add_calibration(Path(out).stem, calibration_to_dict(calibration))
     except UsvipsError as error:
         window.show_message("error", f"import failed, nothing written: {error}")
         return None
     where = " and stored in the project" if window.workspace.project is not None else ""
     window.show_message("info", f"imported {len(files)} OpenCV file(s) into {out}{where} "
-                                f"({calibration.left.width}x{calibration.left.height} px)")
+                                f"({calibration.left.width} × {calibration.left.height} px)")
+    if calibration_id is not None:
+        use_calibration(window, calibration_id, run)
     return Path(out)
 
 
@@ -148,7 +157,10 @@ class UseCalibrationDialog(QtWidgets.QDialog):
             self.choice.setCurrentIndex(self.choice.count() - 1)
         self.labels = QtWidgets.QListWidget()
         for pair in project.pairs():
-            item = QtWidgets.QListWidgetItem(pair["label"])
+            size = calibration_size.media_size(project, pair["label"])
+            shown = pair["label"] + (f"  ({size[0]} × {size[1]} px)" if size else "")
+            item = QtWidgets.QListWidgetItem(shown)
+            item.setData(QtCore.Qt.ItemDataRole.UserRole, pair["label"])
             item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
             item.setCheckState(QtCore.Qt.CheckState.Checked if pair["label"] == current
                                else QtCore.Qt.CheckState.Unchecked)
@@ -172,25 +184,33 @@ class UseCalibrationDialog(QtWidgets.QDialog):
         return self.choice.currentData()
 
     def active_for(self) -> list[str]:
-        return [self.labels.item(i).text() for i in range(self.labels.count())
+        return [self.labels.item(i).data(QtCore.Qt.ItemDataRole.UserRole) for i in range(self.labels.count())
                 if self.labels.item(i).checkState() == QtCore.Qt.CheckState.Checked]
 
 
 def activate_calibration(window, calibration_id: int, labels: list[str]) -> bool:
     """Make stored calibration ``calibration_id`` the active one of pairs/videos ``labels`` and show the
-    current pair with it; a failure is one message and changes nothing shown."""
+    current pair with it. Pairs or videos of another picture size than the calibration's are left as they
+    were and named (both sizes); a failure is one message and changes nothing shown."""
     project = _need_project(window)
     if project is None:
         return False
     try:
-        calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")  # usable?
-        for label in labels:
-            project.activate_calibration(label, calibration_id)
+        calibration = calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")
+        bad = {label: line for label in labels
+               for line in calibration_size.misfits(project, calibration, [label], f"calibration {calibration_id}")}
+        good = [label for label in labels if label not in bad]
+        for label in good:
+            calibration_size.activate(project, label, calibration_id)
     except UsvipsError as error:
         window.show_message("error", f"the calibration was not made active: {error}")
         return False
-    if window.workspace.pair in labels:
+    if window.workspace.pair in good:
         window.workspace.reshow_pair()
+    if bad:
+        window.show_message("error", f"calibration {calibration_id} was not made active for {len(bad)} of "
+                                     f"{len(labels)}: " + "; ".join(bad.values()))
+        return bool(good)
     window.show_message("info", f"calibration {calibration_id} is active for {', '.join(labels) or 'no pair'}")
     return True
 
@@ -220,7 +240,8 @@ def import_usvips_calibration(window, path: str | Path | None = None,
     if project is None:
         return None
     if path is None:
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", "", "Calibrations (*.json)")
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
+                                                    "Calibrations (*.json)")
         if not path:
             return None
     try:
@@ -244,7 +265,8 @@ def export_calibration(window, source: str | Path | StereoCalibration | None = N
             return None
         calibration, name = chosen
         if out is None:
-            out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Export calibration (OpenCV)", "stereo.yml",
+            out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Export calibration (OpenCV)",
+                                                           window.start_folder("stereo.yml"),
                                                            "OpenCV FileStorage (*.yml *.yaml *.xml *.json)")
             if not out:
                 return None
@@ -272,13 +294,42 @@ def calibration_report(window, source: str | Path | StereoCalibration | None = N
         return None
     calibration, name = chosen
     if out is None:
-        out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Calibration report", "calibration_report.pdf",
+        out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Calibration report",
+                                                       window.start_folder("calibration_report.pdf"),
                                                        "PDF (*.pdf)")
         if not out:
             return None
-    path = name if isinstance(source, str | Path) else None
-    return window.run_worker(report_job(calibration, out, path), "calibration report",
+    path, data = (name if isinstance(source, str | Path) else None), None
+    project = window.workspace.project
+    if source is None and project is not None and project.calibrations():
+        # a calibration of the project: its data found as the command line finds them (the files it was
+        # made from, beside the project), else the control and observations the project holds
+        path, data = project.path, project_report_data(project, calibration)
+    return window.run_worker(report_job(calibration, out, path, data), "calibration report",
                              lambda pages: window.show_message("info", f"wrote {out} ({pages} pages)"))
+
+
+def project_report_data(project, calibration: StereoCalibration):
+    """What a project's calibration was made from, for its report: the files its ``source`` names when
+    they are beside the project (as for the command line's report of its file), otherwise the project's
+    control points and its observations of the calibration's pairs (the role of its phase)."""
+    from usvips.io.calibration_report import ReportData, find_data
+
+    found = find_data(calibration, project.path)
+    if found.control is not None and found.observations is not None:
+        return found
+    role = "calibration-air" if calibration.phase == "air" else "calibration-water"
+    labels = {p["label"] for p in project.pairs()}
+    parts = [project.control_observations(role, pair) for pair in calibration.stations if pair in labels]
+    parts = [part for part in parts if len(part.ids)]
+    if not parts or not len(project.control().ids):
+        return found
+    observations = StereoObservations(tuple(i for part in parts for i in part.ids),
+                                      np.vstack([part.left for part in parts]),
+                                      np.vstack([part.right for part in parts]),
+                                      tuple(pair for part in parts for pair in part.pairs))
+    held = f"control and observations of {', '.join(calibration.stations)} held by the project"
+    return ReportData(project.control(), observations, [("project", str(project.path), held)])
 
 
 # ---------------------------------------------------------------------------- deployment and georeference

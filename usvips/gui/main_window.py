@@ -19,15 +19,20 @@ from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import exchange_dialogs, media_dialogs
 from usvips.gui.app import register_window
+from usvips.gui.calculator_panel import CalculatorPanel
+from usvips.gui.enhancement_panel import EnhancementPanel
+from usvips.gui.log_panel import LogPanel
+from usvips.gui.object_list import ObjectList
 from usvips.gui.object_overlay import ObjectOverlay
+from usvips.gui.observation_form import ObservationForm
 from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
-from usvips.gui.panels import CalculatorPanel, EnhancementPanel, LogPanel, ObjectList, ObservationForm, PlanView
+from usvips.gui.plan_view import PlanView
 from usvips.gui.planner_dock import PlannerDock
 from usvips.gui.video_controls import VideoController
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
-from usvips.locations import sample_projects
+from usvips.locations import resources_folder, sample_projects
 
 SAMPLES = sample_projects()
 #: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
@@ -41,42 +46,13 @@ TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
 TOOL_TIPS.update({tool: measurement_kind(tool).description for tool in TOOLS if tool not in TOOL_TIPS})
 
 
-GUIDE = """<b>Measuring</b> (the project is saved as you go: every stored object, edit and setting is in the
-project file at once; there is nothing to save)<ol>
-<li>Choose a pair (toolbar, or <b>Page Down</b> / <b>Page Up</b> for the next / previous pair) and a tool:
-<i>Pick</i> shows a 3-D point without storing it, <i>Point</i>, <i>Line</i> (a fish: snout, then fork) and
-<i>Polygon</i> store objects.</li>
-<li>Type the <b>Attribute</b> (e.g. the species) in the toolbar box and press <b>Enter</b>: it is kept for the
-next objects and the keyboard goes back to the images.</li>
-<li>Click the point in either image. The dashed orange curve in the other image is where its partner
-must lie (the refractive epipolar curve); the yellow circle is the automatic match.</li>
-<li>Press <b>Enter</b> to accept the match, or click the right spot on the curve to correct it.
-X, Y, Z with their standard deviations appear in the status bar.</li>
-<li>Fine-tune before accepting: <b>Ctrl+arrow</b> moves the current pick 0.1 px, <b>Ctrl+Shift+arrow</b> 1 px
-(the yellow proposal when there is one, otherwise your red pick; <b>Ctrl+Z</b> undoes each step).</li>
-<li>For lines and polygons, go on vertex by vertex; <b>Enter</b> with nothing picked (or <b>Ctrl+Enter</b>)
-stores the object with the attribute. <b>Esc</b> drops a half-made vertex; <b>Ctrl+Z</b> undoes any step.</li>
-</ol>
-<b>Keys and focus</b>: Enter, Esc, the nudging arrows and Page Up/Down act on the images once an image has
-the keyboard (click it); in a text field or a table they do what they always do (Enter stores the text or
-the cell).<br>
-<b>Pointing precisely</b>: zoom with the wheel or <b>B</b> (box zoom), <b>1</b> for 1:1, <b>F</b> to fit;
-<b>L</b> links the panes: moving one brings the other to the same place in the scene (at the depth of
-the last measured point);
-the loupe (<b>G</b>) follows the cursor at an offset and never takes a click (View › Loupe magnification);
-<b>S</b> snaps clicks to the centre of target discs.<br>
-<b>Figures</b>: select one object in the list for its length or area, two for the distance, angle or
-offset between them; the geo-calculator shows each figure with its standard deviation and the quality
-rules it breaks.<br>
-<b>Enhancement</b> changes only what you see; picks and coordinates always use the original image.<br>
-<b>Observation record</b>: import the project's species list (File › Import species list…, CSV with
-family, genus, species, code). After each stored object the Observation form takes the keyboard: type
-part of the species name or its code, Tab through number, stage, activity and comment, <b>Enter</b>
-stores, <b>Esc</b> skips; both give the keyboard back to the images.<br>
-<b>Editing</b>: select an object in the list, choose its vertex and press <i>Re-pick</i> (then click the
-point again, left and right) or <i>Delete vertex</i>; edit the attribute or notes in the list's cells
-(Enter stores). Every edit is undoable (Ctrl+Z) and the figures follow.<br>
-<b>Quitting</b> or opening another project with a half-made object asks whether to store it."""
+#: the quick guide (Help › Quick guide, F1): rich text kept as a resource, not in the code
+GUIDE_FILE = "quick_guide.html"
+
+
+def quick_guide() -> str:
+    """The quick guide's text (Qt rich text: a subset of HTML)."""
+    return (resources_folder() / GUIDE_FILE).read_text(encoding="utf-8")
 
 
 def luminance_histogram(image: np.ndarray) -> np.ndarray:
@@ -112,7 +88,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.hint.setObjectName("hint_line")
         self.hint.setContentsMargins(6, 1, 6, 1)
         self.hint.setTextFormat(QtCore.Qt.TextFormat.PlainText)
-        self.hint.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Fixed)
+        self.hint.setWordWrap(True)  # a long error is read whole, on as many lines as it needs
+        self.hint.setSizePolicy(QtWidgets.QSizePolicy.Policy.Ignored, QtWidgets.QSizePolicy.Policy.Minimum)
         central = QtWidgets.QWidget()
         column = QtWidgets.QVBoxLayout(central)
         column.setContentsMargins(0, 0, 0, 0)
@@ -137,8 +114,10 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.message.connect(self.show_message)
         ws.undo.changed.connect(self._on_undo_changed)
         self._restore_layout()
+        self.video.videos_changed(None)  # no project, no videos: the Video dock comes with a project that has them
         self._on_undo_changed()
-        self.show_message("info", "Open a project (Ctrl+O) or a sample (File › Open sample) to begin.")
+        self.show_message("info", "To begin: File › New project… (then Add image pairs… or Add stereo video…), "
+                                  "open a project (Ctrl+O), or try a sample (File › Open sample).")
 
     # ------------------------------------------------------------------ construction
     def _dock(self, title: str, widget: QtWidgets.QWidget, area: QtCore.Qt.DockWidgetArea) -> QtWidgets.QDockWidget:
@@ -291,7 +270,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.recent_menu = menu.addMenu("&Recent projects")
         menu.addAction("Save &as… (a copy, then work on it)", self.save_as_dialog, QtGui.QKeySequence("Ctrl+Shift+S"))
         menu.addAction("&Export objects…", self.export_dialog)
-        menu.addAction("Import species &list…", self.species_dialog)
+        menu.addAction("I&mport species list…", self.species_dialog)
         menu.addSeparator()  # exchange with other tools (usvips/gui/exchange_dialogs.py)
         menu.addAction("Import &calibration (OpenCV)…", lambda: exchange_dialogs.import_calibration(self))
         menu.addAction("Ex&port calibration (OpenCV)…", lambda: exchange_dialogs.export_calibration(self))
@@ -341,7 +320,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.pair_box = QtWidgets.QComboBox()
         self.pair_box.setMinimumContentsLength(10)
         self.pair_box.setToolTip("the image pair shown")
-        self.pair_box.setPlaceholderText("(video)")
         self.pair_box.activated.connect(lambda _: self.load_pair(self.pair_box.currentText()))
         bar.addWidget(self.pair_box)
         bar.addSeparator()
@@ -399,7 +377,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._draw_control()
 
     def show_guide(self) -> None:
-        QtWidgets.QMessageBox.information(self, "USVIPS — quick guide", GUIDE)
+        QtWidgets.QMessageBox.information(self, "USVIPS — quick guide", quick_guide())
 
     # ------------------------------------------------------------------ settings
     def _restore_layout(self) -> None:
@@ -509,9 +487,17 @@ class MainWindow(QtWidgets.QMainWindow):
         return True
 
     # ------------------------------------------------------------------ project and pairs
+    def start_folder(self, name: str = "") -> str:
+        """Where a file dialog opens: the open project's folder (else the home folder), with ``name``."""
+        project = self.workspace.project
+        folder = project.path.parent if project is not None else Path.home()
+        return str(folder / name) if name else str(folder)
+
     def open_dialog(self) -> None:
+        start = self.start_folder() if self.workspace.project is not None else str(
+            SAMPLES if SAMPLES.is_dir() else Path.home())
         path, _ = QtWidgets.QFileDialog.getOpenFileName(
-            self, "Open project", str(SAMPLES if SAMPLES.is_dir() else Path.home()),
+            self, "Open project", start,
             "USVIPS projects (*.usvips);;Sample descriptions (project.json)")
         if path:
             self.open_path(Path(path).parent if Path(path).name == "project.json" else path)
@@ -539,8 +525,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.observation.refresh_species()
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
-        self.pair_box.clear()
-        self.pair_box.addItems(labels)
+        self.refresh_pair_box()
         videos = [v["label"] for v in project.videos()]
         if (not labels and videos) or (pair is not None and pair in videos):  # show a stereo video
             return self.video.open_video(pair if pair in videos else videos[0])
@@ -610,7 +595,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def species_dialog(self) -> None:
         path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Species list (family, genus, species, code)",
-                                                        str(Path.home()), "CSV (*.csv *.txt)")
+                                                        self.start_folder(), "CSV (*.csv *.txt)")
         if path:
             self.import_species(path)
 
@@ -657,7 +642,6 @@ class MainWindow(QtWidgets.QMainWindow):
         project = self.workspace.project
         if project is None or not label:
             return
-        self.pair_box.setCurrentText(label)
         try:
             paths = pair_image_paths(project, label)
         except UsvipsError as error:
@@ -721,12 +705,24 @@ class MainWindow(QtWidgets.QMainWindow):
             worker.cancel()
 
     # ------------------------------------------------------------------ display
+    def refresh_pair_box(self) -> None:
+        """The pair box lists the project's image pairs and shows the pair the model shows: an image pair
+        by its label, a video's frame pair as "(video)" (its placeholder), nothing with no project."""
+        labels = self.workspace.image_pairs()
+        box = self.pair_box
+        if [box.itemText(i) for i in range(box.count())] != labels:
+            box.clear()
+            box.addItems(labels)
+        shown = self.workspace.pair
+        box.setPlaceholderText("(video)" if shown is not None and shown not in labels else "")
+        box.setCurrentIndex(labels.index(shown) if shown in labels else -1)
+
     def _on_pair_changed(self) -> None:
         ws = self.workspace
+        self.refresh_pair_box()  # the box follows the model (a video's frames or an image pair)
         if ws.pair is None:
             for pane in self.panes.values():
                 pane.set_image(None)
-            self.pair_box.clear()
             return
         for side in SIDES:
             self.panes[side].title.setText(f"{side.capitalize()} — {ws.pair}  "
@@ -976,10 +972,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.selection = list(ids)
         if len(ids) == 1:
             self.observation.load(ids[0])  # every stored object's record is editable
-
-    def _draw_objects(self) -> None:
-        """Every stored object's outline again (a video frame was shown: others belong to it)."""
-        self.overlay.refresh()
 
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)

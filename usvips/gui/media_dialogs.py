@@ -11,6 +11,9 @@ from PySide6 import QtWidgets
 
 from usvips.app import video_project
 from usvips.core.errors import UsvipsError
+from usvips.gui.pair_import import PairImport
+from usvips.gui.pair_import_dialog import PairImportDialog
+from usvips.gui.wording import plural
 from usvips.io.pairing import RULE_NAMES
 from usvips.store import Project
 
@@ -27,7 +30,8 @@ def _need_project(window) -> Project | None:
 def new_project(window, path: str | Path | None = None) -> bool:
     """Create an empty project file and open it."""
     if path is None:
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(window, "New project", str(Path.home() / "survey.usvips"),
+        here = window.workspace.project.path.parent if window.workspace.project is not None else Path.home()
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(window, "New project", str(here / "survey.usvips"),
                                                         "USVIPS projects (*.usvips)")
         if not path:
             return False
@@ -40,37 +44,24 @@ def new_project(window, path: str | Path | None = None) -> bool:
     return window.open_path(path)
 
 
-def confirm_pairs(window, plan, rule: str) -> bool:
-    """Show the pairing for confirmation (a table: label, left file, right file)."""
-    dialog = QtWidgets.QDialog(window)
-    dialog.setWindowTitle("Add image pairs")
-    table = QtWidgets.QTableWidget(len(plan), 3)
-    table.setHorizontalHeaderLabels(["Label", "Left", "Right"])
-    for row, (label, left, right) in enumerate(plan):
-        for column, text in enumerate((label, left.name, right.name)):
-            table.setItem(row, column, QtWidgets.QTableWidgetItem(text))
-    table.resizeColumnsToContents()
-    buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Ok
-                                         | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
-    buttons.accepted.connect(dialog.accept)
-    buttons.rejected.connect(dialog.reject)
-    layout = QtWidgets.QVBoxLayout(dialog)
-    layout.addWidget(QtWidgets.QLabel(f"{len(plan)} pairs, paired by "
-                                      f"{RULE_NAMES[rule]}:"))
-    layout.addWidget(table)
-    layout.addWidget(buttons)
-    dialog.resize(640, 420)
+def confirm_pairs(window, model: PairImport) -> bool:
+    """Show the pairs found (medium, prefix, labels, sizes, statuses, ticks) for the user to edit and
+    confirm; True when they chose Add."""
+    dialog = PairImportDialog(model, window)
     return dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted
 
 
 def add_image_pairs(window, left: list | None = None, right: list | None = None, prefix: str = "",
                     confirm=confirm_pairs) -> int:
-    """Pair two folders (or lists) of images, confirm, add; returns the number of pairs added."""
+    """Pair two folders (or lists) of images; the user chooses the medium, a label prefix or labels, and
+    which pairs (``confirm(window, model)`` edits a :class:`PairImport`); the good ones are added and the
+    others named. Returns the number of pairs added."""
     project = _need_project(window)
     if project is None:
         return 0
     if left is None:
-        folder = QtWidgets.QFileDialog.getExistingDirectory(window, "Folder of LEFT images")
+        start = str(project.path.parent)
+        folder = QtWidgets.QFileDialog.getExistingDirectory(window, "Folder of LEFT images", start)
         if not folder:
             return 0
         other = QtWidgets.QFileDialog.getExistingDirectory(window, "Folder of RIGHT images", folder)
@@ -78,19 +69,23 @@ def add_image_pairs(window, left: list | None = None, right: list | None = None,
             return 0
         left, right = [folder], [other]
     try:
-        plan, rule = video_project.plan_image_pairs(left, right, prefix)
-        if not confirm(window, plan, rule):
+        plan, rule = video_project.plan_image_pairs(left, right)
+        model = PairImport(project, plan, RULE_NAMES[rule], prefix)
+        if not confirm(window, model):
             return 0
-        video_project.add_image_pairs(project, plan)
+        added, left_out = model.add()
     except UsvipsError as error:
         window.show_message("error", f"no pairs added: {error}")
         return 0
-    window.pair_box.clear()
-    window.pair_box.addItems(window.workspace.image_pairs())
-    window.show_message("info", f"added {len(plan)} image pairs (by {rule})")
-    if window.workspace.pair is None and plan:
-        window.load_pair(plan[0][0])
-    return len(plan)
+    window.refresh_pair_box()
+    if left_out:
+        window.show_message("warning", f"{plural(len(left_out), 'pair')} not added: " + "; ".join(left_out))
+    window.show_message("info" if added else "error",
+                        f"added {plural(len(added), 'image pair')} ({model.medium}, paired by {model.rule})"
+                        + (f"; {plural(len(left_out), 'pair')} not added (see the log)" if left_out else ""))
+    if window.workspace.pair is None and added:
+        window.load_pair(added[0])
+    return len(added)
 
 
 def add_video(window, left: list | None = None, right: list | None = None, label: str | None = None) -> None:
@@ -100,7 +95,8 @@ def add_video(window, left: list | None = None, right: list | None = None, label
     if project is None:
         return
     if left is None:
-        left, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "LEFT camera: file or chapters", "", VIDEO_FILTER)
+        left, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "LEFT camera: file or chapters",
+                                                         str(project.path.parent), VIDEO_FILTER)
         if not left:
             return
         right, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "RIGHT camera: file or chapters",
@@ -121,10 +117,21 @@ def add_video(window, left: list | None = None, right: list | None = None, label
         added = video_project.store_video(project, plan)
         for warning in added.warnings:
             window.show_message("warning", warning)
-        window.video.project_opened(project)
-        window.video.open_video(added.label)
-        window.show_message("info", f"added video {added.label}: {added.frame_count} frames at {added.fps:.6g} fps; "
-                                    "set its offset (the Video dock's Sync… or offset) before measuring")
+        window.video.videos_changed(project)
+        level = "warning" if added.warnings else "info"
+        text = (f"added {added.summary}"
+                + (f" — {plural(len(added.warnings), 'problem')} found (see the log)" if added.warnings
+                   else "; both streams clean")
+                + "; set its offset (the Video dock's Sync… or offset) before measuring")
+
+        def again(_frame: int) -> None:  # said once more above the first frame, over the pair's own notes
+            window.video.shown.disconnect(again)
+            window.set_hint(text, level)
+
+        window.video.shown.connect(again)
+        if not window.video.open_video(added.label):
+            window.video.shown.disconnect(again)
+        window.show_message(level, text)
 
     window.run_worker(job, "reading the video files", store)
 

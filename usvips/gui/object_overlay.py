@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from usvips.core.errors import UsvipsError
+from usvips.gui.wording import species_text
 from usvips.gui.workspace import SIDES, Workspace
 
 #: Above this many objects on the pair, only the selected objects are labelled.
@@ -109,7 +110,9 @@ class ObjectOverlay:
             paths = tuple(_path(pixels, drawn[2]) for pixels in drawn[:2])
             marks = (np.array([(v.xl, v.yl) for v in picks], float).reshape(-1, 2),
                      np.array([(v.xr, v.yr) for v in picks], float).reshape(-1, 2))
-            self.outlines[object_id] = (f"{stored.id} {stored.attribute}".strip(), paths, marks)
+            record = self.workspace.object_record(object_id)  # the species is the record's, when there is one
+            name = species_text(record) if record is not None and record.name else stored.attribute
+            self.outlines[object_id] = (f"{stored.id} {name}".strip(), paths, marks)
 
     def draw(self, *_: object) -> None:
         """Hand the cached outlines to the panes, joined into one array per kind of mark: all of them (when

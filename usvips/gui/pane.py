@@ -413,15 +413,23 @@ class StereoPane(QtWidgets.QWidget):
         all_vertices = np.vstack(vertices) if vertices else np.zeros((0, 2))
         self.vertex_item.setData(pos=all_vertices)
 
-    def set_control(self, marks: list[tuple[str, tuple[float, float]]]) -> None:
-        """Measured control points of this image: (target number, pixel), drawn as green rings with numbers."""
+    def set_control(self, marks: list[tuple[str, tuple[float, float]]], selected: str | None = None) -> None:
+        """Measured control points of this image: (target number, pixel), drawn as green rings with numbers;
+        the ``selected`` one (e.g. the row chosen in a table) in the selection colour, with a larger ring."""
         for label in self.control_labels:
             self.viewbox.removeItem(label)
         self.control_labels = []
         pixels = np.array([pixel for _, pixel in marks], float).reshape(-1, 2)
         self.control_item.setData(pos=item_from_pixels(pixels) if len(pixels) else np.zeros((0, 2)))
+        chosen = [k for k, (name, _) in enumerate(marks) if name == selected]
+        if not hasattr(self, "control_selected_item"):
+            self.control_selected_item = pg.ScatterPlotItem(size=19, pen=pg.mkPen(COLOURS["selected"], width=2.5),
+                                                            brush=None, pxMode=True)
+            self.viewbox.addItem(self.control_selected_item, ignoreBounds=True)
+        self.control_selected_item.setData(pos=item_from_pixels(pixels[chosen]) if chosen else np.zeros((0, 2)))
+        self.selected_control = marks[chosen[0]][0] if chosen else None
         for (name, _), view in zip(marks, item_from_pixels(pixels), strict=True):
-            text = pg.TextItem(name, color=COLOURS["control"], anchor=(-0.3, 1.1))
+            text = pg.TextItem(name, color=COLOURS["selected" if name == selected else "control"], anchor=(-0.3, 1.1))
             text.setPos(float(view[0]), float(view[1]))
             self.viewbox.addItem(text, ignoreBounds=True)
             self.control_labels.append(text)

@@ -22,10 +22,12 @@ from usvips.gui.video_model import (
     FrameCache,
     FrameSource,
     VideoNavigator,
+    format_bytes,
     format_timecode,
     measured_frames,
     parse_position,
     prefetch_order,
+    proxy_disk_bytes,
     rgb_pair,
     video_frame_of,
 )
@@ -200,7 +202,17 @@ class VideoController(QtCore.QObject):
         self._proxy_label: str | None = None
         self._proxy_progress = 0.0
         self._proxies_deleted: set[str] = set()  # not rebuilt by themselves in this session
-        d = self.dock_widget
+        goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
+        goto.activated.connect(self.focus_goto)
+        for pane in window.panes.values():
+            pane.graphics.installEventFilter(self)
+        self._connect(self.dock_widget)
+        # double-click on an object (or Zoom to) goes to the frame it was measured on
+        window.object_list.zoom_requested.connect(self.go_to_object)
+        window.object_list.object_activated.connect(self.go_to_object)
+
+    def _connect(self, d: VideoDock) -> None:
+        """Wire a dock's controls to this controller."""
         d.chooser.activated.connect(lambda _: self.open_video(d.chooser.currentText()))
         d.timeline.valueChanged.connect(self._on_slider)
         d.goto.returnPressed.connect(self._on_goto)
@@ -214,15 +226,9 @@ class VideoController(QtCore.QObject):
         d.build_proxy_action.triggered.connect(lambda: self.build_proxies())
         d.cancel_proxy_action.triggered.connect(self.cancel_proxies)
         d.delete_proxy_action.triggered.connect(self.delete_proxies)
-        goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
-        goto.activated.connect(self.focus_goto)
         d.sync.clicked.connect(self._on_sync)
-        for widget in (d, d.timeline, *[p.graphics for p in window.panes.values()]):
+        for widget in (d, d.timeline):
             widget.installEventFilter(self)
-        # double-click on an object (or Zoom to) goes to the frame it was measured on
-        window.object_list.zoom_requested.connect(self.go_to_object)
-        window.object_list.table.cellDoubleClicked.connect(
-            lambda row, _: self.go_to_object(int(window.object_list.table.item(row, 0).text())))
 
     # ------------------------------------------------------------------ videos
     def project_opened(self, project) -> None:
@@ -230,10 +236,25 @@ class VideoController(QtCore.QObject):
         self.close_video()
         self.cancel_proxies()
         self._proxies_deleted.clear()
+        # a new project gets new controls: nothing of the previous one (offset, frame, range, go-to text,
+        # rate, marks) can stay on screen, by construction rather than by a list of fields to clear
+        old, d = self.dock_widget, VideoDock()
+        self.dock_widget = d
+        self._connect(d)
+        dock = getattr(self.window, "docks", {}).get("video")
+        if dock is not None:
+            dock.setWidget(d)
+            old.hide()
+            old.deleteLater()
+        self.videos_changed(project)
+
+    def videos_changed(self, project) -> None:
+        """The project's videos in the chooser (one was added): the dock is shown when there are any."""
         d = self.dock_widget
-        d.chooser.clear()
         labels = [v["label"] for v in project.videos()] if project is not None else []
-        d.chooser.addItems(labels)
+        if [d.chooser.itemText(i) for i in range(d.chooser.count())] != labels:
+            d.chooser.clear()
+            d.chooser.addItems(labels)
         d.setEnabled(bool(labels))
         dock = getattr(self.window, "docks", {}).get("video")
         if dock is not None:  # shown for a project with videos (View › Video brings it back by hand)
@@ -252,6 +273,7 @@ class VideoController(QtCore.QObject):
         self.navigator = self.source.navigator()
         self.navigator.marks = measured_frames(project, label)
         d = self.dock_widget
+        self.navigator.rate, self.navigator.jump = float(d.rate.currentText().rstrip("×")), d.jump.value()
         d.chooser.setCurrentText(label)
         d.timeline.blockSignals(True)
         d.timeline.setRange(self.navigator.first, self.navigator.last)
@@ -330,11 +352,8 @@ class VideoController(QtCore.QObject):
         left, right, partner, time_s = rgb_pair(item)
         nav = self.navigator
         nav.go(frame)
-        ws = self.window.workspace
-        ws.set_pair(nav.label, left, right)
-        ws.video_frame = (nav.label, frame, partner, time_s)
-        self.window.pair_box.setCurrentIndex(-1)  # a video, not one of the image pairs listed there
-        self.window._draw_objects()  # only the objects measured on this frame
+        # the views follow the model's pair_changed (only the objects measured on this frame are drawn)
+        self.window.workspace.set_pair(nav.label, left, right, (nav.label, frame, partner, time_s))
         d = self.dock_widget
         d.timeline.blockSignals(True)
         d.timeline.setValue(frame)
@@ -471,12 +490,19 @@ class VideoController(QtCore.QObject):
     def ask_to_store(self, question: str, store: Callable[[], None]) -> None:
         """Ask whether to store an offset estimated with little confidence: a Yes/No question (No by
         default) that does not block the window; ``store`` runs on Yes."""
-        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, "Synchronise", question,
+        self.ask("Synchronise", question, store)
+
+    def ask(self, title: str, question: str, yes: Callable[[], None], no: Callable[[], None] | None = None) -> None:
+        """A Yes/No question (No by default) that does not block the window: ``yes`` runs on Yes, ``no``
+        on No or Esc; :attr:`question` holds it while it is open."""
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Question, title, question,
                                     QtWidgets.QMessageBox.StandardButton.Yes | QtWidgets.QMessageBox.StandardButton.No,
                                     self.dock_widget)
         box.setDefaultButton(QtWidgets.QMessageBox.StandardButton.No)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
-        box.accepted.connect(store)  # Yes is the accept role
+        box.accepted.connect(yes)  # Yes is the accept role
+        if no is not None:
+            box.rejected.connect(no)
         box.open()
         self.question = box
 
@@ -570,11 +596,7 @@ class VideoController(QtCore.QObject):
                 for path in paths:  # nothing half-made stays behind
                     path.unlink(missing_ok=True)
                 raise
-            box = self.window.pair_box
-            shown = box.currentIndex()
-            box.clear()
-            box.addItems(self.window.workspace.image_pairs())
-            box.setCurrentIndex(shown if shown < 0 else box.findText(self.window.workspace.pair or ""))
+            self.window.refresh_pair_box()
             self.window.show_message("info", f"left frame {frame} and right frame {partner} of {nav.label} are now "
                                              f"the {'in-air' if medium == 'air' else 'underwater'} image pair "
                                              f"{pair_label!r} (Calibration menu: calibrate from it)")
@@ -588,12 +610,18 @@ class VideoController(QtCore.QObject):
         else:
             self.build_proxies()
 
+    #: build seek proxies without asking (scripts, benchmarks); the window asks first, with their size
+    ask_before_proxies = True
+
     def build_proxies(self, automatic: bool = False) -> Worker | None:
         """Build the shown video's seek proxies in the background (a pool of their own, at low priority,
         progress in the dock, cancel from the dock), then seek through them as soon as they are built and
         verified (the original is used until then). ``automatic``: when a video is opened; then only for
-        a recording that needs one (:func:`usvips.io.video_proxy.needs_proxy`), quietly. None when there
-        is nothing to build or a build is running (a message says so unless automatic)."""
+        a recording that needs one (:func:`usvips.io.video_proxy.needs_proxy`), and only after the user
+        says Yes to a question giving their size on disk (:func:`usvips.gui.video_model.proxy_disk_bytes`;
+        No: not asked again for that video in this session, the dock's Seek proxy builds them). None when
+        there is nothing to build, a build is running or a question is open (a message says so unless
+        automatic)."""
         nav, project, source = self.navigator, self.window.workspace.project, self.source
         if nav is None or project is None or source is None:
             return None
@@ -614,6 +642,23 @@ class VideoController(QtCore.QObject):
                 self.window.show_message("info", f"video {nav.label}: its seek proxies are already built and in use")
             return None
         label, niceness = nav.label, self.PROXY_NICENESS
+        if automatic and self.ask_before_proxies:
+            video = project.video(label)
+            low, high = proxy_disk_bytes(video["frame_count"], video["width"], video["height"])
+            question = (f"Build seek proxies for video {label}? They make a jump to any frame fast (an exact "
+                        f"lossless copy of every frame, kept in {folder.name}/ beside the project): about "
+                        f"{format_bytes(low)} to {format_bytes(high)} on disk for its {video['frame_count']} frames "
+                        "a camera, both cameras together, built in the background at low priority. Without "
+                        "them every frame is still exact; far jumps are slower. (The dock's Seek proxy button "
+                        "builds or deletes them later.)")
+
+            def declined() -> None:
+                self._proxies_deleted.add(label)
+                self.window.show_message("info", f"no seek proxies for {label}: the dock's Seek proxy button builds "
+                                                 "them when wanted")
+
+            self.ask("Seek proxies", question, lambda: self.build_proxies(automatic=False), declined)
+            return None
 
         def job(progress, cancelled):
             _lower_thread_priority(niceness)

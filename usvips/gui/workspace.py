@@ -1,5 +1,10 @@
-"""The workstation's model, free of Qt: the open project and image pair, the picking and measuring tool,
-the enhancement pipelines, and undo/redo. The window only draws what this holds and forwards clicks.
+"""The workstation's model, free of Qt: the open project and the pair (or video frame pair) shown, and the
+picking and measuring tool (its state machine; every step a command on one undo stack). It is made of one
+model per concern, each in its own module: the stored objects and their figures
+(:mod:`usvips.gui.object_cache`), the display enhancement (:mod:`usvips.gui.enhancement_model`), undo
+(:mod:`usvips.gui.undo`). Opening a project makes NEW instances of the per-project ones (nothing of the
+previous project can survive); their events belong to the workspace, so views connect once. The window
+only draws what these hold and forwards clicks.
 
 Pixels follow ARCHITECTURE.md: x right, y down, origin at the centre of the top-left pixel (float64).
 3-D points are metres in the frame of the pair's calibration: the object frame when the pair is a
@@ -15,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.app.pair_geometry import PairGeometry, pair_geometry
-from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
+from usvips.app.project_figures import measurement_input
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
@@ -24,8 +29,12 @@ from usvips.core.measurements import kind as measurement_kind
 from usvips.core.observation_record import ObservationRecord
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.targets import locate_disc
-from usvips.gui.calculator import Geometry, Result, format_figure, pair_figures, result_of, vertex_failures
+from usvips.gui.calculator import Result, format_figure, vertex_failures
+from usvips.gui.enhancement_model import Enhancement
+from usvips.gui.object_cache import ObjectCache, ObjectEvents
 from usvips.gui.signals import Signal
+from usvips.gui.undo import Command, UndoStack
+from usvips.gui.wording import article, plural
 from usvips.io.images import read_image
 from usvips.store.interface import ProjectStore
 from usvips.store.project import Vertex
@@ -81,60 +90,6 @@ class MeasuredVertex:
     @property
     def sigmas(self) -> np.ndarray:
         return np.sqrt(np.clip(np.diag(self.covariance), 0, None))
-
-
-@dataclass
-class Command:
-    """One undoable step: ``redo`` does it (again), ``undo`` takes it back."""
-
-    label: str
-    redo: Callable[[], None]
-    undo: Callable[[], None]
-
-
-class UndoStack:
-    """Undo and redo of every pick and edit; ``changed`` fires after each push, undo and redo."""
-
-    def __init__(self) -> None:
-        self._done: list[Command] = []
-        self._undone: list[Command] = []
-        self.changed = Signal()
-
-    def push(self, command: Command) -> None:
-        command.redo()
-        self._done.append(command)
-        self._undone.clear()
-        self.changed.emit()
-
-    def undo(self) -> str | None:
-        """Take back the last step; returns its label (None when there is nothing to undo)."""
-        return self._move(self._done, self._undone, "undo")
-
-    def redo(self) -> str | None:
-        """Do the last undone step again; returns its label (None when there is nothing to redo)."""
-        return self._move(self._undone, self._done, "redo")
-
-    def _move(self, source: list[Command], target: list[Command], action: str) -> str | None:
-        if not source:
-            return None
-        command = source.pop()
-        getattr(command, action)()
-        target.append(command)
-        self.changed.emit()
-        return command.label
-
-    def clear(self) -> None:
-        self._done.clear()
-        self._undone.clear()
-        self.changed.emit()
-
-    @property
-    def undo_label(self) -> str | None:
-        return self._done[-1].label if self._done else None
-
-    @property
-    def redo_label(self) -> str | None:
-        return self._undone[-1].label if self._undone else None
 
 
 def pair_image_paths(project: ProjectStore, label: str) -> tuple[Path, Path]:
@@ -199,7 +154,6 @@ class Workspace:
     def __post_init__(self) -> None:
         self.pair: str | None = None
         self.images: dict[str, np.ndarray] = {}
-        self.pipelines: dict[str, Pipeline] = {side: Pipeline() for side in SIDES}
         self.geometry: PairGeometry | None = None
         self.state = PickState()
         self.digitising: _Digitising = _Digitising("pick")
@@ -209,24 +163,25 @@ class Workspace:
         #: (object id, vertex index from 0) that the next measured vertex replaces, or None.
         self.repick: tuple[int, int] | None = None
         self.undo = UndoStack()
-        self._calibrations: dict[int, StereoCalibration | None] = {}
+        self.enhancement_changed = Signal()
+        self.message = Signal()
+        #: the display enhancement of the two images (usvips.gui.enhancement_model)
+        self.enhancement = Enhancement(self.undo, self.enhancement_changed, self.message)
         self.pair_changed = Signal()
         self.picks_changed = Signal()
-        self.objects_changed = Signal()
-        self.objects_added = Signal()
-        self.objects_updated = Signal()
-        self.objects_removed = Signal()
-        self.objects_reset = Signal()
+        #: the stored objects' events; each project's new ObjectCache announces through these
+        self.object_events = ObjectEvents()
+        self.objects_changed = self.object_events.changed
+        self.objects_added = self.object_events.added
+        self.objects_updated = self.object_events.updated
+        self.objects_removed = self.object_events.removed
+        self.objects_reset = self.object_events.reset
+        self.cache = ObjectCache(None, self.object_events, lambda: self.rules)
         self.tool_changed = Signal()
         self.selection_changed = Signal()
         self.rules_changed = Signal()
         #: The selected objects' ids (the object list and the geo-calculator show them).
         self.selection: tuple[int, ...] = ()
-        self._objects: dict[int, object] = {}  # id -> StoredObject, in id order
-        self._figures: dict[int, tuple[QualityRules, Result]] = {}  # id -> the rules and its figures under them
-        self._versions: dict[int, int] = {}  # id -> how often it changed (stale worker results are dropped)
-        self.enhancement_changed = Signal()
-        self.message = Signal()
         self.observed = Signal()
         self.video_frame: tuple[str, int, int, float] | None = None  # video, left and right frame, time (s)
         #: ``stored(object_id)`` after a newly measured object is stored (its observation record may follow).
@@ -244,15 +199,14 @@ class Workspace:
         if self.project is not None and self.project is not project:
             self.project.close()
         self.project = project
-        self._calibrations = {}
+        self.cache = ObjectCache(project, self.object_events, lambda: self.rules)  # new: nothing survives
         self.attribute = ""
         self.last_point = None
         self.repick = None
         self.pair, self.images, self.geometry = None, {}, None
+        self.enhancement = Enhancement(self.undo, self.enhancement_changed, self.message)  # new: nothing survives
         self._reset_picks()
         self.undo.clear()
-        self._objects = {} if project is None else {o.id: o for o in project.objects()}
-        self._figures, self._versions = {}, {}
         self.selection = ()
         self.objects_reset.emit()
         self.objects_changed.emit()
@@ -281,23 +235,25 @@ class Workspace:
         """Show the current pair again, its images kept, so that a calibration made active for it since is
         used (nothing when no pair is shown)."""
         if self.pair is not None and self.images:
-            self.set_pair(self.pair, self.images["left"], self.images["right"])
+            self.set_pair(self.pair, self.images["left"], self.images["right"], self.video_frame)
 
-    def set_pair(self, label: str, left: np.ndarray, right: np.ndarray) -> None:
+    def set_pair(self, label: str, left: np.ndarray, right: np.ndarray,
+                 video_frame: tuple[str, int, int, float] | None = None) -> None:
         """Show a pair (images already read, see :func:`load_pair_images`); its calibration and saved
-        enhancements come from the project."""
+        enhancements come from the project. ``video_frame``: (video, left frame, right frame, time s) when
+        the images are a video's frame pair — known before ``pair_changed`` fires, so that every view
+        draws the objects of that frame at once."""
         if self.project is None:
             raise UsvipsError("open a project first")
         another_pair, self.pair = label != self.pair, label
-        self.video_frame = None  # a video's frame pair sets it after showing the images
+        self.video_frame = video_frame
         self.images = {"left": left, "right": right}
         try:
             self.geometry = self._shared(pair_geometry(self.project, label))
         except UsvipsError as error:
             self.geometry = None
             self.message.emit("error", f"the calibration of pair {label!r} cannot be used: {error}")
-        for side in SIDES:
-            self.pipelines[side] = self._stored_pipeline(side)
+        self.enhancement.load(self.project, {side: self.image_key(side) for side in SIDES})
         self._reset_picks()
         self.undo.clear()
         self.pair_changed.emit()
@@ -314,39 +270,19 @@ class Workspace:
         pair = next(p for p in self.project.pairs() if p["label"] == self.pair)
         return str(pair[side])
 
-    def _stored_pipeline(self, side: str) -> Pipeline:
-        text = self.project.enhancement(self.image_key(side))
-        if not text:
-            return Pipeline()
-        try:
-            return Pipeline.from_json(text)
-        except UsvipsError as error:
-            self.message.emit("warning", f"the saved enhancement of the {side} image is ignored: {error}")
-            return Pipeline()
+    # ------------------------------------------------------------------ enhancement (usvips.gui.enhancement_model)
+    @property
+    def pipelines(self) -> dict[str, Pipeline]:
+        return self.enhancement.pipelines
 
-    # ------------------------------------------------------------------ enhancement
     def set_pipeline(self, side: str, pipeline: Pipeline) -> None:
         """Change an image's enhancement (display only: picks and coordinates use the original) and save
         it in the project; undoable."""
-        self.set_pipelines({side: pipeline})
+        self.enhancement.set_pipelines({side: pipeline})
 
     def set_pipelines(self, changes: dict[str, Pipeline]) -> None:
         """Change the enhancement of one or both images as one undoable step."""
-        unknown = [side for side in changes if side not in SIDES]
-        if unknown:
-            raise UsvipsError(f"side must be 'left' or 'right', got {unknown[0]!r}")
-        before = {side: self.pipelines[side] for side in changes}
-        if all(before[side] == changes[side] for side in changes):
-            return
-        label = "enhancement (" + " and ".join(changes) + ")"
-        self.undo.push(Command(label, lambda: self._apply_pipelines(changes), lambda: self._apply_pipelines(before)))
-
-    def _apply_pipelines(self, pipelines: dict[str, Pipeline]) -> None:
-        for side, pipeline in pipelines.items():
-            self.pipelines[side] = pipeline
-            if self.project is not None and self.pair is not None:
-                self.project.set_enhancement(self.image_key(side), pipeline.to_json())
-            self.enhancement_changed.emit(side)
+        self.enhancement.set_pipelines(changes)
 
     # ------------------------------------------------------------------ tool
     @property
@@ -358,7 +294,7 @@ class Workspace:
             raise UsvipsError(f"unknown tool {tool!r}; tools: {', '.join(TOOLS)}")
         if self.digitising.vertices:
             self.message.emit("warning", f"the unfinished {self.digitising.kind} "
-                                         f"({len(self.digitising.vertices)} vertices) was dropped")
+                                         f"({plural(len(self.digitising.vertices), 'vertex')}) was dropped")
         self.digitising = _Digitising(tool)
         self._reset_picks()
         self.tool_changed.emit(tool)
@@ -591,23 +527,28 @@ class Workspace:
         if flags:
             notes = "; ".join(filter(None, [notes, "flagged: " + "; ".join(flags)]))
         stored = self._vertices_for_store(vertices)
-        holder = {"id": None}
+        holder: dict = {"id": None, "rows": None}
         before = self._snapshot()
 
         def store() -> None:
-            holder["id"] = self.project.add_object(kind, stored, attribute, notes, creator="usvips")
-            if attribute:
-                self.project.add_term(attribute)
+            first = holder["rows"] is None
+            if first:
+                holder["id"] = self.project.add_object(kind, stored, attribute, notes, creator="usvips")
+                if attribute:
+                    self.project.add_term(attribute)
+            else:  # redo: the very object (id, record, times) that undo took away
+                self.project.put_back(holder["rows"])
             self.digitising = _Digitising(self.digitising.kind)
             self.state = PickState()
             if last is not None:
                 self.last_point = last
             self._objects_changed_in_store(added=(holder["id"],))
             self.picks_changed.emit()
-            self.stored.emit(holder["id"])
+            if first:
+                self.stored.emit(holder["id"])
 
         def unstore() -> None:
-            self.project.delete_object(holder["id"])
+            holder["rows"] = self.project.take_object(holder["id"])
             self._restore(before)
             self._objects_changed_in_store(removed=(holder["id"],))
 
@@ -660,35 +601,63 @@ class Workspace:
             raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
         least = measurement_kind(resolve(stored.kind, len(stored.vertices))).minimum_vertices
         if len(stored.vertices) - 1 < least:
-            raise UsvipsError(f"a {stored.kind} needs at least {least} vertices: delete the object instead")
+            raise UsvipsError(f"{article(stored.kind)} needs at least {plural(least, 'vertex')}: delete the object "
+                              "instead")
         saved = list(stored.vertices)
         self._set_vertices(f"delete vertex {index + 1} of object {object_id}", object_id, saved,
                            saved[:index] + saved[index + 1:])
 
     def _set_vertices(self, label: str, object_id: int, before: list[Vertex], after: list[Vertex]) -> None:
-        def apply(vertices: list[Vertex]) -> Callable[[], None]:
-            def run() -> None:
-                self.project.update_object(object_id, vertices=vertices)
-                self.state = PickState()
-                self._objects_changed_in_store(updated=(object_id,))
-                self.picks_changed.emit()
-            return run
+        def picks_reset() -> None:
+            self.state = PickState()
+            self.picks_changed.emit()
 
-        self.undo.push(Command(label, apply(after), apply(before)))
+        self._edit_object(label, object_id, lambda: self.project.update_object(object_id, vertices=after),
+                          picks_reset)
         self.message.emit("info", f"{label}: done (Ctrl+Z undoes it)")
 
+    def _edit_object(self, label: str, object_id: int, edit: Callable[[], None],
+                     then: Callable[[], None] | None = None) -> None:
+        """Run ``edit`` of a stored object as one undoable command. Undo puts back the object's stored rows
+        as they were before (vertices, kind, texts, record, history: exactly, nothing added); redo puts
+        back the rows the edit made."""
+        before = self.project.object_rows(object_id)
+        after: list = []
+
+        def put(rows) -> None:
+            self.project.put_back(rows, replace=True)
+
+        def redo() -> None:
+            if after:
+                put(after[0])
+            else:
+                edit()
+                after.append(self.project.object_rows(object_id))
+            self._objects_changed_in_store(updated=(object_id,))
+            if then is not None:
+                then()
+
+        def undo() -> None:
+            put(before)
+            self._objects_changed_in_store(updated=(object_id,))
+            if then is not None:
+                then()
+
+        self.undo.push(Command(label, redo, undo))
+
     def delete_object(self, object_id: int) -> None:
+        """Delete a stored object (undoable: undo gives back the same id with its vertices, video frames,
+        observation record and history)."""
         saved = self.stored_object(object_id)
-        holder = {"id": object_id}
+        removed: list = []
 
         def delete() -> None:
-            self.project.delete_object(holder["id"])
-            self._objects_changed_in_store(removed=(holder["id"],))
+            removed[:] = [self.project.take_object(object_id)]
+            self._objects_changed_in_store(removed=(object_id,))
 
         def restore() -> None:
-            holder["id"] = self.project.add_object(saved.kind, list(saved.vertices), saved.attribute, saved.notes,
-                                                   saved.creator)
-            self._objects_changed_in_store(added=(holder["id"],))
+            self.project.put_back(removed[0])
+            self._objects_changed_in_store(added=(object_id,))
 
         self.undo.push(Command(f"delete {saved.kind} {object_id}", delete, restore))
 
@@ -707,31 +676,22 @@ class Workspace:
         if kind == stored.kind:
             return
         if kind not in self.kinds_for(object_id):
-            raise UsvipsError(f"{stored.kind} {object_id} has {len(stored.vertices)} vertices: it cannot be a "
-                              f"{kind} (it can be {', '.join(self.kinds_for(object_id))})")
+            raise UsvipsError(f"{stored.kind} {object_id} has {plural(len(stored.vertices), 'vertex')}: it cannot be "
+                              f"{article(kind)} (it can be {', '.join(self.kinds_for(object_id))})")
 
-        def apply(name: str) -> Callable[[], None]:
-            def run() -> None:
-                self.project.update_object(object_id, kind=name)
-                self._objects_changed_in_store(updated=(object_id,))
-            return run
-
-        self.undo.push(Command(f"make object {object_id} a {kind}", apply(kind), apply(stored.kind)))
-        self.message.emit("info", f"object {object_id} is now a {kind} (Ctrl+Z undoes it)")
+        self._edit_object(f"make object {object_id} {article(kind)}", object_id,
+                          lambda: self.project.update_object(object_id, kind=kind))
+        self.message.emit("info", f"object {object_id} is now {article(kind)} (Ctrl+Z undoes it)")
 
     def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
-        saved = self.stored_object(object_id)
+        self.stored_object(object_id)
 
-        def apply(a: str, n: str) -> Callable[[], None]:
-            def run() -> None:
-                self.project.update_object(object_id, attribute=a, notes=n)
-                if a:
-                    self.project.add_term(a)
-                self._objects_changed_in_store(updated=(object_id,))
-            return run
+        def edit() -> None:
+            self.project.update_object(object_id, attribute=attribute, notes=notes)
+            if attribute:
+                self.project.add_term(attribute)
 
-        self.undo.push(Command(f"edit object {object_id}", apply(attribute, notes),
-                               apply(saved.attribute, saved.notes)))
+        self._edit_object(f"edit object {object_id}", object_id, edit)
 
     def frame_description(self, object_id: int) -> str:
         """The frame an object's coordinates (and so its bearing and slope) are given in, in words."""
@@ -745,72 +705,46 @@ class Workspace:
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
         """Store an object's observation record (species, number, stage, activity, comment); undoable."""
-        before = self.project.record(object_id)
-
-        def apply(value: ObservationRecord | None) -> Callable[[], None]:
-            def run() -> None:
-                self.project.set_record(object_id, value)
-                self._objects_changed_in_store(updated=(object_id,))
-            return run
-
-        self.undo.push(Command(f"observation record of object {object_id}", apply(record), apply(before)))
+        self._edit_object(f"observation record of object {object_id}", object_id,
+                          lambda: self.project.set_record(object_id, record))
 
     # ------------------------------------------------------------------ the stored objects (cached)
+    # held by ``self.cache`` (usvips.gui.object_cache.ObjectCache), a new one per project; these delegate
     def objects(self) -> list:
         """The project's stored objects in id order, from the model's cache (no query)."""
-        return list(self._objects.values())
+        return self.cache.objects()
 
     def object_ids(self) -> list[int]:
-        return list(self._objects)
+        return self.cache.ids()
 
     def stored_object(self, object_id: int):
         """One stored object from the cache (raises by name when there is none)."""
-        try:
-            return self._objects[object_id]
-        except KeyError:
-            raise UsvipsError(f"there is no object {object_id} in the project") from None
+        return self.cache.get(object_id)
+
+    def object_record(self, object_id: int) -> ObservationRecord | None:
+        """A stored object's observation record (its species, number ...), from the cache."""
+        return self.cache.record(object_id)
+
+    @property
+    def _calibrations(self) -> dict[int, StereoCalibration | None]:
+        return self.cache.calibrations
 
     def _objects_changed_in_store(self, added: tuple[int, ...] = (), updated: tuple[int, ...] = (),
                                   removed: tuple[int, ...] = ()) -> None:
-        """Bring the cache up to date with what was just written (re-reading only those ids, by one query)
-        and announce it by id."""
-        fresh = {o.id: o for o in self.project.objects_with_ids(added + updated)} if added + updated else {}
-        gone = tuple(i for i in removed + updated if i not in fresh and i in self._objects)
-        for object_id in gone:
-            del self._objects[object_id]
-        for object_id in (*added, *updated, *removed):
-            self._figures.pop(object_id, None)
-            self._versions[object_id] = self._versions.get(object_id, 0) + 1
-        new = tuple(i for i in added if i in fresh)
-        changed = tuple(i for i in updated if i in fresh)
-        highest = max(self._objects, default=0)
-        for object_id in new:
-            self._objects[object_id] = fresh[object_id]
-        if any(i <= highest for i in new):  # keep id order (SQLite gives new ids above the highest, but...)
-            self._objects = dict(sorted(self._objects.items()))
-        for object_id in changed:
-            self._objects[object_id] = fresh[object_id]
-        if gone:
-            self.objects_removed.emit(gone)
-            if set(gone) & set(self.selection):
-                self.select([i for i in self.selection if i not in gone])
-        if new:
-            self.objects_added.emit(new)
-        if changed:
-            self.objects_updated.emit(changed)
-        self.objects_changed.emit()
+        """The cache brought up to date with what was just written (announced by id); the selection
+        drops the objects gone."""
+        gone = self.cache.changed_in_store(added, updated, removed)
+        if set(gone) & set(self.selection):
+            self.select([i for i in self.selection if i not in gone])
 
     def reload_objects(self) -> None:
         """Read every stored object again (by one query), e.g. after another program changed the project."""
-        self._objects = {} if self.project is None else {o.id: o for o in self.project.objects()}
-        self._figures, self._versions = {}, {}
-        self.objects_reset.emit()
-        self.objects_changed.emit()
+        self.cache.reload()
         self.select(self.selection)
 
     def select(self, object_ids) -> None:
         """Make ``object_ids`` the selection (ids not stored are left out); announced when it changes."""
-        selection = tuple(int(i) for i in object_ids if int(i) in self._objects)
+        selection = tuple(int(i) for i in object_ids if int(i) in self.cache)
         if selection != self.selection:
             self.selection = selection
             self.selection_changed.emit(selection)
@@ -820,77 +754,32 @@ class Workspace:
         if rules == self.rules:
             return
         self.rules = rules
-        self._figures = {}
+        self.cache.forget_figures()
         self.rules_changed.emit(rules)
 
     def object_figures(self, object_id: int) -> Result | None:
         """An object's figures when they are known under the current rules (None: not yet computed)."""
-        known = self._figures.get(object_id)
-        return known[1] if known is not None and known[0] == self.rules else None
+        return self.cache.known_figures(object_id)
 
     def forget_figures(self) -> None:
         """Drop every computed figure (they are computed again when asked for)."""
-        self._figures = {}
+        self.cache.forget_figures()
 
     # ------------------------------------------------------------------ geo-calculator
-    def _input(self, stored) -> MeasurementInput:
-        """What the figures of a stored object need, read from the project now (GUI thread); the
-        calibrations read are cached until the project changes."""
-        return measurement_input(self.project, stored, self._calibrations)
-
     def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
         """The figures of many objects as a function of copied inputs (run it off the GUI thread); give its
         result to :meth:`remember_figures`."""
-        inputs = [(i, self._input(self.stored_object(i))) for i in object_ids]
-        rules = self.rules
-
-        def run(progress=None, cancelled=None) -> dict[int, Result]:
-            out = {}
-            for n, (object_id, source) in enumerate(inputs):
-                if cancelled is not None and cancelled():
-                    break
-                out[object_id] = _figures_of(source, rules)
-                if progress is not None:
-                    progress((n + 1) / len(inputs))
-            return out
-
-        versions = {i: self._versions.get(i, 0) for i in object_ids}
-        run.versions = versions  # what the results are of: see remember_figures
-        run.rules = rules
-        return run
+        return self.cache.figures_job(object_ids)
 
     def remember_figures(self, job: Callable[..., dict[int, Result]], results: dict[int, Result]) -> list[int]:
         """Keep what :meth:`figures_job`'s ``job`` computed, except for objects changed (or rules changed)
         since it was made; returns the ids kept."""
-        if job.rules != self.rules:
-            return []
-        kept = [i for i, result in results.items()
-                if i in self._objects and self._versions.get(i, 0) == job.versions.get(i)]
-        for object_id in kept:
-            self._figures[object_id] = (job.rules, results[object_id])
-        return kept
+        return self.cache.remember(job, results)
 
     def figures(self, object_ids: list[int]) -> Result:
         """The geo-calculator on a selection of one or two objects (one object's figures are computed once
         per change and kept)."""
-        if self.project is None or not object_ids:
-            return Result((), (), "select one or two objects")
-        if len(object_ids) == 1:
-            object_id = object_ids[0]
-            known = self.object_figures(object_id)
-            if known is None:
-                known = _figures_of(self._input(self.stored_object(object_id)), self.rules)
-                self._figures[object_id] = (self.rules, known)
-            return known
-        if len(object_ids) != 2:
-            return Result((), (), "select one object (its own figures) or two (figures between them)")
-        first, second = (self.stored_object(i) for i in object_ids)
-        both = replace(first, vertices=first.vertices + second.vertices)
-        points, covariance, _ = joint_vertices(self._input(both))
-        n = 3 * len(first.vertices)
-        a = Geometry(first.kind, points[: n // 3], covariance[:n, :n])
-        b = Geometry(second.kind, points[n // 3:], covariance[n:, n:])
-        return pair_figures(a, b, covariance)
+        return self.cache.figures(object_ids)
 
     def vertices_shown(self, stored) -> list:
         """The stored object's vertices measured on the current pair and, on a video, on the frame shown."""
@@ -921,15 +810,6 @@ class Workspace:
             except UsvipsError:
                 pass
         return left, right, k.closes
-
-
-def _figures_of(source: MeasurementInput, rules: QualityRules) -> Result:
-    """The object's figures through the one figure path (``project_figures.evaluate``); a reason when
-    there are none. Pure: any thread."""
-    try:
-        return result_of(evaluate(source, rules))
-    except UsvipsError as error:
-        return Result((), (), str(error))
 
 
 def describe_point(vertex: MeasuredVertex) -> str:

@@ -21,6 +21,7 @@ import contextlib
 import datetime
 import hashlib
 import io
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -194,8 +195,15 @@ def _summary_lines(calibration: StereoCalibration, data: ReportData, calibration
             lines.append(f"{label}: {value:.4g}{unit}" if isinstance(value, float) else f"{label}: {value}{unit}")
     test = stats.get("global_test")
     if isinstance(test, dict) and "chi2" in test:
+        passed = test.get("accepted_95")
         lines.append(f"global test      : chi2 = {test['chi2']:.2f} on {test.get('redundancy')} d.o.f., "
-                     f"95 % interval {test.get('interval_95')}, accepted: {test.get('accepted_95')}")
+                     f"95 % interval {test.get('interval_95')}: "
+                     + ("passed" if passed else "rejected" if passed is not None else "not decided"))
+        # what it means, in words (a rejected test is not a failed calibration: sigmas are rescaled)
+        for text in (test.get("verdict"), "rejected means the residuals are not the size the pointing sigma "
+                     "assumed; every sigma is scaled by sigma0 all the same" if passed is False else None):
+            for line in textwrap.wrap(text or "", 96):
+                lines.append(f"                   {line}")
     excluded = stats.get("excluded") or []
     lines.append(f"excluded obs.    : {len(excluded)}")
     for item in excluded[:20]:

@@ -88,24 +88,38 @@ def figure_columns() -> list[str]:
     return [c for name in columns for c in (name, _sigma_column(name))]
 
 
+#: where and what an object is: its observation record's species (Genus species), code and number, the
+#: pair (or video) it was measured on, the image files and frames (a video's chapter files and frame numbers
+#: within them) and, on a video, the time in minutes from the recording's start (EventMeasure's Time)
+RECORD_COLUMNS = ["species", "code", "number"]
+PLACE_COLUMNS = ["pair", "file_left", "frame_left", "file_right", "frame_right", "time_min"]
+
+
 def object_columns() -> list[str]:
-    return (["id", "kind", "attribute", "vertices"] + figure_columns()
-            + ["ray_rms_m", "range_m", "covariance", "quality", "instants", "notes"])
+    return (["id", "kind"] + RECORD_COLUMNS + ["attribute", "vertices"] + figure_columns()
+            + ["ray_rms_m", "range_m", "covariance", "quality", "instants", "notes"] + PLACE_COLUMNS)
 
 
 def _covariance_word(obj: Measurement) -> str:
     return "joint" if obj.joint else "per-vertex"
 
 
-def objects_csv(objects: list[Measurement]) -> str:
-    """One row per object: its figures with sigmas (metres, m², radians), ray RMS and range (m) when
-    known, whether the sigmas come from the joint covariance, and the quality rules it breaks."""
+def objects_csv(objects: list[Measurement], records: dict | None = None, places: dict | None = None) -> str:
+    """One row per object: its species, code and number (``records``: object id → observation record),
+    its figures with sigmas (metres, m², radians), ray RMS and range (m) when known, whether the sigmas
+    come from the joint covariance, the quality rules it breaks, and where it was measured (``places``:
+    object id → (pair, file left, frame left, file right, frame right, time in minutes); see
+    :data:`PLACE_COLUMNS`)."""
     columns = object_columns()
     rows = []
     for obj in objects:
         row = {"id": obj.id, "kind": obj.kind, "attribute": obj.attribute, "vertices": len(obj.points),
                "notes": obj.notes, "covariance": _covariance_word(obj), "quality": "; ".join(obj.failures),
                "instants": obj.instant_count}
+        record = (records or {}).get(obj.id)
+        if record is not None:
+            row.update({"species": record.name, "code": record.code, "number": record.number})
+        row.update(zip(PLACE_COLUMNS, (places or {}).get(obj.id, ()), strict=False))
         row.update({"ray_rms_m": obj.ray_rms_m, "range_m": obj.range_m})
         for figure in obj.figures:
             row[figure.name] = figure.value
@@ -347,11 +361,12 @@ def eventmeasure_paths(path: str | Path) -> dict[str, Path]:
 
 
 def export(objects: list[Measurement], path: str | Path, kind: str | None = None,
-           georeference: Georeference | None = None, **eventmeasure) -> list[Path]:
+           georeference: Georeference | None = None, places: dict | None = None, **eventmeasure) -> list[Path]:
     """Write objects as ``csv`` (objects), ``vertices.csv``, ``geojson`` (needs ``georeference``),
     ``ply`` (ASCII) or ``binary.ply`` (a name ending ``.binary.ply``), by suffix or ``kind``; a path
     ending ``.em.txt`` writes the EventMeasure-style set (:func:`eventmeasure_paths`) beside it, all files
-    or none (``eventmeasure``: the keywords of :func:`eventmeasure_tables`). Returns the files written."""
+    or none (``eventmeasure``: the keywords of :func:`eventmeasure_tables`; its ``records`` also fill the
+    objects CSV's species columns, ``places`` its place columns). Returns the files written."""
     path = Path(path)
     if path.name.endswith(".em.txt") or kind == "eventmeasure":
         tables = eventmeasure_tables(objects, **eventmeasure)
@@ -361,7 +376,8 @@ def export(objects: list[Measurement], path: str | Path, kind: str | None = None
     if kind is None:
         kind = next((k for k, suffix in (("vertices", ".vertices.csv"), ("binary.ply", ".binary.ply"))
                      if path.name.endswith(suffix)), path.suffix.lstrip("."))
-    writers = {"csv": objects_csv, "vertices": vertices_csv, "ply": ply,
+    writers = {"csv": lambda o: objects_csv(o, eventmeasure.get("records"), places),
+               "vertices": vertices_csv, "ply": ply,
                "geojson": lambda o: geojson(o, georeference), "json": lambda o: geojson(o, georeference)}
     if kind == "binary.ply":
         write_bytes_atomic(path, ply_binary(objects))

@@ -33,7 +33,7 @@ from typing import Protocol, runtime_checkable
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
-from usvips.store.records import StoredObject, Vertex
+from usvips.store.records import RemovedObject, StoredObject, Vertex
 
 
 @runtime_checkable
@@ -206,6 +206,19 @@ class ProjectStore(Protocol):
         """Remove an object and its vertices (``expected_modified`` as for :meth:`update_object`)."""
         ...
 
+    def take_object(self, object_id: int) -> RemovedObject:
+        """Remove an object and return all that went with it (vertices, video frames, history, record)."""
+        ...
+
+    def object_rows(self, object_id: int) -> RemovedObject:
+        """All that is stored of an object (as :meth:`take_object` would return it), changing nothing."""
+        ...
+
+    def put_back(self, removed: RemovedObject, replace: bool = False) -> None:
+        """Restore exactly what :meth:`take_object` removed or :meth:`object_rows` read (the same id);
+        a used id is refused, or with ``replace`` its object replaced."""
+        ...
+
     def object(self, object_id: int) -> StoredObject:
         """One object with its vertices in order; an unknown id is a ``ProjectError``."""
         ...
@@ -221,6 +234,10 @@ class ProjectStore(Protocol):
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
         """Store (None: remove) an object's observation record."""
+        ...
+
+    def records(self) -> dict[int, ObservationRecord]:
+        """Every object's observation record, by object id (objects without one are absent)."""
         ...
 
     def record(self, object_id: int) -> ObservationRecord | None:

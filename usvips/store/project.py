@@ -40,7 +40,7 @@ from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store import checks
-from usvips.store.records import ProjectError, StaleEditError, StoredObject, Vertex  # noqa: F401 - re-exported
+from usvips.store.records import ProjectError, RemovedObject, StaleEditError, StoredObject, Vertex  # noqa: F401 - re-exported
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
 FORMAT = "usvips-project"
@@ -125,6 +125,13 @@ def database_problem(error: sqlite3.Error) -> str:
     if "disk i/o" in lowered:
         return f"the disk failed to read or write ({message})"
     return message
+
+
+#: the tables holding an object's rows, parents first (``put_back`` inserts in this order): an object is
+#: found by the key column; its instant links both ways (an instant of another, or the first of its own)
+_OBJECT_TABLES = (("objects", "id"), ("vertices", "object_id"), ("vertex_frames", "object_id"),
+                  ("vertex_history", "object_id"), ("observation_records", "object_id"),
+                  ("object_instants", "object_id"), ("object_instants", "of_object"))
 
 
 def _remove_database(path: Path) -> None:
@@ -568,6 +575,50 @@ class Project:
         with self.transaction():
             refuse_stale(self.path, self.object(object_id), expected_modified)
             self._edit("DELETE FROM objects WHERE id = ?", (object_id,))
+
+    def object_rows(self, object_id: int) -> RemovedObject:
+        """Everything stored of one object, row for row (read only), for :meth:`put_back` to restore: an
+        undo of an edit puts back exactly what was there (no history row is added by the undo)."""
+        with self._reading():
+            self.object(object_id)
+            rows = []
+            for table, key in _OBJECT_TABLES:
+                if self._has_table(table):
+                    cursor = self._db.execute(f"SELECT * FROM {table} WHERE {key} = ?", (object_id,))
+                    rows.append((table, tuple(c[0] for c in cursor.description), tuple(cursor.fetchall())))
+        return RemovedObject(object_id, tuple(rows))
+
+    def _remove_rows(self, object_id: int) -> None:
+        self._db.execute("DELETE FROM objects WHERE id = ?", (object_id,))
+        for table, key in _OBJECT_TABLES[1:]:  # also where foreign keys are not enforced
+            if self._has_table(table):
+                self._db.execute(f"DELETE FROM {table} WHERE {key} = ?", (object_id,))
+
+    def take_object(self, object_id: int) -> RemovedObject:
+        """Delete an object (one transaction) and return everything that went with it, for
+        :meth:`put_back` (undo of a delete gives back the same id, record and history)."""
+        with self.transaction():
+            removed = self.object_rows(object_id)
+            self._remove_rows(object_id)
+        return removed
+
+    def put_back(self, removed: RemovedObject, replace: bool = False) -> None:
+        """Restore an object as :meth:`take_object` or :meth:`object_rows` found it, row for row (same id).
+        With ``replace`` whatever is stored under that id now is replaced; without, a used id is refused."""
+        with self.transaction():
+            if self._db.execute("SELECT 1 FROM objects WHERE id = ?", (removed.object_id,)).fetchone():
+                if not replace:
+                    raise ProjectError(f"{self.path}: object {removed.object_id} exists again; it cannot be put "
+                                       "back")
+                self._remove_rows(removed.object_id)
+            try:
+                for table, columns, values in removed.rows:
+                    if values:
+                        self._db.executemany(f"INSERT INTO {table} ({', '.join(columns)}) VALUES "
+                                             f"({', '.join('?' * len(columns))})", values)
+            except sqlite3.Error as error:
+                raise ProjectError(f"{self.path}: object {removed.object_id} cannot be put back: "
+                                   f"{database_problem(error)} (nothing was changed)") from None
 
     def object(self, object_id: int) -> StoredObject:
         found = self._objects("WHERE id = ?", (object_id,))
@@ -1044,6 +1095,14 @@ class Project:
                    "stage, activity, comment) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
                    (object_id, record.family, record.genus, record.species, record.code, record.number,
                     record.stage, record.activity, record.comment))
+
+    def records(self) -> dict[int, ObservationRecord]:
+        """Every object's observation record by object id, by one query (none before schema 5)."""
+        if not self._has_table("observation_records"):
+            return {}
+        rows = self._query("SELECT object_id, family, genus, species, code, number, stage, activity, comment FROM "
+                           "observation_records ORDER BY object_id")
+        return {int(row[0]): ObservationRecord(*row[1:]) for row in rows}
 
     def record(self, object_id: int) -> ObservationRecord | None:
         """An object's observation record, None when none was entered (or before schema 5)."""

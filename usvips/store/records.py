@@ -58,3 +58,13 @@ class StoredObject:
     created: str
     modified: str
     vertices: tuple[Vertex, ...]
+
+
+@dataclass(frozen=True)
+class RemovedObject:
+    """Everything :meth:`Project.take_object` removed of one object, row for row (its id, kind, texts and
+    times, vertices, video frames, the history of replaced 3-D values, the observation record, its instant
+    links), for :meth:`Project.put_back` to restore exactly. Opaque to callers: only the store reads ``rows``."""
+
+    object_id: int
+    rows: tuple[tuple[str, tuple[str, ...], tuple[tuple, ...]], ...]

@@ -1,0 +1,45 @@
+"""``usvips --help`` imports no subcommand's module (their numpy, OpenCV and SciPy cost over 0.5 s of CPU):
+the overview lists them by their summaries, which must stay the modules' own help lines; a subcommand
+still gets its full parser. (Its CPU time is a row of ``usvips bench --only startup``, not a timed test.)"""
+
+import subprocess
+import sys
+
+import pytest
+
+from usvips.cli import COMMANDS, EXTENDS, SUMMARIES, build_parser, main
+
+
+def _helps(parser) -> dict[str, str]:
+    action = next(a for a in parser._actions if a.dest == "command")
+    return {choice.dest: choice.help for choice in action._choices_actions}
+
+
+def test_the_overview_summaries_are_the_subcommands_own_help():
+    assert set(SUMMARIES) == set(COMMANDS) - set(EXTENDS)
+    assert _helps(build_parser("*")) == SUMMARIES
+    assert _helps(build_parser(None)) == SUMMARIES
+
+
+def test_the_overview_imports_no_subcommand_and_no_numpy():
+    code = ("import sys\nfrom usvips.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.startswith('usvips.cli.') or m.split('.')[0] in "
+            "{'numpy', 'cv2', 'scipy', 'PySide6'}), file=sys.stderr)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert result.stderr.strip().splitlines()[-1] == "[]"
+    for name in SUMMARIES:
+        assert name in result.stdout
+
+
+@pytest.mark.parametrize("command", ["project", "video", "intersect"])
+def test_a_subcommand_gets_its_full_parser_and_only_its_module(command, capsys):
+    assert main([command, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usvips: error") is False and f"usvips {command}" in out
+    parser = build_parser(command)
+    assert _helps(parser)[command] == SUMMARIES[command]
+
+
+def test_a_module_that_extends_a_command_comes_with_it(capsys):
+    assert main(["video", "calibration-views", "--help"]) == 0
+    assert "--max-views" in capsys.readouterr().out

@@ -1,0 +1,46 @@
+"""What a newcomer meets first: the empty window says how to begin (New project first); no two entries
+of a menu share a mnemonic; the hint line wraps a long error instead of cutting it; file dialogs start in
+the open project's folder."""
+
+import re
+from pathlib import Path
+
+from PySide6 import QtWidgets
+
+
+def _mnemonic(text: str) -> str | None:
+    found = re.search(r"&([^&])", text.replace("&&", ""))
+    return found.group(1).lower() if found else None
+
+
+def test_the_empty_window_says_how_to_begin(make_window):
+    window = make_window()
+    text = window.statusBar().currentMessage()
+    assert text.index("New project") < text.index("Open sample")
+
+
+def test_no_two_entries_of_a_menu_share_a_mnemonic(make_window):
+    window = make_window()
+    menus = [a.menu() for a in window.menuBar().actions() if a.menu() is not None]
+    menus += [a.menu() for m in list(menus) for a in m.actions() if a.menu() is not None]
+    assert len(menus) > 5
+    for menu in menus:
+        letters = [_mnemonic(a.text()) for a in menu.actions() if not a.isSeparator()]
+        letters = [x for x in letters if x is not None]
+        assert len(letters) == len(set(letters)), (menu.title(), sorted(letters))
+    bar = [_mnemonic(a.text()) for a in window.menuBar().actions()]
+    assert len(bar) == len(set(bar))
+
+
+def test_a_long_error_wraps_on_the_hint_line_and_dialogs_start_in_the_project(make_window, sample_copy, qtbot):
+    window = make_window()
+    window.resize(1366, 768)
+    long = "the calibration was not made active: " + "pair 'x' is 600 × 440 px but ... " * 12
+    window.show_message("error", long)
+    assert window.hint.text() == long and window.hint.wordWrap()
+    assert window.start_folder() == str(Path.home())
+    directory = sample_copy("tank_system1")
+    assert window.open_path(directory)
+    qtbot.waitUntil(lambda: window.workspace.pair is not None and not window.busy, timeout=10000)
+    assert Path(window.start_folder("x.csv")) == directory / "x.csv"
+    assert isinstance(window.hint, QtWidgets.QLabel)

@@ -1,0 +1,18 @@
+"""The log: every message of the session, with its level."""
+
+from __future__ import annotations
+
+from PySide6 import QtCore, QtWidgets
+
+
+class LogPanel(QtWidgets.QPlainTextEdit):
+    """Every message of the session, newest last."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setReadOnly(True)
+        self.setMaximumBlockCount(2000)
+
+    def add(self, level: str, text: str) -> None:
+        stamp = QtCore.QTime.currentTime().toString("HH:mm:ss")
+        self.appendPlainText(f"{stamp} {level:7s} {text}")

@@ -1,0 +1,198 @@
+"""The open project's stored objects and their figures, kept in memory, free of Qt.
+
+One :class:`ObjectCache` per open project (a new project gets a new cache: nothing of the previous one
+can survive). It reads every object by ONE query when made, then is kept up to date by id as edits are
+written (:meth:`ObjectCache.changed_in_store`); each object's figures are computed once per change of the
+object or of the quality rules, here or in a worker (:meth:`ObjectCache.figures_job`), and a worker's
+results for an object changed since are dropped.
+
+Its events live in :class:`ObjectEvents`, owned by the workspace and handed to each new cache, so a view
+connects once and hears every project's objects.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
+from usvips.core.errors import UsvipsError
+from usvips.core.measurements import QualityRules
+from usvips.core.observation_record import ObservationRecord
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.gui.calculator import Geometry, Result, pair_figures, result_of
+from usvips.gui.signals import Signal
+from usvips.store.interface import ProjectStore
+
+
+@dataclass
+class ObjectEvents:
+    """``added(ids)``, ``updated(ids)``, ``removed(ids)`` (tuples of object ids, after the cache holds the
+    change), ``reset()`` (every object is new: another project, or all read again) and ``changed()`` after
+    any of these, for views that only recount."""
+
+    added: Signal = field(default_factory=Signal)
+    updated: Signal = field(default_factory=Signal)
+    removed: Signal = field(default_factory=Signal)
+    reset: Signal = field(default_factory=Signal)
+    changed: Signal = field(default_factory=Signal)
+
+
+def _figures_of(source: MeasurementInput, rules: QualityRules) -> Result:
+    """The object's figures through the one figure path (``project_figures.evaluate``); a reason when
+    there are none. Pure: any thread."""
+    try:
+        return result_of(evaluate(source, rules))
+    except UsvipsError as error:
+        return Result((), (), str(error))
+
+
+class ObjectCache:
+    """The stored objects of ``project`` (None: no project, no objects) by id, and their figures under
+    the rules ``rules()`` gives (the workspace's current quality rules)."""
+
+    def __init__(self, project: ProjectStore | None, events: ObjectEvents,
+                 rules: Callable[[], QualityRules]) -> None:
+        self.project = project
+        self.events = events
+        self._rules = rules
+        self._objects: dict[int, object] = {} if project is None else {o.id: o for o in project.objects()}
+        #: each object's observation record (the species is there, and only there)
+        self._records: dict[int, ObservationRecord] = {} if project is None else project.records()
+        self._figures: dict[int, tuple[QualityRules, Result]] = {}  # id -> the rules and its figures under them
+        self._versions: dict[int, int] = {}  # id -> how often it changed (stale worker results are dropped)
+        #: calibrations read for figures and picks, by id (read once per project)
+        self.calibrations: dict[int, StereoCalibration | None] = {}
+
+    # ------------------------------------------------------------------ the objects
+    def objects(self) -> list:
+        """The stored objects in id order (no query)."""
+        return list(self._objects.values())
+
+    def ids(self) -> list[int]:
+        return list(self._objects)
+
+    def __contains__(self, object_id: object) -> bool:
+        return object_id in self._objects
+
+    def get(self, object_id: int):
+        """One stored object (raises by name when there is none)."""
+        try:
+            return self._objects[object_id]
+        except KeyError:
+            raise UsvipsError(f"there is no object {object_id} in the project") from None
+
+    def record(self, object_id: int) -> ObservationRecord | None:
+        """An object's observation record (None: none entered), from the cache."""
+        return self._records.get(object_id)
+
+    def changed_in_store(self, added: tuple[int, ...] = (), updated: tuple[int, ...] = (),
+                         removed: tuple[int, ...] = ()) -> tuple[int, ...]:
+        """Bring the cache up to date with what was just written (re-reading only those ids, by one query)
+        and announce it by id; returns the ids now gone."""
+        fresh = {o.id: o for o in self.project.objects_with_ids(added + updated)} if added + updated else {}
+        gone = tuple(i for i in removed + updated if i not in fresh and i in self._objects)
+        for object_id in gone:
+            del self._objects[object_id]
+            self._records.pop(object_id, None)
+        for object_id in fresh:
+            record = self.project.record(object_id)
+            if record is None:
+                self._records.pop(object_id, None)
+            else:
+                self._records[object_id] = record
+        for object_id in (*added, *updated, *removed):
+            self._figures.pop(object_id, None)
+            self._versions[object_id] = self._versions.get(object_id, 0) + 1
+        new = tuple(i for i in added if i in fresh)
+        changed = tuple(i for i in updated if i in fresh)
+        highest = max(self._objects, default=0)
+        for object_id in new:
+            self._objects[object_id] = fresh[object_id]
+        if any(i <= highest for i in new):  # keep id order (an undone delete comes back below the highest)
+            self._objects = dict(sorted(self._objects.items()))
+        for object_id in changed:
+            self._objects[object_id] = fresh[object_id]
+        if gone:
+            self.events.removed.emit(gone)
+        if new:
+            self.events.added.emit(new)
+        if changed:
+            self.events.updated.emit(changed)
+        self.events.changed.emit()
+        return gone
+
+    def reload(self) -> None:
+        """Read every stored object again (by one query), e.g. after another program changed the project."""
+        self._objects = {} if self.project is None else {o.id: o for o in self.project.objects()}
+        self._records = {} if self.project is None else self.project.records()
+        self._figures, self._versions = {}, {}
+        self.events.reset.emit()
+        self.events.changed.emit()
+
+    # ------------------------------------------------------------------ figures
+    def forget_figures(self) -> None:
+        """Drop every computed figure (they are computed again when asked for)."""
+        self._figures = {}
+
+    def known_figures(self, object_id: int) -> Result | None:
+        """An object's figures when known under the current rules (None: not yet computed)."""
+        known = self._figures.get(object_id)
+        return known[1] if known is not None and known[0] == self._rules() else None
+
+    def input(self, stored) -> MeasurementInput:
+        """What the figures of a stored object need, read from the project now (GUI thread)."""
+        return measurement_input(self.project, stored, self.calibrations)
+
+    def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
+        """The figures of many objects as a function of copied inputs (run it off the GUI thread); give its
+        result to :meth:`remember`."""
+        inputs = [(i, self.input(self.get(i))) for i in object_ids]
+        rules = self._rules()
+
+        def run(progress=None, cancelled=None) -> dict[int, Result]:
+            out = {}
+            for n, (object_id, source) in enumerate(inputs):
+                if cancelled is not None and cancelled():
+                    break
+                out[object_id] = _figures_of(source, rules)
+                if progress is not None:
+                    progress((n + 1) / len(inputs))
+            return out
+
+        run.versions = {i: self._versions.get(i, 0) for i in object_ids}  # what the results are of
+        run.rules = rules
+        return run
+
+    def remember(self, job: Callable[..., dict[int, Result]], results: dict[int, Result]) -> list[int]:
+        """Keep what :meth:`figures_job`'s ``job`` computed, except for objects changed (or rules changed)
+        since it was made; returns the ids kept."""
+        if job.rules != self._rules():
+            return []
+        kept = [i for i in results if i in self._objects and self._versions.get(i, 0) == job.versions.get(i)]
+        for object_id in kept:
+            self._figures[object_id] = (job.rules, results[object_id])
+        return kept
+
+    def figures(self, object_ids: list[int]) -> Result:
+        """The geo-calculator on one object (its figures, computed once per change and kept) or two (the
+        figures between them, with their common covariance)."""
+        if self.project is None or not object_ids:
+            return Result((), (), "select one or two objects")
+        rules = self._rules()
+        if len(object_ids) == 1:
+            object_id = object_ids[0]
+            known = self.known_figures(object_id)
+            if known is None:
+                known = _figures_of(self.input(self.get(object_id)), rules)
+                self._figures[object_id] = (rules, known)
+            return known
+        if len(object_ids) != 2:
+            return Result((), (), "select one object (its own figures) or two (figures between them)")
+        first, second = (self.get(i) for i in object_ids)
+        both = replace(first, vertices=first.vertices + second.vertices)
+        points, covariance, _ = joint_vertices(self.input(both))
+        n = 3 * len(first.vertices)
+        a = Geometry(first.kind, points[: n // 3], covariance[:n, :n])
+        b = Geometry(second.kind, points[n // 3:], covariance[n:, n:])
+        return pair_figures(a, b, covariance)

@@ -1,0 +1,295 @@
+"""The object list: the measured objects; select (drives the geo-calculator and the highlight), edit
+attribute and notes in place, delete, zoom to, go to the frame measured on."""
+
+from __future__ import annotations
+
+import bisect
+
+from PySide6 import QtCore, QtGui, QtWidgets
+
+from usvips.core.errors import UsvipsError
+from usvips.gui.calculator import format_figure
+from usvips.gui.video_model import video_frame_text
+from usvips.gui.wording import species_text
+from usvips.gui.worker import Worker, start
+from usvips.gui.workspace import Workspace
+
+
+class ObjectList(QtWidgets.QWidget):
+    """The measured objects: select (drives the geo-calculator and the highlight), edit attribute and
+    notes in place, delete, zoom to."""
+
+    zoom_requested = QtCore.Signal(int)
+    selection_changed = QtCore.Signal(list)
+    #: an object's row double-clicked (its id): the video goes to the frame it was measured on
+    object_activated = QtCore.Signal(int)
+
+    #: species: the observation record's (the one place a species is kept), × the number when more than one;
+    #: pair: the image pair or video measured on; frame: a video's left | right frame and time
+    COLUMNS = ("id", "type", "species", "attribute", "vertices", "figure", "quality", "notes", "pair", "frame")
+
+    def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.workspace = workspace
+        self.table = QtWidgets.QTableWidget(0, len(self.COLUMNS))
+        self.table.setHorizontalHeaderLabels([c.capitalize() for c in self.COLUMNS])
+        self.table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectionBehavior.SelectRows)
+        self.table.verticalHeader().hide()
+        self.table.horizontalHeader().setStretchLastSection(True)
+        self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.DoubleClicked
+                                   | QtWidgets.QAbstractItemView.EditTrigger.EditKeyPressed)
+        delete = QtWidgets.QPushButton("Delete")
+        zoom = QtWidgets.QPushButton("Zoom to")
+        buttons = QtWidgets.QHBoxLayout()
+        buttons.addWidget(zoom)
+        buttons.addWidget(delete)
+        # editing a stored object's vertices (undoable): re-pick one, or delete it
+        self.vertex = QtWidgets.QSpinBox()
+        self.vertex.setRange(1, 1)
+        self.vertex.setPrefix("vertex ")
+        self.vertex.setToolTip("the vertex of the selected object to re-pick or delete (1 = the first measured)")
+        repick = QtWidgets.QPushButton("Re-pick")
+        repick.setToolTip("measure the chosen vertex again: click it in either image, then its partner")
+        delete_vertex = QtWidgets.QPushButton("Delete vertex")
+        self.repick_button, self.delete_vertex_button = repick, delete_vertex
+        # changing the kind where the vertices allow it (an arc measured round a patch becomes a polygon)
+        self.kind = QtWidgets.QComboBox()
+        self.kind.setToolTip("the kinds the selected object's vertices can make")
+        set_kind = QtWidgets.QPushButton("Set kind")
+        set_kind.setToolTip("make the selected object the chosen kind, keeping its vertices (undoable)")
+        self.set_kind_button = set_kind
+        set_kind.clicked.connect(self._on_set_kind)
+        buttons.addSpacing(12)
+        for widget in (self.vertex, repick, delete_vertex, self.kind, set_kind):
+            buttons.addWidget(widget)
+        buttons.addStretch(1)
+        repick.clicked.connect(lambda: self._edit_vertex(self.workspace.start_repick))
+        delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.delete_vertex))
+        self.table.itemSelectionChanged.connect(self._on_vertex_range)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(2, 2, 2, 2)
+        layout.addWidget(self.table)
+        layout.addLayout(buttons)
+        delete.clicked.connect(self._on_delete)
+        zoom.clicked.connect(self._on_zoom)
+        delete.setToolTip("delete the selected objects (Delete in the list; Ctrl+Z undoes it)")
+        # the Delete key in the list (not while a cell is being edited: the editor has the key then)
+        self.delete_shortcut = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_Delete), self.table)
+        self.delete_shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+        self.delete_shortcut.activated.connect(self._on_delete)
+        self.table.itemSelectionChanged.connect(self._on_table_selection)
+        self.table.itemChanged.connect(self._on_item_changed)
+        self.table.cellDoubleClicked.connect(
+            lambda row, _: self.object_activated.emit(self._ids[row]) if row < len(self._ids) else None)
+        self._filling = False
+        self._ids: list[int] = []  # the object id of each row, ascending (rows are in id order)
+        self._worker: Worker | None = None
+        self._pending: list[int] = []  # the ids the running figures worker computes
+        self._events = ((workspace.objects_reset, self.refresh), (workspace.objects_added, self._on_added),
+                        (workspace.objects_updated, self._on_updated), (workspace.objects_removed, self._on_removed),
+                        (workspace.rules_changed, self._on_rules_changed),
+                        (workspace.selection_changed, self._on_model_selection))
+        for signal, slot in self._events:
+            signal.connect(slot)
+        self.refresh()
+
+    def cleanup(self) -> None:
+        for signal, slot in self._events:
+            signal.disconnect(slot)
+
+    def selected_ids(self) -> list[int]:
+        rows = sorted({index.row() for index in self.table.selectedIndexes()})
+        return [self._ids[r] for r in rows if r < len(self._ids)]
+
+    #: Objects whose figures are computed at once when they change; more go to a worker thread.
+    SYNCHRONOUS = 2
+    #: Up to this many rows the columns are fitted to their contents on every change.
+    FIT_ROWS = 200
+
+    def row_of(self, object_id: int) -> int | None:
+        """The table row showing ``object_id`` (None when it has none)."""
+        row = bisect.bisect_left(self._ids, object_id)
+        return row if row < len(self._ids) and self._ids[row] == object_id else None
+
+    # ------------------------------------------------------------------ the model's events
+    def refresh(self, *_: object) -> None:
+        """Every row again (another project, new rules): the objects come from the model's cache, the
+        figures that are not known yet are computed (in a worker when many)."""
+        objects = self.workspace.objects()
+        self._filling = True
+        self.table.setUpdatesEnabled(False)
+        try:
+            self.table.clearContents()
+            self.table.setRowCount(len(objects))
+            self._ids = [o.id for o in objects]
+            for row, stored in enumerate(objects):
+                self._set_row(row, stored)
+        finally:
+            self.table.setUpdatesEnabled(True)
+            self._filling = False
+        self._compute([o.id for o in objects])
+        self._fit()
+        self._on_model_selection(self.workspace.selection)
+
+    def _on_added(self, ids: tuple[int, ...]) -> None:
+        self._filling = True
+        try:
+            for object_id in ids:
+                row = bisect.bisect_left(self._ids, object_id)
+                self._ids.insert(row, object_id)
+                self.table.insertRow(row)
+                self._set_row(row, self.workspace.stored_object(object_id))
+        finally:
+            self._filling = False
+        self._compute(list(ids))
+        self._fit()
+
+    def _on_updated(self, ids: tuple[int, ...]) -> None:
+        self._filling = True
+        try:
+            for object_id in ids:
+                row = self.row_of(object_id)
+                if row is not None:
+                    self._set_row(row, self.workspace.stored_object(object_id))
+        finally:
+            self._filling = False
+        self._compute(list(ids))
+        self._on_vertex_range()
+
+    def _on_removed(self, ids: tuple[int, ...]) -> None:
+        for object_id in ids:
+            row = self.row_of(object_id)
+            if row is not None:
+                self.table.removeRow(row)
+                del self._ids[row]
+
+    def _on_rules_changed(self, _rules) -> None:
+        self._compute(list(self._ids))
+
+    def _on_model_selection(self, ids: tuple[int, ...]) -> None:
+        """Show the model's selection (when the list did not make it)."""
+        if set(ids) == set(self.selected_ids()):
+            return
+        self.table.blockSignals(True)
+        try:
+            self.table.clearSelection()
+            for object_id in ids:
+                row = self.row_of(object_id)
+                if row is not None:
+                    self.table.selectRow(row)
+        finally:
+            self.table.blockSignals(False)
+        self.table.viewport().update()
+        self._on_vertex_range()
+
+    def _on_table_selection(self) -> None:
+        ids = self.selected_ids()
+        self.workspace.select(ids)
+        self.selection_changed.emit(ids)
+
+    # ------------------------------------------------------------------ rows and figures
+    def _set_row(self, row: int, stored) -> None:
+        values = (str(stored.id), stored.kind, species_text(self.workspace.object_record(stored.id)), stored.attribute,
+                  str(len(stored.vertices)), "", "", stored.notes,
+                  ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair)), video_frame_text(stored))
+        for column, value in enumerate(values):
+            item = QtWidgets.QTableWidgetItem(value)
+            if self.COLUMNS[column] not in ("attribute", "notes"):
+                item.setFlags(item.flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable)
+            self.table.setItem(row, column, item)
+        self._show_figures(row, stored.id)
+
+    def _show_figures(self, row: int, object_id: int) -> None:
+        result = self.workspace.object_figures(object_id)
+        if result is None:
+            main, quality = "computing…", ""
+        else:
+            main = format_figure(result.figures[0]) if result.figures else result.reason
+            quality = "; ".join(result.failures) or "ok"
+        filling, self._filling = self._filling, True
+        try:
+            for column, value in (("figure", main), ("quality", quality)):
+                item = self.table.item(row, self.COLUMNS.index(column))
+                if item is not None and item.text() != value:
+                    item.setText(value)
+        finally:
+            self._filling = filling
+
+    def _compute(self, ids: list[int]) -> None:
+        """Figures of ``ids`` not yet known: at once for a few, else in a worker (the newest job wins)."""
+        missing = [i for i in ids if self.workspace.object_figures(i) is None]
+        if 0 < len(missing) <= self.SYNCHRONOUS:
+            for object_id in missing:
+                self.workspace.figures([object_id])
+                row = self.row_of(object_id)
+                if row is not None:
+                    self._show_figures(row, object_id)
+        elif missing:
+            if self._worker is not None:
+                self._worker.cancel()
+                missing = sorted(set(missing) | set(self._pending))
+            self._pending = missing
+            job = self.workspace.figures_job(missing)
+            worker = self._worker = Worker(job, "computing the objects' figures")
+            worker.signals.finished.connect(lambda results, j=job, w=worker: self._on_figures(j, w, results))
+            start(worker)
+
+    def _on_figures(self, job, worker: Worker, results: dict) -> None:
+        if worker is self._worker:
+            self._worker, self._pending = None, []
+        for object_id in self.workspace.remember_figures(job, results):
+            row = self.row_of(object_id)
+            if row is not None:
+                self._show_figures(row, object_id)
+        self._fit()
+
+    def _fit(self) -> None:
+        if len(self._ids) <= self.FIT_ROWS:
+            self.table.resizeColumnsToContents()
+
+    def _on_item_changed(self, item: QtWidgets.QTableWidgetItem) -> None:
+        if self._filling:
+            return
+        row = item.row()
+        object_id = int(self.table.item(row, 0).text())
+        attribute = self.table.item(row, self.COLUMNS.index("attribute")).text()
+        notes = self.table.item(row, self.COLUMNS.index("notes")).text()
+        self.workspace.edit_object(object_id, attribute, notes)
+
+    def _on_vertex_range(self) -> None:
+        ids = self.selected_ids()
+        count = len(self.workspace.stored_object(ids[0]).vertices) if len(ids) == 1 else 1
+        self.vertex.setRange(1, max(count, 1))
+        self.kind.clear()
+        if len(ids) == 1:
+            self.kind.addItems(self.workspace.kinds_for(ids[0]))
+
+    def _on_set_kind(self) -> None:
+        ids = self.selected_ids()
+        if len(ids) != 1 or not self.kind.currentText():
+            self.workspace.message.emit("warning", "select one object in the list to change its kind")
+            return
+        try:
+            self.workspace.change_kind(ids[0], self.kind.currentText())
+        except UsvipsError as error:
+            self.workspace.message.emit("error", str(error))
+
+    def _edit_vertex(self, action) -> None:
+        """Re-pick or delete the chosen vertex of the one selected object; errors go to the window."""
+        ids = self.selected_ids()
+        if len(ids) != 1:
+            self.workspace.message.emit("warning", "select one object in the list to edit its vertices")
+            return
+        try:
+            action(ids[0], self.vertex.value() - 1)
+        except UsvipsError as error:
+            self.workspace.message.emit("error", str(error))
+
+    def _on_delete(self) -> None:
+        for object_id in self.selected_ids():
+            self.workspace.delete_object(object_id)
+
+    def _on_zoom(self) -> None:
+        ids = self.selected_ids()
+        if ids:
+            self.zoom_requested.emit(ids[0])

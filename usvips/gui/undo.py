@@ -1,0 +1,64 @@
+"""Undo and redo, free of Qt: every pick and edit of the workstation is a :class:`Command` pushed on one
+:class:`UndoStack`. A command that changes the project restores exactly what it changed (the stored
+rows of an object, see :meth:`usvips.store.project.Project.object_rows`), never a look-alike."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from usvips.gui.signals import Signal
+
+
+@dataclass
+class Command:
+    """One undoable step: ``redo`` does it (again), ``undo`` takes it back."""
+
+    label: str
+    redo: Callable[[], None]
+    undo: Callable[[], None]
+
+
+class UndoStack:
+    """Undo and redo of every pick and edit; ``changed`` fires after each push, undo and redo."""
+
+    def __init__(self) -> None:
+        self._done: list[Command] = []
+        self._undone: list[Command] = []
+        self.changed = Signal()
+
+    def push(self, command: Command) -> None:
+        command.redo()
+        self._done.append(command)
+        self._undone.clear()
+        self.changed.emit()
+
+    def undo(self) -> str | None:
+        """Take back the last step; returns its label (None when there is nothing to undo)."""
+        return self._move(self._done, self._undone, "undo")
+
+    def redo(self) -> str | None:
+        """Do the last undone step again; returns its label (None when there is nothing to redo)."""
+        return self._move(self._undone, self._done, "redo")
+
+    def _move(self, source: list[Command], target: list[Command], action: str) -> str | None:
+        if not source:
+            return None
+        command = source.pop()
+        getattr(command, action)()
+        target.append(command)
+        self.changed.emit()
+        return command.label
+
+    def clear(self) -> None:
+        self._done.clear()
+        self._undone.clear()
+        self.changed.emit()
+
+    @property
+    def undo_label(self) -> str | None:
+        return self._done[-1].label if self._done else None
+
+    @property
+    def redo_label(self) -> str | None:
+        return self._undone[-1].label if self._undone else None
