@@ -5,75 +5,29 @@ one clear line (a pair without the board named and skipped, too few views, a wro
 
 from __future__ import annotations
 
-import dataclasses
 import threading
 
 import cv2
 import numpy as np
 import pytest
 
-from tests.core.board_scenes import random_rig
+from tests.app.board_images import SIZE, air_scene, board_poses, render_pairs
 from usvips.app import board_calibration as boards
 from usvips.app.video_project import add_video
-from usvips.core.calibration_targets import kind
-from usvips.core.camera import Exterior
 from usvips.core.errors import InvalidParameterError, UsvipsError
-from usvips.core.synth.boards import BoardPose, board_pixels, render_board
 from usvips.io.images import write_image
 from usvips.io.video_writer import encode_video
 from usvips.store import Project
 
-SIZE = (480, 360)
 VIEWS = 9
-MARGIN = 12.0
-
-
-def _poses(rig, board, rng, count: int, distances: tuple[float, float]) -> list[BoardPose]:
-    """Board poses seen whole by both cameras (a margin from the frame), tilted 15–40° in all directions."""
-    stereo = rig.at(Exterior(0.0, 0.0, 0.0))
-    poses = []
-    for _ in range(2000):
-        if len(poses) == count:
-            break
-        distance = rng.uniform(*distances)
-        disparity = stereo.left.interior.f * rig.relative.base[0] / distance
-        pixel = (SIZE[0] / 2 + disparity / 2 + rng.uniform(-60, 60), SIZE[1] / 2 + rng.uniform(-50, 50))
-        pose = BoardPose.facing(stereo.left, (0.12, 0.075), pixel, distance, tilt=np.radians(rng.uniform(15, 40)),
-                                tilt_direction=rng.uniform(0, 2 * np.pi), spin=rng.uniform(-0.3, 0.3))
-        inside = True
-        for camera in (stereo.left, stereo.right):
-            _, px, ok = board_pixels(camera, board, pose)
-            inside &= bool(ok.all() and (px.min(axis=0) > MARGIN).all()
-                           and (px < np.array(SIZE) - MARGIN).all())
-        if inside:
-            poses.append(pose)
-    assert len(poses) == count, "the scene cannot place the board in both images"
-    return poses
-
-
-def _render(folder, rig, board, poses, prefix: str) -> list[tuple]:
-    stereo = rig.at(Exterior(0.0, 0.0, 0.0))
-    pairs = []
-    for k, pose in enumerate(poses):
-        paths = []
-        for side, camera in (("L", stereo.left), ("R", stereo.right)):
-            path = folder / f"{prefix}{side}{k}.png"
-            write_image(path, render_board(camera, board, pose, supersample=2, seed=k))
-            paths.append(path)
-        pairs.append(tuple(paths))
-    return pairs
 
 
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory):
     folder = tmp_path_factory.mktemp("boards")
-    rng = np.random.default_rng(24)
-    board = kind("chessboard")(9, 6, 0.03)
-    rig = random_rig(rng, SIZE)
-    rig = dataclasses.replace(rig, relative=dataclasses.replace(rig.relative, bx=0.12, phi=-0.05))
-    air = _render(folder, rig, board, _poses(rig, board, rng, VIEWS, (0.6, 0.9)), "a")
+    board, rig, air, rng = air_scene(folder, VIEWS)
     water_rig = rig.in_water("flat-port", rng)
-    water = _render(folder, water_rig, board, _poses(water_rig, board, rng, VIEWS, (0.7, 1.0)), "w")
+    water = render_pairs(folder, water_rig, board, board_poses(water_rig, board, rng, VIEWS, (0.7, 1.0)), "w")
     blank = folder / "blank.png"
     write_image(blank, np.full((SIZE[1], SIZE[0]), 100, np.uint8))
     return {"board": board, "rig": rig, "air": air, "water": water, "blank": blank, "folder": folder}
