@@ -1,0 +1,179 @@
+"""The target path of the calibration wizards, driven by keys: a chessboard described on the first page,
+image pairs chosen, detection in a worker, the views listed with their coverage and detections, a view
+unticked with Space, the calibration computed and judged, Finish stores it; Stop really stops a
+detection; nothing is stored when the wizard is cancelled."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+from PySide6 import QtCore, QtWidgets
+
+from tests.app.board_images import air_scene
+from usvips.core.calibration_targets import CalibrationTarget, kind
+from usvips.gui.calibration_session import CalibrationSession
+from usvips.gui.calibration_wizard import CalibrationWizard
+from usvips.gui.target_pages import TargetWizard
+from usvips.gui.target_session import TargetSession
+from usvips.store import Project
+
+VIEWS = 5
+ALT = QtCore.Qt.KeyboardModifier.AltModifier
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("gui_boards")
+    board, rig, pairs, _ = air_scene(folder, VIEWS, seed=11)
+    return board, rig, pairs
+
+
+@pytest.fixture()
+def project(tmp_path):
+    with Project.create(tmp_path / "p.usvips") as p:
+        yield p
+
+
+def _wizard(qtbot, project, phase="air"):
+    wizard = TargetWizard(TargetSession(project, phase))
+    qtbot.addWidget(wizard)
+    wizard.show()
+    qtbot.waitExposed(wizard)
+    wizard.activateWindow()
+    qtbot.waitUntil(wizard.isActiveWindow, timeout=5_000)
+    return wizard
+
+
+def _key(qtbot, wizard, key, modifier=QtCore.Qt.KeyboardModifier.NoModifier):
+    """A key to the focused widget; a button's mnemonic clicks it after a short animation: let it run."""
+    widget = QtWidgets.QApplication.focusWidget() or wizard
+    qtbot.keyClick(widget, key, modifier)
+    qtbot.wait(300)
+
+
+def _choose(wizard, pairs):
+    page = wizard.source_page
+    page.set_images("left", [str(left) for left, _ in pairs][::-1])  # name order pairs them, not the order chosen
+    page.set_images("right", [str(right) for _, right in pairs])
+
+
+def test_calibrate_from_board_images_by_keys(qtbot, project, scene):
+    board, rig, pairs = scene
+    wizard = _wizard(qtbot, project)
+    page = wizard.source_page
+    # describe the board: the square size typed, then Alt+U uses it
+    page.square.setFocus()
+    page.square.selectAll()
+    qtbot.keyClicks(page.square, "30")
+    _key(qtbot, wizard, QtCore.Qt.Key.Key_U, ALT)
+    assert wizard.session.target is not None and "chessboard: 54 points" in page.target_label.text()
+    _choose(wizard, pairs)
+    page.holdout.setValue(0)
+    _key(qtbot, wizard, QtCore.Qt.Key.Key_N, ALT)  # Next: detection starts in a worker
+    views = wizard.views_page
+    assert wizard.currentPage() is views
+    qtbot.waitUntil(lambda: not views.busy and wizard.session.views is not None, timeout=120_000)
+    assert views.list.count() == VIEWS
+    assert [p[0] for p in wizard.session.pairs] == sorted(p[0] for p in wizard.session.pairs)
+    assert "5 of 5 pairs" in views.set_aside.text() and "% of the image covered" in views.advice.text()
+    # the first view's detections are drawn on its images
+    qtbot.waitUntil(lambda: views.panes["left"].display is not None, timeout=30_000)
+    assert len(views.panes["left"].control_labels) == 54
+    # untick the second view with Space
+    views.list.setFocus()
+    views.list.setCurrentRow(1)
+    dropped = views.list.currentItem().data(QtCore.Qt.ItemDataRole.UserRole)
+    qtbot.keyClick(views.list, QtCore.Qt.Key.Key_Space)
+    assert wizard.session.dropped() == [dropped]
+    assert wizard.session.coverage().views == VIEWS - 1
+    _key(qtbot, wizard, QtCore.Qt.Key.Key_N, ALT)  # Next: the calibration in a worker
+    compute = wizard.compute_page
+    qtbot.waitUntil(lambda: not compute.busy, timeout=300_000)
+    result = wizard.session.result
+    assert result is not None and dropped in result.dropped and dropped not in result.kept
+    assert "air calibration" in compute.text.toPlainText() and compute.verdict.text()
+    assert abs(result.calibration.left.interior.f / rig.left.f - 1) < 0.02
+    _key(qtbot, wizard, QtCore.Qt.Key.Key_N, ALT)
+    assert wizard.currentPage() is wizard.save_page
+    before = len(project.calibrations())
+    with qtbot.waitSignal(wizard.saved, timeout=10_000):
+        _key(qtbot, wizard, QtCore.Qt.Key.Key_F, ALT)  # Finish
+    assert len(project.calibrations()) == before + 1
+
+
+class _Gated(CalibrationTarget):
+    """A board whose detector waits at a gate after its first image (to stop a detection mid-way); no
+    ``kind``: it does not join the registry."""
+
+    def __init__(self) -> None:
+        self.board = kind("chessboard")(9, 6, 0.03)
+        self.gate = threading.Event()
+        self.calls = 0
+
+    def control_points(self):
+        return self.board.control_points()
+
+    def detect(self, image):
+        self.calls += 1
+        if self.calls > 1:
+            self.gate.wait(30)
+        return self.board.detect(image)
+
+
+def test_stop_stops_the_detection_and_cancel_stores_nothing(qtbot, project, scene):
+    _, _, pairs = scene
+    wizard = _wizard(qtbot, project)
+    gated = _Gated()
+    wizard.session.target = gated
+    wizard.session.target_source = "gated"
+    _choose(wizard, pairs)
+    wizard.next()
+    views = wizard.views_page
+    assert views.busy
+    qtbot.waitUntil(lambda: gated.calls >= 2, timeout=30_000)
+    _key(qtbot, wizard, QtCore.Qt.Key.Key_S, ALT)  # Stop
+    gated.gate.set()
+    qtbot.waitUntil(lambda: not views.busy, timeout=30_000)
+    assert gated.calls == 2 and wizard.session.views is None
+    assert "stopped" in views.set_aside.text() and not views.isComplete()
+    wizard.reject()
+    assert project.calibrations() == []
+
+
+def test_bad_choices_are_one_line_on_the_page(qtbot, project, scene):
+    _, _, pairs = scene
+    wizard = _wizard(qtbot, project)
+    page = wizard.source_page
+    wizard.next()
+    assert wizard.currentPage() is page and "target" in page.message.text()
+    page.use_chessboard()
+    page.set_images("left", [str(pairs[0][0])])
+    wizard.next()
+    assert wizard.currentPage() is page and "1 left and 0 right images" in page.message.text()
+    page.cols.setValue(8)
+    page.rows.setValue(8)
+    page.use_chessboard()
+    assert "upright" in page.message.text()
+
+
+def test_phase_two_needs_a_base(qtbot, project, scene):
+    _, _, pairs = scene
+    wizard = _wizard(qtbot, project, "water")
+    page = wizard.source_page
+    page.use_chessboard()
+    _choose(wizard, pairs)
+    wizard.next()
+    assert wizard.currentPage() is page and "phase-1" in page.message.text()
+
+
+def test_the_calibration_wizard_opens_the_target_path(qtbot, project):
+    wizard = CalibrationWizard(CalibrationSession(project, "air"))
+    qtbot.addWidget(wizard)
+    wizard.show()
+    buttons = [b for b in wizard.currentPage().findChildren(QtWidgets.QPushButton) if "&target" in b.text()]
+    assert len(buttons) == 1
+    buttons[0].click()
+    opened = [w for w in QtWidgets.QApplication.topLevelWidgets() if isinstance(w, TargetWizard) and w.isVisible()]
+    assert opened and opened[-1].session.phase == "air"
+    opened[-1].reject()
