@@ -76,7 +76,8 @@ def test_calibrate_from_board_images_by_keys(qtbot, project, scene):
     qtbot.waitUntil(lambda: not views.busy and wizard.session.views is not None, timeout=120_000)
     assert views.list.count() == VIEWS
     assert [p[0] for p in wizard.session.pairs] == sorted(p[0] for p in wizard.session.pairs)
-    assert "5 of 5 pairs" in views.set_aside.text() and "% of the image covered" in views.advice.text()
+    assert views.isComplete() and wizard.button(QtWidgets.QWizard.WizardButton.NextButton).isEnabled()
+    assert "5 of 5 pairs" in views.tally.text() and "% of the image covered" in views.advice.text()
     # the first view's detections are drawn on its images
     qtbot.waitUntil(lambda: views.panes["left"].display is not None, timeout=30_000)
     assert len(views.panes["left"].control_labels) == 54

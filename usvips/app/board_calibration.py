@@ -151,7 +151,8 @@ class BoardCalibration:
         """The fit and the validation as a person reads them (one figure a line)."""
         r = self.result.report
         rms_all = r.get("rms_px_all")
-        out = [f"{r['phase']} calibration ({r['housing']}) from {len(self.kept)} views"
+        housing = f" through {r['housing']}" if r["housing"] != "air" else ""
+        out = [f"{r['phase']} calibration{housing} from {len(self.kept)} views"
                + (f" ({len(self.dropped)} dropped by you)" if self.dropped else "")
                + f": sigma0 {r['sigma0_px']:.3f} px, RMS {r['rms_px']:.3f} px over the kept observations"
                + (f", {rms_all:.3f} px over all" if rms_all is not None else "")

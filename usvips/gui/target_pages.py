@@ -228,6 +228,8 @@ class ViewsPage(QtWidgets.QWizardPage):
             self.map_items[side] = item
         self.advice = QtWidgets.QLabel()
         self.advice.setWordWrap(True)
+        self.tally = QtWidgets.QLabel()
+        self.tally.setWordWrap(True)
         self.set_aside = QtWidgets.QLabel()
         self.set_aside.setWordWrap(True)
         self.set_aside.setStyleSheet(ERROR_STYLE)
@@ -248,6 +250,7 @@ class ViewsPage(QtWidgets.QWizardPage):
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(top)
         layout.addLayout(body, 1)
+        layout.addWidget(self.tally)
         layout.addWidget(self.set_aside)
         self.setTabOrder(self.list, self.detect_button)
         self.setTabOrder(self.detect_button, self.stop_button)
@@ -273,7 +276,8 @@ class ViewsPage(QtWidgets.QWizardPage):
             self.set_aside.setText(str(error))
             return
         self.list.clear()
-        self.set_aside.setText("finding the target…")
+        self.tally.setText("finding the target…")
+        self.set_aside.clear()
         self.worker = Worker(_job(job), "target detection")
         self.worker.signals.progress.connect(lambda f: self.progress.setValue(int(1000 * f)))
         self.worker.signals.finished.connect(self._on_found)
@@ -299,6 +303,7 @@ class ViewsPage(QtWidgets.QWizardPage):
         self.session.set_views(views)
         self.progress.setValue(1000)
         self._fill()
+        self.completeChanged.emit()
 
     def _on_failed(self, message: str) -> None:
         self._done()
@@ -321,8 +326,8 @@ class ViewsPage(QtWidgets.QWizardPage):
                                else QtCore.Qt.CheckState.Unchecked)
             self.list.addItem(item)
         self.list.blockSignals(False)
-        lines = list(views.tally) + [reason for _, reason in views.set_aside]
-        self.set_aside.setText("\n".join(lines))
+        self.tally.setText("\n".join(views.tally))
+        self.set_aside.setText("\n".join(reason for _, reason in views.set_aside))
         self._show_coverage()
         if self.list.count():
             self.list.setCurrentRow(0)
@@ -400,6 +405,7 @@ class ComputePage(QtWidgets.QWizardPage):
         top = QtWidgets.QHBoxLayout()
         top.addWidget(self.compute_button)
         top.addWidget(self.progress, 1)
+        top.addStretch(1)
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(top)
         layout.addWidget(self.text, 1)
@@ -494,6 +500,9 @@ class SavePage(QtWidgets.QWizardPage):
             item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
             item.setCheckState(QtCore.Qt.CheckState.Checked)
             self.active.addItem(item)
+        self.message.setText("" if self.active.count() else
+                             f"the project has no {medium} pairs yet: the calibration is stored, active for none; "
+                             "choose it for a pair later")
 
     def active_for(self) -> list[str]:
         return [self.active.item(i).text() for i in range(self.active.count())
