@@ -7,15 +7,19 @@ from __future__ import annotations
 
 import threading
 
+import cv2
+import numpy as np
 import pytest
 from PySide6 import QtCore, QtWidgets
 
-from tests.app.board_images import air_scene
+from tests.app.board_images import air_scene, board_poses, render_pairs
+from usvips.app.video_project import add_video
 from usvips.core.calibration_targets import CalibrationTarget, kind
 from usvips.gui.calibration_session import CalibrationSession
 from usvips.gui.calibration_wizard import CalibrationWizard
 from usvips.gui.target_pages import TargetWizard
 from usvips.gui.target_session import TargetSession
+from usvips.io.video_writer import encode_video
 from usvips.store import Project
 
 VIEWS = 5
@@ -178,3 +182,64 @@ def test_the_calibration_wizard_opens_the_target_path(qtbot, project):
     opened = [w for w in QtWidgets.QApplication.topLevelWidgets() if isinstance(w, TargetWizard) and w.isVisible()]
     assert opened and opened[-1].session.phase == "air"
     opened[-1].reject()
+
+
+def test_phase_one_from_a_project_video_then_phase_two_from_images(qtbot, project, scene, tmp_path):
+    board, rig, pairs = scene
+    frames = {"left": [], "right": []}
+    for left, right in pairs:
+        for side, path in (("left", left), ("right", right)):
+            grey = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+            frames[side].append(cv2.cvtColor(grey, cv2.COLOR_GRAY2RGB))
+    files = {}
+    for side in ("left", "right"):
+        files[side] = tmp_path / f"{side}.mkv"
+        encode_video(files[side], frames[side], 25.0, "ffv1")
+    add_video(project, [files["left"]], [files["right"]], "cal")
+    # phase 1 from the video
+    wizard = _wizard(qtbot, project)
+    page = wizard.source_page
+    page.use_chessboard()
+    assert page.from_video.isEnabled() and page.video.currentText() == "cal"
+    page.from_video.setChecked(True)
+    page.every.setValue(1)
+    page.holdout.setValue(0)
+    wizard.next()
+    views = wizard.views_page
+    qtbot.waitUntil(lambda: not views.busy and wizard.session.views is not None, timeout=120_000)
+    assert views.list.count() >= 3 and all(v.label.startswith("cal-") for v in wizard.session.views.views)
+    qtbot.waitUntil(lambda: views.panes["right"].display is not None, timeout=30_000)  # decoded from the video
+    assert len(views.panes["right"].control_labels) == 54
+    wizard.next()
+    qtbot.waitUntil(lambda: not wizard.compute_page.busy, timeout=300_000)
+    assert wizard.session.result is not None, wizard.compute_page.text.toPlainText()
+    wizard.next()
+    assert wizard.currentPage() is wizard.save_page
+    with qtbot.waitSignal(wizard.saved, timeout=10_000):
+        wizard.accept()
+    base_id = project.calibrations()[-1]["id"]
+    # phase 2 through a flat port from rendered images, starting from it
+    rng = np.random.default_rng(3)
+    water_rig = rig.in_water("flat-port", rng)
+    water = render_pairs(tmp_path, water_rig, board, board_poses(water_rig, board, rng, VIEWS, (0.7, 1.0)), "w")
+    wizard = _wizard(qtbot, project, "water")
+    page = wizard.source_page
+    page.use_chessboard()
+    _choose(wizard, water)
+    assert page.base.findData(base_id) >= 0
+    page.base.setCurrentIndex(page.base.findData(base_id))
+    page.housing.setCurrentText("flat-port")
+    page.holdout.setValue(0)
+    wizard.next()
+    views = wizard.views_page
+    qtbot.waitUntil(lambda: not views.busy and wizard.session.views is not None, timeout=120_000)
+    wizard.next()
+    qtbot.waitUntil(lambda: not wizard.compute_page.busy, timeout=300_000)
+    result = wizard.session.result
+    assert result is not None, wizard.compute_page.text.toPlainText()
+    assert result.result.report["housing"] == "flat-port"
+    assert "through flat-port" in wizard.compute_page.text.toPlainText()
+    wizard.next()
+    with qtbot.waitSignal(wizard.saved, timeout=10_000):
+        wizard.accept()
+    assert project.calibrations()[-1]["phase"] in ("water", "joint")

@@ -28,7 +28,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from usvips.app.calibration_video import DEFAULT_MAX_VIEWS, read_target, scan_video
+from usvips.app.calibration_video import DEFAULT_MAX_VIEWS, read_target, scan_streams, scan_video
 from usvips.app.target_views import detect_views
 from usvips.core import calibration_views
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
@@ -40,6 +40,7 @@ from usvips.core.errors import ConvergenceError, InvalidParameterError, UsvipsEr
 from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.io.calibration_file import calibration_to_dict
+from usvips.io.video_stream import VideoStream
 from usvips.store.interface import ProjectStore
 
 Progress = Callable[[float, str], None]
@@ -121,6 +122,19 @@ def views_from_video(project: ProjectStore, label: str, target: CalibrationTarge
     :class:`~usvips.app.video_project.VideoError` saying why."""
     target = as_target(target)
     scanned = scan_video(project, label, target, every, max_views, progress=progress, cancel=cancel)
+    return BoardViews(scanned.views, (), scanned.coverage, (scanned.summary()[0],))
+
+
+def views_from_streams(left: VideoStream, right: VideoStream, offset: int, label: str,
+                       target: CalibrationTarget | str | Path, every: int = 5, max_views: int = DEFAULT_MAX_VIEWS,
+                       progress: Progress | None = None, cancel: Cancel | None = None) -> BoardViews:
+    """:func:`views_from_video` on two streams already opened (``open_streams``; a worker thread cannot use
+    the project's database, so the window opens them first); right frame = left frame + ``offset``. The
+    streams are closed when done."""
+    target = as_target(target)
+    with left, right:
+        scanned = scan_streams(left, right, offset, target, label, every, max_views, progress=progress,
+                               cancel=cancel)
     return BoardViews(scanned.views, (), scanned.coverage, (scanned.summary()[0],))
 
 

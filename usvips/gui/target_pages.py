@@ -357,8 +357,12 @@ class ViewsPage(QtWidgets.QWizardPage):
         if item is None:
             return
         label = item.data(QtCore.Qt.ItemDataRole.UserRole)
-        worker = Worker(lambda progress, cancelled: (label, self.session.view_images(label)),
-                        f"reading view {label}")
+        try:
+            job = self.session.images_job(label)
+        except UsvipsError as error:
+            self.set_aside.setText(str(error))
+            return
+        worker = Worker(job, f"reading view {label}")
         worker.signals.finished.connect(self._show_view)
         worker.signals.failed.connect(self.set_aside.setText)
         start(worker, self.pool)

@@ -138,7 +138,10 @@ class TargetSession:
         if not ready:
             raise UsvipsError(why)
         target, source, pairs = self.target, self.source, list(self.pairs)
-        video, every, max_views, project = self.video, self.every, self.max_views, self.project
+        video, every, max_views = self.video, self.every, self.max_views
+        if source == "video":  # the project's database stays in this thread: open the streams here
+            stored, left, right = open_streams(self.project, video)
+            offset = int(stored["offset_frames"])
 
         def run(progress=None, cancelled=None) -> boards.BoardViews:
             def step(fraction: float, _message: str = "") -> None:
@@ -148,7 +151,8 @@ class TargetSession:
             cancel = cancelled or (lambda: False)
             if source == "images":
                 return boards.views_from_images(target, pairs, progress=step, cancel=cancel)
-            return boards.views_from_video(project, video, target, every, max_views, progress=step, cancel=cancel)
+            return boards.views_from_streams(left, right, offset, video, target, every, max_views, progress=step,
+                                             cancel=cancel)
         return run
 
     def set_views(self, views: boards.BoardViews) -> None:
@@ -180,20 +184,25 @@ class TargetSession:
             return None
         return calibration_views.coverage(kept, self.target.control_points())
 
-    def view_images(self, label: str) -> tuple[np.ndarray, np.ndarray]:
-        """The left and right images of a view (grey or RGB arrays), read from its files or decoded from the
-        video (reads files: call it in a worker)."""
+    def images_job(self, label: str) -> Callable[..., tuple[str, tuple[np.ndarray, np.ndarray]]]:
+        """A job reading the left and right images of a view (grey or RGB arrays) from its files or decoding
+        them from the video (whose streams are opened here, in the project's thread); returns (label,
+        images)."""
         where = self.view(label).source
-        if "video" in where:
-            _, left, right = open_streams(self.project, where["video"])
+        if "video" not in where:
+            return lambda progress=None, cancelled=None: (label, (read_image(where["left"]),
+                                                                  read_image(where["right"])))
+        _, left, right = open_streams(self.project, where["video"])
+
+        def run(progress=None, cancelled=None):
             with left, right:
                 reader = PairReader(left, right)
                 try:
                     pictures = reader.pictures(int(where["frame"]), int(where["right_frame"]))
-                    return pictures[0].array(), pictures[1].array()
+                    return label, (pictures[0].array(), pictures[1].array())
                 finally:
                     reader.close()
-        return read_image(where["left"]), read_image(where["right"])
+        return run
 
     # ------------------------------------------------------------------ calibration
     def base(self):
