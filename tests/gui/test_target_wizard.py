@@ -166,6 +166,7 @@ def test_phase_two_needs_a_base(qtbot, project, scene):
     _, _, pairs = scene
     wizard = _wizard(qtbot, project, "water")
     page = wizard.source_page
+    assert "no phase-1 (in-air) calibration yet" in page.message.text()
     page.use_chessboard()
     _choose(wizard, pairs)
     wizard.next()

@@ -129,6 +129,9 @@ class SourcePage(QtWidgets.QWizardPage):
         self.message.setWordWrap(True)
         self.message.setStyleSheet(ERROR_STYLE)
         form.addRow(self.message)
+        if session.water and not self.base.count():
+            self.message.setText("the project has no phase-1 (in-air) calibration yet: calibrate the cameras in air "
+                                 "first (the phase-1 wizard), then come back")
 
     def _on_open_target(self) -> None:
         path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Target description", "", "Target (*.json)")
