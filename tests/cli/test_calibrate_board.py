@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 
+import cv2
 import numpy as np
 import pytest
 
@@ -115,3 +116,27 @@ def test_a_video_with_no_usable_instant_is_one_line(scene, capsys, tmp_path):
                               "--video", "cal", "--every", "1", "--out", str(tmp_path / "o.json")],
                      "video 'cal': no usable instant")
     assert not (tmp_path / "o.json").exists()
+
+
+def test_air_from_a_project_video(scene, capsys, tmp_path):
+    folder, rig, pairs, _ = scene
+    frames = {"left": [], "right": []}
+    for left, right in pairs:
+        for side, path in (("left", left), ("right", right)):
+            grey = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+            frames[side].append(cv2.cvtColor(grey, cv2.COLOR_GRAY2RGB))
+    files = {}
+    for side in ("left", "right"):
+        files[side] = tmp_path / f"{side}.mkv"
+        encode_video(files[side], frames[side], 25.0, "ffv1")
+    project = tmp_path / "p.usvips"
+    with Project.create(project) as p:
+        add_video(p, [files["left"]], [files["right"]], "cal")
+    out = tmp_path / "air.json"
+    assert main(["calibrate", "air", "--target", str(folder / "board.json"), "--project", str(project),
+                 "--video", "cal", "--every", "1", "--max-views", "10", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert f"{VIEWS} instants scanned" in text and "views chosen" in text and f"wrote {out}" in text
+    written = json.loads(out.read_text())
+    assert written["source"]["video"] == "cal" and all(s["label"].startswith("cal-") for s in written["stations"])
+    assert abs(written["parameters"]["f_l"]["value"] / rig.left.f - 1) < 0.01
