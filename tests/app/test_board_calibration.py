@@ -151,3 +151,26 @@ def test_views_from_a_project_video_and_storing(scene, tmp_path, air_calibration
         before = len(project.calibrations())
         boards.store(project, air_calibration, "from the board")
         assert len(project.calibrations()) == before + 1
+
+
+@pytest.mark.slow
+def test_monte_carlo_over_rigs_from_rendered_images(tmp_path):
+    """Six random rigs, eight rendered board views each, the board found and the rig calibrated by the
+    service: the interior's errors over their standard deviations have a mean square near 1 and the
+    focal lengths are within 1 %."""
+    z = []
+    for seed in range(100, 106):
+        folder = tmp_path / str(seed)
+        folder.mkdir()
+        board, rig, pairs, _ = air_scene(folder, 8, seed=seed)
+        found = boards.views_from_images(board, pairs)
+        assert len(found.views) == 8
+        calibration = boards.calibrate_views(board, found.views, "air").calibration
+        for name, truth in (("f_l", rig.left.f), ("f_r", rig.right.f), ("xp_l", rig.left.xp), ("yp_l", rig.left.yp),
+                            ("k1_l", rig.left.k1)):
+            estimate = calibration.parameters[name]
+            z.append((estimate.value - truth) / estimate.sigma)
+        assert abs(calibration.left.interior.f / rig.left.f - 1) < 0.01
+        assert abs(calibration.right.interior.f / rig.right.f - 1) < 0.01
+    msne = float(np.mean(np.square(z)))
+    assert 0.5 < msne < 2.0, msne
