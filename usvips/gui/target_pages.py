@@ -380,7 +380,10 @@ class ViewsPage(QtWidgets.QWizardPage):
             pane = self.panes[side]
             pane.set_image(image)
             detection = getattr(view, side)
-            pane.set_control([(pid, tuple(px)) for pid, px in zip(detection.ids, detection.pixels, strict=True)])
+            # a ring on every point; ids on at most about a dozen of them, so that they stay readable
+            step = max(1, len(detection.ids) // 12)
+            pane.set_control([(pid if k % step == 0 else "", tuple(px))
+                              for k, (pid, px) in enumerate(zip(detection.ids, detection.pixels, strict=True))])
             pane.title.setText(f"{side.capitalize()} — {label}: {len(detection.ids)} points")
             pane.fit()
 
