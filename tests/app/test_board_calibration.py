@@ -74,6 +74,9 @@ def test_phase_one_recovers_the_rig(scene, air_calibration):
     assert abs(base / np.linalg.norm(rig.relative.base) - 1) < 0.01
     assert air_calibration.result.report["rms_px"] < 0.3
     assert air_calibration.lines()[0].startswith("air calibration")
+    by_view = air_calibration.view_rms()
+    assert set(by_view) == set(air_calibration.kept) and max(by_view.values()) < 0.3
+    assert any(line.startswith("  RMS per view, worst first") for line in air_calibration.lines())
 
 
 def test_a_dropped_view_is_left_out_and_holdout_validates(scene, air_views):

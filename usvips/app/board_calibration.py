@@ -28,6 +28,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from usvips.app.calibration_video import DEFAULT_MAX_VIEWS, read_target, scan_streams, scan_video
 from usvips.app.target_views import detect_views
 from usvips.core import calibration_views
@@ -161,6 +163,15 @@ class BoardCalibration:
             report["validation"] = self.validation.as_dict()
         return report
 
+    def view_rms(self) -> dict[str, float]:
+        """Each fitted view's reprojection RMS (pixels, per coordinate, over its kept observations): the
+        view to look at first when the fit is poor."""
+        squares: dict[str, list[float]] = {}
+        for row in self.result.report["residuals"]:
+            if row["used"]:
+                squares.setdefault(row["station"], []).extend([row["vx"] ** 2, row["vy"] ** 2])
+        return {label: float(np.sqrt(np.mean(values))) for label, values in squares.items()}
+
     def lines(self) -> list[str]:
         """The fit and the validation as a person reads them (one figure a line)."""
         r = self.result.report
@@ -173,6 +184,9 @@ class BoardCalibration:
                + f", redundancy {r['redundancy']}"]
         if r.get("suspects"):
             out.append(f"  {len(r['suspects'])} observations set aside as blunders")
+        by_view = sorted(self.view_rms().items(), key=lambda item: -item[1])
+        if by_view:
+            out.append("  RMS per view, worst first: " + ", ".join(f"{label} {rms:.3f} px" for label, rms in by_view))
         if self.validation is not None:
             out += self.validation.lines()
         return out
