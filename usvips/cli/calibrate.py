@@ -8,6 +8,7 @@ import argparse
 import json
 from pathlib import Path
 
+from usvips.cli import board_sources
 from usvips.cli.common import parse_assignment, parse_prior, write_text_atomic
 from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
@@ -28,8 +29,9 @@ def _common(parser: argparse.ArgumentParser) -> None:
                        help="a calibration target's description (a board or a 3-D field; `usvips target "
                             "describe` writes one): its points are the control, and a board's printed geometry is "
                             "taken as exact (not searched for misprints)")
-    parser.add_argument("--obs", required=True, help="observations CSV: id,xl,yl,xr,yr[,pair] (pixels); with a "
-                        "target, the pair column labels the views")
+    parser.add_argument("--obs", help="observations CSV: id,xl,yl,xr,yr[,pair] (pixels); with a "
+                        "target, the pair column labels the views (or find them: --images, --video)")
+    board_sources.add_arguments(parser)
     parser.add_argument("--holdout", type=float, metavar="SHARE",
                         help="hold out this share of the views (e.g. 0.2), calibrate on the rest and print how well "
                              "the calibration predicts the held-out views (reprojection, known distances by range); "
@@ -177,6 +179,9 @@ def _source(args: argparse.Namespace) -> dict:
 
 def run_air(args: argparse.Namespace) -> int:
     options = _options(args)
+    if board_sources.wants_views(args):
+        done = board_sources.calibrate(args, "air", options)
+        return _finish(done.result, args, done.validation)
     control = _control(args, options)
     observations = read_observations(args.obs)
     result, validation = _calibrate(lambda obs: calibrate_air(control, obs, options, _source(args)), control,
@@ -190,6 +195,9 @@ def run_water(args: argparse.Namespace) -> int:
         raise InvalidParameterError("--base", f"{args.base} is a {base.phase} (phase-2) calibration; phase 2 "
                                     "starts from the in-air (phase-1) calibration of the same cameras")
     options = _options(args)
+    if board_sources.wants_views(args):
+        done = board_sources.calibrate(args, "water", options, base, args.housing)
+        return _finish(done.result, args, done.validation)
     control = _control(args, options)
     observations = read_observations(args.obs)
     result, validation = _calibrate(

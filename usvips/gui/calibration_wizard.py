@@ -137,6 +137,11 @@ class SetupPage(QtWidgets.QWizardPage):
         form.addRow("Control", row)
         form.addRow("Pointing σ", self.sigma)
         form.addRow("", self.automatic)
+        # the target path (usvips/gui/target_pages.py): views of a board or target field found automatically
+        from_target = QtWidgets.QPushButton("From a &target: a board or field in images or video…")
+        from_target.setToolTip("find a calibration target in image pairs or a video and calibrate from all views")
+        from_target.clicked.connect(self._on_from_target)
+        form.addRow("Or", from_target)
         self.known: dict[str, QtWidgets.QLineEdit] = {}
         if water:
             self.base = QtWidgets.QComboBox()
@@ -165,6 +170,13 @@ class SetupPage(QtWidgets.QWizardPage):
         form.addRow(self.message)
         self.setLayout(form)
         self._refresh_control()
+
+    def _on_from_target(self) -> None:
+        from usvips.gui.target_pages import open_target_wizard
+
+        wizard = self.wizard()
+        target = open_target_wizard(self.session.project, self.session.phase, wizard)
+        target.saved.connect(wizard.saved)
 
     def _fill_known(self, housing: str) -> None:
         while self.known_form.rowCount():

@@ -1,0 +1,257 @@
+"""Calibrating a rig from views of a calibration target (a board or a 3-D target field): the one service the
+command line (``usvips calibrate air|water --target … --images …|--video …``) and the window's target path
+share.
+
+1. **Views**: the target found in image pairs (:func:`views_from_images`, over
+   :func:`usvips.app.target_views.detect_views`) or in a project's stereo video
+   (:func:`views_from_video`, over :func:`usvips.app.calibration_video.scan_video`), with the coverage of the
+   views found and its advice. Long work: ``progress(fraction, message)`` after each image or instant, and
+   ``cancel`` (a :class:`threading.Event` or a callable returning True) checked before each one; a cancel
+   raises :class:`InterruptedError` there.
+2. **Calibration** (:func:`calibrate_views`): the views the user kept → stereo observations → phase 1 in
+   air (:func:`~usvips.core.calibration.calibrate_air`) or phase 2 underwater through a housing from a
+   phase-1 base (:func:`~usvips.core.calibration.calibrate_water`; several views = one joint adjustment),
+   optionally validated on held-out views (:func:`~usvips.core.calibration.validation.validate`). A
+   printed board's geometry is taken as exact (``CalibrationOptions.control_exact``).
+
+Nothing here writes to a project: the caller stores the result (:func:`store`) only once it is converged,
+so a failure leaves the project as it was.
+
+Conventions: pixels x right, y down, origin at the centre of the top-left pixel; metres; radians.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from usvips.app.calibration_video import DEFAULT_MAX_VIEWS, read_target, scan_streams, scan_video
+from usvips.app.target_views import detect_views
+from usvips.core import calibration_views
+from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
+from usvips.core.calibration.phases import CalibrationResult, observes_a_plane
+from usvips.core.calibration.validation import Validation, validate
+from usvips.core.calibration_targets import CalibrationTarget, StereoView, stereo_observations
+from usvips.core.calibration_views import Coverage
+from usvips.core.errors import ConvergenceError, InvalidParameterError, UsvipsError
+from usvips.core.observations import StereoObservations
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.io.calibration_file import calibration_to_dict
+from usvips.io.video_stream import VideoStream
+from usvips.store.interface import ProjectStore
+
+Progress = Callable[[float, str], None]
+Cancel = threading.Event | Callable[[], bool]
+
+#: the phases a board calibrates
+PHASES = ("air", "water")
+
+#: views a calibration needs at least (a board's planar start needs several orientations)
+MINIMUM_VIEWS = 3
+
+
+@dataclass(frozen=True)
+class BoardViews:
+    """Views of the target found in one source.
+
+    ``views``: the usable ones (each a :class:`StereoView`: its label, both cameras' detections and where
+    it came from); ``set_aside``: (label, one line why) for the pairs or instants not usable; ``coverage``:
+    what the views cover per camera and the advice; ``tally``: lines counting what was looked at."""
+
+    views: tuple[StereoView, ...]
+    set_aside: tuple[tuple[str, str], ...]
+    coverage: Coverage
+    tally: tuple[str, ...]
+
+    def image_size(self) -> tuple[int, int]:
+        """(width, height) of the left images (pixels)."""
+        return tuple(self.views[0].left.image_size)
+
+    def lines(self) -> list[str]:
+        """For a person: the tally, each view set aside, then the coverage and its advice."""
+        return list(self.tally) + [reason for _, reason in self.set_aside] + self.coverage.summary()
+
+
+def _is_cancelled(cancel: Cancel | None) -> bool:
+    if cancel is None:
+        return False
+    if isinstance(cancel, threading.Event):
+        return cancel.is_set()
+    return bool(cancel())
+
+
+def as_target(target: CalibrationTarget | str | Path) -> CalibrationTarget:
+    """A target, or the target described in a JSON file (errors name the file)."""
+    return target if isinstance(target, CalibrationTarget) else read_target(target)
+
+
+def _coverage(views: Sequence[StereoView], target: CalibrationTarget) -> Coverage:
+    return calibration_views.coverage(list(views), target.control_points())
+
+
+def views_from_images(target: CalibrationTarget | str | Path, pairs: Sequence[tuple[str | Path, str | Path]],
+                      labels: Sequence[str] | None = None, progress: Progress | None = None,
+                      cancel: Cancel | None = None) -> BoardViews:
+    """The target found in each (left, right) image pair (labels default to the left image's name). A pair
+    where the target is not found in both images is set aside with its reason; no usable pair at all is a
+    :class:`UsvipsError` naming why for each."""
+    target = as_target(target)
+    if not pairs:
+        raise InvalidParameterError("images", "no image pairs given")
+
+    def step(done: int, total: int) -> None:
+        if progress is not None:
+            progress(done / total, f"image {done} of {total}")
+
+    found = detect_views(target, pairs, labels, progress=step, cancelled=lambda: _is_cancelled(cancel))
+    if not found.views:
+        reasons = "; ".join(reason for _, reason in found.set_aside[:3])
+        raise UsvipsError(f"the target is found in both images of none of the {found.total} pairs: {reasons}"
+                          + (" …" if len(found.set_aside) > 3 else ""))
+    return BoardViews(found.views, found.set_aside, _coverage(found.views, target), (found.summary(),))
+
+
+def views_from_video(project: ProjectStore, label: str, target: CalibrationTarget | str | Path, every: int = 5,
+                     max_views: int = DEFAULT_MAX_VIEWS, progress: Progress | None = None,
+                     cancel: Cancel | None = None) -> BoardViews:
+    """The views chosen from the project's stereo video ``label`` (every ``every``-th instant, at most
+    ``max_views``; blurred and near-duplicate instants rejected). A video with no usable instant is a
+    :class:`~usvips.app.video_project.VideoError` saying why."""
+    target = as_target(target)
+    scanned = scan_video(project, label, target, every, max_views, progress=progress, cancel=cancel)
+    return BoardViews(scanned.views, (), scanned.coverage, (scanned.summary()[0],))
+
+
+def views_from_streams(left: VideoStream, right: VideoStream, offset: int, label: str,
+                       target: CalibrationTarget | str | Path, every: int = 5, max_views: int = DEFAULT_MAX_VIEWS,
+                       progress: Progress | None = None, cancel: Cancel | None = None) -> BoardViews:
+    """:func:`views_from_video` on two streams already opened (``open_streams``; a worker thread cannot use
+    the project's database, so the window opens them first); right frame = left frame + ``offset``. The
+    streams are closed when done."""
+    target = as_target(target)
+    with left, right:
+        scanned = scan_streams(left, right, offset, target, label, every, max_views, progress=progress,
+                               cancel=cancel)
+    return BoardViews(scanned.views, (), scanned.coverage, (scanned.summary()[0],))
+
+
+@dataclass
+class BoardCalibration:
+    """A calibration from board views: the adjustment's ``result`` (of the fitted views when validated),
+    the ``validation`` (or None), the ``observations`` used and the views ``kept`` and ``dropped``."""
+
+    result: CalibrationResult
+    validation: Validation | None
+    observations: StereoObservations
+    kept: tuple[str, ...]
+    dropped: tuple[str, ...]
+
+    @property
+    def calibration(self) -> StereoCalibration:
+        return self.result.calibration
+
+    @property
+    def report(self) -> dict:
+        """The adjustment's report, with the validation under ``"validation"`` when there is one."""
+        report = self.result.report
+        if self.validation is not None:
+            report["validation"] = self.validation.as_dict()
+        return report
+
+    def view_rms(self) -> dict[str, float]:
+        """Each fitted view's reprojection RMS (pixels, per coordinate, over its kept observations): the
+        view to look at first when the fit is poor."""
+        squares: dict[str, list[float]] = {}
+        for row in self.result.report["residuals"]:
+            if row["used"]:
+                squares.setdefault(row["station"], []).extend([row["vx"] ** 2, row["vy"] ** 2])
+        return {label: float(np.sqrt(np.mean(values))) for label, values in squares.items()}
+
+    def lines(self) -> list[str]:
+        """The fit and the validation as a person reads them (one figure a line)."""
+        r = self.result.report
+        rms_all = r.get("rms_px_all")
+        housing = f" through {r['housing']}" if r["housing"] != "air" else ""
+        out = [f"{r['phase']} calibration{housing} from {len(self.kept)} views"
+               + (f" ({len(self.dropped)} dropped by you)" if self.dropped else "")
+               + f": sigma0 {r['sigma0_px']:.3f} px, RMS {r['rms_px']:.3f} px over the kept observations"
+               + (f", {rms_all:.3f} px over all" if rms_all is not None else "")
+               + f", redundancy {r['redundancy']}"]
+        if r.get("suspects"):
+            out.append(f"  {len(r['suspects'])} observations set aside as blunders")
+        by_view = sorted(self.view_rms().items(), key=lambda item: -item[1])
+        if by_view:
+            out.append("  RMS per view, worst first: " + ", ".join(f"{label} {rms:.3f} px" for label, rms in by_view))
+        if self.validation is not None:
+            out += self.validation.lines()
+        return out
+
+
+def calibrate_views(target: CalibrationTarget | str | Path, views: Sequence[StereoView], phase: str = "air",
+                    drop: Sequence[str] = (), base: StereoCalibration | None = None, housing: str | None = None,
+                    holdout: float | None = None, seed: int = 0, options: CalibrationOptions | None = None,
+                    source: dict | None = None) -> BoardCalibration:
+    """Calibrate from ``views`` less those labelled in ``drop``: ``phase`` ``"air"`` (phase 1) or
+    ``"water"`` (phase 2 through ``housing`` from the phase-1 ``base``). ``holdout``: a share of the views
+    (0–1) held out for validation; the result is then that of the rest. A result that did not converge is a
+    :class:`ConvergenceError`; too few views, a base that is not in air, an unknown housing: one line naming
+    the parameter."""
+    target = as_target(target)
+    if phase not in PHASES:
+        raise InvalidParameterError("phase", f"must be 'air' or 'water', got {phase!r}")
+    labels = [v.label for v in views]
+    unknown = sorted(set(drop) - set(labels))
+    if unknown:
+        raise InvalidParameterError("drop", f"no view is labelled {unknown[0]!r}")
+    kept = [v for v in views if v.label not in set(drop)]
+    if len(kept) < MINIMUM_VIEWS:
+        raise InvalidParameterError("views", f"{len(kept)} views kept; a calibration from a target needs at least "
+                                    f"{MINIMUM_VIEWS} (better 10 or more, tilted and spread over the images)")
+    if holdout is not None and not 0.0 < holdout < 1.0:
+        raise InvalidParameterError("holdout", f"the share of views held out must be between 0 and 1, got {holdout}")
+    options = dataclasses.replace(options) if options is not None else CalibrationOptions()
+    options.control_exact = bool(getattr(target, "exact", False))
+    if options.image_size == (None, None):
+        options.image_size = tuple(int(v) for v in kept[0].left.image_size)
+    control = target.control_points()
+    observations = stereo_observations(kept)
+    source = dict(source or {})
+    if phase == "air":
+        def fit(obs: StereoObservations) -> CalibrationResult:
+            return calibrate_air(control, obs, options, source)
+    else:
+        if base is None:
+            raise InvalidParameterError("base", "phase 2 starts from the in-air (phase-1) calibration of the same "
+                                        "cameras; choose one")
+        if base.phase != "air":
+            raise InvalidParameterError("base", f"is a {base.phase} (phase-2) calibration; phase 2 starts from the "
+                                        "in-air (phase-1) calibration of the same cameras")
+        if housing is None:
+            raise InvalidParameterError("housing", "phase 2 needs the housing kind")
+
+        def fit(obs: StereoObservations) -> CalibrationResult:
+            return calibrate_water(base, housing, control, obs, options, source)
+    if holdout is None:
+        result, validation = fit(observations), None
+    else:
+        validation = validate(control, observations, holdout, fit, seed,
+                              compare_opencv=phase == "air" and observes_a_plane(control, observations),
+                              image_size=options.image_size)
+        result = validation.result
+    if not result.adjustment.converged:
+        raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing kept")
+    return BoardCalibration(result, validation, observations, tuple(v.label for v in kept),
+                            tuple(label for label in labels if label in set(drop)))
+
+
+def store(project: ProjectStore, calibration: BoardCalibration, name: str, active_for: Sequence[str] = ()) -> int:
+    """Store a converged board calibration in the project (active for the pairs named); returns its id."""
+    if not calibration.result.adjustment.converged:
+        raise UsvipsError("there is no converged calibration to store")
+    return project.add_calibration(name.strip() or "calibration from a target",
+                                   calibration_to_dict(calibration.calibration), tuple(active_for))
