@@ -42,7 +42,11 @@ def write_observations(calibration, n: int, path: Path, seed: int = 11) -> int:
     rays = rig.left.rays(pixels)
     points = rays.origins + rng.uniform(1.5, 4.0, count)[:, None] * rays.directions
     left, right = rig.left.project(points), rig.right.project(points)
-    keep = np.flatnonzero(rays.ok & left.ok & right.ok)[:n]
+    # a margin of 3 px (10 sigmas of the noise added) keeps every noisy pixel inside its image
+    inside = np.ones(count, dtype=bool)
+    for pixels_of in (left.pixels, right.pixels):
+        inside &= np.all((pixels_of >= 2.5) & (pixels_of <= np.array([width, height]) - 3.5), axis=1)
+    keep = np.flatnonzero(rays.ok & left.ok & right.ok & inside)[:n]
     table = np.column_stack([left.pixels[keep], right.pixels[keep]]) + rng.normal(0, 0.3, (keep.size, 4))
     lines = [f"p{i},{a:.4f},{b:.4f},{c:.4f},{d:.4f}" for i, (a, b, c, d) in enumerate(table.tolist())]
     path.write_text("id,xl,yl,xr,yr\n" + "\n".join(lines) + "\n", encoding="utf-8")
@@ -63,7 +67,7 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
             out = Path(folder) / f"points_{n}.csv"
             count = write_observations(calibration, n, obs)
             args = argparse.Namespace(calibration=str(CALIBRATION), obs=str(obs), out=str(out), station="0",
-                                      frame="object", pointing_only=False, skip_failed=True)
+                                      frame="object", pointing_only=False, skip_failed=True, force=False)
 
             def command(args=args) -> None:
                 with contextlib.redirect_stdout(io.StringIO()):
