@@ -15,6 +15,7 @@ from tests.app.board_images import SIZE, air_scene, board_poses, render_pairs
 from usvips.app.video_project import add_video
 from usvips.cli import main
 from usvips.io.images import write_image
+from usvips.io.target_file import write_target
 from usvips.io.video_writer import encode_video
 from usvips.store import Project
 
@@ -27,7 +28,7 @@ def scene(tmp_path_factory):
     board, rig, pairs, rng = air_scene(folder, VIEWS, seed=7)
     water_rig = rig.in_water("flat-port", rng)
     render_pairs(folder, water_rig, board, board_poses(water_rig, board, rng, VIEWS, (0.7, 1.0)), "w")
-    (folder / "board.json").write_text(json.dumps(board.describe()))
+    write_target(folder / "board.json", board)
     blank = folder / "aLblank.png"
     write_image(blank, np.full((SIZE[1], SIZE[0]), 100, np.uint8))
     return folder, rig, pairs, blank
