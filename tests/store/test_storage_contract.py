@@ -659,3 +659,39 @@ def test_objects_vertices_and_records_carry_who_made_them_and_when(impl, store, 
     assert after["vertices"][1][0] == "bob" and after["vertices"][1][1] > made["vertices"][1][1]
     assert after["record"][0] == "bob" and after["record"][1] > made["object"][1]
     assert [e.annotator for e in store.history(object_id)] == ["alice", "bob", "bob"]
+
+
+def test_linking_and_unlinking_an_instant_is_one_history_row_each_and_a_refusal_none(store):
+    rng = np.random.default_rng(11)
+    store.annotator = "ann"
+    first, later = (store.add_object("length", [_vertex(rng), _vertex(rng)], "cod") for _ in range(2))
+    count = len(store.history())
+    store.add_instant(first, later)
+    assert [(e.change, e.object_id, e.old, e.new) for e in store.history()[count:]] == [
+        ("edit", later, {"instant_of": None}, {"instant_of": first})]
+    with pytest.raises(ProjectError):
+        store.add_instant(later, first)  # would chain instants: refused, and nothing recorded
+    store.remove_instant(later)
+    assert [(e.change, e.object_id, e.old, e.new) for e in store.history()[count + 1:]] == [
+        ("edit", later, {"instant_of": first}, {"instant_of": None})]
+    with pytest.raises(ProjectError, match="not an instant"):
+        store.remove_instant(later)
+    assert len(store.history()) == count + 2
+
+
+def test_a_refused_write_leaves_no_history_row(store):
+    rng = np.random.default_rng(12)
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    read = store.object(object_id).modified
+    store.update_object(object_id, notes="first edit")
+    kept = store.history()
+    refusals = [lambda: store.update_object(object_id, attribute="x", expected_modified=read),  # stale
+                lambda: store.delete_object(object_id, expected_modified=read),
+                lambda: store.update_object(object_id, kind="polygon"),  # too few vertices
+                lambda: store.update_object(object_id + 99, attribute="x"),
+                lambda: store.set_record(object_id + 99, ObservationRecord(genus="Gadus")),
+                lambda: store.add_object("circle", [_vertex(rng)])]
+    for refused in refusals:
+        with pytest.raises(UsvipsError):
+            refused()
+        assert store.history() == kept

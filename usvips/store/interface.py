@@ -264,7 +264,9 @@ class ProjectStore(Protocol):
     def history(self, object_id: int | None = None) -> list[HistoryEntry]:
         """The append-only history of changes (of one object when ``object_id`` is given, also after it
         was deleted), oldest first: one :class:`~usvips.store.records.HistoryEntry` per write — "add",
-        "edit" (kind, attribute, notes: old and new of the fields given), "re-pick" (vertices replaced),
+        "edit" (kind, attribute, notes: old and new of the fields given; or ``instant_of``: an instant
+        linked to or unlinked from an object, :meth:`add_instant` / :meth:`remove_instant`), "re-pick"
+        (vertices replaced),
         "delete", "put back" (an undo), "record" (observation record set or removed). Rows are never
         changed or removed (the schema refuses it)."""
         ...

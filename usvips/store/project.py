@@ -823,12 +823,15 @@ class Project:
                 raise ProjectError(f"{self.path}: object {instant_id} has instants of its own; add them to "
                                    f"object {object_id} one by one")
             self._edit("INSERT INTO object_instants (object_id, of_object) VALUES (?, ?)", (instant_id, object_id))
+            self._log(instant_id, "edit", {"instant_of": None}, {"instant_of": int(object_id)})
 
     def remove_instant(self, instant_id: int) -> None:
         """Unlink an instant: it stays, as an object of its own."""
         with self.transaction():
-            if self._edit("DELETE FROM object_instants WHERE object_id = ?", (instant_id,)).rowcount == 0:
+            of = self.instant_links().get(int(instant_id))
+            if of is None or self._edit("DELETE FROM object_instants WHERE object_id = ?", (instant_id,)).rowcount == 0:
                 raise ProjectError(f"{self.path}: object {instant_id} is not an instant of another object")
+            self._log(instant_id, "edit", {"instant_of": int(of)}, {"instant_of": None})
 
     def instants(self, object_id: int) -> list[int]:
         """The ids of the further instants of ``object_id`` (its first instant is itself), by id."""
