@@ -155,3 +155,22 @@ def test_project_history_prints_one_line_per_change_newest_last_on_both_backends
     assert main(["project", "history", location, "--object", "0"]) == 2
     err = capsys.readouterr().err
     assert "--object" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_bad_annotator_in_the_environment_refuses_writing_in_one_line_but_not_reading(tmp_path, monkeypatch,
+                                                                                        capsys):
+    path = tmp_path / "p.usvips"
+    with create_project(path) as project:
+        project.add_object("point", [_vertex(np.random.default_rng(0))], "sponge")
+    monkeypatch.setenv(ANNOTATOR_ENVIRONMENT, "line\nbreak")
+    with pytest.raises(UsvipsError, match=r"\$USVIPS_ANNOTATOR"):
+        open_project(path)
+    with open_project(path, read_only=True) as project:
+        assert len(project.history()) == 1
+    assert main(["project", "history", str(path)]) == 0 and "sponge" in capsys.readouterr().out
+    (tmp_path / "control.csv").write_text("id,X,Y,Z\nA,0,0,0\n")
+    importing = ["project", "import", str(path), "--control", str(tmp_path / "control.csv")]
+    assert main(importing) == 2
+    err = capsys.readouterr().err
+    assert "$USVIPS_ANNOTATOR" in err and "control character" in err and len(err.strip().splitlines()) == 1
+    assert main([*importing, "--annotator", "K. Jones"]) == 0  # the option overrides the environment

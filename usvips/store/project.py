@@ -202,8 +202,16 @@ class Project:
         self.read_only = read_only
         self._db = connection
         self._depth = 0
-        #: who is annotating: stamped on what this handle writes and on every history row it adds
-        self.annotator = current_annotator()
+        #: who is annotating: stamped on what this handle writes and on every history row it adds. A bad
+        #: name (``$USVIPS_ANNOTATOR`` with a line break …) refuses a writing open in one line naming it; a
+        #: read-only open, which writes nothing, goes ahead
+        try:
+            self.annotator = current_annotator()
+        except UsvipsError:
+            if not read_only:
+                connection.close()
+                raise
+            self.annotator = ""
 
     # ---------------------------------------------------------------------------- opening
     @classmethod
