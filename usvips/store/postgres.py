@@ -227,8 +227,8 @@ class _Cursor:
 
     def __init__(self, rows: list[tuple], rowcount: int, lastrowid: int | None, description=None):
         self._rows, self.rowcount, self.lastrowid = rows, rowcount, lastrowid
-        # (name, …) per column of a query, as sqlite3's (``object_rows`` reads the names); None otherwise
-        self.description = None if description is None else tuple((c.name,) for c in description)
+        #: as sqlite3's: one 7-tuple per column, its name first (None for a statement that returns no rows)
+        self.description = description
 
     def fetchall(self) -> list[tuple]:
         return self._rows
@@ -284,7 +284,9 @@ class _ServerConnection:
             with self._statement(command), self.raw.cursor() as cursor:
                 cursor.execute(text, tuple(parameters))
                 rows = cursor.fetchall() if cursor.description is not None else []
-                return _Cursor(rows, cursor.rowcount, rows[0][0] if returning and rows else None, cursor.description)
+                described = None if cursor.description is None else tuple(
+                    (column.name, None, None, None, None, None, None) for column in cursor.description)
+                return _Cursor(rows, cursor.rowcount, rows[0][0] if returning and rows else None, described)
         except psycopg.Error as error:
             if command.startswith("BEGIN") and self.in_transaction:
                 self.raw.execute("ROLLBACK")
