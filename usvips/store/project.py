@@ -15,6 +15,11 @@ the file switched to WAL).
   ONE transaction, so a failed migration leaves the file as it was. A project made by a newer USVIPS is
   refused either way.
 
+Who and when (schema 8): every handle has an ``annotator`` (``usvips.store.annotator``); objects, vertices
+and observation records are stamped with who made them and when, and every write to an object appends one
+row to the ``history`` table in the same transaction (see :meth:`Project.history`). The store only ever
+INSERTs into the history, and the schema's triggers refuse any UPDATE or DELETE of it.
+
 Every failure of the database (locked by another program, disk full, a damaged file, no permission) is a
 :class:`ProjectError` whose one line names the project file and what to do; nothing is half-written.
 """
