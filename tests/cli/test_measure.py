@@ -166,10 +166,15 @@ def test_measure_into_a_project_is_all_or_nothing_and_refuses_contradictions(tmp
     (tmp_path / "p.csv").write_text("object,type,vertex,xl,yl,xr,yr\n" + good)
     assert main(arguments + ["--pair", "nowhere"]) == 2
     assert "no image pair 'nowhere'" in capsys.readouterr().err
-    assert main(arguments + ["--pair", "measure1"]) == 0
+    assert main(arguments + ["--pair", "measure1", "--annotator", "bad\tname"]) == 2
+    error = capsys.readouterr().err
+    assert "--annotator" in error and "control character" in error and len(error.strip().splitlines()) == 1
+    assert main(arguments + ["--pair", "measure1", "--annotator", " K. Jones "]) == 0
     with Project.open(project_path) as project:
-        assert [(o.kind, o.creator, o.vertices[0].pair) for o in project.objects()] == [("length", "usvips",
+        assert [(o.kind, o.creator, o.vertices[0].pair) for o in project.objects()] == [("length", "K. Jones",
                                                                                          "measure1")]
+        assert [(e.change, e.annotator) for e in project.history()] == [("add", "K. Jones")]
+        assert {v[0] for v in project.provenance(project.objects()[0].id)["vertices"]} == {"K. Jones"}
 
 
 def test_project_export_names_the_objects_it_leaves_out(tmp_path, capsys):

@@ -57,7 +57,7 @@ def test_a_location_opens_its_backend_and_is_shown_without_its_password(tmp_path
     with create_project(url) as survey:
         assert type(survey) is ServerProject and survey.derived_media_folder() != Path(url)
     with open_project(url) as survey:
-        assert type(survey) is ServerProject and survey.version == 7
+        assert type(survey) is ServerProject and survey.version == 8
     secret = "postgresql://ann:hunter2@db.example:5433/survey?sslmode=require&media=/mnt/m"
     assert public_location(secret) == "postgresql://ann@db.example:5433/survey?sslmode=require"
     assert shown(secret) == public_location(secret) and shown(file) == str(file)

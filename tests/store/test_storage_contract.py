@@ -563,3 +563,178 @@ def test_two_handles_writing_from_two_threads_lose_no_object(impl, store, where)
     assert len(stored) == 2 * count and len({o.id for o in stored}) == 2 * count
     for name, ids in results.items():
         assert len(ids) == count and {o.id for o in stored if o.attribute == name} == set(ids)
+
+
+# ---------------------------------------------------------------------------------------- who, when, history
+def _record(rng) -> ObservationRecord:
+    return ObservationRecord(genus=str(rng.choice(["Pagrus", "Chrysophrys", "Gadus"])),
+                             species=str(rng.choice(["auratus", "morhua", ""])), number=int(rng.integers(1, 9)))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_each_write_to_an_object_leaves_exactly_one_history_row_with_who_and_what(store, seed):
+    """Every write kind (add, edit, re-pick, record set and removed, delete, put back) adds one row, by the
+    annotator of the handle that wrote, naming the object, with the values before and after."""
+    rng = np.random.default_rng(seed)
+    store.annotator = f"ann-{seed}"
+    first = [_vertex(rng) for _ in range(2)]
+    object_id = store.add_object("length", first, "cod", "n1")
+    other = store.add_object("point", [_vertex(rng)], "sponge")
+    second = [first[0], _vertex(rng)]
+    record = _record(rng)
+
+    writes = [
+        ("edit", lambda: store.update_object(object_id, attribute="ling", notes="n2"),
+         {"attribute": "cod", "notes": "n1"}, {"attribute": "ling", "notes": "n2"}),
+        ("re-pick", lambda: store.update_object(object_id, vertices=second), None, None),
+        ("record", lambda: store.set_record(object_id, record), None, dataclasses.asdict(record)),
+        ("record", lambda: store.set_record(object_id, None), dataclasses.asdict(record), None),
+    ]
+    assert [(e.change, e.object_id, e.annotator) for e in store.history()] == [
+        ("add", object_id, f"ann-{seed}"), ("add", other, f"ann-{seed}")]
+    added = store.history(object_id)[0].new
+    assert added["kind"] == "length" and added["attribute"] == "cod" and len(added["vertices"]) == 2
+    assert added["vertices"][1]["xl"] == first[1].xl
+    for change, write, old, new in writes:
+        count = len(store.history())
+        write()
+        entries = store.history()
+        assert len(entries) == count + 1
+        last = entries[-1]
+        assert (last.change, last.object_id, last.annotator) == (change, object_id, f"ann-{seed}")
+        if old is not None or change == "record":
+            assert last.old == old and last.new == new
+    repick = store.history(object_id)[2]
+    assert [v["xl"] for v in repick.old["vertices"]] == [first[0].xl, first[1].xl]
+    assert [v["xl"] for v in repick.new["vertices"]] == [second[0].xl, second[1].xl]
+
+    store.annotator = "second reader"
+    taken = store.take_object(object_id)
+    assert store.history()[-1].change == "delete" and store.history()[-1].old["attribute"] == "ling"
+    store.put_back(taken)
+    assert (store.history()[-1].change, store.history()[-1].annotator) == ("put back", "second reader")
+    assert store.history()[-1].new["attribute"] == "ling"
+    store.delete_object(other)
+    entries = store.history()
+    assert (entries[-1].change, entries[-1].object_id, entries[-1].old["kind"]) == ("delete", other, "point")
+    assert [e.id for e in entries] == sorted(e.id for e in entries) and len({e.id for e in entries}) == len(entries)
+    assert [e.at for e in entries] == sorted(e.at for e in entries)  # newest last
+
+
+def test_the_history_of_a_deleted_object_stays_and_no_write_can_alter_it(store):
+    store.annotator = "ann"
+    rng = np.random.default_rng(7)
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    store.set_record(object_id, _record(rng))
+    store.delete_object(object_id)
+    kept = store.history(object_id)
+    assert [e.change for e in kept] == ["add", "record", "delete"]
+    assert kept[-1].old["record"]["genus"] in ("Pagrus", "Chrysophrys", "Gadus")
+    with pytest.raises(ProjectError):
+        store.object(object_id)
+    # the schema itself refuses to change or remove a history row, whoever asks (not only this program)
+    for statement in ("UPDATE history SET annotator = 'someone else'", "DELETE FROM history"):
+        with pytest.raises(Exception, match="append-only"):
+            with store.transaction():
+                store._db.execute(statement)
+    assert store.history(object_id) == kept
+
+
+def test_objects_vertices_and_records_carry_who_made_them_and_when(impl, store, where):
+    rng = np.random.default_rng(3)
+    store.annotator = "alice"
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    made = store.provenance(object_id)
+    assert made["object"][0] == "alice" and made["record"] is None
+    assert [v[0] for v in made["vertices"]] == ["alice", "alice"]
+    assert all(v[1] == made["object"][1] for v in made["vertices"])
+    with impl.open(where, False) as bob:
+        bob.annotator = "bob"
+        stored = bob.object(object_id)
+        bob.update_object(object_id, vertices=[stored.vertices[0], _vertex(rng)])  # bob re-picks the tail
+        bob.set_record(object_id, _record(rng))
+    after = store.provenance(object_id)
+    assert after["object"][:2] == made["object"][:2] and after["object"][2] > made["object"][2]
+    assert after["vertices"][0] == made["vertices"][0]  # the unchanged pick keeps who picked it
+    assert after["vertices"][1][0] == "bob" and after["vertices"][1][1] > made["vertices"][1][1]
+    assert after["record"][0] == "bob" and after["record"][1] > made["object"][1]
+    assert [e.annotator for e in store.history(object_id)] == ["alice", "bob", "bob"]
+
+
+def test_linking_and_unlinking_an_instant_is_one_history_row_each_and_a_refusal_none(store):
+    rng = np.random.default_rng(11)
+    store.annotator = "ann"
+    first, later = (store.add_object("length", [_vertex(rng), _vertex(rng)], "cod") for _ in range(2))
+    count = len(store.history())
+    store.add_instant(first, later)
+    assert [(e.change, e.object_id, e.old, e.new) for e in store.history()[count:]] == [
+        ("edit", later, {"instant_of": None}, {"instant_of": first})]
+    with pytest.raises(ProjectError):
+        store.add_instant(later, first)  # would chain instants: refused, and nothing recorded
+    store.remove_instant(later)
+    assert [(e.change, e.object_id, e.old, e.new) for e in store.history()[count + 1:]] == [
+        ("edit", later, {"instant_of": first}, {"instant_of": None})]
+    with pytest.raises(ProjectError, match="not an instant"):
+        store.remove_instant(later)
+    assert len(store.history()) == count + 2
+
+
+def test_a_refused_write_leaves_no_history_row(store):
+    rng = np.random.default_rng(12)
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    read = store.object(object_id).modified
+    store.update_object(object_id, notes="first edit")
+    kept = store.history()
+    refusals = [lambda: store.update_object(object_id, attribute="x", expected_modified=read),  # stale
+                lambda: store.delete_object(object_id, expected_modified=read),
+                lambda: store.update_object(object_id, kind="polygon"),  # too few vertices
+                lambda: store.update_object(object_id + 99, attribute="x"),
+                lambda: store.set_record(object_id + 99, ObservationRecord(genus="Gadus")),
+                lambda: store.add_object("circle", [_vertex(rng)])]
+    for refused in refusals:
+        with pytest.raises(UsvipsError):
+            refused()
+        assert store.history() == kept
+
+
+def test_two_annotators_writing_at_once_each_get_exactly_their_history_rows(impl, store, where):
+    """Two handles in two threads, each an annotator adding objects and editing them one transaction at a
+    time (retrying when the store is busy): the history holds exactly one row per write that was kept,
+    carrying the annotator of the handle that made it — none lost, none doubled, none misattributed."""
+    count, done, errors = 15, {}, []
+
+    def worker(name: str) -> None:
+        rng = np.random.default_rng(len(name))
+        try:
+            with impl.open(where, False) as handle:
+                handle.annotator = name
+                writes = []
+                for k in range(count):
+                    for _attempt in range(50):
+                        try:
+                            object_id = handle.add_object("point", [_vertex(rng)], name)
+                            break
+                        except ProjectError:
+                            continue
+                    writes.append(("add", object_id))
+                    for _attempt in range(50):
+                        try:
+                            handle.update_object(object_id, notes=f"{name} {k}")
+                            break
+                        except ProjectError:
+                            continue
+                    writes.append(("edit", object_id))
+                done[name] = writes
+        except Exception as error:  # noqa: BLE001 - reported below
+            errors.append(error)
+
+    threads = [threading.Thread(target=worker, args=(name,)) for name in ("alice", "bob")]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == []
+    entries = store.history()
+    assert len(entries) == 4 * count
+    for name, writes in done.items():
+        assert [(e.change, e.object_id) for e in entries if e.annotator == name] == writes

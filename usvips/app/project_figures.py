@@ -246,7 +246,7 @@ def store_measurements(project: ProjectStore, pair: str, objects: list[tuple[str
         vertices = [Vertex(*map(float, p), tuple(map(float, xyz)), c, calibration_id, pair)
                     for p, xyz, c in zip(pixels, m.points, blocks, strict=True)]
         measured.append(m)
-        rows.append((m.kind, vertices, attribute, "", "usvips"))
+        rows.append((m.kind, vertices, attribute, "", ""))  # creator: the store's annotator
     ids = project.add_objects(rows)
     for attribute in sorted({a for *_, a in objects if a}):
         project.add_term(attribute)

@@ -99,7 +99,7 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
         vertices = [Vertex(*map(float, (*lp, *rp)), tuple(map(float, xyz)), block, geometry.calibration_id, label,
                            label, frame, partner, time_s)
                     for lp, rp, xyz, block in zip(left, right, m.points, blocks, strict=True)]
-        rows.append((stored.kind, vertices, stored.attribute, f"tracked from frame {tracks[0].start}", "usvips"))
+        rows.append((stored.kind, vertices, stored.attribute, f"tracked from frame {tracks[0].start}", ""))
     with project.transaction():
         ids = project.add_objects(rows)
         for instant_id in ids:

@@ -102,7 +102,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _run(args: argparse.Namespace, handler: Callable[[argparse.Namespace], int]) -> int:
     """The command's handler, its errors as one line (see the module docstring)."""
     try:
-        return int(handler(args) or 0)
+        from usvips.store.annotator import annotating_as  # --annotator of a writing command (cli/common.py)
+
+        with annotating_as(getattr(args, "annotator", None)):
+            return int(handler(args) or 0)
     except UsvipsError as error:
         return _fail(args.command, str(error))
     except BrokenPipeError:  # output piped into a pager or head that closed early

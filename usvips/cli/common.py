@@ -8,7 +8,14 @@ import io
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import write_text_atomic
 
-__all__ = ["csv_text", "parse_assignment", "parse_prior", "write_text_atomic"]
+__all__ = ["add_annotator_option", "csv_text", "parse_assignment", "parse_prior", "write_text_atomic"]
+
+
+def add_annotator_option(parser) -> None:
+    """``--annotator NAME`` on a command that writes objects: who is working, for this command (else
+    ``$USVIPS_ANNOTATOR``, else the operating system's user name); ``usvips.cli.main`` applies it."""
+    parser.add_argument("--annotator", metavar="NAME", help="who is annotating: stamped on what this command "
+                        "writes and in the project's history (default: $USVIPS_ANNOTATOR, else your user name)")
 
 
 def parse_assignment(option: str, text: str) -> tuple[str, float]:

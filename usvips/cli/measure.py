@@ -27,7 +27,7 @@ from usvips.app.measure import (
     measurement_row,
     read_picks,
 )
-from usvips.cli.common import csv_text, write_text_atomic
+from usvips.cli.common import add_annotator_option, csv_text, write_text_atomic
 from usvips.core.errors import UsvipsError
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
@@ -53,6 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                                    "only)")
     parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
                         "USVIPS calibration or project (the old file is kept as NAME.bak); never the --project")
+    add_annotator_option(parser)
     parser.set_defaults(handler=run)
 
 

@@ -9,7 +9,9 @@ from pathlib import Path
 from usvips.app.project_contents import plan_import, store_import, summarise
 from usvips.app.project_export import export_project, export_targets
 from usvips.app.samples import create_from_manifest
+from usvips.cli.common import add_annotator_option
 from usvips.cli.project_check import register_check_action
+from usvips.cli.project_history import register_history_action
 from usvips.cli.project_sync import register_sync_actions
 from usvips.cli.video import register_project_actions
 from usvips.core import validation
@@ -27,6 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     new = actions.add_parser("new", help="create a project file (optionally from a sample directory)")
     new.add_argument("out", help="the project file to create (*.usvips)")
     new.add_argument("--from", dest="source", help="a sample project directory with project.json")
+    add_annotator_option(new)
     new.set_defaults(handler=run_new)
     info = actions.add_parser("info", help="summarise a project file")
     info.add_argument("project")
@@ -54,6 +57,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     imp.add_argument("--calibration", help="calibration JSON (with --active-for PAIR ...)")
     imp.add_argument("--active-for", nargs="+", action="extend", default=[],
                      help="pairs (or videos) the calibration becomes active for; may be repeated")
+    add_annotator_option(imp)
     imp.set_defaults(handler=run_import)
     exp = actions.add_parser("export", help="export measured objects: .csv, .vertices.csv, .geojson (WGS 84; needs "
                              "set-georeference), .ply (ASCII) or .binary.ply, or NAME.em.txt for EventMeasure-style "
@@ -70,6 +74,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
     register_check_action(actions)  # check: usvips/cli/project_check.py
     register_sync_actions(actions)  # push, pull: usvips/cli/project_sync.py
+    register_history_action(actions)  # history: usvips/cli/project_history.py
 
 
 def run_new(args: argparse.Namespace) -> int:

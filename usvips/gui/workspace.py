@@ -533,7 +533,7 @@ class Workspace:
         def store() -> None:
             first = holder["rows"] is None
             if first:
-                holder["id"] = self.project.add_object(kind, stored, attribute, notes, creator="usvips")
+                holder["id"] = self.project.add_object(kind, stored, attribute, notes)
                 if attribute:
                     self.project.add_term(attribute)
             else:  # redo: the very object (id, record, times) that undo took away

@@ -33,7 +33,7 @@ from typing import Protocol, runtime_checkable
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
-from usvips.store.records import RemovedObject, StoredObject, Vertex
+from usvips.store.records import HistoryEntry, RemovedObject, StoredObject, Vertex
 
 
 @runtime_checkable
@@ -41,11 +41,15 @@ class ProjectStore(Protocol):
     """A project: image pairs and videos, control, calibrations, measured objects and what goes with them.
 
     ``path`` names the project in messages (a file for SQLite; an address for a server) and anchors
-    relative media paths. ``read_only`` is True when every write is refused.
+    relative media paths. ``read_only`` is True when every write is refused. ``annotator`` is who is
+    working through this handle (``usvips.store.annotator.current_annotator()`` when it was opened; it may
+    be set): new objects without a creator, vertices and observation records are stamped with it, and
+    every history row this handle adds carries it.
     """
 
     path: Path
     read_only: bool
+    annotator: str
 
     # ------------------------------------------------------------------------ life cycle
     @property
@@ -186,7 +190,13 @@ class ProjectStore(Protocol):
     # ------------------------------------------------------------------------ measured objects
     def add_object(self, kind: str, vertices: list[Vertex], attribute: str = "", notes: str = "",
                    creator: str = "") -> int:
-        """Store one object of a registered measurement kind; returns its id."""
+        """Store one object of a registered measurement kind; returns its id. ``creator`` '' is this
+        handle's annotator.
+
+        Who and when (schema 8): every write to an object (this method, :meth:`add_objects`,
+        :meth:`update_object`, :meth:`delete_object`, :meth:`take_object`, :meth:`put_back`,
+        :meth:`set_record`) appends exactly one row to the history (:meth:`history`) in its own
+        transaction, with the annotator, the time, the object's id and the values before and after."""
         ...
 
     def add_objects(self, objects: list[tuple[str, list[Vertex], str, str, str]]) -> list[int]:
@@ -242,6 +252,23 @@ class ProjectStore(Protocol):
 
     def record(self, object_id: int) -> ObservationRecord | None:
         """An object's observation record, None when none was entered."""
+        ...
+
+    def provenance(self, object_id: int) -> dict:
+        """Who made what of an object and when: ``object`` (creator, created, modified), ``vertices`` (one
+        (creator, created) per vertex in order: who picked it; a re-pick keeps the stamps of the vertices
+        whose picks did not change) and ``record`` ((creator, created) of the observation record as it
+        stands, None without one). Times are ISO 8601 UTC text."""
+        ...
+
+    def history(self, object_id: int | None = None) -> list[HistoryEntry]:
+        """The append-only history of changes (of one object when ``object_id`` is given, also after it
+        was deleted), oldest first: one :class:`~usvips.store.records.HistoryEntry` per write — "add",
+        "edit" (kind, attribute, notes: old and new of the fields given; or ``instant_of``: an instant
+        linked to or unlinked from an object, :meth:`add_instant` / :meth:`remove_instant`), "re-pick"
+        (vertices replaced),
+        "delete", "put back" (an undo), "record" (observation record set or removed). Rows are never
+        changed or removed (the schema refuses it)."""
         ...
 
     # ------------------------------------------------------------------------ objects over several instants

@@ -42,7 +42,14 @@ from psycopg import sql as pg_sql
 from psycopg.pq import TransactionStatus
 
 from usvips.store.opening import OWN_QUERY, public_location
-from usvips.store.postgres_schema import IDENTITY_TABLES, PRIMARY_KEYS, SCHEMA, SERVER_SCHEMA_VERSION, TABLES
+from usvips.store.postgres_schema import (
+    IDENTITY_TABLES,
+    PRIMARY_KEYS,
+    SCHEMA,
+    SERVER_MIGRATIONS,
+    SERVER_SCHEMA_VERSION,
+    TABLES,
+)
 from usvips.store.project import FORMAT, Project, _now
 from usvips.store.records import ProjectError
 
@@ -364,10 +371,36 @@ class ServerProject(Project):
         except BaseException:
             connection.close()
             raise
-        if version < SERVER_SCHEMA_VERSION:  # no older server schema exists yet; a later one migrates here
-            connection.close()
-            raise ProjectError(f"{location}: a survey of schema {version}; this USVIPS cannot upgrade it")
+        if version < SERVER_SCHEMA_VERSION:
+            try:
+                cls._migrate(connection, location, version, read_only)
+            except BaseException:
+                connection.close()
+                raise
         return cls(url, connection, read_only, Path(path) if path is not None else None)
+
+    @staticmethod
+    def _migrate(connection: psycopg.Connection, location: str, version: int, read_only: bool) -> None:
+        """Bring a survey of an older schema forward in ONE transaction (under the writers' lock): every
+        step of ``SERVER_MIGRATIONS`` or, on any error, none. A read-only opening never migrates and
+        refuses an older survey (open it once for writing)."""
+        if read_only or version not in range(min(SERVER_MIGRATIONS) - 1, SERVER_SCHEMA_VERSION):
+            why = ("open it once for writing to bring it up to date" if read_only
+                   else "this USVIPS cannot upgrade it")
+            raise ProjectError(f"{location}: a survey of schema {version} (this USVIPS uses "
+                               f"{SERVER_SCHEMA_VERSION}); {why}")
+        try:
+            with connection.transaction():
+                connection.execute("SELECT pg_advisory_xact_lock(%s)", (WRITE_LOCK,))
+                current = int(connection.execute("SELECT value FROM meta WHERE key = 'schema_version' FOR UPDATE"
+                                                 ).fetchone()[0])
+                for step in range(current + 1, SERVER_SCHEMA_VERSION + 1):  # another annotator may have done it
+                    connection.execute(SERVER_MIGRATIONS[step])
+                connection.execute("UPDATE meta SET value = %s WHERE key = 'schema_version'",
+                                   (str(SERVER_SCHEMA_VERSION),))
+        except psycopg.Error as error:
+            raise ProjectError(f"{location}: cannot upgrade the survey from schema {version}: {_one_line(error)} "
+                               "(nothing was changed)") from None
 
     @staticmethod
     def _check(connection: psycopg.Connection, location: str) -> int:

@@ -15,6 +15,11 @@ the file switched to WAL).
   ONE transaction, so a failed migration leaves the file as it was. A project made by a newer USVIPS is
   refused either way.
 
+Who and when (schema 8): every handle has an ``annotator`` (``usvips.store.annotator``); objects, vertices
+and observation records are stamped with who made them and when, and every write to an object appends one
+row to the ``history`` table in the same transaction (see :meth:`Project.history`). The store only ever
+INSERTs into the history, and the schema's triggers refuse any UPDATE or DELETE of it.
+
 Every failure of the database (locked by another program, disk full, a damaged file, no permission) is a
 :class:`ProjectError` whose one line names the project file and what to do; nothing is half-written.
 """
@@ -40,7 +45,15 @@ from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store import checks
-from usvips.store.records import ProjectError, RemovedObject, StaleEditError, StoredObject, Vertex  # noqa: F401 - re-exported
+from usvips.store.annotator import current_annotator
+from usvips.store.records import (  # noqa: F401 - re-exported
+    HistoryEntry,
+    ProjectError,
+    RemovedObject,
+    StaleEditError,
+    StoredObject,
+    Vertex,
+)
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
 FORMAT = "usvips-project"
@@ -70,6 +83,48 @@ def refuse_stale(where: object, stored: StoredObject, expected_modified: str | N
         raise StaleEditError(f"{where}: object {stored.id} was changed by someone else since it was read "
                              f"(now modified {stored.modified}, read at {expected_modified}); reload it and "
                              "edit again (nothing was changed)")
+
+
+def _pick_key(vertex: Vertex) -> tuple:
+    """What makes a vertex's pick: its pixels, pair, video and frames (not its 3-D values, which a
+    recomputation replaces without anyone picking again)."""
+    return (vertex.xl, vertex.yl, vertex.xr, vertex.yr, vertex.pair, vertex.video, vertex.frame_left,
+            vertex.frame_right)
+
+
+def _vertex_state(vertex: Vertex) -> dict:
+    """A vertex as the history shows it: picks (pixels), and where given pair, video and frames, X Y Z (m)."""
+    state: dict = {"xl": vertex.xl, "yl": vertex.yl, "xr": vertex.xr, "yr": vertex.yr}
+    if vertex.pair is not None:
+        state["pair"] = vertex.pair
+    if vertex.video is not None:
+        state.update(video=vertex.video, frame_left=vertex.frame_left, frame_right=vertex.frame_right)
+    if vertex.xyz is not None:
+        state["xyz"] = [float(c) for c in vertex.xyz]
+    return state
+
+
+def _object_state(kind: str, attribute: str, notes: str, vertices: list[Vertex]) -> dict:
+    return {"kind": kind, "attribute": attribute, "notes": notes, "vertices": [_vertex_state(v) for v in vertices]}
+
+
+def _history_json(value: dict | None) -> str | None:
+    """A history value as JSON text (numbers that are not finite written as null: JSON has no NaN)."""
+    if value is None:
+        return None
+
+    def finite(item):
+        if isinstance(item, float) and not np.isfinite(item):
+            return None
+        if isinstance(item, dict):
+            return {k: finite(v) for k, v in item.items()}
+        if isinstance(item, list):
+            return [finite(v) for v in item]
+        if isinstance(item, np.generic):
+            return finite(item.item())
+        return item
+
+    return json.dumps(finite(value), allow_nan=False, ensure_ascii=False)
 
 
 def file_hash(path: Path) -> str:
@@ -152,6 +207,16 @@ class Project:
         self.read_only = read_only
         self._db = connection
         self._depth = 0
+        #: who is annotating: stamped on what this handle writes and on every history row it adds. A bad
+        #: name (``$USVIPS_ANNOTATOR`` with a line break …) refuses a writing open in one line naming it; a
+        #: read-only open, which writes nothing, goes ahead
+        try:
+            self.annotator = current_annotator()
+        except UsvipsError:
+            if not read_only:
+                connection.close()
+                raise
+            self.annotator = ""
 
     # ---------------------------------------------------------------------------- opening
     @classmethod
@@ -518,7 +583,8 @@ class Project:
         all of them or, on any error, none."""
         checked = []
         for kind, vertices, attribute, notes, creator in objects:
-            checked.append((checks.object_kind(kind, vertices, self.path), vertices, attribute, notes, creator))
+            checked.append((checks.object_kind(kind, vertices, self.path), vertices, attribute, notes,
+                            creator or self.annotator))
         now = _now()
         ids = []
         with self.transaction():
@@ -528,20 +594,83 @@ class Project:
                                               "modified) VALUES (?, ?, ?, ?, ?, ?)",
                                               (kind, attribute, notes, creator, now, now))
                     ids.append(int(cursor.lastrowid))
-                    self._insert_vertices(ids[-1], vertices)
+                    self._insert_vertices(ids[-1], vertices, now)
+                    self._log(ids[-1], "add", None, _object_state(kind, attribute, notes, vertices))
             except sqlite3.IntegrityError as error:
                 raise ProjectError(f"{self.path}: cannot store the object: {error}") from None
         return ids
 
-    def _insert_vertices(self, object_id: int, vertices: list[Vertex]) -> None:
+    def _insert_vertices(self, object_id: int, vertices: list[Vertex], now: str,
+                         kept: dict[tuple, tuple[str, str]] | None = None) -> None:
+        """The object's vertex rows, each stamped with who picked it and when: this handle's annotator and
+        ``now``, or for a vertex whose picks are unchanged (``kept``: its pick key → (creator, created)) the
+        stamps it had."""
         rows = []
         for i, v in enumerate(vertices):
             xyz = v.xyz if v.xyz is not None else (None, None, None)
             cov = json.dumps(np.asarray(v.covariance, float).reshape(9).tolist()) if v.covariance is not None else None
             pair_id = self.pair_id(v.pair) if v.pair else None
-            rows.append((object_id, i, pair_id, v.xl, v.yl, v.xr, v.yr, *xyz, cov, v.calibration_id))
-        self._db.executemany("INSERT INTO vertices VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", rows)
+            creator, created = (kept or {}).get((i, *_pick_key(v)), (self.annotator, now))
+            rows.append((object_id, i, pair_id, v.xl, v.yl, v.xr, v.yr, *xyz, cov, v.calibration_id, creator, created))
+        self._db.executemany("INSERT INTO vertices (object_id, idx, pair_id, xl, yl, xr, yr, x, y, z, covariance, "
+                             "calibration_id, creator, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                             rows)
         self._insert_vertex_frames(object_id, vertices)
+
+    # ---------------------------------------------------------------------------- who and when (schema 8)
+    def _log(self, object_id: int, change: str, old: dict | None, new: dict | None) -> None:
+        """Append one row to the history (inside the caller's transaction): never updated or deleted
+        afterwards (the schema's triggers refuse it; the store only ever INSERTs here)."""
+        self._db.execute("INSERT INTO history (at, annotator, object_id, change, old, new) VALUES (?, ?, ?, ?, ?, ?)",
+                         (_now(), self.annotator, int(object_id), change, _history_json(old), _history_json(new)))
+
+    def history(self, object_id: int | None = None) -> list[HistoryEntry]:
+        """Every recorded change (of one object when ``object_id`` is given, also after it was deleted),
+        oldest first; empty for a project older than schema 8 opened read-only."""
+        if not self._has_table("history"):
+            return []
+        where, parameters = ("WHERE object_id = ?", (int(object_id),)) if object_id is not None else ("", ())
+        rows = self._query(f"SELECT id, at, annotator, object_id, change, old, new FROM history {where} ORDER BY id",
+                           parameters)
+        return [HistoryEntry(int(r[0]), r[1], r[2], int(r[3]), r[4],
+                             None if r[5] is None else self._json(r[5], f"history entry {r[0]}"),
+                             None if r[6] is None else self._json(r[6], f"history entry {r[0]}")) for r in rows]
+
+    def provenance(self, object_id: int) -> dict:
+        """Who made what of an object and when: ``object`` (creator, created, modified), ``vertices`` (one
+        (creator, created) per vertex, in order: who picked it) and ``record`` ((creator, created) of the
+        observation record as it stands, None when there is none). Times are ISO 8601 UTC text."""
+        if not self._has_table("history"):  # before schema 8 (read-only): only the object was stamped
+            stored = self.object(object_id)
+            return {"object": (stored.creator, stored.created, stored.modified),
+                    "vertices": [("", "")] * len(stored.vertices), "record": None}
+        with self._reading():
+            stored = self.object(object_id)
+            vertices = [tuple(r) for r in self._db.execute(
+                "SELECT creator, created FROM vertices WHERE object_id = ? ORDER BY idx", (object_id,)).fetchall()]
+            record = self._db.execute("SELECT creator, created FROM observation_records WHERE object_id = ?",
+                                      (object_id,)).fetchone()
+        return {"object": (stored.creator, stored.created, stored.modified), "vertices": vertices,
+                "record": None if record is None else tuple(record)}
+
+    def _vertex_stamps(self, object_id: int) -> dict[tuple, tuple[str, str]]:
+        """(index, picks …) → (creator, created) of the object's stored vertices."""
+        stamps = {}
+        for stored, row in zip(self.object(object_id).vertices, self._db.execute(
+                "SELECT creator, created FROM vertices WHERE object_id = ? ORDER BY idx", (object_id,)).fetchall(),
+                strict=True):
+            stamps[(len(stamps), *_pick_key(stored))] = (row[0], row[1])
+        return stamps
+
+    def _full_state(self, object_id: int) -> dict:
+        """An object as the history shows it: kind, attribute, notes, vertices, observation record."""
+        stored = self.object(object_id)
+        state = _object_state(stored.kind, stored.attribute, stored.notes, list(stored.vertices))
+        state["creator"] = stored.creator
+        record = self.record(object_id)
+        if record is not None:
+            state["record"] = dataclasses.asdict(record)
+        return state
 
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
                       vertices: list[Vertex] | None = None, kind: str | None = None,
@@ -552,6 +681,8 @@ class Project:
         with self.transaction():
             stored = self.object(object_id)
             refuse_stale(self.path, stored, expected_modified)
+            before = _object_state(stored.kind, stored.attribute, stored.notes, list(stored.vertices))
+            kept = self._vertex_stamps(object_id) if vertices is not None else None
             if kind is not None:
                 count = len(vertices) if vertices is not None else len(stored.vertices)
                 try:
@@ -568,13 +699,21 @@ class Project:
                                  "replaced) SELECT object_id, idx, x, y, z, covariance, calibration_id, ? "
                                  "FROM vertices WHERE object_id = ? AND x IS NOT NULL", (_now(), object_id))
                 self._db.execute("DELETE FROM vertices WHERE object_id = ?", (object_id,))
-                self._insert_vertices(object_id, vertices)
+                self._insert_vertices(object_id, vertices, _now(), kept)
             self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(stored.modified), object_id))
+            changed = self.object(object_id)
+            after = _object_state(changed.kind, changed.attribute, changed.notes, list(changed.vertices))
+            given = [name for name, value in (("kind", kind), ("attribute", attribute), ("notes", notes),
+                                              ("vertices", vertices)) if value is not None]
+            self._log(object_id, "re-pick" if vertices is not None else "edit",
+                      {name: before[name] for name in given}, {name: after[name] for name in given})
 
     def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
         with self.transaction():
             refuse_stale(self.path, self.object(object_id), expected_modified)
+            old = self._full_state(object_id)
             self._edit("DELETE FROM objects WHERE id = ?", (object_id,))
+            self._log(object_id, "delete", old, None)
 
     def object_rows(self, object_id: int) -> RemovedObject:
         """Everything stored of one object, row for row (read only), for :meth:`put_back` to restore: an
@@ -599,17 +738,21 @@ class Project:
         :meth:`put_back` (undo of a delete gives back the same id, record and history)."""
         with self.transaction():
             removed = self.object_rows(object_id)
+            old = self._full_state(object_id)
             self._remove_rows(object_id)
+            self._log(object_id, "delete", old, None)
         return removed
 
     def put_back(self, removed: RemovedObject, replace: bool = False) -> None:
         """Restore an object as :meth:`take_object` or :meth:`object_rows` found it, row for row (same id).
         With ``replace`` whatever is stored under that id now is replaced; without, a used id is refused."""
         with self.transaction():
+            old = None
             if self._db.execute("SELECT 1 FROM objects WHERE id = ?", (removed.object_id,)).fetchone():
                 if not replace:
                     raise ProjectError(f"{self.path}: object {removed.object_id} exists again; it cannot be put "
                                        "back")
+                old = self._full_state(removed.object_id)
                 self._remove_rows(removed.object_id)
             try:
                 for table, columns, values in removed.rows:
@@ -619,6 +762,7 @@ class Project:
             except sqlite3.Error as error:
                 raise ProjectError(f"{self.path}: object {removed.object_id} cannot be put back: "
                                    f"{database_problem(error)} (nothing was changed)") from None
+            self._log(removed.object_id, "put back", old, self._full_state(removed.object_id))
 
     def object(self, object_id: int) -> StoredObject:
         found = self._objects("WHERE id = ?", (object_id,))
@@ -692,12 +836,15 @@ class Project:
                 raise ProjectError(f"{self.path}: object {instant_id} has instants of its own; add them to "
                                    f"object {object_id} one by one")
             self._edit("INSERT INTO object_instants (object_id, of_object) VALUES (?, ?)", (instant_id, object_id))
+            self._log(instant_id, "edit", {"instant_of": None}, {"instant_of": int(object_id)})
 
     def remove_instant(self, instant_id: int) -> None:
         """Unlink an instant: it stays, as an object of its own."""
         with self.transaction():
-            if self._edit("DELETE FROM object_instants WHERE object_id = ?", (instant_id,)).rowcount == 0:
+            of = self.instant_links().get(int(instant_id))
+            if of is None or self._edit("DELETE FROM object_instants WHERE object_id = ?", (instant_id,)).rowcount == 0:
                 raise ProjectError(f"{self.path}: object {instant_id} is not an instant of another object")
+            self._log(instant_id, "edit", {"instant_of": int(of)}, {"instant_of": None})
 
     def instants(self, object_id: int) -> list[int]:
         """The ids of the further instants of ``object_id`` (its first instant is itself), by id."""
@@ -1086,15 +1233,21 @@ class Project:
         return [Species(*row) for row in rows.fetchall()]
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
-        """Store (or with None remove) an object's observation record."""
-        self.object(object_id)
-        if record is None:
-            self._edit("DELETE FROM observation_records WHERE object_id = ?", (object_id,))
-            return
-        self._edit("INSERT OR REPLACE INTO observation_records (object_id, family, genus, species, code, number, "
-                   "stage, activity, comment) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                   (object_id, record.family, record.genus, record.species, record.code, record.number,
-                    record.stage, record.activity, record.comment))
+        """Store (or with None remove) an object's observation record, stamped with this handle's annotator
+        and the time; the history keeps the record before and after (one transaction)."""
+        with self.transaction():
+            self.object(object_id)
+            old = self.record(object_id)
+            if record is None:
+                self._edit("DELETE FROM observation_records WHERE object_id = ?", (object_id,))
+            else:
+                self._edit("INSERT OR REPLACE INTO observation_records (object_id, family, genus, species, code, "
+                           "number, stage, activity, comment, creator, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, "
+                           "?, ?)", (object_id, record.family, record.genus, record.species, record.code,
+                                     record.number, record.stage, record.activity, record.comment, self.annotator,
+                                     _now()))
+            self._log(object_id, "record", None if old is None else dataclasses.asdict(old),
+                      None if record is None else dataclasses.asdict(record))
 
     def records(self) -> dict[int, ObservationRecord]:
         """Every object's observation record by object id, by one query (none before schema 5)."""

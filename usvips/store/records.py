@@ -68,3 +68,25 @@ class RemovedObject:
 
     object_id: int
     rows: tuple[tuple[str, tuple[str, ...], tuple[tuple, ...]], ...]
+
+
+#: the kinds of change the history records: an object added, edited (kind, attribute, notes), re-picked
+#: (its vertices replaced), deleted, put back (an undo restoring it as it was), its observation record set
+#: (or removed)
+CHANGES = ("add", "edit", "re-pick", "delete", "put back", "record")
+
+
+@dataclass(frozen=True)
+class HistoryEntry:
+    """One change in a project's append-only history: its number (increasing in the order the changes
+    were made), when (ISO 8601 UTC text), by whom (the annotator's name), which object (its id, kept after
+    the object is deleted), what kind of change (one of :data:`CHANGES`), and the values before and after
+    (JSON-shaped: dicts of the fields concerned; None where there was or is nothing)."""
+
+    id: int
+    at: str
+    annotator: str
+    object_id: int
+    change: str
+    old: dict | None
+    new: dict | None

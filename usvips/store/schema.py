@@ -150,6 +150,34 @@ CREATE TABLE object_instants (
 CREATE INDEX object_instants_of ON object_instants(of_object);
 """
 MIGRATIONS[7] = VERSION_7
+
+# version 8: who made each vertex and observation record and when (objects have creator/created/modified
+# since version 1; the vertices and records of older projects take their object's creator and last
+# modification), and the append-only history of every change to an object (usvips.store.records.CHANGES):
+# when, by whom, which object (no foreign key: the history of a deleted object stays), old and new value
+# as JSON. Triggers refuse any UPDATE or DELETE of a history row, whoever asks.
+VERSION_8 = """
+ALTER TABLE vertices ADD COLUMN creator TEXT NOT NULL DEFAULT '';
+ALTER TABLE vertices ADD COLUMN created TEXT NOT NULL DEFAULT '';
+UPDATE vertices SET creator = (SELECT o.creator FROM objects o WHERE o.id = vertices.object_id),
+    created = (SELECT o.modified FROM objects o WHERE o.id = vertices.object_id)
+    WHERE object_id IN (SELECT id FROM objects);
+ALTER TABLE observation_records ADD COLUMN creator TEXT NOT NULL DEFAULT '';
+ALTER TABLE observation_records ADD COLUMN created TEXT NOT NULL DEFAULT '';
+UPDATE observation_records SET creator = (SELECT o.creator FROM objects o WHERE o.id = observation_records.object_id),
+    created = (SELECT o.modified FROM objects o WHERE o.id = observation_records.object_id)
+    WHERE object_id IN (SELECT id FROM objects);
+CREATE TABLE history (
+    id INTEGER PRIMARY KEY, at TEXT NOT NULL, annotator TEXT NOT NULL, object_id INTEGER NOT NULL,
+    change TEXT NOT NULL CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', 'record')),
+    old TEXT, new TEXT);
+CREATE INDEX history_object ON history(object_id, id);
+CREATE TRIGGER history_kept_unchanged BEFORE UPDATE ON history
+    BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never altered'); END;
+CREATE TRIGGER history_kept_whole BEFORE DELETE ON history
+    BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never removed'); END;
+"""
+MIGRATIONS[8] = VERSION_8
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
