@@ -373,6 +373,13 @@ def _back_project_axial(housing: Housing, points: np.ndarray) -> tuple[np.ndarra
         theta2 = np.clip(theta1 + damping * step, 0.0, largest)
         f2, status2 = _in_plane_miss(housing, axis, e_r, points, theta2)
         good = status2 == RayStatus.OK
+        if good.all():  # the usual case: every ray got through
+            moved = np.abs(theta2 - theta1)
+            theta0, f0, theta1, f1 = theta1, f1, theta2, f2
+            damping[:] = 1.0
+            if np.all(moved < 1e-15):
+                break
+            continue
         moved = np.where(good, np.abs(theta2 - theta1), 0.0)
         theta0, f0 = np.where(good, theta1, theta0), np.where(good, f1, f0)
         theta1, f1 = np.where(good, theta2, theta1), np.where(good, f2, f1)
