@@ -290,3 +290,30 @@ def _assert_no_ray_reaches(housing, points: np.ndarray) -> None:
             (np.einsum("ij,ij->i", w, bundle.directions) > 0)
         crossing = usable[:-1] & usable[1:] & (side[:-1] != side[1:])
         assert not np.any(crossing), point
+
+
+@pytest.mark.parametrize("name", ["air", "flat-port", "dome-port"])  # (a dome cover sees less than 69°)
+def test_a_point_beyond_the_lens_fold_is_outside_the_frame_not_a_folded_pixel(name):
+    """k1 < 0 folds the distortion polynomial far outside the frame, mapping wide directions back into
+    it: over random points all round a framed camera, every point given a pixel (status OK) lies on that
+    pixel's ray, and those beyond the fold are OUTSIDE_FRAME."""
+    rng = np.random.default_rng(7)
+    interior = Interior(f=700.0, xp=640.0, yp=480.0, sy=1.0, k1=-0.05)  # folds at 69° off the axis
+    camera = Camera(interior, Exterior(0, 0, 0), HOUSINGS[name], 1280, 960)
+    beyond = 0
+    for _ in range(10):
+        points = rng.standard_normal((1000, 3)) * rng.uniform(0.5, 8.0, (1000, 1))
+        projection = camera.project(points)
+        seen = projection.status == RayStatus.OK
+        assert seen.sum() > 20
+        back = camera.rays(projection.pixels[seen])
+        w = points[seen] - back.origins
+        along = np.einsum("ij,ij->i", w, back.directions)
+        assert np.all(along > 0)
+        assert np.max(np.linalg.norm(w - along[:, None] * back.directions, axis=1)) < 1e-7
+        unbounded = Camera(interior, Exterior(0, 0, 0), HOUSINGS[name]).project(points)
+        in_frame = np.all((unbounded.pixels > -0.5) & (unbounded.pixels < [1279.5, 959.5]), axis=1)
+        folded = (unbounded.status == RayStatus.OK) & in_frame & ~seen
+        assert np.all(projection.status[folded] == RayStatus.OUTSIDE_FRAME)
+        beyond += int(folded.sum())
+    assert beyond > 10  # the case arose: wide directions folded back into the frame

@@ -175,7 +175,8 @@ class Camera:
         Converges to far below 1e-6 px wherever the point is visible; ``start_pixels`` (N, 2), e.g. the
         answer for slightly different parameters, speeds up a non-axial housing's solve. Status per point:
         BEHIND_CAMERA (not in front of the housing), MISSED_SURFACE / TOTAL_INTERNAL_REFLECTION (no ray of
-        the camera reaches it), NOT_CONVERGED, OUTSIDE_FRAME (when the frame size is known).
+        the camera reaches it), NOT_CONVERGED, OUTSIDE_FRAME (when the frame size is known; also a point
+        whose direction lies beyond the fold of the lens distortion, which folds its pixel back).
         """
         points = validation.finite_array("points", points, 3)
         local = self.exterior.to_camera(points)
@@ -197,6 +198,9 @@ class Camera:
                 (pixels[:, 0] < -0.5) | (pixels[:, 0] > self.width - 0.5)
                 | (pixels[:, 1] < -0.5) | (pixels[:, 1] > self.height - 0.5)
             )
+            # a direction beyond the distortion's fold folds back to a pixel that may lie in the frame,
+            # but the lens forms no such image: the point is outside what the camera sees
+            outside |= self.interior.folded(uv)
             status[(status == RayStatus.OK) & outside] = RayStatus.OUTSIDE_FRAME
         return Projection(pixels, status)
 
