@@ -43,3 +43,16 @@ def test_a_subcommand_gets_its_full_parser_and_only_its_module(command, capsys):
 def test_a_module_that_extends_a_command_comes_with_it(capsys):
     assert main(["video", "calibration-views", "--help"]) == 0
     assert "--max-views" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("action", ["", "info", "add-video", "check", "push", "set-metadata"])
+def test_the_project_command_parses_without_numpy_scipy_opencv_or_pyav(action):
+    """``usvips project [ACTION] --help`` builds the whole project parser (every action registered) and
+    loads none of the work: each handler imports it when it runs."""
+    argv = ["project", *([action] if action else []), "--help"]
+    code = (f"import sys\nfrom usvips.cli import main\nassert main({argv!r}) == 0\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in {'numpy', 'cv2', 'scipy', 'av', 'PySide6'}"
+            " or m.startswith(('usvips.store', 'usvips.app'))), file=sys.stderr)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert result.stderr.strip().splitlines()[-1] == "[]"
+    assert f"usvips project {action}".strip() in result.stdout

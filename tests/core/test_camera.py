@@ -7,6 +7,7 @@ from usvips.core.errors import InvalidParameterError
 from usvips.core.housing import (
     AirHousing,
     DomeCoverHousing,
+    DomePortHousing,
     FlatPortHousing,
     GeneralHousing,
     dome_cover_from_object_space,
@@ -202,3 +203,117 @@ def test_planar_stacks_of_any_depth_and_order_of_indices_round_trip():
         projection = camera.project(points)
         assert projection.ok.all()
         assert np.max(np.abs(projection.pixels - pixels)) < 1e-6
+
+
+def _random_axial_housing(kind: str, rng: np.random.Generator):
+    """An axial housing of ``kind`` with a random decentring: a dome port's perspective centre anywhere
+    within 4 mm of its dome centre (often mostly across the axis, so the symmetry axis looks sideways), a
+    dome cover's sphere centre on the optical axis, a flat port tilted at random."""
+    if kind == "dome-port":
+        direction = rng.standard_normal(3)
+        if rng.random() < 0.5:
+            direction[2] *= 0.05  # mostly across the optical axis: dz ≈ 0
+        offset = direction / np.linalg.norm(direction) * rng.uniform(0.0005, 0.004)
+        return DomePortHousing(*offset, rng.uniform(0.04, 0.08), rng.uniform(0.004, 0.012),
+                               rng.uniform(1.46, 1.52), rng.uniform(1.33, 1.35))
+    if kind == "dome-cover":
+        return DomeCoverHousing(0.0, 0.0, rng.uniform(-0.03, 0.03), 0.09, 0.0, 0.0, rng.uniform(0.13, 0.16),
+                                rng.uniform(1.5, 1.6), 1.34)
+    return FlatPortHousing(rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(0.02, 0.08),
+                           rng.uniform(0.005, 0.02), rng.uniform(1.45, 1.7), 1.34)
+
+
+@pytest.mark.parametrize("kind", ["dome-port", "dome-cover", "flat-port"])
+def test_axial_housings_round_trip_over_random_decentrings(kind):
+    """project ∘ rays returns to the pixel to 1e-6 px over the whole frame for random decentrings (also a
+    dome port decentred across its axis, whose far side lies more than 90° from the axis); points anywhere
+    around the camera get an honest status: OK or OUTSIDE_FRAME only where the solved pixel's ray really
+    passes through the point, BEHIND_CAMERA for every point behind the camera."""
+    rng = np.random.default_rng(20261126)
+    interior = Interior(f=700.0, xp=640.0, yp=480.0, sy=1.0, k1=-0.05)
+    far_side = 0
+    for _ in range(25):
+        housing = _random_axial_housing(kind, rng)
+        assert housing.axis is not None
+        camera = Camera(interior, Exterior(0, 0, 0), housing, 1280, 960)
+        pixels = np.column_stack([rng.uniform(-0.4, 1279.4, 300), rng.uniform(-0.4, 959.4, 300)])
+        rays = camera.rays(pixels)
+        assert np.all(rays.ok)
+        points = rays.origins + rng.uniform(0.3, 8.0, 300)[:, None] * rays.directions
+        projection = camera.project(points)
+        assert np.all(projection.status == RayStatus.OK)
+        np.testing.assert_allclose(projection.pixels, pixels, atol=1e-6)
+        far_side += int(np.sum(np.degrees(np.arccos(np.clip(points @ housing.axis / np.linalg.norm(points, axis=1),
+                                                                 -1, 1))) > 90.0))
+        # anywhere around the camera (a lens without distortion, which cannot fold far outside the frame,
+        # and no frame): every status is honest
+        camera = Camera(interior.with_values(k1=0.0), Exterior(0, 0, 0), housing)
+        anywhere = rng.standard_normal((300, 3)) * rng.uniform(0.3, 8.0, (300, 1))
+        projection = camera.project(anywhere)
+        behind = anywhere[:, 2] >= 0.0
+        assert np.all(projection.status[behind] == RayStatus.BEHIND_CAMERA)
+        assert not np.any(projection.status == RayStatus.NOT_CONVERGED)
+        seen = projection.status == RayStatus.OK
+        # a dome port's glass surrounds the camera: it reaches every point in front
+        assert seen[~behind].mean() > (0.95 if kind == "dome-port" else 0.5)
+        back = camera.rays(projection.pixels[seen])
+        w = anywhere[seen] - back.origins
+        along = np.einsum("ij,ij->i", w, back.directions)
+        miss = np.linalg.norm(w - along[:, None] * back.directions, axis=1)
+        assert np.all(back.ok) and np.all(along > 0)
+        assert np.max(miss) < 1e-7
+        # a point no ray reaches is named so: the rays of a fine fan in its plane of refraction all pass it
+        # on one side (a change of side between two rays would put a ray through it)
+        # (or lies in the housing, or needs a ray out of the camera's back: not in front of the housing)
+        unreached = ~behind & ~seen
+        assert np.all(np.isin(projection.status[unreached], (RayStatus.MISSED_SURFACE, RayStatus.BEHIND_CAMERA,
+                                                             RayStatus.TOTAL_INTERNAL_REFLECTION)))
+        _assert_no_ray_reaches(housing, anywhere[np.flatnonzero(unreached)[:10]])
+    if kind == "dome-port":
+        assert far_side > 100  # the sideways-decentred domes really put points beyond 90° from the axis
+
+
+def _assert_no_ray_reaches(housing, points: np.ndarray) -> None:
+    """Trace a fan of 2001 rays from 0 to π about the axis in each point's plane of refraction: no two
+    neighbouring rays that get through, leave the camera forwards and run towards the point pass it on
+    opposite sides (else a ray between them would reach it)."""
+    axis = housing.axis
+    theta = np.linspace(0.0, np.pi, 2001)
+    for point in points:
+        radial = point - (point @ axis) * axis
+        e_r = radial / np.linalg.norm(radial)
+        directions = np.cos(theta)[:, None] * axis + np.sin(theta)[:, None] * e_r
+        bundle = housing.trace(np.zeros_like(directions), directions)
+        w = point - bundle.origins
+        side = np.sign((w @ axis) * (bundle.directions @ e_r) - (w @ e_r) * (bundle.directions @ axis))
+        usable = (bundle.status == RayStatus.OK) & (directions[:, 2] < 0) & \
+            (np.einsum("ij,ij->i", w, bundle.directions) > 0)
+        crossing = usable[:-1] & usable[1:] & (side[:-1] != side[1:])
+        assert not np.any(crossing), point
+
+
+@pytest.mark.parametrize("name", ["air", "flat-port", "dome-port"])  # (a dome cover sees less than 69°)
+def test_a_point_beyond_the_lens_fold_is_outside_the_frame_not_a_folded_pixel(name):
+    """k1 < 0 folds the distortion polynomial far outside the frame, mapping wide directions back into
+    it: over random points all round a framed camera, every point given a pixel (status OK) lies on that
+    pixel's ray, and those beyond the fold are OUTSIDE_FRAME."""
+    rng = np.random.default_rng(7)
+    interior = Interior(f=700.0, xp=640.0, yp=480.0, sy=1.0, k1=-0.05)  # folds at 69° off the axis
+    camera = Camera(interior, Exterior(0, 0, 0), HOUSINGS[name], 1280, 960)
+    beyond = 0
+    for _ in range(10):
+        points = rng.standard_normal((1000, 3)) * rng.uniform(0.5, 8.0, (1000, 1))
+        projection = camera.project(points)
+        seen = projection.status == RayStatus.OK
+        assert seen.sum() > 20
+        back = camera.rays(projection.pixels[seen])
+        w = points[seen] - back.origins
+        along = np.einsum("ij,ij->i", w, back.directions)
+        assert np.all(along > 0)
+        assert np.max(np.linalg.norm(w - along[:, None] * back.directions, axis=1)) < 1e-7
+        unbounded = Camera(interior, Exterior(0, 0, 0), HOUSINGS[name]).project(points)
+        in_frame = np.all((unbounded.pixels > -0.5) & (unbounded.pixels < [1279.5, 959.5]), axis=1)
+        folded = (unbounded.status == RayStatus.OK) & in_frame & ~seen
+        assert np.all(projection.status[folded] == RayStatus.OUTSIDE_FRAME)
+        beyond += int(folded.sum())
+    assert beyond > 10  # the case arose: wide directions folded back into the frame

@@ -6,6 +6,7 @@ import pytest
 
 from usvips.app.video_project import add_video
 from usvips.core.errors import InvalidParameterError
+from usvips.core.synchronisation import SyncEstimate
 from usvips.core.synth.frame_numbers import frame_number, numbered_frame
 from usvips.gui.video_model import (
     FrameCache,
@@ -16,6 +17,7 @@ from usvips.gui.video_model import (
     parse_position,
     prefetch_order,
     rgb_pair,
+    sync_decision,
 )
 from usvips.io.video_writer import encode_video
 from usvips.store import Project
@@ -105,3 +107,23 @@ def test_the_seek_proxies_size_on_disk_is_estimated_before_asking():
     assert proxy_disk_bytes(0, 1920, 1080) == (0, 0)
     assert [format_bytes(n) for n in (512, 93 * 1024, int(2.44 * 2**30), 812 * 2**20)] == [
         "512 bytes", "93 KiB", "2.4 GiB", "812 MiB"]
+
+
+@pytest.mark.parametrize(("offset", "confidence", "window", "beyond", "action"), [
+    (4.1, 0.95, (-10, 10), None, "store"),
+    (4.1, 0.2, (-10, 10), None, "ask"),
+    (10.0, 0.95, (-10, 10), None, "refuse"),   # at the edge, however confident
+    (-9.6, 0.2, (-10, 10), None, "refuse"),    # rounds to the edge: never offered, not even asked
+    (3.0, 0.99, (-5, 5), 12.0, "refuse"),      # the flash seen outside the window
+    (4.0, 0.9, None, None, "store"),           # no window known: judged by its confidence
+])
+def test_an_estimate_at_the_edge_of_its_window_is_refused_not_offered(offset, confidence, window, beyond, action):
+    estimate = SyncEstimate(offset, 25.0, "flash", confidence, window=window, beyond=beyond)
+    decided, why = sync_decision(estimate)
+    assert decided == action
+    if action == "refuse":
+        assert why == estimate.edge_problem() and "window" in why
+    elif action == "ask":
+        assert "confidence" in why
+    else:
+        assert why is None

@@ -355,6 +355,29 @@ def test_an_estimate_of_little_confidence_is_stored_only_if_the_user_says_so(qtb
         assert stored["offset_frames"] == 3 and stored["offset_estimate"].get("method") != "flash"
 
 
+def test_an_estimate_at_the_edge_of_its_window_is_not_offered_for_storing(qtbot, make_window, sample_copy,
+                                                                         monkeypatch):
+    """An offset at the edge of its search window (and of little confidence, which alone would ask) is no
+    estimate: the window says why, asks nothing and stores nothing."""
+    from usvips.app import video_project
+    from usvips.core.synchronisation import SyncEstimate
+
+    estimate = SyncEstimate(-7.8, 25.0, "flash", 0.3, window=(-8, 8))
+    monkeypatch.setattr(video_project, "run_sync", lambda job, method, progress=None: estimate)
+    window = make_window()
+    assert window.open_path(sample_copy("rov_flatport"), "video")
+    _wait_frame(qtbot, window, 0)
+    before = dict(window.workspace.project.video("video"))
+    assert window.video.synchronise("flash") is not None
+    qtbot.waitUntil(lambda: "not stored" in window.statusBar().currentMessage() and not window.busy, timeout=60000)
+    message = window.statusBar().currentMessage()
+    assert "edge of the search window" in message and "-8 to +8" in message
+    assert window.video.question is None or not window.video.question.isVisible()
+    assert window.workspace.project.video("video")["offset_frames"] == before["offset_frames"]
+    assert window.workspace.project.video("video").get("offset_estimate") == before.get("offset_estimate")
+    assert window.video.dock_widget.offset.value() == before["offset_frames"]
+
+
 def test_quick_steps_add_up_while_a_frame_is_still_decoding(qtbot, make_window, sample_copy):
     window = make_window()
     assert window.open_path(sample_copy("rov_flatport"), "video")

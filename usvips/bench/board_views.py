@@ -59,9 +59,9 @@ class BoardViews:
 def _housing_truth(kind: str, rng: np.random.Generator) -> dict[str, float]:
     """True housing values: each parameter's default start, moved by half its prior sigma at random. A
     dome port's perspective centre sits 4 ± 1 mm behind the dome centre and within about a millimetre of
-    its axis (the entrance pupil is hardest to place along the axis): a decentring mostly across the
-    axis makes the housing's symmetry axis point sideways, where the axial back-projection
-    (``camera._back_project_axial``, angles from the axis below 90° only) cannot reach the board."""
+    its axis (the entrance pupil is hardest to place along the axis), as a lens is mounted in a dome. (A
+    decentring mostly across the axis, whose symmetry axis points sideways, projects as well: the axial
+    back-projection covers angles from the axis up to 180°.)"""
     cls = housings.kind(kind)
     out = {}
     for name in cls.calibration_names:

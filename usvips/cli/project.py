@@ -5,22 +5,22 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from usvips.app.project_contents import plan_import, store_import, summarise
-from usvips.app.project_export import export_project, export_targets
-from usvips.app.samples import create_from_manifest
 from usvips.cli.common import add_annotator_option
 from usvips.cli.project_check import register_check_action
 from usvips.cli.project_history import register_history_action
+from usvips.cli.project_media import register_project_actions
 from usvips.cli.project_sync import register_sync_actions
-from usvips.cli.video import register_project_actions
-from usvips.core import validation
-from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import InputFileError, UsvipsError
-from usvips.io.atomic import replacing
-from usvips.store import Project
-from usvips.store.interface import ProjectStore
-from usvips.store.opening import create_project, open_project, shown
+
+if TYPE_CHECKING:
+    from usvips.core.deployment import Georeference
+    from usvips.store.interface import ProjectStore
+
+# Each handler imports the work it needs (the project store, the contents and exports: numpy, SciPy,
+# OpenCV): ``usvips project --help`` and the parser of any action load none of them (a row of
+# ``usvips bench --only startup``).
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -70,7 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     exp.add_argument("--force", action="store_true", help="replace OUT even when it is a USVIPS project or "
                      "calibration (the old file is kept as OUT.bak); never the project exported")
     exp.set_defaults(handler=run_export)
-    register_project_actions(actions)  # add-pairs, add-video: handlers in usvips/cli/video.py
+    register_project_actions(actions)  # add-pairs, add-video: usvips/cli/project_media.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
     register_check_action(actions)  # check: usvips/cli/project_check.py
     register_sync_actions(actions)  # push, pull: usvips/cli/project_sync.py
@@ -78,6 +78,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_new(args: argparse.Namespace) -> int:
+    from usvips.app.samples import create_from_manifest
+    from usvips.store.opening import create_project, shown
+
     project = create_from_manifest(args.source, args.out) if args.source else create_project(args.out)
     project.close()
     print(f"created {shown(args.out)}")
@@ -85,6 +88,10 @@ def run_new(args: argparse.Namespace) -> int:
 
 
 def run_info(args: argparse.Namespace) -> int:
+    from usvips.app.project_contents import summarise
+    from usvips.core.deployment import DEPLOYMENT_FIELDS
+    from usvips.store.opening import open_project, shown
+
     with open_project(args.project, read_only=True) as project:
         summary = summarise(project)
         media = project.media_problems(check_hash=args.full_hash)
@@ -123,6 +130,8 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_accept_media(args: argparse.Namespace) -> int:
+    from usvips.store import Project
+
     with Project.open(args.project) as project:
         for stored in args.media:
             project.accept_media(stored)
@@ -131,6 +140,8 @@ def run_accept_media(args: argparse.Namespace) -> int:
 
 
 def run_relocate_media(args: argparse.Namespace) -> int:
+    from usvips.store import Project
+
     with Project.open(args.project) as project:
         new = project.relocate_media(args.media, args.new)
     print(f"{args.media} is now {new}")
@@ -138,6 +149,9 @@ def run_relocate_media(args: argparse.Namespace) -> int:
 
 
 def run_import(args: argparse.Namespace) -> int:
+    from usvips.app.project_contents import plan_import, store_import
+    from usvips.store.opening import open_project, shown
+
     # every file is read and checked before the project is opened; then all goes in one transaction
     plan = plan_import(args.control, args.obs, args.pair, args.role, args.calibration, tuple(args.active_for))
     with open_project(args.project) as project:
@@ -147,6 +161,10 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    from usvips.app.project_export import export_project, export_targets
+    from usvips.io.atomic import replacing
+    from usvips.store.opening import open_project
+
     skipped: list[str] = []
     with replacing(export_targets(args.out), project=args.project, replace=args.force, option="OUT"), \
             open_project(args.project, read_only=True) as project:
@@ -191,6 +209,10 @@ def register_metadata_actions(actions: argparse._SubParsersAction) -> None:
 
 
 def run_set_metadata(args: argparse.Namespace) -> int:
+    from usvips.core import validation
+    from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment
+    from usvips.store.opening import open_project
+
     given = {name: getattr(args, name) for name in _METADATA_OPTIONS if getattr(args, name) is not None}
     for name, value in given.items():  # no control characters in what CheckEM's tables will hold
         option = "--depth" if name == "depth_m" else "--" + name.replace("_", "-")
@@ -215,6 +237,9 @@ def run_set_metadata(args: argparse.Namespace) -> int:
 
 
 def run_set_georeference(args: argparse.Namespace) -> int:
+    from usvips.core.deployment import Georeference
+    from usvips.store.opening import open_project
+
     if args.clear:
         given = [o for o, v, default in (("--latitude", args.latitude, None), ("--longitude", args.longitude, None),
                                          ("--depth", args.depth, "0"), ("--heading", args.heading, "0"),

@@ -6,13 +6,17 @@ from __future__ import annotations
 
 import argparse
 import json
+from typing import TYPE_CHECKING
 
-from usvips.app.quality import REPORT_COLUMNS, check_project, report_rows
 from usvips.cli.common import csv_text, write_text_atomic
 from usvips.core.errors import InvalidParameterError
-from usvips.core.measurements import QualityRules
 from usvips.io.atomic import replacing
-from usvips.store.opening import open_project
+
+if TYPE_CHECKING:
+    from usvips.core.measurements import QualityRules
+
+# numpy, SciPy and OpenCV (through the quality check and the project store) are imported by the handler
+# only: ``usvips project --help`` registers this action without them
 
 
 def register_check_action(actions: argparse._SubParsersAction) -> None:
@@ -33,6 +37,8 @@ def register_check_action(actions: argparse._SubParsersAction) -> None:
 
 
 def _rules(args: argparse.Namespace) -> QualityRules:
+    from usvips.core.measurements import QualityRules
+
     for option, value in (("--max-rms-mm", args.max_rms_mm), ("--max-precision", args.max_precision),
                           ("--max-range-m", args.max_range_m)):
         if not value > 0 or value == float("inf"):
@@ -41,6 +47,9 @@ def _rules(args: argparse.Namespace) -> QualityRules:
 
 
 def run_check(args: argparse.Namespace) -> int:
+    from usvips.app.quality import REPORT_COLUMNS, check_project, report_rows
+    from usvips.store.opening import open_project
+
     rules = _rules(args)
     with open_project(args.project, read_only=True) as project:
         report = check_project(project, rules)

@@ -8,10 +8,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+from typing import TYPE_CHECKING
 
 from usvips.core.errors import InvalidParameterError
-from usvips.store.opening import open_project, shown
-from usvips.store.records import HistoryEntry
+
+if TYPE_CHECKING:
+    from usvips.store.records import HistoryEntry
 
 
 def register_history_action(actions: argparse._SubParsersAction) -> None:
@@ -27,6 +29,8 @@ def register_history_action(actions: argparse._SubParsersAction) -> None:
 def run_history(args: argparse.Namespace) -> int:
     if args.object is not None and args.object < 1:
         raise InvalidParameterError("--object", f"an object id is a whole number ≥ 1, got {args.object}")
+    from usvips.store.opening import open_project, shown  # at run time: the parser stays light
+
     with open_project(args.project, read_only=True) as project:
         entries = project.history(args.object)
     if args.json:

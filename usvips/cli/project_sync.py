@@ -11,7 +11,9 @@ import argparse
 from pathlib import Path
 
 from usvips.core.errors import InvalidParameterError
-from usvips.store.opening import is_server_location, public_location
+
+# the project store (numpy, SciPy, OpenCV) is imported by the handlers only: ``usvips project --help``
+# registers these actions without it
 
 
 def register_sync_actions(actions: argparse._SubParsersAction) -> None:
@@ -26,6 +28,8 @@ def register_sync_actions(actions: argparse._SubParsersAction) -> None:
 
 
 def _locations(args: argparse.Namespace) -> tuple[Path, str]:
+    from usvips.store.opening import is_server_location
+
     if not is_server_location(args.url):
         raise InvalidParameterError("URL", "give the survey's server as postgresql://USER@HOST[:PORT]/DATABASE")
     if is_server_location(args.file):
@@ -42,6 +46,7 @@ def run_push(args: argparse.Namespace) -> int:
 
 
 def run_pull(args: argparse.Namespace) -> int:
+    from usvips.store.opening import public_location
     from usvips.store.transfer import pull
 
     path, url = _locations(args)

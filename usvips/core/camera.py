@@ -175,7 +175,8 @@ class Camera:
         Converges to far below 1e-6 px wherever the point is visible; ``start_pixels`` (N, 2), e.g. the
         answer for slightly different parameters, speeds up a non-axial housing's solve. Status per point:
         BEHIND_CAMERA (not in front of the housing), MISSED_SURFACE / TOTAL_INTERNAL_REFLECTION (no ray of
-        the camera reaches it), NOT_CONVERGED, OUTSIDE_FRAME (when the frame size is known).
+        the camera reaches it), NOT_CONVERGED, OUTSIDE_FRAME (when the frame size is known; also a point
+        whose direction lies beyond the fold of the lens distortion, which folds its pixel back).
         """
         points = validation.finite_array("points", points, 3)
         local = self.exterior.to_camera(points)
@@ -197,6 +198,9 @@ class Camera:
                 (pixels[:, 0] < -0.5) | (pixels[:, 0] > self.width - 0.5)
                 | (pixels[:, 1] < -0.5) | (pixels[:, 1] > self.height - 0.5)
             )
+            # a direction beyond the distortion's fold folds back to a pixel that may lie in the frame,
+            # but the lens forms no such image: the point is outside what the camera sees
+            outside |= self.interior.folded(uv)
             status[(status == RayStatus.OK) & outside] = RayStatus.OUTSIDE_FRAME
         return Projection(pixels, status)
 
@@ -319,21 +323,28 @@ def _back_project_planar(housing: Housing, points: np.ndarray) -> tuple[np.ndarr
     return uv, status
 
 
-def _radial_miss(housing: Housing, axis: np.ndarray, e_r: np.ndarray, depth: np.ndarray,
-                 radial: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Radial offset (metres) of the traced ray from the point at the point's axial depth."""
+def _in_plane_miss(housing: Housing, axis: np.ndarray, e_r: np.ndarray, points: np.ndarray,
+                   theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Signed perpendicular distance (metres) of each point from the ray traced at angle θ (radians) from
+    the axis in the plane of refraction (spanned by the axis and e_r), and the trace's status.
+
+    The perpendicular distance is well conditioned for every θ in [0, π], also where the ray runs square
+    to the axis (a dome port decentred across its axis looks sideways along it)."""
     directions = np.cos(theta)[:, None] * axis + np.sin(theta)[:, None] * e_r
     bundle = housing.trace(np.zeros_like(directions), directions)
-    along_axis = bundle.directions @ axis
-    safe = np.where(np.abs(along_axis) > 1e-15, along_axis, 1e-15)
-    s = (depth - bundle.origins @ axis) / safe
-    reached = bundle.origins + s[:, None] * bundle.directions
-    return np.einsum("ij,ij->i", reached, e_r) - radial, bundle.status
+    w = points - bundle.origins
+    # 2-D cross product in the plane: (w · axis)(d · e_r) − (w · e_r)(d · axis)
+    miss = (w @ axis) * np.einsum("ij,ij->i", bundle.directions, e_r) - \
+        np.einsum("ij,ij->i", w, e_r) * (bundle.directions @ axis)
+    return miss, bundle.status
 
 
 def _back_project_axial(housing: Housing, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotationally symmetric housing: secant iteration on the ray's angle θ from the axis, in the plane
-    that holds the axis and the point."""
+    """Rotationally symmetric housing: secant iteration on the ray's angle θ from the axis (radians, the
+    full range 0 to π), in the plane that holds the axis and the point.
+
+    The axis points out of the camera but need not be its optical axis: a dome port decentred sideways
+    has its axis across the view, and points on the far side lie more than 90° from it."""
     axis = housing.axis
     depth = points @ axis
     radial_vec = points - depth[:, None] * axis
@@ -342,27 +353,55 @@ def _back_project_axial(housing: Housing, points: np.ndarray) -> tuple[np.ndarra
     e_r = np.where((radial > 0)[:, None], radial_vec / safe_radial[:, None],
                    np.array([1.0, 0.0, 0.0]) - axis[0] * axis)
     e_r /= np.linalg.norm(e_r, axis=1, keepdims=True)
+    largest = np.pi - 1e-9
     theta0 = np.arctan2(radial, depth)
-    theta1 = theta0 * 0.98 + 1e-9
-    f0, status = _radial_miss(housing, axis, e_r, depth, radial, theta0)
-    f1, status1 = _radial_miss(housing, axis, e_r, depth, radial, theta1)
-    for _ in range(60):
-        denominator = f1 - f0
-        safe = np.where(np.abs(denominator) > 1e-300, denominator, 1e-300)
-        theta2 = np.where(np.abs(denominator) > 1e-300, theta1 - f1 * (theta1 - theta0) / safe, theta1)
-        theta2 = np.clip(theta2, 0.0, 0.5 * np.pi - 1e-9)
-        theta0, f0 = theta1, f1
-        theta1 = theta2
-        f1, status1 = _radial_miss(housing, axis, e_r, depth, radial, theta1)
-        if np.all(np.abs(theta1 - theta0) < 1e-15):
+    f0, status0 = _in_plane_miss(housing, axis, e_r, points, theta0)
+    for _ in range(40):  # a start whose ray fails (reflects totally, misses): move it towards the axis
+        failed = status0 != RayStatus.OK
+        if not failed.any():
             break
+        theta0 = np.where(failed, 0.5 * theta0, theta0)
+        f0, status0 = _in_plane_miss(housing, axis, e_r, points, theta0)
+    theta1 = np.clip(theta0 * 0.98 + 1e-9, 0.0, largest)
+    f1, status1 = _in_plane_miss(housing, axis, e_r, points, theta1)
+    # a secant step whose ray fails is halved until it does not; ``refused`` keeps why the latest failed
+    damping = np.where(status1 == RayStatus.OK, 1.0, 0.5)
+    refused = status1.astype(np.uint8)
+    theta1 = np.where(status1 == RayStatus.OK, theta1, theta0)
+    f1 = np.where(status1 == RayStatus.OK, f1, f0)
+    for _ in range(80):
+        denominator = f1 - f0
+        usable = np.abs(denominator) > 1e-300
+        safe = np.where(usable, denominator, 1e-300)
+        step = np.where(usable, -f1 * (theta1 - theta0) / safe, 0.0)
+        theta2 = np.clip(theta1 + damping * step, 0.0, largest)
+        f2, status2 = _in_plane_miss(housing, axis, e_r, points, theta2)
+        good = status2 == RayStatus.OK
+        if good.all():  # the usual case: every ray got through
+            moved = np.abs(theta2 - theta1)
+            theta0, f0, theta1, f1 = theta1, f1, theta2, f2
+            damping[:] = 1.0
+            if np.all(moved < 1e-15):
+                break
+            continue
+        moved = np.where(good, np.abs(theta2 - theta1), 0.0)
+        theta0, f0 = np.where(good, theta1, theta0), np.where(good, f1, f0)
+        theta1, f1 = np.where(good, theta2, theta1), np.where(good, f2, f1)
+        damping = np.where(good, 1.0, 0.5 * damping)
+        refused = np.where(good, refused, status2).astype(np.uint8)
+        if np.all((moved < 1e-15) & (good | (damping < 1e-12))):
+            break
+    status1 = np.where(status0 == RayStatus.OK, RayStatus.OK, status0)
     status = status1.astype(np.uint8)
     direction = np.cos(theta1)[:, None] * axis + np.sin(theta1)[:, None] * e_r
     dz = np.where(direction[:, 2] < 0, direction[:, 2], -1.0)
     status[(direction[:, 2] >= 0.0) & (status == RayStatus.OK)] = RayStatus.BEHIND_CAMERA
     uv = -direction[:, :2] / dz[:, None]
-    status[(np.abs(f1) > 1e-9 * np.maximum(1.0, np.abs(depth))) & (status == RayStatus.OK)] = \
-        RayStatus.NOT_CONVERGED
+    scale = np.maximum(1.0, np.linalg.norm(points, axis=1))
+    missed = (np.abs(f1) > 1e-9 * scale) & (status == RayStatus.OK)
+    # not reached: the ray that would reach the point fails (lies beyond the critical angle, say) where the
+    # last step was refused, else the solve did not converge
+    status[missed] = np.where(refused[missed] != RayStatus.OK, refused[missed], RayStatus.NOT_CONVERGED)
     return uv, _final_segment_check(housing, uv, points, status)
 
 

@@ -115,6 +115,18 @@ class Interior:
         jac[..., 0, 0], jac[..., 0, 1], jac[..., 1, 0], jac[..., 1, 1] = j00, j01, j10, j11
         return jac
 
+    def folded(self, uv: np.ndarray) -> np.ndarray:
+        """True (N,) for ideal normalised coordinates (N, 2) beyond a fold of the distortion polynomial:
+        the Jacobian not positive, or the point flipped through the centre. The lens model does not hold
+        there (far outside any frame it was calibrated on): its pixel, folded back, can land inside the
+        frame, but no observed pixel's ray (:meth:`undistort` refuses such roots) leads to it."""
+        uv = np.asarray(uv, dtype=np.float64)
+        if not self.has_distortion:
+            return np.zeros(uv.shape[0], dtype=bool)
+        u, v = uv[:, 0], uv[:, 1]
+        ud, vd, j00, j01, j10, j11 = self._distort_components(u, v, True)
+        return (j00 * j11 - j01 * j10 <= 0.0) | (u * ud + v * vd < 0.0)
+
     def undistort(self, uv_distorted: np.ndarray, tolerance: float = 1e-13) -> np.ndarray:
         """Observed normalised coordinates (N, 2) → ideal ones, by Newton's method.
 

@@ -22,6 +22,7 @@ from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
 from usvips.gui.log_panel import LogPanel
+from usvips.gui.media_check import MediaCheck
 from usvips.gui.object_list import ObjectList
 from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.observation_form import ObservationForm
@@ -102,6 +103,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_actions()
         self._build_menus_and_toolbar()
         self.video = VideoController(self)  # stereo video: its dock, keys on the panes, decoding in workers
+        self.media_check = MediaCheck(self)  # the full check of an opened project's media files
         self.docks["video"] = self._dock("Video", self.video.dock_widget, QtCore.Qt.DockWidgetArea.TopDockWidgetArea)
         self.video.dock_widget.setEnabled(False)
         ws = self.workspace
@@ -437,6 +439,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.pool.waitForDone(5000)
         for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner):
             panel.cleanup()
+        self.media_check.project_closed()
         self.workspace.close_project()
         super().closeEvent(event)
 
@@ -514,8 +517,10 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_message("error", str(error))
             return False
         self._forget_project_state()
+        self.media_check.project_closed()  # the previous project's check stops reading
         self.workspace.open_project(project)
         self.video.project_opened(project)
+        self.media_check.project_opened(project)  # every media file read whole in a worker, changed ones named
         self._remember(project.path.resolve())
         self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent}) — every step is saved as you go")
         self.attribute_box.addItems(project.vocabulary())
@@ -667,7 +672,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def busy(self) -> bool:
         return bool(self.workers)
 
-    def run_worker(self, job, label: str, on_done) -> Worker:
+    def run_worker(self, job, label: str, on_done, on_cancelled=None) -> Worker:
+        """Run ``job`` in a worker with its progress in the status bar; ``on_done(result)`` when it
+        finishes, ``on_cancelled()`` (default: a message saying so) when it stops early."""
         worker = Worker(job, label)
         self.workers.add(worker)
 
@@ -681,7 +688,10 @@ class MainWindow(QtWidgets.QMainWindow):
 
         def cancelled() -> None:
             self._worker_ended(worker)
-            self.show_message("info", f"{label}: cancelled")
+            if on_cancelled is not None:
+                on_cancelled()
+            else:
+                self.show_message("info", f"{label}: cancelled")
 
         worker.signals.finished.connect(done)
         worker.signals.failed.connect(failed)

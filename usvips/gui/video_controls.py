@@ -29,6 +29,7 @@ from usvips.gui.video_model import (
     prefetch_order,
     proxy_disk_bytes,
     rgb_pair,
+    sync_decision,
     video_frame_of,
 )
 from usvips.gui.worker import Cancelled, Worker
@@ -477,9 +478,12 @@ class VideoController(QtCore.QObject):
                 self._store_offset(estimate.frames, estimate.as_dict())
                 self.window.show_message("info", f"video {label}: {estimate.summary()}; stored")
 
-            doubt = video_project.doubt_about(estimate)
-            if doubt is None:
+            action, doubt = sync_decision(estimate)
+            if action == "store":
                 store()
+                return
+            if action == "refuse":  # at the edge of its window: no estimate, never offered for storing
+                self.window.show_message("warning", f"video {label}: {estimate.summary()}; not stored: {doubt}")
                 return
             self.window.show_message("warning", f"video {label}: {estimate.summary()}; not stored ({doubt})")
             self.ask_to_store(f"Video {label}: {estimate.summary()}.\n\nThe {doubt}. Store {estimate.frames:+d} "

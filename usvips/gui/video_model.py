@@ -15,8 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from usvips.app.video_project import open_streams, partner_frame
+from usvips.app.video_project import doubt_about, open_streams, partner_frame
 from usvips.core.errors import InvalidParameterError
+from usvips.core.synchronisation import SyncEstimate
 from usvips.gui.signals import Signal
 from usvips.io import video_proxy
 from usvips.io.video_stream import PairReader, Picture
@@ -302,3 +303,15 @@ def format_bytes(count: int) -> str:
             value = count / size
             return f"{value:.1f} {unit}" if value < 10 else f"{value:.0f} {unit}"
     return f"{count} bytes"
+
+
+def sync_decision(estimate: SyncEstimate) -> tuple[str, str | None]:
+    """What the window does with a fresh offset estimate: ``("store", None)`` when it is sure enough,
+    ``("ask", why)`` when its confidence is low (the user may store it anyway) and ``("refuse", why)`` when
+    it lies at the edge of its search window (:meth:`SyncEstimate.edge_problem`): that is no estimate, and
+    the user is not offered to store it (as ``usvips video sync`` never does)."""
+    edge = estimate.edge_problem()
+    if edge is not None:
+        return "refuse", edge
+    doubt = doubt_about(estimate)
+    return ("store", None) if doubt is None else ("ask", doubt)
