@@ -969,10 +969,10 @@ class MainWindow(QtWidgets.QMainWindow):
         for side in SIDES:
             opposite = state.source is not None and state.source != side
             self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
-                                       state.curve if opposite else None)
+                                       state.curve if opposite else None, weak=state.weak)
         if state.note:
             self.statusBar().showMessage(state.note, 15000)
-            self.set_hint(state.note, "warning" if state.pending is not None else "info")
+            self.set_hint(state.note, "warning" if state.pending is not None or state.weak else "info")
         self.point_label.setText(describe_point(ws.last_point) if ws.last_point is not None else "")
 
     def _on_selection_changed(self, ids) -> None:
