@@ -2,6 +2,7 @@
 objects change; Ctrl+Shift+Q, the arrows and Enter (or a click) go to the object's pair or frame with it
 selected."""
 
+import numpy as np
 from PySide6 import QtCore
 
 from tests.gui.conftest import open_sample, truth_pixels, wait_for_pair
@@ -34,6 +35,10 @@ def test_the_qa_panel_lists_breaches_and_goes_to_their_pair(qtbot, make_window, 
     ws = window.workspace
     ws.project.set_species_list([SPECIES])
     fish = [_measure(window, left, right, name) for name in ("fish1", "fish2")]
+    # the panel is a tab behind the object list: nothing is checked until it is shown
+    assert not window.qa.shown() and window.qa.model.report is None and window.qa._worker is None
+    window.docks["qa"].raise_()  # its tab brought to the front: checked then
+    qtbot.waitUntil(window.qa.shown, timeout=5000)
     _checked(qtbot, window)
     assert window.qa.table_model.rowCount() == 0  # no species yet: nothing breaks a rule
     lengths = {i: ws.figures([i]).figures[0].value for i in fish}
@@ -59,6 +64,10 @@ def test_the_qa_panel_lists_breaches_and_goes_to_their_pair(qtbot, make_window, 
     assert chosen.args == [too_long[0]]
     wait_for_pair(qtbot, window, "measure1")
     assert ws.selection == (too_long[0],)
+    vertices = ws.stored_object(too_long[0]).vertices
+    middle = np.mean([(v.xl, v.yl) for v in vertices], axis=0) + 0.5  # pixels to the view's coordinates
+    centre = window.panes["left"].viewbox.viewRect().center()
+    assert np.hypot(centre.x() - middle[0], centre.y() - middle[1]) < 2.0  # centred on the object
     assert window.object_list.selected_ids() == [too_long[0]]
     # deleting the object takes it off the list
     ws.delete_object(too_long[0])
@@ -83,6 +92,7 @@ def test_a_click_on_a_video_object_goes_to_its_frame(qtbot, make_window, sample_
     object_id = ws.project.add_object("point", [Vertex(10.0, 20.0, 30.0, 40.0, video="dive", frame_left=7, time_s=0.23,
                                                        frame_right=9)])
     ws.reload_objects()
+    window.show_qa()
     _checked(qtbot, window)
     (row,) = window.qa.table_model.rows
     assert row.object_id == object_id and row.cells[1] == "no figures" and row.cells[5] == "video dive frame 7"

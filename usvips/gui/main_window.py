@@ -153,6 +153,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.qa = QaDock(ws)  # the survey's QA list (issue 25)
         self.docks["qa"] = self._dock("QA", self.qa, bottom)
         self.qa.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
+        self.docks["qa"].visibilityChanged.connect(self.qa.on_shown)  # checked when its tab comes to the front
         self.docks["planner"] = self._dock("Precision planner", self.planner, right)
         self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
         self.docks["calculator"].raise_()

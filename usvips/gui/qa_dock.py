@@ -72,6 +72,7 @@ class QaDock(QtWidgets.QWidget):
         self.view.setSelectionMode(QtWidgets.QAbstractItemView.SelectionMode.SingleSelection)
         self.view.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.NoEditTriggers)
         self.view.verticalHeader().hide()
+        self.view.verticalHeader().setDefaultSectionSize(self.view.fontMetrics().height() + 6)  # compact rows
         self.view.horizontalHeader().setStretchLastSection(True)
         self.view.setToolTip("click a row, or Enter, to go to where the object was measured")
         self.view.clicked.connect(self._on_row)
@@ -91,6 +92,7 @@ class QaDock(QtWidgets.QWidget):
         self.timer.setInterval(self.SETTLE_MS)
         self.timer.timeout.connect(self.refresh)
         self._worker: Worker | None = None
+        self._stale = False  # objects changed while the panel was hidden: check when it is shown
         self.model.changed.connect(self._on_model_changed)
         self._events = ((workspace.objects_changed, self.schedule), (workspace.rules_changed, self.schedule))
         for signal, slot in self._events:
@@ -106,13 +108,31 @@ class QaDock(QtWidgets.QWidget):
 
     @property
     def checking(self) -> bool:
-        """A check is waiting or running."""
-        return self.timer.isActive() or self._worker is not None
+        """A check is waiting (or due when the panel is shown) or running."""
+        return self.timer.isActive() or self._worker is not None or self._stale
 
     def schedule(self, *_: object) -> None:
-        """Check again once the changes settle."""
+        """Check again once the changes settle; while the panel is hidden (closed, or a tab behind
+        another), when it is shown."""
         self.summary.setText(summary(None))
+        if not self.shown():
+            self._stale = True
+            return
         self.timer.start()
+
+    def shown(self) -> bool:
+        """On screen: not closed, and not a tab behind another (Qt moves those out of the window)."""
+        return self.isVisible() and not self.visibleRegion().isEmpty()
+
+    def on_shown(self, visible: bool = True) -> None:
+        """The panel came on screen (its dock's ``visibilityChanged``): check if anything changed meanwhile."""
+        if visible and self._stale:
+            self._stale = False
+            self.timer.start()
+
+    def showEvent(self, event: QtGui.QShowEvent) -> None:  # noqa: N802 (Qt's name)
+        super().showEvent(event)
+        self.on_shown(self.shown())  # a tab behind another is "shown" out of the window: not on screen
 
     def refresh(self) -> None:
         """Check the survey now, in a worker (a newer check cancels an older one)."""
@@ -161,7 +181,7 @@ class QaDock(QtWidgets.QWidget):
 
 def go_to_object(window, object_id: int) -> None:
     """Show where ``object_id`` was measured in ``window`` (a MainWindow): its video frame, or its image
-    pair (read in a worker), and select it."""
+    pair (read in a worker) centred on it, and select it."""
     ws = window.workspace
     if object_id not in ws.cache:
         window.show_message("warning", f"object {object_id} is no longer in the project")
@@ -175,6 +195,12 @@ def go_to_object(window, object_id: int) -> None:
             window.show_message("warning", f"object {object_id} is on pair {vertex.pair}: finish (Ctrl+Enter) or "
                                            "cancel the object being digitised first")
             return
+        def centre_when_shown() -> None:  # once, on the next pair shown: this one, read in the background
+            ws.pair_changed.disconnect(centre_when_shown)
+            if ws.pair == vertex.pair and object_id in ws.cache:
+                window.zoom_to_object(object_id)
+
+        ws.pair_changed.connect(centre_when_shown)
         window.load_pair(vertex.pair)
     elif vertex is not None and vertex.pair is not None:
         window.zoom_to_object(object_id)
