@@ -3,7 +3,7 @@ objects change; Ctrl+Shift+Q, the arrows and Enter (or a click) go to the object
 selected."""
 
 import numpy as np
-from PySide6 import QtCore
+from PySide6 import QtCore, QtWidgets
 
 from tests.gui.conftest import open_sample, truth_pixels, wait_for_pair
 from usvips.core.observation_record import ObservationRecord, Species
@@ -55,8 +55,13 @@ def test_the_qa_panel_lists_breaches_and_goes_to_their_pair(qtbot, make_window, 
     window.load_pair("water1")
     wait_for_pair(qtbot, window, "water1")
     ws.select([])
-    window.actions["qa"].trigger()
-    assert window.docks["qa"].isVisible()
+    view_menu = next(a.menu() for a in window.menuBar().actions() if a.text() == "&View")
+    assert window.actions["qa"] in view_menu.actions() and window.actions["qa"].text() == "&QA panel"
+    window.docks["objects"].raise_()  # the panel behind the object list; the key brings it and its keyboard
+    window.focus_images()
+    qtbot.keyClick(QtWidgets.QApplication.focusWidget(), QtCore.Qt.Key.Key_Q,
+                   QtCore.Qt.KeyboardModifier.ControlModifier | QtCore.Qt.KeyboardModifier.ShiftModifier)
+    assert window.qa.shown()
     qtbot.waitUntil(lambda: window.qa.view.hasFocus(), timeout=5000)
     assert window.qa.view.currentIndex().row() == 0
     with qtbot.waitSignal(window.qa.object_chosen, timeout=5000) as chosen:
