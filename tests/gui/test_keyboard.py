@@ -30,7 +30,7 @@ def _first_pick_with_proposal(qtbot, window, directory, pair="water1"):
     for number in isolated_targets(left, right):
         window.cancel_pick()
         click_pixel(qtbot, window.panes["left"], left[number])
-        if window.workspace.state.proposal is not None:
+        if window.workspace.state.proposal is not None and not window.workspace.state.weak:
             return number, left, right
     pytest.fail("no target got a proposal")
 

@@ -58,13 +58,44 @@ def test_epipolar_curves_pass_the_true_conjugates_and_auto_match_finds_them(work
         ws.pick("left", left[number])
         assert _curve_distance(ws, right[number]) < 0.5, number
         proposal = ws.state.proposal
-        if proposal is None:
-            assert "no automatic match" in ws.state.note  # refused, and says why (ambiguous, image edge)
+        if proposal is None or ws.state.weak:  # refused, and says why (ambiguous, image edge)
+            assert "no automatic match" in ws.state.note or "weak proposal (correlation" in ws.state.note
             refused.append(number)
         elif np.linalg.norm(np.subtract(proposal, right[number])) > 0.5:
             wrong.append(number)
     assert wrong == []
     assert len(refused) <= len(targets) // 4, refused
+
+
+@pytest.mark.parametrize("sample", ["tank_system1", "rov_flatport"])
+def test_a_refused_match_is_still_proposed_weak_on_the_curve_and_enter_accepts_it(workspace, sample):
+    ws, directory = workspace(sample, "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    weak = confident = 0
+    for number in (k for k in left if left[k] is not None and right.get(k) is not None):
+        ws.cancel_vertex()
+        ws.pick("left", left[number])
+        state = ws.state
+        if state.proposal is None:
+            assert "no automatic match" in state.note
+            continue
+        assert _curve_distance(ws, state.proposal) < 1.0  # a candidate on the epipolar curve
+        if not state.weak:
+            confident += 1
+            assert state.note.startswith("proposed match (correlation")
+            continue
+        weak += 1
+        # its score and why it is weak, and how to take it
+        assert "weak proposal (correlation" in state.note and "Enter accepts" in state.note
+        assert any(why in state.note for why in ("ambiguous", "textureless", "below"))
+        proposal = state.proposal
+        ws.accept_proposal()  # one key, as for a confident one
+        if ws.state.pending is not None:  # held by a guard rail (a wrong candidate: rays that miss)
+            assert not ws.state.weak and ws.state.proposal is None
+            ws.accept_proposal()  # kept, flagged
+        assert ws.state.source is None and not ws.state.weak
+        assert np.allclose(ws.last_point.left, left[number]) and np.allclose(ws.last_point.right, proposal)
+    assert weak >= 1 and confident >= 1, (weak, confident)
 
 
 def test_a_pick_in_the_right_image_draws_the_curve_in_the_left(workspace):

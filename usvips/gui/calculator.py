@@ -8,7 +8,7 @@ sigmas when the full matrix is known).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,12 +38,16 @@ class Result:
     figures: tuple[Figure, ...]
     failures: tuple[str, ...] = ()
     reason: str = ""
+    #: the measurement the figures are of (one object's; None between two objects or with a reason), kept
+    #: so that the survey's QA (:mod:`usvips.app.quality`) checks the cached figures without computing again
+    measurement: Measurement | None = field(default=None, compare=False, repr=False)
 
 
 def result_of(measurement: Measurement) -> Result:
     """The calculator's view of a measured object: its figures, main one first, and the rules it breaks."""
     main = measurement.main
-    return Result((main, *(f for f in measurement.figures if f is not main)), measurement.failures)
+    return Result((main, *(f for f in measurement.figures if f is not main)), measurement.failures,
+                  measurement=measurement)
 
 
 def vertex_failures(rules: QualityRules, ray_rms_m: float, range_m: float) -> list[str]:

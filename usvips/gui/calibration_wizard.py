@@ -430,7 +430,7 @@ class MeasurePage(QtWidgets.QWizardPage):
         for side in SIDES:
             opposite = state.source is not None and state.source != side
             self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
-                                       state.curve if opposite else None)
+                                       state.curve if opposite else None, weak=state.weak)
         if state.note:
             self.message.setText(state.note)
 

@@ -17,7 +17,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.gui import exchange_dialogs, media_dialogs
+from usvips.gui import exchange_dialogs, media_dialogs, qa_dock
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
@@ -29,6 +29,7 @@ from usvips.gui.observation_form import ObservationForm
 from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.plan_view import PlanView
 from usvips.gui.planner_dock import PlannerDock
+from usvips.gui.qa_dock import QaDock
 from usvips.gui.video_controls import VideoController
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
@@ -151,12 +152,17 @@ class MainWindow(QtWidgets.QMainWindow):
                       "log": self._dock("Log", self.log, bottom),
                       "observation": self._dock("Observation", self.observation, bottom)}
         self.planner = PlannerDock(ws, self.pool, self.workers)
+        self.qa = QaDock(ws)  # the survey's QA list (issue 25)
+        self.docks["qa"] = self._dock("QA", self.qa, bottom)
+        self.qa.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
+        self.docks["qa"].visibilityChanged.connect(self.qa.on_shown)  # checked when its tab comes to the front
         self.docks["planner"] = self._dock("Precision planner", self.planner, right)
         self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
         self.docks["calculator"].raise_()
         self.tabifyDockWidget(self.docks["objects"], self.docks["observation"])
         self.tabifyDockWidget(self.docks["observation"], self.docks["plan"])
         self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
+        self.tabifyDockWidget(self.docks["log"], self.docks["qa"])
         self.docks["objects"].raise_()
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
@@ -230,6 +236,8 @@ class MainWindow(QtWidgets.QMainWindow):
                                  "to the same place in the scene (through the calibration, at the depth of the last "
                                  "measured point)", checkable=True),
             "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
+            "qa": self._action("&QA panel", self.show_qa, "Ctrl+Shift+Q", "the survey's objects that break a "
+                               "quality rule: arrows and Enter go to each one's pair or frame"),
         }
         # short toolbar labels (the menus keep the full names): the toolbar fits 1366 px without overflow
         for name, short in (("open", "Open"), ("snap", "Snap"), ("finish", "Finish"), ("box", "Box"),
@@ -290,6 +298,7 @@ class MainWindow(QtWidgets.QMainWindow):
         magnification = view.addMenu("Loupe &magnification")
         for scale in LOUPE_SCALES:
             magnification.addAction(a[f"loupe_{scale}"])
+        view.addAction(a["qa"])
         view.addSeparator()
         for dock in self.docks.values():
             view.addAction(dock.toggleViewAction())
@@ -437,7 +446,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.cancel_work()
         self.video.shutdown()  # the seek-proxy build in the background
         self.pool.waitForDone(5000)
-        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner):
+        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner, self.qa):
             panel.cleanup()
         self.media_check.project_closed()
         self.workspace.close_project()
@@ -971,10 +980,10 @@ class MainWindow(QtWidgets.QMainWindow):
         for side in SIDES:
             opposite = state.source is not None and state.source != side
             self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
-                                       state.curve if opposite else None)
+                                       state.curve if opposite else None, weak=state.weak)
         if state.note:
             self.statusBar().showMessage(state.note, 15000)
-            self.set_hint(state.note, "warning" if state.pending is not None else "info")
+            self.set_hint(state.note, "warning" if state.pending is not None or state.weak else "info")
         self.point_label.setText(describe_point(ws.last_point) if ws.last_point is not None else "")
 
     def _on_selection_changed(self, ids) -> None:
@@ -982,6 +991,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.selection = list(ids)
         if len(ids) == 1:
             self.observation.load(ids[0])  # every stored object's record is editable
+
+    def show_qa(self) -> None:
+        """Ctrl+Shift+Q: show the QA panel and give it the keyboard."""
+        self.docks["qa"].show()
+        self.docks["qa"].raise_()
+        self.qa.focus_list()
 
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)

@@ -25,6 +25,7 @@ LOUPE_SCALES = (4, 8, 12, 16)
 LOUPE_OFFSET = 24
 
 COLOURS = {"control": (60, 220, 120), "cursor": (0, 230, 0), "pick": (255, 40, 40), "proposal": (255, 220, 0),
+           "weak proposal": (0, 255, 255),
            "curve": (255, 140, 0), "object": (0, 200, 255), "selected": (255, 0, 255), "label": (230, 230, 230)}
 
 
@@ -106,6 +107,7 @@ class StereoPane(QtWidgets.QWidget):
         self.pick_item = pg.ScatterPlotItem(size=15, pen=pg.mkPen(COLOURS["pick"], width=2), brush=None, symbol="+")
         self.proposal_item = pg.ScatterPlotItem(size=17, pen=pg.mkPen(COLOURS["proposal"], width=2), brush=None,
                                                 symbol="o")
+        self.proposal_weak = False  # the proposal drawn is one auto-match refused (cyan, dashed)
         # the object being digitised, drawn on its own: a pick redraws it, never the stored objects
         self.digitising_item = pg.PlotDataItem(pen=pg.mkPen(COLOURS["selected"], width=3), symbol="s", symbolSize=7,
                                                symbolPen=pg.mkPen(COLOURS["selected"]), symbolBrush=None)
@@ -288,10 +290,14 @@ class StereoPane(QtWidgets.QWidget):
 
     # ------------------------------------------------------------------ marks
     def set_picks(self, pick: tuple[float, float] | None, proposal: tuple[float, float] | None,
-                  curve: np.ndarray | None) -> None:
-        """The temporary marks: this image's pick (red), the proposed conjugate (yellow), the epipolar
-        curve (orange, dashed)."""
+                  curve: np.ndarray | None, weak: bool = False) -> None:
+        """The temporary marks: this image's pick (red), the proposed conjugate (yellow; a ``weak`` one,
+        which auto-match refused, cyan and dashed), the epipolar curve (orange, dashed)."""
         self.pick_item.setData(pos=item_from_pixels(np.array([pick])) if pick is not None else np.zeros((0, 2)))
+        pen = (pg.mkPen(COLOURS["weak proposal"], width=2, style=QtCore.Qt.PenStyle.DashLine) if weak
+               else pg.mkPen(COLOURS["proposal"], width=2))
+        self.proposal_item.setPen(pen)
+        self.proposal_weak = weak
         self.proposal_item.setData(pos=item_from_pixels(np.array([proposal])) if proposal is not None
                                    else np.zeros((0, 2)))
         if curve is not None and len(curve) > 1:

@@ -58,7 +58,9 @@ def other(side: str) -> str:
 @dataclass(frozen=True)
 class PickState:
     """The vertex being digitised: its picks (pixels), the epipolar curve drawn in the image opposite
-    ``source`` (the side picked first), the auto-match ``proposal`` there, and a note for the user."""
+    ``source`` (the side picked first), the auto-match ``proposal`` there (``weak`` when auto-match
+    refused it but it is the best candidate on the curve: drawn apart, accepted by Enter all the same),
+    and a note for the user."""
 
     left: tuple[float, float] | None = None
     right: tuple[float, float] | None = None
@@ -66,6 +68,7 @@ class PickState:
     curve: np.ndarray | None = None
     proposal: tuple[float, float] | None = None
     note: str = ""
+    weak: bool = False
     #: A vertex intersected from both picks but held back by a guard rail until the user keeps it (Enter).
     pending: MeasuredVertex | None = None
 
@@ -362,7 +365,7 @@ class Workspace:
         cameras = {"left": rig.left, "right": rig.right}
         curve = epipolar_curve(cameras[side], cameras[other(side)], pixel, self.near_m, self.far_m, samples=400)
         notes = [note] if note else []
-        proposal = None
+        proposal, weak = None, False
         if len(curve.pixels) == 0:
             notes.append(f"the epipolar curve of this point does not enter the {other(side)} image")
         elif self.auto_match and match:
@@ -372,13 +375,17 @@ class Workspace:
                 match, reason = None, str(error)
             else:
                 reason = match.reason
-            if match:
-                proposal, snap_note = self._snapped(other(side), match.pixel)
-                notes.append(f"proposed match (correlation {match.score:.2f}); Enter accepts, a click corrects"
+            if match is not None and match.proposal is not None:
+                # a confident match, or the best candidate on the curve when auto-match refused it (weak:
+                # its score and why are said, and Enter accepts it all the same, a click corrects it)
+                proposal, snap_note = self._snapped(other(side), match.proposal)
+                weak = not match
+                notes.append(f"{match.describe()}; Enter accepts, a click corrects"
                              + (f"; {snap_note}" if snap_note else ""))
             else:
                 notes.append(f"no automatic match: {reason}; click the point in the {other(side)} image")
-        return PickState(**{side: pixel}, source=side, curve=curve.pixels, proposal=proposal, note="; ".join(notes))
+        return PickState(**{side: pixel}, source=side, curve=curve.pixels, proposal=proposal, note="; ".join(notes),
+                         weak=weak)
 
     def accept_proposal(self) -> None:
         """Take the auto-match proposal as the second pick and complete the vertex; with a vertex held by
@@ -438,7 +445,7 @@ class Workspace:
         if warnings and (self.digitising.kind != "pick" or self.repick is not None):
             text = (f"held, not stored — Enter keeps it (flagged), a click in the {other(state.source)} image "
                     f"corrects it, Esc drops it: {'; '.join(warnings)}")
-            held = replace(state, pending=vertex, proposal=None, note=text)
+            held = replace(state, pending=vertex, proposal=None, weak=False, note=text)
             self.message.emit("warning", text)
             self._change("held vertex", lambda: self._set_state(held))
             return

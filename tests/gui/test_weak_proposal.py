@@ -1,0 +1,48 @@
+"""A weak proposal in the window: when auto-match refuses a vertex, its best candidate on the epipolar
+curve is still drawn (cyan, dashed: apart from a confident one), the hint line gives its score and why,
+and Enter on the images accepts it with one key."""
+
+import numpy as np
+from PySide6 import QtCore
+
+from tests.gui.conftest import click_pixel, open_sample, truth_pixels
+from usvips.gui.pane import COLOURS
+
+
+def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    ws, pane = window.workspace, window.panes["right"]
+    seen = {"weak": 0, "confident": 0}
+    for number in (k for k in left if left[k] is not None and right.get(k) is not None):
+        window.cancel_pick()
+        click_pixel(qtbot, window.panes["left"], left[number])
+        state = ws.state
+        if state.proposal is None:
+            continue
+        colour = pane.proposal_item.opts["pen"].color().getRgb()[:3]
+        style = pane.proposal_item.opts["pen"].style()
+        drawn = pane.proposal_item.getData()[0]
+        assert len(drawn) == 1  # drawn, weak or not
+        if not state.weak:
+            seen["confident"] += 1
+            assert colour == COLOURS["proposal"] and style == QtCore.Qt.PenStyle.SolidLine
+            assert not pane.proposal_weak
+            continue
+        seen["weak"] += 1
+        assert colour == COLOURS["weak proposal"] and style == QtCore.Qt.PenStyle.DashLine and pane.proposal_weak
+        hint = window.hint.text()
+        assert "weak proposal (correlation" in hint and "Enter accepts" in hint
+        proposal = state.proposal
+        window.focus_images()
+        qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # one key
+        if ws.state.pending is not None:  # a guard rail held it: Enter again keeps it, flagged
+            qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
+        assert ws.state.source is None
+        assert np.allclose(ws.last_point.right, proposal)
+        assert len(pane.proposal_item.getData()[0]) == 0 and not pane.proposal_weak
+        if seen["confident"]:
+            break
+    assert seen["weak"] >= 1 and seen["confident"] >= 1, seen
