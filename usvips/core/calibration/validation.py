@@ -127,7 +127,7 @@ class Validation:
 def _bin_text(b: DistanceBin) -> str:
     if not b.count:
         return "none"
-    return (f"{b.count} pairs, RMS {b.rms_m * 1000:.2f} mm ({100 * b.rms_relative:.2f} %), "
+    return (f"{b.count} pair{'' if b.count == 1 else 's'}, RMS {b.rms_m * 1000:.2f} mm ({100 * b.rms_relative:.2f} %), "
             f"mean {b.mean_m * 1000:+.2f} mm")
 
 
