@@ -216,6 +216,9 @@ def test_an_opencv_failure_is_a_reason():
     def failing(self, grey):
         raise cv2.error("the detector gave up")
 
+    with pytest.raises(cv2.error):  # a real OpenCV error first: its reason lingers on the exception class
+        cv2.resize(np.zeros((0, 0), np.uint8), (3, 3))
+
     detection = _board.guarded(failing)(None, np.zeros((20, 30), np.uint8))
     assert not detection and detection.reason == "OpenCV could not search the image: the detector gave up"
     assert detection.image_size == (30, 20)

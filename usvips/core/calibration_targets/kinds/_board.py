@@ -104,7 +104,10 @@ def guarded(detect):
         try:
             return detect(self, grey)
         except cv2.error as error:
-            problem = " ".join(str(getattr(error, "err", None) or error).split())[:200]
+            # OpenCV's bindings keep ``err`` (the short reason) on the exception class: trust it only when it
+            # belongs to this error's own message (another error's may linger there)
+            text, short = str(error), getattr(error, "err", None)
+            problem = " ".join((short if isinstance(short, str) and short and short in text else text).split())[:200]
             return TargetDetection.nothing((grey.shape[1], grey.shape[0]), f"OpenCV could not search the image: "
                                            f"{problem}")
     return wrapper
