@@ -21,6 +21,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.core import housing as housings
 from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
+from usvips.gui import active_pairs
 from usvips.gui.calibration_session import PHASES, CalibrationSession
 from usvips.gui.exchange_dialogs import WizardReport
 from usvips.gui.pane import StereoPane, item_from_pixels
@@ -839,19 +840,10 @@ class SavePage(QtWidgets.QWizardPage):
         stamp = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
         sigma = session.result.calibration.sigma0_px
         self.name.setText(f"{session.phase} {'+'.join(session.pairs)} σ0 {sigma:.3f} px {stamp}")
-        self.active.clear()
-        medium = "air" if session.phase == "air" else "water"
-        for pair in session.project.pairs():
-            if pair["medium"] != medium:
-                continue
-            item = QtWidgets.QListWidgetItem(pair["label"])
-            item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
-            item.setCheckState(QtCore.Qt.CheckState.Checked)
-            self.active.addItem(item)
+        active_pairs.fill(self.active, session.project, "air" if session.phase == "air" else "water")
 
     def active_for(self) -> list[str]:
-        return [self.active.item(i).text() for i in range(self.active.count())
-                if self.active.item(i).checkState() == QtCore.Qt.CheckState.Checked]
+        return active_pairs.ticked(self.active)
 
     def validatePage(self) -> bool:  # noqa: N802 (Qt's name)
         try:

@@ -19,6 +19,7 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
+from usvips.gui import active_pairs
 from usvips.gui.pane import StereoPane
 from usvips.gui.target_session import TargetSession
 from usvips.gui.worker import Cancelled, Worker, start
@@ -501,22 +502,13 @@ class SavePage(QtWidgets.QWizardPage):
         stamp = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
         sigma = self.session.result.calibration.sigma0_px
         self.name.setText(f"{self.session.default_name()} σ0 {sigma:.3f} px {stamp}")
-        self.active.clear()
         medium = "air" if self.session.phase == "air" else "water"
-        for pair in self.session.project.pairs():
-            if pair["medium"] != medium:
-                continue
-            item = QtWidgets.QListWidgetItem(pair["label"])
-            item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
-            item.setCheckState(QtCore.Qt.CheckState.Checked)
-            self.active.addItem(item)
-        self.message.setText("" if self.active.count() else
+        self.message.setText("" if active_pairs.fill(self.active, self.session.project, medium) else
                              f"the project has no {medium} pairs yet: the calibration is stored, active for none; "
                              "choose it for a pair later")
 
     def active_for(self) -> list[str]:
-        return [self.active.item(i).text() for i in range(self.active.count())
-                if self.active.item(i).checkState() == QtCore.Qt.CheckState.Checked]
+        return active_pairs.ticked(self.active)
 
     def validatePage(self) -> bool:  # noqa: N802 (Qt's name)
         try:
