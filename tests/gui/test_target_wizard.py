@@ -50,10 +50,12 @@ def _wizard(qtbot, project, phase="air"):
 
 
 def _key(qtbot, wizard, key, modifier=QtCore.Qt.KeyboardModifier.NoModifier):
-    """A key to the focused widget; a button's mnemonic clicks it after a short animation: let it run."""
+    """A key to the focused widget; a button's mnemonic holds it down for a short animation and then clicks
+    it: wait for every button to be up again (an event, not a time)."""
     widget = QtWidgets.QApplication.focusWidget() or wizard
     qtbot.keyClick(widget, key, modifier)
-    qtbot.wait(300)
+    buttons = wizard.findChildren(QtWidgets.QAbstractButton)
+    qtbot.waitUntil(lambda: not any(button.isDown() for button in buttons), timeout=10_000)
 
 
 def _choose(wizard, pairs):
