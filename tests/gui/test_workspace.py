@@ -164,6 +164,32 @@ def test_accepting_a_proposal_completes_the_vertex(workspace):
     assert error @ np.linalg.solve(ws.last_point.covariance, error) < 16.3  # chi-square, 3 dof, 99.9 %
 
 
+def test_a_vertex_proposed_from_elsewhere_is_shown_and_kept_by_enter(workspace):
+    """``workspace.propose_vertex`` (a track's proposal): the left pick set with its curve, the right
+    proposal shown with the note, Enter stores a point at the control point's true place; undo takes the
+    proposal back."""
+    ws, directory = workspace("tank_system1", "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    number = isolated_targets(left, right)[0]
+    ws.set_tool("point")
+    heard = []
+    ws.picks_changed.connect(lambda: heard.append(ws.state))
+    ws.propose_vertex(left[number], right[number], "track 3, frame 12")
+    state = ws.state
+    assert heard == [state] and state.left == tuple(left[number]) and state.proposal == tuple(right[number])
+    assert state.source == "left" and "track 3, frame 12" in state.note and not state.weak
+    assert _curve_distance(ws, right[number]) < 0.5
+    ws.undo.undo()
+    assert ws.state.source is None
+    ws.undo.redo()
+    ws.accept_proposal()
+    (stored,) = ws.project.objects()
+    control = ws.project.control()
+    error = ws.last_point.xyz - control.xyz[list(control.ids).index(number)]
+    assert error @ np.linalg.solve(ws.last_point.covariance, error) < 16.3  # chi-square, 3 dof, 99.9 %
+    assert "weak" not in stored.notes
+
+
 def test_undo_and_redo_every_step(workspace):
     ws, directory = workspace("tank_system1", "measure1")
     left, right = truth_pixels(directory, "measure1", "objects")

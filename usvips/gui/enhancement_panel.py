@@ -75,12 +75,18 @@ class EnhancementPanel(QtWidgets.QWidget):
         self.target.currentTextChanged.connect(self._refresh_steps)
         self.steps.currentRowChanged.connect(self._on_step_selected)
         self.parameters.editingFinished.connect(self._on_parameters_edited)
-        workspace.pair_changed.connect(self._refresh_steps)
+        workspace.pair_changed.connect(self._on_pair_changed)
         workspace.enhancement_changed.connect(self._on_enhancement_changed)
 
     def cleanup(self) -> None:
-        self.workspace.pair_changed.disconnect(self._refresh_steps)
+        self.workspace.pair_changed.disconnect(self._on_pair_changed)
         self.workspace.enhancement_changed.disconnect(self._on_enhancement_changed)
+
+    def _on_pair_changed(self) -> None:
+        """Another pair: its steps; no pair (another project): no histograms of the last one either."""
+        if not self.workspace.images:
+            self.show_histograms(None, None)
+        self._refresh_steps()
 
     def _sides(self) -> tuple[str, ...]:
         target = self.target.currentText()

@@ -110,6 +110,7 @@ class MainWindow(QtWidgets.QMainWindow):
         ws = self.workspace
         ws.objects_changed.connect(self.video.objects_changed)
         ws.pair_changed.connect(self._on_pair_changed)
+        ws.project_changed.connect(self._on_project_changed)
         ws.picks_changed.connect(self._on_picks_changed)
         self.overlay = ObjectOverlay(ws, self.panes)  # the stored objects on the panes, redrawn by id
         ws.selection_changed.connect(self._on_selection_changed)
@@ -525,18 +526,12 @@ class MainWindow(QtWidgets.QMainWindow):
         except UsvipsError as error:
             self.show_message("error", str(error))
             return False
-        self._forget_project_state()
         self.media_check.project_closed()  # the previous project's check stops reading
+        # every model is new and every view forgets the previous project by itself (project_changed)
         self.workspace.open_project(project)
-        self.video.project_opened(project)
         self.media_check.project_opened(project)  # every media file read whole in a worker, changed ones named
         self._remember(project.path.resolve())
         self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent}) — every step is saved as you go")
-        self.attribute_box.addItems(project.vocabulary())
-        self.attribute_box.setCurrentIndex(-1)
-        self.attribute_box.setEditText("")  # no term preselected: the user chooses
-        self.observation.object_id = None
-        self.observation.refresh_species()
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
         self.refresh_pair_box()
@@ -739,9 +734,11 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_pair_changed(self) -> None:
         ws = self.workspace
         self.refresh_pair_box()  # the box follows the model (a video's frames or an image pair)
-        if ws.pair is None:
-            for pane in self.panes.values():
-                pane.set_image(None)
+        if ws.pair is None:  # no pair shown (another project): nothing of the last one stays on the panes
+            for side in SIDES:
+                self.panes[side].title.setText(side.capitalize())
+                self.panes[side].set_image(None)
+            self.pixel_label.setText("")
             return
         for side in SIDES:
             self.panes[side].title.setText(f"{side.capitalize()} — {ws.pair}  "
@@ -930,17 +927,14 @@ class MainWindow(QtWidgets.QMainWindow):
         """Give the keyboard to an image pane (Enter, Esc, nudging and Page Up/Down then work)."""
         self.panes[side].graphics.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
 
-    def _forget_project_state(self) -> None:
-        """What the previous project left on screen: readouts, titles, histograms, attribute, colours."""
-        self.point_label.setText("")
-        self.pixel_label.setText("")
-        for side in SIDES:
-            self.panes[side].title.setText(side.capitalize())
-            self.panes[side].set_image(None)
-        self.enhancement.show_histograms(None, None)
+    def _on_project_changed(self, project) -> None:
+        """Another project (or none): the window's own readouts forget the previous one (the panes, the
+        docks and the video controls listen to the models themselves)."""
         self.attribute_box.clear()
-        self.attribute_box.setEditText("")
-        self.selection = []
+        if project is not None:
+            self.attribute_box.addItems(project.vocabulary())
+        self.attribute_box.setCurrentIndex(-1)
+        self.attribute_box.setEditText("")  # no term preselected: the user chooses
         self.statusBar().setStyleSheet("")
         self.statusBar().clearMessage()
         self.set_hint("")

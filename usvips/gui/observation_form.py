@@ -46,6 +46,7 @@ class ObservationForm(QtWidgets.QWidget):
         self.ask.setChecked(True)
         store = QtWidgets.QPushButton("Store (Enter)")
         store.clicked.connect(self.store)
+        workspace.project_changed.connect(self._on_project_changed)
         self.status = QtWidgets.QLabel("")
         row = QtWidgets.QHBoxLayout()
         for label, widget in (("", self.target), ("Species", self.species), ("No.", self.number),
@@ -63,6 +64,14 @@ class ObservationForm(QtWidgets.QWidget):
         layout.addLayout(row)
         layout.addLayout(options)
         layout.addStretch(1)
+        self.refresh_species()
+
+    def _on_project_changed(self, project) -> None:
+        """Another project: no object, a blank record, that project's species list."""
+        self.object_id = None
+        self.target.setText("no object")
+        self._show(ObservationRecord())
+        self.status.setText("")
         self.refresh_species()
 
     def refresh_species(self) -> None:

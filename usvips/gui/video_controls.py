@@ -211,6 +211,7 @@ class VideoController(QtCore.QObject):
         # double-click on an object (or Zoom to) goes to the frame it was measured on
         window.object_list.zoom_requested.connect(self.go_to_object)
         window.object_list.object_activated.connect(self.go_to_object)
+        window.workspace.project_changed.connect(self.project_opened)  # another project: new controls
 
     def _connect(self, d: VideoDock) -> None:
         """Wire a dock's controls to this controller."""
@@ -233,7 +234,8 @@ class VideoController(QtCore.QObject):
 
     # ------------------------------------------------------------------ videos
     def project_opened(self, project) -> None:
-        """Fill the chooser with the project's videos (and forget the previous project's)."""
+        """Fill the chooser with the project's videos, none without a project (and forget the previous
+        project's); called by the workspace's ``project_changed``."""
         self.close_video()
         self.cancel_proxies()
         self._proxies_deleted.clear()
@@ -752,6 +754,7 @@ class VideoController(QtCore.QObject):
 
     def shutdown(self) -> None:
         """Before the window closes: stop the proxy build and wait for its thread (it stops within a frame)."""
+        self.window.workspace.project_changed.disconnect(self.project_opened)
         self.cancel_proxies()
         self.proxy_pool.waitForDone(10000)
 

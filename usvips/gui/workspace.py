@@ -87,6 +87,8 @@ class Workspace:
       after the model's cache of the stored objects holds the change), ``objects_reset()`` (another
       project: every object is new), and ``objects_changed()`` after any of these, for views that only
       recount (the video timeline's marks);
+    - ``project_changed(project)`` (another project, or None: every per-project model is new; views
+      forget what they showed of the previous one), after the events above have said what is gone;
     - ``selection_changed(ids)``; ``rules_changed(rules)`` (the quality rules: every figure's verdict);
     - ``message(level, text)`` with level ``info``, ``warning`` or ``error``, ``observed(left, right)``
       when the observe tool has both picks of a point, ``stored(object_id)`` after a new object.
@@ -112,6 +114,7 @@ class Workspace:
         #: the display enhancement of the two images (usvips.gui.enhancement_model)
         self.enhancement = Enhancement(self.undo, self.enhancement_changed, self.message)
         self.pair_changed = Signal()
+        self.project_changed = Signal()
         #: the pick tool's events; each project's new PickTool announces through these
         self.pick_events = PickEvents()
         self.picks_changed = self.pick_events.picks_changed
@@ -158,6 +161,7 @@ class Workspace:
         self.selection_changed.emit(self.selection)
         self.picks_changed.emit()
         self.pair_changed.emit()
+        self.project_changed.emit(project)
 
     def _shared(self, geometry: PairGeometry | None) -> PairGeometry | None:
         """``geometry`` with the very calibration object the stored objects' figures use (read once per

@@ -1,0 +1,106 @@
+"""Opening a project resets every model by construction (new instances, one ``project_changed`` event), and
+every view forgets the previous project because it listens, not because a list names it: first without a
+window (the models), then in the window (what is on screen)."""
+
+import numpy as np
+from PySide6 import QtWidgets
+
+from tests.gui.conftest import click_pixel, open_sample, truth_pixels
+from usvips.app.samples import open_or_create_from_manifest
+from usvips.core.enhance import Pipeline
+from usvips.gui.pick_tool import PickState
+from usvips.gui.workspace import Workspace, load_pair_images
+from usvips.store import Project
+
+
+def _measure_a_point(ws, directory) -> int:
+    left, right = truth_pixels(directory, "water1", "targets")
+    number = next(k for k in left if left[k] is not None and right.get(k) is not None)
+    ws.set_tool("point")
+    ws.pick("left", left[number])
+    ws.pick("right", right[number])
+    if ws.state.pending is not None:  # held by a guard rail: keep it
+        ws.accept_proposal()
+    (stored,) = ws.objects()
+    return stored.id
+
+
+def test_a_second_project_leaves_nothing_of_the_first_in_any_model(sample_copy, tmp_path):
+    directory = sample_copy("tank_system1")
+    first = open_or_create_from_manifest(directory)
+    ws = Workspace()
+    heard = []
+    ws.project_changed.connect(lambda project: heard.append(project))
+    ws.open_project(first)
+    ws.set_pair("water1", *load_pair_images(first, "water1"))
+    ws.set_pipeline("left", Pipeline().then("clahe", clip_limit=2.0))
+    object_id = _measure_a_point(ws, directory)
+    ws.select([object_id])
+    ws.figures([object_id])
+    ws.attribute = "cod"
+    ws.set_tool("line")
+    ws.pick("left", (100.0, 100.0))  # a vertex being picked
+    ws.video_frame = ("clip", 3, 4, 0.1)  # as if a video's frame pair were shown
+    models = (ws.cache, ws.enhancement, ws.pick_tool)
+    assert ws.last_point is not None and ws.state.source == "left" and ws.undo.undo_label is not None
+
+    second = Project.create(tmp_path / "second.usvips")
+    ws.open_project(second)
+    assert heard == [first, second]
+    assert all(new is not old for new, old in zip((ws.cache, ws.enhancement, ws.pick_tool), models, strict=True))
+    # the project and its selection
+    assert (ws.pair, ws.images, ws.geometry, ws.video_frame, ws.selection) == (None, {}, None, None, ())
+    # the object cache
+    assert ws.objects() == [] and ws.object_figures(object_id) is None and ws._calibrations == {}
+    # the enhancement
+    assert ws.pipelines == {"left": Pipeline(), "right": Pipeline()} and ws.enhancement.keys == {}
+    assert ws.enhancement.project is None
+    # the pick tool: its state, but not the user's settings and tool
+    assert ws.state == PickState() and ws.digitising.vertices == () and ws.last_point is None
+    assert ws.attribute == "" and ws.repick is None and ws.tool == "line"
+    # undo: nothing of the first project can be undone into the second
+    assert ws.undo.undo_label is None and ws.undo.redo_label is None
+    ws.close_project()
+    assert heard[-1] is None and ws.project is None
+
+
+def test_the_views_show_nothing_of_the_previous_project(qtbot, make_window, sample_copy, tmp_path):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "water1")
+    ws = window.workspace
+    left, right = truth_pixels(directory, "water1", "targets")
+    number = next(k for k in left if left[k] is not None and right.get(k) is not None)
+    window.set_tool("point")
+    click_pixel(qtbot, window.panes["left"], left[number])
+    click_pixel(qtbot, window.panes["right"], right[number])
+    if ws.state.pending is not None:
+        ws.accept_proposal()
+    qtbot.waitUntil(lambda: bool(ws.objects()), timeout=5000)
+    ws.select([ws.objects()[0].id])
+    window._on_hovered("left", *left[number])  # the pixel readout under the mouse
+    window.attribute_box.setEditText("cod")
+    curve = window.enhancement.original_curve
+    qtbot.waitUntil(lambda: curve.getData()[0] is not None and len(curve.getData()[0]) > 0, timeout=5000)
+    before = {"point": window.point_label.text(), "pixel": window.pixel_label.text(),
+              "title": window.panes["left"].title.text(), "target": window.observation.target.text(),
+              "rows": window.object_list.table.rowCount()}
+    assert all(before.values()), before
+
+    empty = tmp_path / "empty.usvips"
+    Project.create(empty).close()
+    assert window.open_path(empty)
+    QtWidgets.QApplication.processEvents()
+    assert window.point_label.text() == "" and window.pixel_label.text() == ""
+    assert [window.panes[s].title.text() for s in ("left", "right")] == ["Left", "Right"]
+    assert all(window.panes[s].image_size() == (0, 0) for s in ("left", "right"))
+    for item in (window.enhancement.original_curve, window.enhancement.processed_curve):
+        data = item.getData()[0]
+        assert data is None or len(data) == 0
+    assert window.attribute_box.currentText() == "" and window.attribute_box.count() == 0
+    assert window.pair_box.count() == 0 and window.pair_box.placeholderText() == ""
+    assert window.observation.target.text() == "no object" and window.observation.species.currentText() == ""
+    assert window.object_list.table.rowCount() == 0 and window.selection == []
+    d = window.video.dock_widget
+    assert (d.offset.value(), d.frame_label.text(), d.chooser.count()) == (0, "—", 0) and not d.isEnabled()
+    assert np.all([window.panes[s].display is None for s in ("left", "right")])
