@@ -127,3 +127,60 @@ def test_an_estimate_at_the_edge_of_its_window_is_refused_not_offered(offset, co
         assert "confidence" in why
     else:
         assert why is None
+
+
+def test_a_video_session_stores_offsets_periods_and_taken_pairs_without_a_window(tmp_path):
+    """The synchronisation flow as a model: an offset typed or estimated is stored and the navigator made
+    anew at the same frame (marks, rate and jump kept, the event says so); the decision on an estimate
+    comes in words; a period is parsed and stored or refused by name; a taken pair is planned, and a
+    refused one leaves no file behind."""
+    from usvips.core.errors import UsvipsError
+    from usvips.gui.video_model import VideoSession
+    from usvips.store.project import Vertex
+
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=20)
+    with Project.create(tmp_path / "p.usvips") as project:
+        add_video(project, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "v")
+        project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0, None, None, None, None, "v", 12, 12, 0.48)])
+        session = VideoSession(project, "v")
+        heard = []
+        session.offset_changed.connect(heard.append)
+        nav = session.navigator
+        assert nav.marks == {12} and nav.offset == 0
+        nav.go(20)
+        nav.rate, nav.jump = 2.0, 25
+        new = session.store_offset(4, {"method": "by hand"})
+        assert new is session.navigator and new is not nav and heard == [4]
+        assert (new.offset, new.frame, new.last, new.marks, new.rate, new.jump) == (4, 20, 35, {12}, 2.0, 25)
+        assert project.video("v")["offset_frames"] == 4 and session.source.video["offset_frames"] == 4
+        assert session.source.pair(20)[2] == 24  # the source decodes at the new offset
+        with pytest.raises(UsvipsError):
+            session.store_offset(400, {"method": "by hand"})  # refused by the project: nothing changed
+        assert session.navigator is new and project.video("v")["offset_frames"] == 4 and heard == [4]
+        # decisions in words
+        sure = session.sync_outcome(SyncEstimate(-3.1, 25.0, "flash", 0.95, window=(-10, 10)))
+        assert (sure.action, sure.level, sure.question) == ("store", "info", None) and "stored" in sure.text
+        doubtful = session.sync_outcome(SyncEstimate(-3.1, 25.0, "flash", 0.2, window=(-10, 10)))
+        assert doubtful.action == "ask" and "not stored" in doubtful.text and "Store -3 frames" in doubtful.question
+        edge = session.sync_outcome(SyncEstimate(10.0, 25.0, "flash", 0.95, window=(-10, 10)))
+        assert edge.action == "refuse" and edge.question is None and "window" in edge.text
+        session.store_estimate(SyncEstimate(-3.1, 25.0, "flash", 0.95, window=(-10, 10)))
+        assert project.video("v")["offset_frames"] == -3 and project.video("v")["offset_estimate"]["method"] == "flash"
+        # periods
+        assert session.mark_period("bait arrives 10 26") == ("bait arrives", 10, 26)
+        with pytest.raises(UsvipsError, match=r"period '26': type a name, then the first and last frame"):
+            session.mark_period("26")
+        with pytest.raises(UsvipsError):
+            session.mark_period("late 30 20")
+        assert project.periods("v") == [("bait arrives", 10, 26)]
+        # a taken pair: planned (label, frame, offset, folder); a refused one removes its files
+        label, frame, offset, folder = session.plan_taken_pair("cube")
+        assert (label, frame, offset) == ("cube", session.navigator.frame, -3)
+        written = [tmp_path / "a.png", tmp_path / "b.png"]
+        for path in written:
+            path.write_bytes(b"not a picture")
+        with pytest.raises(UsvipsError):
+            session.add_taken_pair("cube", tuple(written), "water")
+        assert not any(path.exists() for path in written)
+        session.close()

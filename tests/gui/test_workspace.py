@@ -599,3 +599,19 @@ def test_another_project_gets_a_new_object_cache_and_the_views_still_hear_it(tmp
     assert heard[-1] == ("added", (1,))
     ws.close_project()
     assert ws.objects() == [] and ws.cache.project is None
+
+
+def test_a_view_asks_for_an_object_through_the_model_and_the_others_hear_it(tmp_path):
+    from usvips.store.project import Vertex
+
+    project = Project.create(tmp_path / "p.usvips")
+    object_id = project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)], "cod")
+    ws = Workspace()
+    ws.open_project(project)
+    heard, said = [], []
+    ws.object_requested.connect(heard.append)
+    ws.message.connect(lambda level, text: said.append((level, text)))
+    ws.request_object(object_id)
+    ws.request_object(object_id + 1)  # not stored: said, not announced
+    assert heard == [object_id] and said == [("warning", f"object {object_id + 1} is no longer in the project")]
+    ws.close_project()

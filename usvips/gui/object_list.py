@@ -79,8 +79,7 @@ class ObjectList(QtWidgets.QWidget):
         self.delete_shortcut.activated.connect(self._on_delete)
         self.table.itemSelectionChanged.connect(self._on_table_selection)
         self.table.itemChanged.connect(self._on_item_changed)
-        self.table.cellDoubleClicked.connect(
-            lambda row, _: self.object_activated.emit(self._ids[row]) if row < len(self._ids) else None)
+        self.table.cellDoubleClicked.connect(self._on_double_click)
         self._filling = False
         self._ids: list[int] = []  # the object id of each row, ascending (rows are in id order)
         self._worker: Worker | None = None
@@ -289,7 +288,13 @@ class ObjectList(QtWidgets.QWidget):
         for object_id in self.selected_ids():
             self.workspace.delete_object(object_id)
 
+    def _on_double_click(self, row: int, _column: int) -> None:
+        if row < len(self._ids):
+            self.object_activated.emit(self._ids[row])
+            self.workspace.request_object(self._ids[row])  # other views (the video) go to it by the model
+
     def _on_zoom(self) -> None:
         ids = self.selected_ids()
         if ids:
             self.zoom_requested.emit(ids[0])
+            self.workspace.request_object(ids[0])

@@ -22,14 +22,13 @@ from usvips.gui.video_model import (
     FrameCache,
     FrameSource,
     VideoNavigator,
+    VideoSession,
     format_bytes,
     format_timecode,
-    measured_frames,
     parse_position,
     prefetch_order,
     proxy_disk_bytes,
     rgb_pair,
-    sync_decision,
     video_frame_of,
 )
 from usvips.gui.worker import Cancelled, Worker
@@ -186,8 +185,8 @@ class VideoController(QtCore.QObject):
         self.window = window
         self.dock_widget = VideoDock()
         self.cache = cache or FrameCache()
-        self.source: FrameSource | None = None
-        self.navigator: VideoNavigator | None = None
+        #: the video opened (its source, position and synchronisation: usvips.gui.video_model), or None
+        self.session: VideoSession | None = None
         self.question: QtWidgets.QMessageBox | None = None  # "store this uncertain offset?", while open
         self.direction = 1
         self._request: Worker | None = None
@@ -208,9 +207,8 @@ class VideoController(QtCore.QObject):
         for pane in window.panes.values():
             pane.graphics.installEventFilter(self)
         self._connect(self.dock_widget)
-        # double-click on an object (or Zoom to) goes to the frame it was measured on
-        window.object_list.zoom_requested.connect(self.go_to_object)
-        window.object_list.object_activated.connect(self.go_to_object)
+        # an object asked for (the object list's double-click or Zoom to): the frame it was measured on
+        window.workspace.object_requested.connect(self.go_to_object)
         window.workspace.project_changed.connect(self.project_opened)  # another project: new controls
 
     def _connect(self, d: VideoDock) -> None:
@@ -231,6 +229,14 @@ class VideoController(QtCore.QObject):
         d.sync.clicked.connect(self._on_sync)
         for widget in (d, d.timeline):
             widget.installEventFilter(self)
+
+    @property
+    def source(self) -> FrameSource | None:
+        return None if self.session is None else self.session.source
+
+    @property
+    def navigator(self) -> VideoNavigator | None:
+        return None if self.session is None else self.session.navigator
 
     # ------------------------------------------------------------------ videos
     def project_opened(self, project) -> None:
@@ -269,12 +275,10 @@ class VideoController(QtCore.QObject):
             return False
         self.close_video()
         try:
-            self.source = FrameSource(project, label)
+            self.session = VideoSession(project, label)
         except UsvipsError as error:
             self.window.show_message("error", str(error))
             return False
-        self.navigator = self.source.navigator()
-        self.navigator.marks = measured_frames(project, label)
         d = self.dock_widget
         self.navigator.rate, self.navigator.jump = float(d.rate.currentText().rstrip("×")), d.jump.value()
         d.chooser.setCurrentText(label)
@@ -300,9 +304,9 @@ class VideoController(QtCore.QObject):
         self._request = self._prefetch = None
         self._target = None
         self.cache.clear()
-        if self.source is not None:
-            self.source.close()
-        self.source, self.navigator = None, None
+        if self.session is not None:
+            self.session.close()
+        self.session = None
 
     # ------------------------------------------------------------------ stepping
     def step(self, frames: int) -> None:
@@ -454,15 +458,14 @@ class VideoController(QtCore.QObject):
         """Estimate the shown video's offset by ``method`` (None: sound, else a flash, else the images) in a
         worker, then store it (as ``usvips video sync``) and show the pair at the new offset; the message
         gives the sub-frame offset, its confidence and the whole frame used."""
-        nav, project = self.navigator, self.window.workspace.project
-        if nav is None or project is None:
+        session = self.session
+        if session is None:
             return None
         try:
-            job_data = video_project.plan_sync(project, nav.label)
+            job_data = session.sync_plan()
         except UsvipsError as error:
             self.window.show_message("error", str(error))
             return None
-        label = nav.label
 
         def job(progress, cancelled):
             def report(done: int, total: int) -> None:
@@ -472,26 +475,22 @@ class VideoController(QtCore.QObject):
             return video_project.run_sync(job_data, method, progress=report)
 
         def done(estimate) -> None:
-            if self.navigator is None or self.navigator.label != label:
+            if self.session is not session:  # another video (or project) since: not this one's offset
                 return
-            def store() -> None:
-                if self.navigator is None or self.navigator.label != label:
-                    return
-                self._store_offset(estimate.frames, estimate.as_dict())
-                self.window.show_message("info", f"video {label}: {estimate.summary()}; stored")
+            outcome = session.sync_outcome(estimate)
 
-            action, doubt = sync_decision(estimate)
-            if action == "store":
+            def store() -> None:
+                if self.session is session:
+                    self._store_offset(estimate.frames, estimate.as_dict(), outcome.text)
+
+            if outcome.action == "store":
                 store()
                 return
-            if action == "refuse":  # at the edge of its window: no estimate, never offered for storing
-                self.window.show_message("warning", f"video {label}: {estimate.summary()}; not stored: {doubt}")
-                return
-            self.window.show_message("warning", f"video {label}: {estimate.summary()}; not stored ({doubt})")
-            self.ask_to_store(f"Video {label}: {estimate.summary()}.\n\nThe {doubt}. Store {estimate.frames:+d} "
-                              "frames as the offset anyway?", store)
+            self.window.show_message(outcome.level, outcome.text)
+            if outcome.action == "ask":
+                self.ask_to_store(outcome.question, store)
 
-        return self.window.run_worker(job, f"synchronising {label}", done)
+        return self.window.run_worker(job, f"synchronising {session.label}", done)
 
     def ask_to_store(self, question: str, store: Callable[[], None]) -> None:
         """Ask whether to store an offset estimated with little confidence: a Yes/No question (No by
@@ -519,25 +518,24 @@ class VideoController(QtCore.QObject):
             return
         self._store_offset(value, {"method": "by hand"})
 
-    def _store_offset(self, value: int, how: dict) -> None:
-        nav = self.navigator
+    def _store_offset(self, value: int, how: dict, said: str | None = None) -> None:
+        """Store an offset through the session (the model decides and stores), then draw: new frame cache,
+        the dock's offset and range, the same left frame requested again. ``said``: the line to show."""
+        session = self.session
+        frame = session.navigator.frame
         try:
-            self.window.workspace.project.set_video_offset(nav.label, value, how)
+            nav = session.store_offset(value, how)
         except UsvipsError as error:
             self.window.show_message("error", str(error))
-            self.dock_widget.offset.setValue(nav.offset)
+            self.dock_widget.offset.setValue(session.navigator.offset)
             return
-        frame = nav.frame
         for worker in (self._request, self._prefetch):
             if worker is not None:
                 worker.cancel()
         self.cache = FrameCache(self.cache.budget)  # a decode still running fills the old one, never this
         self.dock_widget.offset.setValue(value)
-        self.source.video["offset_frames"] = value
-        self.navigator = self.source.navigator()
-        self.navigator.marks = nav.marks
-        self.dock_widget.timeline.setRange(self.navigator.first, self.navigator.last)
-        self.window.show_message("info", f"video {nav.label}: offset set to {value:+d} frames (stored)")
+        self.dock_widget.timeline.setRange(nav.first, nav.last)
+        self.window.show_message("info", said or f"video {nav.label}: offset set to {value:+d} frames (stored)")
         self.request(frame)
 
     def _on_period(self) -> None:
@@ -551,14 +549,10 @@ class VideoController(QtCore.QObject):
 
     def mark_period(self, text: str) -> bool:
         """Store a period typed as ``NAME FIRST LAST`` (left frames; the name may hold spaces)."""
-        parts = text.split()
-        try:
-            name, start, end = " ".join(parts[:-2]), int(parts[-2]), int(parts[-1])
-        except (ValueError, IndexError):
-            self.window.show_message("error", f"period {text!r}: type a name, then the first and last frame")
+        if self.session is None:
             return False
         try:
-            self.window.workspace.project.add_period(self.navigator.label, name, start, end)
+            name, start, end = self.session.mark_period(text)
         except UsvipsError as error:
             self.window.show_message("error", str(error))
             return False
@@ -578,12 +572,12 @@ class VideoController(QtCore.QObject):
         ``medium`` ("air" or "water"): decoded exactly and written as PNG in a worker, then added to the
         project on this thread (the service the command line's ``video take-pair`` uses). Returns the
         worker, or None when nothing is shown or the label is refused (a message says why)."""
-        nav, source, project = self.navigator, self.source, self.window.workspace.project
-        if nav is None or source is None or project is None:
+        session = self.session
+        if session is None:
             return None
-        frame, offset = nav.frame, nav.offset
+        source, video = session.source, session.label
         try:
-            pair_label, folder = video_project.plan_taken_pair(project, nav.label, frame, pair_label)
+            pair_label, frame, offset, folder = session.plan_taken_pair(pair_label)
         except UsvipsError as error:
             self.window.show_message("error", str(error))
             return None
@@ -596,14 +590,9 @@ class VideoController(QtCore.QObject):
 
         def store(result) -> None:
             partner, paths = result
-            try:
-                video_project.add_taken_pair(project, pair_label, paths, medium)
-            except UsvipsError:
-                for path in paths:  # nothing half-made stays behind
-                    path.unlink(missing_ok=True)
-                raise
+            session.add_taken_pair(pair_label, paths, medium)
             self.window.refresh_pair_box()
-            self.window.show_message("info", f"left frame {frame} and right frame {partner} of {nav.label} are now "
+            self.window.show_message("info", f"left frame {frame} and right frame {partner} of {video} are now "
                                              f"the {'in-air' if medium == 'air' else 'underwater'} image pair "
                                              f"{pair_label!r} (Calibration menu: calibrate from it)")
 
@@ -777,9 +766,9 @@ class VideoController(QtCore.QObject):
         self.request(frame)
 
     def objects_changed(self) -> None:
-        if self.navigator is not None and self.window.workspace.project is not None:
-            self.navigator.marks = measured_frames(self.window.workspace.project, self.navigator.label)
-            self.dock_widget.timeline.marks = set(self.navigator.marks)
+        # the session's project only (another project's objects are announced before its project_changed)
+        if self.session is not None and self.session.project is self.window.workspace.project:
+            self.dock_widget.timeline.marks = set(self.session.refresh_marks())
             self.dock_widget.timeline.update()
 
     def eventFilter(self, watched: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt's name)

@@ -1,6 +1,7 @@
 """The workstation's stereo-video model, Qt-free: which frame pair is shown, stepping and going to a
 frame or time code, the frames holding measurements, a bounded frame cache and what to prefetch, and a
-thread-safe source of synchronised frame pairs.
+thread-safe source of synchronised frame pairs; and one opened video's session (:class:`VideoSession`):
+its source and position and the synchronisation decisions (offsets, periods, taken pairs).
 
 Frames are the left stream's numbers; the right partner of left frame ``i`` is ``i + offset``. Only left
 frames whose partner exists are shown (``first`` … ``last``).
@@ -15,8 +16,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from usvips.app import video_project
 from usvips.app.video_project import doubt_about, open_streams, partner_frame
-from usvips.core.errors import InvalidParameterError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.gui.signals import Signal
 from usvips.io import video_proxy
@@ -315,3 +317,110 @@ def sync_decision(estimate: SyncEstimate) -> tuple[str, str | None]:
         return "refuse", edge
     doubt = doubt_about(estimate)
     return ("store", None) if doubt is None else ("ask", doubt)
+
+
+@dataclass(frozen=True)
+class SyncOutcome:
+    """What to do with a fresh offset estimate of video ``label`` (:func:`sync_decision` in words):
+    ``action`` ``store``, ``ask`` or ``refuse``; the status line (``level``, ``text``) to show before any
+    question; and the ``question`` to ask the user on ``ask`` (Yes stores the offset anyway)."""
+
+    action: str
+    level: str
+    text: str
+    question: str | None = None
+
+
+class VideoSession:
+    """One stored video opened in the window, free of Qt: its frame ``source``, where the viewer is
+    (``navigator``, with the frames that hold measurements marked), and the synchronisation decisions —
+    storing an offset (typed or estimated), marking a period, taking the frames shown as an image pair.
+    The controller (``usvips.gui.video_controls``) asks the user, runs the workers and draws; everything
+    decided and stored is here. Refusals are :class:`UsvipsError` with one line naming what is wrong.
+
+    Event: ``offset_changed(offset)`` after a new offset is stored (the navigator is a new one, at the
+    same left frame, its marks kept)."""
+
+    def __init__(self, project: ProjectStore, label: str) -> None:
+        self.project = project
+        self.source = FrameSource(project, label)
+        self.navigator = self.source.navigator()
+        self.navigator.marks = measured_frames(project, label)
+        self.offset_changed = Signal()
+
+    @property
+    def label(self) -> str:
+        return self.navigator.label
+
+    def refresh_marks(self) -> set[int]:
+        """Read the measured frames again (objects changed); returns them."""
+        self.navigator.marks = measured_frames(self.project, self.label)
+        return self.navigator.marks
+
+    def close(self) -> None:
+        self.source.close()
+
+    # ------------------------------------------------------------------ synchronisation
+    def store_offset(self, value: int, how: dict) -> VideoNavigator:
+        """Store ``value`` (frames, right = left + offset) as the video's offset with ``how`` it was found
+        (``{"method": "by hand"}`` or an estimate's dict); returns the new navigator (same left frame,
+        clamped; marks kept). Raises by name when the project refuses it; nothing changes then."""
+        old = self.navigator
+        self.project.set_video_offset(old.label, int(value), how)
+        self.source.video["offset_frames"] = int(value)
+        self.navigator = self.source.navigator()
+        self.navigator.marks = old.marks
+        self.navigator.frame = self.navigator.clamp(old.frame)
+        self.navigator.rate, self.navigator.jump = old.rate, old.jump
+        self.offset_changed.emit(int(value))
+        return self.navigator
+
+    def sync_plan(self):
+        """What the offset estimate needs, read from the project now (the estimate then runs in a worker
+        on files only: :func:`usvips.app.video_project.run_sync`)."""
+        return video_project.plan_sync(self.project, self.label)
+
+    def sync_outcome(self, estimate: SyncEstimate) -> SyncOutcome:
+        """The decision on a fresh estimate, in words (see :func:`sync_decision`)."""
+        label, summary = self.label, estimate.summary()
+        action, doubt = sync_decision(estimate)
+        if action == "store":
+            return SyncOutcome("store", "info", f"video {label}: {summary}; stored")
+        if action == "refuse":  # at the edge of its window: no estimate, never offered for storing
+            return SyncOutcome("refuse", "warning", f"video {label}: {summary}; not stored: {doubt}")
+        return SyncOutcome("ask", "warning", f"video {label}: {summary}; not stored ({doubt})",
+                           f"Video {label}: {summary}.\n\nThe {doubt}. Store {estimate.frames:+d} frames as the "
+                           "offset anyway?")
+
+    def store_estimate(self, estimate: SyncEstimate) -> VideoNavigator:
+        """Store an estimate's whole-frame offset (with the estimate itself, as ``usvips video sync``)."""
+        return self.store_offset(estimate.frames, estimate.as_dict())
+
+    # ------------------------------------------------------------------ periods and taken pairs
+    def mark_period(self, text: str) -> tuple[str, int, int]:
+        """Store a period typed as ``NAME FIRST LAST`` (left frames; the name may hold spaces); returns
+        (name, first, last). Refused by name when the text or the interval is wrong."""
+        parts = text.split()
+        try:
+            name, start, end = " ".join(parts[:-2]), int(parts[-2]), int(parts[-1])
+        except (ValueError, IndexError):
+            raise UsvipsError(f"period {text!r}: type a name, then the first and last frame") from None
+        self.project.add_period(self.label, name, start, end)
+        return name, start, end
+
+    def plan_taken_pair(self, pair_label: str | None = None) -> tuple[str, int, int, object]:
+        """(label, left frame, offset, folder) of the image pair the frames shown would become; refuses a
+        label already used before anything is written."""
+        nav = self.navigator
+        label, folder = video_project.plan_taken_pair(self.project, nav.label, nav.frame, pair_label)
+        return label, nav.frame, nav.offset, folder
+
+    def add_taken_pair(self, pair_label: str, paths, medium: str) -> None:
+        """Add written frames as the image pair ``pair_label`` taken in ``medium``; on a refusal the files
+        are removed (nothing half-made stays behind) and the error raised."""
+        try:
+            video_project.add_taken_pair(self.project, pair_label, paths, medium)
+        except UsvipsError:
+            for path in paths:
+                path.unlink(missing_ok=True)
+            raise

@@ -90,6 +90,8 @@ class Workspace:
     - ``project_changed(project)`` (another project, or None: every per-project model is new; views
       forget what they showed of the previous one), after the events above have said what is gone;
     - ``selection_changed(ids)``; ``rules_changed(rules)`` (the quality rules: every figure's verdict);
+    - ``object_requested(object_id)``: a view asked to be shown an object (the object list's double-click
+      or Zoom to); the views that can show it (the video goes to its frame) listen — never to each other;
     - ``message(level, text)`` with level ``info``, ``warning`` or ``error``, ``observed(left, right)``
       when the observe tool has both picks of a point, ``stored(object_id)`` after a new object.
 
@@ -134,6 +136,7 @@ class Workspace:
         self.cache = ObjectCache(None, self.object_events, lambda: self.rules)
         self.selection_changed = Signal()
         self.rules_changed = Signal()
+        self.object_requested = Signal()
         #: The selected objects' ids (the object list and the geo-calculator show them).
         self.selection: tuple[int, ...] = ()
 
@@ -495,6 +498,14 @@ class Workspace:
         if selection != self.selection:
             self.selection = selection
             self.selection_changed.emit(selection)
+
+    def request_object(self, object_id: int) -> None:
+        """Ask the views to show a stored object (announced as ``object_requested``; an id not stored is
+        said, not announced)."""
+        if int(object_id) not in self.cache:
+            self.message.emit("warning", f"object {object_id} is no longer in the project")
+            return
+        self.object_requested.emit(int(object_id))
 
     def set_rules(self, rules: QualityRules) -> None:
         """New quality rules: every object's verdict may change (its figures are computed again)."""
