@@ -6,7 +6,7 @@ import numpy as np
 from PySide6 import QtCore
 
 from tests.gui.conftest import click_pixel, open_sample, truth_pixels
-from usvips.gui.pane import COLOURS
+from usvips.gui.pane import COLOURS, item_from_pixels
 
 
 def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_window, sample_copy):
@@ -46,3 +46,24 @@ def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_w
         if seen["confident"]:
             break
     assert seen["weak"] >= 1 and seen["confident"] >= 1, seen
+
+
+def test_a_vertex_proposed_from_elsewhere_is_drawn_said_and_kept_by_enter(qtbot, make_window, sample_copy):
+    """``workspace.propose_vertex`` (a track's proposal) in the window: the left pick and the right
+    proposal drawn, the note on the hint line, Enter on the images keeps it."""
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    number = next(k for k in left if left[k] is not None and right.get(k) is not None)
+    ws = window.workspace
+    ws.propose_vertex(left[number], right[number], "track 7, frame 40")
+    drawn = np.column_stack(window.panes["right"].proposal_item.getData())
+    assert np.allclose(drawn, item_from_pixels(right[number]))
+    assert "track 7, frame 40" in window.hint.text() and "Enter accepts" in window.hint.text()
+    window.focus_images()
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
+    if ws.state.pending is not None:  # a guard rail held it: Enter again keeps it, flagged
+        qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
+    assert ws.state.source is None and np.allclose(ws.last_point.right, right[number])
+    assert len(window.panes["right"].proposal_item.getData()[0]) == 0
