@@ -24,13 +24,14 @@ from usvips.app.pair_geometry import PairGeometry, pair_geometry
 from usvips.app.project_figures import measurement_input
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
-from usvips.core.measurements import QualityRules, registered_kinds, resolve
+from usvips.core.measurements import QualityRules
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.observation_record import ObservationRecord
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.calculator import Result
 from usvips.gui.enhancement_model import Enhancement
 from usvips.gui.object_cache import ObjectCache, ObjectEvents
+from usvips.gui.object_edits import ObjectEdits
 from usvips.gui.pick_tool import (  # noqa: F401  (re-exported: callers import these from the workspace)
     LINE,
     LINK_DEPTH_M,
@@ -47,11 +48,9 @@ from usvips.gui.pick_tool import (  # noqa: F401  (re-exported: callers import t
     other,
 )
 from usvips.gui.signals import Signal
-from usvips.gui.undo import Command, UndoStack
-from usvips.gui.wording import article, plural
+from usvips.gui.undo import UndoStack
 from usvips.io.images import read_image
 from usvips.store.interface import ProjectStore
-from usvips.store.project import Vertex
 
 
 def pair_image_paths(project: ProjectStore, label: str) -> tuple[Path, Path]:
@@ -126,6 +125,8 @@ class Workspace:
         self.stored = self.pick_events.stored
         #: the picking and measuring tool (usvips.gui.pick_tool), a new one per project
         self.pick_tool = PickTool(self, self.pick_events, self.settings)
+        #: the undoable edits of stored objects (usvips.gui.object_edits; they hold nothing per project)
+        self.edits = ObjectEdits(self, lambda: self.pick_tool.clear_state())
         #: the stored objects' events; each project's new ObjectCache announces through these
         self.object_events = ObjectEvents()
         self.objects_changed = self.object_events.changed
@@ -347,102 +348,35 @@ class Workspace:
         """Re-pick a stored vertex (see :meth:`PickTool.start_repick`)."""
         self.pick_tool.start_repick(object_id, index)
 
-    # ------------------------------------------------------------------ edits of stored objects
-    def delete_vertex(self, object_id: int, index: int) -> None:
-        """Remove vertex ``index`` (0-based) of a stored object (undoable); an object keeps at least the
-        vertices its kind needs (delete the object instead)."""
-        stored = self.stored_object(object_id)
-        if not 0 <= index < len(stored.vertices):
-            raise UsvipsError(f"{stored.kind} {object_id} has vertices 1 to {len(stored.vertices)}, not {index + 1}")
-        least = measurement_kind(resolve(stored.kind, len(stored.vertices))).minimum_vertices
-        if len(stored.vertices) - 1 < least:
-            raise UsvipsError(f"{article(stored.kind)} needs at least {plural(least, 'vertex')}: delete the object "
-                              "instead")
-        saved = list(stored.vertices)
-        self._set_vertices(f"delete vertex {index + 1} of object {object_id}", object_id, saved,
-                           saved[:index] + saved[index + 1:])
-
-    def _set_vertices(self, label: str, object_id: int, before: list[Vertex], after: list[Vertex]) -> None:
-        self.edit_stored(label, object_id, lambda: self.project.update_object(object_id, vertices=after),
-                         self.pick_tool.clear_state)
-        self.message.emit("info", f"{label}: done (Ctrl+Z undoes it)")
-
+    # ------------------------------------------------------------ edits of stored objects (usvips.gui.object_edits)
     def edit_stored(self, label: str, object_id: int, edit: Callable[[], None],
-                     then: Callable[[], None] | None = None) -> None:
-        """Run ``edit`` of a stored object as one undoable command. Undo puts back the object's stored rows
-        as they were before (vertices, kind, texts, record, history: exactly, nothing added); redo puts
-        back the rows the edit made."""
-        before = self.project.object_rows(object_id)
-        after: list = []
+                    then: Callable[[], None] | None = None) -> None:
+        """Run ``edit`` of a stored object as one undoable command restoring its rows exactly."""
+        self.edits.edit_stored(label, object_id, edit, then)
 
-        def put(rows) -> None:
-            self.project.put_back(rows, replace=True)
-
-        def redo() -> None:
-            if after:
-                put(after[0])
-            else:
-                edit()
-                after.append(self.project.object_rows(object_id))
-            self.objects_changed_in_store(updated=(object_id,))
-            if then is not None:
-                then()
-
-        def undo() -> None:
-            put(before)
-            self.objects_changed_in_store(updated=(object_id,))
-            if then is not None:
-                then()
-
-        self.undo.push(Command(label, redo, undo))
+    def delete_vertex(self, object_id: int, index: int) -> None:
+        """Remove vertex ``index`` (0-based) of a stored object (undoable)."""
+        self.edits.delete_vertex(object_id, index)
 
     def delete_object(self, object_id: int) -> None:
-        """Delete a stored object (undoable: undo gives back the same id with its vertices, video frames,
-        observation record and history)."""
-        saved = self.stored_object(object_id)
-        removed: list = []
-
-        def delete() -> None:
-            removed[:] = [self.project.take_object(object_id)]
-            self.objects_changed_in_store(removed=(object_id,))
-
-        def restore() -> None:
-            self.project.put_back(removed[0])
-            self.objects_changed_in_store(added=(object_id,))
-
-        self.undo.push(Command(f"delete {saved.kind} {object_id}", delete, restore))
+        """Delete a stored object (undoable: undo gives back the same id, record and history)."""
+        self.edits.delete_object(object_id)
 
     def kinds_for(self, object_id: int) -> list[str]:
         """The registered measurement kinds a stored object's vertices can make (its own first)."""
-        stored = self.stored_object(object_id)
-        count = len(stored.vertices)
-        fitting = [k.name for k in registered_kinds() if k.minimum_vertices <= count
-                   and (k.maximum_vertices is None or count <= k.maximum_vertices)]
-        return sorted(fitting, key=lambda name: name != stored.kind)
+        return self.edits.kinds_for(object_id)
 
     def change_kind(self, object_id: int, kind: str) -> None:
-        """Make a stored object another measurement kind (an arc a polygon, say), keeping its vertices;
-        undoable. Refused by name when the vertices cannot make that kind."""
-        stored = self.stored_object(object_id)
-        if kind == stored.kind:
-            return
-        if kind not in self.kinds_for(object_id):
-            raise UsvipsError(f"{stored.kind} {object_id} has {plural(len(stored.vertices), 'vertex')}: it cannot be "
-                              f"{article(kind)} (it can be {', '.join(self.kinds_for(object_id))})")
-
-        self.edit_stored(f"make object {object_id} {article(kind)}", object_id,
-                          lambda: self.project.update_object(object_id, kind=kind))
-        self.message.emit("info", f"object {object_id} is now {article(kind)} (Ctrl+Z undoes it)")
+        """Make a stored object another measurement kind, keeping its vertices (undoable)."""
+        self.edits.change_kind(object_id, kind)
 
     def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
-        self.stored_object(object_id)
+        """Change a stored object's attribute and notes (undoable)."""
+        self.edits.edit_object(object_id, attribute, notes)
 
-        def edit() -> None:
-            self.project.update_object(object_id, attribute=attribute, notes=notes)
-            if attribute:
-                self.project.add_term(attribute)
-
-        self.edit_stored(f"edit object {object_id}", object_id, edit)
+    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
+        """Store an object's observation record (species, number, stage, activity, comment); undoable."""
+        self.edits.set_record(object_id, record)
 
     def frame_description(self, object_id: int) -> str:
         """The frame an object's coordinates (and so its bearing and slope) are given in, in words."""
@@ -454,10 +388,6 @@ class Workspace:
             return f"the object frame of station {g.station} (the control points' axes)"
         return "the rig frame (origin at the left camera; X right, Y up, the camera looking along −Z)"
 
-    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
-        """Store an object's observation record (species, number, stage, activity, comment); undoable."""
-        self.edit_stored(f"observation record of object {object_id}", object_id,
-                          lambda: self.project.set_record(object_id, record))
     # ------------------------------------------------------------------ the stored objects (cached)
     # held by ``self.cache`` (usvips.gui.object_cache.ObjectCache), a new one per project; these delegate
     def objects(self) -> list:
