@@ -22,12 +22,24 @@ FRAMES, OFFSET, START = 24, 2, 6
 POINTS = (0.3, 0.45)  # the measured body points, as fractions of the fork length from the snout
 
 
+#: a plain grey patch (x0, y0, x1, y1 px) painted on every frame of both cameras: a featureless place
+BLANK = (12, 12, 60, 60)
+
+
+def _painted(image: np.ndarray) -> np.ndarray:
+    image = np.repeat(image[:, :, None], 3, axis=2)
+    x0, y0, x1, y1 = BLANK
+    image[y0:y1, x0:x1] = 128
+    return image
+
+
 def make_survey_project(folder: Path, seed: int = 7):
-    """The project file, the measured length's id, the fish, the rig and the frame it was measured on."""
+    """The project file, the measured length's id, the fish and the rig (the length measured on frame
+    ``START`` by the truth's pixels of the body points ``POINTS``)."""
     fish = SwimmingFish(start=(0.25, 0.0, -1.0), length=0.36, speed=0.15, bend=0.3, seed=seed)
     stereo, frames = video(fish)
-    left = [np.repeat(frames(i)[0][:, :, None], 3, axis=2) for i in range(FRAMES)]
-    right = [np.repeat(frames(max(i - OFFSET, 0))[1][:, :, None], 3, axis=2) for i in range(FRAMES)]
+    left = [_painted(frames(i)[0]) for i in range(FRAMES)]
+    right = [_painted(frames(max(i - OFFSET, 0))[1]) for i in range(FRAMES)]
     encode_video(folder / "left.mkv", left, 25.0, "ffv1")
     encode_video(folder / "right.mkv", right, 25.0, "ffv1")
     calibration = StereoCalibration.from_cameras(stereo.left, stereo.right, "water", 0.3)

@@ -226,3 +226,21 @@ class TrackModel:
             if d < distance:
                 best, distance = vertex, d
         return best
+
+
+def parse_instant_frames(text: str, model: TrackModel) -> list[int]:
+    """The frames a user typed for instants: one whole number N — every N-th frame the tracks reach
+    (:meth:`TrackModel.instant_frames`) — or a list of frames separated by commas or spaces (kept as
+    typed, sorted; a frame the tracks do not reach is refused by name when storing)."""
+    parts = [p for p in text.replace(",", " ").split() if p]
+    if not parts:
+        raise UsvipsError("no frames given: type N (an instant every N frames) or the frames, e.g. 12, 40, 75")
+    try:
+        numbers = [int(p) for p in parts]
+    except ValueError:
+        bad = next(p for p in parts if not p.lstrip("-").isdigit())
+        raise UsvipsError(f"frames {text.strip()!r}: {bad!r} is not a whole number (type N, or frames such as "
+                          "12, 40, 75)") from None
+    if len(numbers) == 1:
+        return model.instant_frames(numbers[0])
+    return sorted(set(numbers))

@@ -818,6 +818,19 @@ class Workspace:
                 pass
         return left, right, k.closes
 
+    # ---- survey (issue 25): a minimal propose_vertex until station's lands; the lead reconciles ----
+    def propose_vertex(self, left, right, note: str = "") -> None:
+        """Put a proposed vertex in the pick state (a track-based proposal): ``left`` (px) as the first
+        pick, its epipolar curve drawn in the right image, and ``right`` (px) as the proposed match that
+        Enter accepts and a click corrects; one undoable step."""
+        left = self._check_pixel("left", left)
+        right = self._check_pixel("right", right)
+        state = self._first_pick("left", left, "", match=False)
+        new = replace(state, proposal=right, weak=False,
+                      note="; ".join(t for t in (note, "Enter accepts, a click in the right image corrects") if t))
+        self._change("proposed vertex", lambda: self._set_state(new))
+    # ---- end survey ----
+
 
 def describe_point(vertex: MeasuredVertex) -> str:
     """``X Y Z (m) ± sX sY sZ (mm)``, ray RMS and range: the status-bar readout of an intersection."""
