@@ -205,3 +205,29 @@ def test_p_proposes_the_vertices_on_a_later_frame_and_the_new_object_joins_as_an
     qtbot.waitUntil(lambda: len(project.instants(object_id)) == 1, timeout=5000)
     new = project.instants(object_id)[0]
     assert project.object(new).vertices[0].frame_left == 12 and "instant of object" in _status(window)
+
+
+def test_shift_t_re_follows_a_vertex_from_the_point_re_picked_on_the_frame_shown(qtbot, make_window, survey):
+    path, object_id, fish, stereo = survey
+    window = _open(qtbot, make_window, path, object_id)
+    ws = window.workspace
+    window.tracking.track()
+    qtbot.waitUntil(lambda: window.tracking.model.complete and not window.busy, timeout=30000)
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_T, QtCore.Qt.KeyboardModifier.ShiftModifier)
+    assert "re-pick the point on this frame" in _status(window)  # nothing re-picked yet
+    window.video.request(12)
+    _wait_frame(qtbot, window, 12)
+    # the user re-picks the second vertex on frame 12 (pick tool: left, then its partner)
+    true_left, true_right = truth(stereo, fish, 12, POINTS[1] * fish.length)
+    ws.pick("left", tuple(true_left + (0.2, -0.1)))
+    ws.pick("right", tuple(true_right))
+    assert ws.last_point is not None
+    before = window.tracking.model.tracks[1]
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_T, QtCore.Qt.KeyboardModifier.ShiftModifier)
+    qtbot.waitUntil(lambda: window.tracking.model.corrected.get(1) == {12} and not window.busy, timeout=30000)
+    after = window.tracking.model.tracks[1]
+    assert np.array_equal(after.frames, before.frames) and np.array_equal(after.left[:12], before.left[:12])
+    assert np.allclose(after.left[12], true_left + (0.2, -0.1), atol=1e-6)  # the re-picked point, followed on
+    assert "re-followed from frame 12" in _status(window)
+    _, points = window.tracking.items["left"]
+    assert sorted(p.symbol() for p in points.points()) == ["o", "star"]  # the corrected vertex drawn apart
