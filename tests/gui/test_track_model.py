@@ -131,3 +131,13 @@ def test_nothing_tracked_and_bad_requests_are_named():
         model.ordered_tracks()
     with pytest.raises(UsvipsError, match="at least 1"):
         model.instant_frames(0)
+
+
+def test_the_same_stop_of_several_vertices_is_said_once():
+    model = TrackModel()
+    model.begin(3, "drop", 5, 2)
+    for vertex in range(2):
+        model.set_track(vertex, _track(None, 5, 2, 9, seed=vertex))  # both lost before frame 2, ended at 9
+    assert model.describe() == "object 3: 2 of 2 vertices tracked, frames 2–9; stopped: vertices 1, 2 before frame 2 " \
+                               "(lost)"
+    assert [(s.vertex, s.direction, s.frame) for s in model.stops()] == [(0, -1, 2), (1, -1, 2)]

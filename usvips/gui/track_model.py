@@ -184,10 +184,14 @@ class TrackModel:
         span = self.span()
         text = (f"object {self.object_id}: {len(self.tracks)} of {self.vertex_count} vertices tracked"
                 + (f", frames {span[0]}–{span[1]}" if span is not None and span[0] <= span[1] else ""))
-        stops = [s for s in self.stops() if s.reason != CANCELLED]
-        if stops:
-            text += "; stopped: " + ", ".join(f"vertex {s.vertex + 1} {'after' if s.direction > 0 else 'before'} "
-                                              f"frame {s.frame} ({s.reason})" for s in stops)
+        grouped: dict[tuple[int, int, str], list[int]] = {}  # the same stop of several vertices said once
+        for s in self.stops():
+            if s.reason != CANCELLED:
+                grouped.setdefault((s.direction, s.frame, s.reason), []).append(s.vertex + 1)
+        if grouped:
+            text += "; stopped: " + "; ".join(
+                f"{'vertex' if len(v) == 1 else 'vertices'} {', '.join(map(str, v))} "
+                f"{'after' if d > 0 else 'before'} frame {f} ({why})" for (d, f, why), v in grouped.items())
         if any(s.reason == CANCELLED for s in self.stops()):
             text += "; cancelled"
         return text
