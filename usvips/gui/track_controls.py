@@ -231,7 +231,13 @@ class TrackController(QtCore.QObject):
         if self.worker is not None and self.worker in self.window.workers:
             self.window.show_message("warning", "tracking is already running: wait for it or Cancel it")
             return None
-        self.worker = self.window.run_worker(job, label, done,
+        project = self.window.workspace.project
+
+        def finished(result) -> None:
+            if self.window.workspace.project is project:  # not another project's, opened meanwhile
+                done(result)
+
+        self.worker = self.window.run_worker(job, label, finished,
                                              lambda: self.window.show_message("info", f"{label}: cancelled, "
                                                                                       "nothing changed"))
         return self.worker
