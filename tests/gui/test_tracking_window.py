@@ -182,6 +182,12 @@ def test_bad_input_is_refused_in_one_line_and_nothing_is_stored(qtbot, make_wind
     # an instant on another calibration
     assert not window.tracking.join(object_id, elsewhere)
     assert "calibration" in _status(window) and project.instants(object_id) == []
+    # tracked instants measured with a calibration made active for the video since: refused, nothing stored
+    count = len(project.objects())
+    project.add_calibration("newer", project.calibration(other), ("drop",))
+    assert window.tracking.store_instants("4") == []
+    assert "no instants stored" in _status(window) and "calibration" in _status(window)
+    assert project.instants(object_id) == [] and len(project.objects()) == count
     # no video shown
     window.workspace.video_frame = None
     assert window.tracking.track() is None and "stereo video" in _status(window)
