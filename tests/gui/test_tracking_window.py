@@ -106,7 +106,11 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     window.redo()
     assert project.instants(object_id) == ids and set(ids) <= set(window.workspace.object_ids())
     # the instants dialog: each instant with its weight, the combined figure; Enter goes to an instant's frame
-    assert window.show_instants(object_id)
+    # from the object list: its context menu (or Ctrl+I there) opens the selected object's instants
+    window.workspace.select([object_id])
+    listed = window.actions["instants_of_listed"]
+    assert listed in window.object_list.table.actions()
+    listed.trigger()
     view = window.instants_view
     assert view.isVisible() and view.table.rowCount() == 5
     assert "over 5 instants" in view.summary.text() and "p = " in view.summary.text()
@@ -211,6 +215,11 @@ def test_p_proposes_the_vertices_on_a_later_frame_and_the_new_object_joins_as_an
     qtbot.waitUntil(lambda: len(project.instants(object_id)) == 1, timeout=5000)
     new = project.instants(object_id)[0]
     assert project.object(new).vertices[0].frame_left == 12 and "instant of object" in _status(window)
+    # with nothing selected, T tracks the object just stored (from its own frame, 12)
+    ws.select([])
+    window.tracking.track()
+    qtbot.waitUntil(lambda: window.tracking.model.complete and not window.busy, timeout=30000)
+    assert window.tracking.model.object_id == new and window.tracking.model.start == 12
 
 
 def test_shift_t_re_follows_a_vertex_from_the_point_re_picked_on_the_frame_shown(qtbot, make_window, survey):
