@@ -127,6 +127,19 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     assert project.instants(object_id) == ids and view.table.rowCount() == 5
 
 
+def test_the_tracking_keys_are_in_the_measure_menu_and_the_guide(qtbot, make_window):
+    from usvips.gui.main_window import quick_guide
+
+    window = make_window()
+    measure = next(a.menu() for a in window.menuBar().actions() if a.text() == "&Measure")
+    keys = {a.text(): a.shortcut().toString() for a in measure.actions()}
+    assert keys["&Track the object's vertices"] == "T" and keys["&Re-follow from here"] == "Shift+T"
+    assert keys["&Store tracks as instants…"] == "Ctrl+T" and keys["&Propose from the earlier instant"] == "P"
+    assert keys["&Instants of the object…"] == "I"
+    for text in ("<b>T</b>", "<b>Shift+T</b>", "<b>Ctrl+T</b>", "<b>P</b>", "<b>I</b>"):
+        assert text in quick_guide()
+
+
 def test_cancel_stops_tracking_within_a_frame_and_nothing_changes(qtbot, make_window, survey, monkeypatch):
     path, object_id, fish, stereo = survey
     window = _open(qtbot, make_window, path, object_id)
