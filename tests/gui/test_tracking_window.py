@@ -134,7 +134,7 @@ def test_the_tracking_keys_are_in_the_measure_menu_and_the_guide(qtbot, make_win
     measure = next(a.menu() for a in window.menuBar().actions() if a.text() == "&Measure")
     keys = {a.text(): a.shortcut().toString() for a in measure.actions()}
     assert keys["&Track the object's vertices"] == "T" and keys["&Re-follow from here"] == "Shift+T"
-    assert keys["&Store tracks as instants…"] == "Ctrl+T" and keys["&Propose from the earlier instant"] == "P"
+    assert keys["Store trac&ks as instants…"] == "Ctrl+T" and keys["Propose from the &earlier instant"] == "P"
     assert keys["&Instants of the object…"] == "I"
     for text in ("<b>T</b>", "<b>Shift+T</b>", "<b>Ctrl+T</b>", "<b>P</b>", "<b>I</b>"):
         assert text in quick_guide()

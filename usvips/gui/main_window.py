@@ -254,10 +254,10 @@ class MainWindow(QtWidgets.QMainWindow):
             "refollow": self._action("&Re-follow from here", lambda: self.tracking.refollow(), "Shift+T",
                                      "after re-picking a tracked point on this frame (left, then right), follow it "
                                      "on from here", images=True),
-            "store_instants": self._action("&Store tracks as instants…", lambda: self.tracking.store_dialog(),
+            "store_instants": self._action("Store trac&ks as instants…", lambda: self.tracking.store_dialog(),
                                            "Ctrl+T", "store the tracked vertices as further instants of the object "
                                            "(every N frames, or the frames typed); undoable"),
-            "propose_tracked": self._action("&Propose from the earlier instant", lambda: self.tracking.propose(), "P",
+            "propose_tracked": self._action("Propose from the &earlier instant", lambda: self.tracking.propose(), "P",
                                             "propose the selected object's vertices on this frame, tracked from the "
                                             "frame it was measured on (Enter accepts each)", images=True),
             "instants": self._action("&Instants of the object…", lambda: self.show_instants(), "I",
