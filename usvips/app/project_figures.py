@@ -170,6 +170,14 @@ def instant_measurements(source: MeasurementInput, rules: QualityRules | None = 
     return [_evaluate_one(instant, rules) for instant in (source, *source.instants)]
 
 
+def instant_pointing(source: MeasurementInput, rules: QualityRules | None = None) -> list[Measurement]:
+    """Each instant of an object measured with its pointing covariance only (the part independent between
+    instants, by which :func:`evaluate` weights them); the full measurement where that part cannot be told
+    apart. In the order of :func:`instant_measurements`."""
+    return [_pointing_only(i, m) for i, m in zip((source, *source.instants), instant_measurements(source, rules),
+                                                 strict=True)]
+
+
 def _pointing_only(source: MeasurementInput, measured: Measurement) -> Measurement:
     """The instant measured with its pointing covariance only (the part independent between instants);
     the measurement itself when the calibration's part cannot be told apart (stored per-vertex values)."""

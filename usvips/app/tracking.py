@@ -3,8 +3,9 @@
 :func:`track_in_video` gives :func:`usvips.core.tracking.track_vertex` its frame source — the video's left
 frame i and its synchronised right partner, decoded together (:class:`usvips.io.video_stream.PairReader`),
 in grey — and the cameras of the calibration active for the video; a left frame without a right partner
-ends the track with that reason. It runs on any thread (it opens its own streams): a worker calls it with
-the cancel and progress callables of the window.
+ends the track with that reason. The project is read on its own thread (:meth:`VideoTracker.read`: the
+video, its calibration's cameras, its files); the tracking itself (:meth:`VideoTracker.track`) runs on any
+thread (it opens its own streams): the window's worker calls it with its cancel and progress callables.
 
 :func:`propose_on_frame` proposes an object's vertices on another frame of its video by tracking them
 there from the frame they were measured on (the window's track-based proposal when the previous instant is
@@ -18,18 +19,21 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from usvips.app.object_instants import add_instant
 from usvips.app.pair_geometry import pair_geometry
-from usvips.app.video_project import open_streams, partner_frame
+from usvips.app.video_project import partner_frame, proxy_folder
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import measure_picks
+from usvips.core.rig import StereoRig
 from usvips.core.tracking import Track, TrackSettings, track_vertex
-from usvips.io.video_stream import PairReader
+from usvips.io import video_proxy
+from usvips.io.video_stream import PairReader, VideoStream
 from usvips.store.interface import ProjectStore
-from usvips.store.project import Vertex
+from usvips.store.project import StoredObject, Vertex
 
 
 def _geometry(project: ProjectStore, label: str):
@@ -40,28 +44,63 @@ def _geometry(project: ProjectStore, label: str):
     return geometry
 
 
+@dataclass(frozen=True)
+class VideoTracker:
+    """What tracking in video ``label`` needs, read from the project on the thread that owns it
+    (:meth:`read`): the stored video, the cameras of its active calibration and its media files. Then
+    :meth:`track` runs on any thread (a worker's): it opens its own streams, and reads nothing more from
+    the project."""
+
+    label: str
+    video: dict
+    rig: StereoRig
+    left_paths: tuple[Path, ...]
+    right_paths: tuple[Path, ...]
+    proxies: Path
+
+    @classmethod
+    def read(cls, project: ProjectStore, label: str) -> VideoTracker:
+        geometry = _geometry(project, label)
+        video = project.video(label)
+        return cls(label, video, geometry.calibration.rig(geometry.station, geometry.frame),
+                   tuple(project.media_path(p) for p in video["left"]),
+                   tuple(project.media_path(p) for p in video["right"]), proxy_folder(project))
+
+    def track(self, start: int, left: Sequence[float], right: Sequence[float], first: int, last: int,
+              settings: TrackSettings | None = None, cancel: Callable[[], bool] | None = None,
+              progress: Callable[[int, int], None] | None = None) -> Track:
+        """Track the vertex picked at ``left``/``right`` (px) on left frame ``start`` back to ``first`` and
+        on to ``last`` (left frames, clipped to the video) — see :func:`track_vertex`."""
+        left_stream = VideoStream(list(self.left_paths))
+        try:
+            right_stream = VideoStream(list(self.right_paths))
+        except BaseException:
+            left_stream.close()
+            raise
+        with left_stream, right_stream:
+            for stream in (left_stream, right_stream):
+                video_proxy.attach_proxy(stream, self.proxies)
+            reader = PairReader(left_stream, right_stream)
+            try:
+                def frames(index: int) -> tuple[np.ndarray, np.ndarray]:
+                    partner = partner_frame(self.video, index, right_stream.frame_count)
+                    one, other = reader.pictures(index, partner)
+                    return one.array(grey=True), other.array(grey=True)
+
+                first = max(int(first), 0)
+                last = min(int(last), self.video["frame_count"] - 1)
+                return track_vertex(frames, self.rig, start, left, right, first, last, settings, cancel, progress)
+            finally:
+                reader.close()
+
+
 def track_in_video(project: ProjectStore, label: str, start: int, left: Sequence[float], right: Sequence[float],
                    first: int, last: int, settings: TrackSettings | None = None,
                    cancel: Callable[[], bool] | None = None,
                    progress: Callable[[int, int], None] | None = None) -> Track:
     """Track the vertex picked at ``left``/``right`` (px) on left frame ``start`` of video ``label`` back to
     ``first`` and on to ``last`` (left frames, clipped to the video) — see :func:`track_vertex`."""
-    geometry = _geometry(project, label)
-    rig = geometry.calibration.rig(geometry.station, geometry.frame)
-    video, left_stream, right_stream = open_streams(project, label)
-    with left_stream, right_stream:
-        reader = PairReader(left_stream, right_stream)
-        try:
-            def frames(index: int) -> tuple[np.ndarray, np.ndarray]:
-                partner = partner_frame(video, index, right_stream.frame_count)
-                one, other = reader.pictures(index, partner)
-                return one.array(grey=True), other.array(grey=True)
-
-            first = max(int(first), 0)
-            last = min(int(last), video["frame_count"] - 1)
-            return track_vertex(frames, rig, start, left, right, first, last, settings, cancel, progress)
-        finally:
-            reader.close()
+    return VideoTracker.read(project, label).track(start, left, right, first, last, settings, cancel, progress)
 
 
 def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence[Track], frames: Sequence[int],
@@ -126,12 +165,19 @@ def propose_on_frame(project: ProjectStore, object_id: int, frame: int, settings
     stored = project.object(object_id)
     if not stored.vertices or stored.vertices[0].video is None:
         raise UsvipsError(f"object {object_id} was not measured on a video: there is no frame to track it from")
-    label, start = stored.vertices[0].video, int(stored.vertices[0].frame_left)
+    return propose_with(VideoTracker.read(project, stored.vertices[0].video), stored, frame, settings, cancel,
+                        progress)
+
+
+def propose_with(tracker: VideoTracker, stored: StoredObject, frame: int, settings: TrackSettings | None = None,
+                 cancel: Callable[[], bool] | None = None,
+                 progress: Callable[[int, int], None] | None = None) -> list[VertexProposal]:
+    """:func:`propose_on_frame` with the video read already (any thread): ``stored`` is the object."""
+    start = int(stored.vertices[0].frame_left)
     first, last = min(start, int(frame)), max(start, int(frame))
     proposals = []
     for v in stored.vertices:
-        track = track_in_video(project, label, start, (v.xl, v.yl), (v.xr, v.yr), first, last, settings, cancel,
-                               progress)
+        track = tracker.track(start, (v.xl, v.yl), (v.xr, v.yr), first, last, settings, cancel, progress)
         found = track.at(frame)
         if found is None:
             direction = 1 if frame > start else -1

@@ -21,6 +21,7 @@ from usvips.gui import exchange_dialogs, media_dialogs, qa_dock
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
+from usvips.gui.instants_view import InstantsView
 from usvips.gui.log_panel import LogPanel
 from usvips.gui.media_check import MediaCheck
 from usvips.gui.object_list import ObjectList
@@ -30,6 +31,7 @@ from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.plan_view import PlanView
 from usvips.gui.planner_dock import PlannerDock
 from usvips.gui.qa_dock import QaDock
+from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
@@ -106,6 +108,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.video = VideoController(self)  # stereo video: its dock, keys on the panes, decoding in workers
         self.media_check = MediaCheck(self)  # the full check of an opened project's media files
         self.docks["video"] = self._dock("Video", self.video.dock_widget, QtCore.Qt.DockWidgetArea.TopDockWidgetArea)
+        # issue 25: tracks drawn on the panes and the timeline, instants stored and listed
+        self.tracking = TrackController(self)
+        self.instants_view = InstantsView(self.workspace, self)
+        self.instants_view.frame_requested.connect(self.video.go_to_object)
+        table = self.object_list.table
+        table.setContextMenuPolicy(QtCore.Qt.ContextMenuPolicy.ActionsContextMenu)
+        table.addAction(self.actions["instants_of_listed"])
         self.video.dock_widget.setEnabled(False)
         ws = self.workspace
         ws.objects_changed.connect(self.video.objects_changed)
@@ -239,7 +248,27 @@ class MainWindow(QtWidgets.QMainWindow):
             "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
             "qa": self._action("&QA panel", self.show_qa, "Ctrl+Shift+Q", "the survey's objects that break a "
                                "quality rule: arrows and Enter go to each one's pair or frame"),
+            # issue 25: tracking through a video and objects over several instants (usvips/gui/track_controls.py)
+            "track": self._action("&Track the object's vertices", lambda: self.tracking.track(), "T",
+                                  "follow each vertex of the selected object (or the one just stored) backward and "
+                                  "forward through the video from its frame", images=True),
+            "refollow": self._action("&Re-follow from here", lambda: self.tracking.refollow(), "Shift+T",
+                                     "after re-picking a tracked point on this frame (left, then right), follow it "
+                                     "on from here", images=True),
+            "store_instants": self._action("Store trac&ks as instants…", lambda: self.tracking.store_dialog(),
+                                           "Ctrl+T", "store the tracked vertices as further instants of the object "
+                                           "(every N frames, or the frames typed); undoable"),
+            "propose_tracked": self._action("Propose from the &earlier instant", lambda: self.tracking.propose(), "P",
+                                            "propose the selected object's vertices on this frame, tracked from the "
+                                            "frame it was measured on (Enter accepts each)", images=True),
+            "instants": self._action("&Instants of the object…", lambda: self.show_instants(), "I",
+                                     "list the selected object's instants: each one's figure and weight, the "
+                                     "combined figure and the agreement test", images=True),
         }
+        self.actions["instants_of_listed"] = QtGui.QAction("&Instants of the object…", self)
+        self.actions["instants_of_listed"].setShortcut(QtGui.QKeySequence("Ctrl+I"))
+        self.actions["instants_of_listed"].setShortcutContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+        self.actions["instants_of_listed"].triggered.connect(lambda: self.show_instants())
         # short toolbar labels (the menus keep the full names): the toolbar fits 1366 px without overflow
         for name, short in (("open", "Open"), ("snap", "Snap"), ("finish", "Finish"), ("box", "Box"),
                             ("link", "Link"), ("loupe", "Loupe"), ("auto_match", "Auto-match"), ("one", "1:1")):
@@ -315,6 +344,9 @@ class MainWindow(QtWidgets.QMainWindow):
                 nudge.addAction(a[name])
         measure.addSeparator()
         for name in ("previous_pair", "next_pair"):
+            measure.addAction(a[name])
+        measure.addSeparator()
+        for name in ("track", "refollow", "store_instants", "propose_tracked", "instants"):
             measure.addAction(a[name])
         calibration = self.menuBar().addMenu("&Calibration")
         for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
@@ -991,6 +1023,18 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["qa"].show()
         self.docks["qa"].raise_()
         self.qa.focus_list()
+
+    def show_instants(self, object_id: int | None = None) -> bool:
+        """I (images) or Ctrl+I (object list): the instants of ``object_id`` (default: the one selected)."""
+        ids = [object_id] if object_id is not None else list(self.workspace.selection)
+        if len(ids) != 1:
+            self.show_message("warning", "select one object to list its instants")
+            return False
+        shown = self.instants_view.show_object(ids[0])
+        self.instants_view.show()
+        self.instants_view.raise_()
+        self.instants_view.table.setFocus()
+        return shown
 
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)

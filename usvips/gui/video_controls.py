@@ -36,25 +36,43 @@ from usvips.io import video_proxy
 
 
 class Timeline(QtWidgets.QSlider):
-    """A frame slider that paints a tick at every frame holding a measurement."""
+    """A frame slider that paints a tick at every frame holding a measurement, and (issue 25) the span of
+    the tracked object's tracks along its foot with the frames where a track stopped in another colour."""
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(QtCore.Qt.Orientation.Horizontal, parent)
         self.marks: set[int] = set()
+        #: the frames (first, last) every vertex of the tracked object is tracked over (None: no track)
+        self.track_span: tuple[int, int] | None = None
+        #: the frames where a track stopped early (occluded, lost, left the frame ...)
+        self.track_stops: set[int] = set()
         self.setObjectName("video_timeline")
+
+    def _x(self, frame: float) -> float:
+        return 6 + (self.width() - 12) * (frame - self.minimum()) / (self.maximum() - self.minimum())
 
     def paintEvent(self, event: QtGui.QPaintEvent) -> None:  # noqa: N802 (Qt's name)
         super().paintEvent(event)
-        if not self.marks or self.maximum() <= self.minimum():
+        if self.maximum() <= self.minimum() or not (self.marks or self.track_span or self.track_stops):
             return
         painter = QtGui.QPainter(self)
         painter.setPen(QtGui.QPen(QtGui.QColor(255, 140, 0), 2))
-        span = self.maximum() - self.minimum()
-        width = self.width() - 12
         for mark in self.marks:
-            x = 6 + width * (mark - self.minimum()) / span
+            x = self._x(mark)
             painter.drawLine(int(x), 0, int(x), 6)
+        self._paint_track(painter)
         painter.end()
+
+    def _paint_track(self, painter: QtGui.QPainter) -> None:
+        """The tracked span as a green bar along the slider's foot, each stop a red tick over it."""
+        bottom = self.height() - 3
+        if self.track_span is not None and self.track_span[0] <= self.track_span[1]:
+            painter.setPen(QtGui.QPen(QtGui.QColor(40, 200, 90), 4))
+            painter.drawLine(int(self._x(self.track_span[0])), bottom, int(self._x(self.track_span[1])), bottom)
+        painter.setPen(QtGui.QPen(QtGui.QColor(230, 40, 40), 3))
+        for stop in self.track_stops:
+            x = int(self._x(stop))
+            painter.drawLine(x, bottom - 6, x, bottom + 2)
 
 
 class VideoDock(QtWidgets.QWidget):
