@@ -8,6 +8,7 @@ import pytest
 from PySide6 import QtCore, QtWidgets
 
 from tests.gui.conftest import open_sample
+from usvips.app.calibrations import read_calibration
 from usvips.gui import exchange_dialogs
 from usvips.gui.worker import Cancelled
 from usvips.io.calibration_file import load_calibration
@@ -269,7 +270,7 @@ def test_a_project_calibration_is_reported_with_its_data_as_the_command_line_rep
     open_sample(qtbot, window, directory, "measure1")
     project = window.workspace.project
     active = project.active_calibration("measure1")
-    calibration = exchange_dialogs.calibration_from_dict(project.calibration(active), "c")
+    calibration = read_calibration(project, active)
     data = exchange_dialogs.project_report_data(project, calibration)
     assert data.control is not None and data.observations is not None  # residual plots, check points
     assert all("not found" not in why for _, _, why in data.files)  # the files beside the project

@@ -130,9 +130,9 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_accept_media(args: argparse.Namespace) -> int:
-    from usvips.store import Project
+    from usvips.store.opening import open_project
 
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         for stored in args.media:
             project.accept_media(stored)
             print(f"accepted {stored} as it is now")
@@ -140,9 +140,9 @@ def run_accept_media(args: argparse.Namespace) -> int:
 
 
 def run_relocate_media(args: argparse.Namespace) -> int:
-    from usvips.store import Project
+    from usvips.store.opening import open_project
 
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         new = project.relocate_media(args.media, args.new)
     print(f"{args.media} is now {new}")
     return 0

@@ -18,12 +18,13 @@ import numpy as np
 from PySide6 import QtCore, QtWidgets
 
 from usvips.app import calibration_size
+from usvips.app.calibrations import read_calibration, store_calibration
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.worker import Cancelled, Worker, start
-from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict, load_calibration, save_calibration
+from usvips.io.calibration_file import load_calibration, save_calibration
 from usvips.io.opencv_calibration import parse_image_size, read_opencv_stereo, write_opencv_stereo
 
 OPENCV_FILTER = "OpenCV calibrations (*.yml *.yaml *.xml *.json *.npz);;All files (*)"
@@ -72,7 +73,7 @@ def _current_calibration(window) -> tuple[StereoCalibration, str] | None:
         chosen = project.active_calibration(pair) if pair else None
         chosen = chosen if chosen is not None else project.calibrations()[-1]["id"]
         name = next(c["name"] for c in project.calibrations() if c["id"] == chosen)
-        return calibration_from_dict(project.calibration(chosen), f"{project.path} calibration {chosen}"), name
+        return read_calibration(project, chosen), name
     path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
                                                     "Calibrations (*.json)")
     if not path:
@@ -127,7 +128,7 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
         project = window.workspace.project
         calibration_id = None
         if project is not None:
-            calibration_id = project.add_calibration(Path(out).stem, calibration_to_dict(calibration))
+            calibration_id = store_calibration(project, Path(out).stem, calibration)
     except UsvipsError as error:
         window.show_message("error", f"import failed, nothing written: {error}")
         return None
@@ -196,7 +197,7 @@ def activate_calibration(window, calibration_id: int, labels: list[str]) -> bool
     if project is None:
         return False
     try:
-        calibration = calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")
+        calibration = read_calibration(project, calibration_id)
         bad = {label: line for label in labels
                for line in calibration_size.misfits(project, calibration, [label], f"calibration {calibration_id}")}
         good = [label for label in labels if label not in bad]
@@ -246,7 +247,7 @@ def import_usvips_calibration(window, path: str | Path | None = None,
             return None
     try:
         calibration = load_calibration(path)
-        calibration_id = project.add_calibration(Path(path).stem, calibration_to_dict(calibration))
+        calibration_id = store_calibration(project, Path(path).stem, calibration)
     except UsvipsError as error:
         window.show_message("error", f"import failed, nothing stored: {error}")
         return None
