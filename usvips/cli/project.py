@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 from usvips.cli.common import add_annotator_option
 from usvips.cli.project_check import register_check_action
+from usvips.cli.project_double_read import register_double_read_action
 from usvips.cli.project_history import register_history_action
 from usvips.cli.project_media import register_project_actions
 from usvips.cli.project_sync import register_sync_actions
@@ -75,6 +76,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     register_check_action(actions)  # check: usvips/cli/project_check.py
     register_sync_actions(actions)  # push, pull: usvips/cli/project_sync.py
     register_history_action(actions)  # history: usvips/cli/project_history.py
+    register_double_read_action(actions)  # double-read: usvips/cli/project_double_read.py
 
 
 def run_new(args: argparse.Namespace) -> int:
