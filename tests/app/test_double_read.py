@@ -95,3 +95,25 @@ def test_unknown_or_repeated_readers_are_named(survey):
         double_read(project, "ann", "ann")
     with pytest.raises(InvalidParameterError, match="parameter k"):
         double_read(project, "ann", "bob", k=-2)
+
+
+def test_reading_and_computing_are_split_with_progress_and_a_cancel_that_stops(survey):
+    from usvips.app.double_read import ReportCancelled, compute, read_inputs
+
+    project = survey[0]
+    inputs = read_inputs(project, "ann", "bob")
+    assert len(inputs.a.sources) == 38 and len(inputs.b.sources) == 36
+    fractions: list[float] = []
+    report = compute(inputs, gate_m=0.1, progress=fractions.append)
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and len(fractions) > 2
+    whole = double_read(project, "ann", "bob", gate_m=0.1)
+    assert report.comparison.agreement == whole.comparison.agreement
+    asked = []
+
+    def cancelled() -> bool:
+        asked.append(1)
+        return len(asked) > 5
+
+    with pytest.raises(ReportCancelled, match="cancelled after 5 of 74 objects"):
+        compute(inputs, gate_m=0.1, cancelled=cancelled)
+    assert len(asked) == 6  # it stopped at once

@@ -14,13 +14,14 @@ vertices (metres, in the frame its video or pair measures in).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from usvips.app.object_instants import survey_objects
-from usvips.app.project_figures import evaluate, instants_by_object, measurement_input
-from usvips.core.double_reading import DoubleReading, ReaderObjects, compare_readers
+from usvips.app.project_figures import MeasurementInput, evaluate, instants_by_object, measurement_input
+from usvips.core.double_reading import DoubleReading, ReaderObjects, check_parameters, compare_readers
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.measurements import Measurement, QualityRules
 from usvips.store.interface import ProjectStore
@@ -32,6 +33,10 @@ COLUMNS = ["row", "object_a", "object_b", "source", "time_s", "species", "kind",
 
 #: what a row of the report is, in the order the report lists them
 ROW_KINDS = ("disagreement", "species conflict", "unmatched A", "unmatched B", "agreement")
+
+
+class ReportCancelled(UsvipsError):
+    """The report's computation stopped because it was cancelled (``cancelled()`` turned true)."""
 
 
 @dataclass(frozen=True)
@@ -132,46 +137,49 @@ def _source_and_time(project: ProjectStore, stored: StoredObject, fps: dict[str,
     return (f"pair {vertex.pair}" if vertex.pair is not None else ""), math.nan
 
 
-def read_reader(project: ProjectStore, reader: str, rules: QualityRules | None = None,
-                objects: list[StoredObject] | None = None) -> ReaderRead:
-    """The objects ``reader`` created, with their figures (:func:`evaluate`), species, source, instant and
-    midpoint. ``objects``: the survey's objects when already read (:func:`survey_objects`)."""
-    objects = survey_objects(project) if objects is None else objects
-    mine = [o for o in objects if o.creator == reader and o.vertices]
+@dataclass(frozen=True)
+class ReaderInput:
+    """What one reader's comparison needs, copied out of the project (:func:`read_inputs`): per object its
+    :class:`~usvips.app.project_figures.MeasurementInput`, species, source ("video V" / "pair P") and
+    instant (s; NaN on an image pair)."""
+
+    name: str
+    sources: tuple[MeasurementInput, ...]
+    species: tuple[str, ...]
+    places: tuple[str, ...]
+    times: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class DoubleReadInput:
+    """Both readers' :class:`ReaderInput` (read on the project's thread; :func:`compute` runs anywhere)."""
+
+    a: ReaderInput
+    b: ReaderInput
+
+
+def _reader_input(project: ProjectStore, reader: str, objects: list[StoredObject]) -> ReaderInput:
     records = project.records()
     instants = instants_by_object(project)
     cache: dict = {}
     fps: dict[str, float] = {}
-    columns: dict[str, list] = {name: [] for name in ("ids", "source", "kind", "species", "time_s", "midpoint",
-                                                       "value", "sigma")}
-    where, skipped = [], []
-    for stored in mine:
-        source = measurement_input(project, stored, cache, instants=instants)
-        try:
-            measured: Measurement = evaluate(source, rules)
-        except UsvipsError as error:
-            skipped.append(f"{reader}: {error}")
+    sources, species, places, times = [], [], [], []
+    for stored in objects:
+        if stored.creator != reader or not stored.vertices:
             continue
-        place, time_s = _source_and_time(project, stored, fps)
+        sources.append(measurement_input(project, stored, cache, instants=instants))
         record = records.get(stored.id)
-        columns["ids"].append(stored.id)
-        columns["source"].append(place)
-        columns["kind"].append(measured.kind)
-        columns["species"].append("" if record is None else f"{record.genus} {record.species}".strip())
-        columns["time_s"].append(time_s)
-        columns["midpoint"].append(np.mean(measured.points, axis=0))
-        columns["value"].append(measured.main.value)
-        columns["sigma"].append(measured.main.sigma)
-        where.append(source.where)
-    if not columns["ids"]:
-        return ReaderRead(reader, ReaderObjects.empty(), [], skipped)
-    return ReaderRead(reader, ReaderObjects(**columns), where, skipped)
+        species.append("" if record is None else f"{record.genus} {record.species}".strip())
+        place, time_s = _source_and_time(project, stored, fps)
+        places.append(place)
+        times.append(time_s)
+    return ReaderInput(reader, tuple(sources), tuple(species), tuple(places), tuple(times))
 
 
-def double_read(project: ProjectStore, reader_a: str, reader_b: str, tolerance_s: float = 0.5,
-                gate_m: float = 0.3, k: float = 2.0, rules: QualityRules | None = None) -> DoubleReadReport:
-    """Compare the objects of annotators ``reader_a`` and ``reader_b`` (see the module docstring); a reader
-    who made no object of the survey, or the same reader twice, is an error naming them (and who did)."""
+def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleReadInput:
+    """Copy what the comparison of annotators ``reader_a`` and ``reader_b`` needs out of ``project`` (call
+    on the project's thread). A reader who made no object of the survey, or the same reader twice, is an
+    error naming them (and who did make objects)."""
     if reader_a == reader_b:
         raise InvalidParameterError("--readers", f"give two different annotators, got {reader_a!r} twice")
     objects = survey_objects(project)
@@ -181,7 +189,60 @@ def double_read(project: ProjectStore, reader_a: str, reader_b: str, tolerance_s
             known = ", ".join(repr(n) for n in sorted(present)) or "nobody: it has no objects"
             raise InvalidParameterError("--readers", f"{project.path}: annotator {name!r} measured no object of "
                                         f"this survey (objects were measured by {known})")
-    a = read_reader(project, reader_a, rules, objects)
-    b = read_reader(project, reader_b, rules, objects)
-    return DoubleReadReport(a, b, float(tolerance_s), float(gate_m), float(k),
-                            compare_readers(a.objects, b.objects, tolerance_s, gate_m, k))
+    return DoubleReadInput(_reader_input(project, reader_a, objects), _reader_input(project, reader_b, objects))
+
+
+def _reader_read(reader: ReaderInput, rules: QualityRules | None, step: Callable[[], None]) -> ReaderRead:
+    columns: dict[str, list] = {name: [] for name in ("ids", "source", "kind", "species", "time_s", "midpoint",
+                                                       "value", "sigma")}
+    where, skipped = [], []
+    for source, species, place, time_s in zip(reader.sources, reader.species, reader.places, reader.times,
+                                              strict=True):
+        step()
+        try:
+            measured: Measurement = evaluate(source, rules)
+        except UsvipsError as error:
+            skipped.append(f"{reader.name}: {error}")
+            continue
+        for name, value in (("ids", int(source.id)), ("source", place), ("kind", measured.kind),
+                            ("species", species), ("time_s", time_s),
+                            ("midpoint", np.mean(measured.points, axis=0)), ("value", measured.main.value),
+                            ("sigma", measured.main.sigma)):
+            columns[name].append(value)
+        where.append(source.where)
+    objects = ReaderObjects(**columns) if columns["ids"] else ReaderObjects.empty()
+    return ReaderRead(reader.name, objects, where, skipped)
+
+
+def compute(inputs: DoubleReadInput, tolerance_s: float = 0.5, gate_m: float = 0.3, k: float = 2.0,
+            rules: QualityRules | None = None, progress: Callable[[float], None] | None = None,
+            cancelled: Callable[[], bool] | None = None) -> DoubleReadReport:
+    """The report (pure; any thread): each object's figure and σ by :func:`evaluate`, then
+    :func:`~usvips.core.double_reading.compare_readers`. ``progress`` gets the fraction done; when
+    ``cancelled()`` turns true the work stops with :class:`ReportCancelled`."""
+    check_parameters(tolerance_s, gate_m, k)  # before the long part
+    total = max(1, len(inputs.a.sources) + len(inputs.b.sources))
+    done = [0]
+
+    def step() -> None:
+        if cancelled is not None and cancelled():
+            raise ReportCancelled(f"the double-read report was cancelled after {done[0]} of {total} objects")
+        done[0] += 1
+        if progress is not None and done[0] % 20 == 0:
+            progress(done[0] / total)
+
+    a = _reader_read(inputs.a, rules, step)
+    b = _reader_read(inputs.b, rules, step)
+    report = DoubleReadReport(a, b, float(tolerance_s), float(gate_m), float(k),
+                              compare_readers(a.objects, b.objects, tolerance_s, gate_m, k))
+    if progress is not None:
+        progress(1.0)
+    return report
+
+
+def double_read(project: ProjectStore, reader_a: str, reader_b: str, tolerance_s: float = 0.5,
+                gate_m: float = 0.3, k: float = 2.0, rules: QualityRules | None = None) -> DoubleReadReport:
+    """:func:`read_inputs` then :func:`compute`: compare the objects of annotators ``reader_a`` and
+    ``reader_b`` (see the module docstring)."""
+    check_parameters(tolerance_s, gate_m, k)
+    return compute(read_inputs(project, reader_a, reader_b), tolerance_s, gate_m, k, rules)

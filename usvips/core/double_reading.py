@@ -114,7 +114,8 @@ class DoubleReading:
     k: float
 
 
-def _check_parameters(tolerance_s: float, gate_m: float, k: float) -> None:
+def check_parameters(tolerance_s: float, gate_m: float, k: float) -> None:
+    """Refuse, by name, a tolerance (s), gate (m) or k that is not a finite positive number (tolerance may be 0)."""
     for name, value in (("tolerance_s", tolerance_s), ("gate_m", gate_m), ("k", k)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
             raise InvalidParameterError(name, f"must be a finite number ≥ 0, got {value!r}")
@@ -129,7 +130,7 @@ def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float, gate_m
     """(M, 2) indices of the pairs of ``a``'s and ``b``'s objects taken for the same object: same source and
     kind (and species when ``same_species``), times within ``tolerance_s`` s (both NaN: an image pair),
     midpoints within ``gate_m`` m; the assignment minimises the total midpoint distance. Sorted by a's index."""
-    _check_parameters(tolerance_s, gate_m, 1.0)
+    check_parameters(tolerance_s, gate_m, 1.0)
     if not len(a) or not len(b):
         return np.zeros((0, 2), int)
     keys_a = list(zip(a.source, a.kind, a.species if same_species else [""] * len(a), strict=True))
@@ -171,7 +172,7 @@ def compare_readers(a: ReaderObjects, b: ReaderObjects, tolerance_s: float = 0.5
     """Pair the two readers' objects (:func:`match_objects`), flag the pairs whose main figures differ by
     more than ``k`` combined σ, list the unmatched ones and the species conflicts, and compute the
     :class:`Agreement`. ``tolerance_s`` s, ``gate_m`` m, ``k`` dimensionless (default 2)."""
-    _check_parameters(tolerance_s, gate_m, k)
+    check_parameters(tolerance_s, gate_m, k)
     pairs = match_objects(a, b, tolerance_s, gate_m)
     ia, ib = pairs[:, 0], pairs[:, 1]
     difference = a.value[ia] - b.value[ib]
