@@ -87,18 +87,22 @@ class DoubleReadReport:
             return "—" if math.isnan(value) else f"{100 * value:.1f} %"
 
         return [
-            f"readers: A {self.a.name!r} ({s.n_a} objects), B {self.b.name!r} ({s.n_b} objects); "
+            f"readers: A {self.a.name!r} ({_count(s.n_a, 'object')}), B {self.b.name!r} ({_count(s.n_b, 'object')}); "
             f"tolerance {self.tolerance_s:g} s, gate {self.gate_m:g} m, k {self.k:g}",
-            f"matched: {s.n_matched} pairs ({share(s.matched_share)} of the objects); unmatched: "
+            f"matched: {_count(s.n_matched, 'pair')} ({share(s.matched_share)} of the objects); unmatched: "
             f"{len(c.unmatched_a)} of A, {len(c.unmatched_b)} of B",
             f"differences A − B: mean {mm(s.mean_difference)}, SD {mm(s.sd_difference, '')}; Bland–Altman limits of "
             f"agreement {mm(s.limits[0])} … {mm(s.limits[1])}",
             f"within combined σ: {share(s.share_within_sigma)}; within {self.k:g} σ: {share(s.share_within_k)}; "
             f"flagged: {int(np.sum(c.flagged))}; RMS of normalised differences: "
             + ("—" if math.isnan(s.rms_normalised) else f"{s.rms_normalised:.2f}"),
-            f"species agreement: {share(s.species_agreement)} of {s.n_species_compared} objects paired on place "
-            f"and time ({len(c.species_conflicts)} conflicts)",
+            f"species agreement: {share(s.species_agreement)} of {_count(s.n_species_compared, 'object')} "
+            f"paired on place and time ({len(c.species_conflicts)} conflicts)",
         ] + [f"no figure, left out: {line}" for line in self.a.skipped + self.b.skipped]
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
 def _row(what: str, a: ReaderObjects | None, i: int | None, b: ReaderObjects | None, j: int | None,
