@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from usvips.cli.common import add_annotator_option
+from usvips.cli.project_campaign import register_campaign_action, run_archive_export
 from usvips.cli.project_check import register_check_action
 from usvips.cli.project_double_read import register_double_read_action
 from usvips.cli.project_history import register_history_action
@@ -70,12 +71,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "set-metadata); default: the project file's name")
     exp.add_argument("--force", action="store_true", help="replace OUT even when it is a USVIPS project or "
                      "calibration (the old file is kept as OUT.bak); never the project exported")
+    exp.add_argument("--format", choices=["globalarchive"], help="globalarchive: OUT is a folder; the campaign's "
+                     "CAMPAIGNID_Metadata.csv, _Count.txt (MaxN) and _Length.txt with the EventMeasure-style tables "
+                     "CheckEM reads, all or nothing (needs set-campaign and set-metadata)")
     exp.set_defaults(handler=run_export)
     register_project_actions(actions)  # add-pairs, add-video: usvips/cli/project_media.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
     register_check_action(actions)  # check: usvips/cli/project_check.py
     register_sync_actions(actions)  # push, pull: usvips/cli/project_sync.py
     register_history_action(actions)  # history: usvips/cli/project_history.py
+    register_campaign_action(actions)  # set-campaign (and export --format globalarchive): cli/project_campaign.py
     register_double_read_action(actions)  # double-read: usvips/cli/project_double_read.py
 
 
@@ -163,6 +168,8 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    if args.format == "globalarchive":
+        return run_archive_export(args)
     from usvips.app.project_export import export_project, export_targets
     from usvips.io.atomic import replacing
     from usvips.store.opening import open_project
