@@ -117,3 +117,28 @@ def test_reading_and_computing_are_split_with_progress_and_a_cancel_that_stops(s
     with pytest.raises(ReportCancelled, match="cancelled after 5 of 74 objects"):
         compute(inputs, gate_m=0.1, cancelled=cancelled)
     assert len(asked) == 6  # it stopped at once
+
+
+def test_on_a_video_the_instant_is_the_time_within_the_tolerance(tmp_path):
+    project = create_project(tmp_path / "video.usvips")
+    try:
+        (tmp_path / "v0.mp4").write_bytes(b"video")
+        chapters = [(tmp_path / "v0.mp4", 1000, 40.0)]
+        project.add_video("dive", chapters, chapters, 25.0, 1000, (64, 48))
+        covariance = np.eye(3) * 1e-6
+
+        def fish(reader, frame, time_s):
+            vertices = [Vertex(0, 0, 0, 0, xyz, covariance, None, None, "dive", frame, frame, time_s)
+                        for xyz in ((0.0, 0.0, 3.0), (0.3, 0.0, 3.0))]
+            return project.add_objects([("length", vertices, "", "", reader)])[0]
+
+        a1, a2 = fish("ann", 250, 10.0), fish("ann", 500, 20.0)
+        b1, b2 = fish("bob", 255, 10.2), fish("bob", 520, 20.8)
+        rows = double_read(project, "ann", "bob", tolerance_s=0.5).rows()
+        assert {(r["row"], r["object_a"], r["object_b"]) for r in rows} == {
+            ("agreement", a1, b1), ("unmatched A", a2, None), ("unmatched B", None, b2)}
+        assert {r["source"] for r in rows} == {"video dive"} and sorted(r["time_s"] for r in rows) == [10.0, 20.0, 20.8]
+        wider = double_read(project, "ann", "bob", tolerance_s=1.0).comparison.agreement
+        assert wider.n_matched == 2
+    finally:
+        project.close()
