@@ -130,3 +130,31 @@ def test_an_object_no_deployment_covers_is_named(tmp_path):
             export_archive(project, folder)
     finally:
         project.close()
+
+
+def test_a_double_read_survey_is_counted_from_one_readers_objects(tmp_path):
+    project = create_project(tmp_path / "s.usvips")
+    try:
+        project.add_pair("p1")
+        rng = np.random.default_rng(2)
+        for reader in ("ann", "bob"):  # both read the same three fish
+            for _ in range(3):
+                (object_id,) = project.add_objects([("length", _vertices(rng, "p1", "length"), "", "", reader)])
+                project.set_record(object_id, ObservationRecord(*TAXA[0]))
+        project.set_campaign(CAMPAIGN)
+        project.set_deployment(DEPLOYMENT)
+        counts = {}
+        for reader in (None, "ann", "bob"):
+            folder = tmp_path / f"out-{reader}"
+            folder.mkdir()
+            export_archive(project, folder, reader=reader)
+            (row,) = _table(folder / f"{CAMPAIGN.campaign_id}_Count.txt", "\t")
+            counts[reader] = int(row["Count"])
+            lengths = _table(folder / f"{CAMPAIGN.campaign_id}_Length.txt", "\t")
+            want = {o.id for o in project.objects() if reader is None or o.creator == reader}
+            assert {int(r["ObjectID"]) for r in lengths} == want
+        assert counts == {None: 6, "ann": 3, "bob": 3}
+        with pytest.raises(InvalidParameterError, match="annotator 'carol' measured no object"):
+            export_archive(project, tmp_path / "out-ann", reader="carol")
+    finally:
+        project.close()

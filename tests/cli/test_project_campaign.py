@@ -71,3 +71,5 @@ def test_bad_campaign_values_are_named_by_their_option(tmp_path, capsys):
         assert stored.campaign() is None  # nothing stored by a refused command
     code, _, err = _run(capsys, "project", "export", project, tmp_path / "missing", "--format", "globalarchive")
     assert code == 2 and "has no campaign" in err
+    code, _, err = _run(capsys, "project", "export", project, tmp_path / "o.csv", "--reader", "ann")
+    assert code == 2 and "--reader goes with --format globalarchive" in err and not (tmp_path / "o.csv").exists()

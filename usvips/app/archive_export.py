@@ -7,7 +7,8 @@ collect_export`: one function computes each figure and its σ). A sample is a de
 ``OpCode-Period`` for an object on a period of a video (as CheckEM names a DOV sample). The count of a
 sample and taxon is its MaxN (:func:`usvips.core.abundance.max_n`): the individuals (the observation
 record's number; 1 without a record) summed per frame, the largest sum; the lengths are every object of
-a kind EventMeasure lists as a length (length, arc). Refused, one line naming it, before anything is
+a kind EventMeasure lists as a length (length, arc); a double-read survey is exported from one reader's
+objects (``reader``). Refused, one line naming it, before anything is
 written: a project without a campaign or with one missing a mandatory field, without deployment
 metadata or with a deployment missing what GlobalArchive requires, or an object on a video that no
 deployment covers.
@@ -44,18 +45,22 @@ def archive_targets(project: ProjectStore, folder: str | Path) -> list[Path]:
 
 
 def export_archive(project: ProjectStore, folder: str | Path, rules: QualityRules | None = None,
-                   skipped: list[str] | None = None) -> list[Path]:
+                   skipped: list[str] | None = None, reader: str | None = None) -> list[Path]:
     """Write the campaign's tables into ``folder`` (an existing folder): ``CAMPAIGNID_Metadata.csv``
     (CheckEM's sample columns and the campaign's), ``_Count.txt`` (MaxN), ``_Length.txt``, and the
     EventMeasure-style ``_Lengths.txt``, ``_3DPoints.txt`` (and tables of their own kinds); returns the
-    files written. Objects without figures are left out and named in ``skipped``."""
+    files written. Objects without figures are left out and named in ``skipped``. ``reader``: only the
+    objects this annotator made (a double-read survey, whose fish would otherwise be counted twice); a
+    name who made none is refused by name."""
     where = str(project.path)
     folder = Path(folder)
     if not folder.is_dir():
         raise InvalidParameterError("folder", f"{folder}: not an existing folder (the GlobalArchive tables are "
                                     "written into a folder, named by the CampaignID)")
     campaign = check_campaign(project.campaign(), where)
-    content = collect_export(project, rules=rules, skipped=skipped)
+    if reader is not None and reader not in {o.creator for o in project.objects()}:
+        raise InvalidParameterError("--reader", f"{where}: annotator {reader!r} measured no object of this survey")
+    content = collect_export(project, rules=rules, skipped=skipped, creator=reader)
     check_samples(content.samples, where)
     known = {deployment.opcode for deployment, _ in content.samples}
     counted_groups, frames, numbers, lengths = [], [], [], []

@@ -68,15 +68,18 @@ class ExportContent:
 
 
 def collect_export(project: ProjectStore, geographic: bool = False, opcode: str | None = None,
-                   rules: QualityRules | None = None, skipped: list[str] | None = None) -> ExportContent:
+                   rules: QualityRules | None = None, skipped: list[str] | None = None,
+                   creator: str | None = None) -> ExportContent:
     """Read and measure what :func:`export_project` writes (see there); ``geographic``: only the objects
-    measured in the object frame (for GeoJSON)."""
+    measured in the object frame (for GeoJSON); ``creator``: only the objects this annotator made."""
     objects, centres, images, cache, opcodes, where = [], {}, {}, {}, {}, {}
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
     instants = instants_by_object(project)
     for stored in survey_objects(project):  # an object on several instants: once, its figures combined
+        if creator is not None and stored.creator != creator:
+            continue
         source = measurement_input(project, stored, cache, instants=instants)
         try:
             measurement = evaluate(source, rules)

@@ -74,6 +74,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     exp.add_argument("--format", choices=["globalarchive"], help="globalarchive: OUT is a folder; the campaign's "
                      "CAMPAIGNID_Metadata.csv, _Count.txt (MaxN) and _Length.txt with the EventMeasure-style tables "
                      "CheckEM reads, all or nothing (needs set-campaign and set-metadata)")
+    exp.add_argument("--reader", metavar="NAME", help="with --format globalarchive: only the objects this annotator "
+                     "made (a double-read survey would otherwise count its fish twice)")
     exp.set_defaults(handler=run_export)
     register_project_actions(actions)  # add-pairs, add-video: usvips/cli/project_media.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
@@ -170,6 +172,8 @@ def run_import(args: argparse.Namespace) -> int:
 def run_export(args: argparse.Namespace) -> int:
     if args.format == "globalarchive":
         return run_archive_export(args)
+    if args.reader is not None:
+        raise UsvipsError("--reader goes with --format globalarchive (the other exports hold every object)")
     from usvips.app.project_export import export_project, export_targets
     from usvips.io.atomic import replacing
     from usvips.store.opening import open_project

@@ -78,7 +78,7 @@ def run_archive_export(args: argparse.Namespace) -> int:
     with open_project(args.project, read_only=True) as project:
         targets = archive_targets(project, args.out)
         with replacing(targets, project=local, replace=args.force, option="OUT"):
-            written = export_archive(project, args.out, skipped=skipped)
+            written = export_archive(project, args.out, skipped=skipped, reader=args.reader)
     for reason in skipped:
         print(f"skipped {reason}")
     print(f"wrote {len(written)} GlobalArchive/CheckEM tables to {args.out}: "
