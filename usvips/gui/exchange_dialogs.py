@@ -19,6 +19,7 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.app import calibration_size
 from usvips.app.calibrations import read_calibration, store_calibration
+from usvips.core.campaign import Campaign
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observations import StereoObservations
@@ -339,14 +340,18 @@ _LABELS = {"opcode": "OpCode (sample id)", "date": "Date (YYYY-MM-DD)", "time": 
            "site": "Site", "location": "Location", "status": "Status (e.g. Fished, No-take)",
            "successful_count": "Successful for counts", "successful_length": "Successful for lengths",
            "observer": "Observer", "comment": "Comment"}
+_CAMPAIGN = {"campaign_id": "CampaignID (YYYY-MM_Project.name_Method)", "project": "Project",
+             "method": "Method (e.g. stereo-BRUVs)", "sampling_design": "Sampling design", "submitter": "Submitter",
+             "institution": "Institution", "start_date": "Start (YYYY-MM-DD)", "end_date": "End (YYYY-MM-DD)",
+             "image_analysis": "Image analysis", "comment": "Comment"}
 _GEO = {"latitude": "Origin latitude (°)", "longitude": "Origin longitude (°)", "depth_m": "Origin depth (m)",
         "heading_deg": "Heading of +X (° from north, clockwise)"}
 
 
 class DeploymentDialog(QtWidgets.QDialog):
-    """The project's deployment metadata (CheckEM's _Metadata.csv) and the georeference of its object
-    frame (for GeoJSON). OK stores both in one transaction; a bad value is named under the form and the
-    dialog stays open with everything typed."""
+    """The project's deployment metadata (CheckEM's _Metadata.csv), the georeference of its object frame
+    (for GeoJSON) and the campaign (GlobalArchive's CampaignID, project, method …). OK stores them in one
+    transaction; a bad value is named under the form and the dialog stays open with everything typed."""
 
     def __init__(self, project, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -377,6 +382,16 @@ class DeploymentDialog(QtWidgets.QDialog):
             widget = QtWidgets.QLineEdit("" if geo is None else repr(getattr(geo, name)))
             self.geo_fields[name] = widget
             geo_form.addRow(label, widget)
+        self.campaigned = QtWidgets.QGroupBox("Campaign (GlobalArchive)")
+        self.campaigned.setCheckable(True)
+        campaign = project.campaign()
+        self.campaigned.setChecked(campaign is not None)
+        campaign_form = QtWidgets.QFormLayout(self.campaigned)
+        self.campaign_fields: dict[str, QtWidgets.QLineEdit] = {}
+        for name, label in _CAMPAIGN.items():
+            widget = QtWidgets.QLineEdit(getattr(campaign if campaign is not None else Campaign(), name))
+            self.campaign_fields[name] = widget
+            campaign_form.addRow(label, widget)
         self.message = QtWidgets.QLabel()
         self.message.setStyleSheet("color: #c0392b;")
         self.message.setWordWrap(True)
@@ -386,7 +401,10 @@ class DeploymentDialog(QtWidgets.QDialog):
         buttons.rejected.connect(self.reject)
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(form)
-        layout.addWidget(self.georeferenced)
+        columns = QtWidgets.QHBoxLayout()  # the georeference and the campaign side by side: the form stays short
+        columns.addWidget(self.georeferenced, 1)
+        columns.addWidget(self.campaigned, 1)
+        layout.addLayout(columns)
         layout.addWidget(self.message)
         layout.addWidget(buttons)
 
@@ -433,15 +451,26 @@ class DeploymentDialog(QtWidgets.QDialog):
                                         self.geo_fields["heading_deg"].text() or 0.0)
         return deployment, georeference
 
+    def campaign(self) -> Campaign | None:
+        """The campaign typed (None when its box is unticked); raises :class:`UsvipsError` naming a bad value."""
+        if not self.campaigned.isChecked():
+            return None
+        try:
+            return Campaign(**{name: widget.text() for name, widget in self.campaign_fields.items()})
+        except UsvipsError as error:
+            raise UsvipsError(f"campaign: {error}") from None
+
     def store(self) -> bool:
         """Store the form (OK); on a bad value say which and stay open."""
         try:
             deployments = self.deployments()
             _, georeference = self.values()
+            campaign = self.campaign()
             with self.project.transaction():
                 for scope, deployment in deployments.items():
                     self.project.set_deployment(deployment, scope or None)
                 self.project.set_georeference(georeference)
+                self.project.set_campaign(campaign)
         except UsvipsError as error:
             self.message.setText(str(error))
             return False
@@ -458,7 +487,7 @@ def edit_deployment(window, run: Callable[[DeploymentDialog], object] = lambda d
     run(dialog)
     accepted = dialog.result() == QtWidgets.QDialog.DialogCode.Accepted
     if accepted:
-        window.show_message("info", "stored the deployment metadata and georeference")
+        window.show_message("info", "stored the deployment metadata, georeference and campaign")
     dialog.deleteLater()
     return accepted
 

@@ -52,7 +52,8 @@ def check_campaign(campaign: Campaign | None, where: str) -> Campaign:
     """The campaign, or one line naming what GlobalArchive needs and is missing (``where``: the project)."""
     if campaign is None:
         raise InvalidParameterError("campaign", f"{where} has no campaign: set its CampaignID, project, method "
-                                    "and submitter first (usvips project set-campaign)")
+                                    "and submitter first (usvips project set-campaign, or the window's File › "
+                                    "Deployment and georeference…)")
     missing = campaign.missing()
     if missing:
         options = ", ".join("--" + name.replace("_", "-") for name in missing)
