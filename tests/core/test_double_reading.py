@@ -176,3 +176,12 @@ def test_bad_arrays_are_named():
         ReaderObjects([1], ["v"], ["length"], ["x"], [0.0], [[0.0, 0.0, 1.0]], [0.2], [-0.01])
     with pytest.raises(InvalidParameterError, match="value"):
         ReaderObjects([1], ["v"], ["length"], ["x"], [0.0], [[0.0, 0.0, 1.0]], [math.nan], [0.01])
+
+
+def test_the_assignment_pairs_the_most_objects_before_the_nearest():
+    # a0 is nearest b0 but also within the gate of b1; a1 is within the gate of b0 only
+    a = ReaderObjects([0, 1], ["v", "v"], ["length"] * 2, ["x", "x"], [1.0, 1.0], [[0, 0, 2], [0.08, 0, 2]],
+                      [0.3, 0.3], [0.01, 0.01])
+    b = ReaderObjects([0, 1], ["v", "v"], ["length"] * 2, ["x", "x"], [1.0, 1.0], [[0.03, 0, 2], [-0.06, 0, 2]],
+                      [0.3, 0.3], [0.01, 0.01])
+    assert match_objects(a, b, 0.5, 0.07).tolist() == [[0, 1], [1, 0]]

@@ -129,7 +129,8 @@ def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float, gate_m
                   same_species: bool = True) -> np.ndarray:
     """(M, 2) indices of the pairs of ``a``'s and ``b``'s objects taken for the same object: same source and
     kind (and species when ``same_species``), times within ``tolerance_s`` s (both NaN: an image pair),
-    midpoints within ``gate_m`` m; the assignment minimises the total midpoint distance. Sorted by a's index."""
+    midpoints within ``gate_m`` m; among the assignments that pair the most objects, the one with the
+    smallest total midpoint distance. Sorted by a's index."""
     check_parameters(tolerance_s, gate_m, 1.0)
     if not len(a) or not len(b):
         return np.zeros((0, 2), int)
@@ -155,8 +156,8 @@ def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float, gate_m
         allowed = same_instant & (distance <= gate_m)
         if not allowed.any():
             continue
-        # forbidden pairs cost more than any allowed assignment could (so the solver never needs them
-        # unless nothing else is possible), and are dropped after
+        # a forbidden pair costs more than all allowed ones together, so the solver takes as few as it
+        # can (the most pairs allowed), then the least total distance; the forbidden ones are dropped
         cost = np.where(allowed, distance, gate_m * (len(ia) + len(ib) + 1.0))
         rows_found, columns_found = linear_sum_assignment(cost)
         keep = allowed[rows_found, columns_found]
