@@ -8,6 +8,7 @@ import pytest
 from PySide6 import QtCore, QtWidgets
 
 from tests.gui.conftest import open_sample
+from usvips.app.calibrations import read_calibration
 from usvips.gui import exchange_dialogs
 from usvips.gui.worker import Cancelled
 from usvips.io.calibration_file import load_calibration
@@ -144,6 +145,37 @@ def test_the_deployment_dialog_names_a_bad_value_keeps_the_typing_and_stores_bot
     assert QtWidgets.QApplication.activeModalWidget() is None
 
 
+
+def test_the_campaign_is_entered_in_the_deployment_dialog_and_a_bad_value_is_named(qtbot, make_window, sample_copy):
+    window = make_window()
+    open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
+    project = window.workspace.project
+    seen = {}
+
+    def fill(dialog):
+        assert not dialog.campaigned.isChecked()  # none stored yet
+        dialog.campaigned.setChecked(True)
+        dialog.campaign_fields["campaign_id"].setText("2024-03 Reef")  # a space: not a file-name prefix
+        dialog.campaign_fields["method"].setText("stereo-BRUVs")
+        assert not dialog.store()
+        seen["message"] = dialog.message.text()
+        assert project.campaign() is None
+        dialog.campaign_fields["campaign_id"].setText("2024-03_Reef_stereo-BRUVs")
+        assert dialog.store()
+
+    assert exchange_dialogs.edit_deployment(window, fill)
+    assert seen["message"].startswith("campaign: parameter campaign_id:")
+    campaign = project.campaign()
+    assert (campaign.campaign_id, campaign.method, campaign.image_analysis) == (
+        "2024-03_Reef_stereo-BRUVs", "stereo-BRUVs", "USVIPS")
+
+    def untick(dialog):
+        assert dialog.campaigned.isChecked() and dialog.campaign_fields["method"].text() == "stereo-BRUVs"
+        dialog.campaigned.setChecked(False)
+        assert dialog.store()
+
+    assert exchange_dialogs.edit_deployment(window, untick)
+    assert project.campaign() is None
 def test_the_wizards_last_page_writes_the_report_of_its_result(qtbot, sample_copy, tmp_path):
     """The Save page's Report (PDF)… button writes the session's result with the observations it used,
     in a worker, and says so; pressed while it runs it would cancel."""
@@ -269,7 +301,7 @@ def test_a_project_calibration_is_reported_with_its_data_as_the_command_line_rep
     open_sample(qtbot, window, directory, "measure1")
     project = window.workspace.project
     active = project.active_calibration("measure1")
-    calibration = exchange_dialogs.calibration_from_dict(project.calibration(active), "c")
+    calibration = read_calibration(project, active)
     data = exchange_dialogs.project_report_data(project, calibration)
     assert data.control is not None and data.observations is not None  # residual plots, check points
     assert all("not found" not in why for _, _, why in data.files)  # the files beside the project

@@ -16,6 +16,7 @@ import psycopg
 import pytest
 
 from usvips.cli import main
+from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
@@ -74,6 +75,7 @@ def _fill(project, folder: Path, rng) -> None:
     project.add_term("murky", "visibility")
     project.set_enhancement("pair0/left", '{"steps": []}')
     project.set_draft("wizard", "half done")
+    project.set_campaign(Campaign("2024-03_Reef_stereo-BRUVs", "Reef", "stereo-BRUVs", submitter="Ana"))
 
 
 def _file_digest(path: Path) -> str:
@@ -104,6 +106,7 @@ def test_push_then_pull_gives_back_every_row_of_every_table(tmp_path, new_databa
             assert survey.pairs() == file.pairs() and survey.videos() == file.videos()
             assert [o.id for o in survey.objects()] == [o.id for o in file.objects()]
             assert survey.instant_links() == file.instant_links() and survey.deployments() == file.deployments()
+            assert survey.campaign() == file.campaign() is not None
     back = pull(url, tmp_path / "back.usvips")
     want, got = file_rows(original), file_rows(back)
     assert set(got) == set(TABLES)

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
@@ -383,6 +384,34 @@ def test_vocabulary_species_records_enhancements_and_drafts_round_trip(store):
     assert store.draft("wizard") is None
 
 
+
+def test_the_campaign_round_trips_is_replaced_and_removed_and_a_reader_cannot_change_it(impl, store, where):
+    assert store.campaign() is None
+    campaign = Campaign("2024-03_Abrolhos_stereo-BRUVs", "Abrolhos Reef monitoring", "stereo-BRUVs",
+                        "stratified random, 4 strata", "Ana Ng", "UWA", "2024-03-02", "2024-03-09",
+                        comment="Ünïcode, 'quotes' and \"more\"")
+    store.set_campaign(campaign)
+    assert store.campaign() == campaign
+    half = Campaign(campaign_id="2025-01_x_stereo-DOVs")  # stored half filled in; an export names what is missing
+    store.set_campaign(half)
+    assert store.campaign() == half and half.missing() == ["project", "method", "submitter"]
+    store.close()
+    reader = impl.open(where, True)
+    try:
+        assert reader.campaign() == half  # kept, seen by another handle
+        before = impl.snapshot(where)
+        with pytest.raises(ProjectError):
+            reader.set_campaign(campaign)
+        assert impl.snapshot(where) == before and reader.campaign() == half
+    finally:
+        reader.close()
+    writer = impl.open(where, False)
+    try:
+        writer.set_campaign(None)
+        assert writer.campaign() is None
+        writer.set_campaign(None)  # nothing to remove: no error
+    finally:
+        writer.close()
 def test_deployments_and_the_georeference_round_trip(store, where):
     folder = where.parent
     (folder / "v0.mp4").write_bytes(b"video")
@@ -481,6 +510,7 @@ WRITES = {
     "set_video_offset": lambda s, f: s.set_video_offset("v", 2),
     "set_deployment": lambda s, f: s.set_deployment(Deployment(opcode="OP1")),
     "set_georeference": lambda s, f: s.set_georeference(Georeference(-33.8, 151.2, 12.0, 45.0)),
+    "set_campaign": lambda s, f: s.set_campaign(Campaign("2024-03_x_stereo-BRUVs")),
     "add_period": lambda s, f: s.add_period("v", "p", 0, 1),
     "relocate_media": lambda s, f: s.relocate_media("v0.mp4", f / "v0.mp4"),
     "accept_media": lambda s, f: s.accept_media("v0.mp4"),

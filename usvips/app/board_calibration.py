@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.app.calibration_video import DEFAULT_MAX_VIEWS, read_target, scan_streams, scan_video
+from usvips.app.calibrations import store_calibration
 from usvips.app.target_views import detect_views
 from usvips.core import calibration_views
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
@@ -41,7 +42,6 @@ from usvips.core.calibration_views import Coverage
 from usvips.core.errors import ConvergenceError, InvalidParameterError, UsvipsError
 from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
-from usvips.io.calibration_file import calibration_to_dict
 from usvips.io.video_stream import VideoStream
 from usvips.store.interface import ProjectStore
 
@@ -253,5 +253,5 @@ def store(project: ProjectStore, calibration: BoardCalibration, name: str, activ
     """Store a converged board calibration in the project (active for the pairs named); returns its id."""
     if not calibration.result.adjustment.converged:
         raise UsvipsError("there is no converged calibration to store")
-    return project.add_calibration(name.strip() or "calibration from a target",
-                                   calibration_to_dict(calibration.calibration), tuple(active_for))
+    return store_calibration(project, name.strip() or "calibration from a target", calibration.calibration,
+                             active_for)

@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
+from usvips.app.calibrations import make_active, read_calibration
 from usvips.core.errors import UsvipsError
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.io.calibration_file import calibration_from_dict
@@ -122,10 +123,9 @@ def misfits(project: ProjectStore, calibration: StereoCalibration, labels: Itera
 def activate(project: ProjectStore, label: str, calibration_id: int) -> None:
     """Make stored calibration ``calibration_id`` the active one of pair or video ``label``, refused by
     name when their sizes differ (the one way the command line and the window make a calibration active)."""
-    calibration = calibration_from_dict(project.calibration(calibration_id), f"{project.path} calibration "
-                                        f"{calibration_id}")
+    calibration = read_calibration(project, calibration_id)
     check_for(project, calibration, [label], f"calibration {calibration_id}")
-    project.activate_calibration(label, calibration_id)
+    make_active(project, label, calibration_id)
 
 
 def calibration_dict_size_check(project: ProjectStore, data: dict, labels: Iterable[str], source: str | Path) -> None:

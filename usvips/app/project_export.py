@@ -10,14 +10,16 @@ Precision and the window's sigma are one number.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from usvips.app.object_instants import survey_objects
 from usvips.app.project_figures import evaluate, instants_by_object, measurement_input
 from usvips.app.video_project import eventmeasure_frame_columns
-from usvips.core.deployment import Deployment
+from usvips.core.deployment import Deployment, Georeference
 from usvips.core.errors import UsvipsError
-from usvips.core.measurements import QualityRules
+from usvips.core.measurements import Measurement, QualityRules
+from usvips.core.observation_record import ObservationRecord
 from usvips.io.export import eventmeasure_paths, export
 from usvips.store.interface import ProjectStore
 
@@ -43,25 +45,41 @@ def export_targets(out: str | Path) -> list[Path]:
     return list(eventmeasure_paths(out).values()) if out.name.endswith(".em.txt") else [out]
 
 
-def export_project(project: ProjectStore, out: str | Path, opcode: str | None = None,
-                   rules: QualityRules | None = None, skipped: list[str] | None = None) -> int:
-    """Write the project's objects that have figures to ``out`` (format by suffix, see
-    :func:`usvips.io.export.export`); returns how many were written. Objects without figures (no 3-D
-    vertices) are left out and named in ``skipped`` ("object N: why") when a list is given. ``opcode``
-    (EventMeasure tables): the OpCode of objects whose video (or project) has no stored deployment
-    (:meth:`Project.deployment`); default the project file's name. The set of tables includes CheckEM's
-    ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults). An object
-    measured on several instants is one row with its combined figures and the number of instants; its
-    image columns are those of its first instant. GeoJSON holds only objects measured in the object frame
-    (on a calibrated station), the frame the georeference places on the Earth; the others are named in
-    ``skipped``."""
+@dataclass(frozen=True)
+class ExportContent:
+    """What an export of a project's objects writes, read and computed once: the objects' measurements
+    (their figures), and by object id their OpCode, camera centre (m), image columns, observation record
+    and place columns; the samples of CheckEM's ``_Metadata.csv`` (:func:`checkem_samples`) and the
+    project's georeference."""
+
+    objects: list[Measurement]
+    opcodes: dict[str, str]
+    centres: dict[str, tuple]
+    images: dict[str, tuple]
+    records: dict[str, ObservationRecord]
+    places: dict[str, tuple]
+    samples: list[tuple[Deployment, str]]
+    georeference: Georeference | None
+
+    def eventmeasure(self) -> dict:
+        """The keywords of :func:`usvips.io.export.eventmeasure_tables` for these objects."""
+        return {"opcode": self.opcodes, "camera_centre": self.centres, "images": self.images,
+                "records": self.records, "samples": self.samples}
+
+
+def collect_export(project: ProjectStore, geographic: bool = False, opcode: str | None = None,
+                   rules: QualityRules | None = None, skipped: list[str] | None = None,
+                   creator: str | None = None) -> ExportContent:
+    """Read and measure what :func:`export_project` writes (see there); ``geographic``: only the objects
+    measured in the object frame (for GeoJSON); ``creator``: only the objects this annotator made."""
     objects, centres, images, cache, opcodes, where = [], {}, {}, {}, {}, {}
-    geographic = Path(out).suffix.lower() in (".geojson", ".json")  # WGS 84 through the object frame's georeference
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
     instants = instants_by_object(project)
     for stored in survey_objects(project):  # an object on several instants: once, its figures combined
+        if creator is not None and stored.creator != creator:
+            continue
         source = measurement_input(project, stored, cache, instants=instants)
         try:
             measurement = evaluate(source, rules)
@@ -92,7 +110,23 @@ def export_project(project: ProjectStore, out: str | Path, opcode: str | None = 
     records = {o.id: record for o in objects if (record := project.record(int(o.id))) is not None}
     places = {o.id: (where[o.id], *images.get(o.id, ("", "", "", ""))[:4],
                      images[o.id][4] if len(images.get(o.id, ())) > 4 else "") for o in objects}
-    export(objects, out, opcode=opcodes, camera_centre={o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects},
-           images=images, records=records, samples=checkem_samples(project), georeference=project.georeference(),
-           places=places)
-    return len(objects)
+    return ExportContent(objects, opcodes, {o.id: centres.get(o.id, (0.0, 0.0, 0.0)) for o in objects}, images,
+                         records, places, checkem_samples(project), project.georeference())
+
+
+def export_project(project: ProjectStore, out: str | Path, opcode: str | None = None,
+                   rules: QualityRules | None = None, skipped: list[str] | None = None) -> int:
+    """Write the project's objects that have figures to ``out`` (format by suffix, see
+    :func:`usvips.io.export.export`); returns how many were written. Objects without figures (no 3-D
+    vertices) are left out and named in ``skipped`` ("object N: why") when a list is given. ``opcode``
+    (EventMeasure tables): the OpCode of objects whose video (or project) has no stored deployment
+    (:meth:`Project.deployment`); default the project file's name. The set of tables includes CheckEM's
+    ``_Metadata.csv`` (:func:`checkem_samples`). ``rules``: the quality rules (defaults). An object
+    measured on several instants is one row with its combined figures and the number of instants; its
+    image columns are those of its first instant. GeoJSON holds only objects measured in the object frame
+    (on a calibrated station), the frame the georeference places on the Earth; the others are named in
+    ``skipped``."""
+    geographic = Path(out).suffix.lower() in (".geojson", ".json")  # WGS 84 through the object frame's georeference
+    content = collect_export(project, geographic, opcode, rules, skipped)
+    export(content.objects, out, georeference=content.georeference, places=content.places, **content.eventmeasure())
+    return len(content.objects)

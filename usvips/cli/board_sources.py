@@ -16,7 +16,7 @@ from usvips.app.calibration_video import DEFAULT_MAX_VIEWS
 from usvips.core.calibration import CalibrationOptions
 from usvips.core.errors import InvalidParameterError
 from usvips.core.stereo_calibration import StereoCalibration
-from usvips.store import Project
+from usvips.store.opening import open_project
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -88,7 +88,7 @@ def find_views(args: argparse.Namespace) -> tuple[boards.BoardViews, dict]:
     calibration's source record."""
     target = boards.as_target(args.target)
     if args.video:
-        with Project.open(args.project, read_only=True) as project:
+        with open_project(args.project, read_only=True) as project:
             found = boards.views_from_video(project, args.video, target, args.every, args.max_views)
         source = {"target": str(args.target), "project": str(args.project), "video": args.video}
     else:

@@ -12,7 +12,7 @@ import sys
 from usvips.app import calibration_video
 from usvips.core.calibration_views import MAX_EDGE_WIDTH_PX
 from usvips.io.atomic import replacing
-from usvips.store import Project
+from usvips.store.opening import open_project
 
 
 def _video_actions(subparsers: argparse._SubParsersAction) -> argparse._SubParsersAction:
@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
 
     target = calibration_video.read_target(args.target)  # a bad target file is named before the project is opened
     with replacing(args.out, [args.target], args.project, replace=args.force), \
-            Project.open(args.project, read_only=True) as project:
+            open_project(args.project, read_only=True) as project:
         result = calibration_video.views_from_video(project, args.pair, target, args.out, args.every,
                                                      args.max_views, args.max_blur, args.focal, progress)
     for line in result.summary():

@@ -8,7 +8,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from usvips.cli.common import add_annotator_option
+from usvips.cli.project_campaign import register_campaign_action, run_archive_export
 from usvips.cli.project_check import register_check_action
+from usvips.cli.project_double_read import register_double_read_action
 from usvips.cli.project_history import register_history_action
 from usvips.cli.project_media import register_project_actions
 from usvips.cli.project_sync import register_sync_actions
@@ -69,12 +71,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "set-metadata); default: the project file's name")
     exp.add_argument("--force", action="store_true", help="replace OUT even when it is a USVIPS project or "
                      "calibration (the old file is kept as OUT.bak); never the project exported")
+    exp.add_argument("--format", choices=["globalarchive"], help="globalarchive: OUT is a folder; the campaign's "
+                     "CAMPAIGNID_Metadata.csv, _Count.txt (MaxN) and _Length.txt with the EventMeasure-style tables "
+                     "CheckEM reads, all or nothing (needs set-campaign and set-metadata)")
+    exp.add_argument("--reader", metavar="NAME", help="with --format globalarchive: only the objects this annotator "
+                     "made (a double-read survey would otherwise count its fish twice)")
     exp.set_defaults(handler=run_export)
     register_project_actions(actions)  # add-pairs, add-video: usvips/cli/project_media.py
     register_metadata_actions(actions)  # set-metadata, set-georeference: below
     register_check_action(actions)  # check: usvips/cli/project_check.py
     register_sync_actions(actions)  # push, pull: usvips/cli/project_sync.py
     register_history_action(actions)  # history: usvips/cli/project_history.py
+    register_campaign_action(actions)  # set-campaign (and export --format globalarchive): cli/project_campaign.py
+    register_double_read_action(actions)  # double-read: usvips/cli/project_double_read.py
 
 
 def run_new(args: argparse.Namespace) -> int:
@@ -130,9 +139,9 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_accept_media(args: argparse.Namespace) -> int:
-    from usvips.store import Project
+    from usvips.store.opening import open_project
 
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         for stored in args.media:
             project.accept_media(stored)
             print(f"accepted {stored} as it is now")
@@ -140,9 +149,9 @@ def run_accept_media(args: argparse.Namespace) -> int:
 
 
 def run_relocate_media(args: argparse.Namespace) -> int:
-    from usvips.store import Project
+    from usvips.store.opening import open_project
 
-    with Project.open(args.project) as project:
+    with open_project(args.project) as project:
         new = project.relocate_media(args.media, args.new)
     print(f"{args.media} is now {new}")
     return 0
@@ -161,6 +170,10 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    if args.format == "globalarchive":
+        return run_archive_export(args)
+    if args.reader is not None:
+        raise UsvipsError("--reader goes with --format globalarchive (the other exports hold every object)")
     from usvips.app.project_export import export_project, export_targets
     from usvips.io.atomic import replacing
     from usvips.store.opening import open_project

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usvips.app.calibration_size import check_for
+from usvips.app.calibrations import read_calibration, store_calibration
 from usvips.core import housing as housings
 from usvips.core.adjustment import W_CRITICAL
 from usvips.core.calibration import CalibrationOptions, CalibrationResult, calibrate_air, calibrate_water
@@ -28,7 +29,6 @@ from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.intersection import intersect
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.gui.signals import Signal
-from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict
 from usvips.io.tables import read_control, read_observations
 from usvips.store.interface import ProjectStore
 
@@ -279,8 +279,7 @@ class CalibrationSession:
         phase, housing = self.phase, self.housing
         base = None
         if phase != "air":
-            base = calibration_from_dict(self.project.calibration(self.base_id),
-                                         f"{self.project.path} calibration {self.base_id}")
+            base = read_calibration(self.project, self.base_id)
         source = {"wizard": phase, "pairs": list(self.pairs), "control": self.control_source}
 
         def run(progress=None, cancelled=None) -> CalibrationResult:
@@ -358,7 +357,7 @@ class CalibrationSession:
             active = self.project.active_calibration(self.pairs[0])
             if active is not None:
                 try:
-                    old = calibration_from_dict(self.project.calibration(active))
+                    old = read_calibration(self.project, active)
                 except UsvipsError:
                     old = None
         if old is None:
@@ -382,8 +381,7 @@ class CalibrationSession:
             raise UsvipsError("there is no converged result to save")
         name = name.strip() or PHASES[self.phase]
         check_for(self.project, self.result.calibration, active_for, f"the calibration {name!r}")
-        calibration_id = self.project.add_calibration(name, calibration_to_dict(self.result.calibration),
-                                                      tuple(active_for))
+        calibration_id = store_calibration(self.project, name, self.result.calibration, active_for)
         for pair in self.pairs:
             ids = self.measured(pair)
             if ids:

@@ -18,12 +18,14 @@ import numpy as np
 from PySide6 import QtCore, QtWidgets
 
 from usvips.app import calibration_size
+from usvips.app.calibrations import read_calibration, store_calibration
+from usvips.core.campaign import Campaign
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.worker import Cancelled, Worker, start
-from usvips.io.calibration_file import calibration_from_dict, calibration_to_dict, load_calibration, save_calibration
+from usvips.io.calibration_file import load_calibration, save_calibration
 from usvips.io.opencv_calibration import parse_image_size, read_opencv_stereo, write_opencv_stereo
 
 OPENCV_FILTER = "OpenCV calibrations (*.yml *.yaml *.xml *.json *.npz);;All files (*)"
@@ -72,7 +74,7 @@ def _current_calibration(window) -> tuple[StereoCalibration, str] | None:
         chosen = project.active_calibration(pair) if pair else None
         chosen = chosen if chosen is not None else project.calibrations()[-1]["id"]
         name = next(c["name"] for c in project.calibrations() if c["id"] == chosen)
-        return calibration_from_dict(project.calibration(chosen), f"{project.path} calibration {chosen}"), name
+        return read_calibration(project, chosen), name
     path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
                                                     "Calibrations (*.json)")
     if not path:
@@ -127,7 +129,7 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
         project = window.workspace.project
         calibration_id = None
         if project is not None:
-            calibration_id = project.add_calibration(Path(out).stem, calibration_to_dict(calibration))
+            calibration_id = store_calibration(project, Path(out).stem, calibration)
     except UsvipsError as error:
         window.show_message("error", f"import failed, nothing written: {error}")
         return None
@@ -196,7 +198,7 @@ def activate_calibration(window, calibration_id: int, labels: list[str]) -> bool
     if project is None:
         return False
     try:
-        calibration = calibration_from_dict(project.calibration(calibration_id), f"calibration {calibration_id}")
+        calibration = read_calibration(project, calibration_id)
         bad = {label: line for label in labels
                for line in calibration_size.misfits(project, calibration, [label], f"calibration {calibration_id}")}
         good = [label for label in labels if label not in bad]
@@ -246,7 +248,7 @@ def import_usvips_calibration(window, path: str | Path | None = None,
             return None
     try:
         calibration = load_calibration(path)
-        calibration_id = project.add_calibration(Path(path).stem, calibration_to_dict(calibration))
+        calibration_id = store_calibration(project, Path(path).stem, calibration)
     except UsvipsError as error:
         window.show_message("error", f"import failed, nothing stored: {error}")
         return None
@@ -338,14 +340,18 @@ _LABELS = {"opcode": "OpCode (sample id)", "date": "Date (YYYY-MM-DD)", "time": 
            "site": "Site", "location": "Location", "status": "Status (e.g. Fished, No-take)",
            "successful_count": "Successful for counts", "successful_length": "Successful for lengths",
            "observer": "Observer", "comment": "Comment"}
+_CAMPAIGN = {"campaign_id": "CampaignID (YYYY-MM_Project.name_Method)", "project": "Project",
+             "method": "Method (e.g. stereo-BRUVs)", "sampling_design": "Sampling design", "submitter": "Submitter",
+             "institution": "Institution", "start_date": "Start (YYYY-MM-DD)", "end_date": "End (YYYY-MM-DD)",
+             "image_analysis": "Image analysis", "comment": "Comment"}
 _GEO = {"latitude": "Origin latitude (°)", "longitude": "Origin longitude (°)", "depth_m": "Origin depth (m)",
         "heading_deg": "Heading of +X (° from north, clockwise)"}
 
 
 class DeploymentDialog(QtWidgets.QDialog):
-    """The project's deployment metadata (CheckEM's _Metadata.csv) and the georeference of its object
-    frame (for GeoJSON). OK stores both in one transaction; a bad value is named under the form and the
-    dialog stays open with everything typed."""
+    """The project's deployment metadata (CheckEM's _Metadata.csv), the georeference of its object frame
+    (for GeoJSON) and the campaign (GlobalArchive's CampaignID, project, method …). OK stores them in one
+    transaction; a bad value is named under the form and the dialog stays open with everything typed."""
 
     def __init__(self, project, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -376,6 +382,16 @@ class DeploymentDialog(QtWidgets.QDialog):
             widget = QtWidgets.QLineEdit("" if geo is None else repr(getattr(geo, name)))
             self.geo_fields[name] = widget
             geo_form.addRow(label, widget)
+        self.campaigned = QtWidgets.QGroupBox("Campaign (GlobalArchive)")
+        self.campaigned.setCheckable(True)
+        campaign = project.campaign()
+        self.campaigned.setChecked(campaign is not None)
+        campaign_form = QtWidgets.QFormLayout(self.campaigned)
+        self.campaign_fields: dict[str, QtWidgets.QLineEdit] = {}
+        for name, label in _CAMPAIGN.items():
+            widget = QtWidgets.QLineEdit(getattr(campaign if campaign is not None else Campaign(), name))
+            self.campaign_fields[name] = widget
+            campaign_form.addRow(label, widget)
         self.message = QtWidgets.QLabel()
         self.message.setStyleSheet("color: #c0392b;")
         self.message.setWordWrap(True)
@@ -385,7 +401,10 @@ class DeploymentDialog(QtWidgets.QDialog):
         buttons.rejected.connect(self.reject)
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(form)
-        layout.addWidget(self.georeferenced)
+        columns = QtWidgets.QHBoxLayout()  # the georeference and the campaign side by side: the form stays short
+        columns.addWidget(self.georeferenced, 1)
+        columns.addWidget(self.campaigned, 1)
+        layout.addLayout(columns)
         layout.addWidget(self.message)
         layout.addWidget(buttons)
 
@@ -432,15 +451,26 @@ class DeploymentDialog(QtWidgets.QDialog):
                                         self.geo_fields["heading_deg"].text() or 0.0)
         return deployment, georeference
 
+    def campaign(self) -> Campaign | None:
+        """The campaign typed (None when its box is unticked); raises :class:`UsvipsError` naming a bad value."""
+        if not self.campaigned.isChecked():
+            return None
+        try:
+            return Campaign(**{name: widget.text() for name, widget in self.campaign_fields.items()})
+        except UsvipsError as error:
+            raise UsvipsError(f"campaign: {error}") from None
+
     def store(self) -> bool:
         """Store the form (OK); on a bad value say which and stay open."""
         try:
             deployments = self.deployments()
             _, georeference = self.values()
+            campaign = self.campaign()
             with self.project.transaction():
                 for scope, deployment in deployments.items():
                     self.project.set_deployment(deployment, scope or None)
                 self.project.set_georeference(georeference)
+                self.project.set_campaign(campaign)
         except UsvipsError as error:
             self.message.setText(str(error))
             return False
@@ -457,7 +487,7 @@ def edit_deployment(window, run: Callable[[DeploymentDialog], object] = lambda d
     run(dialog)
     accepted = dialog.result() == QtWidgets.QDialog.DialogCode.Accepted
     if accepted:
-        window.show_message("info", "stored the deployment metadata and georeference")
+        window.show_message("info", "stored the deployment metadata, georeference and campaign")
     dialog.deleteLater()
     return accepted
 

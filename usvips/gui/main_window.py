@@ -17,7 +17,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.gui import exchange_dialogs, media_dialogs, qa_dock
+from usvips.gui import double_read_dialog, exchange_dialogs, media_dialogs, qa_dock
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
@@ -316,6 +316,7 @@ class MainWindow(QtWidgets.QMainWindow):
         menu.addAction("Ex&port calibration (OpenCV)…", lambda: exchange_dialogs.export_calibration(self))
         menu.addAction("Calibration repor&t (PDF)…", lambda: exchange_dialogs.calibration_report(self))
         menu.addAction("&Deployment and georeference…", lambda: exchange_dialogs.edit_deployment(self))
+        menu.addAction("Dou&ble-read report…", lambda: double_read_dialog.show_double_read(self))
         self._fill_recent_menu()
         menu.addSeparator()
         menu.addAction(a["quit"])

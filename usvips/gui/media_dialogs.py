@@ -15,12 +15,13 @@ from usvips.gui.pair_import import PairImport
 from usvips.gui.pair_import_dialog import PairImportDialog
 from usvips.gui.wording import plural
 from usvips.io.pairing import RULE_NAMES
-from usvips.store import Project
+from usvips.store.interface import ProjectStore
+from usvips.store.opening import create_project
 
 VIDEO_FILTER = "Videos (*.mp4 *.MP4 *.mov *.MOV *.avi *.AVI *.mkv *.mts *.MTS *.m4v);;All files (*)"
 
 
-def _need_project(window) -> Project | None:
+def _need_project(window) -> ProjectStore | None:
     project = window.workspace.project
     if project is None:
         window.show_message("error", "open or create a project first (File › New project…)")
@@ -37,7 +38,7 @@ def new_project(window, path: str | Path | None = None) -> bool:
             return False
         path = path if path.endswith(".usvips") else path + ".usvips"
     try:
-        Project.create(path).close()
+        create_project(path).close()
     except UsvipsError as error:
         window.show_message("error", str(error))
         return False

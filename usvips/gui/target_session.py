@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.app import board_calibration as boards
+from usvips.app.calibrations import read_calibration
 from usvips.app.video_project import open_streams
 from usvips.core import calibration_views
 from usvips.core.calibration import CalibrationOptions
@@ -27,7 +28,6 @@ from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.calibration_targets import CalibrationTarget, StereoView, from_description
 from usvips.core.calibration_views import Coverage
 from usvips.core.errors import InvalidParameterError, UsvipsError
-from usvips.io.calibration_file import calibration_from_dict
 from usvips.io.images import read_image
 from usvips.io.video_stream import PairReader
 from usvips.store.interface import ProjectStore
@@ -208,7 +208,7 @@ class TargetSession:
     def base(self):
         if self.base_id is None:
             return None
-        return calibration_from_dict(self.project.calibration(self.base_id), f"calibration {self.base_id}")
+        return read_calibration(self.project, self.base_id)
 
     def calibration_job(self) -> Callable[..., boards.BoardCalibration]:
         """A job calibrating from the ticked views (the adjustment itself cannot be interrupted: a cancel

@@ -30,6 +30,7 @@ from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
+from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
@@ -310,6 +311,16 @@ class ProjectStore(Protocol):
 
     def georeference(self) -> Georeference | None:
         """The object frame's georeference; None when none was entered."""
+        ...
+
+    # ------------------------------------------------------------------------ campaign (GlobalArchive)
+    def set_campaign(self, campaign: Campaign | None) -> None:
+        """Store (None: remove) the campaign the project's deployments belong to (GlobalArchive's CampaignID,
+        Project, method, sampling design, submitter, dates …; kept as JSON, no schema of its own)."""
+        ...
+
+    def campaign(self) -> Campaign | None:
+        """The stored campaign; None when none was entered."""
         ...
 
     # ------------------------------------------------------------------------ vocabularies, lists, settings

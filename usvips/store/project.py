@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.core.campaign import Campaign
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
@@ -57,6 +58,8 @@ from usvips.store.records import (  # noqa: F401 - re-exported
 from usvips.store.schema import SCHEMA_VERSION, migrate
 
 FORMAT = "usvips-project"
+#: the ``meta`` key holding the campaign (JSON of :class:`~usvips.core.campaign.Campaign`)
+CAMPAIGN_KEY = "campaign"
 SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
@@ -1314,3 +1317,23 @@ class Project:
         rows = self._query("SELECT latitude, longitude, depth_m, heading_deg FROM georeference")
         return Georeference(*rows[0]) if rows else None
 
+    # ---------------------------------------------------------------------------- campaign (GlobalArchive)
+    def set_campaign(self, campaign: Campaign | None) -> None:
+        """Store (or with None remove) the campaign the project's deployments belong to, as JSON in the
+        ``meta`` table (key ``campaign``: no schema change, every backend and a push/pull carry it)."""
+        if campaign is None:
+            self._edit("DELETE FROM meta WHERE key = ?", (CAMPAIGN_KEY,))
+        else:
+            self._edit("INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                       (CAMPAIGN_KEY, json.dumps(campaign.to_dict(), ensure_ascii=False, sort_keys=True)))
+
+    def campaign(self) -> Campaign | None:
+        """The stored campaign; None when none was entered. A damaged record is a :class:`ProjectError`."""
+        rows = self._query("SELECT value FROM meta WHERE key = ?", (CAMPAIGN_KEY,))
+        if not rows:
+            return None
+        try:
+            return Campaign.from_dict(json.loads(rows[0][0]))
+        except (ValueError, TypeError) as error:  # bad JSON, or values a Campaign refuses
+            raise ProjectError(f"{self.path}: the stored campaign cannot be read ({error}); set it again "
+                               "(usvips project set-campaign)") from None

@@ -1,0 +1,144 @@
+"""The double-read report read from a project: two annotators' objects (their creator), species from the
+observation records, figures from the one function every view uses (project_figures.evaluate)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from usvips.app.double_read import COLUMNS, annotators, double_read
+from usvips.app.project_figures import measure_stored
+from usvips.core.errors import InvalidParameterError
+from usvips.core.observation_record import ObservationRecord
+from usvips.store.opening import create_project
+from usvips.store.records import Vertex
+
+SIGMA_XYZ = 0.003  # m, each vertex coordinate
+
+
+def _fish(rng, snout, fork, pair):
+    """A length object's vertices with stored 3-D values and covariances (no calibration: the per-vertex path)."""
+    covariance = np.eye(3) * SIGMA_XYZ ** 2
+    return [Vertex(0, 0, 0, 0, tuple(map(float, p + rng.normal(0, SIGMA_XYZ, 3))), covariance, None, pair)
+            for p in (snout, fork)]
+
+
+@pytest.fixture
+def survey(tmp_path):
+    """Pairs p1, p2; 40 fish; 'ann' reads all but 3, 'bob' all but 4 others; bob misreads 2 lengths by 10 cm
+    and names another species for 1; ann leaves one object without 3-D values."""
+    rng = np.random.default_rng(5)
+    project = create_project(tmp_path / "survey.usvips")
+    for label in ("p1", "p2"):
+        project.add_pair(label)
+    fish = []
+    for n in range(40):
+        pair = "p1" if n % 2 else "p2"
+        snout = np.array([rng.uniform(-1.5, 1.5), rng.uniform(-1, 1), rng.uniform(2, 5)])
+        direction = rng.normal(size=3)
+        fork = snout + rng.uniform(0.15, 0.6) * direction / np.linalg.norm(direction)
+        fish.append((pair, snout, fork, ("Pagrus", "auratus") if n % 3 else ("Coris", "auricularis")))
+    plan = {"ann": set(range(40)) - {0, 1, 2}, "bob": set(range(40)) - {3, 4, 5, 6}}
+    ids: dict[tuple[str, int], int] = {}
+    for reader, which in plan.items():
+        for n in sorted(which):
+            pair, snout, fork = fish[n][:3]
+            if reader == "bob" and n in (10, 11):  # a misread fork: 10 cm longer along the fish
+                fork = fork + 0.1 * (fork - snout) / np.linalg.norm(fork - snout)
+            (ids[reader, n],) = project.add_objects([("length", _fish(rng, snout, fork, pair), "", "", reader)])
+            genus, species = fish[n][3]
+            if reader == "bob" and n == 20:
+                genus, species = "Chromis", "hypsilepis"
+            project.set_record(ids[reader, n], ObservationRecord(genus=genus, species=species))
+    broken = project.add_objects([("length", [Vertex(1, 2, 3, 4, pair="p1"), Vertex(5, 6, 7, 8, pair="p1")], "", "",
+                                   "ann")])[0]
+    yield project, ids, broken
+    project.close()
+
+
+def test_the_report_pairs_the_readers_and_finds_what_was_planted(survey):
+    project, ids, broken = survey
+    assert annotators(project) == {"ann": 38, "bob": 36}
+    report = double_read(project, "ann", "bob", tolerance_s=0.5, gate_m=0.1, k=2.0)
+    rows = report.rows()
+    assert all(set(row) == set(COLUMNS) for row in rows)
+    by_kind: dict[str, set] = {}
+    for row in rows:
+        by_kind.setdefault(row["row"], set()).add((row["object_a"], row["object_b"]))
+    assert {(ids["ann", n], ids["bob", n]) for n in (10, 11)} <= by_kind["disagreement"]
+    assert by_kind["species conflict"] == {(ids["ann", 20], ids["bob", 20])}
+    assert by_kind["unmatched A"] == {(ids["ann", n], None) for n in (3, 4, 5, 6, 20)}
+    assert by_kind["unmatched B"] == {(None, ids["bob", n]) for n in (0, 1, 2, 20)}
+    matched = by_kind["agreement"] | by_kind["disagreement"]
+    assert matched == {(ids["ann", n], ids["bob", n]) for n in set(range(7, 40)) - {20}}
+    # the figures are those of the one function every view and export uses
+    for row in rows:
+        for side in ("a", "b"):
+            if row[f"object_{side}"] is not None:
+                figure = measure_stored(project, project.object(row[f"object_{side}"])).main
+                assert (row[f"value_{side}"], row[f"sigma_{side}"]) == (figure.value, figure.sigma)
+    assert [line for line in report.summary() if "no figure" in line] == [
+        f"no figure, left out: ann: object {broken}: it has vertices without 3-D coordinates"]
+    agreement = report.comparison.agreement
+    assert agreement.n_a == 37 and agreement.n_b == 36 and agreement.n_matched == 32
+    assert math.isclose(agreement.species_agreement, 32 / 33)
+    assert {row["source"] for row in rows} == {"pair p1", "pair p2"}
+
+
+def test_unknown_or_repeated_readers_are_named(survey):
+    project = survey[0]
+    with pytest.raises(InvalidParameterError, match="annotator 'carol' measured no object.*'ann', 'bob'"):
+        double_read(project, "ann", "carol")
+    with pytest.raises(InvalidParameterError, match="two different annotators"):
+        double_read(project, "ann", "ann")
+    with pytest.raises(InvalidParameterError, match="parameter k"):
+        double_read(project, "ann", "bob", k=-2)
+
+
+def test_reading_and_computing_are_split_with_progress_and_a_cancel_that_stops(survey):
+    from usvips.app.double_read import ReportCancelled, compute, read_inputs
+
+    project = survey[0]
+    inputs = read_inputs(project, "ann", "bob")
+    assert len(inputs.a.sources) == 38 and len(inputs.b.sources) == 36
+    fractions: list[float] = []
+    report = compute(inputs, gate_m=0.1, progress=fractions.append)
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and len(fractions) > 2
+    whole = double_read(project, "ann", "bob", gate_m=0.1)
+    assert report.comparison.agreement == whole.comparison.agreement
+    asked = []
+
+    def cancelled() -> bool:
+        asked.append(1)
+        return len(asked) > 5
+
+    with pytest.raises(ReportCancelled, match="cancelled after 5 of 74 objects"):
+        compute(inputs, gate_m=0.1, cancelled=cancelled)
+    assert len(asked) == 6  # it stopped at once
+
+
+def test_on_a_video_the_instant_is_the_time_within_the_tolerance(tmp_path):
+    project = create_project(tmp_path / "video.usvips")
+    try:
+        (tmp_path / "v0.mp4").write_bytes(b"video")
+        chapters = [(tmp_path / "v0.mp4", 1000, 40.0)]
+        project.add_video("dive", chapters, chapters, 25.0, 1000, (64, 48))
+        covariance = np.eye(3) * 1e-6
+
+        def fish(reader, frame, time_s):
+            vertices = [Vertex(0, 0, 0, 0, xyz, covariance, None, None, "dive", frame, frame, time_s)
+                        for xyz in ((0.0, 0.0, 3.0), (0.3, 0.0, 3.0))]
+            return project.add_objects([("length", vertices, "", "", reader)])[0]
+
+        a1, a2 = fish("ann", 250, 10.0), fish("ann", 500, 20.0)
+        b1, b2 = fish("bob", 255, 10.2), fish("bob", 520, 20.8)
+        rows = double_read(project, "ann", "bob", tolerance_s=0.5).rows()
+        assert {(r["row"], r["object_a"], r["object_b"]) for r in rows} == {
+            ("agreement", a1, b1), ("unmatched A", a2, None), ("unmatched B", None, b2)}
+        assert {r["source"] for r in rows} == {"video dive"} and sorted(r["time_s"] for r in rows) == [10.0, 20.0, 20.8]
+        wider = double_read(project, "ann", "bob", tolerance_s=1.0).comparison.agreement
+        assert wider.n_matched == 2
+    finally:
+        project.close()

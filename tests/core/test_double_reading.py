@@ -1,0 +1,187 @@
+"""Double reading, against simulated readers: two noisy readings of the same fish, with planted
+disagreements, fish only one reader measured, species mistakes and fish schooling close together."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from usvips.core.double_reading import LIMITS_Z, ReaderObjects, compare_readers, match_objects
+from usvips.core.errors import InvalidParameterError
+
+SPECIES = np.array(["Pagrus auratus", "Coris auricularis", "Chrysophrys auratus", ""], dtype=object)
+
+
+def _survey(rng: np.random.Generator, n_fish: int):
+    """Fish on two videos and one image pair: source, species, time (NaN on the pair), midpoint, length;
+    a third of them in tight schools (same time and species, 6–15 cm apart)."""
+    source = rng.choice(np.array(["video A", "video B", "pair 3"], dtype=object), n_fish)
+    species = rng.choice(SPECIES, n_fish)
+    time_s = np.where(source == "pair 3", np.nan, rng.uniform(0, 900, n_fish))
+    midpoint = np.column_stack([rng.uniform(-2, 2, n_fish), rng.uniform(-1, 1, n_fish), rng.uniform(1.5, 6, n_fish)])
+    for i in range(0, n_fish // 3, 2):  # fish i + 1 schools with fish i
+        source[i + 1], species[i + 1], time_s[i + 1] = source[i], species[i], time_s[i]
+        direction = rng.normal(size=3)
+        midpoint[i + 1] = midpoint[i] + rng.uniform(0.06, 0.15) * direction / np.linalg.norm(direction)
+    length = rng.uniform(0.1, 0.8, n_fish)
+    return source, species, time_s, midpoint, length
+
+
+def _reading(rng, fish, survey, offsets, species_override=None) -> ReaderObjects:
+    """One reader's objects: the fish ``fish`` (indices) read with their own σ, midpoint noise 5 mm,
+    time noise of a few frames, and length offsets (m) added where planted."""
+    source, species, time_s, midpoint, length = survey
+    n = len(fish)
+    sigma = rng.uniform(0.004, 0.03, n)
+    read_species = species[fish].copy() if species_override is None else species_override
+    return ReaderObjects(ids=np.arange(n) + 1000, source=source[fish], kind=np.full(n, "length", dtype=object),
+                         species=read_species, time_s=time_s[fish] + rng.uniform(-0.15, 0.15, n),
+                         midpoint=midpoint[fish] + rng.normal(0, 0.005, (n, 3)),
+                         value=length[fish] + rng.normal(0, sigma) + offsets, sigma=sigma)
+
+
+def test_planted_disagreements_and_unmatched_objects_are_found_and_false_alarms_are_near_nominal():
+    rng = np.random.default_rng(20261126)
+    honest_z, flagged_honest, trials = [], 0, 60
+    for _ in range(trials):
+        n_fish = int(rng.integers(40, 120))
+        survey = _survey(rng, n_fish)
+        order = rng.permutation(n_fish)
+        only_a, only_b = order[:5], order[5:9]
+        wrong_species = order[9:12]  # B names another species: matched on place and time, not as the same fish
+        planted = order[12:18]  # B's length off by 7–12 combined σ
+        both = order[12:]
+        fish_a = np.concatenate([both, only_a, wrong_species])
+        fish_b = np.concatenate([both, only_b, wrong_species])
+        a = _reading(rng, fish_a, survey, 0.0)
+        # B's σ first, so the planted offset can be given in combined σ
+        sigma_b = rng.uniform(0.004, 0.03, len(fish_b))
+        offsets = np.zeros(len(fish_b))
+        combined = np.hypot(a.sigma[:len(planted)], sigma_b[:len(planted)])
+        offsets[:len(planted)] = rng.choice([-1, 1], len(planted)) * rng.uniform(7, 12, len(planted)) * combined
+        b_species = survey[1][fish_b].copy()
+        b_species[-len(wrong_species):] = [SPECIES[(list(SPECIES).index(s) + 1) % len(SPECIES)]
+                                           for s in b_species[-len(wrong_species):]]
+        source, species, time_s, midpoint, length = survey
+        b = ReaderObjects(ids=np.arange(len(fish_b)), source=source[fish_b],
+                          kind=np.full(len(fish_b), "length", dtype=object), species=b_species,
+                          time_s=time_s[fish_b] + rng.uniform(-0.15, 0.15, len(fish_b)),
+                          midpoint=midpoint[fish_b] + rng.normal(0, 0.005, (len(fish_b), 3)),
+                          value=length[fish_b] + rng.normal(0, sigma_b) + offsets, sigma=sigma_b)
+        # shuffle B's rows: the matching must not lean on the order
+        shuffle = rng.permutation(len(b))
+        b = ReaderObjects(*(getattr(b, f)[shuffle] for f in ("ids", "source", "kind", "species", "time_s",
+                                                             "midpoint", "value", "sigma")))
+        report = compare_readers(a, b, tolerance_s=0.5, gate_m=0.04, k=2.0)
+
+        fish_of_a, fish_of_b = fish_a, fish_b[shuffle]
+        matched = {(int(fish_of_a[i]), int(fish_of_b[j])) for i, j in report.pairs}
+        assert matched == {(int(f), int(f)) for f in both}  # every fish both read, each to itself
+        assert set(fish_of_a[report.unmatched_a]) == set(only_a) | set(wrong_species)
+        assert set(fish_of_b[report.unmatched_b]) == set(only_b) | set(wrong_species)
+        assert {(int(fish_of_a[i]), int(fish_of_b[j])) for i, j in report.species_conflicts} == \
+            {(int(f), int(f)) for f in wrong_species}
+        is_planted = np.isin(fish_of_a[report.pairs[:, 0]], planted)
+        assert np.all(report.flagged[is_planted])  # every planted disagreement is found
+        flagged_honest += int(np.sum(report.flagged[~is_planted]))
+        honest_z.extend(report.difference[~is_planted] / report.combined_sigma[~is_planted])
+        agreement = report.agreement
+        assert agreement.n_matched == len(both)
+        assert math.isclose(agreement.matched_share, 2 * len(both) / (len(a) + len(b)))
+        assert math.isclose(agreement.species_agreement, len(both) / (len(both) + len(wrong_species)))
+        assert math.isclose(agreement.share_within_k, 1 - np.mean(report.flagged))
+    honest_z = np.array(honest_z)
+    nominal = math.erfc(2 / math.sqrt(2))  # P(|z| > 2) = 4.55 %
+    rate = flagged_honest / len(honest_z)
+    standard_error = math.sqrt(nominal * (1 - nominal) / len(honest_z))
+    assert len(honest_z) > 3000
+    assert abs(rate - nominal) < 4 * standard_error, (rate, nominal)
+    assert abs(np.mean(honest_z ** 2) - 1) < 0.1  # honest σ: mean squared normalised difference near 1
+
+
+def test_bland_altman_limits_and_shares_follow_the_readers_spread():
+    rng = np.random.default_rng(7)
+    trials, inside = 200, 0
+    for _ in range(trials):
+        n = 60
+        survey = _survey(rng, n)
+        a = _reading(rng, np.arange(n), survey, 0.0)
+        b = _reading(rng, np.arange(n), survey, 0.0)
+        agreement = compare_readers(a, b, gate_m=0.04).agreement
+        spread = np.sqrt(np.mean(a.sigma ** 2 + b.sigma ** 2))  # SD of a − b over these fish
+        low, high = agreement.limits
+        assert math.isclose(high - low, 2 * LIMITS_Z * agreement.sd_difference)
+        assert abs(agreement.sd_difference / spread - 1) < 0.4
+        inside += abs(agreement.mean_difference) < 2 * spread / math.sqrt(n)  # unbiased readers
+    assert inside / trials > 0.9
+    assert agreement.n_matched == n and agreement.matched_share == 1.0
+
+
+def test_a_constant_bias_of_one_reader_moves_the_mean_difference_not_the_sd():
+    rng = np.random.default_rng(11)
+    survey = _survey(rng, 400)
+    a = _reading(rng, np.arange(400), survey, 0.0)
+    b = _reading(rng, np.arange(400), survey, -0.02)  # B reads 2 cm short
+    agreement = compare_readers(a, b, gate_m=0.04).agreement
+    spread = np.sqrt(np.mean(a.sigma ** 2 + b.sigma ** 2))
+    assert abs(agreement.mean_difference - 0.02) < 4 * spread / math.sqrt(400)
+    assert abs(agreement.sd_difference / spread - 1) < 0.15
+
+
+def test_the_nearest_midpoint_wins_and_the_gate_and_tolerance_are_respected():
+    def reader(times, points, species=("x",) * 2, source=("v",) * 2):
+        n = len(times)
+        return ReaderObjects(np.arange(n), list(source), ["length"] * n, list(species), times, points,
+                             np.full(n, 0.3), np.full(n, 0.01))
+
+    a = reader([10.0, 10.0], [[0, 0, 2], [0.1, 0, 2]])
+    b = reader([10.1, 10.0], [[0.09, 0, 2], [0.01, 0, 2]])
+    assert match_objects(a, b, 0.5, 0.05).tolist() == [[0, 1], [1, 0]]
+    assert match_objects(a, b, 0.5, 0.005).tolist() == []  # beyond the gate
+    late = reader([11.0, 11.0], [[0.09, 0, 2], [0.01, 0, 2]])
+    assert match_objects(a, late, 0.5, 0.05).tolist() == []  # another instant
+    assert match_objects(a, late, 1.0, 0.05).tolist() == [[0, 1], [1, 0]]
+    elsewhere = reader([10.0, 10.0], [[0.09, 0, 2], [0.01, 0, 2]], source=("w", "w"))
+    assert match_objects(a, elsewhere, 0.5, 0.05).tolist() == []  # another video
+    pair = reader([np.nan, np.nan], [[0, 0, 2], [0.1, 0, 2]])
+    assert match_objects(pair, pair, 0.0, 0.05).tolist() == [[0, 0], [1, 1]]  # an image pair: no time
+    assert match_objects(pair, a, 0.5, 0.05).tolist() == []  # untimed against timed: not one instant
+
+
+def test_nothing_to_compare_gives_counts_and_nan_statistics():
+    a = ReaderObjects.empty()
+    b = ReaderObjects(np.arange(2), ["v", "v"], ["length"] * 2, ["x", "x"], [1.0, 2.0], np.zeros((2, 3)),
+                      [0.2, 0.3], [0.01, 0.01])
+    report = compare_readers(a, b)
+    assert report.pairs.shape == (0, 2) and report.unmatched_b.tolist() == [0, 1]
+    assert report.agreement.n_a == 0 and report.agreement.n_b == 2 and report.agreement.matched_share == 0.0
+    assert math.isnan(report.agreement.mean_difference) and math.isnan(report.agreement.species_agreement)
+    assert math.isnan(compare_readers(a, a).agreement.matched_share)
+
+
+@pytest.mark.parametrize(("arguments", "name"), [({"k": -1.0}, "k"), ({"k": 0.0}, "k"), ({"gate_m": 0.0}, "gate_m"),
+                                                 ({"tolerance_s": math.nan}, "tolerance_s"),
+                                                 ({"gate_m": math.inf}, "gate_m")])
+def test_bad_parameters_are_named(arguments, name):
+    with pytest.raises(InvalidParameterError, match=name):
+        compare_readers(ReaderObjects.empty(), ReaderObjects.empty(), **arguments)
+
+
+def test_bad_arrays_are_named():
+    with pytest.raises(InvalidParameterError, match="midpoint"):
+        ReaderObjects([1], ["v"], ["length"], ["x"], [0.0], [[0.0, 0.0]], [0.2], [0.01])
+    with pytest.raises(InvalidParameterError, match="sigma"):
+        ReaderObjects([1], ["v"], ["length"], ["x"], [0.0], [[0.0, 0.0, 1.0]], [0.2], [-0.01])
+    with pytest.raises(InvalidParameterError, match="value"):
+        ReaderObjects([1], ["v"], ["length"], ["x"], [0.0], [[0.0, 0.0, 1.0]], [math.nan], [0.01])
+
+
+def test_the_assignment_pairs_the_most_objects_before_the_nearest():
+    # a0 is nearest b0 but also within the gate of b1; a1 is within the gate of b0 only
+    a = ReaderObjects([0, 1], ["v", "v"], ["length"] * 2, ["x", "x"], [1.0, 1.0], [[0, 0, 2], [0.08, 0, 2]],
+                      [0.3, 0.3], [0.01, 0.01])
+    b = ReaderObjects([0, 1], ["v", "v"], ["length"] * 2, ["x", "x"], [1.0, 1.0], [[0.03, 0, 2], [-0.06, 0, 2]],
+                      [0.3, 0.3], [0.01, 0.01])
+    assert match_objects(a, b, 0.5, 0.07).tolist() == [[0, 1], [1, 0]]

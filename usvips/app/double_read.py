@@ -1,0 +1,252 @@
+"""The double-read report of a survey: the objects two annotators (readers) measured on the same videos
+and image pairs, paired and compared (:mod:`usvips.core.double_reading`), for the command line
+(``usvips project double-read``) and the window's dialog alike.
+
+Reading goes through the :class:`~usvips.store.interface.ProjectStore` protocol only (any backend). Each
+object's figure and its σ come from :func:`usvips.app.project_figures.evaluate` — the one function the
+object list, the calculator and every export use (an object measured on several instants is compared
+with its combined figure). A reader is an object's creator (``StoredObject.creator``); the species is its
+observation record's ``Genus species`` ('' when it has none); the instant is its first vertex's time on
+a video (seconds), none on an image pair (the pair is the instant); its place is the mean of its
+vertices (metres, in the frame its video or pair measures in).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from usvips.app.object_instants import survey_objects
+from usvips.app.project_figures import MeasurementInput, evaluate, instants_by_object, measurement_input
+from usvips.core.double_reading import DoubleReading, ReaderObjects, check_parameters, compare_readers
+from usvips.core.errors import InvalidParameterError, UsvipsError
+from usvips.core.measurements import Measurement, QualityRules
+from usvips.store.interface import ProjectStore
+from usvips.store.records import StoredObject
+
+#: the report's table columns (CSV and dialog alike); lengths and σ in metres
+COLUMNS = ["row", "object_a", "object_b", "source", "time_s", "species", "kind", "value_a", "sigma_a", "value_b",
+           "sigma_b", "difference", "combined_sigma", "normalised"]
+
+#: what a row of the report is, in the order the report lists them
+ROW_KINDS = ("disagreement", "species conflict", "unmatched A", "unmatched B", "agreement")
+
+
+class ReportCancelled(UsvipsError):
+    """The report's computation stopped because it was cancelled (``cancelled()`` turned true)."""
+
+
+@dataclass(frozen=True)
+class ReaderRead:
+    """One reader's objects as compared (:class:`ReaderObjects`), where each was measured (a person's
+    words, e.g. "video V frame F"), and the objects that have no figure (one line each: "object N: why")."""
+
+    name: str
+    objects: ReaderObjects
+    where: list[str]
+    skipped: list[str]
+
+
+@dataclass(frozen=True)
+class DoubleReadReport:
+    """Two readers' objects compared: the readers, the parameters (``tolerance_s`` s, ``gate_m`` m, ``k``)
+    and the comparison (:class:`~usvips.core.double_reading.DoubleReading`)."""
+
+    a: ReaderRead
+    b: ReaderRead
+    tolerance_s: float
+    gate_m: float
+    k: float
+    comparison: DoubleReading
+
+    def rows(self) -> list[dict]:
+        """The report's table (:data:`COLUMNS`): the flagged pairs, the species conflicts, each reader's
+        unmatched objects, then the pairs that agree; object ids are the stored ids (None: no object)."""
+        c, a, b = self.comparison, self.a.objects, self.b.objects
+        out = []
+        for (i, j), difference, sigma, flagged in zip(c.pairs, c.difference, c.combined_sigma, c.flagged, strict=True):
+            normalised = difference / sigma if sigma > 0 else (0.0 if difference == 0 else math.inf)
+            out.append(_row("disagreement" if flagged else "agreement", a, i, b, j, difference, sigma, normalised))
+        for i, j in c.species_conflicts:
+            out.append(_row("species conflict", a, i, b, j))
+        out += [_row("unmatched A", a, i, None, None) for i in c.unmatched_a]
+        out += [_row("unmatched B", None, None, b, j) for j in c.unmatched_b]
+        return sorted(out, key=lambda r: ROW_KINDS.index(r["row"]))
+
+    def summary(self) -> list[str]:
+        """The agreement statistics as lines for a person (lengths in mm)."""
+        s, c = self.comparison.agreement, self.comparison
+
+        def mm(value: float, sign: str = "+") -> str:
+            return "—" if math.isnan(value) else f"{1000 * value:{sign}.1f} mm"
+
+        def share(value: float) -> str:
+            return "—" if math.isnan(value) else f"{100 * value:.1f} %"
+
+        return [
+            f"readers: A {self.a.name!r} ({_count(s.n_a, 'object')}), B {self.b.name!r} ({_count(s.n_b, 'object')}); "
+            f"tolerance {self.tolerance_s:g} s, gate {self.gate_m:g} m, k {self.k:g}",
+            f"matched: {_count(s.n_matched, 'pair')} ({share(s.matched_share)} of the objects); unmatched: "
+            f"{len(c.unmatched_a)} of A, {len(c.unmatched_b)} of B",
+            f"differences A − B: mean {mm(s.mean_difference)}, SD {mm(s.sd_difference, '')}; Bland–Altman limits of "
+            f"agreement {mm(s.limits[0])} … {mm(s.limits[1])}",
+            f"within combined σ: {share(s.share_within_sigma)}; within {self.k:g} σ: {share(s.share_within_k)}; "
+            f"flagged: {int(np.sum(c.flagged))}; RMS of normalised differences: "
+            + ("—" if math.isnan(s.rms_normalised) else f"{s.rms_normalised:.2f}"),
+            f"species agreement: {share(s.species_agreement)} of {_count(s.n_species_compared, 'object')} "
+            f"paired on place and time ({len(c.species_conflicts)} conflicts)",
+        ] + [f"no figure, left out: {line}" for line in self.a.skipped + self.b.skipped]
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def _row(what: str, a: ReaderObjects | None, i: int | None, b: ReaderObjects | None, j: int | None,
+         difference: float | None = None, sigma: float | None = None, normalised: float | None = None) -> dict:
+    first = a if a is not None else b
+    k = i if a is not None else j
+    return {"row": what, "object_a": None if a is None else int(a.ids[i]),
+            "object_b": None if b is None else int(b.ids[j]), "source": first.source[k],
+            "time_s": None if math.isnan(first.time_s[k]) else float(first.time_s[k]),
+            "species": (first.species[k] if what != "species conflict"
+                        else f"{a.species[i] or 'unidentified'} / {b.species[j] or 'unidentified'}"),
+            "kind": first.kind[k], "value_a": None if a is None else float(a.value[i]),
+            "sigma_a": None if a is None else float(a.sigma[i]), "value_b": None if b is None else float(b.value[j]),
+            "sigma_b": None if b is None else float(b.sigma[j]),
+            "difference": None if difference is None else float(difference),
+            "combined_sigma": None if sigma is None else float(sigma),
+            "normalised": None if normalised is None else float(normalised)}
+
+
+def annotators(project: ProjectStore) -> dict[str, int]:
+    """Every creator of the survey's objects → how many objects they made (each object once)."""
+    counts: dict[str, int] = {}
+    for stored in survey_objects(project):
+        counts[stored.creator] = counts.get(stored.creator, 0) + 1
+    return dict(sorted(counts.items()))
+
+
+def _source_and_time(project: ProjectStore, stored: StoredObject, fps: dict[str, float]) -> tuple[str, float]:
+    vertex = stored.vertices[0]
+    if vertex.video is not None:
+        if vertex.time_s is not None:
+            return f"video {vertex.video}", float(vertex.time_s)
+        if vertex.video not in fps:
+            fps[vertex.video] = float(project.video(vertex.video)["fps"])
+        return f"video {vertex.video}", float(vertex.frame_left or 0) / fps[vertex.video]
+    return (f"pair {vertex.pair}" if vertex.pair is not None else ""), math.nan
+
+
+@dataclass(frozen=True)
+class ReaderInput:
+    """What one reader's comparison needs, copied out of the project (:func:`read_inputs`): per object its
+    :class:`~usvips.app.project_figures.MeasurementInput`, species, source ("video V" / "pair P") and
+    instant (s; NaN on an image pair)."""
+
+    name: str
+    sources: tuple[MeasurementInput, ...]
+    species: tuple[str, ...]
+    places: tuple[str, ...]
+    times: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class DoubleReadInput:
+    """Both readers' :class:`ReaderInput` (read on the project's thread; :func:`compute` runs anywhere)."""
+
+    a: ReaderInput
+    b: ReaderInput
+
+
+def _reader_input(project: ProjectStore, reader: str, objects: list[StoredObject]) -> ReaderInput:
+    records = project.records()
+    instants = instants_by_object(project)
+    cache: dict = {}
+    fps: dict[str, float] = {}
+    sources, species, places, times = [], [], [], []
+    for stored in objects:
+        if stored.creator != reader or not stored.vertices:
+            continue
+        sources.append(measurement_input(project, stored, cache, instants=instants))
+        record = records.get(stored.id)
+        species.append("" if record is None else f"{record.genus} {record.species}".strip())
+        place, time_s = _source_and_time(project, stored, fps)
+        places.append(place)
+        times.append(time_s)
+    return ReaderInput(reader, tuple(sources), tuple(species), tuple(places), tuple(times))
+
+
+def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleReadInput:
+    """Copy what the comparison of annotators ``reader_a`` and ``reader_b`` needs out of ``project`` (call
+    on the project's thread). A reader who made no object of the survey, or the same reader twice, is an
+    error naming them (and who did make objects)."""
+    if reader_a == reader_b:
+        raise InvalidParameterError("--readers", f"give two different annotators, got {reader_a!r} twice")
+    objects = survey_objects(project)
+    present = {o.creator for o in objects}
+    for name in (reader_a, reader_b):
+        if name not in present:
+            known = ", ".join(repr(n) for n in sorted(present)) or "nobody: it has no objects"
+            raise InvalidParameterError("--readers", f"{project.path}: annotator {name!r} measured no object of "
+                                        f"this survey (objects were measured by {known})")
+    return DoubleReadInput(_reader_input(project, reader_a, objects), _reader_input(project, reader_b, objects))
+
+
+def _reader_read(reader: ReaderInput, rules: QualityRules | None, step: Callable[[], None]) -> ReaderRead:
+    columns: dict[str, list] = {name: [] for name in ("ids", "source", "kind", "species", "time_s", "midpoint",
+                                                       "value", "sigma")}
+    where, skipped = [], []
+    for source, species, place, time_s in zip(reader.sources, reader.species, reader.places, reader.times,
+                                              strict=True):
+        step()
+        try:
+            measured: Measurement = evaluate(source, rules)
+        except UsvipsError as error:
+            skipped.append(f"{reader.name}: {error}")
+            continue
+        for name, value in (("ids", int(source.id)), ("source", place), ("kind", measured.kind),
+                            ("species", species), ("time_s", time_s),
+                            ("midpoint", np.mean(measured.points, axis=0)), ("value", measured.main.value),
+                            ("sigma", measured.main.sigma)):
+            columns[name].append(value)
+        where.append(source.where)
+    objects = ReaderObjects(**columns) if columns["ids"] else ReaderObjects.empty()
+    return ReaderRead(reader.name, objects, where, skipped)
+
+
+def compute(inputs: DoubleReadInput, tolerance_s: float = 0.5, gate_m: float = 0.3, k: float = 2.0,
+            rules: QualityRules | None = None, progress: Callable[[float], None] | None = None,
+            cancelled: Callable[[], bool] | None = None) -> DoubleReadReport:
+    """The report (pure; any thread): each object's figure and σ by :func:`evaluate`, then
+    :func:`~usvips.core.double_reading.compare_readers`. ``progress`` gets the fraction done; when
+    ``cancelled()`` turns true the work stops with :class:`ReportCancelled`."""
+    check_parameters(tolerance_s, gate_m, k)  # before the long part
+    total = max(1, len(inputs.a.sources) + len(inputs.b.sources))
+    done = [0]
+
+    def step() -> None:
+        if cancelled is not None and cancelled():
+            raise ReportCancelled(f"the double-read report was cancelled after {done[0]} of {total} objects")
+        done[0] += 1
+        if progress is not None and done[0] % 20 == 0:
+            progress(done[0] / total)
+
+    a = _reader_read(inputs.a, rules, step)
+    b = _reader_read(inputs.b, rules, step)
+    report = DoubleReadReport(a, b, float(tolerance_s), float(gate_m), float(k),
+                              compare_readers(a.objects, b.objects, tolerance_s, gate_m, k))
+    if progress is not None:
+        progress(1.0)
+    return report
+
+
+def double_read(project: ProjectStore, reader_a: str, reader_b: str, tolerance_s: float = 0.5,
+                gate_m: float = 0.3, k: float = 2.0, rules: QualityRules | None = None) -> DoubleReadReport:
+    """:func:`read_inputs` then :func:`compute`: compare the objects of annotators ``reader_a`` and
+    ``reader_b`` (see the module docstring)."""
+    check_parameters(tolerance_s, gate_m, k)
+    return compute(read_inputs(project, reader_a, reader_b), tolerance_s, gate_m, k, rules)
