@@ -11,6 +11,7 @@ from usvips.cli.common import add_annotator_option
 from usvips.cli.project_check import register_check_action
 from usvips.cli.project_history import register_history_action
 from usvips.cli.project_media import register_project_actions
+from usvips.cli.project_review import register_review_action
 from usvips.cli.project_sync import register_sync_actions
 from usvips.core.errors import InputFileError, UsvipsError
 
@@ -75,6 +76,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     register_check_action(actions)  # check: usvips/cli/project_check.py
     register_sync_actions(actions)  # push, pull: usvips/cli/project_sync.py
     register_history_action(actions)  # history: usvips/cli/project_history.py
+    register_review_action(actions)  # review: usvips/cli/project_review.py
 
 
 def run_new(args: argparse.Namespace) -> int:

@@ -1,5 +1,5 @@
 """``usvips project history PROJECT [--object ID] [--json]``: the append-only history of a project's
-objects (every add, edit, re-pick, delete, put back and observation record set), oldest first, one
+objects (every add, edit, re-pick, delete, put back, observation record set and review), oldest first, one
 line per change; ``--json`` prints every entry whole (old and new values) as a JSON list. Works on a
 project file or a survey on a server (any location ``usvips.store.opening.open_project`` takes), read-only."""
 
@@ -79,6 +79,9 @@ def _what(entry: HistoryEntry) -> str:
         return _summary(entry.old)
     if entry.change == "record":
         return f"{_record(entry.old)} → {_record(entry.new)}"
+    if entry.change == "review":
+        reason = new.get("reason")
+        return f"{old.get('state', '?')} → {new.get('state', '?')}" + (f" ({reason})" if reason else "")
     parts = []
     for name in sorted(set(old) | set(new)):
         if name == "vertices":
