@@ -1000,7 +1000,7 @@ class Project:
         (:func:`usvips.app.video_project.verify_media`)."""
         if not self._has_table("media"):
             return []
-        rows = self._db.execute("SELECT path, size, sha256 FROM media ORDER BY path").fetchall()
+        rows = self._query("SELECT path, size, sha256 FROM media ORDER BY path")
         return [(stored, self.path.parent / stored, int(size), sha) for stored, size, sha in rows]
 
     def accept_media(self, stored: str) -> None:
@@ -1025,7 +1025,7 @@ class Project:
         full hash read only of the files found changed."""
         if not self._has_table("media"):
             return []
-        rows = self._db.execute("SELECT path, size, sha256 FROM media ORDER BY path").fetchall()
+        rows = self._query("SELECT path, size, sha256 FROM media ORDER BY path")
         owners = {sha: path for path, _, sha in rows}
         problems = []
         for stored, size, sha in rows:
@@ -1126,10 +1126,11 @@ class Project:
         self._edit("INSERT OR REPLACE INTO active_calibrations VALUES (?, ?)", (self.pair_id(label), calibration_id))
 
     def _video_row(self, label: str) -> tuple:
-        row = self._db.execute("SELECT id, label, fps, frame_count, width, height, offset_frames, offset_estimate, "
-                               "report FROM videos WHERE label = ?", (label,)).fetchone()
+        found = self._query("SELECT id, label, fps, frame_count, width, height, offset_frames, offset_estimate, "
+                            "report FROM videos WHERE label = ?", (label,))
+        row = found[0] if found else None
         if row is None:
-            known = [r[0] for r in self._db.execute("SELECT label FROM videos ORDER BY id")]
+            known = [r[0] for r in self._query("SELECT label FROM videos ORDER BY id")]
             raise ProjectError(f"{self.path}: no video pair {label!r}" + (f" (there are: {', '.join(known)})"
                                                                           if known else " (the project has no videos)"))
         return row
@@ -1143,8 +1144,8 @@ class Project:
         video = dict(zip(keys, row, strict=True))
         video["offset_estimate"] = json.loads(row[7]) if row[7] else None
         for camera in ("left", "right"):
-            files = self._db.execute("SELECT path, frame_count FROM video_files WHERE video_id = ? AND camera = ? "
-                                     "ORDER BY idx", (row[0], camera)).fetchall()
+            files = self._query("SELECT path, frame_count FROM video_files WHERE video_id = ? AND camera = ? "
+                                "ORDER BY idx", (row[0], camera))
             video[camera] = [r[0] for r in files]
             video[f"{camera}_frames"] = [r[1] for r in files]
         return video
@@ -1153,11 +1154,10 @@ class Project:
         """Every stereo video (none in a project older than schema 4, opened read-only)."""
         if not self._has_table("videos"):
             return []
-        return [self.video(r[0]) for r in self._db.execute("SELECT label FROM videos ORDER BY id").fetchall()]
+        return [self.video(r[0]) for r in self._query("SELECT label FROM videos ORDER BY id")]
 
     def _has_table(self, name: str) -> bool:
-        return self._db.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)
-                                ).fetchone() is not None
+        return bool(self._query("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)))
 
     def set_video_offset(self, label: str, frames: int, estimate: dict | None = None) -> None:
         """Left frame i and right frame i + ``frames`` show the same instant; ``estimate``: how it was found."""
