@@ -18,6 +18,7 @@ from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import exchange_dialogs, media_dialogs, qa_dock
+from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
@@ -30,11 +31,13 @@ from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.plan_view import PlanView
 from usvips.gui.planner_dock import PlannerDock
 from usvips.gui.qa_dock import QaDock
+from usvips.gui.review_dock import ReviewDock
 from usvips.gui.video_controls import VideoController
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
 from usvips.locations import resources_folder, sample_projects
+from usvips.store.annotator import annotating_as
 
 SAMPLES = sample_projects()
 #: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
@@ -70,7 +73,9 @@ class MainWindow(QtWidgets.QMainWindow):
         register_window(self)  # unexpected errors in Qt handlers are shown here (usvips.gui.app)
         self.workspace = workspace or Workspace()
         self.settings = settings or QtCore.QSettings("USVIPS", "usvips")
-        self.setWindowTitle("USVIPS")
+        #: who is annotating: every store write in the window is made as this name (File › Annotator…)
+        self.annotator = saved_annotator(self.settings)
+        self.setWindowTitle(self.title())
         self.setObjectName("usvips_main")
         self.pool = QtCore.QThreadPool(self)  # its own pool: finished with the window
         self.workers: set[Worker] = set()
@@ -156,6 +161,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["qa"] = self._dock("QA", self.qa, bottom)
         self.qa.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
         self.docks["qa"].visibilityChanged.connect(self.qa.on_shown)  # checked when its tab comes to the front
+        self.review = ReviewDock(ws)  # review mode: the unreviewed objects walked with the keyboard (issue 26)
+        self.docks["review"] = self._dock("Review", self.review, bottom)
+        self.review.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
+        self.review.reviewed.connect(self.object_list.show_review)
         self.docks["planner"] = self._dock("Precision planner", self.planner, right)
         self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
         self.docks["calculator"].raise_()
@@ -163,6 +172,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.tabifyDockWidget(self.docks["observation"], self.docks["plan"])
         self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
         self.tabifyDockWidget(self.docks["log"], self.docks["qa"])
+        self.tabifyDockWidget(self.docks["qa"], self.docks["review"])
         self.docks["objects"].raise_()
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
@@ -238,6 +248,10 @@ class MainWindow(QtWidgets.QMainWindow):
             "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
             "qa": self._action("&QA panel", self.show_qa, "Ctrl+Shift+Q", "the survey's objects that break a "
                                "quality rule: arrows and Enter go to each one's pair or frame"),
+            "review": self._action("&Review mode", self.show_review, "Ctrl+Shift+R", "walk the unreviewed objects: "
+                                   "N next, P previous, A accept, F flag, S skip, J or Enter go to it"),
+            "annotator": self._action("Annotator: &your name…", self.annotator_dialog, tip="who is annotating: every "
+                                      "object, pick, record and review made in this window is stamped with the name"),
         }
         # short toolbar labels (the menus keep the full names): the toolbar fits 1366 px without overflow
         for name, short in (("open", "Open"), ("snap", "Snap"), ("finish", "Finish"), ("box", "Box"),
@@ -286,6 +300,7 @@ class MainWindow(QtWidgets.QMainWindow):
         menu.addAction("Ex&port calibration (OpenCV)…", lambda: exchange_dialogs.export_calibration(self))
         menu.addAction("Calibration repor&t (PDF)…", lambda: exchange_dialogs.calibration_report(self))
         menu.addAction("&Deployment and georeference…", lambda: exchange_dialogs.edit_deployment(self))
+        menu.addAction(a["annotator"])
         self._fill_recent_menu()
         menu.addSeparator()
         menu.addAction(a["quit"])
@@ -299,6 +314,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for scale in LOUPE_SCALES:
             magnification.addAction(a[f"loupe_{scale}"])
         view.addAction(a["qa"])
+        view.addAction(a["review"])
         view.addSeparator()
         for dock in self.docks.values():
             view.addAction(dock.toggleViewAction())
@@ -446,7 +462,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.cancel_work()
         self.video.shutdown()  # the seek-proxy build in the background
         self.pool.waitForDone(5000)
-        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner, self.qa):
+        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner, self.qa,
+                      self.review):
             panel.cleanup()
         self.media_check.project_closed()
         self.workspace.close_project()
@@ -521,7 +538,8 @@ class MainWindow(QtWidgets.QMainWindow):
         if not self.confirm_drop_unfinished("open another project"):
             return False
         try:
-            project = open_project(path)
+            with annotating_as(self.annotator):  # the project's writes are made as the window's annotator
+                project = open_project(path)
         except UsvipsError as error:
             self.show_message("error", str(error))
             return False
@@ -531,7 +549,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.video.project_opened(project)
         self.media_check.project_opened(project)  # every media file read whole in a worker, changed ones named
         self._remember(project.path.resolve())
-        self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent}) — every step is saved as you go")
+        self.setWindowTitle(self.title())
         self.attribute_box.addItems(project.vocabulary())
         self.attribute_box.setCurrentIndex(-1)
         self.attribute_box.setEditText("")  # no term preselected: the user chooses
@@ -997,6 +1015,42 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["qa"].show()
         self.docks["qa"].raise_()
         self.qa.focus_list()
+
+    def show_review(self) -> None:
+        """Ctrl+Shift+R: show the review panel, its queue read afresh (the objects unreviewed now, also by
+        other annotators), and give it the keyboard (N, P, A, F, S, J work there)."""
+        self.docks["review"].show()
+        self.docks["review"].raise_()
+        self.review.load()
+        self.review.focus_queue()
+
+    def title(self) -> str:
+        """The title bar: the annotator, and the open project."""
+        project = self.workspace.project
+        if project is None:
+            return f"USVIPS — {self.annotator}"
+        return (f"USVIPS — {self.annotator} — {project.path.name} ({project.path.parent}) — every step is saved "
+                "as you go")
+
+    def annotator_dialog(self) -> None:
+        """File › Annotator: your name…: ask the name (kept in the settings for the next sessions)."""
+        dialog = AnnotatorDialog(self.annotator, self)
+        if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted:
+            self.set_annotator(dialog.name())
+
+    def set_annotator(self, name: str) -> bool:
+        """Work as ``name`` from now on: kept in the settings, shown in the title bar, and the annotator of
+        the open project's writes. A name that cannot be used is said in one line and changes nothing."""
+        try:
+            self.annotator = save_annotator(self.settings, name)
+        except UsvipsError as error:
+            self.show_message("error", str(error))
+            return False
+        if self.workspace.project is not None:
+            self.workspace.project.annotator = self.annotator
+        self.setWindowTitle(self.title())
+        self.show_message("info", f"annotating as {self.annotator}")
+        return True
 
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)
