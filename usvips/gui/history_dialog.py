@@ -11,7 +11,7 @@ from usvips.app.history_text import what_changed
 from usvips.core.errors import UsvipsError
 
 #: the table's columns
-COLUMNS = ("#", "when (UTC)", "who", "change", "what (old → new)")
+COLUMNS = ("#", "When (UTC)", "Who", "Change", "What (old → new)")
 
 
 def provenance_text(provenance: dict, review) -> str:
@@ -48,7 +48,7 @@ class HistoryDialog(QtWidgets.QDialog):
         self.summary.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
         self.table = QtWidgets.QTableWidget(0, len(COLUMNS))
         self.table.setObjectName("history_table")
-        self.table.setHorizontalHeaderLabels([c.capitalize() if c != "#" else c for c in COLUMNS])
+        self.table.setHorizontalHeaderLabels(list(COLUMNS))
         self.table.verticalHeader().hide()
         self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.NoEditTriggers)
         self.table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectionBehavior.SelectRows)

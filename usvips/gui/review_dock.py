@@ -117,7 +117,9 @@ class ReviewDock(QtWidgets.QWidget):
         self.list.setToolTip("N next, P previous, A accept, F flag (with a reason), S skip, J or Enter: go to it")
         self.list.currentRowChanged.connect(self._on_row)
         self.list.itemDoubleClicked.connect(lambda _: self.jump())
-        buttons = QtWidgets.QHBoxLayout()
+        buttons = QtWidgets.QHBoxLayout()  # one row over the queue: it stays in view in a low dock
+        buttons.addWidget(self.progress)
+        buttons.addSpacing(12)
         for text, slot, tip in (("&Previous", self.previous, "P"), ("&Next", self.next, "N"),
                                 ("&Accept", self.accept, "A"), ("&Flag…", self.flag, "F"),
                                 ("&Skip", self.skip, "S"), ("&Go to", self.jump, "J or Enter")):
@@ -126,17 +128,14 @@ class ReviewDock(QtWidgets.QWidget):
             button.setFocusPolicy(QtCore.Qt.FocusPolicy.NoFocus)  # the keyboard stays on the queue
             button.clicked.connect(slot)
             buttons.addWidget(button)
-        buttons.addStretch(1)
         buttons.addWidget(self.follow)
-        top = QtWidgets.QHBoxLayout()
-        top.addWidget(self.progress)
-        top.addStretch(1)
+        buttons.addStretch(1)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
-        layout.addLayout(top)
+        layout.setSpacing(2)
+        layout.addLayout(buttons)
         layout.addWidget(self.current)
         layout.addWidget(self.list, 1)
-        layout.addLayout(buttons)
         self._stale = True  # loaded when first shown
         self._filling = False
         self.model.changed.connect(self._show)
