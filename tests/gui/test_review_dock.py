@@ -153,3 +153,29 @@ def test_h_on_an_object_row_shows_its_history_and_provenance(qtbot, make_window,
     dialog.refresh()  # a deleted object's history stays
     assert dialog.table.rowCount() == 4 and "no longer in the project" in dialog.summary.text()
     dialog.close()
+
+
+def test_an_object_edited_in_the_window_is_reviewed_and_one_changed_elsewhere_is_refused_by_name(
+        qtbot, make_window, sample_copy):
+    from usvips.store import Project
+
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    ws = window.workspace
+    ids = _objects_on_two_pairs(window)
+    window.show_review()
+    window.review.follow.setChecked(False)
+    queue = window.review.list
+    ws.edit_object(ids[0], "cod", "edited here before the review")  # the window's own edit: not stale
+    qtbot.keyClick(queue, Key.Key_A)
+    assert ws.project.review(ids[0]).state == "accepted"
+    current = window.review.model.current
+    with Project.open(ws.project.path) as other:  # another annotator's program edits the next one
+        other.annotator = "someone else"
+        other.update_object(current, notes="changed elsewhere")
+    qtbot.keyClick(queue, Key.Key_A)
+    assert ws.project.review(current).state == "unreviewed" and window.review.model.current == current
+    assert f"object {current} was changed by someone else" in window.log.toPlainText()
+    qtbot.keyClick(queue, Key.Key_A)  # looked at again: the review is kept now
+    assert ws.project.review(current).state == "accepted"

@@ -122,3 +122,24 @@ def test_bad_reviews_objects_added_and_deleted_and_an_empty_queue(tmp_path):
     with pytest.raises(UsvipsError, match="queue is empty"):
         model.accept()
     project.close()
+
+
+def test_a_review_after_an_edit_in_the_window_or_a_reload_from_an_older_cache_is_not_stale(tmp_path):
+    """The window's own changes are not someone else's: an object edited in the window (its new version
+    handed over), or a queue loaded again from a cache older than the reviews made here, reviews as is."""
+    rng = np.random.default_rng(3)
+    project, ids = _survey(tmp_path / "s.usvips", rng, 3)
+    cache = project.objects()  # the window's cache, read once
+    model = ReviewModel()
+    model.load(project, cache)
+    first = model.current
+    project.update_object(first, notes="edited in the window")
+    model.updated([project.object(first)])
+    assert model.accept().state == "accepted"
+    model.go_to(first)
+    assert model.unreview().state == "unreviewed" and model.current == first  # a review made by mistake
+    model.load(project, cache)  # the cache still holds the versions from before the edit and the reviews
+    assert first in model.queue and model.current == first
+    assert model.flag("looked again").state == "flagged"
+    assert [e.change for e in project.history(first)] == ["add", "edit", "review", "review", "review"]
+    project.close()

@@ -140,7 +140,7 @@ class ReviewDock(QtWidgets.QWidget):
         self._filling = False
         self.model.changed.connect(self._show)
         self._events = ((workspace.objects_reset, self._on_reset), (workspace.objects_added, self._on_added),
-                        (workspace.objects_removed, self._on_removed))
+                        (workspace.objects_removed, self._on_removed), (workspace.objects_updated, self._on_updated))
         for signal, slot in self._events:
             signal.connect(slot)
         self._show()
@@ -170,6 +170,11 @@ class ReviewDock(QtWidgets.QWidget):
     def _on_added(self, ids: tuple[int, ...]) -> None:
         if not self._stale:
             self.model.add([self.workspace.stored_object(i) for i in ids if i in self.workspace.cache])
+
+    def _on_updated(self, ids: tuple[int, ...]) -> None:
+        if not self._stale:  # edited in the window: their new versions, and their rows again
+            self.model.updated([self.workspace.stored_object(i) for i in ids if i in self.workspace.cache])
+            self._show()
 
     def _on_removed(self, ids: tuple[int, ...]) -> None:
         if not self._stale:

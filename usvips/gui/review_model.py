@@ -55,17 +55,20 @@ class ReviewModel:
         self.position = 0
         self.reviews: dict[int, Review] = {}
         self._versions: dict[int, str] = {}
+        self._made: dict[int, str] = {}  # the latest version of an object read here (the caller's may be older)
 
     # ------------------------------------------------------------------ loading
     def load(self, store, objects: Iterable[StoredObject] | None = None) -> None:
         """Read the reviews of ``store`` (None: no project) and queue its unreviewed objects; ``objects``:
         the store's objects when the caller has them (the window's cache), else they are read."""
+        if store is not self.store:
+            self._made = {}
         self.store = store
         self.reviews, self._versions, self.queue, self.position = {}, {}, [], 0
         if store is not None:
             stored = list(objects) if objects is not None else store.objects()
             self.reviews = {r.object_id: r for r in store.reviews()}
-            self._versions = {o.id: o.modified for o in stored}
+            self._versions = {o.id: max(o.modified, self._made.get(o.id, "")) for o in stored}
             self.queue = [o.id for o in sorted(stored, key=queue_key)
                           if self.reviews.get(o.id, Review(o.id)).state == "unreviewed"]
         self.changed.emit()
@@ -79,6 +82,13 @@ class ReviewModel:
             self.queue.append(stored.id)
         if new:
             self.changed.emit()
+
+    def updated(self, objects: Iterable[StoredObject]) -> None:
+        """Objects changed in the window since they were read: their new versions (a review of them is not
+        a stale one)."""
+        for stored in objects:
+            if stored.id in self._versions:
+                self._versions[stored.id] = max(stored.modified, self._versions[stored.id])
 
     def forget(self, object_ids: Iterable[int]) -> None:
         """Objects deleted: out of the queue (the current place stays on the same object, or the next)."""
@@ -183,4 +193,4 @@ class ReviewModel:
 
     def _reread(self, object_id: int) -> None:
         self.reviews[object_id] = self.store.review(object_id)
-        self._versions[object_id] = self.store.object(object_id).modified
+        self._versions[object_id] = self._made[object_id] = self.store.object(object_id).modified
