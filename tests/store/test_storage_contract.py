@@ -832,3 +832,51 @@ def test_a_deleted_object_takes_its_review_and_an_undo_puts_it_back(store):
     assert store.review(first).state == "flagged" and store.review(first).reason == "blurred"
     store.delete_object(second)
     assert store.reviews("accepted") == []
+
+
+def test_two_readers_reviewing_the_same_objects_at_once_lose_nothing_and_overwrite_nothing(impl, store, where):
+    """Two handles in two threads review the same objects, each naming the version it read: every review is
+    kept or refused (stale, or the store busy) — a kept one is exactly one history row of its reader, a
+    refused one none — and each object's state is its last kept review."""
+    rng = np.random.default_rng(21)
+    ids = [store.add_object("point", [_vertex(rng)], "cod") for _ in range(4)]
+    kept: dict[str, list[tuple[int, str]]] = {}
+    errors = []
+
+    def reader(name: str) -> None:
+        local = np.random.default_rng(len(name))
+        try:
+            with impl.open(where, False) as handle:
+                handle.annotator = name
+                made = []
+                for k in range(12):
+                    object_id = int(local.choice(ids))
+                    state = ("accepted", "flagged")[k % 2]
+                    read = handle.object(object_id).modified
+                    try:
+                        handle.set_review(object_id, state, f"{name} {k}" if state == "flagged" else "",
+                                          expected_modified=read)
+                    except ProjectError:  # stale (the other reader was first) or busy: nothing written
+                        continue
+                    made.append((object_id, state))
+                kept[name] = made
+        except Exception as error:  # noqa: BLE001 - reported below
+            errors.append(error)
+
+    threads = [threading.Thread(target=reader, args=(name,)) for name in ("alice", "bob")]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == []
+    reviews = [e for e in store.history() if e.change == "review"]
+    for name, made in kept.items():
+        assert [(e.object_id, e.new["state"]) for e in reviews if e.annotator == name] == made
+    for object_id in ids:
+        mine = [e for e in reviews if e.object_id == object_id]
+        final = store.review(object_id)
+        if mine:
+            assert (final.state, final.reviewer) == (mine[-1].new["state"], mine[-1].annotator)
+            assert [e.old["state"] for e in mine[1:]] == [e.new["state"] for e in mine[:-1]]  # none overwritten
+        else:
+            assert final.state == "unreviewed"
