@@ -120,3 +120,62 @@ def test_project_review_refuses_bad_input_in_one_line_and_changes_nothing(argume
     with open_project(location, read_only=True) as store:
         assert [r.state for r in store.reviews()] == ["unreviewed", "unreviewed"]
         assert [e.change for e in store.history()] == ["add", "add"]
+
+
+_READER = """
+import sys
+from usvips.store.opening import open_project
+from usvips.store.records import ProjectError, Vertex
+url, name, shared, rounds = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+with open_project(url) as survey:
+    survey.annotator = name
+    for k in range(rounds):
+        while True:  # measure one
+            try:
+                survey.add_object("point", [Vertex(1.0 + k, 2.0, 3.0, 4.0)], name)
+                break
+            except ProjectError:
+                continue
+        while True:  # review the shared one, on the version read
+            seen = survey.object(shared)
+            state, reason = ("flagged", f"{name} {k}") if k % 2 else ("accepted", "")
+            try:
+                survey.set_review(shared, state, reason, expected_modified=seen.modified)
+                break
+            except ProjectError:  # stale (the other reader came first) or busy: read again
+                continue
+        while True:  # and edit it: a counter in its notes
+            seen = survey.object(shared)
+            try:
+                survey.update_object(shared, notes=str(int(seen.notes) + 1), expected_modified=seen.modified)
+                break
+            except ProjectError:
+                continue
+"""
+
+
+def test_two_annotator_processes_measure_review_and_edit_one_survey_at_once_and_lose_nothing(new_database,
+                                                                                             tmp_path):
+    import subprocess
+    import sys
+
+    url = new_database("readers")
+    with create_project(url) as survey:
+        shared = survey.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)], notes="0")
+    rounds = 8
+    script = tmp_path / "reader.py"
+    script.write_text(_READER)
+    workers = [subprocess.Popen([sys.executable, str(script), url, name, str(shared), str(rounds)],
+                                stderr=subprocess.PIPE, text=True) for name in ("ann", "bob")]
+    for worker in workers:
+        _, err = worker.communicate(timeout=300)
+        assert worker.returncode == 0, err
+    with open_project(url, read_only=True) as survey:
+        assert survey.object(shared).notes == str(2 * rounds)
+        assert sorted(o.attribute for o in survey.objects() if o.id != shared) == ["ann"] * rounds + ["bob"] * rounds
+        reviews = [e for e in survey.history(shared) if e.change == "review"]
+        final = survey.review(shared)
+    assert sorted(e.annotator for e in reviews) == ["ann"] * rounds + ["bob"] * rounds
+    assert [e.old["state"] for e in reviews[1:]] == [e.new["state"] for e in reviews[:-1]]  # none overwritten
+    assert (final.state, final.reviewer, final.reason) == (reviews[-1].new["state"], reviews[-1].annotator,
+                                                           reviews[-1].new["reason"])
