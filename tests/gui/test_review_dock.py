@@ -57,10 +57,11 @@ def test_review_mode_walks_the_unreviewed_objects_by_keyboard(qtbot, make_window
     qtbot.keyClick(queue, Key.Key_A)  # accept the first: on to the next
     assert ws.project.review(ids[0]).state == "accepted" and ws.project.review(ids[0]).reviewer == "Second Reader"
     assert window.review.model.current == ids[2] and window.review.progress.text() == "1 of 3 reviewed"
-    assert _review_column(window, ids[0]) == "accepted"
+    assert _review_column(window, ids[0]) == "accepted" and queue.item(0).text().endswith("— accepted")
     qtbot.keyClick(queue, Key.Key_F)  # flag, with the reason asked
     assert (ws.project.review(ids[2]).state, ws.project.review(ids[2]).reason) == ("flagged", "snout hidden")
     assert _review_column(window, ids[2]) == "flagged: snout hidden"
+    assert queue.item(1).text().endswith("— flagged: snout hidden") and queue.currentRow() == 2
     assert window.review.model.current == ids[1]
     assert window.review.progress.text() == "2 of 3 reviewed, 1 flagged"
     qtbot.keyClick(queue, Key.Key_F)  # cancelled: nothing stored, still here

@@ -67,6 +67,8 @@ def _fill(project, folder: Path, rng) -> None:
     project.delete_object(ids[-2])
     project.set_species_list([Species("Gadidae", "Gadus", "morhua", "COD", float(rng.uniform(0.5, 2)))])
     project.set_record(ids[0], ObservationRecord("Gadidae", "Gadus", "morhua", "COD", 2, "adult", "", "x"))
+    project.set_review(ids[0], "flagged", f"reason {rng.random()}")  # schema 9
+    project.set_review(ids[1], "accepted")
     project.set_deployment(Deployment(opcode="OP1", depth_m=float(rng.uniform(5, 50))))
     project.set_deployment(Deployment(opcode="OP2"), "dive")
     project.set_georeference(Georeference(*map(float, rng.uniform(0, 10, 4))))

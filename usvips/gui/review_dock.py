@@ -138,7 +138,11 @@ class ReviewDock(QtWidgets.QWidget):
         layout.addWidget(self.list, 1)
         self._stale = True  # loaded when first shown
         self._filling = False
+        self._rebuild = True  # the queue's rows all written again on the next show (else only those changed)
+        self._dirty: set[int] = set()  # objects whose rows changed (reviewed, edited)
+        self._row_of: dict[int, int] = {}
         self.model.changed.connect(self._show)
+        self.model.reviewed.connect(lambda object_id, _review: self._dirty.add(object_id))
         self._events = ((workspace.objects_reset, self._on_reset), (workspace.objects_added, self._on_added),
                         (workspace.objects_removed, self._on_removed), (workspace.objects_updated, self._on_updated))
         for signal, slot in self._events:
@@ -154,6 +158,7 @@ class ReviewDock(QtWidgets.QWidget):
     def load(self) -> None:
         """Read the queue of the open project again (unreviewed objects now)."""
         self._stale = False
+        self._rebuild = True
         project = self.workspace.project
         try:
             self.model.load(project, self.workspace.objects() if project is not None else None)
@@ -169,15 +174,18 @@ class ReviewDock(QtWidgets.QWidget):
 
     def _on_added(self, ids: tuple[int, ...]) -> None:
         if not self._stale:
+            self._rebuild = True
             self.model.add([self.workspace.stored_object(i) for i in ids if i in self.workspace.cache])
 
     def _on_updated(self, ids: tuple[int, ...]) -> None:
         if not self._stale:  # edited in the window: their new versions, and their rows again
             self.model.updated([self.workspace.stored_object(i) for i in ids if i in self.workspace.cache])
+            self._dirty.update(ids)
             self._show()
 
     def _on_removed(self, ids: tuple[int, ...]) -> None:
         if not self._stale:
+            self._rebuild = True
             self.model.forget(ids)
 
     def showEvent(self, event: QtGui.QShowEvent) -> None:  # noqa: N802 (Qt's name)
@@ -217,14 +225,17 @@ class ReviewDock(QtWidgets.QWidget):
                                  + ("  — all reviewed" if total and reviewed == total else ""))
         self._filling = True
         try:
-            if self.list.count() != len(self.model.queue):
+            if self._rebuild or self.list.count() != len(self.model.queue):
+                self._rebuild = False
                 self.list.clear()
                 self.list.addItems([self._describe(i) for i in self.model.queue])
-            else:
-                for row, object_id in enumerate(self.model.queue):
-                    text = self._describe(object_id)
-                    if self.list.item(row).text() != text:
-                        self.list.item(row).setText(text)
+                self._row_of = {object_id: row for row, object_id in enumerate(self.model.queue)}
+            else:  # a key press: only the rows that changed (a queue of thousands stays quick)
+                for object_id in self._dirty | ({current} if current is not None else set()):
+                    row = self._row_of.get(object_id)
+                    if row is not None:
+                        self.list.item(row).setText(self._describe(object_id))
+            self._dirty.clear()
             if current is not None:
                 self.list.setCurrentRow(self.model.position)
         finally:
