@@ -43,12 +43,14 @@ class AnnotatorDialog(QtWidgets.QDialog):
     def __init__(self, current: str, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.setWindowTitle("Annotator")
+        self.setMinimumWidth(420)
         self.edit = QtWidgets.QLineEdit(current)
         self.edit.setObjectName("annotator_name")
         self.edit.setMaxLength(MAX_NAME_LENGTH + 50)  # longer is refused by name below, not cut silently
         self.problem = QtWidgets.QLabel("")
         self.problem.setObjectName("annotator_problem")
         self.problem.setStyleSheet("color: #b00020")
+        self.problem.setWordWrap(True)
         buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Ok
                                              | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
         self.ok = buttons.button(QtWidgets.QDialogButtonBox.StandardButton.Ok)
@@ -56,8 +58,10 @@ class AnnotatorDialog(QtWidgets.QDialog):
         buttons.rejected.connect(self.reject)
         self.edit.textChanged.connect(self._check)
         layout = QtWidgets.QVBoxLayout(self)
-        layout.addWidget(QtWidgets.QLabel("Your name or initials: every object, pick, record and review you "
-                                          "make is stamped with it, and the project's history shows it."))
+        intro = QtWidgets.QLabel("Your name or initials: every object, pick, record and review you make is "
+                                 "stamped with it, and the project's history shows it.")
+        intro.setWordWrap(True)
+        layout.addWidget(intro)
         layout.addWidget(self.edit)
         layout.addWidget(self.problem)
         layout.addWidget(buttons)
@@ -65,9 +69,9 @@ class AnnotatorDialog(QtWidgets.QDialog):
 
     def _check(self, text: str) -> None:
         try:
-            checked_annotator(text, "the name")
+            checked_annotator(text, "")
         except UsvipsError as error:
-            self.problem.setText(str(error))
+            self.problem.setText(str(error).removeprefix(": "))
             self.ok.setEnabled(False)
             return
         self.problem.setText("")
