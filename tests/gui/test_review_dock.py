@@ -87,6 +87,14 @@ def test_review_mode_walks_the_unreviewed_objects_by_keyboard(qtbot, make_window
         qtbot.keyClick(queue, Key.Key_Return)
     qtbot.keyClick(queue, Key.Key_A)
     assert window.review.progress.text() == "3 of 3 reviewed, 1 flagged"
+    qtbot.keyClick(queue, Key.Key_H)  # the current object's history
+    (history,) = window.object_list.history_dialogs
+    assert history.object_id == ids[1] and history.table.item(1, 3).text() == "review"
+    history.close()
+    # a review made elsewhere shows in the list when review mode is entered again
+    ws.project.set_review(ids[0], "flagged", "seen again")
+    window.show_review()
+    assert _review_column(window, ids[0]) == "flagged: seen again"
     assert [e.change for e in ws.project.history(ids[1])] == ["add", "review"]
     # a new object joins the queue; a deleted one leaves it
     new = ws.project.add_object("point", [Vertex(50.0, 60.0, 40.0, 60.0, pair="water1")])

@@ -165,6 +165,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["review"] = self._dock("Review", self.review, bottom)
         self.review.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
         self.review.reviewed.connect(self.object_list.show_review)
+        self.review.history_requested.connect(self.object_list.show_history)
         self.docks["planner"] = self._dock("Precision planner", self.planner, right)
         self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
         self.docks["calculator"].raise_()
@@ -249,7 +250,7 @@ class MainWindow(QtWidgets.QMainWindow):
             "qa": self._action("&QA panel", self.show_qa, "Ctrl+Shift+Q", "the survey's objects that break a "
                                "quality rule: arrows and Enter go to each one's pair or frame"),
             "review": self._action("&Review mode", self.show_review, "Ctrl+Shift+R", "walk the unreviewed objects: "
-                                   "N next, P previous, A accept, F flag, S skip, J or Enter go to it"),
+                                   "N next, P previous, A accept, F flag, S skip, J or Enter go to it, H its history"),
             "annotator": self._action("Annotator: &your name…", self.annotator_dialog, tip="who is annotating: every "
                                       "object, pick, record and review made in this window is stamped with the name"),
         }
@@ -1022,6 +1023,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["review"].show()
         self.docks["review"].raise_()
         self.review.load()
+        self.object_list.reload_reviews()
         self.review.focus_queue()
 
     def title(self) -> str:

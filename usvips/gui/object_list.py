@@ -318,6 +318,19 @@ class ObjectList(QtWidgets.QWidget):
             self.workspace.message.emit("warning", f"the review states cannot be shown: {error}")
             return {}
 
+    def reload_reviews(self) -> None:
+        """Read every object's review again (others may have reviewed meanwhile) and show the changed ones."""
+        self._reviews = self._read_reviews()
+        column = self.COLUMNS.index("review")
+        filling, self._filling = self._filling, True
+        try:
+            for row, object_id in enumerate(self._ids):
+                item, text = self.table.item(row, column), review_text(self._reviews.get(object_id))
+                if item is not None and item.text() != text:
+                    item.setText(text)
+        finally:
+            self._filling = filling
+
     def show_review(self, object_id: int, review) -> None:
         """An object's review changed (review mode): its Review cell."""
         self._reviews[object_id] = review

@@ -4,9 +4,10 @@ rules are :mod:`usvips.gui.review_model`'s).
 Keys while the panel has the keyboard (View › Review mode, Ctrl+Shift+R, gives it): N next, P previous,
 A accept, F flag (asks the reason, one line), S skip (on to the next unreviewed object), J or Enter go to
 the object's pair or video frame with it selected (``object_chosen``; the window goes there as the QA
-panel does). These single keys are the panel's while it has the keyboard: the window's own single-key
-shortcuts (F fit, S snap …) work again as soon as the images have it. "Go to each object" makes every
-move go there too. Every review is stored at once, as the window's annotator.
+panel does), H its history (``history_requested``). These single keys are the panel's while it has the
+keyboard: the window's own single-key shortcuts (F fit, S snap …) work again as soon as the images have
+it. "Go to each object" makes every move go there too. Every review is stored at once, as the window's
+annotator.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from usvips.store.checks import MAX_REASON_LENGTH
 Key = QtCore.Qt.Key
 #: the panel's keys → what they do (the names of :class:`ReviewDock`'s methods)
 KEYS = {Key.Key_N: "next", Key.Key_P: "previous", Key.Key_A: "accept", Key.Key_F: "flag", Key.Key_S: "skip",
-        Key.Key_J: "jump", Key.Key_Return: "jump", Key.Key_Enter: "jump"}
+        Key.Key_J: "jump", Key.Key_Return: "jump", Key.Key_Enter: "jump", Key.Key_H: "history"}
 
 
 class ReasonDialog(QtWidgets.QDialog):
@@ -97,6 +98,7 @@ class ReviewDock(QtWidgets.QWidget):
 
     object_chosen = QtCore.Signal(int)
     reviewed = QtCore.Signal(int, object)
+    history_requested = QtCore.Signal(int)
 
     def __init__(self, workspace, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -114,7 +116,8 @@ class ReviewDock(QtWidgets.QWidget):
         self.follow.setChecked(True)
         self.list = _QueueList(self._on_key)
         self.list.setObjectName("review_queue")
-        self.list.setToolTip("N next, P previous, A accept, F flag (with a reason), S skip, J or Enter: go to it")
+        self.list.setToolTip("N next, P previous, A accept, F flag (with a reason), S skip, J or Enter: go to it, "
+                             "H: its history")
         self.list.currentRowChanged.connect(self._on_row)
         self.list.itemDoubleClicked.connect(lambda _: self.jump())
         buttons = QtWidgets.QHBoxLayout()  # one row over the queue: it stays in view in a low dock
@@ -297,6 +300,11 @@ class ReviewDock(QtWidgets.QWidget):
         if self.model.current is not None:
             self.object_chosen.emit(self.model.current)
             self.list.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)  # the keys stay the panel's
+
+    def history(self) -> None:
+        """The current object's history (who made it, every change)."""
+        if self.model.current is not None:
+            self.history_requested.emit(self.model.current)
 
     def _followed(self) -> None:
         if self.follow.isChecked():
