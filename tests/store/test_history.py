@@ -115,10 +115,12 @@ def test_a_schema_7_survey_is_migrated_when_opened_for_writing_and_refused_read_
         made = survey.provenance(object_id)
         assert made["vertices"] == [("old hand", created)] * 2 and made["record"] == ("old hand", created)
         survey.annotator = "new hand"
+        survey.set_review(object_id, "accepted")  # schema 9 on top
         survey.delete_object(object_id)
-        assert [(e.change, e.annotator) for e in survey.history(object_id)] == [("delete", "new hand")]
+        assert [(e.change, e.annotator) for e in survey.history(object_id)] == [("review", "new hand"),
+                                                                                ("delete", "new hand")]
     with open_project(url, read_only=True) as again:  # the second opening finds it up to date
-        assert again.version == SCHEMA_VERSION and len(again.history()) == 1
+        assert again.version == SCHEMA_VERSION and len(again.history()) == 2
 
 
 def _fill(store) -> int:

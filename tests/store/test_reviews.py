@@ -64,9 +64,11 @@ def test_a_schema_8_survey_is_migrated_when_opened_for_writing(new_database):
         object_id = survey.add_object("point", [_vertex(rng)], "cod")
     with psycopg.connect(url, autocommit=True) as raw:  # as a schema-8 USVIPS made it
         raw.execute("DROP TABLE reviews; ALTER TABLE history DROP CONSTRAINT history_change_check;"
-                    "ALTER TABLE history ADD CONSTRAINT history_change_check CHECK (change IN ('add', 'edit', "
-                    "'re-pick', 'delete', 'put back', 'record')); UPDATE meta SET value = '8' "
-                    "WHERE key = 'schema_version'")
+                    "ALTER TABLE history ADD CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', "
+                    "'record')); UPDATE meta SET value = '8' WHERE key = 'schema_version'")  # named by PostgreSQL
+        names = [r[0] for r in raw.execute("SELECT conname FROM pg_constraint WHERE conrelid = 'history'::regclass "
+                                           "AND contype = 'c'")]
+        assert names == ["history_change_check"]  # the name schema 8's column CHECK was given, too
     with open_project(url) as survey:
         assert survey.version == SCHEMA_VERSION
         survey.set_review(object_id, "accepted")
