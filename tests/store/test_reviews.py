@@ -99,6 +99,9 @@ def test_project_review_accepts_flags_and_lists_on_both_backends(backend, tmp_pa
     assert out.startswith(f"{ids[1]}") and "fin hidden" in out
     assert main(["project", "review", location]) == 0  # the summary
     assert "2 accepted, 1 flagged, 1 unreviewed" in capsys.readouterr().out
+    assert main(["project", "history", location, "--object", str(ids[1])]) == 0
+    assert capsys.readouterr().out.splitlines()[-1].endswith(
+        f"object {ids[1]}  review: unreviewed → flagged (fin hidden)")
     with open_project(location, read_only=True) as store:
         assert [(r.state, r.reviewer) for r in store.reviews()][:1] == [("accepted", "reader")]
         assert store.history(ids[0])[-1].change == "review"
