@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from usvips.store import Project, ProjectError, Vertex, checks
+from usvips.store import SCHEMA_VERSION, Project, ProjectError, Vertex, checks
 from usvips.store.opening import create_project, is_server_location, open_project, public_location, shown
 from usvips.store.postgres import ServerProject
 
@@ -57,7 +57,7 @@ def test_a_location_opens_its_backend_and_is_shown_without_its_password(tmp_path
     with create_project(url) as survey:
         assert type(survey) is ServerProject and survey.derived_media_folder() != Path(url)
     with open_project(url) as survey:
-        assert type(survey) is ServerProject and survey.version == 8
+        assert type(survey) is ServerProject and survey.version == SCHEMA_VERSION
     secret = "postgresql://ann:hunter2@db.example:5433/survey?sslmode=require&media=/mnt/m"
     assert public_location(secret) == "postgresql://ann@db.example:5433/survey?sslmode=require"
     assert shown(secret) == public_location(secret) and shown(file) == str(file)
@@ -72,7 +72,6 @@ def test_the_server_schema_has_every_table_and_column_of_the_sqlite_schema(tmp_p
 
     import psycopg
 
-    from usvips.store import SCHEMA_VERSION
     from usvips.store.postgres_schema import SERVER_SCHEMA_VERSION, TABLES
 
     assert SERVER_SCHEMA_VERSION == SCHEMA_VERSION

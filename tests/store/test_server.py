@@ -20,7 +20,7 @@ from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
-from usvips.store import Project, ProjectError
+from usvips.store import SCHEMA_VERSION, Project, ProjectError
 from usvips.store.opening import create_project, open_project
 from usvips.store.postgres import ServerProject
 from usvips.store.postgres_schema import TABLES
@@ -68,6 +68,8 @@ def _fill(project, folder: Path, rng) -> None:
     project.delete_object(ids[-2])
     project.set_species_list([Species("Gadidae", "Gadus", "morhua", "COD", float(rng.uniform(0.5, 2)))])
     project.set_record(ids[0], ObservationRecord("Gadidae", "Gadus", "morhua", "COD", 2, "adult", "", "x"))
+    project.set_review(ids[0], "flagged", f"reason {rng.random()}")  # schema 9
+    project.set_review(ids[1], "accepted")
     project.set_deployment(Deployment(opcode="OP1", depth_m=float(rng.uniform(5, 50))))
     project.set_deployment(Deployment(opcode="OP2"), "dive")
     project.set_georeference(Georeference(*map(float, rng.uniform(0, 10, 4))))
@@ -141,7 +143,7 @@ def test_the_cli_pushes_and_pulls_and_refuses_bad_input_in_one_line_without_the_
     assert (_file_digest(original), _file_digest(tmp_path / "back.usvips")) == before
     assert main(["project", "info", f"{url}&media={tmp_path}"]) == 0  # its video is found in the media folder
     info = capsys.readouterr().out
-    assert "schema 8" in info and "pair0" in info and PASSWORD not in info
+    assert f"schema {SCHEMA_VERSION}" in info and "pair0" in info and PASSWORD not in info
     fresh = _with_password(new_database("cli"), PASSWORD_USER, PASSWORD)
     assert main(["project", "new", fresh]) == 0 and main(["project", "info", fresh]) == 0
     assert "0 objects" in capsys.readouterr().out

@@ -29,6 +29,7 @@ from usvips.store import Project, ProjectError
 from usvips.store.interface import ProjectStore
 from usvips.store.postgres import ServerProject
 from usvips.store.project import Vertex
+from usvips.store.records import REVIEW_STATES, Review, StaleEditError
 
 
 @dataclass(frozen=True)
@@ -507,6 +508,7 @@ WRITES = {
     "set_draft": lambda s, f: s.set_draft("d", "text"),
     "set_species_list": lambda s, f: s.set_species_list([]),
     "set_record": lambda s, f: s.set_record(1, ObservationRecord(genus="Gadus")),
+    "set_review": lambda s, f: s.set_review(1, "flagged", "tail cut off"),
     "set_video_offset": lambda s, f: s.set_video_offset("v", 2),
     "set_deployment": lambda s, f: s.set_deployment(Deployment(opcode="OP1")),
     "set_georeference": lambda s, f: s.set_georeference(Georeference(-33.8, 151.2, 12.0, 45.0)),
@@ -768,3 +770,143 @@ def test_two_annotators_writing_at_once_each_get_exactly_their_history_rows(impl
     assert len(entries) == 4 * count
     for name, writes in done.items():
         assert [(e.change, e.object_id) for e in entries if e.annotator == name] == writes
+
+
+# ------------------------------------------------------------------------------------------ reviews (schema 9)
+@pytest.mark.parametrize("seed", range(3))
+def test_reviews_follow_every_change_with_who_and_when_and_one_history_row_each(store, seed):
+    """Random review changes by two annotators on a handful of objects: after each, the stored reviews are
+    what was asked (state, reason, reviewer), the object's version moved forward, and the history gained
+    exactly one 'review' row with the state before and after."""
+    rng = np.random.default_rng(seed)
+    ids = [store.add_object("point", [_vertex(rng)], "cod") for _ in range(int(rng.integers(3, 7)))]
+    assert store.reviews() == [Review(i) for i in ids]
+    assert all(store.review(i).state == "unreviewed" for i in ids)
+    want = {i: Review(i) for i in ids}
+    for step in range(12):
+        store.annotator = str(rng.choice(["alice", "bob"]))
+        object_id = int(rng.choice(ids))
+        state = str(rng.choice(REVIEW_STATES))
+        reason = {"flagged": f"reason {step} ü", "accepted": str(rng.choice(["", "fine"])), "unreviewed": ""}[state]
+        before, count = store.object(object_id).modified, len(store.history())
+        store.set_review(object_id, state, f"  {reason} ")  # a reason is kept stripped
+        got = store.review(object_id)
+        assert (got.state, got.reason) == (state, reason)
+        assert (got.reviewer, bool(got.reviewed)) == ((store.annotator, True) if state != "unreviewed" else ("", False))
+        assert store.object(object_id).modified > before
+        entries = store.history()
+        assert len(entries) == count + 1
+        last = entries[-1]
+        assert (last.change, last.object_id, last.annotator) == ("review", object_id, store.annotator)
+        assert last.old["state"] == want[object_id].state and last.new["state"] == state
+        if state != "unreviewed":
+            assert last.new["reason"] == reason and last.new["reviewer"] == store.annotator
+        want[object_id] = got
+    assert store.reviews() == [want[i] for i in ids]
+    for state in REVIEW_STATES:
+        assert store.reviews(state) == [want[i] for i in ids if want[i].state == state]
+
+
+def test_bad_reviews_are_one_line_naming_the_object_and_change_nothing(store):
+    rng = np.random.default_rng(5)
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    store.set_review(object_id, "accepted")
+    kept, modified = store.history(), store.object(object_id).modified
+    for write, message in [(lambda: store.set_review(object_id + 99, "accepted"), f"no object {object_id + 99}"),
+                           (lambda: store.set_review(object_id, "approved"), "unknown review state 'approved'"),
+                           (lambda: store.set_review(object_id, "flagged"), "a flag needs a reason"),
+                           (lambda: store.set_review(object_id, "flagged", "   "), "a flag needs a reason"),
+                           (lambda: store.set_review(object_id, "flagged", "two\nlines"), "one line"),
+                           (lambda: store.set_review(object_id, "unreviewed", "why"), "has no reason"),
+                           (lambda: store.review(object_id + 99), f"no object {object_id + 99}"),
+                           (lambda: store.reviews("approved"), "unknown review state")]:
+        with pytest.raises(ProjectError, match=message) as refused:
+            write()
+        assert "\n" not in str(refused.value) and f"object {object_id}" in str(refused.value) or "state" in message
+    assert store.history() == kept and store.object(object_id).modified == modified
+    assert store.review(object_id).state == "accepted"
+
+
+def test_a_stale_review_is_refused_by_name_and_a_fresh_one_kept(impl, store, where):
+    """Two reviewers read an object; one edits or reviews it; the other's review made on what they read is
+    refused by name (nothing changed), and made again on the object as it now is, kept."""
+    rng = np.random.default_rng(8)
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    with impl.open(where, False) as other:
+        other.annotator = "bob"
+        read = other.object(object_id).modified
+        store.annotator = "alice"
+        store.set_review(object_id, "flagged", "head hidden by a rock")
+        kept = store.history()
+        with pytest.raises(StaleEditError, match=f"object {object_id} was changed by someone else"):
+            other.set_review(object_id, "accepted", expected_modified=read)
+        assert store.history() == kept and store.review(object_id).state == "flagged"
+        other.set_review(object_id, "accepted", expected_modified=other.object(object_id).modified)
+        assert (store.review(object_id).state, store.review(object_id).reviewer) == ("accepted", "bob")
+        read = store.object(object_id).modified
+        other.update_object(object_id, notes="re-measured")
+        with pytest.raises(StaleEditError):
+            store.set_review(object_id, "flagged", "too long", expected_modified=read)
+        assert store.review(object_id).state == "accepted"
+
+
+def test_a_deleted_object_takes_its_review_and_an_undo_puts_it_back(store):
+    rng = np.random.default_rng(9)
+    first, second = (store.add_object("point", [_vertex(rng)], "cod") for _ in range(2))
+    store.set_review(first, "flagged", "blurred")
+    store.set_review(second, "accepted")
+    taken = store.take_object(first)
+    assert [r.object_id for r in store.reviews()] == [second]
+    assert store.history(first)[-1].old["review"]["state"] == "flagged"
+    store.put_back(taken)
+    assert store.review(first).state == "flagged" and store.review(first).reason == "blurred"
+    store.delete_object(second)
+    assert store.reviews("accepted") == []
+
+
+def test_two_readers_reviewing_the_same_objects_at_once_lose_nothing_and_overwrite_nothing(impl, store, where):
+    """Two handles in two threads review the same objects, each naming the version it read: every review is
+    kept or refused (stale, or the store busy) — a kept one is exactly one history row of its reader, a
+    refused one none — and each object's state is its last kept review."""
+    rng = np.random.default_rng(21)
+    ids = [store.add_object("point", [_vertex(rng)], "cod") for _ in range(4)]
+    kept: dict[str, list[tuple[int, str]]] = {}
+    errors = []
+
+    def reader(name: str) -> None:
+        local = np.random.default_rng(len(name))
+        try:
+            with impl.open(where, False) as handle:
+                handle.annotator = name
+                made = []
+                for k in range(12):
+                    object_id = int(local.choice(ids))
+                    state = ("accepted", "flagged")[k % 2]
+                    read = handle.object(object_id).modified
+                    try:
+                        handle.set_review(object_id, state, f"{name} {k}" if state == "flagged" else "",
+                                          expected_modified=read)
+                    except ProjectError:  # stale (the other reader was first) or busy: nothing written
+                        continue
+                    made.append((object_id, state))
+                kept[name] = made
+        except Exception as error:  # noqa: BLE001 - reported below
+            errors.append(error)
+
+    threads = [threading.Thread(target=reader, args=(name,)) for name in ("alice", "bob")]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == []
+    reviews = [e for e in store.history() if e.change == "review"]
+    for name, made in kept.items():
+        assert [(e.object_id, e.new["state"]) for e in reviews if e.annotator == name] == made
+    for object_id in ids:
+        mine = [e for e in reviews if e.object_id == object_id]
+        final = store.review(object_id)
+        if mine:
+            assert (final.state, final.reviewer) == (mine[-1].new["state"], mine[-1].annotator)
+            assert [e.old["state"] for e in mine[1:]] == [e.new["state"] for e in mine[:-1]]  # none overwritten
+        else:
+            assert final.state == "unreviewed"

@@ -1,5 +1,5 @@
 """``usvips project history PROJECT [--object ID] [--json]``: the append-only history of a project's
-objects (every add, edit, re-pick, delete, put back and observation record set), oldest first, one
+objects (every add, edit, re-pick, delete, put back, observation record set and review), oldest first, one
 line per change; ``--json`` prints every entry whole (old and new values) as a JSON list. Works on a
 project file or a survey on a server (any location ``usvips.store.opening.open_project`` takes), read-only."""
 
@@ -47,44 +47,7 @@ def run_history(args: argparse.Namespace) -> int:
 
 def history_line(entry: HistoryEntry) -> str:
     """One change on one line: number, time, annotator, object, change and what changed."""
-    return f"{entry.id:>6}  {entry.at}  {entry.annotator}  object {entry.object_id}  {entry.change}: {_what(entry)}"
+    from usvips.app.history_text import what_changed  # at run time: the parser stays light
 
-
-def _short(value: object) -> str:
-    text = json.dumps(value, ensure_ascii=False) if not isinstance(value, str) else repr(value)
-    return text if len(text) <= 60 else text[:57] + "…"
-
-
-def _summary(state: dict | None) -> str:
-    if not state:
-        return "nothing"
-    vertices = state.get("vertices", [])
-    text = f"{state.get('kind', '?')} {state.get('attribute', '')!r}, {len(vertices)} vertices"
-    record = state.get("record")
-    return text + (f", record {_record(record)}" if record else "")
-
-
-def _record(record: dict | None) -> str:
-    if not record:
-        return "none"
-    taxon = " ".join(record.get(k, "") for k in ("family", "genus", "species") if record.get(k)) or "unidentified"
-    return f"{taxon} ×{record.get('number', 1)}"
-
-
-def _what(entry: HistoryEntry) -> str:
-    old, new = entry.old or {}, entry.new or {}
-    if entry.change in ("add", "put back"):
-        return _summary(entry.new)
-    if entry.change == "delete":
-        return _summary(entry.old)
-    if entry.change == "record":
-        return f"{_record(entry.old)} → {_record(entry.new)}"
-    parts = []
-    for name in sorted(set(old) | set(new)):
-        if name == "vertices":
-            before, after = old.get(name, []), new.get(name, [])
-            moved = sum(1 for a, b in zip(before, after, strict=False) if a != b) + abs(len(after) - len(before))
-            parts.append(f"vertices {len(before)} → {len(after)} ({moved} changed)")
-        else:
-            parts.append(f"{name} {_short(old.get(name))} → {_short(new.get(name))}")
-    return "; ".join(parts) or "no field given"
+    return (f"{entry.id:>6}  {entry.at}  {entry.annotator}  object {entry.object_id}  {entry.change}: "
+            f"{what_changed(entry)}")

@@ -18,6 +18,7 @@ from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui import double_read_dialog, exchange_dialogs, media_dialogs, qa_dock
+from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
@@ -31,12 +32,14 @@ from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.plan_view import PlanView
 from usvips.gui.planner_dock import PlannerDock
 from usvips.gui.qa_dock import QaDock
+from usvips.gui.review_dock import ReviewDock
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
 from usvips.locations import resources_folder, sample_projects
+from usvips.store.annotator import annotating_as
 
 SAMPLES = sample_projects()
 #: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
@@ -72,7 +75,9 @@ class MainWindow(QtWidgets.QMainWindow):
         register_window(self)  # unexpected errors in Qt handlers are shown here (usvips.gui.app)
         self.workspace = workspace or Workspace()
         self.settings = settings or QtCore.QSettings("USVIPS", "usvips")
-        self.setWindowTitle("USVIPS")
+        #: who is annotating: every store write in the window is made as this name (File › Annotator…)
+        self.annotator = saved_annotator(self.settings)
+        self.setWindowTitle(self.title())
         self.setObjectName("usvips_main")
         self.pool = QtCore.QThreadPool(self)  # its own pool: finished with the window
         self.workers: set[Worker] = set()
@@ -113,8 +118,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.instants_view = InstantsView(self.workspace, self)
         self.instants_view.frame_requested.connect(self.video.go_to_object)
         table = self.object_list.table
-        table.setContextMenuPolicy(QtCore.Qt.ContextMenuPolicy.ActionsContextMenu)
-        table.addAction(self.actions["instants_of_listed"])
+        table.addAction(self.actions["instants_of_listed"])  # in the list's context menu (object_list._context_menu)
         self.video.dock_widget.setEnabled(False)
         ws = self.workspace
         ws.objects_changed.connect(self.video.objects_changed)
@@ -166,6 +170,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["qa"] = self._dock("QA", self.qa, bottom)
         self.qa.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
         self.docks["qa"].visibilityChanged.connect(self.qa.on_shown)  # checked when its tab comes to the front
+        self.review = ReviewDock(ws)  # review mode: the unreviewed objects walked with the keyboard (issue 26)
+        self.docks["review"] = self._dock("Review", self.review, bottom)
+        self.review.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
+        self.review.reviewed.connect(self.object_list.show_review)
+        self.review.history_requested.connect(self.object_list.show_history)
         self.docks["planner"] = self._dock("Precision planner", self.planner, right)
         self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
         self.docks["calculator"].raise_()
@@ -173,6 +182,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.tabifyDockWidget(self.docks["observation"], self.docks["plan"])
         self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
         self.tabifyDockWidget(self.docks["log"], self.docks["qa"])
+        self.tabifyDockWidget(self.docks["qa"], self.docks["review"])
         self.docks["objects"].raise_()
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
@@ -264,6 +274,10 @@ class MainWindow(QtWidgets.QMainWindow):
             "instants": self._action("&Instants of the object…", lambda: self.show_instants(), "I",
                                      "list the selected object's instants: each one's figure and weight, the "
                                      "combined figure and the agreement test", images=True),
+            "review": self._action("&Review mode", self.show_review, "Ctrl+Shift+R", "walk the unreviewed objects: "
+                                   "N next, P previous, A accept, F flag, S skip, J or Enter go to it, H its history"),
+            "annotator": self._action("Annotator: &your name…", self.annotator_dialog, tip="who is annotating: every "
+                                      "object, pick, record and review made in this window is stamped with the name"),
         }
         self.actions["instants_of_listed"] = QtGui.QAction("&Instants of the object…", self)
         self.actions["instants_of_listed"].setShortcut(QtGui.QKeySequence("Ctrl+I"))
@@ -317,6 +331,7 @@ class MainWindow(QtWidgets.QMainWindow):
         menu.addAction("Calibration repor&t (PDF)…", lambda: exchange_dialogs.calibration_report(self))
         menu.addAction("&Deployment and georeference…", lambda: exchange_dialogs.edit_deployment(self))
         menu.addAction("Dou&ble-read report…", lambda: double_read_dialog.show_double_read(self))
+        menu.addAction(a["annotator"])
         self._fill_recent_menu()
         menu.addSeparator()
         menu.addAction(a["quit"])
@@ -330,6 +345,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for scale in LOUPE_SCALES:
             magnification.addAction(a[f"loupe_{scale}"])
         view.addAction(a["qa"])
+        view.addAction(a["review"])
         view.addSeparator()
         for dock in self.docks.values():
             view.addAction(dock.toggleViewAction())
@@ -480,7 +496,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.cancel_work()
         self.video.shutdown()  # the seek-proxy build in the background
         self.pool.waitForDone(5000)
-        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner, self.qa):
+        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner, self.qa,
+                      self.review):
             panel.cleanup()
         self.media_check.project_closed()
         self.workspace.close_project()
@@ -555,7 +572,8 @@ class MainWindow(QtWidgets.QMainWindow):
         if not self.confirm_drop_unfinished("open another project"):
             return False
         try:
-            project = open_project(path)
+            with annotating_as(self.annotator):  # the project's writes are made as the window's annotator
+                project = open_project(path)
         except UsvipsError as error:
             self.show_message("error", str(error))
             return False
@@ -564,7 +582,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.workspace.open_project(project)
         self.media_check.project_opened(project)  # every media file read whole in a worker, changed ones named
         self._remember(project.path.resolve())
-        self.setWindowTitle(f"USVIPS — {project.path.name} ({project.path.parent}) — every step is saved as you go")
+        self.setWindowTitle(self.title())
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
         self.refresh_pair_box()
@@ -1036,6 +1054,43 @@ class MainWindow(QtWidgets.QMainWindow):
         self.instants_view.raise_()
         self.instants_view.table.setFocus()
         return shown
+
+    def show_review(self) -> None:
+        """Ctrl+Shift+R: show the review panel, its queue read afresh (the objects unreviewed now, also by
+        other annotators), and give it the keyboard (N, P, A, F, S, J work there)."""
+        self.docks["review"].show()
+        self.docks["review"].raise_()
+        self.review.load()
+        self.object_list.reload_reviews()
+        self.review.focus_queue()
+
+    def title(self) -> str:
+        """The title bar: the annotator, and the open project."""
+        project = self.workspace.project
+        if project is None:
+            return f"USVIPS — {self.annotator}"
+        return (f"USVIPS — {self.annotator} — {project.path.name} ({project.path.parent}) — every step is saved "
+                "as you go")
+
+    def annotator_dialog(self) -> None:
+        """File › Annotator: your name…: ask the name (kept in the settings for the next sessions)."""
+        dialog = AnnotatorDialog(self.annotator, self)
+        if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted:
+            self.set_annotator(dialog.name())
+
+    def set_annotator(self, name: str) -> bool:
+        """Work as ``name`` from now on: kept in the settings, shown in the title bar, and the annotator of
+        the open project's writes. A name that cannot be used is said in one line and changes nothing."""
+        try:
+            self.annotator = save_annotator(self.settings, name)
+        except UsvipsError as error:
+            self.show_message("error", str(error))
+            return False
+        if self.workspace.project is not None:
+            self.workspace.project.annotator = self.annotator
+        self.setWindowTitle(self.title())
+        self.show_message("info", f"annotating as {self.annotator}")
+        return True
 
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)

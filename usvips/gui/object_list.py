@@ -1,5 +1,6 @@
 """The object list: the measured objects; select (drives the geo-calculator and the highlight), edit
-attribute and notes in place, delete, zoom to, go to the frame measured on."""
+attribute and notes in place, delete, zoom to, go to the frame measured on; each one's review state, and
+its history (right-click › History…, or H in the list)."""
 
 from __future__ import annotations
 
@@ -25,8 +26,10 @@ class ObjectList(QtWidgets.QWidget):
     object_activated = QtCore.Signal(int)
 
     #: species: the observation record's (the one place a species is kept), × the number when more than one;
-    #: pair: the image pair or video measured on; frame: a video's left | right frame and time
-    COLUMNS = ("id", "type", "species", "attribute", "vertices", "figure", "quality", "notes", "pair", "frame")
+    #: pair: the image pair or video measured on; frame: a video's left | right frame and time; review: the
+    #: second reader's verdict (unreviewed, accepted, flagged: reason)
+    COLUMNS = ("id", "type", "species", "attribute", "vertices", "figure", "quality", "review", "notes", "pair",
+               "frame")
 
     def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -78,6 +81,14 @@ class ObjectList(QtWidgets.QWidget):
         self.delete_shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
         self.delete_shortcut.activated.connect(self._on_delete)
         self.table.itemSelectionChanged.connect(self._on_table_selection)
+        # an object's history (who made it, every change): the context menu, or H on its row
+        self.table.setContextMenuPolicy(QtCore.Qt.ContextMenuPolicy.CustomContextMenu)
+        self.table.customContextMenuRequested.connect(self._context_menu)
+        self.history_shortcut = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_H), self.table)
+        self.history_shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+        self.history_shortcut.activated.connect(self.show_history)
+        self.history_dialogs: list = []  # open history windows (not modal)
+        self._reviews: dict[int, object] = {}  # object id → its Review (read with the rows)
         self.table.itemChanged.connect(self._on_item_changed)
         self.table.cellDoubleClicked.connect(self._on_double_click)
         self._filling = False
@@ -115,6 +126,7 @@ class ObjectList(QtWidgets.QWidget):
         """Every row again (another project, new rules): the objects come from the model's cache, the
         figures that are not known yet are computed (in a worker when many)."""
         objects = self.workspace.objects()
+        self._reviews = self._read_reviews()
         self._filling = True
         self.table.setUpdatesEnabled(False)
         try:
@@ -189,7 +201,7 @@ class ObjectList(QtWidgets.QWidget):
     # ------------------------------------------------------------------ rows and figures
     def _set_row(self, row: int, stored) -> None:
         values = (str(stored.id), stored.kind, species_text(self.workspace.object_record(stored.id)), stored.attribute,
-                  str(len(stored.vertices)), "", "", stored.notes,
+                  str(len(stored.vertices)), "", "", review_text(self._reviews.get(stored.id)), stored.notes,
                   ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair)), video_frame_text(stored))
         for column, value in enumerate(values):
             item = QtWidgets.QTableWidgetItem(value)
@@ -298,3 +310,78 @@ class ObjectList(QtWidgets.QWidget):
         if ids:
             self.zoom_requested.emit(ids[0])
             self.workspace.request_object(ids[0])
+
+    # ------------------------------------------------------------------ reviews and history
+    def _read_reviews(self) -> dict[int, object]:
+        """Every object's review, by one query (none without a project, or when it cannot be read)."""
+        project = self.workspace.project
+        if project is None:
+            return {}
+        try:
+            return {r.object_id: r for r in project.reviews()}
+        except UsvipsError as error:
+            self.workspace.message.emit("warning", f"the review states cannot be shown: {error}")
+            return {}
+
+    def reload_reviews(self) -> None:
+        """Read every object's review again (others may have reviewed meanwhile) and show the changed ones."""
+        self._reviews = self._read_reviews()
+        column = self.COLUMNS.index("review")
+        filling, self._filling = self._filling, True
+        try:
+            for row, object_id in enumerate(self._ids):
+                item, text = self.table.item(row, column), review_text(self._reviews.get(object_id))
+                if item is not None and item.text() != text:
+                    item.setText(text)
+        finally:
+            self._filling = filling
+
+    def show_review(self, object_id: int, review) -> None:
+        """An object's review changed (review mode): its Review cell."""
+        self._reviews[object_id] = review
+        row = self.row_of(object_id)
+        item = self.table.item(row, self.COLUMNS.index("review")) if row is not None else None
+        if item is not None:
+            filling, self._filling = self._filling, True
+            try:
+                item.setText(review_text(review))
+            finally:
+                self._filling = filling
+
+    def _context_menu(self, position: QtCore.QPoint) -> None:
+        row = self.table.rowAt(position.y())
+        if not 0 <= row < len(self._ids):
+            return
+        menu = QtWidgets.QMenu(self)
+        menu.addAction(f"History of object {self._ids[row]}…\tH", lambda: self.show_history(self._ids[row]))
+        menu.addAction("Zoom to", lambda: self.zoom_requested.emit(self._ids[row]))
+        for action in self.table.actions():  # what the window adds for the list (the object's instants)
+            menu.addAction(action)
+        menu.exec(self.table.viewport().mapToGlobal(position))
+
+    def show_history(self, object_id: int | None = None):
+        """Open the history of ``object_id`` (default: the current row's object); returns the dialog."""
+        from usvips.gui.history_dialog import HistoryDialog
+
+        if object_id is None:
+            row = self.table.currentRow()
+            if not 0 <= row < len(self._ids):
+                self.workspace.message.emit("warning", "select an object in the list to see its history")
+                return None
+            object_id = self._ids[row]
+        if self.workspace.project is None:
+            return None
+        dialog = HistoryDialog(self.workspace.project, object_id, self.window())
+        dialog.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        dialog.destroyed.connect(lambda _=None, d=dialog: self.history_dialogs.remove(d)
+                                 if d in self.history_dialogs else None)
+        self.history_dialogs.append(dialog)
+        dialog.show()
+        return dialog
+
+
+def review_text(review) -> str:
+    """A review in the list: ``unreviewed`` (the default), ``accepted``, ``flagged: reason``."""
+    if review is None:
+        return "unreviewed"
+    return review.state + (f": {review.reason}" if review.reason else "")

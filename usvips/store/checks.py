@@ -15,7 +15,7 @@ import numpy as np
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.measurements import resolve as resolve_kind
-from usvips.store.records import ProjectError, Vertex
+from usvips.store.records import REVIEW_STATES, ProjectError, Vertex
 
 
 def object_kind(kind: str, vertices: Sequence[Vertex], where: object) -> str:
@@ -60,3 +60,28 @@ def image_pairs(pairs: Sequence[tuple[str, Path, Path]], taken: Collection[str],
         if Path(left).resolve() == Path(right).resolve():
             raise ProjectError(f"{where}: pair {label!r}: {left} is both the left and the right image "
                                "(nothing was added)")
+
+
+MAX_REASON_LENGTH = 500
+
+
+def review(object_id: int, state: str, reason: str, where: object) -> tuple[str, str]:
+    """(state, reason stripped) of a review to store: a state of :data:`~usvips.store.records.REVIEW_STATES`;
+    a flag needs a reason; a reason is one line of at most :data:`MAX_REASON_LENGTH` characters and goes
+    only with accepted or flagged. Anything else is one line naming the object and what is wrong."""
+    if state not in REVIEW_STATES:
+        raise ProjectError(f"{where}: object {object_id}: unknown review state {state!r} (one of "
+                           f"{', '.join(REVIEW_STATES)})")
+    text = str(reason or "").strip()
+    if state == "flagged" and not text:
+        raise ProjectError(f"{where}: object {object_id}: a flag needs a reason (say what is wrong, on one line)")
+    if state == "unreviewed" and text:
+        raise ProjectError(f"{where}: object {object_id}: an unreviewed object has no reason (give the reason "
+                           "with a flag or an accept)")
+    if len(text) > MAX_REASON_LENGTH:
+        raise ProjectError(f"{where}: object {object_id}: the reason is {len(text)} characters long; at most "
+                           f"{MAX_REASON_LENGTH} please")
+    if any(ord(c) < 32 or ord(c) == 127 for c in text):
+        raise ProjectError(f"{where}: object {object_id}: the reason holds a control character (a line break, a "
+                           "tab, …); give it on one line")
+    return state, text

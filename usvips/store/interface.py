@@ -34,7 +34,7 @@ from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
-from usvips.store.records import HistoryEntry, RemovedObject, StoredObject, Vertex
+from usvips.store.records import HistoryEntry, RemovedObject, Review, StoredObject, Vertex
 
 
 @runtime_checkable
@@ -196,7 +196,7 @@ class ProjectStore(Protocol):
 
         Who and when (schema 8): every write to an object (this method, :meth:`add_objects`,
         :meth:`update_object`, :meth:`delete_object`, :meth:`take_object`, :meth:`put_back`,
-        :meth:`set_record`) appends exactly one row to the history (:meth:`history`) in its own
+        :meth:`set_record`, :meth:`set_review`) appends exactly one row to the history (:meth:`history`) in its own
         transaction, with the annotator, the time, the object's id and the values before and after."""
         ...
 
@@ -268,8 +268,29 @@ class ProjectStore(Protocol):
         "edit" (kind, attribute, notes: old and new of the fields given; or ``instant_of``: an instant
         linked to or unlinked from an object, :meth:`add_instant` / :meth:`remove_instant`), "re-pick"
         (vertices replaced),
-        "delete", "put back" (an undo), "record" (observation record set or removed). Rows are never
+        "delete", "put back" (an undo), "record" (observation record set or removed), "review" (review state
+        set: ``{"state", "reason", "reviewer"}`` before and after). Rows are never
         changed or removed (the schema refuses it)."""
+        ...
+
+    # ------------------------------------------------------------------------ reviews (schema 9)
+    def set_review(self, object_id: int, state: str, reason: str = "", expected_modified: str | None = None) -> None:
+        """Set an object's review state: "accepted" (``reason`` an optional remark), "flagged" (``reason``
+        required: what is wrong, one line) or "unreviewed" (back in the queue; no reason), made by this
+        handle's annotator now. One transaction: the review, the object's ``modified`` stamp moved forward
+        (a review is a new version of the object), and one "review" row in the history (old and new state).
+        An unknown id, an unknown state, a flag without a reason is a ``ProjectError`` naming the object;
+        ``expected_modified`` as for :meth:`update_object` (a stale review is a ``StaleEditError``)."""
+        ...
+
+    def review(self, object_id: int) -> Review:
+        """An object's :class:`~usvips.store.records.Review` (state "unreviewed" when none was made); an
+        unknown id is a ``ProjectError``."""
+        ...
+
+    def reviews(self, state: str | None = None) -> list[Review]:
+        """The review of every object, by object id (unreviewed ones included); with ``state`` only those in
+        that state (an unknown state is a ``ProjectError``). One consistent read."""
         ...
 
     # ------------------------------------------------------------------------ objects over several instants

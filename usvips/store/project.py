@@ -48,9 +48,11 @@ from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store import checks
 from usvips.store.annotator import current_annotator
 from usvips.store.records import (  # noqa: F401 - re-exported
+    REVIEW_STATES,
     HistoryEntry,
     ProjectError,
     RemovedObject,
+    Review,
     StaleEditError,
     StoredObject,
     Vertex,
@@ -109,6 +111,13 @@ def _vertex_state(vertex: Vertex) -> dict:
 
 def _object_state(kind: str, attribute: str, notes: str, vertices: list[Vertex]) -> dict:
     return {"kind": kind, "attribute": attribute, "notes": notes, "vertices": [_vertex_state(v) for v in vertices]}
+
+
+def _review_state(review: Review) -> dict:
+    """A review as the history shows it: its state, and when reviewed the reason and the reviewer."""
+    if review.state == "unreviewed":
+        return {"state": "unreviewed"}
+    return {"state": review.state, "reason": review.reason, "reviewer": review.reviewer}
 
 
 def _history_json(value: dict | None) -> str | None:
@@ -189,7 +198,7 @@ def database_problem(error: sqlite3.Error) -> str:
 #: found by the key column; its instant links both ways (an instant of another, or the first of its own)
 _OBJECT_TABLES = (("objects", "id"), ("vertices", "object_id"), ("vertex_frames", "object_id"),
                   ("vertex_history", "object_id"), ("observation_records", "object_id"),
-                  ("object_instants", "object_id"), ("object_instants", "of_object"))
+                  ("object_instants", "object_id"), ("object_instants", "of_object"), ("reviews", "object_id"))
 
 
 def _remove_database(path: Path) -> None:
@@ -673,7 +682,53 @@ class Project:
         record = self.record(object_id)
         if record is not None:
             state["record"] = dataclasses.asdict(record)
+        review = self.review(object_id)
+        if review.state != "unreviewed":
+            state["review"] = _review_state(review)
         return state
+
+    # ---------------------------------------------------------------------------- reviews (schema 9)
+    def set_review(self, object_id: int, state: str, reason: str = "", expected_modified: str | None = None) -> None:
+        """Set an object's review state (see :meth:`ProjectStore.set_review`): one transaction that stores
+        the review with this handle's annotator and the time, moves the object's ``modified`` stamp forward
+        and appends one 'review' row (old and new state) to the history."""
+        state, reason = checks.review(object_id, state, reason, self.path)
+        with self.transaction():
+            stored = self.object(object_id)
+            refuse_stale(self.path, stored, expected_modified)
+            old = self.review(object_id)
+            now = _later(stored.modified)
+            if state == "unreviewed":
+                self._db.execute("DELETE FROM reviews WHERE object_id = ?", (object_id,))
+            else:
+                self._db.execute("INSERT OR REPLACE INTO reviews (object_id, state, reason, reviewer, reviewed) "
+                                 "VALUES (?, ?, ?, ?, ?)", (object_id, state, reason, self.annotator, now))
+            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (now, object_id))
+            self._log(object_id, "review", _review_state(old), _review_state(self.review(object_id)))
+
+    def review(self, object_id: int) -> Review:
+        """An object's review (unreviewed when none was made, or before schema 9); an unknown id is a
+        ``ProjectError``."""
+        with self._reading():
+            self.object(object_id)
+            if not self._has_table("reviews"):
+                return Review(int(object_id))
+            row = self._db.execute("SELECT state, reason, reviewer, reviewed FROM reviews WHERE object_id = ?",
+                                   (int(object_id),)).fetchone()
+        return Review(int(object_id)) if row is None else Review(int(object_id), *row)
+
+    def reviews(self, state: str | None = None) -> list[Review]:
+        """The review of every object (unreviewed ones included), by object id; with ``state`` only the
+        objects in that state. One consistent read."""
+        if state is not None and state not in REVIEW_STATES:
+            raise ProjectError(f"{self.path}: unknown review state {state!r} (one of {', '.join(REVIEW_STATES)})")
+        with self._reading():
+            ids = [int(r[0]) for r in self._db.execute("SELECT id FROM objects ORDER BY id").fetchall()]
+            rows = {} if not self._has_table("reviews") else {
+                int(r[0]): r[1:] for r in self._db.execute(
+                    "SELECT object_id, state, reason, reviewer, reviewed FROM reviews").fetchall()}
+        found = [Review(i, *rows[i]) if i in rows else Review(i) for i in ids]
+        return found if state is None else [r for r in found if r.state == state]
 
     def update_object(self, object_id: int, attribute: str | None = None, notes: str | None = None,
                       vertices: list[Vertex] | None = None, kind: str | None = None,
@@ -948,7 +1003,7 @@ class Project:
         (:func:`usvips.app.video_project.verify_media`)."""
         if not self._has_table("media"):
             return []
-        rows = self._db.execute("SELECT path, size, sha256 FROM media ORDER BY path").fetchall()
+        rows = self._query("SELECT path, size, sha256 FROM media ORDER BY path")
         return [(stored, self.path.parent / stored, int(size), sha) for stored, size, sha in rows]
 
     def accept_media(self, stored: str) -> None:
@@ -973,7 +1028,7 @@ class Project:
         full hash read only of the files found changed."""
         if not self._has_table("media"):
             return []
-        rows = self._db.execute("SELECT path, size, sha256 FROM media ORDER BY path").fetchall()
+        rows = self._query("SELECT path, size, sha256 FROM media ORDER BY path")
         owners = {sha: path for path, _, sha in rows}
         problems = []
         for stored, size, sha in rows:
@@ -1074,10 +1129,11 @@ class Project:
         self._edit("INSERT OR REPLACE INTO active_calibrations VALUES (?, ?)", (self.pair_id(label), calibration_id))
 
     def _video_row(self, label: str) -> tuple:
-        row = self._db.execute("SELECT id, label, fps, frame_count, width, height, offset_frames, offset_estimate, "
-                               "report FROM videos WHERE label = ?", (label,)).fetchone()
+        found = self._query("SELECT id, label, fps, frame_count, width, height, offset_frames, offset_estimate, "
+                            "report FROM videos WHERE label = ?", (label,))
+        row = found[0] if found else None
         if row is None:
-            known = [r[0] for r in self._db.execute("SELECT label FROM videos ORDER BY id")]
+            known = [r[0] for r in self._query("SELECT label FROM videos ORDER BY id")]
             raise ProjectError(f"{self.path}: no video pair {label!r}" + (f" (there are: {', '.join(known)})"
                                                                           if known else " (the project has no videos)"))
         return row
@@ -1091,8 +1147,8 @@ class Project:
         video = dict(zip(keys, row, strict=True))
         video["offset_estimate"] = json.loads(row[7]) if row[7] else None
         for camera in ("left", "right"):
-            files = self._db.execute("SELECT path, frame_count FROM video_files WHERE video_id = ? AND camera = ? "
-                                     "ORDER BY idx", (row[0], camera)).fetchall()
+            files = self._query("SELECT path, frame_count FROM video_files WHERE video_id = ? AND camera = ? "
+                                "ORDER BY idx", (row[0], camera))
             video[camera] = [r[0] for r in files]
             video[f"{camera}_frames"] = [r[1] for r in files]
         return video
@@ -1101,11 +1157,10 @@ class Project:
         """Every stereo video (none in a project older than schema 4, opened read-only)."""
         if not self._has_table("videos"):
             return []
-        return [self.video(r[0]) for r in self._db.execute("SELECT label FROM videos ORDER BY id").fetchall()]
+        return [self.video(r[0]) for r in self._query("SELECT label FROM videos ORDER BY id")]
 
     def _has_table(self, name: str) -> bool:
-        return self._db.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)
-                                ).fetchone() is not None
+        return bool(self._query("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)))
 
     def set_video_offset(self, label: str, frames: int, estimate: dict | None = None) -> None:
         """Left frame i and right frame i + ``frames`` show the same instant; ``estimate``: how it was found."""

@@ -72,8 +72,25 @@ class RemovedObject:
 
 #: the kinds of change the history records: an object added, edited (kind, attribute, notes), re-picked
 #: (its vertices replaced), deleted, put back (an undo restoring it as it was), its observation record set
-#: (or removed)
-CHANGES = ("add", "edit", "re-pick", "delete", "put back", "record")
+#: (or removed), reviewed (schema 9: its review state set)
+CHANGES = ("add", "edit", "re-pick", "delete", "put back", "record", "review")
+
+#: the review states of an object (schema 9): not yet looked at by a second reader (every object starts
+#: so), accepted, or flagged with a reason
+REVIEW_STATES = ("unreviewed", "accepted", "flagged")
+
+
+@dataclass(frozen=True)
+class Review:
+    """An object's review: its state (one of :data:`REVIEW_STATES`), the reason (required when flagged; an
+    optional remark when accepted; '' when unreviewed), who reviewed it and when (ISO 8601 UTC text; both
+    '' while unreviewed)."""
+
+    object_id: int
+    state: str = "unreviewed"
+    reason: str = ""
+    reviewer: str = ""
+    reviewed: str = ""
 
 
 @dataclass(frozen=True)

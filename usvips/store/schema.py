@@ -178,6 +178,33 @@ CREATE TRIGGER history_kept_whole BEFORE DELETE ON history
     BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never removed'); END;
 """
 MIGRATIONS[8] = VERSION_8
+
+# version 9: the review of each object by a second reader (usvips.store.records.REVIEW_STATES): accepted, or
+# flagged with a reason, by whom and when; an unreviewed object has no row. A review is a change the
+# history keeps ('review'): SQLite changes a CHECK only by rebuilding the table, so the history is copied
+# row for row into one whose CHECK also allows 'review' (DROP TABLE fires no trigger; the append-only
+# triggers and the index are made again on the new table).
+VERSION_9 = """
+CREATE TABLE reviews (
+    object_id INTEGER PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
+    state TEXT NOT NULL CHECK (state IN ('accepted', 'flagged')), reason TEXT NOT NULL DEFAULT '',
+    reviewer TEXT NOT NULL, reviewed TEXT NOT NULL, CHECK (state <> 'flagged' OR reason <> ''));
+CREATE INDEX reviews_state ON reviews(state, object_id);
+CREATE TABLE history_v9 (
+    id INTEGER PRIMARY KEY, at TEXT NOT NULL, annotator TEXT NOT NULL, object_id INTEGER NOT NULL,
+    change TEXT NOT NULL CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', 'record', 'review')),
+    old TEXT, new TEXT);
+INSERT INTO history_v9 (id, at, annotator, object_id, change, old, new)
+    SELECT id, at, annotator, object_id, change, old, new FROM history ORDER BY id;
+DROP TABLE history;
+ALTER TABLE history_v9 RENAME TO history;
+CREATE INDEX history_object ON history(object_id, id);
+CREATE TRIGGER history_kept_unchanged BEFORE UPDATE ON history
+    BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never altered'); END;
+CREATE TRIGGER history_kept_whole BEFORE DELETE ON history
+    BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never removed'); END;
+"""
+MIGRATIONS[9] = VERSION_9
 SCHEMA_VERSION = max(MIGRATIONS)
 
 

@@ -1,0 +1,53 @@
+"""A change of a project's history in words, for a person (the command line's ``usvips project history``
+and the window's object history): what was added or deleted, which fields went from what to what, the
+observation record or the review before and after."""
+
+from __future__ import annotations
+
+import json
+
+from usvips.store.records import HistoryEntry
+
+
+def _short(value: object) -> str:
+    text = json.dumps(value, ensure_ascii=False) if not isinstance(value, str) else repr(value)
+    return text if len(text) <= 60 else text[:57] + "…"
+
+
+def _summary(state: dict | None) -> str:
+    if not state:
+        return "nothing"
+    vertices = state.get("vertices", [])
+    text = f"{state.get('kind', '?')} {state.get('attribute', '')!r}, {len(vertices)} vertices"
+    record = state.get("record")
+    return text + (f", record {_record(record)}" if record else "")
+
+
+def _record(record: dict | None) -> str:
+    if not record:
+        return "none"
+    taxon = " ".join(record.get(k, "") for k in ("family", "genus", "species") if record.get(k)) or "unidentified"
+    return f"{taxon} ×{record.get('number', 1)}"
+
+
+def what_changed(entry: HistoryEntry) -> str:
+    """One line: what the change did (``old → new`` of each field it concerned)."""
+    old, new = entry.old or {}, entry.new or {}
+    if entry.change in ("add", "put back"):
+        return _summary(entry.new)
+    if entry.change == "delete":
+        return _summary(entry.old)
+    if entry.change == "record":
+        return f"{_record(entry.old)} → {_record(entry.new)}"
+    if entry.change == "review":
+        reason = new.get("reason")
+        return f"{old.get('state', '?')} → {new.get('state', '?')}" + (f" ({reason})" if reason else "")
+    parts = []
+    for name in sorted(set(old) | set(new)):
+        if name == "vertices":
+            before, after = old.get(name, []), new.get(name, [])
+            moved = sum(1 for a, b in zip(before, after, strict=False) if a != b) + abs(len(after) - len(before))
+            parts.append(f"vertices {len(before)} → {len(after)} ({moved} changed)")
+        else:
+            parts.append(f"{name} {_short(old.get(name))} → {_short(new.get(name))}")
+    return "; ".join(parts) or "no field given"

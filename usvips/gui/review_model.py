@@ -1,0 +1,196 @@
+"""Review mode's model (Qt-free): a second reader walks the objects of a survey that were unreviewed when
+the walk began, accepts each one or flags it with a reason, and sees how far they are.
+
+The queue is in a stable order: by where the object was measured (its video or image pair, by label), then
+its left frame (objects of one video in time order), then its id. It holds the objects that were
+unreviewed when it was loaded (and the objects measured since, appended as they come); reviewing an
+object keeps it in the queue, so that Previous goes back to it and its review can be changed.
+
+- :meth:`ReviewModel.next` / :meth:`ReviewModel.previous` move one place in the queue;
+- :meth:`ReviewModel.accept` / :meth:`ReviewModel.flag` store the review (as the store's annotator, with
+  the object's version as read: an object someone else changed meanwhile is refused by name, and its
+  state read again), then move on to the next object still unreviewed;
+- :meth:`ReviewModel.skip` moves on to the next unreviewed object without reviewing this one.
+
+Events (:class:`usvips.gui.signals.Signal`): ``changed()`` after anything the view shows changed (the
+queue, the current object, a state); ``reviewed(object_id, review)`` after a review was stored.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from usvips.core.errors import UsvipsError
+from usvips.gui.signals import Signal
+from usvips.store.records import Review, StaleEditError, StoredObject
+
+
+def queue_key(stored: StoredObject) -> tuple:
+    """Where an object comes in the queue: its video or pair label, its left frame (-1 on an image
+    pair), its id."""
+    vertex = stored.vertices[0] if stored.vertices else None
+    if vertex is None:
+        return ("", -1, stored.id)
+    if vertex.video is not None:
+        return (vertex.video, int(vertex.frame_left if vertex.frame_left is not None else -1), stored.id)
+    return (vertex.pair or "", -1, stored.id)
+
+
+def progress_text(reviewed: int, total: int, flagged: int = 0) -> str:
+    """``12 of 140 reviewed`` (``, 3 flagged`` when any were), or that there is nothing to review."""
+    if total == 0:
+        return "nothing to review: every object has been reviewed"
+    return f"{reviewed} of {total} reviewed" + (f", {flagged} flagged" if flagged else "")
+
+
+class ReviewModel:
+    """The review queue of one store (a :class:`~usvips.store.interface.ProjectStore`); see the module
+    docstring. ``load`` (re)reads it; without a store the queue is empty."""
+
+    def __init__(self) -> None:
+        self.changed = Signal()
+        self.reviewed = Signal()
+        self.store = None
+        self.queue: list[int] = []
+        self.position = 0
+        self.reviews: dict[int, Review] = {}
+        self._versions: dict[int, str] = {}
+        self._made: dict[int, str] = {}  # the latest version of an object read here (the caller's may be older)
+
+    # ------------------------------------------------------------------ loading
+    def load(self, store, objects: Iterable[StoredObject] | None = None) -> None:
+        """Read the reviews of ``store`` (None: no project) and queue its unreviewed objects; ``objects``:
+        the store's objects when the caller has them (the window's cache), else they are read."""
+        if store is not self.store:
+            self._made = {}
+        self.store = store
+        self.reviews, self._versions, self.queue, self.position = {}, {}, [], 0
+        if store is not None:
+            stored = list(objects) if objects is not None else store.objects()
+            self.reviews = {r.object_id: r for r in store.reviews()}
+            self._versions = {o.id: max(o.modified, self._made.get(o.id, "")) for o in stored}
+            self.queue = [o.id for o in sorted(stored, key=queue_key)
+                          if self.reviews.get(o.id, Review(o.id)).state == "unreviewed"]
+        self.changed.emit()
+
+    def add(self, objects: Iterable[StoredObject]) -> None:
+        """Objects measured since the queue was loaded: unreviewed, they join the end of the queue."""
+        new = [o for o in objects if o.id not in self._versions]
+        for stored in sorted(new, key=queue_key):
+            self._versions[stored.id] = stored.modified
+            self.reviews[stored.id] = Review(stored.id)
+            self.queue.append(stored.id)
+        if new:
+            self.changed.emit()
+
+    def updated(self, objects: Iterable[StoredObject]) -> None:
+        """Objects changed in the window since they were read: their new versions (a review of them is not
+        a stale one)."""
+        for stored in objects:
+            if stored.id in self._versions:
+                self._versions[stored.id] = max(stored.modified, self._versions[stored.id])
+
+    def forget(self, object_ids: Iterable[int]) -> None:
+        """Objects deleted: out of the queue (the current place stays on the same object, or the next)."""
+        gone = set(object_ids) & set(self._versions)
+        if not gone:
+            return
+        before = sum(1 for i in self.queue[:self.position] if i in gone)
+        self.queue = [i for i in self.queue if i not in gone]
+        for object_id in gone:
+            self._versions.pop(object_id, None)
+            self.reviews.pop(object_id, None)
+        self.position = max(0, min(self.position - before, len(self.queue) - 1))
+        self.changed.emit()
+
+    # ------------------------------------------------------------------ where we are
+    @property
+    def current(self) -> int | None:
+        """The object under review (None when the queue is empty)."""
+        return self.queue[self.position] if self.queue else None
+
+    def state(self, object_id: int) -> Review:
+        """An object's review as last read or made."""
+        return self.reviews.get(object_id, Review(object_id))
+
+    def counts(self) -> tuple[int, int, int]:
+        """(reviewed, total, flagged) over the queue."""
+        states = [self.state(i).state for i in self.queue]
+        return sum(s != "unreviewed" for s in states), len(states), sum(s == "flagged" for s in states)
+
+    def progress(self) -> str:
+        return progress_text(*self.counts())
+
+    @property
+    def finished(self) -> bool:
+        """Every object of the queue has been reviewed."""
+        reviewed, total, _ = self.counts()
+        return reviewed == total
+
+    # ------------------------------------------------------------------ moving
+    def go_to(self, object_id: int) -> None:
+        """Make ``object_id`` (in the queue) the current object."""
+        if object_id in self.queue:
+            self.position = self.queue.index(object_id)
+            self.changed.emit()
+
+    def next(self) -> int | None:
+        """One place on (stays at the end); returns the current object."""
+        return self._move(1)
+
+    def previous(self) -> int | None:
+        """One place back (stays at the start); returns the current object."""
+        return self._move(-1)
+
+    def _move(self, step: int) -> int | None:
+        if self.queue:
+            self.position = max(0, min(self.position + step, len(self.queue) - 1))
+        self.changed.emit()
+        return self.current
+
+    def skip(self) -> int | None:
+        """On to the next object still unreviewed after this one (round to the start; stays when none)."""
+        count = len(self.queue)
+        for step in range(1, count):
+            index = (self.position + step) % count
+            if self.state(self.queue[index]).state == "unreviewed":
+                self.position = index
+                break
+        self.changed.emit()
+        return self.current
+
+    # ------------------------------------------------------------------ reviewing
+    def accept(self, reason: str = "") -> Review:
+        """Accept the current object (``reason``: an optional remark), then on to the next unreviewed one."""
+        return self._review("accepted", reason)
+
+    def flag(self, reason: str) -> Review:
+        """Flag the current object with ``reason`` (required, one line), then on to the next unreviewed one."""
+        return self._review("flagged", reason)
+
+    def unreview(self) -> Review:
+        """Put the current object back to unreviewed (a review made by mistake); the place stays."""
+        return self._review("unreviewed", "", advance=False)
+
+    def _review(self, state: str, reason: str, advance: bool = True) -> Review:
+        object_id = self.current
+        if object_id is None or self.store is None:
+            raise UsvipsError("nothing to review: the queue is empty")
+        try:
+            self.store.set_review(object_id, state, reason, expected_modified=self._versions.get(object_id))
+        except StaleEditError:
+            self._reread(object_id)  # the object as it now is: its state and version, for a review again
+            self.changed.emit()
+            raise
+        self._reread(object_id)
+        review = self.state(object_id)
+        self.reviewed.emit(object_id, review)
+        if advance and not self.finished:
+            self.skip()
+        else:
+            self.changed.emit()
+        return review
+
+    def _reread(self, object_id: int) -> None:
+        self.reviews[object_id] = self.store.review(object_id)
+        self._versions[object_id] = self._made[object_id] = self.store.object(object_id).modified
