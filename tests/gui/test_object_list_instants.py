@@ -1,7 +1,7 @@
 """The object list (offscreen) with an object measured on several instants: the object's row shows the
 combined figure and how many instants it has; a further instant's row is greyed and its figure cell names
-its object (its own length only in the tooltip), and both follow links made, removed, instants deleted
-and undone."""
+its object (its own length only in the tooltip), and both follow links made, removed, an instant
+edited, instants deleted and undone."""
 
 import numpy as np
 import pytest
@@ -77,6 +77,13 @@ def test_an_object_shows_its_combined_figure_and_its_instants_their_object(qtbot
     qtbot.waitUntil(lambda: _cell(fresh, whole).text() == f"{combined} (3 instants)", timeout=10000)
     assert _cell(fresh, third).text() == f"instant of #{whole}" and _greyed(fresh, third)
     fresh.cleanup()
+    # an instant's vertices changed (say re-picked on a wrong fish): the object's combined figure follows
+    ws.project.update_object(third, vertices=list(ws.project.object(other).vertices))
+    ws.cache.changed_in_store(updated=(third,))
+    moved = _figure(ws, whole)
+    assert moved != combined
+    qtbot.waitUntil(lambda: _cell(view, whole).text() == f"{moved} (3 instants)", timeout=10000)
+    own[third] = _figure(ws, third)
     # an instant unlinked: an object of its own again, the object's figure over the two left
     ws.project.remove_instant(third)
     ws.cache.changed_in_store(updated=(third,))
