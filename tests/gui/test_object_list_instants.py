@@ -1,7 +1,8 @@
 """The object list (offscreen) with an object measured on several instants: the object's row shows the
 combined figure and how many instants it has; a further instant's row is greyed and its figure cell names
 its object (its own length only in the tooltip), and both follow links made, removed, an instant
-edited, instants deleted and undone."""
+edited, instants deleted and undone. The geo-calculator says whether its figures are one instant's or
+the object's combined ones."""
 
 import numpy as np
 import pytest
@@ -12,6 +13,7 @@ from usvips.app.object_instants import add_instant
 from usvips.app.project_figures import evaluate, measurement_input
 from usvips.bench import scaling
 from usvips.gui.calculator import format_figure
+from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.object_list import ObjectList
 from usvips.gui.workspace import Workspace
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
@@ -101,3 +103,25 @@ def test_an_object_shows_its_combined_figure_and_its_instants_their_object(qtbot
     ws.delete_object(whole)
     qtbot.waitUntil(lambda: _cell(view, second).text() == own[second], timeout=10000)
     assert not _greyed(view, second) and view.row_of(whole) is None
+
+
+def test_the_calculator_says_whether_it_shows_an_instant_or_the_combined_object(qtbot, listed):
+    view, ws, (whole, second, third), other = listed
+    panel = CalculatorPanel(ws)
+    qtbot.addWidget(panel)
+    for instant in (second, third):
+        add_instant(ws.project, whole, instant)
+    ws.cache.changed_in_store(updated=(second, third))
+    panel.set_selection([second])
+    text = panel.output.toPlainText()
+    assert f"one instant of object {whole}: its figures alone, not the object's" in text
+    assert _figure(ws, second) in text  # the instant's own figure, said to be one instant's
+    panel.set_selection([whole])
+    text = panel.output.toPlainText()
+    assert "combined over 3 instants" in text and _figure(ws, whole) in text
+    panel.set_selection([other])
+    assert "instant" not in panel.output.toPlainText()
+    ws.project.remove_instant(third)
+    ws.cache.changed_in_store(updated=(third,))
+    panel.set_selection([whole])
+    assert "combined over 2 instants" in panel.output.toPlainText()
