@@ -89,6 +89,9 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     assert project.instants(object_id) == ids and len(ids) == 4
     assert [project.object(i).vertices[0].frame_left for i in ids] == [2, 10, 14, 18]
     assert "over 5 instants" in _status(window)
+    # on the frame shown (10) the instant measured there is labelled as its object's
+    qtbot.waitUntil(lambda: any(label.toPlainText().startswith(f"{ids[1]}: instant of {object_id} ")
+                                for label in window.panes["left"].labels), timeout=10000)
     combined = evaluate(measurement_input(project, project.object(object_id)))
     qtbot.waitUntil(lambda: window.workspace.object_figures(object_id) is not None, timeout=10000)
     assert window.workspace.object_figures(object_id).figures[0].value == combined.figures[0].value

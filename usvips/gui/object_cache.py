@@ -88,6 +88,10 @@ class ObjectCache:
         """Every further instant's id -> the id of the object it is an instant of (no query)."""
         return dict(self._links)
 
+    def instant_of(self, object_id: int) -> int | None:
+        """The id of the object ``object_id`` is a further instant of (None: it is no instant of another)."""
+        return self._links.get(object_id)
+
     def record(self, object_id: int) -> ObservationRecord | None:
         """An object's observation record (None: none entered), from the cache."""
         return self._records.get(object_id)
@@ -96,12 +100,13 @@ class ObjectCache:
                          removed: tuple[int, ...] = ()) -> tuple[int, ...]:
         """Bring the cache up to date with what was just written (re-reading only those ids, by one query)
         and announce it by id; returns the ids now gone. An object whose instants changed (one of them
-        edited, deleted, linked or unlinked) is announced as updated too: its combined figure changed."""
+        edited, deleted, linked or unlinked) is announced as updated too: its combined figure changed; so
+        is an instant linked or unlinked (it is shown as its object's)."""
         old, self._links = self._links, self.project.instant_links()
         moved = set(old.items()) ^ set(self._links.items())
         named = added + updated + removed
-        wholes = {w for _, w in moved} | {links.get(i) for links in (old, self._links) for i in named}
-        updated = updated + tuple(sorted(w for w in wholes if w is not None and w not in named and w in self._objects))
+        touched = {i for link in moved for i in link} | {links.get(i) for links in (old, self._links) for i in named}
+        updated = updated + tuple(sorted(i for i in touched if i is not None and i not in named and i in self._objects))
         fresh = {o.id: o for o in self.project.objects_with_ids(added + updated)} if added + updated else {}
         gone = tuple(i for i in removed + updated if i not in fresh and i in self._objects)
         for object_id in gone:
