@@ -89,6 +89,9 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     assert project.instants(object_id) == ids and len(ids) == 4
     assert [project.object(i).vertices[0].frame_left for i in ids] == [2, 10, 14, 18]
     assert "over 5 instants" in _status(window)
+    # on the frame shown (10) the instant measured there is labelled as its object's
+    qtbot.waitUntil(lambda: any(label.toPlainText().startswith(f"{ids[1]}: instant of {object_id} ")
+                                for label in window.panes["left"].labels), timeout=10000)
     combined = evaluate(measurement_input(project, project.object(object_id)))
     qtbot.waitUntil(lambda: window.workspace.object_figures(object_id) is not None, timeout=10000)
     assert window.workspace.object_figures(object_id).figures[0].value == combined.figures[0].value
@@ -97,6 +100,8 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     qtbot.waitUntil(lambda: window.object_list.table.item(row, column).text() != "computing…", timeout=10000)
     shown = window.object_list.table.item(row, column).text()
     assert f"{combined.figures[0].sigma * 1000:.1f} mm" in shown and combined.combined[0].count == 5
+    assert shown.endswith("(5 instants)")  # the object's row: the combined figure over its 5 instants
+    assert window.object_list.table.item(window.object_list.row_of(ids[0]), column).text() == f"instant of #{object_id}"
     distances = [np.linalg.norm(fish.body_point(f / 25.0, POINTS[1] * fish.length)
                                 - fish.body_point(f / 25.0, POINTS[0] * fish.length)) for f in (START, 2, 10, 14, 18)]
     assert abs(combined.figures[0].value - np.mean(distances)) < 3 * combined.figures[0].sigma

@@ -68,6 +68,17 @@ class CalculatorPanel(QtWidgets.QWidget):
         if set(ids) & set(self.selection):
             self.refresh()
 
+    def _instant_lines(self) -> list[str]:
+        """One object selected that belongs to several instants: which figures these are (survey, issue 25)."""
+        if len(self.selection) != 1:
+            return []
+        object_id, links = self.selection[0], self.workspace.cache.instant_links()
+        if object_id in links:
+            return [f"one instant of object {links[object_id]}: its figures alone, not the object's (object "
+                    f"{links[object_id]}'s are combined over its instants)"]
+        count = 1 + sum(1 for whole in links.values() if whole == object_id)
+        return [f"combined over {count} instants (I lists them)"] if count > 1 else []
+
     def refresh(self, *_: object) -> None:
         existing = set(self.workspace.object_ids())
         self.selection = [i for i in self.selection if i in existing]
@@ -77,7 +88,7 @@ class CalculatorPanel(QtWidgets.QWidget):
             return
         result = self.workspace.figures(self.selection)
         head = "objects " + " and ".join(str(i) for i in self.selection)
-        lines = [head, ""] + [format_figure(f) for f in result.figures]
+        lines = [head, *self._instant_lines(), ""] + [format_figure(f) for f in result.figures]
         if result.reason:
             lines.append(result.reason)
         if result.figures and not result.reason:

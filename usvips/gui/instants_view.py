@@ -20,6 +20,13 @@ from usvips.gui.undo import Command
 from usvips.gui.workspace import Workspace
 
 
+def residual_text(residual: float) -> str:
+    """A standardised residual signed to two decimals ("+0.00", never "-0.00"); "—" when there is none."""
+    if not np.isfinite(residual):
+        return "—"
+    return f"{round(float(residual), 2) + 0.0:+.2f}"  # + 0.0: a residual rounding to zero is +0.00
+
+
 class InstantsView(QtWidgets.QDialog):
     """The instants of one object (see the module docstring); ``show_object(id)`` fills it."""
 
@@ -39,6 +46,11 @@ class InstantsView(QtWidgets.QDialog):
         self.summary.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
         self.table = QtWidgets.QTableWidget(0, len(self.COLUMNS))
         self.table.setHorizontalHeaderLabels([c.capitalize() for c in self.COLUMNS])
+        for column, tip in (("weight", "the instant's share of the combination (weights 1/(σᵢ² + τ²), σᵢ its "
+                                       "pointing part)"),
+                            ("residual", "the instant's leave-one-out standardised residual (in σ; — with fewer "
+                                         "than 3 instants)")):
+            self.table.horizontalHeaderItem(self.COLUMNS.index(column)).setToolTip(tip)
         self.table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectionBehavior.SelectRows)
         self.table.setSelectionMode(QtWidgets.QAbstractItemView.SelectionMode.SingleSelection)
         self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.NoEditTriggers)
@@ -104,7 +116,7 @@ class InstantsView(QtWidgets.QDialog):
         self.summary.setText(self.listed.summary())
         self.table.setRowCount(len(self.listed.rows))
         for row, instant in enumerate(self.listed.rows):
-            residual = "—" if not np.isfinite(instant.residual) else f"{instant.residual:+.2f}"
+            residual = residual_text(instant.residual)
             own = " (the object)" if instant.object_id == self.object_id else ""
             values = (f"{instant.object_id}{own}", instant.where, format_figure(instant.figure),
                       f"{instant.weight:.0%}", residual, "OUTLYING" if instant.outlier else "")

@@ -63,6 +63,8 @@ class ObjectCache:
         self._versions: dict[int, int] = {}  # id -> how often it changed (stale worker results are dropped)
         #: calibrations read for figures and picks, by id (read once per project)
         self.calibrations: dict[int, StereoCalibration | None] = {}
+        #: a further instant's id -> the id of the object it is an instant of (read again on every change)
+        self._links: dict[int, int] = {} if project is None else project.instant_links()
 
     # ------------------------------------------------------------------ the objects
     def objects(self) -> list:
@@ -82,6 +84,14 @@ class ObjectCache:
         except KeyError:
             raise UsvipsError(f"there is no object {object_id} in the project") from None
 
+    def instant_links(self) -> dict[int, int]:
+        """Every further instant's id -> the id of the object it is an instant of (no query)."""
+        return dict(self._links)
+
+    def instant_of(self, object_id: int) -> int | None:
+        """The id of the object ``object_id`` is a further instant of (None: it is no instant of another)."""
+        return self._links.get(object_id)
+
     def record(self, object_id: int) -> ObservationRecord | None:
         """An object's observation record (None: none entered), from the cache."""
         return self._records.get(object_id)
@@ -89,7 +99,14 @@ class ObjectCache:
     def changed_in_store(self, added: tuple[int, ...] = (), updated: tuple[int, ...] = (),
                          removed: tuple[int, ...] = ()) -> tuple[int, ...]:
         """Bring the cache up to date with what was just written (re-reading only those ids, by one query)
-        and announce it by id; returns the ids now gone."""
+        and announce it by id; returns the ids now gone. An object whose instants changed (one of them
+        edited, deleted, linked or unlinked) is announced as updated too: its combined figure changed; so
+        is an instant linked or unlinked (it is shown as its object's)."""
+        old, self._links = self._links, self.project.instant_links()
+        moved = set(old.items()) ^ set(self._links.items())
+        named = added + updated + removed
+        touched = {i for link in moved for i in link} | {links.get(i) for links in (old, self._links) for i in named}
+        updated = updated + tuple(sorted(i for i in touched if i is not None and i not in named and i in self._objects))
         fresh = {o.id: o for o in self.project.objects_with_ids(added + updated)} if added + updated else {}
         gone = tuple(i for i in removed + updated if i not in fresh and i in self._objects)
         for object_id in gone:
@@ -126,6 +143,7 @@ class ObjectCache:
         """Read every stored object again (by one query), e.g. after another program changed the project."""
         self._objects = {} if self.project is None else {o.id: o for o in self.project.objects()}
         self._records = {} if self.project is None else self.project.records()
+        self._links = {} if self.project is None else self.project.instant_links()
         self._figures, self._versions = {}, {}
         self.events.reset.emit()
         self.events.changed.emit()

@@ -1,10 +1,13 @@
 """The object list: the measured objects; select (drives the geo-calculator and the highlight), edit
 attribute and notes in place, delete, zoom to, go to the frame measured on; each one's review state, and
-its history (right-click › History…, or H in the list)."""
+its history (right-click › History…, or H in the list). An object measured on several
+instants shows its combined figure and how many instants it has; a further instant's row is greyed and
+its figure cell names its object (its own figure alone is in the tooltip, not to be read as the object's)."""
 
 from __future__ import annotations
 
 import bisect
+from collections import Counter
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
@@ -95,6 +98,8 @@ class ObjectList(QtWidgets.QWidget):
         self._ids: list[int] = []  # the object id of each row, ascending (rows are in id order)
         self._worker: Worker | None = None
         self._pending: list[int] = []  # the ids the running figures worker computes
+        self._links: dict[int, int] = {}  # a further instant's id -> the id of the object it is an instant of
+        self._instants: Counter = Counter()  # an object's id -> how many further instants it has
         self._events = ((workspace.objects_reset, self.refresh), (workspace.objects_added, self._on_added),
                         (workspace.objects_updated, self._on_updated), (workspace.objects_removed, self._on_removed),
                         (workspace.rules_changed, self._on_rules_changed),
@@ -127,6 +132,7 @@ class ObjectList(QtWidgets.QWidget):
         figures that are not known yet are computed (in a worker when many)."""
         objects = self.workspace.objects()
         self._reviews = self._read_reviews()
+        self._read_links(show=False)
         self._filling = True
         self.table.setUpdatesEnabled(False)
         try:
@@ -143,6 +149,7 @@ class ObjectList(QtWidgets.QWidget):
         self._on_model_selection(self.workspace.selection)
 
     def _on_added(self, ids: tuple[int, ...]) -> None:
+        self._read_links()
         self._filling = True
         try:
             for object_id in ids:
@@ -156,6 +163,7 @@ class ObjectList(QtWidgets.QWidget):
         self._fit()
 
     def _on_updated(self, ids: tuple[int, ...]) -> None:
+        self._read_links()
         self._filling = True
         try:
             for object_id in ids:
@@ -173,6 +181,7 @@ class ObjectList(QtWidgets.QWidget):
             if row is not None:
                 self.table.removeRow(row)
                 del self._ids[row]
+        self._read_links()
 
     def _on_rules_changed(self, _rules) -> None:
         self._compute(list(self._ids))
@@ -217,14 +226,56 @@ class ObjectList(QtWidgets.QWidget):
         else:
             main = format_figure(result.figures[0]) if result.figures else result.reason
             quality = "; ".join(result.failures) or "ok"
+        main, tip = self._instant_figure(object_id, main, result is not None and bool(result.figures))
         filling, self._filling = self._filling, True
         try:
             for column, value in (("figure", main), ("quality", quality)):
                 item = self.table.item(row, self.COLUMNS.index(column))
                 if item is not None and item.text() != value:
                     item.setText(value)
+            self._mark_instant(row, object_id, tip)
         finally:
             self._filling = filling
+
+    # ---- survey (issue 25): an instant's row belongs to its object ----
+    def _read_links(self, show: bool = True) -> None:
+        """The project's instant links (as the object cache holds them); the rows whose part in them changed
+        (the instant and its object, for the count) are shown again when ``show``."""
+        links = self.workspace.cache.instant_links()
+        if links == self._links:
+            return
+        touched = {i for link in set(links.items()) ^ set(self._links.items()) for i in link}
+        self._links, self._instants = links, Counter(links.values())
+        for object_id in sorted(touched) if show else ():
+            row = self.row_of(object_id)
+            if row is not None:
+                self._show_figures(row, object_id)
+
+    def _instant_figure(self, object_id: int, main: str, figured: bool) -> tuple[str, str]:
+        """The figure cell's text and tooltip: an object over several instants says how many (its figure is
+        the combined one); a further instant names its object, its own figure only in the tooltip."""
+        whole = self._links.get(object_id)
+        if whole is not None:
+            return (f"instant of #{whole}",
+                    f"one instant of object {whole}; this instant alone: {main}. The object's figure is row "
+                    f"#{whole}'s, combined over its instants.")
+        count = self._instants.get(object_id, 0) + 1
+        if count > 1 and figured:
+            return f"{main} ({count} instants)", f"combined over {count} instants (I lists them)"
+        return main, ""
+
+    def _mark_instant(self, row: int, object_id: int, tip: str) -> None:
+        """A further instant's row greyed (every cell), the figure cell's tooltip set."""
+        grey = object_id in self._links
+        brush = self.palette().brush(QtGui.QPalette.ColorGroup.Disabled, QtGui.QPalette.ColorRole.Text) \
+            if grey else QtGui.QBrush()
+        for column in range(self.table.columnCount()):
+            item = self.table.item(row, column)
+            if item is not None and (item.foreground() != brush):
+                item.setForeground(brush)
+        item = self.table.item(row, self.COLUMNS.index("figure"))
+        if item is not None and item.toolTip() != tip:
+            item.setToolTip(tip)
 
     def _compute(self, ids: list[int]) -> None:
         """Figures of ``ids`` not yet known: at once for a few, else in a worker (the newest job wins)."""

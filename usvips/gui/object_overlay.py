@@ -112,7 +112,9 @@ class ObjectOverlay:
                      np.array([(v.xr, v.yr) for v in picks], float).reshape(-1, 2))
             record = self.workspace.object_record(object_id)  # the species is the record's, when there is one
             name = species_text(record) if record is not None and record.name else stored.attribute
-            self.outlines[object_id] = (f"{stored.id} {name}".strip(), paths, marks)
+            whole = self.workspace.cache.instant_of(object_id)  # an instant is labelled as its object's
+            label = f"{stored.id} {name}" if whole is None else f"{stored.id}: instant of {whole} {name}"
+            self.outlines[object_id] = (label.strip(), paths, marks)
 
     def draw(self, *_: object) -> None:
         """Hand the cached outlines to the panes, joined into one array per kind of mark: all of them (when

@@ -233,16 +233,26 @@ def _geometry(kind: str, lonlat: np.ndarray) -> dict:
             "coordinates": [[_counter_clockwise(_wrapped(part)).tolist()] for part in parts if part is not None]}
 
 
+def placed_point(obj: Measurement) -> tuple[np.ndarray, np.ndarray]:
+    """A one-vertex object's place and its sigmas (m, the object's frame): its X, Y, Z figures when it was
+    measured on several instants (combined over them; its vertex is its first instant's), else its vertex."""
+    named = {f.name: f for f in obj.figures}
+    if obj.instant_count > 1 and all(a in named for a in "XYZ"):
+        return tuple(np.array([getattr(named[a], part) for a in "XYZ"]) for part in ("value", "sigma"))
+    return np.asarray(obj.points[0], float), np.asarray(obj.vertex_sigmas[0], float)
+
+
 def _feature_properties(obj: Measurement) -> dict:
     """Flat properties a GIS shows as columns: the object's id, kind, attribute and notes, every figure
-    and its sigma (the objects CSV's names and units), ray RMS and range (m), and the quality rules it
-    breaks."""
+    and its sigma (the objects CSV's names and units; combined over its instants when it has several),
+    ray RMS and range (m), the quality rules it breaks, and its number of instants (the objects CSV's
+    ``instants``)."""
     properties = {"id": obj.id, "kind": obj.kind, "attribute": obj.attribute, "notes": obj.notes,
                   "covariance": _covariance_word(obj), "quality": "; ".join(obj.failures)}
     for figure in obj.figures:
         properties[figure.name] = figure.value
         properties[_sigma_column(figure.name)] = figure.sigma
-    properties.update({"ray_rms_m": obj.ray_rms_m, "range_m": obj.range_m})
+    properties.update({"ray_rms_m": obj.ray_rms_m, "range_m": obj.range_m, "instants": obj.instant_count})
     return properties
 
 
@@ -251,7 +261,9 @@ def geojson(objects: list[Measurement], georeference: Georeference | None = None
     project's ``georeference`` (:mod:`usvips.io.georeference`); a point, a line string, a polygon (its
     exterior ring counter-clockwise), a circle as the polygon of its fitted outline, each cut at the
     antimeridian where it crosses it (:func:`_geometry`); figures, sigmas and
-    units as properties (:func:`_feature_properties`). Without a georeference there are no longitudes
+    units as properties (:func:`_feature_properties`). An object measured on several instants is one
+    feature: its combined figures and number of instants, drawn where its first instant was (a point at
+    its combined place, :func:`placed_point`). Without a georeference there are no longitudes
     and latitudes to write: an :class:`InvalidParameterError` says to set one or to export CSV."""
     if georeference is None:
         raise InvalidParameterError("georeference", "GeoJSON holds WGS 84 longitude/latitude and this project has "
@@ -263,7 +275,8 @@ def geojson(objects: list[Measurement], georeference: Georeference | None = None
         measurement = measurement_kind(obj.kind)
         drawing = measurement.drawing
         if drawing in ("marker", "polyline"):
-            geometry = _geometry(_GEOJSON[drawing], object_to_geographic(georeference, obj.points))
+            points = placed_point(obj)[0][None, :] if drawing == "marker" else obj.points
+            geometry = _geometry(_GEOJSON[drawing], object_to_geographic(georeference, points))
         else:
             outline = np.asarray(measurement.outline(obj.points), float)
             if not np.array_equal(outline[0], outline[-1]):
@@ -466,7 +479,8 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str | dict[str, str]
                         samples: list[tuple[Deployment, str]] | None = None) -> dict[str, str]:
     """Table name (:func:`eventmeasure_table_names`) → tab-separated text. Lengths and arcs become lengths
     (Length and Precision are the length figure and its sigma, in mm; an object combined over several
-    instants says "mean of N instants" in its Comment), points 3-D points (Direction
+    instants says "mean of N instants" in its Comment; a point so combined is its combined place,
+    :func:`placed_point`), points 3-D points (Direction
     empty), other kinds rows of their own table. RMS: the object's ray-intersection RMS (mm) when known
     (CheckEM drops rows without one when it filters on RMS); ``images``: object id → (left file, left
     frame, right file, right frame[, time (min), period, period time (min)]). Direction is the angle
@@ -503,7 +517,7 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str | dict[str, str]
                                        direction, "", "", *(middle * 1000)]
                                + _record_columns(obj, records.get(obj.id), comment))
         elif table == "3DPoints":
-            p, sigma = obj.points[0], obj.vertex_sigmas[0]
+            p, sigma = placed_point(obj)
             rows[table].append(head + [*(p * 1000), *(sigma * 1000), rms, np.linalg.norm(p - centre) * 1000, ""]
                                + _record_columns(obj, records.get(obj.id), comment))
         else:
