@@ -1,10 +1,10 @@
 """Tracking picks through a project's stereo video, and measuring a tracked object on several instants.
 
 :func:`track_in_video` gives :func:`usvips.core.tracking.track_vertex` its frame source — the video's left
-frame i and its synchronised right partner, decoded together (:class:`usvips.io.video_stream.PairReader`),
-in grey — and the cameras of the calibration active for the video; a left frame without a right partner
-ends the track with that reason. It runs on any thread (it opens its own streams): a worker calls it with
-the cancel and progress callables of the window.
+frame i and its synchronised right partner, decoded together and ahead of the tracker
+(:class:`usvips.io.grey_pairs.GreyPairSource`), in grey — and the cameras of the calibration active for the
+video; a left frame without a right partner ends the track with that reason. It runs on any thread (it
+opens its own streams): a worker calls it with the cancel and progress callables of the window.
 
 :func:`propose_on_frame` proposes an object's vertices on another frame of its video by tracking them
 there from the frame they were measured on (the window's track-based proposal when the previous instant is
@@ -27,7 +27,7 @@ from usvips.app.video_project import open_streams, partner_frame
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import measure_picks
 from usvips.core.tracking import Track, TrackSettings, track_vertex
-from usvips.io.video_stream import PairReader
+from usvips.io.grey_pairs import GreyPairSource
 from usvips.store.interface import ProjectStore
 from usvips.store.project import Vertex
 
@@ -49,19 +49,14 @@ def track_in_video(project: ProjectStore, label: str, start: int, left: Sequence
     geometry = _geometry(project, label)
     rig = geometry.calibration.rig(geometry.station, geometry.frame)
     video, left_stream, right_stream = open_streams(project, label)
-    with left_stream, right_stream:
-        reader = PairReader(left_stream, right_stream)
-        try:
-            def frames(index: int) -> tuple[np.ndarray, np.ndarray]:
-                partner = partner_frame(video, index, right_stream.frame_count)
-                one, other = reader.pictures(index, partner)
-                return one.array(grey=True), other.array(grey=True)
 
-            first = max(int(first), 0)
-            last = min(int(last), video["frame_count"] - 1)
-            return track_vertex(frames, rig, start, left, right, first, last, settings, cancel, progress)
-        finally:
-            reader.close()
+    def partner(index: int) -> int:
+        return partner_frame(video, index, right_stream.frame_count)
+
+    with left_stream, right_stream, GreyPairSource(left_stream, right_stream, partner) as frames:
+        first = max(int(first), 0)
+        last = min(int(last), video["frame_count"] - 1)
+        return track_vertex(frames, rig, start, left, right, first, last, settings, cancel, progress)
 
 
 def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence[Track], frames: Sequence[int],

@@ -378,6 +378,12 @@ class VideoStream:
                 return k, index - chapter.first
         raise AssertionError("index checked before")
 
+    def key_frame_before(self, index: int) -> int:
+        """The last key frame at or before frame ``index`` (where a decoder can start to reach it)."""
+        k, local = self._locate(self.check_index(index))
+        keys = np.flatnonzero(self.chapters[k].keyframe[: local + 1])
+        return self.chapters[k].first + (int(keys[-1]) if keys.size else 0)
+
     # ---------------------------------------------------------------------------- decoding
     def frame(self, index: int, grey: bool = False) -> np.ndarray:
         """Frame ``index`` exactly as decoded, RGB uint8 (H, W, 3) or grey (H, W)."""
