@@ -30,3 +30,4 @@ def test_the_tracking_row_tracks_every_frame_and_reports_tracking_apart_from_dec
     assert track["before_s"] > 0 and track["speed_up_over_before"] == pytest.approx(
         track["before_s"] / track["ours_s"], rel=1e-2)
     assert track["cpu_s"] > 0 and track["load_1min"] >= 0
+    assert track["backward_frames_tracked"] == 20 and track["backward_s"] > 0 and track["backward_before_s"] > 0

@@ -8,8 +8,11 @@ same frame source (:class:`usvips.io.grey_pairs.GreyPairSource`: both cameras de
 the tracker, grey read from the luma plane); ``tracking_s`` is tracking's own share (ours − the floor; with
 the prefetch, tracking overlaps decoding, so it is what tracking adds to the wall time). ``before_s`` times
 the frame source of the previous session (the tracker waiting for each pair, grey by FFmpeg's scaler) in the
-same run; ``cpu_s`` is the process's CPU time (user + system) of one tracking run, and ``load_1min`` the
-machine's load average when the row started (the machine is shared).
+same run. ``backward_s`` tracks the same frames from the last to the first (each step back would be a seek
+from its key frame; the source decodes each block from its key frame once and keeps it), beside
+``backward_before_s``, the previous source going backward. ``cpu_s`` is the process's CPU time (user +
+system) of one forward tracking run, and ``load_1min`` the machine's load average when the row started
+(the machine is shared).
 
 The QA row times :func:`usvips.app.quality.check` over objects whose figures are already computed (the
 window's figure cache holds them; computing figures is timed by the figure rows of other areas)."""
@@ -77,21 +80,23 @@ def _tracking_row(scale: float) -> dict:
 
         tracked: list = []
 
-        def track(frames) -> None:
-            tracked[:] = [track_vertex(frames, rig, 0, start, (start[0] - disparity, start[1]), 0, frames_count - 1,
-                                       near=0.5, far=20.0)]
+        def track(frames, backward: bool) -> None:
+            """From the first frame forward to the last, or from the last backward to the first."""
+            begin = frames_count - 1 if backward else 0
+            tracked[:] = [track_vertex(frames, rig, begin, start, (start[0] - disparity, start[1]), 0,
+                                       frames_count - 1, near=0.5, far=20.0)]
 
-        def run(track_it: bool) -> None:
+        def run(track_it: bool, backward: bool = False) -> None:
             with VideoStream(paths[0]) as left, VideoStream(paths[1]) as right, GreyPairSource(left, right) as frames:
                 if track_it:
-                    track(frames)
+                    track(frames, backward)
                 else:
                     for i in range(frames_count):
                         frames(i)
 
-        def run_as_before() -> None:
+        def run_as_before(backward: bool = False) -> None:
             """The frame source of the previous session: both cameras decoded together, the tracker waiting
-            for each pair, grey by FFmpeg's scaler."""
+            for each pair, grey by FFmpeg's scaler, every step backward a seek from its key frame."""
             with VideoStream(paths[0]) as left, VideoStream(paths[1]) as right:
                 reader = PairReader(left, right)
                 try:
@@ -99,7 +104,7 @@ def _tracking_row(scale: float) -> dict:
                         a, b = reader.pictures(i, i)
                         return a._frame.to_ndarray(format="gray"), b._frame.to_ndarray(format="gray")
 
-                    track(frames)
+                    track(frames, backward)
                 finally:
                     reader.close()
 
@@ -111,6 +116,10 @@ def _tracking_row(scale: float) -> dict:
         cpu_start = resource.getrusage(resource.RUSAGE_SELF)
         run(True)
         cpu_end = resource.getrusage(resource.RUSAGE_SELF)
+        forward = tracked[0]
+        backward = best_time(lambda: run(True, backward=True), 1)
+        backward_frames = len(tracked[0].frames)
+        backward_before = best_time(lambda: run_as_before(backward=True), 1)
     row = _absolute(f"track one vertex pair through {frames} frames of {width}x{height} H.264, decoding included",
                     frames, ours, floor, "decoding the same frame pairs (the floor)", TRACK_TARGET_S)
     row["decoding_s"] = round(floor, 6)
@@ -120,8 +129,11 @@ def _tracking_row(scale: float) -> dict:
     row["speed_up_over_before"] = round(before / ours, 2) if ours > 0 else None
     row["cpu_s"] = round(cpu_end.ru_utime - cpu_start.ru_utime + cpu_end.ru_stime - cpu_start.ru_stime, 3)
     row["load_1min"] = round(load, 2)
-    row["frames_tracked"] = len(tracked[0].frames)
-    row["stopped"] = tracked[0].reason(+1)
+    row["frames_tracked"] = len(forward.frames)
+    row["stopped"] = forward.reason(+1)
+    row["backward_s"] = round(backward, 6)
+    row["backward_before_s"] = round(backward_before, 6)
+    row["backward_frames_tracked"] = backward_frames
     return row
 
 
