@@ -94,3 +94,9 @@ def test_key_frame_before(videos):
     with VideoStream(left_path) as video:
         keys = [video.key_frame_before(i) for i in range(FRAMES)]
         assert keys == [GOP * (i // GOP) for i in range(FRAMES)]
+
+
+def test_one_stream_as_both_cameras_is_refused(videos):
+    """A stream is decoded on one thread only: the same object for both cameras would be decoded on two."""
+    with VideoStream(videos[0]) as stream, pytest.raises(UsvipsError, match="another VideoStream"):
+        GreyPairSource(stream, stream)

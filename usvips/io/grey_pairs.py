@@ -24,7 +24,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.io.video_stream import VideoStream
 
 #: the grey frames kept a camera when tracking backward (bytes): 64 frames of 1080p
@@ -72,6 +72,9 @@ class GreyPairSource:
 
     def __init__(self, left: VideoStream, right: VideoStream, partner: Callable[[int], int] = int,
                  cache_bytes: int = BACKWARD_CACHE_BYTES) -> None:
+        if left is right:
+            raise InvalidParameterError("right", "must be another VideoStream than the left one (each is decoded "
+                                                 "on its own thread; open the file twice for the same video)")
         self.partner = partner
         self._readers = (_GreyReader(left, cache_bytes), _GreyReader(right, cache_bytes))
         self._threads = tuple(ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"usvips-{side}-grey")
