@@ -100,3 +100,29 @@ def test_one_stream_as_both_cameras_is_refused(videos):
     """A stream is decoded on one thread only: the same object for both cameras would be decoded on two."""
     with VideoStream(videos[0]) as stream, pytest.raises(UsvipsError, match="another VideoStream"):
         GreyPairSource(stream, stream)
+
+
+def test_remembered_pairs_serve_a_second_pass_undecoded_within_the_budget(videos):
+    left_path, right_path, (left_truth, right_truth) = videos
+    pair_bytes = 2 * WIDTH * HEIGHT
+    with VideoStream(left_path) as left, VideoStream(right_path) as right:
+        decoded = []  # the left frames decoded
+        def counting(index, picture=left.picture):
+            decoded.append(index)
+            return picture(index)
+
+        left.picture = counting
+        with GreyPairSource(left, right, partner, remember_bytes=30 * pair_bytes) as frames:
+            passes = [list(range(40, 9, -1)), list(range(40, 60))]  # a first vertex's track; a second's
+            for index in passes[0] + passes[1]:
+                frames(index)
+            assert set(range(10, 60)) <= set(decoded)
+            decoded.clear()
+            for order in passes:  # the next vertex
+                for index in order:
+                    one, other = frames(index)
+                    assert np.array_equal(one, left_truth[index]) and np.array_equal(other, right_truth[index + OFFSET])
+                    # the first 30 pairs returned (frames 40 down to 11) are kept, shared between calls: read-only
+                    assert one.flags.writeable == (not 11 <= index <= 40)
+    assert not set(decoded) & set(range(11, 41))  # the kept pairs were not decoded again …
+    assert set(range(41, 60)) <= set(decoded)  # … the others were (beyond the budget)

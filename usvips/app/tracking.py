@@ -6,7 +6,8 @@ frame i and its synchronised right partner, decoded together and ahead of the tr
 video; a left frame without a right partner ends the track with that reason. It runs on any thread (it
 opens its own streams): a worker calls it with the cancel and progress callables of the window.
 
-:func:`propose_on_frame` proposes an object's vertices on another frame of its video by tracking them
+:func:`track_vertices_in_video` tracks several vertices picked on one frame, decoding each frame pair once
+for all of them. :func:`propose_on_frame` proposes an object's vertices on another frame of its video by tracking them
 there from the frame they were measured on (the window's track-based proposal when the previous instant is
 measured). :func:`add_tracked_instants` turns the tracks of an object's vertices into further instants of that object:
 at each frame asked for, a new object of the same kind with every vertex at its tracked pixels (measured
@@ -46,6 +47,22 @@ def track_in_video(project: ProjectStore, label: str, start: int, left: Sequence
                    progress: Callable[[int, int], None] | None = None) -> Track:
     """Track the vertex picked at ``left``/``right`` (px) on left frame ``start`` of video ``label`` back to
     ``first`` and on to ``last`` (left frames, clipped to the video) — see :func:`track_vertex`."""
+    return track_vertices_in_video(project, label, start, [(left, right)], first, last, settings, cancel,
+                                   progress)[0]
+
+
+#: the grey frame pairs kept while the vertices of one object are tracked over the same frames (bytes): a
+#: pair decoded for the first vertex serves the others (64 pairs of 1080p)
+SHARED_FRAMES_BYTES = 256 * 2**20
+
+
+def track_vertices_in_video(project: ProjectStore, label: str, start: int,
+                            picks: Sequence[tuple[Sequence[float], Sequence[float]]], first: int, last: int,
+                            settings: TrackSettings | None = None, cancel: Callable[[], bool] | None = None,
+                            progress: Callable[[int, int], None] | None = None) -> list[Track]:
+    """:func:`track_in_video` for several vertices picked on the same left frame ``start`` (``picks``: their
+    (left, right) pixels), one after the other over the same frames, each frame pair decoded once for
+    all of them where :data:`SHARED_FRAMES_BYTES` holds them; ``progress`` is told each vertex's frames."""
     geometry = _geometry(project, label)
     rig = geometry.calibration.rig(geometry.station, geometry.frame)
     video, left_stream, right_stream = open_streams(project, label)
@@ -53,10 +70,13 @@ def track_in_video(project: ProjectStore, label: str, start: int, left: Sequence
     def partner(index: int) -> int:
         return partner_frame(video, index, right_stream.frame_count)
 
-    with left_stream, right_stream, GreyPairSource(left_stream, right_stream, partner) as frames:
+    shared = SHARED_FRAMES_BYTES if len(picks) > 1 else 0
+    with left_stream, right_stream, GreyPairSource(left_stream, right_stream, partner,
+                                                   remember_bytes=shared) as frames:
         first = max(int(first), 0)
         last = min(int(last), video["frame_count"] - 1)
-        return track_vertex(frames, rig, start, left, right, first, last, settings, cancel, progress)
+        return [track_vertex(frames, rig, start, left, right, first, last, settings, cancel, progress)
+                for left, right in picks]
 
 
 def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence[Track], frames: Sequence[int],
@@ -124,9 +144,9 @@ def propose_on_frame(project: ProjectStore, object_id: int, frame: int, settings
     label, start = stored.vertices[0].video, int(stored.vertices[0].frame_left)
     first, last = min(start, int(frame)), max(start, int(frame))
     proposals = []
-    for v in stored.vertices:
-        track = track_in_video(project, label, start, (v.xl, v.yl), (v.xr, v.yr), first, last, settings, cancel,
-                               progress)
+    tracks = track_vertices_in_video(project, label, start, [((v.xl, v.yl), (v.xr, v.yr)) for v in stored.vertices],
+                                     first, last, settings, cancel, progress)
+    for track in tracks:
         found = track.at(frame)
         if found is None:
             direction = 1 if frame > start else -1

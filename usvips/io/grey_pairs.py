@@ -68,10 +68,13 @@ class _GreyReader:
 class GreyPairSource:
     """Left frame ``index`` of ``left`` and frame ``partner(index)`` of ``right``, grey, decoded in two
     threads and ahead of the caller (see the module docstring). ``partner`` raising a
-    :class:`UsvipsError` (no partner frame) is passed on to the caller. Use as a context manager."""
+    :class:`UsvipsError` (no partner frame) is passed on to the caller. ``cache_bytes``: the grey frames a
+    camera keeps for stepping backward; ``remember_bytes``: the pairs returned that are kept for a later
+    call asking for them again (the vertices of one object tracked one after the other over the same
+    frames), 0 for none. Use as a context manager."""
 
     def __init__(self, left: VideoStream, right: VideoStream, partner: Callable[[int], int] = int,
-                 cache_bytes: int = BACKWARD_CACHE_BYTES) -> None:
+                 cache_bytes: int = BACKWARD_CACHE_BYTES, remember_bytes: int = 0) -> None:
         if left is right:
             raise InvalidParameterError("right", "must be another VideoStream than the left one (each is decoded "
                                                  "on its own thread; open the file twice for the same video)")
@@ -81,6 +84,9 @@ class GreyPairSource:
                               for side in ("left", "right"))
         self._ahead: tuple[int, Future, Future] | None = None
         self._previous: int | None = None
+        self._remember_bytes = int(remember_bytes)
+        self._remembered: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._remembered_bytes = 0
 
     def _submit(self, index: int, partner: int) -> tuple[Future, Future]:
         return (self._threads[0].submit(self._readers[0].grey, index),
@@ -88,23 +94,40 @@ class GreyPairSource:
 
     def __call__(self, index: int) -> tuple[np.ndarray, np.ndarray]:
         index = int(index)
-        if self._ahead is not None and self._ahead[0] == index:
-            pending = self._ahead[1:]
-        else:
-            self._drop_ahead()
-            pending = self._submit(index, self.partner(index))
-        self._ahead = None
-        frames = tuple(f.result() for f in pending)  # both finish before either error is raised
+        frames = self._remembered.get(index)
+        if frames is None:
+            if self._ahead is not None and self._ahead[0] == index:
+                pending = self._ahead[1:]
+            else:
+                self._drop_ahead()
+                pending = self._submit(index, self.partner(index))
+            self._ahead = None
+            for future in pending:
+                future.exception()  # both finish before either error is raised
+            frames = (pending[0].result(), pending[1].result())
+            self._remember(index, frames)
         step = index - self._previous if self._previous is not None else 0
         self._previous = index
-        if abs(step) == 1:
-            following = index + step
+        following = index + step
+        if (abs(step) == 1 and 0 <= following < self._readers[0].stream.frame_count
+                and following not in self._remembered and (self._ahead is None or self._ahead[0] != following)):
             try:
-                if 0 <= following < self._readers[0].stream.frame_count:
-                    self._ahead = (following, *self._submit(following, self.partner(following)))
+                partner = self.partner(following)
             except UsvipsError:
                 pass  # no partner there: the caller hears of it when it asks for that frame
-        return frames[0], frames[1]
+            else:
+                self._drop_ahead()
+                self._ahead = (following, *self._submit(following, partner))
+        return frames
+
+    def _remember(self, index: int, frames: tuple[np.ndarray, np.ndarray]) -> None:
+        """Keep a pair for a later call (another vertex tracked over the same frames), within the budget."""
+        size = frames[0].nbytes + frames[1].nbytes
+        if self._remembered_bytes + size <= self._remember_bytes:
+            for frame in frames:
+                frame.setflags(write=False)  # shared by the calls that ask for it: nobody may change it
+            self._remembered[index] = frames
+            self._remembered_bytes += size
 
     def _drop_ahead(self) -> None:
         """Wait for a prefetch nobody asked for (its decoder must be idle before the next request)."""
