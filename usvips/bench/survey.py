@@ -117,7 +117,7 @@ def _tracking_row(scale: float) -> dict:
         run(True)
         cpu_end = resource.getrusage(resource.RUSAGE_SELF)
         forward = tracked[0]
-        backward = best_time(lambda: run(True, backward=True), 1)
+        backward = best_time(lambda: run(True, backward=True), 2)
         backward_frames = len(tracked[0].frames)
         backward_before = best_time(lambda: run_as_before(backward=True), 1)
     row = _absolute(f"track one vertex pair through {frames} frames of {width}x{height} H.264, decoding included",
