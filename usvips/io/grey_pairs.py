@@ -61,7 +61,8 @@ class _GreyReader:
         for i in range(key, index + 1):  # the first a seek to the key frame, the rest forward steps
             picture = self.stream.picture(i)
             if i >= first_kept:
-                self.kept[i] = picture.array(grey=True)
+                frame = self.kept[i] = picture.array(grey=True)
+                frame.setflags(write=False)  # kept and handed out again: nobody may change it
         return self.kept[index]
 
 
