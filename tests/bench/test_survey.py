@@ -26,3 +26,8 @@ def test_the_tracking_row_tracks_every_frame_and_reports_tracking_apart_from_dec
     assert track["n"] == 20 and track["frames_tracked"] == 20 and track["stopped"] == "reached the end"
     assert track["target_s"] == survey.TRACK_TARGET_S and track["met"] == (track["ours_s"] <= track["target_s"])
     assert track["tracking_s"] == pytest.approx(max(track["ours_s"] - track["baseline_s"], 0.0), abs=2e-6)
+    assert track["decoding_s"] == track["baseline_s"] > 0 and 0 < track["decoding_share"] <= 1
+    assert track["before_s"] > 0 and track["speed_up_over_before"] == pytest.approx(
+        track["before_s"] / track["ours_s"], rel=1e-2)
+    assert track["cpu_s"] > 0 and track["load_1min"] >= 0
+    assert track["backward_frames_tracked"] == 20 and track["backward_s"] > 0 and track["backward_before_s"] > 0

@@ -148,10 +148,10 @@ def test_the_tracking_keys_are_in_the_measure_menu_and_the_guide(qtbot, make_win
 def test_cancel_stops_tracking_within_a_frame_and_nothing_changes(qtbot, make_window, survey, monkeypatch):
     path, object_id, fish, stereo = survey
     window = _open(qtbot, make_window, path, object_id)
-    original = VideoTracker.track
+    original = VideoTracker.track_many
     started, after_cancel = threading.Event(), []
 
-    def held(self, start, left, right, first, last, settings, cancel, progress):
+    def held(self, start, picks, first, last, settings, cancel, progress):
         def watched(done, total):
             if started.is_set():
                 after_cancel.append(done)  # a frame tracked after the cancel was asked for
@@ -162,9 +162,9 @@ def test_cancel_stops_tracking_within_a_frame_and_nothing_changes(qtbot, make_wi
                 time.sleep(0.01)
             progress(done, total)
 
-        return original(self, start, left, right, first, last, settings, cancel, watched)
+        return original(self, start, picks, first, last, settings, cancel, watched)
 
-    monkeypatch.setattr(VideoTracker, "track", held)
+    monkeypatch.setattr(VideoTracker, "track_many", held)
     worker = window.tracking.track()
     assert worker is not None and started.wait(20)
     window.cancel_button.click()

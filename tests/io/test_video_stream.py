@@ -9,7 +9,7 @@ import pytest
 from usvips.core.errors import InputFileError
 from usvips.core.synth.frame_numbers import frame_number, numbered_frame, panning_numbered_frame
 from usvips.io.video import write_video
-from usvips.io.video_stream import VideoStream
+from usvips.io.video_stream import Picture, VideoStream, grey_table
 from usvips.io.video_writer import CODECS, encode_video, encoders_available
 
 WIDTH, HEIGHT = 160, 120
@@ -220,3 +220,42 @@ def test_gopro_chapters_must_be_one_recording_in_order_with_none_missing():
                            (("GX010042.MP4", "GX020043.MP4"), "chapters of different recordings")]:
         with pytest.raises(InputFileError, match=message):
             check_chapters([Path(f) for f in files], "--left")
+
+
+@pytest.mark.parametrize("pixel_format", ["yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p",
+                                          "nv12", "nv21", "gray"])
+def test_grey_from_the_luma_plane_equals_ffmpegs_grey_conversion(pixel_format):
+    """The fast grey (a table look-up of the luma plane) gives exactly the pixels of the old path
+    (FFmpeg's scaler to ``gray``), for random pictures of many sizes and every colour range."""
+    rng = np.random.default_rng(sum(map(ord, pixel_format)))
+    for width, height in [(1920, 1080), (642, 362), (98, 34), (33, 17), *map(tuple, rng.integers(8, 400, (6, 2)))]:
+        for color_range in (0, 1, 2):
+            frame = av.VideoFrame(int(width), int(height), pixel_format)
+            for plane in frame.planes:
+                values = np.frombuffer(plane, np.uint8)
+                values[:] = rng.integers(0, 256, values.size)
+            frame.color_range = color_range
+            fast, old = Picture(frame).grey(), frame.to_ndarray(format="gray")
+            assert fast.dtype == np.uint8 and fast.shape == old.shape == (height, width)
+            assert np.array_equal(fast, old), (pixel_format, width, height, color_range)
+
+
+@pytest.mark.parametrize("codec", ["h264", "mjpeg", "ffv1"])
+def test_decoded_frames_in_grey_are_the_pixels_of_the_scaler(tmp_path, codec):
+    """Frames as decoders return them (limited-range H.264, full-range Motion JPEG, FFV1) read in grey by
+    the fast path and by FFmpeg's scaler are identical, and the stream's grey frames are the fast ones."""
+    path = tmp_path / f"panning{CONTAINERS[codec]}"
+    encode_video(path, (panning_numbered_frame(i, WIDTH, HEIGHT) for i in range(40)), 30, codec, gop=10, bframes=2)
+    with VideoStream(path) as video:
+        for index in (0, 7, 23, 39, 12):
+            picture = video.picture(index)
+            old = picture._frame.to_ndarray(format="gray")
+            assert np.array_equal(picture.array(grey=True), old)
+            assert np.array_equal(video.frame(index, grey=True), old)
+
+
+def test_formats_without_an_8_bit_luma_plane_keep_the_scaler():
+    assert grey_table("rgb24", 0) is None and grey_table("yuv420p10le", 1) is None
+    frame = av.VideoFrame.from_ndarray(np.random.default_rng(5).integers(0, 256, (30, 40, 3), dtype=np.uint8),
+                                       format="rgb24")
+    assert np.array_equal(Picture(frame).grey(), frame.to_ndarray(format="gray"))

@@ -1,13 +1,15 @@
 """Tracking picks through a project's stereo video, and measuring a tracked object on several instants.
 
 :func:`track_in_video` gives :func:`usvips.core.tracking.track_vertex` its frame source — the video's left
-frame i and its synchronised right partner, decoded together (:class:`usvips.io.video_stream.PairReader`),
-in grey — and the cameras of the calibration active for the video; a left frame without a right partner
-ends the track with that reason. The project is read on its own thread (:meth:`VideoTracker.read`: the
-video, its calibration's cameras, its files); the tracking itself (:meth:`VideoTracker.track`) runs on any
-thread (it opens its own streams): the window's worker calls it with its cancel and progress callables.
+frame i and its synchronised right partner, decoded together and ahead of the tracker
+(:class:`usvips.io.grey_pairs.GreyPairSource`), in grey — and the cameras of the calibration active for the
+video; a left frame without a right partner ends the track with that reason. The project is read on its own
+thread (:meth:`VideoTracker.read`: the video, its calibration's cameras, its files); the tracking itself
+(:meth:`VideoTracker.track`, :meth:`VideoTracker.track_many`) runs on any thread (it opens its own streams):
+the window's worker calls it with its cancel and progress callables.
 
-:func:`propose_on_frame` proposes an object's vertices on another frame of its video by tracking them
+:func:`track_vertices_in_video` tracks several vertices picked on one frame, decoding each frame pair once
+for all of them. :func:`propose_on_frame` proposes an object's vertices on another frame of its video by tracking them
 there from the frame they were measured on (the window's track-based proposal when the previous instant is
 measured). :func:`add_tracked_instants` turns the tracks of an object's vertices into further instants of that object:
 at each frame asked for, a new object of the same kind with every vertex at its tracked pixels (measured
@@ -31,7 +33,8 @@ from usvips.core.measurements import measure_picks
 from usvips.core.rig import StereoRig
 from usvips.core.tracking import Track, TrackSettings, track_vertex
 from usvips.io import video_proxy
-from usvips.io.video_stream import PairReader, VideoStream
+from usvips.io.grey_pairs import GreyPairSource
+from usvips.io.video_stream import VideoStream
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
 
@@ -71,6 +74,14 @@ class VideoTracker:
               progress: Callable[[int, int], None] | None = None) -> Track:
         """Track the vertex picked at ``left``/``right`` (px) on left frame ``start`` back to ``first`` and
         on to ``last`` (left frames, clipped to the video) — see :func:`track_vertex`."""
+        return self.track_many(start, [(left, right)], first, last, settings, cancel, progress)[0]
+
+    def track_many(self, start: int, picks: Sequence[tuple[Sequence[float], Sequence[float]]], first: int,
+                   last: int, settings: TrackSettings | None = None, cancel: Callable[[], bool] | None = None,
+                   progress: Callable[[int, int], None] | None = None) -> list[Track]:
+        """:meth:`track` for several vertices picked on left frame ``start`` (``picks``: their (left, right)
+        pixels), one after the other over the same frames, each frame pair decoded once for all of them
+        where :data:`SHARED_FRAMES_BYTES` holds them; ``progress`` is told each vertex's frames."""
         left_stream = VideoStream(list(self.left_paths))
         try:
             right_stream = VideoStream(list(self.right_paths))
@@ -80,18 +91,21 @@ class VideoTracker:
         with left_stream, right_stream:
             for stream in (left_stream, right_stream):
                 video_proxy.attach_proxy(stream, self.proxies)
-            reader = PairReader(left_stream, right_stream)
-            try:
-                def frames(index: int) -> tuple[np.ndarray, np.ndarray]:
-                    partner = partner_frame(self.video, index, right_stream.frame_count)
-                    one, other = reader.pictures(index, partner)
-                    return one.array(grey=True), other.array(grey=True)
 
+            def partner(index: int) -> int:
+                return partner_frame(self.video, index, right_stream.frame_count)
+
+            shared = SHARED_FRAMES_BYTES if len(picks) > 1 else 0
+            with GreyPairSource(left_stream, right_stream, partner, remember_bytes=shared) as frames:
                 first = max(int(first), 0)
                 last = min(int(last), self.video["frame_count"] - 1)
-                return track_vertex(frames, self.rig, start, left, right, first, last, settings, cancel, progress)
-            finally:
-                reader.close()
+                return [track_vertex(frames, self.rig, start, left, right, first, last, settings, cancel, progress)
+                        for left, right in picks]
+
+
+#: the grey frame pairs kept while the vertices of one object are tracked over the same frames (bytes): a
+#: pair decoded for the first vertex serves the others (64 pairs of 1080p)
+SHARED_FRAMES_BYTES = 256 * 2**20
 
 
 def track_in_video(project: ProjectStore, label: str, start: int, left: Sequence[float], right: Sequence[float],
@@ -101,6 +115,15 @@ def track_in_video(project: ProjectStore, label: str, start: int, left: Sequence
     """Track the vertex picked at ``left``/``right`` (px) on left frame ``start`` of video ``label`` back to
     ``first`` and on to ``last`` (left frames, clipped to the video) — see :func:`track_vertex`."""
     return VideoTracker.read(project, label).track(start, left, right, first, last, settings, cancel, progress)
+
+
+def track_vertices_in_video(project: ProjectStore, label: str, start: int,
+                            picks: Sequence[tuple[Sequence[float], Sequence[float]]], first: int, last: int,
+                            settings: TrackSettings | None = None, cancel: Callable[[], bool] | None = None,
+                            progress: Callable[[int, int], None] | None = None) -> list[Track]:
+    """:func:`track_in_video` for several vertices picked on the same left frame ``start`` (``picks``: their
+    (left, right) pixels), each frame pair decoded once for all of them (see :meth:`VideoTracker.track_many`)."""
+    return VideoTracker.read(project, label).track_many(start, picks, first, last, settings, cancel, progress)
 
 
 def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence[Track], frames: Sequence[int],
@@ -176,8 +199,9 @@ def propose_with(tracker: VideoTracker, stored: StoredObject, frame: int, settin
     start = int(stored.vertices[0].frame_left)
     first, last = min(start, int(frame)), max(start, int(frame))
     proposals = []
-    for v in stored.vertices:
-        track = tracker.track(start, (v.xl, v.yl), (v.xr, v.yr), first, last, settings, cancel, progress)
+    tracks = tracker.track_many(start, [((v.xl, v.yl), (v.xr, v.yr)) for v in stored.vertices], first, last,
+                                settings, cancel, progress)
+    for track in tracks:
         found = track.at(frame)
         if found is None:
             direction = 1 if frame > start else -1

@@ -6,14 +6,19 @@ same run; and the frame cache's memory at 1080p and 4K.
   user waits for is the cached pair's conversion to RGB (target 30 ms a pair), provided the decoder keeps
   ahead, which the sustained decode rate per pair shows;
 - random seek: a decode from the preceding key frame, skipping the non-reference frames before the target
-  (target 150 ms a pair). Its floor is the bare decoder's time per frame × the frames between the key
-  frame and the target (half a GOP on average): the row reports both. A further row compares the decoder's
+  (``target_s``: 80 ms a pair from the original on a quiet machine, issue 27 item 5; the ratio against the
+  same seek decoding every frame is ``ratio_target``/``ratio_met``; ``load_1min`` is the load average,
+  ``cpu_per_pair_s`` the CPU time of a pair's seek, both cameras, which load hardly changes).
+  Its floor is the bare decoder's time per frame × the frames between the key frame and the target (half
+  a GOP on average): the row reports both. A further row compares the decoder's
   set-up (slice threads, the file kept open) with the previous one (frame threads, reopened per seek);
 - random seek through seek proxies (io/video_proxy: lossless all-intra Ut Video, one frame decoded).
 """
 
 from __future__ import annotations
 
+import os
+import resource
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -32,6 +37,8 @@ CACHE_PAIRS = 48
 #: bytes a cached pixel takes: pictures are cached as decoded (YUV 4:2:0), converted to RGB when shown
 CACHED_BYTES_PER_PIXEL = 1.5
 GOP = 30
+#: a random seek of the original 1080p H.264, per frame pair, on a quiet machine (s; issue 27, item 5)
+SEEK_TARGET_PAIR_S = 0.080
 
 
 def _cache_mib(width: int, height: int, pairs: int, bytes_per_pixel: float) -> float:
@@ -87,6 +94,7 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
                        cache_mib_1080p_if_rgb=_cache_mib(1920, 1080, CACHE_PAIRS, 3))
             yield row
 
+            load = round(os.getloadavg()[0], 2)
             rng = np.random.default_rng(0)
             targets = [int(t) for t in rng.integers(0, frames, 8)]
             keys = np.flatnonzero(left.chapters[0].keyframe)
@@ -108,7 +116,18 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
             per_pair = row["ours_s"] / len(targets)
             # the floor: what the bare decoder needs for the frames between key frame and target
             per_frame = best_time(bare_decode, 2) / (2 * (steps + 1))
-            row.update(per_pair_s=round(per_pair, 5), target_pair_s=0.150, met_absolute=bool(per_pair <= 0.150),
+            # the seeks' CPU time (both cameras, this process): what load does not blur; on two free cores
+            # the wall time of a pair is about half of it (the cameras decode side by side)
+            cpu_before = resource.getrusage(resource.RUSAGE_SELF)
+            seek(True)
+            cpu_after = resource.getrusage(resource.RUSAGE_SELF)
+            cpu_pair = (cpu_after.ru_utime - cpu_before.ru_utime + cpu_after.ru_stime - cpu_before.ru_stime
+                        ) / len(targets)
+            # the issue's promise (27, item 5): a random seek from the original ≤ 80 ms a pair on a quiet
+            # machine; the ratio (skipping against not skipping) stays as ``ratio_target``/``ratio_met``
+            row.update(target=None, target_s=SEEK_TARGET_PAIR_S, met=bool(per_pair <= SEEK_TARGET_PAIR_S),
+                       ratio_target=1.1, ratio_met=row["met"], load_1min=load,
+                       per_pair_s=round(per_pair, 5), cpu_per_pair_s=round(cpu_pair, 5),
                        mean_frames_from_key_frame=round(float(np.mean(behind)), 1),
                        bare_decode_per_frame_s=round(per_frame, 5),
                        floor_pair_s_without_skipping=round(2 * per_frame * float(np.mean(behind)), 5))

@@ -16,7 +16,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import rq
 
 from usvips.core.batch_mode import using_reference
 from usvips.core.camera import Exterior
@@ -101,6 +100,8 @@ def decompose(matrix: np.ndarray, points: np.ndarray, pixels: np.ndarray,
     if abs(np.linalg.det(left)) < 1e-300:
         raise DegenerateGeometryError("the DLT solution is singular: the control does not fix the camera")
     centre = -np.linalg.solve(left, matrix[:, 3])
+    from scipy.linalg import rq  # deferred: scipy.linalg is slow to import (the window's start-up)
+
     k, r = rq(left)
     signs = np.diag(np.sign(np.diag(k)))
     k, r = k @ signs, signs @ r

@@ -33,7 +33,6 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 from usvips.core.errors import InvalidParameterError
 
@@ -188,6 +187,8 @@ def mean(image: np.ndarray, size: int = 3) -> np.ndarray:
 def median(image: np.ndarray, size: int = 3) -> np.ndarray:
     if image.dtype == np.uint8 or size <= 5:
         return cv2.medianBlur(image, int(size))
+    from scipy import ndimage  # deferred: scipy.ndimage is slow to import (the window's start-up)
+
     footprint = (size, size) if image.ndim == 2 else (size, size, 1)
     return ndimage.median_filter(image, size=footprint, mode="reflect")
 

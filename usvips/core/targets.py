@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 from usvips.core.enhance import check_image, luminance
 from usvips.core.errors import InvalidParameterError
@@ -90,6 +89,8 @@ def locate_disc(image: np.ndarray, click: tuple[float, float], window: int = 41)
     level = float(np.percentile(signal, 99))
     if level < 6 * noise:
         return TargetResult(None, level / noise, "no target: too little contrast around the click")
+    from scipy import ndimage  # deferred: scipy.ndimage is slow to import (the window's start-up)
+
     # close gaps a few pixels wide, so that a cross cutting through the disc does not split it
     mask = ndimage.binary_closing(signal > level / 2, structure=np.ones((5, 5), bool), border_value=0)
     labels, count = ndimage.label(mask)

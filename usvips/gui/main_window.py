@@ -17,7 +17,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.gui import double_read_dialog, exchange_dialogs, media_dialogs, qa_dock
+from usvips.gui import exchange_dialogs, media_dialogs, qa_dock
 from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
@@ -330,7 +330,7 @@ class MainWindow(QtWidgets.QMainWindow):
         menu.addAction("Ex&port calibration (OpenCV)…", lambda: exchange_dialogs.export_calibration(self))
         menu.addAction("Calibration repor&t (PDF)…", lambda: exchange_dialogs.calibration_report(self))
         menu.addAction("&Deployment and georeference…", lambda: exchange_dialogs.edit_deployment(self))
-        menu.addAction("Dou&ble-read report…", lambda: double_read_dialog.show_double_read(self))
+        menu.addAction("Dou&ble-read report…", self.show_double_read)
         menu.addAction(a["annotator"])
         self._fill_recent_menu()
         menu.addSeparator()
@@ -1054,6 +1054,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.instants_view.raise_()
         self.instants_view.table.setFocus()
         return shown
+
+    def show_double_read(self):
+        """File › Double-read report…: the dialog (imported here: its matching needs scipy.optimize, which
+        showing a pair does not)."""
+        from usvips.gui import double_read_dialog
+
+        return double_read_dialog.show_double_read(self)
 
     def show_review(self) -> None:
         """Ctrl+Shift+R: show the review panel, its queue read afresh (the objects unreviewed now, also by

@@ -170,13 +170,18 @@ class TrackController(QtCore.QObject):
         settings = self.settings
 
         def job(progress, cancelled):
-            tracks = []
-            for k, (left, right) in enumerate(picks):
-                track = tracker.track(start, left, right, first, last, settings, cancelled,
-                                      lambda done, total, k=k: progress((k + done / max(total, 1)) / len(picks)))
-                if cancelled() or CANCELLED in (track.reason(-1), track.reason(1)):
-                    raise Cancelled
-                tracks.append(track)
+            counted = {"vertex": 0, "done": 0}
+
+            def report(done: int, total: int) -> None:  # each vertex's frames are counted from 0 again
+                if done < counted["done"]:
+                    counted["vertex"] += 1
+                counted["done"] = done
+                progress(min((counted["vertex"] + done / max(total, 1)) / len(picks), 1.0))
+
+            # every frame pair decoded once for all the vertices (VideoTracker.track_many)
+            tracks = tracker.track_many(start, picks, first, last, settings, cancelled, report)
+            if cancelled() or any(CANCELLED in (t.reason(-1), t.reason(1)) for t in tracks):
+                raise Cancelled
             return tracks
 
         def done(tracks) -> None:

@@ -30,7 +30,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import stats
 
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements.evaluate import Measurement
@@ -159,6 +158,8 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
             keep = np.arange(k) != i
             m, v, t2, _, _ = _random_effects(values[keep], variances[keep])
             residuals[i] = (values[i] - m) / np.sqrt(variances[i] + t2 + v)
+    from scipy import stats  # deferred: scipy.stats is slow to import (the window's start-up)
+
     limit = float(stats.norm.isf(alpha / (2 * k)))
     outliers = tuple(int(i) for i in np.flatnonzero(np.abs(residuals) > limit))
     dof = k - 1
