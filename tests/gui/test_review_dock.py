@@ -188,3 +188,28 @@ def test_an_object_edited_in_the_window_is_reviewed_and_one_changed_elsewhere_is
     assert f"object {current} was changed by someone else" in window.log.toPlainText()
     qtbot.keyClick(queue, Key.Key_A)  # looked at again: the review is kept now
     assert ws.project.review(current).state == "accepted"
+
+
+def test_an_accepted_object_edited_in_the_window_shows_unreviewed_and_undo_shows_it_accepted(
+        qtbot, make_window, sample_copy):
+    """An edit of an accepted object's attribute in the window: the object list's Review cell and the
+    review panel say unreviewed (it joins the queue again), the history says why; Ctrl+Z: accepted again."""
+    window = make_window()
+    window.set_annotator("editor")
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    ws = window.workspace
+    ids = _objects_on_two_pairs(window)
+    ws.project.set_review(ids[1], "accepted")  # before the queue is read: not in it
+    window.object_list.refresh()
+    window.show_review()
+    assert ids[1] not in window.review.model.queue and window.review.progress.text() == "0 of 3 reviewed"
+    ws.edit_object(ids[1], "cod", "")
+    assert _review_column(window, ids[1]) == "unreviewed" and ws.project.review(ids[1]).state == "unreviewed"
+    assert window.review.model.queue[-1] == ids[1] and window.review.progress.text() == "0 of 4 reviewed"
+    assert window.review.list.item(3).text().endswith("— unreviewed")
+    last = ws.project.history(ids[1])[-1]
+    assert (last.change, last.annotator, last.new["reason"]) == ("review", "editor", "edited after review")
+    ws.undo.undo()
+    assert _review_column(window, ids[1]) == "accepted" and ws.project.review(ids[1]).state == "accepted"
+    assert window.review.list.item(3).text().endswith("— accepted")

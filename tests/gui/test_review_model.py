@@ -143,3 +143,29 @@ def test_a_review_after_an_edit_in_the_window_or_a_reload_from_an_older_cache_is
     assert model.flag("looked again").state == "flagged"
     assert [e.change for e in project.history(first)] == ["add", "edit", "review", "review", "review"]
     project.close()
+
+
+def test_reviews_read_again_show_others_reviews_and_an_edited_acceptance_rejoins_the_queue(tmp_path):
+    """Reading the reviews again (of one object: one query; of several: one read of all) shows what another
+    annotator did; an object accepted before the queue was loaded and then edited (unreviewed again) joins
+    the queue's end; an id not in the queue's survey is left out."""
+    rng = np.random.default_rng(12)
+    project, ids = _survey(tmp_path / "s.usvips", rng, 5)
+    done = ids[0]
+    project.set_review(done, "accepted")
+    model = ReviewModel()
+    model.load(project)
+    assert done not in model.queue and model.progress() == "0 of 4 reviewed"
+    events = []
+    model.changed.connect(lambda: events.append("changed"))
+    with Project.open(project.path) as other:
+        other.annotator = "someone else"
+        other.set_review(model.queue[1], "flagged", "two fish")
+        other.update_object(done, attribute="ling")  # its acceptance is undone by the edit
+    assert model.reread([model.queue[1]]) == [model.queue[1]]
+    assert (model.state(model.queue[1]).state, model.state(model.queue[1]).reviewer) == ("flagged", "someone else")
+    assert events == ["changed"] and model.progress() == "1 of 4 reviewed, 1 flagged"
+    assert model.reread([done, ids[1], 999]) == [done] and model.queue[-1] == done
+    assert model.progress() == "1 of 5 reviewed, 1 flagged"
+    assert model.reread([done]) == [] and events == ["changed", "changed"]  # nothing new: no event
+    project.close()

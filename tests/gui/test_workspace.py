@@ -536,6 +536,8 @@ def test_undoing_any_sequence_of_edits_and_deletes_restores_every_stored_row(tmp
         object_id = project.add_object(kind, [vertex() for _ in range(count)], "fish", "", "tester")
         number = int(rng.integers(1, 5))
         project.set_record(object_id, ObservationRecord(genus="Gadus", species="morhua", number=number))
+        state = str(rng.choice(["unreviewed", "accepted", "flagged"]))
+        project.set_review(object_id, state, "blurred" if state == "flagged" else "")  # undo restores reviews too
     ws = Workspace()
     ws.open_project(project)
     states = [_stored_rows(project)]
@@ -569,6 +571,50 @@ def test_undoing_any_sequence_of_edits_and_deletes_restores_every_stored_row(tmp
     for expected in states[1:]:
         ws.undo.redo()
         assert _stored_rows(project) == expected
+    ws.close_project()
+
+
+def test_an_edit_in_the_window_returns_an_accepted_object_to_unreviewed_and_undo_restores_its_review(tmp_path):
+    """Each edit of what was reviewed (attribute, record, kind, a vertex deleted) of an accepted object, made
+    in the window as its annotator: the object is unreviewed, the history's last row says so by that
+    annotator; Ctrl+Z gives back the acceptance exactly (who, when), Ctrl+Y takes it away again. A flagged
+    object stays flagged; notes alone leave an acceptance."""
+    from usvips.core.observation_record import ObservationRecord
+    from usvips.store.project import Vertex
+    from usvips.store.records import Review
+
+    rng = np.random.default_rng(11)
+    project = Project.create(tmp_path / "p.usvips")
+    project.add_pair("dive")
+    ids = [project.add_object("arc", [Vertex(*map(float, rng.uniform(0, 900, 4)), pair="dive") for _ in range(5)],
+                              "fish") for _ in range(2)]
+    project.annotator = "reviewer"
+    project.set_review(ids[0], "accepted", "fine")
+    project.set_review(ids[1], "flagged", "tail hidden")
+    accepted, flagged = project.review(ids[0]), project.review(ids[1])
+    ws = Workspace()
+    ws.open_project(project)
+    project.annotator = "editor"
+    edits = [lambda i: ws.edit_object(i, f"cod {rng.integers(99)}", ""),
+             lambda i: ws.set_record(i, ObservationRecord(genus="Gadus", number=int(rng.integers(2, 9)))),
+             lambda i: ws.change_kind(i, "polygon" if ws.stored_object(i).kind == "arc" else "arc"),
+             lambda i: ws.delete_vertex(i, int(rng.integers(0, 4)))]
+    for edit in edits:
+        edit(ids[0])
+        assert project.review(ids[0]) == Review(ids[0])
+        last = project.history(ids[0])[-1]
+        assert (last.change, last.annotator, last.old["state"], last.new) == (
+            "review", "editor", "accepted", {"state": "unreviewed", "reason": "edited after review"})
+        ws.undo.undo()
+        assert project.review(ids[0]) == accepted
+        ws.undo.redo()
+        assert project.review(ids[0]).state == "unreviewed"
+        ws.undo.undo()
+        edit(ids[1])
+        assert project.review(ids[1]) == flagged
+        ws.undo.undo()
+    ws.edit_object(ids[0], project.object(ids[0]).attribute, "only a note")
+    assert project.review(ids[0]) == accepted
     ws.close_project()
 
 

@@ -864,6 +864,82 @@ def test_a_deleted_object_takes_its_review_and_an_undo_puts_it_back(store):
     assert store.reviews("accepted") == []
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_an_edit_of_what_was_reviewed_returns_an_accepted_object_to_unreviewed_and_an_undo_restores_it(store, seed):
+    """Random edits of random objects in random review states: an edit that changes the kind, the attribute,
+    the vertices (re-pick, a vertex deleted) or the observation record of an ACCEPTED object returns it to
+    unreviewed with a second history row ('review' accepted → unreviewed, 'edited after review', by the
+    editor); a flagged or unreviewed object keeps its review, and so does every object after an edit of its
+    notes, an edit that changes nothing, or an instant linked. Putting back the rows read before the edit
+    (an undo) restores the review exactly."""
+    rng = np.random.default_rng(100 + seed)
+    ids = [store.add_object("arc", [_vertex(rng) for _ in range(4)], "cod") for _ in range(5)]
+    spare = store.add_object("arc", [_vertex(rng) for _ in range(3)], "cod")  # linked as an instant below
+    edits = {
+        "attribute": (True, lambda i: store.update_object(i, attribute=f"ling {rng.integers(1e9)}")),
+        "same attribute": (False, lambda i: store.update_object(i, attribute=store.object(i).attribute)),
+        "notes": (False, lambda i: store.update_object(i, notes=f"seen {rng.integers(1e9)}")),
+        "kind": (True, lambda i: store.update_object(i, kind="polygon" if store.object(i).kind == "arc" else "arc")),
+        "re-pick": (True, lambda i: store.update_object(
+            i, vertices=[_vertex(rng)] + list(store.object(i).vertices[1:]))),
+        "delete a vertex": (True, lambda i: store.update_object(i, vertices=list(store.object(i).vertices[:-1]))),
+        "record": (True, lambda i: store.set_record(i, _record(rng))),
+        "same record": (False, lambda i: store.set_record(i, store.record(i))),
+        "instant": (False, lambda i: store.add_instant(i, spare) if spare not in store.instant_links() else
+                    store.remove_instant(spare)),
+    }
+    names = sorted(edits)
+    seen = set()
+    for step in range(3 * len(names) + 12):  # each edit of each state first, then random ones
+        object_id = int(rng.choice(ids))
+        if len(store.object(object_id).vertices) < 4:  # room to delete a vertex, and to stay a polygon
+            store.update_object(object_id, vertices=[_vertex(rng) for _ in range(4)])
+        planned = step < 3 * len(names)
+        state = REVIEW_STATES[step // len(names)] if planned else str(rng.choice(REVIEW_STATES))
+        store.annotator = "reviewer"
+        store.set_review(object_id, state, "head hidden" if state == "flagged" else "")
+        reviewed = store.review(object_id)
+        name = names[step % len(names)] if planned else str(rng.choice(names))
+        changes_review, edit = edits[name]
+        store.annotator = f"editor {step}"
+        before, count = store.object_rows(object_id), len(store.history())
+        edit(object_id)
+        entries = store.history()[count:]
+        if changes_review and state == "accepted":
+            seen.add(name)
+            assert store.review(object_id) == Review(object_id), name
+            assert entries[-1].object_id == object_id and entries[-1].change == "review"
+            assert entries[-1].annotator == f"editor {step}" and len(entries) == 2
+            assert entries[-1].old == {"state": "accepted", "reason": "", "reviewer": "reviewer"}
+            assert entries[-1].new == {"state": "unreviewed", "reason": "edited after review"}
+            assert entries[0].change in ("edit", "re-pick", "record") and entries[0].at <= entries[-1].at
+        else:
+            assert store.review(object_id) == reviewed, name
+            assert [e.change for e in entries] in (["edit"], ["re-pick"], ["record"]), name
+        store.put_back(before, replace=True)  # the undo
+        assert store.review(object_id) == reviewed
+        assert store.object_rows(object_id) == before or name == "instant"  # the link is the spare's row
+        if name == "instant":
+            store.remove_instant(spare) if spare in store.instant_links() else None
+    assert seen == {"attribute", "kind", "re-pick", "delete a vertex", "record"}
+
+
+def test_a_review_read_before_an_edit_that_unreviewed_the_object_is_stale(impl, store, where):
+    """The edit that returned an accepted object to unreviewed made a new version: a reviewer's accept of
+    what they read before it is refused by name (the object stays unreviewed, the history as it was)."""
+    rng = np.random.default_rng(31)
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    store.set_review(object_id, "accepted")
+    with impl.open(where, False) as other:
+        other.annotator = "reviewer"
+        read = other.object(object_id).modified
+        store.set_record(object_id, _record(rng))
+        kept = store.history()
+        with pytest.raises(StaleEditError, match=f"object {object_id} was changed by someone else"):
+            other.set_review(object_id, "accepted", expected_modified=read)
+        assert store.review(object_id).state == "unreviewed" and store.history() == kept
+
+
 def test_two_readers_reviewing_the_same_objects_at_once_lose_nothing_and_overwrite_nothing(impl, store, where):
     """Two handles in two threads review the same objects, each naming the version it read: every review is
     kept or refused (stale, or the store busy) — a kept one is exactly one history row of its reader, a

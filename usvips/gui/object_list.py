@@ -164,6 +164,7 @@ class ObjectList(QtWidgets.QWidget):
 
     def _on_updated(self, ids: tuple[int, ...]) -> None:
         self._read_links()
+        self._read_reviews_of(ids)  # an edit returns an accepted object to unreviewed
         self._filling = True
         try:
             for object_id in ids:
@@ -373,6 +374,20 @@ class ObjectList(QtWidgets.QWidget):
         except UsvipsError as error:
             self.workspace.message.emit("warning", f"the review states cannot be shown: {error}")
             return {}
+
+    def _read_reviews_of(self, ids: tuple[int, ...]) -> None:
+        """The reviews of the objects ``ids`` read again (one query for one object, else one for all)."""
+        project = self.workspace.project
+        if project is None or not ids:
+            return
+        try:
+            if len(ids) == 1:
+                self._reviews[ids[0]] = project.review(ids[0])
+            else:
+                every = {r.object_id: r for r in project.reviews()}
+                self._reviews.update({i: every[i] for i in ids if i in every})
+        except UsvipsError as error:
+            self.workspace.message.emit("warning", f"the review states cannot be shown: {error}")
 
     def reload_reviews(self) -> None:
         """Read every object's review again (others may have reviewed meanwhile) and show the changed ones."""

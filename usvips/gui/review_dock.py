@@ -181,9 +181,15 @@ class ReviewDock(QtWidgets.QWidget):
             self.model.add([self.workspace.stored_object(i) for i in ids if i in self.workspace.cache])
 
     def _on_updated(self, ids: tuple[int, ...]) -> None:
-        if not self._stale:  # edited in the window: their new versions, and their rows again
-            self.model.updated([self.workspace.stored_object(i) for i in ids if i in self.workspace.cache])
+        if not self._stale:  # edited in the window: their new versions, reviews (an edit returns an accepted
+            present = [i for i in ids if i in self.workspace.cache]  # object to unreviewed) and rows again
+            self.model.updated([self.workspace.stored_object(i) for i in present])
             self._dirty.update(ids)
+            try:
+                if self.model.reread(present):
+                    self._rebuild = True  # one that went back to unreviewed may have joined the queue
+            except UsvipsError as error:
+                self.workspace.message.emit("warning", f"the review states cannot be read: {error}")
             self._show()
 
     def _on_removed(self, ids: tuple[int, ...]) -> None:

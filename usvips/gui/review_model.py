@@ -90,6 +90,31 @@ class ReviewModel:
             if stored.id in self._versions:
                 self._versions[stored.id] = max(stored.modified, self._versions[stored.id])
 
+    def reread(self, object_ids: Iterable[int]) -> list[int]:
+        """Read the reviews of ``object_ids`` again — another annotator's reviews, or an edit that returned
+        an accepted object to unreviewed — by one query (:meth:`ProjectStore.review` of one object, else
+        :meth:`ProjectStore.reviews`); returns the ids whose review changed. An object now unreviewed that
+        is not in the queue joins its end (it waits for a review again); ids not read here are left out.
+        An object of one id that no longer exists is the store's ``ProjectError``."""
+        if self.store is None:
+            return []
+        ids = [i for i in dict.fromkeys(object_ids) if i in self._versions]
+        if len(ids) == 1:
+            fresh = {ids[0]: self.store.review(ids[0])}
+        elif ids:
+            every = {r.object_id: r for r in self.store.reviews()}
+            fresh = {i: every[i] for i in ids if i in every}
+        else:
+            return []
+        changed = [i for i, review in fresh.items() if review != self.state(i)]
+        for object_id in changed:
+            self.reviews[object_id] = fresh[object_id]
+            if fresh[object_id].state == "unreviewed" and object_id not in self.queue:
+                self.queue.append(object_id)
+        if changed:
+            self.changed.emit()
+        return changed
+
     def forget(self, object_ids: Iterable[int]) -> None:
         """Objects deleted: out of the queue (the current place stays on the same object, or the next)."""
         gone = set(object_ids) & set(self._versions)

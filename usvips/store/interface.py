@@ -197,7 +197,9 @@ class ProjectStore(Protocol):
         Who and when (schema 8): every write to an object (this method, :meth:`add_objects`,
         :meth:`update_object`, :meth:`delete_object`, :meth:`take_object`, :meth:`put_back`,
         :meth:`set_record`, :meth:`set_review`) appends exactly one row to the history (:meth:`history`) in its own
-        transaction, with the annotator, the time, the object's id and the values before and after."""
+        transaction, with the annotator, the time, the object's id and the values before and after — and an
+        edit that returns an accepted object to unreviewed (see :meth:`update_object`) a second one, the
+        "review" row accepted → unreviewed, reason "edited after review", by the editor."""
         ...
 
     def add_objects(self, objects: list[tuple[str, list[Vertex], str, str, str]]) -> list[int]:
@@ -210,7 +212,14 @@ class ProjectStore(Protocol):
         """Change what is given of an object (replaced 3-D values are kept in its history); its
         ``modified`` stamp always moves forward. ``expected_modified``: the stamp the editor read — when
         the object was changed since (by another annotator), the edit is a
-        :class:`~usvips.store.records.StaleEditError` naming the object, and nothing is changed."""
+        :class:`~usvips.store.records.StaleEditError` naming the object, and nothing is changed.
+
+        What a review looked at changed — the kind, the attribute or the vertices (a re-pick, a vertex
+        deleted), or the observation record (:meth:`set_record`) — returns an accepted object to
+        unreviewed in the same transaction, recorded in the history as a "review" change by the editor
+        (``{"state": "accepted", …}`` → ``{"state": "unreviewed", "reason": "edited after review"}``); a
+        flagged object stays flagged; notes, and linking or unlinking an instant, leave the review as it
+        is. :meth:`put_back` of the rows read before the edit (an undo) restores the review as it was."""
         ...
 
     def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
@@ -244,7 +253,8 @@ class ProjectStore(Protocol):
         ...
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
-        """Store (None: remove) an object's observation record."""
+        """Store (None: remove) an object's observation record; its ``modified`` stamp moves forward, and a
+        changed record returns an accepted object to unreviewed (as :meth:`update_object` says)."""
         ...
 
     def records(self) -> dict[int, ObservationRecord]:

@@ -113,6 +113,13 @@ def _object_state(kind: str, attribute: str, notes: str, vertices: list[Vertex])
     return {"kind": kind, "attribute": attribute, "notes": notes, "vertices": [_vertex_state(v) for v in vertices]}
 
 
+#: why an accepted object went back to unreviewed without a reviewer: the reason of the history's 'review' row
+EDITED_AFTER_REVIEW = "edited after review"
+#: what of an object a review looks at: an edit of any of these (its observation record too) undoes an
+#: acceptance; its notes and its instant links do not
+REVIEWED_FIELDS = ("kind", "attribute", "vertices")
+
+
 def _review_state(review: Review) -> dict:
     """A review as the history shows it: its state, and when reviewed the reason and the reviewer."""
     if review.state == "unreviewed":
@@ -706,16 +713,28 @@ class Project:
             self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (now, object_id))
             self._log(object_id, "review", _review_state(old), _review_state(self.review(object_id)))
 
+    def _edited_after_review(self, object_id: int) -> None:
+        """Inside the caller's transaction (an edit of what a review looked at: :data:`REVIEWED_FIELDS`, the
+        observation record): an accepted object goes back to unreviewed, and the history gains a 'review'
+        row by the editor, accepted → unreviewed with the reason :data:`EDITED_AFTER_REVIEW`. A flagged
+        object stays flagged (its reason still stands until a reviewer looks again)."""
+        old = self.review(object_id)
+        if old.state != "accepted":
+            return
+        self._db.execute("DELETE FROM reviews WHERE object_id = ?", (object_id,))
+        self._log(object_id, "review", _review_state(old), {"state": "unreviewed", "reason": EDITED_AFTER_REVIEW})
+
     def review(self, object_id: int) -> Review:
         """An object's review (unreviewed when none was made, or before schema 9); an unknown id is a
         ``ProjectError``."""
-        with self._reading():
+        if self.read_only and not self._has_table("reviews"):  # a writing handle is of the current schema
             self.object(object_id)
-            if not self._has_table("reviews"):
-                return Review(int(object_id))
-            row = self._db.execute("SELECT state, reason, reviewer, reviewed FROM reviews WHERE object_id = ?",
-                                   (int(object_id),)).fetchone()
-        return Review(int(object_id)) if row is None else Review(int(object_id), *row)
+            return Review(int(object_id))
+        rows = self._query("SELECT o.id, r.state, r.reason, r.reviewer, r.reviewed FROM objects o LEFT JOIN reviews r "
+                           "ON r.object_id = o.id WHERE o.id = ?", (int(object_id),))  # one query: the window
+        if not rows:                                                                   # re-reads it often
+            raise ProjectError(f"{self.path}: no object {object_id}")
+        return Review(int(object_id)) if rows[0][1] is None else Review(int(object_id), *rows[0][1:])
 
     def reviews(self, state: str | None = None) -> list[Review]:
         """The review of every object (unreviewed ones included), by object id; with ``state`` only the
@@ -735,7 +754,9 @@ class Project:
                       expected_modified: str | None = None) -> None:
         """Change an object in one transaction; replaced 3-D values go to the vertex history. ``kind``: a
         registered measurement kind that suits the (new) vertex count. ``expected_modified``: see
-        :meth:`ProjectStore.update_object` (a stale edit is refused)."""
+        :meth:`ProjectStore.update_object` (a stale edit is refused). An accepted object whose kind,
+        attribute or vertices changed goes back to unreviewed in the same transaction (a second history
+        row, 'review', see :meth:`_edited_after_review`); notes alone do not."""
         with self.transaction():
             stored = self.object(object_id)
             refuse_stale(self.path, stored, expected_modified)
@@ -765,6 +786,8 @@ class Project:
                                               ("vertices", vertices)) if value is not None]
             self._log(object_id, "re-pick" if vertices is not None else "edit",
                       {name: before[name] for name in given}, {name: after[name] for name in given})
+            if any(before[name] != after[name] for name in given if name in REVIEWED_FIELDS):
+                self._edited_after_review(object_id)
 
     def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
         with self.transaction():
@@ -1292,9 +1315,11 @@ class Project:
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
         """Store (or with None remove) an object's observation record, stamped with this handle's annotator
-        and the time; the history keeps the record before and after (one transaction)."""
+        and the time; the object's ``modified`` stamp moves forward and the history keeps the record before
+        and after; an accepted object whose record changed goes back to unreviewed (a second 'review' row,
+        see :meth:`_edited_after_review`). One transaction."""
         with self.transaction():
-            self.object(object_id)
+            stored = self.object(object_id)
             old = self.record(object_id)
             if record is None:
                 self._edit("DELETE FROM observation_records WHERE object_id = ?", (object_id,))
@@ -1304,8 +1329,11 @@ class Project:
                            "?, ?)", (object_id, record.family, record.genus, record.species, record.code,
                                      record.number, record.stage, record.activity, record.comment, self.annotator,
                                      _now()))
+            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(stored.modified), object_id))
             self._log(object_id, "record", None if old is None else dataclasses.asdict(old),
                       None if record is None else dataclasses.asdict(record))
+            if old != record:
+                self._edited_after_review(object_id)
 
     def records(self) -> dict[int, ObservationRecord]:
         """Every object's observation record by object id, by one query (none before schema 5)."""
