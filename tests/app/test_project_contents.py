@@ -28,6 +28,32 @@ def test_the_summary_counts_everything_and_lists_a_video_once(tmp_path):
     assert [(v.label, v.frame_count, v.fps, v.offset_frames) for v in summary.videos] == [("dive", 10, 25.0, -2)]
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_the_summary_counts_an_object_over_several_instants_once_and_every_review(tmp_path, seed):
+    from usvips.app.project_contents import ReviewCounts, objects_text, reviews_text
+    from usvips.store.records import Vertex
+
+    rng = np.random.default_rng(seed)
+    with Project.create(tmp_path / "p.usvips") as project:
+        ids = [project.add_object("point", [Vertex(*map(float, rng.uniform(0, 99, 4)))])
+               for _ in range(int(rng.integers(3, 12)))]
+        first = ids[0]
+        instants = [i for i in ids[1:] if rng.random() < 0.5]
+        for instant in instants:
+            project.add_instant(first, instant)
+        states = [str(rng.choice(["unreviewed", "accepted", "flagged"])) for _ in ids]
+        for object_id, state in zip(ids, states, strict=True):
+            project.set_review(object_id, state, "why" if state == "flagged" else "")
+        summary = summarise(project)
+    assert (summary.object_count, summary.instant_count) == (len(ids) - len(instants), len(instants))
+    assert summary.reviews == ReviewCounts(states.count("unreviewed"), states.count("accepted"),
+                                           states.count("flagged"))
+    assert summary.reviews.total == len(ids)
+    assert reviews_text(ReviewCounts(5, 2, 1)) == "2 accepted, 1 flagged, 5 unreviewed"
+    assert [objects_text(*n) for n in ((1, 0), (5, 0), (5, 1), (2, 3))] == [
+        "1 object", "5 objects", "5 objects (1 further instant)", "2 objects (3 further instants)"]
+
+
 def test_an_import_is_checked_before_anything_is_stored_and_stored_all_or_nothing(tmp_path):
     rng = np.random.default_rng(1)
     write_control(tmp_path / "c.csv", ControlPoints(("1", "2", "3"), rng.normal(size=(3, 3))))

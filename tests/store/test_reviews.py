@@ -107,6 +107,39 @@ def test_project_review_accepts_flags_and_lists_on_both_backends(backend, tmp_pa
         assert store.history(ids[0])[-1].change == "review"
 
 
+@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+@pytest.mark.parametrize("seed", range(2))
+def test_project_info_and_review_count_objects_over_instants_once_and_their_reviews(backend, seed, tmp_path, capsys,
+                                                                                   request):
+    """A survey of random objects, some measured on several instants, in random review states: ``project
+    info`` and ``project review`` say "N objects (M further instants)" — an instant is not a further object —
+    and how many are accepted, flagged and unreviewed (every instant reviewed on its own)."""
+    rng = np.random.default_rng(40 + seed)
+    location = (str(tmp_path / "i.usvips") if backend == "sqlite"
+                else request.getfixturevalue("new_database")(f"info{seed}"))
+    count = int(rng.integers(4, 9))
+    ids = _survey(location, count)
+    with open_project(location) as store:
+        wholes = [int(i) for i in rng.choice(ids, 2, replace=False)]
+        instants = [i for i in ids if i not in wholes][:int(rng.integers(1, count - 2))]
+        for instant in instants:
+            store.add_instant(int(rng.choice(wholes)), instant)
+        states = {i: str(rng.choice(["unreviewed", "accepted", "flagged"])) for i in ids}
+        for object_id, state in states.items():
+            store.set_review(object_id, state, "blurred" if state == "flagged" else "")
+    objects, further = count - len(instants), len(instants)
+    tally = {state: list(states.values()).count(state) for state in ("accepted", "flagged", "unreviewed")}
+    said = (f"{objects} objects ({further} further instant{'s' if further > 1 else ''})")
+    counted = f"{tally['accepted']} accepted, {tally['flagged']} flagged, {tally['unreviewed']} unreviewed"
+    capsys.readouterr()
+    assert main(["project", "info", location]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].endswith(f"0 control points, {said}")
+    assert out[1] == f"  reviews: {counted} (each instant reviewed on its own)"
+    assert main(["project", "review", location]) == 0
+    assert capsys.readouterr().out.strip().endswith(f": {said}: {counted} (each instant reviewed on its own)")
+
+
 @pytest.mark.parametrize("arguments, words", [
     (["--flag", "1"], "--reason"),
     (["--flag", "1", "--reason", " "], "a flag needs a reason"),

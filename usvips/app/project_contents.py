@@ -45,10 +45,27 @@ class VideoSummary:
 
 
 @dataclass(frozen=True)
+class ReviewCounts:
+    """How many stored measurements are in each review state. Each instant of an object over several
+    instants is measured — and reviewed — on its own, so these count objects and their further instants
+    alike (their sum is ``object_count + instant_count`` of the summary)."""
+
+    unreviewed: int = 0
+    accepted: int = 0
+    flagged: int = 0
+
+    @property
+    def total(self) -> int:
+        return self.unreviewed + self.accepted + self.flagged
+
+
+@dataclass(frozen=True)
 class ProjectSummary:
-    """Schema version, counts of pairs (a video's own pair included), control points and objects; the
-    image pairs that are not a video's, and the videos; the deployments by scope ("" = the project's, else a
-    video's label) and the georeference (None when the project has none)."""
+    """Schema version, counts of pairs (a video's own pair included), control points and objects (an
+    object over several instants counts once: ``object_count`` excludes its further instants, counted in
+    ``instant_count``); the image pairs that are not a video's, and the videos; the deployments by scope
+    ("" = the project's, else a video's label), the georeference (None when the project has none) and the
+    review counts."""
 
     version: int
     pair_count: int
@@ -58,6 +75,29 @@ class ProjectSummary:
     videos: tuple[VideoSummary, ...]
     deployments: dict[str, Deployment]
     georeference: Georeference | None
+    instant_count: int = 0
+    reviews: ReviewCounts = ReviewCounts()
+
+
+def review_counts(project: ProjectStore) -> tuple[int, int, ReviewCounts]:
+    """(objects, further instants, review counts) of ``project``: two reads (every object's review, the
+    instant links), no vertices."""
+    reviews = project.reviews()
+    further = len(project.instant_links())
+    states = [r.state for r in reviews]
+    counts = ReviewCounts(states.count("unreviewed"), states.count("accepted"), states.count("flagged"))
+    return len(reviews) - further, further, counts
+
+
+def objects_text(objects: int, instants: int) -> str:
+    """``5 objects`` or ``5 objects (3 further instants)``: an instant is not a further object."""
+    text = f"{objects} object" + ("" if objects == 1 else "s")
+    return text + (f" ({instants} further instant{'' if instants == 1 else 's'})" if instants else "")
+
+
+def reviews_text(counts: ReviewCounts) -> str:
+    """``2 accepted, 1 flagged, 5 unreviewed``."""
+    return f"{counts.accepted} accepted, {counts.flagged} flagged, {counts.unreviewed} unreviewed"
 
 
 def summarise(project: ProjectStore) -> ProjectSummary:
@@ -65,13 +105,14 @@ def summarise(project: ProjectStore) -> ProjectSummary:
     pairs = project.pairs()
     videos = project.videos()
     video_labels = {v["label"] for v in videos}
+    objects, instants, reviews = review_counts(project)
     return ProjectSummary(
-        project.version, len(pairs), len(project.control()), len(project.objects()),
+        project.version, len(pairs), len(project.control()), objects,
         tuple(PairSummary(p["label"], p["medium"], p["left"], p["right"], project.active_calibration(p["label"]))
               for p in pairs if p["label"] not in video_labels),
         tuple(VideoSummary(v["label"], v["frame_count"], v["fps"], v["offset_frames"],
                            project.active_calibration(v["label"]), proxy_bytes(project, v["label"])) for v in videos),
-        project.deployments(), project.georeference())
+        project.deployments(), project.georeference(), instants, reviews)
 
 
 @dataclass(frozen=True)

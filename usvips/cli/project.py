@@ -99,7 +99,7 @@ def run_new(args: argparse.Namespace) -> int:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from usvips.app.project_contents import summarise
+    from usvips.app.project_contents import objects_text, reviews_text, summarise
     from usvips.core.deployment import DEPLOYMENT_FIELDS
     from usvips.store.opening import open_project, shown
 
@@ -114,7 +114,10 @@ def run_info(args: argparse.Namespace) -> int:
     # a video is stored as a pair too (its calibration and vertices refer to it): counted apart
     print(f"{shown(args.project)}: schema {summary.version}, {count(len(summary.pairs), 'image pair')}, "
           f"{count(len(summary.videos), 'video')}, {count(summary.control_count, 'control point')}, "
-          f"{count(summary.object_count, 'object')}")
+          f"{objects_text(summary.object_count, summary.instant_count)}")
+    if summary.reviews.total:
+        print(f"  reviews: {reviews_text(summary.reviews)}"
+              + (" (each instant reviewed on its own)" if summary.instant_count else ""))
     for pair in summary.pairs:
         print(f"  pair {pair.label} ({pair.medium}): {pair.left or '-'} | {pair.right or '-'}"
               + (f"; calibration {pair.calibration_id}" if pair.calibration_id else ""))

@@ -59,8 +59,9 @@ def run_review(args: argparse.Namespace) -> int:
                 print(f"{review.object_id}\t{kind}\t{attribute}\t{review.state}\t{review.reviewer}\t"
                       f"{review.reviewed}\t{review.reason}")
         elif not writing:
-            reviews = project.reviews()
-            counts = {state: sum(r.state == state for r in reviews) for state in STATES}
-            print(f"{shown(args.project)}: {len(reviews)} objects: {counts['accepted']} accepted, "
-                  f"{counts['flagged']} flagged, {counts['unreviewed']} unreviewed")
+            from usvips.app.project_contents import objects_text, review_counts, reviews_text
+
+            objects, instants, counts = review_counts(project)
+            print(f"{shown(args.project)}: {objects_text(objects, instants)}: {reviews_text(counts)}"
+                  + (" (each instant reviewed on its own)" if instants else ""))
     return 0
