@@ -213,3 +213,54 @@ def test_an_accepted_object_edited_in_the_window_shows_unreviewed_and_undo_shows
     ws.undo.undo()
     assert _review_column(window, ids[1]) == "accepted" and ws.project.review(ids[1]).state == "accepted"
     assert window.review.list.item(3).text().endswith("— accepted")
+
+
+def test_others_reviews_appear_on_each_move_and_when_the_window_regains_the_focus_and_a_stale_one_is_said(
+        qtbot, make_window, sample_copy):
+    """Another annotator reviews while the panel walks the queue: N shows their review (panel and object
+    list); so does the window regaining the focus; the reader's accept of an object reviewed meanwhile is
+    refused, and the panel's own notice line names the object; A again stores it; the next key clears it."""
+    from usvips.store import Project
+
+    window = make_window()
+    window.set_annotator("reader")
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    ws = window.workspace
+    _objects_on_two_pairs(window)
+    window.show_review()
+    window.review.follow.setChecked(False)
+    queue, model = window.review.list, window.review.model
+    order = list(model.queue)
+    with Project.open(ws.project.path) as other:
+        other.annotator = "bob"
+        other.set_review(order[1], "flagged", "fin cut off")
+        qtbot.keyClick(queue, Key.Key_N)
+        assert window.review.current.text() == f"Object {order[1]}: flagged by bob (fin cut off)"
+        assert _review_column(window, order[1]) == "flagged: fin cut off"
+        assert queue.item(1).text().endswith("— flagged: fin cut off")
+        other.set_review(order[1], "accepted")  # while this window is in the background
+        window.activateWindow()
+        QtWidgets.QApplication.sendEvent(window, QtCore.QEvent(QtCore.QEvent.Type.ActivationChange))
+        qtbot.waitUntil(lambda: window.review.current.text() == f"Object {order[1]}: accepted by bob", timeout=5000)
+        assert _review_column(window, order[1]) == "accepted"
+        other.set_review(order[2], "accepted")
+        qtbot.keyClick(queue, Key.Key_N)
+        other.set_review(order[2], "flagged", "too dark")  # after it was shown here
+        qtbot.keyClick(queue, Key.Key_A)
+    notice = window.review.notice
+    assert notice.isVisible() and notice.text().startswith("Not stored: ")
+    assert f"object {order[2]} was changed by someone else" in notice.text()
+    assert window.review.current.text() == f"Object {order[2]}: flagged by bob (too dark)"
+    assert _review_column(window, order[2]) == "flagged: too dark"
+    assert ws.project.review(order[2]).state == "flagged"
+    qtbot.keyClick(queue, Key.Key_A)  # seen: stored now
+    assert (ws.project.review(order[2]).state, ws.project.review(order[2]).reviewer) == ("accepted", "reader")
+    assert not notice.isVisible() and _review_column(window, order[2]) == "accepted"
+    window.docks["review"].hide()  # without review mode: the one object selected in the list
+    ws.select([order[3]])
+    with Project.open(ws.project.path) as other:
+        other.annotator = "bob"
+        other.set_review(order[3], "flagged", "two fish")
+    QtWidgets.QApplication.sendEvent(window, QtCore.QEvent(QtCore.QEvent.Type.ActivationChange))
+    assert _review_column(window, order[3]) == "flagged: two fish"

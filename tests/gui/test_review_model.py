@@ -169,3 +169,40 @@ def test_reviews_read_again_show_others_reviews_and_an_edited_acceptance_rejoins
     assert model.progress() == "1 of 5 reviewed, 1 flagged"
     assert model.reread([done]) == [] and events == ["changed", "changed"]  # nothing new: no event
     project.close()
+
+
+def test_every_move_reads_the_new_objects_review_again_by_one_query_and_a_stale_review_is_still_refused(tmp_path):
+    """Another annotator reviews objects of the queue while it is walked: each move (next, previous, skip, go
+    to) and ``refresh_current`` shows the review as stored, by ONE SQL statement, announced by ``read``;
+    the reader's own review of such an object is refused by name once (their version is old), then kept."""
+    rng = np.random.default_rng(13)
+    project, ids = _survey(tmp_path / "s.usvips", rng, 6)
+    model = ReviewModel()
+    model.load(project)
+    read = []
+    model.read.connect(lambda object_id, review: read.append((object_id, review.state, review.reviewer)))
+    statements = []
+    project._db.set_trace_callback(statements.append)
+    queue = list(model.queue)
+    with Project.open(project.path) as other:
+        other.annotator = "bob"
+        for step, move in enumerate([model.next, model.next, model.previous, lambda: model.go_to(queue[4]),
+                                     model.skip, model.refresh_current]):
+            target = {0: queue[1], 1: queue[2], 2: queue[1], 3: queue[4], 4: queue[5], 5: queue[5]}[step]
+            state = ("accepted", "flagged")[step % 2]
+            other.set_review(target, state, f"seen {step}" if state == "flagged" else "")
+            statements.clear()
+            move()
+            assert model.current == target and len(statements) == 1, statements
+            assert model.state(target).state == state and model.state(target).reviewer == "bob"
+            assert read[-1] == (target, state, "bob")
+        statements.clear()
+        assert model.refresh_current() is False and len(statements) == 1  # nothing new: no event
+        assert len(read) == 6
+        with pytest.raises(StaleEditError, match=f"object {queue[5]} was changed by someone else"):
+            model.accept()
+        assert project.review(queue[5]).reviewer == "bob"
+        model.go_to(queue[5])
+        assert model.accept().reviewer == "measurer"  # looked at again: kept
+    project._db.set_trace_callback(None)
+    project.close()

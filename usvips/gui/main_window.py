@@ -174,6 +174,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["review"] = self._dock("Review", self.review, bottom)
         self.review.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
         self.review.reviewed.connect(self.object_list.show_review)
+        self.review.review_read.connect(self.object_list.show_review)  # someone else's review, read again
         self.review.history_requested.connect(self.object_list.show_history)
         self.docks["planner"] = self._dock("Precision planner", self.planner, right)
         self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
@@ -487,6 +488,22 @@ class MainWindow(QtWidgets.QMainWindow):
         for path in self.recent_projects():
             self.recent_menu.addAction(path, lambda p=path: self.open_path(p))
         self.recent_menu.setEnabled(bool(self.recent_projects()))
+
+    def changeEvent(self, event: QtCore.QEvent) -> None:  # noqa: N802 (Qt's name)
+        super().changeEvent(event)
+        if event.type() == QtCore.QEvent.Type.ActivationChange and self.isActiveWindow():
+            self.review_states_again()
+
+    def review_states_again(self) -> None:
+        """The window has the focus again: the review of the object shown — review mode's current one, else
+        the one object selected in the object list — is read again (one query), so that a review another
+        annotator made meanwhile appears."""
+        if self.workspace.project is None:
+            return
+        if self.review.isVisible():
+            self.review.refresh_current()
+        elif len(self.workspace.selection) == 1:
+            self.object_list.refresh_review(self.workspace.selection[0])
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt's name)
         if not self.confirm_drop_unfinished("quit"):

@@ -389,6 +389,12 @@ class ObjectList(QtWidgets.QWidget):
         except UsvipsError as error:
             self.workspace.message.emit("warning", f"the review states cannot be shown: {error}")
 
+    def refresh_review(self, object_id: int) -> None:
+        """Read one object's review again (one query) and show it (another annotator's review)."""
+        self._read_reviews_of((object_id,))
+        if object_id in self._reviews:
+            self.show_review(object_id, self._reviews[object_id])
+
     def reload_reviews(self) -> None:
         """Read every object's review again (others may have reviewed meanwhile) and show the changed ones."""
         self._reviews = self._read_reviews()

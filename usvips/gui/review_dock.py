@@ -8,6 +8,12 @@ panel does), H its history (``history_requested``). These single keys are the pa
 keyboard: the window's own single-key shortcuts (F fit, S snap …) work again as soon as the images have
 it. "Go to each object" makes every move go there too. Every review is stored at once, as the window's
 annotator.
+
+Reviews stay current: every move reads the object's review again (one query), and so does
+:meth:`ReviewDock.refresh_current` (the window calls it when it regains the focus); a review someone else
+made meanwhile is shown in the panel and announced (``review_read``: the object list shows it). A review
+refused because someone else changed the object is said in the panel itself (its notice line, naming
+the object), besides the log, with the object's state as it now is.
 """
 
 from __future__ import annotations
@@ -21,6 +27,7 @@ from usvips.gui.review_model import ReviewModel
 from usvips.gui.video_model import video_frame_text
 from usvips.gui.wording import species_text
 from usvips.store.checks import MAX_REASON_LENGTH
+from usvips.store.records import StaleEditError
 
 Key = QtCore.Qt.Key
 #: the panel's keys → what they do (the names of :class:`ReviewDock`'s methods)
@@ -98,6 +105,7 @@ class ReviewDock(QtWidgets.QWidget):
 
     object_chosen = QtCore.Signal(int)
     reviewed = QtCore.Signal(int, object)
+    review_read = QtCore.Signal(int, object)  # a review read again differs from the one shown (someone else's)
     history_requested = QtCore.Signal(int)
 
     def __init__(self, workspace, parent: QtWidgets.QWidget | None = None) -> None:
@@ -111,6 +119,12 @@ class ReviewDock(QtWidgets.QWidget):
         self.current.setObjectName("review_current")
         self.current.setTextFormat(QtCore.Qt.TextFormat.PlainText)
         self.current.setWordWrap(True)
+        self.notice = QtWidgets.QLabel("")  # a review refused (stale), naming the object; cleared by the next key
+        self.notice.setObjectName("review_notice")
+        self.notice.setTextFormat(QtCore.Qt.TextFormat.PlainText)
+        self.notice.setWordWrap(True)
+        self.notice.setStyleSheet("color: #b00020")
+        self.notice.hide()
         self.follow = QtWidgets.QCheckBox("Go to each object")
         self.follow.setToolTip("every move (N, P, after A or F) also goes to the object's pair or frame")
         self.follow.setChecked(True)
@@ -138,6 +152,7 @@ class ReviewDock(QtWidgets.QWidget):
         layout.setSpacing(2)
         layout.addLayout(buttons)
         layout.addWidget(self.current)
+        layout.addWidget(self.notice)
         layout.addWidget(self.list, 1)
         self._stale = True  # loaded when first shown
         self._filling = False
@@ -146,6 +161,7 @@ class ReviewDock(QtWidgets.QWidget):
         self._row_of: dict[int, int] = {}
         self.model.changed.connect(self._show)
         self.model.reviewed.connect(lambda object_id, _review: self._dirty.add(object_id))
+        self.model.read.connect(self._on_read)
         self._events = ((workspace.objects_reset, self._on_reset), (workspace.objects_added, self._on_added),
                         (workspace.objects_removed, self._on_removed), (workspace.objects_updated, self._on_updated))
         for signal, slot in self._events:
@@ -156,6 +172,32 @@ class ReviewDock(QtWidgets.QWidget):
         for signal, slot in self._events:
             signal.disconnect(slot)
         self.model.changed.disconnect(self._show)
+        self.model.read.disconnect(self._on_read)
+
+    def _on_read(self, object_id: int, review) -> None:
+        """A review read again differs from the one shown: its row, and the object list, show it."""
+        self._dirty.add(object_id)
+        if object_id not in self._row_of:
+            self._rebuild = True  # unreviewed again: it joined the queue
+        self.review_read.emit(object_id, review)
+
+    def refresh_current(self) -> None:
+        """Read the current object's review again (one query; the window regains the focus)."""
+        if self._stale or not self.isVisible():
+            return
+        self._moving(self.model.refresh_current)
+
+    def _moving(self, move) -> None:
+        """A move (or a read again) of the model; a review that cannot be read is said in one line."""
+        self._say("")
+        try:
+            move()
+        except UsvipsError as error:
+            self.workspace.message.emit("warning", f"the review cannot be read again: {error}")
+
+    def _say(self, text: str) -> None:
+        self.notice.setText(text)
+        self.notice.setVisible(bool(text))
 
     # ------------------------------------------------------------------ the queue
     def load(self) -> None:
@@ -253,7 +295,7 @@ class ReviewDock(QtWidgets.QWidget):
     def _on_row(self, row: int) -> None:
         if self._filling or not 0 <= row < len(self.model.queue):
             return
-        self.model.go_to(self.model.queue[row])
+        self._moving(lambda: self.model.go_to(self.model.queue[row]))
         self._followed()
 
     # ------------------------------------------------------------------ the keys
@@ -262,15 +304,15 @@ class ReviewDock(QtWidgets.QWidget):
         return True
 
     def next(self) -> None:
-        self.model.next()
+        self._moving(self.model.next)
         self._followed()
 
     def previous(self) -> None:
-        self.model.previous()
+        self._moving(self.model.previous)
         self._followed()
 
     def skip(self) -> None:
-        self.model.skip()
+        self._moving(self.model.skip)
         self._followed()
 
     def accept(self) -> None:
@@ -290,10 +332,13 @@ class ReviewDock(QtWidgets.QWidget):
         if object_id is None:
             self.workspace.message.emit("warning", "nothing to review")
             return
+        self._say("")
         try:
             review = make()
         except UsvipsError as error:
             self.workspace.message.emit("error", str(error))
+            if isinstance(error, StaleEditError):
+                self._say(f"Not stored: {error}")
             return
         self.reviewed.emit(object_id, review)
         self.workspace.message.emit("info", f"object {object_id} {review.state}"

@@ -12,8 +12,15 @@ object keeps it in the queue, so that Previous goes back to it and its review ca
   state read again), then move on to the next object still unreviewed;
 - :meth:`ReviewModel.skip` moves on to the next unreviewed object without reviewing this one.
 
+Review states stay current while several annotators review one survey: every move to another object
+(next, previous, skip, go to) reads that object's review again — one query — so a review someone else made
+meanwhile is shown (:meth:`ReviewModel.refresh_current` does the same on demand: the window calls it when
+it regains the focus). A review made on a stale read is still refused by name (the store's optimistic
+versions): reading the state again does not make the object's version current, a refused review does.
+
 Events (:class:`usvips.gui.signals.Signal`): ``changed()`` after anything the view shows changed (the
-queue, the current object, a state); ``reviewed(object_id, review)`` after a review was stored.
+queue, the current object, a state); ``reviewed(object_id, review)`` after a review was stored;
+``read(object_id, review)`` when a review read again differs from the one shown (someone else's).
 """
 
 from __future__ import annotations
@@ -50,6 +57,7 @@ class ReviewModel:
     def __init__(self) -> None:
         self.changed = Signal()
         self.reviewed = Signal()
+        self.read = Signal()
         self.store = None
         self.queue: list[int] = []
         self.position = 0
@@ -106,14 +114,31 @@ class ReviewModel:
             fresh = {i: every[i] for i in ids if i in every}
         else:
             return []
+        changed = self._take(fresh)
+        if changed:
+            self.changed.emit()
+        return changed
+
+    def _take(self, fresh: dict[int, Review]) -> list[int]:
+        """Keep the reviews read again; the ids whose review changed (each announced by ``read``)."""
         changed = [i for i, review in fresh.items() if review != self.state(i)]
         for object_id in changed:
             self.reviews[object_id] = fresh[object_id]
             if fresh[object_id].state == "unreviewed" and object_id not in self.queue:
                 self.queue.append(object_id)
+            self.read.emit(object_id, fresh[object_id])
+        return changed
+
+    def refresh_current(self) -> bool:
+        """Read the current object's review again (one query); True when it changed (``changed`` then
+        fires). An object deleted meanwhile is the store's ``ProjectError``."""
+        object_id = self.current
+        if object_id is None or self.store is None:
+            return False
+        changed = self._take({object_id: self.store.review(object_id)})
         if changed:
             self.changed.emit()
-        return changed
+        return bool(changed)
 
     def forget(self, object_ids: Iterable[int]) -> None:
         """Objects deleted: out of the queue (the current place stays on the same object, or the next)."""
@@ -154,9 +179,18 @@ class ReviewModel:
 
     # ------------------------------------------------------------------ moving
     def go_to(self, object_id: int) -> None:
-        """Make ``object_id`` (in the queue) the current object."""
+        """Make ``object_id`` (in the queue) the current object (its review read again)."""
         if object_id in self.queue:
             self.position = self.queue.index(object_id)
+            self._moved()
+
+    def _moved(self) -> None:
+        """After a move: the current object's review read again (one query), then ``changed``; a failed
+        read is raised after the view was told of the move."""
+        try:
+            if self.current is not None and self.store is not None:
+                self._take({self.current: self.store.review(self.current)})
+        finally:
             self.changed.emit()
 
     def next(self) -> int | None:
@@ -170,7 +204,7 @@ class ReviewModel:
     def _move(self, step: int) -> int | None:
         if self.queue:
             self.position = max(0, min(self.position + step, len(self.queue) - 1))
-        self.changed.emit()
+        self._moved()
         return self.current
 
     def skip(self) -> int | None:
@@ -181,7 +215,7 @@ class ReviewModel:
             if self.state(self.queue[index]).state == "unreviewed":
                 self.position = index
                 break
-        self.changed.emit()
+        self._moved()
         return self.current
 
     # ------------------------------------------------------------------ reviewing
@@ -204,14 +238,19 @@ class ReviewModel:
         try:
             self.store.set_review(object_id, state, reason, expected_modified=self._versions.get(object_id))
         except StaleEditError:
-            self._reread(object_id)  # the object as it now is: its state and version, for a review again
+            self._take({object_id: self.store.review(object_id)})  # the object as it now is: its state (shown
+            self._reread(object_id)                                 # and announced) and version, to review again
             self.changed.emit()
             raise
         self._reread(object_id)
         review = self.state(object_id)
         self.reviewed.emit(object_id, review)
         if advance and not self.finished:
-            self.skip()
+            try:
+                self.skip()
+            except UsvipsError:
+                pass  # the review is stored; the next object's review could not be read again (deleted
+                # meanwhile?): it is shown as last read, and a review of it is refused by name
         else:
             self.changed.emit()
         return review
