@@ -337,8 +337,9 @@ class ReviewDock(QtWidgets.QWidget):
             review = make()
         except UsvipsError as error:
             self.workspace.message.emit("error", str(error))
-            if isinstance(error, StaleEditError):
-                self._say(f"Not stored: {error}")
+            if isinstance(error, StaleEditError):  # the whole message is in the log; here what to do
+                self._say(f"Not stored: object {object_id} was changed by someone else since it was shown here "
+                          "(as it is now: above). Look at it again, then A or F again.")
             return
         self.reviewed.emit(object_id, review)
         self.workspace.message.emit("info", f"object {object_id} {review.state}"
