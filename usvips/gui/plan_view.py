@@ -117,17 +117,17 @@ class PlanView(QtWidgets.QWidget):
         a, b = self.VIEWS[self.view.currentText()]
         ids, self._stale = sorted(self._stale), set()
         ordered = not ids or ids[0] > self._last_id()  # new ids above all others keep the order
+        objects = []
         for object_id in ids:
             try:
-                stored = self.workspace.stored_object(object_id)
+                objects.append(self.workspace.stored_object(object_id))
             except UsvipsError:
                 self._parts.pop(object_id, None)
-                continue
-            part = self._part(stored, a, b)
+        for stored, part in zip(objects, self._parts_of(objects, a, b), strict=True):
             if part is None:
-                self._parts.pop(object_id, None)
+                self._parts.pop(stored.id, None)
             else:
-                self._parts[object_id] = part
+                self._parts[stored.id] = part
         if not ordered:
             self._parts = dict(sorted(self._parts.items()))
 
@@ -148,27 +148,39 @@ class PlanView(QtWidgets.QWidget):
 
     CIRCLE = np.column_stack([np.cos(np.linspace(0, 2 * np.pi, 49)), np.sin(np.linspace(0, 2 * np.pi, 49))])
 
-    def _part(self, stored, a: int, b: int) -> tuple | None:
-        vertices = [v for v in stored.vertices if v.xyz is not None]
-        points = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
-        if not len(points):
-            return None
-        rings = np.zeros((0, 2))
-        known = [i for i, v in enumerate(vertices) if v.covariance is not None]
-        if known:  # the 2 x 2 blocks of every vertex at once: (M, 49, 2) rings, NaN-separated
-            blocks = np.array([vertices[i].covariance for i in known], float)[:, [a, b]][:, :, [a, b]]
+    def _parts_of(self, objects: list, a: int, b: int) -> list[tuple | None]:
+        """Each object's (label and its position, outline (K, 2) m ending in a NaN row, 1σ rings (M × 50, 2) m
+        NaN-separated) in the view of axes ``a``, ``b``; None for an object with no 3-D point. The 2 × 2
+        covariance blocks of every vertex of every object in one eigen-decomposition (a survey's 10,000
+        objects at once)."""
+        located = [[v for v in stored.vertices if v.xyz is not None] for stored in objects]
+        points = [np.array([v.xyz for v in vertices], float).reshape(-1, 3) for vertices in located]
+        known = [[v.covariance for v in vertices if v.covariance is not None] for vertices in located]
+        centres = [p[[i for i, v in enumerate(vs) if v.covariance is not None]] for p, vs in zip(points, located,
+                                                                                                  strict=True)]
+        counts = [len(k) for k in known]
+        rings_of: list[np.ndarray] = [np.zeros((0, 2))] * len(objects)
+        if sum(counts):  # (N, 49, 2) rings of every vertex at once, each followed by a NaN row
+            blocks = np.array([c for k in known for c in k], float).reshape(-1, 3, 3)[:, [a, b]][:, :, [a, b]]
             values, vectors = np.linalg.eigh(blocks)
             scaled = self.CIRCLE[None] * np.sqrt(np.clip(values, 0, None))[:, None, :]
-            ring = points[known][:, None, [a, b]] + np.einsum("mkj,mij->mki", scaled, vectors)
-            rings = np.concatenate([ring, np.full((len(known), 1, 2), np.nan)], axis=1).reshape(-1, 2)
-        label = (f"{stored.id} {stored.attribute}".strip(), points[0, [a, b]])
-        if len(points) == len(stored.vertices):
-            try:
-                points = measurement_kind(stored.kind).outline(points)
-            except UsvipsError:
-                pass  # drawn through its vertices
-        outline = np.vstack([points[:, [a, b]], [[np.nan, np.nan]]])
-        return label, outline, rings
+            ring = np.vstack([c for c in centres if len(c)])[:, None, [a, b]] + scaled @ vectors.transpose(0, 2, 1)
+            ring = np.concatenate([ring, np.full((len(ring), 1, 2), np.nan)], axis=1)
+            ends = np.cumsum(counts)
+            rings_of = [ring[end - count:end].reshape(-1, 2) for count, end in zip(counts, ends, strict=True)]
+        parts: list[tuple | None] = []
+        for stored, vertices, xyz, rings in zip(objects, located, points, rings_of, strict=True):
+            if not len(xyz):
+                parts.append(None)
+                continue
+            label = (f"{stored.id} {stored.attribute}".strip(), xyz[0, [a, b]])
+            if len(vertices) == len(stored.vertices):
+                try:
+                    xyz = measurement_kind(stored.kind).outline(xyz)
+                except UsvipsError:
+                    pass  # drawn through its vertices
+            parts.append((label, np.vstack([xyz[:, [a, b]], [[np.nan, np.nan]]]), rings))
+        return parts
 
     def redraw(self) -> None:
         self._update_parts()

@@ -68,12 +68,14 @@ def propagate_all(function: Callable[[np.ndarray], np.ndarray], points: np.ndarr
     flat = points.ravel()
     values = np.atleast_1d(np.asarray(function(points), dtype=np.float64))
     jacobian = np.empty((values.size, flat.size))
+    shifted = np.repeat(flat[None], 2 * flat.size, axis=0)  # row 2k: coordinate k ahead, 2k + 1: behind
+    k = np.arange(flat.size)
+    shifted[2 * k, k] += step
+    shifted[2 * k + 1, k] -= step
+    shifted = shifted.reshape(-1, *points.shape)
     for k in range(flat.size):
-        ahead, behind = flat.copy(), flat.copy()
-        ahead[k] += step
-        behind[k] -= step
-        jacobian[:, k] = (np.atleast_1d(function(ahead.reshape(points.shape)))
-                          - np.atleast_1d(function(behind.reshape(points.shape)))) / (2 * step)
+        jacobian[:, k] = (np.atleast_1d(function(shifted[2 * k])) - np.atleast_1d(function(shifted[2 * k + 1]))) \
+            / (2 * step)
     return values, jacobian @ full @ jacobian.T
 
 
