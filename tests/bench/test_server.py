@@ -20,3 +20,4 @@ def test_the_server_rows_compare_with_sqlite_on_the_same_data_and_judge_their_ta
     assert window["met"] == (window["ours_s"] <= server.OPEN_TARGET_S) and window["baseline_s"] > 0
     assert window["objects_listed"] == window["baseline_objects_listed"] == 110
     assert 0 < window["rows_s"] <= window["ours_s"] and 0 < window["baseline_rows_s"] <= window["baseline_s"]
+    assert window["cpu_s"] > 0 and window["baseline_cpu_s"] > 0

@@ -8,6 +8,7 @@ from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.measurements.registry import MeasurementKind
 from usvips.gui.workspace import Workspace
 
 
@@ -150,36 +151,49 @@ class PlanView(QtWidgets.QWidget):
 
     def _parts_of(self, objects: list, a: int, b: int) -> list[tuple | None]:
         """Each object's (label and its position, outline (K, 2) m ending in a NaN row, 1σ rings (M × 50, 2) m
-        NaN-separated) in the view of axes ``a``, ``b``; None for an object with no 3-D point. The 2 × 2
-        covariance blocks of every vertex of every object in one eigen-decomposition (a survey's 10,000
-        objects at once)."""
+        NaN-separated) in the view of axes ``a``, ``b``; None for an object with no 3-D point. Every vertex
+        of every object in one array, the 2 × 2 covariance blocks in one eigen-decomposition (a survey's
+        10,000 objects at once); only kinds whose outline is not their vertices are drawn one by one."""
         located = [[v for v in stored.vertices if v.xyz is not None] for stored in objects]
-        points = [np.array([v.xyz for v in vertices], float).reshape(-1, 3) for vertices in located]
-        known = [[v.covariance for v in vertices if v.covariance is not None] for vertices in located]
-        centres = [p[[i for i, v in enumerate(vs) if v.covariance is not None]] for p, vs in zip(points, located,
-                                                                                                  strict=True)]
-        counts = [len(k) for k in known]
-        rings_of: list[np.ndarray] = [np.zeros((0, 2))] * len(objects)
-        if sum(counts):  # (N, 49, 2) rings of every vertex at once, each followed by a NaN row
-            blocks = np.array([c for k in known for c in k], float).reshape(-1, 3, 3)[:, [a, b]][:, :, [a, b]]
+        counts = np.array([len(vs) for vs in located], int)
+        ends = np.cumsum(counts)
+        vertices = [v for vs in located for v in vs]
+        xyz = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
+        # each object's vertices in the view followed by a NaN row: object i's outline is rows [start + i, end + i]
+        separated = np.insert(xyz[:, [a, b]], ends, np.nan, axis=0)
+        with_covariance = np.array([v.covariance is not None for v in vertices], bool)
+        ring_rows = np.zeros((0, 50, 2))
+        if with_covariance.any():  # (N, 49, 2) rings of every vertex at once, each followed by a NaN row
+            blocks = np.array([v.covariance for v in vertices if v.covariance is not None], float)
+            blocks = blocks.reshape(-1, 3, 3)[:, [a, b]][:, :, [a, b]]
             values, vectors = np.linalg.eigh(blocks)
             scaled = self.CIRCLE[None] * np.sqrt(np.clip(values, 0, None))[:, None, :]
-            ring = np.vstack([c for c in centres if len(c)])[:, None, [a, b]] + scaled @ vectors.transpose(0, 2, 1)
-            ring = np.concatenate([ring, np.full((len(ring), 1, 2), np.nan)], axis=1)
-            ends = np.cumsum(counts)
-            rings_of = [ring[end - count:end].reshape(-1, 2) for count, end in zip(counts, ends, strict=True)]
+            ring = xyz[with_covariance][:, None, [a, b]] + scaled @ vectors.transpose(0, 2, 1)
+            ring_rows = np.concatenate([ring, np.full((len(ring), 1, 2), np.nan)], axis=1)
+        before = np.concatenate([[0], np.cumsum(with_covariance)]).tolist()  # rings before each vertex
+        kinds: dict[str, object] = {}
         parts: list[tuple | None] = []
-        for stored, vertices, xyz, rings in zip(objects, located, points, rings_of, strict=True):
-            if not len(xyz):
+        for n, (stored, count, end) in enumerate(zip(objects, counts.tolist(), ends.tolist(), strict=True)):
+            if not count:
                 parts.append(None)
                 continue
-            label = (f"{stored.id} {stored.attribute}".strip(), xyz[0, [a, b]])
-            if len(vertices) == len(stored.vertices):
-                try:
-                    xyz = measurement_kind(stored.kind).outline(xyz)
-                except UsvipsError:
-                    pass  # drawn through its vertices
-            parts.append((label, np.vstack([xyz[:, [a, b]], [[np.nan, np.nan]]]), rings))
+            start = end - count
+            outline = separated[start + n:end + n + 1]
+            if count == len(stored.vertices):
+                if stored.kind not in kinds:
+                    try:
+                        kinds[stored.kind] = measurement_kind(stored.kind)
+                    except UsvipsError:
+                        kinds[stored.kind] = None  # drawn through its vertices
+                k = kinds[stored.kind]
+                if k is not None and (k.outline.__func__ is not MeasurementKind.outline.__func__
+                                      or (k.closes and count > 2)):
+                    try:
+                        outline = np.vstack([k.outline(xyz[start:end])[:, [a, b]], [[np.nan, np.nan]]])
+                    except UsvipsError:
+                        pass
+            rings = ring_rows[before[start]:before[end]].reshape(-1, 2)
+            parts.append(((f"{stored.id} {stored.attribute}".strip(), xyz[start, [a, b]]), outline, rings))
         return parts
 
     def redraw(self) -> None:
