@@ -34,3 +34,17 @@ def test_the_length_sigma_is_the_projection_of_the_covariance_on_the_segment():
 def test_two_coinciding_vertices_are_named_degenerate():
     with pytest.raises(DegenerateGeometryError, match="coincide"):
         Length.values(np.array([[1.0, 2.0, 3.0], [1.0, 2.0, 3.0]]))
+
+
+def test_many_segments_at_once_give_each_one_s_values_and_the_same_figures():
+    rng = np.random.default_rng(13)
+    stack = rng.normal(scale=3.0, size=(300, 2, 3))
+    assert np.allclose(Length.values_many(stack), [Length.values(p) for p in stack], rtol=1e-12, atol=1e-12)
+    for points in stack[:50]:
+        roots = rng.normal(scale=1e-3, size=(2, 3, 3))
+        covariances = roots @ roots.transpose(0, 2, 1)
+        one, by_one = propagate_all(Length.values, points, covariances)
+        many, by_many = propagate_all(Length.values, points, covariances, many=Length.values_many)
+        assert np.allclose(one, many, rtol=1e-12) and np.allclose(by_one, by_many, rtol=1e-6, atol=1e-18)
+    with pytest.raises(DegenerateGeometryError, match="coincide"):
+        Length.values_many(np.ones((3, 2, 3)))

@@ -32,3 +32,15 @@ class Length(MeasurementKind):
             raise DegenerateGeometryError("the length's two vertices coincide")
         horizontal = math.hypot(dx, dy)
         return np.array([math.hypot(horizontal, dz), math.atan2(dx, dy) % (2 * math.pi), math.atan2(dz, horizontal)])
+
+    @classmethod
+    def values_many(cls, stack: np.ndarray) -> np.ndarray:
+        """:meth:`values` of M vertex pairs (M, 2, 3) at once, (M, 3); the first pair's coinciding vertices
+        are degenerate (the others are its Jacobian's shifted copies)."""
+        stack = np.asarray(stack, dtype=np.float64).reshape(-1, 2, 3)
+        d = stack[:, 1] - stack[:, 0]
+        if not np.any(d[0]):
+            raise DegenerateGeometryError("the length's two vertices coincide")
+        horizontal = np.hypot(d[:, 0], d[:, 1])
+        return np.column_stack([np.hypot(horizontal, d[:, 2]), np.arctan2(d[:, 0], d[:, 1]) % (2 * np.pi),
+                                np.arctan2(d[:, 2], horizontal)])
