@@ -70,3 +70,35 @@ def test_bad_input_is_one_line(tmp_path, capsys):
         assert code == 2 and words in err and len(err.strip().splitlines()) == 1, err
     code, out, err = _run(capsys, "project", "double-read", tmp_path / "none.usvips", "--readers", "a", "b")
     assert code == 2 and "none.usvips" in err
+
+
+def _video_survey(path):
+    """ann and bob read one fish on video 'dive' (25 frames/s) four frames apart (0.16 s); bob also reads
+    another fish 40 frames after ann's (1.6 s)."""
+    project = create_project(path)
+    (path.parent / "v0.mp4").write_bytes(b"video")
+    chapters = [(path.parent / "v0.mp4", 1000, 40.0)]
+    project.add_video("dive", chapters, chapters, 25.0, 1000, (64, 48))
+    for reader, frame, x in (("ann", 250, 0.0), ("bob", 254, 0.0), ("ann", 500, 1.0), ("bob", 540, 1.0)):
+        vertices = [Vertex(0, 0, 0, 0, (x + dx, 0.0, 3.0), np.eye(3) * 1e-6, None, None, "dive", frame, frame,
+                           frame / 25.0) for dx in (0.0, 0.3)]
+        project.add_objects([("length", vertices, "", "", reader)])
+    project.close()
+
+
+def test_the_time_tolerance_in_frames(tmp_path, capsys):
+    project = tmp_path / "v.usvips"
+    _video_survey(project)
+    for option, value, matched in (("--tolerance-frames", 4, 1), ("--tolerance-frames", 3, 0),
+                                   ("--tolerance-frames", 40, 2), ("--tolerance-s", 0.2, 1), ("--tolerance-s", 1.7, 2)):
+        code, out, err = _run(capsys, "project", "double-read", project, "--readers", "ann", "bob", option, value)
+        assert code == 0 and err == "", err
+        unit = "frames" if option == "--tolerance-frames" else "s"
+        assert f"tolerance {value:g} {unit}," in out and f"matched: {matched} pair" in out, out
+    code, out, err = _run(capsys, "project", "double-read", project, "--readers", "ann", "bob")
+    assert code == 0 and "tolerance 0.5 s," in out and "matched: 1 pair" in out  # the default: half a second
+    for argv, words in ((["--tolerance-s", "0.5", "--tolerance-frames", "3"], "parameter --tolerance-frames: give "
+                         "the time tolerance in seconds (--tolerance-s) or in frames (--tolerance-frames), not both"),
+                        (["--tolerance-frames", "-2"], "parameter --tolerance-frames")):
+        code, out, err = _run(capsys, "project", "double-read", project, "--readers", "ann", "bob", *argv)
+        assert code == 2 and words in err and len(err.strip().splitlines()) == 1, err

@@ -185,3 +185,48 @@ def test_the_assignment_pairs_the_most_objects_before_the_nearest():
     b = ReaderObjects([0, 1], ["v", "v"], ["length"] * 2, ["x", "x"], [1.0, 1.0], [[0.03, 0, 2], [-0.06, 0, 2]],
                       [0.3, 0.3], [0.01, 0.01])
     assert match_objects(a, b, 0.5, 0.07).tolist() == [[0, 1], [1, 0]]
+
+
+def test_the_tolerance_in_frames_pairs_as_the_same_tolerance_in_seconds_over_random_surveys():
+    """Frames f = t × fps: a tolerance of N frames pairs exactly what N / fps seconds pairs (times and frames
+    kept off the boundary), and what it pairs depends on the frames, not the times."""
+    rng = np.random.default_rng(21)
+    for _ in range(30):
+        fps, n = rng.choice([12.5, 25.0, 30.0]), 40
+        survey = _survey(rng, n)
+        a, b = (_reading(rng, np.arange(n), survey, np.zeros(n)) for _ in range(2))
+        frames = [np.where(np.isnan(r.time_s), np.nan, np.round(r.time_s * fps)) for r in (a, b)]
+        a, b = (ReaderObjects(r.ids, r.source, r.kind, r.species, f / fps, r.midpoint, r.value, r.sigma, f)
+                for r, f in zip((a, b), frames, strict=True))
+        tolerance = int(rng.integers(0, 6))
+        by_frames = match_objects(a, b, None, 0.04, tolerance_frames=tolerance)
+        assert by_frames.tolist() == match_objects(a, b, (tolerance + 0.5) / fps, 0.04).tolist()
+        shuffled_times = [ReaderObjects(r.ids, r.source, r.kind, r.species,
+                                        np.where(np.isnan(r.time_s), np.nan, rng.uniform(0, 900, n)),
+                                        r.midpoint, r.value, r.sigma, r.frame) for r in (a, b)]
+        assert match_objects(*shuffled_times, None, 0.04, tolerance_frames=tolerance).tolist() == by_frames.tolist()
+        report = compare_readers(a, b, None, 0.04, 2.0, tolerance_frames=tolerance)
+        assert report.pairs.tolist() == by_frames.tolist()
+
+
+def test_a_video_object_without_a_frame_pairs_with_none_in_frames_and_image_pairs_still_pair():
+    def reader(times, frames, source=("v", "p")):
+        return ReaderObjects([0, 1], list(source), ["length"] * 2, ["x", "x"], times, [[0, 0, 2], [1, 0, 2]],
+                             [0.3, 0.3], [0.01, 0.01], frames)
+
+    a = reader([4.0, np.nan], [100.0, np.nan])
+    assert match_objects(a, reader([4.0, np.nan], [101.0, np.nan]), None, 0.05, tolerance_frames=1).tolist() == \
+        [[0, 0], [1, 1]]
+    assert match_objects(a, reader([4.0, np.nan], [np.nan, np.nan]), None, 0.05, tolerance_frames=9).tolist() == \
+        [[1, 1]]  # the video's object has no frame: unmatched; the image pair's objects pair
+    assert ReaderObjects.empty().frame.shape == (0,) and np.isnan(reader([1.0, 2.0], None).frame).all()
+
+
+@pytest.mark.parametrize(("arguments", "words"), [
+    ({"tolerance_s": 0.5, "tolerance_frames": 3}, "exactly one of seconds"),
+    ({"tolerance_s": None}, "exactly one of seconds"),
+    ({"tolerance_s": None, "tolerance_frames": -1}, "tolerance_frames: must be a finite number"),
+    ({"tolerance_s": None, "tolerance_frames": math.inf}, "tolerance_frames")])
+def test_the_tolerance_is_given_in_exactly_one_of_seconds_or_frames(arguments, words):
+    with pytest.raises(InvalidParameterError, match=words):
+        compare_readers(ReaderObjects.empty(), ReaderObjects.empty(), **arguments)

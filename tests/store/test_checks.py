@@ -6,7 +6,14 @@ from pathlib import Path
 import pytest
 
 from usvips.store import SCHEMA_VERSION, Project, ProjectError, Vertex, checks
-from usvips.store.opening import create_project, is_server_location, open_project, public_location, shown
+from usvips.store.opening import (
+    create_project,
+    is_server_location,
+    open_project,
+    public_location,
+    shown,
+    without_password,
+)
 from usvips.store.postgres import ServerProject
 
 
@@ -62,6 +69,10 @@ def test_a_location_opens_its_backend_and_is_shown_without_its_password(tmp_path
     assert public_location(secret) == "postgresql://ann@db.example:5433/survey?sslmode=require"
     assert shown(secret) == public_location(secret) and shown(file) == str(file)
     assert "hunter2" not in shown(secret)
+    # what a recent-projects list keeps: everything but the password (the media folder too)
+    kept = without_password(secret + "&password=hunter3")
+    assert kept == "postgresql://ann@db.example:5433/survey?sslmode=require&media=%2Fmnt%2Fm" and "hunter" not in kept
+    assert without_password("postgresql://postgres:@/survey?host=/tmp/s") == "postgresql://postgres@/survey?host=%2Ftmp%2Fs"
     with pytest.raises(ProjectError, match="name the survey's database"):
         open_project("postgresql://ann@db.example/")
 

@@ -7,7 +7,8 @@ object's figure and its σ come from :func:`usvips.app.project_figures.evaluate`
 object list, the calculator and every export use (an object measured on several instants is compared
 with its combined figure). A reader is an object's creator (``StoredObject.creator``); the species is its
 observation record's ``Genus species`` ('' when it has none); the instant is its first vertex's time on
-a video (seconds), none on an image pair (the pair is the instant); its place is the mean of its
+a video (seconds) and left frame (the tolerance is given in exactly one of them), none on an image pair
+(the pair is the instant); its place is the mean of its
 vertices (metres, in the frame its video or pair measures in).
 """
 
@@ -52,15 +53,24 @@ class ReaderRead:
 
 @dataclass(frozen=True)
 class DoubleReadReport:
-    """Two readers' objects compared: the readers, the parameters (``tolerance_s`` s, ``gate_m`` m, ``k``)
-    and the comparison (:class:`~usvips.core.double_reading.DoubleReading`)."""
+    """Two readers' objects compared: the readers, the parameters (``tolerance_s`` s or, when it is None,
+    ``tolerance_frames`` frames; ``gate_m`` m, ``k``) and the comparison
+    (:class:`~usvips.core.double_reading.DoubleReading`)."""
 
     a: ReaderRead
     b: ReaderRead
-    tolerance_s: float
+    tolerance_s: float | None
     gate_m: float
     k: float
     comparison: DoubleReading
+    tolerance_frames: float | None = None
+
+    @property
+    def tolerance(self) -> str:
+        """The time tolerance in words: '0.5 s' or '3 frames'."""
+        if self.tolerance_s is not None:
+            return f"{self.tolerance_s:g} s"
+        return f"{self.tolerance_frames:g} frame" + ("" if self.tolerance_frames == 1 else "s")
 
     def rows(self) -> list[dict]:
         """The report's table (:data:`COLUMNS`): the flagged pairs, the species conflicts, each reader's
@@ -88,7 +98,7 @@ class DoubleReadReport:
 
         return [
             f"readers: A {self.a.name!r} ({_count(s.n_a, 'object')}), B {self.b.name!r} ({_count(s.n_b, 'object')}); "
-            f"tolerance {self.tolerance_s:g} s, gate {self.gate_m:g} m, k {self.k:g}",
+            f"tolerance {self.tolerance}, gate {self.gate_m:g} m, k {self.k:g}",
             f"matched: {_count(s.n_matched, 'pair')} ({share(s.matched_share)} of the objects); unmatched: "
             f"{len(c.unmatched_a)} of A, {len(c.unmatched_b)} of B",
             f"differences A − B: mean {mm(s.mean_difference)}, SD {mm(s.sd_difference, '')}; Bland–Altman limits of "
@@ -130,28 +140,33 @@ def annotators(project: ProjectStore) -> dict[str, int]:
     return dict(sorted(counts.items()))
 
 
-def _source_and_time(project: ProjectStore, stored: StoredObject, fps: dict[str, float]) -> tuple[str, float]:
+def _source_and_time(project: ProjectStore, stored: StoredObject,
+                     fps: dict[str, float]) -> tuple[str, float, float]:
+    """(where: "video V" / "pair P", time s, left frame index) of an object's first vertex; time and frame
+    NaN on an image pair (the frame NaN too when a video's vertex has none)."""
     vertex = stored.vertices[0]
     if vertex.video is not None:
+        frame = math.nan if vertex.frame_left is None else float(vertex.frame_left)
         if vertex.time_s is not None:
-            return f"video {vertex.video}", float(vertex.time_s)
+            return f"video {vertex.video}", float(vertex.time_s), frame
         if vertex.video not in fps:
             fps[vertex.video] = float(project.video(vertex.video)["fps"])
-        return f"video {vertex.video}", float(vertex.frame_left or 0) / fps[vertex.video]
-    return (f"pair {vertex.pair}" if vertex.pair is not None else ""), math.nan
+        return f"video {vertex.video}", float(vertex.frame_left or 0) / fps[vertex.video], frame
+    return (f"pair {vertex.pair}" if vertex.pair is not None else ""), math.nan, math.nan
 
 
 @dataclass(frozen=True)
 class ReaderInput:
     """What one reader's comparison needs, copied out of the project (:func:`read_inputs`): per object its
     :class:`~usvips.app.project_figures.MeasurementInput`, species, source ("video V" / "pair P") and
-    instant (s; NaN on an image pair)."""
+    instant (s, and the video's left frame; NaN on an image pair)."""
 
     name: str
     sources: tuple[MeasurementInput, ...]
     species: tuple[str, ...]
     places: tuple[str, ...]
     times: tuple[float, ...]
+    frames: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -167,17 +182,18 @@ def _reader_input(project: ProjectStore, reader: str, objects: list[StoredObject
     instants = instants_by_object(project)
     cache: dict = {}
     fps: dict[str, float] = {}
-    sources, species, places, times = [], [], [], []
+    sources, species, places, times, frames = [], [], [], [], []
     for stored in objects:
         if stored.creator != reader or not stored.vertices:
             continue
         sources.append(measurement_input(project, stored, cache, instants=instants))
         record = records.get(stored.id)
         species.append("" if record is None else f"{record.genus} {record.species}".strip())
-        place, time_s = _source_and_time(project, stored, fps)
+        place, time_s, frame = _source_and_time(project, stored, fps)
         places.append(place)
         times.append(time_s)
-    return ReaderInput(reader, tuple(sources), tuple(species), tuple(places), tuple(times))
+        frames.append(frame)
+    return ReaderInput(reader, tuple(sources), tuple(species), tuple(places), tuple(times), tuple(frames))
 
 
 def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleReadInput:
@@ -198,10 +214,11 @@ def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleRe
 
 def _reader_read(reader: ReaderInput, rules: QualityRules | None, step: Callable[[], None]) -> ReaderRead:
     columns: dict[str, list] = {name: [] for name in ("ids", "source", "kind", "species", "time_s", "midpoint",
-                                                       "value", "sigma")}
+                                                       "value", "sigma", "frame")}
     where, skipped = [], []
-    for source, species, place, time_s in zip(reader.sources, reader.species, reader.places, reader.times,
-                                              strict=True):
+    frames = reader.frames or (math.nan,) * len(reader.sources)
+    for source, species, place, time_s, frame in zip(reader.sources, reader.species, reader.places, reader.times,
+                                                     frames, strict=True):
         step()
         try:
             measured: Measurement = evaluate(source, rules)
@@ -211,20 +228,21 @@ def _reader_read(reader: ReaderInput, rules: QualityRules | None, step: Callable
         for name, value in (("ids", int(source.id)), ("source", place), ("kind", measured.kind),
                             ("species", species), ("time_s", time_s),
                             ("midpoint", np.mean(measured.points, axis=0)), ("value", measured.main.value),
-                            ("sigma", measured.main.sigma)):
+                            ("sigma", measured.main.sigma), ("frame", frame)):
             columns[name].append(value)
         where.append(source.where)
     objects = ReaderObjects(**columns) if columns["ids"] else ReaderObjects.empty()
     return ReaderRead(reader.name, objects, where, skipped)
 
 
-def compute(inputs: DoubleReadInput, tolerance_s: float = 0.5, gate_m: float = 0.3, k: float = 2.0,
+def compute(inputs: DoubleReadInput, tolerance_s: float | None = 0.5, gate_m: float = 0.3, k: float = 2.0,
             rules: QualityRules | None = None, progress: Callable[[float], None] | None = None,
-            cancelled: Callable[[], bool] | None = None) -> DoubleReadReport:
+            cancelled: Callable[[], bool] | None = None, tolerance_frames: float | None = None) -> DoubleReadReport:
     """The report (pure; any thread): each object's figure and σ by :func:`evaluate`, then
-    :func:`~usvips.core.double_reading.compare_readers`. ``progress`` gets the fraction done; when
-    ``cancelled()`` turns true the work stops with :class:`ReportCancelled`."""
-    check_parameters(tolerance_s, gate_m, k)  # before the long part
+    :func:`~usvips.core.double_reading.compare_readers`. The time tolerance in exactly one of seconds
+    (``tolerance_s``) or frames (``tolerance_frames``, with ``tolerance_s=None``). ``progress`` gets the
+    fraction done; when ``cancelled()`` turns true the work stops with :class:`ReportCancelled`."""
+    check_parameters(tolerance_s, gate_m, k, tolerance_frames)  # before the long part
     total = max(1, len(inputs.a.sources) + len(inputs.b.sources))
     done = [0]
 
@@ -237,16 +255,20 @@ def compute(inputs: DoubleReadInput, tolerance_s: float = 0.5, gate_m: float = 0
 
     a = _reader_read(inputs.a, rules, step)
     b = _reader_read(inputs.b, rules, step)
-    report = DoubleReadReport(a, b, float(tolerance_s), float(gate_m), float(k),
-                              compare_readers(a.objects, b.objects, tolerance_s, gate_m, k))
+    report = DoubleReadReport(a, b, None if tolerance_s is None else float(tolerance_s), float(gate_m), float(k),
+                              compare_readers(a.objects, b.objects, tolerance_s, gate_m, k, tolerance_frames),
+                              None if tolerance_frames is None else float(tolerance_frames))
     if progress is not None:
         progress(1.0)
     return report
 
 
-def double_read(project: ProjectStore, reader_a: str, reader_b: str, tolerance_s: float = 0.5,
-                gate_m: float = 0.3, k: float = 2.0, rules: QualityRules | None = None) -> DoubleReadReport:
+def double_read(project: ProjectStore, reader_a: str, reader_b: str, tolerance_s: float | None = 0.5,
+                gate_m: float = 0.3, k: float = 2.0, rules: QualityRules | None = None,
+                tolerance_frames: float | None = None) -> DoubleReadReport:
     """:func:`read_inputs` then :func:`compute`: compare the objects of annotators ``reader_a`` and
-    ``reader_b`` (see the module docstring)."""
-    check_parameters(tolerance_s, gate_m, k)
-    return compute(read_inputs(project, reader_a, reader_b), tolerance_s, gate_m, k, rules)
+    ``reader_b`` (see the module docstring); the time tolerance in seconds, or in frames with
+    ``tolerance_s=None``."""
+    check_parameters(tolerance_s, gate_m, k, tolerance_frames)
+    return compute(read_inputs(project, reader_a, reader_b), tolerance_s, gate_m, k, rules,
+                   tolerance_frames=tolerance_frames)

@@ -18,13 +18,16 @@ from usvips.core.errors import InputFileError, InvalidParameterError
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("open", help="the workstation window, optionally on a project or sample")
-    parser.add_argument("project", nargs="?", help="a project file (*.usvips) or a sample directory")
+    parser.add_argument("project", nargs="?", help="a project file (*.usvips), a sample directory or a "
+                        "survey on a server (postgresql://…)")
     parser.add_argument("--pair", help="the image pair to show first (default: the one shown last, or the first)")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.project is not None and not Path(args.project).exists():
+    from usvips.store.opening import is_server_location
+
+    if args.project is not None and not is_server_location(args.project) and not Path(args.project).exists():
         raise InputFileError(args.project, "no such project file or sample directory")
     if args.pair and args.project is None:
         raise InvalidParameterError("--pair", "needs a project to open")

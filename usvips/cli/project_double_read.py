@@ -1,4 +1,5 @@
-"""``usvips project double-read PROJECT --readers A B [--tolerance-s S] [--gate-m G] [--k K] [--csv OUT]``:
+"""``usvips project double-read PROJECT --readers A B [--tolerance-s S | --tolerance-frames N] [--gate-m G] [--k K]
+[--csv OUT]``:
 compare the objects two annotators measured on the same videos and image pairs (the double-read report,
 :mod:`usvips.app.double_read`): the agreement statistics, then the pairs whose figures differ by more than
 k combined σ, the species conflicts and each reader's unmatched objects; ``--csv`` writes every row
@@ -16,8 +17,10 @@ def register_double_read_action(actions: argparse._SubParsersAction) -> None:
     report.add_argument("project", help="the project file, or postgresql://USER@HOST[:PORT]/DATABASE")
     report.add_argument("--readers", nargs=2, metavar=("A", "B"), required=True,
                         help="the two annotators (creators of the objects) to compare")
-    report.add_argument("--tolerance-s", type=float, default=0.5, metavar="S",
+    report.add_argument("--tolerance-s", type=float, default=None, metavar="S",
                         help="largest time between two readings of one fish on a video, seconds (default 0.5)")
+    report.add_argument("--tolerance-frames", type=int, default=None, metavar="N",
+                        help="the same in frames of the video (instead of --tolerance-s)")
     report.add_argument("--gate-m", type=float, default=0.3, metavar="G",
                         help="largest distance between the 3-D midpoints of two readings of one fish, metres "
                         "(default 0.3)")
@@ -40,12 +43,18 @@ def run_double_read(args: argparse.Namespace) -> int:
     from usvips.io.double_read_table import write_double_read_csv
     from usvips.store.opening import is_server_location, open_project
 
-    options = {"tolerance_s": "--tolerance-s", "gate_m": "--gate-m", "k": "--k"}
+    options = {"tolerance_s": "--tolerance-s", "tolerance_frames": "--tolerance-frames", "gate_m": "--gate-m",
+               "k": "--k"}
+    if args.tolerance_s is not None and args.tolerance_frames is not None:
+        raise InvalidParameterError("--tolerance-frames", "give the time tolerance in seconds (--tolerance-s) or in "
+                                    "frames (--tolerance-frames), not both")
+    tolerance_s = 0.5 if args.tolerance_s is None and args.tolerance_frames is None else args.tolerance_s
 
     def report_of():
         with open_project(args.project, read_only=True) as project:
             try:
-                return double_read(project, args.readers[0], args.readers[1], args.tolerance_s, args.gate_m, args.k)
+                return double_read(project, args.readers[0], args.readers[1], tolerance_s, args.gate_m, args.k,
+                                   tolerance_frames=args.tolerance_frames)
             except InvalidParameterError as error:  # named as the option the user typed
                 raise InvalidParameterError(options.get(error.parameter, error.parameter), error.problem) from None
 

@@ -3,8 +3,9 @@ well their figures agree. Pure computation: arrays in, arrays out.
 
 Each reader's objects are given as a :class:`ReaderObjects` (parallel arrays). Two objects can be the
 same fish when they were measured on the same video or image pair (``source``), are of the same kind
-and species, at the same instant within ``tolerance_s`` seconds (objects on an image pair have no time,
-NaN: the pair is the instant), and their 3-D midpoints are within ``gate_m`` metres. Among those
+and species, at the same instant within a tolerance — ``tolerance_s`` seconds, or ``tolerance_frames``
+frames of the video (exactly one of the two; objects on an image pair have neither time nor frame, NaN:
+the pair is the instant) — and their 3-D midpoints are within ``gate_m`` metres. Among those
 candidates the pairs are chosen by a minimum-total-distance assignment of midpoints (Hungarian method,
 :func:`scipy.optimize.linear_sum_assignment`), each object at most once.
 
@@ -35,7 +36,9 @@ class ReaderObjects:
     """One reader's objects as parallel arrays of length N: ``ids`` (N,) int, ``source`` (N,) str (the
     video or image pair they were measured on), ``kind`` (N,) str, ``species`` (N,) str, ``time_s`` (N,)
     float seconds (NaN on an image pair), ``midpoint`` (N, 3) m (mean of the object's vertices, in the
-    frame its source measures in), ``value`` (N,) and ``sigma`` (N,) of the main figure (m for a length)."""
+    frame its source measures in), ``value`` (N,) and ``sigma`` (N,) of the main figure (m for a length);
+    ``frame`` (N,) float, the video's (left) frame index (NaN on an image pair or when unknown; default all
+    NaN), compared when the tolerance is given in frames."""
 
     ids: np.ndarray
     source: np.ndarray
@@ -45,12 +48,15 @@ class ReaderObjects:
     midpoint: np.ndarray
     value: np.ndarray
     sigma: np.ndarray
+    frame: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(np.asarray(self.ids))
+        if self.frame is None:
+            object.__setattr__(self, "frame", np.full(n, np.nan))
         conversions = {"ids": (np.int64, (n,)), "source": (str, (n,)), "kind": (str, (n,)),
                        "species": (str, (n,)), "time_s": (np.float64, (n,)), "midpoint": (np.float64, (n, 3)),
-                       "value": (np.float64, (n,)), "sigma": (np.float64, (n,))}
+                       "value": (np.float64, (n,)), "sigma": (np.float64, (n,)), "frame": (np.float64, (n,))}
         for name, (dtype, shape) in conversions.items():
             array = np.asarray(getattr(self, name), dtype=dtype if dtype is not str else object)
             if n == 0:
@@ -114,9 +120,16 @@ class DoubleReading:
     k: float
 
 
-def check_parameters(tolerance_s: float, gate_m: float, k: float) -> None:
-    """Refuse, by name, a tolerance (s), gate (m) or k that is not a finite positive number (tolerance may be 0)."""
-    for name, value in (("tolerance_s", tolerance_s), ("gate_m", gate_m), ("k", k)):
+def check_parameters(tolerance_s: float | None, gate_m: float, k: float,
+                     tolerance_frames: float | None = None) -> None:
+    """Refuse, by name, a tolerance (s or frames), gate (m) or k that is not a finite positive number
+    (a tolerance may be 0), or a tolerance given both in seconds and in frames, or in neither."""
+    if (tolerance_s is None) == (tolerance_frames is None):
+        raise InvalidParameterError("tolerance_frames" if tolerance_frames is not None else "tolerance_s",
+                                    "give the time tolerance in exactly one of seconds (tolerance_s) or frames "
+                                    "(tolerance_frames)")
+    tolerance = ("tolerance_s", tolerance_s) if tolerance_s is not None else ("tolerance_frames", tolerance_frames)
+    for name, value in (tolerance, ("gate_m", gate_m), ("k", k)):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
             raise InvalidParameterError(name, f"must be a finite number ≥ 0, got {value!r}")
     if gate_m == 0:
@@ -125,13 +138,18 @@ def check_parameters(tolerance_s: float, gate_m: float, k: float) -> None:
         raise InvalidParameterError("k", "must be > 0 (how many combined σ a difference may reach)")
 
 
-def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float, gate_m: float,
-                  same_species: bool = True) -> np.ndarray:
+def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | None, gate_m: float,
+                  same_species: bool = True, tolerance_frames: float | None = None) -> np.ndarray:
     """(M, 2) indices of the pairs of ``a``'s and ``b``'s objects taken for the same object: same source and
-    kind (and species when ``same_species``), times within ``tolerance_s`` s (both NaN: an image pair),
-    midpoints within ``gate_m`` m; among the assignments that pair the most objects, the one with the
-    smallest total midpoint distance. Sorted by a's index."""
-    check_parameters(tolerance_s, gate_m, 1.0)
+    kind (and species when ``same_species``), times within ``tolerance_s`` s — or, with ``tolerance_s`` None,
+    frames within ``tolerance_frames`` frames — (both NaN: an image pair), midpoints within ``gate_m`` m;
+    among the assignments that pair the most objects, the one with the smallest total midpoint distance.
+    Sorted by a's index."""
+    check_parameters(tolerance_s, gate_m, 1.0, tolerance_frames)
+    if tolerance_s is None:
+        instants_a, instants_b, tolerance = a.frame, b.frame, tolerance_frames
+    else:
+        instants_a, instants_b, tolerance = a.time_s, b.time_s, tolerance_s
     if not len(a) or not len(b):
         return np.zeros((0, 2), int)
     keys_a = list(zip(a.source, a.kind, a.species if same_species else [""] * len(a), strict=True))
@@ -149,10 +167,12 @@ def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float, gate_m
             continue
         ia, ib = np.array(rows), np.array(columns)
         distance = np.linalg.norm(a.midpoint[ia, None, :] - b.midpoint[None, ib, :], axis=2)
-        ta, tb = a.time_s[ia, None], b.time_s[None, ib]
-        both_untimed = np.isnan(ta) & np.isnan(tb)
+        ta, tb = instants_a[ia, None], instants_b[None, ib]
+        # an image pair's objects: neither a time nor a frame (a video's object whose frame is unknown pairs
+        # with none when the tolerance is in frames)
+        both_untimed = (np.isnan(ta) & np.isnan(tb) & np.isnan(a.time_s[ia, None]) & np.isnan(b.time_s[None, ib]))
         with np.errstate(invalid="ignore"):
-            same_instant = both_untimed | (np.abs(ta - tb) <= tolerance_s)
+            same_instant = both_untimed | (np.abs(ta - tb) <= tolerance)
         allowed = same_instant & (distance <= gate_m)
         if not allowed.any():
             continue
@@ -168,13 +188,14 @@ def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float, gate_m
     return pairs[np.argsort(pairs[:, 0], kind="stable")]
 
 
-def compare_readers(a: ReaderObjects, b: ReaderObjects, tolerance_s: float = 0.5, gate_m: float = 0.3,
-                    k: float = 2.0) -> DoubleReading:
+def compare_readers(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | None = 0.5, gate_m: float = 0.3,
+                    k: float = 2.0, tolerance_frames: float | None = None) -> DoubleReading:
     """Pair the two readers' objects (:func:`match_objects`), flag the pairs whose main figures differ by
     more than ``k`` combined σ, list the unmatched ones and the species conflicts, and compute the
-    :class:`Agreement`. ``tolerance_s`` s, ``gate_m`` m, ``k`` dimensionless (default 2)."""
-    check_parameters(tolerance_s, gate_m, k)
-    pairs = match_objects(a, b, tolerance_s, gate_m)
+    :class:`Agreement`. ``tolerance_s`` s (or, with ``tolerance_s`` None, ``tolerance_frames`` frames),
+    ``gate_m`` m, ``k`` dimensionless (default 2)."""
+    check_parameters(tolerance_s, gate_m, k, tolerance_frames)
+    pairs = match_objects(a, b, tolerance_s, gate_m, tolerance_frames=tolerance_frames)
     ia, ib = pairs[:, 0], pairs[:, 1]
     difference = a.value[ia] - b.value[ib]
     combined = np.hypot(a.sigma[ia], b.sigma[ib])
@@ -184,7 +205,7 @@ def compare_readers(a: ReaderObjects, b: ReaderObjects, tolerance_s: float = 0.5
     flagged = np.abs(normalised) > k
     unmatched_a = np.setdiff1d(np.arange(len(a)), ia)
     unmatched_b = np.setdiff1d(np.arange(len(b)), ib)
-    placed = match_objects(a, b, tolerance_s, gate_m, same_species=False)
+    placed = match_objects(a, b, tolerance_s, gate_m, same_species=False, tolerance_frames=tolerance_frames)
     agree = a.species[placed[:, 0]] == b.species[placed[:, 1]] if len(placed) else np.zeros(0, bool)
     conflicts = placed[~agree] if len(placed) else np.zeros((0, 2), int)
     n = len(pairs)

@@ -1,9 +1,11 @@
 """The double-read report in the window (File › Double-read report…, Alt+F then B): choose two annotators, the time
-tolerance (s), the gate (m) and k; the report (:mod:`usvips.app.double_read`, the same as ``usvips project
-double-read``) is computed in a worker with progress and a cancel that stops it. The table lists the
-disagreements first, then species conflicts, unmatched objects and the pairs that agree; activating a row
-(double-click or Enter) goes to its object (reader A's, else B's) as the QA panel does; another click on
-the same row goes to the other reader's object. Save CSV… writes the table as the command line does."""
+tolerance (in seconds or in frames of the video: one of the two), the gate (m) and k; the report
+(:mod:`usvips.app.double_read`, the same as ``usvips project double-read``) is computed in a worker with
+progress and a cancel that stops it. The table lists the disagreements first, then species conflicts,
+unmatched objects and the pairs that agree; a click on a column's header sorts by it (numbers as numbers,
+empty cells last; again: the other way); activating a row (double-click or Enter) goes to its object
+(reader A's, else B's) as the QA panel does; another click on the same row goes to the other reader's
+object. Save CSV… writes the table as the command line does (in the report's order)."""
 
 from __future__ import annotations
 
@@ -16,6 +18,9 @@ from usvips.core.errors import UsvipsError
 from usvips.gui.qa_dock import go_to_object
 from usvips.gui.worker import Cancelled, Worker, start
 from usvips.io.double_read_table import write_double_read_csv
+
+#: the units the time tolerance may be given in: (shown, suffix, decimals, default, largest)
+TOLERANCE_UNITS = (("seconds", " s", 2, 0.5, 3600.0), ("frames", " frames", 0, 12, 100000.0))
 
 #: the table's columns: (header, key, lengths shown in mm)
 SHOWN = (("what", "row", False), ("object A", "object_a", False), ("object B", "object_b", False),
@@ -32,6 +37,26 @@ def _text(value: object, millimetres: bool) -> str:
             return "∞"
         return f"{1000 * value:.1f}" if millimetres else f"{value:.2f}"
     return str(value)
+
+
+class _Cell(QtWidgets.QTableWidgetItem):
+    """A cell that sorts by its value, not its text: numbers as numbers, then texts, empty cells last (in
+    either direction of the sort: a column of differences keeps its blanks at the bottom)."""
+
+    def __init__(self, value: object, millimetres: bool, row: int) -> None:
+        super().__init__(_text(value, millimetres))
+        self.report_index = row  # the report row it shows (an index in the dialog's ``rows``)
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        self.key = (0, float(value), "") if number else (1, 0.0, str(value)) if value not in (None, "") else None
+
+    def __lt__(self, other: QtWidgets.QTableWidgetItem) -> bool:  # noqa: D105 (Qt's sort)
+        mine, theirs = self.key, getattr(other, "key", None)
+        if mine is None or theirs is None:  # empty cells after every value, whichever the order
+            descending = (self.tableWidget() is not None
+                          and self.tableWidget().horizontalHeader().sortIndicatorOrder()
+                          == QtCore.Qt.SortOrder.DescendingOrder)
+            return (mine is not None and theirs is None) != descending and mine is not theirs
+        return mine < theirs
 
 
 class DoubleReadDialog(QtWidgets.QDialog):
@@ -52,12 +77,19 @@ class DoubleReadDialog(QtWidgets.QDialog):
             box.addItems(names)
             box.setCurrentIndex(min(index, len(names) - 1))
         self.tolerance = self._spin(0.5, 0.0, 3600.0, 2, " s")
+        self.tolerance_unit = QtWidgets.QComboBox()
+        self.tolerance_unit.addItems([unit[0] for unit in TOLERANCE_UNITS])
+        self.tolerance_unit.setToolTip("the time tolerance in seconds, or in frames of the video")
+        self.tolerance_unit.currentIndexChanged.connect(self._on_tolerance_unit)
+        tolerance = QtWidgets.QHBoxLayout()
+        tolerance.addWidget(self.tolerance, 1)
+        tolerance.addWidget(self.tolerance_unit)
         self.gate = self._spin(0.3, 0.001, 100.0, 3, " m")
         self.k = self._spin(2.0, 0.1, 100.0, 2, "")
         form = QtWidgets.QFormLayout()
         form.addRow("Reader A", self.reader_a)
         form.addRow("Reader B", self.reader_b)
-        form.addRow("Same instant within", self.tolerance)
+        form.addRow("Same instant within", tolerance)
         form.addRow("Midpoints within", self.gate)
         form.addRow("Flag differences beyond k × combined σ, k", self.k)
         self.compare_button = QtWidgets.QPushButton("&Compare")
@@ -80,6 +112,7 @@ class DoubleReadDialog(QtWidgets.QDialog):
         self.table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectionBehavior.SelectRows)
         self.table.setSelectionMode(QtWidgets.QAbstractItemView.SelectionMode.SingleSelection)
         self.table.activated.connect(lambda index: self.go_to_row(index.row()))
+        self.table.setSortingEnabled(True)
         buttons = QtWidgets.QHBoxLayout()
         for button in (self.compare_button, self.cancel_button, self.save_button):
             buttons.addWidget(button)
@@ -101,6 +134,19 @@ class DoubleReadDialog(QtWidgets.QDialog):
         spin.setSuffix(suffix)
         return spin
 
+    def _on_tolerance_unit(self, index: int) -> None:
+        """The tolerance's unit changed: its box shows that unit, with its default value."""
+        _, suffix, decimals, default, largest = TOLERANCE_UNITS[index]
+        self.tolerance.setDecimals(decimals)
+        self.tolerance.setRange(0.0, largest)
+        self.tolerance.setSuffix(suffix)
+        self.tolerance.setValue(default)
+
+    def tolerances(self) -> tuple[float | None, float | None]:
+        """(tolerance_s, tolerance_frames) as chosen: exactly one of them is a number."""
+        value = self.tolerance.value()
+        return (value, None) if self.tolerance_unit.currentIndex() == 0 else (None, value)
+
     def compare(self) -> Worker | None:
         """Read both readers' objects (here, on the project's thread) and compute the report in a worker."""
         project = self.window_.workspace.project
@@ -114,11 +160,12 @@ class DoubleReadDialog(QtWidgets.QDialog):
         except UsvipsError as error:
             self.summary.setText(str(error))
             return None
-        tolerance, gate, k = self.tolerance.value(), self.gate.value(), self.k.value()
+        (tolerance_s, tolerance_frames), gate, k = self.tolerances(), self.gate.value(), self.k.value()
 
         def job(progress, cancelled):
             try:
-                return compute(inputs, tolerance, gate, k, self.window_.workspace.rules, progress, cancelled)
+                return compute(inputs, tolerance_s, gate, k, self.window_.workspace.rules, progress, cancelled,
+                               tolerance_frames)
             except ReportCancelled:
                 raise Cancelled() from None
 
@@ -150,18 +197,27 @@ class DoubleReadDialog(QtWidgets.QDialog):
         self.cancel_button.setEnabled(False)
         self.report, self.rows, self._last = report, report.rows(), None
         self.summary.setText("\n".join(report.summary()))
+        self.table.setSortingEnabled(False)  # filled in the report's order (sorting while filling moves rows)
+        self.table.horizontalHeader().setSortIndicator(-1, QtCore.Qt.SortOrder.AscendingOrder)
         self.table.setRowCount(len(self.rows))
         for r, row in enumerate(self.rows):
             for c, (_, key, millimetres) in enumerate(SHOWN):
-                self.table.setItem(r, c, QtWidgets.QTableWidgetItem(_text(row[key], millimetres)))
+                self.table.setItem(r, c, _Cell(row[key], millimetres, r))
+        self.table.setSortingEnabled(True)
         if len(self.rows) <= 500:
             self.table.resizeColumnsToContents()
         self.save_button.setEnabled(True)
         self.progress.setValue(100)
 
+    def report_row(self, table_row: int) -> int | None:
+        """The index in :attr:`rows` of what the table shows on ``table_row`` (the table may be sorted)."""
+        item = self.table.item(table_row, 0)
+        return item.report_index if isinstance(item, _Cell) else None
+
     def object_of_row(self, row: int) -> int | None:
-        """The object a row goes to: reader A's, or B's when A has none there — and the other one when
-        the same row is activated again (to see both readings of a pair in turn)."""
+        """The object report row ``row`` (an index in :attr:`rows`) goes to: reader A's, or B's when A has
+        none there — and the other one when the same row is activated again (to see both readings of a
+        pair in turn)."""
         if not 0 <= row < len(self.rows):
             return None
         ids = [i for i in (self.rows[row]["object_a"], self.rows[row]["object_b"]) if i is not None]
@@ -172,9 +228,11 @@ class DoubleReadDialog(QtWidgets.QDialog):
         self._last = (row, chosen)
         return chosen
 
-    def go_to_row(self, row: int) -> None:
-        """Show the row's object in the window (its frame or pair, selected)."""
-        object_id = self.object_of_row(row)
+    def go_to_row(self, table_row: int) -> None:
+        """Show the object of the table's row ``table_row`` (as sorted) in the window (its frame or pair,
+        selected)."""
+        row = self.report_row(table_row)
+        object_id = None if row is None else self.object_of_row(row)
         if object_id is not None:
             go_to_object(self.window_, object_id)
 

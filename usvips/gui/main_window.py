@@ -40,6 +40,7 @@ from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_i
 from usvips.io.species_list import read_species_list
 from usvips.locations import resources_folder, sample_projects
 from usvips.store.annotator import annotating_as
+from usvips.store.opening import is_server_location, without_password
 
 SAMPLES = sample_projects()
 #: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
@@ -585,7 +586,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def open_path(self, path: str | Path, pair: str | None = None) -> bool:
         """Open a project file, or a sample directory (its project file is created on first use), showing
         ``pair`` (default: the pair shown last in this project, else the first)."""
-        path = Path(path)
+        server = is_server_location(path)  # a survey on a server: its URL, not a file path
+        path = path if server else Path(path)
         if not self.confirm_drop_unfinished("open another project"):
             return False
         try:
@@ -598,7 +600,7 @@ class MainWindow(QtWidgets.QMainWindow):
         # every model is new and every view forgets the previous project by itself (project_changed)
         self.workspace.open_project(project)
         self.media_check.project_opened(project)  # every media file read whole in a worker, changed ones named
-        self._remember(project.path.resolve())
+        self._remember(without_password(path) if server else project.path.resolve())
         self.setWindowTitle(self.title())
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()

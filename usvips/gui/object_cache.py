@@ -158,14 +158,25 @@ class ObjectCache:
         known = self._figures.get(object_id)
         return known[1] if known is not None and known[0] == self._rules() else None
 
-    def input(self, stored) -> MeasurementInput:
-        """What the figures of a stored object need, read from the project now (GUI thread)."""
-        return measurement_input(self.project, stored, self.calibrations)
+    def input(self, stored, instants: dict[int, list[int]] | None = None) -> MeasurementInput:
+        """What the figures of a stored object need, read from the project now (GUI thread); ``instants``:
+        every object's further instants (:meth:`instants_by_object`) when reading many."""
+        return measurement_input(self.project, stored, self.calibrations,
+                                 instants=self.instants_by_object() if instants is None else instants)
+
+    def instants_by_object(self) -> dict[int, list[int]]:
+        """Object id → the ids of its further instants, from the links held here (no query)."""
+        grouped: dict[int, list[int]] = {}
+        for instant, whole in sorted(self._links.items()):
+            grouped.setdefault(whole, []).append(instant)
+        return grouped
 
     def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
         """The figures of many objects as a function of copied inputs (run it off the GUI thread); give its
-        result to :meth:`remember`."""
-        inputs = [(i, self.input(self.get(i))) for i in object_ids]
+        result to :meth:`remember`. The inputs are copied with no query an object (the instants from the
+        links held here, each calibration read once)."""
+        instants = self.instants_by_object()
+        inputs = [(i, self.input(self.get(i), instants)) for i in object_ids]
         rules = self._rules()
 
         def run(progress=None, cancelled=None) -> dict[int, Result]:

@@ -100,6 +100,7 @@ class ObjectList(QtWidgets.QWidget):
         self._pending: list[int] = []  # the ids the running figures worker computes
         self._links: dict[int, int] = {}  # a further instant's id -> the id of the object it is an instant of
         self._instants: Counter = Counter()  # an object's id -> how many further instants it has
+        self._marked: set[int] = set()  # the objects whose rows are greyed or carry a figure tooltip
         self._events = ((workspace.objects_reset, self.refresh), (workspace.objects_added, self._on_added),
                         (workspace.objects_updated, self._on_updated), (workspace.objects_removed, self._on_removed),
                         (workspace.rules_changed, self._on_rules_changed),
@@ -209,18 +210,30 @@ class ObjectList(QtWidgets.QWidget):
         self.selection_changed.emit(ids)
 
     # ------------------------------------------------------------------ rows and figures
-    def _set_row(self, row: int, stored) -> None:
-        values = (str(stored.id), stored.kind, species_text(self.workspace.object_record(stored.id)), stored.attribute,
-                  str(len(stored.vertices)), "", "", review_text(self._reviews.get(stored.id)), stored.notes,
-                  ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair)), video_frame_text(stored))
-        for column, value in enumerate(values):
-            item = QtWidgets.QTableWidgetItem(value)
-            if self.COLUMNS[column] not in ("attribute", "notes"):
-                item.setFlags(item.flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable)
-            self.table.setItem(row, column, item)
-        self._show_figures(row, stored.id)
+    #: the columns edited in place (every other cell is read-only)
+    EDITABLE = ("attribute", "notes")
+    _READ_ONLY = QtWidgets.QTableWidgetItem().flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable
+    _FIGURE, _QUALITY = COLUMNS.index("figure"), COLUMNS.index("quality")
 
-    def _show_figures(self, row: int, object_id: int) -> None:
+    def _set_row(self, row: int, stored) -> None:
+        """The row's cells made anew, its figure as known (a survey's 10,000 rows: each cell once, no
+        re-reading of what was just written)."""
+        main, quality, tip = self._figure_texts(stored.id)
+        values = (str(stored.id), stored.kind, species_text(self.workspace.object_record(stored.id)), stored.attribute,
+                  str(len(stored.vertices)), main, quality, review_text(self._reviews.get(stored.id)), stored.notes,
+                  ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair)), video_frame_text(stored))
+        read_only, table = self._READ_ONLY, self.table
+        for column, (name, value) in enumerate(zip(self.COLUMNS, values, strict=True)):
+            item = QtWidgets.QTableWidgetItem(value)
+            if name not in self.EDITABLE:
+                item.setFlags(read_only)
+            table.setItem(row, column, item)
+        self._marked.discard(stored.id)  # new cells: not greyed, no tooltip
+        if self._needs_marking(stored.id):
+            self._mark_instant(row, stored.id, tip)
+
+    def _figure_texts(self, object_id: int) -> tuple[str, str, str]:
+        """(figure cell, quality cell, figure tooltip) of an object, from the figures known now."""
         result = self.workspace.object_figures(object_id)
         if result is None:
             main, quality = "computing…", ""
@@ -228,13 +241,22 @@ class ObjectList(QtWidgets.QWidget):
             main = format_figure(result.figures[0]) if result.figures else result.reason
             quality = "; ".join(result.failures) or "ok"
         main, tip = self._instant_figure(object_id, main, result is not None and bool(result.figures))
+        return main, quality, tip
+
+    def _needs_marking(self, object_id: int) -> bool:
+        """Whether a row's greying or tooltip may have to change: it is (or was) an instant or has some."""
+        return object_id in self._links or object_id in self._instants or object_id in self._marked
+
+    def _show_figures(self, row: int, object_id: int) -> None:
+        main, quality, tip = self._figure_texts(object_id)
         filling, self._filling = self._filling, True
         try:
-            for column, value in (("figure", main), ("quality", quality)):
-                item = self.table.item(row, self.COLUMNS.index(column))
+            for column, value in ((self._FIGURE, main), (self._QUALITY, quality)):
+                item = self.table.item(row, column)
                 if item is not None and item.text() != value:
                     item.setText(value)
-            self._mark_instant(row, object_id, tip)
+            if self._needs_marking(object_id):
+                self._mark_instant(row, object_id, tip)
         finally:
             self._filling = filling
 
@@ -268,6 +290,10 @@ class ObjectList(QtWidgets.QWidget):
     def _mark_instant(self, row: int, object_id: int, tip: str) -> None:
         """A further instant's row greyed (every cell), the figure cell's tooltip set."""
         grey = object_id in self._links
+        if grey or tip:
+            self._marked.add(object_id)
+        else:
+            self._marked.discard(object_id)
         brush = self.palette().brush(QtGui.QPalette.ColorGroup.Disabled, QtGui.QPalette.ColorRole.Text) \
             if grey else QtGui.QBrush()
         for column in range(self.table.columnCount()):

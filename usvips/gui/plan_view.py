@@ -8,6 +8,7 @@ from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.measurements.registry import MeasurementKind
 from usvips.gui.workspace import Workspace
 
 
@@ -117,17 +118,17 @@ class PlanView(QtWidgets.QWidget):
         a, b = self.VIEWS[self.view.currentText()]
         ids, self._stale = sorted(self._stale), set()
         ordered = not ids or ids[0] > self._last_id()  # new ids above all others keep the order
+        objects = []
         for object_id in ids:
             try:
-                stored = self.workspace.stored_object(object_id)
+                objects.append(self.workspace.stored_object(object_id))
             except UsvipsError:
                 self._parts.pop(object_id, None)
-                continue
-            part = self._part(stored, a, b)
+        for stored, part in zip(objects, self._parts_of(objects, a, b), strict=True):
             if part is None:
-                self._parts.pop(object_id, None)
+                self._parts.pop(stored.id, None)
             else:
-                self._parts[object_id] = part
+                self._parts[stored.id] = part
         if not ordered:
             self._parts = dict(sorted(self._parts.items()))
 
@@ -148,27 +149,52 @@ class PlanView(QtWidgets.QWidget):
 
     CIRCLE = np.column_stack([np.cos(np.linspace(0, 2 * np.pi, 49)), np.sin(np.linspace(0, 2 * np.pi, 49))])
 
-    def _part(self, stored, a: int, b: int) -> tuple | None:
-        vertices = [v for v in stored.vertices if v.xyz is not None]
-        points = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
-        if not len(points):
-            return None
-        rings = np.zeros((0, 2))
-        known = [i for i, v in enumerate(vertices) if v.covariance is not None]
-        if known:  # the 2 x 2 blocks of every vertex at once: (M, 49, 2) rings, NaN-separated
-            blocks = np.array([vertices[i].covariance for i in known], float)[:, [a, b]][:, :, [a, b]]
+    def _parts_of(self, objects: list, a: int, b: int) -> list[tuple | None]:
+        """Each object's (label and its position, outline (K, 2) m ending in a NaN row, 1σ rings (M × 50, 2) m
+        NaN-separated) in the view of axes ``a``, ``b``; None for an object with no 3-D point. Every vertex
+        of every object in one array, the 2 × 2 covariance blocks in one eigen-decomposition (a survey's
+        10,000 objects at once); only kinds whose outline is not their vertices are drawn one by one."""
+        located = [[v for v in stored.vertices if v.xyz is not None] for stored in objects]
+        counts = np.array([len(vs) for vs in located], int)
+        ends = np.cumsum(counts)
+        vertices = [v for vs in located for v in vs]
+        xyz = np.array([v.xyz for v in vertices], float).reshape(-1, 3)
+        # each object's vertices in the view followed by a NaN row: object i's outline is rows [start + i, end + i]
+        separated = np.insert(xyz[:, [a, b]], ends, np.nan, axis=0)
+        with_covariance = np.array([v.covariance is not None for v in vertices], bool)
+        ring_rows = np.zeros((0, 50, 2))
+        if with_covariance.any():  # (N, 49, 2) rings of every vertex at once, each followed by a NaN row
+            blocks = np.array([v.covariance for v in vertices if v.covariance is not None], float)
+            blocks = blocks.reshape(-1, 3, 3)[:, [a, b]][:, :, [a, b]]
             values, vectors = np.linalg.eigh(blocks)
             scaled = self.CIRCLE[None] * np.sqrt(np.clip(values, 0, None))[:, None, :]
-            ring = points[known][:, None, [a, b]] + np.einsum("mkj,mij->mki", scaled, vectors)
-            rings = np.concatenate([ring, np.full((len(known), 1, 2), np.nan)], axis=1).reshape(-1, 2)
-        label = (f"{stored.id} {stored.attribute}".strip(), points[0, [a, b]])
-        if len(points) == len(stored.vertices):
-            try:
-                points = measurement_kind(stored.kind).outline(points)
-            except UsvipsError:
-                pass  # drawn through its vertices
-        outline = np.vstack([points[:, [a, b]], [[np.nan, np.nan]]])
-        return label, outline, rings
+            ring = xyz[with_covariance][:, None, [a, b]] + scaled @ vectors.transpose(0, 2, 1)
+            ring_rows = np.concatenate([ring, np.full((len(ring), 1, 2), np.nan)], axis=1)
+        before = np.concatenate([[0], np.cumsum(with_covariance)]).tolist()  # rings before each vertex
+        kinds: dict[str, object] = {}
+        parts: list[tuple | None] = []
+        for n, (stored, count, end) in enumerate(zip(objects, counts.tolist(), ends.tolist(), strict=True)):
+            if not count:
+                parts.append(None)
+                continue
+            start = end - count
+            outline = separated[start + n:end + n + 1]
+            if count == len(stored.vertices):
+                if stored.kind not in kinds:
+                    try:
+                        kinds[stored.kind] = measurement_kind(stored.kind)
+                    except UsvipsError:
+                        kinds[stored.kind] = None  # drawn through its vertices
+                k = kinds[stored.kind]
+                if k is not None and (k.outline.__func__ is not MeasurementKind.outline.__func__
+                                      or (k.closes and count > 2)):
+                    try:
+                        outline = np.vstack([k.outline(xyz[start:end])[:, [a, b]], [[np.nan, np.nan]]])
+                    except UsvipsError:
+                        pass
+            rings = ring_rows[before[start]:before[end]].reshape(-1, 2)
+            parts.append(((f"{stored.id} {stored.attribute}".strip(), xyz[start, [a, b]]), outline, rings))
+        return parts
 
     def redraw(self) -> None:
         self._update_parts()

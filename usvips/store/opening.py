@@ -31,6 +31,17 @@ def public_location(url: str) -> str:
     return urlunsplit((parts.scheme, user + host, parts.path, urlencode(query), ""))
 
 
+def without_password(url: str) -> str:
+    """A server URL as it may be kept (a recent-projects list): its password left out, all else kept (a
+    password then comes from the server's usual sources, e.g. ``~/.pgpass``)."""
+    parts = urlsplit(url)
+    netloc = parts.netloc.rsplit("@", 1)
+    if len(netloc) == 2:
+        netloc[0] = netloc[0].split(":", 1)[0]
+    query = [(k, v) for k, v in parse_qsl(parts.query) if k != "password"]
+    return urlunsplit((parts.scheme, "@".join(netloc), parts.path, urlencode(query), ""))
+
+
 def database_name(url: str) -> str:
     """The name of the database a server URL names (its path); empty when it names none."""
     return urlsplit(url).path.strip("/")

@@ -60,20 +60,30 @@ def full_covariance(points: np.ndarray, covariance: np.ndarray) -> np.ndarray:
 
 
 def propagate_all(function: Callable[[np.ndarray], np.ndarray], points: np.ndarray, covariance: np.ndarray,
-                  step: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+                  step: float = 1e-6, many: Callable[[np.ndarray], np.ndarray] | None = None,
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Values (K,) of a vector-valued ``function(points)`` and their (K, K) first-order covariance.
-    ``points`` (N, 3) m; ``covariance`` (N, 3, 3) or (3N, 3N) m²; ``step`` (m) of the central differences."""
+    ``points`` (N, 3) m; ``covariance`` (N, 3, 3) or (3N, 3N) m²; ``step`` (m) of the central differences;
+    ``many``: the same function of a stack of vertex sets (M, N, 3) → (M, K), when there is one (then
+    called once for the values and every shifted set)."""
     points = np.asarray(points, dtype=np.float64)
     full = full_covariance(points.reshape(-1, 3), covariance)
     flat = points.ravel()
+    shifted = np.repeat(flat[None], 2 * flat.size, axis=0)  # row 2k: coordinate k ahead, 2k + 1: behind
+    k = np.arange(flat.size)
+    shifted[2 * k, k] += step
+    shifted[2 * k + 1, k] -= step
+    shifted = shifted.reshape(-1, *points.shape)
+    if many is not None:
+        stack = np.concatenate([points[None], shifted])
+        out = np.asarray(many(stack), dtype=np.float64).reshape(len(stack), -1)
+        jacobian = ((out[1::2] - out[2::2]) / (2 * step)).T
+        return out[0], jacobian @ full @ jacobian.T
     values = np.atleast_1d(np.asarray(function(points), dtype=np.float64))
     jacobian = np.empty((values.size, flat.size))
     for k in range(flat.size):
-        ahead, behind = flat.copy(), flat.copy()
-        ahead[k] += step
-        behind[k] -= step
-        jacobian[:, k] = (np.atleast_1d(function(ahead.reshape(points.shape)))
-                          - np.atleast_1d(function(behind.reshape(points.shape)))) / (2 * step)
+        jacobian[:, k] = (np.atleast_1d(function(shifted[2 * k])) - np.atleast_1d(function(shifted[2 * k + 1]))) \
+            / (2 * step)
     return values, jacobian @ full @ jacobian.T
 
 
@@ -85,9 +95,11 @@ def propagate(function: Callable[[np.ndarray], float], points: np.ndarray, covar
 
 
 def figures_of(function: Callable[[np.ndarray], np.ndarray], names_units: tuple[tuple[str, str], ...],
-               points: np.ndarray, covariance: np.ndarray) -> tuple[Figure, ...]:
-    """Every figure a vector-valued formula gives, each with its sigma, from one Jacobian."""
-    values, covariance_f = propagate_all(function, points, covariance)
+               points: np.ndarray, covariance: np.ndarray,
+               many: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[Figure, ...]:
+    """Every figure a vector-valued formula gives, each with its sigma, from one Jacobian (``many``: the
+    formula over a stack of vertex sets, see :func:`propagate_all`)."""
+    values, covariance_f = propagate_all(function, points, covariance, many=many)
     sigmas = np.sqrt(np.clip(np.diag(covariance_f), 0.0, None))
     return tuple(Figure(name, float(v), float(s), unit)
                  for (name, unit), v, s in zip(names_units, values, sigmas, strict=True))
