@@ -92,7 +92,7 @@ def test_a_tracked_length_combined_over_its_instants_is_honest_and_better_than_o
             tracker = VideoTracker.read(project, "drop")
             for _ in range(LENGTHS):
                 for _attempt in range(10):  # as a user would, another pair of points where the tracker refuses one
-                    # a length of a quarter to two fifths of the fish between two points of its deep body (a
+                    # a length of a fifth to two fifths of the fish between two points of its deep body (a
                     # much shorter one, a few sigmas of depth long, has a sigma that its noisy direction inflates)
                     s = np.array([rng.uniform(0.2, 0.3), rng.uniform(0.5, 0.6)]) * fish.length
                     v = rng.uniform(-0.4, 0.4, 2) * fish.half_depth(s)  # on the deep body, off the midline
