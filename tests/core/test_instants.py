@@ -154,3 +154,27 @@ def test_instants_of_different_kinds_are_refused():
     point = measure("point", np.array([[0, 0, -2.0]]), np.eye(3) * 1e-6).figures
     with pytest.raises(InvalidParameterError, match="instant 2.*one object is one kind"):
         combine_instants([length, point])
+
+
+def test_instants_tracked_from_one_pick_keep_its_error_whole_and_average_the_rest():
+    """Tracked instants carry their pick's error to every frame: combined as independent ones their sigma
+    shrinks like 1/√k while their error does not; with ``shared_pointing`` the carried error stays whole
+    and only the tracking noise and the bending average out."""
+    rng = np.random.default_rng(19)
+    shared, independent = [], []
+    for _ in range(400):
+        fish = _fish(rng)
+        k = int(rng.integers(3, 11))
+        sigma = rng.uniform(0.001, 0.004)  # m: the length's sigma from its picks (pointing)
+        carried = rng.normal(0.0, sigma)  # the pick's error, followed by the tracker to every frame
+        chords = [np.linalg.norm(np.diff(fish.snout_fork(t), axis=0)) for t in rng.uniform(0.0, 10.0, k)]
+        values = np.array(chords) + carried + rng.normal(0.0, 0.2 * sigma, k)  # and the tracker's own noise
+        truth = _mean_chord(fish)
+        with_carried = combine_figure(values, np.full(k, sigma), sigma, shared_pointing=True)
+        as_independent = combine_figure(values, np.full(k, sigma))
+        shared.append(((with_carried.value - truth) / with_carried.sigma) ** 2)
+        independent.append(((as_independent.value - truth) / as_independent.sigma) ** 2)
+        assert with_carried.sigma >= sigma  # never below the carried error
+    print(f"MSNE tracked as shared {np.mean(shared):.3f}, as independent {np.mean(independent):.3f}")
+    assert 0.7 <= np.mean(shared) <= 1.5, np.mean(shared)
+    assert np.mean(independent) > 2.0  # what combining them as independent instants claimed

@@ -52,6 +52,7 @@ def test_each_tracked_instant_is_listed_with_its_weight_and_the_combined_figure(
             assert abs(row.figure.value - np.linalg.norm(ends[1] - ends[0])) < 4 * row.figure.sigma
         text = listed.summary()
         assert f"object {object_id}: length" in text and "over 4 instants" in text and "p = " in text
+        assert listed.tracked and "kept whole in σ" in text  # the pick's error, carried by the tracker
         # asked about one of its instants, the list is the object's
         assert whole_object(project, listed.rows[3].object_id) == object_id
         assert object_instants(project, listed.rows[3].object_id).object_id == object_id
@@ -87,3 +88,23 @@ def test_an_object_on_one_instant_says_so(survey):
         listed = object_instants(project, object_id)
         assert len(listed.rows) == 1 and listed.combined is None and listed.rows[0].weight == 1.0
         assert "on one instant" in listed.summary()
+
+
+def test_instants_picked_by_hand_are_not_said_to_carry_one_pick(survey):
+    path, object_id, fish, stereo = survey
+    with Project.open(_copy(path, "by_hand.usvips")) as project:
+        for instant in project.instants(object_id):
+            project.remove_instant(instant)
+        calibration_id = project.object(object_id).vertices[0].calibration_id
+        calibration = read_calibration(project, calibration_id)
+        for frame in (10, 14):
+            picks = [truth(stereo, fish, frame, f * fish.length) for f in POINTS]
+            m = measure_picks("length", calibration, np.array([p[0] for p in picks]),
+                              np.array([p[1] for p in picks]), 0, "rig")
+            vertices = [Vertex(*p[0], *p[1], tuple(xyz), m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3],
+                               calibration_id, "drop", "drop", frame, frame + OFFSET, frame / 25.0)
+                        for i, (p, xyz) in enumerate(zip(picks, m.points, strict=True))]
+            add_instant(project, object_id, project.add_object("length", vertices))
+        listed = object_instants(project, object_id)
+        assert listed.combined.count == 3 and not listed.tracked
+        assert "over 3 instants" in listed.summary() and "tracked" not in listed.summary()

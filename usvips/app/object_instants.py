@@ -8,6 +8,21 @@ from usvips.core.errors import UsvipsError
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject
 
+#: how the notes of an instant made by tracking begin (:func:`usvips.app.tracking.add_tracked_instants`): its
+#: vertices carry the pick they were tracked from, pick error included, so the figures combine its instants'
+#: pointing errors as one common error (:func:`usvips.app.project_figures.evaluate`)
+TRACKED_NOTE = "tracked from frame"
+
+
+def tracked_note(start: int) -> str:
+    """The notes of an instant tracked from the picks on left frame ``start``."""
+    return f"{TRACKED_NOTE} {int(start)}"
+
+
+def is_tracked(notes: str) -> bool:
+    """Whether an instant's ``notes`` say it was made by tracking (:func:`tracked_note`)."""
+    return notes.startswith(TRACKED_NOTE)
+
 
 def _calibration_of(stored: StoredObject) -> int | None:
     ids = {v.calibration_id for v in stored.vertices}

@@ -18,7 +18,12 @@ An object measured on several instants (``ProjectStore.add_instant``) is read wi
 (``MeasurementInput.instants``) and :func:`evaluate` gives its figures combined over them
 (:func:`usvips.core.measurements.instants.combine_measurements`: random effects, the calibration's part
 common to the instants kept whole), so the object list, the calculator and every export show the combined
-figure; each instant stays inspectable through :func:`instant_measurements`.
+figure; each instant stays inspectable through :func:`instant_measurements`. Instants made by tracking
+(:func:`usvips.app.object_instants.is_tracked`) carry the pick they were tracked from, with its error, to
+every frame: their pointing errors are one error, which combining them cannot average out — it is kept
+whole in the combined sigma (``shared_pointing``); only the tracking noise and the object's own change
+between instants average out. (An object with tracked and hand-picked instants is treated so too:
+conservative for the hand-picked ones.)
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from usvips.app.calibrations import read_calibration
+from usvips.app.object_instants import is_tracked
 from usvips.app.pair_geometry import pair_geometry
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
@@ -158,7 +164,8 @@ def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Mea
     try:
         combined = combine_measurements(measured, [_pointing_only(i, m) for i, m in zip(everything, measured,
                                                                                            strict=True)],
-                                        labels, [i.calibration_id for i in everything], rules)
+                                        labels, [i.calibration_id for i in everything], rules,
+                                        shared_pointing=any(is_tracked(i.notes) for i in source.instants))
     except UsvipsError as error:
         raise UsvipsError(f"object {source.id}: {error}") from None
     return replace(combined, id=source.id, attribute=source.attribute, notes=source.notes)

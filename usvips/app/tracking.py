@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from usvips.app.object_instants import add_instant
+from usvips.app.object_instants import add_instant, tracked_note
 from usvips.app.pair_geometry import pair_geometry
 from usvips.app.video_project import partner_frame, proxy_folder
 from usvips.core.errors import UsvipsError
@@ -161,7 +161,7 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
         vertices = [Vertex(*map(float, (*lp, *rp)), tuple(map(float, xyz)), block, geometry.calibration_id, label,
                            label, frame, partner, time_s)
                     for lp, rp, xyz, block in zip(left, right, m.points, blocks, strict=True)]
-        rows.append((stored.kind, vertices, stored.attribute, f"tracked from frame {tracks[0].start}", ""))
+        rows.append((stored.kind, vertices, stored.attribute, tracked_note(tracks[0].start), ""))
     with project.transaction():
         ids = project.add_objects(rows)
         for instant_id in ids:

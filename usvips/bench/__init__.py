@@ -13,11 +13,12 @@ import importlib
 import time
 from collections.abc import Callable, Iterable
 
-#: Areas that contribute benchmarks, in the order they run: modules of this package, except ``gui``,
-#: which lives in ``usvips.gui.bench`` (Qt stays inside the GUI package; it is imported only when run).
+#: Areas that contribute benchmarks, in the order they run: modules of this package, except ``gui`` and
+#: ``window_tracking``, which live in ``usvips.gui.bench`` and ``usvips.gui.bench_tracking`` (Qt stays inside the
+#: GUI package; it is imported only when run).
 BENCH_MODULES: tuple[str, ...] = ("geometry", "scaling", "calibration", "imaging", "gui", "video", "survey",
-                                  "targets", "server", "startup")
-BENCH_PATHS: dict[str, str] = {"gui": "usvips.gui.bench"}
+                                  "window_tracking", "targets", "server", "startup")
+BENCH_PATHS: dict[str, str] = {"gui": "usvips.gui.bench", "window_tracking": "usvips.gui.bench_tracking"}
 
 
 def best_time(function: Callable[[], object], repeats: int = 3) -> float:

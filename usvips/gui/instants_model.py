@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usvips.app.object_instants import is_tracked
 from usvips.app.project_figures import evaluate, instant_measurements, instant_pointing, measurement_input
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules, kind
@@ -53,12 +54,14 @@ class InstantRow:
 @dataclass(frozen=True)
 class ObjectInstants:
     """An object (``object_id``, of ``kind``) over its instants: ``rows`` in the order the combination
-    takes them (the object's own first), ``combined`` its main figure combined (None: one instant)."""
+    takes them (the object's own first), ``combined`` its main figure combined (None: one instant);
+    ``tracked``: some of its instants were made by tracking (their pick's error is kept whole in σ)."""
 
     object_id: int
     kind: str
     rows: tuple[InstantRow, ...]
     combined: CombinedFigure | None
+    tracked: bool = False
 
     def summary(self) -> str:
         """The combined figure ± σ, the between-instant share of σ², the agreement test and the outliers
@@ -73,6 +76,9 @@ class ObjectInstants:
         outlying = [r.object_id for r in self.rows if r.outlier]
         if outlying:
             text += "; outlying: " + ", ".join(f"object {i}" for i in outlying)
+        if self.tracked:
+            text += ("; tracked instants carry the error of the pick they were tracked from: it is kept whole "
+                     "in σ (measure other frames by hand to average it out)")
         return text
 
 
@@ -111,7 +117,8 @@ def object_instants(project: ProjectStore, object_id: int, rules: QualityRules |
                                float(vertex.time_s) if on_video and vertex.time_s is not None else None,
                                vertex.pair if vertex is not None else None, measurement.figures[main],
                                float(weights[k]), float(residuals[k]), k in outliers))
-    return ObjectInstants(object_id, stored.kind, tuple(rows), combined)
+    return ObjectInstants(object_id, stored.kind, tuple(rows), combined,
+                          any(is_tracked(i.notes) for i in everything[1:]))
 
 
 def _main_index(figures, kind_name: str) -> int:

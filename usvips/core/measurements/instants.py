@@ -15,6 +15,11 @@ sigma that trusts τ̂² more than k instants allow. A part of sigma common to e
 which does not average out over instants measured with the same calibration) is added afterwards:
 σ² = max(q, 1)/Σ w*_i + σ_common².
 
+Instants TRACKED from one pick are not independent: each carries the pick's error along. Then the whole
+sigma of an instant is common (it does not average out) and only what makes the instants differ (the
+tracking noise, the object's bending) does, measured by their spread: σ² = q/Σ w*_i + σ_common² (no
+floor: the floor assumes every instant carries its own pointing error) — ``shared_pointing``.
+
 What μ is: the mean of the object's figure over its instants (for a bending fish, its mean snout–fork
 distance, which is shorter than its straight length; measure straight instants when that is wanted).
 
@@ -91,8 +96,10 @@ class CombinedFigure:
         return text
 
 
-def _random_effects(values: np.ndarray, variances: np.ndarray) -> tuple[float, float, float, float, float]:
-    """DerSimonian–Laird with the Hartung–Knapp variance: (μ̂, var(μ̂), τ̂², Q, fixed-effect variance)."""
+def _random_effects(values: np.ndarray, variances: np.ndarray,
+                    floor: bool = True) -> tuple[float, float, float, float, float]:
+    """DerSimonian–Laird with the Hartung–Knapp variance: (μ̂, var(μ̂), τ̂², Q, fixed-effect variance);
+    ``floor``: var(μ̂) never less than the plain 1/Σ w*_i (each instant carries its own error ``variances``)."""
     k = len(values)
     w = 1.0 / variances
     s1 = w.sum()
@@ -105,12 +112,13 @@ def _random_effects(values: np.ndarray, variances: np.ndarray) -> tuple[float, f
     total = w_star.sum()
     mean = float(w_star @ values / total)
     spread = float(w_star @ (values - mean) ** 2) / (k - 1)
-    return mean, max(spread, 1.0) / total, tau2, q, 1.0 / s1
+    return mean, (max(spread, 1.0) if floor else spread) / total, tau2, q, 1.0 / s1
 
 
 def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigma: float = 0.0,
                    name: str = "length", unit: str = "m", labels: Sequence[str] | None = None,
-                   calibrations: Sequence[object] | None = None, alpha: float = ALPHA) -> CombinedFigure:
+                   calibrations: Sequence[object] | None = None, alpha: float = ALPHA,
+                   shared_pointing: bool = False) -> CombinedFigure:
     """Combine one figure measured on k instants (see the module docstring).
 
     ``values`` (k,) and ``sigmas`` (k,) in ``unit``: each instant's figure and its sigma (independent
@@ -118,6 +126,12 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
     calibration's, added to the combined sigma and not reduced by combining; ``labels``: how the instants
     are named (default "instant 1" …); ``calibrations``: what each instant was measured with — instants
     on two different calibrations are refused, naming them. One instant is itself.
+
+    ``shared_pointing``: the instants do NOT each carry their own error ``sigmas`` — they were tracked
+    from one pick and carry its error along (give it in ``common_sigma``). What averages out over them is
+    only what makes them differ (tracking noise, the object's own change), which their spread measures:
+    the Hartung–Knapp variance is taken without its floor 1/Σ w*_i (that floor assumes each instant's own
+    error is ``sigmas``); ``sigmas`` still weight them and make the agreement test.
     """
     values = np.asarray(values, dtype=np.float64).ravel()
     sigmas = np.asarray(sigmas, dtype=np.float64).ravel()
@@ -149,7 +163,7 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
                             f"calibration {calibrations[other]}: instants of one object must share one calibration "
                             "(re-measure them with one, or keep them as separate objects)")
     variances = sigmas ** 2
-    mean, variance, tau2, q, fixed_variance = _random_effects(values, variances)
+    mean, variance, tau2, q, fixed_variance = _random_effects(values, variances, floor=not shared_pointing)
     total = variance + common_sigma ** 2
     between = max(0.0, variance - fixed_variance) / total if total > 0 else 0.0
     residuals = np.full(k, np.nan)
@@ -170,12 +184,13 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
 
 def combine_instants(instants: Sequence[Sequence[Figure]], common_sigmas: dict[str, float] | None = None,
                      labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
-                     ) -> tuple[CombinedFigure, ...]:
+                     shared_pointing: bool = False) -> tuple[CombinedFigure, ...]:
     """Every figure of an object measured on several instants, combined figure by figure.
 
     ``instants``: per instant the figures of the one figure function (the same names in each);
     ``common_sigmas``: figure name → the sigma common to all instants (default 0); ``labels`` and
-    ``calibrations`` as :func:`combine_figure`. Returns the combined figures in the first instant's order."""
+    ``calibrations``, ``shared_pointing`` as :func:`combine_figure`. Returns the combined figures in the first
+    instant's order."""
     if not instants:
         raise InvalidParameterError("instants", "none given: an object needs at least one instant")
     names = [f.name for f in instants[0]]
@@ -189,13 +204,14 @@ def combine_instants(instants: Sequence[Sequence[Figure]], common_sigmas: dict[s
     for j, name in enumerate(names):
         figures = [fs[j] for fs in instants]
         combined.append(combine_figure([f.value for f in figures], [f.sigma for f in figures],
-                                       common_sigmas.get(name, 0.0), name, figures[0].unit, labels, calibrations))
+                                       common_sigmas.get(name, 0.0), name, figures[0].unit, labels, calibrations,
+                                       shared_pointing=shared_pointing))
     return tuple(combined)
 
 
 def combine_measurements(measurements: Sequence[Measurement], independent: Sequence[Measurement] | None = None,
                          labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
-                         rules: QualityRules | None = None) -> Measurement:
+                         rules: QualityRules | None = None, shared_pointing: bool = False) -> Measurement:
     """One object from its instants' measurements (each from the one figure function): the first
     instant's with its figures replaced by the combined ones and ``combined`` set, its ray RMS and range
     the largest of the instants', and the quality rules checked on the combined main figure.
@@ -203,7 +219,13 @@ def combine_measurements(measurements: Sequence[Measurement], independent: Seque
     ``independent``: the same instants measured with their pointing covariance only (no calibration
     part); each figure's part common to the instants is then the mean of σ²_total − σ²_pointing and the
     instants are weighted by their pointing sigmas. Without it the instants' sigmas are taken as
-    independent (correct when the calibration's part is negligible or not known). One measurement is
+    independent (correct when the calibration's part is negligible or not known).
+
+    ``shared_pointing``: the instants' pointing errors are one error carried along, not independent ones —
+    instants TRACKED from one pick (a tracker follows the point picked, with its pick error, to the other
+    frames). Averaging them cannot average that error out, so each figure's whole sigma (the mean of the
+    instants' σ²_total: calibration and pointing) is the common part, and what averages out is measured by
+    the instants' spread alone (tracking noise, bending: see :func:`combine_figure`). One measurement is
     returned as it is."""
     if not measurements:
         raise InvalidParameterError("instants", "none given: an object needs at least one instant")
@@ -225,10 +247,13 @@ def combine_measurements(measurements: Sequence[Measurement], independent: Seque
             parts = [m.figures[j].sigma ** 2 - p.figures[j].sigma ** 2
                      for m, p in zip(measurements, independent, strict=True)]
             common[figure.name] = float(np.sqrt(max(0.0, float(np.mean(parts)))))
+    if shared_pointing:
+        for j, figure in enumerate(first.figures):
+            common[figure.name] = float(np.sqrt(np.mean([m.figures[j].sigma ** 2 for m in measurements])))
     instants = [tuple(Figure(f.name, f.value, max(p.sigma, 1e-15), f.unit) for f, p in zip(m.figures, w.figures,
                                                                                         strict=True))
                 for m, w in zip(measurements, weights, strict=True)]
-    combined = combine_instants(instants, common, labels, calibrations)
+    combined = combine_instants(instants, common, labels, calibrations, shared_pointing=shared_pointing)
     figures = tuple(c.figure for c in combined)
     rms = [m.ray_rms_m for m in measurements if m.ray_rms_m is not None]
     ranges = [m.range_m for m in measurements if m.range_m is not None]
