@@ -611,7 +611,34 @@ def test_a_view_asks_for_an_object_through_the_model_and_the_others_hear_it(tmp_
     heard, said = [], []
     ws.object_requested.connect(heard.append)
     ws.message.connect(lambda level, text: said.append((level, text)))
-    ws.request_object(object_id)
-    ws.request_object(object_id + 1)  # not stored: said, not announced
+    assert ws.request_object(object_id)
+    assert not ws.request_object(object_id + 1)  # not stored: said, not announced
     assert heard == [object_id] and said == [("warning", f"object {object_id + 1} is no longer in the project")]
+    assert ws.selection == (object_id,)  # the object asked for is selected
+    ws.close_project()
+
+
+def test_an_object_on_another_pair_is_not_gone_to_while_one_is_being_digitised(tmp_path):
+    from usvips.store.project import Vertex
+
+    project = Project.create(tmp_path / "p.usvips")
+    project.add_pair("a", None, None)
+    project.add_pair("b", None, None)
+    on_b = project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0, pair="b")], "cod")
+    on_a = project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0, pair="a")], "cod")
+    ws = Workspace()
+    ws.open_project(project)
+    ws.pair = "a"  # shown (no images needed for the decision)
+    being_digitised = ws.pick_tool.digitising
+    ws.pick_tool.digitising = replace(being_digitised, vertices=(object(),))  # one vertex measured on pair a
+    heard, said = [], []
+    ws.object_requested.connect(heard.append)
+    ws.message.connect(lambda level, text: said.append((level, text)))
+    assert not ws.request_object(on_b)
+    assert heard == [] and ws.selection == () and "finish (Ctrl+Enter) or cancel" in said[-1][1]
+    assert ws.request_object(on_a)  # on the pair shown: nothing is left
+    assert heard == [on_a] and ws.selection == (on_a,)
+    ws.pick_tool.digitising = being_digitised
+    assert ws.request_object(on_b)  # nothing being digitised: away to pair b
+    assert heard == [on_a, on_b] and ws.selection == (on_b,)
     ws.close_project()

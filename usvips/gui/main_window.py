@@ -17,7 +17,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.gui import exchange_dialogs, media_dialogs, qa_dock
+from usvips.gui import exchange_dialogs, media_dialogs
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
@@ -111,7 +111,7 @@ class MainWindow(QtWidgets.QMainWindow):
         # issue 25: tracks drawn on the panes and the timeline, instants stored and listed
         self.tracking = TrackController(self)
         self.instants_view = InstantsView(self.workspace, self)
-        self.instants_view.frame_requested.connect(self.video.go_to_object)
+        self.instants_view.frame_requested.connect(self.workspace.request_object)  # the video hears the model
         table = self.object_list.table
         table.setContextMenuPolicy(QtCore.Qt.ContextMenuPolicy.ActionsContextMenu)
         table.addAction(self.actions["instants_of_listed"])
@@ -164,7 +164,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.planner = PlannerDock(ws, self.pool, self.workers)
         self.qa = QaDock(ws)  # the survey's QA list (issue 25)
         self.docks["qa"] = self._dock("QA", self.qa, bottom)
-        self.qa.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
+        self.qa.object_chosen.connect(ws.request_object)  # the video or the pair shown, by the model's event
         self.docks["qa"].visibilityChanged.connect(self.qa.on_shown)  # checked when its tab comes to the front
         self.docks["planner"] = self._dock("Precision planner", self.planner, right)
         self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
@@ -176,7 +176,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["objects"].raise_()
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
-        self.object_list.zoom_requested.connect(self.zoom_to_object)
+        ws.object_requested.connect(self._on_object_requested)  # an object on an image pair: that pair, centred
         self.observation.finished.connect(self.focus_images)
         ws.stored.connect(self._on_stored)
 
@@ -1035,6 +1035,27 @@ class MainWindow(QtWidgets.QMainWindow):
         self.instants_view.raise_()
         self.instants_view.table.setFocus()
         return shown
+
+    def _on_object_requested(self, object_id: int) -> None:
+        """A view asked for a stored object (``Workspace.request_object``, which selected it): one measured
+        on an image pair is centred on, after its pair is read when another is shown (the video controller
+        answers for objects measured on a video)."""
+        ws = self.workspace
+        stored = ws.stored_object(object_id)
+        pair = stored.vertices[0].pair if stored.vertices else None
+        if pair is None:
+            return
+        if pair == ws.pair:
+            self.zoom_to_object(object_id)
+            return
+
+        def centre_when_shown() -> None:  # once, on the next pair shown: this one, read in the background
+            ws.pair_changed.disconnect(centre_when_shown)
+            if ws.pair == pair and object_id in ws.cache:
+                self.zoom_to_object(object_id)
+
+        ws.pair_changed.connect(centre_when_shown)
+        self.load_pair(pair)
 
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)

@@ -772,8 +772,10 @@ class VideoController(QtCore.QObject):
             self.dock_widget.goto.selectAll()
 
     def go_to_object(self, object_id: int) -> None:
-        project = self.window.workspace.project
-        where = video_frame_of(project.object(object_id)) if project is not None else None
+        """The model's ``object_requested``: an object measured on a video is shown on its frame (opening
+        its video if another is open); others are the window's."""
+        ws = self.window.workspace
+        where = video_frame_of(ws.stored_object(object_id)) if object_id in ws.cache else None
         if where is None:
             return
         video, frame = where

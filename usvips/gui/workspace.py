@@ -90,7 +90,8 @@ class Workspace:
       forget what they showed of the previous one), after the events above have said what is gone;
     - ``selection_changed(ids)``; ``rules_changed(rules)`` (the quality rules: every figure's verdict);
     - ``object_requested(object_id)``: a view asked to be shown an object (the object list's double-click
-      or Zoom to); the views that can show it (the video goes to its frame) listen — never to each other;
+      or Zoom to, a QA row, an instant); the views that can show it listen (the video goes to its frame,
+      the window to its pair) — never to each other;
     - ``message(level, text)`` with level ``info``, ``warning`` or ``error``, ``observed(left, right)``
       when the observe tool has both picks of a point, ``stored(object_id)`` after a new object.
 
@@ -429,13 +430,24 @@ class Workspace:
             self.selection = selection
             self.selection_changed.emit(selection)
 
-    def request_object(self, object_id: int) -> None:
-        """Ask the views to show a stored object (announced as ``object_requested``; an id not stored is
-        said, not announced)."""
-        if int(object_id) not in self.cache:
+    def request_object(self, object_id: int) -> bool:
+        """Ask the views to show a stored object, selected: it is selected, then announced as
+        ``object_requested`` (the video goes to its frame, the window to its pair, centred on it). Said,
+        not announced (False): an id not stored, or an object on another image pair while one is being
+        digitised here (finish or cancel that first: going away would leave it half measured)."""
+        object_id = int(object_id)
+        if object_id not in self.cache:
             self.message.emit("warning", f"object {object_id} is no longer in the project")
-            return
-        self.object_requested.emit(int(object_id))
+            return False
+        stored = self.stored_object(object_id)
+        pair = stored.vertices[0].pair if stored.vertices else None
+        if pair is not None and pair != self.pair and self.digitising.vertices:
+            self.message.emit("warning", f"object {object_id} is on pair {pair}: finish (Ctrl+Enter) or cancel "
+                                         "the object being digitised first")
+            return False
+        self.select([object_id])
+        self.object_requested.emit(object_id)
+        return True
 
     def set_rules(self, rules: QualityRules) -> None:
         """New quality rules: every object's verdict may change (its figures are computed again)."""

@@ -1,0 +1,46 @@
+"""An object asked for by one view is shown by the others through the model (``Workspace.request_object``):
+the object list's Zoom to and double-click, a QA row, an instant — never one view reaching into another."""
+
+import numpy as np
+from PySide6 import QtCore, QtWidgets
+
+from tests.gui.conftest import open_sample, truth_pixels, wait_for_pair
+from usvips.store.project import Vertex
+
+
+def _centred_on(window, object_id) -> float:
+    vertices = window.workspace.stored_object(object_id).vertices
+    middle = np.mean([(v.xl, v.yl) for v in vertices], axis=0) + 0.5  # pixels to the view's coordinates
+    centre = window.panes["left"].viewbox.viewRect().center()
+    return float(np.hypot(centre.x() - middle[0], centre.y() - middle[1]))
+
+
+def test_zoom_to_an_object_of_another_pair_shows_that_pair_centred_on_it(qtbot, make_window, sample_copy,
+                                                                          monkeypatch):
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    ws = window.workspace
+    left, right = truth_pixels(directory, "measure1", "objects")
+    snout, fork = (left["fish1"][p] for p in ("snout", "fork")), (right["fish1"][p] for p in ("snout", "fork"))
+    vertices = [Vertex(*pl, *pr, pair="measure1") for pl, pr in zip(snout, fork, strict=True)]
+    object_id = ws.project.add_object("line", vertices, "fish")
+    ws.reload_objects()
+    window.load_pair("water1")
+    wait_for_pair(qtbot, window, "water1")
+    window.panes["left"].zoom_to(8.0, (5.0, 5.0))  # far from the fish
+    ws.select([object_id])
+    zoom = next(b for b in window.object_list.findChildren(QtWidgets.QPushButton) if b.text() == "Zoom to")
+    qtbot.mouseClick(zoom, QtCore.Qt.MouseButton.LeftButton)
+    wait_for_pair(qtbot, window, "measure1")  # not "measured on another pair": its pair is read and shown
+    qtbot.waitUntil(lambda: _centred_on(window, object_id) < 2.0, timeout=5000)
+    assert ws.selection == (object_id,) and window.object_list.selected_ids() == [object_id]
+    log = window.log.toPlainText()
+    assert "measured on another pair" not in log
+    # on the pair shown: centred again, nothing read
+    window.panes["left"].zoom_to(8.0, (5.0, 5.0))
+    assert _centred_on(window, object_id) > 2.0
+    loads = []
+    monkeypatch.setattr(window, "load_pair", loads.append)
+    qtbot.mouseClick(zoom, QtCore.Qt.MouseButton.LeftButton)
+    assert _centred_on(window, object_id) < 2.0 and loads == []
