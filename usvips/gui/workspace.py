@@ -210,7 +210,7 @@ class Workspace:
             self.message.emit("error", f"the calibration of pair {label!r} cannot be used: {error}")
         self.enhancement.load(self.project, {side: self.image_key(side) for side in SIDES})
         self.pick_tool.reset()
-        self.undo.clear()
+        self.undo.forget_pair_steps()  # the picks and enhancement steps go with their images; object steps stay
         self.pair_changed.emit()
         if not another_pair:
             return  # the next frame of a video, or the pair shown again: its frame rule was said
