@@ -760,7 +760,10 @@ class MainWindow(QtWidgets.QMainWindow):
             box.clear()
             box.addItems(labels)
         shown = self.workspace.pair
-        box.setPlaceholderText("(video)" if shown is not None and shown not in labels else "")
+        placeholder = "(video)" if shown is not None and shown not in labels else ""
+        if placeholder != box.placeholderText():
+            box.setPlaceholderText(placeholder)
+            box.update()  # Qt repaints nothing when an empty box's placeholder is cleared: "(video)" stayed
         box.setCurrentIndex(labels.index(shown) if shown in labels else -1)
 
     def _on_pair_changed(self) -> None:
