@@ -411,3 +411,58 @@ def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_o
     window.video.request(33)
     _wait_frame(qtbot, window, 33)
     assert frame_number(window.workspace.images["left"]) == 33
+
+
+def test_the_video_box_names_no_video_until_one_is_shown_and_its_controls_open_the_only_one(
+        qtbot, make_window, sample_copy):
+    """A project with image pairs and a video opens on a pair: the Video box says "choose…" (not the
+    video's name, as if it were shown); Play, Go to (Ctrl+G) and Sync open the project's only video rather
+    than doing nothing; showing an image pair leaves the video (the arrows no longer step it)."""
+    from usvips.gui.video_controls import NONE_SHOWN
+
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "measure1")
+    qtbot.waitUntil(lambda: window.workspace.pair == "measure1" and not window.busy, timeout=10000)
+    d = window.video.dock_widget
+    assert d.chooser.currentIndex() == -1 and d.chooser.placeholderText() == NONE_SHOWN and d.chooser.count() == 1
+    assert window.video.navigator is None and d.frame_label.text() == "—"
+    qtbot.mouseClick(d.play, QtCore.Qt.MouseButton.LeftButton)  # Play: the only video opens and plays
+    assert window.video.navigator is not None and d.chooser.currentText() == "video" and d.play.isChecked()
+    qtbot.waitUntil(lambda: window.workspace.video_frame is not None and window.workspace.video_frame[1] > 0,
+                    timeout=20000)
+    qtbot.mouseClick(d.play, QtCore.Qt.MouseButton.LeftButton)  # pause
+    qtbot.waitUntil(lambda: not window.busy, timeout=10000)
+    # an image pair shown: the video is left, the box says so, the arrows on the panes step nothing
+    window.load_pair("water1")
+    qtbot.waitUntil(lambda: window.workspace.pair == "water1" and not window.busy, timeout=10000)
+    assert window.video.navigator is None and d.chooser.currentIndex() == -1 and d.frame_label.text() == "—"
+    assert not d.play.isChecked() and d.play.text() == "&Play"
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Right)
+    QtWidgets.QApplication.processEvents()
+    assert window.workspace.pair == "water1" and window.workspace.video_frame is None
+    # Ctrl+G from the panes: the video opens and the go-to field takes the frame typed
+    window.focus_images()
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_G, QtCore.Qt.KeyboardModifier.ControlModifier)
+    assert window.video.navigator is not None
+    qtbot.waitUntil(d.goto.hasFocus, timeout=5000)
+    qtbot.keyClicks(d.goto, "7")
+    qtbot.keyClick(d.goto, QtCore.Qt.Key.Key_Return)
+    _wait_frame(qtbot, window, 7)
+    # with the video left and nothing to choose from, a control says why instead of doing nothing
+    window.load_pair("water1")
+    qtbot.waitUntil(lambda: window.workspace.pair == "water1" and not window.busy, timeout=10000)
+    d.chooser.clear()
+    qtbot.mouseClick(d.sync, QtCore.Qt.MouseButton.LeftButton)
+    assert window.video.navigator is None and "no stereo video" in window.hint.text()
+
+
+def test_a_video_chosen_while_the_first_pair_is_still_read_stays_shown(qtbot, make_window, sample_copy):
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory)  # its first image pair is read in a worker ...
+    assert window.video.open_video("video")  # ... and the video is asked for meanwhile
+    qtbot.waitUntil(lambda: not window.busy and window.workspace.video_frame is not None, timeout=20000)
+    for _ in range(5):
+        QtWidgets.QApplication.processEvents()
+    assert window.workspace.video_frame[0] == "video" and window.video.navigator is not None

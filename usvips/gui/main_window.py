@@ -699,9 +699,15 @@ class MainWindow(QtWidgets.QMainWindow):
             if worker is self._pair_worker:  # a pair chosen later wins over one still loading
                 self.workspace.set_pair(label, *images)
 
+        self.forget_pair_loading()
+        worker = self._pair_worker = self.run_worker(job, f"reading pair {label}", show)
+
+    def forget_pair_loading(self) -> None:
+        """A pair still being read is no longer wanted (another pair, or a video's frames, were asked for
+        since): it is not shown when it arrives."""
         if self._pair_worker is not None:
             self._pair_worker.cancel()
-        worker = self._pair_worker = self.run_worker(job, f"reading pair {label}", show)
+            self._pair_worker = None
 
     # ------------------------------------------------------------------ workers
     @property
