@@ -24,6 +24,7 @@ from usvips.gui.enhancement_panel import EnhancementPanel
 from usvips.gui.instants_view import InstantsView
 from usvips.gui.log_panel import LogPanel
 from usvips.gui.media_check import MediaCheck
+from usvips.gui.menu_keys import MenuKeysFirst
 from usvips.gui.object_list import ObjectList
 from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.observation_form import ObservationForm
@@ -116,6 +117,9 @@ class MainWindow(QtWidgets.QMainWindow):
         table.setContextMenuPolicy(QtCore.Qt.ContextMenuPolicy.ActionsContextMenu)
         table.addAction(self.actions["instants_of_listed"])
         self.video.dock_widget.setEnabled(False)
+        self.menu_keys = MenuKeysFirst(self)  # an open menu keeps its letters from the image keys (X11)
+        for pane in self.panes.values():
+            pane.graphics.installEventFilter(self.menu_keys)
         ws = self.workspace
         ws.objects_changed.connect(self.video.objects_changed)
         ws.pair_changed.connect(self._on_pair_changed)
