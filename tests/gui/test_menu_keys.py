@@ -23,7 +23,8 @@ def test_a_letter_goes_to_the_open_menu_not_to_the_image_keys(qtbot, make_window
     file_menu = next(a.menu() for a in window.menuBar().actions() if a.text() == "&File")
     window.menuBar().setActiveAction(file_menu.menuAction())
     qtbot.waitUntil(lambda: QtWidgets.QApplication.activePopupWidget() is file_menu, timeout=5000)
-    assert all(_overridden(graphics, key, text) for key, text in letters)  # the menu's mnemonics
+    for asked in (graphics, file_menu):  # whichever Qt asks first (the window manager decides)
+        assert all(_overridden(asked, key, text) for key, text in letters)  # the menu's mnemonics
     assert not _overridden(graphics, Key.Key_Z, "\x1a", QtCore.Qt.KeyboardModifier.ControlModifier)  # Ctrl+Z
     file_menu.close()
     qtbot.waitUntil(lambda: QtWidgets.QApplication.activePopupWidget() is None, timeout=5000)

@@ -17,14 +17,13 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.gui import exchange_dialogs, media_dialogs
+from usvips.gui import exchange_dialogs, media_dialogs, menu_keys
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
 from usvips.gui.instants_view import InstantsView
 from usvips.gui.log_panel import LogPanel
 from usvips.gui.media_check import MediaCheck
-from usvips.gui.menu_keys import MenuKeysFirst
 from usvips.gui.object_list import ObjectList
 from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.observation_form import ObservationForm
@@ -117,9 +116,6 @@ class MainWindow(QtWidgets.QMainWindow):
         table.setContextMenuPolicy(QtCore.Qt.ContextMenuPolicy.ActionsContextMenu)
         table.addAction(self.actions["instants_of_listed"])
         self.video.dock_widget.setEnabled(False)
-        self.menu_keys = MenuKeysFirst(self)  # an open menu keeps its letters from the image keys (X11)
-        for pane in self.panes.values():
-            pane.graphics.installEventFilter(self.menu_keys)
         ws = self.workspace
         ws.objects_changed.connect(self.video.objects_changed)
         ws.pair_changed.connect(self._on_pair_changed)
@@ -130,6 +126,8 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.enhancement_changed.connect(self._on_enhancement_changed)
         ws.message.connect(self.show_message)
         ws.undo.changed.connect(self._on_undo_changed)
+        # an open menu keeps its letters from the image keys (X11: Alt+F, I listed the instants)
+        self.menu_keys = menu_keys.install(self, [pane.graphics for pane in self.panes.values()])
         self._restore_layout()
         self.video.videos_changed(None)  # no project, no videos: the Video dock comes with a project that has them
         self._on_undo_changed()
