@@ -466,3 +466,20 @@ def test_a_video_chosen_while_the_first_pair_is_still_read_stays_shown(qtbot, ma
     for _ in range(5):
         QtWidgets.QApplication.processEvents()
     assert window.workspace.video_frame[0] == "video" and window.video.navigator is not None
+
+
+def test_the_pane_titles_keep_the_video_frame_when_the_pair_is_shown_again(qtbot, make_window, sample_copy):
+    """Making a calibration active shows the pair again (Workspace.reshow_pair): the titles came from the
+    video controller only when it showed a frame, so they turned into "Left — video (640 × 480 px)"."""
+    window = make_window()
+    assert window.open_path(sample_copy("rov_flatport"), "video")
+    _wait_frame(qtbot, window, 0)
+    window.video.request(4)
+    _wait_frame(qtbot, window, 4)
+    titles = [window.panes[side].title.text() for side in ("left", "right")]
+    assert titles == ["Left — video, frame 4  00:00.400", "Right — video, frame 7  00:00.400"]
+    window.workspace.reshow_pair()  # what making a calibration active does
+    assert [window.panes[side].title.text() for side in ("left", "right")] == titles
+    window.load_pair("measure1")
+    qtbot.waitUntil(lambda: window.workspace.pair == "measure1" and not window.busy, timeout=10000)
+    assert window.panes["left"].title.text() == "Left — measure1  (640 × 480 px)"

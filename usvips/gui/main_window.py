@@ -33,6 +33,7 @@ from usvips.gui.planner_dock import PlannerDock
 from usvips.gui.qa_dock import QaDock
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
+from usvips.gui.video_model import format_timecode
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
@@ -64,6 +65,14 @@ def luminance_histogram(image: np.ndarray) -> np.ndarray:
     grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY) if image.ndim == 3 else image
     top = 256 if grey.dtype == np.uint8 else 65536
     return cv2.calcHist([grey], [0], None, [256], [0, top]).ravel()
+
+
+def pane_title(side: str, pair: str, shape: tuple, video_frame: tuple | None) -> str:
+    """A pane's title: the image pair and its size, or the video and this side's frame with its time."""
+    if video_frame is None:
+        return f"{side.capitalize()} — {pair}  ({shape[1]} × {shape[0]} px)"
+    video, left, right, time_s = video_frame
+    return f"{side.capitalize()} — {video}, frame {left if side == 'left' else right}  {format_timecode(time_s)}"
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -784,8 +793,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.pixel_label.setText("")
             return
         for side in SIDES:
-            self.panes[side].title.setText(f"{side.capitalize()} — {ws.pair}  "
-                                           f"({ws.images[side].shape[1]} × {ws.images[side].shape[0]} px)")
+            self.panes[side].title.setText(pane_title(side, ws.pair, ws.images[side].shape, ws.video_frame))
             self._refresh_display(side)
         self._draw_control()
         if not isinstance(QtWidgets.QApplication.focusWidget(), (QtWidgets.QLineEdit, QtWidgets.QAbstractItemView)):

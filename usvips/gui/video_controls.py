@@ -420,9 +420,6 @@ class VideoController(QtCore.QObject):
         d.timeline.blockSignals(False)
         d.frame_label.setText(f"left {frame} | right {partner}  {format_timecode(time_s)}  "
                               f"({nav.first}–{nav.last})" + ("  ●" if frame in nav.marks else ""))
-        for side, number in (("left", frame), ("right", partner)):
-            pane = self.window.panes[side]
-            pane.title.setText(f"{side.capitalize()} — {nav.label}, frame {number}  {format_timecode(time_s)}")
         self.shown.emit(frame)
         self._start_prefetch(frame)
 
