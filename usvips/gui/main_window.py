@@ -87,6 +87,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.workers: set[Worker] = set()
         self._display_tokens = dict.fromkeys(SIDES, 0)
         self._pair_worker: Worker | None = None
+        self._front_before_observation: QtWidgets.QDockWidget | None = None  # raised again after a record
         self.selection: list[int] = []
         self.panes = {side: StereoPane(side) for side in SIDES}
         self.splitter = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
@@ -188,7 +189,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
         ws.object_requested.connect(self._on_object_requested)  # an object on an image pair: that pair, centred
-        self.observation.finished.connect(self.focus_images)
+        self.observation.finished.connect(self._on_observation_finished)
         ws.stored.connect(self._on_stored)
 
     def _build_status_bar(self) -> None:
@@ -669,8 +670,13 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_stored(self, object_id: int) -> None:
         """After a measurement: the observation form, if the user wants it, takes the keyboard."""
         if self.observation.ask.isChecked():
-            self.docks["observation"].show()
-            self.docks["observation"].raise_()
+            dock = self.docks["observation"]
+            # the panel in front of it (the object list, showing the new length) comes back when it is done
+            group = [d for d in (dock, *self.tabifiedDockWidgets(dock)) if d.isVisible()]
+            front = [d for d in group if not d.visibleRegion().isEmpty()]
+            self._front_before_observation = front[0] if front and front[0] is not dock else None
+            dock.show()
+            dock.raise_()
             self.observation.begin(object_id)
         else:
             self.observation.load(object_id)
@@ -972,6 +978,14 @@ class MainWindow(QtWidgets.QMainWindow):
             self.attribute_box.setCurrentText(text)
         self.show_message("info", f"attribute of the next objects: {text!r}" if text else
                                   "the next objects are stored without an attribute")
+        self.focus_images()
+
+    def _on_observation_finished(self) -> None:
+        """The record stored or skipped: the panel it was raised over is in front again, the images have
+        the keyboard."""
+        front, self._front_before_observation = self._front_before_observation, None
+        if front is not None:
+            front.raise_()
         self.focus_images()
 
     def focus_images(self, side: str = "left") -> None:
