@@ -154,3 +154,23 @@ def test_the_object_list_is_in_front_again_after_the_record_is_stored_or_skipped
     qtbot.waitUntil(lambda: in_front(window.docks["observation"]), timeout=2000)
     qtbot.keyClick(window.observation.species, QtCore.Qt.Key.Key_Escape)
     qtbot.waitUntil(lambda: in_front(window.docks["plan"]), timeout=2000)
+
+
+def test_the_form_forgets_an_object_whose_store_is_undone(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("rov_flatport")
+    open_sample(qtbot, window, directory, "water1")
+    window.set_tool("point")
+    left, right = truth_pixels(directory, "water1", "targets")
+    number = isolated_targets(left, right)[0]
+    click_pixel(qtbot, window.panes["left"], left[number])
+    click_pixel(qtbot, window.panes["right"], right[number])
+    (stored,) = window.workspace.project.objects()
+    form = window.observation
+    assert form.object_id == stored.id and form.target.text() != "no object"
+    form.comment.setText("by the rock")
+    window.undo()  # the store taken back: the form no longer offers a record for an object that is gone
+    assert window.workspace.project.objects() == []
+    assert form.object_id is None and form.target.text() == "no object" and form.comment.text() == ""
+    assert "no longer in the project" in form.status.text()
+    assert not form.store() and window.workspace.project.objects() == []
