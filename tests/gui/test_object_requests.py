@@ -44,3 +44,46 @@ def test_zoom_to_an_object_of_another_pair_shows_that_pair_centred_on_it(qtbot, 
     monkeypatch.setattr(window, "load_pair", loads.append)
     qtbot.mouseClick(zoom, QtCore.Qt.MouseButton.LeftButton)
     assert _centred_on(window, object_id) < 2.0 and loads == []
+
+
+def test_an_object_measured_on_a_video_is_shown_on_its_frame_centred_from_an_image_pair(qtbot, make_window,
+                                                                                       sample_copy):
+    """Its vertices name the video as their pair: the window read it as an image pair and said "pair 'video'
+    has no images" while the video controller showed the frame."""
+    import json
+
+    window = make_window()
+    directory = sample_copy("rov_flatport")
+    assert window.open_path(directory, "video")
+    ws = window.workspace
+    qtbot.waitUntil(lambda: ws.video_frame is not None and not window.busy, timeout=20000)
+    window.video.request(12)
+    qtbot.waitUntil(lambda: ws.video_frame is not None and ws.video_frame[1] == 12 and not window.busy, timeout=20000)
+    truth = json.loads((directory / "truth.json").read_text())["video"]
+    left, right = truth["left"][12]["pixels"], truth["right"][15]["pixels"]
+    ws.set_tool("line")
+    for point in ("snout", "fork"):
+        ws.pick("left", left[point])
+        ws.pick("right", right[point])
+        if ws.state.pending is not None:
+            ws.accept_proposal()
+    object_id = ws.finish_object("fish2")
+    assert ws.place_of(object_id) == ("video", 12)
+    window.load_pair("measure1")
+    qtbot.waitUntil(lambda: ws.pair == "measure1" and not window.busy, timeout=10000)
+    window.panes["left"].zoom_to(8.0, (5.0, 5.0))
+    window.log.clear()
+    assert ws.request_object(object_id)
+    qtbot.waitUntil(lambda: ws.place() == ("video", 12) and not window.busy, timeout=20000)
+    qtbot.waitUntil(lambda: _centred_on(window, object_id) < 2.0, timeout=5000)
+    assert "error" not in window.log.toPlainText() and "has no images" not in window.log.toPlainText()
+    assert ws.selection == (object_id,)
+    # while an object is being digitised on this frame, one on another frame is not gone to
+    window.video.request(14)
+    qtbot.waitUntil(lambda: ws.place() == ("video", 14) and not window.busy, timeout=20000)
+    ws.pick("left", left["snout"])
+    ws.pick("right", right["snout"])
+    if ws.state.pending is not None:
+        ws.accept_proposal()
+    assert ws.digitising.vertices and not ws.request_object(object_id)
+    assert "video video frame 12" in window.hint.text() and ws.place() == ("video", 14)

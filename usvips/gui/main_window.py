@@ -88,6 +88,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._display_tokens = dict.fromkeys(SIDES, 0)
         self._pair_worker: Worker | None = None
         self._front_before_observation: QtWidgets.QDockWidget | None = None  # raised again after a record
+        self._centre_pending = None  # centres the panes on an object asked for once its pair is shown
         self.selection: list[int] = []
         self.panes = {side: StereoPane(side) for side in SIDES}
         self.splitter = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
@@ -1070,29 +1071,37 @@ class MainWindow(QtWidgets.QMainWindow):
         return shown
 
     def _on_object_requested(self, object_id: int) -> None:
-        """A view asked for a stored object (``Workspace.request_object``, which selected it): one measured
-        on an image pair is centred on, after its pair is read when another is shown (the video controller
-        answers for objects measured on a video)."""
+        """A view asked for a stored object (``Workspace.request_object``, which selected it): the panes
+        are centred on it once its pair or video frame is shown — an image pair is read here, a video's
+        frame is the video controller's to show."""
         ws = self.workspace
-        stored = ws.stored_object(object_id)
-        pair = stored.vertices[0].pair if stored.vertices else None
-        if pair is None:
+        where = ws.place_of(object_id)
+        if self._centre_pending is not None:  # an earlier request still waiting: this one wins
+            ws.pair_changed.disconnect(self._centre_pending)
+            self._centre_pending = None
+        if where is None:
             return
-        if pair == ws.pair:
+        if where == ws.place():
             self.zoom_to_object(object_id)
             return
+        pair, frame = where
 
-        def centre_when_shown() -> None:  # once, on the next pair shown: this one, read in the background
-            ws.pair_changed.disconnect(centre_when_shown)
-            if ws.pair == pair and object_id in ws.cache:
-                self.zoom_to_object(object_id)
+        def centre_when_shown() -> None:  # on the pair (or frame) shown next; a video's frames on the way wait
+            if ws.place() == where or frame is None or ws.pair != pair:
+                ws.pair_changed.disconnect(centre_when_shown)
+                self._centre_pending = None
+                if ws.place() == where and object_id in ws.cache:
+                    self.zoom_to_object(object_id)
 
+        self._centre_pending = centre_when_shown
         ws.pair_changed.connect(centre_when_shown)
-        self.load_pair(pair)
+        if frame is None:
+            self.load_pair(pair)
 
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)
-        vertices = [v for v in stored.vertices if v.pair == self.workspace.pair]
+        here = self.workspace.place()
+        vertices = [v for v in stored.vertices if (v.pair, None if v.video is None else int(v.frame_left)) == here]
         if not vertices:
             self.show_message("warning", f"object {object_id} was measured on another pair")
             return

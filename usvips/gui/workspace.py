@@ -439,15 +439,29 @@ class Workspace:
         if object_id not in self.cache:
             self.message.emit("warning", f"object {object_id} is no longer in the project")
             return False
-        stored = self.stored_object(object_id)
-        pair = stored.vertices[0].pair if stored.vertices else None
-        if pair is not None and pair != self.pair and self.digitising.vertices:
-            self.message.emit("warning", f"object {object_id} is on pair {pair}: finish (Ctrl+Enter) or cancel "
+        where = self.place_of(object_id)
+        if where is not None and where != self.place() and self.digitising.vertices:
+            pair, frame = where
+            shown = f"pair {pair}" if frame is None else f"video {pair} frame {frame}"
+            self.message.emit("warning", f"object {object_id} is on {shown}: finish (Ctrl+Enter) or cancel "
                                          "the object being digitised first")
             return False
         self.select([object_id])
         self.object_requested.emit(object_id)
         return True
+
+    def place(self) -> tuple[str | None, int | None]:
+        """Where picks are made now: (the pair shown, the left frame when it is a video's frame pair)."""
+        return self.pair, None if self.video_frame is None else int(self.video_frame[1])
+
+    def place_of(self, object_id: int) -> tuple[str, int | None] | None:
+        """Where a stored object was measured, as :meth:`place` says it (its first vertex: the pair — a
+        video's label for a video — and the left frame on a video); None for an object without one."""
+        stored = self.stored_object(object_id)
+        first = stored.vertices[0] if stored.vertices else None
+        if first is None or first.pair is None:
+            return None
+        return first.pair, None if first.video is None else int(first.frame_left)
 
     def set_rules(self, rules: QualityRules) -> None:
         """New quality rules: every object's verdict may change (its figures are computed again)."""
