@@ -438,6 +438,7 @@ def test_the_video_box_names_no_video_until_one_is_shown_and_its_controls_open_t
     qtbot.waitUntil(lambda: window.workspace.pair == "water1" and not window.busy, timeout=10000)
     assert window.video.navigator is None and d.chooser.currentIndex() == -1 and d.frame_label.text() == "—"
     assert not d.play.isChecked() and d.play.text() == "&Play"
+    assert (d.offset.value(), d.timeline.maximum(), d.goto.text()) == (0, 0, "")  # nothing of the video left
     qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Right)
     QtWidgets.QApplication.processEvents()
     assert window.workspace.pair == "water1" and window.workspace.video_frame is None

@@ -329,6 +329,14 @@ class VideoController(QtCore.QObject):
         d = self.dock_widget
         d.chooser.setCurrentIndex(-1)
         d.frame_label.setText("—")
+        for widget in (d.offset, d.timeline):  # nothing of the video left: its offset, position and go-to
+            widget.blockSignals(True)
+        d.offset.setValue(0)
+        d.timeline.setRange(0, 0)
+        d.timeline.marks = set()
+        for widget in (d.offset, d.timeline):
+            widget.blockSignals(False)
+        d.goto.clear()
         for worker in (self._request, self._prefetch):
             if worker is not None:
                 worker.cancel()
