@@ -29,7 +29,12 @@ def test_zoom_to_an_object_of_another_pair_shows_that_pair_centred_on_it(qtbot, 
     window.load_pair("water1")
     wait_for_pair(qtbot, window, "water1")
     window.panes["left"].zoom_to(8.0, (5.0, 5.0))  # far from the fish
-    ws.select([object_id])
+    window.docks["objects"].raise_()
+    table = window.object_list.table  # the user selects its row (selectRow would follow the keyboard's
+    flags = QtCore.QItemSelectionModel.SelectionFlag  # modifiers, which earlier tests' key clicks may leave set)
+    table.selectionModel().select(table.model().index(window.object_list.row_of(object_id), 0),
+                                  flags.ClearAndSelect | flags.Rows)
+    assert ws.selection == (object_id,)
     zoom = next(b for b in window.object_list.findChildren(QtWidgets.QPushButton) if b.text() == "Zoom to")
     qtbot.mouseClick(zoom, QtCore.Qt.MouseButton.LeftButton)
     wait_for_pair(qtbot, window, "measure1")  # not "measured on another pair": its pair is read and shown

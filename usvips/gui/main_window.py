@@ -465,8 +465,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.settings.setValue("window/splitter", self.splitter.saveState())
         for name in ("link", "snap", "auto_match", "loupe"):
             self.settings.setValue(f"view/{name}", self.actions[name].isChecked())
-        if self.workspace.project is not None and self.workspace.pair:
-            self.settings.setValue(f"pair/{self.workspace.project.path}", self.workspace.pair)
         self.settings.sync()
 
     def recent_projects(self) -> list[str]:
@@ -595,6 +593,11 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_message("error", f"{project.path.name} has no image pair {pair!r}; pairs: {', '.join(labels)}")
             pair = None
         last = self.settings.value(f"pair/{project.path}")
+        if pair is None and last in videos and self.video.open_video(last):  # back where the user was
+            frame = self.settings.value(f"frame/{project.path}", -1, type=int)
+            if frame >= 0:
+                self.video.request(frame)
+            return True
         self.load_pair(pair or (last if last in labels else labels[0]))
         return True
 
@@ -793,6 +796,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_pair_changed(self) -> None:
         ws = self.workspace
         self.refresh_pair_box()  # the box follows the model (a video's frames or an image pair)
+        if ws.project is not None and ws.pair is not None:  # where to come back to in this project
+            self.settings.setValue(f"pair/{ws.project.path}", ws.pair)
+            self.settings.setValue(f"frame/{ws.project.path}", -1 if ws.video_frame is None else ws.video_frame[1])
         if ws.pair is None:  # no pair shown (another project): nothing of the last one stays on the panes
             for side in SIDES:
                 self.panes[side].title.setText(side.capitalize())
