@@ -484,3 +484,32 @@ def test_the_pane_titles_keep_the_video_frame_when_the_pair_is_shown_again(qtbot
     window.load_pair("measure1")
     qtbot.waitUntil(lambda: window.workspace.pair == "measure1" and not window.busy, timeout=10000)
     assert window.panes["left"].title.text() == "Left — measure1  (640 × 480 px)"
+
+
+def test_seek_proxies_declined_are_not_offered_again_after_another_project(qtbot, make_window, tmp_path):
+    """No is kept for the session: coming back from another project asked again (and the question took
+    the frame typed after Ctrl+G)."""
+    from shiboken6 import isValid
+
+    from usvips.store import Project
+
+    def asked() -> bool:
+        return video.question is not None and isValid(video.question) and video.question.isVisible()
+
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(12)], 25, "h264", gop=12)
+    window = make_window()
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    video = window.video
+    qtbot.waitUntil(asked, timeout=20000)
+    video.question.button(QtWidgets.QMessageBox.StandardButton.No).click()
+    qtbot.waitUntil(lambda: not asked(), timeout=5000)
+    other = tmp_path / "other.usvips"
+    Project.create(other).close()
+    assert window.open_path(other)
+    assert window.open_path(tmp_path / "mine.usvips") and video.navigator is not None
+    _wait_frame(qtbot, window, 0)
+    for _ in range(5):
+        QtWidgets.QApplication.processEvents()
+    assert not asked() and video._proxy_worker is None

@@ -224,7 +224,9 @@ class VideoController(QtCore.QObject):
         self._proxy_worker: Worker | None = None
         self._proxy_label: str | None = None
         self._proxy_progress = 0.0
-        self._proxies_deleted: set[str] = set()  # not rebuilt by themselves in this session
+        #: (project file, video) whose proxies were declined or deleted: not offered again in this session,
+        #: even after another project was open meanwhile
+        self._proxies_deleted: set[tuple[str, str]] = set()
         goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
         goto.activated.connect(self.focus_goto)
         for pane in window.panes.values():
@@ -268,7 +270,6 @@ class VideoController(QtCore.QObject):
         project's); called by the workspace's ``project_changed``."""
         self.close_video()
         self.cancel_proxies()
-        self._proxies_deleted.clear()
         # a new project gets new controls: nothing of the previous one (offset, frame, range, go-to text,
         # rate, marks) can stay on screen, by construction rather than by a list of fields to clear
         old, d = self.dock_widget, VideoDock()
@@ -319,7 +320,7 @@ class VideoController(QtCore.QObject):
                                  + (f"— {self.source.video['report']}" if self.source.video["report"] else ""))
         self.request(self.navigator.first)
         self._show_proxy_status()
-        if self.auto_proxies and label not in self._proxies_deleted:
+        if self.auto_proxies and self._proxy_key(label) not in self._proxies_deleted:
             self.build_proxies(automatic=True)
         return True
 
@@ -352,6 +353,10 @@ class VideoController(QtCore.QObject):
         arrows and Space on the panes no longer step a video that is not shown."""
         if self.session is not None and self.window.workspace.video_frame is None:
             self.close_video()
+
+    def _proxy_key(self, label: str) -> tuple[str, str]:
+        project = self.window.workspace.project
+        return str(project.path.resolve()) if project is not None else "", label
 
     def _need_video(self) -> bool:
         """A control that works on the video shown was used: with none shown, the one chosen — or the
@@ -713,7 +718,7 @@ class VideoController(QtCore.QObject):
                         "builds or deletes them later.)")
 
             def declined() -> None:
-                self._proxies_deleted.add(label)
+                self._proxies_deleted.add(self._proxy_key(label))
                 self.window.show_message("info", f"no seek proxies for {label}: the dock's Seek proxy button builds "
                                                  "them when wanted")
 
@@ -776,7 +781,7 @@ class VideoController(QtCore.QObject):
             return 0
         if self._proxy_label == nav.label:
             self.cancel_proxies()
-        self._proxies_deleted.add(nav.label)
+        self._proxies_deleted.add(self._proxy_key(nav.label))
         if self.source is not None:
             self.source.detach_proxies()
         try:
