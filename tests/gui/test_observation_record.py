@@ -121,3 +121,56 @@ def test_after_a_measurement_the_form_takes_the_keys_and_stores_the_record(qtbot
     window.close()
     with Project.open(path) as again:
         assert again.record(stored.id).number == 3 and again.record(second.id).code == "37353001"
+
+
+def test_the_object_list_is_in_front_again_after_the_record_is_stored_or_skipped(qtbot, make_window, sample_copy):
+    """The form is raised over the object list after a measurement; Enter or Esc puts the list (showing
+    the new object's figure) in front again, and the images get the keyboard."""
+    window = make_window()
+    directory = sample_copy("rov_flatport")
+    open_sample(qtbot, window, directory, "water1")
+    window.set_tool("point")
+    left, right = truth_pixels(directory, "water1", "targets")
+    numbers = isolated_targets(left, right)[:2]
+
+    def in_front(dock) -> bool:
+        return not dock.visibleRegion().isEmpty()
+
+    for number, key in zip(numbers, (QtCore.Qt.Key.Key_Escape, QtCore.Qt.Key.Key_Return), strict=True):
+        window.docks["objects"].raise_()
+        qtbot.waitUntil(lambda: in_front(window.docks["objects"]), timeout=2000)
+        click_pixel(qtbot, window.panes["left"], left[number])
+        click_pixel(qtbot, window.panes["right"], right[number])
+        qtbot.waitUntil(lambda: in_front(window.docks["observation"]), timeout=2000)
+        assert not in_front(window.docks["objects"])
+        qtbot.waitUntil(lambda: QtWidgets.QApplication.focusWidget() is window.observation.species, timeout=2000)
+        qtbot.keyClick(window.observation.species, key)
+        qtbot.waitUntil(lambda: in_front(window.docks["objects"]), timeout=2000)
+        assert QtWidgets.QApplication.focusWidget() is window.panes["left"].graphics
+    # the plan view in front instead: the form leaves it in front again too
+    window.docks["plan"].raise_()
+    qtbot.waitUntil(lambda: in_front(window.docks["plan"]), timeout=2000)
+    window.workspace.stored.emit(window.workspace.object_ids()[0])
+    qtbot.waitUntil(lambda: in_front(window.docks["observation"]), timeout=2000)
+    qtbot.keyClick(window.observation.species, QtCore.Qt.Key.Key_Escape)
+    qtbot.waitUntil(lambda: in_front(window.docks["plan"]), timeout=2000)
+
+
+def test_the_form_forgets_an_object_whose_store_is_undone(qtbot, make_window, sample_copy):
+    window = make_window()
+    directory = sample_copy("rov_flatport")
+    open_sample(qtbot, window, directory, "water1")
+    window.set_tool("point")
+    left, right = truth_pixels(directory, "water1", "targets")
+    number = isolated_targets(left, right)[0]
+    click_pixel(qtbot, window.panes["left"], left[number])
+    click_pixel(qtbot, window.panes["right"], right[number])
+    (stored,) = window.workspace.project.objects()
+    form = window.observation
+    assert form.object_id == stored.id and form.target.text() != "no object"
+    form.comment.setText("by the rock")
+    window.undo()  # the store taken back: the form no longer offers a record for an object that is gone
+    assert window.workspace.project.objects() == []
+    assert form.object_id is None and form.target.text() == "no object" and form.comment.text() == ""
+    assert "no longer in the project" in form.status.text()
+    assert not form.store() and window.workspace.project.objects() == []

@@ -104,3 +104,42 @@ def test_the_views_show_nothing_of_the_previous_project(qtbot, make_window, samp
     d = window.video.dock_widget
     assert (d.offset.value(), d.frame_label.text(), d.chooser.count()) == (0, "—", 0) and not d.isEnabled()
     assert np.all([window.panes[s].display is None for s in ("left", "right")])
+
+
+def test_the_pair_box_drops_the_video_placeholder_on_screen(qtbot, make_window, sample_copy, tmp_path):
+    """The pair box said "(video)" over an empty project: Qt does not repaint an empty box whose
+    placeholder is cleared, so the window asks it to."""
+    from PySide6 import QtCore
+
+    window = make_window()
+    assert window.open_path(sample_copy("rov_flatport"))
+    assert window.video.open_video("video")
+    qtbot.waitUntil(lambda: window.workspace.video_frame is not None and not window.busy, timeout=30000)
+    box = window.pair_box
+    assert box.placeholderText() == "(video)" and box.currentIndex() == -1
+    QtWidgets.QApplication.processEvents()
+
+    class Paints(QtCore.QObject):
+        count = 0
+
+        def eventFilter(self, watched, event):  # noqa: N802 (Qt's name)
+            if event.type() == QtCore.QEvent.Type.Paint:
+                Paints.count += 1
+            return False
+
+    paints = Paints()
+    empty = tmp_path / "empty.usvips"
+    Project.create(empty).close()
+    assert window.open_path(empty)
+    box.installEventFilter(paints)  # after the box was emptied (clearing it repaints): the placeholder's own
+    window.refresh_pair_box()
+    assert Paints.count == 0  # nothing changed: nothing to repaint
+    window.workspace.pair = "video"  # as if a video's frames were shown ...
+    window.refresh_pair_box()
+    QtWidgets.QApplication.processEvents()
+    Paints.count = 0
+    window.workspace.pair = None  # ... and then none
+    window.refresh_pair_box()
+    QtWidgets.QApplication.processEvents()
+    assert box.placeholderText() == "" and Paints.count > 0
+    box.removeEventFilter(paints)

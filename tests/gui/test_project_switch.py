@@ -35,3 +35,26 @@ def test_a_second_project_starts_with_fresh_video_controls_and_readouts(qtbot, m
     d.goto.returnPressed.emit()
     _wait_frame(qtbot, window, 5)
     assert "left 5" in d.frame_label.text()
+
+
+def test_coming_back_to_a_project_shows_the_pair_or_video_frame_left(qtbot, make_window, sample_copy, tmp_path):
+    """The pair last shown was remembered only when the window closed, and never a video's frame: coming
+    back from another project showed the first image pair."""
+    from usvips.store import Project
+
+    window = make_window()
+    rov = sample_copy("rov_flatport")
+    other = tmp_path / "other.usvips"
+    Project.create(other).close()
+    assert window.open_path(rov, "video")
+    _wait_frame(qtbot, window, 0)
+    window.video.request(7)
+    _wait_frame(qtbot, window, 7)
+    assert window.open_path(other) and window.workspace.pair is None
+    assert window.open_path(rov)
+    _wait_frame(qtbot, window, 7)  # the video, on the frame left
+    window.load_pair("water2")
+    qtbot.waitUntil(lambda: window.workspace.pair == "water2" and not window.busy, timeout=10000)
+    assert window.open_path(other) and window.open_path(rov)
+    qtbot.waitUntil(lambda: window.workspace.pair == "water2" and not window.busy, timeout=10000)
+    assert window.workspace.video_frame is None and window.video.navigator is None

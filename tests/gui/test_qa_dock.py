@@ -81,14 +81,13 @@ def test_the_qa_panel_lists_breaches_and_goes_to_their_pair(qtbot, make_window, 
 
 
 def test_a_click_on_a_video_object_goes_to_its_frame(qtbot, make_window, sample_copy, monkeypatch):
-    from usvips.gui import qa_dock
-
     window = make_window()
     directory = sample_copy("tank_system1")
     open_sample(qtbot, window, directory, "measure1")
     ws = window.workspace
-    gone_to = []
-    monkeypatch.setattr(window.video, "go_to_object", gone_to.append)
+    opened, requested = [], []  # the video controller hears the model's request: it opens the object's video
+    monkeypatch.setattr(window.video, "open_video", lambda label: opened.append(label) and False)
+    ws.object_requested.connect(requested.append)
     from usvips.store.project import Vertex
     files = [directory / "left.mp4", directory / "right.mp4"]  # never decoded: the video controller is replaced
     for file in files:
@@ -103,7 +102,9 @@ def test_a_click_on_a_video_object_goes_to_its_frame(qtbot, make_window, sample_
     assert row.object_id == object_id and row.cells[1] == "no figures" and row.cells[5] == "video dive frame 7"
     qtbot.mouseClick(window.qa.view.viewport(), QtCore.Qt.MouseButton.LeftButton,
                      pos=window.qa.view.visualRect(window.qa.table_model.index(0, 1)).center())
-    assert gone_to == [object_id] and ws.selection == (object_id,)
-    qa_dock.go_to_object(window, 10_000)  # an id no longer stored: said, nothing else
+    assert requested == [object_id] and opened == ["dive"] and ws.selection == (object_id,)
+    assert ws.pair == "measure1"  # not an image pair's object: the pair shown stays
+    window.qa.object_chosen.emit(10_000)  # an id no longer stored: said, nothing else
+    assert requested == [object_id] and ws.selection == (object_id,)
     assert "no longer in the project" in window.statusBar().currentMessage() or \
         "no longer in the project" in window.log.toPlainText()

@@ -411,3 +411,105 @@ def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_o
     window.video.request(33)
     _wait_frame(qtbot, window, 33)
     assert frame_number(window.workspace.images["left"]) == 33
+
+
+def test_the_video_box_names_no_video_until_one_is_shown_and_its_controls_open_the_only_one(
+        qtbot, make_window, sample_copy):
+    """A project with image pairs and a video opens on a pair: the Video box says "choose…" (not the
+    video's name, as if it were shown); Play, Go to (Ctrl+G) and Sync open the project's only video rather
+    than doing nothing; showing an image pair leaves the video (the arrows no longer step it)."""
+    from usvips.gui.video_controls import NONE_SHOWN
+
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "measure1")
+    qtbot.waitUntil(lambda: window.workspace.pair == "measure1" and not window.busy, timeout=10000)
+    d = window.video.dock_widget
+    assert d.chooser.currentIndex() == -1 and d.chooser.placeholderText() == NONE_SHOWN and d.chooser.count() == 1
+    assert window.video.navigator is None and d.frame_label.text() == "—"
+    qtbot.mouseClick(d.play, QtCore.Qt.MouseButton.LeftButton)  # Play: the only video opens and plays
+    assert window.video.navigator is not None and d.chooser.currentText() == "video" and d.play.isChecked()
+    qtbot.waitUntil(lambda: window.workspace.video_frame is not None and window.workspace.video_frame[1] > 0,
+                    timeout=20000)
+    qtbot.mouseClick(d.play, QtCore.Qt.MouseButton.LeftButton)  # pause
+    qtbot.waitUntil(lambda: not window.busy, timeout=10000)
+    # an image pair shown: the video is left, the box says so, the arrows on the panes step nothing
+    window.load_pair("water1")
+    qtbot.waitUntil(lambda: window.workspace.pair == "water1" and not window.busy, timeout=10000)
+    assert window.video.navigator is None and d.chooser.currentIndex() == -1 and d.frame_label.text() == "—"
+    assert not d.play.isChecked() and d.play.text() == "&Play"
+    assert (d.offset.value(), d.timeline.maximum(), d.goto.text()) == (0, 0, "")  # nothing of the video left
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Right)
+    QtWidgets.QApplication.processEvents()
+    assert window.workspace.pair == "water1" and window.workspace.video_frame is None
+    # Ctrl+G from the panes: the video opens and the go-to field takes the frame typed
+    window.focus_images()
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_G, QtCore.Qt.KeyboardModifier.ControlModifier)
+    assert window.video.navigator is not None
+    qtbot.waitUntil(d.goto.hasFocus, timeout=5000)
+    qtbot.keyClicks(d.goto, "7")
+    qtbot.keyClick(d.goto, QtCore.Qt.Key.Key_Return)
+    _wait_frame(qtbot, window, 7)
+    # with the video left and nothing to choose from, a control says why instead of doing nothing
+    window.load_pair("water1")
+    qtbot.waitUntil(lambda: window.workspace.pair == "water1" and not window.busy, timeout=10000)
+    d.chooser.clear()
+    qtbot.mouseClick(d.sync, QtCore.Qt.MouseButton.LeftButton)
+    assert window.video.navigator is None and "no stereo video" in window.hint.text()
+
+
+def test_a_video_chosen_while_the_first_pair_is_still_read_stays_shown(qtbot, make_window, sample_copy):
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory)  # its first image pair is read in a worker ...
+    assert window.video.open_video("video")  # ... and the video is asked for meanwhile
+    qtbot.waitUntil(lambda: not window.busy and window.workspace.video_frame is not None, timeout=20000)
+    for _ in range(5):
+        QtWidgets.QApplication.processEvents()
+    assert window.workspace.video_frame[0] == "video" and window.video.navigator is not None
+
+
+def test_the_pane_titles_keep_the_video_frame_when_the_pair_is_shown_again(qtbot, make_window, sample_copy):
+    """Making a calibration active shows the pair again (Workspace.reshow_pair): the titles came from the
+    video controller only when it showed a frame, so they turned into "Left — video (640 × 480 px)"."""
+    window = make_window()
+    assert window.open_path(sample_copy("rov_flatport"), "video")
+    _wait_frame(qtbot, window, 0)
+    window.video.request(4)
+    _wait_frame(qtbot, window, 4)
+    titles = [window.panes[side].title.text() for side in ("left", "right")]
+    assert titles == ["Left — video, frame 4  00:00.400", "Right — video, frame 7  00:00.400"]
+    window.workspace.reshow_pair()  # what making a calibration active does
+    assert [window.panes[side].title.text() for side in ("left", "right")] == titles
+    window.load_pair("measure1")
+    qtbot.waitUntil(lambda: window.workspace.pair == "measure1" and not window.busy, timeout=10000)
+    assert window.panes["left"].title.text() == "Left — measure1  (640 × 480 px)"
+
+
+def test_seek_proxies_declined_are_not_offered_again_after_another_project(qtbot, make_window, tmp_path):
+    """No is kept for the session: coming back from another project asked again (and the question took
+    the frame typed after Ctrl+G)."""
+    from shiboken6 import isValid
+
+    from usvips.store import Project
+
+    def asked() -> bool:
+        return video.question is not None and isValid(video.question) and video.question.isVisible()
+
+    for side, base in (("left", 0), ("right", 1000)):
+        encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(12)], 25, "h264", gop=12)
+    window = make_window()
+    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    video = window.video
+    qtbot.waitUntil(asked, timeout=20000)
+    video.question.button(QtWidgets.QMessageBox.StandardButton.No).click()
+    qtbot.waitUntil(lambda: not asked(), timeout=5000)
+    other = tmp_path / "other.usvips"
+    Project.create(other).close()
+    assert window.open_path(other)
+    assert window.open_path(tmp_path / "mine.usvips") and video.navigator is not None
+    _wait_frame(qtbot, window, 0)
+    for _ in range(5):
+        QtWidgets.QApplication.processEvents()
+    assert not asked() and video._proxy_worker is None

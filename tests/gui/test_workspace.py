@@ -223,6 +223,41 @@ def test_undo_and_redo_every_step(workspace):
     assert restored.attribute == "fish" and len(restored.vertices) == 2
 
 
+def test_an_object_stored_on_one_pair_is_undone_and_redone_from_another(workspace):
+    from usvips.core.enhance import Pipeline
+
+    ws, directory = workspace("tank_system1", "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    ws.set_tool("line")
+    for point in ("snout", "fork"):
+        ws.pick("left", left["fish1"][point])
+        ws.pick("right", right["fish1"][point])
+    object_id = ws.finish_object("fish")
+    ws.set_pipelines({"left": Pipeline().then("equalize")})  # a step on measure1's images
+    ws.set_pair("water1", *load_pair_images(ws.project, "water1"))  # Page Down
+    assert ws.undo.undo_label == "store length"  # the picks and measure1's enhancement are gone with its images
+    w_left, _ = truth_pixels(directory, "water1", "targets")
+    ws.pick("left", next(iter(w_left.values())))  # something picked on water1 ...
+    picking = (ws.state, ws.digitising)
+    ws.undo.undo()
+    ws.undo.redo()  # ... is undone and redone like any other step
+    assert (ws.state, ws.digitising) == picking
+    assert ws.undo.undo() == "pick (left)"  # taken back: nothing is being picked on water1
+    picking = (ws.state, ws.digitising)
+    assert ws.undo.undo() == "store length"
+    assert object_id not in ws.cache and ws.project.objects() == []
+    assert (ws.state, ws.digitising) == picking  # measure1's vertices do not come back on water1
+    assert ws.enhancement.pipelines["left"].operations == ()  # water1's left image untouched
+    assert ws.undo.redo() == "store length"
+    assert object_id in ws.cache and [o.id for o in ws.project.objects()] == [object_id]
+    assert (ws.state, ws.digitising) == picking
+    ws.undo.undo()  # back on measure1, its vertices come back to be finished
+    ws.set_pair("measure1", *load_pair_images(ws.project, "measure1"))
+    ws.undo.redo()
+    ws.undo.undo()
+    assert len(ws.digitising.vertices) == 2 and ws.digitising.kind == "line"
+
+
 def test_objects_need_their_vertices_and_pixels_must_be_inside(workspace):
     ws, directory = workspace("tank_system1", "measure1")
     ws.set_tool("polygon")
@@ -657,7 +692,34 @@ def test_a_view_asks_for_an_object_through_the_model_and_the_others_hear_it(tmp_
     heard, said = [], []
     ws.object_requested.connect(heard.append)
     ws.message.connect(lambda level, text: said.append((level, text)))
-    ws.request_object(object_id)
-    ws.request_object(object_id + 1)  # not stored: said, not announced
+    assert ws.request_object(object_id)
+    assert not ws.request_object(object_id + 1)  # not stored: said, not announced
     assert heard == [object_id] and said == [("warning", f"object {object_id + 1} is no longer in the project")]
+    assert ws.selection == (object_id,)  # the object asked for is selected
+    ws.close_project()
+
+
+def test_an_object_on_another_pair_is_not_gone_to_while_one_is_being_digitised(tmp_path):
+    from usvips.store.project import Vertex
+
+    project = Project.create(tmp_path / "p.usvips")
+    project.add_pair("a", None, None)
+    project.add_pair("b", None, None)
+    on_b = project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0, pair="b")], "cod")
+    on_a = project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0, pair="a")], "cod")
+    ws = Workspace()
+    ws.open_project(project)
+    ws.pair = "a"  # shown (no images needed for the decision)
+    being_digitised = ws.pick_tool.digitising
+    ws.pick_tool.digitising = replace(being_digitised, vertices=(object(),))  # one vertex measured on pair a
+    heard, said = [], []
+    ws.object_requested.connect(heard.append)
+    ws.message.connect(lambda level, text: said.append((level, text)))
+    assert not ws.request_object(on_b)
+    assert heard == [] and ws.selection == () and "finish (Ctrl+Enter) or cancel" in said[-1][1]
+    assert ws.request_object(on_a)  # on the pair shown: nothing is left
+    assert heard == [on_a] and ws.selection == (on_a,)
+    ws.pick_tool.digitising = being_digitised
+    assert ws.request_object(on_b)  # nothing being digitised: away to pair b
+    assert heard == [on_a, on_b] and ws.selection == (on_b,)
     ws.close_project()

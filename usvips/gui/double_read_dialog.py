@@ -15,7 +15,6 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.app.double_read import COLUMNS, DoubleReadReport, ReportCancelled, annotators, compute, read_inputs
 from usvips.core.errors import UsvipsError
-from usvips.gui.qa_dock import go_to_object
 from usvips.gui.worker import Cancelled, Worker, start
 from usvips.io.double_read_table import write_double_read_csv
 
@@ -234,7 +233,7 @@ class DoubleReadDialog(QtWidgets.QDialog):
         row = self.report_row(table_row)
         object_id = None if row is None else self.object_of_row(row)
         if object_id is not None:
-            go_to_object(self.window_, object_id)
+            self.window_.workspace.request_object(object_id)  # the views go to it (the model's event)
 
     def save_csv(self, path: str | None = None) -> bool:
         """Write the report's table (every row, the statistics as comment lines) to a CSV file."""

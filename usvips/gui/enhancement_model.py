@@ -56,7 +56,7 @@ class Enhancement:
         if all(before[side] == changes[side] for side in changes):
             return
         label = "enhancement (" + " and ".join(changes) + ")"
-        self.undo.push(Command(label, lambda: self._apply(changes), lambda: self._apply(before)))
+        self.undo.push(Command(label, lambda: self._apply(changes), lambda: self._apply(before), pair_bound=True))
 
     def _apply(self, pipelines: dict[str, Pipeline]) -> None:
         for side, pipeline in pipelines.items():

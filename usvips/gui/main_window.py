@@ -17,7 +17,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.gui import exchange_dialogs, media_dialogs, qa_dock
+from usvips.gui import exchange_dialogs, media_dialogs, menu_keys
 from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
@@ -35,6 +35,7 @@ from usvips.gui.qa_dock import QaDock
 from usvips.gui.review_dock import ReviewDock
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
+from usvips.gui.video_model import format_timecode
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
@@ -70,6 +71,14 @@ def luminance_histogram(image: np.ndarray) -> np.ndarray:
     return cv2.calcHist([grey], [0], None, [256], [0, top]).ravel()
 
 
+def pane_title(side: str, pair: str, shape: tuple, video_frame: tuple | None) -> str:
+    """A pane's title: the image pair and its size, or the video and this side's frame with its time."""
+    if video_frame is None:
+        return f"{side.capitalize()} — {pair}  ({shape[1]} × {shape[0]} px)"
+    video, left, right, time_s = video_frame
+    return f"{side.capitalize()} — {video}, frame {left if side == 'left' else right}  {format_timecode(time_s)}"
+
+
 class MainWindow(QtWidgets.QMainWindow):
     def __init__(self, workspace: Workspace | None = None, settings: QtCore.QSettings | None = None) -> None:
         super().__init__()
@@ -84,6 +93,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.workers: set[Worker] = set()
         self._display_tokens = dict.fromkeys(SIDES, 0)
         self._pair_worker: Worker | None = None
+        self._front_before_observation: QtWidgets.QDockWidget | None = None  # raised again after a record
+        self._centre_pending = None  # centres the panes on an object asked for once its pair is shown
         self.selection: list[int] = []
         self.panes = {side: StereoPane(side) for side in SIDES}
         self.splitter = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
@@ -117,7 +128,7 @@ class MainWindow(QtWidgets.QMainWindow):
         # issue 25: tracks drawn on the panes and the timeline, instants stored and listed
         self.tracking = TrackController(self)
         self.instants_view = InstantsView(self.workspace, self)
-        self.instants_view.frame_requested.connect(self.video.go_to_object)
+        self.instants_view.frame_requested.connect(self.workspace.request_object)  # the video hears the model
         table = self.object_list.table
         table.addAction(self.actions["instants_of_listed"])  # in the list's context menu (object_list._context_menu)
         self.video.dock_widget.setEnabled(False)
@@ -131,6 +142,8 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.enhancement_changed.connect(self._on_enhancement_changed)
         ws.message.connect(self.show_message)
         ws.undo.changed.connect(self._on_undo_changed)
+        # an open menu keeps its letters from the image keys (X11: Alt+F, I listed the instants)
+        self.menu_keys = menu_keys.install(self, [pane.graphics for pane in self.panes.values()])
         self._restore_layout()
         self.video.videos_changed(None)  # no project, no videos: the Video dock comes with a project that has them
         self._on_undo_changed()
@@ -169,11 +182,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.planner = PlannerDock(ws, self.pool, self.workers)
         self.qa = QaDock(ws)  # the survey's QA list (issue 25)
         self.docks["qa"] = self._dock("QA", self.qa, bottom)
-        self.qa.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
+        self.qa.object_chosen.connect(ws.request_object)  # the video or the pair shown, by the model's event
         self.docks["qa"].visibilityChanged.connect(self.qa.on_shown)  # checked when its tab comes to the front
         self.review = ReviewDock(ws)  # review mode: the unreviewed objects walked with the keyboard (issue 26)
         self.docks["review"] = self._dock("Review", self.review, bottom)
-        self.review.object_chosen.connect(lambda object_id: qa_dock.go_to_object(self, object_id))
+        self.review.object_chosen.connect(self.workspace.request_object)  # the views go to it (the model's event)
         self.review.reviewed.connect(self.object_list.show_review)
         self.review.review_read.connect(self.object_list.show_review)  # someone else's review, read again
         self.review.history_requested.connect(self.object_list.show_history)
@@ -188,8 +201,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.docks["objects"].raise_()
         self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
         self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
-        self.object_list.zoom_requested.connect(self.zoom_to_object)
-        self.observation.finished.connect(self.focus_images)
+        ws.object_requested.connect(self._on_object_requested)  # an object on an image pair: that pair, centred
+        self.observation.finished.connect(self._on_observation_finished)
         ws.stored.connect(self._on_stored)
 
     def _build_status_bar(self) -> None:
@@ -471,8 +484,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.settings.setValue("window/splitter", self.splitter.saveState())
         for name in ("link", "snap", "auto_match", "loupe"):
             self.settings.setValue(f"view/{name}", self.actions[name].isChecked())
-        if self.workspace.project is not None and self.workspace.pair:
-            self.settings.setValue(f"pair/{self.workspace.project.path}", self.workspace.pair)
         self.settings.sync()
 
     def recent_projects(self) -> list[str]:
@@ -620,6 +631,11 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_message("error", f"{project.path.name} has no image pair {pair!r}; pairs: {', '.join(labels)}")
             pair = None
         last = self.settings.value(f"pair/{project.path}")
+        if pair is None and last in videos and self.video.open_video(last):  # back where the user was
+            frame = self.settings.value(f"frame/{project.path}", -1, type=int)
+            if frame >= 0:
+                self.video.request(frame)
+            return True
         self.load_pair(pair or (last if last in labels else labels[0]))
         return True
 
@@ -696,8 +712,13 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_stored(self, object_id: int) -> None:
         """After a measurement: the observation form, if the user wants it, takes the keyboard."""
         if self.observation.ask.isChecked():
-            self.docks["observation"].show()
-            self.docks["observation"].raise_()
+            dock = self.docks["observation"]
+            # the panel in front of it (the object list, showing the new length) comes back when it is done
+            group = [d for d in (dock, *self.tabifiedDockWidgets(dock)) if d.isVisible()]
+            front = [d for d in group if not d.visibleRegion().isEmpty()]
+            self._front_before_observation = front[0] if front and front[0] is not dock else None
+            dock.show()
+            dock.raise_()
             self.observation.begin(object_id)
         else:
             self.observation.load(object_id)
@@ -737,9 +758,15 @@ class MainWindow(QtWidgets.QMainWindow):
             if worker is self._pair_worker:  # a pair chosen later wins over one still loading
                 self.workspace.set_pair(label, *images)
 
+        self.forget_pair_loading()
+        worker = self._pair_worker = self.run_worker(job, f"reading pair {label}", show)
+
+    def forget_pair_loading(self) -> None:
+        """A pair still being read is no longer wanted (another pair, or a video's frames, were asked for
+        since): it is not shown when it arrives."""
         if self._pair_worker is not None:
             self._pair_worker.cancel()
-        worker = self._pair_worker = self.run_worker(job, f"reading pair {label}", show)
+            self._pair_worker = None
 
     # ------------------------------------------------------------------ workers
     @property
@@ -798,12 +825,18 @@ class MainWindow(QtWidgets.QMainWindow):
             box.clear()
             box.addItems(labels)
         shown = self.workspace.pair
-        box.setPlaceholderText("(video)" if shown is not None and shown not in labels else "")
+        placeholder = "(video)" if shown is not None and shown not in labels else ""
+        if placeholder != box.placeholderText():
+            box.setPlaceholderText(placeholder)
+            box.update()  # Qt repaints nothing when an empty box's placeholder is cleared: "(video)" stayed
         box.setCurrentIndex(labels.index(shown) if shown in labels else -1)
 
     def _on_pair_changed(self) -> None:
         ws = self.workspace
         self.refresh_pair_box()  # the box follows the model (a video's frames or an image pair)
+        if ws.project is not None and ws.pair is not None:  # where to come back to in this project
+            self.settings.setValue(f"pair/{ws.project.path}", ws.pair)
+            self.settings.setValue(f"frame/{ws.project.path}", -1 if ws.video_frame is None else ws.video_frame[1])
         if ws.pair is None:  # no pair shown (another project): nothing of the last one stays on the panes
             for side in SIDES:
                 self.panes[side].title.setText(side.capitalize())
@@ -811,8 +844,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.pixel_label.setText("")
             return
         for side in SIDES:
-            self.panes[side].title.setText(f"{side.capitalize()} — {ws.pair}  "
-                                           f"({ws.images[side].shape[1]} × {ws.images[side].shape[0]} px)")
+            self.panes[side].title.setText(pane_title(side, ws.pair, ws.images[side].shape, ws.video_frame))
             self._refresh_display(side)
         self._draw_control()
         if not isinstance(QtWidgets.QApplication.focusWidget(), (QtWidgets.QLineEdit, QtWidgets.QAbstractItemView)):
@@ -993,6 +1025,14 @@ class MainWindow(QtWidgets.QMainWindow):
                                   "the next objects are stored without an attribute")
         self.focus_images()
 
+    def _on_observation_finished(self) -> None:
+        """The record stored or skipped: the panel it was raised over is in front again, the images have
+        the keyboard."""
+        front, self._front_before_observation = self._front_before_observation, None
+        if front is not None:
+            front.raise_()
+        self.focus_images()
+
     def focus_images(self, side: str = "left") -> None:
         """Give the keyboard to an image pane (Enter, Esc, nudging and Page Up/Down then work)."""
         self.panes[side].graphics.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
@@ -1118,9 +1158,38 @@ class MainWindow(QtWidgets.QMainWindow):
         self.show_message("info", f"annotating as {self.annotator}")
         return True
 
+    def _on_object_requested(self, object_id: int) -> None:
+        """A view asked for a stored object (``Workspace.request_object``, which selected it): the panes
+        are centred on it once its pair or video frame is shown — an image pair is read here, a video's
+        frame is the video controller's to show."""
+        ws = self.workspace
+        where = ws.place_of(object_id)
+        if self._centre_pending is not None:  # an earlier request still waiting: this one wins
+            ws.pair_changed.disconnect(self._centre_pending)
+            self._centre_pending = None
+        if where is None:
+            return
+        if where == ws.place():
+            self.zoom_to_object(object_id)
+            return
+        pair, frame = where
+
+        def centre_when_shown() -> None:  # on the pair (or frame) shown next; a video's frames on the way wait
+            if ws.place() == where or frame is None or ws.pair != pair:
+                ws.pair_changed.disconnect(centre_when_shown)
+                self._centre_pending = None
+                if ws.place() == where and object_id in ws.cache:
+                    self.zoom_to_object(object_id)
+
+        self._centre_pending = centre_when_shown
+        ws.pair_changed.connect(centre_when_shown)
+        if frame is None:
+            self.load_pair(pair)
+
     def zoom_to_object(self, object_id: int) -> None:
         stored = self.workspace.stored_object(object_id)
-        vertices = [v for v in stored.vertices if v.pair == self.workspace.pair]
+        here = self.workspace.place()
+        vertices = [v for v in stored.vertices if (v.pair, None if v.video is None else int(v.frame_left)) == here]
         if not vertices:
             self.show_message("warning", f"object {object_id} was measured on another pair")
             return

@@ -47,6 +47,7 @@ class ObservationForm(QtWidgets.QWidget):
         store = QtWidgets.QPushButton("Store (Enter)")
         store.clicked.connect(self.store)
         workspace.project_changed.connect(self._on_project_changed)
+        workspace.objects_removed.connect(self._on_objects_removed)  # its object undone or deleted: no longer shown
         self.status = QtWidgets.QLabel("")
         row = QtWidgets.QHBoxLayout()
         for label, widget in (("", self.target), ("Species", self.species), ("No.", self.number),
@@ -73,6 +74,14 @@ class ObservationForm(QtWidgets.QWidget):
         self._show(ObservationRecord())
         self.status.setText("")
         self.refresh_species()
+
+    def _on_objects_removed(self, ids) -> None:
+        """The object shown is gone (its store undone, or deleted): the form names no object."""
+        if self.object_id is not None and self.object_id in ids:
+            self.status.setText(f"object {self.object_id} is no longer in the project")
+            self.object_id = None
+            self.target.setText("no object")
+            self._show(ObservationRecord())
 
     def refresh_species(self) -> None:
         """Reload the type-ahead list from the open project."""

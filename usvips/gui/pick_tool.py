@@ -227,7 +227,12 @@ class PickTool:
         before = self._snapshot()
         apply()
         after = self._snapshot()
-        self.scene.undo.push(Command(label, lambda: self._restore(after), lambda: self._restore(before)))
+        self.scene.undo.push(Command(label, lambda: self._restore(after), lambda: self._restore(before),
+                                     pair_bound=True))
+
+    def _where(self) -> tuple:
+        """Where picks are made now: the pair shown and, on a video, its frame pair."""
+        return self.scene.pair, self.scene.video_frame
 
     def _set_state(self, state: PickState) -> None:
         self.state = state
@@ -480,6 +485,7 @@ class PickTool:
         stored = self._vertices_for_store(vertices)
         holder: dict = {"id": None, "rows": None}
         before = self._snapshot()
+        where = self._where()
 
         def store() -> None:
             first = holder["rows"] is None
@@ -489,10 +495,11 @@ class PickTool:
                     project.add_term(attribute)
             else:  # redo: the very object (id, record, times) that undo took away
                 project.put_back(holder["rows"])
-            self.digitising = Digitising(self.digitising.kind)
-            self.state = PickState()
-            if last is not None:
-                self.last_point = last
+            if self._where() == where:  # elsewhere, what is being picked there is not this object's
+                self.digitising = Digitising(self.digitising.kind)
+                self.state = PickState()
+                if last is not None:
+                    self.last_point = last
             self.scene.objects_changed_in_store(added=(holder["id"],))
             self.events.picks_changed.emit()
             if first:
@@ -500,7 +507,8 @@ class PickTool:
 
         def unstore() -> None:
             holder["rows"] = project.take_object(holder["id"])
-            self._restore(before)
+            if self._where() == where:  # its vertices come back to be finished only where they were picked
+                self._restore(before)
             self.scene.objects_changed_in_store(removed=(holder["id"],))
 
         self.scene.undo.push(Command(f"store {kind}", store, unstore))

@@ -50,7 +50,7 @@ class QaTable(QtCore.QAbstractTableModel):
 
 class QaDock(QtWidgets.QWidget):
     """The survey's QA list. ``object_chosen(object_id)``: a row clicked or Enter pressed on it (the
-    window goes to where the object was measured and selects it)."""
+    window hands it to ``Workspace.request_object``: selected, and the views that can show it go to it)."""
 
     object_chosen = QtCore.Signal(int)
     #: changes within this many ms are checked once (a burst of edits, an import)
@@ -178,30 +178,3 @@ class QaDock(QtWidgets.QWidget):
         if not self.view.currentIndex().isValid() and self.table_model.rows:
             self.view.setCurrentIndex(self.table_model.index(0, 0))
 
-
-def go_to_object(window, object_id: int) -> None:
-    """Show where ``object_id`` was measured in ``window`` (a MainWindow): its video frame, or its image
-    pair (read in a worker) centred on it, and select it."""
-    ws = window.workspace
-    if object_id not in ws.cache:
-        window.show_message("warning", f"object {object_id} is no longer in the project")
-        return
-    stored = ws.stored_object(object_id)
-    vertex = stored.vertices[0] if stored.vertices else None
-    if vertex is not None and vertex.video is not None:
-        window.video.go_to_object(object_id)
-    elif vertex is not None and vertex.pair is not None and vertex.pair != ws.pair:
-        if ws.digitising.vertices:
-            window.show_message("warning", f"object {object_id} is on pair {vertex.pair}: finish (Ctrl+Enter) or "
-                                           "cancel the object being digitised first")
-            return
-        def centre_when_shown() -> None:  # once, on the next pair shown: this one, read in the background
-            ws.pair_changed.disconnect(centre_when_shown)
-            if ws.pair == vertex.pair and object_id in ws.cache:
-                window.zoom_to_object(object_id)
-
-        ws.pair_changed.connect(centre_when_shown)
-        window.load_pair(vertex.pair)
-    elif vertex is not None and vertex.pair is not None:
-        window.zoom_to_object(object_id)
-    ws.select([object_id])

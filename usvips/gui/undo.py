@@ -1,6 +1,11 @@
 """Undo and redo, free of Qt: every pick and edit of the workstation is a :class:`Command` pushed on one
 :class:`UndoStack`. A command that changes the project restores exactly what it changed (the stored
-rows of an object, see :meth:`usvips.store.project.Project.object_rows`), never a look-alike."""
+rows of an object, see :meth:`usvips.store.project.Project.object_rows`), never a look-alike.
+
+Two scopes: a step on the project (store, edit, delete an object) stays undoable when another pair or
+video frame is shown; a step on what is shown (a pick, a nudge, the images' enhancement) is
+``pair_bound`` and forgotten then (:meth:`UndoStack.forget_pair_steps`): the picks are gone with their
+images, and an enhancement undone on other images would change those."""
 
 from __future__ import annotations
 
@@ -12,11 +17,13 @@ from usvips.gui.signals import Signal
 
 @dataclass
 class Command:
-    """One undoable step: ``redo`` does it (again), ``undo`` takes it back."""
+    """One undoable step: ``redo`` does it (again), ``undo`` takes it back. ``pair_bound``: a step on
+    the pair shown (forgotten when another is shown), not on the project."""
 
     label: str
     redo: Callable[[], None]
     undo: Callable[[], None]
+    pair_bound: bool = False
 
 
 class UndoStack:
@@ -54,6 +61,15 @@ class UndoStack:
         self._done.clear()
         self._undone.clear()
         self.changed.emit()
+
+    def forget_pair_steps(self) -> None:
+        """Another pair or video frame is shown: forget the steps bound to the one before (picks,
+        enhancement), keep those on the project (objects stored, edited, deleted) in their order."""
+        done = [c for c in self._done if not c.pair_bound]
+        undone = [c for c in self._undone if not c.pair_bound]
+        if (len(done), len(undone)) != (len(self._done), len(self._undone)):
+            self._done, self._undone = done, undone
+            self.changed.emit()
 
     @property
     def undo_label(self) -> str | None:

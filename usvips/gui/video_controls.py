@@ -85,7 +85,8 @@ class VideoDock(QtWidgets.QWidget):
         super().__init__(parent)
         self.setObjectName("video_controls")
         self.chooser = QtWidgets.QComboBox()
-        self.chooser.setToolTip("the stereo video shown")
+        self.chooser.setToolTip("the stereo video shown (choose one to show its frames)")
+        self.chooser.setPlaceholderText(NONE_SHOWN)  # no video shown: the box says so rather than name one
         self.chooser.setSizeAdjustPolicy(QtWidgets.QComboBox.SizeAdjustPolicy.AdjustToContents)
         self.timeline = Timeline()
         self.timeline.setToolTip("the frames; a tick marks a frame holding measurements")
@@ -165,6 +166,10 @@ class VideoDock(QtWidgets.QWidget):
             QtWidgets.QWidget.setTabOrder(first, second)
 
 
+#: the video chooser's text while no video is shown
+NONE_SHOWN = "choose…"
+
+
 class TakePairDialog(QtWidgets.QDialog):
     """The label and medium of an image pair taken from the video frames shown."""
 
@@ -219,7 +224,9 @@ class VideoController(QtCore.QObject):
         self._proxy_worker: Worker | None = None
         self._proxy_label: str | None = None
         self._proxy_progress = 0.0
-        self._proxies_deleted: set[str] = set()  # not rebuilt by themselves in this session
+        #: (project file, video) whose proxies were declined or deleted: not offered again in this session,
+        #: even after another project was open meanwhile
+        self._proxies_deleted: set[tuple[str, str]] = set()
         goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
         goto.activated.connect(self.focus_goto)
         for pane in window.panes.values():
@@ -228,6 +235,7 @@ class VideoController(QtCore.QObject):
         # an object asked for (the object list's double-click or Zoom to): the frame it was measured on
         window.workspace.object_requested.connect(self.go_to_object)
         window.workspace.project_changed.connect(self.project_opened)  # another project: new controls
+        window.workspace.pair_changed.connect(self._on_pair_changed)  # an image pair shown: the video is left
 
     def _connect(self, d: VideoDock) -> None:
         """Wire a dock's controls to this controller."""
@@ -262,7 +270,6 @@ class VideoController(QtCore.QObject):
         project's); called by the workspace's ``project_changed``."""
         self.close_video()
         self.cancel_proxies()
-        self._proxies_deleted.clear()
         # a new project gets new controls: nothing of the previous one (offset, frame, range, go-to text,
         # rate, marks) can stay on screen, by construction rather than by a list of fields to clear
         old, d = self.dock_widget, VideoDock()
@@ -282,6 +289,8 @@ class VideoController(QtCore.QObject):
         if [d.chooser.itemText(i) for i in range(d.chooser.count())] != labels:
             d.chooser.clear()
             d.chooser.addItems(labels)
+            shown = self.navigator.label if self.navigator is not None else None
+            d.chooser.setCurrentIndex(labels.index(shown) if shown in labels else -1)
         d.setEnabled(bool(labels))
         dock = getattr(self.window, "docks", {}).get("video")
         if dock is not None:  # shown for a project with videos (View › Video brings it back by hand)
@@ -292,6 +301,7 @@ class VideoController(QtCore.QObject):
         if project is None or not label:
             return False
         self.close_video()
+        self.window.forget_pair_loading()  # an image pair asked for before would replace the video's frames
         try:
             self.session = VideoSession(project, label)
         except UsvipsError as error:
@@ -310,12 +320,24 @@ class VideoController(QtCore.QObject):
                                  + (f"— {self.source.video['report']}" if self.source.video["report"] else ""))
         self.request(self.navigator.first)
         self._show_proxy_status()
-        if self.auto_proxies and label not in self._proxies_deleted:
+        if self.auto_proxies and self._proxy_key(label) not in self._proxies_deleted:
             self.build_proxies(automatic=True)
         return True
 
     def close_video(self) -> None:
+        """No video shown: its decoding stops, the dock names none (its frame, "—")."""
         self.set_playing(False)
+        d = self.dock_widget
+        d.chooser.setCurrentIndex(-1)
+        d.frame_label.setText("—")
+        for widget in (d.offset, d.timeline):  # nothing of the video left: its offset, position and go-to
+            widget.blockSignals(True)
+        d.offset.setValue(0)
+        d.timeline.setRange(0, 0)
+        d.timeline.marks = set()
+        for widget in (d.offset, d.timeline):
+            widget.blockSignals(False)
+        d.goto.clear()
         for worker in (self._request, self._prefetch):
             if worker is not None:
                 worker.cancel()
@@ -325,6 +347,32 @@ class VideoController(QtCore.QObject):
         if self.session is not None:
             self.session.close()
         self.session = None
+
+    def _on_pair_changed(self) -> None:
+        """The workspace shows another pair: an image pair (no video frame) leaves the video, so that the
+        arrows and Space on the panes no longer step a video that is not shown."""
+        if self.session is not None and self.window.workspace.video_frame is None:
+            self.close_video()
+
+    def _proxy_key(self, label: str) -> tuple[str, str]:
+        project = self.window.workspace.project
+        return str(project.path.resolve()) if project is not None else "", label
+
+    def _need_video(self) -> bool:
+        """A control that works on the video shown was used: with none shown, the one chosen — or the
+        project's only one — is opened first; with several and none chosen, the user is asked to choose
+        (the chooser gets the keyboard). True when a video is shown."""
+        if self.navigator is not None:
+            return True
+        d = self.dock_widget
+        label = d.chooser.currentText() or (d.chooser.itemText(0) if d.chooser.count() == 1 else "")
+        if label:
+            return self.open_video(label)
+        self.window.show_message("warning", "no video is shown: choose one in the Video box (Alt+D)"
+                                 if d.chooser.count() else "this project has no stereo video "
+                                 "(File › Add stereo video…)")
+        d.chooser.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
+        return False
 
     # ------------------------------------------------------------------ stepping
     def step(self, frames: int) -> None:
@@ -385,9 +433,6 @@ class VideoController(QtCore.QObject):
         d.timeline.blockSignals(False)
         d.frame_label.setText(f"left {frame} | right {partner}  {format_timecode(time_s)}  "
                               f"({nav.first}–{nav.last})" + ("  ●" if frame in nav.marks else ""))
-        for side, number in (("left", frame), ("right", partner)):
-            pane = self.window.panes[side]
-            pane.title.setText(f"{side.capitalize()} — {nav.label}, frame {number}  {format_timecode(time_s)}")
         self.shown.emit(frame)
         self._start_prefetch(frame)
 
@@ -415,6 +460,8 @@ class VideoController(QtCore.QObject):
     # ------------------------------------------------------------------ controls
     def set_playing(self, on: bool) -> None:
         d = self.dock_widget
+        if on and self.navigator is None and not self._need_video():
+            on = False  # nothing to play: the button says Play again
         if d.play.isChecked() != on:
             d.play.setChecked(on)
         d.play.setText("&Pause" if on else "&Play")
@@ -438,7 +485,7 @@ class VideoController(QtCore.QObject):
         self.request(value)
 
     def _on_goto(self) -> None:
-        if self.navigator is None:
+        if not self._need_video():
             return
         try:
             frame = parse_position(self.dock_widget.goto.text(), self.navigator.fps, self.source.times_s)
@@ -465,7 +512,7 @@ class VideoController(QtCore.QObject):
                     "sound (audio)": "audio", "images (needs the rig's calibration)": "image"}
 
     def _on_sync(self) -> None:
-        if self.navigator is None:
+        if not self._need_video():
             return
         choice, ok = QtWidgets.QInputDialog.getItem(self.dock_widget, "Synchronise", "Estimate the offset from:",
                                                     list(self.SYNC_METHODS), 0, False)
@@ -530,9 +577,14 @@ class VideoController(QtCore.QObject):
         self.question = box
 
     def _on_offset(self) -> None:
-        nav = self.navigator
         value = self.dock_widget.offset.value()
-        if nav is None or value == nav.offset:
+        if self.navigator is None and value == 0:
+            return  # the box emptied (another project), not an offset typed
+        if not self._need_video():
+            self.dock_widget.offset.setValue(0)
+            return
+        nav = self.navigator
+        if value == nav.offset:
             return
         self._store_offset(value, {"method": "by hand"})
 
@@ -557,9 +609,9 @@ class VideoController(QtCore.QObject):
         self.request(frame)
 
     def _on_period(self) -> None:
-        nav = self.navigator
-        if nav is None:
+        if not self._need_video():
             return
+        nav = self.navigator
         text, ok = QtWidgets.QInputDialog.getText(self.dock_widget, "Mark period", "Name, first and last left frame:",
                                                   text=f"period {nav.frame} {nav.last}")
         if ok:
@@ -578,9 +630,9 @@ class VideoController(QtCore.QObject):
         return True
 
     def _on_take_pair(self) -> None:
-        nav = self.navigator
-        if nav is None:
+        if not self._need_video():
             return
+        nav = self.navigator
         dialog = TakePairDialog(f"{nav.label}-{nav.frame}", self.dock_widget)
         if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted:
             self.take_pair(dialog.label.text(), dialog.medium.currentData())
@@ -666,7 +718,7 @@ class VideoController(QtCore.QObject):
                         "builds or deletes them later.)")
 
             def declined() -> None:
-                self._proxies_deleted.add(label)
+                self._proxies_deleted.add(self._proxy_key(label))
                 self.window.show_message("info", f"no seek proxies for {label}: the dock's Seek proxy button builds "
                                                  "them when wanted")
 
@@ -729,7 +781,7 @@ class VideoController(QtCore.QObject):
             return 0
         if self._proxy_label == nav.label:
             self.cancel_proxies()
-        self._proxies_deleted.add(nav.label)
+        self._proxies_deleted.add(self._proxy_key(nav.label))
         if self.source is not None:
             self.source.detach_proxies()
         try:
@@ -766,14 +818,17 @@ class VideoController(QtCore.QObject):
         self.proxy_pool.waitForDone(10000)
 
     def focus_goto(self) -> None:
-        """Ctrl+G: type a frame, seconds or a time code into the go-to field."""
-        if self.navigator is not None:
+        """Ctrl+G: type a frame, seconds or a time code into the go-to field (the video chosen is opened
+        first when none is shown)."""
+        if self._need_video():
             self.dock_widget.goto.setFocus(QtCore.Qt.FocusReason.ShortcutFocusReason)
             self.dock_widget.goto.selectAll()
 
     def go_to_object(self, object_id: int) -> None:
-        project = self.window.workspace.project
-        where = video_frame_of(project.object(object_id)) if project is not None else None
+        """The model's ``object_requested``: an object measured on a video is shown on its frame (opening
+        its video if another is open); others are the window's."""
+        ws = self.window.workspace
+        where = video_frame_of(ws.stored_object(object_id)) if object_id in ws.cache else None
         if where is None:
             return
         video, frame = where

@@ -90,7 +90,8 @@ class Workspace:
       forget what they showed of the previous one), after the events above have said what is gone;
     - ``selection_changed(ids)``; ``rules_changed(rules)`` (the quality rules: every figure's verdict);
     - ``object_requested(object_id)``: a view asked to be shown an object (the object list's double-click
-      or Zoom to); the views that can show it (the video goes to its frame) listen — never to each other;
+      or Zoom to, a QA row, an instant); the views that can show it listen (the video goes to its frame,
+      the window to its pair) — never to each other;
     - ``message(level, text)`` with level ``info``, ``warning`` or ``error``, ``observed(left, right)``
       when the observe tool has both picks of a point, ``stored(object_id)`` after a new object.
 
@@ -209,7 +210,7 @@ class Workspace:
             self.message.emit("error", f"the calibration of pair {label!r} cannot be used: {error}")
         self.enhancement.load(self.project, {side: self.image_key(side) for side in SIDES})
         self.pick_tool.reset()
-        self.undo.clear()
+        self.undo.forget_pair_steps()  # the picks and enhancement steps go with their images; object steps stay
         self.pair_changed.emit()
         if not another_pair:
             return  # the next frame of a video, or the pair shown again: its frame rule was said
@@ -429,13 +430,38 @@ class Workspace:
             self.selection = selection
             self.selection_changed.emit(selection)
 
-    def request_object(self, object_id: int) -> None:
-        """Ask the views to show a stored object (announced as ``object_requested``; an id not stored is
-        said, not announced)."""
-        if int(object_id) not in self.cache:
+    def request_object(self, object_id: int) -> bool:
+        """Ask the views to show a stored object, selected: it is selected, then announced as
+        ``object_requested`` (the video goes to its frame, the window to its pair, centred on it). Said,
+        not announced (False): an id not stored, or an object on another image pair while one is being
+        digitised here (finish or cancel that first: going away would leave it half measured)."""
+        object_id = int(object_id)
+        if object_id not in self.cache:
             self.message.emit("warning", f"object {object_id} is no longer in the project")
-            return
-        self.object_requested.emit(int(object_id))
+            return False
+        where = self.place_of(object_id)
+        if where is not None and where != self.place() and self.digitising.vertices:
+            pair, frame = where
+            shown = f"pair {pair}" if frame is None else f"video {pair} frame {frame}"
+            self.message.emit("warning", f"object {object_id} is on {shown}: finish (Ctrl+Enter) or cancel "
+                                         "the object being digitised first")
+            return False
+        self.select([object_id])
+        self.object_requested.emit(object_id)
+        return True
+
+    def place(self) -> tuple[str | None, int | None]:
+        """Where picks are made now: (the pair shown, the left frame when it is a video's frame pair)."""
+        return self.pair, None if self.video_frame is None else int(self.video_frame[1])
+
+    def place_of(self, object_id: int) -> tuple[str, int | None] | None:
+        """Where a stored object was measured, as :meth:`place` says it (its first vertex: the pair — a
+        video's label for a video — and the left frame on a video); None for an object without one."""
+        stored = self.stored_object(object_id)
+        first = stored.vertices[0] if stored.vertices else None
+        if first is None or first.pair is None:
+            return None
+        return first.pair, None if first.video is None else int(first.frame_left)
 
     def set_rules(self, rules: QualityRules) -> None:
         """New quality rules: every object's verdict may change (its figures are computed again)."""
