@@ -295,7 +295,12 @@ def _read_file(path: Path) -> dict[str, object]:
             raise InputFileError(str(path), "an OpenCV FileStorage file holds named entries at its top level; "
                                             "this one does not")
         out = {}
-        for key in root.keys():
+        try:
+            keys = root.keys()
+        except UnicodeDecodeError:  # a name with bytes that are not UTF-8 (OpenCV hands them over undecoded)
+            raise InputFileError(str(path), "an entry's name is not UTF-8 text: the file is damaged or not an "
+                                            "OpenCV calibration") from None
+        for key in keys:
             try:
                 value = _node_value(storage.getNode(key))
             except ValueError as error:
