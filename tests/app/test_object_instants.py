@@ -6,7 +6,7 @@ import csv
 import numpy as np
 import pytest
 
-from usvips.app.object_instants import add_instant, survey_objects
+from usvips.app.object_instants import add_instant, has_tracked_instants, is_tracked, survey_objects
 from usvips.app.project_export import export_project
 from usvips.app.project_figures import (
     _pointing_only,
@@ -109,3 +109,38 @@ def test_instants_on_two_calibrations_are_refused_and_nothing_is_stored(tmp_path
         skipped = []
         assert export_project(project, tmp_path / "out.csv", skipped=skipped) == 0  # the point has no 3-D values
         assert f"object {a}: " in skipped[0] and "calibration" in skipped[0] and f"object {point}" in skipped[1]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_whether_instants_were_tracked_is_stored_and_editing_their_notes_leaves_the_combined_sigma(
+        tmp_path, calibration, seed):
+    """Tracked instants keep their common pointing error whole in the combined sigma; whether an instant
+    was tracked is the link's stored ``tracked_from`` (schema 10), so rewriting the notes — dropping
+    "tracked from frame N", or writing it on hand-picked instants — changes no figure."""
+    rng = np.random.default_rng(40 + seed)
+    with Project.create(tmp_path / "p.usvips") as project:
+        project.add_pair("dive")
+        calibration_id = project.add_calibration("cal", calibration_to_dict(calibration), ("dive",))
+        ids = _store_instants(project, calibration, calibration_id, [0.30] * int(rng.integers(3, 7)), rng)
+        start = int(rng.integers(0, 500))
+        for other in ids[1:]:
+            add_instant(project, ids[0], other, tracked_from=start)
+        assert is_tracked(project, ids[1]) and not is_tracked(project, ids[0])
+        assert has_tracked_instants(project, ids[0])
+
+        def sigma() -> float:
+            return evaluate(measurement_input(project, project.object(ids[0]))).main.sigma
+
+        tracked = sigma()
+        for instant in ids:
+            project.update_object(instant, notes=f"looked again {rng.random()}")
+        assert sigma() == tracked
+        for other in ids[1:]:  # the same instants linked as picked by hand …
+            project.remove_instant(other)
+            add_instant(project, ids[0], other)
+        assert not has_tracked_instants(project, ids[0]) and not is_tracked(project, ids[1])
+        by_hand = sigma()
+        assert by_hand < tracked  # … average their pointing errors out
+        for instant in ids:
+            project.update_object(instant, notes=f"tracked from frame {start}")  # the old marker, now only text
+        assert sigma() == by_hand

@@ -66,6 +66,7 @@ def test_tracked_vertices_become_instants_of_the_object_with_the_combined_length
         assert seen[0] == FRAMES - 1  # the frames asked for, clipped to the video
         ids = add_tracked_instants(project, object_id, tracks, [2, 10, 18], "drop")
         assert project.instants(object_id) == ids
+        assert project.instant_sources(object_id) == dict.fromkeys(ids, start)  # stored as tracked from there
         instant = project.object(ids[1])
         assert [(v.video, v.frame_left, v.frame_right) for v in instant.vertices] == [("drop", 10, 12)] * 2
         combined = evaluate(measurement_input(project, project.object(object_id)))

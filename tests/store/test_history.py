@@ -95,6 +95,7 @@ def _downgrade_to_7(url: str) -> None:
         raw.execute("DROP TABLE reviews; DROP TABLE history; DROP FUNCTION usvips_history_append_only();"
                     "ALTER TABLE vertices DROP COLUMN creator, DROP COLUMN created;"
                     "ALTER TABLE observation_records DROP COLUMN creator, DROP COLUMN created;"
+                    "ALTER TABLE object_instants DROP COLUMN tracked_from;"
                     "UPDATE meta SET value = '7' WHERE key = 'schema_version'")
 
 

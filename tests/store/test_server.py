@@ -64,7 +64,9 @@ def _fill(project, folder: Path, rng) -> None:
                                             for _ in project.object(ids[0]).vertices])  # history
     same = [i for i in ids[1:-1] if project.object(i).kind == kind]
     if same:
-        project.add_instant(ids[0], same[0])
+        project.add_instant(ids[0], same[0], tracked_from=int(rng.integers(0, 50)))  # schema 10: how it was made
+    if len(same) > 1:
+        project.add_instant(ids[0], same[1])  # picked by hand
     project.delete_object(ids[-2])
     project.set_species_list([Species("Gadidae", "Gadus", "morhua", "COD", float(rng.uniform(0.5, 2)))])
     project.set_record(ids[0], ObservationRecord("Gadidae", "Gadus", "morhua", "COD", 2, "adult", "", "x"))
@@ -108,6 +110,7 @@ def test_push_then_pull_gives_back_every_row_of_every_table(tmp_path, new_databa
             assert survey.pairs() == file.pairs() and survey.videos() == file.videos()
             assert [o.id for o in survey.objects()] == [o.id for o in file.objects()]
             assert survey.instant_links() == file.instant_links() and survey.deployments() == file.deployments()
+            assert survey.instant_sources() == file.instant_sources()
             assert survey.campaign() == file.campaign() is not None
     back = pull(url, tmp_path / "back.usvips")
     want, got = file_rows(original), file_rows(back)

@@ -227,6 +227,43 @@ def test_an_object_keeps_its_instants_and_links_that_would_chain_or_mix_kinds_ar
     store.add_instant(first, third)
     store.delete_object(first)  # its instants stay, as objects of their own
     assert store.instant_links() == {} and store.object(third).attribute == "cod"
+@pytest.mark.parametrize("seed", range(3))
+def test_how_an_instant_was_made_is_stored_with_its_link_and_no_notes_change_it(store, seed):
+    """Schema 10: ``tracked_from`` (the left frame a track started from; None: picked by hand) is what
+    add_instant was given, read back per object and for all, kept by delete and undo, in the history's
+    link rows; editing an instant's notes never changes it; a frame that is not a whole number >= 0 is
+    refused and nothing is stored."""
+    rng = np.random.default_rng(seed)
+    store.annotator = "ann"
+    first, tracked, picked, alone = (store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+                                     for _ in range(4))
+    start = int(rng.integers(0, 10_000))
+    for bad in (-1, 2.5, True, "3", np.float64(4.0)):
+        with pytest.raises(ProjectError, match="whole number"):
+            store.add_instant(first, tracked, tracked_from=bad)
+    assert store.instant_links() == {}
+    count = len(store.history())
+    store.add_instant(first, tracked, tracked_from=np.int64(start))
+    store.add_instant(first, picked)
+    sources = {tracked: start, picked: None}
+    assert store.instant_sources(first) == sources and store.instant_sources() == sources
+    assert store.instant_sources(tracked) == {} and store.instant_sources(alone) == {}
+    assert [(e.object_id, e.old, e.new) for e in store.history()[count:]] == [
+        (tracked, {"instant_of": None}, {"instant_of": first, "tracked_from": start}),
+        (picked, {"instant_of": None}, {"instant_of": first})]
+    store.update_object(tracked, notes="picked by hand after all")  # the notes say nothing of how it was made
+    store.update_object(picked, notes=f"tracked from frame {start + 1}")
+    assert store.instant_sources(first) == sources
+    store.put_back(store.take_object(tracked))  # deleting an instant and undoing it keeps how it was made
+    store.put_back(store.take_object(first))  # … and deleting the object (its links go with it) too
+    assert store.instant_sources() == sources and store.instant_links() == {tracked: first, picked: first}
+    count = len(store.history())
+    store.remove_instant(tracked)
+    assert [(e.object_id, e.old, e.new) for e in store.history()[count:]] == [
+        (tracked, {"instant_of": first, "tracked_from": start}, {"instant_of": None})]
+    assert store.instant_sources() == {picked: None}
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_an_object_taken_and_put_back_is_exactly_what_it_was(store, where, seed):
     rng = np.random.default_rng(seed)

@@ -19,11 +19,11 @@ An object measured on several instants (``ProjectStore.add_instant``) is read wi
 (:func:`usvips.core.measurements.instants.combine_measurements`: random effects, the calibration's part
 common to the instants kept whole), so the object list, the calculator and every export show the combined
 figure; each instant stays inspectable through :func:`instant_measurements`. Instants made by tracking
-(:func:`usvips.app.object_instants.is_tracked`) carry the pick they were tracked from, with its error, to
-every frame: their pointing errors are one error, which combining them cannot average out — it is kept
-whole in the combined sigma (``shared_pointing``); only the tracking noise and the object's own change
-between instants average out. (An object with tracked and hand-picked instants is treated so too:
-conservative for the hand-picked ones.)
+(stored with their link, ``MeasurementInput.tracked_from``; never read from their notes) carry the pick
+they were tracked from, with its error, to every frame: their pointing errors are one error, which
+combining them cannot average out — it is kept whole in the combined sigma (``shared_pointing``); only the
+tracking noise and the object's own change between instants average out. (An object with tracked and
+hand-picked instants is treated so too: conservative for the hand-picked ones.)
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from usvips.app.calibrations import read_calibration
-from usvips.app.object_instants import is_tracked
 from usvips.app.pair_geometry import pair_geometry
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
@@ -74,6 +73,9 @@ class MeasurementInput:
     where: str = ""
     calibration_id: int | None = None
     instants: tuple[MeasurementInput, ...] = ()
+    # how this further instant was made (``ProjectStore.instant_sources``): the left frame its track started
+    # from, None when picked by hand (or when this is the object itself)
+    tracked_from: int | None = None
 
 
 def stored_calibration(project: ProjectStore, calibration_id: int,
@@ -117,9 +119,12 @@ def measurement_input(project: ProjectStore, stored: StoredObject,
     cache = {} if cache is None else cache
     source = _one_instant(project, stored, cache)
     if with_instants:
-        further = project.instants(stored.id) if instants is None else instants.get(stored.id, [])
+        made = project.instant_sources(stored.id) if instants is None else None
+        further = list(made) if made is not None else instants.get(stored.id, [])
         if further:
-            instants = tuple(_one_instant(project, project.object(i), cache) for i in further)
+            made = project.instant_sources(stored.id) if made is None else made
+            instants = tuple(replace(_one_instant(project, project.object(i), cache), tracked_from=made.get(i))
+                             for i in further)
             source = replace(source, instants=instants)
     return source
 
@@ -165,7 +170,7 @@ def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Mea
         combined = combine_measurements(measured, [_pointing_only(i, m) for i, m in zip(everything, measured,
                                                                                            strict=True)],
                                         labels, [i.calibration_id for i in everything], rules,
-                                        shared_pointing=any(is_tracked(i.notes) for i in source.instants))
+                                        shared_pointing=any(i.tracked_from is not None for i in source.instants))
     except UsvipsError as error:
         raise UsvipsError(f"object {source.id}: {error}") from None
     return replace(combined, id=source.id, attribute=source.attribute, notes=source.notes)

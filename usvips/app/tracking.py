@@ -165,7 +165,7 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
     with project.transaction():
         ids = project.add_objects(rows)
         for instant_id in ids:
-            add_instant(project, object_id, instant_id)
+            add_instant(project, object_id, instant_id, tracked_from=tracks[0].start)
     return ids
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from usvips.app.object_instants import is_tracked
+from usvips.app.object_instants import has_tracked_instants
 from usvips.app.project_figures import evaluate, instant_measurements, instant_pointing, measurement_input
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules, kind
@@ -118,7 +118,7 @@ def object_instants(project: ProjectStore, object_id: int, rules: QualityRules |
                                vertex.pair if vertex is not None else None, measurement.figures[main],
                                float(weights[k]), float(residuals[k]), k in outliers))
     return ObjectInstants(object_id, stored.kind, tuple(rows), combined,
-                          any(is_tracked(i.notes) for i in everything[1:]))
+                          has_tracked_instants(project, object_id))
 
 
 def _main_index(figures, kind_name: str) -> int:

@@ -276,7 +276,8 @@ class ProjectStore(Protocol):
         """The append-only history of changes (of one object when ``object_id`` is given, also after it
         was deleted), oldest first: one :class:`~usvips.store.records.HistoryEntry` per write — "add",
         "edit" (kind, attribute, notes: old and new of the fields given; or ``instant_of``: an instant
-        linked to or unlinked from an object, :meth:`add_instant` / :meth:`remove_instant`), "re-pick"
+        linked to or unlinked from an object, :meth:`add_instant` / :meth:`remove_instant`, with
+        ``tracked_from`` when it was tracked), "re-pick"
         (vertices replaced),
         "delete", "put back" (an undo), "record" (observation record set or removed), "review" (review state
         set: ``{"state", "reason", "reviewer"}`` before and after). Rows are never
@@ -304,11 +305,14 @@ class ProjectStore(Protocol):
         ...
 
     # ------------------------------------------------------------------------ objects over several instants
-    def add_instant(self, object_id: int, instant_id: int) -> None:
+    def add_instant(self, object_id: int, instant_id: int, tracked_from: int | None = None) -> None:
         """Make the stored object ``instant_id`` (of the same kind) a further instant of ``object_id``: one
-        object measured on several instants, its first instant being itself. An unknown id, an object of
-        another kind, or a link that would chain instants (an instant of an instant, an object with
-        instants of its own becoming an instant) is a ``ProjectError``."""
+        object measured on several instants, its first instant being itself. ``tracked_from``: how the
+        instant was made — the left frame its track started from (its vertices carry that frame's picks,
+        :func:`usvips.app.tracking.add_tracked_instants`), None when picked by hand; stored with the link
+        (schema 10), kept by undo, push and pull, and in the history's link row. An unknown id, an object of
+        another kind, a frame that is not a whole number >= 0, or a link that would chain instants (an
+        instant of an instant, an object with instants of its own becoming an instant) is a ``ProjectError``."""
         ...
 
     def remove_instant(self, instant_id: int) -> None:
@@ -321,6 +325,12 @@ class ProjectStore(Protocol):
 
     def instant_links(self) -> dict[int, int]:
         """Every further instant's id → the id of the object it is an instant of."""
+        ...
+
+    def instant_sources(self, object_id: int | None = None) -> dict[int, int | None]:
+        """How each further instant was made: its id → the left frame its track started from, None when
+        picked by hand (what :meth:`add_instant` was given; never read from the notes); of ``object_id``, or
+        of every object's further instants when None."""
         ...
 
     # ------------------------------------------------------------------------ deployment and georeference

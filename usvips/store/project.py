@@ -36,6 +36,7 @@ import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from datetime import UTC, datetime, timedelta
+from numbers import Integral
 from pathlib import Path
 
 import numpy as np
@@ -206,6 +207,15 @@ def database_problem(error: sqlite3.Error) -> str:
 _OBJECT_TABLES = (("objects", "id"), ("vertices", "object_id"), ("vertex_frames", "object_id"),
                   ("vertex_history", "object_id"), ("observation_records", "object_id"),
                   ("object_instants", "object_id"), ("object_instants", "of_object"), ("reviews", "object_id"))
+
+
+def _link(object_id: int, tracked_from: int | None) -> dict:
+    """An instant's link as the history keeps it: the object it is an instant of, and the frame its track
+    started from when it was tracked (a hand-picked instant's link is ``{"instant_of": id}`` alone)."""
+    link: dict = {"instant_of": int(object_id)}
+    if tracked_from is not None:
+        link["tracked_from"] = int(tracked_from)
+    return link
 
 
 def _remove_database(path: Path) -> None:
@@ -896,9 +906,13 @@ class Project:
         return [StoredObject(*row, vertices=tuple(vertices.get(row[0], ()))) for row in rows]
 
     # ---------------------------------------------------------------------------- instants (schema 7)
-    def add_instant(self, object_id: int, instant_id: int) -> None:
+    def add_instant(self, object_id: int, instant_id: int, tracked_from: int | None = None) -> None:
         """Make the stored object ``instant_id`` a further instant of ``object_id`` (see
         :meth:`ProjectStore.add_instant`)."""
+        if tracked_from is not None and (isinstance(tracked_from, bool) or not isinstance(tracked_from, Integral)
+                                         or tracked_from < 0):
+            raise ProjectError(f"{self.path}: object {instant_id}: tracked from frame {tracked_from!r}; the frame a "
+                               "track started from is a whole number >= 0")
         with self.transaction():
             whole, instant = self.object(object_id), self.object(instant_id)
             if object_id == instant_id:
@@ -916,16 +930,19 @@ class Project:
             if any(of == instant_id for of in links.values()):
                 raise ProjectError(f"{self.path}: object {instant_id} has instants of its own; add them to "
                                    f"object {object_id} one by one")
-            self._edit("INSERT INTO object_instants (object_id, of_object) VALUES (?, ?)", (instant_id, object_id))
-            self._log(instant_id, "edit", {"instant_of": None}, {"instant_of": int(object_id)})
+            tracked = None if tracked_from is None else int(tracked_from)
+            self._edit("INSERT INTO object_instants (object_id, of_object, tracked_from) VALUES (?, ?, ?)",
+                       (instant_id, object_id, tracked))
+            self._log(instant_id, "edit", {"instant_of": None}, _link(object_id, tracked))
 
     def remove_instant(self, instant_id: int) -> None:
         """Unlink an instant: it stays, as an object of its own."""
         with self.transaction():
             of = self.instant_links().get(int(instant_id))
+            tracked = self.instant_sources(of).get(int(instant_id)) if of is not None else None
             if of is None or self._edit("DELETE FROM object_instants WHERE object_id = ?", (instant_id,)).rowcount == 0:
                 raise ProjectError(f"{self.path}: object {instant_id} is not an instant of another object")
-            self._log(instant_id, "edit", {"instant_of": int(of)}, {"instant_of": None})
+            self._log(instant_id, "edit", _link(of, tracked), {"instant_of": None})
 
     def instants(self, object_id: int) -> list[int]:
         """The ids of the further instants of ``object_id`` (its first instant is itself), by id."""
@@ -939,6 +956,19 @@ class Project:
         if not self._has_table("object_instants"):
             return {}
         return dict(self._query("SELECT object_id, of_object FROM object_instants ORDER BY object_id"))
+
+    def instant_sources(self, object_id: int | None = None) -> dict[int, int | None]:
+        """How each further instant was made (schema 10): its id → the left frame its track started from,
+        None when picked by hand; of ``object_id``, or of every object when None (one query)."""
+        if not self._has_table("object_instants"):
+            return {}
+        source = "i.tracked_from"
+        if self.version < 10:  # a read-only open of an older project: what its migration will store
+            source = ("CASE WHEN o.notes GLOB 'tracked from frame [0-9]*' THEN CAST(substr(o.notes, 20) AS INTEGER) "
+                      "END")
+        where, parameters = ("", ()) if object_id is None else ("WHERE i.of_object = ? ", (int(object_id),))
+        return dict(self._query(f"SELECT i.object_id, {source} FROM object_instants i LEFT JOIN objects o "
+                                f"ON o.id = i.object_id {where}ORDER BY i.object_id", parameters))
 
     def vertex_history(self, object_id: int) -> list[tuple]:
         return self._query("SELECT idx, x, y, z, calibration_id, replaced FROM vertex_history "

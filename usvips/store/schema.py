@@ -205,6 +205,18 @@ CREATE TRIGGER history_kept_whole BEFORE DELETE ON history
     BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never removed'); END;
 """
 MIGRATIONS[9] = VERSION_9
+
+# version 10: how each further instant was made, a stored fact rather than a reading of its notes: the left
+# frame its track started from (usvips.app.tracking.add_tracked_instants), NULL when picked by hand. The
+# instants of older projects that USVIPS tracked say so in their notes ("tracked from frame N",
+# usvips.app.object_instants.tracked_note), which is copied here once, so their combined sigma is unchanged
+VERSION_10 = """
+ALTER TABLE object_instants ADD COLUMN tracked_from INTEGER CHECK (tracked_from IS NULL OR tracked_from >= 0);
+UPDATE object_instants SET tracked_from = (SELECT CAST(substr(o.notes, 20) AS INTEGER) FROM objects o
+    WHERE o.id = object_instants.object_id)
+    WHERE object_id IN (SELECT id FROM objects WHERE notes GLOB 'tracked from frame [0-9]*');
+"""
+MIGRATIONS[10] = VERSION_10
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
