@@ -261,8 +261,8 @@ def test_an_implausible_baseline_says_which_unit_would_fit(tmp_path, t_value, un
 def test_bytes_that_are_not_utf8_in_a_name_or_a_value_are_one_line(tmp_path, where):
     """OpenCV hands a YAML entry's name and a string value over undecoded: a byte that is not UTF-8 there
     (a damaged copy) is refused by name, not an internal UnicodeDecodeError."""
-    text = ("%YAML 1.2\n---\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-            "   data: [ 810., 0., 641.5, 0., 798., 478.25, 0., 0., 1. ]\n").encode()
+    text = (b"%YAML 1.2\n---\nM1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+            b"   data: [ 810., 0., 641.5, 0., 798., 478.25, 0., 0., 1. ]\n")
     text += b"\x80M2: 1\n" if where == "name" else b"note: \"\x80\"\n"
     path = tmp_path / "stereo.yml"
     path.write_bytes(text)
