@@ -197,7 +197,7 @@ def test_bad_input_is_refused_in_one_line_and_nothing_is_stored(qtbot, make_wind
     qtbot.waitUntil(lambda: window.tracking.model.complete and not window.busy, timeout=30000)
     project = window.workspace.project
     assert window.tracking.store_instants("4, 22") == []
-    assert "frame 22: the track of vertex 0 does not reach it" in _status(window) and "no right partner" in \
+    assert "frame 22: the track of vertex 1 does not reach it" in _status(window) and "no right partner" in \
         _status(window)
     assert project.instants(object_id) == []
     assert window.tracking.store_instants("x") == [] and "'x' is not a whole number" in _status(window)
