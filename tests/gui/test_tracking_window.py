@@ -264,3 +264,34 @@ def test_shift_t_re_follows_a_vertex_from_the_point_re_picked_on_the_frame_shown
     assert "re-followed from frame 12" in _status(window)
     _, points = window.tracking.items["left"]
     assert sorted(p.symbol() for p in points.points()) == ["o", "star"]  # the corrected vertex drawn apart
+
+
+def test_an_instant_proposed_in_one_project_is_not_joined_in_the_next_one(qtbot, make_window, survey):
+    """P's vertices all taken, then another project opened (the unfinished object discarded): an object
+    measured there on the same frame stays an object of its own — the proposal was the previous project's
+    object (the same id is another object here)."""
+    path, object_id, fish, stereo = survey
+    window = _open(qtbot, make_window, path, object_id, frame=12)
+    ws = window.workspace
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
+    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    for _ in POINTS:
+        qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # Enter accepts
+    assert len(ws.digitising.vertices) == 2 and "new instant" in _status(window)
+    other = path.with_name(f"other_{path.name}")  # beside it: its video files found as in the first
+    shutil.copy(path, other)  # another survey whose object of that id is another fish
+    assert window.open_path(other, "drop")
+    window.video.request(12)
+    _wait_frame(qtbot, window, 12)
+    project = ws.project
+    ws.set_tool("line")
+    for point in POINTS:
+        left, right = truth(stereo, fish, 12, point * fish.length)
+        ws.pick("left", tuple(left))
+        ws.pick("right", tuple(right))
+        if ws.state.pending is not None:  # held by a guard rail: keep it
+            ws.accept_proposal()
+    new = ws.finish_object("fish", "")
+    qtbot.wait(50)  # a join is made after the store has finished (a zero-time timer)
+    assert project.instants(object_id) == [] and project.instant_links() == {}
+    assert new in ws.cache and "instant" not in _status(window)

@@ -68,6 +68,7 @@ class TrackController(QtCore.QObject):
         ws.stored.connect(self._on_stored)
         ws.picks_changed.connect(self._on_picks)
         ws.objects_reset.connect(self._on_reset)
+        ws.project_changed.connect(self._on_project)
         ws.objects_removed.connect(self._on_removed)
         window.video.shown.connect(self.draw)
 
@@ -111,6 +112,12 @@ class TrackController(QtCore.QObject):
         self.model.clear()
         self._last_stored, self._proposals = None, None
         self.draw()
+
+    def _on_project(self, *_: object) -> None:
+        """Another project: a proposal under way, or taken and waiting to be stored as an instant, was the
+        previous project's object (an object of the same id here is another one)."""
+        self._proposals, self._proposed, self._instant_of = None, -1, None
+        self._last_point, self._last_point_frame = None, None
 
     def _on_removed(self, ids) -> None:
         if self.model.object_id in set(ids):
