@@ -295,3 +295,28 @@ def test_an_instant_proposed_in_one_project_is_not_joined_in_the_next_one(qtbot,
     qtbot.wait(50)  # a join is made after the store has finished (a zero-time timer)
     assert project.instants(object_id) == [] and project.instant_links() == {}
     assert new in ws.cache and "instant" not in _status(window)
+
+
+def test_proposals_taken_then_undone_leave_the_next_object_measured_on_the_frame_its_own(qtbot, make_window, survey):
+    """P's vertices all taken, then undone (Ctrl+Z each): another fish measured by hand on the same frame is
+    not the proposed object's instant — only the vertices taken from the proposals are."""
+    path, object_id, fish, stereo = survey
+    window = _open(qtbot, make_window, path, object_id, frame=12)
+    ws = window.workspace
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
+    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    for _ in POINTS:
+        qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # Enter accepts
+    assert len(ws.digitising.vertices) == 2
+    while ws.digitising.vertices:
+        ws.undo.undo()
+    ws.set_tool("line")
+    for point in POINTS:  # another fish, 40 px away
+        left, right = truth(stereo, fish, 12, point * fish.length)
+        ws.pick("left", tuple(left + 40.0))
+        ws.pick("right", tuple(right + 40.0))
+        if ws.state.pending is not None:  # held by a guard rail: keep it
+            ws.accept_proposal()
+    new = ws.finish_object("another fish", "")
+    qtbot.wait(50)  # a join is made after the store has finished (a zero-time timer)
+    assert ws.project.instants(object_id) == [] and new in ws.cache
