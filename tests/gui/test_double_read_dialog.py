@@ -2,6 +2,8 @@
 menu) computes the report in a worker, lists a misread fork as a disagreement and an unread fish as
 unmatched, and a row goes to its object (A's, then B's on a second activation)."""
 
+import shutil
+
 from PySide6 import QtCore, QtWidgets
 
 from tests.gui.conftest import open_sample, truth_pixels
@@ -145,4 +147,36 @@ def test_the_table_sorts_by_column_and_rows_still_go_to_their_objects_and_the_to
     dialog.go_to_row(row_of_bob)
     dialog.go_to_row(row_of_bob)  # again: the other reader's object of the pair
     assert ws.selection == (bob,)
+    dialog.close()
+
+
+def test_another_project_opened_clears_the_report_and_its_readers(qtbot, make_window, sample_copy, tmp_path):
+    """The dialog is not modal: a project opened while it is up must not leave the previous project's rows
+    there (their object ids would go to the new project's objects of the same ids) nor its readers."""
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "measure1")
+    left, right = truth_pixels(directory, "measure1", "objects")
+    ws = window.workspace
+    name = sorted(left)[0]
+    for reader in ("ann", "bob"):
+        ws.project.annotator = reader
+        _measure(window, left, right, name)
+    dialog = double_read_dialog.show_double_read(window)
+    dialog.gate.setValue(0.5)
+    dialog.compare()
+    qtbot.waitUntil(lambda: dialog.report is not None, timeout=20000)
+    assert dialog.rows and dialog.save_button.isEnabled()
+    other = tmp_path / "other"
+    shutil.copytree(directory, other, ignore=shutil.ignore_patterns("project.usvips*"))
+    open_sample(qtbot, window, other, "measure1")
+    ws.project.annotator = "cy"
+    measured = _measure(window, left, right, name)  # an object of the new project, perhaps of the same id
+    assert dialog.report is None and dialog.rows == [] and dialog.table.rowCount() == 0
+    assert not dialog.save_button.isEnabled() and not dialog.save_csv(str(tmp_path / "stale.csv"))
+    assert [dialog.reader_a.itemText(i) for i in range(dialog.reader_a.count())] == []
+    assert not dialog.compare_button.isEnabled()
+    ws.select([measured])
+    dialog.go_to_row(0)  # nothing listed: nothing to go to
+    assert ws.selection == (measured,)
     dialog.close()

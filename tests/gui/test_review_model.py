@@ -206,3 +206,22 @@ def test_every_move_reads_the_new_objects_review_again_by_one_query_and_a_stale_
         assert model.accept().reviewer == "measurer"  # looked at again: kept
     project._db.set_trace_callback(None)
     project.close()
+
+
+def test_a_review_after_an_edit_undone_in_the_window_is_not_stale(tmp_path):
+    """An edit undone in the window puts the object's rows back as they were, its older version stamp too
+    (``put_back``): the version handed over then is the object as stored, and a review of it is made, not
+    refused as if someone else had changed it."""
+    rng = np.random.default_rng(5)
+    project, ids = _survey(tmp_path / "s.usvips", rng, 3)
+    model = ReviewModel()
+    model.load(project, project.objects())
+    first = model.current
+    before = project.object_rows(first)  # what the window's undo keeps
+    project.update_object(first, attribute="ling")
+    model.updated([project.object(first)])
+    project.put_back(before, replace=True)  # Ctrl+Z
+    model.updated([project.object(first)])
+    assert model.accept().state == "accepted"
+    assert project.review(first).state == "accepted"
+    project.close()

@@ -197,7 +197,7 @@ def test_bad_input_is_refused_in_one_line_and_nothing_is_stored(qtbot, make_wind
     qtbot.waitUntil(lambda: window.tracking.model.complete and not window.busy, timeout=30000)
     project = window.workspace.project
     assert window.tracking.store_instants("4, 22") == []
-    assert "frame 22: the track of vertex 0 does not reach it" in _status(window) and "no right partner" in \
+    assert "frame 22: the track of vertex 1 does not reach it" in _status(window) and "no right partner" in \
         _status(window)
     assert project.instants(object_id) == []
     assert window.tracking.store_instants("x") == [] and "'x' is not a whole number" in _status(window)
@@ -264,3 +264,59 @@ def test_shift_t_re_follows_a_vertex_from_the_point_re_picked_on_the_frame_shown
     assert "re-followed from frame 12" in _status(window)
     _, points = window.tracking.items["left"]
     assert sorted(p.symbol() for p in points.points()) == ["o", "star"]  # the corrected vertex drawn apart
+
+
+def test_an_instant_proposed_in_one_project_is_not_joined_in_the_next_one(qtbot, make_window, survey):
+    """P's vertices all taken, then another project opened (the unfinished object discarded): an object
+    measured there on the same frame stays an object of its own — the proposal was the previous project's
+    object (the same id is another object here)."""
+    path, object_id, fish, stereo = survey
+    window = _open(qtbot, make_window, path, object_id, frame=12)
+    ws = window.workspace
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
+    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    for _ in POINTS:
+        qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # Enter accepts
+    assert len(ws.digitising.vertices) == 2 and "new instant" in _status(window)
+    other = path.with_name(f"other_{path.name}")  # beside it: its video files found as in the first
+    shutil.copy(path, other)  # another survey whose object of that id is another fish
+    assert window.open_path(other, "drop")
+    window.video.request(12)
+    _wait_frame(qtbot, window, 12)
+    project = ws.project
+    ws.set_tool("line")
+    for point in POINTS:
+        left, right = truth(stereo, fish, 12, point * fish.length)
+        ws.pick("left", tuple(left))
+        ws.pick("right", tuple(right))
+        if ws.state.pending is not None:  # held by a guard rail: keep it
+            ws.accept_proposal()
+    new = ws.finish_object("fish", "")
+    qtbot.wait(50)  # a join is made after the store has finished (a zero-time timer)
+    assert project.instants(object_id) == [] and project.instant_links() == {}
+    assert new in ws.cache and "instant" not in _status(window)
+
+
+def test_proposals_taken_then_undone_leave_the_next_object_measured_on_the_frame_its_own(qtbot, make_window, survey):
+    """P's vertices all taken, then undone (Ctrl+Z each): another fish measured by hand on the same frame is
+    not the proposed object's instant — only the vertices taken from the proposals are."""
+    path, object_id, fish, stereo = survey
+    window = _open(qtbot, make_window, path, object_id, frame=12)
+    ws = window.workspace
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
+    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    for _ in POINTS:
+        qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # Enter accepts
+    assert len(ws.digitising.vertices) == 2
+    while ws.digitising.vertices:
+        ws.undo.undo()
+    ws.set_tool("line")
+    for point in POINTS:  # another fish, 40 px away
+        left, right = truth(stereo, fish, 12, point * fish.length)
+        ws.pick("left", tuple(left + 40.0))
+        ws.pick("right", tuple(right + 40.0))
+        if ws.state.pending is not None:  # held by a guard rail: keep it
+            ws.accept_proposal()
+    new = ws.finish_object("another fish", "")
+    qtbot.wait(50)  # a join is made after the store has finished (a zero-time timer)
+    assert ws.project.instants(object_id) == [] and new in ws.cache

@@ -141,6 +141,18 @@ def test_project_info_and_review_count_objects_over_instants_once_and_their_revi
     assert capsys.readouterr().out.strip().endswith(f": {said}: {counted} (each instant reviewed on its own)")
 
 
+def test_project_review_accepts_an_object_named_twice_once(tmp_path, capsys):
+    """``--accept 1 1 2``: each object accepted once, counted once, one history row each."""
+    location = str(tmp_path / "r.usvips")
+    ids = _survey(location, 3)
+    capsys.readouterr()
+    assert main(["project", "review", location, "--accept", str(ids[0]), str(ids[0]), str(ids[1])]) == 0
+    assert "accepted 2 " in capsys.readouterr().out
+    with open_project(location, read_only=True) as store:
+        assert [r.state for r in store.reviews()] == ["accepted", "accepted", "unreviewed"]
+        assert [e.change for e in store.history(ids[0])] == ["add", "review"]
+
+
 @pytest.mark.parametrize("arguments, words", [
     (["--flag", "1"], "--reason"),
     (["--flag", "1", "--reason", " "], "a flag needs a reason"),

@@ -147,8 +147,11 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
         found = [t.at(frame) for t in tracks]
         missing = [i for i, f in enumerate(found) if f is None]
         if missing:
-            raise UsvipsError(f"frame {frame}: the track of vertex {missing[0]} does not reach it (it stopped: "
-                              f"{tracks[missing[0]].stopped})")
+            # vertices counted from 1, as everywhere the user reads them; why the track stopped that way
+            lost = tracks[missing[0]]
+            direction = 1 if frame > lost.start else -1
+            raise UsvipsError(f"frame {frame}: the track of vertex {missing[0] + 1} does not reach it (it stopped: "
+                              f"{lost.reason(direction) or 'not tracked that way'})")
         left = np.array([f[0] for f in found])
         right = np.array([f[1] for f in found])
         try:

@@ -29,6 +29,7 @@ def register_review_action(actions: argparse._SubParsersAction) -> None:
 
 
 def run_review(args: argparse.Namespace) -> int:
+    args.accept = list(dict.fromkeys(args.accept))  # an id given twice is accepted (and counted) once
     for object_id in [*args.accept, *([args.flag] if args.flag is not None else [])]:
         if object_id < 1:
             raise InvalidParameterError("--accept/--flag", f"an object id is a whole number ≥ 1, got {object_id}")

@@ -69,12 +69,7 @@ class DoubleReadDialog(QtWidgets.QDialog):
         self.rows: list[dict] = []
         self.worker: Worker | None = None
         self._last: tuple[int, int] | None = None  # (row, object) last gone to
-        project = window.workspace.project
-        names = list(annotators(project)) if project is not None else []
         self.reader_a, self.reader_b = QtWidgets.QComboBox(), QtWidgets.QComboBox()
-        for box, index in ((self.reader_a, 0), (self.reader_b, 1)):
-            box.addItems(names)
-            box.setCurrentIndex(min(index, len(names) - 1))
         self.tolerance = self._spin(0.5, 0.0, 3600.0, 2, " s")
         self.tolerance_unit = QtWidgets.QComboBox()
         self.tolerance_unit.addItems([unit[0] for unit in TOLERANCE_UNITS])
@@ -101,8 +96,7 @@ class DoubleReadDialog(QtWidgets.QDialog):
         self.save_button.clicked.connect(lambda: self.save_csv())
         self.progress = QtWidgets.QProgressBar()
         self.progress.setRange(0, 100)
-        self.summary = QtWidgets.QLabel("" if len(names) >= 2 else
-                                        "this survey's objects were measured by fewer than two annotators")
+        self.summary = QtWidgets.QLabel("")
         self.summary.setWordWrap(True)
         self.summary.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
         self.table = QtWidgets.QTableWidget(0, len(SHOWN))
@@ -121,8 +115,29 @@ class DoubleReadDialog(QtWidgets.QDialog):
         layout.addLayout(buttons)
         layout.addWidget(self.summary)
         layout.addWidget(self.table, 1)
-        self.compare_button.setEnabled(len(names) >= 2)
+        self._on_project_changed(window.workspace.project)
+        # not modal: another project may be opened while it is up (its rows' ids are the old project's)
+        window.workspace.project_changed.connect(self._on_project_changed)
         self.resize(1000, 600)
+
+    def _on_project_changed(self, project) -> None:
+        """The readers of ``project`` (None: none), no report: a report running or shown is the previous
+        project's, and its rows name that project's object ids."""
+        if self.worker is not None:
+            self.worker.cancel()
+        self.worker, self.report, self.rows, self._last = None, None, [], None
+        self.table.setRowCount(0)
+        self.cancel_button.setEnabled(False)
+        self.save_button.setEnabled(False)
+        self.progress.setValue(0)
+        names = list(annotators(project)) if project is not None else []
+        for box, index in ((self.reader_a, 0), (self.reader_b, 1)):
+            box.clear()
+            box.addItems(names)
+            box.setCurrentIndex(min(index, len(names) - 1))
+        self.compare_button.setEnabled(len(names) >= 2)
+        self.summary.setText("" if len(names) >= 2 else
+                             "this survey's objects were measured by fewer than two annotators")
 
     @staticmethod
     def _spin(value: float, low: float, high: float, decimals: int, suffix: str) -> QtWidgets.QDoubleSpinBox:
@@ -254,6 +269,7 @@ class DoubleReadDialog(QtWidgets.QDialog):
 
     def done(self, result: int) -> None:  # noqa: D102 (Qt's name): a running report stops with the dialog
         self.cancel()
+        self.window_.workspace.project_changed.disconnect(self._on_project_changed)
         super().done(result)
 
 

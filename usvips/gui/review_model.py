@@ -92,11 +92,12 @@ class ReviewModel:
             self.changed.emit()
 
     def updated(self, objects: Iterable[StoredObject]) -> None:
-        """Objects changed in the window since they were read: their new versions (a review of them is not
-        a stale one)."""
+        """Objects changed in the window since they were read, as just read again from the store: their
+        versions now (a review of them is not a stale one). Taken as they are, not the later of the two: an
+        edit undone puts the object's rows back with their older stamp, which is then the stored one."""
         for stored in objects:
             if stored.id in self._versions:
-                self._versions[stored.id] = max(stored.modified, self._versions[stored.id])
+                self._versions[stored.id] = self._made[stored.id] = stored.modified
 
     def reread(self, object_ids: Iterable[int]) -> list[int]:
         """Read the reviews of ``object_ids`` again — another annotator's reviews, or an edit that returned

@@ -56,7 +56,8 @@ class TrackController(QtCore.QObject):
         self._last_point_frame: int | None = None
         self._proposals: tuple[int, int, list[VertexProposal]] | None = None  # object, frame, proposals
         self._proposed = -1  # the index of the vertex proposed last
-        self._instant_of: tuple[int, int] | None = None  # (object, frame): the next object stored there joins it
+        # (object, frame, the picks taken from its proposals): the object stored with those picks joins it
+        self._instant_of: tuple[int, int, list] | None = None
         self.items = {}
         for side, pane in window.panes.items():
             trail = pg.PlotCurveItem(pen=pg.mkPen(TRACK_COLOUR, width=1.5), connect="finite")
@@ -68,6 +69,7 @@ class TrackController(QtCore.QObject):
         ws.stored.connect(self._on_stored)
         ws.picks_changed.connect(self._on_picks)
         ws.objects_reset.connect(self._on_reset)
+        ws.project_changed.connect(self._on_project)
         ws.objects_removed.connect(self._on_removed)
         window.video.shown.connect(self.draw)
 
@@ -75,11 +77,12 @@ class TrackController(QtCore.QObject):
     def _on_stored(self, object_id: int) -> None:
         self._last_stored = int(object_id)
         if self._instant_of is not None:
-            whole, frame = self._instant_of
+            whole, frame, taken = self._instant_of
             self._instant_of = None
             ws = self.window.workspace
             stored = ws.stored_object(object_id)
-            if stored.vertices and stored.vertices[0].frame_left == frame and whole in ws.cache:
+            picks = [((v.xl, v.yl), (v.xr, v.yr)) for v in stored.vertices]
+            if picks == taken and stored.vertices[0].frame_left == frame and whole in ws.cache:
                 # after the store has finished (and said so): the link is its own undoable step
                 QtCore.QTimer.singleShot(0, lambda: self.join(whole, int(object_id)))
 
@@ -111,6 +114,12 @@ class TrackController(QtCore.QObject):
         self.model.clear()
         self._last_stored, self._proposals = None, None
         self.draw()
+
+    def _on_project(self, *_: object) -> None:
+        """Another project: a proposal under way, or taken and waiting to be stored as an instant, was the
+        previous project's object (an object of the same id here is another one)."""
+        self._proposals, self._proposed, self._instant_of = None, -1, None
+        self._last_point, self._last_point_frame = None, None
 
     def _on_removed(self, ids) -> None:
         if self.model.object_id in set(ids):
@@ -410,7 +419,9 @@ class TrackController(QtCore.QObject):
             return
         if k >= len(proposals):
             self._proposals = None
-            self._instant_of = (object_id, frame)
+            # only an object of the vertices taken now joins (not one measured after they were undone)
+            self._instant_of = (object_id, frame, [(tuple(map(float, v.left)), tuple(map(float, v.right)))
+                                                   for v in ws.digitising.vertices])
             self.window.show_message("info", f"every vertex of object {object_id} taken on frame {frame}: Enter "
                                              "stores them as a new instant of the object")
             return
