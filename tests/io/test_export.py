@@ -212,3 +212,26 @@ def test_the_objects_csv_carries_the_record_and_where_each_object_was_measured()
     assert rows["1"]["pair"] == "dive-7" and rows["1"]["file_left"] == "L0042.png" and rows["1"]["time_min"] == ""
     assert (rows["2"]["frame_left"], rows["2"]["frame_right"], rows["2"]["time_min"]) == ("120", "123", "0.06672")
     assert rows["3"]["species"] == "" and rows["3"]["pair"] == ""  # none given: empty cells, not made up
+
+
+def test_unknown_sigmas_and_rms_are_empty_cells_and_a_missing_length_is_refused():
+    """A σ that is not finite (unknown) is an empty cell in every exported table, never "nan"; a length
+    or point place that is not finite is refused, naming the object and the column."""
+    import dataclasses
+    import math
+    import re
+
+    def unknown_sigmas(obj):
+        return dataclasses.replace(obj, figures=tuple(dataclasses.replace(f, sigma=math.nan) for f in obj.figures),
+                                   ray_rms_m=math.nan)
+
+    objects = [unknown_sigmas(o) for o in _objects()]
+    tables = eventmeasure_tables(objects, opcode="BRUV1")
+    texts = list(tables.values()) + [objects_csv(objects)]
+    assert not any(re.search(r"(^|[\t,])(nan|-?inf)($|[\t,])", t, re.I | re.M) for t in texts)
+    lengths = list(csv.DictReader(io.StringIO(tables["Lengths"]), dialect="excel-tab"))
+    assert lengths[0]["Precision"] == "" and lengths[0]["RMS"] == "" and float(lengths[0]["Length"]) > 0
+    broken = dataclasses.replace(objects[1], figures=tuple(dataclasses.replace(f, value=math.nan)
+                                                           for f in objects[1].figures))
+    with pytest.raises(InvalidParameterError, match="object 2: its Length"):
+        eventmeasure_tables([broken], opcode="BRUV1")

@@ -45,19 +45,30 @@ def _is_number(text: str) -> bool:
 
 
 def cell(value: object, flatten: bool = False) -> str:
-    """A table cell: numbers as they are; text with a leading ``'`` when it would start a formula
-    (``=1+1`` → ``'=1+1``; ``-0.5`` stays a number), and with ``flatten`` (tab-separated tables, read by
-    tools that do not honour quotes) tabs and line breaks replaced by spaces."""
+    """A table cell: numbers as they are — a number that is not finite (NaN, ±inf: unknown) empty, never
+    the text "nan" or "inf"; text with a leading ``'`` when it would start a formula (``=1+1`` → ``'=1+1``;
+    ``-0.5`` stays a number), and with ``flatten`` (tab-separated tables, read by tools that do not honour
+    quotes) tabs and line breaks replaced by spaces. A table's mandatory number is checked by its writer
+    (:func:`mandatory_number`), which refuses it by name rather than leave it empty."""
     if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
         return str(int(value))
     if isinstance(value, (float, np.floating)):
-        return number(value)
+        return number(value) if np.isfinite(value) else ""
     text = "" if value is None else str(value)
     if flatten:
         text = " ".join(text.replace("\r\n", "\n").replace("\r", "\n").replace("\t", " ").split("\n"))
     if text.startswith(FORMULA_START) and not _is_number(text):
         text = "'" + text
     return text
+
+
+def mandatory_number(value: float, column: str, object_id: object, table: str) -> float:
+    """``value`` when it is a finite number; else one line naming the object, the table and its mandatory
+    ``column`` (a table without it would be refused, or misread, by the tools that read it)."""
+    if not np.isfinite(value):
+        raise InvalidParameterError(column, f"object {object_id}: its {column} is not a finite number ({value!r}), "
+                                    f"and the {table} table needs one")
+    return float(value)
 
 
 def number(value: float) -> str:
@@ -508,6 +519,7 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str | dict[str, str]
             if len(obj.points) > 2:
                 comment = f"{obj.kind} of {len(obj.points)} vertices" + (f"; {comment}" if comment else "")
             length = obj.main
+            mandatory_number(length.value, "Length", obj.id, "EventMeasure Lengths")
             ends = obj.points[[0, -1]]
             middle = ends.mean(axis=0)
             segment, view = ends[1] - ends[0], middle - centre
@@ -518,6 +530,8 @@ def eventmeasure_tables(objects: list[Measurement], opcode: str | dict[str, str]
                                + _record_columns(obj, records.get(obj.id), comment))
         elif table == "3DPoints":
             p, sigma = placed_point(obj)
+            for axis, coordinate in zip("XYZ", p, strict=True):
+                mandatory_number(coordinate, axis, obj.id, "EventMeasure 3DPoints")
             rows[table].append(head + [*(p * 1000), *(sigma * 1000), rms, np.linalg.norm(p - centre) * 1000, ""]
                                + _record_columns(obj, records.get(obj.id), comment))
         else:

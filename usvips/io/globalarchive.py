@@ -12,7 +12,8 @@ metadata file is also CheckEM's (:mod:`usvips.io.checkem`; it reads any extra co
 the plain one in the EventMeasure-style set written beside it. A taxon left unidentified is written as
 ``Unknown`` (GlobalArchive refuses blank Family, Genus and Species in a count).
 
-Cells sanitised by :func:`usvips.io.export.cell`; lengths and their precision (σ) in millimetres.
+Cells sanitised by :func:`usvips.io.export.cell` (a number that is not finite — unknown — is an empty cell,
+never "nan"; a mandatory one is refused by name); lengths and their precision (σ) in millimetres.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment
 from usvips.core.errors import InvalidParameterError
 from usvips.io.checkem import METADATA_COLUMNS, metadata_rows
-from usvips.io.export import cell
+from usvips.io.export import cell, mandatory_number
 
 #: the campaign's columns, after CheckEM's sample columns in the metadata and first in Count and Length
 CAMPAIGN_COLUMNS = ["CampaignID", "Project", "Method", "Sampling.design", "Submitter", "Institution",
@@ -113,7 +114,10 @@ def count_table(campaign: Campaign, counts: dict[tuple[str, str, str, str], int]
 
 def length_table(campaign: Campaign, lengths: Sequence[tuple[str, str, str, str, str, int, float, float, str]]) -> str:
     """``$_Length.txt``: one row per measured length — (sample, family, genus, species, code, number,
-    length m, σ m, object id) — with Length and Precision in mm, tab separated."""
-    rows = [[campaign.campaign_id, sample, *_taxon(family, genus, species), number, length * 1000, sigma * 1000,
+    length m, σ m, object id) — with Length and Precision in mm, tab separated. A length that is not a finite
+    number is refused, naming its object (GlobalArchive requires Length); a σ that is not (unknown) is an
+    empty Precision, never the text "nan"."""
+    rows = [[campaign.campaign_id, sample, *_taxon(family, genus, species), number,
+             mandatory_number(length, "Length", object_id, "GlobalArchive Length") * 1000, sigma * 1000,
              code, object_id] for sample, family, genus, species, code, number, length, sigma, object_id in lengths]
     return _csv(LENGTH_COLUMNS, rows, "excel-tab")
