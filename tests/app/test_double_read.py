@@ -142,3 +142,64 @@ def test_on_a_video_the_instant_is_the_time_within_the_tolerance(tmp_path):
         assert wider.n_matched == 2
     finally:
         project.close()
+
+
+def test_a_video_object_with_neither_time_nor_frame_is_left_unmatched_with_its_reason(tmp_path):
+    """Not given time 0 (where it would pair with the fish at the start of the video): unmatched, the
+    row's note and the summary say why. (The SQLite store refuses such a vertex; the ProjectStore protocol
+    allows it — another backend or an older file — so the project is read through a view that drops them.)"""
+    import dataclasses
+
+    from usvips.app.double_read import NO_INSTANT
+
+    class WithoutInstants:
+        """The project, its objects ``lost`` read with neither time nor frames on their vertices."""
+
+        def __init__(self, project, lost):
+            self._project, self._lost = project, lost
+
+        def __getattr__(self, name):
+            return getattr(self._project, name)
+
+        def _strip(self, stored):
+            if stored.id not in self._lost:
+                return stored
+            return dataclasses.replace(stored, vertices=[dataclasses.replace(v, frame_left=None, frame_right=None,
+                                                                             time_s=None) for v in stored.vertices])
+
+        def objects(self, *args, **kwargs):
+            return [self._strip(o) for o in self._project.objects(*args, **kwargs)]
+
+        def object(self, object_id):
+            return self._strip(self._project.object(object_id))
+
+    stored = create_project(tmp_path / "video.usvips")
+    project = stored
+    try:
+        (tmp_path / "v0.mp4").write_bytes(b"video")
+        chapters = [(tmp_path / "v0.mp4", 1000, 40.0)]
+        project.add_video("dive", chapters, chapters, 25.0, 1000, (64, 48))
+        covariance = np.eye(3) * 1e-6
+
+        def fish(reader, frame, time_s):
+            vertices = [Vertex(0, 0, 0, 0, xyz, covariance, None, None, "dive", frame, frame, time_s)
+                        for xyz in ((0.0, 0.0, 3.0), (0.3, 0.0, 3.0))]
+            return project.add_objects([("length", vertices, "", "", reader)])[0]
+
+        a0, a_lost = fish("ann", 0, 0.0), fish("ann", 5, 0.2)
+        b0, b_lost = fish("bob", 0, 0.0), fish("bob", 3, 0.12)
+        project = WithoutInstants(stored, {a_lost, b_lost})
+        for tolerance in ({"tolerance_s": 0.5}, {"tolerance_s": None, "tolerance_frames": 2}):
+            report = double_read(project, "ann", "bob", gate_m=1.0, **tolerance)
+            rows = {(r["row"], r["object_a"], r["object_b"]): r for r in report.rows()}
+            assert set(rows) == {("agreement", a0, b0), ("unmatched A", a_lost, None), ("unmatched B", None, b_lost)}
+            assert rows["unmatched A", a_lost, None]["note"] == NO_INSTANT and rows["unmatched A", a_lost, None][
+                "time_s"] is None
+            assert rows["agreement", a0, b0]["note"] == ""
+            lines = [line for line in report.summary() if line.startswith("no instant")]
+            assert lines == [f"no instant, left unmatched: ann: object {a_lost} (video dive): its vertex has neither "
+                             "a time nor a frame",
+                             f"no instant, left unmatched: bob: object {b_lost} (video dive): its vertex has neither "
+                             "a time nor a frame"]
+    finally:
+        stored.close()

@@ -230,3 +230,22 @@ def test_a_video_object_without_a_frame_pairs_with_none_in_frames_and_image_pair
 def test_the_tolerance_is_given_in_exactly_one_of_seconds_or_frames(arguments, words):
     with pytest.raises(InvalidParameterError, match=words):
         compare_readers(ReaderObjects.empty(), ReaderObjects.empty(), **arguments)
+
+
+def test_an_object_whose_instant_is_unknown_pairs_with_nothing():
+    """On a video, neither time nor frame (instant_known False): never paired, whatever the tolerance —
+    not even with an object at the start of the video or another without an instant."""
+    def reader(times, frames, known):
+        return ReaderObjects([0, 1], ["v", "v"], ["length"] * 2, ["x", "x"], times, [[0, 0, 2], [1, 0, 2]],
+                             [0.3, 0.3], [0.01, 0.01], frames, known)
+
+    a = reader([np.nan, np.nan], [np.nan, np.nan], [False, False])
+    for b in (reader([0.0, 0.0], [0.0, 0.0], [True, True]), reader([np.nan, np.nan], [np.nan, np.nan], [False, False])):
+        for tolerance in ({"tolerance_s": 1e6}, {"tolerance_s": None, "tolerance_frames": 1e6}):
+            report = compare_readers(a, b, gate_m=5.0, **tolerance)
+            assert len(report.pairs) == 0 and report.unmatched_a.tolist() == [0, 1]
+            assert report.unmatched_b.tolist() == [0, 1] and len(report.species_conflicts) == 0
+    # one of them known on both sides: that one pairs, the other does not
+    a, b = reader([1.0, np.nan], [25.0, np.nan], [True, False]), reader([1.0, np.nan], [25.0, np.nan], [True, False])
+    assert compare_readers(a, b, 0.5, 5.0).pairs.tolist() == [[0, 0]]
+    assert ReaderObjects.empty().instant_known.shape == (0,) and reader([1.0, 2.0], None, None).instant_known.all()

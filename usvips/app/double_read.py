@@ -9,14 +9,16 @@ with its combined figure). A reader is an object's creator (``StoredObject.creat
 observation record's ``Genus species`` ('' when it has none); the instant is its first vertex's time on
 a video (seconds) and left frame (the tolerance is given in exactly one of them), none on an image pair
 (the pair is the instant); its place is the mean of its
-vertices (metres, in the frame its video or pair measures in).
+vertices (metres, in the frame its video or pair measures in). An object on a video whose first vertex
+has neither a time nor a frame has no instant: it is left unmatched (never paired with an object at the
+start of the video), its report row says why (column ``note``) and the summary lists it.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,7 +32,10 @@ from usvips.store.records import StoredObject
 
 #: the report's table columns (CSV and dialog alike); lengths and σ in metres
 COLUMNS = ["row", "object_a", "object_b", "source", "time_s", "species", "kind", "value_a", "sigma_a", "value_b",
-           "sigma_b", "difference", "combined_sigma", "normalised"]
+           "sigma_b", "difference", "combined_sigma", "normalised", "note"]
+
+#: the note of an unmatched object that has no instant (on a video, with neither time nor frame)
+NO_INSTANT = "no time or frame on its video: not paired"
 
 #: what a row of the report is, in the order the report lists them
 ROW_KINDS = ("disagreement", "species conflict", "unmatched A", "unmatched B", "agreement")
@@ -43,12 +48,14 @@ class ReportCancelled(UsvipsError):
 @dataclass(frozen=True)
 class ReaderRead:
     """One reader's objects as compared (:class:`ReaderObjects`), where each was measured (a person's
-    words, e.g. "video V frame F"), and the objects that have no figure (one line each: "object N: why")."""
+    words, e.g. "video V frame F"), the objects that have no figure (one line each: "object N: why") and
+    those left unmatched because they have no instant (one line each)."""
 
     name: str
     objects: ReaderObjects
     where: list[str]
     skipped: list[str]
+    no_instant: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -108,7 +115,8 @@ class DoubleReadReport:
             + ("—" if math.isnan(s.rms_normalised) else f"{s.rms_normalised:.2f}"),
             f"species agreement: {share(s.species_agreement)} of {_count(s.n_species_compared, 'object')} "
             f"paired on place and time ({len(c.species_conflicts)} conflicts)",
-        ] + [f"no figure, left out: {line}" for line in self.a.skipped + self.b.skipped]
+        ] + [f"no figure, left out: {line}" for line in self.a.skipped + self.b.skipped] + [
+            f"no instant, left unmatched: {line}" for line in [*self.a.no_instant, *self.b.no_instant]]
 
 
 def _count(n: int, noun: str) -> str:
@@ -129,7 +137,8 @@ def _row(what: str, a: ReaderObjects | None, i: int | None, b: ReaderObjects | N
             "sigma_b": None if b is None else float(b.sigma[j]),
             "difference": None if difference is None else float(difference),
             "combined_sigma": None if sigma is None else float(sigma),
-            "normalised": None if normalised is None else float(normalised)}
+            "normalised": None if normalised is None else float(normalised),
+            "note": "" if first.instant_known[k] else NO_INSTANT}
 
 
 def annotators(project: ProjectStore) -> dict[str, int]:
@@ -141,25 +150,29 @@ def annotators(project: ProjectStore) -> dict[str, int]:
 
 
 def _source_and_time(project: ProjectStore, stored: StoredObject,
-                     fps: dict[str, float]) -> tuple[str, float, float]:
-    """(where: "video V" / "pair P", time s, left frame index) of an object's first vertex; time and frame
-    NaN on an image pair (the frame NaN too when a video's vertex has none)."""
+                     fps: dict[str, float]) -> tuple[str, float, float, bool]:
+    """(where: "video V" / "pair P", time s, left frame index, whether the instant is known) of an object's
+    first vertex; time and frame NaN on an image pair (the frame NaN too when a video's vertex has none).
+    A video's vertex with neither a time nor a frame has no instant (time and frame NaN, known False)."""
     vertex = stored.vertices[0]
     if vertex.video is not None:
         frame = math.nan if vertex.frame_left is None else float(vertex.frame_left)
         if vertex.time_s is not None:
-            return f"video {vertex.video}", float(vertex.time_s), frame
+            return f"video {vertex.video}", float(vertex.time_s), frame, True
+        if vertex.frame_left is None:
+            return f"video {vertex.video}", math.nan, math.nan, False
         if vertex.video not in fps:
             fps[vertex.video] = float(project.video(vertex.video)["fps"])
-        return f"video {vertex.video}", float(vertex.frame_left or 0) / fps[vertex.video], frame
-    return (f"pair {vertex.pair}" if vertex.pair is not None else ""), math.nan, math.nan
+        return f"video {vertex.video}", float(vertex.frame_left) / fps[vertex.video], frame, True
+    return (f"pair {vertex.pair}" if vertex.pair is not None else ""), math.nan, math.nan, True
 
 
 @dataclass(frozen=True)
 class ReaderInput:
     """What one reader's comparison needs, copied out of the project (:func:`read_inputs`): per object its
     :class:`~usvips.app.project_figures.MeasurementInput`, species, source ("video V" / "pair P") and
-    instant (s, and the video's left frame; NaN on an image pair)."""
+    instant (s, and the video's left frame; NaN on an image pair; ``known`` False where a video's object
+    has neither)."""
 
     name: str
     sources: tuple[MeasurementInput, ...]
@@ -167,6 +180,7 @@ class ReaderInput:
     places: tuple[str, ...]
     times: tuple[float, ...]
     frames: tuple[float, ...] = ()
+    known: tuple[bool, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -182,18 +196,20 @@ def _reader_input(project: ProjectStore, reader: str, objects: list[StoredObject
     instants = instants_by_object(project)
     cache: dict = {}
     fps: dict[str, float] = {}
-    sources, species, places, times, frames = [], [], [], [], []
+    sources, species, places, times, frames, known = [], [], [], [], [], []
     for stored in objects:
         if stored.creator != reader or not stored.vertices:
             continue
         sources.append(measurement_input(project, stored, cache, instants=instants))
         record = records.get(stored.id)
         species.append("" if record is None else f"{record.genus} {record.species}".strip())
-        place, time_s, frame = _source_and_time(project, stored, fps)
+        place, time_s, frame, instant_known = _source_and_time(project, stored, fps)
         places.append(place)
         times.append(time_s)
         frames.append(frame)
-    return ReaderInput(reader, tuple(sources), tuple(species), tuple(places), tuple(times), tuple(frames))
+        known.append(instant_known)
+    return ReaderInput(reader, tuple(sources), tuple(species), tuple(places), tuple(times), tuple(frames),
+                       tuple(known))
 
 
 def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleReadInput:
@@ -214,11 +230,12 @@ def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleRe
 
 def _reader_read(reader: ReaderInput, rules: QualityRules | None, step: Callable[[], None]) -> ReaderRead:
     columns: dict[str, list] = {name: [] for name in ("ids", "source", "kind", "species", "time_s", "midpoint",
-                                                       "value", "sigma", "frame")}
-    where, skipped = [], []
+                                                       "value", "sigma", "frame", "instant_known")}
+    where, skipped, no_instant = [], [], []
     frames = reader.frames or (math.nan,) * len(reader.sources)
-    for source, species, place, time_s, frame in zip(reader.sources, reader.species, reader.places, reader.times,
-                                                     frames, strict=True):
+    known = reader.known or (True,) * len(reader.sources)
+    for source, species, place, time_s, frame, instant_known in zip(
+            reader.sources, reader.species, reader.places, reader.times, frames, known, strict=True):
         step()
         try:
             measured: Measurement = evaluate(source, rules)
@@ -228,11 +245,14 @@ def _reader_read(reader: ReaderInput, rules: QualityRules | None, step: Callable
         for name, value in (("ids", int(source.id)), ("source", place), ("kind", measured.kind),
                             ("species", species), ("time_s", time_s),
                             ("midpoint", np.mean(measured.points, axis=0)), ("value", measured.main.value),
-                            ("sigma", measured.main.sigma), ("frame", frame)):
+                            ("sigma", measured.main.sigma), ("frame", frame), ("instant_known", instant_known)):
             columns[name].append(value)
         where.append(source.where)
+        if not instant_known:
+            no_instant.append(f"{reader.name}: object {source.id} ({place}): its vertex has neither a time nor "
+                              "a frame")
     objects = ReaderObjects(**columns) if columns["ids"] else ReaderObjects.empty()
-    return ReaderRead(reader.name, objects, where, skipped)
+    return ReaderRead(reader.name, objects, where, skipped, no_instant)
 
 
 def compute(inputs: DoubleReadInput, tolerance_s: float | None = 0.5, gate_m: float = 0.3, k: float = 2.0,

@@ -7,7 +7,9 @@ and species, at the same instant within a tolerance — ``tolerance_s`` seconds,
 frames of the video (exactly one of the two; objects on an image pair have neither time nor frame, NaN:
 the pair is the instant) — and their 3-D midpoints are within ``gate_m`` metres. Among those
 candidates the pairs are chosen by a minimum-total-distance assignment of midpoints (Hungarian method,
-:func:`scipy.optimize.linear_sum_assignment`), each object at most once.
+:func:`scipy.optimize.linear_sum_assignment`), each object at most once. An object whose instant is not
+known (``instant_known`` False: measured on a video but stored with neither a time nor a frame) pairs
+with nothing: it is left unmatched, and the caller says why.
 
 A matched pair is flagged when its main figures (lengths) differ by more than ``k`` combined standard
 deviations, ``|a − b| > k·sqrt(σa² + σb²)``; with honest, independent σ and ``k = 2`` about 4.6 % of
@@ -38,7 +40,8 @@ class ReaderObjects:
     float seconds (NaN on an image pair), ``midpoint`` (N, 3) m (mean of the object's vertices, in the
     frame its source measures in), ``value`` (N,) and ``sigma`` (N,) of the main figure (m for a length);
     ``frame`` (N,) float, the video's (left) frame index (NaN on an image pair or when unknown; default all
-    NaN), compared when the tolerance is given in frames."""
+    NaN), compared when the tolerance is given in frames; ``instant_known`` (N,) bool (default all True):
+    False for an object whose instant is unknown (on a video, with neither time nor frame), never paired."""
 
     ids: np.ndarray
     source: np.ndarray
@@ -49,14 +52,18 @@ class ReaderObjects:
     value: np.ndarray
     sigma: np.ndarray
     frame: np.ndarray | None = None
+    instant_known: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(np.asarray(self.ids))
         if self.frame is None:
             object.__setattr__(self, "frame", np.full(n, np.nan))
+        if self.instant_known is None:
+            object.__setattr__(self, "instant_known", np.ones(n, bool))
         conversions = {"ids": (np.int64, (n,)), "source": (str, (n,)), "kind": (str, (n,)),
                        "species": (str, (n,)), "time_s": (np.float64, (n,)), "midpoint": (np.float64, (n, 3)),
-                       "value": (np.float64, (n,)), "sigma": (np.float64, (n,)), "frame": (np.float64, (n,))}
+                       "value": (np.float64, (n,)), "sigma": (np.float64, (n,)), "frame": (np.float64, (n,)),
+                       "instant_known": (bool, (n,))}
         for name, (dtype, shape) in conversions.items():
             array = np.asarray(getattr(self, name), dtype=dtype if dtype is not str else object)
             if n == 0:
@@ -141,10 +148,10 @@ def check_parameters(tolerance_s: float | None, gate_m: float, k: float,
 def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | None, gate_m: float,
                   same_species: bool = True, tolerance_frames: float | None = None) -> np.ndarray:
     """(M, 2) indices of the pairs of ``a``'s and ``b``'s objects taken for the same object: same source and
-    kind (and species when ``same_species``), times within ``tolerance_s`` s — or, with ``tolerance_s`` None,
-    frames within ``tolerance_frames`` frames — (both NaN: an image pair), midpoints within ``gate_m`` m;
-    among the assignments that pair the most objects, the one with the smallest total midpoint distance.
-    Sorted by a's index."""
+    kind (and species when ``same_species``), both instants known, times within ``tolerance_s`` s — or,
+    with ``tolerance_s`` None, frames within ``tolerance_frames`` frames — (both NaN: an image pair),
+    midpoints within ``gate_m`` m; among the assignments that pair the most objects, the one with the
+    smallest total midpoint distance. Sorted by a's index."""
     check_parameters(tolerance_s, gate_m, 1.0, tolerance_frames)
     if tolerance_s is None:
         instants_a, instants_b, tolerance = a.frame, b.frame, tolerance_frames
@@ -173,7 +180,8 @@ def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | None,
         both_untimed = (np.isnan(ta) & np.isnan(tb) & np.isnan(a.time_s[ia, None]) & np.isnan(b.time_s[None, ib]))
         with np.errstate(invalid="ignore"):
             same_instant = both_untimed | (np.abs(ta - tb) <= tolerance)
-        allowed = same_instant & (distance <= gate_m)
+        known = a.instant_known[ia, None] & b.instant_known[None, ib]
+        allowed = same_instant & known & (distance <= gate_m)
         if not allowed.any():
             continue
         # a forbidden pair costs more than all allowed ones together, so the solver takes as few as it
