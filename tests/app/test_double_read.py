@@ -203,3 +203,38 @@ def test_a_video_object_with_neither_time_nor_frame_is_left_unmatched_with_its_r
                              "a time nor a frame"]
     finally:
         stored.close()
+
+
+def test_identifications_are_compared_by_family_genus_and_species(tmp_path):
+    """Family-only records of two families are a species conflict (they were both '' before); a family
+    alone pairs with the same family named to species; the row shows the finest name each gives."""
+    rng = np.random.default_rng(3)
+    project = create_project(tmp_path / "taxa.usvips")
+    try:
+        project.add_pair("p1")
+        plan = [  # (place, ann's record, bob's record, paired?)
+            ((0.0, 0.0, 3.0), ("Labridae", "", ""), ("Sparidae", "", ""), False),
+            ((1.0, 0.0, 3.0), ("Labridae", "", ""), ("Labridae", "Choerodon", "rubescens"), True),
+            ((-1.0, 0.0, 3.0), ("Sparidae", "Pagrus", "spp"), ("Sparidae", "Pagrus", "auratus"), True),
+            ((0.0, 0.8, 3.0), ("Sparidae", "Pagrus", "auratus"), ("Sparidae", "Chrysophrys", "auratus"), False)]
+        ids = []
+        for place, *records, _ in plan:
+            snout = np.array(place)
+            pair_ids = []
+            for reader, (family, genus, species) in zip(("ann", "bob"), records, strict=True):
+                (object_id,) = project.add_objects([("length", _fish(rng, snout, snout + [0.3, 0, 0], "p1"), "", "",
+                                                     reader)])
+                project.set_record(object_id, ObservationRecord(family=family, genus=genus, species=species))
+                pair_ids.append(object_id)
+            ids.append(tuple(pair_ids))
+        report = double_read(project, "ann", "bob", gate_m=0.1)
+        rows = report.rows()
+        paired = {(r["object_a"], r["object_b"]) for r in rows if r["row"] in ("agreement", "disagreement")}
+        assert paired == {ids[n] for n, (*_, ok) in enumerate(plan) if ok}
+        conflicts = {(r["object_a"], r["object_b"]): r["species"] for r in rows if r["row"] == "species conflict"}
+        assert conflicts == {ids[0]: "Labridae / Sparidae", ids[3]: "Pagrus auratus / Chrysophrys auratus"}
+        assert report.comparison.agreement.species_agreement == 0.5
+        shown = {r["object_a"]: r["species"] for r in rows if r["row"] == "agreement"}
+        assert shown == {ids[1][0]: "Labridae", ids[2][0]: "Pagrus spp"}
+    finally:
+        project.close()

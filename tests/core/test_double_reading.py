@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from usvips.core.double_reading import LIMITS_Z, ReaderObjects, compare_readers, match_objects
+from usvips.core.double_reading import LIMITS_Z, ReaderObjects, compare_readers, match_objects, taxa_agree
 from usvips.core.errors import InvalidParameterError
 
 SPECIES = np.array(["Pagrus auratus", "Coris auricularis", "Chrysophrys auratus", ""], dtype=object)
@@ -249,3 +249,59 @@ def test_an_object_whose_instant_is_unknown_pairs_with_nothing():
     a, b = reader([1.0, np.nan], [25.0, np.nan], [True, False]), reader([1.0, np.nan], [25.0, np.nan], [True, False])
     assert compare_readers(a, b, 0.5, 5.0).pairs.tolist() == [[0, 0]]
     assert ReaderObjects.empty().instant_known.shape == (0,) and reader([1.0, 2.0], None, None).instant_known.all()
+
+
+@pytest.mark.parametrize(("a", "b", "agree"), [
+    (("Labridae", "", ""), ("Labridae", "", ""), True),
+    (("Labridae", "", ""), ("Sparidae", "", ""), False),  # two families: a conflict, no longer '' == ''
+    (("Labridae", "", ""), ("Labridae", "Choerodon", "rubescens"), True),  # coarser agrees with finer
+    (("Labridae", "Choerodon", ""), ("Labridae", "Choerodon", "rubescens"), True),
+    (("Labridae", "Choerodon", "spp"), ("", "Choerodon", "rubescens"), True),  # spp: species not given
+    (("Labridae", "Choerodon", "rubescens"), ("Labridae", "Choerodon", "cyanodus"), False),
+    (("Labridae", "Choerodon", "rubescens"), ("Labridae", "Coris", "rubescens"), False),
+    (("Sparidae", "Pagrus", "auratus"), ("Labridae", "Pagrus", "auratus"), False),
+    ((" labridae", "", ""), ("Labridae ", "", ""), True),  # case and spaces ignored
+    (("Labridae", "", ""), ("", "Choerodon", "rubescens"), False),  # no level in common
+    (("", "", ""), ("", "", ""), True),  # both unidentified
+    (("", "", ""), ("Labridae", "", ""), False)])
+def test_identifications_agree_on_the_levels_both_give(a, b, agree):
+    def reader(taxon):
+        return ReaderObjects([0], ["v"], ["length"], ["shown"], [1.0], [[0, 0, 2]], [0.3], [0.01], taxon=[taxon])
+
+    ra, rb = reader(a), reader(b)
+    assert taxa_agree(ra.taxon, rb.taxon).tolist() == [[agree]] == taxa_agree(rb.taxon, ra.taxon).T.tolist()
+    report = compare_readers(ra, rb, 0.5, 0.1)
+    assert len(report.pairs) == int(agree) and len(report.species_conflicts) == int(not agree)
+    assert report.agreement.species_agreement == float(agree)
+
+
+def test_coarser_identifications_pair_and_wrong_ones_conflict_over_random_surveys():
+    """Each reader names each fish to a random depth (family; family and genus; or all three): every fish
+    both read pairs; a fish B puts in another family (or genus, where both give one) is a conflict."""
+    rng = np.random.default_rng(8)
+    families = [f"Family{i}" for i in range(4)]
+    for _ in range(40):
+        n = 30
+        survey = _survey(rng, n)
+        truth = [(families[i % 4], f"Genus{i % 7}", f"species{i % 11}") for i in rng.integers(0, 1000, n)]
+
+        def coarsened(taxon):
+            depth = rng.integers(1, 4)
+            return tuple(level if k < depth else "" for k, level in enumerate(taxon))
+
+        taxa_a = [coarsened(t) for t in truth]
+        taxa_b = [coarsened(t) for t in truth]
+        wrong = rng.choice(n, 4, replace=False)
+        for i in wrong:
+            family = families[(families.index(truth[i][0]) + 1) % 4]
+            taxa_b[i] = (family, *taxa_b[i][1:])
+        a = _reading(rng, np.arange(n), survey, np.zeros(n))
+        b = _reading(rng, np.arange(n), survey, np.zeros(n))
+        a, b = (ReaderObjects(r.ids, r.source, r.kind, r.species, r.time_s, r.midpoint, r.value, r.sigma,
+                              taxon=t) for r, t in ((a, taxa_a), (b, taxa_b)))
+        report = compare_readers(a, b, 0.5, 0.04)
+        # schools: fish i + 1 may swap with fish i, so compare the sets of fish paired and conflicting
+        assert set(report.unmatched_a.tolist()) == set(wrong.tolist()) == set(report.unmatched_b.tolist())
+        assert len(report.pairs) == n - len(wrong)
+        assert set(report.species_conflicts[:, 0].tolist()) == set(wrong.tolist())
+        assert report.agreement.species_agreement == pytest.approx((n - len(wrong)) / n)

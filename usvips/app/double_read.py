@@ -5,8 +5,11 @@ and image pairs, paired and compared (:mod:`usvips.core.double_reading`), for th
 Reading goes through the :class:`~usvips.store.interface.ProjectStore` protocol only (any backend). Each
 object's figure and its σ come from :func:`usvips.app.project_figures.evaluate` — the one function the
 object list, the calculator and every export use (an object measured on several instants is compared
-with its combined figure). A reader is an object's creator (``StoredObject.creator``); the species is its
-observation record's ``Genus species`` ('' when it has none); the instant is its first vertex's time on
+with its combined figure). A reader is an object's creator (``StoredObject.creator``); its identification
+is its observation record's (family, genus, species) — all '' when it has none — compared level by level
+(:func:`usvips.core.double_reading.taxa_agree`: a coarser identification agrees with a finer one when
+they agree on the levels both give), shown as ``Genus species`` or, identified to family only, the family;
+the instant is its first vertex's time on
 a video (seconds) and left frame (the tolerance is given in exactly one of them), none on an image pair
 (the pair is the instant); its place is the mean of its
 vertices (metres, in the frame its video or pair measures in). An object on a video whose first vertex
@@ -170,7 +173,8 @@ def _source_and_time(project: ProjectStore, stored: StoredObject,
 @dataclass(frozen=True)
 class ReaderInput:
     """What one reader's comparison needs, copied out of the project (:func:`read_inputs`): per object its
-    :class:`~usvips.app.project_figures.MeasurementInput`, species, source ("video V" / "pair P") and
+    :class:`~usvips.app.project_figures.MeasurementInput`, species shown and identification (``taxa``:
+    family, genus, species), source ("video V" / "pair P") and
     instant (s, and the video's left frame; NaN on an image pair; ``known`` False where a video's object
     has neither)."""
 
@@ -181,6 +185,7 @@ class ReaderInput:
     times: tuple[float, ...]
     frames: tuple[float, ...] = ()
     known: tuple[bool, ...] = ()
+    taxa: tuple[tuple[str, str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -196,20 +201,22 @@ def _reader_input(project: ProjectStore, reader: str, objects: list[StoredObject
     instants = instants_by_object(project)
     cache: dict = {}
     fps: dict[str, float] = {}
-    sources, species, places, times, frames, known = [], [], [], [], [], []
+    sources, species, places, times, frames, known, taxa = [], [], [], [], [], [], []
     for stored in objects:
         if stored.creator != reader or not stored.vertices:
             continue
         sources.append(measurement_input(project, stored, cache, instants=instants))
         record = records.get(stored.id)
-        species.append("" if record is None else f"{record.genus} {record.species}".strip())
+        taxon = ("", "", "") if record is None else (record.family, record.genus, record.species)
+        taxa.append(taxon)
+        species.append(f"{taxon[1]} {taxon[2]}".strip() or taxon[0])
         place, time_s, frame, instant_known = _source_and_time(project, stored, fps)
         places.append(place)
         times.append(time_s)
         frames.append(frame)
         known.append(instant_known)
     return ReaderInput(reader, tuple(sources), tuple(species), tuple(places), tuple(times), tuple(frames),
-                       tuple(known))
+                       tuple(known), tuple(taxa))
 
 
 def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleReadInput:
@@ -230,12 +237,13 @@ def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleRe
 
 def _reader_read(reader: ReaderInput, rules: QualityRules | None, step: Callable[[], None]) -> ReaderRead:
     columns: dict[str, list] = {name: [] for name in ("ids", "source", "kind", "species", "time_s", "midpoint",
-                                                       "value", "sigma", "frame", "instant_known")}
+                                                       "value", "sigma", "frame", "instant_known", "taxon")}
     where, skipped, no_instant = [], [], []
     frames = reader.frames or (math.nan,) * len(reader.sources)
     known = reader.known or (True,) * len(reader.sources)
-    for source, species, place, time_s, frame, instant_known in zip(
-            reader.sources, reader.species, reader.places, reader.times, frames, known, strict=True):
+    taxa = reader.taxa or tuple(("", "", name) for name in reader.species)
+    for source, species, place, time_s, frame, instant_known, taxon in zip(
+            reader.sources, reader.species, reader.places, reader.times, frames, known, taxa, strict=True):
         step()
         try:
             measured: Measurement = evaluate(source, rules)
@@ -245,7 +253,8 @@ def _reader_read(reader: ReaderInput, rules: QualityRules | None, step: Callable
         for name, value in (("ids", int(source.id)), ("source", place), ("kind", measured.kind),
                             ("species", species), ("time_s", time_s),
                             ("midpoint", np.mean(measured.points, axis=0)), ("value", measured.main.value),
-                            ("sigma", measured.main.sigma), ("frame", frame), ("instant_known", instant_known)):
+                            ("sigma", measured.main.sigma), ("frame", frame), ("instant_known", instant_known),
+                            ("taxon", taxon)):
             columns[name].append(value)
         where.append(source.where)
         if not instant_known:

@@ -2,10 +2,11 @@
 well their figures agree. Pure computation: arrays in, arrays out.
 
 Each reader's objects are given as a :class:`ReaderObjects` (parallel arrays). Two objects can be the
-same fish when they were measured on the same video or image pair (``source``), are of the same kind
-and species, at the same instant within a tolerance — ``tolerance_s`` seconds, or ``tolerance_frames``
-frames of the video (exactly one of the two; objects on an image pair have neither time nor frame, NaN:
-the pair is the instant) — and their 3-D midpoints are within ``gate_m`` metres. Among those
+same fish when they were measured on the same video or image pair (``source``), are of the same kind,
+their identifications agree (:func:`taxa_agree`), at the same instant within a tolerance —
+``tolerance_s`` seconds, or ``tolerance_frames`` frames of the video (exactly one of the two; objects
+on an image pair have neither time nor frame, NaN: the pair is the instant) — and their 3-D midpoints
+are within ``gate_m`` metres. Among those
 candidates the pairs are chosen by a minimum-total-distance assignment of midpoints (Hungarian method,
 :func:`scipy.optimize.linear_sum_assignment`), each object at most once. An object whose instant is not
 known (``instant_known`` False: measured on a video but stored with neither a time nor a frame) pairs
@@ -16,7 +17,12 @@ deviations, ``|a − b| > k·sqrt(σa² + σb²)``; with honest, independent σ 
 true pairs are flagged by chance. Note that two readers measuring one fish on one calibration share
 that calibration's error, which cancels in ``a − b``: when σ includes it the test is conservative.
 
-Conventions: metres, seconds; species are texts compared exactly ('' = not identified).
+Identifications are (family, genus, species) triples, compared level by level (:func:`taxa_agree`): a
+coarser identification agrees with a finer one when they agree on every level both give and they give at
+least one level in common; an unidentified object (no level) agrees only with another unidentified one.
+
+Conventions: metres, seconds; taxon names compared ignoring case and surrounding spaces, a species
+``spp``/``sp.`` (genus only) counting as not given ('' = not given).
 """
 
 from __future__ import annotations
@@ -41,7 +47,10 @@ class ReaderObjects:
     frame its source measures in), ``value`` (N,) and ``sigma`` (N,) of the main figure (m for a length);
     ``frame`` (N,) float, the video's (left) frame index (NaN on an image pair or when unknown; default all
     NaN), compared when the tolerance is given in frames; ``instant_known`` (N,) bool (default all True):
-    False for an object whose instant is unknown (on a video, with neither time nor frame), never paired."""
+    False for an object whose instant is unknown (on a video, with neither time nor frame), never paired;
+    ``taxon`` (N, 3) str, the identification (family, genus, species; '' where not given), compared by
+    :func:`taxa_agree` — by default each ``species`` text as a species alone (two such agree when they
+    are equal). ``species`` is the name shown for the object."""
 
     ids: np.ndarray
     source: np.ndarray
@@ -53,6 +62,7 @@ class ReaderObjects:
     sigma: np.ndarray
     frame: np.ndarray | None = None
     instant_known: np.ndarray | None = None
+    taxon: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(np.asarray(self.ids))
@@ -60,10 +70,12 @@ class ReaderObjects:
             object.__setattr__(self, "frame", np.full(n, np.nan))
         if self.instant_known is None:
             object.__setattr__(self, "instant_known", np.ones(n, bool))
+        if self.taxon is None:
+            object.__setattr__(self, "taxon", [("", "", str(name)) for name in np.asarray(self.species, object)])
         conversions = {"ids": (np.int64, (n,)), "source": (str, (n,)), "kind": (str, (n,)),
                        "species": (str, (n,)), "time_s": (np.float64, (n,)), "midpoint": (np.float64, (n, 3)),
                        "value": (np.float64, (n,)), "sigma": (np.float64, (n,)), "frame": (np.float64, (n,)),
-                       "instant_known": (bool, (n,))}
+                       "instant_known": (bool, (n,)), "taxon": (str, (n, 3))}
         for name, (dtype, shape) in conversions.items():
             array = np.asarray(getattr(self, name), dtype=dtype if dtype is not str else object)
             if n == 0:
@@ -71,6 +83,7 @@ class ReaderObjects:
             if array.shape != shape:
                 raise InvalidParameterError(name, f"must have shape {shape}, got {array.shape}")
             object.__setattr__(self, name, array)
+        object.__setattr__(self, "taxon", _normalised_taxa(self.taxon))
         for name in ("midpoint", "value"):
             if not np.all(np.isfinite(getattr(self, name))):
                 raise InvalidParameterError(name, "must be finite")
@@ -85,6 +98,36 @@ class ReaderObjects:
         return cls(np.zeros(0, int), [], [], [], np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros(0))
 
 
+#: species words meaning "genus known, species not" (GlobalArchive's ``spp``)
+_NO_SPECIES = {"spp", "spp.", "sp", "sp."}
+
+
+def _normalised_taxa(taxa: np.ndarray) -> np.ndarray:
+    """(N, 3) object array of taxon names trimmed and case-folded, ``spp``/``sp.`` as a species not given."""
+    out = np.array([[str(name).strip().casefold() for name in row] for row in taxa], dtype=object).reshape(-1, 3)
+    if len(out):
+        out[np.isin(out[:, 2], list(_NO_SPECIES)), 2] = ""
+    return out
+
+
+def _agree(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`taxa_agree` over broadcastable arrays of identifications (last axis: the three levels)."""
+    given_a, given_b = a != "", b != ""
+    shared = given_a & given_b
+    consistent = shared.any(axis=-1) & np.all((a == b) | ~shared, axis=-1)
+    return consistent | (~given_a.any(axis=-1) & ~given_b.any(axis=-1))
+
+
+def taxa_agree(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N, M) bool: whether identification ``a[i]`` agrees with ``b[j]`` (each (family, genus, species),
+    '' where not given, normalised as :class:`ReaderObjects` holds them). They agree when they give at
+    least one level in common and are equal on every level both give — family "Labridae" alone agrees
+    with "Labridae Choerodon rubescens", two different families never agree, a family alone and a genus
+    alone (no level in common) do not agree — or when neither gives any level (both unidentified)."""
+    a, b = np.asarray(a, object).reshape(-1, 3), np.asarray(b, object).reshape(-1, 3)
+    return _agree(a[:, None, :], b[None, :, :])
+
+
 @dataclass(frozen=True)
 class Agreement:
     """How two readers agree. Counts: ``n_a``, ``n_b`` objects, ``n_matched`` pairs; ``matched_share``
@@ -93,7 +136,7 @@ class Agreement:
     ``share_within_sigma`` (|a − b| ≤ sqrt(σa² + σb²)), ``share_within_k`` (≤ k of those) and
     ``rms_normalised`` (root mean square of (a − b)/sqrt(σa² + σb²); near 1 when the σ are honest).
     ``species_agreement``: among objects paired on place and time alone (species ignored), the share whose
-    species agree. NaN where there is nothing to compute it from."""
+    identifications agree (:func:`taxa_agree`). NaN where there is nothing to compute it from."""
 
     n_a: int
     n_b: int
@@ -114,7 +157,7 @@ class DoubleReading:
     """The comparison: ``pairs`` (M, 2) indices into reader A's and B's arrays, their ``difference`` (M,)
     a − b and ``combined_sigma`` (M,) m, ``flagged`` (M,) bool (|a − b| > k·combined σ), the indices of the
     objects of each reader left ``unmatched_a`` / ``unmatched_b``, ``species_conflicts`` (P, 2) indices of
-    objects paired on place and time whose species differ, and the :class:`Agreement`."""
+    objects paired on place and time whose identifications disagree, and the :class:`Agreement`."""
 
     pairs: np.ndarray
     difference: np.ndarray
@@ -148,10 +191,10 @@ def check_parameters(tolerance_s: float | None, gate_m: float, k: float,
 def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | None, gate_m: float,
                   same_species: bool = True, tolerance_frames: float | None = None) -> np.ndarray:
     """(M, 2) indices of the pairs of ``a``'s and ``b``'s objects taken for the same object: same source and
-    kind (and species when ``same_species``), both instants known, times within ``tolerance_s`` s — or,
-    with ``tolerance_s`` None, frames within ``tolerance_frames`` frames — (both NaN: an image pair),
-    midpoints within ``gate_m`` m; among the assignments that pair the most objects, the one with the
-    smallest total midpoint distance. Sorted by a's index."""
+    kind (and agreeing identifications, :func:`taxa_agree`, when ``same_species``), both instants known,
+    times within ``tolerance_s`` s — or, with ``tolerance_s`` None, frames within ``tolerance_frames``
+    frames — (both NaN: an image pair), midpoints within ``gate_m`` m; among the assignments that pair the
+    most objects, the one with the smallest total midpoint distance. Sorted by a's index."""
     check_parameters(tolerance_s, gate_m, 1.0, tolerance_frames)
     if tolerance_s is None:
         instants_a, instants_b, tolerance = a.frame, b.frame, tolerance_frames
@@ -159,8 +202,8 @@ def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | None,
         instants_a, instants_b, tolerance = a.time_s, b.time_s, tolerance_s
     if not len(a) or not len(b):
         return np.zeros((0, 2), int)
-    keys_a = list(zip(a.source, a.kind, a.species if same_species else [""] * len(a), strict=True))
-    keys_b = list(zip(b.source, b.kind, b.species if same_species else [""] * len(b), strict=True))
+    keys_a = list(zip(a.source, a.kind, strict=True))
+    keys_b = list(zip(b.source, b.kind, strict=True))
     groups_b: dict[tuple, list[int]] = {}
     for j, key in enumerate(keys_b):
         groups_b.setdefault(key, []).append(j)
@@ -182,6 +225,8 @@ def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | None,
             same_instant = both_untimed | (np.abs(ta - tb) <= tolerance)
         known = a.instant_known[ia, None] & b.instant_known[None, ib]
         allowed = same_instant & known & (distance <= gate_m)
+        if same_species:
+            allowed &= taxa_agree(a.taxon[ia], b.taxon[ib])
         if not allowed.any():
             continue
         # a forbidden pair costs more than all allowed ones together, so the solver takes as few as it
@@ -214,7 +259,7 @@ def compare_readers(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | Non
     unmatched_a = np.setdiff1d(np.arange(len(a)), ia)
     unmatched_b = np.setdiff1d(np.arange(len(b)), ib)
     placed = match_objects(a, b, tolerance_s, gate_m, same_species=False, tolerance_frames=tolerance_frames)
-    agree = a.species[placed[:, 0]] == b.species[placed[:, 1]] if len(placed) else np.zeros(0, bool)
+    agree = _agree(a.taxon[placed[:, 0]], b.taxon[placed[:, 1]]) if len(placed) else np.zeros(0, bool)
     conflicts = placed[~agree] if len(placed) else np.zeros((0, 2), int)
     n = len(pairs)
     mean = float(np.mean(difference)) if n else math.nan
