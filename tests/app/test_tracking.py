@@ -23,15 +23,20 @@ POINTS = (0.3, 0.45)  # the measured body points, as fractions of the fork lengt
 
 @pytest.fixture(scope="module")
 def survey(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("tracking")
+    return _survey(tmp_path_factory.mktemp("tracking"))
+
+
+def _survey(folder, times_s=None):
+    """The stereo video of a swimming fish in a project, with a length measured on left frame 6; both
+    cameras' frames at ``times_s`` (s, one per frame: a variable frame rate) or at 25 fps."""
     fish = SwimmingFish(start=(0.25, 0.0, -1.0), length=0.36, speed=0.15, bend=0.3, seed=7)
     stereo, frames = video(fish)
     # the right camera started OFFSET frames earlier: right frame i + OFFSET shows left frame i (the store's
     # convention), so the right video's last partner is left frame FRAMES - 1 - OFFSET
     left = [np.repeat(frames(i)[0][:, :, None], 3, axis=2) for i in range(FRAMES)]
     right = [np.repeat(frames(max(i - OFFSET, 0))[1][:, :, None], 3, axis=2) for i in range(FRAMES)]
-    encode_video(folder / "left.mkv", left, 25.0, "ffv1")
-    encode_video(folder / "right.mkv", right, 25.0, "ffv1")
+    encode_video(folder / "left.mkv", left, 25.0, "ffv1", times_s=times_s)
+    encode_video(folder / "right.mkv", right, 25.0, "ffv1", times_s=times_s)
     calibration = StereoCalibration.from_cameras(stereo.left, stereo.right, "water", 0.3)
     path = folder / "survey.usvips"
     with Project.create(path) as project:
@@ -43,7 +48,8 @@ def survey(tmp_path_factory):
         m = measure_picks("length", calibration, np.array([p[0] for p in picks]), np.array([p[1] for p in picks]),
                           0, "rig")
         vertices = [Vertex(*p[0], *p[1], tuple(xyz), m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3], calibration_id,
-                           "drop", "drop", start, start + OFFSET, start / 25.0)
+                           "drop", "drop", start, start + OFFSET,
+                           start / 25.0 if times_s is None else times_s[start] - times_s[0])
                     for i, (p, xyz) in enumerate(zip(picks, m.points, strict=True))]
         object_id = project.add_object("length", vertices, "Pagrus auratus")
     return path, object_id, fish, stereo, start
@@ -106,3 +112,41 @@ def test_an_objects_vertices_are_proposed_on_another_frame_by_tracking_them_ther
         still = project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0, pair="drop")])
         with pytest.raises(UsvipsError, match="not measured on a video"):
             propose_on_frame(project, still, 3)
+
+
+def test_tracked_instants_store_the_time_the_window_gives_their_frame_on_a_variable_frame_rate_video(tmp_path):
+    """On a VFR video a frame's presentation time is not frame / fps: each tracked instant stores the time
+    the window shows (and stores) for a vertex picked on that frame, from the tracks or, for tracks made
+    without the times, from the video's left stream."""
+    import dataclasses
+
+    from usvips.app.video_project import frame_pair
+    from usvips.gui.video_model import FrameSource
+
+    rng = np.random.default_rng(12)
+    times = np.concatenate([[0.0], np.cumsum(rng.uniform(0.02, 0.07, FRAMES - 1))])  # irregular, around 25 fps
+    path, object_id, fish, stereo, start = _survey(tmp_path, times)
+    frames = [2, 9, 15]
+    with Project.open(path) as project:
+        assert project.video("drop")["fps"] > 0
+        stored = project.object(object_id)
+        tracks = [track_in_video(project, "drop", start, (v.xl, v.yl), (v.xr, v.yr), 0, 100) for v in stored.vertices]
+        source = FrameSource(project, "drop")
+        try:
+            window = {f: source.pictures(f)[3] for f in frames}  # the time shown with the frame, as a pick stores it
+        finally:
+            source.left.close()
+            source.right.close()
+        np.testing.assert_allclose([window[f] for f in frames], times[frames] - times[0], atol=1.5e-3)
+        nominal = np.array(frames) / project.video("drop")["fps"]
+        assert np.max(np.abs(nominal - [window[f] for f in frames])) > 0.01  # the old frame / fps was wrong here
+        ids = add_tracked_instants(project, object_id, tracks, frames, "drop")
+        for frame, instant in zip(frames, ids, strict=True):
+            assert {v.time_s for v in project.object(instant).vertices} == {window[frame]}
+            assert frame_pair(project, "drop", frame)[3] == window[frame]
+        # tracks that do not hold the times (made elsewhere): read from the left stream, the same times
+        bare = [dataclasses.replace(t, times_s=None) for t in tracks]
+        other = project.add_object("length", stored.vertices, "Pagrus auratus")
+        ids_bare = add_tracked_instants(project, other, bare, frames, "drop")
+        for frame, instant in zip(frames, ids_bare, strict=True):
+            assert {v.time_s for v in project.object(instant).vertices} == {window[frame]}

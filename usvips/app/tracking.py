@@ -20,14 +20,14 @@ object_instants.add_instant`); all in one transaction, or nothing.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from usvips.app.object_instants import add_instant, tracked_note
 from usvips.app.pair_geometry import pair_geometry
-from usvips.app.video_project import partner_frame, proxy_folder
+from usvips.app.video_project import left_frame_time, left_frame_times, partner_frame, proxy_folder
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import measure_picks
 from usvips.core.rig import StereoRig
@@ -99,8 +99,11 @@ class VideoTracker:
             with GreyPairSource(left_stream, right_stream, partner, remember_bytes=shared) as frames:
                 first = max(int(first), 0)
                 last = min(int(last), self.video["frame_count"] - 1)
-                return [track_vertex(frames, self.rig, start, left, right, first, last, settings, cancel, progress)
-                        for left, right in picks]
+                tracks = [track_vertex(frames, self.rig, start, left, right, first, last, settings, cancel,
+                                       progress) for left, right in picks]
+            # each tracked frame's time, as the window gives a vertex picked on it (presentation time)
+            return [replace(t, times_s=np.array([left_frame_time(left_stream, f) for f in t.frames], float))
+                    for t in tracks]
 
 
 #: the grey frame pairs kept while the vertices of one object are tracked over the same frames (bytes): a
@@ -131,7 +134,9 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
     """Make the stored object ``object_id`` (measured on video ``label``) an object over several instants:
     one further instant at each of ``frames`` from ``tracks`` (one per vertex, in the object's vertex
     order). A frame a track does not reach, or the object's own frame, is refused by name; returns the new
-    instants' ids."""
+    instants' ids. Each instant's time is its left frame's presentation time
+    (:func:`~usvips.app.video_project.left_frame_time`, as a vertex picked on that frame in the window
+    gets), from the tracks or else the video's left stream — not ``frame / fps``."""
     stored = project.object(object_id)
     if len(tracks) != len(stored.vertices):
         raise UsvipsError(f"object {object_id} has {len(stored.vertices)} vertices but {len(tracks)} tracks were "
@@ -139,9 +144,10 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
     own = stored.vertices[0].frame_left if stored.vertices and stored.vertices[0].video == label else None
     geometry = _geometry(project, label)
     video = project.video(label)
+    frames = [int(f) for f in frames]
+    unknown: dict[int, float] | None = None  # times the tracks do not hold, read from the left stream once
     rows = []
     for frame in frames:
-        frame = int(frame)
         if frame == own:
             raise UsvipsError(f"object {object_id} is itself measured on frame {frame}: pick other frames")
         found = [t.at(frame) for t in tracks]
@@ -159,7 +165,12 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
         except UsvipsError as error:
             raise UsvipsError(f"frame {frame}: {error}") from None
         partner = partner_frame(video, frame)
-        time_s = frame / float(video["fps"])  # the nominal time of the left frame
+        time_s = tracks[0].time_at(frame)
+        if time_s is None:  # tracks made without the video's times: its left stream says them
+            if unknown is None:
+                reached = [f for f in frames if all(t.at(f) is not None for t in tracks)]
+                unknown = dict(zip(reached, left_frame_times(project, label, reached), strict=True))
+            time_s = float(unknown[frame])
         blocks = [m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(len(m.points))]
         vertices = [Vertex(*map(float, (*lp, *rp)), tuple(map(float, xyz)), block, geometry.calibration_id, label,
                            label, frame, partner, time_s)

@@ -313,13 +313,29 @@ def partner_frame(video: dict, frame: int, right_count: int | None = None) -> in
     return partner
 
 
+def left_frame_time(left: VideoStream, frame: int) -> float:
+    """The time (s) of a stereo video's left frame ``frame``, as every vertex measured on that frame stores
+    it: the frame's presentation time in the left stream (seconds from its first frame) — on a
+    variable-frame-rate video not ``frame / fps``. The window (the frame it shows), :func:`frame_pair` and
+    tracking (:mod:`usvips.app.tracking`) all take it from here."""
+    return left.time_of(int(frame))
+
+
+def left_frame_times(project: ProjectStore, label: str, frames: Sequence[int]) -> np.ndarray:
+    """:func:`left_frame_time` of each of ``frames`` of video ``label`` (s), the left stream opened for it
+    (its packets indexed, nothing decoded)."""
+    video = project.video(label)
+    with VideoStream([project.media_path(p) for p in video["left"]]) as left:
+        return np.array([left_frame_time(left, f) for f in frames], float)
+
+
 def frame_pair(project: ProjectStore, label: str, frame: int) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Left frame ``frame`` and its synchronised right frame, decoded exactly; the right frame's number
-    and the left frame's time (s)."""
+    and the left frame's time (s, :func:`left_frame_time`)."""
     video, left, right = open_streams(project, label)
     with left, right:
         partner = partner_frame(video, frame, right.frame_count)
-        return left.frame(frame), right.frame(partner), partner, left.time_of(frame)
+        return left.frame(frame), right.frame(partner), partner, left_frame_time(left, frame)
 
 
 def write_frame_pair(left: np.ndarray, right: np.ndarray, out: str | Path) -> tuple[Path, Path]:

@@ -84,7 +84,9 @@ class Track:
     """A vertex tracked through frames: ``frames`` (M,) in increasing order, ``left`` and ``right`` (M, 2)
     pixels, ``scores`` (M, 2) the left and right correlation with the frame before (1 at the start
     frame), ``ray_rms_m`` (M,) the stereo ray RMS of the unconstrained pair (m); ``start`` the frame
-    picked; ``stopped``: (direction, last frame tracked, reason) for backward (−1) and forward (+1)."""
+    picked; ``stopped``: (direction, last frame tracked, reason) for backward (−1) and forward (+1);
+    ``times_s`` (M,) the left frames' presentation times (s) when the caller that read the video gave them
+    (None: not known here — tracking itself works in frames)."""
 
     frames: np.ndarray
     left: np.ndarray
@@ -93,6 +95,13 @@ class Track:
     ray_rms_m: np.ndarray
     start: int
     stopped: tuple[tuple[int, int, str], ...]
+    times_s: np.ndarray | None = None
+
+    def time_at(self, frame: int) -> float | None:
+        """The presentation time (s) of left frame ``frame``; None where the track does not reach it or its
+        times are not known."""
+        found = np.flatnonzero(self.frames == int(frame))
+        return None if self.times_s is None or not found.size else float(self.times_s[found[0]])
 
     def at(self, frame: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The left and right pixels on ``frame``; None where the track does not reach."""

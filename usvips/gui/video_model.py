@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usvips.app import video_project
-from usvips.app.video_project import doubt_about, open_streams, partner_frame
+from usvips.app.video_project import doubt_about, left_frame_time, open_streams, partner_frame
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.gui.signals import Signal
@@ -208,7 +208,7 @@ class FrameSource:
         with self._lock:
             partner = partner_frame(video, frame, self.right.frame_count)
             left, right = self._reader.pictures(frame, partner)  # both cameras at once
-            return left, right, partner, self.left.time_of(frame)
+            return left, right, partner, left_frame_time(self.left, frame)
 
     def pair(self, frame: int, offset: int | None = None) -> tuple[np.ndarray, np.ndarray, int, float]:
         return rgb_pair(self.pictures(frame, offset))
