@@ -1023,3 +1023,86 @@ def test_two_readers_reviewing_the_same_objects_at_once_lose_nothing_and_overwri
             assert [e.old["state"] for e in mine[1:]] == [e.new["state"] for e in mine[:-1]]  # none overwritten
         else:
             assert final.state == "unreviewed"
+
+
+def test_an_undo_or_redo_over_another_annotators_later_edit_is_refused_by_name_and_changes_nothing(impl, store,
+                                                                                                      where):
+    """Alice edits an object (her window keeps the rows before and after, for Ctrl+Z); Bob, on another
+    handle, changes it again; Alice's undo (``put_back`` of the rows before, naming the version she left
+    it at) is refused by name — the object, Bob, nothing changed — and so are her redo and her take of it
+    (an undo of a store); with nobody in between every step goes through and restores the rows exactly.
+    Putting back a deleted object whose id was used again names who did it."""
+    rng = np.random.default_rng(41)
+    store.annotator = "alice"
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    before = store.object_rows(object_id)
+    store.update_object(object_id, attribute="haddock", vertices=[_vertex(rng), _vertex(rng)])
+    after = store.object_rows(object_id)
+    assert before.modified < after.modified == store.object(object_id).modified
+    # nobody in between: undo, redo, undo — each exactly the rows, each checked against the version left
+    store.put_back(before, expected_modified=after.modified)
+    assert store.object_rows(object_id) == before
+    store.put_back(after, expected_modified=before.modified)
+    assert store.object_rows(object_id) == after
+    with impl.open(where, False) as other:
+        other.annotator = "bob"
+        other.update_object(object_id, notes="measured again by bob")
+        bobs, kept = other.object_rows(object_id), store.history()
+        for step in (lambda: store.put_back(before, expected_modified=after.modified),        # the undo
+                     lambda: store.put_back(after, expected_modified=before.modified),        # a redo
+                     lambda: store.take_object(object_id, expected_modified=after.modified)):  # undo of a store
+            with pytest.raises(StaleEditError, match=f"object {object_id} was changed by someone else") as refused:
+                step()
+            assert "edit by bob" in str(refused.value) and "\n" not in str(refused.value)
+            assert store.object_rows(object_id) == bobs and store.history() == kept
+        # deleted by Bob since: the undo is refused by name too, and the object stays deleted
+        taken = other.take_object(object_id)
+        kept = store.history()
+        with pytest.raises(StaleEditError, match=f"object {object_id} was deleted by someone else.*delete by bob"):
+            store.put_back(before, expected_modified=bobs.modified)
+        assert object_id not in [o.id for o in store.objects()] and store.history() == kept
+        # an undo of a delete when the id was used again meanwhile: refused, naming who
+        other.put_back(taken)
+        with pytest.raises(StaleEditError, match=f"object {object_id} exists again \\(last change: put back by bob"):
+            store.put_back(taken)
+        assert store.object_rows(object_id) == bobs
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_interleaved_edits_and_undos_of_two_annotators_never_overwrite_a_later_edit(impl, store, where, seed):
+    """Random edits by two annotators on a few shared objects, each keeping an undo stack of (rows before,
+    rows after) as the window does; a random undo goes through exactly when nobody changed the object
+    since this annotator left it (then the object is the rows before, exactly), and otherwise is refused
+    by name leaving the object and the history as they were."""
+    rng = np.random.default_rng(300 + seed)
+    ids = [store.add_object("arc", [_vertex(rng) for _ in range(3)], "cod") for _ in range(3)]
+    with impl.open(where, False) as other:
+        handles = {"alice": store, "bob": other}
+        for name, handle in handles.items():
+            handle.annotator = name
+        stacks: dict[str, list] = {"alice": [], "bob": []}
+        undone = refused = 0
+        for _ in range(40):
+            name = str(rng.choice(sorted(handles)))
+            handle, stack = handles[name], stacks[name]
+            if stack and rng.random() < 0.4:
+                object_id, before, after = stack.pop()
+                current, kept = handle.object_rows(object_id), handle.history()
+                if current.modified == after.modified:
+                    handle.put_back(before, expected_modified=after.modified)
+                    assert handle.object_rows(object_id) == before
+                    undone += 1
+                else:
+                    with pytest.raises(StaleEditError, match=f"object {object_id} was changed by someone else"):
+                        handle.put_back(before, expected_modified=after.modified)
+                    assert handle.object_rows(object_id) == current and handle.history() == kept
+                    refused += 1
+            else:
+                object_id = int(rng.choice(ids))
+                before = handle.object_rows(object_id)
+                if rng.random() < 0.5:
+                    handle.update_object(object_id, notes=f"{name} {rng.integers(1e9)}")
+                else:
+                    handle.update_object(object_id, vertices=[_vertex(rng) for _ in range(3)])
+                stack.append((object_id, before, handle.object_rows(object_id)))
+        assert undone and refused
