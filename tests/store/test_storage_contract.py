@@ -814,7 +814,8 @@ def test_two_annotators_writing_at_once_each_get_exactly_their_history_rows(impl
 def test_reviews_follow_every_change_with_who_and_when_and_one_history_row_each(store, seed):
     """Random review changes by two annotators on a handful of objects: after each, the stored reviews are
     what was asked (state, reason, reviewer), the object's version moved forward, and the history gained
-    exactly one 'review' row with the state before and after."""
+    exactly one 'review' row with the state before and after — unless the object already had that state
+    and reason: then nothing changed (no row, the same version, the first reviewer kept)."""
     rng = np.random.default_rng(seed)
     ids = [store.add_object("point", [_vertex(rng)], "cod") for _ in range(int(rng.integers(3, 7)))]
     assert store.reviews() == [Review(i) for i in ids]
@@ -829,6 +830,10 @@ def test_reviews_follow_every_change_with_who_and_when_and_one_history_row_each(
         store.set_review(object_id, state, f"  {reason} ")  # a reason is kept stripped
         got = store.review(object_id)
         assert (got.state, got.reason) == (state, reason)
+        if (want[object_id].state, want[object_id].reason) == (state, reason):  # no change
+            assert got == want[object_id] and store.object(object_id).modified == before
+            assert len(store.history()) == count
+            continue
         assert (got.reviewer, bool(got.reviewed)) == ((store.annotator, True) if state != "unreviewed" else ("", False))
         assert store.object(object_id).modified > before
         entries = store.history()
@@ -842,6 +847,28 @@ def test_reviews_follow_every_change_with_who_and_when_and_one_history_row_each(
     assert store.reviews() == [want[i] for i in ids]
     for state in REVIEW_STATES:
         assert store.reviews(state) == [want[i] for i in ids if want[i].state == state]
+
+
+def test_reviewing_again_with_the_same_state_and_reason_writes_nothing(impl, store, where):
+    """Accepted (or flagged for a reason, or unreviewed) again as it already is: no history row, no new
+    version, the first reviewer and time kept; another reason or state is a change as usual."""
+    rng = np.random.default_rng(17)
+    object_id = store.add_object("point", [_vertex(rng)], "cod")
+    store.annotator = "alice"
+    for state, reason, changes in (("unreviewed", "", False), ("accepted", "", True), ("accepted", " ", False),
+                                   ("accepted", "fine", True), ("flagged", "blurred", True),
+                                   ("flagged", "blurred ", False), ("flagged", "snout hidden", True),
+                                   ("unreviewed", "", True), ("unreviewed", "", False)):
+        review, version, count = store.review(object_id), store.object(object_id).modified, len(store.history())
+        with impl.open(where, False) as other:  # another reader, naming the version they read
+            other.annotator = "bob"
+            other.set_review(object_id, state, reason, expected_modified=version)
+        if changes:
+            assert len(store.history()) == count + 1 and store.object(object_id).modified > version
+            assert store.review(object_id).reviewer == ("bob" if state != "unreviewed" else "")
+        else:
+            assert store.review(object_id) == review and store.object(object_id).modified == version
+            assert len(store.history()) == count
 
 
 def test_bad_reviews_are_one_line_naming_the_object_and_change_nothing(store):
@@ -996,12 +1023,14 @@ def test_two_readers_reviewing_the_same_objects_at_once_lose_nothing_and_overwri
                     object_id = int(local.choice(ids))
                     state = ("accepted", "flagged")[k % 2]
                     read = handle.object(object_id).modified
+                    prior = handle.review(object_id)  # as at ``read`` when the review below is not stale
+                    reason = f"{name} {k}" if state == "flagged" else ""
                     try:
-                        handle.set_review(object_id, state, f"{name} {k}" if state == "flagged" else "",
-                                          expected_modified=read)
+                        handle.set_review(object_id, state, reason, expected_modified=read)
                     except ProjectError:  # stale (the other reader was first) or busy: nothing written
                         continue
-                    made.append((object_id, state))
+                    if (prior.state, prior.reason) != (state, reason):  # else already so: nothing written
+                        made.append((object_id, state))
                 kept[name] = made
         except Exception as error:  # noqa: BLE001 - reported below
             errors.append(error)

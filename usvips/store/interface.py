@@ -295,7 +295,9 @@ class ProjectStore(Protocol):
         """Set an object's review state: "accepted" (``reason`` an optional remark), "flagged" (``reason``
         required: what is wrong, one line) or "unreviewed" (back in the queue; no reason), made by this
         handle's annotator now. One transaction: the review, the object's ``modified`` stamp moved forward
-        (a review is a new version of the object), and one "review" row in the history (old and new state).
+        (a review is a new version of the object), and one "review" row in the history (old and new state);
+        the state and reason the object already has (accepted again, say) is no change: nothing is written
+        (no history row, the same version, the first reviewer kept).
         An unknown id, an unknown state, a flag without a reason is a ``ProjectError`` naming the object;
         ``expected_modified`` as for :meth:`update_object` (a stale review is a ``StaleEditError``)."""
         ...

@@ -722,12 +722,15 @@ class Project:
     def set_review(self, object_id: int, state: str, reason: str = "", expected_modified: str | None = None) -> None:
         """Set an object's review state (see :meth:`ProjectStore.set_review`): one transaction that stores
         the review with this handle's annotator and the time, moves the object's ``modified`` stamp forward
-        and appends one 'review' row (old and new state) to the history."""
+        and appends one 'review' row (old and new state) to the history. The state and reason it already
+        has (an accepted object accepted again): nothing is written."""
         state, reason = checks.review(object_id, state, reason, self.path)
         with self.transaction():
             stored = self.object(object_id)
             self._refuse_stale(stored, expected_modified)
             old = self.review(object_id)
+            if (old.state, old.reason) == (state, reason):  # already so: no history row, no new version
+                return
             now = _later(stored.modified)
             if state == "unreviewed":
                 self._db.execute("DELETE FROM reviews WHERE object_id = ?", (object_id,))
