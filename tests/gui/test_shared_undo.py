@@ -5,10 +5,14 @@ it)."""
 
 from __future__ import annotations
 
+import pytest
 from PySide6 import QtCore, QtWidgets
 
-from tests.gui.conftest import open_sample
-from usvips.store.records import Vertex
+from tests.gui.conftest import open_sample, truth_pixels
+from usvips.app.samples import open_or_create_from_manifest
+from usvips.gui.workspace import Workspace, load_pair_images
+from usvips.store import Project
+from usvips.store.records import StaleEditError, Vertex
 
 Key = QtCore.Qt.Key
 CTRL = QtCore.Qt.KeyboardModifier.ControlModifier
@@ -57,3 +61,51 @@ def test_ctrl_z_over_another_annotators_later_edit_is_refused_in_one_line_and_th
     _press(qtbot, bob, Key.Key_Z, CTRL)
     assert bob.statusBar().currentMessage() == f"undone: edit object {ids[1]}"
     assert mine.project.object(ids[1]).notes == "alice: second"
+
+
+def test_undo_of_a_store_and_redo_of_a_delete_are_refused_over_another_annotators_edit(sample_copy):
+    """The window's other steps on an object name the version they left too: undoing the store of an
+    object someone else has edited since would delete their edit, redoing a delete of an object someone
+    edited after the undo would too — both are refused by name, the object stays as they left it, and the
+    refused step leaves the stack."""
+    directory = sample_copy("tank_system1")
+    project = open_or_create_from_manifest(directory)
+    ws = Workspace()
+    ws.open_project(project)
+    try:
+        ws.set_pair("measure1", *load_pair_images(project, "measure1"))
+        left, right = truth_pixels(directory, "measure1", "objects")
+        ws.set_tool("line")
+        for point in ("snout", "fork"):
+            ws.pick("left", left["fish1"][point])
+            ws.pick("right", right["fish1"][point])
+        first = ws.finish_object("fish")
+        for point in ("snout", "fork"):
+            ws.pick("left", left["fish1"][point])
+            ws.pick("right", right["fish1"][point])
+        second = ws.finish_object("fish")
+        ws.delete_object(first)
+        ws.undo.undo()  # the delete taken back: the redo would delete it again
+        with Project.open(project.path) as other:
+            other.annotator = "bob"
+            other.update_object(first, notes="bob: checked")
+            other.update_object(second, notes="bob: checked too")
+        with pytest.raises(StaleEditError, match=f"object {first} was changed by someone else.*edit by bob"):
+            ws.undo.redo()
+        assert ws.undo.redo_label is None and ws.project.object(first).notes == "bob: checked"
+        assert ws.stored_object(first).notes == "bob: checked"  # the window shows it as it now is
+        assert ws.undo.undo_label == "store length"
+        with pytest.raises(StaleEditError, match=f"object {second} was changed by someone else.*edit by bob"):
+            ws.undo.undo()  # the store of the second object
+        assert ws.project.object(second).notes == "bob: checked too"
+        # the rest of the stack stays usable: the picks' steps go back, the first store is refused too
+        refused = 0
+        while ws.undo.undo_label is not None:
+            try:
+                ws.undo.undo()
+            except StaleEditError as error:
+                assert f"object {first} was changed by someone else" in str(error)
+                refused += 1
+        assert refused == 1 and [o.notes for o in ws.project.objects()] == ["bob: checked", "bob: checked too"]
+    finally:
+        ws.close_project()
