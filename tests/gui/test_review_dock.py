@@ -5,6 +5,9 @@ H on an object's row shows its history."""
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 from PySide6 import QtCore, QtWidgets
 
 from tests.gui.conftest import open_sample, wait_for_pair
@@ -161,6 +164,32 @@ def test_h_on_an_object_row_shows_its_history_and_provenance(qtbot, make_window,
     ws.delete_object(first)
     dialog.refresh()  # a deleted object's history stays
     assert dialog.table.rowCount() == 4 and "no longer in the project" in dialog.summary.text()
+    dialog.close()
+
+
+def test_history_windows_close_when_another_project_is_opened(qtbot, make_window, sample_copy, tmp_path):
+    """A history window belongs to its project: opening another closes it (it would read a closed store),
+    and a history opened then reads the new project."""
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    second = Path(shutil.copytree(directory, tmp_path / "second"))
+    open_sample(qtbot, window, directory, "measure1")
+    (first, *_) = _objects_on_two_pairs(window)
+    dialogs = [window.object_list.show_history(first) for _ in range(2)]
+    for dialog in dialogs:
+        qtbot.waitExposed(dialog)
+    gone = []
+    for dialog in dialogs:
+        dialog.destroyed.connect(lambda _=None: gone.append(1))
+    open_sample(qtbot, window, second, "measure1")
+    assert window.object_list.history_dialogs == []
+    qtbot.waitUntil(lambda: len(gone) == 2, timeout=5000)  # closed, and deleted on close
+    ws = window.workspace
+    (fresh, *_) = _objects_on_two_pairs(window)
+    dialog = window.object_list.show_history(fresh)
+    dialog.refresh()
+    assert "cannot read" not in dialog.summary.text() and "Made by" in dialog.summary.text()
+    assert dialog.store is ws.project and dialog.table.rowCount() == 1
     dialog.close()
 
 

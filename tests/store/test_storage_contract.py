@@ -814,7 +814,8 @@ def test_two_annotators_writing_at_once_each_get_exactly_their_history_rows(impl
 def test_reviews_follow_every_change_with_who_and_when_and_one_history_row_each(store, seed):
     """Random review changes by two annotators on a handful of objects: after each, the stored reviews are
     what was asked (state, reason, reviewer), the object's version moved forward, and the history gained
-    exactly one 'review' row with the state before and after."""
+    exactly one 'review' row with the state before and after — unless the object already had that state
+    and reason: then nothing changed (no row, the same version, the first reviewer kept)."""
     rng = np.random.default_rng(seed)
     ids = [store.add_object("point", [_vertex(rng)], "cod") for _ in range(int(rng.integers(3, 7)))]
     assert store.reviews() == [Review(i) for i in ids]
@@ -829,6 +830,10 @@ def test_reviews_follow_every_change_with_who_and_when_and_one_history_row_each(
         store.set_review(object_id, state, f"  {reason} ")  # a reason is kept stripped
         got = store.review(object_id)
         assert (got.state, got.reason) == (state, reason)
+        if (want[object_id].state, want[object_id].reason) == (state, reason):  # no change
+            assert got == want[object_id] and store.object(object_id).modified == before
+            assert len(store.history()) == count
+            continue
         assert (got.reviewer, bool(got.reviewed)) == ((store.annotator, True) if state != "unreviewed" else ("", False))
         assert store.object(object_id).modified > before
         entries = store.history()
@@ -842,6 +847,28 @@ def test_reviews_follow_every_change_with_who_and_when_and_one_history_row_each(
     assert store.reviews() == [want[i] for i in ids]
     for state in REVIEW_STATES:
         assert store.reviews(state) == [want[i] for i in ids if want[i].state == state]
+
+
+def test_reviewing_again_with_the_same_state_and_reason_writes_nothing(impl, store, where):
+    """Accepted (or flagged for a reason, or unreviewed) again as it already is: no history row, no new
+    version, the first reviewer and time kept; another reason or state is a change as usual."""
+    rng = np.random.default_rng(17)
+    object_id = store.add_object("point", [_vertex(rng)], "cod")
+    store.annotator = "alice"
+    for state, reason, changes in (("unreviewed", "", False), ("accepted", "", True), ("accepted", " ", False),
+                                   ("accepted", "fine", True), ("flagged", "blurred", True),
+                                   ("flagged", "blurred ", False), ("flagged", "snout hidden", True),
+                                   ("unreviewed", "", True), ("unreviewed", "", False)):
+        review, version, count = store.review(object_id), store.object(object_id).modified, len(store.history())
+        with impl.open(where, False) as other:  # another reader, naming the version they read
+            other.annotator = "bob"
+            other.set_review(object_id, state, reason, expected_modified=version)
+        if changes:
+            assert len(store.history()) == count + 1 and store.object(object_id).modified > version
+            assert store.review(object_id).reviewer == ("bob" if state != "unreviewed" else "")
+        else:
+            assert store.review(object_id) == review and store.object(object_id).modified == version
+            assert len(store.history()) == count
 
 
 def test_bad_reviews_are_one_line_naming_the_object_and_change_nothing(store):
@@ -996,12 +1023,14 @@ def test_two_readers_reviewing_the_same_objects_at_once_lose_nothing_and_overwri
                     object_id = int(local.choice(ids))
                     state = ("accepted", "flagged")[k % 2]
                     read = handle.object(object_id).modified
+                    prior = handle.review(object_id)  # as at ``read`` when the review below is not stale
+                    reason = f"{name} {k}" if state == "flagged" else ""
                     try:
-                        handle.set_review(object_id, state, f"{name} {k}" if state == "flagged" else "",
-                                          expected_modified=read)
+                        handle.set_review(object_id, state, reason, expected_modified=read)
                     except ProjectError:  # stale (the other reader was first) or busy: nothing written
                         continue
-                    made.append((object_id, state))
+                    if (prior.state, prior.reason) != (state, reason):  # else already so: nothing written
+                        made.append((object_id, state))
                 kept[name] = made
         except Exception as error:  # noqa: BLE001 - reported below
             errors.append(error)
@@ -1023,3 +1052,86 @@ def test_two_readers_reviewing_the_same_objects_at_once_lose_nothing_and_overwri
             assert [e.old["state"] for e in mine[1:]] == [e.new["state"] for e in mine[:-1]]  # none overwritten
         else:
             assert final.state == "unreviewed"
+
+
+def test_an_undo_or_redo_over_another_annotators_later_edit_is_refused_by_name_and_changes_nothing(impl, store,
+                                                                                                      where):
+    """Alice edits an object (her window keeps the rows before and after, for Ctrl+Z); Bob, on another
+    handle, changes it again; Alice's undo (``put_back`` of the rows before, naming the version she left
+    it at) is refused by name — the object, Bob, nothing changed — and so are her redo and her take of it
+    (an undo of a store); with nobody in between every step goes through and restores the rows exactly.
+    Putting back a deleted object whose id was used again names who did it."""
+    rng = np.random.default_rng(41)
+    store.annotator = "alice"
+    object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+    before = store.object_rows(object_id)
+    store.update_object(object_id, attribute="haddock", vertices=[_vertex(rng), _vertex(rng)])
+    after = store.object_rows(object_id)
+    assert before.modified < after.modified == store.object(object_id).modified
+    # nobody in between: undo, redo, undo — each exactly the rows, each checked against the version left
+    store.put_back(before, expected_modified=after.modified)
+    assert store.object_rows(object_id) == before
+    store.put_back(after, expected_modified=before.modified)
+    assert store.object_rows(object_id) == after
+    with impl.open(where, False) as other:
+        other.annotator = "bob"
+        other.update_object(object_id, notes="measured again by bob")
+        bobs, kept = other.object_rows(object_id), store.history()
+        for step in (lambda: store.put_back(before, expected_modified=after.modified),        # the undo
+                     lambda: store.put_back(after, expected_modified=before.modified),        # a redo
+                     lambda: store.take_object(object_id, expected_modified=after.modified)):  # undo of a store
+            with pytest.raises(StaleEditError, match=f"object {object_id} was changed by someone else") as refused:
+                step()
+            assert "edit by bob" in str(refused.value) and "\n" not in str(refused.value)
+            assert store.object_rows(object_id) == bobs and store.history() == kept
+        # deleted by Bob since: the undo is refused by name too, and the object stays deleted
+        taken = other.take_object(object_id)
+        kept = store.history()
+        with pytest.raises(StaleEditError, match=f"object {object_id} was deleted by someone else.*delete by bob"):
+            store.put_back(before, expected_modified=bobs.modified)
+        assert object_id not in [o.id for o in store.objects()] and store.history() == kept
+        # an undo of a delete when the id was used again meanwhile: refused, naming who
+        other.put_back(taken)
+        with pytest.raises(StaleEditError, match=f"object {object_id} exists again \\(last change: put back by bob"):
+            store.put_back(taken)
+        assert store.object_rows(object_id) == bobs
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_interleaved_edits_and_undos_of_two_annotators_never_overwrite_a_later_edit(impl, store, where, seed):
+    """Random edits by two annotators on a few shared objects, each keeping an undo stack of (rows before,
+    rows after) as the window does; a random undo goes through exactly when nobody changed the object
+    since this annotator left it (then the object is the rows before, exactly), and otherwise is refused
+    by name leaving the object and the history as they were."""
+    rng = np.random.default_rng(300 + seed)
+    ids = [store.add_object("arc", [_vertex(rng) for _ in range(3)], "cod") for _ in range(3)]
+    with impl.open(where, False) as other:
+        handles = {"alice": store, "bob": other}
+        for name, handle in handles.items():
+            handle.annotator = name
+        stacks: dict[str, list] = {"alice": [], "bob": []}
+        undone = refused = 0
+        for _ in range(40):
+            name = str(rng.choice(sorted(handles)))
+            handle, stack = handles[name], stacks[name]
+            if stack and rng.random() < 0.4:
+                object_id, before, after = stack.pop()
+                current, kept = handle.object_rows(object_id), handle.history()
+                if current.modified == after.modified:
+                    handle.put_back(before, expected_modified=after.modified)
+                    assert handle.object_rows(object_id) == before
+                    undone += 1
+                else:
+                    with pytest.raises(StaleEditError, match=f"object {object_id} was changed by someone else"):
+                        handle.put_back(before, expected_modified=after.modified)
+                    assert handle.object_rows(object_id) == current and handle.history() == kept
+                    refused += 1
+            else:
+                object_id = int(rng.choice(ids))
+                before = handle.object_rows(object_id)
+                if rng.random() < 0.5:
+                    handle.update_object(object_id, notes=f"{name} {rng.integers(1e9)}")
+                else:
+                    handle.update_object(object_id, vertices=[_vertex(rng) for _ in range(3)])
+                stack.append((object_id, before, handle.object_rows(object_id)))
+        assert undone and refused

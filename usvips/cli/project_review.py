@@ -44,12 +44,16 @@ def run_review(args: argparse.Namespace) -> int:
     writing = bool(args.accept) or args.flag is not None
     with open_project(args.project, read_only=not writing) as project:
         if writing:
+            already = 0  # accepted before (no reason): accepting again writes nothing
             with project.transaction():
                 for object_id in args.accept:
+                    review = project.review(object_id)
+                    already += (review.state, review.reason) == ("accepted", "")
                     project.set_review(object_id, "accepted")
                 if args.flag is not None:
                     project.set_review(args.flag, "flagged", args.reason)
-            done = [f"accepted {len(args.accept)}"] if args.accept else []
+            done = [f"accepted {len(args.accept)}" + (f" ({already} already were)" if already else "")
+                    ] if args.accept else []
             done += [f"flagged object {args.flag}"] if args.flag is not None else []
             print(f"{shown(args.project)}: {', '.join(done)} as {project.annotator}")
         if args.list is not None:

@@ -42,6 +42,7 @@ from usvips.io.species_list import read_species_list
 from usvips.locations import resources_folder, sample_projects
 from usvips.store.annotator import annotating_as
 from usvips.store.opening import is_server_location, without_password
+from usvips.store.records import StaleEditError
 
 SAMPLES = sample_projects()
 #: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
@@ -1059,7 +1060,8 @@ class MainWindow(QtWidgets.QMainWindow):
         try:
             label = getattr(self.workspace.undo, verb)()
         except UsvipsError as error:
-            self.show_message("error", f"cannot {verb}: {error}")
+            dropped = " — the step is dropped (nothing was changed)" if isinstance(error, StaleEditError) else ""
+            self.show_message("error", f"cannot {verb}: {error}{dropped}")
             return
         if label:
             self.show_message("info", f"{done}: {label}")

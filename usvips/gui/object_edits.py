@@ -2,7 +2,10 @@
 attribute and notes, its observation record. Each is ONE command on the workspace's undo stack that
 restores exactly what it changed: undo puts back the object's stored rows as they were (vertices, video
 frames, kind, texts, record, history; a deleted object under its own id), redo the rows the edit made —
-never a look-alike. A refusal (too few vertices, a kind the vertices cannot make) is one line naming the
+never a look-alike. On a shared survey an undo or redo is made only onto the object as this window left
+it: when another annotator changed (or deleted) it since, the step is refused by name
+(:class:`~usvips.store.records.StaleEditError`, nothing changes) — never a silent overwrite of their edit.
+A refusal (too few vertices, a kind the vertices cannot make) is one line naming the
 object, and nothing changes.
 
 The edits work on an :class:`EditScene` (the workspace: the open project, its object cache, the undo stack
@@ -24,6 +27,7 @@ from usvips.gui.undo import Command, UndoStack
 from usvips.gui.wording import article, plural
 from usvips.store.interface import ProjectStore
 from usvips.store.project import Vertex
+from usvips.store.records import StaleEditError
 
 
 class EditScene(Protocol):
@@ -76,12 +80,9 @@ class ObjectEdits:
         before = project.object_rows(object_id)
         after: list = []
 
-        def put(rows) -> None:
-            project.put_back(rows, replace=True)
-
         def redo() -> None:
-            if after:
-                put(after[0])
+            if after:  # only onto the object as the undo left it: not over someone's edit made since
+                self._unless_stale(object_id, lambda: project.put_back(after[0], expected_modified=before.modified))
             else:
                 edit()
                 after.append(project.object_rows(object_id))
@@ -89,13 +90,23 @@ class ObjectEdits:
             if then is not None:
                 then()
 
-        def undo() -> None:
-            put(before)
+        def undo() -> None:  # only when nobody (another annotator on a shared survey) changed it since
+            self._unless_stale(object_id, lambda: project.put_back(before, expected_modified=after[0].modified))
             self.scene.objects_changed_in_store(updated=(object_id,))
             if then is not None:
                 then()
 
         self.scene.undo.push(Command(label, redo, undo))
+
+    def _unless_stale(self, object_id: int, step: Callable[[], object]) -> object:
+        """Run an undo or redo ``step`` of a stored object; refused as stale (another annotator changed or
+        deleted it since), the window re-reads the object as it now is and the refusal goes on to the
+        undo stack (which drops the step) and the status bar."""
+        try:
+            return step()
+        except StaleEditError:
+            self.scene.objects_changed_in_store(updated=(object_id,))
+            raise
 
     def delete_object(self, object_id: int) -> None:
         """Delete a stored object (undoable: undo gives back the same id with its vertices, video frames,
@@ -104,11 +115,12 @@ class ObjectEdits:
         removed: list = []
         project = self.scene.project
 
-        def delete() -> None:
-            removed[:] = [project.take_object(object_id)]
+        def delete() -> None:  # a redo: only the object as the undo put it back, not someone's later edit
+            version = removed[0].modified if removed else None
+            removed[:] = [self._unless_stale(object_id, lambda: project.take_object(object_id, version))]
             self.scene.objects_changed_in_store(removed=(object_id,))
 
-        def restore() -> None:
+        def restore() -> None:  # refused by name when the id was used again meanwhile
             project.put_back(removed[0])
             self.scene.objects_changed_in_store(added=(object_id,))
 

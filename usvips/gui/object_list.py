@@ -104,7 +104,8 @@ class ObjectList(QtWidgets.QWidget):
         self._events = ((workspace.objects_reset, self.refresh), (workspace.objects_added, self._on_added),
                         (workspace.objects_updated, self._on_updated), (workspace.objects_removed, self._on_removed),
                         (workspace.rules_changed, self._on_rules_changed),
-                        (workspace.selection_changed, self._on_model_selection))
+                        (workspace.selection_changed, self._on_model_selection),
+                        (workspace.project_changed, self._close_history_dialogs))
         for signal, slot in self._events:
             signal.connect(slot)
         self.refresh()
@@ -476,6 +477,14 @@ class ObjectList(QtWidgets.QWidget):
         self.history_dialogs.append(dialog)
         dialog.show()
         return dialog
+
+
+    def _close_history_dialogs(self, _project=None) -> None:
+        """Another project (or none) is open: the history windows of the previous one's objects close (their
+        store is closed; an object of the same number in the new project is another object)."""
+        for dialog in list(self.history_dialogs):
+            self.history_dialogs.remove(dialog)
+            dialog.close()
 
 
 def review_text(review) -> str:

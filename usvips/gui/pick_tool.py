@@ -493,8 +493,10 @@ class PickTool:
                 holder["id"] = project.add_object(kind, stored, attribute, notes)
                 if attribute:
                     project.add_term(attribute)
+                holder["modified"] = project.object(holder["id"]).modified
             else:  # redo: the very object (id, record, times) that undo took away
                 project.put_back(holder["rows"])
+                holder["modified"] = holder["rows"].modified
             if self._where() == where:  # elsewhere, what is being picked there is not this object's
                 self.digitising = Digitising(self.digitising.kind)
                 self.state = PickState()
@@ -506,7 +508,8 @@ class PickTool:
                 self.events.stored.emit(holder["id"])
 
         def unstore() -> None:
-            holder["rows"] = project.take_object(holder["id"])
+            # not when another annotator changed it since (a shared survey): refused by name, it stays
+            holder["rows"] = project.take_object(holder["id"], expected_modified=holder["modified"])
             if self._where() == where:  # its vertices come back to be finished only where they were picked
                 self._restore(before)
             self.scene.objects_changed_in_store(removed=(holder["id"],))

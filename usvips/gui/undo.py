@@ -5,7 +5,11 @@ rows of an object, see :meth:`usvips.store.project.Project.object_rows`), never 
 Two scopes: a step on the project (store, edit, delete an object) stays undoable when another pair or
 video frame is shown; a step on what is shown (a pick, a nudge, the images' enhancement) is
 ``pair_bound`` and forgotten then (:meth:`UndoStack.forget_pair_steps`): the picks are gone with their
-images, and an enhancement undone on other images would change those."""
+images, and an enhancement undone on other images would change those.
+
+On a shared survey a step is taken back only onto the object as this window left it: a step refused as
+stale (:class:`~usvips.store.records.StaleEditError`, another annotator changed the object since) is
+dropped from the stack, nothing changed (see :meth:`UndoStack._move`)."""
 
 from __future__ import annotations
 
@@ -13,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from usvips.gui.signals import Signal
+from usvips.store.records import StaleEditError
 
 
 @dataclass
@@ -49,10 +54,20 @@ class UndoStack:
         return self._move(self._undone, self._done, "redo")
 
     def _move(self, source: list[Command], target: list[Command], action: str) -> str | None:
+        """Undo or redo the step on top of ``source``. When it raises, its error goes to the caller and
+        the stack stays usable: a step refused as stale (another annotator changed the object since: it can
+        never be taken back over their edit) is dropped, and the next Ctrl+Z goes on with the one before;
+        any other refusal (the store busy, say) leaves the step where it was, to try again."""
         if not source:
             return None
-        command = source.pop()
-        getattr(command, action)()
+        command = source[-1]
+        try:
+            getattr(command, action)()
+        except StaleEditError:
+            source.pop()
+            self.changed.emit()
+            raise
+        source.pop()
         target.append(command)
         self.changed.emit()
         return command.label

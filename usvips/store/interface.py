@@ -226,17 +226,23 @@ class ProjectStore(Protocol):
         """Remove an object and its vertices (``expected_modified`` as for :meth:`update_object`)."""
         ...
 
-    def take_object(self, object_id: int) -> RemovedObject:
-        """Remove an object and return all that went with it (vertices, video frames, history, record)."""
+    def take_object(self, object_id: int, expected_modified: str | None = None) -> RemovedObject:
+        """Remove an object and return all that went with it (vertices, video frames, history, record);
+        ``expected_modified`` as for :meth:`update_object` (an undo of a store, a redo of a delete: the
+        object changed since by someone else is a ``StaleEditError`` and stays)."""
         ...
 
     def object_rows(self, object_id: int) -> RemovedObject:
         """All that is stored of an object (as :meth:`take_object` would return it), changing nothing."""
         ...
 
-    def put_back(self, removed: RemovedObject, replace: bool = False) -> None:
+    def put_back(self, removed: RemovedObject, replace: bool = False, expected_modified: str | None = None) -> None:
         """Restore exactly what :meth:`take_object` removed or :meth:`object_rows` read (the same id);
-        a used id is refused, or with ``replace`` its object replaced."""
+        a used id is refused (a :class:`~usvips.store.records.StaleEditError` naming who made it), or with
+        ``replace`` its object replaced. ``expected_modified`` (an undo or redo of an edit: the version the
+        editor left the object at): the object is replaced only when still stored at that version; changed
+        or deleted since (by another annotator) is a ``StaleEditError`` naming the object and who made the
+        last change, and nothing is changed — never a silent overwrite of someone's later edit."""
         ...
 
     def object(self, object_id: int) -> StoredObject:
@@ -289,7 +295,9 @@ class ProjectStore(Protocol):
         """Set an object's review state: "accepted" (``reason`` an optional remark), "flagged" (``reason``
         required: what is wrong, one line) or "unreviewed" (back in the queue; no reason), made by this
         handle's annotator now. One transaction: the review, the object's ``modified`` stamp moved forward
-        (a review is a new version of the object), and one "review" row in the history (old and new state).
+        (a review is a new version of the object), and one "review" row in the history (old and new state);
+        the state and reason the object already has (accepted again, say) is no change: nothing is written
+        (no history row, the same version, the first reviewer kept).
         An unknown id, an unknown state, a flag without a reason is a ``ProjectError`` naming the object;
         ``expected_modified`` as for :meth:`update_object` (a stale review is a ``StaleEditError``)."""
         ...

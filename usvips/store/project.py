@@ -83,12 +83,13 @@ def _later(stamp: str) -> str:
         return now
 
 
-def refuse_stale(where: object, stored: StoredObject, expected_modified: str | None) -> None:
-    """An edit made on an object as read at ``expected_modified`` is refused when it has changed since."""
+def refuse_stale(where: object, stored: StoredObject, expected_modified: str | None, by: str = "") -> None:
+    """An edit made on an object as read at ``expected_modified`` is refused when it has changed since.
+    ``by``: who made the last change and what (from the history), named in the refusal."""
     if expected_modified is not None and stored.modified != expected_modified:
         raise StaleEditError(f"{where}: object {stored.id} was changed by someone else since it was read "
-                             f"(now modified {stored.modified}, read at {expected_modified}); reload it and "
-                             "edit again (nothing was changed)")
+                             f"({by + ', ' if by else ''}now modified {stored.modified}, read at {expected_modified}); "
+                             "reload it and edit again (nothing was changed)")
 
 
 def _pick_key(vertex: Vertex) -> tuple:
@@ -653,6 +654,19 @@ class Project:
         self._db.execute("INSERT INTO history (at, annotator, object_id, change, old, new) VALUES (?, ?, ?, ?, ?, ?)",
                          (_now(), self.annotator, int(object_id), change, _history_json(old), _history_json(new)))
 
+    def _last_change(self, object_id: int) -> str:
+        """Who last changed an object, what and when, from the history ('' before schema 8)."""
+        if not self._has_table("history"):
+            return ""
+        row = self._db.execute("SELECT annotator, change, at FROM history WHERE object_id = ? ORDER BY id DESC "
+                               "LIMIT 1", (int(object_id),)).fetchone()
+        return "" if row is None else f"last change: {row[1]} by {row[0] or 'an unnamed annotator'} at {row[2]}"
+
+    def _refuse_stale(self, stored: StoredObject, expected_modified: str | None) -> None:
+        """:func:`refuse_stale` naming who made the last change (inside the caller's transaction)."""
+        if expected_modified is not None and stored.modified != expected_modified:
+            refuse_stale(self.path, stored, expected_modified, self._last_change(stored.id))
+
     def history(self, object_id: int | None = None) -> list[HistoryEntry]:
         """Every recorded change (of one object when ``object_id`` is given, also after it was deleted),
         oldest first; empty for a project older than schema 8 opened read-only."""
@@ -708,12 +722,15 @@ class Project:
     def set_review(self, object_id: int, state: str, reason: str = "", expected_modified: str | None = None) -> None:
         """Set an object's review state (see :meth:`ProjectStore.set_review`): one transaction that stores
         the review with this handle's annotator and the time, moves the object's ``modified`` stamp forward
-        and appends one 'review' row (old and new state) to the history."""
+        and appends one 'review' row (old and new state) to the history. The state and reason it already
+        has (an accepted object accepted again): nothing is written."""
         state, reason = checks.review(object_id, state, reason, self.path)
         with self.transaction():
             stored = self.object(object_id)
-            refuse_stale(self.path, stored, expected_modified)
+            self._refuse_stale(stored, expected_modified)
             old = self.review(object_id)
+            if (old.state, old.reason) == (state, reason):  # already so: no history row, no new version
+                return
             now = _later(stored.modified)
             if state == "unreviewed":
                 self._db.execute("DELETE FROM reviews WHERE object_id = ?", (object_id,))
@@ -769,7 +786,7 @@ class Project:
         row, 'review', see :meth:`_edited_after_review`); notes alone do not."""
         with self.transaction():
             stored = self.object(object_id)
-            refuse_stale(self.path, stored, expected_modified)
+            self._refuse_stale(stored, expected_modified)
             before = _object_state(stored.kind, stored.attribute, stored.notes, list(stored.vertices))
             kept = self._vertex_stamps(object_id) if vertices is not None else None
             if kind is not None:
@@ -801,7 +818,7 @@ class Project:
 
     def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
         with self.transaction():
-            refuse_stale(self.path, self.object(object_id), expected_modified)
+            self._refuse_stale(self.object(object_id), expected_modified)
             old = self._full_state(object_id)
             self._edit("DELETE FROM objects WHERE id = ?", (object_id,))
             self._log(object_id, "delete", old, None)
@@ -824,25 +841,39 @@ class Project:
             if self._has_table(table):
                 self._db.execute(f"DELETE FROM {table} WHERE {key} = ?", (object_id,))
 
-    def take_object(self, object_id: int) -> RemovedObject:
+    def take_object(self, object_id: int, expected_modified: str | None = None) -> RemovedObject:
         """Delete an object (one transaction) and return everything that went with it, for
-        :meth:`put_back` (undo of a delete gives back the same id, record and history)."""
+        :meth:`put_back` (undo of a delete gives back the same id, record and history).
+        ``expected_modified``: as for :meth:`update_object` (a stale take is a ``StaleEditError``)."""
         with self.transaction():
+            self._refuse_stale(self.object(object_id), expected_modified)
             removed = self.object_rows(object_id)
             old = self._full_state(object_id)
             self._remove_rows(object_id)
             self._log(object_id, "delete", old, None)
         return removed
 
-    def put_back(self, removed: RemovedObject, replace: bool = False) -> None:
+    def put_back(self, removed: RemovedObject, replace: bool = False, expected_modified: str | None = None) -> None:
         """Restore an object as :meth:`take_object` or :meth:`object_rows` found it, row for row (same id).
-        With ``replace`` whatever is stored under that id now is replaced; without, a used id is refused."""
+        With ``replace`` whatever is stored under that id now is replaced; without, a used id is refused
+        (a ``StaleEditError`` naming who made it). ``expected_modified`` (an undo or redo of an edit): the
+        object must still be stored at that version — it is then replaced; changed or deleted since by
+        someone else is a ``StaleEditError`` naming the object and who, and nothing is changed."""
         with self.transaction():
             old = None
-            if self._db.execute("SELECT 1 FROM objects WHERE id = ?", (removed.object_id,)).fetchone():
+            exists = self._db.execute("SELECT 1 FROM objects WHERE id = ?", (removed.object_id,)).fetchone()
+            if expected_modified is not None:
+                if not exists:
+                    raise StaleEditError(f"{self.path}: object {removed.object_id} was deleted by someone else "
+                                         f"since it was read ({self._last_change(removed.object_id)}); nothing "
+                                         "was changed")
+                self._refuse_stale(self.object(removed.object_id), expected_modified)
+                replace = True
+            if exists:
                 if not replace:
-                    raise ProjectError(f"{self.path}: object {removed.object_id} exists again; it cannot be put "
-                                       "back")
+                    raise StaleEditError(f"{self.path}: object {removed.object_id} exists again "
+                                         f"({self._last_change(removed.object_id)}); it cannot be put back "
+                                         "(nothing was changed)")
                 old = self._full_state(removed.object_id)
                 self._remove_rows(removed.object_id)
             try:

@@ -69,6 +69,15 @@ class RemovedObject:
     object_id: int
     rows: tuple[tuple[str, tuple[str, ...], tuple[tuple, ...]], ...]
 
+    @property
+    def modified(self) -> str | None:
+        """The object's ``modified`` stamp (its version) in these rows: an undo that puts them back names it
+        to check that nobody changed the object since (None when the rows hold no object)."""
+        for table, columns, values in self.rows:
+            if table == "objects" and values and "modified" in columns:
+                return values[0][columns.index("modified")]
+        return None
+
 
 #: the kinds of change the history records: an object added, edited (kind, attribute, notes), re-picked
 #: (its vertices replaced), deleted, put back (an undo restoring it as it was), its observation record set
