@@ -320,3 +320,21 @@ def test_proposals_taken_then_undone_leave_the_next_object_measured_on_the_frame
     new = ws.finish_object("another fish", "")
     qtbot.wait(50)  # a join is made after the store has finished (a zero-time timer)
     assert ws.project.instants(object_id) == [] and new in ws.cache
+
+
+def test_undoing_stored_instants_over_another_annotators_later_edit_is_refused_and_deletes_nothing(
+        qtbot, make_window, survey):
+    """Ctrl+T's instants, then another annotator edits one of them (a second handle on the same project):
+    Ctrl+Z is refused in one line naming the object, and every instant and the edit stay."""
+    path, object_id, fish, stereo = survey
+    window = _open(qtbot, make_window, path, object_id)
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_T)
+    qtbot.waitUntil(lambda: window.tracking.model.complete and not window.busy, timeout=30000)
+    ids = window.tracking.store_instants("4")
+    assert len(ids) == 4
+    with Project.open(path) as other:
+        other.update_object(ids[1], notes="checked by bob")
+    window.undo()
+    project = window.workspace.project
+    assert project.instants(object_id) == ids and project.object(ids[1]).notes == "checked by bob"
+    assert str(ids[1]) in _status(window) and "someone else" in _status(window)

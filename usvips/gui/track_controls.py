@@ -316,18 +316,24 @@ class TrackController(QtCore.QObject):
             ids: list[int] = []
             taken: list = []
 
+            #: each instant's version as this window left it: an undo over another annotator's later edit of
+            #: an instant is refused by name (StaleEditError), never a silent delete of their work
+            versions: dict[int, str] = {}
+
             def redo() -> None:
                 if not ids:
                     ids.extend(add_tracked_instants(ws.project, object_id, tracks, frames, label))
+                    versions.update({i: ws.project.object(i).modified for i in ids})
                 else:
                     with ws.project.transaction():
                         for rows in taken:
                             ws.project.put_back(rows)
+                    versions.update({rows.object_id: rows.modified for rows in taken})
                 ws.cache.changed_in_store(added=tuple(ids), updated=(object_id,))
 
             def undo() -> None:
                 with ws.project.transaction():
-                    taken[:] = [ws.project.take_object(i) for i in ids]
+                    taken[:] = [ws.project.take_object(i, expected_modified=versions.get(i)) for i in ids]
                 ws.cache.changed_in_store(removed=tuple(ids), updated=(object_id,))
                 ws.select([i for i in ws.selection if i not in ids])
 
