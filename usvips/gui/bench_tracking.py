@@ -42,6 +42,7 @@ def _survey(folder: Path, frames: int) -> tuple[Path, int, int]:
     frame by the truth's pixels; returns the project file, the length's id and its frame."""
     import cv2
 
+    from usvips.app.calibrations import store_calibration
     from usvips.app.video_project import add_video
     from usvips.core.camera import Camera, Exterior
     from usvips.core.housing import FlatPortHousing
@@ -50,9 +51,8 @@ def _survey(folder: Path, frames: int) -> tuple[Path, int, int]:
     from usvips.core.rig import RelativeOrientation, StereoRig
     from usvips.core.stereo_calibration import StereoCalibration
     from usvips.core.synth.swimming import SwimmingFish
-    from usvips.io.calibration_file import calibration_to_dict
     from usvips.io.video_writer import encode_video
-    from usvips.store import Project
+    from usvips.store.opening import create_project
     from usvips.store.project import Vertex
 
     camera = Camera(Interior(1150.0, W / 2, H / 2, 1.0, k1=-0.05), Exterior(0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
@@ -85,9 +85,9 @@ def _survey(folder: Path, frames: int) -> tuple[Path, int, int]:
     points = np.array([fish.body_point(start / FPS, f * fish.length) for f in (0.3, 0.45)])
     left, right = stereo.left.project(points).pixels, stereo.right.project(points).pixels
     path = folder / "survey.usvips"
-    with Project.create(path) as project:
+    with create_project(path) as project:
         add_video(project, [folder / "left.mp4"], [folder / "right.mp4"], "drop")
-        calibration_id = project.add_calibration("cal", calibration_to_dict(calibration), ("drop",))
+        calibration_id = store_calibration(project, "cal", calibration, ("drop",))
         m = measure_picks("length", calibration, left, right, 0, "rig")
         vertices = [Vertex(*left[i], *right[i], tuple(m.points[i]), m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3],
                            calibration_id, "drop", "drop", start, start, start / FPS) for i in range(2)]
