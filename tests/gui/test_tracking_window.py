@@ -233,6 +233,8 @@ def test_p_proposes_the_vertices_on_a_later_frame_and_the_new_object_joins_as_an
     qtbot.waitUntil(lambda: len(project.instants(object_id)) == 1, timeout=5000)
     new = project.instants(object_id)[0]
     assert project.object(new).vertices[0].frame_left == 12 and "instant of object" in _status(window)
+    # its vertices were kept as proposed: they carry the start pick's error, so it is a tracked instant
+    assert project.instant_sources(object_id) == {new: START}
     # with nothing selected, T tracks the object just stored (from its own frame, 12)
     ws.select([])
     window.tracking.track()

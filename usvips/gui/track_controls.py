@@ -58,6 +58,7 @@ class TrackController(QtCore.QObject):
         self._proposed = -1  # the index of the vertex proposed last
         # (object, frame, the picks taken from its proposals): the object stored with those picks joins it
         self._instant_of: tuple[int, int, list] | None = None
+        self._tracked_from: int | None = None  # the frame the proposals taken were tracked from
         self.items = {}
         for side, pane in window.panes.items():
             trail = pg.PlotCurveItem(pen=pg.mkPen(TRACK_COLOUR, width=1.5), connect="finite")
@@ -84,15 +85,18 @@ class TrackController(QtCore.QObject):
             picks = [((v.xl, v.yl), (v.xr, v.yr)) for v in stored.vertices]
             if picks == taken and stored.vertices[0].frame_left == frame and whole in ws.cache:
                 # after the store has finished (and said so): the link is its own undoable step
-                QtCore.QTimer.singleShot(0, lambda: self.join(whole, int(object_id)))
+                tracked_from = self._tracked_from
+                QtCore.QTimer.singleShot(0, lambda: self.join(whole, int(object_id), tracked_from))
 
-    def join(self, object_id: int, instant_id: int) -> bool:
-        """Make stored object ``instant_id`` a further instant of ``object_id`` (one undoable step); refused
-        by name (different calibrations or kinds), nothing changed."""
+    def join(self, object_id: int, instant_id: int, tracked_from: int | None = None) -> bool:
+        """Make stored object ``instant_id`` a further instant of ``object_id`` (one undoable step;
+        ``tracked_from``: the frame its proposals were tracked from when a vertex was kept as proposed, so
+        that its pick error is counted as shared with the object's); refused by name (different
+        calibrations or kinds), nothing changed."""
         ws = self.window.workspace
 
         def redo() -> None:
-            add_instant(ws.project, object_id, instant_id)
+            add_instant(ws.project, object_id, instant_id, tracked_from)
             ws.cache.changed_in_store(updated=(object_id, instant_id))
 
         def undo() -> None:
@@ -120,6 +124,12 @@ class TrackController(QtCore.QObject):
         previous project's object (an object of the same id here is another one)."""
         self._proposals, self._proposed, self._instant_of = None, -1, None
         self._last_point, self._last_point_frame = None, None
+
+    def _start_frame(self, object_id: int) -> int | None:
+        """The left frame object ``object_id`` was measured on (its proposals are tracked from there)."""
+        stored = self.window.workspace.stored_object(object_id)
+        return int(stored.vertices[0].frame_left) if stored.vertices and stored.vertices[0].frame_left is not None \
+            else None
 
     def _on_removed(self, ids) -> None:
         if self.model.object_id in set(ids):
@@ -426,8 +436,13 @@ class TrackController(QtCore.QObject):
         if k >= len(proposals):
             self._proposals = None
             # only an object of the vertices taken now joins (not one measured after they were undone)
-            self._instant_of = (object_id, frame, [(tuple(map(float, v.left)), tuple(map(float, v.right)))
-                                                   for v in ws.digitising.vertices])
+            taken = [(tuple(map(float, v.left)), tuple(map(float, v.right))) for v in ws.digitising.vertices]
+            self._instant_of = (object_id, frame, taken)
+            # a vertex kept as proposed carries the track's start pick (its error): the instant is tracked
+            self._tracked_from = (self._start_frame(object_id)
+                                  if any(t == (tuple(map(float, p.left)), tuple(map(float, p.right)))
+                                         for t, p in zip(taken, proposals, strict=False) if p.left is not None)
+                                  else None)
             self.window.show_message("info", f"every vertex of object {object_id} taken on frame {frame}: Enter "
                                              "stores them as a new instant of the object")
             return
