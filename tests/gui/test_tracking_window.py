@@ -233,6 +233,9 @@ def test_p_proposes_the_vertices_on_a_later_frame_and_the_new_object_joins_as_an
     qtbot.waitUntil(lambda: len(project.instants(object_id)) == 1, timeout=5000)
     new = project.instants(object_id)[0]
     assert project.object(new).vertices[0].frame_left == 12 and "instant of object" in _status(window)
+    # the observation form did not ask for the instant's species (its object's record holds it)
+    assert window.observation.ask.isChecked() and window.observation.status.text() == ""
+    assert not window.observation.species.hasFocus()
     # with nothing selected, T tracks the object just stored (from its own frame, 12)
     ws.select([])
     window.tracking.track()
