@@ -73,3 +73,22 @@ def test_bad_campaign_values_are_named_by_their_option(tmp_path, capsys):
     assert code == 2 and "has no campaign" in err
     code, _, err = _run(capsys, "project", "export", project, tmp_path / "o.csv", "--reader", "ann")
     assert code == 2 and "--reader goes with --format globalarchive" in err and not (tmp_path / "o.csv").exists()
+
+
+def test_the_archive_folder_is_made_when_missing_and_not_left_behind_by_a_refused_export(tmp_path, capsys):
+    project = tmp_path / "s.usvips"
+    _survey(project)
+    out = tmp_path / "archive"
+    code, _, err = _run(capsys, "project", "export", project, out, "--format", "globalarchive")
+    assert code == 2 and "has no campaign" in err and not out.exists()
+    assert _run(capsys, "project", "set-campaign", project, "--campaign-id", "2024-03_Reef_stereo-BRUVs", "--method",
+                "stereo-BRUVs", "--project-name", "Reef", "--submitter", "Ana")[0] == 0
+    code, _, err = _run(capsys, "project", "export", project, out, "--format", "globalarchive")
+    assert code == 2 and "no deployment metadata" in err and not out.exists()  # refused: no folder left
+    assert _run(capsys, "project", "set-metadata", project, "--opcode", "OP1", "--date", "2024-03-02", "--time",
+                "09:10", "--latitude", "-28.7", "--longitude", "113.8", "--depth", "22")[0] == 0
+    code, _, err = _run(capsys, "project", "export", project, tmp_path / "no" / "archive", "--format", "globalarchive")
+    assert code == 2 and "OUT" in err and "does not exist" in err and not (tmp_path / "no").exists()
+    code, text, err = _run(capsys, "project", "export", project, out, "--format", "globalarchive")
+    assert code == 0 and err == "" and "wrote 7" in text
+    assert (out / "2024-03_Reef_stereo-BRUVs_Count.txt").is_file()

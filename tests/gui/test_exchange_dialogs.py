@@ -311,3 +311,22 @@ def test_a_project_calibration_is_reported_with_its_data_as_the_command_line_rep
     assert data.control is not None and len(data.observations.ids) > 0
     assert set(data.observations.pairs) <= set(calibration.stations)
     assert data.files[0][0] == "project" and "held by the project" in data.files[0][2]
+
+
+def test_the_campaign_fields_show_a_whole_campaign_id(qtbot, tmp_path):
+    """Seen in the walkthrough: long labels left the campaign's fields a few characters wide, so a
+    CampaignID showed only its tail; the labels are short, the forms are the empty fields' hints."""
+    from usvips.store import Project
+
+    with Project.create(tmp_path / "s.usvips") as project:
+        dialog = exchange_dialogs.DeploymentDialog(project)
+        qtbot.addWidget(dialog)
+        dialog.show()
+        qtbot.waitExposed(dialog)
+        field = dialog.campaign_fields["campaign_id"]
+        campaign_id = "2024-03_Abrolhos.Reef_stereo-BRUVs"
+        field.setText(campaign_id)
+        assert field.width() > field.fontMetrics().horizontalAdvance(campaign_id)
+        assert field.placeholderText() == "YYYY-MM_Project.name_Method"
+        assert dialog.campaign_fields["start_date"].placeholderText() == "YYYY-MM-DD"
+        dialog.close()

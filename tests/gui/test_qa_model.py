@@ -4,7 +4,7 @@ cache, no figure computed twice, and kept up to date as objects change."""
 import pytest
 
 from tests.app.test_quality import build_survey
-from usvips.app.quality import check_project
+from usvips.app.quality import FAIL, NOTE, Issue, Place, QualityReport, check_project
 from usvips.core.measurements import QualityRules
 from usvips.gui.qa_model import COLUMNS, QaModel, number_text, qa_rows, summary
 from usvips.gui.workspace import Workspace
@@ -98,3 +98,10 @@ def test_numbers_and_an_empty_survey():
     model.refresh_now()
     assert model.rows == [] and summary(model.report) == "0 objects checked: 0 break a rule"
     assert summary(None) == "checking…" and qa_rows(model.report) == []
+
+
+def test_the_summary_counts_in_words_for_one_object_and_one_note():
+    failure = Issue("1", "rms", FAIL, 0.03, 0.02, "m", "length", "", Place(), "ray RMS too large")
+    note = Issue("1", "species", NOTE, None, None, "1", "length", "", Place(), "not in the species list")
+    assert summary(QualityReport((failure, note), 1)) == "1 object checked: 1 breaks a rule (1 note)"
+    assert summary(QualityReport((failure,), 3)) == "3 objects checked: 1 breaks a rule"

@@ -235,6 +235,9 @@ def test_p_proposes_the_vertices_on_a_later_frame_and_the_new_object_joins_as_an
     assert project.object(new).vertices[0].frame_left == 12 and "instant of object" in _status(window)
     # its vertices were kept as proposed: they carry the start pick's error, so it is a tracked instant
     assert project.instant_sources(object_id) == {new: START}
+    # the observation form did not ask for the instant's species (its object's record holds it)
+    assert window.observation.ask.isChecked() and window.observation.status.text() == ""
+    assert not window.observation.species.hasFocus()
     # with nothing selected, T tracks the object just stored (from its own frame, 12)
     ws.select([])
     window.tracking.track()

@@ -72,9 +72,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "set-metadata); default: the project file's name")
     exp.add_argument("--force", action="store_true", help="replace OUT even when it is a USVIPS project or "
                      "calibration (the old file is kept as OUT.bak); never the project exported")
-    exp.add_argument("--format", choices=["globalarchive"], help="globalarchive: OUT is a folder; the campaign's "
-                     "CAMPAIGNID_Metadata.csv, _Count.txt (MaxN) and _Length.txt with the EventMeasure-style tables "
-                     "CheckEM reads, all or nothing (needs set-campaign and set-metadata)")
+    exp.add_argument("--format", choices=["globalarchive"], help="globalarchive: OUT is a folder (made if "
+                     "missing); the campaign's CAMPAIGNID_Metadata.csv, _Count.txt (MaxN) and _Length.txt with "
+                     "the EventMeasure-style tables CheckEM reads, all or nothing "
+                     "(needs set-campaign and set-metadata)")
     exp.add_argument("--reader", metavar="NAME", help="with --format globalarchive: only the objects this annotator "
                      "made (a double-read survey would otherwise count its fish twice)")
     exp.set_defaults(handler=run_export)

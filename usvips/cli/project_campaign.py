@@ -7,8 +7,9 @@ named by the CampaignID (:mod:`usvips.app.archive_export`)."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 
 #: Campaign field → (option, help)
 CAMPAIGN_OPTIONS = {
@@ -68,17 +69,29 @@ def run_set_campaign(args: argparse.Namespace) -> int:
 
 
 def run_archive_export(args: argparse.Namespace) -> int:
-    """``export … --format globalarchive``: OUT is the folder the tables go into."""
+    """``export … --format globalarchive``: OUT is the folder the tables go into, made when it does not
+    exist (in an existing folder) and removed again when the export is refused."""
     from usvips.app.archive_export import archive_targets, export_archive
     from usvips.io.atomic import replacing
     from usvips.store.opening import is_server_location, open_project
 
     skipped: list[str] = []
     local = None if is_server_location(args.project) else args.project
+    out = Path(args.out)
     with open_project(args.project, read_only=True) as project:
-        targets = archive_targets(project, args.out)
-        with replacing(targets, project=local, replace=args.force, option="OUT"):
-            written = export_archive(project, args.out, skipped=skipped, reader=args.reader)
+        targets = archive_targets(project, out)
+        made = not out.exists()
+        if made:
+            if not out.parent.is_dir():
+                raise InvalidParameterError("OUT", f"{out}: the folder {out.parent} does not exist")
+            out.mkdir()
+        try:
+            with replacing(targets, project=local, replace=args.force, option="OUT"):
+                written = export_archive(project, out, skipped=skipped, reader=args.reader)
+        except BaseException:
+            if made and not any(out.iterdir()):
+                out.rmdir()  # all or nothing: a refused export leaves no folder behind
+            raise
     for reason in skipped:
         print(f"skipped {reason}")
     print(f"wrote {len(written)} GlobalArchive/CheckEM tables to {args.out}: "

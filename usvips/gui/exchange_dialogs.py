@@ -340,10 +340,14 @@ _LABELS = {"opcode": "OpCode (sample id)", "date": "Date (YYYY-MM-DD)", "time": 
            "site": "Site", "location": "Location", "status": "Status (e.g. Fished, No-take)",
            "successful_count": "Successful for counts", "successful_length": "Successful for lengths",
            "observer": "Observer", "comment": "Comment"}
-_CAMPAIGN = {"campaign_id": "CampaignID (YYYY-MM_Project.name_Method)", "project": "Project",
-             "method": "Method (e.g. stereo-BRUVs)", "sampling_design": "Sampling design", "submitter": "Submitter",
-             "institution": "Institution", "start_date": "Start (YYYY-MM-DD)", "end_date": "End (YYYY-MM-DD)",
-             "image_analysis": "Image analysis", "comment": "Comment"}
+_CAMPAIGN = {"campaign_id": "CampaignID", "project": "Project", "method": "Method",
+             "sampling_design": "Sampling design", "submitter": "Submitter", "institution": "Institution",
+             "start_date": "Start", "end_date": "End", "image_analysis": "Image analysis", "comment": "Comment"}
+#: the campaign fields' forms, shown in the empty field (short labels leave the fields room for a CampaignID)
+_CAMPAIGN_HINTS = {"campaign_id": "YYYY-MM_Project.name_Method", "method": "e.g. stereo-BRUVs",
+                   "start_date": "YYYY-MM-DD", "end_date": "YYYY-MM-DD"}
+#: a CampaignID as long as a usual one: its field shows it whole
+TYPICAL_CAMPAIGN_ID = "2024-03_Abrolhos.Reef_stereo-BRUVs"
 _GEO = {"latitude": "Origin latitude (°)", "longitude": "Origin longitude (°)", "depth_m": "Origin depth (m)",
         "heading_deg": "Heading of +X (° from north, clockwise)"}
 
@@ -390,6 +394,9 @@ class DeploymentDialog(QtWidgets.QDialog):
         self.campaign_fields: dict[str, QtWidgets.QLineEdit] = {}
         for name, label in _CAMPAIGN.items():
             widget = QtWidgets.QLineEdit(getattr(campaign if campaign is not None else Campaign(), name))
+            widget.setPlaceholderText(_CAMPAIGN_HINTS.get(name, ""))
+            widget.setToolTip(_CAMPAIGN_HINTS.get(name, ""))
+            widget.setMinimumWidth(widget.fontMetrics().horizontalAdvance(TYPICAL_CAMPAIGN_ID) + 16)
             self.campaign_fields[name] = widget
             campaign_form.addRow(label, widget)
         self.message = QtWidgets.QLabel()

@@ -711,8 +711,10 @@ class MainWindow(QtWidgets.QMainWindow):
         return True
 
     def _on_stored(self, object_id: int) -> None:
-        """After a measurement: the observation form, if the user wants it, takes the keyboard."""
-        if self.observation.ask.isChecked():
+        """After a measurement: the observation form, if the user wants it, takes the keyboard — not for
+        an object stored from track proposals, which joins its object as an instant (the object's record
+        holds the species)."""
+        if self.observation.ask.isChecked() and self.tracking.joins_as_instant(object_id) is None:
             dock = self.docks["observation"]
             # the panel in front of it (the object list, showing the new length) comes back when it is done
             group = [d for d in (dock, *self.tabifiedDockWidgets(dock)) if d.isVisible()]

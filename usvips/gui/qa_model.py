@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from usvips.app.quality import FAIL, Checked, Issue, Place, QualityReport, check, species_maxima
 from usvips.gui.calculator import Result
 from usvips.gui.signals import Signal
+from usvips.gui.wording import plural
 
 #: the panel's columns: the object, the rule it breaks, its value and the rule's limit (mm for lengths,
 #: RMS and range; % for precision/length), the species and where it was measured
@@ -67,8 +68,9 @@ def summary(report: QualityReport | None) -> str:
     if report is None:
         return "checking…"
     notes = len(report.issues) - len(report.failures)
-    text = f"{report.checked} objects checked: {report.failing_objects} break a rule"
-    return text + (f" ({notes} notes)" if notes else "")
+    failing = report.failing_objects
+    text = f"{plural(report.checked, 'object')} checked: {failing} {'breaks' if failing == 1 else 'break'} a rule"
+    return text + (f" ({plural(notes, 'note')})" if notes else "")
 
 
 class QaModel:

@@ -59,6 +59,10 @@ class TrackController(QtCore.QObject):
         # (object, frame, the picks taken from its proposals): the object stored with those picks joins it
         self._instant_of: tuple[int, int, list] | None = None
         self._tracked_from: int | None = None  # the frame the proposals taken were tracked from
+        #: the object just stored from the proposals, about to join its object as an instant (its species
+        #: is the object's: the observation form does not ask for one)
+        self.joining: int | None = None
+        self._joining_whole: int | None = None
         self.items = {}
         for side, pane in window.panes.items():
             trail = pg.PlotCurveItem(pen=pg.mkPen(TRACK_COLOUR, width=1.5), connect="finite")
@@ -75,18 +79,34 @@ class TrackController(QtCore.QObject):
         window.video.shown.connect(self.draw)
 
     # ------------------------------------------------------------------ what to track
+    def joins_as_instant(self, object_id: int) -> int | None:
+        """The object that stored object ``object_id`` joins as an instant — it was stored from the
+        proposals, their vertices untouched, on their frame — else None."""
+        if self.joining == int(object_id):
+            return self._joining_whole
+        if self._instant_of is None:
+            return None
+        whole, frame, taken = self._instant_of
+        ws = self.window.workspace
+        stored = ws.stored_object(object_id)
+        picks = [((v.xl, v.yl), (v.xr, v.yr)) for v in stored.vertices]
+        return whole if picks == taken and stored.vertices[0].frame_left == frame and whole in ws.cache else None
+
     def _on_stored(self, object_id: int) -> None:
         self._last_stored = int(object_id)
-        if self._instant_of is not None:
-            whole, frame, taken = self._instant_of
-            self._instant_of = None
-            ws = self.window.workspace
-            stored = ws.stored_object(object_id)
-            picks = [((v.xl, v.yl), (v.xr, v.yr)) for v in stored.vertices]
-            if picks == taken and stored.vertices[0].frame_left == frame and whole in ws.cache:
-                # after the store has finished (and said so): the link is its own undoable step
-                tracked_from = self._tracked_from
-                QtCore.QTimer.singleShot(0, lambda: self.join(whole, int(object_id), tracked_from))
+        whole = self.joins_as_instant(object_id)
+        self._instant_of = None
+        if whole is not None:
+            # after the store has finished (and said so): the link is its own undoable step
+            self.joining, self._joining_whole = int(object_id), whole
+            tracked_from = self._tracked_from
+            QtCore.QTimer.singleShot(0, lambda: self._join_stored(whole, int(object_id), tracked_from))
+
+    def _join_stored(self, object_id: int, instant_id: int, tracked_from: int | None) -> None:
+        try:
+            self.join(object_id, instant_id, tracked_from)
+        finally:
+            self.joining = self._joining_whole = None
 
     def join(self, object_id: int, instant_id: int, tracked_from: int | None = None) -> bool:
         """Make stored object ``instant_id`` a further instant of ``object_id`` (one undoable step;
