@@ -330,3 +330,22 @@ def test_the_campaign_fields_show_a_whole_campaign_id(qtbot, tmp_path):
         assert field.placeholderText() == "YYYY-MM_Project.name_Method"
         assert dialog.campaign_fields["start_date"].placeholderText() == "YYYY-MM-DD"
         dialog.close()
+
+
+def test_the_deployment_dialog_fits_the_screen_with_its_buttons_in_view(qtbot, tmp_path):
+    """Seen in the walkthrough at 1366 × 768: the dialog was about 770 px tall and OK / Cancel sat on the
+    screen's edge; the fields now scroll within the screen's height and the buttons stay in view."""
+    from usvips.store import Project
+
+    with Project.create(tmp_path / "s.usvips") as project:
+        dialog = exchange_dialogs.DeploymentDialog(project)
+        qtbot.addWidget(dialog)
+        dialog.show()
+        qtbot.waitExposed(dialog)
+        screen = dialog.screen().availableGeometry()
+        # room left on the screen for a window manager's title bar and a task bar (offscreen: 800 × 800)
+        assert dialog.sizeHint().height() <= screen.height() - 100 and dialog.height() <= screen.height() - 100
+        buttons = dialog.findChild(QtWidgets.QDialogButtonBox)
+        bottom = buttons.mapTo(dialog, QtCore.QPoint(0, buttons.height())).y()
+        assert buttons.isVisible() and bottom <= dialog.height()
+        dialog.close()

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from PySide6 import QtCore, QtWidgets
+from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.app import calibration_size
 from usvips.app.calibrations import read_calibration, store_calibration
@@ -406,12 +406,25 @@ class DeploymentDialog(QtWidgets.QDialog):
                                              | QtWidgets.QDialogButtonBox.StandardButton.Cancel)
         buttons.accepted.connect(self.store)
         buttons.rejected.connect(self.reject)
-        layout = QtWidgets.QVBoxLayout(self)
-        layout.addLayout(form)
+        content = QtWidgets.QWidget()
+        inner = QtWidgets.QVBoxLayout(content)
+        inner.setContentsMargins(0, 0, 0, 0)
+        inner.addLayout(form)
         columns = QtWidgets.QHBoxLayout()  # the georeference and the campaign side by side: the form stays short
         columns.addWidget(self.georeferenced, 1)
         columns.addWidget(self.campaigned, 1)
-        layout.addLayout(columns)
+        inner.addLayout(columns)
+        # the fields scroll on a short screen (1366 × 768): the message and OK / Cancel always stay in view
+        scroll = QtWidgets.QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
+        scroll.setWidget(content)
+        wanted = content.sizeHint()
+        screen = (parent.screen() if parent is not None else QtGui.QGuiApplication.primaryScreen()).availableGeometry()
+        scroll.setMinimumWidth(min(wanted.width() + scroll.verticalScrollBar().sizeHint().width(), screen.width() - 80))
+        scroll.setMinimumHeight(min(wanted.height(), max(200, screen.height() - 200)))
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addWidget(scroll, 1)
         layout.addWidget(self.message)
         layout.addWidget(buttons)
 
