@@ -96,6 +96,24 @@ class QualityReport:
     def failing_objects(self) -> int:
         return len({i.object_id for i in self.failures})
 
+    @property
+    def notes(self) -> int:
+        """How many issues are notes (a rule that could not be checked), not failures."""
+        return len(self.issues) - len(self.failures)
+
+    def summary(self) -> str:
+        """One line in words: ``9 objects checked: 5 break a rule (2 notes)``, ``1 object checked: 1 breaks
+        a rule`` — the same wording in the QA panel and ``usvips project check``."""
+        failing = self.failing_objects
+        text = (f"{self.checked} object{'' if self.checked == 1 else 's'} checked: "
+                f"{failing} {'breaks' if failing == 1 else 'break'} a rule")
+        return text + (f" ({self.notes} note{'' if self.notes == 1 else 's'})" if self.notes else "")
+
+    def exceeds(self, level: str) -> bool:
+        """Whether the report holds an issue at ``level`` or worse: ``"error"`` a broken rule,
+        ``"warning"`` also a note (a rule that could not be checked)."""
+        return bool(self.failures) if level == "error" else bool(self.issues)
+
 
 @dataclass(frozen=True)
 class Checked:

@@ -33,6 +33,9 @@ def register_check_action(actions: argparse._SubParsersAction) -> None:
     check.add_argument("--max-precision", type=float, default=10.0,
                        help="precision/length limit in %% (default 10)")
     check.add_argument("--max-range-m", type=float, default=8.0, help="range limit in metres (default 8)")
+    check.add_argument("--fail-on", choices=("error", "warning"),
+                       help="exit 1 when an object breaks a rule (error), or also when a rule could not be "
+                            "checked (warning): for pipelines; without it the exit status is 0")
     check.set_defaults(handler=run_check)
 
 
@@ -64,14 +67,17 @@ def run_check(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"checked": report.checked, "failing_objects": report.failing_objects,
                           "issues": [i.as_dict() for i in report.issues]}, indent=1))
-        return 0
+        return _status(report, args.fail_on)
     shown = [REPORT_COLUMNS.index(c) for c in ("ObjectId", "Genus species", "Rule", "Status", "Value", "Limit",
                                                 "Unit", "Where")]
     table = [[REPORT_COLUMNS[k] for k in shown]] + [[str(row[k]) for k in shown] for row in rows]
     widths = [max(len(line[k]) for line in table) for k in range(len(shown))]
     for line in table:
         print("  ".join(cell.ljust(width) for cell, width in zip(line, widths, strict=True)).rstrip())
-    notes = len(report.issues) - len(report.failures)
-    print(f"{report.checked} objects checked: {report.failing_objects} break a rule, {notes} notes"
-          + (f"; the report is in {args.out}" if args.out else ""))
-    return 0
+    print(report.summary() + (f"; the report is in {args.out}" if args.out else ""))
+    return _status(report, args.fail_on)
+
+
+def _status(report, fail_on: str | None) -> int:
+    """0, or 1 when ``--fail-on`` names a level the report reaches (a pipeline's failed check)."""
+    return 1 if fail_on and report.exceeds(fail_on) else 0

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from usvips.app.quality import FAIL, Checked, Issue, Place, QualityReport, check, species_maxima
 from usvips.gui.calculator import Result
 from usvips.gui.signals import Signal
-from usvips.gui.wording import plural
 
 #: the panel's columns: the object, the rule it breaks, its value and the rule's limit (mm for lengths,
 #: RMS and range; % for precision/length), the species and where it was measured
@@ -65,12 +64,7 @@ def qa_rows(report: QualityReport) -> list[QaRow]:
 
 def summary(report: QualityReport | None) -> str:
     """One line over the list: how many objects were checked and how many break a rule."""
-    if report is None:
-        return "checking…"
-    notes = len(report.issues) - len(report.failures)
-    failing = report.failing_objects
-    text = f"{plural(report.checked, 'object')} checked: {failing} {'breaks' if failing == 1 else 'break'} a rule"
-    return text + (f" ({plural(notes, 'note')})" if notes else "")
+    return "checking…" if report is None else report.summary()
 
 
 class QaModel:
