@@ -154,7 +154,9 @@ def test_project_review_accepts_an_object_named_twice_once(tmp_path, capsys):
         version = store.object(ids[0]).modified
     # accepted again: said, and nothing written (no history row, the same version)
     assert main(["project", "review", location, "--accept", str(ids[0]), str(ids[2])]) == 0
-    assert "accepted 2 (1 already were) " in capsys.readouterr().out
+    assert "accepted 1, 1 already accepted as " in capsys.readouterr().out
+    assert main(["project", "review", location, "--accept", str(ids[0])]) == 0
+    assert ": 1 already accepted as " in capsys.readouterr().out
     with open_project(location, read_only=True) as store:
         assert [e.change for e in store.history(ids[0])] == ["add", "review"]
         assert store.object(ids[0]).modified == version and store.review(ids[2]).state == "accepted"

@@ -44,10 +44,12 @@ def what_changed(entry: HistoryEntry) -> str:
         return f"{old.get('state', '?')} → {new.get('state', '?')}" + (f" ({reason})" if reason else "")
     parts = []
     for name in sorted(set(old) | set(new)):
+        if name in old and name in new and old[name] == new[name]:
+            continue  # written but unchanged (an edit stores every field it concerned)
         if name == "vertices":
             before, after = old.get(name, []), new.get(name, [])
             moved = sum(1 for a, b in zip(before, after, strict=False) if a != b) + abs(len(after) - len(before))
             parts.append(f"vertices {len(before)} → {len(after)} ({moved} changed)")
         else:
             parts.append(f"{name} {_short(old.get(name))} → {_short(new.get(name))}")
-    return "; ".join(parts) or "no field given"
+    return "; ".join(parts) or ("no field changed" if old or new else "no field given")

@@ -52,8 +52,7 @@ def run_review(args: argparse.Namespace) -> int:
                     project.set_review(object_id, "accepted")
                 if args.flag is not None:
                     project.set_review(args.flag, "flagged", args.reason)
-            done = [f"accepted {len(args.accept)}" + (f" ({already} already were)" if already else "")
-                    ] if args.accept else []
+            done = [_accepted_text(len(args.accept) - already, already)] if args.accept else []
             done += [f"flagged object {args.flag}"] if args.flag is not None else []
             print(f"{shown(args.project)}: {', '.join(done)} as {project.annotator}")
         if args.list is not None:
@@ -70,3 +69,9 @@ def run_review(args: argparse.Namespace) -> int:
             print(f"{shown(args.project)}: {objects_text(objects, instants)}: {reviews_text(counts)}"
                   + (" (each instant reviewed on its own)" if instants else ""))
     return 0
+
+
+def _accepted_text(newly: int, already: int) -> str:
+    """``accepted 2``, ``accepted 1, 1 already accepted``, ``1 already accepted``."""
+    parts = [f"accepted {newly}"] if newly else []
+    return ", ".join(parts + ([f"{already} already accepted"] if already else []))

@@ -1,0 +1,26 @@
+"""A history row in words names only the fields that changed."""
+
+from usvips.app.history_text import what_changed
+from usvips.store.records import HistoryEntry
+
+
+def _edit(old: dict, new: dict) -> HistoryEntry:
+    return HistoryEntry(1, "2026-11-28T09:00:00Z", "ann", 7, "edit", old, new)
+
+
+def test_an_edit_lists_the_fields_that_changed_not_those_written_unchanged():
+    text = what_changed(_edit({"attribute": "", "notes": "old"}, {"attribute": "", "notes": "new"}))
+    assert text == "notes 'old' → 'new'"
+
+
+def test_an_edit_that_changed_nothing_says_so():
+    assert what_changed(_edit({"attribute": "cod"}, {"attribute": "cod"})) == "no field changed"
+    assert what_changed(_edit({}, {})) == "no field given"
+
+
+def test_vertices_are_counted_only_when_they_moved():
+    same = [[1.0, 2.0], [3.0, 4.0]]
+    assert what_changed(_edit({"vertices": same, "attribute": "a"}, {"vertices": same, "attribute": "b"})) == \
+        "attribute 'a' → 'b'"
+    assert what_changed(_edit({"vertices": same}, {"vertices": [[1.0, 2.0], [3.0, 5.0]]})) == \
+        "vertices 2 → 2 (1 changed)"
