@@ -75,10 +75,10 @@ def test_bad_invocations_are_one_line(tmp_path, capsys):
     (tmp_path / "b").mkdir()
     for folder in ("a", "b"):
         shutil.copy(ROV / "observations_water.csv", tmp_path / folder / "dive.csv")
-    code = main(["batch", "intersect", str(tmp_path / "a" / "dive.csv"), str(tmp_path / "b" / "dive.csv"),
+    code = main(["batch", "intersect", str(tmp_path / "a" / "dive.csv"), str(tmp_path / "a" / ".." / "a" / "dive.csv"),
                  "--calibration", str(ROV / "calibration.json"), "--out-dir", str(tmp_path / "out")])
     err = capsys.readouterr().err
-    assert code == 2 and len(err.strip().splitlines()) == 1 and "dive.points.csv" in err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "given twice" in err
     assert not (tmp_path / "out").exists()
     code = main(["batch", "intersect", str(tmp_path / "a" / "dive.csv"), "--calibration", "c.json", "--out-dir",
                  str(tmp_path / "out"), "--jobs", "0"])
@@ -140,3 +140,18 @@ def test_ctrl_c_cancels_what_has_not_started_and_keeps_whole_outputs(tmp_path, m
     assert len(written) == len(done)  # the finished ones, whole; no temporary or partial files
     reference = written[0].read_text()
     assert all(path.read_text() == reference for path in written)
+
+
+def test_inputs_of_one_name_in_different_folders_are_named_by_their_folders(tmp_path, capsys):
+    """The samples' own layout (``a/project.usvips``, ``b/project.usvips``; here observations): each output
+    is named by as much of its folder as tells it apart."""
+    for folder in ("a", "b", "c/a"):
+        (tmp_path / folder).mkdir(parents=True)
+        shutil.copy(ROV / "observations_water.csv", tmp_path / folder / "dive.csv")
+    inputs = [str(tmp_path / folder / "dive.csv") for folder in ("a", "b", "c/a")]
+    code = main(["batch", "intersect", *inputs, "--calibration", str(ROV / "calibration.json"), "--out-dir",
+                 str(tmp_path / "out"), "--jobs", "1"])
+    assert code == 0 and "3 of 3 succeeded" in capsys.readouterr().out
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert len(names) == 3 and "b_dive.points.csv" in names
+    assert all(name.endswith("a_dive.points.csv") for name in names if name != "b_dive.points.csv")

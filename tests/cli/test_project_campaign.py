@@ -92,3 +92,23 @@ def test_the_archive_folder_is_made_when_missing_and_not_left_behind_by_a_refuse
     code, text, err = _run(capsys, "project", "export", project, out, "--format", "globalarchive")
     assert code == 0 and err == "" and "wrote 7" in text
     assert (out / "2024-03_Reef_stereo-BRUVs_Count.txt").is_file()
+
+
+def test_batch_exports_the_archive_of_projects_of_one_name_in_their_own_folders(tmp_path, capsys):
+    """``usvips batch export --format globalarchive`` over ``a/project.usvips`` and ``b/project.usvips``:
+    a folder of tables each, named by its project's folder; a project the archive refuses fails alone."""
+    for folder, campaign in (("a", "2024-03_Reef_stereo-BRUVs"), ("b", "")):
+        (tmp_path / folder).mkdir()
+        project = tmp_path / folder / "project.usvips"
+        _survey(project)
+        if campaign:
+            assert _run(capsys, "project", "set-campaign", project, "--campaign-id", campaign, "--method",
+                        "stereo-BRUVs", "--project-name", "Reef", "--submitter", "Ana")[0] == 0
+            assert _run(capsys, "project", "set-metadata", project, "--opcode", "OP1", "--date", "2024-03-02",
+                        "--time", "09:10", "--latitude", "-28.7", "--longitude", "113.8", "--depth", "22")[0] == 0
+    code, text, err = _run(capsys, "batch", "export", tmp_path / "a" / "project.usvips",
+                           tmp_path / "b" / "project.usvips", "--format", "globalarchive", "--out-dir",
+                           tmp_path / "out", "--jobs", "1")
+    assert code == 2 and "1 of 2 succeeded" in err and "7 tables" in text
+    assert (tmp_path / "out" / "a_project" / "2024-03_Reef_stereo-BRUVs_Count.txt").is_file()
+    assert "FAILED" in text and "has no campaign" in text and not (tmp_path / "out" / "b_project").exists()

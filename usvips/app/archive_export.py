@@ -23,7 +23,7 @@ from usvips.core.abundance import max_n
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import QualityRules
 from usvips.core.measurements import kind as measurement_kind
-from usvips.io.atomic import write_files_atomic
+from usvips.io.atomic import replacing, write_files_atomic
 from usvips.io.export import eventmeasure_paths, eventmeasure_tables
 from usvips.io.globalarchive import (
     archive_paths,
@@ -92,3 +92,25 @@ def export_archive(project: ProjectStore, folder: str | Path, rules: QualityRule
     files[paths["Length"]] = length_table(campaign, lengths)
     write_files_atomic(files)
     return list(files)
+
+
+def export_archive_folder(project: ProjectStore, folder: str | Path, local: str | None = None,
+                          replace: bool = False, reader: str | None = None,
+                          skipped: list[str] | None = None) -> list[Path]:
+    """:func:`export_archive` into ``folder``, made when it does not exist (its parent must) and removed
+    again when the export is refused: all or nothing. Existing tables are replaced only with ``replace``
+    (kept as NAME.bak), never when one is ``local`` (the project file) — the rule of every output."""
+    folder = Path(folder)
+    targets = archive_targets(project, folder)
+    made = not folder.exists()
+    if made:
+        if not folder.parent.is_dir():
+            raise InvalidParameterError("folder", f"{folder}: the folder {folder.parent} does not exist")
+        folder.mkdir()
+    try:
+        with replacing(targets, project=local, replace=replace, option="OUT"):
+            return export_archive(project, folder, skipped=skipped, reader=reader)
+    except BaseException:
+        if made and not any(folder.iterdir()):
+            folder.rmdir()
+        raise

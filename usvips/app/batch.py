@@ -78,6 +78,22 @@ def export_project_task(project: str, out: str, opcode: str | None = None) -> di
     return {"objects": count, "skipped": skipped, "out": str(out)}
 
 
+def export_archive_task(project: str, out: str) -> dict:
+    """The GlobalArchive tables of ``project`` (opened read-only) in the folder ``out`` (made, all or
+    nothing: :func:`usvips.app.archive_export.export_archive_folder`; existing tables are never replaced).
+    Returns {"files": written, "skipped": [why, ...], "out": out}."""
+    from usvips.app.archive_export import export_archive_folder
+    from usvips.store.opening import is_server_location, open_project
+
+    skipped: list[str] = []
+    local = None if is_server_location(project) else project
+    if local is not None and not Path(project).is_file():
+        raise InputFileError(project, "no such project file")
+    with open_project(project, read_only=True) as opened:
+        written = export_archive_folder(opened, out, local, skipped=skipped)
+    return {"files": len(written), "skipped": skipped, "out": str(out)}
+
+
 # ------------------------------------------------------------------------------------------------ running
 @dataclass(frozen=True)
 class Task:

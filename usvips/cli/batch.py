@@ -24,7 +24,7 @@ from usvips.store.opening import database_name, is_server_location
 MAX_JOBS = 256
 #: export formats and the suffix of the file each writes
 EXPORT_SUFFIXES = {"csv": ".csv", "vertices": ".vertices.csv", "geojson": ".geojson", "ply": ".ply",
-                   "eventmeasure": ".em.txt"}
+                   "eventmeasure": ".em.txt", "globalarchive": ""}  # globalarchive: a folder of tables
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -50,14 +50,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
     inputs = args.observations if args.task == "intersect" else args.projects
     suffix = ".points.csv" if args.task == "intersect" else EXPORT_SUFFIXES[args.format]
-    seen: dict[str, str] = {}
     tasks = []
-    for given in inputs:
-        name = database_name(given) if is_server_location(given) else Path(given).stem
-        if name in seen:
-            raise InvalidParameterError("inputs", f"{seen[name]} and {given} would both write {name}{suffix}; "
-                                                  "rename one or run them separately")
-        seen[name] = given
+    for given, name in zip(inputs, output_names(inputs), strict=True):
         out = str(out_dir / f"{name}{suffix}")
         if Path(out).exists():  # an output never replaces an input, a project or a calibration
             guard_output(out, [*inputs, getattr(args, "calibration", None)], option="--out-dir",
@@ -66,16 +60,54 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
             tasks.append(batch.Task(given, batch.intersect_task, {
                 "observations": given, "calibration": args.calibration, "out": out, "station": args.station,
                 "frame": args.frame}))
+        elif args.format == "globalarchive":
+            tasks.append(batch.Task(given, batch.export_archive_task, {"project": given, "out": out}))
         else:
             tasks.append(batch.Task(given, batch.export_project_task, {"project": given, "out": out}))
     return tasks
+
+
+def output_names(inputs: list[str]) -> list[str]:
+    """A distinct output name per input: its file's stem (a server survey: its database), or where two
+    stems meet (``a/project.usvips``, ``b/project.usvips``: the samples' own layout) the folders above it
+    as far as needed (``a_project``, ``b_project``). The same input given twice is refused."""
+    paths = [None if is_server_location(given) else Path(given).resolve() for given in inputs]
+    seen: dict[object, str] = {}
+    for given, path in zip(inputs, paths, strict=True):
+        key = path if path is not None else given
+        if key in seen:
+            raise InvalidParameterError("inputs", f"{given} is given twice (as {seen[key]} too)")
+        seen[key] = given
+    depth = [0] * len(inputs)
+
+    def name(k: int) -> str:
+        if paths[k] is None:
+            return database_name(inputs[k])
+        parts = [*paths[k].parent.parts[len(paths[k].parent.parts) - depth[k]:], paths[k].stem]
+        return "_".join(part for part in parts if part not in ("", "/"))
+
+    while True:
+        names = [name(k) for k in range(len(inputs))]
+        clashing = [k for k in range(len(inputs)) if names.count(names[k]) > 1]
+        if not clashing:
+            return names
+        deeper = [k for k in clashing if paths[k] is not None and depth[k] < len(paths[k].parent.parts)]
+        if not deeper:
+            first, second = (inputs[k] for k in clashing[:2])
+            raise InvalidParameterError("inputs", f"{first} and {second} would both write {names[clashing[0]]}; "
+                                                  "rename one or run them separately")
+        for k in deeper:
+            depth[k] += 1
 
 
 def _line(outcome: batch.Outcome, finished: int, total: int) -> str:
     head = f"[{finished}/{total}]"
     if outcome.status == "ok":
         summary = outcome.summary or {}
-        if "points" in summary:
+        if "files" in summary:
+            counts = f"{summary['files']} tables" + (
+                f", {len(summary['skipped'])} objects skipped" if summary.get("skipped") else "")
+        elif "points" in summary:
             counts = f"{summary['points']} points" + (
                 f", {summary['failed']} not intersected" if summary["failed"] else "")
         else:

@@ -7,7 +7,6 @@ named by the CampaignID (:mod:`usvips.app.archive_export`)."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from usvips.core.errors import InvalidParameterError, UsvipsError
 
@@ -39,7 +38,6 @@ def register_campaign_action(actions: argparse._SubParsersAction) -> None:
 def run_set_campaign(args: argparse.Namespace) -> int:
     from usvips.core import validation
     from usvips.core.campaign import Campaign
-    from usvips.core.errors import InvalidParameterError
     from usvips.store.opening import open_project
 
     given = {name: getattr(args, f"campaign_{name}") for name in CAMPAIGN_OPTIONS
@@ -71,27 +69,18 @@ def run_set_campaign(args: argparse.Namespace) -> int:
 def run_archive_export(args: argparse.Namespace) -> int:
     """``export … --format globalarchive``: OUT is the folder the tables go into, made when it does not
     exist (in an existing folder) and removed again when the export is refused."""
-    from usvips.app.archive_export import archive_targets, export_archive
-    from usvips.io.atomic import replacing
+    from usvips.app.archive_export import export_archive_folder
     from usvips.store.opening import is_server_location, open_project
 
     skipped: list[str] = []
     local = None if is_server_location(args.project) else args.project
-    out = Path(args.out)
     with open_project(args.project, read_only=True) as project:
-        targets = archive_targets(project, out)
-        made = not out.exists()
-        if made:
-            if not out.parent.is_dir():
-                raise InvalidParameterError("OUT", f"{out}: the folder {out.parent} does not exist")
-            out.mkdir()
         try:
-            with replacing(targets, project=local, replace=args.force, option="OUT"):
-                written = export_archive(project, out, skipped=skipped, reader=args.reader)
-        except BaseException:
-            if made and not any(out.iterdir()):
-                out.rmdir()  # all or nothing: a refused export leaves no folder behind
-            raise
+            written = export_archive_folder(project, args.out, local, args.force, args.reader, skipped)
+        except InvalidParameterError as error:
+            if error.parameter != "folder":
+                raise
+            raise InvalidParameterError("OUT", error.problem) from None
     for reason in skipped:
         print(f"skipped {reason}")
     print(f"wrote {len(written)} GlobalArchive/CheckEM tables to {args.out}: "
