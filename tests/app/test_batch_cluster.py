@@ -100,4 +100,6 @@ def test_local_workers_reads_local_n_only():
     assert local_workers("local:3") == 3 and local_workers("tcp://h:8786") is None
     with pytest.raises(InvalidParameterError):
         local_workers("local:-1")
+    with pytest.raises(InvalidParameterError, match="at most 256"):
+        local_workers("local:1000")  # refused before a single process starts
     assert issubclass(InvalidParameterError, UsvipsError)

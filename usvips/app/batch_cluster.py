@@ -17,6 +17,8 @@ from usvips.app.batch import Outcome, Task, _execute
 from usvips.core.errors import InvalidParameterError, UsvipsError
 
 CONNECT_TIMEOUT_S = 10
+#: the most worker processes ``local:N`` starts here (each holds its own copy of the libraries), as --jobs
+MAX_LOCAL_WORKERS = 256
 
 
 def local_workers(scheduler: str) -> int | None:
@@ -26,6 +28,9 @@ def local_workers(scheduler: str) -> int | None:
     count = scheduler.removeprefix("local:")
     if not count.isdigit() or int(count) < 1:
         raise InvalidParameterError("--scheduler", f"local:N needs a positive whole number of workers, got {count!r}")
+    if int(count) > MAX_LOCAL_WORKERS:
+        raise InvalidParameterError("--scheduler", f"local:N starts at most {MAX_LOCAL_WORKERS} worker processes "
+                                                   f"on this machine, got {int(count)}")
     return int(count)
 
 
@@ -44,7 +49,7 @@ def _client(scheduler: str):
                                                    f"got {scheduler!r}")
     try:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None
-    except (OSError, TimeoutError, ValueError) as error:
+    except Exception as error:  # any failure to connect (refused, unreachable, timed out, a bad address) is one
         raise UsvipsError(f"--scheduler {scheduler}: cannot reach the Dask scheduler there "
                           f"({' '.join(str(error).split()) or type(error).__name__})") from None
 
