@@ -54,7 +54,7 @@ class OneLineParser(argparse.ArgumentParser):
     every other error; ``--help`` shows the usage."""
 
     def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {_one_line(message, 1000)} (--help shows the usage)\n")
+        self.exit(2, f"{self.prog}: error: {_one_line(_unrecognized(message), 1000)} (--help shows the usage)\n")
 
 
 def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
@@ -141,6 +141,26 @@ def quiet_libraries() -> None:
     if "av" in sys.modules:
         with contextlib.suppress(AttributeError):
             sys.modules["av"].logging.set_level(None)
+
+
+#: how many unrecognised words an error names before it counts the rest
+SHOWN_UNRECOGNIZED = 3
+
+
+def _unrecognized(message: str) -> str:
+    """argparse's 'unrecognized arguments: a b c …' shortened to the first few and a count; when they look
+    like files (an unquoted pattern the shell expanded after an option that takes one value), say so."""
+    head = "unrecognized arguments: "
+    if not message.startswith(head):
+        return message
+    words = message[len(head):].split()
+    if len(words) <= SHOWN_UNRECOGNIZED:
+        return message
+    shown = " ".join(words[:SHOWN_UNRECOGNIZED]) + f" … ({len(words) - SHOWN_UNRECOGNIZED} more)"
+    files = sum(1 for word in words if "." in word.rsplit("/", 1)[-1] and not word.startswith("-"))
+    hint = ("; they look like files: the shell expanded a pattern — quote it ('*.png') so that USVIPS "
+            "expands it" if files > len(words) // 2 else "")
+    return f"{len(words)} {head}{shown}{hint}"
 
 
 def _one_line(text: str, limit: int = 300) -> str:
