@@ -46,3 +46,20 @@ def test_a_bad_target_file_is_one_line(tmp_path, capsys, content, problem):
     assert code == 2
     assert len(err.strip().splitlines()) == 1 and str(target) in err and problem in err
     assert not (tmp_path / "v.csv").exists()
+
+
+def test_out_onto_the_project_s_own_video_is_refused_and_the_video_kept(tmp_path, monkeypatch, capsys):
+    path, _, _, _ = _film(tmp_path, 5, 1)
+    target = tmp_path / "board.json"
+    target.write_text(json.dumps({"kind": "test-board"}))
+    monkeypatch.setattr(calibration_video, "read_target", lambda p: SectorChessboard())
+    from usvips.store.opening import open_project
+
+    with open_project(str(path), read_only=True) as project:
+        left = project.media_path(project.video("cal")["left"][0])
+    before = left.read_bytes()
+    code = main(["video", "calibration-views", str(path), "--pair", "cal", "--target", str(target), "--out",
+                 str(left), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "input of this command" in err
+    assert left.read_bytes() == before

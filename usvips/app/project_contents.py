@@ -20,6 +20,21 @@ from usvips.io.tables import read_control, read_observations
 from usvips.store.interface import ProjectStore
 
 
+def media_files(project: ProjectStore) -> list[Path]:
+    """Every media file the project holds that is reachable here (pairs' images, videos' chapters): the
+    inputs a command working on the project must never write over. Missing or unreadable ones are left
+    out (nothing can be destroyed there)."""
+    stored = [path for pair in project.pairs() for path in (pair["left"], pair["right"]) if path]
+    stored += [path for video in project.videos() for camera in ("left", "right") for path in video[camera]]
+    found = []
+    for path in dict.fromkeys(stored):
+        try:
+            found.append(project.media_path(path))
+        except UsvipsError:
+            continue
+    return found
+
+
 @dataclass(frozen=True)
 class PairSummary:
     """An image pair: label, medium ("air"/"water"), stored image paths (None when none), active calibration."""

@@ -53,8 +53,10 @@ def run(args: argparse.Namespace) -> int:
             print(f"{100 * fraction:3.0f} % {message}", file=sys.stderr)
 
     target = calibration_video.read_target(args.target)  # a bad target file is named before the project is opened
-    with replacing(args.out, [args.target], args.project, replace=args.force), \
-            open_project(args.project, read_only=True) as project:
+    from usvips.app.project_contents import media_files
+
+    with open_project(args.project, read_only=True) as project, \
+            replacing(args.out, [args.target, *media_files(project)], args.project, replace=args.force):
         result = calibration_video.views_from_video(project, args.pair, target, args.out, args.every,
                                                      args.max_views, args.max_blur, args.focal, progress)
     for line in result.summary():

@@ -180,13 +180,15 @@ def run_export(args: argparse.Namespace) -> int:
         return run_archive_export(args)
     if args.reader is not None:
         raise UsvipsError("--reader goes with --format globalarchive (the other exports hold every object)")
+    from usvips.app.project_contents import media_files
     from usvips.app.project_export import export_project, export_targets
     from usvips.io.atomic import replacing
     from usvips.store.opening import open_project
 
     skipped: list[str] = []
-    with replacing(export_targets(args.out), project=args.project, replace=args.force, option="OUT"), \
-            open_project(args.project, read_only=True) as project:
+    with open_project(args.project, read_only=True) as project, \
+            replacing(export_targets(args.out), media_files(project), project=args.project, replace=args.force,
+                      option="OUT"):
         count = export_project(project, args.out, args.opcode, skipped=skipped)
     for reason in skipped:
         print(f"skipped {reason}")

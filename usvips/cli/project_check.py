@@ -54,15 +54,18 @@ def run_check(args: argparse.Namespace) -> int:
     from usvips.store.opening import open_project
 
     rules = _rules(args)
+    from usvips.app.project_contents import media_files
+
     with open_project(args.project, read_only=True) as project:
         report = check_project(project, rules)
+        media = media_files(project) if args.out else []
     rows = report_rows(report)
     if args.out:
         text = csv_text(REPORT_COLUMNS, rows)
         if not args.out.lower().endswith(".csv"):
             text = "\n".join("\t".join(str(c).replace("\t", " ") for c in row)
                              for row in [REPORT_COLUMNS, *rows]) + "\n"
-        with replacing(args.out, project=args.project, replace=args.force):
+        with replacing(args.out, media, project=args.project, replace=args.force):
             write_text_atomic(args.out, text)
     if args.json:
         print(json.dumps({"checked": report.checked, "failing_objects": report.failing_objects,
