@@ -25,6 +25,7 @@ COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure"
 COMMANDS += ("batch",)
 COMMANDS += ("calibration_views",)  # after "video": it adds the action `video calibration-views`
 COMMANDS += ("target",)
+COMMANDS += ("species",)
 
 #: modules that add actions to another command's parser (imported whenever that command is)
 EXTENDS: dict[str, str] = {"calibration_views": "video"}
@@ -46,6 +47,7 @@ SUMMARIES: dict[str, str] = {
     "video": "synchronise a stereo video, set its offset, export a frame pair",
     "batch": "run a task over many pairs or projects on every core",
     "target": "calibration targets: describe, print, detect",
+    "species": "import or list a project's species list (and maximum lengths)",
 }
 
 
