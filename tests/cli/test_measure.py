@@ -190,3 +190,51 @@ def test_project_export_names_the_objects_it_leaves_out(tmp_path, capsys):
     assert "skipped object 1: it has vertices without 3-D coordinates" in out and "exported 1 objects" in out
     (row,) = csv.DictReader((tmp_path / "o.csv").open())
     assert row["covariance"] == "per-vertex" and float(row["length"]) == pytest.approx(0.5)
+
+
+@pytest.fixture(scope="module")
+def video_survey(tmp_path_factory):
+    from tests.app.test_tracking import _survey
+
+    return _survey(tmp_path_factory.mktemp("video_measure"))
+
+
+def test_measure_on_a_video_frame_stores_the_object_as_the_window_does(video_survey, tmp_path, capsys):
+    """``usvips measure --project P --video LABEL --frame N``: the picks measured with the video's
+    calibration, stored with the left frame, its synchronised right frame and the left frame's time."""
+    import numpy as np
+
+    from tests.app.test_tracking import OFFSET
+    from tests.core.test_tracking import truth
+    from usvips.store.opening import open_project
+
+    path, object_id, fish, stereo, _ = video_survey
+    frame = 9
+    picks = [truth(stereo, fish, frame, f * fish.length) for f in (0.0, 1.0)]
+    rows = "".join(f"fish,length,{k},{p[0][0]},{p[0][1]},{p[1][0]},{p[1][1]},Pagrus auratus\n"
+                   for k, p in enumerate(picks))
+    (tmp_path / "picks.csv").write_text("object,type,vertex,xl,yl,xr,yr,attribute\n" + rows)
+    code = main(["measure", "--picks", str(tmp_path / "picks.csv"), "--project", str(path), "--video", "drop",
+                 "--frame", str(frame), "--out", str(tmp_path / "m.csv")])
+    out = capsys.readouterr().out
+    assert code == 0 and "video drop, frame 9" in out
+    with open_project(str(path), read_only=True) as project:
+        stored = [o for o in project.objects() if o.id != object_id and o.vertices[0].frame_left == frame]
+    assert len(stored) == 1
+    vertex = stored[0].vertices[0]
+    assert (vertex.video, vertex.frame_left, vertex.frame_right) == ("drop", frame, frame + OFFSET)
+    assert abs(vertex.time_s - frame / 25.0) < 1e-6
+    length = np.linalg.norm(np.subtract(stored[0].vertices[1].xyz, vertex.xyz))
+    assert abs(length - fish.length) < 0.02 * fish.length
+
+
+def test_measure_on_a_video_frame_refuses_bad_frames_in_one_line(video_survey, tmp_path, capsys):
+    path = video_survey[0]
+    (tmp_path / "picks.csv").write_text("object,type,vertex,xl,yl,xr,yr\nf,point,0,10,10,12,10\n")
+    for frame, words in (("x", "a frame number"), ("999", "there is no frame 999")):
+        assert main(["measure", "--picks", str(tmp_path / "picks.csv"), "--project", str(path), "--video", "drop",
+                     "--frame", frame]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0], err
+    assert main(["measure", "--picks", str(tmp_path / "picks.csv"), "--project", str(path), "--video", "drop"]) == 2
+    assert "--frame N" in capsys.readouterr().err

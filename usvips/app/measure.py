@@ -83,11 +83,24 @@ def measure_objects(calibration: StereoCalibration, objects: list[PickedObject],
 
 
 def measure_into_project(project: ProjectStore, pair: str, objects: list[PickedObject],
-                         rules: QualityRules | None = None, where: str = "") -> tuple[list[Measurement], list[int]]:
+                         rules: QualityRules | None = None, where: str = "",
+                         frame: int | None = None) -> tuple[list[Measurement], list[int]]:
     """The objects measured with the calibration active for ``pair`` in the frame the pair measures in, and
     stored in ``project`` as the window stores them, all or none (:func:`usvips.app.project_figures.
-    store_measurements`). Returns the measurements and the new objects' ids."""
-    return store_measurements(project, pair, objects, rules, where)
+    store_measurements`). ``frame``: ``pair`` is a stereo video's label and the picks are on its left
+    frame ``frame`` (and the right frame synchronised with it), stored as the window stores a video
+    frame's object. Returns the measurements and the new objects' ids."""
+    video_frame = None
+    if frame is not None:
+        from usvips.app.video_project import left_frame_times, partner_frame
+
+        video = project.video(pair)
+        count = int(video["frame_count"])
+        if not 0 <= frame < count:
+            raise UsvipsError(f"video {pair!r} has frames 0 to {count - 1}: there is no frame {frame}")
+        partner = partner_frame(video, frame)
+        video_frame = (pair, frame, partner, float(left_frame_times(project, pair, [frame])[0]))
+    return store_measurements(project, pair, objects, rules, where, video_frame)
 
 
 def measurement_row(m: Measurement) -> list[str]:

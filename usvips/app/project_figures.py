@@ -243,12 +243,15 @@ def measure_stored(project: ProjectStore, stored: StoredObject, rules: QualityRu
 
 
 def store_measurements(project: ProjectStore, pair: str, objects: list[tuple[str, str, np.ndarray, str]],
-                       rules: QualityRules | None = None, where: str = "") -> tuple[list[Measurement], list[int]]:
+                       rules: QualityRules | None = None, where: str = "",
+                       video_frame: tuple[str, int, int, float] | None = None) -> tuple[list[Measurement], list[int]]:
     """Measure objects — (id, kind, pixels (N, 4) xl yl xr yr, attribute) — with the calibration active
     for ``pair``, placed as the pair measures, and store them as the window does (each vertex with its
     picks, X, Y, Z, 3 × 3 covariance, the calibration and the pair; creator ``usvips``; the attribute
     added to the vocabulary): all in one transaction, or nothing when any object fails. ``where`` (e.g.
-    the picks file) starts the error messages. Returns the measurements and the new objects' ids."""
+    the picks file) starts the error messages. ``video_frame``: (video, left frame, right frame, time s)
+    when ``pair`` is a video's label and the picks are on that frame pair. Returns the measurements and
+    the new objects' ids."""
     geometry = pair_geometry(project, pair)
     if geometry is None:
         raise UsvipsError(f"{project.path}: pair {pair!r} has no active calibration: nothing can be measured")
@@ -263,7 +266,7 @@ def store_measurements(project: ProjectStore, pair: str, objects: list[tuple[str
             prefix = f"{where}: " if where else ""
             raise DegenerateGeometryError(f"{prefix}object {object_id!r}: {error}") from None
         blocks = [m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(len(m.points))]
-        vertices = [Vertex(*map(float, p), tuple(map(float, xyz)), c, calibration_id, pair)
+        vertices = [Vertex(*map(float, p), tuple(map(float, xyz)), c, calibration_id, pair, *(video_frame or ()))
                     for p, xyz, c in zip(pixels, m.points, blocks, strict=True)]
         measured.append(m)
         rows.append((m.kind, vertices, attribute, "", ""))  # creator: the store's annotator

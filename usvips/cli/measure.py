@@ -8,6 +8,9 @@ correlation a common calibration puts between the vertices of one object (the on
 ``usvips.core.measurements.measure_picks``). The work is in :mod:`usvips.app.measure`; this module
 parses the arguments, writes the table and prints.
 
+With ``--project P --video LABEL --frame N`` they are measured on the video's left frame N (and the
+right frame synchronised with it) and stored as the window stores a video frame's objects.
+
 With ``--project P --pair LABEL`` the objects are measured with the calibration active for that pair and
 stored in the project exactly as the window stores them (all of them in one transaction, or none);
 ``--out`` then is optional. With ``--calibration`` the frame is ``--frame`` at ``--station``.
@@ -28,7 +31,7 @@ from usvips.app.measure import (
     read_picks,
 )
 from usvips.cli.common import add_annotator_option, csv_text, write_text_atomic
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
 from usvips.io.tables import refuse_outside_image
@@ -47,10 +50,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", help="objects CSV to write (required without --project)")
     parser.add_argument("--project", help="project file to store the objects in (with --pair)")
     parser.add_argument("--pair", help="the project's image pair the picks belong to (its active calibration)")
+    parser.add_argument("--video", help="with --project and --frame N: the project's stereo video the picks were "
+                                        "made on (instead of --pair)")
     parser.add_argument("--station", help="calibrated station (index or label) for the frame (default 0; "
                                           "with --calibration only)")
-    parser.add_argument("--frame", choices=["object", "rig"], help="frame (default object; with --calibration "
-                                                                   "only)")
+    parser.add_argument("--frame", help="with --calibration: the coordinate frame, object (default) or rig; with "
+                                        "--video: the left frame number N the picks were made on (the right one is "
+                                        "the frame synchronised with it)")
     parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
                         "USVIPS calibration or project (the old file is kept as NAME.bak); never the --project")
     add_annotator_option(parser)
@@ -60,9 +66,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.project is None and (args.calibration is None or args.out is None):
         raise UsvipsError("measure needs --calibration and --out, or --project with --pair")
+    args.video_frame = None
+    if args.video is not None:
+        if args.project is None or args.pair is not None or args.frame is None:
+            raise UsvipsError("--video goes with --project and --frame N (the left frame), without --pair")
+        if not args.frame.isdigit():
+            raise InvalidParameterError("--frame", f"with --video: a frame number (0, 1, 2 …), got {args.frame!r}")
+        args.video_frame, args.frame = int(args.frame), None
+    elif args.frame is not None and args.frame not in ("object", "rig"):
+        raise InvalidParameterError("--frame", f"object or rig (a frame number goes with --video), got {args.frame!r}")
     if args.project is not None:
-        if args.pair is None:
-            raise UsvipsError("--project needs --pair (the image pair whose active calibration measures)")
+        if args.pair is None and args.video is None:
+            raise UsvipsError("--project needs --pair (the image pair whose active calibration measures) or "
+                              "--video with --frame N")
         if args.calibration is not None or args.station is not None or args.frame is not None:
             raise UsvipsError("--project measures with the pair's active calibration in the pair's frame: "
                               "leave out --calibration, --station and --frame")
@@ -82,9 +98,11 @@ def _run(args: argparse.Namespace) -> int:
                               (calibration.right.width, calibration.right.height)))
     objects = group_picks(args.picks, rows)
     if args.project is not None:
+        label = args.pair if args.video is None else args.video
         with open_project(args.project) as project:
-            measured, ids = measure_into_project(project, args.pair, objects, where=args.picks)
-        print(f"stored {len(ids)} objects in {shown(args.project)} (pair {args.pair}): ids {', '.join(map(str, ids))}")
+            measured, ids = measure_into_project(project, label, objects, where=args.picks, frame=args.video_frame)
+        place = f"pair {label}" if args.video is None else f"video {label}, frame {args.video_frame}"
+        print(f"stored {len(ids)} objects in {shown(args.project)} ({place}): ids {', '.join(map(str, ids))}")
     else:
         station = args.station if args.station is not None else "0"
         station = int(station) if station.isdigit() else station
