@@ -63,3 +63,16 @@ def test_out_onto_the_project_s_own_video_is_refused_and_the_video_kept(tmp_path
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1 and "input of this command" in err
     assert left.read_bytes() == before
+
+
+@pytest.mark.parametrize("option,value", [("--max-views", "0"), ("--max-blur", "-1"), ("--every", "0")])
+def test_a_bad_value_is_named_as_the_option_typed(tmp_path, monkeypatch, capsys, option, value):
+    path, _, _, _ = _film(tmp_path, 5, 1)
+    target = tmp_path / "board.json"
+    target.write_text(json.dumps({"kind": "test-board"}))
+    monkeypatch.setattr(calibration_video, "read_target", lambda p: SectorChessboard())
+    code = main(["video", "calibration-views", str(path), "--pair", "cal", "--target", str(target), "--out",
+                 str(tmp_path / "v.csv"), option, value, "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and f": error: {option}: must be" in err[0], err
+    assert "_" not in err[0].split("error:")[1].split(":")[0]

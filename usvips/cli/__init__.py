@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from typing import NoReturn
 
 from usvips import __version__
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 
 #: (module name, description) of every subcommand; each module defines ``register(subparsers)``.
 COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure", "project", "render", "bench",
@@ -98,16 +98,44 @@ def main(argv: Sequence[str] | None = None) -> int:
     with warnings.catch_warnings():  # the caller's warning filters are back afterwards
         if not os.environ.get("USVIPS_DEBUG"):
             quiet_libraries()
-        return _run(args, handler)
+        return _run(args, handler, _options_of(parser))
 
 
-def _run(args: argparse.Namespace, handler: Callable[[argparse.Namespace], int]) -> int:
+#: unit suffixes a parameter's name may carry beyond its option's (``max_blur_px`` is ``--max-blur``)
+UNIT_SUFFIXES = ("px", "s", "m", "mm", "deg", "frames")
+
+
+def _options_of(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """Every option of ``parser`` and its loaded subcommands: its destination → its long option string."""
+    options: dict[str, str] = {}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                options.update(_options_of(sub))
+        elif action.option_strings:
+            options.setdefault(action.dest, max(action.option_strings, key=len))
+    return options
+
+
+def _in_option_terms(error: InvalidParameterError, options: dict[str, str]) -> str:
+    """An invalid parameter named as the option the user typed (``--max-views: must be …``) when the
+    command has one of that name, otherwise as the library names it."""
+    name = error.parameter
+    candidates = [name] + [name.removesuffix("_" + unit) for unit in UNIT_SUFFIXES if name.endswith("_" + unit)]
+    option = next((options[c] for c in candidates if c in options), None)
+    return f"{option}: {error.problem}" if option else str(error)
+
+
+def _run(args: argparse.Namespace, handler: Callable[[argparse.Namespace], int],
+         options: dict[str, str] | None = None) -> int:
     """The command's handler, its errors as one line (see the module docstring)."""
     try:
         from usvips.store.annotator import annotating_as  # --annotator of a writing command (cli/common.py)
 
         with annotating_as(getattr(args, "annotator", None)):
             return int(handler(args) or 0)
+    except InvalidParameterError as error:
+        return _fail(args.command, _in_option_terms(error, options or {}))
     except UsvipsError as error:
         return _fail(args.command, str(error))
     except BrokenPipeError:  # output piped into a pager or head that closed early
