@@ -201,7 +201,7 @@ def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, m
     assert {p["label"] for p in project.pairs()} == pairs_before | {"cube-air"}
 
 
-def test_seek_proxies_are_built_in_the_background_when_a_video_is_opened_used_cancelled_and_deleted(
+def test_seek_proxies_are_offered_at_the_first_slow_seek_built_in_the_background_used_cancelled_and_deleted(
         qtbot, make_window, tmp_path):
     for side, base in (("left", 0), ("right", 1000)):
         encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=40)
@@ -209,8 +209,14 @@ def test_seek_proxies_are_built_in_the_background_when_a_video_is_opened_used_ca
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     video, dock = window.video, window.video.dock_widget
-    _wait_frame(qtbot, window, 0)  # shown from the originals
-    # the window asks first, saying their size on disk; Yes builds them in the background, checked, then used
+    _wait_frame(qtbot, window, 0)  # shown from the originals, and nothing asked on opening
+    assert video.question is None and video._proxy_worker is None
+    # the first slow seek asks (every seek counts as slow here), saying their size on disk; Yes builds them
+    # in the background, checked, then used
+    video.slow_seek_s = 0.0
+    video.cache.clear()
+    video.request(17)
+    _wait_frame(qtbot, window, 17)
     qtbot.waitUntil(lambda: video.question is not None and video.question.isVisible(), timeout=20000)
     question = video.question
     assert "Build seek proxies for video dive?" in question.text() and " on disk " in question.text()
@@ -502,6 +508,10 @@ def test_seek_proxies_declined_are_not_offered_again_after_another_project(qtbot
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     video = window.video
+    video.slow_seek_s = 0.0  # every seek counts as slow here
+    _wait_frame(qtbot, window, 0)
+    video.cache.clear()
+    video.request(7)
     qtbot.waitUntil(asked, timeout=20000)
     video.question.button(QtWidgets.QMessageBox.StandardButton.No).click()
     qtbot.waitUntil(lambda: not asked(), timeout=5000)
@@ -510,6 +520,9 @@ def test_seek_proxies_declined_are_not_offered_again_after_another_project(qtbot
     assert window.open_path(other)
     assert window.open_path(tmp_path / "mine.usvips") and video.navigator is not None
     _wait_frame(qtbot, window, 0)
+    video.cache.clear()
+    video.request(9)
+    _wait_frame(qtbot, window, 9)
     for _ in range(5):
         QtWidgets.QApplication.processEvents()
     assert not asked() and video._proxy_worker is None

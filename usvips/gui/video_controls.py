@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 import os
 import threading
+import time
 from collections.abc import Callable
 
 from PySide6 import QtCore, QtGui, QtWidgets
@@ -198,7 +199,8 @@ class VideoController(QtCore.QObject):
     cancelled by the next request)."""
 
     shown = QtCore.Signal(int)
-    #: build a video's seek proxies in the background when it is opened and has none (and needs them)
+    #: offer a video's seek proxies when a seek is first slow (built at once on opening, without a
+    #: question, when ``ask_before_proxies`` is False) if it has none and needs them
     auto_proxies = True
     #: the niceness of the thread that builds proxies (Linux: per thread; its FFmpeg threads inherit it)
     PROXY_NICENESS = 15
@@ -227,6 +229,8 @@ class VideoController(QtCore.QObject):
         #: (project file, video) whose proxies were declined or deleted: not offered again in this session,
         #: even after another project was open meanwhile
         self._proxies_deleted: set[tuple[str, str]] = set()
+        #: (project file, video) whose proxies were offered after a slow seek in this session
+        self._proxies_offered: set[tuple[str, str]] = set()
         goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
         goto.activated.connect(self.focus_goto)
         for pane in window.panes.values():
@@ -320,8 +324,8 @@ class VideoController(QtCore.QObject):
                                  + (f"— {self.source.video['report']}" if self.source.video["report"] else ""))
         self.request(self.navigator.first)
         self._show_proxy_status()
-        if self.auto_proxies and self._proxy_key(label) not in self._proxies_deleted:
-            self.build_proxies(automatic=True)
+        if self.auto_proxies and not self.ask_before_proxies and self._proxy_key(label) not in self._proxies_deleted:
+            self.build_proxies(automatic=True)  # scripts and benchmarks: built without a question, at once
         return True
 
     def close_video(self) -> None:
@@ -402,7 +406,9 @@ class VideoController(QtCore.QObject):
         def job(progress, cancelled):
             if cancelled():
                 raise Cancelled
-            return frame, source.pictures(frame, offset)
+            started = time.perf_counter()
+            pictures = source.pictures(frame, offset)
+            return frame, pictures, time.perf_counter() - started
 
         worker = self._request = Worker(job, f"decoding frame {frame}")
         worker.signals.finished.connect(lambda result, w=worker: self._decoded(w, *result))
@@ -413,13 +419,28 @@ class VideoController(QtCore.QObject):
         self._target = None  # step on from the frame shown
         self.window.show_message("error", message)
 
-    def _decoded(self, worker: Worker, frame: int, item: tuple) -> None:
+    #: a frame asked for that took longer than this (s) to decode is a slow seek: the first one offers the
+    #: video's seek proxies (when it needs them and they were not declined), rather than asking on opening
+    slow_seek_s = 0.5
+
+    def _decoded(self, worker: Worker, frame: int, item: tuple, seconds: float = 0.0) -> None:
         if (self.source is None or self.navigator is None or self.window.workspace.project is None
                 or item[2] != frame + self.navigator.offset):
             return  # closed (the video or the project), or decoded at an offset since changed
         self.cache.put(frame, item)
         if worker is self._request and frame == self._pending:
             self._show(frame, item)
+            if seconds > self.slow_seek_s:
+                self._offer_proxies()
+
+    def _offer_proxies(self) -> None:
+        """A seek was slow: ask once per video and session whether to build its seek proxies."""
+        label = self.navigator.label
+        key = self._proxy_key(label)
+        if not self.auto_proxies or key in self._proxies_deleted or key in self._proxies_offered:
+            return
+        self._proxies_offered.add(key)
+        self.build_proxies(automatic=True)
 
     def _show(self, frame: int, item: tuple) -> None:
         left, right, partner, time_s = rgb_pair(item)
@@ -681,7 +702,8 @@ class VideoController(QtCore.QObject):
     def build_proxies(self, automatic: bool = False) -> Worker | None:
         """Build the shown video's seek proxies in the background (a pool of their own, at low priority,
         progress in the dock, cancel from the dock), then seek through them as soon as they are built and
-        verified (the original is used until then). ``automatic``: when a video is opened; then only for
+        verified (the original is used until then). ``automatic``: after a slow seek (or when a video is
+        opened, for scripts that do not ask); then only for
         a recording that needs one (:func:`usvips.io.video_proxy.needs_proxy`), and only after the user
         says Yes to a question giving their size on disk (:func:`usvips.gui.video_model.proxy_disk_bytes`;
         No: not asked again for that video in this session, the dock's Seek proxy builds them). None when
