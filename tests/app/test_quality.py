@@ -92,7 +92,7 @@ def test_the_limits_are_the_rules_given():
     points = np.array([[0.0, 0.0, -2.0], [0.4, 0.0, -2.0]])
     measurement = measure("length", points + rng.normal(0, 1e-4, (2, 3)), np.eye(6) * 1e-6, ray_rms_m=0.004,
                           range_m=2.0)
-    item = Checked("7", "length", measurement, None, Place("video dive frame 1200", "dive", "dive", 1200))
+    item = Checked("7", "length", measurement, None, Place("video 'dive', frame 1200", "dive", "dive", 1200))
     assert check([item]).issues == ()
     strict = check([item], QualityRules(max_ray_rms_m=0.003, max_relative_precision=0.001, max_range_m=1.5))
     assert [i.rule for i in strict.issues] == ["ray_rms", "precision", "range"]
@@ -109,4 +109,4 @@ def test_the_limits_are_the_rules_given():
 def test_a_video_vertex_is_placed_by_its_video_and_left_frame():
     stored = StoredObject(3, "point", "", "", "", "", "", (Vertex(1, 2, 3, 4, pair="dive", video="dive",
                                                                   frame_left=812, frame_right=815, time_s=32.5),))
-    assert Place.of(stored) == Place("video dive frame 812", "dive", "dive", 812)
+    assert Place.of(stored) == Place("video 'dive', frame 812", "dive", "dive", 812)

@@ -91,4 +91,4 @@ def test_an_object_measured_on_a_video_is_shown_on_its_frame_centred_from_an_ima
     if ws.state.pending is not None:
         ws.accept_proposal()
     assert ws.digitising.vertices and not ws.request_object(object_id)
-    assert "video video frame 12" in window.hint.text() and ws.place() == ("video", 14)
+    assert "video 'video', frame 12" in window.hint.text() and ws.place() == ("video", 14)

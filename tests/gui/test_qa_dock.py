@@ -99,7 +99,7 @@ def test_a_click_on_a_video_object_goes_to_its_frame(qtbot, make_window, sample_
     window.show_qa()
     _checked(qtbot, window)
     (row,) = window.qa.table_model.rows
-    assert row.object_id == object_id and row.cells[1] == "no figures" and row.cells[5] == "video dive frame 7"
+    assert row.object_id == object_id and row.cells[1] == "no figures" and row.cells[5] == "video 'dive', frame 7"
     qtbot.mouseClick(window.qa.view.viewport(), QtCore.Qt.MouseButton.LeftButton,
                      pos=window.qa.view.visualRect(window.qa.table_model.index(0, 1)).center())
     assert requested == [object_id] and opened == ["dive"] and ws.selection == (object_id,)

@@ -90,15 +90,21 @@ def stored_calibration(project: ProjectStore, calibration_id: int,
     return cache[calibration_id]
 
 
+def place_text(label: str, frame: int | None = None) -> str:
+    """A pair or a video's frame for a person: "pair P", or "video 'V', frame F" (the label quoted, so that
+    a video labelled "video" does not read "video video frame 5")."""
+    return f"pair {label}" if frame is None else f"video '{label}', frame {frame}"
+
+
 def where_measured(stored: StoredObject) -> str:
-    """Where an object was measured, for a person and for jumping there: "video V frame F" (the left
+    """Where an object was measured, for a person and for jumping there: "video 'V', frame F" (the left
     frame of its first vertex) or "pair P"; "" when its vertices name neither."""
     if not stored.vertices:
         return ""
     vertex = stored.vertices[0]
     if vertex.video is not None:
-        return f"video {vertex.video} frame {vertex.frame_left}"
-    return f"pair {vertex.pair}" if vertex.pair is not None else ""
+        return place_text(vertex.video, vertex.frame_left)
+    return place_text(vertex.pair) if vertex.pair is not None else ""
 
 
 def instants_by_object(project: ProjectStore) -> dict[int, list[int]]:

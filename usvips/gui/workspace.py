@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.app.pair_geometry import PairGeometry, pair_geometry
-from usvips.app.project_figures import measurement_input
+from usvips.app.project_figures import measurement_input, place_text
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
@@ -442,7 +442,7 @@ class Workspace:
         where = self.place_of(object_id)
         if where is not None and where != self.place() and self.digitising.vertices:
             pair, frame = where
-            shown = f"pair {pair}" if frame is None else f"video {pair} frame {frame}"
+            shown = place_text(pair, frame)
             self.message.emit("warning", f"object {object_id} is on {shown}: finish (Ctrl+Enter) or cancel "
                                          "the object being digitised first")
             return False
