@@ -33,6 +33,7 @@ from usvips.gui.plan_view import PlanView
 from usvips.gui.planner_dock import PlannerDock
 from usvips.gui.qa_dock import QaDock
 from usvips.gui.review_dock import ReviewDock
+from usvips.gui.status_bar import StatusBar
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
 from usvips.gui.video_model import format_timecode
@@ -207,7 +208,8 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.stored.connect(self._on_stored)
 
     def _build_status_bar(self) -> None:
-        bar = self.statusBar()
+        bar = StatusBar(self)
+        self.setStatusBar(bar)
         self.pixel_label = QtWidgets.QLabel("")
         self.pixel_label.setMinimumWidth(260)
         self.point_label = QtWidgets.QLabel("")
