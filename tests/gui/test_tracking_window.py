@@ -245,6 +245,22 @@ def test_p_proposes_the_vertices_on_a_later_frame_and_the_new_object_joins_as_an
     assert window.tracking.model.object_id == new and window.tracking.model.start == 12
 
 
+def test_p_with_the_images_zoomed_elsewhere_brings_each_proposed_point_into_view(qtbot, make_window, survey):
+    """Zoomed far from the fish, P pans both panes to each proposed point (keeping the zoom), so that a
+    proposal is never accepted unseen."""
+    path, object_id, fish, stereo = survey
+    window = _open(qtbot, make_window, path, object_id, frame=12)
+    ws = window.workspace
+    for side in ("left", "right"):
+        window.panes[side].zoom_to(8.0, (3.0, 3.0))  # the top-left corner, far from the fish
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
+    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    for _ in range(2):
+        assert window.panes["left"].in_view(ws.state.left) and window.panes["right"].in_view(ws.state.proposal)
+        assert abs(window.panes["left"].zoom_level() - 8.0) < 0.5  # the zoom kept
+        qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
+
+
 def test_shift_t_re_follows_a_vertex_from_the_point_re_picked_on_the_frame_shown(qtbot, make_window, survey):
     path, object_id, fish, stereo = survey
     window = _open(qtbot, make_window, path, object_id)

@@ -443,3 +443,16 @@ class StereoPane(QtWidgets.QWidget):
     def centre_on(self, pixel: tuple[float, float]) -> None:
         """Pan so that ``pixel`` is in the middle, keeping the zoom."""
         self.zoom_to(self.zoom_level(), pixel)
+
+    def in_view(self, pixel: tuple[float, float], margin: float = 0.1) -> bool:
+        """Whether ``pixel`` is shown, at least ``margin`` (a fraction of the view) inside its edges."""
+        rect = self.viewbox.viewRect()
+        x, y = item_from_pixels(np.array(pixel))[0]
+        dx, dy = rect.width() * margin, rect.height() * margin
+        return rect.left() + dx <= x <= rect.right() - dx and rect.top() + dy <= y <= rect.bottom() - dy
+
+    def bring_into_view(self, pixel: tuple[float, float]) -> None:
+        """Pan to ``pixel`` (keeping the zoom) when it is not well inside the view: a point proposed off
+        the zoomed view is seen before it is accepted."""
+        if not self.in_view(pixel):
+            self.centre_on(pixel)

@@ -476,6 +476,8 @@ class TrackController(QtCore.QObject):
             self._proposed = k
             ws.propose_vertex(proposal.left, proposal.right,
                               f"vertex {k + 1} of {len(proposals)} of object {object_id}, tracked from its frame")
+            for side, pixel in (("left", proposal.left), ("right", proposal.right)):
+                self.window.panes[side].bring_into_view(pixel)  # never accepted unseen off a zoomed view
         except UsvipsError as error:
             self._proposals = None
             self.window.show_message("error", str(error))
