@@ -56,6 +56,7 @@ def test_review_mode_walks_the_unreviewed_objects_by_keyboard(qtbot, make_window
     # the queue: by pair label, then id (measure1's two, then water1's)
     assert window.review.model.queue == [ids[0], ids[2], ids[1]]
     assert window.review.progress.text() == "0 of 3 reviewed"
+    assert window.review.survey.text() == f"(survey: 1 of {len(ws.cache.ids())} reviewed)"  # ids[3] counted too
     window.review.follow.setChecked(False)  # moving stays here; J goes there
     qtbot.keyClick(queue, Key.Key_A)  # accept the first: on to the next
     assert ws.project.review(ids[0]).state == "accepted" and ws.project.review(ids[0]).reviewer == "Second Reader"

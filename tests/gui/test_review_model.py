@@ -156,6 +156,9 @@ def test_reviews_read_again_show_others_reviews_and_an_edited_acceptance_rejoins
     model = ReviewModel()
     model.load(project)
     assert done not in model.queue and model.progress() == "0 of 4 reviewed"
+    # the whole survey counted beside the queue: the object accepted before it was loaded too
+    assert model.survey_progress(ids) == "survey: 1 of 5 reviewed" and model.survey_counts(ids) == (1, 5, 0)
+    assert model.survey_progress(model.queue) == ""  # the queue is the survey: its own count says it
     events = []
     model.changed.connect(lambda: events.append("changed"))
     with Project.open(project.path) as other:

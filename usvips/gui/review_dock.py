@@ -115,6 +115,9 @@ class ReviewDock(QtWidgets.QWidget):
         self.ask_reason: Callable[[int], str | None] = lambda object_id: ReasonDialog.ask(self, object_id)
         self.progress = QtWidgets.QLabel("")
         self.progress.setObjectName("review_progress")
+        self.survey = QtWidgets.QLabel("")  # the whole survey's count, beside the queue's own
+        self.survey.setObjectName("review_survey")
+        self.survey.setToolTip("every object of the survey, also those reviewed before this queue was loaded")
         self.current = QtWidgets.QLabel("")
         self.current.setObjectName("review_current")
         self.current.setTextFormat(QtCore.Qt.TextFormat.PlainText)
@@ -136,6 +139,7 @@ class ReviewDock(QtWidgets.QWidget):
         self.list.itemDoubleClicked.connect(lambda _: self.jump())
         buttons = QtWidgets.QHBoxLayout()  # one row over the queue: it stays in view in a low dock
         buttons.addWidget(self.progress)
+        buttons.addWidget(self.survey)
         buttons.addSpacing(12)
         for text, slot, tip in (("&Previous", self.previous, "P"), ("&Next", self.next, "N"),
                                 ("&Accept", self.accept, "A"), ("&Flag…", self.flag, "F"),
@@ -265,6 +269,8 @@ class ReviewDock(QtWidgets.QWidget):
     def _show(self) -> None:
         reviewed, total, flagged = self.model.counts()
         self.progress.setText(self.model.progress())
+        survey = self.model.survey_progress(self.workspace.cache.ids()) if self.workspace.project is not None else ""
+        self.survey.setText(f"({survey})" if survey else "")
         current = self.model.current
         if current is None:
             self.current.setText("No object to review." if self.workspace.project is not None else "No project open.")

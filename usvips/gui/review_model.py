@@ -172,6 +172,21 @@ class ReviewModel:
     def progress(self) -> str:
         return progress_text(*self.counts())
 
+    def survey_counts(self, object_ids: Iterable[int]) -> tuple[int, int, int]:
+        """(reviewed, total, flagged) over the survey's objects ``object_ids`` — not only the queue (which
+        holds the objects unreviewed when it was loaded, and those measured since)."""
+        states = [self.state(i).state for i in object_ids]
+        return sum(s != "unreviewed" for s in states), len(states), sum(s == "flagged" for s in states)
+
+    def survey_progress(self, object_ids: Iterable[int]) -> str:
+        """``survey: 138 of 140 reviewed, 2 flagged`` — or "" when the queue is the whole survey (the queue's
+        own count says it all)."""
+        ids = list(object_ids)
+        if set(ids) <= set(self.queue):
+            return ""
+        reviewed, total, flagged = self.survey_counts(ids)
+        return f"survey: {reviewed} of {total} reviewed" + (f", {flagged} flagged" if flagged else "")
+
     @property
     def finished(self) -> bool:
         """Every object of the queue has been reviewed."""
