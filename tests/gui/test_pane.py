@@ -138,3 +138,23 @@ def test_the_loupe_magnification_is_adjustable(qtbot, pane):
     assert sizes[1] > 2 * sizes[0]
     with pytest.raises(ValueError):
         pane.set_loupe_scale(5)
+
+
+def _label_boxes(pane):
+    return [label.sceneBoundingRect() for label in pane.labels]
+
+
+@pytest.mark.parametrize("zoom", [None, 4.0])
+def test_labels_of_objects_side_by_side_do_not_cover_each_other(qtbot, pane, zoom):
+    """Two fish a few pixels apart on one frame: their labels are drawn apart, also after a zoom."""
+    labels = [("12 length Pagrus auratus 361.2 ± 4.1 mm", (200.0, 150.0), False),
+              ("13 length Pagrus auratus 355.8 ± 4.3 mm", (206.0, 153.0), True),
+              ("14 point", (300.0, 40.0), False)]
+    pane.set_selection_marks(np.zeros((0, 2)), np.zeros((0, 2)), labels, 3)
+    if zoom is not None:
+        pane.zoom_to(zoom, (203.0, 150.0))
+        qtbot.waitUntil(lambda: not pane._label_timer.isActive(), timeout=2000)
+    boxes = [box for box, label in zip(_label_boxes(pane), pane.labels, strict=True)
+             if pane.viewbox.viewRect().contains(label.home)]
+    assert len(boxes) >= 2
+    assert not any(a.intersects(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])

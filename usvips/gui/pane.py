@@ -15,6 +15,8 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips.gui.label_layout import stack_labels
+
 #: ImageItem coordinate of the centre of pixel 0.
 PIXEL_CENTRE = 0.5
 LOUPE_RADIUS = 10  # image pixels each side of the cursor
@@ -63,6 +65,12 @@ class StereoPane(QtWidgets.QWidget):
         self.setObjectName(f"{side}_pane")
         self.graphics = pg.GraphicsView(background=(24, 24, 28))
         self.viewbox = pg.ViewBox(lockAspect=True, invertY=True, enableMenu=False)
+        # labels are laid out apart in screen pixels: again after a zoom or pan (at most every 50 ms)
+        self._label_timer = QtCore.QTimer(self)
+        self._label_timer.setSingleShot(True)
+        self._label_timer.setInterval(50)
+        self._label_timer.timeout.connect(self.layout_labels)
+        self.viewbox.sigRangeChanged.connect(lambda *_: self._label_timer.start())
         self.graphics.setCentralItem(self.viewbox)
         # no auto-downsampling: it re-samples the whole image at every zoom step (0.3 s at 4000 × 3000);
         # the painter scales the one rendered image instead (about 2 ms per step, see `usvips bench`)
@@ -381,8 +389,28 @@ class StereoPane(QtWidgets.QWidget):
             item = pg.TextItem(text, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
             view = item_from_pixels(np.array([pixel]))[0]
             item.setPos(float(view[0]) + 4, float(view[1]) - 4)
+            item.home = QtCore.QPointF(float(view[0]) + 4, float(view[1]) - 4)  # where it goes when alone
             self.viewbox.addItem(item, ignoreBounds=True)
             self.labels.append(item)
+        self.layout_labels()
+
+    #: above this many labels in view, they are not moved apart (the layout would cost a visible pause)
+    MAX_LAID_OUT = 60
+
+    def layout_labels(self) -> None:
+        """Move the labels in view apart so that none covers another (:func:`usvips.gui.label_layout.
+        stack_labels`, in screen pixels: labels keep their size on screen, so this is redone on a zoom)."""
+        rect = self.viewbox.viewRect()
+        shown = [item for item in self.labels if rect.contains(item.home)]
+        for item in self.labels:
+            item.setPos(item.home)
+        if len(shown) < 2 or len(shown) > self.MAX_LAID_OUT or self.viewbox.scene() is None:
+            return
+        anchors = np.array([[p.x(), p.y()] for p in (self.viewbox.mapViewToScene(i.home) for i in shown)])
+        sizes = np.array([[i.boundingRect().width(), i.boundingRect().height()] for i in shown])
+        for item, anchor, offset in zip(shown, anchors, stack_labels(anchors, sizes), strict=True):
+            if offset:
+                item.setPos(self.viewbox.mapSceneToView(QtCore.QPointF(anchor[0], anchor[1] + offset)))
 
     def set_added_lines(self, lines: np.ndarray, count: int) -> None:
         """The outlines stored since the last :meth:`set_object_lines` (K, 2) pixels, NaN-separated, unselected
