@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import sys
 
@@ -12,11 +13,14 @@ from usvips.core.errors import InvalidParameterError
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "bench", help="measure speed as ratios against baselines timed in the same run (JSON)")
+        "bench", help="measure speed as ratios against baselines timed in the same run (JSON)",
+        description="Every area runs in a process of its own; an area that fails gives a row naming its "
+                    "error, the others still report, and the command then exits with status 1.")
     parser.add_argument("--only", nargs="*", metavar="AREA",
-                        help="run only these areas (modules of usvips.bench)")
+                        help="run only these areas (modules of usvips.bench; --list names them)")
     parser.add_argument("--scale", type=float, default=1.0,
-                        help="problem size relative to the nominal one (default 1.0)")
+                        help="problem size relative to the nominal one (default 1.0; 0.01 is a quick smoke test)")
+    parser.add_argument("--list", action="store_true", help="name the areas and their modules, run nothing")
     parser.set_defaults(handler=run)
 
 
@@ -25,12 +29,24 @@ def run(args: argparse.Namespace) -> int:
 
     if not 0 < args.scale <= 10:
         raise InvalidParameterError("--scale", f"must be in (0, 10], got {args.scale}")
-    unknown = set(args.only or ()) - set(bench.BENCH_MODULES)
+    known = bench.areas()
+    if args.list:
+        for name, module in known.items():
+            print(f"{name}\t{module}")
+        return 0
+    unknown = set(args.only or ()) - set(known)
     if unknown:
-        raise InvalidParameterError("--only", f"unknown area(s) {sorted(unknown)}; "
-                                    f"known: {list(bench.BENCH_MODULES)}")
-    rows = bench.run(args.only, args.scale)
-    report = {"python": platform.python_version(), "machine": platform.machine(), "results": rows}
+        raise InvalidParameterError("--only", f"unknown area(s) {sorted(unknown)}; known: {list(known)}")
+    load = os.getloadavg()[0]
+    runs = bench.run_areas(args.only, args.scale)
+    report = {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
+              "scale": args.scale, "load_1min_at_start": round(load, 2),
+              "load_1min_at_end": round(os.getloadavg()[0], 2),
+              "wall_s": round(sum(r.wall_s for r in runs), 1), "areas": [r.summary() for r in runs],
+              "results": [row for r in runs for row in r.rows]}
     json.dump(report, sys.stdout, indent=2)
     sys.stdout.write("\n")
-    return 0
+    failed = [r for r in runs if r.error is not None]
+    for area in failed:
+        print(f"usvips bench: area {area.area} failed: {area.error}", file=sys.stderr)
+    return 1 if failed else 0

@@ -1,22 +1,17 @@
 """``usvips intersect``: 3-D points with sigmas from conjugate pixels and a calibration.
 
 The sigmas combine the pointing precision (the calibration's a-posteriori sigma0) and the calibration's
-own uncertainty (its parameter covariance, propagated to every point)."""
+own uncertainty (its parameter covariance, propagated to every point). The file is read, intersected and
+written in chunks (:mod:`usvips.app.intersect_file`)."""
 
 from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from usvips.cli.common import csv_text, write_text_atomic
-from usvips.core.calibration.uncertainty import intersect_with_calibration
+from usvips.app.intersect_file import FailedPointsError, IntersectOptions, intersect_file
 from usvips.core.errors import DegenerateGeometryError
-from usvips.core.intersection import Intersection
-from usvips.core.rays import RayStatus
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
-from usvips.io.tables import read_observations, refuse_outside_image
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,6 +32,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
+def options(args: argparse.Namespace) -> IntersectOptions:
+    """The run's options from the command line."""
+    return IntersectOptions(station=int(args.station) if args.station.isdigit() else args.station, frame=args.frame,
+                            include_calibration=not args.pointing_only, skip_failed=args.skip_failed)
+
+
 def run(args: argparse.Namespace) -> int:
     with replacing(args.out, [args.calibration, args.obs], replace=args.force):
         return _run(args)
@@ -44,36 +45,15 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     calibration = load_calibration(args.calibration)
-    observations = read_observations(args.obs)
-    refuse_outside_image(args.obs, list(observations.ids), list(observations.lines), observations.left,
-                         observations.right, ((calibration.left.width, calibration.left.height),
-                                              (calibration.right.width, calibration.right.height)))
-    station = int(args.station) if args.station.isdigit() else args.station
-    result = intersect_with_calibration(calibration, observations.left, observations.right, station, args.frame,
-                                        include_calibration=not args.pointing_only)
-    failed = np.flatnonzero(~result.ok)
-    if failed.size and not args.skip_failed:
-        first = int(failed[0])
-        line = f", line {observations.lines[first]}" if observations.lines else ""
+    try:
+        summary = intersect_file(calibration, args.obs, args.out, options(args))
+    except FailedPointsError as error:
+        where = f", line {error.line}" if error.line is not None else ""
         raise DegenerateGeometryError(
-            f"{args.obs}{line}: point {observations.ids[first]!r}: {RayStatus(int(result.status[first])).reason}"
-            f" ({failed.size} of {len(observations)} points failed; --skip-failed writes the others)")
-    write_text_atomic(args.out, csv_text(["id", "X", "Y", "Z", "sX", "sY", "sZ"], point_rows(observations.ids, result)))
-    written = int(result.ok.sum())
-    rms = float(np.sqrt(np.mean(result.residuals_px[result.ok] ** 2))) if result.ok.any() else 0.0
-    print(f"intersected {written} of {len(observations)} points (ray residual RMS {rms:.3f} px, "
+            f"{error.source}{where}: point {error.point!r}: {error.reason} ({error.failed} of {error.total} points "
+            "failed; --skip-failed writes the others)") from None
+    print(f"intersected {summary.written} of {summary.points} points (ray residual RMS {summary.rms_px:.3f} px, "
           f"sigma0 {calibration.sigma0_px:.3f} px); wrote {args.out}")
-    for i in failed:
-        print(f"  skipped point {observations.ids[i]}: {RayStatus(int(result.status[i])).reason}")
+    for point, reason in summary.skipped:
+        print(f"  skipped point {point}: {reason}")
     return 0
-
-
-def point_rows(ids: tuple[str, ...], result: Intersection) -> list[list[str]]:
-    """CSV rows ``id, X, Y, Z, sX, sY, sZ`` (metres, 6 decimals) of the intersected points, in input order.
-
-    Linear in the number of points: the sigmas are computed once for all rows and every number is
-    formatted in one pass over a flat list (no per-row work on whole arrays)."""
-    ok = np.flatnonzero(result.ok)
-    table = np.column_stack([result.points[ok], result.sigmas[ok]])
-    texts = [f"{v:.6f}" for v in table.ravel().tolist()]
-    return [[ids[i], *texts[6 * row:6 * row + 6]] for row, i in enumerate(ok.tolist())]

@@ -179,6 +179,8 @@ class ObjectList(QtWidgets.QWidget):
         self._on_vertex_range()
 
     def _on_removed(self, ids: tuple[int, ...]) -> None:
+        gone = set(ids)
+        self._pending = [i for i in self._pending if i not in gone]
         for object_id in ids:
             row = self.row_of(object_id)
             if row is not None:
@@ -315,9 +317,9 @@ class ObjectList(QtWidgets.QWidget):
                 if row is not None:
                     self._show_figures(row, object_id)
         elif missing:
-            if self._worker is not None:
+            if self._worker is not None:  # its ids still wanted: those the cache (so the store) still has
                 self._worker.cancel()
-                missing = sorted(set(missing) | set(self._pending))
+                missing = sorted(set(missing) | {i for i in self._pending if i in self.workspace.cache})
             self._pending = missing
             job = self.workspace.figures_job(missing)
             worker = self._worker = Worker(job, "computing the objects' figures")

@@ -75,6 +75,35 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> None:
         raise
 
 
+@contextlib.contextmanager
+def text_atomic(path: str | Path) -> Iterator:
+    """A text stream (UTF-8, newlines as written) to a temporary file beside ``path``, renamed into place
+    when the block ends without error; on any error the temporary file is removed and ``path`` is
+    untouched (for writers that write a large file piece by piece)."""
+    path = check_output_path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    try:
+        handle, temporary = tempfile.mkstemp(prefix=".usvips.", suffix=".tmp", dir=str(folder))
+    except OSError as error:
+        raise OutputFileError(str(path), f"cannot write: {error.strerror or error}") from None
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
+            try:
+                yield stream
+            except OSError as error:
+                raise OutputFileError(str(path), f"cannot write: {error.strerror or error}") from None
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the file a normal file's mode
+        os.replace(temporary, path)
+    except OSError as error:
+        Path(temporary).unlink(missing_ok=True)
+        raise OutputFileError(str(path), f"cannot write: {error.strerror or error}") from None
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
 def write_text_atomic(path: str | Path, text: str) -> None:
     """Write ``text`` (UTF-8, newlines as given) to ``path`` atomically (see :func:`write_bytes_atomic`)."""
     write_bytes_atomic(path, text.encode("utf-8"))

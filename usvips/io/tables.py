@@ -55,24 +55,9 @@ def _rows(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
     header: list[str] | None = None
     rows: list[tuple[int, list[str]]] = []
     for number, line in enumerate(text.splitlines(), start=1):
-        stripped = line.strip()
-        if not stripped or stripped.startswith("#"):
+        fields = split_line(path, number, line)
+        if fields is None:
             continue
-        if "\x00" in stripped:
-            raise InputFileError(str(path), "binary data (a NUL byte); not a CSV text file", number)
-        if len(stripped) > MAX_LINE_CHARS:
-            raise InputFileError(str(path), f"the line is {len(stripped)} characters long (at most {MAX_LINE_CHARS})",
-                                 number)
-        try:
-            # (a line without quotes splits as csv would, at a fraction of the cost of a reader per line)
-            fields = [f.strip() for f in (stripped.split(",") if '"' not in stripped
-                                          else next(csv.reader([stripped], strict=True)))]
-        except csv.Error as error:
-            raise InputFileError(str(path), f"not a valid CSV line ({error})", number) from None
-        long = next((i for i, f in enumerate(fields) if len(f) > MAX_FIELD_CHARS), None)
-        if long is not None:
-            raise InputFileError(str(path), f"field {long + 1} is {len(fields[long])} characters long (at most "
-                                 f"{MAX_FIELD_CHARS})", number)
         if header is None:
             header = fields
             header_line = number
@@ -80,12 +65,40 @@ def _rows(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
         rows.append((number, fields))
     if header is None:
         raise InputFileError(str(path), "the file has no header line")
-    if len(set(header)) != len(header):
-        raise InputFileError(str(path), f"duplicate column names in the header {','.join(header)[:80]}",
-                             header_line)
+    check_header(path, header, header_line)
     if not rows:
         raise InputFileError(str(path), "the file has a header but no data rows")
     return header, rows
+
+
+def split_line(path: Path, number: int, line: str) -> list[str] | None:
+    """The stripped fields of line ``number`` of a CSV table (None: a blank line or a ``#`` comment);
+    :class:`InputFileError` naming the line when it is binary, too long or not valid CSV."""
+    stripped = line.strip()
+    if not stripped or stripped.startswith("#"):
+        return None
+    if "\x00" in stripped:
+        raise InputFileError(str(path), "binary data (a NUL byte); not a CSV text file", number)
+    if len(stripped) > MAX_LINE_CHARS:
+        raise InputFileError(str(path), f"the line is {len(stripped)} characters long (at most {MAX_LINE_CHARS})",
+                             number)
+    try:
+        # (a line without quotes splits as csv would, at a fraction of the cost of a reader per line)
+        fields = [f.strip() for f in (stripped.split(",") if '"' not in stripped
+                                      else next(csv.reader([stripped], strict=True)))]
+    except csv.Error as error:
+        raise InputFileError(str(path), f"not a valid CSV line ({error})", number) from None
+    long = next((i for i, f in enumerate(fields) if len(f) > MAX_FIELD_CHARS), None)
+    if long is not None:
+        raise InputFileError(str(path), f"field {long + 1} is {len(fields[long])} characters long (at most "
+                             f"{MAX_FIELD_CHARS})", number)
+    return fields
+
+
+def check_header(path: Path, header: list[str], line: int) -> None:
+    """:class:`InputFileError` when a column name is given twice."""
+    if len(set(header)) != len(header):
+        raise InputFileError(str(path), f"duplicate column names in the header {','.join(header)[:80]}", line)
 
 
 def _column_index(path: Path, header: list[str], required: tuple[str, ...]) -> dict[str, int]:
@@ -263,16 +276,30 @@ def refuse_outside_image(path: str | Path, labels: list[str], lines: list[int | 
     height) of the left and right images (None: not known, nothing checked). Such a pixel is a typing or
     unit error (say, millimetres or a normalised coordinate), named here rather than as a lens that
     cannot be inverted far outside its frame."""
-    for side, pixels, (width, height) in (("left", left, sizes[0]), ("right", right, sizes[1])):
-        if width is None or height is None or len(pixels) == 0:
-            continue
+    for side, pixels, size in (("left", left, sizes[0]), ("right", right, sizes[1])):
         pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-        outside = ((pixels[:, 0] < -0.5) | (pixels[:, 0] > width - 0.5) | (pixels[:, 1] < -0.5)
-                   | (pixels[:, 1] > height - 0.5))
+        outside = outside_image(pixels, size)
         if outside.any():
             k = int(np.flatnonzero(outside)[0])
-            x, y = pixels[k]
-            more = f"; {int(outside.sum())} such pixels in all" if outside.sum() > 1 else ""
-            raise InputFileError(str(path), f"point {labels[k]!r}: the {side} pixel ({x:g}, {y:g}) lies outside the "
-                                 f"{side} image ({width} × {height} px: x from -0.5 to {width - 0.5:g}, y from -0.5 "
-                                 f"to {height - 0.5:g}){more}", lines[k] if k < len(lines) else None)
+            raise outside_image_error(path, side, labels[k], lines[k] if k < len(lines) else None, pixels[k], size,
+                                      int(outside.sum()))
+
+
+def outside_image(pixels: np.ndarray, size: tuple[int | None, int | None]) -> np.ndarray:
+    """Which of the (N, 2) ``pixels`` lie outside an image of ``size`` (width, height; None: not known,
+    none is outside); see :func:`refuse_outside_image` for the convention."""
+    width, height = size
+    if width is None or height is None or len(pixels) == 0:
+        return np.zeros(len(pixels), dtype=bool)
+    return ((pixels[:, 0] < -0.5) | (pixels[:, 0] > width - 0.5) | (pixels[:, 1] < -0.5)
+            | (pixels[:, 1] > height - 0.5))
+
+
+def outside_image_error(path: str | Path, side: str, label: str, line: int | None, pixel, size: tuple[int, int],
+                        count: int) -> InputFileError:
+    """The error of point ``label``'s ``side`` pixel outside its image (the first of ``count`` such)."""
+    (x, y), (width, height) = pixel, size
+    more = f"; {count} such pixels in all" if count > 1 else ""
+    return InputFileError(str(path), f"point {label!r}: the {side} pixel ({x:g}, {y:g}) lies outside the {side} "
+                          f"image ({width} × {height} px: x from -0.5 to {width - 0.5:g}, y from -0.5 to "
+                          f"{height - 0.5:g}){more}", line)

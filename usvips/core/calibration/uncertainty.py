@@ -111,7 +111,7 @@ def _intersect_and_derivatives(calibration, left, right, station, frame, include
     label = _station_label(calibration, station)
     _require_pose_covariance(calibration, label, frame, names)
     keys = [(id(calibration), label, frame, one.tobytes(), other.tobytes())
-            for one, other in zip(traced[0].pixels, traced[1].pixels, strict=True)]
+            for one, other in zip(traced[0].pixels, traced[1].pixels, strict=True)] if len(left) <= FEW_ROWS else []
     with _KEEPING:
         kept = [_KEPT_ROWS.get(key) for key in keys]
     if keys and all(k is not None and k[0]() is calibration for k in kept):

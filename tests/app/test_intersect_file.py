@@ -1,0 +1,157 @@
+"""``usvips intersect`` read, intersected and written in chunks: the same rows however the file is cut
+(chunks of any size, blocks of any byte count, comments, blank lines, quoted ids, CRLF), the same
+one-line errors naming the first bad line even where it sits on a chunk's edge, and no output file (nor
+a temporary one) left behind by a run that fails."""
+
+import csv
+import io
+
+import numpy as np
+import pytest
+
+from usvips.app.intersect_file import FailedPointsError, IntersectOptions, intersect_file, point_rows, points_text
+from usvips.bench.scaling import CALIBRATION, write_observations
+from usvips.core.errors import InputFileError
+from usvips.io.calibration_file import load_calibration
+from usvips.io.observation_stream import SeenKeys, observation_chunks
+from usvips.io.tables import read_observations, refuse_outside_image
+
+WHOLE = 10**9  # rows per chunk: the whole file in one
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    return load_calibration(CALIBRATION)
+
+
+@pytest.fixture
+def observations(tmp_path, calibration):
+    """40 points, with a comment, blank lines, a quoted id holding a comma and spaces around fields."""
+    path = tmp_path / "obs.csv"
+    write_observations(calibration, 40, path, seed=3)
+    lines = path.read_text().splitlines()
+    lines.insert(5, "# a comment between rows")
+    lines.insert(9, "")
+    lines[12] = '"fish, big",' + lines[12].split(",", 1)[1]
+    lines[20] = lines[20].replace(",", " , ")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _run(calibration, obs, out, rows=WHOLE, **options):
+    return intersect_file(calibration, obs, out, IntersectOptions(chunk_rows=rows, **options))
+
+
+@pytest.mark.parametrize("rows", [1, 2, 3, 7, 16])
+def test_chunked_and_whole_give_the_same_rows(tmp_path, calibration, observations, rows):
+    whole = _run(calibration, observations, tmp_path / "whole.csv")
+    chunked = _run(calibration, observations, tmp_path / "chunked.csv", rows)
+    assert (tmp_path / "chunked.csv").read_bytes() == (tmp_path / "whole.csv").read_bytes()
+    assert (whole.points, whole.written) == (chunked.points, chunked.written) == (40, 40)
+    assert chunked.rms_px == pytest.approx(whole.rms_px, rel=1e-12)
+    rows_read = list(csv.reader(io.StringIO((tmp_path / "chunked.csv").read_text())))
+    assert rows_read[0] == ["id", "X", "Y", "Z", "sX", "sY", "sZ"] and len(rows_read) == 41
+    assert "fish, big" in [row[0] for row in rows_read]  # written quoted, read back whole
+
+
+def test_the_text_is_what_the_csv_module_writes(calibration, observations):
+    from usvips.core.calibration.uncertainty import intersect_with_calibration
+
+    read = read_observations(observations)
+    result = intersect_with_calibration(calibration, read.left, read.right)
+    result.status[[3, 17]] = 1  # two points that failed are left out
+    for ids in (read.ids, tuple(f"q{i}" for i in range(len(read.ids)))):  # with and without an id to quote
+        buffer = io.StringIO()
+        csv.writer(buffer, lineterminator="\n").writerows(point_rows(ids, result))
+        assert points_text(ids, result) == buffer.getvalue()
+
+
+@pytest.mark.parametrize("block_bytes", [1, 7, 64, 1 << 22])
+def test_the_chunks_are_the_whole_files_rows(tmp_path, observations, block_bytes):
+    crlf = tmp_path / "crlf.csv"
+    crlf.write_bytes(b"\xef\xbb\xbf" + observations.read_bytes().replace(b"\n", b"\r\n"))
+    whole = read_observations(observations)
+    for path in (observations, crlf):
+        chunks = list(observation_chunks(path, rows=3, block_bytes=block_bytes))
+        assert all(0 < len(c) <= 3 for c in chunks)  # 3 lines each, blank and comment lines left out
+        assert sum((c.ids for c in chunks), ()) == whole.ids
+        assert sum((c.lines for c in chunks), ()) == whole.lines
+        np.testing.assert_array_equal(np.concatenate([c.left for c in chunks]), whole.left)
+        np.testing.assert_array_equal(np.concatenate([c.right for c in chunks]), whole.right)
+
+
+BAD = {  # a bad line put at line 9 (data row 8): its error as the whole-file reader gives it
+    "a word for a number": ("p7,12.5,abc,30,40", "column yl: 'abc' is not a number"),
+    "a missing field": ("p7,12.5,20,30", "4 fields but the header has 5"),
+    "an empty id": (",12.5,20,30,40", "empty id"),
+    "an infinite number": ("p7,12.5,inf,30,40", "column yl: 'inf' is not a finite number"),
+    "an unclosed quote": ('"p7,12.5,20,30,40', "not a valid CSV line"),
+    "an id given twice": ("p2,12.5,20,30,40", "duplicate id 'p2' in pair '1' (first on line 4)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+@pytest.mark.parametrize("rows", [1, 3, 7, 8, WHOLE])
+def test_bad_input_on_a_chunks_edge_is_one_line_naming_it_and_writes_nothing(tmp_path, calibration, case, rows):
+    """Rows 1-7 are good; line 9 (row 8) is bad: with chunks of 7 or 8 rows it is the first or the last row of
+    a chunk."""
+    good = [f"p{i},{100 + i},{200 + i},{90 + i},{200 + i}" for i in range(12)]
+    bad_line, problem = BAD[case]
+    lines = ["id,xl,yl,xr,yr", *good[:7], bad_line, *good[8:]]
+    obs = tmp_path / "obs.csv"
+    obs.write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputFileError) as whole_error:
+        read_observations(obs)
+    out = tmp_path / "points.csv"
+    with pytest.raises(InputFileError) as error:
+        _run(calibration, obs, out, rows)
+    assert error.value.line == 9 and problem in str(error.value) and str(error.value).startswith(f"{obs}, line 9: ")
+    assert str(error.value) == str(whole_error.value) and "\n" not in str(error.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["obs.csv"]  # no output, no temporary file
+
+
+@pytest.mark.parametrize("rows", [1, 4, WHOLE])
+def test_pixels_outside_the_image_are_counted_over_the_whole_file(tmp_path, calibration, rows):
+    good = [f"p{i},{100 + i},{200 + i},{90 + i},{200 + i}" for i in range(12)]
+    good[3] = "p3,100,200,9000,200"  # right pixel outside
+    good[9] = "p9,-40,200,90,200"  # left pixel outside: named first, as the whole-file check does
+    good[10] = "p10,-41,200,90,200"
+    obs = tmp_path / "obs.csv"
+    obs.write_text("\n".join(["id,xl,yl,xr,yr", *good]) + "\n")
+    read = read_observations(obs)
+    with pytest.raises(InputFileError) as whole:
+        refuse_outside_image(obs, list(read.ids), list(read.lines), read.left, read.right,
+                             ((calibration.left.width, calibration.left.height),
+                              (calibration.right.width, calibration.right.height)))
+    with pytest.raises(InputFileError) as error:
+        _run(calibration, obs, tmp_path / "points.csv", rows)
+    assert str(error.value) == str(whole.value) and "2 such pixels in all" in str(error.value)
+    assert not (tmp_path / "points.csv").exists()
+
+
+def test_points_that_fail_stop_the_run_unless_left_out(tmp_path, calibration):
+    obs = tmp_path / "obs.csv"
+    write_observations(calibration, 10, obs, seed=4)
+    lines = obs.read_text().splitlines()
+    lines[6] = "p5,300,200,500,200"  # the right ray diverges from the left one (the right image sees it left)
+    obs.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FailedPointsError) as error:
+        _run(calibration, obs, tmp_path / "points.csv", 3)
+    assert error.value.line == 7 and error.value.point == "p5" and (error.value.failed, error.value.total) == (1, 10)
+    assert not (tmp_path / "points.csv").exists()
+    summary = _run(calibration, obs, tmp_path / "points.csv", 3, skip_failed=True)
+    assert summary.written == 9 and [point for point, _ in summary.skipped] == ["p5"]
+    assert len((tmp_path / "points.csv").read_text().splitlines()) == 10
+
+
+def test_the_hash_set_finds_exactly_the_keys_seen_before():
+    rng = np.random.default_rng(5)
+    seen, reference = SeenKeys(), set()
+    for _ in range(30):  # batches that repeat keys within themselves and across batches; 0 and -1 included
+        keys = rng.integers(-50, 3000, rng.integers(1, 400))
+        expected = []
+        for k, key in enumerate(keys.tolist()):
+            if (key or 1) in reference:
+                expected.append(k)
+            reference.add(key or 1)
+        assert seen.add(keys).tolist() == expected

@@ -1,0 +1,185 @@
+"""Intersect an observation file into a points file, chunk by chunk (``usvips intersect``).
+
+The observations (``id,xl,yl,xr,yr``, pixels) are read, intersected with the calibration's covariance
+propagated to every point, and written as ``id,X,Y,Z,sX,sY,sZ`` (metres, 6 decimals) a chunk of rows at a
+time (:data:`usvips.io.observation_stream.CHUNK_ROWS`), so time grows linearly with the file and memory
+stays flat (10⁷ points in a few hundred MB). Every point is intersected on its own, so the rows are the
+same however the file is cut into chunks. The points file is written to a temporary file renamed into
+place at the end: bad input anywhere (named by its line), a pixel outside its image or, unless failed
+points are to be left out, a point that does not intersect, leaves no output file.
+
+What a chunk goes through is :func:`intersect_chunk` with the options of the run
+(:class:`IntersectOptions`); a per-row input such as another pointing precision goes into both.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from usvips.core.calibration.uncertainty import intersect_with_calibration
+from usvips.core.errors import DegenerateGeometryError
+from usvips.core.intersection import Intersection
+from usvips.core.observations import StereoObservations
+from usvips.core.rays import RayStatus
+from usvips.core.stereo_calibration import StereoCalibration
+from usvips.io.atomic import text_atomic
+from usvips.io.observation_stream import CHUNK_ROWS, observation_chunks
+from usvips.io.tables import outside_image, outside_image_error
+
+#: the points file's columns
+POINT_COLUMNS = ("id", "X", "Y", "Z", "sX", "sY", "sZ")
+
+
+@dataclass(frozen=True)
+class IntersectOptions:
+    """How to intersect: the calibrated ``station`` (index or pair label) and ``frame`` (``object``: the
+    control frame at the station; ``rig``: left perspective centre, left axes); whether the sigmas include
+    the calibration's own uncertainty (else the pointing precision alone); whether points that do not
+    intersect are left out (listed) instead of failing the run; the rows per chunk."""
+
+    station: int | str = 0
+    frame: str = "object"
+    include_calibration: bool = True
+    skip_failed: bool = False
+    chunk_rows: int = CHUNK_ROWS
+
+
+class FailedPointsError(DegenerateGeometryError):
+    """Points that do not intersect, with the first one named by its file line; nothing was written."""
+
+    def __init__(self, source: str, line: int | None, point: str, reason: str, failed: int, total: int):
+        self.source, self.line, self.point, self.reason = source, line, point, reason
+        self.failed, self.total = failed, total
+        where = f", line {line}" if line is not None else ""
+        super().__init__(f"{source}{where}: point {point!r}: {reason} ({failed} of {total} points failed)")
+
+
+@dataclass
+class IntersectSummary:
+    """What a run wrote: the points read and written, the RMS of the ray residuals of the written points
+    (pixels, over every ray) and each point left out (id, reason)."""
+
+    points: int = 0
+    written: int = 0
+    residual_square_sum: float = 0.0
+    residual_count: int = 0
+    skipped: list[tuple[str, str]] = field(default_factory=list)
+
+    @property
+    def rms_px(self) -> float:
+        return float(np.sqrt(self.residual_square_sum / self.residual_count)) if self.residual_count else 0.0
+
+
+def intersect_chunk(calibration: StereoCalibration, chunk: StereoObservations,
+                    options: IntersectOptions) -> Intersection:
+    """The intersection of one chunk's conjugate pixels (each point on its own)."""
+    return intersect_with_calibration(calibration, chunk.left, chunk.right, options.station, options.frame,
+                                      include_calibration=options.include_calibration)
+
+
+def point_rows(ids: tuple[str, ...], result: Intersection) -> list[list[str]]:
+    """CSV rows ``id, X, Y, Z, sX, sY, sZ`` (metres, 6 decimals) of the intersected points, in input order
+    (every number formatted in one pass over a flat list)."""
+    ok = np.flatnonzero(result.ok)
+    table = np.column_stack([result.points[ok], result.sigmas[ok]])
+    texts = [f"{v:.6f}" for v in table.ravel().tolist()]
+    return [[ids[i], *texts[6 * row:6 * row + 6]] for row, i in enumerate(ok.tolist())]
+
+
+#: one points row as text: the id, then X, Y, Z, sX, sY, sZ to 6 decimals (as ``f"{v:.6f}"`` writes them)
+_ROW = "%s" + ",%.6f" * 6 + "\n"
+#: characters that make the csv module quote a field
+_QUOTED = re.compile(r'[,"\r\n]')
+
+
+def points_text(ids: tuple[str, ...], result: Intersection) -> str:
+    """The rows of :func:`point_rows` as CSV text (as ``csv.writer`` writes them), formatted by one
+    ``%`` over the whole chunk."""
+    ok = np.flatnonzero(result.ok)
+    chosen = [ids[i] for i in ok.tolist()]
+    if _QUOTED.search("".join(chosen)):  # an id the csv module would quote: written by it
+        buffer = io.StringIO()
+        csv.writer(buffer, lineterminator="\n").writerows(point_rows(ids, result))
+        return buffer.getvalue()
+    flat: list = [None] * (7 * len(chosen))
+    flat[0::7] = chosen
+    for column, values in enumerate((*result.points[ok].T, *result.sigmas[ok].T), start=1):
+        flat[column::7] = values.tolist()
+    return (_ROW * len(chosen)) % tuple(flat)
+
+
+class _OutsideImage:
+    """The pixels outside their images met so far: the first per side and how many."""
+
+    def __init__(self, sizes) -> None:
+        self.sizes = sizes
+        self.first: dict[str, tuple[str, int | None, np.ndarray]] = {}
+        self.count = {"left": 0, "right": 0}
+
+    def check(self, chunk: StereoObservations) -> bool:
+        """Count the chunk's pixels outside their images; whether there were any."""
+        found = False
+        for side, pixels, size in (("left", chunk.left, self.sizes[0]), ("right", chunk.right, self.sizes[1])):
+            outside = outside_image(pixels, size)
+            if outside.any():
+                k = int(np.flatnonzero(outside)[0])
+                self.first.setdefault(side, (chunk.ids[k], chunk.lines[k] if chunk.lines else None, pixels[k]))
+                self.count[side] += int(outside.sum())
+                found = True
+        return found
+
+    def raise_any(self, source: str) -> None:
+        for side, size in zip(("left", "right"), self.sizes, strict=True):
+            if side in self.first:
+                label, line, pixel = self.first[side]
+                raise outside_image_error(source, side, label, line, pixel, size, self.count[side])
+
+
+def intersect_file(calibration: StereoCalibration, observations: str | Path, out: str | Path,
+                   options: IntersectOptions = IntersectOptions()) -> IntersectSummary:
+    """Read ``observations``, intersect every point and write the points file ``out`` (see the module
+    docstring); raises :class:`~usvips.core.errors.InputFileError` for bad input (file and line) and
+    :class:`FailedPointsError` for points that do not intersect unless ``options.skip_failed``."""
+    summary = IntersectSummary()
+    outside = _OutsideImage(((calibration.left.width, calibration.left.height),
+                             (calibration.right.width, calibration.right.height)))
+    first_failure: tuple[int | None, str, str] | None = None
+    failed = 0
+    with text_atomic(out) as stream:
+        writer = csv.writer(stream, lineterminator="\n")
+        writer.writerow(POINT_COLUMNS)
+        for chunk in _chunks(observations, options):
+            summary.points += len(chunk)
+            if outside.check(chunk) or outside.first:
+                continue  # the run fails: the rest of the file is only checked (and its outside pixels counted)
+            result = intersect_chunk(calibration, chunk, options)
+            bad = np.flatnonzero(~result.ok)
+            failed += bad.size
+            if bad.size and first_failure is None:
+                k = int(bad[0])
+                first_failure = (chunk.lines[k] if chunk.lines else None, chunk.ids[k],
+                                 RayStatus(int(result.status[k])).reason)
+            if failed and not options.skip_failed:
+                continue  # the run fails: the rest is intersected only to count the points that fail
+            stream.write(points_text(chunk.ids, result))
+            summary.written += int(result.ok.sum())
+            residuals = result.residuals_px[result.ok]
+            summary.residual_square_sum += float(np.sum(residuals ** 2))
+            summary.residual_count += residuals.size
+            summary.skipped.extend((chunk.ids[i], RayStatus(int(result.status[i])).reason) for i in bad.tolist())
+        outside.raise_any(str(observations))
+        if failed and not options.skip_failed:
+            line, point, reason = first_failure
+            raise FailedPointsError(str(observations), line, point, reason, failed, summary.points)
+    return summary
+
+
+def _chunks(observations: str | Path, options: IntersectOptions) -> Iterator[StereoObservations]:
+    return observation_chunks(observations, rows=options.chunk_rows)

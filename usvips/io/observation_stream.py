@@ -1,0 +1,296 @@
+"""A stereo observation CSV (``id,xl,yl,xr,yr[,pair]``, see :mod:`usvips.io.tables`) read in chunks of
+rows, so that a file of any length is read with flat memory (``usvips intersect`` over 10⁷ points).
+
+Every chunk is checked as :func:`usvips.io.tables.read_observations` checks a whole file, with the same
+messages naming the file and line; a file with several faults names the first bad line (in line order).
+An id given twice in a pair is found across chunks by a hash set of 8 bytes per row
+(:class:`SeenKeys`); the earlier line it names is then found by reading the file again (only on that
+error). Chunked or whole, the rows are the same.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from usvips.core.errors import InputFileError
+from usvips.core.observations import StereoObservations
+from usvips.io.tables import (
+    MAX_FIELD_CHARS,
+    OBSERVATION_COLUMNS,
+    _check_id,
+    _check_width,
+    _column_index,
+    _number,
+    _show,
+    check_header,
+    split_line,
+)
+
+#: data rows per chunk (each chunk is read, intersected and written before the next)
+CHUNK_ROWS = 1 << 15
+#: bytes read from the file at a time
+BLOCK_BYTES = 1 << 22
+#: a block of lines may take the quick path only when it holds nothing but these (no blanks, quotes, '#',
+#: controls or non-ASCII characters: those lines go through the line-by-line checks)
+_PLAIN = re.compile(r"[^\x21\x24-\x7e\n]")
+
+
+class SeenKeys:
+    """A set of 64-bit hashes in a numpy open-addressing table (8-16 bytes per key): :meth:`add` tells
+    which of a batch of keys were seen before, earlier in the batch included."""
+
+    def __init__(self) -> None:
+        self._table = np.zeros(1 << 12, dtype=np.int64)
+        self._count = 0
+
+    def _slots(self, keys: np.ndarray) -> np.ndarray:
+        mixed = (keys.view(np.uint64) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(17)
+        return (mixed & np.uint64(len(self._table) - 1)).astype(np.int64)
+
+    def _grow(self, needed: int) -> None:
+        size = len(self._table)
+        while 2 * needed > size:
+            size *= 2
+        if size != len(self._table):
+            old = self._table[self._table != 0]
+            self._table, self._count = np.zeros(size, dtype=np.int64), 0
+            self._insert(old)
+
+    def add(self, keys: np.ndarray) -> np.ndarray:
+        """Insert ``keys`` (int64); returns the (ascending) indices of those already in the set."""
+        keys = np.where(keys == 0, 1, np.asarray(keys, dtype=np.int64))  # 0 marks an empty slot
+        self._grow(self._count + len(keys))
+        return self._insert(keys)
+
+    def _insert(self, keys: np.ndarray) -> np.ndarray:
+        mask = len(self._table) - 1
+        slots = self._slots(keys)
+        pending = np.arange(len(keys))
+        seen: list[np.ndarray] = []
+        while pending.size:
+            at = slots[pending]
+            current = self._table[at]
+            hit = current == keys[pending]
+            seen.append(pending[hit])
+            empty = current == 0
+            free, first = np.unique(at[empty], return_index=True)  # the earliest key takes a free slot
+            winners = pending[empty][first]
+            self._table[free] = keys[winners]
+            self._count += len(winners)
+            placed = np.zeros(len(pending), dtype=bool)
+            placed[np.flatnonzero(empty)[first]] = True
+            moving = ~hit & ~empty  # another key holds the slot: probe the next one
+            slots[pending[moving]] = (slots[pending[moving]] + 1) & mask
+            pending = pending[~hit & ~placed]  # losers of a free slot look at it again (ascending order kept)
+        return np.sort(np.concatenate(seen)) if seen else np.zeros(0, dtype=np.int64)
+
+
+def _lines(path: Path, block_bytes: int) -> Iterator[tuple[int, list[str]]]:
+    """(number of the first line, lines) of the file, block by block, numbered and split as
+    ``read_text().splitlines()`` would; a file that is not UTF-8 is named with its line."""
+    number, carry, first = 1, b"", True
+    with open(path, "rb") as stream:
+        while True:
+            data = stream.read(block_bytes)
+            block = carry + data
+            if not data:
+                carry = b""
+            else:
+                cut = block.rfind(b"\n") + 1
+                block, carry = block[:cut], block[cut:]
+                if not block:
+                    carry = block + carry
+                    continue
+            if first and block.startswith(b"\xef\xbb\xbf"):
+                block = block[3:]
+            first = first and not block
+            try:
+                text = block.decode("utf-8")
+            except UnicodeDecodeError as error:
+                line = number + block[:error.start].count(b"\n")
+                raise InputFileError(str(path), "not a text (UTF-8) CSV file", line) from None
+            if "\r" in text:
+                text = text.replace("\r\n", "\n").replace("\r", "\n")
+            lines = text.splitlines()
+            if lines:
+                yield number, lines
+            number += len(lines)
+            if not data:
+                return
+
+
+class _Checked:
+    """The rows of a file checked so far: their (pair, id) keys (for duplicates) and count."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.keys = SeenKeys()
+
+    def duplicate(self, ids: list[str], pairs: list[str] | None, lines: list[int]) -> InputFileError | None:
+        """The error of the first row of the chunk whose (pair, id) an earlier row has (None: none)."""
+        keyed = list(zip(pairs, ids, strict=True)) if pairs is not None else [("1", i) for i in ids]
+        hashes = np.fromiter(map(hash, keyed), dtype=np.int64, count=len(keyed))
+        for k in self.keys.add(hashes).tolist():
+            earlier = keyed.index(keyed[k])
+            first = lines[earlier] if earlier < k else self._first_line(keyed[k], lines[0])
+            if first is not None:
+                pair, pid = keyed[k]
+                return InputFileError(str(self.path), f"duplicate id {_show(pid)} in pair {_show(pair)} (first on "
+                                      f"line {first})", lines[k])
+        return None
+
+    def _first_line(self, key: tuple[str, str], before: int) -> int | None:
+        """The first line before line ``before`` whose row has ``key`` (None: a hash collision only)."""
+        columns: dict[str, int] | None = None
+        for start, lines in _lines(self.path, BLOCK_BYTES):
+            for number, line in enumerate(lines, start=start):
+                if number >= before:
+                    return None
+                fields = split_line(self.path, number, line)
+                if fields is None:
+                    continue
+                if columns is None:
+                    columns = {name: k for k, name in enumerate(fields)}
+                    continue
+                if (fields[columns["pair"]] if "pair" in columns else "1", fields[columns["id"]]) == key:
+                    return number
+        return None
+
+
+def observation_chunks(path: str | Path, rows: int = CHUNK_ROWS, block_bytes: int = BLOCK_BYTES,
+                       check_duplicates: bool = True) -> Iterator[StereoObservations]:
+    """The observation file at ``path`` as :class:`StereoObservations` of at most ``rows`` rows each, in
+    file order (``lines`` gives each row's line); :class:`InputFileError` naming the file and the first
+    bad line, raised when the chunk holding it is reached (the rows before it were given)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputFileError(str(path), "no such file")
+    header: list[str] | None = None
+    columns: dict[str, int] = {}
+    checked = _Checked(path)
+    given = 0
+    try:
+        waiting: list[str] = []  # lines read but not yet checked, and their numbers
+        numbers: list[int] = []
+        for start, lines in _lines(path, block_bytes):
+            block_numbers = range(start, start + len(lines))
+            if header is None:
+                for k, (number, line) in enumerate(zip(block_numbers, lines, strict=True)):
+                    fields = split_line(path, number, line)
+                    if fields is not None:
+                        header = fields
+                        check_header(path, header, number)
+                        columns = _column_index(path, header, OBSERVATION_COLUMNS)
+                        lines, block_numbers = lines[k + 1:], block_numbers[k + 1:]
+                        break
+                else:
+                    continue
+            waiting.extend(lines)
+            numbers.extend(block_numbers)
+            while len(waiting) >= rows:
+                chunk = _chunk(path, header, columns, waiting[:rows], numbers[:rows], checked, check_duplicates)
+                del waiting[:rows], numbers[:rows]
+                if len(chunk):
+                    given += len(chunk)
+                    yield chunk
+        if waiting:
+            chunk = _chunk(path, header, columns, waiting, numbers, checked, check_duplicates)
+            if len(chunk):
+                given += len(chunk)
+                yield chunk
+    except OSError as error:
+        raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
+    if header is None:
+        raise InputFileError(str(path), "the file has no header line")
+    if not given:
+        raise InputFileError(str(path), "the file has a header but no data rows")
+
+
+def _chunk(path: Path, header: list[str], columns: dict[str, int], lines: list[str], numbers: list[int],
+           checked: _Checked, check_duplicates: bool) -> StereoObservations:
+    """The rows of ``lines`` checked; the error of the first bad line (in line order) is raised."""
+    parsed = _quick(header, columns, lines, numbers)
+    failure: InputFileError | None = None
+    if parsed is None:
+        parsed, failure = _line_by_line(path, header, columns, lines, numbers)
+    ids, pairs, pixels, extra, rows = parsed
+    if check_duplicates and ids:
+        duplicate = checked.duplicate(ids, pairs, rows)
+        if duplicate is not None and (failure is None or duplicate.line < failure.line):
+            failure = duplicate
+    if failure is not None:
+        raise failure
+    return StereoObservations(tuple(ids), pixels[:, :2], pixels[:, 2:], tuple(pairs) if pairs else (), extra,
+                              str(path), tuple(rows))
+
+
+def _extra_names(header: list[str]) -> list[str]:
+    return [c for c in header if c not in OBSERVATION_COLUMNS and c != "pair"]
+
+
+def _quick(header: list[str], columns: dict[str, int], lines: list[str], numbers: list[int]):
+    """The chunk's rows when every line is plain (one field per column, no blanks, quotes, comments or
+    white space, every number finite), parsed in bulk; None: the lines must be checked one by one."""
+    width = len(header)
+    if not lines or "" in lines or max(map(len, lines)) > MAX_FIELD_CHARS:
+        return None
+    if any(count != width - 1 for count in map(str.count, lines, [","] * len(lines))):
+        return None
+    block = "\n".join(lines)
+    if _PLAIN.search(block):
+        return None
+    fields = block.replace("\n", ",").split(",")
+    ids = fields[columns["id"]::width]
+    pairs = fields[columns["pair"]::width] if "pair" in columns else None
+    if "" in ids or (pairs is not None and "" in pairs):
+        return None
+    try:
+        pixels = np.array([fields[columns[c]::width] for c in ("xl", "yl", "xr", "yr")], dtype=np.float64).T
+        extra = {c: np.array([float(t) if t else math.nan for t in fields[columns[c]::width]])
+                 for c in _extra_names(header)}
+    except ValueError:
+        return None
+    if not np.all(np.isfinite(pixels)) or any(np.isinf(v).any() for v in extra.values()):
+        return None
+    if any(np.isnan(v).any() and "nan" in " ".join(fields[columns[c]::width]).lower() for c, v in extra.items()):
+        return None  # a written-out "nan" is refused by name on the slow path
+    return ids, pairs, pixels, extra, numbers
+
+
+def _line_by_line(path: Path, header: list[str], columns: dict[str, int], lines: list[str],
+                  numbers: list[int]):
+    """The chunk's rows up to its first bad line, and that line's error (None: every line is good)."""
+    ids, pairs, pixels, rows = [], [], [], []
+    extra_names = _extra_names(header)
+    extra: dict[str, list[float]] = {c: [] for c in extra_names}
+    failure = None
+    for number, line in zip(numbers, lines, strict=True):
+        try:
+            fields = split_line(path, number, line)
+            if fields is None:
+                continue
+            _check_width(path, number, fields, header)
+            pid = _check_id(path, number, fields[columns["id"]])
+            pair = fields[columns["pair"]] if "pair" in columns else "1"
+            if not pair:
+                raise InputFileError(str(path), "empty pair label", number)
+            values = [_number(path, number, c, fields[columns[c]]) if fields[columns[c]] else math.nan
+                      for c in extra_names]
+            pixel = [_number(path, number, c, fields[columns[c]]) for c in ("xl", "yl", "xr", "yr")]
+        except InputFileError as error:
+            failure = error
+            break
+        ids.append(pid)
+        pairs.append(pair)
+        rows.append(number)
+        pixels.append(pixel)
+        for c, value in zip(extra_names, values, strict=True):
+            extra[c].append(value)
+    table = np.array(pixels, dtype=np.float64).reshape(-1, 4)
+    return (ids, pairs if "pair" in columns else None, table, {c: np.array(v) for c, v in extra.items()},
+            rows), failure
