@@ -157,3 +157,22 @@ def test_a_parameter_never_steps_past_its_bound_and_ending_on_it_is_reported():
     assert free.on_bound == [] and free.value("b") == pytest.approx(0.5, abs=0.05)
     with pytest.raises(Exception, match="outside its physical range"):
         Parameter("t", -0.1, lower=0.0)
+
+
+def test_a_cancel_asked_each_iteration_stops_the_adjustment():
+    """The window's Stop: ``cancelled()`` is asked before each iteration; True stops the run there."""
+    x = np.linspace(0, 10, 30)
+    y = 2.0 + 0.5 * x
+    asked = []
+
+    def cancelled():
+        asked.append(True)
+        return len(asked) >= 2
+
+    with pytest.raises(InterruptedError, match="stopped"):
+        adjust(_line_problem(x, y, 0.1, [Parameter("a", 0.0), Parameter("b", 0.0)]), cancelled=cancelled)
+    assert len(asked) == 2
+    # never cancelled: the same result as without the hook
+    plain = adjust(_line_problem(x, y, 0.1, [Parameter("a", 0.0), Parameter("b", 0.0)]))
+    hooked = adjust(_line_problem(x, y, 0.1, [Parameter("a", 0.0), Parameter("b", 0.0)]), cancelled=lambda: False)
+    assert hooked.value("b") == plain.value("b") and hooked.converged

@@ -73,7 +73,7 @@ def test_calibrate_from_board_images_by_keys(qtbot, project, scene):
     page.square.selectAll()
     qtbot.keyClicks(page.square, "30")
     _key(qtbot, wizard, QtCore.Qt.Key.Key_U, ALT)
-    assert wizard.session.target is not None and "chessboard: 54 points" in page.target_label.text()
+    assert wizard.session.target is not None and "square 30.00 mm (54 points)" in page.target_label.text()
     _choose(wizard, pairs)
     page.holdout.setValue(0)
     _key(qtbot, wizard, QtCore.Qt.Key.Key_N, ALT)  # Next: detection starts in a worker
@@ -234,8 +234,14 @@ def test_phase_one_from_a_project_video_then_phase_two_from_images(qtbot, projec
     assert page.base.findData(base_id) >= 0
     page.base.setCurrentIndex(page.base.findData(base_id))
     page.housing.setCurrentText("flat-port")
+    # known housing values, typed as a person types them: a value holds it, 'value ± sigma' weights it
+    truth_t = float(water_rig.housings[0].t)
+    page.known["t"].setFocus()
+    qtbot.keyClicks(page.known["t"], f"{truth_t:.6g}")
+    qtbot.keyClicks(page.known["n2"], "1.5 ± 0.01")
     page.holdout.setValue(0)
     wizard.next()
+    assert wizard.session.known == {"t": (pytest.approx(truth_t), None), "n2": (1.5, 0.01)}
     views = wizard.views_page
     qtbot.waitUntil(lambda: not views.busy and wizard.session.views is not None, timeout=120_000)
     wizard.next()
@@ -244,6 +250,9 @@ def test_phase_one_from_a_project_video_then_phase_two_from_images(qtbot, projec
     assert result is not None, wizard.compute_page.text.toPlainText()
     assert result.result.report["housing"] == "flat-port"
     assert "through flat-port" in wizard.compute_page.text.toPlainText()
+    parameters = result.calibration.parameters
+    assert parameters["t"].value == pytest.approx(truth_t) and parameters["t"].status == "fixed"
+    assert parameters["n2"].status == "prior"
     wizard.next()
     with qtbot.waitSignal(wizard.saved, timeout=10_000):
         wizard.accept()

@@ -415,7 +415,8 @@ def _to_boundary(free: list[Parameter], values: dict[str, float], step: np.ndarr
 
 
 def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], used: np.ndarray,
-           max_iterations: int, tolerance: float) -> tuple[dict[str, float], bool, str, int]:
+           max_iterations: int, tolerance: float, cancelled: Callable[[], bool] | None = None
+           ) -> tuple[dict[str, float], bool, str, int]:
     """Levenberg–Marquardt from the problem's current values; returns values, converged, reason, count.
 
     Every visited state is valid: a step is shortened so that it stops short of each parameter's bound,
@@ -429,6 +430,7 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
     run where no valid step lowers the weighted squared residuals is at a minimum (machine precision).
     When the only steps that would lower them leave the valid region, the run is NOT
     converged: it is stuck against the edge of the model's valid region, and the reason says so.
+    ``cancelled()`` is asked before each iteration: True raises :class:`InterruptedError`.
     """
     free = problem.free()
     values = problem.values()
@@ -447,6 +449,8 @@ def _solve(problem: Problem, weights_of: Callable[[np.ndarray], np.ndarray], use
     iteration = 0
     previous = None
     for iteration in range(1, max_iterations + 1):  # noqa: B007 (the count is returned)
+        if cancelled is not None and cancelled():
+            raise InterruptedError(f"the adjustment was stopped at iteration {iteration}")
         residual = np.where(used, observed - computed, 0.0)
         weights = np.where(used, weights_of(residual / sigmas) / sigmas**2, 0.0)
         jac = _structured_jacobian(problem, values, free, computed)
@@ -753,7 +757,8 @@ def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.B
 @batch_computation  # one BLAS thread for its small dense algebra, compiled kernels (core/batch_mode.py)
 def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2, robust: bool = True,
            snooping: bool = True, max_rejections: int | None = None,
-           snoop_unit: Callable[[int], np.ndarray] | None = None) -> Adjustment:
+           snoop_unit: Callable[[int], np.ndarray] | None = None,
+           cancelled: Callable[[], bool] | None = None) -> Adjustment:
     """Adjust ``problem`` (its parameters' values are the start and are updated in place).
 
     robust: start with IRLS/Huber so that a gross error cannot drag the solution; snooping: then
@@ -763,7 +768,8 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
     is reached with observations still failing, ``model_doubt`` says the model or set-up is wrong
     rather than removing more data. ``snoop_unit(i)`` returns the
     indices of the observations rejected together with observation i (e.g. both coordinates of a
-    point in one image); default: the observation alone.
+    point in one image); default: the observation alone. ``cancelled()``: asked before every iteration
+    (True stops the run with :class:`InterruptedError`).
     """
     n = len(problem.observations)
     used = np.ones(n, dtype=bool)
@@ -789,9 +795,9 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
             f"{n} observations cannot determine {len(free)} unknowns ({', '.join(p.name for p in free[:6])}"
             f"{'...' if len(free) > 6 else ''}); measure more points or fix parameters")
     if robust:
-        _solve(problem, _huber(HUBER_K), used, max_iterations, 1e-2)
+        _solve(problem, _huber(HUBER_K), used, max_iterations, 1e-2, cancelled)
         used = _set_aside_gross_errors(problem, used, excluded, snoop_unit)
-    _, converged, reason, iterations = _solve(problem, _unit, used, max_iterations, tolerance)
+    _, converged, reason, iterations = _solve(problem, _unit, used, max_iterations, tolerance, cancelled)
     limit = max_rejections if max_rejections is not None else max(2, n // SNOOP_SHARE)
     statistics = _statistics(problem, used)
     rounds = 0
@@ -818,14 +824,15 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
             # properly once, after the last rejection (below). Nothing here grows faster than the data.
             system = _warm_step(problem, trial_used, statistics)
             if system is None:
-                _, converged, reason, iterations = _solve(problem, _unit, trial_used, max_iterations, tolerance)
+                _, converged, reason, iterations = _solve(problem, _unit, trial_used, max_iterations, tolerance,
+                                                          cancelled)
             statistics = _statistics(problem, trial_used, statistics["jacobian"], system, statistics["variance"])
         except DegenerateGeometryError:
             excluded = excluded[: len(excluded) - len(unit)]
             break
         used = trial_used
     if moved:
-        _, converged, reason, iterations = _solve(problem, _unit, used, max_iterations, tolerance)
+        _, converged, reason, iterations = _solve(problem, _unit, used, max_iterations, tolerance, cancelled)
         statistics = _statistics(problem, used)
     model_doubt = None
     if snooping and rounds >= limit and np.max(np.abs(np.where(used, statistics["w"], 0.0))) > statistics["critical"]:

@@ -178,6 +178,14 @@ class SetupPage(QtWidgets.QWizardPage):
         wizard = self.wizard()
         target = open_target_wizard(self.session.project, self.session.phase, wizard)
         target.saved.connect(wizard.saved)
+        # Finish there stored the calibration: this wizard closes too (it stayed open behind it), unless
+        # it holds measured work of its own
+        target.accepted.connect(lambda: QtCore.QTimer.singleShot(0, lambda: self._close_after_target(wizard)))
+
+    @staticmethod
+    def _close_after_target(wizard: QtWidgets.QWizard) -> None:
+        if not wizard.has_unsaved_work():
+            wizard.done(QtWidgets.QDialog.DialogCode.Accepted)
 
     def _fill_known(self, housing: str) -> None:
         while self.known_form.rowCount():

@@ -14,19 +14,27 @@ from __future__ import annotations
 
 import datetime
 
+import numpy as np
 import pyqtgraph as pg
-from PySide6 import QtCore, QtWidgets
+from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips.app.target_words import target_words
+from usvips.core.calibration.figures import parameter_table
 from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui import active_pairs
-from usvips.gui.pane import StereoPane
+from usvips.gui import target_views_model as detail_model
+from usvips.gui.pane import StereoPane, item_from_pixels
 from usvips.gui.target_session import TargetSession
 from usvips.gui.worker import Cancelled, Worker, start
 
 TITLES = {"air": "Phase 1 in air from target views", "water": "Phase 2 underwater from target views",
           "joint": "Joint underwater calibration from target views"}
 ERROR_STYLE = "color: #c0392b;"
+#: the views list's role holding whether the target was found in a view (False: set aside)
+FOUND_ROLE = QtCore.Qt.ItemDataRole.UserRole + 1
+#: the verdict's colour per level (usvips.app.board_verdict)
+VERDICT_STYLE = {"good": "color: #1e7b34;", "short": "color: #9a6700;", "poor": "color: #c0392b;"}
 
 
 def _job(job):
@@ -66,6 +74,8 @@ class SourcePage(QtWidgets.QWizardPage):
         self.square.setDecimals(2)
         self.square.setValue(30.0)
         self.square.setSuffix(" mm")
+        for box in (self.cols, self.rows, self.square):
+            box.valueChanged.connect(self._on_board_changed)
         use_board = QtWidgets.QPushButton("&Use this chessboard")
         use_board.clicked.connect(self.use_chessboard)
         board = QtWidgets.QHBoxLayout()
@@ -119,6 +129,13 @@ class SourcePage(QtWidgets.QWizardPage):
             self.housing.setCurrentText(session.housing)
             form.addRow("&Phase-1 calibration", self.base)
             form.addRow("&Housing", self.housing)
+            self.known_box = QtWidgets.QGroupBox("Known housing values: a value holds it fixed, 'value ± sigma' "
+                                                 "weights it; blank keeps the default shown")
+            self.known_form = QtWidgets.QFormLayout(self.known_box)
+            self.known: dict[str, QtWidgets.QLineEdit] = {}
+            form.addRow(self.known_box)
+            self.housing.currentTextChanged.connect(self._fill_known)
+            self._fill_known(self.housing.currentText())
         self.holdout = QtWidgets.QSpinBox()
         self.holdout.setRange(0, 50)
         self.holdout.setSuffix(" % of the views")
@@ -156,11 +173,55 @@ class SourcePage(QtWidgets.QWizardPage):
             return
         self._show_target()
 
+    def _on_board_changed(self) -> None:
+        """A value of the described chessboard changed: the target in use is rebuilt from the fields (a
+        target from a file stays as it is until the chessboard is used)."""
+        if self.session.target is not None and self.session.target_source == "described in the window":
+            self.use_chessboard()
+
     def _show_target(self) -> None:
-        target = self.session.target
-        points = len(target.control_points().ids)
-        self.target_label.setText(f"{target.kind}: {points} points ({self.session.target_source})")
+        self.target_label.setText(f"{target_words(self.session.target)} — {self.session.target_source}")
         self.message.clear()
+
+    def _fill_known(self, housing: str) -> None:
+        """One field per parameter of the housing kind: blank (the default shown), a value (held fixed) or
+        'value ± sigma' (weighted)."""
+        from usvips.gui.calibration_wizard import HOUSING_PARAMETERS
+
+        while self.known_form.rowCount():
+            self.known_form.removeRow(0)
+        self.known = {}
+        for name, (value, sigma) in DEFAULT_HOUSING[housing].items():
+            unit, meaning = HOUSING_PARAMETERS.get(housing, {}).get(name, ("", ""))
+            edit = QtWidgets.QLineEdit()
+            edit.setMinimumWidth(200)
+            edit.setMaximumWidth(200)
+            edit.setPlaceholderText("default " + f"{value:g}" + (f" ± {sigma:g}" if sigma else " (fixed)"))
+            edit.setToolTip(f"{name}: {meaning} ({unit})")
+            if name in self.session.known and housing == self.session.housing:
+                known_value, known_sigma = self.session.known[name]
+                edit.setText(f"{known_value:g}" + (f" ± {known_sigma:g}" if known_sigma else ""))
+            explanation = QtWidgets.QLabel(meaning)
+            explanation.setStyleSheet("color: #666;")
+            row = QtWidgets.QHBoxLayout()
+            row.addWidget(edit)
+            row.addWidget(explanation, 1)
+            self.known_form.addRow(f"{name} ({unit})" if unit not in ("", "—") else f"{name} (no unit)", row)
+            self.known[name] = edit
+
+    def known_values(self) -> dict[str, tuple[float, float | None]]:
+        """The housing values typed: symbol → (value, σ or None)."""
+        from usvips.gui.calibration_wizard import parse_known
+
+        known = {}
+        for name, edit in self.known.items():
+            try:
+                parsed = parse_known(edit.text())
+            except UsvipsError as error:
+                raise UsvipsError(f"housing value {name}: {error}") from None
+            if parsed is not None:
+                known[name] = parsed
+        return known
 
     def _choose_images(self, side: str) -> None:
         paths, _ = QtWidgets.QFileDialog.getOpenFileNames(self, f"The {side} images", "",
@@ -184,6 +245,7 @@ class SourcePage(QtWidgets.QWizardPage):
             if session.water:
                 session.base_id = self.base.currentData()
                 session.housing = self.housing.currentText()
+                session.known = self.known_values()
             session.holdout = self.holdout.value() / 100.0 or None
         except UsvipsError as error:
             self.message.setText(str(error))
@@ -195,14 +257,17 @@ class SourcePage(QtWidgets.QWizardPage):
 
 
 class ViewsPage(QtWidgets.QWizardPage):
-    """Detection in a worker, the views with a tick each, their detections and the coverage."""
+    """Detection in a worker; every view listed (found ones with a tick, those set aside with why), each
+    opened on its images with its points (and its residual vectors once computed); the coverage maps with
+    their scale, the advice and where to hold the board next."""
 
     def __init__(self, session: TargetSession, pool: QtCore.QThreadPool) -> None:
         super().__init__()
         self.session, self.pool = session, pool
         self.setTitle("The views")
-        self.setSubTitle("The target is found in every view; untick the views you do not want (Space), look at "
-                         "each view's points on its images, and read the coverage and its advice.")
+        self.setSubTitle("The target is found in every view; untick the views you do not want (Space), open a "
+                         "view to see its points (and why a view was set aside), and read the coverage and its "
+                         "advice.")
         self.worker: Worker | None = None
         self.detect_button = QtWidgets.QPushButton("&Detect again")
         self.detect_button.clicked.connect(self.detect)
@@ -215,45 +280,74 @@ class ViewsPage(QtWidgets.QWizardPage):
         top.addWidget(self.detect_button)
         top.addWidget(self.stop_button)
         top.addWidget(self.progress, 1)
+        self.target_label = QtWidgets.QLabel()
         self.list = QtWidgets.QListWidget()
         self.list.setObjectName("views")
+        self.list.setVerticalScrollBarPolicy(QtCore.Qt.ScrollBarPolicy.ScrollBarAsNeeded)
         self.list.itemChanged.connect(self._on_ticked)
         self.list.currentItemChanged.connect(self._on_current)
         self.panes = {side: StereoPane(side) for side in ("left", "right")}
-        for pane in self.panes.values():
+        self.vectors = {}
+        for side, pane in self.panes.items():
             pane.set_loupe_enabled(False)
+            self.vectors[side] = pg.PlotCurveItem(pen=pg.mkPen((255, 60, 60), width=2), connect="pairs")
+            pane.viewbox.addItem(self.vectors[side], ignoreBounds=True)
         self.maps = pg.GraphicsLayoutWidget()
-        self.maps.setFixedHeight(110)
+        self.maps.setFixedHeight(120)
         self.map_items = {}
-        for side in ("left", "right"):
-            plot = self.maps.addViewBox(lockAspect=True, invertY=True, enableMouse=False)
+        for column, side in enumerate(("left", "right")):
+            plot = self.maps.addViewBox(row=0, col=column, lockAspect=True, invertY=True, enableMouse=False)
             item = pg.ImageItem(axisOrder="row-major")
             plot.addItem(item)
             self.map_items[side] = item
+        self.colour_bar = pg.ColorBarItem(values=(0, 1), colorMap=pg.colormap.get("viridis"), interactive=False,
+                                          width=12, label="views per cell")
+        self.colour_bar.setImageItem(list(self.map_items.values()), insert_in=None)
+        self.maps.addItem(self.colour_bar, row=0, col=2)
+        self.scale_label = QtWidgets.QLabel()
+        self.scale_label.setWordWrap(True)
         self.advice = QtWidgets.QLabel()
         self.advice.setWordWrap(True)
+        self.next_pose = QtWidgets.QLabel()
+        self.next_pose.setWordWrap(True)
+        self.next_pose.setStyleSheet("font-weight: bold;")
         self.tally = QtWidgets.QLabel()
         self.tally.setWordWrap(True)
-        self.set_aside = QtWidgets.QLabel()
+        self.view_text = QtWidgets.QLabel()
+        self.view_text.setWordWrap(True)
+        self.set_aside = QtWidgets.QLabel()  # errors and a stopped detection (one line)
         self.set_aside.setWordWrap(True)
         self.set_aside.setStyleSheet(ERROR_STYLE)
         side_panel = QtWidgets.QVBoxLayout()
-        label = QtWidgets.QLabel("&Views (ticked: used)")
+        label = QtWidgets.QLabel("&Views (ticked: used; red: set aside, open one to see why)")
+        label.setWordWrap(True)
         label.setBuddy(self.list)
         side_panel.addWidget(label)
         side_panel.addWidget(self.list, 1)
-        side_panel.addWidget(QtWidgets.QLabel("Coverage (left, right: views per cell)"))
+        side_panel.addWidget(QtWidgets.QLabel("Coverage (left, right image)"))
         side_panel.addWidget(self.maps)
+        side_panel.addWidget(self.scale_label)
         side_panel.addWidget(self.advice)
+        side_panel.addWidget(self.next_pose)
+        side = QtWidgets.QWidget()
+        side.setLayout(side_panel)
         images = QtWidgets.QHBoxLayout()
         images.addWidget(self.panes["left"])
         images.addWidget(self.panes["right"])
-        body = QtWidgets.QHBoxLayout()
-        body.addLayout(side_panel, 1)
-        body.addLayout(images, 3)
+        right = QtWidgets.QVBoxLayout()
+        right.addLayout(images, 1)
+        right.addWidget(self.view_text)
+        right_widget = QtWidgets.QWidget()
+        right_widget.setLayout(right)
+        body = QtWidgets.QSplitter()
+        body.addWidget(side)
+        body.addWidget(right_widget)
+        body.setStretchFactor(0, 1)
+        body.setStretchFactor(1, 3)
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(top)
-        layout.addLayout(body, 1)
+        layout.addWidget(self.target_label)
+        layout.addWidget(body, 1)
         layout.addWidget(self.tally)
         layout.addWidget(self.set_aside)
         self.setTabOrder(self.list, self.detect_button)
@@ -261,6 +355,8 @@ class ViewsPage(QtWidgets.QWizardPage):
 
     # ------------------------------------------------------------------ detection
     def initializePage(self) -> None:  # noqa: N802 (Qt's name)
+        if self.session.target is not None:
+            self.target_label.setText(f"Target: {target_words(self.session.target)}")
         if self.session.views is None:
             self.detect()
         else:
@@ -279,7 +375,9 @@ class ViewsPage(QtWidgets.QWizardPage):
         except UsvipsError as error:
             self.set_aside.setText(str(error))
             return
+        self.session.forget_views()  # a stopped or failed detection leaves nothing to compute from
         self.list.clear()
+        self._show_coverage()
         self.tally.setText("finding the target…")
         self.set_aside.clear()
         self.worker = Worker(_job(job), "target detection")
@@ -311,80 +409,150 @@ class ViewsPage(QtWidgets.QWizardPage):
 
     def _on_failed(self, message: str) -> None:
         self._done()
+        self.tally.clear()
         self.set_aside.setText(message)
 
     def _on_cancelled(self) -> None:
         self._done()
-        self.set_aside.setText("detection stopped: Detect again (Alt+D) to start over")
+        self.tally.clear()
+        self.set_aside.setText("detection stopped: no views; Detect again (Alt+D) to start over")
 
     # ------------------------------------------------------------------ views
     def _fill(self) -> None:
         views = self.session.views
         self.list.blockSignals(True)
         self.list.clear()
-        for view in views.views:
-            item = QtWidgets.QListWidgetItem(f"{view.label}  ({len(view.common_ids())} points)")
-            item.setData(QtCore.Qt.ItemDataRole.UserRole, view.label)
-            item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
-            item.setCheckState(QtCore.Qt.CheckState.Checked if self.session.ticked.get(view.label)
-                               else QtCore.Qt.CheckState.Unchecked)
+        for entry in detail_model.entries(self.session):
+            item = QtWidgets.QListWidgetItem(entry.text)
+            item.setData(QtCore.Qt.ItemDataRole.UserRole, entry.label)
+            item.setData(FOUND_ROLE, entry.found)
+            if entry.found:
+                item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
+                item.setCheckState(QtCore.Qt.CheckState.Checked if self.session.ticked.get(entry.label)
+                                   else QtCore.Qt.CheckState.Unchecked)
+            else:
+                item.setFlags(item.flags() & ~QtCore.Qt.ItemFlag.ItemIsUserCheckable)
+                item.setForeground(QtGui.QColor("#c0392b"))
+                item.setToolTip(entry.why)
             self.list.addItem(item)
         self.list.blockSignals(False)
-        self.tally.setText("\n".join(views.tally))
-        self.set_aside.setText("\n".join(reason for _, reason in views.set_aside))
+        self.tally.setText("\n".join(views.tally)
+                           + (f"; {len(views.set_aside)} set aside (red in the list)" if views.set_aside else ""))
+        self.set_aside.clear()
         self._show_coverage()
         if self.list.count():
             self.list.setCurrentRow(0)
 
     def _on_ticked(self, item: QtWidgets.QListWidgetItem) -> None:
         label = item.data(QtCore.Qt.ItemDataRole.UserRole)
+        if not item.data(FOUND_ROLE):
+            return
         self.session.set_ticked(label, item.checkState() == QtCore.Qt.CheckState.Checked)
         self._show_coverage()
+        self._show_detail(label)
         self.completeChanged.emit()
 
     def _show_coverage(self) -> None:
         coverage = self.session.coverage()
         if coverage is None:
             self.advice.setText("no view ticked")
+            self.scale_label.clear()
+            self.next_pose.clear()
             for item in self.map_items.values():
                 item.clear()
             return
         top = max(int(coverage.left.counts.max()), int(coverage.right.counts.max()), 1)
         for side in ("left", "right"):
-            counts = getattr(coverage, side).counts.astype(float)
-            item = self.map_items[side]
-            item.setImage(counts, levels=(0, top))
-            item.setLookupTable(pg.colormap.get("viridis").getLookupTable(nPts=64))
+            self.map_items[side].setImage(getattr(coverage, side).counts.astype(float), levels=(0, top))
+        self.colour_bar.setLevels((0, top))
+        rows, cols = coverage.left.counts.shape
+        width, height = self.session.views.image_size() if self.session.views and self.session.views.views \
+            else (0, 0)
+        self.scale_label.setText(f"{cols} × {rows} cells over each image ({width} × {height} px: a cell is "
+                                 f"{width / cols:.0f} × {height / rows:.0f} px); colour: views covering a cell, "
+                                 f"dark 0 to yellow {top}")
         self.advice.setText("\n".join(coverage.summary()))
+        suggestion = self.session_next_pose()
+        self.next_pose.setText(suggestion)
+
+    def session_next_pose(self) -> str:
+        """Where to hold the board next, in words (empty when nothing is missing or no view is kept)."""
+        from usvips.core.next_pose import suggest
+
+        kept = self.session.kept()
+        if not kept or self.session.target is None:
+            return ""
+        try:
+            suggestion = suggest(kept, self.session.target.control_points())
+        except UsvipsError:
+            return ""
+        return f"Next: {suggestion.text()}" if suggestion is not None else ""
 
     def _on_current(self, item: QtWidgets.QListWidgetItem | None, _previous=None) -> None:
         if item is None:
             return
         label = item.data(QtCore.Qt.ItemDataRole.UserRole)
+        self._show_detail(label)
+        found = bool(item.data(FOUND_ROLE))
         try:
-            job = self.session.images_job(label)
+            if found:
+                job = self.session.images_job(label)
+            else:
+                files = detail_model.set_aside_images(self.session, label)
+                if files is None:
+                    self._clear_panes(label)
+                    return
+                from usvips.io.images import read_image
+
+                def job(progress=None, cancelled=None, files=files):
+                    return label, (read_image(files[0]), read_image(files[1]))
         except UsvipsError as error:
             self.set_aside.setText(str(error))
             return
         worker = Worker(job, f"reading view {label}")
         worker.signals.finished.connect(self._show_view)
-        worker.signals.failed.connect(self.set_aside.setText)
+        worker.signals.failed.connect(self.view_text.setText)
         start(worker, self.pool)
+
+    def _show_detail(self, label: str) -> None:
+        self.view_text.setText(detail_model.detail(self.session, label))
+
+    def _clear_panes(self, label: str) -> None:
+        for side, pane in self.panes.items():
+            pane.set_image(None)
+            pane.set_control([])
+            self.vectors[side].setData([], [])
+            pane.title.setText(f"{side.capitalize()} — {label}: images not available")
+
+    def refresh_view(self) -> None:
+        """Draw the current view again (after a calibration: with its residual vectors)."""
+        item = self.list.currentItem()
+        if item is not None:
+            self._on_current(item)
 
     def _show_view(self, read) -> None:
         label, images = read
         current = self.list.currentItem()
         if current is None or current.data(QtCore.Qt.ItemDataRole.UserRole) != label:
             return
-        view = self.session.view(label)
+        view = self.session.view(label) if current.data(FOUND_ROLE) else None
         for side, image in zip(("left", "right"), images, strict=True):
             pane = self.panes[side]
             pane.set_image(image)
+            if view is None:
+                pane.set_control([])
+                self.vectors[side].setData([], [])
+                pane.title.setText(f"{side.capitalize()} — {label}: set aside")
+                pane.fit()
+                continue
             detection = getattr(view, side)
             # a ring on every point; ids on at most about a dozen of them, so that they stay readable
             step = max(1, len(detection.ids) // 12)
             pane.set_control([(pid if k % step == 0 else "", tuple(px))
                               for k, (pid, px) in enumerate(zip(detection.ids, detection.pixels, strict=True))])
+            segments = detail_model.residual_segments(self.session, label, side)
+            data = item_from_pixels(segments) if len(segments) else np.zeros((0, 2))
+            self.vectors[side].setData(data[:, 0], data[:, 1], connect="pairs")
             pane.title.setText(f"{side.capitalize()} — {label}: {len(detection.ids)} points")
             pane.fit()
 
@@ -393,20 +561,33 @@ class ViewsPage(QtWidgets.QWizardPage):
 
 
 class ComputePage(QtWidgets.QWizardPage):
-    """The calibration from the ticked views in a worker; the fit, the validation and a verdict."""
+    """The calibration from the ticked views in a worker (Stop stops it); the parameters with their σ,
+    the fit and the validation, and a verdict consistent with the coverage advice."""
+
+    HEADERS = ["", "Parameter", "Value ± σ", "Status"]
 
     def __init__(self, session: TargetSession, pool: QtCore.QThreadPool) -> None:
         super().__init__()
         self.session, self.pool = session, pool
         self.setTitle("Compute and judge")
-        self.setSubTitle("RMS over the kept and over all observations; held-out views measured with the "
-                         "calibration; for boards in air, OpenCV's solution of the same views beside ours.")
+        self.setSubTitle("The parameters with their σ; RMS over the kept and over all observations; held-out "
+                         "views measured with the calibration; for boards in air, OpenCV's solution beside ours.")
         self.worker: Worker | None = None
         self.compute_button = QtWidgets.QPushButton("&Compute again")
         self.compute_button.clicked.connect(self.compute)
+        self.stop_button = QtWidgets.QPushButton("&Stop")
+        self.stop_button.clicked.connect(self.stop)
+        self.stop_button.setEnabled(False)
         self.progress = QtWidgets.QProgressBar()
         self.progress.setRange(0, 0)
         self.progress.hide()
+        self.target_label = QtWidgets.QLabel()
+        self.table = QtWidgets.QTableWidget(0, len(self.HEADERS))
+        self.table.setObjectName("parameters")
+        self.table.setHorizontalHeaderLabels(self.HEADERS)
+        self.table.verticalHeader().hide()
+        self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.NoEditTriggers)
+        self.table.horizontalHeader().setStretchLastSection(True)
         self.text = QtWidgets.QPlainTextEdit()
         self.text.setReadOnly(True)
         self.text.setObjectName("results")
@@ -415,14 +596,23 @@ class ComputePage(QtWidgets.QWizardPage):
         self.verdict.setStyleSheet("font-weight: bold;")
         top = QtWidgets.QHBoxLayout()
         top.addWidget(self.compute_button)
+        top.addWidget(self.stop_button)
         top.addWidget(self.progress, 1)
         top.addStretch(1)
+        body = QtWidgets.QSplitter()
+        body.addWidget(self.table)
+        body.addWidget(self.text)
+        body.setStretchFactor(0, 2)
+        body.setStretchFactor(1, 3)
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(top)
-        layout.addWidget(self.text, 1)
+        layout.addWidget(self.target_label)
+        layout.addWidget(body, 1)
         layout.addWidget(self.verdict)
 
     def initializePage(self) -> None:  # noqa: N802 (Qt's name)
+        if self.session.target is not None:
+            self.target_label.setText(f"Target: {target_words(self.session.target)}")
         if self.session.result is None:
             self.compute()
         else:
@@ -440,20 +630,27 @@ class ComputePage(QtWidgets.QWizardPage):
         except UsvipsError as error:
             self.verdict.setText(str(error))
             return
-        self.text.setPlainText(f"calibrating from {len(self.session.kept())} views…")
+        self.text.setPlainText(f"calibrating from {len(self.session.kept())} views… (Stop: Alt+S)")
+        self.table.setRowCount(0)
         self.verdict.clear()
         self.worker = Worker(_job(job), "calibration from target views")
         self.worker.signals.finished.connect(self._on_finished)
         self.worker.signals.failed.connect(self._on_failed)
-        self.worker.signals.cancelled.connect(self._on_failed)
+        self.worker.signals.cancelled.connect(self._on_cancelled)
         self.compute_button.setEnabled(False)
+        self.stop_button.setEnabled(True)
         self.progress.show()
         self.completeChanged.emit()
         start(self.worker, self.pool)
 
+    def stop(self) -> None:
+        if self.worker is not None:
+            self.worker.cancel()
+
     def _done(self) -> None:
         self.worker = None
         self.compute_button.setEnabled(True)
+        self.stop_button.setEnabled(False)
         self.progress.hide()
         self.completeChanged.emit()
 
@@ -462,24 +659,55 @@ class ComputePage(QtWidgets.QWizardPage):
         self.session.set_result(result)
         self._show()
 
-    def _on_failed(self, message: str = "cancelled") -> None:
+    def _on_failed(self, message: str) -> None:
         self._done()
+        self.session.set_result(None)
         self.text.setPlainText(message)
+        self.verdict.setStyleSheet("font-weight: bold; " + VERDICT_STYLE["poor"])
         self.verdict.setText("nothing is stored; change the views or the settings and compute again")
 
+    def _on_cancelled(self) -> None:
+        self._done()
+        self.session.set_result(None)
+        self.text.setPlainText("the calibration was stopped: no result")
+        self.verdict.setStyleSheet("font-weight: bold;")
+        self.verdict.setText("nothing is stored; Compute again (Alt+C) to start over")
+
     def _show(self) -> None:
-        self.text.setPlainText("\n".join(self.session.result.lines()))
-        self.verdict.setText(self.session.verdict())
+        from usvips.app.board_verdict import judge
+
+        result = self.session.result
+        self._fill_table(result.calibration)
+        self.text.setPlainText("\n".join(result.lines()))
+        verdict = judge(result, self.session.coverage(), self.session.sigma_px)
+        self.verdict.setStyleSheet("font-weight: bold; " + VERDICT_STYLE[verdict.level])
+        self.verdict.setText(verdict.text)
         self.completeChanged.emit()
+
+    def _fill_table(self, calibration) -> None:
+        figures = parameter_table(calibration)
+        self.table.setRowCount(len(figures))
+        previous = None
+        for row, figure in enumerate(figures):
+            cells = [figure.group if figure.group != previous else "", figure.label, figure.text(), figure.status]
+            previous = figure.group
+            for column, text in enumerate(cells):
+                item = QtWidgets.QTableWidgetItem(text)
+                item.setToolTip(figure.name)
+                if column == 2:
+                    item.setTextAlignment(QtCore.Qt.AlignmentFlag.AlignRight | QtCore.Qt.AlignmentFlag.AlignVCenter)
+                self.table.setItem(row, column, item)
+        self.table.resizeColumnsToContents()
 
     def isComplete(self) -> bool:  # noqa: N802 (Qt's name)
         return not self.busy and self.session.result is not None
 
 
 class SavePage(QtWidgets.QWizardPage):
-    """Name the calibration and the pairs it becomes active for; Finish stores it in the project."""
+    """Name the calibration and the pairs it becomes active for, write its report if wanted; Finish
+    stores it in the project."""
 
-    def __init__(self, session: TargetSession) -> None:
+    def __init__(self, session: TargetSession, pool: QtCore.QThreadPool | None = None) -> None:
         super().__init__()
         self.session = session
         self.setTitle("Save the calibration")
@@ -488,6 +716,13 @@ class SavePage(QtWidgets.QWizardPage):
         self.active = QtWidgets.QListWidget()
         self.message = QtWidgets.QLabel()
         self.message.setStyleSheet(ERROR_STYLE)
+        from usvips.gui.target_report import TargetReport
+
+        self.report = TargetReport(self, session, pool)
+        self.report.button.setText("&Report (PDF)…")
+        report_row = QtWidgets.QHBoxLayout()
+        report_row.addWidget(self.report.button)
+        report_row.addWidget(self.report.status, 1)
         form = QtWidgets.QFormLayout(self)
         name_label = QtWidgets.QLabel("&Name")
         name_label.setBuddy(self.name)
@@ -495,6 +730,7 @@ class SavePage(QtWidgets.QWizardPage):
         active_label.setBuddy(self.active)
         form.addRow(name_label, self.name)
         form.addRow(active_label, self.active)
+        form.addRow("Report", report_row)
         form.addRow(self.message)
         self.saved_id: int | None = None
 
@@ -534,16 +770,30 @@ class TargetWizard(QtWidgets.QWizard):
         self.source_page = SourcePage(session)
         self.views_page = ViewsPage(session, self.pool)
         self.compute_page = ComputePage(session, self.pool)
-        self.save_page = SavePage(session)
+        self.save_page = SavePage(session, self.pool)
         for page in (self.source_page, self.views_page, self.compute_page, self.save_page):
             self.addPage(page)
-        self.resize(1280, 720)
+        self.currentIdChanged.connect(self._on_page)
+        self._fit_screen()
+
+    def _fit_screen(self) -> None:
+        """1280 × 720, less where the screen is smaller (1366 × 768 leaves about 700 px under a title bar)."""
+        screen = self.screen().availableGeometry() if self.screen() is not None else None
+        width, height = 1280, 720
+        if screen is not None:
+            width, height = min(width, screen.width() - 20), min(height, screen.height() - 40)
+        self.resize(width, height)
+
+    def _on_page(self, _page_id: int) -> None:
+        """Back on the views page after a calibration: the view opened shows its residual vectors."""
+        if self.currentPage() is self.views_page and self.session.views is not None:
+            self.views_page.refresh_view()
 
     def reject(self) -> None:
         """Cancel: stop a running detection (its worker stops at the next image); nothing is stored."""
         self.views_page.stop()
-        if self.compute_page.worker is not None:
-            self.compute_page.worker.cancel()
+        self.compute_page.stop()
+        self.save_page.report.cancel()
         super().reject()
 
 

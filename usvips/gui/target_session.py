@@ -15,11 +15,13 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from usvips.app import board_calibration as boards
+from usvips.app.board_verdict import judge
 from usvips.app.calibrations import read_calibration
 from usvips.app.video_project import open_streams
 from usvips.core import calibration_views
@@ -49,6 +51,13 @@ def pair_by_name(left: list[str], right: list[str]) -> list[tuple[str, str]]:
     return list(zip(sorted(left, key=natural_key), sorted(right, key=natural_key), strict=True))
 
 
+def known_options(known: dict[str, tuple[float, float | None]]) -> dict:
+    """Known housing values as calibration options: a value alone holds the parameter fixed
+    (``fix_values``), a value with a σ weights it (``priors``); symbols apply to both cameras."""
+    return {"fix_values": {name: value for name, (value, sigma) in known.items() if sigma is None},
+            "priors": {name: (value, sigma) for name, (value, sigma) in known.items() if sigma is not None}}
+
+
 class TargetSession:
     """The state of one target calibration in the window: phase ``air``, ``water`` or ``joint`` (both
     water phases calibrate through the housing from a phase-1 base)."""
@@ -69,6 +78,8 @@ class TargetSession:
         self.housing = next(iter(DEFAULT_HOUSING))
         self.holdout: float | None = 0.2
         self.sigma_px = 0.5
+        #: known housing values (phase 2): symbol → (value, σ or None to hold it fixed), both cameras
+        self.known: dict[str, tuple[float, float | None]] = {}
         self.views: boards.BoardViews | None = None
         self.ticked: dict[str, bool] = {}
         self.result: boards.BoardCalibration | None = None
@@ -125,6 +136,10 @@ class TargetSession:
             return False, "choose the phase-1 (in-air) calibration to start from"
         return True, (f"{len(self.pairs)} image pairs" if self.source == "images"
                       else f"video {self.video}, every {self.every} frames, at most {self.max_views} views")
+
+    def forget_views(self) -> None:
+        """No views and no result (a new detection starts, or one was stopped): nothing to compute from."""
+        self._forget_views()
 
     def _forget_views(self) -> None:
         self.views = None
@@ -211,41 +226,33 @@ class TargetSession:
         return read_calibration(self.project, self.base_id)
 
     def calibration_job(self) -> Callable[..., boards.BoardCalibration]:
-        """A job calibrating from the ticked views (the adjustment itself cannot be interrupted: a cancel
-        drops its result)."""
+        """A job calibrating from the ticked views; its ``cancelled()`` is asked at every iteration of the
+        adjustment (then :class:`InterruptedError`)."""
         if self.views is None:
             raise UsvipsError("find the target in the views first")
         views, drop, target = list(self.views.views), self.dropped(), self.target
         phase = "water" if self.water else "air"
         base = self.base() if self.water else None
         housing, holdout = self.housing, self.holdout
-        options = CalibrationOptions(sigma_px=self.sigma_px)
+        options = CalibrationOptions(sigma_px=self.sigma_px, **known_options(self.known if self.water else {}))
         source = {"target": self.target_source,
                   **({"video": self.video} if self.source == "video" else
                      {"images": [p for pair in self.pairs for p in pair]})}
 
         def run(progress=None, cancelled=None) -> boards.BoardCalibration:
             return boards.calibrate_views(target, views, phase, drop=drop, base=base, housing=housing,
-                                          holdout=holdout, options=options, source=source)
+                                          holdout=holdout, options=replace(options, cancelled=cancelled),
+                                          source=source)
         return run
 
     def set_result(self, result: boards.BoardCalibration) -> None:
         self.result = result
 
     def verdict(self) -> str:
-        """One line judging the result for a person."""
+        """One paragraph judging the result for a person, consistent with the coverage advice."""
         if self.result is None:
             return ""
-        report = self.result.result.report
-        ratio = report["sigma0_px"] / self.sigma_px
-        if ratio > 5:
-            return (f"σ0 is {ratio:.1f} × the pointing σ: the views, the target or the model do not fit — check the "
-                    "target's description and drop the views with large residuals")
-        validation = self.result.validation
-        if validation is not None and validation.held_out.rms_px > 3 * max(validation.fitted.rms_px, 0.05):
-            return (f"held-out views reproject at {validation.held_out.rms_px:.2f} px against "
-                    f"{validation.fitted.rms_px:.2f} px fitted: the calibration does not generalise; add views")
-        return "the fit is consistent" + (" and the held-out views agree" if validation is not None else "")
+        return judge(self.result, self.coverage(), self.sigma_px).text
 
     def default_name(self) -> str:
         n = len(self.result.kept) if self.result else 0

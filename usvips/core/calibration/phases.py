@@ -30,6 +30,7 @@ are tried (each housing kind's ``start_grid``) and the best by the objective is 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -37,6 +38,7 @@ import numpy as np
 from usvips.core import housing as housings
 from usvips.core.adjustment import ALPHA0, Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.control_blunders import ControlBlunder, demote_control_blunders, is_control_coordinate
+from usvips.core.calibration.figures import baseline_sigma
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
 from usvips.core.calibration.planar import is_coplanar, planar_start, resect_views
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
@@ -62,7 +64,8 @@ class CalibrationOptions:
     interior: ``fixed`` or ``weighted`` (phase 2); robust, snooping: blunder handling; control_exact: the
     target's geometry is exact by construction (a printed board: ``CalibrationTarget.exact``), so its
     control coordinates are not searched for misprints (:mod:`.control_blunders`); data snooping of the
-    image observations still runs.
+    image observations still runs. cancelled: asked before each iteration of the adjustment (True stops
+    the calibration with :class:`InterruptedError`; the window's Stop).
 
     Phase 2 only: ``cameras_unmoved``: the cameras did not move between the air and the water images (a
     target photographed in a tank before and after filling it, through its wall): each view's poses are
@@ -86,6 +89,7 @@ class CalibrationOptions:
     cameras_unmoved: bool = False
     air_through_glass: bool = True
     housing_geometry: dict[str, tuple[float, float | None]] = field(default_factory=dict)
+    cancelled: Callable[[], bool] | None = None
 
 
 @dataclass
@@ -174,7 +178,8 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
            source: dict) -> CalibrationResult:
     require_unknowns(parameters)
     problem = model.problem(parameters)
-    adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model))
+    adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model),
+                        cancelled=options.cancelled)
     blunders: list[ControlBlunder] = []
     if options.snooping and not options.control_exact:
         model, parameters, adjustment, blunders = demote_control_blunders(model, parameters, adjustment, options.robust,
@@ -246,16 +251,7 @@ def _require_baseline(left: Camera, right: Camera, control_xyz: np.ndarray, adju
 
 def _baseline_sigma(base: np.ndarray, adjustment: Adjustment) -> float:
     """The sigma (m) of the baseline's length from the covariance of the first station's two centres."""
-    names = [f"{p}_{side}" for side in SIDES for p in ("X0", "Y0", "Z0")]
-    index = {n: i for i, n in enumerate(adjustment.covariance_names)}
-    unit = base / max(float(np.linalg.norm(base)), 1e-300)
-    gradient = np.concatenate([-unit, unit])
-    present = [k for k, n in enumerate(names) if n in index]
-    if not present:
-        return 0.0
-    rows = [index[names[k]] for k in present]
-    g = gradient[present]
-    return float(np.sqrt(max(g @ adjustment.covariance[np.ix_(rows, rows)] @ g, 0.0)))
+    return baseline_sigma(base, adjustment.covariance_names, adjustment.covariance)
 
 
 def _require_rays(model: StereoModel, parameters: list[Parameter]) -> None:
