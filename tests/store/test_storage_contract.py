@@ -1176,6 +1176,7 @@ def _sha(store, stored: str) -> str:
 
 _CONTROL = ControlPoints(("9",), np.zeros((1, 3)))
 _OBSERVED = StereoObservations(("9",), np.zeros((1, 2)), np.zeros((1, 2)))
+_OBSERVED_AGAIN = StereoObservations(("9",), np.ones((1, 2)), np.ones((1, 2)))
 
 #: each versioned write: (read its version, a colleague's change, the write with the version read)
 STALE = {
@@ -1198,7 +1199,8 @@ STALE = {
                        lambda s, f, v: s.remove_instant(3, expected_modified=v)),
     "accept_media": (lambda s, f: _sha(s, "v0.mp4"),
                      lambda s, f: (f.joinpath("v0.mp4").write_bytes(b"other"), s.accept_media("v0.mp4")),
-                     lambda s, f, v: s.accept_media("v0.mp4", expected_sha256=v)),
+                     lambda s, f, v: (f.joinpath("v0.mp4").write_bytes(b"ann's"),
+                                      s.accept_media("v0.mp4", expected_sha256=v))),
     "relocate_media": (lambda s, f: _sha(s, "v0.mp4"),
                        lambda s, f: (f.joinpath("moved").mkdir(), f.joinpath("moved", "v0.mp4").write_bytes(b"video"),
                                      s.relocate_media("v0.mp4", f / "moved" / "v0.mp4")),
@@ -1210,14 +1212,15 @@ STALE = {
     "set_georeference": (lambda s, f: s.georeference(),
                          lambda s, f: s.set_georeference(Georeference(-33.8, 151.2, 12.0, 45.0)),
                          lambda s, f, v: s.set_georeference(Georeference(-30.0, 150.0, 10.0, 0.0), expected=v)),
-    "set_species_list": (lambda s, f: s.species_list(), lambda s, f: s.set_species_list([Species(genus="Gadus")]),
-                         lambda s, f, v: s.set_species_list([Species(genus="Pagrus")], expected=v)),
+    "set_species_list": (lambda s, f: s.species_list(),
+                         lambda s, f: s.set_species_list([Species("Gadidae", "Gadus", "morhua")]),
+                         lambda s, f, v: s.set_species_list([Species("Sparidae", "Pagrus", "auratus")], expected=v)),
     "set_control": (lambda s, f: s.control(), lambda s, f: s.set_control(_CONTROL),
                     lambda s, f, v: s.set_control(ControlPoints(("8",), np.ones((1, 3))), expected=v)),
     "add_control_observations": (lambda s, f: s.control_observations("check", "a"),
                                  lambda s, f: s.add_control_observations(_OBSERVED, "check", "a"),
-                                 lambda s, f, v: s.add_control_observations(_OBSERVED, "check", "a", replace=True,
-                                                                            expected=v)),
+                                 lambda s, f, v: s.add_control_observations(_OBSERVED_AGAIN, "check", "a",
+                                                                            replace=True, expected=v)),
     "activate_calibration": (lambda s, f: s.active_calibration("a"), lambda s, f: s.activate_calibration("a", 2),
                              lambda s, f, v: s.activate_calibration("a", 1, expected=v)),
     "set_video_offset": (lambda s, f: s.video("v")["offset_frames"], lambda s, f: s.set_video_offset("v", 2),
