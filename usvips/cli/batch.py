@@ -18,7 +18,7 @@ from pathlib import Path
 from usvips.app import batch
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import guard_output
-from usvips.store.opening import database_name, is_server_location
+from usvips.store.opening import database_name, is_server_location, parse_server_location, shown
 
 #: the most worker processes --jobs starts (each holds its own copy of the libraries)
 MAX_JOBS = 256
@@ -53,6 +53,8 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
     seen: dict[str, str] = {}
     tasks = []
     for given in inputs:
+        if is_server_location(given):
+            parse_server_location(given)  # an address that cannot be read: one line, before anything runs
         name = database_name(given) if is_server_location(given) else Path(given).stem
         if name in seen:
             raise InvalidParameterError("inputs", f"{seen[name]} and {given} would both write {name}{suffix}; "
@@ -67,7 +69,7 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
                 "observations": given, "calibration": args.calibration, "out": out, "station": args.station,
                 "frame": args.frame}))
         else:
-            tasks.append(batch.Task(given, batch.export_project_task, {"project": given, "out": out}))
+            tasks.append(batch.Task(shown(given), batch.export_project_task, {"project": given, "out": out}))
     return tasks
 
 
