@@ -95,7 +95,7 @@ class Scene:
             if after:
                 self.project.put_back(after[0], replace=True)
             else:
-                edit()
+                edit(before.modified)  # the version read, as the workspace hands it over
                 after.append(self.project.object_rows(object_id))
             if then is not None:
                 then()

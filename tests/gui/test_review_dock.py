@@ -149,6 +149,7 @@ def test_h_on_an_object_row_shows_its_history_and_provenance(qtbot, make_window,
     ws.edit_object(first, "cod", "")
     window.set_annotator("bob")
     ws.project.set_review(first, "flagged", "blurred")
+    ws.objects_changed_in_store(updated=(first,))  # the window reads the review (else its delete is stale)
     table = window.object_list.table
     table.setCurrentCell(window.object_list.row_of(first), 0)
     table.setFocus()
@@ -231,6 +232,7 @@ def test_an_accepted_object_edited_in_the_window_shows_unreviewed_and_undo_shows
     ws = window.workspace
     ids = _objects_on_two_pairs(window)
     ws.project.set_review(ids[1], "accepted")  # before the queue is read: not in it
+    ws.objects_changed_in_store(updated=(ids[1],))  # the window reads the review (its edit names that version)
     window.object_list.refresh()
     window.show_review()
     assert ids[1] not in window.review.model.queue and window.review.progress.text() == "0 of 3 reviewed"

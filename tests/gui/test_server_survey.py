@@ -3,10 +3,13 @@ by its URL as File › Open opens a file, its objects listed with their figures,
 without a password and opened again from there."""
 
 import itertools
+from urllib.parse import quote
 
 import numpy as np
 import pytest
 
+from tests.cli.test_secrets import SECRET, keeper  # noqa: F401 - a login with a distinctive password
+from tests.cli.test_secrets import _url as _secret_url
 from tests.store import conftest as store_fixtures
 from tests.store.conftest import PASSWORD, PASSWORD_USER, database_url
 from usvips.store.opening import create_project, without_password
@@ -55,3 +58,25 @@ def test_a_password_is_not_remembered(qtbot, make_window, new_survey):
     window = make_window()
     assert window.open_path(url)
     assert PASSWORD not in " ".join(window.recent_projects()) and PASSWORD_USER in window.recent_projects()[0]
+
+
+def test_the_window_shows_and_keeps_no_password_and_names_the_survey_host_slash_database(
+        qtbot, make_window, keeper, tmp_path):  # noqa: F811 - the fixture
+    """Title, status messages, the log, the recent list and the settings file written, with a password
+    holding '#', '@', '/' and ':' (issue 34, item 4): none holds it; the title names the survey
+    ``host/database`` (``local/…`` over this machine's socket), not a file path that does not exist."""
+    url = _secret_url(keeper, "window_secret", False)
+    _survey(url, 2)
+    window = make_window(tmp_path / "secret.ini")
+    assert window.open_path(url)
+    assert "local/window_secret" in window.title() and "window_secret (" not in window.title()
+    assert window.windowTitle() == window.title()
+    window.show_message("error", f"cannot reach {url}")  # any message that quotes the URL
+    assert window.open_path(url.replace("Kw", "Kv")) is False  # a wrong password: said without the secret
+    texts = [window.windowTitle(), window.statusBar().currentMessage(), window.log.toPlainText(),
+             " ".join(window.recent_projects()), " ".join(a.text() for a in window.recent_menu.actions())]
+    window.settings.sync()
+    texts.append((tmp_path / "secret.ini").read_text(errors="replace"))
+    for text in texts:
+        assert SECRET not in text and quote(SECRET, safe="") not in text and "x/y:Kw" not in text
+    assert any("local/window_secret" in a.text() or "window_secret" in a.text() for a in window.recent_menu.actions())

@@ -30,6 +30,7 @@ from usvips.store.interface import ProjectStore
 from usvips.store.postgres import ServerProject
 from usvips.store.project import Vertex
 from usvips.store.records import REVIEW_STATES, Review, StaleEditError
+from usvips.store.versions import CREATIONS, READS, VERSION_PARAMETERS
 
 
 @dataclass(frozen=True)
@@ -534,6 +535,9 @@ WRITES = {
     "add_control_observations": lambda s, f: s.add_control_observations(
         StereoObservations(("9",), np.zeros((1, 2)), np.zeros((1, 2))), "check", "a"),
     "add_object": lambda s, f: s.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)]),
+    "add_objects": lambda s, f: s.add_objects([("point", [Vertex(1.0, 2.0, 3.0, 4.0)], "", "", "")]),
+    "add_video": lambda s, f: s.add_video("w", [(f / "v0.mp4", 10, 25.0)], [(f / "v0.mp4", 10, 25.0)], 25.0, 10,
+                                          (64, 48)),
     "update_object": lambda s, f: s.update_object(1, attribute="changed"),
     "delete_object": lambda s, f: s.delete_object(1),
     "add_instant": lambda s, f: s.add_instant(1, 2),
@@ -1135,3 +1139,130 @@ def test_interleaved_edits_and_undos_of_two_annotators_never_overwrite_a_later_e
                     handle.update_object(object_id, vertices=[_vertex(rng) for _ in range(3)])
                 stack.append((object_id, before, handle.object_rows(object_id)))
         assert undone and refused
+
+
+# ---------------------------------------------------------------------------------------- stale writes
+def test_every_write_of_the_interface_takes_the_version_it_read():
+    """Enumerates the protocol: every operation is a read, a creation (nothing to have read) or a write
+    with a version parameter (``usvips.store.versions``); a new write without one fails here. Every write
+    is also in the read-only test's WRITES and in STALE below (each proven refused when stale)."""
+    operations = {name for name, member in vars(ProjectStore).items()
+                  if (not name.startswith("_") or name in ("__enter__", "__exit__"))
+                  and (callable(member) or isinstance(member, property))}
+    assert READS <= operations and CREATIONS <= operations
+    writes = operations - READS
+    unversioned = sorted(name for name in writes - CREATIONS if not set(VERSION_PARAMETERS)
+                         & set(inspect.signature(getattr(ProjectStore, name)).parameters))
+    assert unversioned == [], f"writes that take no version: {unversioned}"
+    assert writes <= set(WRITES), f"writes the read-only test does not try: {writes - set(WRITES)}"
+    assert writes - CREATIONS == set(STALE), f"versioned writes not proven refused when stale: {writes ^ set(STALE)}"
+
+
+def _stale_setup(store, folder: Path) -> None:
+    store.add_pair("a")
+    first = store.add_calibration("c1", {"phase": "air"}, ("a",))
+    store.add_calibration("c2", {"phase": "air"})
+    assert first == 1
+    for _ in range(3):
+        store.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)], "cod")
+    store.add_instant(1, 3)
+    (folder / "v0.mp4").write_bytes(b"video")
+    store.add_video("v", [(folder / "v0.mp4", 10, 25.0)], [(folder / "v0.mp4", 10, 25.0)], 25.0, 10, (64, 48))
+
+
+def _sha(store, stored: str) -> str:
+    return next(sha for path, _, _, sha in store.media_records() if path == stored)
+
+
+_CONTROL = ControlPoints(("9",), np.zeros((1, 3)))
+_OBSERVED = StereoObservations(("9",), np.zeros((1, 2)), np.zeros((1, 2)))
+_OBSERVED_AGAIN = StereoObservations(("9",), np.ones((1, 2)), np.ones((1, 2)))
+
+#: each versioned write: (read its version, a colleague's change, the write with the version read)
+STALE = {
+    "update_object": (lambda s, f: s.object(1).modified, lambda s, f: s.update_object(1, notes="bob's"),
+                      lambda s, f, v: s.update_object(1, attribute="ann's", expected_modified=v)),
+    "delete_object": (lambda s, f: s.object(1).modified, lambda s, f: s.update_object(1, notes="bob's"),
+                      lambda s, f, v: s.delete_object(1, expected_modified=v)),
+    "take_object": (lambda s, f: s.object(1).modified, lambda s, f: s.update_object(1, notes="bob's"),
+                    lambda s, f, v: s.take_object(1, expected_modified=v)),
+    "put_back": (lambda s, f: (s.object_rows(1), s.object(1).modified),
+                 lambda s, f: s.update_object(1, notes="bob's"),
+                 lambda s, f, v: s.put_back(v[0], expected_modified=v[1])),
+    "set_record": (lambda s, f: s.object(1).modified, lambda s, f: s.update_object(1, notes="bob's"),
+                   lambda s, f, v: s.set_record(1, ObservationRecord(genus="Gadus"), expected_modified=v)),
+    "set_review": (lambda s, f: s.object(1).modified, lambda s, f: s.update_object(1, notes="bob's"),
+                   lambda s, f, v: s.set_review(1, "accepted", expected_modified=v)),
+    "add_instant": (lambda s, f: s.object(2).modified, lambda s, f: s.update_object(2, notes="bob's"),
+                    lambda s, f, v: s.add_instant(1, 2, expected_modified=v)),
+    "remove_instant": (lambda s, f: s.object(3).modified, lambda s, f: s.update_object(3, notes="bob's"),
+                       lambda s, f, v: s.remove_instant(3, expected_modified=v)),
+    "accept_media": (lambda s, f: _sha(s, "v0.mp4"),
+                     lambda s, f: (f.joinpath("v0.mp4").write_bytes(b"other"), s.accept_media("v0.mp4")),
+                     lambda s, f, v: (f.joinpath("v0.mp4").write_bytes(b"ann's"),
+                                      s.accept_media("v0.mp4", expected_sha256=v))),
+    "relocate_media": (lambda s, f: _sha(s, "v0.mp4"),
+                       lambda s, f: (f.joinpath("moved").mkdir(), f.joinpath("moved", "v0.mp4").write_bytes(b"video"),
+                                     s.relocate_media("v0.mp4", f / "moved" / "v0.mp4")),
+                       lambda s, f, v: s.relocate_media("v0.mp4", f / "v0.mp4", expected_sha256=v)),
+    "set_campaign": (lambda s, f: s.campaign(), lambda s, f: s.set_campaign(Campaign("2024-03_bob_stereo-BRUVs")),
+                     lambda s, f, v: s.set_campaign(Campaign("2024-03_ann_stereo-BRUVs"), expected=v)),
+    "set_deployment": (lambda s, f: s.deployments().get(""), lambda s, f: s.set_deployment(Deployment(opcode="BOB")),
+                       lambda s, f, v: s.set_deployment(Deployment(opcode="ANN"), expected=v)),
+    "set_georeference": (lambda s, f: s.georeference(),
+                         lambda s, f: s.set_georeference(Georeference(-33.8, 151.2, 12.0, 45.0)),
+                         lambda s, f, v: s.set_georeference(Georeference(-30.0, 150.0, 10.0, 0.0), expected=v)),
+    "set_species_list": (lambda s, f: s.species_list(),
+                         lambda s, f: s.set_species_list([Species("Gadidae", "Gadus", "morhua")]),
+                         lambda s, f, v: s.set_species_list([Species("Sparidae", "Pagrus", "auratus")], expected=v)),
+    "set_control": (lambda s, f: s.control(), lambda s, f: s.set_control(_CONTROL),
+                    lambda s, f, v: s.set_control(ControlPoints(("8",), np.ones((1, 3))), expected=v)),
+    "add_control_observations": (lambda s, f: s.control_observations("check", "a"),
+                                 lambda s, f: s.add_control_observations(_OBSERVED, "check", "a"),
+                                 lambda s, f, v: s.add_control_observations(_OBSERVED_AGAIN, "check", "a",
+                                                                            replace=True, expected=v)),
+    "activate_calibration": (lambda s, f: s.active_calibration("a"), lambda s, f: s.activate_calibration("a", 2),
+                             lambda s, f, v: s.activate_calibration("a", 1, expected=v)),
+    "set_video_offset": (lambda s, f: s.video("v")["offset_frames"], lambda s, f: s.set_video_offset("v", 2),
+                         lambda s, f, v: s.set_video_offset("v", 3, expected=v)),
+    "set_enhancement": (lambda s, f: s.enhancement("k"), lambda s, f: s.set_enhancement("k", '{"bob": 1}'),
+                        lambda s, f, v: s.set_enhancement("k", '{"ann": 1}', expected=v)),
+    "set_draft": (lambda s, f: s.draft("d"), lambda s, f: s.set_draft("d", "bob's"),
+                  lambda s, f, v: s.set_draft("d", "ann's", expected=v)),
+}
+
+
+def _everything(store) -> str:
+    """What a refused write must leave as it was (every read of the interface that takes no argument)."""
+    return repr((store.pairs(), store.objects(), store.records(), store.reviews(), store.instant_links(),
+                 store.media_records(), store.campaign(), store.deployments(), store.georeference(),
+                 store.species_list(), store.control(), store.control_observations("check", "a"),
+                 store.active_calibration("a"), store.videos(), store.enhancement("k"), store.draft("d"),
+                 [(h.change, h.annotator, h.old, h.new) for h in store.history()]))
+
+
+@pytest.mark.parametrize("write", sorted(STALE))
+def test_a_write_made_on_what_a_colleague_changed_since_is_refused_by_name_and_changes_nothing(impl, store,
+                                                                                               where, write):
+    """Two handles on one store (two annotators): ann reads, bob changes the same thing, ann's write with
+    the version she read is refused naming bob and when, and bob's change stays (0 edits lost); the same
+    write with the version as it now is goes through."""
+    folder = where.parent
+    _stale_setup(store, folder)
+    read, change, write_with = STALE[write]
+    store.annotator = "ann"
+    with impl.open(where, False) as bob:
+        bob.annotator = "bob"
+        version = read(store, folder)
+        change(bob, folder)
+        before = _everything(store)
+        with pytest.raises(StaleEditError) as refused:
+            write_with(store, folder, version)
+        message = str(refused.value)
+        assert "bob" in message and "\n" not in message and "nothing was changed" in message
+        assert _everything(store) == before
+        assert _everything(bob) == before
+    if write == "relocate_media":
+        return  # the file is where bob put it: relocating it back is another write, not this one again
+    write_with(store, folder, read(store, folder))  # read afresh: the write goes through
+    assert _everything(store) != before

@@ -42,9 +42,11 @@ def _calibration_of(stored: StoredObject) -> int | None:
     return next(iter(ids))
 
 
-def add_instant(project: ProjectStore, object_id: int, instant_id: int, tracked_from: int | None = None) -> None:
+def add_instant(project: ProjectStore, object_id: int, instant_id: int, tracked_from: int | None = None,
+                expected_modified: str | None = None) -> None:
     """Make the stored object ``instant_id`` a further instant of ``object_id`` (``tracked_from``: the left
-    frame its track started from, None when picked by hand): refused, naming both, when they were
+    frame its track started from, None when picked by hand; ``expected_modified``: the instant's version as
+    the caller read it, a colleague's change since is refused by name): refused, naming both, when they were
     measured with different calibrations (their common error would not be one) or are of different kinds;
     nothing is stored then."""
     whole, instant = project.object(object_id), project.object(instant_id)
@@ -55,7 +57,7 @@ def add_instant(project: ProjectStore, object_id: int, instant_id: int, tracked_
     if first != other:
         raise UsvipsError(f"object {object_id} was measured with calibration {first} but object {instant_id} with "
                           f"calibration {other}: the instants of an object share one calibration")
-    project.add_instant(object_id, instant_id, tracked_from)
+    project.add_instant(object_id, instant_id, tracked_from, expected_modified)
 
 
 def survey_objects(project: ProjectStore) -> list[StoredObject]:

@@ -18,6 +18,7 @@ from typing import NoReturn
 
 from usvips import __version__
 from usvips.core.errors import InvalidParameterError, UsvipsError
+from usvips.core.redaction import redact
 
 #: (module name, description) of every subcommand; each module defines ``register(subparsers)``.
 COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure", "project", "render", "bench",
@@ -95,7 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if handler is None:
         parser.print_help()
         return 0
-    with warnings.catch_warnings():  # the caller's warning filters are back afterwards
+    with warnings.catch_warnings(), _redacted_output():  # the caller's warning filters are back afterwards
         if not os.environ.get("USVIPS_DEBUG"):
             quiet_libraries()
         return _run(args, handler, _options_of(parser))
@@ -124,6 +125,33 @@ def _in_option_terms(error: InvalidParameterError, options: dict[str, str]) -> s
     candidates = [name] + [name.removesuffix("_" + unit) for unit in UNIT_SUFFIXES if name.endswith("_" + unit)]
     option = next((options[c] for c in candidates if c in options), None)
     return f"{option}: {error.problem}" if option else str(error)
+
+
+class RedactedStream:
+    """A text stream whose every write passes :func:`usvips.core.redaction.redact` (no password reaches a
+    terminal, a pipe or a log file: results, progress lines, errors of every command); the rest of the
+    stream (``isatty``, ``buffer``, ``flush`` …) is the wrapped one's."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def write(self, text: str) -> int:
+        self._stream.write(redact(text))
+        return len(text)
+
+    def writelines(self, lines) -> None:
+        for line in lines:
+            self.write(line)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def _redacted_output():
+    """Every line a command prints, on stdout and stderr, redacted (see :class:`RedactedStream`)."""
+    with contextlib.redirect_stdout(RedactedStream(sys.stdout)), contextlib.redirect_stderr(RedactedStream(sys.stderr)):
+        yield
 
 
 def _run(args: argparse.Namespace, handler: Callable[[argparse.Namespace], int],

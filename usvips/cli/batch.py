@@ -18,7 +18,7 @@ from pathlib import Path
 from usvips.app import batch
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import guard_output
-from usvips.store.opening import database_name, is_server_location
+from usvips.store.opening import database_name, is_server_location, parse_server_location, shown
 
 #: the most worker processes --jobs starts (each holds its own copy of the libraries)
 MAX_JOBS = 256
@@ -52,6 +52,8 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
     suffix = ".points.csv" if args.task == "intersect" else EXPORT_SUFFIXES[args.format]
     tasks = []
     for given, name in zip(inputs, output_names(inputs), strict=True):
+        if is_server_location(given):
+            parse_server_location(given)  # an address that cannot be read: one line, before anything runs
         out = str(out_dir / f"{name}{suffix}")
         if Path(out).exists():  # an output never replaces an input, a project or a calibration
             guard_output(out, [*inputs, getattr(args, "calibration", None)], option="--out-dir",
@@ -61,9 +63,9 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
                 "observations": given, "calibration": args.calibration, "out": out, "station": args.station,
                 "frame": args.frame}))
         elif args.format == "globalarchive":
-            tasks.append(batch.Task(given, batch.export_archive_task, {"project": given, "out": out}))
+            tasks.append(batch.Task(shown(given), batch.export_archive_task, {"project": given, "out": out}))
         else:
-            tasks.append(batch.Task(given, batch.export_project_task, {"project": given, "out": out}))
+            tasks.append(batch.Task(shown(given), batch.export_project_task, {"project": given, "out": out}))
     return tasks
 
 

@@ -148,8 +148,9 @@ def run_accept_media(args: argparse.Namespace) -> int:
     from usvips.store.opening import open_project
 
     with open_project(args.project) as project:
+        recorded = {path: sha for path, _, _, sha in project.media_records()}
         for stored in args.media:
-            project.accept_media(stored)
+            project.accept_media(stored, expected_sha256=recorded.get(stored))
             print(f"accepted {stored} as it is now")
     return 0
 
@@ -158,7 +159,8 @@ def run_relocate_media(args: argparse.Namespace) -> int:
     from usvips.store.opening import open_project
 
     with open_project(args.project) as project:
-        new = project.relocate_media(args.media, args.new)
+        recorded = {path: sha for path, _, _, sha in project.media_records()}
+        new = project.relocate_media(args.media, args.new, expected_sha256=recorded.get(args.media))
     print(f"{args.media} is now {new}")
     return 0
 
@@ -239,20 +241,20 @@ def run_set_metadata(args: argparse.Namespace) -> int:
         option = "--depth" if name == "depth_m" else "--" + name.replace("_", "-")
         validation.printable(option, value)
     with open_project(args.project) as project:
+        stored = project.deployments().get(args.video or "")  # the version read (a later change is refused)
         if args.clear:
             if given:
                 raise UsvipsError("--clear removes the deployment metadata; give no other values with it")
-            project.set_deployment(None, args.video)
+            project.set_deployment(None, args.video, expected=stored)
             print(f"cleared the deployment metadata of {args.video or 'the project'}")
             return 0
-        stored = project.deployments().get(args.video or "")
         values = {} if stored is None else {name: getattr(stored, name) for name in DEPLOYMENT_FIELDS}
         values.update(given)
         if not values.get("opcode"):
             raise UsvipsError("--opcode is needed: no deployment is stored for "
                               + (f"video {args.video!r}" if args.video else "the project"))
         deployment = Deployment(**values)
-        project.set_deployment(deployment, args.video)
+        project.set_deployment(deployment, args.video, expected=stored)
     print(f"stored deployment {deployment.opcode}" + (f" for video {args.video}" if args.video else ""))
     return 0
 

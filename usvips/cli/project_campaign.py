@@ -45,20 +45,20 @@ def run_set_campaign(args: argparse.Namespace) -> int:
     for name, value in given.items():
         validation.printable(CAMPAIGN_OPTIONS[name][0], value)
     with open_project(args.project) as project:
+        stored = project.campaign()  # the version this command read: a colleague's change since is refused
         if args.clear:
             if given:
                 raise UsvipsError("--clear removes the campaign; give no other values with it")
-            project.set_campaign(None)
+            project.set_campaign(None, expected=stored)
             print("cleared the campaign")
             return 0
-        stored = project.campaign()
         values = {} if stored is None else stored.to_dict()
         values.update(given)
         try:
             campaign = Campaign(**values)
         except InvalidParameterError as error:  # named as the option the user typed
             raise InvalidParameterError(CAMPAIGN_OPTIONS[error.parameter][0], error.problem) from None
-        project.set_campaign(campaign)
+        project.set_campaign(campaign, expected=stored)
     missing = campaign.missing()
     print(f"stored campaign {campaign.campaign_id or '(no CampaignID yet)'}"
           + (f"; a GlobalArchive export still needs {', '.join(CAMPAIGN_OPTIONS[m][0] for m in missing)}"

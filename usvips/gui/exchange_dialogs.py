@@ -360,6 +360,8 @@ class DeploymentDialog(QtWidgets.QDialog):
     def __init__(self, project, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.project = project
+        #: what the dialog read (the versions OK names: a colleague's change meanwhile is refused by name)
+        self._read = (project.deployments(), project.georeference(), project.campaign())
         self.setWindowTitle("Deployment and georeference")
         self.fields: dict[str, QtWidgets.QWidget] = {}
         form = QtWidgets.QFormLayout()
@@ -486,11 +488,12 @@ class DeploymentDialog(QtWidgets.QDialog):
             deployments = self.deployments()
             _, georeference = self.values()
             campaign = self.campaign()
+            read_deployments, read_georeference, read_campaign = self._read
             with self.project.transaction():
                 for scope, deployment in deployments.items():
-                    self.project.set_deployment(deployment, scope or None)
-                self.project.set_georeference(georeference)
-                self.project.set_campaign(campaign)
+                    self.project.set_deployment(deployment, scope or None, expected=read_deployments.get(scope))
+                self.project.set_georeference(georeference, expected=read_georeference)
+                self.project.set_campaign(campaign, expected=read_campaign)
         except UsvipsError as error:
             self.message.setText(str(error))
             return False

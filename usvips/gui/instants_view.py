@@ -162,12 +162,12 @@ class InstantsView(QtWidgets.QDialog):
                                        "delete the object in the object list")
             return False
 
-        def redo() -> None:
-            ws.project.remove_instant(instant_id)
+        def redo() -> None:  # on the instant as this window last read it (see ProjectStore.remove_instant)
+            ws.project.remove_instant(instant_id, expected_modified=ws.stored_object(instant_id).modified)
             ws.cache.changed_in_store(updated=(object_id, instant_id))
 
         def undo() -> None:
-            ws.project.add_instant(object_id, instant_id)
+            ws.project.add_instant(object_id, instant_id, expected_modified=ws.stored_object(instant_id).modified)
             ws.cache.changed_in_store(updated=(object_id, instant_id))
 
         try:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from PySide6 import QtCore, QtWidgets
 
+from usvips.core.redaction import redact
+
 
 class LogPanel(QtWidgets.QPlainTextEdit):
     """Every message of the session, newest last."""
@@ -14,5 +16,7 @@ class LogPanel(QtWidgets.QPlainTextEdit):
         self.setMaximumBlockCount(2000)
 
     def add(self, level: str, text: str) -> None:
+        """One line of the log (never with a password: :func:`usvips.core.redaction.redact`)."""
+        text = redact(text)
         stamp = QtCore.QTime.currentTime().toString("HH:mm:ss")
         self.appendPlainText(f"{stamp} {level:7s} {text}")

@@ -8,6 +8,7 @@ and runs image reading and enhancement in worker threads (progress and cancel in
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import cv2
@@ -17,6 +18,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.redaction import redact
 from usvips.gui import exchange_dialogs, media_dialogs, menu_keys
 from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.app import register_window
@@ -490,10 +492,14 @@ class MainWindow(QtWidgets.QMainWindow):
         self.settings.sync()
 
     def recent_projects(self) -> list[str]:
+        """The recent projects, never with a password (an entry an older USVIPS kept with one is shown and
+        kept without it)."""
         value = self.settings.value("recent", [])
-        return [value] if isinstance(value, str) else list(value or [])
+        listed = [value] if isinstance(value, str) else list(value or [])
+        return list(dict.fromkeys(without_password(p) if is_server_location(p) else redact(p) for p in listed))
 
-    def _remember(self, path: Path) -> None:
+    def _remember(self, path: Path | str) -> None:
+        path = without_password(path) if is_server_location(path) else redact(path)
         recent = [str(path)] + [p for p in self.recent_projects() if p != str(path)]
         self.settings.setValue("recent", recent[:MAX_RECENT])
         self._fill_recent_menu()
@@ -559,7 +565,9 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ------------------------------------------------------------------ messages
     def show_message(self, level: str, text: str) -> None:
-        """Errors and warnings go to the status bar (red / amber) and the log; nothing raises into Qt."""
+        """Errors and warnings go to the status bar (red / amber) and the log; nothing raises into Qt; no
+        password is ever shown (:func:`usvips.core.redaction.redact`)."""
+        text = redact(text)
         self.log.add(level, text)
         colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
         self.statusBar().setStyleSheet(f"QStatusBar {{ color: {colour}; }}" if colour else "")
@@ -1141,8 +1149,9 @@ class MainWindow(QtWidgets.QMainWindow):
         project = self.workspace.project
         if project is None:
             return f"USVIPS — {self.annotator}"
-        return (f"USVIPS — {self.annotator} — {project.path.name} ({project.path.parent}) — every step is saved "
-                "as you go")
+        path = project.path  # a survey on a server prints as host/database (its path is its media folder's)
+        where = str(path) if str(path) != os.fspath(path) else f"{path.name} ({path.parent})"
+        return f"USVIPS — {self.annotator} — {redact(where)} — every step is saved as you go"
 
     def annotator_dialog(self) -> None:
         """File › Annotator: your name…: ask the name (kept in the settings for the next sessions)."""

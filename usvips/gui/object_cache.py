@@ -65,6 +65,9 @@ class ObjectCache:
         self.calibrations: dict[int, StereoCalibration | None] = {}
         #: a further instant's id -> the id of the object it is an instant of (read again on every change)
         self._links: dict[int, int] = {} if project is None else project.instant_links()
+        #: the store's count of connections made again (a server that went away): when it moves, every
+        #: object is read afresh (what colleagues wrote meanwhile)
+        self._reconnections = getattr(project, "reconnections", 0)
 
     # ------------------------------------------------------------------ the objects
     def objects(self) -> list:
@@ -101,7 +104,12 @@ class ObjectCache:
         """Bring the cache up to date with what was just written (re-reading only those ids, by one query)
         and announce it by id; returns the ids now gone. An object whose instants changed (one of them
         edited, deleted, linked or unlinked) is announced as updated too: its combined figure changed; so
-        is an instant linked or unlinked (it is shown as its object's)."""
+        is an instant linked or unlinked (it is shown as its object's). After the store connected again
+        (a server that went away and came back) every object is read afresh instead."""
+        if getattr(self.project, "reconnections", 0) != self._reconnections:
+            before = set(self._objects)
+            self.reload()
+            return tuple(sorted(before - set(self._objects)))
         old, self._links = self._links, self.project.instant_links()
         moved = set(old.items()) ^ set(self._links.items())
         named = added + updated + removed
@@ -145,6 +153,7 @@ class ObjectCache:
         self._records = {} if self.project is None else self.project.records()
         self._links = {} if self.project is None else self.project.instant_links()
         self._figures, self._versions = {}, {}
+        self._reconnections = getattr(self.project, "reconnections", 0)
         self.events.reset.emit()
         self.events.changed.emit()
 

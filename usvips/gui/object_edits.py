@@ -8,6 +8,13 @@ it: when another annotator changed (or deleted) it since, the step is refused by
 A refusal (too few vertices, a kind the vertices cannot make) is one line naming the
 object, and nothing changes.
 
+Every first save names the version this window read (the cache's ``modified`` stamp): an edit or delete
+from an out-of-date window is refused by name, never written over a colleague's edit. A save that fails
+(the server unreachable, a colleague's change, the store busy) is never shown as saved: the object is
+shown again as stored (the list's cell reverts) and the edit is kept (:attr:`ObjectEdits.unsaved`) for
+:meth:`ObjectEdits.retry_unsaved` or :meth:`ObjectEdits.discard_unsaved`; the message says so in plain
+words.
+
 The edits work on an :class:`EditScene` (the workspace: the open project, its object cache, the undo stack
 and ``message``); a vertex edit also calls ``vertices_changed`` (the pick tool drops the vertex being
 picked, which may have pointed at the old vertices).
@@ -16,6 +23,7 @@ picked, which may have pointed at the old vertices).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Protocol
 
 from usvips.core.errors import UsvipsError
@@ -27,7 +35,7 @@ from usvips.gui.undo import Command, UndoStack
 from usvips.gui.wording import article, plural
 from usvips.store.interface import ProjectStore
 from usvips.store.project import Vertex
-from usvips.store.records import StaleEditError
+from usvips.store.records import ServerUnreachableError, StaleEditError
 
 
 class EditScene(Protocol):
@@ -43,6 +51,27 @@ class EditScene(Protocol):
     def objects_changed_in_store(self, added: tuple[int, ...] = (), updated: tuple[int, ...] = (),
                                  removed: tuple[int, ...] = ()) -> None: ...
 
+    def show_as_cached(self, object_ids: tuple[int, ...]) -> None: ...
+
+
+@dataclass(frozen=True)
+class UnsavedEdit:
+    """An edit the store did not take: what it was (``label``), of which object, why (one line), and how to
+    make it again (``retry``: the same edit, on the object as the window now has it)."""
+
+    label: str
+    object_id: int
+    reason: str
+    retry: Callable[[], None]
+
+
+def why_not_saved(error: UsvipsError) -> str:
+    """A failed save in plain words: the server unreachable, a colleague's change (by name), or the
+    store's own line."""
+    if isinstance(error, ServerUnreachableError):
+        return "the server is unreachable"
+    return str(error)
+
 
 class ObjectEdits:
     """The undoable edits of the stored objects of ``scene``'s project."""
@@ -50,6 +79,8 @@ class ObjectEdits:
     def __init__(self, scene: EditScene, vertices_changed: Callable[[], None] | None = None) -> None:
         self.scene = scene
         self.vertices_changed = vertices_changed
+        #: the edits not saved, by (object id, what): kept for :meth:`retry_unsaved` or :meth:`discard_unsaved`
+        self.unsaved: dict[tuple[int, str], UnsavedEdit] = {}
 
     def delete_vertex(self, object_id: int, index: int) -> None:
         """Remove vertex ``index`` (0-based) of a stored object (undoable); an object keeps at least the
@@ -67,36 +98,79 @@ class ObjectEdits:
 
     def _set_vertices(self, label: str, object_id: int, before: list[Vertex], after: list[Vertex]) -> None:
         project = self.scene.project
-        self.edit_stored(label, object_id, lambda: project.update_object(object_id, vertices=after),
+        self.edit_stored(label, object_id,
+                         lambda version: project.update_object(object_id, vertices=after, expected_modified=version),
                          self.vertices_changed)
         self.scene.message.emit("info", f"{label}: done (Ctrl+Z undoes it)")
 
-    def edit_stored(self, label: str, object_id: int, edit: Callable[[], None],
+    def edit_stored(self, label: str, object_id: int, edit: Callable[[str], None],
                     then: Callable[[], None] | None = None) -> None:
-        """Run ``edit`` of a stored object as one undoable command. Undo puts back the object's stored rows
-        as they were before (vertices, kind, texts, record, history: exactly, nothing added); redo puts
-        back the rows the edit made."""
+        """Run ``edit(version)`` of a stored object as one undoable command; ``version`` is the object's
+        ``modified`` stamp as this window read it (its cache), which ``edit`` hands to the store
+        (``expected_modified``): an object a colleague changed since is refused by name, never
+        overwritten. Undo puts back the object's stored rows as they were before (vertices, kind, texts,
+        record, history: exactly, nothing added); redo puts back the rows the edit made."""
         project = self.scene.project
-        before = project.object_rows(object_id)
+        read = self.scene.stored_object(object_id).modified
+        before: list = []  # the rows as they were (read with the first save, for undo)
         after: list = []
 
         def redo() -> None:
             if after:  # only onto the object as the undo left it: not over someone's edit made since
-                self._unless_stale(object_id, lambda: project.put_back(after[0], expected_modified=before.modified))
+                self._unless_stale(object_id, lambda: project.put_back(after[0], expected_modified=before[0].modified))
             else:
-                edit()
+                before[:] = [project.object_rows(object_id)]
+                self._unless_stale(object_id, lambda: edit(read))
                 after.append(project.object_rows(object_id))
             self.scene.objects_changed_in_store(updated=(object_id,))
             if then is not None:
                 then()
 
         def undo() -> None:  # only when nobody (another annotator on a shared survey) changed it since
-            self._unless_stale(object_id, lambda: project.put_back(before, expected_modified=after[0].modified))
+            self._unless_stale(object_id, lambda: project.put_back(before[0], expected_modified=after[0].modified))
             self.scene.objects_changed_in_store(updated=(object_id,))
             if then is not None:
                 then()
 
-        self.scene.undo.push(Command(label, redo, undo))
+        self._save(Command(label, redo, undo), object_id,
+                   lambda: self.edit_stored(label, object_id, edit, then))
+
+    def _save(self, command: Command, object_id: int, retry: Callable[[], None]) -> None:
+        """Do ``command`` (pushed on the undo stack when it succeeds). When the store does not take it, it
+        is never shown as saved: the object is shown as stored, the edit kept for retry or discard, the
+        window told why in one line, and the error raised on (to a caller that keeps the typed text)."""
+        key = (object_id, command.label)
+        try:
+            self.scene.undo.push(command)
+        except UsvipsError as error:
+            self.unsaved[key] = UnsavedEdit(command.label, object_id, why_not_saved(error), retry)
+            self.scene.show_as_cached((object_id,))
+            self.scene.message.emit("error", f"{command.label}: not saved — {why_not_saved(error)}; the edit is "
+                                             "kept: Edit ▸ Retry unsaved edits, or Discard unsaved edits")
+            raise
+        self.unsaved.pop(key, None)
+
+    def retry_unsaved(self) -> int:
+        """Make every kept edit again (on the objects as the window now has them); returns how many were
+        saved. One failing again is kept again (and said)."""
+        saved = 0
+        for key, kept in list(self.unsaved.items()):
+            self.unsaved.pop(key, None)
+            try:
+                kept.retry()
+            except UsvipsError:
+                continue
+            saved += 1
+        return saved
+
+    def discard_unsaved(self) -> int:
+        """Forget every kept edit (the objects stay as stored); returns how many were dropped."""
+        dropped = len(self.unsaved)
+        ids = tuple(sorted({kept.object_id for kept in self.unsaved.values()}))
+        self.unsaved.clear()
+        if ids:
+            self.scene.show_as_cached(ids)
+        return dropped
 
     def _unless_stale(self, object_id: int, step: Callable[[], object]) -> object:
         """Run an undo or redo ``step`` of a stored object; refused as stale (another annotator changed or
@@ -115,8 +189,8 @@ class ObjectEdits:
         removed: list = []
         project = self.scene.project
 
-        def delete() -> None:  # a redo: only the object as the undo put it back, not someone's later edit
-            version = removed[0].modified if removed else None
+        def delete() -> None:  # only the object as this window read it (or the undo put it back)
+            version = removed[0].modified if removed else saved.modified
             removed[:] = [self._unless_stale(object_id, lambda: project.take_object(object_id, version))]
             self.scene.objects_changed_in_store(removed=(object_id,))
 
@@ -124,7 +198,11 @@ class ObjectEdits:
             project.put_back(removed[0])
             self.scene.objects_changed_in_store(added=(object_id,))
 
-        self.scene.undo.push(Command(f"delete {saved.kind} {object_id}", delete, restore))
+        try:
+            self._save(Command(f"delete {saved.kind} {object_id}", delete, restore), object_id,
+                       lambda: self.delete_object(object_id))
+        except UsvipsError:
+            return  # said and kept (see _save); the list's delete goes on with the next selected object
 
     def kinds_for(self, object_id: int) -> list[str]:
         """The registered measurement kinds a stored object's vertices can make (its own first)."""
@@ -145,22 +223,32 @@ class ObjectEdits:
                               f"{article(kind)} (it can be {', '.join(self.kinds_for(object_id))})")
 
         self.edit_stored(f"make object {object_id} {article(kind)}", object_id,
-                         lambda: self.scene.project.update_object(object_id, kind=kind))
+                         lambda version: self.scene.project.update_object(object_id, kind=kind,
+                                                                          expected_modified=version))
         self.scene.message.emit("info", f"object {object_id} is now {article(kind)} (Ctrl+Z undoes it)")
 
     def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
         """Change a stored object's attribute (kept as a term of the project's vocabulary) and notes;
-        undoable."""
-        self.scene.stored_object(object_id)
+        undoable. Only what differs from the object as this window read it is written (a colleague's
+        notes are not written back by an edit of the attribute); nothing differing, nothing is done."""
+        read = self.scene.stored_object(object_id)
+        changed = {name: value for name, value in (("attribute", attribute), ("notes", notes))
+                   if value != getattr(read, name)}
+        if not changed:
+            return
 
-        def edit() -> None:
-            self.scene.project.update_object(object_id, attribute=attribute, notes=notes)
-            if attribute:
-                self.scene.project.add_term(attribute)
+        def edit(version: str) -> None:
+            with self.scene.project.transaction():
+                self.scene.project.update_object(object_id, **changed, expected_modified=version)
+                if changed.get("attribute"):
+                    self.scene.project.add_term(changed["attribute"])
 
-        self.edit_stored(f"edit object {object_id}", object_id, edit)
+        try:
+            self.edit_stored(f"edit object {object_id}", object_id, edit)
+        except UsvipsError:
+            return  # said and kept (see _save): the list's cell shows the object as stored
 
     def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
         """Store an object's observation record (species, number, stage, activity, comment); undoable."""
         self.edit_stored(f"observation record of object {object_id}", object_id,
-                         lambda: self.scene.project.set_record(object_id, record))
+                         lambda version: self.scene.project.set_record(object_id, record, expected_modified=version))

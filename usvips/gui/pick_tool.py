@@ -555,7 +555,7 @@ class PickTool:
         new[index] = self._vertices_for_store((vertex,))[0]
         label = f"re-pick vertex {index + 1} of object {object_id}"
         project = self.scene.project
-        self.scene.edit_stored(label, object_id, lambda: project.update_object(object_id, vertices=new),
-                               self.clear_state)
+        self.scene.edit_stored(label, object_id, lambda version: project.update_object(
+            object_id, vertices=new, expected_modified=version), self.clear_state)
         self.scene.message.emit("info", f"{label}: done (Ctrl+Z undoes it)")
         self.last_point = vertex

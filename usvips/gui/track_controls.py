@@ -115,12 +115,14 @@ class TrackController(QtCore.QObject):
         calibrations or kinds), nothing changed."""
         ws = self.window.workspace
 
+        # each step names the version of the instant as this window last read it (a colleague's change since
+        # is refused by name, not undone)
         def redo() -> None:
-            add_instant(ws.project, object_id, instant_id, tracked_from)
+            add_instant(ws.project, object_id, instant_id, tracked_from, ws.stored_object(instant_id).modified)
             ws.cache.changed_in_store(updated=(object_id, instant_id))
 
         def undo() -> None:
-            ws.project.remove_instant(instant_id)
+            ws.project.remove_instant(instant_id, expected_modified=ws.stored_object(instant_id).modified)
             ws.cache.changed_in_store(updated=(object_id, instant_id))
 
         try:

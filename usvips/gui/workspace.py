@@ -350,9 +350,9 @@ class Workspace:
         self.pick_tool.start_repick(object_id, index)
 
     # ------------------------------------------------------------ edits of stored objects (usvips.gui.object_edits)
-    def edit_stored(self, label: str, object_id: int, edit: Callable[[], None],
+    def edit_stored(self, label: str, object_id: int, edit: Callable[[str], None],
                     then: Callable[[], None] | None = None) -> None:
-        """Run ``edit`` of a stored object as one undoable command restoring its rows exactly."""
+        """Run ``edit(version read)`` of a stored object as one undoable command restoring its rows exactly."""
         self.edits.edit_stored(label, object_id, edit, then)
 
     def delete_vertex(self, object_id: int, index: int) -> None:
@@ -417,6 +417,13 @@ class Workspace:
         gone = self.cache.changed_in_store(added, updated, removed)
         if set(gone) & set(self.selection):
             self.select([i for i in self.selection if i not in gone])
+
+    def show_as_cached(self, object_ids: tuple[int, ...]) -> None:
+        """Announce objects as the cache holds them, reading nothing (a save that failed: the views show
+        them as stored again, e.g. the object list's cell reverts)."""
+        present = tuple(i for i in object_ids if i in self.cache)
+        if present:
+            self.cache.events.updated.emit(present)
 
     def reload_objects(self) -> None:
         """Read every stored object again (by one query), e.g. after another program changed the project."""

@@ -18,6 +18,10 @@ Conventions every implementation keeps:
   names the project (``path``) and what is wrong; a store error never leaks as another kind of exception.
 - Every write is all or nothing. :meth:`ProjectStore.transaction` groups writes: all are kept or, on any
   error, none; nested uses join the outermost one.
+- Every write that changes what exists names the version it read (``expected_modified``,
+  ``expected_sha256`` or ``expected``: :mod:`usvips.store.versions`); a write made on something changed
+  since is a :class:`~usvips.store.records.StaleEditError` naming who changed it and when, and nothing
+  is changed.
 - A store opened read-only refuses every write with a ``ProjectError`` and changes nothing.
 - Paths of images and media are recorded relative to the project where possible; :meth:`image_path` and
   :meth:`media_path` give them back absolute (naming the file when it has gone missing).
@@ -35,6 +39,7 @@ from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store.records import HistoryEntry, RemovedObject, Review, StoredObject, Vertex
+from usvips.store.versions import UNREAD
 
 
 @runtime_checkable
@@ -115,12 +120,15 @@ class ProjectStore(Protocol):
         """(stored path, absolute path, size, SHA-256) of every recorded media file."""
         ...
 
-    def accept_media(self, stored: str) -> None:
-        """Take the file now at a recorded media path as the one meant (size and hashes recorded anew)."""
+    def accept_media(self, stored: str, expected_sha256: str | None = None) -> None:
+        """Take the file now at a recorded media path as the one meant (size and hashes recorded anew).
+        ``expected_sha256``: the SHA-256 recorded when the caller read it (:meth:`media_records`); accepted
+        anew or relocated since by someone else is a ``StaleEditError`` naming who and when."""
         ...
 
-    def relocate_media(self, stored: str, new_path: str | Path) -> str:
-        """Point a recorded media file at its new place (the same file); returns the new stored path."""
+    def relocate_media(self, stored: str, new_path: str | Path, expected_sha256: str | None = None) -> str:
+        """Point a recorded media file at its new place (the same file); returns the new stored path.
+        ``expected_sha256`` as for :meth:`accept_media`."""
         ...
 
     # ------------------------------------------------------------------------ videos
@@ -137,8 +145,10 @@ class ProjectStore(Protocol):
         """Every stored video."""
         ...
 
-    def set_video_offset(self, label: str, frames: int, estimate: dict | None = None) -> None:
-        """Left frame i and right frame i + ``frames`` show the same instant."""
+    def set_video_offset(self, label: str, frames: int, estimate: dict | None = None,
+                         expected: object = UNREAD) -> None:
+        """Left frame i and right frame i + ``frames`` show the same instant. ``expected``: the offset in
+        frames as read (see :mod:`usvips.store.versions` for every ``expected``)."""
         ...
 
     def add_period(self, video: str, name: str, start: int, end: int) -> int:
@@ -150,8 +160,8 @@ class ProjectStore(Protocol):
         ...
 
     # ------------------------------------------------------------------------ control and calibrations
-    def set_control(self, control: ControlPoints) -> None:
-        """Replace the control points (metres)."""
+    def set_control(self, control: ControlPoints, expected: object = UNREAD) -> None:
+        """Replace the control points (metres); ``expected``: the control points as read."""
         ...
 
     def control(self) -> ControlPoints:
@@ -159,9 +169,9 @@ class ProjectStore(Protocol):
         ...
 
     def add_control_observations(self, observations: StereoObservations, role: str, pair: str,
-                                 replace: bool = False) -> None:
+                                 replace: bool = False, expected: object = UNREAD) -> None:
         """A pair's control observations (pixels) for a role ("calibration-air", "calibration-water",
-        "check", …); ``replace`` swaps the stored set for this one."""
+        "check", …); ``replace`` swaps the stored set for this one; ``expected``: the set as read."""
         ...
 
     def control_observations(self, role: str, pair: str) -> StereoObservations:
@@ -184,8 +194,9 @@ class ProjectStore(Protocol):
         """The id of the calibration active for a pair or video, None when none is."""
         ...
 
-    def activate_calibration(self, label: str, calibration_id: int) -> None:
-        """Make a stored calibration the active one of a pair or video."""
+    def activate_calibration(self, label: str, calibration_id: int, expected: object = UNREAD) -> None:
+        """Make a stored calibration the active one of a pair or video; ``expected``: the active id as read
+        (None: none was)."""
         ...
 
     # ------------------------------------------------------------------------ measured objects
@@ -258,9 +269,11 @@ class ProjectStore(Protocol):
         is simply absent)."""
         ...
 
-    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
+    def set_record(self, object_id: int, record: ObservationRecord | None,
+                   expected_modified: str | None = None) -> None:
         """Store (None: remove) an object's observation record; its ``modified`` stamp moves forward, and a
-        changed record returns an accepted object to unreviewed (as :meth:`update_object` says)."""
+        changed record returns an accepted object to unreviewed (as :meth:`update_object` says).
+        ``expected_modified`` as for :meth:`update_object` (a stale record is a ``StaleEditError``)."""
         ...
 
     def records(self) -> dict[int, ObservationRecord]:
@@ -313,18 +326,22 @@ class ProjectStore(Protocol):
         ...
 
     # ------------------------------------------------------------------------ objects over several instants
-    def add_instant(self, object_id: int, instant_id: int, tracked_from: int | None = None) -> None:
+    def add_instant(self, object_id: int, instant_id: int, tracked_from: int | None = None,
+                    expected_modified: str | None = None) -> None:
         """Make the stored object ``instant_id`` (of the same kind) a further instant of ``object_id``: one
         object measured on several instants, its first instant being itself. ``tracked_from``: how the
         instant was made — the left frame its track started from (its vertices carry that frame's picks,
         :func:`usvips.app.tracking.add_tracked_instants`), None when picked by hand; stored with the link
         (schema 10), kept by undo, push and pull, and in the history's link row. An unknown id, an object of
         another kind, a frame that is not a whole number >= 0, or a link that would chain instants (an
-        instant of an instant, an object with instants of its own becoming an instant) is a ``ProjectError``."""
+        instant of an instant, an object with instants of its own becoming an instant) is a ``ProjectError``.
+        The link is a change of ``instant_id``: its ``modified`` stamp moves forward, and
+        ``expected_modified`` (its version as read) is checked as for :meth:`update_object`."""
         ...
 
-    def remove_instant(self, instant_id: int) -> None:
-        """Unlink an instant (it stays, as an object of its own); one that is not an instant is an error."""
+    def remove_instant(self, instant_id: int, expected_modified: str | None = None) -> None:
+        """Unlink an instant (it stays, as an object of its own); one that is not an instant is an error.
+        Its ``modified`` stamp moves forward; ``expected_modified`` as for :meth:`add_instant`."""
         ...
 
     def instants(self, object_id: int) -> list[int]:
@@ -342,8 +359,10 @@ class ProjectStore(Protocol):
         ...
 
     # ------------------------------------------------------------------------ deployment and georeference
-    def set_deployment(self, deployment: Deployment | None, video: str | None = None) -> None:
-        """Store (None: remove) the deployment metadata of the project, or of one stereo ``video``."""
+    def set_deployment(self, deployment: Deployment | None, video: str | None = None,
+                       expected: object = UNREAD) -> None:
+        """Store (None: remove) the deployment metadata of the project, or of one stereo ``video``;
+        ``expected``: that scope's own deployment as read (None: none)."""
         ...
 
     def deployments(self) -> dict[str, Deployment]:
@@ -354,8 +373,8 @@ class ProjectStore(Protocol):
         """The deployment of ``video`` when it has its own, else the project's; None when none was entered."""
         ...
 
-    def set_georeference(self, georeference: Georeference | None) -> None:
-        """Store (None: remove) where the object frame lies on the Earth."""
+    def set_georeference(self, georeference: Georeference | None, expected: object = UNREAD) -> None:
+        """Store (None: remove) where the object frame lies on the Earth; ``expected``: as read."""
         ...
 
     def georeference(self) -> Georeference | None:
@@ -363,9 +382,10 @@ class ProjectStore(Protocol):
         ...
 
     # ------------------------------------------------------------------------ campaign (GlobalArchive)
-    def set_campaign(self, campaign: Campaign | None) -> None:
+    def set_campaign(self, campaign: Campaign | None, expected: object = UNREAD) -> None:
         """Store (None: remove) the campaign the project's deployments belong to (GlobalArchive's CampaignID,
-        Project, method, sampling design, submitter, dates …; kept as JSON, no schema of its own)."""
+        Project, method, sampling design, submitter, dates …; kept as JSON, no schema of its own);
+        ``expected``: the campaign as read (None: none)."""
         ...
 
     def campaign(self) -> Campaign | None:
@@ -381,24 +401,24 @@ class ProjectStore(Protocol):
         """A vocabulary's terms, sorted."""
         ...
 
-    def set_species_list(self, species: list[Species]) -> None:
-        """Replace the species list."""
+    def set_species_list(self, species: list[Species], expected: object = UNREAD) -> None:
+        """Replace the species list; ``expected``: the list as read."""
         ...
 
     def species_list(self) -> list[Species]:
         """The species list, by genus and species."""
         ...
 
-    def set_enhancement(self, image_key: str, pipeline_json: str) -> None:
-        """Keep an image's enhancement pipeline (JSON)."""
+    def set_enhancement(self, image_key: str, pipeline_json: str, expected: object = UNREAD) -> None:
+        """Keep an image's enhancement pipeline (JSON); ``expected``: the pipeline as read (None: none)."""
         ...
 
     def enhancement(self, image_key: str) -> str | None:
         """An image's enhancement pipeline (JSON), None when none was kept."""
         ...
 
-    def set_draft(self, name: str, text: str | None) -> None:
-        """Keep (None: drop) a half-finished piece of work, e.g. a wizard's state."""
+    def set_draft(self, name: str, text: str | None, expected: object = UNREAD) -> None:
+        """Keep (None: drop) a half-finished piece of work, e.g. a wizard's state; ``expected``: as read."""
         ...
 
     def draft(self, name: str) -> str | None:

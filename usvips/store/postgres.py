@@ -32,16 +32,16 @@ from __future__ import annotations
 import os
 import re
 import sqlite3
+import time
 from functools import lru_cache
 from pathlib import Path
-from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 import psycopg
 from psycopg import errors as pg_errors
 from psycopg import sql as pg_sql
 from psycopg.pq import TransactionStatus
 
-from usvips.store.opening import OWN_QUERY, public_location
+from usvips.store.opening import parse_server_location, public_location
 from usvips.store.postgres_schema import (
     IDENTITY_TABLES,
     PRIMARY_KEYS,
@@ -51,31 +51,31 @@ from usvips.store.postgres_schema import (
     TABLES,
 )
 from usvips.store.project import FORMAT, Project, _now
-from usvips.store.records import ProjectError
+from usvips.store.records import ProjectError, ServerUnreachableError
 
 LOCK_WAIT_S = 2.0
+#: the waits (s) between attempts to connect again when the server went away (stopped, restarted, the
+#: network gone): one series per action; when all fail the action is refused ("the server is unreachable")
+#: and the next action tries again
+RECONNECT_WAITS_S = (0.0, 0.25, 0.5, 1.0, 2.0)
 WRITE_LOCK = 0x55535649  # "USVI": the advisory lock key of a survey's writers (per database)
 CONNECT_TIMEOUT_S = 5
 
 
 # ------------------------------------------------------------------------------------------------ locations
-def _server_url(url: str) -> str:
-    """The URL handed to the server: without USVIPS's own query parameters."""
-    parts = urlsplit(url)
-    query = [(k, v) for k, v in parse_qsl(parts.query) if k not in OWN_QUERY]
-    return urlunsplit((parts.scheme, parts.netloc, parts.path, urlencode(query), ""))
+def _parameters(url: str, database: str | None = None) -> dict:
+    """What the client library is handed to connect (the password as a value, never in a URL; see
+    :meth:`usvips.store.opening.ServerLocation.connection_parameters`)."""
+    return parse_server_location(url).connection_parameters(database)
 
 
 def database_name(url: str) -> str:
-    name = urlsplit(url).path.lstrip("/")
-    if not name or "/" in name:
-        raise ProjectError(f"{public_location(url)}: name the survey's database at the end of the URL "
-                           "(postgresql://user@host/DATABASE)")
-    return name
+    """The survey's database (a URL that cannot be read, or names none, is refused in one line)."""
+    return parse_server_location(url).database
 
 
 def _own_option(url: str, key: str, environment: str) -> str | None:
-    return dict(parse_qsl(urlsplit(url).query)).get(key) or os.environ.get(environment) or None
+    return parse_server_location(url).option(key) or os.environ.get(environment) or None
 
 
 def media_folder(url: str) -> Path:
@@ -88,7 +88,7 @@ def cache_folder(url: str) -> Path:
     chosen = _own_option(url, "cache", "USVIPS_CACHE")
     if chosen:
         return Path(chosen).resolve()
-    return Path.home() / ".cache" / "usvips" / (urlsplit(url).hostname or "local") / database_name(url)
+    return Path.home() / ".cache" / "usvips" / parse_server_location(url).name()
 
 
 def _one_line(error: BaseException) -> str:
@@ -118,9 +118,9 @@ def connection_problem(error: psycopg.Error, url: str) -> str:
 
 
 def _connect(url: str, read_only: bool) -> psycopg.Connection:
-    database_name(url)  # a URL without a database is refused before anything is asked of a server
+    parameters = _parameters(url)  # a URL that cannot be read is refused before anything is asked of a server
     try:
-        connection = psycopg.connect(_server_url(url), autocommit=True, connect_timeout=CONNECT_TIMEOUT_S)
+        connection = psycopg.connect(autocommit=True, connect_timeout=CONNECT_TIMEOUT_S, **parameters)
     except psycopg.Error as error:
         raise ProjectError(f"{public_location(url)}: cannot connect: {connection_problem(error, url)}") from None
     try:
@@ -138,10 +138,10 @@ def new_survey(url: str, fill, doing: str) -> None:
     dropped again when this fails), else it must hold no tables; the schema, the ``meta`` rows and what
     ``fill(connection)`` writes are ONE transaction: all of it, or nothing."""
     location = public_location(url)
-    database_name(url)
+    parameters = _parameters(url)
     created = False
     try:
-        connection = psycopg.connect(_server_url(url), autocommit=True, connect_timeout=CONNECT_TIMEOUT_S)
+        connection = psycopg.connect(autocommit=True, connect_timeout=CONNECT_TIMEOUT_S, **parameters)
     except psycopg.OperationalError as error:
         if "does not exist" not in _one_line(error) or "database" not in _one_line(error):
             raise ProjectError(f"{location}: cannot connect: {connection_problem(error, url)}") from None
@@ -173,10 +173,9 @@ def new_survey(url: str, fill, doing: str) -> None:
 
 def database_command(url: str, command: str) -> None:
     """CREATE or DROP the database ``url`` names, through the server's maintenance database."""
-    parts = urlsplit(_server_url(url))
-    maintenance = urlunsplit((parts.scheme, parts.netloc, "/postgres", parts.query, ""))
     try:
-        with psycopg.connect(maintenance, autocommit=True, connect_timeout=CONNECT_TIMEOUT_S) as server:
+        with psycopg.connect(autocommit=True, connect_timeout=CONNECT_TIMEOUT_S,
+                             **_parameters(url, "postgres")) as server:
             server.execute(pg_sql.SQL(command).format(pg_sql.Identifier(database_name(url))))
     except psycopg.Error as error:
         raise ProjectError(f"{public_location(url)}: cannot create or remove the database: "
@@ -258,17 +257,78 @@ class _ServerConnection:
 
     A statement that fails inside a transaction is undone alone (a savepoint), as in SQLite, so that the
     transaction may carry on; ``BEGIN IMMEDIATE`` (a write transaction) takes the survey's write lock.
+
+    A server that went away (stopped, killed, restarted, the network gone): the transaction in progress is
+    lost on the server (nothing of it is kept), so the statement is refused with a
+    :class:`~usvips.store.records.ServerUnreachableError`, and a ROLLBACK on the dead connection is no
+    error. The next transaction or lone read connects again, waiting ``RECONNECT_WAITS_S`` between
+    attempts (``reconnections`` counts them, so that a window can read its state afresh); a first
+    statement of a transaction (BEGIN) or a lone read that meets a connection the server closed is made
+    again once, on the new connection.
     """
 
-    def __init__(self, connection: psycopg.Connection):
+    def __init__(self, connection: psycopg.Connection, url: str = "", read_only: bool = False):
         self.raw = connection
+        self.url, self.read_only = url, read_only
+        #: how messages name the survey (its store's ``path``: ``host/database``, or the name it was given)
+        self.where: object = public_location(url) if url else ""
+        #: how often the connection was made again after the server went away
+        self.reconnections = 0
+
+    def _alive(self) -> bool:
+        return not (self.raw.closed or self.raw.broken)
 
     @property
     def in_transaction(self) -> bool:
-        return self.raw.info.transaction_status != TransactionStatus.IDLE
+        return self._alive() and self.raw.info.transaction_status != TransactionStatus.IDLE
+
+    def _unreachable(self, why: str, committing: bool = False) -> ServerUnreachableError:
+        written = ("the server did not confirm the change: read the survey again to see whether it was kept"
+                   if committing else "nothing was written")
+        return ServerUnreachableError(f"{self.where}: the server is unreachable ({why}); {written} "
+                                      "— USVIPS connects again on the next action")
+
+    def _reconnect(self) -> None:
+        """Connect again, waiting :data:`RECONNECT_WAITS_S` between attempts; all failing: unreachable."""
+        problem = "the connection was lost"
+        for wait in RECONNECT_WAITS_S:
+            time.sleep(wait)
+            try:
+                fresh = _connect(self.url, self.read_only)
+            except ProjectError as error:
+                problem = str(error).split("cannot connect: ", 1)[-1]
+                continue
+            with _quietly():
+                self.raw.close()
+            self.raw = fresh
+            self.reconnections += 1
+            return
+        raise self._unreachable(problem)
 
     def execute(self, sql: str, parameters=()) -> _Cursor:
         command = sql.strip().upper()
+        if command == "ROLLBACK" and not self._alive():
+            return _Cursor([], 0, None)  # the server undid the transaction when the connection died
+        fresh_start = command.startswith("BEGIN") or (command.startswith("SELECT") and not self.in_transaction)
+        if fresh_start and not self._alive() and self.url:
+            self._reconnect()
+        try:
+            return self._execute(sql, command, parameters)
+        except psycopg.OperationalError as error:
+            if self._alive() or not self.url:
+                raise _as_sqlite_error(error) from None
+            if not fresh_start:  # a transaction was under way: it is gone, nothing of it kept
+                raise self._unreachable(_one_line(error), command == "COMMIT") from None
+        self._reconnect()  # the server closed the connection since the last use: once more, anew
+        try:
+            return self._execute(sql, command, parameters)
+        except psycopg.OperationalError as error:
+            if not self._alive():
+                raise self._unreachable(_one_line(error)) from None
+            raise _as_sqlite_error(error) from None
+
+    def _execute(self, sql: str, command: str, parameters) -> _Cursor:
+        """One statement; psycopg's OperationalError (a lost connection) goes to the caller as it is."""
         try:
             if command == "BEGIN IMMEDIATE":
                 self.raw.execute("BEGIN ISOLATION LEVEL READ COMMITTED")
@@ -289,7 +349,10 @@ class _ServerConnection:
                 return _Cursor(rows, cursor.rowcount, rows[0][0] if returning and rows else None, described)
         except psycopg.Error as error:
             if command.startswith("BEGIN") and self.in_transaction:
-                self.raw.execute("ROLLBACK")
+                with _quietly():
+                    self.raw.execute("ROLLBACK")
+            if isinstance(error, psycopg.OperationalError) and not self._alive():
+                raise
             raise _as_sqlite_error(error) from None
 
     def executemany(self, sql: str, rows) -> _Cursor:
@@ -302,6 +365,8 @@ class _ServerConnection:
                 cursor.executemany(text, rows)
                 return _Cursor([], cursor.rowcount, None)
         except psycopg.Error as error:
+            if isinstance(error, psycopg.OperationalError) and not self._alive():
+                raise self._unreachable(_one_line(error)) from None
             raise _as_sqlite_error(error) from None
 
     def _statement(self, command: str):
@@ -312,6 +377,16 @@ class _ServerConnection:
 
     def close(self) -> None:
         self.raw.close()
+
+
+class _quietly:
+    """Ignore a psycopg error (cleaning up a connection that may be dead)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, error, trace) -> bool:
+        return kind is not None and issubclass(kind, psycopg.Error)
 
 
 class _Nothing:
@@ -339,6 +414,28 @@ class _Savepoint:
 
 
 # ------------------------------------------------------------------------------------------------ the store
+class SurveyPath(type(Path())):
+    """A survey's ``path``: a path to the media folder's entry for it (relative media paths resolve against
+    its ``parent``, files are opened through it), which prints as the survey's name ``host/database``
+    (messages, titles) — a server survey is not named like a file that does not exist."""
+
+    def __str__(self) -> str:
+        return getattr(self, "_shown", None) or super().__str__()
+
+    def __fspath__(self) -> str:
+        return Path.__str__(self)
+
+    def __repr__(self) -> str:
+        return f"SurveyPath({str(self)!r})"
+
+
+def survey_path(url: str) -> Path:
+    """The ``path`` of a survey opened without one: see :class:`SurveyPath`."""
+    path = SurveyPath(media_folder(url) / database_name(url))
+    path._shown = parse_server_location(url).name()
+    return path
+
+
 class ServerProject(Project):
     """A survey in a PostgreSQL database; open with :meth:`open` or :meth:`create` (see the module docstring).
 
@@ -350,7 +447,14 @@ class ServerProject(Project):
                  path: Path | None = None):
         self.url = url
         self.location = public_location(url)
-        super().__init__(path or media_folder(url) / database_name(url), _ServerConnection(connection), read_only)
+        super().__init__(path or survey_path(url), _ServerConnection(connection, url, read_only), read_only)
+        self._db.where = self.path
+
+    @property
+    def reconnections(self) -> int:
+        """How often the connection to the server was made again after it went away (a window reads its
+        state afresh when this moves)."""
+        return self._db.reconnections
 
     @classmethod
     def create(cls, url: str, path: str | Path | None = None) -> ServerProject:

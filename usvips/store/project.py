@@ -46,7 +46,7 @@ from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
-from usvips.store import checks
+from usvips.store import checks, versions
 from usvips.store.annotator import current_annotator
 from usvips.store.records import (  # noqa: F401 - re-exported
     REVIEW_STATES,
@@ -59,6 +59,7 @@ from usvips.store.records import (  # noqa: F401 - re-exported
     Vertex,
 )
 from usvips.store.schema import SCHEMA_VERSION, migrate
+from usvips.store.versions import UNREAD
 
 FORMAT = "usvips-project"
 #: the ``meta`` key holding the campaign (JSON of :class:`~usvips.core.campaign.Campaign`)
@@ -87,9 +88,7 @@ def refuse_stale(where: object, stored: StoredObject, expected_modified: str | N
     """An edit made on an object as read at ``expected_modified`` is refused when it has changed since.
     ``by``: who made the last change and what (from the history), named in the refusal."""
     if expected_modified is not None and stored.modified != expected_modified:
-        raise StaleEditError(f"{where}: object {stored.id} was changed by someone else since it was read "
-                             f"({by + ', ' if by else ''}now modified {stored.modified}, read at {expected_modified}); "
-                             "reload it and edit again (nothing was changed)")
+        versions.refuse_stale_object(where, stored.id, stored.modified, expected_modified, by)
 
 
 def _pick_key(vertex: Vertex) -> tuple:
@@ -558,11 +557,12 @@ class Project:
         return None if not rows else int(rows[0][0])
 
     # ---------------------------------------------------------------------------- control
-    def set_control(self, control: ControlPoints) -> None:
+    def set_control(self, control: ControlPoints, expected: object = UNREAD) -> None:
         sig = control.sigmas if control.sigmas is not None else np.full((len(control), 3), np.nan)
         rows = [(pid, *map(float, control.xyz[i]), *(None if np.isnan(v) else float(v) for v in sig[i]))
                 for i, pid in enumerate(control.ids)]
         with self.transaction():
+            self._refuse_changed("control points", self.control(), expected)
             self._db.execute("DELETE FROM control_points")
             try:
                 self._db.executemany("INSERT INTO control_points VALUES (?, ?, ?, ?, ?, ?, ?)", rows)
@@ -578,11 +578,13 @@ class Project:
                              sigmas, str(self.path))
 
     def add_control_observations(self, observations: StereoObservations, role: str, pair: str,
-                                 replace: bool = False) -> None:
+                                 replace: bool = False, expected: object = UNREAD) -> None:
         """Store a pair's control observations for a role; ``replace`` swaps the stored set for this one
         in the same transaction (a calibration wizard saving what it used)."""
         with self.transaction():
             pair_id = self.pair_id(pair)
+            self._refuse_changed(f"{role} observations of pair {pair!r}", self.control_observations(role, pair),
+                                 expected)
             rows = [(pair_id, pid, *map(float, observations.left[i]), *map(float, observations.right[i]), role)
                     for i, pid in enumerate(observations.ids)]
             if replace:
@@ -666,6 +668,18 @@ class Project:
         """:func:`refuse_stale` naming who made the last change (inside the caller's transaction)."""
         if expected_modified is not None and stored.modified != expected_modified:
             refuse_stale(self.path, stored, expected_modified, self._last_change(stored.id))
+
+    def _refuse_changed(self, item: str, stored: object, expected: object) -> None:
+        """Inside the caller's write transaction: a project-wide ``item`` (the campaign, a deployment …)
+        whose ``stored`` value is not the one the writer read (``expected``) is refused by name (who last
+        wrote it and when); else this write is stamped as the last one of ``item``. See
+        :mod:`usvips.store.versions`."""
+        key = versions.stamp_key(item)
+        if not versions.same_version(stored, expected):
+            row = self._db.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
+            versions.refuse_changed(self.path, item, None if row is None else row[0])
+        self._db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (key, versions.stamp_value(self.annotator,
+                                                                                                 _now())))
 
     def history(self, object_id: int | None = None) -> list[HistoryEntry]:
         """Every recorded change (of one object when ``object_id`` is given, also after it was deleted),
@@ -937,7 +951,8 @@ class Project:
         return [StoredObject(*row, vertices=tuple(vertices.get(row[0], ()))) for row in rows]
 
     # ---------------------------------------------------------------------------- instants (schema 7)
-    def add_instant(self, object_id: int, instant_id: int, tracked_from: int | None = None) -> None:
+    def add_instant(self, object_id: int, instant_id: int, tracked_from: int | None = None,
+                    expected_modified: str | None = None) -> None:
         """Make the stored object ``instant_id`` a further instant of ``object_id`` (see
         :meth:`ProjectStore.add_instant`)."""
         if tracked_from is not None and (isinstance(tracked_from, bool) or not isinstance(tracked_from, Integral)
@@ -946,6 +961,7 @@ class Project:
                                "track started from is a whole number >= 0")
         with self.transaction():
             whole, instant = self.object(object_id), self.object(instant_id)
+            self._refuse_stale(instant, expected_modified)
             if object_id == instant_id:
                 raise ProjectError(f"{self.path}: object {object_id} cannot be an instant of itself")
             if whole.kind != instant.kind:
@@ -964,15 +980,20 @@ class Project:
             tracked = None if tracked_from is None else int(tracked_from)
             self._edit("INSERT INTO object_instants (object_id, of_object, tracked_from) VALUES (?, ?, ?)",
                        (instant_id, object_id, tracked))
+            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(instant.modified), instant_id))
             self._log(instant_id, "edit", {"instant_of": None}, _link(object_id, tracked))
 
-    def remove_instant(self, instant_id: int) -> None:
-        """Unlink an instant: it stays, as an object of its own."""
+    def remove_instant(self, instant_id: int, expected_modified: str | None = None) -> None:
+        """Unlink an instant: it stays, as an object of its own (its ``modified`` stamp moves forward;
+        ``expected_modified`` as for :meth:`update_object`)."""
         with self.transaction():
+            instant = self.object(instant_id)
+            self._refuse_stale(instant, expected_modified)
             of = self.instant_links().get(int(instant_id))
             tracked = self.instant_sources(of).get(int(instant_id)) if of is not None else None
             if of is None or self._edit("DELETE FROM object_instants WHERE object_id = ?", (instant_id,)).rowcount == 0:
                 raise ProjectError(f"{self.path}: object {instant_id} is not an instant of another object")
+            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(instant.modified), instant_id))
             self._log(instant_id, "edit", _link(of, tracked), {"instant_of": None})
 
     def instants(self, object_id: int) -> list[int]:
@@ -1013,15 +1034,19 @@ class Project:
         return [r[0] for r in self._query("SELECT term FROM vocabulary WHERE category = ? ORDER BY term",
                                           (category,))]
 
-    def set_enhancement(self, image_key: str, pipeline_json: str) -> None:
-        self._edit("INSERT OR REPLACE INTO enhancements VALUES (?, ?)", (image_key, pipeline_json))
+    def set_enhancement(self, image_key: str, pipeline_json: str, expected: object = UNREAD) -> None:
+        with self.transaction():
+            self._refuse_changed(f"enhancement of {image_key!r}", self.enhancement(image_key), expected)
+            self._edit("INSERT OR REPLACE INTO enhancements VALUES (?, ?)", (image_key, pipeline_json))
 
-    def set_draft(self, name: str, text: str | None) -> None:
+    def set_draft(self, name: str, text: str | None, expected: object = UNREAD) -> None:
         """Keep (or, with None, drop) a half-finished piece of work, e.g. a calibration wizard's state."""
-        if text is None:
-            self._edit("DELETE FROM meta WHERE key = ?", (f"draft:{name}",))
-        else:
-            self._edit("INSERT OR REPLACE INTO meta VALUES (?, ?)", (f"draft:{name}", text))
+        with self.transaction():
+            self._refuse_changed(f"draft {name!r}", self.draft(name), expected)
+            if text is None:
+                self._edit("DELETE FROM meta WHERE key = ?", (f"draft:{name}",))
+            else:
+                self._edit("INSERT OR REPLACE INTO meta VALUES (?, ?)", (f"draft:{name}", text))
 
     def draft(self, name: str) -> str | None:
         rows = self._query("SELECT value FROM meta WHERE key = ?", (f"draft:{name}",))
@@ -1090,16 +1115,33 @@ class Project:
         rows = self._query("SELECT path, size, sha256 FROM media ORDER BY path")
         return [(stored, self.path.parent / stored, int(size), sha) for stored, size, sha in rows]
 
-    def accept_media(self, stored: str) -> None:
-        """Take the file now at a recorded media path as the one the project means (after the user has
-        looked at it): its size, SHA-256 and sampled hash are recorded anew."""
-        if self._db.execute("SELECT 1 FROM media WHERE path = ?", (stored,)).fetchone() is None:
+    def _refuse_changed_media(self, stored: str, expected_sha256: str | None) -> None:
+        """Inside the caller's write transaction: a recorded media file gone (relocated) or accepted anew
+        since the writer read its SHA-256 ``expected_sha256`` is refused by name; else this write is
+        stamped as the file's last change."""
+        row = self._db.execute("SELECT sha256 FROM media WHERE path = ?", (stored,)).fetchone()
+        if row is None:
+            stamp = self._db.execute("SELECT value FROM meta WHERE key = ?",
+                                     (versions.stamp_key(f"media file {stored}"),)).fetchone()
+            if stamp is not None:
+                versions.refuse_changed(self.path, f"media file {stored}", stamp[0])
             raise ProjectError(f"{self.path}: no media file {stored!r} in the project")
+        self._refuse_changed(f"media file {stored}", row[0], UNREAD if expected_sha256 is None else expected_sha256)
+
+    def accept_media(self, stored: str, expected_sha256: str | None = None) -> None:
+        """Take the file now at a recorded media path as the one the project means (after the user has
+        looked at it): its size, SHA-256 and sampled hash are recorded anew. ``expected_sha256``: the
+        SHA-256 recorded when the caller read it (:meth:`media_records`); accepted or relocated since by
+        someone else is a ``StaleEditError`` naming who and when."""
+        if self._db.execute("SELECT 1 FROM media WHERE path = ?", (stored,)).fetchone() is None:
+            with self.transaction():
+                self._refuse_changed_media(stored, expected_sha256)
         path = self.path.parent / stored
         if not path.is_file():
             raise ProjectError(f"{self.path}: the media file {stored} is missing; relocate it instead")
         size, sha = path.stat().st_size, file_hash(path)
         with self.transaction():
+            self._refuse_changed_media(stored, expected_sha256)
             self._db.execute("UPDATE media SET size = ?, sha256 = ? WHERE path = ?", (size, sha, stored))
             self._db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (_sample_key(stored), sampled_hash(path)))
             self._db.execute("UPDATE image_pairs SET left_hash = ? WHERE left_path = ?", (sha, stored))
@@ -1131,11 +1173,13 @@ class Project:
                              "its SHA-256 differs)"))
         return problems
 
-    def relocate_media(self, stored: str, new_path: str | Path) -> str:
-        """Point a recorded media file at its new place; the file there must be the same (size and SHA-256)."""
+    def relocate_media(self, stored: str, new_path: str | Path, expected_sha256: str | None = None) -> str:
+        """Point a recorded media file at its new place; the file there must be the same (size and SHA-256).
+        ``expected_sha256`` as for :meth:`accept_media` (relocated by someone else since: refused by name)."""
         row = self._db.execute("SELECT size, sha256 FROM media WHERE path = ?", (stored,)).fetchone()
         if row is None:
-            raise ProjectError(f"{self.path}: no media file {stored!r} in the project")
+            with self.transaction():
+                self._refuse_changed_media(stored, expected_sha256)
         new_path = Path(new_path)
         if not new_path.is_file():
             raise ProjectError(f"{new_path}: no such file")
@@ -1143,6 +1187,8 @@ class Project:
             raise ProjectError(f"{new_path}: not the file that was added as {stored} (size or SHA-256 differs)")
         new = self._relative(new_path)
         with self.transaction():
+            self._refuse_changed_media(stored, expected_sha256)
+            self._refuse_changed(f"media file {new}", None, UNREAD)
             try:
                 self._db.execute("UPDATE media SET path = ? WHERE path = ?", (new, stored))
                 self._db.execute("DELETE FROM meta WHERE key = ?", (_sample_key(stored),))
@@ -1207,10 +1253,14 @@ class Project:
                                    "(is the label already used?)") from None
         return video_id
 
-    def activate_calibration(self, label: str, calibration_id: int) -> None:
-        """Make a stored calibration the active one of a pair (or video)."""
+    def activate_calibration(self, label: str, calibration_id: int, expected: object = UNREAD) -> None:
+        """Make a stored calibration the active one of a pair (or video); ``expected``: the id active when
+        read (None: none was), a stale write is refused (:mod:`usvips.store.versions`)."""
         self.calibration(calibration_id)
-        self._edit("INSERT OR REPLACE INTO active_calibrations VALUES (?, ?)", (self.pair_id(label), calibration_id))
+        with self.transaction():
+            self._refuse_changed(f"active calibration of {label!r}", self.active_calibration(label), expected)
+            self._edit("INSERT OR REPLACE INTO active_calibrations VALUES (?, ?)",
+                       (self.pair_id(label), calibration_id))
 
     def _video_row(self, label: str) -> tuple:
         found = self._query("SELECT id, label, fps, frame_count, width, height, offset_frames, offset_estimate, "
@@ -1246,14 +1296,17 @@ class Project:
     def _has_table(self, name: str) -> bool:
         return bool(self._query("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)))
 
-    def set_video_offset(self, label: str, frames: int, estimate: dict | None = None) -> None:
+    def set_video_offset(self, label: str, frames: int, estimate: dict | None = None,
+                         expected: object = UNREAD) -> None:
         """Left frame i and right frame i + ``frames`` show the same instant; ``estimate``: how it was found."""
         row = self._video_row(label)
         if not isinstance(frames, (int, np.integer)) or abs(int(frames)) >= row[3]:
             raise ProjectError(f"video {label!r}: offset {frames} frames is not a whole number smaller than the "
                                f"video ({row[3]} frames)")
-        self._edit("UPDATE videos SET offset_frames = ?, offset_estimate = ? WHERE id = ?",
-                   (int(frames), json.dumps(estimate) if estimate else None, row[0]))
+        with self.transaction():
+            self._refuse_changed(f"offset of video {label!r}", self._video_row(label)[6], expected)
+            self._edit("UPDATE videos SET offset_frames = ?, offset_estimate = ? WHERE id = ?",
+                       (int(frames), json.dumps(estimate) if estimate else None, row[0]))
 
     def media_path(self, stored: str) -> Path:
         """The absolute path of a stored media path; raises (naming it) if it has gone missing or is not
@@ -1354,9 +1407,10 @@ class Project:
         return target
 
     # ---------------------------------------------------------------------------- species and records
-    def set_species_list(self, species: list[Species]) -> None:
-        """Replace the project's species list (one transaction)."""
+    def set_species_list(self, species: list[Species], expected: object = UNREAD) -> None:
+        """Replace the project's species list (one transaction); ``expected``: the list as read."""
         with self.transaction():
+            self._refuse_changed("species list", self.species_list(), expected)
             try:
                 self._db.execute("DELETE FROM species")
                 self._db.executemany("INSERT INTO species (family, genus, species, code, max_length_m) "
@@ -1374,13 +1428,15 @@ class Project:
         rows = self._db.execute(f"SELECT family, genus, species, code, {maximum} FROM species ORDER BY genus, species")
         return [Species(*row) for row in rows.fetchall()]
 
-    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
+    def set_record(self, object_id: int, record: ObservationRecord | None,
+                   expected_modified: str | None = None) -> None:
         """Store (or with None remove) an object's observation record, stamped with this handle's annotator
         and the time; the object's ``modified`` stamp moves forward and the history keeps the record before
         and after; an accepted object whose record changed goes back to unreviewed (a second 'review' row,
         see :meth:`_edited_after_review`). One transaction."""
         with self.transaction():
             stored = self.object(object_id)
+            self._refuse_stale(stored, expected_modified)
             old = self.record(object_id)
             if record is None:
                 self._edit("DELETE FROM observation_records WHERE object_id = ?", (object_id,))
@@ -1413,19 +1469,24 @@ class Project:
         return None if row is None else ObservationRecord(*row)
 
     # ---------------------------------------------------------------------------- deployment and georeference
-    def set_deployment(self, deployment: Deployment | None, video: str | None = None) -> None:
+    def set_deployment(self, deployment: Deployment | None, video: str | None = None,
+                       expected: object = UNREAD) -> None:
         """Store (or with None remove) the deployment metadata of the whole project, or of one stereo
-        ``video`` (its label) when the project holds several deployments."""
+        ``video`` (its label) when the project holds several deployments. ``expected``: that scope's own
+        deployment as read (None: none), :mod:`usvips.store.versions`."""
         if video is not None:
             self._video_row(video)
         scope = video or ""
-        if deployment is None:
-            self._edit("DELETE FROM deployments WHERE scope = ?", (scope,))
-            return
-        values = [getattr(deployment, name) for name in DEPLOYMENT_FIELDS]
-        marks = ", ".join("?" * (len(values) + 1))
-        self._edit(f"INSERT OR REPLACE INTO deployments (scope, {', '.join(DEPLOYMENT_FIELDS)}) VALUES ({marks})",
-                   (scope, *[int(v) if isinstance(v, bool) else v for v in values]))
+        with self.transaction():
+            self._refuse_changed(f"deployment of video {video!r}" if video else "deployment",
+                                 self.deployments().get(scope), expected)
+            if deployment is None:
+                self._edit("DELETE FROM deployments WHERE scope = ?", (scope,))
+                return
+            values = [getattr(deployment, name) for name in DEPLOYMENT_FIELDS]
+            marks = ", ".join("?" * (len(values) + 1))
+            self._edit(f"INSERT OR REPLACE INTO deployments (scope, {', '.join(DEPLOYMENT_FIELDS)}) "
+                       f"VALUES ({marks})", (scope, *[int(v) if isinstance(v, bool) else v for v in values]))
 
     def deployments(self) -> dict[str, Deployment]:
         """Scope ('' for the project, else a video's label) → its deployment; none before schema 6."""
@@ -1445,8 +1506,13 @@ class Project:
         stored = self.deployments()
         return stored.get(video or "", stored.get(""))
 
-    def set_georeference(self, georeference: Georeference | None) -> None:
-        """Store (or with None remove) where the object frame lies on the Earth."""
+    def set_georeference(self, georeference: Georeference | None, expected: object = UNREAD) -> None:
+        """Store (or with None remove) where the object frame lies on the Earth; ``expected``: as read."""
+        with self.transaction():
+            self._refuse_changed("georeference", self.georeference(), expected)
+            self._set_georeference(georeference)
+
+    def _set_georeference(self, georeference: Georeference | None) -> None:
         if georeference is None:
             self._edit("DELETE FROM georeference")
             return
@@ -1462,9 +1528,21 @@ class Project:
         return Georeference(*rows[0]) if rows else None
 
     # ---------------------------------------------------------------------------- campaign (GlobalArchive)
-    def set_campaign(self, campaign: Campaign | None) -> None:
+    def set_campaign(self, campaign: Campaign | None, expected: object = UNREAD) -> None:
         """Store (or with None remove) the campaign the project's deployments belong to, as JSON in the
-        ``meta`` table (key ``campaign``: no schema change, every backend and a push/pull carry it)."""
+        ``meta`` table (key ``campaign``: no schema change, every backend and a push/pull carry it).
+        ``expected``: the campaign as read (None: none), :mod:`usvips.store.versions`."""
+        with self.transaction():
+            self._refuse_changed("campaign", self._stored_campaign_text(), UNREAD if expected is UNREAD else
+                                 (None if expected is None else
+                                  json.dumps(expected.to_dict(), ensure_ascii=False, sort_keys=True)))
+            self._set_campaign(campaign)
+
+    def _stored_campaign_text(self) -> str | None:
+        rows = self._db.execute("SELECT value FROM meta WHERE key = ?", (CAMPAIGN_KEY,)).fetchall()
+        return rows[0][0] if rows else None
+
+    def _set_campaign(self, campaign: Campaign | None) -> None:
         if campaign is None:
             self._edit("DELETE FROM meta WHERE key = ?", (CAMPAIGN_KEY,))
         else:

@@ -24,6 +24,12 @@ class StaleEditError(ProjectError):
     versions of a shared survey): reload the object and edit again."""
 
 
+class ServerUnreachableError(ProjectError):
+    """The server a survey is on did not answer (stopped, restarted, the network gone): what was being
+    written was not stored. The store connects again (with back-off) on the next use; a window keeps the
+    unsaved edit for retry or discard and reads its state afresh once connected."""
+
+
 @dataclass(frozen=True)
 class Vertex:
     """One vertex of a measured object: its picks (pixels) and, once intersected, X, Y, Z (m) and the

@@ -16,6 +16,7 @@ import os
 import sqlite3
 from pathlib import Path
 
+from usvips.store.opening import parse_server_location
 from usvips.store.postgres import ServerProject, new_survey, public_location
 from usvips.store.postgres_schema import IDENTITY_TABLES, SERVER_SCHEMA_VERSION, TABLES
 from usvips.store.project import Project, database_problem
@@ -67,6 +68,7 @@ def push(path: str | Path, url: str) -> str:
     """Copy the SQLite project ``path`` to a new survey at ``url`` (a database that does not exist yet, or
     an empty one); returns the survey's location (without password). All or nothing."""
     path = Path(path)
+    parse_server_location(url)  # an address that cannot be read is refused before the file is opened
     rows = file_rows(path)
 
     def fill(connection) -> None:
