@@ -196,15 +196,16 @@ def per_vertex(pointing_sigma_px: float | np.ndarray | None, count: int) -> np.n
 @dataclass(frozen=True)
 class WeakMatch:
     """An auto-match accepted although the matcher refused it (ambiguous, textureless, a low score): its
-    correlation ``score`` (NCC, −1..1) and the matcher's ``reason``. A stored fact of the vertex, for the
-    quality rules — never a note a later edit can erase."""
+    correlation ``score`` (NCC, −1..1; None when the proposal came without one, e.g. from a track) and the
+    ``reason``. A stored fact of the vertex, for the quality rules — never a note a later edit can erase."""
 
-    score: float
+    score: float | None
     reason: str
 
     @property
     def text(self) -> str:
-        return f"weak auto-match accepted (correlation {self.score:.2f}: {self.reason})"
+        score = f"correlation {self.score:.2f}: " if self.score is not None else ""
+        return f"weak auto-match accepted ({score}{self.reason})"
 
 
 def vertex_pointing(sources: list[str], sigmas: list[tuple[float, float] | None], origins: list[str]

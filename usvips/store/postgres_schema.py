@@ -145,7 +145,7 @@ ALTER TABLE vertices ADD COLUMN pointing_origin TEXT CHECK (pointing_origin IS N
     ('default', 'given', 'estimated'));
 ALTER TABLE vertices ADD COLUMN weak_score {REAL};
 ALTER TABLE vertices ADD COLUMN weak_reason TEXT;
-ALTER TABLE vertices ADD CONSTRAINT vertices_weak_check CHECK ((weak_reason IS NULL) = (weak_score IS NULL));
+ALTER TABLE vertices ADD CONSTRAINT vertices_weak_check CHECK (weak_score IS NULL OR weak_reason IS NOT NULL);
 UPDATE vertices SET pointing_source = 'hand click (unknown)';
 """
 

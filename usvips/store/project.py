@@ -117,8 +117,9 @@ def _pointing_row(vertex: Vertex, path) -> tuple:
     except UsvipsError as error:
         raise ProjectError(f"{path}: cannot store the vertex: {error}") from None
     weak = vertex.weak
-    return (vertex.source, *(sigma.tolist() if sigma is not None else (None, None)), origin,
-            None if weak is None else float(weak.score), None if weak is None else str(weak.reason))
+    score = None if weak is None or weak.score is None else float(weak.score)
+    return (vertex.source, *(sigma.tolist() if sigma is not None else (None, None)), origin, score,
+            None if weak is None else str(weak.reason))
 
 
 def _pointing_fields(row: tuple) -> dict:
@@ -128,7 +129,7 @@ def _pointing_fields(row: tuple) -> dict:
     return {"source": source or MIGRATED_SOURCE,
             "pointing_px": None if left is None or right is None else (float(left), float(right)),
             "pointing_origin": origin or "default",
-            "weak": None if score is None else WeakMatch(float(score), reason or "")}
+            "weak": None if reason is None else WeakMatch(None if score is None else float(score), reason)}
 
 
 def _kept_pointing(vertex: Vertex, stored: Vertex) -> Vertex:
@@ -159,7 +160,7 @@ def _vertex_state(vertex: Vertex) -> dict:
     if vertex.pointing_px is not None:
         state.update(pointing_px=[float(c) for c in vertex.pointing_px], pointing_origin=vertex.pointing_origin)
     if vertex.weak is not None:
-        state["weak"] = {"score": float(vertex.weak.score), "reason": vertex.weak.reason}
+        state["weak"] = {"score": vertex.weak.score, "reason": vertex.weak.reason}
     return state
 
 

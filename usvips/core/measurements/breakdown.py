@@ -41,6 +41,8 @@ def sigma_notes(m: Measurement) -> tuple[str, ...]:
     notes = list(m.marks)
     if m.pointing_sigma_px is None:
         notes.append("from stored per-vertex values: no breakdown")
+    elif m.combined:
+        notes.append(f"combined over {m.instant_count} instants: each instant has its own breakdown")
     return tuple(notes)
 
 
