@@ -30,7 +30,7 @@ def test_an_argus_file_imports_and_reproduces_the_cameras(argus, tmp_path, capsy
     assert main(["calibration", "import", "--format", "dlt", str(path), "--origin", "bottom-left", "--one-based",
                  "--image-size", f"1280x{HEIGHT}", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
-    assert "sigma0 0.5 px (assumed" in printed
+    assert "sigma0 0.5 px ASSUMED" in printed
     assert "right camera: skew 3 px dropped" in printed and "left camera: skew" not in printed
     rig = load_calibration(out).rig("dlt")
     left = rig.left.project(points).pixels

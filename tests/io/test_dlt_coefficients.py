@@ -56,7 +56,7 @@ def test_a_known_rig_is_read_back_in_every_layout_and_origin(tmp_path, origin, o
         for camera, coefficients in zip((rig.left, rig.right), ours, strict=True):
             seen = camera.project(points)
             assert np.abs(seen.pixels - dlt_pixels(coefficients, points)).max() < 1e-6
-        assert calibration.statistics["sigma0_assumed"] is True and calibration.sigma0_px == 0.5
+        assert calibration.sigma0_origin == "assumed" and calibration.sigma0_px == 0.5
 
 
 def test_skew_is_dropped_and_its_effect_stated_and_a_stated_rms_is_sigma0(tmp_path):
@@ -69,7 +69,7 @@ def test_skew_is_dropped_and_its_effect_stated_and_a_stated_rms_is_sigma0(tmp_pa
     assert decomposed["left"].skew == pytest.approx(4.0)
     effect = calibration.statistics["skew_px"]["left"]
     assert effect["top"] > effect["middle"] > 0 and effect["bottom"] > effect["middle"]
-    assert calibration.sigma0_px == 0.42 and calibration.statistics["sigma0_assumed"] is False
+    assert calibration.sigma0_px == 0.42 and calibration.sigma0_origin == "stated"
 
 
 @pytest.mark.parametrize("text, message", [

@@ -41,12 +41,15 @@ POINT_COLUMNS = ("id", "X", "Y", "Z", "sX", "sY", "sZ")
 class IntersectOptions:
     """How to intersect: the calibrated ``station`` (index or pair label) and ``frame`` (``object``: the
     control frame at the station; ``rig``: left perspective centre, left axes); whether the sigmas include
-    the calibration's own uncertainty (else the pointing precision alone); whether points that do not
-    intersect are left out (listed) instead of failing the run; the rows per chunk."""
+    the calibration's own uncertainty (else the pointing precision alone); the picks' pointing sigma
+    (px, one image coordinate; the hand-click default of :mod:`usvips.core.pointing` when None — never the
+    calibration's sigma0); whether points that do not intersect are left out (listed) instead of failing
+    the run; the rows per chunk."""
 
     station: int | str = 0
     frame: str = "object"
     include_calibration: bool = True
+    pointing_sigma_px: float | None = None
     skip_failed: bool = False
     chunk_rows: int = CHUNK_ROWS
 
@@ -81,7 +84,8 @@ def intersect_chunk(calibration: StereoCalibration, chunk: StereoObservations,
                     options: IntersectOptions) -> Intersection:
     """The intersection of one chunk's conjugate pixels (each point on its own)."""
     return intersect_with_calibration(calibration, chunk.left, chunk.right, options.station, options.frame,
-                                      include_calibration=options.include_calibration)
+                                      include_calibration=options.include_calibration,
+                                      pointing_sigma_px=options.pointing_sigma_px)
 
 
 def point_rows(ids: tuple[str, ...], result: Intersection) -> list[list[str]]:

@@ -21,6 +21,7 @@ from usvips.io.opencv_calibration import (
     opencv_targets,
     parse_image_size,
     read_opencv_stereo,
+    sigma0_statement,
     write_opencv_stereo,
 )
 
@@ -39,8 +40,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     importer.add_argument("--image-size", metavar="WxH", help="image size in pixels, where the files do not carry it")
     importer.add_argument("--unit", choices=sorted(UNITS), default="m",
                           help="unit of OpenCV's T (the board's unit; default m)")
-    importer.add_argument("--sigma0", type=float, default=0.5,
-                          help="pointing precision to carry as sigma0 (pixels; OpenCV files hold none)")
+    importer.add_argument("--sigma0", type=float, metavar="PX",
+                          help="the calibration's sigma0 (pixels, one image coordinate); default: from the residual "
+                               "the file states (rms, avg_reprojection_error, per-view errors), else 0.5 px marked "
+                               "assumed")
     importer.add_argument("--format", choices=["opencv", "dlt"], default="opencv",
                           help="opencv (default) or dlt: 11 DLT coefficients per camera (StereoMorph, DLTdv, Argus, "
                                "VidSync: 11 rows, a column per camera, or a row of 11 per camera)")
@@ -90,9 +93,9 @@ def run_import_dlt(args: argparse.Namespace, size: tuple[int, int] | None) -> in
             raise InvalidParameterError(names.get(error.parameter, error.parameter), error.problem) from None
         save_calibration(calibration, args.out)
     baseline = float(np.linalg.norm(calibration.relative.base))
-    assumed = " (assumed: the file states no residuals; --sigma0)" if calibration.statistics["sigma0_assumed"] else ""
     print(f"wrote {args.out}: in-air stereo rig from DLT coefficients, baseline {baseline:.4f} m, "
-          f"f {cameras['left'].f:.2f} / {cameras['right'].f:.2f} px, sigma0 {calibration.sigma0_px:g} px{assumed}")
+          f"f {cameras['left'].f:.2f} / {cameras['right'].f:.2f} px")
+    print(sigma0_statement(calibration) + (" (--sigma0 PX gives it)" if calibration.sigma0_origin == "assumed" else ""))
     for side, camera in cameras.items():
         effect = calibration.statistics["skew_px"][side]
         if max(effect[band] for band in ("top", "middle", "bottom")) >= 0.001:  # rounding's skew is none
@@ -117,7 +120,9 @@ def run_import(args: argparse.Namespace) -> int:
     baseline = float(np.linalg.norm(calibration.relative.base))
     print(f"wrote {args.out}: in-air stereo rig, baseline {baseline:.4f} m, "
           f"f {left.interior.f:.2f} / {right.interior.f:.2f} px, {where}")
+    print(sigma0_statement(calibration) + (" (--sigma0 PX gives it)" if calibration.sigma0_origin == "assumed" else ""))
     return 0
+
 
 
 def run_export(args: argparse.Namespace) -> int:

@@ -1,15 +1,20 @@
 """``usvips intersect``: 3-D points with sigmas from conjugate pixels and a calibration.
 
-The sigmas combine the pointing precision (the calibration's a-posteriori sigma0) and the calibration's
-own uncertainty (its parameter covariance, propagated to every point). The file is read, intersected and
-written in chunks (:mod:`usvips.app.intersect_file`)."""
+The sigmas combine the picks' pointing precision (``--pointing-sigma PX``, pixels per image coordinate;
+without it the hand-click default of ``usvips.core.pointing`` — never the calibration's sigma0, which is
+that of its own corners or targets) and the calibration's own uncertainty (its parameter covariance,
+propagated to every point). The file is read, intersected and written in chunks
+(:mod:`usvips.app.intersect_file`)."""
 
 from __future__ import annotations
 
 import argparse
 
 from usvips.app.intersect_file import FailedPointsError, IntersectOptions, intersect_file
+from usvips.cli.common import add_pointing_option
 from usvips.core.errors import DegenerateGeometryError
+from usvips.core.measurements import calibration_marks
+from usvips.core.pointing import HAND_CLICK_SIGMA_PX
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
 
@@ -27,6 +32,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="sigmas from the pointing precision alone, without the calibration's own uncertainty")
     parser.add_argument("--skip-failed", action="store_true",
                         help="write the points that intersect and list the others, instead of stopping")
+    add_pointing_option(parser)
     parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
                         "USVIPS calibration or project (the old file is kept as NAME.bak)")
     parser.set_defaults(handler=run)
@@ -35,7 +41,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def options(args: argparse.Namespace) -> IntersectOptions:
     """The run's options from the command line."""
     return IntersectOptions(station=int(args.station) if args.station.isdigit() else args.station, frame=args.frame,
-                            include_calibration=not args.pointing_only, skip_failed=args.skip_failed)
+                            include_calibration=not args.pointing_only, skip_failed=args.skip_failed,
+                            pointing_sigma_px=HAND_CLICK_SIGMA_PX if args.pointing_sigma is None
+                            else args.pointing_sigma)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -54,6 +62,9 @@ def _run(args: argparse.Namespace) -> int:
             "failed; --skip-failed writes the others)") from None
     print(f"intersected {summary.written} of {summary.points} points (ray residual RMS {summary.rms_px:.3f} px, "
           f"sigma0 {calibration.sigma0_px:.3f} px); wrote {args.out}")
+    pointing = HAND_CLICK_SIGMA_PX if args.pointing_sigma is None else args.pointing_sigma
+    said = ("given" if args.pointing_sigma is not None else "the hand-click default; --pointing-sigma PX states yours")
+    print("; ".join([f"pointing sigma {pointing:g} px ({said})", *calibration_marks(calibration)]))
     for point, reason in summary.skipped:
         print(f"  skipped point {point}: {reason}")
     return 0

@@ -28,9 +28,10 @@ from usvips.app.measure import (
     measure_into_project,
     measure_objects,
     measurement_row,
+    pointing_line,
     read_picks,
 )
-from usvips.cli.common import add_annotator_option, csv_text, write_text_atomic
+from usvips.cli.common import add_annotator_option, add_pointing_option, csv_text, write_text_atomic
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
@@ -59,6 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                         "the frame synchronised with it)")
     parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
                         "USVIPS calibration or project (the old file is kept as NAME.bak); never the --project")
+    add_pointing_option(parser)
     add_annotator_option(parser)
     parser.set_defaults(handler=run)
 
@@ -100,13 +102,17 @@ def _run(args: argparse.Namespace) -> int:
     if args.project is not None:
         label = args.pair if args.video is None else args.video
         with open_project(args.project) as project:
-            measured, ids = measure_into_project(project, label, objects, where=args.picks, frame=args.video_frame)
+            measured, ids = measure_into_project(project, label, objects, where=args.picks, frame=args.video_frame,
+                                                 pointing_sigma_px=args.pointing_sigma)
         place = f"pair {label}" if args.video is None else f"video {label}, frame {args.video_frame}"
         print(f"stored {len(ids)} objects in {shown(args.project)} ({place}): ids {', '.join(map(str, ids))}")
     else:
         station = args.station if args.station is not None else "0"
         station = int(station) if station.isdigit() else station
-        measured = measure_objects(calibration, objects, station, args.frame or "object", where=args.picks)
+        measured = measure_objects(calibration, objects, station, args.frame or "object", where=args.picks,
+                                   pointing_sigma_px=args.pointing_sigma)
+    print(pointing_line(measured[0] if measured else None, args.pointing_sigma)
+          + ("" if args.pointing_sigma is not None else " (--pointing-sigma PX to state yours)"))
     if args.out is not None:
         write_text_atomic(args.out, csv_text(OUT_COLUMNS, [measurement_row(m) for m in measured]))
         print(f"measured {len(measured)} objects; wrote {args.out}")

@@ -5,8 +5,9 @@ The file: a table of numbers separated by commas, tabs or spaces — 11 rows wit
 layout DLTdv and Argus write, ``*-dlt-coefs.csv``), or one row of 11 per camera. Blank lines and lines
 starting with ``#`` are skipped, one header line of words is allowed at the top. A comment
 ``# rms_px: 0.43`` (or a row ``rms_px,0.43``) states the reprojection RMS the tool reported: it becomes the
-calibration's sigma0; without it sigma0 is an assumed value, marked as such in the calibration's statistics
-(``sigma0_assumed``).
+calibration's sigma0 (origin ``stated``); a value the user gives is ``given``; without either it is an assumed
+value, marked ``assumed`` (``statistics["sigma0_origin"]``, :attr:`StereoCalibration.sigma0_origin`, as an
+OpenCV import's), which every figure made with it says.
 
 Conventions. Coefficients L1…L11 map object points to pixels, u = (L1 X + L2 Y + L3 Z + L4) / (L9 X + L10 Y
 + L11 Z + 1) and v likewise with L5…L8. Their pixels are turned into USVIPS's (x right, y down, the origin at
@@ -29,6 +30,7 @@ from usvips.core.dlt import DltCamera, camera_from_matrix, matrix_from_coefficie
 from usvips.core.errors import DegenerateGeometryError, InputFileError, InvalidParameterError
 from usvips.core.interior import Interior
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
+from usvips.io.opencv_calibration import ASSUMED_SIGMA0_PX
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 ORIGINS = ("top-left", "bottom-left")
@@ -109,13 +111,14 @@ def to_usvips_pixels(matrix: np.ndarray, origin: str, one_based: bool, height: i
 
 def calibration_from_dlt(path: str | Path, cameras: tuple[int, int] = (1, 2), origin: str = "top-left",
                          one_based: bool = False, size: tuple[int, int] | None = None, unit: str = "m",
-                         sigma0_px: float = 0.5) -> tuple[StereoCalibration, dict[str, DltCamera]]:
+                         sigma0_px: float | None = None) -> tuple[StereoCalibration, dict[str, DltCamera]]:
     """A USVIPS in-air stereo calibration (one station ``dlt``, the DLT's object frame) from the DLT file at
     ``path``: ``cameras`` are the 1-based numbers of the left and right camera in the file. Returns it and the
-    decomposed cameras (their skew). sigma0 is the file's stated RMS, else ``sigma0_px`` marked as assumed."""
+    decomposed cameras (their skew). sigma0 is ``sigma0_px`` when given, else the file's stated RMS, else
+    :data:`usvips.io.opencv_calibration.ASSUMED_SIGMA0_PX` marked as assumed."""
     if unit not in UNITS:
         raise InvalidParameterError("unit", f"must be one of {', '.join(UNITS)}, got {unit!r}")
-    if not (np.isfinite(sigma0_px) and sigma0_px > 0):
+    if sigma0_px is not None and not (np.isfinite(sigma0_px) and sigma0_px > 0):
         raise InvalidParameterError("sigma0", f"must be > 0 pixels, got {sigma0_px}")
     coefficients, rms = read_coefficients(path)
     count = len(coefficients)
@@ -143,10 +146,18 @@ def calibration_from_dlt(path: str | Path, cameras: tuple[int, int] = (1, 2), or
     for suffix, camera in (("l", placed[0]), ("r", placed[1])):
         for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3"):
             parameters[f"{name}_{suffix}"] = ParameterEstimate(float(getattr(camera.interior, name)), None, "fixed")
-    statistics = {"sigma0_assumed": rms is None,
+    if sigma0_px is not None:
+        sigma0, origin = float(sigma0_px), "given"
+    elif rms is not None:
+        sigma0, origin = float(rms), "stated"
+    else:
+        sigma0, origin = ASSUMED_SIGMA0_PX, "assumed"
+    statistics = {"sigma0_origin": origin,
                   "skew_px": {side: {"skew": c.skew, **skew_effect(c, height)} for side, c in decomposed.items()}}
+    if origin == "stated":
+        statistics["sigma0_basis"] = "the reprojection RMS the DLT file states"
     source = {"dlt": str(path), "cameras": list(cameras), "origin": origin, "one_based": one_based, "unit": unit}
-    calibration = StereoCalibration.from_cameras(placed[0], placed[1], "air", rms if rms is not None else sigma0_px,
+    calibration = StereoCalibration.from_cameras(placed[0], placed[1], "air", sigma0,
                                                  station="dlt", parameters=parameters, statistics=statistics,
                                                  source=source)
     return calibration, decomposed
