@@ -197,7 +197,8 @@ def _pointing_only(source: MeasurementInput, measured: Measurement) -> Measureme
         return measured
     try:
         result = intersect_with_calibration(source.calibration, source.left, source.right, source.station,
-                                            source.frame, include_calibration=False)
+                                            source.frame, include_calibration=False,
+                                            pointing_sigma_px=measured.pointing_sigma_px)
         return measure(source.kind, result.points, result.covariance, joint=False)
     except UsvipsError:
         return measured

@@ -30,6 +30,11 @@ class ParameterEstimate:
     status: str = "free"
 
 
+#: where a calibration's sigma0 comes from (``statistics["sigma0_origin"]``; see
+#: :attr:`StereoCalibration.sigma0_origin`)
+SIGMA0_ORIGINS = ("estimated", "stated", "given", "assumed")
+
+
 @dataclass(frozen=True)
 class StereoCalibration:
     """left/right: cameras (interior, housing, frame size; exterior = station 0's pose).
@@ -38,7 +43,8 @@ class StereoCalibration:
     relative: the right camera in the left camera's frame; phase: ``air``, ``water`` or ``joint``;
     sigma0_px: a-posteriori standard deviation of unit weight (pixels); parameters: every estimated or
     fixed parameter; covariance: (names, matrix) of the free parameters, or None; statistics: the
-    adjustment's figures (rms_px, redundancy, condition_number, ...); source: where the data came from.
+    adjustment's figures (rms_px, redundancy, condition_number, ...; ``sigma0_origin``, one of
+    :data:`SIGMA0_ORIGINS`, where an import put it); source: where the data came from.
     """
 
     left: Camera
@@ -67,6 +73,14 @@ class StereoCalibration:
         """A one-station calibration from two placed cameras (relative orientation derived)."""
         return cls(left, right, (station,), (left.exterior,),
                    relative_orientation(left.exterior, right.exterior), phase, sigma0_px, **kwargs)
+
+    @property
+    def sigma0_origin(self) -> str:
+        """Where :attr:`sigma0_px` comes from (:data:`SIGMA0_ORIGINS`): ``estimated`` by an adjustment
+        (the default: every calibration USVIPS computes), ``stated`` by an imported file's residuals,
+        ``given`` by the user at import, or ``assumed`` (an import that states no residual)."""
+        origin = self.statistics.get("sigma0_origin", "estimated")
+        return origin if origin in SIGMA0_ORIGINS else "estimated"
 
     def station_index(self, station: int | str) -> int:
         if isinstance(station, str):

@@ -1,6 +1,7 @@
 """Intersection with the calibration's own uncertainty propagated into every point.
 
-The pixel part of a point's covariance comes from the pointing precision (``intersection.py``). A
+The pixel part of a point's covariance comes from the pointing precision of its pixels (``pointing_sigma_px``,
+px per image coordinate, :mod:`usvips.core.pointing`; ``intersection.py``). A
 calibration estimated from few control points is itself uncertain, and that error is common to every
 point measured with it: its part is J Σ Jᵀ, with Σ the calibration's a-posteriori covariance of its free
 parameters and J = ∂point/∂parameter by forward differences (re-intersecting with each parameter stepped
@@ -34,6 +35,7 @@ from usvips.core.camera import EXTERIOR_PARAMETERS, Camera
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.interior import Interior
 from usvips.core.intersection import Intersection, TracedRays, intersect_traced, retrace, trace
+from usvips.core.pointing import per_vertex
 from usvips.core.rays import RayBundle
 from usvips.core.stereo_calibration import StereoCalibration
 
@@ -71,14 +73,18 @@ def _station_label(calibration: StereoCalibration, station: int | str) -> str:
 
 def intersect_with_calibration(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
                                station: int | str = 0, frame: str = "object",
-                               include_calibration: bool = True) -> Intersection:
+                               include_calibration: bool = True,
+                               pointing_sigma_px: float | np.ndarray | None = None) -> Intersection:
     """Intersect conjugate pixels (N, 2) with a calibrated rig; covariance = pointing + calibration.
 
-    The pointing precision is the calibration's a-posteriori sigma0 (pixels). Where the calibration has
-    no parameter covariance (e.g. imported from OpenCV), only the pointing part is given.
+    ``pointing_sigma_px``: the pixels' pointing precision (px, one coordinate): a scalar, (N,) per point or
+    (N, 2) [left, right] per point. None: the calibration's a-posteriori sigma0 — right for observations
+    of the kind the calibration was adjusted from (its own corners or targets), NOT for a person's picks:
+    the figure path (``usvips.core.measurements``) always passes the picks' own pointing sigma. Where the
+    calibration has no parameter covariance (e.g. imported from OpenCV), only the pointing part is given.
     """
     result, derivatives, sigma = _intersect_and_derivatives(calibration, left, right, station, frame,
-                                                            include_calibration)
+                                                            include_calibration, pointing_sigma_px)
     if derivatives is None:
         return result
     calibration_part = np.einsum("jni,jk,knl->nil", derivatives, sigma, derivatives, optimize=True)
@@ -87,37 +93,61 @@ def intersect_with_calibration(calibration: StereoCalibration, left: np.ndarray,
 
 
 def joint_covariance(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
-                     station: int | str = 0, frame: str = "object") -> tuple[Intersection, np.ndarray]:
+                     station: int | str = 0, frame: str = "object",
+                     pointing_sigma_px: float | np.ndarray | None = None) -> tuple[Intersection, np.ndarray]:
     """The intersection and the full (3N, 3N) covariance of all its points: the pointing part per point,
     and the calibration's part between every pair of points (a common calibration error correlates
-    them; a length between two points partly cancels it)."""
-    result, derivatives, sigma = _intersect_and_derivatives(calibration, left, right, station, frame, True)
+    them; a length between two points partly cancels it). ``pointing_sigma_px`` as in
+    :func:`intersect_with_calibration`."""
+    result, pointing, calibration_part = covariance_parts(calibration, left, right, station, frame,
+                                                          pointing_sigma_px)
+    return result, pointing + calibration_part
+
+
+def covariance_parts(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
+                     station: int | str = 0, frame: str = "object",
+                     pointing_sigma_px: float | np.ndarray | None = None
+                     ) -> tuple[Intersection, np.ndarray, np.ndarray]:
+    """The intersection and the two parts of its joint (3N, 3N) covariance (m²), which add up to
+    :func:`joint_covariance`'s: the pointing part (block diagonal: each point's pixels' pointing sigmas)
+    and the calibration's part (J Σ Jᵀ over all points; zero without a parameter covariance)."""
+    result, derivatives, sigma = _intersect_and_derivatives(calibration, left, right, station, frame, True,
+                                                            pointing_sigma_px)
     n = len(result.points)
-    full = np.zeros((3 * n, 3 * n))
+    pointing = np.zeros((3 * n, 3 * n))
     for i in range(n):
-        full[3 * i:3 * i + 3, 3 * i:3 * i + 3] = result.covariance[i]
+        pointing[3 * i:3 * i + 3, 3 * i:3 * i + 3] = result.covariance[i]
+    calibration_part = np.zeros((3 * n, 3 * n))
     if derivatives is not None:
         flat = derivatives.reshape(len(derivatives), 3 * n)
-        full += flat.T @ sigma @ flat
-    return result, full
+        calibration_part = flat.T @ sigma @ flat
+    return result, pointing, calibration_part
 
 
-def _intersect_and_derivatives(calibration, left, right, station, frame, include_calibration):
-    traced, result = _traced(calibration, left, right, station, frame)
+def _pointing(calibration: StereoCalibration, left: np.ndarray, pointing_sigma_px) -> np.ndarray:
+    """(N, 2) pointing sigmas (px) [left, right] of N points: σ0 when None, else as given (checked)."""
+    count = len(np.asarray(left).reshape(-1, 2))
+    return per_vertex(calibration.sigma0_px if pointing_sigma_px is None else pointing_sigma_px, count)
+
+
+def _intersect_and_derivatives(calibration, left, right, station, frame, include_calibration,
+                               pointing_sigma_px=None):
+    pointing = _pointing(calibration, left, pointing_sigma_px)
+    traced, result = _traced(calibration, left, right, station, frame, pointing)
     covariance = _usable_covariance(calibration, result, include_calibration)
     if covariance is None:
         return result, None, None
     names, sigma = covariance
     label = _station_label(calibration, station)
     _require_pose_covariance(calibration, label, frame, names)
-    keys = [(id(calibration), label, frame, one.tobytes(), other.tobytes())
-            for one, other in zip(traced[0].pixels, traced[1].pixels, strict=True)]
+    keys = [(id(calibration), label, frame, one.tobytes(), other.tobytes(), weight.tobytes())
+            for one, other, weight in zip(traced[0].pixels, traced[1].pixels, pointing, strict=True)]
     with _KEEPING:
         kept = [_KEPT_ROWS.get(key) for key in keys]
     if keys and all(k is not None and k[0]() is calibration for k in kept):
         return result, np.stack([k[1] for k in kept], axis=1), sigma
     columns = stepped_cameras(calibration, station, frame)
-    derivatives = _batched_derivatives(traced, result, columns, len(names), calibration.sigma0_px)
+    derivatives = _batched_derivatives(traced, result, columns, len(names), pointing)
     if len(keys) <= FEW_ROWS:
         with _KEEPING:
             for i, key in enumerate(keys):
@@ -128,13 +158,14 @@ def _intersect_and_derivatives(calibration, left, right, station, frame, include
     return result, derivatives, sigma
 
 
-def _traced(calibration, left, right, station, frame) -> tuple[list[TracedRays], Intersection]:
+def _traced(calibration, left, right, station, frame, pointing: np.ndarray | float | None = None
+            ) -> tuple[list[TracedRays], Intersection]:
     if frame not in ("object", "rig"):
         raise InvalidParameterError("frame", f"must be 'object' or 'rig', got {frame!r}")
     rig = calibration.rig(station, frame=frame)
     traced = [trace(camera, pixels, f"pixels of camera {i}")
               for i, (camera, pixels) in enumerate(zip(rig.cameras, (left, right), strict=True))]
-    return traced, intersect_traced(traced, calibration.sigma0_px)
+    return traced, intersect_traced(traced, calibration.sigma0_px if pointing is None else pointing)
 
 
 def _require_pose_covariance(calibration: StereoCalibration, label: str, frame: str, names) -> None:
@@ -309,7 +340,7 @@ def _stacked(parts: list[TracedRays]) -> TracedRays:
 
 
 def _batched_derivatives(traced: list[TracedRays], result: Intersection, columns: tuple[SteppedColumn, ...],
-                         count: int, sigma0_px: float) -> np.ndarray:
+                         count: int, pointing: np.ndarray) -> np.ndarray:
     """∂point/∂parameter (count, N, 3), metres per parameter unit: forward differences of the intersection
     over ``columns``, the stepped rays of a batch of columns intersected in one call. When a batch holds
     several columns its first rows are the unstepped rays, so that both sides of a difference come from the
@@ -330,8 +361,8 @@ def _batched_derivatives(traced: list[TracedRays], result: Intersection, columns
                 parts.append(base if how == UNMOVED else mapped[k] if how == MAPPED
                              else trace(column.cameras[side], base.pixels))
             sides.append(_stacked(parts) if len(parts) > 1 else parts[0])
-        again = intersect_traced(sides, sigma0_px)
         rows = len(batch) + with_base
+        again = intersect_traced(sides, pointing[:1] if pointing.strides[0] == 0 else np.tile(pointing, (rows, 1)))
         points = again.points.reshape(rows, n, 3)
         ok = again.ok.reshape(rows, n) & result.ok
         reference = points[0] if with_base else result.points
@@ -344,11 +375,13 @@ def _batched_derivatives(traced: list[TracedRays], result: Intersection, columns
 
 
 def reference_derivatives(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
-                          station: int | str = 0, frame: str = "object") -> np.ndarray | None:
+                          station: int | str = 0, frame: str = "object",
+                          pointing_sigma_px: float | np.ndarray | None = None) -> np.ndarray | None:
     """The plain path the batched derivatives are tested against: per parameter, the cameras rebuilt
     with it stepped, the pixels retraced, the point re-intersected. (count, N, 3) or None when the
     calibration has no usable covariance."""
-    traced, result = _traced(calibration, left, right, station, frame)
+    pointing = _pointing(calibration, left, pointing_sigma_px)
+    traced, result = _traced(calibration, left, right, station, frame, pointing)
     covariance = _usable_covariance(calibration, result, True)
     if covariance is None:
         return None
@@ -358,7 +391,7 @@ def reference_derivatives(calibration: StereoCalibration, left: np.ndarray, righ
             continue
         # (a camera the step did not change keeps its traced rays)
         again = intersect_traced([retrace(one, camera) for one, camera in zip(traced, cameras, strict=True)],
-                                 calibration.sigma0_px)
+                                 pointing)
         usable = result.ok & again.ok
         derivatives[j, usable] = (again.points[usable] - result.points[usable]) / step
     return derivatives

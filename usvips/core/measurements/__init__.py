@@ -2,7 +2,15 @@
 sigmas from the vertices' joint covariance, the quality rules, and the one function that computes every
 object's figures (:func:`measure`, :func:`measure_picks`)."""
 
-from usvips.core.measurements.evaluate import Measurement, intersect_vertices, measure, measure_picks, placement
+from usvips.core.measurements.evaluate import (
+    Measurement,
+    calibration_marks,
+    intersect_vertices,
+    measure,
+    measure_picks,
+    placement,
+    vertex_covariance_parts,
+)
 from usvips.core.measurements.figures import Figure, QualityRules, propagate, propagate_all
 from usvips.core.measurements.registry import (
     DRAWINGS,
@@ -16,5 +24,5 @@ from usvips.core.measurements.registry import (
 )
 
 __all__ = ["DRAWINGS", "LEGACY", "Figure", "Measurement", "MeasurementKind", "QualityRules", "UnknownKindError",
-           "intersect_vertices", "kind", "measure", "measure_picks", "names", "placement", "propagate",
-           "propagate_all", "registered_kinds", "resolve"]
+           "calibration_marks", "intersect_vertices", "kind", "measure", "measure_picks", "names", "placement",
+           "propagate", "propagate_all", "registered_kinds", "resolve", "vertex_covariance_parts"]

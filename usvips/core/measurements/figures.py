@@ -19,12 +19,19 @@ from usvips.core.errors import InvalidParameterError
 @dataclass(frozen=True)
 class Figure:
     """A measured quantity: ``value`` ± ``sigma`` in ``unit``. ``name`` is the column-safe key
-    (``length``, ``planarity_rms``, ``centre_X``); :attr:`label` is how a person reads it."""
+    (``length``, ``planarity_rms``, ``centre_X``); :attr:`label` is how a person reads it.
+
+    The sigma's breakdown, when known (None otherwise): ``sigma_pointing``, the part the pixels' pointing
+    precision gives, and ``sigma_calibration``, the calibration's part; they add in variance,
+    sigma² = sigma_pointing² + sigma_calibration², because both come from the one Jacobian of the figure
+    applied to the two parts of the vertices' joint covariance (:func:`figures_of`)."""
 
     name: str
     value: float
     sigma: float
     unit: str
+    sigma_pointing: float | None = None
+    sigma_calibration: float | None = None
 
     @property
     def relative_precision(self) -> float:
@@ -61,11 +68,12 @@ def full_covariance(points: np.ndarray, covariance: np.ndarray) -> np.ndarray:
 
 def propagate_all(function: Callable[[np.ndarray], np.ndarray], points: np.ndarray, covariance: np.ndarray,
                   step: float = 1e-6, many: Callable[[np.ndarray], np.ndarray] | None = None,
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  parts: tuple[np.ndarray, ...] | None = None) -> tuple[np.ndarray, ...]:
     """Values (K,) of a vector-valued ``function(points)`` and their (K, K) first-order covariance.
     ``points`` (N, 3) m; ``covariance`` (N, 3, 3) or (3N, 3N) m²; ``step`` (m) of the central differences;
     ``many``: the same function of a stack of vertex sets (M, N, 3) → (M, K), when there is one (then
-    called once for the values and every shifted set)."""
+    called once for the values and every shifted set). ``parts``: further (3N, 3N) covariances (parts of
+    ``covariance``) propagated with the same Jacobian, their (K, K) covariances returned after it."""
     points = np.asarray(points, dtype=np.float64)
     full = full_covariance(points.reshape(-1, 3), covariance)
     flat = points.ravel()
@@ -78,31 +86,41 @@ def propagate_all(function: Callable[[np.ndarray], np.ndarray], points: np.ndarr
         stack = np.concatenate([points[None], shifted])
         out = np.asarray(many(stack), dtype=np.float64).reshape(len(stack), -1)
         jacobian = ((out[1::2] - out[2::2]) / (2 * step)).T
-        return out[0], jacobian @ full @ jacobian.T
+        return out[0], jacobian @ full @ jacobian.T, *(jacobian @ part @ jacobian.T for part in parts or ())
     values = np.atleast_1d(np.asarray(function(points), dtype=np.float64))
     jacobian = np.empty((values.size, flat.size))
     for k in range(flat.size):
         jacobian[:, k] = (np.atleast_1d(function(shifted[2 * k])) - np.atleast_1d(function(shifted[2 * k + 1]))) \
             / (2 * step)
-    return values, jacobian @ full @ jacobian.T
+    return values, jacobian @ full @ jacobian.T, *(jacobian @ part @ jacobian.T for part in parts or ())
 
 
 def propagate(function: Callable[[np.ndarray], float], points: np.ndarray, covariance: np.ndarray,
               step: float = 1e-6) -> tuple[float, float]:
     """Value and first-order standard deviation of a scalar ``function(points)`` (see :func:`propagate_all`)."""
-    values, covariance_f = propagate_all(function, points, covariance, step)
+    values, covariance_f = propagate_all(function, points, covariance, step)[:2]
     return float(values[0]), float(np.sqrt(max(covariance_f[0, 0], 0.0)))
 
 
 def figures_of(function: Callable[[np.ndarray], np.ndarray], names_units: tuple[tuple[str, str], ...],
                points: np.ndarray, covariance: np.ndarray,
-               many: Callable[[np.ndarray], np.ndarray] | None = None) -> tuple[Figure, ...]:
+               many: Callable[[np.ndarray], np.ndarray] | None = None,
+               pointing: np.ndarray | None = None) -> tuple[Figure, ...]:
     """Every figure a vector-valued formula gives, each with its sigma, from one Jacobian (``many``: the
-    formula over a stack of vertex sets, see :func:`propagate_all`)."""
-    values, covariance_f = propagate_all(function, points, covariance, many=many)
+    formula over a stack of vertex sets, see :func:`propagate_all`). ``pointing``: the pointing part
+    (3N, 3N) m² of ``covariance`` (the rest is the calibration's): then each figure also carries its
+    sigma's breakdown, J·pointing·Jᵀ and J·(covariance − pointing)·Jᵀ with the same Jacobian."""
+    parts = None if pointing is None else (full_covariance(np.asarray(points).reshape(-1, 3), pointing),)
+    values, covariance_f, *shares = propagate_all(function, points, covariance, many=many, parts=parts)
     sigmas = np.sqrt(np.clip(np.diag(covariance_f), 0.0, None))
-    return tuple(Figure(name, float(v), float(s), unit)
-                 for (name, unit), v, s in zip(names_units, values, sigmas, strict=True))
+    if not shares:
+        return tuple(Figure(name, float(v), float(s), unit)
+                     for (name, unit), v, s in zip(names_units, values, sigmas, strict=True))
+    pointing_variance = np.clip(np.diag(shares[0]), 0.0, None)
+    calibration = np.sqrt(np.clip(np.diag(covariance_f) - pointing_variance, 0.0, None))
+    return tuple(Figure(name, float(v), float(s), unit, float(p), float(c))
+                 for (name, unit), v, s, p, c in zip(names_units, values, sigmas, np.sqrt(pointing_variance),
+                                                     calibration, strict=True))
 
 
 @dataclass(frozen=True)

@@ -82,10 +82,13 @@ class MeasurementKind:
     values_many: ClassVar[Callable[[np.ndarray], np.ndarray] | None] = None
 
     @classmethod
-    def compute(cls, points: np.ndarray, covariance: np.ndarray) -> tuple[Figure, ...]:
+    def compute(cls, points: np.ndarray, covariance: np.ndarray,
+                pointing: np.ndarray | None = None) -> tuple[Figure, ...]:
         """The figures of vertices (N, 3) m with their joint covariance (3N, 3N) m²: :meth:`values` with
-        first-order sigmas (one Jacobian by central differences)."""
-        return figures_of(cls.values, cls.figure_names, points, covariance, many=cls.values_many)
+        first-order sigmas (one Jacobian by central differences); with ``pointing``, the pointing part of
+        the covariance, each sigma's breakdown too (:func:`figures_of`)."""
+        return figures_of(cls.values, cls.figure_names, points, covariance, many=cls.values_many,
+                          pointing=pointing)
 
     @classmethod
     def outline(cls, points: np.ndarray) -> np.ndarray:
@@ -108,10 +111,11 @@ class MeasurementKind:
             raise DegenerateGeometryError(f"a {cls.name} has at most {cls.maximum_vertices} vertices, got {count}")
 
     @classmethod
-    def figures(cls, points: np.ndarray, covariance: np.ndarray) -> tuple[Figure, ...]:
+    def figures(cls, points: np.ndarray, covariance: np.ndarray,
+                pointing: np.ndarray | None = None) -> tuple[Figure, ...]:
         """Checked vertex count, then :meth:`compute`."""
         cls.check_count(len(points))
-        return cls.compute(points, covariance)
+        return cls.compute(points, covariance, pointing)
 
 
 def names() -> tuple[str, ...]:
