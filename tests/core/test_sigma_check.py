@@ -21,6 +21,10 @@ def calibrated():
     return result.calibration
 
 
+#: the picks' pointing σ the lengths are stated with (px)
+POINTING = 0.4
+
+
 def _objects(calibration, rng, count=60):
     rig = calibration.rig(0, "object")
     objects = []
@@ -32,14 +36,14 @@ def _objects(calibration, rng, count=60):
         # fish-sized (≥ 15 cm): a length of a few sigmas of depth has a nonlinear (upward-biased) error
         if not (left.ok.all() and right.ok.all()) or np.linalg.norm(b - a) < 0.15:
             continue
-        m = measure_picks("length", calibration, left.pixels, right.pixels, 0, "object")
+        m = measure_picks("length", calibration, left.pixels, right.pixels, 0, "object", pointing_sigma_px=POINTING)
         objects.append((m, points))
     return objects
 
 
 def test_stated_sigmas_hold_when_the_pointing_is_what_they_were_stated_with(calibrated):
     rng = np.random.default_rng(1)
-    sigma0 = calibrated.sigma0_px
+    pointing = POINTING
     measured = _objects(calibrated, rng)
     geometry = [CheckGeometry(calibrated, 0, "object")]
 
@@ -48,18 +52,20 @@ def test_stated_sigmas_hold_when_the_pointing_is_what_they_were_stated_with(cali
                    for i, (m, _) in enumerate(measured)]
         return check_sigmas(objects, geometry, replicas=30, seed=seed)
 
-    honest = check(sigma0)
+    honest = check(pointing)
     (row,) = honest.kinds
-    print(f"σ0 {sigma0:.3f} px: NEES {row.nees:.2f} ({row.low:.2f}–{row.high:.2f})")
+    print(f"pointing {pointing:.3f} px: NEES {row.nees:.2f} ({row.low:.2f}–{row.high:.2f})")
     assert row.kind == "length" and row.objects == 60 and row.replicas == 30
-    assert row.verdict == "hold" and 0.85 <= row.nees <= 1.2
-    (understated,) = check(3 * sigma0).kinds
-    print(f"pointing 3 σ0: NEES {understated.nees:.2f} ({understated.low:.2f}–{understated.high:.2f})")
+    # a little above 1: a depth error of ~6 mm a vertex biases a 15-40 cm length upwards (dz² / 2L), which
+    # the first-order σ does not hold; the check is not linearised and sees it
+    assert row.verdict == "hold" and 0.85 <= row.nees <= 1.3
+    (understated,) = check(3 * pointing).kinds
+    print(f"pointing 3×: NEES {understated.nees:.2f} ({understated.low:.2f}–{understated.high:.2f})")
     # 9 at first order where pointing dominates; more, as a depth error of ~2 cm a vertex biases a 20 cm
     # length upwards (dz² / 2L): the check is not linearised
     assert understated.verdict == "too small" and understated.low > 6.0
-    assert check(sigma0).kinds == honest.kinds  # seeded: the same figures again
-    assert check(sigma0, seed=1).kinds != honest.kinds
+    assert check(pointing).kinds == honest.kinds  # seeded: the same figures again
+    assert check(pointing, seed=1).kinds != honest.kinds
 
 
 def test_the_calibration_part_is_drawn(calibrated):
@@ -72,10 +78,11 @@ def test_the_calibration_part_is_drawn(calibrated):
     for i, (m, _) in enumerate(_objects(calibrated, rng, 40)):
         rig = calibrated.rig(0, "object")
         left, right = rig.left.project(m.points).pixels, rig.right.project(m.points).pixels
-        pointing = intersect_with_calibration(calibrated, left, right, 0, "object", include_calibration=False)
+        pointing = intersect_with_calibration(calibrated, left, right, 0, "object", include_calibration=False,
+                                              pointing_sigma_px=POINTING)
         stated = measure("length", pointing.points, pointing.covariance).main.sigma
         objects.append(CheckedObject(str(i), "length", m.points, stated, 0,
-                                     np.full((2, 2), calibrated.sigma0_px)))
+                                     np.full((2, 2), POINTING)))
     (row,) = check_sigmas(objects, [CheckGeometry(calibrated, 0, "object")], replicas=30).kinds
     print(f"pointing-only σ: NEES {row.nees:.2f} ({row.low:.2f}–{row.high:.2f})")
     assert row.nees > 1.0 and row.low > 0.7
