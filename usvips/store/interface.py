@@ -362,6 +362,16 @@ class ProjectStore(Protocol):
         """The object frame's georeference; None when none was entered."""
         ...
 
+    # ------------------------------------------------------------------------ pointing estimates
+    def set_pointing_estimates(self, estimates: list[dict]) -> None:
+        """Store (an empty list: remove) the project's pointing estimates, JSON-able dicts (no schema of
+        their own; see :mod:`usvips.app.pointing_settings`)."""
+        ...
+
+    def pointing_estimates(self) -> list[dict]:
+        """The stored pointing estimates, oldest first ([] when none)."""
+        ...
+
     # ------------------------------------------------------------------------ campaign (GlobalArchive)
     def set_campaign(self, campaign: Campaign | None) -> None:
         """Store (None: remove) the campaign the project's deployments belong to (GlobalArchive's CampaignID,
