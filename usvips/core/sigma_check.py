@@ -70,7 +70,8 @@ class CheckedObject:
 class KindCheck:
     """The check of one kind: ``objects`` checked over ``replicas``; ``nees`` and its 95 % interval
     ``low``..``high``; ``worst``: the id of the object with the largest mean e² and that mean;
-    ``skipped``: objects some replica could not measure (a drawn camera does not see a vertex)."""
+    ``skipped``: objects some replica could not measure (a drawn camera does not see a vertex; they count
+    in the replicas that could)."""
 
     kind: str
     objects: int
@@ -205,19 +206,21 @@ def check_sigmas(objects: Sequence[CheckedObject], geometries: Sequence[CheckGeo
     for kind in sorted({o.kind for o in objects}, key=lambda k: order.get(k, len(order))):
         members = [i for i, o in enumerate(objects) if o.kind == kind]
         block = squares[:, members]
-        complete = np.all(np.isfinite(block), axis=0)
-        skipped = int(np.sum(~complete))
-        if not complete.any():
+        measured = np.isfinite(block)
+        # an object some replica could not measure (a drawn camera does not see a vertex) counts where it
+        # could; one no replica measured is left out
+        seen = measured.any(axis=0)
+        if not seen.any():
             continue
-        block = block[:, complete]
-        per_replica = block.mean(axis=1)
-        nees = float(per_replica.mean())
-        half = float(stats.t.ppf(0.975, replicas - 1) * per_replica.std(ddof=1) / np.sqrt(replicas))
-        per_object = block.mean(axis=0)
+        block = block[:, seen]
+        per_replica = np.nanmean(block, axis=1)
+        nees = float(np.nanmean(per_replica))
+        half = float(stats.t.ppf(0.975, replicas - 1) * np.nanstd(per_replica, ddof=1) / np.sqrt(replicas))
+        per_object = np.nanmean(block, axis=0)
         worst = int(np.argmax(per_object))
-        rows.append(KindCheck(kind, int(complete.sum()), replicas, nees, max(nees - half, 0.0), nees + half,
-                              (objects[np.asarray(members)[complete][worst]].id, float(per_object[worst])),
-                              skipped))
+        rows.append(KindCheck(kind, int(seen.sum()), replicas, nees, max(nees - half, 0.0), nees + half,
+                              (objects[np.asarray(members)[seen][worst]].id, float(per_object[worst])),
+                              int(np.sum(~measured.all(axis=0)))))
     return SigmaCheck(tuple(rows), replicas)
 
 
