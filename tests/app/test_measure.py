@@ -15,7 +15,7 @@ def _calibration():
 
 
 def test_fish_of_many_random_poses_measure_their_length_within_their_sigma(tmp_path):
-    """Picks with the pointing noise the calibration states: the normalised errors of the lengths (the
+    """Picks with a known pointing noise, stated as their pointing sigma: the normalised errors of the lengths (the
     calibration here is exact, so only the pointing counts) have a mean square near 1."""
     rig, calibration = _calibration()
     rng = np.random.default_rng(11)
@@ -37,7 +37,7 @@ def test_fish_of_many_random_poses_measure_their_length_within_their_sigma(tmp_p
     (tmp_path / "picks.csv").write_text("\n".join(rows) + "\n")
     objects = picked_objects(tmp_path / "picks.csv")
     assert [o[0] for o in objects] == list(lengths) and all(o[1] == "length" for o in objects)
-    measured = measure_objects(calibration, objects, "1", "object")
+    measured = measure_objects(calibration, objects, "1", "object", pointing_sigma_px=NOISE_PX)
     z = np.array([(m.main.value - lengths[m.id]) / m.main.sigma for m in measured])
     assert 0.8 < np.mean(z**2) < 1.25
     row = measurement_row(measured[0])

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from usvips.app.object_instants import add_instant
+from usvips.app.project_figures import evaluate, measurement_input
 from usvips.app.quality import FAIL, NOTE, Checked, Place, check, check_project, report_rows, species_maxima
 from usvips.bench import scaling
 from usvips.core.measurements import QualityRules, measure
@@ -110,3 +111,51 @@ def test_a_video_vertex_is_placed_by_its_video_and_left_frame():
     stored = StoredObject(3, "point", "", "", "", "", "", (Vertex(1, 2, 3, 4, pair="dive", video="dive",
                                                                   frame_left=812, frame_right=815, time_s=32.5),))
     assert Place.of(stored) == Place("video dive frame 812", "dive", "dive", 812)
+
+
+def test_the_590_mm_fish_of_a_wrong_accepted_match_is_listed_by_the_weak_match_and_geometry_rules(tmp_path):
+    """Issue 32's case: a 360 mm fish side on 3 m away; the fork's conjugate proposed on the wrong peak of its
+    epipolar curve (a weak match: ambiguous), accepted with Enter. The length comes out near 590 mm and every
+    precision rule passes — the weak-match rule (a fact stored with the vertex, whatever the notes say) and
+    the geometry rule (the length leans far out of the image plane) list it; the good fish beside it is not."""
+    from usvips.app.quality import object_facts
+    from usvips.core.pointing import WeakMatch
+
+    calibration = load_calibration(scaling.CALIBRATION)
+    rig = calibration.rig(0, "rig")
+    snout, fork = np.array([-0.18, 0.0, -3.0]), np.array([0.18, 0.0, -3.0])
+    # the wrong conjugate: a point on the fork's LEFT ray (same left pixel) 590 mm from the snout
+    ray = rig.left.rays(rig.left.project(fork[None]).pixels)
+    origin, direction = ray.origins[0], ray.directions[0]
+    along = np.linspace(0.5, 8.0, 20001)
+    candidates = origin + along[:, None] * direction
+    wrong = candidates[np.argmin(np.abs(np.linalg.norm(candidates - snout, axis=1) - 0.59))]
+    shift = float(np.linalg.norm(rig.right.project(wrong[None]).pixels[0] - rig.right.project(fork[None]).pixels[0]))
+    assert 15 < shift < 60, shift  # tens of pixels along the curve, as in the issue
+    path = tmp_path / "survey.usvips"
+    with Project.create(path) as project:
+        project.add_pair("dive")
+        calibration_id = project.add_calibration("cal", calibration_to_dict(calibration), ("dive",))
+
+        def vertex(point, right_point=None, **pointing):
+            left = rig.left.project(point[None]).pixels[0]
+            right = rig.right.project((point if right_point is None else right_point)[None]).pixels[0]
+            return Vertex(*map(float, (*left, *right)), calibration_id=calibration_id, pair="dive", **pointing)
+
+        weak = WeakMatch(0.46, "a second peak scores 0.97 of the best: ambiguous")
+        bad = project.add_object("length", [vertex(snout), vertex(fork, wrong, source="auto-match", weak=weak)],
+                                 "Pagrus auratus", "weak: ambiguous")
+        good = project.add_object("length", [vertex(snout + [0, 0.3, 0]), vertex(fork + [0, 0.3, 0])], "Pagrus auratus")
+        project.update_object(bad, notes="looks fine to me")  # a colleague's notes edit erases nothing
+    with Project.open(path, read_only=True) as project:
+        report = check_project(project)
+        stored = project.object(bad)
+        m = evaluate(measurement_input(project, stored))
+        facts = object_facts(stored, m)
+    assert abs(m.main.value - 0.59) < 0.01 and not m.failures  # 590 mm, and every precision rule passes
+    listed = {(i.object_id, i.rule) for i in report.issues}
+    assert {(str(bad), "weak_match"), (str(bad), "geometry")} <= listed
+    assert not any(object_id == str(good) for object_id, _ in listed)
+    geometry = next(i for i in report.issues if i.rule == "geometry")
+    assert geometry.status == FAIL and geometry.value > geometry.limit == 45.0
+    assert len(facts) == 2 and "weak match accepted" in facts[0] and "0.46" in facts[0]

@@ -78,7 +78,7 @@ def test_a_tracked_length_combined_over_its_instants_is_honest_and_better_than_o
     refused = 0
     for case in range(VIDEOS):
         stereo, fish = _rig(rng), _fish(rng, seed=case)
-        sigma_px = rng.uniform(0.2, 0.5)  # the pointing precision: the calibration's sigma0, and the picks' noise
+        sigma_px = rng.uniform(0.2, 0.5)  # the picks' noise, stored as their pointing sigma (and the sigma0)
         calibration = StereoCalibration.from_cameras(stereo.left, stereo.right, "water", sigma_px)
         left, right = _render(stereo, fish)
         folder = tmp_path / str(case)
@@ -107,10 +107,11 @@ def test_a_tracked_length_combined_over_its_instants_is_honest_and_better_than_o
                         refused += 1
                 else:
                     continue
-                m = measure_picks("length", calibration, picks_left, picks_right, 0, "rig")
+                m = measure_picks("length", calibration, picks_left, picks_right, 0, "rig", pointing_sigma_px=sigma_px)
                 vertices = [Vertex(*picks_left[i], *picks_right[i], tuple(m.points[i]),
                                    m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3], calibration_id, "drop", "drop",
-                                   start, start, start / FPS) for i in range(2)]
+                                   start, start, start / FPS, pointing_px=(sigma_px, sigma_px), pointing_origin="given")
+                            for i in range(2)]
                 object_id = project.add_object("length", vertices, "Pagrus auratus")
                 reached = set.intersection(*(set(map(int, t.frames)) for t in tracks))
                 frames = [f for f in range(start % STEP, FRAMES, STEP) if f in reached and f != start]

@@ -41,7 +41,8 @@ def test_fish_lengths_are_within_their_sigmas(tmp_path, capsys):
             rows.append(f"fish{k},line,{v},{xl},{yl},{xr},{yr},cod")
     (tmp_path / "picks.csv").write_text("\n".join(rows) + "\n")
     assert main(["measure", "--calibration", str(tmp_path / "w.json"), "--picks", str(tmp_path / "picks.csv"),
-                 "--out", str(tmp_path / "fish.csv")]) == 0
+                 "--out", str(tmp_path / "fish.csv"), "--pointing-sigma", str(NOISE_PX)]) == 0
+    assert f"pointing sigma {NOISE_PX:g} px (given)" in capsys.readouterr().out
     measured = list(csv.DictReader((tmp_path / "fish.csv").open()))
     assert len(measured) == len(lengths) > 20
     normalised = np.array([(float(m["value"]) - lengths[m["object"]]) / float(m["sigma"]) for m in measured])
@@ -93,6 +94,7 @@ def test_one_figure_path_the_window_measure_and_every_export_agree(tmp_path, cap
     exported s_length / s_area / s_diameter and the EventMeasure Precision are one number (to 1e-9), and
     that number carries the correlation between the vertices (the per-vertex blocks give a larger sigma)."""
     from usvips.core.measurements import measure
+    from usvips.core.measurements.breakdown import breakdown_text
     from usvips.gui.workspace import Workspace
     from usvips.store import Project
 
@@ -107,8 +109,9 @@ def test_one_figure_path_the_window_measure_and_every_export_agree(tmp_path, cap
                         f"{right[fish][point][1]},{'=' + name if name == 'cod' else name}")
     (tmp_path / "picks.csv").write_text("\n".join(rows) + "\n")
     assert main(["measure", "--picks", str(tmp_path / "picks.csv"), "--project", str(project_path), "--pair",
-                 "measure1", "--out", str(tmp_path / "measured.csv")]) == 0
-    assert "stored 6 objects" in capsys.readouterr().out
+                 "measure1", "--out", str(tmp_path / "measured.csv"), "--pointing-sigma", "0.7"]) == 0
+    out = capsys.readouterr().out
+    assert "stored 6 objects" in out and "pointing sigma 0.7 px (given)" in out
     measured = {r["object"]: r for r in csv.DictReader((tmp_path / "measured.csv").open())}
     assert measured["cod"]["type"] == "length" and measured["path"]["type"] == "arc"
     assert main(["project", "export", str(project_path), str(tmp_path / "objects.csv")]) == 0
@@ -131,6 +134,14 @@ def test_one_figure_path_the_window_measure_and_every_export_agree(tmp_path, cap
             assert abs(float(measured[name]["sigma"]) - window.sigma) < 1e-9, name
             assert abs(float(row[column]) - window.sigma) < 1e-9, name
             assert abs(float(row[window.name]) - window.value) < 1e-9, name
+            # the sigma's breakdown: one computation, the same numbers in the window, measure's CSV and the export
+            shown = breakdown_text(ws.figures([obj.id]).measurement)
+            for table in (measured[name], row):
+                assert abs(float(table["sigma_pointing"]) - window.sigma_pointing) < 1e-9, name
+                assert abs(float(table["sigma_calibration"]) - window.sigma_calibration) < 1e-9, name
+                assert (table["pointing_sigma_px"], table["pointing_origin"]) == ("0.7", "given"), name
+            assert window.sigma ** 2 == pytest.approx(window.sigma_pointing ** 2 + window.sigma_calibration ** 2)
+            assert window.sigma_calibration > 0 and "pointing σ 0.7 px, given" in shown
             if obj.kind in ("length", "arc"):
                 precision = float(lengths["'" + attribute if name == "cod" else name]["Precision"]) / 1000
                 assert abs(precision - window.sigma) < 1e-9, name

@@ -92,7 +92,8 @@ def test_an_object_shows_its_combined_figure_and_its_instants_their_object(qtbot
     two = _figure(ws, whole)
     qtbot.waitUntil(lambda: _cell(view, whole).text() == f"{two} (2 instants)", timeout=10000)
     assert _cell(view, third).text() == own[third] and not _greyed(view, third)
-    assert _cell(view, third).toolTip() == ""
+    assert _cell(view, third).toolTip().startswith("sigma ± ")  # its sigma's breakdown, no word of instants
+    assert "pointing" in _cell(view, third).toolTip() and "instant" not in _cell(view, third).toolTip()
     # an instant deleted (undoably): the object is one instant again; undo brings the instant back
     ws.delete_object(second)
     qtbot.waitUntil(lambda: _cell(view, whole).text() == own[whole], timeout=10000)

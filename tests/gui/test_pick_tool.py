@@ -14,6 +14,7 @@ from usvips.core.errors import UsvipsError
 from usvips.core.interior import Interior
 from usvips.core.matching import EpipolarCurve
 from usvips.core.measurements import QualityRules
+from usvips.core.pointing import WeakMatch
 from usvips.core.rig import RelativeOrientation, StereoRig
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.calculator import Result
@@ -142,7 +143,7 @@ def test_proposed_vertices_over_random_rigs_land_on_the_truth_within_their_covar
             tool.accept_proposal()
             vertex = tool.last_point
             assert tool.state.source is None and vertex.left == tuple(noisy_left) and vertex.right == tuple(noisy_right)
-            assert vertex.flags == ()  # a proposal not marked weak is kept unflagged
+            assert vertex.flags == () and vertex.weak is None  # a proposal not marked weak is kept unflagged
             error = vertex.xyz - point
             normalised.append(error @ np.linalg.solve(vertex.covariance, error) / 3)
     # 400 points, 1200 degrees of freedom: the mean lies within ±0.15 of 1 with probability > 0.999
@@ -151,10 +152,11 @@ def test_proposed_vertices_over_random_rigs_land_on_the_truth_within_their_covar
     assert np.quantile(off_curve, 0.99) < 6 * sigma, np.quantile(off_curve, 0.99)
 
 
-def test_a_vertex_kept_from_a_weak_proposal_is_flagged_and_the_flag_reaches_the_notes(tmp_path):
+def test_a_vertex_kept_from_a_weak_proposal_is_flagged_and_the_flag_is_stored_with_the_vertex(tmp_path):
     """Two unrelated noise images: auto-match refuses every candidate (the correlation is low) yet proposes
-    the best one, weak; Enter keeps it, flagged with its score, and the stored object's notes say so. A
-    click that corrects the proposal instead is the user's own pick: no such flag."""
+    the best one, weak; Enter keeps it, and the stored vertex carries the matcher's score and reason as a
+    fact (not the notes: a later notes edit keeps it), with the source "auto-match". A click that corrects
+    the proposal instead is the user's own pick: a hand click, no such flag."""
     rng = np.random.default_rng(5)
     project = Project.create(tmp_path / "p.usvips")
     project.add_pair("dive")
@@ -163,28 +165,34 @@ def test_a_vertex_kept_from_a_weak_proposal_is_flagged_and_the_flag_reaches_the_
     tool, scene = make_tool(calibration, project, images)
     _, left, right = true_pixels(rng, calibration, 3)
     tool.set_tool("line")
+    scores = []
     for k in range(2):
         tool.pick("left", left[k])
         state = tool.state
         assert state.proposal is not None and state.weak, state.note
         assert "weak proposal (correlation" in state.note and state.weak_reason.startswith("score ")
+        scores.append(state.weak_match.score)
         tool.accept_proposal()
         if tool.state.pending is not None:  # a guard rail held it too: Enter again keeps it
             tool.accept_proposal()
-        flags = tool.digitising.vertices[-1].flags
-        assert flags[0] == f"weak auto-match proposal accepted, {state.weak_reason}"
+        vertex = tool.digitising.vertices[-1]
+        assert vertex.weak == state.weak_match and vertex.source == "auto-match"
+        assert f"{state.weak_reason}".startswith(f"score {vertex.weak.score:.2f}: {vertex.weak.reason}")
+        assert not any("weak" in flag for flag in vertex.flags)  # a fact of the vertex, not a guard rail's note
         assert tool.digitising.vertices[-1].right == state.proposal
     tool.pick("left", left[2])
     assert tool.state.weak
     tool.pick("right", right[2])  # the user clicks the point: a correction, not an accepted proposal
     if tool.state.pending is not None:
         tool.accept_proposal()
-    assert not any("weak" in flag for flag in tool.digitising.vertices[-1].flags)
+    assert tool.digitising.vertices[-1].weak is None and tool.digitising.vertices[-1].source == "hand click"
     object_id = tool.finish_object("cod")
-    notes = project.object(object_id).notes
-    assert "flagged: vertex 1: weak auto-match proposal accepted, score " in notes
-    assert "vertex 2: weak auto-match proposal accepted, score " in notes
-    assert "vertex 3: weak" not in notes
+    stored = project.object(object_id)
+    assert "weak" not in stored.notes
+    assert [v.weak.score if v.weak else None for v in stored.vertices] == [*scores, None]
+    assert [v.source for v in stored.vertices] == ["auto-match", "auto-match", "hand click"]
+    project.update_object(object_id, notes="checked by a colleague")  # no edit of notes removes it
+    assert [v.weak is not None for v in project.object(object_id).vertices] == [True, True, False]
 
 
 def test_a_weak_proposal_put_by_propose_vertex_is_flagged_with_its_note():
@@ -195,7 +203,8 @@ def test_a_weak_proposal_put_by_propose_vertex_is_flagged_with_its_note():
     tool.propose_vertex(left[0], right[0], "track 4 predicted, 2 frames ahead", weak=True)
     assert tool.state.weak
     tool.accept_proposal()
-    assert tool.last_point.flags == ("weak auto-match proposal accepted, track 4 predicted, 2 frames ahead",)
+    assert tool.last_point.weak == WeakMatch(None, "track 4 predicted, 2 frames ahead")
+    assert tool.last_point.flags == ()
 
 
 def test_propose_vertex_refuses_pixels_outside_and_works_without_a_calibration():

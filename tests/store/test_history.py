@@ -96,6 +96,9 @@ def _downgrade_to_7(url: str) -> None:
                     "ALTER TABLE vertices DROP COLUMN creator, DROP COLUMN created;"
                     "ALTER TABLE observation_records DROP COLUMN creator, DROP COLUMN created;"
                     "ALTER TABLE object_instants DROP COLUMN tracked_from;"
+                    "ALTER TABLE vertices DROP COLUMN pointing_source, DROP COLUMN sigma_left_px, "
+                    "DROP COLUMN sigma_right_px, DROP COLUMN pointing_origin, DROP COLUMN weak_score, "
+                    "DROP COLUMN weak_reason;"
                     "UPDATE meta SET value = '7' WHERE key = 'schema_version'")
 
 

@@ -77,6 +77,9 @@ def test_a_version_1_project_is_migrated(tmp_path):
         assert p.version == SCHEMA_VERSION
         fish = p.objects()[0]
         assert fish.attribute == "cod" and len(fish.vertices) == 2 and fish.vertices[1].xyz == (0.4, 0.2, -2.1)
+        # schema 11: a vertex stored before pointing sources were is a hand click of unknown source, default sigma
+        assert {(v.source, v.pointing_px, v.pointing_origin, v.weak) for v in fish.vertices} == {
+            ("hand click (unknown)", None, "default", None)}
         p.update_object(fish.id, vertices=[Vertex(1, 2, 3, 4, (0, 0, -2))] * 2)   # version-2 history works
         assert len(p.vertex_history(fish.id)) == 2
 

@@ -66,6 +66,9 @@ def test_a_schema_8_survey_is_migrated_when_opened_for_writing(new_database):
         raw.execute("DROP TABLE reviews; ALTER TABLE history DROP CONSTRAINT history_change_check;"
                     "ALTER TABLE history ADD CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', "
                     "'record')); ALTER TABLE object_instants DROP COLUMN tracked_from;"
+                    "ALTER TABLE vertices DROP COLUMN pointing_source, DROP COLUMN sigma_left_px, "
+                    "DROP COLUMN sigma_right_px, DROP COLUMN pointing_origin, DROP COLUMN weak_score, "
+                    "DROP COLUMN weak_reason;"
                     "UPDATE meta SET value = '8' WHERE key = 'schema_version'")  # named by PostgreSQL
         names = [r[0] for r in raw.execute("SELECT conname FROM pg_constraint WHERE conrelid = 'history'::regclass "
                                            "AND contype = 'c'")]

@@ -20,6 +20,7 @@ from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.core.pointing import WeakMatch
 from usvips.store import SCHEMA_VERSION, Project, ProjectError
 from usvips.store.opening import create_project, open_project
 from usvips.store.postgres import ServerProject
@@ -59,6 +60,10 @@ def _fill(project, folder: Path, rng) -> None:
         ids.append(project.add_object(kind, vertices, "cod", f"note {rng.random()}", "ann"))
     on_video = Vertex(1.0, 2.0, 3.0, 4.0, None, None, None, "dive", "dive", 7, 9, 0.28)
     ids.append(project.add_object("point", [on_video]))
+    weak = Vertex(5.0, 6.0, 7.0, 8.0, None, None, None, "pair0", source="auto-match",
+                  weak=WeakMatch(float(rng.uniform(0, 0.5)), "a second peak scores 0.95 of the best"),
+                  pointing_px=(0.4, float(rng.uniform(0.3, 1))), pointing_origin="estimated")
+    project.add_object("point", [weak])  # schema 11: each vertex's pointing and a weak match, pushed and pulled
     kind = project.object(ids[0]).kind
     project.update_object(ids[0], vertices=[_vertex(rng, "pair0", calibration)
                                             for _ in project.object(ids[0]).vertices])  # history
@@ -112,6 +117,8 @@ def test_push_then_pull_gives_back_every_row_of_every_table(tmp_path, new_databa
             assert survey.instant_links() == file.instant_links() and survey.deployments() == file.deployments()
             assert survey.instant_sources() == file.instant_sources()
             assert survey.campaign() == file.campaign() is not None
+            assert [v.weak for o in survey.objects() for v in o.vertices] == [v.weak for o in file.objects()
+                                                                               for v in o.vertices]
     back = pull(url, tmp_path / "back.usvips")
     want, got = file_rows(original), file_rows(back)
     assert set(got) == set(TABLES)

@@ -25,6 +25,7 @@ from usvips.core.deployment import Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.core.pointing import WeakMatch
 from usvips.store import Project, ProjectError
 from usvips.store.interface import ProjectStore
 from usvips.store.postgres import ServerProject
@@ -300,6 +301,57 @@ def test_an_object_taken_and_put_back_is_exactly_what_it_was(store, where, seed)
     store.put_back(removed, replace=True)
     _assert_same_object(store.object(target), before)
     assert store.vertex_history(target) == history and store.record(target) == record
+
+
+def _pointed(rng, vertex: Vertex) -> Vertex:
+    """``vertex`` with a random pointing: a source, stated sigmas or the default, a weak match or none."""
+    source = str(rng.choice(["hand click", "auto-match", "tracked", "hand click (snout, by ana)", "corner"]))
+    stated = rng.random() < 0.6
+    return dataclasses.replace(
+        vertex, source=source, pointing_px=tuple(map(float, rng.uniform(0.2, 2.0, 2))) if stated else None,
+        pointing_origin=str(rng.choice(["given", "estimated"])) if stated else "default",
+        weak=WeakMatch(float(rng.uniform(-1, 1)), "a second peak scores 0.93 of the best") if rng.random() < 0.5
+        else None)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_each_vertex_keeps_its_pointing_and_a_weak_match_survives_every_edit_and_undo(store, seed):
+    rng = np.random.default_rng(seed)
+    store.add_pair("a")
+    vertices = [_pointed(rng, _vertex(rng, "a")) for _ in range(4)]
+    vertices[1] = dataclasses.replace(vertices[1], weak=WeakMatch(0.42, "the best correlation 0.42 is below 0.50"))
+    fish = store.add_object("arc", vertices, "cod", "weak: ambiguous", "tester")
+    for got, want in zip(store.object(fish).vertices, vertices, strict=True):  # source, sigmas, origin, weak flag
+        assert (got.source, got.pointing_px, got.pointing_origin, got.weak) == (
+            want.source, want.pointing_px, want.pointing_origin, want.weak)
+    store.update_object(fish, notes="")  # a colleague's notes edit
+    store.update_object(fish, kind="polygon")
+    # a re-pick with the same picks, as a caller that knows nothing of pointing builds them: all is kept
+    store.update_object(fish, vertices=[Vertex(v.xl, v.yl, v.xr, v.yr, v.xyz, v.covariance, None, "a")
+                                        for v in vertices])
+    assert [v.weak for v in store.object(fish).vertices] == [v.weak for v in vertices]
+    assert [(v.source, v.pointing_px) for v in store.object(fish).vertices] == [(v.source, v.pointing_px)
+                                                                                 for v in vertices]
+    before = store.object(fish)
+    removed = store.take_object(fish)  # deleted, then undone
+    store.put_back(removed)
+    _assert_same_object(store.object(fish), before)
+    rows = store.object_rows(fish)  # an edit, then undone by its rows
+    store.update_object(fish, vertices=[dataclasses.replace(v, xl=v.xl + 30.0, weak=None) for v in vertices])
+    assert store.object(fish).vertices[1].weak is None  # picked again elsewhere: a new pick, a new fact
+    store.put_back(rows, replace=True)
+    assert store.object(fish).vertices[1].weak == WeakMatch(0.42, "the best correlation 0.42 is below 0.50")
+    assert any(entry.new and any("weak" in v for v in entry.new.get("vertices", []))
+               for entry in store.history(fish))  # the history shows the flag
+
+
+def test_a_bad_pointing_is_refused_by_name_and_stores_nothing(store):
+    for bad in (Vertex(1, 2, 3, 4, source="guess"),
+                Vertex(1, 2, 3, 4, pointing_px=(0.5, -1.0), pointing_origin="given"),
+                Vertex(1, 2, 3, 4, pointing_px=(0.5, 0.5), pointing_origin="measured")):
+        with pytest.raises(ProjectError, match="cannot store the vertex"):
+            store.add_object("point", [bad])
+    assert store.objects() == []
 
 
 def test_calibrations_round_trip_with_their_active_pairs(store):

@@ -17,6 +17,8 @@ import numpy as np
 from usvips.app.project_figures import store_measurements
 from usvips.core.errors import DegenerateGeometryError, InputFileError, UsvipsError
 from usvips.core.measurements import Measurement, QualityRules, kind, measure_picks, resolve
+from usvips.core.measurements.breakdown import BREAKDOWN_COLUMNS, breakdown_cells
+from usvips.core.pointing import HAND_CLICK_SIGMA_PX, SOURCES
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.io import tables
 from usvips.io.export import cell, number
@@ -26,9 +28,10 @@ from usvips.store.interface import ProjectStore
 PickedObject = tuple[str, str, np.ndarray, str]
 
 #: the columns of a measured objects table (:func:`measurement_row`): X, Y, Z the vertices' centre (m),
-#: the ray-intersection RMS in millimetres, the largest range from the left camera in metres
+#: the ray-intersection RMS in millimetres, the largest range from the left camera in metres, and the
+#: sigma's breakdown (:data:`usvips.core.measurements.breakdown.BREAKDOWN_COLUMNS`)
 MEASUREMENT_COLUMNS = ["object", "type", "attribute", "vertices", "figure", "value", "sigma", "X", "Y", "Z",
-                       "ray_rms_mm", "range_m", "quality"]
+                       "ray_rms_mm", "range_m", "quality", *BREAKDOWN_COLUMNS]
 
 
 def read_picks(path: str | Path) -> list[dict]:
@@ -67,15 +70,18 @@ def picked_objects(path: str | Path) -> list[PickedObject]:
 
 
 def measure_objects(calibration: StereoCalibration, objects: list[PickedObject], station: int | str = 0,
-                    frame: str = "object", rules: QualityRules | None = None, where: str = "") -> list[Measurement]:
-    """Each object measured with ``calibration`` at ``station`` in ``frame`` ("object" or "rig"). A
-    vertex whose rays fail is a :class:`DegenerateGeometryError` naming ``where`` (e.g. the picks file)
-    and the object."""
+                    frame: str = "object", rules: QualityRules | None = None, where: str = "",
+                    pointing_sigma_px: float | None = None) -> list[Measurement]:
+    """Each object measured with ``calibration`` at ``station`` in ``frame`` ("object" or "rig"), its picks'
+    pointing sigma ``pointing_sigma_px`` (px, one coordinate; None: the hand-click default). A vertex
+    whose rays fail is a :class:`DegenerateGeometryError` naming ``where`` (e.g. the picks file) and the
+    object."""
     measured = []
     for object_id, name, pixels, attribute in objects:
         try:
             measured.append(measure_picks(name, calibration, pixels[:, :2], pixels[:, 2:], station, frame, rules,
-                                          id=object_id, attribute=attribute))
+                                          id=object_id, attribute=attribute, pointing_sigma_px=pointing_sigma_px,
+                                          pointing_origin="given"))
         except DegenerateGeometryError as error:
             prefix = f"{where}: " if where else ""
             raise DegenerateGeometryError(f"{prefix}object {object_id!r}: {error}") from None
@@ -83,16 +89,29 @@ def measure_objects(calibration: StereoCalibration, objects: list[PickedObject],
 
 
 def measure_into_project(project: ProjectStore, pair: str, objects: list[PickedObject],
-                         rules: QualityRules | None = None, where: str = "") -> tuple[list[Measurement], list[int]]:
+                         rules: QualityRules | None = None, where: str = "",
+                         pointing_sigma_px: float | None = None) -> tuple[list[Measurement], list[int]]:
     """The objects measured with the calibration active for ``pair`` in the frame the pair measures in, and
     stored in ``project`` as the window stores them, all or none (:func:`usvips.app.project_figures.
-    store_measurements`). Returns the measurements and the new objects' ids."""
-    return store_measurements(project, pair, objects, rules, where)
+    store_measurements`; ``pointing_sigma_px`` as there). Returns the measurements and the new objects' ids."""
+    return store_measurements(project, pair, objects, rules, where, pointing_sigma_px)
 
 
 def measurement_row(m: Measurement) -> list[str]:
     """A measurement as text cells in :data:`MEASUREMENT_COLUMNS` order."""
     centre = m.points.mean(axis=0)
+    breakdown = breakdown_cells(m)
     return [cell(m.id), m.kind, cell(m.attribute), str(len(m.points)), m.main.name, number(m.main.value),
             number(m.main.sigma), *(number(c) for c in centre), number(m.ray_rms_m * 1000), number(m.range_m),
-            "; ".join(m.failures)]
+            "; ".join(m.failures), *(cell(breakdown[c]) for c in BREAKDOWN_COLUMNS)]
+
+
+def pointing_line(m: Measurement | None, given: float | None) -> str:
+    """The line a command prints about the pointing sigma its figures used: given, or the default for an
+    unspecified source (and the calibration's marks, once)."""
+    if given is not None:
+        text = f"pointing sigma {given:g} px (given)"
+    else:
+        text = f"pointing sigma {HAND_CLICK_SIGMA_PX:g} px: the hand-click default ({SOURCES['hand click'].basis})"
+    marks = [] if m is None else list(m.marks)
+    return "; ".join([text, *marks])

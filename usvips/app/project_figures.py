@@ -45,6 +45,7 @@ from usvips.core.measurements import (
     placement,
 )
 from usvips.core.measurements.instants import combine_measurements
+from usvips.core.pointing import vertex_pointing
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
@@ -76,6 +77,11 @@ class MeasurementInput:
     # how this further instant was made (``ProjectStore.instant_sources``): the left frame its track started
     # from, None when picked by hand (or when this is the object itself)
     tracked_from: int | None = None
+    # the vertices' pointing (usvips.core.pointing.vertex_pointing): sigmas (N, 2) px [left, right], their
+    # origin, and the marks a figure from them carries; None: the hand-click default
+    pointing_px: np.ndarray | None = None
+    pointing_origin: str = "default"
+    pointing_marks: tuple[str, ...] = ()
 
 
 def stored_calibration(project: ProjectStore, calibration_id: int,
@@ -144,10 +150,12 @@ def _one_instant(project: ProjectStore, stored: StoredObject,
                             for v in vertices], float).reshape(-1, 3, 3)
     calibration_ids = {v.calibration_id for v in vertices}
     calibration_id = next(iter(calibration_ids)) if len(calibration_ids) == 1 else None
+    pointing, origin, marks = vertex_pointing([v.source for v in vertices], [v.pointing_px for v in vertices],
+                                              [v.pointing_origin for v in vertices])
     return MeasurementInput(str(stored.id), stored.kind, np.array([[v.xl, v.yl] for v in vertices], float),
                             np.array([[v.xr, v.yr] for v in vertices], float), xyz, covariances, calibration,
                             station, frame, stored.attribute, stored.notes, pair, where_measured(stored),
-                            calibration_id)
+                            calibration_id, pointing_px=pointing, pointing_origin=origin, pointing_marks=marks)
 
 
 def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Measurement:
@@ -210,7 +218,8 @@ def _evaluate_one(source: MeasurementInput, rules: QualityRules | None = None) -
         if source.calibration is not None:
             try:
                 return measure_picks(source.kind, source.calibration, source.left, source.right, source.station,
-                                     source.frame, rules, **labels)
+                                     source.frame, rules, **labels, pointing_sigma_px=source.pointing_px,
+                                     pointing_origin=source.pointing_origin, marks=source.pointing_marks)
             except DegenerateGeometryError:
                 pass  # rays that no longer meet with this calibration: the stored values still stand
         if not np.all(np.isfinite(source.xyz)) or not np.all(np.isfinite(source.covariances)):
@@ -227,7 +236,7 @@ def joint_vertices(source: MeasurementInput) -> tuple[np.ndarray, np.ndarray, bo
     if source.calibration is not None:
         try:
             points, covariance, _, _ = intersect_vertices(source.calibration, source.left, source.right,
-                                                          source.station, source.frame)
+                                                          source.station, source.frame, source.pointing_px)
             return points, covariance, True
         except UsvipsError:
             pass  # as in evaluate: the stored values still stand
@@ -244,27 +253,33 @@ def measure_stored(project: ProjectStore, stored: StoredObject, rules: QualityRu
 
 
 def store_measurements(project: ProjectStore, pair: str, objects: list[tuple[str, str, np.ndarray, str]],
-                       rules: QualityRules | None = None, where: str = "") -> tuple[list[Measurement], list[int]]:
+                       rules: QualityRules | None = None, where: str = "",
+                       pointing_sigma_px: float | None = None) -> tuple[list[Measurement], list[int]]:
     """Measure objects — (id, kind, pixels (N, 4) xl yl xr yr, attribute) — with the calibration active
     for ``pair``, placed as the pair measures, and store them as the window does (each vertex with its
-    picks, X, Y, Z, 3 × 3 covariance, the calibration and the pair; creator ``usvips``; the attribute
-    added to the vocabulary): all in one transaction, or nothing when any object fails. ``where`` (e.g.
-    the picks file) starts the error messages. Returns the measurements and the new objects' ids."""
+    picks, X, Y, Z, 3 × 3 covariance, the calibration and the pair, and its pointing: a hand click with
+    ``pointing_sigma_px`` (px, one coordinate) given, or None for the hand-click default; creator
+    ``usvips``; the attribute added to the vocabulary): all in one transaction, or nothing when any object
+    fails. ``where`` (e.g. the picks file) starts the error messages. Returns the measurements and the new
+    objects' ids."""
     geometry = pair_geometry(project, pair)
     if geometry is None:
         raise UsvipsError(f"{project.path}: pair {pair!r} has no active calibration: nothing can be measured")
     calibration, calibration_id, station, frame = (geometry.calibration, geometry.calibration_id,
                                                    geometry.station, geometry.frame)
+    stated = None if pointing_sigma_px is None else (float(pointing_sigma_px),) * 2
     measured, rows = [], []
     for object_id, kind, pixels, attribute in objects:
         try:
             m = measure_picks(kind, calibration, pixels[:, :2], pixels[:, 2:], station, frame, rules,
-                              id=object_id, attribute=attribute)
+                              id=object_id, attribute=attribute, pointing_sigma_px=pointing_sigma_px,
+                              pointing_origin="given")
         except DegenerateGeometryError as error:
             prefix = f"{where}: " if where else ""
             raise DegenerateGeometryError(f"{prefix}object {object_id!r}: {error}") from None
         blocks = [m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(len(m.points))]
-        vertices = [Vertex(*map(float, p), tuple(map(float, xyz)), c, calibration_id, pair)
+        vertices = [Vertex(*map(float, p), tuple(map(float, xyz)), c, calibration_id, pair, pointing_px=stated,
+                           pointing_origin="given" if stated else "default")
                     for p, xyz, c in zip(pixels, m.points, blocks, strict=True)]
         measured.append(m)
         rows.append((m.kind, vertices, attribute, "", ""))  # creator: the store's annotator

@@ -9,6 +9,15 @@ is compared with that species' maximum. A species without a maximum in the list 
 ``no maximum`` (a note, not a failure); a species not in the list as ``not in the species list``.
 An object without figures is reported with the reason (rule ``no figures``).
 
+Two rules look at facts the precision rules cannot see (issue 32: a conjugate about 30 px off on the wrong
+peak of the epipolar curve, accepted with Enter, gave 590 ± 9 mm for a 360 mm fish and passed every rule):
+``weak match accepted`` — a vertex whose auto-match the matcher refused (ambiguous, textureless, a low
+score) and a person accepted all the same, a fact stored with the vertex (:class:`usvips.core.pointing.
+WeakMatch`), never read from notes; and ``implausible geometry`` — a length leaning out of the image plane
+by more than the project's limit (:mod:`usvips.core.measurements.plausibility`: a wrong conjugate moves a
+vertex along the line of sight). Both fail the object until it is looked at; :func:`object_facts` says them
+for one object (the window's readout and review mode).
+
 Checking is split from reading, as the figures are (:mod:`usvips.app.project_figures`): :func:`check`
 is pure and fast over measurements already computed (the window's figure cache), :func:`check_project`
 reads and computes a whole project for the command line.
@@ -23,14 +32,17 @@ from usvips.app.project_figures import evaluate, instants_by_object, measurement
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import Measurement, QualityRules
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.measurements.plausibility import MAX_OUT_OF_PLANE_DEG, out_of_plane_deg
 from usvips.core.observation_record import ObservationRecord, Species
+from usvips.core.pointing import WeakMatch
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject
 
 #: the rules' names as reports show them
 RULE_NAMES = {"ray_rms": "ray RMS", "precision": "precision/length", "range": "range", "max_sigma": "sigma",
               "species_max": "length > species maximum", "no_maximum": "no maximum",
-              "unknown_species": "not in the species list", "no_figures": "no figures"}
+              "unknown_species": "not in the species list", "no_figures": "no figures",
+              "weak_match": "weak match accepted", "geometry": "implausible geometry"}
 FAIL, NOTE = "fail", "note"
 
 
@@ -108,6 +120,43 @@ class Checked:
     record: ObservationRecord | None
     place: Place
     reason: str = ""
+    #: the vertices (0-based index) kept from a weak auto-match, with the matcher's score and reason
+    weak: tuple[tuple[int, WeakMatch], ...] = ()
+
+
+def weak_vertices(stored: StoredObject) -> tuple[tuple[int, WeakMatch], ...]:
+    """The vertices of ``stored`` kept from a weak auto-match: (0-based index, the stored flag)."""
+    return tuple((i, v.weak) for i, v in enumerate(stored.vertices) if v.weak is not None)
+
+
+def _out_of_plane_limit(rules: QualityRules) -> float:
+    return float(rules.extra.get("max_out_of_plane_deg", MAX_OUT_OF_PLANE_DEG))
+
+
+def fact_issues(weak: tuple[tuple[int, WeakMatch], ...], m: Measurement | None,
+                rules: QualityRules) -> list[tuple[str, float | None, float | None, str, str]]:
+    """(rule, value, limit, unit, message) of the ``weak match accepted`` and ``implausible geometry``
+    rules for one object: its weak vertices, and its measurement's lean out of the image plane."""
+    found: list[tuple[str, float | None, float | None, str, str]] = []
+    for index, flag in weak:
+        found.append(("weak_match", flag.score, None, "", f"vertex {index + 1}: {flag.text}"))
+    # a length too imprecise for the precision rule has a direction that is mostly noise: that rule lists it
+    if (m is not None and measurement_kind(m.kind).main_name() == "length"
+            and m.main.relative_precision <= rules.max_relative_precision):
+        angle = out_of_plane_deg(m.points, m.camera)
+        limit = _out_of_plane_limit(rules)
+        if angle is not None and angle > limit:
+            found.append(("geometry", angle, limit, "deg",
+                          f"the length leans {angle:.0f}° out of the image plane (> {limit:g}°): a fish side on "
+                          "does not; a conjugate on the wrong peak of the epipolar curve does — check the picks"))
+    return found
+
+
+def object_facts(stored: StoredObject, m: Measurement | None, rules: QualityRules | None = None) -> list[str]:
+    """What the weak-match and geometry rules say of one object, one line each (the window's readout and
+    review mode; empty when it passes both)."""
+    return [f"{RULE_NAMES[rule]}: {message}" for rule, _, _, _, message
+            in fact_issues(weak_vertices(stored), m, rules or QualityRules())]
 
 
 def species_maxima(species: list[Species]) -> dict[str, Species]:
@@ -129,6 +178,8 @@ def check(objects: list[Checked], rules: QualityRules | None = None,
             issues.append(Issue(item.object_id, rule, status, value, limit, unit, item.kind, name, item.place,
                                 message))
 
+        for rule, value, limit, unit, message in fact_issues(item.weak, m, rules):
+            issue(rule, FAIL, value, limit, unit, message)
         if m is None:
             issue("no_figures", FAIL, None, None, "", item.reason or "no figures")
             continue
@@ -162,7 +213,7 @@ def checked_objects(project: ProjectStore, rules: QualityRules | None = None) ->
             measurement, reason = evaluate(measurement_input(project, stored, cache, instants=instants), rules), ""
         except UsvipsError as error:
             measurement, reason = None, str(error)
-        out.append(Checked(str(stored.id), stored.kind, measurement, record, place, reason))
+        out.append(Checked(str(stored.id), stored.kind, measurement, record, place, reason, weak_vertices(stored)))
     return out
 
 

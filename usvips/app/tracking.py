@@ -30,6 +30,7 @@ from usvips.app.pair_geometry import pair_geometry
 from usvips.app.video_project import left_frame_time, left_frame_times, partner_frame, proxy_folder
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import measure_picks
+from usvips.core.pointing import vertex_pointing
 from usvips.core.rig import StereoRig
 from usvips.core.tracking import Track, TrackSettings, track_vertex
 from usvips.io import video_proxy
@@ -146,6 +147,11 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
     video = project.video(label)
     frames = [int(f) for f in frames]
     unknown: dict[int, float] | None = None  # times the tracks do not hold, read from the left stream once
+    # a tracked vertex carries the pick it was tracked from, with that pick's pointing sigma (the tracker's
+    # own noise shows in the instants' spread, which combining them measures)
+    start_sigma, _, _ = vertex_pointing([v.source for v in stored.vertices], [v.pointing_px for v in stored.vertices],
+                                        [v.pointing_origin for v in stored.vertices])
+    start_origins = [v.pointing_origin if v.pointing_px is not None else "default" for v in stored.vertices]
     rows = []
     for frame in frames:
         if frame == own:
@@ -161,7 +167,8 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
         left = np.array([f[0] for f in found])
         right = np.array([f[1] for f in found])
         try:
-            m = measure_picks(stored.kind, geometry.calibration, left, right, geometry.station, geometry.frame)
+            m = measure_picks(stored.kind, geometry.calibration, left, right, geometry.station, geometry.frame,
+                              pointing_sigma_px=start_sigma)
         except UsvipsError as error:
             raise UsvipsError(f"frame {frame}: {error}") from None
         partner = partner_frame(video, frame)
@@ -173,8 +180,10 @@ def add_tracked_instants(project: ProjectStore, object_id: int, tracks: Sequence
             time_s = float(unknown[frame])
         blocks = [m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(len(m.points))]
         vertices = [Vertex(*map(float, (*lp, *rp)), tuple(map(float, xyz)), block, geometry.calibration_id, label,
-                           label, frame, partner, time_s)
-                    for lp, rp, xyz, block in zip(left, right, m.points, blocks, strict=True)]
+                           label, frame, partner, time_s, source="tracked", pointing_px=tuple(map(float, sigma)),
+                           pointing_origin=origin)
+                    for lp, rp, xyz, block, sigma, origin in zip(left, right, m.points, blocks, start_sigma,
+                                                                 start_origins, strict=True)]
         rows.append((stored.kind, vertices, stored.attribute, tracked_note(tracks[0].start), ""))
     with project.transaction():
         ids = project.add_objects(rows)

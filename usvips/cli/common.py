@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import argparse
 import csv
 import io
+import math
 
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import write_text_atomic
 
-__all__ = ["add_annotator_option", "csv_text", "parse_assignment", "parse_prior", "write_text_atomic"]
+__all__ = ["add_annotator_option", "add_pointing_option", "csv_text", "parse_assignment", "parse_prior",
+           "write_text_atomic"]
 
 
 def add_annotator_option(parser) -> None:
@@ -16,6 +19,24 @@ def add_annotator_option(parser) -> None:
     ``$USVIPS_ANNOTATOR``, else the operating system's user name); ``usvips.cli.main`` applies it."""
     parser.add_argument("--annotator", metavar="NAME", help="who is annotating: stamped on what this command "
                         "writes and in the project's history (default: $USVIPS_ANNOTATOR, else your user name)")
+
+
+def _pointing_sigma(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of pixels") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number of pixels > 0, got {text!r}")
+    return value
+
+
+def add_pointing_option(parser) -> None:
+    """``--pointing-sigma PX`` on a command that measures picks: their pointing precision (pixels, one image
+    coordinate); without it, the documented default of a hand click (``usvips.core.pointing``)."""
+    parser.add_argument("--pointing-sigma", metavar="PX", type=_pointing_sigma,
+                        help="pointing precision of the picks (pixels, one image coordinate); default: the "
+                             "hand-click default, said in the output")
 
 
 def parse_assignment(option: str, text: str) -> tuple[str, float]:

@@ -1,7 +1,9 @@
 """``usvips intersect``: 3-D points with sigmas from conjugate pixels and a calibration.
 
-The sigmas combine the pointing precision (the calibration's a-posteriori sigma0) and the calibration's
-own uncertainty (its parameter covariance, propagated to every point)."""
+The sigmas combine the picks' pointing precision (``--pointing-sigma PX``, pixels per image coordinate;
+without it the hand-click default of ``usvips.core.pointing`` — never the calibration's sigma0, which is
+that of its own corners or targets) and the calibration's own uncertainty (its parameter covariance,
+propagated to every point)."""
 
 from __future__ import annotations
 
@@ -9,10 +11,12 @@ import argparse
 
 import numpy as np
 
-from usvips.cli.common import csv_text, write_text_atomic
+from usvips.cli.common import add_pointing_option, csv_text, write_text_atomic
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.intersection import Intersection
+from usvips.core.measurements import calibration_marks
+from usvips.core.pointing import HAND_CLICK_SIGMA_PX
 from usvips.core.rays import RayStatus
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
@@ -30,6 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="object: the control frame at the station; rig: left perspective centre, left axes")
     parser.add_argument("--pointing-only", action="store_true",
                         help="sigmas from the pointing precision alone, without the calibration's own uncertainty")
+    add_pointing_option(parser)
     parser.add_argument("--skip-failed", action="store_true",
                         help="write the points that intersect and list the others, instead of stopping")
     parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
@@ -49,8 +54,9 @@ def _run(args: argparse.Namespace) -> int:
                          observations.right, ((calibration.left.width, calibration.left.height),
                                               (calibration.right.width, calibration.right.height)))
     station = int(args.station) if args.station.isdigit() else args.station
+    pointing = HAND_CLICK_SIGMA_PX if args.pointing_sigma is None else args.pointing_sigma
     result = intersect_with_calibration(calibration, observations.left, observations.right, station, args.frame,
-                                        include_calibration=not args.pointing_only)
+                                        include_calibration=not args.pointing_only, pointing_sigma_px=pointing)
     failed = np.flatnonzero(~result.ok)
     if failed.size and not args.skip_failed:
         first = int(failed[0])
@@ -63,6 +69,8 @@ def _run(args: argparse.Namespace) -> int:
     rms = float(np.sqrt(np.mean(result.residuals_px[result.ok] ** 2))) if result.ok.any() else 0.0
     print(f"intersected {written} of {len(observations)} points (ray residual RMS {rms:.3f} px, "
           f"sigma0 {calibration.sigma0_px:.3f} px); wrote {args.out}")
+    said = ("given" if args.pointing_sigma is not None else "the hand-click default; --pointing-sigma PX states yours")
+    print("; ".join([f"pointing sigma {pointing:g} px ({said})", *calibration_marks(calibration)]))
     for i in failed:
         print(f"  skipped point {observations.ids[i]}: {RayStatus(int(result.status[i])).reason}")
     return 0

@@ -25,9 +25,10 @@ from usvips.app.measure import (
     measure_into_project,
     measure_objects,
     measurement_row,
+    pointing_line,
     read_picks,
 )
-from usvips.cli.common import add_annotator_option, csv_text, write_text_atomic
+from usvips.cli.common import add_annotator_option, add_pointing_option, csv_text, write_text_atomic
 from usvips.core.errors import UsvipsError
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
@@ -53,6 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                                    "only)")
     parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
                         "USVIPS calibration or project (the old file is kept as NAME.bak); never the --project")
+    add_pointing_option(parser)
     add_annotator_option(parser)
     parser.set_defaults(handler=run)
 
@@ -83,12 +85,16 @@ def _run(args: argparse.Namespace) -> int:
     objects = group_picks(args.picks, rows)
     if args.project is not None:
         with open_project(args.project) as project:
-            measured, ids = measure_into_project(project, args.pair, objects, where=args.picks)
+            measured, ids = measure_into_project(project, args.pair, objects, where=args.picks,
+                                                 pointing_sigma_px=args.pointing_sigma)
         print(f"stored {len(ids)} objects in {shown(args.project)} (pair {args.pair}): ids {', '.join(map(str, ids))}")
     else:
         station = args.station if args.station is not None else "0"
         station = int(station) if station.isdigit() else station
-        measured = measure_objects(calibration, objects, station, args.frame or "object", where=args.picks)
+        measured = measure_objects(calibration, objects, station, args.frame or "object", where=args.picks,
+                                   pointing_sigma_px=args.pointing_sigma)
+    print(pointing_line(measured[0] if measured else None, args.pointing_sigma)
+          + ("" if args.pointing_sigma is not None else " (--pointing-sigma PX to state yours)"))
     if args.out is not None:
         write_text_atomic(args.out, csv_text(OUT_COLUMNS, [measurement_row(m) for m in measured]))
         print(f"measured {len(measured)} objects; wrote {args.out}")

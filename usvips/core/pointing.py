@@ -196,12 +196,30 @@ def per_vertex(pointing_sigma_px: float | np.ndarray | None, count: int) -> np.n
 @dataclass(frozen=True)
 class WeakMatch:
     """An auto-match accepted although the matcher refused it (ambiguous, textureless, a low score): its
-    correlation ``score`` (NCC, −1..1) and the matcher's ``reason``. A stored fact of the vertex, for the
-    quality rules — never a note a later edit can erase."""
+    correlation ``score`` (NCC, −1..1; None when the proposal came without one, e.g. from a track) and the
+    ``reason``. A stored fact of the vertex, for the quality rules — never a note a later edit can erase."""
 
-    score: float
+    score: float | None
     reason: str
 
     @property
     def text(self) -> str:
-        return f"weak auto-match accepted (correlation {self.score:.2f}: {self.reason})"
+        score = f"correlation {self.score:.2f}: " if self.score is not None else ""
+        return f"weak auto-match accepted ({score}{self.reason})"
+
+
+def vertex_pointing(sources: list[str], sigmas: list[tuple[float, float] | None], origins: list[str]
+                    ) -> tuple[np.ndarray, str, tuple[str, ...]]:
+    """The pointing of an object's stored vertices: their sigmas (N, 2) px [left, right] — a vertex's stated
+    sigmas, else its source's default —, one word for their origin (``default``, ``given``, ``estimated``,
+    or several joined by "+") and the marks a figure from them carries (a default used for vertices of
+    unknown source). ``sources``: the vertices' source labels; ``sigmas``: their stated (left, right) or
+    None; ``origins``: the stated sigmas' origins."""
+    out = np.array([s if s is not None else (default_sigma(src),) * 2 for src, s in zip(sources, sigmas, strict=True)],
+                   dtype=np.float64).reshape(-1, 2)
+    used = [o if s is not None else "default" for s, o in zip(sigmas, origins, strict=True)]
+    origin = "+".join(o for o in ORIGINS if o in used) or "default"
+    unknown = sum(1 for src, s in zip(sources, sigmas, strict=True) if s is None and src == MIGRATED_SOURCE)
+    marks = (f"pointing sigma {HAND_CLICK_SIGMA_PX:.2f} px is the hand-click default for {unknown} vertex(es) of "
+             "unknown source",) if unknown else ()
+    return out, origin, marks

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from PySide6 import QtWidgets
 
+from usvips.app.quality import object_facts
+from usvips.core.measurements.breakdown import breakdown_text
 from usvips.gui.calculator import format_figure
 from usvips.gui.workspace import Workspace
 
@@ -89,6 +91,11 @@ class CalculatorPanel(QtWidgets.QWidget):
         result = self.workspace.figures(self.selection)
         head = "objects " + " and ".join(str(i) for i in self.selection)
         lines = [head, *self._instant_lines(), ""] + [format_figure(f) for f in result.figures]
+        if result.measurement is not None and result.figures:  # one object: its sigma's breakdown and facts
+            lines += ["", "sigma " + breakdown_text(result.measurement)]
+            if len(self.selection) == 1 and self.selection[0] in self.workspace.cache:
+                lines += object_facts(self.workspace.stored_object(self.selection[0]), result.measurement,
+                                      self.workspace.rules)
         if result.reason:
             lines.append(result.reason)
         if result.figures and not result.reason:

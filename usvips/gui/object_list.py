@@ -12,6 +12,7 @@ from collections import Counter
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.errors import UsvipsError
+from usvips.core.measurements.breakdown import breakdown_text
 from usvips.gui.calculator import format_figure
 from usvips.gui.video_model import video_frame_text
 from usvips.gui.wording import species_text
@@ -230,7 +231,7 @@ class ObjectList(QtWidgets.QWidget):
                 item.setFlags(read_only)
             table.setItem(row, column, item)
         self._marked.discard(stored.id)  # new cells: not greyed, no tooltip
-        if self._needs_marking(stored.id):
+        if self._needs_marking(stored.id) or tip:
             self._mark_instant(row, stored.id, tip)
 
     def _figure_texts(self, object_id: int) -> tuple[str, str, str]:
@@ -242,6 +243,8 @@ class ObjectList(QtWidgets.QWidget):
             main = format_figure(result.figures[0]) if result.figures else result.reason
             quality = "; ".join(result.failures) or "ok"
         main, tip = self._instant_figure(object_id, main, result is not None and bool(result.figures))
+        if result is not None and result.measurement is not None:  # the sigma's breakdown (one Qt-free text)
+            tip = "\n".join(filter(None, [tip, "sigma " + breakdown_text(result.measurement)]))
         return main, quality, tip
 
     def _needs_marking(self, object_id: int) -> bool:
@@ -256,7 +259,7 @@ class ObjectList(QtWidgets.QWidget):
                 item = self.table.item(row, column)
                 if item is not None and item.text() != value:
                     item.setText(value)
-            if self._needs_marking(object_id):
+            if self._needs_marking(object_id) or tip:
                 self._mark_instant(row, object_id, tip)
         finally:
             self._filling = filling

@@ -27,10 +27,13 @@ from typing import Protocol
 import numpy as np
 
 from usvips.app.pair_geometry import PairGeometry
+from usvips.app.quality import object_facts
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
 from usvips.core.measurements import QualityRules, intersect_vertices, names, resolve
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.measurements.breakdown import breakdown_text
+from usvips.core.pointing import WeakMatch
 from usvips.core.targets import locate_disc
 from usvips.gui.calculator import Result, format_figure, vertex_failures
 from usvips.gui.signals import Signal
@@ -74,6 +77,9 @@ class PickState:
     pending: MeasuredVertex | None = None
     #: Why a weak proposal is weak, with its score ("score 0.42: the best correlation 0.42 is below 0.50").
     weak_reason: str = ""
+    #: What a vertex kept from the weak proposal stores (:class:`usvips.core.pointing.WeakMatch`): the
+    #: matcher's score (None for a proposal put from elsewhere) and its reason.
+    weak_match: WeakMatch | None = None
 
     def pick(self, side: str) -> tuple[float, float] | None:
         return self.left if side == "left" else self.right
@@ -90,9 +96,13 @@ class MeasuredVertex:
     covariance: np.ndarray
     ray_rms_m: float
     range_m: float
-    #: Guard-rail warnings the user overrode when keeping this vertex, and a weak proposal accepted
-    #: (stored with the object's notes).
+    #: Guard-rail warnings the user overrode when keeping this vertex (stored with the object's notes).
     flags: tuple[str, ...] = ()
+    #: Where its pixels come from (:mod:`usvips.core.pointing`: "hand click", or "auto-match" when its second
+    #: pick is an accepted proposal) and, kept from a weak proposal, the matcher's flag — stored with the
+    #: vertex, as facts, not in the notes.
+    source: str = "hand click"
+    weak: WeakMatch | None = None
 
     @property
     def sigmas(self) -> np.ndarray:
@@ -166,7 +176,8 @@ def describe_point(vertex: MeasuredVertex) -> str:
 
 
 def weak_flag(state: PickState) -> str:
-    """The flag a vertex kept from a weak proposal carries (stored in the object's notes)."""
+    """How a vertex kept from a weak proposal is said to the user (the flag itself is stored with the vertex,
+    :attr:`PickState.weak_match`)."""
     return "weak auto-match proposal accepted" + (f", {state.weak_reason}" if state.weak_reason else "")
 
 
@@ -290,7 +301,7 @@ class PickTool:
         if curve is None:
             return PickState(**{side: pixel}, source=side, note=note or "no calibration: no epipolar curve")
         notes = [note] if note else []
-        proposal, weak, weak_reason = None, False, ""
+        proposal, weak, weak_reason, weak_match = None, False, "", None
         if len(curve.pixels) == 0:
             notes.append(f"the epipolar curve of this point does not enter the {other(side)} image")
         elif self.settings.auto_match and match:
@@ -307,12 +318,13 @@ class PickTool:
                 proposal, snap_note = self._snapped(other(side), found.proposal)
                 weak = not found
                 weak_reason = f"score {found.score:.2f}: {found.reason}" if weak else ""
+                weak_match = WeakMatch(float(found.score), found.reason) if weak else None
                 notes.append(f"{found.describe()}; Enter accepts, a click corrects"
                              + (f"; {snap_note}" if snap_note else ""))
             else:
                 notes.append(f"no automatic match: {reason}; click the point in the {other(side)} image")
         return PickState(**{side: pixel}, source=side, curve=curve.pixels, proposal=proposal, note="; ".join(notes),
-                         weak=weak, weak_reason=weak_reason)
+                         weak=weak, weak_reason=weak_reason, weak_match=weak_match)
 
     def propose_vertex(self, left, right, note: str, weak: bool = False) -> None:
         """Propose a whole vertex, as auto-match proposes one (for proposals made elsewhere, e.g. from a
@@ -325,7 +337,8 @@ class PickTool:
         curve = self._curve("left", left)
         text = f"{note}; Enter accepts, a click corrects" if note else "proposed match: Enter accepts, a click corrects"
         new = PickState(left=left, source="left", curve=None if curve is None else curve.pixels, proposal=right,
-                        note=text, weak=bool(weak), weak_reason=note if weak else "")
+                        note=text, weak=bool(weak), weak_reason=note if weak else "",
+                        weak_match=WeakMatch(None, note or "a proposal marked uncertain") if weak else None)
         self._change("proposed vertex", lambda: self._set_state(new))
 
     def accept_proposal(self) -> None:
@@ -338,8 +351,8 @@ class PickTool:
             return
         if state.proposal is None:
             raise UsvipsError("there is no proposed match to accept: click the point in the other image")
-        self._complete_vertex(replace(state, **{other(state.source): state.proposal}), "",
-                              accepted=(weak_flag(state),) if state.weak else ())
+        self._complete_vertex(replace(state, **{other(state.source): state.proposal}), "", source="auto-match",
+                              weak=state.weak_match if state.weak else None)
 
     def nudge(self, dx: float, dy: float) -> str:
         """Move the current pick by (``dx``, ``dy``) image pixels (x right, y down), as one undoable step:
@@ -374,15 +387,17 @@ class PickTool:
         if self.state.source is not None:
             self._change("cancel pick", lambda: self._set_state(PickState()))
 
-    def _complete_vertex(self, state: PickState, note: str, accepted: tuple[str, ...] = ()) -> None:
-        """Intersect a vertex's two picks; a failed intersection leaves the first pick standing.
-        ``accepted``: flags the vertex carries whatever the guard rails say (a weak proposal accepted)."""
+    def _complete_vertex(self, state: PickState, note: str, source: str = "hand click",
+                         weak: WeakMatch | None = None) -> None:
+        """Intersect a vertex's two picks; a failed intersection leaves the first pick standing. ``source``:
+        where its pixels come from; ``weak``: the flag of a weak proposal accepted, which the vertex carries
+        whatever the guard rails say."""
         if self.digitising.kind == OBSERVE:
             self._change("observation", lambda: self._set_state(PickState(note=note)))
             self.events.observed.emit(state.left, state.right)
             return
         try:
-            vertex = replace(self.intersect(state.left, state.right), flags=accepted)
+            vertex = replace(self.intersect(state.left, state.right), source=source, weak=weak)
         except UsvipsError as error:
             self.scene.message.emit("error", f"{error}; pick the point again")
             return
@@ -390,11 +405,11 @@ class PickTool:
         if warnings and (self.digitising.kind != "pick" or self.repick is not None):
             text = (f"held, not stored — Enter keeps it (flagged), a click in the {other(state.source)} image "
                     f"corrects it, Esc drops it: {'; '.join(warnings)}")
-            held = replace(state, pending=vertex, proposal=None, weak=False, weak_reason="", note=text)
+            held = replace(state, pending=vertex, proposal=None, weak=False, weak_reason="", weak_match=None, note=text)
             self.scene.message.emit("warning", text)
             self._change("held vertex", lambda: self._set_state(held))
             return
-        self._take_vertex(replace(vertex, flags=accepted + warnings), note)  # the pick tool only shows warnings
+        self._take_vertex(replace(vertex, flags=warnings), note)  # the pick tool only shows warnings
 
     def vertex_warnings(self, state: PickState, vertex: MeasuredVertex) -> tuple[str, ...]:
         """The guard rails a vertex breaks: its second pick off the epipolar curve of the first by more
@@ -416,8 +431,9 @@ class PickTool:
             self._replace_vertex(vertex)
             return
         kind = self.digitising.kind
-        self.scene.message.emit("warning" if vertex.flags else "info", describe_point(vertex)
-                                + (f" — kept, flagged: {'; '.join(vertex.flags)}" if vertex.flags else ""))
+        said = vertex.flags + ((vertex.weak.text,) if vertex.weak is not None else ())
+        self.scene.message.emit("warning" if said else "info", describe_point(vertex)
+                                + (f" — kept, flagged: {'; '.join(said)}" if said else ""))
         if kind not in ("pick", LINE) and measurement_kind(kind).maximum_vertices == len(self.digitising.vertices) + 1:
             self.finish_object(self.attribute, vertices=(vertex,))  # a point (or any kind whose last vertex is in)
             return
@@ -517,15 +533,20 @@ class PickTool:
         self.scene.undo.push(Command(f"store {kind}", store, unstore))
         result = self.scene.figures([holder["id"]])
         main = result.figures[0] if result.figures and kind != "point" else None
-        self.scene.message.emit("warning" if result.failures else "info",
-                                f"stored {kind} {holder['id']}" + (f": {format_figure(main)}" if main else "")
-                                + (f" — quality: {'; '.join(result.failures)}" if result.failures else ""))
+        measured = result.measurement
+        sigma = (" " + breakdown_text(measured).replace("\n", "; ")) if main and measured is not None else ""
+        facts = object_facts(project.object(holder["id"]), measured, self.scene.rules)
+        failures = list(result.failures) + facts
+        self.scene.message.emit("warning" if failures else "info",
+                                f"stored {kind} {holder['id']}" + (f": {format_figure(main)}{sigma}" if main else "")
+                                + (f" — quality: {'; '.join(failures)}" if failures else ""))
         return holder["id"]
 
     def _vertices_for_store(self, vertices: tuple[MeasuredVertex, ...]) -> list[Vertex]:
         g = self.scene.geometry
         return [Vertex(*v.left, *v.right, tuple(float(c) for c in v.xyz), v.covariance,
-                       g.calibration_id if g else None, self.scene.pair, *(self.scene.video_frame or ()))
+                       g.calibration_id if g else None, self.scene.pair, *(self.scene.video_frame or ()),
+                       source=v.source, weak=v.weak)
                 for v in vertices]
 
     def start_repick(self, object_id: int, index: int) -> None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from usvips.app.quality import FAIL, Checked, Issue, Place, QualityReport, check, species_maxima
+from usvips.app.quality import FAIL, Checked, Issue, Place, QualityReport, check, species_maxima, weak_vertices
 from usvips.gui.calculator import Result
 from usvips.gui.signals import Signal
 from usvips.gui.wording import plural
@@ -94,19 +94,19 @@ class QaModel:
         known = {o.id: cache.known_figures(o.id) for o in objects}
         missing = [i for i, result in known.items() if result is None]
         figures = cache.figures_job(missing) if missing else None
-        items = [(o.id, o.kind, cache.record(o.id), Place.of(o)) for o in objects]
+        items = [(o.id, o.kind, cache.record(o.id), Place.of(o), weak_vertices(o)) for o in objects]
         rules = ws.rules
         species = species_maxima(project.species_list()) if project is not None else {}
 
         def run(progress=None, cancelled=None) -> tuple[QualityReport, dict[int, Result]]:
             computed = figures(progress, cancelled) if figures is not None else {}
             checked = []
-            for object_id, kind, record, place in items:
+            for object_id, kind, record, place, weak in items:
                 result = known[object_id] or computed.get(object_id)
                 if result is None:  # cancelled before its figures were computed
                     continue
                 checked.append(Checked(str(object_id), kind, result.measurement, record, place,
-                                       result.reason or "no figures"))
+                                       result.reason or "no figures", weak))
             return check(checked, rules, species), computed
 
         run.figures = figures

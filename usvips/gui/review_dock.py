@@ -22,6 +22,7 @@ from collections.abc import Callable
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips.app.quality import object_facts
 from usvips.core.errors import UsvipsError
 from usvips.gui.review_model import ReviewModel
 from usvips.gui.video_model import video_frame_text
@@ -262,6 +263,14 @@ class ReviewDock(QtWidgets.QWidget):
         state = review.state + (f": {review.reason}" if review.reason else "")
         return "  ".join(p for p in parts if p) + f"  — {state}"
 
+    def _facts(self, object_id: int) -> list[str]:
+        """What the weak-match and geometry rules say of the object (usvips.app.quality.object_facts)."""
+        ws = self.workspace
+        if object_id not in ws.cache:
+            return []
+        known = ws.object_figures(object_id)
+        return object_facts(ws.stored_object(object_id), known.measurement if known is not None else None, ws.rules)
+
     def _show(self) -> None:
         reviewed, total, flagged = self.model.counts()
         self.progress.setText(self.model.progress())
@@ -273,7 +282,8 @@ class ReviewDock(QtWidgets.QWidget):
             who = f" by {review.reviewer}" if review.reviewer else ""
             self.current.setText(f"Object {current}: {review.state}{who}"
                                  + (f" ({review.reason})" if review.reason else "")
-                                 + ("  — all reviewed" if total and reviewed == total else ""))
+                                 + ("  — all reviewed" if total and reviewed == total else "")
+                                 + "".join(f"\n{fact}" for fact in self._facts(current)))
         self._filling = True
         try:
             if self._rebuild or self.list.count() != len(self.model.queue):

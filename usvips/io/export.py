@@ -26,6 +26,7 @@ from usvips.core.deployment import Deployment, Georeference
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import Measurement, registered_kinds
 from usvips.core.measurements import kind as measurement_kind
+from usvips.core.measurements.breakdown import BREAKDOWN_COLUMNS, breakdown_cells
 from usvips.core.observation_record import ObservationRecord
 from usvips.io.atomic import write_bytes_atomic, write_files_atomic
 from usvips.io.checkem import METADATA_COLUMNS, metadata_rows
@@ -107,7 +108,7 @@ PLACE_COLUMNS = ["pair", "file_left", "frame_left", "file_right", "frame_right",
 
 
 def object_columns() -> list[str]:
-    return (["id", "kind"] + RECORD_COLUMNS + ["attribute", "vertices"] + figure_columns()
+    return (["id", "kind"] + RECORD_COLUMNS + ["attribute", "vertices"] + figure_columns() + BREAKDOWN_COLUMNS
             + ["ray_rms_m", "range_m", "covariance", "quality", "instants", "notes"] + PLACE_COLUMNS)
 
 
@@ -117,8 +118,11 @@ def _covariance_word(obj: Measurement) -> str:
 
 def objects_csv(objects: list[Measurement], records: dict | None = None, places: dict | None = None) -> str:
     """One row per object: its species, code and number (``records``: object id → observation record),
-    its figures with sigmas (metres, m², radians), ray RMS and range (m) when known, whether the sigmas
-    come from the joint covariance, the quality rules it breaks, and where it was measured (``places``:
+    its figures with sigmas (metres, m², radians), the main figure's sigma broken down (pointing share,
+    calibration share, the vertices' pointing sigma in px and its origin, notes on the sigma:
+    :data:`~usvips.core.measurements.breakdown.BREAKDOWN_COLUMNS`), ray RMS and range (m) when known,
+    whether the sigmas come from the joint covariance, the quality rules it breaks, and where it was
+    measured (``places``:
     object id → (pair, file left, frame left, file right, frame right, time in minutes); see
     :data:`PLACE_COLUMNS`)."""
     columns = object_columns()
@@ -132,6 +136,7 @@ def objects_csv(objects: list[Measurement], records: dict | None = None, places:
             row.update({"species": record.name, "code": record.code, "number": record.number})
         row.update(zip(PLACE_COLUMNS, (places or {}).get(obj.id, ()), strict=False))
         row.update({"ray_rms_m": obj.ray_rms_m, "range_m": obj.range_m})
+        row.update(breakdown_cells(obj))
         for figure in obj.figures:
             row[figure.name] = figure.value
             row[_sigma_column(figure.name)] = figure.sigma
@@ -264,6 +269,7 @@ def _feature_properties(obj: Measurement) -> dict:
         properties[figure.name] = figure.value
         properties[_sigma_column(figure.name)] = figure.sigma
     properties.update({"ray_rms_m": obj.ray_rms_m, "range_m": obj.range_m, "instants": obj.instant_count})
+    properties.update(breakdown_cells(obj))
     return properties
 
 

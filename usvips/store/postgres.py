@@ -425,6 +425,9 @@ class ServerProject(Project):
     def version(self) -> int:
         return int(self._query("SELECT value FROM meta WHERE key = 'schema_version'")[0][0])
 
+    def _has_pointing(self) -> bool:
+        return True  # a survey is opened at the current schema (an older one is refused read-only)
+
     def _has_table(self, name: str) -> bool:
         return True  # a server survey is always of the current schema (older ones are refused at opening)
 

@@ -46,6 +46,7 @@ from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.core.pointing import MIGRATED_SOURCE, PointingSigma, WeakMatch, per_vertex, source_from_label
 from usvips.store import checks
 from usvips.store.annotator import current_annotator
 from usvips.store.records import (  # noqa: F401 - re-exported
@@ -101,6 +102,52 @@ def _pick_key(vertex: Vertex) -> tuple:
             vertex.frame_right)
 
 
+#: the pointing columns of a vertex (schema 11), as :func:`_pointing_row` writes and :func:`_pointing_fields`
+#: reads them; a project older than schema 11 (read-only) reads its vertices as hand clicks of unknown source
+POINTING_COLUMNS = ("v.pointing_source, v.sigma_left_px, v.sigma_right_px, v.pointing_origin, v.weak_score, "
+                    "v.weak_reason")
+POINTING_BEFORE_11 = f"'{MIGRATED_SOURCE}', NULL, NULL, NULL, NULL, NULL"
+
+
+def _pointing_row(vertex: Vertex, path) -> tuple:
+    """A vertex's pointing as its schema-11 columns; a source label or pointing sigma that is not one is a
+    :class:`ProjectError` naming the project."""
+    try:
+        source_from_label(vertex.source)
+        sigma = None if vertex.pointing_px is None else per_vertex(np.asarray(vertex.pointing_px, float)[None], 1)[0]
+        origin = None if sigma is None else PointingSigma(float(sigma[0]), origin=vertex.pointing_origin).origin
+    except UsvipsError as error:
+        raise ProjectError(f"{path}: cannot store the vertex: {error}") from None
+    weak = vertex.weak
+    score = None if weak is None or weak.score is None else float(weak.score)
+    return (vertex.source, *(sigma.tolist() if sigma is not None else (None, None)), origin, score,
+            None if weak is None else str(weak.reason))
+
+
+def _pointing_fields(row: tuple) -> dict:
+    """The :class:`Vertex` fields of its pointing columns (source, sigma left, sigma right, origin, weak
+    score, weak reason)."""
+    source, left, right, origin, score, reason = row
+    return {"source": source or MIGRATED_SOURCE,
+            "pointing_px": None if left is None or right is None else (float(left), float(right)),
+            "pointing_origin": origin or "default",
+            "weak": None if reason is None else WeakMatch(None if score is None else float(score), reason)}
+
+
+def _kept_pointing(vertex: Vertex, stored: Vertex) -> Vertex:
+    """A re-picked vertex whose picks are those of ``stored`` keeps what ``stored`` knew of its pointing that
+    the new one does not say (its source, sigmas, and above all a weak match's flag: no edit that leaves the
+    picks where they were removes it)."""
+    if _pick_key(vertex) != _pick_key(stored):
+        return vertex
+    changes = {}
+    if vertex.weak is None and stored.weak is not None:
+        changes["weak"] = stored.weak
+    if vertex.source == "hand click" and vertex.pointing_px is None:
+        changes.update(source=stored.source, pointing_px=stored.pointing_px, pointing_origin=stored.pointing_origin)
+    return dataclasses.replace(vertex, **changes) if changes else vertex
+
+
 def _vertex_state(vertex: Vertex) -> dict:
     """A vertex as the history shows it: picks (pixels), and where given pair, video and frames, X Y Z (m)."""
     state: dict = {"xl": vertex.xl, "yl": vertex.yl, "xr": vertex.xr, "yr": vertex.yr}
@@ -110,6 +157,12 @@ def _vertex_state(vertex: Vertex) -> dict:
         state.update(video=vertex.video, frame_left=vertex.frame_left, frame_right=vertex.frame_right)
     if vertex.xyz is not None:
         state["xyz"] = [float(c) for c in vertex.xyz]
+    if vertex.source != "hand click":
+        state["source"] = vertex.source
+    if vertex.pointing_px is not None:
+        state.update(pointing_px=[float(c) for c in vertex.pointing_px], pointing_origin=vertex.pointing_origin)
+    if vertex.weak is not None:
+        state["weak"] = {"score": vertex.weak.score, "reason": vertex.weak.reason}
     return state
 
 
@@ -643,10 +696,12 @@ class Project:
             cov = json.dumps(np.asarray(v.covariance, float).reshape(9).tolist()) if v.covariance is not None else None
             pair_id = self.pair_id(v.pair) if v.pair else None
             creator, created = (kept or {}).get((i, *_pick_key(v)), (self.annotator, now))
-            rows.append((object_id, i, pair_id, v.xl, v.yl, v.xr, v.yr, *xyz, cov, v.calibration_id, creator, created))
+            rows.append((object_id, i, pair_id, v.xl, v.yl, v.xr, v.yr, *xyz, cov, v.calibration_id, creator, created,
+                         *_pointing_row(v, self.path)))
         self._db.executemany("INSERT INTO vertices (object_id, idx, pair_id, xl, yl, xr, yr, x, y, z, covariance, "
-                             "calibration_id, creator, created) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                             rows)
+                             "calibration_id, creator, created, pointing_source, sigma_left_px, sigma_right_px, "
+                             "pointing_origin, weak_score, weak_reason) VALUES "
+                             f"({', '.join('?' * 20)})", rows)
         self._insert_vertex_frames(object_id, vertices)
 
     # ---------------------------------------------------------------------------- who and when (schema 8)
@@ -807,6 +862,8 @@ class Project:
                                  "replaced) SELECT object_id, idx, x, y, z, covariance, calibration_id, ? "
                                  "FROM vertices WHERE object_id = ? AND x IS NOT NULL", (_now(), object_id))
                 self._db.execute("DELETE FROM vertices WHERE object_id = ?", (object_id,))
+                vertices = [_kept_pointing(v, stored.vertices[i]) if i < len(stored.vertices) else v
+                            for i, v in enumerate(vertices)]
                 self._insert_vertices(object_id, vertices, _now(), kept)
             self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(stored.modified), object_id))
             changed = self.object(object_id)
@@ -913,9 +970,10 @@ class Project:
             rows = self._db.execute("SELECT id, kind, attribute, notes, creator, created, modified FROM objects "
                                     f"{where} ORDER BY id", parameters).fetchall()
             wanted = f"WHERE v.object_id IN (SELECT id FROM objects {where})" if where else ""
+            pointing = POINTING_COLUMNS if self._has_pointing() else POINTING_BEFORE_11
             vertex_rows = self._db.execute(
                 "SELECT v.object_id, v.xl, v.yl, v.xr, v.yr, v.x, v.y, v.z, v.covariance, v.calibration_id, "
-                f"p.label FROM vertices v LEFT JOIN image_pairs p ON p.id = v.pair_id {wanted} "
+                f"p.label, {pointing} FROM vertices v LEFT JOIN image_pairs p ON p.id = v.pair_id {wanted} "
                 "ORDER BY v.object_id, v.idx", parameters).fetchall()
             frame_rows = self._vertex_frame_rows(where, parameters)
         frames = {(r[0], r[1]): r[2:] for r in frame_rows}
@@ -930,7 +988,7 @@ class Project:
                 except (TypeError, ValueError):
                     raise ProjectError(f"{self.path}: object {v[0]}: a stored covariance is damaged "
                                        "(not 9 numbers)") from None
-            vertex = Vertex(v[1], v[2], v[3], v[4], xyz, cov, v[9], v[10])
+            vertex = Vertex(v[1], v[2], v[3], v[4], xyz, cov, v[9], v[10], **_pointing_fields(v[11:]))
             frame = frames.get((v[0], len(vertices.get(v[0], ()))))
             if frame is not None:
                 vertex = dataclasses.replace(vertex, video=frame[0], frame_left=frame[1], frame_right=frame[2],
@@ -1247,6 +1305,10 @@ class Project:
 
     def _has_table(self, name: str) -> bool:
         return bool(self._query("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)))
+
+    def _has_pointing(self) -> bool:
+        """Whether the vertices have their pointing columns (schema 11; not in an older project read-only)."""
+        return self.version >= 11
 
     def set_video_offset(self, label: str, frames: int, estimate: dict | None = None) -> None:
         """Left frame i and right frame i + ``frames`` show the same instant; ``estimate``: how it was found."""

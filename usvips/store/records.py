@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usvips.core.errors import UsvipsError
+from usvips.core.pointing import WeakMatch
 
 
 class ProjectError(UsvipsError):
@@ -27,7 +28,14 @@ class StaleEditError(ProjectError):
 @dataclass(frozen=True)
 class Vertex:
     """One vertex of a measured object: its picks (pixels) and, once intersected, X, Y, Z (m) and the
-    3 × 3 covariance (m²) with the calibration used."""
+    3 × 3 covariance (m²) with the calibration used.
+
+    Its pointing (schema 11, :mod:`usvips.core.pointing`): ``source``, the label of where its pixels come
+    from ("hand click", "auto-match", "hand click (snout, by ana)", …; a vertex stored before schema 11
+    reads "hand click (unknown)"); ``pointing_px``, its pointing sigmas (left, right) in pixels per image
+    coordinate, None for the source's documented default; ``pointing_origin``, where a stated sigma comes
+    from (``given``, ``estimated``; ``default`` with None); ``weak``, the auto-match's ambiguity when a
+    weak proposal was accepted (a fact of the vertex, not of the object's notes)."""
 
     xl: float
     yl: float
@@ -42,6 +50,10 @@ class Vertex:
     frame_left: int | None = None
     frame_right: int | None = None
     time_s: float | None = None
+    source: str = "hand click"
+    pointing_px: tuple[float, float] | None = None
+    pointing_origin: str = "default"
+    weak: WeakMatch | None = None
 
 
 @dataclass(frozen=True)

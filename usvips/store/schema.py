@@ -217,6 +217,22 @@ UPDATE object_instants SET tracked_from = (SELECT CAST(substr(o.notes, 20) AS IN
     WHERE object_id IN (SELECT id FROM objects WHERE notes GLOB 'tracked from frame [0-9]*');
 """
 MIGRATIONS[10] = VERSION_10
+
+# version 11: each vertex's pointing (usvips.core.pointing): where its pixels come from (a source label), its
+# pointing sigmas left and right (px per image coordinate; NULL: the source's documented default) with their
+# origin, and an accepted weak auto-match's reason and score (when known; a fact of the vertex: no edit of the object's
+# notes removes it). Vertices stored before say 'hand click (unknown)' with the default sigma.
+VERSION_11 = """
+ALTER TABLE vertices ADD COLUMN pointing_source TEXT NOT NULL DEFAULT 'hand click';
+ALTER TABLE vertices ADD COLUMN sigma_left_px REAL CHECK (sigma_left_px IS NULL OR sigma_left_px > 0);
+ALTER TABLE vertices ADD COLUMN sigma_right_px REAL CHECK (sigma_right_px IS NULL OR sigma_right_px > 0);
+ALTER TABLE vertices ADD COLUMN pointing_origin TEXT CHECK (pointing_origin IS NULL OR pointing_origin IN
+    ('default', 'given', 'estimated'));
+ALTER TABLE vertices ADD COLUMN weak_score REAL;
+ALTER TABLE vertices ADD COLUMN weak_reason TEXT CHECK (weak_score IS NULL OR weak_reason IS NOT NULL);
+UPDATE vertices SET pointing_source = 'hand click (unknown)';
+"""
+MIGRATIONS[11] = VERSION_11
 SCHEMA_VERSION = max(MIGRATIONS)
 
 

@@ -15,7 +15,7 @@ object was measured with is no longer available: then the vertices are uncorrela
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -57,6 +57,7 @@ class Measurement:
     pointing_sigma_px: np.ndarray | None = None
     pointing_origin: str = ""
     marks: tuple[str, ...] = ()
+    camera: np.ndarray | None = None
 
     @property
     def instant_count(self) -> int:
@@ -175,7 +176,8 @@ def measure_picks(kind: str, calibration: StereoCalibration, left: np.ndarray, r
     sigma = per_vertex(pointing_sigma_px, count)
     points, pointing, calibration_part, ray_rms, range_m = vertex_covariance_parts(
         calibration, left, right, station, frame, sigma)
-    return measure(measurement_kind.name, points, pointing + calibration_part, ray_rms, range_m, rules, True, id,
-                   attribute, notes, pointing=pointing, pointing_sigma_px=np.array(sigma),
-                   pointing_origin="default" if pointing_sigma_px is None else pointing_origin,
-                   marks=calibration_marks(calibration) + tuple(marks))
+    measured = measure(measurement_kind.name, points, pointing + calibration_part, ray_rms, range_m, rules, True, id,
+                       attribute, notes, pointing=pointing, pointing_sigma_px=np.array(sigma),
+                       pointing_origin="default" if pointing_sigma_px is None else pointing_origin,
+                       marks=calibration_marks(calibration) + tuple(marks))
+    return replace(measured, camera=np.array(calibration.rig(station, frame).left.exterior.position, float))
