@@ -112,3 +112,33 @@ def test_tracked_instants_give_the_trackers_own_spread(tmp_path):
         found, note = estimate_tracking(project)
     assert found.method == "tracking" and note == "15 tracked objects"
     assert found.low_px <= 0.3 <= found.high_px
+
+
+def test_an_estimate_in_use_changes_every_figure_through_the_one_path(tmp_path):
+    """Stated σ of hand clicks follow the estimate in use (the figure says so); a σ given by the user stays;
+    taking the estimate out of use gives the default again."""
+    from dataclasses import replace
+
+    from usvips.app.project_figures import measure_stored
+    from usvips.bench.sigma_check import build_survey
+    from usvips.core.pointing import HAND_CLICK_SIGMA_PX
+
+    path = build_survey(tmp_path / "s.usvips", objects=3, seed=1)
+    rng = np.random.default_rng(2)
+    estimate = from_pointing_test(rng.normal(0, 1.2, (40, 2)), np.zeros((40, 2)))
+    with Project.open(path) as project:
+        first, second, third = project.objects()
+        project.update_object(third.id, vertices=[replace(v, pointing_px=(0.3, 0.3), pointing_origin="given")
+                                                  for v in third.vertices])
+        before = [measure_stored(project, o) for o in project.objects()]
+        assert all(np.allclose(m.pointing_sigma_px, HAND_CLICK_SIGMA_PX) for m in before[:2])
+        add_estimate(project, estimate, first.creator)
+        after = [measure_stored(project, o) for o in project.objects()]
+        for b, a in zip(before[:2], after[:2], strict=True):
+            assert np.allclose(a.pointing_sigma_px, estimate.sigma_px) and a.pointing_origin == "estimated"
+            assert a.main.sigma > 1.5 * b.main.sigma
+            assert any("estimated" in mark and "in use for 2 vertex(es)" in mark for mark in a.marks)
+        assert np.allclose(after[2].pointing_sigma_px, 0.3) and after[2].main.sigma == before[2].main.sigma
+        use_estimate(project, None, first.creator)
+        again = measure_stored(project, project.object(second.id))
+        assert np.isclose(again.main.sigma, before[1].main.sigma) and again.pointing_origin == "default"

@@ -47,7 +47,7 @@ def test_short_lengths_far_away_are_seen_to_break_their_first_order_sigma(tmp_pa
     assert row.verdict == "too small"
 
 
-def test_the_projects_estimate_in_use_is_drawn(survey, tmp_path):
+def test_the_projects_estimate_in_use_states_the_sigma_and_is_drawn(survey, tmp_path):
     copy = tmp_path / "copy.usvips"
     with Project.open(survey, read_only=True) as project:
         project.copy_to(copy)
@@ -55,11 +55,14 @@ def test_the_projects_estimate_in_use_is_drawn(survey, tmp_path):
     estimate = from_repeats([rng.normal(0, 1.5, (3, 2)) for _ in range(200)])
     with Project.open(copy) as project:
         creator = project.objects()[0].creator
+        before = read_check(project)
         add_estimate(project, estimate, creator)
         read = read_check(project)
         assert "estimates in use" in read.pointing_note
         assert np.allclose(read.objects[0].pointing_px, estimate.sigma_px)
-        assert run_check(read, replicas=10).check.kinds[0].verdict == "too small"
+        assert read.objects[0].sigma > 2 * before.objects[0].sigma  # the figures are stated with it
+        # the picks were made with 0.5 px: if that is the truth, the σ stated with the estimate are too large
+        assert check_project_sigmas(project, 10, pointing_px=0.5).check.kinds[0].verdict == "too large"
 
 
 def test_objects_without_their_calibration_are_named(tmp_path):

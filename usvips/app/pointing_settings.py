@@ -28,7 +28,7 @@ from datetime import UTC, datetime
 import numpy as np
 
 from usvips.core.errors import InvalidParameterError, UsvipsError
-from usvips.core.pointing import SOURCES, PointingSigma
+from usvips.core.pointing import SOURCES, PointingSigma, source_from_label
 from usvips.core.pointing_estimates import (
     METHODS,
     PointingEstimate,
@@ -37,7 +37,7 @@ from usvips.core.pointing_estimates import (
     from_tracks,
 )
 from usvips.store.interface import ProjectStore
-from usvips.store.records import StoredObject
+from usvips.store.records import StoredObject, Vertex
 
 #: the largest distance (px) between two picks of one point taken as repeats of it (a further pick of the
 #: same fish on the same image lies a few σ away; another fish lies much further)
@@ -144,6 +144,37 @@ def resolve(in_use: dict[tuple[str, str], PointingSigma], source: str, annotator
     """The pointing σ in use for a vertex of kind of ``source`` picked by ``annotator``: the annotator's
     own estimate, else anyone's, else None (the source's default applies)."""
     return in_use.get((annotator, source)) or in_use.get(("", source))
+
+
+def pointing_with_estimates(in_use: dict[tuple[str, str], PointingSigma], vertices: Sequence[Vertex],
+                            creator: str = "") -> tuple[list[tuple[float, float] | None], list[str], tuple[str, ...]]:
+    """The stated pointing σ (left, right) px or None, and origins, of an object's stored ``vertices`` with
+    the project's estimates ``in_use`` applied to those whose σ is their source's default: the estimate for
+    the vertex's source and annotator (the source's own annotator, else ``creator``, the object's), else
+    anyone's; a tracked or auto-matched vertex carries the click it follows, so without an estimate of its
+    own kind it takes the hand-click one. A σ given by the user or stored as estimated stays. Also the marks
+    a figure from them carries: one per estimate used ("pointing sigma 0.42 ± 0.05 px (estimated, …) in use
+    for N vertex(es)")."""
+    sigmas, origins, used = [], [], {}
+    for v in vertices:
+        sigma, origin = v.pointing_px, v.pointing_origin if v.pointing_px is not None else "default"
+        if origin == "default" and in_use:
+            try:
+                source = source_from_label(v.source)
+            except InvalidParameterError:
+                source = None
+            if source is not None:
+                who = source.annotator or creator
+                found = resolve(in_use, source.kind, who)
+                if found is None and source.kind in ("tracked", "auto-match"):
+                    found = resolve(in_use, "hand click", who)
+                if found is not None:
+                    sigma, origin = (found.value_px, found.value_px), "estimated"
+                    used[found.text] = used.get(found.text, 0) + 1
+        sigmas.append(sigma)
+        origins.append(origin)
+    marks = tuple(f"pointing sigma {text} in use for {n} vertex(es)" for text, n in used.items())
+    return sigmas, origins, marks
 
 
 # ------------------------------------------------------------------------------------------------ from data

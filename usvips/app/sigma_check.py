@@ -8,10 +8,10 @@ from its picks as the one figure function measures it — the objects of one cal
 are the truth of the replicas and its main figure's σ is the σ stated. Objects whose calibration is not in the
 project (figures from stored values) cannot be simulated: they are counted as such.
 
-The pointing σ the replicas draw (what is believed TRUE of the picks) is, for each vertex, the project's
-estimate in use for the object's annotator (:mod:`usvips.app.pointing_settings`, hand clicks), else the one
-the figure was stated with; ``pointing_px`` overrides it for every pick (e.g. to ask "what if we click
-with 1 px?").
+The pointing σ the replicas draw (what is believed TRUE of the picks) is, for each vertex, the one its
+figure is stated with — its own, the project's estimate in use for its source and annotator
+(:mod:`usvips.app.pointing_settings`), else its source's default; ``pointing_px`` overrides it for every
+pick (e.g. to ask "what if we click with 1 px?").
 
 Reading (:func:`read_check`, on the project's thread) is split from the Monte Carlo (:func:`run_check`,
 any thread; the window runs it in its worker with progress and cancel).
@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from usvips.app.object_instants import survey_objects
-from usvips.app.pointing_settings import pointing_in_use, resolve
+from usvips.app.pointing_settings import pointing_in_use
 from usvips.app.project_figures import instants_by_object, measurement_input
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.measurements.batch import measure_picks_many
@@ -89,7 +89,7 @@ def read_check(project: ProjectStore, pointing_px: float | None = None) -> Check
     groups: dict[tuple[int, str, str], list] = {}
     skipped = []
     for stored in survey_objects(project):
-        first = replace(measurement_input(project, stored, cache, instants=instants), instants=())
+        first = replace(measurement_input(project, stored, cache, instants=instants, pointing=in_use), instants=())
         if first.calibration is None or first.calibration_id is None:
             skipped.append(f"object {stored.id}: its calibration is not in the project")
             continue
@@ -99,7 +99,8 @@ def read_check(project: ProjectStore, pointing_px: float | None = None) -> Check
         _, head = members[0]
         # the objects of one calibration measured at once, each exactly as the one figure function does
         measured = measure_picks_many([f.kind for _, f in members], head.calibration, [f.left for _, f in members],
-                                      [f.right for _, f in members], head.station, head.frame)
+                                      [f.right for _, f in members], head.station, head.frame,
+                                      [f.pointing_px for _, f in members])
         geometries.append(CheckGeometry(head.calibration, head.station, head.frame))
         for (stored, _), m in zip(members, measured, strict=True):
             if isinstance(m, UsvipsError):
@@ -109,19 +110,15 @@ def read_check(project: ProjectStore, pointing_px: float | None = None) -> Check
                 skipped.append(f"object {stored.id}: its {m.main.label} has no σ")
                 continue
             count = len(m.points)
-            if pointing_px is not None:
-                true = np.full((count, 2), float(pointing_px))
-            else:
-                estimate = resolve(in_use, "hand click", stored.creator)
-                true = (np.full((count, 2), estimate.value_px) if estimate is not None
-                        else np.broadcast_to(m.pointing_sigma_px, (count, 2)).copy())
+            true = (np.full((count, 2), float(pointing_px)) if pointing_px is not None
+                    else np.broadcast_to(m.pointing_sigma_px, (count, 2)).copy())
             objects.append(CheckedObject(str(stored.id), m.kind, m.points, m.main.sigma, len(geometries) - 1, true))
     if pointing_px is not None:
         note = f"{pointing_px:g} px for every pick (given)"
     elif in_use:
-        note = "the project's estimates in use where there is one, else the σ each figure was stated with"
+        note = "the σ each figure is stated with (the project's estimates in use where they apply)"
     else:
-        note = "the σ each figure was stated with (the project has no estimate in use)"
+        note = "the σ each figure is stated with (the sources' defaults: the project has no estimate in use)"
     return CheckInput(tuple(objects), tuple(geometries), tuple(skipped), note)
 
 
