@@ -21,7 +21,7 @@ from usvips.gui.pointing_test_model import COUNT, PointingTestModel
 from usvips.gui.worker import Worker, start
 
 #: how many screen pixels an image pixel is shown as
-ZOOM = 5
+ZOOM = 4
 #: the keyboard's steps (image pixels): plain, with Shift
 STEP, BIG_STEP = 0.25, 2.0
 
