@@ -86,9 +86,10 @@ def _condition(name: str | Condition) -> Condition:
     raise InvalidParameterError("condition", f"unknown condition {name!r}; known: {known}")
 
 
-def scene(feature: str, rng: np.random.Generator) -> tuple[dict, np.ndarray]:
+def scene(feature: str, rng: np.random.Generator) -> tuple[dict, np.ndarray, np.ndarray | None]:
     """A random scene showing ``feature`` near the image's centre: the renderer's keyword arguments (discs,
-    objects) and the feature's 3-D point (m)."""
+    objects), the feature's 3-D point (m) and, on a fish, the other end of its snout–fork axis (m; None on
+    a target)."""
     if feature not in FEATURES:
         raise InvalidParameterError("feature", f"unknown feature {feature!r}; known: {', '.join(FEATURES)}")
     distance = rng.uniform(1.0, 1.4)
@@ -99,7 +100,7 @@ def scene(feature: str, rng: np.random.Generator) -> tuple[dict, np.ndarray]:
         tilt = rng.uniform(-0.25, 0.25, 2)
         normal = np.array([tilt[0], tilt[1], 1.0])
         return {"discs": [Disc(tuple(point), tuple(normal / np.linalg.norm(normal)), radius=0.035,
-                               cross_width=0.005)]}, point
+                               cross_width=0.005)]}, point, None
     angle = rng.uniform(0, 2 * np.pi)
     axis = np.array([np.cos(angle), np.sin(angle), rng.uniform(-0.2, 0.2)])
     axis /= np.linalg.norm(axis)
@@ -109,7 +110,8 @@ def scene(feature: str, rng: np.random.Generator) -> tuple[dict, np.ndarray]:
         snout, fork = point, point + length * axis
     else:
         snout, fork = point - length * axis, point
-    return {"objects": [Fish(tuple(snout), tuple(fork), up=tuple(up), brightness=rng.uniform(140, 200))]}, point
+    fish = Fish(tuple(snout), tuple(fork), up=tuple(up), brightness=rng.uniform(140, 200))
+    return {"objects": [fish]}, point, fork if feature == "fish snout" else snout
 
 
 def render_trial(feature: str, condition: str | Condition, seed: int, noise_seed: int | None = None,
@@ -117,7 +119,7 @@ def render_trial(feature: str, condition: str | Condition, seed: int, noise_seed
     """The trial of ``feature`` in ``condition`` drawn by ``seed`` (the scene) and ``noise_seed`` (the
     sensor noise; default ``seed``)."""
     condition = _condition(condition)
-    arguments, point = scene(feature, np.random.default_rng(seed))
+    arguments, point, _ = scene(feature, np.random.default_rng(seed))
     camera = _camera()
     image = render(camera, water=condition.water, supersample=supersample, background=55.0,
                    seed=seed if noise_seed is None else noise_seed, **arguments)
@@ -134,3 +136,65 @@ def plan(count: int, seed: int = 0) -> list[tuple[str, str, int]]:
     order = [cells[i % len(cells)] for i in range(int(count))]
     rng.shuffle(order)
     return [(f, c, int(s)) for (f, c), s in zip(order, rng.integers(0, 2**31, len(order)), strict=True)]
+
+
+# ------------------------------------------------------------------------------------------ the experiment
+#: the side (px) of the neighbourhood a person judges a point by (the experiment's window)
+WINDOW = 15
+
+
+def how_well_defined(feature: str, condition: str | Condition, seed: int, draws: int = 20) -> dict:
+    """How well the image defines ``feature`` in ``condition`` (one scene drawn by ``seed``), in pixels:
+
+    - ``crlb_px``: the Cramér–Rao bound of locating the feature's :data:`WINDOW` × WINDOW neighbourhood
+      under the sensor noise (σ² = σ_n² · [F⁻¹], F = Σ ∇I ∇Iᵀ over the window of the noise-free image, per
+      coordinate, the mean of x and y): no observer, human or program, locates it better on average;
+    - ``located_px``: the spread (per coordinate) of the least-squares shift of the noisy window against the
+      noise-free one over ``draws`` noise draws: the bound reached by the best program;
+    - ``edge_offset_px``: on a fish, where the visible edge is along the snout–fork axis (half way between
+      the body's and the water's grey, outward positive) relative to the true point — the point's definition
+      under blur and haze (a person clicking the visible tip is off by this); NaN on a target.
+    """
+    from scipy.ndimage import map_coordinates
+
+    condition = _condition(condition)
+    arguments, point, inward = scene(feature, np.random.default_rng(seed))
+    camera = _camera()
+    quiet = Condition(condition.name, condition.blur_px, condition.attenuation, condition.backscatter, 1e-9)
+    clean = render(camera, water=quiet.water, supersample=2, background=55.0, seed=seed, **arguments)
+    clean = clean.astype(np.float64)
+    truth = camera.project_point(point)
+    half = WINDOW // 2
+    x0, y0 = int(round(truth[0])), int(round(truth[1]))
+    gy, gx = np.gradient(clean)
+    window = (slice(y0 - half, y0 + half + 1), slice(x0 - half, x0 + half + 1))
+    fisher = np.array([[np.sum(gx[window] ** 2), np.sum(gx[window] * gy[window])],
+                       [np.sum(gx[window] * gy[window]), np.sum(gy[window] ** 2)]])
+    noise = np.hypot(condition.noise, 1 / np.sqrt(12))  # the sensor's, and the 8-bit rounding's
+    crlb = float(np.sqrt(noise ** 2 * np.trace(np.linalg.inv(fisher)) / 2))
+    rng = np.random.default_rng(seed + 1)
+    shifts = []
+    gradient = np.stack([gx[window].ravel(), gy[window].ravel()])
+    for _ in range(draws):
+        noisy = np.clip(np.rint(clean + rng.normal(0, condition.noise, clean.shape)), 0, 255)
+        # the least-squares shift of the noisy window against the noise-free one (a Gauss–Newton step of
+        # Lucas–Kanade from the truth: the estimator the bound is the variance of)
+        shifts.append(-np.linalg.solve(fisher, gradient @ (noisy[window] - clean[window]).ravel()))
+    located = float(np.sqrt(np.mean(np.var(np.array(shifts), axis=0, ddof=1))))
+    offset = float("nan")
+    if inward is not None:
+        inward = point + 0.02 * (inward - point) / np.linalg.norm(inward - point)  # 2 cm into the body
+        into = camera.project_point(inward) - truth
+        into /= np.linalg.norm(into)  # image direction from the point into the body
+        t = np.arange(-8.0, 8.0, 0.05)  # px along the axis, outward positive
+        samples = truth[None, :] - t[:, None] * into[None, :]
+        profile = map_coordinates(clean, [samples[:, 1], samples[:, 0]], order=1)
+        # the body's grey: its bright part (the eye, dark, lies a few px behind the snout), the water's beyond
+        body, water = np.percentile(profile[t < -2], 90), profile[t > 5].mean()
+        level = (body + water) / 2
+        crossing = np.flatnonzero(np.diff(np.sign(profile - level)) != 0)
+        if crossing.size:
+            k = crossing[np.argmin(np.abs(t[crossing]))]
+            offset = float(t[k] + (level - profile[k]) / (profile[k + 1] - profile[k]) * (t[k + 1] - t[k]))
+    return {"feature": feature, "condition": condition.name, "crlb_px": crlb, "located_px": located,
+            "edge_offset_px": offset}
