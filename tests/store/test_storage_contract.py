@@ -1187,3 +1187,28 @@ def test_interleaved_edits_and_undos_of_two_annotators_never_overwrite_a_later_e
                     handle.update_object(object_id, vertices=[_vertex(rng) for _ in range(3)])
                 stack.append((object_id, before, handle.object_rows(object_id)))
         assert undone and refused
+
+
+def test_the_pointing_estimates_round_trip_and_a_reader_cannot_change_them(impl, store, where):
+    assert store.pointing_estimates() == []
+    records = [{"annotator": "Ana Ng", "source": "hand click", "sigma_px": 0.42, "low_px": 0.38, "high_px": 0.47,
+                "note": "Ünïcode 'quotes'", "bias_px": None, "n": 36},
+               {"annotator": "", "source": "tracked", "sigma_px": 0.3, "bias_px": [0.1, -0.2], "n": 9}]
+    store.set_pointing_estimates(records)
+    assert store.pointing_estimates() == records
+    store.close()
+    reader = impl.open(where, True)
+    try:
+        assert reader.pointing_estimates() == records  # kept, seen by another handle
+        before = impl.snapshot(where)
+        with pytest.raises(ProjectError):
+            reader.set_pointing_estimates(records[:1])
+        assert impl.snapshot(where) == before
+    finally:
+        reader.close()
+    writer = impl.open(where, False)
+    try:
+        writer.set_pointing_estimates([])
+        assert writer.pointing_estimates() == []
+    finally:
+        writer.close()
