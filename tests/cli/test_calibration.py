@@ -1,5 +1,6 @@
 """``usvips calibration import|export``: OpenCV files in and out, warnings and bad input on one line."""
 
+import csv
 from pathlib import Path
 
 import cv2
@@ -32,8 +33,11 @@ def test_import_the_pair_and_export_again(tmp_path, capsys):
     out = tmp_path / "cal.json"
     assert main(["calibration", "import", intrinsics, extrinsics, "--out", str(out), "--image-size", "1280x960",
                  "--unit", "mm"]) == 0
-    assert "baseline 0.3902 m" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "baseline 0.3902 m" in printed
+    assert "sigma0 0.5 px ASSUMED" in printed and "--sigma0 PX" in printed  # the files state no residual
     calibration = load_calibration(out)
+    assert calibration.sigma0_origin == "assumed"
     assert calibration.left.interior.k3 == pytest.approx(0.011) and calibration.right.width == 1280
     assert main(["calibration", "export", str(out), "--format", "opencv", "--out", str(tmp_path / "back.yml")]) == 0
     assert capsys.readouterr().err == ""  # nothing left out of an imported in-air rig
@@ -41,6 +45,37 @@ def test_import_the_pair_and_export_again(tmp_path, capsys):
     np.testing.assert_allclose(storage.getNode("T").mat(), T / 1000.0, rtol=1e-12)
     np.testing.assert_allclose(storage.getNode("D1").mat(), D1, rtol=1e-12, atol=1e-17)
     storage.release()
+
+
+def test_import_takes_sigma0_from_the_stated_rms_or_as_given_and_figures_say_an_assumed_one(tmp_path, capsys):
+    stated = _write(tmp_path / "stated.yml", M1=M1, D1=D1, M2=M2, D2=D2, R=R, T=T, rms=4.1719)
+    assert main(["calibration", "import", stated, "--out", str(tmp_path / "stated.json"), "--image-size",
+                 "1280x960", "--unit", "mm"]) == 0
+    assert "sigma0 2.95 px from the file (rms 4.172 px" in capsys.readouterr().out
+    assert load_calibration(tmp_path / "stated.json").sigma0_origin == "stated"
+    assert main(["calibration", "import", stated, "--out", str(tmp_path / "given.json"), "--image-size",
+                 "1280x960", "--unit", "mm", "--sigma0", "1.5"]) == 0
+    assert "sigma0 1.5 px (given)" in capsys.readouterr().out
+    bare = _write(tmp_path / "bare.yml", M1=M1, D1=D1, M2=M2, D2=D2, R=R, T=T)
+    assert main(["calibration", "import", bare, "--out", str(tmp_path / "bare.json"), "--image-size", "1280x960",
+                 "--unit", "mm"]) == 0
+    capsys.readouterr()
+    rig = load_calibration(tmp_path / "bare.json").rig(frame="rig")
+    ends = np.array([[0.0, 0.0, -2.0], [0.3, 0.05, -2.1]])
+    pixels = np.hstack([rig.left.project(ends).pixels, rig.right.project(ends).pixels])
+    (tmp_path / "obs.csv").write_text("id,xl,yl,xr,yr\n1," + ",".join(map(str, pixels[0])) + "\n")
+    (tmp_path / "picks.csv").write_text("object,type,vertex,xl,yl,xr,yr\n" + "".join(
+        f"f,length,{v}," + ",".join(map(str, pixels[v])) + "\n" for v in range(2)))
+    assert main(["intersect", "--calibration", str(tmp_path / "bare.json"), "--obs", str(tmp_path / "obs.csv"),
+                 "--out", str(tmp_path / "points.csv")]) == 0
+    printed = capsys.readouterr().out
+    assert "pointing sigma 0.5 px (the hand-click default" in printed and "assumed" in printed
+    assert main(["measure", "--calibration", str(tmp_path / "bare.json"), "--picks", str(tmp_path / "picks.csv"),
+                 "--out", str(tmp_path / "fish.csv"), "--frame", "rig", "--pointing-sigma", "0.8"]) == 0
+    assert "pointing sigma 0.8 px (given)" in capsys.readouterr().out
+    row = next(csv.DictReader((tmp_path / "fish.csv").open()))
+    assert "assumed" in row["sigma_notes"] and "pointing only" in row["sigma_notes"]
+    assert (row["pointing_sigma_px"], row["pointing_origin"], float(row["sigma_calibration"])) == ("0.8", "given", 0)
 
 
 def test_export_of_a_water_calibration_warns_on_one_line_each(tmp_path, capsys):

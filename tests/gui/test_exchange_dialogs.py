@@ -52,7 +52,8 @@ def test_import_asks_the_image_size_the_file_lacks_and_stores_the_calibration(qt
     _opencv_file_without_size(source)
     asked = []
     assert exchange_dialogs.import_calibration(window, [source], tmp_path / "cal.json",
-                                               ask_size=lambda w: asked.append(1) or None) is None
+                                               ask_size=lambda w: asked.append(1) or None,
+                                               ask_sigma=lambda w: asked.append(2) or None) is None
     assert asked and not (tmp_path / "cal.json").exists()
     assert "image size is needed" in window.statusBar().currentMessage()
     offered = {}
@@ -63,8 +64,11 @@ def test_import_asks_the_image_size_the_file_lacks_and_stores_the_calibration(qt
         return True
 
     out = exchange_dialogs.import_calibration(window, [source], tmp_path / "cal.json", ask_size=lambda w: (640, 480),
-                                              run=tick_the_shown_pair)
+                                              ask_sigma=lambda w: asked.append(2) or None, run=tick_the_shown_pair)
     imported = load_calibration(out)
+    # the file states no residual: sigma0 was asked, declined, and stays assumed, said at import
+    assert asked.count(2) == 1 and imported.sigma0_origin == "assumed"
+    assert "sigma0 0.5 px ASSUMED" in window.log.toPlainText() and "pointing share only" in window.log.toPlainText()
     assert (imported.left.width, imported.left.height) == (640, 480) and imported.left.interior.k3 == 0.03
     assert len(window.workspace.project.calibrations()) == before + 1
     shown = next(text for text in offered if text.startswith("measure1 "))

@@ -268,3 +268,53 @@ def test_bytes_that_are_not_utf8_in_a_name_or_a_value_are_one_line(tmp_path, whe
     path.write_bytes(text)
     with pytest.raises(InputFileError, match="stereo.yml"):
         read_opencv_stereo([path], (1280, 960))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_residual_a_file_states_is_its_sigma0_and_one_that_states_none_is_marked_assumed_everywhere(tmp_path,
+                                                                                                        seed):
+    """cv2.stereoCalibrate's RMS is of the 2-D reprojection error: corners with 0.2 px noise per coordinate
+    give an RMS near 0.28 px, and the import's sigma0 (per coordinate) near 0.2 px, marked 'stated'. Per-view
+    errors (OpenCV's calibration sample) serve the same way. A file without a residual gets 0.5 px marked
+    'assumed' (kept through our own file), and every figure measured with it says so, and that its sigma
+    holds pointing only (an OpenCV file has no covariance)."""
+    from usvips.core.measurements import measure_picks
+    from usvips.core.measurements.breakdown import breakdown_cells
+
+    rng = np.random.default_rng(seed)
+    cams, rvec, tvec = _random_opencv_rig(rng)
+    objects, left, right = _board_views(rng, cams, rvec, tvec, views=12)
+    rms, m1, d1, m2, d2, rotation, translation, _, _ = cv2.stereoCalibrate(
+        objects, left, right, cams[0][0].copy(), cams[0][1].copy(), cams[1][0].copy(), cams[1][1].copy(),
+        (WIDTH, HEIGHT), flags=cv2.CALIB_USE_INTRINSIC_GUESS)
+    arrays = (("M1", m1), ("D1", d1), ("M2", m2), ("D2", d2), ("R", rotation), ("T", translation))
+
+    def written(name, extra):
+        storage = cv2.FileStorage(str(tmp_path / name), cv2.FILE_STORAGE_WRITE)
+        for key, value in (*arrays, *extra):
+            storage.write(key, value)
+        storage.release()
+        return tmp_path / name
+
+    stated = read_opencv_stereo(written("rms.yml", [("rms", rms)]), size=(WIDTH, HEIGHT))
+    assert stated.sigma0_origin == "stated" and stated.sigma0_px == pytest.approx(rms / np.sqrt(2), rel=1e-12)
+    assert 0.15 < stated.sigma0_px < 0.25, (rms, stated.sigma0_px)  # the corners' 0.2 px per coordinate
+    views = np.array([rms * 0.9, rms * 1.1])
+    per_view = read_opencv_stereo(written("views.yml", [("per_view_reprojection_errors", views)]),
+                                  size=(WIDTH, HEIGHT))
+    assert per_view.sigma0_origin == "stated"
+    assert per_view.sigma0_px == pytest.approx(np.sqrt(np.mean(views ** 2)) / np.sqrt(2))
+    given = read_opencv_stereo(written("given.yml", [("rms", rms)]), size=(WIDTH, HEIGHT), sigma0_px=2.95)
+    assert (given.sigma0_origin, given.sigma0_px) == ("given", 2.95)
+    save_calibration(read_opencv_stereo(written("bare.yml", []), size=(WIDTH, HEIGHT)), tmp_path / "bare.json")
+    bare = load_calibration(tmp_path / "bare.json")
+    assert (bare.sigma0_origin, bare.sigma0_px) == ("assumed", 0.5)
+    points = _points_cv(rng, 2) * [1, -1, -1]
+    rig = bare.rig(frame="rig")
+    m = measure_picks("length", bare, rig.left.project(points).pixels, rig.right.project(points).pixels, 0, "rig")
+    notes = breakdown_cells(m)["sigma_notes"]
+    assert "assumed" in notes and "pointing only" in notes and m.main.sigma_calibration == 0.0
+    assert not any("assumed" in mark for mark in measure_picks("length", stated, rig.left.project(points).pixels,
+                                                               rig.right.project(points).pixels, 0, "rig").marks)
+    with pytest.raises(InputFileError, match="rms"):
+        read_opencv_stereo(written("bad.yml", [("rms", -1.0)]), size=(WIDTH, HEIGHT))

@@ -35,6 +35,7 @@ import numpy as np
 
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.core.pointing import HAND_CLICK_SIGMA_PX
 from usvips.io.atomic import write_text_atomic
 from usvips.io.calibration_file import load_calibration
 from usvips.io.tables import read_observations
@@ -42,15 +43,18 @@ from usvips.io.tables import read_observations
 
 # ------------------------------------------------------------------------------------------------ tasks
 def intersect_task(observations: str, calibration: str, out: str, station: str = "0",
-                   frame: str = "object") -> dict:
+                   frame: str = "object", pointing_sigma_px: float | None = None) -> dict:
     """Intersect the conjugate pixels of ``observations`` (CSV id,xl,yl,xr,yr) with ``calibration`` (JSON)
     at ``station`` (index or pair label) in ``frame`` (object | rig); write the points CSV ``out`` (metres,
-    sigmas with the calibration's own uncertainty). Points that do not intersect are left out and
-    counted. Returns {"points": written, "failed": count, "out": out}."""
+    sigmas with the picks' pointing sigma ``pointing_sigma_px`` — px, None: the hand-click default, as
+    ``usvips intersect`` — and the calibration's own uncertainty). Points that do not intersect are left
+    out and counted. Returns {"points": written, "failed": count, "out": out}."""
     rig_calibration = load_calibration(calibration)
     pixels = read_observations(observations)
     at: int | str = int(station) if station.isdigit() else station
-    result = intersect_with_calibration(rig_calibration, pixels.left, pixels.right, at, frame)
+    pointing = HAND_CLICK_SIGMA_PX if pointing_sigma_px is None else pointing_sigma_px
+    result = intersect_with_calibration(rig_calibration, pixels.left, pixels.right, at, frame,
+                                        pointing_sigma_px=pointing)
     ok = np.flatnonzero(result.ok)
     table = np.column_stack([result.points[ok], result.sigmas[ok]])
     numbers = [f"{v:.6f}" for v in table.ravel().tolist()]

@@ -20,6 +20,7 @@ from usvips.io.opencv_calibration import (
     opencv_targets,
     parse_image_size,
     read_opencv_stereo,
+    sigma0_statement,
     write_opencv_stereo,
 )
 
@@ -38,8 +39,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     importer.add_argument("--image-size", metavar="WxH", help="image size in pixels, where the files do not carry it")
     importer.add_argument("--unit", choices=sorted(UNITS), default="m",
                           help="unit of OpenCV's T (the board's unit; default m)")
-    importer.add_argument("--sigma0", type=float, default=0.5,
-                          help="pointing precision to carry as sigma0 (pixels; OpenCV files hold none)")
+    importer.add_argument("--sigma0", type=float, metavar="PX",
+                          help="the calibration's sigma0 (pixels, one image coordinate); default: from the residual "
+                               "the file states (rms, avg_reprojection_error, per-view errors), else 0.5 px marked "
+                               "assumed")
     importer.add_argument("--force", action="store_true", help=FORCE_HELP)
     importer.set_defaults(handler=run_import)
 
@@ -75,7 +78,9 @@ def run_import(args: argparse.Namespace) -> int:
     baseline = float(np.linalg.norm(calibration.relative.base))
     print(f"wrote {args.out}: in-air stereo rig, baseline {baseline:.4f} m, "
           f"f {left.interior.f:.2f} / {right.interior.f:.2f} px, {where}")
+    print(sigma0_statement(calibration) + (" (--sigma0 PX gives it)" if calibration.sigma0_origin == "assumed" else ""))
     return 0
+
 
 
 def run_export(args: argparse.Namespace) -> int:

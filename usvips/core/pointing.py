@@ -25,9 +25,11 @@ The defaults, and why (each is a prior until a project estimates its own):
   other image's CLICK, whose error it carries along the curve; the match is therefore no better than the
   click it follows. A weak (ambiguous or low-score) match is not given a larger sigma: a wrong peak is a
   blunder, not noise, and is a flagged fact (:class:`WeakMatch`) for the quality rules.
-- tracked point: :data:`TRACKED_SIGMA_PX` = 1.0 px. A tracked instant carries the pick it started from
-  plus the tracker's drift (pyramidal Lucas–Kanade, ~0.5 px per few hundred frames on rendered fish); the
-  two add in variance (0.5² + 0.8² ≈ 1²).
+- tracked point: :data:`TRACKED_SIGMA_PX` = 1.0 px, for a tracked point whose start is not known. A
+  tracked instant made by USVIPS stores the pointing sigma of the pick it was tracked from (its error is
+  carried along; the tracker's own noise shows in the instants' spread, which combining them measures,
+  ``usvips.core.measurements.instants``); a point from another tracker adds its drift (~0.5 px per few
+  hundred frames on rendered fish, up to a pixel at an outline) to the pick's: 0.5² + 0.8² ≈ 1².
 - detector corner: :data:`CORNER_SIGMA_PX` = 0.1 px. OpenCV's sub-pixel chessboard / ChArUco corners on
   sharp boards: rendered boards give σ0 ≈ 0.06 px, real boards 0.1–0.3 px; 0.1 px is the sharp-board
   value (a board's calibration reports its own σ0, which then is the better value).

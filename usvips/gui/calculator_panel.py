@@ -91,16 +91,18 @@ class CalculatorPanel(QtWidgets.QWidget):
         result = self.workspace.figures(self.selection)
         head = "objects " + " and ".join(str(i) for i in self.selection)
         lines = [head, *self._instant_lines(), ""] + [format_figure(f) for f in result.figures]
+        facts = []
         if result.measurement is not None and result.figures:  # one object: its sigma's breakdown and facts
             lines += ["", "sigma " + breakdown_text(result.measurement)]
             if len(self.selection) == 1 and self.selection[0] in self.workspace.cache:
-                lines += object_facts(self.workspace.stored_object(self.selection[0]), result.measurement,
-                                      self.workspace.rules)
+                facts = object_facts(self.workspace.stored_object(self.selection[0]), result.measurement,
+                                     self.workspace.rules)
         if result.reason:
             lines.append(result.reason)
         if result.figures and not result.reason:
             lines.append("")
-            lines.append("quality: " + ("; ".join(result.failures) if result.failures else "passes the rules"))
+            broken = [*result.failures, *facts]
+            lines.append("quality: " + ("; ".join(broken) if broken else "passes the rules"))
         if any(f.name in ("bearing", "slope") for f in result.figures):
             lines.append(f"bearing (clockwise from +Y towards +X) and slope (above the X–Y plane) are in "
                          f"{self.workspace.frame_description(self.selection[0])}")

@@ -26,7 +26,13 @@ from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.worker import Cancelled, Worker, start
 from usvips.io.calibration_file import load_calibration, save_calibration
-from usvips.io.opencv_calibration import parse_image_size, read_opencv_stereo, write_opencv_stereo
+from usvips.io.opencv_calibration import (
+    ASSUMED_SIGMA0_PX,
+    parse_image_size,
+    read_opencv_stereo,
+    sigma0_statement,
+    write_opencv_stereo,
+)
 
 OPENCV_FILTER = "OpenCV calibrations (*.yml *.yaml *.xml *.json *.npz);;All files (*)"
 
@@ -100,12 +106,22 @@ def ask_image_size(window) -> tuple[int, int] | None:
     return parse_image_size(text.strip(), "image size")
 
 
+def ask_sigma0(window) -> float | None:
+    """Ask the sigma0 (pixels) that an OpenCV file does not state; None keeps the assumed one (marked so)."""
+    value, ok = QtWidgets.QInputDialog.getDouble(
+        window, "Calibration sigma0", "The file states no reprojection residual (RMS). Its sigma0 in pixels per "
+        f"image coordinate, if you know it (Cancel keeps {ASSUMED_SIGMA0_PX:g} px, marked assumed in every "
+        "figure made with it):", ASSUMED_SIGMA0_PX, 0.001, 100.0, 3)
+    return float(value) if ok else None
+
+
 def import_calibration(window, files: list[str | Path] | None = None, out: str | Path | None = None,
-                       ask_size: Callable = ask_image_size,
+                       ask_size: Callable = ask_image_size, ask_sigma: Callable = ask_sigma0,
                        run: Callable[[UseCalibrationDialog], object] = lambda d: d.exec()) -> Path | None:
     """OpenCV YAML/XML (one file or intrinsics + extrinsics) or .npz → a USVIPS calibration file (and into
     the open project's calibrations, then made active where the user says, as
-    :func:`import_usvips_calibration`). The image size is asked when the files lack it."""
+    :func:`import_usvips_calibration`). The image size is asked when the files lack it, and the sigma0
+    when they state no residual (declined: it stays assumed, and says so)."""
     if files is None:
         files, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "OpenCV calibration (one file, or intrinsics + "
                                                           "extrinsics)", window.start_folder(), OPENCV_FILTER)
@@ -119,6 +135,11 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
                 window.show_message("info", "import cancelled: the image size is needed")
                 return None
             calibration = read_opencv_stereo(files, size)
+        if calibration.sigma0_origin == "assumed":
+            sigma0 = ask_sigma(window)
+            if sigma0 is not None:
+                size = (calibration.left.width, calibration.left.height) if calibration.left.width else None
+                calibration = read_opencv_stereo(files, size, sigma0_px=sigma0)
         if out is None:
             start = str(Path(files[0]).with_name(Path(files[0]).stem + "_usvips.json"))
             out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Save as a USVIPS calibration", start,
@@ -134,8 +155,9 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
         window.show_message("error", f"import failed, nothing written: {error}")
         return None
     where = " and stored in the project" if window.workspace.project is not None else ""
-    window.show_message("info", f"imported {len(files)} OpenCV file(s) into {out}{where} "
-                                f"({calibration.left.width} × {calibration.left.height} px)")
+    window.show_message("warning" if calibration.sigma0_origin == "assumed" else "info",
+                        f"imported {len(files)} OpenCV file(s) into {out}{where} "
+                        f"({calibration.left.width} × {calibration.left.height} px); {sigma0_statement(calibration)}")
     if calibration_id is not None:
         use_calibration(window, calibration_id, run)
     return Path(out)

@@ -15,6 +15,15 @@ default, ``unit`` says otherwise (metres in every USVIPS file).
 
 OpenCV's rational (k4, k5, k6), thin-prism (s1…s4) and tilted-sensor (τx, τy) terms have no place in
 our model: non-zero ones are refused by name; a camera matrix with skew is refused.
+
+σ0. An OpenCV file holds no covariance, so the figures measured with an imported calibration carry the
+pointing share of their sigma only (they say so). Its σ0 is taken from the residual the file states
+(:data:`RESIDUAL_KEYS`): ``cv2.calibrateCamera`` and ``cv2.stereoCalibrate`` return the RMS of the 2-D
+reprojection error (the length of the (x, y) error vector; OpenCV's calibration sample writes it as
+``avg_reprojection_error``, and ``per_view_reprojection_errors`` per view), so σ0 per image coordinate is
+RMS / √2 (per-view errors: their root mean square, / √2). A file that states no residual gets
+:data:`ASSUMED_SIGMA0_PX`, marked ``assumed`` (``statistics["sigma0_origin"]``), which every figure made
+with it says; a σ0 the user gives is marked ``given``.
 """
 
 from __future__ import annotations
@@ -58,6 +67,29 @@ NAMES = {"K1": ("M1", "K1", "cameraMatrix1", "camera_matrix_left", "mtx_l", "mtx
 SIZE_PAIRS = (("image_width", "image_height"), ("imageWidth", "imageHeight"), ("width", "height"))
 SIZE_KEYS = ("image_size", "imageSize", "size")
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+#: names under which calibration tools state a reprojection residual (pixels, OpenCV's 2-D RMS), the first
+#: found is used: one overall RMS, or per-view errors (whose RMS is taken)
+RESIDUAL_KEYS = ("rms", "RMS", "rms_error", "reprojection_error", "avg_reprojection_error", "avg_reprojErr",
+                 "stereo_rms", "reprojection_rms", "rmsError")
+PER_VIEW_KEYS = ("per_view_errors", "per_view_reprojection_errors", "perViewErrors", "reprojection_errors")
+#: the σ0 (px, one coordinate) an import assumes when its file states no residual (marked ``assumed``)
+ASSUMED_SIGMA0_PX = 0.5
+
+
+def stated_residual(data: dict[str, object], where: str) -> tuple[float, str] | None:
+    """σ0 (px, one image coordinate) from the residual a file states, with one line saying what it read;
+    None when it states none. A stated residual that is not a finite number > 0 is refused by name."""
+    for key in RESIDUAL_KEYS + PER_VIEW_KEYS:
+        if key not in data:
+            continue
+        values = np.asarray(data[key], dtype=np.float64).ravel()
+        if values.size == 0 or not np.all(np.isfinite(values)) or np.any(values < 0) or not np.any(values > 0):
+            raise InputFileError(where, f"{key}: a reprojection residual must be finite numbers >= 0 (not all 0), "
+                                        f"got {values.tolist()[:5]}")
+        rms = float(np.sqrt(np.mean(values ** 2)))
+        what = f"{key} {rms:.4g} px" if values.size == 1 else f"{key} of {values.size} views, RMS {rms:.4g} px"
+        return rms / math.sqrt(2.0), f"{what} (2-D RMS; per coordinate / √2)"
+    return None
 #: Rotation matrices are accepted when RᵀR is within this of the identity (OpenCV writes 15-17 digits).
 ROTATION_TOLERANCE = 1e-6
 
@@ -125,9 +157,11 @@ def rotation_from_opencv(value: np.ndarray, path: str, which: str = "R") -> np.n
 
 
 def stereo_from_opencv(arrays: dict[str, np.ndarray], size: tuple[int, int] | None, where: str,
-                       unit: str = "m", sigma0_px: float = 0.5, source: dict | None = None) -> StereoCalibration:
+                       unit: str = "m", sigma0_px: float = ASSUMED_SIGMA0_PX, source: dict | None = None,
+                       sigma0_origin: str = "assumed", sigma0_basis: str = "") -> StereoCalibration:
     """K1, D1, K2, D2, R, T (OpenCV's stereo calibration) → a pinhole StereoCalibration in the rig frame
-    (phase ``air``, no housing, one station ``rig``). ``unit`` is T's unit (m, cm, mm)."""
+    (phase ``air``, no housing, one station ``rig``). ``unit`` is T's unit (m, cm, mm); ``sigma0_origin``
+    (``stated``, ``given`` or ``assumed``) and ``sigma0_basis`` (what it rests on) go to its statistics."""
     path = where
     if unit not in UNITS:
         raise InvalidParameterError("--unit", f"must be one of {', '.join(UNITS)}, got {unit!r}")
@@ -150,8 +184,12 @@ def stereo_from_opencv(arrays: dict[str, np.ndarray], size: tuple[int, int] | No
     for side, interior in (("l", left), ("r", right)):
         for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3"):
             parameters[f"{name}_{side}"] = ParameterEstimate(float(getattr(interior, name)), None, "fixed")
+    statistics = {"sigma0_origin": sigma0_origin}
+    if sigma0_basis:
+        statistics["sigma0_basis"] = sigma0_basis
     return StereoCalibration.from_cameras(left_camera, right_camera, "air", sigma0_px, station="rig",
-                                          parameters=parameters, source=dict(source or {"opencv": path}))
+                                          parameters=parameters, statistics=statistics,
+                                          source=dict(source or {"opencv": path}))
 
 
 def opencv_from_stereo(calibration: StereoCalibration) -> tuple[dict[str, np.ndarray], list[str]]:
@@ -338,18 +376,24 @@ def _size_of(data: dict[str, object], path: str) -> tuple[int, int] | None:
 
 
 def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int, int] | None = None,
-                       unit: str = "m", sigma0_px: float = 0.5) -> StereoCalibration:
+                       unit: str = "m", sigma0_px: float | None = None) -> StereoCalibration:
     """A pinhole stereo calibration (phase ``air``, no housing) from one file or the intrinsics +
     extrinsics pair. ``size`` (width, height in pixels) where the files do not carry it; a size that
-    disagrees with a file's, or two files that disagree, is refused."""
+    disagrees with a file's, or two files that disagree, is refused. ``sigma0_px``: σ0 given by the user
+    (marked ``given``); None: the residual the files state (``stated``, :func:`stated_residual`), else
+    :data:`ASSUMED_SIGMA0_PX` marked ``assumed``."""
+    if sigma0_px is not None and not (math.isfinite(sigma0_px) and sigma0_px > 0):
+        raise InvalidParameterError("sigma0", f"must be a finite number of pixels > 0, got {sigma0_px!r}")
     paths = [Path(paths)] if isinstance(paths, str | Path) else [Path(p) for p in paths]
     if not paths:
         raise InvalidParameterError("FILE", "give one calibration file or the intrinsics + extrinsics pair")
     merged: dict[str, np.ndarray] = {}
     origin: dict[str, Path] = {}
     file_size, size_origin = None, None
+    stated = None
     for path in paths:
         data = _read_file(path)
+        stated = stated or _stated(data, path)
         this_size = _size_of(data, str(path))
         if this_size is not None:
             if file_size is not None and this_size != file_size:
@@ -375,7 +419,29 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
         raise InputFileError(str(size_origin), f"mismatched image sizes: the file says {file_size[0]}x"
                              f"{file_size[1]}, --image-size says {size[0]}x{size[1]}")
     source = {"opencv": [str(p) for p in paths], "unit": unit}
-    return stereo_from_opencv(merged, tuple(size) if size else file_size, where, unit, sigma0_px, source)
+    if sigma0_px is not None:
+        sigma0, origin, basis = float(sigma0_px), "given", "given at import"
+    elif stated is not None:
+        sigma0, origin, basis = stated[0], "stated", stated[1]
+    else:
+        sigma0, origin, basis = ASSUMED_SIGMA0_PX, "assumed", "assumed: the file states no reprojection residual"
+    return stereo_from_opencv(merged, tuple(size) if size else file_size, where, unit, sigma0, source, origin, basis)
+
+
+def sigma0_statement(calibration: StereoCalibration) -> str:
+    """What an imported calibration's sigma0 rests on, and that its figures' sigmas hold pointing only."""
+    basis = calibration.statistics.get("sigma0_basis", "")
+    text = {"stated": f"sigma0 {calibration.sigma0_px:.3g} px from the file ({basis})",
+            "given": f"sigma0 {calibration.sigma0_px:.3g} px (given)",
+            "assumed": f"sigma0 {calibration.sigma0_px:.3g} px ASSUMED: the file states no reprojection residual; "
+                       "every figure made with this calibration says so"}.get(calibration.sigma0_origin,
+                                                                             f"sigma0 {calibration.sigma0_px:.3g} px")
+    return text + "; no parameter covariance: the figures' sigmas hold the pointing share only"
+
+
+def _stated(data: dict[str, object], path: Path) -> tuple[float, str] | None:
+    found = stated_residual(data, str(path))
+    return None if found is None else (found[0], f"{found[1]} in {path.name}")
 
 
 def _storage_text(path: Path, entries: dict[str, object], comment: str) -> str:
