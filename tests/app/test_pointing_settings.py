@@ -142,3 +142,21 @@ def test_an_estimate_in_use_changes_every_figure_through_the_one_path(tmp_path):
         use_estimate(project, None, first.creator)
         again = measure_stored(project, project.object(second.id))
         assert np.isclose(again.main.sigma, before[1].main.sigma) and again.pointing_origin == "default"
+
+
+def test_a_tracked_vertex_takes_its_click_and_the_trackers_noise():
+    from usvips.app.pointing_settings import pointing_with_estimates
+    from usvips.core.pointing import PointingSigma
+
+    click, tracker = PointingSigma(0.6, 0.05, "estimated", "2026-11-28", 40), PointingSigma(0.8, 0.1, "estimated",
+                                                                                         "2026-11-28", 30)
+    vertices = [Vertex(1, 2, 3, 4, source="tracked", pointing_px=(0.5, 0.5)),
+                Vertex(1, 2, 3, 4, source="hand click"), Vertex(1, 2, 3, 4, source="auto-match"),
+                Vertex(1, 2, 3, 4, pointing_px=(0.3, 0.3), pointing_origin="given")]
+    sigmas, origins, marks = pointing_with_estimates({("ana", "hand click"): click}, vertices, "ana")
+    assert sigmas == [(0.6, 0.6)] * 3 + [(0.3, 0.3)] and origins == ["estimated"] * 3 + ["given"]
+    assert marks == ("pointing sigma 0.60 ± 0.05 px (estimated, n 40, 2026-11-28) in use for 3 vertex(es)",)
+    sigmas, _, _ = pointing_with_estimates({("", "tracked"): tracker, ("ana", "hand click"): click}, vertices, "ana")
+    assert sigmas[0] == pytest.approx((1.0, 1.0))  # 0.6 and 0.8 in variance
+    sigmas, _, _ = pointing_with_estimates({("", "tracked"): tracker}, vertices, "bo")
+    assert sigmas[0] == pytest.approx((np.hypot(0.5, 0.8),) * 2) and sigmas[1] is None  # the click's stored σ

@@ -28,7 +28,7 @@ from datetime import UTC, datetime
 import numpy as np
 
 from usvips.core.errors import InvalidParameterError, UsvipsError
-from usvips.core.pointing import SOURCES, PointingSigma, source_from_label
+from usvips.core.pointing import SOURCES, PointingSigma, default_sigma, source_from_label
 from usvips.core.pointing_estimates import (
     METHODS,
     PointingEstimate,
@@ -151,8 +151,9 @@ def pointing_with_estimates(in_use: dict[tuple[str, str], PointingSigma], vertic
     """The stated pointing σ (left, right) px or None, and origins, of an object's stored ``vertices`` with
     the project's estimates ``in_use`` applied to those whose σ is their source's default: the estimate for
     the vertex's source and annotator (the source's own annotator, else ``creator``, the object's), else
-    anyone's; a tracked or auto-matched vertex carries the click it follows, so without an estimate of its
-    own kind it takes the hand-click one. A σ given by the user or stored as estimated stays. Also the marks
+    anyone's; an auto-matched vertex carries the click it follows, so without an estimate of its own kind
+    it takes the hand-click one; a tracked vertex carries the click it was tracked from and the tracker's
+    noise (:func:`_tracked`). A σ given by the user or stored as estimated stays. Also the marks
     a figure from them carries: one per estimate used ("pointing sigma 0.42 ± 0.05 px (estimated, …) in use
     for N vertex(es)")."""
     sigmas, origins, used = [], [], {}
@@ -165,9 +166,12 @@ def pointing_with_estimates(in_use: dict[tuple[str, str], PointingSigma], vertic
                 source = None
             if source is not None:
                 who = source.annotator or creator
-                found = resolve(in_use, source.kind, who)
-                if found is None and source.kind in ("tracked", "auto-match"):
-                    found = resolve(in_use, "hand click", who)
+                if source.kind == "tracked":
+                    found = _tracked(in_use, who, sigma)
+                else:
+                    found = resolve(in_use, source.kind, who)
+                    if found is None and source.kind == "auto-match":
+                        found = resolve(in_use, "hand click", who)
                 if found is not None:
                     sigma, origin = (found.value_px, found.value_px), "estimated"
                     used[found.text] = used.get(found.text, 0) + 1
@@ -175,6 +179,21 @@ def pointing_with_estimates(in_use: dict[tuple[str, str], PointingSigma], vertic
         origins.append(origin)
     marks = tuple(f"pointing sigma {text} in use for {n} vertex(es)" for text, n in used.items())
     return sigmas, origins, marks
+
+
+def _tracked(in_use: dict[tuple[str, str], PointingSigma], who: str,
+             stored: tuple[float, float] | None) -> PointingSigma | None:
+    """A tracked vertex's σ from the estimates in use: the click it was tracked from (the hand-click
+    estimate, else the σ stored with it) and the tracker's own noise about its track (a "tracked" estimate,
+    :func:`estimate_tracking`) added in variance; None when neither is estimated."""
+    click, tracker = resolve(in_use, "hand click", who), resolve(in_use, "tracked", who)
+    if click is None and tracker is None:
+        return None
+    if tracker is None:
+        return click
+    base = click.value_px if click is not None else (max(stored) if stored is not None else default_sigma())
+    return PointingSigma(float(np.hypot(base, tracker.value_px)), tracker.uncertainty_px, "estimated", tracker.date,
+                         tracker.n)
 
 
 # ------------------------------------------------------------------------------------------------ from data
