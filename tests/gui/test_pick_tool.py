@@ -204,7 +204,7 @@ def test_a_weak_proposal_put_by_propose_vertex_is_flagged_with_its_note():
     assert tool.state.weak
     tool.accept_proposal()
     assert tool.last_point.weak == WeakMatch(None, "track 4 predicted, 2 frames ahead")
-    assert tool.last_point.flags == ()
+    assert tool.last_point.flags == () and tool.last_point.source == "tracked"  # a track's pixels
 
 
 def test_propose_vertex_refuses_pixels_outside_and_works_without_a_calibration():

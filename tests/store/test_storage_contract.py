@@ -609,6 +609,7 @@ WRITES = {
     "add_period": lambda s, f: s.add_period("v", "p", 0, 1),
     "relocate_media": lambda s, f: s.relocate_media("v0.mp4", f / "v0.mp4"),
     "accept_media": lambda s, f: s.accept_media("v0.mp4"),
+    "set_pointing_estimates": lambda s, f: s.set_pointing_estimates([{"source": "hand click", "sigma_px": 0.4}]),
     "transaction": lambda s, f: s.transaction().__enter__(),
 }
 
@@ -1281,6 +1282,10 @@ STALE = {
                         lambda s, f, v: s.set_enhancement("k", '{"ann": 1}', expected=v)),
     "set_draft": (lambda s, f: s.draft("d"), lambda s, f: s.set_draft("d", "bob's"),
                   lambda s, f, v: s.set_draft("d", "ann's", expected=v)),
+    "set_pointing_estimates": (lambda s, f: s.pointing_estimates(),
+                               lambda s, f: s.set_pointing_estimates([{"annotator": "bob", "sigma_px": 0.6}]),
+                               lambda s, f, v: s.set_pointing_estimates([{"annotator": "ann", "sigma_px": 0.4}],
+                                                                        expected=v)),
 }
 
 
@@ -1290,7 +1295,7 @@ def _everything(store) -> str:
                  store.media_records(), store.campaign(), store.deployments(), store.georeference(),
                  store.species_list(), store.control(), store.control_observations("check", "a"),
                  store.active_calibration("a"), store.videos(), store.enhancement("k"), store.draft("d"),
-                 [(h.change, h.annotator, h.old, h.new) for h in store.history()]))
+                 store.pointing_estimates(), [(h.change, h.annotator, h.old, h.new) for h in store.history()]))
 
 
 @pytest.mark.parametrize("write", sorted(STALE))
@@ -1318,3 +1323,28 @@ def test_a_write_made_on_what_a_colleague_changed_since_is_refused_by_name_and_c
         return  # the file is where bob put it: relocating it back is another write, not this one again
     write_with(store, folder, read(store, folder))  # read afresh: the write goes through
     assert _everything(store) != before
+
+
+def test_the_pointing_estimates_round_trip_and_a_reader_cannot_change_them(impl, store, where):
+    assert store.pointing_estimates() == []
+    records = [{"annotator": "Ana Ng", "source": "hand click", "sigma_px": 0.42, "low_px": 0.38, "high_px": 0.47,
+                "note": "Ünïcode 'quotes'", "bias_px": None, "n": 36},
+               {"annotator": "", "source": "tracked", "sigma_px": 0.3, "bias_px": [0.1, -0.2], "n": 9}]
+    store.set_pointing_estimates(records)
+    assert store.pointing_estimates() == records
+    store.close()
+    reader = impl.open(where, True)
+    try:
+        assert reader.pointing_estimates() == records  # kept, seen by another handle
+        before = impl.snapshot(where)
+        with pytest.raises(ProjectError):
+            reader.set_pointing_estimates(records[:1])
+        assert impl.snapshot(where) == before
+    finally:
+        reader.close()
+    writer = impl.open(where, False)
+    try:
+        writer.set_pointing_estimates([])
+        assert writer.pointing_estimates() == []
+    finally:
+        writer.close()

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from usvips.app.object_instants import survey_objects
+from usvips.app.pointing_settings import pointing_in_use
 from usvips.app.project_figures import MeasurementInput, evaluate, instants_by_object, measurement_input
 from usvips.core.double_reading import DoubleReading, ReaderObjects, check_parameters, compare_readers
 from usvips.core.errors import InvalidParameterError, UsvipsError
@@ -199,13 +200,14 @@ class DoubleReadInput:
 def _reader_input(project: ProjectStore, reader: str, objects: list[StoredObject]) -> ReaderInput:
     records = project.records()
     instants = instants_by_object(project)
+    pointing = pointing_in_use(project)  # read once, not once an object
     cache: dict = {}
     fps: dict[str, float] = {}
     sources, species, places, times, frames, known, taxa = [], [], [], [], [], [], []
     for stored in objects:
         if stored.creator != reader or not stored.vertices:
             continue
-        sources.append(measurement_input(project, stored, cache, instants=instants))
+        sources.append(measurement_input(project, stored, cache, instants=instants, pointing=pointing))
         record = records.get(stored.id)
         taxon = ("", "", "") if record is None else (record.family, record.genus, record.species)
         taxa.append(taxon)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from usvips.app.object_instants import survey_objects
+from usvips.app.pointing_settings import pointing_in_use
 from usvips.app.project_figures import evaluate, instants_by_object, measurement_input
 from usvips.app.video_project import eventmeasure_frame_columns
 from usvips.core.deployment import Deployment, Georeference
@@ -77,10 +78,11 @@ def collect_export(project: ProjectStore, geographic: bool = False, opcode: str 
     deployments = project.deployments()
     pairs = {p["label"]: p for p in project.pairs()}
     instants = instants_by_object(project)
+    pointing = pointing_in_use(project)  # read once, not once an object
     for stored in survey_objects(project):  # an object on several instants: once, its figures combined
         if creator is not None and stored.creator != creator:
             continue
-        source = measurement_input(project, stored, cache, instants=instants)
+        source = measurement_input(project, stored, cache, instants=instants, pointing=pointing)
         try:
             measurement = evaluate(source, rules)
         except UsvipsError as error:

@@ -34,6 +34,7 @@ import numpy as np
 
 from usvips.app.calibrations import read_calibration
 from usvips.app.pair_geometry import pair_geometry
+from usvips.app.pointing_settings import pointing_in_use, pointing_with_estimates
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.measurements import (
@@ -45,7 +46,7 @@ from usvips.core.measurements import (
     placement,
 )
 from usvips.core.measurements.instants import combine_measurements
-from usvips.core.pointing import vertex_pointing
+from usvips.core.pointing import PointingSigma, vertex_pointing
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
@@ -124,25 +125,31 @@ def instants_by_object(project: ProjectStore) -> dict[int, list[int]]:
 
 def measurement_input(project: ProjectStore, stored: StoredObject,
                       cache: dict[int, StereoCalibration | None] | None = None,
-                      with_instants: bool = True, instants: dict[int, list[int]] | None = None) -> MeasurementInput:
+                      with_instants: bool = True, instants: dict[int, list[int]] | None = None,
+                      pointing: dict[tuple[str, str], PointingSigma] | None = None) -> MeasurementInput:
     """Copy what the figures of ``stored`` need out of ``project`` (call on the project's thread), with
     its further instants when it was measured on several (``with_instants``). ``instants``: the project's
-    :func:`instants_by_object` when reading many objects (saves one query an object)."""
+    :func:`instants_by_object` when reading many objects (saves one query an object). ``pointing``: the
+    project's pointing estimates in use (:func:`usvips.app.pointing_settings.pointing_in_use`, read here
+    when None): a vertex whose pointing σ is its source's default takes the estimate in use for its source
+    and annotator (its own, else the object's creator; a tracked or auto-matched vertex carries the click
+    it follows, so a hand-click estimate) — changing the estimate in use changes every figure here."""
     cache = {} if cache is None else cache
-    source = _one_instant(project, stored, cache)
+    pointing = pointing_in_use(project) if pointing is None else pointing
+    source = _one_instant(project, stored, cache, pointing, stored.creator)
     if with_instants:
         made = project.instant_sources(stored.id) if instants is None else None
         further = list(made) if made is not None else instants.get(stored.id, [])
         if further:
             made = project.instant_sources(stored.id) if made is None else made
-            instants = tuple(replace(_one_instant(project, project.object(i), cache), tracked_from=made.get(i))
-                             for i in further)
+            instants = tuple(replace(_one_instant(project, project.object(i), cache, pointing, stored.creator),
+                                     tracked_from=made.get(i)) for i in further)
             source = replace(source, instants=instants)
     return source
 
 
-def _one_instant(project: ProjectStore, stored: StoredObject,
-                 cache: dict[int, StereoCalibration | None]) -> MeasurementInput:
+def _one_instant(project: ProjectStore, stored: StoredObject, cache: dict[int, StereoCalibration | None],
+                 in_use: dict[tuple[str, str], PointingSigma], creator: str) -> MeasurementInput:
     vertices = stored.vertices
     keys = {(v.calibration_id, v.pair) for v in vertices}
     calibration, station, frame, pair = None, 0, "rig", vertices[0].pair if vertices else None
@@ -156,8 +163,9 @@ def _one_instant(project: ProjectStore, stored: StoredObject,
                             for v in vertices], float).reshape(-1, 3, 3)
     calibration_ids = {v.calibration_id for v in vertices}
     calibration_id = next(iter(calibration_ids)) if len(calibration_ids) == 1 else None
-    pointing, origin, marks = vertex_pointing([v.source for v in vertices], [v.pointing_px for v in vertices],
-                                              [v.pointing_origin for v in vertices])
+    stated, origins, estimated = pointing_with_estimates(in_use, vertices, creator)
+    pointing, origin, marks = vertex_pointing([v.source for v in vertices], stated, origins)
+    marks = marks + estimated
     return MeasurementInput(str(stored.id), stored.kind, np.array([[v.xl, v.yl] for v in vertices], float),
                             np.array([[v.xr, v.yr] for v in vertices], float), xyz, covariances, calibration,
                             station, frame, stored.attribute, stored.notes, pair, where_measured(stored),

@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from usvips.app.object_instants import survey_objects
+from usvips.app.pointing_settings import pointing_in_use
 from usvips.app.project_figures import evaluate, instants_by_object, measurement_input, where_measured
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import Measurement, QualityRules
@@ -223,12 +224,14 @@ def checked_objects(project: ProjectStore, rules: QualityRules | None = None) ->
     :func:`check`. Call on the project's thread."""
     cache: dict = {}
     instants = instants_by_object(project)
+    pointing = pointing_in_use(project)  # read once, not once an object
     out = []
     for stored in survey_objects(project):
         place = Place.of(stored)
         record = project.record(stored.id)
         try:
-            measurement, reason = evaluate(measurement_input(project, stored, cache, instants=instants), rules), ""
+            measurement, reason = evaluate(measurement_input(project, stored, cache, instants=instants,
+                                                             pointing=pointing), rules), ""
         except UsvipsError as error:
             measurement, reason = None, str(error)
         out.append(Checked(str(stored.id), stored.kind, measurement, record, place, reason, weak_vertices(stored)))

@@ -67,7 +67,8 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
             out = Path(folder) / f"points_{n}.csv"
             count = write_observations(calibration, n, obs)
             args = argparse.Namespace(calibration=str(CALIBRATION), obs=str(obs), out=str(out), station="0",
-                                      frame="object", pointing_only=False, skip_failed=True, force=False)
+                                      frame="object", pointing_only=False, skip_failed=True, force=False,
+                                      pointing_sigma=None)
 
             def command(args=args) -> None:
                 with contextlib.redirect_stdout(io.StringIO()):

@@ -13,6 +13,7 @@ from usvips.cli.project_check import register_check_action
 from usvips.cli.project_double_read import register_double_read_action
 from usvips.cli.project_history import register_history_action
 from usvips.cli.project_media import register_project_actions
+from usvips.cli.project_pointing import register_pointing_action
 from usvips.cli.project_review import register_review_action
 from usvips.cli.project_sync import register_sync_actions
 from usvips.core.errors import InputFileError, UsvipsError
@@ -87,6 +88,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     register_campaign_action(actions)  # set-campaign (and export --format globalarchive): cli/project_campaign.py
     register_double_read_action(actions)  # double-read: usvips/cli/project_double_read.py
     register_review_action(actions)  # review: usvips/cli/project_review.py
+    register_pointing_action(actions)  # pointing: usvips/cli/project_pointing.py
 
 
 def run_new(args: argparse.Namespace) -> int:

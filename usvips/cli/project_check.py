@@ -1,6 +1,8 @@
 """``usvips project check PROJECT [--json] [--out FILE]``: the quality report of a survey — every object
 that breaks a rule (ray RMS, precision/length, range, length against the species' maximum), with the
-value, the limit and where it was measured."""
+value, the limit and where it was measured. ``--sigma [--replicas R] [--seed S] [--pointing-sigma PX]``:
+instead, whether the stated σ hold for the project's own geometry (:mod:`usvips.app.sigma_check`): a table of
+NEES per object kind with its 95 % interval."""
 
 from __future__ import annotations
 
@@ -36,6 +38,14 @@ def register_check_action(actions: argparse._SubParsersAction) -> None:
     check.add_argument("--fail-on", choices=("error", "warning"),
                        help="exit 1 when an object breaks a rule (error), or also when a rule could not be "
                             "checked (warning): for pipelines; without it the exit status is 0")
+    check.add_argument("--sigma", action="store_true",
+                       help="instead: check whether the stated σ hold, by a Monte Carlo of the project's own "
+                            "geometry (its calibrations, picks and pointing σ): NEES per object kind")
+    check.add_argument("--replicas", type=int, default=40, help="with --sigma: Monte Carlo replicas (default 40)")
+    check.add_argument("--seed", type=int, default=0, help="with --sigma: the random seed (default 0)")
+    check.add_argument("--pointing-sigma", type=float, metavar="PX",
+                       help="with --sigma: the pointing σ (pixels, one coordinate) believed true of every pick "
+                            "(default: the project's estimates in use, else each figure's own)")
     check.set_defaults(handler=run_check)
 
 
@@ -49,8 +59,36 @@ def _rules(args: argparse.Namespace) -> QualityRules:
     return QualityRules(args.max_rms_mm / 1000, args.max_precision / 100, args.max_range_m)
 
 
+def run_sigma_check(args: argparse.Namespace) -> int:
+    from usvips.app.sigma_check import COLUMNS, check_project_sigmas
+    from usvips.store.opening import open_project
+
+    if args.replicas < 2 or args.replicas > 10_000:
+        raise InvalidParameterError("--replicas", f"must be 2 to 10000, got {args.replicas}")
+    if args.pointing_sigma is not None and not (0 < args.pointing_sigma < float("inf")):
+        raise InvalidParameterError("--pointing-sigma", f"must be a positive number of pixels, got "
+                                                        f"{args.pointing_sigma:g}")
+    if args.out:
+        raise InvalidParameterError("--out", "is not written by --sigma: use --json and redirect it")
+    with open_project(args.project, read_only=True) as project:
+        report = check_project_sigmas(project, args.replicas, args.seed, args.pointing_sigma)
+    if args.json:
+        print(json.dumps(report.as_dict(), indent=1))
+        return 0
+    table = [list(COLUMNS), *report.rows()]
+    widths = [max(len(line[k]) for line in table) for k in range(len(COLUMNS))]
+    for line in table:
+        print("  ".join(cell.ljust(width) for cell, width in zip(line, widths, strict=True)).rstrip())
+    for line in report.summary():
+        print(line)
+    return 0
+
+
 def run_check(args: argparse.Namespace) -> int:
     from usvips.app.quality import REPORT_COLUMNS, check_project, report_rows
+
+    if args.sigma:
+        return run_sigma_check(args)
     from usvips.store.opening import open_project
 
     rules = _rules(args)

@@ -177,8 +177,8 @@ def default_sigma(source: str | Source | None = None) -> float:
 
 def per_vertex(pointing_sigma_px: float | np.ndarray | None, count: int) -> np.ndarray:
     """The pointing sigmas (count, 2) px — [left, right] per vertex — of a scalar, an (N,) array (per
-    vertex, both sides alike) or an (N, 2) array; None: the hand-click default (a scalar gives a read-only
-    view whose rows share one row of memory). A wrong shape or a value
+    vertex, both sides alike) or an (N, 2) array; None: the hand-click default (one value for all gives a
+    read-only view whose rows share one row of memory). A wrong shape or a value
     that is not finite and > 0 is an :class:`InvalidParameterError` on ``pointing_sigma_px``."""
     sigma = np.asarray(HAND_CLICK_SIGMA_PX if pointing_sigma_px is None else pointing_sigma_px, dtype=np.float64)
     if sigma.ndim == 0:
@@ -192,6 +192,8 @@ def per_vertex(pointing_sigma_px: float | np.ndarray | None, count: int) -> np.n
                                                          f"{count} vertices, got shape {sigma.shape}")
     if not np.all(np.isfinite(out)) or np.any(out <= 0):
         raise InvalidParameterError("pointing_sigma_px", "every pointing sigma must be finite and > 0 (pixels)")
+    if out.strides[0] != 0 and out.size and np.all(out == out[0, 0]):  # one value for all: one row of memory,
+        out = np.broadcast_to(out[:1, :1], (count, 2))                 # which the intersection weights once
     return out
 
 

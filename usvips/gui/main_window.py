@@ -385,6 +385,9 @@ class MainWindow(QtWidgets.QMainWindow):
         measure.addSeparator()
         for name in ("track", "refollow", "store_instants", "propose_tracked", "instants"):
             measure.addAction(a[name])
+        measure.addSeparator()
+        measure.addAction("Pointing &test… (estimate your pointing σ)", self.show_pointing_test)
+        measure.addAction("Check &σ (Monte Carlo)…", self.show_sigma_check)
         calibration = self.menuBar().addMenu("&Calibration")
         for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
                             ("joint", "&Joint underwater calibration…")):
@@ -1134,6 +1137,18 @@ class MainWindow(QtWidgets.QMainWindow):
         from usvips.gui import double_read_dialog
 
         return double_read_dialog.show_double_read(self)
+
+    def show_pointing_test(self):
+        """Measure › Pointing test…: click rendered targets; your pointing σ, stored for you on request."""
+        from usvips.gui import pointing_test_dialog
+
+        return pointing_test_dialog.show_pointing_test(self)
+
+    def show_sigma_check(self):
+        """Measure › Check σ (Monte Carlo)…: whether the open project's stated σ hold (its own geometry)."""
+        from usvips.gui import pointing_test_dialog
+
+        return pointing_test_dialog.show_sigma_check(self)
 
     def show_review(self) -> None:
         """Ctrl+Shift+R: show the review panel, its queue read afresh (the objects unreviewed now, also by

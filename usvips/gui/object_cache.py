@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
+from usvips.app.pointing_settings import pointing_in_use
 from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
@@ -68,6 +69,8 @@ class ObjectCache:
         #: the store's count of connections made again (a server that went away): when it moves, every
         #: object is read afresh (what colleagues wrote meanwhile)
         self._reconnections = getattr(project, "reconnections", 0)
+        #: the project's pointing estimates in use (usvips.app.pointing_settings), read when first needed
+        self._pointing: dict | None = None
 
     # ------------------------------------------------------------------ the objects
     def objects(self) -> list:
@@ -152,15 +155,17 @@ class ObjectCache:
         self._objects = {} if self.project is None else {o.id: o for o in self.project.objects()}
         self._records = {} if self.project is None else self.project.records()
         self._links = {} if self.project is None else self.project.instant_links()
-        self._figures, self._versions = {}, {}
+        self._figures, self._versions, self._pointing = {}, {}, None
         self._reconnections = getattr(self.project, "reconnections", 0)
         self.events.reset.emit()
         self.events.changed.emit()
 
     # ------------------------------------------------------------------ figures
     def forget_figures(self) -> None:
-        """Drop every computed figure (they are computed again when asked for)."""
+        """Drop every computed figure (they are computed again when asked for), and the project's pointing
+        estimates in use read for them (read again: a change of estimate changes every figure)."""
         self._figures = {}
+        self._pointing = None
 
     def known_figures(self, object_id: int) -> Result | None:
         """An object's figures when known under the current rules (None: not yet computed)."""
@@ -170,8 +175,11 @@ class ObjectCache:
     def input(self, stored, instants: dict[int, list[int]] | None = None) -> MeasurementInput:
         """What the figures of a stored object need, read from the project now (GUI thread); ``instants``:
         every object's further instants (:meth:`instants_by_object`) when reading many."""
+        if self._pointing is None:
+            self._pointing = {} if self.project is None else pointing_in_use(self.project)
         return measurement_input(self.project, stored, self.calibrations,
-                                 instants=self.instants_by_object() if instants is None else instants)
+                                 instants=self.instants_by_object() if instants is None else instants,
+                                 pointing=self._pointing)
 
     def instants_by_object(self) -> dict[int, list[int]]:
         """Object id → the ids of its further instants, from the links held here (no query)."""

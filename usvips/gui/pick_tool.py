@@ -80,6 +80,9 @@ class PickState:
     #: What a vertex kept from the weak proposal stores (:class:`usvips.core.pointing.WeakMatch`): the
     #: matcher's score (None for a proposal put from elsewhere) and its reason.
     weak_match: WeakMatch | None = None
+    #: Where the proposal's pixels come from (:mod:`usvips.core.pointing`): auto-match's, or a track's when
+    #: put by :meth:`PickTool.propose_vertex` — the source a vertex kept from it stores.
+    proposal_source: str = "auto-match"
 
     def pick(self, side: str) -> tuple[float, float] | None:
         return self.left if side == "left" else self.right
@@ -338,7 +341,8 @@ class PickTool:
         text = f"{note}; Enter accepts, a click corrects" if note else "proposed match: Enter accepts, a click corrects"
         new = PickState(left=left, source="left", curve=None if curve is None else curve.pixels, proposal=right,
                         note=text, weak=bool(weak), weak_reason=note if weak else "",
-                        weak_match=WeakMatch(None, note or "a proposal marked uncertain") if weak else None)
+                        weak_match=WeakMatch(None, note or "a proposal marked uncertain") if weak else None,
+                        proposal_source="tracked")
         self._change("proposed vertex", lambda: self._set_state(new))
 
     def accept_proposal(self) -> None:
@@ -351,8 +355,8 @@ class PickTool:
             return
         if state.proposal is None:
             raise UsvipsError("there is no proposed match to accept: click the point in the other image")
-        self._complete_vertex(replace(state, **{other(state.source): state.proposal}), "", source="auto-match",
-                              weak=state.weak_match if state.weak else None)
+        self._complete_vertex(replace(state, **{other(state.source): state.proposal}), "",
+                              source=state.proposal_source, weak=state.weak_match if state.weak else None)
 
     def nudge(self, dx: float, dy: float) -> str:
         """Move the current pick by (``dx``, ``dy``) image pixels (x right, y down), as one undoable step:

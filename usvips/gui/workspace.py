@@ -478,6 +478,13 @@ class Workspace:
         self.cache.forget_figures()
         self.rules_changed.emit(rules)
 
+    def pointing_changed(self) -> None:
+        """The project's pointing estimates in use changed (:mod:`usvips.app.pointing_settings`): every
+        figure's σ may change, as under new rules — its figures are computed again and the views that
+        follow the rules (object list, QA panel, calculator) recompute."""
+        self.cache.forget_figures()
+        self.rules_changed.emit(self.rules)
+
     def object_figures(self, object_id: int) -> Result | None:
         """An object's figures when they are known under the current rules (None: not yet computed)."""
         return self.cache.known_figures(object_id)

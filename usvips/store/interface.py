@@ -381,6 +381,16 @@ class ProjectStore(Protocol):
         """The object frame's georeference; None when none was entered."""
         ...
 
+    # ------------------------------------------------------------------------ pointing estimates
+    def set_pointing_estimates(self, estimates: list[dict], expected: object = UNREAD) -> None:
+        """Store (an empty list: remove) the project's pointing estimates, JSON-able dicts (no schema of
+        their own; see :mod:`usvips.app.pointing_settings`). ``expected``: the estimates as read."""
+        ...
+
+    def pointing_estimates(self) -> list[dict]:
+        """The stored pointing estimates, oldest first ([] when none)."""
+        ...
+
     # ------------------------------------------------------------------------ campaign (GlobalArchive)
     def set_campaign(self, campaign: Campaign | None, expected: object = UNREAD) -> None:
         """Store (None: remove) the campaign the project's deployments belong to (GlobalArchive's CampaignID,

@@ -65,6 +65,8 @@ from usvips.store.versions import UNREAD
 FORMAT = "usvips-project"
 #: the ``meta`` key holding the campaign (JSON of :class:`~usvips.core.campaign.Campaign`)
 CAMPAIGN_KEY = "campaign"
+#: the ``meta`` key holding the project's pointing estimates (a JSON list, see :meth:`Project.pointing_estimates`)
+POINTING_KEY = "pointing_estimates"
 SQLITE_MAGIC = b"SQLite format 3\x00"
 
 
@@ -1588,6 +1590,37 @@ class Project:
             return None
         rows = self._query("SELECT latitude, longitude, depth_m, heading_deg FROM georeference")
         return Georeference(*rows[0]) if rows else None
+
+    # ---------------------------------------------------------------------------- pointing estimates
+    def set_pointing_estimates(self, estimates: list[dict], expected: object = UNREAD) -> None:
+        """Store the project's pointing estimates (each a JSON-able dict, see
+        :mod:`usvips.app.pointing_settings`) as JSON in the ``meta`` table (key ``pointing_estimates``: no
+        schema change, every backend and a push/pull carry it); an empty list removes them. ``expected``:
+        the estimates as read (:meth:`pointing_estimates`), :mod:`usvips.store.versions`."""
+        with self.transaction():
+            rows = self._db.execute("SELECT value FROM meta WHERE key = ?", (POINTING_KEY,)).fetchall()
+            stored = json.loads(rows[0][0]) if rows else []
+            self._refuse_changed("pointing estimates", stored, expected)
+            if not estimates:
+                self._db.execute("DELETE FROM meta WHERE key = ?", (POINTING_KEY,))
+            else:
+                self._db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                                 (POINTING_KEY, json.dumps(list(estimates), ensure_ascii=False, sort_keys=True)))
+
+    def pointing_estimates(self) -> list[dict]:
+        """The stored pointing estimates, oldest first ([] when none). A damaged record is a
+        :class:`ProjectError`."""
+        rows = self._query("SELECT value FROM meta WHERE key = ?", (POINTING_KEY,))
+        if not rows:
+            return []
+        try:
+            value = json.loads(rows[0][0])
+            if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+                raise ValueError("not a list of records")
+            return value
+        except ValueError as error:
+            raise ProjectError(f"{self.path}: the stored pointing estimates cannot be read ({error}); estimate "
+                               "them again") from None
 
     # ---------------------------------------------------------------------------- campaign (GlobalArchive)
     def set_campaign(self, campaign: Campaign | None, expected: object = UNREAD) -> None:

@@ -124,6 +124,18 @@ def covariance_parts(calibration: StereoCalibration, left: np.ndarray, right: np
     return result, pointing, calibration_part
 
 
+def intersection_derivatives(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
+                             station: int | str = 0, frame: str = "object",
+                             pointing_sigma_px: float | np.ndarray | None = None
+                             ) -> tuple[Intersection, np.ndarray | None, np.ndarray | None]:
+    """The intersection of many points at once with the derivatives (P, N, 3) of each point by each free
+    parameter of the calibration's covariance Σ (P, P), or None and None without a usable covariance:
+    what :func:`covariance_parts` builds its (3N, 3N) parts from, for callers that need the parts of many
+    small sets of points (each object's vertices) without the whole matrix. Each point's row depends on
+    its own pixels alone. ``pointing_sigma_px`` as in :func:`intersect_with_calibration`."""
+    return _intersect_and_derivatives(calibration, left, right, station, frame, True, pointing_sigma_px)
+
+
 def _pointing(calibration: StereoCalibration, left: np.ndarray, pointing_sigma_px) -> np.ndarray:
     """(N, 2) pointing sigmas (px) [left, right] of N points: σ0 when None, else as given (checked)."""
     count = len(np.asarray(left).reshape(-1, 2))
