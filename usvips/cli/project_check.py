@@ -37,7 +37,8 @@ def register_check_action(actions: argparse._SubParsersAction) -> None:
     check.add_argument("--max-range-m", type=float, default=8.0, help="range limit in metres (default 8)")
     check.add_argument("--fail-on", choices=("error", "warning"),
                        help="exit 1 when an object breaks a rule (error), or also when a rule could not be "
-                            "checked (warning): for pipelines; without it the exit status is 0")
+                            "checked (warning): for pipelines; without it the exit status is 0. With --sigma: when "
+                            "a kind's stated σ are too small (error), or also too large (warning)")
     check.add_argument("--sigma", action="store_true",
                        help="instead: check whether the stated σ hold, by a Monte Carlo of the project's own "
                             "geometry (its calibrations, picks and pointing σ): NEES per object kind")
@@ -72,16 +73,20 @@ def run_sigma_check(args: argparse.Namespace) -> int:
         raise InvalidParameterError("--out", "is not written by --sigma: use --json and redirect it")
     with open_project(args.project, read_only=True) as project:
         report = check_project_sigmas(project, args.replicas, args.seed, args.pointing_sigma)
+    # --fail-on error: the stated σ of some kind are too small (figures claim more than they hold);
+    # warning: also too large (honest but pessimistic)
+    failing = {k.verdict for k in report.check.kinds} & ({"too small"} if args.fail_on == "error" else
+                                                           {"too small", "too large"} if args.fail_on else set())
     if args.json:
         print(json.dumps(report.as_dict(), indent=1))
-        return 0
+        return 1 if failing else 0
     table = [list(COLUMNS), *report.rows()]
     widths = [max(len(line[k]) for line in table) for k in range(len(COLUMNS))]
     for line in table:
         print("  ".join(cell.ljust(width) for cell, width in zip(line, widths, strict=True)).rstrip())
     for line in report.summary():
         print(line)
-    return 0
+    return 1 if failing else 0
 
 
 def run_check(args: argparse.Namespace) -> int:
