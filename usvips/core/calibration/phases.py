@@ -515,8 +515,9 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     _require_rays(model, parameters)
     merged = dict(source or {})
     merged.setdefault("base_calibration", base.source)
-    return _solve_from_starts(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged,
-                              _pointing_in_air(base))
+    # phase 2 is stored as phase 2 ("water") whether from one station or several jointly ("joint" is still
+    # read from older files)
+    return _solve_from_starts(model, parameters, options, "water", merged, _pointing_in_air(base))
 
 
 def geometry_options(housing: str, options: CalibrationOptions) -> CalibrationOptions:
