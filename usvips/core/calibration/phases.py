@@ -580,7 +580,7 @@ def held_poses(base: StereoCalibration, stations: tuple[str, ...]) -> dict[str, 
     when each phase has a single view — phase 1's only one. The first station's right camera is phase 1's
     right camera there (so the rig's relative orientation is phase 1's too). A station phase 1 did not
     see is an :class:`InvalidParameterError` naming it."""
-    if len(stations) == 1 and len(base.stations) == 1:
+    if len(stations) == 1 and len(base.stations) == 1:  # the same view, whatever its labels
         matched = {stations[0]: base.stations[0]}
     else:
         missing = [s for s in stations if s not in base.stations]
@@ -596,8 +596,9 @@ def held_poses(base: StereoCalibration, stations: tuple[str, ...]) -> dict[str, 
         suffix = "_l" if k == 0 else f"_l@{station}"
         out.update({f"{p}{suffix}": float(getattr(left, p)) for p in EXTERIOR_PARAMETERS})
         if k == 0:
-            right = (base.right.exterior if matched[station] == base.stations[0]
-                     else right_exterior(left, base.relative))
+            # from the rig (the left pose and the relative orientation): a calibration read from a file
+            # places its right camera there, not at its own exterior
+            right = base.rig(matched[station]).right.exterior
             out.update({f"{p}_r": float(getattr(right, p)) for p in EXTERIOR_PARAMETERS})
     return out
 
