@@ -633,8 +633,9 @@ def physical_problems(result: CalibrationResult, base: StereoCalibration | None 
         fixed = [f"{n} = {p.value:g}" for n, p in result.calibration.parameters.items()
                  if n in housing_names and p.status == "fixed"]
         problems.append(f"the residuals (sigma0 {sigma:.3g} px) are {sigma / in_air[0]:.0f} times phase 1's "
-                        f"({in_air[0]:.3g} px) with the same cameras: the housing model does not describe the "
-                        "images" + (f" (check the fixed values: {', '.join(fixed)})" if fixed else ""))
+                        f"({in_air[0]:.3g} px) with the same cameras: the images are not explained (a wrong fixed "
+                        "value, or gross errors left in the data)"
+                        + (f"; check the fixed values: {', '.join(fixed)}" if fixed else ""))
     return problems
 
 
