@@ -15,11 +15,11 @@ readings it was estimated from.
 
 The defaults, and why (each is a prior until a project estimates its own):
 
-- hand click: :data:`HAND_CLICK_SIGMA_PX` = 0.5 px. The issue's rendered-fish experiment clicked with
-  0.5 px error; published stereo-video fish work (Harvey & Shortis 1998; Harvey et al. 2002, 2010) puts
-  a person's repeated clicks on a snout or a tail fork at roughly 0.3–1 px on sharp HD frames. 0.5 px is
-  the middle of that range, not a measurement of this program's users: it is replaced by a measured value
-  (one constant, here) and, per project, by estimates from the team's own repeated picks.
+- hand click: :data:`HAND_CLICK_SIGMA_PX` = 0.5 px — a prior, not a measurement of anyone's hand
+  (docs/pointing.md: what was measured — the image's own definition of each kind of point, under 0.2 px
+  from noise, 1–3 px of blur offset at a fork — what the verified sources say, and why 0.5 px); a
+  project replaces it by estimates from its own team's data (repeated picks, double readings, tracks, the
+  window's pointing test: ``usvips.app.pointing_settings``).
 - auto-match accepted: :data:`AUTO_MATCH_SIGMA_PX` = 0.5 px. Normalised cross-correlation with a 2-D
   sub-pixel refinement locates a textured template to ~0.1–0.2 px, but the template is centred on the
   other image's CLICK, whose error it carries along the curve; the match is therefore no better than the
@@ -33,8 +33,9 @@ The defaults, and why (each is a prior until a project estimates its own):
 - detector corner: :data:`CORNER_SIGMA_PX` = 0.1 px. OpenCV's sub-pixel chessboard / ChArUco corners on
   sharp boards: rendered boards give σ0 ≈ 0.06 px, real boards 0.1–0.3 px; 0.1 px is the sharp-board
   value (a board's calibration reports its own σ0, which then is the better value).
-- model keypoint: :data:`KEYPOINT_SIGMA_PX` = 2.0 px. Published fish-keypoint detectors report snout and
-  fork errors of a few pixels on HD frames; 2 px is a conservative prior until a model states its own.
+- model keypoint: :data:`KEYPOINT_SIGMA_PX` = 2.0 px: an assumed, deliberately conservative prior (the
+  fork's blur offset alone reaches 1–3 px, docs/pointing.md) until a model's own error is measured on
+  validation data.
 """
 
 from __future__ import annotations
@@ -73,12 +74,12 @@ class SourceKind:
 
 SOURCES: dict[str, SourceKind] = {s.name: s for s in (
     SourceKind("hand click", HAND_CLICK_SIGMA_PX,
-               "assumed: the middle of published repeated-click spreads (0.3-1 px), not yet measured"),
+               "assumed: a prior above the image's own noise floor; docs/pointing.md says what it rests on"),
     SourceKind("auto-match", AUTO_MATCH_SIGMA_PX,
                "assumed: a correlation match follows the click it was made from, so no better than a click"),
     SourceKind("tracked", TRACKED_SIGMA_PX, "assumed: the start pick (0.5 px) and the tracker's drift (0.8 px)"),
     SourceKind("corner", CORNER_SIGMA_PX, "assumed: sub-pixel corners on a sharp board"),
-    SourceKind("keypoint", KEYPOINT_SIGMA_PX, "assumed: published fish-keypoint detector errors on HD frames"),
+    SourceKind("keypoint", KEYPOINT_SIGMA_PX, "assumed: a conservative prior until a model's error is measured"),
 )}
 
 #: the source of a vertex stored before pointing sources were (schema < 11): a hand click of unknown
