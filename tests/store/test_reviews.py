@@ -11,6 +11,7 @@ import numpy as np
 import psycopg
 import pytest
 
+from tests.store.conftest import BEFORE_SCHEMA_13
 from usvips.cli import main
 from usvips.store import SCHEMA_VERSION, Project
 from usvips.store.opening import create_project, open_project
@@ -63,6 +64,7 @@ def test_a_schema_8_survey_is_migrated_when_opened_for_writing(new_database):
     with create_project(url) as survey:
         object_id = survey.add_object("point", [_vertex(rng)], "cod")
     with psycopg.connect(url, autocommit=True) as raw:  # as a schema-8 USVIPS made it
+        raw.execute(BEFORE_SCHEMA_13)
         raw.execute("DROP TABLE reviews; ALTER TABLE history DROP CONSTRAINT history_change_check;"
                     "ALTER TABLE history ADD CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', "
                     "'record')); ALTER TABLE object_instants DROP COLUMN tracked_from;"
