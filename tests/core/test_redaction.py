@@ -46,3 +46,13 @@ def test_text_without_a_secret_is_unchanged():
     for text in ("/home/ann/cod survey/project.usvips: no object 5", "postgresql://ann@db/cod", "a@b.c: 3 objects",
                  "postgres://db.example.org:5432/cod?media=/data"):
         assert redact(text) == text
+
+
+def test_a_history_row_quoting_an_address_shows_no_part_of_its_password():
+    from usvips.app.history_text import what_changed
+    from usvips.store.records import HistoryEntry
+
+    notes = "copied from postgresql://ann:Zq#9@x/y:Kw!@db.example.org:5432/reef?media=/data/surveys/2024"
+    entry = HistoryEntry(3, "2026-11-28T10:00:00+00:00", "ann", 1, "edit", {"notes": ""}, {"notes": notes})
+    shown = what_changed(entry)
+    assert "Zq#9" not in shown and "x/y" not in shown and "Kw!" not in shown and "ann@db.example.org" in shown

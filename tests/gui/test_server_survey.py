@@ -80,3 +80,17 @@ def test_the_window_shows_and_keeps_no_password_and_names_the_survey_host_slash_
     for text in texts:
         assert SECRET not in text and quote(SECRET, safe="") not in text and "x/y:Kw" not in text
     assert any("local/window_secret" in a.text() or "window_secret" in a.text() for a in window.recent_menu.actions())
+
+
+def test_an_unexpected_error_quoting_a_url_writes_and_shows_no_password(monkeypatch, tmp_path, capsys):
+    from usvips.gui import app
+
+    monkeypatch.setattr(app, "log_path", lambda: tmp_path / "usvips.log")
+    url = f"postgresql://keeper:{SECRET}@db.example.org:5432/reef"
+    try:
+        raise RuntimeError(f"could not reach {url}")
+    except RuntimeError as error:
+        sentence = app.report_unexpected(RuntimeError, error, error.__traceback__)
+    written = (tmp_path / "usvips.log").read_text() + sentence + capsys.readouterr().err
+    assert "keeper@db.example.org:5432/reef" in written
+    assert SECRET not in written and quote(SECRET, safe="") not in written and "x/y:Kw" not in written

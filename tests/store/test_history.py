@@ -14,6 +14,7 @@ import numpy as np
 import psycopg
 import pytest
 
+from tests.store.conftest import BEFORE_SCHEMA_13
 from usvips.cli import main
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import ObservationRecord
@@ -92,6 +93,7 @@ def test_a_version_1_project_reaches_schema_8_and_records_its_changes(tmp_path):
 def _downgrade_to_7(url: str) -> None:
     """Make a new survey look as a schema-7 USVIPS made it (no history, no vertex or record stamps)."""
     with psycopg.connect(url, autocommit=True) as raw:
+        raw.execute(BEFORE_SCHEMA_13)
         raw.execute("DROP TABLE reviews; DROP TABLE history; DROP FUNCTION usvips_history_append_only();"
                     "ALTER TABLE vertices DROP COLUMN creator, DROP COLUMN created;"
                     "ALTER TABLE observation_records DROP COLUMN creator, DROP COLUMN created;"

@@ -11,6 +11,7 @@ import numpy as np
 import psycopg
 import pytest
 
+from tests.store.conftest import BEFORE_SCHEMA_13
 from usvips.store import SCHEMA_VERSION, Project
 from usvips.store.opening import create_project, open_project
 from usvips.store.records import Vertex
@@ -70,6 +71,7 @@ def test_a_schema_9_survey_is_migrated_with_its_tracked_instants_read_once_from_
             survey.add_instant(first, instant)  # linked by hand: the migration below reads the notes
             expected[instant] = frame
     with psycopg.connect(url, autocommit=True) as raw:  # as a schema-9 USVIPS made it
+        raw.execute(BEFORE_SCHEMA_13)
         raw.execute("ALTER TABLE object_instants DROP COLUMN tracked_from; "
                     "ALTER TABLE vertices DROP COLUMN pointing_source, DROP COLUMN sigma_left_px, "
                     "DROP COLUMN sigma_right_px, DROP COLUMN pointing_origin, DROP COLUMN weak_score, "

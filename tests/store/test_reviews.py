@@ -11,6 +11,7 @@ import numpy as np
 import psycopg
 import pytest
 
+from tests.store.conftest import BEFORE_SCHEMA_13
 from usvips.cli import main
 from usvips.store import SCHEMA_VERSION, Project
 from usvips.store.opening import create_project, open_project
@@ -63,6 +64,7 @@ def test_a_schema_8_survey_is_migrated_when_opened_for_writing(new_database):
     with create_project(url) as survey:
         object_id = survey.add_object("point", [_vertex(rng)], "cod")
     with psycopg.connect(url, autocommit=True) as raw:  # as a schema-8 USVIPS made it
+        raw.execute(BEFORE_SCHEMA_13)
         raw.execute("DROP TABLE reviews; ALTER TABLE history DROP CONSTRAINT history_change_check;"
                     "ALTER TABLE history ADD CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', "
                     "'record')); ALTER TABLE object_instants DROP COLUMN tracked_from;"
@@ -243,3 +245,30 @@ def test_two_annotator_processes_measure_review_and_edit_one_survey_at_once_and_
     assert [e.old["state"] for e in reviews[1:]] == [e.new["state"] for e in reviews[:-1]]  # none overwritten
     assert (final.state, final.reviewer, final.reason) == (reviews[-1].new["state"], reviews[-1].annotator,
                                                            reviews[-1].new["reason"])
+
+
+@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+def test_a_review_from_the_command_line_names_the_version_it_listed_and_a_stale_one_is_refused_by_name(
+        backend, tmp_path, capsys, request):
+    """``--list`` prints each object's version last; ``--accept ID@VERSION`` (or ``--flag``) made after a
+    colleague changed the object is refused in one line naming them, exit 2, nothing written (another
+    process's edit here); with the version as it now is it goes through."""
+    location = str(tmp_path / "v.usvips") if backend == "sqlite" else request.getfixturevalue("new_database")("stale")
+    ids = _survey(location, 2)
+    capsys.readouterr()
+    assert main(["project", "review", location, "--list", "unreviewed"]) == 0
+    listed = {int(line.split("\t")[0]): line.split("\t")[-1] for line in capsys.readouterr().out.splitlines()}
+    with open_project(location) as colleague:
+        colleague.annotator = "bob"
+        colleague.update_object(ids[0], notes="bob: remeasured")
+        kept = colleague.history()
+    assert main(["project", "review", location, "--accept", f"{ids[0]}@{listed[ids[0]]}",
+                 f"{ids[1]}@{listed[ids[1]]}"]) == 2
+    said = capsys.readouterr().err
+    assert said.count("\n") == 1 and f"object {ids[0]} was changed by someone else" in said and "edit by bob" in said
+    with open_project(location, read_only=True) as store:
+        assert [r.state for r in store.reviews()] == ["unreviewed", "unreviewed"] and store.history() == kept
+        fresh = store.object(ids[0]).modified
+    assert main(["project", "review", location, "--flag", f"{ids[0]}@{fresh}", "--reason", "fin hidden"]) == 0
+    with open_project(location, read_only=True) as store:
+        assert store.review(ids[0]).state == "flagged"

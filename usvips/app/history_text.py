@@ -6,11 +6,14 @@ from __future__ import annotations
 
 import json
 
+from usvips.core.redaction import redact
 from usvips.store.records import HistoryEntry
 
 
 def _short(value: object) -> str:
-    text = json.dumps(value, ensure_ascii=False) if not isinstance(value, str) else repr(value)
+    """A value in at most 60 characters, never with a password (redacted before it is cut short, so that
+    no part of one is left)."""
+    text = redact(json.dumps(value, ensure_ascii=False) if not isinstance(value, str) else repr(value))
     return text if len(text) <= 60 else text[:57] + "…"
 
 

@@ -278,8 +278,9 @@ def run_set_georeference(args: argparse.Namespace) -> int:
         if given:
             raise UsvipsError(f"--clear removes the georeference; give no {', '.join(given)} with it")
     with open_project(args.project) as project:
+        read = project.georeference()  # the version this command read: a colleague's change since is refused
         if args.clear:
-            project.set_georeference(None)
+            project.set_georeference(None, expected=read)
             print("cleared the georeference")
             return 0
         if args.points is not None:
@@ -290,7 +291,7 @@ def run_set_georeference(args: argparse.Namespace) -> int:
             if args.latitude is None or args.longitude is None:
                 raise UsvipsError("set-georeference needs --latitude and --longitude, --points, or --clear")
             georeference = Georeference(args.latitude, args.longitude, args.depth, args.heading)
-        project.set_georeference(georeference)
+        project.set_georeference(georeference, expected=read)
     print(f"stored the georeference: origin {georeference.latitude:.7f}°, {georeference.longitude:.7f}°, depth "
           f"{georeference.depth_m:g} m, +X heading {georeference.heading_deg:g}°")
     return 0

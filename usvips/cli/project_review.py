@@ -1,7 +1,9 @@
 """``usvips project review PROJECT [--list STATE] [--accept ID …] [--flag ID --reason TEXT]``: the second
 reader's review of a project's objects (schema 9). Without an action it prints how many objects are in
 each state; ``--list`` prints the objects in one state, one line each (id, kind, attribute, state,
-reviewer, when, reason); ``--accept`` and ``--flag`` set states, all in one transaction (all or nothing),
+reviewer, when, reason, and last the object's version); ``--accept`` and ``--flag`` set states, all in one
+transaction (all or nothing); an id given as ``ID@VERSION`` (the version ``--list`` printed) is refused by
+name when someone changed the object since (nothing is written),
 as the annotator (``--annotator``, ``$USVIPS_ANNOTATOR`` or the user name), each kept in the history.
 Works on a project file or a survey on a server (any location ``usvips.store.opening.open_project`` takes)."""
 
@@ -21,15 +23,30 @@ def register_review_action(actions: argparse._SubParsersAction) -> None:
     review.add_argument("project", help="the project file, or postgresql://USER@HOST[:PORT]/DATABASE")
     review.add_argument("--list", choices=STATES, metavar="STATE", help="list the objects in this state "
                         f"({', '.join(STATES)}), by id")
-    review.add_argument("--accept", type=int, nargs="+", metavar="ID", default=[], help="accept these objects")
-    review.add_argument("--flag", type=int, metavar="ID", help="flag this object (give --reason)")
+    review.add_argument("--accept", type=_object_version, nargs="+", metavar="ID[@VERSION]", default=[],
+                        help="accept these objects; ID@VERSION (the last column of --list): refused when the "
+                        "object changed since you listed it")
+    review.add_argument("--flag", type=_object_version, metavar="ID[@VERSION]",
+                        help="flag this object (give --reason); ID@VERSION as for --accept")
     review.add_argument("--reason", metavar="TEXT", help="why the --flag'ged object is wrong (one line)")
     add_annotator_option(review)
     review.set_defaults(handler=run_review)
 
 
+def _object_version(text: str) -> tuple[int, str | None]:
+    """``ID`` or ``ID@VERSION`` (the object's ``modified`` stamp as ``--list`` printed it)."""
+    number, _, version = text.partition("@")
+    try:
+        object_id = int(number)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an object id (ID or ID@VERSION)") from None
+    return object_id, (version or None)
+
+
 def run_review(args: argparse.Namespace) -> int:
-    args.accept = list(dict.fromkeys(args.accept))  # an id given twice is accepted (and counted) once
+    versions = {object_id: version for object_id, version in [*args.accept, *([args.flag] if args.flag else [])]}
+    args.accept = list(dict.fromkeys(object_id for object_id, _ in args.accept))  # an id given twice counts once
+    args.flag = args.flag[0] if args.flag is not None else None
     for object_id in [*args.accept, *([args.flag] if args.flag is not None else [])]:
         if object_id < 1:
             raise InvalidParameterError("--accept/--flag", f"an object id is a whole number ≥ 1, got {object_id}")
@@ -49,9 +66,9 @@ def run_review(args: argparse.Namespace) -> int:
                 for object_id in args.accept:
                     review = project.review(object_id)
                     already += (review.state, review.reason) == ("accepted", "")
-                    project.set_review(object_id, "accepted")
+                    project.set_review(object_id, "accepted", expected_modified=versions.get(object_id))
                 if args.flag is not None:
-                    project.set_review(args.flag, "flagged", args.reason)
+                    project.set_review(args.flag, "flagged", args.reason, expected_modified=versions.get(args.flag))
             done = [_accepted_text(len(args.accept) - already, already)] if args.accept else []
             done += [f"flagged object {args.flag}"] if args.flag is not None else []
             print(f"{shown(args.project)}: {', '.join(done)} as {project.annotator}")
@@ -60,8 +77,9 @@ def run_review(args: argparse.Namespace) -> int:
             for review in project.reviews(args.list):
                 stored = objects.get(review.object_id)
                 kind, attribute = (stored.kind, stored.attribute) if stored is not None else ("?", "")
+                version = stored.modified if stored is not None else ""
                 print(f"{review.object_id}\t{kind}\t{attribute}\t{review.state}\t{review.reviewer}\t"
-                      f"{review.reviewed}\t{review.reason}")
+                      f"{review.reviewed}\t{review.reason}\t{version}")
         elif not writing:
             from usvips.app.project_contents import objects_text, review_counts, reviews_text
 

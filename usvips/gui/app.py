@@ -20,6 +20,7 @@ import shiboken6
 from PySide6 import QtCore, QtWidgets
 
 from usvips.core.errors import UsvipsError
+from usvips.core.redaction import redact
 
 LOG_NAME = "usvips.log"
 
@@ -62,7 +63,7 @@ def _append_log(text: str) -> Path | None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(path, "a", encoding="utf-8") as stream:
-            stream.write(f"--- {datetime.datetime.now().isoformat(timespec='seconds')}\n{text}\n")
+            stream.write(f"--- {datetime.datetime.now().isoformat(timespec='seconds')}\n{redact(text)}\n")
         return path
     except OSError:
         return None
@@ -92,14 +93,14 @@ def report_unexpected(kind: type[BaseException], error: BaseException, trace: Tr
     A :class:`UsvipsError` is an expected failure and shows as its own line; anything else is a bug,
     logged with its traceback."""
     if isinstance(error, UsvipsError):
-        sentence = str(error)
+        sentence = redact(error)
         details = sentence
     else:
-        details = "".join(traceback.format_exception(kind, error, trace))
+        details = redact("".join(traceback.format_exception(kind, error, trace)))
         written = _append_log(details)
         where = f"; details in {written}" if written else ""
-        sentence = (f"Something went wrong ({kind.__name__}: {' '.join(str(error).split())[:200]}); your work is "
-                    f"kept{where}")
+        sentence = (f"Something went wrong ({kind.__name__}: {' '.join(redact(error).split())[:200]}); your work "
+                    f"is kept{where}")
     window = _window()
     if window is not None:
         try:

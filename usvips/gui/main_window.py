@@ -39,6 +39,7 @@ from usvips.gui.status_bar import StatusBar
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
 from usvips.gui.video_model import format_timecode
+from usvips.gui.wording import plural
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
@@ -358,6 +359,9 @@ class MainWindow(QtWidgets.QMainWindow):
         edit = self.menuBar().addMenu("&Edit")
         for name in ("undo", "redo"):
             edit.addAction(a[name])
+        edit.addSeparator()  # the edits a failed save kept (usvips.gui.object_edits: never shown as saved)
+        edit.addAction("Re&try unsaved edits", self.retry_unsaved_edits)
+        edit.addAction("&Discard unsaved edits", self.discard_unsaved_edits)
         view = self.menuBar().addMenu("&View")
         for name in ("fit", "one", "zoom_in", "zoom_out", "box", "link", "loupe"):
             view.addAction(a[name])
@@ -1068,6 +1072,22 @@ class MainWindow(QtWidgets.QMainWindow):
         self.statusBar().setStyleSheet("")
         self.statusBar().clearMessage()
         self.set_hint("")
+
+    def retry_unsaved_edits(self) -> None:
+        """Edit › Retry unsaved edits: make the kept edits again (e.g. once the server is back)."""
+        edits = self.workspace.edits
+        if not edits.unsaved:
+            self.show_message("info", "no unsaved edits")
+            return
+        saved = edits.retry_unsaved()
+        left = len(edits.unsaved)
+        self.show_message("warning" if left else "info", f"saved {plural(saved, 'kept edit')}"
+                          + (f"; {plural(left, 'edit')} still not saved" if left else ""))
+
+    def discard_unsaved_edits(self) -> None:
+        """Edit › Discard unsaved edits: forget the kept edits (the objects stay as stored)."""
+        dropped = self.workspace.edits.discard_unsaved()
+        self.show_message("info", f"discarded {plural(dropped, 'unsaved edit')}" if dropped else "no unsaved edits")
 
     def undo(self) -> None:
         self._step("undo", "undone")

@@ -133,6 +133,40 @@ def _connect(url: str, read_only: bool) -> psycopg.Connection:
     return connection
 
 
+#: the survey's roles (cluster-wide group roles, no login of their own): an annotator reads and writes
+#: objects, a reviewer also accepts and flags them, an administrator also copies others' rows as they were
+#: (push, pull, migrations). A login is given one with ``GRANT usvips_reviewer TO ann``
+SURVEY_ROLES = {"usvips_annotator": "", "usvips_reviewer": " IN ROLE usvips_annotator",
+                "usvips_administrator": " IN ROLE usvips_reviewer"}
+
+
+def create_survey_roles(connection: psycopg.Connection) -> bool:
+    """Create the survey roles that do not exist yet, when this login may (superuser or CREATEROLE);
+    returns whether they all exist now."""
+    missing = [name for name in SURVEY_ROLES
+               if connection.execute("SELECT to_regrole(%s)", (name,)).fetchone()[0] is None]
+    may = connection.execute("SELECT rolsuper OR rolcreaterole FROM pg_roles WHERE rolname = current_user"
+                             ).fetchone()
+    if missing and may and may[0]:
+        for name in missing:
+            connection.execute(f"CREATE ROLE {name} NOLOGIN{SURVEY_ROLES[name]}")
+        missing = []
+    return not missing
+
+
+def grant_survey_roles(connection: psycopg.Connection) -> None:
+    """Give the survey roles what they may do on this survey's tables (so that a second login, made a
+    member of one, opens a pushed survey: 'permission denied for table meta' before); nothing when the
+    roles do not exist."""
+    if any(connection.execute("SELECT to_regrole(%s)", (name,)).fetchone()[0] is None for name in SURVEY_ROLES):
+        return
+    schema = pg_sql.Identifier(connection.execute("SELECT current_schema()").fetchone()[0])
+    for statement in ("GRANT SELECT, INSERT, UPDATE, DELETE ON ALL TABLES IN SCHEMA {} TO usvips_annotator",
+                      "GRANT USAGE, SELECT, UPDATE ON ALL SEQUENCES IN SCHEMA {} TO usvips_annotator",
+                      "GRANT ALL ON ALL TABLES IN SCHEMA {} TO usvips_administrator"):
+        connection.execute(pg_sql.SQL(statement).format(schema))
+
+
 def new_survey(url: str, fill, doing: str) -> None:
     """Make the database ``url`` names a survey: the database is created when it does not exist (and
     dropped again when this fails), else it must hold no tables; the schema, the ``meta`` rows and what
@@ -157,10 +191,12 @@ def new_survey(url: str, fill, doing: str) -> None:
             raise ProjectError(f"{location}: the database already holds tables; give a new or empty database "
                                "for a survey (nothing was written)")
         with connection.transaction():
+            create_survey_roles(connection)
             connection.execute(SCHEMA)
             connection.execute("INSERT INTO meta VALUES ('format', %s), ('created', %s), ('schema_version', %s)",
                                (FORMAT, _now(), str(SERVER_SCHEMA_VERSION)))
             fill(connection)
+            grant_survey_roles(connection)
     except BaseException as error:
         connection.close()
         if created:
@@ -481,7 +517,20 @@ class ServerProject(Project):
             except BaseException:
                 connection.close()
                 raise
-        return cls(url, connection, read_only, Path(path) if path is not None else None)
+        survey = cls(url, connection, read_only, Path(path) if path is not None else None)
+        survey.login_is_annotator()
+        return survey
+
+    def login_is_annotator(self) -> None:
+        """On a survey with roles, the annotator is the database login (the server records it in the
+        history whatever the client says); an administrator's handle keeps the annotator it was given."""
+        try:
+            login, administrator = self._db.raw.execute(
+                "SELECT session_user::text, usvips_is_role_member('usvips_administrator')").fetchone()
+        except psycopg.Error as error:
+            raise ProjectError(f"{self.path}: cannot open the survey: {_one_line(error)}") from None
+        if not administrator:
+            self.annotator = login
 
     @staticmethod
     def _migrate(connection: psycopg.Connection, location: str, version: int, read_only: bool) -> None:
@@ -499,7 +548,9 @@ class ServerProject(Project):
                 current = int(connection.execute("SELECT value FROM meta WHERE key = 'schema_version' FOR UPDATE"
                                                  ).fetchone()[0])
                 for step in range(current + 1, SERVER_SCHEMA_VERSION + 1):  # another annotator may have done it
-                    connection.execute(SERVER_MIGRATIONS[step])
+                    if SERVER_MIGRATIONS.get(step):
+                        connection.execute(SERVER_MIGRATIONS[step])
+                grant_survey_roles(connection)
                 connection.execute("UPDATE meta SET value = %s WHERE key = 'schema_version'",
                                    (str(SERVER_SCHEMA_VERSION),))
         except psycopg.Error as error:
@@ -512,6 +563,10 @@ class ServerProject(Project):
             if connection.execute("SELECT to_regclass('meta')").fetchone()[0] is None:
                 raise ProjectError(f"{location}: not a USVIPS survey (the database has no USVIPS tables)")
             meta = dict(connection.execute("SELECT key, value FROM meta WHERE key IN ('format', 'schema_version')"))
+        except pg_errors.InsufficientPrivilege:
+            login = connection.execute("SELECT session_user::text").fetchone()[0]
+            raise ProjectError(f"{location}: the login {login} is not one of this survey's annotators (its owner or "
+                               f"an administrator gives it a role: GRANT usvips_annotator TO {login})") from None
         except psycopg.Error as error:
             raise ProjectError(f"{location}: cannot open the survey: {_one_line(error)}") from None
         if meta.get("format") != FORMAT or not str(meta.get("schema_version", "")).isdigit():

@@ -233,6 +233,12 @@ ALTER TABLE vertices ADD COLUMN weak_reason TEXT CHECK (weak_score IS NULL OR we
 UPDATE vertices SET pointing_source = 'hand click (unknown)';
 """
 MIGRATIONS[11] = VERSION_11
+# version 12: not used.
+# version 13: nothing changes in a file. The server's schema 13 (usvips.store.postgres_schema) gives ids from a
+# counter kept in the transaction (a sequence jumped after a crash) and records the database login in the
+# history; a file's ids are already the highest plus one, and a file has no logins. The step keeps both
+# backends at one schema number.
+MIGRATIONS[13] = ""
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
@@ -243,7 +249,8 @@ def migrate(connection: sqlite3.Connection, target: int = SCHEMA_VERSION) -> int
     current = connection.execute("PRAGMA user_version").fetchone()[0]
     if current >= target:
         return current
-    script = "".join(MIGRATIONS[version] for version in range(current + 1, target + 1))
+    script = "".join(MIGRATIONS.get(version, "") for version in range(current + 1, target + 1))  # numbers
+    # other branches hold may be missing on this one: the lead renumbers at merge
     try:
         connection.executescript(f"BEGIN IMMEDIATE;{script}PRAGMA user_version = {target};COMMIT;")
     except sqlite3.Error:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from usvips.store.opening import parse_server_location
 from usvips.store.postgres import ServerProject, new_survey, public_location
-from usvips.store.postgres_schema import IDENTITY_TABLES, SERVER_SCHEMA_VERSION, TABLES
+from usvips.store.postgres_schema import SERVER_SCHEMA_VERSION, TABLES
 from usvips.store.project import Project, database_problem
 from usvips.store.records import ProjectError
 
@@ -80,9 +80,7 @@ def push(path: str | Path, url: str) -> str:
                     cursor.executemany(f"INSERT INTO {table} ({', '.join(columns)}) VALUES "
                                        f"({', '.join(['%s'] * len(columns))})", wanted)
         connection.execute("INSERT INTO meta VALUES ('schema_version', %s)", (str(SERVER_SCHEMA_VERSION),))
-        for table in IDENTITY_TABLES:
-            connection.execute(f"SELECT setval(pg_get_serial_sequence('{table}', 'id'), "
-                               f"COALESCE(max(id), 0) + 1, false) FROM {table}")
+        # the ids' counters followed the explicit ids copied (schema 13: usvips.store.postgres_schema)
 
     new_survey(url, fill, f"cannot copy {path} to the server")
     return public_location(url)
