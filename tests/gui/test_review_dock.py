@@ -29,8 +29,7 @@ def _objects_on_two_pairs(window) -> list[int]:
 
 
 def _review_column(window, object_id: int) -> str:
-    table, row = window.object_list.table, window.object_list.row_of(object_id)
-    return table.item(row, window.object_list.COLUMNS.index("review")).text()
+    return window.object_list.text(window.object_list.row_of(object_id), "review")
 
 
 def test_review_mode_walks_the_unreviewed_objects_by_keyboard(qtbot, make_window, sample_copy):
@@ -149,7 +148,7 @@ def test_h_on_an_object_row_shows_its_history_and_provenance(qtbot, make_window,
     window.set_annotator("bob")
     ws.project.set_review(first, "flagged", "blurred")
     table = window.object_list.table
-    table.setCurrentCell(window.object_list.row_of(first), 0)
+    table.setCurrentIndex(table.model().index(window.object_list.row_of(first), 0))
     table.setFocus()
     qtbot.keyClick(table, Key.Key_H)
     (dialog,) = window.object_list.history_dialogs
