@@ -44,6 +44,13 @@ def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_fil
     assert listing.row_of(ids[5]) == texts.index(ws.stored_object(ids[5]).attribute)
     header.setSortIndicator(-1, QtCore.Qt.SortOrder.AscendingOrder)
     assert model.ids() == ids
+    # with the mouse: a click on the header sorts ascending, a second descending, a third gives the stored order
+    column = ObjectList.COLUMNS.index("attribute")
+    where = QtCore.QPoint(header.sectionViewportPosition(column) + 5, 5)
+    for first in ("fish 1", "fish 9", "fish 1"):
+        qtbot.mouseClick(header.viewport(), QtCore.Qt.MouseButton.LeftButton, pos=where)
+        assert listing.text(0, "attribute") == first
+    assert model.ids() == ids
     # filtering: the rows whose cells hold the text; an object added while filtered appears only if it matches
     listing.filter.setText("FISH 1")  # any case: "fish 1", "fish 10" ... "fish 19"
     shown = model.ids()
