@@ -63,7 +63,7 @@ class ObjectList(QtWidgets.QWidget):
         self.table.horizontalHeader().setSectionsClickable(True)
         self.table.horizontalHeader().setSortIndicator(-1, QtCore.Qt.SortOrder.AscendingOrder)
         self.table.horizontalHeader().sortIndicatorChanged.connect(self.model.sort)
-        self.table.setToolTip("")
+        self.table.setWordWrap(False)  # one line a row (a long figure is elided; its tooltip and width show it)
         self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.DoubleClicked
                                    | QtWidgets.QAbstractItemView.EditTrigger.EditKeyPressed)
         self.filter = QtWidgets.QLineEdit()
@@ -94,12 +94,12 @@ class ObjectList(QtWidgets.QWidget):
         buttons.addSpacing(12)
         for widget in (self.vertex, repick, delete_vertex, self.kind, set_kind):
             buttons.addWidget(widget)
-        buttons.addStretch(1)
+        buttons.addSpacing(12)
+        buttons.addWidget(self.filter, 1)  # beside the buttons: the dock's height is for rows
         repick.clicked.connect(lambda: self._edit_vertex(self.workspace.start_repick))
         delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.delete_vertex))
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
-        layout.addWidget(self.filter)
         layout.addWidget(self.table)
         layout.addLayout(buttons)
         delete.clicked.connect(self._on_delete)
@@ -121,6 +121,7 @@ class ObjectList(QtWidgets.QWidget):
         self.table.doubleClicked.connect(self._on_double_click)
         self._worker: Worker | None = None
         self._pending: list[int] = []  # the ids the running figures worker computes
+        self._fitted = False  # a large list's columns fitted to the rows on screen with their figures
         # the figures of drawn rows not known yet: gathered while the rows are drawn, computed after
         self._wanted_timer = QtCore.QTimer(self)
         self._wanted_timer.setSingleShot(True)
@@ -175,7 +176,7 @@ class ObjectList(QtWidgets.QWidget):
         the figures of the first screenful are computed at once (a worker when many), the others' as they
         are drawn."""
         self.model.reset(self.workspace.cache.instant_links(), self._read_reviews())
-        self._pending = []
+        self._pending, self._fitted = [], False
         self._compute(self._first_figures())
         self._fit()
         self._on_model_selection(self.workspace.selection)
@@ -287,8 +288,20 @@ class ObjectList(QtWidgets.QWidget):
             self._compute_wanted()  # rows drawn meanwhile
 
     def _fit(self) -> None:
+        """The columns fitted to their contents: to every row's in a small list, else to the rows on
+        screen once their figures are shown (a survey's 100,000 rows are not read to size a column)."""
         if self.model.rowCount() <= self.FIT_ROWS:
             self.table.resizeColumnsToContents()
+        elif not self._fitted and self.table.isVisible():
+            rows = self.visible_rows()
+            metrics, header = self.table.fontMetrics(), self.table.horizontalHeader()
+            for column in range(len(self.COLUMNS) - 1):  # the last stretches
+                texts = [self.model.index(r, column).data() or "" for r in rows]
+                widest = max([metrics.horizontalAdvance(t) for t in texts], default=0)
+                title = header.fontMetrics().horizontalAdvance(self.COLUMNS[column].capitalize())
+                self.table.setColumnWidth(column, max(widest, title) + 16)
+            self._fitted = bool(rows) and all(self.workspace.object_figures(self.model.object_id(r)) is not None
+                                              for r in rows)
 
     def _edit_cell(self, object_id: int, column: str, text: str) -> None:
         """Attribute or notes typed in place: stored (undoably) with the other of the two unchanged."""
