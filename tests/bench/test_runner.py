@@ -90,7 +90,15 @@ def test_the_command_prints_every_row_and_exits_1_when_an_area_failed(fake_areas
     assert [row["area"] for row in report["results"]] == ["fine", "broken", "broken"]
     assert [area["error"] is None for area in report["areas"]] == [True, False]
     assert report["scale"] == 0.1 and "load_1min_at_start" in report
-    assert err.strip() == ("usvips bench: area broken failed: RuntimeError: there is no object 2501 in the "
-                           "project (at area_broken.py:5)")
+    assert err.strip().splitlines()[-1] == ("usvips bench: area broken failed: RuntimeError: there is no object "
+                                            "2501 in the project (at area_broken.py:5)")
+    assert err.splitlines()[0] == "usvips bench: area fine: 1 rows in 0 s"  # progress, area by area
     assert main(["bench", "--only", "fine"]) == 0
     assert main(["bench", "--only", "nowhere"]) == 2
+
+
+def test_the_report_file_is_written_after_each_area(fake_areas, tmp_path, capsys):
+    out = tmp_path / "report.json"
+    assert main(["bench", "--only", "broken", "fine", "--scale", "0.1", "--out", str(out)]) == 1
+    written, printed = json.loads(out.read_text()), json.loads(capsys.readouterr().out)
+    assert written["results"] == printed["results"] and written["areas"] == printed["areas"]

@@ -15,9 +15,10 @@ def test_the_server_rows_compare_with_sqlite_on_the_same_data_and_judge_their_ta
     assert opening["n"] == 100 and opening["met"] == (opening["ours_s"] <= server.OPEN_TARGET_S)
     assert all("SQLite" in row["baseline"] for row in rows)
     # the window's row: the survey opened in the window (offscreen) from the server and from the file,
-    # the object list holding every object (10 fish stored by the row before) with its figure
-    assert "in the window" in window["name"] and window["target_s"] == server.OPEN_TARGET_S
-    assert window["met"] == (window["ours_s"] <= server.OPEN_TARGET_S) and window["baseline_s"] > 0
+    # the object list holding every object (10 fish stored by the row before), the rows on screen with their
+    # figures; met when both backends open within the target
+    assert "in the window" in window["name"] and window["target_s"] == server.WINDOW_OPEN_TARGET_S == 0.5
+    assert window["met"] == (max(window["ours_s"], window["baseline_s"]) <= 0.5) and window["baseline_s"] > 0
     assert window["objects_listed"] == window["baseline_objects_listed"] == 110
     assert 0 < window["rows_s"] <= window["ours_s"] and 0 < window["baseline_rows_s"] <= window["baseline_s"]
     assert window["cpu_s"] > 0 and window["baseline_cpu_s"] > 0

@@ -70,11 +70,11 @@ def test_enter_in_a_table_cell_commits_the_edit(qtbot, make_window, sample_copy)
     _first_pick_with_proposal(qtbot, window, directory)
     _key(qtbot, Key.Key_Return)
     table = window.object_list.table
-    assert table.rowCount() == 1
+    assert table.model().rowCount() == 1
     window.docks["objects"].raise_()
     column = window.object_list.COLUMNS.index("notes")
-    table.setCurrentCell(0, column)
-    table.editItem(table.item(0, column))
+    table.setCurrentIndex(table.model().index(0, column))
+    table.edit(table.model().index(0, column))
     qtbot.waitUntil(lambda: isinstance(QtWidgets.QApplication.focusWidget(), QtWidgets.QLineEdit), timeout=2000)
     qtbot.keyClicks(QtWidgets.QApplication.focusWidget(), "behind the rock")
     _key(qtbot, Key.Key_Return)  # the delegate commits on the next round of the event loop

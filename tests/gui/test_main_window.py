@@ -76,16 +76,16 @@ def test_measuring_a_fish_with_the_mouse_stores_it_with_its_true_length(qtbot, m
     assert stored.kind == "length" and stored.attribute == "fish"
     figure = window.workspace.figures([stored.id]).figures[0]
     assert abs(figure.value - true_length(directory, "fish1")) < figure.sigma
-    assert window.object_list.table.rowCount() == 1
-    assert "mm" in window.object_list.table.item(0, FIGURE).text()
+    assert window.object_list.row_count() == 1
+    assert "mm" in window.object_list.text(0, "figure")
     window.object_list.table.selectRow(0)
     assert "length" in window.calculator.output.toPlainText()
     x, _ = window.panes["left"].selected_item.getData()
     assert len(x) >= 2  # the selected fish is drawn highlighted
     window.actions["undo"].trigger()
-    assert window.workspace.project.objects() == [] and window.object_list.table.rowCount() == 0
+    assert window.workspace.project.objects() == [] and window.object_list.row_count() == 0
     window.actions["redo"].trigger()
-    assert len(window.workspace.project.objects()) == 1 and window.object_list.table.rowCount() == 1
+    assert len(window.workspace.project.objects()) == 1 and window.object_list.row_count() == 1
 
 
 def test_enhancement_changes_the_display_but_not_the_coordinates(qtbot, make_window, sample_copy):
@@ -139,7 +139,7 @@ def test_reopening_restores_objects_enhancement_pair_and_layout(qtbot, make_wind
     assert again.workspace.pipelines["left"].operations == ()
     assert not again.docks["plan"].isVisible()
     assert again.actions["snap"].isChecked() and again.workspace.snap
-    assert again.object_list.table.rowCount() == 1
+    assert again.object_list.row_count() == 1
 
 
 def test_bad_input_is_reported_not_raised(qtbot, make_window, tmp_path):
@@ -231,10 +231,10 @@ def test_many_objects_get_their_figures_off_the_gui_thread(qtbot, make_window, s
     for _ in range(6):  # stored behind the window's back: the list meets them all at once
         window.workspace.project.add_object("line", list(first.vertices), "copy")
     window.workspace.reload_objects()  # the model reads them all by one query
-    assert window.object_list.table.rowCount() == 7
-    assert "computing" in window.object_list.table.item(3, FIGURE).text()
-    qtbot.waitUntil(lambda: "mm" in window.object_list.table.item(6, FIGURE).text(), timeout=20000)
-    assert window.object_list.table.item(6, FIGURE).text() == window.object_list.table.item(0, FIGURE).text()
+    assert window.object_list.row_count() == 7
+    assert "computing" in window.object_list.text(3, "figure")
+    qtbot.waitUntil(lambda: "mm" in window.object_list.text(6, "figure"), timeout=20000)
+    assert window.object_list.text(6, "figure") == window.object_list.text(0, "figure")
 
 
 def test_objects_are_exported_from_the_window(qtbot, make_window, sample_copy, tmp_path):
@@ -340,7 +340,7 @@ def test_a_stored_vertex_is_re_picked_from_the_object_list_with_the_mouse(qtbot,
         click_pixel(qtbot, window.panes["left"], left["fish1"][point])
         click_pixel(qtbot, window.panes["right"], right["fish1"][point])
     window.accept_or_finish()
-    figure = window.object_list.table.item(0, FIGURE).text()
+    figure = window.object_list.text(0, "figure")
     window.object_list.table.selectRow(0)
     window.object_list.vertex.setValue(2)
     qtbot.mouseClick(window.object_list.repick_button, QtCore.Qt.MouseButton.LeftButton)
@@ -350,9 +350,9 @@ def test_a_stored_vertex_is_re_picked_from_the_object_list_with_the_mouse(qtbot,
     click_pixel(qtbot, window.panes["right"], wrong[1])
     if window.workspace.state.pending is not None:
         window.accept_or_finish()
-    assert window.object_list.table.item(0, FIGURE).text() != figure
+    assert window.object_list.text(0, "figure") != figure
     window.undo()
-    assert window.object_list.table.item(0, FIGURE).text() == figure
+    assert window.object_list.text(0, "figure") == figure
 
 
 def test_linked_navigation_brings_the_other_pane_to_the_conjugate_region(qtbot, make_window, sample_copy):
@@ -392,4 +392,4 @@ def test_the_object_list_changes_an_objects_kind_with_the_mouse(qtbot, make_wind
     window.object_list.kind.setCurrentText("polygon")
     qtbot.mouseClick(window.object_list.set_kind_button, QtCore.Qt.MouseButton.LeftButton)
     assert window.workspace.project.object(stored.id).kind == "polygon"
-    assert "polygon" in window.object_list.table.item(0, 1).text()
+    assert "polygon" in window.object_list.text(0, "type")

@@ -6,7 +6,7 @@ the object's combined ones."""
 
 import numpy as np
 import pytest
-from PySide6 import QtGui
+from PySide6 import QtCore, QtGui
 
 from tests.app.test_object_instants import _store_instants
 from usvips.app.object_instants import add_instant
@@ -40,8 +40,21 @@ def listed(qtbot, tmp_path):
     ws.close_project()
 
 
+class _Cell:
+    """A cell of the list's model: its text and tooltip as drawn."""
+
+    def __init__(self, view, object_id, column):
+        self.index = view.model.index(view.row_of(object_id), view.COLUMNS.index(column))
+
+    def text(self):
+        return self.index.data() or ""
+
+    def toolTip(self):  # noqa: N802 (as Qt names it)
+        return self.index.data(QtCore.Qt.ItemDataRole.ToolTipRole) or ""
+
+
 def _cell(view, object_id, column="figure"):
-    return view.table.item(view.row_of(object_id), view.COLUMNS.index(column))
+    return _Cell(view, object_id, column)
 
 
 def _figure(ws, object_id):
@@ -51,7 +64,9 @@ def _figure(ws, object_id):
 def _greyed(view, object_id):
     grey = view.palette().brush(QtGui.QPalette.ColorGroup.Disabled, QtGui.QPalette.ColorRole.Text)
     row = view.row_of(object_id)
-    return all(view.table.item(row, c).foreground() == grey for c in range(view.table.columnCount()))
+    model = view.model
+    return all(model.index(row, c).data(QtCore.Qt.ItemDataRole.ForegroundRole) == grey
+               for c in range(model.columnCount()))
 
 
 def test_an_object_shows_its_combined_figure_and_its_instants_their_object(qtbot, listed):

@@ -94,10 +94,10 @@ def test_after_a_measurement_the_form_takes_the_keys_and_stores_the_record(qtbot
     record = window.workspace.project.record(stored.id)
     assert record == ObservationRecord("Labridae", "Notolabrus", "gymnogenis", "37384043", 3, "J", "", "in the kelp")
     assert QtWidgets.QApplication.focusWidget() is window.panes["left"].graphics  # back to measuring
-    table, columns = window.object_list.table, window.object_list.COLUMNS
-    row = window.object_list.row_of(stored.id)
-    assert table.item(row, columns.index("species")).text() == "Notolabrus gymnogenis × 3"  # one place: the record
-    assert table.item(row, columns.index("pair")).text() == "water1"
+    listing = window.object_list
+    row = listing.row_of(stored.id)
+    assert listing.text(row, "species") == "Notolabrus gymnogenis × 3"  # one place: the record
+    assert listing.text(row, "pair") == "water1"
     # the next measurement starts with the kept values; a species not in the list is refused, nothing lost
     click_pixel(qtbot, window.panes["left"], left[numbers[1]])
     click_pixel(qtbot, window.panes["right"], right[numbers[1]])

@@ -84,7 +84,7 @@ def test_the_views_show_nothing_of_the_previous_project(qtbot, make_window, samp
     qtbot.waitUntil(lambda: curve.getData()[0] is not None and len(curve.getData()[0]) > 0, timeout=5000)
     before = {"point": window.point_label.text(), "pixel": window.pixel_label.text(),
               "title": window.panes["left"].title.text(), "target": window.observation.target.text(),
-              "rows": window.object_list.table.rowCount()}
+              "rows": window.object_list.row_count()}
     assert all(before.values()), before
 
     empty = tmp_path / "empty.usvips"
@@ -100,7 +100,7 @@ def test_the_views_show_nothing_of_the_previous_project(qtbot, make_window, samp
     assert window.attribute_box.currentText() == "" and window.attribute_box.count() == 0
     assert window.pair_box.count() == 0 and window.pair_box.placeholderText() == ""
     assert window.observation.target.text() == "no object" and window.observation.species.currentText() == ""
-    assert window.object_list.table.rowCount() == 0 and window.selection == []
+    assert window.object_list.row_count() == 0 and window.selection == []
     d = window.video.dock_widget
     assert (d.offset.value(), d.frame_label.text(), d.chooser.count()) == (0, "—", 0) and not d.isEnabled()
     assert np.all([window.panes[s].display is None for s in ("left", "right")])

@@ -29,8 +29,7 @@ def _objects_on_two_pairs(window) -> list[int]:
 
 
 def _review_column(window, object_id: int) -> str:
-    table, row = window.object_list.table, window.object_list.row_of(object_id)
-    return table.item(row, window.object_list.COLUMNS.index("review")).text()
+    return window.object_list.text(window.object_list.row_of(object_id), "review")
 
 
 def test_review_mode_walks_the_unreviewed_objects_by_keyboard(qtbot, make_window, sample_copy):
@@ -151,7 +150,7 @@ def test_h_on_an_object_row_shows_its_history_and_provenance(qtbot, make_window,
     ws.project.set_review(first, "flagged", "blurred")
     ws.objects_changed_in_store(updated=(first,))  # the window reads the review (else its delete is stale)
     table = window.object_list.table
-    table.setCurrentCell(window.object_list.row_of(first), 0)
+    table.setCurrentIndex(table.model().index(window.object_list.row_of(first), 0))
     table.setFocus()
     qtbot.keyClick(table, Key.Key_H)
     (dialog,) = window.object_list.history_dialogs

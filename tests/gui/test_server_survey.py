@@ -40,12 +40,11 @@ def test_the_window_opens_a_survey_on_a_server_by_its_url(qtbot, make_window, ne
     listing = window.object_list
     qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
     assert type(window.workspace.project).__name__ == "ServerProject"
-    assert listing.table.rowCount() == 5
-    figure = listing.COLUMNS.index("figure")
-    assert all(listing.table.item(r, figure).text() not in ("", "computing…") for r in range(5))
+    assert listing.row_count() == 5
+    assert all(listing.text(r, "figure") not in ("", "computing…") for r in range(5))
     assert window.recent_projects()[0] == without_password(url)
     window.workspace.close_project()
-    assert window.open_path(window.recent_projects()[0]) and listing.table.rowCount() == 5
+    assert window.open_path(window.recent_projects()[0]) and listing.row_count() == 5
 
 
 def test_a_password_is_not_remembered(qtbot, make_window, new_survey):

@@ -97,11 +97,11 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     assert window.workspace.object_figures(object_id).figures[0].value == combined.figures[0].value
     row = window.object_list.row_of(object_id)
     column = window.object_list.COLUMNS.index("figure")
-    qtbot.waitUntil(lambda: window.object_list.table.item(row, column).text() != "computing…", timeout=10000)
-    shown = window.object_list.table.item(row, column).text()
+    qtbot.waitUntil(lambda: window.object_list.text(row, "figure") != "computing…", timeout=10000)
+    shown = window.object_list.text(row, "figure")
     assert f"{combined.figures[0].sigma * 1000:.1f} mm" in shown and combined.combined[0].count == 5
     assert shown.endswith("(5 instants)")  # the object's row: the combined figure over its 5 instants
-    assert window.object_list.table.item(window.object_list.row_of(ids[0]), column).text() == f"instant of #{object_id}"
+    assert window.object_list.text(window.object_list.row_of(ids[0]), "figure") == f"instant of #{object_id}"
     distances = [np.linalg.norm(fish.body_point(f / 25.0, POINTS[1] * fish.length)
                                 - fish.body_point(f / 25.0, POINTS[0] * fish.length)) for f in (START, 2, 10, 14, 18)]
     assert abs(combined.figures[0].value - np.mean(distances)) < 3 * combined.figures[0].sigma

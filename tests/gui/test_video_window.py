@@ -66,8 +66,8 @@ def test_the_sample_video_shows_synchronised_frames_and_a_fish_measures_true(qtb
     # the object list shows where it was measured; double-click goes there
     table = window.object_list.table
     column = window.object_list.COLUMNS.index("frame")
-    assert table.item(0, column).text() == "video: 12 | 15  00:01.200"
-    table.cellDoubleClicked.emit(0, column)
+    assert window.object_list.text(0, "frame") == "video: 12 | 15  00:01.200"
+    table.doubleClicked.emit(table.model().index(0, column))
     _wait_frame(qtbot, window, 12)
     # stepping reads from the prefetched cache
     qtbot.waitUntil(lambda: 13 in window.video.cache and not window.busy, timeout=10000)

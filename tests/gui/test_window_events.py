@@ -19,11 +19,13 @@ def test_a_pick_and_a_store_update_one_row_among_many(qtbot, make_window, tmp_pa
     window = make_window()
     assert window.open_path(path, "measure1")
     wait_for_pair(qtbot, window, "measure1")
-    table = window.object_list.table
-    assert table.rowCount() == COUNT
+    table, model = window.object_list.table, window.object_list.model
+    assert model.rowCount() == COUNT
     if window.object_list._worker is not None:  # the many figures are computed off the GUI thread ...
         window.object_list._worker.cancel()  # ... and need not finish here (test_main_window waits for them)
-    before = [table.item(row, 0) for row in range(COUNT)]  # the very items: no row is rebuilt
+    before = [model.index(row, 0).data() for row in range(COUNT)]
+    resets: list = []  # no row is rebuilt: the model is never reset, rows are inserted and removed
+    model.modelReset.connect(lambda: resets.append(True))
 
     def no_listing(self):
         raise AssertionError("the whole object table was read from the project")
@@ -34,17 +36,17 @@ def test_a_pick_and_a_store_update_one_row_among_many(qtbot, make_window, tmp_pa
     for point in ("snout", "fork"):
         click_pixel(qtbot, window.panes["left"], left["fish1"][point])
         click_pixel(qtbot, window.panes["right"], right["fish1"][point])
-    assert table.rowCount() == COUNT  # picks leave the list alone
+    assert model.rowCount() == COUNT  # picks leave the list alone
     window.actions["accept"].trigger()  # Enter stores the fish
-    assert table.rowCount() == COUNT + 1
-    assert [table.item(row, 0) for row in range(COUNT)] == before
+    assert model.rowCount() == COUNT + 1
+    assert [model.index(row, 0).data() for row in range(COUNT)] == before and resets == []
     new_id = window.workspace.objects()[-1].id
-    assert table.item(COUNT, 0).text() == str(new_id) and "mm" in table.item(COUNT, FIGURE).text()
+    assert model.index(COUNT, 0).data() == str(new_id) and "mm" in model.index(COUNT, FIGURE).data()
     # above 300 objects only the selected ones are labelled on the panes
     assert window.panes["left"].labels == []
     # select with the mouse: the model holds the selection; the calculator and the panes follow it
-    table.scrollToItem(table.item(COUNT, 0))
-    rect = table.visualItemRect(table.item(COUNT, 0))
+    table.scrollTo(model.index(COUNT, 0))
+    rect = table.visualRect(model.index(COUNT, 0))
     qtbot.mouseClick(table.viewport(), QtCore.Qt.MouseButton.LeftButton, pos=rect.center())
     assert window.workspace.selection == (new_id,)
     assert str(new_id) in window.calculator.output.toPlainText()
@@ -54,7 +56,8 @@ def test_a_pick_and_a_store_update_one_row_among_many(qtbot, make_window, tmp_pa
     # the Delete key in the list deletes it (one row goes), Ctrl+Z brings it back as one new row
     table.setFocus()
     qtbot.keyClick(table, QtCore.Qt.Key.Key_Delete)
-    assert table.rowCount() == COUNT and window.workspace.selection == ()
-    assert [table.item(row, 0) for row in range(COUNT)] == before
+    assert model.rowCount() == COUNT and window.workspace.selection == ()
+    assert [model.index(row, 0).data() for row in range(COUNT)] == before and resets == []
     window.actions["undo"].trigger()
-    assert table.rowCount() == COUNT + 1 and [table.item(row, 0) for row in range(COUNT)] == before
+    assert model.rowCount() == COUNT + 1 and [model.index(row, 0).data() for row in range(COUNT)] == before
+    assert resets == []

@@ -164,11 +164,17 @@ def run_area(area: str, scale: float = 1.0, timeout_s: float = AREA_TIMEOUT_S) -
     return AreaRun(area, rows, wall, done.get("cpu_s"), done.get("peak_rss_mb"))
 
 
-def run_areas(only: Iterable[str] | None = None, scale: float = 1.0,
-              timeout_s: float = AREA_TIMEOUT_S) -> list[AreaRun]:
-    """Run the selected areas (all by default), each in its own child process, one after the other."""
+def run_areas(only: Iterable[str] | None = None, scale: float = 1.0, timeout_s: float = AREA_TIMEOUT_S,
+              done: Callable[[list[AreaRun]], None] | None = None) -> list[AreaRun]:
+    """Run the selected areas (all by default, else in the order given), each in its own child process,
+    one after the other; ``done(runs so far)`` after each."""
     wanted = list(only) if only else list(areas())
-    return [run_area(area, scale, timeout_s) for area in wanted]
+    runs: list[AreaRun] = []
+    for area in wanted:
+        runs.append(run_area(area, scale, timeout_s))
+        if done is not None:
+            done(runs)
+    return runs
 
 
 def run(only: Iterable[str] | None = None, scale: float = 1.0) -> list[dict]:

@@ -1,7 +1,8 @@
 """Benchmarks of a survey on a PostgreSQL server, each against the SQLite file holding the same data,
 timed in the same run (issue 26): listing 10,000 objects (≤ 3 × SQLite), storing one measured fish
 (≤ 50 ms), opening a survey of 10,000 objects and reading them all (the store's part of opening it in
-the window, ≤ 2 s).
+the window, ≤ 2 s), and opening it in the window until the rows on screen show their figures (≤ 0.5 s
+from the server and from the SQLite file, issue 37: the object list is a model read as drawn).
 
 The server: ``$USVIPS_BENCH_POSTGRES`` (a ``postgresql://`` URL of a server where databases may be
 created), else a temporary PostgreSQL started with ``pgserver`` (the test extra) on this machine. With
@@ -31,6 +32,7 @@ OBJECTS = 10_000
 LIST_TARGET = 3.0  # × SQLite
 STORE_TARGET_S = 0.050
 OPEN_TARGET_S = 2.0
+WINDOW_OPEN_TARGET_S = 0.5  # either backend (issue 37)
 
 
 def _server() -> tuple[str | None, object]:
@@ -79,8 +81,10 @@ def window_row(n: int, url: str, local: Path, folder: Path, repeats: int = 3) ->
     timed = json.loads(result.stdout.strip().splitlines()[-1])
     server, file = timed[url], timed[str(local)]
     row = _absolute(f"open a survey of {n} objects on the server in the window (offscreen: File › Open until "
-                    "the object list holds every object with its figure)", n, server["open_s"], file["open_s"],
-                    "the same from the SQLite file", OPEN_TARGET_S)
+                    "the object list holds every object, the rows on screen with their figures)", n,
+                    server["open_s"], file["open_s"], "the same from the SQLite file", WINDOW_OPEN_TARGET_S)
+    row["met"] = bool(max(server["open_s"], file["open_s"]) <= WINDOW_OPEN_TARGET_S)  # either backend
+    row["baseline_met"] = bool(file["open_s"] <= WINDOW_OPEN_TARGET_S)
     row.update(rows_s=round(server["rows_s"], 6), baseline_rows_s=round(file["rows_s"], 6),
                cpu_s=round(server["cpu_s"], 3), baseline_cpu_s=round(file["cpu_s"], 3),
                objects_listed=server["objects"], baseline_objects_listed=file["objects"],

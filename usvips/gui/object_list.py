@@ -2,22 +2,23 @@
 attribute and notes in place, delete, zoom to, go to the frame measured on; each one's review state, and
 its history (right-click › History…, or H in the list). An object measured on several
 instants shows its combined figure and how many instants it has; a further instant's row is greyed and
-its figure cell names its object (its own figure alone is in the tooltip, not to be read as the object's)."""
+its figure cell names its object (its own figure alone is in the tooltip, not to be read as the object's).
+
+A view over :class:`usvips.gui.object_table.ObjectTableModel`, which reads each drawn row from the
+workspace's object cache: a survey of 100,000 objects opens and scrolls without a row made per object,
+and the figures are computed (in a worker) for the rows drawn. Sorting (click a column's header) and the
+filter (text in any cell) live in the model."""
 
 from __future__ import annotations
-
-import bisect
-from collections import Counter
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.errors import UsvipsError
-from usvips.core.measurements.breakdown import breakdown_text
-from usvips.gui.calculator import format_figure
-from usvips.gui.video_model import video_frame_text
-from usvips.gui.wording import species_text
+from usvips.gui.object_table import ObjectTableModel, figure_texts, instant_figure, review_text
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import Workspace
+
+__all__ = ["ObjectList", "figure_texts", "instant_figure", "review_text"]
 
 
 class ObjectList(QtWidgets.QWidget):
@@ -34,17 +35,41 @@ class ObjectList(QtWidgets.QWidget):
     #: second reader's verdict (unreviewed, accepted, flagged: reason)
     COLUMNS = ("id", "type", "species", "attribute", "vertices", "figure", "quality", "review", "notes", "pair",
                "frame")
+    #: the columns edited in place (every other cell is read-only)
+    EDITABLE = ("attribute", "notes")
+    #: Objects whose figures are computed at once when they change; more go to a worker thread.
+    SYNCHRONOUS = 2
+    #: Up to this many rows the columns are fitted to their contents on every change.
+    FIT_ROWS = 200
+    #: Rows whose figures are computed when a project opens before any row is drawn (a screenful)
+    FIRST_ROWS = 60
+    #: Up to this many objects every figure is computed in a worker when the list is made or the rules
+    #: change; in a larger survey only the drawn rows' figures are (as they are drawn)
+    EAGER = 1000
 
     def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.workspace = workspace
-        self.table = QtWidgets.QTableWidget(0, len(self.COLUMNS))
-        self.table.setHorizontalHeaderLabels([c.capitalize() for c in self.COLUMNS])
+        grey = self.palette().brush(QtGui.QPalette.ColorGroup.Disabled, QtGui.QPalette.ColorRole.Text)
+        self.model = ObjectTableModel(workspace, self.COLUMNS, self.EDITABLE, grey, self._edit_cell, self)
+        self.table = QtWidgets.QTableView()
+        self.table.setModel(self.model)
         self.table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectionBehavior.SelectRows)
         self.table.verticalHeader().hide()
+        self.table.verticalHeader().setSectionResizeMode(QtWidgets.QHeaderView.ResizeMode.Fixed)
         self.table.horizontalHeader().setStretchLastSection(True)
+        self.table.horizontalHeader().setSortIndicatorShown(True)
+        self.table.horizontalHeader().setSortIndicatorClearable(True)  # a third click: the stored order
+        self.table.horizontalHeader().setSectionsClickable(True)
+        self.table.horizontalHeader().setSortIndicator(-1, QtCore.Qt.SortOrder.AscendingOrder)
+        self.table.horizontalHeader().sortIndicatorChanged.connect(self.model.sort)
+        self.table.setWordWrap(False)  # one line a row (a long figure is elided; its tooltip and width show it)
         self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.DoubleClicked
                                    | QtWidgets.QAbstractItemView.EditTrigger.EditKeyPressed)
+        self.filter = QtWidgets.QLineEdit()
+        self.filter.setPlaceholderText("filter: text in any column")
+        self.filter.setClearButtonEnabled(True)
+        self.filter.textChanged.connect(self.model.set_filter)
         delete = QtWidgets.QPushButton("Delete")
         zoom = QtWidgets.QPushButton("Zoom to")
         buttons = QtWidgets.QHBoxLayout()
@@ -69,10 +94,10 @@ class ObjectList(QtWidgets.QWidget):
         buttons.addSpacing(12)
         for widget in (self.vertex, repick, delete_vertex, self.kind, set_kind):
             buttons.addWidget(widget)
-        buttons.addStretch(1)
+        buttons.addSpacing(12)
+        buttons.addWidget(self.filter, 1)  # beside the buttons: the dock's height is for rows
         repick.clicked.connect(lambda: self._edit_vertex(self.workspace.start_repick))
         delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.delete_vertex))
-        self.table.itemSelectionChanged.connect(self._on_vertex_range)
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
         layout.addWidget(self.table)
@@ -84,7 +109,8 @@ class ObjectList(QtWidgets.QWidget):
         self.delete_shortcut = QtGui.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key.Key_Delete), self.table)
         self.delete_shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
         self.delete_shortcut.activated.connect(self._on_delete)
-        self.table.itemSelectionChanged.connect(self._on_table_selection)
+        self.table.selectionModel().selectionChanged.connect(self._on_table_selection)
+        self.table.selectionModel().selectionChanged.connect(self._on_vertex_range)
         # an object's history (who made it, every change): the context menu, or H on its row
         self.table.setContextMenuPolicy(QtCore.Qt.ContextMenuPolicy.CustomContextMenu)
         self.table.customContextMenuRequested.connect(self._context_menu)
@@ -92,16 +118,16 @@ class ObjectList(QtWidgets.QWidget):
         self.history_shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
         self.history_shortcut.activated.connect(self.show_history)
         self.history_dialogs: list = []  # open history windows (not modal)
-        self._reviews: dict[int, object] = {}  # object id → its Review (read with the rows)
-        self.table.itemChanged.connect(self._on_item_changed)
-        self.table.cellDoubleClicked.connect(self._on_double_click)
-        self._filling = False
-        self._ids: list[int] = []  # the object id of each row, ascending (rows are in id order)
+        self.table.doubleClicked.connect(self._on_double_click)
         self._worker: Worker | None = None
         self._pending: list[int] = []  # the ids the running figures worker computes
-        self._links: dict[int, int] = {}  # a further instant's id -> the id of the object it is an instant of
-        self._instants: Counter = Counter()  # an object's id -> how many further instants it has
-        self._marked: set[int] = set()  # the objects whose rows are greyed or carry a figure tooltip
+        self._fitted = False  # a large list's columns fitted to the rows on screen with their figures
+        # the figures of drawn rows not known yet: gathered while the rows are drawn, computed after
+        self._wanted_timer = QtCore.QTimer(self)
+        self._wanted_timer.setSingleShot(True)
+        self._wanted_timer.setInterval(0)
+        self._wanted_timer.timeout.connect(self._compute_wanted)
+        self.model.wanted.connect(self._wanted_timer.start)
         self._events = ((workspace.objects_reset, self.refresh), (workspace.objects_added, self._on_added),
                         (workspace.objects_updated, self._on_updated), (workspace.objects_removed, self._on_removed),
                         (workspace.rules_changed, self._on_rules_changed),
@@ -115,243 +141,176 @@ class ObjectList(QtWidgets.QWidget):
         for signal, slot in self._events:
             signal.disconnect(slot)
 
-    def selected_ids(self) -> list[int]:
-        rows = sorted({index.row() for index in self.table.selectedIndexes()})
-        return [self._ids[r] for r in rows if r < len(self._ids)]
+    # ------------------------------------------------------------------ rows
+    def row_count(self) -> int:
+        return self.model.rowCount()
 
-    #: Objects whose figures are computed at once when they change; more go to a worker thread.
-    SYNCHRONOUS = 2
-    #: Up to this many rows the columns are fitted to their contents on every change.
-    FIT_ROWS = 200
+    def object_id(self, row: int) -> int:
+        """The id of the object on ``row``."""
+        return self.model.object_id(row)
 
     def row_of(self, object_id: int) -> int | None:
-        """The table row showing ``object_id`` (None when it has none)."""
-        row = bisect.bisect_left(self._ids, object_id)
-        return row if row < len(self._ids) and self._ids[row] == object_id else None
+        """The table row showing ``object_id`` (None when it has none: not stored, or filtered out)."""
+        return self.model.row_of(object_id)
+
+    def text(self, row: int, column: str) -> str:
+        """The text of a cell (``column`` by name), as drawn."""
+        return self.model.index(row, self.COLUMNS.index(column)).data() or ""
+
+    def selected_ids(self) -> list[int]:
+        rows = sorted(index.row() for index in self.table.selectionModel().selectedRows())
+        return [self.model.object_id(r) for r in rows if r < self.model.rowCount()]
+
+    def visible_rows(self) -> range:
+        """The rows the table shows now (the first screenful when it is not laid out yet)."""
+        count = self.model.rowCount()
+        top = self.table.rowAt(0)
+        if top < 0 or not self.table.isVisible():
+            return range(min(count, self.FIRST_ROWS))
+        bottom = self.table.rowAt(self.table.viewport().height() - 1)
+        return range(top, (count - 1 if bottom < 0 else bottom) + 1)
 
     # ------------------------------------------------------------------ the model's events
     def refresh(self, *_: object) -> None:
-        """Every row again (another project, new rules): the objects come from the model's cache, the
-        figures that are not known yet are computed (in a worker when many)."""
-        objects = self.workspace.objects()
-        self._reviews = self._read_reviews()
-        self._read_links(show=False)
-        self._filling = True
-        self.table.setUpdatesEnabled(False)
-        try:
-            self.table.clearContents()
-            self.table.setRowCount(len(objects))
-            self._ids = [o.id for o in objects]
-            for row, stored in enumerate(objects):
-                self._set_row(row, stored)
-        finally:
-            self.table.setUpdatesEnabled(True)
-            self._filling = False
-        self._compute([o.id for o in objects])
+        """Every row again (another project, everything read again): the rows come from the model's cache;
+        the figures of the first screenful are computed at once (a worker when many), the others' as they
+        are drawn."""
+        self.model.reset(self.workspace.cache.instant_links(), self._read_reviews())
+        self._pending, self._fitted = [], False
+        self._compute(self._first_figures())
         self._fit()
         self._on_model_selection(self.workspace.selection)
 
     def _on_added(self, ids: tuple[int, ...]) -> None:
         self._read_links()
-        self._filling = True
-        try:
-            for object_id in ids:
-                row = bisect.bisect_left(self._ids, object_id)
-                self._ids.insert(row, object_id)
-                self.table.insertRow(row)
-                self._set_row(row, self.workspace.stored_object(object_id))
-        finally:
-            self._filling = False
+        self.model.add(ids)
         self._compute(list(ids))
         self._fit()
 
     def _on_updated(self, ids: tuple[int, ...]) -> None:
         self._read_links()
         self._read_reviews_of(ids)  # an edit returns an accepted object to unreviewed
-        self._filling = True
-        try:
-            for object_id in ids:
-                row = self.row_of(object_id)
-                if row is not None:
-                    self._set_row(row, self.workspace.stored_object(object_id))
-        finally:
-            self._filling = False
+        self.model.changed(ids)
         self._compute(list(ids))
         self._on_vertex_range()
 
     def _on_removed(self, ids: tuple[int, ...]) -> None:
         gone = set(ids)
         self._pending = [i for i in self._pending if i not in gone]
-        for object_id in ids:
-            row = self.row_of(object_id)
-            if row is not None:
-                self.table.removeRow(row)
-                del self._ids[row]
+        self.model.remove(ids)
         self._read_links()
 
     def _on_rules_changed(self, _rules) -> None:
-        self._compute(list(self._ids))
+        """New rules: every figure again, computed for the rows drawn (the others when they are)."""
+        self.model.forget_figures()
+        self._compute(self._first_figures())
+
+    def _first_figures(self) -> list[int]:
+        """The ids whose figures are computed at once: every object's in a small project, else the drawn
+        rows' (the others as they are drawn)."""
+        if self.model.rowCount() <= self.EAGER:
+            return self.model.ids()
+        return [self.model.object_id(r) for r in self.visible_rows()]
+
+    def _read_links(self) -> None:
+        """The project's instant links (as the object cache holds them); the rows whose part in them changed
+        (the instant and its object, for the count) are drawn again."""
+        self.model.set_links(self.workspace.cache.instant_links())
 
     def _on_model_selection(self, ids: tuple[int, ...]) -> None:
         """Show the model's selection (when the list did not make it)."""
         if set(ids) == set(self.selected_ids()):
             return
-        self.table.blockSignals(True)
+        selection = QtCore.QItemSelection()
+        last = len(self.COLUMNS) - 1
+        rows = [row for row in (self.model.row_of(i) for i in ids) if row is not None]
+        for row in rows:
+            selection.select(self.model.index(row, 0), self.model.index(row, last))
+        selecting = self.table.selectionModel()
+        selecting.blockSignals(True)
         try:
-            self.table.clearSelection()
-            for object_id in ids:
-                row = self.row_of(object_id)
-                if row is not None:
-                    self.table.selectRow(row)
+            selecting.select(selection, QtCore.QItemSelectionModel.SelectionFlag.ClearAndSelect)
+            if rows:
+                selecting.setCurrentIndex(self.model.index(rows[0], 0),
+                                          QtCore.QItemSelectionModel.SelectionFlag.NoUpdate)
         finally:
-            self.table.blockSignals(False)
+            selecting.blockSignals(False)
         self.table.viewport().update()
         self._on_vertex_range()
 
-    def _on_table_selection(self) -> None:
+    def _on_table_selection(self, *_: object) -> None:
         ids = self.selected_ids()
         self.workspace.select(ids)
         self.selection_changed.emit(ids)
 
-    # ------------------------------------------------------------------ rows and figures
-    #: the columns edited in place (every other cell is read-only)
-    EDITABLE = ("attribute", "notes")
-    _READ_ONLY = QtWidgets.QTableWidgetItem().flags() & ~QtCore.Qt.ItemFlag.ItemIsEditable
-    _FIGURE, _QUALITY = COLUMNS.index("figure"), COLUMNS.index("quality")
-
-    def _set_row(self, row: int, stored) -> None:
-        """The row's cells made anew, its figure as known (a survey's 10,000 rows: each cell once, no
-        re-reading of what was just written)."""
-        main, quality, tip = self._figure_texts(stored.id)
-        values = (str(stored.id), stored.kind, species_text(self.workspace.object_record(stored.id)), stored.attribute,
-                  str(len(stored.vertices)), main, quality, review_text(self._reviews.get(stored.id)), stored.notes,
-                  ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair)), video_frame_text(stored))
-        read_only, table = self._READ_ONLY, self.table
-        for column, (name, value) in enumerate(zip(self.COLUMNS, values, strict=True)):
-            item = QtWidgets.QTableWidgetItem(value)
-            if name not in self.EDITABLE:
-                item.setFlags(read_only)
-            table.setItem(row, column, item)
-        self._marked.discard(stored.id)  # new cells: not greyed, no tooltip
-        if self._needs_marking(stored.id) or tip:
-            self._mark_instant(row, stored.id, tip)
-
-    def _figure_texts(self, object_id: int) -> tuple[str, str, str]:
-        """(figure cell, quality cell, figure tooltip) of an object, from the figures known now."""
-        result = self.workspace.object_figures(object_id)
-        if result is None:
-            main, quality = "computing…", ""
-        else:
-            main = format_figure(result.figures[0]) if result.figures else result.reason
-            quality = "; ".join(result.failures) or "ok"
-        main, tip = self._instant_figure(object_id, main, result is not None and bool(result.figures))
-        if result is not None and result.measurement is not None:  # the sigma's breakdown (one Qt-free text)
-            tip = "\n".join(filter(None, [tip, "sigma " + breakdown_text(result.measurement)]))
-        return main, quality, tip
-
-    def _needs_marking(self, object_id: int) -> bool:
-        """Whether a row's greying or tooltip may have to change: it is (or was) an instant or has some."""
-        return object_id in self._links or object_id in self._instants or object_id in self._marked
-
-    def _show_figures(self, row: int, object_id: int) -> None:
-        main, quality, tip = self._figure_texts(object_id)
-        filling, self._filling = self._filling, True
-        try:
-            for column, value in ((self._FIGURE, main), (self._QUALITY, quality)):
-                item = self.table.item(row, column)
-                if item is not None and item.text() != value:
-                    item.setText(value)
-            if self._needs_marking(object_id) or tip:
-                self._mark_instant(row, object_id, tip)
-        finally:
-            self._filling = filling
-
-    # ---- survey (issue 25): an instant's row belongs to its object ----
-    def _read_links(self, show: bool = True) -> None:
-        """The project's instant links (as the object cache holds them); the rows whose part in them changed
-        (the instant and its object, for the count) are shown again when ``show``."""
-        links = self.workspace.cache.instant_links()
-        if links == self._links:
-            return
-        touched = {i for link in set(links.items()) ^ set(self._links.items()) for i in link}
-        self._links, self._instants = links, Counter(links.values())
-        for object_id in sorted(touched) if show else ():
-            row = self.row_of(object_id)
-            if row is not None:
-                self._show_figures(row, object_id)
-
-    def _instant_figure(self, object_id: int, main: str, figured: bool) -> tuple[str, str]:
-        """The figure cell's text and tooltip: an object over several instants says how many (its figure is
-        the combined one); a further instant names its object, its own figure only in the tooltip."""
-        whole = self._links.get(object_id)
-        if whole is not None:
-            return (f"instant of #{whole}",
-                    f"one instant of object {whole}; this instant alone: {main}. The object's figure is row "
-                    f"#{whole}'s, combined over its instants.")
-        count = self._instants.get(object_id, 0) + 1
-        if count > 1 and figured:
-            return f"{main} ({count} instants)", f"combined over {count} instants (I lists them)"
-        return main, ""
-
-    def _mark_instant(self, row: int, object_id: int, tip: str) -> None:
-        """A further instant's row greyed (every cell), the figure cell's tooltip set."""
-        grey = object_id in self._links
-        if grey or tip:
-            self._marked.add(object_id)
-        else:
-            self._marked.discard(object_id)
-        brush = self.palette().brush(QtGui.QPalette.ColorGroup.Disabled, QtGui.QPalette.ColorRole.Text) \
-            if grey else QtGui.QBrush()
-        for column in range(self.table.columnCount()):
-            item = self.table.item(row, column)
-            if item is not None and (item.foreground() != brush):
-                item.setForeground(brush)
-        item = self.table.item(row, self.COLUMNS.index("figure"))
-        if item is not None and item.toolTip() != tip:
-            item.setToolTip(tip)
+    # ------------------------------------------------------------------ figures
+    def _compute_wanted(self) -> None:
+        """The figures the drawn rows asked for."""
+        wanted = [i for i in sorted(self.model.requested) if i in self.workspace.cache]
+        self._compute(wanted)
 
     def _compute(self, ids: list[int]) -> None:
-        """Figures of ``ids`` not yet known: at once for a few, else in a worker (the newest job wins)."""
-        missing = [i for i in ids if self.workspace.object_figures(i) is None]
+        """Figures of ``ids`` not yet known: at once for a few, else in a worker (the newest job takes the
+        ids of the one it replaces that the cache, so the store, still has)."""
+        cache = self.workspace.cache
+        missing = [i for i in ids if i in cache and self.workspace.object_figures(i) is None]
         if 0 < len(missing) <= self.SYNCHRONOUS:
             for object_id in missing:
                 self.workspace.figures([object_id])
-                row = self.row_of(object_id)
-                if row is not None:
-                    self._show_figures(row, object_id)
+            self.model.changed(missing)
         elif missing:
-            if self._worker is not None:  # its ids still wanted: those the cache (so the store) still has
+            if self._worker is not None:
+                if not self._worker.is_cancelled and set(missing) <= set(self._pending):
+                    return  # being computed
                 self._worker.cancel()
-                missing = sorted(set(missing) | {i for i in self._pending if i in self.workspace.cache})
+                missing = sorted(set(missing) | {i for i in self._pending if i in cache})
             self._pending = missing
             job = self.workspace.figures_job(missing)
             worker = self._worker = Worker(job, "computing the objects' figures")
             worker.signals.finished.connect(lambda results, j=job, w=worker: self._on_figures(j, w, results))
+            worker.signals.cancelled.connect(lambda w=worker: self._on_cancelled(w))
             start(worker)
+
+    def _on_cancelled(self, worker: Worker) -> None:
+        """A figures worker stopped early: the rows still drawn without figures ask again when drawn."""
+        if worker is self._worker:
+            self._worker, self._pending = None, []
+            self.model.requested.clear()
 
     def _on_figures(self, job, worker: Worker, results: dict) -> None:
         if worker is self._worker:
             self._worker, self._pending = None, []
-        for object_id in self.workspace.remember_figures(job, results):
-            row = self.row_of(object_id)
-            if row is not None:
-                self._show_figures(row, object_id)
+        kept = self.workspace.remember_figures(job, results)
+        self.model.requested -= set(kept)
+        self.model.changed(kept)
         self._fit()
+        if worker is self._worker or self._worker is None:
+            self._compute_wanted()  # rows drawn meanwhile
 
     def _fit(self) -> None:
-        if len(self._ids) <= self.FIT_ROWS:
+        """The columns fitted to their contents: to every row's in a small list, else to the rows on
+        screen once their figures are shown (a survey's 100,000 rows are not read to size a column)."""
+        if self.model.rowCount() <= self.FIT_ROWS:
             self.table.resizeColumnsToContents()
+        elif not self._fitted and self.table.isVisible():
+            rows = self.visible_rows()
+            metrics, header = self.table.fontMetrics(), self.table.horizontalHeader()
+            for column in range(len(self.COLUMNS) - 1):  # the last stretches
+                texts = [self.model.index(r, column).data() or "" for r in rows]
+                widest = max([metrics.horizontalAdvance(t) for t in texts], default=0)
+                title = header.fontMetrics().horizontalAdvance(self.COLUMNS[column].capitalize())
+                self.table.setColumnWidth(column, max(widest, title) + 16)
+            self._fitted = bool(rows) and all(self.workspace.object_figures(self.model.object_id(r)) is not None
+                                              for r in rows)
 
-    def _on_item_changed(self, item: QtWidgets.QTableWidgetItem) -> None:
-        if self._filling:
-            return
-        row = item.row()
-        object_id = int(self.table.item(row, 0).text())
-        attribute = self.table.item(row, self.COLUMNS.index("attribute")).text()
-        notes = self.table.item(row, self.COLUMNS.index("notes")).text()
+    def _edit_cell(self, object_id: int, column: str, text: str) -> None:
+        """Attribute or notes typed in place: stored (undoably) with the other of the two unchanged."""
+        stored = self.workspace.stored_object(object_id)
+        attribute = text if column == "attribute" else stored.attribute
+        notes = text if column == "notes" else stored.notes
         self.workspace.edit_object(object_id, attribute, notes)
 
-    def _on_vertex_range(self) -> None:
+    def _on_vertex_range(self, *_: object) -> None:
         ids = self.selected_ids()
         count = len(self.workspace.stored_object(ids[0]).vertices) if len(ids) == 1 else 1
         self.vertex.setRange(1, max(count, 1))
@@ -384,10 +343,11 @@ class ObjectList(QtWidgets.QWidget):
         for object_id in self.selected_ids():
             self.workspace.delete_object(object_id)
 
-    def _on_double_click(self, row: int, _column: int) -> None:
-        if row < len(self._ids):
-            self.object_activated.emit(self._ids[row])
-            self.workspace.request_object(self._ids[row])  # other views (the video) go to it by the model
+    def _on_double_click(self, index: QtCore.QModelIndex) -> None:
+        if index.isValid():
+            object_id = self.model.object_id(index.row())
+            self.object_activated.emit(object_id)
+            self.workspace.request_object(object_id)  # other views (the video) go to it by the model
 
     def _on_zoom(self) -> None:
         ids = self.selected_ids()
@@ -412,53 +372,43 @@ class ObjectList(QtWidgets.QWidget):
         project = self.workspace.project
         if project is None or not ids:
             return
+        reviews = self.model.reviews
         try:
             if len(ids) == 1:
-                self._reviews[ids[0]] = project.review(ids[0])
+                reviews[ids[0]] = project.review(ids[0])
             else:
                 every = {r.object_id: r for r in project.reviews()}
-                self._reviews.update({i: every[i] for i in ids if i in every})
+                reviews.update({i: every[i] for i in ids if i in every})
         except UsvipsError as error:
             self.workspace.message.emit("warning", f"the review states cannot be shown: {error}")
 
     def refresh_review(self, object_id: int) -> None:
         """Read one object's review again (one query) and show it (another annotator's review)."""
         self._read_reviews_of((object_id,))
-        if object_id in self._reviews:
-            self.show_review(object_id, self._reviews[object_id])
+        if object_id in self.model.reviews:
+            self.show_review(object_id, self.model.reviews[object_id])
 
     def reload_reviews(self) -> None:
         """Read every object's review again (others may have reviewed meanwhile) and show the changed ones."""
-        self._reviews = self._read_reviews()
-        column = self.COLUMNS.index("review")
-        filling, self._filling = self._filling, True
-        try:
-            for row, object_id in enumerate(self._ids):
-                item, text = self.table.item(row, column), review_text(self._reviews.get(object_id))
-                if item is not None and item.text() != text:
-                    item.setText(text)
-        finally:
-            self._filling = filling
+        reviews = self._read_reviews()
+        changed = [i for i in set(reviews) | set(self.model.reviews)
+                   if review_text(reviews.get(i)) != review_text(self.model.reviews.get(i))]
+        self.model.reviews = reviews
+        self.model.changed(changed)
 
     def show_review(self, object_id: int, review) -> None:
         """An object's review changed (review mode): its Review cell."""
-        self._reviews[object_id] = review
-        row = self.row_of(object_id)
-        item = self.table.item(row, self.COLUMNS.index("review")) if row is not None else None
-        if item is not None:
-            filling, self._filling = self._filling, True
-            try:
-                item.setText(review_text(review))
-            finally:
-                self._filling = filling
+        self.model.reviews[object_id] = review
+        self.model.changed([object_id])
 
     def _context_menu(self, position: QtCore.QPoint) -> None:
         row = self.table.rowAt(position.y())
-        if not 0 <= row < len(self._ids):
+        if not 0 <= row < self.model.rowCount():
             return
+        object_id = self.model.object_id(row)
         menu = QtWidgets.QMenu(self)
-        menu.addAction(f"History of object {self._ids[row]}…\tH", lambda: self.show_history(self._ids[row]))
-        menu.addAction("Zoom to", lambda: self.zoom_requested.emit(self._ids[row]))
+        menu.addAction(f"History of object {object_id}…\tH", lambda: self.show_history(object_id))
+        menu.addAction("Zoom to", lambda: self.zoom_requested.emit(object_id))
         for action in self.table.actions():  # what the window adds for the list (the object's instants)
             menu.addAction(action)
         menu.exec(self.table.viewport().mapToGlobal(position))
@@ -468,11 +418,11 @@ class ObjectList(QtWidgets.QWidget):
         from usvips.gui.history_dialog import HistoryDialog
 
         if object_id is None:
-            row = self.table.currentRow()
-            if not 0 <= row < len(self._ids):
+            row = self.table.currentIndex().row()
+            if not 0 <= row < self.model.rowCount():
                 self.workspace.message.emit("warning", "select an object in the list to see its history")
                 return None
-            object_id = self._ids[row]
+            object_id = self.model.object_id(row)
         if self.workspace.project is None:
             return None
         dialog = HistoryDialog(self.workspace.project, object_id, self.window())
@@ -483,17 +433,9 @@ class ObjectList(QtWidgets.QWidget):
         dialog.show()
         return dialog
 
-
     def _close_history_dialogs(self, _project=None) -> None:
         """Another project (or none) is open: the history windows of the previous one's objects close (their
         store is closed; an object of the same number in the new project is another object)."""
         for dialog in list(self.history_dialogs):
             self.history_dialogs.remove(dialog)
             dialog.close()
-
-
-def review_text(review) -> str:
-    """A review in the list: ``unreviewed`` (the default), ``accepted``, ``flagged: reason``."""
-    if review is None:
-        return "unreviewed"
-    return review.state + (f": {review.reason}" if review.reason else "")

@@ -1,0 +1,64 @@
+"""The object list as a model over the object cache: in a large survey only the drawn rows' figures are
+computed; rows sort by a column's header and filter by a text in any cell, the selection and the ids
+following; no row is made per object."""
+
+from PySide6 import QtCore
+
+from usvips.gui.bench import survey_project
+from usvips.gui.object_list import ObjectList
+from usvips.gui.workspace import Workspace
+from usvips.store import Project
+
+
+def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_filters_in_the_model(
+        qtbot, tmp_path, monkeypatch):
+    monkeypatch.setattr(ObjectList, "EAGER", 10)  # a survey of 60 stands for one of 100,000 ...
+    monkeypatch.setattr(ObjectList, "FIRST_ROWS", 5)  # ... its first screenful ...
+    monkeypatch.setattr(ObjectList, "FIT_ROWS", 5)  # ... and its columns are not fitted to every row
+    ws = Workspace()
+    ws.open_project(Project.open(survey_project(tmp_path / "survey", 60)))
+    listing = ObjectList(ws)
+    qtbot.addWidget(listing)
+    listing.resize(900, 300)
+    listing.show()
+    qtbot.waitExposed(listing)
+    model = listing.model
+    listing.refresh()  # laid out now: the rows on screen
+    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    ids = ws.object_ids()
+    assert model.rowCount() == 60 and model.ids() == ids
+    drawn = {listing.object_id(r) for r in listing.visible_rows()}
+    assert drawn and all(ws.object_figures(i) is not None for i in drawn)
+    assert sum(ws.object_figures(i) is not None for i in ids) < 60  # the rows never drawn: not computed
+    # a row drawn (asked for) gets its figure from a worker
+    last = listing.row_count() - 1
+    assert listing.text(last, "figure") == "computing…"
+    qtbot.waitUntil(lambda: "mm" in listing.text(last, "figure"), timeout=20000)
+    # sorting: by the attribute's text descending (the header's sort indicator), then back to the stored order
+    header = listing.table.horizontalHeader()
+    ws.select([ids[5]])
+    header.setSortIndicator(ObjectList.COLUMNS.index("attribute"), QtCore.Qt.SortOrder.DescendingOrder)
+    texts = [listing.text(r, "attribute") for r in range(listing.row_count())]
+    assert texts == sorted(texts, key=str.casefold, reverse=True) and texts[0] == "fish 9"
+    assert listing.selected_ids() == [ids[5]] and ws.selection == (ids[5],)  # the selection follows its object
+    assert listing.row_of(ids[5]) == texts.index(ws.stored_object(ids[5]).attribute)
+    header.setSortIndicator(-1, QtCore.Qt.SortOrder.AscendingOrder)
+    assert model.ids() == ids
+    # with the mouse: a click on the header sorts ascending, a second descending, a third gives the stored order
+    column = ObjectList.COLUMNS.index("attribute")
+    where = QtCore.QPoint(header.sectionViewportPosition(column) + 5, 5)
+    for first in ("fish 1", "fish 9", "fish 1"):
+        qtbot.mouseClick(header.viewport(), QtCore.Qt.MouseButton.LeftButton, pos=where)
+        assert listing.text(0, "attribute") == first
+    assert model.ids() == ids
+    # filtering: the rows whose cells hold the text; an object added while filtered appears only if it matches
+    listing.filter.setText("FISH 1")  # any case: "fish 1", "fish 10" ... "fish 19"
+    shown = model.ids()
+    assert shown == [i for i in ids if "fish 1" in ws.stored_object(i).attribute + ws.stored_object(i).notes]
+    assert 0 < len(shown) < 60
+    ws.delete_object(shown[0])
+    assert model.ids() == shown[1:] and listing.row_of(shown[0]) is None
+    listing.filter.clear()
+    assert model.ids() == [i for i in ids if i != shown[0]]
+    listing.cleanup()
+    ws.close_project()
