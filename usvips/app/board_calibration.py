@@ -243,6 +243,8 @@ def calibrate_views(target: CalibrationTarget | str | Path, views: Sequence[Ster
                               compare_opencv=phase == "air" and observes_a_plane(control, observations),
                               image_size=options.image_size)
         result = validation.result
+        # the calibration carries its validation: its file, the project and its report show it
+        result.calibration.statistics["validation"] = validation.as_dict()
     if not result.adjustment.converged:
         raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing kept")
     return BoardCalibration(result, validation, observations, tuple(v.label for v in kept),

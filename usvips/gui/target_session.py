@@ -236,7 +236,8 @@ class TargetSession:
         housing, holdout = self.housing, self.holdout
         options = CalibrationOptions(sigma_px=self.sigma_px, **known_options(self.known if self.water else {}))
         source = {"target": self.target_source,
-                  **({"video": self.video} if self.source == "video" else
+                  **({"video": self.video, "every": self.every, "max_views": self.max_views}
+                     if self.source == "video" else
                      {"images": [p for pair in self.pairs for p in pair]})}
 
         def run(progress=None, cancelled=None) -> boards.BoardCalibration:
