@@ -69,7 +69,7 @@ def test_globs_pair_in_name_order_and_phase_two_from_them(scene, capsys):
                  str(folder / "wR*.png"), "--out", str(water)]) == 0
     assert f"found in both images of {VIEWS} of {VIEWS} pairs" in capsys.readouterr().out
     written = json.loads(water.read_text())
-    assert written["phase"] == "joint" and written["housing"] == "flat-port"
+    assert written["phase"] == "water" and written["housing"] == "flat-port"  # phase 2, however many views
     assert written["source"]["base"] == str(air)
 
 

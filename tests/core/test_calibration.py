@@ -57,7 +57,7 @@ def test_phase1_recovers_the_cameras_within_three_sigma(air):
 
 
 def test_joint_phase2_recovers_the_flat_ports_within_three_sigma(water):
-    assert water and water.calibration.phase == "joint"
+    assert water and water.calibration.phase == "water"  # stored as phase 2, however many pairs
     assert water.calibration.stations == ("w0", "w1")
     assert water.report["sigma0_px"] == pytest.approx(NOISE_PX, rel=0.25)
     _within(water, {"d_l": 0.01, "e_l": -0.015, "g_l": 0.06, "d_r": -0.012, "e_r": 0.008, "g_r": 0.07,

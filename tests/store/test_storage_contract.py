@@ -395,6 +395,12 @@ def test_videos_with_offsets_and_periods_round_trip(store, where):
         store.add_video("dive", chapters["left"], chapters["right"], 25.0, 201, (1920, 1080))
     with pytest.raises(ProjectError):
         store.video("no such video")
+    # a video knows its medium (an in-air calibration video is not water), stored as its pair's
+    store.add_video("in air", chapters["left"], chapters["right"], 25.0, 201, (1920, 1080), medium="air")
+    media = {p["label"]: p["medium"] for p in store.pairs()}
+    assert media["in air"] == "air" and media["dive"] == "water"
+    with pytest.raises(ProjectError, match="medium"):
+        store.add_video("in oil", chapters["left"], chapters["right"], 25.0, 201, (1920, 1080), medium="oil")
 
 
 def test_vocabulary_species_records_enhancements_and_drafts_round_trip(store):

@@ -35,7 +35,7 @@ from usvips.app.calibrations import store_calibration
 from usvips.app.target_views import detect_views
 from usvips.core import calibration_views
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
-from usvips.core.calibration.phases import CalibrationResult, observes_a_plane
+from usvips.core.calibration.phases import CalibrationResult, observes_a_plane, require_physical
 from usvips.core.calibration.validation import Validation, validate
 from usvips.core.calibration_targets import CalibrationTarget, StereoView, stereo_observations
 from usvips.core.calibration_views import Coverage
@@ -200,7 +200,13 @@ def calibrate_views(target: CalibrationTarget | str | Path, views: Sequence[Ster
     ``"water"`` (phase 2 through ``housing`` from the phase-1 ``base``). ``holdout``: a share of the views
     (0–1) held out for validation; the result is then that of the rest. A result that did not converge is a
     :class:`ConvergenceError`; too few views, a base that is not in air, an unknown housing: one line naming
-    the parameter."""
+    the parameter; a physically impossible phase-2 result (a port distance on its bound, residuals far above
+    phase 1's): a :class:`DegenerateGeometryError` naming it.
+
+    Phase 2 as done in a tank or a pool: ``options.cameras_unmoved`` holds each view's poses at phase 1's
+    (the cameras did not move between the air and the water images; then one view will do), and
+    ``options.housing_geometry`` ({"distance"|"thickness"|"n_glass"|"n_water": (value, sigma or None)})
+    sets the housing values the user knows (:class:`~usvips.core.calibration.CalibrationOptions`)."""
     target = as_target(target)
     if phase not in PHASES:
         raise InvalidParameterError("phase", f"must be 'air' or 'water', got {phase!r}")
@@ -209,9 +215,10 @@ def calibrate_views(target: CalibrationTarget | str | Path, views: Sequence[Ster
     if unknown:
         raise InvalidParameterError("drop", f"no view is labelled {unknown[0]!r}")
     kept = [v for v in views if v.label not in set(drop)]
-    if len(kept) < MINIMUM_VIEWS:
+    minimum = 1 if phase == "water" else MINIMUM_VIEWS  # phase 2 knows the interior: one view will do
+    if len(kept) < minimum:
         raise InvalidParameterError("views", f"{len(kept)} views kept; a calibration from a target needs at least "
-                                    f"{MINIMUM_VIEWS} (better 10 or more, tilted and spread over the images)")
+                                    f"{minimum} (better 10 or more, tilted and spread over the images)")
     if holdout is not None and not 0.0 < holdout < 1.0:
         raise InvalidParameterError("holdout", f"the share of views held out must be between 0 and 1, got {holdout}")
     options = dataclasses.replace(options) if options is not None else CalibrationOptions()
@@ -247,6 +254,8 @@ def calibrate_views(target: CalibrationTarget | str | Path, views: Sequence[Ster
         result.calibration.statistics["validation"] = validation.as_dict()
     if not result.adjustment.converged:
         raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing kept")
+    if phase == "water":
+        require_physical(result, base, "nothing kept")
     return BoardCalibration(result, validation, observations, tuple(v.label for v in kept),
                             tuple(label for label in labels if label in set(drop)))
 

@@ -42,6 +42,7 @@ class VideoSummary:
     offset_frames: int
     calibration_id: int | None
     proxy_bytes: int = 0  # its seek proxies on disk (usvips.app.video_project.proxy_bytes)
+    medium: str = "water"  # what the cameras looked through ("air"/"water"), its pair's medium
 
 
 @dataclass(frozen=True)
@@ -57,6 +58,18 @@ class ReviewCounts:
     @property
     def total(self) -> int:
         return self.unreviewed + self.accepted + self.flagged
+
+
+@dataclass(frozen=True)
+class CalibrationSummary:
+    """A stored calibration: id, name, phase ("air" = phase 1, "water" = phase 2; "joint" in older
+    projects), sigma0 (pixels) and the pairs and videos it is active for."""
+
+    id: int
+    name: str
+    phase: str | None
+    sigma0_px: float | None
+    active_for: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -77,6 +90,7 @@ class ProjectSummary:
     georeference: Georeference | None
     instant_count: int = 0
     reviews: ReviewCounts = ReviewCounts()
+    calibrations: tuple[CalibrationSummary, ...] = ()
 
 
 def review_counts(project: ProjectStore) -> tuple[int, int, ReviewCounts]:
@@ -105,14 +119,28 @@ def summarise(project: ProjectStore) -> ProjectSummary:
     pairs = project.pairs()
     videos = project.videos()
     video_labels = {v["label"] for v in videos}
+    media = {p["label"]: p["medium"] for p in pairs}
     objects, instants, reviews = review_counts(project)
     return ProjectSummary(
         project.version, len(pairs), len(project.control()), objects,
         tuple(PairSummary(p["label"], p["medium"], p["left"], p["right"], project.active_calibration(p["label"]))
               for p in pairs if p["label"] not in video_labels),
         tuple(VideoSummary(v["label"], v["frame_count"], v["fps"], v["offset_frames"],
-                           project.active_calibration(v["label"]), proxy_bytes(project, v["label"])) for v in videos),
-        project.deployments(), project.georeference(), instants, reviews)
+                           project.active_calibration(v["label"]), proxy_bytes(project, v["label"]),
+                           media.get(v["label"], "water")) for v in videos),
+        project.deployments(), project.georeference(), instants, reviews, calibration_summaries(project, pairs))
+
+
+def calibration_summaries(project: ProjectStore, pairs: list[dict] | None = None) -> tuple[CalibrationSummary, ...]:
+    """Every stored calibration, oldest first, with the pairs and videos it is active for."""
+    pairs = project.pairs() if pairs is None else pairs
+    active: dict[int, list[str]] = {}
+    for pair in pairs:
+        calibration_id = project.active_calibration(pair["label"])
+        if calibration_id is not None:
+            active.setdefault(calibration_id, []).append(pair["label"])
+    return tuple(CalibrationSummary(c["id"], c["name"], c["phase"], c["sigma0_px"], tuple(active.get(c["id"], ())))
+                 for c in project.calibrations())
 
 
 @dataclass(frozen=True)

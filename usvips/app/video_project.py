@@ -190,16 +190,17 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
                          b.frame_count)
 
 
-def store_video(project: ProjectStore, plan: VideoPlan) -> AddedVideo:
+def store_video(project: ProjectStore, plan: VideoPlan, medium: str = "water") -> AddedVideo:
+    """Store the inspected video ``plan``; ``medium`` "air" or "water" (what the cameras looked through)."""
     project.add_video(plan.label, plan.left, plan.right, plan.fps, plan.frame_count, plan.size,
-                      "\n".join(plan.warnings))
+                      "\n".join(plan.warnings), medium)
     return AddedVideo(plan.label, plan.frame_count, plan.fps, plan.warnings, plan.right_frame_count)
 
 
 def add_video(project: ProjectStore, left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
-              scan_pictures: bool = False) -> AddedVideo:
-    """:func:`inspect_video` then :func:`store_video`."""
-    return store_video(project, inspect_video(left, right, label, scan_pictures))
+              scan_pictures: bool = False, medium: str = "water") -> AddedVideo:
+    """:func:`inspect_video` then :func:`store_video` (``medium`` "air" or "water")."""
+    return store_video(project, inspect_video(left, right, label, scan_pictures), medium)
 
 
 def open_streams(project: ProjectStore, label: str) -> tuple[dict, VideoStream, VideoStream]:

@@ -8,11 +8,13 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
+
 from usvips.cli import board_sources
 from usvips.cli.common import parse_assignment, parse_prior, write_text_atomic
 from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
-from usvips.core.calibration.phases import observes_a_plane
+from usvips.core.calibration.phases import observes_a_plane, require_physical
 from usvips.core.calibration.validation import validate
 from usvips.core.errors import ConvergenceError, InvalidParameterError
 from usvips.core.observations import ControlPoints
@@ -69,8 +71,40 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     water.add_argument("--interior", choices=["fixed", "weighted"], default="weighted",
                        help="phase-1 interior weighted by its phase-1 covariance (default: its uncertainty "
                             "reaches every point) or held fixed as in the thesis (the sigmas then leave it out)")
+    water.add_argument("--cameras-unmoved", action="store_true",
+                       help="the cameras did not move between the air and the water images (e.g. a target in a "
+                            "tank photographed before and after filling it): each view's poses are held at "
+                            "phase 1's (a view takes the phase-1 view of the same label, or the only one)")
+    water.add_argument("--air-without-glass", action="store_true",
+                       help="with --cameras-unmoved: the air images were not taken through the flat port or tank "
+                            "wall (by default the shift the glass gave phase 1's poses is undone)")
+    for flag, quantity in (("--port-distance", "distance"), ("--glass-thickness", "thickness"),
+                           ("--n-glass", "n_glass"), ("--n-water", "n_water")):
+        water.add_argument(flag, dest=f"geometry_{quantity}", metavar="VALUE[:SIGMA]",
+                           help=f"known {housings.GEOMETRY[quantity]}: held at VALUE, or weighted ± SIGMA")
     _common(water)
     water.set_defaults(handler=run_water)
+
+
+def _geometry(args: argparse.Namespace) -> dict[str, tuple[float, float | None]]:
+    """The known housing geometry from --port-distance, --glass-thickness, --n-glass, --n-water."""
+    out: dict[str, tuple[float, float | None]] = {}
+    for quantity in housings.GEOMETRY:
+        text = getattr(args, f"geometry_{quantity}", None)
+        if text is None:
+            continue
+        flag = {"distance": "--port-distance", "thickness": "--glass-thickness"}.get(
+            quantity, f"--{quantity.replace('_', '-')}")
+        value, _, sigma = text.partition(":")
+        try:
+            out[quantity] = (float(value), float(sigma) if sigma else None)
+        except ValueError:
+            raise InvalidParameterError(flag, f"expected VALUE or VALUE:SIGMA, got {text!r}") from None
+        if not all(np.isfinite(v) for v in out[quantity] if v is not None):
+            raise InvalidParameterError(flag, f"expected finite numbers, got {text!r}")
+        if out[quantity][1] is not None and not out[quantity][1] > 0:
+            raise InvalidParameterError(flag, f"the sigma must be > 0, got {text!r}")
+    return out
 
 
 def _options(args: argparse.Namespace) -> CalibrationOptions:
@@ -108,7 +142,10 @@ def _options(args: argparse.Namespace) -> CalibrationOptions:
                                     f"{args.holdout}")
     return CalibrationOptions(free=tuple(args.free), fix=tuple(fix_names), fix_values=fix_values, priors=priors,
                               sigma_px=args.sigma_px, interior=getattr(args, "interior", "weighted"),
-                              snooping=not args.no_snooping, image_size=size)
+                              snooping=not args.no_snooping, image_size=size,
+                              cameras_unmoved=bool(getattr(args, "cameras_unmoved", False)),
+                              air_through_glass=not getattr(args, "air_without_glass", False),
+                              housing_geometry=_geometry(args))
 
 
 def _control(args: argparse.Namespace, options: CalibrationOptions) -> ControlPoints:
@@ -136,12 +173,14 @@ def _calibrate(fit, control: ControlPoints, observations, args: argparse.Namespa
     return validation.result, validation
 
 
-def _finish(result, args: argparse.Namespace, validation=None) -> int:
+def _finish(result, args: argparse.Namespace, validation=None, base=None) -> int:
     if validation is not None:
         result.report["validation"] = validation.as_dict()
         result.calibration.statistics["validation"] = validation.as_dict()
     if not result.adjustment.converged:
         raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing written")
+    if result.calibration.phase != "air":
+        require_physical(result, base, "nothing written")
     report = result.report
     # write both files only once everything has succeeded
     calibration_text = json.dumps(calibration_to_dict(result.calibration), indent=2, allow_nan=False) + "\n"
@@ -198,10 +237,10 @@ def run_water(args: argparse.Namespace) -> int:
     options = _options(args)
     if board_sources.wants_views(args):
         done = board_sources.calibrate(args, "water", options, base, args.housing)
-        return _finish(done.result, args, done.validation)
+        return _finish(done.result, args, done.validation, base)
     control = _control(args, options)
     observations = read_observations(args.obs)
     result, validation = _calibrate(
         lambda obs: calibrate_water(base, args.housing, control, obs, options, _source(args)), control,
         observations, args, options, compare_opencv=False)
-    return _finish(result, args, validation)
+    return _finish(result, args, validation, base)

@@ -1,8 +1,9 @@
 """``usvips calibration import|export|report``: calibrations exchanged with OpenCV, and their printable report.
 
 import: OpenCV FileStorage YAML/XML (one file or the stereo sample's intrinsics.yml + extrinsics.yml) or
-NumPy .npz → a USVIPS calibration file. export: a USVIPS calibration → OpenCV's stereo file (the in-air
-model; what OpenCV cannot hold is named on one warning line each). report: a PDF a survey archives.
+NumPy .npz, or 11 DLT coefficients per camera (``--format dlt``) → a USVIPS calibration file. export: a
+USVIPS calibration → OpenCV's stereo file (the in-air model; what OpenCV cannot hold is named on one warning
+line each). report: a PDF a survey archives.
 """
 
 from __future__ import annotations
@@ -40,6 +41,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                           help="unit of OpenCV's T (the board's unit; default m)")
     importer.add_argument("--sigma0", type=float, default=0.5,
                           help="pointing precision to carry as sigma0 (pixels; OpenCV files hold none)")
+    importer.add_argument("--format", choices=["opencv", "dlt"], default="opencv",
+                          help="opencv (default) or dlt: 11 DLT coefficients per camera (StereoMorph, DLTdv, Argus, "
+                               "VidSync: 11 rows, a column per camera, or a row of 11 per camera)")
+    importer.add_argument("--cameras", nargs=2, type=int, default=[1, 2], metavar=("LEFT", "RIGHT"),
+                          help="dlt: the numbers (from 1) of the left and right camera in the file (default 1 2)")
+    importer.add_argument("--origin", choices=["top-left", "bottom-left"], default="top-left",
+                          help="dlt: where the tool's pixel origin is (DLTdv and Argus: bottom-left, y up; needs "
+                               "--image-size)")
+    importer.add_argument("--one-based", action="store_true",
+                          help="dlt: the tool's first pixel is at 1 (MATLAB), not 0")
     importer.add_argument("--force", action="store_true", help=FORCE_HELP)
     importer.set_defaults(handler=run_import)
 
@@ -62,8 +73,39 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     reporter.set_defaults(handler=run_report)
 
 
+def run_import_dlt(args: argparse.Namespace, size: tuple[int, int] | None) -> int:
+    from usvips.core.errors import InvalidParameterError
+    from usvips.io.dlt_coefficients import calibration_from_dlt
+
+    if len(args.files) != 1:
+        raise InvalidParameterError("FILE", f"a DLT import reads one file of coefficients, got {len(args.files)}")
+    if args.origin == "bottom-left" and size is None:
+        raise InvalidParameterError("--origin", "bottom-left needs --image-size (y is flipped over the height)")
+    names = {"cameras": "--cameras", "sigma0": "--sigma0", "unit": "--unit"}
+    with replacing(args.out, args.files, replace=args.force):
+        try:
+            calibration, cameras = calibration_from_dlt(args.files[0], tuple(args.cameras), args.origin,
+                                                        args.one_based, size, args.unit, args.sigma0)
+        except InvalidParameterError as error:
+            raise InvalidParameterError(names.get(error.parameter, error.parameter), error.problem) from None
+        save_calibration(calibration, args.out)
+    baseline = float(np.linalg.norm(calibration.relative.base))
+    assumed = " (assumed: the file states no residuals; --sigma0)" if calibration.statistics["sigma0_assumed"] else ""
+    print(f"wrote {args.out}: in-air stereo rig from DLT coefficients, baseline {baseline:.4f} m, "
+          f"f {cameras['left'].f:.2f} / {cameras['right'].f:.2f} px, sigma0 {calibration.sigma0_px:g} px{assumed}")
+    for side, camera in cameras.items():
+        effect = calibration.statistics["skew_px"][side]
+        if max(effect[band] for band in ("top", "middle", "bottom")) >= 0.001:  # rounding's skew is none
+            print(f"  {side} camera: skew {camera.skew:.3g} px dropped (USVIPS's interior has none): x moves by at "
+                  f"most {effect['top']:.3g} px in the top third of the image, {effect['middle']:.3g} px in the "
+                  f"middle, {effect['bottom']:.3g} px in the bottom third")
+    return 0
+
+
 def run_import(args: argparse.Namespace) -> int:
     size = parse_image_size(args.image_size) if args.image_size else None
+    if args.format == "dlt":
+        return run_import_dlt(args, size)
     with replacing(args.out, args.files, replace=args.force):
         calibration = read_opencv_stereo(args.files, size, args.unit, args.sigma0)
         doubt = baseline_doubt(calibration, args.unit)

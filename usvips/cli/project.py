@@ -130,9 +130,15 @@ def run_info(args: argparse.Namespace) -> int:
     if georeference is not None:
         print(f"  georeference: origin {georeference.latitude:.7f}°, {georeference.longitude:.7f}°, depth "
               f"{georeference.depth_m:g} m, +X heading {georeference.heading_deg:g}°")
+    for calibration in summary.calibrations:
+        phase = {"air": "phase 1, air", "water": "phase 2, water", "joint": "phase 2, water"}.get(
+            calibration.phase or "", calibration.phase or "phase unknown")
+        print(f"  calibration {calibration.id} {calibration.name!r} ({phase}"
+              + (f", sigma0 {calibration.sigma0_px:.3g} px" if calibration.sigma0_px is not None else "")
+              + f"): active for {', '.join(calibration.active_for) or 'none'}")
     for video in summary.videos:
         print(f"  video {video.label}: {video.frame_count} frames at {video.fps:.6g} fps, offset "
-              f"{video.offset_frames:+d} frames (left frame i ↔ right frame i {video.offset_frames:+d})"
+              f"{video.offset_frames:+d} frames (left frame i ↔ right frame i {video.offset_frames:+d}); {video.medium}"
               + (f"; calibration {video.calibration_id}" if video.calibration_id else "")
               + (f"; seek proxies {video.proxy_bytes / 2**20:.1f} MiB" if video.proxy_bytes else ""))
     for stored, problem in media:  # what is missing or changed, and where it was

@@ -29,6 +29,8 @@ def register_project_actions(actions: argparse._SubParsersAction) -> None:
     video.add_argument("--right", nargs="+", required=True, help="the right camera's file(s), in recording order")
     video.add_argument("--label", help="the video pair's label (default: the left file's stem)")
     video.add_argument("--scan", action="store_true", help="decode every frame to find repeated pictures too")
+    video.add_argument("--medium", choices=("water", "air"), default="water",
+                       help="what the cameras looked through (default water; an in-air calibration video: air)")
     video.set_defaults(handler=run_add_video)
 
 
@@ -54,7 +56,7 @@ def run_add_video(args: argparse.Namespace) -> int:
     from usvips.store.opening import open_project
 
     with open_project(args.project) as project:
-        added = video_project.add_video(project, args.left, args.right, args.label, args.scan)
+        added = video_project.add_video(project, args.left, args.right, args.label, args.scan, args.medium)
     print(f"added {added.summary}")
     for warning in added.warnings:
         print(f"  warning: {warning}")

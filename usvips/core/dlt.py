@@ -258,3 +258,80 @@ def robust_dlt(points: np.ndarray, pixels: np.ndarray, trials: int = 300, seed: 
         return dlt(points, pixels)
     matrix = _solve_matrix(points[inliers], pixels[inliers])
     return decompose(matrix, points, pixels, inliers)
+
+
+#: Rows of the image over which :func:`skew_effect` states the effect of a dropped skew (top, middle, bottom).
+SKEW_BANDS = ("top", "middle", "bottom")
+
+
+@dataclass(frozen=True)
+class DltCamera:
+    """A camera read from 11 DLT coefficients: the pinhole ``interior`` (f, xp, yp, sy; no distortion — the
+    11-parameter DLT has none) and ``exterior`` in the DLT's object frame, and the ``skew`` (pixels) of its
+    camera matrix, which USVIPS's interior does not hold (:func:`skew_effect` states what dropping it does)."""
+
+    f: float
+    xp: float
+    yp: float
+    sy: float
+    skew: float
+    exterior: Exterior
+
+    @property
+    def fy(self) -> float:
+        """The focal length in y pixels (f / sy)."""
+        return self.f / self.sy
+
+
+def matrix_from_coefficients(coefficients: np.ndarray) -> np.ndarray:
+    """The 3 × 4 projection of 11 DLT coefficients L1…L11 (L12 = 1): u = (L1 X + L2 Y + L3 Z + L4) / (L9 X +
+    L10 Y + L11 Z + 1), v = (L5 X + L6 Y + L7 Z + L8) / (the same)."""
+    values = np.asarray(coefficients, dtype=np.float64).ravel()
+    if values.size != 11 or not np.all(np.isfinite(values)):
+        raise DegenerateGeometryError(f"a DLT camera has 11 finite coefficients, got {values.size}")
+    return np.append(values, 1.0).reshape(3, 4)
+
+
+def camera_from_matrix(matrix: np.ndarray, what: str = "the camera") -> DltCamera:
+    """Decompose a 3 × 4 projection (pixels: x right, y down) into USVIPS's interior, exterior and the skew.
+
+    The sign of the matrix is chosen for a proper rotation with positive focal lengths. The object frame's
+    origin must then lie in front of the camera (DLT frames put it among the points calibrated): behind it
+    means a mirrored projection (an image whose y axis points up read as pointing down), refused by name, as
+    is a singular one."""
+    matrix = np.asarray(matrix, dtype=np.float64)
+    left = matrix[:, :3]
+    determinant = float(np.linalg.det(left))
+    if not np.isfinite(determinant) or abs(determinant) < 1e-300 * max(np.abs(left).max(), 1.0):
+        raise DegenerateGeometryError(f"{what}: the DLT coefficients are singular (no camera centre)")
+    if determinant < 0:
+        matrix, left = -matrix, -left
+    if matrix[2, 3] <= 0:
+        raise DegenerateGeometryError(f"{what}: the DLT coefficients put the object frame's origin behind the "
+                                      "camera, a mirrored image (is the image's y axis up, the origin at the bottom "
+                                      "left?)")
+    centre = -np.linalg.solve(left, matrix[:, 3])
+    from scipy.linalg import rq  # deferred: scipy.linalg is slow to import
+
+    k, r = rq(left)
+    signs = np.diag(np.sign(np.diag(k)))
+    k, r = k @ signs, signs @ r
+    k = k / k[2, 2]
+    omega, phi, kappa = angles_from_matrix(FLIP @ r)
+    fx, fy = float(k[0, 0]), float(k[1, 1])
+    return DltCamera(fx, float(k[0, 2]), float(k[1, 2]), fx / fy, float(k[0, 1]), Exterior(*centre, omega, phi, kappa))
+
+
+def skew_effect(camera: DltCamera, height: float | None = None) -> dict[str, float]:
+    """What dropping ``camera``'s skew does to a pixel, per band of image rows (:data:`SKEW_BANDS`): the
+    largest |Δx| in pixels in each third of the image's height (``height`` pixels, default 2 × yp). With the
+    skew s the DLT puts a point at x = xp + f·x̄ + s·ȳ (ȳ = (y − yp) / fy, the normalised image y, down),
+    the camera without it at s·ȳ less: the shift is along x, grows linearly with the distance from the
+    principal point's row, and is the same along a row."""
+    rows = float(height) if height else 2.0 * camera.yp
+    edges = np.linspace(-0.5, rows - 0.5, len(SKEW_BANDS) + 1)
+    out = {}
+    for name, top, bottom in zip(SKEW_BANDS, edges[:-1], edges[1:], strict=True):
+        farthest = max(abs(top - camera.yp), abs(bottom - camera.yp))
+        out[name] = abs(camera.skew) * farthest / camera.fy
+    return out

@@ -89,8 +89,10 @@ def add_image_pairs(window, left: list | None = None, right: list | None = None,
     return len(added)
 
 
-def add_video(window, left: list | None = None, right: list | None = None, label: str | None = None) -> None:
-    """Choose each camera's file(s) (several = chapters in order), read and check them in a worker, then
+def add_video(window, left: list | None = None, right: list | None = None, label: str | None = None,
+              medium: str = "water") -> None:
+    """Choose each camera's file(s) (several = chapters in order), the label and the medium the cameras
+    looked through (water, or air for an in-air calibration video), read and check them in a worker, then
     store the video and show it."""
     project = _need_project(window)
     if project is None:
@@ -109,13 +111,19 @@ def add_video(window, left: list | None = None, right: list | None = None, label
         if not ok:
             return
         label = text.strip() or None
+        chosen, ok = QtWidgets.QInputDialog.getItem(
+            window, "Add stereo video", "The cameras looked through (an in-air calibration video: air):",
+            ["water", "air"], 0, False)
+        if not ok:
+            return
+        medium = chosen
 
     def job(progress, cancelled):
         return video_project.inspect_video(sorted(left, key=lambda p: Path(p).name),
                                            sorted(right, key=lambda p: Path(p).name), label)
 
     def store(plan) -> None:
-        added = video_project.store_video(project, plan)
+        added = video_project.store_video(project, plan, medium)
         for warning in added.warnings:
             window.show_message("warning", warning)
         window.video.videos_changed(project)

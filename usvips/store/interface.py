@@ -125,8 +125,9 @@ class ProjectStore(Protocol):
 
     # ------------------------------------------------------------------------ videos
     def add_video(self, label: str, left: Sequence[tuple[Path, int, float]], right: Sequence[tuple[Path, int, float]],
-                  fps: float, frame_count: int, size: tuple[int, int], report: str = "") -> int:
-        """A stereo video: each camera's chapters as (path, frames, seconds); fps in frames per second."""
+                  fps: float, frame_count: int, size: tuple[int, int], report: str = "", medium: str = "water") -> int:
+        """A stereo video: each camera's chapters as (path, frames, seconds); fps in frames per second;
+        ``medium`` "air" or "water" (what the cameras looked through: its pair's medium)."""
         ...
 
     def video(self, label: str) -> dict:

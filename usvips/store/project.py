@@ -1182,12 +1182,15 @@ class Project:
 
     # ---------------------------------------------------------------------------- videos (schema 4)
     def add_video(self, label: str, left: Sequence[tuple[Path, int, float]], right: Sequence[tuple[Path, int, float]],
-                  fps: float, frame_count: int, size: tuple[int, int], report: str = "") -> int:
+                  fps: float, frame_count: int, size: tuple[int, int], report: str = "", medium: str = "water") -> int:
         """A stereo video: ``left``/``right`` the chapter files of each camera in order, each as (path,
         frames, fps); ``fps`` and ``frame_count`` of the pair (the left stream's), ``size`` (width,
-        height) px, ``report`` what was found when the streams were read (frame-rate problems)."""
+        height) px, ``report`` what was found when the streams were read (frame-rate problems), ``medium``
+        "air" or "water" (stored as its pair's medium: an in-air calibration video is not water)."""
         if not label:
             raise ProjectError("a video needs a label")
+        if medium not in ("air", "water"):
+            raise ProjectError(f"a video's medium is 'air' or 'water', got {medium!r}")
         with self.transaction():
             try:
                 cursor = self._db.execute(
@@ -1197,7 +1200,7 @@ class Project:
                 video_id = int(cursor.lastrowid)
                 # the video is also a pair (no image files): its calibration is made active for it as for
                 # any pair, and its vertices refer to it
-                self._db.execute("INSERT INTO image_pairs (label, medium) VALUES (?, 'water')", (label,))
+                self._db.execute("INSERT INTO image_pairs (label, medium) VALUES (?, ?)", (label, medium))
                 for camera, files in (("left", left), ("right", right)):
                     for idx, (path, frames, file_fps) in enumerate(files):
                         self._db.execute("INSERT INTO video_files VALUES (?, ?, ?, ?, ?, ?)",

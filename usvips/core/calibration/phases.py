@@ -65,7 +65,16 @@ class CalibrationOptions:
     target's geometry is exact by construction (a printed board: ``CalibrationTarget.exact``), so its
     control coordinates are not searched for misprints (:mod:`.control_blunders`); data snooping of the
     image observations still runs. cancelled: asked before each iteration of the adjustment (True stops
-    the calibration with :class:`InterruptedError`; the window's Stop)."""
+    the calibration with :class:`InterruptedError`; the window's Stop).
+
+    Phase 2 only: ``cameras_unmoved``: the cameras did not move between the air and the water images (a
+    target photographed in a tank before and after filling it, through its wall): each view's poses are
+    held at phase 1's (:func:`held_poses`), so the refraction cannot hide in the pose; ``air_through_glass``:
+    the air images were taken through the same flat glass (the empty tank's wall, the port), whose shift of
+    the poses is then undone (:func:`_through_glass_in_air`). ``housing_geometry``:
+    what the user knows of the housing, quantity (:data:`usvips.core.housing.base.GEOMETRY`: ``distance``,
+    ``thickness``, ``n_glass``, ``n_water``) → (value, sigma or None to hold it fixed); the housing kind
+    names the parameter each sets (:func:`geometry_options`)."""
 
     free: tuple[str, ...] = ()
     fix: tuple[str, ...] = ()
@@ -78,6 +87,9 @@ class CalibrationOptions:
     control_exact: bool = False
     image_size: tuple[int | None, int | None] = (None, None)
     cancelled: Callable[[], bool] | None = None
+    cameras_unmoved: bool = False
+    air_through_glass: bool = True
+    housing_geometry: dict[str, tuple[float, float | None]] = field(default_factory=dict)
 
 
 @dataclass
@@ -164,6 +176,7 @@ def _snoop_unit(model: StereoModel):
 
 def _solve(model: StereoModel, parameters: list[Parameter], options: CalibrationOptions, phase: str,
            source: dict) -> CalibrationResult:
+    require_unknowns(parameters)
     problem = model.problem(parameters)
     adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model),
                         cancelled=options.cancelled)
@@ -196,6 +209,13 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
     result = CalibrationResult(calibration, adjustment, model, {}, blunders)
     result.report = build_report(result)
     return result
+
+
+def require_unknowns(parameters: list[Parameter]) -> None:
+    """Refuse a calibration in which every parameter is held fixed: there is nothing to adjust."""
+    if not any(p.status != "fixed" for p in parameters):
+        raise InvalidParameterError("fix", "every parameter is held fixed, so there is nothing to calibrate; "
+                                    "free at least one")
 
 
 #: A rig whose baseline is below this share of its range to the control (an intersection angle of about
@@ -446,8 +466,8 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     model = StereoModel(housing, control, observations, options.sigma_px, size)
     if observes_a_plane(control, observations):
         # a board: each view's left pose by a pinhole resection with the phase-1 interior (the housing's
-        # refraction is then fitted from the housing kind's starts)
-        poses = resect_views(control, observations, base.left.interior, "l")
+        # refraction is then fitted from the housing kind's starts); the interior is known, so one view will do
+        poses = resect_views(control, observations, base.left.interior, "l", minimum_views=1)
         values = {}
         for k, station in enumerate(model.stations):
             suffix = "_l" if k == 0 else f"_l@{station}"
@@ -480,20 +500,170 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
         parameters.append(Parameter(name, value, "prior" if sigma else "fixed", value, sigma, lower=lower,
                                     upper=upper))
     parameters += _control_parameters(model)
-    _apply_options(parameters, options)
+    if options.cameras_unmoved:
+        held = held_poses(base, model.stations)
+        for p in parameters:
+            if p.name in held:
+                p.value, p.status, p.prior, p.sigma, p.group = held[p.name], "fixed", None, None, None
+    _apply_options(parameters, geometry_options(housing, options))
+    if options.cameras_unmoved and options.air_through_glass:
+        _through_glass_in_air(parameters, housing_kind, model.stations)
     _require_rays(model, parameters)
     merged = dict(source or {})
     merged.setdefault("base_calibration", base.source)
-    return _solve_from_starts(model, parameters, options, "joint" if len(model.stations) > 1 else "water", merged,
-                              _pointing_in_air(base))
+    # phase 2 is stored as phase 2 ("water") whether from one station or several jointly ("joint" is still
+    # read from older files)
+    return _solve_from_starts(model, parameters, options, "water", merged, _pointing_in_air(base))
+
+
+def geometry_options(housing: str, options: CalibrationOptions) -> CalibrationOptions:
+    """``options`` with its ``housing_geometry`` turned into the housing kind's fixed values and priors
+    (both cameras' parameter of each quantity); a quantity the kind does not have, a value that is not
+    finite or a sigma that is not positive is an :class:`InvalidParameterError` naming it."""
+    if not options.housing_geometry:
+        return options
+    kind = housings.kind(housing)
+    fix_values, priors = dict(options.fix_values), dict(options.priors)
+    for quantity, (value, sigma) in options.housing_geometry.items():
+        if quantity not in kind.geometry:
+            raise InvalidParameterError(quantity, f"the {kind.kind} housing has no {quantity} (it knows "
+                                        f"{', '.join(kind.geometry) or 'none'})")
+        if not np.isfinite(value):
+            raise InvalidParameterError(quantity, f"must be a finite number, got {value}")
+        if sigma is not None and not (np.isfinite(sigma) and sigma > 0):
+            raise InvalidParameterError(quantity, f"its sigma must be > 0, got {sigma}")
+        name = kind.geometry[quantity]
+        spec = kind.spec(name)
+        if (spec.lower is not None and value <= spec.lower) or (spec.upper is not None and value >= spec.upper):
+            raise InvalidParameterError(quantity, f"{value:g} is outside its physical range "
+                                        f"({spec.lower}, {spec.upper})")
+        if sigma is None:
+            fix_values[name] = float(value)
+        else:
+            priors[name] = (float(value), float(sigma))
+    return replace(options, fix_values=fix_values, priors=priors, housing_geometry={})
+
+
+def _through_glass_in_air(parameters: list[Parameter], kind, stations: tuple[str, ...]) -> None:
+    """Correct held poses for the flat glass the air images were taken through: a plate of thickness t and
+    index n2 (air on both sides) brings what lies behind it t·(1 − 1/n2) closer along its normal, so phase 1's
+    poses from those images put each camera that much too near the target. Each held camera is moved back by
+    that along its optical axis (the glass is about square to it). Only kinds with a flat wall or port
+    (``distance`` in their geometry) and only the held (fixed) poses."""
+    if "distance" not in kind.geometry:
+        return
+    by_name = {p.name: p for p in parameters}
+    thickness = by_name.get(kind.geometry["thickness"])
+    glass = by_name.get(kind.geometry["n_glass"])
+    if thickness is None or glass is None:
+        return
+    shift = thickness.value * (1.0 - 1.0 / glass.value)
+    suffixes = ["_l", "_r"] + [f"_l@{s}" for s in stations[1:]]
+    for suffix in suffixes:
+        names = [f"{p}{suffix}" for p in EXTERIOR_PARAMETERS]
+        if any(n not in by_name or by_name[n].status != "fixed" for n in names):
+            continue
+        pose = Exterior(*(by_name[n].value for n in names))
+        # the camera looks along −z̄ of its frame: back is +z̄ (the rotation's third row in object space)
+        position = pose.position + shift * pose.rotation[2]
+        for axis, n in zip(position, names[:3], strict=True):
+            by_name[n].value = float(axis)
+
+
+def held_poses(base: StereoCalibration, stations: tuple[str, ...]) -> dict[str, float]:
+    """The exterior parameters of phase 2's ``stations`` held at phase 1's poses (the cameras did not move
+    between the air and the water images): each station takes the phase-1 station of the same label, or —
+    when each phase has a single view — phase 1's only one. The first station's right camera is phase 1's
+    right camera there (so the rig's relative orientation is phase 1's too). A station phase 1 did not
+    see is an :class:`InvalidParameterError` naming it."""
+    if len(stations) == 1 and len(base.stations) == 1:
+        matched = {stations[0]: base.stations[0]}
+    else:
+        missing = [s for s in stations if s not in base.stations]
+        if missing:
+            raise InvalidParameterError(
+                "cameras unmoved", f"view {missing[0]!r} has no view of the same label in the phase-1 calibration "
+                f"(its views: {', '.join(base.stations[:8])}); with the cameras unmoved each water view needs its "
+                "air view, labelled alike")
+        matched = {s: s for s in stations}
+    out: dict[str, float] = {}
+    for k, station in enumerate(stations):
+        left = base.poses[base.station_index(matched[station])]
+        suffix = "_l" if k == 0 else f"_l@{station}"
+        out.update({f"{p}{suffix}": float(getattr(left, p)) for p in EXTERIOR_PARAMETERS})
+        if k == 0:
+            right = (base.right.exterior if matched[station] == base.stations[0]
+                     else right_exterior(left, base.relative))
+            out.update({f"{p}_r": float(getattr(right, p)) for p in EXTERIOR_PARAMETERS})
+    return out
+
+
+#: A phase-2 fit whose variance factor exceeds phase 1's by this factor (in sigma0) — beyond chance — does not
+#: describe the water and the housing at all: e.g. a wrong fixed refractive index, whose residuals reach tens
+#: of pixels. (Turbid water blurs the pointing too, but not by a factor of five.)
+IMPLAUSIBLE_SIGMA_RATIO = 5.0
+
+#: The housing quantities a person recognises, for the messages.
+_QUANTITIES = {"g": "port distance", "t": "glass thickness", "n2": "glass index", "n3": "water index",
+               "r": "radius"}
+
+
+def physical_problems(result: CalibrationResult, base: StereoCalibration | None = None) -> list[str]:
+    """Why a phase-2 result is physically impossible and must not be used (empty when none): a housing
+    parameter on the bound of its physical range (a port distance at 0: the refraction went into the pose),
+    or residuals far above phase 1's with the same cameras (:data:`IMPLAUSIBLE_SIGMA_RATIO`; a wrong fixed
+    index). Each reason names the parameter and its value."""
+    problems = []
+    model = result.model
+    housing_names = set(model.housing_kind.calibration_names)
+    for name, side, bound in result.adjustment.on_bound:
+        if name in housing_names:
+            what = _QUANTITIES.get(symbol(name), "housing parameter")
+            problems.append(f"the {what} {name} ends on the {side} bound of its physical range ({bound:g}): the "
+                            "data cannot be explained by this housing with these fixed values")
+    in_air = _pointing_in_air(base) if base is not None else None
+    sigma = result.calibration.sigma0_px
+    if (in_air is not None and np.isfinite(sigma) and sigma > IMPLAUSIBLE_SIGMA_RATIO * in_air[0]
+            and _fits_worse_than_in_air(result, in_air)):
+        fixed = [f"{n} = {p.value:g}" for n, p in result.calibration.parameters.items()
+                 if n in housing_names and p.status == "fixed"]
+        problems.append(f"the residuals (sigma0 {sigma:.3g} px) are {sigma / in_air[0]:.0f} times phase 1's "
+                        f"({in_air[0]:.3g} px) with the same cameras: the housing model does not describe the "
+                        "images" + (f" (check the fixed values: {', '.join(fixed)})" if fixed else ""))
+    return problems
+
+
+def require_physical(result: CalibrationResult, base: StereoCalibration | None, consequence: str) -> None:
+    """Refuse a physically impossible phase-2 result (:func:`physical_problems`): a
+    :class:`DegenerateGeometryError` naming the first reason, then ``consequence`` (e.g. "nothing written")."""
+    problems = physical_problems(result, base)
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise DegenerateGeometryError(f"the phase-2 calibration is physically impossible: {problems[0]}{more}; "
+                                      f"{consequence}")
 
 
 #: Mean squared normalised residual below which the default housing start is good enough (σ0 < 2).
 GOOD_START = 4.0
 
 
+def _cost(model: StereoModel, values: dict[str, float]) -> float:
+    """The mean squared normalised residual of the reachable observations at ``values`` (inf when none)."""
+    computed, ok = model.evaluate(values)
+    normalised = (model.observation_set.values - computed) / model.observation_set.sigmas
+    reached = ok & np.isfinite(normalised)
+    return float(np.mean(normalised[reached] ** 2)) if reached.any() else np.inf
+
+
 def _fit_exteriors(model: StereoModel, parameters: list[Parameter]) -> float:
-    """Adjust the exterior orientations alone (everything else held) and return the weighted cost."""
+    """Adjust the exterior orientations alone (everything else held) and return the weighted cost. When the
+    user holds every exterior orientation (the cameras did not move, or ``fix``), nothing is adjusted: the
+    cost is that of the values as they are."""
+    if not any(p.status != "fixed" and symbol(p.name) in EXTERIOR_PARAMETERS for p in parameters):
+        try:
+            return _cost(model, {p.name: p.value for p in parameters})
+        except UsvipsError:
+            return np.inf
     held = {p.name: p.status for p in parameters}
     saved = {p.name: p.value for p in parameters}
     for p in parameters:

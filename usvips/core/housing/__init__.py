@@ -8,7 +8,7 @@ and the kinds (``kinds/``: one module each). Ask the registry for a kind by name
 The kinds' classes are re-exported here for code that builds one directly (tests, benchmarks).
 """
 
-from usvips.core.housing.base import GeneralHousing, Housing, plane_coefficients, shared_plane_in_camera
+from usvips.core.housing.base import GEOMETRY, GeneralHousing, Housing, plane_coefficients, shared_plane_in_camera
 from usvips.core.housing.kinds.air import AirHousing
 from usvips.core.housing.kinds.dome_cover import DomeCoverHousing, dome_cover_from_object_space
 from usvips.core.housing.kinds.dome_port import DomePortHousing
@@ -22,6 +22,7 @@ from usvips.core.housing.registry import (
     water_names,
 )
 
-__all__ = ["AirHousing", "DomeCoverHousing", "DomePortHousing", "FlatPortHousing", "GeneralHousing", "Housing",
-           "HousingParameter", "UnknownHousingError", "dome_cover_from_object_space", "flat_port_from_object_space",
-           "kind", "names", "plane_coefficients", "registered_kinds", "shared_plane_in_camera", "water_names"]
+__all__ = ["GEOMETRY", "AirHousing", "DomeCoverHousing", "DomePortHousing", "FlatPortHousing", "GeneralHousing",
+           "Housing", "HousingParameter", "UnknownHousingError", "dome_cover_from_object_space",
+           "flat_port_from_object_space", "kind", "names", "plane_coefficients", "registered_kinds",
+           "shared_plane_in_camera", "water_names"]

@@ -31,6 +31,12 @@ from usvips.core.housing.registry import HousingParameter
 from usvips.core.rays import RayBundle, RayStatus
 from usvips.core.surfaces import Plane, Sphere, Surface, _dot, refract_with_derivatives
 
+#: Housing geometry a user may know from the housing or the tank (metres, or a refractive index): the port's
+#: or tank wall's inner face in front of the camera, the glass thickness, the glass's and the water's indices.
+GEOMETRY = {"distance": "distance of the port's or tank wall's inner face in front of the camera (m)",
+            "thickness": "glass thickness (m)", "n_glass": "refractive index of the glass",
+            "n_water": "refractive index of the water"}
+
 
 class Housing:
     """An ordered stack of surfaces and media in the camera frame (base of every housing).
@@ -43,7 +49,9 @@ class Housing:
       both cameras' (shared); ``affects_both``: names with a side suffix that still move both cameras;
     * ``right_follows_rig``: the right housing moves with the rig's relative orientation (a shared cover);
     * ``start_grid``: symbol → start values tried for the least observable parameters;
-    * ``report_note``: what the calibration report says about this kind's parameters.
+    * ``report_note``: what the calibration report says about this kind's parameters;
+    * ``geometry``: the housing geometry a user may know (:data:`GEOMETRY`: ``distance`` of the port or tank
+      wall, glass ``thickness``, ``n_glass``, ``n_water``) → the symbol that holds it in this kind.
     """
 
     kind: ClassVar[str] = "general"
@@ -55,6 +63,7 @@ class Housing:
     right_follows_rig: ClassVar[bool] = False
     start_grid: ClassVar[dict[str, tuple[float, ...]]] = {}
     report_note: ClassVar[str] = ""
+    geometry: ClassVar[dict[str, str]] = {}
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)

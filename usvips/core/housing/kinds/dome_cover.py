@@ -65,6 +65,7 @@ class DomeCoverHousing(Housing):
     affects_both = frozenset({"a_l", "b_l", "c_l", "r_l"})
     right_follows_rig = True
     start_grid = {"c": (-0.03, 0.0, 0.03), "t": (0.02, 0.05)}
+    geometry = {"thickness": "t", "n_glass": "n2", "n_water": "n3"}
     report_note = ("System I: the sphere centre (a, b, c) of each cover, the left radius r_l, the glass "
                    "thickness at each cover's thinnest point (t left, t_r right; the plane's g and the right "
                    "radius follow from them), the shared cover plane's tilt (d, e; left camera frame) and the "

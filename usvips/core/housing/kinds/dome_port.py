@@ -70,6 +70,7 @@ class DomePortHousing(Housing):
     calibration_names = tuple(f"{s}_{side}" for side in ("l", "r") for s in ("dx", "dy", "dz")) + (
         "r", "t", "n2", "n3")
     start_grid = {"dz": (-0.005, 0.0, 0.005)}
+    geometry = {"thickness": "t", "n_glass": "n2", "n_water": "n3"}
     report_note = ("Dome port: each camera's decentring from its dome centre (dx, dy, dz; camera frame) is "
                    "estimated with a weak prior; the dome's radius r and thickness t (from the manufacturer) and "
                    "the indices n2, n3 enter with priors, since a camera near the dome centre hardly sees them. "

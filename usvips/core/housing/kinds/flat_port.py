@@ -52,6 +52,7 @@ class FlatPortHousing(Housing):
     )
     calibration_names = tuple(f"{s}_{side}" for side in ("l", "r") for s in ("d", "e", "g")) + ("t", "n2", "n3")
     start_grid = {"g": (0.02, 0.05, 0.1)}
+    geometry = {"distance": "g", "thickness": "t", "n_glass": "n2", "n_water": "n3"}
     report_note = ("System II: port tilt (d, e) and distance g of each camera enter with priors; glass "
                    "thickness t and n2 are fixed unless given, since they are nearly inseparable from g.")
 
