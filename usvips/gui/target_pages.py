@@ -130,6 +130,10 @@ class SourcePage(QtWidgets.QWizardPage):
             self.housing.setCurrentText(session.housing)
             form.addRow("&Phase-1 calibration", self.base)
             form.addRow("&Housing", self.housing)
+            self.unmoved = QtWidgets.QCheckBox("The &cameras did not move since the phase-1 images (a tank or a "
+                                               "pool: each view's poses held at phase 1's; one view will do)")
+            self.unmoved.setChecked(session.cameras_unmoved)
+            form.addRow("", self.unmoved)
             self.known_box = QtWidgets.QGroupBox("Known housing values: a value holds it fixed, 'value ± sigma' "
                                                  "weights it; blank keeps the default shown")
             self.known_form = QtWidgets.QFormLayout(self.known_box)
@@ -247,6 +251,7 @@ class SourcePage(QtWidgets.QWizardPage):
                 session.base_id = self.base.currentData()
                 session.housing = self.housing.currentText()
                 session.known = self.known_values()
+                session.cameras_unmoved = self.unmoved.isChecked()
             session.holdout = self.holdout.value() / 100.0 or None
         except UsvipsError as error:
             self.message.setText(str(error))

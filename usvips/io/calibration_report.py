@@ -195,6 +195,12 @@ def _summary_lines(calibration: StereoCalibration, data: ReportData, calibration
         if key in stats:
             value = stats[key]
             lines.append(f"{label}: {value:.4g}{unit}" if isinstance(value, float) else f"{label}: {value}{unit}")
+    estimation = stats.get("estimation")
+    if isinstance(estimation, dict) and estimation.get("estimator"):
+        lines.append(f"estimator        : {estimation['estimator']}"
+                     + (f" (tuning {estimation['tuning']:g}, robust scale {estimation['robust_scale']:.3g})"
+                        if isinstance(estimation.get("tuning"), float | int)
+                        and isinstance(estimation.get("robust_scale"), float | int) else ""))
     test = stats.get("global_test")
     if isinstance(test, dict) and "chi2" in test:
         passed = test.get("accepted_95")
@@ -411,6 +417,11 @@ def _views_page(pdf: PdfPages, calibration: StereoCalibration, observations: Ste
     pdf.savefig(figure)
 
 
+def _number(value, spec: str = ".2f") -> str:
+    """A figure of the report's dictionaries, or a dash where it is missing or not finite."""
+    return format(value, spec) if isinstance(value, float | int) and np.isfinite(value) else "—"
+
+
 def _bin_row(b: dict) -> str:
     if not b.get("count"):
         return f"{'none':>34}"
@@ -435,6 +446,21 @@ def _validation_page(pdf: PdfPages, validation: dict, calibration: StereoCalibra
     for kind in ("adjacent", "diagonal"):
         for a, b in zip(fitted.get(kind) or [], held.get(kind) or [], strict=False):
             lines.append(f"{kind:<10}{a['low']:.2f}–{a['high']:.2f}{'':<4}{_bin_row(a)}    {_bin_row(b)}")
+    honesty = validation.get("honesty")
+    if isinstance(honesty, dict):
+        low, high = (list(honesty.get("interval_95") or []) + [None, None])[:2]
+        r_low, r_high = (list(honesty.get("reprojection_interval_95") or []) + [None, None])[:2]
+        lines += ["", "HONESTY OF THE STATED SIGMAS ON THE HELD-OUT VIEWS (NEES: 1 when they hold)",
+                  f"  known distances: NEES {_number(honesty.get('distance_nees'))} over "
+                  f"{honesty.get('distances')} distances in {honesty.get('views')} views (95 % interval "
+                  f"{_number(low)}-{_number(high)})",
+                  f"  reprojections  : NEES {_number(honesty.get('reprojection_nees'))} over "
+                  f"{honesty.get('reprojection_dof')} degrees of freedom ({_number(r_low)}-{_number(r_high)})",
+                  f"  covariance scale factor: {_number(honesty.get('covariance_factor'), '.3g')}"
+                  + (" (applied: every sigma of this calibration is scaled by its square root)"
+                     if honesty.get("scaled") else " (not applied)")]
+        for why in honesty.get("why") or []:
+            lines += textwrap.wrap(f"  {why}", 100)
     opencv, ours = validation.get("opencv"), validation.get("ours") or {}
     lines += ["", "OPENCV BESIDE OURS (stereoCalibrate on the fitted views, its default five-term distortion)"]
     if opencv:
@@ -453,7 +479,7 @@ def _validation_page(pdf: PdfPages, validation: dict, calibration: StereoCalibra
         lines += textwrap.wrap(f"note: {note}", 100)
     figure.text(0.07, 0.93, "\n".join(lines), family="monospace", fontsize=7, va="top")
     for k, kind in enumerate(("adjacent", "diagonal")):
-        axes = figure.add_axes((0.1 + 0.45 * k, 0.42, 0.36, 0.25))
+        axes = figure.add_axes((0.1 + 0.45 * k, 0.1, 0.36, 0.24))
         bins = fitted.get(kind) or []
         centres = np.arange(len(bins))
         for offset, (name, figures, colour) in enumerate((("fitted", bins, "tab:blue"),
