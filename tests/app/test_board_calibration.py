@@ -91,6 +91,10 @@ def test_a_dropped_view_is_left_out_and_holdout_validates(scene, air_views):
     text = "\n".join(result.lines())
     assert "held out" in text and "OpenCV" in text
     assert "validation" in result.report
+    # the board's corners robustly estimated, and whether the stated sigmas hold on the held-out views
+    assert "robust estimation:" in text and "honesty on held-out views" in text
+    honesty = result.report["validation"]["honesty"]
+    assert honesty["distances"] > 0 and honesty["why"] and result.report["estimation"]["estimator"] == "huber"
 
 
 def test_phase_two_through_a_flat_port(scene, air_calibration):

@@ -52,6 +52,9 @@ def test_air_from_image_pairs_with_a_pair_without_the_board(scene, capsys):
     assert f"the target is found in both images of {VIEWS} of {VIEWS + 1} pairs" in text
     assert "view aLblank:" in text and "% of the image covered" in text
     assert "validation:" in text and "held out" in text and f"wrote {out}" in text
+    assert "honesty on held-out views" in text
+    report = json.loads((folder / "air_report.json").read_text())
+    assert report["validation"]["honesty"]["reprojection_dof"] > 0 and report["estimation"]["estimator"] == "huber"
     written = json.loads(out.read_text())
     assert written["source"]["target"] == str(folder / "board.json") and len(written["source"]["images"]) == 14
     assert abs(written["parameters"]["f_l"]["value"] / rig.left.f - 1) < 0.01

@@ -112,17 +112,26 @@ def view_pose(control: ControlPoints, rig: BoardRig, rng, distance: float, tilt_
     return Exterior(*position, *angles_from_matrix(board_to_camera))
 
 
+def pixel_noise(rng, noise: float, shape, degrees: float | None = None) -> np.ndarray:
+    """Pixel errors of standard deviation ``noise`` (px): Gaussian, or Student-t with ``degrees`` (> 2)
+    degrees of freedom scaled to that standard deviation (heavy-tailed, as detected corners' errors)."""
+    if degrees is None:
+        return rng.normal(0, noise, shape)
+    return noise * np.sqrt((degrees - 2.0) / degrees) * rng.standard_t(degrees, shape)
+
+
 def observe_views(control: ControlPoints, rig: BoardRig, poses: list[Exterior], rng, noise: float,
-                  prefix: str = "v") -> StereoObservations:
-    """Noisy pixels of the board's corners seen in both images of each view (labels prefix + number)."""
+                  prefix: str = "v", degrees: float | None = None) -> StereoObservations:
+    """Noisy pixels of the board's corners seen in both images of each view (labels prefix + number); the
+    noise is Gaussian of standard deviation ``noise`` (px), or Student-t (:func:`pixel_noise`)."""
     ids, left, right, pairs = [], [], [], []
     for k, pose in enumerate(poses):
         stereo = rig.at(pose)
         pl, pr = stereo.left.project(control.xyz), stereo.right.project(control.xyz)
         seen = np.flatnonzero(pl.ok & pr.ok)
         ids += [control.ids[i] for i in seen]
-        left.append(pl.pixels[seen] + rng.normal(0, noise, (seen.size, 2)))
-        right.append(pr.pixels[seen] + rng.normal(0, noise, (seen.size, 2)))
+        left.append(pl.pixels[seen] + pixel_noise(rng, noise, (seen.size, 2), degrees))
+        right.append(pr.pixels[seen] + pixel_noise(rng, noise, (seen.size, 2), degrees))
         pairs += [f"{prefix}{k}"] * seen.size
     return StereoObservations(tuple(ids), np.vstack(left), np.vstack(right), tuple(pairs))
 

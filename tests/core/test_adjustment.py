@@ -176,3 +176,10 @@ def test_a_cancel_asked_each_iteration_stops_the_adjustment():
     plain = adjust(_line_problem(x, y, 0.1, [Parameter("a", 0.0), Parameter("b", 0.0)]))
     hooked = adjust(_line_problem(x, y, 0.1, [Parameter("a", 0.0), Parameter("b", 0.0)]), cancelled=lambda: False)
     assert hooked.value("b") == plain.value("b") and hooked.converged
+
+
+def test_the_cancel_also_stops_m_estimation():
+    x = np.linspace(0, 10, 30)
+    with pytest.raises(InterruptedError):
+        adjust(_line_problem(x, 2.0 + 0.5 * x, 0.1, [Parameter("a", 0.0), Parameter("b", 0.0)]), estimator="huber",
+               cancelled=lambda: True)

@@ -206,3 +206,32 @@ def test_known_housing_values_become_options():
     assert known_options({"t": (0.012, None), "n2": (1.52, 0.01)}) == {
         "fix_values": {"t": 0.012}, "priors": {"n2": (1.52, 0.01)}}
     assert known_options({}) == {"fix_values": {}, "priors": {}}
+
+
+def test_phase_two_takes_the_cameras_unmoved_and_the_known_values(qtbot, project, scene):
+    from usvips.app.calibrations import store_calibration
+    from usvips.core.camera import Camera, Exterior
+    from usvips.core.interior import Interior
+    from usvips.core.stereo_calibration import StereoCalibration
+
+    _, _, pairs, _ = scene
+    base = StereoCalibration.from_cameras(Camera(Interior(500.0, 240.0, 180.0), Exterior(0, 0, 0)),
+                                          Camera(Interior(500.0, 240.0, 180.0), Exterior(0.12, 0, 0)), "air", 0.3)
+    base_id = store_calibration(project, "phase 1", base)
+    wizard = _wizard(qtbot, project, "water")
+    page = wizard.source_page
+    page.use_chessboard()
+    page.set_images("left", [str(a) for a, _ in pairs])
+    page.set_images("right", [str(b) for _, b in pairs])
+    page.base.setCurrentIndex(page.base.findData(base_id))
+    page.housing.setCurrentText("flat-port")
+    assert not page.unmoved.isChecked()
+    page.unmoved.click()  # by mouse
+    page.known["t"].setFocus()
+    qtbot.keyClicks(page.known["t"], "0.012")
+    assert page.validatePage()
+    options = wizard.session.calibration_options()
+    assert options.cameras_unmoved and options.fix_values == {"t": 0.012} and options.priors == {}
+    page.known["t"].clear()
+    qtbot.keyClicks(page.known["t"], "one")
+    assert not page.validatePage() and "housing value t" in page.message.text()

@@ -184,6 +184,10 @@ class BoardCalibration:
                + f", redundancy {r['redundancy']}"]
         if r.get("suspects"):
             out.append(f"  {len(r['suspects'])} observations set aside as blunders")
+        estimation = r.get("estimation") or {}
+        if estimation.get("estimator") == "huber":
+            out.append(f"  robust estimation: {100 * estimation['down_weighted']:.1f} % of the corners' coordinates "
+                       f"down-weighted, none thrown out but {estimation['gross_errors']} gross errors")
         by_view = sorted(self.view_rms().items(), key=lambda item: -item[1])
         if by_view:
             out.append("  RMS per view, worst first: " + ", ".join(f"{label} {rms:.3f} px" for label, rms in by_view))
@@ -250,6 +254,8 @@ def calibrate_views(target: CalibrationTarget | str | Path, views: Sequence[Ster
                               compare_opencv=phase == "air" and observes_a_plane(control, observations),
                               image_size=options.image_size)
         result = validation.result
+        # the calibration carries its validation: its file, the project and its report show it
+        result.calibration.statistics["validation"] = validation.as_dict()
     if not result.adjustment.converged:
         raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing kept")
     if phase == "water":

@@ -90,7 +90,8 @@ def find_views(args: argparse.Namespace) -> tuple[boards.BoardViews, dict]:
     if args.video:
         with open_project(args.project, read_only=True) as project:
             found = boards.views_from_video(project, args.video, target, args.every, args.max_views)
-        source = {"target": str(args.target), "project": str(args.project), "video": args.video}
+        source = {"target": str(args.target), "project": str(args.project), "video": args.video,
+                  "every": args.every, "max_views": args.max_views}
     else:
         pairs = image_pairs(args)
         found = boards.views_from_images(target, pairs)

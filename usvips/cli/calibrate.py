@@ -176,6 +176,7 @@ def _calibrate(fit, control: ControlPoints, observations, args: argparse.Namespa
 def _finish(result, args: argparse.Namespace, validation=None, base=None) -> int:
     if validation is not None:
         result.report["validation"] = validation.as_dict()
+        result.calibration.statistics["validation"] = validation.as_dict()
     if not result.adjustment.converged:
         raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing written")
     if result.calibration.phase != "air":

@@ -137,10 +137,14 @@ def run_export(args: argparse.Namespace) -> int:
 
 def run_report(args: argparse.Namespace) -> int:
     # deferred: matplotlib takes ~0.5 s to import, and every `usvips` command builds the whole parser
+    from usvips.app.board_report import is_from_target, target_report_data
     from usvips.io.calibration_report import write_calibration_report
 
     with replacing(args.out, [args.calibration, args.check, args.check_control], replace=args.force):
         calibration = load_calibration(args.calibration)
-        pages = write_calibration_report(calibration, args.out, args.calibration, args.check, args.check_control)
+        # a calibration from target views names a target and images or a video: its views are found again
+        data = target_report_data(calibration, args.calibration) if is_from_target(calibration) else None
+        pages = write_calibration_report(calibration, args.out, args.calibration, args.check, args.check_control,
+                                         data=data)
     print(f"wrote {args.out} ({pages} pages)")
     return 0

@@ -46,6 +46,9 @@ HUBER_K = 2.0              # Huber threshold in standard deviations for the robu
 TO_BOUNDARY = 0.9          # a step goes at most this fraction of the way to a parameter's bound
 SNOOP_SHARE = 40           # data snooping rejects at most one observation unit per this many observations
 GROSS = 10.0               # residuals of the robust start beyond this many robust sigmas are set aside
+HUBER_TUNING = 1.345       # Huber's constant of the M-estimator (robust sigmas): 95 % efficiency for Gaussian errors
+M_ROUNDS = 4               # M-estimation: rounds of (IRLS to convergence, gross errors set aside) at most
+ESTIMATORS = ("least squares", "huber")
 BACKTRACKS = 4             # halvings of a step that leaves the valid region before the damping grows
 
 
@@ -201,6 +204,11 @@ class Adjustment:
     on_bound: list[tuple[str, str, float]] = field(default_factory=list)
     #: set when data snooping reached its cap with observations still failing: the model is in doubt
     model_doubt: str | None = None
+    #: how it was estimated: ``estimator`` (``least squares`` or ``huber``) and, for the M-estimator, its
+    #: ``tuning`` constant, ``robust_scale`` (of the normalised residuals, a-priori sigmas), the variance
+    #: factors of the ``noise`` (sigma0²) and of the ``parameters`` (the covariance's factor), the share of
+    #: kept observations ``down_weighted`` and the ``rounds`` (:func:`_m_estimate`)
+    estimation: dict = field(default_factory=dict)
 
     def __bool__(self) -> bool:
         return self.converged
@@ -563,7 +571,8 @@ def _weak_directions(names: list[str], vt: np.ndarray) -> list[list[tuple[str, f
     return weak
 
 
-def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy, variance_start=None) -> dict:
+def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy, variance_start=None,
+                variance_fixed=None) -> dict:
     """The dense statistics' linear algebra: N = JᵀWJ + priors, its SVD (condition, weak directions),
     Qxx (pseudo-inverse; prior-weighted after variance components) and every observation's leverage."""
     data = jac.gram(weights)  # JᵀWJ of the observations, formed once
@@ -578,8 +587,9 @@ def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy,
     variance, observation_cost, observation_redundancy = _variance_component(
         lambda factor: float(np.sum(_prior_weighted_inverse(data, normal, factor) * data)),
         bool(np.any(np.abs(normal - data) > 0)), float(residual @ (weights * residual)), cost, redundancy, n_used,
-        variance_start)
-    qxx = qxx if variance is None else _prior_weighted_inverse(data, normal, variance)
+        variance_start, variance_fixed)
+    has_priors = bool(np.any(np.abs(normal - data) > 0))
+    qxx = qxx if variance is None or not has_priors else _prior_weighted_inverse(data, normal, variance)
     qxx = (qxx + qxx.T) / 2
     diagonal = np.sqrt(np.maximum(np.diag(qxx), 1e-300))
     correlation = qxx / np.outer(diagonal, diagonal)
@@ -591,7 +601,7 @@ def _dense_core(jac, residual, weights, free, values, names, n_used, redundancy,
 
 
 def _schur_core(jac, residual, weights, free, values, names, n_used, redundancy, partition, arrow=None,
-                variance_start=None) -> dict:
+                variance_start=None, variance_fixed=None) -> dict:
     """The same from the block-arrow normal equations (:class:`normal_equations.ArrowSystem`), linear in
     the number of local groups: each group's block and the reduced system S (the Schur complement onto
     the global unknowns) checked for singularity; condition number and weak directions of S; Qxx in block
@@ -619,8 +629,8 @@ def _schur_core(jac, residual, weights, free, values, names, n_used, redundancy,
         raise _singular(global_names, vt[-1])
     variance, observation_cost, observation_redundancy = _variance_component(
         lambda factor: arrow.trace_with_observations(arrow.inverse(factor)), arrow.has_priors,
-        observation_cost, cost, redundancy, n_used, variance_start)
-    inverse = arrow.inverse(reduced=reduced) if variance is None else arrow.inverse(variance)
+        observation_cost, cost, redundancy, n_used, variance_start, variance_fixed)
+    inverse = arrow.inverse(reduced=reduced) if variance is None or not arrow.has_priors else arrow.inverse(variance)
     return dict(cost=cost, variance=variance, observation_cost=observation_cost,
                 observation_redundancy=observation_redundancy, names=global_names, qxx=inverse.qgg,
                 diagonal=inverse.diagonal(), over=inverse.correlations_over(names, 0.95), condition=condition,
@@ -662,7 +672,7 @@ def _warm_step(problem: Problem, used: np.ndarray, statistics: dict):
 
 
 def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.BlockJacobian | None = None,
-                system=None, variance_start: float | None = None) -> dict:
+                system=None, variance_start: float | None = None, variance_fixed: float | None = None) -> dict:
     """Sigma0, Qxx, sigmas, correlations, condition, redundancy numbers, w-tests and the global test of the
     adjustment at the problem's current values, by the dense or the block-arrow path (:func:`_partition`).
 
@@ -671,7 +681,11 @@ def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.B
     covariance blocks exist but are not returned: the blocks between two stations would be quadratic in
     their number), condition and weak directions are those of the reduced system S (the local blocks are
     checked for singularity on their own), correlations over 0.95 are those among the globals, within a
-    group and between a group and the globals; sigmas, redundancy numbers and w-tests cover everything."""
+    group and between a group and the globals; sigmas, redundancy numbers and w-tests cover everything.
+
+    ``variance_fixed``: the parameters' variance factor is given (an M-estimator's, :func:`_m_estimate`):
+    sigmas and ``parameter_variance`` use it, while sigma0 stays the observations' own, vᵀPv / r_obs (the
+    standard deviation of one observation's error, in a-priori sigmas, as a new observation needs it)."""
     free = problem.free()
     names = [p.name for p in free]
     values = problem.values()
@@ -691,16 +705,23 @@ def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.B
             f"(redundancy {redundancy}); measure more points or fix parameters")
     partition = _partition(problem, free, jac)
     if partition is None:
-        core = _dense_core(jac, residual, weights, free, values, names, n_used, redundancy, variance_start)
+        core = _dense_core(jac, residual, weights, free, values, names, n_used, redundancy, variance_start,
+                           variance_fixed)
     else:
         arrow = system.arrow if isinstance(system, _SchurSystem) and system.arrow.partition is partition else None
         core = _schur_core(jac, residual, weights, free, values, names, n_used, redundancy, partition, arrow,
-                           variance_start)
+                           variance_start, variance_fixed)
     cost, variance = core["cost"], core["variance"]
     observation_cost, observation_redundancy = core["observation_cost"], core["observation_redundancy"]
-    variance = cost / redundancy if variance is None else variance
+    if variance_fixed is not None:
+        parameter_variance = float(variance_fixed)
+        variance = observation_cost / max(float(observation_redundancy), 1e-9)
+    else:
+        variance = cost / redundancy if variance is None else variance
+        parameter_variance = float(variance)
     sigma0 = float(np.sqrt(variance))
-    sigmas = {name: float(sigma0 * np.sqrt(max(q, 0.0))) for name, q in zip(names, core["diagonal"], strict=True)}
+    sigmas = {name: float(np.sqrt(parameter_variance * max(q, 0.0)))
+              for name, q in zip(names, core["diagonal"], strict=True)}
     over, condition, weak = core["over"], core["condition"], core["weak"]
     # redundancy numbers r_i = 1 − p_i a_i Qxx a_iᵀ for uncorrelated observations
     leverage = core["leverage"] * weights
@@ -748,7 +769,7 @@ def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.B
     }
     rms = float(np.sqrt(np.mean(residual[used] ** 2)))
     return dict(names=names, qxx=qxx, sigma0=sigma0, robust_scale=robust_scale, jacobian=jac, computed=computed,
-                variance=variance,
+                variance=variance, parameter_variance=parameter_variance,
                 critical=tau_critical(observation_redundancy), sigmas=sigmas, over=over,
                 condition=condition, weak=weak, red_numbers=red_numbers, w=w, mdb=mdb, global_test=global_test,
                 redundancy=redundancy, residual=residual, rms=rms)
@@ -757,7 +778,7 @@ def _statistics(problem: Problem, used: np.ndarray, jacobian: normal_equations.B
 @batch_computation  # one BLAS thread for its small dense algebra, compiled kernels (core/batch_mode.py)
 def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2, robust: bool = True,
            snooping: bool = True, max_rejections: int | None = None,
-           snoop_unit: Callable[[int], np.ndarray] | None = None,
+           snoop_unit: Callable[[int], np.ndarray] | None = None, estimator: str = "least squares",
            cancelled: Callable[[], bool] | None = None) -> Adjustment:
     """Adjust ``problem`` (its parameters' values are the start and are updated in place).
 
@@ -770,7 +791,15 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
     indices of the observations rejected together with observation i (e.g. both coordinates of a
     point in one image); default: the observation alone. ``cancelled()``: asked before every iteration
     (True stops the run with :class:`InterruptedError`).
+
+    ``estimator="huber"``: M-estimation instead (:func:`_m_estimate`; ``robust`` and ``max_rejections`` do
+    not apply): every observation kept and down-weighted by Huber's function of its residual in robust
+    standard deviations, only gross errors set aside and named (none with ``snooping=False``: then they are
+    only down-weighted), sigma0 the observations' standard deviation and the covariance Huber's asymptotic
+    one (:func:`_m_covariance_factor`).
     """
+    if estimator not in ESTIMATORS:
+        raise InvalidParameterError("estimator", f"must be one of {ESTIMATORS}, got {estimator!r}")
     n = len(problem.observations)
     used = np.ones(n, dtype=bool)
     excluded: list[Suspect] = []
@@ -794,6 +823,9 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
         raise DegenerateGeometryError(
             f"{n} observations cannot determine {len(free)} unknowns ({', '.join(p.name for p in free[:6])}"
             f"{'...' if len(free) > 6 else ''}); measure more points or fix parameters")
+    if estimator == "huber":
+        return _m_estimate(problem, used, excluded, snoop_unit, max_iterations, tolerance, set_aside=snooping,
+                           cancelled=cancelled)
     if robust:
         _solve(problem, _huber(HUBER_K), used, max_iterations, 1e-2, cancelled)
         used = _set_aside_gross_errors(problem, used, excluded, snoop_unit)
@@ -848,12 +880,145 @@ def adjust(problem: Problem, max_iterations: int = 100, tolerance: float = 1e-2,
         parameters=problem.parameters, converged=converged, reason=reason, iterations=iterations,
         sigma0=statistics["sigma0"], rms=statistics["rms"], redundancy=statistics["redundancy"],
         residuals=statistics["residual"], covariance_names=statistics["names"],
-        covariance=statistics["qxx"] * statistics["sigma0"] ** 2, sigmas=statistics["sigmas"],
+        covariance=statistics["qxx"] * statistics["parameter_variance"], sigmas=statistics["sigmas"],
         correlations_over=statistics["over"], condition_number=statistics["condition"],
         weak_directions=statistics["weak"], redundancy_numbers=statistics["red_numbers"], w=statistics["w"],
         mdb=statistics["mdb"], global_test=statistics["global_test"], excluded=excluded,
         observations=problem.observations, used=used,
-        on_bound=_on_bound(problem.free(), statistics["sigmas"]), model_doubt=model_doubt)
+        on_bound=_on_bound(problem.free(), statistics["sigmas"]), model_doubt=model_doubt,
+        estimation={"estimator": "least squares"})
+
+
+def robust_scale(normalised: np.ndarray, share: float = 1.0) -> float:
+    """The robust standard deviation of residuals ``normalised`` by their a-priori sigmas: 1.4826 times
+    their median absolute value (the standard deviation for Gaussian errors, and a stable scale for any
+    error law), divided by sqrt(``share``), the redundancy's share of the observations (residuals are
+    smaller than the errors by about that: each is an error less the fit's share of it)."""
+    if not normalised.size:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(normalised)) / np.sqrt(max(share, 1e-3)))
+
+
+def _scaled_huber(k: float, used: np.ndarray, share: float) -> Callable[[np.ndarray], np.ndarray]:
+    """IRLS weights of Huber's function with the tuning ``k`` in robust standard deviations of the ``used``
+    residuals (:func:`robust_scale`), re-estimated from the residuals at every iteration."""
+    def weights(normalised: np.ndarray) -> np.ndarray:
+        scale = robust_scale(normalised[used], share)
+        size = np.abs(normalised) / (scale if scale > 0 else 1.0)
+        return np.where(size <= k, 1.0, k / np.maximum(size, 1e-300))
+    return weights
+
+
+def _normalised(problem: Problem, used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Residuals (observed − computed, the observations' units) and the same divided by their a-priori
+    sigmas, at the problem's current values (0 where an observation is not used or not reachable)."""
+    obs = problem.observations
+    computed, ok = problem.evaluate(problem.values(), None)
+    residual = np.where(used & ok, obs.values - computed, 0.0)
+    return residual, residual / obs.sigmas
+
+
+def _m_covariance_factor(normalised: np.ndarray, scale: float, k: float, n_free: int, redundancy: float
+                         ) -> float:
+    """The M-estimator's variance factor for the parameters (Huber 1981, 7.6; Street, Carroll & Ruppert
+    1988): the parameters' covariance is φ (JᵀPJ + priors)⁻¹ with
+
+        φ = K² s² [Σ ψ(u_i)² / r] / [Σ ψ'(u_i) / n]²,   K = 1 + (p / n) var(ψ') / mean(ψ')²,
+
+    u_i = v_i / (σ_i s) the residuals in robust standard deviations s, ψ Huber's function with constant k,
+    p the free unknowns, r the redundancy, n the kept observations. For Gaussian errors φ is the variance
+    factor / 0.95 (the M-estimate is a little less precise than least squares); for heavy-tailed errors it
+    is below the errors' variance (the M-estimate is more precise than least squares would be), which is
+    why the covariance uses φ and not sigma0²."""
+    u = normalised / scale
+    psi = np.clip(u, -k, k)
+    slope = (np.abs(u) <= k).astype(float)
+    n = max(u.size, 1)
+    mean_slope = max(float(np.mean(slope)), 1.0 / n)
+    correction = 1.0 + n_free / n * float(np.var(slope)) / mean_slope**2
+    return float(correction**2 * scale**2 * (np.sum(psi**2) / max(redundancy, 1.0)) / mean_slope**2)
+
+
+def _m_estimate(problem: Problem, used: np.ndarray, excluded: list[Suspect],
+                snoop_unit: Callable[[int], np.ndarray] | None, max_iterations: int, tolerance: float,
+                set_aside: bool = True, cancelled: Callable[[], bool] | None = None) -> Adjustment:
+    """M-estimation by iteratively reweighted least squares with Huber's function (thesis practice for
+    automatic measurements; docs/calibration.md, "Robust estimation").
+
+    Each round runs the Levenberg–Marquardt solver (:func:`_solve`) with Huber weights: an observation
+    whose residual is within :data:`HUBER_TUNING` robust standard deviations (:func:`robust_scale`,
+    re-estimated at every iteration) keeps its full weight, one beyond it the weight k / |u|, so that the
+    heavy tails of clean measurement noise are down-weighted, not thrown out. Converged means the
+    solver's own criteria held in the last round (the step is below the tolerance of every parameter's
+    sigma and the weighted squared residuals settled, the weights being those of the residuals at the
+    start of the step: at the fixed point of the reweighting). Then observations more than :data:`GROSS`
+    robust standard deviations off (with their unit, ``snoop_unit``: both coordinates of a corner) are
+    gross errors: set aside, named as suspects, and the next round adjusts without them; at most
+    :data:`M_ROUNDS` rounds (one when ``set_aside`` is False). More gross errors at once than one in twenty
+    observations cannot be blunders: the model is then in doubt and nothing more is set aside.
+
+    Statistics: sigma0² = vᵀPv / r_obs over the kept observations (the observations' variance factor:
+    the standard deviation of one observation's error, which a new observation intersected by least
+    squares has); the parameters' covariance is :func:`_m_covariance_factor`'s φ times (JᵀPJ + priors)⁻¹,
+    the priors weighted against φ."""
+    free = problem.free()
+    n_prior = sum(1 for p in free if p.status == "prior")
+    model_doubt = None
+    rounds, converged, reason, iterations = 0, False, "", 0
+    scale, normalised, share = 1.0, np.zeros(len(used)), 1.0
+    while True:
+        rounds += 1
+        n_used = int(used.sum())
+        share = max(n_used + n_prior - len(free), 1) / max(n_used, 1)
+        _, converged, reason, iterations = _solve(problem, _scaled_huber(HUBER_TUNING, used, share), used,
+                                                  max_iterations, tolerance, cancelled)
+        _, normalised = _normalised(problem, used)
+        scale = robust_scale(normalised[used], share)
+        if not scale > 0:
+            break
+        gross = np.flatnonzero(used & (np.abs(normalised) > GROSS * scale))
+        if not gross.size or not set_aside:
+            break
+        if gross.size > n_used // 20 or rounds >= M_ROUNDS:
+            model_doubt = (f"{gross.size} of {n_used} observations lie more than {GROSS:g} robust standard "
+                           "deviations off: so many cannot be blunders; the model or the set-up is wrong (housing "
+                           "kind, fixed parameters, mismatched control or pairs)")
+            break
+        used = used.copy()
+        obs = problem.observations
+        residual = obs.values - problem.evaluate(problem.values(), None)[0]
+        for i in gross:
+            for k in (snoop_unit(int(i)) if snoop_unit else np.array([i])):
+                if used[k]:
+                    used[k] = False
+                    excluded.append(Suspect(obs.point[k], obs.side[k], obs.coordinate[k], obs.group[k],
+                                            float(normalised[k] / scale), float(residual[k]), None,
+                                            f"gross error: residual over {GROSS:g} robust standard deviations"))
+    n_used = int(used.sum())
+    redundancy = n_used + n_prior - len(free)
+    factor = _m_covariance_factor(normalised[used], scale if scale > 0 else 1.0, HUBER_TUNING, len(free),
+                                  redundancy)
+    statistics = _statistics(problem, used, variance_fixed=factor)
+    for suspect in excluded:
+        i = _index_of(problem.observations, suspect) if suspect.mdb is None else None
+        if i is not None and np.isfinite(statistics["mdb"][i]):
+            suspect.w, suspect.mdb = float(statistics["w"][i]), float(statistics["mdb"][i])
+    size = np.abs(normalised[used]) / (scale if scale > 0 else 1.0)
+    estimation = {"estimator": "huber", "tuning": HUBER_TUNING, "robust_scale": float(scale),
+                  "noise_variance_factor": float(statistics["sigma0"] ** 2),
+                  "parameter_variance_factor": float(factor),
+                  "down_weighted": float(np.mean(size > HUBER_TUNING)) if size.size else 0.0, "rounds": rounds,
+                  "gross_errors": sum(1 for s in excluded if s.reason.startswith("gross error"))}
+    return Adjustment(
+        parameters=problem.parameters, converged=converged, reason=reason, iterations=iterations,
+        sigma0=statistics["sigma0"], rms=statistics["rms"], redundancy=statistics["redundancy"],
+        residuals=statistics["residual"], covariance_names=statistics["names"],
+        covariance=statistics["qxx"] * statistics["parameter_variance"], sigmas=statistics["sigmas"],
+        correlations_over=statistics["over"], condition_number=statistics["condition"],
+        weak_directions=statistics["weak"], redundancy_numbers=statistics["red_numbers"], w=statistics["w"],
+        mdb=statistics["mdb"], global_test=statistics["global_test"], excluded=excluded,
+        observations=problem.observations, used=used,
+        on_bound=_on_bound(problem.free(), statistics["sigmas"]), model_doubt=model_doubt, estimation=estimation)
 
 
 def tau_critical(redundancy: float, alpha: float = ALPHA0) -> float:
@@ -869,7 +1034,8 @@ def tau_critical(redundancy: float, alpha: float = ALPHA0) -> float:
 
 
 def _variance_component(trace_of: Callable[[float], float], has_priors: bool, observation_cost: float,
-                        cost: float, redundancy: int, n_used: int, start: float | None = None):
+                        cost: float, redundancy: int, n_used: int, start: float | None = None,
+                        fixed: float | None = None):
     """Variance-component estimation (Förstner 1979) for two groups, image observations and priors.
 
     The priors are statements about the housing and the interior from outside the data; their group has
@@ -878,7 +1044,12 @@ def _variance_component(trace_of: Callable[[float], float], has_priors: bool, ob
     is iterated with the priors reweighted against it. ``trace_of(σ̂²)`` gives tr((N_obs + σ̂² P_prior)⁻¹
     N_obs) (dense or block-arrow). Returns (σ̂², vᵀPv of the observations, r_obs), or (None, cost,
     redundancy) when there are no priors (then σ̂² = vᵀPv / r, the classical estimate). ``start``: the
-    first σ̂² (default vᵀPv / r; data snooping's rounds start from the previous round's estimate)."""
+    first σ̂² (default vᵀPv / r; data snooping's rounds start from the previous round's estimate).
+    ``fixed``: the observations' factor is given (the M-estimator's, :func:`_m_covariance_factor`), not
+    estimated; the priors are weighted against it and r_obs is their share of the redundancy at it."""
+    if fixed is not None:
+        share = n_used - trace_of(fixed) if has_priors else float(redundancy)
+        return fixed, observation_cost, share if share >= 0.5 else float(redundancy)
     if not has_priors:
         return None, cost, redundancy
     variance = max(cost / redundancy if start is None else start, 1e-12)

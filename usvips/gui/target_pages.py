@@ -13,6 +13,7 @@ goes on.
 from __future__ import annotations
 
 import datetime
+import html
 
 import numpy as np
 import pyqtgraph as pg
@@ -129,6 +130,10 @@ class SourcePage(QtWidgets.QWizardPage):
             self.housing.setCurrentText(session.housing)
             form.addRow("&Phase-1 calibration", self.base)
             form.addRow("&Housing", self.housing)
+            self.unmoved = QtWidgets.QCheckBox("The &cameras did not move since the phase-1 images (a tank or a "
+                                               "pool: each view's poses held at phase 1's; one view will do)")
+            self.unmoved.setChecked(session.cameras_unmoved)
+            form.addRow("", self.unmoved)
             self.known_box = QtWidgets.QGroupBox("Known housing values: a value holds it fixed, 'value ± sigma' "
                                                  "weights it; blank keeps the default shown")
             self.known_form = QtWidgets.QFormLayout(self.known_box)
@@ -246,6 +251,7 @@ class SourcePage(QtWidgets.QWizardPage):
                 session.base_id = self.base.currentData()
                 session.housing = self.housing.currentText()
                 session.known = self.known_values()
+                session.cameras_unmoved = self.unmoved.isChecked()
             session.holdout = self.holdout.value() / 100.0 or None
         except UsvipsError as error:
             self.message.setText(str(error))
@@ -293,24 +299,26 @@ class ViewsPage(QtWidgets.QWizardPage):
             self.vectors[side] = pg.PlotCurveItem(pen=pg.mkPen((255, 60, 60), width=2), connect="pairs")
             pane.viewbox.addItem(self.vectors[side], ignoreBounds=True)
         self.maps = pg.GraphicsLayoutWidget()
-        self.maps.setFixedHeight(120)
+        self.maps.setFixedHeight(150)
         self.map_items = {}
         for column, side in enumerate(("left", "right")):
-            plot = self.maps.addViewBox(row=0, col=column, lockAspect=True, invertY=True, enableMouse=False)
+            plot = self.maps.addPlot(row=0, col=column, title=side)
+            plot.setAspectLocked(True)
+            plot.invertY(True)
+            plot.setMouseEnabled(False, False)
+            plot.hideButtons()
             item = pg.ImageItem(axisOrder="row-major")
             plot.addItem(item)
             self.map_items[side] = item
         self.colour_bar = pg.ColorBarItem(values=(0, 1), colorMap=pg.colormap.get("viridis"), interactive=False,
-                                          width=12, label="views per cell")
+                                          width=10, label="views per cell")
         self.colour_bar.setImageItem(list(self.map_items.values()), insert_in=None)
         self.maps.addItem(self.colour_bar, row=0, col=2)
+        self.notes = QtWidgets.QTextBrowser()  # the maps' scale, the coverage and its advice, the next pose
+        self.notes.setObjectName("coverage notes")
         self.scale_label = QtWidgets.QLabel()
-        self.scale_label.setWordWrap(True)
         self.advice = QtWidgets.QLabel()
-        self.advice.setWordWrap(True)
         self.next_pose = QtWidgets.QLabel()
-        self.next_pose.setWordWrap(True)
-        self.next_pose.setStyleSheet("font-weight: bold;")
         self.tally = QtWidgets.QLabel()
         self.tally.setWordWrap(True)
         self.view_text = QtWidgets.QLabel()
@@ -319,16 +327,15 @@ class ViewsPage(QtWidgets.QWizardPage):
         self.set_aside.setWordWrap(True)
         self.set_aside.setStyleSheet(ERROR_STYLE)
         side_panel = QtWidgets.QVBoxLayout()
-        label = QtWidgets.QLabel("&Views (ticked: used; red: set aside, open one to see why)")
+        side_panel.setContentsMargins(0, 0, 0, 0)
+        label = QtWidgets.QLabel("&Views (ticked: used; red: set aside — open one to see why)")
         label.setWordWrap(True)
         label.setBuddy(self.list)
         side_panel.addWidget(label)
-        side_panel.addWidget(self.list, 1)
-        side_panel.addWidget(QtWidgets.QLabel("Coverage (left, right image)"))
+        side_panel.addWidget(self.list, 3)
+        side_panel.addWidget(QtWidgets.QLabel("Coverage of the left and right images (pixels)"))
         side_panel.addWidget(self.maps)
-        side_panel.addWidget(self.scale_label)
-        side_panel.addWidget(self.advice)
-        side_panel.addWidget(self.next_pose)
+        side_panel.addWidget(self.notes, 2)
         side = QtWidgets.QWidget()
         side.setLayout(side_panel)
         images = QtWidgets.QHBoxLayout()
@@ -342,8 +349,9 @@ class ViewsPage(QtWidgets.QWizardPage):
         body = QtWidgets.QSplitter()
         body.addWidget(side)
         body.addWidget(right_widget)
-        body.setStretchFactor(0, 1)
-        body.setStretchFactor(1, 3)
+        body.setStretchFactor(0, 0)
+        body.setStretchFactor(1, 1)
+        body.setSizes([400, 900])
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(top)
         layout.addWidget(self.target_label)
@@ -436,8 +444,7 @@ class ViewsPage(QtWidgets.QWizardPage):
                 item.setToolTip(entry.why)
             self.list.addItem(item)
         self.list.blockSignals(False)
-        self.tally.setText("\n".join(views.tally)
-                           + (f"; {len(views.set_aside)} set aside (red in the list)" if views.set_aside else ""))
+        self.tally.setText("\n".join(views.tally) + (" (red in the list)" if views.set_aside else ""))
         self.set_aside.clear()
         self._show_coverage()
         if self.list.count():
@@ -458,22 +465,36 @@ class ViewsPage(QtWidgets.QWizardPage):
             self.advice.setText("no view ticked")
             self.scale_label.clear()
             self.next_pose.clear()
+            self._show_notes()
             for item in self.map_items.values():
                 item.clear()
             return
         top = max(int(coverage.left.counts.max()), int(coverage.right.counts.max()), 1)
-        for side in ("left", "right"):
-            self.map_items[side].setImage(getattr(coverage, side).counts.astype(float), levels=(0, top))
-        self.colour_bar.setLevels((0, top))
         rows, cols = coverage.left.counts.shape
         width, height = self.session.views.image_size() if self.session.views and self.session.views.views \
-            else (0, 0)
+            else (cols, rows)
+        for side in ("left", "right"):
+            item = self.map_items[side]
+            item.setImage(getattr(coverage, side).counts.astype(float), levels=(0, top))
+            item.setRect(QtCore.QRectF(0, 0, width, height))  # axes in the image's pixels
+        self.colour_bar.setLevels((0, top))
         self.scale_label.setText(f"{cols} × {rows} cells over each image ({width} × {height} px: a cell is "
                                  f"{width / cols:.0f} × {height / rows:.0f} px); colour: views covering a cell, "
                                  f"dark 0 to yellow {top}")
         self.advice.setText("\n".join(coverage.summary()))
-        suggestion = self.session_next_pose()
-        self.next_pose.setText(suggestion)
+        self.next_pose.setText(self.session_next_pose())
+        self._show_notes()
+
+    def _show_notes(self) -> None:
+        """The next pose first (bold), the coverage and its advice, then the maps' scale."""
+        parts = []
+        if self.next_pose.text():
+            parts.append(f"<p><b>{html.escape(self.next_pose.text())}</b></p>")
+        if self.advice.text():
+            parts.append("<p>" + "<br>".join(html.escape(line) for line in self.advice.text().split("\n")) + "</p>")
+        if self.scale_label.text():
+            parts.append(f"<p style='color:#555'>{html.escape(self.scale_label.text())}</p>")
+        self.notes.setHtml("".join(parts))
 
     def session_next_pose(self) -> str:
         """Where to hold the board next, in words (empty when nothing is missing or no view is kept)."""
@@ -564,7 +585,7 @@ class ComputePage(QtWidgets.QWizardPage):
     """The calibration from the ticked views in a worker (Stop stops it); the parameters with their σ,
     the fit and the validation, and a verdict consistent with the coverage advice."""
 
-    HEADERS = ["", "Parameter", "Value ± σ", "Status"]
+    HEADERS = ["", "Parameter", "Value ± σ"]
 
     def __init__(self, session: TargetSession, pool: QtCore.QThreadPool) -> None:
         super().__init__()
@@ -586,8 +607,10 @@ class ComputePage(QtWidgets.QWizardPage):
         self.table.setObjectName("parameters")
         self.table.setHorizontalHeaderLabels(self.HEADERS)
         self.table.verticalHeader().hide()
+        self.table.verticalHeader().setDefaultSectionSize(self.table.fontMetrics().height() + 8)
         self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.NoEditTriggers)
         self.table.horizontalHeader().setStretchLastSection(True)
+        self.table.setMinimumWidth(470)
         self.text = QtWidgets.QPlainTextEdit()
         self.text.setReadOnly(True)
         self.text.setObjectName("results")
@@ -602,8 +625,9 @@ class ComputePage(QtWidgets.QWizardPage):
         body = QtWidgets.QSplitter()
         body.addWidget(self.table)
         body.addWidget(self.text)
-        body.setStretchFactor(0, 2)
-        body.setStretchFactor(1, 3)
+        body.setStretchFactor(0, 0)
+        body.setStretchFactor(1, 1)
+        body.setSizes([520, 700])
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(top)
         layout.addWidget(self.target_label)
@@ -689,11 +713,11 @@ class ComputePage(QtWidgets.QWizardPage):
         self.table.setRowCount(len(figures))
         previous = None
         for row, figure in enumerate(figures):
-            cells = [figure.group if figure.group != previous else "", figure.label, figure.text(), figure.status]
+            cells = [figure.group if figure.group != previous else "", figure.label, figure.text()]
             previous = figure.group
             for column, text in enumerate(cells):
                 item = QtWidgets.QTableWidgetItem(text)
-                item.setToolTip(figure.name)
+                item.setToolTip(f"{figure.name}: {figure.status}")
                 if column == 2:
                     item.setTextAlignment(QtCore.Qt.AlignmentFlag.AlignRight | QtCore.Qt.AlignmentFlag.AlignVCenter)
                 self.table.setItem(row, column, item)

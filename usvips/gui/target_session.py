@@ -80,6 +80,8 @@ class TargetSession:
         self.sigma_px = 0.5
         #: known housing values (phase 2): symbol → (value, σ or None to hold it fixed), both cameras
         self.known: dict[str, tuple[float, float | None]] = {}
+        #: phase 2: the cameras did not move since the phase-1 images (a tank or a pool): poses held
+        self.cameras_unmoved = False
         self.views: boards.BoardViews | None = None
         self.ticked: dict[str, bool] = {}
         self.result: boards.BoardCalibration | None = None
@@ -234,9 +236,10 @@ class TargetSession:
         phase = "water" if self.water else "air"
         base = self.base() if self.water else None
         housing, holdout = self.housing, self.holdout
-        options = CalibrationOptions(sigma_px=self.sigma_px, **known_options(self.known if self.water else {}))
+        options = self.calibration_options()
         source = {"target": self.target_source,
-                  **({"video": self.video} if self.source == "video" else
+                  **({"video": self.video, "every": self.every, "max_views": self.max_views}
+                     if self.source == "video" else
                      {"images": [p for pair in self.pairs for p in pair]})}
 
         def run(progress=None, cancelled=None) -> boards.BoardCalibration:
@@ -244,6 +247,14 @@ class TargetSession:
                                           holdout=holdout, options=replace(options, cancelled=cancelled),
                                           source=source)
         return run
+
+    def calibration_options(self) -> CalibrationOptions:
+        """The options of the calibration: the pointing σ and, for phase 2, the known housing values and
+        whether the cameras stayed where phase 1 saw them."""
+        if not self.water:
+            return CalibrationOptions(sigma_px=self.sigma_px)
+        return CalibrationOptions(sigma_px=self.sigma_px, cameras_unmoved=self.cameras_unmoved,
+                                  **known_options(self.known))
 
     def set_result(self, result: boards.BoardCalibration) -> None:
         self.result = result

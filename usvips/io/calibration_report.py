@@ -30,8 +30,10 @@ from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 
 from usvips import __version__
+from usvips.core.calibration.figures import parameter_table
 from usvips.core.calibration.model import StereoModel
 from usvips.core.calibration.uncertainty import intersect_with_calibration
+from usvips.core.calibration_views import DEFAULT_GRID, covered_cells
 from usvips.core.errors import UsvipsError
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
@@ -77,7 +79,7 @@ class CheckPoints:
     sigma: np.ndarray
 
 
-def _resolve(recorded: str, base: Path | None) -> Path | str:
+def resolve_recorded(recorded: str, base: Path | None) -> Path | str:
     """A recorded data path, or why it is not read. A path inside a file is information, not an
     instruction: it is opened only inside the calibration file's own folder (as recorded relative to it,
     else by its name beside the file); an absolute path, one leading out of that folder (``../../etc/passwd``)
@@ -101,24 +103,24 @@ def _resolve(recorded: str, base: Path | None) -> Path | str:
     return "not found beside the calibration file: not used in this report"
 
 
-def _sha256(path: Path) -> str:
+def sha256_of(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def find_data(calibration: StereoCalibration, calibration_path: str | Path | None) -> ReportData:
     """Control and observations of the calibration's ``source``, read only inside the calibration file's
-    folder (:func:`_resolve`); the others are listed with why they were not read."""
+    folder (:func:`resolve_recorded`); the others are listed with why they were not read."""
     base = Path(calibration_path).parent if calibration_path else None
     files, control, observations = [], None, None
     for role in ("control", "observations", "base"):
         recorded = calibration.source.get(role)
         if not isinstance(recorded, str):
             continue
-        path = _resolve(recorded, base)
+        path = resolve_recorded(recorded, base)
         if isinstance(path, str):
             files.append((role, recorded, path))
             continue
-        files.append((role, str(path), _sha256(path)))
+        files.append((role, str(path), sha256_of(path)))
         if role == "control":
             control = read_control(path)
         elif role == "observations":
@@ -193,6 +195,12 @@ def _summary_lines(calibration: StereoCalibration, data: ReportData, calibration
         if key in stats:
             value = stats[key]
             lines.append(f"{label}: {value:.4g}{unit}" if isinstance(value, float) else f"{label}: {value}{unit}")
+    estimation = stats.get("estimation")
+    if isinstance(estimation, dict) and estimation.get("estimator"):
+        lines.append(f"estimator        : {estimation['estimator']}"
+                     + (f" (tuning {estimation['tuning']:g}, robust scale {estimation['robust_scale']:.3g})"
+                        if isinstance(estimation.get("tuning"), float | int)
+                        and isinstance(estimation.get("robust_scale"), float | int) else ""))
     test = stats.get("global_test")
     if isinstance(test, dict) and "chi2" in test:
         passed = test.get("accepted_95")
@@ -210,7 +218,7 @@ def _summary_lines(calibration: StereoCalibration, data: ReportData, calibration
         lines.append(f"   {item.get('point')} {item.get('side')} {item.get('coordinate')} pair {item.get('group')}: "
                      f"{item.get('reason', '')}"[:110])
     lines += ["", "DATA USED AND PROVENANCE"]
-    if not data.files:
+    if not data.files and not calibration.source:
         lines.append("  the calibration records no data files (e.g. imported from OpenCV)")
     for role, recorded, digest in data.files:
         lines.append(f"  {role:<13}: {recorded}")
@@ -228,8 +236,22 @@ def _summary_lines(calibration: StereoCalibration, data: ReportData, calibration
     return lines
 
 
+def _figure_lines(calibration: StereoCalibration) -> list[str]:
+    """The figures a colleague checks first (:func:`~usvips.core.calibration.figures.parameter_table`):
+    value ± sigma with units, grouped by camera, rig and housing."""
+    lines, group = [], None
+    for figure in parameter_table(calibration):
+        if figure.group != group:
+            lines += ["", figure.group.upper()]
+            group = figure.group
+        lines.append(f"  {figure.label[:44]:<46}{figure.text()}")
+    return lines
+
+
 def _parameter_lines(calibration: StereoCalibration) -> list[str]:
-    lines = [f"{'parameter':<22}{'value':>20}{'sigma':>14}  {'unit':<5}{'status':<8}", "-" * 72]
+    lines = _figure_lines(calibration)[1:] + ["", "EVERY PARAMETER (the exterior of every station included)",
+                                              f"{'parameter':<22}{'value':>20}{'sigma':>14}  {'unit':<5}{'status':<8}",
+                                              "-" * 72]
     for name, estimate in calibration.parameters.items():
         unit = UNITS.get(name.split("@")[0].rsplit("_", 1)[0] if "_" in name.split("@")[0] else name.split("@")[0],
                          "")
@@ -337,6 +359,142 @@ def _histogram_page(pdf: PdfPages, calibration: StereoCalibration, residuals: Re
     pdf.savefig(figure)
 
 
+def _views_page(pdf: PdfPages, calibration: StereoCalibration, observations: StereoObservations,
+                residuals: Residuals | None) -> None:
+    """The views: per camera the coverage map (views per grid cell, with its colour scale) with every
+    view's points on it, and a table of the views (points, fitted or held out, reprojection RMS)."""
+    validation = calibration.statistics.get("validation") or {}
+    held = set((validation.get("held_out") or {}).get("views") or [])
+    held_rms = (validation.get("held_out") or {}).get("rms_px_by_view") or {}
+    width = calibration.left.width or float(np.nanmax(observations.left[:, 0])) + 1
+    height = calibration.left.height or float(np.nanmax(observations.left[:, 1])) + 1
+    labels = list(dict.fromkeys(observations.pairs)) if observations.pairs else list(calibration.stations[:1])
+    cols, rows = DEFAULT_GRID
+    figure = Figure(figsize=A4)
+    figure.text(0.07, 0.96, "Views and their coverage", fontsize=13, weight="bold")
+    figure.text(0.07, 0.945, f"{len(labels)} views ({len(held)} held out for validation). Colour: how many views "
+                f"cover each cell of a {cols} × {rows} grid (a cell is {width / cols:.0f} × {height / rows:.0f} px); "
+                "dots: the points\nobserved (black: fitted views, orange: held out). Axes in pixels of the image "
+                f"({width} × {height} px, y down).", fontsize=8, va="top")
+    for column, (side, name) in enumerate((("left", "left"), ("right", "right"))):
+        counts = np.zeros((rows, cols))
+        axes = figure.add_axes((0.08 + 0.47 * column, 0.6, 0.33, 0.3))
+        for label in labels:
+            view = observations.pair(label) if observations.pairs else observations
+            pixels = getattr(view, side)
+            for cell in covered_cells(pixels, (width, height), (cols, rows)):
+                counts.flat[cell] += 1
+            colour = "tab:orange" if label in held else "k"
+            axes.plot(pixels[:, 0], pixels[:, 1], ".", color=colour, markersize=1.2)
+        image = axes.imshow(counts, extent=(-0.5, width - 0.5, height - 0.5, -0.5), cmap="viridis",
+                            vmin=0, vmax=max(counts.max(), 1), alpha=0.75, interpolation="nearest")
+        axes.set_xlim(-0.5, width - 0.5)
+        axes.set_ylim(height - 0.5, -0.5)
+        axes.set_title(f"{name} image: {100 * np.mean(counts > 0):.0f} % of the cells covered", fontsize=8)
+        axes.set_xlabel("x (px)", fontsize=7)
+        axes.set_ylabel("y (px)", fontsize=7)
+        axes.tick_params(labelsize=6)
+        bar = figure.colorbar(image, ax=axes, fraction=0.046, pad=0.02)
+        bar.set_label("views per cell", fontsize=7)
+        bar.ax.tick_params(labelsize=6)
+    fitted_rms: dict[str, float] = {}
+    if residuals is not None:
+        for label in labels:
+            chosen = np.array([s == label for s in residuals.station]) & residuals.used
+            values = residuals.residual[chosen]
+            if len(values):
+                fitted_rms[label] = float(np.sqrt(np.nanmean(values ** 2)))
+    lines = [f"{'view':<24}{'points':>8}  {'role':<10}{'RMS (px)':>10}", "-" * 56]
+    for label in labels:
+        view = observations.pair(label) if observations.pairs else observations
+        role = "held out" if label in held else "fitted"
+        rms = held_rms.get(label) if label in held else fitted_rms.get(label)
+        lines.append(f"{label[:23]:<24}{len(view.ids):>8}  {role:<10}" + (f"{rms:>10.3f}" if rms is not None else
+                                                                          f"{'—':>10}"))
+    lines += ["", "RMS per coordinate: a fitted view's from the adjustment's residuals, a held-out view's after "
+              "resecting its pose", "with the calibrated rig held fixed."]
+    figure.text(0.07, 0.53, "\n".join(lines[:70]), family="monospace", fontsize=7, va="top")
+    pdf.savefig(figure)
+
+
+def _number(value, spec: str = ".2f") -> str:
+    """A figure of the report's dictionaries, or a dash where it is missing or not finite."""
+    return format(value, spec) if isinstance(value, float | int) and np.isfinite(value) else "—"
+
+
+def _bin_row(b: dict) -> str:
+    if not b.get("count"):
+        return f"{'none':>34}"
+    return (f"{b['count']:>6}{1000 * b['rms_m']:>10.2f}{100 * b['rms_relative']:>9.2f}"
+            f"{1000 * b['mean_m']:>+10.2f}")
+
+
+def _validation_page(pdf: PdfPages, validation: dict, calibration: StereoCalibration) -> None:
+    """Held-out views against fitted ones: reprojection, known distances by range (table and chart), and
+    OpenCV's solution of the same views beside ours (in air)."""
+    fitted, held = validation.get("fitted") or {}, validation.get("held_out") or {}
+    figure = Figure(figsize=A4)
+    figure.text(0.07, 0.96, "Validation: views held out, measured with the calibration", fontsize=13,
+                weight="bold")
+    lines = [f"views fitted   : {len(fitted.get('views') or [])}",
+             f"views held out : {len(held.get('views') or [])} ({', '.join(held.get('views') or [])})"[:110],
+             f"reprojection RMS: fitted {fitted.get('rms_px', float('nan')):.3f} px, held out "
+             f"{held.get('rms_px', float('nan')):.3f} px (held-out poses resected with the rig held fixed)", "",
+             "KNOWN DISTANCES BY RANGE (estimated − true; adjacent points and the diagonal of each view)",
+             f"{'kind':<10}{'range (m)':<13}{'fitted: n':>10}{'RMS mm':>10}{'RMS %':>9}{'mean mm':>10}"
+             f"{'  held out: n':>14}{'RMS mm':>10}{'RMS %':>9}{'mean mm':>10}"]
+    for kind in ("adjacent", "diagonal"):
+        for a, b in zip(fitted.get(kind) or [], held.get(kind) or [], strict=False):
+            lines.append(f"{kind:<10}{a['low']:.2f}–{a['high']:.2f}{'':<4}{_bin_row(a)}    {_bin_row(b)}")
+    honesty = validation.get("honesty")
+    if isinstance(honesty, dict):
+        low, high = (list(honesty.get("interval_95") or []) + [None, None])[:2]
+        r_low, r_high = (list(honesty.get("reprojection_interval_95") or []) + [None, None])[:2]
+        lines += ["", "HONESTY OF THE STATED SIGMAS ON THE HELD-OUT VIEWS (NEES: 1 when they hold)",
+                  f"  known distances: NEES {_number(honesty.get('distance_nees'))} over "
+                  f"{honesty.get('distances')} distances in {honesty.get('views')} views (95 % interval "
+                  f"{_number(low)}-{_number(high)})",
+                  f"  reprojections  : NEES {_number(honesty.get('reprojection_nees'))} over "
+                  f"{honesty.get('reprojection_dof')} degrees of freedom ({_number(r_low)}-{_number(r_high)})",
+                  f"  covariance scale factor: {_number(honesty.get('covariance_factor'), '.3g')}"
+                  + (" (applied: every sigma of this calibration is scaled by its square root)"
+                     if honesty.get("scaled") else " (not applied)")]
+        for why in honesty.get("why") or []:
+            lines += textwrap.wrap(f"  {why}", 100)
+    opencv, ours = validation.get("opencv"), validation.get("ours") or {}
+    lines += ["", "OPENCV BESIDE OURS (stereoCalibrate on the fitted views, its default five-term distortion)"]
+    if opencv:
+        lines += [f"{'':<14}{'f left (px)':>13}{'f right (px)':>14}{'baseline (mm)':>15}{'RMS (px)':>10}",
+                  f"{'OpenCV':<14}{opencv['f_l']:>13.2f}{opencv['f_r']:>14.2f}{1000 * opencv['baseline_m']:>15.2f}"
+                  f"{opencv['rms_px']:>10.3f}",
+                  f"{'USVIPS':<14}{ours.get('f_l', float('nan')):>13.2f}{ours.get('f_r', float('nan')):>14.2f}"
+                  f"{1000 * ours.get('baseline_m', float('nan')):>15.2f}{ours.get('rms_px', float('nan')):>10.3f}"]
+        sigma = {f.name: f.sigma for f in parameter_table(calibration)}
+        if all(sigma.get(name) is not None for name in ("f_l", "f_r", "baseline")):
+            lines.append(f"{'  its sigma':<14}{sigma['f_l']:>13.2f}{sigma['f_r']:>14.2f}"
+                         f"{1000 * sigma['baseline']:>15.2f}")
+    else:
+        lines.append("  not computed (underwater, a 3-D target, or no image size)")
+    for note in validation.get("notes") or []:
+        lines += textwrap.wrap(f"note: {note}", 100)
+    figure.text(0.07, 0.93, "\n".join(lines), family="monospace", fontsize=7, va="top")
+    for k, kind in enumerate(("adjacent", "diagonal")):
+        axes = figure.add_axes((0.1 + 0.45 * k, 0.1, 0.36, 0.24))
+        bins = fitted.get(kind) or []
+        centres = np.arange(len(bins))
+        for offset, (name, figures, colour) in enumerate((("fitted", bins, "tab:blue"),
+                                                          ("held out", held.get(kind) or [], "tab:orange"))):
+            values = [1000 * b["rms_m"] if b.get("count") else np.nan for b in figures]
+            axes.bar(centres[:len(values)] + 0.4 * offset - 0.2, values, width=0.38, color=colour, label=name)
+        axes.set_xticks(centres, [f"{b['low']:.2f}–{b['high']:.2f}" for b in bins], fontsize=6)
+        axes.set_xlabel("range from the left camera (m)", fontsize=7)
+        axes.set_ylabel("RMS length error (mm)", fontsize=7)
+        axes.set_title(f"{kind} distances", fontsize=8)
+        axes.tick_params(labelsize=6)
+        axes.legend(fontsize=6)
+    pdf.savefig(figure)
+
+
 def _check_lines(checks: CheckPoints | None, reason: str) -> list[str]:
     if checks is None:
         return [reason]
@@ -373,7 +531,10 @@ def write_calibration_report(calibration: StereoCalibration, out: str | Path,
     if data.control is not None and data.observations is not None and calibration.parameters:
         residuals = calibration_residuals(calibration, data.control, data.observations)
     else:
-        residual_note = "the calibration's control and observations were not found: no residual plots"
+        unread = [f"{role} {recorded}: {why}" for role, recorded, why in data.files
+                  if not (len(why) == 64 and all(c in "0123456789abcdef" for c in why))]
+        residual_note = ("the calibration's control and observations were not found: no residual plots"
+                         + (f" ({'; '.join(unread[:3])})" if unread else ""))
     checks, check_reason = None, "No check points given (usvips calibration report ... --check OBS.csv)."
     if check is not None:
         control = read_control(check_control) if check_control else data.control
@@ -391,6 +552,10 @@ def write_calibration_report(calibration: StereoCalibration, out: str | Path,
         _text_page(pdf, "Parameters (seeds' symbols; _l left, _r right, @pair further stations)",
                    _parameter_lines(calibration))
         _correlation_page(pdf, calibration)
+        if data.observations is not None and "target" in calibration.source:
+            _views_page(pdf, calibration, data.observations, residuals)
+        if isinstance(calibration.statistics.get("validation"), dict):
+            _validation_page(pdf, calibration.statistics["validation"], calibration)
         if residuals is not None:
             _residual_pages(pdf, calibration, residuals)
             _histogram_page(pdf, calibration, residuals)

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from usvips.core import housing as housings
-from usvips.core.adjustment import ALPHA0, Adjustment, Parameter, PriorGroup, adjust
+from usvips.core.adjustment import ALPHA0, GROSS, Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.control_blunders import ControlBlunder, demote_control_blunders, is_control_coordinate
 from usvips.core.calibration.figures import baseline_sigma
 from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
@@ -61,11 +61,14 @@ DEFAULT_HOUSING = {name: housings.kind(name).priors() for name in housings.water
 class CalibrationOptions:
     """free / fix: parameter names (or seeds' symbols applying to both cameras, e.g. ``k2``); fix_values
     and priors: name → value and name → (value, sigma); sigma_px: a-priori pointing precision (px);
-    interior: ``fixed`` or ``weighted`` (phase 2); robust, snooping: blunder handling; control_exact: the
-    target's geometry is exact by construction (a printed board: ``CalibrationTarget.exact``), so its
-    control coordinates are not searched for misprints (:mod:`.control_blunders`); data snooping of the
-    image observations still runs. cancelled: asked before each iteration of the adjustment (True stops
-    the calibration with :class:`InterruptedError`; the window's Stop).
+    interior: ``fixed`` or ``weighted`` (phase 2); robust, snooping: blunder handling of least squares;
+    control_exact: the target's geometry is exact by construction (a printed board:
+    ``CalibrationTarget.exact``), so its control coordinates are not searched for misprints
+    (:mod:`.control_blunders`); estimator: ``least squares`` (a robust start, then Baarda's data snooping),
+    ``huber`` (M-estimation: heavy-tailed noise down-weighted, gross errors set aside and named;
+    :func:`usvips.core.adjustment.adjust`) or ``auto``: :func:`estimator_for`. cancelled: asked before each
+    iteration of the adjustment (True stops the calibration with :class:`InterruptedError`; the window's
+    Stop).
 
     Phase 2 only: ``cameras_unmoved``: the cameras did not move between the air and the water images (a
     target photographed in a tank before and after filling it, through its wall): each view's poses are
@@ -85,11 +88,12 @@ class CalibrationOptions:
     robust: bool = True
     snooping: bool = True
     control_exact: bool = False
+    estimator: str = "auto"
     image_size: tuple[int | None, int | None] = (None, None)
+    cancelled: Callable[[], bool] | None = None
     cameras_unmoved: bool = False
     air_through_glass: bool = True
     housing_geometry: dict[str, tuple[float, float | None]] = field(default_factory=dict)
-    cancelled: Callable[[], bool] | None = None
 
 
 @dataclass
@@ -174,14 +178,33 @@ def _snoop_unit(model: StereoModel):
     return unit
 
 
+#: the estimators a calibration may ask for (``auto``: :func:`estimator_for`)
+CALIBRATION_ESTIMATORS = ("auto", "least squares", "huber")
+
+
+def estimator_for(options: CalibrationOptions) -> str:
+    """The estimator of a calibration: the one asked for, or for ``auto`` the M-estimator (``huber``) when
+    the target's geometry is exact (a printed board: hundreds to thousands of corners found by a detector,
+    whose errors have heavier tails than a Gaussian, and no control coordinate to doubt), else least
+    squares with data snooping (a target field measured by hand: tens of observations, too few for a
+    robust scale, and misprinted control found through the tau tests, :mod:`.control_blunders`)."""
+    if options.estimator not in CALIBRATION_ESTIMATORS:
+        raise InvalidParameterError("estimator", f"must be one of {', '.join(CALIBRATION_ESTIMATORS)}, got "
+                                    f"{options.estimator!r}")
+    if options.estimator != "auto":
+        return options.estimator
+    return "huber" if options.control_exact else "least squares"
+
+
 def _solve(model: StereoModel, parameters: list[Parameter], options: CalibrationOptions, phase: str,
            source: dict) -> CalibrationResult:
     require_unknowns(parameters)
     problem = model.problem(parameters)
+    estimator = estimator_for(options)
     adjustment = adjust(problem, robust=options.robust, snooping=options.snooping, snoop_unit=_snoop_unit(model),
-                        cancelled=options.cancelled)
+                        estimator=estimator, cancelled=options.cancelled)
     blunders: list[ControlBlunder] = []
-    if options.snooping and not options.control_exact:
+    if options.snooping and not options.control_exact and estimator == "least squares":
         model, parameters, adjustment, blunders = demote_control_blunders(model, parameters, adjustment, options.robust,
                                                                           _snoop_unit)
         problem = model.problem(parameters)
@@ -201,7 +224,7 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
                   "converged": adjustment.converged, "global_test": adjustment.global_test,
                   "excluded": [dict(s.__dict__) for s in adjustment.excluded], "sigma_px_a_priori": options.sigma_px,
                   "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adjustment.on_bound],
-                  "control_blunders": [b.as_dict() for b in blunders]}
+                  "control_blunders": [b.as_dict() for b in blunders], "estimation": adjustment.estimation}
     calibration = StereoCalibration(
         left, right, model.stations, tuple(poses), relative_orientation(left.exterior, right.exterior), phase,
         max(sigma0_px, 1e-12), estimates, (tuple(adjustment.covariance_names), adjustment.covariance),
@@ -330,6 +353,8 @@ def build_report(result: CalibrationResult) -> dict:
                      "range, so the housing model or its priors do not fit the data there; its sigma (and those of "
                      "the parameters correlated with it) assume an interior minimum and understate the doubt.")
     notes += [blunder.message for blunder in result.control_blunders]
+    if adj.estimation.get("estimator") == "huber":
+        notes.append(estimation_note(adj.estimation, len(obs)))
     if adj.model_doubt:
         notes.append(adj.model_doubt)
     interior = [n for n, p in cal.parameters.items() if symbol(n) in INTERIOR_PARAMETERS and "@" not in n]
@@ -358,8 +383,19 @@ def build_report(result: CalibrationResult) -> dict:
         "control_blunders": [b.as_dict() for b in result.control_blunders],
         "suspects": [{"id": s.point, "side": s.side, "coordinate": s.coordinate, "station": s.group, "w": s.w,
                       "residual_px": s.residual, "mdb_px": s.mdb, "reason": s.reason} for s in adj.suspects],
-        "global_test": adj.global_test, "residuals": residuals, "notes": notes,
+        "global_test": adj.global_test, "residuals": residuals, "notes": notes, "estimation": adj.estimation,
     }
+
+
+def estimation_note(estimation: dict, observations: int) -> str:
+    """One line on an M-estimated calibration (:func:`usvips.core.adjustment.adjust`, ``huber``): how many
+    observations were down-weighted and set aside, and what its sigma0 and covariance mean."""
+    ratio = estimation["parameter_variance_factor"] / max(estimation["noise_variance_factor"], 1e-300)
+    return (f"robust estimation (Huber M-estimator, k = {estimation['tuning']:g} robust sigmas): "
+            f"{100 * estimation['down_weighted']:.1f} % of the kept image coordinates down-weighted (the heavy tails "
+            f"of clean noise), {estimation['gross_errors']} of {observations} set aside as gross errors (over "
+            f"{GROSS:g} robust sigmas); sigma0 is the standard deviation of one coordinate's error, the parameters' "
+            f"covariance the M-estimate's ({ratio:.2f} times least squares' for these residuals).")
 
 
 def _interior_from_dlt(starts: dict, side: str) -> dict[str, float]:

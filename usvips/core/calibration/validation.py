@@ -10,7 +10,14 @@ is calibrated on the rest; then, for the held-out views and beside them for the 
 * the error of known target distances (adjacent points, and the diagonal: the two points of each view
   farthest apart on the target) intersected with the calibration, in metres, by range bins (the
   distance of the pair's midpoint from the left perspective centre), so that a user sees how the error
-  grows with range.
+  grows with range;
+* whether the calibration's stated uncertainty holds on what it never saw (:func:`held_out_view`): the mean
+  squared normalised error (NEES) of the held-out reprojections (residuals over sigma0, per degree of
+  freedom) and of the held-out known distances (error over the sigma the calibration gives the length:
+  the corners' pointing at sigma0 and the calibration's own covariance, correlated between the two
+  corners), with their 95 % sampling intervals; where they depart from 1 beyond them, the calibration's
+  sigma0 and covariance are scaled by variance components estimated from the held-out views, and the
+  calibration and its report say so (:mod:`.honesty`).
 
 For in-air boards :func:`opencv_stereo` solves the same fitted views with OpenCV's ``stereoCalibrate``
 (its default five-term distortion) so that its focal lengths, baseline and RMS can stand beside ours.
@@ -27,6 +34,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from usvips.core.adjustment import GROSS
+from usvips.core.calibration.honesty import HeldOutView, Honesty, apply_honesty, variance_components
 from usvips.core.calibration.planar import PlaneFrame, resect_views
 from usvips.core.camera import EXTERIOR_PARAMETERS, Exterior
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
@@ -92,7 +101,8 @@ class ViewFigures:
 @dataclass
 class Validation:
     """Held-out views against fitted ones (module docstring); ``opencv``: OpenCV's solution of the fitted
-    views beside ours (in-air boards), or None."""
+    views beside ours (in-air boards), or None; ``honesty``: the NEES figures and the variance scale
+    applied (:class:`Honesty`), or None when no held-out distance could be measured."""
 
     held_out: ViewFigures
     fitted: ViewFigures
@@ -100,10 +110,12 @@ class Validation:
     opencv: dict | None = None
     ours: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    honesty: Honesty | None = None
 
     def as_dict(self) -> dict:
         return {"held_out": self.held_out.as_dict(), "fitted": self.fitted.as_dict(), "ours": self.ours,
-                "opencv": self.opencv, "notes": list(self.notes)}
+                "opencv": self.opencv, "notes": list(self.notes),
+                "honesty": self.honesty.as_dict() if self.honesty is not None else None}
 
     def lines(self) -> list[str]:
         """The validation as a user reads it (one figure a line)."""
@@ -120,6 +132,8 @@ class Validation:
             out.append(f"  OpenCV stereoCalibrate on the fitted views: f {o['f_l']:.2f} / {o['f_r']:.2f} px, baseline "
                        f"{o['baseline_m'] * 1000:.2f} mm, RMS {o['rms_px']:.3f} px; ours: f {u['f_l']:.2f} / "
                        f"{u['f_r']:.2f} px, baseline {u['baseline_m'] * 1000:.2f} mm, RMS {u['rms_px']:.3f} px")
+        if self.honesty is not None:
+            out += self.honesty.lines()
         out += [f"  {note}" for note in self.notes]
         return out
 
@@ -218,6 +232,51 @@ def _bins(ranges: np.ndarray, errors: np.ndarray, lengths: np.ndarray, edges: np
     return out
 
 
+# ------------------------------------------------------------------------------------------ honesty
+def held_out_view(calibration: StereoCalibration, control: ControlPoints, view: StereoObservations,
+                  residuals: np.ndarray) -> HeldOutView:
+    """One held-out view's figures for :func:`~usvips.core.calibration.honesty.variance_components`:
+    Σ v² / sigma0² of its reprojection ``residuals`` ((N, 4) from :func:`resect_with_rig`) and its degrees
+    of freedom; each known distance's error (metres) and the pointing and calibration parts of its variance
+    (m²; intersected in the rig frame, the calibration's covariance correlating the two corners). A corner
+    reprojected more than :data:`~usvips.core.adjustment.GROSS` sigma0 off (a detector's blunder, as the
+    adjustment sets aside) is left out of both."""
+    from usvips.core.calibration.uncertainty import intersect_with_calibration, joint_covariance
+
+    sigma = calibration.sigma0_px
+    keep = np.all(np.abs(residuals) < GROSS * sigma, axis=1)
+    dof = 4 * int(keep.sum()) - 6
+    gross = int((~keep).sum())
+    empty = np.zeros(0)
+    if dof <= 0:
+        return HeldOutView(0.0, 0, empty, empty, empty, gross)
+    rows = np.flatnonzero(keep)
+    left, right = view.left[rows], view.right[rows]
+    result, covariance = joint_covariance(calibration, left, right, 0, "rig")
+    pointing = intersect_with_calibration(calibration, left, right, 0, "rig", include_calibration=False).covariance
+    ids = tuple(view.ids[r] for r in rows)
+    xyz = control.xyz[control.index_of(list(ids), "observation")]
+    adjacent, diagonal = known_pairs(control, ids)
+    errors, points, parts = [], [], []
+    for a, b in adjacent + [diagonal]:
+        if a == b or not (result.ok[a] and result.ok[b]):
+            continue
+        difference = result.points[a] - result.points[b]
+        length = float(np.linalg.norm(difference))
+        unit = difference / max(length, 1e-300)
+        index = np.r_[3 * a:3 * a + 3, 3 * b:3 * b + 3]
+        gradient = np.concatenate([unit, -unit])
+        total = float(gradient @ covariance[np.ix_(index, index)] @ gradient)
+        own = float(unit @ pointing[a] @ unit + unit @ pointing[b] @ unit)
+        if total > 0 and own > 0:
+            errors.append(length - float(np.linalg.norm(xyz[a] - xyz[b])))
+            points.append(own)
+            parts.append(max(total - own, 0.0))
+    normalised = residuals[keep] / sigma
+    return HeldOutView(float(np.sum(normalised**2)), dof, np.array(errors), np.array(points), np.array(parts), gross,
+                       float(np.sum(normalised**4)), int(normalised.size))
+
+
 # ------------------------------------------------------------------------------------------ OpenCV
 def opencv_stereo(control: ControlPoints, observations: StereoObservations,
                   image_size: tuple[int, int]) -> dict:
@@ -272,9 +331,11 @@ def validate(control: ControlPoints, observations: StereoObservations, share: fl
         if row["used"]:
             fitted_rms.setdefault(row["station"], []).extend([row["vx"] ** 2, row["vy"] ** 2])
     held_rms: dict[str, list[float]] = {}
+    held_residuals = []
     for label in held_obs.pair_labels:
         _, residuals = resect_with_rig(calibration, control, held_obs.pair(label))
         held_rms[label] = (residuals.reshape(-1) ** 2).tolist()
+        held_residuals.append(residuals)
     figures = {}
     for name, obs in (("fitted", fitted_obs), ("held", held_obs)):
         parts = [_distance_errors(calibration, control, obs.pair(label)) for label in obs.pair_labels]
@@ -294,6 +355,11 @@ def validate(control: ControlPoints, observations: StereoObservations, share: fl
     validation = Validation(view_figures("held", held_obs.pair_labels, held_rms),
                             view_figures("fitted", fitted_obs.pair_labels, fitted_rms), result)
     validation.ours = _ours(calibration, validation.fitted.rms_px)
+    validation.honesty = variance_components(
+        [held_out_view(calibration, control, held_obs.pair(label), residuals)
+         for label, residuals in zip(held_obs.pair_labels, held_residuals, strict=True)], seed)
+    if validation.honesty is not None:
+        apply_honesty(result, validation.honesty)
     if compare_opencv:
         if not (image_size[0] and image_size[1]):
             raise InvalidParameterError("--image-size", "OpenCV's comparison needs the image size")
