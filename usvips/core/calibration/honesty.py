@@ -109,12 +109,16 @@ class Honesty:
         out = [f"  honesty on held-out views (NEES 1: the stated sigmas hold): known distances "
                f"{self.distance_nees:.2f} over {self.distances} in {self.views} views (95 % interval "
                f"{low:.2f}-{high:.2f}; the calibration's "
-               f"share of their variance {100 * self.calibration_share:.0f} %), reprojections "
+               f"share of their variance {_percent(self.calibration_share)}), reprojections "
                f"{self.reprojection_nees:.2f} over {self.reprojection_dof} degrees of freedom "
                f"({r_low:.2f}-{r_high:.2f})"
                + (f"; {self.gross} held-out corners set aside as gross errors" if self.gross else "")]
         out += [f"  {line}" for line in self.why]
         return out
+
+
+def _percent(share: float) -> str:
+    return "under 1 %" if share < 0.01 else f"{100 * share:.0f} %"
 
 
 def _finite(value):
@@ -249,7 +253,7 @@ def variance_components(views: list[HeldOutView], seed: int = 0) -> Honesty | No
                    f"{b_interval[0]:.2f}-{b_interval[1]:.2f})")
     elif departs or not interval[0] <= nees / with_pointing <= interval[1]:
         why.append(f"the held-out distances' NEES is {with_pointing:.2f} with that sigma0, but the calibration's "
-                   f"part is {100 * share:.0f} % of their variance and cannot be told from them: the departure lies in "
+                   f"part is {_percent(share)} of their variance and cannot be told from them: the departure lies in "
                    "the corners' pointing, not the calibration (e.g. a detector's neighbouring corners' errors "
                    "correlate, so that a short distance varies less than two independent corners would); the "
                    "calibration's covariance is kept")
