@@ -105,3 +105,23 @@ def test_the_summary_counts_in_words_for_one_object_and_one_note():
     note = Issue("1", "species", NOTE, None, None, "1", "length", "", Place(), "not in the species list")
     assert summary(QualityReport((failure, note), 1)) == "1 object checked: 1 breaks a rule (1 note)"
     assert summary(QualityReport((failure,), 3)) == "3 objects checked: 1 breaks a rule"
+
+
+def test_the_calculator_review_and_qa_panel_give_one_verdict_per_object(survey, qtbot):
+    """The geo-calculator said "passes the rules" of a fish the QA panel listed over its species maximum:
+    every place that shows a verdict now asks the one function (app.quality.judge)."""
+    from usvips.gui.calculator_panel import CalculatorPanel
+
+    ws, ids = survey
+    model = QaModel(ws)
+    model.refresh_now()
+    panel = CalculatorPanel(ws)
+    qtbot.addWidget(panel)
+    failing = {row.object_id for row in model.rows if row.failure}
+    for name in ("good", "too long", "rms", "no maximum"):
+        ws.select([ids[name]])
+        qtbot.waitUntil(lambda: "quality:" in panel.output.toPlainText(), timeout=10000)
+        verdict = next(line for line in panel.output.toPlainText().splitlines() if line.startswith("quality:"))
+        assert (verdict == "quality: passes the rules") == (ids[name] not in failing), (name, verdict)
+    ws.select([ids["too long"]])
+    qtbot.waitUntil(lambda: "maximum" in panel.output.toPlainText(), timeout=10000)

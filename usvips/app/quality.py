@@ -171,11 +171,28 @@ def fact_issues(weak: tuple[tuple[int, WeakMatch], ...], m: Measurement | None,
     return found
 
 
-def object_facts(stored: StoredObject, m: Measurement | None, rules: QualityRules | None = None) -> list[str]:
-    """What the weak-match and geometry rules say of one object, one line each (the window's readout and
-    review mode; empty when it passes both)."""
-    return [f"{RULE_NAMES[rule]}: {message}" for rule, _, _, _, message
-            in fact_issues(weak_vertices(stored), m, rules or QualityRules())]
+def judge(stored: StoredObject, m: Measurement | None, rules: QualityRules | None = None,
+          record: ObservationRecord | None = None, species: dict[str, Species] | None = None,
+          reason: str = "") -> tuple[Issue, ...]:
+    """THE verdict on one object: every rule it breaks (failures) or could not be checked against (notes)
+    — the precision rules, weak matches, implausible geometry and, with its observation ``record`` and the
+    project's ``species`` (:func:`species_maxima`), its species' maximum length. The QA report (:func:`check`
+    over a survey), the geo-calculator, the pick tool's message and review mode all come here, so that no
+    two places disagree about an object."""
+    item = Checked(str(stored.id), stored.kind, m, record, Place.of(stored), reason, weak_vertices(stored))
+    return check([item], rules, species).issues
+
+
+def object_facts(stored: StoredObject, m: Measurement | None, rules: QualityRules | None = None,
+                 record: ObservationRecord | None = None, species: dict[str, Species] | None = None) -> list[str]:
+    """The rules one object breaks (:func:`judge`), one line each ("rule: why"); empty when it passes them
+    all. Notes (a rule that could not be checked) are not listed: they are no failure."""
+    return [f"{i.rule_name}: {i.message}" if i.rule in NAMED_IN_FACTS else i.message
+            for i in judge(stored, m, rules, record, species) if i.status == FAIL]
+
+
+#: rules whose message does not say which rule it is (the precision rules' and the species rule's do)
+NAMED_IN_FACTS = ("weak_match", "geometry")
 
 
 def species_maxima(species: list[Species]) -> dict[str, Species]:

@@ -95,13 +95,14 @@ class CalculatorPanel(QtWidgets.QWidget):
         if result.measurement is not None and result.figures:  # one object: its sigma's breakdown and facts
             lines += ["", "sigma " + breakdown_text(result.measurement)]
             if len(self.selection) == 1 and self.selection[0] in self.workspace.cache:
-                facts = object_facts(self.workspace.stored_object(self.selection[0]), result.measurement,
-                                     self.workspace.rules)
+                object_id = self.selection[0]  # the one verdict (app.quality.judge), as the QA panel's
+                facts = object_facts(self.workspace.stored_object(object_id), result.measurement, self.workspace.rules,
+                                     self.workspace.object_record(object_id), self.workspace.species_maxima())
         if result.reason:
             lines.append(result.reason)
         if result.figures and not result.reason:
             lines.append("")
-            broken = [*result.failures, *facts]
+            broken = facts if len(self.selection) == 1 and result.measurement is not None else list(result.failures)
             lines.append("quality: " + ("; ".join(broken) if broken else "passes the rules"))
         if any(f.name in ("bearing", "slope") for f in result.figures):
             lines.append(f"bearing (clockwise from +Y towards +X) and slope (above the X–Y plane) are in "

@@ -539,8 +539,9 @@ class PickTool:
         main = result.figures[0] if result.figures and kind != "point" else None
         measured = result.measurement
         sigma = (" " + breakdown_text(measured).replace("\n", "; ")) if main and measured is not None else ""
-        facts = object_facts(project.object(holder["id"]), measured, self.scene.rules)
-        failures = list(result.failures) + facts
+        # the one verdict (no record yet: the species rule waits for the observation form's record)
+        failures = (object_facts(project.object(holder["id"]), measured, self.scene.rules) if measured is not None
+                    else list(result.failures))
         self.scene.message.emit("warning" if failures else "info",
                                 f"stored {kind} {holder['id']}" + (f": {format_figure(main)}{sigma}" if main else "")
                                 + (f" — quality: {'; '.join(failures)}" if failures else ""))

@@ -268,12 +268,13 @@ class ReviewDock(QtWidgets.QWidget):
         return "  ".join(p for p in parts if p) + f"  — {state}"
 
     def _facts(self, object_id: int) -> list[str]:
-        """What the weak-match and geometry rules say of the object (usvips.app.quality.object_facts)."""
+        """The rules the object breaks: the one verdict (usvips.app.quality.object_facts), as the QA panel's."""
         ws = self.workspace
         if object_id not in ws.cache:
             return []
         known = ws.object_figures(object_id)
-        return object_facts(ws.stored_object(object_id), known.measurement if known is not None else None, ws.rules)
+        return object_facts(ws.stored_object(object_id), known.measurement if known is not None else None, ws.rules,
+                            ws.object_record(object_id), ws.species_maxima())
 
     def _show(self) -> None:
         reviewed, total, flagged = self.model.counts()

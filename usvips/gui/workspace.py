@@ -22,6 +22,7 @@ import numpy as np
 
 from usvips.app.pair_geometry import PairGeometry, pair_geometry
 from usvips.app.project_figures import measurement_input, place_text
+from usvips.app.quality import species_maxima
 from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
@@ -405,6 +406,11 @@ class Workspace:
     def object_record(self, object_id: int) -> ObservationRecord | None:
         """A stored object's observation record (its species, number ...), from the cache."""
         return self.cache.record(object_id)
+
+    def species_maxima(self) -> dict:
+        """The project's species list by name, for the one verdict's species rule (read when asked: a list
+        imported meanwhile counts at once); {} without a project."""
+        return species_maxima(self.project.species_list()) if self.project is not None else {}
 
     @property
     def _calibrations(self) -> dict[int, StereoCalibration | None]:
