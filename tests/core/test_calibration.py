@@ -186,7 +186,7 @@ def test_exact_exterior_derivatives_match_differences(control, kind):
                       "b_r": h_right.b, "c_r": h_right.c, "t_r": 0.01, "d": 0.0, "e": 0.0,
                       "t": h_left.g - h_left.r + h_left.c, "n2": h_left.n2, "n3": h_left.n3})
         # the right glass thickness that gives the right sphere its radius under the shared plane
-        from usvips.core.calibration.model import build_housings
+        from usvips.core.calibration.parameter_names import build_housings
         truth["t_r"] = 0.01 + build_housings(kind, truth)[1].r - h_right.r
     from usvips.core.adjustment import Parameter
 

@@ -10,7 +10,8 @@ import pytest
 from tests.core.calibration_scenes import FLAT, LEFT, RIGHT, dome_housings, joined, observe
 from usvips.core.adjustment import Parameter, adjust
 from usvips.core.calibration.derivatives import stereo_derivatives
-from usvips.core.calibration.model import StereoModel, build_housings, housing_parameter_names
+from usvips.core.calibration.model import StereoModel
+from usvips.core.calibration.parameter_names import build_housings, housing_parameter_names
 from usvips.core.camera import Camera, Exterior
 from usvips.core.observations import ControlPoints
 from usvips.core.rig import RelativeOrientation, StereoRig

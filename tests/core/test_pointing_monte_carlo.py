@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from usvips.core import housing as housings
-from usvips.core.calibration.model import _exterior, stereo_cameras
+from usvips.core.calibration.model import stereo_cameras
+from usvips.core.calibration.parameter_names import exterior_of
 from usvips.core.camera import EXTERIOR_PARAMETERS, Exterior
 from usvips.core.interior import INTERIOR_PARAMETERS
 from usvips.core.measurements import measure_picks, vertex_covariance_parts
@@ -67,7 +68,7 @@ def _calibration(kind: str, values: dict[str, float], names: tuple[str, ...] | N
                  covariance: np.ndarray | None = None) -> StereoCalibration:
     left, right = stereo_cameras(kind, values, STATIONS, STATIONS[0], SIZE)
     estimates = {name: ParameterEstimate(value, None, "free") for name, value in values.items()}
-    return StereoCalibration(left, right, STATIONS, (left.exterior, _exterior(values, "l", "s1")),
+    return StereoCalibration(left, right, STATIONS, (left.exterior, exterior_of(values, "l", "s1")),
                              relative_orientation(left.exterior, right.exterior), "water", 0.06, estimates,
                              None if names is None else (names, covariance))
 

@@ -12,7 +12,8 @@ from tests.cli.test_secrets import SECRET, keeper  # noqa: F401 - a login with a
 from tests.cli.test_secrets import _url as _secret_url
 from tests.store import conftest as store_fixtures
 from tests.store.conftest import PASSWORD, PASSWORD_USER, database_url
-from usvips.store.opening import create_project, without_password
+from usvips.store.location import without_password
+from usvips.store.opening import create_project
 from usvips.store.records import Vertex
 
 postgres_server = store_fixtures.postgres_server  # the store tests' session server (started once, if asked)

@@ -6,14 +6,8 @@ from pathlib import Path
 import pytest
 
 from usvips.store import SCHEMA_VERSION, Project, ProjectError, Vertex, checks
-from usvips.store.opening import (
-    create_project,
-    is_server_location,
-    open_project,
-    public_location,
-    shown,
-    without_password,
-)
+from usvips.store.location import is_server_location, public_location, shown, without_password
+from usvips.store.opening import create_project, open_project
 from usvips.store.postgres import ServerProject
 
 

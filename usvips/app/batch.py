@@ -72,7 +72,8 @@ def export_project_task(project: str, out: str, opcode: str | None = None) -> di
     """Recompute the figures of every object of ``project`` (a .usvips file, opened read-only) and export
     them to ``out``. Returns {"objects": written, "skipped": [why, ...], "out": out}."""
     from usvips.app.project_export import export_project
-    from usvips.store.opening import is_server_location, open_project
+    from usvips.store.location import is_server_location
+    from usvips.store.opening import open_project
 
     skipped: list[str] = []
     if not is_server_location(project) and not Path(project).is_file():
@@ -87,7 +88,8 @@ def export_archive_task(project: str, out: str) -> dict:
     nothing: :func:`usvips.app.archive_export.export_archive_folder`; existing tables are never replaced).
     Returns {"files": written, "skipped": [why, ...], "out": out}."""
     from usvips.app.archive_export import export_archive_folder
-    from usvips.store.opening import is_server_location, open_project
+    from usvips.store.location import is_server_location
+    from usvips.store.opening import open_project
 
     skipped: list[str] = []
     local = None if is_server_location(project) else project

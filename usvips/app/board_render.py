@@ -26,7 +26,7 @@ import numpy as np
 
 from usvips.app.render import _publish
 from usvips.core import housing as housings
-from usvips.core.calibration.model import symbol
+from usvips.core.calibration.parameter_names import symbol
 from usvips.core.calibration_targets import CalibrationTarget
 from usvips.core.camera import Camera
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError

@@ -11,7 +11,7 @@ from pathlib import Path
 from usvips.app.samples import open_or_create_from_manifest
 from usvips.core.errors import InputFileError
 from usvips.store.interface import ProjectStore
-from usvips.store.opening import is_server_location
+from usvips.store.location import is_server_location
 from usvips.store.opening import open_project as open_store
 
 

@@ -16,7 +16,8 @@ import numpy as np
 
 from usvips.core import housing as housings
 from usvips.core.adjustment import Parameter, PriorGroup
-from usvips.core.calibration.model import StereoModel, housing_parameter_names, symbol
+from usvips.core.calibration.model import StereoModel
+from usvips.core.calibration.parameter_names import housing_parameter_names, symbol
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.housing import AirHousing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior

@@ -18,7 +18,7 @@ from pathlib import Path
 from usvips.app import batch
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import guard_output
-from usvips.store.opening import database_name, is_server_location, parse_server_location, shown
+from usvips.store.location import database_name, is_server_location, parse_server_location, shown
 
 #: the most worker processes --jobs starts (each holds its own copy of the libraries)
 MAX_JOBS = 256

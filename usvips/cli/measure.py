@@ -36,7 +36,8 @@ from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
 from usvips.io.tables import refuse_outside_image
-from usvips.store.opening import open_project, shown
+from usvips.store.location import shown
+from usvips.store.opening import open_project
 
 __all__ = ["group_picks", "read_picks", "register", "run"]
 

@@ -25,7 +25,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from usvips.store.opening import is_server_location
+    from usvips.store.location import is_server_location
 
     if args.project is not None and not is_server_location(args.project) and not Path(args.project).exists():
         raise InputFileError(args.project, "no such project file or sample directory")

@@ -93,7 +93,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run_new(args: argparse.Namespace) -> int:
     from usvips.app.samples import create_from_manifest
-    from usvips.store.opening import create_project, shown
+    from usvips.store.location import shown
+    from usvips.store.opening import create_project
 
     project = create_from_manifest(args.source, args.out) if args.source else create_project(args.out)
     project.close()
@@ -104,7 +105,8 @@ def run_new(args: argparse.Namespace) -> int:
 def run_info(args: argparse.Namespace) -> int:
     from usvips.app.project_contents import objects_text, reviews_text, summarise
     from usvips.core.deployment import DEPLOYMENT_FIELDS
-    from usvips.store.opening import open_project, shown
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
 
     with open_project(args.project, read_only=True) as project:
         summary = summarise(project)
@@ -175,7 +177,8 @@ def run_relocate_media(args: argparse.Namespace) -> int:
 
 def run_import(args: argparse.Namespace) -> int:
     from usvips.app.project_contents import plan_import, store_import
-    from usvips.store.opening import open_project, shown
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
 
     # every file is read and checked before the project is opened; then all goes in one transaction
     plan = plan_import(args.control, args.obs, args.pair, args.role, args.calibration, tuple(args.active_for))

@@ -70,7 +70,8 @@ def run_archive_export(args: argparse.Namespace) -> int:
     """``export … --format globalarchive``: OUT is the folder the tables go into, made when it does not
     exist (in an existing folder) and removed again when the export is refused."""
     from usvips.app.archive_export import export_archive_folder
-    from usvips.store.opening import is_server_location, open_project
+    from usvips.store.location import is_server_location
+    from usvips.store.opening import open_project
 
     skipped: list[str] = []
     local = None if is_server_location(args.project) else args.project

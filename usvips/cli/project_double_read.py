@@ -41,7 +41,8 @@ def run_double_read(args: argparse.Namespace) -> int:
     from usvips.core.errors import InvalidParameterError
     from usvips.io.atomic import replacing
     from usvips.io.double_read_table import write_double_read_csv
-    from usvips.store.opening import is_server_location, open_project
+    from usvips.store.location import is_server_location
+    from usvips.store.opening import open_project
 
     options = {"tolerance_s": "--tolerance-s", "tolerance_frames": "--tolerance-frames", "gate_m": "--gate-m",
                "k": "--k"}

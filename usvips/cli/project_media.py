@@ -37,7 +37,8 @@ def register_project_actions(actions: argparse._SubParsersAction) -> None:
 def run_add_pairs(args: argparse.Namespace) -> int:
     from usvips.app import video_project
     from usvips.io.pairing import RULE_NAMES
-    from usvips.store.opening import open_project, shown
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
 
     plan, rule = video_project.plan_image_pairs(args.left, args.right, args.label_prefix, args.pair_by, args.max_dt)
     print(f"{len(plan)} pairs by {RULE_NAMES[rule]}:")

@@ -28,7 +28,7 @@ def register_sync_actions(actions: argparse._SubParsersAction) -> None:
 
 
 def _locations(args: argparse.Namespace) -> tuple[Path, str]:
-    from usvips.store.opening import is_server_location
+    from usvips.store.location import is_server_location
 
     if not is_server_location(args.url):
         raise InvalidParameterError("URL", "give the survey's server as postgresql://USER@HOST[:PORT]/DATABASE")
@@ -46,7 +46,7 @@ def run_push(args: argparse.Namespace) -> int:
 
 
 def run_pull(args: argparse.Namespace) -> int:
-    from usvips.store.opening import public_location
+    from usvips.store.location import public_location
     from usvips.store.transfer import pull
 
     path, url = _locations(args)

@@ -22,7 +22,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run_import(args: argparse.Namespace) -> int:
     from usvips.io.species_list import read_species_list
-    from usvips.store.opening import open_project, shown
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
 
     species = read_species_list(args.list)  # every error names the file and line, before the project opens
     with open_project(args.project) as project:
@@ -34,7 +35,8 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_list(args: argparse.Namespace) -> int:
-    from usvips.store.opening import open_project, shown
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
 
     with open_project(args.project, read_only=True) as project:
         species = project.species_list()

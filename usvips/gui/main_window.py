@@ -45,7 +45,7 @@ from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_i
 from usvips.io.species_list import read_species_list
 from usvips.locations import resources_folder, sample_projects
 from usvips.store.annotator import annotating_as
-from usvips.store.opening import is_server_location, without_password
+from usvips.store.location import is_server_location, without_password
 from usvips.store.records import StaleEditError
 
 SAMPLES = sample_projects()

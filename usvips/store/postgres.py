@@ -41,7 +41,8 @@ from psycopg import errors as pg_errors
 from psycopg import sql as pg_sql
 from psycopg.pq import TransactionStatus
 
-from usvips.store.opening import parse_server_location, public_location
+from usvips.store.file_copy import SERVER_ONLY_META, check_new_file, table_order, write_file
+from usvips.store.location import parse_server_location, public_location
 from usvips.store.postgres_schema import (
     IDENTITY_TABLES,
     PRIMARY_KEYS,
@@ -65,7 +66,7 @@ CONNECT_TIMEOUT_S = 5
 # ------------------------------------------------------------------------------------------------ locations
 def _parameters(url: str, database: str | None = None) -> dict:
     """What the client library is handed to connect (the password as a value, never in a URL; see
-    :meth:`usvips.store.opening.ServerLocation.connection_parameters`)."""
+    :meth:`usvips.store.location.ServerLocation.connection_parameters`)."""
     return parse_server_location(url).connection_parameters(database)
 
 
@@ -596,6 +597,15 @@ class ServerProject(Project):
 
     def copy_to(self, path: str | Path) -> Path:
         """A consistent copy of the whole survey as a new SQLite project file at ``path`` (``pull``)."""
-        from usvips.store.transfer import pull
+        check_new_file(path)  # refused before the survey is read
+        return write_file(self.table_rows(), path)
 
-        return pull(self, path)
+    def table_rows(self) -> dict[str, list[tuple]]:
+        """Every row of every table of the survey, read in one snapshot (the server's own meta rows left
+        out), as :func:`usvips.store.file_copy.write_file` takes them."""
+        with self._reading():
+            rows = {table: self._db.execute(f"SELECT {', '.join(columns)} FROM {table} ORDER BY "
+                                            f"{table_order(table, 'ord')}").fetchall()
+                    for table, columns in TABLES.items()}
+        rows["meta"] = [row for row in rows["meta"] if row[0] not in SERVER_ONLY_META]
+        return rows

@@ -11,7 +11,7 @@ from usvips.bench.board_views import board_views, start_parameters
 from usvips.core import batch_mode
 from usvips.core.adjustment import _solve, _unit, adjust
 from usvips.core.calibration.derivatives import stereo_derivatives
-from usvips.core.calibration.model import housing_parameter_names
+from usvips.core.calibration.parameter_names import housing_parameter_names
 from usvips.core.normal_equations import BlockJacobian
 
 KINDS = ["air", "flat-port", "dome-port", "dome-cover"]

@@ -10,7 +10,7 @@ import pytest
 from tests.core.calibration.tank_scenes import tank_setup
 from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_water
-from usvips.core.calibration.model import housing_parameter_names, symbol
+from usvips.core.calibration.parameter_names import housing_parameter_names, symbol
 from usvips.core.camera import EXTERIOR_PARAMETERS
 from usvips.core.errors import UsvipsError
 from usvips.core.interior import INTERIOR_PARAMETERS

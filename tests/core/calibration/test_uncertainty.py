@@ -19,7 +19,8 @@ import pytest
 
 from usvips.core import housing as housings
 from usvips.core.calibration import uncertainty
-from usvips.core.calibration.model import _exterior, stereo_cameras
+from usvips.core.calibration.model import stereo_cameras
+from usvips.core.calibration.parameter_names import exterior_of
 from usvips.core.camera import EXTERIOR_PARAMETERS, Exterior
 from usvips.core.interior import INTERIOR_PARAMETERS
 from usvips.core.rig import RelativeOrientation, relative_orientation, right_exterior
@@ -65,7 +66,7 @@ def _random_values(rng: np.random.Generator, kind: str) -> dict[str, float]:
 def _random_calibration(rng: np.random.Generator, kind: str) -> StereoCalibration:
     values = _random_values(rng, kind)
     left, right = stereo_cameras(kind, values, STATIONS, STATIONS[0], SIZE)
-    poses = (left.exterior, _exterior(values, "l", "s1"))
+    poses = (left.exterior, exterior_of(values, "l", "s1"))
     names = tuple(name for name in values if not name.startswith("k3"))
     sigmas = np.array([SIGMAS.get(_symbol(n)) or housings.kind(kind).spec(_symbol(n)).sigma or 1e-3 for n in names])
     mixing = rng.normal(size=(len(names), len(names)))

@@ -11,7 +11,7 @@ import pytest
 from tests.core.calibration_scenes import HEIGHT, LEFT, RELATIVE, RIGHT, WIDTH, control_frame, observe, station
 from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
-from usvips.core.calibration.model import housing_parameter_names
+from usvips.core.calibration.parameter_names import housing_parameter_names
 from usvips.core.camera import Camera, Exterior
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.housing import AirHousing

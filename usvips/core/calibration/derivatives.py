@@ -42,6 +42,7 @@ from dataclasses import replace
 import numpy as np
 
 from usvips.core.batch_mode import using_reference
+from usvips.core.calibration.parameter_names import ORIGIN, build_housings, housing_parameter_names, interior_of
 from usvips.core.errors import UsvipsError
 from usvips.core.interior import INTERIOR_PARAMETERS
 from usvips.core.intersection import pixel_jacobian
@@ -170,7 +171,6 @@ def pose_columns(m: np.ndarray, c: np.ndarray, derivatives: dict[str, tuple[np.n
 def _shifted_housings(model, values: dict[str, float], free: frozenset[str] | None) -> tuple[dict, list[str]]:
     """The housings at ``values`` (key None) and rebuilt with each free housing parameter at ± step (keys
     (name, ±1)), and those names; ({}, []) when a step leaves the valid region."""
-    from usvips.core.calibration.model import build_housings, housing_parameter_names
 
     housing_names = [n for n in housing_parameter_names(model.kind) if free is not None and n in free]
     housings = {}
@@ -208,7 +208,6 @@ def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: f
     the camera at the origin of its own frame (rays, their pixel derivatives, ideal coordinates), the
     pixel Jacobian rows ∂pixel/∂P_camera turned into the object frame by each block's rotation
     (∂pixel/∂P = ∂pixel/∂P_camera · M); the interior columns of a side at once; the pose columns per block."""
-    from usvips.core.calibration.model import ORIGIN, _interior, build_housings
     from usvips.core.camera import Camera
 
     housings, housing_names = _shifted_housings(model, values, free)
@@ -230,7 +229,7 @@ def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: f
             continue
         pixels = np.vstack([computed[model.blocks[b]].reshape(-1, 2) for b in blocks])
         try:
-            interior = _interior(values, side_name)
+            interior = interior_of(values, side_name)
             uv = interior.pixels_to_normalised(pixels)
             bundle, d_origin, d_direction = Camera(interior, ORIGIN, base[side]).rays_with_derivatives(pixels)
         except UsvipsError:
@@ -460,7 +459,6 @@ def _rig_housings(model, values: dict[str, float]) -> tuple[dict, list[str]]:
     radians), for a kind whose right housing follows the rig's relative orientation: keyed like
     :func:`housing_columns`' ``housings``, and the parameter names. ({}, []) when a step leaves the
     valid region (the reference path's differences then serve)."""
-    from usvips.core.calibration.model import build_housings
 
     names = [f"{p}_{side}" for side in ("l", "r") for p in ("X0", "Y0", "Z0", *ANGLES)]
     try:

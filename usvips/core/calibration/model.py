@@ -22,10 +22,17 @@ from usvips.core import housing as housings
 from usvips.core.adjustment import Observations, Parameter, Problem
 from usvips.core.batch_mode import using_reference
 from usvips.core.calibration.derivatives import stereo_derivatives
+from usvips.core.calibration.parameter_names import (
+    ORIGIN,
+    build_housings,
+    exterior_of,
+    housing_parameter_names,
+    interior_of,
+    symbol,
+)
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
-from usvips.core.housing import Housing
-from usvips.core.interior import INTERIOR_PARAMETERS, Interior
+from usvips.core.interior import INTERIOR_PARAMETERS
 from usvips.core.intersection import pixel_jacobian
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.rig import relative_orientation, right_exterior
@@ -33,45 +40,9 @@ from usvips.core.rotation import rotation_matrix
 
 SIDES = ("l", "r")
 #: a camera at the origin of its own frame: the batched paths carry points into each camera's frame
-ORIGIN = Exterior(0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-
 _STEPS = {"f": 1e-3, "xp": 1e-3, "yp": 1e-3, "sy": 1e-7, "k1": 1e-7, "k2": 1e-7, "p1": 1e-8, "p2": 1e-8, "k3": 1e-7,
           "X0": 1e-6, "Y0": 1e-6, "Z0": 1e-6, "omega": 1e-7, "phi": 1e-7, "kappa": 1e-7,
           "X": 1e-6, "Y": 1e-6, "Z": 1e-6}
-
-
-def symbol(name: str) -> str:
-    """The seeds' symbol of a parameter name (``f_l`` → ``f``, ``X0_l@2`` → ``X0``, ``Z@7`` → ``Z``)."""
-    base = name.split("@")[0]
-    for suffix in ("_l", "_r"):
-        if base.endswith(suffix):
-            return base[: -len(suffix)]
-    return base
-
-
-def housing_parameter_names(kind: str) -> list[str]:
-    """The calibration's parameter names of a housing kind (the registry's ``calibration_names``)."""
-    return list(housings.kind(kind).calibration_names)
-
-
-def build_housings(kind: str, values: dict[str, float]) -> tuple[Housing, Housing]:
-    """Left and right housings (each in its camera frame) from parameter values: the kind builds them, given
-    the rig's relative orientation when its right housing follows the rig."""
-    cls = housings.kind(kind)
-    rotation, translation = np.eye(3), np.zeros(3)
-    if cls.right_follows_rig:
-        rel = relative_orientation(_exterior(values, "l"), _exterior(values, "r"))
-        rotation, translation = rel.rotation, -rel.rotation @ rel.base
-    return cls.build(values, rotation, translation)
-
-
-def _exterior(values: dict[str, float], side: str, station: str | None = None) -> Exterior:
-    suffix = f"_{side}" + (f"@{station}" if station else "")
-    return Exterior(*(values[f"{p}{suffix}"] for p in EXTERIOR_PARAMETERS))
-
-
-def _interior(values: dict[str, float], side: str) -> Interior:
-    return Interior(*(values[f"{p}_{side}"] for p in INTERIOR_PARAMETERS))
 
 
 def stereo_cameras(kind: str, values: dict[str, float], stations: tuple[str, ...], station: str,
@@ -84,7 +55,7 @@ def stereo_cameras(kind: str, values: dict[str, float], stations: tuple[str, ...
     what every station of one set of values has in common (the housings, the relative orientation) for
     the next call with the same values."""
     shared = {} if shared is None else shared
-    left_0, right_0 = _exterior(values, "l"), _exterior(values, "r")
+    left_0, right_0 = exterior_of(values, "l"), exterior_of(values, "r")
     if frame == "rig" or station != stations[0]:
         if "relative" not in shared:
             shared["relative"] = relative_orientation(left_0, right_0)
@@ -95,14 +66,14 @@ def stereo_cameras(kind: str, values: dict[str, float], stations: tuple[str, ...
     elif station == stations[0]:
         left, right = left_0, right_0
     else:
-        left = _exterior(values, "l", station)
+        left = exterior_of(values, "l", station)
         right = right_exterior(left, relative)
     if "housings" not in shared:
         shared["housings"] = build_housings(kind, values)
     housing_l, housing_r = shared["housings"]
     width, height = size
-    return (Camera(_interior(values, "l"), left, housing_l, width, height),
-            Camera(_interior(values, "r"), right, housing_r, width, height))
+    return (Camera(interior_of(values, "l"), left, housing_l, width, height),
+            Camera(interior_of(values, "r"), right, housing_r, width, height))
 
 
 @dataclass
@@ -211,7 +182,7 @@ class StereoModel:
         try:
             m, c = self.station_frames(values)
             housings_lr = build_housings(self.kind, values)
-            interiors = (_interior(values, "l"), _interior(values, "r"))
+            interiors = (interior_of(values, "l"), interior_of(values, "r"))
         except UsvipsError:  # impossible parameters at a trial step (e.g. r <= 0): reject the step
             m = None
         for side in (0, 1):

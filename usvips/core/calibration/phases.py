@@ -39,7 +39,8 @@ from usvips.core import housing as housings
 from usvips.core.adjustment import ALPHA0, GROSS, Adjustment, Parameter, PriorGroup, adjust
 from usvips.core.calibration.control_blunders import ControlBlunder, demote_control_blunders, is_control_coordinate
 from usvips.core.calibration.figures import baseline_sigma
-from usvips.core.calibration.model import SIDES, StereoModel, housing_parameter_names, symbol
+from usvips.core.calibration.model import SIDES, StereoModel
+from usvips.core.calibration.parameter_names import housing_parameter_names, symbol
 from usvips.core.calibration.planar import is_coplanar, planar_start, resect_views
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.dlt import robust_dlt

@@ -30,7 +30,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from usvips.core.calibration.model import _STEPS, stereo_cameras, symbol
+from usvips.core.calibration.model import _STEPS, stereo_cameras
+from usvips.core.calibration.parameter_names import symbol
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.interior import Interior
