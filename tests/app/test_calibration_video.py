@@ -113,6 +113,11 @@ def test_scan_keeps_sharp_distinct_instants_of_both_cameras(tmp_path, seed, offs
     assert reports == sorted(reports) and reports[-1] == pytest.approx(1.0)
     assert result.coverage.views == len(result.views)
     assert result.summary()[0].startswith(f"{result.scanned} instants scanned")
+    # every instant not chosen is set aside with its reason (the same loop and rules as image pairs)
+    reasons = dict(result.set_aside)
+    assert len(reasons) + len(result.views) == result.scanned
+    assert sum("near-duplicate of view" in reason for reason in reasons.values()) == result.duplicates
+    assert all(reasons[f"cal-{frame}"].startswith(f"view cal-{frame}: ") for frame in blurred)
 
 
 def test_cap_and_every(tmp_path):

@@ -1,5 +1,6 @@
 """Stereo views from image pairs: the same id is the same physical point in both cameras; every pair that
-cannot be used is named with its image and reason; progress and cancel."""
+cannot be used is named with its image and reason (the one loop's rules: blur, near-duplicates); a missing
+file is an error; progress and cancel."""
 
 import numpy as np
 import pytest
@@ -7,6 +8,7 @@ import pytest
 from usvips.app.target_views import detect_views
 from usvips.core.calibration_targets import kind, stereo_observations
 from usvips.core.camera import Camera, Exterior
+from usvips.core.errors import InputFileError
 from usvips.core.interior import Interior
 from usvips.core.synth.boards import BoardPose, board_pixels, render_board
 from usvips.io.images import write_image
@@ -67,14 +69,14 @@ def test_views_pair_the_same_physical_points(pairs):
 def test_each_unusable_pair_is_named_with_its_image_and_reason(pairs):
     board, made, _, bad = pairs
     good = made[0]
-    found = detect_views(board, [good, (made[1][0], bad["blank"]), (bad["missing"], made[2][1]),
+    found = detect_views(board, [good, (made[1][0], bad["blank"]), (bad["broken"], made[2][1]),
                                  (bad["broken"], bad["blank"]), (made[2][0], bad["small"])],
                          labels=["a", "b", "c", "d", "e"])
     assert [view.label for view in found.views] == ["a"]
     reasons = dict(found.set_aside)
     assert "right image blank.png: no ChArUco corner found" in reasons["b"]
     assert "seen by the left camera only" in reasons["b"]
-    assert "none.png" in reasons["c"] and "seen by the right camera only" in reasons["c"]
+    assert "broken.png" in reasons["c"] and "seen by the right camera only" in reasons["c"]
     assert "broken.png" in reasons["d"] and "blank.png" in reasons["d"]
     assert "240 × 180 px, the earlier right images 480 × 360" in reasons["e"]
     assert all(reason.startswith(f"view {label}: ") and "\n" not in reason for label, reason in found.set_aside)
@@ -106,3 +108,21 @@ def test_labels_must_match_the_pairs(pairs):
     board, made, _, _ = pairs
     with pytest.raises(Exception, match="one distinct label per pair"):
         detect_views(board, made, labels=["x", "x", "y"])
+
+
+def test_a_missing_image_file_is_an_error_naming_it_before_anything_is_detected(pairs):
+    board, made, _, bad = pairs
+    calls = []
+    with pytest.raises(InputFileError, match="none.png: no such image file"):
+        detect_views(board, [made[0], (bad["missing"], made[2][1])],
+                     progress=lambda done, total: calls.append(done))
+    assert calls == []
+
+
+def test_image_pairs_follow_the_video_rules_a_repeated_pair_is_a_near_duplicate(pairs):
+    board, made, _, _ = pairs
+    found = detect_views(board, [made[0], made[0], made[2]], labels=["a", "again", "c"])
+    assert [view.label for view in found.views] == ["a", "c"]
+    assert dict(found.set_aside)["again"] == ("view again: a near-duplicate of view a (every shared point within 3 px "
+                                              "in both cameras)")
+    assert found.detected.duplicates == 1 and found.detected.scanned == 3 and len(found.blur) == 2

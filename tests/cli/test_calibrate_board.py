@@ -144,3 +144,40 @@ def test_air_from_a_project_video(scene, capsys, tmp_path):
     written = json.loads(out.read_text())
     assert written["source"]["video"] == "cal" and all(s["label"].startswith("cal-") for s in written["stations"])
     assert abs(written["parameters"]["f_l"]["value"] / rig.left.f - 1) < 0.01
+
+
+@pytest.mark.parametrize("option", ["--out", "--report"])
+@pytest.mark.parametrize("how", ["images", "globs"])
+def test_an_output_onto_an_input_image_is_refused_before_anything_is_written(scene, capsys, tmp_path, option, how):
+    folder, _, pairs, _ = scene
+    victim = pairs[1][0]
+    before = victim.read_bytes()
+    if how == "images":
+        source = ["--images", *[str(p) for pair in pairs for p in pair]]
+    else:
+        source = ["--left-images", str(folder / "aL[0-9]*.png"), "--right-images", str(folder / "aR[0-9]*.png")]
+    outputs = {"--out": str(tmp_path / "cal.json"), "--report": str(tmp_path / "report.json")}
+    outputs[option] = str(folder / ".." / folder.name / victim.name)  # the same file by another path
+    argv = ["calibrate", "air", "--target", str(folder / "board.json"), *source,
+            *[item for pair in outputs.items() for item in pair]]
+    _one_line_exit_2(capsys, argv, f"{option} is an input of this command")
+    assert victim.read_bytes() == before and not (tmp_path / "cal.json").exists()
+    assert "found in both images" not in capsys.readouterr().out  # refused before detection
+
+
+def test_a_missing_image_is_one_line_naming_it(scene, capsys, tmp_path):
+    folder, _, pairs, _ = scene
+    images = [str(p) for pair in pairs for p in pair] + [str(pairs[0][0]), str(folder / "gone.png")]
+    _one_line_exit_2(capsys, ["calibrate", "air", "--target", str(folder / "board.json"), "--images", *images,
+                              "--out", str(tmp_path / "cal.json")], r"gone\.png: no such image file")
+    assert not (tmp_path / "cal.json").exists()
+
+
+def test_views_with_swapped_images_are_named(scene, capsys, tmp_path):
+    folder, _, pairs, _ = scene
+    swapped = [(right, left) if k in (1, 3) else (left, right) for k, (left, right) in enumerate(pairs)]
+    images = [str(p) for pair in swapped for p in pair]
+    _one_line_exit_2(capsys, ["calibrate", "air", "--target", str(folder / "board.json"), "--images", *images,
+                              "--out", str(tmp_path / "cal.json")],
+                     r"views aR1, aR3: the left and right images look swapped")
+    assert not (tmp_path / "cal.json").exists()

@@ -89,7 +89,7 @@ def test_detect_reports_each_image(tmp_path, capsys):
     capsys.readouterr()
     assert main(["target", "detect", str(target), str(seen), str(empty)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert lines[0].startswith(f"{seen}: 24/24 points, mean quality")
+    assert lines[0].startswith(f"{seen}: 24/24 points, mean quality") and ", found by CharucoDetector" in lines[0]
     assert lines[1].startswith(f"{empty}: not found: no ChArUco corner found")
     assert lines[2] == "found in 1 of 2 images"
     assert main(["target", "detect", str(target), str(tmp_path / "missing.png")]) == 2

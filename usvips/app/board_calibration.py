@@ -39,7 +39,7 @@ from usvips.core.calibration.phases import CalibrationResult, observes_a_plane, 
 from usvips.core.calibration.validation import Validation, validate
 from usvips.core.calibration_targets import CalibrationTarget, StereoView, stereo_observations
 from usvips.core.calibration_views import Coverage
-from usvips.core.errors import ConvergenceError, InvalidParameterError, UsvipsError
+from usvips.core.errors import ConvergenceError, DegenerateGeometryError, InvalidParameterError, UsvipsError
 from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.io.video_stream import VideoStream
@@ -50,6 +50,10 @@ Cancel = threading.Event | Callable[[], bool]
 
 #: the phases a board calibrates
 PHASES = ("air", "water")
+
+#: views set aside listed one per line by :meth:`BoardViews.lines` (a video's thousands of instants are
+#: counted beyond)
+SET_ASIDE_LINES = 40
 
 #: views a calibration needs at least (a board's planar start needs several orientations)
 MINIMUM_VIEWS = 3
@@ -72,9 +76,13 @@ class BoardViews:
         """(width, height) of the left images (pixels)."""
         return tuple(self.views[0].left.image_size)
 
-    def lines(self) -> list[str]:
-        """For a person: the tally, each view set aside, then the coverage and its advice."""
-        return list(self.tally) + [reason for _, reason in self.set_aside] + self.coverage.summary()
+    def lines(self, most: int = SET_ASIDE_LINES) -> list[str]:
+        """For a person: the tally, each view set aside (the first ``most``, then how many more), then the
+        coverage and its advice."""
+        aside = [reason for _, reason in self.set_aside]
+        if len(aside) > most:
+            aside = aside[:most] + [f"… and {len(aside) - most} more set aside"]
+        return list(self.tally) + aside + self.coverage.summary()
 
 
 def _is_cancelled(cancel: Cancel | None) -> bool:
@@ -124,7 +132,7 @@ def views_from_video(project: ProjectStore, label: str, target: CalibrationTarge
     :class:`~usvips.app.video_project.VideoError` saying why."""
     target = as_target(target)
     scanned = scan_video(project, label, target, every, max_views, progress=progress, cancel=cancel)
-    return BoardViews(scanned.views, (), scanned.coverage, (scanned.summary()[0],))
+    return BoardViews(scanned.views, scanned.set_aside, scanned.coverage, (scanned.summary()[0],))
 
 
 def views_from_streams(left: VideoStream, right: VideoStream, offset: int, label: str,
@@ -137,7 +145,7 @@ def views_from_streams(left: VideoStream, right: VideoStream, offset: int, label
     with left, right:
         scanned = scan_streams(left, right, offset, target, label, every, max_views, progress=progress,
                                cancel=cancel)
-    return BoardViews(scanned.views, (), scanned.coverage, (scanned.summary()[0],))
+    return BoardViews(scanned.views, scanned.set_aside, scanned.coverage, (scanned.summary()[0],))
 
 
 @dataclass
@@ -231,6 +239,13 @@ def calibrate_views(target: CalibrationTarget | str | Path, views: Sequence[Ster
     options.control_exact = bool(getattr(target, "exact", False))
     if options.image_size == (None, None):
         options.image_size = tuple(int(v) for v in kept[0].left.image_size)
+    swapped = swapped_views(kept)
+    if swapped:
+        raise DegenerateGeometryError(
+            f"view{'s' if len(swapped) > 1 else ''} {', '.join(swapped)}: the left and right images look swapped "
+            f"(the target lies on the other side in the left image than in the right, unlike the other "
+            f"{len(kept) - len(swapped)} views); swap {'their' if len(swapped) > 1 else 'its'} images or drop "
+            f"{'them' if len(swapped) > 1 else 'it'}")
     control = target.control_points()
     observations = stereo_observations(kept)
     source = dict(source or {})
@@ -264,6 +279,37 @@ def calibrate_views(target: CalibrationTarget | str | Path, views: Sequence[Ster
         require_physical(result, base, "nothing kept")
     return BoardCalibration(result, validation, observations, tuple(v.label for v in kept),
                             tuple(label for label in labels if label in set(drop)))
+
+
+#: a view's disparity counts for the swapped-images check when it is at least this share of the image width
+SWAP_DISPARITY_SHARE = 0.02
+
+
+def swapped_views(views: Sequence[StereoView]) -> list[str]:
+    """The labels of the views whose left and right images look swapped: the median disparity (left x −
+    right x, pixels, over the points both see) of a view has the sign opposite to that of most views, and
+    both it and the views' median are over :data:`SWAP_DISPARITY_SHARE` of the image width (a rig's
+    disparity keeps its sign over a calibration's ranges; one near zero tells nothing). Fewer than half
+    the views can be swapped: the majority defines the rig."""
+    disparities = []
+    for view in views:
+        common = view.common_ids()
+        if not common:
+            disparities.append(0.0)
+            continue
+        left, right = view.left.subset(common).pixels, view.right.subset(common).pixels
+        disparities.append(float(np.median(left[:, 0] - right[:, 0])))
+    if len(disparities) < 3:
+        return []
+    disparity = np.array(disparities)
+    width = float(views[0].left.image_size[0])
+    typical = float(np.median(disparity))
+    if abs(typical) < SWAP_DISPARITY_SHARE * width:
+        return []
+    odd = (np.sign(disparity) == -np.sign(typical)) & (np.abs(disparity) >= SWAP_DISPARITY_SHARE * width)
+    if not odd.any() or odd.sum() * 2 >= len(views):
+        return []
+    return [view.label for view, flag in zip(views, odd, strict=True) if flag]
 
 
 def store(project: ProjectStore, calibration: BoardCalibration, name: str, active_for: Sequence[str] = ()) -> int:

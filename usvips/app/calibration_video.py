@@ -2,7 +2,8 @@
 
 The board (or 3-D target) is moved in front of the rig while both cameras film. Every ``every``-th instant
 is decoded in both cameras (left frame ``i`` with right frame ``i + offset``, the stored offset of
-:mod:`usvips.app.video_project`), the target is detected in each, and an instant is kept when both
+:mod:`usvips.app.video_project`; :class:`usvips.app.frame_source.VideoFrames`), and the one detection loop
+(:func:`usvips.app.view_detection.detect_frames`, the image pairs' too) keeps an instant when both
 cameras see enough of it, it is not blurred (:func:`usvips.core.calibration_views.edge_width`) and it does
 not repeat an instant already kept (:func:`~usvips.core.calibration_views.is_duplicate`). Of those, a
 diverse subset under a cap (:func:`~usvips.core.calibration_views.select_views`) becomes the views to
@@ -20,14 +21,16 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from usvips.app.frame_source import VideoFrames
 from usvips.app.video_project import VideoError, open_streams
+from usvips.app.view_detection import ViewRules, detect_frames
 from usvips.core import calibration_views
 from usvips.core.calibration_targets import CalibrationTarget, StereoView, stereo_observations
 from usvips.core.calibration_views import Coverage
 from usvips.core.errors import InvalidParameterError
 from usvips.io import target_file
 from usvips.io.tables import write_observations
-from usvips.io.video_stream import PairReader, VideoStream
+from usvips.io.video_stream import VideoStream
 from usvips.store.interface import ProjectStore
 
 #: a view needs at least this many target points found in both images
@@ -46,7 +49,8 @@ class VideoViews:
     ``views``: the chosen views, in frame order (label ``<video>-<left frame>``; source ``{"video",
     "frame", "right_frame"}``); ``blur``: their edge widths (px, the blurrier camera); ``coverage`` of the
     chosen views; and the tally: instants decoded, instants where both cameras saw the target,
-    rejected as blurred, rejected as near-duplicates."""
+    rejected as blurred, rejected as near-duplicates; ``set_aside``: (label, one line why) for every
+    instant not chosen (the detection loop's reasons, and the usable ones the diverse subset left out)."""
 
     views: tuple[StereoView, ...]
     blur: tuple[float, ...]
@@ -55,6 +59,7 @@ class VideoViews:
     seen: int
     blurred: int
     duplicates: int
+    set_aside: tuple[tuple[str, str], ...] = ()
 
     def summary(self) -> list[str]:
         """Lines for a person: the tally, then the coverage and its advice."""
@@ -86,57 +91,34 @@ def scan_streams(left: VideoStream, right: VideoStream, offset: int, target: Cal
     if every < 1:
         raise InvalidParameterError("every", f"must be at least 1 frame, got {every}")
     if max_views < 1:
-        raise InvalidParameterError("max_views", f"must be at least 1, got {max_views}")
-    if not max_blur_px > 0:
-        raise InvalidParameterError("max_blur_px", f"must be a positive number of pixels, got {max_blur_px}")
-    first = max(0, -offset)
-    stop = min(left.frame_count, right.frame_count - offset)
-    instants = list(range(first, stop, every))
-    if not instants:
+        raise InvalidParameterError("maximum views", f"must be at least 1, got {max_views}")
+    frames = VideoFrames(left, right, offset, label, every)
+    if not len(frames):
         raise VideoError(f"video {label!r}: no left frame has a right partner with offset {offset} "
                          f"({left.frame_count} left and {right.frame_count} right frames)")
-    points = target.control_points()
-    candidates: list[StereoView] = []
-    widths: list[float] = []
-    found = [0, 0]
-    seen = blurred = duplicates = scanned = 0
-    reader = PairReader(left, right)
-    try:
-        for n, frame in enumerate(instants):
-            if _is_cancelled(cancel):
-                raise InterruptedError(f"video {label!r}: scanning cancelled at frame {frame}")
-            pictures = reader.pictures(frame, frame + offset)
-            scanned += 1
-            detections = [target.detect(p.array(grey=True)) for p in pictures]
-            found[0] += bool(detections[0])
-            found[1] += bool(detections[1])
-            view = StereoView(f"{label}-{frame}", detections[0], detections[1],
-                              {"video": label, "frame": frame, "right_frame": frame + offset})
-            if detections[0] and detections[1] and len(view.common_ids()) >= MINIMUM_POINTS:
-                seen += 1
-                images = [p.array(grey=True) for p in pictures]
-                width = max(calibration_views.edge_width(image, d) for image, d in zip(images, detections, strict=True))
-                if not width <= max_blur_px:  # NaN (no contrast) counts as blurred
-                    blurred += 1
-                elif any(calibration_views.is_duplicate(kept, view, duplicate_px) for kept in candidates[-50:]):
-                    duplicates += 1
-                else:
-                    candidates.append(view)
-                    widths.append(width)
-            if progress is not None:
-                progress((n + 1) / len(instants), f"frame {frame}: {len(candidates)} views so far")
-    finally:
-        reader.close()
-    if not candidates:
+    rules = ViewRules(MINIMUM_POINTS, max_blur_px, duplicate_px)
+
+    def step(done: int, total: int) -> None:
+        if progress is not None and done % 2 == 0:
+            progress(done / total, f"instant {done // 2} of {total // 2}")
+
+    with frames:
+        found = detect_frames(target, frames, rules, step, lambda: _is_cancelled(cancel))
+    if not found.views:
         raise VideoError(
-            f"video {label!r}: no usable instant among {scanned} (every {every} frames): the target was found in "
-            f"{found[0]} left and {found[1]} right frames, in both at {seen} instants, {blurred} of them blurred "
-            f"(edge width over {max_blur_px:g} px)")
-    chosen = calibration_views.select_views(candidates, max_views, points, blur=widths, focal_px=focal_px)
-    width_of = {v.label: w for v, w in zip(candidates, widths, strict=True)}
+            f"video {label!r}: no usable instant among {found.scanned} (every {every} frames): the target was found "
+            f"in {found.found_left} left and {found.found_right} right frames, in both at {found.seen} instants, "
+            f"{found.blurred} of them blurred (edge width over {max_blur_px:g} px)")
+    points = target.control_points()
+    candidates = list(found.views)
+    chosen = calibration_views.select_views(candidates, max_views, points, blur=list(found.blur), focal_px=focal_px)
+    width_of = {v.label: w for v, w in zip(candidates, found.blur, strict=True)}
+    kept = {v.label for v in chosen}
+    left_out = tuple((v.label, f"view {v.label}: usable, but not among the {max_views} most diverse views chosen")
+                     for v in candidates if v.label not in kept)
     report = calibration_views.coverage(chosen, points, focal_px=focal_px)
-    return VideoViews(tuple(chosen), tuple(width_of[v.label] for v in chosen), report, scanned, seen, blurred,
-                      duplicates)
+    return VideoViews(tuple(chosen), tuple(width_of[v.label] for v in chosen), report, found.scanned, found.seen,
+                      found.blurred, found.duplicates, found.set_aside + left_out)
 
 
 def scan_video(project: ProjectStore, label: str, target: CalibrationTarget, every: int = 5,

@@ -33,8 +33,8 @@ from pathlib import Path
 #: ``window_tracking``, which live in ``usvips.gui.bench`` and ``usvips.gui.bench_tracking`` (Qt stays inside the
 #: GUI package; it is imported only when run).
 BENCH_MODULES: tuple[str, ...] = ("geometry", "scaling", "calibration", "imaging", "gui", "video", "survey",
-                                  "window_tracking", "targets", "server", "startup", "sigma_check",
-                                  "pointing_experiment")
+                                  "window_tracking", "targets", "board_detection", "server", "startup",
+                                  "sigma_check", "pointing_experiment")
 BENCH_PATHS: dict[str, str] = {"gui": "usvips.gui.bench", "window_tracking": "usvips.gui.bench_tracking"}
 
 

@@ -63,6 +63,18 @@ def image_pairs(args: argparse.Namespace) -> list[tuple[str, str]]:
     return list(zip(left, right, strict=True))
 
 
+def inputs(args: argparse.Namespace) -> list[str]:
+    """Every file the views come from (the images, globs expanded; the project), for the check that no
+    output is written over one of them."""
+    found: list[str] = []
+    if args.images or args.left_images or args.right_images:
+        try:
+            found += [path for pair in image_pairs(args) for path in pair]
+        except InvalidParameterError:
+            pass  # the images' own error is reported where they are read
+    return found + ([args.project] if getattr(args, "project", None) else [])
+
+
 def wants_views(args: argparse.Namespace) -> bool:
     """Whether the views come from images or a video (not from ``--obs``), checking the combination."""
     given = [name for name, value in (("--images", args.images), ("--left-images", args.left_images),

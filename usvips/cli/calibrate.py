@@ -18,7 +18,7 @@ from usvips.core.calibration.phases import observes_a_plane, require_physical
 from usvips.core.calibration.validation import validate
 from usvips.core.errors import ConvergenceError, InvalidParameterError
 from usvips.core.observations import ControlPoints
-from usvips.io.atomic import replacing
+from usvips.io.atomic import guard_output, replacing
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
 from usvips.io.target_file import read_target
@@ -185,8 +185,7 @@ def _finish(result, args: argparse.Namespace, validation=None, base=None) -> int
     # write both files only once everything has succeeded
     calibration_text = json.dumps(calibration_to_dict(result.calibration), indent=2, allow_nan=False) + "\n"
     report_text = json.dumps(report, indent=2, allow_nan=False) + "\n" if args.report else None
-    inputs = [getattr(args, name, None) for name in ("control", "target", "obs", "base")]
-    with replacing([args.out] + ([args.report] if args.report else []), inputs, replace=args.force):
+    with replacing(_outputs(args), _inputs(args), replace=args.force):
         write_text_atomic(args.out, calibration_text)
         if report_text is not None:
             write_text_atomic(args.report, report_text)
@@ -211,6 +210,22 @@ def _finish(result, args: argparse.Namespace, validation=None, base=None) -> int
     return 0
 
 
+def _inputs(args: argparse.Namespace) -> list:
+    """Every file the command reads: no output may be written over one of them."""
+    return [getattr(args, name, None) for name in ("control", "target", "obs", "base")] + board_sources.inputs(args)
+
+
+def _outputs(args: argparse.Namespace) -> list:
+    return [args.out] + ([args.report] if args.report else [])
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse, before any work, an output that is one of the inputs (an image included) or a project or
+    calibration file (unless --force; :func:`usvips.io.atomic.guard_output`)."""
+    for path, option in zip(_outputs(args), ("--out", "--report"), strict=False):
+        guard_output(path, _inputs(args), replace=args.force, option=option)
+
+
 def _source(args: argparse.Namespace) -> dict:
     where = {"control": str(args.control)} if args.control else {"target": str(args.target)}
     return {**where, "observations": str(args.obs),
@@ -219,6 +234,7 @@ def _source(args: argparse.Namespace) -> dict:
 
 def run_air(args: argparse.Namespace) -> int:
     options = _options(args)
+    _check_outputs(args)
     if board_sources.wants_views(args):
         done = board_sources.calibrate(args, "air", options)
         return _finish(done.result, args, done.validation)
@@ -235,6 +251,7 @@ def run_water(args: argparse.Namespace) -> int:
         raise InvalidParameterError("--base", f"{args.base} is a {base.phase} (phase-2) calibration; phase 2 "
                                     "starts from the in-air (phase-1) calibration of the same cameras")
     options = _options(args)
+    _check_outputs(args)
     if board_sources.wants_views(args):
         done = board_sources.calibrate(args, "water", options, base, args.housing)
         return _finish(done.result, args, done.validation, base)

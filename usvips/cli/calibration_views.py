@@ -32,8 +32,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--max-views", type=int, default=calibration_video.DEFAULT_MAX_VIEWS,
                         help=f"at most N views (default {calibration_video.DEFAULT_MAX_VIEWS})")
     parser.add_argument("--max-blur", type=float, default=MAX_EDGE_WIDTH_PX,
-                        help=f"edge width (px) beyond which an instant is blurred (default {MAX_EDGE_WIDTH_PX:g}; "
-                             "a sharp edge is about 2)")
+                        help=f"edge width (px) beyond which an instant is blurred when its edges are also wider than "
+                             f"half the spacing of the target's points (default {MAX_EDGE_WIDTH_PX:g}; a sharp edge is "
+                             "about 2)")
     parser.add_argument("--focal", type=float, default=None,
                         help="focal length (px) for the tilts (default: the image's larger side)")
     parser.add_argument("--out", required=True, help="observations CSV to write")

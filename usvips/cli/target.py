@@ -143,9 +143,11 @@ def run_detect(args: argparse.Namespace) -> int:
         detection = target.detect(image)
         if detection:
             found += 1
-            notes = f" ({'; '.join(detection.notes)})" if detection.notes else ""
+            shown = [note for note in detection.notes if not note.startswith("found by ")]
+            notes = f" ({'; '.join(shown)})" if shown else ""
+            by = f", found by {detection.stage}" if detection.stage else ""
             print(f"{path}: {len(detection)}/{total} points, mean quality {float(np.mean(detection.quality)):.1f}"
-                  f"{notes}")
+                  f"{by}{notes}")
         else:
             print(f"{path}: not found: {detection.reason}")
     print(f"found in {found} of {len(args.images)} images")

@@ -41,7 +41,13 @@ from usvips.core.errors import InvalidParameterError
 from usvips.core.observations import ControlPoints
 
 #: an edge wider than this (pixels) counts as blurred (a sharp edge is ~2 px wide, see :func:`edge_width`)
+#: when it is also wider than :data:`BLUR_SHARE` of the spacing of the target's points (:func:`blur_limit_px`)
 MAX_EDGE_WIDTH_PX = 4.0
+#: edges narrower than this share of the spacing between the target's points (pixels) do not count as
+#: blurred, however wide: a corner's edges merge with its neighbours' only beyond half the spacing (real
+#: cameras at a few hundred pixels show 3–8 px edges on boards that calibrate well; a board that moved
+#: during the exposure shows edges as wide as the spacing)
+BLUR_SHARE = 0.5
 #: two views whose shared points all lie within this many pixels in both cameras are duplicates
 DUPLICATE_PX = 3.0
 #: the coverage grid, columns × rows, when none is given (cells of a 4:3 image are about square)
@@ -113,6 +119,15 @@ def edge_width(image: np.ndarray, detection: TargetDetection, half: int | None =
         if len(values) >= max(8, 0.05 * edge.sum()):
             widths.append(1.0 / float(np.percentile(values, 98.0)))
     return float(max(widths)) if widths else float("nan")
+
+
+def blur_limit_px(detection: TargetDetection, floor_px: float = MAX_EDGE_WIDTH_PX,
+                  share: float = BLUR_SHARE) -> float:
+    """The widest edges (pixels, :func:`edge_width`) a detection's image may show before it counts as
+    blurred: ``share`` × the median spacing of its points, but never less than ``floor_px``."""
+    if len(detection.pixels) < 2:
+        return float(floor_px)
+    return max(float(floor_px), share * _median_spacing(detection.pixels))
 
 
 def _median_spacing(pixels: np.ndarray) -> float:

@@ -27,7 +27,8 @@ class TargetDetection:
     ``quality`` (M,): larger is better, each kind says what it is (e.g. a corner's sharpness or a marker's
     agreement), comparable within a kind; ``image_size`` (width, height) in pixels; ``reason``: why nothing
     or too little was found (then the detection is falsy); ``notes``: anything the user should know (an
-    ambiguity resolved, points dropped)."""
+    ambiguity resolved, points dropped); ``stage``: which of the kind's detectors found it (its cascade,
+    :mod:`~usvips.core.calibration_targets.cascade`; empty when nothing was found)."""
 
     ids: tuple[str, ...]
     pixels: np.ndarray
@@ -35,6 +36,7 @@ class TargetDetection:
     image_size: tuple[int, int]
     reason: str = ""
     notes: tuple[str, ...] = field(default_factory=tuple)
+    stage: str = ""
 
     def __post_init__(self) -> None:
         pixels = np.asarray(self.pixels, dtype=np.float64).reshape(-1, 2)
@@ -62,7 +64,7 @@ class TargetDetection:
         index = {pid: i for i, pid in enumerate(self.ids)}
         rows = np.array([index[pid] for pid in ids], dtype=np.intp)
         return TargetDetection(tuple(ids), self.pixels[rows], self.quality[rows], self.image_size, self.reason,
-                               self.notes)
+                               self.notes, self.stage)
 
 
 @dataclass(frozen=True)

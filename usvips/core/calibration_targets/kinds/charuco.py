@@ -13,6 +13,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from usvips.core.calibration_targets import cascade
 from usvips.core.calibration_targets.detection import TargetDetection
 from usvips.core.calibration_targets.kinds import _board
 from usvips.core.calibration_targets.kinds._board import PrintedBoard
@@ -112,21 +113,57 @@ class CharucoBoard(PrintedBoard):
         return self.marker / (self.dictionary.markerSize + 2)
 
     # ---------------------------------------------------------------------------------- detection
+    def stages(self, grey: np.ndarray, seen: list[int] | None = None) -> list[cascade.Stage]:
+        """The detectors tried in turn (:mod:`~usvips.core.calibration_targets.cascade`): OpenCV's
+        ``CharucoDetector`` as set up; then with markers' thresholds searched over a wider range of window
+        sizes and smaller markers allowed (uneven light, a small board in a large frame); then, for large
+        frames, on the frame halved (the corners refined at full size). A board seen in part gives the
+        corners seen. ``seen`` (a list) receives the number of the board's markers each stage saw."""
+        seen = [] if seen is None else seen
+        return [cascade.Stage("CharucoDetector", self._search(self.detector, seen)),
+                cascade.Stage("CharucoDetector with a wider marker search", self._search(self._wide_detector(), seen)),
+                cascade.Stage("CharucoDetector on the frame halved", self._search(self.detector, seen), 2,
+                              minimum_side=_board.DOWNSCALE_SIDE_PX)]
+
+    def _wide_detector(self) -> cv2.aruco.CharucoDetector:
+        parameters = cv2.aruco.DetectorParameters()
+        parameters.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_NONE
+        _board.widen_marker_search(parameters)
+        charuco = cv2.aruco.CharucoParameters()
+        charuco.minMarkers = 2
+        return cv2.aruco.CharucoDetector(self.board, charuco, parameters)
+
+    @staticmethod
+    def _search(detector: cv2.aruco.CharucoDetector, seen: list[int]) -> cascade.Search:
+        def search(image: np.ndarray):
+            corners, ids, _, marker_ids = detector.detectBoard(image)
+            seen.append(0 if marker_ids is None else len(marker_ids))
+            if ids is None or len(ids) == 0:
+                return None
+            return np.asarray(corners, np.float64).reshape(-1, 2), np.asarray(ids).ravel()
+        return search
+
     @_board.guarded
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
         size = (grey.shape[1], grey.shape[0])
-        corners, ids, _, marker_ids = self.detector.detectBoard(grey)
-        if ids is None or len(ids) == 0:
-            seen = 0 if marker_ids is None else len(marker_ids)
+        markers: list[int] = []
+        stages = self.stages(grey, markers)
+        found = cascade.run(stages, grey)
+        if found is None:
+            seen = max(markers, default=0)
             if seen >= 3:
-                return TargetDetection.nothing(size, f"{seen} {self.dictionary_name} markers seen but no ChArUco "
-                                               f"corner: check the squares, cols × rows ({self.cols} × {self.rows}), "
-                                               "and legacy (a board with an even number of rows printed by "
-                                               "OpenCV before 4.6)")
-            return TargetDetection.nothing(size, f"no ChArUco corner found ({seen} {self.dictionary_name} markers "
-                                           "of the board seen; a corner needs its two neighbouring markers)")
-        ids = np.asarray(ids).ravel()
-        pixels = np.asarray(corners, np.float64).reshape(-1, 2)
+                return TargetDetection.nothing(size, cascade.not_found(
+                    f"{seen} {self.dictionary_name} markers seen but no ChArUco corner", stages, grey,
+                    f"check the squares, cols × rows ({self.cols} × {self.rows}), and legacy (a board with an even "
+                    "number of rows printed by OpenCV before 4.6)"))
+            return TargetDetection.nothing(size, cascade.not_found(
+                "no ChArUco corner", stages, grey, f"{seen} {self.dictionary_name} markers of the board seen; a "
+                "corner needs its two neighbouring markers in view"))
+        ids = np.asarray(found.extra).ravel()
+        pixels = found.pixels
+        if found.stage.factor > 1:
+            pixels = _board.refine_corners(grey, pixels)
         order = np.argsort(ids, kind="stable")
-        return _board.finished(grey, tuple(str(int(k)) for k in ids[order]), pixels[order])
+        return _board.finished(grey, tuple(str(int(k)) for k in ids[order]), pixels[order],
+                               cascade.found_note(found), stage=found.stage.name)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from usvips.core.calibration_targets import cascade
 from usvips.core.calibration_targets.detection import TargetDetection
 from usvips.core.calibration_targets.kinds import _board
 from usvips.core.calibration_targets.kinds._board import PrintedBoard
@@ -42,17 +43,6 @@ def grid_orderings(grid: np.ndarray) -> list[np.ndarray]:
         if dx[0] * dy[1] - dx[1] * dy[0] > 0:
             kept.append(candidate)
     return kept
-
-
-def refine_corners(grey: np.ndarray, pixels: np.ndarray) -> np.ndarray:
-    """OpenCV's ``cornerSubPix`` on chessboard corners, over a window of 0.35 × the corner spacing each
-    side (on boards rendered through every housing: about 0.04 px RMS, where findChessboardCornersSB's own
-    accuracy refinement gives about 0.12 px and costs five times its search)."""
-    half = int(np.clip(round(0.35 * _board.spacing_px(pixels)), 2, 25))
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 0.001)
-    refined = cv2.cornerSubPix(grey, np.ascontiguousarray(pixels, np.float32).reshape(-1, 1, 2), (half, half),
-                               (-1, -1), criteria)
-    return refined.reshape(-1, 2).astype(np.float64)
 
 
 class Chessboard(PrintedBoard):
@@ -119,53 +109,111 @@ class Chessboard(PrintedBoard):
         return self.square
 
     # ---------------------------------------------------------------------------------- detection
+    def stages(self, grey: np.ndarray) -> list[cascade.Stage]:
+        """The detectors tried in turn on ``grey`` (:mod:`~usvips.core.calibration_targets.cascade`):
+        OpenCV's ``findChessboardCornersSB`` without flags (finds most real boards, fast), with
+        normalisation, on the image extended by repeating its edges (a board whose outer squares the image
+        cuts), with an exhaustive search; the classic ``findChessboardCorners`` (adaptive threshold,
+        normalised); and for large frames the search on the frame halved. Images longer than
+        :data:`SEARCH_SIDE_PX` are searched reduced by a whole factor throughout; the corners are always
+        refined on the full image. None of them uses ``CALIB_CB_ACCURACY`` (five times slower on a 1080p
+        frame): ``cornerSubPix`` refines further."""
+        pattern, count = (self.cols, self.rows), self.cols * self.rows
+        factor = cascade.search_factor(grey, SEARCH_SIDE_PX)
+
+        def sb(flags: int) -> cascade.Search:
+            def search(image: np.ndarray) -> np.ndarray | None:
+                found, corners = cv2.findChessboardCornersSB(image, pattern, flags=flags)
+                return corners.reshape(-1, 2) if found and corners is not None and len(corners) == count else None
+            return search
+
+        def classic(image: np.ndarray) -> np.ndarray | None:
+            found, corners = cv2.findChessboardCorners(image, pattern, flags=cv2.CALIB_CB_ADAPTIVE_THRESH
+                                                       | cv2.CALIB_CB_NORMALIZE_IMAGE)
+            return corners.reshape(-1, 2) if found and corners is not None and len(corners) == count else None
+
+        normalise, exhaustive = cv2.CALIB_CB_NORMALIZE_IMAGE, cv2.CALIB_CB_EXHAUSTIVE
+        return [cascade.Stage("findChessboardCornersSB", sb(0), factor),
+                cascade.Stage("findChessboardCornersSB normalised", sb(normalise), factor),
+                cascade.Stage("findChessboardCornersSB with the image's edges extended", sb(0), factor,
+                              pad=EDGE_PAD_PX),
+                cascade.Stage("findChessboardCornersSB exhaustive", sb(normalise | exhaustive), factor),
+                cascade.Stage("findChessboardCorners (classic, adaptive threshold)", classic, factor),
+                cascade.Stage("findChessboardCornersSB on the frame halved", sb(0), 2 * factor,
+                              minimum_side=DOWNSCALE_SIDE_PX * factor)]
+
     @_board.guarded
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
         size = (grey.shape[1], grey.shape[0])
-        # without CALIB_CB_ACCURACY (five times slower on a 1080p frame, ~1 s): cornerSubPix refines further
-        flags = cv2.CALIB_CB_NORMALIZE_IMAGE
-        height, width = grey.shape
-        factor = int(np.ceil(max(height, width) / SEARCH_SIDE_PX))
-        search = grey if factor == 1 else cv2.resize(grey, (width // factor, height // factor),
-                                                     interpolation=cv2.INTER_AREA)
-        found, corners = cv2.findChessboardCornersSB(search, (self.cols, self.rows), flags=flags)
-        if not found or corners is None or len(corners) != self.cols * self.rows:
-            return TargetDetection.nothing(size, f"no {self.cols} × {self.rows} chessboard found (every inner "
-                                           "corner must be in view; cols and rows count inner corners, "
-                                           "squares − 1)")
-        if factor > 1:  # a pixel of the reduced image averages factor × factor pixels: centre to centre
-            corners = (corners.astype(np.float64) + 0.5) * factor - 0.5
-        grid = corners.reshape(self.rows, self.cols, 2).astype(np.float64)
+        stages = self.stages(grey)
+        found = cascade.run(stages, grey)
+        if found is None:
+            return TargetDetection.nothing(size, cascade.not_found(
+                f"no {self.cols} × {self.rows} chessboard", stages, grey,
+                "every inner corner must be in view; cols and rows count inner corners, squares − 1"))
+        grid = found.pixels.reshape(self.rows, self.cols, 2)
         candidates = grid_orderings(grid)
-        notes: tuple[str, ...] = ()
+        notes = cascade.found_note(found)
         if self.symmetric:
             chosen = _board.most_upright(candidates)
             if chosen is None:
                 return TargetDetection.nothing(size, _board.TURNED_TOO_FAR)
-            notes = (_board.UPRIGHT_NOTE,)
+            notes += (_board.UPRIGHT_NOTE,)
         else:
-            scores = [self._origin_contrast(grey, c) for c in candidates]
-            best = int(np.argmax(scores))
-            if not (scores[best] > 8 and all(score < 0 for k, score in enumerate(scores) if k != best)):
-                return TargetDetection.nothing(size, "the chessboard's orientation cannot be told: the squares "
-                                               "at its corners are not seen clearly (keep the whole board, with "
-                                               "its outer squares, in view)")
-            chosen = candidates[best]
+            chosen = self._by_square_colours(grey, candidates)
+            if chosen is None:
+                return TargetDetection.nothing(size, "the chessboard's orientation cannot be told: its black and "
+                                               "white squares are not told apart (too dark, too bright or too "
+                                               "blurred)")
         ids, _ = self.points()
-        return _board.finished(grey, ids, refine_corners(grey, chosen.reshape(-1, 2)), notes)
+        return _board.finished(grey, ids, _board.refine_corners(grey, chosen.reshape(-1, 2)), notes,
+                               stage=found.stage.name)
 
-    @staticmethod
-    def _origin_contrast(grey: np.ndarray, grid: np.ndarray) -> float:
-        """Grey level of the square beside corner 0 along x (white when this ordering is right) minus that
-        of the square diagonally outside corner 0 (black when right); NaN-safe: −inf off the image."""
-        c0 = grid[0, 0]
-        dx, dy = grid[0, 1] - c0, grid[1, 0] - c0
-        probes = np.array([c0 + 0.5 * (dx - dy), c0 - 0.5 * (dx + dy)])
-        h, w = grey.shape
-        if np.any(probes < 1) or np.any(probes[:, 0] > w - 2) or np.any(probes[:, 1] > h - 2):
-            return -np.inf
-        radius = max(1.0, 0.15 * min(np.linalg.norm(dx), np.linalg.norm(dy)))
-        values = [float(cv2.getRectSubPix(grey, (2 * int(radius) + 1,) * 2, tuple(map(float, p))).mean())
-                  for p in probes]
-        return values[0] - values[1]
+    def _by_square_colours(self, grey: np.ndarray, candidates: list[np.ndarray]) -> np.ndarray | None:
+        """Of the two orderings of an odd × even board (a half turn apart), the one under which the squares
+        seen are coloured as printed (:func:`square_contrast`: every inner square, and every outer square
+        inside the image); None when neither stands out."""
+        scores = [square_contrast(grey, candidate) for candidate in candidates]
+        best = int(np.argmax(scores))
+        if not (scores[best] > ORIENTATION_CONTRAST and all(score < 0 for k, score in enumerate(scores)
+                                                               if k != best)):
+            return None
+        return candidates[best]
+
+
+#: The mean grey-level difference (0–255) between the squares printed white and black that tells a
+#: chessboard's orientation: a printed board seen at all shows tens.
+ORIENTATION_CONTRAST = 8.0
+#: How far (pixels) the image is extended each side for a board whose outer squares it cuts.
+EDGE_PAD_PX = 8
+#: Images at least this long (pixels, after the search reduction) are also searched halved.
+DOWNSCALE_SIDE_PX = 1280
+
+
+def square_contrast(grey: np.ndarray, grid: np.ndarray) -> float:
+    """How well the image's squares match the printed pattern under the ordering ``grid`` (rows, cols, 2)
+    of the inner corners: the mean grey level of the squares printed white minus that of those printed
+    black (the square diagonally outside corner 0 is black), over every inner square (bounded by four
+    found corners) and every outer square (its corners extrapolated by one step) whose centre lies
+    inside the image. Positive under the right ordering, its negative under the half-turned one."""
+    rows, cols = grid.shape[:2]
+    extended = np.empty((rows + 2, cols + 2, 2))
+    extended[1:-1, 1:-1] = grid
+    extended[1:-1, 0] = 2 * grid[:, 0] - grid[:, 1]
+    extended[1:-1, -1] = 2 * grid[:, -1] - grid[:, -2]
+    extended[0] = 2 * extended[1] - extended[2]
+    extended[-1] = 2 * extended[-2] - extended[-3]
+    centres = 0.25 * (extended[:-1, :-1] + extended[:-1, 1:] + extended[1:, :-1] + extended[1:, 1:])
+    b, a = np.mgrid[0:rows + 1, 0:cols + 1]
+    black = ((a + b) % 2 == 0).ravel()
+    centres = centres.reshape(-1, 2)
+    half = max(1, int(0.15 * _board.spacing_px(grid.reshape(-1, 2))))
+    h, w = grey.shape
+    inside = ((centres[:, 0] >= half + 1) & (centres[:, 1] >= half + 1) & (centres[:, 0] <= w - half - 2)
+              & (centres[:, 1] <= h - half - 2))
+    if not (inside & black).any() or not (inside & ~black).any():
+        return -np.inf
+    values = np.array([float(cv2.getRectSubPix(grey, (2 * half + 1,) * 2, (float(x), float(y))).mean())
+                       for x, y in centres[inside]])
+    return float(values[~black[inside]].mean() - values[black[inside]].mean())

@@ -22,6 +22,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from usvips.core.calibration_targets import cascade
 from usvips.core.calibration_targets.detection import TargetDetection
 from usvips.core.calibration_targets.kinds import _board
 from usvips.core.calibration_targets.kinds._board import PrintedBoard
@@ -109,20 +110,39 @@ class CircleGrid(PrintedBoard):
         return self.diameter
 
     # ---------------------------------------------------------------------------------- detection
+    def stages(self, grey: np.ndarray) -> list[cascade.Stage]:
+        """The detectors tried in turn (:mod:`~usvips.core.calibration_targets.cascade`): OpenCV's
+        ``findCirclesGrid`` as it comes; with a blob detector that keeps large circles (OpenCV's leaves out
+        blobs over 5,000 px); with the grid's points put together by clustering (perspective, clutter near
+        the grid)."""
+        pattern, count = (self.cols, self.rows), self.cols * self.rows
+        parameters = cv2.SimpleBlobDetector_Params()
+        parameters.maxArea = max(float(grey.shape[0] * grey.shape[1]) / 8, parameters.minArea + 1)
+        large = cv2.SimpleBlobDetector_create(parameters)
+
+        def search(flags: int, detector=None) -> cascade.Search:
+            def find(image: np.ndarray) -> np.ndarray | None:
+                options = {} if detector is None else {"blobDetector": detector}
+                found, centres = cv2.findCirclesGrid(image, pattern, flags=flags, **options)
+                return np.asarray(centres).reshape(-1, 2) if found and centres is not None and len(
+                    centres) == count else None
+            return find
+
+        return [cascade.Stage("findCirclesGrid", search(self._flags)),
+                cascade.Stage("findCirclesGrid keeping large circles", search(self._flags, large)),
+                cascade.Stage("findCirclesGrid by clustering", search(self._flags | cv2.CALIB_CB_CLUSTERING, large))]
+
     @_board.guarded
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
         size = (grey.shape[1], grey.shape[0])
-        found, centres = cv2.findCirclesGrid(grey, (self.cols, self.rows), flags=self._flags)
-        if not found:  # OpenCV's blob detector leaves out blobs over 5,000 px: try again allowing large circles
-            parameters = cv2.SimpleBlobDetector_Params()
-            parameters.maxArea = max(float(grey.shape[0] * grey.shape[1]) / 8, parameters.minArea + 1)
-            found, centres = cv2.findCirclesGrid(grey, (self.cols, self.rows), flags=self._flags,
-                                                 blobDetector=cv2.SimpleBlobDetector_create(parameters))
-        if not found or centres is None or len(centres) != self.cols * self.rows:
-            return TargetDetection.nothing(size, f"no {self.cols} × {self.rows} "
-                                           f"{'asymmetric' if self.asymmetric else 'symmetric'} circle grid found "
-                                           "(every circle must be in view)")
+        stages = self.stages(grey)
+        result = cascade.run(stages, grey)
+        if result is None:
+            return TargetDetection.nothing(size, cascade.not_found(
+                f"no {self.cols} × {self.rows} {'asymmetric' if self.asymmetric else 'symmetric'} circle grid",
+                stages, grey, "every circle must be in view"))
+        centres = result.pixels
         grid = np.asarray(centres, np.float64).reshape(self.rows, self.cols, 2)
         ids, model = self.points()
         kept = []
@@ -150,7 +170,8 @@ class CircleGrid(PrintedBoard):
                 return TargetDetection.nothing(size, _board.TURNED_TOO_FAR)
             kept = [chosen]
             notes = (_board.UPRIGHT_NOTE,)
-        return _board.finished(grey, ids, kept[0].reshape(-1, 2), notes)
+        return _board.finished(grey, ids, kept[0].reshape(-1, 2), cascade.found_note(result) + notes,
+                               stage=result.stage.name)
 
 
 def _apply(h: np.ndarray, xy: np.ndarray) -> np.ndarray:

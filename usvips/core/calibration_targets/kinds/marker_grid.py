@@ -14,6 +14,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from usvips.core.calibration_targets import cascade
 from usvips.core.calibration_targets.detection import TargetDetection
 from usvips.core.calibration_targets.kinds import _board
 from usvips.core.calibration_targets.kinds._board import PrintedBoard
@@ -118,23 +119,64 @@ class MarkerGrid(PrintedBoard):
         return bool(np.max(np.linalg.norm(mapped - pixels, axis=1)) > 0.2 * side)
 
     # ---------------------------------------------------------------------------------- detection
+    def stages(self, grey: np.ndarray) -> list[cascade.Stage]:
+        """The detectors tried in turn (:mod:`~usvips.core.calibration_targets.cascade`): OpenCV's
+        ``ArucoDetector`` as set up; then with thresholds over a wider range of windows and smaller markers
+        allowed (:func:`~._board.widen_marker_search`); then, for large frames, on the frame halved (the
+        corners refined again at full size). Any of the grid's markers found is a success: a grid seen in
+        part gives the markers seen."""
+        known = set(int(k) for k in self._ids())
+        return [cascade.Stage("ArucoDetector", self._search(self.detector, known)),
+                cascade.Stage("ArucoDetector with a wider marker search", self._search(self._wide_detector(), known)),
+                cascade.Stage("ArucoDetector on the frame halved", self._search(self.detector, known), 2,
+                              minimum_side=_board.DOWNSCALE_SIDE_PX)]
+
+    def _wide_detector(self) -> cv2.aruco.ArucoDetector:
+        parameters = self.detector.getDetectorParameters()
+        _board.widen_marker_search(parameters)
+        return cv2.aruco.ArucoDetector(self.dictionary, parameters)
+
+    @staticmethod
+    def _search(detector: cv2.aruco.ArucoDetector, known: set[int]) -> cascade.Search:
+        def search(image: np.ndarray):
+            corners, ids, _ = detector.detectMarkers(image)
+            found = [] if ids is None else [int(k) for k in np.asarray(ids).ravel()]
+            if not any(k in known for k in found):
+                return None
+            return np.vstack([np.asarray(c, np.float64).reshape(4, 2) for c in corners]), found
+        return search
+
     @_board.guarded
     def detect(self, image: np.ndarray) -> TargetDetection:
         grey = _board.to_grey8(image)
         size = (grey.shape[1], grey.shape[0])
-        corners, ids, _ = self.detector.detectMarkers(grey)
         known = set(int(k) for k in self._ids())
-        found = [] if ids is None else [int(k) for k in np.asarray(ids).ravel()]
+        stages = self.stages(grey)
+        result = cascade.run(stages, grey)
+        if result is None:
+            return TargetDetection.nothing(size, cascade.not_found(
+                f"no marker of the {self.cols} × {self.rows} {self.dictionary_name} grid (ids {min(known)}–"
+                f"{max(known)})", stages, grey, "a marker is found when its whole square, with its black border, "
+                "is in view"))
+        found = list(result.extra)
+        corners = result.pixels.reshape(-1, 4, 2)
+        if result.stage.factor > 1:
+            corners = self._refined(grey, corners)
         counts = {k: found.count(k) for k in found}
         notes = tuple(f"marker {k} seen {n} times: dropped" for k, n in sorted(counts.items()) if n > 1 and k in known)
-        keep = [i for i, k in enumerate(found) if k in known and counts[k] == 1]
-        if not keep:
-            return TargetDetection.nothing(size, f"no marker of the {self.cols} × {self.rows} {self.dictionary_name} "
-                                           f"grid (ids {min(known)}–{max(known)}) found")
-        keep.sort(key=lambda i: found[i])
+        keep = sorted((i for i, k in enumerate(found) if k in known and counts[k] == 1), key=lambda i: found[i])
         point_ids = tuple(f"{found[i]}-{corner}" for i in keep for corner in range(4))
-        pixels = np.vstack([np.asarray(corners[i], np.float64).reshape(4, 2) for i in keep])
+        pixels = corners[keep].reshape(-1, 2)
         if self._misplaced(point_ids, pixels):
             return TargetDetection.nothing(size, "the markers found do not lie as on the board: a flipped "
                                            "(mirrored) image, or another board with the same marker ids in view")
-        return _board.finished(grey, point_ids, pixels, notes)
+        return _board.finished(grey, point_ids, pixels, notes + cascade.found_note(result), stage=result.stage.name)
+
+    def _refined(self, grey: np.ndarray, corners: np.ndarray) -> np.ndarray:
+        """Marker corners found in a reduced image, refined on the full image as the detector refines them
+        (``cornerSubPix`` over half a module)."""
+        side = float(np.median(np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2)))
+        half = int(np.clip(round(0.5 * side / (self.dictionary.markerSize + 2)), 2, 12))
+        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.01)
+        points = np.ascontiguousarray(corners.reshape(-1, 1, 2), np.float32)
+        return cv2.cornerSubPix(grey, points, (half, half), (-1, -1), criteria).reshape(-1, 4, 2).astype(np.float64)
