@@ -73,7 +73,7 @@ def test_no_arguments_starts_an_empty_window(tmp_path):
 
 def test_an_unexpected_exception_is_logged_and_shown_as_one_sentence(make_window, tmp_path, monkeypatch):
     """A bug: its traceback goes to the log file and the log panel, the window shows one sentence."""
-    import usvips.gui.app as app_module
+    import usvips.gui.error_report as app_module
 
     monkeypatch.setattr(app_module, "log_path", lambda: tmp_path / "data" / "usvips.log")
     window = make_window()
@@ -92,7 +92,7 @@ def test_an_exception_in_a_qt_slot_reaches_the_handler_and_the_window_stays(qtbo
                                                                              monkeypatch):
     from PySide6 import QtCore
 
-    import usvips.gui.app as app_module
+    import usvips.gui.error_report as app_module
 
     monkeypatch.setattr(app_module, "log_path", lambda: tmp_path / "usvips.log")
     monkeypatch.setattr(sys, "excepthook", sys.excepthook)     # restored after the test
@@ -109,7 +109,7 @@ def test_an_exception_in_a_qt_slot_reaches_the_handler_and_the_window_stays(qtbo
 
 
 def test_an_expected_error_in_a_handler_is_its_own_line(make_window, tmp_path, monkeypatch):
-    import usvips.gui.app as app_module
+    import usvips.gui.error_report as app_module
     from usvips.core.errors import UsvipsError
 
     monkeypatch.setattr(app_module, "log_path", lambda: tmp_path / "usvips.log")

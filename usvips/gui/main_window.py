@@ -21,9 +21,9 @@ from usvips.core.measurements import kind as measurement_kind
 from usvips.core.redaction import redact
 from usvips.gui import exchange_dialogs, media_dialogs, menu_keys
 from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
-from usvips.gui.app import register_window
 from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
+from usvips.gui.error_report import register_window
 from usvips.gui.instants_view import InstantsView
 from usvips.gui.log_panel import LogPanel
 from usvips.gui.media_check import MediaCheck
