@@ -186,8 +186,10 @@ class BoardCalibration:
             out.append(f"  {len(r['suspects'])} observations set aside as blunders")
         estimation = r.get("estimation") or {}
         if estimation.get("estimator") == "huber":
+            gross = estimation["gross_errors"]
             out.append(f"  robust estimation: {100 * estimation['down_weighted']:.1f} % of the corners' coordinates "
-                       f"down-weighted, none thrown out but {estimation['gross_errors']} gross errors")
+                       "down-weighted (kept), " + (f"{gross} set aside as gross errors" if gross else
+                                                    "none set aside as a gross error"))
         by_view = sorted(self.view_rms().items(), key=lambda item: -item[1])
         if by_view:
             out.append("  RMS per view, worst first: " + ", ".join(f"{label} {rms:.3f} px" for label, rms in by_view))

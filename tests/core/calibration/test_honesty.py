@@ -4,6 +4,8 @@ is not blamed on the calibration (Monte Carlo with known variances)."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -74,6 +76,13 @@ def test_a_departure_in_the_pointing_is_not_blamed_on_the_calibration():
     assert any("lies in the corners' pointing" in line for line in figures.why)
 
 
-def test_no_distance_no_figures():
+def test_no_distance_no_figures_and_no_calibration_part_no_factor():
     empty = np.zeros(0)
     assert variance_components([HeldOutView(10.0, 10, empty, empty, empty)]) is None
+    rng = np.random.default_rng(6)
+    views = _views(rng)
+    for view in views:
+        view.calibration = np.zeros_like(view.calibration)  # a calibration without a covariance
+    figures = variance_components(views)
+    assert figures.covariance_factor == figures.pointing_factor and not np.isfinite(figures.calibration_estimate)
+    json.dumps(figures.as_dict(), allow_nan=False)  # what cannot be estimated is None, not NaN

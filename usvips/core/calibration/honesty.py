@@ -92,7 +92,8 @@ class Honesty:
         return self.pointing_factor != 1.0 or self.covariance_factor != 1.0
 
     def as_dict(self) -> dict:
-        return {"reprojection_nees": self.reprojection_nees, "reprojection_dof": self.reprojection_dof,
+        """JSON-able: a figure that could not be estimated (not finite) is None."""
+        return _finite({"reprojection_nees": self.reprojection_nees, "reprojection_dof": self.reprojection_dof,
                 "reprojection_interval_95": list(self.reprojection_interval),
                 "distance_nees": self.distance_nees, "distances": self.distances, "views": self.views,
                 "interval_95": list(self.interval), "calibration_share": self.calibration_share,
@@ -100,7 +101,7 @@ class Honesty:
                 "calibration_factor_interval_95": list(self.calibration_interval),
                 "pointing_factor": self.pointing_factor, "covariance_factor": self.covariance_factor,
                 "distance_nees_after": self.distance_nees_after, "scaled": self.scaled,
-                "gross_corners_set_aside": self.gross, "why": list(self.why)}
+                "gross_corners_set_aside": self.gross, "why": list(self.why)})
 
     def lines(self) -> list[str]:
         low, high = self.interval
@@ -108,12 +109,27 @@ class Honesty:
         out = [f"  honesty on held-out views (NEES 1: the stated sigmas hold): known distances "
                f"{self.distance_nees:.2f} over {self.distances} in {self.views} views (95 % interval "
                f"{low:.2f}-{high:.2f}; the calibration's "
-               f"share of their variance {100 * self.calibration_share:.0f} %), reprojections "
+               f"share of their variance {_percent(self.calibration_share)}), reprojections "
                f"{self.reprojection_nees:.2f} over {self.reprojection_dof} degrees of freedom "
                f"({r_low:.2f}-{r_high:.2f})"
                + (f"; {self.gross} held-out corners set aside as gross errors" if self.gross else "")]
         out += [f"  {line}" for line in self.why]
         return out
+
+
+def _percent(share: float) -> str:
+    return "under 1 %" if share < 0.01 else f"{100 * share:.0f} %"
+
+
+def _finite(value):
+    """``value`` with every non-finite float (in lists and dicts too) replaced by None."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
 
 
 def _chi2_interval(value: float, dof: float) -> tuple[float, float]:
@@ -136,6 +152,8 @@ def _bootstrap(numerators: np.ndarray, denominators: np.ndarray, seed: int) -> t
     draws = np.random.default_rng(seed).integers(0, numerators.size, (BOOTSTRAP, numerators.size))
     below = denominators[draws].sum(axis=1)
     ratios = numerators[draws].sum(axis=1) / np.where(below > 0, below, np.nan)
+    if not np.isfinite(ratios).any():
+        return None
     low, high = np.nanquantile(ratios, [0.025, 0.975])
     return float(low), float(high)
 
@@ -235,7 +253,7 @@ def variance_components(views: list[HeldOutView], seed: int = 0) -> Honesty | No
                    f"{b_interval[0]:.2f}-{b_interval[1]:.2f})")
     elif departs or not interval[0] <= nees / with_pointing <= interval[1]:
         why.append(f"the held-out distances' NEES is {with_pointing:.2f} with that sigma0, but the calibration's "
-                   f"part is {100 * share:.0f} % of their variance and cannot be told from them: the departure lies in "
+                   f"part is {_percent(share)} of their variance and cannot be told from them: the departure lies in "
                    "the corners' pointing, not the calibration (e.g. a detector's neighbouring corners' errors "
                    "correlate, so that a short distance varies less than two independent corners would); the "
                    "calibration's covariance is kept")
