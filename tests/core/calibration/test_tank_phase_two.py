@@ -52,3 +52,18 @@ def test_held_poses_are_phase_ones_and_unmatched_views_are_named():
     assert set(held) == {f"{p}_{s}" for p in ("X0", "Y0", "Z0", "omega", "phi", "kappa") for s in "lr"}
     with pytest.raises(InvalidParameterError, match="'elsewhere'"):
         held_poses(setup.base, ("tank0", "elsewhere"))
+
+
+def test_held_poses_of_a_calibration_read_from_its_file_keep_the_baseline(tmp_path):
+    """A calibration file places its right camera by the rig, not at its own exterior: the held right pose
+    comes from the rig, whichever view is the tank's (here the first: the baseline once came out 0 mm)."""
+    from usvips.io.calibration_file import load_calibration, save_calibration
+
+    setup = tank_setup(1, air_views=4)
+    save_calibration(setup.base, tmp_path / "air.json")
+    read = load_calibration(tmp_path / "air.json")
+    for station in read.stations[:1] + read.stations[-1:]:
+        held = held_poses(read, (station,))
+        left = np.array([held[f"{p}_l"] for p in ("X0", "Y0", "Z0")])
+        right = np.array([held[f"{p}_r"] for p in ("X0", "Y0", "Z0")])
+        assert np.linalg.norm(right - left) == pytest.approx(np.linalg.norm(setup.base.relative.base), rel=1e-9)

@@ -612,7 +612,7 @@ def held_poses(base: StereoCalibration, stations: tuple[str, ...]) -> dict[str, 
     when each phase has a single view — phase 1's only one. The first station's right camera is phase 1's
     right camera there (so the rig's relative orientation is phase 1's too). A station phase 1 did not
     see is an :class:`InvalidParameterError` naming it."""
-    if len(stations) == 1 and len(base.stations) == 1:
+    if len(stations) == 1 and len(base.stations) == 1:  # the same view, whatever its labels
         matched = {stations[0]: base.stations[0]}
     else:
         missing = [s for s in stations if s not in base.stations]
@@ -628,8 +628,9 @@ def held_poses(base: StereoCalibration, stations: tuple[str, ...]) -> dict[str, 
         suffix = "_l" if k == 0 else f"_l@{station}"
         out.update({f"{p}{suffix}": float(getattr(left, p)) for p in EXTERIOR_PARAMETERS})
         if k == 0:
-            right = (base.right.exterior if matched[station] == base.stations[0]
-                     else right_exterior(left, base.relative))
+            # from the rig (the left pose and the relative orientation): a calibration read from a file
+            # places its right camera there, not at its own exterior
+            right = base.rig(matched[station]).right.exterior
             out.update({f"{p}_r": float(getattr(right, p)) for p in EXTERIOR_PARAMETERS})
     return out
 
@@ -664,8 +665,9 @@ def physical_problems(result: CalibrationResult, base: StereoCalibration | None 
         fixed = [f"{n} = {p.value:g}" for n, p in result.calibration.parameters.items()
                  if n in housing_names and p.status == "fixed"]
         problems.append(f"the residuals (sigma0 {sigma:.3g} px) are {sigma / in_air[0]:.0f} times phase 1's "
-                        f"({in_air[0]:.3g} px) with the same cameras: the housing model does not describe the "
-                        "images" + (f" (check the fixed values: {', '.join(fixed)})" if fixed else ""))
+                        f"({in_air[0]:.3g} px) with the same cameras: the images are not explained (a wrong fixed "
+                        "value, or gross errors left in the data)"
+                        + (f"; check the fixed values: {', '.join(fixed)}" if fixed else ""))
     return problems
 
 
