@@ -11,6 +11,7 @@ import pytest
 from PySide6 import QtWidgets
 
 from tests.app.board_images import air_scene
+from tests.gui.test_target_wizard import _Gated
 from usvips.gui.calibration_session import CalibrationSession
 from usvips.gui.calibration_wizard import CalibrationWizard
 from usvips.gui.target_pages import TargetWizard
@@ -157,15 +158,21 @@ def test_stop_stops_the_calibration_and_a_stopped_detection_leaves_nothing(qtbot
     qtbot.waitUntil(lambda: not compute.busy, timeout=120_000)
     assert wizard.session.result is None and "stopped" in compute.text.toPlainText()
     assert not compute.isComplete()
-    # back to the views: detect again and stop at once: the old views are gone, Next stays off
+    # back to the views: detect again and stop it mid-way (a detector held at a gate after its first image):
+    # the old views are gone, the list is empty and Next stays off (Next computed from the old views)
     wizard.back()
+    assert len(wizard.session.kept()) == VIEWS
+    gated = _Gated()
+    wizard.session.target = gated  # the same board, detected slowly
     views.detect()
     assert views.busy
+    qtbot.waitUntil(lambda: gated.calls >= 2, timeout=30_000)
     views.stop()
+    gated.gate.set()
     qtbot.waitUntil(lambda: not views.busy, timeout=60_000)
-    if wizard.session.views is None:  # stopped before the end (else it finished: a fresh set, not the old one)
-        assert views.list.count() == 0 and not views.isComplete()
-        assert not wizard.button(QtWidgets.QWizard.WizardButton.NextButton).isEnabled()
+    assert wizard.session.views is None and wizard.session.kept() == []
+    assert views.list.count() == 0 and not views.isComplete()
+    assert not wizard.button(QtWidgets.QWizard.WizardButton.NextButton).isEnabled()
 
 
 def test_the_save_page_writes_the_report(qtbot, project, scene, tmp_path):
