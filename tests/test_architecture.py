@@ -55,3 +55,15 @@ def test_app_and_the_window_take_a_project_through_the_storage_interface():
                  for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
                  if annotated.search(line)]
     assert offenders == [], "take a usvips.store.interface.ProjectStore:\n" + "\n".join(offenders)
+
+
+def test_no_module_imports_one_that_imports_it_back():
+    """No import cycle between modules (an import inside a function counts: it is a cycle all the same;
+    imports only for type checking do not run and do not count)."""
+    import grimp
+
+    graph = grimp.build_graph("usvips", include_external_packages=False, exclude_type_checking_imports=True)
+    imports = {module: graph.find_modules_directly_imported_by(module) for module in graph.modules}
+    cycles = sorted({tuple(sorted((a, b))) for a, targets in imports.items() for b in targets
+                     if graph.chain_exists(importer=b, imported=a)})
+    assert cycles == [], f"modules in an import cycle with each other: {cycles}"

@@ -301,7 +301,7 @@ def test_the_thesis_tank_without_images_calibrates_from_its_observations(qtbot, 
 
 def test_every_housing_parameter_has_a_unit_and_a_meaning_and_the_kind_comes_from_the_project(qtbot, project):
     from usvips.core.calibration.phases import DEFAULT_HOUSING
-    from usvips.gui.calibration_wizard import HOUSING_PARAMETERS
+    from usvips.gui.housing_values import HOUSING_PARAMETERS
 
     for kind, parameters in DEFAULT_HOUSING.items():
         assert set(HOUSING_PARAMETERS[kind]) == set(parameters), kind

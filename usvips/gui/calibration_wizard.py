@@ -18,12 +18,12 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
-from usvips.core import housing as housings
 from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui import active_pairs
 from usvips.gui.calibration_session import PHASES, CalibrationSession
 from usvips.gui.exchange_dialogs import WizardReport
+from usvips.gui.housing_values import HOUSING_PARAMETERS, parse_known
 from usvips.gui.pane import StereoPane, item_from_pixels
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import OBSERVE, SIDES, Workspace, pair_image_paths, read_pair
@@ -39,10 +39,6 @@ ABSURD_SIGMA0_RATIO = 5.0
 
 #: Unit and one-line meaning of each housing parameter (camera frame: x right, y up, the camera looking
 #: along −z), as each housing kind states them (usvips/core/housing/kinds/).
-HOUSING_PARAMETERS = {name: {s.symbol: (s.unit, s.meaning) for s in housings.kind(name).specs}
-                      for name in housings.water_names()}
-
-
 def natural_key(text: str) -> tuple:
     """Sort key that puts target numbers in numeric order (1, 2, 15, 16) and names alphabetically."""
     parts = re.split(r"(\d+)", str(text))
@@ -85,18 +81,6 @@ def _table(headers: list[str]) -> QtWidgets.QTableWidget:
     table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectionBehavior.SelectRows)
     table.horizontalHeader().setStretchLastSection(True)
     return table
-
-
-def parse_known(text: str) -> tuple[float, float | None] | None:
-    """``"0.016"`` → fixed at 0.016; ``"1.34 ± 0.01"`` (or ``+-``) → a prior; blank → None (default)."""
-    text = text.strip().replace("+-", "±").replace("+/-", "±")
-    if not text:
-        return None
-    value, _, sigma = text.partition("±")
-    try:
-        return float(value), (float(sigma) if sigma.strip() else None)
-    except ValueError:
-        raise UsvipsError(f"{text!r}: type a value (fixed) or 'value ± sigma' (a prior)") from None
 
 
 class SetupPage(QtWidgets.QWizardPage):

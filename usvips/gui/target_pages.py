@@ -25,6 +25,7 @@ from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui import active_pairs
 from usvips.gui import target_views_model as detail_model
+from usvips.gui.housing_values import HOUSING_PARAMETERS, parse_known
 from usvips.gui.pane import StereoPane, item_from_pixels
 from usvips.gui.target_session import TargetSession
 from usvips.gui.worker import Cancelled, Worker, start
@@ -191,8 +192,6 @@ class SourcePage(QtWidgets.QWizardPage):
     def _fill_known(self, housing: str) -> None:
         """One field per parameter of the housing kind: blank (the default shown), a value (held fixed) or
         'value ± sigma' (weighted)."""
-        from usvips.gui.calibration_wizard import HOUSING_PARAMETERS
-
         while self.known_form.rowCount():
             self.known_form.removeRow(0)
         self.known = {}
@@ -216,8 +215,6 @@ class SourcePage(QtWidgets.QWizardPage):
 
     def known_values(self) -> dict[str, tuple[float, float | None]]:
         """The housing values typed: symbol → (value, σ or None)."""
-        from usvips.gui.calibration_wizard import parse_known
-
         known = {}
         for name, edit in self.known.items():
             try:
