@@ -146,7 +146,8 @@ def test_points_that_fail_stop_the_run_unless_left_out(tmp_path, calibration):
 
 def test_the_hash_set_finds_exactly_the_keys_seen_before():
     rng = np.random.default_rng(5)
-    seen, reference = SeenKeys(), set()
+    seen, reference = SeenKeys(size=16), set()  # it grows many times
+    seen.BATCH = 7  # and moves its keys a few at a time
     for _ in range(30):  # batches that repeat keys within themselves and across batches; 0 and -1 included
         keys = rng.integers(-50, 3000, rng.integers(1, 400))
         expected = []

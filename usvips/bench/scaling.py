@@ -126,18 +126,27 @@ def repeated(source: Path, copies: int, path: Path) -> int:
     return copies * body.count("\n")
 
 
+#: runs the command line given after it, then writes the process's peak resident memory (kB, VmHWM:
+#: this process's own, not the parent's it was started from) to stderr's last line
+_MEASURED = ("import sys\nfrom usvips.cli import main\ncode = main(sys.argv[1:])\n"
+             "peak = [line.split()[1] for line in open('/proc/self/status') if line.startswith('VmHWM:')]\n"
+             "print('peak_kb', peak[0] if peak else 0, file=sys.stderr)\nsys.exit(code)\n")
+
+
 def child_run(arguments: list[str]) -> tuple[float, float, float]:
-    """(wall s, CPU s, peak resident MB) of the command ``arguments`` run in a process of its own."""
+    """(wall s, CPU s, peak resident MB) of ``usvips ARGUMENTS`` run in a process of its own."""
     start = time.perf_counter()
-    child = subprocess.Popen(arguments, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    child = subprocess.Popen([sys.executable, "-c", _MEASURED, *arguments], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE)
     _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start
     child.returncode = os.waitstatus_to_exitcode(status)
-    if child.returncode != 0:
-        raise RuntimeError(f"{' '.join(arguments[:3])} exited with {child.returncode}: "
-                           f"{child.stderr.read().decode(errors='replace')[-500:]}")
+    errors = child.stderr.read().decode(errors="replace")
     child.stderr.close()
-    return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024
+    if child.returncode != 0:
+        raise RuntimeError(f"usvips {' '.join(arguments[:1])} exited with {child.returncode}: {errors[-500:]}")
+    peak = next((line.split()[1] for line in reversed(errors.splitlines()) if line.startswith("peak_kb")), "0")
+    return wall, usage.ru_utime + usage.ru_stime, int(peak) / 1024
 
 
 def memory_row(largest: Path, count: int, folder: Path) -> dict:
@@ -146,7 +155,7 @@ def memory_row(largest: Path, count: int, folder: Path) -> dict:
     rows = repeated(largest, 10, big)
 
     def run(obs: Path) -> tuple[float, float, float]:
-        return child_run([sys.executable, "-m", "usvips", "intersect", "--calibration", str(CALIBRATION), "--obs",
+        return child_run(["intersect", "--calibration", str(CALIBRATION), "--obs",
                           str(obs), "--out", str(folder / "points_child.csv"), "--pointing-only", "--skip-failed",
                           "--force"])
 

@@ -41,11 +41,14 @@ _PLAIN = re.compile(r"[^\x21\x24-\x7e\n]")
 
 
 class SeenKeys:
-    """A set of 64-bit hashes in a numpy open-addressing table (8-16 bytes per key): :meth:`add` tells
-    which of a batch of keys were seen before, earlier in the batch included."""
+    """A set of 64-bit hashes in a numpy open-addressing table (at most 3/4 full: 11-21 bytes per key):
+    :meth:`add` tells which of a batch of keys were seen before, earlier in the batch included."""
 
-    def __init__(self) -> None:
-        self._table = np.zeros(1 << 12, dtype=np.int64)
+    #: keys moved at a time when the table grows (the temporary arrays stay small)
+    BATCH = 1 << 16
+
+    def __init__(self, size: int = 1 << 12) -> None:
+        self._table = np.zeros(max(16, 1 << (int(size) - 1).bit_length()), dtype=np.int64)
         self._count = 0
 
     def _slots(self, keys: np.ndarray) -> np.ndarray:
@@ -54,12 +57,13 @@ class SeenKeys:
 
     def _grow(self, needed: int) -> None:
         size = len(self._table)
-        while 2 * needed > size:
+        while 4 * needed > 3 * size:
             size *= 2
         if size != len(self._table):
-            old = self._table[self._table != 0]
-            self._table, self._count = np.zeros(size, dtype=np.int64), 0
-            self._insert(old)
+            old, self._table, self._count = self._table, np.zeros(size, dtype=np.int64), 0
+            for start in range(0, len(old), self.BATCH):
+                part = old[start:start + self.BATCH]
+                self._insert(part[part != 0])
 
     def add(self, keys: np.ndarray) -> np.ndarray:
         """Insert ``keys`` (int64); returns the (ascending) indices of those already in the set."""
