@@ -728,6 +728,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.show_message("error", f"species list not imported: {error}")
             return False
         self.observation.refresh_species()
+        self.object_list.refresh()  # the quality column's species rule (the one verdict) with the new maxima
+        self.qa.schedule()  # and the QA panel's
         self.show_message("info", f"{len(species)} species from {path} are the project's species list")
         return True
 

@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterable
 
 from PySide6 import QtCore, QtGui
 
+from usvips.app.quality import object_facts
 from usvips.core.measurements.breakdown import breakdown_text
 from usvips.gui.calculator import format_figure
 from usvips.gui.video_model import video_frame_text
@@ -85,6 +86,7 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
         self._texts: dict[int, tuple[str, ...]] = {}  # object id -> its cells' texts (kept until it changes)
         self._tips: dict[int, str] = {}
         self.reviews: dict[int, object] = {}
+        self.species: dict = {}
         self.links: dict[int, int] = {}
         self.instants: Counter = Counter()
         self.requested: set[int] = set()  # ids asked for through ``wanted`` and not yet known
@@ -122,6 +124,7 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
         """Every row again from the cache (another project, everything read again)."""
         self.beginResetModel()
         self.links, self.instants, self.reviews = links, Counter(links.values()), reviews
+        self.species = self.workspace.species_maxima()  # for the species rule of the one verdict
         self._texts, self._tips, self.requested = {}, {}, set()
         self._ids, self._row = self._arranged(self.workspace.cache.ids()), None
         self.endResetModel()
@@ -233,6 +236,10 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
         stored = ws.cache.get(object_id)
         result = ws.object_figures(object_id)
         main, quality, tip = figure_texts(result, object_id, self.links, self.instants)
+        if result is not None and result.measurement is not None:  # the one verdict (app.quality.judge)
+            facts = object_facts(stored, result.measurement, ws.rules, ws.object_record(object_id), self.species)
+            broken = list(dict.fromkeys([*result.failures, *facts]))
+            quality = "; ".join(broken) or "ok"
         values = {"id": str(object_id), "type": stored.kind, "species": species_text(ws.object_record(object_id)),
                   "attribute": stored.attribute, "vertices": str(len(stored.vertices)), "figure": main,
                   "quality": quality, "review": review_text(self.reviews.get(object_id)), "notes": stored.notes,
