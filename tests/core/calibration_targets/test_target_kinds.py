@@ -67,6 +67,7 @@ BAD = [
     ("marker-grid", {"separation": 0}, "separation", "> 0"),
     ("circle-grid", {"diameter": 0.03}, "diameter", "touch"),
     ("circle-grid", {"rows": 10}, "rows", "half a turn"),
+    ("circle-grid", {"cols": 1}, "cols", "at least 2"),  # one asymmetric column: printed, never found
     ("circle-grid", {"asymmetric": False, "cols": 5, "rows": 4, "diameter": 0.01}, "rows", "half a turn"),
     ("target-field", {"points": [["1", 0, 0, 0]] * 8}, "points", "given twice"),
     ("target-field", {"points": [["1", 0, 0, 0], ["2", 1, 0, 0]]}, "points", "at least 6"),

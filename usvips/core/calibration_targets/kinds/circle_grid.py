@@ -37,7 +37,7 @@ class CircleGrid(PrintedBoard):
                  upright: bool = False, source: str = "") -> None:
         description = {"cols": cols, "rows": rows, "spacing": spacing, "diameter": diameter,
                        "asymmetric": asymmetric, "upright": upright}
-        self.cols = _board.count(description, "cols", source, minimum=2 if not asymmetric else 1)
+        self.cols = _board.count(description, "cols", source, minimum=2)  # one column: OpenCV finds no grid
         self.rows = _board.count(description, "rows", source, minimum=2 if not asymmetric else 3)
         self.spacing = _board.length(description, "spacing", source)
         self.diameter = _board.length(description, "diameter", source)
