@@ -12,6 +12,7 @@ import pytest
 from tests.core.calibration_scenes import FLAT, HEIGHT, LEFT, NOISE_PX, RIGHT, WIDTH, control_frame, observe, rig_at
 from usvips.cli import main
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
+from usvips.core.calibration.phases import require_physical
 from usvips.core.camera import Camera
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.housing import AirHousing
@@ -46,10 +47,15 @@ def _tiny_rig(baseline: float) -> StereoRig:
                                    RelativeOrientation(baseline, 0.0, 0.0, 0.0, 0.0, 0.0))
 
 
-def test_coplanar_control_is_named_in_phase_2(control, air, water_obs):
+def test_coplanar_control_in_phase_2_is_a_planar_target_and_images_it_cannot_explain_are_refused(control, air,
+                                                                                                 water_obs):
+    """Phase 2 with the interior known takes a planar target (a board in a tank, issue 33: it was refused
+    as coplanar); a 'flat' control that the images of a 3-D field cannot fit is refused by name as physically
+    impossible (residuals far above phase 1's), never written as usable."""
     flat = ControlPoints(control.ids, control.xyz * [1, 1, 0])
-    with pytest.raises(DegenerateGeometryError, match="coplanar"):
-        calibrate_water(air.calibration, "flat-port", flat, water_obs, CalibrationOptions(fix_values=FIXED_GLASS))
+    result = calibrate_water(air.calibration, "flat-port", flat, water_obs, CalibrationOptions(fix_values=FIXED_GLASS))
+    with pytest.raises(DegenerateGeometryError, match="physically impossible"):
+        require_physical(result, air.calibration, "nothing written")
 
 
 @pytest.mark.parametrize("baseline", [0.0, 0.001, 0.005])
@@ -105,7 +111,7 @@ def test_the_command_line_names_each_with_exit_2(tmp_path, control, air, capsys)
     water_argv = ["calibrate", "water", "--base", str(tmp_path / "air.json"), "--obs", str(tmp_path / "water.csv"),
                   "--out", str(tmp_path / "w.json")]
     _one_line_exit_2(water_argv + ["--housing", "flat-port", "--control", str(tmp_path / "flat.csv"),
-                                   "--fix", "t=0.016", "--fix", "n2=1.65"], capsys, "coplanar")
+                                   "--fix", "t=0.016", "--fix", "n2=1.65"], capsys, "physically impossible")
     _one_line_exit_2(water_argv + ["--housing", "flat-port", "--control", str(tmp_path / "control.csv"),
                                    "--fix", "t=0.016", "--fix", "n2=1.65", "--fix", "g=-0.05"], capsys,
                      "lets no ray through")
