@@ -118,9 +118,13 @@ def _options_of(parser: argparse.ArgumentParser) -> dict[str, str]:
     return options
 
 
-def _in_option_terms(error: InvalidParameterError, options: dict[str, str]) -> str:
-    """An invalid parameter named as the option the user typed (``--max-views: must be …``) when the
-    command has one of that name, otherwise as the library names it."""
+def _in_option_terms(error: InvalidParameterError, options: dict[str, str],
+                     named: dict[str, str] | None = None) -> str:
+    """An invalid parameter named as the option the user typed (``--max-views: must be …``): the command's
+    own word for it (``named``: the library's name → the option, a command's ``parameter_options``), or an
+    option of that name; otherwise as the library names it."""
+    if named and error.parameter in named:
+        return f"{named[error.parameter]}: {error.problem}"
     name = error.parameter
     candidates = [name] + [name.removesuffix("_" + unit) for unit in UNIT_SUFFIXES if name.endswith("_" + unit)]
     option = next((options[c] for c in candidates if c in options), None)
@@ -163,7 +167,7 @@ def _run(args: argparse.Namespace, handler: Callable[[argparse.Namespace], int],
         with annotating_as(getattr(args, "annotator", None)):
             return int(handler(args) or 0)
     except InvalidParameterError as error:
-        return _fail(args.command, _in_option_terms(error, options or {}))
+        return _fail(args.command, _in_option_terms(error, options or {}, getattr(args, "parameter_options", None)))
     except UsvipsError as error:
         return _fail(args.command, str(error))
     except BrokenPipeError:  # output piped into a pager or head that closed early

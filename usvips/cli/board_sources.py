@@ -34,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with --video: look at every K-th instant (default 5)")
     parser.add_argument("--max-views", type=int, default=DEFAULT_MAX_VIEWS, metavar="N",
                         help=f"with --video: keep at most N diverse views (default {DEFAULT_MAX_VIEWS})")
+    parser.set_defaults(parameter_options={"maximum views": "--max-views", "every": "--every"})
 
 
 def _natural(path: str) -> tuple:

@@ -41,7 +41,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--force", action="store_true", help="replace --out even when it is an input or holds a "
                         "USVIPS project or calibration (the old file is kept as NAME.bak)")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    parser.set_defaults(handler=run)
+    # the library names a value in the user's words; the command line says which option to change
+    parser.set_defaults(handler=run, parameter_options={"maximum views": "--max-views", "every": "--every",
+                                                        "largest edge width": "--max-blur", "focal_px": "--focal"})
 
 
 def run(args: argparse.Namespace) -> int:
