@@ -41,7 +41,8 @@ SUMMARIES: dict[str, str] = {
     "intersect": "intersect conjugate pixels: id,X,Y,Z,sX,sY,sZ (metres)",
     "measure": "measure objects from picks: figures with sigmas (CSV), optionally stored in a project",
     "project": "create, inspect, import into and export from a project file",
-    "render": "render a sample project from a scene description",
+    "render": "render a sample project from a scene description, or board views through a housing (--target) "
+              "to rehearse a calibration",
     "bench": "measure speed as ratios against baselines timed in the same run (JSON)",
     "calibration": "import, export or report a calibration",
     "plan": "map the expected sigma of a point and a length (precision planner)",

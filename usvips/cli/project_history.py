@@ -29,7 +29,8 @@ def register_history_action(actions: argparse._SubParsersAction) -> None:
 def run_history(args: argparse.Namespace) -> int:
     if args.object is not None and args.object < 1:
         raise InvalidParameterError("--object", f"an object id is a whole number ≥ 1, got {args.object}")
-    from usvips.store.opening import open_project, shown  # at run time: the parser stays light
+    from usvips.store.location import shown  # at run time: the parser stays light
+    from usvips.store.opening import open_project
 
     with open_project(args.project, read_only=True) as project:
         entries = project.history(args.object)

@@ -56,7 +56,8 @@ def run_review(args: argparse.Namespace) -> int:
         raise InvalidParameterError("--reason", "--reason goes with --flag ID")
     if args.flag is not None and args.flag in args.accept:
         raise InvalidParameterError("--flag", f"object {args.flag} is also given to --accept")
-    from usvips.store.opening import open_project, shown  # at run time: the parser stays light
+    from usvips.store.location import shown  # at run time: the parser stays light
+    from usvips.store.opening import open_project
 
     writing = bool(args.accept) or args.flag is not None
     with open_project(args.project, read_only=not writing) as project:
