@@ -23,7 +23,8 @@ from usvips.core.errors import UsvipsError
 from usvips.gui import active_pairs
 from usvips.gui.calibration_session import PHASES, CalibrationSession
 from usvips.gui.exchange_dialogs import WizardReport
-from usvips.gui.housing_values import HOUSING_PARAMETERS, parse_known
+from usvips.gui.housing_value_form import fill_known_form
+from usvips.gui.housing_values import parse_known
 from usvips.gui.pane import StereoPane, item_from_pixels
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import OBSERVE, SIDES, Workspace, pair_image_paths, read_pair
@@ -172,27 +173,8 @@ class SetupPage(QtWidgets.QWizardPage):
             wizard.done(QtWidgets.QDialog.DialogCode.Accepted)
 
     def _fill_known(self, housing: str) -> None:
-        while self.known_form.rowCount():
-            self.known_form.removeRow(0)
-        self.known = {}
-        for name, (value, sigma) in DEFAULT_HOUSING[housing].items():
-            unit, meaning = HOUSING_PARAMETERS.get(housing, {}).get(name, ("", ""))
-            edit = QtWidgets.QLineEdit()
-            edit.setMaximumWidth(200)
-            edit.setMinimumWidth(200)  # "default 0.05 ± 0.001" shows whole
-            default = f"{value:g}" + (f" ± {sigma:g}" if sigma else " (fixed)")
-            edit.setPlaceholderText(f"default {default}")
-            edit.setToolTip(f"{name}: {meaning} ({unit})")
-            if name in self.session.known and housing == self.session.housing:
-                known_value, known_sigma = self.session.known[name]
-                edit.setText(f"{known_value:g}" + (f" ± {known_sigma:g}" if known_sigma else ""))
-            explanation = QtWidgets.QLabel(meaning)
-            explanation.setStyleSheet("color: #666;")
-            row = QtWidgets.QHBoxLayout()
-            row.addWidget(edit)
-            row.addWidget(explanation, 1)
-            self.known_form.addRow(f"{name} ({unit})" if unit != "—" else f"{name} (no unit)", row)
-            self.known[name] = edit
+        known = self.session.known if housing == self.session.housing else {}
+        self.known = fill_known_form(self.known_form, housing, known)
 
     def _refresh_control(self) -> None:
         control = self.session.control

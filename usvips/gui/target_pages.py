@@ -25,7 +25,8 @@ from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui import active_pairs
 from usvips.gui import target_views_model as detail_model
-from usvips.gui.housing_values import HOUSING_PARAMETERS, parse_known
+from usvips.gui.housing_value_form import fill_known_form
+from usvips.gui.housing_values import parse_known
 from usvips.gui.pane import StereoPane, item_from_pixels
 from usvips.gui.target_session import TargetSession
 from usvips.gui.worker import Cancelled, Worker, start
@@ -192,26 +193,8 @@ class SourcePage(QtWidgets.QWizardPage):
     def _fill_known(self, housing: str) -> None:
         """One field per parameter of the housing kind: blank (the default shown), a value (held fixed) or
         'value ± sigma' (weighted)."""
-        while self.known_form.rowCount():
-            self.known_form.removeRow(0)
-        self.known = {}
-        for name, (value, sigma) in DEFAULT_HOUSING[housing].items():
-            unit, meaning = HOUSING_PARAMETERS.get(housing, {}).get(name, ("", ""))
-            edit = QtWidgets.QLineEdit()
-            edit.setMinimumWidth(200)
-            edit.setMaximumWidth(200)
-            edit.setPlaceholderText("default " + f"{value:g}" + (f" ± {sigma:g}" if sigma else " (fixed)"))
-            edit.setToolTip(f"{name}: {meaning} ({unit})")
-            if name in self.session.known and housing == self.session.housing:
-                known_value, known_sigma = self.session.known[name]
-                edit.setText(f"{known_value:g}" + (f" ± {known_sigma:g}" if known_sigma else ""))
-            explanation = QtWidgets.QLabel(meaning)
-            explanation.setStyleSheet("color: #666;")
-            row = QtWidgets.QHBoxLayout()
-            row.addWidget(edit)
-            row.addWidget(explanation, 1)
-            self.known_form.addRow(f"{name} ({unit})" if unit not in ("", "—") else f"{name} (no unit)", row)
-            self.known[name] = edit
+        known = self.session.known if housing == self.session.housing else {}
+        self.known = fill_known_form(self.known_form, housing, known)
 
     def known_values(self) -> dict[str, tuple[float, float | None]]:
         """The housing values typed: symbol → (value, σ or None)."""

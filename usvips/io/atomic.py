@@ -54,32 +54,23 @@ def check_output_path(path: str | Path) -> Path:
 
 def write_bytes_atomic(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder, then rename it into place."""
-    path = check_output_path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    try:
-        handle, temporary = tempfile.mkstemp(prefix=".usvips.", suffix=".tmp", dir=str(folder))
-    except OSError as error:
-        raise OutputFileError(str(path), f"cannot write: {error.strerror or error}") from None
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(data)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the file a normal file's mode
-        os.replace(temporary, path)
-    except OSError as error:
-        Path(temporary).unlink(missing_ok=True)
-        raise OutputFileError(str(path), f"cannot write: {error.strerror or error}") from None
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    with _replaced_atomically(path, "wb") as stream:
+        stream.write(data)
 
 
-@contextlib.contextmanager
-def text_atomic(path: str | Path) -> Iterator:
+def text_atomic(path: str | Path) -> contextlib.AbstractContextManager:
     """A text stream (UTF-8, newlines as written) to a temporary file beside ``path``, renamed into place
     when the block ends without error; on any error the temporary file is removed and ``path`` is
     untouched (for writers that write a large file piece by piece)."""
+    return _replaced_atomically(path, "w", encoding="utf-8", newline="")
+
+
+@contextlib.contextmanager
+def _replaced_atomically(path: str | Path, mode: str, **options) -> Iterator:
+    """A stream (``open``'s ``mode`` and ``options``) to a temporary file beside ``path`` (checked by
+    :func:`check_output_path`), given a normal file's mode and renamed onto ``path`` when the block ends
+    without error; on any error the temporary file is removed, ``path`` untouched, and an operating-system
+    error is an :class:`OutputFileError` naming ``path``."""
     path = check_output_path(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:
@@ -87,7 +78,7 @@ def text_atomic(path: str | Path) -> Iterator:
     except OSError as error:
         raise OutputFileError(str(path), f"cannot write: {error.strerror or error}") from None
     try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
+        with os.fdopen(handle, mode, **options) as stream:
             try:
                 yield stream
             except OSError as error:
