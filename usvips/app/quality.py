@@ -186,9 +186,10 @@ def judge(stored: StoredObject, m: Measurement | None, rules: QualityRules | Non
 def object_facts(stored: StoredObject, m: Measurement | None, rules: QualityRules | None = None,
                  record: ObservationRecord | None = None, species: dict[str, Species] | None = None) -> list[str]:
     """The rules one object breaks (:func:`judge`), one line each ("rule: why"); empty when it passes them
-    all. Notes (a rule that could not be checked) are not listed: they are no failure."""
+    all. Notes (a rule that could not be checked) are not listed: they are no failure; nor is a missing
+    measurement (``m`` None: its figures are not known here yet, which is no rule broken)."""
     return [f"{i.rule_name}: {i.message}" if i.rule in NAMED_IN_FACTS else i.message
-            for i in judge(stored, m, rules, record, species) if i.status == FAIL]
+            for i in judge(stored, m, rules, record, species) if i.status == FAIL and i.rule != "no_figures"]
 
 
 #: rules whose message does not say which rule it is (the precision rules' and the species rule's do)

@@ -13,12 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.app.calibrations import store_calibration
 from usvips.app.project_figures import measure_stored
 from usvips.app.sigma_check import check_project_sigmas
 from usvips.bench.scaling import CALIBRATION
-from usvips.io.calibration_file import calibration_to_dict, load_calibration
-from usvips.store import Project
-from usvips.store.project import Vertex
+from usvips.io.calibration_file import load_calibration
+from usvips.store.opening import create_project, open_project
+from usvips.store.records import Vertex
 
 #: objects of the benchmark's project, and the promise (s)
 OBJECTS = 1000
@@ -34,9 +35,9 @@ def build_survey(path: Path, objects: int = OBJECTS, seed: int = 0, pointing_px:
     rig = calibration.rig(0, "rig")
     rng = np.random.default_rng(seed)
     rows = []
-    with Project.create(path) as project:
+    with create_project(path) as project:
         project.add_pair("dive")
-        calibration_id = project.add_calibration("cal", calibration_to_dict(calibration), ("dive",))
+        calibration_id = store_calibration(project, "cal", calibration, ("dive",))
         while len(rows) < objects:
             pixel = rng.uniform([150, 150], [1130, 810])
             ray = rig.left.rays(pixel[None])
@@ -58,7 +59,7 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
     objects = max(50, int(OBJECTS * min(scale, 1.0)))
     with tempfile.TemporaryDirectory() as folder:
         path = build_survey(Path(folder) / "survey.usvips", objects)
-        with Project.open(path, read_only=True) as project:
+        with open_project(path, read_only=True) as project:
             start = time.perf_counter()
             report = check_project_sigmas(project)
             ours = time.perf_counter() - start

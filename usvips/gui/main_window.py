@@ -390,7 +390,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for name in ("track", "refollow", "store_instants", "propose_tracked", "instants"):
             measure.addAction(a[name])
         measure.addSeparator()
-        measure.addAction("Pointing &test… (estimate your pointing σ)", self.show_pointing_test)
+        measure.addAction("Pointin&g test… (estimate your pointing σ)", self.show_pointing_test)
         measure.addAction("Check &σ (Monte Carlo)…", self.show_sigma_check)
         calibration = self.menuBar().addMenu("&Calibration")
         for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
