@@ -13,6 +13,7 @@ Images are handed over as the files hold them (grey or colour, 8 or 16 bits); vi
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,24 +40,26 @@ class StereoFrame:
         return self._reader(side)
 
 
-class FrameSet:
+class FrameSet(ABC):
     """Stereo instants to look for a target in (see the module's notes). Subclasses: :class:`ImagePairs`,
     :class:`VideoFrames`."""
 
     #: what one frame is called in messages ("pair", "instant")
     unit = "frame"
 
+    @abstractmethod
     def __len__(self) -> int:
-        raise NotImplementedError
+        """How many instants."""
 
+    @abstractmethod
     def __iter__(self) -> Iterator[StereoFrame]:
-        raise NotImplementedError
+        """The instants in order."""
 
     def cancelled(self, done: int, frame: StereoFrame) -> str:
         """The message of a cancel after ``done`` frames, before ``frame``."""
         return f"target detection cancelled after {done} of {len(self)} {self.unit}s"
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 (a set of image pairs holds nothing open: nothing to release)
         """Release what the set holds open (a video's decoders)."""
 
     def __enter__(self) -> FrameSet:
