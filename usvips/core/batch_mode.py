@@ -20,6 +20,10 @@ The engine's structured fast paths (the normal equations summed block by block,
 :mod:`usvips.core.normal_equations`; the housing columns of a side traced in one batch,
 :mod:`usvips.core.calibration.derivatives`) keep the straightforward computation as their reference:
 ``with reference(): ...`` makes them take it, so that tests compare both on the same problem.
+
+Both switches (the kernels' mode and the reference) are context variables: they hold for the thread or
+task that entered the block, never for another worker running at the same time. The BLAS thread limit is
+the one process-wide setting (the BLAS library has a single pool).
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from contextvars import ContextVar
 from typing import TypeVar
 
 from usvips.core import kernels
@@ -34,23 +39,23 @@ from usvips.core import kernels
 Function = TypeVar("Function", bound=Callable)
 
 _controller = None
-_reference = {"on": False}
+_reference: ContextVar[bool] = ContextVar("usvips_reference_paths", default=False)
 
 
 @contextmanager
 def reference() -> Iterator[None]:
-    """Within this block the engine's structured fast paths take their straightforward dense reference."""
-    before = _reference["on"]
-    _reference["on"] = True
+    """Within this block the engine's structured fast paths take their straightforward dense reference (in
+    this thread or task only)."""
+    token = _reference.set(True)
     try:
         yield
     finally:
-        _reference["on"] = before
+        _reference.reset(token)
 
 
 def using_reference() -> bool:
-    """Whether :func:`reference` is in force."""
-    return _reference["on"]
+    """Whether :func:`reference` is in force in this thread or task."""
+    return _reference.get()
 
 
 def _blas_controller():

@@ -19,14 +19,17 @@ normalised coordinates (u, v) with the ray (u, v, −1), metres, pixels.
 Only planes and spheres compile (every parametric housing); a housing with an implicit surface, or a
 machine without numba, takes the numpy path. :func:`mode` chooses: ``"auto"`` (compiled for batches of
 at least :data:`MIN_ROWS` rows, where it pays for loading the compiled code), ``"always"`` or
-``"never"``. numba is imported only when a kernel first runs, so a window that never intersects a
-batch does not pay for it.
+``"never"``. The mode is a context variable, not process state: a ``with mode(...)`` block sets it for
+the thread (or asyncio task) that runs the block only, so two worker threads cannot switch each other's
+mode, and a new thread starts in ``"auto"``. numba is imported only when a kernel first runs, so a window
+that never intersects a batch does not pay for it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from contextvars import ContextVar
 
 import numpy as np
 
@@ -36,7 +39,8 @@ from usvips.core.surfaces import MIN_ADVANCE, Plane, Sphere
 MIN_ROWS = 512
 
 _MODES = ("auto", "always", "never")
-_state = {"mode": "auto"}
+#: The current mode of this thread / task (see :func:`mode`).
+_mode: ContextVar[str] = ContextVar("usvips_kernel_mode", default="auto")
 _compiled: dict[str, object] = {}
 
 PLANE, SPHERE = 0, 1
@@ -44,15 +48,20 @@ PLANE, SPHERE = 0, 1
 
 @contextmanager
 def mode(name: str) -> Iterator[None]:
-    """Within the block, use the compiled kernels ``"always"``, ``"never"`` or ``"auto"``."""
+    """Within the block, use the compiled kernels ``"always"``, ``"never"`` or ``"auto"`` (in this thread
+    or task only; other threads keep their own mode)."""
     if name not in _MODES:
         raise ValueError(f"kernel mode must be one of {_MODES}, got {name!r}")
-    previous = _state["mode"]
-    _state["mode"] = name
+    token = _mode.set(name)
     try:
         yield
     finally:
-        _state["mode"] = previous
+        _mode.reset(token)
+
+
+def current_mode() -> str:
+    """The kernel mode in force in this thread or task (``"auto"`` unless within :func:`mode`)."""
+    return _mode.get()
 
 
 def surface_table(surfaces) -> tuple[np.ndarray, np.ndarray] | None:
@@ -74,7 +83,7 @@ def surface_table(surfaces) -> tuple[np.ndarray, np.ndarray] | None:
 
 def wanted(rows: int, surfaces=()) -> bool:
     """Whether to run a compiled kernel on ``rows`` rows (traced through ``surfaces``; see :func:`mode`)."""
-    current = _state["mode"]
+    current = _mode.get()
     if current == "never" or (current == "auto" and rows < MIN_ROWS):
         return False
     if surface_table(surfaces) is None:
@@ -205,5 +214,5 @@ def available() -> bool:
     return _load() is not None
 
 
-__all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "camera_table", "intersect_pixels",
+__all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "camera_table", "current_mode", "intersect_pixels",
            "intersect_rays", "mode", "surface_table", "trace_into", "undistort", "wanted"]
