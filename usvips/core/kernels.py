@@ -214,5 +214,5 @@ def available() -> bool:
     return _load() is not None
 
 
-__all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "camera_table", "current_mode", "intersect_pixels",
-           "intersect_rays", "mode", "surface_table", "trace_into", "undistort", "wanted"]
+__all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "camera_table", "current_mode",
+           "intersect_pixels", "intersect_rays", "mode", "surface_table", "trace_into", "undistort", "wanted"]
