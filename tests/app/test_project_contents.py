@@ -62,7 +62,7 @@ def test_an_import_is_checked_before_anything_is_stored_and_stored_all_or_nothin
     write_observations(tmp_path / "o.csv", observations)
     with pytest.raises(UsvipsError, match="nothing to import"):
         plan_import()
-    with pytest.raises(UsvipsError, match="--obs needs --pair"):
+    with pytest.raises(UsvipsError, match="observations need the image pair they belong to"):
         plan_import(observations=tmp_path / "o.csv")
     with pytest.raises(InputFileError, match="o.csv: holds observations of 2 pairs"):
         plan_import(observations=tmp_path / "o.csv", pair="z")

@@ -38,7 +38,7 @@ def test_project_errors_are_one_line(tmp_path, capsys):
     assert main(["project", "new", str(out)]) == 2
     assert "already exists" in capsys.readouterr().err
     assert main(["project", "import", str(out), "--obs", str(SAMPLE / "air_pair1_table3_2.csv")]) == 2
-    assert "--obs needs --pair" in capsys.readouterr().err
+    assert "observations need the image pair they belong to (set it with --pair)" in capsys.readouterr().err
     bad = tmp_path / "bad"
     bad.mkdir()
     (bad / "project.json").write_text('{"format": "usvips-sample", "version": 1, "name": "x", "control": "no.csv"}')

@@ -287,7 +287,7 @@ def test_a_search_of_one_candidate_has_no_confidence_and_is_at_its_edge():
 
 def test_windows_are_whole_non_negative_and_wide_enough_for_a_lag():
     for bad in (-1, -300, 1.5, float("nan"), float("inf"), "x"):
-        with pytest.raises(InvalidParameterError, match="--max-offset"):
+        with pytest.raises(InvalidParameterError, match="max_offset"):
             search_window(bad, 25, 900)
         if not isinstance(bad, str):
             with pytest.raises(InvalidParameterError, match="max_offset"):

@@ -59,7 +59,8 @@ def export_archive(project: ProjectStore, folder: str | Path, rules: QualityRule
                                     "written into a folder, named by the CampaignID)")
     campaign = check_campaign(project.campaign(), where)
     if reader is not None and reader not in {o.creator for o in project.objects()}:
-        raise InvalidParameterError("--reader", f"{where}: annotator {reader!r} measured no object of this survey")
+        raise InvalidParameterError("reader", f"{where}: annotator {reader!r} measured no object of this survey",
+                                    label="reader")
     content = collect_export(project, rules=rules, skipped=skipped, creator=reader)
     check_samples(content.samples, where)
     known = {deployment.opcode for deployment, _ in content.samples}
@@ -108,7 +109,7 @@ def export_archive_folder(project: ProjectStore, folder: str | Path, local: str 
             raise InvalidParameterError("folder", f"{folder}: the folder {folder.parent} does not exist")
         folder.mkdir()
     try:
-        with replacing(targets, project=local, replace=replace, option="OUT"):
+        with replacing(targets, project=local, replace=replace):
             return export_archive(project, folder, skipped=skipped, reader=reader)
     except BaseException:
         if made and not any(folder.iterdir()):

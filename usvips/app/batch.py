@@ -170,7 +170,7 @@ def run(tasks: Iterable[Task], jobs: int | None = None,
     tasks = list(tasks)
     jobs = default_jobs() if jobs is None else jobs
     if jobs < 1:
-        raise InvalidParameterError("--jobs", f"must be at least 1, got {jobs}")
+        raise InvalidParameterError("jobs", f"must be at least 1, got {jobs}", label="parallel jobs")
     outcomes: dict[int, Outcome] = {}
     if not tasks:
         return []

@@ -14,7 +14,7 @@ import uuid
 from collections.abc import Callable, Iterable
 
 from usvips.app.batch import Outcome, Task, _execute
-from usvips.core.errors import InvalidParameterError, UsvipsError
+from usvips.core.errors import InvalidParameterError, UsvipsError, concerning
 
 CONNECT_TIMEOUT_S = 10
 #: the most worker processes ``local:N`` starts here (each holds its own copy of the libraries), as --jobs
@@ -27,10 +27,11 @@ def local_workers(scheduler: str) -> int | None:
         return None
     count = scheduler.removeprefix("local:")
     if not count.isdigit() or int(count) < 1:
-        raise InvalidParameterError("--scheduler", f"local:N needs a positive whole number of workers, got {count!r}")
+        raise InvalidParameterError("scheduler", f"local:N needs a positive whole number of workers, got {count!r}",
+                                    label="scheduler")
     if int(count) > MAX_LOCAL_WORKERS:
-        raise InvalidParameterError("--scheduler", f"local:N starts at most {MAX_LOCAL_WORKERS} worker processes "
-                                                   f"on this machine, got {int(count)}")
+        raise InvalidParameterError("scheduler", f"local:N starts at most {MAX_LOCAL_WORKERS} worker processes "
+                                                 f"on this machine, got {int(count)}", label="scheduler")
     return int(count)
 
 
@@ -39,19 +40,21 @@ def _client(scheduler: str):
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError:
-        raise UsvipsError("--scheduler needs Dask distributed: pip install 'usvips[cluster]'") from None
+        raise concerning(UsvipsError("a Dask scheduler needs Dask distributed: pip install 'usvips[cluster]'"),
+                         "scheduler") from None
     workers = local_workers(scheduler)
     if workers is not None:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
         return Client(cluster), cluster
     if "://" not in scheduler and ":" not in scheduler:
-        raise InvalidParameterError("--scheduler", f"give a scheduler's address (tcp://HOST:PORT) or local:N, "
-                                                   f"got {scheduler!r}")
+        raise InvalidParameterError("scheduler", f"give a scheduler's address (tcp://HOST:PORT) or local:N, "
+                                                 f"got {scheduler!r}", label="scheduler")
     try:
         return Client(scheduler, timeout=CONNECT_TIMEOUT_S), None
     except Exception as error:  # any failure to connect (refused, unreachable, timed out, a bad address) is one
-        raise UsvipsError(f"--scheduler {scheduler}: cannot reach the Dask scheduler there "
-                          f"({' '.join(str(error).split()) or type(error).__name__})") from None
+        raise concerning(UsvipsError(f"scheduler {scheduler}: cannot reach the Dask scheduler there "
+                                     f"({' '.join(str(error).split()) or type(error).__name__})"),
+                         "scheduler") from None
 
 
 def run_on_cluster(tasks: Iterable[Task], scheduler: str,

@@ -226,14 +226,15 @@ def read_inputs(project: ProjectStore, reader_a: str, reader_b: str) -> DoubleRe
     on the project's thread). A reader who made no object of the survey, or the same reader twice, is an
     error naming them (and who did make objects)."""
     if reader_a == reader_b:
-        raise InvalidParameterError("--readers", f"give two different annotators, got {reader_a!r} twice")
+        raise InvalidParameterError("readers", f"give two different annotators, got {reader_a!r} twice",
+                                    label="readers")
     objects = survey_objects(project)
     present = {o.creator for o in objects}
     for name in (reader_a, reader_b):
         if name not in present:
             known = ", ".join(repr(n) for n in sorted(present)) or "nobody: it has no objects"
-            raise InvalidParameterError("--readers", f"{project.path}: annotator {name!r} measured no object of "
-                                        f"this survey (objects were measured by {known})")
+            raise InvalidParameterError("readers", f"{project.path}: annotator {name!r} measured no object of "
+                                        f"this survey (objects were measured by {known})", label="readers")
     return DoubleReadInput(_reader_input(project, reader_a, objects), _reader_input(project, reader_b, objects))
 
 

@@ -14,7 +14,7 @@ from usvips.app.calibration_size import calibration_dict_size_check
 from usvips.app.calibrations import store_calibration
 from usvips.app.video_project import proxy_bytes
 from usvips.core.deployment import Deployment, Georeference
-from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.errors import InputFileError, UsvipsError, concerning
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
 from usvips.store.interface import ProjectStore
@@ -178,15 +178,16 @@ def plan_import(control: str | Path | None = None, observations: str | Path | No
     """Read and check every file to import, before any project is touched. ``observations`` needs
     ``pair``; a file holding several pairs gives that pair's rows (it must be one of them)."""
     if not (control or observations or calibration):
-        raise UsvipsError("nothing to import: give --control, --obs or --calibration")
+        raise UsvipsError("nothing to import: give control points, observations or a calibration")
     if observations and not pair:
-        raise UsvipsError("--obs needs --pair (the image pair the observations belong to)")
+        raise concerning(UsvipsError("observations need the image pair they belong to"), "pair")
     control_points = read_control(control) if control else None
     rows = read_observations(observations) if observations else None
     if rows is not None and len(rows.pair_labels) > 1:
         if pair not in rows.pair_labels:
-            raise InputFileError(str(observations), f"holds observations of {len(rows.pair_labels)} pairs "
-                                 f"({', '.join(rows.pair_labels)[:80]}); --pair must name one of them")
+            raise concerning(InputFileError(str(observations), f"holds observations of {len(rows.pair_labels)} "
+                                            f"pairs ({', '.join(rows.pair_labels)[:80]}); name one of them as "
+                                            "the image pair"), "pair")
         rows = rows.pair(pair)
     data = calibration_to_dict(load_calibration(calibration)) if calibration else None
     return ImportPlan(control_points, rows, pair, role, data, Path(calibration).stem if calibration else "",

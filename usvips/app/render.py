@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
-from usvips.core.errors import ConvergenceError, InputFileError
+from usvips.core.errors import ConvergenceError, InputFileError, concerning
 from usvips.core.observations import StereoObservations
 from usvips.core.synth import Disc, Seafloor, Water, render
 from usvips.io.atomic import OutputFileError, replacing, write_text_atomic
@@ -159,7 +159,7 @@ def render_scene(scene_path: str | Path, out: str | Path, replace: bool = False)
     scene = read_scene(scene_path)
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise OutputFileError(str(out), "--out must be a folder (it is a file)")
+        raise concerning(OutputFileError(str(out), "the output must be a folder (it is a file)"), "out")
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.render-", dir=str(out.parent)))

@@ -21,7 +21,7 @@ import numpy as np
 from usvips.app.calibration_size import check_for, check_size
 from usvips.app.calibrations import make_active, read_calibration
 from usvips.core import synchronisation, validation
-from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError, concerning
 from usvips.core.synchronisation import SyncEstimate
 from usvips.io import video_proxy
 from usvips.io.atomic import guard_output
@@ -62,13 +62,14 @@ def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], la
                      by: str = "auto", max_dt: float = 1.0) -> tuple[list[tuple[str, Path, Path]], str]:
     """The (label, left, right) pairs that :func:`add_image_pairs` would add, and the rule used (for a
     person to confirm). Labels: prefix + the shared stem (or the pair's number when paired by order)."""
-    label_prefix = validation.name("--label-prefix", label_prefix, allow_empty=True) if label_prefix else ""
-    max_dt = validation.finite("--max-dt", max_dt)
+    label_prefix = validation.name("label_prefix", label_prefix, allow_empty=True) if label_prefix else ""
+    max_dt = validation.finite("max_dt", max_dt)
     if max_dt <= 0:
-        raise InvalidParameterError("--max-dt", f"must be > 0 seconds, got {max_dt:g}")
-    left_files = expand(left, IMAGE_SUFFIXES, "--left")
-    right_files = expand(right, IMAGE_SUFFIXES, "--right")
-    _refuse_repeated_files({"--left": left_files, "--right": right_files}, "image")
+        raise InvalidParameterError("max_dt", f"must be > 0 seconds, got {max_dt:g}",
+                                    label="the time between partners' capture")
+    left_files = expand(left, IMAGE_SUFFIXES, "left")
+    right_files = expand(right, IMAGE_SUFFIXES, "right")
+    _refuse_repeated_files({"left": left_files, "right": right_files}, "image")
     pairs, rule = pair_images(left_files, right_files, by, max_dt)
     labels = [f"{label_prefix}{shared_stem(a) if rule == 'stem' else f'{n + 1:03d}'}" for n, (a, _) in enumerate(pairs)]
     for label, (a, _) in zip(labels, pairs, strict=True):
@@ -81,22 +82,23 @@ def _refuse_repeated_files(sides: dict[str, Sequence[Path]], what: str) -> None:
     video as left and right) — by the same name or another name of it (a link): one line naming both
     mentions. (Identical copies are not compared: synthetic test footage may be byte-identical.)"""
     mentions = []
-    for option, files in sides.items():
+    for side, files in sides.items():
         for path in files:
             try:
                 stat = path.stat()
             except OSError:
                 continue  # named missing where it is read
-            mentions.append((option, path, (stat.st_dev, stat.st_ino)))
-    for j, (option, path, inode) in enumerate(mentions):
-        for first_option, first, first_inode in mentions[:j]:
+            mentions.append((side, path, (stat.st_dev, stat.st_ino)))
+    for j, (side, path, inode) in enumerate(mentions):
+        for first_side, first, first_inode in mentions[:j]:
             if inode != first_inode:
                 continue
-            where = f"as both {first_option} and {option}" if first_option != option else f"twice in {option}"
+            where = f"for both the {first_side} and the {side} camera" if first_side != side else \
+                f"twice for the {side} camera"
             why = ""
             if what == "video":
-                why = " (the same video as both cameras)" if first_option != option else " (the same chapter twice)"
-            raise InputFileError(str(path), f"the same file as {first} is given {where}{why}")
+                why = " (the same video as both cameras)" if first_side != side else " (the same chapter twice)"
+            raise concerning(InputFileError(str(path), f"the same file as {first} is given {where}{why}"), side)
 
 
 def add_image_pairs(project: ProjectStore, plan: Sequence[tuple[str, Path, Path]], medium: str = "water") -> list[int]:
@@ -149,13 +151,13 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
     left and right of different picture sizes or frame rates; reports variable frame rate, duplicated
     and dropped frames (``scan_pictures`` decodes every frame to find repeated pictures too). Touches no
     project (may run in a worker thread)."""
-    left_files = expand(left, VIDEO_SUFFIXES, "--left")
-    right_files = expand(right, VIDEO_SUFFIXES, "--right")
-    _refuse_repeated_files({"--left": left_files, "--right": right_files}, "video")
-    check_chapters(left_files, "--left")
-    check_chapters(right_files, "--right")
-    label = validation.name("--label", label) if label is not None else \
-        validation.name("--label (from the file name)", shared_stem(left_files[0]) or left_files[0].stem)
+    left_files = expand(left, VIDEO_SUFFIXES, "left")
+    right_files = expand(right, VIDEO_SUFFIXES, "right")
+    _refuse_repeated_files({"left": left_files, "right": right_files}, "video")
+    check_chapters(left_files, "left")
+    check_chapters(right_files, "right")
+    label = validation.name("label", label) if label is not None else \
+        validation.name("label (from the file name)", shared_stem(left_files[0]) or left_files[0].stem)
     with VideoStream(left_files) as a, VideoStream(right_files) as b:
         if a.size != b.size:
             raise VideoError(f"{right_files[0]}: {b.width} × {b.height} px, but the left video {left_files[0].name} "
@@ -362,7 +364,7 @@ def export_frame(project: ProjectStore, label: str, frame: int, out: str | Path)
     sources = media_files(project)
     for target in (out / "left.png", out / "right.png"):  # never over a picture the project measures on
         if target.exists():
-            guard_output(target, sources, project.path, option="--out", replace_option="another --out")
+            guard_output(target, sources, project.path, parameter="out", replaceable=False)
     left, right, _, _ = frame_pair(project, label, frame)
     return write_frame_pair(left, right, out)
 
@@ -417,7 +419,7 @@ def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: s
     """The label (default ``VIDEO-FRAME``) and folder (``frames/LABEL`` beside the project) of the image
     pair :func:`take_pair` makes of left frame ``frame``; refuses a label already used before anything
     is written (so no stored pair's images are overwritten)."""
-    pair_label = validation.name("--label", pair_label or f"{label}-{frame}")
+    pair_label = validation.name("label", pair_label or f"{label}-{frame}")
     if not pair_label or "/" in pair_label or "\\" in pair_label or pair_label.startswith("."):
         raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
     if pair_label in {p["label"] for p in project.pairs()}:
@@ -464,7 +466,7 @@ def _calibration_for(project: ProjectStore, calibration_id: int | None, label: s
         stored = project.calibrations()
         if not stored:
             raise VideoError(f"{project.path}: image synchronisation needs a calibration of the rig; the project "
-                             "has none (import one, or use --method flash or audio)")
+                             "has none (import one, or synchronise by a flash or the audio)")
         water = [c for c in stored if c.get("phase") not in ("air", "phase1")]
         calibration_id = (water or stored)[-1]["id"]
     return read_calibration(project, calibration_id)
@@ -535,7 +537,8 @@ def estimate_offset(project: ProjectStore, label: str, method: str | None = None
     flash and image estimation. A window that cannot hold a plausible lag, or is negative, is refused
     (:func:`usvips.core.synchronisation.search_window`)."""
     if method is not None and method not in synchronisation.METHODS:
-        raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
+        raise InvalidParameterError("method", f"{method!r}: choose one of {', '.join(synchronisation.METHODS)}",
+                                    label="synchronisation method")
     return run_sync(plan_sync(project, label, calibration_id), method, max_offset, frame_limit, progress)
 
 
@@ -543,7 +546,8 @@ def run_sync(job: SyncJob, method: str | None = None, max_offset: int | None = N
              progress: Callable[[int, int], None] | None = None) -> SyncEstimate:
     """:func:`estimate_offset` on what :func:`plan_sync` read: files only, no project."""
     if method is not None and method not in synchronisation.METHODS:
-        raise VideoError(f"--method {method!r}: choose one of {', '.join(synchronisation.METHODS)}")
+        raise InvalidParameterError("method", f"{method!r}: choose one of {', '.join(synchronisation.METHODS)}",
+                                    label="synchronisation method")
     label = job.label
     left = VideoStream(job.left)
     try:

@@ -119,17 +119,26 @@ def _options_of(parser: argparse.ArgumentParser) -> dict[str, str]:
     return options
 
 
-def _in_option_terms(error: InvalidParameterError, options: dict[str, str],
-                     named: dict[str, str] | None = None) -> str:
-    """An invalid parameter named as the option the user typed (``--max-views: must be …``): the command's
-    own word for it (``named``: the library's name → the option, a command's ``parameter_options``), or an
-    option of that name; otherwise as the library names it."""
-    if named and error.parameter in named:
-        return f"{named[error.parameter]}: {error.problem}"
+def _in_option_terms(error: UsvipsError, options: dict[str, str], named: dict[str, str] | None = None) -> str:
+    """An error about a setting (``error.parameter``) said with the option that sets it: an invalid value
+    named as the option the user typed (``--max-views: must be …``), any other error followed by its option
+    (``… (set it with --pair)``). The option is the command's own word for the library's name (``named``: a
+    command's ``parameter_options``) or an option of that name (``max_blur_px`` is ``--max-blur``);
+    without one, the error as the library says it."""
     name = error.parameter
-    candidates = [name] + [name.removesuffix("_" + unit) for unit in UNIT_SUFFIXES if name.endswith("_" + unit)]
-    option = next((options[c] for c in candidates if c in options), None)
-    return f"{option}: {error.problem}" if option else str(error)
+    if name is None:
+        return str(error)
+    if named and name in named:
+        option = named[name]
+    else:
+        candidates = [name] + [name.removesuffix("_" + unit) for unit in UNIT_SUFFIXES if name.endswith("_" + unit)]
+        option = next((options[c] for c in candidates if c in options), None)
+    if option is None:
+        return str(error)
+    if isinstance(error, InvalidParameterError) and not error.label:
+        return f"{option}: {error.problem}"
+    replace = options.get(getattr(error, "replace_parameter", None) or "")
+    return f"{error} (set it with {option}" + (f"; {replace} replaces it)" if replace else ")")
 
 
 class RedactedStream:
@@ -167,10 +176,8 @@ def _run(args: argparse.Namespace, handler: Callable[[argparse.Namespace], int],
 
         with annotating_as(getattr(args, "annotator", None)):
             return int(handler(args) or 0)
-    except InvalidParameterError as error:
-        return _fail(args.command, _in_option_terms(error, options or {}, getattr(args, "parameter_options", None)))
     except UsvipsError as error:
-        return _fail(args.command, str(error))
+        return _fail(args.command, _in_option_terms(error, options or {}, getattr(args, "parameter_options", None)))
     except BrokenPipeError:  # output piped into a pager or head that closed early
         return 0
     except KeyboardInterrupt:

@@ -56,8 +56,8 @@ def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
             parse_server_location(given)  # an address that cannot be read: one line, before anything runs
         out = str(out_dir / f"{name}{suffix}")
         if Path(out).exists():  # an output never replaces an input, a project or a calibration
-            guard_output(out, [*inputs, getattr(args, "calibration", None)], option="--out-dir",
-                         replace_option="another --out-dir")
+            guard_output(out, [*inputs, getattr(args, "calibration", None)], parameter="out_dir",
+                         replaceable=False)
         if args.task == "intersect":
             tasks.append(batch.Task(given, batch.intersect_task, {
                 "observations": given, "calibration": args.calibration, "out": out, "station": args.station,

@@ -222,8 +222,8 @@ def _outputs(args: argparse.Namespace) -> list:
 def _check_outputs(args: argparse.Namespace) -> None:
     """Refuse, before any work, an output that is one of the inputs (an image included) or a project or
     calibration file (unless --force; :func:`usvips.io.atomic.guard_output`)."""
-    for path, option in zip(_outputs(args), ("--out", "--report"), strict=False):
-        guard_output(path, _inputs(args), replace=args.force, option=option)
+    for path, parameter in zip(_outputs(args), ("out", "report"), strict=False):
+        guard_output(path, _inputs(args), replace=args.force, parameter=parameter)
 
 
 def _source(args: argparse.Namespace) -> dict:

@@ -113,7 +113,7 @@ def run_import(args: argparse.Namespace) -> int:
         calibration = read_opencv_stereo(args.files, size, args.unit, args.sigma0)
         doubt = baseline_doubt(calibration, args.unit)
         if doubt:
-            print(f"usvips calibration import: warning: {doubt}", file=sys.stderr)
+            print(f"usvips calibration import: warning: {doubt} (set the unit with --unit)", file=sys.stderr)
         save_calibration(calibration, args.out)
     left, right = calibration.left, calibration.right
     where = f"{left.width}x{left.height} px" if left.width else "image size unknown (--image-size)"

@@ -177,9 +177,12 @@ def run_relocate_media(args: argparse.Namespace) -> int:
 
 def run_import(args: argparse.Namespace) -> int:
     from usvips.app.project_contents import plan_import, store_import
+    from usvips.core.errors import UsvipsError
     from usvips.store.location import shown
     from usvips.store.opening import open_project
 
+    if not (args.control or args.obs or args.calibration):
+        raise UsvipsError("nothing to import: give --control, --obs or --calibration")
     # every file is read and checked before the project is opened; then all goes in one transaction
     plan = plan_import(args.control, args.obs, args.pair, args.role, args.calibration, tuple(args.active_for))
     with open_project(args.project) as project:
@@ -201,7 +204,7 @@ def run_export(args: argparse.Namespace) -> int:
     skipped: list[str] = []
     with open_project(args.project, read_only=True) as project, \
             replacing(export_targets(args.out), media_files(project), project=args.project, replace=args.force,
-                      option="OUT"):
+                      parameter="out"):
         count = export_project(project, args.out, args.opcode, skipped=skipped)
     for reason in skipped:
         print(f"skipped {reason}")

@@ -61,7 +61,7 @@ def run_double_read(args: argparse.Namespace) -> int:
 
     if args.csv:
         local = None if is_server_location(args.project) else args.project
-        with replacing(args.csv, [], local, replace=args.force, option="--csv"):
+        with replacing(args.csv, [], local, replace=args.force, parameter="csv"):
             report = report_of()
             rows = report.rows()
             write_double_read_csv(args.csv, COLUMNS, rows, report.summary())

@@ -115,7 +115,7 @@ def _check_fps(fps: float) -> float:
 MIN_WINDOW_S = 0.5
 
 
-def search_window(max_offset: float | None, fps: float, frame_count: int, parameter: str = "--max-offset") -> int:
+def search_window(max_offset: float | None, fps: float, frame_count: int, parameter: str = "max_offset") -> int:
     """The search window (whole frames either way) for a video pair of ``frame_count`` frames at ``fps``:
     ``max_offset`` when given — a whole number ≥ 0, smaller than the video, and wide enough to hold a lag
     of :data:`MIN_WINDOW_S` (or a third of the video when that is shorter) — else a third of the video,

@@ -22,14 +22,18 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from usvips.core.errors import InputFileError
+from usvips.core.errors import InputFileError, concerning
 
 #: The longest file name (one path component, in bytes) most file systems accept.
 NAME_MAX = 255
 
 
 class OutputFileError(InputFileError):
-    """A file we were asked to write cannot be written; the message names the path and the reason."""
+    """A file we were asked to write cannot be written; the message names the path and the reason.
+    ``replace_parameter``: the setting with which the user may ask to replace it anyway (``"force"``), or
+    None."""
+
+    replace_parameter: str | None = None
 
 
 def check_output_path(path: str | Path) -> Path:
@@ -185,20 +189,22 @@ def same_file(a: str | Path, b: str | Path) -> bool:
 
 
 def guard_output(path: str | Path, inputs: Iterable[str | Path | None] = (), project: str | Path | None = None,
-                 replace: bool = False, option: str = "--out", replace_option: str = "--force") -> bool:
+                 replace: bool = False, parameter: str = "out", replaceable: bool = True) -> bool:
     """Check ``path`` for writing (:func:`check_output_path`) and as not a source of the command; returns
     whether an existing file there is to be kept as a backup when it is replaced (see :func:`replacing`).
 
-    Refused (:class:`OutputFileError`, one line naming ``option``, the file and what it is) when ``path``
-    is one of ``inputs`` or an existing USVIPS project or calibration (:func:`precious_kind`) — unless
-    ``replace`` (the user gave ``replace_option``) — and always when it is the ``project`` the command
-    works on (a project open while its file is replaced would be lost, backup or not)."""
+    Refused (:class:`OutputFileError`, one line naming the file and what it is, concerning the setting
+    ``parameter`` that named the output) when ``path`` is one of ``inputs`` or an existing USVIPS project
+    or calibration (:func:`precious_kind`) — unless ``replace`` (the user asked for it; the error's
+    ``replace_parameter`` is ``"force"`` when the user may ask, i.e. when ``replaceable``) — and always
+    when it is the ``project`` the command works on (a project open while its file is replaced would be
+    lost, backup or not)."""
     path = check_output_path(path)
     if not (path.exists() or path.is_symlink()):
         return False
     if project is not None and same_file(path, project):
-        raise OutputFileError(str(path), f"{option} is the project this command works on; writing there would "
-                              "destroy it: give another file")
+        raise concerning(OutputFileError(str(path), "the output is the project this command works on; writing "
+                                         "there would destroy it: give another file"), parameter)
     what = None
     for source in inputs:
         if source is not None and str(source) and same_file(path, source):
@@ -209,16 +215,18 @@ def guard_output(path: str | Path, inputs: Iterable[str | Path | None] = (), pro
         return False
     if not replace:
         described = what + (f", {kind}" if kind else "") if what else kind
-        raise OutputFileError(str(path), f"{option} is {described}; writing there would destroy it (give another "
-                              f"file, or {replace_option} to replace it, the old one kept as "
-                              f"{backup_path(path).name})")
+        how = f", or replace it on purpose: the old one is kept as {backup_path(path).name}" if replaceable else ""
+        error = concerning(OutputFileError(str(path), f"the output is {described}; writing there would destroy it "
+                                                      f"(give another file{how})"), parameter)
+        error.replace_parameter = "force" if replaceable else None
+        raise error
     return True
 
 
 @contextlib.contextmanager
 def replacing(paths: str | Path | Iterable[str | Path], inputs: Iterable[str | Path | None] = (),
-              project: str | Path | None = None, replace: bool = False, option: str = "--out",
-              replace_option: str = "--force") -> Iterator[None]:
+              project: str | Path | None = None, replace: bool = False, parameter: str = "out",
+              replaceable: bool = True) -> Iterator[None]:
     """Around a command's writing of ``paths`` (one or several files): each checked by
     :func:`guard_output` on entry (so a refusal comes before any work); a file that may be replaced only
     because the user asked is copied aside on entry and the copy becomes ``NAME.bak`` when the block
@@ -229,7 +237,7 @@ def replacing(paths: str | Path | Iterable[str | Path], inputs: Iterable[str | P
     kept: dict[Path, str] = {}
     try:
         for target in targets:
-            if guard_output(target, inputs, project, replace, option, replace_option):
+            if guard_output(target, inputs, project, replace, parameter, replaceable):
                 try:
                     handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".bak.tmp",
                                                          dir=str(target.parent))

@@ -34,7 +34,7 @@ from usvips.core.calibration.figures import parameter_table
 from usvips.core.calibration.model import StereoModel
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.calibration_views import DEFAULT_GRID, covered_cells
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import UsvipsError, concerning
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.io.atomic import write_bytes_atomic
@@ -535,11 +535,12 @@ def write_calibration_report(calibration: StereoCalibration, out: str | Path,
                   if not (len(why) == 64 and all(c in "0123456789abcdef" for c in why))]
         residual_note = ("the calibration's control and observations were not found: no residual plots"
                          + (f" ({'; '.join(unread[:3])})" if unread else ""))
-    checks, check_reason = None, "No check points given (usvips calibration report ... --check OBS.csv)."
+    checks, check_reason = None, "No check points given (observations of points with known coordinates)."
     if check is not None:
         control = read_control(check_control) if check_control else data.control
         if control is None:
-            raise UsvipsError("--check: no control to compare with (give --check-control CONTROL.csv)")
+            raise concerning(UsvipsError("the check points have no control to compare with: give their control "
+                                         "points"), "check_control")
         checks = check_points(calibration, control, read_observations(check))
     buffer = io.BytesIO()
     metadata = {"Title": f"USVIPS calibration report: {Path(calibration_path).name if calibration_path else ''}",

@@ -37,9 +37,8 @@ LENGTH_COLUMNS = ["CampaignID", "Sample", "Family", "Genus", "Species", "Count",
                   "ObjectID"]
 UNKNOWN = "Unknown"
 
-#: a deployment's fields GlobalArchive requires in the metadata, with the option that sets each
-_REQUIRED_SAMPLE = (("date", "--date"), ("time", "--time"), ("latitude", "--latitude"),
-                    ("longitude", "--longitude"), ("depth_m", "--depth"))
+#: a deployment's fields GlobalArchive requires in the metadata
+_REQUIRED_SAMPLE = ("date", "time", "latitude", "longitude", "depth_m")
 
 
 def archive_paths(folder: str | Path, campaign_id: str) -> dict[str, Path]:
@@ -57,10 +56,10 @@ def check_campaign(campaign: Campaign | None, where: str) -> Campaign:
                                     "Deployment and georeference…)")
     missing = campaign.missing()
     if missing:
-        options = ", ".join("--" + name.replace("_", "-") for name in missing)
         raise InvalidParameterError("campaign", f"{where}: the campaign's {', '.join(missing)} "
                                     f"{'is' if len(missing) == 1 else 'are'} needed by GlobalArchive "
-                                    f"(usvips project set-campaign {options})")
+                                    "(usvips project set-campaign, or the window's File › Deployment and "
+                                    "georeference…)")
     return campaign
 
 
@@ -71,12 +70,12 @@ def check_samples(samples: Sequence[tuple[Deployment, str]], where: str) -> None
         raise InvalidParameterError("deployment", f"{where} has no deployment metadata: GlobalArchive needs each "
                                     "sample's OpCode, date, time, position and depth (usvips project set-metadata)")
     for deployment, _ in samples:
-        missing = [(name, option) for name, option in _REQUIRED_SAMPLE if getattr(deployment, name) in (None, "")]
+        missing = [name for name in _REQUIRED_SAMPLE if getattr(deployment, name) in (None, "")]
         if missing:
-            names = ", ".join(name.removesuffix("_m") for name, _ in missing)
-            options = " ".join(option + " …" for _, option in missing)
+            names = ", ".join(name.removesuffix("_m") for name in missing)
             raise InvalidParameterError("deployment", f"{where}: deployment {deployment.opcode!r} has no {names}, "
-                                        f"which GlobalArchive requires (usvips project set-metadata {options})")
+                                        "which GlobalArchive requires (usvips project set-metadata, or the "
+                                        "window's File › Deployment and georeference…)")
 
 
 def _campaign_cells(campaign: Campaign) -> list[str]:

@@ -40,7 +40,7 @@ import numpy as np
 
 from usvips.core.calibration import planar
 from usvips.core.camera import Camera, Exterior
-from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError, concerning
 from usvips.core.interior import Interior
 from usvips.core.rotation import angles_from_matrix
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
@@ -164,7 +164,7 @@ def stereo_from_opencv(arrays: dict[str, np.ndarray], size: tuple[int, int] | No
     (``stated``, ``given`` or ``assumed``) and ``sigma0_basis`` (what it rests on) go to its statistics."""
     path = where
     if unit not in UNITS:
-        raise InvalidParameterError("--unit", f"must be one of {', '.join(UNITS)}, got {unit!r}")
+        raise InvalidParameterError("unit", f"must be one of {', '.join(UNITS)}, got {unit!r}", label="unit of T")
     left = interior_from_opencv(arrays["K1"], arrays["D1"], path, "left camera (M1, D1)")
     right = interior_from_opencv(arrays["K2"], arrays["D2"], path, "right camera (M2, D2)")
     rotation = rotation_from_opencv(arrays["R"], path)
@@ -416,8 +416,8 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
             if {"R", "T"} & set(missing) and len(paths) == 1 else ""
         raise InputFileError(where, f"missing {', '.join(missing)} (looked for {looked}){hint}")
     if size is not None and file_size is not None and tuple(size) != file_size:
-        raise InputFileError(str(size_origin), f"mismatched image sizes: the file says {file_size[0]}x"
-                             f"{file_size[1]}, --image-size says {size[0]}x{size[1]}")
+        raise concerning(InputFileError(str(size_origin), f"mismatched image sizes: the file says {file_size[0]}x"
+                                        f"{file_size[1]}, the given image size is {size[0]}x{size[1]}"), "image_size")
     source = {"opencv": [str(p) for p in paths], "unit": unit}
     if sigma0_px is not None:
         sigma0, origin, basis = float(sigma0_px), "given", "given at import"
@@ -447,8 +447,8 @@ def _stated(data: dict[str, object], path: Path) -> tuple[float, str] | None:
 def _storage_text(path: Path, entries: dict[str, object], comment: str) -> str:
     suffix = path.suffix.lower()
     if suffix not in (".yml", ".yaml", ".xml", ".json"):
-        raise InvalidParameterError("--out", f"{path}: the extension must be .yml, .yaml, .xml or .json "
-                                    "(OpenCV FileStorage chooses the format by it)")
+        raise InvalidParameterError("out", f"{path}: the extension must be .yml, .yaml, .xml or .json "
+                                    "(OpenCV FileStorage chooses the format by it)", label="output")
     storage = cv2.FileStorage(suffix, cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
     if suffix != ".json":
         storage.writeComment(comment)
@@ -499,7 +499,7 @@ def baseline_doubt(calibration: StereoCalibration, unit: str) -> str | None:
     scale = UNITS[unit]
     fits = sorted((name for name, factor in UNITS.items() if name != unit and low <= baseline / scale * factor <= high),
                   key=lambda name: abs(np.log(baseline / scale * UNITS[name] / TYPICAL_BASELINE_M)))
-    hint = f": is T in {' or '.join(fits)} (--unit {fits[0]})?" if fits else ""
+    hint = f": is T in {' or '.join(fits)}?" if fits else ""
     return (f"the baseline is {baseline:.4g} m, outside the {low:g}–{high:g} m of stereo rigs, reading T in "
             f"{unit}{hint}")
 
@@ -508,7 +508,7 @@ def baseline_doubt(calibration: StereoCalibration, unit: str) -> str | None:
 MAX_IMAGE_SIDE = 65536
 
 
-def parse_image_size(text: str, parameter: str = "--image-size") -> tuple[int, int]:
+def parse_image_size(text: str, parameter: str = "image_size") -> tuple[int, int]:
     """``WxH`` (pixels) → (width, height); a malformed text is one error naming ``parameter``."""
     width, sep, height = text.lower().partition("x")
     try:

@@ -16,7 +16,7 @@ import re
 from collections.abc import Sequence
 from pathlib import Path
 
-from usvips.core.errors import InputFileError
+from usvips.core.errors import InputFileError, InvalidParameterError, concerning
 from usvips.io.exif import capture_time
 
 #: how each pairing rule is named to a person
@@ -32,23 +32,30 @@ def natural_key(path: Path) -> list:
     return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", path.name)]
 
 
-def expand(items: Sequence[str | Path], suffixes: Sequence[str], option: str) -> list[Path]:
+#: how messages name the files of each side (the ``parameter`` of :func:`expand`, :func:`check_chapters`)
+SIDE_WORDS = {"left": "the left camera's files", "right": "the right camera's files"}
+
+
+def expand(items: Sequence[str | Path], suffixes: Sequence[str], parameter: str) -> list[Path]:
     """Files of a list of files and folders (a folder gives its files with one of ``suffixes``, in
-    natural order); a missing file or an empty folder is named."""
+    natural order); a missing file or an empty folder is named, the error concerning ``parameter``
+    (``left`` or ``right``)."""
+    what = SIDE_WORDS.get(parameter, parameter)
     files: list[Path] = []
     for item in items:
         path = Path(item)
         if path.is_dir():
             found = sorted((p for p in path.iterdir() if p.is_file() and p.suffix.lower() in suffixes), key=natural_key)
             if not found:
-                raise InputFileError(str(path), f"{option}: the folder holds no {'/'.join(suffixes)} files")
+                raise concerning(InputFileError(str(path), f"{what}: the folder holds no {'/'.join(suffixes)} files"),
+                                 parameter)
             files.extend(found)
         elif path.is_file():
             files.append(path)
         else:
-            raise InputFileError(str(path), f"{option}: no such file or folder")
+            raise concerning(InputFileError(str(path), f"{what}: no such file or folder"), parameter)
     if not files:
-        raise InputFileError("(nothing)", f"{option}: no files given")
+        raise concerning(InputFileError("(nothing)", f"{what}: no files given"), parameter)
     return files
 
 
@@ -82,7 +89,7 @@ def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto",
                 max_dt: float = 1.0) -> tuple[list[tuple[Path, Path]], str]:
     """(left, right) pairs and the rule used (``stem``, ``time`` or ``order``)."""
     if by not in ("auto", "stem", "time", "order"):
-        raise InputFileError("--pair-by", f"{by!r}: choose auto, stem, time or order")
+        raise InvalidParameterError("pair_by", f"{by!r}: choose auto, stem, time or order", label="pairing rule")
     if by in ("auto", "stem"):
         left_stems = {shared_stem(p): p for p in left}
         right_stems = {shared_stem(p): p for p in right}
@@ -110,21 +117,24 @@ def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto",
 _GOPRO_CHAPTER = re.compile(r"^(G[HXP])(\d{2})(\d{4})$", re.IGNORECASE)
 
 
-def check_chapters(files: Sequence[Path], option: str) -> None:
+def check_chapters(files: Sequence[Path], parameter: str) -> None:
     """Chapters named as GoPro names them (``GX010042``, ``GX020042`` …: chapter, then recording number)
-    must be of one recording, in order, with none missing; other names are taken in the order given."""
+    must be of one recording, in order, with none missing; other names are taken in the order given.
+    Errors concern ``parameter`` (``left`` or ``right``)."""
+    option = SIDE_WORDS.get(parameter, parameter)
     parsed = [_GOPRO_CHAPTER.match(p.stem) for p in files]
     if len(files) < 2 or not all(parsed):
         return
     recordings = {m.group(3) for m in parsed}
     if len(recordings) > 1:
-        raise InputFileError(str(files[0]), f"{option}: chapters of different recordings "
-                             f"({', '.join(sorted(recordings))}) given as one")
+        raise concerning(InputFileError(str(files[0]), f"{option}: chapters of different recordings "
+                                        f"({', '.join(sorted(recordings))}) given as one"), parameter)
     numbers = [int(m.group(2)) for m in parsed]
     for previous, (path, number, m) in zip(numbers, list(zip(files, numbers, parsed, strict=True))[1:], strict=False):
         if number <= previous:
-            raise InputFileError(str(path), f"{option}: chapters out of order (chapter {number:02d} after "
-                                 f"{previous:02d}); give them in recording order")
+            raise concerning(InputFileError(str(path), f"{option}: chapters out of order (chapter {number:02d} "
+                                            f"after {previous:02d}); give them in recording order"), parameter)
         if number != previous + 1:
             missing = f"{m.group(1)}{previous + 1:02d}{m.group(3)}{path.suffix}"
-            raise InputFileError(str(path), f"{option}: chapter {missing} is missing before it")
+            raise concerning(InputFileError(str(path), f"{option}: chapter {missing} is missing before it"),
+                             parameter)

@@ -25,10 +25,11 @@ def write_plan_figure(plan: PrecisionMap, out: str | Path, title: str = "") -> N
     """Draw both maps of ``plan`` into ``out`` (.png, .pdf or .svg)."""
     out = Path(out)
     if out.suffix.lower() not in FORMATS:
-        raise InvalidParameterError("--out", f"{out}: the picture's extension must be one of {', '.join(FORMATS)}")
+        raise InvalidParameterError("out", f"{out}: the picture's extension must be one of {', '.join(FORMATS)}",
+                                    label="output")
     folder = out.parent if str(out.parent) else Path(".")
     if not folder.is_dir():
-        raise InvalidParameterError("--out", f"{out}: the folder {folder} does not exist")
+        raise InvalidParameterError("out", f"{out}: the folder {folder} does not exist", label="output")
     figure = Figure(figsize=(11, 5.2))
     FigureCanvasAgg(figure)
     total = np.sqrt(np.sum(plan.point_sigma ** 2, axis=-1)) * 1e3

@@ -110,13 +110,18 @@ class CalibrationResult:
         return bool(self.adjustment)
 
 
+#: the calibration options that name parameters, in words (``what`` of :func:`_expand`)
+_OPTION_WORDS = {"free": "parameters to free", "fix": "parameters to fix", "prior": "priors"}
+
+
 def _expand(names, all_names: list[str], what: str) -> set[str]:
     """Names or seeds' symbols (``k2`` = k2_l and k2_r) → parameter names; unknown names raise."""
     out: set[str] = set()
     for name in names:
         matches = [n for n in all_names if n == name or symbol(n) == name and "@" not in n]
         if not matches:
-            raise InvalidParameterError(what, f"unknown parameter {name!r}; known: {', '.join(all_names[:40])}")
+            raise InvalidParameterError(what, f"unknown parameter {name!r}; known: {', '.join(all_names[:40])}",
+                                        label=_OPTION_WORDS[what])
         out.update(matches)
     return out
 
@@ -151,18 +156,18 @@ def _exterior_values(starts: dict, stations: tuple[str, ...]) -> dict[str, float
 def _apply_options(parameters: list[Parameter], options: CalibrationOptions) -> None:
     names = [p.name for p in parameters]
     by_name = {p.name: p for p in parameters}
-    for name in _expand(options.free, names, "--free"):
+    for name in _expand(options.free, names, "free"):
         by_name[name].status = "free"
-    for name in _expand(options.fix, names, "--fix"):
+    for name in _expand(options.fix, names, "fix"):
         by_name[name].status = "fixed"
     for key, value in options.fix_values.items():
-        for name in _expand([key], names, "--fix"):
+        for name in _expand([key], names, "fix"):
             by_name[name].status, by_name[name].value = "fixed", float(value)
             by_name[name].group = None
     for key, (value, sigma) in options.priors.items():
         if not sigma > 0:
-            raise InvalidParameterError("--prior", f"{key}: the sigma must be > 0, got {sigma}")
-        for name in _expand([key], names, "--prior"):
+            raise InvalidParameterError("prior", f"{key}: the sigma must be > 0, got {sigma}", label="prior")
+        for name in _expand([key], names, "prior"):
             p = by_name[name]
             p.status, p.value, p.prior, p.sigma = "prior", float(value), float(value), float(sigma)
             p.group = None  # the user's own prior replaces phase 1's
@@ -361,7 +366,7 @@ def build_report(result: CalibrationResult) -> dict:
     interior = [n for n, p in cal.parameters.items() if symbol(n) in INTERIOR_PARAMETERS and "@" not in n]
     if cal.phase != "air" and interior and all(cal.parameters[n].status == "fixed" for n in interior):
         notes.append("The interior orientation is held fixed: the reported sigmas (and every point's) leave its "
-                     "uncertainty out; use --interior weighted to carry it.")
+                     "uncertainty out; weight the interior (phase 1's figures as priors) to carry it.")
     notes.append(f"global test: {adj.global_test['verdict']}.")
     if not adj.converged:
         notes.append(f"NOT converged: {adj.reason}. Do not use this calibration for measurement.")
@@ -495,9 +500,11 @@ def calibrate_water(base: StereoCalibration, housing: str, control: ControlPoint
     weighted. Observations with several pair labels adjust all those stations together."""
     options = options or CalibrationOptions()
     if options.interior not in ("fixed", "weighted"):
-        raise InvalidParameterError("--interior", f"must be 'fixed' or 'weighted', got {options.interior!r}")
+        raise InvalidParameterError("interior", f"must be 'fixed' or 'weighted', got {options.interior!r}",
+                                    label="the interior's treatment")
     if housing not in DEFAULT_HOUSING:
-        raise InvalidParameterError("--housing", f"must be one of {', '.join(DEFAULT_HOUSING)}, got {housing!r}")
+        raise InvalidParameterError("housing", f"must be one of {', '.join(DEFAULT_HOUSING)}, got {housing!r}",
+                                    label="housing")
     housing_kind = housings.kind(housing)
     size = options.image_size if options.image_size != (None, None) else (base.left.width, base.left.height)
     model = StereoModel(housing, control, observations, options.sigma_px, size)

@@ -54,7 +54,8 @@ def holdout_views(labels: tuple[str, ...] | list[str], share: float, seed: int =
     order (so that a sequence filmed at changing distances is sampled across), with a seeded offset."""
     labels = list(labels)
     if not 0.0 < share < 1.0:
-        raise InvalidParameterError("--holdout", f"the share of views held out must be between 0 and 1, got {share}")
+        raise InvalidParameterError("holdout", f"must be between 0 and 1, got {share}",
+                                    label="the share of views held out")
     count = max(1, int(round(share * len(labels))))
     if len(labels) - count < MIN_FITTED:
         raise DegenerateGeometryError(
@@ -362,6 +363,6 @@ def validate(control: ControlPoints, observations: StereoObservations, share: fl
         apply_honesty(result, validation.honesty)
     if compare_opencv:
         if not (image_size[0] and image_size[1]):
-            raise InvalidParameterError("--image-size", "OpenCV's comparison needs the image size")
+            raise InvalidParameterError("image_size", "OpenCV's comparison needs it", label="image size")
         validation.opencv = opencv_stereo(control, fitted_obs, (int(image_size[0]), int(image_size[1])))
     return validation

@@ -59,8 +59,8 @@ class Chessboard(PrintedBoard):
         if self.symmetric and not self.upright:
             _board.fail(source, "cols", f"a {self.cols} × {self.rows} chessboard looks the same turned by half a "
                         "turn, so its corner order cannot be told; use a board with odd × even inner corners "
-                        "(or ChArUco), or describe it as upright (--upright; \"upright\": true in the file): the board "
-                        "never turned beyond a quarter turn")
+                        "(or ChArUco), or describe it as upright (\"upright\": true in its description): the "
+                        "board never turned beyond a quarter turn")
 
     @property
     def symmetric(self) -> bool:

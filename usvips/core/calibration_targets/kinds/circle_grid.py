@@ -51,7 +51,7 @@ class CircleGrid(PrintedBoard):
             _board.fail(source, "rows", f"a {'asymmetric' if self.asymmetric else 'symmetric'} circle grid of "
                         f"{self.rows} rows looks the same turned by half a turn, so its point order cannot be "
                         "told; use an asymmetric grid with an odd number of rows, or describe it as upright "
-                        "(--upright; \"upright\": true in the file): the board never turned beyond a quarter turn")
+                        "(\"upright\": true in its description): the board never turned beyond a quarter turn")
         flags = cv2.CALIB_CB_ASYMMETRIC_GRID if self.asymmetric else cv2.CALIB_CB_SYMMETRIC_GRID
         self._flags = flags
 
