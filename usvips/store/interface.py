@@ -38,6 +38,7 @@ from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.store.change_watch import ChangeWatch
 from usvips.store.records import HistoryEntry, RemovedObject, Review, StoredObject, Vertex
 from usvips.store.versions import UNREAD
 
@@ -302,6 +303,28 @@ class ProjectStore(Protocol):
         "delete", "put back" (an undo), "record" (observation record set or removed), "review" (review state
         set: ``{"state", "reason", "reviewer"}`` before and after). Rows are never
         changed or removed (the schema refuses it)."""
+        ...
+
+    # ------------------------------------------------------------------------ the change feed (schema 14)
+    def last_change_id(self) -> int:
+        """The id of the newest history row (0 when the history is empty): where a reader that has just read
+        the project's state starts following :meth:`changes_since`."""
+        ...
+
+    def changes_since(self, after: int, limit: int = 10000) -> list[HistoryEntry]:
+        """The history rows with an id above ``after`` (an id from :meth:`last_change_id` or from the last
+        entry read), oldest first, at most ``limit``: every add, edit, delete, review … committed since, by any
+        handle or process, each naming its object and who made it. A reader given ``limit`` rows asks again
+        from the last one's id."""
+        ...
+
+    def watch(self) -> ChangeWatch:
+        """A :class:`~usvips.store.change_watch.ChangeWatch` on this project, made to be used from a
+        background thread (it owns its own connection): ``wait(timeout_s)`` returns True as soon as another
+        connection may have committed a change (False on timeout), then the reader asks
+        :meth:`changes_since` (through a handle of its own thread). A file is watched through SQLite's change
+        counter (``PRAGMA data_version``, read every 0.2 s), a server through LISTEN/NOTIFY (the history's
+        trigger notifies at each commit). ``close()`` releases it (idempotent); no message names a password."""
         ...
 
     # ------------------------------------------------------------------------ reviews (schema 9)

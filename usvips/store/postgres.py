@@ -32,6 +32,7 @@ from __future__ import annotations
 import os
 import re
 import sqlite3
+import threading
 import time
 from functools import lru_cache
 from pathlib import Path
@@ -41,9 +42,11 @@ from psycopg import errors as pg_errors
 from psycopg import sql as pg_sql
 from psycopg.pq import TransactionStatus
 
+from usvips.store.change_watch import ChangeWatch
 from usvips.store.file_copy import SERVER_ONLY_META, check_new_file, table_order, write_file
 from usvips.store.location import parse_server_location, public_location
 from usvips.store.postgres_schema import (
+    CHANGES_CHANNEL,
     IDENTITY_TABLES,
     PRIMARY_KEYS,
     SCHEMA,
@@ -450,6 +453,77 @@ class _Savepoint:
             self.connection.execute("RELEASE SAVEPOINT usvips_statement")
 
 
+# ------------------------------------------------------------------------------------------------ the change feed
+class ServerChangeWatch(ChangeWatch):
+    """The watch of a survey (:mod:`usvips.store.change_watch`): its own connection LISTENs on the survey's
+    channel, which every transaction that adds history rows NOTIFYs at commit (a trigger, schema 14). A
+    connection the server closed is made again on a later :meth:`wait`, which then returns True (changes
+    may have been missed meanwhile). Messages name the survey without its password."""
+
+    #: the longest single wait (s) on the connection: :meth:`close` from another thread takes effect within it
+    SLICE_S = 0.25
+
+    def __init__(self, url: str, where: object):
+        self.url, self.where = url, where
+        self._closed = threading.Event()
+        self._using = threading.Lock()
+        self._connection: psycopg.Connection | None = self._listen()
+
+    def _listen(self) -> psycopg.Connection:
+        connection = _connect(self.url, read_only=True)
+        try:
+            connection.execute(f"LISTEN {CHANGES_CHANNEL}")
+        except psycopg.Error as error:
+            connection.close()
+            raise ProjectError(f"{self.where}: cannot watch the survey for changes: {_one_line(error)}") from None
+        return connection
+
+    def wait(self, timeout_s: float) -> bool:
+        deadline = time.monotonic() + max(0.0, float(timeout_s))
+        with self._using:
+            try:
+                while not self._closed.is_set():
+                    connection = self._connection
+                    if connection is None or connection.closed or connection.broken:
+                        try:
+                            self._connection = self._listen()
+                            return True  # changes made while it was away were not heard
+                        except ProjectError:
+                            self._connection = None
+                            if self._closed.wait(min(self.SLICE_S * 4, max(0.0, deadline - time.monotonic()))):
+                                return False
+                    else:
+                        try:
+                            heard = list(connection.notifies(
+                                timeout=min(self.SLICE_S, max(0.0, deadline - time.monotonic())), stop_after=1))
+                            if heard:
+                                list(connection.notifies(timeout=0.0))  # one wake-up for a burst
+                                return not self._closed.is_set()
+                        except psycopg.Error:
+                            with _quietly():
+                                connection.close()
+                    if time.monotonic() >= deadline:
+                        return False
+                return False
+            finally:
+                if self._closed.is_set():
+                    self._release()
+
+    def _release(self) -> None:
+        connection, self._connection = self._connection, None
+        if connection is not None:
+            with _quietly():
+                connection.close()
+
+    def close(self) -> None:
+        self._closed.set()
+        if self._using.acquire(blocking=False):  # else the waiting thread releases it within SLICE_S
+            try:
+                self._release()
+            finally:
+                self._using.release()
+
+
 # ------------------------------------------------------------------------------------------------ the store
 class SurveyPath(type(Path())):
     """A survey's ``path``: a path to the media folder's entry for it (relative media paths resolve against
@@ -590,6 +664,10 @@ class ServerProject(Project):
 
     def _has_table(self, name: str) -> bool:
         return True  # a server survey is always of the current schema (older ones are refused at opening)
+
+    def watch(self) -> ChangeWatch:
+        """A :class:`ServerChangeWatch` on the survey (its own connection, for a background thread)."""
+        return ServerChangeWatch(self.url, self.path)
 
     def derived_media_folder(self) -> Path:
         """This machine's cache for the survey's derived media (see the module docstring)."""

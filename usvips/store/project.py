@@ -49,6 +49,7 @@ from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.pointing import MIGRATED_SOURCE, PointingSigma, WeakMatch, per_vertex, source_from_label
 from usvips.store import checks, versions
 from usvips.store.annotator import current_annotator
+from usvips.store.change_watch import ChangeWatch, FileChangeWatch
 from usvips.store.records import (  # noqa: F401 - re-exported
     REVIEW_STATES,
     HistoryEntry,
@@ -746,6 +747,29 @@ class Project:
         where, parameters = ("WHERE object_id = ?", (int(object_id),)) if object_id is not None else ("", ())
         rows = self._query(f"SELECT id, at, annotator, object_id, change, old, new FROM history {where} ORDER BY id",
                            parameters)
+        return self._history_entries(rows)
+
+    def last_change_id(self) -> int:
+        """The id of the newest history row (0 when there is none, or before schema 8)."""
+        if not self._has_table("history"):
+            return 0
+        return int(self._query("SELECT COALESCE(MAX(id), 0) FROM history")[0][0])
+
+    def changes_since(self, after: int, limit: int = 10000) -> list[HistoryEntry]:
+        """The history rows with an id above ``after``, oldest first, at most ``limit`` of them (the change
+        feed: a reader keeps the last id it has seen; see :meth:`watch`)."""
+        if not self._has_table("history"):
+            return []
+        rows = self._query("SELECT id, at, annotator, object_id, change, old, new FROM history WHERE id > ? "
+                           "ORDER BY id LIMIT ?", (int(after), max(0, int(limit))))
+        return self._history_entries(rows)
+
+    def watch(self) -> ChangeWatch:
+        """A :class:`~usvips.store.change_watch.ChangeWatch` on the project file (its own connection, for a
+        background thread): ``wait`` returns True as soon as another connection committed a change."""
+        return FileChangeWatch(self.path)
+
+    def _history_entries(self, rows: list[tuple]) -> list[HistoryEntry]:
         return [HistoryEntry(int(r[0]), r[1], r[2], int(r[3]), r[4],
                              None if r[5] is None else self._json(r[5], f"history entry {r[0]}"),
                              None if r[6] is None else self._json(r[6], f"history entry {r[0]}")) for r in rows]

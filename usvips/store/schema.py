@@ -239,6 +239,9 @@ MIGRATIONS[11] = VERSION_11
 # history; a file's ids are already the highest plus one, and a file has no logins. The step keeps both
 # backends at one schema number.
 MIGRATIONS[13] = ""
+# version 14: nothing changes in a file either. The server's schema 14 notifies listeners when the history
+# grows (the change feed, usvips.store.change_watch); a file's watchers read SQLite's own change counter.
+MIGRATIONS[14] = ""
 SCHEMA_VERSION = max(MIGRATIONS)
 
 
