@@ -1354,3 +1354,67 @@ def test_the_pointing_estimates_round_trip_and_a_reader_cannot_change_them(impl,
         assert writer.pointing_estimates() == []
     finally:
         writer.close()
+
+
+# ------------------------------------------------------------------------------------------ the change feed
+def test_the_change_feed_shows_another_handles_adds_edits_and_deletes_in_order(impl, store, where):
+    rng = np.random.default_rng(51)
+    assert store.last_change_id() == 0 and store.changes_since(0) == []
+    mine = store.add_object("point", [_vertex(rng)], "mine")
+    seen = store.last_change_id()
+    assert seen > 0 and [e.object_id for e in store.changes_since(0)] == [mine]
+    with impl.open(where, False) as other:
+        other.annotator = "bob"
+        made = other.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
+        other.update_object(mine, notes="seen by bob")
+        other.delete_object(made)
+    changes = store.changes_since(seen)
+    assert [(e.change, e.object_id, e.annotator) for e in changes] == [
+        ("add", made, "bob"), ("edit", mine, "bob"), ("delete", made, "bob")]
+    assert [e.id for e in changes] == sorted(e.id for e in changes) and changes[0].id > seen
+    assert store.last_change_id() == changes[-1].id and store.changes_since(changes[-1].id) == []
+    assert store.changes_since(seen, limit=2) == changes[:2]
+    assert store.changes_since(0) == store.history()
+
+
+def test_a_watch_wakes_when_another_handle_commits_and_not_for_an_uncommitted_write(impl, store, where):
+    rng = np.random.default_rng(52)
+    watch = store.watch()
+    try:
+        assert watch.wait(0.0) is False  # nothing changed since it was made
+        with impl.open(where, False) as other:
+            with other.transaction():
+                other.add_object("point", [_vertex(rng)], "pending")
+                assert watch.wait(0.5) is False  # not committed yet: nothing to read
+            assert watch.wait(30.0) is True  # a bound, not a wait: it returns at the commit's notice
+            seen = store.last_change_id()
+            done = threading.Event()
+            woke: list[bool] = []
+
+            def waiter() -> None:  # a background thread, as the window uses it
+                woke.append(watch.wait(30.0))
+                done.set()
+
+            thread = threading.Thread(target=waiter)
+            thread.start()
+            other.add_object("point", [_vertex(rng)], "from the other handle")
+            assert done.wait(30.0) and woke == [True]
+            thread.join()
+        assert [e.new["attribute"] for e in store.changes_since(seen)] == ["from the other handle"]
+    finally:
+        watch.close()
+    watch.close()  # closing twice is no error
+    assert watch.wait(0.1) is False
+
+
+def test_media_are_located_through_the_store_whether_or_not_they_are_there(store, tmp_path):
+    plan = _images(tmp_path, 2)
+    store.add_image_pairs(plan)
+    stored = [(pair["left"], pair["right"]) for pair in store.pairs()]
+    for (_label, left, right), (stored_left, stored_right) in zip(plan, stored, strict=True):
+        assert store.media_location(stored_left) == left.resolve() == store.image_path(stored_left)
+        assert store.media_location(stored_right) == right.resolve()
+    plan[1][1].unlink()  # gone: still located (where it should be), no longer an image
+    assert store.media_location(stored[1][0]) == plan[1][1].resolve()
+    with pytest.raises(ProjectError, match="missing"):
+        store.image_path(stored[1][0])

@@ -1,15 +1,17 @@
 """The storage interface: the operations the rest of the program asks of a project.
 
 :class:`ProjectStore` lists them — what the application services (``usvips.app``), the command line and
-the window call on a project, nothing more. The SQLite file (:class:`usvips.store.project.Project`) is
-one implementation, a PostgreSQL server (:class:`usvips.store.postgres.ServerProject`) the other; both
-implement these methods with the same meaning and pass the same contract suite
+the window call on a project, nothing more. One class implements it, :class:`usvips.store.survey.Survey`
+(every survey rule, once), over a small :class:`usvips.store.backend.Backend`: an SQLite file
+(:class:`usvips.store.project.Project`) or a PostgreSQL server
+(:class:`usvips.store.postgres.ServerProject`); both pass the same contract suite
 (``tests/store/test_storage_contract.py``). Code that takes a project takes a ``ProjectStore``; code that
 creates or opens one calls :func:`usvips.store.opening.open_project` / ``create_project`` with a location
 (a file path or a ``postgresql://`` URL) and never names an implementation. The record types and the
 error family are in :mod:`usvips.store.records`; the domain checks every backend makes before writing
-(kinds, vertex counts, pair files) in :mod:`usvips.store.checks`. Adding a backend = one module that
-passes the contract suite, and one line in the opener.
+(kinds, vertex counts, pair files) in :mod:`usvips.store.checks`. Adding a backend = one module (a
+``Backend`` and the class opening a ``Survey`` on it) that passes the contract suite, and one line in the
+opener.
 
 Conventions every implementation keeps:
 
@@ -38,6 +40,7 @@ from usvips.core.campaign import Campaign
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.store.change_watch import ChangeWatch
 from usvips.store.records import HistoryEntry, RemovedObject, Review, StoredObject, Vertex
 from usvips.store.versions import UNREAD
 
@@ -97,6 +100,12 @@ class ProjectStore(Protocol):
     def derived_media_folder(self) -> Path:
         """The folder where media derived from the project (seek proxies, exported frames) are kept: beside
         the file of a file project, a configurable cache for a server one."""
+        ...
+
+    def media_location(self, stored: str) -> Path:
+        """Where a recorded image or media path should be, absolute, whether or not a file is there (a path
+        stored relative is relative to the store's media folder: a file project's folder, a server's media
+        folder). Callers locate media through this, never through ``path``."""
         ...
 
     def image_path(self, relative: str) -> Path:
@@ -302,6 +311,28 @@ class ProjectStore(Protocol):
         "delete", "put back" (an undo), "record" (observation record set or removed), "review" (review state
         set: ``{"state", "reason", "reviewer"}`` before and after). Rows are never
         changed or removed (the schema refuses it)."""
+        ...
+
+    # ------------------------------------------------------------------------ the change feed (schema 14)
+    def last_change_id(self) -> int:
+        """The id of the newest history row (0 when the history is empty): where a reader that has just read
+        the project's state starts following :meth:`changes_since`."""
+        ...
+
+    def changes_since(self, after: int, limit: int = 10000) -> list[HistoryEntry]:
+        """The history rows with an id above ``after`` (an id from :meth:`last_change_id` or from the last
+        entry read), oldest first, at most ``limit``: every add, edit, delete, review … committed since, by any
+        handle or process, each naming its object and who made it. A reader given ``limit`` rows asks again
+        from the last one's id."""
+        ...
+
+    def watch(self) -> ChangeWatch:
+        """A :class:`~usvips.store.change_watch.ChangeWatch` on this project, made to be used from a
+        background thread (it owns its own connection): ``wait(timeout_s)`` returns True as soon as another
+        connection may have committed a change (False on timeout), then the reader asks
+        :meth:`changes_since` (through a handle of its own thread). A file is watched through SQLite's change
+        counter (``PRAGMA data_version``, read every 0.2 s), a server through LISTEN/NOTIFY (the history's
+        trigger notifies at each commit). ``close()`` releases it (idempotent); no message names a password."""
         ...
 
     # ------------------------------------------------------------------------ reviews (schema 9)
