@@ -205,3 +205,18 @@ def test_the_feed_stops_with_the_project_and_follows_the_next(qtbot, make_window
     qtbot.waitUntil(lambda: not first.thread.is_alive(), timeout=BOUND_MS)
     assert window.open_path(location, "measure1")
     assert window.live.feed is not None and window.live.feed is not first
+
+
+def test_an_object_reviewed_in_review_mode_can_be_edited_next(qtbot, make_window, survey, bob):
+    """A review moves the object's version: the window holds the new one, so its next edit is not refused
+    as a stale one (by the user's own name)."""
+    location, directory = survey
+    window = _ann(qtbot, make_window, location)
+    ws = window.workspace
+    fish = _fish(bob, directory, "fish1")
+    qtbot.waitUntil(lambda: fish in ws.cache, timeout=BOUND_MS)
+    window.show_review()
+    window.review.model.go_to(fish)
+    window.review.accept()
+    ws.edit_object(fish, "fish", "ann: after review")
+    assert not ws.edits.unsaved and bob.object(fish).notes == "ann: after review"
