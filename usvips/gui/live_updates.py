@@ -118,14 +118,15 @@ class ChangeFeed:
                         due = True  # read at once: what was committed while (re)connecting
                     else:
                         due = watch.wait(self._wait_s) or time.monotonic() - last_read > IDLE_READ_S
+                    batch = None
                     if due and not self._stop.is_set():
                         batch = read_changes(store, cursor)
                         last_read, cursor = time.monotonic(), batch.last
-                        if batch.entries:
-                            self.relay.batch.emit(self.number, batch)
-                    if failing:
+                    if failing:  # back: said before what was made meanwhile
                         failing = False
                         self.relay.recovered.emit(self.number)
+                    if batch is not None and batch.entries:
+                        self.relay.batch.emit(self.number, batch)
                     backoff = FIRST_BACKOFF_S
                 except Exception as error:  # noqa: BLE001 - a background thread says why and tries again, never dies
                     store, watch = _closed(store, watch)
