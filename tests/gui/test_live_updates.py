@@ -128,8 +128,11 @@ def test_anns_own_edits_are_not_marked_as_a_colleagues(qtbot, make_window, surve
     ws = window.workspace
     fish = _fish(bob, directory, "fish2")
     qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
+    qtbot.waitUntil(lambda: fish in window.overlay.outlines, timeout=BOUND_MS)
+    assert window.overlay.outlines[fish][0].endswith("· bob")
     ws.edit_object(fish, "fish", "ann: checked")  # ann's own edit: no longer bob's change
-    assert fish not in ws.cache.marks
+    assert fish not in ws.cache.marks and not _marked_by(window, fish, "bob")
+    assert not window.overlay.outlines[fish][0].endswith("· bob")  # the label drawn again without the mark
     window.show_review()
     window.review.model.go_to(fish)
     window.review.accept()  # ann's own review: stored, the window's version moves with it
@@ -138,6 +141,24 @@ def test_anns_own_edits_are_not_marked_as_a_colleagues(qtbot, make_window, surve
     qtbot.waitUntil(lambda: other in ws.cache, timeout=BOUND_MS)
     assert fish not in ws.cache.marks and other in ws.cache.marks  # ann's own writes never shown as bob's
     assert [c.who for c in window.live.recent] == ["bob", "bob"]
+
+
+def test_a_change_committed_while_the_window_reads_the_survey_is_not_missed(qtbot, make_window, survey, bob,
+                                                                            monkeypatch):
+    """bob commits between the window's read of the objects and its read of the newest history row."""
+    location, directory = survey
+    kind, made = type(bob), []
+    original = kind.last_change_id
+
+    def late(handle):
+        if handle is not bob and not made:  # ann's window has just read the objects: bob commits now
+            made.append(_fish(bob, directory, "fish2"))
+        return original(handle)
+
+    monkeypatch.setattr(kind, "last_change_id", late)
+    window = _ann(qtbot, make_window, location)
+    assert made  # made after the window's read of the objects: it comes by the feed
+    qtbot.waitUntil(lambda: _marked_by(window, made[0], "bob"), timeout=BOUND_MS)
 
 
 def _edit_notes(qtbot, window, object_id: int, text: str) -> QtWidgets.QLineEdit:

@@ -47,6 +47,10 @@ WAIT_S = 0.5
 IDLE_READ_S = 10.0
 #: the first and the longest pause before trying a store that could not be read again (s)
 FIRST_BACKOFF_S, MAX_BACKOFF_S = 0.5, 15.0
+#: the feed starts this many history rows before the newest when a project opens: a change committed between
+#: the window's read of the objects and its read of the newest row is not missed (rows the window already
+#: holds give nothing: their objects' versions are the ones it read)
+CATCH_UP_ROWS = 200
 #: how many colleagues' changes the status bar's tooltip lists
 RECENT = 12
 #: the tint of a row (object list, QA panel) a colleague changed
@@ -184,15 +188,15 @@ class LiveUpdates(QtCore.QObject):
 
     # ------------------------------------------------------------------ the feed
     def _on_project(self, project) -> None:
-        """Another project (or none): the previous feed stops, a new one follows ``project`` from its newest
-        history row (the cache was just read)."""
+        """Another project (or none): the previous feed stops, a new one follows ``project`` from just before
+        its newest history row (the cache was just read: :data:`CATCH_UP_ROWS`)."""
         self.stop()
         self.held, self._editing, self.recent, self.paused = {}, None, [], ""
         self._show_label()
         if project is None:
             return
-        try:
-            after = project.last_change_id()
+        try:  # a little before the newest row: what was committed while the cache was being read is seen
+            after = max(0, project.last_change_id() - CATCH_UP_ROWS)
         except UsvipsError as error:
             self.workspace.message.emit("warning", f"colleagues' changes will not be shown: {error}")
             return
@@ -296,10 +300,14 @@ class LiveUpdates(QtCore.QObject):
         return cache.get(object_id).modified if object_id in cache else None
 
     def _on_own_change(self, ids: tuple[int, ...]) -> None:
-        """An object changed by this window: no longer marked as a colleague's."""
-        if not self._applying:
-            for object_id in ids:
-                self.workspace.cache.marks.pop(object_id, None)
+        """An object changed by this window: no longer marked as a colleague's (the views that drew the
+        mark before hearing of it here are told again)."""
+        if self._applying:
+            return
+        marks = self.workspace.cache.marks
+        unmarked = tuple(i for i in ids if marks.pop(i, None) is not None)
+        if unmarked:
+            self.workspace.show_as_cached(unmarked)
 
     def _on_reviewed(self, object_id: int, _review) -> None:
         try:
