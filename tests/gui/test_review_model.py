@@ -185,7 +185,7 @@ def test_every_move_reads_the_new_objects_review_again_by_one_query_and_a_stale_
     read = []
     model.read.connect(lambda object_id, review: read.append((object_id, review.state, review.reviewer)))
     statements = []
-    project._db.set_trace_callback(statements.append)
+    project._db.raw.set_trace_callback(statements.append)
     queue = list(model.queue)
     with Project.open(project.path) as other:
         other.annotator = "bob"
@@ -207,7 +207,7 @@ def test_every_move_reads_the_new_objects_review_again_by_one_query_and_a_stale_
         assert project.review(queue[5]).reviewer == "bob"
         model.go_to(queue[5])
         assert model.accept().reviewer == "measurer"  # looked at again: kept
-    project._db.set_trace_callback(None)
+    project._db.raw.set_trace_callback(None)
     project.close()
 
 

@@ -1,15 +1,17 @@
 """The storage interface: the operations the rest of the program asks of a project.
 
 :class:`ProjectStore` lists them — what the application services (``usvips.app``), the command line and
-the window call on a project, nothing more. The SQLite file (:class:`usvips.store.project.Project`) is
-one implementation, a PostgreSQL server (:class:`usvips.store.postgres.ServerProject`) the other; both
-implement these methods with the same meaning and pass the same contract suite
+the window call on a project, nothing more. One class implements it, :class:`usvips.store.survey.Survey`
+(every survey rule, once), over a small :class:`usvips.store.backend.Backend`: an SQLite file
+(:class:`usvips.store.project.Project`) or a PostgreSQL server
+(:class:`usvips.store.postgres.ServerProject`); both pass the same contract suite
 (``tests/store/test_storage_contract.py``). Code that takes a project takes a ``ProjectStore``; code that
 creates or opens one calls :func:`usvips.store.opening.open_project` / ``create_project`` with a location
 (a file path or a ``postgresql://`` URL) and never names an implementation. The record types and the
 error family are in :mod:`usvips.store.records`; the domain checks every backend makes before writing
-(kinds, vertex counts, pair files) in :mod:`usvips.store.checks`. Adding a backend = one module that
-passes the contract suite, and one line in the opener.
+(kinds, vertex counts, pair files) in :mod:`usvips.store.checks`. Adding a backend = one module (a
+``Backend`` and the class opening a ``Survey`` on it) that passes the contract suite, and one line in the
+opener.
 
 Conventions every implementation keeps:
 

@@ -12,13 +12,12 @@ Several annotators work on one survey at once, each with their own connection:
   refused by a :class:`~usvips.store.records.StaleEditError` naming the object — never silently
   overwritten.
 
-How: the SQL of :class:`~usvips.store.project.Project` is small and plain, so this class IS a ``Project``
-whose connection is :class:`_ServerConnection`, which runs those statements on PostgreSQL with the few
-SQLite spellings translated (``?`` placeholders, ``INSERT OR REPLACE``/``OR IGNORE``, ``lastrowid``,
-``rowid``, ``PRAGMA table_info``), and which reports PostgreSQL's errors as the ``sqlite3`` exceptions
-``Project`` already turns into one-line :class:`ProjectError` messages. Both backends therefore share
-every domain rule and message and pass the same contract suite. No ORM: the statements are already
-written once, portable, and few; an ORM would add a second description of the schema, a dependency and
+How: this module is the PostgreSQL backend (:class:`PostgresBackend`), a sibling of the SQLite file's
+(:mod:`usvips.store.project`) under the one set of survey rules (:class:`~usvips.store.survey.Survey`).
+The rules' SQL is written once in the dialect both share (``ON CONFLICT``, ``RETURNING``); the backend's only
+translation is the placeholder (``?`` → ``%s``), and psycopg's errors become the store's own
+(:class:`~usvips.store.backend.BackendError`, ``ConstraintError``, ``ServerUnreachableError``) here. No ORM:
+the statements are few and portable; an ORM would add a second description of the schema, a dependency and
 a layer between the contract suite and the SQL it checks, and buy nothing here.
 
 Where media are: paths stored relative resolve against the *media folder* (URL query ``media=FOLDER``,
@@ -30,10 +29,9 @@ Messages name the survey by its URL without the password.
 from __future__ import annotations
 
 import os
-import re
-import sqlite3
 import threading
 import time
+from collections.abc import Iterable, Sequence
 from functools import lru_cache
 from pathlib import Path
 
@@ -42,20 +40,13 @@ from psycopg import errors as pg_errors
 from psycopg import sql as pg_sql
 from psycopg.pq import TransactionStatus
 
+from usvips.store.backend import Backend, BackendError, ConstraintError, Result
 from usvips.store.change_watch import ChangeWatch
 from usvips.store.file_copy import SERVER_ONLY_META, check_new_file, table_order, write_file
 from usvips.store.location import parse_server_location, public_location
-from usvips.store.postgres_schema import (
-    CHANGES_CHANNEL,
-    IDENTITY_TABLES,
-    PRIMARY_KEYS,
-    SCHEMA,
-    SERVER_MIGRATIONS,
-    SERVER_SCHEMA_VERSION,
-    TABLES,
-)
-from usvips.store.project import FORMAT, Project, _now
+from usvips.store.postgres_schema import CHANGES_CHANNEL, SCHEMA, SERVER_MIGRATIONS, SERVER_SCHEMA_VERSION, TABLES
 from usvips.store.records import ProjectError, ServerUnreachableError
+from usvips.store.survey import FORMAT, Survey, _now
 
 LOCK_WAIT_S = 2.0
 #: the waits (s) between attempts to connect again when the server went away (stopped, restarted, the
@@ -222,99 +213,42 @@ def database_command(url: str, command: str) -> None:
                            f"{connection_problem(error, url)}") from None
 
 
-# ------------------------------------------------------------------------------------------------ the SQL
-_PLACEHOLDER = re.compile(r"\?")
-_OR_REPLACE = re.compile(r"^\s*INSERT OR (REPLACE|IGNORE) INTO (\w+)\s*(\(([^)]*)\))?\s*(VALUES.*)$", re.S | re.I)
-_INSERT = re.compile(r"^\s*INSERT INTO (\w+)\b(?!.*\bSELECT\b)", re.S | re.I)
-_TABLE_INFO = re.compile(r"^\s*PRAGMA table_info\((\w+)\)\s*$", re.I)
+# ------------------------------------------------------------------------------------------------ the backend
+@lru_cache(maxsize=1024)
+def _placeholders(sql: str) -> str:
+    """The one difference of the shared dialect: ``?`` placeholders are psycopg's ``%s`` (and a literal
+    ``%`` is doubled). Nothing else of a statement is rewritten."""
+    return sql.replace("%", "%%").replace("?", "%s")
 
 
-@lru_cache(maxsize=512)
-def translate(sql: str) -> tuple[str, bool]:
-    """The PostgreSQL spelling of one of ``Project``'s SQLite statements, and whether it returns the new
-    row's id (as SQLite's ``lastrowid``). A construct not handled here is a programming error, loudly."""
-    info = _TABLE_INFO.match(sql)
-    if info:  # rows whose second value is a column's name, like SQLite's table_info
-        return ("SELECT ordinal_position, column_name::text FROM information_schema.columns WHERE table_name = "
-                f"'{info.group(1)}' AND table_schema = current_schema() ORDER BY ordinal_position"), False
-    if re.search(r"\bPRAGMA\b|\bsqlite_master\b", sql, re.I):
-        raise NotImplementedError(f"no PostgreSQL spelling for: {sql}")
-    text = sql.replace("%", "%%")
-    returning = False
-    replace = _OR_REPLACE.match(text)
-    if replace:
-        verb, table, _, columns, values = replace.groups()
-        table = table.lower()
-        names = [c.strip() for c in columns.split(",")] if columns else list(TABLES[table])
-        keys = PRIMARY_KEYS[table]
-        head = f"INSERT INTO {table} ({', '.join(names)}) {values}"
-        updates = [f"{c} = EXCLUDED.{c}" for c in names if c not in keys]
-        if verb.upper() == "IGNORE" or not updates:
-            text = f"{head} ON CONFLICT DO NOTHING"
-        else:
-            text = f"{head} ON CONFLICT ({', '.join(keys)}) DO UPDATE SET {', '.join(updates)}"
-    else:
-        insert = _INSERT.match(text)
-        if insert and insert.group(1).lower() in IDENTITY_TABLES:
-            text, returning = f"{text.rstrip().rstrip(';')} RETURNING id", True
-    text = re.sub(r"\bORDER BY rowid\b", "ORDER BY ord", text)
-    return _PLACEHOLDER.sub("%s", text), returning
-
-
-class _Cursor:
-    """The rows of one statement, shaped as the part of ``sqlite3.Cursor`` that ``Project`` uses."""
-
-    def __init__(self, rows: list[tuple], rowcount: int, lastrowid: int | None, description=None):
-        self._rows, self.rowcount, self.lastrowid = rows, rowcount, lastrowid
-        #: as sqlite3's: one 7-tuple per column, its name first (None for a statement that returns no rows)
-        self.description = description
-
-    def fetchall(self) -> list[tuple]:
-        return self._rows
-
-    def fetchone(self) -> tuple | None:
-        return self._rows[0] if self._rows else None
-
-    def __iter__(self):
-        return iter(self._rows)
-
-
-def _as_sqlite_error(error: psycopg.Error) -> sqlite3.Error:
-    """PostgreSQL's error as the ``sqlite3`` exception ``Project`` turns into a one-line message."""
-    if isinstance(error, pg_errors.LockNotAvailable):
-        return sqlite3.OperationalError("another annotator is writing to the survey; try again in a moment")
-    if isinstance(error, pg_errors.ReadOnlySqlTransaction):
-        return sqlite3.OperationalError("the survey is opened read-only")
-    if isinstance(error, psycopg.IntegrityError):
-        return sqlite3.IntegrityError(_one_line(error))
-    if isinstance(error, psycopg.OperationalError):
-        return sqlite3.OperationalError(f"the connection to the server failed: {_one_line(error)}")
-    return sqlite3.OperationalError(_one_line(error))
-
-
-class _ServerConnection:
-    """A psycopg connection that runs ``Project``'s statements (see the module docstring).
+class PostgresBackend(Backend):
+    """A survey's connection to its PostgreSQL server (see the module docstring).
 
     A statement that fails inside a transaction is undone alone (a savepoint), as in SQLite, so that the
-    transaction may carry on; ``BEGIN IMMEDIATE`` (a write transaction) takes the survey's write lock.
+    transaction may carry on; a write transaction takes the survey's write lock.
 
     A server that went away (stopped, killed, restarted, the network gone): the transaction in progress is
     lost on the server (nothing of it is kept), so the statement is refused with a
-    :class:`~usvips.store.records.ServerUnreachableError`, and a ROLLBACK on the dead connection is no
+    :class:`~usvips.store.records.ServerUnreachableError`, and a rollback on the dead connection is no
     error. The next transaction or lone read connects again, waiting ``RECONNECT_WAITS_S`` between
-    attempts (``reconnections`` counts them, so that a window can read its state afresh); a first
-    statement of a transaction (BEGIN) or a lone read that meets a connection the server closed is made
-    again once, on the new connection.
+    attempts (``reconnections`` counts them, so that a window can read its state afresh); beginning a
+    transaction or a lone read that meets a connection the server closed is made again once, on the new
+    connection. psycopg's errors never leave this class: they are :class:`BackendError`,
+    :class:`ConstraintError` or ``ServerUnreachableError``.
     """
 
-    def __init__(self, connection: psycopg.Connection, url: str = "", read_only: bool = False):
-        self.raw = connection
-        self.url, self.read_only = url, read_only
+    insertion_order = "ord"
+
+    def __init__(self, connection: psycopg.Connection, url: str, read_only: bool, where: object,
+                 media: Path):
+        self.raw, self.url, self.read_only = connection, url, read_only
         #: how messages name the survey (its store's ``path``: ``host/database``, or the name it was given)
-        self.where: object = public_location(url) if url else ""
+        self.where = where
+        self.media_folder = media
         #: how often the connection was made again after the server went away
         self.reconnections = 0
 
+    # ------------------------------------------------------------------------ the connection
     def _alive(self) -> bool:
         return not (self.raw.closed or self.raw.broken)
 
@@ -345,75 +279,127 @@ class _ServerConnection:
             return
         raise self._unreachable(problem)
 
-    def execute(self, sql: str, parameters=()) -> _Cursor:
-        command = sql.strip().upper()
-        if command == "ROLLBACK" and not self._alive():
-            return _Cursor([], 0, None)  # the server undid the transaction when the connection died
-        fresh_start = command.startswith("BEGIN") or (command.startswith("SELECT") and not self.in_transaction)
-        if fresh_start and not self._alive() and self.url:
+    def _error(self, error: psycopg.Error) -> BackendError:
+        """psycopg's error as this package's (one line, naming the survey, never the password)."""
+        if isinstance(error, pg_errors.LockNotAvailable):
+            return BackendError(self.where, "another annotator is writing to the survey; try again in a moment")
+        if isinstance(error, pg_errors.ReadOnlySqlTransaction):
+            return BackendError(self.where, "the survey is opened read-only")
+        if isinstance(error, psycopg.IntegrityError | pg_errors.RaiseException):
+            return ConstraintError(self.where, _one_line(error))
+        if isinstance(error, psycopg.OperationalError):
+            return BackendError(self.where, f"the connection to the server failed: {_one_line(error)}")
+        return BackendError(self.where, _one_line(error))
+
+    def _afresh(self, action, lone: bool):
+        """``action()`` — the start of a transaction, or a lone statement (``lone``) — on a live connection:
+        made again once on a new connection when the server had closed this one since its last use."""
+        if lone and not self._alive():
             self._reconnect()
         try:
-            return self._execute(sql, command, parameters)
-        except psycopg.OperationalError as error:
-            if self._alive() or not self.url:
-                raise _as_sqlite_error(error) from None
-            if not fresh_start:  # a transaction was under way: it is gone, nothing of it kept
-                raise self._unreachable(_one_line(error), command == "COMMIT") from None
-        self._reconnect()  # the server closed the connection since the last use: once more, anew
+            return action()
+        except psycopg.OperationalError:
+            if self._alive() or not lone:
+                raise
+        self._reconnect()
         try:
-            return self._execute(sql, command, parameters)
+            return action()
         except psycopg.OperationalError as error:
             if not self._alive():
                 raise self._unreachable(_one_line(error)) from None
-            raise _as_sqlite_error(error) from None
+            raise self._error(error) from None
 
-    def _execute(self, sql: str, command: str, parameters) -> _Cursor:
-        """One statement; psycopg's OperationalError (a lost connection) goes to the caller as it is."""
+    # ------------------------------------------------------------------------ statements
+    def execute(self, sql: str, parameters: Sequence = ()) -> Result:
+        lone = not self.in_transaction
         try:
-            if command == "BEGIN IMMEDIATE":
-                self.raw.execute("BEGIN ISOLATION LEVEL READ COMMITTED")
-                self.raw.execute("SELECT pg_advisory_xact_lock(%s)", (WRITE_LOCK,))
-                return _Cursor([], 0, None)
-            if command == "BEGIN":
-                self.raw.execute("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY")
-                return _Cursor([], 0, None)
-            if command in ("COMMIT", "ROLLBACK"):
-                self.raw.execute(command)
-                return _Cursor([], 0, None)
-            text, returning = translate(sql)
-            with self._statement(command), self.raw.cursor() as cursor:
-                cursor.execute(text, tuple(parameters))
-                rows = cursor.fetchall() if cursor.description is not None else []
-                described = None if cursor.description is None else tuple(
-                    (column.name, None, None, None, None, None, None) for column in cursor.description)
-                return _Cursor(rows, cursor.rowcount, rows[0][0] if returning and rows else None, described)
+            return self._afresh(lambda: self._run(sql, tuple(parameters)), lone and self._reads(sql))
+        except psycopg.OperationalError as error:
+            if not self._alive():  # a transaction was under way: it is gone, nothing of it kept
+                raise self._unreachable(_one_line(error)) from None
+            raise self._error(error) from None
         except psycopg.Error as error:
-            if command.startswith("BEGIN") and self.in_transaction:
-                with _quietly():
-                    self.raw.execute("ROLLBACK")
-            if isinstance(error, psycopg.OperationalError) and not self._alive():
-                raise
-            raise _as_sqlite_error(error) from None
+            raise self._error(error) from None
 
-    def executemany(self, sql: str, rows) -> _Cursor:
-        text, _ = translate(sql)
+    @staticmethod
+    def _reads(sql: str) -> bool:
+        return sql.lstrip()[:6].upper() == "SELECT"
+
+    def _run(self, sql: str, parameters: tuple) -> Result:
+        with self._statement(sql), self.raw.cursor() as cursor:
+            cursor.execute(_placeholders(sql), parameters)
+            if cursor.description is None:
+                return Result([], cursor.rowcount)
+            return Result(cursor.fetchall(), cursor.rowcount, tuple(column.name for column in cursor.description))
+
+    def executemany(self, sql: str, rows: Iterable[Sequence]) -> Result:
         rows = [tuple(r) for r in rows]
         if not rows:
-            return _Cursor([], 0, None)
+            return Result([], 0)
         try:
-            with self._statement("INSERT"), self.raw.cursor() as cursor:
-                cursor.executemany(text, rows)
-                return _Cursor([], cursor.rowcount, None)
+            with self._statement(sql), self.raw.cursor() as cursor:
+                cursor.executemany(_placeholders(sql), rows)
+                return Result([], cursor.rowcount)
         except psycopg.Error as error:
             if isinstance(error, psycopg.OperationalError) and not self._alive():
                 raise self._unreachable(_one_line(error)) from None
-            raise _as_sqlite_error(error) from None
+            raise self._error(error) from None
 
-    def _statement(self, command: str):
+    def _statement(self, sql: str):
         """A savepoint around a write inside a transaction (a failed statement is undone alone)."""
-        if self.in_transaction and not command.startswith("SELECT"):
+        if self.in_transaction and not self._reads(sql):
             return _Savepoint(self.raw)
         return _Nothing()
+
+    # ------------------------------------------------------------------------ transactions
+    def begin(self, write: bool) -> None:
+        def start() -> None:
+            try:
+                if write:  # writers take turns: the survey's write lock, waited for LOCK_WAIT_S at most
+                    self.raw.execute("BEGIN ISOLATION LEVEL READ COMMITTED")
+                    self.raw.execute("SELECT pg_advisory_xact_lock(%s)", (WRITE_LOCK,))
+                else:  # one snapshot: reads never wait
+                    self.raw.execute("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY")
+            except psycopg.Error:
+                if self.in_transaction:
+                    with _quietly():
+                        self.raw.execute("ROLLBACK")
+                raise
+
+        try:
+            self._afresh(start, lone=True)
+        except psycopg.Error as error:
+            raise self._error(error) from None
+
+    def commit(self) -> None:
+        try:
+            self.raw.execute("COMMIT")
+        except psycopg.Error as error:
+            if isinstance(error, psycopg.OperationalError) and not self._alive():
+                raise self._unreachable(_one_line(error), committing=True) from None
+            raise self._error(error) from None
+
+    def rollback(self) -> None:
+        if not self._alive():
+            return  # the server undid the transaction when the connection died
+        try:
+            self.raw.execute("ROLLBACK")
+        except psycopg.Error as error:
+            raise self._error(error) from None
+
+    # ------------------------------------------------------------------------ the survey
+    def schema_version(self) -> int:
+        return int(self.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()[0])
+
+    def has_table(self, name: str) -> bool:
+        return True  # a survey is always of the current schema (an older one is migrated or refused at opening)
+
+    def derived_media_folder(self) -> Path:
+        """This machine's cache for the survey's derived media (see the module docstring)."""
+        return cache_folder(self.url)
+
+    def watch(self) -> ChangeWatch:
+        return ServerChangeWatch(self.url, self.where)
 
     def close(self) -> None:
         self.raw.close()
@@ -547,8 +533,9 @@ def survey_path(url: str) -> Path:
     return path
 
 
-class ServerProject(Project):
-    """A survey in a PostgreSQL database; open with :meth:`open` or :meth:`create` (see the module docstring).
+class ServerProject(Survey):
+    """A survey in a PostgreSQL database: the survey's rules on a :class:`PostgresBackend`; open with
+    :meth:`open` or :meth:`create` (see the module docstring).
 
     ``path`` is the survey's local name: its folder is the media folder relative media paths resolve
     against; ``location`` is the URL without password that messages show.
@@ -558,8 +545,8 @@ class ServerProject(Project):
                  path: Path | None = None):
         self.url = url
         self.location = public_location(url)
-        super().__init__(path or survey_path(url), _ServerConnection(connection, url, read_only), read_only)
-        self._db.where = self.path
+        path = path or survey_path(url)
+        super().__init__(path, PostgresBackend(connection, url, read_only, path, path.parent), read_only)
 
     @property
     def reconnections(self) -> int:
@@ -654,24 +641,6 @@ class ServerProject(Project):
 
     def __enter__(self) -> ServerProject:
         return self
-
-    @property
-    def version(self) -> int:
-        return int(self._query("SELECT value FROM meta WHERE key = 'schema_version'")[0][0])
-
-    def _has_pointing(self) -> bool:
-        return True  # a survey is opened at the current schema (an older one is refused read-only)
-
-    def _has_table(self, name: str) -> bool:
-        return True  # a server survey is always of the current schema (older ones are refused at opening)
-
-    def watch(self) -> ChangeWatch:
-        """A :class:`ServerChangeWatch` on the survey (its own connection, for a background thread)."""
-        return ServerChangeWatch(self.url, self.path)
-
-    def derived_media_folder(self) -> Path:
-        """This machine's cache for the survey's derived media (see the module docstring)."""
-        return cache_folder(self.url)
 
     def copy_to(self, path: str | Path) -> Path:
         """A consistent copy of the whole survey as a new SQLite project file at ``path`` (``pull``)."""
