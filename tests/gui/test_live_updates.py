@@ -241,3 +241,18 @@ def test_an_object_reviewed_in_review_mode_can_be_edited_next(qtbot, make_window
     window.review.accept()
     ws.edit_object(fish, "fish", "ann: after review")
     assert not ws.edits.unsaved and bob.object(fish).notes == "ann: after review"
+
+
+def test_a_colleagues_import_is_read_again_whole_and_marked(qtbot, make_window, survey, bob, monkeypatch):
+    from usvips.gui import live_updates
+
+    monkeypatch.setattr(live_updates, "MANY", 2)  # more objects at once than this: every object read again
+    location, directory = survey
+    window = _ann(qtbot, make_window, location)
+    resets: list[int] = []
+    window.workspace.objects_reset.connect(lambda: resets.append(1))
+    left, right = truth_pixels(directory, "measure1", "objects")
+    pixels = np.array([[*left["fish1"][p], *right["fish1"][p]] for p in ("snout", "fork")], float)
+    _, ids = measure_into_project(bob, "measure1", [(f"f{k}", "length", pixels, "fish") for k in range(3)])
+    qtbot.waitUntil(lambda: all(_marked_by(window, i, "bob") for i in ids), timeout=BOUND_MS)
+    assert resets and all(i in window.overlay.outlines for i in ids)

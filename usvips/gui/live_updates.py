@@ -51,6 +51,9 @@ FIRST_BACKOFF_S, MAX_BACKOFF_S = 0.5, 15.0
 #: the window's read of the objects and its read of the newest row is not missed (rows the window already
 #: holds give nothing: their objects' versions are the ones it read)
 CATCH_UP_ROWS = 200
+#: above this many objects changed at once (a colleague's import), the window reads every object again by
+#: one query rather than these by id (which reads each one's observation record on its own)
+MANY = 500
 #: how many colleagues' changes the status bar's tooltip lists
 RECENT = 12
 #: the tint of a row (object list, QA panel) a colleague changed
@@ -271,7 +274,10 @@ class LiveUpdates(QtCore.QObject):
         again = tuple(c.object_id for c in apply if c.what != "added")  # read again: changed, or gone
         self._applying = True
         try:
-            self.workspace.objects_changed_in_store(added=added, updated=again)
+            if len(apply) > MANY:  # a colleague's import: every object read again by one query
+                self.workspace.reload_objects()
+            else:
+                self.workspace.objects_changed_in_store(added=added, updated=again)
         except UsvipsError as error:
             self.workspace.message.emit("warning", f"colleagues' changes cannot be shown: {error}")
             return
