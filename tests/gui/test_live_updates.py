@@ -256,3 +256,27 @@ def test_a_colleagues_import_is_read_again_whole_and_marked(qtbot, make_window, 
     _, ids = measure_into_project(bob, "measure1", [(f"f{k}", "length", pixels, "fish") for k in range(3)])
     qtbot.waitUntil(lambda: all(_marked_by(window, i, "bob") for i in ids), timeout=BOUND_MS)
     assert resets and all(i in window.overlay.outlines for i in ids)
+
+
+def test_an_observation_record_ann_is_typing_that_bob_changes_shows_the_conflict_and_keeps_her_entries(
+        qtbot, make_window, survey, bob):
+    location, directory = survey
+    window = _ann(qtbot, make_window, location)
+    ws, form = window.workspace, window.observation
+    fish = _fish(bob, directory, "fish1")
+    qtbot.waitUntil(lambda: fish in ws.cache, timeout=BOUND_MS)
+    window.activateWindow()
+    window.docks["observation"].raise_()
+    form.begin(fish)  # the form takes the keyboard
+    qtbot.waitUntil(lambda: form.isAncestorOf(QtWidgets.QApplication.focusWidget()), timeout=BOUND_MS)
+    form.number.setValue(7)
+    form.comment.setText("ann: a school of seven")
+    bob.set_record(fish, ObservationRecord.of(SPECIES, number=2))  # while ann types
+    qtbot.waitUntil(lambda: "Conflict: bob changed object" in window.hint.text(), timeout=BOUND_MS)
+    assert "while you are editing its observation record" in window.hint.text() and "in the form" in window.hint.text()
+    assert not form.store()  # Enter: refused rather than written over bob's record …
+    assert bob.record(fish).number == 2 and form.number.value() == 7  # … her entries stay in the form
+    assert list(ws.edits.unsaved) == [(fish, f"observation record of object {fish}")]
+    window.focus_images()  # she leaves the form: the object is read again, bob's record shown, marked
+    qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
+    assert ws.object_record(fish).number == 2 and "is kept unsaved" in window.hint.text()

@@ -14,9 +14,11 @@ list's row tint and tooltip, the overlays' labels, the review queue's rows, the 
 the cache read those objects again by id (:meth:`Workspace.objects_changed_in_store`), which every view
 follows.
 
-An object whose cell is being edited in the object list when a colleague changes or deletes it is not
-read again under the user's cursor: the conflict is said at once in plain words, the typed text stays in
-the editor, and the object is read again when the editor closes. A save made meanwhile names the version
+An object being edited when a colleague changes or deletes it — its cell open in the object list, or its
+observation record in the observation form with the keyboard there — is not read again under the user's
+cursor: the conflict is said at once in plain words, the typed text stays in
+the editor (the form's entries in the form), and the object is read again when the editor closes (the
+form is stored or left). A save made meanwhile names the version
 the user started from, so the store refuses it by name rather than overwrite the colleague's change; the
 window then keeps the text as an unsaved edit (Edit › Retry unsaved edits saves it over theirs, Discard
 drops it) and says so.
@@ -186,7 +188,11 @@ class LiveUpdates(QtCore.QObject):
         # a review stored here moves the object's version: the cache takes it (else the window's next edit
         # of that object would be refused as stale, and the feed would show the review as someone else's)
         window.review.reviewed.connect(self._on_reviewed)
+        # a held change is applied once nothing of its object is being edited: the cell's editor closed, the
+        # observation form stored or left
         window.object_list.table.itemDelegate().closeEditor.connect(self._on_editor_closed)
+        window.observation.finished.connect(self._on_editor_closed)
+        QtWidgets.QApplication.instance().focusChanged.connect(self._on_focus_changed)
         self._on_project(ws.project)
 
     # ------------------------------------------------------------------ the feed
@@ -253,8 +259,9 @@ class LiveUpdates(QtCore.QObject):
         apply = []
         for change in changes:
             if editing is not None and change.object_id == editing[0]:
-                if self._editing is None:  # the text typed from now on (a save may re-read the cell first)
-                    self._editor().textEdited.connect(self._on_typed)
+                cell = self._editor()
+                if self._editing is None and cell is not None:  # the text typed from now on (a save may read
+                    cell.textEdited.connect(self._on_typed)     # the cell again first)
                 self.held[change.object_id] = change
                 self._editing = editing
                 self._say_conflict(change, editing[1])
@@ -332,12 +339,16 @@ class LiveUpdates(QtCore.QObject):
         return editor if isinstance(editor, QtWidgets.QLineEdit) else None
 
     def _being_edited(self) -> tuple[int, str, str] | None:
-        """(object id, column, text in the editor) of the object list's cell being edited, or None."""
+        """(object id, what, text typed) of the object being edited — the object list's cell open in its
+        editor, else the observation form with the keyboard in it — or None."""
         listing = self.window.object_list
         editor, index = self._editor(), listing.table.currentIndex()
-        if editor is None or not 0 <= index.row() < listing.model.rowCount():
-            return None
-        return listing.model.object_id(index.row()), listing.model.columns[index.column()], editor.text()
+        if editor is not None and 0 <= index.row() < listing.model.rowCount():
+            return listing.model.object_id(index.row()), listing.model.columns[index.column()], editor.text()
+        form = self.window.observation
+        if form.object_id is not None and form.isAncestorOf(QtWidgets.QApplication.focusWidget()):
+            return form.object_id, "observation record", form.species.currentText()
+        return None
 
     def _say_conflict(self, change: ColleagueChange, column: str) -> None:
         if change.what == "deleted":
@@ -345,13 +356,18 @@ class LiveUpdates(QtCore.QObject):
         else:
             then = (f"Enter saves it only if that does not overwrite {change.who}'s change (else it is kept as an "
                     "unsaved edit); Esc drops it")
+        where = "in the form" if column == "observation record" else "in the cell"
         self.workspace.message.emit("warning", f"Conflict: {change.sentence()} while you are editing its {column}. "
-                                               f"Your text is kept in the cell: {then}.")
+                                               f"Your text is kept {where}: {then}.")
 
     def _on_typed(self, text: str) -> None:
         """The user typed on in the cell a held change concerns: the text to name if it is not saved."""
         if self._editing is not None:
             self._editing = (*self._editing[:2], text)
+
+    def _on_focus_changed(self, *_: object) -> None:
+        if self.held:
+            self._on_editor_closed()
 
     def _on_editor_closed(self, *_: object) -> None:
         QtCore.QTimer.singleShot(0, self._apply_held)  # after the view has left its editing state
