@@ -16,12 +16,11 @@ follows.
 
 An object being edited when a colleague changes or deletes it — its cell open in the object list, or its
 observation record in the observation form with the keyboard there — is not read again under the user's
-cursor: the conflict is said at once in plain words, the typed text stays in
-the editor (the form's entries in the form), and the object is read again when the editor closes (the
-form is stored or left). A save made meanwhile names the version
-the user started from, so the store refuses it by name rather than overwrite the colleague's change; the
-window then keeps the text as an unsaved edit (Edit › Retry unsaved edits saves it over theirs, Discard
-drops it) and says so.
+cursor: the conflict is said at once in plain words, the typed text stays in the editor (the entries in
+the form), and the object is read again when the editor closes (the form is stored or left). A save made
+meanwhile names the version the user started from, so the store refuses it by name rather than overwrite
+the colleague's change; the window then keeps the text as an unsaved edit (Edit › Retry unsaved edits
+saves it over theirs, Discard drops it) and says so.
 
 The feed stops when the project closes or another opens. When the store cannot be read (a server that
 went away), it says so once in the status bar and tries again with growing pauses; once back, it goes on
