@@ -25,6 +25,7 @@ from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
 from usvips.gui.error_report import register_window
 from usvips.gui.instants_view import InstantsView
+from usvips.gui.live_updates import LiveUpdates
 from usvips.gui.log_panel import LogPanel
 from usvips.gui.media_check import MediaCheck
 from usvips.gui.object_list import ObjectList
@@ -143,6 +144,7 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.project_changed.connect(self._on_project_changed)
         ws.picks_changed.connect(self._on_picks_changed)
         self.overlay = ObjectOverlay(ws, self.panes)  # the stored objects on the panes, redrawn by id
+        self.live = LiveUpdates(self)  # colleagues' changes to the open survey shown as they are made
         ws.selection_changed.connect(self._on_selection_changed)
         ws.enhancement_changed.connect(self._on_enhancement_changed)
         ws.message.connect(self.show_message)

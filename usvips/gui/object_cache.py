@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
+from usvips.app.live_changes import ColleagueChange
 from usvips.app.pointing_settings import pointing_in_use
 from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
 from usvips.core.errors import UsvipsError
@@ -71,6 +72,9 @@ class ObjectCache:
         self._reconnections = getattr(project, "reconnections", 0)
         #: the project's pointing estimates in use (usvips.app.pointing_settings), read when first needed
         self._pointing: dict | None = None
+        #: object id -> the colleague's change it was last read again for (usvips.gui.live_updates): the views
+        #: mark it with who changed it and when
+        self.marks: dict[int, ColleagueChange] = {}
 
     # ------------------------------------------------------------------ the objects
     def objects(self) -> list:

@@ -114,6 +114,8 @@ class ObjectOverlay:
             name = species_text(record) if record is not None and record.name else stored.attribute
             whole = self.workspace.cache.instant_of(object_id)  # an instant is labelled as its object's
             label = f"{stored.id} {name}" if whole is None else f"{stored.id}: instant of {whole} {name}"
+            mark = self.workspace.cache.marks.get(object_id)  # a colleague's change: by whom
+            label = label if mark is None else f"{label.strip()} · {mark.who}"
             self.outlines[object_id] = (label.strip(), paths, marks)
 
     def draw(self, *_: object) -> None:

@@ -18,6 +18,7 @@ from PySide6 import QtCore, QtGui
 from usvips.app.quality import object_facts
 from usvips.core.measurements.breakdown import breakdown_text
 from usvips.gui.calculator import format_figure
+from usvips.gui.live_updates import TINT
 from usvips.gui.video_model import video_frame_text
 from usvips.gui.wording import species_text
 
@@ -26,8 +27,8 @@ _Role = QtCore.Qt.ItemDataRole
 #: what a figure cell says while its figures are being computed
 COMPUTING = "computing…"
 _TEXT = {int(_Role.DisplayRole), int(_Role.EditRole)}
-_FOREGROUND, _TOOLTIP = int(_Role.ForegroundRole), int(_Role.ToolTipRole)
-_ROLES = frozenset({*_TEXT, _FOREGROUND, _TOOLTIP, int(_Role.UserRole)})
+_FOREGROUND, _TOOLTIP, _BACKGROUND = int(_Role.ForegroundRole), int(_Role.ToolTipRole), int(_Role.BackgroundRole)
+_ROLES = frozenset({*_TEXT, _FOREGROUND, _TOOLTIP, _BACKGROUND, int(_Role.UserRole)})
 _FLAGS = QtCore.Qt.ItemFlag.ItemIsEnabled | QtCore.Qt.ItemFlag.ItemIsSelectable
 _EDITABLE_FLAGS = _FLAGS | QtCore.Qt.ItemFlag.ItemIsEditable
 
@@ -273,8 +274,12 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
             return self.texts(object_id)[index.column()] if object_id in self.workspace.cache else None
         if role == _FOREGROUND:
             return self.grey if object_id in self.links else None
+        mark = self.workspace.cache.marks.get(object_id)  # a colleague's change (usvips.gui.live_updates)
+        if role == _BACKGROUND:
+            return TINT if mark is not None else None
         if role == _TOOLTIP:
-            return (self.tooltip(object_id) or None) if index.column() == self._figure else None
+            tip = (self.tooltip(object_id) or "") if index.column() == self._figure else ""
+            return "\n".join(filter(None, [mark.text() if mark is not None else "", tip])) or None
         return object_id  # UserRole
 
     def flags(self, index: QtCore.QModelIndex) -> QtCore.Qt.ItemFlag:

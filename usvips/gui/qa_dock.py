@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
+from usvips.gui.live_updates import TINT
 from usvips.gui.qa_model import COLUMNS, QaModel, QaRow, summary
 from usvips.gui.worker import Worker, start
 
@@ -36,8 +37,11 @@ class QaTable(QtCore.QAbstractTableModel):
         row = self.rows[index.row()]
         if role == QtCore.Qt.ItemDataRole.DisplayRole:
             return row.cells[index.column()]
+        mark = self.model.workspace.cache.marks.get(row.object_id)  # a colleague's change (gui.live_updates)
         if role == QtCore.Qt.ItemDataRole.ToolTipRole:
-            return row.message
+            return row.message + (f" ({mark.text()})" if mark is not None else "")
+        if role == QtCore.Qt.ItemDataRole.BackgroundRole and mark is not None:
+            return TINT
         if role == QtCore.Qt.ItemDataRole.ForegroundRole and not row.failure:
             return QtGui.QBrush(QtGui.QColor("gray"))
         return None

@@ -265,7 +265,8 @@ class ReviewDock(QtWidgets.QWidget):
         parts = [str(object_id), stored.kind, species_text(ws.object_record(object_id)) or stored.attribute, where]
         review = self.model.state(object_id)
         state = review.state + (f": {review.reason}" if review.reason else "")
-        return "  ".join(p for p in parts if p) + f"  — {state}"
+        mark = ws.cache.marks.get(object_id)  # a colleague's change (usvips.gui.live_updates)
+        return "  ".join(p for p in parts if p) + f"  — {state}" + (f"  ({mark.text()})" if mark is not None else "")
 
     def _facts(self, object_id: int) -> list[str]:
         """The rules the object breaks: the one verdict (usvips.app.quality.object_facts), as the QA panel's."""
