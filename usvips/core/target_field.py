@@ -197,6 +197,12 @@ def _pnp_start(camera: Camera, xyz: np.ndarray, pixels: np.ndarray, robust: bool
     return Exterior(*centre, *angles_from_matrix(dlt_module.FLIP @ rotation)), inliers
 
 
+def clicks_needed(control: ControlPoints) -> int:
+    """How many targets must be identified in an image of the field: four for a planar field (a
+    homography), six otherwise (a DLT, or a resection of an earlier calibration's camera)."""
+    return 4 if _planar_frame(control.xyz) is not None else MINIMUM_CLICKS
+
+
 def _planar_frame(xyz: np.ndarray):
     centre = xyz.mean(axis=0)
     _, singular, axes = np.linalg.svd(xyz - centre)
