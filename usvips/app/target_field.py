@@ -44,7 +44,13 @@ Clicks = Mapping[str, Mapping[str, tuple[float, float]]]
 
 class ClickError(UsvipsError):
     """The identified targets cannot start a search: too few, unknown ids, outside the image, coplanar
-    where a DLT needs depth. The message names the image and the target."""
+    where a DLT needs depth. The message names the image and the target; ``side`` and ``target`` (None
+    when the problem is not one target's) let a caller point at the click."""
+
+    def __init__(self, message: str, side: str, target: str | None = None) -> None:
+        super().__init__(message)
+        self.side = side
+        self.target = target
 
 
 @dataclass(frozen=True)
@@ -82,6 +88,16 @@ class SideResult:
 
     def counts(self) -> dict[str, int]:
         return {status: len(self.ids(status)) for status in STATUSES}
+
+    def advice(self) -> str:
+        """A sentence when the identified targets disagree among themselves (empty otherwise)."""
+        clicked = [t for t in self.targets if t.clicked]
+        astray = [t.id for t in clicked if t.status == "doubtful" and "check its id" in t.reason]
+        if len(astray) < 2:
+            return ""
+        return (f"{len(astray)} of the {len(clicked)} targets identified disagree with the others "
+                f"({', '.join(astray)}): check their ids and places; with 8 or more identified, one wrong id is "
+                "found and set aside")
 
     def summary(self) -> str:
         counts = self.counts()
@@ -199,7 +215,7 @@ class FieldJob:
                 search = find_field(self.images[side], self.control, dict(clicks[side]), camera, shape=self.shape,
                                     **options)
             except DegenerateGeometryError as error:
-                raise ClickError(f"{side} image: {error}") from None
+                raise ClickError(f"{side} image: {error}", side) from None
             results[side] = side_result(side, search)
         if progress is not None:
             progress(1.0)
@@ -228,24 +244,25 @@ def check_side(control: ControlPoints, side: str, clicks: Mapping[str, tuple[flo
     for pid, pixel in clicks.items():
         if pid not in known:
             shown = ", ".join(control.ids[:6]) + (" …" if len(control) > 6 else "")
-            raise ClickError(f"{side} image: target {pid!r} is not a control point (the control's ids: {shown})")
+            raise ClickError(f"{side} image: target {pid!r} is not a control point (the control's ids: {shown})",
+                             side, pid)
         x, y = (float(v) for v in pixel)
         width, height = size
         if not (np.isfinite(x) and np.isfinite(y) and -0.5 <= x <= width - 0.5 and -0.5 <= y <= height - 0.5):
             raise ClickError(f"{side} image: target {pid!r} at ({x:g}, {y:g}) lies outside the image ({width} × "
-                             f"{height} px)")
+                             f"{height} px)", side, pid)
     needed = clicks_needed(control)
     if len(clicks) < needed:
         more = needed - len(clicks)
         raise ClickError(f"{side} image: {len(clicks)} target{'s' * (len(clicks) != 1)} identified; at least "
-                         f"{needed} are needed ({more} more)")
+                         f"{needed} are needed ({more} more)", side)
     if needed > 4 and not calibrated:
         xyz = control.xyz[control.index_of(list(clicks))]
         singular = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
         if singular[0] == 0 or singular[2] / singular[0] < 1e-3:
             raise ClickError(f"{side} image: the {len(clicks)} targets identified lie in one plane of the field; "
                              "without a calibration the model needs depth: identify targets off that plane "
-                             "(or search with an earlier calibration)")
+                             "(or search with an earlier calibration)", side)
 
 
 # ------------------------------------------------------------------------------------------ preparing

@@ -345,7 +345,9 @@ def _classify(control, ids, clicked_index, click_pixels, snapped, predicted, vis
             pixel = tuple(float(v) for v in click_pixels[k])
             reasons = [] if snapped[k] else [f"as clicked ({snapped[k].reason})"]
             off = float(np.hypot(pixel[0] - prediction[0], pixel[1] - prediction[1])) if prediction else np.inf
-            if off > limit:
+            if prediction is None:
+                reasons.append("clicked, but the other targets put it behind the camera: check its id")
+            elif off > limit:
                 reasons.append(f"clicked, but {off:.1f} px from where the other targets put it: check its id")
             points.append(FieldPoint(pid, prediction, pixel, quality, "doubtful" if reasons else "found", True,
                                      "; ".join(reasons)))
