@@ -284,14 +284,19 @@ def prepare(project: ProjectStore, pair: str, control: ControlPoints | None = No
     stored = project.control_observations(role, pair)
     paths = {side: project.image_path(row[side]) for side in SIDES}
     images = {side: read_image(paths[side]) for side in SIDES}
-    cameras = None
-    if calibration_id is not None:
-        calibration = read_calibration(project, calibration_id)
-        station = pair if pair in calibration.stations else 0
-        rig = calibration.rig(station)
-        cameras = {"left": rig.left, "right": rig.right}
+    cameras = cameras_of(project, calibration_id, pair)
     return FieldJob(pair, role, chosen, images, cameras, shape, stored, stored_control, calibration_id,
                     sources={side: str(paths[side]) for side in SIDES})
+
+
+def cameras_of(project: ProjectStore, calibration_id: int | None, pair: str) -> dict[str, Camera] | None:
+    """The left and right cameras of the stored calibration ``calibration_id`` (None: None), placed at
+    ``pair``'s station when it is one (else the first: the pose is only a start, it is resected)."""
+    if calibration_id is None:
+        return None
+    calibration = read_calibration(project, calibration_id)
+    rig = calibration.rig(pair if pair in calibration.stations else 0)
+    return {"left": rig.left, "right": rig.right}
 
 
 def _control(project: ProjectStore, stored: ControlPoints, given: ControlPoints | None) -> ControlPoints:
