@@ -65,6 +65,9 @@ def test_the_model_counts_searches_and_stores_the_decisions(scene_project):
         drawn = {pid: (pixel, state) for pid, pixel, state in model.marks("left")}
         assert drawn[wrong][1] == "doubtful"  # drawn where it was clicked (snapped to the disc there)
         assert np.hypot(*(np.array(drawn[wrong][0]) - np.array(clicks["left"][wrong]))) < 1.5
+        # where the model puts the misnamed target, far from where it was clicked
+        guess = dict(model.predictions("left"))[wrong]
+        assert np.hypot(*(np.array(guess) - scene.truth["left"][scene.control.ids.index(wrong)])) < 3.0
         with pytest.raises(UsvipsError, match="not doubtful"):
             model.accept("right", result.right.ids("found")[0])
         # the wrong one placed by hand where its disc is: accepted, stored there

@@ -147,6 +147,14 @@ class FieldModel:
                 out.append((target.id, target.pixel, state))
         return out
 
+    def predictions(self, side: str) -> list[tuple[str, tuple[float, float]]]:
+        """(id, pixel) where the model puts each doubtful target of ``side``'s image (to compare with where
+        it was located or clicked)."""
+        if self.result is None:
+            return []
+        return [(t.id, t.predicted) for t in self.result.side(side).targets
+                if t.status == "doubtful" and t.predicted is not None and (side, t.id) not in self.moved]
+
     def rows(self) -> list[tuple[str, str, str, str]]:
         """(side, id, status, words) of every target worth listing: the clicks before a search; after it
         the doubtful (with the decision), then the missing, then the found."""

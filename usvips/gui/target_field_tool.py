@@ -38,13 +38,21 @@ class FieldOverlay:
             colour, symbol = STYLE[state]
             self.items[state] = pg.ScatterPlotItem(size=15, pen=pg.mkPen(colour, width=2), brush=None, symbol=symbol)
             pane.viewbox.addItem(self.items[state], ignoreBounds=True)
+        self.predicted = pg.ScatterPlotItem(size=11, pen=pg.mkPen(STYLE["doubtful"][0], width=1.5), brush=None,
+                                            symbol="x")
+        pane.viewbox.addItem(self.predicted, ignoreBounds=True)
         self.pending = pg.ScatterPlotItem(size=19, pen=pg.mkPen(PENDING, width=2), brush=None, symbol="+")
         self.selected = pg.ScatterPlotItem(size=25, pen=pg.mkPen(SELECTED, width=2.5), brush=None, symbol="o")
         for item in (self.pending, self.selected):
             pane.viewbox.addItem(item, ignoreBounds=True)
         self.labels: list[pg.TextItem] = []
 
-    def show(self, marks: list[tuple[str, tuple[float, float], str]], pending, selected: str | None) -> None:
+    def show(self, marks: list[tuple[str, tuple[float, float], str]], pending, selected: str | None,
+             predicted: list[tuple[str, tuple[float, float]]] = ()) -> None:
+        """``marks`` (id, pixel, state); the ``pending`` click (a pixel or None); the ``selected`` id; where
+        the model ``predicted`` the doubtful targets (small amber crosses)."""
+        guesses = np.array([p for _, p in predicted], float).reshape(-1, 2)
+        self.predicted.setData(pos=item_from_pixels(guesses) if len(guesses) else np.zeros((0, 2)))
         for label in self.labels:
             self.pane.viewbox.removeItem(label)
         self.labels = []
@@ -324,8 +332,10 @@ class TargetFieldTool(QtWidgets.QDialog):
         if pid in marks:
             self.panes[side].bring_into_view(marks[pid])
         if self.model.status(side, pid) == "doubtful":
-            self.hint.setText(f"{side} {pid} is doubtful: Accept (A) keeps it where it was located, Reject (R) "
-                              f"leaves it out, a click in the {side} image places it there.")
+            self.hint.setText(f"{side} {pid} is doubtful ({item.text(3)}): Accept (A) keeps it where it was "
+                              f"located, Reject (R) leaves it out, a click in the {side} image places it there.")
+        else:
+            self.hint.setText(f"{side} {pid}: {item.text(2)} ({item.text(3)})")
         self._draw()
 
     def decide(self, how: str) -> None:
@@ -384,7 +394,7 @@ class TargetFieldTool(QtWidgets.QDialog):
                 continue
             pending = model.pending[1] if model.pending and model.pending[0] == side else None
             selected = model.selected[1] if model.selected and model.selected[0] == side else None
-            self.overlays[side].show(model.marks(side), pending, selected)
+            self.overlays[side].show(model.marks(side), pending, selected, model.predictions(side))
 
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt's name)
         self.stop()
