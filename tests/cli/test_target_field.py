@@ -75,7 +75,7 @@ def test_a_wrong_id_is_listed_and_stored_only_when_accepted(tmp_path, capsys):
     if wrong in stored.ids:  # accepted where it was clicked (when the right image found it)
         assert np.allclose(stored.left[stored.ids.index(wrong)], scene.truth["left"][free[0]], atol=0.5)
     else:
-        assert "found in one image only" in capsys.readouterr().out
+        assert "usable in one image only" in capsys.readouterr().out
 
 
 def test_bad_input_is_one_line_and_stores_nothing(tmp_path, capsys):

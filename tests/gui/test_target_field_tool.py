@@ -9,6 +9,7 @@ from PySide6 import QtCore
 from tests.app.field_scenes import field_project, stereo_field
 from tests.gui.conftest import click_pixel
 from usvips.core.errors import UsvipsError
+from usvips.gui.calibration_session import CalibrationSession
 from usvips.gui.target_field_model import FieldModel
 from usvips.store.opening import open_project
 
@@ -81,6 +82,10 @@ def test_the_model_counts_searches_and_stores_the_decisions(scene_project):
         assert confirmed.count == len(stored) >= 8
         if wrong in stored.ids:
             assert np.allclose(stored.left[stored.ids.index(wrong)], true_pixel)
+        # the classic calibration wizard's session reads them as the pair's observations
+        session = CalibrationSession(project, "air")
+        session.set_pairs(["p1"])
+        assert session.load_project_observations() == len(stored)
         model.reject("left", wrong)
         assert model.decision("left", wrong) == ""
         model.confirm()  # checked against the set it stored itself: not a stale write

@@ -127,6 +127,16 @@ class FieldResult:
                      moved: Mapping[tuple[str, str], tuple[float, float]] | None = None) -> StereoObservations:
         """The targets usable in both images, in control order: found, or doubtful and ``accepted`` as
         (side, id) with a pixel, or ``moved`` by the user ((side, id) → pixel, which accepts it)."""
+        pixels = self._usable(accepted, moved)
+        ids = tuple(pid for pid in self.control.ids if pid in pixels["left"] and pid in pixels["right"])
+        return StereoObservations(ids, np.array([pixels["left"][i] for i in ids], float).reshape(-1, 2),
+                                  np.array([pixels["right"][i] for i in ids], float).reshape(-1, 2),
+                                  (self.pair,) * len(ids))
+
+    def _usable(self, accepted: Iterable[tuple[str, str]] = (),
+                moved: Mapping[tuple[str, str], tuple[float, float]] | None = None
+                ) -> dict[str, dict[str, tuple[float, float]]]:
+        """side → id → pixel of every target usable in that image (see :meth:`observations`)."""
         moved = dict(moved or {})
         accepted = set(accepted) | set(moved)
         pixels: dict[str, dict[str, tuple[float, float]]] = {}
@@ -139,15 +149,13 @@ class FieldResult:
                 elif target.pixel is not None and (target.status == "found" or
                                                    (target.status == "doubtful" and key in accepted)):
                     pixels[side][target.id] = target.pixel
-        ids = tuple(pid for pid in self.control.ids if pid in pixels["left"] and pid in pixels["right"])
-        return StereoObservations(ids, np.array([pixels["left"][i] for i in ids], float).reshape(-1, 2),
-                                  np.array([pixels["right"][i] for i in ids], float).reshape(-1, 2),
-                                  (self.pair,) * len(ids))
+        return pixels
 
-    def one_sided(self) -> tuple[str, ...]:
-        """Ids found in one image but not the other (not stored)."""
-        found = [set(self.side(s).ids("found")) for s in SIDES]
-        return tuple(pid for pid in self.control.ids if (pid in found[0]) != (pid in found[1]))
+    def one_sided(self, accepted: Iterable[tuple[str, str]] = (),
+                  moved: Mapping[tuple[str, str], tuple[float, float]] | None = None) -> tuple[str, ...]:
+        """Ids usable (found, accepted or moved) in one image but not the other: never stored."""
+        pixels = self._usable(accepted, moved)
+        return tuple(pid for pid in self.control.ids if (pid in pixels["left"]) != (pid in pixels["right"]))
 
 
 @dataclass(frozen=True)
@@ -356,6 +364,4 @@ def confirm(project: ProjectStore, result: FieldResult, accepted: Iterable[tuple
         if control_stored:
             project.set_control(result.control, expected=result.stored_control)
         project.add_control_observations(merged, result.role, result.pair, replace=True, expected=expected)
-    usable = set(new.ids)
-    return Confirmed(result.pair, result.role, len(new), control_stored,
-                     tuple(pid for pid in result.one_sided() if pid not in usable))
+    return Confirmed(result.pair, result.role, len(new), control_stored, result.one_sided(accepted, moved))

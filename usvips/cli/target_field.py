@@ -77,7 +77,7 @@ def run_field(args: argparse.Namespace) -> int:
     print(f"stored {confirmed.count} target{'s' * (confirmed.count != 1)} as the {confirmed.role} observations of "
           f"pair {confirmed.pair}{also}")
     if confirmed.one_sided:
-        print(f"  not stored (found in one image only): {', '.join(confirmed.one_sided)}")
+        print(f"  not stored (usable in one image only): {', '.join(confirmed.one_sided)}")
     return 0
 
 

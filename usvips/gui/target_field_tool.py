@@ -358,7 +358,7 @@ class TargetFieldTool(QtWidgets.QDialog):
         text = (f"Stored {confirmed.count} targets as the {confirmed.role} observations of pair {confirmed.pair}"
                 + (" and the control" if confirmed.control_stored else "") + ".")
         if confirmed.one_sided:
-            text += f" Found in one image only (not stored): {', '.join(confirmed.one_sided)}."
+            text += f" Usable in one image only (not stored): {', '.join(confirmed.one_sided)}."
         self.summary.setText(text)
         self.confirmed.emit(text)
 
