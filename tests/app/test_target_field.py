@@ -176,3 +176,17 @@ def test_control_from_a_file_and_a_stale_set_refused(tmp_path):
     with open_project(path) as project, pytest.raises(service.UsvipsError, match="other control points"):
         moved = type(scene.control)(scene.control.ids, scene.control.xyz + 0.01)
         service.prepare(project, "p1", moved)
+
+
+def test_a_stopped_search_gives_nothing(tmp_path):
+    rng = np.random.default_rng(51)
+    scene = stereo_field(rng, "air", 1.8)
+    path, _ = field_project(tmp_path, scene)
+    with open_project(path) as project:
+        job = service.prepare(project, "p1")
+    clicks = scene.clicks(rng, 7, 1.0)
+    asked = []
+    fractions = []
+    assert job.run(clicks, fractions.append, lambda: asked.append(1) or len(asked) > 40) is None
+    # 7 clicks and two rounds of 26 targets are located in the left image: stopped there
+    assert len(asked) == 41 and fractions == [0.0]

@@ -209,7 +209,8 @@ class FieldJob:
 
     def run(self, clicks: Clicks, progress: Callable[[float], None] | None = None,
             cancelled: Callable[[], bool] | None = None) -> FieldResult | None:
-        """Check the clicks, then search each image; None when ``cancelled()`` before the second image."""
+        """Check the clicks, then search each image; None as soon as ``cancelled()`` is true (asked before
+        each target is located)."""
         self.check(clicks)
         results = {}
         for k, side in enumerate(SIDES):
@@ -221,9 +222,11 @@ class FieldJob:
             camera = None if self.cameras is None else self.cameras[side]
             try:
                 search = find_field(self.images[side], self.control, dict(clicks[side]), camera, shape=self.shape,
-                                    **options)
+                                    cancelled=cancelled, **options)
             except DegenerateGeometryError as error:
                 raise ClickError(f"{side} image: {error}", side) from None
+            except InterruptedError:
+                return None
             results[side] = side_result(side, search)
         if progress is not None:
             progress(1.0)
