@@ -122,6 +122,14 @@ def test_the_dialog_by_mouse_and_keyboard(qtbot, scene_project, tmp_path):
     assert "usable in both images" in tool.summary.text()
     first = tool.table.topLevelItem(0)
     assert first.text(2) == "doubtful"
+    # a doubtful target is a handle: dragged to its disc, it is placed there (then left out again by R)
+    handle = tool.overlays["left"].handles[wrong]
+    target = scene.truth["left"][scene.control.ids.index(wrong)]
+    handle.setPos(QtCore.QPointF(*(target + 0.5)))  # view coordinates: pixel + half a pixel
+    handle.sigPositionChangeFinished.emit(handle)
+    qtbot.waitUntil(lambda: tool.model.decision("left", wrong) == "placed", timeout=2000)
+    assert np.allclose(tool.model.moved[("left", wrong)], target)
+    assert "placed" in tool.hint.text()
     # the doubtful rows come first; select the misnamed one and reject it with R, the others accepted with A
     for k in range(tool.table.topLevelItemCount()):
         item = tool.table.topLevelItem(k)

@@ -76,12 +76,20 @@ class FieldModel:
         for an id (:meth:`name`). Returns what happened, in words."""
         pixel = (float(pixel[0]), float(pixel[1]))
         if self.selected is not None and self.selected[0] == side and self.status(*self.selected) == "doubtful":
-            self.moved[self.selected] = pixel
-            self.changed.emit()
-            return f"{side} {self.selected[1]} placed at ({pixel[0]:.1f}, {pixel[1]:.1f}) and accepted"
+            return self.move(side, self.selected[1], pixel)
         self.pending = (side, pixel)
         self.changed.emit()
         return f"{side} image clicked at ({pixel[0]:.1f}, {pixel[1]:.1f}): which target is it?"
+
+    def move(self, side: str, pid: str, pixel: tuple[float, float]) -> str:
+        """Place a doubtful target at ``pixel`` (dragged or clicked there): it is accepted there."""
+        if self.status(side, pid) != "doubtful":
+            raise UsvipsError(f"{side} {pid} is not doubtful: only a doubtful target is placed by hand")
+        pixel = (float(pixel[0]), float(pixel[1]))
+        self.moved[(side, pid)] = pixel
+        self.selected = (side, pid)
+        self.changed.emit()
+        return f"{side} {pid} placed at ({pixel[0]:.1f}, {pixel[1]:.1f}) and accepted"
 
     def name(self, pid: str) -> None:
         """Name the click waiting for its id; an id not in the control is an error naming it."""

@@ -1,7 +1,8 @@
 """Calibration › *Find a target field…*: identify six or more targets of a 3-D field in each image of a
 pair by clicking and naming them, find the rest through the model, look at what was found (green),
-doubtful (amber) or missing (listed), accept, reject or place the doubtful ones, and confirm: the targets
-are stored as the pair's control observations, which the classic calibration wizards read.
+doubtful (amber) or missing (listed), accept, reject or place the doubtful ones (drag them, or select
+one and click), and confirm: the targets are stored as the pair's control observations, which the
+classic calibration wizards read.
 
 The view over :class:`usvips.gui.target_field_model.FieldModel`; the search runs on the worker with
 progress and Stop. Keys: click a target, type its id, Enter; F5 finds the rest; in the list, A accepts,
@@ -15,7 +16,7 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.errors import UsvipsError
-from usvips.gui.pane import StereoPane, item_from_pixels
+from usvips.gui.pane import StereoPane, item_from_pixels, pixel_from_item
 from usvips.gui.target_field_model import SIDES, STATES, FieldModel
 from usvips.gui.worker import Worker, start
 
@@ -28,11 +29,19 @@ SELECTED = (255, 0, 255)
 ROW_COLOURS = {"found": "#2e8b57", "doubtful": "#b9770e", "missing": "#c0392b", "clicked": "#1f77b4"}
 
 
-class FieldOverlay:
-    """The marks of one pane: a scatter per state, the ids beside them, the pending click, the selection."""
+#: states drawn as handles the user can drag (the doubtful targets, accepted or not)
+DRAGGED = ("doubtful", "accepted")
 
-    def __init__(self, pane: StereoPane) -> None:
+
+class FieldOverlay:
+    """The marks of one pane: a scatter per state, a handle for each doubtful target (dragged to place
+    it: ``moved(id, pixel)`` is called when the drag ends), the ids beside them, the pending click, the
+    selection."""
+
+    def __init__(self, pane: StereoPane, moved=None) -> None:
         self.pane = pane
+        self.moved = moved
+        self.handles: dict[str, pg.TargetItem] = {}
         self.items = {}
         for state in STATES:
             colour, symbol = STYLE[state]
@@ -57,10 +66,17 @@ class FieldOverlay:
             self.pane.viewbox.removeItem(label)
         self.labels = []
         for state in STATES:
-            pixels = np.array([p for _, p, s in marks if s == state], float).reshape(-1, 2)
+            pixels = np.array([p for _, p, s in marks if s == state and s not in DRAGGED], float).reshape(-1, 2)
             self.items[state].setData(pos=item_from_pixels(pixels) if len(pixels) else np.zeros((0, 2)))
+        self._handles([(pid, pixel, state) for pid, pixel, state in marks if state in DRAGGED])
         for pid, pixel, state in marks:
             text = pg.TextItem(pid, color=SELECTED if pid == selected else STYLE[state][0], anchor=(-0.25, 1.1))
+            x, y = item_from_pixels(np.array(pixel))[0]
+            text.setPos(float(x), float(y))
+            self.pane.viewbox.addItem(text, ignoreBounds=True)
+            self.labels.append(text)
+        for pid, pixel in predicted:  # "T05?": where the model puts a doubtful target
+            text = pg.TextItem(f"{pid}?", color=STYLE["doubtful"][0], anchor=(-0.25, -0.1))
             x, y = item_from_pixels(np.array(pixel))[0]
             text.setPos(float(x), float(y))
             self.pane.viewbox.addItem(text, ignoreBounds=True)
@@ -68,6 +84,28 @@ class FieldOverlay:
         self.pending.setData(pos=item_from_pixels(np.array(pending)) if pending is not None else np.zeros((0, 2)))
         chosen = [p for pid, p, _ in marks if pid == selected]
         self.selected.setData(pos=item_from_pixels(np.array(chosen[0])) if chosen else np.zeros((0, 2)))
+
+
+    def _handles(self, marks: list[tuple[str, tuple[float, float], str]]) -> None:
+        for handle in self.handles.values():
+            self.pane.viewbox.removeItem(handle)
+        self.handles = {}
+        for pid, pixel, state in marks:
+            colour, symbol = STYLE[state]
+            x, y = item_from_pixels(np.array(pixel))[0]
+            handle = pg.TargetItem((float(x), float(y)), size=15, symbol=symbol, pen=pg.mkPen(colour, width=2),
+                                   hoverPen=pg.mkPen(SELECTED, width=2), brush=None, movable=True)
+            handle.setToolTip(f"{pid}: drag to where the target is")
+            handle.sigPositionChangeFinished.connect(lambda item, p=pid: self._dropped(p, item))
+            self.pane.viewbox.addItem(handle, ignoreBounds=True)
+            self.handles[pid] = handle
+
+    def _dropped(self, pid: str, handle) -> None:
+        if self.moved is not None:
+            position = handle.pos()
+            pixel = pixel_from_item(position.x(), position.y())
+            # after the drag's own event: the handles are redrawn by the change it makes
+            QtCore.QTimer.singleShot(0, lambda: self.moved(pid, pixel))
 
 
 class TargetFieldTool(QtWidgets.QDialog):
@@ -115,7 +153,8 @@ class TargetFieldTool(QtWidgets.QDialog):
         top.addStretch(1)
 
         self.panes = {side: StereoPane(side) for side in SIDES}
-        self.overlays = {side: FieldOverlay(self.panes[side]) for side in SIDES}
+        self.overlays = {side: FieldOverlay(self.panes[side], lambda pid, pixel, s=side: self.drag(s, pid, pixel))
+                         for side in SIDES}
         images = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
         for side in SIDES:
             self.panes[side].setObjectName(f"field_{side}_pane")
@@ -333,10 +372,20 @@ class TargetFieldTool(QtWidgets.QDialog):
             self.panes[side].bring_into_view(marks[pid])
         if self.model.status(side, pid) == "doubtful":
             self.hint.setText(f"{side} {pid} is doubtful ({item.text(3)}): Accept (A) keeps it where it was "
-                              f"located, Reject (R) leaves it out, a click in the {side} image places it there.")
+                              f"located, Reject (R) leaves it out; drag it, or click in the {side} image, to place "
+                              f"it (an amber {pid}? marks where the other targets put it).")
         else:
             self.hint.setText(f"{side} {pid}: {item.text(2)} ({item.text(3)})")
         self._draw()
+
+    def drag(self, side: str, pid: str, pixel: tuple[float, float]) -> None:
+        """A doubtful target's handle dropped at ``pixel``: placed there (accepted)."""
+        if self.model is None or self.worker is not None:
+            return
+        try:
+            self.hint.setText(self.model.move(side, pid, pixel))
+        except UsvipsError as error:
+            self.hint.setText(str(error))
 
     def decide(self, how: str) -> None:
         key = self._current()
