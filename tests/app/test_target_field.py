@@ -190,3 +190,23 @@ def test_a_stopped_search_gives_nothing(tmp_path):
     assert job.run(clicks, fractions.append, lambda: asked.append(1) or len(asked) > 40) is None
     # 7 clicks and two rounds of 26 targets are located in the left image: stopped there
     assert len(asked) == 41 and fractions == [0.0]
+
+
+def test_two_image_files_without_a_project(tmp_path):
+    """The service on two image files (no project): through an earlier calibration's cameras under a flat
+    port, the targets usable in both images are where their discs are."""
+    rng = np.random.default_rng(61)
+    scene = stereo_field(rng, "flat-port", 2.5)
+    field_project(tmp_path, scene)  # writes the images
+    earlier = {side: camera.with_exterior(camera.exterior.with_values(X0=0.0, Y0=0.0)) for side, camera
+               in scene.cameras.items()}
+    job = service.prepare_images(tmp_path / "p1_left.png", tmp_path / "p1_right.png", scene.control, earlier,
+                                 label="tank", medium="water")
+    result = job.run(scene.clicks(rng, 7, 1.0))
+    observations = result.observations()
+    assert result.role == "calibration-water"
+    assert result.pair == "tank" and len(observations) >= 10 and set(observations.pairs) == {"tank"}
+    for i, pid in enumerate(observations.ids):
+        k = scene.control.ids.index(pid)
+        assert np.hypot(*(observations.left[i] - scene.truth["left"][k])) < 0.5
+        assert np.hypot(*(observations.right[i] - scene.truth["right"][k])) < 0.5

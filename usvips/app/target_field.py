@@ -330,11 +330,14 @@ def same_control(a: ControlPoints, b: ControlPoints, tolerance_m: float = 1e-6) 
 
 
 def prepare_images(left: str | Path, right: str | Path, control: ControlPoints, cameras: Mapping[str, Camera] | None,
-                   shape: str = "disc", label: str = "pair") -> FieldJob:
-    """A search of two image files (no project): the result is written, not stored."""
+                   shape: str = "disc", label: str = "pair", medium: str = "air") -> FieldJob:
+    """A search of two image files (no project; ``medium`` "air" or "water" names the role its
+    observations would have): the result's :meth:`FieldResult.observations` are for the caller to write."""
+    if medium not in ROLES:
+        raise UsvipsError(f"medium {medium!r}: air or water")
     paths = {"left": Path(left), "right": Path(right)}
     images = {side: read_image(paths[side]) for side in SIDES}
-    return FieldJob(label, "calibration-air", control, images, None if cameras is None else dict(cameras), shape,
+    return FieldJob(label, ROLES[medium], control, images, None if cameras is None else dict(cameras), shape,
                     sources={side: str(paths[side]) for side in SIDES})
 
 
