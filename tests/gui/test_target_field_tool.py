@@ -182,3 +182,30 @@ def test_stop_drops_the_search(qtbot, scene_project):
         qtbot.wait(50)
         assert tool.model.result is None
         tool.close()
+
+
+def test_opened_from_the_calibration_menu_and_stored_targets_drawn(qtbot, make_window, scene_project):
+    from tests.gui.conftest import wait_for_pair
+
+    scene, path, rng = scene_project
+    window = make_window()
+    assert window.open_path(path)
+    window.load_pair("p1")
+    wait_for_pair(qtbot, window, "p1")
+    menu = next(a.menu() for a in window.menuBar().actions() if a.text() == "&Calibration")
+    next(a for a in menu.actions() if a.text() == "Find a &target field…").trigger()
+    tool = window.target_field_tool
+    qtbot.waitExposed(tool)
+    assert tool.pair_box.currentText() == "p1" and window.panes["left"].control_labels == []
+    for side, chosen in scene.clicks(rng, 7, 1.0).items():
+        for pid, pixel in chosen.items():
+            tool.on_click(side, pixel)
+            tool.id_box.setEditText(pid)
+            tool.name_click()
+    tool.find_rest()
+    qtbot.waitUntil(lambda: not tool.busy, timeout=60000)
+    tool.confirm()
+    stored = window.workspace.project.control_observations("calibration-air", "p1")
+    assert len(stored) >= 8
+    assert sorted(label.toPlainText() for label in window.panes["left"].control_labels) == sorted(stored.ids)
+    tool.close()

@@ -461,7 +461,15 @@ def open_tool(window) -> TargetFieldTool | None:
     except UsvipsError as error:
         window.show_message("error", str(error))
         return None
-    tool.confirmed.connect(lambda text: window.show_message("info", text))
+    tool.confirmed.connect(lambda text: _stored(window, text))
     window.target_field_tool = tool
     tool.show()
     return tool
+
+
+def _stored(window, text: str) -> None:
+    """Say what was stored, and draw the pair's control observations anew on the window's images."""
+    window.show_message("info", text)
+    redraw = getattr(window, "_draw_control", None)
+    if redraw is not None:
+        redraw()
