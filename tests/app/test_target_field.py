@@ -210,3 +210,16 @@ def test_two_image_files_without_a_project(tmp_path):
         k = scene.control.ids.index(pid)
         assert np.hypot(*(observations.left[i] - scene.truth["left"][k])) < 0.5
         assert np.hypot(*(observations.right[i] - scene.truth["right"][k])) < 0.5
+
+
+def test_an_underwater_pair_without_a_calibration_is_cautioned(tmp_path):
+    rng = np.random.default_rng(71)
+    scene = stereo_field(rng, "flat-port", 2.5)
+    path, calibration_id = field_project(tmp_path, scene, calibrated=True)
+    with open_project(path) as project:
+        assert "ignores the refraction" in service.prepare(project, "p1").caution()
+        assert service.prepare(project, "p1", calibration_id=calibration_id).caution() == ""
+    air = stereo_field(rng, "air", 1.8)
+    path, _ = field_project(tmp_path / "air", air)
+    with open_project(path) as project:
+        assert service.prepare(project, "p1").caution() == ""

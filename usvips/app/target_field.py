@@ -201,6 +201,14 @@ class FieldJob:
         """Targets to identify in each image (4 for a planar field, else 6)."""
         return clicks_needed(self.control)
 
+    def caution(self) -> str:
+        """A sentence when the model chosen is a poor fit: an underwater pair searched without a
+        calibration (a DLT knows no refraction; its misfit makes more targets doubtful). Empty otherwise."""
+        if self.role == ROLES["water"] and self.cameras is None:
+            return ("an underwater pair without a calibration: the DLT ignores the refraction, so targets far from "
+                    "the clicks may come out doubtful; an earlier calibration's housing models it")
+        return ""
+
     def check(self, clicks: Clicks) -> None:
         """A :class:`ClickError` naming the first problem of the clicks, image by image."""
         for side in SIDES:

@@ -119,6 +119,8 @@ def _model(job) -> str:
 def _print(result, job) -> None:
     print(f"pair {result.pair!r} ({result.role}): {len(result.control)} control targets, {job.shape}s, found "
           f"through {_model(job)}")
+    if job.caution():
+        print(f"  note: {job.caution()} (--calibration ID)")
     for side in ("left", "right"):
         print(f"{side:>5}: {result.side(side).summary()}")
         if result.side(side).advice():

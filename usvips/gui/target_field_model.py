@@ -188,6 +188,8 @@ class FieldModel:
         if self.result is None:
             return self.count_line()
         lines = [f"{side}: {self.result.side(side).summary()}" for side in SIDES]
+        if self.job.caution():
+            lines.append(f"Note: {self.job.caution()} (choose it above).")
         lines += [self.result.side(side).advice() for side in SIDES if self.result.side(side).advice()]
         usable = len(self.result.observations(self.accepted, self.moved))
         lines.append(f"{usable} target{'s' * (usable != 1)} usable in both images will be stored on Confirm")
