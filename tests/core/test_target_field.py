@@ -165,3 +165,23 @@ def test_a_misnamed_click_is_doubtful_and_spoils_nothing(housing, calibrated, di
             assert np.hypot(*(np.array(by_id[pid].pixel) - true[i])) < 0.5, pid
             found += visible[i]
     assert found >= 0.9 * (visible.sum() - 1)
+
+
+def test_a_search_stops_when_asked():
+    """``cancelled()`` is asked before each target is located: the search stops at the first True."""
+    rng = np.random.default_rng(12)
+    control = field(rng)
+    camera = camera_at(rng, HOUSINGS["air"], 1.8)
+    image = picture(camera, control, 0, False)
+    true, visible = truth(camera, control)
+    clicks = {control.ids[i]: true[i] for i in np.flatnonzero(visible)[-8:]}  # off the plane Z = 0 too
+    asked = []
+
+    def cancelled():
+        asked.append(1)
+        return len(asked) > 12
+
+    with pytest.raises(InterruptedError, match="stopped"):
+        find_field(image, control, clicks, cancelled=cancelled)
+    assert len(asked) == 13
+    assert find_field(image, control, clicks, cancelled=lambda: False).summary()

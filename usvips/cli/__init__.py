@@ -26,10 +26,11 @@ COMMANDS: tuple[str, ...] = ("open", "demo", "calibrate", "intersect", "measure"
 COMMANDS += ("batch",)
 COMMANDS += ("calibration_views",)  # after "video": it adds the action `video calibration-views`
 COMMANDS += ("target",)
+COMMANDS += ("target_field",)  # after "target": it adds the action `target field`
 COMMANDS += ("species",)
 
 #: modules that add actions to another command's parser (imported whenever that command is)
-EXTENDS: dict[str, str] = {"calibration_views": "video"}
+EXTENDS: dict[str, str] = {"calibration_views": "video", "target_field": "target"}
 
 #: each subcommand's line in ``usvips --help``, so that the overview imports no subcommand's module (each
 #: imports numpy, OpenCV, SciPy ...: over 0.5 s of CPU all together); a test keeps these equal to the
@@ -48,7 +49,7 @@ SUMMARIES: dict[str, str] = {
     "plan": "map the expected sigma of a point and a length (precision planner)",
     "video": "synchronise a stereo video, set its offset, export a frame pair",
     "batch": "run a task over many pairs or projects on every core",
-    "target": "calibration targets: describe, print, detect",
+    "target": "calibration targets: describe, print, detect, find a 3-D field from a few clicks",
     "species": "import or list a project's species list (and maximum lengths)",
 }
 

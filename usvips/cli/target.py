@@ -27,7 +27,8 @@ OPTIONS = {
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser("target", help="calibration targets: describe, print, detect")
+    parser = subparsers.add_parser("target", help="calibration targets: describe, print, detect, find a 3-D "
+                                   "field from a few clicks")
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
 
     describe = actions.add_parser("describe", help="write a target description file")

@@ -28,7 +28,7 @@ Pixels: x right, y down, origin at the centre of the top-left pixel; control in 
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import cv2
@@ -197,6 +197,12 @@ def _pnp_start(camera: Camera, xyz: np.ndarray, pixels: np.ndarray, robust: bool
     return Exterior(*centre, *angles_from_matrix(dlt_module.FLIP @ rotation)), inliers
 
 
+def clicks_needed(control: ControlPoints) -> int:
+    """How many targets must be identified in an image of the field: four for a planar field (a
+    homography), six otherwise (a DLT, or a resection of an earlier calibration's camera)."""
+    return 4 if _planar_frame(control.xyz) is not None else MINIMUM_CLICKS
+
+
 def _planar_frame(xyz: np.ndarray):
     centre = xyz.mean(axis=0)
     _, singular, axes = np.linalg.svd(xyz - centre)
@@ -237,7 +243,7 @@ def _snap(image: np.ndarray, pixel: np.ndarray, size: tuple[int, int], shape: st
 
 def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera | None = None,
                shape: str = "disc", window: int | None = None, tolerance_px: float = TOLERANCE_PX,
-               rounds: int = 1) -> FieldSearch:
+               rounds: int = 1, cancelled: Callable[[], bool] | None = None) -> FieldSearch:
     """Find every target of ``control`` in ``image`` from the user's ``clicks`` (a mapping id → (x, y), or
     (ids, pixels (N, 2))), see the module's notes.
 
@@ -247,7 +253,8 @@ def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera
     size (discs: four times their radius plus 16 px, at least 21; crosses 41). ``tolerance_px``: a target
     further than this from its prediction is doubtful (without a camera, an uncalibrated lens: or than four
     times the robust spread of the found targets about the DLT, when larger, up to three times the
-    tolerance)."""
+    tolerance). ``cancelled()`` is asked before each target is located: True raises
+    :class:`InterruptedError`."""
     if shape not in LOCATORS:
         raise InvalidParameterError("shape", f"unknown target shape {shape!r}; known: {', '.join(LOCATORS)}")
     if not tolerance_px > 0:
@@ -264,7 +271,8 @@ def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera
     # the clicks snapped first; a click the locator refuses stays as clicked
     probe = 41 if window is None else int(window)
     least = 17 if shape == "disc" else 21  # a cross's window must hold its 15 px template and the peak's fit
-    snapped = [_snap(image, p, size, shape, probe, least) for p in pixels]
+    stop = _stopper(cancelled)
+    snapped = [stop() or _snap(image, p, size, shape, probe, least) for p in pixels]
     click_pixels = np.array([r.center if r else p for r, p in zip(snapped, pixels, strict=True)], dtype=np.float64)
     radii = [r.radius for r in snapped if r and r.radius > 0]
     if window is None:
@@ -287,7 +295,8 @@ def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera
                            robust=first)
                  if camera is not None else _Projective(xyz_all[fit_index], fit_pixels, planar, robust=first))
         predicted, visible = model.predict(xyz_all, size)
-        results = [_snap(image, p, size, shape, window, least) if v else TargetResult(None, 0.0, "behind the camera")
+        results = [stop() or _snap(image, p, size, shape, window, least) if v
+                   else TargetResult(None, 0.0, "behind the camera")
                    for p, v in zip(predicted, visible, strict=True)]
         good = np.array([bool(r) for r in results])
         good[clicked_index] = True
@@ -302,6 +311,14 @@ def find_field(image: np.ndarray, control: ControlPoints, clicks, camera: Camera
     points, rms = _classify(control, ids, clicked_index, click_pixels, snapped, predicted, visible, results,
                             tolerance_px, shape, camera is None)
     return FieldSearch(tuple(points), size, model.camera, model.matrix, rms, tuple(notes))
+
+
+def _stopper(cancelled: Callable[[], bool] | None) -> Callable[[], None]:
+    """A call that raises :class:`InterruptedError` once ``cancelled()`` is true (never without one)."""
+    def stop() -> None:
+        if cancelled is not None and cancelled():
+            raise InterruptedError("the search of the target field was stopped")
+    return stop
 
 
 def _limit(located: np.ndarray, predicted: np.ndarray, good: np.ndarray, tolerance_px: float,
@@ -339,7 +356,9 @@ def _classify(control, ids, clicked_index, click_pixels, snapped, predicted, vis
             pixel = tuple(float(v) for v in click_pixels[k])
             reasons = [] if snapped[k] else [f"as clicked ({snapped[k].reason})"]
             off = float(np.hypot(pixel[0] - prediction[0], pixel[1] - prediction[1])) if prediction else np.inf
-            if off > limit:
+            if prediction is None:
+                reasons.append("clicked, but the other targets put it behind the camera: check its id")
+            elif off > limit:
                 reasons.append(f"clicked, but {off:.1f} px from where the other targets put it: check its id")
             points.append(FieldPoint(pid, prediction, pixel, quality, "doubtful" if reasons else "found", True,
                                      "; ".join(reasons)))

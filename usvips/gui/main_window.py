@@ -401,6 +401,8 @@ class MainWindow(QtWidgets.QMainWindow):
         calibration.addSeparator()
         calibration.addAction("&Import a USVIPS calibration…", lambda: exchange_dialogs.import_usvips_calibration(self))
         calibration.addAction("&Use a stored calibration…", lambda: exchange_dialogs.use_calibration(self))
+        calibration.addAction("Find a &target field…", lambda: __import__(  # deferred: not at start-up
+            "usvips.gui.target_field_tool", fromlist=["open_tool"]).open_tool(self))
         help_menu = self.menuBar().addMenu("&Help")
         help_menu.addAction("&Quick guide", self.show_guide, QtGui.QKeySequence("F1"))
         bar = self.addToolBar("Main")
