@@ -8,7 +8,6 @@ from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.core.measurements.registry import MeasurementKind
 from usvips.gui.workspace import Workspace
 
 
@@ -186,8 +185,7 @@ class PlanView(QtWidgets.QWidget):
                     except UsvipsError:
                         kinds[stored.kind] = None  # drawn through its vertices
                 k = kinds[stored.kind]
-                if k is not None and (k.outline.__func__ is not MeasurementKind.outline.__func__
-                                      or (k.closes and count > 2)):
+                if k is not None and (k.outline_fitted or (k.closes and count > 2)):
                     try:
                         outline = np.vstack([k.outline(xyz[start:end])[:, [a, b]], [[np.nan, np.nan]]])
                     except UsvipsError:
