@@ -403,8 +403,7 @@ def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_o
     (tmp_path / "proxies").write_text("a file where the proxies' folder would be")
     window = make_window()
     said = []
-    show = window.show_message
-    window.show_message = lambda kind, text: said.append((kind, text)) or show(kind, text)
+    window.messages.said.connect(lambda kind, text: said.append((kind, text)))  # the controllers' messages
     window.video.ask_before_proxies = False  # built without the question here (see the proxies' own test)
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")

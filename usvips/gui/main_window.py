@@ -25,8 +25,10 @@ from usvips.gui.calculator_panel import CalculatorPanel
 from usvips.gui.enhancement_panel import EnhancementPanel
 from usvips.gui.error_report import register_window
 from usvips.gui.instants_view import InstantsView
+from usvips.gui.jobs import Jobs
 from usvips.gui.log_panel import LogPanel
 from usvips.gui.media_check import MediaCheck
+from usvips.gui.messages import Messages
 from usvips.gui.object_list import ObjectList
 from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.observation_form import ObservationForm
@@ -39,6 +41,7 @@ from usvips.gui.status_bar import StatusBar
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
 from usvips.gui.video_model import format_timecode
+from usvips.gui.window_context import WindowContext
 from usvips.gui.wording import plural
 from usvips.gui.worker import Cancelled, Worker
 from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
@@ -95,7 +98,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.setWindowTitle(self.title())
         self.setObjectName("usvips_main")
         self.pool = QtCore.QThreadPool(self)  # its own pool: finished with the window
-        self.workers: set[Worker] = set()
+        #: the messaging service the window's parts are handed (usvips.gui.messages): the window shows it
+        self.messages = Messages()
+        #: long work off the GUI thread (usvips.gui.jobs), its progress in the status bar
+        self.jobs = Jobs(self.pool, self.messages)
+        self.workers = self.jobs.workers
+        #: what the panels and controllers are handed instead of the window
+        self.context = WindowContext(self.workspace, self.messages, self.jobs)
         self._display_tokens = dict.fromkeys(SIDES, 0)
         self._pair_worker: Worker | None = None
         self._front_before_observation: QtWidgets.QDockWidget | None = None  # raised again after a record
@@ -127,11 +136,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_status_bar()
         self._build_actions()
         self._build_menus_and_toolbar()
-        self.video = VideoController(self)  # stereo video: its dock, keys on the panes, decoding in workers
-        self.media_check = MediaCheck(self)  # the full check of an opened project's media files
+        # stereo video: its dock, keys on the panes, decoding in workers
+        self.video = VideoController(self, self.context, self.panes, self.forget_pair_loading, self.refresh_pair_box)
+        self.media_check = MediaCheck(self, self.context)  # the full check of an opened project's media files
         self.docks["video"] = self._dock("Video", self.video.dock_widget, QtCore.Qt.DockWidgetArea.TopDockWidgetArea)
+        self.video.attach_dock(self.docks["video"])
         # issue 25: tracks drawn on the panes and the timeline, instants stored and listed
-        self.tracking = TrackController(self)
+        self.tracking = TrackController(self, self.context, self.panes, self.video, self.set_tool)
         self.instants_view = InstantsView(self.workspace, self)
         self.instants_view.frame_requested.connect(self.workspace.request_object)  # the video hears the model
         table = self.object_list.table
@@ -145,7 +156,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.overlay = ObjectOverlay(ws, self.panes)  # the stored objects on the panes, redrawn by id
         ws.selection_changed.connect(self._on_selection_changed)
         ws.enhancement_changed.connect(self._on_enhancement_changed)
-        ws.message.connect(self.show_message)
+        ws.message.connect(self.messages.say)
+        self.messages.said.connect(self._show_said)
+        self.messages.work_started.connect(self._on_work_started)
+        self.messages.work_progress.connect(lambda fraction: self.progress.setValue(int(100 * fraction)))
+        self.messages.work_ended.connect(self._on_work_ended)
         ws.undo.changed.connect(self._on_undo_changed)
         # an open menu keeps its letters from the image keys (X11: Alt+F, I listed the instants)
         self.menu_keys = menu_keys.install(self, [pane.graphics for pane in self.panes.values()])
@@ -576,9 +591,13 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ------------------------------------------------------------------ messages
     def show_message(self, level: str, text: str) -> None:
+        """Say ``text`` through the messaging service (the window's own messages; its parts are handed
+        :attr:`messages`)."""
+        self.messages.say(level, text)
+
+    def _show_said(self, level: str, text: str) -> None:
         """Errors and warnings go to the status bar (red / amber) and the log; nothing raises into Qt; no
-        password is ever shown (:func:`usvips.core.redaction.redact`)."""
-        text = redact(text)
+        password is ever shown (the service redacts, :func:`usvips.core.redaction.redact`)."""
         self.log.add(level, text)
         colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
         self.statusBar().setStyleSheet(f"QStatusBar {{ color: {colour}; }}" if colour else "")
@@ -797,49 +816,24 @@ class MainWindow(QtWidgets.QMainWindow):
     # ------------------------------------------------------------------ workers
     @property
     def busy(self) -> bool:
-        return bool(self.workers)
+        return self.jobs.busy
 
     def run_worker(self, job, label: str, on_done, on_cancelled=None) -> Worker:
-        """Run ``job`` in a worker with its progress in the status bar; ``on_done(result)`` when it
-        finishes, ``on_cancelled()`` (default: a message saying so) when it stops early."""
-        worker = Worker(job, label)
-        self.workers.add(worker)
+        """Run ``job`` off the GUI thread (:meth:`usvips.gui.jobs.Jobs.run`), its progress in the status bar."""
+        return self.jobs.run(job, label, on_done, on_cancelled)
 
-        def done(result) -> None:
-            self._worker_ended(worker)
-            self._guarded(on_done, result)
-
-        def failed(message: str) -> None:
-            self._worker_ended(worker)
-            self.show_message("error", message)
-
-        def cancelled() -> None:
-            self._worker_ended(worker)
-            if on_cancelled is not None:
-                on_cancelled()
-            else:
-                self.show_message("info", f"{label}: cancelled")
-
-        worker.signals.finished.connect(done)
-        worker.signals.failed.connect(failed)
-        worker.signals.cancelled.connect(cancelled)
-        worker.signals.progress.connect(lambda f: self.progress.setValue(int(100 * f)))
+    def _on_work_started(self, label: str) -> None:
         self.progress.setRange(0, 0)
         self.progress.setFormat(label)
         self.progress.show()
         self.cancel_button.show()
-        self.pool.start(worker)
-        return worker
 
-    def _worker_ended(self, worker: Worker) -> None:
-        self.workers.discard(worker)
-        if not self.workers:
-            self.progress.hide()
-            self.cancel_button.hide()
+    def _on_work_ended(self) -> None:
+        self.progress.hide()
+        self.cancel_button.hide()
 
     def cancel_work(self) -> None:
-        for worker in list(self.workers):
-            worker.cancel()
+        self.jobs.cancel_all()
 
     # ------------------------------------------------------------------ display
     def refresh_pair_box(self) -> None:
