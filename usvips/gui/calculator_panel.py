@@ -7,6 +7,7 @@ from PySide6 import QtWidgets
 from usvips.app.quality import object_facts
 from usvips.core.measurements.breakdown import breakdown_text
 from usvips.gui.calculator import format_figure
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.workspace import Workspace
 
 
@@ -108,3 +109,8 @@ class CalculatorPanel(QtWidgets.QWidget):
             lines.append(f"bearing (clockwise from +Y towards +X) and slope (above the X–Y plane) are in "
                          f"{self.workspace.frame_description(self.selection[0])}")
         self.output.setPlainText("\n".join(lines))
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("calculator", "Geo-calculator", "right", lambda context: CalculatorPanel(context.workspace),
+                     group="figures", order=20))

@@ -10,6 +10,7 @@ from PySide6 import QtWidgets
 
 from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.workspace import SIDES, Workspace
 
 #: Starting values for operations whose parameters have no default in core.
@@ -176,3 +177,8 @@ class EnhancementPanel(QtWidgets.QWidget):
                 curve.setData([], [])
             else:
                 curve.setData(np.arange(len(counts)), counts / max(counts.max(), 1))
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("enhancement", "Enhancement", "right", lambda context: EnhancementPanel(context.workspace),
+                     group="enhancement", order=10, size=330))

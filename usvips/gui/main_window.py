@@ -19,24 +19,15 @@ from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
 from usvips.core.redaction import redact
-from usvips.gui import exchange_dialogs, media_dialogs, menu_keys
+from usvips.gui import exchange_dialogs, media_dialogs, menu_keys, panel_registry
 from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
-from usvips.gui.calculator_panel import CalculatorPanel
-from usvips.gui.enhancement_panel import EnhancementPanel
 from usvips.gui.error_report import register_window
 from usvips.gui.instants_view import InstantsView
 from usvips.gui.jobs import Jobs
-from usvips.gui.log_panel import LogPanel
 from usvips.gui.media_check import MediaCheck
 from usvips.gui.messages import Messages
-from usvips.gui.object_list import ObjectList
 from usvips.gui.object_overlay import ObjectOverlay
-from usvips.gui.observation_form import ObservationForm
 from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
-from usvips.gui.plan_view import PlanView
-from usvips.gui.planner_dock import PlannerDock
-from usvips.gui.qa_dock import QaDock
-from usvips.gui.review_dock import ReviewDock
 from usvips.gui.status_bar import StatusBar
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
@@ -56,6 +47,9 @@ SAMPLES = sample_projects()
 #: px (plain and Shift+arrows step a video's frames).
 NUDGES = {"Left": (-1.0, 0.0), "Right": (1.0, 0.0), "Up": (0.0, -1.0), "Down": (0.0, 1.0)}
 MAX_RECENT = 8
+#: a panel's area (usvips.gui.panel_registry) as Qt's dock area
+DOCK_AREAS = {area: getattr(QtCore.Qt.DockWidgetArea, f"{area.capitalize()}DockWidgetArea")
+              for area in ("left", "right", "top", "bottom")}
 TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
              "point": "Point: each intersected point is stored as an object",
              "line": "Line: digitise a polyline vertex by vertex (Enter finishes; a fish is snout then fork)",
@@ -184,43 +178,36 @@ class MainWindow(QtWidgets.QMainWindow):
         return dock
 
     def _build_docks(self) -> None:
+        """One dock per registered panel (:mod:`usvips.gui.panel_registry`), each panel made from the
+        window's context; the panels of one area and group are tabbed, the first of each in front."""
         ws = self.workspace
-        self.enhancement = EnhancementPanel(ws)
-        self.object_list = ObjectList(ws)
-        self.calculator = CalculatorPanel(ws)
-        self.plan = PlanView(ws)
-        self.log = LogPanel()
-        self.observation = ObservationForm(ws)
-        right = QtCore.Qt.DockWidgetArea.RightDockWidgetArea
-        bottom = QtCore.Qt.DockWidgetArea.BottomDockWidgetArea
-        self.docks = {"enhancement": self._dock("Enhancement", self.enhancement, right),
-                      "calculator": self._dock("Geo-calculator", self.calculator, right),
-                      "objects": self._dock("Objects", self.object_list, bottom),
-                      "plan": self._dock("Plan view", self.plan, bottom),
-                      "log": self._dock("Log", self.log, bottom),
-                      "observation": self._dock("Observation", self.observation, bottom)}
-        self.planner = PlannerDock(ws, self.pool, self.workers)
-        self.qa = QaDock(ws)  # the survey's QA list (issue 25)
-        self.docks["qa"] = self._dock("QA", self.qa, bottom)
-        self.qa.object_chosen.connect(ws.request_object)  # the video or the pair shown, by the model's event
-        self.docks["qa"].visibilityChanged.connect(self.qa.on_shown)  # checked when its tab comes to the front
-        self.review = ReviewDock(ws)  # review mode: the unreviewed objects walked with the keyboard (issue 26)
-        self.docks["review"] = self._dock("Review", self.review, bottom)
-        self.review.object_chosen.connect(self.workspace.request_object)  # the views go to it (the model's event)
+        #: the panels' widgets and their docks by panel id
+        self.panels: dict[str, QtWidgets.QWidget] = {}
+        self.docks: dict[str, QtWidgets.QDockWidget] = {}
+        groups: dict[tuple[str, str], list[QtWidgets.QDockWidget]] = {}
+        for panel in panel_registry.panels():
+            widget = self.panels[panel.id] = panel.factory(self.context)
+            dock = self.docks[panel.id] = self._dock(panel.title, widget, DOCK_AREAS[panel.area])
+            if callable(getattr(widget, "on_shown", None)):  # e.g. the QA list is checked when it comes to the front
+                dock.visibilityChanged.connect(widget.on_shown)
+            groups.setdefault((panel.area, panel.group), []).append(dock)
+            if panel.size is not None:
+                across = panel.area in ("left", "right")
+                self.resizeDocks([dock], [panel.size], QtCore.Qt.Orientation.Horizontal if across
+                                 else QtCore.Qt.Orientation.Vertical)
+        for tabbed in groups.values():
+            for first, second in zip(tabbed, tabbed[1:], strict=False):
+                self.tabifyDockWidget(first, second)
+            tabbed[0].raise_()
+        # the built-in panels the window itself talks to
+        p = self.panels
+        self.enhancement, self.object_list, self.calculator, self.plan = (p["enhancement"], p["objects"],
+                                                                           p["calculator"], p["plan"])
+        self.log, self.observation, self.planner, self.qa, self.review = (p["log"], p["observation"],
+                                                                          p["planner"], p["qa"], p["review"])
         self.review.reviewed.connect(self.object_list.show_review)
         self.review.review_read.connect(self.object_list.show_review)  # someone else's review, read again
         self.review.history_requested.connect(self.object_list.show_history)
-        self.docks["planner"] = self._dock("Precision planner", self.planner, right)
-        self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
-        self.docks["calculator"].raise_()
-        self.tabifyDockWidget(self.docks["objects"], self.docks["observation"])
-        self.tabifyDockWidget(self.docks["observation"], self.docks["plan"])
-        self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
-        self.tabifyDockWidget(self.docks["log"], self.docks["qa"])
-        self.tabifyDockWidget(self.docks["qa"], self.docks["review"])
-        self.docks["objects"].raise_()
-        self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
-        self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
         ws.object_requested.connect(self._on_object_requested)  # an object on an image pair: that pair, centred
         self.observation.finished.connect(self._on_observation_finished)
         ws.stored.connect(self._on_stored)
@@ -560,9 +547,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.cancel_work()
         self.video.shutdown()  # the seek-proxy build in the background
         self.pool.waitForDone(5000)
-        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner, self.qa,
-                      self.review):
-            panel.cleanup()
+        for panel in self.panels.values():
+            if callable(getattr(panel, "cleanup", None)):
+                panel.cleanup()
         self.media_check.project_closed()
         self.workspace.close_project()
         super().closeEvent(event)
@@ -596,9 +583,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.messages.say(level, text)
 
     def _show_said(self, level: str, text: str) -> None:
-        """Errors and warnings go to the status bar (red / amber) and the log; nothing raises into Qt; no
-        password is ever shown (the service redacts, :func:`usvips.core.redaction.redact`)."""
-        self.log.add(level, text)
+        """Errors and warnings go to the status bar (red / amber) and the line above the images (the log
+        panel listens itself); nothing raises into Qt; no password is ever shown (the service redacts,
+        :func:`usvips.core.redaction.redact`)."""
         colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
         self.statusBar().setStyleSheet(f"QStatusBar {{ color: {colour}; }}" if colour else "")
         self.statusBar().showMessage(text, 0 if level != "info" else 15000)

@@ -15,6 +15,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.gui.object_table import ObjectTableModel, figure_texts, instant_figure, review_text
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import Workspace
 
@@ -439,3 +440,8 @@ class ObjectList(QtWidgets.QWidget):
         for dialog in list(self.history_dialogs):
             self.history_dialogs.remove(dialog)
             dialog.close()
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("objects", "Objects", "bottom", lambda context: ObjectList(context.workspace),
+                     group="records", order=40, size=170))

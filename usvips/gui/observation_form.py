@@ -6,6 +6,7 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import STAGES, ObservationRecord, Species
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.species_choice import choose_species, species_label, species_of_attribute
 from usvips.gui.workspace import Workspace
 
@@ -169,3 +170,8 @@ class ObservationForm(QtWidgets.QWidget):
             self.finished.emit()
             return
         super().keyPressEvent(event)
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("observation", "Observation", "bottom", lambda context: ObservationForm(context.workspace),
+                     group="records", order=50))

@@ -8,6 +8,7 @@ from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.workspace import Workspace
 
 
@@ -245,3 +246,8 @@ class PlanView(QtWidgets.QWidget):
             rig = geometry.calibration.rig(geometry.station, geometry.frame)
             for name, camera in zip(("L", "R"), rig.cameras, strict=True):
                 self._label(name, camera.exterior.position[[a, b]], (60, 220, 120))
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("plan", "Plan view", "bottom", lambda context: PlanView(context.workspace), group="records",
+                     order=60))

@@ -24,8 +24,10 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.app.quality import object_facts
 from usvips.core.errors import UsvipsError
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.review_model import ReviewModel
 from usvips.gui.video_model import video_frame_text
+from usvips.gui.window_context import WindowContext
 from usvips.gui.wording import species_text
 from usvips.store.checks import MAX_REASON_LENGTH
 from usvips.store.records import StaleEditError
@@ -378,3 +380,14 @@ class ReviewDock(QtWidgets.QWidget):
     def _followed(self) -> None:
         if self.follow.isChecked():
             self.jump()
+
+
+def _review(context: WindowContext) -> ReviewDock:
+    """Review mode's panel; the object walked to is shown by the views (the model's event)."""
+    review = ReviewDock(context.workspace)
+    review.object_chosen.connect(context.workspace.request_object)
+    return review
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("review", "Review", "bottom", _review, group="records", order=90))
