@@ -361,7 +361,7 @@ def test_linked_navigation_brings_the_other_pane_to_the_conjugate_region(qtbot, 
     open_sample(qtbot, window, directory, "water1")
     left, right = truth_pixels(directory, "water1", "targets")
     window.actions["link"].setChecked(True)
-    window._on_link()
+    window.apply_link()
     targets = isolated_targets(left, right)[:5]
     for number in targets:
         window.workspace.last_point = window.workspace.intersect(left[number], right[number])  # working depth

@@ -8,8 +8,10 @@ and runs image reading and enhancement in worker threads (progress and cancel in
 
 from __future__ import annotations
 
+import html
 import os
 from pathlib import Path
+from types import ModuleType
 
 import cv2
 import numpy as np
@@ -17,17 +19,17 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
-from usvips.core.measurements import kind as measurement_kind
 from usvips.core.redaction import redact
-from usvips.gui import exchange_dialogs, media_dialogs, menu_keys, panel_registry
+from usvips.gui import commands, exchange_dialogs, media_dialogs, menu_keys, panel_registry
 from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
+from usvips.gui.commands import TOOL_TIPS
 from usvips.gui.error_report import register_window
 from usvips.gui.instants_view import InstantsView
 from usvips.gui.jobs import Jobs
 from usvips.gui.media_check import MediaCheck
 from usvips.gui.messages import Messages
 from usvips.gui.object_overlay import ObjectOverlay
-from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
+from usvips.gui.pane import StereoPane, pixel_from_item
 from usvips.gui.status_bar import StatusBar
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
@@ -43,18 +45,10 @@ from usvips.store.location import is_server_location, without_password
 from usvips.store.records import StaleEditError
 
 SAMPLES = sample_projects()
-#: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
-#: px (plain and Shift+arrows step a video's frames).
-NUDGES = {"Left": (-1.0, 0.0), "Right": (1.0, 0.0), "Up": (0.0, -1.0), "Down": (0.0, 1.0)}
 MAX_RECENT = 8
 #: a panel's area (usvips.gui.panel_registry) as Qt's dock area
 DOCK_AREAS = {area: getattr(QtCore.Qt.DockWidgetArea, f"{area.capitalize()}DockWidgetArea")
               for area in ("left", "right", "top", "bottom")}
-TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
-             "point": "Point: each intersected point is stored as an object",
-             "line": "Line: digitise a polyline vertex by vertex (Enter finishes; a fish is snout then fork)",
-             "polygon": "Polygon: digitise an area vertex by vertex (Enter finishes)"}
-TOOL_TIPS.update({tool: measurement_kind(tool).description for tool in TOOLS if tool not in TOOL_TIPS})
 
 
 #: the quick guide (Help › Quick guide, F1): rich text kept as a resource, not in the code
@@ -229,180 +223,88 @@ class MainWindow(QtWidgets.QMainWindow):
         bar.addPermanentWidget(self.progress)
         bar.addPermanentWidget(self.cancel_button)
 
-    def _action(self, text: str, slot, shortcut: str | QtGui.QKeySequence | list | None = None, tip: str = "",
-                checkable: bool = False, images: bool = False) -> QtGui.QAction:
-        """A menu/toolbar action. ``images``: its keys work only while the images have the focus (click
-        an image), so that text fields and tables keep Enter, Esc and the arrows."""
-        action = QtGui.QAction(text, self)
-        if shortcut:
-            keys = shortcut if isinstance(shortcut, list) else [shortcut]
-            action.setShortcuts([QtGui.QKeySequence(k) for k in keys])
-        action.setToolTip(f"{tip or text}" + (f" ({action.shortcut().toString()})" if shortcut else ""))
-        action.setStatusTip(tip or text)
-        action.setCheckable(checkable)
-        action.triggered.connect(slot)
-        if images:
-            action.setShortcutContext(QtCore.Qt.ShortcutContext.WidgetWithChildrenShortcut)
-            self.splitter.addAction(action)
-        else:
-            self.addAction(action)
-        return action
+    def _command_handler(self, command: commands.Command):
+        """The function a command runs: ``owner.method`` resolved against the window's controllers (a dialog
+        module's function is given the window), called with the command's ``args``."""
+        owner, _, method = command.handler.rpartition(".")
+        owners = {"window": self, "tracking": lambda: self.tracking, "media_dialogs": media_dialogs,
+                  "exchange_dialogs": exchange_dialogs}
+        target = owners[owner]
+        if isinstance(target, ModuleType):
+            return lambda *_: getattr(target, method)(self, *command.args)
+        if owner == "window":
+            return lambda *_: getattr(self, method)(*command.args)
+        return lambda *_: getattr(target(), method)(*command.args)  # a controller made after the actions
 
     def _build_actions(self) -> None:
-        key = QtGui.QKeySequence.StandardKey
-        self.actions: dict[str, QtGui.QAction] = {
-            "open": self._action("&Open project…", self.open_dialog, key.Open,
-                                 "open a project file (*.usvips) or a sample directory"),
-            "quit": self._action("&Quit", self.close, key.Quit),
-            "undo": self._action("&Undo", self.undo, key.Undo),
-            "redo": self._action("&Redo", self.redo, key.Redo),
-            "accept": self._action("Accept match / finish", self.accept_or_finish, ["Return", "Enter"],
-                                   "accept the proposed match; with no proposal, finish the object", images=True),
-            "finish": self._action("&Finish object", self.finish_object, ["Ctrl+Return", "Ctrl+Enter"],
-                                   "store the object", images=True),
-            "cancel": self._action("Cancel pick", self.cancel_pick, "Escape", "drop the half-made vertex",
-                                   images=True),
-            "next_pair": self._action("&Next pair", lambda: self.step_pair(1), "PgDown", "show the next image pair",
-                                      images=True),
-            "previous_pair": self._action("&Previous pair", lambda: self.step_pair(-1), "PgUp",
-                                          "show the previous image pair", images=True),
-            "snap": self._action("&Snap to targets", self._on_snap, "S",
-                                 "snap each click to the sub-pixel centre of a target disc", checkable=True),
-            "auto_match": self._action("&Auto-match", self._on_auto_match, "M",
-                                       "propose the conjugate along the epipolar curve", checkable=True),
-            "fit": self._action("&Fit", lambda: self._each_pane("fit"), "F", "whole image in view"),
-            "one": self._action("1:&1", lambda: self._each_pane("one_to_one"), "1", "one image pixel per screen pixel"),
-            "zoom_in": self._action("Zoom &in", lambda: self._each_pane("zoom_by", 1.25), key.ZoomIn),
-            "zoom_out": self._action("Zoom &out", lambda: self._each_pane("zoom_by", 0.8), key.ZoomOut),
-            "box": self._action("&Box zoom", self._on_box_zoom, "B", "drag a box to zoom into", checkable=True),
-            "link": self._action("&Link zoom", self._on_link, "L", "zooming or panning one image brings the other "
-                                 "to the same place in the scene (through the calibration, at the depth of the last "
-                                 "measured point)", checkable=True),
-            "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
-            "qa": self._action("&QA panel", self.show_qa, "Ctrl+Shift+Q", "the survey's objects that break a "
-                               "quality rule: arrows and Enter go to each one's pair or frame"),
-            # issue 25: tracking through a video and objects over several instants (usvips/gui/track_controls.py)
-            "track": self._action("&Track the object's vertices", lambda: self.tracking.track(), "T",
-                                  "follow each vertex of the selected object (or the one just stored) backward and "
-                                  "forward through the video from its frame", images=True),
-            "refollow": self._action("&Re-follow from here", lambda: self.tracking.refollow(), "Shift+T",
-                                     "after re-picking a tracked point on this frame (left, then right), follow it "
-                                     "on from here", images=True),
-            "store_instants": self._action("Store trac&ks as instants…", lambda: self.tracking.store_dialog(),
-                                           "Ctrl+T", "store the tracked vertices as further instants of the object "
-                                           "(every N frames, or the frames typed); undoable"),
-            "propose_tracked": self._action("Propose from the &earlier instant", lambda: self.tracking.propose(), "P",
-                                            "propose the selected object's vertices on this frame, tracked from the "
-                                            "frame it was measured on (Enter accepts each)", images=True),
-            "instants": self._action("&Instants of the object…", lambda: self.show_instants(), "I",
-                                     "list the selected object's instants: each one's figure and weight, the "
-                                     "combined figure and the agreement test", images=True),
-            "review": self._action("&Review mode", self.show_review, "Ctrl+Shift+R", "walk the unreviewed objects: "
-                                   "N next, P previous, A accept, F flag, S skip, J or Enter go to it, H its history"),
-            "annotator": self._action("Annotator: &your name…", self.annotator_dialog, tip="who is annotating: every "
-                                      "object, pick, record and review made in this window is stamped with the name"),
-        }
-        self.actions["instants_of_listed"] = QtGui.QAction("&Instants of the object…", self)
-        self.actions["instants_of_listed"].setShortcut(QtGui.QKeySequence("Ctrl+I"))
-        self.actions["instants_of_listed"].setShortcutContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
-        self.actions["instants_of_listed"].triggered.connect(lambda: self.show_instants())
-        # short toolbar labels (the menus keep the full names): the toolbar fits 1366 px without overflow
-        for name, short in (("open", "Open"), ("snap", "Snap"), ("finish", "Finish"), ("box", "Box"),
-                            ("link", "Link"), ("loupe", "Loupe"), ("auto_match", "Auto-match"), ("one", "1:1")):
-            self.actions[name].setIconText(short)
+        """One QAction per declared command (:mod:`usvips.gui.commands`): its keys in its scope, its tip
+        with the keys, checkable and exclusive as declared."""
+        self.actions: dict[str, QtGui.QAction] = {}
+        groups: dict[str, QtGui.QActionGroup] = {}
+        for command in commands.commands():
+            action = QtGui.QAction(command.title, self)
+            keys = [QtGui.QKeySequence(getattr(QtGui.QKeySequence.StandardKey, k[4:])) if k.startswith("std:")
+                    else QtGui.QKeySequence(k) for k in command.keys]
+            if keys:
+                action.setShortcuts(keys)
+            tip = command.tip or command.title.replace("&", "")
+            action.setToolTip(tip + (f" ({action.shortcut().toString()})" if keys else ""))
+            action.setStatusTip(tip)
+            action.setCheckable(command.checkable)
+            if command.short:
+                action.setIconText(command.short)  # short toolbar labels: the toolbar fits 1366 px
+            action.triggered.connect(self._command_handler(command))
+            if command.scope == "images":  # its keys work only while the images have the focus (click an image)
+                action.setShortcutContext(QtCore.Qt.ShortcutContext.WidgetWithChildrenShortcut)
+                self.splitter.addAction(action)
+            elif command.scope == "object list":  # added to the list's table (and its context menu) by the window
+                action.setShortcutContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+            else:
+                self.addAction(action)
+            if command.exclusive:
+                groups.setdefault(command.exclusive, QtGui.QActionGroup(self)).addAction(action)
+            self.actions[command.id] = action
+        self.tool_actions, self.loupe_actions = groups["tools"], groups["loupe"]
         self.actions["auto_match"].setChecked(self.workspace.auto_match)
         self.actions["snap"].setChecked(self.workspace.snap)
         self.actions["loupe"].setChecked(True)
-        for arrow, (dx, dy) in NUDGES.items():
-            for modifier, step in (("Ctrl", 0.1), ("Ctrl+Shift", 1.0)):
-                self.actions[f"nudge_{arrow.lower()}_{step:g}"] = self._action(
-                    f"Nudge {arrow.lower()} {step:g} px", lambda _=False, d=(dx * step, dy * step): self.nudge(*d),
-                    f"{modifier}+{arrow}", f"move the current pick {step:g} px {arrow.lower()}", images=True)
-        self.loupe_actions = QtGui.QActionGroup(self)
-        for scale in LOUPE_SCALES:
-            action = self._action(f"Loupe {scale}×", lambda _=False, k=scale: self.set_loupe_scale(k),
-                                  tip=f"the loupe shows {scale} screen pixels per image pixel", checkable=True)
-            self.loupe_actions.addAction(action)
-            self.actions[f"loupe_{scale}"] = action
-        self.tool_actions = QtGui.QActionGroup(self)
-        for number, tool in enumerate(TOOLS, 1):
-            action = self._action(tool.capitalize(), lambda _=False, t=tool: self.set_tool(t), f"Ctrl+{number}",
-                                  TOOL_TIPS[tool], checkable=True)
-            self.tool_actions.addAction(action)
-            self.actions[f"tool_{tool}"] = action
         self.actions["tool_pick"].setChecked(True)
 
+    def _update_enablement(self) -> None:
+        """Each command with a condition enabled as its condition holds now."""
+        undo = self.workspace.undo
+        holds = {"can_undo": undo.undo_label is not None, "can_redo": undo.redo_label is not None}
+        for command in commands.commands():
+            if command.enabled_when:
+                self.actions[command.id].setEnabled(holds[command.enabled_when])
+
     def _build_menus_and_toolbar(self) -> None:
+        """The menus from the declared commands, submenus and sections (:data:`usvips.gui.commands.ITEMS`),
+        a separator between groups; then the toolbar."""
         a = self.actions
-        menu = self.menuBar().addMenu("&File")
-        menu.addAction(a["open"])
-        menu.addAction("&New project…", lambda: media_dialogs.new_project(self))
-        menu.addAction("Add &image pairs…", lambda: media_dialogs.add_image_pairs(self))
-        menu.addAction("Add stereo &video…", lambda: media_dialogs.add_video(self))
-        menu.addAction("Re&locate missing media…", lambda: media_dialogs.relocate_media(self))
-        self.samples_menu = menu.addMenu("Open &sample")
+        self.menus: dict[str, QtWidgets.QMenu] = {name: self.menuBar().addMenu(title) for name, title in commands.MENUS}
+        last_group: dict[str, str] = {}
+        for item in commands.ITEMS:
+            parent = item.menu
+            if parent is None:
+                continue
+            menu = self.menus[parent]
+            if parent in last_group and last_group[parent] != item.group:
+                menu.addSeparator()
+            last_group[parent] = item.group
+            if isinstance(item, commands.Command):
+                menu.addAction(a[item.id])
+            elif isinstance(item, commands.Submenu):
+                self.menus[item.path] = menu.addMenu(item.title)
+            else:  # a section the window fills: the panels' docks
+                for dock in self.docks.values():
+                    menu.addAction(dock.toggleViewAction())
+        self.samples_menu = self.menus["File/Open sample"]
         for sample in sorted(SAMPLES.glob("*/project.json")) if SAMPLES.is_dir() else []:
             self.samples_menu.addAction(sample.parent.name, lambda p=sample.parent: self.open_path(p))
         self.samples_menu.setEnabled(bool(self.samples_menu.actions()))
-        self.recent_menu = menu.addMenu("&Recent projects")
-        menu.addAction("Save &as… (a copy, then work on it)", self.save_as_dialog, QtGui.QKeySequence("Ctrl+Shift+S"))
-        menu.addAction("&Export objects…", self.export_dialog)
-        menu.addAction("I&mport species list…", self.species_dialog)
-        menu.addSeparator()  # exchange with other tools (usvips/gui/exchange_dialogs.py)
-        menu.addAction("Import &calibration (OpenCV)…", lambda: exchange_dialogs.import_calibration(self))
-        menu.addAction("Ex&port calibration (OpenCV)…", lambda: exchange_dialogs.export_calibration(self))
-        menu.addAction("Calibration repor&t (PDF)…", lambda: exchange_dialogs.calibration_report(self))
-        menu.addAction("&Deployment and georeference…", lambda: exchange_dialogs.edit_deployment(self))
-        menu.addAction("Dou&ble-read report…", self.show_double_read)
-        menu.addAction(a["annotator"])
+        self.recent_menu = self.menus["File/Recent projects"]
         self._fill_recent_menu()
-        menu.addSeparator()
-        menu.addAction(a["quit"])
-        edit = self.menuBar().addMenu("&Edit")
-        for name in ("undo", "redo"):
-            edit.addAction(a[name])
-        edit.addSeparator()  # the edits a failed save kept (usvips.gui.object_edits: never shown as saved)
-        edit.addAction("Re&try unsaved edits", self.retry_unsaved_edits)
-        edit.addAction("&Discard unsaved edits", self.discard_unsaved_edits)
-        view = self.menuBar().addMenu("&View")
-        for name in ("fit", "one", "zoom_in", "zoom_out", "box", "link", "loupe"):
-            view.addAction(a[name])
-        magnification = view.addMenu("Loupe &magnification")
-        for scale in LOUPE_SCALES:
-            magnification.addAction(a[f"loupe_{scale}"])
-        view.addAction(a["qa"])
-        view.addAction(a["review"])
-        view.addSeparator()
-        for dock in self.docks.values():
-            view.addAction(dock.toggleViewAction())
-        measure = self.menuBar().addMenu("&Measure")
-        for tool in TOOLS:
-            measure.addAction(a[f"tool_{tool}"])
-        measure.addSeparator()
-        for name in ("accept", "finish", "cancel", "snap", "auto_match"):
-            measure.addAction(a[name])
-        nudge = measure.addMenu("N&udge the current pick")
-        for name in a:
-            if name.startswith("nudge_"):
-                nudge.addAction(a[name])
-        measure.addSeparator()
-        for name in ("previous_pair", "next_pair"):
-            measure.addAction(a[name])
-        measure.addSeparator()
-        for name in ("track", "refollow", "store_instants", "propose_tracked", "instants"):
-            measure.addAction(a[name])
-        measure.addSeparator()
-        measure.addAction("Pointin&g test… (estimate your pointing σ)", self.show_pointing_test)
-        measure.addAction("Check &σ (Monte Carlo)…", self.show_sigma_check)
-        calibration = self.menuBar().addMenu("&Calibration")
-        for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
-                            ("joint", "&Joint underwater calibration…")):
-            calibration.addAction(text, lambda p=phase: self.open_calibration_wizard(p))
-        calibration.addSeparator()
-        calibration.addAction("&Import a USVIPS calibration…", lambda: exchange_dialogs.import_usvips_calibration(self))
-        calibration.addAction("&Use a stored calibration…", lambda: exchange_dialogs.use_calibration(self))
-        help_menu = self.menuBar().addMenu("&Help")
-        help_menu.addAction("&Quick guide", self.show_guide, QtGui.QKeySequence("F1"))
         bar = self.addToolBar("Main")
         bar.setObjectName("main_toolbar")
         bar.addAction(a["open"])
@@ -473,6 +375,24 @@ class MainWindow(QtWidgets.QMainWindow):
     def show_guide(self) -> None:
         QtWidgets.QMessageBox.information(self, "USVIPS — quick guide", quick_guide())
 
+    def keys_text(self) -> str:
+        """Help › Keys: every declared command with its keys (as this platform writes them) and where they
+        work, from the one declaration of the commands (:mod:`usvips.gui.commands`)."""
+        native = QtGui.QKeySequence.SequenceFormat.NativeText
+
+        def key_text(key: str) -> str:
+            if key.startswith("std:"):
+                return QtGui.QKeySequence(getattr(QtGui.QKeySequence.StandardKey, key[4:])).toString(native)
+            return QtGui.QKeySequence(key).toString(native)
+
+        rows = "".join(f"<tr><td><b>{html.escape(keys)}</b></td><td>{html.escape(title)}</td>"
+                       f"<td><i>{html.escape(where)}</i></td></tr>"
+                       for keys, title, where in commands.key_list(key_text))
+        return f"<table cellspacing='4'>{rows}</table>"
+
+    def show_keys(self) -> None:
+        QtWidgets.QMessageBox.information(self, "USVIPS — keys", self.keys_text())
+
     # ------------------------------------------------------------------ settings
     def _restore_layout(self) -> None:
         geometry = self.settings.value("window/geometry")
@@ -489,12 +409,12 @@ class MainWindow(QtWidgets.QMainWindow):
         if splitter is not None:
             self.splitter.restoreState(splitter)
         self.actions["link"].setChecked(self.settings.value("view/link", False, type=bool))
-        self._on_link()
+        self.apply_link()
         for name, default in (("snap", False), ("auto_match", True), ("loupe", True)):
             self.actions[name].setChecked(self.settings.value(f"view/{name}", default, type=bool))
-        self._on_snap()
-        self._on_auto_match()
-        self._on_loupe()
+        self.apply_snap()
+        self.apply_auto_match()
+        self.apply_loupe()
 
     def save_layout(self) -> None:
         self.settings.setValue("window/geometry", self.saveGeometry())
@@ -902,14 +822,14 @@ class MainWindow(QtWidgets.QMainWindow):
         if side == self.enhancement._sides()[0]:
             self.enhancement.show_histograms(original_counts, shown_counts)
 
-    def _each_pane(self, method: str, *args) -> None:
+    def each_pane(self, method: str, *args) -> None:
         for pane in self.panes.values():
             getattr(pane, method)(*args)
 
-    def _on_box_zoom(self) -> None:
-        self._each_pane("set_box_zoom", self.actions["box"].isChecked())
+    def apply_box_zoom(self) -> None:
+        self.each_pane("set_box_zoom", self.actions["box"].isChecked())
 
-    def _on_link(self) -> None:
+    def apply_link(self) -> None:
         """Linked navigation: zooming or panning one pane brings the other to the conjugate region (through
         the calibration, at the depth of the last measured point), at the same zoom."""
         if not hasattr(self, "_following"):
@@ -937,7 +857,7 @@ class MainWindow(QtWidgets.QMainWindow):
         finally:
             self._following = False
 
-    def _on_loupe(self) -> None:
+    def apply_loupe(self) -> None:
         for pane in self.panes.values():
             pane.set_loupe_enabled(self.actions["loupe"].isChecked())
 
@@ -1090,16 +1010,15 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _on_undo_changed(self) -> None:
         undo, redo = self.workspace.undo.undo_label, self.workspace.undo.redo_label
-        self.actions["undo"].setEnabled(undo is not None)
-        self.actions["redo"].setEnabled(redo is not None)
+        self._update_enablement()
         # the toolbar keeps short names; what would be undone is in the tooltip and the status tip
         self.actions["undo"].setToolTip(f"Undo {undo} (Ctrl+Z)" if undo else "nothing to undo")
         self.actions["redo"].setToolTip(f"Redo {redo} (Ctrl+Shift+Z)" if redo else "nothing to redo")
 
-    def _on_snap(self) -> None:
+    def apply_snap(self) -> None:
         self.workspace.snap = self.actions["snap"].isChecked()
 
-    def _on_auto_match(self) -> None:
+    def apply_auto_match(self) -> None:
         self.workspace.auto_match = self.actions["auto_match"].isChecked()
 
     def _on_picks_changed(self) -> None:
