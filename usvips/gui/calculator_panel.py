@@ -83,7 +83,7 @@ class CalculatorPanel(QtWidgets.QWidget):
         return [f"combined over {count} instants (I lists them)"] if count > 1 else []
 
     def refresh(self, *_: object) -> None:
-        existing = set(self.workspace.object_ids())
+        existing = set(self.workspace.cache.ids())
         self.selection = [i for i in self.selection if i in existing]
         if not self.selection:
             self.output.setPlainText("Select one object for its figures, or two for the figures between them "
@@ -98,7 +98,7 @@ class CalculatorPanel(QtWidgets.QWidget):
             if len(self.selection) == 1 and self.selection[0] in self.workspace.cache:
                 object_id = self.selection[0]  # the one verdict (app.quality.judge), as the QA panel's
                 facts = object_facts(self.workspace.stored_object(object_id), result.measurement, self.workspace.rules,
-                                     self.workspace.object_record(object_id), self.workspace.species_maxima())
+                                     self.workspace.cache.record(object_id), self.workspace.species_maxima())
         if result.reason:
             lines.append(result.reason)
         if result.figures and not result.reason:

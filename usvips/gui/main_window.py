@@ -30,6 +30,7 @@ from usvips.gui.media_check import MediaCheck
 from usvips.gui.messages import Messages
 from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.pane import StereoPane, pixel_from_item
+from usvips.gui.pick_tool import SIDES, TOOLS, describe_point
 from usvips.gui.status_bar import StatusBar
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
@@ -37,7 +38,7 @@ from usvips.gui.video_model import format_timecode
 from usvips.gui.window_context import WindowContext
 from usvips.gui.wording import plural
 from usvips.gui.worker import Cancelled, Worker
-from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
+from usvips.gui.workspace import Workspace, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
 from usvips.locations import resources_folder, sample_projects
 from usvips.store.annotator import annotating_as
@@ -265,8 +266,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 groups.setdefault(command.exclusive, QtGui.QActionGroup(self)).addAction(action)
             self.actions[command.id] = action
         self.tool_actions, self.loupe_actions = groups["tools"], groups["loupe"]
-        self.actions["auto_match"].setChecked(self.workspace.auto_match)
-        self.actions["snap"].setChecked(self.workspace.snap)
+        self.actions["auto_match"].setChecked(self.workspace.settings.auto_match)
+        self.actions["snap"].setChecked(self.workspace.settings.snap)
         self.actions["loupe"].setChecked(True)
         self.actions["tool_pick"].setChecked(True)
 
@@ -476,7 +477,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def confirm_drop_unfinished(self, doing: str) -> bool:
         """Ask before ``doing`` something that drops the object being digitised: store it, drop it or stay."""
-        digitising = self.workspace.digitising
+        digitising = self.workspace.pick_tool.digitising
         if not digitising.vertices or self.workspace.project is None:
             return True
         answer = self.ask_unfinished(f"The {digitising.kind} being digitised has {len(digitising.vertices)} "
@@ -484,7 +485,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if answer == "stay":
             return False
         if answer == "save":
-            return self._guarded(self.workspace.finish_object, self.workspace.attribute, "")
+            return self._guarded(self.workspace.pick_tool.finish_object, self.workspace.pick_tool.attribute, "")
         return True
 
     def ask_unfinished(self, question: str) -> str:
@@ -800,7 +801,7 @@ class MainWindow(QtWidgets.QMainWindow):
         original = ws.images.get(side)
         if original is None:
             return
-        pipeline = ws.pipelines[side]
+        pipeline = ws.enhancement.pipelines[side]
         self._display_tokens[side] += 1
         token = self._display_tokens[side]
         if not pipeline.operations:
@@ -848,7 +849,7 @@ class MainWindow(QtWidgets.QMainWindow):
         rect = source.viewbox.viewRect()
         centre = pixel_from_item(rect.center().x(), rect.center().y())
         try:
-            conjugate = self.workspace.conjugate(side, centre)
+            conjugate = self.workspace.pick_tool.conjugate(side, centre)
         except UsvipsError:
             conjugate = None
         self._following = True
@@ -863,7 +864,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ------------------------------------------------------------------ picking and measuring
     def _on_clicked(self, side: str, x: float, y: float) -> None:
-        self._guarded(self.workspace.pick, side, (x, y))
+        self._guarded(self.workspace.pick_tool.pick, side, (x, y))
 
     def _on_hovered(self, side: str, x: float, y: float) -> None:
         image = self.workspace.images.get(side)
@@ -876,38 +877,38 @@ class MainWindow(QtWidgets.QMainWindow):
         self.pixel_label.setText(f"{side}  x {x:8.2f}  y {y:8.2f}  value {grey}")
 
     def set_tool(self, tool: str) -> None:
-        if self._guarded(self.workspace.set_tool, tool):
+        if self._guarded(self.workspace.pick_tool.set_tool, tool):
             self.actions[f"tool_{tool}"].setChecked(True)
             self.statusBar().showMessage(TOOL_TIPS[tool], 10000)
 
     def accept_or_finish(self) -> None:
         """Enter on the images: accept the proposed match; with a first pick but no proposal, say why and
         what to do; with no pick, finish the object being digitised."""
-        state = self.workspace.state
+        state = self.workspace.pick_tool.state
         if state.proposal is not None or state.pending is not None:
-            self._guarded(self.workspace.accept_proposal)
+            self._guarded(self.workspace.pick_tool.accept_proposal)
         elif state.source is not None:
             opposite = "right" if state.source == "left" else "left"
             self.show_message("warning", f"no proposed match to accept: click the point in the {opposite} image"
                                          + (f" ({state.note})" if state.note else ""))
-        elif self.workspace.digitising.vertices:
+        elif self.workspace.pick_tool.digitising.vertices:
             self.finish_object()
         else:
             self.show_message("warning", "nothing to accept: pick a point first")
 
     def finish_object(self) -> None:
         attribute = self.attribute_box.currentText().strip()
-        if self._guarded(self.workspace.finish_object, attribute, ""):
+        if self._guarded(self.workspace.pick_tool.finish_object, attribute, ""):
             if attribute and self.attribute_box.findText(attribute) < 0:
                 self.attribute_box.addItem(attribute)
 
     def cancel_pick(self) -> None:
-        self.workspace.cancel_vertex()
+        self.workspace.pick_tool.cancel_vertex()
 
     def nudge(self, dx: float, dy: float) -> None:
         """Move the current pick by (dx, dy) image pixels (the proposal when there is one)."""
         try:
-            text = self.workspace.nudge(dx, dy)
+            text = self.workspace.pick_tool.nudge(dx, dy)
         except UsvipsError as error:
             self.show_message("warning", str(error))
             return
@@ -924,7 +925,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if not 0 <= index < len(labels):
             self.show_message("info", f"{'last' if step > 0 else 'first'} pair reached ({labels[current]})")
             return
-        if self.workspace.digitising.vertices:
+        if self.workspace.pick_tool.digitising.vertices:
             self.show_message("warning", "finish (Ctrl+Enter) or cancel the object being digitised before "
                                          "changing pairs")
             return
@@ -936,13 +937,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.actions[f"loupe_{scale}"].setChecked(True)
 
     def _on_attribute_changed(self, text: str) -> None:
-        self.workspace.attribute = text.strip()
+        self.workspace.pick_tool.attribute = text.strip()
 
     def _on_attribute_entered(self) -> None:
         """Enter in the Attribute box: keep the text for the next stored objects (and in the project's
         vocabulary), then give the keyboard back to the images."""
         text = self.attribute_box.currentText().strip()
-        self.workspace.attribute = text
+        self.workspace.pick_tool.attribute = text
         if text and self.workspace.project is not None:
             self.workspace.project.add_term(text)
             if self.attribute_box.findText(text) < 0:
@@ -1016,14 +1017,14 @@ class MainWindow(QtWidgets.QMainWindow):
         self.actions["redo"].setToolTip(f"Redo {redo} (Ctrl+Shift+Z)" if redo else "nothing to redo")
 
     def apply_snap(self) -> None:
-        self.workspace.snap = self.actions["snap"].isChecked()
+        self.workspace.settings.snap = self.actions["snap"].isChecked()
 
     def apply_auto_match(self) -> None:
-        self.workspace.auto_match = self.actions["auto_match"].isChecked()
+        self.workspace.settings.auto_match = self.actions["auto_match"].isChecked()
 
     def _on_picks_changed(self) -> None:
         ws = self.workspace
-        state = ws.state
+        state = ws.pick_tool.state
         for side in SIDES:
             opposite = state.source is not None and state.source != side
             self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
@@ -1031,7 +1032,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if state.note:
             self.statusBar().showMessage(state.note, 15000)
             self.set_hint(state.note, "warning" if state.pending is not None or state.weak else "info")
-        self.point_label.setText(describe_point(ws.last_point) if ws.last_point is not None else "")
+        self.point_label.setText(describe_point(ws.pick_tool.last_point) if ws.pick_tool.last_point is not None else "")
 
     def _on_selection_changed(self, ids) -> None:
         """The model's selection (the geo-calculator, the plan and the panes follow it themselves)."""

@@ -143,7 +143,7 @@ class ObservationForm(QtWidgets.QWidget):
             record = ObservationRecord.of(self.chosen_species(), number=self.number.value(),
                                           stage=self.stage.currentText(), activity=self.activity.text(),
                                           comment=self.comment.text())
-            self.workspace.set_record(self.object_id, record)
+            self.workspace.edits.set_record(self.object_id, record)
         except UsvipsError as error:
             self.status.setText(str(error))  # nothing typed is lost: the fields keep it
             return False

@@ -77,7 +77,7 @@ class PlanView(QtWidgets.QWidget):
     def refresh(self, *_: object) -> None:
         """Every object again (another view or project)."""
         self._parts = {}
-        self._on_objects(tuple(self.workspace.object_ids()))
+        self._on_objects(tuple(self.workspace.cache.ids()))
 
     def _on_pair(self) -> None:
         """Another pair: its cameras and frame (the objects stay as they are)."""

@@ -213,7 +213,7 @@ class ReviewDock(QtWidgets.QWidget):
         self._rebuild = True
         project = self.workspace.project
         try:
-            self.model.load(project, self.workspace.objects() if project is not None else None)
+            self.model.load(project, self.workspace.cache.objects() if project is not None else None)
         except UsvipsError as error:
             self.model.load(None)
             self.workspace.message.emit("error", str(error))
@@ -264,7 +264,7 @@ class ReviewDock(QtWidgets.QWidget):
             return f"{object_id}  (no longer in the project)"
         stored = ws.stored_object(object_id)
         where = video_frame_text(stored) or ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair))
-        parts = [str(object_id), stored.kind, species_text(ws.object_record(object_id)) or stored.attribute, where]
+        parts = [str(object_id), stored.kind, species_text(ws.cache.record(object_id)) or stored.attribute, where]
         review = self.model.state(object_id)
         state = review.state + (f": {review.reason}" if review.reason else "")
         return "  ".join(p for p in parts if p) + f"  — {state}"
@@ -274,9 +274,9 @@ class ReviewDock(QtWidgets.QWidget):
         ws = self.workspace
         if object_id not in ws.cache:
             return []
-        known = ws.object_figures(object_id)
+        known = ws.cache.known_figures(object_id)
         return object_facts(ws.stored_object(object_id), known.measurement if known is not None else None, ws.rules,
-                            ws.object_record(object_id), ws.species_maxima())
+                            ws.cache.record(object_id), ws.species_maxima())
 
     def _show(self) -> None:
         reviewed, total, flagged = self.model.counts()

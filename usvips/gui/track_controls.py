@@ -29,11 +29,11 @@ from usvips.core.errors import UsvipsError
 from usvips.core.tracking import CANCELLED, TrackSettings
 from usvips.gui.instants_model import object_instants
 from usvips.gui.pane import item_from_pixels
+from usvips.gui.pick_tool import TOOLS
 from usvips.gui.track_model import TrackModel, parse_instant_frames
 from usvips.gui.undo import Command
 from usvips.gui.window_context import WindowContext
 from usvips.gui.worker import Cancelled
-from usvips.gui.workspace import TOOLS
 
 #: the colour of tracked points and their trails (RGB)
 TRACK_COLOUR = (40, 230, 110)
@@ -171,8 +171,8 @@ class TrackController(QtCore.QObject):
         """Remember on which frame the last vertex was measured (a re-pick for Shift+T); after a proposed
         vertex is taken, propose the next."""
         ws = self.workspace
-        if ws.last_point is not self._last_point:
-            self._last_point = ws.last_point
+        if ws.pick_tool.last_point is not self._last_point:
+            self._last_point = ws.pick_tool.last_point
             self._last_point_frame = ws.video_frame[1] if ws.video_frame is not None else None
         self._propose_next()
 
@@ -253,10 +253,10 @@ class TrackController(QtCore.QObject):
             label, frame = self._frame()
             if self.model.object_id is None or self.model.label != label:
                 raise UsvipsError("nothing is tracked on this video: select an object and press T first")
-            if ws.last_point is None or self._last_point_frame != frame:
+            if ws.pick_tool.last_point is None or self._last_point_frame != frame:
                 raise UsvipsError(f"re-pick the point on this frame ({frame}) first: click it in the left image, "
                                   "then its partner (pick tool), then Shift+T")
-            left, right = ws.last_point.left, ws.last_point.right
+            left, right = ws.pick_tool.last_point.left, ws.pick_tool.last_point.right
             vertex = self.model.nearest_vertex(frame, left)
             tracker = VideoTracker.read(ws.project, label)
         except UsvipsError as error:
@@ -401,7 +401,7 @@ class TrackController(QtCore.QObject):
             if abs(frame - start) > self.REACH:
                 raise UsvipsError(f"object {object_id} was measured on frame {start}, {abs(frame - start)} frames "
                                   f"away: proposals track up to {self.REACH} frames")
-            if ws.digitising.vertices:
+            if ws.pick_tool.digitising.vertices:
                 raise UsvipsError("finish (Ctrl+Enter) or cancel the object being digitised before proposing")
             known = self._known_proposals(object_id, frame)
             tracker = None if known is not None else VideoTracker.read(ws.project, label)
@@ -440,7 +440,7 @@ class TrackController(QtCore.QObject):
         self._proposals, self._proposed = None, -1
         kind = ws.stored_object(object_id).kind
         tool = "line" if kind == "length" else kind
-        if ws.tool != tool and tool in TOOLS:  # the tool that measures the object's kind
+        if ws.pick_tool.tool != tool and tool in TOOLS:  # the tool that measures the object's kind
             self.set_tool(tool)
         self._proposals = (object_id, frame, proposals)
         self._propose_next(force=True)
@@ -455,16 +455,16 @@ class TrackController(QtCore.QObject):
         if ws.video_frame is None or int(ws.video_frame[1]) != frame:
             self._proposals = None
             return
-        if ws.state.source is not None and not force:
+        if ws.pick_tool.state.source is not None and not force:
             return
-        k = len(ws.digitising.vertices)
+        k = len(ws.pick_tool.digitising.vertices)
         if not force and k <= self._proposed:  # dropped, not taken
             self._proposals = None
             return
         if k >= len(proposals):
             self._proposals = None
             # only an object of the vertices taken now joins (not one measured after they were undone)
-            taken = [(tuple(map(float, v.left)), tuple(map(float, v.right))) for v in ws.digitising.vertices]
+            taken = [(tuple(map(float, v.left)), tuple(map(float, v.right))) for v in ws.pick_tool.digitising.vertices]
             self._instant_of = (object_id, frame, taken)
             # a vertex kept as proposed carries the track's start pick (its error): the instant is tracked
             self._tracked_from = (self._start_frame(object_id)
@@ -482,7 +482,7 @@ class TrackController(QtCore.QObject):
             return
         try:
             self._proposed = k
-            ws.propose_vertex(proposal.left, proposal.right,
+            ws.pick_tool.propose_vertex(proposal.left, proposal.right,
                               f"vertex {k + 1} of {len(proposals)} of object {object_id}, tracked from its frame")
             for side, pixel in (("left", proposal.left), ("right", proposal.right)):
                 self.panes[side].bring_into_view(pixel)  # never accepted unseen off a zoomed view
