@@ -75,6 +75,9 @@ def test_the_window_builds_its_menus_and_keys_from_the_declaration(make_window):
     # Help › Keys lists every command with keys, from the same declaration
     text = window.keys_text()
     assert all(html.escape(c.title.replace("&", "")) in text for c in commands.commands() if c.keys)
+    dialog = window.show_keys()
+    assert dialog.isVisible() and dialog.height() <= 720
+    dialog.close()
     # an enablement condition is the window's: nothing to undo, Undo is disabled, and enabled after a step
     assert not window.actions["undo"].isEnabled()
 

@@ -391,8 +391,22 @@ class MainWindow(QtWidgets.QMainWindow):
                        for keys, title, where in commands.key_list(key_text))
         return f"<table cellspacing='4'>{rows}</table>"
 
-    def show_keys(self) -> None:
-        QtWidgets.QMessageBox.information(self, "USVIPS — keys", self.keys_text())
+    def show_keys(self) -> QtWidgets.QDialog:
+        """Help › Keys…: the key list in a dialog that scrolls (it fits a 1366 × 768 screen) and blocks nothing."""
+        dialog = QtWidgets.QDialog(self)
+        dialog.setWindowTitle("USVIPS — keys")
+        dialog.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        text = QtWidgets.QTextBrowser()
+        text.setHtml(self.keys_text())
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Close)
+        buttons.rejected.connect(dialog.close)
+        column = QtWidgets.QVBoxLayout(dialog)
+        column.addWidget(text)
+        column.addWidget(buttons)
+        height = self.screen().availableGeometry().height() if self.screen() is not None else 768
+        dialog.resize(560, min(720, int(height * 0.8)))
+        dialog.show()
+        return dialog
 
     # ------------------------------------------------------------------ settings
     def _restore_layout(self) -> None:
