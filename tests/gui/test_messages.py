@@ -60,3 +60,41 @@ def test_jobs_say_failures_and_cancels_and_announce_the_work(qtbot):
                      ("error", "7 is refused")]
     assert events == [("started", "the answer"), ("ended",), ("started", "decoding"), ("ended",),
                       ("started", "tracking"), ("ended",), ("started", "checking"), ("ended",)]
+
+
+def test_the_video_and_tracking_controllers_work_without_a_window(qtbot, sample_copy):
+    """The controllers are handed the context (workspace, messages, jobs), the panes and two callbacks —
+    no MainWindow: a video is opened, its frame pair shown in the model, and what they say is heard."""
+    from PySide6 import QtWidgets
+
+    from usvips.app.opening import open_project
+    from usvips.gui.pane import StereoPane
+    from usvips.gui.track_controls import TrackController
+    from usvips.gui.video_controls import VideoController
+    from usvips.gui.window_context import WindowContext
+    from usvips.gui.workspace import Workspace
+
+    parent = QtWidgets.QWidget()
+    qtbot.addWidget(parent)
+    messages = Messages()
+    heard = _listened(messages)
+    workspace = Workspace()
+    workspace.message.connect(messages.say)
+    context = WindowContext(workspace, messages, Jobs(QtCore.QThreadPool(), messages))
+    panes = {side: StereoPane(side) for side in ("left", "right")}
+    forgotten, refreshed = [], []
+    video = VideoController(parent, context, panes, lambda: forgotten.append(True), lambda: refreshed.append(True))
+    video.ask_before_proxies = False
+    video.auto_proxies = False
+    tracking = TrackController(parent, context, panes, video, workspace.pick_tool.set_tool)
+    workspace.open_project(open_project(sample_copy("rov_flatport")))
+    label = workspace.project.videos()[0]["label"]
+    assert video.open_video(label) and forgotten == [True]
+    qtbot.waitUntil(lambda: workspace.video_frame is not None and not context.jobs.busy, timeout=30000)
+    assert workspace.pair == label and workspace.images["left"] is not None
+    assert any(level == "info" and text.startswith(f"video {label}:") for level, text in heard)
+    before = len(heard)
+    tracking.track()  # nothing selected: said through the messages, not the window
+    assert len(heard) == before + 1 and heard[-1][0] in ("warning", "error"), heard[before:]
+    video.shutdown()
+    workspace.close_project()
