@@ -64,11 +64,11 @@ def test_export_for_checkem_fills_opcode_rms_range_and_image_names(tmp_path):
     ws = Workspace()
     ws.open_project(project)
     ws.set_pair("measure1", *load_pair_images(project, "measure1"))
-    ws.set_tool("line")
+    ws.pick_tool.set_tool("line")
     for point in ("snout", "fork"):
-        ws.pick("left", cameras["left"]["objects"]["fish1"][point])
-        ws.pick("right", cameras["right"]["objects"]["fish1"][point])
-    ws.finish_object("Sparidae Pagrus auratus")
+        ws.pick_tool.pick("left", cameras["left"]["objects"]["fish1"][point])
+        ws.pick_tool.pick("right", cameras["right"]["objects"]["fish1"][point])
+    ws.pick_tool.finish_object("Sparidae Pagrus auratus")
     ws.close_project()
     assert main(["project", "export", str(sample / "project.usvips"), str(tmp_path / "survey.em.txt"),
                  "--opcode", "DEP01"]) == 0

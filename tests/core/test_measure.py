@@ -269,3 +269,33 @@ def test_a_kind_without_its_formula_is_refused_when_it_is_defined():
             drawing = "marker"
             figure_names = (("x", "m"),)
     assert "test-nothing" not in names()
+
+
+def test_a_kind_drawing_its_own_outline_says_so_when_it_is_defined():
+    """Views ask ``outline_fitted`` (the plan view draws such a kind through its outline); a kind that
+    overrides :meth:`outline` without saying so is refused, as is one that says so without overriding it."""
+    with pytest.raises(TypeError, match="'test-fitted': outline_fitted"):
+        class Fitted(MeasurementKind):  # noqa: F841 (defining it is the test)
+            name = "test-fitted"
+            drawing = "polyline"
+            figure_names = (("x", "m"),)
+
+            @classmethod
+            def values(cls, points):
+                return points[:1, 0]
+
+            @classmethod
+            def outline(cls, points):
+                return points[::-1]
+    with pytest.raises(TypeError, match="'test-claimed': outline_fitted"):
+        class Claimed(MeasurementKind):  # noqa: F841 (defining it is the test)
+            name = "test-claimed"
+            drawing = "polyline"
+            outline_fitted = True
+            figure_names = (("x", "m"),)
+
+            @classmethod
+            def values(cls, points):
+                return points[:1, 0]
+    assert "test-fitted" not in names() and "test-claimed" not in names()
+    assert measurement_registry.kind("circle").outline_fitted and not measurement_registry.kind("arc").outline_fitted

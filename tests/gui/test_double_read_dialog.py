@@ -12,16 +12,16 @@ from usvips.gui import double_read_dialog
 
 def _measure(window, left, right, fish, shift=(0.0, 0.0)):
     ws = window.workspace
-    ws.set_tool("line")
+    ws.pick_tool.set_tool("line")
     first, second = list(left[fish])[:2]  # snout and fork (a pipe: start and end)
     for point in (first, second):
         dx, dy = shift if point == second else (0.0, 0.0)
-        ws.pick("left", (left[fish][point][0] + dx, left[fish][point][1] + dy))
-        ws.pick("right", (right[fish][point][0] + dx, right[fish][point][1] + dy))
-        if ws.state.pending is not None:  # held by a guard rail: keep it
-            ws.accept_proposal()
-    ws.finish_object("fish", "")
-    return max(ws.object_ids())
+        ws.pick_tool.pick("left", (left[fish][point][0] + dx, left[fish][point][1] + dy))
+        ws.pick_tool.pick("right", (right[fish][point][0] + dx, right[fish][point][1] + dy))
+        if ws.pick_tool.state.pending is not None:  # held by a guard rail: keep it
+            ws.pick_tool.accept_proposal()
+    ws.pick_tool.finish_object("fish", "")
+    return max(ws.cache.ids())
 
 
 def test_the_dialog_reports_two_readers_and_jumps_to_their_objects(qtbot, make_window, sample_copy, tmp_path):

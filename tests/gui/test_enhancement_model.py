@@ -38,5 +38,5 @@ def test_another_project_gets_a_new_enhancement_model(tmp_path):
     ws.open_project(Project.create(tmp_path / "a.usvips"))
     first = ws.enhancement
     ws.open_project(Project.create(tmp_path / "b.usvips"))
-    assert ws.enhancement is not first and ws.pipelines == {"left": Pipeline(), "right": Pipeline()}
+    assert ws.enhancement is not first and ws.enhancement.pipelines == {"left": Pipeline(), "right": Pipeline()}
     ws.close_project()

@@ -30,7 +30,7 @@ def _first_pick_with_proposal(qtbot, window, directory, pair="water1"):
     for number in isolated_targets(left, right):
         window.cancel_pick()
         click_pixel(qtbot, window.panes["left"], left[number])
-        if window.workspace.state.proposal is not None and not window.workspace.state.weak:
+        if window.workspace.pick_tool.state.proposal is not None and not window.workspace.pick_tool.state.weak:
             return number, left, right
     pytest.fail("no target got a proposal")
 
@@ -42,7 +42,7 @@ def test_enter_in_the_attribute_box_stores_the_text(qtbot, make_window, sample_c
     _focused(qtbot, window.attribute_box)
     qtbot.keyClicks(window.attribute_box, "Pagrus auratus")
     _key(qtbot, Key.Key_Return)
-    assert window.workspace.attribute == "Pagrus auratus"
+    assert window.workspace.pick_tool.attribute == "Pagrus auratus"
     assert "Pagrus auratus" in window.workspace.project.vocabulary()
     assert "nothing to accept" not in window.log.toPlainText()
     assert QtWidgets.QApplication.focusWidget() is window.panes["left"].graphics  # back to measuring
@@ -79,7 +79,7 @@ def test_enter_in_a_table_cell_commits_the_edit(qtbot, make_window, sample_copy)
     qtbot.keyClicks(QtWidgets.QApplication.focusWidget(), "behind the rock")
     _key(qtbot, Key.Key_Return)  # the delegate commits on the next round of the event loop
     qtbot.waitUntil(lambda: window.workspace.project.objects()[0].notes == "behind the rock", timeout=2000)
-    assert window.workspace.state.source is None  # Enter did not reach the images
+    assert window.workspace.pick_tool.state.source is None  # Enter did not reach the images
 
 
 def test_enter_in_the_enhancement_parameters_applies_them(qtbot, make_window, sample_copy):
@@ -93,7 +93,7 @@ def test_enter_in_the_enhancement_parameters_applies_them(qtbot, make_window, sa
     field.selectAll()
     qtbot.keyClicks(field, '{"gamma": 0.5}')
     _key(qtbot, Key.Key_Return)
-    assert window.workspace.pipelines["left"].operations[-1].params == {"gamma": 0.5}
+    assert window.workspace.enhancement.pipelines["left"].operations[-1].params == {"gamma": 0.5}
 
 
 def test_enter_accepts_and_nudging_moves_the_pick_by_a_tenth_and_one_pixel(qtbot, make_window, sample_copy):
@@ -103,27 +103,27 @@ def test_enter_accepts_and_nudging_moves_the_pick_by_a_tenth_and_one_pixel(qtbot
     number, left, right = _first_pick_with_proposal(qtbot, window, directory)
     assert QtWidgets.QApplication.focusWidget() is window.panes["left"].graphics
     ws = window.workspace
-    proposal = np.array(ws.state.proposal)
+    proposal = np.array(ws.pick_tool.state.proposal)
     _key(qtbot, Key.Key_Right, Modifier.ControlModifier)
-    assert np.allclose(np.array(ws.state.proposal) - proposal, (0.1, 0.0), atol=1e-12)
+    assert np.allclose(np.array(ws.pick_tool.state.proposal) - proposal, (0.1, 0.0), atol=1e-12)
     _key(qtbot, Key.Key_Down, Modifier.ControlModifier | Modifier.ShiftModifier)
-    assert np.allclose(np.array(ws.state.proposal) - proposal, (0.1, 1.0), atol=1e-12)
+    assert np.allclose(np.array(ws.pick_tool.state.proposal) - proposal, (0.1, 1.0), atol=1e-12)
     window.undo()
     window.undo()
-    assert np.allclose(ws.state.proposal, proposal)
+    assert np.allclose(ws.pick_tool.state.proposal, proposal)
     _key(qtbot, Key.Key_Return)
-    assert ws.state.source is None and ws.last_point is not None  # the vertex was completed
-    assert np.allclose(ws.last_point.right, proposal)
+    assert ws.pick_tool.state.source is None and ws.pick_tool.last_point is not None  # the vertex was completed
+    assert np.allclose(ws.pick_tool.last_point.right, proposal)
     # without a proposal the first pick itself moves, and its epipolar curve with it
-    ws.auto_match = False
+    ws.settings.auto_match = False
     click_pixel(qtbot, window.panes["left"], left[number])
-    pick, curve = np.array(ws.state.left), ws.state.curve.copy()
+    pick, curve = np.array(ws.pick_tool.state.left), ws.pick_tool.state.curve.copy()
     _key(qtbot, Key.Key_Up, Modifier.ControlModifier)
-    assert np.allclose(np.array(ws.state.left) - pick, (0.0, -0.1), atol=1e-12)
-    moved = ws.state.curve  # a new curve (its number of samples may differ too)
+    assert np.allclose(np.array(ws.pick_tool.state.left) - pick, (0.0, -0.1), atol=1e-12)
+    moved = ws.pick_tool.state.curve  # a new curve (its number of samples may differ too)
     assert moved.shape != curve.shape or not np.allclose(moved, curve)
     _key(qtbot, Key.Key_Escape)
-    assert ws.state.source is None
+    assert ws.pick_tool.state.source is None
 
 
 def test_enter_with_a_refused_match_says_what_to_do_instead_of_finishing(qtbot, make_window, sample_copy):
@@ -131,7 +131,7 @@ def test_enter_with_a_refused_match_says_what_to_do_instead_of_finishing(qtbot, 
     directory = sample_copy("rov_flatport")
     open_sample(qtbot, window, directory, "water1")
     window.set_tool("polygon")
-    window.workspace.auto_match = False
+    window.workspace.settings.auto_match = False
     left, _ = truth_pixels(directory, "water1", "targets")
     click_pixel(qtbot, window.panes["left"], next(iter(v for v in left.values() if v is not None)))
     _key(qtbot, Key.Key_Return)
@@ -187,7 +187,7 @@ def test_enter_in_the_wizards_measure_page_accepts_and_never_advances(qtbot, sam
     assert wizard.currentPage() is measure
     click_pixel(qtbot, measure.panes["left"], left[number], zoom=4.0)
     assert QtWidgets.QApplication.focusWidget() is measure.panes["left"].graphics
-    proposal = measure.workspace.state.proposal
+    proposal = measure.workspace.pick_tool.state.proposal
     _key(qtbot, Key.Key_Return)
     assert wizard.currentPage() is measure
     if proposal is not None:  # with a calibration to draw the curve, Enter took the proposal

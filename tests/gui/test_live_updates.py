@@ -130,7 +130,7 @@ def test_anns_own_edits_are_not_marked_as_a_colleagues(qtbot, make_window, surve
     qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
     qtbot.waitUntil(lambda: fish in window.overlay.outlines, timeout=BOUND_MS)
     assert window.overlay.outlines[fish][0].endswith("· bob")
-    ws.edit_object(fish, "fish", "ann: checked")  # ann's own edit: no longer bob's change
+    ws.edits.edit_object(fish, "fish", "ann: checked")  # ann's own edit: no longer bob's change
     assert fish not in ws.cache.marks and not _marked_by(window, fish, "bob")
     assert not window.overlay.outlines[fish][0].endswith("· bob")  # the label drawn again without the mark
     window.show_review()
@@ -239,7 +239,7 @@ def test_an_object_reviewed_in_review_mode_can_be_edited_next(qtbot, make_window
     window.show_review()
     window.review.model.go_to(fish)
     window.review.accept()
-    ws.edit_object(fish, "fish", "ann: after review")
+    ws.edits.edit_object(fish, "fish", "ann: after review")
     assert not ws.edits.unsaved and bob.object(fish).notes == "ann: after review"
 
 
@@ -279,4 +279,4 @@ def test_an_observation_record_ann_is_typing_that_bob_changes_shows_the_conflict
     assert list(ws.edits.unsaved) == [(fish, f"observation record of object {fish}")]
     window.focus_images()  # she leaves the form: the object is read again, bob's record shown, marked
     qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
-    assert ws.object_record(fish).number == 2 and "is kept unsaved" in window.hint.text()
+    assert ws.cache.record(fish).number == 2 and "is kept unsaved" in window.hint.text()

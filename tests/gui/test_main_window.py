@@ -47,7 +47,7 @@ def test_a_mouse_pick_draws_the_epipolar_curve_through_the_true_conjugate(qtbot,
         curve = _drawn_curve(window.panes["right"])
         assert EpipolarCurve(curve, np.zeros(len(curve))).distance_to(np.array(right[number])) < 0.5
         drawn = _drawn_points(window.panes["right"].proposal_item)
-        if len(drawn) == 0 or window.workspace.state.weak:  # refused (ambiguous, image edge): said so
+        if len(drawn) == 0 or window.workspace.pick_tool.state.weak:  # refused (ambiguous, image edge): said so
             assert ("no automatic match" in window.statusBar().currentMessage()
                     or "weak proposal" in window.statusBar().currentMessage())
             continue
@@ -64,11 +64,11 @@ def test_measuring_a_fish_with_the_mouse_stores_it_with_its_true_length(qtbot, m
     open_sample(qtbot, window, directory, "measure1")
     left, right = truth_pixels(directory, "measure1", "objects")
     window.actions["tool_line"].trigger()
-    assert window.workspace.tool == "line"
+    assert window.workspace.pick_tool.tool == "line"
     window.attribute_box.setEditText("fish")
     for point in ("snout", "fork"):
         click_pixel(qtbot, window.panes["left"], left["fish1"][point])
-        assert window.workspace.state.proposal is not None
+        assert window.workspace.pick_tool.state.proposal is not None
         click_pixel(qtbot, window.panes["right"], right["fish1"][point])  # correct the proposal by hand
         assert "±" in window.point_label.text()
     window.actions["accept"].trigger()  # no proposal pending: Enter finishes the object
@@ -98,7 +98,7 @@ def test_enhancement_changes_the_display_but_not_the_coordinates(qtbot, make_win
     def measure() -> np.ndarray:
         click_pixel(qtbot, pane, left["fish2"]["snout"])
         click_pixel(qtbot, window.panes["right"], right["fish2"]["snout"])
-        return window.workspace.last_point.xyz.copy()
+        return window.workspace.pick_tool.last_point.xyz.copy()
 
     before_display = pane.display.copy()
     before = measure()
@@ -122,11 +122,11 @@ def test_reopening_restores_objects_enhancement_pair_and_layout(qtbot, make_wind
     click_pixel(qtbot, window.panes["right"], right["rock1"]["centre"])
     from usvips.core.enhance import Pipeline
 
-    window.workspace.set_pipeline("right", Pipeline().then("gamma", gamma=0.7))
+    window.workspace.enhancement.set_pipelines({"right": Pipeline().then("gamma", gamma=0.7)})
     qtbot.waitUntil(lambda: not window.busy, timeout=10000)
     window.docks["plan"].hide()
     window.actions["snap"].trigger()
-    assert window.workspace.snap
+    assert window.workspace.settings.snap
     window.close()
 
     again = make_window(settings)
@@ -135,10 +135,10 @@ def test_reopening_restores_objects_enhancement_pair_and_layout(qtbot, make_wind
     wait_for_pair(qtbot, again, "measure1")  # the pair last shown
     (stored,) = again.workspace.project.objects()
     assert stored.kind == "point"
-    assert again.workspace.pipelines["right"].operations[0].name == "gamma"
-    assert again.workspace.pipelines["left"].operations == ()
+    assert again.workspace.enhancement.pipelines["right"].operations[0].name == "gamma"
+    assert again.workspace.enhancement.pipelines["left"].operations == ()
     assert not again.docks["plan"].isVisible()
-    assert again.actions["snap"].isChecked() and again.workspace.snap
+    assert again.actions["snap"].isChecked() and again.workspace.settings.snap
     assert again.object_list.row_count() == 1
 
 
@@ -158,7 +158,7 @@ def test_bad_input_is_reported_not_raised(qtbot, make_window, tmp_path):
 def test_tools_are_chosen_from_actions(qtbot, make_window, tool):
     window = make_window()
     window.actions[f"tool_{tool}"].trigger()
-    assert window.workspace.tool == tool
+    assert window.workspace.pick_tool.tool == tool
 
 
 def test_measured_control_points_are_marked_with_their_numbers(qtbot, make_window, sample_copy):
@@ -178,8 +178,8 @@ def _store_fish(window, directory) -> None:
     left, right = truth_pixels(directory, "measure1", "objects")
     window.set_tool("line")
     for point in ("snout", "fork"):
-        window.workspace.pick("left", left["fish1"][point])
-        window.workspace.pick("right", right["fish1"][point])
+        window.workspace.pick_tool.pick("left", left["fish1"][point])
+        window.workspace.pick_tool.pick("right", right["fish1"][point])
     window.finish_object()
 
 
@@ -244,8 +244,8 @@ def test_objects_are_exported_from_the_window(qtbot, make_window, sample_copy, t
     left, right = truth_pixels(directory, "water1", "targets")
     target = isolated_targets(left, right)[0]
     window.set_tool("point")
-    window.workspace.pick("left", left[target])
-    window.workspace.pick("right", right[target])
+    window.workspace.pick_tool.pick("left", left[target])
+    window.workspace.pick_tool.pick("right", right[target])
     window.export_objects(tmp_path / "objects.geojson")  # GeoJSON needs a georeference (issue 19)
     assert "no georeference" in window.statusBar().currentMessage()
     from usvips.core.deployment import Georeference
@@ -268,11 +268,11 @@ def test_nothing_of_one_project_is_left_in_the_next(qtbot, make_window, sample_c
     window.accept_or_finish()
     assert window.point_label.text()  # a 3-D readout
     window.show_message("error", "something went wrong")
-    assert "snapper" in window.workspace.attribute
+    assert "snapper" in window.workspace.pick_tool.attribute
     second = sample_copy("rov_flatport")
     assert window.open_path(second)
     wait_for_pair(qtbot, window, "air1")
-    assert window.point_label.text() == "" and window.workspace.attribute == ""
+    assert window.point_label.text() == "" and window.workspace.pick_tool.attribute == ""
     assert window.attribute_box.currentText() == ""
     assert "measure1" not in window.panes["left"].title.text() and "air1" in window.panes["left"].title.text()
     assert window.statusBar().styleSheet() == "" and "something went wrong" not in window.hint.text()
@@ -317,7 +317,7 @@ def test_quitting_with_a_half_made_object_asks_and_can_store_it(qtbot, make_wind
     click_pixel(qtbot, window.panes["right"], right["fish1"]["snout"])
     click_pixel(qtbot, window.panes["left"], left["fish1"]["fork"])
     click_pixel(qtbot, window.panes["right"], right["fish1"]["fork"])
-    assert len(window.workspace.digitising.vertices) == 2
+    assert len(window.workspace.pick_tool.digitising.vertices) == 2
     questions = []
     answers = ["stay", "save"]
     window.ask_unfinished = lambda question: questions.append(question) or answers.pop(0)
@@ -344,11 +344,11 @@ def test_a_stored_vertex_is_re_picked_from_the_object_list_with_the_mouse(qtbot,
     window.object_list.table.selectRow(0)
     window.object_list.vertex.setValue(2)
     qtbot.mouseClick(window.object_list.repick_button, QtCore.Qt.MouseButton.LeftButton)
-    assert window.workspace.repick is not None and "re-pick vertex 2" in window.hint.text()
+    assert window.workspace.pick_tool.repick is not None and "re-pick vertex 2" in window.hint.text()
     wrong = [np.add(p["fork"], 0.2 * np.subtract(p["fork"], p["snout"])) for p in (left["fish1"], right["fish1"])]
     click_pixel(qtbot, window.panes["left"], wrong[0])
     click_pixel(qtbot, window.panes["right"], wrong[1])
-    if window.workspace.state.pending is not None:
+    if window.workspace.pick_tool.state.pending is not None:
         window.accept_or_finish()
     assert window.object_list.text(0, "figure") != figure
     window.undo()
@@ -361,10 +361,11 @@ def test_linked_navigation_brings_the_other_pane_to_the_conjugate_region(qtbot, 
     open_sample(qtbot, window, directory, "water1")
     left, right = truth_pixels(directory, "water1", "targets")
     window.actions["link"].setChecked(True)
-    window._on_link()
+    window.apply_link()
     targets = isolated_targets(left, right)[:5]
     for number in targets:
-        window.workspace.last_point = window.workspace.intersect(left[number], right[number])  # working depth
+        tool = window.workspace.pick_tool
+        tool.last_point = tool.intersect(left[number], right[number])  # working depth
         window.panes["left"].zoom_to(4.0, tuple(left[number]))  # zoom and pan the left pane only
         rect = window.panes["right"].viewbox.viewRect()
         centre = np.array(pixel_from_item(rect.center().x(), rect.center().y()))
@@ -383,10 +384,10 @@ def test_the_object_list_changes_an_objects_kind_with_the_mouse(qtbot, make_wind
     for fish, point in [("fish1", "snout"), ("fish1", "fork"), ("fish2", "fork")]:
         click_pixel(qtbot, window.panes["left"], left[fish][point])
         click_pixel(qtbot, window.panes["right"], right[fish][point])
-        if window.workspace.state.pending is not None:
+        if window.workspace.pick_tool.state.pending is not None:
             window.accept_or_finish()
     window.accept_or_finish()
-    (stored,) = window.workspace.objects()
+    (stored,) = window.workspace.cache.objects()
     assert stored.kind == "arc"
     window.object_list.table.selectRow(0)
     window.object_list.kind.setCurrentText("polygon")

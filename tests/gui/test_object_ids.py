@@ -31,7 +31,7 @@ def test_deleted_objects_leave_every_view_before_the_figures_are_computed_again(
         listing._worker.cancel()     # so that the ids they were asked for are still pending when rules change
     errors: list[str] = []
     ws.message.connect(lambda level, text: errors.append(text) if level == "error" else None)
-    ids = ws.object_ids()
+    ids = ws.cache.ids()
     # deleted in the window: selected, then Delete in the list
     for object_id in (ids[3], ids[4]):
         ws.select([object_id])
@@ -44,26 +44,26 @@ def test_deleted_objects_leave_every_view_before_the_figures_are_computed_again(
         click_pixel(qtbot, window.panes["left"], left["fish1"][point])
         click_pixel(qtbot, window.panes["right"], right["fish1"][point])
     window.actions["accept"].trigger()
-    stored = ws.object_ids()[-1]
+    stored = ws.cache.ids()[-1]
     assert stored not in ids and stored in _listed(window)
     window.actions["undo"].trigger()
     # a colleague deletes an object this window has edited; undoing the edit meets the delete
-    ws.edit_object(ids[7], "mine", "")
+    ws.edits.edit_object(ids[7], "mine", "")
     with open_project(path) as colleague:
         colleague.delete_object(ids[7])
     window.actions["undo"].trigger()  # refused as stale: the window reads the object again and finds it gone
     gone = {ids[3], ids[4], ids[7], stored}
     in_store = [o.id for o in ws.project.objects()]
     assert not gone & set(in_store)
-    assert ws.object_ids() == in_store and _listed(window) == in_store
+    assert ws.cache.ids() == in_store and _listed(window) == in_store
     rules = ws.rules
     for rule in fields(QualityRules):  # every setting that recomputes figures, one after the other
         value = getattr(rules, rule.name)
         rules = replace(rules, **{rule.name: {"max_sigma_m": 0.01} if isinstance(value, dict) else value / 2})
         ws.set_rules(rules)
         qtbot.waitUntil(lambda: listing._worker is None and not window.busy, timeout=30000)
-        assert _listed(window) == ws.object_ids() == in_store
+        assert _listed(window) == ws.cache.ids() == in_store
     window.qa.model.refresh_now()
     assert {int(row.object_id) for row in window.qa.model.rows} <= set(in_store)
-    assert all(ws.object_figures(i) is not None for i in in_store)
+    assert all(ws.cache.known_figures(i) is not None for i in in_store)
     assert errors == []

@@ -110,13 +110,13 @@ def test_an_object_shows_its_combined_figure_and_its_instants_their_object(qtbot
     assert _cell(view, third).toolTip().startswith("sigma ± ")  # its sigma's breakdown, no word of instants
     assert "pointing" in _cell(view, third).toolTip() and "instant" not in _cell(view, third).toolTip()
     # an instant deleted (undoably): the object is one instant again; undo brings the instant back
-    ws.delete_object(second)
+    ws.edits.delete_object(second)
     qtbot.waitUntil(lambda: _cell(view, whole).text() == own[whole], timeout=10000)
     ws.undo.undo()
     qtbot.waitUntil(lambda: _cell(view, whole).text() == f"{two} (2 instants)", timeout=10000)
     assert _cell(view, second).text() == f"instant of #{whole}" and _greyed(view, second)
     # the object itself deleted: its instants stand alone, each with its own figure
-    ws.delete_object(whole)
+    ws.edits.delete_object(whole)
     qtbot.waitUntil(lambda: _cell(view, second).text() == own[second], timeout=10000)
     assert not _greyed(view, second) and view.row_of(whole) is None
 

@@ -66,13 +66,13 @@ def test_an_object_measured_on_a_video_is_shown_on_its_frame_centred_from_an_ima
     qtbot.waitUntil(lambda: ws.video_frame is not None and ws.video_frame[1] == 12 and not window.busy, timeout=20000)
     truth = json.loads((directory / "truth.json").read_text())["video"]
     left, right = truth["left"][12]["pixels"], truth["right"][15]["pixels"]
-    ws.set_tool("line")
+    ws.pick_tool.set_tool("line")
     for point in ("snout", "fork"):
-        ws.pick("left", left[point])
-        ws.pick("right", right[point])
-        if ws.state.pending is not None:
-            ws.accept_proposal()
-    object_id = ws.finish_object("fish2")
+        ws.pick_tool.pick("left", left[point])
+        ws.pick_tool.pick("right", right[point])
+        if ws.pick_tool.state.pending is not None:
+            ws.pick_tool.accept_proposal()
+    object_id = ws.pick_tool.finish_object("fish2")
     assert ws.place_of(object_id) == ("video", 12)
     window.load_pair("measure1")
     qtbot.waitUntil(lambda: ws.pair == "measure1" and not window.busy, timeout=10000)
@@ -86,9 +86,9 @@ def test_an_object_measured_on_a_video_is_shown_on_its_frame_centred_from_an_ima
     # while an object is being digitised on this frame, one on another frame is not gone to
     window.video.request(14)
     qtbot.waitUntil(lambda: ws.place() == ("video", 14) and not window.busy, timeout=20000)
-    ws.pick("left", left["snout"])
-    ws.pick("right", right["snout"])
-    if ws.state.pending is not None:
-        ws.accept_proposal()
-    assert ws.digitising.vertices and not ws.request_object(object_id)
+    ws.pick_tool.pick("left", left["snout"])
+    ws.pick_tool.pick("right", right["snout"])
+    if ws.pick_tool.state.pending is not None:
+        ws.pick_tool.accept_proposal()
+    assert ws.pick_tool.digitising.vertices and not ws.request_object(object_id)
     assert "video 'video', frame 12" in window.hint.text() and ws.place() == ("video", 14)

@@ -25,11 +25,11 @@ def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_fil
     model = listing.model
     listing.refresh()  # laid out now: the rows on screen
     qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
-    ids = ws.object_ids()
+    ids = ws.cache.ids()
     assert model.rowCount() == 60 and model.ids() == ids
     drawn = {listing.object_id(r) for r in listing.visible_rows()}
-    assert drawn and all(ws.object_figures(i) is not None for i in drawn)
-    assert sum(ws.object_figures(i) is not None for i in ids) < 60  # the rows never drawn: not computed
+    assert drawn and all(ws.cache.known_figures(i) is not None for i in drawn)
+    assert sum(ws.cache.known_figures(i) is not None for i in ids) < 60  # the rows never drawn: not computed
     # a row drawn (asked for) gets its figure from a worker
     last = listing.row_count() - 1
     assert listing.text(last, "figure") == "computing…"
@@ -56,7 +56,7 @@ def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_fil
     shown = model.ids()
     assert shown == [i for i in ids if "fish 1" in ws.stored_object(i).attribute + ws.stored_object(i).notes]
     assert 0 < len(shown) < 60
-    ws.delete_object(shown[0])
+    ws.edits.delete_object(shown[0])
     assert model.ids() == shown[1:] and listing.row_of(shown[0]) is None
     listing.filter.clear()
     assert model.ids() == [i for i in ids if i != shown[0]]

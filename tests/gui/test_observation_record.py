@@ -150,7 +150,7 @@ def test_the_object_list_is_in_front_again_after_the_record_is_stored_or_skipped
     # the plan view in front instead: the form leaves it in front again too
     window.docks["plan"].raise_()
     qtbot.waitUntil(lambda: in_front(window.docks["plan"]), timeout=2000)
-    window.workspace.stored.emit(window.workspace.object_ids()[0])
+    window.workspace.stored.emit(window.workspace.cache.ids()[0])
     qtbot.waitUntil(lambda: in_front(window.docks["observation"]), timeout=2000)
     qtbot.keyClick(window.observation.species, QtCore.Qt.Key.Key_Escape)
     qtbot.waitUntil(lambda: in_front(window.docks["plan"]), timeout=2000)

@@ -333,13 +333,14 @@ def test_another_project_gets_a_new_pick_tool_with_the_settings_kept(tmp_path):
     projects = [Project.create(tmp_path / f"{name}.usvips") for name in "ab"]
     ws.open_project(projects[0])
     first = ws.pick_tool
-    ws.set_tool("polygon")
-    ws.snap, ws.auto_match, ws.attribute = True, False, "cod"
+    ws.pick_tool.set_tool("polygon")
+    ws.settings.snap, ws.settings.auto_match, ws.pick_tool.attribute = True, False, "cod"
     heard = []
     ws.picks_changed.connect(lambda: heard.append("picks"))
     ws.open_project(projects[1])
     assert ws.pick_tool is not first and ws.pick_tool.scene is ws
-    assert ws.attribute == "" and ws.last_point is None and ws.repick is None and ws.state == PickState()
-    assert ws.tool == "polygon" and ws.snap and not ws.auto_match  # the user's settings, not the project's
+    tool = ws.pick_tool
+    assert tool.attribute == "" and tool.last_point is None and tool.repick is None and tool.state == PickState()
+    assert tool.tool == "polygon" and ws.settings.snap and not ws.settings.auto_match  # the user's, not the project's
     assert heard == ["picks"]  # the views hear the new tool through the same events
     ws.close_project()

@@ -58,7 +58,7 @@ def test_the_dialog_by_mouse_and_keyboard_stores_the_estimate(qtbot, make_window
             qtbot.keyClick(dialog, QtCore.Qt.Key.Key_Return)
     assert dialog.model.finished and len(dialog.model.clicks) == 4
     assert dialog.store.isEnabled() and "your pointing σ" in dialog.result.text()
-    before = window.workspace.cache.known_figures(window.workspace.object_ids()[0]) if window.workspace.object_ids() \
+    before = window.workspace.cache.known_figures(window.workspace.cache.ids()[0]) if window.workspace.cache.ids() \
         else None
     dialog.store.click()
     project = window.workspace.project
@@ -66,4 +66,4 @@ def test_the_dialog_by_mouse_and_keyboard_stores_the_estimate(qtbot, make_window
     assert stored.annotator == window.annotator and stored.in_use and "pointing test: 4 clicks" in stored.note
     assert (window.annotator, "hand click") in pointing_in_use(project)
     if before is not None:  # the figures known before are forgotten: computed again with the estimate
-        assert window.workspace.cache.known_figures(window.workspace.object_ids()[0]) is not before
+        assert window.workspace.cache.known_figures(window.workspace.cache.ids()[0]) is not before

@@ -16,12 +16,12 @@ from usvips.store import Project
 def _measure_a_point(ws, directory) -> int:
     left, right = truth_pixels(directory, "water1", "targets")
     number = next(k for k in left if left[k] is not None and right.get(k) is not None)
-    ws.set_tool("point")
-    ws.pick("left", left[number])
-    ws.pick("right", right[number])
-    if ws.state.pending is not None:  # held by a guard rail: keep it
-        ws.accept_proposal()
-    (stored,) = ws.objects()
+    ws.pick_tool.set_tool("point")
+    ws.pick_tool.pick("left", left[number])
+    ws.pick_tool.pick("right", right[number])
+    if ws.pick_tool.state.pending is not None:  # held by a guard rail: keep it
+        ws.pick_tool.accept_proposal()
+    (stored,) = ws.cache.objects()
     return stored.id
 
 
@@ -33,16 +33,17 @@ def test_a_second_project_leaves_nothing_of_the_first_in_any_model(sample_copy, 
     ws.project_changed.connect(lambda project: heard.append(project))
     ws.open_project(first)
     ws.set_pair("water1", *load_pair_images(first, "water1"))
-    ws.set_pipeline("left", Pipeline().then("clahe", clip_limit=2.0))
+    ws.enhancement.set_pipelines({"left": Pipeline().then("clahe", clip_limit=2.0)})
     object_id = _measure_a_point(ws, directory)
     ws.select([object_id])
     ws.figures([object_id])
-    ws.attribute = "cod"
-    ws.set_tool("line")
-    ws.pick("left", (100.0, 100.0))  # a vertex being picked
+    ws.pick_tool.attribute = "cod"
+    ws.pick_tool.set_tool("line")
+    ws.pick_tool.pick("left", (100.0, 100.0))  # a vertex being picked
     ws.video_frame = ("clip", 3, 4, 0.1)  # as if a video's frame pair were shown
     models = (ws.cache, ws.enhancement, ws.pick_tool)
-    assert ws.last_point is not None and ws.state.source == "left" and ws.undo.undo_label is not None
+    assert ws.pick_tool.last_point is not None and ws.pick_tool.state.source == "left"
+    assert ws.undo.undo_label is not None
 
     second = Project.create(tmp_path / "second.usvips")
     ws.open_project(second)
@@ -51,13 +52,14 @@ def test_a_second_project_leaves_nothing_of_the_first_in_any_model(sample_copy, 
     # the project and its selection
     assert (ws.pair, ws.images, ws.geometry, ws.video_frame, ws.selection) == (None, {}, None, None, ())
     # the object cache
-    assert ws.objects() == [] and ws.object_figures(object_id) is None and ws._calibrations == {}
+    assert ws.cache.objects() == [] and ws.cache.known_figures(object_id) is None and ws.cache.calibrations == {}
     # the enhancement
-    assert ws.pipelines == {"left": Pipeline(), "right": Pipeline()} and ws.enhancement.keys == {}
+    assert ws.enhancement.pipelines == {"left": Pipeline(), "right": Pipeline()} and ws.enhancement.keys == {}
     assert ws.enhancement.project is None
     # the pick tool: its state, but not the user's settings and tool
-    assert ws.state == PickState() and ws.digitising.vertices == () and ws.last_point is None
-    assert ws.attribute == "" and ws.repick is None and ws.tool == "line"
+    assert ws.pick_tool.state == PickState() and ws.pick_tool.digitising.vertices == ()
+    assert ws.pick_tool.last_point is None
+    assert ws.pick_tool.attribute == "" and ws.pick_tool.repick is None and ws.pick_tool.tool == "line"
     # undo: nothing of the first project can be undone into the second
     assert ws.undo.undo_label is None and ws.undo.redo_label is None
     ws.close_project()
@@ -74,10 +76,10 @@ def test_the_views_show_nothing_of_the_previous_project(qtbot, make_window, samp
     window.set_tool("point")
     click_pixel(qtbot, window.panes["left"], left[number])
     click_pixel(qtbot, window.panes["right"], right[number])
-    if ws.state.pending is not None:
-        ws.accept_proposal()
-    qtbot.waitUntil(lambda: bool(ws.objects()), timeout=5000)
-    ws.select([ws.objects()[0].id])
+    if ws.pick_tool.state.pending is not None:
+        ws.pick_tool.accept_proposal()
+    qtbot.waitUntil(lambda: bool(ws.cache.objects()), timeout=5000)
+    ws.select([ws.cache.objects()[0].id])
     window._on_hovered("left", *left[number])  # the pixel readout under the mouse
     window.attribute_box.setEditText("cod")
     curve = window.enhancement.original_curve

@@ -13,14 +13,14 @@ SPECIES = Species("Sparidae", "Pagrus", "auratus", "37353001", max_length_m=0.30
 
 def _measure(window, left, right, fish):
     ws = window.workspace
-    ws.set_tool("line")
+    ws.pick_tool.set_tool("line")
     for point in ("snout", "fork"):
-        ws.pick("left", left[fish][point])
-        ws.pick("right", right[fish][point])
-        if ws.state.pending is not None:  # held by a guard rail: keep it
-            ws.accept_proposal()
-    ws.finish_object("fish", "")
-    return max(ws.object_ids())
+        ws.pick_tool.pick("left", left[fish][point])
+        ws.pick_tool.pick("right", right[fish][point])
+        if ws.pick_tool.state.pending is not None:  # held by a guard rail: keep it
+            ws.pick_tool.accept_proposal()
+    ws.pick_tool.finish_object("fish", "")
+    return max(ws.cache.ids())
 
 
 def _checked(qtbot, window):
@@ -43,7 +43,7 @@ def test_the_qa_panel_lists_breaches_and_goes_to_their_pair(qtbot, make_window, 
     assert window.qa.table_model.rowCount() == 0  # no species yet: nothing breaks a rule
     lengths = {i: ws.figures([i]).figures[0].value for i in fish}
     for object_id in fish:
-        ws.set_record(object_id, ObservationRecord.of(SPECIES))  # an edit: the panel checks again by itself
+        ws.edits.set_record(object_id, ObservationRecord.of(SPECIES))  # an edit: the panel checks again by itself
     _checked(qtbot, window)
     too_long = sorted(i for i in fish if lengths[i] > SPECIES.max_length_m)
     assert too_long  # the sample's fish1 is 0.46 m
@@ -75,7 +75,7 @@ def test_the_qa_panel_lists_breaches_and_goes_to_their_pair(qtbot, make_window, 
     assert np.hypot(centre.x() - middle[0], centre.y() - middle[1]) < 2.0  # centred on the object
     assert window.object_list.selected_ids() == [too_long[0]]
     # deleting the object takes it off the list
-    ws.delete_object(too_long[0])
+    ws.edits.delete_object(too_long[0])
     _checked(qtbot, window)
     assert too_long[0] not in [r.object_id for r in window.qa.table_model.rows]
 

@@ -55,7 +55,7 @@ def test_cached_figures_are_not_computed_again_and_computed_ones_are_kept(survey
     first = model.job()
     assert first.figures is not None  # nothing cached yet: the job computes them
     model.take(first, first())
-    assert all(ws.object_figures(i) is not None for i in ids.values() if i != ids["instant 2"])
+    assert all(ws.cache.known_figures(i) is not None for i in ids.values() if i != ids["instant 2"])
     again = model.job()
     assert again.figures is None  # every figure cached: the check only
     before = _issues(model.report)
@@ -67,7 +67,7 @@ def test_the_report_follows_edits_and_the_rules(survey):
     ws, ids = survey
     model = QaModel(ws)
     model.refresh_now()
-    ws.delete_object(ids["too long"])
+    ws.edits.delete_object(ids["too long"])
     model.refresh_now()
     assert ids["too long"] not in {r.object_id for r in model.rows}
     ws.undo.undo()
@@ -84,9 +84,9 @@ def test_a_job_made_before_an_edit_does_not_keep_stale_figures(survey):
     model = QaModel(ws)
     stale = model.job()
     result = stale()
-    ws.edit_object(ids["rms"], "moved", "")  # the object changed after the job copied it
+    ws.edits.edit_object(ids["rms"], "moved", "")  # the object changed after the job copied it
     model.take(stale, result)
-    assert ws.object_figures(ids["rms"]) is None  # dropped by the cache: the next check computes it again
+    assert ws.cache.known_figures(ids["rms"]) is None  # dropped by the cache: the next check computes it again
     assert model.job().figures is not None
 
 

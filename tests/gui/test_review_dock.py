@@ -119,10 +119,10 @@ def test_the_annotator_is_set_once_shown_in_the_title_and_stamped_on_writes(qtbo
     assert window.windowTitle().startswith("USVIPS — K. Jones — ") and "saved as you go" in window.windowTitle()
     (first, *_) = _objects_on_two_pairs(window)
     assert window.workspace.project.object(first).creator == "K. Jones"
-    window.workspace.edit_object(first, "cod", "edited in the window")
+    window.workspace.edits.edit_object(first, "cod", "edited in the window")
     assert window.workspace.project.history(first)[-1].annotator == "K. Jones"
     assert window.set_annotator("R. Smith")  # changed mid-session: the open project's next writes
-    window.workspace.edit_object(first, "ling", "")
+    window.workspace.edits.edit_object(first, "ling", "")
     assert window.workspace.project.history(first)[-1].annotator == "R. Smith"
     window.close()
     again = make_window(settings)  # the next session starts as the name set
@@ -145,7 +145,7 @@ def test_h_on_an_object_row_shows_its_history_and_provenance(qtbot, make_window,
     open_sample(qtbot, window, directory, "measure1")
     ws = window.workspace
     (first, *_) = _objects_on_two_pairs(window)
-    ws.edit_object(first, "cod", "")
+    ws.edits.edit_object(first, "cod", "")
     window.set_annotator("bob")
     ws.project.set_review(first, "flagged", "blurred")
     ws.objects_changed_in_store(updated=(first,))  # the window reads the review (else its delete is stale)
@@ -162,7 +162,7 @@ def test_h_on_an_object_row_shows_its_history_and_provenance(qtbot, make_window,
     summary = dialog.summary.text()
     assert "Made by alice" in summary and "Vertices picked by alice (1)" in summary
     assert "Review: flagged by bob" in summary and "blurred" in summary
-    ws.delete_object(first)
+    ws.edits.delete_object(first)
     dialog.refresh()  # a deleted object's history stays
     assert dialog.table.rowCount() == 4 and "no longer in the project" in dialog.summary.text()
     dialog.close()
@@ -206,7 +206,7 @@ def test_an_object_edited_in_the_window_is_reviewed_and_one_changed_elsewhere_is
     window.show_review()
     window.review.follow.setChecked(False)
     queue = window.review.list
-    ws.edit_object(ids[0], "cod", "edited here before the review")  # the window's own edit: not stale
+    ws.edits.edit_object(ids[0], "cod", "edited here before the review")  # the window's own edit: not stale
     qtbot.keyClick(queue, Key.Key_A)
     assert ws.project.review(ids[0]).state == "accepted"
     current = window.review.model.current
@@ -235,7 +235,7 @@ def test_an_accepted_object_edited_in_the_window_shows_unreviewed_and_undo_shows
     window.object_list.refresh()
     window.show_review()
     assert ids[1] not in window.review.model.queue and window.review.progress.text() == "0 of 3 reviewed"
-    ws.edit_object(ids[1], "cod", "")
+    ws.edits.edit_object(ids[1], "cod", "")
     assert _review_column(window, ids[1]) == "unreviewed" and ws.project.review(ids[1]).state == "unreviewed"
     assert window.review.model.queue[-1] == ids[1] and window.review.progress.text() == "0 of 4 reviewed"
     assert window.review.list.item(3).text().endswith("— unreviewed")

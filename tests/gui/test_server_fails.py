@@ -26,7 +26,7 @@ def test_an_edit_while_the_server_is_down_is_not_shown_saved_is_kept_and_saved_b
     ws.object_events.updated.connect(lambda ids: shown.append(tuple(ids)))
     try:
         killable.kill()
-        ws.edit_object(1, "snapper", "")  # typed in the object list's cell while the server is down
+        ws.edits.edit_object(1, "snapper", "")  # typed in the object list's cell while the server is down
         level, text = said[-1]
         assert level == "error" and "not saved" in text and "the server is unreachable" in text
         assert "OperationalError" not in text and "\n" not in text

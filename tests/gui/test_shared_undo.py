@@ -36,10 +36,10 @@ def test_ctrl_z_over_another_annotators_later_edit_is_refused_in_one_line_and_th
     ids = [mine.project.add_object("point", [Vertex(300.0 + 40 * k, 200.0, 280.0 + 40 * k, 200.0,
                                                     pair="measure1")], "fish") for k in range(2)]
     mine.reload_objects()
-    mine.edit_object(ids[0], "cod", "alice: first")   # two steps on alice's undo stack
-    mine.edit_object(ids[1], "ling", "alice: second")
+    mine.edits.edit_object(ids[0], "cod", "alice: first")   # two steps on alice's undo stack
+    mine.edits.edit_object(ids[1], "ling", "alice: second")
     open_sample(qtbot, bob, directory, "measure1")
-    bob.workspace.edit_object(ids[1], "haddock", "bob: measured again")  # over alice's edit
+    bob.workspace.edits.edit_object(ids[1], "haddock", "bob: measured again")  # over alice's edit
     bobs, kept = mine.project.object_rows(ids[1]), mine.project.history()
     _press(qtbot, alice, Key.Key_Z, CTRL)
     said = alice.statusBar().currentMessage()
@@ -75,16 +75,16 @@ def test_undo_of_a_store_and_redo_of_a_delete_are_refused_over_another_annotator
     try:
         ws.set_pair("measure1", *load_pair_images(project, "measure1"))
         left, right = truth_pixels(directory, "measure1", "objects")
-        ws.set_tool("line")
+        ws.pick_tool.set_tool("line")
         for point in ("snout", "fork"):
-            ws.pick("left", left["fish1"][point])
-            ws.pick("right", right["fish1"][point])
-        first = ws.finish_object("fish")
+            ws.pick_tool.pick("left", left["fish1"][point])
+            ws.pick_tool.pick("right", right["fish1"][point])
+        first = ws.pick_tool.finish_object("fish")
         for point in ("snout", "fork"):
-            ws.pick("left", left["fish1"][point])
-            ws.pick("right", right["fish1"][point])
-        second = ws.finish_object("fish")
-        ws.delete_object(first)
+            ws.pick_tool.pick("left", left["fish1"][point])
+            ws.pick_tool.pick("right", right["fish1"][point])
+        second = ws.pick_tool.finish_object("fish")
+        ws.edits.delete_object(first)
         ws.undo.undo()  # the delete taken back: the redo would delete it again
         with Project.open(project.path) as other:
             other.annotator = "bob"

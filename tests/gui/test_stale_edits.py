@@ -45,8 +45,8 @@ def test_an_edit_from_an_out_of_date_window_is_refused_by_name_kept_and_retried_
     ann, _ = _window(location, "ann")
     bob, said = _window(location, "bob")  # bob's window read the object before ann's edit
     try:
-        ann.edit_object(1, "fish", "ann's notes")
-        bob.edit_object(1, "cod", "")  # bob typed an attribute; his window still shows the old (empty) notes
+        ann.edits.edit_object(1, "fish", "ann's notes")
+        bob.edits.edit_object(1, "cod", "")  # bob typed an attribute; his window still shows the old (empty) notes
         assert ann.project.object(1).notes == "ann's notes" and ann.project.object(1).attribute == "fish"
         ((level, text),) = [m for m in said if m[0] == "error"]
         assert "not saved" in text and "ann" in text and "\n" not in text
@@ -66,16 +66,16 @@ def test_a_delete_and_a_record_from_an_out_of_date_window_are_refused_by_name_an
     ann, _ = _window(location, "ann")
     bob, said = _window(location, "bob")
     try:
-        ann.edit_object(1, "fish", "ann: fresh edit")
-        bob.delete_object(1)  # from the out-of-date window: would remove ann's fresh edit
+        ann.edits.edit_object(1, "fish", "ann: fresh edit")
+        bob.edits.delete_object(1)  # from the out-of-date window: would remove ann's fresh edit
         assert ann.project.object(1).notes == "ann: fresh edit"
         assert "not saved" in said[-1][1] and "edit by ann" in said[-1][1]
         assert bob.stored_object(1).notes == "ann: fresh edit"  # re-read: bob now sees ann's edit
         assert bob.edits.discard_unsaved() == 1 and not bob.edits.unsaved
         assert bob.project.object(1).notes == "ann: fresh edit"
-        bob.set_record(1, ObservationRecord(genus="Pagrus", species="auratus"))  # bob's window is up to date
+        bob.edits.set_record(1, ObservationRecord(genus="Pagrus", species="auratus"))  # bob's window is up to date
         with pytest.raises(StaleEditError, match="record by bob"):  # ann's is not: refused, bob's record kept
-            ann.set_record(1, ObservationRecord(genus="Gadus", species="morhua"))
+            ann.edits.set_record(1, ObservationRecord(genus="Gadus", species="morhua"))
         assert ann.project.record(1).genus == "Pagrus" and list(ann.edits.unsaved) == [
             (1, "observation record of object 1")]
         assert ann.edits.discard_unsaved() == 1 and ann.project.record(1).genus == "Pagrus"
@@ -91,7 +91,7 @@ def test_an_edit_made_by_another_process_since_the_window_read_is_refused_by_nam
                   "with open_project(sys.argv[1]) as p:\n    p.update_object(1, notes='dora: remeasured')\n")
         environment = {**os.environ, "USVIPS_ANNOTATOR": "dora"}
         subprocess.run([sys.executable, "-c", script, location], check=True, env=environment, timeout=120)
-        ann.edit_object(1, "snapper", "")
+        ann.edits.edit_object(1, "snapper", "")
         assert ann.project.object(1).notes == "dora: remeasured" and ann.project.object(1).attribute == "fish"
         assert "edit by dora" in said[-1][1]
         assert ann.edits.retry_unsaved() == 1

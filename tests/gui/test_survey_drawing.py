@@ -51,7 +51,7 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     assert len(_points(plan.ellipses.curve)) == 0  # at survey size only the selection's ellipses
 
     _store_fish(qtbot, window, 0.0)
-    first = ws.objects()[-1]
+    first = ws.cache.objects()[-1]
     picks = item_from_pixels(np.array([[v.xl, v.yl] for v in first.vertices]))
     xyz = np.array([v.xyz for v in first.vertices])[:, :2]  # plan (X–Y)
     # the new outline alone on the added items; the others' pictures untouched (not even re-set)
@@ -59,7 +59,7 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     assert np.array_equal(pane.object_lines(), others["pane"])
     assert np.allclose(_points(plan.added_curve.curve), xyz)
     assert np.array_equal(_points(plan.curve.curve), others["plan"])
-    ws.cancel_vertex()
+    ws.pick_tool.cancel_vertex()
     _store_fish(qtbot, window, 3.0)  # a second fish joins the first on the added items
     assert len(_points(pane.added_item)) == 4 and len(_points(plan.added_curve.curve)) == 4
 
@@ -78,8 +78,8 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     # a removal redraws the chunk of the picture that held the object, no other (the added fish stay on
     # their items); the plan view draws whole again
     chunks = [_points(item) for item in pane.object_items]
-    gone = ws.objects()[0]
-    ws.delete_object(gone.id)
+    gone = ws.cache.objects()[0]
+    ws.edits.delete_object(gone.id)
     after = [_points(item) for item in pane.object_items]
     changed = [k for k, (a, b) in enumerate(zip(chunks, after, strict=True)) if not np.array_equal(a, b)]
     assert len(pane.object_items) == 4
@@ -89,5 +89,5 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     assert len(_points(pane.added_item)) == 4 and len(pane.object_lines()) == 2 * (COUNT - 1)
     assert len(_points(plan.added_curve.curve)) == 0 and _contains(_points(plan.curve.curve), xyz)
     # an edit that needs the whole picture (selecting the added fish and deleting it) draws it whole
-    ws.delete_object(first.id)
+    ws.edits.delete_object(first.id)
     assert len(_points(pane.added_item)) == 0 and len(pane.object_lines()) == 2 * (COUNT - 1 + 1)

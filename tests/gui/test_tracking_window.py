@@ -93,8 +93,8 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     qtbot.waitUntil(lambda: any(label.toPlainText().startswith(f"{ids[1]}: instant of {object_id} ")
                                 for label in window.panes["left"].labels), timeout=10000)
     combined = evaluate(measurement_input(project, project.object(object_id)))
-    qtbot.waitUntil(lambda: window.workspace.object_figures(object_id) is not None, timeout=10000)
-    assert window.workspace.object_figures(object_id).figures[0].value == combined.figures[0].value
+    qtbot.waitUntil(lambda: window.workspace.cache.known_figures(object_id) is not None, timeout=10000)
+    assert window.workspace.cache.known_figures(object_id).figures[0].value == combined.figures[0].value
     row = window.object_list.row_of(object_id)
     column = window.object_list.COLUMNS.index("figure")
     qtbot.waitUntil(lambda: window.object_list.text(row, "figure") != "computing…", timeout=10000)
@@ -107,9 +107,9 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     assert abs(combined.figures[0].value - np.mean(distances)) < 3 * combined.figures[0].sigma
     # undoable: Ctrl+Z takes the instants away, Ctrl+Shift+Z puts the same ones back
     window.undo()
-    assert project.instants(object_id) == [] and not set(ids) & set(window.workspace.object_ids())
+    assert project.instants(object_id) == [] and not set(ids) & set(window.workspace.cache.ids())
     window.redo()
-    assert project.instants(object_id) == ids and set(ids) <= set(window.workspace.object_ids())
+    assert project.instants(object_id) == ids and set(ids) <= set(window.workspace.cache.ids())
     # the instants dialog: each instant with its weight, the combined figure; Enter goes to an instant's frame
     # from the object list: its context menu (or Ctrl+I there) opens the selected object's instants
     window.workspace.select([object_id])
@@ -220,14 +220,14 @@ def test_p_proposes_the_vertices_on_a_later_frame_and_the_new_object_joins_as_an
     window = _open(qtbot, make_window, path, object_id, frame=12)
     ws = window.workspace
     qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
-    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    qtbot.waitUntil(lambda: ws.pick_tool.state.proposal is not None and not window.busy, timeout=30000)
     for k, point in enumerate(POINTS):
         true_left, true_right = truth(stereo, fish, 12, point * fish.length)
-        assert np.linalg.norm(np.subtract(ws.state.left, true_left)) < 0.5
-        assert np.linalg.norm(np.subtract(ws.state.proposal, true_right)) < 0.5
-        assert f"vertex {k + 1} of 2" in ws.state.note
+        assert np.linalg.norm(np.subtract(ws.pick_tool.state.left, true_left)) < 0.5
+        assert np.linalg.norm(np.subtract(ws.pick_tool.state.proposal, true_right)) < 0.5
+        assert f"vertex {k + 1} of 2" in ws.pick_tool.state.note
         qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # Enter accepts
-    assert len(ws.digitising.vertices) == 2 and ws.state.proposal is None
+    assert len(ws.pick_tool.digitising.vertices) == 2 and ws.pick_tool.state.proposal is None
     qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # Enter stores the new object
     project = ws.project
     qtbot.waitUntil(lambda: len(project.instants(object_id)) == 1, timeout=5000)
@@ -254,9 +254,10 @@ def test_p_with_the_images_zoomed_elsewhere_brings_each_proposed_point_into_view
     for side in ("left", "right"):
         window.panes[side].zoom_to(8.0, (3.0, 3.0))  # the top-left corner, far from the fish
     qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
-    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    qtbot.waitUntil(lambda: ws.pick_tool.state.proposal is not None and not window.busy, timeout=30000)
     for _ in range(2):
-        assert window.panes["left"].in_view(ws.state.left) and window.panes["right"].in_view(ws.state.proposal)
+        state = ws.pick_tool.state
+        assert window.panes["left"].in_view(state.left) and window.panes["right"].in_view(state.proposal)
         assert abs(window.panes["left"].zoom_level() - 8.0) < 0.5  # the zoom kept
         qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
 
@@ -273,9 +274,9 @@ def test_shift_t_re_follows_a_vertex_from_the_point_re_picked_on_the_frame_shown
     _wait_frame(qtbot, window, 12)
     # the user re-picks the second vertex on frame 12 (pick tool: left, then its partner)
     true_left, true_right = truth(stereo, fish, 12, POINTS[1] * fish.length)
-    ws.pick("left", tuple(true_left + (0.2, -0.1)))
-    ws.pick("right", tuple(true_right))
-    assert ws.last_point is not None
+    ws.pick_tool.pick("left", tuple(true_left + (0.2, -0.1)))
+    ws.pick_tool.pick("right", tuple(true_right))
+    assert ws.pick_tool.last_point is not None
     before = window.tracking.model.tracks[1]
     qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_T, QtCore.Qt.KeyboardModifier.ShiftModifier)
     qtbot.waitUntil(lambda: window.tracking.model.corrected.get(1) == {12} and not window.busy, timeout=30000)
@@ -295,24 +296,24 @@ def test_an_instant_proposed_in_one_project_is_not_joined_in_the_next_one(qtbot,
     window = _open(qtbot, make_window, path, object_id, frame=12)
     ws = window.workspace
     qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
-    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    qtbot.waitUntil(lambda: ws.pick_tool.state.proposal is not None and not window.busy, timeout=30000)
     for _ in POINTS:
         qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # Enter accepts
-    assert len(ws.digitising.vertices) == 2 and "new instant" in _status(window)
+    assert len(ws.pick_tool.digitising.vertices) == 2 and "new instant" in _status(window)
     other = path.with_name(f"other_{path.name}")  # beside it: its video files found as in the first
     shutil.copy(path, other)  # another survey whose object of that id is another fish
     assert window.open_path(other, "drop")
     window.video.request(12)
     _wait_frame(qtbot, window, 12)
     project = ws.project
-    ws.set_tool("line")
+    ws.pick_tool.set_tool("line")
     for point in POINTS:
         left, right = truth(stereo, fish, 12, point * fish.length)
-        ws.pick("left", tuple(left))
-        ws.pick("right", tuple(right))
-        if ws.state.pending is not None:  # held by a guard rail: keep it
-            ws.accept_proposal()
-    new = ws.finish_object("fish", "")
+        ws.pick_tool.pick("left", tuple(left))
+        ws.pick_tool.pick("right", tuple(right))
+        if ws.pick_tool.state.pending is not None:  # held by a guard rail: keep it
+            ws.pick_tool.accept_proposal()
+    new = ws.pick_tool.finish_object("fish", "")
     qtbot.wait(50)  # a join is made after the store has finished (a zero-time timer)
     assert project.instants(object_id) == [] and project.instant_links() == {}
     assert new in ws.cache and "instant" not in _status(window)
@@ -325,20 +326,20 @@ def test_proposals_taken_then_undone_leave_the_next_object_measured_on_the_frame
     window = _open(qtbot, make_window, path, object_id, frame=12)
     ws = window.workspace
     qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_P)
-    qtbot.waitUntil(lambda: ws.state.proposal is not None and not window.busy, timeout=30000)
+    qtbot.waitUntil(lambda: ws.pick_tool.state.proposal is not None and not window.busy, timeout=30000)
     for _ in POINTS:
         qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # Enter accepts
-    assert len(ws.digitising.vertices) == 2
-    while ws.digitising.vertices:
+    assert len(ws.pick_tool.digitising.vertices) == 2
+    while ws.pick_tool.digitising.vertices:
         ws.undo.undo()
-    ws.set_tool("line")
+    ws.pick_tool.set_tool("line")
     for point in POINTS:  # another fish, 40 px away
         left, right = truth(stereo, fish, 12, point * fish.length)
-        ws.pick("left", tuple(left + 40.0))
-        ws.pick("right", tuple(right + 40.0))
-        if ws.state.pending is not None:  # held by a guard rail: keep it
-            ws.accept_proposal()
-    new = ws.finish_object("another fish", "")
+        ws.pick_tool.pick("left", tuple(left + 40.0))
+        ws.pick_tool.pick("right", tuple(right + 40.0))
+        if ws.pick_tool.state.pending is not None:  # held by a guard rail: keep it
+            ws.pick_tool.accept_proposal()
+    new = ws.pick_tool.finish_object("another fish", "")
     qtbot.wait(50)  # a join is made after the store has finished (a zero-time timer)
     assert ws.project.instants(object_id) == [] and new in ws.cache
 

@@ -47,9 +47,9 @@ def test_the_sample_video_shows_synchronised_frames_and_a_fish_measures_true(qtb
     window.actions["tool_line"].trigger()
     left_truth, right_truth = truth["left"][12]["pixels"], truth["right"][15]["pixels"]
     for point in ("snout", "fork"):
-        window.workspace.pick("left", left_truth[point])
-        window.workspace.pick("right", right_truth[point])
-    object_id = window.workspace.finish_object("fish2")
+        window.workspace.pick_tool.pick("left", left_truth[point])
+        window.workspace.pick_tool.pick("right", right_truth[point])
+    object_id = window.workspace.pick_tool.finish_object("fish2")
     stored = window.workspace.project.object(object_id)
     assert [(v.video, v.frame_left, v.frame_right) for v in stored.vertices] == [("video", 12, 15)] * 2
     assert stored.vertices[0].time_s == pytest.approx(1.2)
@@ -118,9 +118,9 @@ def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make
     truth = json.loads((directory / "truth.json").read_text())["video"]
     window.actions["tool_line"].trigger()
     for point in ("snout", "fork"):
-        window.workspace.pick("left", truth["left"][20]["pixels"][point])
-        window.workspace.pick("right", truth["right"][23]["pixels"][point])
-    object_id = window.workspace.finish_object("Sparidae Pagrus auratus")
+        window.workspace.pick_tool.pick("left", truth["left"][20]["pixels"][point])
+        window.workspace.pick_tool.pick("right", truth["right"][23]["pixels"][point])
+    object_id = window.workspace.pick_tool.finish_object("Sparidae Pagrus auratus")
     window.export_objects(tmp_path / "dive.em.txt")
     header, row = (tmp_path / "dive_Lengths.txt").read_text().splitlines()
     values = dict(zip(header.split("\t"), row.split("\t"), strict=True))
@@ -132,7 +132,7 @@ def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make
     # the objects CSV: the record's species and number, the video, its files, frames and time
     from usvips.core.observation_record import ObservationRecord
 
-    window.workspace.set_record(object_id, ObservationRecord("Sparidae", "Pagrus", "auratus", "37353001", 2))
+    window.workspace.edits.set_record(object_id, ObservationRecord("Sparidae", "Pagrus", "auratus", "37353001", 2))
     window.export_objects(tmp_path / "dive.csv")
     with open(tmp_path / "dive.csv", newline="") as stream:
         (row,) = list(csv.DictReader(stream))
@@ -403,8 +403,7 @@ def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_o
     (tmp_path / "proxies").write_text("a file where the proxies' folder would be")
     window = make_window()
     said = []
-    show = window.show_message
-    window.show_message = lambda kind, text: said.append((kind, text)) or show(kind, text)
+    window.messages.said.connect(lambda kind, text: said.append((kind, text)))  # the controllers' messages
     window.video.ask_before_proxies = False  # built without the question here (see the proxies' own test)
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")

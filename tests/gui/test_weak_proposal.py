@@ -19,7 +19,7 @@ def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_w
     for number in (k for k in left if left[k] is not None and right.get(k) is not None):
         window.cancel_pick()
         click_pixel(qtbot, window.panes["left"], left[number])
-        state = ws.state
+        state = ws.pick_tool.state
         if state.proposal is None:
             continue
         colour = pane.proposal_item.opts["pen"].color().getRgb()[:3]
@@ -38,10 +38,10 @@ def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_w
         proposal = state.proposal
         window.focus_images()
         qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)  # one key
-        if ws.state.pending is not None:  # a guard rail held it: Enter again keeps it, flagged
+        if ws.pick_tool.state.pending is not None:  # a guard rail held it: Enter again keeps it, flagged
             qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
-        assert ws.state.source is None
-        assert np.allclose(ws.last_point.right, proposal)
+        assert ws.pick_tool.state.source is None
+        assert np.allclose(ws.pick_tool.last_point.right, proposal)
         assert len(pane.proposal_item.getData()[0]) == 0 and not pane.proposal_weak
         if seen["confident"]:
             break
@@ -49,7 +49,7 @@ def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_w
 
 
 def test_a_vertex_proposed_from_elsewhere_is_drawn_said_and_kept_by_enter(qtbot, make_window, sample_copy):
-    """``workspace.propose_vertex`` (a track's proposal) in the window: the left pick and the right
+    """``workspace.pick_tool.propose_vertex`` (a track's proposal) in the window: the left pick and the right
     proposal drawn, the note on the hint line, Enter on the images keeps it."""
     window = make_window()
     directory = sample_copy("tank_system1")
@@ -57,13 +57,13 @@ def test_a_vertex_proposed_from_elsewhere_is_drawn_said_and_kept_by_enter(qtbot,
     left, right = truth_pixels(directory, "water1", "targets")
     number = next(k for k in left if left[k] is not None and right.get(k) is not None)
     ws = window.workspace
-    ws.propose_vertex(left[number], right[number], "track 7, frame 40")
+    ws.pick_tool.propose_vertex(left[number], right[number], "track 7, frame 40")
     drawn = np.column_stack(window.panes["right"].proposal_item.getData())
     assert np.allclose(drawn, item_from_pixels(right[number]))
     assert "track 7, frame 40" in window.hint.text() and "Enter accepts" in window.hint.text()
     window.focus_images()
     qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
-    if ws.state.pending is not None:  # a guard rail held it: Enter again keeps it, flagged
+    if ws.pick_tool.state.pending is not None:  # a guard rail held it: Enter again keeps it, flagged
         qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
-    assert ws.state.source is None and np.allclose(ws.last_point.right, right[number])
+    assert ws.pick_tool.state.source is None and np.allclose(ws.pick_tool.last_point.right, right[number])
     assert len(window.panes["right"].proposal_item.getData()[0]) == 0

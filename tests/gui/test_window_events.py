@@ -40,7 +40,7 @@ def test_a_pick_and_a_store_update_one_row_among_many(qtbot, make_window, tmp_pa
     window.actions["accept"].trigger()  # Enter stores the fish
     assert model.rowCount() == COUNT + 1
     assert [model.index(row, 0).data() for row in range(COUNT)] == before and resets == []
-    new_id = window.workspace.objects()[-1].id
+    new_id = window.workspace.cache.objects()[-1].id
     assert model.index(COUNT, 0).data() == str(new_id) and "mm" in model.index(COUNT, FIGURE).data()
     # above 300 objects only the selected ones are labelled on the panes
     assert window.panes["left"].labels == []

@@ -47,11 +47,11 @@ def model(sample_copy, monkeypatch):
 
 def _store_fish(ws, directory) -> int:
     left, right = truth_pixels(directory, "measure1", "objects")
-    ws.set_tool("line")
+    ws.pick_tool.set_tool("line")
     for point in ("snout", "fork"):
-        ws.pick("left", left["fish1"][point])
-        ws.pick("right", right["fish1"][point])
-    return ws.finish_object("fish")
+        ws.pick_tool.pick("left", left["fish1"][point])
+        ws.pick_tool.pick("right", right["fish1"][point])
+    return ws.pick_tool.finish_object("fish")
 
 
 def _named(ws, *names):
@@ -65,7 +65,7 @@ def test_storing_an_object_announces_its_id_and_lists_nothing(model):
     object_events = _named(ws, "objects_added", "objects_updated", "objects_removed", "objects_reset")
     assert object_events == [("objects_added", (object_id,))]
     assert ws.counts["listings"] == 0  # no listing of every object from SQLite
-    assert [o.id for o in ws.objects()] == [object_id] and ws.stored_object(object_id).attribute == "fish"
+    assert [o.id for o in ws.cache.objects()] == [object_id] and ws.stored_object(object_id).attribute == "fish"
     # its figures were computed once (for the message) and are answered from the cache after that
     assert ws.counts["figures"] == 1
     first = ws.figures([object_id])
@@ -81,7 +81,7 @@ def test_edits_announce_the_changed_id_and_recompute_only_its_figures(model):
     ws.figures([other])
     computed = ws.counts["figures"]
     ws.events.clear()
-    ws.edit_object(fish, "bream", "tail damaged")
+    ws.edits.edit_object(fish, "bream", "tail damaged")
     assert _named(ws, "objects_added", "objects_updated", "objects_removed") == [("objects_updated", (fish,))]
     assert ws.stored_object(fish).notes == "tail damaged" and ws.stored_object(other).attribute == "fish"
     ws.figures([other])
@@ -89,7 +89,7 @@ def test_edits_announce_the_changed_id_and_recompute_only_its_figures(model):
     ws.figures([fish])
     assert ws.counts["figures"] == computed + 1  # the edited one is computed once again
     ws.events.clear()
-    ws.change_kind(fish, "arc")
+    ws.edits.change_kind(fish, "arc")
     ws.undo.undo()
     assert _named(ws, "objects_updated") == [("objects_updated", (fish,))] * 2
     assert ws.stored_object(fish).kind == "length"
@@ -104,16 +104,16 @@ def test_deleting_removes_by_id_prunes_the_selection_and_undo_adds_it_back(model
     ws.select([second, first][::-1])  # the same selection again: no event
     assert _named(ws, "selection_changed") == [("selection_changed", (first, second))]
     ws.events.clear()
-    ws.delete_object(first)
+    ws.edits.delete_object(first)
     assert _named(ws, "objects_removed", "selection_changed", "objects_added") == [
         ("objects_removed", (first,)), ("selection_changed", (second,))]
-    assert [o.id for o in ws.objects()] == [second]
+    assert [o.id for o in ws.cache.objects()] == [second]
     ws.events.clear()
     ws.undo.undo()
     (added,) = _named(ws, "objects_added")
     (restored,) = added[1]
-    assert [o.id for o in ws.objects()] == sorted([second, restored])
-    cached, stored = ws.objects(), ws.project.objects()  # the cache is what the project holds
+    assert [o.id for o in ws.cache.objects()] == sorted([second, restored])
+    cached, stored = ws.cache.objects(), ws.project.objects()  # the cache is what the project holds
     assert [(o.id, o.kind, o.attribute, [v.xyz for v in o.vertices]) for o in cached] == \
         [(o.id, o.kind, o.attribute, [v.xyz for v in o.vertices]) for o in stored]
     assert ws.counts["listings"] == 1  # ... and only that comparison listed them
@@ -137,21 +137,21 @@ def test_rules_and_selection_events(model):
 def test_another_project_resets_everything_by_one_listing(model, sample_copy):
     ws, directory = model
     _store_fish(ws, directory)
-    ws.select([ws.objects()[0].id])
+    ws.select([ws.cache.objects()[0].id])
     ws.events.clear()
     other = open_or_create_from_manifest(sample_copy("tank_system1"))
     ws.open_project(other)
     assert ("objects_reset",) in ws.events and ("selection_changed", ()) in ws.events
-    assert ws.counts["listings"] == 1 and ws.objects() == [] and ws.selection == ()
+    assert ws.counts["listings"] == 1 and ws.cache.objects() == [] and ws.selection == ()
 
 
 def test_a_stale_worker_result_is_not_kept(model):
     ws, directory = model
     fish = _store_fish(ws, directory)
-    ws.forget_figures()
-    job = ws.figures_job([fish])
+    ws.cache.forget_figures()
+    job = ws.cache.figures_job([fish])
     results = job()
-    ws.edit_object(fish, "changed meanwhile", "")
-    assert ws.remember_figures(job, results) == []  # computed from the object before its edit
-    job = ws.figures_job([fish])
-    assert ws.remember_figures(job, job()) == [fish] and ws.object_figures(fish) is not None
+    ws.edits.edit_object(fish, "changed meanwhile", "")
+    assert ws.cache.remember(job, results) == []  # computed from the object before its edit
+    job = ws.cache.figures_job([fish])
+    assert ws.cache.remember(job, job()) == [fish] and ws.cache.known_figures(fish) is not None

@@ -75,7 +75,7 @@ else:
         app.processEvents()
         time.sleep(0.01)
     for side in ("left", "right"):
-        window.workspace.set_pipeline(side, Pipeline().then("clahe", clip_limit=2.0))
+        window.workspace.enhancement.set_pipelines({side: Pipeline().then("clahe", clip_limit=2.0)})
     while window.busy and time.time() < deadline:
         app.processEvents()
         time.sleep(0.01)
@@ -153,8 +153,8 @@ def survey_project(directory: Path, count: int, seed: int = 0) -> Path:
     its pair ``measure1``: random points 1.5–4 m along rays of the left image, projected into the right
     image through the pair's calibration, stored with their X, Y, Z (m) as the window stores them. For the
     survey-size rows of the bench and for looking at the window with many objects."""
+    from usvips.app.pair_geometry import pair_geometry
     from usvips.app.samples import create_from_manifest
-    from usvips.gui.workspace import pair_geometry
     from usvips.store.project import Vertex
 
     directory.mkdir(parents=True, exist_ok=True)
@@ -201,7 +201,7 @@ def _pick_rows(window, app, label: str, left_px, right_px) -> Iterator[dict]:
     panes = window.panes.values()
 
     def first(shift: float) -> None:
-        ws.cancel_vertex()
+        ws.pick_tool.cancel_vertex()
         window._on_clicked("left", *(c + shift for c in left_px))
         for pane in panes:
             pane.graphics.viewport().repaint()
@@ -255,7 +255,7 @@ def _store_row(window, label: str, *pixels) -> dict:
         for pane in window.panes.values():
             pane.graphics.viewport().repaint()
         times.append(time.perf_counter() - start)
-        stored = ws.objects()[-1]
+        stored = ws.cache.objects()[-1]
         writes.append(_timed(lambda s=stored: ws.project.add_object(s.kind, list(s.vertices), s.attribute)))
     ours, base = min(times), min(writes)
     return {"name": f"gui: store a fish, list row, outlines and readout ({label})", "n": 1, "ours_s": round(ours, 5),
@@ -267,12 +267,12 @@ def _delete_row(window, label: str) -> dict:
     """Deleting one stored object among many (Delete in the object list): the list row, its chunk of the
     outlines and the plan updated and both panes repainted; against deleting it from the project alone."""
     ws = window.workspace
-    ids = ws.object_ids()
+    ids = ws.cache.ids()
     times, deletes = [], []
     for k in range(3):  # objects in different chunks of the picture
         object_id = ids[(k + 1) * len(ids) // 4]
         start = time.perf_counter()
-        ws.delete_object(object_id)
+        ws.edits.delete_object(object_id)
         for pane in window.panes.values():
             pane.graphics.viewport().repaint()
         times.append(time.perf_counter() - start)
@@ -300,12 +300,12 @@ def _qa_row(window, label: str) -> dict:
     qa.timer.stop()  # the panel's own check: done here, untimed, with the figures computed and cached
     if qa._worker is not None:
         qa._worker.cancel()
-    objects = ws.objects()
-    computed = ws.figures_job([o.id for o in objects[:50]])()
-    job = ws.figures_job([o.id for o in objects])
-    ws.remember_figures(job, {o.id: computed[objects[k % 50].id] for k, o in enumerate(objects)})
+    objects = ws.cache.objects()
+    computed = ws.cache.figures_job([o.id for o in objects[:50]])()
+    job = ws.cache.figures_job([o.id for o in objects])
+    ws.cache.remember(job, {o.id: computed[objects[k % 50].id] for k, o in enumerate(objects)})
     qa.model.refresh_now()
-    checked = [Checked(str(o.id), o.kind, ws.object_figures(o.id).measurement, ws.object_record(o.id), Place.of(o))
+    checked = [Checked(str(o.id), o.kind, ws.cache.known_figures(o.id).measurement, ws.cache.record(o.id), Place.of(o))
                for o in objects]
     species = species_maxima(ws.project.species_list())
 
@@ -384,7 +384,7 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
             big_l, big_r = ([(c + 0.5) * scale_px - 0.5 for c in p] for p in (snout_l, snout_r))
             yield from _pick_rows(window, app, "4000×3000 colour pair", big_l, big_r)
             for side in ("left", "right"):
-                window.workspace.set_pipeline(side, Pipeline().then("clahe", clip_limit=2.0))
+                window.workspace.enhancement.set_pipelines({side: Pipeline().then("clahe", clip_limit=2.0)})
             _wait(app, window)
             yield _zoom_row(window)
             count = SURVEY if scale >= 1 else max(200, int(SURVEY * scale))  # a smaller survey: a smoke test

@@ -95,7 +95,7 @@ def scroll_row(scale: float = 1.0) -> dict:
 
             baseline = min(repaint() for _ in range(5))
             rows = listing.row_count()
-            computed = sum(window.workspace.object_figures(i) is not None for i in window.workspace.object_ids())
+            computed = sum(window.workspace.cache.known_figures(i) is not None for i in window.workspace.cache.ids())
             on_screen = len(listing.visible_rows())
         finally:
             window.workspace.close_project()

@@ -7,6 +7,7 @@ from PySide6 import QtWidgets
 from usvips.app.quality import object_facts
 from usvips.core.measurements.breakdown import breakdown_text
 from usvips.gui.calculator import format_figure
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.workspace import Workspace
 
 
@@ -82,7 +83,7 @@ class CalculatorPanel(QtWidgets.QWidget):
         return [f"combined over {count} instants (I lists them)"] if count > 1 else []
 
     def refresh(self, *_: object) -> None:
-        existing = set(self.workspace.object_ids())
+        existing = set(self.workspace.cache.ids())
         self.selection = [i for i in self.selection if i in existing]
         if not self.selection:
             self.output.setPlainText("Select one object for its figures, or two for the figures between them "
@@ -97,7 +98,7 @@ class CalculatorPanel(QtWidgets.QWidget):
             if len(self.selection) == 1 and self.selection[0] in self.workspace.cache:
                 object_id = self.selection[0]  # the one verdict (app.quality.judge), as the QA panel's
                 facts = object_facts(self.workspace.stored_object(object_id), result.measurement, self.workspace.rules,
-                                     self.workspace.object_record(object_id), self.workspace.species_maxima())
+                                     self.workspace.cache.record(object_id), self.workspace.species_maxima())
         if result.reason:
             lines.append(result.reason)
         if result.figures and not result.reason:
@@ -108,3 +109,8 @@ class CalculatorPanel(QtWidgets.QWidget):
             lines.append(f"bearing (clockwise from +Y towards +X) and slope (above the X–Y plane) are in "
                          f"{self.workspace.frame_description(self.selection[0])}")
         self.output.setPlainText("\n".join(lines))
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("calculator", "Geo-calculator", "right", lambda context: CalculatorPanel(context.workspace),
+                     group="figures", order=20))

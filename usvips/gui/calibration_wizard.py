@@ -26,8 +26,9 @@ from usvips.gui.exchange_dialogs import WizardReport
 from usvips.gui.housing_value_form import fill_known_form
 from usvips.gui.housing_values import parse_known
 from usvips.gui.pane import StereoPane, item_from_pixels
+from usvips.gui.pick_tool import OBSERVE, SIDES
 from usvips.gui.worker import Worker, start
-from usvips.gui.workspace import OBSERVE, SIDES, Workspace, pair_image_paths, read_pair
+from usvips.gui.workspace import Workspace, pair_image_paths, read_pair
 
 FLAG_COLOUR = QtGui.QColor(255, 170, 170)
 CHECK_COLOUR = QtGui.QColor(200, 220, 255)
@@ -301,7 +302,7 @@ class MeasurePage(QtWidgets.QWizardPage):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.splitter)
         self.workspace = Workspace(project=session.project)
-        self.workspace.set_tool(OBSERVE)
+        self.workspace.pick_tool.set_tool(OBSERVE)
         self.workspace.observed.connect(self._on_observed)
         self.workspace.picks_changed.connect(self._on_picks_changed)
         self.workspace.message.connect(lambda level, text: self.message.setText(text))
@@ -351,7 +352,7 @@ class MeasurePage(QtWidgets.QWizardPage):
         if label != self.pair.currentText():
             return
         self.workspace.set_pair(label, *images)
-        self.workspace.set_tool(OBSERVE)
+        self.workspace.pick_tool.set_tool(OBSERVE)
         if self.session.image_size == (None, None):
             self.session.image_size = (images[0].shape[1], images[0].shape[0])
         for side, image in zip(SIDES, images, strict=True):
@@ -394,14 +395,14 @@ class MeasurePage(QtWidgets.QWizardPage):
             self.panes["right"].centre_on((values[2], values[3]))
 
     def _on_clicked(self, side: str, x: float, y: float) -> None:
-        self.workspace.snap = self.snap.isChecked()
+        self.workspace.settings.snap = self.snap.isChecked()
         try:
-            self.workspace.pick(side, (x, y))
+            self.workspace.pick_tool.pick(side, (x, y))
         except UsvipsError as error:
             self.message.setText(str(error))
 
     def _on_picks_changed(self) -> None:
-        state = self.workspace.state
+        state = self.workspace.pick_tool.state
         for side in SIDES:
             opposite = state.source is not None and state.source != side
             self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
@@ -431,10 +432,10 @@ class MeasurePage(QtWidgets.QWizardPage):
 
     def accept_pick(self) -> None:
         """Take the proposed match as the second pick of the target; without one, say what to do."""
-        state = self.workspace.state
+        state = self.workspace.pick_tool.state
         if state.proposal is not None:
             try:
-                self.workspace.accept_proposal()
+                self.workspace.pick_tool.accept_proposal()
             except UsvipsError as error:
                 self.message.setText(str(error))
         elif state.source is not None:

@@ -10,7 +10,9 @@ from PySide6 import QtWidgets
 
 from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
-from usvips.gui.workspace import SIDES, Workspace
+from usvips.gui.panel_registry import Panel, register
+from usvips.gui.pick_tool import SIDES
+from usvips.gui.workspace import Workspace
 
 #: Starting values for operations whose parameters have no default in core.
 STARTING_PARAMETERS = {"piecewise": {"points": [[0, 0], [64, 32], [192, 224], [255, 255]]},
@@ -93,13 +95,13 @@ class EnhancementPanel(QtWidgets.QWidget):
         return SIDES if target == "both" else (target,)
 
     def _pipeline(self) -> Pipeline:
-        return self.workspace.pipelines[self._sides()[0]]
+        return self.workspace.enhancement.pipelines[self._sides()[0]]
 
     def _apply(self, pipeline: Pipeline) -> None:
         if not self.workspace.images:
             self.status.setText("open an image pair first")
             return
-        self.workspace.set_pipelines(dict.fromkeys(self._sides(), pipeline))
+        self.workspace.enhancement.set_pipelines(dict.fromkeys(self._sides(), pipeline))
 
     def _on_add(self) -> None:
         try:
@@ -125,8 +127,8 @@ class EnhancementPanel(QtWidgets.QWidget):
         if not self.workspace.images:
             return
         step = balance_pair(self.workspace.images["left"], self.workspace.images["right"])
-        pipeline = self.workspace.pipelines["right"]
-        self.workspace.set_pipeline("right", Pipeline(pipeline.operations + (step,)))
+        pipeline = self.workspace.enhancement.pipelines["right"]
+        self.workspace.enhancement.set_pipelines({"right": Pipeline(pipeline.operations + (step,))})
 
     def _on_step_selected(self, row: int) -> None:
         operations = self._pipeline().operations
@@ -176,3 +178,8 @@ class EnhancementPanel(QtWidgets.QWidget):
                 curve.setData([], [])
             else:
                 curve.setData(np.arange(len(counts)), counts / max(counts.max(), 1))
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("enhancement", "Enhancement", "right", lambda context: EnhancementPanel(context.workspace),
+                     group="enhancement", order=10, size=330))

@@ -5,6 +5,8 @@ from __future__ import annotations
 from PySide6 import QtCore, QtWidgets
 
 from usvips.core.redaction import redact
+from usvips.gui.panel_registry import Panel, register
+from usvips.gui.window_context import WindowContext
 
 
 class LogPanel(QtWidgets.QPlainTextEdit):
@@ -20,3 +22,14 @@ class LogPanel(QtWidgets.QPlainTextEdit):
         text = redact(text)
         stamp = QtCore.QTime.currentTime().toString("HH:mm:ss")
         self.appendPlainText(f"{stamp} {level:7s} {text}")
+
+
+def _log(context: WindowContext) -> LogPanel:
+    """The log, keeping every message the window's parts say (:mod:`usvips.gui.messages`)."""
+    log = LogPanel()
+    context.messages.said.connect(log.add)
+    return log
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("log", "Log", "bottom", _log, group="records", order=70))

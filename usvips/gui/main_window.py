@@ -8,8 +8,10 @@ and runs image reading and enhancement in worker threads (progress and cancel in
 
 from __future__ import annotations
 
+import html
 import os
 from pathlib import Path
+from types import ModuleType
 
 import cv2
 import numpy as np
@@ -17,32 +19,27 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
-from usvips.core.measurements import kind as measurement_kind
 from usvips.core.redaction import redact
-from usvips.gui import exchange_dialogs, media_dialogs, menu_keys
+from usvips.gui import commands, exchange_dialogs, media_dialogs, menu_keys, panel_registry
 from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
-from usvips.gui.calculator_panel import CalculatorPanel
-from usvips.gui.enhancement_panel import EnhancementPanel
+from usvips.gui.commands import TOOL_TIPS
 from usvips.gui.error_report import register_window
 from usvips.gui.instants_view import InstantsView
+from usvips.gui.jobs import Jobs
 from usvips.gui.live_updates import LiveUpdates
-from usvips.gui.log_panel import LogPanel
 from usvips.gui.media_check import MediaCheck
-from usvips.gui.object_list import ObjectList
+from usvips.gui.messages import Messages
 from usvips.gui.object_overlay import ObjectOverlay
-from usvips.gui.observation_form import ObservationForm
-from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
-from usvips.gui.plan_view import PlanView
-from usvips.gui.planner_dock import PlannerDock
-from usvips.gui.qa_dock import QaDock
-from usvips.gui.review_dock import ReviewDock
+from usvips.gui.pane import StereoPane, pixel_from_item
+from usvips.gui.pick_tool import SIDES, TOOLS, describe_point
 from usvips.gui.status_bar import StatusBar
 from usvips.gui.track_controls import TrackController
 from usvips.gui.video_controls import VideoController
 from usvips.gui.video_model import format_timecode
+from usvips.gui.window_context import WindowContext
 from usvips.gui.wording import plural
 from usvips.gui.worker import Cancelled, Worker
-from usvips.gui.workspace import SIDES, TOOLS, Workspace, describe_point, pair_image_paths, read_pair
+from usvips.gui.workspace import Workspace, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
 from usvips.locations import resources_folder, sample_projects
 from usvips.store.annotator import annotating_as
@@ -50,15 +47,10 @@ from usvips.store.location import is_server_location, without_password
 from usvips.store.records import StaleEditError
 
 SAMPLES = sample_projects()
-#: Nudge directions (image pixels per step; y down): Ctrl+arrow moves the current pick 0.1 px, Ctrl+Shift+arrow 1
-#: px (plain and Shift+arrows step a video's frames).
-NUDGES = {"Left": (-1.0, 0.0), "Right": (1.0, 0.0), "Up": (0.0, -1.0), "Down": (0.0, 1.0)}
 MAX_RECENT = 8
-TOOL_TIPS = {"pick": "Pick: intersect single points without storing them",
-             "point": "Point: each intersected point is stored as an object",
-             "line": "Line: digitise a polyline vertex by vertex (Enter finishes; a fish is snout then fork)",
-             "polygon": "Polygon: digitise an area vertex by vertex (Enter finishes)"}
-TOOL_TIPS.update({tool: measurement_kind(tool).description for tool in TOOLS if tool not in TOOL_TIPS})
+#: a panel's area (usvips.gui.panel_registry) as Qt's dock area
+DOCK_AREAS = {area: getattr(QtCore.Qt.DockWidgetArea, f"{area.capitalize()}DockWidgetArea")
+              for area in ("left", "right", "top", "bottom")}
 
 
 #: the quick guide (Help › Quick guide, F1): rich text kept as a resource, not in the code
@@ -96,7 +88,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.setWindowTitle(self.title())
         self.setObjectName("usvips_main")
         self.pool = QtCore.QThreadPool(self)  # its own pool: finished with the window
-        self.workers: set[Worker] = set()
+        #: the messaging service the window's parts are handed (usvips.gui.messages): the window shows it
+        self.messages = Messages()
+        #: long work off the GUI thread (usvips.gui.jobs), its progress in the status bar
+        self.jobs = Jobs(self.pool, self.messages)
+        self.workers = self.jobs.workers
+        #: what the panels and controllers are handed instead of the window
+        self.context = WindowContext(self.workspace, self.messages, self.jobs)
         self._display_tokens = dict.fromkeys(SIDES, 0)
         self._pair_worker: Worker | None = None
         self._front_before_observation: QtWidgets.QDockWidget | None = None  # raised again after a record
@@ -128,11 +126,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_status_bar()
         self._build_actions()
         self._build_menus_and_toolbar()
-        self.video = VideoController(self)  # stereo video: its dock, keys on the panes, decoding in workers
-        self.media_check = MediaCheck(self)  # the full check of an opened project's media files
+        # stereo video: its dock, keys on the panes, decoding in workers
+        self.video = VideoController(self, self.context, self.panes, self.forget_pair_loading, self.refresh_pair_box)
+        self.media_check = MediaCheck(self, self.context)  # the full check of an opened project's media files
         self.docks["video"] = self._dock("Video", self.video.dock_widget, QtCore.Qt.DockWidgetArea.TopDockWidgetArea)
+        self.video.attach_dock(self.docks["video"])
         # issue 25: tracks drawn on the panes and the timeline, instants stored and listed
-        self.tracking = TrackController(self)
+        self.tracking = TrackController(self, self.context, self.panes, self.video, self.set_tool)
         self.instants_view = InstantsView(self.workspace, self)
         self.instants_view.frame_requested.connect(self.workspace.request_object)  # the video hears the model
         table = self.object_list.table
@@ -147,7 +147,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.live = LiveUpdates(self)  # colleagues' changes to the open survey shown as they are made
         ws.selection_changed.connect(self._on_selection_changed)
         ws.enhancement_changed.connect(self._on_enhancement_changed)
-        ws.message.connect(self.show_message)
+        ws.message.connect(self.messages.say)
+        self.messages.said.connect(self._show_said)
+        self.messages.work_started.connect(self._on_work_started)
+        self.messages.work_progress.connect(lambda fraction: self.progress.setValue(int(100 * fraction)))
+        self.messages.work_ended.connect(self._on_work_ended)
         ws.undo.changed.connect(self._on_undo_changed)
         # an open menu keeps its letters from the image keys (X11: Alt+F, I listed the instants)
         self.menu_keys = menu_keys.install(self, [pane.graphics for pane in self.panes.values()])
@@ -171,43 +175,36 @@ class MainWindow(QtWidgets.QMainWindow):
         return dock
 
     def _build_docks(self) -> None:
+        """One dock per registered panel (:mod:`usvips.gui.panel_registry`), each panel made from the
+        window's context; the panels of one area and group are tabbed, the first of each in front."""
         ws = self.workspace
-        self.enhancement = EnhancementPanel(ws)
-        self.object_list = ObjectList(ws)
-        self.calculator = CalculatorPanel(ws)
-        self.plan = PlanView(ws)
-        self.log = LogPanel()
-        self.observation = ObservationForm(ws)
-        right = QtCore.Qt.DockWidgetArea.RightDockWidgetArea
-        bottom = QtCore.Qt.DockWidgetArea.BottomDockWidgetArea
-        self.docks = {"enhancement": self._dock("Enhancement", self.enhancement, right),
-                      "calculator": self._dock("Geo-calculator", self.calculator, right),
-                      "objects": self._dock("Objects", self.object_list, bottom),
-                      "plan": self._dock("Plan view", self.plan, bottom),
-                      "log": self._dock("Log", self.log, bottom),
-                      "observation": self._dock("Observation", self.observation, bottom)}
-        self.planner = PlannerDock(ws, self.pool, self.workers)
-        self.qa = QaDock(ws)  # the survey's QA list (issue 25)
-        self.docks["qa"] = self._dock("QA", self.qa, bottom)
-        self.qa.object_chosen.connect(ws.request_object)  # the video or the pair shown, by the model's event
-        self.docks["qa"].visibilityChanged.connect(self.qa.on_shown)  # checked when its tab comes to the front
-        self.review = ReviewDock(ws)  # review mode: the unreviewed objects walked with the keyboard (issue 26)
-        self.docks["review"] = self._dock("Review", self.review, bottom)
-        self.review.object_chosen.connect(self.workspace.request_object)  # the views go to it (the model's event)
+        #: the panels' widgets and their docks by panel id
+        self.panels: dict[str, QtWidgets.QWidget] = {}
+        self.docks: dict[str, QtWidgets.QDockWidget] = {}
+        groups: dict[tuple[str, str], list[QtWidgets.QDockWidget]] = {}
+        for panel in panel_registry.panels():
+            widget = self.panels[panel.id] = panel.factory(self.context)
+            dock = self.docks[panel.id] = self._dock(panel.title, widget, DOCK_AREAS[panel.area])
+            if callable(getattr(widget, "on_shown", None)):  # e.g. the QA list is checked when it comes to the front
+                dock.visibilityChanged.connect(widget.on_shown)
+            groups.setdefault((panel.area, panel.group), []).append(dock)
+            if panel.size is not None:
+                across = panel.area in ("left", "right")
+                self.resizeDocks([dock], [panel.size], QtCore.Qt.Orientation.Horizontal if across
+                                 else QtCore.Qt.Orientation.Vertical)
+        for tabbed in groups.values():
+            for first, second in zip(tabbed, tabbed[1:], strict=False):
+                self.tabifyDockWidget(first, second)
+            tabbed[0].raise_()
+        # the built-in panels the window itself talks to
+        p = self.panels
+        self.enhancement, self.object_list, self.calculator, self.plan = (p["enhancement"], p["objects"],
+                                                                           p["calculator"], p["plan"])
+        self.log, self.observation, self.planner, self.qa, self.review = (p["log"], p["observation"],
+                                                                          p["planner"], p["qa"], p["review"])
         self.review.reviewed.connect(self.object_list.show_review)
         self.review.review_read.connect(self.object_list.show_review)  # someone else's review, read again
         self.review.history_requested.connect(self.object_list.show_history)
-        self.docks["planner"] = self._dock("Precision planner", self.planner, right)
-        self.tabifyDockWidget(self.docks["calculator"], self.docks["planner"])
-        self.docks["calculator"].raise_()
-        self.tabifyDockWidget(self.docks["objects"], self.docks["observation"])
-        self.tabifyDockWidget(self.docks["observation"], self.docks["plan"])
-        self.tabifyDockWidget(self.docks["plan"], self.docks["log"])
-        self.tabifyDockWidget(self.docks["log"], self.docks["qa"])
-        self.tabifyDockWidget(self.docks["qa"], self.docks["review"])
-        self.docks["objects"].raise_()
-        self.resizeDocks([self.docks["enhancement"]], [330], QtCore.Qt.Orientation.Horizontal)
-        self.resizeDocks([self.docks["objects"]], [170], QtCore.Qt.Orientation.Vertical)
         ws.object_requested.connect(self._on_object_requested)  # an object on an image pair: that pair, centred
         self.observation.finished.connect(self._on_observation_finished)
         ws.stored.connect(self._on_stored)
@@ -229,182 +226,88 @@ class MainWindow(QtWidgets.QMainWindow):
         bar.addPermanentWidget(self.progress)
         bar.addPermanentWidget(self.cancel_button)
 
-    def _action(self, text: str, slot, shortcut: str | QtGui.QKeySequence | list | None = None, tip: str = "",
-                checkable: bool = False, images: bool = False) -> QtGui.QAction:
-        """A menu/toolbar action. ``images``: its keys work only while the images have the focus (click
-        an image), so that text fields and tables keep Enter, Esc and the arrows."""
-        action = QtGui.QAction(text, self)
-        if shortcut:
-            keys = shortcut if isinstance(shortcut, list) else [shortcut]
-            action.setShortcuts([QtGui.QKeySequence(k) for k in keys])
-        action.setToolTip(f"{tip or text}" + (f" ({action.shortcut().toString()})" if shortcut else ""))
-        action.setStatusTip(tip or text)
-        action.setCheckable(checkable)
-        action.triggered.connect(slot)
-        if images:
-            action.setShortcutContext(QtCore.Qt.ShortcutContext.WidgetWithChildrenShortcut)
-            self.splitter.addAction(action)
-        else:
-            self.addAction(action)
-        return action
+    def _command_handler(self, command: commands.Command):
+        """The function a command runs: ``owner.method`` resolved against the window's controllers (a dialog
+        module's function is given the window), called with the command's ``args``."""
+        owner, _, method = command.handler.rpartition(".")
+        owners = {"window": self, "tracking": lambda: self.tracking, "media_dialogs": media_dialogs,
+                  "exchange_dialogs": exchange_dialogs}
+        target = owners[owner]
+        if isinstance(target, ModuleType):
+            return lambda *_: getattr(target, method)(self, *command.args)
+        if owner == "window":
+            return lambda *_: getattr(self, method)(*command.args)
+        return lambda *_: getattr(target(), method)(*command.args)  # a controller made after the actions
 
     def _build_actions(self) -> None:
-        key = QtGui.QKeySequence.StandardKey
-        self.actions: dict[str, QtGui.QAction] = {
-            "open": self._action("&Open project…", self.open_dialog, key.Open,
-                                 "open a project file (*.usvips) or a sample directory"),
-            "quit": self._action("&Quit", self.close, key.Quit),
-            "undo": self._action("&Undo", self.undo, key.Undo),
-            "redo": self._action("&Redo", self.redo, key.Redo),
-            "accept": self._action("Accept match / finish", self.accept_or_finish, ["Return", "Enter"],
-                                   "accept the proposed match; with no proposal, finish the object", images=True),
-            "finish": self._action("&Finish object", self.finish_object, ["Ctrl+Return", "Ctrl+Enter"],
-                                   "store the object", images=True),
-            "cancel": self._action("Cancel pick", self.cancel_pick, "Escape", "drop the half-made vertex",
-                                   images=True),
-            "next_pair": self._action("&Next pair", lambda: self.step_pair(1), "PgDown", "show the next image pair",
-                                      images=True),
-            "previous_pair": self._action("&Previous pair", lambda: self.step_pair(-1), "PgUp",
-                                          "show the previous image pair", images=True),
-            "snap": self._action("&Snap to targets", self._on_snap, "S",
-                                 "snap each click to the sub-pixel centre of a target disc", checkable=True),
-            "auto_match": self._action("&Auto-match", self._on_auto_match, "M",
-                                       "propose the conjugate along the epipolar curve", checkable=True),
-            "fit": self._action("&Fit", lambda: self._each_pane("fit"), "F", "whole image in view"),
-            "one": self._action("1:&1", lambda: self._each_pane("one_to_one"), "1", "one image pixel per screen pixel"),
-            "zoom_in": self._action("Zoom &in", lambda: self._each_pane("zoom_by", 1.25), key.ZoomIn),
-            "zoom_out": self._action("Zoom &out", lambda: self._each_pane("zoom_by", 0.8), key.ZoomOut),
-            "box": self._action("&Box zoom", self._on_box_zoom, "B", "drag a box to zoom into", checkable=True),
-            "link": self._action("&Link zoom", self._on_link, "L", "zooming or panning one image brings the other "
-                                 "to the same place in the scene (through the calibration, at the depth of the last "
-                                 "measured point)", checkable=True),
-            "loupe": self._action("Lou&pe", self._on_loupe, "G", "magnifier around the cursor", checkable=True),
-            "qa": self._action("&QA panel", self.show_qa, "Ctrl+Shift+Q", "the survey's objects that break a "
-                               "quality rule: arrows and Enter go to each one's pair or frame"),
-            # issue 25: tracking through a video and objects over several instants (usvips/gui/track_controls.py)
-            "track": self._action("&Track the object's vertices", lambda: self.tracking.track(), "T",
-                                  "follow each vertex of the selected object (or the one just stored) backward and "
-                                  "forward through the video from its frame", images=True),
-            "refollow": self._action("&Re-follow from here", lambda: self.tracking.refollow(), "Shift+T",
-                                     "after re-picking a tracked point on this frame (left, then right), follow it "
-                                     "on from here", images=True),
-            "store_instants": self._action("Store trac&ks as instants…", lambda: self.tracking.store_dialog(),
-                                           "Ctrl+T", "store the tracked vertices as further instants of the object "
-                                           "(every N frames, or the frames typed); undoable"),
-            "propose_tracked": self._action("Propose from the &earlier instant", lambda: self.tracking.propose(), "P",
-                                            "propose the selected object's vertices on this frame, tracked from the "
-                                            "frame it was measured on (Enter accepts each)", images=True),
-            "instants": self._action("&Instants of the object…", lambda: self.show_instants(), "I",
-                                     "list the selected object's instants: each one's figure and weight, the "
-                                     "combined figure and the agreement test", images=True),
-            "review": self._action("&Review mode", self.show_review, "Ctrl+Shift+R", "walk the unreviewed objects: "
-                                   "N next, P previous, A accept, F flag, S skip, J or Enter go to it, H its history"),
-            "annotator": self._action("Annotator: &your name…", self.annotator_dialog, tip="who is annotating: every "
-                                      "object, pick, record and review made in this window is stamped with the name"),
-        }
-        self.actions["instants_of_listed"] = QtGui.QAction("&Instants of the object…", self)
-        self.actions["instants_of_listed"].setShortcut(QtGui.QKeySequence("Ctrl+I"))
-        self.actions["instants_of_listed"].setShortcutContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
-        self.actions["instants_of_listed"].triggered.connect(lambda: self.show_instants())
-        # short toolbar labels (the menus keep the full names): the toolbar fits 1366 px without overflow
-        for name, short in (("open", "Open"), ("snap", "Snap"), ("finish", "Finish"), ("box", "Box"),
-                            ("link", "Link"), ("loupe", "Loupe"), ("auto_match", "Auto-match"), ("one", "1:1")):
-            self.actions[name].setIconText(short)
-        self.actions["auto_match"].setChecked(self.workspace.auto_match)
-        self.actions["snap"].setChecked(self.workspace.snap)
+        """One QAction per declared command (:mod:`usvips.gui.commands`): its keys in its scope, its tip
+        with the keys, checkable and exclusive as declared."""
+        self.actions: dict[str, QtGui.QAction] = {}
+        groups: dict[str, QtGui.QActionGroup] = {}
+        for command in commands.commands():
+            action = QtGui.QAction(command.title, self)
+            keys = [QtGui.QKeySequence(getattr(QtGui.QKeySequence.StandardKey, k[4:])) if k.startswith("std:")
+                    else QtGui.QKeySequence(k) for k in command.keys]
+            if keys:
+                action.setShortcuts(keys)
+            tip = command.tip or command.title.replace("&", "")
+            action.setToolTip(tip + (f" ({action.shortcut().toString()})" if keys else ""))
+            action.setStatusTip(tip)
+            action.setCheckable(command.checkable)
+            if command.short:
+                action.setIconText(command.short)  # short toolbar labels: the toolbar fits 1366 px
+            action.triggered.connect(self._command_handler(command))
+            if command.scope == "images":  # its keys work only while the images have the focus (click an image)
+                action.setShortcutContext(QtCore.Qt.ShortcutContext.WidgetWithChildrenShortcut)
+                self.splitter.addAction(action)
+            elif command.scope == "object list":  # added to the list's table (and its context menu) by the window
+                action.setShortcutContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+            else:
+                self.addAction(action)
+            if command.exclusive:
+                groups.setdefault(command.exclusive, QtGui.QActionGroup(self)).addAction(action)
+            self.actions[command.id] = action
+        self.tool_actions, self.loupe_actions = groups["tools"], groups["loupe"]
+        self.actions["auto_match"].setChecked(self.workspace.settings.auto_match)
+        self.actions["snap"].setChecked(self.workspace.settings.snap)
         self.actions["loupe"].setChecked(True)
-        for arrow, (dx, dy) in NUDGES.items():
-            for modifier, step in (("Ctrl", 0.1), ("Ctrl+Shift", 1.0)):
-                self.actions[f"nudge_{arrow.lower()}_{step:g}"] = self._action(
-                    f"Nudge {arrow.lower()} {step:g} px", lambda _=False, d=(dx * step, dy * step): self.nudge(*d),
-                    f"{modifier}+{arrow}", f"move the current pick {step:g} px {arrow.lower()}", images=True)
-        self.loupe_actions = QtGui.QActionGroup(self)
-        for scale in LOUPE_SCALES:
-            action = self._action(f"Loupe {scale}×", lambda _=False, k=scale: self.set_loupe_scale(k),
-                                  tip=f"the loupe shows {scale} screen pixels per image pixel", checkable=True)
-            self.loupe_actions.addAction(action)
-            self.actions[f"loupe_{scale}"] = action
-        self.tool_actions = QtGui.QActionGroup(self)
-        for number, tool in enumerate(TOOLS, 1):
-            action = self._action(tool.capitalize(), lambda _=False, t=tool: self.set_tool(t), f"Ctrl+{number}",
-                                  TOOL_TIPS[tool], checkable=True)
-            self.tool_actions.addAction(action)
-            self.actions[f"tool_{tool}"] = action
         self.actions["tool_pick"].setChecked(True)
 
+    def _update_enablement(self) -> None:
+        """Each command with a condition enabled as its condition holds now."""
+        undo = self.workspace.undo
+        holds = {"can_undo": undo.undo_label is not None, "can_redo": undo.redo_label is not None}
+        for command in commands.commands():
+            if command.enabled_when:
+                self.actions[command.id].setEnabled(holds[command.enabled_when])
+
     def _build_menus_and_toolbar(self) -> None:
+        """The menus from the declared commands, submenus and sections (:data:`usvips.gui.commands.ITEMS`),
+        a separator between groups; then the toolbar."""
         a = self.actions
-        menu = self.menuBar().addMenu("&File")
-        menu.addAction(a["open"])
-        menu.addAction("&New project…", lambda: media_dialogs.new_project(self))
-        menu.addAction("Add &image pairs…", lambda: media_dialogs.add_image_pairs(self))
-        menu.addAction("Add stereo &video…", lambda: media_dialogs.add_video(self))
-        menu.addAction("Re&locate missing media…", lambda: media_dialogs.relocate_media(self))
-        self.samples_menu = menu.addMenu("Open &sample")
+        self.menus: dict[str, QtWidgets.QMenu] = {name: self.menuBar().addMenu(title) for name, title in commands.MENUS}
+        last_group: dict[str, str] = {}
+        for item in commands.ITEMS:
+            parent = item.menu
+            if parent is None:
+                continue
+            menu = self.menus[parent]
+            if parent in last_group and last_group[parent] != item.group:
+                menu.addSeparator()
+            last_group[parent] = item.group
+            if isinstance(item, commands.Command):
+                menu.addAction(a[item.id])
+            elif isinstance(item, commands.Submenu):
+                self.menus[item.path] = menu.addMenu(item.title)
+            else:  # a section the window fills: the panels' docks
+                for dock in self.docks.values():
+                    menu.addAction(dock.toggleViewAction())
+        self.samples_menu = self.menus["File/Open sample"]
         for sample in sorted(SAMPLES.glob("*/project.json")) if SAMPLES.is_dir() else []:
             self.samples_menu.addAction(sample.parent.name, lambda p=sample.parent: self.open_path(p))
         self.samples_menu.setEnabled(bool(self.samples_menu.actions()))
-        self.recent_menu = menu.addMenu("&Recent projects")
-        menu.addAction("Save &as… (a copy, then work on it)", self.save_as_dialog, QtGui.QKeySequence("Ctrl+Shift+S"))
-        menu.addAction("&Export objects…", self.export_dialog)
-        menu.addAction("I&mport species list…", self.species_dialog)
-        menu.addSeparator()  # exchange with other tools (usvips/gui/exchange_dialogs.py)
-        menu.addAction("Import &calibration (OpenCV)…", lambda: exchange_dialogs.import_calibration(self))
-        menu.addAction("Ex&port calibration (OpenCV)…", lambda: exchange_dialogs.export_calibration(self))
-        menu.addAction("Calibration repor&t (PDF)…", lambda: exchange_dialogs.calibration_report(self))
-        menu.addAction("&Deployment and georeference…", lambda: exchange_dialogs.edit_deployment(self))
-        menu.addAction("Dou&ble-read report…", self.show_double_read)
-        menu.addAction(a["annotator"])
+        self.recent_menu = self.menus["File/Recent projects"]
         self._fill_recent_menu()
-        menu.addSeparator()
-        menu.addAction(a["quit"])
-        edit = self.menuBar().addMenu("&Edit")
-        for name in ("undo", "redo"):
-            edit.addAction(a[name])
-        edit.addSeparator()  # the edits a failed save kept (usvips.gui.object_edits: never shown as saved)
-        edit.addAction("Re&try unsaved edits", self.retry_unsaved_edits)
-        edit.addAction("&Discard unsaved edits", self.discard_unsaved_edits)
-        view = self.menuBar().addMenu("&View")
-        for name in ("fit", "one", "zoom_in", "zoom_out", "box", "link", "loupe"):
-            view.addAction(a[name])
-        magnification = view.addMenu("Loupe &magnification")
-        for scale in LOUPE_SCALES:
-            magnification.addAction(a[f"loupe_{scale}"])
-        view.addAction(a["qa"])
-        view.addAction(a["review"])
-        view.addSeparator()
-        for dock in self.docks.values():
-            view.addAction(dock.toggleViewAction())
-        measure = self.menuBar().addMenu("&Measure")
-        for tool in TOOLS:
-            measure.addAction(a[f"tool_{tool}"])
-        measure.addSeparator()
-        for name in ("accept", "finish", "cancel", "snap", "auto_match"):
-            measure.addAction(a[name])
-        nudge = measure.addMenu("N&udge the current pick")
-        for name in a:
-            if name.startswith("nudge_"):
-                nudge.addAction(a[name])
-        measure.addSeparator()
-        for name in ("previous_pair", "next_pair"):
-            measure.addAction(a[name])
-        measure.addSeparator()
-        for name in ("track", "refollow", "store_instants", "propose_tracked", "instants"):
-            measure.addAction(a[name])
-        measure.addSeparator()
-        measure.addAction("Pointin&g test… (estimate your pointing σ)", self.show_pointing_test)
-        measure.addAction("Check &σ (Monte Carlo)…", self.show_sigma_check)
-        calibration = self.menuBar().addMenu("&Calibration")
-        for phase, text in (("air", "Phase &1: cameras in air…"), ("water", "Phase &2: housing and water…"),
-                            ("joint", "&Joint underwater calibration…")):
-            calibration.addAction(text, lambda p=phase: self.open_calibration_wizard(p))
-        calibration.addSeparator()
-        calibration.addAction("&Import a USVIPS calibration…", lambda: exchange_dialogs.import_usvips_calibration(self))
-        calibration.addAction("&Use a stored calibration…", lambda: exchange_dialogs.use_calibration(self))
-        calibration.addAction("Find a &target field…", lambda: __import__(  # deferred: not at start-up
-            "usvips.gui.target_field_tool", fromlist=["open_tool"]).open_tool(self))
-        help_menu = self.menuBar().addMenu("&Help")
-        help_menu.addAction("&Quick guide", self.show_guide, QtGui.QKeySequence("F1"))
         bar = self.addToolBar("Main")
         bar.setObjectName("main_toolbar")
         bar.addAction(a["open"])
@@ -475,6 +378,38 @@ class MainWindow(QtWidgets.QMainWindow):
     def show_guide(self) -> None:
         QtWidgets.QMessageBox.information(self, "USVIPS — quick guide", quick_guide())
 
+    def keys_text(self) -> str:
+        """Help › Keys: every declared command with its keys (as this platform writes them) and where they
+        work, from the one declaration of the commands (:mod:`usvips.gui.commands`)."""
+        native = QtGui.QKeySequence.SequenceFormat.NativeText
+
+        def key_text(key: str) -> str:
+            if key.startswith("std:"):
+                return QtGui.QKeySequence(getattr(QtGui.QKeySequence.StandardKey, key[4:])).toString(native)
+            return QtGui.QKeySequence(key).toString(native)
+
+        rows = "".join(f"<tr><td><b>{html.escape(keys)}</b></td><td>{html.escape(title)}</td>"
+                       f"<td><i>{html.escape(where)}</i></td></tr>"
+                       for keys, title, where in commands.key_list(key_text))
+        return f"<table cellspacing='4'>{rows}</table>"
+
+    def show_keys(self) -> QtWidgets.QDialog:
+        """Help › Keys…: the key list in a dialog that scrolls (it fits a 1366 × 768 screen) and blocks nothing."""
+        dialog = QtWidgets.QDialog(self)
+        dialog.setWindowTitle("USVIPS — keys")
+        dialog.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        text = QtWidgets.QTextBrowser()
+        text.setHtml(self.keys_text())
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.StandardButton.Close)
+        buttons.rejected.connect(dialog.close)
+        column = QtWidgets.QVBoxLayout(dialog)
+        column.addWidget(text)
+        column.addWidget(buttons)
+        height = self.screen().availableGeometry().height() if self.screen() is not None else 768
+        dialog.resize(560, min(720, int(height * 0.8)))
+        dialog.show()
+        return dialog
+
     # ------------------------------------------------------------------ settings
     def _restore_layout(self) -> None:
         geometry = self.settings.value("window/geometry")
@@ -491,12 +426,12 @@ class MainWindow(QtWidgets.QMainWindow):
         if splitter is not None:
             self.splitter.restoreState(splitter)
         self.actions["link"].setChecked(self.settings.value("view/link", False, type=bool))
-        self._on_link()
+        self.apply_link()
         for name, default in (("snap", False), ("auto_match", True), ("loupe", True)):
             self.actions[name].setChecked(self.settings.value(f"view/{name}", default, type=bool))
-        self._on_snap()
-        self._on_auto_match()
-        self._on_loupe()
+        self.apply_snap()
+        self.apply_auto_match()
+        self.apply_loupe()
 
     def save_layout(self) -> None:
         self.settings.setValue("window/geometry", self.saveGeometry())
@@ -549,16 +484,16 @@ class MainWindow(QtWidgets.QMainWindow):
         self.cancel_work()
         self.video.shutdown()  # the seek-proxy build in the background
         self.pool.waitForDone(5000)
-        for panel in (self.enhancement, self.object_list, self.calculator, self.plan, self.planner, self.qa,
-                      self.review):
-            panel.cleanup()
+        for panel in self.panels.values():
+            if callable(getattr(panel, "cleanup", None)):
+                panel.cleanup()
         self.media_check.project_closed()
         self.workspace.close_project()
         super().closeEvent(event)
 
     def confirm_drop_unfinished(self, doing: str) -> bool:
         """Ask before ``doing`` something that drops the object being digitised: store it, drop it or stay."""
-        digitising = self.workspace.digitising
+        digitising = self.workspace.pick_tool.digitising
         if not digitising.vertices or self.workspace.project is None:
             return True
         answer = self.ask_unfinished(f"The {digitising.kind} being digitised has {len(digitising.vertices)} "
@@ -566,7 +501,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if answer == "stay":
             return False
         if answer == "save":
-            return self._guarded(self.workspace.finish_object, self.workspace.attribute, "")
+            return self._guarded(self.workspace.pick_tool.finish_object, self.workspace.pick_tool.attribute, "")
         return True
 
     def ask_unfinished(self, question: str) -> str:
@@ -580,10 +515,14 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ------------------------------------------------------------------ messages
     def show_message(self, level: str, text: str) -> None:
-        """Errors and warnings go to the status bar (red / amber) and the log; nothing raises into Qt; no
-        password is ever shown (:func:`usvips.core.redaction.redact`)."""
-        text = redact(text)
-        self.log.add(level, text)
+        """Say ``text`` through the messaging service (the window's own messages; its parts are handed
+        :attr:`messages`)."""
+        self.messages.say(level, text)
+
+    def _show_said(self, level: str, text: str) -> None:
+        """Errors and warnings go to the status bar (red / amber) and the line above the images (the log
+        panel listens itself); nothing raises into Qt; no password is ever shown (the service redacts,
+        :func:`usvips.core.redaction.redact`)."""
         colour = {"error": "#ff6b6b", "warning": "#f0b400"}.get(level, "")
         self.statusBar().setStyleSheet(f"QStatusBar {{ color: {colour}; }}" if colour else "")
         self.statusBar().showMessage(text, 0 if level != "info" else 15000)
@@ -801,49 +740,24 @@ class MainWindow(QtWidgets.QMainWindow):
     # ------------------------------------------------------------------ workers
     @property
     def busy(self) -> bool:
-        return bool(self.workers)
+        return self.jobs.busy
 
     def run_worker(self, job, label: str, on_done, on_cancelled=None) -> Worker:
-        """Run ``job`` in a worker with its progress in the status bar; ``on_done(result)`` when it
-        finishes, ``on_cancelled()`` (default: a message saying so) when it stops early."""
-        worker = Worker(job, label)
-        self.workers.add(worker)
+        """Run ``job`` off the GUI thread (:meth:`usvips.gui.jobs.Jobs.run`), its progress in the status bar."""
+        return self.jobs.run(job, label, on_done, on_cancelled)
 
-        def done(result) -> None:
-            self._worker_ended(worker)
-            self._guarded(on_done, result)
-
-        def failed(message: str) -> None:
-            self._worker_ended(worker)
-            self.show_message("error", message)
-
-        def cancelled() -> None:
-            self._worker_ended(worker)
-            if on_cancelled is not None:
-                on_cancelled()
-            else:
-                self.show_message("info", f"{label}: cancelled")
-
-        worker.signals.finished.connect(done)
-        worker.signals.failed.connect(failed)
-        worker.signals.cancelled.connect(cancelled)
-        worker.signals.progress.connect(lambda f: self.progress.setValue(int(100 * f)))
+    def _on_work_started(self, label: str) -> None:
         self.progress.setRange(0, 0)
         self.progress.setFormat(label)
         self.progress.show()
         self.cancel_button.show()
-        self.pool.start(worker)
-        return worker
 
-    def _worker_ended(self, worker: Worker) -> None:
-        self.workers.discard(worker)
-        if not self.workers:
-            self.progress.hide()
-            self.cancel_button.hide()
+    def _on_work_ended(self) -> None:
+        self.progress.hide()
+        self.cancel_button.hide()
 
     def cancel_work(self) -> None:
-        for worker in list(self.workers):
-            worker.cancel()
+        self.jobs.cancel_all()
 
     # ------------------------------------------------------------------ display
     def refresh_pair_box(self) -> None:
@@ -903,7 +817,7 @@ class MainWindow(QtWidgets.QMainWindow):
         original = ws.images.get(side)
         if original is None:
             return
-        pipeline = ws.pipelines[side]
+        pipeline = ws.enhancement.pipelines[side]
         self._display_tokens[side] += 1
         token = self._display_tokens[side]
         if not pipeline.operations:
@@ -925,14 +839,14 @@ class MainWindow(QtWidgets.QMainWindow):
         if side == self.enhancement._sides()[0]:
             self.enhancement.show_histograms(original_counts, shown_counts)
 
-    def _each_pane(self, method: str, *args) -> None:
+    def each_pane(self, method: str, *args) -> None:
         for pane in self.panes.values():
             getattr(pane, method)(*args)
 
-    def _on_box_zoom(self) -> None:
-        self._each_pane("set_box_zoom", self.actions["box"].isChecked())
+    def apply_box_zoom(self) -> None:
+        self.each_pane("set_box_zoom", self.actions["box"].isChecked())
 
-    def _on_link(self) -> None:
+    def apply_link(self) -> None:
         """Linked navigation: zooming or panning one pane brings the other to the conjugate region (through
         the calibration, at the depth of the last measured point), at the same zoom."""
         if not hasattr(self, "_following"):
@@ -951,7 +865,7 @@ class MainWindow(QtWidgets.QMainWindow):
         rect = source.viewbox.viewRect()
         centre = pixel_from_item(rect.center().x(), rect.center().y())
         try:
-            conjugate = self.workspace.conjugate(side, centre)
+            conjugate = self.workspace.pick_tool.conjugate(side, centre)
         except UsvipsError:
             conjugate = None
         self._following = True
@@ -960,13 +874,13 @@ class MainWindow(QtWidgets.QMainWindow):
         finally:
             self._following = False
 
-    def _on_loupe(self) -> None:
+    def apply_loupe(self) -> None:
         for pane in self.panes.values():
             pane.set_loupe_enabled(self.actions["loupe"].isChecked())
 
     # ------------------------------------------------------------------ picking and measuring
     def _on_clicked(self, side: str, x: float, y: float) -> None:
-        self._guarded(self.workspace.pick, side, (x, y))
+        self._guarded(self.workspace.pick_tool.pick, side, (x, y))
 
     def _on_hovered(self, side: str, x: float, y: float) -> None:
         image = self.workspace.images.get(side)
@@ -979,38 +893,38 @@ class MainWindow(QtWidgets.QMainWindow):
         self.pixel_label.setText(f"{side}  x {x:8.2f}  y {y:8.2f}  value {grey}")
 
     def set_tool(self, tool: str) -> None:
-        if self._guarded(self.workspace.set_tool, tool):
+        if self._guarded(self.workspace.pick_tool.set_tool, tool):
             self.actions[f"tool_{tool}"].setChecked(True)
             self.statusBar().showMessage(TOOL_TIPS[tool], 10000)
 
     def accept_or_finish(self) -> None:
         """Enter on the images: accept the proposed match; with a first pick but no proposal, say why and
         what to do; with no pick, finish the object being digitised."""
-        state = self.workspace.state
+        state = self.workspace.pick_tool.state
         if state.proposal is not None or state.pending is not None:
-            self._guarded(self.workspace.accept_proposal)
+            self._guarded(self.workspace.pick_tool.accept_proposal)
         elif state.source is not None:
             opposite = "right" if state.source == "left" else "left"
             self.show_message("warning", f"no proposed match to accept: click the point in the {opposite} image"
                                          + (f" ({state.note})" if state.note else ""))
-        elif self.workspace.digitising.vertices:
+        elif self.workspace.pick_tool.digitising.vertices:
             self.finish_object()
         else:
             self.show_message("warning", "nothing to accept: pick a point first")
 
     def finish_object(self) -> None:
         attribute = self.attribute_box.currentText().strip()
-        if self._guarded(self.workspace.finish_object, attribute, ""):
+        if self._guarded(self.workspace.pick_tool.finish_object, attribute, ""):
             if attribute and self.attribute_box.findText(attribute) < 0:
                 self.attribute_box.addItem(attribute)
 
     def cancel_pick(self) -> None:
-        self.workspace.cancel_vertex()
+        self.workspace.pick_tool.cancel_vertex()
 
     def nudge(self, dx: float, dy: float) -> None:
         """Move the current pick by (dx, dy) image pixels (the proposal when there is one)."""
         try:
-            text = self.workspace.nudge(dx, dy)
+            text = self.workspace.pick_tool.nudge(dx, dy)
         except UsvipsError as error:
             self.show_message("warning", str(error))
             return
@@ -1027,7 +941,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if not 0 <= index < len(labels):
             self.show_message("info", f"{'last' if step > 0 else 'first'} pair reached ({labels[current]})")
             return
-        if self.workspace.digitising.vertices:
+        if self.workspace.pick_tool.digitising.vertices:
             self.show_message("warning", "finish (Ctrl+Enter) or cancel the object being digitised before "
                                          "changing pairs")
             return
@@ -1039,13 +953,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.actions[f"loupe_{scale}"].setChecked(True)
 
     def _on_attribute_changed(self, text: str) -> None:
-        self.workspace.attribute = text.strip()
+        self.workspace.pick_tool.attribute = text.strip()
 
     def _on_attribute_entered(self) -> None:
         """Enter in the Attribute box: keep the text for the next stored objects (and in the project's
         vocabulary), then give the keyboard back to the images."""
         text = self.attribute_box.currentText().strip()
-        self.workspace.attribute = text
+        self.workspace.pick_tool.attribute = text
         if text and self.workspace.project is not None:
             self.workspace.project.add_term(text)
             if self.attribute_box.findText(text) < 0:
@@ -1113,21 +1027,20 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _on_undo_changed(self) -> None:
         undo, redo = self.workspace.undo.undo_label, self.workspace.undo.redo_label
-        self.actions["undo"].setEnabled(undo is not None)
-        self.actions["redo"].setEnabled(redo is not None)
+        self._update_enablement()
         # the toolbar keeps short names; what would be undone is in the tooltip and the status tip
         self.actions["undo"].setToolTip(f"Undo {undo} (Ctrl+Z)" if undo else "nothing to undo")
         self.actions["redo"].setToolTip(f"Redo {redo} (Ctrl+Shift+Z)" if redo else "nothing to redo")
 
-    def _on_snap(self) -> None:
-        self.workspace.snap = self.actions["snap"].isChecked()
+    def apply_snap(self) -> None:
+        self.workspace.settings.snap = self.actions["snap"].isChecked()
 
-    def _on_auto_match(self) -> None:
-        self.workspace.auto_match = self.actions["auto_match"].isChecked()
+    def apply_auto_match(self) -> None:
+        self.workspace.settings.auto_match = self.actions["auto_match"].isChecked()
 
     def _on_picks_changed(self) -> None:
         ws = self.workspace
-        state = ws.state
+        state = ws.pick_tool.state
         for side in SIDES:
             opposite = state.source is not None and state.source != side
             self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
@@ -1135,7 +1048,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if state.note:
             self.statusBar().showMessage(state.note, 15000)
             self.set_hint(state.note, "warning" if state.pending is not None or state.weak else "info")
-        self.point_label.setText(describe_point(ws.last_point) if ws.last_point is not None else "")
+        self.point_label.setText(describe_point(ws.pick_tool.last_point) if ws.pick_tool.last_point is not None else "")
 
     def _on_selection_changed(self, ids) -> None:
         """The model's selection (the geo-calculator, the plan and the panes follow it themselves)."""
@@ -1173,6 +1086,12 @@ class MainWindow(QtWidgets.QMainWindow):
         from usvips.gui import pointing_test_dialog
 
         return pointing_test_dialog.show_pointing_test(self)
+
+    def show_target_field_tool(self) -> None:
+        """Calibration › Find a target field… (imported when first asked for: not at start-up)."""
+        from usvips.gui import target_field_tool
+
+        target_field_tool.open_tool(self)
 
     def show_sigma_check(self):
         """Measure › Check σ (Monte Carlo)…: whether the open project's stated σ hold (its own geometry)."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 from PySide6 import QtCore, QtWidgets
 
 from usvips.app import video_project
+from usvips.gui.window_context import WindowContext
 from usvips.gui.worker import Cancelled, Worker
 from usvips.store.interface import ProjectStore
 
@@ -33,8 +34,9 @@ class MediaCheck:
     :attr:`problems` (stored path, problem) of the last check that finished, :attr:`box` the warning
     shown for them (not modal)."""
 
-    def __init__(self, window) -> None:
-        self.window = window
+    def __init__(self, parent: QtWidgets.QWidget, context: WindowContext) -> None:
+        """``parent``: the widget its warning box belongs to; ``context``: the messages and the jobs."""
+        self.parent, self.messages, self.jobs = parent, context.messages, context.jobs
         self.worker: Worker | None = None
         self.problems: list[tuple[str, str]] | None = None
         self.box: QtWidgets.QMessageBox | None = None
@@ -65,15 +67,14 @@ class MediaCheck:
             self.problems = problems
             if problems:
                 text = media_warning(name, problems)
-                self.window.show_message("warning", text)
+                self.messages.warning(text)
                 self._show_box(text)
 
         def cancelled() -> None:
             if self.worker is worker:
                 self.worker = None
 
-        worker = self.worker = self.window.run_worker(job, f"checking the media files of {name}", done,
-                                                      on_cancelled=cancelled)
+        worker = self.worker = self.jobs.run(job, f"checking the media files of {name}", done, on_cancelled=cancelled)
         return worker
 
     def project_closed(self) -> None:
@@ -90,7 +91,7 @@ class MediaCheck:
         """The warning in a box that stays until closed (a later status message cannot hide it) and blocks
         nothing."""
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Warning, "Media files changed", text,
-                                    QtWidgets.QMessageBox.StandardButton.Ok, self.window)
+                                    QtWidgets.QMessageBox.StandardButton.Ok, self.parent)
         box.setWindowModality(QtCore.Qt.WindowModality.NonModal)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
         box.show()

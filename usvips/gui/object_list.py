@@ -15,6 +15,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.gui.object_table import ObjectTableModel, figure_texts, instant_figure, review_text
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.worker import Worker, start
 from usvips.gui.workspace import Workspace
 
@@ -96,8 +97,8 @@ class ObjectList(QtWidgets.QWidget):
             buttons.addWidget(widget)
         buttons.addSpacing(12)
         buttons.addWidget(self.filter, 1)  # beside the buttons: the dock's height is for rows
-        repick.clicked.connect(lambda: self._edit_vertex(self.workspace.start_repick))
-        delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.delete_vertex))
+        repick.clicked.connect(lambda: self._edit_vertex(self.workspace.pick_tool.start_repick))
+        delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.edits.delete_vertex))
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
         layout.addWidget(self.table)
@@ -253,7 +254,7 @@ class ObjectList(QtWidgets.QWidget):
         """Figures of ``ids`` not yet known: at once for a few, else in a worker (the newest job takes the
         ids of the one it replaces that the cache, so the store, still has)."""
         cache = self.workspace.cache
-        missing = [i for i in ids if i in cache and self.workspace.object_figures(i) is None]
+        missing = [i for i in ids if i in cache and self.workspace.cache.known_figures(i) is None]
         if 0 < len(missing) <= self.SYNCHRONOUS:
             for object_id in missing:
                 self.workspace.figures([object_id])
@@ -265,7 +266,7 @@ class ObjectList(QtWidgets.QWidget):
                 self._worker.cancel()
                 missing = sorted(set(missing) | {i for i in self._pending if i in cache})
             self._pending = missing
-            job = self.workspace.figures_job(missing)
+            job = self.workspace.cache.figures_job(missing)
             worker = self._worker = Worker(job, "computing the objects' figures")
             worker.signals.finished.connect(lambda results, j=job, w=worker: self._on_figures(j, w, results))
             worker.signals.cancelled.connect(lambda w=worker: self._on_cancelled(w))
@@ -280,7 +281,7 @@ class ObjectList(QtWidgets.QWidget):
     def _on_figures(self, job, worker: Worker, results: dict) -> None:
         if worker is self._worker:
             self._worker, self._pending = None, []
-        kept = self.workspace.remember_figures(job, results)
+        kept = self.workspace.cache.remember(job, results)
         self.model.requested -= set(kept)
         self.model.changed(kept)
         self._fit()
@@ -300,7 +301,7 @@ class ObjectList(QtWidgets.QWidget):
                 widest = max([metrics.horizontalAdvance(t) for t in texts], default=0)
                 title = header.fontMetrics().horizontalAdvance(self.COLUMNS[column].capitalize())
                 self.table.setColumnWidth(column, max(widest, title) + 16)
-            self._fitted = bool(rows) and all(self.workspace.object_figures(self.model.object_id(r)) is not None
+            self._fitted = bool(rows) and all(self.workspace.cache.known_figures(self.model.object_id(r)) is not None
                                               for r in rows)
 
     def _edit_cell(self, object_id: int, column: str, text: str) -> None:
@@ -308,7 +309,7 @@ class ObjectList(QtWidgets.QWidget):
         stored = self.workspace.stored_object(object_id)
         attribute = text if column == "attribute" else stored.attribute
         notes = text if column == "notes" else stored.notes
-        self.workspace.edit_object(object_id, attribute, notes)
+        self.workspace.edits.edit_object(object_id, attribute, notes)
 
     def _on_vertex_range(self, *_: object) -> None:
         ids = self.selected_ids()
@@ -316,7 +317,7 @@ class ObjectList(QtWidgets.QWidget):
         self.vertex.setRange(1, max(count, 1))
         self.kind.clear()
         if len(ids) == 1:
-            self.kind.addItems(self.workspace.kinds_for(ids[0]))
+            self.kind.addItems(self.workspace.edits.kinds_for(ids[0]))
 
     def _on_set_kind(self) -> None:
         ids = self.selected_ids()
@@ -324,7 +325,7 @@ class ObjectList(QtWidgets.QWidget):
             self.workspace.message.emit("warning", "select one object in the list to change its kind")
             return
         try:
-            self.workspace.change_kind(ids[0], self.kind.currentText())
+            self.workspace.edits.change_kind(ids[0], self.kind.currentText())
         except UsvipsError as error:
             self.workspace.message.emit("error", str(error))
 
@@ -341,7 +342,7 @@ class ObjectList(QtWidgets.QWidget):
 
     def _on_delete(self) -> None:
         for object_id in self.selected_ids():
-            self.workspace.delete_object(object_id)
+            self.workspace.edits.delete_object(object_id)
 
     def _on_double_click(self, index: QtCore.QModelIndex) -> None:
         if index.isValid():
@@ -439,3 +440,8 @@ class ObjectList(QtWidgets.QWidget):
         for dialog in list(self.history_dialogs):
             self.history_dialogs.remove(dialog)
             dialog.close()
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("objects", "Objects", "bottom", lambda context: ObjectList(context.workspace),
+                     group="records", order=40, size=170))

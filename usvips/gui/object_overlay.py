@@ -16,8 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from usvips.core.errors import UsvipsError
+from usvips.gui.pick_tool import SIDES
 from usvips.gui.wording import species_text
-from usvips.gui.workspace import SIDES, Workspace
+from usvips.gui.workspace import Workspace
 
 #: Above this many objects on the pair, only the selected objects are labelled.
 MAX_LABELS = 300
@@ -58,7 +59,7 @@ class ObjectOverlay:
         """Every object's outline again (another project or pair)."""
         self.outlines = {}
         self._chunks, self._chunk_of, self._lines_drawn = [], {}, False
-        self._on_objects(tuple(self.workspace.object_ids()))
+        self._on_objects(tuple(self.workspace.cache.ids()))
         self.draw_digitising()
 
     def _on_added(self, ids: tuple[int, ...]) -> None:
@@ -110,7 +111,7 @@ class ObjectOverlay:
             paths = tuple(_path(pixels, drawn[2]) for pixels in drawn[:2])
             marks = (np.array([(v.xl, v.yl) for v in picks], float).reshape(-1, 2),
                      np.array([(v.xr, v.yr) for v in picks], float).reshape(-1, 2))
-            record = self.workspace.object_record(object_id)  # the species is the record's, when there is one
+            record = self.workspace.cache.record(object_id)  # the species is the record's, when there is one
             name = species_text(record) if record is not None and record.name else stored.attribute
             whole = self.workspace.cache.instant_of(object_id)  # an instant is labelled as its object's
             label = f"{stored.id} {name}" if whole is None else f"{stored.id}: instant of {whole} {name}"
@@ -150,7 +151,7 @@ class ObjectOverlay:
             self._added, self._lines_drawn = [], True
 
     def draw_digitising(self, *_: object) -> None:
-        current = self.workspace.digitising.vertices
+        current = self.workspace.pick_tool.digitising.vertices
         for side in SIDES:
             self.panes[side].set_digitising(np.array([getattr(v, side) for v in current]) if current else None)
 

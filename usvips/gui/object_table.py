@@ -219,7 +219,7 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
             return lambda object_id: (len(self.workspace.cache.get(object_id).vertices), object_id)
         if column == "figure":
             def value(object_id: int) -> tuple:
-                result = self.workspace.object_figures(object_id)
+                result = self.workspace.cache.known_figures(object_id)
                 figures = result.figures if result is not None else ()
                 return (0, figures[0].value, object_id) if figures else (1, 0.0, object_id)
             return value
@@ -235,13 +235,13 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
             return known
         ws = self.workspace
         stored = ws.cache.get(object_id)
-        result = ws.object_figures(object_id)
+        result = ws.cache.known_figures(object_id)
         main, quality, tip = figure_texts(result, object_id, self.links, self.instants)
         if result is not None and result.measurement is not None:  # the one verdict (app.quality.judge)
-            facts = object_facts(stored, result.measurement, ws.rules, ws.object_record(object_id), self.species)
+            facts = object_facts(stored, result.measurement, ws.rules, ws.cache.record(object_id), self.species)
             broken = list(dict.fromkeys([*result.failures, *facts]))
             quality = "; ".join(broken) or "ok"
-        values = {"id": str(object_id), "type": stored.kind, "species": species_text(ws.object_record(object_id)),
+        values = {"id": str(object_id), "type": stored.kind, "species": species_text(ws.cache.record(object_id)),
                   "attribute": stored.attribute, "vertices": str(len(stored.vertices)), "figure": main,
                   "quality": quality, "review": review_text(self.reviews.get(object_id)), "notes": stored.notes,
                   "pair": ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair)),
@@ -258,7 +258,7 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
     def tooltip(self, object_id: int) -> str:
         """The figure cell's tooltip (see :func:`figure_texts`)."""
         if object_id not in self._tips:
-            result = self.workspace.object_figures(object_id)
+            result = self.workspace.cache.known_figures(object_id)
             return figure_texts(result, object_id, self.links, self.instants)[2]
         return self._tips[object_id]
 

@@ -6,6 +6,7 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.observation_record import STAGES, ObservationRecord, Species
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.species_choice import choose_species, species_label, species_of_attribute
 from usvips.gui.workspace import Workspace
 
@@ -142,7 +143,7 @@ class ObservationForm(QtWidgets.QWidget):
             record = ObservationRecord.of(self.chosen_species(), number=self.number.value(),
                                           stage=self.stage.currentText(), activity=self.activity.text(),
                                           comment=self.comment.text())
-            self.workspace.set_record(self.object_id, record)
+            self.workspace.edits.set_record(self.object_id, record)
         except UsvipsError as error:
             self.status.setText(str(error))  # nothing typed is lost: the fields keep it
             return False
@@ -169,3 +170,8 @@ class ObservationForm(QtWidgets.QWidget):
             self.finished.emit()
             return
         super().keyPressEvent(event)
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("observation", "Observation", "bottom", lambda context: ObservationForm(context.workspace),
+                     group="records", order=50))

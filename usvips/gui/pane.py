@@ -326,15 +326,6 @@ class StereoPane(QtWidgets.QWidget):
     #: pen costs Qt's stroker about a second per redraw of 10,000 outlines).
     THIN_ABOVE = 300
 
-    def set_object_marks(self, lines: np.ndarray, selected: np.ndarray, vertices: np.ndarray,
-                         labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
-        """Permanent marks already joined by the caller: ``lines`` and ``selected`` (K, 2) pixels, one
-        outline after another separated by NaN rows; ``vertices`` (M, 2) pixels; ``labels`` (text, pixel of
-        the first vertex, selected); ``count`` outlines in all. (:meth:`set_object_lines`, then
-        :meth:`set_selection_marks`.)"""
-        self.set_object_lines(lines, count)
-        self.set_selection_marks(selected, vertices, labels, count)
-
     def set_object_lines(self, lines: np.ndarray, count: int) -> None:
         """The stored objects' outlines (K, 2) pixels, NaN-separated, ``count`` of them: the cached picture,
         redrawn only when it is set (the selected outlines are drawn over it, the added ones beside it)."""
@@ -419,33 +410,6 @@ class StereoPane(QtWidgets.QWidget):
         self.added_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
         view = item_from_pixels(lines)
         self.added_item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
-
-    def set_objects(self, outlines: list[tuple]) -> None:
-        """Permanent marks: (label, outline pixels (N, 2), closed, selected[, vertex pixels (M, 2)]) per
-        object; the vertices are marked where given (a circle's picks), else at the outline's points. An
-        empty label draws none (at survey size only the selected objects are labelled)."""
-        for label in self.labels:
-            self.viewbox.removeItem(label)
-        self.labels = []
-        lines: list[np.ndarray] = []
-        selected: list[np.ndarray] = []
-        vertices: list[np.ndarray] = []
-        for label, pixels, closed, is_selected, *marks in outlines:
-            view = item_from_pixels(pixels)
-            vertices.append(item_from_pixels(marks[0]) if marks else view)
-            path = np.vstack([view, view[:1]]) if closed and len(view) > 2 else view
-            (selected if is_selected else lines).append(np.vstack([path, [[np.nan, np.nan]]]))
-            if not label:
-                continue
-            text = pg.TextItem(label, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
-            text.setPos(float(view[0, 0]) + 4, float(view[0, 1]) - 4)
-            self.viewbox.addItem(text, ignoreBounds=True)
-            self.labels.append(text)
-        for item, parts in ((self.objects_item, lines), (self.selected_item, selected)):
-            data = np.vstack(parts) if parts else np.zeros((0, 2))
-            item.setData(data[:, 0], data[:, 1], connect="finite")
-        all_vertices = np.vstack(vertices) if vertices else np.zeros((0, 2))
-        self.vertex_item.setData(pos=all_vertices)
 
     def set_control(self, marks: list[tuple[str, tuple[float, float]]], selected: str | None = None) -> None:
         """Measured control points of this image: (target number, pixel), drawn as green rings with numbers;

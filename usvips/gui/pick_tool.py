@@ -178,12 +178,6 @@ def describe_point(vertex: MeasuredVertex) -> str:
             f"ray RMS {vertex.ray_rms_m * 1000:.1f} mm, range {vertex.range_m:.2f} m")
 
 
-def weak_flag(state: PickState) -> str:
-    """How a vertex kept from a weak proposal is said to the user (the flag itself is stored with the vertex,
-    :attr:`PickState.weak_match`)."""
-    return "weak auto-match proposal accepted" + (f", {state.weak_reason}" if state.weak_reason else "")
-
-
 class PickTool:
     """The digitising state machine on ``scene``: :attr:`state` (the vertex being picked),
     :attr:`digitising` (the object being digitised), :attr:`last_point`, :attr:`repick` and the

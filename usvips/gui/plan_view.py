@@ -8,7 +8,7 @@ from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
-from usvips.core.measurements.registry import MeasurementKind
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.workspace import Workspace
 
 
@@ -77,7 +77,7 @@ class PlanView(QtWidgets.QWidget):
     def refresh(self, *_: object) -> None:
         """Every object again (another view or project)."""
         self._parts = {}
-        self._on_objects(tuple(self.workspace.object_ids()))
+        self._on_objects(tuple(self.workspace.cache.ids()))
 
     def _on_pair(self) -> None:
         """Another pair: its cameras and frame (the objects stay as they are)."""
@@ -186,8 +186,7 @@ class PlanView(QtWidgets.QWidget):
                     except UsvipsError:
                         kinds[stored.kind] = None  # drawn through its vertices
                 k = kinds[stored.kind]
-                if k is not None and (k.outline.__func__ is not MeasurementKind.outline.__func__
-                                      or (k.closes and count > 2)):
+                if k is not None and (k.outline_fitted or (k.closes and count > 2)):
                     try:
                         outline = np.vstack([k.outline(xyz[start:end])[:, [a, b]], [[np.nan, np.nan]]])
                     except UsvipsError:
@@ -247,3 +246,8 @@ class PlanView(QtWidgets.QWidget):
             rig = geometry.calibration.rig(geometry.station, geometry.frame)
             for name, camera in zip(("L", "R"), rig.cameras, strict=True):
                 self._label(name, camera.exterior.position[[a, b]], (60, 220, 120))
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("plan", "Plan view", "bottom", lambda context: PlanView(context.workspace), group="records",
+                     order=60))

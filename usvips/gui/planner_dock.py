@@ -13,6 +13,8 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from usvips.core.planner import PrecisionMap, default_grid, precision_map
+from usvips.gui.panel_registry import Panel, register
+from usvips.gui.window_context import WindowContext
 from usvips.gui.worker import Cancelled, Worker, start
 from usvips.gui.workspace import Workspace
 
@@ -138,3 +140,13 @@ class PlannerDock(QtWidgets.QWidget):
         text = "; ".join(f"{row['range_m']:.1f} m: {row['length_sigma_rms_m'][0] * 1e3:.1f} mm" for row in best[::3])
         self._done(f"{plan.length:g} m length, RMS sigma over orientations (colour: {finite.min():.1f}–"
                    f"{finite.max():.1f} mm) — {text}" if finite.size else "no length fits in the common view")
+
+
+def _planner(context: WindowContext) -> PlannerDock:
+    """The planner, its maps computed by the window's jobs (closing the window cancels them)."""
+    jobs = context.jobs
+    return PlannerDock(context.workspace, None if jobs is None else jobs.pool, None if jobs is None else jobs.workers)
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("planner", "Precision planner", "right", _planner, group="figures", order=30))

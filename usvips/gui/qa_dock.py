@@ -8,7 +8,9 @@ from __future__ import annotations
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.gui.live_updates import TINT
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.qa_model import COLUMNS, QaModel, QaRow, summary
+from usvips.gui.window_context import WindowContext
 from usvips.gui.worker import Worker, start
 
 
@@ -182,3 +184,13 @@ class QaDock(QtWidgets.QWidget):
         if not self.view.currentIndex().isValid() and self.table_model.rows:
             self.view.setCurrentIndex(self.table_model.index(0, 0))
 
+
+def _qa(context: WindowContext) -> QaDock:
+    """The QA list; a row chosen asks the views to show its object (the model's event)."""
+    qa = QaDock(context.workspace)
+    qa.object_chosen.connect(context.workspace.request_object)
+    return qa
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("qa", "QA", "bottom", _qa, group="records", order=80))

@@ -110,7 +110,7 @@ class QaModel:
         """Keep a job's report (and its computed figures in the cache) and announce it."""
         report, computed = result
         if job.figures is not None:
-            self.workspace.remember_figures(job.figures, computed)
+            self.workspace.cache.remember(job.figures, computed)
         self.report = report
         self.rows = qa_rows(report)
         self.changed.emit()

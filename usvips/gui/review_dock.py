@@ -24,8 +24,10 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.app.quality import object_facts
 from usvips.core.errors import UsvipsError
+from usvips.gui.panel_registry import Panel, register
 from usvips.gui.review_model import ReviewModel
 from usvips.gui.video_model import video_frame_text
+from usvips.gui.window_context import WindowContext
 from usvips.gui.wording import species_text
 from usvips.store.checks import MAX_REASON_LENGTH
 from usvips.store.records import StaleEditError
@@ -211,7 +213,7 @@ class ReviewDock(QtWidgets.QWidget):
         self._rebuild = True
         project = self.workspace.project
         try:
-            self.model.load(project, self.workspace.objects() if project is not None else None)
+            self.model.load(project, self.workspace.cache.objects() if project is not None else None)
         except UsvipsError as error:
             self.model.load(None)
             self.workspace.message.emit("error", str(error))
@@ -262,7 +264,7 @@ class ReviewDock(QtWidgets.QWidget):
             return f"{object_id}  (no longer in the project)"
         stored = ws.stored_object(object_id)
         where = video_frame_text(stored) or ", ".join(dict.fromkeys(v.pair for v in stored.vertices if v.pair))
-        parts = [str(object_id), stored.kind, species_text(ws.object_record(object_id)) or stored.attribute, where]
+        parts = [str(object_id), stored.kind, species_text(ws.cache.record(object_id)) or stored.attribute, where]
         review = self.model.state(object_id)
         state = review.state + (f": {review.reason}" if review.reason else "")
         mark = ws.cache.marks.get(object_id)  # a colleague's change (usvips.gui.live_updates)
@@ -273,9 +275,9 @@ class ReviewDock(QtWidgets.QWidget):
         ws = self.workspace
         if object_id not in ws.cache:
             return []
-        known = ws.object_figures(object_id)
+        known = ws.cache.known_figures(object_id)
         return object_facts(ws.stored_object(object_id), known.measurement if known is not None else None, ws.rules,
-                            ws.object_record(object_id), ws.species_maxima())
+                            ws.cache.record(object_id), ws.species_maxima())
 
     def _show(self) -> None:
         reviewed, total, flagged = self.model.counts()
@@ -379,3 +381,14 @@ class ReviewDock(QtWidgets.QWidget):
     def _followed(self) -> None:
         if self.follow.isChecked():
             self.jump()
+
+
+def _review(context: WindowContext) -> ReviewDock:
+    """Review mode's panel; the object walked to is shown by the views (the model's event)."""
+    review = ReviewDock(context.workspace)
+    review.object_chosen.connect(context.workspace.request_object)
+    return review
+
+
+#: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
+PANEL = register(Panel("review", "Review", "bottom", _review, group="records", order=90))

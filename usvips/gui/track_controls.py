@@ -17,6 +17,8 @@ where a track stopped.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
@@ -27,26 +29,33 @@ from usvips.core.errors import UsvipsError
 from usvips.core.tracking import CANCELLED, TrackSettings
 from usvips.gui.instants_model import object_instants
 from usvips.gui.pane import item_from_pixels
+from usvips.gui.pick_tool import TOOLS
 from usvips.gui.track_model import TrackModel, parse_instant_frames
 from usvips.gui.undo import Command
+from usvips.gui.window_context import WindowContext
 from usvips.gui.worker import Cancelled
-from usvips.gui.workspace import TOOLS
 
 #: the colour of tracked points and their trails (RGB)
 TRACK_COLOUR = (40, 230, 110)
 
 
 class TrackController(QtCore.QObject):
-    """Runs tracking for the window ``window`` and draws its tracks (see the module docstring)."""
+    """Runs tracking over the video shown and draws its tracks (see the module docstring)."""
 
     #: frames tracked each way from the object's frame (10 s at 25 fps; the track stops earlier by itself)
     REACH = 250
     #: frames of trail drawn behind the tracked point
     TRAIL = 12
 
-    def __init__(self, window) -> None:
-        super().__init__(window)
-        self.window = window
+    def __init__(self, parent: QtWidgets.QWidget, context: WindowContext, panes: dict, video,
+                 set_tool: Callable[[str], object]) -> None:
+        """``parent``: the widget its dialogs belong to; ``context``: the workspace, the messages and the
+        jobs; ``panes``: the stereo panes by side (the tracks are drawn on them); ``video``: the
+        :class:`~usvips.gui.video_controls.VideoController` (its frames shown, its timeline's marks);
+        ``set_tool(tool)``: choose the measuring tool (the window's toolbar follows)."""
+        super().__init__(parent)
+        self.workspace, self.messages, self.jobs = context.workspace, context.messages, context.jobs
+        self.panes, self.video, self.set_tool = panes, video, set_tool
         self.model = TrackModel()
         self.settings = TrackSettings()
         self.range: tuple[int, int] = (0, 0)  # the frames asked for when the object was tracked
@@ -64,19 +73,19 @@ class TrackController(QtCore.QObject):
         self.joining: int | None = None
         self._joining_whole: int | None = None
         self.items = {}
-        for side, pane in window.panes.items():
+        for side, pane in panes.items():
             trail = pg.PlotCurveItem(pen=pg.mkPen(TRACK_COLOUR, width=1.5), connect="finite")
             points = pg.ScatterPlotItem(size=13, pen=pg.mkPen(TRACK_COLOUR, width=2), brush=None, symbol="o")
             for item in (trail, points):
                 pane.viewbox.addItem(item, ignoreBounds=True)
             self.items[side] = (trail, points)
-        ws = window.workspace
+        ws = self.workspace
         ws.stored.connect(self._on_stored)
         ws.picks_changed.connect(self._on_picks)
         ws.objects_reset.connect(self._on_reset)
         ws.project_changed.connect(self._on_project)
         ws.objects_removed.connect(self._on_removed)
-        window.video.shown.connect(self.draw)
+        video.shown.connect(self.draw)
 
     # ------------------------------------------------------------------ what to track
     def joins_as_instant(self, object_id: int) -> int | None:
@@ -87,7 +96,7 @@ class TrackController(QtCore.QObject):
         if self._instant_of is None:
             return None
         whole, frame, taken = self._instant_of
-        ws = self.window.workspace
+        ws = self.workspace
         stored = ws.stored_object(object_id)
         picks = [((v.xl, v.yl), (v.xr, v.yr)) for v in stored.vertices]
         return whole if picks == taken and stored.vertices[0].frame_left == frame and whole in ws.cache else None
@@ -113,7 +122,7 @@ class TrackController(QtCore.QObject):
         ``tracked_from``: the frame its proposals were tracked from when a vertex was kept as proposed, so
         that its pick error is counted as shared with the object's); refused by name (different
         calibrations or kinds), nothing changed."""
-        ws = self.window.workspace
+        ws = self.workspace
 
         # each step names the version of the instant as this window last read it (a colleague's change since
         # is refused by name, not undone)
@@ -129,9 +138,9 @@ class TrackController(QtCore.QObject):
             ws.undo.push(Command(f"make object {instant_id} an instant of object {object_id}", redo, undo))
             summary = object_instants(ws.project, object_id, ws.rules, ws.cache.calibrations).summary()
         except UsvipsError as error:
-            self.window.show_message("error", f"object {instant_id} stays an object of its own: {error}")
+            self.messages.say("error", f"object {instant_id} stays an object of its own: {error}")
             return False
-        self.window.show_message("info", f"object {instant_id} is an instant of object {object_id} (Ctrl+Z undoes "
+        self.messages.say("info", f"object {instant_id} is an instant of object {object_id} (Ctrl+Z undoes "
                                          f"it) — {summary}")
         return True
 
@@ -149,7 +158,7 @@ class TrackController(QtCore.QObject):
 
     def _start_frame(self, object_id: int) -> int | None:
         """The left frame object ``object_id`` was measured on (its proposals are tracked from there)."""
-        stored = self.window.workspace.stored_object(object_id)
+        stored = self.workspace.stored_object(object_id)
         return int(stored.vertices[0].frame_left) if stored.vertices and stored.vertices[0].frame_left is not None \
             else None
 
@@ -161,21 +170,21 @@ class TrackController(QtCore.QObject):
     def _on_picks(self) -> None:
         """Remember on which frame the last vertex was measured (a re-pick for Shift+T); after a proposed
         vertex is taken, propose the next."""
-        ws = self.window.workspace
-        if ws.last_point is not self._last_point:
-            self._last_point = ws.last_point
+        ws = self.workspace
+        if ws.pick_tool.last_point is not self._last_point:
+            self._last_point = ws.pick_tool.last_point
             self._last_point_frame = ws.video_frame[1] if ws.video_frame is not None else None
         self._propose_next()
 
     def _frame(self) -> tuple[str, int]:
-        frame = self.window.workspace.video_frame
+        frame = self.workspace.video_frame
         if frame is None:
             raise UsvipsError("tracking works on a stereo video: show a video's frames (File › Add stereo video…)")
         return frame[0], int(frame[1])
 
     def target(self) -> int:
         """The object to track: the one selected, else the one just stored."""
-        ws = self.window.workspace
+        ws = self.workspace
         if len(ws.selection) == 1:
             return int(ws.selection[0])
         if len(ws.selection) > 1:
@@ -185,7 +194,7 @@ class TrackController(QtCore.QObject):
         raise UsvipsError("select the object to track in the object list (or measure one on this frame)")
 
     def _object_on_video(self, object_id: int, label: str):
-        stored = self.window.workspace.stored_object(object_id)
+        stored = self.workspace.stored_object(object_id)
         first = stored.vertices[0] if stored.vertices else None
         if first is None or first.video is None:
             raise UsvipsError(f"object {object_id} was not measured on a video: there is nothing to track it through")
@@ -201,9 +210,9 @@ class TrackController(QtCore.QObject):
             label, _ = self._frame()
             object_id = self.target()
             stored = self._object_on_video(object_id, label)
-            tracker = VideoTracker.read(self.window.workspace.project, label)
+            tracker = VideoTracker.read(self.workspace.project, label)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return None
         start = int(stored.vertices[0].frame_left)
         first, last = start - self.REACH, start + self.REACH
@@ -231,7 +240,7 @@ class TrackController(QtCore.QObject):
                 self.model.set_track(k, track)
             self.range = (first, last)
             self.draw()
-            self.window.show_message("info", f"tracked {self.model.describe()} — Shift+T re-follows from a point "
+            self.messages.say("info", f"tracked {self.model.describe()} — Shift+T re-follows from a point "
                                              "re-picked on a frame, Ctrl+T stores instants")
 
         return self._run(job, f"tracking object {object_id}", done)
@@ -239,19 +248,19 @@ class TrackController(QtCore.QObject):
     def refollow(self):
         """Shift+T: the vertex re-picked on the frame shown (the last measured point there) is followed on
         from that frame, replacing its track beyond it."""
-        ws = self.window.workspace
+        ws = self.workspace
         try:
             label, frame = self._frame()
             if self.model.object_id is None or self.model.label != label:
                 raise UsvipsError("nothing is tracked on this video: select an object and press T first")
-            if ws.last_point is None or self._last_point_frame != frame:
+            if ws.pick_tool.last_point is None or self._last_point_frame != frame:
                 raise UsvipsError(f"re-pick the point on this frame ({frame}) first: click it in the left image, "
                                   "then its partner (pick tool), then Shift+T")
-            left, right = ws.last_point.left, ws.last_point.right
+            left, right = ws.pick_tool.last_point.left, ws.pick_tool.last_point.right
             vertex = self.model.nearest_vertex(frame, left)
             tracker = VideoTracker.read(ws.project, label)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return None
         start = self.model.start
         first, last = self.range
@@ -268,30 +277,30 @@ class TrackController(QtCore.QObject):
         def done(track) -> None:
             self.model.correct(vertex, track)
             self.draw()
-            self.window.show_message("info", f"vertex {vertex + 1} re-followed from frame {frame}: "
+            self.messages.say("info", f"vertex {vertex + 1} re-followed from frame {frame}: "
                                              f"{self.model.describe()}")
 
         return self._run(job, f"re-following vertex {vertex + 1} from frame {frame}", done)
 
     def _run(self, job, label: str, done):
-        if self.worker is not None and self.worker in self.window.workers:
-            self.window.show_message("warning", "tracking is already running: wait for it or Cancel it")
+        if self.worker is not None and self.worker in self.jobs.workers:
+            self.messages.say("warning", "tracking is already running: wait for it or Cancel it")
             return None
-        project = self.window.workspace.project
+        project = self.workspace.project
 
         def finished(result) -> None:
-            if self.window.workspace.project is project:  # not another project's, opened meanwhile
+            if self.workspace.project is project:  # not another project's, opened meanwhile
                 done(result)
 
-        self.worker = self.window.run_worker(job, label, finished,
-                                             lambda: self.window.show_message("info", f"{label}: cancelled, "
+        self.worker = self.jobs.run(job, label, finished,
+                                             lambda: self.messages.say("info", f"{label}: cancelled, "
                                                                                       "nothing changed"))
         return self.worker
 
     # ------------------------------------------------------------------ drawing
     def draw(self, *_: object) -> None:
         """The tracked points on the frame shown with their trails, and the timeline's span and stops."""
-        ws = self.window.workspace
+        ws = self.workspace
         frame = ws.video_frame
         shown = frame is not None and self.model.object_id is not None and frame[0] == self.model.label
         for side, (trail_item, points_item) in self.items.items():
@@ -312,21 +321,18 @@ class TrackController(QtCore.QObject):
                     pieces.extend([item_from_pixels(trail), np.full((1, 2), np.nan)])
             line = np.vstack(pieces) if pieces else np.zeros((0, 2))
             trail_item.setData(line[:, 0], line[:, 1])
-        timeline = self.window.video.dock_widget.timeline
-        on_video = self.window.video.navigator is not None and self.window.video.navigator.label == self.model.label
-        timeline.track_span = self.model.span() if on_video else None
-        timeline.track_stops = {s.frame for s in self.model.stops() if s.reason != CANCELLED} if on_video else set()
-        timeline.update()
+        self.video.show_track(self.model.label, self.model.span(),
+                              {s.frame for s in self.model.stops() if s.reason != CANCELLED})
 
     # ------------------------------------------------------------------ instants
     def store_dialog(self) -> None:
         """Ctrl+T: ask which frames (every N, or a list) and store the tracks there as instants."""
         if not self.model.complete:
-            self.window.show_message("error", "nothing tracked to store: select an object and press T first")
+            self.messages.say("error", "nothing tracked to store: select an object and press T first")
             return
         span = self.model.span()
         text, ok = QtWidgets.QInputDialog.getText(
-            self.window, "Store tracked instants",
+            self.parent(), "Store tracked instants",
             f"Object {self.model.object_id} is tracked over frames {span[0]}–{span[1]}.\n"
             "Store an instant every N frames (type N), or on the frames typed (e.g. 12, 40, 75):", text="10")
         if ok:
@@ -336,7 +342,7 @@ class TrackController(QtCore.QObject):
         """Store the tracks as instants of the tracked object on the frames ``text`` names (every N, or a
         list); one undoable step; the object list then shows the combined figure. Returns the new ids
         (none when refused: the reason is in the status bar, nothing stored)."""
-        ws = self.window.workspace
+        ws = self.workspace
         model = self.model
         try:
             frames = parse_instant_frames(text, model)
@@ -372,9 +378,9 @@ class TrackController(QtCore.QObject):
             ws.undo.push(Command(f"store {len(frames)} tracked instants of object {object_id}", redo, undo))
             summary = object_instants(ws.project, object_id, ws.rules, ws.cache.calibrations).summary()
         except UsvipsError as error:
-            self.window.show_message("error", f"no instants stored: {error}")
+            self.messages.say("error", f"no instants stored: {error}")
             return []
-        self.window.show_message("info", f"stored {len(ids)} instants (frames {', '.join(map(str, frames))}; Ctrl+Z "
+        self.messages.say("info", f"stored {len(ids)} instants (frames {', '.join(map(str, frames))}; Ctrl+Z "
                                          f"undoes it) — {summary}")
         return list(ids)
 
@@ -383,7 +389,7 @@ class TrackController(QtCore.QObject):
         """P: the selected object's vertices proposed on the frame shown, tracked from the frame it was
         measured on (in a worker); the first goes into the pick state (Enter accepts it, a click corrects)
         and each next one when the one before is taken."""
-        ws = self.window.workspace
+        ws = self.workspace
         try:
             label, frame = self._frame()
             object_id = self.target()
@@ -395,12 +401,12 @@ class TrackController(QtCore.QObject):
             if abs(frame - start) > self.REACH:
                 raise UsvipsError(f"object {object_id} was measured on frame {start}, {abs(frame - start)} frames "
                                   f"away: proposals track up to {self.REACH} frames")
-            if ws.digitising.vertices:
+            if ws.pick_tool.digitising.vertices:
                 raise UsvipsError("finish (Ctrl+Enter) or cancel the object being digitised before proposing")
             known = self._known_proposals(object_id, frame)
             tracker = None if known is not None else VideoTracker.read(ws.project, label)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return None
         if known is not None:
             self._start_proposals(object_id, frame, known)
@@ -427,15 +433,15 @@ class TrackController(QtCore.QObject):
                 for k in range(self.model.vertex_count)]
 
     def _start_proposals(self, object_id: int, frame: int, proposals: list[VertexProposal]) -> None:
-        ws = self.window.workspace
+        ws = self.workspace
         if ws.video_frame is None or int(ws.video_frame[1]) != frame:
-            self.window.show_message("warning", f"the proposals were for frame {frame}, now another is shown")
+            self.messages.say("warning", f"the proposals were for frame {frame}, now another is shown")
             return
         self._proposals, self._proposed = None, -1
         kind = ws.stored_object(object_id).kind
         tool = "line" if kind == "length" else kind
-        if ws.tool != tool and tool in TOOLS:  # the tool that measures the object's kind
-            self.window.set_tool(tool)
+        if ws.pick_tool.tool != tool and tool in TOOLS:  # the tool that measures the object's kind
+            self.set_tool(tool)
         self._proposals = (object_id, frame, proposals)
         self._propose_next(force=True)
 
@@ -444,42 +450,42 @@ class TrackController(QtCore.QObject):
         the user dropping a proposal (Esc) or going to another frame ends the proposals."""
         if self._proposals is None:
             return
-        ws = self.window.workspace
+        ws = self.workspace
         object_id, frame, proposals = self._proposals
         if ws.video_frame is None or int(ws.video_frame[1]) != frame:
             self._proposals = None
             return
-        if ws.state.source is not None and not force:
+        if ws.pick_tool.state.source is not None and not force:
             return
-        k = len(ws.digitising.vertices)
+        k = len(ws.pick_tool.digitising.vertices)
         if not force and k <= self._proposed:  # dropped, not taken
             self._proposals = None
             return
         if k >= len(proposals):
             self._proposals = None
             # only an object of the vertices taken now joins (not one measured after they were undone)
-            taken = [(tuple(map(float, v.left)), tuple(map(float, v.right))) for v in ws.digitising.vertices]
+            taken = [(tuple(map(float, v.left)), tuple(map(float, v.right))) for v in ws.pick_tool.digitising.vertices]
             self._instant_of = (object_id, frame, taken)
             # a vertex kept as proposed carries the track's start pick (its error): the instant is tracked
             self._tracked_from = (self._start_frame(object_id)
                                   if any(t == (tuple(map(float, p.left)), tuple(map(float, p.right)))
                                          for t, p in zip(taken, proposals, strict=False) if p.left is not None)
                                   else None)
-            self.window.show_message("info", f"every vertex of object {object_id} taken on frame {frame}: Enter "
+            self.messages.say("info", f"every vertex of object {object_id} taken on frame {frame}: Enter "
                                              "stores them as a new instant of the object")
             return
         proposal = proposals[k]
         if proposal.left is None:
             self._proposals = None
-            self.window.show_message("warning", f"no proposal for vertex {k + 1} of object {object_id}: "
+            self.messages.say("warning", f"no proposal for vertex {k + 1} of object {object_id}: "
                                                 f"{proposal.reason}; pick it by hand")
             return
         try:
             self._proposed = k
-            ws.propose_vertex(proposal.left, proposal.right,
+            ws.pick_tool.propose_vertex(proposal.left, proposal.right,
                               f"vertex {k + 1} of {len(proposals)} of object {object_id}, tracked from its frame")
             for side, pixel in (("left", proposal.left), ("right", proposal.right)):
-                self.window.panes[side].bring_into_view(pixel)  # never accepted unseen off a zoomed view
+                self.panes[side].bring_into_view(pixel)  # never accepted unseen off a zoomed view
         except UsvipsError as error:
             self._proposals = None
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))

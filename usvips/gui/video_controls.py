@@ -32,6 +32,7 @@ from usvips.gui.video_model import (
     rgb_pair,
     video_frame_of,
 )
+from usvips.gui.window_context import WindowContext
 from usvips.gui.worker import Cancelled, Worker
 from usvips.io import video_proxy
 
@@ -205,9 +206,18 @@ class VideoController(QtCore.QObject):
     #: the niceness of the thread that builds proxies (Linux: per thread; its FFmpeg threads inherit it)
     PROXY_NICENESS = 15
 
-    def __init__(self, window, cache: FrameCache | None = None) -> None:
-        super().__init__(window)
-        self.window = window
+    def __init__(self, parent: QtWidgets.QWidget, context: WindowContext, panes: dict,
+                 forget_pair_loading: Callable[[], None], pairs_changed: Callable[[], None],
+                 cache: FrameCache | None = None) -> None:
+        """``parent``: the widget its shortcuts and questions belong to; ``context``: the workspace, the
+        messages and the jobs; ``panes``: the stereo panes by side (their keys); ``forget_pair_loading()``:
+        called when a video is opened over an image pair still being read; ``pairs_changed()``: after a
+        frame pair was stored as an image pair."""
+        super().__init__(parent)
+        self.workspace, self.messages, self.jobs = context.workspace, context.messages, context.jobs
+        self.forget_pair_loading, self.pairs_changed = forget_pair_loading, pairs_changed
+        #: the window's dock that holds :attr:`dock_widget` (:meth:`attach_dock`), or None
+        self.dock: QtWidgets.QDockWidget | None = None
         self.dock_widget = VideoDock()
         self.cache = cache or FrameCache()
         #: the video opened (its source, position and synchronisation: usvips.gui.video_model), or None
@@ -231,15 +241,15 @@ class VideoController(QtCore.QObject):
         self._proxies_deleted: set[tuple[str, str]] = set()
         #: (project file, video) whose proxies were offered after a slow seek in this session
         self._proxies_offered: set[tuple[str, str]] = set()
-        goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), window)
+        goto = QtGui.QShortcut(QtGui.QKeySequence("Ctrl+G"), parent)
         goto.activated.connect(self.focus_goto)
-        for pane in window.panes.values():
+        for pane in panes.values():
             pane.graphics.installEventFilter(self)
         self._connect(self.dock_widget)
         # an object asked for (the object list's double-click or Zoom to): the frame it was measured on
-        window.workspace.object_requested.connect(self.go_to_object)
-        window.workspace.project_changed.connect(self.project_opened)  # another project: new controls
-        window.workspace.pair_changed.connect(self._on_pair_changed)  # an image pair shown: the video is left
+        self.workspace.object_requested.connect(self.go_to_object)
+        self.workspace.project_changed.connect(self.project_opened)  # another project: new controls
+        self.workspace.pair_changed.connect(self._on_pair_changed)  # an image pair shown: the video is left
 
     def _connect(self, d: VideoDock) -> None:
         """Wire a dock's controls to this controller."""
@@ -260,6 +270,20 @@ class VideoController(QtCore.QObject):
         for widget in (d, d.timeline):
             widget.installEventFilter(self)
 
+    def attach_dock(self, dock: QtWidgets.QDockWidget) -> None:
+        """The window's dock that shows :attr:`dock_widget`: a new project's controls go into it, and it is
+        shown for a project with videos."""
+        self.dock = dock
+
+    def show_track(self, label: str | None, span: tuple[int, int] | None, stops: set[int]) -> None:
+        """Mark a track of video ``label`` on the timeline: the frames it covers (``span``, first and last)
+        and where it stopped (``stops``); nothing when another video (or none) is shown."""
+        timeline = self.dock_widget.timeline
+        on_video = self.navigator is not None and label is not None and self.navigator.label == label
+        timeline.track_span = span if on_video else None
+        timeline.track_stops = set(stops) if on_video else set()
+        timeline.update()
+
     @property
     def source(self) -> FrameSource | None:
         return None if self.session is None else self.session.source
@@ -279,7 +303,7 @@ class VideoController(QtCore.QObject):
         old, d = self.dock_widget, VideoDock()
         self.dock_widget = d
         self._connect(d)
-        dock = getattr(self.window, "docks", {}).get("video")
+        dock = self.dock
         if dock is not None:
             dock.setWidget(d)
             old.hide()
@@ -296,20 +320,20 @@ class VideoController(QtCore.QObject):
             shown = self.navigator.label if self.navigator is not None else None
             d.chooser.setCurrentIndex(labels.index(shown) if shown in labels else -1)
         d.setEnabled(bool(labels))
-        dock = getattr(self.window, "docks", {}).get("video")
+        dock = self.dock
         if dock is not None:  # shown for a project with videos (View › Video brings it back by hand)
             dock.setVisible(bool(labels))
 
     def open_video(self, label: str) -> bool:
-        project = self.window.workspace.project
+        project = self.workspace.project
         if project is None or not label:
             return False
         self.close_video()
-        self.window.forget_pair_loading()  # an image pair asked for before would replace the video's frames
+        self.forget_pair_loading()  # an image pair asked for before would replace the video's frames
         try:
             self.session = VideoSession(project, label)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return False
         d = self.dock_widget
         self.navigator.rate, self.navigator.jump = float(d.rate.currentText().rstrip("×")), d.jump.value()
@@ -319,7 +343,7 @@ class VideoController(QtCore.QObject):
         d.timeline.marks = set(self.navigator.marks)
         d.timeline.blockSignals(False)
         d.offset.setValue(self.navigator.offset)
-        self.window.show_message("info", f"video {label}: {self.navigator.frame_count} frames at "
+        self.messages.say("info", f"video {label}: {self.navigator.frame_count} frames at "
                                  f"{self.navigator.fps:.6g} fps, offset {self.navigator.offset:+d} "
                                  + (f"— {self.source.video['report']}" if self.source.video["report"] else ""))
         self.request(self.navigator.first)
@@ -355,11 +379,11 @@ class VideoController(QtCore.QObject):
     def _on_pair_changed(self) -> None:
         """The workspace shows another pair: an image pair (no video frame) leaves the video, so that the
         arrows and Space on the panes no longer step a video that is not shown."""
-        if self.session is not None and self.window.workspace.video_frame is None:
+        if self.session is not None and self.workspace.video_frame is None:
             self.close_video()
 
     def _proxy_key(self, label: str) -> tuple[str, str]:
-        project = self.window.workspace.project
+        project = self.workspace.project
         return str(project.path.resolve()) if project is not None else "", label
 
     def _need_video(self) -> bool:
@@ -372,7 +396,7 @@ class VideoController(QtCore.QObject):
         label = d.chooser.currentText() or (d.chooser.itemText(0) if d.chooser.count() == 1 else "")
         if label:
             return self.open_video(label)
-        self.window.show_message("warning", "no video is shown: choose one in the Video box (Alt+D)"
+        self.messages.say("warning", "no video is shown: choose one in the Video box (Alt+D)"
                                  if d.chooser.count() else "this project has no stereo video "
                                  "(File › Add stereo video…)")
         d.chooser.setFocus(QtCore.Qt.FocusReason.OtherFocusReason)
@@ -413,18 +437,18 @@ class VideoController(QtCore.QObject):
         worker = self._request = Worker(job, f"decoding frame {frame}")
         worker.signals.finished.connect(lambda result, w=worker: self._decoded(w, *result))
         worker.signals.failed.connect(lambda message: self._failed(message))
-        self.window.pool.start(worker)
+        self.jobs.pool.start(worker)
 
     def _failed(self, message: str) -> None:
         self._target = None  # step on from the frame shown
-        self.window.show_message("error", message)
+        self.messages.say("error", message)
 
     #: a frame asked for that took longer than this (s) to decode is a slow seek: the first one offers the
     #: video's seek proxies (when it needs them and they were not declined), rather than asking on opening
     slow_seek_s = 0.5
 
     def _decoded(self, worker: Worker, frame: int, item: tuple, seconds: float = 0.0) -> None:
-        if (self.source is None or self.navigator is None or self.window.workspace.project is None
+        if (self.source is None or self.navigator is None or self.workspace.project is None
                 or item[2] != frame + self.navigator.offset):
             return  # closed (the video or the project), or decoded at an offset since changed
         self.cache.put(frame, item)
@@ -447,7 +471,7 @@ class VideoController(QtCore.QObject):
         nav = self.navigator
         nav.go(frame)
         # the views follow the model's pair_changed (only the objects measured on this frame are drawn)
-        self.window.workspace.set_pair(nav.label, left, right, (nav.label, frame, partner, time_s))
+        self.workspace.set_pair(nav.label, left, right, (nav.label, frame, partner, time_s))
         d = self.dock_widget
         d.timeline.blockSignals(True)
         d.timeline.setValue(frame)
@@ -461,7 +485,7 @@ class VideoController(QtCore.QObject):
         nav, source, cache = self.navigator, self.source, self.cache
         todo = [f for f in prefetch_order(frame, nav.first, nav.last, self.direction) if f not in cache]
         if not todo or (self._prefetch is not None and not self._prefetch.is_cancelled
-                        and self._prefetch in self.window.workers):
+                        and self._prefetch in self.jobs.workers):
             return
         if self._prefetch is not None:
             self._prefetch.cancel()
@@ -476,7 +500,7 @@ class VideoController(QtCore.QObject):
             return len(todo)
 
         self._prefetch = Worker(job, "prefetching frames")
-        self.window.pool.start(self._prefetch)
+        self.jobs.pool.start(self._prefetch)
 
     # ------------------------------------------------------------------ controls
     def set_playing(self, on: bool) -> None:
@@ -511,10 +535,10 @@ class VideoController(QtCore.QObject):
         try:
             frame = parse_position(self.dock_widget.goto.text(), self.navigator.fps, self.source.times_s)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return
         if not self.navigator.first <= frame <= self.navigator.last:
-            self.window.show_message("error", f"frame {frame} has no synchronised pair (frames "
+            self.messages.say("error", f"frame {frame} has no synchronised pair (frames "
                                      f"{self.navigator.first} to {self.navigator.last})")
             return
         self.request(frame)
@@ -550,7 +574,7 @@ class VideoController(QtCore.QObject):
         try:
             job_data = session.sync_plan()
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return None
 
         def job(progress, cancelled):
@@ -572,11 +596,11 @@ class VideoController(QtCore.QObject):
             if outcome.action == "store":
                 store()
                 return
-            self.window.show_message(outcome.level, outcome.text)
+            self.messages.say(outcome.level, outcome.text)
             if outcome.action == "ask":
                 self.ask_to_store(outcome.question, store)
 
-        return self.window.run_worker(job, f"synchronising {session.label}", done)
+        return self.jobs.run(job, f"synchronising {session.label}", done)
 
     def ask_to_store(self, question: str, store: Callable[[], None]) -> None:
         """Ask whether to store an offset estimated with little confidence: a Yes/No question (No by
@@ -617,7 +641,7 @@ class VideoController(QtCore.QObject):
         try:
             nav = session.store_offset(value, how)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             self.dock_widget.offset.setValue(session.navigator.offset)
             return
         for worker in (self._request, self._prefetch):
@@ -626,7 +650,7 @@ class VideoController(QtCore.QObject):
         self.cache = FrameCache(self.cache.budget)  # a decode still running fills the old one, never this
         self.dock_widget.offset.setValue(value)
         self.dock_widget.timeline.setRange(nav.first, nav.last)
-        self.window.show_message("info", said or f"video {nav.label}: offset set to {value:+d} frames (stored)")
+        self.messages.say("info", said or f"video {nav.label}: offset set to {value:+d} frames (stored)")
         self.request(frame)
 
     def _on_period(self) -> None:
@@ -645,9 +669,9 @@ class VideoController(QtCore.QObject):
         try:
             name, start, end = self.session.mark_period(text)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return False
-        self.window.show_message("info", f"period {name!r}: frames {start} to {end} (stored)")
+        self.messages.say("info", f"period {name!r}: frames {start} to {end} (stored)")
         return True
 
     def _on_take_pair(self) -> None:
@@ -670,7 +694,7 @@ class VideoController(QtCore.QObject):
         try:
             pair_label, frame, offset, folder = session.plan_taken_pair(pair_label)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return None
 
         def job(progress, cancelled):
@@ -682,12 +706,12 @@ class VideoController(QtCore.QObject):
         def store(result) -> None:
             partner, paths = result
             session.add_taken_pair(pair_label, paths, medium)
-            self.window.refresh_pair_box()
-            self.window.show_message("info", f"left frame {frame} and right frame {partner} of {video} are now "
+            self.pairs_changed()
+            self.messages.say("info", f"left frame {frame} and right frame {partner} of {video} are now "
                                              f"the {'in-air' if medium == 'air' else 'underwater'} image pair "
                                              f"{pair_label!r} (Calibration menu: calibrate from it)")
 
-        return self.window.run_worker(job, f"taking frame {frame} as a pair", store)
+        return self.jobs.run(job, f"taking frame {frame} as a pair", store)
 
     # ------------------------------------------------------------------ seek proxies
     def _on_proxy_button(self) -> None:
@@ -709,12 +733,12 @@ class VideoController(QtCore.QObject):
         No: not asked again for that video in this session, the dock's Seek proxy builds them). None when
         there is nothing to build, a build is running or a question is open (a message says so unless
         automatic)."""
-        nav, project, source = self.navigator, self.window.workspace.project, self.source
+        nav, project, source = self.navigator, self.workspace.project, self.source
         if nav is None or project is None or source is None:
             return None
         if self._proxy_worker is not None:
             if not automatic:
-                self.window.show_message("info", f"seek proxies of {self._proxy_label} are being built")
+                self.messages.say("info", f"seek proxies of {self._proxy_label} are being built")
             return None
         if automatic and not (video_proxy.needs_proxy(source.left) or video_proxy.needs_proxy(source.right)):
             return None
@@ -722,11 +746,11 @@ class VideoController(QtCore.QObject):
         try:
             plan = source.proxy_plan(folder)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return None
         if not plan:
             if not automatic:
-                self.window.show_message("info", f"video {nav.label}: its seek proxies are already built and in use")
+                self.messages.say("info", f"video {nav.label}: its seek proxies are already built and in use")
             return None
         label, niceness = nav.label, self.PROXY_NICENESS
         if automatic and self.ask_before_proxies:
@@ -741,7 +765,7 @@ class VideoController(QtCore.QObject):
 
             def declined() -> None:
                 self._proxies_deleted.add(self._proxy_key(label))
-                self.window.show_message("info", f"no seek proxies for {label}: the dock's Seek proxy button builds "
+                self.messages.say("info", f"no seek proxies for {label}: the dock's Seek proxy button builds "
                                                  "them when wanted")
 
             self.ask("Seek proxies", question, lambda: self.build_proxies(automatic=False), declined)
@@ -777,7 +801,7 @@ class VideoController(QtCore.QObject):
             return
         self._proxy_worker, self._proxy_label = None, None
         self._show_proxy_status()
-        self.window.show_message(kind, message)
+        self.messages.say(kind, message)
 
     def _proxies_built(self, worker: Worker, project, label: str, folder, paths) -> None:
         if worker is not self._proxy_worker:
@@ -785,9 +809,9 @@ class VideoController(QtCore.QObject):
         self._proxy_worker, self._proxy_label = None, None
         size = sum(p.stat().st_size for p in paths if p.exists()) / 2**20
         in_use = (self.source is not None and self.navigator is not None and self.navigator.label == label
-                  and self.window.workspace.project is project and self.source.attach_proxies(folder))
+                  and self.workspace.project is project and self.source.attach_proxies(folder))
         self._show_proxy_status()
-        self.window.show_message("info", f"video {label}: seek proxies built and checked ({size:.0f} MiB in "
+        self.messages.say("info", f"video {label}: seek proxies built and checked ({size:.0f} MiB in "
                                          f"{folder})" + ("; random seeks now decode one frame" if in_use else ""))
 
     def cancel_proxies(self) -> None:
@@ -798,7 +822,7 @@ class VideoController(QtCore.QObject):
     def delete_proxies(self) -> int:
         """Delete the shown video's seek proxies (cancelling a build of them): seeks decode the original
         again, and they are not rebuilt by themselves in this session. Returns the bytes freed."""
-        nav, project = self.navigator, self.window.workspace.project
+        nav, project = self.navigator, self.workspace.project
         if nav is None or project is None:
             return 0
         if self._proxy_label == nav.label:
@@ -809,10 +833,10 @@ class VideoController(QtCore.QObject):
         try:
             freed = video_project.delete_proxies(project, nav.label)
         except UsvipsError as error:
-            self.window.show_message("error", str(error))
+            self.messages.say("error", str(error))
             return 0
         self._show_proxy_status()
-        self.window.show_message("info", f"video {nav.label}: " + (
+        self.messages.say("info", f"video {nav.label}: " + (
             f"seek proxies deleted ({freed / 2**20:.1f} MiB freed); seeks decode the original" if freed
             else "it has no seek proxies"))
         return freed
@@ -835,7 +859,7 @@ class VideoController(QtCore.QObject):
 
     def shutdown(self) -> None:
         """Before the window closes: stop the proxy build and wait for its thread (it stops within a frame)."""
-        self.window.workspace.project_changed.disconnect(self.project_opened)
+        self.workspace.project_changed.disconnect(self.project_opened)
         self.cancel_proxies()
         self.proxy_pool.waitForDone(10000)
 
@@ -849,7 +873,7 @@ class VideoController(QtCore.QObject):
     def go_to_object(self, object_id: int) -> None:
         """The model's ``object_requested``: an object measured on a video is shown on its frame (opening
         its video if another is open); others are the window's."""
-        ws = self.window.workspace
+        ws = self.workspace
         where = video_frame_of(ws.stored_object(object_id)) if object_id in ws.cache else None
         if where is None:
             return
@@ -862,7 +886,7 @@ class VideoController(QtCore.QObject):
 
     def objects_changed(self) -> None:
         # the session's project only (another project's objects are announced before its project_changed)
-        if self.session is not None and self.session.project is self.window.workspace.project:
+        if self.session is not None and self.session.project is self.workspace.project:
             self.dock_widget.timeline.marks = set(self.session.refresh_marks())
             self.dock_widget.timeline.update()
 

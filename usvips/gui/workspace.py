@@ -4,8 +4,9 @@ of one model per concern, each in its own module: the picking and measuring tool
 display enhancement (:mod:`usvips.gui.enhancement_model`), undo (:mod:`usvips.gui.undo`; one stack for
 all). Opening a project makes NEW instances of the per-project ones (nothing of the previous project can
 survive); their events belong to the workspace, so views connect once. The window only draws what these
-hold and forwards clicks. The workspace keeps the public API its callers have always used (``pick``,
-``state``, ``finish_object`` ...) by delegating to the model that holds each concern.
+hold and forwards clicks. Callers use the models through the workspace's fields (``workspace.pick_tool.pick``,
+``workspace.cache.objects()``, ``workspace.edits.delete_object`` ...): the workspace forwards nothing
+but what the pick tool and the edits need of their scene.
 
 Pixels follow ARCHITECTURE.md: x right, y down, origin at the centre of the top-left pixel (float64).
 3-D points are metres in the frame of the pair's calibration: the object frame when the pair is a
@@ -23,31 +24,14 @@ import numpy as np
 from usvips.app.pair_geometry import PairGeometry, pair_geometry
 from usvips.app.project_figures import measurement_input, place_text
 from usvips.app.quality import species_maxima
-from usvips.core.enhance import Pipeline
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
 from usvips.core.measurements import kind as measurement_kind
-from usvips.core.observation_record import ObservationRecord
-from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.calculator import Result
 from usvips.gui.enhancement_model import Enhancement
 from usvips.gui.object_cache import ObjectCache, ObjectEvents
 from usvips.gui.object_edits import ObjectEdits
-from usvips.gui.pick_tool import (  # noqa: F401  (re-exported: callers import these from the workspace)
-    LINE,
-    LINK_DEPTH_M,
-    OBSERVE,
-    SIDES,
-    TOOLS,
-    Digitising,
-    MeasuredVertex,
-    PickEvents,
-    PickSettings,
-    PickState,
-    PickTool,
-    describe_point,
-    other,
-)
+from usvips.gui.pick_tool import SIDES, PickEvents, PickSettings, PickTool
 from usvips.gui.signals import Signal
 from usvips.gui.undo import UndoStack
 from usvips.io.images import read_image
@@ -175,9 +159,9 @@ class Workspace:
         then serves the figures of the object stored from them."""
         if geometry is None:
             return None
-        known = self._calibrations.get(geometry.calibration_id)
+        known = self.cache.calibrations.get(geometry.calibration_id)
         if known is None:
-            self._calibrations[geometry.calibration_id] = geometry.calibration
+            self.cache.calibrations[geometry.calibration_id] = geometry.calibration
             return geometry
         return replace(geometry, calibration=known)
 
@@ -226,195 +210,40 @@ class Workspace:
         pair = next(p for p in self.project.pairs() if p["label"] == self.pair)
         return str(pair[side])
 
-    # ------------------------------------------------------------------ enhancement (usvips.gui.enhancement_model)
-    @property
-    def pipelines(self) -> dict[str, Pipeline]:
-        return self.enhancement.pipelines
-
-    def set_pipeline(self, side: str, pipeline: Pipeline) -> None:
-        """Change an image's enhancement (display only: picks and coordinates use the original) and save
-        it in the project; undoable."""
-        self.enhancement.set_pipelines({side: pipeline})
-
-    def set_pipelines(self, changes: dict[str, Pipeline]) -> None:
-        """Change the enhancement of one or both images as one undoable step."""
-        self.enhancement.set_pipelines(changes)
-
-    # ------------------------------------------------------------------ the pick tool (usvips.gui.pick_tool)
-    # held by ``self.pick_tool``, a new one per project; the workspace's names delegate to it
-    @property
-    def snap(self) -> bool:
-        return self.settings.snap
-
-    @snap.setter
-    def snap(self, value: bool) -> None:
-        self.settings.snap = bool(value)
-
-    @property
-    def auto_match(self) -> bool:
-        return self.settings.auto_match
-
-    @auto_match.setter
-    def auto_match(self, value: bool) -> None:
-        self.settings.auto_match = bool(value)
-
-    @property
-    def near_m(self) -> float:
-        return self.settings.near_m
-
-    @property
-    def far_m(self) -> float:
-        return self.settings.far_m
-
-    @property
-    def max_off_curve_px(self) -> float:
-        return self.settings.max_off_curve_px
-
-    @property
-    def state(self) -> PickState:
-        """The vertex being picked."""
-        return self.pick_tool.state
-
-    @property
-    def digitising(self) -> Digitising:
-        """The object being digitised (its kind and the vertices measured so far)."""
-        return self.pick_tool.digitising
-
-    @property
-    def last_point(self) -> MeasuredVertex | None:
-        """The last vertex measured (the status bar's X/Y/Z; linked navigation's working depth)."""
-        return self.pick_tool.last_point
-
-    @last_point.setter
-    def last_point(self, vertex: MeasuredVertex | None) -> None:
-        self.pick_tool.last_point = vertex
-
-    @property
-    def repick(self) -> tuple[int, int] | None:
-        """(object id, vertex index from 0) that the next measured vertex replaces, or None."""
-        return self.pick_tool.repick
-
-    @property
-    def attribute(self) -> str:
-        """The attribute given to the next stored object (the window's Attribute box keeps it current)."""
-        return self.pick_tool.attribute
-
-    @attribute.setter
-    def attribute(self, text: str) -> None:
-        self.pick_tool.attribute = text
-
-    @property
-    def tool(self) -> str:
-        return self.pick_tool.tool
-
-    def set_tool(self, tool: str) -> None:
-        self.pick_tool.set_tool(tool)
-
-    def pick(self, side: str, pixel) -> None:
-        """A click in one image (see :meth:`PickTool.pick`)."""
-        self.pick_tool.pick(side, pixel)
-
-    def accept_proposal(self) -> None:
-        """Enter: keep the proposal, or the vertex held by a guard rail (see :meth:`PickTool.accept_proposal`)."""
-        self.pick_tool.accept_proposal()
-
-    def propose_vertex(self, left, right, note: str, weak: bool = False) -> None:
-        """Propose a vertex from elsewhere (a track): ``left`` (x, y) px picked, ``right`` (x, y) px proposed,
-        Enter keeps it (see :meth:`PickTool.propose_vertex`)."""
-        self.pick_tool.propose_vertex(left, right, note, weak)
-
-    def nudge(self, dx: float, dy: float) -> str:
-        """Move the current pick by (dx, dy) px (see :meth:`PickTool.nudge`)."""
-        return self.pick_tool.nudge(dx, dy)
-
-    def cancel_vertex(self) -> None:
-        self.pick_tool.cancel_vertex()
-
-    def vertex_warnings(self, state: PickState, vertex: MeasuredVertex) -> tuple[str, ...]:
-        return self.pick_tool.vertex_warnings(state, vertex)
-
-    def conjugate(self, side: str, pixel, depth_m: float | None = None) -> tuple[float, float] | None:
-        """Where ``pixel`` of ``side`` appears in the other image (see :meth:`PickTool.conjugate`)."""
-        return self.pick_tool.conjugate(side, pixel, depth_m)
-
-    def intersect(self, left, right) -> MeasuredVertex:
-        """Intersect one pair of picks with the pair's calibration (see :meth:`PickTool.intersect`)."""
-        return self.pick_tool.intersect(left, right)
-
-    def finish_object(self, attribute: str = "", notes: str = "",
-                      vertices: tuple[MeasuredVertex, ...] | None = None) -> int:
-        """Store the object being digitised (see :meth:`PickTool.finish_object`); returns its id."""
-        return self.pick_tool.finish_object(attribute, notes, vertices)
-
-    def start_repick(self, object_id: int, index: int) -> None:
-        """Re-pick a stored vertex (see :meth:`PickTool.start_repick`)."""
-        self.pick_tool.start_repick(object_id, index)
-
-    # ------------------------------------------------------------ edits of stored objects (usvips.gui.object_edits)
+    # ------------------------------------------------------------ the scene of the pick tool and the edits
+    # (usvips.gui.pick_tool.PickScene, usvips.gui.object_edits.EditScene): what they need of the workspace.
+    # Everything else of the models is read from the fields: ``pick_tool`` (the tool, its state, the object
+    # being digitised), ``cache`` (the stored objects and their figures), ``edits`` (undoable edits of stored
+    # objects), ``enhancement`` (the display enhancement), ``settings`` (snap, auto-match).
     def edit_stored(self, label: str, object_id: int, edit: Callable[[str], None],
                     then: Callable[[], None] | None = None) -> None:
         """Run ``edit(version read)`` of a stored object as one undoable command restoring its rows exactly."""
         self.edits.edit_stored(label, object_id, edit, then)
 
-    def delete_vertex(self, object_id: int, index: int) -> None:
-        """Remove vertex ``index`` (0-based) of a stored object (undoable)."""
-        self.edits.delete_vertex(object_id, index)
-
-    def delete_object(self, object_id: int) -> None:
-        """Delete a stored object (undoable: undo gives back the same id, record and history)."""
-        self.edits.delete_object(object_id)
-
-    def kinds_for(self, object_id: int) -> list[str]:
-        """The registered measurement kinds a stored object's vertices can make (its own first)."""
-        return self.edits.kinds_for(object_id)
-
-    def change_kind(self, object_id: int, kind: str) -> None:
-        """Make a stored object another measurement kind, keeping its vertices (undoable)."""
-        self.edits.change_kind(object_id, kind)
-
-    def edit_object(self, object_id: int, attribute: str, notes: str) -> None:
-        """Change a stored object's attribute and notes (undoable)."""
-        self.edits.edit_object(object_id, attribute, notes)
-
-    def set_record(self, object_id: int, record: ObservationRecord | None) -> None:
-        """Store an object's observation record (species, number, stage, activity, comment); undoable."""
-        self.edits.set_record(object_id, record)
-
     def frame_description(self, object_id: int) -> str:
         """The frame an object's coordinates (and so its bearing and slope) are given in, in words."""
         stored = self.stored_object(object_id)
-        g = measurement_input(self.project, stored, self._calibrations)
+        g = measurement_input(self.project, stored, self.cache.calibrations)
         if g.calibration is None:
             return "the frame it was measured in (its calibration is no longer in the project)"
         if g.frame == "object":
             return f"the object frame of station {g.station} (the control points' axes)"
         return "the rig frame (origin at the left camera; X right, Y up, the camera looking along −Z)"
 
-    # ------------------------------------------------------------------ the stored objects (cached)
-    # held by ``self.cache`` (usvips.gui.object_cache.ObjectCache), a new one per project; these delegate
-    def objects(self) -> list:
-        """The project's stored objects in id order, from the model's cache (no query)."""
-        return self.cache.objects()
-
-    def object_ids(self) -> list[int]:
-        return self.cache.ids()
-
     def stored_object(self, object_id: int):
         """One stored object from the cache (raises by name when there is none)."""
         return self.cache.get(object_id)
 
-    def object_record(self, object_id: int) -> ObservationRecord | None:
-        """A stored object's observation record (its species, number ...), from the cache."""
-        return self.cache.record(object_id)
+    def figures(self, object_ids: list[int]) -> Result:
+        """The geo-calculator on a selection of one or two objects (one object's figures are computed once
+        per change and kept)."""
+        return self.cache.figures(object_ids)
 
+    # ------------------------------------------------------------------ the stored objects and the selection
     def species_maxima(self) -> dict:
         """The project's species list by name, for the one verdict's species rule (read when asked: a list
         imported meanwhile counts at once); {} without a project."""
         return species_maxima(self.project.species_list()) if self.project is not None else {}
-
-    @property
-    def _calibrations(self) -> dict[int, StereoCalibration | None]:
-        return self.cache.calibrations
 
     def objects_changed_in_store(self, added: tuple[int, ...] = (), updated: tuple[int, ...] = (),
                                   removed: tuple[int, ...] = ()) -> None:
@@ -453,7 +282,7 @@ class Workspace:
             self.message.emit("warning", f"object {object_id} is no longer in the project")
             return False
         where = self.place_of(object_id)
-        if where is not None and where != self.place() and self.digitising.vertices:
+        if where is not None and where != self.place() and self.pick_tool.digitising.vertices:
             pair, frame = where
             shown = place_text(pair, frame)
             self.message.emit("warning", f"object {object_id} is on {shown}: finish (Ctrl+Enter) or cancel "
@@ -490,30 +319,6 @@ class Workspace:
         follow the rules (object list, QA panel, calculator) recompute."""
         self.cache.forget_figures()
         self.rules_changed.emit(self.rules)
-
-    def object_figures(self, object_id: int) -> Result | None:
-        """An object's figures when they are known under the current rules (None: not yet computed)."""
-        return self.cache.known_figures(object_id)
-
-    def forget_figures(self) -> None:
-        """Drop every computed figure (they are computed again when asked for)."""
-        self.cache.forget_figures()
-
-    # ------------------------------------------------------------------ geo-calculator
-    def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
-        """The figures of many objects as a function of copied inputs (run it off the GUI thread); give its
-        result to :meth:`remember_figures`."""
-        return self.cache.figures_job(object_ids)
-
-    def remember_figures(self, job: Callable[..., dict[int, Result]], results: dict[int, Result]) -> list[int]:
-        """Keep what :meth:`figures_job`'s ``job`` computed, except for objects changed (or rules changed)
-        since it was made; returns the ids kept."""
-        return self.cache.remember(job, results)
-
-    def figures(self, object_ids: list[int]) -> Result:
-        """The geo-calculator on a selection of one or two objects (one object's figures are computed once
-        per change and kept)."""
-        return self.cache.figures(object_ids)
 
     def vertices_shown(self, stored) -> list:
         """The stored object's vertices measured on the current pair and, on a video, on the frame shown."""

@@ -56,6 +56,9 @@ class MeasurementKind:
     minimum_vertices: ClassVar[int]
     maximum_vertices: ClassVar[int | None] = None
     closes: ClassVar[bool] = False
+    #: its outline is a curve fitted to the vertices (it overrides :meth:`outline`), not the vertices
+    #: themselves: views draw it through :meth:`outline` rather than through the picks
+    outline_fitted: ClassVar[bool] = False
     drawing: ClassVar[str]
     figure_names: ClassVar[tuple[tuple[str, str], ...]]
     relative_rule: ClassVar[bool] = True
@@ -68,6 +71,8 @@ class MeasurementKind:
             return
         if cls.drawing not in DRAWINGS:
             raise TypeError(f"measurement kind {cls.name!r}: drawing must be one of {DRAWINGS}")
+        if ("outline" in cls.__dict__) != cls.outline_fitted:
+            raise TypeError(f"measurement kind {cls.name!r}: outline_fitted must say whether it overrides outline()")
         if not callable(getattr(cls, "values", None)):
             raise TypeError(f"measurement kind {cls.name!r} defines no values(points), its formula")
         _TABLE.add(cls.name, cls)

@@ -19,6 +19,7 @@ class Circle(MeasurementKind):
     description = "Circle: three or more vertices on a rim (Enter finishes); diameter, centre and normal"
     minimum_vertices = 3
     closes = True
+    outline_fitted = True
     drawing = "circle"
     figure_names = (("diameter", "m"), ("centre_X", "m"), ("centre_Y", "m"), ("centre_Z", "m"),
                     ("normal_X", "1"), ("normal_Y", "1"), ("normal_Z", "1"))
