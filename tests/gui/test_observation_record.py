@@ -11,8 +11,8 @@ from usvips.core.errors import InputFileError, InvalidParameterError
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.io.species_list import read_species_list
 from usvips.store import Project
-from usvips.store.project import FORMAT
-from usvips.store.schema import MIGRATIONS, migrate
+from usvips.store.project import FORMAT, migrate
+from usvips.store.schema import MIGRATIONS
 
 SPECIES = """# a CheckEM-style list
 Family,Genus,Species,CAAB_code

@@ -8,8 +8,8 @@ import pytest
 from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord
 from usvips.store import Project, ProjectError
-from usvips.store.project import FORMAT, backup_path
-from usvips.store.schema import MIGRATIONS, migrate
+from usvips.store.project import FORMAT, backup_path, migrate
+from usvips.store.schema import MIGRATIONS
 
 
 def _schema_5_project(path):

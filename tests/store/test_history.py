@@ -21,8 +21,8 @@ from usvips.core.observation_record import ObservationRecord
 from usvips.store import SCHEMA_VERSION, Project
 from usvips.store.annotator import ANNOTATOR_ENVIRONMENT, annotating_as, checked_annotator, current_annotator
 from usvips.store.opening import create_project, open_project
+from usvips.store.project import migrate
 from usvips.store.records import ProjectError, Vertex
-from usvips.store.schema import migrate
 
 DATA = Path(__file__).parent / "data"
 

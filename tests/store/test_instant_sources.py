@@ -14,8 +14,8 @@ import pytest
 from tests.store.conftest import BEFORE_SCHEMA_13
 from usvips.store import SCHEMA_VERSION, Project
 from usvips.store.opening import create_project, open_project
+from usvips.store.project import migrate
 from usvips.store.records import Vertex
-from usvips.store.schema import migrate
 
 #: notes of the further instants of object 1 → how the migration reads them (the frame, or None: by hand)
 NOTES = {"tracked from frame 17": 17, "tracked from frame 0": 0, "picked by hand": None, "": None,

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from usvips.store import Project, ProjectError
-from usvips.store.project import Vertex
-from usvips.store.schema import MIGRATIONS, migrate
+from usvips.store.project import Vertex, migrate
+from usvips.store.schema import MIGRATIONS
 
 
 def _version_2_project(path):

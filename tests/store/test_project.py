@@ -1,5 +1,6 @@
 """The project database: round trips, migration, crash safety, bad files."""
 
+import dataclasses
 import os
 import shutil
 import sqlite3
@@ -193,7 +194,8 @@ def test_a_failed_migration_leaves_the_original_intact(tmp_path, monkeypatch):
     copy = tmp_path / "old.usvips"
     shutil.copy(DATA / "project_v1.usvips", copy)
     broken = dict(schema.MIGRATIONS)
-    broken[SCHEMA_VERSION] = schema.MIGRATIONS[SCHEMA_VERSION] + "CREATE TABLE objects (a);"   # fails at the end
+    last = schema.MIGRATIONS[SCHEMA_VERSION]
+    broken[SCHEMA_VERSION] = dataclasses.replace(last, shared=last.shared + "CREATE TABLE objects (a);")  # fails last
     monkeypatch.setattr(schema, "MIGRATIONS", broken)
     with pytest.raises(ProjectError, match="cannot upgrade.*nothing was changed"):
         Project.open(copy)

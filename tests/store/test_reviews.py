@@ -15,8 +15,8 @@ from tests.store.conftest import BEFORE_SCHEMA_13
 from usvips.cli import main
 from usvips.store import SCHEMA_VERSION, Project
 from usvips.store.opening import create_project, open_project
+from usvips.store.project import migrate
 from usvips.store.records import Vertex
-from usvips.store.schema import migrate
 
 
 def _vertex(rng) -> Vertex:

@@ -1405,3 +1405,16 @@ def test_a_watch_wakes_when_another_handle_commits_and_not_for_an_uncommitted_wr
         watch.close()
     watch.close()  # closing twice is no error
     assert watch.wait(0.1) is False
+
+
+def test_media_are_located_through_the_store_whether_or_not_they_are_there(store, tmp_path):
+    plan = _images(tmp_path, 2)
+    store.add_image_pairs(plan)
+    stored = [(pair["left"], pair["right"]) for pair in store.pairs()]
+    for (_label, left, right), (stored_left, stored_right) in zip(plan, stored, strict=True):
+        assert store.media_location(stored_left) == left.resolve() == store.image_path(stored_left)
+        assert store.media_location(stored_right) == right.resolve()
+    plan[1][1].unlink()  # gone: still located (where it should be), no longer an image
+    assert store.media_location(stored[1][0]) == plan[1][1].resolve()
+    with pytest.raises(ProjectError, match="missing"):
+        store.image_path(stored[1][0])

@@ -106,7 +106,7 @@ def add_image_pairs(project: ProjectStore, plan: Sequence[tuple[str, Path, Path]
     for pair in project.pairs():
         for side in ("left", "right"):
             if pair[side]:
-                taken[(project.path.parent / pair[side]).resolve()] = pair["label"]
+                taken[project.media_location(pair[side])] = pair["label"]
     for label, left, right in plan:
         for path in (left, right):
             if Path(path).resolve() in taken:
@@ -255,7 +255,7 @@ def proxy_files(project: ProjectStore, label: str) -> list[Path]:
     folder = proxy_folder(project)
     # where the files were recorded, whether or not they are there now (a missing file's proxies still count)
     return [path for side in ("left", "right")
-            for path in video_proxy.related_proxies(folder, [project.path.parent / p for p in video[side]])]
+            for path in video_proxy.related_proxies(folder, [project.media_location(p) for p in video[side]])]
 
 
 def proxy_bytes(project: ProjectStore, label: str) -> int:
@@ -410,7 +410,7 @@ def media_files(project: ProjectStore) -> list[Path]:
     (whether or not it is there)."""
     stored = [p[side] for p in project.pairs() for side in ("left", "right") if p[side]]
     stored += [path for v in project.videos() for side in ("left", "right") for path in v[side]]
-    return [project.path.parent / path for path in stored]
+    return [project.media_location(path) for path in stored]
 
 
 def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: str | None = None) -> tuple[str, Path]:

@@ -111,7 +111,7 @@ def run_info(args: argparse.Namespace) -> int:
     with open_project(args.project, read_only=True) as project:
         summary = summarise(project)
         media = project.media_problems(check_hash=args.full_hash)
-        folder = project.path.parent
+        located = {stored: project.media_location(stored) for stored, _ in media}
 
     def count(n: int, noun: str) -> str:
         return f"{n} {noun}" + ("" if n == 1 else "s")
@@ -146,7 +146,7 @@ def run_info(args: argparse.Namespace) -> int:
               + (f"; calibration {video.calibration_id}" if video.calibration_id else "")
               + (f"; seek proxies {video.proxy_bytes / 2**20:.1f} MiB" if video.proxy_bytes else ""))
     for stored, problem in media:  # what is missing or changed, and where it was
-        print(f"  media {stored}: {problem}" + (f" (recorded at {folder / stored})" if not Path(stored).is_absolute()
+        print(f"  media {stored}: {problem}" + (f" (recorded at {located[stored]})" if not Path(stored).is_absolute()
                                                 else ""))
     if media:
         print(f"  {len(media)} media file(s) cannot be used until relocated or accepted "

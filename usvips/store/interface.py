@@ -102,6 +102,12 @@ class ProjectStore(Protocol):
         the file of a file project, a configurable cache for a server one."""
         ...
 
+    def media_location(self, stored: str) -> Path:
+        """Where a recorded image or media path should be, absolute, whether or not a file is there (a path
+        stored relative is relative to the store's media folder: a file project's folder, a server's media
+        folder). Callers locate media through this, never through ``path``."""
+        ...
+
     def image_path(self, relative: str) -> Path:
         """The absolute path of a stored image path."""
         ...

@@ -36,7 +36,7 @@ from usvips.store.records import (  # noqa: F401 - the record types, as the rest
     StoredObject,
     Vertex,
 )
-from usvips.store.schema import SCHEMA_VERSION, migrate
+from usvips.store.schema import SCHEMA_VERSION, Dialect, script
 from usvips.store.survey import (  # noqa: F401 - kept importable from here
     FORMAT,
     SAMPLE_BLOCK_BYTES,
@@ -49,6 +49,25 @@ from usvips.store.survey import (  # noqa: F401 - kept importable from here
 )
 
 SQLITE_MAGIC = b"SQLite format 3\x00"
+#: how a file spells the schema's types (:mod:`usvips.store.schema`): a surrogate key is SQLite's rowid
+SQLITE = Dialect("sqlite", {"id": "INTEGER PRIMARY KEY", "int": "INTEGER", "real": "REAL", "text": "TEXT"})
+
+
+def migrate(connection: sqlite3.Connection, target: int = SCHEMA_VERSION) -> int:
+    """Bring a file's schema from its ``user_version`` up to ``target`` in ONE transaction: every step of
+    :data:`usvips.store.schema.MIGRATIONS` is applied, or (on any error) none and the file is as it was.
+    ``connection`` must be in autocommit mode (``isolation_level=None``) with no transaction open."""
+    current = connection.execute("PRAGMA user_version").fetchone()[0]
+    if current >= target:
+        return current
+    try:
+        connection.executescript(f"BEGIN IMMEDIATE;{script(SQLITE, current, target)}PRAGMA user_version = {target};"
+                                 "COMMIT;")
+    except sqlite3.Error:
+        if connection.in_transaction:
+            connection.execute("ROLLBACK")
+        raise
+    return connection.execute("PRAGMA user_version").fetchone()[0]
 
 
 def database_problem(error: sqlite3.Error) -> str:

@@ -1,61 +1,101 @@
-"""Schema of the project database and its forward migrations.
+"""The schema of a USVIPS project and its forward migrations: ONE list for every backend.
 
-``PRAGMA user_version`` holds the schema version. Version 1 is the first release; every later version
-is reached from the previous one by a migration below, so a project made by any older USVIPS opens.
-A new version is one new entry of ``MIGRATIONS`` (SQL statements, no BEGIN/COMMIT of their own): the
-store copies an older project aside and runs all pending entries in one transaction (see
-``usvips.store.project``); read-only opens never migrate.
+Each version is one :class:`Step`: SQL written once in the dialect SQLite and PostgreSQL share, with the
+column types as words a backend renders (``{id}`` a surrogate key the database gives, ``{int}``, ``{real}``,
+``{text}``: :class:`Dialect`), and — only where the two databases truly differ (SQLite rebuilds a table to
+drop a CHECK, PostgreSQL alters it; triggers in each one's language; what only a server has: ids from
+counters, the database login, the change feed's NOTIFY) — what one backend adds. A new project or survey is
+every step from 1 in order; an older one runs the steps after its version in ONE transaction (a file is
+copied aside first, see ``usvips.store.project``); read-only opens never migrate. A schema change is one new
+entry here (and the records), for both backends at once.
+
+The schema version: ``PRAGMA user_version`` in a file, the ``meta`` row ``schema_version`` on a server.
 """
 
 from __future__ import annotations
 
-import sqlite3
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
-VERSION_1 = """
-CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+
+@dataclass(frozen=True)
+class Dialect:
+    """How a backend spells the schema's type words (``types``: word → its SQL), and its name for the parts
+    of a :class:`Step` only it runs. Each backend module declares its own (``usvips.store.project.SQLITE``,
+    ``usvips.store.postgres.POSTGRESQL``)."""
+
+    name: str
+    types: Mapping[str, str]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One schema version: ``shared`` SQL (type words in braces) and, per dialect name, what only that
+    backend runs after it (``only``; written in that database's own spelling, type words allowed too)."""
+
+    shared: str = ""
+    only: Mapping[str, str] = field(default_factory=dict)
+
+    def sql(self, dialect: Dialect) -> str:
+        """The step's statements as ``dialect``'s backend runs them."""
+        return (self.shared + self.only.get(dialect.name, "")).format_map(dialect.types)
+
+
+def script(dialect: Dialect, after: int, target: int) -> str:
+    """The statements taking a schema from version ``after`` to ``target`` (versions without a step —
+    numbers other branches held — are skipped)."""
+    return "".join(MIGRATIONS[v].sql(dialect) for v in range(after + 1, target + 1) if v in MIGRATIONS)
+
+
+MIGRATIONS: dict[int, Step] = {1: Step("""
+CREATE TABLE meta (key {text} PRIMARY KEY, value {text} NOT NULL);
 CREATE TABLE image_pairs (
-    id INTEGER PRIMARY KEY, label TEXT NOT NULL UNIQUE, left_path TEXT, right_path TEXT,
-    width INTEGER, height INTEGER, left_hash TEXT, right_hash TEXT, frame INTEGER,
-    medium TEXT NOT NULL DEFAULT 'water' CHECK (medium IN ('air', 'water')));
+    id {id}, label {text} NOT NULL UNIQUE, left_path {text}, right_path {text},
+    width {int}, height {int}, left_hash {text}, right_hash {text}, frame {int},
+    medium {text} NOT NULL DEFAULT 'water' CHECK (medium IN ('air', 'water')));
 CREATE TABLE calibrations (
-    id INTEGER PRIMARY KEY, name TEXT NOT NULL, json TEXT NOT NULL, sigma0_px REAL, created TEXT NOT NULL);
+    id {id}, name {text} NOT NULL, json {text} NOT NULL, sigma0_px {real}, created {text} NOT NULL);
 CREATE TABLE active_calibrations (
-    pair_id INTEGER PRIMARY KEY REFERENCES image_pairs(id) ON DELETE CASCADE,
-    calibration_id INTEGER NOT NULL REFERENCES calibrations(id) ON DELETE RESTRICT);
+    pair_id {int} PRIMARY KEY REFERENCES image_pairs(id) ON DELETE CASCADE,
+    calibration_id {int} NOT NULL REFERENCES calibrations(id) ON DELETE RESTRICT);
 CREATE TABLE control_points (
-    id TEXT PRIMARY KEY, x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL, sx REAL, sy REAL, sz REAL);
+    id {text} PRIMARY KEY, x {real} NOT NULL, y {real} NOT NULL, z {real} NOT NULL, sx {real}, sy {real}, sz {real});
 CREATE TABLE control_observations (
-    id INTEGER PRIMARY KEY, pair_id INTEGER NOT NULL REFERENCES image_pairs(id) ON DELETE CASCADE,
-    point_id TEXT NOT NULL, xl REAL NOT NULL, yl REAL NOT NULL, xr REAL NOT NULL, yr REAL NOT NULL,
-    role TEXT NOT NULL, UNIQUE (pair_id, point_id, role));
+    id {id}, pair_id {int} NOT NULL REFERENCES image_pairs(id) ON DELETE CASCADE,
+    point_id {text} NOT NULL, xl {real} NOT NULL, yl {real} NOT NULL, xr {real} NOT NULL, yr {real} NOT NULL,
+    role {text} NOT NULL, UNIQUE (pair_id, point_id, role));
 CREATE TABLE objects (
-    id INTEGER PRIMARY KEY, kind TEXT NOT NULL CHECK (kind IN ('point', 'line', 'polygon')),
-    attribute TEXT NOT NULL DEFAULT '', notes TEXT NOT NULL DEFAULT '', creator TEXT NOT NULL DEFAULT '',
-    created TEXT NOT NULL, modified TEXT NOT NULL);
+    id {id}, kind {text} NOT NULL CHECK (kind IN ('point', 'line', 'polygon')),
+    attribute {text} NOT NULL DEFAULT '', notes {text} NOT NULL DEFAULT '', creator {text} NOT NULL DEFAULT '',
+    created {text} NOT NULL, modified {text} NOT NULL);
 CREATE TABLE vertices (
-    object_id INTEGER NOT NULL REFERENCES objects(id) ON DELETE CASCADE, idx INTEGER NOT NULL,
-    pair_id INTEGER REFERENCES image_pairs(id), xl REAL NOT NULL, yl REAL NOT NULL, xr REAL NOT NULL,
-    yr REAL NOT NULL, x REAL, y REAL, z REAL, covariance TEXT, calibration_id INTEGER REFERENCES calibrations(id),
+    object_id {int} NOT NULL REFERENCES objects(id) ON DELETE CASCADE, idx {int} NOT NULL,
+    pair_id {int} REFERENCES image_pairs(id), xl {real} NOT NULL, yl {real} NOT NULL, xr {real} NOT NULL,
+    yr {real} NOT NULL, x {real}, y {real}, z {real}, covariance {text},
+    calibration_id {int} REFERENCES calibrations(id),
     PRIMARY KEY (object_id, idx));
-CREATE TABLE vocabulary (term TEXT PRIMARY KEY, category TEXT NOT NULL DEFAULT 'attribute');
-CREATE TABLE enhancements (image_key TEXT PRIMARY KEY, pipeline TEXT NOT NULL);
-"""
+CREATE TABLE vocabulary (term {text} PRIMARY KEY, category {text} NOT NULL DEFAULT 'attribute');
+CREATE TABLE enhancements (image_key {text} PRIMARY KEY, pipeline {text} NOT NULL);
+""", only={"postgresql": """
+ALTER TABLE control_points ADD COLUMN ord BIGINT GENERATED BY DEFAULT AS IDENTITY;
+"""})}
 
 # version 2: keep the 3-D values a vertex had before a recomputation (a calibration changed)
-VERSION_2 = """
+MIGRATIONS[2] = Step("""
 CREATE TABLE vertex_history (
-    id INTEGER PRIMARY KEY, object_id INTEGER NOT NULL REFERENCES objects(id) ON DELETE CASCADE,
-    idx INTEGER NOT NULL, x REAL, y REAL, z REAL, covariance TEXT, calibration_id INTEGER,
-    replaced TEXT NOT NULL);
+    id {id}, object_id {int} NOT NULL REFERENCES objects(id) ON DELETE CASCADE,
+    idx {int} NOT NULL, x {real}, y {real}, z {real}, covariance {text}, calibration_id {int},
+    replaced {text} NOT NULL);
 CREATE INDEX vertex_history_object ON vertex_history(object_id, idx);
-"""
+""")
 
 # version 3: measurement kinds are validated by the registry (usvips.core.measurements), not by a CHECK,
 # so that a new kind needs no schema change; the old 'line' becomes 'length' (two vertices) or 'arc'
 # (more), as usvips.core.measurements.registry.LEGACY says. SQLite drops a CHECK only by rebuilding the
 # table; dropping `objects` would cascade into the vertices and their history, so both are kept aside in
 # temporary tables and put back (explicitly emptied first, whether or not foreign keys are enforced).
-VERSION_3 = """
+# A server drops the CHECK in place.
+MIGRATIONS[3] = Step(only={"sqlite": """
 CREATE TABLE objects_v3 (
     id INTEGER PRIMARY KEY, kind TEXT NOT NULL,
     attribute TEXT NOT NULL DEFAULT '', notes TEXT NOT NULL DEFAULT '', creator TEXT NOT NULL DEFAULT '',
@@ -74,122 +114,129 @@ INSERT INTO vertices SELECT * FROM temp.vertices_v3;
 INSERT INTO vertex_history SELECT * FROM temp.vertex_history_v3;
 DROP TABLE temp.vertices_v3;
 DROP TABLE temp.vertex_history_v3;
-"""
-
-MIGRATIONS = {1: VERSION_1, 2: VERSION_2, 3: VERSION_3}
+""",
+                            "postgresql": """
+ALTER TABLE objects DROP CONSTRAINT IF EXISTS objects_kind_check;
+UPDATE objects SET kind = CASE WHEN (SELECT count(*) FROM vertices v WHERE v.object_id = objects.id) = 2
+    THEN 'length' ELSE 'arc' END WHERE kind = 'line';
+"""})
 
 # version 4 (video): every media file's size and SHA-256 (moved, changed or swapped files are detected);
 # stereo videos (a pair of recordings, each one or more chapter files in order) with their left/right
 # offset (left frame i and right frame i + offset_frames show the same instant); periods; and the video
 # frames and time of each vertex
-VERSION_4 = """
-CREATE TABLE media (path TEXT PRIMARY KEY, size INTEGER NOT NULL, sha256 TEXT NOT NULL);
+MIGRATIONS[4] = Step("""
+CREATE TABLE media (path {text} PRIMARY KEY, size {int} NOT NULL, sha256 {text} NOT NULL);
 CREATE TABLE videos (
-    id INTEGER PRIMARY KEY, label TEXT NOT NULL UNIQUE, fps REAL NOT NULL CHECK (fps > 0),
-    frame_count INTEGER NOT NULL CHECK (frame_count > 0), width INTEGER NOT NULL, height INTEGER NOT NULL,
-    offset_frames INTEGER NOT NULL DEFAULT 0, offset_estimate TEXT, report TEXT NOT NULL DEFAULT '',
-    created TEXT NOT NULL);
+    id {id}, label {text} NOT NULL UNIQUE, fps {real} NOT NULL CHECK (fps > 0),
+    frame_count {int} NOT NULL CHECK (frame_count > 0), width {int} NOT NULL, height {int} NOT NULL,
+    offset_frames {int} NOT NULL DEFAULT 0, offset_estimate {text}, report {text} NOT NULL DEFAULT '',
+    created {text} NOT NULL);
 CREATE TABLE video_files (
-    video_id INTEGER NOT NULL REFERENCES videos(id) ON DELETE CASCADE,
-    camera TEXT NOT NULL CHECK (camera IN ('left', 'right')), idx INTEGER NOT NULL,
-    path TEXT NOT NULL REFERENCES media(path) ON UPDATE CASCADE, frame_count INTEGER NOT NULL, fps REAL NOT NULL,
+    video_id {int} NOT NULL REFERENCES videos(id) ON DELETE CASCADE,
+    camera {text} NOT NULL CHECK (camera IN ('left', 'right')), idx {int} NOT NULL,
+    path {text} NOT NULL REFERENCES media(path) ON UPDATE CASCADE, frame_count {int} NOT NULL, fps {real} NOT NULL,
     PRIMARY KEY (video_id, camera, idx));
 CREATE TABLE periods (
-    id INTEGER PRIMARY KEY, video_id INTEGER NOT NULL REFERENCES videos(id) ON DELETE CASCADE,
-    name TEXT NOT NULL, start_frame INTEGER NOT NULL, end_frame INTEGER NOT NULL,
+    id {id}, video_id {int} NOT NULL REFERENCES videos(id) ON DELETE CASCADE,
+    name {text} NOT NULL, start_frame {int} NOT NULL, end_frame {int} NOT NULL,
     CHECK (start_frame >= 0 AND end_frame >= start_frame), UNIQUE (video_id, name));
 CREATE TABLE vertex_frames (
-    object_id INTEGER NOT NULL, idx INTEGER NOT NULL, video_id INTEGER NOT NULL REFERENCES videos(id),
-    frame_left INTEGER NOT NULL, frame_right INTEGER NOT NULL, time_s REAL NOT NULL,
+    object_id {int} NOT NULL, idx {int} NOT NULL, video_id {int} NOT NULL REFERENCES videos(id),
+    frame_left {int} NOT NULL, frame_right {int} NOT NULL, time_s {real} NOT NULL,
     PRIMARY KEY (object_id, idx), FOREIGN KEY (object_id, idx) REFERENCES vertices(object_id, idx) ON DELETE CASCADE);
-"""
-MIGRATIONS[4] = VERSION_4
+""")
 
 # version 5: the observation record (EventMeasure / CheckEM fields) of each object, and the project's
 # species list it is typed from
-VERSION_5 = """
+MIGRATIONS[5] = Step("""
 CREATE TABLE species (
-    family TEXT NOT NULL DEFAULT '', genus TEXT NOT NULL, species TEXT NOT NULL DEFAULT '',
-    code TEXT NOT NULL DEFAULT '', PRIMARY KEY (genus, species));
+    family {text} NOT NULL DEFAULT '', genus {text} NOT NULL, species {text} NOT NULL DEFAULT '',
+    code {text} NOT NULL DEFAULT '', PRIMARY KEY (genus, species));
 CREATE TABLE observation_records (
-    object_id INTEGER PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
-    family TEXT NOT NULL DEFAULT '', genus TEXT NOT NULL DEFAULT '', species TEXT NOT NULL DEFAULT '',
-    code TEXT NOT NULL DEFAULT '', number INTEGER NOT NULL DEFAULT 1 CHECK (number >= 1),
-    stage TEXT NOT NULL DEFAULT '', activity TEXT NOT NULL DEFAULT '', comment TEXT NOT NULL DEFAULT '');
-"""
-MIGRATIONS[5] = VERSION_5
+    object_id {int} PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
+    family {text} NOT NULL DEFAULT '', genus {text} NOT NULL DEFAULT '', species {text} NOT NULL DEFAULT '',
+    code {text} NOT NULL DEFAULT '', number {int} NOT NULL DEFAULT 1 CHECK (number >= 1),
+    stage {text} NOT NULL DEFAULT '', activity {text} NOT NULL DEFAULT '', comment {text} NOT NULL DEFAULT '');
+""")
 
 # version 6: deployment metadata (usvips.core.deployment.Deployment; the sample of CheckEM's _Metadata.csv)
 # for the whole project (scope '') or for one stereo video (scope = its label), and the georeference of
 # the object frame (origin latitude / longitude in degrees WGS 84, depth in m, heading of +X in degrees
 # clockwise from north; one row)
-VERSION_6 = """
+MIGRATIONS[6] = Step("""
 CREATE TABLE deployments (
-    scope TEXT PRIMARY KEY, opcode TEXT NOT NULL CHECK (opcode <> ''), date TEXT NOT NULL DEFAULT '',
-    time TEXT NOT NULL DEFAULT '', latitude REAL, longitude REAL, depth_m REAL, site TEXT NOT NULL DEFAULT '',
-    location TEXT NOT NULL DEFAULT '', status TEXT NOT NULL DEFAULT '',
-    successful_count INTEGER NOT NULL DEFAULT 1, successful_length INTEGER NOT NULL DEFAULT 1,
-    observer TEXT NOT NULL DEFAULT '', comment TEXT NOT NULL DEFAULT '');
+    scope {text} PRIMARY KEY, opcode {text} NOT NULL CHECK (opcode <> ''), date {text} NOT NULL DEFAULT '',
+    time {text} NOT NULL DEFAULT '', latitude {real}, longitude {real}, depth_m {real}, site {text} NOT NULL DEFAULT '',
+    location {text} NOT NULL DEFAULT '', status {text} NOT NULL DEFAULT '',
+    successful_count {int} NOT NULL DEFAULT 1, successful_length {int} NOT NULL DEFAULT 1,
+    observer {text} NOT NULL DEFAULT '', comment {text} NOT NULL DEFAULT '');
 CREATE TABLE georeference (
-    id INTEGER PRIMARY KEY CHECK (id = 1), latitude REAL NOT NULL, longitude REAL NOT NULL,
-    depth_m REAL NOT NULL, heading_deg REAL NOT NULL);
-"""
-MIGRATIONS[6] = VERSION_6
+    id {int} PRIMARY KEY CHECK (id = 1), latitude {real} NOT NULL, longitude {real} NOT NULL,
+    depth_m {real} NOT NULL, heading_deg {real} NOT NULL);
+""")
 
 # version 7: an object measured on several instants (a fish on several video frames or pairs). The object
 # is its first instant; each further instant is an object of its own (same kind, its own vertices, pair or
 # frames) linked here to the object it is an instant of. Deleting the object unlinks its instants (they
 # stay, as objects of their own); deleting an instant removes its link. And each species' maximum length
 # (m, NULL when the list gives none), that a survey's lengths are checked against.
-VERSION_7 = """
-ALTER TABLE species ADD COLUMN max_length_m REAL CHECK (max_length_m IS NULL OR max_length_m > 0);
+MIGRATIONS[7] = Step("""
+ALTER TABLE species ADD COLUMN max_length_m {real} CHECK (max_length_m IS NULL OR max_length_m > 0);
 CREATE TABLE object_instants (
-    object_id INTEGER PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
-    of_object INTEGER NOT NULL REFERENCES objects(id) ON DELETE CASCADE,
+    object_id {int} PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
+    of_object {int} NOT NULL REFERENCES objects(id) ON DELETE CASCADE,
     CHECK (object_id <> of_object));
 CREATE INDEX object_instants_of ON object_instants(of_object);
-"""
-MIGRATIONS[7] = VERSION_7
+""")
 
 # version 8: who made each vertex and observation record and when (objects have creator/created/modified
 # since version 1; the vertices and records of older projects take their object's creator and last
 # modification), and the append-only history of every change to an object (usvips.store.records.CHANGES):
 # when, by whom, which object (no foreign key: the history of a deleted object stays), old and new value
-# as JSON. Triggers refuse any UPDATE or DELETE of a history row, whoever asks.
-VERSION_8 = """
-ALTER TABLE vertices ADD COLUMN creator TEXT NOT NULL DEFAULT '';
-ALTER TABLE vertices ADD COLUMN created TEXT NOT NULL DEFAULT '';
+# as JSON. Triggers refuse any UPDATE or DELETE of a history row, whoever asks (a server's also a TRUNCATE).
+MIGRATIONS[8] = Step("""
+ALTER TABLE vertices ADD COLUMN creator {text} NOT NULL DEFAULT '';
+ALTER TABLE vertices ADD COLUMN created {text} NOT NULL DEFAULT '';
 UPDATE vertices SET creator = (SELECT o.creator FROM objects o WHERE o.id = vertices.object_id),
     created = (SELECT o.modified FROM objects o WHERE o.id = vertices.object_id)
     WHERE object_id IN (SELECT id FROM objects);
-ALTER TABLE observation_records ADD COLUMN creator TEXT NOT NULL DEFAULT '';
-ALTER TABLE observation_records ADD COLUMN created TEXT NOT NULL DEFAULT '';
+ALTER TABLE observation_records ADD COLUMN creator {text} NOT NULL DEFAULT '';
+ALTER TABLE observation_records ADD COLUMN created {text} NOT NULL DEFAULT '';
 UPDATE observation_records SET creator = (SELECT o.creator FROM objects o WHERE o.id = observation_records.object_id),
     created = (SELECT o.modified FROM objects o WHERE o.id = observation_records.object_id)
     WHERE object_id IN (SELECT id FROM objects);
 CREATE TABLE history (
-    id INTEGER PRIMARY KEY, at TEXT NOT NULL, annotator TEXT NOT NULL, object_id INTEGER NOT NULL,
-    change TEXT NOT NULL CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', 'record')),
-    old TEXT, new TEXT);
+    id {id}, at {text} NOT NULL, annotator {text} NOT NULL, object_id {int} NOT NULL,
+    change {text} NOT NULL CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', 'record')),
+    old {text}, new {text});
 CREATE INDEX history_object ON history(object_id, id);
+""", only={"sqlite": """
 CREATE TRIGGER history_kept_unchanged BEFORE UPDATE ON history
     BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never altered'); END;
 CREATE TRIGGER history_kept_whole BEFORE DELETE ON history
     BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never removed'); END;
-"""
-MIGRATIONS[8] = VERSION_8
+""", "postgresql": """
+CREATE FUNCTION usvips_history_append_only() RETURNS trigger LANGUAGE plpgsql AS $$
+    BEGIN RAISE EXCEPTION 'the history is append-only: a change once recorded is never altered or removed'; END $$;
+CREATE TRIGGER history_kept BEFORE UPDATE OR DELETE ON history
+    FOR EACH ROW EXECUTE FUNCTION usvips_history_append_only();
+CREATE TRIGGER history_kept_whole BEFORE TRUNCATE ON history
+    FOR EACH STATEMENT EXECUTE FUNCTION usvips_history_append_only();
+"""})
 
 # version 9: the review of each object by a second reader (usvips.store.records.REVIEW_STATES): accepted, or
 # flagged with a reason, by whom and when; an unreviewed object has no row. A review is a change the
 # history keeps ('review'): SQLite changes a CHECK only by rebuilding the table, so the history is copied
 # row for row into one whose CHECK also allows 'review' (DROP TABLE fires no trigger; the append-only
-# triggers and the index are made again on the new table).
-VERSION_9 = """
+# triggers and the index are made again on the new table); a server alters the CHECK in place.
+MIGRATIONS[9] = Step("""
 CREATE TABLE reviews (
-    object_id INTEGER PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
-    state TEXT NOT NULL CHECK (state IN ('accepted', 'flagged')), reason TEXT NOT NULL DEFAULT '',
-    reviewer TEXT NOT NULL, reviewed TEXT NOT NULL, CHECK (state <> 'flagged' OR reason <> ''));
+    object_id {int} PRIMARY KEY REFERENCES objects(id) ON DELETE CASCADE,
+    state {text} NOT NULL CHECK (state IN ('accepted', 'flagged')), reason {text} NOT NULL DEFAULT '',
+    reviewer {text} NOT NULL, reviewed {text} NOT NULL, CHECK (state <> 'flagged' OR reason <> ''));
 CREATE INDEX reviews_state ON reviews(state, object_id);
+""", only={"sqlite": """
 CREATE TABLE history_v9 (
     id INTEGER PRIMARY KEY, at TEXT NOT NULL, annotator TEXT NOT NULL, object_id INTEGER NOT NULL,
     change TEXT NOT NULL CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', 'record', 'review')),
@@ -203,61 +250,124 @@ CREATE TRIGGER history_kept_unchanged BEFORE UPDATE ON history
     BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never altered'); END;
 CREATE TRIGGER history_kept_whole BEFORE DELETE ON history
     BEGIN SELECT RAISE(ABORT, 'the history is append-only: a change once recorded is never removed'); END;
-"""
-MIGRATIONS[9] = VERSION_9
+""", "postgresql": """
+ALTER TABLE history DROP CONSTRAINT IF EXISTS history_change_check;
+ALTER TABLE history ADD CONSTRAINT history_change_check
+    CHECK (change IN ('add', 'edit', 're-pick', 'delete', 'put back', 'record', 'review'));
+"""})
 
 # version 10: how each further instant was made, a stored fact rather than a reading of its notes: the left
 # frame its track started from (usvips.app.tracking.add_tracked_instants), NULL when picked by hand. The
 # instants of older projects that USVIPS tracked say so in their notes ("tracked from frame N",
 # usvips.app.object_instants.tracked_note), which is copied here once, so their combined sigma is unchanged
-VERSION_10 = """
-ALTER TABLE object_instants ADD COLUMN tracked_from INTEGER CHECK (tracked_from IS NULL OR tracked_from >= 0);
+# (each database reads the number out of the text in its own words)
+MIGRATIONS[10] = Step("""
+ALTER TABLE object_instants ADD COLUMN tracked_from {int} CHECK (tracked_from IS NULL OR tracked_from >= 0);
+""", only={"sqlite": """
 UPDATE object_instants SET tracked_from = (SELECT CAST(substr(o.notes, 20) AS INTEGER) FROM objects o
     WHERE o.id = object_instants.object_id)
     WHERE object_id IN (SELECT id FROM objects WHERE notes GLOB 'tracked from frame [0-9]*');
-"""
-MIGRATIONS[10] = VERSION_10
+""", "postgresql": """
+UPDATE object_instants SET tracked_from = substring(o.notes from '^tracked from frame ([0-9]+)')::BIGINT
+    FROM objects o WHERE o.id = object_instants.object_id AND o.notes ~ '^tracked from frame [0-9]';
+"""})
 
 # version 11: each vertex's pointing (usvips.core.pointing): where its pixels come from (a source label), its
 # pointing sigmas left and right (px per image coordinate; NULL: the source's documented default) with their
-# origin, and an accepted weak auto-match's reason and score (when known; a fact of the vertex: no edit of the object's
-# notes removes it). Vertices stored before say 'hand click (unknown)' with the default sigma.
-VERSION_11 = """
-ALTER TABLE vertices ADD COLUMN pointing_source TEXT NOT NULL DEFAULT 'hand click';
-ALTER TABLE vertices ADD COLUMN sigma_left_px REAL CHECK (sigma_left_px IS NULL OR sigma_left_px > 0);
-ALTER TABLE vertices ADD COLUMN sigma_right_px REAL CHECK (sigma_right_px IS NULL OR sigma_right_px > 0);
-ALTER TABLE vertices ADD COLUMN pointing_origin TEXT CHECK (pointing_origin IS NULL OR pointing_origin IN
+# origin, and an accepted weak auto-match's reason and score (when known; a fact of the vertex: no edit of the
+# object's notes removes it). Vertices stored before say 'hand click (unknown)' with the default sigma. (The
+# weak pair's CHECK names two columns: a table constraint on a server, SQLite's column constraint in a file.)
+MIGRATIONS[11] = Step("""
+ALTER TABLE vertices ADD COLUMN pointing_source {text} NOT NULL DEFAULT 'hand click';
+ALTER TABLE vertices ADD COLUMN sigma_left_px {real} CHECK (sigma_left_px IS NULL OR sigma_left_px > 0);
+ALTER TABLE vertices ADD COLUMN sigma_right_px {real} CHECK (sigma_right_px IS NULL OR sigma_right_px > 0);
+ALTER TABLE vertices ADD COLUMN pointing_origin {text} CHECK (pointing_origin IS NULL OR pointing_origin IN
     ('default', 'given', 'estimated'));
-ALTER TABLE vertices ADD COLUMN weak_score REAL;
+ALTER TABLE vertices ADD COLUMN weak_score {real};
+""", only={"sqlite": """
 ALTER TABLE vertices ADD COLUMN weak_reason TEXT CHECK (weak_score IS NULL OR weak_reason IS NOT NULL);
 UPDATE vertices SET pointing_source = 'hand click (unknown)';
-"""
-MIGRATIONS[11] = VERSION_11
-# version 12: not used.
-# version 13: nothing changes in a file. The server's schema 13 (usvips.store.postgres_schema) gives ids from a
-# counter kept in the transaction (a sequence jumped after a crash) and records the database login in the
-# history; a file's ids are already the highest plus one, and a file has no logins. The step keeps both
-# backends at one schema number.
-MIGRATIONS[13] = ""
-# version 14: nothing changes in a file either. The server's schema 14 notifies listeners when the history
-# grows (the change feed, usvips.store.change_watch); a file's watchers read SQLite's own change counter.
-MIGRATIONS[14] = ""
+""", "postgresql": """
+ALTER TABLE vertices ADD COLUMN weak_reason {text};
+ALTER TABLE vertices ADD CONSTRAINT vertices_weak_check CHECK (weak_score IS NULL OR weak_reason IS NOT NULL);
+UPDATE vertices SET pointing_source = 'hand click (unknown)';
+"""})
+
+# version 12: not used (a step of a branch that needed none).
+
+# version 13: ids and who, on a server (a file's ids are already the highest plus one, and a file has no
+# logins: nothing changes in it). A sequence pre-logs 32 values, so after a server crash the next id jumped
+# by up to 32: the ids of the tables below come from a counter row updated in the inserting transaction
+# instead (kept or undone with it, never ahead; a copy's explicit ids move it on). The server records who: a
+# history row carries the database login (session_user), not what the client claims, unless the login is
+# one of the survey's administrators or its owner (a push copies rows made by others); a review is accepted
+# or flagged only by a reviewer (when the roles exist: see usvips.store.postgres.SURVEY_ROLES); the owner is
+# every role.
+COUNTED = ("image_pairs", "calibrations", "control_observations", "objects", "vertex_history", "videos", "periods",
+           "history")
+MIGRATIONS[13] = Step(only={"postgresql": """
+CREATE TABLE id_counters (name {text} PRIMARY KEY, next BIGINT NOT NULL);
+CREATE FUNCTION usvips_next_id() RETURNS trigger LANGUAGE plpgsql AS $$
+BEGIN
+    IF NEW.id IS NULL THEN
+        UPDATE id_counters SET next = next + 1 WHERE name = TG_TABLE_NAME RETURNING next - 1 INTO NEW.id;
+    ELSE
+        UPDATE id_counters SET next = GREATEST(next, NEW.id + 1) WHERE name = TG_TABLE_NAME;
+    END IF;
+    RETURN NEW;
+END $$;
+DO $$ DECLARE counted text; BEGIN
+    FOREACH counted IN ARRAY ARRAY['""" + "', '".join(COUNTED) + """'] LOOP
+        EXECUTE format('INSERT INTO id_counters VALUES (%L, GREATEST(COALESCE((SELECT max(id) FROM %I), 0), '
+                       'COALESCE(pg_sequence_last_value(pg_get_serial_sequence(%L, ''id'')), 0)) + 1)',
+                       counted, counted, counted);
+        EXECUTE format('ALTER TABLE %I ALTER COLUMN id DROP IDENTITY', counted);
+        EXECUTE format('CREATE TRIGGER %I BEFORE INSERT ON %I FOR EACH ROW EXECUTE FUNCTION usvips_next_id()',
+                       counted || '_next_id', counted);
+    END LOOP;
+END $$;
+CREATE FUNCTION usvips_is_role_member(role_name text) RETURNS boolean LANGUAGE plpgsql STABLE AS $$
+BEGIN
+    IF to_regrole(role_name) IS NULL OR pg_has_role(session_user, (SELECT datdba FROM pg_database
+                                                                  WHERE datname = current_database()), 'MEMBER') THEN
+        RETURN true;  -- no roles (a survey made without them), or the survey's owner: every role
+    END IF;
+    RETURN pg_has_role(session_user, role_name, 'MEMBER');
+END $$;
+CREATE FUNCTION usvips_history_by_login() RETURNS trigger LANGUAGE plpgsql AS $$
+BEGIN
+    IF NOT usvips_is_role_member('usvips_administrator') THEN
+        NEW.annotator := session_user;
+    END IF;
+    RETURN NEW;
+END $$;
+CREATE TRIGGER history_by_login BEFORE INSERT ON history FOR EACH ROW EXECUTE FUNCTION usvips_history_by_login();
+CREATE FUNCTION usvips_reviews_by_reviewers() RETURNS trigger LANGUAGE plpgsql AS $$
+BEGIN
+    IF NOT usvips_is_role_member('usvips_reviewer') THEN
+        RAISE EXCEPTION 'only a reviewer accepts or flags an object (the login % is not one of the survey''s '
+            'reviewers: an administrator grants usvips_reviewer to it)', session_user
+            USING ERRCODE = 'insufficient_privilege';
+    END IF;
+    IF NOT usvips_is_role_member('usvips_administrator') THEN
+        NEW.reviewer := session_user;
+    END IF;
+    RETURN NEW;
+END $$;
+CREATE TRIGGER reviews_by_reviewers BEFORE INSERT OR UPDATE ON reviews
+    FOR EACH ROW EXECUTE FUNCTION usvips_reviews_by_reviewers();
+"""})
+
+# version 14: the change feed (usvips.store.change_watch). A server notifies its listeners when the history
+# grows: every statement that adds history rows NOTIFYs the channel below, delivered at commit, once per
+# transaction however many rows (usvips.store.postgres.ServerChangeWatch LISTENs). A file's watchers read
+# SQLite's own change counter: nothing changes in a file.
+CHANGES_CHANNEL = "usvips_changes"
+MIGRATIONS[14] = Step(only={"postgresql": """
+CREATE OR REPLACE FUNCTION usvips_history_notify() RETURNS trigger LANGUAGE plpgsql AS $$
+    BEGIN PERFORM pg_notify('""" + CHANGES_CHANNEL + """', ''); RETURN NULL; END $$;
+DROP TRIGGER IF EXISTS history_notify ON history;
+CREATE TRIGGER history_notify AFTER INSERT ON history FOR EACH STATEMENT EXECUTE FUNCTION usvips_history_notify();
+"""})
+
 SCHEMA_VERSION = max(MIGRATIONS)
-
-
-def migrate(connection: sqlite3.Connection, target: int = SCHEMA_VERSION) -> int:
-    """Bring the schema from its ``user_version`` up to ``target`` in ONE transaction: every step is
-    applied, or (on any error) none and the file is as it was. ``connection`` must be in autocommit
-    mode (``isolation_level=None``) with no transaction open."""
-    current = connection.execute("PRAGMA user_version").fetchone()[0]
-    if current >= target:
-        return current
-    script = "".join(MIGRATIONS.get(version, "") for version in range(current + 1, target + 1))  # numbers
-    # other branches hold may be missing on this one: the lead renumbers at merge
-    try:
-        connection.executescript(f"BEGIN IMMEDIATE;{script}PRAGMA user_version = {target};COMMIT;")
-    except sqlite3.Error:
-        if connection.in_transaction:
-            connection.execute("ROLLBACK")
-        raise
-    return connection.execute("PRAGMA user_version").fetchone()[0]

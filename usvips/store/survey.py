@@ -407,6 +407,11 @@ class Survey:
             raise ProjectError(f"{self.path}: no image pair {label!r}")
         return int(rows[0][0])
 
+    def media_location(self, stored: str) -> Path:
+        """Where a recorded media path should be, absolute, whether or not a file is there: a relative one
+        resolved against the backend's media folder (a file project's folder; a server's media folder)."""
+        return (self._db.media_folder / stored).resolve()
+
     def image_path(self, relative: str) -> Path:
         """The absolute path of a stored image path; raises if the image has gone missing."""
         path = (self._db.media_folder / relative).resolve()

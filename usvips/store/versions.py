@@ -30,7 +30,8 @@ from usvips.store.records import StaleEditError
 #: operations of :class:`~usvips.store.interface.ProjectStore` that change nothing
 READS = frozenset({
     "version", "close", "__enter__", "__exit__", "transaction", "copy_to", "pairs", "derived_media_folder",
-    "image_path", "media_path", "media_problems", "media_identity", "media_records", "video", "videos",
+    "image_path", "media_location", "media_path", "media_problems", "media_identity", "media_records", "video",
+    "videos",
     "periods", "control", "control_observations", "calibration", "calibrations", "active_calibration",
     "object", "objects", "objects_with_ids", "object_rows", "records", "record", "provenance", "history",
     "review", "reviews", "instants", "instant_links", "instant_sources", "deployments", "deployment",
