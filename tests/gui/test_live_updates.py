@@ -280,3 +280,21 @@ def test_an_observation_record_ann_is_typing_that_bob_changes_shows_the_conflict
     window.focus_images()  # she leaves the form: the object is read again, bob's record shown, marked
     qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
     assert ws.object_record(fish).number == 2 and "is kept unsaved" in window.hint.text()
+
+
+def test_a_review_made_from_the_command_line_in_another_process_appears_marked(qtbot, make_window, survey, bob):
+    import os
+    import subprocess
+    import sys
+
+    location, directory = survey
+    window = _ann(qtbot, make_window, location)
+    fish = _fish(bob, directory, "fish1")
+    qtbot.waitUntil(lambda: fish in window.workspace.cache, timeout=BOUND_MS)
+    subprocess.run([sys.executable, "-m", "usvips", "project", "review", location, "--flag", str(fish), "--reason",
+                    "snout hidden", "--annotator", "dora"], check=True, capture_output=True, timeout=120,
+                   env={**os.environ, "USVIPS_ANNOTATOR": "dora"})
+    listing = window.object_list
+    qtbot.waitUntil(lambda: listing.text(listing.row_of(fish), "review") == "flagged: snout hidden", timeout=BOUND_MS)
+    who = bob.history(fish)[-1].annotator  # the name the store recorded for the other process
+    assert _marked_by(window, fish, who) and window.workspace.cache.marks[fish].changes == ("review",)
