@@ -68,12 +68,6 @@ def project_location(project) -> str | Path:
     return getattr(project, "url", None) or project.path
 
 
-def mark_of(workspace, object_id: int) -> ColleagueChange | None:
-    """The colleague's change ``object_id`` was last marked with in the window (None: none since it was
-    read, or the user changed it since)."""
-    return workspace.cache.marks.get(object_id)
-
-
 def _reason(error: BaseException) -> str:
     """Why the store cannot be read, in one line without a password."""
     if isinstance(error, ServerUnreachableError):
@@ -301,7 +295,11 @@ class LiveUpdates(QtCore.QObject):
             if earlier[change.object_id] is not None:
                 cache.marks[change.object_id] = earlier[change.object_id]
         if stale:
-            self.workspace.show_as_cached(tuple(c.object_id for c in stale))
+            self._applying = True  # the marks as they were: redrawn, not taken away as the user's own change
+            try:
+                self.workspace.show_as_cached(tuple(c.object_id for c in stale))
+            finally:
+                self._applying = False
         shown = [c for c in apply if c not in stale]
         if not shown:
             return
