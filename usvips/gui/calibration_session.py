@@ -131,7 +131,7 @@ class CalibrationSession:
     # ------------------------------------------------------------------ choices
     def candidate_pairs(self) -> list[str]:
         medium = "air" if self.phase == "air" else "water"
-        return [p["label"] for p in self.project.pairs() if p["medium"] == medium]
+        return [p.label for p in self.project.pairs() if p.medium == medium]
 
     def set_pairs(self, pairs: list[str]) -> None:
         unknown = [p for p in pairs if p not in self.candidate_pairs()]

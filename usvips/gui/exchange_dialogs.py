@@ -181,12 +181,12 @@ class UseCalibrationDialog(QtWidgets.QDialog):
             self.choice.setCurrentIndex(self.choice.count() - 1)
         self.labels = QtWidgets.QListWidget()
         for pair in project.pairs():
-            size = calibration_size.media_size(project, pair["label"])
-            shown = pair["label"] + (f"  ({size[0]} × {size[1]} px)" if size else "")
+            size = calibration_size.media_size(project, pair.label)
+            shown = pair.label + (f"  ({size[0]} × {size[1]} px)" if size else "")
             item = QtWidgets.QListWidgetItem(shown)
-            item.setData(QtCore.Qt.ItemDataRole.UserRole, pair["label"])
+            item.setData(QtCore.Qt.ItemDataRole.UserRole, pair.label)
             item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
-            item.setCheckState(QtCore.Qt.CheckState.Checked if pair["label"] == current
+            item.setCheckState(QtCore.Qt.CheckState.Checked if pair.label == current
                                else QtCore.Qt.CheckState.Unchecked)
             self.labels.addItem(item)
         form = QtWidgets.QFormLayout()
@@ -343,7 +343,7 @@ def project_report_data(project, calibration: StereoCalibration):
     if found.control is not None and found.observations is not None:
         return found
     role = "calibration-air" if calibration.phase == "air" else "calibration-water"
-    labels = {p["label"] for p in project.pairs()}
+    labels = {p.label for p in project.pairs()}
     parts = [project.control_observations(role, pair) for pair in calibration.stations if pair in labels]
     parts = [part for part in parts if len(part.ids)]
     if not parts or not len(project.control().ids):

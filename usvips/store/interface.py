@@ -41,7 +41,7 @@ from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store.change_watch import ChangeWatch
-from usvips.store.records import HistoryEntry, RemovedObject, Review, StoredObject, Vertex
+from usvips.store.records import HistoryEntry, Pair, RemovedObject, Review, StoredObject, Vertex
 from usvips.store.versions import UNREAD
 
 
@@ -88,8 +88,8 @@ class ProjectStore(Protocol):
         """A new image pair (``medium`` "air" or "water"); a label already used is a ``ProjectError``."""
         ...
 
-    def pairs(self) -> list[dict]:
-        """Every pair: label, left, right (stored paths or None), medium, frame, …; in insertion order."""
+    def pairs(self) -> list[Pair]:
+        """Every pair (a :class:`~usvips.store.records.Pair`; a video is one too), in insertion order."""
         ...
 
     def add_image_pairs(self, pairs: Sequence[tuple[str, Path, Path]], medium: str = "water",

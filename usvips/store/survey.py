@@ -48,6 +48,7 @@ from usvips.store.change_watch import ChangeWatch
 from usvips.store.records import (
     REVIEW_STATES,
     HistoryEntry,
+    Pair,
     ProjectError,
     RemovedObject,
     Review,
@@ -395,11 +396,10 @@ class Survey:
                             (label, self._relative(left), self._relative(right), width, height, *hashes, frame, medium))
         return int(cursor.fetchone()[0])
 
-    def pairs(self) -> list[dict]:
+    def pairs(self) -> list[Pair]:
         rows = self._query("SELECT id, label, left_path, right_path, width, height, frame, medium "
                            "FROM image_pairs ORDER BY id")
-        keys = ("id", "label", "left", "right", "width", "height", "frame", "medium")
-        return [dict(zip(keys, row, strict=True)) for row in rows]
+        return [Pair(*row) for row in rows]
 
     def pair_id(self, label: str) -> int:
         rows = self._query("SELECT id FROM image_pairs WHERE label = ?", (label,))
