@@ -84,7 +84,7 @@ def test_export_for_checkem_fills_opcode_rms_range_and_image_names(tmp_path):
 def _snapshot(path: Path) -> dict:
     with Project.open(path, read_only=True) as project:
         return {"pairs": project.pairs(), "control": project.control().ids,
-                "calibrations": [c["id"] for c in project.calibrations()],
+                "calibrations": [c.id for c in project.calibrations()],
                 "obs": {p.label: project.control_observations("calibration-water", p.label).ids
                         for p in project.pairs()}}
 

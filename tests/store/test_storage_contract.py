@@ -362,9 +362,9 @@ def test_calibrations_round_trip_with_their_active_pairs(store):
     first = store.add_calibration("first", data, ("a", "b"))
     second = store.add_calibration("second", {"phase": "air"})
     assert store.calibration(first) == data
-    assert [(c["id"], c["name"], c["phase"]) for c in store.calibrations()] == [(first, "first", "water"),
+    assert [(c.id, c.name, c.phase) for c in store.calibrations()] == [(first, "first", "water"),
                                                                                  (second, "second", "air")]
-    assert store.calibrations()[0]["sigma0_px"] == 0.43
+    assert store.calibrations()[0].sigma0_px == 0.43
     assert (store.active_calibration("a"), store.active_calibration("b"), store.active_calibration("c")) == (
         first, first, None)
     store.activate_calibration("b", second)
@@ -777,19 +777,19 @@ def test_objects_vertices_and_records_carry_who_made_them_and_when(impl, store, 
     store.annotator = "alice"
     object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
     made = store.provenance(object_id)
-    assert made["object"][0] == "alice" and made["record"] is None
-    assert [v[0] for v in made["vertices"]] == ["alice", "alice"]
-    assert all(v[1] == made["object"][1] for v in made["vertices"])
+    assert made.object[0] == "alice" and made.record is None
+    assert [v[0] for v in made.vertices] == ["alice", "alice"]
+    assert all(v[1] == made.object[1] for v in made.vertices)
     with impl.open(where, False) as bob:
         bob.annotator = "bob"
         stored = bob.object(object_id)
         bob.update_object(object_id, vertices=[stored.vertices[0], _vertex(rng)])  # bob re-picks the tail
         bob.set_record(object_id, _record(rng))
     after = store.provenance(object_id)
-    assert after["object"][:2] == made["object"][:2] and after["object"][2] > made["object"][2]
-    assert after["vertices"][0] == made["vertices"][0]  # the unchanged pick keeps who picked it
-    assert after["vertices"][1][0] == "bob" and after["vertices"][1][1] > made["vertices"][1][1]
-    assert after["record"][0] == "bob" and after["record"][1] > made["object"][1]
+    assert after.object[:2] == made.object[:2] and after.object[2] > made.object[2]
+    assert after.vertices[0] == made.vertices[0]  # the unchanged pick keeps who picked it
+    assert after.vertices[1][0] == "bob" and after.vertices[1][1] > made.vertices[1][1]
+    assert after.record[0] == "bob" and after.record[1] > made.object[1]
     assert [e.annotator for e in store.history(object_id)] == ["alice", "bob", "bob"]
 
 

@@ -155,7 +155,7 @@ def calibration_summaries(project: ProjectStore, pairs: list[Pair] | None = None
         calibration_id = project.active_calibration(pair.label)
         if calibration_id is not None:
             active.setdefault(calibration_id, []).append(pair.label)
-    return tuple(CalibrationSummary(c["id"], c["name"], c["phase"], c["sigma0_px"], tuple(active.get(c["id"], ())))
+    return tuple(CalibrationSummary(c.id, c.name, c.phase, c.sigma0_px, tuple(active.get(c.id, ())))
                  for c in project.calibrations())
 
 

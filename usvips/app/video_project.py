@@ -465,8 +465,8 @@ def _calibration_for(project: ProjectStore, calibration_id: int | None, label: s
         if not stored:
             raise VideoError(f"{project.path}: image synchronisation needs a calibration of the rig; the project "
                              "has none (import one, or use --method flash or audio)")
-        water = [c for c in stored if c.get("phase") not in ("air", "phase1")]
-        calibration_id = (water or stored)[-1]["id"]
+        water = [c for c in stored if c.phase not in ("air", "phase1")]
+        calibration_id = (water or stored)[-1].id
     return read_calibration(project, calibration_id)
 
 

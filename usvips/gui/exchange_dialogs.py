@@ -78,8 +78,8 @@ def _current_calibration(window) -> tuple[StereoCalibration, str] | None:
     if project is not None and project.calibrations():
         pair = window.workspace.pair
         chosen = project.active_calibration(pair) if pair else None
-        chosen = chosen if chosen is not None else project.calibrations()[-1]["id"]
-        name = next(c["name"] for c in project.calibrations() if c["id"] == chosen)
+        chosen = chosen if chosen is not None else project.calibrations()[-1].id
+        name = next(c.name for c in project.calibrations() if c.id == chosen)
         return read_calibration(project, chosen), name
     path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
                                                     "Calibrations (*.json)")
@@ -173,8 +173,8 @@ class UseCalibrationDialog(QtWidgets.QDialog):
         self.calibrations = project.calibrations()
         self.choice = QtWidgets.QComboBox()
         for c in self.calibrations:
-            sigma = f", σ0 {c['sigma0_px']:.3g} px" if c.get("sigma0_px") is not None else ""
-            self.choice.addItem(f"{c['id']}: {c['name']} ({c.get('phase') or 'phase unknown'}{sigma})", c["id"])
+            sigma = f", σ0 {c.sigma0_px:.3g} px" if c.sigma0_px is not None else ""
+            self.choice.addItem(f"{c.id}: {c.name} ({c.phase or 'phase unknown'}{sigma})", c.id)
         if chosen is not None:
             self.choice.setCurrentIndex(max(self.choice.findData(chosen), 0))
         else:

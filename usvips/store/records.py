@@ -81,6 +81,31 @@ class Pair:
 
 
 @dataclass(frozen=True)
+class StoredCalibration:
+    """A stored calibration as listed (its whole file dictionary is ``ProjectStore.calibration(id)``): its
+    id, name, phase ("air", "water", "joint" …; None when its file names none), its reprojection sigma0 in
+    pixels (None when not given) and when it was stored (ISO 8601 UTC text)."""
+
+    id: int
+    name: str
+    phase: str | None
+    sigma0_px: float | None
+    created: str
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Who made what of an object and when (times ISO 8601 UTC text): ``object`` (creator, created,
+    modified), ``vertices`` (one (creator, created) per vertex in order: who picked it; a re-pick keeps the
+    stamps of the vertices whose picks did not change) and ``record`` ((creator, created) of its observation
+    record as it stands, None without one)."""
+
+    object: tuple[str, str, str]
+    vertices: list[tuple[str, str]]
+    record: tuple[str, str] | None
+
+
+@dataclass(frozen=True)
 class StoredObject:
     """A measured object as stored: its id, registered kind, attribute, notes, who made it, when it was
     created and last modified (ISO 8601 UTC text; ``modified`` is also its version for optimistic edits)
