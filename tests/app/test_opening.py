@@ -23,7 +23,7 @@ def test_a_sample_directory_gets_its_project_file_on_first_use_and_the_same_one_
         open_project(sample, read_only=True)
     with open_project(sample) as project:
         assert isinstance(project, ProjectStore)
-        assert project.path == sample / "project.usvips" and [p["label"] for p in project.pairs()] == ["a"]
+        assert project.path == sample / "project.usvips" and [p.label for p in project.pairs()] == ["a"]
         project.add_term("kept")
     with open_project(sample, read_only=True) as project:
         assert project.read_only and project.vocabulary() == ["kept"]

@@ -185,7 +185,7 @@ def test_measure_into_a_project_is_all_or_nothing_and_refuses_contradictions(tmp
         assert [(o.kind, o.creator, o.vertices[0].pair) for o in project.objects()] == [("length", "K. Jones",
                                                                                          "measure1")]
         assert [(e.change, e.annotator) for e in project.history()] == [("add", "K. Jones")]
-        assert {v[0] for v in project.provenance(project.objects()[0].id)["vertices"]} == {"K. Jones"}
+        assert {v[0] for v in project.provenance(project.objects()[0].id).vertices} == {"K. Jones"}
 
 
 def test_project_export_names_the_objects_it_leaves_out(tmp_path, capsys):

@@ -29,7 +29,7 @@ def test_a_video_keeps_its_medium_and_info_lists_calibrations_and_what_they_are_
     left, right = _stereo(tmp_path / "water", 0, frames=10)
     assert _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right, "--label", "dive")[0] == 0
     with Project.open(project) as stored:
-        media = {p["label"]: p["medium"] for p in stored.pairs()}
+        media = {p.label: p.medium for p in stored.pairs()}
         assert media == {"cal": "air", "dive": "water"}
     sample = Project.open(project)
     store_calibration(sample, "in air", _calibration("air"), ["cal"])

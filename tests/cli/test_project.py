@@ -84,8 +84,8 @@ def test_export_for_checkem_fills_opcode_rms_range_and_image_names(tmp_path):
 def _snapshot(path: Path) -> dict:
     with Project.open(path, read_only=True) as project:
         return {"pairs": project.pairs(), "control": project.control().ids,
-                "calibrations": [c["id"] for c in project.calibrations()],
-                "obs": {p["label"]: project.control_observations("calibration-water", p["label"]).ids
+                "calibrations": [c.id for c in project.calibrations()],
+                "obs": {p.label: project.control_observations("calibration-water", p.label).ids
                         for p in project.pairs()}}
 
 
@@ -189,7 +189,7 @@ def test_a_calibration_made_active_for_pairs_given_in_several_options_is_active_
     project = tmp_path / "p.usvips"
     assert main(["project", "new", str(project), "--from", str(rov)]) == 0
     with Project.open(project) as p:
-        labels = [pair["label"] for pair in p.pairs()][:3]
+        labels = [pair.label for pair in p.pairs()][:3]
     assert main(["project", "import", str(project), "--calibration", str(rov / "calibration_air.json"),
                  "--active-for", labels[0], "--active-for", *labels[1:]]) == 0
     with Project.open(project) as p:

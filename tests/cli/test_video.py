@@ -76,9 +76,9 @@ def test_a_stereo_video_is_added_synchronised_by_its_flash_and_exported_exactly(
     code, out, err = _run(capsys, "video", "take-pair", project, "--pair", "dive1", "--frame", 33, "--medium", "air")
     assert code == 0, err
     with Project.open(project) as p:
-        taken = next(q for q in p.pairs() if q["label"] == "dive1-33")
-        assert taken["medium"] == "air" and taken["left"] == "frames/dive1-33/left.png"
-        assert frame_number(read_image(p.media_path(taken["right"]))) == 1033
+        taken = next(q for q in p.pairs() if q.label == "dive1-33")
+        assert taken.medium == "air" and taken.left == "frames/dive1-33/left.png"
+        assert frame_number(read_image(p.media_path(taken.right))) == 1033
     for frame in (40, 10, 55):
         assert _run(capsys, "video", "export-frame", project, "--pair", "dive1", "--frame", frame,
                     "--out", tmp_path / "out")[0] == 0
@@ -237,13 +237,13 @@ def test_image_pairs_from_folders_by_stem_or_order_stored_relative_and_checked(t
     assert _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "left", "--right",
                 tmp_path / "right", "--label-prefix", "st1-")[0] == 0
     with Project.open(project) as p:
-        pairs = {q["label"]: q for q in p.pairs()}
+        pairs = {q.label: q for q in p.pairs()}
         assert list(pairs) == ["st1-img_1", "st1-img_2", "st1-img_10"]
-        assert pairs["st1-img_10"]["left"] == "left/IMG_10_L.png" and pairs["st1-img_10"]["width"] == 160
+        assert pairs["st1-img_10"].left == "left/IMG_10_L.png" and pairs["st1-img_10"].width == 160
         for label, pair in pairs.items():
             n = int(label.rsplit("_", 1)[1])
-            assert frame_number(read_image(p.media_path(pair["left"]))) == n
-            assert frame_number(read_image(p.media_path(pair["right"]))) == 100 + n
+            assert frame_number(read_image(p.media_path(pair.left))) == n
+            assert frame_number(read_image(p.media_path(pair.right))) == 100 + n
         assert p.media_problems() == []
     # swapped and moved files are detected; a relocated file must be the same file
     a, b = tmp_path / "left" / "IMG_1_L.png", tmp_path / "left" / "IMG_2_L.png"
@@ -260,7 +260,7 @@ def test_image_pairs_from_folders_by_stem_or_order_stored_relative_and_checked(t
         with pytest.raises(ProjectError, match="not the file that was added"):
             p.relocate_media("right/IMG_10_R.png", tmp_path / "right" / "IMG_2_R.png")
         assert p.relocate_media("right/IMG_10_R.png", tmp_path / "IMG_10_R.png") == "IMG_10_R.png"
-        assert pairs["st1-img_10"]["label"] in {q["label"] for q in p.pairs() if q["right"] == "IMG_10_R.png"}
+        assert pairs["st1-img_10"].label in {q.label for q in p.pairs() if q.right == "IMG_10_R.png"}
     # by order when the stems do not match; unequal counts refused
     (tmp_path / "l2").mkdir()
     (tmp_path / "r2").mkdir()
@@ -322,8 +322,8 @@ def test_jpeg_pairs_by_exif_capture_time(tmp_path, capsys):
     assert code == 0 and "6 pairs by capture time" in out, err
     with Project.open(project) as p:
         for pair in p.pairs():
-            assert frame_number(read_image(p.media_path(pair["right"]))) == \
-                1000 + frame_number(read_image(p.media_path(pair["left"])))
+            assert frame_number(read_image(p.media_path(pair.right))) == \
+                1000 + frame_number(read_image(p.media_path(pair.left)))
     code, _, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "left", "--right",
                         tmp_path / "right", "--pair-by", "time", "--max-dt", "0.01", "--dry-run")
     assert code == 2 and "no right image captured within 0.01 s" in err

@@ -15,5 +15,5 @@ def test_an_in_air_video_is_stored_as_air(qtbot, make_window, tmp_path):
     assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
     media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "cal", medium="air")
     project = window.workspace.project
-    qtbot.waitUntil(lambda: "cal" in [p["label"] for p in project.pairs()], timeout=60000)
-    assert {p["label"]: p["medium"] for p in project.pairs()} == {"cal": "air"}
+    qtbot.waitUntil(lambda: "cal" in [p.label for p in project.pairs()], timeout=60000)
+    assert {p.label: p.medium for p in project.pairs()} == {"cal": "air"}

@@ -115,7 +115,7 @@ def test_each_wizard_reaches_the_command_lines_parameters(qtbot, project, tmp_pa
     with qtbot.waitSignal(wizard.saved, timeout=5000) as saved:
         finish.click()
     assert len(p.calibrations()) == before + 1
-    assert p.calibrations()[-1]["name"] == f"wizard {phase}"
+    assert p.calibrations()[-1].name == f"wizard {phase}"
     for pair in pairs:
         assert p.active_calibration(pair) == saved.args[0]
 

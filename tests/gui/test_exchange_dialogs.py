@@ -76,7 +76,7 @@ def test_import_asks_the_image_size_the_file_lacks_and_stores_the_calibration(qt
     assert offered[shown] == QtCore.Qt.CheckState.Checked and size.endswith(" px")
     # the sample's pictures are not 640 × 480: the shown pair keeps its calibration, both sizes named
     project = window.workspace.project
-    assert project.active_calibration("measure1") != project.calibrations()[-1]["id"]
+    assert project.active_calibration("measure1") != project.calibrations()[-1].id
     message = window.statusBar().currentMessage()
     assert "not made active" in message and size in message and "640 × 480 px" in message
     assert QtWidgets.QApplication.activeModalWidget() is None

@@ -280,3 +280,36 @@ def test_an_observation_record_ann_is_typing_that_bob_changes_shows_the_conflict
     window.focus_images()  # she leaves the form: the object is read again, bob's record shown, marked
     qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
     assert ws.cache.record(fish).number == 2 and "is kept unsaved" in window.hint.text()
+
+
+def test_a_review_made_from_the_command_line_in_another_process_appears_marked(qtbot, make_window, survey, bob):
+    import os
+    import subprocess
+    import sys
+
+    location, directory = survey
+    window = _ann(qtbot, make_window, location)
+    fish = _fish(bob, directory, "fish1")
+    qtbot.waitUntil(lambda: fish in window.workspace.cache, timeout=BOUND_MS)
+    subprocess.run([sys.executable, "-m", "usvips", "project", "review", location, "--flag", str(fish), "--reason",
+                    "snout hidden", "--annotator", "dora"], check=True, capture_output=True, timeout=120,
+                   env={**os.environ, "USVIPS_ANNOTATOR": "dora"})
+    listing = window.object_list
+    qtbot.waitUntil(lambda: listing.text(listing.row_of(fish), "review") == "flagged: snout hidden", timeout=BOUND_MS)
+    who = bob.history(fish)[-1].annotator  # the name the store recorded for the other process
+    assert _marked_by(window, fish, who) and window.workspace.cache.marks[fish].changes == ("review",)
+
+
+def test_a_change_the_window_already_holds_is_not_shown_and_keeps_the_mark_it_had(qtbot, make_window, survey, bob):
+    """A batch read before a later write of the window itself (its review, its undo) names an object the
+    window, read again, holds as stored: nothing to show, and the colleague's mark it had stays."""
+    from usvips.app.live_changes import ColleagueChange
+
+    location, directory = survey
+    window = _ann(qtbot, make_window, location)
+    fish = _fish(bob, directory, "fish1")
+    qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
+    shown = list(window.live.recent)
+    window.live.apply([ColleagueChange(fish, "changed", "ann", "2026-11-28T12:41:00+00:00", ("review",))])
+    assert window.workspace.cache.marks[fish].who == "bob" and _marked_by(window, fish, "bob")
+    assert window.live.recent == shown and window.overlay.outlines[fish][0].endswith("· bob")

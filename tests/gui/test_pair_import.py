@@ -60,10 +60,10 @@ def test_a_second_dive_with_the_same_names_is_added_under_a_prefix_with_its_medi
     assert second.size_text(0) == f"{sizes[0][0]} × {sizes[0][1]}"
     added, left_out = second.add()
     assert added == [f"dive2-{n.lower()}" for n in names] and left_out == []
-    media = {p["label"]: p["medium"] for p in project.pairs()}
+    media = {p.label: p.medium for p in project.pairs()}
     assert all(media[label] == medium for label in added)
     assert all(media[n.lower()] == "water" for n in names)
-    stored = {p["label"]: (p["width"], p["height"]) for p in project.pairs()}
+    stored = {p.label: (p.width, p.height) for p in project.pairs()}
     assert all(stored[label] == sizes[0] for label in added)
 
 
@@ -98,7 +98,7 @@ def test_edited_labels_unticked_and_misfit_pairs_the_good_ones_added_the_bad_nam
     expected = [model.label(k) for k in range(count) if k not in (misfit, unticked)]
     assert added == expected and "the big one" in added
     assert left_out == [f"s-{names[misfit].lower()}: {model.status(misfit)}"]
-    stored = [p["label"] for p in project.pairs()]
+    stored = [p.label for p in project.pairs()]
     assert stored == expected  # the unticked and the misfit are not in the project
 
 

@@ -222,7 +222,7 @@ def test_phase_one_from_a_project_video_then_phase_two_from_images(qtbot, projec
     assert wizard.currentPage() is wizard.save_page
     with qtbot.waitSignal(wizard.saved, timeout=10_000):
         wizard.accept()
-    base_id = project.calibrations()[-1]["id"]
+    base_id = project.calibrations()[-1].id
     # phase 2 through a flat port from rendered images, starting from it
     rng = np.random.default_rng(3)
     water_rig = rig.in_water("flat-port", rng)
@@ -256,4 +256,4 @@ def test_phase_one_from_a_project_video_then_phase_two_from_images(qtbot, projec
     wizard.next()
     with qtbot.waitSignal(wizard.saved, timeout=10_000):
         wizard.accept()
-    assert project.calibrations()[-1]["phase"] in ("water", "joint")
+    assert project.calibrations()[-1].phase in ("water", "joint")

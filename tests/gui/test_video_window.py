@@ -159,7 +159,7 @@ def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, m
     window.video.request(7)
     _wait_frame(qtbot, window, 7)
     project = window.workspace.project
-    pairs_before = {p["label"] for p in project.pairs()}
+    pairs_before = {p.label for p in project.pairs()}
 
     answers = []
 
@@ -181,13 +181,13 @@ def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, m
     monkeypatch.setattr(TakePairDialog, "exec", fill_in)
     window.video.dock_widget.take.click()
     assert answers == [("cube-air", "air")]
-    qtbot.waitUntil(lambda: "cube-air" in {p["label"] for p in project.pairs()} and not window.busy, timeout=10000)
-    pair = next(p for p in project.pairs() if p["label"] == "cube-air")
-    assert pair["medium"] == "air" and (pair["width"], pair["height"]) == (VideoStream(directory / "video_left.avi")
+    qtbot.waitUntil(lambda: "cube-air" in {p.label for p in project.pairs()} and not window.busy, timeout=10000)
+    pair = next(p for p in project.pairs() if p.label == "cube-air")
+    assert pair.medium == "air" and (pair.width, pair.height) == (VideoStream(directory / "video_left.avi")
                                                                            .size)
     with VideoStream(directory / "video_left.avi") as left, VideoStream(directory / "video_right.avi") as right:
-        assert np.array_equal(read_image(project.image_path(pair["left"])), left.frame(7))
-        assert np.array_equal(read_image(project.image_path(pair["right"])), right.frame(10))  # offset 3
+        assert np.array_equal(read_image(project.image_path(pair.left)), left.frame(7))
+        assert np.array_equal(read_image(project.image_path(pair.right)), right.frame(10))  # offset 3
     assert "cube-air" in [window.pair_box.itemText(i) for i in range(window.pair_box.count())]
     assert window.workspace.video_frame[1] == 7  # still on the video
     assert "cube-air" in CalibrationSession(project, "air").candidate_pairs()
@@ -198,7 +198,7 @@ def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, m
     assert window.video.take_pair("cube-air", "air") is None
     assert "already used" in window.statusBar().currentMessage()
     assert (directory / "frames" / "cube-air" / "left.png").stat().st_mtime_ns == written
-    assert {p["label"] for p in project.pairs()} == pairs_before | {"cube-air"}
+    assert {p.label for p in project.pairs()} == pairs_before | {"cube-air"}
 
 
 def test_seek_proxies_are_offered_at_the_first_slow_seek_built_in_the_background_used_cancelled_and_deleted(

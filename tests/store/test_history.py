@@ -68,11 +68,11 @@ def test_a_schema_7_project_is_migrated_its_stamps_filled_and_its_history_starts
     object_id = _schema_7_project(path)
     with Project.open(path, read_only=True) as old:  # read as it is: no history, no vertex stamps yet
         assert old.version == 7 and old.history() == []
-        assert old.provenance(object_id)["vertices"] == [("", ""), ("", "")]
+        assert old.provenance(object_id).vertices == [("", ""), ("", "")]
     with Project.open(path) as project:
         assert project.version == SCHEMA_VERSION >= 8
         made = project.provenance(object_id)
-        assert made["vertices"] == [("old hand", "2021-02-03")] * 2 and made["record"] == ("old hand", "2021-02-03")
+        assert made.vertices == [("old hand", "2021-02-03")] * 2 and made.record == ("old hand", "2021-02-03")
         assert project.history() == []
         project.annotator = "new hand"
         project.update_object(object_id, attribute="ling")
@@ -119,7 +119,7 @@ def test_a_schema_7_survey_is_migrated_when_opened_for_writing_and_refused_read_
     with open_project(url) as survey:
         assert survey.version == SCHEMA_VERSION and survey.history() == []
         made = survey.provenance(object_id)
-        assert made["vertices"] == [("old hand", created)] * 2 and made["record"] == ("old hand", created)
+        assert made.vertices == [("old hand", created)] * 2 and made.record == ("old hand", created)
         survey.annotator = "new hand"
         survey.set_review(object_id, "accepted")  # schema 9 on top
         survey.delete_object(object_id)

@@ -14,6 +14,7 @@ import pytest
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store import SCHEMA_VERSION, Project, ProjectError
 from usvips.store.project import Vertex
+from usvips.store.records import Pair
 
 DATA = Path(__file__).parent / "data"
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,8 +30,7 @@ def test_every_table_round_trips(project, tmp_path):
     image = tmp_path / "left.png"
     image.write_bytes(b"\x89PNG fake")
     project.add_pair("w1", image, image, medium="water", frame=12, size=(1280, 960))
-    assert project.pairs()[0] == {"id": 1, "label": "w1", "left": "left.png", "right": "left.png", "width": 1280,
-                                  "height": 960, "frame": 12, "medium": "water"}
+    assert project.pairs()[0] == Pair(1, "w1", "left.png", "left.png", 1280, 960, 12, "water")
     control = ControlPoints(("1", "T2"), np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]), np.full((2, 3), 0.001))
     project.set_control(control)
     again = project.control()

@@ -148,12 +148,12 @@ def test_the_implementation_has_every_operation_of_the_interface_with_its_parame
 def test_pairs_round_trip_in_order_and_a_used_label_is_refused(store, where):
     ids = [store.add_pair("a", medium="air"), store.add_pair("b", frame=12, size=(640, 480))]
     pairs = store.pairs()
-    assert [p["label"] for p in pairs] == ["a", "b"] and [p["id"] for p in pairs] == ids
-    assert pairs[0]["medium"] == "air" and pairs[1]["medium"] == "water" and pairs[1]["frame"] == 12
-    assert (pairs[1]["width"], pairs[1]["height"]) == (640, 480)
+    assert [p.label for p in pairs] == ["a", "b"] and [p.id for p in pairs] == ids
+    assert pairs[0].medium == "air" and pairs[1].medium == "water" and pairs[1].frame == 12
+    assert (pairs[1].width, pairs[1].height) == (640, 480)
     with pytest.raises(ProjectError):
         store.add_pair("a")
-    assert [p["label"] for p in store.pairs()] == ["a", "b"]
+    assert [p.label for p in store.pairs()] == ["a", "b"]
 
 
 def test_objects_and_their_vertices_round_trip_exactly(store):
@@ -362,9 +362,9 @@ def test_calibrations_round_trip_with_their_active_pairs(store):
     first = store.add_calibration("first", data, ("a", "b"))
     second = store.add_calibration("second", {"phase": "air"})
     assert store.calibration(first) == data
-    assert [(c["id"], c["name"], c["phase"]) for c in store.calibrations()] == [(first, "first", "water"),
+    assert [(c.id, c.name, c.phase) for c in store.calibrations()] == [(first, "first", "water"),
                                                                                  (second, "second", "air")]
-    assert store.calibrations()[0]["sigma0_px"] == 0.43
+    assert store.calibrations()[0].sigma0_px == 0.43
     assert (store.active_calibration("a"), store.active_calibration("b"), store.active_calibration("c")) == (
         first, first, None)
     store.activate_calibration("b", second)
@@ -405,20 +405,20 @@ def test_media_and_image_pairs_round_trip_and_changes_are_found(store, where):
     folder = where.parent
     plan = _images(folder, 3)
     ids = store.add_image_pairs(plan, "water", [(640, 480)] * 3)
-    assert len(ids) == 3 and [p["label"] for p in store.pairs()] == ["p0", "p1", "p2"]
+    assert len(ids) == 3 and [p.label for p in store.pairs()] == ["p0", "p1", "p2"]
     for (label, left, right), pair in zip(plan, store.pairs(), strict=True):
-        assert pair["label"] == label
-        assert store.image_path(pair["left"]) == left.resolve() and store.media_path(pair["right"]) == right.resolve()
+        assert pair.label == label
+        assert store.image_path(pair.left) == left.resolve() and store.media_path(pair.right) == right.resolve()
     assert store.media_problems() == []
     plan[1][1].write_bytes(b"something else entirely")
     moved = folder / "moved"
     moved.mkdir()
     plan[2][2].rename(moved / plan[2][2].name)
     problems = dict(store.media_problems())
-    assert set(problems) == {store.pairs()[1]["left"], store.pairs()[2]["right"]}
-    new = store.relocate_media(store.pairs()[2]["right"], moved / plan[2][2].name)
+    assert set(problems) == {store.pairs()[1].left, store.pairs()[2].right}
+    new = store.relocate_media(store.pairs()[2].right, moved / plan[2][2].name)
     assert store.media_path(new) == (moved / plan[2][2].name).resolve()
-    assert set(dict(store.media_problems())) == {store.pairs()[1]["left"]}
+    assert set(dict(store.media_problems())) == {store.pairs()[1].left}
     with pytest.raises(ProjectError):
         store.image_path("no/such/image.png")
 
@@ -438,7 +438,7 @@ def test_videos_with_offsets_and_periods_round_trip(store, where):
         "dive", 25.0, 201, 1920, 1080)
     assert video["offset_frames"] == 0 and video["report"] == "fine"
     assert [v["label"] for v in store.videos()] == ["dive"]
-    assert "dive" in [p["label"] for p in store.pairs()]  # a video is measured like a pair
+    assert "dive" in [p.label for p in store.pairs()]  # a video is measured like a pair
     store.set_video_offset("dive", -3, {"method": "audio", "confidence": 0.9})
     video = store.video("dive")
     assert video["offset_frames"] == -3 and video["offset_estimate"] == {"method": "audio", "confidence": 0.9}
@@ -450,7 +450,7 @@ def test_videos_with_offsets_and_periods_round_trip(store, where):
         store.video("no such video")
     # a video knows its medium (an in-air calibration video is not water), stored as its pair's
     store.add_video("in air", chapters["left"], chapters["right"], 25.0, 201, (1920, 1080), medium="air")
-    media = {p["label"]: p["medium"] for p in store.pairs()}
+    media = {p.label: p.medium for p in store.pairs()}
     assert media["in air"] == "air" and media["dive"] == "water"
     with pytest.raises(ProjectError, match="medium"):
         store.add_video("in oil", chapters["left"], chapters["right"], 25.0, 201, (1920, 1080), medium="oil")
@@ -555,7 +555,7 @@ def test_a_transaction_keeps_all_or_on_any_error_nothing(store):
             store.add_term("lost")
         store.add_calibration("lost", {"phase": "air"}, ("lost",))
         raise RuntimeError("the user's operation failed half way")
-    assert [p["label"] for p in store.pairs()] == ["kept"]
+    assert [p.label for p in store.pairs()] == ["kept"]
     assert len(store.objects()) == 1 and store.vocabulary() == [] and store.calibrations() == []
 
 
@@ -568,7 +568,7 @@ def test_a_used_label_or_one_file_on_both_sides_adds_nothing(store, where):
         store.add_image_pairs([plan[1], plan[1]])
     with pytest.raises(ProjectError, match="'same'.*both the left and the right image"):
         store.add_image_pairs([("same", plan[1][1], plan[1][1])])
-    assert [p["label"] for p in store.pairs()] == ["p0"]
+    assert [p.label for p in store.pairs()] == ["p0"]
 
 
 def test_several_objects_are_stored_all_or_none(store):
@@ -777,19 +777,19 @@ def test_objects_vertices_and_records_carry_who_made_them_and_when(impl, store, 
     store.annotator = "alice"
     object_id = store.add_object("length", [_vertex(rng), _vertex(rng)], "cod")
     made = store.provenance(object_id)
-    assert made["object"][0] == "alice" and made["record"] is None
-    assert [v[0] for v in made["vertices"]] == ["alice", "alice"]
-    assert all(v[1] == made["object"][1] for v in made["vertices"])
+    assert made.object[0] == "alice" and made.record is None
+    assert [v[0] for v in made.vertices] == ["alice", "alice"]
+    assert all(v[1] == made.object[1] for v in made.vertices)
     with impl.open(where, False) as bob:
         bob.annotator = "bob"
         stored = bob.object(object_id)
         bob.update_object(object_id, vertices=[stored.vertices[0], _vertex(rng)])  # bob re-picks the tail
         bob.set_record(object_id, _record(rng))
     after = store.provenance(object_id)
-    assert after["object"][:2] == made["object"][:2] and after["object"][2] > made["object"][2]
-    assert after["vertices"][0] == made["vertices"][0]  # the unchanged pick keeps who picked it
-    assert after["vertices"][1][0] == "bob" and after["vertices"][1][1] > made["vertices"][1][1]
-    assert after["record"][0] == "bob" and after["record"][1] > made["object"][1]
+    assert after.object[:2] == made.object[:2] and after.object[2] > made.object[2]
+    assert after.vertices[0] == made.vertices[0]  # the unchanged pick keeps who picked it
+    assert after.vertices[1][0] == "bob" and after.vertices[1][1] > made.vertices[1][1]
+    assert after.record[0] == "bob" and after.record[1] > made.object[1]
     assert [e.annotator for e in store.history(object_id)] == ["alice", "bob", "bob"]
 
 
@@ -1410,7 +1410,7 @@ def test_a_watch_wakes_when_another_handle_commits_and_not_for_an_uncommitted_wr
 def test_media_are_located_through_the_store_whether_or_not_they_are_there(store, tmp_path):
     plan = _images(tmp_path, 2)
     store.add_image_pairs(plan)
-    stored = [(pair["left"], pair["right"]) for pair in store.pairs()]
+    stored = [(pair.left, pair.right) for pair in store.pairs()]
     for (_label, left, right), (stored_left, stored_right) in zip(plan, stored, strict=True):
         assert store.media_location(stored_left) == left.resolve() == store.image_path(stored_left)
         assert store.media_location(stored_right) == right.resolve()

@@ -74,12 +74,12 @@ def media_size(project: ProjectStore, label: str) -> tuple[int, int] | None:
     """(width, height) in pixels of a pair's images or a video's frames: as recorded when it was added,
     else read from the left image file's header; None when the pair has no pictures (observations only)
     or its size cannot be told without decoding."""
-    pair = next((p for p in project.pairs() if p["label"] == label), None)
-    if pair is not None and pair.get("width") and pair.get("height"):
-        return int(pair["width"]), int(pair["height"])
-    if pair is not None and pair.get("left"):
+    pair = next((p for p in project.pairs() if p.label == label), None)
+    if pair is not None and pair.width and pair.height:
+        return int(pair.width), int(pair.height)
+    if pair is not None and pair.left:
         try:
-            path = project.image_path(pair["left"])
+            path = project.image_path(pair.left)
             with open(path, "rb") as file:
                 return declared_size(file.read(1 << 16))
         except (OSError, UsvipsError):

@@ -18,13 +18,14 @@ from usvips.core.errors import InputFileError, UsvipsError, concerning
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
 from usvips.store.interface import ProjectStore
+from usvips.store.records import Pair
 
 
 def media_files(project: ProjectStore) -> list[Path]:
     """Every media file the project holds that is reachable here (pairs' images, videos' chapters): the
     inputs a command working on the project must never write over. Missing or unreadable ones are left
     out (nothing can be destroyed there)."""
-    stored = [path for pair in project.pairs() for path in (pair["left"], pair["right"]) if path]
+    stored = [path for pair in project.pairs() for path in (pair.left, pair.right) if path]
     stored += [path for video in project.videos() for camera in ("left", "right") for path in video[camera]]
     found = []
     for path in dict.fromkeys(stored):
@@ -134,27 +135,27 @@ def summarise(project: ProjectStore) -> ProjectSummary:
     pairs = project.pairs()
     videos = project.videos()
     video_labels = {v["label"] for v in videos}
-    media = {p["label"]: p["medium"] for p in pairs}
+    media = {p.label: p.medium for p in pairs}
     objects, instants, reviews = review_counts(project)
     return ProjectSummary(
         project.version, len(pairs), len(project.control()), objects,
-        tuple(PairSummary(p["label"], p["medium"], p["left"], p["right"], project.active_calibration(p["label"]))
-              for p in pairs if p["label"] not in video_labels),
+        tuple(PairSummary(p.label, p.medium, p.left, p.right, project.active_calibration(p.label))
+              for p in pairs if p.label not in video_labels),
         tuple(VideoSummary(v["label"], v["frame_count"], v["fps"], v["offset_frames"],
                            project.active_calibration(v["label"]), proxy_bytes(project, v["label"]),
                            media.get(v["label"], "water")) for v in videos),
         project.deployments(), project.georeference(), instants, reviews, calibration_summaries(project, pairs))
 
 
-def calibration_summaries(project: ProjectStore, pairs: list[dict] | None = None) -> tuple[CalibrationSummary, ...]:
+def calibration_summaries(project: ProjectStore, pairs: list[Pair] | None = None) -> tuple[CalibrationSummary, ...]:
     """Every stored calibration, oldest first, with the pairs and videos it is active for."""
     pairs = project.pairs() if pairs is None else pairs
     active: dict[int, list[str]] = {}
     for pair in pairs:
-        calibration_id = project.active_calibration(pair["label"])
+        calibration_id = project.active_calibration(pair.label)
         if calibration_id is not None:
-            active.setdefault(calibration_id, []).append(pair["label"])
-    return tuple(CalibrationSummary(c["id"], c["name"], c["phase"], c["sigma0_px"], tuple(active.get(c["id"], ())))
+            active.setdefault(calibration_id, []).append(pair.label)
+    return tuple(CalibrationSummary(c.id, c.name, c.phase, c.sigma0_px, tuple(active.get(c.id, ())))
                  for c in project.calibrations())
 
 
@@ -200,7 +201,7 @@ def store_import(project: ProjectStore, plan: ImportPlan) -> None:
         if plan.control is not None:
             project.set_control(plan.control)
         if plan.observations is not None:
-            if plan.pair not in {p["label"] for p in project.pairs()}:
+            if plan.pair not in {p.label for p in project.pairs()}:
                 project.add_pair(plan.pair)
             project.add_control_observations(plan.observations, plan.role, plan.pair)
         if plan.calibration is not None:

@@ -76,7 +76,7 @@ def collect_export(project: ProjectStore, geographic: bool = False, opcode: str 
     objects, centres, images, cache, opcodes, where = [], {}, {}, {}, {}, {}
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()
-    pairs = {p["label"]: p for p in project.pairs()}
+    pairs = {p.label: p for p in project.pairs()}
     instants = instants_by_object(project)
     pointing = pointing_in_use(project)  # read once, not once an object
     for stored in survey_objects(project):  # an object on several instants: once, its figures combined
@@ -104,8 +104,8 @@ def collect_export(project: ProjectStore, geographic: bool = False, opcode: str 
             centres[measurement.id] = source.calibration.rig(source.station, source.frame).left.exterior.position
         pair = pairs.get(source.pair)
         if pair is not None:
-            frame = "" if pair["frame"] is None else str(pair["frame"])
-            images[measurement.id] = (Path(pair["left"] or "").name, frame, Path(pair["right"] or "").name, frame)
+            frame = "" if pair.frame is None else str(pair.frame)
+            images[measurement.id] = (Path(pair.left or "").name, frame, Path(pair.right or "").name, frame)
         video_columns = eventmeasure_frame_columns(project, stored.vertices[0]) if stored.vertices else None
         if video_columns is not None:  # measured on a video: its files, frames, time and period
             images[measurement.id] = video_columns

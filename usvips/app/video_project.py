@@ -107,8 +107,8 @@ def add_image_pairs(project: ProjectStore, plan: Sequence[tuple[str, Path, Path]
     taken = {}
     for pair in project.pairs():
         for side in ("left", "right"):
-            if pair[side]:
-                taken[project.media_location(pair[side])] = pair["label"]
+            if getattr(pair, side):
+                taken[project.media_location(getattr(pair, side))] = pair.label
     for label, left, right in plan:
         for path in (left, right):
             if Path(path).resolve() in taken:
@@ -410,7 +410,7 @@ def verify_media(records: Sequence[tuple[str, Path, int, str]], progress: Callab
 def media_files(project: ProjectStore) -> list[Path]:
     """Where every media file the project records (image pairs' images, videos' files) should be, absolute
     (whether or not it is there)."""
-    stored = [p[side] for p in project.pairs() for side in ("left", "right") if p[side]]
+    stored = [getattr(p, side) for p in project.pairs() for side in ("left", "right") if getattr(p, side)]
     stored += [path for v in project.videos() for side in ("left", "right") for path in v[side]]
     return [project.media_location(path) for path in stored]
 
@@ -422,7 +422,7 @@ def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: s
     pair_label = validation.name("label", pair_label or f"{label}-{frame}")
     if not pair_label or "/" in pair_label or "\\" in pair_label or pair_label.startswith("."):
         raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
-    if pair_label in {p["label"] for p in project.pairs()}:
+    if pair_label in {p.label for p in project.pairs()}:
         raise VideoError(f"{project.path}: pair label {pair_label!r} is already used; choose another")
     active = project.active_calibration(label)
     if active is not None:  # the video's frames were measured with it: it must fit them
@@ -467,8 +467,8 @@ def _calibration_for(project: ProjectStore, calibration_id: int | None, label: s
         if not stored:
             raise VideoError(f"{project.path}: image synchronisation needs a calibration of the rig; the project "
                              "has none (import one, or synchronise by a flash or the audio)")
-        water = [c for c in stored if c.get("phase") not in ("air", "phase1")]
-        calibration_id = (water or stored)[-1]["id"]
+        water = [c for c in stored if c.phase not in ("air", "phase1")]
+        calibration_id = (water or stored)[-1].id
     return read_calibration(project, calibration_id)
 
 
@@ -623,7 +623,7 @@ def add_sample_video(project: ProjectStore, left: Path, right: Path, offset: int
     measured with the calibration that is active for most of the sample's underwater pairs."""
     add_video(project, [left], [right], label)
     project.set_video_offset(label, offset, {"method": "sample truth"})
-    active = [project.active_calibration(p["label"]) for p in project.pairs() if p["medium"] == "water"]
+    active = [project.active_calibration(p.label) for p in project.pairs() if p.medium == "water"]
     active = [a for a in active if a is not None]
     if active:
         make_active(project, label, max(set(active), key=active.count))

@@ -11,9 +11,9 @@ def fill(widget: QtWidgets.QListWidget, project, medium: str) -> int:
     many there are."""
     widget.clear()
     for pair in project.pairs():
-        if pair["medium"] != medium:
+        if pair.medium != medium:
             continue
-        item = QtWidgets.QListWidgetItem(pair["label"])
+        item = QtWidgets.QListWidgetItem(pair.label)
         item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
         item.setCheckState(QtCore.Qt.CheckState.Checked)
         widget.addItem(item)

@@ -112,14 +112,14 @@ class CalibrationSession:
             control = self.project.control()
             self.control = control if len(control.ids) else None
         if self.base_id is None and self.phase != "air":
-            bases = [c for c in self.project.calibrations() if c["phase"] == "air"]
-            self.base_id = bases[-1]["id"] if bases else None
-        water = [c for c in self.project.calibrations() if c["phase"] in ("water", "joint")]
+            bases = [c for c in self.project.calibrations() if c.phase == "air"]
+            self.base_id = bases[-1].id if bases else None
+        water = [c for c in self.project.calibrations() if c.phase in ("water", "joint")]
         if self.phase != "air" and water:  # the rig's housing, as its last underwater calibration says
-            housing = self.project.calibration(water[-1]["id"]).get("housing")
+            housing = self.project.calibration(water[-1].id).get("housing")
             if housing in DEFAULT_HOUSING:
                 self.housing = housing
-                self._housing_from = water[-1]["id"]
+                self._housing_from = water[-1].id
 
     def housing_source(self) -> str:
         """Where the housing kind shown first comes from (a line for the wizard)."""
@@ -131,7 +131,7 @@ class CalibrationSession:
     # ------------------------------------------------------------------ choices
     def candidate_pairs(self) -> list[str]:
         medium = "air" if self.phase == "air" else "water"
-        return [p["label"] for p in self.project.pairs() if p["medium"] == medium]
+        return [p.label for p in self.project.pairs() if p.medium == medium]
 
     def set_pairs(self, pairs: list[str]) -> None:
         unknown = [p for p in pairs if p not in self.candidate_pairs()]
@@ -149,7 +149,7 @@ class CalibrationSession:
         self.data_changed.emit("control", ())
 
     def base_calibrations(self) -> list[dict]:
-        return [c for c in self.project.calibrations() if c["phase"] == "air"]
+        return [c for c in self.project.calibrations() if c.phase == "air"]
 
     def set_known(self, name: str, value: float, sigma: float | None) -> None:
         """A housing value known beforehand: fixed (sigma None) or a prior (value ± sigma)."""

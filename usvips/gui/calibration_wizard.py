@@ -133,8 +133,8 @@ class SetupPage(QtWidgets.QWizardPage):
         if water:
             self.base = QtWidgets.QComboBox()
             for calibration in session.base_calibrations():
-                self.base.addItem(f"{calibration['id']}: {calibration['name']} (σ0 "
-                                  f"{calibration['sigma0_px'] or float('nan'):.3f} px)", calibration["id"])
+                self.base.addItem(f"{calibration.id}: {calibration.name} (σ0 "
+                                  f"{calibration.sigma0_px or float('nan'):.3f} px)", calibration.id)
             if session.base_id is not None:
                 self.base.setCurrentIndex(max(self.base.findData(session.base_id), 0))
             self.housing = QtWidgets.QComboBox()

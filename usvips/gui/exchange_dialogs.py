@@ -78,8 +78,8 @@ def _current_calibration(window) -> tuple[StereoCalibration, str] | None:
     if project is not None and project.calibrations():
         pair = window.workspace.pair
         chosen = project.active_calibration(pair) if pair else None
-        chosen = chosen if chosen is not None else project.calibrations()[-1]["id"]
-        name = next(c["name"] for c in project.calibrations() if c["id"] == chosen)
+        chosen = chosen if chosen is not None else project.calibrations()[-1].id
+        name = next(c.name for c in project.calibrations() if c.id == chosen)
         return read_calibration(project, chosen), name
     path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
                                                     "Calibrations (*.json)")
@@ -173,20 +173,20 @@ class UseCalibrationDialog(QtWidgets.QDialog):
         self.calibrations = project.calibrations()
         self.choice = QtWidgets.QComboBox()
         for c in self.calibrations:
-            sigma = f", σ0 {c['sigma0_px']:.3g} px" if c.get("sigma0_px") is not None else ""
-            self.choice.addItem(f"{c['id']}: {c['name']} ({c.get('phase') or 'phase unknown'}{sigma})", c["id"])
+            sigma = f", σ0 {c.sigma0_px:.3g} px" if c.sigma0_px is not None else ""
+            self.choice.addItem(f"{c.id}: {c.name} ({c.phase or 'phase unknown'}{sigma})", c.id)
         if chosen is not None:
             self.choice.setCurrentIndex(max(self.choice.findData(chosen), 0))
         else:
             self.choice.setCurrentIndex(self.choice.count() - 1)
         self.labels = QtWidgets.QListWidget()
         for pair in project.pairs():
-            size = calibration_size.media_size(project, pair["label"])
-            shown = pair["label"] + (f"  ({size[0]} × {size[1]} px)" if size else "")
+            size = calibration_size.media_size(project, pair.label)
+            shown = pair.label + (f"  ({size[0]} × {size[1]} px)" if size else "")
             item = QtWidgets.QListWidgetItem(shown)
-            item.setData(QtCore.Qt.ItemDataRole.UserRole, pair["label"])
+            item.setData(QtCore.Qt.ItemDataRole.UserRole, pair.label)
             item.setFlags(item.flags() | QtCore.Qt.ItemFlag.ItemIsUserCheckable)
-            item.setCheckState(QtCore.Qt.CheckState.Checked if pair["label"] == current
+            item.setCheckState(QtCore.Qt.CheckState.Checked if pair.label == current
                                else QtCore.Qt.CheckState.Unchecked)
             self.labels.addItem(item)
         form = QtWidgets.QFormLayout()
@@ -343,7 +343,7 @@ def project_report_data(project, calibration: StereoCalibration):
     if found.control is not None and found.observations is not None:
         return found
     role = "calibration-air" if calibration.phase == "air" else "calibration-water"
-    labels = {p["label"] for p in project.pairs()}
+    labels = {p.label for p in project.pairs()}
     parts = [project.control_observations(role, pair) for pair in calibration.stations if pair in labels]
     parts = [part for part in parts if len(part.ids)]
     if not parts or not len(project.control().ids):

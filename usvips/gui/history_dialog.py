@@ -9,21 +9,22 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.app.history_text import what_changed
 from usvips.core.errors import UsvipsError
+from usvips.store.records import Provenance
 
 #: the table's columns
 COLUMNS = ("#", "When (UTC)", "Who", "Change", "What (old → new)")
 
 
-def provenance_text(provenance: dict, review) -> str:
+def provenance_text(provenance: Provenance, review) -> str:
     """Who made what of an object, on a few lines (times as stored: ISO 8601 UTC)."""
-    creator, created, modified = provenance["object"]
+    creator, created, modified = provenance.object
     lines = [f"Made by {creator or 'unknown'} on {created}; last changed {modified}."]
     pickers: dict[str, int] = {}
-    for who, _ in provenance["vertices"]:
+    for who, _ in provenance.vertices:
         pickers[who or "unknown"] = pickers.get(who or "unknown", 0) + 1
     if pickers:
         lines.append("Vertices picked by " + ", ".join(f"{who} ({count})" for who, count in pickers.items()) + ".")
-    record = provenance.get("record")
+    record = provenance.record
     lines.append(f"Observation record by {record[0]} on {record[1]}." if record else "No observation record.")
     if review is not None and review.state != "unreviewed":
         lines.append(f"Review: {review.state} by {review.reviewer} on {review.reviewed}"

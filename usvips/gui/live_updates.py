@@ -46,8 +46,10 @@ from usvips.store.records import ServerUnreachableError
 WAIT_S = 0.5
 #: the history is read at least this often even when no change was signalled (a missed notification) (s)
 IDLE_READ_S = 10.0
+#: how long closing a project waits for its feed's thread to end (s; it ends within about WAIT_S)
+JOIN_S = 2.0
 #: the first and the longest pause before trying a store that could not be read again (s)
-FIRST_BACKOFF_S, MAX_BACKOFF_S = 0.5, 15.0
+FIRST_BACKOFF_S, MAX_BACKOFF_S = 0.5, 5.0
 #: the feed starts this many history rows before the newest when a project opens: a change committed between
 #: the window's read of the objects and its read of the newest row is not missed (rows the window already
 #: holds give nothing: their objects' versions are the ones it read)
@@ -64,12 +66,6 @@ TINT = QtGui.QColor(255, 196, 64, 60)
 def project_location(project) -> str | Path:
     """Where the open ``project`` is, to open another handle on it: a server survey's URL, else its file."""
     return getattr(project, "url", None) or project.path
-
-
-def mark_of(workspace, object_id: int) -> ColleagueChange | None:
-    """The colleague's change ``object_id`` was last marked with in the window (None: none since it was
-    read, or the user changed it since)."""
-    return workspace.cache.marks.get(object_id)
 
 
 def _reason(error: BaseException) -> str:
@@ -130,10 +126,10 @@ class ChangeFeed:
                     if due and not self._stop.is_set():
                         batch = read_changes(store, cursor)
                         last_read, cursor = time.monotonic(), batch.last
-                    if failing:  # back: said before what was made meanwhile
+                    if failing and not self._stop.is_set():  # back: said before what was made meanwhile
                         failing = False
                         self.relay.recovered.emit(self.number)
-                    if batch is not None and batch.entries:
+                    if batch is not None and batch.entries and not self._stop.is_set():
                         self.relay.batch.emit(self.number, batch)
                     backoff = FIRST_BACKOFF_S
                 except Exception as error:  # noqa: BLE001 - a background thread says why and tries again, never dies
@@ -198,7 +194,9 @@ class LiveUpdates(QtCore.QObject):
     def _on_project(self, project) -> None:
         """Another project (or none): the previous feed stops, a new one follows ``project`` from just before
         its newest history row (the cache was just read: :data:`CATCH_UP_ROWS`)."""
-        self.stop()
+        stopped = self.stop()
+        if stopped is not None and project is None:  # closed (the window too, maybe): its thread ends first
+            stopped.join(JOIN_S)
         self.held, self._editing, self.recent, self.paused = {}, None, [], ""
         self._show_label()
         if project is None:
@@ -209,7 +207,7 @@ class LiveUpdates(QtCore.QObject):
             self.workspace.message.emit("warning", f"colleagues' changes will not be shown: {error}")
             return
         self._number += 1
-        relay = _Relay()  # no parent: the feed's thread holds it as long as it runs
+        relay = _Relay(self)  # deleted with this object, on the GUI thread (never where the feed's thread ends)
         queued = QtCore.Qt.ConnectionType.QueuedConnection
         relay.batch.connect(self._on_batch, queued)
         relay.trouble.connect(self._on_trouble, queued)
@@ -297,7 +295,11 @@ class LiveUpdates(QtCore.QObject):
             if earlier[change.object_id] is not None:
                 cache.marks[change.object_id] = earlier[change.object_id]
         if stale:
-            self.workspace.show_as_cached(tuple(c.object_id for c in stale))
+            self._applying = True  # the marks as they were: redrawn, not taken away as the user's own change
+            try:
+                self.workspace.show_as_cached(tuple(c.object_id for c in stale))
+            finally:
+                self._applying = False
         shown = [c for c in apply if c not in stale]
         if not shown:
             return

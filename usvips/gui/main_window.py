@@ -369,7 +369,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_calibration_saved(self, calibration_id: int) -> None:
         # say what it is active for, as the save page did (it may be for none: no pair of its medium yet)
         project = self.workspace.project
-        active = [p["label"] for p in project.pairs() if project.active_calibration(p["label"]) == calibration_id]
+        active = [p.label for p in project.pairs() if project.active_calibration(p.label) == calibration_id]
         self.show_message("info", f"calibration {calibration_id} stored, active for "
                           + (", ".join(active) if active else "none (choose it for a pair later)"))
         self.workspace.reshow_pair()

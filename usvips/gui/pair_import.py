@@ -61,7 +61,7 @@ class PairImport:
                      for label, left, right in plan]
         self.prefix = prefix
         self.medium = medium
-        self._taken = {p["label"] for p in project.pairs()}
+        self._taken = {p.label for p in project.pairs()}
         self.changed = Signal()
 
     # ------------------------------------------------------------------ edits

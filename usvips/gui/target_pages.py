@@ -126,7 +126,7 @@ class SourcePage(QtWidgets.QWizardPage):
         if session.water:
             self.base = QtWidgets.QComboBox()
             for calibration in session.base_calibrations():
-                self.base.addItem(f"{calibration['id']}: {calibration['name']}", calibration["id"])
+                self.base.addItem(f"{calibration.id}: {calibration.name}", calibration.id)
             self.housing = QtWidgets.QComboBox()
             self.housing.addItems(list(DEFAULT_HOUSING))
             self.housing.setCurrentText(session.housing)

@@ -124,7 +124,7 @@ class TargetSession:
 
     def base_calibrations(self) -> list[dict]:
         """The project's phase-1 (in-air) calibrations, a phase-2 base."""
-        return [c for c in self.project.calibrations() if c.get("phase", "air") == "air"]
+        return [c for c in self.project.calibrations() if c.phase == "air"]
 
     def readiness(self) -> tuple[bool, str]:
         """Whether detection can start, and if not what is missing (one line)."""

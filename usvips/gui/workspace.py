@@ -40,12 +40,12 @@ from usvips.store.interface import ProjectStore
 
 def pair_image_paths(project: ProjectStore, label: str) -> tuple[Path, Path]:
     """The absolute paths of a pair's two images (raises when the pair has none or a file is missing)."""
-    pair = next((p for p in project.pairs() if p["label"] == label), None)
+    pair = next((p for p in project.pairs() if p.label == label), None)
     if pair is None:
         raise UsvipsError(f"{project.path}: no image pair {label!r}")
-    if not pair["left"] or not pair["right"]:
+    if not pair.left or not pair.right:
         raise UsvipsError(f"pair {label!r} has no images (observations only)")
-    return project.image_path(pair["left"]), project.image_path(pair["right"])
+    return project.image_path(pair.left), project.image_path(pair.right)
 
 
 def read_pair(paths: tuple[Path, Path]) -> tuple[np.ndarray, np.ndarray]:
@@ -169,7 +169,7 @@ class Workspace:
         """Labels of the project's pairs that have images."""
         if self.project is None:
             return []
-        return [p["label"] for p in self.project.pairs() if p["left"] and p["right"]]
+        return [p.label for p in self.project.pairs() if p.left and p.right]
 
     def reshow_pair(self) -> None:
         """Show the current pair again, its images kept, so that a calibration made active for it since is
@@ -207,8 +207,8 @@ class Workspace:
 
     def image_key(self, side: str) -> str:
         """The project's key for an image's settings: its stored relative path."""
-        pair = next(p for p in self.project.pairs() if p["label"] == self.pair)
-        return str(pair[side])
+        pair = next(p for p in self.project.pairs() if p.label == self.pair)
+        return str(getattr(pair, side))
 
     # ------------------------------------------------------------ the scene of the pick tool and the edits
     # (usvips.gui.pick_tool.PickScene, usvips.gui.object_edits.EditScene): what they need of the workspace.

@@ -41,7 +41,16 @@ from usvips.core.deployment import Deployment, Georeference
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.store.change_watch import ChangeWatch
-from usvips.store.records import HistoryEntry, RemovedObject, Review, StoredObject, Vertex
+from usvips.store.records import (
+    HistoryEntry,
+    Pair,
+    Provenance,
+    RemovedObject,
+    Review,
+    StoredCalibration,
+    StoredObject,
+    Vertex,
+)
 from usvips.store.versions import UNREAD
 
 
@@ -88,8 +97,8 @@ class ProjectStore(Protocol):
         """A new image pair (``medium`` "air" or "water"); a label already used is a ``ProjectError``."""
         ...
 
-    def pairs(self) -> list[dict]:
-        """Every pair: label, left, right (stored paths or None), medium, frame, …; in insertion order."""
+    def pairs(self) -> list[Pair]:
+        """Every pair (a :class:`~usvips.store.records.Pair`; a video is one too), in insertion order."""
         ...
 
     def add_image_pairs(self, pairs: Sequence[tuple[str, Path, Path]], medium: str = "water",
@@ -196,8 +205,9 @@ class ProjectStore(Protocol):
         """A stored calibration's dictionary; an unknown id is a ``ProjectError``."""
         ...
 
-    def calibrations(self) -> list[dict]:
-        """id, name, phase, sigma0_px and created of every calibration, oldest first."""
+    def calibrations(self) -> list[StoredCalibration]:
+        """Every calibration as listed (:class:`~usvips.store.records.StoredCalibration`: id, name, phase,
+        sigma0_px, created), oldest first."""
         ...
 
     def active_calibration(self, label: str) -> int | None:
@@ -294,11 +304,9 @@ class ProjectStore(Protocol):
         """An object's observation record, None when none was entered."""
         ...
 
-    def provenance(self, object_id: int) -> dict:
-        """Who made what of an object and when: ``object`` (creator, created, modified), ``vertices`` (one
-        (creator, created) per vertex in order: who picked it; a re-pick keeps the stamps of the vertices
-        whose picks did not change) and ``record`` ((creator, created) of the observation record as it
-        stands, None without one). Times are ISO 8601 UTC text."""
+    def provenance(self, object_id: int) -> Provenance:
+        """Who made what of an object and when (a :class:`~usvips.store.records.Provenance`: the object's
+        creator and times, who picked each vertex, who made its observation record)."""
         ...
 
     def history(self, object_id: int | None = None) -> list[HistoryEntry]:

@@ -331,8 +331,8 @@ class PostgresBackend(Backend):
         return sql.lstrip()[:6].upper() == "SELECT"
 
     def _run(self, sql: str, parameters: tuple) -> Result:
-        with self._statement(sql), self.raw.cursor() as cursor:
-            cursor.execute(_placeholders(sql), parameters)
+        with self.raw.cursor() as cursor:
+            self._guarded(sql, lambda: cursor.execute(_placeholders(sql), parameters))
             if cursor.description is None:
                 return Result([], cursor.rowcount)
             return Result(cursor.fetchall(), cursor.rowcount, tuple(column.name for column in cursor.description))
@@ -342,27 +342,40 @@ class PostgresBackend(Backend):
         if not rows:
             return Result([], 0)
         try:
-            with self._statement(sql), self.raw.cursor() as cursor:
-                cursor.executemany(_placeholders(sql), rows)
+            with self.raw.cursor() as cursor:
+                self._guarded(sql, lambda: cursor.executemany(_placeholders(sql), rows))
                 return Result([], cursor.rowcount)
         except psycopg.Error as error:
             if isinstance(error, psycopg.OperationalError) and not self._alive():
                 raise self._unreachable(_one_line(error)) from None
             raise self._error(error) from None
 
-    def _statement(self, sql: str):
-        """A savepoint around a write inside a transaction (a failed statement is undone alone)."""
-        if self.in_transaction and not self._reads(sql):
-            return _Savepoint(self.raw)
-        return _Nothing()
+    def _guarded(self, sql: str, statement) -> None:
+        """Run ``statement()``; a write inside a transaction within a savepoint (a failed statement is undone
+        alone, as in SQLite), the SAVEPOINT, the statement and the RELEASE sent together in one round trip
+        (psycopg's pipeline mode)."""
+        if not self.in_transaction or self._reads(sql):
+            statement()
+            return
+        try:
+            with self.raw.pipeline():
+                self.raw.execute("SAVEPOINT usvips_statement")
+                statement()
+                self.raw.execute("RELEASE SAVEPOINT usvips_statement")
+        except psycopg.Error:
+            if self._alive() and self.raw.info.transaction_status == TransactionStatus.INERROR:
+                self.raw.execute("ROLLBACK TO SAVEPOINT usvips_statement")
+                self.raw.execute("RELEASE SAVEPOINT usvips_statement")
+            raise
 
     # ------------------------------------------------------------------------ transactions
     def begin(self, write: bool) -> None:
         def start() -> None:
             try:
-                if write:  # writers take turns: the survey's write lock, waited for LOCK_WAIT_S at most
-                    self.raw.execute("BEGIN ISOLATION LEVEL READ COMMITTED")
-                    self.raw.execute("SELECT pg_advisory_xact_lock(%s)", (WRITE_LOCK,))
+                if write:  # writers take turns: the survey's write lock, waited for LOCK_WAIT_S at most (one
+                    # round trip: both statements sent at once)
+                    self.raw.execute("BEGIN ISOLATION LEVEL READ COMMITTED; "
+                                     f"SELECT pg_advisory_xact_lock({WRITE_LOCK})")
                 else:  # one snapshot: reads never wait
                     self.raw.execute("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY")
             except psycopg.Error:
@@ -418,30 +431,6 @@ class _quietly:
 
     def __exit__(self, kind, error, trace) -> bool:
         return kind is not None and issubclass(kind, psycopg.Error)
-
-
-class _Nothing:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc) -> None:
-        return None
-
-
-class _Savepoint:
-    def __init__(self, connection: psycopg.Connection):
-        self.connection = connection
-
-    def __enter__(self):
-        self.connection.execute("SAVEPOINT usvips_statement")
-        return self
-
-    def __exit__(self, kind, error, trace) -> None:
-        if kind is None:
-            self.connection.execute("RELEASE SAVEPOINT usvips_statement")
-        elif self.connection.info.transaction_status == TransactionStatus.INERROR:
-            self.connection.execute("ROLLBACK TO SAVEPOINT usvips_statement")
-            self.connection.execute("RELEASE SAVEPOINT usvips_statement")
 
 
 # ------------------------------------------------------------------------------------------------ the change feed

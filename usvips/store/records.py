@@ -1,5 +1,5 @@
 """What a project stores, as the rest of the program sees it, whatever the backend: the record types
-(:class:`Vertex`, :class:`StoredObject`) and the error family (:class:`ProjectError`).
+(:class:`Vertex`, :class:`StoredObject`, :class:`Pair` …) and the error family (:class:`ProjectError`).
 
 They live apart from every implementation so that the interface (``usvips.store.interface``), the
 services and a new backend import them without importing the SQLite module.
@@ -60,6 +60,49 @@ class Vertex:
     pointing_px: tuple[float, float] | None = None
     pointing_origin: str = "default"
     weak: WeakMatch | None = None
+
+
+@dataclass(frozen=True)
+class Pair:
+    """A stored image pair — or a stereo video, which is measured like a pair (no image files): its id and
+    label, the stored paths of its left and right images (relative to the store's media folder where
+    possible; None for a video; locate them with ``ProjectStore.media_location``), their size in pixels
+    (None when not recorded), the video frame it was taken from (None when not from a video) and the medium
+    the cameras looked through ("air" or "water")."""
+
+    id: int
+    label: str
+    left: str | None
+    right: str | None
+    width: int | None
+    height: int | None
+    frame: int | None
+    medium: str
+
+
+@dataclass(frozen=True)
+class StoredCalibration:
+    """A stored calibration as listed (its whole file dictionary is ``ProjectStore.calibration(id)``): its
+    id, name, phase ("air", "water", "joint" …; None when its file names none), its reprojection sigma0 in
+    pixels (None when not given) and when it was stored (ISO 8601 UTC text)."""
+
+    id: int
+    name: str
+    phase: str | None
+    sigma0_px: float | None
+    created: str
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Who made what of an object and when (times ISO 8601 UTC text): ``object`` (creator, created,
+    modified), ``vertices`` (one (creator, created) per vertex in order: who picked it; a re-pick keeps the
+    stamps of the vertices whose picks did not change) and ``record`` ((creator, created) of its observation
+    record as it stands, None without one)."""
+
+    object: tuple[str, str, str]
+    vertices: list[tuple[str, str]]
+    record: tuple[str, str] | None
 
 
 @dataclass(frozen=True)

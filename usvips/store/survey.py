@@ -48,10 +48,13 @@ from usvips.store.change_watch import ChangeWatch
 from usvips.store.records import (
     REVIEW_STATES,
     HistoryEntry,
+    Pair,
     ProjectError,
+    Provenance,
     RemovedObject,
     Review,
     StaleEditError,
+    StoredCalibration,
     StoredObject,
     Vertex,
 )
@@ -395,11 +398,10 @@ class Survey:
                             (label, self._relative(left), self._relative(right), width, height, *hashes, frame, medium))
         return int(cursor.fetchone()[0])
 
-    def pairs(self) -> list[dict]:
+    def pairs(self) -> list[Pair]:
         rows = self._query("SELECT id, label, left_path, right_path, width, height, frame, medium "
                            "FROM image_pairs ORDER BY id")
-        keys = ("id", "label", "left", "right", "width", "height", "frame", "medium")
-        return [dict(zip(keys, row, strict=True)) for row in rows]
+        return [Pair(*row) for row in rows]
 
     def pair_id(self, label: str) -> int:
         rows = self._query("SELECT id FROM image_pairs WHERE label = ?", (label,))
@@ -612,22 +614,22 @@ class Survey:
                              None if r[5] is None else self._json(r[5], f"history entry {r[0]}"),
                              None if r[6] is None else self._json(r[6], f"history entry {r[0]}")) for r in rows]
 
-    def provenance(self, object_id: int) -> dict:
+    def provenance(self, object_id: int) -> Provenance:
         """Who made what of an object and when: ``object`` (creator, created, modified), ``vertices`` (one
         (creator, created) per vertex, in order: who picked it) and ``record`` ((creator, created) of the
         observation record as it stands, None when there is none). Times are ISO 8601 UTC text."""
         if not self._has_table("history"):  # before schema 8 (read-only): only the object was stamped
             stored = self.object(object_id)
-            return {"object": (stored.creator, stored.created, stored.modified),
-                    "vertices": [("", "")] * len(stored.vertices), "record": None}
+            return Provenance((stored.creator, stored.created, stored.modified), [("", "")] * len(stored.vertices),
+                              None)
         with self._reading():
             stored = self.object(object_id)
             vertices = [tuple(r) for r in self._db.execute(
                 "SELECT creator, created FROM vertices WHERE object_id = ? ORDER BY idx", (object_id,)).fetchall()]
             record = self._db.execute("SELECT creator, created FROM observation_records WHERE object_id = ?",
                                       (object_id,)).fetchone()
-        return {"object": (stored.creator, stored.created, stored.modified), "vertices": vertices,
-                "record": None if record is None else tuple(record)}
+        return Provenance((stored.creator, stored.created, stored.modified), vertices,
+                          None if record is None else tuple(record))
 
     def _vertex_stamps(self, object_id: int) -> dict[tuple, tuple[str, str]]:
         """(index, picks …) → (creator, created) of the object's stored vertices."""
@@ -974,14 +976,14 @@ class Survey:
         rows = self._query("SELECT value FROM meta WHERE key = ?", (f"draft:{name}",))
         return None if not rows else rows[0][0]
 
-    def calibrations(self) -> list[dict]:
+    def calibrations(self) -> list[StoredCalibration]:
         """id, name, phase, sigma0_px and created of every stored calibration, oldest first."""
         rows = self._query("SELECT id, name, json, sigma0_px, created FROM calibrations ORDER BY id")
         result = []
         for r in rows:
             data = self._json(r[2], f"the stored calibration {r[0]}")
-            result.append({"id": r[0], "name": r[1], "phase": data.get("phase") if isinstance(data, dict) else None,
-                           "sigma0_px": r[3], "created": r[4]})
+            result.append(StoredCalibration(int(r[0]), r[1], data.get("phase") if isinstance(data, dict) else None,
+                                            r[3], r[4]))
         return result
 
     def enhancement(self, image_key: str) -> str | None:
