@@ -30,6 +30,7 @@ from usvips.gui.media_check import MediaCheck
 from usvips.gui.object_list import ObjectList
 from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.observation_form import ObservationForm
+from usvips.gui.on_screen import on_screen
 from usvips.gui.pane import LOUPE_SCALES, StereoPane, pixel_from_item
 from usvips.gui.plan_view import PlanView
 from usvips.gui.planner_dock import PlannerDock
@@ -532,7 +533,7 @@ class MainWindow(QtWidgets.QMainWindow):
         annotator made meanwhile appears."""
         if self.workspace.project is None:
             return
-        if self.review.isVisible():
+        if on_screen(self.review):  # not a tab behind another
             self.review.refresh_current()
         elif len(self.workspace.selection) == 1:
             self.object_list.refresh_review(self.workspace.selection[0])
