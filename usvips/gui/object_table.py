@@ -138,7 +138,7 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
         if not ids:
             return
         if not self._plain():
-            self._rearrange()
+            self.rearrange()
             return
         for object_id in sorted(ids):
             row = bisect.bisect_left(self._ids, object_id)
@@ -189,14 +189,15 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
     def sort(self, column: int, order: QtCore.Qt.SortOrder = QtCore.Qt.SortOrder.AscendingOrder) -> None:
         """Rows in the order of ``column`` (-1: by id, as stored)."""
         self.sort_column, self.sort_order = column, order
-        self._rearrange()
+        self.rearrange()
 
     def set_filter(self, text: str) -> None:
         """Only the rows with ``text`` (any case) in one of their cells."""
         self.filter_text = text.strip().casefold()
-        self._rearrange()
+        self.rearrange()
 
-    def _rearrange(self) -> None:
+    def rearrange(self) -> None:
+        """The rows filtered and sorted again (the selection and current row kept on their objects)."""
         self.layoutAboutToBeChanged.emit()
         before = list(self.persistentIndexList())
         ids_before = [self._ids[i.row()] if 0 <= i.row() < len(self._ids) else None for i in before]
