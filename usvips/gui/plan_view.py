@@ -181,7 +181,9 @@ class PlanView(QtWidgets.QWidget):
             ring = xyz[with_covariance][:, None, [a, b]] + scaled @ vectors.transpose(0, 2, 1)
             ring_rows = np.concatenate([ring, np.full((len(ring), 1, 2), np.nan)], axis=1)
         before = np.concatenate([[0], np.cumsum(with_covariance)]).tolist()  # rings before each vertex
-        kinds: dict[str, object] = {}
+        plane = separated  # the vertices in the view; object i's first vertex is row start + i
+        rings_flat = ring_rows.reshape(-1, 2)  # 50 rows a ring
+        kinds: dict[str, tuple] = {}  # kind -> (its MeasurementKind, its own outline, closes) or None
         parts: list[tuple | None] = []
         for n, (stored, count, end) in enumerate(zip(objects, counts.tolist(), ends.tolist(), strict=True)):
             if not count:
@@ -190,20 +192,21 @@ class PlanView(QtWidgets.QWidget):
             start = end - count
             outline = separated[start + n:end + n + 1]
             if count == len(stored.vertices):
-                if stored.kind not in kinds:
+                drawn = kinds.get(stored.kind, False)
+                if drawn is False:
                     try:
-                        kinds[stored.kind] = measurement_kind(stored.kind)
+                        k = measurement_kind(stored.kind)
+                        drawn = kinds[stored.kind] = (k, k.outline.__func__ is not MeasurementKind.outline.__func__,
+                                                      k.closes)
                     except UsvipsError:
-                        kinds[stored.kind] = None  # drawn through its vertices
-                k = kinds[stored.kind]
-                if k is not None and (k.outline.__func__ is not MeasurementKind.outline.__func__
-                                      or (k.closes and count > 2)):
+                        drawn = kinds[stored.kind] = None  # drawn through its vertices
+                if drawn is not None and (drawn[1] or (drawn[2] and count > 2)):
                     try:
-                        outline = np.vstack([k.outline(xyz[start:end])[:, [a, b]], [[np.nan, np.nan]]])
+                        outline = np.vstack([drawn[0].outline(xyz[start:end])[:, [a, b]], [[np.nan, np.nan]]])
                     except UsvipsError:
                         pass
-            rings = ring_rows[before[start]:before[end]].reshape(-1, 2)
-            parts.append(((f"{stored.id} {stored.attribute}".strip(), xyz[start, [a, b]]), outline, rings))
+            rings = rings_flat[50 * before[start]:50 * before[end]]
+            parts.append(((f"{stored.id} {stored.attribute}".strip(), plane[start + n]), outline, rings))
         return parts
 
     def redraw(self) -> None:
