@@ -74,7 +74,7 @@ class ObjectList(QtWidgets.QWidget):
         self.completing = QtWidgets.QProgressBar()
         self.completing.setObjectName("figures_for_order")
         self.completing.setRange(0, 100)
-        self.completing.setMaximumWidth(220)
+        self.completing.setMinimumWidth(190)
         self.completing.hide()
         delete = QtWidgets.QPushButton("Delete")
         zoom = QtWidgets.QPushButton("Zoom to")
@@ -222,6 +222,8 @@ class ObjectList(QtWidgets.QWidget):
             self._completing = None
             self.completing.hide()
             self.model.rearrange()
+            self._fitted = False  # other rows on screen: the columns fitted to them
+            self._fit()
 
     # ------------------------------------------------------------------ the model's events
     def refresh(self, *_: object) -> None:
@@ -331,7 +333,7 @@ class ObjectList(QtWidgets.QWidget):
             worker.signals.finished.connect(lambda results, j=job, w=worker: self._on_figures(j, w, results))
             worker.signals.cancelled.connect(lambda w=worker: self._on_cancelled(w))
             if self._completing is not None:  # a sort or filter waits for these: say how far
-                self.completing.setFormat(f"{self._completing}: %p %")
+                self.completing.setFormat(f"{self._completing}: %p%")
                 self.completing.setValue(0)
                 self.completing.show()
                 worker.signals.progress.connect(self._on_completing_progress)  # a method: dropped with the list

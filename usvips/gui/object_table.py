@@ -117,8 +117,14 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
         chosen = [i for i in ids if self._matches(i)] if self.filter_text else list(ids)
         if self.sort_column < 0:
             return sorted(chosen)
-        key = self._sort_key(self.columns[self.sort_column])
-        return sorted(chosen, key=key, reverse=self.sort_order == QtCore.Qt.SortOrder.DescendingOrder)
+        column = self.columns[self.sort_column]
+        descending = self.sort_order == QtCore.Qt.SortOrder.DescendingOrder
+        if column == "figure":  # objects without a figure (not computed, or none) last in either order
+            figures = {i: self.workspace.object_figures(i) for i in chosen}
+            valued = [i for i in chosen if figures[i] is not None and figures[i].figures]
+            rest = [i for i in chosen if figures[i] is None or not figures[i].figures]
+            return sorted(valued, key=lambda i: (figures[i].figures[0].value, i), reverse=descending) + rest
+        return sorted(chosen, key=self._sort_key(column), reverse=descending)
 
     def reset(self, links: dict[int, int], reviews: dict[int, object]) -> None:
         """Every row again from the cache (another project, everything read again)."""
@@ -217,12 +223,6 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
             return lambda object_id: object_id
         if column == "vertices":
             return lambda object_id: (len(self.workspace.cache.get(object_id).vertices), object_id)
-        if column == "figure":
-            def value(object_id: int) -> tuple:
-                result = self.workspace.object_figures(object_id)
-                figures = result.figures if result is not None else ()
-                return (0, figures[0].value, object_id) if figures else (1, 0.0, object_id)
-            return value
         position = self.columns.index(column)
         return lambda object_id: (self.texts(object_id, request=False)[position].casefold(), object_id)
 
