@@ -8,6 +8,7 @@ from usvips.gui.bench import survey_project
 from usvips.gui.object_list import ObjectList
 from usvips.gui.workspace import Workspace
 from usvips.store import Project
+from usvips.store.records import Vertex
 
 
 def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_filters_in_the_model(
@@ -60,6 +61,12 @@ def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_fil
     assert model.ids() == shown[1:] and listing.row_of(shown[0]) is None
     listing.filter.clear()
     assert model.ids() == [i for i in ids if i != shown[0]]
+    # an object stored now is the last row; every row is still found by its object
+    model.row_of(ids[1])  # the rows' index made
+    new = ws.project.add_object("point", [Vertex(300.0, 200.0, 280.0, 200.0, pair="measure1")])
+    ws.objects_changed_in_store(added=(new,))
+    assert listing.row_of(new) == listing.row_count() - 1
+    assert all(listing.row_of(i) == row for row, i in enumerate(model.ids()))
     listing.cleanup()
     ws.close_project()
 

@@ -150,7 +150,10 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
             row = bisect.bisect_left(self._ids, object_id)
             self.beginInsertRows(QtCore.QModelIndex(), row, row)
             self._ids.insert(row, object_id)
-            self._row = None
+            if row == len(self._ids) - 1 and self._row is not None:
+                self._row[object_id] = row  # a new last row (a fish just stored): no other row moved
+            else:
+                self._row = None
             self.endInsertRows()
 
     def remove(self, ids: Iterable[int]) -> None:
