@@ -1,6 +1,6 @@
 """The start-up bench rows: CPU seconds of ``usvips --help``, of a subcommand's ``--help`` and of the
 window's start to usable (the start-up probe), against a bare interpreter started the same way, with the
-absolute promises (0.3 s and 1 s of CPU) stated in the rows."""
+absolute promises (0.3 s and 0.5 s of CPU) stated in the rows."""
 
 import sys
 
@@ -18,10 +18,12 @@ def test_the_rows_name_what_they_time_and_carry_the_promise():
         assert row["target_s"] == startup.TARGET_CPU_S == 0.3 and row["baseline"] == "python -c pass"
         assert row["ours_s"] > 0 and row["baseline_s"] > 0 and row["met"] == (row["cpu_s"] <= 0.3)
     window = rows[2]
-    assert window["target_s"] == startup.WINDOW_TARGET_CPU_S == 1.0 and window["sample"] == startup.WINDOW_SAMPLE
-    assert window["met"] == (window["cpu_s"] <= 1.0)
-    # the window does more than a bare interpreter and than an empty Qt window shown the same way
+    assert window["target_s"] == startup.WINDOW_TARGET_CPU_S == 0.5 and window["sample"] == startup.WINDOW_SAMPLE
+    assert window["met"] == (window["cpu_s"] <= 0.5)
+    # the window does more than a bare interpreter and than an empty Qt window shown the same way; a window
+    # of pyqtgraph image views costs more than the empty one
     assert window["cpu_s"] > window["qt_window_cpu_s"] > window["baseline_s"] > 0
+    assert window["pyqtgraph_window_cpu_s"] > window["qt_window_cpu_s"]
 
 
 def test_a_child_that_fails_is_an_error_not_a_time():

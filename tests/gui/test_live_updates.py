@@ -100,7 +100,7 @@ def test_a_colleagues_new_changed_and_deleted_object_appears_updates_and_disappe
     qtbot.waitUntil(lambda: fish in overlay.outlines, timeout=BOUND_MS)
     assert overlay.outlines[fish][0].endswith("· bob")
     assert fish in queue.model.queue
-    assert "added by bob at" in queue.list.item(queue.model.queue.index(fish)).text()
+    assert "added by bob at" in queue.list.row_text(queue.model.queue.index(fish))
     qtbot.waitUntil(lambda: any("added by bob at" in tip for tip in _qa_rows(window, fish)), timeout=BOUND_MS)
     assert "live · bob added" in window.live.label.text()
 
@@ -108,7 +108,7 @@ def test_a_colleagues_new_changed_and_deleted_object_appears_updates_and_disappe
     qtbot.waitUntil(lambda: listing.row_of(fish) is not None and listing.text(listing.row_of(fish), "notes")
                     == "bob: snout hidden", timeout=BOUND_MS)
     assert _marked_by(window, fish, "bob") and "changed by bob at" in window.workspace.cache.marks[fish].text()
-    assert "changed by bob at" in queue.list.item(queue.model.queue.index(fish)).text()
+    assert "changed by bob at" in queue.list.row_text(queue.model.queue.index(fish))
     qtbot.waitUntil(lambda: any("changed by bob at" in tip for tip in _qa_rows(window, fish)), timeout=BOUND_MS)
     bob.set_review(fish, "flagged", "two fish overlap")  # bob's review: ann's list and queue show it
     qtbot.waitUntil(lambda: listing.text(listing.row_of(fish), "review") == "flagged: two fish overlap",

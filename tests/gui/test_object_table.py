@@ -8,6 +8,7 @@ from usvips.gui.bench import survey_project
 from usvips.gui.object_list import ObjectList
 from usvips.gui.workspace import Workspace
 from usvips.store import Project
+from usvips.store.records import Vertex
 
 
 def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_filters_in_the_model(
@@ -60,5 +61,50 @@ def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_fil
     assert model.ids() == shown[1:] and listing.row_of(shown[0]) is None
     listing.filter.clear()
     assert model.ids() == [i for i in ids if i != shown[0]]
+    # an object stored now is the last row; every row is still found by its object
+    model.row_of(ids[1])  # the rows' index made
+    new = ws.project.add_object("point", [Vertex(300.0, 200.0, 280.0, 200.0, pair="measure1")])
+    ws.objects_changed_in_store(added=(new,))
+    assert listing.row_of(new) == listing.row_count() - 1
+    assert all(listing.row_of(i) == row for row, i in enumerate(model.ids()))
+    listing.cleanup()
+    ws.close_project()
+
+
+def test_a_sort_by_figure_computes_every_figure_first_and_says_so(qtbot, tmp_path, monkeypatch):
+    """In a survey whose figures are computed as rows are drawn, a sort by the figure (or the quality) cannot
+    be made from the drawn rows alone: every missing figure is computed in the worker, with its progress
+    shown beside the filter, then the rows are sorted again; a filter matches figure texts the same way."""
+    monkeypatch.setattr(ObjectList, "EAGER", 10)
+    monkeypatch.setattr(ObjectList, "FIRST_ROWS", 5)
+    monkeypatch.setattr(ObjectList, "FIT_ROWS", 5)
+    ws = Workspace()
+    ws.open_project(Project.open(survey_project(tmp_path / "survey", 40, seed=3)))
+    messages = []
+    ws.message.connect(lambda level, text: messages.append(text))
+    listing = ObjectList(ws)
+    qtbot.addWidget(listing)
+    listing.resize(900, 300)
+    listing.show()
+    qtbot.waitExposed(listing)
+    listing.refresh()
+    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    ids = ws.cache.ids()
+    assert sum(ws.cache.known_figures(i) is not None for i in ids) < 40
+    column = ObjectList.COLUMNS.index("figure")
+    listing.table.horizontalHeader().setSortIndicator(column, QtCore.Qt.SortOrder.DescendingOrder)
+    assert listing.completing.isVisible() and "sorting by figure" in listing.completing.format()
+    known = [ws.cache.known_figures(i) is not None for i in listing.model.ids()]
+    assert known == sorted(known, reverse=True)  # meanwhile, by what is known; the others last, in either order
+    assert any("sorting by figure: computing the figures of" in m for m in messages)
+    qtbot.waitUntil(lambda: not listing.completing.isVisible(), timeout=30000)
+    assert all(ws.cache.known_figures(i) is not None for i in ids)
+    values = [ws.cache.known_figures(listing.object_id(r)).figures[0].value for r in range(listing.row_count())]
+    assert values == sorted(values, reverse=True) and sorted(listing.model.ids()) == ids
+    # a figure's text filters as any other cell's (every figure is known now: filtered at once)
+    text = listing.text(0, "figure")
+    listing.filter.setText(text)
+    assert listing.model.ids() and all(listing.text(r, "figure") == text for r in range(listing.row_count()))
+    assert not listing.completing.isVisible()
     listing.cleanup()
     ws.close_project()

@@ -61,3 +61,14 @@ def test_the_window_does_not_import_what_showing_a_pair_does_not_need():
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                             env=dict(os.environ, QT_QPA_PLATFORM="offscreen"))
     assert result.stderr.strip().splitlines()[-1] == "[]"
+
+
+def test_the_window_loads_pyav_only_when_a_video_is_read():
+    """PyAV (about a tenth of the window's start) is imported lazily: importing the window leaves it
+    unexecuted (no ``av.error`` module); its first use loads it whole."""
+    code = ("import sys\nimport usvips.gui.main_window\nprint('av.error' in sys.modules, file=sys.stderr)\n"
+            "from usvips.io import video_stream\nprint(video_stream.av.error.FFmpegError.__name__, "
+            "'av.error' in sys.modules, file=sys.stderr)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                            env=dict(os.environ, QT_QPA_PLATFORM="offscreen"))
+    assert result.stderr.strip().splitlines()[-2:] == ["False", "FFmpegError True"]

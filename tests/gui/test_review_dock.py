@@ -60,11 +60,11 @@ def test_review_mode_walks_the_unreviewed_objects_by_keyboard(qtbot, make_window
     qtbot.keyClick(queue, Key.Key_A)  # accept the first: on to the next
     assert ws.project.review(ids[0]).state == "accepted" and ws.project.review(ids[0]).reviewer == "Second Reader"
     assert window.review.model.current == ids[2] and window.review.progress.text() == "1 of 3 reviewed"
-    assert _review_column(window, ids[0]) == "accepted" and queue.item(0).text().endswith("— accepted")
+    assert _review_column(window, ids[0]) == "accepted" and queue.row_text(0).endswith("— accepted")
     qtbot.keyClick(queue, Key.Key_F)  # flag, with the reason asked
     assert (ws.project.review(ids[2]).state, ws.project.review(ids[2]).reason) == ("flagged", "snout hidden")
     assert _review_column(window, ids[2]) == "flagged: snout hidden"
-    assert queue.item(1).text().endswith("— flagged: snout hidden") and queue.currentRow() == 2
+    assert queue.row_text(1).endswith("— flagged: snout hidden") and queue.currentRow() == 2
     assert window.review.model.current == ids[1]
     assert window.review.progress.text() == "2 of 3 reviewed, 1 flagged"
     qtbot.keyClick(queue, Key.Key_F)  # cancelled: nothing stored, still here
@@ -238,12 +238,12 @@ def test_an_accepted_object_edited_in_the_window_shows_unreviewed_and_undo_shows
     ws.edits.edit_object(ids[1], "cod", "")
     assert _review_column(window, ids[1]) == "unreviewed" and ws.project.review(ids[1]).state == "unreviewed"
     assert window.review.model.queue[-1] == ids[1] and window.review.progress.text() == "0 of 4 reviewed"
-    assert window.review.list.item(3).text().endswith("— unreviewed")
+    assert window.review.list.row_text(3).endswith("— unreviewed")
     last = ws.project.history(ids[1])[-1]
     assert (last.change, last.annotator, last.new["reason"]) == ("review", "editor", "edited after review")
     ws.undo.undo()
     assert _review_column(window, ids[1]) == "accepted" and ws.project.review(ids[1]).state == "accepted"
-    assert window.review.list.item(3).text().endswith("— accepted")
+    assert window.review.list.row_text(3).endswith("— accepted")
 
 
 def test_others_reviews_appear_on_each_move_and_when_the_window_regains_the_focus_and_a_stale_one_is_said(
@@ -269,7 +269,7 @@ def test_others_reviews_appear_on_each_move_and_when_the_window_regains_the_focu
         qtbot.keyClick(queue, Key.Key_N)
         assert window.review.current.text() == f"Object {order[1]}: flagged by bob (fin cut off)"
         assert _review_column(window, order[1]) == "flagged: fin cut off"
-        assert queue.item(1).text().endswith("— flagged: fin cut off")
+        assert queue.row_text(1).endswith("— flagged: fin cut off")
         other.set_review(order[1], "accepted")  # while this window is in the background
         window.activateWindow()
         QtWidgets.QApplication.sendEvent(window, QtCore.QEvent(QtCore.QEvent.Type.ActivationChange))

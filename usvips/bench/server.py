@@ -89,6 +89,7 @@ def window_row(n: int, url: str, local: Path, folder: Path, repeats: int = 3) ->
     row["baseline_met"] = bool(file["open_s"] <= WINDOW_OPEN_TARGET_S)
     row.update(rows_s=round(server["rows_s"], 6), baseline_rows_s=round(file["rows_s"], 6),
                cpu_s=round(server["cpu_s"], 3), baseline_cpu_s=round(file["cpu_s"], 3),
+               freeze_s=round(server["freeze_s"], 6), baseline_freeze_s=round(file["freeze_s"], 6),
                objects_listed=server["objects"], baseline_objects_listed=file["objects"],
                load_1min=round(os.getloadavg()[0], 2))
     return row

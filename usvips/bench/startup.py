@@ -3,15 +3,22 @@ subcommand's ``--help`` take, against a bare ``python -c pass`` started the same
 the window's start to usable.
 
 CPU time, not wall time, so that a loaded machine does not blur it; the promises are absolute (issue 27,
-item 7: ``target_s`` 0.3 s of CPU for the command line, 1 s for the window) and the ratio to a bare
-interpreter is given beside them.
+item 7: ``target_s`` 0.3 s of CPU for the command line; issue 37: 0.5 s for the window) and the ratio to a
+bare interpreter is given beside them.
 
 The window's row runs ``python -m usvips open SAMPLE`` offscreen (``QT_QPA_PLATFORM=offscreen``) with
 ``USVIPS_QUIT_WHEN_READY=1`` (:mod:`usvips.gui.ready`): the window is shown, a copy of the bundled sample
 ``tank_system1`` opened (its project file made by an untimed first open, as a user's second start finds
 it), its first image pair read and drawn, and the process quits. Its settings and data folders are
 temporary ones, so the user's are not touched. ``qt_window_cpu_s`` is what an empty ``QMainWindow`` shown
-the same way costs (Qt's own floor).
+the same way costs (Qt's own floor); ``pyqtgraph_window_cpu_s`` what a window showing two 640 × 480 images
+in pyqtgraph views costs (the floor of the toolkit the panes are made with: importing pyqtgraph makes every
+Qt type and enum).
+
+The window's children run with their bytecode cached (``PYTHONPYCACHEPREFIX``, a temporary folder, written
+by the untimed first run), as an installed package has it: with ``PYTHONDONTWRITEBYTECODE`` in the
+environment every module of the package would be compiled from source on every start, about half a second
+of CPU that no user pays.
 """
 
 from __future__ import annotations
@@ -28,12 +35,21 @@ from pathlib import Path
 #: the CPU seconds a command-line start may take (``usvips --help``, ``usvips project --help``)
 TARGET_CPU_S = 0.3
 #: the CPU seconds the window may take from launch to usable (shown, project open, first pair drawn)
-WINDOW_TARGET_CPU_S = 1.0
+WINDOW_TARGET_CPU_S = 0.5
 #: the bundled sample the window's row opens (image pairs, a calibration)
 WINDOW_SAMPLE = "tank_system1"
 
 _EMPTY_WINDOW = ("from PySide6 import QtWidgets\napp = QtWidgets.QApplication([])\nwindow = QtWidgets.QMainWindow()\n"
                  "window.show()\napp.processEvents()\nwindow.repaint()\n")
+#: the toolkit's floor: a window of two pyqtgraph image views, each showing a 640 x 480 grey image
+_PYQTGRAPH_WINDOW = ("import numpy as np\nimport pyqtgraph as pg\nfrom PySide6 import QtWidgets\n"
+                     "app = QtWidgets.QApplication([])\nwindow = QtWidgets.QMainWindow()\n"
+                     "views = pg.GraphicsLayoutWidget()\nwindow.setCentralWidget(views)\n"
+                     "image = np.random.default_rng(0).integers(0, 255, (480, 640), dtype=np.uint8)\n"
+                     "for column in range(2):\n"
+                     "    box = views.addViewBox(row=0, col=column, lockAspect=True)\n"
+                     "    box.addItem(pg.ImageItem(image))\n"
+                     "window.show()\napp.processEvents()\nwindow.repaint()\n")
 
 
 def child_cpu_s(arguments: list[str], repeats: int = 3, env: dict[str, str] | None = None,
@@ -59,15 +75,20 @@ def window_row(repeats: int, bare: float) -> dict:
     with tempfile.TemporaryDirectory(prefix="usvips-bench-window-") as folder:
         sample = shutil.copytree(sample_project(WINDOW_SAMPLE), Path(folder) / WINDOW_SAMPLE)
         env = dict(os.environ, QT_QPA_PLATFORM="offscreen", USVIPS_QUIT_WHEN_READY="1",
-                   XDG_CONFIG_HOME=str(Path(folder) / "config"), XDG_DATA_HOME=str(Path(folder) / "data"))
+                   XDG_CONFIG_HOME=str(Path(folder) / "config"), XDG_DATA_HOME=str(Path(folder) / "data"),
+                   PYTHONPYCACHEPREFIX=str(Path(folder) / "bytecode"))
+        env.pop("PYTHONDONTWRITEBYTECODE", None)  # cached as an installed package's (see the module docstring)
         command = [sys.executable, "-m", "usvips", "open", str(sample)]
-        child_cpu_s(command, 1, env, check=True)  # makes the project file; not timed
+        child_cpu_s(command, 1, env, check=True)  # makes the project file and the bytecode; not timed
         cpu = child_cpu_s(command, repeats, env, check=True)
         qt = child_cpu_s([sys.executable, "-c", _EMPTY_WINDOW], repeats, env, check=True)
+        child_cpu_s([sys.executable, "-c", _PYQTGRAPH_WINDOW], 1, env, check=True)
+        toolkit = child_cpu_s([sys.executable, "-c", _PYQTGRAPH_WINDOW], repeats, env, check=True)
     return {"name": "start-up CPU: the window, shown with a sample project's first pair drawn", "n": 1,
             "ours_s": round(cpu, 3), "cpu_s": round(cpu, 3), "baseline": "python -c pass",
             "baseline_s": round(bare, 3), "ratio": round(cpu / bare, 2) if bare > 0 else None,
-            "qt_window_cpu_s": round(qt, 3), "target": None, "target_s": WINDOW_TARGET_CPU_S,
+            "qt_window_cpu_s": round(qt, 3), "pyqtgraph_window_cpu_s": round(toolkit, 3), "target": None,
+            "target_s": WINDOW_TARGET_CPU_S,
             "met": bool(cpu <= WINDOW_TARGET_CPU_S), "sample": WINDOW_SAMPLE,
             "load_1min": round(os.getloadavg()[0], 2)}
 

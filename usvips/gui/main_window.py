@@ -30,6 +30,7 @@ from usvips.gui.live_updates import LiveUpdates
 from usvips.gui.media_check import MediaCheck
 from usvips.gui.messages import Messages
 from usvips.gui.object_overlay import ObjectOverlay
+from usvips.gui.on_screen import on_screen
 from usvips.gui.pane import StereoPane, pixel_from_item
 from usvips.gui.pick_tool import SIDES, TOOLS, describe_point
 from usvips.gui.status_bar import StatusBar
@@ -471,7 +472,7 @@ class MainWindow(QtWidgets.QMainWindow):
         annotator made meanwhile appears."""
         if self.workspace.project is None:
             return
-        if self.review.isVisible():
+        if on_screen(self.review):  # not a tab behind another
             self.review.refresh_current()
         elif len(self.workspace.selection) == 1:
             self.object_list.refresh_review(self.workspace.selection[0])

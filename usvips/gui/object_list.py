@@ -63,14 +63,20 @@ class ObjectList(QtWidgets.QWidget):
         self.table.horizontalHeader().setSortIndicatorClearable(True)  # a third click: the stored order
         self.table.horizontalHeader().setSectionsClickable(True)
         self.table.horizontalHeader().setSortIndicator(-1, QtCore.Qt.SortOrder.AscendingOrder)
-        self.table.horizontalHeader().sortIndicatorChanged.connect(self.model.sort)
+        self.table.horizontalHeader().sortIndicatorChanged.connect(self.sort)
         self.table.setWordWrap(False)  # one line a row (a long figure is elided; its tooltip and width show it)
         self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.DoubleClicked
                                    | QtWidgets.QAbstractItemView.EditTrigger.EditKeyPressed)
         self.filter = QtWidgets.QLineEdit()
         self.filter.setPlaceholderText("filter: text in any column")
         self.filter.setClearButtonEnabled(True)
-        self.filter.textChanged.connect(self.model.set_filter)
+        self.filter.textChanged.connect(self.set_filter)
+        # a sort by a figure, or a filter, at survey size: every figure computed first (in the worker)
+        self.completing = QtWidgets.QProgressBar()
+        self.completing.setObjectName("figures_for_order")
+        self.completing.setRange(0, 100)
+        self.completing.setMinimumWidth(190)
+        self.completing.hide()
         delete = QtWidgets.QPushButton("Delete")
         zoom = QtWidgets.QPushButton("Zoom to")
         buttons = QtWidgets.QHBoxLayout()
@@ -97,6 +103,7 @@ class ObjectList(QtWidgets.QWidget):
             buttons.addWidget(widget)
         buttons.addSpacing(12)
         buttons.addWidget(self.filter, 1)  # beside the buttons: the dock's height is for rows
+        buttons.addWidget(self.completing)
         repick.clicked.connect(lambda: self._edit_vertex(self.workspace.pick_tool.start_repick))
         delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.edits.delete_vertex))
         layout = QtWidgets.QVBoxLayout(self)
@@ -122,6 +129,8 @@ class ObjectList(QtWidgets.QWidget):
         self.table.doubleClicked.connect(self._on_double_click)
         self._worker: Worker | None = None
         self._pending: list[int] = []  # the ids the running figures worker computes
+        #: why every figure is being computed (a sort by a figure, a filter), the rows arranged again when done
+        self._completing: str | None = None
         self._fitted = False  # a large list's columns fitted to the rows on screen with their figures
         # the figures of drawn rows not known yet: gathered while the rows are drawn, computed after
         self._wanted_timer = QtCore.QTimer(self)
@@ -141,6 +150,9 @@ class ObjectList(QtWidgets.QWidget):
     def cleanup(self) -> None:
         for signal, slot in self._events:
             signal.disconnect(slot)
+        if self._worker is not None:  # what it reports is dropped: the list may be gone by then
+            self._worker.cancel()
+            self._worker, self._pending, self._completing = None, [], None
 
     # ------------------------------------------------------------------ rows
     def row_count(self) -> int:
@@ -170,6 +182,49 @@ class ObjectList(QtWidgets.QWidget):
             return range(min(count, self.FIRST_ROWS))
         bottom = self.table.rowAt(self.table.viewport().height() - 1)
         return range(top, (count - 1 if bottom < 0 else bottom) + 1)
+
+    # ------------------------------------------------------------------ sorting and filtering
+    #: the columns made from an object's figures: a sort by them needs every figure
+    FIGURE_COLUMNS = ("figure", "quality")
+
+    def sort(self, column: int, order: QtCore.Qt.SortOrder = QtCore.Qt.SortOrder.AscendingOrder) -> None:
+        """Rows by ``column`` (-1: by id). By a figure column in a survey whose figures are not all known
+        yet: sorted at once by what is known (the others last), every missing figure computed in the worker
+        (progress beside the filter) and the rows sorted again when they are in."""
+        self.model.sort(column, order)
+        if column >= 0 and self.COLUMNS[column] in self.FIGURE_COLUMNS:
+            self._complete_figures(f"sorting by {self.COLUMNS[column]}")
+
+    def set_filter(self, text: str) -> None:
+        """Only the rows with ``text`` in a cell; a figure's text counts too, so the missing figures are
+        computed (in the worker, with progress) and the rows filtered again when they are in."""
+        self.model.set_filter(text)
+        if text.strip():
+            self._complete_figures("filtering")
+
+    def _complete_figures(self, why: str) -> None:
+        missing = [i for i in self.workspace.cache.ids() if self.workspace.cache.known_figures(i) is None]
+        if not missing:
+            return
+        self._completing = why
+        if len(missing) > self.SYNCHRONOUS:
+            self.workspace.message.emit("info", f"{why}: computing the figures of {len(missing):,} objects first "
+                                                "(the rows are arranged again when they are in)")
+        self._compute(missing)
+        if self._worker is None:  # computed at once
+            self._completed()
+
+    def _on_completing_progress(self, fraction: float) -> None:
+        self.completing.setValue(int(100 * fraction))
+
+    def _completed(self) -> None:
+        """Every figure the sort or filter asked for is known: the rows arranged again."""
+        if self._completing is not None:
+            self._completing = None
+            self.completing.hide()
+            self.model.rearrange()
+            self._fitted = False  # other rows on screen: the columns fitted to them
+            self._fit()
 
     # ------------------------------------------------------------------ the model's events
     def refresh(self, *_: object) -> None:
@@ -204,7 +259,15 @@ class ObjectList(QtWidgets.QWidget):
     def _on_rules_changed(self, _rules) -> None:
         """New rules: every figure again, computed for the rows drawn (the others when they are)."""
         self.model.forget_figures()
-        self._compute(self._first_figures())
+        if self._worker is not None:  # computing under the old rules: what it finds would be dropped
+            self._worker.cancel()
+        column = self.model.sort_column
+        if column >= 0 and self.COLUMNS[column] in self.FIGURE_COLUMNS:
+            self._complete_figures(f"sorting by {self.COLUMNS[column]}")  # the new figures may reorder the rows
+        elif self.model.filter_text:
+            self._complete_figures("filtering")
+        else:
+            self._compute(self._first_figures())
 
     def _first_figures(self) -> list[int]:
         """The ids whose figures are computed at once: every object's in a small project, else the drawn
@@ -270,6 +333,11 @@ class ObjectList(QtWidgets.QWidget):
             worker = self._worker = Worker(job, "computing the objects' figures")
             worker.signals.finished.connect(lambda results, j=job, w=worker: self._on_figures(j, w, results))
             worker.signals.cancelled.connect(lambda w=worker: self._on_cancelled(w))
+            if self._completing is not None:  # a sort or filter waits for these: say how far
+                self.completing.setFormat(f"{self._completing}: %p%")
+                self.completing.setValue(0)
+                self.completing.show()
+                worker.signals.progress.connect(self._on_completing_progress)  # a method: dropped with the list
             start(worker)
 
     def _on_cancelled(self, worker: Worker) -> None:
@@ -277,6 +345,8 @@ class ObjectList(QtWidgets.QWidget):
         if worker is self._worker:
             self._worker, self._pending = None, []
             self.model.requested.clear()
+            self._completing = None
+            self.completing.hide()
 
     def _on_figures(self, job, worker: Worker, results: dict) -> None:
         if worker is self._worker:
@@ -284,6 +354,8 @@ class ObjectList(QtWidgets.QWidget):
         kept = self.workspace.cache.remember(job, results)
         self.model.requested -= set(kept)
         self.model.changed(kept)
+        if self._worker is None:
+            self._completed()
         self._fit()
         if worker is self._worker or self._worker is None:
             self._compute_wanted()  # rows drawn meanwhile

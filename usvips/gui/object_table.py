@@ -118,8 +118,14 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
         chosen = [i for i in ids if self._matches(i)] if self.filter_text else list(ids)
         if self.sort_column < 0:
             return sorted(chosen)
-        key = self._sort_key(self.columns[self.sort_column])
-        return sorted(chosen, key=key, reverse=self.sort_order == QtCore.Qt.SortOrder.DescendingOrder)
+        column = self.columns[self.sort_column]
+        descending = self.sort_order == QtCore.Qt.SortOrder.DescendingOrder
+        if column == "figure":  # objects without a figure (not computed, or none) last in either order
+            figures = {i: self.workspace.cache.known_figures(i) for i in chosen}
+            valued = [i for i in chosen if figures[i] is not None and figures[i].figures]
+            rest = [i for i in chosen if figures[i] is None or not figures[i].figures]
+            return sorted(valued, key=lambda i: (figures[i].figures[0].value, i), reverse=descending) + rest
+        return sorted(chosen, key=self._sort_key(column), reverse=descending)
 
     def reset(self, links: dict[int, int], reviews: dict[int, object]) -> None:
         """Every row again from the cache (another project, everything read again)."""
@@ -139,13 +145,16 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
         if not ids:
             return
         if not self._plain():
-            self._rearrange()
+            self.rearrange()
             return
         for object_id in sorted(ids):
             row = bisect.bisect_left(self._ids, object_id)
             self.beginInsertRows(QtCore.QModelIndex(), row, row)
             self._ids.insert(row, object_id)
-            self._row = None
+            if row == len(self._ids) - 1 and self._row is not None:
+                self._row[object_id] = row  # a new last row (a fish just stored): no other row moved
+            else:
+                self._row = None
             self.endInsertRows()
 
     def remove(self, ids: Iterable[int]) -> None:
@@ -190,14 +199,15 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
     def sort(self, column: int, order: QtCore.Qt.SortOrder = QtCore.Qt.SortOrder.AscendingOrder) -> None:
         """Rows in the order of ``column`` (-1: by id, as stored)."""
         self.sort_column, self.sort_order = column, order
-        self._rearrange()
+        self.rearrange()
 
     def set_filter(self, text: str) -> None:
         """Only the rows with ``text`` (any case) in one of their cells."""
         self.filter_text = text.strip().casefold()
-        self._rearrange()
+        self.rearrange()
 
-    def _rearrange(self) -> None:
+    def rearrange(self) -> None:
+        """The rows filtered and sorted again (the selection and current row kept on their objects)."""
         self.layoutAboutToBeChanged.emit()
         before = list(self.persistentIndexList())
         ids_before = [self._ids[i.row()] if 0 <= i.row() < len(self._ids) else None for i in before]
@@ -217,12 +227,6 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
             return lambda object_id: object_id
         if column == "vertices":
             return lambda object_id: (len(self.workspace.cache.get(object_id).vertices), object_id)
-        if column == "figure":
-            def value(object_id: int) -> tuple:
-                result = self.workspace.cache.known_figures(object_id)
-                figures = result.figures if result is not None else ()
-                return (0, figures[0].value, object_id) if figures else (1, 0.0, object_id)
-            return value
         position = self.columns.index(column)
         return lambda object_id: (self.texts(object_id, request=False)[position].casefold(), object_id)
 

@@ -8,6 +8,7 @@ from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import kind as measurement_kind
+from usvips.gui.on_screen import ScreenWatch, on_screen
 from usvips.gui.panel_registry import Panel, register
 from usvips.gui.workspace import Workspace
 
@@ -28,6 +29,33 @@ class PlanView(QtWidgets.QWidget):
         self.view.currentTextChanged.connect(self.refresh)
         self.frame = QtWidgets.QLabel("")
         self.frame.setWordWrap(True)
+        #: the plot and its items, made when the view first comes on screen (:meth:`_build_plot`)
+        self.plot: pg.PlotWidget | None = None
+        self._added: list[int] = []
+        self.labels: list[pg.TextItem] = []
+        top = QtWidgets.QHBoxLayout()
+        top.addWidget(self.view)
+        top.addWidget(self.frame, 1)
+        self._layout = QtWidgets.QVBoxLayout(self)
+        self._layout.setContentsMargins(2, 2, 2, 2)
+        self._layout.addLayout(top)
+        self._parts: dict[int, tuple] = {}  # object id -> (label, label position, outline, 1σ rings) in this view
+        self._dirty = True
+        self._stale: set[int] = set()  # ids whose drawing is not computed yet (done when the view is shown)
+        self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self._on_pair),
+                        (workspace.objects_added, self._on_added), (workspace.objects_updated, self._on_objects),
+                        (workspace.objects_removed, self._on_objects),
+                        (workspace.selection_changed, self._on_selection))
+        for signal, slot in self._events:
+            signal.connect(slot)
+        self._watch = ScreenWatch(self, self._on_screen)  # a tab behind another is "visible" in Qt 6
+        self.refresh()
+
+    def _build_plot(self) -> None:
+        """The plot and its items (once, when first drawn: a survey opened with the view behind another tab
+        makes none of it)."""
+        if self.plot is not None:
+            return
         self.plot = pg.PlotWidget(background=None)
         self.plot.setAspectLocked(True)
         for axis in ("bottom", "left"):
@@ -39,25 +67,7 @@ class PlanView(QtWidgets.QWidget):
         # objects stored since the last whole drawing (at survey size): an item of their own, so that one more
         # fish among thousands does not rebuild the others' outlines
         self.added_curve = self.plot.plot(pen=pg.mkPen((0, 200, 255), width=1), connect="finite")
-        self._added: list[int] = []
-        self.labels: list[pg.TextItem] = []
-        top = QtWidgets.QHBoxLayout()
-        top.addWidget(self.view)
-        top.addWidget(self.frame, 1)
-        layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(2, 2, 2, 2)
-        layout.addLayout(top)
-        layout.addWidget(self.plot)
-        self._parts: dict[int, tuple] = {}  # object id -> (label, label position, outline, 1σ rings) in this view
-        self._dirty = True
-        self._stale: set[int] = set()  # ids whose drawing is not computed yet (done when the view is shown)
-        self._events = ((workspace.objects_reset, self.refresh), (workspace.pair_changed, self._on_pair),
-                        (workspace.objects_added, self._on_added), (workspace.objects_updated, self._on_objects),
-                        (workspace.objects_removed, self._on_objects),
-                        (workspace.selection_changed, self._on_selection))
-        for signal, slot in self._events:
-            signal.connect(slot)
-        self.refresh()
+        self._layout.addWidget(self.plot)
 
     #: Above this many objects only the selected ones are labelled (thousands of labels hide the plot).
     MAX_LABELS = 300
@@ -82,7 +92,7 @@ class PlanView(QtWidgets.QWidget):
     def _on_pair(self) -> None:
         """Another pair: its cameras and frame (the objects stay as they are)."""
         self._dirty = True
-        if self.isVisible():
+        if on_screen(self):
             self.redraw()
 
     def _on_objects(self, ids: tuple[int, ...]) -> None:
@@ -90,13 +100,13 @@ class PlanView(QtWidgets.QWidget):
         plan view costs nothing: labelling a few hundred objects takes seconds of the GUI thread)."""
         self._stale.update(ids)
         self._dirty = True
-        if self.isVisible():
+        if on_screen(self):
             self.redraw()
 
     def _on_added(self, ids: tuple[int, ...]) -> None:
         """New objects: shown, at survey size, unselected and after every object drawn, only they are drawn
         (on their own items); otherwise as any change."""
-        alone = (self.isVisible() and not self._dirty and len(self._parts) > self.MAX_LABELS
+        alone = (on_screen(self) and not self._dirty and len(self._parts) > self.MAX_LABELS
                  and len(self._added) + len(ids) <= self.MAX_ADDED and min(ids, default=0) > self._last_id()
                  and not set(ids) & set(self.workspace.selection))
         if not alone:
@@ -135,15 +145,15 @@ class PlanView(QtWidgets.QWidget):
     def _on_selection(self, _ids) -> None:
         """At survey size the selected objects are labelled: only the labels change."""
         if len(self._parts) > self.MAX_LABELS:
-            if not self.isVisible():
+            if not on_screen(self):
                 self._dirty = True
             elif self._dirty:
                 self.redraw()
             else:
                 self._draw_labels()
 
-    def showEvent(self, event) -> None:  # noqa: N802 (Qt's name)
-        super().showEvent(event)
+    def _on_screen(self) -> None:
+        """The view came on screen (shown, or its tab brought to the front): drawn if anything changed."""
         if self._dirty:
             self.redraw()
 
@@ -171,7 +181,9 @@ class PlanView(QtWidgets.QWidget):
             ring = xyz[with_covariance][:, None, [a, b]] + scaled @ vectors.transpose(0, 2, 1)
             ring_rows = np.concatenate([ring, np.full((len(ring), 1, 2), np.nan)], axis=1)
         before = np.concatenate([[0], np.cumsum(with_covariance)]).tolist()  # rings before each vertex
-        kinds: dict[str, object] = {}
+        plane = separated  # the vertices in the view; object i's first vertex is row start + i
+        rings_flat = ring_rows.reshape(-1, 2)  # 50 rows a ring
+        kinds: dict[str, tuple] = {}  # kind -> (its MeasurementKind, its own outline, closes) or None
         parts: list[tuple | None] = []
         for n, (stored, count, end) in enumerate(zip(objects, counts.tolist(), ends.tolist(), strict=True)):
             if not count:
@@ -180,22 +192,24 @@ class PlanView(QtWidgets.QWidget):
             start = end - count
             outline = separated[start + n:end + n + 1]
             if count == len(stored.vertices):
-                if stored.kind not in kinds:
+                drawn = kinds.get(stored.kind, False)
+                if drawn is False:
                     try:
-                        kinds[stored.kind] = measurement_kind(stored.kind)
+                        k = measurement_kind(stored.kind)
+                        drawn = kinds[stored.kind] = (k, k.outline_fitted, k.closes)
                     except UsvipsError:
-                        kinds[stored.kind] = None  # drawn through its vertices
-                k = kinds[stored.kind]
-                if k is not None and (k.outline_fitted or (k.closes and count > 2)):
+                        drawn = kinds[stored.kind] = None  # drawn through its vertices
+                if drawn is not None and (drawn[1] or (drawn[2] and count > 2)):
                     try:
-                        outline = np.vstack([k.outline(xyz[start:end])[:, [a, b]], [[np.nan, np.nan]]])
+                        outline = np.vstack([drawn[0].outline(xyz[start:end])[:, [a, b]], [[np.nan, np.nan]]])
                     except UsvipsError:
                         pass
-            rings = ring_rows[before[start]:before[end]].reshape(-1, 2)
-            parts.append(((f"{stored.id} {stored.attribute}".strip(), xyz[start, [a, b]]), outline, rings))
+            rings = rings_flat[50 * before[start]:50 * before[end]]
+            parts.append(((f"{stored.id} {stored.attribute}".strip(), plane[start + n]), outline, rings))
         return parts
 
     def redraw(self) -> None:
+        self._build_plot()
         self._update_parts()
         self._dirty = False
         self._added = []

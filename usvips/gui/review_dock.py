@@ -24,6 +24,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.app.quality import object_facts
 from usvips.core.errors import UsvipsError
+from usvips.gui.on_screen import ScreenWatch, on_screen
 from usvips.gui.panel_registry import Panel, register
 from usvips.gui.review_model import ReviewModel
 from usvips.gui.video_model import video_frame_text
@@ -70,12 +71,60 @@ class ReasonDialog(QtWidgets.QDialog):
         return dialog.reason() if dialog.exec() == QtWidgets.QDialog.DialogCode.Accepted else None
 
 
-class _QueueList(QtWidgets.QListWidget):
-    """The queue; the panel's single keys are claimed here before the window's shortcuts see them."""
+class _QueueRows(QtCore.QAbstractListModel):
+    """The queue's rows, each described when drawn (``describe(object_id)``): a queue of 10,000 objects
+    makes no row until it is on screen, and then only the rows drawn."""
 
-    def __init__(self, on_key: Callable[[QtCore.Qt.Key], bool]) -> None:
+    def __init__(self, describe: Callable[[int], str], parent: QtCore.QObject | None = None) -> None:
+        super().__init__(parent)
+        self.describe = describe
+        self.ids: list[int] = []
+
+    def set_ids(self, ids: list[int]) -> None:
+        self.beginResetModel()
+        self.ids = list(ids)
+        self.endResetModel()
+
+    def changed(self, row: int) -> None:
+        index = self.index(row)
+        self.dataChanged.emit(index, index)
+
+    def rowCount(self, parent: QtCore.QModelIndex = QtCore.QModelIndex()) -> int:  # noqa: N802, B008 (Qt's)
+        return 0 if parent.isValid() else len(self.ids)
+
+    def data(self, index: QtCore.QModelIndex, role: int = QtCore.Qt.ItemDataRole.DisplayRole):
+        if role == QtCore.Qt.ItemDataRole.DisplayRole and index.isValid() and 0 <= index.row() < len(self.ids):
+            return self.describe(self.ids[index.row()])
+        return None
+
+
+class _QueueList(QtWidgets.QListView):
+    """The queue; the panel's single keys are claimed here before the window's shortcuts see them. Rows
+    by number as a list widget has them (:meth:`count`, :meth:`currentRow`, :meth:`row_text`)."""
+
+    currentRowChanged = QtCore.Signal(int)  # noqa: N815 (Qt's style, as QListWidget's)
+
+    def __init__(self, on_key: Callable[[QtCore.Qt.Key], bool], describe: Callable[[int], str]) -> None:
         super().__init__()
         self._on_key = on_key
+        self.rows = _QueueRows(describe, self)
+        self.setModel(self.rows)
+        self.setUniformItemSizes(True)  # one line a row: 10,000 rows are not measured one by one
+        self.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.NoEditTriggers)
+        self.selectionModel().currentRowChanged.connect(lambda current, _: self.currentRowChanged.emit(current.row()))
+
+    def count(self) -> int:
+        return self.rows.rowCount()
+
+    def currentRow(self) -> int:  # noqa: N802 (as QListWidget's)
+        return self.currentIndex().row()
+
+    def setCurrentRow(self, row: int) -> None:  # noqa: N802 (as QListWidget's)
+        self.setCurrentIndex(self.rows.index(row))
+
+    def row_text(self, row: int) -> str:
+        """The text of a row, as drawn."""
+        return self.rows.index(row).data() or ""
 
     def event(self, event: QtCore.QEvent) -> bool:
         if event.type() == QtCore.QEvent.Type.ShortcutOverride and _panel_key(event) is not None:
@@ -134,12 +183,12 @@ class ReviewDock(QtWidgets.QWidget):
         self.follow = QtWidgets.QCheckBox("Go to each object")
         self.follow.setToolTip("every move (N, P, after A or F) also goes to the object's pair or frame")
         self.follow.setChecked(True)
-        self.list = _QueueList(self._on_key)
+        self.list = _QueueList(self._on_key, self._describe)
         self.list.setObjectName("review_queue")
         self.list.setToolTip("N next, P previous, A accept, F flag (with a reason), S skip, J or Enter: go to it, "
                              "H: its history")
         self.list.currentRowChanged.connect(self._on_row)
-        self.list.itemDoubleClicked.connect(lambda _: self.jump())
+        self.list.doubleClicked.connect(lambda _: self.jump())
         buttons = QtWidgets.QHBoxLayout()  # one row over the queue: it stays in view in a low dock
         buttons.addWidget(self.progress)
         buttons.addWidget(self.survey)
@@ -161,7 +210,7 @@ class ReviewDock(QtWidgets.QWidget):
         layout.addWidget(self.current)
         layout.addWidget(self.notice)
         layout.addWidget(self.list, 1)
-        self._stale = True  # loaded when first shown
+        self._stale = True  # loaded when first on screen
         self._filling = False
         self._rebuild = True  # the queue's rows all written again on the next show (else only those changed)
         self._dirty: set[int] = set()  # objects whose rows changed (reviewed, edited)
@@ -173,6 +222,7 @@ class ReviewDock(QtWidgets.QWidget):
                         (workspace.objects_removed, self._on_removed), (workspace.objects_updated, self._on_updated))
         for signal, slot in self._events:
             signal.connect(slot)
+        self._watch = ScreenWatch(self, self._on_screen)  # a tab behind another is "visible" in Qt 6
         self._show()
 
     def cleanup(self) -> None:
@@ -190,7 +240,7 @@ class ReviewDock(QtWidgets.QWidget):
 
     def refresh_current(self) -> None:
         """Read the current object's review again (one query; the window regains the focus)."""
-        if self._stale or not self.isVisible():
+        if self._stale or not on_screen(self):
             return
         self._moving(self.model.refresh_current)
 
@@ -219,7 +269,7 @@ class ReviewDock(QtWidgets.QWidget):
             self.workspace.message.emit("error", str(error))
 
     def _on_reset(self, *_: object) -> None:
-        if self.isVisible():
+        if on_screen(self):
             self.load()
         else:
             self._stale = True
@@ -246,8 +296,8 @@ class ReviewDock(QtWidgets.QWidget):
             self._rebuild = True
             self.model.forget(ids)
 
-    def showEvent(self, event: QtGui.QShowEvent) -> None:  # noqa: N802 (Qt's name)
-        super().showEvent(event)
+    def _on_screen(self) -> None:
+        """The panel came on screen (shown, or its tab brought to the front): its queue read if stale."""
         if self._stale:
             self.load()
 
@@ -298,14 +348,13 @@ class ReviewDock(QtWidgets.QWidget):
         try:
             if self._rebuild or self.list.count() != len(self.model.queue):
                 self._rebuild = False
-                self.list.clear()
-                self.list.addItems([self._describe(i) for i in self.model.queue])
+                self.list.rows.set_ids(self.model.queue)  # rows described when drawn
                 self._row_of = {object_id: row for row, object_id in enumerate(self.model.queue)}
-            else:  # a key press: only the rows that changed (a queue of thousands stays quick)
+            else:  # a key press: only the rows that changed drawn again
                 for object_id in self._dirty | ({current} if current is not None else set()):
                     row = self._row_of.get(object_id)
                     if row is not None:
-                        self.list.item(row).setText(self._describe(object_id))
+                        self.list.rows.changed(row)
             self._dirty.clear()
             if current is not None:
                 self.list.setCurrentRow(self.model.position)

@@ -164,10 +164,15 @@ class ReviewModel:
         """An object's review as last read or made."""
         return self.reviews.get(object_id, Review(object_id))
 
+    def _states(self, object_ids: Iterable[int]) -> list[str]:
+        """The review states of ``object_ids`` (no review made: unreviewed), without making a review each."""
+        reviews = self.reviews
+        return [review.state if (review := reviews.get(i)) is not None else "unreviewed" for i in object_ids]
+
     def counts(self) -> tuple[int, int, int]:
         """(reviewed, total, flagged) over the queue."""
-        states = [self.state(i).state for i in self.queue]
-        return sum(s != "unreviewed" for s in states), len(states), sum(s == "flagged" for s in states)
+        states = self._states(self.queue)
+        return len(states) - states.count("unreviewed"), len(states), states.count("flagged")
 
     def progress(self) -> str:
         return progress_text(*self.counts())
@@ -175,8 +180,8 @@ class ReviewModel:
     def survey_counts(self, object_ids: Iterable[int]) -> tuple[int, int, int]:
         """(reviewed, total, flagged) over the survey's objects ``object_ids`` — not only the queue (which
         holds the objects unreviewed when it was loaded, and those measured since)."""
-        states = [self.state(i).state for i in object_ids]
-        return sum(s != "unreviewed" for s in states), len(states), sum(s == "flagged" for s in states)
+        states = self._states(object_ids)
+        return len(states) - states.count("unreviewed"), len(states), states.count("flagged")
 
     def survey_progress(self, object_ids: Iterable[int]) -> str:
         """``survey: 138 of 140 reviewed, 2 flagged`` — or "" when the queue is the whole survey (the queue's

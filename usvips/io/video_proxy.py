@@ -36,11 +36,13 @@ from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
 
-import av
 import numpy as np
 
 from usvips.core.errors import InputFileError
+from usvips.io.lazy_import import lazy_module
 from usvips.io.video_stream import VideoStream
+
+av = lazy_module("av")  # PyAV loaded when a video is first read (see usvips.io.lazy_import)
 
 #: pixel formats a proxy stores exactly (8-bit YUV; "j" = full range)
 EXACT_FORMATS = ("yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p")

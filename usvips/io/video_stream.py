@@ -26,11 +26,13 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import av
 import cv2
 import numpy as np
 
 from usvips.core.errors import InputFileError
+from usvips.io.lazy_import import lazy_module
+
+av = lazy_module("av")  # PyAV loaded when a video is first read (see usvips.io.lazy_import)
 
 #: relative spread of frame intervals above which a stream is called variable-frame-rate
 VFR_TOLERANCE = 0.01

@@ -13,11 +13,13 @@ from collections.abc import Iterable, Sequence
 from fractions import Fraction
 from pathlib import Path
 
-import av
 import numpy as np
 
 from usvips.core.errors import InputFileError
+from usvips.io.lazy_import import lazy_module
 from usvips.io.video_stream import VideoStream
+
+av = lazy_module("av")  # PyAV loaded when a video is first read (see usvips.io.lazy_import)
 
 #: codec → (FFmpeg encoder, pixel format, containers it may go in)
 CODECS: dict[str, tuple[str, str, tuple[str, ...]]] = {
