@@ -72,6 +72,8 @@ def test_the_model_counts_searches_and_stores_the_decisions(scene_project):
         with pytest.raises(UsvipsError, match="not doubtful"):
             model.accept("right", result.right.ids("found")[0])
         # the wrong one placed by hand where its disc is: accepted, stored there
+        with pytest.raises(UsvipsError, match="outside the image"):
+            model.move("left", wrong, (-3.0, 10.0))
         model.selected = ("left", wrong)
         true_pixel = tuple(scene.truth["left"][scene.control.ids.index(wrong)])
         assert "placed" in model.click("left", true_pixel)

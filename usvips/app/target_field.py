@@ -255,6 +255,13 @@ def _reason(status: str, reason: str) -> str:
     return "not located" if status == "missing" else "check it"
 
 
+def inside(pixel: tuple[float, float], size: tuple[int, int]) -> bool:
+    """Whether ``pixel`` lies on an image of ``size`` (width, height): x from −0.5 to width − 0.5, y alike."""
+    x, y = (float(v) for v in pixel)
+    width, height = size
+    return bool(np.isfinite(x) and np.isfinite(y) and -0.5 <= x <= width - 0.5 and -0.5 <= y <= height - 0.5)
+
+
 def check_side(control: ControlPoints, side: str, clicks: Mapping[str, tuple[float, float]], size: tuple[int, int],
                calibrated: bool) -> None:
     """The clicks of one image, checked in the order a user fixes them: unknown ids, pixels outside the
@@ -267,7 +274,7 @@ def check_side(control: ControlPoints, side: str, clicks: Mapping[str, tuple[flo
                              side, pid)
         x, y = (float(v) for v in pixel)
         width, height = size
-        if not (np.isfinite(x) and np.isfinite(y) and -0.5 <= x <= width - 0.5 and -0.5 <= y <= height - 0.5):
+        if not inside((x, y), size):
             raise ClickError(f"{side} image: target {pid!r} at ({x:g}, {y:g}) lies outside the image ({width} × "
                              f"{height} px)", side, pid)
     needed = clicks_needed(control)
@@ -364,6 +371,10 @@ def confirm(project: ProjectStore, result: FieldResult, accepted: Iterable[tuple
         if target.pixel is None and (side, pid) not in (moved or {}):
             raise UsvipsError(f"{side} image: target {pid!r} was not located ({target.reason}): place it before "
                               "accepting it")
+    for (side, pid), pixel in (moved or {}).items():
+        if not inside(pixel, result.side(side).image_size):
+            raise UsvipsError(f"{side} image: target {pid!r} placed at ({pixel[0]:g}, {pixel[1]:g}), outside the "
+                              "image")
     new = result.observations(accepted, moved)
     if not len(new):
         raise UsvipsError(f"pair {result.pair!r}: no target is usable in both images; nothing stored")

@@ -86,6 +86,8 @@ class FieldModel:
         if self.status(side, pid) != "doubtful":
             raise UsvipsError(f"{side} {pid} is not doubtful: only a doubtful target is placed by hand")
         pixel = (float(pixel[0]), float(pixel[1]))
+        if not service.inside(pixel, self.job.size(side)):
+            raise UsvipsError(f"{side} {pid}: ({pixel[0]:.1f}, {pixel[1]:.1f}) is outside the image")
         self.moved[(side, pid)] = pixel
         self.selected = (side, pid)
         self.changed.emit()
