@@ -148,22 +148,29 @@ def pixel_motions(rays: TracedRays, rows: np.ndarray, along: np.ndarray, motions
     n = len(along)
     out = np.zeros((n, 2, len(motions)))
     posed = [k for k, m in enumerate(motions) if m.turn is not None]
-    if posed:  # rigid: m = (Q − C_b) T + c for every pose column at once
+    if posed:  # rigid: A m = A ((Q − C_b) T + c) for every pose column at once, as one matrix product
         on_ray = rays.rays.origins + along[:, None] * rays.rays.directions
         on_ray -= rays.camera.exterior.position
-        turns = np.concatenate([motions[k].turn for k in posed], axis=1)
-        moved = (on_ray @ turns).reshape(n, len(posed), 3)
-        moved += np.stack([motions[k].shift for k in posed])
-        out[:, :, posed] += np.matmul(rows, moved.transpose(0, 2, 1))
+        # per point the products A_ci (Q − C_b)_k and A_ci (2 × 12), times the constant (12 × E) of T, c
+        constant = np.concatenate([np.stack([motions[k].turn for k in posed], axis=2).reshape(9, len(posed)),
+                                   np.stack([motions[k].shift for k in posed], axis=1)])
+        products = np.empty((n, 2, 4, 3))
+        np.multiply(rows[:, :, None, :], on_ray[:, None, :, None], out=products[:, :, :3])
+        products[:, :, 3] = rows
+        out[:, :, posed] += (products.reshape(2 * n, 12) @ constant).reshape(n, 2, len(posed))
     read = [k for k, m in enumerate(motions) if m.interiors is not None]
     if read:
         _add_interior_shifts(out, rays.camera.interior, rays.pixels, [(k, motions[k]) for k in read])
     for k, (minus, plus) in housings.items():
-        moved = plus.origins - minus.origins
-        moved += along[:, None] * (plus.directions - minus.directions)
-        shift = np.einsum("nci,ni->nc", rows, moved) / motions[k].span
-        shift[~(plus.ok & minus.ok)] = 0.0
-        out[:, :, k] += shift
+        moved = plus.directions - minus.directions
+        moved *= along[:, None]
+        moved += plus.origins
+        moved -= minus.origins
+        shift = np.einsum("nci,ni->nc", rows, moved)
+        lost = (plus.status != 0) | (minus.status != 0)
+        if lost.any():
+            shift[lost] = 0.0
+        out[:, :, k] += shift / motions[k].span
     return out
 
 
