@@ -107,12 +107,14 @@ def ideal_rays(camera: Camera, ideal: np.ndarray) -> RayBundle:
 
 def point_jacobian(traced: list[TracedRays], points: np.ndarray, covariance: np.ndarray, weights: np.ndarray,
                    motions: list[list[tuple[int, CameraMotion]]], count: int,
-                   housings: list[dict[int, tuple[RayBundle, RayBundle]]] | None = None) -> np.ndarray:
+                   housings: list[dict[int, tuple[RayBundle, RayBundle]]] | None = None,
+                   ideal: list[np.ndarray | None] | None = None) -> np.ndarray:
     """∂X/∂θ (N, 3, count) of N intersected ``points`` (metres per parameter unit) whose rays ``traced``
     (one TracedRays per camera) were intersected with pointing ``covariance`` (N, 3, 3) and ``weights``
     (N, k) 1/σ² (1/px²). ``motions[j]`` lists (column, motion) of the parameters that move camera j;
     ``housings[j]`` the rays of its moved housings (:func:`housing_rays` of the same rows; traced here when
-    None). A column whose stepped housing loses a point's ray is zero in that point's row. Every row must
+    None), ``ideal[j]`` the ideal normalised coordinates of its pixels (or None: found here when needed).
+    A column whose stepped housing loses a point's ray is zero in that point's row. Every row must
     be an intersected point (status OK)."""
     n = len(points)
     jacobian = np.zeros((n, 3, count))
@@ -125,11 +127,14 @@ def point_jacobian(traced: list[TracedRays], points: np.ndarray, covariance: np.
         rows = np.stack([a0, a1], axis=1)  # A (N, 2, 3)
         columns = [c for c, _ in motions[j]]
         moving = [m for _, m in motions[j]]
+        known = None if ideal is None else ideal[j]
         if housings is None:
-            stepped = housing_rays(rays, moving, rays.camera.interior.pixels_to_normalised(rays.pixels))
+            if known is None and any(m.housings is not None for m in moving):
+                known = rays.camera.interior.pixels_to_normalised(rays.pixels)
+            stepped = housing_rays(rays, moving, known)
         else:
             stepped = housings[j]
-        shifts = pixel_motions(rays, rows, along, moving, stepped)
+        shifts = pixel_motions(rays, rows, along, moving, stepped, known)
         # C Aᵀ / σ² (N, 3, 2): the point's motion per pixel of this camera
         gain = np.stack([np.einsum("nij,nj->ni", covariance, a0), np.einsum("nij,nj->ni", covariance, a1)], axis=2)
         gain *= weights[:, j, None, None]
@@ -141,10 +146,11 @@ def point_jacobian(traced: list[TracedRays], points: np.ndarray, covariance: np.
 
 
 def pixel_motions(rays: TracedRays, rows: np.ndarray, along: np.ndarray, motions: list[CameraMotion],
-                  housings: dict[int, tuple[RayBundle, RayBundle]]) -> np.ndarray:
+                  housings: dict[int, tuple[RayBundle, RayBundle]], ideal: np.ndarray | None = None) -> np.ndarray:
     """(N, 2, m): for each of ``motions`` the pixel motion A m equivalent to the motion of the rays at the
     points' depths ``along`` (metres), A = ``rows`` (N, 2, 3) the rays' pixel Jacobians (px per metre);
-    ``housings`` the rays through the moved housings (:func:`housing_rays`)."""
+    ``housings`` the rays through the moved housings (:func:`housing_rays`); ``ideal`` the pixels' ideal
+    normalised coordinates if known."""
     n = len(along)
     out = np.zeros((n, 2, len(motions)))
     posed = [k for k, m in enumerate(motions) if m.turn is not None]
@@ -160,7 +166,7 @@ def pixel_motions(rays: TracedRays, rows: np.ndarray, along: np.ndarray, motions
         out[:, :, posed] += (products.reshape(2 * n, 12) @ constant).reshape(n, 2, len(posed))
     read = [k for k, m in enumerate(motions) if m.interiors is not None]
     if read:
-        _add_interior_shifts(out, rays.camera.interior, rays.pixels, [(k, motions[k]) for k in read])
+        _add_interior_shifts(out, rays.camera.interior, rays.pixels, [(k, motions[k]) for k in read], ideal)
     for k, (minus, plus) in housings.items():
         moved = plus.directions - minus.directions
         moved *= along[:, None]
@@ -175,10 +181,10 @@ def pixel_motions(rays: TracedRays, rows: np.ndarray, along: np.ndarray, motions
 
 
 def _add_interior_shifts(out: np.ndarray, base: Interior, pixels: np.ndarray,
-                         read: list[tuple[int, CameraMotion]]) -> None:
+                         read: list[tuple[int, CameraMotion]], ideal: np.ndarray | None) -> None:
     """Add to ``out`` (N, 2, m) the pixel shifts Δp = (∂x_d/∂p)⁻¹ (∂x_d/∂θ − ∂D/∂θ(u)) of the interior
-    motions ``read`` (column k, motion): what the camera reads at p with θ stepped it reads at p + Δp·h."""
-    ideal = None
+    motions ``read`` (column k, motion): what the camera reads at p with θ stepped it reads at p + Δp·h;
+    ``ideal`` the pixels' ideal normalised coordinates u (found here when None and needed)."""
     for k, motion in read:
         minus, plus = motion.interiors
         change = np.zeros((len(pixels), 2))

@@ -310,31 +310,29 @@ def _derivative_blocks(traced: list[TracedRays], result: Intersection, columns: 
     weights = 1.0 / np.broadcast_to(pointing, (n, len(traced))) ** 2
     every = bool(result.ok.all())
     chosen = np.arange(n) if every else np.flatnonzero(result.ok)
-    if every:
-        ok_traced = traced
-    else:
-        ok_traced = [_rows(t, chosen) for t in traced]
-    # the rays through the moved housings, traced for every point at once (a trace call has a fixed cost)
-    housings = [housing_rays(t, [m for _, m in motions[j]], _ideal(t, motions[j])) for j, t in enumerate(ok_traced)]
     for start in range(0, len(chosen), BATCH_ROWS):
-        block = slice(start, min(start + BATCH_ROWS, len(chosen)))
-        rows = block if every else chosen[block]
-        stepped = [{k: tuple(_bundle_rows(b, block) for b in pair) for k, pair in side.items()}
-                   for side in housings]
-        yield rows, point_jacobian([_rows(t, block) for t in ok_traced], result.points[rows],
-                                   result.covariance[rows], weights[rows], motions, len(columns), stepped)
+        rows = slice(start, min(start + BATCH_ROWS, n)) if every else chosen[start:start + BATCH_ROWS]
+        block = [_rows(t, rows) for t in traced]
+        # the block's rays through the moved housings (traced per block: bounded memory for any N)
+        ideal = [_ideal(t, motions[j]) for j, t in enumerate(block)]
+        housings = [housing_rays(t, [m for _, m in motions[j]], ideal[j]) for j, t in enumerate(block)]
+        yield rows, point_jacobian(block, result.points[rows], result.covariance[rows], weights[rows], motions,
+                                   len(columns), housings, ideal)
 
 
 def _ideal(traced: TracedRays, motions: list[tuple[int, CameraMotion]]) -> np.ndarray | None:
-    """The ideal normalised coordinates of the pixels of ``traced`` when a motion moves its housing."""
-    if any(m.housings is not None for _, m in motions):
+    """The ideal normalised coordinates of the pixels of ``traced`` when a motion moves its housing or its
+    lens's distortion (else None)."""
+    if any(m.housings is not None or (m.interiors is not None and _distortion_moves(m.interiors))
+           for _, m in motions):
         return traced.camera.interior.pixels_to_normalised(traced.pixels)
     return None
 
 
-def _bundle_rows(bundle: RayBundle, rows: slice) -> RayBundle:
-    return RayBundle(bundle.origins[rows], bundle.directions[rows], bundle.status[rows],
-                     bundle.failed_surface[rows])
+def _distortion_moves(interiors: tuple) -> bool:
+    """Whether the two interiors differ in their distortion."""
+    minus, plus = interiors
+    return any(getattr(minus, name) != getattr(plus, name) for name in ("k1", "k2", "k3", "p1", "p2"))
 
 
 def _batched_derivatives(traced: list[TracedRays], result: Intersection, columns: tuple[SteppedColumn, ...],
