@@ -130,7 +130,7 @@ def test_a_planted_blunder_is_flagged_excluded_with_one_action_and_sigma0_improv
     session.observations[key] = (xl + 6.0, yl - 4.0, xr, yr)  # a mis-click on the left
     measure.refresh()
     first = _compute(qtbot, wizard)
-    flagged = {(r["station"], r["id"]) for r in session.flagged()}
+    flagged = {(r.station, r.id) for r in session.flagged()}
     assert key in flagged
     assert wizard.results_page.exclude_button.isEnabled()
     red = [wizard.results_page.residuals.item(r, 1).text() for r in range(wizard.results_page.residuals.rowCount())
@@ -360,13 +360,13 @@ def test_blunder_counts_leave_out_what_is_already_left_out(qtbot, project):
         session.observations[key] = (xl + 7.0, yl - 5.0, xr, yr)
     measure.refresh()
     _compute(qtbot, wizard)
-    first = {(r["station"], r["id"]) for r in session.flagged()}
+    first = {(r.station, r.id) for r in session.flagged()}
     assert set(keys) <= first
     wizard.results_page.exclude_button.click()
     qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)
     (excluded,) = session.excluded
-    flagged = {(r["station"], r["id"]) for r in session.flagged()}
-    assert excluded not in flagged and all(r["used"] for r in session.flagged())
+    flagged = {(r.station, r.id) for r in session.flagged()}
+    assert excluded not in flagged and all(r.used for r in session.flagged())
     assert "1 by you" in wizard.results_page.summary.text()
     wizard.results_page.exclude_button.click()  # the next one excluded is the other blunder, not the first again
     qtbot.waitUntil(lambda: not wizard.results_page.busy, timeout=60000)

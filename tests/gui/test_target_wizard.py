@@ -248,7 +248,7 @@ def test_phase_one_from_a_project_video_then_phase_two_from_images(qtbot, projec
     qtbot.waitUntil(lambda: not wizard.compute_page.busy, timeout=300_000)
     result = wizard.session.result
     assert result is not None, wizard.compute_page.text.toPlainText()
-    assert result.result.report["housing"] == "flat-port"
+    assert result.result.report.housing == "flat-port"
     assert "through flat-port" in wizard.compute_page.text.toPlainText()
     parameters = result.calibration.parameters
     assert parameters["t"].value == pytest.approx(truth_t) and parameters["t"].status == "fixed"

@@ -81,6 +81,10 @@ class DetectedViews:
     blurred: int
     duplicates: int
 
+    def __bool__(self) -> bool:
+        """Falsy when no instant gave a usable view (:meth:`reasons` says why each was set aside)."""
+        return bool(self.views)
+
     def reasons(self) -> dict[str, str]:
         """The reason each instant set aside was, by its label."""
         return dict(self.set_aside)

@@ -101,20 +101,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     with warnings.catch_warnings(), _redacted_output():  # the caller's warning filters are back afterwards
         if not os.environ.get("USVIPS_DEBUG"):
             quiet_libraries()
-        return _run(args, handler, _options_of(parser))
+        return _run(args, handler, _options_of(parser, argv))
 
 
 #: unit suffixes a parameter's name may carry beyond its option's (``max_blur_px`` is ``--max-blur``)
 UNIT_SUFFIXES = ("px", "s", "m", "mm", "deg", "frames")
 
 
-def _options_of(parser: argparse.ArgumentParser) -> dict[str, str]:
-    """Every option of ``parser`` and its loaded subcommands: its destination → its long option string."""
+def _options_of(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> dict[str, str]:
+    """Every option of ``parser`` and of the subcommands ``argv`` chose (all loaded ones without
+    ``argv``): its destination → its long option string."""
     options: dict[str, str] = {}
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
-            for sub in action.choices.values():
-                options.update(_options_of(sub))
+            words = list(argv) if argv is not None else None
+            chosen = next((i for i, word in enumerate(words) if word in action.choices), None) \
+                if words is not None else None
+            if words is None:
+                for sub in action.choices.values():
+                    options.update(_options_of(sub))
+            elif chosen is not None:
+                options.update(_options_of(action.choices[words[chosen]], words[chosen + 1:]))
         elif action.option_strings:
             options.setdefault(action.dest, max(action.option_strings, key=len))
     return options
@@ -134,12 +141,11 @@ def _in_option_terms(error: UsvipsError, options: dict[str, str], named: dict[st
     else:
         candidates = [name] + [name.removesuffix("_" + unit) for unit in UNIT_SUFFIXES if name.endswith("_" + unit)]
         option = next((options[c] for c in candidates if c in options), None)
-    if option is None:
-        return str(error)
-    if isinstance(error, InvalidParameterError) and not error.label:
+    if option is not None and isinstance(error, InvalidParameterError) and not error.label:
         return f"{option}: {error.problem}"
     replace = options.get(getattr(error, "replace_parameter", None) or "")
-    return f"{error} (set it with {option}" + (f"; {replace} replaces it)" if replace else ")")
+    hints = ([f"set it with {option}"] if option else []) + ([f"{replace} replaces it"] if replace else [])
+    return f"{error} ({'; '.join(hints)})" if hints else str(error)
 
 
 class RedactedStream:

@@ -18,6 +18,7 @@ from usvips.core.calibration.phases import observes_a_plane, require_physical
 from usvips.core.calibration.validation import validate
 from usvips.core.errors import ConvergenceError, InvalidParameterError
 from usvips.core.observations import ControlPoints
+from usvips.io.adjustment_report import report_text
 from usvips.io.atomic import guard_output, replacing
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
@@ -175,7 +176,6 @@ def _calibrate(fit, control: ControlPoints, observations, args: argparse.Namespa
 
 def _finish(result, args: argparse.Namespace, validation=None, base=None) -> int:
     if validation is not None:
-        result.report["validation"] = validation.as_dict()
         result.calibration.statistics["validation"] = validation.as_dict()
     if not result.adjustment.converged:
         raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing written")
@@ -184,25 +184,25 @@ def _finish(result, args: argparse.Namespace, validation=None, base=None) -> int
     report = result.report
     # write both files only once everything has succeeded
     calibration_text = json.dumps(calibration_to_dict(result.calibration), indent=2, allow_nan=False) + "\n"
-    report_text = json.dumps(report, indent=2, allow_nan=False) + "\n" if args.report else None
+    report_file = report_text(report, validation.as_dict() if validation is not None else None) if args.report \
+        else None
     with replacing(_outputs(args), _inputs(args), replace=args.force):
         write_text_atomic(args.out, calibration_text)
-        if report_text is not None:
-            write_text_atomic(args.report, report_text)
-    print(f"{report['phase']} calibration ({report['housing']}, stations {', '.join(report['stations'])}): "
-          f"sigma0 {report['sigma0_px']:.3f} px, RMS {report['rms_px']:.3f} px"
-          + (f" over the kept, {report['rms_px_all']:.3f} px over all observations" if report.get("set_aside")
-             and report.get("rms_px_all") is not None else "")
-          + f", redundancy {report['redundancy']}, "
-          f"condition {report['condition_number']:.3g}")
-    for suspect in report["suspects"]:
-        w = f"w = {suspect['w']:.1f}" if suspect["w"] is not None else suspect["reason"]
-        print(f"  excluded: point {suspect['id']} {suspect['side']} {suspect['coordinate']} "
-              f"(pair {suspect['station']}): {w}")
-    for blunder in report.get("control_blunders", []):
-        print(f"  control blunder: {blunder['message']}")
-    for pair in report["correlations_over_0_95"][:10]:
-        print(f"  correlation {pair['a']} ~ {pair['b']}: {pair['r']:+.3f}")
+        if report_file is not None:
+            write_text_atomic(args.report, report_file)
+    print(f"{report.phase} calibration ({report.housing}, stations {', '.join(report.stations)}): "
+          f"sigma0 {report.sigma0_px:.3f} px, RMS {report.rms_px:.3f} px"
+          + (f" over the kept, {report.rms_px_all:.3f} px over all observations" if report.set_aside
+             and report.rms_px_all is not None else "")
+          + f", redundancy {report.redundancy}, "
+          f"condition {report.condition_number:.3g}")
+    for suspect in report.suspects:
+        w = f"w = {suspect.w:.1f}" if suspect.w is not None else suspect.reason
+        print(f"  excluded: point {suspect.point} {suspect.side} {suspect.coordinate} (pair {suspect.group}): {w}")
+    for blunder in report.control_blunders:
+        print(f"  control blunder: {blunder.message}")
+    for pair in report.correlations[:10]:
+        print(f"  correlation {pair.a} ~ {pair.b}: {pair.r:+.3f}")
     if validation is not None:
         for line in validation.lines():
             print(line)

@@ -19,9 +19,10 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.calibration.phases import DEFAULT_HOUSING
+from usvips.core.calibration.report import CalibrationReport, ResidualRow
 from usvips.core.errors import UsvipsError
 from usvips.gui import active_pairs
-from usvips.gui.calibration_session import PHASES, CalibrationSession
+from usvips.gui.calibration_session import PHASES, CalibrationSession, CheckPoint, ParameterChange
 from usvips.gui.exchange_dialogs import WizardReport
 from usvips.gui.housing_value_form import fill_known_form
 from usvips.gui.housing_values import parse_known
@@ -670,10 +671,10 @@ class ResultsPage(QtWidgets.QWizardPage):
                  f"σ0 = {result.calibration.sigma0_px:.3f} px, RMS = {adjustment.rms:.3f}, redundancy "
                  f"{adjustment.redundancy}, condition number {adjustment.condition_number:.3g}, "
                  f"{adjustment.iterations} iterations."]
-        if report["correlations_over_0_95"]:
-            pairs = ", ".join(f"{c['a']}–{c['b']} ({c['r']:.3f})" for c in report["correlations_over_0_95"][:6])
+        if report.correlations:
+            pairs = ", ".join(f"{c.a}–{c.b} ({c.r:.3f})" for c in report.correlations[:6])
             words.append(f"<span style='color:#b9770e'>Correlations above 0.95: {pairs}"
-                         f"{' …' if len(report['correlations_over_0_95']) > 6 else ''} — their separate values are "
+                         f"{' …' if len(report.correlations) > 6 else ''} — their separate values are "
                          "not determined by these data.</span>")
         words.append(self.verdict())
         if flagged:
@@ -697,64 +698,64 @@ class ResultsPage(QtWidgets.QWizardPage):
         self._draw_vectors(report)
         self.completeChanged.emit()
 
-    def _fill_parameters(self, report: dict) -> None:
+    def _fill_parameters(self, report: CalibrationReport) -> None:
         self.parameters.setRowCount(0)
-        order = sorted(report["parameters"].items(), key=lambda item: item[1]["status"] == "fixed")
+        order = sorted(report.parameters.items(), key=lambda item: item[1].status == "fixed")
         for name, p in order:  # estimated parameters first, the fixed ones after
-            if "@" in name and p["status"] == "fixed":
+            if "@" in name and p.status == "fixed":
                 continue
             row = self.parameters.rowCount()
             self.parameters.insertRow(row)
-            sigma = "" if p["sigma"] is None else f"{p['sigma']:.3g}"
-            for column, text in enumerate([name, f"{p['value']:.6g}", sigma, p["status"]]):
+            sigma = "" if p.sigma is None else f"{p.sigma:.3g}"
+            for column, text in enumerate([name, f"{p.value:.6g}", sigma, p.status]):
                 self.parameters.setItem(row, column, _item(text))
         self.parameters.resizeColumnsToContents()
 
-    def _fill_residuals(self, report: dict, flagged: list[dict]) -> None:
+    def _fill_residuals(self, report: CalibrationReport, flagged: list[ResidualRow]) -> None:
         self.residuals.setRowCount(0)
-        bad = {(r["station"], r["id"], r["side"]) for r in flagged}
-        for r in sorted(report["residuals"], key=lambda r: -max(abs(r["wx"]), abs(r["wy"]))):
+        bad = {(r.station, r.id, r.side) for r in flagged}
+        for r in sorted(report.residuals, key=lambda r: -max(abs(r.wx), abs(r.wy))):
             row = self.residuals.rowCount()
             self.residuals.insertRow(row)
             # a set-aside observation's residual is its prediction residual (None where no ray reaches it)
-            cells = [r["station"], r["id"], r["side"], *("—" if r[k] is None else f"{r[k]:.3f}" for k in ("vx", "vy")),
-                     f"{r['wx']:.2f}", f"{r['wy']:.2f}", "yes" if r["used"] else "no"]
+            cells = [r.station, r.id, r.side, *("—" if v is None else f"{v:.3f}" for v in (r.vx, r.vy)),
+                     f"{r.wx:.2f}", f"{r.wy:.2f}", "yes" if r.used else "no"]
             for column, text in enumerate(cells):
                 item = _item(text)
-                if (r["station"], r["id"], r["side"]) in bad:
+                if (r.station, r.id, r.side) in bad:
                     item.setBackground(FLAG_COLOUR)
                 self.residuals.setItem(row, column, item)
         self.residuals.resizeColumnsToContents()
 
-    def _fill_checks(self, rows: list[dict]) -> None:
+    def _fill_checks(self, rows: list[CheckPoint]) -> None:
         self.checks.setRowCount(0)
         for r in rows:
             row = self.checks.rowCount()
             self.checks.insertRow(row)
-            for column, text in enumerate([r["pair"], r["id"], *(f"{r[k] * 1000:.1f}" for k in ("dX", "dY", "dZ"))]):
+            for column, text in enumerate([r.pair, r.id, *(f"{d * 1000:.1f}" for d in r.difference)]):
                 self.checks.setItem(row, column, _item(text))
 
-    def _fill_comparison(self, rows: list[dict]) -> None:
+    def _fill_comparison(self, rows: list[ParameterChange]) -> None:
         self.comparison.setRowCount(0)
         for r in rows[:40]:
             row = self.comparison.rowCount()
             self.comparison.insertRow(row)
-            change = "" if r["change_sigmas"] is None else f"{r['change_sigmas']:.2f}"
-            for column, text in enumerate([r["name"], f"{r['old']:.6g}", f"{r['new']:.6g}", change]):
+            change = "" if r.change_sigmas is None else f"{r.change_sigmas:.2f}"
+            for column, text in enumerate([r.name, f"{r.old:.6g}", f"{r.new:.6g}", change]):
                 self.comparison.setItem(row, column, _item(text))
 
-    def _draw_vectors(self, report: dict) -> None:
+    def _draw_vectors(self, report: CalibrationReport) -> None:
         first = self.session.pairs[0] if self.session.pairs else None
         for side, letter in (("left", "l"), ("right", "r")):
             segments = []
-            for r in report["residuals"]:
-                key = (r["station"], r["id"])
-                if (r["station"] != first or r["side"] != letter or key not in self.session.observations
-                        or r["vx"] is None or r["vy"] is None):
+            for r in report.residuals:
+                key = (r.station, r.id)
+                if (r.station != first or r.side != letter or key not in self.session.observations
+                        or r.vx is None or r.vy is None):
                     continue
                 values = self.session.observations[key]
                 start = np.array(values[:2] if side == "left" else values[2:])
-                segments += [start, start + RESIDUAL_SCALE * np.array([r["vx"], r["vy"]])]
+                segments += [start, start + RESIDUAL_SCALE * np.array([r.vx, r.vy])]
             data = item_from_pixels(np.array(segments)) if segments else np.zeros((0, 2))
             self.vectors[side].setData(data[:, 0], data[:, 1], connect="pairs")
 
@@ -770,7 +771,7 @@ class ResultsPage(QtWidgets.QWizardPage):
 
     def verdict(self) -> str:
         """The global (χ², 95 %) test of the adjustment in one line, with what to do when it fails."""
-        test = self.session.result.report.get("global_test") or {}
+        test = self.session.result.report.global_test
         ratio = self.sigma0_ratio()
         scale = f"σ0 is {ratio:.2f} × the a-priori pointing σ of {self.session.sigma_px:g} px (1 expected)"
         if self.implausible():
