@@ -14,8 +14,9 @@ from usvips.app.calibration_size import calibration_dict_size_check
 from usvips.app.calibrations import store_calibration
 from usvips.app.video_project import proxy_bytes
 from usvips.core.deployment import Deployment, Georeference
-from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
+from usvips.io.manifest import ROLES
 from usvips.io.tables import read_control, read_observations
 from usvips.store.interface import ProjectStore
 
@@ -181,6 +182,8 @@ def plan_import(control: str | Path | None = None, observations: str | Path | No
         raise UsvipsError("nothing to import: give --control, --obs or --calibration")
     if observations and not pair:
         raise UsvipsError("--obs needs --pair (the image pair the observations belong to)")
+    if observations and role not in ROLES:
+        raise InvalidParameterError("role", f"unknown observation role {role!r}; the roles are {', '.join(ROLES)}")
     control_points = read_control(control) if control else None
     rows = read_observations(observations) if observations else None
     if rows is not None and len(rows.pair_labels) > 1:

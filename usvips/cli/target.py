@@ -54,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     describe.add_argument("--control", help="target-field: control file (id,X,Y,Z in metres)")
     describe.add_argument("--mark", choices=("cross", "disc"), help="target-field: what each target looks like")
     describe.add_argument("--size", type=float, metavar="MM", help="target-field: target diameter (mm)")
-    describe.set_defaults(handler=run_describe)
+    describe.set_defaults(handler=run_describe, parameter_options={"points": "--control"})  # a field's points
 
     printable = actions.add_parser("print", help="write a printable PDF of a board at true scale")
     printable.add_argument("target", help="target file")
