@@ -119,7 +119,7 @@ def run_describe(args: argparse.Namespace) -> int:
     from usvips.core.calibration_targets import from_description
 
     target = from_description(description_from_args(args))
-    with replacing(args.out, replace=args.force):
+    with replacing(args.out, [args.control], replace=args.force):  # a target field's control file is a source
         write_target(args.out, target)
     print(f"wrote {args.out}: {_summary(target)}")
     return 0
