@@ -55,7 +55,7 @@ DOORS: dict[str, list[Door]] = {
     "demo": [Door("demo @tank", {"@tank": "file"})],
     "calibrate air": [
         Door("calibrate air --control @control.csv --obs @obs_air.csv --image-size 640x480 --sigma-px 0.5 "
-             "--out %cal.json",
+             "--out %cal.json --report %report.json",
              {"@control.csv": "file", "@obs_air.csv": "file",
               "--image-size": ["0x0", "-640x480", "nanx480", "640", "x", "99999999x480"],
               "--sigma-px": ["0", "-1", "nan", "inf", "x"]}),
@@ -336,6 +336,11 @@ def _cases_of(command: str, number: int, door: Door) -> list[Case]:
                 at = index if not word.startswith("-") else index + 1
                 cases.append(Case(door_id, f"{word} {' '.join(words)!r}", argv, at, lambda work, words=words: words,
                                   _value_culprits(word, words), width=len(words)))
+    door_id = f"{command}#{number}"  # an output pointed at one of the command's own inputs: refused, kept
+    for out in (w for w in argv if w.startswith("%")):
+        for source in dict.fromkeys(w for w in argv if w.startswith("@") and (valid_inputs() / w[1:]).is_file()):
+            cases.append(Case(door_id, f"{out[1:]} onto the input {source[1:]}", argv, argv.index(out),
+                              lambda work, source=source: [source], (source[1:],)))
     return cases
 
 
