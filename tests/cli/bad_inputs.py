@@ -39,6 +39,15 @@ def _picks() -> str:
     return "\n".join(rows) + "\n"
 
 
+def _clicks() -> str:
+    """A valid clicks file of a target field (side,id,x,y): eight control points of the ROV sample's pair
+    water1 identified in each image, at their observed pixels."""
+    rows = [line.split(",") for line in (ROV / "observations_water.csv").read_text().splitlines()[1:]]
+    rows = [r for r in rows if r[5] == "water1"][:8]
+    return "side,id,x,y\n" + "".join(f"{side},{r[0]},{r[1 + 2 * k]},{r[2 + 2 * k]}\n"
+                                      for k, side in enumerate(("left", "right")) for r in rows)
+
+
 def _opencv_file(path: Path) -> None:
     import cv2
     import numpy as np
@@ -77,6 +86,7 @@ def valid_inputs() -> Path:
         shutil.copy(source, folder / name)
     shutil.copytree(TANK, folder / "tank", ignore=shutil.ignore_patterns("project.usvips*"))
     (folder / "picks.csv").write_text(_picks())
+    (folder / "clicks.csv").write_text(_clicks())
     (folder / "species.csv").write_text("family,genus,species,code,max_length_cm\n"
                                         "Sparidae,Pagrus,auratus,37353001,70\nLabridae,Coris,julis,,30\n")
     (folder / "geo.csv").write_text("id,latitude,longitude,depth\n1,-32.0,115.0,110\n2,-32.00001,115.00001,110\n"

@@ -256,6 +256,19 @@ DOORS: dict[str, list[Door]] = {
 }
 
 
+#: doors of commands that other branches of this session add (issue 33's ``target field``): in scope as soon
+#: as the parser has them
+DOORS_TO_COME: dict[str, list[Door]] = {
+    "target field": [
+        Door("target field @rov.usvips --pair water1 --clicks @clicks.csv --calibration active --mark disc",
+             {"@rov.usvips": "file", "@clicks.csv": "file", "--pair": ["nosuch"], "--calibration": ["99", "x"],
+              "--mark": ["square"]}),
+        Door("target field @rov.usvips --pair water1 --clicks @clicks.csv --control @control.csv --calibration 2 "
+             "--store --accept-doubtful 2", {"@control.csv": "file", "--accept-doubtful": ["nosuch", "x,y"]}),
+    ],
+}
+
+
 def commands() -> list[str]:
     """Every leaf command of the real parser, as typed: ``project import``, ``plan`` …"""
     found: list[str] = []
@@ -272,12 +285,18 @@ def commands() -> list[str]:
     return found
 
 
+def _declared() -> dict[str, list[Door]]:
+    """:data:`DOORS`, and those of :data:`DOORS_TO_COME` whose command the parser has."""
+    present = set(commands())
+    return {**DOORS, **{name: doors for name, doors in DOORS_TO_COME.items() if name in present}}
+
+
 def test_every_command_declares_its_bad_inputs():
     """A command of the parser with no doors here, or a door with nothing spoiled, is a door not fuzzed."""
-    missing = sorted(set(commands()) - set(DOORS))
+    missing = sorted(set(commands()) - set(_declared()))
     assert not missing, f"commands with no bad-input cases declared in DOORS: {missing}"
     assert not sorted(set(DOORS) - set(commands())), "DOORS names commands the parser does not have"
-    for name, doors in DOORS.items():
+    for name, doors in _declared().items():
         assert any(_cases_of(name, i, door) for i, door in enumerate(doors)), f"{name}: no case"
 
 
@@ -352,7 +371,7 @@ def _value_culprits(word: str, words: list[str]) -> tuple[str, ...]:
     return (word, word.lstrip("-"), *named, *quoted) if word.startswith("-") else (*named, *quoted, word.lower())
 
 
-ALL_CASES = [case for command, doors in DOORS.items() for number, door in enumerate(doors)
+ALL_CASES = [case for command, doors in _declared().items() for number, door in enumerate(doors)
              for case in _cases_of(command, number, door)]
 
 
