@@ -31,7 +31,7 @@ from pathlib import Path
 import pytest
 
 from tests.cli.bad_inputs import BAD_URLS, PASSWORDS, ROV, dump, file_spoilings, silent, valid_inputs
-from usvips.cli import build_parser
+from usvips.cli import build_parser, whole_number
 
 
 @dataclass(frozen=True)
@@ -371,8 +371,35 @@ def _value_culprits(word: str, words: list[str]) -> tuple[str, ...]:
     return (word, word.lstrip("-"), *named, *quoted) if word.startswith("-") else (*named, *quoted, word.lower())
 
 
+def _number_options(command: str) -> dict[str, type]:
+    """Every option of ``command`` that takes one number (float or int), by its long name."""
+    parser = build_parser("*")
+    for word in command.split():
+        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+        parser = sub.choices[word]
+    return {max(a.option_strings, key=len): a.type for a in parser._actions
+            if a.option_strings and a.type in (float, int, whole_number) and a.nargs is None}
+
+
+def _non_finite_cases(command: str, doors: list[Door]) -> list[Case]:
+    """Each number option of the command given NaN, infinity and an overflowing text, on the first of its
+    doors whose command line has it, else added to its first door: never silently taken."""
+    cases = []
+    for option, kind in sorted(_number_options(command).items()):
+        number, door = next(((i, d) for i, d in enumerate(doors) if option in d.argv.split()), (0, doors[0]))
+        argv = tuple(door.argv.split())
+        if option not in argv:
+            argv = (*argv, option, "0")
+        at = argv.index(option) + 1
+        for value in (("nan", "inf", "-inf", "1e999") if kind is float else ("1e3", "9" * 30)):
+            cases.append(Case(f"{command}#{number}", f"{option} {value!r} (every number option)", argv, at,
+                              lambda work, value=value: [value], _value_culprits(option, [value])))
+    return cases
+
+
 ALL_CASES = [case for command, doors in _declared().items() for number, door in enumerate(doors)
              for case in _cases_of(command, number, door)]
+ALL_CASES += [case for command, doors in _declared().items() for case in _non_finite_cases(command, doors)]
 
 
 # ---------------------------------------------------------------------------- running a case

@@ -78,7 +78,34 @@ def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
             importlib.import_module(f"usvips.cli.{name}").register(subparsers)
         elif extended is None:
             subparsers.add_parser(name, help=SUMMARIES[name] or None, add_help=False)
+    _bound_whole_numbers(parser)
     return parser
+
+
+#: the largest whole number an option takes (a 64-bit integer: what the project store and numpy hold)
+LARGEST_WHOLE = 2**63 - 1
+
+
+def whole_number(text: str) -> int:
+    """An option's whole number (``type=int``), refused when it is no 64-bit integer (a count, an id or a
+    seed of 30 digits is a typing slip, and would overflow the store or numpy)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if abs(value) > LARGEST_WHOLE:
+        raise argparse.ArgumentTypeError(f"{text} is too large (at most {LARGEST_WHOLE:.3g} either way)")
+    return value
+
+
+def _bound_whole_numbers(parser: argparse.ArgumentParser) -> None:
+    """Every ``type=int`` option of ``parser`` and its subcommands read by :func:`whole_number`."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                _bound_whole_numbers(sub)
+        elif action.type is int:
+            action.type = whole_number
 
 
 def _command_in(argv: Sequence[str]) -> str | None:
