@@ -297,18 +297,18 @@ def prepare(project: ProjectStore, pair: str, control: ControlPoints | None = No
     """A search of the project's image pair ``pair``: its images, the project's control (or ``control``
     when the project has none; a different one is refused), the cameras of the stored calibration
     ``calibration_id`` (None: a DLT in air), and the pair's stored observations of its role as read."""
-    rows = {p["label"]: p for p in project.pairs()}
+    rows = {p.label: p for p in project.pairs()}
     if pair not in rows:
         shown = ", ".join(list(rows)[:8]) or "none"
         raise UsvipsError(f"{project.path}: no image pair {pair!r} (pairs: {shown})")
     row = rows[pair]
-    if not row.get("left") or not row.get("right"):
+    if not row.left or not row.right:
         raise UsvipsError(f"{project.path}: pair {pair!r} has no images (a video frame pair? export it first)")
     stored_control = project.control()
     chosen = _control(project, stored_control, control)
-    role = ROLES.get(row.get("medium") or "water", "calibration-water")
+    role = ROLES.get(row.medium or "water", "calibration-water")
     stored = project.control_observations(role, pair)
-    paths = {side: project.image_path(row[side]) for side in SIDES}
+    paths = {side: project.image_path(getattr(row, side)) for side in SIDES}
     images = {side: read_image(paths[side]) for side in SIDES}
     cameras = cameras_of(project, calibration_id, pair)
     return FieldJob(pair, role, chosen, images, cameras, shape, stored, stored_control, calibration_id,

@@ -122,7 +122,7 @@ class TargetFieldTool(QtWidgets.QDialog):
         self.model: FieldModel | None = None
         self.worker: Worker | None = None
         self._build()
-        labels = [p["label"] for p in project.pairs() if p.get("left") and p.get("right")]
+        labels = [p.label for p in project.pairs() if p.left and p.right]
         if not labels:
             raise UsvipsError("the project has no image pair: add the pair that shows the target field first")
         self.pair_box.addItems(labels)
