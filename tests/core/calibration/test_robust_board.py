@@ -65,7 +65,8 @@ def _one_rig(kind: str, seed: int, estimator: str = "auto") -> dict:
             return calibrate_water(base, kind, target, obs, options)
     validation = validate(target, observations, HOLDOUT, fit, seed=seed)
     report = validation.result.report
-    report.setdefault("sigma0_px_estimated", report.sigma0_px)  # before any scaling by the held-out views
+    if report.sigma0_px_estimated is None:  # the fit's own, before any scaling by the held-out views
+        report = dataclasses.replace(report, sigma0_px_estimated=report.sigma0_px)
     suspects = {(s.point, s.side, s.group) for s in report.suspects}
     coordinates = 2 * len(report.residuals)
     return dict(report=report, noise=noise, planted=planted, missed=[b for b in planted if b not in suspects],
@@ -106,7 +107,7 @@ def test_held_out_distances_are_honest_over_many_rigs(kind):
     print(f"{kind}: held-out distances' NEES {nees:.2f} over {sum(r['honesty'].distances for r in runs)}, "
           f"reprojections' {np.mean([r['honesty'].reprojection_nees for r in runs]):.2f}; clean set aside "
           f"{100 * np.mean([r['clean_set_aside'] for r in runs]):.3f} %; sigma0 / noise "
-          f"{[round(r['report']['sigma0_px_estimated'] / r['noise'], 3) for r in runs]}; factors (sigma0², "
+          f"{[round(r['report'].sigma0_px_estimated / r['noise'], 3) for r in runs]}; factors (sigma0², "
           f"covariance) {factors}")
     for k, run in enumerate(runs):
         assert run["report"].converged, f"{kind} rig {k}: {run['report'].reason}"
