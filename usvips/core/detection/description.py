@@ -5,7 +5,10 @@ plain data; :mod:`usvips.io.model_description` reads it from a TOML or JSON file
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+
+from usvips.core.errors import InvalidParameterError
 
 #: the orders of colour channels a model may expect
 CHANNEL_ORDERS = ("RGB", "BGR")
@@ -36,3 +39,22 @@ class ModelDescription:
     iou_threshold: float = 0.45
     pad_value: int = 114
     max_detections: int = 300
+
+    def __post_init__(self) -> None:
+        for name in ("input_width", "input_height", "max_detections"):
+            if int(getattr(self, name)) < 1:
+                raise InvalidParameterError(name, f"must be >= 1, got {getattr(self, name)}")
+        if not (math.isfinite(self.scale) and self.scale > 0):
+            raise InvalidParameterError("scale", f"must be finite and > 0, got {self.scale}")
+        if len(self.mean) != 3 or len(self.std) != 3 or not all(math.isfinite(v) for v in (*self.mean, *self.std)) \
+                or min(self.std) <= 0:
+            raise InvalidParameterError("std", f"mean and std need 3 finite values each, std > 0; got mean "
+                                               f"{self.mean}, std {self.std}")
+        if self.channel_order not in CHANNEL_ORDERS:
+            raise InvalidParameterError("channels", f"must be one of {', '.join(CHANNEL_ORDERS)}, got "
+                                                    f"{self.channel_order!r}")
+        for name in ("score_threshold", "iou_threshold"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise InvalidParameterError(name, f"must lie in [0, 1], got {getattr(self, name)}")
+        if len(set(self.keypoint_names)) != len(self.keypoint_names):
+            raise InvalidParameterError("keypoints", f"names repeat: {self.keypoint_names}")

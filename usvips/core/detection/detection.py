@@ -7,7 +7,7 @@ Pixels: x right, y down, origin at the centre of the top-left pixel, as everywhe
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -41,8 +41,8 @@ class Detection:
     keypoints: tuple[Keypoint, ...] = ()
 
     def __post_init__(self) -> None:
-        x0, y0, x1, y1 = self.box
-        if not (np.isfinite(self.box).all() and x0 <= x1 and y0 <= y1):
+        box = np.asarray(self.box, dtype=np.float64).ravel()
+        if box.shape != (4,) or not (np.isfinite(box).all() and box[0] <= box[2] and box[1] <= box[3]):
             raise InvalidParameterError("box", f"expected finite (x0, y0, x1, y1) with x0 <= x1 and y0 <= y1, "
                                                f"got {self.box}")
 
@@ -59,6 +59,7 @@ class Detection:
                                                 f"{', '.join(self.keypoint_names) or 'none'}")
 
 
+@runtime_checkable
 class Detector(Protocol):
     """Anything that finds objects in an image (H × W × 3 BGR or H × W grey, 8-bit)."""
 
