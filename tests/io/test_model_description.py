@@ -56,9 +56,16 @@ def test_json_holds_the_same_keys(tmp_path):
     path = tmp_path / "m.json"
     path.write_text(json.dumps({"model": {"file": "m.onnx", "family": "yolo-pose", "input_width": 640,
                                           "input_height": 640},
-                                "output": {"classes": ["fish"], "keypoints": ["snout", "fork"]}}))
+                                "output": {"classes": ["fish"], "keypoints": ["snout", "fork"], "objectness": True}}))
     description = read_model_description(path)
     assert description.channel_order == "RGB" and description.scale == pytest.approx(1 / 255)
+    assert description.objectness and not read_model_description(_good(tmp_path)).objectness
+
+
+def _good(folder):
+    path = folder / "good.toml"
+    path.write_text(GOOD)
+    return path
 
 
 @pytest.mark.parametrize("old,new,message", [
@@ -72,6 +79,7 @@ def test_json_holds_the_same_keys(tmp_path):
     ('keypoints = ["snout", "fork"]', 'keypoints = ["snout", "snout"]', "output.keypoints: names repeat"),
     ('classes = ["fish", "shark"]', 'classes = "fish"', "output.classes: expected a list of names"),
     ('keypoint_values = 3', 'keypoint_values = 1', "output.keypoint_values: the yolo-pose layout has 2 or 3"),
+    ('keypoint_values = 3', 'keypoint_values = 3\nobjectness = "yes"', "output.objectness: expected true or false"),
     ('score_threshold = 0.3', 'score_threshold = 1.5', r"output.score_threshold: expected a finite number in \[0, 1\]"),
     ('iou_threshold = 0.5', 'iou = 0.5', "output.iou: unknown key"),
     ('[output]', '[outputs]', "outputs: unknown section"),

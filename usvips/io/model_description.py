@@ -6,8 +6,8 @@ runs from its description alone (docs/detection.md). TOML (``.toml``) or JSON (`
     [normalisation]  scale (e.g. 1/255), mean, std (3 numbers each, in the model's channel order),
                      channels ("RGB" or "BGR")
     [output]         classes (names in the model's order), keypoints (names in order, e.g. snout, fork),
-                     keypoint_values (3: x, y, visibility; 2: x, y), score_threshold, iou_threshold
-                     (0..1), max_detections
+                     keypoint_values (3: x, y, visibility; 2: x, y), objectness (true: an objectness
+                     score precedes the class scores), score_threshold, iou_threshold (0..1), max_detections
 
 Every bad field is one :class:`~usvips.core.errors.InputFileError` naming the file and the key.
 """
@@ -26,8 +26,8 @@ from usvips.core.errors import InputFileError, InvalidParameterError
 
 SECTIONS = {"model": ("file", "family", "input_width", "input_height"),
             "normalisation": ("scale", "mean", "std", "channels"),
-            "output": ("classes", "keypoints", "keypoint_values", "score_threshold", "iou_threshold",
-                       "max_detections")}
+            "output": ("classes", "keypoints", "keypoint_values", "objectness", "score_threshold",
+                       "iou_threshold", "max_detections")}
 REQUIRED = ("model.file", "model.family", "model.input_width", "model.input_height", "output.classes",
             "output.keypoints")
 
@@ -75,6 +75,12 @@ class _Fields:
             raise self.fail(key, f"expected 3 finite numbers{' > 0' if positive else ''} (one per channel), "
                                  f"got {value!r}")
         return tuple(float(v) for v in value)
+
+    def flag(self, key: str, default: bool) -> bool:
+        value = self.get(key, default)
+        if not isinstance(value, bool):
+            raise self.fail(key, f"expected true or false, got {value!r}")
+        return value
 
     def names(self, key: str) -> tuple[str, ...]:
         value = self.get(key)
@@ -142,6 +148,7 @@ def read_model_description(path: str | Path) -> ModelDescription:
         std=fields.triple("normalisation.std", defaults.std, positive=True),
         channel_order=fields.text("normalisation.channels", defaults.channel_order, CHANNEL_ORDERS),
         keypoint_values=fields.integer("output.keypoint_values", defaults.keypoint_values, high=3),
+        objectness=fields.flag("output.objectness", defaults.objectness),
         score_threshold=fields.number("output.score_threshold", defaults.score_threshold, 0.0, 1.0),
         iou_threshold=fields.number("output.iou_threshold", defaults.iou_threshold, 0.0, 1.0),
         max_detections=fields.integer("output.max_detections", defaults.max_detections))

@@ -12,8 +12,9 @@ from usvips.core.errors import InvalidParameterError
 NAMES = ("snout", "fork", "upper caudal", "lower caudal")
 
 
-def describe(classes=("fish",), keypoints=NAMES, values=3, width=640, height=640):
-    return ModelDescription("m.onnx", "yolo-pose", width, height, classes, keypoints, keypoint_values=values)
+def describe(classes=("fish",), keypoints=NAMES, values=3, width=640, height=640, objectness=False):
+    return ModelDescription("m.onnx", "yolo-pose", width, height, classes, keypoints, keypoint_values=values,
+                            objectness=objectness)
 
 
 def test_the_registry_knows_the_yolo_pose_family_and_names_the_known_ones_for_an_unknown_one():
@@ -24,11 +25,13 @@ def test_the_registry_knows_the_yolo_pose_family_and_names_the_known_ones_for_an
 
 @pytest.mark.parametrize("channels_first", [True, False])
 @pytest.mark.parametrize("classes", [("fish",), ("fish", "shark", "ray")])
-def test_boxes_and_keypoints_are_recovered_exactly_through_the_letterbox(channels_first, classes):
-    rng = np.random.default_rng(7 + len(classes) + channels_first)
+@pytest.mark.parametrize("objectness", [False, True])
+def test_boxes_and_keypoints_are_recovered_exactly_through_the_letterbox(channels_first, classes, objectness):
+    rng = np.random.default_rng(7 + len(classes) + channels_first + 10 * objectness)
     for trial in range(20):
         size = (int(rng.integers(300, 1920)), int(rng.integers(200, 1080)))
-        description = describe(classes, width=int(rng.choice([320, 640])), height=int(rng.choice([256, 640])))
+        description = describe(classes, width=int(rng.choice([320, 640])), height=int(rng.choice([256, 640])),
+                               objectness=objectness)
         letterbox = Letterbox.fit(size, (description.input_width, description.input_height))
         truth = random_truth(rng, int(rng.integers(1, 8)), size, len(NAMES), len(classes))
         found = family("yolo-pose").decode(table(rng, truth, description, letterbox, channels_first), description,
@@ -36,7 +39,7 @@ def test_boxes_and_keypoints_are_recovered_exactly_through_the_letterbox(channel
         assert len(found) == len(truth), trial
         assert [d.score for d in found] == sorted((d.score for d in found), reverse=True)
         for t in sorted(truth, key=lambda t: -t["score"]):
-            d = found[[abs(d.score - t["score"]) < 1e-12 for d in found].index(True)]
+            d = found[[abs(d.score - t["score"]) < 1e-12 for d in found].index(True)]  # objectness × class
             np.testing.assert_allclose(d.box, t["box"], atol=1e-9)
             assert d.class_name == classes[t["class"]]
             assert d.keypoint_names == NAMES
@@ -70,6 +73,9 @@ def test_an_output_that_does_not_fit_the_description_is_one_clear_error():
     description = describe()
     with pytest.raises(InvalidParameterError, match=r"shape \(1, 9, 50\).*\[1, 17, N\] or \[1, N, 17\]"):
         family("yolo-pose").decode(np.zeros((1, 9, 50)), description, Letterbox.fit((640, 640), (640, 640)))
+    with pytest.raises(InvalidParameterError, match=r"\[1, 18, N\].*objectness, 1 class"):
+        family("yolo-pose").decode(np.zeros((1, 17, 50)), describe(objectness=True),
+                                   Letterbox.fit((640, 640), (640, 640)))
 
 
 def test_nothing_above_the_threshold_is_no_detection():
@@ -89,3 +95,12 @@ def test_the_letterbox_undo_inverts_the_letterbox_and_centres_the_image():
         np.testing.assert_allclose(box.to_input(-0.5, -0.5), [box.pad_x, box.pad_y], atol=1e-9)
         np.testing.assert_allclose(box.to_input(size[0] - 0.5, size[1] - 0.5),
                                    [box.pad_x + box.resized[0], box.pad_y + box.resized[1]], atol=1e-9)
+
+
+def test_a_square_output_reads_as_channels_first():
+    description = describe(keypoints=("snout", "fork"))  # C = 11
+    letterbox = Letterbox.fit((640, 640), (640, 640))
+    points = np.array([[110.0, 120.0, 0.9], [180.0, 125.0, 0.8]])
+    rows = [row(np.array([100.0, 100, 200, 150]), 0, 0.9, points, letterbox, 1)] + [np.zeros(11)] * 10
+    found = family("yolo-pose").decode(np.array(rows).T[None], description, letterbox)
+    assert len(found) == 1 and found[0].keypoint("fork").x == pytest.approx(180.0)

@@ -21,8 +21,10 @@ class ModelDescription:
     the network's input in pixels (the image is letterboxed into it: scaled to fit, centred, padded);
     normalisation per channel: value = (pixel · ``scale`` − ``mean``) / ``std``, channels in
     ``channel_order``; ``class_names`` and ``keypoint_names`` in the model's order; ``keypoint_values``:
-    numbers per keypoint in the output (3: x, y, visibility; 2: x, y); ``score_threshold`` (0..1) and
-    ``iou_threshold`` (0..1) of the non-maximum suppression; ``pad_value`` the letterbox's grey (0..255)."""
+    numbers per keypoint in the output (3: x, y, visibility; 2: x, y); ``objectness``: whether an objectness
+    score precedes the class scores (YOLOv5/v7-pose; the score is then objectness × class score);
+    ``score_threshold`` (0..1) and ``iou_threshold`` (0..1) of the non-maximum suppression; ``pad_value`` the
+    letterbox's grey (0..255); ``max_detections`` the most kept per image."""
 
     model: str
     family: str
@@ -35,6 +37,7 @@ class ModelDescription:
     std: tuple[float, float, float] = (1.0, 1.0, 1.0)
     channel_order: str = "RGB"
     keypoint_values: int = 3
+    objectness: bool = False
     score_threshold: float = 0.25
     iou_threshold: float = 0.45
     pad_value: int = 114

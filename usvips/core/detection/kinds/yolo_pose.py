@@ -1,7 +1,9 @@
 """The common YOLO-pose output layout (YOLOv8/v11 pose heads exported to ONNX): one tensor of
 [1, C, N] (or [1, N, C]) with C = 4 + classes + values·K — per candidate the box centre x, y and size w, h
 in the input's pixels, one score per class (already a probability), then K keypoints × (x, y, visibility)
-(``keypoint_values`` 3) or × (x, y) (2, then every keypoint's confidence is the detection's score).
+(``keypoint_values`` 3) or × (x, y) (2, then every keypoint's confidence is the detection's score). With
+``objectness`` (YOLOv5/v7-pose heads) an objectness probability precedes the class scores, C grows by one
+and a candidate's class score is objectness × class probability.
 Candidates under the score threshold are dropped, the rest suppressed per class (OpenCV's batched
 non-maximum suppression) and mapped back through the letterbox.
 """
@@ -20,11 +22,13 @@ from usvips.core.errors import InvalidParameterError
 
 def channel_count(description: ModelDescription) -> int:
     """C: the numbers per candidate the layout holds."""
-    return 4 + len(description.class_names) + description.keypoint_values * len(description.keypoint_names)
+    return (4 + int(description.objectness) + len(description.class_names)
+            + description.keypoint_values * len(description.keypoint_names))
 
 
 def candidates(output: np.ndarray, description: ModelDescription) -> np.ndarray:
-    """The output as (N, C) rows, one per candidate, whichever axis holds the channels."""
+    """The output as (N, C) rows, one per candidate, whichever axis holds the channels (both, when N = C:
+    then [1, C, N], as YOLO exports it)."""
     array = np.asarray(output, dtype=np.float64)
     if array.ndim == 3 and array.shape[0] == 1:
         array = array[0]
@@ -32,10 +36,11 @@ def candidates(output: np.ndarray, description: ModelDescription) -> np.ndarray:
     if array.ndim != 2 or channels not in array.shape:
         raise InvalidParameterError("output", f"the model's output has shape {np.shape(output)}; the description "
                                               f"asks for [1, {channels}, N] or [1, N, {channels}] (4 box values, "
+                                              f"{'objectness, ' if description.objectness else ''}"
                                               f"{len(description.class_names)} class score(s), "
                                               f"{len(description.keypoint_names)} keypoints × "
                                               f"{description.keypoint_values})")
-    return array.T if array.shape[0] == channels and array.shape[1] != channels else array
+    return array.T if array.shape[0] == channels else array  # square (N = C): [1, C, N], YOLO's export
 
 
 class YoloPose(ModelFamily):
@@ -54,7 +59,10 @@ class YoloPose(ModelFamily):
         cls.check(description)
         rows = candidates(output, description)
         classes = len(description.class_names)
-        scores_all = rows[:, 4:4 + classes]
+        first = 4 + int(description.objectness)
+        scores_all = rows[:, first:first + classes]
+        if description.objectness:
+            scores_all = scores_all * rows[:, 4:5]
         class_ids = np.argmax(scores_all, axis=1)
         scores = scores_all[np.arange(len(rows)), class_ids]
         keep = np.flatnonzero(np.isfinite(scores) & (scores >= description.score_threshold)
@@ -72,7 +80,7 @@ class YoloPose(ModelFamily):
         x0, y0 = letterbox.to_image(rows[:, 0] - rows[:, 2] / 2, rows[:, 1] - rows[:, 3] / 2)
         x1, y1 = letterbox.to_image(rows[:, 0] + rows[:, 2] / 2, rows[:, 1] + rows[:, 3] / 2)
         values = description.keypoint_values
-        points = rows[:, 4 + classes:].reshape(len(rows), len(description.keypoint_names), values)
+        points = rows[:, first + classes:].reshape(len(rows), len(description.keypoint_names), values)
         kx, ky = letterbox.to_image(points[:, :, 0], points[:, :, 1])
         confidence = points[:, :, 2] if values == 3 else np.repeat(scores[:, None], points.shape[1], axis=1)
         names = description.keypoint_names
