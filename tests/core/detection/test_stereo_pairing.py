@@ -11,6 +11,7 @@ from usvips.core import housing as housings
 from usvips.core.detection import Detection, Keypoint
 from usvips.core.detection.stereo import (
     STATED_KEYPOINT_SIGMA,
+    assign,
     curve_distances,
     epipolar_curves,
     measure_pairs,
@@ -139,3 +140,12 @@ def test_measuring_needs_each_keypoint_and_its_sigma():
     assert all(isinstance(r, InvalidParameterError) and "no keypoint 'tail'" in str(r) for r in results)
     one = measure_pairs(pairs, calibration, {"snout": 0.5, "fork": 2.0})[0]
     np.testing.assert_allclose(one.pointing_sigma_px.reshape(2, -1)[:, 0], [0.5, 2.0])
+
+
+def test_the_assignment_is_global_not_greedy_and_respects_the_gate():
+    # greedy takes (0, 0) at 1 px and leaves row 1 unpaired (its only candidate is taken); the assignment
+    # pairs both rows at 2 + 1.5 px
+    costs = np.array([[1.0, 2.0], [1.5, np.inf]])
+    assert sorted(assign(costs, 3.0)) == [(0, 1), (1, 0)]
+    assert assign(costs, 1.2) == [(0, 0)]  # beyond the gate a pair is not made
+    assert assign(np.full((2, 3), np.inf), 3.0) == [] and assign(np.zeros((0, 4)), 3.0) == []

@@ -133,6 +133,18 @@ def pairing_costs(left: Sequence[Detection], right: Sequence[Detection], rig: St
     return costs
 
 
+def assign(costs: np.ndarray, gate_px: float) -> list[tuple[int, int]]:
+    """The (row, column) pairs of one assignment over a cost matrix (px; inf: cannot pair) that maximises
+    Σ (gate − cost) over the pairs it makes, none at or beyond the gate (not greedy: a row's cheapest column
+    goes to another row when that pairs more of the frame at less total cost)."""
+    costs = np.asarray(costs, dtype=np.float64)
+    feasible = costs < gate_px
+    if not feasible.any():
+        return []
+    rows, columns = linear_sum_assignment(np.where(feasible, costs - gate_px, 0.0))
+    return [(int(i), int(j)) for i, j in zip(rows, columns, strict=True) if feasible[i, j]]
+
+
 def pair_detections(left: Sequence[Detection], right: Sequence[Detection], rig: StereoRig, gate_px: float = 4.0,
                     keypoints: tuple[str, ...] | None = None, min_confidence: float = 0.0, near: float = 0.3,
                     far: float = 10.0, samples: int = 100) -> Pairing:
@@ -140,10 +152,7 @@ def pair_detections(left: Sequence[Detection], right: Sequence[Detection], rig: 
     ``gate_px`` pixels; ``near``/``far`` (m) bound the depths searched along each keypoint's ray."""
     gate = validation.positive("gate_px", gate_px)
     costs = pairing_costs(left, right, rig, keypoints, min_confidence, near, far, samples)
-    feasible = costs < gate
-    rows, columns = linear_sum_assignment(np.where(feasible, costs - gate, 0.0)) if costs.size else ((), ())
-    pairs = tuple(StereoPair(left[i], right[j], int(i), int(j), float(costs[i, j]))
-                  for i, j in zip(rows, columns, strict=True) if feasible[i, j])
+    pairs = tuple(StereoPair(left[i], right[j], i, j, float(costs[i, j])) for i, j in assign(costs, gate))
     paired_left, paired_right = {p.left_index for p in pairs}, {p.right_index for p in pairs}
     return Pairing(tuple(sorted(pairs, key=lambda p: p.left_index)),
                    tuple(i for i in range(len(left)) if i not in paired_left),
