@@ -149,3 +149,13 @@ def test_the_assignment_is_global_not_greedy_and_respects_the_gate():
     assert sorted(assign(costs, 3.0)) == [(0, 1), (1, 0)]
     assert assign(costs, 1.2) == [(0, 0)]  # beyond the gate a pair is not made
     assert assign(np.full((2, 3), np.inf), 3.0) == [] and assign(np.zeros((0, 4)), 3.0) == []
+
+
+def test_curves_need_a_depth_range_and_samples():
+    rig = random_calibration(np.random.default_rng(12), "air").rig(0, "object")
+    with pytest.raises(InvalidParameterError, match="parameter far"):
+        epipolar_curves(rig.left, rig.right, [[600.0, 400.0]], near=2.0, far=1.0)
+    with pytest.raises(InvalidParameterError, match="parameter samples"):
+        epipolar_curves(rig.left, rig.right, [[600.0, 400.0]], samples=1)
+    with pytest.raises(InvalidParameterError, match="parameter gate_px"):
+        pair_detections([], [], rig, gate_px=0.0)

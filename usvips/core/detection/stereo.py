@@ -68,6 +68,8 @@ def epipolar_curves(source: Camera, target: Camera, pixels: np.ndarray, near: fl
     near, far = validation.positive("near", near), validation.positive("far", far)
     if far <= near:
         raise InvalidParameterError("far", f"must exceed near ({near:g} m), got {far:g}")
+    if int(samples) < 2:
+        raise InvalidParameterError("samples", f"a curve needs at least 2 samples, got {samples}")
     pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
     depths = np.geomspace(near, far, int(samples))
     bundle = source.rays(pixels)
