@@ -252,6 +252,10 @@ class TargetFieldTool(QtWidgets.QDialog):
                            ("Delete", self.remove_click)):
             shortcut = QtGui.QShortcut(QtGui.QKeySequence(keys), self.table, slot)
             shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+        # Enter belongs to the id box (it names the click): no button of the dialog takes it as its default
+        for button in self.findChildren(QtWidgets.QPushButton):
+            button.setAutoDefault(False)
+            button.setDefault(False)
         self.resize(1200, 700)
 
     # ------------------------------------------------------------------ the pair
