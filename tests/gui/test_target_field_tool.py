@@ -211,3 +211,30 @@ def test_opened_from_the_calibration_menu_and_stored_targets_drawn(qtbot, make_w
     assert len(stored) >= 8
     assert sorted(label.toPlainText() for label in window.panes["left"].control_labels) == sorted(stored.ids)
     tool.close()
+
+
+def test_a_control_file_for_a_project_without_control(qtbot, tmp_path):
+    from usvips.gui.target_field_tool import TargetFieldTool
+
+    rng = np.random.default_rng(909)
+    scene = stereo_field(rng, "air", 1.8)
+    path, _ = field_project(tmp_path, scene, store_control=False)
+    with open_project(path) as project:
+        tool = TargetFieldTool(project, "p1")
+        qtbot.addWidget(tool)
+        assert tool.model is None and "holds no control points" in tool.summary.text()
+        tool.use_control(str(tmp_path / "missing.csv"))
+        assert "no such file" in tool.summary.text() and tool.model is None
+        tool.use_control(str(tmp_path / "control.csv"))
+        assert tool.model is not None and tool.id_box.count() == len(scene.control)
+        for side, chosen in scene.clicks(rng, 7, 1.0).items():
+            for pid, pixel in chosen.items():
+                tool.on_click(side, pixel)
+                tool.id_box.setEditText(pid)
+                tool.name_click()
+        tool.model.set_result(tool.model.search_job()(lambda f: None, lambda: False))
+        tool.confirm()
+        assert "and the control" in tool.summary.text()
+        assert len(project.control()) == len(scene.control)
+        assert len(project.control_observations("calibration-air", "p1")) >= 8
+        tool.close()

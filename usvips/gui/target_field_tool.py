@@ -19,6 +19,7 @@ from usvips.core.errors import UsvipsError
 from usvips.gui.pane import StereoPane, item_from_pixels, pixel_from_item
 from usvips.gui.target_field_model import SIDES, STATES, FieldModel
 from usvips.gui.worker import Worker, start
+from usvips.io.tables import read_control
 
 #: colour (RGB) and symbol of each mark's state; the pending click and the selection
 STYLE = {"clicked": ((0, 200, 255), "+"), "found": ((60, 220, 120), "o"), "doubtful": ((255, 176, 0), "o"),
@@ -119,6 +120,7 @@ class TargetFieldTool(QtWidgets.QDialog):
         self.setObjectName("target_field_tool")
         self.setWindowTitle("Find a target field")
         self.project = project
+        self.control = None  # a control file's points, when the project holds none
         self.model: FieldModel | None = None
         self.worker: Worker | None = None
         self._build()
@@ -150,6 +152,11 @@ class TargetFieldTool(QtWidgets.QDialog):
             label.setBuddy(widget)
             top.addWidget(label)
             top.addWidget(widget)
+        self.control_button = QtWidgets.QPushButton("C&ontrol file…", objectName="field_control")
+        self.control_button.setToolTip("the field's control (id,X,Y,Z in metres) when the project holds none; "
+                                       "stored with the targets on Confirm")
+        self.control_button.clicked.connect(self._choose_control)
+        top.addWidget(self.control_button)
         top.addStretch(1)
 
         self.panes = {side: StereoPane(side) for side in SIDES}
@@ -245,6 +252,10 @@ class TargetFieldTool(QtWidgets.QDialog):
                            ("Delete", self.remove_click)):
             shortcut = QtGui.QShortcut(QtGui.QKeySequence(keys), self.table, slot)
             shortcut.setContext(QtCore.Qt.ShortcutContext.WidgetShortcut)
+        # Enter belongs to the id box (it names the click): no button of the dialog takes it as its default
+        for button in self.findChildren(QtWidgets.QPushButton):
+            button.setAutoDefault(False)
+            button.setDefault(False)
         self.resize(1200, 700)
 
     # ------------------------------------------------------------------ the pair
@@ -252,7 +263,8 @@ class TargetFieldTool(QtWidgets.QDialog):
         """Start afresh on ``pair`` (its images, the project's control, the chosen calibration)."""
         self.stop()
         try:
-            model = FieldModel(self.project, pair, self.calibration_box.currentData(), self.shape_box.currentText())
+            model = FieldModel(self.project, pair, self.calibration_box.currentData(), self.shape_box.currentText(),
+                               self.control)
         except UsvipsError as error:
             self.model = None
             self.summary.setText(f"Cannot search pair {pair}: {error}")
@@ -270,6 +282,21 @@ class TargetFieldTool(QtWidgets.QDialog):
                           f"At least {model.needed()} per image.")
         self.summary.setText("")
         self.refresh()
+
+    def _choose_control(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "The field's control (id,X,Y,Z in metres)", "",
+                                                        "CSV (*.csv *.txt)")
+        if path:
+            self.use_control(path)
+
+    def use_control(self, path: str) -> None:
+        """Search with the control file at ``path`` (the project holds none, or the same); starts afresh."""
+        try:
+            self.control = read_control(path)
+        except UsvipsError as error:
+            self.summary.setText(str(error))
+            return
+        self.load_pair(self.pair_box.currentText())
 
     def _on_calibration(self) -> None:
         if self.model is None:
