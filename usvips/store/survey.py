@@ -525,7 +525,8 @@ class Survey:
                 first = self._reserve_object_ids(len(checked))
                 for k, (kind, vertices, attribute, notes, creator) in enumerate(checked):
                     self._db.execute("INSERT INTO objects (id, kind, attribute, notes, creator, created, modified) "
-                                     "VALUES (?, ?, ?, ?, ?, ?, ?)", (first + k, kind, attribute, notes, creator, now, now))
+                                     "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                                     (first + k, kind, attribute, notes, creator, now, now))
                     ids.append(first + k)
                     self._insert_vertices(ids[-1], vertices, now)
                     self._log(ids[-1], "add", None, _object_state(kind, attribute, notes, vertices))
