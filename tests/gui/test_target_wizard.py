@@ -16,8 +16,8 @@ from tests.app.board_images import air_scene, board_poses, render_pairs
 from usvips.app.video_project import add_video
 from usvips.core.calibration_targets import CalibrationTarget, kind
 from usvips.gui.calibration_session import CalibrationSession
-from usvips.gui.calibration_wizard import CalibrationWizard
-from usvips.gui.target_pages import TargetWizard
+from usvips.gui.qt.calibration_wizard import CalibrationWizard
+from usvips.gui.qt.target_pages import TargetWizard
 from usvips.gui.target_session import TargetSession
 from usvips.io.video_writer import encode_video
 from usvips.store import Project
