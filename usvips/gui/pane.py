@@ -393,22 +393,19 @@ class StereoPane(QtWidgets.QWidget):
         stack_labels`, in screen pixels: labels keep their size on screen, so this is redone on a zoom), and
         left of the view's right edge (:func:`~usvips.gui.label_layout.keep_inside`)."""
         rect = self.viewbox.viewRect()
-        labels = self.labels + self.control_labels  # the targets' numbers too ("17" and "8" read "178")
-        shown = [item for item in labels if rect.contains(item.home)]
-        for item in labels:
+        shown = [item for item in self.labels if rect.contains(item.home)]
+        for item in self.labels:
             item.setPos(item.home)
         if not shown or len(shown) > self.MAX_LAID_OUT or self.viewbox.scene() is None:
             return
-        boxes = [i.sceneBoundingRect() for i in shown]  # each label's box where it goes alone
-        anchors = np.array([[b.left(), b.bottom()] for b in boxes])
-        sizes = np.array([[b.width(), b.height()] for b in boxes])
+        anchors = np.array([[p.x(), p.y()] for p in (self.viewbox.mapViewToScene(i.home) for i in shown)])
+        sizes = np.array([[i.boundingRect().width(), i.boundingRect().height()] for i in shown])
         shifts = keep_inside(anchors[:, 0], sizes[:, 0], self.viewbox.sceneBoundingRect().right())
-        offsets = stack_labels(anchors + np.column_stack([shifts, np.zeros(len(shown))]), sizes) \
-            if len(shown) > 1 else np.zeros(1)
-        for item, shift, offset in zip(shown, shifts, offsets, strict=True):
+        anchors[:, 0] += shifts
+        offsets = stack_labels(anchors, sizes) if len(shown) > 1 else np.zeros(1)
+        for item, anchor, shift, offset in zip(shown, anchors, shifts, offsets, strict=True):
             if offset or shift:
-                home = self.viewbox.mapViewToScene(item.home)
-                item.setPos(self.viewbox.mapSceneToView(QtCore.QPointF(home.x() + shift, home.y() + offset)))
+                item.setPos(self.viewbox.mapSceneToView(QtCore.QPointF(anchor[0], anchor[1] + offset)))
 
     def set_added_lines(self, lines: np.ndarray, count: int) -> None:
         """The outlines stored since the last :meth:`set_object_lines` (K, 2) pixels, NaN-separated, unselected
@@ -436,10 +433,8 @@ class StereoPane(QtWidgets.QWidget):
         for (name, _), view in zip(marks, item_from_pixels(pixels), strict=True):
             text = pg.TextItem(name, color=COLOURS["selected" if name == selected else "control"], anchor=(-0.3, 1.1))
             text.setPos(float(view[0]), float(view[1]))
-            text.home = QtCore.QPointF(float(view[0]), float(view[1]))  # where it goes when alone
             self.viewbox.addItem(text, ignoreBounds=True)
             self.control_labels.append(text)
-        self._label_timer.start()
 
     def centre_on(self, pixel: tuple[float, float]) -> None:
         """Pan so that ``pixel`` is in the middle, keeping the zoom."""
