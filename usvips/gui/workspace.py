@@ -204,7 +204,8 @@ class Workspace:
             self.message.emit("warning", f"{what} {label!r} has no active calibration: picks are shown, "
                                          "nothing can be intersected")
         else:
-            self.message.emit("info", f"{what} {label}: {self.geometry.description}")
+            named = f"video {label!r}" if video_frame is not None else f"pair {label}"  # not "video video:"
+            self.message.emit("info", f"{named}: {self.geometry.description}")
 
     def image_key(self, side: str) -> str:
         """The project's key for an image's settings: its stored relative path."""
