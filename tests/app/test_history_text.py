@@ -24,3 +24,12 @@ def test_vertices_are_counted_only_when_they_moved():
         "attribute 'a' → 'b'"
     assert what_changed(_edit({"vertices": same}, {"vertices": [[1.0, 2.0], [3.0, 5.0]]})) == \
         "vertices 2 → 2 (1 changed)"
+
+
+def test_an_added_object_names_no_empty_attribute_and_counts_its_vertices_in_words():
+    def added(state: dict) -> HistoryEntry:
+        return HistoryEntry(1, "2026-11-28T09:00:00Z", "ann", 7, "add", None, state)
+
+    assert what_changed(added({"kind": "length", "attribute": "", "vertices": [[1, 2], [3, 4]]})) == \
+        "length, 2 vertices"
+    assert what_changed(added({"kind": "point", "attribute": "cod", "vertices": [[1, 2]]})) == "point 'cod', 1 vertex"

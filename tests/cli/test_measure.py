@@ -229,6 +229,7 @@ def test_measure_on_a_video_frame_stores_the_object_as_the_window_does(video_sur
                  "--frame", str(frame), "--out", str(tmp_path / "m.csv")])
     out = capsys.readouterr().out
     assert code == 0 and "video drop, frame 9" in out
+    assert out.startswith("stored 1 object in ") and "(video drop, frame 9): id " in out, out  # not "1 objects"
     with open_project(str(path), read_only=True) as project:
         stored = [o for o in project.objects() if o.id != object_id and o.vertices[0].frame_left == frame]
     assert len(stored) == 1

@@ -71,7 +71,8 @@ def test_the_window_builds_its_menus_and_keys_from_the_declaration(make_window):
         assert bound == [p[0] for p in map(_portable, command.keys) if p], command.id
     # the panels' docks are listed in View, where the declaration leaves a section for them
     assert any(isinstance(i, Section) and i.menu == "View" for i in commands.ITEMS)
-    assert window.docks["qa"].toggleViewAction() in window.menus["View"].actions()
+    assert window.docks["log"].toggleViewAction() in window.menus["View"].actions()
+    assert window.docks["qa"].toggleViewAction() not in window.menus["View"].actions()  # "QA panel" lists it
     # Help › Keys lists every command with keys, from the same declaration
     text = window.keys_text()
     assert all(html.escape(c.title.replace("&", "")) in text for c in commands.commands() if c.keys)

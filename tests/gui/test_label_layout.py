@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from usvips.gui.label_layout import stack_labels
+from usvips.gui.label_layout import keep_inside, stack_labels
 
 
 def _boxes(anchors, sizes, offsets):
@@ -36,3 +36,31 @@ def test_many_random_crowded_labels_never_overlap_and_move_little():
         offsets = stack_labels(anchors, sizes)
         assert not _overlaps(_boxes(anchors, sizes, offsets))
         assert np.all(np.abs(offsets) <= (n - 1) * 18.0 + 1e-9)
+
+
+def test_a_label_running_past_the_right_edge_moves_left_to_be_read_whole():
+    lefts, widths = np.array([10.0, 380.0, 450.0, 5.0]), np.array([100.0, 150.0, 100.0, 700.0])
+    shifts = keep_inside(lefts, widths, 500.0)
+    assert shifts[0] == 0 and shifts[1] == -30.0 and shifts[2] == -50.0  # right edges now at 500
+    assert shifts[3] == -5.0  # wider than the view: starts at its left edge, never beyond
+
+
+def test_the_pane_draws_a_label_near_its_right_edge_inside_the_view(qtbot):
+    """Seen at 1366 × 768: "2 Pagrus aura" cut off by the left image's edge."""
+    from usvips.gui.app import configure
+    from usvips.gui.pane import StereoPane
+
+    configure()
+    pane = StereoPane("left")
+    qtbot.addWidget(pane)
+    pane.resize(500, 400)
+    pane.show()
+    qtbot.waitExposed(pane)
+    pane.set_image(np.zeros((300, 400), dtype=np.uint8))
+    pane.fit()
+    qtbot.wait(100)
+    pane.set_selection_marks(np.zeros((0, 2)), np.zeros((0, 2)), [("2 Pagrus auratus", (395.0, 150.0), False)], 1)
+    (label,) = pane.labels
+    right = pane.viewbox.sceneBoundingRect().right()
+    assert label.sceneBoundingRect().right() <= right + 1.0, (label.sceneBoundingRect(), right)
+    assert label.sceneBoundingRect().width() > 50

@@ -92,7 +92,7 @@ def test_the_video_and_tracking_controllers_work_without_a_window(qtbot, sample_
     assert video.open_video(label) and forgotten == [True]
     qtbot.waitUntil(lambda: workspace.video_frame is not None and not context.jobs.busy, timeout=30000)
     assert workspace.pair == label and workspace.images["left"] is not None
-    assert any(level == "info" and text.startswith(f"video {label}:") for level, text in heard)
+    assert any(level == "info" and text.startswith(f"video {label!r}:") for level, text in heard)  # not "video video:"
     before = len(heard)
     tracking.track()  # nothing selected: said through the messages, not the window
     assert len(heard) == before + 1 and heard[-1][0] in ("warning", "error"), heard[before:]

@@ -32,6 +32,16 @@ def test_no_two_entries_of_a_menu_share_a_mnemonic(make_window):
     assert len(bar) == len(set(bar))
 
 
+def test_the_view_menu_lists_each_panel_once(make_window):
+    """The View menu held both "QA panel" (Ctrl+Shift+Q) and the QA dock's own toggle "QA", and "Review
+    mode" beside "Review": a panel with its own command is listed once, the other panels by their toggle."""
+    window = make_window()
+    view = next(a.menu() for a in window.menuBar().actions() if a.text().replace("&", "") == "View")
+    texts = [a.text().replace("&", "") for a in view.actions() if not a.isSeparator()]
+    assert "QA panel" in texts and "Review mode" in texts and "Objects" in texts and "Log" in texts
+    assert "QA" not in texts and "Review" not in texts, texts
+
+
 def test_a_long_error_wraps_on_the_hint_line_and_dialogs_start_in_the_project(make_window, sample_copy, qtbot):
     window = make_window()
     window.resize(1366, 768)

@@ -123,5 +123,6 @@ def test_the_calculator_review_and_qa_panel_give_one_verdict_per_object(survey, 
         qtbot.waitUntil(lambda: "quality:" in panel.output.toPlainText(), timeout=10000)
         verdict = next(line for line in panel.output.toPlainText().splitlines() if line.startswith("quality:"))
         assert (verdict == "quality: passes the rules") == (ids[name] not in failing), (name, verdict)
+    assert panel.output.toPlainText().splitlines()[0] == f"object {ids['no maximum']}"  # not "objects 4"
     ws.select([ids["too long"]])
     qtbot.waitUntil(lambda: "maximum" in panel.output.toPlainText(), timeout=10000)

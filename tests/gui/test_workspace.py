@@ -314,6 +314,15 @@ def test_a_pair_without_calibration_shows_picks_and_refuses_to_intersect(sample_
     ws.pick_tool.pick("right", (90.0, 100.0))
     assert messages[-1][0] == "error" and "no active calibration" in messages[-1][1]
     assert ws.pick_tool.state.left == (100.0, 100.0)  # the first pick stands
+    messages.clear()
+    ws.pair = None  # the same images shown as a video's frame pair: it is named a video, not "pair 'm'"
+    ws.set_pair("m", *load_pair_images(project, "m"), video_frame=("m", 5, 5, 0.5))
+    assert [text for level, text in messages if level == "warning"][0].startswith("video 'm' has no active "
+                                                                                  "calibration"), messages
+    ws.open_project(open_or_create_from_manifest(sample_copy("rov_flatport")))
+    messages.clear()
+    ws.set_pair("measure1", *load_pair_images(ws.project, "measure1"), video_frame=("video", 5, 8, 0.5))
+    assert [text for level, text in messages if level == "info"][-1].startswith("video 'measure1': "), messages
     ws.close_project()
 
 

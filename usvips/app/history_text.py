@@ -20,8 +20,10 @@ def _short(value: object) -> str:
 def _summary(state: dict | None) -> str:
     if not state:
         return "nothing"
-    vertices = state.get("vertices", [])
-    text = f"{state.get('kind', '?')} {state.get('attribute', '')!r}, {len(vertices)} vertices"
+    count = len(state.get("vertices", []))
+    attribute = state.get("attribute", "")
+    text = (f"{state.get('kind', '?')}" + (f" {attribute!r}" if attribute else "")
+            + f", {count} {'vertex' if count == 1 else 'vertices'}")  # no empty '' nor "1 vertices"
     record = state.get("record")
     return text + (f", record {_record(record)}" if record else "")
 

@@ -106,7 +106,9 @@ def _run(args: argparse.Namespace) -> int:
             measured, ids = measure_into_project(project, label, objects, where=args.picks, frame=args.video_frame,
                                                  pointing_sigma_px=args.pointing_sigma)
         place = f"pair {label}" if args.video is None else f"video {label}, frame {args.video_frame}"
-        print(f"stored {len(ids)} objects in {shown(args.project)} ({place}): ids {', '.join(map(str, ids))}")
+        many = len(ids) != 1  # "stored 1 object …: id 5", not "1 objects … ids 5"
+        print(f"stored {len(ids)} object{'s' if many else ''} in {shown(args.project)} ({place}): "
+              f"id{'s' if many else ''} {', '.join(map(str, ids))}")
     else:
         station = args.station if args.station is not None else "0"
         station = int(station) if station.isdigit() else station

@@ -39,5 +39,15 @@ def stack_labels(anchors: np.ndarray, sizes: np.ndarray, gap: float = 2.0) -> np
     return offsets
 
 
+def keep_inside(lefts: np.ndarray, widths: np.ndarray, right: float) -> np.ndarray:
+    """Horizontal shifts (N,) in screen pixels (≤ 0: left) that bring labels starting at ``lefts`` and
+    ``widths`` wide inside a view whose right edge is at ``right``, so that a label of an object near the
+    edge is read whole instead of cut off ("2 Pagrus aura"); a label wider than the room left of it keeps
+    its start (never shifted past ``lefts`` = 0 of a label that already starts at the left)."""
+    lefts = np.asarray(lefts, dtype=np.float64)
+    over = lefts + np.asarray(widths, dtype=np.float64) - right
+    return -np.clip(over, 0.0, np.maximum(lefts, 0.0))
+
+
 def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float], gap: float) -> bool:
     return a[0] < b[2] + gap and b[0] < a[2] + gap and a[1] < b[3] + gap and b[1] < a[3] + gap

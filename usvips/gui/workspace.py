@@ -187,12 +187,13 @@ class Workspace:
             raise UsvipsError("open a project first")
         another_pair, self.pair = label != self.pair, label
         self.video_frame = video_frame
+        what = "video" if video_frame is not None else "pair"  # a video's frames are not "pair 'dive1'"
         self.images = {"left": left, "right": right}
         try:
             self.geometry = self._shared(pair_geometry(self.project, label))
         except UsvipsError as error:
             self.geometry = None
-            self.message.emit("error", f"the calibration of pair {label!r} cannot be used: {error}")
+            self.message.emit("error", f"the calibration of {what} {label!r} cannot be used: {error}")
         self.enhancement.load(self.project, {side: self.image_key(side) for side in SIDES})
         self.pick_tool.reset()
         self.undo.forget_pair_steps()  # the picks and enhancement steps go with their images; object steps stay
@@ -200,10 +201,11 @@ class Workspace:
         if not another_pair:
             return  # the next frame of a video, or the pair shown again: its frame rule was said
         if self.geometry is None:
-            self.message.emit("warning", f"pair {label!r} has no active calibration: picks are shown, "
+            self.message.emit("warning", f"{what} {label!r} has no active calibration: picks are shown, "
                                          "nothing can be intersected")
         else:
-            self.message.emit("info", f"pair {label}: {self.geometry.description}")
+            named = f"video {label!r}" if video_frame is not None else f"pair {label}"  # not "video video:"
+            self.message.emit("info", f"{named}: {self.geometry.description}")
 
     def image_key(self, side: str) -> str:
         """The project's key for an image's settings: its stored relative path."""

@@ -90,7 +90,7 @@ class CalculatorPanel(QtWidgets.QWidget):
                                      "(distance, point–line, point–plane, angle).")
             return
         result = self.workspace.figures(self.selection)
-        head = "objects " + " and ".join(str(i) for i in self.selection)
+        head = ("object " if len(self.selection) == 1 else "objects ") + " and ".join(str(i) for i in self.selection)
         lines = [head, *self._instant_lines(), ""] + [format_figure(f) for f in result.figures]
         facts = []
         if result.measurement is not None and result.figures:  # one object: its sigma's breakdown and facts

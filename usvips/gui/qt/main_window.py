@@ -302,8 +302,9 @@ class MainWindow(QtWidgets.QMainWindow):
             elif isinstance(item, commands.Submenu):
                 self.menus[item.path] = menu.addMenu(item.title)
             else:  # a section the window fills: the panels' docks
-                for dock in self.docks.values():
-                    menu.addAction(dock.toggleViewAction())
+                for panel_id, dock in self.docks.items():
+                    if panel_id not in a:  # a panel with its own command (QA panel, Review mode) is listed once
+                        menu.addAction(dock.toggleViewAction())
         self.samples_menu = self.menus["File/Open sample"]
         for sample in sorted(SAMPLES.glob("*/project.json")) if SAMPLES.is_dir() else []:
             self.samples_menu.addAction(sample.parent.name, lambda p=sample.parent: self.open_path(p))

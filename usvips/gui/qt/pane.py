@@ -15,7 +15,7 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
-from usvips.gui.label_layout import stack_labels
+from usvips.gui.label_layout import keep_inside, stack_labels
 from usvips.gui.view_options import LOUPE_SCALES
 
 #: ImageItem coordinate of the centre of pixel 0.
@@ -390,17 +390,21 @@ class StereoPane(QtWidgets.QWidget):
 
     def layout_labels(self) -> None:
         """Move the labels in view apart so that none covers another (:func:`usvips.gui.label_layout.
-        stack_labels`, in screen pixels: labels keep their size on screen, so this is redone on a zoom)."""
+        stack_labels`, in screen pixels: labels keep their size on screen, so this is redone on a zoom), and
+        left of the view's right edge (:func:`~usvips.gui.label_layout.keep_inside`)."""
         rect = self.viewbox.viewRect()
         shown = [item for item in self.labels if rect.contains(item.home)]
         for item in self.labels:
             item.setPos(item.home)
-        if len(shown) < 2 or len(shown) > self.MAX_LAID_OUT or self.viewbox.scene() is None:
+        if not shown or len(shown) > self.MAX_LAID_OUT or self.viewbox.scene() is None:
             return
         anchors = np.array([[p.x(), p.y()] for p in (self.viewbox.mapViewToScene(i.home) for i in shown)])
         sizes = np.array([[i.boundingRect().width(), i.boundingRect().height()] for i in shown])
-        for item, anchor, offset in zip(shown, anchors, stack_labels(anchors, sizes), strict=True):
-            if offset:
+        shifts = keep_inside(anchors[:, 0], sizes[:, 0], self.viewbox.sceneBoundingRect().right())
+        anchors[:, 0] += shifts
+        offsets = stack_labels(anchors, sizes) if len(shown) > 1 else np.zeros(1)
+        for item, anchor, shift, offset in zip(shown, anchors, shifts, offsets, strict=True):
+            if offset or shift:
                 item.setPos(self.viewbox.mapSceneToView(QtCore.QPointF(anchor[0], anchor[1] + offset)))
 
     def set_added_lines(self, lines: np.ndarray, count: int) -> None:

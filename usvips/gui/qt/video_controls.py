@@ -343,7 +343,7 @@ class VideoController(QtCore.QObject):
         d.timeline.marks = set(self.navigator.marks)
         d.timeline.blockSignals(False)
         d.offset.setValue(self.navigator.offset)
-        self.messages.say("info", f"video {label}: {self.navigator.frame_count} frames at "
+        self.messages.say("info", f"video {label!r}: {self.navigator.frame_count} frames at "
                                  f"{self.navigator.fps:.6g} fps, offset {self.navigator.offset:+d} "
                                  + (f"— {self.source.video['report']}" if self.source.video["report"] else ""))
         self.request(self.navigator.first)
