@@ -1,5 +1,7 @@
 """A history row in words names only the fields that changed."""
 
+from datetime import UTC
+
 from usvips.app.history_text import what_changed
 from usvips.store.records import HistoryEntry
 
@@ -33,3 +35,15 @@ def test_an_added_object_names_no_empty_attribute_and_counts_its_vertices_in_wor
     assert what_changed(added({"kind": "length", "attribute": "", "vertices": [[1, 2], [3, 4]]})) == \
         "length, 2 vertices"
     assert what_changed(added({"kind": "point", "attribute": "cod", "vertices": [[1, 2]]})) == "point 'cod', 1 vertex"
+
+
+def test_a_history_time_reads_as_local_date_and_time_to_the_second():
+    from datetime import datetime
+
+    from usvips.app.history_text import moment_text
+
+    stored = "2026-11-28T13:34:01.010196+00:00"
+    local = datetime(2026, 11, 28, 13, 34, 1, 10196, tzinfo=UTC).astimezone()
+    assert moment_text(stored) == local.strftime("%Y-%m-%d %H:%M:%S")
+    assert "." not in moment_text(stored) and "+" not in moment_text(stored)
+    assert moment_text("not a time") == "not a time"

@@ -5,6 +5,7 @@ observation record or the review before and after."""
 from __future__ import annotations
 
 import json
+from datetime import datetime
 
 from usvips.core.redaction import redact
 from usvips.store.records import HistoryEntry
@@ -33,6 +34,18 @@ def _record(record: dict | None) -> str:
         return "none"
     taxon = " ".join(record.get(k, "") for k in ("family", "genus", "species") if record.get(k)) or "unidentified"
     return f"{taxon} ×{record.get('number', 1)}"
+
+
+def moment_text(at: str) -> str:
+    """A history row's time (ISO 8601, UTC, to the microsecond) as a person reads it: this computer's local
+    date and time to the second (``2026-11-28 14:34:01``); text that is not such a time is given back."""
+    try:
+        moment = datetime.fromisoformat(at)
+    except (TypeError, ValueError):
+        return str(at)
+    if moment.tzinfo is not None:
+        moment = moment.astimezone()
+    return moment.strftime("%Y-%m-%d %H:%M:%S")
 
 
 def what_changed(entry: HistoryEntry) -> str:

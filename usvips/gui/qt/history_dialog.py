@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from PySide6 import QtCore, QtWidgets
 
-from usvips.app.history_text import what_changed
+from usvips.app.history_text import moment_text, what_changed
 from usvips.core.errors import UsvipsError
 from usvips.store.records import Provenance
 
@@ -81,10 +81,10 @@ class HistoryDialog(QtWidgets.QDialog):
         self.summary.setText(summary)
         self.table.setRowCount(len(entries))
         for row, entry in enumerate(entries):
-            for column, value in enumerate((str(entry.id), entry.at, entry.annotator, entry.change,
+            for column, value in enumerate((str(entry.id), moment_text(entry.at), entry.annotator, entry.change,
                                             what_changed(entry))):
                 item = QtWidgets.QTableWidgetItem(value)
-                item.setToolTip(value)
+                item.setToolTip(entry.at if column == 1 else value)  # the exact stored time on hover
                 self.table.setItem(row, column, item)
         self.table.resizeColumnsToContents()
         if entries:
