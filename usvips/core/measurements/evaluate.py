@@ -16,20 +16,17 @@ object was measured with is no longer available: then the vertices are uncorrela
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from usvips.core.calibration.uncertainty import covariance_parts
 from usvips.core.errors import DegenerateGeometryError
+from usvips.core.measurements.combined_figure import CombinedFigure
 from usvips.core.measurements.figures import Figure, QualityRules, full_covariance
 from usvips.core.measurements.registry import kind as kind_named
 from usvips.core.pointing import per_vertex
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
-
-if TYPE_CHECKING:
-    from usvips.core.measurements.instants import CombinedFigure
 
 
 @dataclass(frozen=True)

@@ -32,68 +32,15 @@ r_i = (y_i − μ̂_(−i)) / sqrt(σ_i² + τ̂²_(−i) + σ²(μ̂_(−i))) e
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from usvips.core.errors import InvalidParameterError
+from usvips.core.measurements.combined_figure import ALPHA, CombinedFigure
 from usvips.core.measurements.evaluate import Measurement
 from usvips.core.measurements.figures import Figure, QualityRules
 from usvips.core.measurements.registry import kind as kind_named
-
-#: significance of the agreement test and of the outlier limit (family-wise over the instants)
-ALPHA = 0.05
-
-
-@dataclass(frozen=True)
-class CombinedFigure:
-    """A figure combined over ``count`` instants (units of ``unit``).
-
-    ``value`` ± ``sigma``: the random-effects mean and its standard deviation (common part included);
-    ``tau``: the estimated between-instant standard deviation; ``between_share``: the share (0..1) of
-    sigma² that the between-instant spread contributes (0 when the instants agree within their sigmas);
-    ``q``, ``dof``, ``p_value``: Cochran's χ² test that the instants agree (``agree`` when p ≥ α);
-    ``residuals``: each instant's leave-one-out standardised residual (NaN with fewer than 3 instants);
-    ``outliers``: the indices of the instants beyond ``limit``; ``labels``: the instants' names.
-    """
-
-    name: str
-    unit: str
-    value: float
-    sigma: float
-    count: int
-    tau: float
-    between_share: float
-    q: float
-    dof: int
-    p_value: float
-    residuals: np.ndarray
-    limit: float
-    outliers: tuple[int, ...]
-    labels: tuple[str, ...]
-
-    @property
-    def agree(self) -> bool:
-        return self.p_value >= ALPHA
-
-    @property
-    def figure(self) -> Figure:
-        """The combined figure as any other figure (the object list, the calculator, the exports)."""
-        return Figure(self.name, self.value, self.sigma, self.unit)
-
-    @property
-    def outlier_labels(self) -> tuple[str, ...]:
-        return tuple(self.labels[i] for i in self.outliers)
-
-    def summary(self) -> str:
-        """One line: value ± sigma over k instants, τ and its share, the test and the outliers."""
-        scale, unit = (1000.0, "mm") if self.unit == "m" else (1.0, self.unit)
-        text = (f"{self.name} {self.value * scale:.1f} ± {self.sigma * scale:.1f} {unit} over {self.count} instants"
-                f" (between-instant sd {self.tau * scale:.1f} {unit}, {self.between_share:.0%} of σ²; "
-                f"χ²({self.dof}) = {self.q:.2f}, p = {self.p_value:.3f})")
-        if self.outliers:
-            text += "; outlying: " + ", ".join(self.outlier_labels)
-        return text
 
 
 def _random_effects(values: np.ndarray, variances: np.ndarray,
