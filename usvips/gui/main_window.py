@@ -9,9 +9,9 @@ and runs image reading and enhancement in worker threads (progress and cancel in
 from __future__ import annotations
 
 import html
+import importlib
 import os
 from pathlib import Path
-from types import ModuleType
 
 import cv2
 import numpy as np
@@ -20,7 +20,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.opening import open_project
 from usvips.core.errors import UsvipsError
 from usvips.core.redaction import redact
-from usvips.gui import commands, exchange_dialogs, media_dialogs, menu_keys, panel_registry
+from usvips.gui import commands, menu_keys, panel_registry
 from usvips.gui.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.commands import TOOL_TIPS
 from usvips.gui.error_report import register_window
@@ -50,6 +50,8 @@ from usvips.store.records import StaleEditError
 
 SAMPLES = sample_projects()
 MAX_RECENT = 8
+#: the dialog modules commands name as their owner (usvips.gui.commands): their functions take the window
+DIALOG_MODULES = ("media_dialogs", "exchange_dialogs")
 #: a panel's area (usvips.gui.panel_registry) as Qt's dock area
 DOCK_AREAS = {area: getattr(QtCore.Qt.DockWidgetArea, f"{area.capitalize()}DockWidgetArea")
               for area in ("left", "right", "top", "bottom")}
@@ -272,11 +274,11 @@ class MainWindow(QtWidgets.QMainWindow):
         """The function a command runs: ``owner.method`` resolved against the window's controllers (a dialog
         module's function is given the window), called with the command's ``args``."""
         owner, _, method = command.handler.rpartition(".")
-        owners = {"window": self, "tracking": lambda: self.tracking, "media_dialogs": media_dialogs,
-                  "exchange_dialogs": exchange_dialogs}
+        if owner in DIALOG_MODULES:  # imported when one of its commands is first run, not at start-up
+            module = f"usvips.gui.{owner}"
+            return lambda *_: getattr(importlib.import_module(module), method)(self, *command.args)
+        owners = {"window": self, "tracking": lambda: self.tracking}
         target = owners[owner]
-        if isinstance(target, ModuleType):
-            return lambda *_: getattr(target, method)(self, *command.args)
         if owner == "window":
             return lambda *_: getattr(self, method)(*command.args)
         return lambda *_: getattr(target(), method)(*command.args)  # a controller made after the actions
