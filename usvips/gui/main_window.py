@@ -8,7 +8,6 @@ and runs image reading and enhancement in worker threads (progress and cancel in
 
 from __future__ import annotations
 
-import html
 import importlib
 import os
 from pathlib import Path
@@ -425,6 +424,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def keys_text(self) -> str:
         """Help › Keys: every declared command with its keys (as this platform writes them) and where they
         work, from the one declaration of the commands (:mod:`usvips.gui.commands`)."""
+        import html  # here, not at start-up: its entity table is large
+
         native = QtGui.QKeySequence.SequenceFormat.NativeText
 
         def key_text(key: str) -> str:
