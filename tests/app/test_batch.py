@@ -60,5 +60,5 @@ def test_a_failing_task_is_one_line_and_the_others_are_done(tmp_path):
 
 
 def test_jobs_must_be_positive():
-    with pytest.raises(batch.InvalidParameterError, match="--jobs"):
+    with pytest.raises(batch.InvalidParameterError, match="parallel jobs: must be at least 1"):
         batch.run([batch.Task("x", batch.intersect_task)], jobs=0)

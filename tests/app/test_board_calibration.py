@@ -72,7 +72,7 @@ def test_phase_one_recovers_the_rig(scene, air_calibration):
         assert abs(getattr(calibration, side).interior.f / truth - 1) < 0.01
     base = np.linalg.norm(calibration.relative.base)
     assert abs(base / np.linalg.norm(rig.relative.base) - 1) < 0.01
-    assert air_calibration.result.report["rms_px"] < 0.3
+    assert air_calibration.result.report.rms_px < 0.3
     assert air_calibration.lines()[0].startswith("air calibration")
     by_view = air_calibration.view_rms()
     assert set(by_view) == set(air_calibration.kept) and max(by_view.values()) < 0.3
@@ -86,15 +86,15 @@ def test_a_dropped_view_is_left_out_and_holdout_validates(scene, air_views):
     assert dropped not in result.observations.pair_labels
     validation = result.validation
     assert validation is not None and len(validation.held_out.views) >= 1
-    assert set(validation.held_out.views).isdisjoint(result.result.report["stations"])
+    assert set(validation.held_out.views).isdisjoint(result.result.report.stations)
     assert validation.held_out.rms_px < 1.0
     text = "\n".join(result.lines())
     assert "held out" in text and "OpenCV" in text
-    assert "validation" in result.report
+    assert result.result.report.sigma0_px_estimated is not None  # the held-out views judged the sigmas
     # the board's corners robustly estimated, and whether the stated sigmas hold on the held-out views
     assert "robust estimation:" in text and "honesty on held-out views" in text
-    honesty = result.report["validation"]["honesty"]
-    assert honesty["distances"] > 0 and honesty["why"] and result.report["estimation"]["estimator"] == "huber"
+    honesty = result.validation.as_dict()["honesty"]
+    assert honesty["distances"] > 0 and honesty["why"] and result.result.report.estimation["estimator"] == "huber"
 
 
 def test_phase_two_through_a_flat_port(scene, air_calibration):
@@ -103,8 +103,8 @@ def test_phase_two_through_a_flat_port(scene, air_calibration):
     result = boards.calibrate_views(scene["board"], views.views, "water", base=air_calibration.calibration,
                                     housing="flat-port")
     assert result.calibration.phase in ("water", "joint")
-    assert result.result.report["rms_px"] < 0.5
-    assert result.result.report["housing"] == "flat-port"
+    assert result.result.report.rms_px < 0.5
+    assert result.result.report.housing == "flat-port"
 
 
 def test_bad_input_is_one_line(scene, air_views, air_calibration):

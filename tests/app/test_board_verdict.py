@@ -11,7 +11,7 @@ from usvips.app.board_verdict import judge
 def _calibration(sigma0=0.3, fitted=0.2, held=None):
     validation = None if held is None else SimpleNamespace(fitted=SimpleNamespace(rms_px=fitted),
                                                            held_out=SimpleNamespace(rms_px=held))
-    return SimpleNamespace(result=SimpleNamespace(report={"sigma0_px": sigma0}), validation=validation)
+    return SimpleNamespace(result=SimpleNamespace(report=SimpleNamespace(sigma0_px=sigma0)), validation=validation)
 
 
 def _coverage(views, advice=()):

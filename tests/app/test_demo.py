@@ -1,14 +1,20 @@
 """The demo service: its steps, in order, on a synthetic sample with known truth."""
 
+import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from tests.core.calibration_scenes import FLAT, control_frame, observe, rig_at
 from usvips.app.demo import CheckSummary, DemoStart, PhaseSummary, SkippedCheck, phase_summary, run_demo
+from usvips.core.adjustment import Suspect
 from usvips.core.errors import UsvipsError
+from usvips.io.adjustment_report import read_adjustment_report
 from usvips.io.tables import write_control, write_observations
+
+REPORTS = Path(__file__).resolve().parents[1] / "io" / "data"
 
 
 def _sample(folder, check_pairs):
@@ -62,10 +68,10 @@ def test_a_project_without_in_air_observations_is_refused_by_its_manifest(tmp_pa
 
 
 def test_a_suspect_is_named_once_per_image_with_the_y_verdict_first():
-    report = {"sigma0_px": 1.0, "rms_px": 0.5, "redundancy": 7, "suspects": [
-        {"id": "4", "side": "l", "coordinate": "x", "w": 5.0, "reason": ""},
-        {"id": "4", "side": "l", "coordinate": "y", "w": -6.0, "reason": ""},
-        {"id": "9", "side": "r", "coordinate": "x", "w": None, "reason": "not visible"}]}
+    report = read_adjustment_report(REPORTS / "adjustment_report_air_v1.json")[0]
+    report = dataclasses.replace(report, suspects=(
+        Suspect("4", "l", "x", "air1", 5.0, 0.5, 0.4, ""), Suspect("4", "l", "y", "air1", -6.0, 0.6, 0.4, ""),
+        Suspect("9", "r", "x", "air1", None, None, None, "not visible")))
     summary = phase_summary(report, "phase 1")
     assert [(t.id, t.side, t.w, t.reason) for t in summary.excluded] == [("4", "left", -6.0, ""),
                                                                           ("9", "right", None, "not visible")]

@@ -49,12 +49,12 @@ def fake_areas(tmp_path, monkeypatch):
 def test_every_area_of_the_package_and_of_the_window_is_found_without_registration():
     found = bench.areas()
     assert list(found)[: len(bench.BENCH_MODULES)] == list(bench.BENCH_MODULES)
-    assert found["gui"] == "usvips.gui.bench" and found["window_tracking"] == "usvips.gui.bench_tracking"
+    assert found["gui"] == "usvips.gui.qt.bench" and found["window_tracking"] == "usvips.gui.qt.bench_tracking"
     assert found["scaling"] == "usvips.bench.scaling"
     # modules that hold no benchmarks are no areas: shared scenes, the child process itself
     assert "board_views" not in found and "area_process" not in found
     for name, module in found.items():
-        assert module.startswith(("usvips.bench.", "usvips.gui.bench")), name
+        assert module.startswith(("usvips.bench.", "usvips.gui.qt.bench")), name
 
 
 def test_a_module_added_to_the_package_is_an_area(tmp_path, monkeypatch):

@@ -4,11 +4,11 @@ its timing is the bench's business). The suite's own PostgreSQL server stands in
 
 from tests.store.conftest import postgres_server  # noqa: F401 - the suite's real server
 from usvips import bench
-from usvips.gui import bench_live
+from usvips.gui.qt import bench_live
 
 
 def test_the_live_row_times_a_colleagues_changes_on_both_backends(postgres_server, monkeypatch):  # noqa: F811
-    assert bench.areas()["window_live"] == "usvips.gui.bench_live"
+    assert bench.areas()["window_live"] == "usvips.gui.qt.bench_live"
     monkeypatch.setenv("USVIPS_BENCH_POSTGRES", postgres_server)
     row = bench_live.live_row(scale=0.1)  # 50 objects, one addition and one edit per backend
     assert row["n"] == 50 and "a colleague's change shown" in row["name"]

@@ -2,11 +2,11 @@
 what it timed, its baseline and the promise (no timed assertion: its timing is the bench's business)."""
 
 from usvips import bench
-from usvips.gui import bench_object_list
+from usvips.gui.qt import bench_object_list
 
 
 def test_the_scrolling_row_names_its_steps_baseline_and_promise():
-    assert bench.areas()["window_object_list"] == "usvips.gui.bench_object_list"
+    assert bench.areas()["window_object_list"] == "usvips.gui.qt.bench_object_list"
     row = bench_object_list.scroll_row(scale=0.003)  # 300 objects
     assert row["n"] == row["rows_listed"] == 300 and "scroll the object list" in row["name"]
     assert row["target_s"] == bench_object_list.FREEZE_TARGET_S == 0.1 and row["met"] == (row["ours_s"] <= 0.1)

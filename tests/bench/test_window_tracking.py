@@ -5,11 +5,11 @@ timing is the bench's business, not a test's)."""
 import pytest
 
 from usvips.bench import BENCH_MODULES, BENCH_PATHS
-from usvips.gui import bench_tracking
+from usvips.gui.qt import bench_tracking
 
 
 def test_the_freeze_row_names_what_it_timed_its_baseline_and_the_promise():
-    assert "window_tracking" in BENCH_MODULES and BENCH_PATHS["window_tracking"] == "usvips.gui.bench_tracking"
+    assert "window_tracking" in BENCH_MODULES and BENCH_PATHS["window_tracking"] == "usvips.gui.qt.bench_tracking"
     row = bench_tracking.freeze_row(scale=0.3)  # 12 frames of 1080p video
     assert row["name"] == bench_tracking.NAME and "freeze" in row["name"]
     assert row["target"] is None and row["target_s"] == bench_tracking.FREEZE_TARGET_S == 0.1

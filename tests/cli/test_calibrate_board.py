@@ -160,7 +160,7 @@ def test_an_output_onto_an_input_image_is_refused_before_anything_is_written(sce
     outputs[option] = str(folder / ".." / folder.name / victim.name)  # the same file by another path
     argv = ["calibrate", "air", "--target", str(folder / "board.json"), *source,
             *[item for pair in outputs.items() for item in pair]]
-    _one_line_exit_2(capsys, argv, rf"the output is an input of this command .* \(set it with {option}; --force "
+    _one_line_exit_2(capsys, argv, rf"the output is an input of this command.* \(set it with {option}; --force "
                                    r"replaces it\)$")
     assert victim.read_bytes() == before and not (tmp_path / "cal.json").exists()
     assert "found in both images" not in capsys.readouterr().out  # refused before detection

@@ -90,3 +90,13 @@ def test_the_share_held_out_and_the_jobs_are_said_in_words():
     with pytest.raises(UsvipsError) as raised:
         run_tasks([], jobs=0)
     assert raised.value.parameter == "jobs" and "--" not in str(raised.value)
+
+
+def test_an_export_onto_a_calibration_names_force_though_its_output_is_no_option(capsys, tmp_path):
+    """``project export PROJECT OUT``: OUT is a positional argument, so no option to name; --force is."""
+    project = tmp_path / "p.usvips"
+    assert main(["project", "new", str(project)]) == 0
+    victim = tmp_path / "objects.csv"
+    victim.write_text((ROV / "calibration.json").read_text())  # a calibration saved under that name
+    err = _error_line(capsys, ["project", "export", str(project), str(victim)])
+    assert "the output is a USVIPS calibration" in err and err.endswith(".bak) (--force replaces it)")

@@ -187,7 +187,8 @@ def test_bad_videos_are_refused_in_one_line_and_nothing_is_stored(tmp_path, caps
         ((left, small), "128 × 96 px, but the left video"),
         ((left, [slow]), "30 fps, but the left video"),
         ((left, [junk]), "junk.mp4: not a video"),
-        (([left[0], tmp_path / "a" / "gone.mp4"], right), "gone.mp4: --left: no such file or folder"),
+        (([left[0], tmp_path / "a" / "gone.mp4"], right), "gone.mp4: the left camera's files: no such file or folder "
+                                                     "(set it with --left)"),
     ]
     for (a, b), message in cases:
         code, out, err = _run(capsys, "project", "add-video", project, "--left", *a, "--right", *b)

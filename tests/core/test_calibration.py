@@ -48,18 +48,18 @@ def _within(result, truth: dict[str, float], k: float = 3.0) -> None:
 
 
 def test_phase1_recovers_the_cameras_within_three_sigma(air):
-    assert air and air.report["converged"]
-    assert air.report["sigma0_px"] == pytest.approx(NOISE_PX, rel=0.25)
+    assert air and air.report.converged
+    assert air.report.sigma0_px == pytest.approx(NOISE_PX, rel=0.25)
     _within(air, {"f_l": 1100.0, "xp_l": 652.0, "yp_l": 471.0, "sy_l": 1.02, "k1_l": -0.09,
                   "f_r": 1085.0, "xp_r": 628.0, "yp_r": 488.0, "sy_r": 1.01, "k1_r": -0.07,
                   "X0_l": 0.5, "Y0_l": 0.7, "Z0_l": 2.6, "omega_l": 0.02, "phi_l": 0.03, "kappa_l": 0.01})
-    assert air.report["suspects"] == []
+    assert air.report.suspects == ()
 
 
 def test_joint_phase2_recovers_the_flat_ports_within_three_sigma(water):
     assert water and water.calibration.phase == "water"  # stored as phase 2, however many pairs
     assert water.calibration.stations == ("w0", "w1")
-    assert water.report["sigma0_px"] == pytest.approx(NOISE_PX, rel=0.25)
+    assert water.report.sigma0_px == pytest.approx(NOISE_PX, rel=0.25)
     _within(water, {"d_l": 0.01, "e_l": -0.015, "g_l": 0.06, "d_r": -0.012, "e_r": 0.008, "g_r": 0.07,
                     "n3": 1.34, "X0_l": 0.5, "Y0_l": 0.7, "Z0_l": 2.6, "X0_l@w1": 0.3, "Z0_l@w1": 2.9})
     assert water.calibration.parameters["t"].status == "fixed"
@@ -88,11 +88,11 @@ def test_a_planted_5_px_blunder_is_named(control):
     left[7, 1] += 5.0
     obs = pair.observations.__class__(pair.observations.ids, left, pair.observations.right, pair.observations.pairs)
     result = calibrate_air(control, obs, CalibrationOptions(sigma_px=NOISE_PX))
-    named = {(s["id"], s["side"]) for s in result.report["suspects"]}
+    named = {(s.point, s.side) for s in result.report.suspects}
     assert named == {(obs.ids[7], "l")}
-    suspect = next(s for s in result.report["suspects"] if s["coordinate"] == "y")
-    assert abs(suspect["w"]) > 3.29 and suspect["mdb_px"] < 5.0
-    assert result.report["sigma0_px"] == pytest.approx(NOISE_PX, rel=0.3)
+    suspect = next(s for s in result.report.suspects if s.coordinate == "y")
+    assert abs(suspect.w) > 3.29 and suspect.mdb < 5.0
+    assert result.report.sigma0_px == pytest.approx(NOISE_PX, rel=0.3)
 
 
 def test_calibration_file_round_trip(water):
@@ -120,13 +120,13 @@ def test_the_thesis_water_tank_run_finds_its_typos():
     control = read_control(SAMPLE / "control_table3_1.csv")
     air = calibrate_air(control, read_observations(SAMPLE / "air_pair1_table3_2.csv"),
                         CalibrationOptions(image_size=(568, 488)))
-    assert air and 0.2 < air.report["sigma0_px"] < 1.5
+    assert air and 0.2 < air.report.sigma0_px < 1.5
     # Table 3.1 prints Z = +100 for target 3: demoted (its Z estimated), its observations kept
-    assert [b["id"] for b in air.report["control_blunders"]] == ["3"]
+    assert [b.point for b in air.report.control_blunders] == ["3"]
     water = calibrate_water(air.calibration, "dome-cover", control,
                             read_observations(SAMPLE / "water_pair2_calibration_table3_5.csv"))
-    assert water and water.report["sigma0_px"] < 1.5
-    suspects = {(s["id"], s["side"], s["coordinate"]) for s in water.report["suspects"] if s["w"] is not None}
+    assert water and water.report.sigma0_px < 1.5
+    suspects = {(s.point, s.side, s.coordinate) for s in water.report.suspects if s.w is not None}
     assert ("2", "l", "y") in suspects  # Table 3.5 prints yl = 404 for target 2 (yr = 213)
     values = [p.value for p in water.calibration.parameters.values()]
     assert np.all(np.isfinite(values))

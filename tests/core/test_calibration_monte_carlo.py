@@ -163,26 +163,26 @@ CLEAN_SHARE = {"dome-cover": 1.0, "flat-port": 1.0}
 
 def _clean(run) -> bool:
     report = run["report"]
-    bounded = [b["parameter"] for b in report["on_bound"]]
-    honest_noise = 0.75 < report["sigma0_px"] / run["noise"] < 1.3
-    return report["converged"] and all(name.startswith("g_") for name in bounded) and honest_noise
+    bounded = [b.parameter for b in report.on_bound]
+    honest_noise = 0.75 < report.sigma0_px / run["noise"] < 1.3
+    return report.converged and all(name.startswith("g_") for name in bounded) and honest_noise
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("draw", [_system_one, _system_two], ids=["dome-cover", "flat-port"])
 def test_calibrations_over_many_rigs_converge_and_their_sigmas_are_honest(draw):
     runs = [_one_rig(draw, 1000 + k) for k in range(RIGS)]
-    kind = runs[0]["report"]["housing"]
+    kind = runs[0]["report"].housing
     clean = [run for run in runs if _clean(run)]
     assert len(clean) >= CLEAN_SHARE[kind] * RIGS, f"{RIGS - len(clean)} of {RIGS} rigs did not calibrate cleanly"
     for k, run in enumerate(runs):
         report = run["report"]
-        if not report["converged"]:
-            assert any("NOT converged" in note for note in report["notes"]), f"rig {k}"
-        for bound in report["on_bound"]:
+        if not report.converged:
+            assert any("NOT converged" in note for note in report.notes), f"rig {k}"
+        for bound in report.on_bound:
             # a flat port's distance g, barely separable from the focal length under known glass, may end
             # against g = 0; System I's glass thicknesses should not — either way the report must say so
-            assert any(f"{bound['parameter']} ends on its lower bound" in note for note in report["notes"]), f"rig {k}"
+            assert any(f"{bound.parameter} ends on its lower bound" in note for note in report.notes), f"rig {k}"
     msne = {figure: float(np.mean(np.concatenate([run[figure] for run in clean])))
             for figure in ("points", "lengths", "areas")}
     rms = np.sqrt(np.mean([run["squared"] for run in clean], axis=0))

@@ -6,6 +6,7 @@ import pytest
 
 from tests.core.scenes import HOUSINGS
 from usvips.core import kernels
+from usvips.core.calibration.point_derivatives import ideal_rays
 from usvips.core.camera import Camera, Exterior
 from usvips.core.errors import ConvergenceError
 from usvips.core.housing import AirHousing, DomeCoverHousing, FlatPortHousing, GeneralHousing
@@ -70,6 +71,31 @@ def both(function):
     with kernels.mode("always"):
         compiled = function()
     return reference, compiled
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("seed", SEEDS[:5])
+def test_compiled_rays_of_ideal_coordinates_match_the_reference(kind, seed):
+    """The rays the calibration's housing derivatives trace (ideal coordinates, no derivatives) are the
+    camera's rays of the pixels the lens maps there."""
+    rng = np.random.default_rng(seed)
+    camera = random_camera(rng, kind)
+    pixels = frame_pixels(rng, 800)
+    ideal = camera.interior.pixels_to_normalised(pixels)
+    steep = rng.uniform(-6, 6, (200, 2))  # far beyond any lens: rays that graze the surfaces
+    ref, fast = both(lambda: ideal_rays(camera, np.vstack([ideal, steep])))
+    np.testing.assert_array_equal(fast.status, ref.status)
+    np.testing.assert_array_equal(fast.failed_surface, ref.failed_surface)
+    ok = ref.ok
+    np.testing.assert_allclose(fast.origins[ok], ref.origins[ok], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fast.directions[ok], ref.directions[ok], rtol=0, atol=1e-12)
+    ok = ref.ok[:len(pixels)]
+    assert ok.sum() > 500
+    with kernels.mode("never"):
+        through_lens = camera.rays(pixels)
+    np.testing.assert_array_equal(ref.status[:len(pixels)], through_lens.status)
+    np.testing.assert_allclose(ref.origins[:len(pixels)][ok], through_lens.origins[ok], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ref.directions[:len(pixels)][ok], through_lens.directions[ok], rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -307,3 +333,16 @@ def test_an_undistortion_that_folds_is_named_by_the_reference_path():
     target = np.vstack([np.zeros((600, 2)), [[0.64, 0.48]]])
     with kernels.mode("always"), pytest.raises(ConvergenceError, match="row 600"):
         interior.undistort(target)
+
+
+def test_compiled_rays_of_ideal_coordinates_name_misses_and_total_reflection_as_the_reference():
+    tilted = GeneralHousing((Plane.from_coefficients(2.0, 0.0, 0.05), Plane.from_coefficients(2.0, 0.5, 0.06)),
+                            (1.0, 1.7, 1.0))
+    camera = Camera(Interior(1000, 640, 480), Exterior(0.0, 0.0, 0.0, 0.1, 0.0, 0.0), tilted)
+    ideal = np.random.default_rng(1).uniform(-6, 6, (2000, 2))
+    ref, fast = both(lambda: ideal_rays(camera, ideal))
+    assert {RayStatus.OK, RayStatus.MISSED_SURFACE, RayStatus.TOTAL_INTERNAL_REFLECTION} <= set(ref.status.tolist())
+    np.testing.assert_array_equal(fast.status, ref.status)
+    np.testing.assert_array_equal(fast.failed_surface, ref.failed_surface)
+    np.testing.assert_allclose(fast.origins[ref.ok], ref.origins[ref.ok], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fast.directions[ref.ok], ref.directions[ref.ok], rtol=0, atol=1e-12)

@@ -18,8 +18,8 @@ SAMPLES = ROOT / "sample_projects"
 def no_modal_questions(monkeypatch):
     """Windows closed at the end of a test must not wait for a person: the questions asked before
     discarding work answer "discard" unless a test sets its own answer (on the instance)."""
-    from usvips.gui.calibration_wizard import CalibrationWizard
-    from usvips.gui.main_window import MainWindow
+    from usvips.gui.qt.calibration_wizard import CalibrationWizard
+    from usvips.gui.qt.main_window import MainWindow
 
     monkeypatch.setattr(CalibrationWizard, "ask_discard", lambda self: "discard")
     monkeypatch.setattr(MainWindow, "ask_unfinished", lambda self, question: "discard")
@@ -70,8 +70,8 @@ def make_window(qtbot, tmp_path):
     """``make_window(settings_file=None)`` → a shown MainWindow using its own settings file."""
     from PySide6 import QtCore
 
-    from usvips.gui.app import configure
-    from usvips.gui.main_window import MainWindow
+    from usvips.gui.qt.app import configure
+    from usvips.gui.qt.main_window import MainWindow
 
     configure()
     windows = []
@@ -105,7 +105,7 @@ def viewport_point(pane, pixel):
     """The viewport position (integer screen pixels) that shows image ``pixel``, through the view."""
     from PySide6 import QtCore, QtWidgets
 
-    from usvips.gui.pane import item_from_pixels
+    from usvips.gui.qt.pane import item_from_pixels
 
     QtWidgets.QApplication.processEvents()  # pyqtgraph applies a new view range on the next event round
     ix, iy = item_from_pixels(np.array(pixel))[0]

@@ -4,7 +4,7 @@ video is stored as air, so phase 1's Active for list offers it and phase 2's doe
 from __future__ import annotations
 
 from usvips.core.synth.frame_numbers import numbered_frame
-from usvips.gui import media_dialogs
+from usvips.gui.qt import media_dialogs
 from usvips.io.video_writer import encode_video
 
 

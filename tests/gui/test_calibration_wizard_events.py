@@ -4,7 +4,7 @@ the step changes; closing the wizard stops its listening."""
 
 from PySide6 import QtCore
 
-from tests.gui.test_calibration_wizard import _compute, _to_results, _wait_idle, _wizard, project  # noqa: F401
+from tests.gui.qt.test_calibration_wizard import _compute, _to_results, _wait_idle, _wizard, project  # noqa: F401
 from usvips.gui.calibration_session import CalibrationSession
 
 

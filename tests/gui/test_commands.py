@@ -83,7 +83,7 @@ def test_the_window_builds_its_menus_and_keys_from_the_declaration(make_window):
 
 
 def test_every_handler_names_a_method_its_owner_has(make_window):
-    from usvips.gui import exchange_dialogs, media_dialogs
+    from usvips.gui.qt import exchange_dialogs, media_dialogs
 
     window = make_window()
     owners = {"window": window, "tracking": window.tracking, "media_dialogs": media_dialogs,
@@ -96,7 +96,7 @@ def test_every_handler_names_a_method_its_owner_has(make_window):
 def test_a_dialog_modules_command_calls_its_function_with_the_window(make_window, monkeypatch):
     """The dialog modules are imported when one of their commands is first run (not at start-up); the
     command still reaches the module's function, handed the window and the command's arguments."""
-    from usvips.gui import exchange_dialogs, media_dialogs
+    from usvips.gui.qt import exchange_dialogs, media_dialogs
 
     window = make_window()
     called = []

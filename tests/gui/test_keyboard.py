@@ -8,7 +8,7 @@ from PySide6 import QtCore, QtWidgets
 
 from tests.gui.conftest import click_pixel, isolated_targets, open_sample, truth_pixels, wait_for_pair
 from usvips.gui.calibration_session import CalibrationSession
-from usvips.gui.main_window import MainWindow
+from usvips.gui.qt.main_window import MainWindow
 
 Key = QtCore.Qt.Key
 Modifier = QtCore.Qt.KeyboardModifier
@@ -151,7 +151,7 @@ def test_page_down_and_up_step_through_the_pairs(qtbot, make_window, sample_copy
 
 
 def test_measuring_keys_are_in_the_menus_and_the_guide():
-    from usvips.gui.main_window import quick_guide
+    from usvips.gui.qt.main_window import quick_guide
 
     guide = quick_guide()  # a resource file shipped with the package
     for text in ("Enter", "Esc", "Ctrl+arrow", "Ctrl+Shift+arrow", "Page Down", "Attribute"):
@@ -162,8 +162,8 @@ def test_measuring_keys_are_in_the_menus_and_the_guide():
 
 def test_enter_in_the_wizards_measure_page_accepts_and_never_advances(qtbot, sample_copy):
     from usvips.app.samples import open_or_create_from_manifest
-    from usvips.gui.app import configure
-    from usvips.gui.calibration_wizard import CalibrationWizard
+    from usvips.gui.qt.app import configure
+    from usvips.gui.qt.calibration_wizard import CalibrationWizard
 
     configure()
     directory = sample_copy("rov_flatport")

@@ -1,4 +1,4 @@
-"""The live feed's thread (usvips.gui.live_updates.ChangeFeed) when the store cannot be read: it says so
+"""The live feed's thread (usvips.gui.qt.live_updates.ChangeFeed) when the store cannot be read: it says so
 once — not on every attempt — tries again with growing pauses, says once that it is back, and goes on
 from its cursor so that nothing committed meanwhile is missed. A store object of the test's own stands
 for a survey that fails a given number of times; then the window on a real server of the test's own,
@@ -10,8 +10,8 @@ import threading
 
 from tests.store.conftest import database_url
 from tests.store.test_server_failure import killable  # noqa: F401 - a server the test may kill
-from usvips.gui import live_updates
-from usvips.gui.live_updates import ChangeFeed, _Relay
+from usvips.gui.qt import live_updates
+from usvips.gui.qt.live_updates import ChangeFeed, _Relay
 from usvips.store.opening import create_project, open_project
 from usvips.store.records import HistoryEntry, ServerUnreachableError, StoredObject, Vertex
 

@@ -5,9 +5,9 @@ import pytest
 from PySide6 import QtCore
 
 from usvips.core.errors import UsvipsError
-from usvips.gui.jobs import Jobs
 from usvips.gui.messages import LEVELS, Messages
-from usvips.gui.worker import Cancelled
+from usvips.gui.qt.jobs import Jobs
+from usvips.gui.qt.worker import Cancelled
 
 
 def _listened(messages: Messages) -> list:
@@ -68,9 +68,9 @@ def test_the_video_and_tracking_controllers_work_without_a_window(qtbot, sample_
     from PySide6 import QtWidgets
 
     from usvips.app.opening import open_project
-    from usvips.gui.pane import StereoPane
-    from usvips.gui.track_controls import TrackController
-    from usvips.gui.video_controls import VideoController
+    from usvips.gui.qt.pane import StereoPane
+    from usvips.gui.qt.track_controls import TrackController
+    from usvips.gui.qt.video_controls import VideoController
     from usvips.gui.window_context import WindowContext
     from usvips.gui.workspace import Workspace
 

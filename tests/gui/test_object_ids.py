@@ -8,7 +8,7 @@ from PySide6 import QtCore
 
 from tests.gui.conftest import click_pixel, truth_pixels, wait_for_pair
 from usvips.core.measurements import QualityRules
-from usvips.gui.bench import survey_project
+from usvips.gui.qt.bench import survey_project
 from usvips.locations import sample_project
 from usvips.store.opening import open_project
 

@@ -13,8 +13,8 @@ from usvips.app.object_instants import add_instant
 from usvips.app.project_figures import evaluate, measurement_input
 from usvips.bench import scaling
 from usvips.gui.calculator import format_figure
-from usvips.gui.calculator_panel import CalculatorPanel
-from usvips.gui.object_list import ObjectList
+from usvips.gui.qt.calculator_panel import CalculatorPanel
+from usvips.gui.qt.object_list import ObjectList
 from usvips.gui.workspace import Workspace
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.store import Project

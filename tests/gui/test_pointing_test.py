@@ -9,8 +9,8 @@ from PySide6 import QtCore
 from tests.gui.conftest import open_sample
 from usvips.app.pointing_settings import pointing_in_use, stored_estimates
 from usvips.core.pointing_test import CONDITIONS, FEATURES, HEIGHT, WIDTH
-from usvips.gui import pointing_test_dialog
 from usvips.gui.pointing_test_model import MISS_PX, PointingTestModel
+from usvips.gui.qt import pointing_test_dialog
 
 
 def test_the_model_estimates_the_clicks_sigma_and_leaves_misses_out():

@@ -110,7 +110,7 @@ def test_the_summary_counts_in_words_for_one_object_and_one_note():
 def test_the_calculator_review_and_qa_panel_give_one_verdict_per_object(survey, qtbot):
     """The geo-calculator said "passes the rules" of a fish the QA panel listed over its species maximum:
     every place that shows a verdict now asks the one function (app.quality.judge)."""
-    from usvips.gui.calculator_panel import CalculatorPanel
+    from usvips.gui.qt.calculator_panel import CalculatorPanel
 
     ws, ids = survey
     model = QaModel(ws)

@@ -83,7 +83,7 @@ def test_the_window_shows_and_keeps_no_password_and_names_the_survey_host_slash_
 
 
 def test_an_unexpected_error_quoting_a_url_writes_and_shows_no_password(monkeypatch, tmp_path, capsys):
-    from usvips.gui import error_report as app
+    from usvips.gui.qt import error_report as app
 
     monkeypatch.setattr(app, "log_path", lambda: tmp_path / "usvips.log")
     url = f"postgresql://keeper:{SECRET}@db.example.org:5432/reef"

@@ -7,8 +7,8 @@ import numpy as np
 
 from tests.gui.conftest import click_pixel, truth_pixels, wait_for_pair
 from usvips.gui import object_overlay
-from usvips.gui.bench import survey_project
-from usvips.gui.pane import item_from_pixels
+from usvips.gui.qt.bench import survey_project
+from usvips.gui.qt.pane import item_from_pixels
 from usvips.locations import sample_project
 
 COUNT = 400

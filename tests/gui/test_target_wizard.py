@@ -16,8 +16,8 @@ from tests.app.board_images import air_scene, board_poses, render_pairs
 from usvips.app.video_project import add_video
 from usvips.core.calibration_targets import CalibrationTarget, kind
 from usvips.gui.calibration_session import CalibrationSession
-from usvips.gui.calibration_wizard import CalibrationWizard
-from usvips.gui.target_pages import TargetWizard
+from usvips.gui.qt.calibration_wizard import CalibrationWizard
+from usvips.gui.qt.target_pages import TargetWizard
 from usvips.gui.target_session import TargetSession
 from usvips.io.video_writer import encode_video
 from usvips.store import Project
@@ -248,7 +248,7 @@ def test_phase_one_from_a_project_video_then_phase_two_from_images(qtbot, projec
     qtbot.waitUntil(lambda: not wizard.compute_page.busy, timeout=300_000)
     result = wizard.session.result
     assert result is not None, wizard.compute_page.text.toPlainText()
-    assert result.result.report["housing"] == "flat-port"
+    assert result.result.report.housing == "flat-port"
     assert "through flat-port" in wizard.compute_page.text.toPlainText()
     parameters = result.calibration.parameters
     assert parameters["t"].value == pytest.approx(truth_t) and parameters["t"].status == "fixed"

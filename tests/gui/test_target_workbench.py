@@ -13,8 +13,8 @@ from PySide6 import QtWidgets
 from tests.app.board_images import air_scene
 from tests.gui.test_target_wizard import _Gated
 from usvips.gui.calibration_session import CalibrationSession
-from usvips.gui.calibration_wizard import CalibrationWizard
-from usvips.gui.target_pages import TargetWizard
+from usvips.gui.qt.calibration_wizard import CalibrationWizard
+from usvips.gui.qt.target_pages import TargetWizard
 from usvips.gui.target_session import TargetSession, known_options
 from usvips.io.images import write_image
 from usvips.store import Project

@@ -16,7 +16,7 @@ from tests.core.test_tracking import truth
 from tests.gui.swimming_project import BLANK, FRAMES, OFFSET, POINTS, START, make_survey_project
 from usvips.app.project_figures import evaluate, measurement_input
 from usvips.app.tracking import VideoTracker
-from usvips.gui.pane import item_from_pixels
+from usvips.gui.qt.pane import item_from_pixels
 from usvips.store import Project
 from usvips.store.project import Vertex
 
@@ -133,7 +133,7 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
 
 
 def test_the_tracking_keys_are_in_the_measure_menu_and_the_guide(qtbot, make_window):
-    from usvips.gui.main_window import quick_guide
+    from usvips.gui.qt.main_window import quick_guide
 
     window = make_window()
     measure = next(a.menu() for a in window.menuBar().actions() if a.text() == "&Measure")

@@ -11,7 +11,7 @@ import pytest
 from PySide6 import QtCore, QtWidgets
 
 from usvips.core.synth.frame_numbers import frame_number, numbered_frame
-from usvips.gui import media_dialogs
+from usvips.gui.qt import media_dialogs
 from usvips.io.images import write_image
 from usvips.io.video_stream import VideoStream
 from usvips.io.video_writer import encode_video
@@ -149,7 +149,7 @@ def test_the_frames_shown_become_a_calibration_pair_from_the_video_dock(qtbot, m
     from PySide6 import QtWidgets
 
     from usvips.gui.calibration_session import CalibrationSession
-    from usvips.gui.video_controls import TakePairDialog
+    from usvips.gui.qt.video_controls import TakePairDialog
     from usvips.io.images import read_image
 
     directory = sample_copy("rov_flatport")
@@ -423,7 +423,7 @@ def test_the_video_box_names_no_video_until_one_is_shown_and_its_controls_open_t
     """A project with image pairs and a video opens on a pair: the Video box says "choose…" (not the
     video's name, as if it were shown); Play, Go to (Ctrl+G) and Sync open the project's only video rather
     than doing nothing; showing an image pair leaves the video (the arrows no longer step it)."""
-    from usvips.gui.video_controls import NONE_SHOWN
+    from usvips.gui.qt.video_controls import NONE_SHOWN
 
     directory = sample_copy("rov_flatport")
     window = make_window()

@@ -6,7 +6,7 @@ import numpy as np
 from PySide6 import QtCore
 
 from tests.gui.conftest import click_pixel, open_sample, truth_pixels
-from usvips.gui.pane import COLOURS, item_from_pixels
+from usvips.gui.qt.pane import COLOURS, item_from_pixels
 
 
 def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_window, sample_copy):

@@ -4,8 +4,8 @@ list and nothing lists every object from the project; selecting and deleting go 
 from PySide6 import QtCore
 
 from tests.gui.conftest import click_pixel, truth_pixels, wait_for_pair
-from usvips.gui.bench import survey_project
-from usvips.gui.object_list import ObjectList
+from usvips.gui.qt.bench import survey_project
+from usvips.gui.qt.object_list import ObjectList
 from usvips.locations import sample_project
 from usvips.store import Project
 

@@ -1418,3 +1418,18 @@ def test_media_are_located_through_the_store_whether_or_not_they_are_there(store
     assert store.media_location(stored[1][0]) == plan[1][1].resolve()
     with pytest.raises(ProjectError, match="missing"):
         store.image_path(stored[1][0])
+
+
+def test_an_object_id_is_never_used_twice_not_even_after_the_newest_object_is_deleted(store):
+    """The id of a deleted object — the newest one included, which SQLite's rowids handed out again — is
+    never given to another: history rows and reviews of one id belong to one object."""
+    rng = np.random.default_rng(15)
+    first = store.add_object("point", [_vertex(rng)], "first")
+    newest = store.add_object("point", [_vertex(rng)], "newest")
+    store.delete_object(newest, expected_modified=store.object(newest).modified)
+    again = store.add_object("point", [_vertex(rng)], "again")
+    assert again > newest > first
+    batch = store.add_objects([("point", [_vertex(rng)], f"b{k}", "", "") for k in range(3)])
+    assert batch == [again + 1, again + 2, again + 3]
+    assert [h.change for h in store.history(newest)] == ["add", "delete"]
+    assert [h.change for h in store.history(again)] == ["add"]

@@ -163,36 +163,27 @@ class BoardCalibration:
     def calibration(self) -> StereoCalibration:
         return self.result.calibration
 
-    @property
-    def report(self) -> dict:
-        """The adjustment's report, with the validation under ``"validation"`` when there is one."""
-        report = self.result.report
-        if self.validation is not None:
-            report["validation"] = self.validation.as_dict()
-        return report
-
     def view_rms(self) -> dict[str, float]:
         """Each fitted view's reprojection RMS (pixels, per coordinate, over its kept observations): the
         view to look at first when the fit is poor."""
         squares: dict[str, list[float]] = {}
-        for row in self.result.report["residuals"]:
-            if row["used"]:
-                squares.setdefault(row["station"], []).extend([row["vx"] ** 2, row["vy"] ** 2])
+        for row in self.result.report.used_residuals():
+            squares.setdefault(row.station, []).extend([row.vx ** 2, row.vy ** 2])
         return {label: float(np.sqrt(np.mean(values))) for label, values in squares.items()}
 
     def lines(self) -> list[str]:
         """The fit and the validation as a person reads them (one figure a line)."""
         r = self.result.report
-        rms_all = r.get("rms_px_all")
-        housing = f" through {r['housing']}" if r["housing"] != "air" else ""
-        out = [f"{r['phase']} calibration{housing} from {len(self.kept)} views"
+        rms_all = r.rms_px_all
+        housing = f" through {r.housing}" if r.housing != "air" else ""
+        out = [f"{r.phase} calibration{housing} from {len(self.kept)} views"
                + (f" ({len(self.dropped)} dropped by you)" if self.dropped else "")
-               + f": sigma0 {r['sigma0_px']:.3f} px, RMS {r['rms_px']:.3f} px over the kept observations"
+               + f": sigma0 {r.sigma0_px:.3f} px, RMS {r.rms_px:.3f} px over the kept observations"
                + (f", {rms_all:.3f} px over all" if rms_all is not None else "")
-               + f", redundancy {r['redundancy']}"]
-        if r.get("suspects"):
-            out.append(f"  {len(r['suspects'])} observations set aside as blunders")
-        estimation = r.get("estimation") or {}
+               + f", redundancy {r.redundancy}"]
+        if r.suspects:
+            out.append(f"  {len(r.suspects)} observations set aside as blunders")
+        estimation = r.estimation
         if estimation.get("estimator") == "huber":
             gross = estimation["gross_errors"]
             out.append(f"  robust estimation: {100 * estimation['down_weighted']:.1f} % of the corners' coordinates "

@@ -45,6 +45,9 @@ Progress = Callable[[float, str], None]
 
 #: Draws of a board pose per view before the views are refused as not fitting the images.
 POSE_DRAWS = 200
+#: At most this many still pairs and video frames, and image sides of at most this many pixels: beyond them a
+#: rehearsal would render for days (a mistyped count is refused, not started)
+MAX_VIEWS, MAX_VIDEO_FRAMES, MAX_SIDE = 1000, 100_000, 16384
 
 
 @dataclass(frozen=True)
@@ -65,14 +68,20 @@ class Rehearsal:
 
     def check(self) -> None:
         """Refuse values that cannot be rendered, naming the parameter."""
-        if self.views < 0 or self.video_frames < 0 or self.views + self.video_frames == 0:
+        if self.video_frames < 0:
+            raise InvalidParameterError("video_frames", f"must be 0 or more frames, got {self.video_frames}")
+        if self.views < 0 or self.views + self.video_frames == 0:
             raise InvalidParameterError("views", "render at least one view or video frame (none is negative)")
+        if self.views > MAX_VIEWS:
+            raise InvalidParameterError("views", f"at most {MAX_VIEWS} still pairs, got {self.views}")
+        if self.video_frames > MAX_VIDEO_FRAMES:
+            raise InvalidParameterError("video_frames", f"at most {MAX_VIDEO_FRAMES} frames, got {self.video_frames}")
         if not 0 < self.distances[0] <= self.distances[1] or not np.all(np.isfinite(self.distances)):
             raise InvalidParameterError("distances", f"must be 0 < nearest <= farthest (metres), got {self.distances}")
         if not 0 <= self.tilts[0] <= self.tilts[1] < 80:
             raise InvalidParameterError("tilts", f"must be 0 <= least <= most < 80 degrees, got {self.tilts}")
-        if min(self.size) < 64:
-            raise InvalidParameterError("size", f"each side must be at least 64 pixels, got {self.size}")
+        if min(self.size) < 64 or max(self.size) > MAX_SIDE:
+            raise InvalidParameterError("size", f"each side must be 64 to {MAX_SIDE} pixels, got {self.size}")
         if not 1 <= self.supersample <= 8:
             raise InvalidParameterError("supersample", f"must be 1 to 8, got {self.supersample}")
         if not (np.isfinite(self.noise) and self.noise >= 0):

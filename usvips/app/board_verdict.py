@@ -33,8 +33,7 @@ class Verdict:
 def judge(calibration: BoardCalibration, coverage: Coverage | None, sigma_px: float) -> Verdict:
     """The verdict on ``calibration`` given the ``coverage`` of the views it was computed from (None: not
     known) and the a-priori pointing σ (pixels)."""
-    report = calibration.result.report
-    ratio = report["sigma0_px"] / sigma_px
+    ratio = calibration.result.report.sigma0_px / sigma_px
     if ratio > MISFIT_RATIO:
         return Verdict("poor", f"σ0 is {ratio:.1f} × the pointing σ: the views, the target or the model do not fit "
                                "— check the target's description (its square size) and drop the views with large "

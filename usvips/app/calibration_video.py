@@ -92,6 +92,8 @@ def scan_streams(left: VideoStream, right: VideoStream, offset: int, target: Cal
         raise InvalidParameterError("every", f"must be at least 1 frame, got {every}")
     if max_views < 1:
         raise InvalidParameterError("maximum views", f"must be at least 1, got {max_views}")
+    if focal_px is not None and not 0 < focal_px < float("inf"):  # named before any frame is read
+        raise InvalidParameterError("focal length", f"must be a positive number of pixels, got {focal_px}")
     frames = VideoFrames(left, right, offset, label, every)
     if not len(frames):
         raise VideoError(f"video {label!r}: no left frame has a right partner with offset {offset} "

@@ -17,6 +17,7 @@ import numpy as np
 
 from usvips.core import housing as housings
 from usvips.core.calibration import CalibrationOptions, calibrate_air, calibrate_water
+from usvips.core.calibration.report import CalibrationReport
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import UsvipsError
 from usvips.io.manifest import read_manifest, split_known
@@ -123,21 +124,20 @@ def run_demo(project: str | Path = DEFAULT_PROJECT) -> Iterator[DemoStep]:
                            result.sigmas[known], np.sqrt(np.mean(errors**2, axis=0)))
 
 
-def phase_summary(report: dict, title: str) -> PhaseSummary:
-    """A calibration result's report (``sigma0_px``, ``rms_px``, ``redundancy``, ``suspects``,
-    ``control_blunders``) as a :class:`PhaseSummary`: each suspect target once per image, the y
-    coordinate's verdict first; each demoted control point's message."""
+def phase_summary(report: CalibrationReport, title: str) -> PhaseSummary:
+    """A calibration result's report (σ0, RMS, redundancy, suspects, demoted control points) as a
+    :class:`PhaseSummary`: each suspect target once per image, the y coordinate's verdict first; each
+    demoted control point's message."""
     seen, excluded = set(), []
-    for suspect in sorted(report["suspects"], key=lambda s: s["coordinate"] != "y"):
-        key = (suspect["id"], suspect["side"])
+    for suspect in sorted(report.suspects, key=lambda s: s.coordinate != "y"):
+        key = (suspect.point, suspect.side)
         if key in seen:
             continue
         seen.add(key)
-        excluded.append(ExcludedTarget(str(suspect["id"]), "left" if suspect["side"] == "l" else "right",
-                                       suspect["w"], str(suspect.get("reason") or "")))
-    demoted = tuple(str(blunder["message"]) for blunder in report.get("control_blunders", []))
-    return PhaseSummary(title, report["sigma0_px"], report["rms_px"], report["redundancy"], tuple(excluded),
-                        demoted)
+        excluded.append(ExcludedTarget(str(suspect.point), "left" if suspect.side == "l" else "right",
+                                       suspect.w, suspect.reason or ""))
+    demoted = tuple(blunder.message for blunder in report.control_blunders)
+    return PhaseSummary(title, report.sigma0_px, report.rms_px, report.redundancy, tuple(excluded), demoted)
 
 
 def _files(manifest, role: str) -> list:

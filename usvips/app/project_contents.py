@@ -14,8 +14,9 @@ from usvips.app.calibration_size import calibration_dict_size_check
 from usvips.app.calibrations import store_calibration
 from usvips.app.video_project import proxy_bytes
 from usvips.core.deployment import Deployment, Georeference
-from usvips.core.errors import InputFileError, UsvipsError, concerning
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError, concerning
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
+from usvips.io.manifest import ROLES
 from usvips.io.tables import read_control, read_observations
 from usvips.store.interface import ProjectStore
 from usvips.store.records import Pair
@@ -182,6 +183,9 @@ def plan_import(control: str | Path | None = None, observations: str | Path | No
         raise UsvipsError("nothing to import: give control points, observations or a calibration")
     if observations and not pair:
         raise concerning(UsvipsError("observations need the image pair they belong to"), "pair")
+    if observations and role not in ROLES:
+        raise InvalidParameterError("role", f"unknown observation role {role!r}; the roles are {', '.join(ROLES)}",
+                                    label="observation role")
     control_points = read_control(control) if control else None
     rows = read_observations(observations) if observations else None
     if rows is not None and len(rows.pair_labels) > 1:

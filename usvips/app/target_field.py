@@ -255,6 +255,13 @@ def _reason(status: str, reason: str) -> str:
     return "not located" if status == "missing" else "check it"
 
 
+def inside(pixel: tuple[float, float], size: tuple[int, int]) -> bool:
+    """Whether ``pixel`` lies on an image of ``size`` (width, height): x from −0.5 to width − 0.5, y alike."""
+    x, y = (float(v) for v in pixel)
+    width, height = size
+    return bool(np.isfinite(x) and np.isfinite(y) and -0.5 <= x <= width - 0.5 and -0.5 <= y <= height - 0.5)
+
+
 def check_side(control: ControlPoints, side: str, clicks: Mapping[str, tuple[float, float]], size: tuple[int, int],
                calibrated: bool) -> None:
     """The clicks of one image, checked in the order a user fixes them: unknown ids, pixels outside the
@@ -267,7 +274,7 @@ def check_side(control: ControlPoints, side: str, clicks: Mapping[str, tuple[flo
                              side, pid)
         x, y = (float(v) for v in pixel)
         width, height = size
-        if not (np.isfinite(x) and np.isfinite(y) and -0.5 <= x <= width - 0.5 and -0.5 <= y <= height - 0.5):
+        if not inside((x, y), size):
             raise ClickError(f"{side} image: target {pid!r} at ({x:g}, {y:g}) lies outside the image ({width} × "
                              f"{height} px)", side, pid)
     needed = clicks_needed(control)
@@ -290,18 +297,18 @@ def prepare(project: ProjectStore, pair: str, control: ControlPoints | None = No
     """A search of the project's image pair ``pair``: its images, the project's control (or ``control``
     when the project has none; a different one is refused), the cameras of the stored calibration
     ``calibration_id`` (None: a DLT in air), and the pair's stored observations of its role as read."""
-    rows = {p["label"]: p for p in project.pairs()}
+    rows = {p.label: p for p in project.pairs()}
     if pair not in rows:
         shown = ", ".join(list(rows)[:8]) or "none"
         raise UsvipsError(f"{project.path}: no image pair {pair!r} (pairs: {shown})")
     row = rows[pair]
-    if not row.get("left") or not row.get("right"):
+    if not row.left or not row.right:
         raise UsvipsError(f"{project.path}: pair {pair!r} has no images (a video frame pair? export it first)")
     stored_control = project.control()
     chosen = _control(project, stored_control, control)
-    role = ROLES.get(row.get("medium") or "water", "calibration-water")
+    role = ROLES.get(row.medium or "water", "calibration-water")
     stored = project.control_observations(role, pair)
-    paths = {side: project.image_path(row[side]) for side in SIDES}
+    paths = {side: project.image_path(getattr(row, side)) for side in SIDES}
     images = {side: read_image(paths[side]) for side in SIDES}
     cameras = cameras_of(project, calibration_id, pair)
     return FieldJob(pair, role, chosen, images, cameras, shape, stored, stored_control, calibration_id,
@@ -364,6 +371,10 @@ def confirm(project: ProjectStore, result: FieldResult, accepted: Iterable[tuple
         if target.pixel is None and (side, pid) not in (moved or {}):
             raise UsvipsError(f"{side} image: target {pid!r} was not located ({target.reason}): place it before "
                               "accepting it")
+    for (side, pid), pixel in (moved or {}).items():
+        if not inside(pixel, result.side(side).image_size):
+            raise UsvipsError(f"{side} image: target {pid!r} placed at ({pixel[0]:g}, {pixel[1]:g}), outside the "
+                              "image")
     new = result.observations(accepted, moved)
     if not len(new):
         raise UsvipsError(f"pair {result.pair!r}: no target is usable in both images; nothing stored")

@@ -201,6 +201,10 @@ class VertexProposal:
     right: tuple[float, float] | None
     reason: str = ""
 
+    def __bool__(self) -> bool:
+        """Falsy when the vertex has no proposal (its track stopped before the frame: ``reason``)."""
+        return self.left is not None and self.right is not None
+
 
 def propose_on_frame(project: ProjectStore, object_id: int, frame: int, settings: TrackSettings | None = None,
                      cancel: Callable[[], bool] | None = None,

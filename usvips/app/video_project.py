@@ -419,7 +419,7 @@ def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: s
     """The label (default ``VIDEO-FRAME``) and folder (``frames/LABEL`` beside the project) of the image
     pair :func:`take_pair` makes of left frame ``frame``; refuses a label already used before anything
     is written (so no stored pair's images are overwritten)."""
-    pair_label = validation.name("label", pair_label or f"{label}-{frame}")
+    pair_label = validation.name("label", f"{label}-{frame}" if pair_label is None else pair_label)
     if not pair_label or "/" in pair_label or "\\" in pair_label or pair_label.startswith("."):
         raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
     if pair_label in {p.label for p in project.pairs()}:

@@ -51,8 +51,8 @@ class ViewRules:
     def __post_init__(self) -> None:
         if int(self.minimum_points) < 1:
             raise InvalidParameterError("minimum points", f"a view needs at least 1 point, got {self.minimum_points}")
-        if not self.max_blur_px > 0:
-            raise InvalidParameterError("largest edge width", f"must be a positive number of pixels, got "
+        if not 0 < self.max_blur_px < float("inf"):
+            raise InvalidParameterError("largest edge width", f"must be a finite positive number of pixels, got "
                                         f"{self.max_blur_px}")
         if not self.blur_share > 0:
             raise InvalidParameterError("blur share", f"must be a positive share of the point spacing, got "
@@ -80,6 +80,10 @@ class DetectedViews:
     seen: int
     blurred: int
     duplicates: int
+
+    def __bool__(self) -> bool:
+        """Falsy when no instant gave a usable view (:meth:`reasons` says why each was set aside)."""
+        return bool(self.views)
 
     def reasons(self) -> dict[str, str]:
         """The reason each instant set aside was, by its label."""

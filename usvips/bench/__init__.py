@@ -8,7 +8,7 @@ ratios, not absolute times, are what we track.
 
 An area is any module of this package that defines a top-level ``benchmarks(scale)`` (found without
 importing it: adding a module adds its area, no registration needed), plus the window's areas in the GUI
-package: ``usvips/gui/bench.py`` is the area ``gui`` and ``usvips/gui/bench_NAME.py`` the area
+package: ``usvips/gui/qt/bench.py`` is the area ``gui`` and ``usvips/gui/bench_NAME.py`` the area
 ``window_NAME`` (Qt stays inside the GUI package; it is imported only in the child process that runs the
 area). :func:`run` runs every area in a child process of its own (:mod:`usvips.bench.area_process`), so
 an area that fails, hangs or crashes names itself by a row holding its ``error`` and every other area
@@ -30,12 +30,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 #: Areas that contribute benchmarks, in the order they run: modules of this package, except ``gui`` and
-#: ``window_tracking``, which live in ``usvips.gui.bench`` and ``usvips.gui.bench_tracking`` (Qt stays inside the
+#: ``window_tracking``, which live in ``usvips.gui.qt.bench`` and ``usvips.gui.qt.bench_tracking`` (Qt stays inside the
 #: GUI package; it is imported only when run).
 BENCH_MODULES: tuple[str, ...] = ("geometry", "scaling", "calibration", "imaging", "gui", "video", "survey",
                                   "window_tracking", "targets", "board_detection", "server", "startup",
                                   "sigma_check", "pointing_experiment")
-BENCH_PATHS: dict[str, str] = {"gui": "usvips.gui.bench", "window_tracking": "usvips.gui.bench_tracking"}
+BENCH_PATHS: dict[str, str] = {"gui": "usvips.gui.qt.bench", "window_tracking": "usvips.gui.qt.bench_tracking"}
 
 
 def best_time(function: Callable[[], object], repeats: int = 3) -> float:

@@ -8,7 +8,7 @@ sizes, where fixed costs dominate), a quadratic one near 100. The calibration is
 
 The memory row runs the command in a process of its own on ten times the largest size (10⁷ points at
 scale 1: the largest file repeated with other ids) with the pointing precision alone (the calibration's
-share costs ~25 µs a point and is timed by the rows above), against the largest size run the same way:
+share is timed by the rows above), against the largest size run the same way:
 ``peak_rss_mb`` / ``baseline_peak_rss_mb`` (the processes' peak resident memory) is the promise of flat
 memory (≤ 1.5 as the input grows tenfold); ``ours_s`` and ``cpu_s`` its wall and CPU time.
 """

@@ -72,10 +72,10 @@ def _absolute(name: str, n: int, ours: float, baseline: float, baseline_name: st
 def window_row(n: int, url: str, local: Path, folder: Path, repeats: int = 3) -> dict:
     """Opening the survey in the window, offscreen, as a user waits for it (File › Open until the object
     list holds every object with its figure): the server's survey against the SQLite file, alternately in
-    one window in a child process (:mod:`usvips.gui.opening_probe`; the bench cannot import the GUI)."""
+    one window in a child process (:mod:`usvips.gui.qt.opening_probe`; the bench cannot import the GUI)."""
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen", XDG_CONFIG_HOME=str(folder / "config"),
                XDG_DATA_HOME=str(folder / "data"))
-    command = [sys.executable, "-m", "usvips.gui.opening_probe", str(folder / "window.ini"), str(repeats), url,
+    command = [sys.executable, "-m", "usvips.gui.qt.opening_probe", str(folder / "window.ini"), str(repeats), url,
                str(local)]
     result = subprocess.run(command, capture_output=True, text=True, env=env, timeout=1200, check=False)
     if result.returncode != 0:

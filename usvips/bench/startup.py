@@ -7,7 +7,7 @@ item 7: ``target_s`` 0.3 s of CPU for the command line; issue 37: 0.5 s for the 
 bare interpreter is given beside them.
 
 The window's row runs ``python -m usvips open SAMPLE`` offscreen (``QT_QPA_PLATFORM=offscreen``) with
-``USVIPS_QUIT_WHEN_READY=1`` (:mod:`usvips.gui.ready`): the window is shown, a copy of the bundled sample
+``USVIPS_QUIT_WHEN_READY=1`` (:mod:`usvips.gui.qt.ready`): the window is shown, a copy of the bundled sample
 ``tank_system1`` opened (its project file made by an untimed first open, as a user's second start finds
 it), its first image pair read and drawn, and the process quits. Its settings and data folders are
 temporary ones, so the user's are not touched. ``qt_window_cpu_s`` is what an empty ``QMainWindow`` shown

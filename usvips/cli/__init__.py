@@ -78,7 +78,34 @@ def build_parser(command: str | None = "*") -> argparse.ArgumentParser:
             importlib.import_module(f"usvips.cli.{name}").register(subparsers)
         elif extended is None:
             subparsers.add_parser(name, help=SUMMARIES[name] or None, add_help=False)
+    _bound_whole_numbers(parser)
     return parser
+
+
+#: the largest whole number an option takes (a 64-bit integer: what the project store and numpy hold)
+LARGEST_WHOLE = 2**63 - 1
+
+
+def whole_number(text: str) -> int:
+    """An option's whole number (``type=int``), refused when it is no 64-bit integer (a count, an id or a
+    seed of 30 digits is a typing slip, and would overflow the store or numpy)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if abs(value) > LARGEST_WHOLE:
+        raise argparse.ArgumentTypeError(f"{text} is too large (at most {LARGEST_WHOLE:.3g} either way)")
+    return value
+
+
+def _bound_whole_numbers(parser: argparse.ArgumentParser) -> None:
+    """Every ``type=int`` option of ``parser`` and its subcommands read by :func:`whole_number`."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                _bound_whole_numbers(sub)
+        elif action.type is int:
+            action.type = whole_number
 
 
 def _command_in(argv: Sequence[str]) -> str | None:
@@ -101,20 +128,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     with warnings.catch_warnings(), _redacted_output():  # the caller's warning filters are back afterwards
         if not os.environ.get("USVIPS_DEBUG"):
             quiet_libraries()
-        return _run(args, handler, _options_of(parser))
+        return _run(args, handler, _options_of(parser, argv))
 
 
 #: unit suffixes a parameter's name may carry beyond its option's (``max_blur_px`` is ``--max-blur``)
 UNIT_SUFFIXES = ("px", "s", "m", "mm", "deg", "frames")
 
 
-def _options_of(parser: argparse.ArgumentParser) -> dict[str, str]:
-    """Every option of ``parser`` and its loaded subcommands: its destination → its long option string."""
+def _options_of(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> dict[str, str]:
+    """Every option of ``parser`` and of the subcommands ``argv`` chose (all loaded ones without
+    ``argv``): its destination → its long option string."""
     options: dict[str, str] = {}
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
-            for sub in action.choices.values():
-                options.update(_options_of(sub))
+            words = list(argv) if argv is not None else None
+            chosen = next((i for i, word in enumerate(words) if word in action.choices), None) \
+                if words is not None else None
+            if words is None:
+                for sub in action.choices.values():
+                    options.update(_options_of(sub))
+            elif chosen is not None:
+                options.update(_options_of(action.choices[words[chosen]], words[chosen + 1:]))
         elif action.option_strings:
             options.setdefault(action.dest, max(action.option_strings, key=len))
     return options
@@ -134,12 +168,11 @@ def _in_option_terms(error: UsvipsError, options: dict[str, str], named: dict[st
     else:
         candidates = [name] + [name.removesuffix("_" + unit) for unit in UNIT_SUFFIXES if name.endswith("_" + unit)]
         option = next((options[c] for c in candidates if c in options), None)
-    if option is None:
-        return str(error)
-    if isinstance(error, InvalidParameterError) and not error.label:
+    if option is not None and isinstance(error, InvalidParameterError) and not error.label:
         return f"{option}: {error.problem}"
     replace = options.get(getattr(error, "replace_parameter", None) or "")
-    return f"{error} (set it with {option}" + (f"; {replace} replaces it)" if replace else ")")
+    hints = ([f"set it with {option}"] if option else []) + ([f"{replace} replaces it"] if replace else [])
+    return f"{error} ({'; '.join(hints)})" if hints else str(error)
 
 
 class RedactedStream:

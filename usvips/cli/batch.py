@@ -134,22 +134,29 @@ def run(args: argparse.Namespace) -> int:
         local_workers(args.scheduler)
     out_dir = Path(args.out_dir)
     tasks = _tasks(args, out_dir)
+    made = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
 
     def progress(outcome: batch.Outcome, finished: int, total: int) -> None:
         print(_line(outcome, finished, total), flush=True)
 
-    if args.scheduler is not None:
-        from usvips.app.batch_cluster import run_on_cluster
+    try:
+        if args.scheduler is not None:
+            from usvips.app.batch_cluster import run_on_cluster
 
-        outcomes = run_on_cluster(tasks, args.scheduler, progress)
-    else:
-        outcomes = batch.run(tasks, args.jobs, progress)
+            outcomes = run_on_cluster(tasks, args.scheduler, progress)
+        else:
+            outcomes = batch.run(tasks, args.jobs, progress)
+    finally:
+        if made and out_dir.is_dir() and not any(out_dir.iterdir()):  # nothing written: no folder left
+            out_dir.rmdir()
     done = sum(o.ok for o in outcomes)
-    failed = sum(o.status == "failed" for o in outcomes)
+    failed = [o for o in outcomes if o.status == "failed"]
     cancelled = sum(o.status == "cancelled" for o in outcomes)
+    first = f" (the first: {_line(failed[0], 1, 1).split(' FAILED ', 1)[1]})" if failed else ""
     print(f"batch {args.task}: {done} of {len(outcomes)} succeeded"
-          + (f", {failed} failed" if failed else "") + (f", {cancelled} cancelled (interrupted)" if cancelled else ""),
+          + (f", {len(failed)} failed{first}" if failed else "")
+          + (f", {cancelled} cancelled (interrupted)" if cancelled else ""),
           file=sys.stdout if not (failed or cancelled) else sys.stderr, flush=True)
     if cancelled:
         return 130

@@ -18,10 +18,17 @@ from usvips.core.calibration.phases import observes_a_plane, require_physical
 from usvips.core.calibration.validation import validate
 from usvips.core.errors import ConvergenceError, InvalidParameterError
 from usvips.core.observations import ControlPoints
+from usvips.io.adjustment_report import report_text
 from usvips.io.atomic import guard_output, replacing
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.tables import read_control, read_observations
 from usvips.io.target_file import read_target
+
+#: the longest image side accepted (pixels; the largest sensors are ~10^5 px wide)
+MAX_IMAGE_SIDE = 100_000
+#: the housing's known geometry: the library's name of each quantity → its option
+GEOMETRY_OPTIONS = {"distance": "--port-distance", "thickness": "--glass-thickness", "n_glass": "--n-glass",
+                    "n_water": "--n-water"}
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
@@ -78,12 +85,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     water.add_argument("--air-without-glass", action="store_true",
                        help="with --cameras-unmoved: the air images were not taken through the flat port or tank "
                             "wall (by default the shift the glass gave phase 1's poses is undone)")
-    for flag, quantity in (("--port-distance", "distance"), ("--glass-thickness", "thickness"),
-                           ("--n-glass", "n_glass"), ("--n-water", "n_water")):
+    for quantity, flag in GEOMETRY_OPTIONS.items():
         water.add_argument(flag, dest=f"geometry_{quantity}", metavar="VALUE[:SIGMA]",
                            help=f"known {housings.GEOMETRY[quantity]}: held at VALUE, or weighted ± SIGMA")
     _common(water)
-    water.set_defaults(handler=run_water)
+    water.set_defaults(handler=run_water, parameter_options={**water.get_default("parameter_options"),
+                                                             **GEOMETRY_OPTIONS})
 
 
 def _geometry(args: argparse.Namespace) -> dict[str, tuple[float, float | None]]:
@@ -93,8 +100,7 @@ def _geometry(args: argparse.Namespace) -> dict[str, tuple[float, float | None]]
         text = getattr(args, f"geometry_{quantity}", None)
         if text is None:
             continue
-        flag = {"distance": "--port-distance", "thickness": "--glass-thickness"}.get(
-            quantity, f"--{quantity.replace('_', '-')}")
+        flag = GEOMETRY_OPTIONS.get(quantity, f"--{quantity.replace('_', '-')}")
         value, _, sigma = text.partition(":")
         try:
             out[quantity] = (float(value), float(sigma) if sigma else None)
@@ -126,17 +132,17 @@ def _options(args: argparse.Namespace) -> CalibrationOptions:
     if args.report and Path(args.report).resolve() == Path(args.out).resolve():
         raise InvalidParameterError("--report", f"is the same file as --out ({args.out}); the report would "
                                     "overwrite the calibration")
-    if not args.sigma_px > 0:
-        raise InvalidParameterError("--sigma-px", f"must be > 0, got {args.sigma_px}")
+    if not (np.isfinite(args.sigma_px) and args.sigma_px > 0):
+        raise InvalidParameterError("--sigma-px", f"must be a finite number > 0, got {args.sigma_px}")
     size = (None, None)
     if args.image_size:
         width, sep, height = args.image_size.lower().partition("x")
         if not sep or not width.isdigit() or not height.isdigit():
             raise InvalidParameterError("--image-size", f"expected WIDTHxHEIGHT, got {args.image_size!r}")
         size = (int(width), int(height))
-        if min(size) < 16:
-            raise InvalidParameterError("--image-size", f"{args.image_size} is no image (each side must be at "
-                                        "least 16 pixels)")
+        if min(size) < 16 or max(size) > MAX_IMAGE_SIDE:
+            raise InvalidParameterError("--image-size", f"{args.image_size} is no image (each side must be "
+                                        f"16 to {MAX_IMAGE_SIDE} pixels)")
     if args.holdout is not None and not 0.0 < args.holdout < 1.0:
         raise InvalidParameterError("--holdout", f"the share of views held out must be between 0 and 1, got "
                                     f"{args.holdout}")
@@ -175,7 +181,6 @@ def _calibrate(fit, control: ControlPoints, observations, args: argparse.Namespa
 
 def _finish(result, args: argparse.Namespace, validation=None, base=None) -> int:
     if validation is not None:
-        result.report["validation"] = validation.as_dict()
         result.calibration.statistics["validation"] = validation.as_dict()
     if not result.adjustment.converged:
         raise ConvergenceError(f"the calibration did not converge ({result.adjustment.reason}); nothing written")
@@ -184,25 +189,25 @@ def _finish(result, args: argparse.Namespace, validation=None, base=None) -> int
     report = result.report
     # write both files only once everything has succeeded
     calibration_text = json.dumps(calibration_to_dict(result.calibration), indent=2, allow_nan=False) + "\n"
-    report_text = json.dumps(report, indent=2, allow_nan=False) + "\n" if args.report else None
+    report_file = report_text(report, validation.as_dict() if validation is not None else None) if args.report \
+        else None
     with replacing(_outputs(args), _inputs(args), replace=args.force):
         write_text_atomic(args.out, calibration_text)
-        if report_text is not None:
-            write_text_atomic(args.report, report_text)
-    print(f"{report['phase']} calibration ({report['housing']}, stations {', '.join(report['stations'])}): "
-          f"sigma0 {report['sigma0_px']:.3f} px, RMS {report['rms_px']:.3f} px"
-          + (f" over the kept, {report['rms_px_all']:.3f} px over all observations" if report.get("set_aside")
-             and report.get("rms_px_all") is not None else "")
-          + f", redundancy {report['redundancy']}, "
-          f"condition {report['condition_number']:.3g}")
-    for suspect in report["suspects"]:
-        w = f"w = {suspect['w']:.1f}" if suspect["w"] is not None else suspect["reason"]
-        print(f"  excluded: point {suspect['id']} {suspect['side']} {suspect['coordinate']} "
-              f"(pair {suspect['station']}): {w}")
-    for blunder in report.get("control_blunders", []):
-        print(f"  control blunder: {blunder['message']}")
-    for pair in report["correlations_over_0_95"][:10]:
-        print(f"  correlation {pair['a']} ~ {pair['b']}: {pair['r']:+.3f}")
+        if report_file is not None:
+            write_text_atomic(args.report, report_file)
+    print(f"{report.phase} calibration ({report.housing}, stations {', '.join(report.stations)}): "
+          f"sigma0 {report.sigma0_px:.3f} px, RMS {report.rms_px:.3f} px"
+          + (f" over the kept, {report.rms_px_all:.3f} px over all observations" if report.set_aside
+             and report.rms_px_all is not None else "")
+          + f", redundancy {report.redundancy}, "
+          f"condition {report.condition_number:.3g}")
+    for suspect in report.suspects:
+        w = f"w = {suspect.w:.1f}" if suspect.w is not None else suspect.reason
+        print(f"  excluded: point {suspect.point} {suspect.side} {suspect.coordinate} (pair {suspect.group}): {w}")
+    for blunder in report.control_blunders:
+        print(f"  control blunder: {blunder.message}")
+    for pair in report.correlations[:10]:
+        print(f"  correlation {pair.a} ~ {pair.b}: {pair.r:+.3f}")
     if validation is not None:
         for line in validation.lines():
             print(line)

@@ -43,7 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
     # the library names a value in the user's words; the command line says which option to change
     parser.set_defaults(handler=run, parameter_options={"maximum views": "--max-views", "every": "--every",
-                                                        "largest edge width": "--max-blur", "focal_px": "--focal"})
+                                                        "largest edge width": "--max-blur", "focal_px": "--focal",
+                                                        "focal length": "--focal"})
 
 
 def run(args: argparse.Namespace) -> int:

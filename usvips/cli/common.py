@@ -45,9 +45,12 @@ def parse_assignment(option: str, text: str) -> tuple[str, float]:
     if not sep or not name:
         raise InvalidParameterError(option, f"expected NAME=VALUE, got {text!r}")
     try:
-        return name.strip(), float(value)
+        number = float(value)
     except ValueError:
         raise InvalidParameterError(option, f"{text!r}: {value!r} is not a number") from None
+    if not math.isfinite(number):
+        raise InvalidParameterError(option, f"{text!r}: the value must be a finite number")
+    return name.strip(), number
 
 
 def parse_prior(text: str) -> tuple[str, tuple[float, float]]:
@@ -57,9 +60,14 @@ def parse_prior(text: str) -> tuple[str, tuple[float, float]]:
     if not sep or not sep2 or not name:
         raise InvalidParameterError("--prior", f"expected NAME=VALUE:SIGMA, got {text!r}")
     try:
-        return name.strip(), (float(value), float(sigma))
+        numbers = float(value), float(sigma)
     except ValueError:
         raise InvalidParameterError("--prior", f"{text!r}: value and sigma must be numbers") from None
+    if not all(math.isfinite(n) for n in numbers):
+        raise InvalidParameterError("--prior", f"{text!r}: value and sigma must be finite numbers")
+    if not numbers[1] > 0:
+        raise InvalidParameterError("--prior", f"{text!r}: the sigma must be > 0")
+    return name.strip(), numbers
 
 
 def csv_text(header: list[str], rows: list[list]) -> str:

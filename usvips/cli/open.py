@@ -5,7 +5,7 @@ command starts without loading Qt (declared in the import-linter contracts of py
 
 Hidden switch: with ``USVIPS_QUIT_WHEN_READY=1`` in the environment the window quits as soon as it is
 usable (shown, the project opened, its first pair drawn): the start-up probe ``usvips bench`` times
-(:mod:`usvips.gui.ready`).
+(:mod:`usvips.gui.qt.ready`).
 """
 
 from __future__ import annotations
@@ -31,9 +31,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputFileError(args.project, "no such project file or sample directory")
     if args.pair and args.project is None:
         raise InvalidParameterError("--pair", "needs a project to open")
-    from usvips.gui import ready
-    from usvips.gui.app import application
-    from usvips.gui.app import run as run_window
+    from usvips.gui.qt import ready
+    from usvips.gui.qt.app import application
+    from usvips.gui.qt.app import run as run_window
 
     if ready.wanted():  # the start-up probe of ``usvips bench`` (USVIPS_QUIT_WHEN_READY=1, see gui/ready.py)
         ready.quit_when_ready(application(), args.project is not None)

@@ -242,7 +242,9 @@ def register_metadata_actions(actions: argparse._SubParsersAction) -> None:
     geo.add_argument("--points", metavar="GEO.csv", help="instead of the origin: control points of the project "
                      "with geographic coordinates (id,latitude,longitude,depth); origin and heading are fitted")
     geo.add_argument("--clear", action="store_true", help="remove the georeference")
-    geo.set_defaults(handler=run_set_georeference)
+    geo.set_defaults(handler=run_set_georeference, parameter_options={
+        "origin latitude": "--latitude", "origin longitude": "--longitude", "origin depth": "--depth",
+        "geographic points": "--points"})
 
 
 def run_set_metadata(args: argparse.Namespace) -> int:

@@ -66,6 +66,8 @@ def run_sigma_check(args: argparse.Namespace) -> int:
 
     if args.replicas < 2 or args.replicas > 10_000:
         raise InvalidParameterError("--replicas", f"must be 2 to 10000, got {args.replicas}")
+    if args.seed < 0:
+        raise InvalidParameterError("--seed", f"must be 0 or more, got {args.seed}")
     if args.pointing_sigma is not None and not (0 < args.pointing_sigma < float("inf")):
         raise InvalidParameterError("--pointing-sigma", f"must be a positive number of pixels, got "
                                                         f"{args.pointing_sigma:g}")

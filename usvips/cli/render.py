@@ -60,7 +60,8 @@ def run_board(args: argparse.Namespace) -> int:
     plan = Rehearsal(views=args.views, video_frames=args.video_frames, fps=args.fps,
                      distances=tuple(args.distance), tilts=tuple(args.tilt), size=_size(args.image_size),
                      supersample=args.supersample, noise=args.noise, seed=args.seed)
-    names = {"views": "--views", "distances": "--distance", "tilts": "--tilt", "size": "--image-size",
+    names = {"views": "--views", "video_frames": "--video-frames",
+             "distances": "--distance", "tilts": "--tilt", "size": "--image-size",
              "supersample": "--supersample", "noise": "--noise", "fps": "--fps"}
     try:
         plan.check()

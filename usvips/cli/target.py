@@ -55,7 +55,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     describe.add_argument("--control", help="target-field: control file (id,X,Y,Z in metres)")
     describe.add_argument("--mark", choices=("cross", "disc"), help="target-field: what each target looks like")
     describe.add_argument("--size", type=float, metavar="MM", help="target-field: target diameter (mm)")
-    describe.set_defaults(handler=run_describe)
+    describe.set_defaults(handler=run_describe, parameter_options={"points": "--control"})  # a field's points
 
     printable = actions.add_parser("print", help="write a printable PDF of a board at true scale")
     printable.add_argument("target", help="target file")
@@ -120,7 +120,7 @@ def run_describe(args: argparse.Namespace) -> int:
     from usvips.core.calibration_targets import from_description
 
     target = from_description(description_from_args(args))
-    with replacing(args.out, replace=args.force):
+    with replacing(args.out, [args.control], replace=args.force):  # a target field's control file is a source
         write_target(args.out, target)
     print(f"wrote {args.out}: {_summary(target)}")
     return 0

@@ -878,3 +878,59 @@ def back_project(points, start, warm, table, count, indices, proxy, min_advance)
             uv[lo + i, 0], uv[lo + i, 1] = s[U + i], s[V + i]
             status[lo + i] = NOT_CONVERGED if state < 0.0 else np.uint8(state)
     return uv, status
+
+
+# -------------------------------------------------------------------------------------------------
+# rays of given camera-frame directions, without derivatives
+# -------------------------------------------------------------------------------------------------
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def trace_ideal(uv, camera, table, count, min_advance, origins, directions, status, failed):
+    """``Camera.rays`` of ideal normalised coordinates (N, 2) (the camera-frame rays (u, v, −1), no lens),
+    without derivatives: through the surface rows of ``table`` (``count`` of them) as
+    :func:`_refract_block` does, then into object space with the camera row's rotation and centre.
+    Writes origins, unit directions (N, 3), a status per ray (0 OK, 1 missed, 2 totally reflected) and the
+    surface where it failed (−1); a failed ray keeps the state it had before that surface."""
+    m00, m01, m02, m10, m11, m12 = camera[9], camera[10], camera[11], camera[12], camera[13], camera[14]
+    m20, m21, m22, c0, c1, c2 = camera[15], camera[16], camera[17], camera[18], camera[19], camera[20]
+    for i in range(uv.shape[0]):
+        uu, vv = uv[i, 0], uv[i, 1]
+        inv_length = 1.0 / math.sqrt(uu * uu + vv * vv + 1.0)
+        o0, o1, o2, d0, d1, d2 = 0.0, 0.0, 0.0, uu * inv_length, vv * inv_length, -inv_length
+        code, where = 0, -1
+        for q in range(count):
+            gx, gy, gz, gw = table[q, 1], table[q, 2], table[q, 3], table[q, 4]
+            ratio, inv_r = table[q, 5], table[q, 6]
+            if table[q, 0] == 1.0:  # a sphere: the first crossing strictly ahead of the origin
+                f0, f1, f2 = o0 - gx, o1 - gy, o2 - gz
+                w = d0 * f0 + d1 * f1 + d2 * f2
+                disc = w * w - (f0 * f0 + f1 * f1 + f2 * f2 - gw * gw)
+                root = math.sqrt(max(disc, 0.0))
+                near = -w - root
+                t = near if near > min_advance else -w + root
+                hit = disc >= 0.0 and t > min_advance
+                n0, n1, n2 = (f0 + t * d0) * inv_r, (f1 + t * d1) * inv_r, (f2 + t * d2) * inv_r
+                slope = n0 * d0 + n1 * d1 + n2 * d2
+            else:
+                slope = d0 * gx + d1 * gy + d2 * gz
+                usable = abs(slope) > 1e-15
+                t = -(o0 * gx + o1 * gy + o2 * gz + gw) / (slope if usable else 1.0)
+                hit = usable and t > min_advance
+                n0, n1, n2 = gx, gy, gz
+            sign = -1.0 if slope < 0.0 else 1.0
+            cos_in = slope * sign
+            radicand = 1.0 - ratio * ratio * (1.0 - cos_in * cos_in)
+            if not hit or radicand < 0.0:
+                code, where = (1 if not hit else 2), q
+                break
+            bend = (math.sqrt(radicand) - ratio * cos_in) * sign
+            o0, o1, o2 = o0 + t * d0, o1 + t * d1, o2 + t * d2
+            d0, d1, d2 = ratio * d0 + bend * n0, ratio * d1 + bend * n1, ratio * d2 + bend * n2
+        origins[i, 0] = c0 + m00 * o0 + m10 * o1 + m20 * o2
+        origins[i, 1] = c1 + m01 * o0 + m11 * o1 + m21 * o2
+        origins[i, 2] = c2 + m02 * o0 + m12 * o1 + m22 * o2
+        directions[i, 0] = m00 * d0 + m10 * d1 + m20 * d2
+        directions[i, 1] = m01 * d0 + m11 * d1 + m21 * d2
+        directions[i, 2] = m02 * d0 + m12 * d1 + m22 * d2
+        status[i] = code
+        failed[i] = where

@@ -4,8 +4,8 @@ Every message names the parameter, file or line at fault and what is wrong, in o
 act on, in the user's terms — never a command-line flag: the same error reaches people who never typed
 one. An error about a setting carries it in ``parameter`` (the library's name, e.g. ``max_dt``), so that
 each front end says how to fix it in its own terms: the command line appends its option ("… (set it
-with --max-dt)") and exits with status 2; the window shows the message in the status bar or a dialog,
-next to its own field for that setting.
+with --max-dt)") and exits with status 2; the window shows the message in the status bar or a dialog
+(where the user set that value in a field of the dialog at hand).
 """
 
 from __future__ import annotations

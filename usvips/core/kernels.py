@@ -116,6 +116,34 @@ def trace_into(camera, pixels: np.ndarray, origins: np.ndarray, directions: np.n
     return unusable == 0
 
 
+def trace_ideal(camera, ideal: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Compiled object-space rays of ideal normalised coordinates (N, 2) of ``camera`` (the camera-frame
+    rays (u, v, −1) through its housing, no lens, no derivatives): origins, unit directions (N, 3), status
+    codes (N,) uint8 and failed surfaces (N,) int16."""
+    rows, surfaces, counts = camera_table((camera,))
+    n = len(ideal)
+    origins, directions = np.empty((n, 3)), np.empty((n, 3))
+    status, failed = np.empty(n, dtype=np.uint8), np.empty(n, dtype=np.int16)
+    _load().trace_ideal(np.ascontiguousarray(ideal, dtype=np.float64), rows[0], surfaces[0], counts[0],
+                        MIN_ADVANCE, origins, directions, status, failed)
+    return origins, directions, status, failed
+
+
+def trace_ideal_in_housing(housing, ideal: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Compiled ``Housing.trace`` of the camera-frame rays (u, v, −1) of ideal normalised coordinates
+    (N, 2), in the camera frame (:func:`trace_ideal` with the identity pose)."""
+    rows = _surface_rows(housing)
+    table = np.array(rows, dtype=np.float64) if rows else np.zeros((1, 7))
+    pose = np.zeros(21)
+    pose[9:18] = np.eye(3).ravel()
+    n = len(ideal)
+    origins, directions = np.empty((n, 3)), np.empty((n, 3))
+    status, failed = np.empty(n, dtype=np.uint8), np.empty(n, dtype=np.int16)
+    _load().trace_ideal(np.ascontiguousarray(ideal, dtype=np.float64), pose, table, len(rows), MIN_ADVANCE,
+                        origins, directions, status, failed)
+    return origins, directions, status, failed
+
+
 def intersect_rays(origins, directions, d_origins, d_directions, ray_ok, weights):
     """Compiled two-pass weighted intersection of k rays per point (see ``intersection.intersect``):
     tuples over the k cameras of origins, directions (N, 3), their derivatives per pixel (N, 3, 2) and
@@ -215,4 +243,5 @@ def available() -> bool:
 
 
 __all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "camera_table", "current_mode",
-           "intersect_pixels", "intersect_rays", "mode", "surface_table", "trace_into", "undistort", "wanted"]
+           "intersect_pixels", "intersect_rays", "mode", "surface_table", "trace_ideal", "trace_ideal_in_housing",
+           "trace_into", "undistort", "wanted"]

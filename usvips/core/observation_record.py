@@ -20,6 +20,10 @@ def _clean(name: str, value: object) -> str:
     return text
 
 
+#: the longest maximum length a species list may give (metres: a blue whale is about 30 m)
+MAX_LENGTH_M = 40.0
+
+
 @dataclass(frozen=True)
 class Species:
     """One entry of a species list: ``genus`` and ``species`` (the epithet; ``spp`` for unidentified
@@ -43,6 +47,9 @@ class Species:
             value = self.max_length_m
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise InvalidParameterError("max_length", f"must be a positive length, got {value!r}")
+            if value > MAX_LENGTH_M:
+                raise InvalidParameterError("max_length", f"{value:g} m is longer than any animal (at most "
+                                            f"{MAX_LENGTH_M:g} m; is the unit right?)")
             object.__setattr__(self, "max_length_m", float(value))
 
     @property

@@ -49,6 +49,11 @@ class SyncEstimate:
     #: that far apart), or None
     beyond: float | None = None
 
+    def __bool__(self) -> bool:
+        """Falsy when the estimate failed: its offset lies at the edge of the search window (or the evidence
+        points beyond it), so it is not stored (:attr:`at_edge`)."""
+        return not self.at_edge
+
     @property
     def at_edge(self) -> bool:
         """True when the offset used lies at (or beyond) the edge of the search window: the best candidate

@@ -69,6 +69,10 @@ class FieldPoint:
     clicked: bool = False
     reason: str = ""
 
+    def __bool__(self) -> bool:
+        """Falsy unless the point was found (doubtful or missing: ``reason`` says why)."""
+        return self.status == "found" and self.pixel is not None
+
 
 @dataclass(frozen=True)
 class FieldSearch:

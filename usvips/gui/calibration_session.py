@@ -24,6 +24,7 @@ from usvips.core import housing as housings
 from usvips.core.adjustment import W_CRITICAL
 from usvips.core.calibration import CalibrationOptions, CalibrationResult, calibrate_air, calibrate_water
 from usvips.core.calibration.phases import DEFAULT_HOUSING
+from usvips.core.calibration.report import ResidualRow
 from usvips.core.dlt import check_spread
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.intersection import intersect
@@ -74,6 +75,29 @@ def control_spread(control: ControlPoints, ids: list[str]) -> Spread:
         return Spread(len(ids), flatness, f"{len(ids)} points, depth spread {flatness:.0%} of the width: enough "
                       "to compute, but more points at other depths will strengthen the result", True)
     return Spread(len(ids), flatness, f"{len(ids)} points, depth spread {flatness:.0%} of the width: good", True)
+
+
+@dataclass(frozen=True)
+class CheckPoint:
+    """A check point intersected with the new calibration at its ``pair``'s station: its ``id``, the
+    ``difference`` from its control coordinates (dX, dY, dZ; metres) and the intersection's ``sigma``
+    (σX, σY, σZ; metres)."""
+
+    pair: str
+    id: str
+    difference: tuple[float, float, float]
+    sigma: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class ParameterChange:
+    """A parameter shared with the calibration compared against: its ``name``, ``old`` and ``new`` values
+    (the parameter's unit) and the change in units of the new σ (None when the new σ is 0 or unknown)."""
+
+    name: str
+    old: float
+    new: float
+    change_sigmas: float | None
 
 
 @dataclass
@@ -296,17 +320,17 @@ class CalibrationSession:
         self.result_changed.emit()
 
     # ------------------------------------------------------------------ results
-    def flagged(self) -> list[dict]:
+    def flagged(self) -> list[ResidualRow]:
         """Residual rows still used by the adjustment whose w-test exceeds Baarda's critical value (3.29):
         likely blunders. Rows the adjustment already left out (robust weights, snooping) are not counted."""
         if self.result is None:
             return []
-        rows = self.result.report["residuals"]
-        return [r for r in rows if r["used"] and max(abs(r["wx"]), abs(r["wy"])) > W_CRITICAL]
+        rows = self.result.report.used_residuals()
+        return [r for r in rows if max(abs(r.wx), abs(r.wy)) > W_CRITICAL]
 
-    def left_out(self) -> list[dict]:
+    def left_out(self) -> list[ResidualRow]:
         """Residual rows the adjustment itself left out (robust weights and data snooping)."""
-        return [] if self.result is None else [r for r in self.result.report["residuals"] if not r["used"]]
+        return [] if self.result is None else list(self.result.report.set_aside_residuals())
 
     def exclude_flagged(self) -> list[tuple[str, str]]:
         """Leave out the flagged observation with the largest w-test (to be re-run); returns what was
@@ -315,13 +339,13 @@ class CalibrationSession:
         flagged = self.flagged()
         if not flagged:
             return []
-        worst = max(flagged, key=lambda r: max(abs(r["wx"]), abs(r["wy"])))
-        key = (worst["station"], worst["id"])
+        worst = max(flagged, key=lambda r: max(abs(r.wx), abs(r.wy)))
+        key = (worst.station, worst.id)
         self.excluded.add(key)
         self.data_changed.emit("exclusions", (key,))
         return [key]
 
-    def check_points(self) -> tuple[list[dict], float | None]:
+    def check_points(self) -> tuple[list[CheckPoint], float | None]:
         """Check points intersected with the new calibration at their pair's station: differences from
         their control coordinates (m) and the RMS of the 3-D differences (thesis Tables 3.8-3.9)."""
         if self.result is None or not self.check:
@@ -338,14 +362,14 @@ class CalibrationSession:
             if not result.ok[0]:
                 continue
             difference = result.points[0] - self.control.xyz[index[pid]]
-            rows.append({"pair": pair, "id": pid, "dX": float(difference[0]), "dY": float(difference[1]),
-                         "dZ": float(difference[2]), "sigma": [float(s) for s in result.sigmas[0]]})
+            rows.append(CheckPoint(pair, pid, tuple(float(d) for d in difference),
+                                   tuple(float(s) for s in result.sigmas[0])))
         if not rows:
             return [], None
-        rms = float(np.sqrt(np.mean([r["dX"] ** 2 + r["dY"] ** 2 + r["dZ"] ** 2 for r in rows])))
+        rms = float(np.sqrt(np.mean([sum(d ** 2 for d in r.difference) for r in rows])))
         return rows, rms
 
-    def comparison(self) -> list[dict]:
+    def comparison(self) -> list[ParameterChange]:
         """Parameters shared with the calibration active now for the first pair (or the previous run):
         old and new values and the change in units of the new sigma, largest change first."""
         if self.result is None:
@@ -369,9 +393,9 @@ class CalibrationSession:
                 before = old.parameters[name].value
                 change = estimate.value - before
                 sigma = estimate.sigma or 0.0
-                rows.append({"name": name, "old": before, "new": estimate.value,
-                             "change_sigmas": abs(change) / sigma if sigma > 0 else None})
-        rows.sort(key=lambda r: -(r["change_sigmas"] or 0.0))
+                rows.append(ParameterChange(name, before, estimate.value,
+                                            abs(change) / sigma if sigma > 0 else None))
+        rows.sort(key=lambda r: -(r.change_sigmas or 0.0))
         return rows
 
     def save(self, name: str, active_for: list[str]) -> int:

@@ -16,8 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from usvips.core.measurements import kind as measurement_kind
-from usvips.gui.pane import LOUPE_SCALES
 from usvips.gui.pick_tool import TOOLS
+from usvips.gui.view_options import LOUPE_SCALES
 
 #: the menu bar, in order: (name used in menu paths, title with its mnemonic)
 MENUS = (("File", "&File"), ("Edit", "&Edit"), ("View", "&View"), ("Measure", "&Measure"),
@@ -110,7 +110,7 @@ ITEMS: tuple[Command | Submenu | Section, ...] = (
             keys=("Ctrl+Shift+S",)),
     Command("export", "&Export objects…", "window.export_dialog", menu="File"),
     Command("import_species", "I&mport species list…", "window.species_dialog", menu="File"),
-    # exchange with other tools (usvips/gui/exchange_dialogs.py)
+    # exchange with other tools (usvips/gui/qt/exchange_dialogs.py)
     Command("import_calibration", "Import &calibration (OpenCV)…", "exchange_dialogs.import_calibration",
             menu="File", group="exchange"),
     Command("export_calibration", "Ex&port calibration (OpenCV)…", "exchange_dialogs.export_calibration",
@@ -175,7 +175,7 @@ ITEMS: tuple[Command | Submenu | Section, ...] = (
             tip="show the previous image pair", scope="images"),
     Command("next_pair", "&Next pair", "window.step_pair", (1,), "Measure", group="pairs", keys=("PgDown",),
             tip="show the next image pair", scope="images"),
-    # issue 25: tracking through a video and objects over several instants (usvips/gui/track_controls.py)
+    # issue 25: tracking through a video and objects over several instants (usvips/gui/qt/track_controls.py)
     Command("track", "&Track the object's vertices", "tracking.track", menu="Measure", group="tracking",
             keys=("T",), tip="follow each vertex of the selected object (or the one just stored) backward and "
                              "forward through the video from its frame", scope="images"),

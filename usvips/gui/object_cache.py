@@ -72,7 +72,7 @@ class ObjectCache:
         self._reconnections = getattr(project, "reconnections", 0)
         #: the project's pointing estimates in use (usvips.app.pointing_settings), read when first needed
         self._pointing: dict | None = None
-        #: object id -> the colleague's change it was last read again for (usvips.gui.live_updates): the views
+        #: object id -> the colleague's change it was last read again for (usvips.gui.qt.live_updates): the views
         #: mark it with who changed it and when
         self.marks: dict[int, ColleagueChange] = {}
 

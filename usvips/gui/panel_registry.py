@@ -22,9 +22,9 @@ from usvips.gui.window_context import WindowContext
 #: where a panel's dock goes, in words (the window maps them to Qt's dock areas)
 AREAS = ("left", "right", "top", "bottom")
 #: the modules that declare the window's own panels (imported when the panels are first listed)
-BUILT_IN = ("usvips.gui.enhancement_panel", "usvips.gui.calculator_panel", "usvips.gui.planner_dock",
-            "usvips.gui.object_list", "usvips.gui.observation_form", "usvips.gui.plan_view",
-            "usvips.gui.log_panel", "usvips.gui.qa_dock", "usvips.gui.review_dock")
+BUILT_IN = ("usvips.gui.qt.enhancement_panel", "usvips.gui.qt.calculator_panel", "usvips.gui.qt.planner_dock",
+            "usvips.gui.qt.object_list", "usvips.gui.qt.observation_form", "usvips.gui.qt.plan_view",
+            "usvips.gui.qt.log_panel", "usvips.gui.qt.qa_dock", "usvips.gui.qt.review_dock")
 
 
 @dataclass(frozen=True)

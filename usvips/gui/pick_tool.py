@@ -145,6 +145,17 @@ class PickEvents:
     stored: Signal = field(default_factory=Signal)
 
 
+@dataclass
+class _StoredPick:
+    """An object the pick tool stored, across undo and redo: its ``id`` in the project, the store's
+    ``rows`` undo took away (None until undone: redo puts these very rows back) and the ``modified`` time
+    it was stored with (undo refuses when another annotator changed it since)."""
+
+    id: int | None = None
+    rows: object | None = None
+    modified: object | None = None
+
+
 class PickScene(Protocol):
     """What the tool measures on (the workspace): the open project, the pair shown with its images
     (side -> array) and calibration (None: picks only), the video frame when the pair is a video's frame
@@ -497,49 +508,49 @@ class PickTool:
         if flags:
             notes = "; ".join(filter(None, [notes, "flagged: " + "; ".join(flags)]))
         stored = self._vertices_for_store(vertices)
-        holder: dict = {"id": None, "rows": None}
+        holder = _StoredPick()
         before = self._snapshot()
         where = self._where()
 
         def store() -> None:
-            first = holder["rows"] is None
+            first = holder.rows is None
             if first:
-                holder["id"] = project.add_object(kind, stored, attribute, notes)
+                holder.id = project.add_object(kind, stored, attribute, notes)
                 if attribute:
                     project.add_term(attribute)
-                holder["modified"] = project.object(holder["id"]).modified
+                holder.modified = project.object(holder.id).modified
             else:  # redo: the very object (id, record, times) that undo took away
-                project.put_back(holder["rows"])
-                holder["modified"] = holder["rows"].modified
+                project.put_back(holder.rows)
+                holder.modified = holder.rows.modified
             if self._where() == where:  # elsewhere, what is being picked there is not this object's
                 self.digitising = Digitising(self.digitising.kind)
                 self.state = PickState()
                 if last is not None:
                     self.last_point = last
-            self.scene.objects_changed_in_store(added=(holder["id"],))
+            self.scene.objects_changed_in_store(added=(holder.id,))
             self.events.picks_changed.emit()
             if first:
-                self.events.stored.emit(holder["id"])
+                self.events.stored.emit(holder.id)
 
         def unstore() -> None:
             # not when another annotator changed it since (a shared survey): refused by name, it stays
-            holder["rows"] = project.take_object(holder["id"], expected_modified=holder["modified"])
+            holder.rows = project.take_object(holder.id, expected_modified=holder.modified)
             if self._where() == where:  # its vertices come back to be finished only where they were picked
                 self._restore(before)
-            self.scene.objects_changed_in_store(removed=(holder["id"],))
+            self.scene.objects_changed_in_store(removed=(holder.id,))
 
         self.scene.undo.push(Command(f"store {kind}", store, unstore))
-        result = self.scene.figures([holder["id"]])
+        result = self.scene.figures([holder.id])
         main = result.figures[0] if result.figures and kind != "point" else None
         measured = result.measurement
         sigma = (" " + breakdown_text(measured).replace("\n", "; ")) if main and measured is not None else ""
         # the one verdict (no record yet: the species rule waits for the observation form's record)
-        failures = (object_facts(project.object(holder["id"]), measured, self.scene.rules) if measured is not None
+        failures = (object_facts(project.object(holder.id), measured, self.scene.rules) if measured is not None
                     else list(result.failures))
         self.scene.message.emit("warning" if failures else "info",
-                                f"stored {kind} {holder['id']}" + (f": {format_figure(main)}{sigma}" if main else "")
+                                f"stored {kind} {holder.id}" + (f": {format_figure(main)}{sigma}" if main else "")
                                 + (f" — quality: {'; '.join(failures)}" if failures else ""))
-        return holder["id"]
+        return holder.id
 
     def _vertices_for_store(self, vertices: tuple[MeasuredVertex, ...]) -> list[Vertex]:
         g = self.scene.geometry

@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 from usvips.app import target_field as service
 from usvips.core.errors import UsvipsError
+from usvips.core.observations import ControlPoints
 from usvips.gui.signals import Signal
 from usvips.store.interface import ProjectStore
 
@@ -27,9 +28,10 @@ class FieldModel:
     """One pair's target field. Events: ``changed()`` after any change of clicks, result or decisions."""
 
     def __init__(self, project: ProjectStore, pair: str, calibration_id: int | None = None,
-                 shape: str = "disc") -> None:
+                 shape: str = "disc", control: ControlPoints | None = None) -> None:
+        """``control``: the field's control when the project holds none (stored with the targets)."""
         self.project = project
-        self.job = service.prepare(project, pair, None, calibration_id, shape)
+        self.job = service.prepare(project, pair, control, calibration_id, shape)
         self.clicks: dict[str, dict[str, tuple[float, float]]] = {side: {} for side in SIDES}
         self.pending: tuple[str, tuple[float, float]] | None = None
         self.selected: tuple[str, str] | None = None
@@ -86,6 +88,8 @@ class FieldModel:
         if self.status(side, pid) != "doubtful":
             raise UsvipsError(f"{side} {pid} is not doubtful: only a doubtful target is placed by hand")
         pixel = (float(pixel[0]), float(pixel[1]))
+        if not service.inside(pixel, self.job.size(side)):
+            raise UsvipsError(f"{side} {pid}: ({pixel[0]:.1f}, {pixel[1]:.1f}) is outside the image")
         self.moved[(side, pid)] = pixel
         self.selected = (side, pid)
         self.changed.emit()

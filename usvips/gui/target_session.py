@@ -1,12 +1,12 @@
 """The target path of the calibration wizards, without Qt: what the pages of
-:mod:`usvips.gui.target_pages` show and change.
+:mod:`usvips.gui.qt.target_pages` show and change.
 
 The user chooses (or describes) a calibration target, a source of views — image pairs from disk or a stereo
 video of the project — and for phase 2 the phase-1 calibration and the housing; the target is detected in
 a worker (:meth:`TargetSession.detection_job`), the views found are listed with their coverage and can be
 unticked, the calibration is computed in a worker (:meth:`TargetSession.calibration_job`), judged, and
 stored in the project (:meth:`TargetSession.save`) only when the user finishes: cancelling or a failure
-leaves the project as it was. Jobs take ``(progress, cancelled)`` as :class:`usvips.gui.worker.Worker`
+leaves the project as it was. Jobs take ``(progress, cancelled)`` as :class:`usvips.gui.qt.worker.Worker`
 gives them (``progress(fraction)``) and raise :class:`InterruptedError` when cancelled.
 """
 

@@ -63,13 +63,13 @@ def residual_segments(session: TargetSession, label: str, side: str, scale: floa
     where = {pid: px for pid, px in zip(detection.ids, detection.pixels, strict=True)}
     letter = side[0]
     segments = []
-    for row in result.result.report["residuals"]:
-        if row["station"] != label or row["side"] != letter or row["vx"] is None or row["vy"] is None:
+    for row in result.result.report.used_residuals():
+        if row.station != label or row.side != letter or row.vx is None or row.vy is None:
             continue
-        start = where.get(row["id"])
-        if start is None or not row["used"]:
+        start = where.get(row.id)
+        if start is None:
             continue
-        segments += [start, start + scale * np.array([row["vx"], row["vy"]])]
+        segments += [start, start + scale * np.array([row.vx, row.vy])]
     return np.array(segments, float).reshape(-1, 2)
 
 

@@ -335,7 +335,7 @@ class VideoSession:
     """One stored video opened in the window, free of Qt: its frame ``source``, where the viewer is
     (``navigator``, with the frames that hold measurements marked), and the synchronisation decisions —
     storing an offset (typed or estimated), marking a period, taking the frames shown as an image pair.
-    The controller (``usvips.gui.video_controls``) asks the user, runs the workers and draws; everything
+    The controller (``usvips.gui.qt.video_controls``) asks the user, runs the workers and draws; everything
     decided and stored is here. Refusals are :class:`UsvipsError` with one line naming what is wrong.
 
     Event: ``offset_changed(offset)`` after a new offset is stored (the navigator is a new one, at the

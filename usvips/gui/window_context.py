@@ -13,7 +13,7 @@ from usvips.gui.workspace import Workspace
 
 
 class Jobs(Protocol):
-    """Runs long work off the GUI thread (the window's is :class:`usvips.gui.jobs.Jobs`, over a Qt pool)."""
+    """Runs long work off the GUI thread (the window's is :class:`usvips.gui.qt.jobs.Jobs`, over a Qt pool)."""
 
     workers: set
     pool: Any
@@ -31,7 +31,7 @@ class Jobs(Protocol):
 class WindowContext:
     """``workspace``: the open project and its models; ``messages``: what to say to the user
     (:class:`usvips.gui.messages.Messages`); ``jobs``: long work off the GUI thread with progress and cancel
-    (:class:`usvips.gui.jobs.Jobs`), None where a part runs none."""
+    (:class:`usvips.gui.qt.jobs.Jobs`), None where a part runs none."""
 
     workspace: Workspace
     messages: Messages

@@ -109,13 +109,24 @@ def _column_index(path: Path, header: list[str], required: tuple[str, ...]) -> d
     return {name: header.index(name) for name in header}
 
 
-def _number(path: Path, line: int, column: str, text: str) -> float:
+#: no pixel coordinate lies this far from an image's origin (the largest sensors are ~10^5 px wide)
+MAX_PIXEL = 1e6
+#: no control coordinate lies this far from its origin (metres; Earth-centred coordinates are ~6.4e6 m)
+MAX_COORDINATE = 1e8
+
+
+def _number(path: Path, line: int, column: str, text: str, limit: tuple[float, str] | None = None) -> float:
+    """The number in one field; ``limit``: (largest magnitude, its unit) beyond which it is no value."""
     try:
         value = float(text)
     except ValueError:
         raise InputFileError(str(path), f"column {column}: {_show(text)} is not a number", line) from None
     if not math.isfinite(value):
         raise InputFileError(str(path), f"column {column}: {_show(text)} is not a finite number", line)
+    if limit is not None and abs(value) > limit[0]:
+        where = "the image" if limit[1] == "px" else "any survey"
+        raise InputFileError(str(path), f"column {column}: {_show(text)} lies outside {where} (more than "
+                             f"{limit[0]:g} {limit[1]} from the origin)", line)
     return value
 
 
@@ -147,9 +158,9 @@ def read_control(path: str | Path) -> ControlPoints:
         first_line[pid] = line
         ids.append(pid)
         lines.append(line)
-        xyz.append([_number(path, line, c, fields[columns[c]]) for c in ("X", "Y", "Z")])
+        xyz.append([_number(path, line, c, fields[columns[c]], (MAX_COORDINATE, "m")) for c in ("X", "Y", "Z")])
         if has_sigma:
-            values = [_number(path, line, c, fields[columns[c]]) for c in CONTROL_SIGMA_COLUMNS]
+            values = [_number(path, line, c, fields[columns[c]], (MAX_COORDINATE, "m")) for c in CONTROL_SIGMA_COLUMNS]
             if any(v < 0 for v in values):
                 raise InputFileError(str(path), "control sigmas must be >= 0", line)
             sig.append(values)
@@ -199,11 +210,12 @@ def _pixel_columns(path: Path, rows: list[tuple[int, list[str]]], columns: dict[
     texts = [(fields[first], fields[second]) for _, fields in rows]
     try:
         values = np.array(texts, dtype=np.float64)
-        if np.all(np.isfinite(values)):
+        if np.all(np.isfinite(values)) and np.all(np.abs(values) <= MAX_PIXEL):
             return values
     except ValueError:
         pass
-    return np.array([[_number(path, line, c, fields[columns[c]]) for c in names] for line, fields in rows])
+    return np.array([[_number(path, line, c, fields[columns[c]], (MAX_PIXEL, "px")) for c in names]
+                     for line, fields in rows])
 
 
 
@@ -231,6 +243,9 @@ def read_picks(path: str | Path) -> list[dict]:
             if not math.isfinite(value):
                 raise InputFileError(str(path), "vertex and pixel columns must be numbers (both picks are needed); "
                                      f"column {column}: {_show(text)}", line)
+            if abs(value) > MAX_PIXEL:
+                raise InputFileError(str(path), f"column {column}: {_show(text)} lies outside the image (more than "
+                                     f"{MAX_PIXEL:g} px from the origin)", line)
             pixels.append(value)
         vertex = int(pixels.pop(0))
         picks.append({"object": _check_id(path, line, fields[columns["object"]]), "type": kind, "vertex": vertex,

@@ -370,4 +370,14 @@ DROP TRIGGER IF EXISTS history_notify ON history;
 CREATE TRIGGER history_notify AFTER INSERT ON history FOR EACH STATEMENT EXECUTE FUNCTION usvips_history_notify();
 """})
 
+# Object ids are never used twice. A server has counted ids since schema 13; a file's ids were SQLite's
+# rowids, which hand the id of a deleted newest object to the next one (its history rows and reviews then
+# mixed two fish). The rules now reserve each new object's id from the counter on both backends
+# (``Survey.add_objects``); a file gets the counter here, past every id its objects and history ever held.
+MIGRATIONS[15] = Step(only={"sqlite": """
+CREATE TABLE id_counters (name TEXT PRIMARY KEY, next INTEGER NOT NULL);
+INSERT INTO id_counters VALUES ('objects', 1 + max(coalesce((SELECT max(id) FROM objects), 0),
+                                                   coalesce((SELECT max(object_id) FROM history), 0)));
+"""})
+
 SCHEMA_VERSION = max(MIGRATIONS)

@@ -522,16 +522,32 @@ class Survey:
         ids = []
         with self.transaction():
             try:
-                for kind, vertices, attribute, notes, creator in checked:
-                    cursor = self._db.execute("INSERT INTO objects (kind, attribute, notes, creator, created, "
-                                              "modified) VALUES (?, ?, ?, ?, ?, ?) RETURNING id",
-                                              (kind, attribute, notes, creator, now, now))
-                    ids.append(int(cursor.fetchone()[0]))
+                first = self._reserve_object_ids(len(checked))
+                for k, (kind, vertices, attribute, notes, creator) in enumerate(checked):
+                    self._db.execute("INSERT INTO objects (id, kind, attribute, notes, creator, created, modified) "
+                                     "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                                     (first + k, kind, attribute, notes, creator, now, now))
+                    ids.append(first + k)
                     self._insert_vertices(ids[-1], vertices, now)
                     self._log(ids[-1], "add", None, _object_state(kind, attribute, notes, vertices))
             except ConstraintError as error:
                 raise ProjectError(f"{self.path}: cannot store the object: {error.problem}") from None
         return ids
+
+    def _reserve_object_ids(self, count: int) -> int:
+        """The first of ``count`` new object ids, reserved from the counter (inside the caller's
+        transaction): past every id an object or a history row ever held, so no id is ever used twice
+        (a copied or pulled survey whose counter lags is caught up here)."""
+        row = self._db.execute(
+            "UPDATE id_counters SET next = ? + (SELECT max(v) FROM ("
+            "SELECT next AS v FROM id_counters WHERE name = 'objects' "
+            "UNION ALL SELECT coalesce(max(id), 0) + 1 FROM objects "
+            "UNION ALL SELECT coalesce(max(object_id), 0) + 1 FROM history) AS floor) "
+            "WHERE name = 'objects' RETURNING next - ?", (int(count), int(count))).fetchone()
+        if row is None:
+            raise ProjectError(f"{self.path}: the project has no object counter; open it with this version "
+                               "of USVIPS for writing once, so that it is brought up to date")
+        return int(row[0])
 
     def _insert_vertices(self, object_id: int, vertices: list[Vertex], now: str,
                          kept: dict[tuple, tuple[str, str]] | None = None) -> None:

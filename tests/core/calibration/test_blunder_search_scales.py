@@ -52,7 +52,7 @@ def test_a_misprint_in_a_many_station_field_is_found_with_few_readjustments(seed
 
     monkeypatch.setattr(control_blunders, "_try_demotion", counted)
     result = calibrate_air(ControlPoints(control.ids, xyz), observations, CalibrationOptions(sigma_px=NOISE))
-    assert [b["id"] for b in result.report["control_blunders"]] == [control.ids[point]]
+    assert [b.point for b in result.report.control_blunders] == [control.ids[point]]
     # the misprinted point is scored worst and tried first; the search stays within its budget of full
     # adjustments (each _demote tries at most two of them) however many points and stations there are
     assert trials[0] == control.ids[point]
@@ -81,4 +81,4 @@ def test_an_exact_target_is_not_searched_for_misprints(monkeypatch):
     monkeypatch.setattr(phases, "demote_control_blunders", refuse)
     result = calibrate_air(target, observations, CalibrationOptions(sigma_px=NOISE, image_size=rig.size,
                                                                     control_exact=True))
-    assert result.adjustment.converged and result.report["control_blunders"] == []
+    assert result.adjustment.converged and result.report.control_blunders == ()

@@ -85,8 +85,8 @@ def _one_rig(kind: str, seed: int) -> dict:
 def _summary(kind: str, runs: list[dict]) -> dict[str, float]:
     for k, run in enumerate(runs):
         report = run["report"]
-        assert report["converged"], f"{kind} rig {k}: {report['reason']}"
-        assert 0.75 < report["sigma0_px"] / run["noise"] < 1.3, f"{kind} rig {k}: sigma0 {report['sigma0_px']:.3f}"
+        assert report.converged, f"{kind} rig {k}: {report.reason}"
+        assert 0.75 < report.sigma0_px / run["noise"] < 1.3, f"{kind} rig {k}: sigma0 {report.sigma0_px:.3f}"
     return {figure: float(np.mean(np.concatenate([run[figure] for run in runs]))) for figure in ("points", "lengths")}
 
 

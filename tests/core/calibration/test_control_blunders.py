@@ -47,7 +47,7 @@ def _calibrate(control, obs):
 
 
 def test_blunder_free_data_demotes_nothing():
-    demoted = [s for s in range(SEEDS) if _calibrate(*_scene(100 + s)[:2]).report["control_blunders"]]
+    demoted = [s for s in range(SEEDS) if _calibrate(*_scene(100 + s)[:2]).report.control_blunders]
     assert demoted == []
 
 
@@ -60,17 +60,17 @@ def test_a_planted_control_coordinate_blunder_is_demoted_and_named():
         xyz = control.xyz.copy()
         xyz[point, axis] += offset
         result = _calibrate(ControlPoints(control.ids, xyz), obs)
-        blunders = result.report["control_blunders"]
-        assert [b["id"] for b in blunders] == [control.ids[point]], seed
-        assert result.report["suspects"] == [], seed  # its image observations are kept
+        blunders = result.report.control_blunders
+        assert [b.point for b in blunders] == [control.ids[point]], seed
+        assert result.report.suspects == (), seed  # its image observations are kept
         blunder = blunders[0]
-        if blunder["freed"] == ["XYZ"[axis]] and blunder["axes"] == ["XYZ"[axis]]:
+        if blunder.freed == ("XYZ"[axis],) and blunder.axes == ("XYZ"[axis],):
             named_axis += 1
-            assert blunder["message"].startswith(f"control {'XYZ'[axis]} of target {control.ids[point]} is ")
+            assert blunder.message.startswith(f"control {'XYZ'[axis]} of target {control.ids[point]} is ")
         # the fitted coordinate lands on the truth, within its reported uncertainty
-        k = blunder["freed"].index("XYZ"[axis])
-        assert abs(blunder["fitted"][k] - control.xyz[point, axis]) < 4 * blunder["sigma"][k], seed
-        assert abs(blunder["offset"][k] + offset) < 4 * blunder["sigma"][k], seed
+        k = blunder.freed.index("XYZ"[axis])
+        assert abs(blunder.fitted[k] - control.xyz[point, axis]) < 4 * blunder.sigma[k], seed
+        assert abs(blunder.offset[k] + offset) < 4 * blunder.sigma[k], seed
     assert named_axis >= SEEDS - 1
 
 
@@ -82,8 +82,8 @@ def test_a_planted_5_sigma_pointing_blunder_is_named_not_demoted():
         pixels = [obs.left.copy(), obs.right.copy()]
         pixels[side][point, coordinate] += rng.choice([-1, 1]) * 5 * NOISE
         result = _calibrate(control, StereoObservations(obs.ids, pixels[0], pixels[1], obs.pairs))
-        assert result.report["control_blunders"] == [], seed
-        suspects = {(s["id"], s["side"]) for s in result.report["suspects"]}
+        assert result.report.control_blunders == (), seed
+        suspects = {(s.point, s.side) for s in result.report.suspects}
         named += suspects == {(control.ids[point], "lr"[side])}
     assert named >= 0.75 * SEEDS  # power of the tau test for 5 sigma at a redundancy number near 0.9: ~0.9
 
@@ -101,14 +101,14 @@ def tank():
 def test_the_tank_names_target_3_as_a_control_blunder_and_target_2_left_y_as_an_observation_blunder(tank):
     control, air, water = tank
     for result in (air, water):
-        assert result and result.report["converged"]
-        [blunder] = result.report["control_blunders"]
-        assert blunder["id"] == "3" and blunder["freed"] == ["Z"] and blunder["axes"] == ["Z"]
-        assert blunder["offset"][0] == pytest.approx(-200.0, abs=0.1)
-        assert blunder["message"].startswith("control Z of target 3 is 200 m off its fitted value")
-        assert any(note.startswith("control Z of target 3") for note in result.report["notes"])
-        assert not any(s["id"] == "3" for s in result.report["suspects"])  # its observations are kept
-    suspects = {(s["id"], s["side"], s["coordinate"]) for s in water.report["suspects"]}
+        assert result and result.report.converged
+        [blunder] = result.report.control_blunders
+        assert blunder.point == "3" and blunder.freed == ("Z",) and blunder.axes == ("Z",)
+        assert blunder.offset[0] == pytest.approx(-200.0, abs=0.1)
+        assert blunder.message.startswith("control Z of target 3 is 200 m off its fitted value")
+        assert any(note.startswith("control Z of target 3") for note in result.report.notes)
+        assert not any(s.point == "3" for s in result.report.suspects)  # its observations are kept
+    suspects = {(s.point, s.side, s.coordinate) for s in water.report.suspects}
     assert ("2", "l", "y") in suspects and {s[0] for s in suspects} == {"2"}
 
 

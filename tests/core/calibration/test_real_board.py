@@ -42,7 +42,7 @@ def test_our_calibration_of_real_board_views_agrees_with_opencv(board_views, ope
     for key, value in ours.items():
         assert value == pytest.approx(opencv[key], rel=0.01), key
     assert 0.08 < ours["baseline_m"] < 0.10  # about 92 mm
-    assert result.report["rms_px_all"] <= 1.2 * opencv["rms_px"]
+    assert result.report.rms_px_all <= 1.2 * opencv["rms_px"]
 
 
 def test_real_corners_are_kept_and_the_held_out_departure_is_not_blamed_on_the_calibration(board_views):
@@ -58,9 +58,9 @@ def test_real_corners_are_kept_and_the_held_out_departure_is_not_blamed_on_the_c
     trimmed = calibrate_air(control, observations, dataclasses.replace(options, estimator="least squares"))
     validation = validate(control, observations, 0.2, lambda obs: calibrate_air(control, obs, options), seed=0)
     report, honesty = validation.result.report, validation.honesty
-    assert report["estimation"]["estimator"] == "huber" and report["set_aside"] == 0
-    assert trimmed.report["set_aside"] > 0.02 * 2 * len(trimmed.report["residuals"])
-    assert report["sigma0_px_estimated"] > trimmed.calibration.sigma0_px
+    assert report.estimation["estimator"] == "huber" and report.set_aside == 0
+    assert trimmed.report.set_aside > 0.02 * 2 * len(trimmed.report.residuals)
+    assert report.sigma0_px_estimated > trimmed.calibration.sigma0_px
     assert 0.6 < honesty.reprojection_nees < 1.6 and honesty.calibration_share < 0.05
     assert honesty.distance_nees < 0.7 and honesty.covariance_factor == honesty.pointing_factor
     assert any("lies in the corners' pointing" in line for line in honesty.why)

@@ -65,9 +65,10 @@ def _one_rig(kind: str, seed: int, estimator: str = "auto") -> dict:
             return calibrate_water(base, kind, target, obs, options)
     validation = validate(target, observations, HOLDOUT, fit, seed=seed)
     report = validation.result.report
-    report.setdefault("sigma0_px_estimated", report["sigma0_px"])  # before any scaling by the held-out views
-    suspects = {(s["id"], s["side"], s["station"]) for s in report["suspects"]}
-    coordinates = 2 * len(report["residuals"])
+    if report.sigma0_px_estimated is None:  # the fit's own, before any scaling by the held-out views
+        report = dataclasses.replace(report, sigma0_px_estimated=report.sigma0_px)
+    suspects = {(s.point, s.side, s.group) for s in report.suspects}
+    coordinates = 2 * len(report.residuals)
     return dict(report=report, noise=noise, planted=planted, missed=[b for b in planted if b not in suspects],
                 clean_set_aside=2 * len(suspects - set(planted)) / coordinates, honesty=validation.honesty,
                 validation=validation)
@@ -83,13 +84,13 @@ def test_heavy_tailed_corners_are_kept_and_blunders_named_in_air():
     """The quick form, one rig in air: against least squares with data snooping on the same data."""
     robust = _one_rig("air", 7100)
     trimmed = _one_rig("air", 7100, estimator="least squares")
-    estimated = {name: run["report"]["sigma0_px_estimated"] / run["noise"] for name, run in
+    estimated = {name: run["report"].sigma0_px_estimated / run["noise"] for name, run in
                  (("robust", robust), ("trimmed", trimmed))}
     print(f"set aside: M-estimation {100 * robust['clean_set_aside']:.3f} %, least squares "
           f"{100 * trimmed['clean_set_aside']:.2f} %; sigma0 / noise {estimated}; held-out NEES "
           f"{robust['honesty'].distance_nees:.2f} against {trimmed['honesty'].distance_nees:.2f}")
-    assert robust["report"]["converged"] and not robust["missed"]
-    assert robust["report"]["estimation"]["estimator"] == "huber"
+    assert robust["report"].converged and not robust["missed"]
+    assert robust["report"].estimation["estimator"] == "huber"
     assert robust["clean_set_aside"] < 0.005 < trimmed["clean_set_aside"]
     assert 0.9 < estimated["robust"] < 1.1
     assert estimated["trimmed"] < 0.92  # trimming the tails understates the noise
@@ -106,13 +107,13 @@ def test_held_out_distances_are_honest_over_many_rigs(kind):
     print(f"{kind}: held-out distances' NEES {nees:.2f} over {sum(r['honesty'].distances for r in runs)}, "
           f"reprojections' {np.mean([r['honesty'].reprojection_nees for r in runs]):.2f}; clean set aside "
           f"{100 * np.mean([r['clean_set_aside'] for r in runs]):.3f} %; sigma0 / noise "
-          f"{[round(r['report']['sigma0_px_estimated'] / r['noise'], 3) for r in runs]}; factors (sigma0², "
+          f"{[round(r['report'].sigma0_px_estimated / r['noise'], 3) for r in runs]}; factors (sigma0², "
           f"covariance) {factors}")
     for k, run in enumerate(runs):
-        assert run["report"]["converged"], f"{kind} rig {k}: {run['report']['reason']}"
+        assert run["report"].converged, f"{kind} rig {k}: {run['report'].reason}"
         assert not run["missed"], f"{kind} rig {k}: planted blunders not named: {run['missed']}"
         assert run["clean_set_aside"] < 0.005, f"{kind} rig {k}: {100 * run['clean_set_aside']:.2f} % set aside"
-        assert 0.85 < run["report"]["sigma0_px_estimated"] / run["noise"] < 1.15, f"{kind} rig {k}"
+        assert 0.85 < run["report"].sigma0_px_estimated / run["noise"] < 1.15, f"{kind} rig {k}"
     assert 0.7 <= nees <= 1.5, f"{kind}: held-out distances' NEES {nees:.2f}"
 
 
@@ -131,7 +132,7 @@ def test_a_calibration_that_understates_its_noise_is_scaled_and_says_so():
         names, matrix = result.calibration.covariance
         result.calibration = dataclasses.replace(result.calibration, sigma0_px=result.calibration.sigma0_px / 3,
                                                  covariance=(names, matrix / 9))
-        result.report["sigma0_px"] = result.calibration.sigma0_px
+        result.report = dataclasses.replace(result.report, sigma0_px=result.calibration.sigma0_px)
         return result
 
     validation = validate(target, observations, HOLDOUT, overconfident, seed=1)
@@ -144,8 +145,8 @@ def test_a_calibration_that_understates_its_noise_is_scaled_and_says_so():
     assert scale["pointing_factor"] == honesty.pointing_factor
     assert calibration.sigma0_px == pytest.approx(scale["sigma0_px_estimated"] * np.sqrt(honesty.pointing_factor))
     report = validation.result.report
-    assert report["variance_scale"]["reprojection_dof"] == honesty.reprojection_dof > 100
-    assert report["sigma0_px"] == calibration.sigma0_px and report["sigma0_px_estimated"] < report["sigma0_px"]
-    assert any("scaled by a variance factor" in note for note in report["notes"])
+    assert report.variance_scale["reprojection_dof"] == honesty.reprojection_dof > 100
+    assert report.sigma0_px == calibration.sigma0_px and report.sigma0_px_estimated < report.sigma0_px
+    assert any("scaled by a variance factor" in note for note in report.notes)
     text = "\n".join(validation.lines())
     assert "honesty on held-out views" in text and "larger than sigma0 says" in text

@@ -21,7 +21,7 @@ def test_held_out_views_are_spread_over_the_set_and_seeded():
     index = sorted(labels.index(c) for c in chosen)
     assert np.all(np.diff(index) == 4)  # one in every four, wherever the offset falls
     assert {holdout_views(labels, 0.25, seed=s) for s in range(10)} != {chosen}
-    with pytest.raises(InvalidParameterError, match="--holdout"):
+    with pytest.raises(InvalidParameterError, match="the share of views held out: must be between 0 and 1"):
         holdout_views(labels, 1.5)
     with pytest.raises(DegenerateGeometryError, match="leaves 2 to calibrate from"):
         holdout_views(labels[:4], 0.5)

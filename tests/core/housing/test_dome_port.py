@@ -112,9 +112,9 @@ def test_a_decentred_dome_port_is_recovered_over_many_rigs():
     runs = [_one_rig(2000 + k) for k in range(RIGS)]
     for k, run in enumerate(runs):
         report = run["report"]
-        assert report["converged"], f"rig {k}: {report['reason']}"
-        assert not report["on_bound"], f"rig {k}: {report['on_bound']}"
-        assert 0.7 < report["sigma0_px"] / run["noise"] < 1.3, f"rig {k}: sigma0 {report['sigma0_px']:.3f} px"
+        assert report.converged, f"rig {k}: {report.reason}"
+        assert not report.on_bound, f"rig {k}: {report.on_bound}"
+        assert 0.7 < report.sigma0_px / run["noise"] < 1.3, f"rig {k}: sigma0 {report.sigma0_px:.3f} px"
         assert np.all(np.abs(run["decentring"]) < 3.5), f"rig {k}: decentring z {run['decentring']}"
     decentring = np.mean(np.concatenate([run["decentring"] for run in runs]) ** 2)
     points = np.mean(np.concatenate([run["points"] for run in runs]))

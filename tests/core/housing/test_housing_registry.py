@@ -198,7 +198,7 @@ def test_phase_two_recovers_the_housing_on_a_synthetic_rig(name, phase_one):
                                   Camera(RIGHT, station(1), right, WIDTH, HEIGHT), NEAR_PARALLEL)
     pair = observe(rig, control.xyz, control.ids, "water1", seed=6, noise=0.1)
     result = calibrate_water(base, name, control, pair.observations, CalibrationOptions(sigma_px=0.1))
-    assert result.adjustment.converged, result.report["reason"]
+    assert result.adjustment.converged, result.report.reason
     normalised = []
     for parameter in cls.calibration_names:
         estimate = result.calibration.parameters[parameter]

@@ -58,6 +58,11 @@ class ControlBlunder:
     chi2: float
     message: str
 
+    @property
+    def offset(self) -> np.ndarray:
+        """The fitted coordinates' offsets from the control (metres, fitted − control)."""
+        return self.fitted - self.control
+
     def as_dict(self) -> dict:
         return {"id": self.point, "axes": list(self.axes), "freed": list(self.freed),
                 "control": [float(v) for v in self.control],

@@ -41,6 +41,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from usvips.core import kernels
 from usvips.core.batch_mode import using_reference
 from usvips.core.calibration.parameter_names import ORIGIN, build_housings, housing_parameter_names, interior_of
 from usvips.core.errors import UsvipsError
@@ -478,36 +479,51 @@ def side_housing_columns(housings: dict, names: list[str], index: int, blocks: l
     """:func:`housing_columns` of every block of one side (``index`` 0 left, 1 right) at once: ``blocks``
     holds (block, camera or its rotation M (3 × 3), ideal normalised coordinates uv (N, 2), pixel Jacobian
     rows a0, a1 (N, 3), the points' distances along their rays (N,), metres). One trace of all their rays
-    (camera frame) per shifted housing; a block with a ray that fails in a shifted housing gets no column (the reference
-    path's differences serve). Returns {parameter: {block: column}}."""
+    (camera frame; compiled where the housing's surfaces compile) per shifted housing, and every block's
+    column formed in the same array operations; a block with a ray that fails in a shifted housing gets no
+    column (the reference path's differences serve). Returns {parameter: {block: column}}."""
     base = housings[None][index]
     uv = np.vstack([entry[2] for entry in blocks])
-    directions = np.column_stack([uv, -np.ones(len(uv))])
-    origins = np.zeros_like(directions)
-    ends = np.cumsum([0] + [len(entry[2]) for entry in blocks])
+    sizes = [len(entry[2]) for entry in blocks]
+    ends = np.cumsum([0] + sizes)
+    # per row: its block's rotation (vectors turn into the object frame as rows @ M), Jacobian rows, distance
+    rotations = np.repeat(np.stack([entry[1] if isinstance(entry[1], np.ndarray) else entry[1].exterior.rotation
+                                    for entry in blocks]), sizes, axis=0)
+    a0, a1 = np.vstack([entry[3] for entry in blocks]), np.vstack([entry[4] for entry in blocks])
+    along = np.concatenate([entry[5] for entry in blocks])[:, None]
     out: dict[str, dict[int, np.ndarray]] = {}
     for name in names:
         ahead, behind = housings[(name, 1)][index], housings[(name, -1)][index]
         if _same(ahead, base) and _same(behind, base):
             continue
         try:
-            plus, minus = ahead.trace(origins, directions), behind.trace(origins, directions)
+            plus, minus = _camera_frame_rays(ahead, uv), _camera_frame_rays(behind, uv)
         except UsvipsError:
             continue
-        fine = (plus.status == RayStatus.OK) & (minus.status == RayStatus.OK)
-        shift_o, shift_d = plus.origins - minus.origins, plus.directions - minus.directions
-        for k, (b, camera, _, a0, a1, along) in enumerate(blocks):
-            rows = slice(ends[k], ends[k + 1])
-            if not fine[rows].all():
-                continue
-            rotation = camera if isinstance(camera, np.ndarray) else camera.exterior.rotation
-            # the ray's motion in the camera frame, turned into the object frame (vectors: rows @ M)
-            moved = ((shift_o[rows] + along[:, None] * shift_d[rows]) / (2 * HOUSING_STEP)) @ rotation
-            column = np.empty(2 * len(along))
-            column[0::2] = -(a0 * moved).sum(axis=1)
-            column[1::2] = -(a1 * moved).sum(axis=1)
-            out.setdefault(name, {})[b] = column
+        fine = (plus[2] == RayStatus.OK) & (minus[2] == RayStatus.OK)
+        # the rays' motion in the camera frame, turned into the object frame
+        moved = np.einsum("ni,nij->nj", (plus[0] - minus[0]) + along * (plus[1] - minus[1]), rotations)
+        moved /= 2 * HOUSING_STEP
+        column = np.empty(2 * len(uv))
+        column[0::2] = -np.einsum("ni,ni->n", a0, moved)
+        column[1::2] = -np.einsum("ni,ni->n", a1, moved)
+        failed = np.flatnonzero(~fine)
+        spoilt = set(np.searchsorted(ends, failed, side="right").tolist())  # blocks (by position) with a failure
+        columns = {entry[0]: column[2 * ends[k]:2 * ends[k + 1]] for k, entry in enumerate(blocks)
+                   if k + 1 not in spoilt}
+        if columns:
+            out[name] = columns
     return out
+
+
+def _camera_frame_rays(housing, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(origins, directions, status) of the camera-frame rays (u, v, −1) of ``uv`` (N, 2) traced through
+    ``housing`` (camera frame)."""
+    if kernels.wanted(len(uv), housing.surfaces):
+        return kernels.trace_ideal_in_housing(housing, uv)[:3]
+    directions = np.column_stack([uv, -np.ones(len(uv))])
+    traced = housing.trace(np.zeros_like(directions), directions)
+    return traced.origins, traced.directions, traced.status
 
 
 def housing_columns(housings: dict, names: list[str], index: int, camera, pixels: np.ndarray,

@@ -290,16 +290,17 @@ def apply_honesty(result, figures: Honesty) -> None:
     the parameters' sigmas, ``variance_scale``, a note per decision); the report keeps the fit's own sigma0
     as ``sigma0_px_estimated``. Nothing changes when no factor departs from 1 (then only the note)."""
     report = result.report
-    report["sigma0_px_estimated"] = report.get("sigma0_px")
-    report.setdefault("notes", []).extend(line + "." for line in figures.why)
+    report = replace(report, sigma0_px_estimated=report.sigma0_px,
+                     notes=report.notes + tuple(line + "." for line in figures.why))
     if not figures.scaled:
+        result.report = report
         return
     result.calibration = scaled(result.calibration, figures.pointing_factor, figures.covariance_factor, figures.why)
-    report["sigma0_px"] = result.calibration.sigma0_px
-    for name, estimate in result.calibration.parameters.items():
-        if name in report.get("parameters", {}):
-            report["parameters"][name]["sigma"] = estimate.sigma
-    report["variance_scale"] = {"pointing_factor": figures.pointing_factor,
-                                "covariance_factor": figures.covariance_factor, "why": list(figures.why),
-                                "distances": figures.distances, "reprojection_dof": figures.reprojection_dof,
-                                "views": figures.views}
+    sigmas = result.calibration.parameters
+    result.report = replace(
+        report, sigma0_px=result.calibration.sigma0_px,
+        parameters={name: replace(p, sigma=sigmas[name].sigma) if name in sigmas else p
+                    for name, p in report.parameters.items()},
+        variance_scale={"pointing_factor": figures.pointing_factor, "covariance_factor": figures.covariance_factor,
+                        "why": list(figures.why), "distances": figures.distances,
+                        "reprojection_dof": figures.reprojection_dof, "views": figures.views})

@@ -42,6 +42,7 @@ from usvips.core.calibration.figures import baseline_sigma
 from usvips.core.calibration.model import SIDES, StereoModel
 from usvips.core.calibration.parameter_names import housing_parameter_names, symbol
 from usvips.core.calibration.planar import is_coplanar, planar_start, resect_views
+from usvips.core.calibration.report import BoundHit, CalibrationReport, Correlation, ResidualRow
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.dlt import robust_dlt
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
@@ -102,7 +103,7 @@ class CalibrationResult:
     calibration: StereoCalibration
     adjustment: Adjustment
     model: StereoModel
-    report: dict
+    report: CalibrationReport
     #: control points demoted to tie points (:class:`ControlBlunder`), in the order found
     control_blunders: list = field(default_factory=list)
 
@@ -235,9 +236,8 @@ def _solve(model: StereoModel, parameters: list[Parameter], options: Calibration
         left, right, model.stations, tuple(poses), relative_orientation(left.exterior, right.exterior), phase,
         max(sigma0_px, 1e-12), estimates, (tuple(adjustment.covariance_names), adjustment.covariance),
         statistics, source)
-    result = CalibrationResult(calibration, adjustment, model, {}, blunders)
-    result.report = build_report(result)
-    return result
+    return CalibrationResult(calibration, adjustment, model, build_report(calibration, adjustment, model, blunders),
+                             blunders)
 
 
 def require_unknowns(parameters: list[Parameter]) -> None:
@@ -326,25 +326,22 @@ def _rms(residuals: np.ndarray) -> float:
     return float(np.sqrt(np.mean(finite**2))) if finite.size else float("nan")
 
 
-def build_report(result: CalibrationResult) -> dict:
-    """The report JSON: sigma0_px, rms_px, parameters, correlations_over_0_95, condition_number, suspects,
-    converged, and the details (residuals, redundancy numbers, global test, weak directions, notes)."""
-    adj, model, cal = result.adjustment, result.model, result.calibration
+def build_report(cal: StereoCalibration, adj: Adjustment, model: StereoModel,
+                 control_blunders: list[ControlBlunder]) -> CalibrationReport:
+    """The adjustment's report: sigma0, RMS, parameters, correlations over 0.95, condition number, suspects,
+    convergence, and the details (residuals, redundancy numbers, global test, weak directions, notes)."""
     obs = adj.observations
     predicted = prediction_residuals(model, adj)
     residuals = []
     for i in range(0, len(obs), 2):
         vx, vy = (None if not np.isfinite(predicted[k]) else float(predicted[k]) for k in (i, i + 1))
-        residuals.append({"id": obs.point[i], "side": obs.side[i], "station": obs.group[i], "vx": vx, "vy": vy,
-                          "wx": float(adj.w[i]), "wy": float(adj.w[i + 1]),
-                          "redundancy_x": float(adj.redundancy_numbers[i]),
-                          "redundancy_y": float(adj.redundancy_numbers[i + 1]),
-                          "used": bool(adj.used[i] and adj.used[i + 1])})
-        if not residuals[-1]["used"]:
-            # set aside: its residual is a prediction (the adjustment did not use it), flagged as such
-            residuals[-1]["set_aside"] = True
-            if vx is None or vy is None:
-                residuals[-1]["note"] = "no ray of the adjusted camera reaches it: no residual"
+        used = bool(adj.used[i] and adj.used[i + 1])
+        # set aside: its residual is a prediction (the adjustment did not use it)
+        note = "no ray of the adjusted camera reaches it: no residual" if not used and (vx is None or vy is None) \
+            else ""
+        residuals.append(ResidualRow(str(obs.point[i]), str(obs.side[i]), str(obs.group[i]), vx, vy, float(adj.w[i]),
+                                     float(adj.w[i + 1]), float(adj.redundancy_numbers[i]),
+                                     float(adj.redundancy_numbers[i + 1]), used, note))
     notes = []
     set_aside = int(np.sum(~np.asarray(adj.used, bool)))
     rms_all = _rms(predicted)
@@ -358,7 +355,7 @@ def build_report(result: CalibrationResult) -> dict:
         notes.append(f"{name} ends on its {side} bound ({bound:g}): the data push it to the edge of its physical "
                      "range, so the housing model or its priors do not fit the data there; its sigma (and those of "
                      "the parameters correlated with it) assume an interior minimum and understate the doubt.")
-    notes += [blunder.message for blunder in result.control_blunders]
+    notes += [blunder.message for blunder in control_blunders]
     if adj.estimation.get("estimator") == "huber":
         notes.append(estimation_note(adj.estimation, len(obs)))
     if adj.model_doubt:
@@ -372,25 +369,18 @@ def build_report(result: CalibrationResult) -> dict:
         notes.append(f"NOT converged: {adj.reason}. Do not use this calibration for measurement.")
     if adj.correlations_over:
         notes.append(f"{len(adj.correlations_over)} parameter pairs correlate above 0.95: their individual values "
-                     "are not determined by the data (their combination is); see correlations_over_0_95.")
-    return {
-        "phase": cal.phase, "housing": model.kind, "stations": list(model.stations),
-        "converged": adj.converged, "reason": adj.reason, "iterations": adj.iterations,
-        "on_bound": [{"parameter": n, "bound": side, "value": b} for n, side, b in adj.on_bound],
-        "model_doubt": adj.model_doubt,
-        "sigma0_px": cal.sigma0_px, "rms_px": adj.rms, "rms_px_kept": adj.rms,
-        "rms_px_all": rms_all if np.isfinite(rms_all) else None, "set_aside": set_aside,
-        "redundancy": adj.redundancy,
-        "parameters": {name: {"value": p.value, "sigma": p.sigma, "status": p.status}
-                       for name, p in cal.parameters.items()},
-        "correlations_over_0_95": [{"a": a, "b": b, "r": r} for a, b, r in adj.correlations_over],
-        "condition_number": adj.condition_number,
-        "weak_directions": [[{"parameter": n, "weight": w} for n, w in d] for d in adj.weak_directions],
-        "control_blunders": [b.as_dict() for b in result.control_blunders],
-        "suspects": [{"id": s.point, "side": s.side, "coordinate": s.coordinate, "station": s.group, "w": s.w,
-                      "residual_px": s.residual, "mdb_px": s.mdb, "reason": s.reason} for s in adj.suspects],
-        "global_test": adj.global_test, "residuals": residuals, "notes": notes, "estimation": adj.estimation,
-    }
+                     "are not determined by the data (their combination is); see the correlations over 0.95.")
+    return CalibrationReport(
+        phase=cal.phase, housing=model.kind, stations=tuple(model.stations), converged=adj.converged,
+        reason=adj.reason, iterations=adj.iterations, sigma0_px=cal.sigma0_px, rms_px=adj.rms,
+        rms_px_all=rms_all if np.isfinite(rms_all) else None, set_aside=set_aside, redundancy=adj.redundancy,
+        parameters={name: ParameterEstimate(p.value, p.sigma, p.status) for name, p in cal.parameters.items()},
+        correlations=tuple(Correlation(a, b, r) for a, b, r in adj.correlations_over),
+        condition_number=adj.condition_number,
+        weak_directions=tuple(tuple((n, float(w)) for n, w in d) for d in adj.weak_directions),
+        control_blunders=tuple(control_blunders), suspects=tuple(adj.suspects),
+        on_bound=tuple(BoundHit(n, side, b) for n, side, b in adj.on_bound), model_doubt=adj.model_doubt,
+        global_test=adj.global_test, estimation=adj.estimation, residuals=tuple(residuals), notes=tuple(notes))
 
 
 def estimation_note(estimation: dict, observations: int) -> str:

@@ -4,68 +4,56 @@ The pixel part of a point's covariance comes from the pointing precision of its 
 px per image coordinate, :mod:`usvips.core.pointing`; ``intersection.py``). A
 calibration estimated from few control points is itself uncertain, and that error is common to every
 point measured with it: its part is J Σ Jᵀ, with Σ the calibration's a-posteriori covariance of its free
-parameters and J = ∂point/∂parameter by forward differences (re-intersecting with each parameter stepped
-by the model's step, ``model._STEPS``).
+parameters and J = ∂point/∂parameter.
 
-The differences are batched. The cameras with one parameter stepped do not depend on the picks: they are
-built once per (calibration, station, frame) and kept (:func:`stepped_cameras`). A pick then only moves its
-rays. A step of a camera's pose moves its traced rays rigidly, with no new trace. A step of the principal
-distance, the principal point or the y scale (the affine map of pixels to image coordinates, ahead of the
-lens distortion) reads, through the same lens and housing, what the calibration's camera reads at other
-pixels: those are traced for all such steps at once, and their pixel derivatives carried through the
-affine map. Any other step (distortion, housing) retraces the pixels through the stepped camera. All
-stepped rays are intersected in one call. The derivatives of a few rows (a pick's vertex) are kept: the
-figures of the object stored from those picks then need no stepped ray at all (each row's derivatives
-depend on that row's pixels alone: a new computation gives them again but for rounding, ~1e-8 relative,
-from the undistortion's Newton iterations, which run until every row of a call has converged).
-:func:`reference_derivatives` is the plain loop (rebuild, retrace,
-re-intersect per parameter) the batched path is tested against.
+J is computed for all points at once (:mod:`usvips.core.calibration.point_derivatives`): the
+implicit-function theorem on the weighted least-squares intersection turns each parameter's motion of the
+traced rays into the point's motion, poses and interior parameters in closed form from the rays traced once
+with their pixel derivatives, housing parameters by the pixels traced through the housing built at θ ± h.
+How each parameter moves each camera does not depend on the picks: it is found once per (calibration,
+station, frame) from the cameras the calibration's values build at θ ± h, and kept
+(:func:`stepped_cameras`). The derivatives of a few rows (a pick's vertex) are kept: the figures of the
+object stored from those picks then need no derivative computed again (each row's derivatives depend on
+that row's pixels alone). :func:`reference_derivatives` is the plain loop (rebuild, retrace,
+re-intersect per parameter) the derivatives are tested against.
 """
 
 from __future__ import annotations
 
 import threading
 import weakref
-from dataclasses import dataclass, replace
+from collections.abc import Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
 from usvips.core.calibration.model import _STEPS, stereo_cameras
 from usvips.core.calibration.parameter_names import symbol
-from usvips.core.camera import EXTERIOR_PARAMETERS, Camera
+from usvips.core.calibration.point_derivatives import CameraMotion, camera_motion, housing_rays, point_jacobian
+from usvips.core.camera import EXTERIOR_PARAMETERS
 from usvips.core.errors import InvalidParameterError, UsvipsError
-from usvips.core.interior import Interior
-from usvips.core.intersection import Intersection, TracedRays, intersect_traced, retrace, trace
+from usvips.core.intersection import Intersection, TracedRays, intersect_traced, pixel_jacobian, retrace, trace
 from usvips.core.pointing import per_vertex
 from usvips.core.rays import RayBundle
 from usvips.core.stereo_calibration import StereoCalibration
 
-#: rows (stepped parameters × points) intersected in one call: bounds the memory of a large batch
-BATCH_ROWS = 200_000
+#: points whose derivatives are computed in one block: bounds the memory of a large batch
+BATCH_ROWS = 16_384
 #: calibrations (with their station and frame) whose stepped cameras are kept
 KEPT = 8
 #: rows (one vertex's pixels) whose derivatives are kept, from calls of at most :data:`FEW_ROWS` rows
 KEPT_ROWS = 64
 FEW_ROWS = 16
 
-#: how a step moves one camera: not at all; its pose and/or its affine pixel map (:data:`AFFINE`) only, so
-#: that its rays follow from the calibration camera's; or otherwise (a new trace)
-UNMOVED, MAPPED, RETRACE = 0, 1, 2
-#: the interior parameters of the affine map pixels → image coordinates (x̄ = x − xp, ȳ = (yp − y)·sy),
-#: divided by f into the distorted normalised coordinates
-AFFINE = ("f", "xp", "yp", "sy")
-
-
 @dataclass(frozen=True)
 class SteppedColumn:
-    """One free parameter of the calibration's covariance stepped: its row ``index`` in the covariance,
-    the ``step`` (parameter units), the two cameras with it stepped and how each moved (``UNMOVED``,
-    ``MAPPED``, ``RETRACE``)."""
+    """One free parameter of the calibration's covariance: its row ``index`` in the covariance, the
+    ``step`` h (parameter units) of the cameras built at θ ± h, and how it moves each of the two cameras
+    (None: not at all)."""
 
     index: int
     step: float
-    cameras: tuple[Camera, Camera]
-    moved: tuple[int, int]
+    motions: tuple[CameraMotion | None, CameraMotion | None]
 
 
 def _station_label(calibration: StereoCalibration, station: int | str) -> str:
@@ -84,11 +72,19 @@ def intersect_with_calibration(calibration: StereoCalibration, left: np.ndarray,
     the figure path (``usvips.core.measurements``) always passes the picks' own pointing sigma. Where the
     calibration has no parameter covariance (e.g. imported from OpenCV), only the pointing part is given.
     """
-    result, derivatives, sigma = _intersect_and_derivatives(calibration, left, right, station, frame,
-                                                            include_calibration, pointing_sigma_px)
-    if derivatives is None:
-        return result
-    calibration_part = np.einsum("jni,jk,knl->nil", derivatives, sigma, derivatives, optimize=True)
+    if len(np.asarray(left).reshape(-1, 2)) > FEW_ROWS:  # many points: J Σ Jᵀ block by block
+        pointing, traced, result, covariance = _prepared(calibration, left, right, station, frame,
+                                                         include_calibration, pointing_sigma_px)
+        if covariance is None:
+            return result
+        columns = stepped_cameras(calibration, station, frame)
+        calibration_part = _calibration_part(traced, result, columns, covariance[1], pointing)
+    else:
+        result, derivatives, sigma = _intersect_and_derivatives(calibration, left, right, station, frame,
+                                                                include_calibration, pointing_sigma_px)
+        if derivatives is None:
+            return result
+        calibration_part = _sandwich(np.ascontiguousarray(derivatives.transpose(1, 2, 0)), sigma)
     covariance = result.covariance + np.where(result.ok[:, None, None], calibration_part, 0.0)
     return Intersection(result.points, covariance, result.residuals_m, result.residuals_px, result.status)
 
@@ -143,16 +139,25 @@ def _pointing(calibration: StereoCalibration, left: np.ndarray, pointing_sigma_p
     return per_vertex(calibration.sigma0_px if pointing_sigma_px is None else pointing_sigma_px, count)
 
 
-def _intersect_and_derivatives(calibration, left, right, station, frame, include_calibration,
-                               pointing_sigma_px=None):
+def _prepared(calibration, left, right, station, frame, include_calibration, pointing_sigma_px):
+    """(pointing sigmas (N, 2), traced rays, intersection, (names, Σ) or None without a usable
+    covariance); refuses a station pose the covariance leaves out."""
     pointing = _pointing(calibration, left, pointing_sigma_px)
     traced, result = _traced(calibration, left, right, station, frame, pointing)
     covariance = _usable_covariance(calibration, result, include_calibration)
+    if covariance is not None:
+        _require_pose_covariance(calibration, _station_label(calibration, station), frame, covariance[0])
+    return pointing, traced, result, covariance
+
+
+def _intersect_and_derivatives(calibration, left, right, station, frame, include_calibration,
+                               pointing_sigma_px=None):
+    pointing, traced, result, covariance = _prepared(calibration, left, right, station, frame,
+                                                     include_calibration, pointing_sigma_px)
     if covariance is None:
         return result, None, None
     names, sigma = covariance
     label = _station_label(calibration, station)
-    _require_pose_covariance(calibration, label, frame, names)
     keys = [(id(calibration), label, frame, one.tobytes(), other.tobytes(), weight.tobytes())
             for one, other, weight in zip(traced[0].pixels, traced[1].pixels, pointing, strict=True)
             ] if len(left) <= FEW_ROWS else []
@@ -219,17 +224,21 @@ def _cameras(calibration: StereoCalibration, station: int | str, frame: str, val
         return None
 
 
-def _stepped(calibration: StereoCalibration, station: int | str, frame: str):
-    """(index, step, cameras or None) for every parameter of the covariance that can move a camera; None
-    where the step leaves the valid region (its column stays zero)."""
+def _stepped(calibration: StereoCalibration, station: int | str, frame: str, signs: tuple[int, ...] = (1,)):
+    """(index, step, {sign: cameras or None}) for every parameter of the covariance that can move a camera,
+    with the cameras built at θ + sign·step for each of ``signs``; None where a step leaves the valid
+    region."""
     values = {name: p.value for name, p in calibration.parameters.items()}
     for j, name in enumerate(calibration.covariance[0]):
         if "@" in name and symbol(name) in ("X", "Y", "Z"):
             continue  # a control (or demoted tie) point's coordinate moves no camera: its column is zero
         step = _STEPS.get(symbol(name), 1e-6)
-        moved = dict(values)
-        moved[name] += step
-        yield j, step, _cameras(calibration, station, frame, moved)
+        built = {}
+        for sign in signs:
+            moved = dict(values)
+            moved[name] += sign * step
+            built[sign] = _cameras(calibration, station, frame, moved)
+        yield j, step, built
 
 
 _KEPT: dict[tuple[int, str, str], tuple[weakref.ref, tuple[SteppedColumn, ...]]] = {}
@@ -239,10 +248,11 @@ _KEEPING = threading.Lock()  # the window picks on its thread while a worker com
 
 def stepped_cameras(calibration: StereoCalibration, station: int | str = 0, frame: str = "object"
                     ) -> tuple[SteppedColumn, ...]:
-    """The cameras of ``calibration`` at ``station`` in ``frame`` with each free parameter of its covariance
-    stepped, for the parameters whose step moves a camera. They do not depend on the picks, so they are
-    built once and kept for the last :data:`KEPT` calibrations (a calibration is immutable). Empty without
-    a parameter covariance."""
+    """How each free parameter of the covariance of ``calibration`` moves its two cameras at ``station`` in
+    ``frame`` (from the cameras built at θ ± h; one-sided, from the unstepped values, where one of them
+    leaves the valid region), for the parameters that move a camera. It does not depend on the picks, so
+    it is found once and kept for the last :data:`KEPT` calibrations (a calibration is immutable). Empty
+    without a parameter covariance."""
     label = _station_label(calibration, station)
     if calibration.covariance is None:
         return ()
@@ -252,18 +262,21 @@ def stepped_cameras(calibration: StereoCalibration, station: int | str = 0, fram
     if kept is not None and kept[0]() is calibration:
         return kept[1]
     base = calibration.rig(label, frame=frame).cameras
-    # the cameras the parameter values build unstepped: a step that leaves a camera as these has not moved
-    # it (the calibration's own cameras may differ from them by rounding: the relative orientation)
     values = {name: p.value for name, p in calibration.parameters.items()}
-    unstepped = _cameras(calibration, label, frame, values) or (None, None)
+    unstepped = _cameras(calibration, label, frame, values)
     columns = []
-    for j, step, cameras in _stepped(calibration, label, frame):
-        if cameras is None:
-            continue
-        moved = tuple(_how_moved(*one) for one in zip(base, unstepped, cameras, strict=True))
-        if moved != (UNMOVED, UNMOVED):
-            columns.append(SteppedColumn(j, step, cameras, moved))
-    columns = tuple(columns)
+    for j, step, built in _stepped(calibration, label, frame, (-1, 1)):
+        minus, plus, span = built[-1], built[1], 2 * step
+        if minus is None or plus is None:
+            minus, plus, span = minus or unstepped, plus or unstepped, step
+            if minus is None or plus is None or minus is plus:
+                continue  # no step stays valid: the column stays zero
+        motions = tuple(camera_motion(*one, span) for one in zip(base, minus, plus, strict=True))
+        motions = tuple(m if m.moves else None for m in motions)
+        if any(m is not None for m in motions):
+            columns.append(SteppedColumn(j, step, motions))
+    # the left camera's columns, then those of both, then the right's: each camera's a contiguous range
+    columns = tuple(sorted(columns, key=_camera_order))
     with _KEEPING:
         while len(_KEPT) >= KEPT:
             del _KEPT[next(iter(_KEPT))]
@@ -271,141 +284,118 @@ def stepped_cameras(calibration: StereoCalibration, station: int | str = 0, fram
     return columns
 
 
-def _how_moved(base: Camera, unstepped: Camera | None, stepped: Camera) -> int:
-    """How a step moved a camera from ``base`` (the calibration's, which the picks are traced with)."""
-    if _equal(stepped, base) or (unstepped is not None and _equal(stepped, unstepped)):
-        return UNMOVED
-    affine = {name: getattr(base.interior, name) for name in AFFINE}
-    if (_equal(stepped.housing, base.housing) and replace(stepped.interior, **affine) == base.interior
-            and (stepped.width, stepped.height) == (base.width, base.height)):
-        return MAPPED
-    return RETRACE
+def _camera_order(column: SteppedColumn) -> int:
+    """0 for a column that moves the left camera only, 1 for both, 2 for the right only."""
+    left, right = column.motions
+    return 0 if right is None else (2 if left is None else 1)
 
 
-def _equal(one, other) -> bool:
-    try:
-        return one is other or bool(one == other)
-    except (ValueError, TypeError):  # a housing holding arrays does not compare by value
-        return False
-
-
-def _moved_rigidly(traced: TracedRays, camera: Camera) -> TracedRays:
-    """The rays of ``traced`` carried with their camera to ``camera``'s pose (same interior and housing):
-    what a trace through ``camera`` gives, without tracing. Object vectors are rows: v = v_camera · M."""
-    before, after = traced.camera.exterior, camera.exterior
-    turn = before.rotation.T @ after.rotation
+def _rows(traced: TracedRays, rows: slice | np.ndarray) -> TracedRays:
+    """The ``rows`` of ``traced``."""
     rays = traced.rays
-    origins = (rays.origins - before.position) @ turn + after.position
-    bundle = RayBundle(origins, rays.directions @ turn, rays.status, rays.failed_surface)
-    d_origins = np.einsum("nic,ij->njc", traced.d_origins, turn)
-    d_directions = np.einsum("nic,ij->njc", traced.d_directions, turn)
-    return TracedRays(camera, traced.pixels, bundle, d_origins, d_directions)
+    return TracedRays(traced.camera, traced.pixels[rows],
+                      RayBundle(rays.origins[rows], rays.directions[rows], rays.status[rows],
+                                rays.failed_surface[rows]),
+                      traced.d_origins[rows], traced.d_directions[rows])
 
 
-def _pixel_map(base: Interior, stepped: Interior, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The pixels (N, 2) at which ``base`` reads the distorted normalised coordinates ``stepped`` reads at
-    ``pixels`` (the two differ in :data:`AFFINE` only), and the map's constant Jacobian ∂q/∂p (2, 2)."""
-
-    def mapped(p: np.ndarray) -> np.ndarray:
-        return base.image_to_pixels(stepped.pixels_to_image(p) * (base.f / stepped.f))
-
-    corners = mapped(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
-    return mapped(pixels), (corners[1:] - corners[0]).T
-
-
-def _split(traced: TracedRays, count: int) -> list[TracedRays]:
-    """``traced`` of ``count`` equal blocks of rows, one TracedRays each."""
-    n = len(traced.rays) // max(count, 1)
-    rays = traced.rays
-    return [TracedRays(traced.camera, traced.pixels[k * n:(k + 1) * n],
-                       RayBundle(rays.origins[k * n:(k + 1) * n], rays.directions[k * n:(k + 1) * n],
-                                 rays.status[k * n:(k + 1) * n], rays.failed_surface[k * n:(k + 1) * n]),
-                       traced.d_origins[k * n:(k + 1) * n], traced.d_directions[k * n:(k + 1) * n])
-            for k in range(count)]
-
-
-def _mapped(base: TracedRays, columns: tuple[SteppedColumn, ...], side: int) -> dict[int, TracedRays]:
-    """The rays of the ``MAPPED`` columns of ``side`` (by position in ``columns``): the pixels of every
-    column whose affine map moved traced at once through the calibration's camera, their pixel derivatives
-    carried through the map (∂ray/∂p = ∂ray/∂q · ∂q/∂p), then moved rigidly to the stepped pose."""
-    camera = base.camera
-    moved = [k for k, c in enumerate(columns) if c.moved[side] == MAPPED]
-    remapped = [k for k in moved if columns[k].cameras[side].interior != camera.interior]
-    out = {k: base for k in moved if k not in remapped}
-    if remapped:
-        maps = [_pixel_map(camera.interior, columns[k].cameras[side].interior, base.pixels) for k in remapped]
-        traced = trace(camera, np.concatenate([q for q, _ in maps]))
-        for k, (_, jacobian), part in zip(remapped, maps, _split(traced, len(remapped)), strict=True):
-            out[k] = TracedRays(camera, base.pixels, part.rays, part.d_origins @ jacobian,
-                                part.d_directions @ jacobian)
-    for k in moved:
-        stepped = columns[k].cameras[side]
-        if stepped.exterior != camera.exterior:
-            out[k] = _moved_rigidly(out[k], stepped)
-    return out
+def _derivative_blocks(traced: list[TracedRays], result: Intersection, columns: tuple[SteppedColumn, ...],
+                       pointing: np.ndarray) -> Iterator[tuple[slice | np.ndarray, np.ndarray]]:
+    """(rows, ∂point/∂parameter (n, 3, len(columns))) of the intersected points, :data:`BATCH_ROWS` at a
+    time, the parameters in the order of ``columns`` (those that move a camera); metres per parameter unit
+    (:func:`~usvips.core.calibration.point_derivatives.point_jacobian`)."""
+    n = len(result.points)
+    motions = [[(k, c.motions[side]) for k, c in enumerate(columns) if c.motions[side] is not None]
+               for side in range(len(traced))]
+    weights = 1.0 / np.broadcast_to(pointing, (n, len(traced))) ** 2
+    every = bool(result.ok.all())
+    chosen = np.arange(n) if every else np.flatnonzero(result.ok)
+    for start in range(0, len(chosen), BATCH_ROWS):
+        rows = slice(start, min(start + BATCH_ROWS, n)) if every else chosen[start:start + BATCH_ROWS]
+        block = [_rows(t, rows) for t in traced]
+        # the block's rays through the moved housings (traced per block: bounded memory for any N)
+        ideal = [_ideal(t, motions[j]) for j, t in enumerate(block)]
+        housings = [housing_rays(t, [m for _, m in motions[j]], ideal[j]) for j, t in enumerate(block)]
+        yield rows, point_jacobian(block, result.points[rows], result.covariance[rows], weights[rows], motions,
+                                   len(columns), housings, ideal)
 
 
-def _stacked(parts: list[TracedRays]) -> TracedRays:
-    rays = [p.rays for p in parts]
-    bundle = RayBundle(np.concatenate([r.origins for r in rays]), np.concatenate([r.directions for r in rays]),
-                       np.concatenate([r.status for r in rays]), np.concatenate([r.failed_surface for r in rays]))
-    return TracedRays(parts[0].camera, np.concatenate([p.pixels for p in parts]), bundle,
-                      np.concatenate([p.d_origins for p in parts]), np.concatenate([p.d_directions for p in parts]))
+def _ideal(traced: TracedRays, motions: list[tuple[int, CameraMotion]]) -> np.ndarray | None:
+    """The ideal normalised coordinates of the pixels of ``traced`` when a motion moves its housing or its
+    lens's distortion (else None)."""
+    if any(m.housings is not None or (m.interiors is not None and _distortion_moves(m.interiors))
+           for _, m in motions):
+        return traced.camera.interior.pixels_to_normalised(traced.pixels)
+    return None
+
+
+def _distortion_moves(interiors: tuple) -> bool:
+    """Whether the two interiors differ in their distortion."""
+    minus, plus = interiors
+    return any(getattr(minus, name) != getattr(plus, name) for name in ("k1", "k2", "k3", "p1", "p2"))
 
 
 def _batched_derivatives(traced: list[TracedRays], result: Intersection, columns: tuple[SteppedColumn, ...],
                          count: int, pointing: np.ndarray) -> np.ndarray:
-    """∂point/∂parameter (count, N, 3), metres per parameter unit: forward differences of the intersection
-    over ``columns``, the stepped rays of a batch of columns intersected in one call. When a batch holds
-    several columns its first rows are the unstepped rays, so that both sides of a difference come from the
-    same intersection kernel (which depends on the rows of a call); a batch of one column (many points) has
-    as many rows as ``result`` and is differenced against it."""
-    n = len(result.points)
-    derivatives = np.zeros((count, n, 3))
-    per_batch = max(1, BATCH_ROWS // max(n, 1) - 1)
-    with_base = per_batch > 1
-    for start in range(0, len(columns), per_batch):
-        batch = columns[start:start + per_batch]
-        sides = []
-        for side, base in enumerate(traced):
-            mapped = _mapped(base, batch, side)
-            parts = [base] if with_base else []
-            for k, column in enumerate(batch):
-                how = column.moved[side]
-                parts.append(base if how == UNMOVED else mapped[k] if how == MAPPED
-                             else trace(column.cameras[side], base.pixels))
-            sides.append(_stacked(parts) if len(parts) > 1 else parts[0])
-        rows = len(batch) + with_base
-        again = intersect_traced(sides, pointing[:1] if pointing.strides[0] == 0 else np.tile(pointing, (rows, 1)))
-        points = again.points.reshape(rows, n, 3)
-        ok = again.ok.reshape(rows, n) & result.ok
-        reference = points[0] if with_base else result.points
-        if with_base:
-            ok &= ok[0]
-        for k, column in enumerate(batch, start=int(with_base)):
-            usable = ok[k]
-            derivatives[column.index, usable] = (points[k, usable] - reference[usable]) / column.step
-    return derivatives
+    """∂point/∂parameter (count, N, 3), metres per parameter unit, of every intersected point (zero rows
+    for points that did not intersect, zero columns for parameters that move no camera)."""
+    jacobian = np.zeros((len(result.points), 3, count))
+    index = [c.index for c in columns]
+    for rows, block in _derivative_blocks(traced, result, columns, pointing):
+        jacobian[np.ix_(np.arange(len(jacobian))[rows], range(3), index)] = block
+    return jacobian.transpose(2, 0, 1)
+
+
+def _calibration_part(traced: list[TracedRays], result: Intersection, columns: tuple[SteppedColumn, ...],
+                      sigma: np.ndarray, pointing: np.ndarray) -> np.ndarray:
+    """J Σ Jᵀ (N, 3, 3) of every point (zero for points that did not intersect), block by block without
+    the whole J."""
+    part = np.zeros((len(result.points), 3, 3))
+    index = [c.index for c in columns]
+    moved = np.ascontiguousarray(sigma[np.ix_(index, index)])
+    for rows, block in _derivative_blocks(traced, result, columns, pointing):
+        part[rows] = _sandwich(block, moved)
+    return part
+
+
+def _sandwich(jacobian: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """J Σ Jᵀ (N, 3, 3) of J (N, 3, P) and Σ (P, P)."""
+    n, count = len(jacobian), len(sigma)
+    product = (jacobian.reshape(3 * n, count) @ sigma).reshape(n, 3, count)
+    return np.matmul(product, jacobian.transpose(0, 2, 1))
 
 
 def reference_derivatives(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
                           station: int | str = 0, frame: str = "object",
                           pointing_sigma_px: float | np.ndarray | None = None) -> np.ndarray | None:
-    """The plain path the batched derivatives are tested against: per parameter, the cameras rebuilt
-    with it stepped, the pixels retraced, the point re-intersected. (count, N, 3) or None when the
-    calibration has no usable covariance."""
+    """The plain path the derivatives are tested against: per parameter, the cameras rebuilt at θ ± h,
+    the pixels retraced through them, each ray's point at the intersected point's depth differenced, and
+    the point moved as the weighted intersection moves with its rays to first order,
+    ∂X = C Σ_j A_jᵀ A_j ∂Q_j / σ_j² (see :mod:`usvips.core.calibration.point_derivatives`).
+    (count, N, 3) or None when the calibration has no usable covariance."""
     pointing = _pointing(calibration, left, pointing_sigma_px)
     traced, result = _traced(calibration, left, right, station, frame, pointing)
     covariance = _usable_covariance(calibration, result, True)
     if covariance is None:
         return None
+    weights = 1.0 / np.broadcast_to(pointing, (len(result.points), len(traced))) ** 2
+    depths, gains = [], []
+    for j, one in enumerate(traced):
+        along = np.einsum("ni,ni->n", result.points - one.rays.origins, one.rays.directions)
+        a0, a1, _ = pixel_jacobian(one.rays.directions, one.d_origins, one.d_directions, along)
+        rows = np.stack([a0, a1], axis=1)
+        depths.append(along)
+        gains.append(np.einsum("nij,nkj,nkl->nil", result.covariance, rows, rows) * weights[:, j, None, None])
     derivatives = np.zeros((len(covariance[0]),) + result.points.shape)
-    for j, step, cameras in _stepped(calibration, station, frame):
-        if cameras is None:
+    for j, step, built in _stepped(calibration, station, frame, (-1, 1)):
+        if built[-1] is None or built[1] is None:
             continue
-        # (a camera the step did not change keeps its traced rays)
-        again = intersect_traced([retrace(one, camera) for one, camera in zip(traced, cameras, strict=True)],
-                                 pointing)
-        usable = result.ok & again.ok
-        derivatives[j, usable] = (again.points[usable] - result.points[usable]) / step
+        usable = result.ok.copy()
+        for side, one in enumerate(traced):
+            # (a camera the step did not change keeps its traced rays)
+            minus, plus = (retrace(one, cameras[side]).rays for cameras in (built[-1], built[1]))
+            moved = (plus.origins - minus.origins + depths[side][:, None] * (plus.directions - minus.directions))
+            derivatives[j] += np.einsum("nij,nj->ni", gains[side], moved) / (2 * step)
+            usable &= plus.ok & minus.ok
+        derivatives[j, ~usable] = 0.0
     return derivatives

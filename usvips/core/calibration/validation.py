@@ -328,9 +328,8 @@ def validate(control: ControlPoints, observations: StereoObservations, share: fl
     calibration = result.calibration
     report = result.report
     fitted_rms = {}
-    for row in report["residuals"]:
-        if row["used"]:
-            fitted_rms.setdefault(row["station"], []).extend([row["vx"] ** 2, row["vy"] ** 2])
+    for row in report.used_residuals():
+        fitted_rms.setdefault(row.station, []).extend([row.vx ** 2, row.vy ** 2])
     held_rms: dict[str, list[float]] = {}
     held_residuals = []
     for label in held_obs.pair_labels:

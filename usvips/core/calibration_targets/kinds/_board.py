@@ -39,7 +39,8 @@ def field(description: dict, name: str, source: str, default: object = None) -> 
 def count(description: dict, name: str, source: str, minimum: int = 2, default: int | None = None) -> int:
     """A whole number of points/squares/markers, at least ``minimum``."""
     value = field(description, name, source, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != int(value):
+    if (isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value)
+            or value != int(value)):
         fail(source, name, f"must be a whole number, got {value!r}")
     if value < minimum:
         fail(source, name, f"must be at least {minimum}, got {int(value)}")

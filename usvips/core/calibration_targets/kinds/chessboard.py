@@ -57,7 +57,7 @@ class Chessboard(PrintedBoard):
         self.square = _board.length(description, "square", source)
         self.upright = _board.flag(description, "upright", source)
         if self.symmetric and not self.upright:
-            _board.fail(source, "cols", f"a {self.cols} × {self.rows} chessboard looks the same turned by half a "
+            _board.fail(source, "upright", f"a {self.cols} × {self.rows} chessboard looks the same turned by half a "
                         "turn, so its corner order cannot be told; use a board with odd × even inner corners "
                         "(or ChArUco), or describe it as upright (\"upright\": true in its description): the "
                         "board never turned beyond a quarter turn")

@@ -48,7 +48,7 @@ class CircleGrid(PrintedBoard):
             _board.fail(source, "diameter", f"circles of {self.diameter * 1000:g} mm would (nearly) touch: the nearest "
                         f"centres are {nearest * 1000:.4g} mm apart (keep the diameter below 80 % of that)")
         if self.symmetric and not self.upright:
-            _board.fail(source, "rows", f"a {'asymmetric' if self.asymmetric else 'symmetric'} circle grid of "
+            _board.fail(source, "upright", f"a {'asymmetric' if self.asymmetric else 'symmetric'} circle grid of "
                         f"{self.rows} rows looks the same turned by half a turn, so its point order cannot be "
                         "told; use an asymmetric grid with an odd number of rows, or describe it as upright "
                         "(\"upright\": true in its description): the board never turned beyond a quarter turn")

@@ -1,0 +1,110 @@
+"""The object list as a model over the object cache: in a large survey only the drawn rows' figures are
+computed; rows sort by a column's header and filter by a text in any cell, the selection and the ids
+following; no row is made per object."""
+
+from PySide6 import QtCore
+
+from usvips.gui.qt.bench import survey_project
+from usvips.gui.qt.object_list import ObjectList
+from usvips.gui.workspace import Workspace
+from usvips.store import Project
+from usvips.store.records import Vertex
+
+
+def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_filters_in_the_model(
+        qtbot, tmp_path, monkeypatch):
+    monkeypatch.setattr(ObjectList, "EAGER", 10)  # a survey of 60 stands for one of 100,000 ...
+    monkeypatch.setattr(ObjectList, "FIRST_ROWS", 5)  # ... its first screenful ...
+    monkeypatch.setattr(ObjectList, "FIT_ROWS", 5)  # ... and its columns are not fitted to every row
+    ws = Workspace()
+    ws.open_project(Project.open(survey_project(tmp_path / "survey", 60)))
+    listing = ObjectList(ws)
+    qtbot.addWidget(listing)
+    listing.resize(900, 300)
+    listing.show()
+    qtbot.waitExposed(listing)
+    model = listing.model
+    listing.refresh()  # laid out now: the rows on screen
+    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    ids = ws.cache.ids()
+    assert model.rowCount() == 60 and model.ids() == ids
+    drawn = {listing.object_id(r) for r in listing.visible_rows()}
+    assert drawn and all(ws.cache.known_figures(i) is not None for i in drawn)
+    assert sum(ws.cache.known_figures(i) is not None for i in ids) < 60  # the rows never drawn: not computed
+    # a row drawn (asked for) gets its figure from a worker
+    last = listing.row_count() - 1
+    assert listing.text(last, "figure") == "computing…"
+    qtbot.waitUntil(lambda: "mm" in listing.text(last, "figure"), timeout=20000)
+    # sorting: by the attribute's text descending (the header's sort indicator), then back to the stored order
+    header = listing.table.horizontalHeader()
+    ws.select([ids[5]])
+    header.setSortIndicator(ObjectList.COLUMNS.index("attribute"), QtCore.Qt.SortOrder.DescendingOrder)
+    texts = [listing.text(r, "attribute") for r in range(listing.row_count())]
+    assert texts == sorted(texts, key=str.casefold, reverse=True) and texts[0] == "fish 9"
+    assert listing.selected_ids() == [ids[5]] and ws.selection == (ids[5],)  # the selection follows its object
+    assert listing.row_of(ids[5]) == texts.index(ws.stored_object(ids[5]).attribute)
+    header.setSortIndicator(-1, QtCore.Qt.SortOrder.AscendingOrder)
+    assert model.ids() == ids
+    # with the mouse: a click on the header sorts ascending, a second descending, a third gives the stored order
+    column = ObjectList.COLUMNS.index("attribute")
+    where = QtCore.QPoint(header.sectionViewportPosition(column) + 5, 5)
+    for first in ("fish 1", "fish 9", "fish 1"):
+        qtbot.mouseClick(header.viewport(), QtCore.Qt.MouseButton.LeftButton, pos=where)
+        assert listing.text(0, "attribute") == first
+    assert model.ids() == ids
+    # filtering: the rows whose cells hold the text; an object added while filtered appears only if it matches
+    listing.filter.setText("FISH 1")  # any case: "fish 1", "fish 10" ... "fish 19"
+    shown = model.ids()
+    assert shown == [i for i in ids if "fish 1" in ws.stored_object(i).attribute + ws.stored_object(i).notes]
+    assert 0 < len(shown) < 60
+    ws.edits.delete_object(shown[0])
+    assert model.ids() == shown[1:] and listing.row_of(shown[0]) is None
+    listing.filter.clear()
+    assert model.ids() == [i for i in ids if i != shown[0]]
+    # an object stored now is the last row; every row is still found by its object
+    model.row_of(ids[1])  # the rows' index made
+    new = ws.project.add_object("point", [Vertex(300.0, 200.0, 280.0, 200.0, pair="measure1")])
+    ws.objects_changed_in_store(added=(new,))
+    assert listing.row_of(new) == listing.row_count() - 1
+    assert all(listing.row_of(i) == row for row, i in enumerate(model.ids()))
+    listing.cleanup()
+    ws.close_project()
+
+
+def test_a_sort_by_figure_computes_every_figure_first_and_says_so(qtbot, tmp_path, monkeypatch):
+    """In a survey whose figures are computed as rows are drawn, a sort by the figure (or the quality) cannot
+    be made from the drawn rows alone: every missing figure is computed in the worker, with its progress
+    shown beside the filter, then the rows are sorted again; a filter matches figure texts the same way."""
+    monkeypatch.setattr(ObjectList, "EAGER", 10)
+    monkeypatch.setattr(ObjectList, "FIRST_ROWS", 5)
+    monkeypatch.setattr(ObjectList, "FIT_ROWS", 5)
+    ws = Workspace()
+    ws.open_project(Project.open(survey_project(tmp_path / "survey", 40, seed=3)))
+    messages = []
+    ws.message.connect(lambda level, text: messages.append(text))
+    listing = ObjectList(ws)
+    qtbot.addWidget(listing)
+    listing.resize(900, 300)
+    listing.show()
+    qtbot.waitExposed(listing)
+    listing.refresh()
+    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    ids = ws.cache.ids()
+    assert sum(ws.cache.known_figures(i) is not None for i in ids) < 40
+    column = ObjectList.COLUMNS.index("figure")
+    listing.table.horizontalHeader().setSortIndicator(column, QtCore.Qt.SortOrder.DescendingOrder)
+    assert listing.completing.isVisible() and "sorting by figure" in listing.completing.format()
+    known = [ws.cache.known_figures(i) is not None for i in listing.model.ids()]
+    assert known == sorted(known, reverse=True)  # meanwhile, by what is known; the others last, in either order
+    assert any("sorting by figure: computing the figures of" in m for m in messages)
+    qtbot.waitUntil(lambda: not listing.completing.isVisible(), timeout=30000)
+    assert all(ws.cache.known_figures(i) is not None for i in ids)
+    values = [ws.cache.known_figures(listing.object_id(r)).figures[0].value for r in range(listing.row_count())]
+    assert values == sorted(values, reverse=True) and sorted(listing.model.ids()) == ids
+    # a figure's text filters as any other cell's (every figure is known now: filtered at once)
+    text = listing.text(0, "figure")
+    listing.filter.setText(text)
+    assert listing.model.ids() and all(listing.text(r, "figure") == text for r in range(listing.row_count()))
+    assert not listing.completing.isVisible()
+    listing.cleanup()
+    ws.close_project()

@@ -1,0 +1,1 @@
+"""One module per model family (see :mod:`usvips.core.detection.registry`)."""

@@ -1,0 +1,41 @@
+"""Start the workstation: a QApplication, the main window, optionally a project opened in it.
+
+Unexpected errors in Qt handlers are caught by :mod:`usvips.gui.qt.error_report`.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pyqtgraph as pg
+from PySide6 import QtWidgets
+
+from usvips.gui.qt.error_report import install_error_handler
+
+
+def configure() -> None:
+    """Global pyqtgraph settings, once at start-up: row-major images (ARCHITECTURE.md) and antialiased marks."""
+    pg.setConfigOptions(imageAxisOrder="row-major", antialias=True)
+
+
+def application() -> QtWidgets.QApplication:
+    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
+    app.setOrganizationName("USVIPS")
+    app.setApplicationName("usvips")
+    return app
+
+
+def run(project: str | Path | None = None, pair: str | None = None) -> int:
+    """Show the main window (opening ``project``, a ``*.usvips`` file or a sample directory, on ``pair``)
+    and run the event loop; returns the exit code."""
+    configure()
+    app = application()
+    install_error_handler()
+    from usvips.gui.qt.main_window import MainWindow  # the window's modules only when a window is shown
+
+    window = MainWindow()
+    window.show()
+    if project is not None:
+        window.open_path(project, pair)
+    return app.exec()

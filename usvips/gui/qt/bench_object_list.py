@@ -1,0 +1,115 @@
+"""Benchmarks of the object list at survey size (area ``window_object_list``, issue 37): scrolling a
+survey of 100,000 stored objects in the window (offscreen, 1366 × 768) without a freeze over 0.1 s.
+
+The survey (:func:`usvips.gui.qt.bench.survey_project`: fish on the ROV sample's pair, each figure with its
+calibration's share) is opened in the window; then the list is scrolled a page at a time from the top
+to the bottom, with jumps to random places between, each step drawn at once (the scroll bar moved, the
+table's viewport repainted, the events that arrived handled: the figures of the drawn rows come from a
+worker). ``ours_s`` is the longest step (the worst freeze a user sees, wall time), against the baseline of
+a repaint of the list without scrolling; ``worst_gui_cpu_s`` the CPU time of the GUI thread in the
+longest step (what a loaded shared machine does not blur); ``median_s`` the median step and
+``figures_computed`` how many figures the drawn rows asked for (the others are never computed).
+``open_s`` is the time from File › Open until the list held its rows (the store's read of 100,000 objects included).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+#: objects in the survey scrolled at scale 1
+OBJECTS = 100_000
+#: the longest a scroll step may freeze the window (s)
+FREEZE_TARGET_S = 0.1
+#: how many pages are scrolled (and random jumps made)
+PAGES, JUMPS = 60, 20
+
+
+def scroll_row(scale: float = 1.0) -> dict:
+    from PySide6 import QtCore
+
+    from usvips.gui.qt.app import application, configure
+    from usvips.gui.qt.bench import survey_project
+    from usvips.gui.qt.main_window import MainWindow
+
+    n = OBJECTS if scale >= 1 else max(300, int(OBJECTS * scale))
+    load = os.getloadavg()[0]
+    with tempfile.TemporaryDirectory(prefix="usvips-bench-list-") as folder:
+        folder = Path(folder)
+        survey = survey_project(folder / "survey", n)
+        configure()
+        app = application()
+        window = MainWindow(settings=QtCore.QSettings(str(folder / "settings.ini"), QtCore.QSettings.Format.IniFormat))
+        window.resize(1366, 768)
+        window.show()
+        try:
+            app.processEvents()
+            start = time.perf_counter()
+            if not window.open_path(survey, "measure1"):
+                raise RuntimeError("the window did not open the survey")
+            opened = time.perf_counter() - start
+            window.docks["objects"].raise_()
+            window.resizeDocks([window.docks["objects"]], [420], QtCore.Qt.Orientation.Vertical)  # ~15 rows
+            listing = window.object_list
+            table, bar = listing.table, listing.table.verticalScrollBar()
+            deadline = time.time() + 300
+            while (window.busy or window.workspace.pair is None or listing._worker is not None) \
+                    and time.time() < deadline:
+                app.processEvents()
+                time.sleep(0.005)
+
+            cpu: list[float] = []
+
+            def step(value: int) -> float:
+                begin, begin_cpu = time.perf_counter(), time.thread_time()
+                bar.setValue(value)
+                table.viewport().repaint()
+                app.processEvents()
+                cpu.append(time.thread_time() - begin_cpu)
+                return time.perf_counter() - begin
+
+            rng = np.random.default_rng(7)
+            page = max(1, bar.pageStep())
+            steps = []
+            for k in range(PAGES):
+                steps.append(step(min(bar.maximum(), k * page)))
+                if k % (PAGES // JUMPS) == 0:
+                    steps.append(step(int(rng.integers(0, bar.maximum() + 1))))
+            steps.append(step(bar.maximum()))
+            while listing._worker is not None and time.time() < deadline:  # the last figures land
+                steps.append(step(bar.value()))
+                time.sleep(0.01)
+
+            def repaint() -> float:
+                begin = time.perf_counter()
+                table.viewport().repaint()
+                app.processEvents()
+                return time.perf_counter() - begin
+
+            baseline = min(repaint() for _ in range(5))
+            rows = listing.row_count()
+            computed = sum(window.workspace.cache.known_figures(i) is not None for i in window.workspace.cache.ids())
+            on_screen = len(listing.visible_rows())
+        finally:
+            window.workspace.close_project()
+            window.close()
+    worst = max(steps)
+    return {"name": f"gui: scroll the object list through {n:,} objects, a page at a time and jumps (longest step)",
+            "n": n, "ours_s": round(worst, 5), "median_s": round(float(np.median(steps)), 5), "steps": len(steps),
+            "worst_gui_cpu_s": round(max(cpu), 5), "median_gui_cpu_s": round(float(np.median(cpu)), 5),
+            "baseline": "a repaint of the list without scrolling", "baseline_s": round(baseline, 5),
+            "ratio": round(worst / baseline, 2) if baseline > 0 else None, "target": None,
+            "target_s": FREEZE_TARGET_S, "met": bool(worst <= FREEZE_TARGET_S), "open_s": round(opened, 3),
+            "rows_listed": rows, "rows_on_screen": on_screen, "figures_computed": int(computed),
+            "load_1min": round(load, 2)}
+
+
+def benchmarks(scale: float = 1.0) -> Iterator[dict]:
+    yield scroll_row(scale)

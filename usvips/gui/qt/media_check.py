@@ -1,0 +1,98 @@
+"""The full check of an open project's media files, in the background: after a project opens, every
+recorded media file (image pairs' images, videos' files) is read whole in a worker and its SHA-256
+compared with the one recorded when it was added (:func:`usvips.app.video_project.verify_media`), with
+its progress in the status bar; closing the project (or opening another, or the Cancel button) stops the
+reading at once. A file found missing, resized or changed is named in the status bar, the log and a box
+that stays until closed but blocks nothing: a swapped recording (camera file names repeat across cards)
+is noticed before anything is measured on it.
+"""
+
+from __future__ import annotations
+
+from PySide6 import QtCore, QtWidgets
+
+from usvips.app import video_project
+from usvips.gui.qt.worker import Cancelled, Worker
+from usvips.gui.window_context import WindowContext
+from usvips.store.interface import ProjectStore
+
+#: how many changed files a warning names before it says "and N more"
+NAMED = 3
+
+
+def media_warning(project_name: str, problems: list[tuple[str, str]]) -> str:
+    """One line naming the changed media files of ``project_name``: ``(stored path, problem)`` each."""
+    named = "; ".join(f"{stored}: {problem}" for stored, problem in problems[:NAMED])
+    more = f"; and {len(problems) - NAMED} more" if len(problems) > NAMED else ""
+    files = "a media file is" if len(problems) == 1 else f"{len(problems)} media files are"
+    return (f"{project_name}: {files} not the one added — {named}{more}. Measurements on it may be on "
+            "the wrong recording: put the right file back, or use usvips project relocate-media / accept-media")
+
+
+class MediaCheck:
+    """Runs the full media check of each project the window opens; :attr:`worker` while it runs,
+    :attr:`problems` (stored path, problem) of the last check that finished, :attr:`box` the warning
+    shown for them (not modal)."""
+
+    def __init__(self, parent: QtWidgets.QWidget, context: WindowContext) -> None:
+        """``parent``: the widget its warning box belongs to; ``context``: the messages and the jobs."""
+        self.parent, self.messages, self.jobs = parent, context.messages, context.jobs
+        self.worker: Worker | None = None
+        self.problems: list[tuple[str, str]] | None = None
+        self.box: QtWidgets.QMessageBox | None = None
+
+    def project_opened(self, project: ProjectStore) -> Worker | None:
+        """Start checking ``project``'s media files (stopping a check of a previous project); None when it
+        records none."""
+        self.project_closed()
+        self.problems = None
+        records = project.media_records()
+        if not records:
+            self.problems = []
+            return None
+        name = project.path.name
+
+        def job(progress, cancelled):
+            def report(done: int, total: int) -> None:
+                progress(done / max(total, 1))
+            try:
+                return video_project.verify_media(records, report, cancelled)
+            except video_project.Cancelled:
+                raise Cancelled from None
+
+        def done(problems: list[tuple[str, str]]) -> None:
+            if self.worker is not worker:
+                return  # a check of a project closed since
+            self.worker = None
+            self.problems = problems
+            if problems:
+                text = media_warning(name, problems)
+                self.messages.warning(text)
+                self._show_box(text)
+
+        def cancelled() -> None:
+            if self.worker is worker:
+                self.worker = None
+
+        worker = self.worker = self.jobs.run(job, f"checking the media files of {name}", done, on_cancelled=cancelled)
+        return worker
+
+    def project_closed(self) -> None:
+        """Stop the check of the project being closed (its worker stops reading at its next block) and
+        close its warning."""
+        if self.worker is not None:
+            self.worker.cancel()
+            self.worker = None
+        if self.box is not None:
+            self.box.close()
+            self.box = None
+
+    def _show_box(self, text: str) -> None:
+        """The warning in a box that stays until closed (a later status message cannot hide it) and blocks
+        nothing."""
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Warning, "Media files changed", text,
+                                    QtWidgets.QMessageBox.StandardButton.Ok, self.parent)
+        box.setWindowModality(QtCore.Qt.WindowModality.NonModal)
+        box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        box.show()
+        self.box = box

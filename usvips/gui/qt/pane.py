@@ -1,0 +1,473 @@
+"""One stereo pane: an image in a pyqtgraph ViewBox with zoom, pan, a crosshair cursor, a loupe, and
+the marks (picks, proposal, epipolar curve, objects) the window asks it to draw.
+
+The pane converts between the view and image pixels in exactly one place (:func:`pixel_from_item` and
+:func:`item_from_pixels`): pyqtgraph's ImageItem puts pixel (i, j) on the square [i, i+1) × [j, j+1) of
+its own coordinates, while USVIPS pixels have their origin at the centre of the top-left pixel
+(ARCHITECTURE.md), so the two differ by half a pixel. Scene → item goes through the item's transform
+(``mapFromScene``), never by hand.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pyqtgraph as pg
+from PySide6 import QtCore, QtGui, QtWidgets
+
+from usvips.gui.label_layout import stack_labels
+from usvips.gui.view_options import LOUPE_SCALES
+
+#: ImageItem coordinate of the centre of pixel 0.
+PIXEL_CENTRE = 0.5
+LOUPE_RADIUS = 10  # image pixels each side of the cursor
+LOUPE_SCALE = 8
+#: Magnifications the loupe offers (screen pixels per image pixel).
+#: Gap (screen pixels) between the cursor and the loupe's nearest corner: the loupe never covers the cursor.
+LOUPE_OFFSET = 24
+
+COLOURS = {"control": (60, 220, 120), "cursor": (0, 230, 0), "pick": (255, 40, 40), "proposal": (255, 220, 0),
+           "weak proposal": (0, 255, 255),
+           "curve": (255, 140, 0), "object": (0, 200, 255), "selected": (255, 0, 255), "label": (230, 230, 230)}
+
+
+def pixel_from_item(x: float, y: float) -> tuple[float, float]:
+    """ImageItem coordinates → USVIPS pixels."""
+    return x - PIXEL_CENTRE, y - PIXEL_CENTRE
+
+
+def item_from_pixels(pixels: np.ndarray) -> np.ndarray:
+    """USVIPS pixels (N, 2) → ImageItem (= view) coordinates."""
+    return np.asarray(pixels, dtype=np.float64).reshape(-1, 2) + PIXEL_CENTRE
+
+
+def to_qimage(array: np.ndarray) -> QtGui.QImage:
+    """A uint8 grey or RGB array as a QImage (copied; uint16 is scaled to 8 bits)."""
+    if array.dtype != np.uint8:
+        array = (array.astype(np.float32) * (255.0 / 65535.0)).astype(np.uint8)
+    array = np.ascontiguousarray(array)
+    h, w = array.shape[:2]
+    if array.ndim == 2:
+        return QtGui.QImage(array.data, w, h, w, QtGui.QImage.Format.Format_Grayscale8).copy()
+    return QtGui.QImage(array.data, w, h, 3 * w, QtGui.QImage.Format.Format_RGB888).copy()
+
+
+class MarkLabel(QtWidgets.QGraphicsSimpleTextItem):
+    """A mark's name on a pane (a control point's target number): the same size on screen at every zoom,
+    beside its point — ``anchor`` as pyqtgraph's ``TextItem`` has it (the fraction of the text's width and
+    height that sits on the point; (0, 0) its top-left corner). Qt keeps it upright and unscaled, so a
+    view moved or zoomed costs no Python per label (a ``TextItem`` recomputes its transform each time);
+    ``color`` is its colour."""
+
+    #: screen pixels of blank around the text, as a ``TextItem``'s (its document's margin): placed alike
+    MARGIN = 4.0
+
+    def __init__(self, text: str, color: tuple[int, int, int], anchor: tuple[float, float]) -> None:
+        super().__init__(text)
+        self.color = QtGui.QColor(*color)
+        self.setBrush(self.color)
+        self.setFlag(QtWidgets.QGraphicsItem.GraphicsItemFlag.ItemIgnoresTransformations)
+        size, margin = self.boundingRect(), self.MARGIN
+        self.setTransform(QtGui.QTransform.fromTranslate(margin - anchor[0] * (size.width() + 2 * margin),
+                                                         margin - anchor[1] * (size.height() + 2 * margin)))
+
+    def toPlainText(self) -> str:  # noqa: N802 (named as Qt's text items name it)
+        return self.text()
+
+
+class StereoPane(QtWidgets.QWidget):
+    """``clicked(x, y)`` in pixels on a left click without drag; ``hovered(x, y)`` as the cursor moves
+    (NaN when it leaves the image)."""
+
+    clicked = QtCore.Signal(float, float)
+    hovered = QtCore.Signal(float, float)
+
+    def __init__(self, side: str, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.side = side
+        self.setObjectName(f"{side}_pane")
+        self.graphics = pg.GraphicsView(background=(24, 24, 28))
+        self.viewbox = pg.ViewBox(lockAspect=True, invertY=True, enableMenu=False)
+        # labels are laid out apart in screen pixels: again after a zoom or pan (at most every 50 ms)
+        self._label_timer = QtCore.QTimer(self)
+        self._label_timer.setSingleShot(True)
+        self._label_timer.setInterval(50)
+        self._label_timer.timeout.connect(self.layout_labels)
+        self.viewbox.sigRangeChanged.connect(lambda *_: self._label_timer.start())
+        self.graphics.setCentralItem(self.viewbox)
+        # no auto-downsampling: it re-samples the whole image at every zoom step (0.3 s at 4000 × 3000);
+        # the painter scales the one rendered image instead (about 2 ms per step, see `usvips bench`)
+        self.image_item = pg.ImageItem(axisOrder="row-major", autoDownsample=False)
+        self.viewbox.addItem(self.image_item)
+        self.title = QtWidgets.QLabel(side.capitalize())
+        self.title.setStyleSheet("font-weight: bold; padding: 2px 4px;")
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(0)
+        layout.addWidget(self.title)
+        layout.addWidget(self.graphics)
+        self._add_overlays()
+        # the loupe follows the cursor at an offset (never under it) and lets every mouse event through
+        self.loupe = QtWidgets.QLabel(self.graphics.viewport())
+        self.loupe.setObjectName(f"{side}_loupe")
+        self.loupe.setAttribute(QtCore.Qt.WidgetAttribute.WA_TransparentForMouseEvents, True)
+        self.loupe.setStyleSheet("border: 1px solid #00e600; background: black;")
+        self.loupe.setScaledContents(True)
+        self.loupe.hide()
+        self.loupe_enabled = True
+        self.loupe_scale = LOUPE_SCALE
+        self._fit_loupe()
+        # keys (accept, nudge, ...) reach the window's image shortcuts once an image has the focus
+        self.graphics.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
+        self.display: np.ndarray | None = None
+        scene = self.graphics.scene()
+        scene.sigMouseMoved.connect(self._on_mouse_moved)
+        scene.sigMouseClicked.connect(self._on_mouse_clicked)
+
+    def _add_overlays(self) -> None:
+        pen = pg.mkPen(COLOURS["cursor"], width=1)
+        self.cross_v = pg.InfiniteLine(angle=90, movable=False, pen=pen)
+        self.cross_h = pg.InfiniteLine(angle=0, movable=False, pen=pen)
+        self.curve_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["curve"], width=1.5, style=QtCore.Qt.PenStyle.DashLine))
+        self.objects_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
+        # outlines stored since the objects were last drawn whole: a small item of their own, so that storing
+        # one more object among thousands neither rebuilds nor redraws the cached picture of the others
+        self.added_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
+        self.selected_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["selected"], width=3), connect="finite")
+        self.vertex_item = pg.ScatterPlotItem(size=7, pen=pg.mkPen(COLOURS["object"]), brush=None, symbol="s")
+        self.pick_item = pg.ScatterPlotItem(size=15, pen=pg.mkPen(COLOURS["pick"], width=2), brush=None, symbol="+")
+        self.proposal_item = pg.ScatterPlotItem(size=17, pen=pg.mkPen(COLOURS["proposal"], width=2), brush=None,
+                                                symbol="o")
+        self.proposal_weak = False  # the proposal drawn is one auto-match refused (cyan, dashed)
+        # the object being digitised, drawn on its own: a pick redraws it, never the stored objects
+        self.digitising_item = pg.PlotDataItem(pen=pg.mkPen(COLOURS["selected"], width=3), symbol="s", symbolSize=7,
+                                               symbolPen=pg.mkPen(COLOURS["selected"]), symbolBrush=None)
+        # the stored objects change on a store or an edit, not on a pick: drawn from a cached pixmap meanwhile
+        self.objects_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+        #: the stored outlines in chunks (:meth:`set_object_chunks`), each its own cached picture, so that a
+        #: removal or an edit redraws one chunk; the first chunk is ``objects_item``
+        self.object_items = [self.objects_item]
+        self.vertex_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+        for item in (self.objects_item, self.added_item, self.selected_item, self.vertex_item, self.digitising_item,
+                     self.curve_item, self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
+            self.viewbox.addItem(item, ignoreBounds=True)
+        self.control_item = pg.ScatterPlotItem(size=11, pen=pg.mkPen(COLOURS["control"], width=1.5), brush=None,
+                                               symbol="o")
+        self.viewbox.addItem(self.control_item, ignoreBounds=True)
+        self.control_labels: list[MarkLabel] = []
+        self.labels: list[pg.TextItem] = []
+        self.cross_v.hide()
+        self.cross_h.hide()
+
+    # ------------------------------------------------------------------ image
+    def set_image(self, display: np.ndarray | None) -> None:
+        """Show an image (uint8/uint16, grey or RGB); keeps the current zoom when the size is unchanged."""
+        previous = None if self.display is None else self.display.shape[:2]
+        self.display = display
+        if display is None:
+            self.image_item.clear()
+            return
+        top = 255 if display.dtype == np.uint8 else 65535
+        self.image_item.setImage(display, autoLevels=False, levels=(0, top))
+        if previous != display.shape[:2]:
+            self.fit()
+
+    def image_size(self) -> tuple[int, int]:
+        """(width, height) in pixels, (0, 0) without an image."""
+        return (0, 0) if self.display is None else (self.display.shape[1], self.display.shape[0])
+
+    # ------------------------------------------------------------------ zoom
+    def fit(self) -> None:
+        w, h = self.image_size()
+        if w:
+            self.viewbox.setRange(xRange=(0, w), yRange=(0, h), padding=0.02)
+
+    def one_to_one(self, centre: tuple[float, float] | None = None) -> None:
+        """One image pixel per screen pixel, around ``centre`` (pixels; default the view's centre)."""
+        self.zoom_to(1.0, centre)
+
+    def zoom_to(self, screen_per_pixel: float, centre: tuple[float, float] | None = None) -> None:
+        """Set the zoom (screen pixels per image pixel) around ``centre`` (image pixels)."""
+        rect = self.viewbox.viewRect()
+        if centre is None:
+            cx, cy = rect.center().x(), rect.center().y()
+        else:
+            cx, cy = item_from_pixels(np.array(centre))[0]
+        size = self.viewbox.size()
+        half_w = size.width() / screen_per_pixel / 2
+        half_h = size.height() / screen_per_pixel / 2
+        self.viewbox.setRange(xRange=(cx - half_w, cx + half_w), yRange=(cy - half_h, cy + half_h), padding=0)
+
+    def zoom_by(self, factor: float) -> None:
+        """Zoom in (factor > 1) or out around the view's centre."""
+        self.viewbox.scaleBy((1.0 / factor, 1.0 / factor))
+
+    def zoom_level(self) -> float:
+        """Screen pixels per image pixel (horizontally)."""
+        return self.viewbox.size().width() / max(self.viewbox.viewRect().width(), 1e-12)
+
+    def set_box_zoom(self, on: bool) -> None:
+        self.viewbox.setMouseMode(pg.ViewBox.RectMode if on else pg.ViewBox.PanMode)
+
+    # ------------------------------------------------------------------ mouse
+    def pixel_at_scene(self, scene_pos: QtCore.QPointF) -> tuple[float, float]:
+        """The one scene → pixel conversion: through the image item's transform."""
+        item = self.image_item.mapFromScene(scene_pos)
+        return pixel_from_item(item.x(), item.y())
+
+    def _inside(self, x: float, y: float) -> bool:
+        w, h = self.image_size()
+        return -0.5 <= x <= w - 0.5 and -0.5 <= y <= h - 0.5
+
+    def _on_mouse_moved(self, scene_pos: QtCore.QPointF) -> None:
+        x, y = self.pixel_at_scene(scene_pos)
+        if self.display is None or not self._inside(x, y):
+            self.cross_v.hide()
+            self.cross_h.hide()
+            self.loupe.hide()
+            self.hovered.emit(float("nan"), float("nan"))
+            return
+        vx, vy = item_from_pixels(np.array([x, y]))[0]
+        self.cross_v.setPos(vx)
+        self.cross_h.setPos(vy)
+        self.cross_v.show()
+        self.cross_h.show()
+        self._update_loupe(x, y)
+        self.hovered.emit(x, y)
+
+    def _on_mouse_clicked(self, event) -> None:
+        if event.button() != QtCore.Qt.MouseButton.LeftButton or event.double():
+            return
+        if self.viewbox.state["mouseMode"] == pg.ViewBox.RectMode:
+            return
+        x, y = self.pixel_at_scene(event.scenePos())
+        self.graphics.setFocus(QtCore.Qt.FocusReason.MouseFocusReason)
+        if self.display is not None and self._inside(x, y):
+            event.accept()
+            self.clicked.emit(x, y)
+
+    def _fit_loupe(self) -> None:
+        """Size the loupe for its magnification; in a small pane it shows fewer pixels around the cursor
+        (at most half the viewport less the offset, so that it always fits beside the cursor)."""
+        viewport = self.graphics.viewport()
+        room = min(viewport.width(), viewport.height()) // 2 - LOUPE_OFFSET - 2
+        self.loupe_radius = int(max(1, min(LOUPE_RADIUS, (room // self.loupe_scale - 1) // 2)))
+        side_px = (2 * self.loupe_radius + 1) * self.loupe_scale + 2
+        self.loupe.setFixedSize(side_px, side_px)
+
+    def set_loupe_scale(self, scale: int) -> None:
+        """Magnification of the loupe (screen pixels per image pixel; one of :data:`LOUPE_SCALES`)."""
+        if scale not in LOUPE_SCALES:
+            raise ValueError(f"loupe magnification {scale} is not one of {LOUPE_SCALES}")
+        self.loupe_scale = int(scale)
+        self._fit_loupe()
+        self.loupe.hide()  # shown again, at the new size, when the cursor moves
+
+    def loupe_position(self, cursor: QtCore.QPoint) -> QtCore.QPoint:
+        """Top-left corner of the loupe (viewport pixels) for the cursor at ``cursor``: below right of it
+        by :data:`LOUPE_OFFSET`, flipped to the other side where the viewport's edge is near, so that the
+        cursor and the pixels around it stay visible."""
+        viewport = self.graphics.viewport()
+        w, h = self.loupe.width(), self.loupe.height()
+        x = cursor.x() + LOUPE_OFFSET
+        if x + w > viewport.width():
+            x = cursor.x() - LOUPE_OFFSET - w
+        y = cursor.y() + LOUPE_OFFSET
+        if y + h > viewport.height():
+            y = cursor.y() - LOUPE_OFFSET - h
+        return QtCore.QPoint(max(x, 0), max(y, 0))
+
+    def _update_loupe(self, x: float, y: float) -> None:
+        if not self.loupe_enabled or self.display is None:
+            self.loupe.hide()
+            return
+        self._fit_loupe()
+        r, scale = self.loupe_radius, self.loupe_scale
+        patch = cv2.getRectSubPix(self._grey_or_rgb8(), (2 * r + 1, 2 * r + 1), (float(round(x)), float(round(y))))
+        big = cv2.resize(patch, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
+        image = to_qimage(big)
+        if image.format() == QtGui.QImage.Format.Format_Grayscale8:
+            image = image.convertToFormat(QtGui.QImage.Format.Format_RGB888)
+        painter = QtGui.QPainter(image)
+        painter.setPen(QtGui.QPen(QtGui.QColor(*COLOURS["cursor"]), 1))
+        # the exact cursor position inside the magnified patch (sub-pixel)
+        cx = (x - round(x) + r + 0.5) * scale
+        cy = (y - round(y) + r + 0.5) * scale
+        painter.drawLine(QtCore.QPointF(cx, 0), QtCore.QPointF(cx, image.height()))
+        painter.drawLine(QtCore.QPointF(0, cy), QtCore.QPointF(image.width(), cy))
+        painter.end()
+        self.loupe.setPixmap(QtGui.QPixmap.fromImage(image))
+        vx, vy = item_from_pixels(np.array([x, y]))[0]
+        cursor = self.graphics.mapFromScene(self.image_item.mapToScene(QtCore.QPointF(vx, vy)))
+        self.loupe.move(self.loupe_position(cursor))
+        self.loupe.show()
+
+    def set_loupe_enabled(self, on: bool) -> None:
+        self.loupe_enabled = bool(on)
+        if not on:
+            self.loupe.hide()
+
+    def _grey_or_rgb8(self) -> np.ndarray:
+        display = self.display
+        if display.dtype != np.uint8:
+            display = (display.astype(np.float32) * (255.0 / 65535.0)).astype(np.uint8)
+        return display
+
+    def leaveEvent(self, event: QtCore.QEvent) -> None:  # noqa: N802 (Qt's name)
+        self.loupe.hide()
+        self.cross_v.hide()
+        self.cross_h.hide()
+        super().leaveEvent(event)
+
+    # ------------------------------------------------------------------ marks
+    def set_picks(self, pick: tuple[float, float] | None, proposal: tuple[float, float] | None,
+                  curve: np.ndarray | None, weak: bool = False) -> None:
+        """The temporary marks: this image's pick (red), the proposed conjugate (yellow; a ``weak`` one,
+        which auto-match refused, cyan and dashed), the epipolar curve (orange, dashed)."""
+        self.pick_item.setData(pos=item_from_pixels(np.array([pick])) if pick is not None else np.zeros((0, 2)))
+        pen = (pg.mkPen(COLOURS["weak proposal"], width=2, style=QtCore.Qt.PenStyle.DashLine) if weak
+               else pg.mkPen(COLOURS["proposal"], width=2))
+        self.proposal_item.setPen(pen)
+        self.proposal_weak = weak
+        self.proposal_item.setData(pos=item_from_pixels(np.array([proposal])) if proposal is not None
+                                   else np.zeros((0, 2)))
+        if curve is not None and len(curve) > 1:
+            view = item_from_pixels(curve)
+            self.curve_item.setData(view[:, 0], view[:, 1])
+        else:
+            self.curve_item.setData([], [])
+
+    def set_digitising(self, pixels: np.ndarray | None) -> None:
+        """The vertices (N, 2) of the object being digitised, joined in order (None or none: nothing)."""
+        if pixels is None or not len(pixels):
+            self.digitising_item.setData([], [])
+            return
+        view = item_from_pixels(np.asarray(pixels, float).reshape(-1, 2))
+        self.digitising_item.setData(view[:, 0], view[:, 1])
+
+    #: Above this many outlines the stored objects are drawn with a thin, aliased pen (a wide antialiased
+    #: pen costs Qt's stroker about a second per redraw of 10,000 outlines).
+    THIN_ABOVE = 300
+
+    def set_object_lines(self, lines: np.ndarray, count: int) -> None:
+        """The stored objects' outlines (K, 2) pixels, NaN-separated, ``count`` of them: the cached picture,
+        redrawn only when it is set (the selected outlines are drawn over it, the added ones beside it)."""
+        self.set_object_chunks([lines], count)
+
+    def set_object_chunks(self, chunks: list[np.ndarray], count: int) -> None:
+        """The stored objects' outlines in chunks, each (K, 2) pixels, NaN-separated; ``count`` outlines in
+        all. Each chunk is a cached picture of its own (:meth:`set_object_chunk` redraws one); the added
+        outlines are cleared."""
+        while len(self.object_items) < len(chunks):
+            item = pg.PlotCurveItem(pen=self.objects_item.opts["pen"], connect="finite")
+            item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+            item.setZValue(self.objects_item.zValue())
+            self.viewbox.addItem(item, ignoreBounds=True)
+            self.object_items.append(item)
+        thin = count > self.THIN_ABOVE
+        for k, item in enumerate(self.object_items):
+            item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+            self._set_lines(item, chunks[k] if k < len(chunks) else (), thin)
+        self._set_lines(self.added_item, (), thin)
+
+    def set_object_chunk(self, k: int, lines: np.ndarray, count: int) -> None:
+        """Redraw chunk ``k`` of the stored outlines alone (its (K, 2) pixels, NaN-separated)."""
+        self._set_lines(self.object_items[k], lines, count > self.THIN_ABOVE)
+
+    def object_lines(self) -> np.ndarray:
+        """Every stored outline point drawn (view coordinates, NaN separators left out), chunk by chunk."""
+        parts = []
+        for item in self.object_items:
+            x, y = item.getData()
+            if x is not None and item.isVisible():
+                points = np.column_stack([x, y])
+                parts.append(points[np.isfinite(points).all(axis=1)])
+        return np.vstack(parts) if parts else np.zeros((0, 2))
+
+    @staticmethod
+    def _set_lines(item, lines, thin: bool) -> None:
+        view = item_from_pixels(lines)
+        item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+
+    def set_selection_marks(self, selected: np.ndarray, vertices: np.ndarray,
+                            labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
+        """What changes with the selection: the selected outlines (K, 2) pixels, NaN-separated, drawn over
+        the others; vertex marks (M, 2) pixels; labels (text, pixel of the first vertex, selected)."""
+        for label in self.labels:
+            self.viewbox.removeItem(label)
+        self.labels = []
+        view = item_from_pixels(selected)
+        self.selected_item.setData(view[:, 0], view[:, 1], connect="finite", antialias=count <= self.THIN_ABOVE)
+        self.vertex_item.setData(pos=item_from_pixels(vertices))
+        for text, pixel, is_selected in labels:
+            item = pg.TextItem(text, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
+            view = item_from_pixels(np.array([pixel]))[0]
+            item.setPos(float(view[0]) + 4, float(view[1]) - 4)
+            item.home = QtCore.QPointF(float(view[0]) + 4, float(view[1]) - 4)  # where it goes when alone
+            self.viewbox.addItem(item, ignoreBounds=True)
+            self.labels.append(item)
+        self.layout_labels()
+
+    #: above this many labels in view, they are not moved apart (the layout would cost a visible pause)
+    MAX_LAID_OUT = 60
+
+    def layout_labels(self) -> None:
+        """Move the labels in view apart so that none covers another (:func:`usvips.gui.label_layout.
+        stack_labels`, in screen pixels: labels keep their size on screen, so this is redone on a zoom)."""
+        rect = self.viewbox.viewRect()
+        shown = [item for item in self.labels if rect.contains(item.home)]
+        for item in self.labels:
+            item.setPos(item.home)
+        if len(shown) < 2 or len(shown) > self.MAX_LAID_OUT or self.viewbox.scene() is None:
+            return
+        anchors = np.array([[p.x(), p.y()] for p in (self.viewbox.mapViewToScene(i.home) for i in shown)])
+        sizes = np.array([[i.boundingRect().width(), i.boundingRect().height()] for i in shown])
+        for item, anchor, offset in zip(shown, anchors, stack_labels(anchors, sizes), strict=True):
+            if offset:
+                item.setPos(self.viewbox.mapSceneToView(QtCore.QPointF(anchor[0], anchor[1] + offset)))
+
+    def set_added_lines(self, lines: np.ndarray, count: int) -> None:
+        """The outlines stored since the last :meth:`set_object_lines` (K, 2) pixels, NaN-separated, unselected
+        and unlabelled; ``count`` outlines in all. The others' cached picture stays as it is."""
+        thin = count > self.THIN_ABOVE
+        self.added_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+        view = item_from_pixels(lines)
+        self.added_item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+
+    def set_control(self, marks: list[tuple[str, tuple[float, float]]], selected: str | None = None) -> None:
+        """Measured control points of this image: (target number, pixel), drawn as green rings with numbers;
+        the ``selected`` one (e.g. the row chosen in a table) in the selection colour, with a larger ring."""
+        for label in self.control_labels:
+            self.viewbox.removeItem(label)
+        self.control_labels = []
+        pixels = np.array([pixel for _, pixel in marks], float).reshape(-1, 2)
+        self.control_item.setData(pos=item_from_pixels(pixels) if len(pixels) else np.zeros((0, 2)))
+        chosen = [k for k, (name, _) in enumerate(marks) if name == selected]
+        if not hasattr(self, "control_selected_item"):
+            self.control_selected_item = pg.ScatterPlotItem(size=19, pen=pg.mkPen(COLOURS["selected"], width=2.5),
+                                                            brush=None, pxMode=True)
+            self.viewbox.addItem(self.control_selected_item, ignoreBounds=True)
+        self.control_selected_item.setData(pos=item_from_pixels(pixels[chosen]) if chosen else np.zeros((0, 2)))
+        self.selected_control = marks[chosen[0]][0] if chosen else None
+        for (name, _), view in zip(marks, item_from_pixels(pixels), strict=True):
+            text = MarkLabel(name, COLOURS["selected" if name == selected else "control"], (-0.3, 1.1))
+            text.setPos(float(view[0]), float(view[1]))
+            self.viewbox.addItem(text, ignoreBounds=True)
+            self.control_labels.append(text)
+
+    def centre_on(self, pixel: tuple[float, float]) -> None:
+        """Pan so that ``pixel`` is in the middle, keeping the zoom."""
+        self.zoom_to(self.zoom_level(), pixel)
+
+    def in_view(self, pixel: tuple[float, float], margin: float = 0.1) -> bool:
+        """Whether ``pixel`` is shown, at least ``margin`` (a fraction of the view) inside its edges."""
+        rect = self.viewbox.viewRect()
+        x, y = item_from_pixels(np.array(pixel))[0]
+        dx, dy = rect.width() * margin, rect.height() * margin
+        return rect.left() + dx <= x <= rect.right() - dx and rect.top() + dy <= y <= rect.bottom() - dy
+
+    def bring_into_view(self, pixel: tuple[float, float]) -> None:
+        """Pan to ``pixel`` (keeping the zoom) when it is not well inside the view: a point proposed off
+        the zoomed view is seen before it is accepted."""
+        if not self.in_view(pixel):
+            self.centre_on(pixel)

@@ -1,0 +1,180 @@
+"""Model description files: what a detection model expects and gives, so that a user's own ONNX model
+runs from its description alone (docs/detection.md). TOML (``.toml``) or JSON (``.json``), the same keys:
+
+    [model]          file (the .onnx, relative to the description's folder), family ("yolo-pose"),
+                     input_width, input_height (pixels)
+    [normalisation]  scale (e.g. 1/255), mean, std (3 numbers each, in the model's channel order),
+                     channels ("RGB" or "BGR")
+    [output]         classes (names in the model's order), keypoints (names in order, e.g. snout, fork),
+                     keypoint_values (3: x, y, visibility; 2: x, y), objectness (true: an objectness
+                     score precedes the class scores), score_threshold, iou_threshold (0..1), max_detections
+
+Every bad field is one :class:`~usvips.core.errors.InputFileError` naming the file and the key.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+
+from usvips.core.detection.description import CHANNEL_ORDERS, ModelDescription
+from usvips.core.detection.registry import family, names
+from usvips.core.detection.runner import OnnxDetector
+from usvips.core.errors import InputFileError, InvalidParameterError
+
+SECTIONS = {"model": ("file", "family", "input_width", "input_height"),
+            "normalisation": ("scale", "mean", "std", "channels"),
+            "output": ("classes", "keypoints", "keypoint_values", "objectness", "score_threshold",
+                       "iou_threshold", "max_detections")}
+REQUIRED = ("model.file", "model.family", "model.input_width", "model.input_height", "output.classes",
+            "output.keypoints")
+
+
+class _Fields:
+    """The parsed tables of one file, read key by key with errors naming the file and the key."""
+
+    def __init__(self, path: Path, tables: dict) -> None:
+        self.path, self.tables = path, tables
+
+    def fail(self, key: str, problem: str) -> InputFileError:
+        return InputFileError(str(self.path), f"{key}: {problem}")
+
+    def get(self, key: str, default=None):
+        section, _, name = key.partition(".")
+        table = self.tables.get(section, {})
+        if name not in table:
+            if key in REQUIRED:
+                raise self.fail(key, "missing")
+            return default
+        return table[name]
+
+    def integer(self, key: str, default: int | None = None, low: int = 1, high: int = 100_000) -> int:
+        value = self.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise self.fail(key, f"expected a whole number from {low} to {high}, got {value!r}")
+        return value
+
+    def number(self, key: str, default: float, low: float = -math.inf, high: float = math.inf,
+               positive: bool = False) -> float:
+        value = self.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) \
+                or not low <= value <= high or (positive and value <= 0):
+            where = "> 0" if positive else f"in [{low:g}, {high:g}]"
+            raise self.fail(key, f"expected a finite number {where}, got {value!r}")
+        return float(value)
+
+    def triple(self, key: str, default: tuple[float, float, float], positive: bool = False) -> tuple[float, ...]:
+        value = self.get(key, default)
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            value = [value] * 3
+        if not isinstance(value, list | tuple) or len(value) != 3 or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and (v > 0 or not positive)
+                for v in value):
+            raise self.fail(key, f"expected 3 finite numbers{' > 0' if positive else ''} (one per channel), "
+                                 f"got {value!r}")
+        return tuple(float(v) for v in value)
+
+    def flag(self, key: str, default: bool) -> bool:
+        value = self.get(key, default)
+        if not isinstance(value, bool):
+            raise self.fail(key, f"expected true or false, got {value!r}")
+        return value
+
+    def names(self, key: str) -> tuple[str, ...]:
+        value = self.get(key)
+        if not isinstance(value, list) or not all(isinstance(v, str) and v.strip() for v in value):
+            raise self.fail(key, f"expected a list of names, got {value!r}")
+        if len(set(value)) != len(value):
+            raise self.fail(key, f"names repeat: {value!r}")
+        return tuple(v.strip() for v in value)
+
+    def text(self, key: str, default: str | None = None, choices: tuple[str, ...] | None = None) -> str:
+        value = self.get(key, default)
+        if not isinstance(value, str) or not value.strip() or (choices and value not in choices):
+            expected = f"one of {', '.join(choices)}" if choices else "a text"
+            raise self.fail(key, f"expected {expected}, got {value!r}")
+        return value.strip()
+
+
+def _tables(path: Path) -> dict:
+    if not path.is_file():
+        raise InputFileError(str(path), "no such file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputFileError(str(path), f"cannot be read as UTF-8 text: {error}") from None
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".toml":
+            tables = tomllib.loads(text)
+        elif suffix == ".json":
+            tables = json.loads(text)
+        else:
+            raise InputFileError(str(path), f"unknown description format {suffix or '(none)'!r}: expected .toml "
+                                            "or .json")
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as error:
+        raise InputFileError(str(path), f"not valid {suffix[1:].upper()}: {error}") from None
+    if not isinstance(tables, dict):
+        raise InputFileError(str(path), "expected the tables model, normalisation and output")
+    for section, value in tables.items():
+        if section not in SECTIONS:
+            raise InputFileError(str(path), f"{section}: unknown section; known: {', '.join(SECTIONS)}")
+        if not isinstance(value, dict):
+            raise InputFileError(str(path), f"{section}: expected a table of keys")
+        unknown = sorted(set(value) - set(SECTIONS[section]))
+        if unknown:
+            raise InputFileError(str(path), f"{section}.{unknown[0]}: unknown key; known: "
+                                            f"{', '.join(SECTIONS[section])}")
+    return tables
+
+
+def read_model_description(path: str | Path) -> ModelDescription:
+    """The :class:`ModelDescription` a TOML or JSON file holds (the model file is not read)."""
+    path = Path(path)
+    fields = _Fields(path, _tables(path))
+    kind = fields.text("model.family")
+    if kind not in names():
+        raise fields.fail("model.family", f"unknown model family {kind!r}; known: {', '.join(names())}")
+    defaults = ModelDescription("", kind, 1, 1, (), ())
+    description = ModelDescription(
+        model=fields.text("model.file"), family=kind,
+        input_width=fields.integer("model.input_width", high=16384),
+        input_height=fields.integer("model.input_height", high=16384),
+        class_names=fields.names("output.classes"), keypoint_names=fields.names("output.keypoints"),
+        scale=fields.number("normalisation.scale", defaults.scale, positive=True),
+        mean=fields.triple("normalisation.mean", defaults.mean),
+        std=fields.triple("normalisation.std", defaults.std, positive=True),
+        channel_order=fields.text("normalisation.channels", defaults.channel_order, CHANNEL_ORDERS),
+        keypoint_values=fields.integer("output.keypoint_values", defaults.keypoint_values, high=3),
+        objectness=fields.flag("output.objectness", defaults.objectness),
+        score_threshold=fields.number("output.score_threshold", defaults.score_threshold, 0.0, 1.0),
+        iou_threshold=fields.number("output.iou_threshold", defaults.iou_threshold, 0.0, 1.0),
+        max_detections=fields.integer("output.max_detections", defaults.max_detections))
+    try:
+        family(kind).check(description)
+    except InvalidParameterError as error:
+        raise fields.fail(f"output.{error.parameter}", error.problem) from None
+    return description
+
+
+def model_path(description_path: str | Path, description: ModelDescription) -> Path:
+    """The model file a description names, relative to the description's folder."""
+    return Path(description_path).parent / description.model
+
+
+def load_detector(path: str | Path) -> OnnxDetector:
+    """The detector a description file describes: its model file read and handed to OpenCV's DNN module."""
+    description = read_model_description(path)
+    model = model_path(path, description)
+    if not model.is_file():
+        raise InputFileError(str(path), f"model.file: no such file {str(model)!r}")
+    try:
+        data = model.read_bytes()
+    except OSError as error:
+        raise InputFileError(str(model), f"cannot be read: {error}") from None
+    try:
+        return OnnxDetector(description, data)
+    except InvalidParameterError as error:
+        raise InputFileError(str(model), error.problem) from None
