@@ -79,3 +79,38 @@ def test_a_panel_declared_wrongly_is_refused():
         register(Panel("another_log", "Log", "bottom", ProjectNamePanel))
     with pytest.raises(ValueError, match="registered twice"):
         register(Panel("log", "Another log", "bottom", ProjectNamePanel))
+
+
+def test_a_panel_behind_a_tab_is_made_when_its_dock_is_first_shown(qtbot, make_window, project_name_panel):
+    """Start-up pays only for the panels on screen: one behind another tab is made when its dock comes to
+    the front (here from the View menu's toggle), once; a panel made at start (the log) is there at once."""
+    made = []
+    panel = register(Panel("made_once", "Made once", "bottom",
+                           lambda context: made.append(ProjectNamePanel(context)) or made[-1], group="records",
+                           order=96))
+    try:
+        window = make_window()
+        qtbot.wait(10)
+        assert made == [] and not window.panels.is_built("made_once")
+        assert window.panels.is_built("log") and window.panels.is_built("objects")  # at start; in front
+        assert not window.panels.is_built("planner")  # behind the geo-calculator's tab
+        dock = window.docks["made_once"]
+        dock.toggleViewAction().trigger()  # View › Made once: closed (it was open, behind a tab)
+        dock.toggleViewAction().trigger()  # and open again, in front
+        dock.raise_()
+        qtbot.waitUntil(lambda: window.panels.is_built("made_once"))
+        assert len(made) == 1
+        assert dock.widget().widget() is made[0] is window.panel("made_once")
+        dock.hide()
+        dock.show()
+        assert len(made) == 1
+    finally:
+        unregister(panel.id)
+
+
+def test_a_panel_asked_for_is_made_without_its_dock_shown(make_window, project_name_panel):
+    window = make_window()
+    assert not window.panels.is_built("project_name") and "project_name" in window.panels
+    widget = window.panel("project_name")
+    assert isinstance(widget, ProjectNamePanel) and window.panels.is_built("project_name")
+    assert window.docks["project_name"].widget().widget() is widget

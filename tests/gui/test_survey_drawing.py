@@ -43,8 +43,8 @@ def test_a_stored_fish_is_drawn_alone_and_a_selection_over_the_others(qtbot, mak
     if window.object_list._worker is not None:
         window.object_list._worker.cancel()
     window.observation.ask.setChecked(False)  # the observation form would be raised over the plan view
-    window.docks["plan"].raise_()
-    qtbot.waitUntil(window.plan.isVisible)
+    window.docks["plan"].raise_()  # the plan view is made and drawn when its tab first comes to the front
+    qtbot.waitUntil(lambda: window.plan.isVisible() and not window.plan._dirty)
     ws, pane, plan = window.workspace, window.panes["left"], window.plan
     others = {"pane": pane.object_lines(), "plan": _points(plan.curve.curve)}
     assert len(others["pane"]) == 2 * COUNT and len(_points(pane.added_item)) == 0

@@ -9,12 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from usvips.app.calibrations import store_calibration
-from usvips.app.video_project import add_sample_video
 from usvips.core.errors import InputFileError
-from usvips.io.calibration_file import load_calibration
-from usvips.io.manifest import read_manifest
-from usvips.io.tables import read_control, read_observations
 from usvips.store.interface import ProjectStore
 from usvips.store.opening import create_project, open_project
 from usvips.store.records import ProjectError
@@ -22,6 +17,11 @@ from usvips.store.records import ProjectError
 
 def create_from_manifest(directory: str | Path, out: str | Path) -> ProjectStore:
     """A new project at ``out`` holding a sample directory's pairs, control, observations and calibrations."""
+    # the readers only when a sample's project is first made (opening its file again needs none of them)
+    from usvips.io.calibration_file import load_calibration
+    from usvips.io.manifest import read_manifest
+    from usvips.io.tables import read_control, read_observations
+
     manifest = read_manifest(directory)
     control = read_control(manifest.control) if manifest.control is not None else None
     observation_files = [(entry, read_observations(entry.file)) for entry in manifest.observations]
@@ -52,6 +52,9 @@ def create_from_manifest(directory: str | Path, out: str | Path) -> ProjectStore
 
 def _fill(project: ProjectStore, manifest, control, observation_files, calibrations) -> None:
     """Store a manifest's contents (already read and checked) in a new project."""
+    from usvips.app.calibrations import store_calibration
+    from usvips.app.video_project import add_sample_video
+
     for pair in manifest.pairs:
         project.add_pair(pair.label, pair.left, pair.right, pair.medium)
     if control is not None:

@@ -3,8 +3,9 @@
 :class:`~usvips.gui.window_context.WindowContext` — the workspace's models, the messaging service and the
 jobs, never the window) and :func:`register`\\ s it when imported. The window builds one dock per registered
 panel (:func:`panels`, in their ``order``), tabs the panels of one group together and lists each under
-View. Adding a panel = one module with its declaration (named in :data:`BUILT_IN` for the window's own
-panels, or registered by whoever imports it) and its test; the window is not edited.
+View; a panel's widget is made when its dock is first shown or the panel is asked for. Adding a panel = one
+module with its declaration (named in :data:`BUILT_IN` for the window's own panels, or registered by
+whoever imports it) and its test; the window is not edited.
 
 A panel widget may define ``on_shown(visible)`` (called when its dock comes to the front or goes) and
 ``cleanup()`` (called when the window closes). Free of Qt: the window turns ``area`` into a dock area."""
@@ -33,7 +34,8 @@ class Panel:
     ``factory(context)`` → the panel's widget, ``group`` (panels of one area and group are tabbed
     together; the first in ``order`` is in front), ``order`` (docks are added, tabbed and listed in this
     order), ``size`` (pixels across its area at first start: width for left/right, height for
-    top/bottom; None: as the panel asks)."""
+    top/bottom; None: as the panel asks), ``at_start`` (made with the window, not when its dock is first
+    shown: a panel that must hear everything from the start, such as the log)."""
 
     id: str
     title: str
@@ -42,6 +44,7 @@ class Panel:
     group: str = ""
     order: int = 100
     size: int | None = None
+    at_start: bool = False
 
     def __post_init__(self) -> None:
         if self.area not in AREAS:

@@ -8,7 +8,7 @@ from PySide6 import QtCore
 from tests.gui.conftest import click_pixel, isolated_targets, open_sample, true_length, truth_pixels, wait_for_pair
 from usvips.core.matching import EpipolarCurve
 from usvips.gui.qt.object_list import ObjectList
-from usvips.gui.qt.pane import pixel_from_item
+from usvips.gui.qt.pane import PIXEL_CENTRE, pixel_from_item
 from usvips.store import Project
 
 FIGURE = ObjectList.COLUMNS.index("figure")  # the object list's figure column
@@ -170,7 +170,9 @@ def test_measured_control_points_are_marked_with_their_numbers(qtbot, make_windo
     drawn = _drawn_points(pane.control_item)
     assert len(drawn) == len(stored.ids) > 10
     assert np.allclose(np.sort(drawn, axis=0), np.sort(stored.left, axis=0))
-    assert sorted(t.textItem.toPlainText() for t in pane.control_labels) == sorted(stored.ids)
+    assert sorted(t.toPlainText() for t in pane.control_labels) == sorted(stored.ids)
+    placed = np.array([[t.pos().x(), t.pos().y()] for t in pane.control_labels]) - PIXEL_CENTRE  # beside its point
+    assert np.allclose(np.sort(placed, axis=0), np.sort(stored.left, axis=0))
 
 
 def _store_fish(window, directory) -> None:

@@ -32,4 +32,4 @@ def _log(context: WindowContext) -> LogPanel:
 
 
 #: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
-PANEL = register(Panel("log", "Log", "bottom", _log, group="records", order=70))
+PANEL = register(Panel("log", "Log", "bottom", _log, group="records", order=70, at_start=True))  # hears every message

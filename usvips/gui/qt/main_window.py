@@ -8,10 +8,9 @@ and runs image reading and enhancement in worker threads (progress and cancel in
 
 from __future__ import annotations
 
-import html
+import importlib
 import os
 from pathlib import Path
-from types import ModuleType
 
 import cv2
 import numpy as np
@@ -22,10 +21,11 @@ from usvips.core.errors import UsvipsError
 from usvips.core.redaction import redact
 from usvips.gui import commands, panel_registry
 from usvips.gui.commands import TOOL_TIPS
+from usvips.gui.lazy_panels import LazyPanels
 from usvips.gui.messages import Messages
 from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.pick_tool import SIDES, TOOLS, describe_point
-from usvips.gui.qt import exchange_dialogs, media_dialogs, menu_keys
+from usvips.gui.qt import menu_keys
 from usvips.gui.qt.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.qt.error_report import register_window
 from usvips.gui.qt.instants_view import InstantsView
@@ -50,6 +50,8 @@ from usvips.store.records import StaleEditError
 
 SAMPLES = sample_projects()
 MAX_RECENT = 8
+#: the dialog modules (usvips.gui.qt) commands name as their owner: their functions take the window
+DIALOG_MODULES = ("media_dialogs", "exchange_dialogs")
 #: a panel's area (usvips.gui.panel_registry) as Qt's dock area
 DOCK_AREAS = {area: getattr(QtCore.Qt.DockWidgetArea, f"{area.capitalize()}DockWidgetArea")
               for area in ("left", "right", "top", "bottom")}
@@ -164,31 +166,39 @@ class MainWindow(QtWidgets.QMainWindow):
                                   "open a project (Ctrl+O), or try a sample (File › Open sample).")
 
     # ------------------------------------------------------------------ construction
-    def _dock(self, title: str, widget: QtWidgets.QWidget, area: QtCore.Qt.DockWidgetArea) -> QtWidgets.QDockWidget:
+    def _dock(self, title: str, widget: QtWidgets.QWidget | None,
+              area: QtCore.Qt.DockWidgetArea) -> QtWidgets.QDockWidget:
+        """A dock holding ``widget`` (None: empty until its panel is made, :meth:`_make_panel`)."""
         dock = QtWidgets.QDockWidget(title, self)
         dock.setObjectName(f"dock_{title.lower().replace(' ', '_').replace('-', '_')}")
         # in a scroll area, so that no panel's minimum size pushes the window past a 1366 x 768 screen
         scroll = QtWidgets.QScrollArea()
         scroll.setWidgetResizable(True)
         scroll.setFrameShape(QtWidgets.QFrame.Shape.NoFrame)
-        scroll.setWidget(widget)
+        if widget is not None:
+            scroll.setWidget(widget)
         dock.setWidget(scroll)
         self.addDockWidget(area, dock)
         return dock
 
     def _build_docks(self) -> None:
-        """One dock per registered panel (:mod:`usvips.gui.panel_registry`), each panel made from the
-        window's context; the panels of one area and group are tabbed, the first of each in front."""
+        """One dock per registered panel (:mod:`usvips.gui.panel_registry`); the panels of one area and group
+        are tabbed, the first of each in front. A dock starts empty: its panel is made from the window's
+        context when the dock is first shown or the panel is first asked for (:meth:`panel`), except the
+        panels declared ``at_start``."""
         ws = self.workspace
-        #: the panels' widgets and their docks by panel id
-        self.panels: dict[str, QtWidgets.QWidget] = {}
+        self._declared = {panel.id: panel for panel in panel_registry.panels()}
+        #: the panels' widgets by panel id, each made when first read (usvips.gui.lazy_panels)
+        self.panels = LazyPanels(self._declared, self._make_panel)
+        #: the panels' docks by panel id
         self.docks: dict[str, QtWidgets.QDockWidget] = {}
+        #: what the window wires to a panel once it is made (the built-in panels the window itself talks to)
+        self._when_made = {"review": self._wire_review,
+                           "observation": lambda form: form.finished.connect(self._on_observation_finished)}
         groups: dict[tuple[str, str], list[QtWidgets.QDockWidget]] = {}
-        for panel in panel_registry.panels():
-            widget = self.panels[panel.id] = panel.factory(self.context)
-            dock = self.docks[panel.id] = self._dock(panel.title, widget, DOCK_AREAS[panel.area])
-            if callable(getattr(widget, "on_shown", None)):  # e.g. the QA list is checked when it comes to the front
-                dock.visibilityChanged.connect(widget.on_shown)
+        for panel in self._declared.values():
+            dock = self.docks[panel.id] = self._dock(panel.title, None, DOCK_AREAS[panel.area])
+            dock.visibilityChanged.connect(lambda visible, panel_id=panel.id: self._on_dock_shown(panel_id, visible))
             groups.setdefault((panel.area, panel.group), []).append(dock)
             if panel.size is not None:
                 across = panel.area in ("left", "right")
@@ -198,18 +208,50 @@ class MainWindow(QtWidgets.QMainWindow):
             for first, second in zip(tabbed, tabbed[1:], strict=False):
                 self.tabifyDockWidget(first, second)
             tabbed[0].raise_()
-        # the built-in panels the window itself talks to
-        p = self.panels
-        self.enhancement, self.object_list, self.calculator, self.plan = (p["enhancement"], p["objects"],
-                                                                           p["calculator"], p["plan"])
-        self.log, self.observation, self.planner, self.qa, self.review = (p["log"], p["observation"],
-                                                                          p["planner"], p["qa"], p["review"])
-        self.review.reviewed.connect(self.object_list.show_review)
-        self.review.review_read.connect(self.object_list.show_review)  # someone else's review, read again
-        self.review.history_requested.connect(self.object_list.show_history)
+        for panel in self._declared.values():
+            if panel.at_start:
+                self.panel(panel.id)
         ws.object_requested.connect(self._on_object_requested)  # an object on an image pair: that pair, centred
-        self.observation.finished.connect(self._on_observation_finished)
         ws.stored.connect(self._on_stored)
+
+    def panel(self, panel_id: str) -> QtWidgets.QWidget:
+        """The panel ``panel_id``'s widget, made now if it has not been (commands, controllers and tests
+        ask for a panel here; its dock is not shown by asking)."""
+        return self.panels[panel_id]
+
+    def _make_panel(self, panel_id: str) -> QtWidgets.QWidget:
+        """Make a declared panel from the window's context and put it in its dock."""
+        widget = self._declared[panel_id].factory(self.context)
+        dock = self.docks[panel_id]
+        dock.widget().setWidget(widget)
+        if callable(getattr(widget, "on_shown", None)):  # e.g. the QA list is checked when it comes to the front
+            dock.visibilityChanged.connect(widget.on_shown)
+        if panel_id in self._when_made:
+            self._when_made[panel_id](widget)
+        return widget
+
+    def _on_dock_shown(self, panel_id: str, visible: bool) -> None:
+        """A dock came to the front (or went): its panel is made the first time it does."""
+        if visible and not self.panels.is_built(panel_id):
+            widget = self.panel(panel_id)
+            if callable(getattr(widget, "on_shown", None)):  # connected after this signal was sent
+                widget.on_shown(True)
+
+    def _wire_review(self, review: QtWidgets.QWidget) -> None:
+        review.reviewed.connect(self.object_list.show_review)
+        review.review_read.connect(self.object_list.show_review)  # someone else's review, read again
+        review.history_requested.connect(self.object_list.show_history)
+
+    #: the built-in panels the window itself talks to, by name (made when first read)
+    enhancement = property(lambda self: self.panel("enhancement"))
+    object_list = property(lambda self: self.panel("objects"))
+    calculator = property(lambda self: self.panel("calculator"))
+    plan = property(lambda self: self.panel("plan"))
+    log = property(lambda self: self.panel("log"))
+    observation = property(lambda self: self.panel("observation"))
+    planner = property(lambda self: self.panel("planner"))
+    qa = property(lambda self: self.panel("qa"))
+    review = property(lambda self: self.panel("review"))
 
     def _build_status_bar(self) -> None:
         bar = StatusBar(self)
@@ -232,11 +274,11 @@ class MainWindow(QtWidgets.QMainWindow):
         """The function a command runs: ``owner.method`` resolved against the window's controllers (a dialog
         module's function is given the window), called with the command's ``args``."""
         owner, _, method = command.handler.rpartition(".")
-        owners = {"window": self, "tracking": lambda: self.tracking, "media_dialogs": media_dialogs,
-                  "exchange_dialogs": exchange_dialogs}
+        if owner in DIALOG_MODULES:  # imported when one of its commands is first run, not at start-up
+            module = f"usvips.gui.qt.{owner}"
+            return lambda *_: getattr(importlib.import_module(module), method)(self, *command.args)
+        owners = {"window": self, "tracking": lambda: self.tracking}
         target = owners[owner]
-        if isinstance(target, ModuleType):
-            return lambda *_: getattr(target, method)(self, *command.args)
         if owner == "window":
             return lambda *_: getattr(self, method)(*command.args)
         return lambda *_: getattr(target(), method)(*command.args)  # a controller made after the actions
@@ -384,6 +426,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def keys_text(self) -> str:
         """Help › Keys: every declared command with its keys (as this platform writes them) and where they
         work, from the one declaration of the commands (:mod:`usvips.gui.commands`)."""
+        import html  # here, not at start-up: its entity table is large
+
         native = QtGui.QKeySequence.SequenceFormat.NativeText
 
         def key_text(key: str) -> str:
@@ -474,7 +518,7 @@ class MainWindow(QtWidgets.QMainWindow):
         annotator made meanwhile appears."""
         if self.workspace.project is None:
             return
-        if on_screen(self.review):  # not a tab behind another
+        if self.panels.is_built("review") and on_screen(self.review):  # not a tab behind another
             self.review.refresh_current()
         elif len(self.workspace.selection) == 1:
             self.object_list.refresh_review(self.workspace.selection[0])
@@ -487,7 +531,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.cancel_work()
         self.video.shutdown()  # the seek-proxy build in the background
         self.pool.waitForDone(5000)
-        for panel in self.panels.values():
+        for panel in self.panels.built().values():  # a panel never made has nothing to clean up
             if callable(getattr(panel, "cleanup", None)):
                 panel.cleanup()
         self.media_check.project_closed()

@@ -174,4 +174,4 @@ class ObservationForm(QtWidgets.QWidget):
 
 #: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
 PANEL = register(Panel("observation", "Observation", "bottom", lambda context: ObservationForm(context.workspace),
-                     group="records", order=50))
+                     group="records", order=50, at_start=True))  # its project's species, its "Ask" on every store

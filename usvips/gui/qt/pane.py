@@ -52,6 +52,29 @@ def to_qimage(array: np.ndarray) -> QtGui.QImage:
     return QtGui.QImage(array.data, w, h, 3 * w, QtGui.QImage.Format.Format_RGB888).copy()
 
 
+class MarkLabel(QtWidgets.QGraphicsSimpleTextItem):
+    """A mark's name on a pane (a control point's target number): the same size on screen at every zoom,
+    beside its point — ``anchor`` as pyqtgraph's ``TextItem`` has it (the fraction of the text's width and
+    height that sits on the point; (0, 0) its top-left corner). Qt keeps it upright and unscaled, so a
+    view moved or zoomed costs no Python per label (a ``TextItem`` recomputes its transform each time);
+    ``color`` is its colour."""
+
+    #: screen pixels of blank around the text, as a ``TextItem``'s (its document's margin): placed alike
+    MARGIN = 4.0
+
+    def __init__(self, text: str, color: tuple[int, int, int], anchor: tuple[float, float]) -> None:
+        super().__init__(text)
+        self.color = QtGui.QColor(*color)
+        self.setBrush(self.color)
+        self.setFlag(QtWidgets.QGraphicsItem.GraphicsItemFlag.ItemIgnoresTransformations)
+        size, margin = self.boundingRect(), self.MARGIN
+        self.setTransform(QtGui.QTransform.fromTranslate(margin - anchor[0] * (size.width() + 2 * margin),
+                                                         margin - anchor[1] * (size.height() + 2 * margin)))
+
+    def toPlainText(self) -> str:  # noqa: N802 (named as Qt's text items name it)
+        return self.text()
+
+
 class StereoPane(QtWidgets.QWidget):
     """``clicked(x, y)`` in pixels on a left click without drag; ``hovered(x, y)`` as the cursor moves
     (NaN when it leaves the image)."""
@@ -131,7 +154,7 @@ class StereoPane(QtWidgets.QWidget):
         self.control_item = pg.ScatterPlotItem(size=11, pen=pg.mkPen(COLOURS["control"], width=1.5), brush=None,
                                                symbol="o")
         self.viewbox.addItem(self.control_item, ignoreBounds=True)
-        self.control_labels: list[pg.TextItem] = []
+        self.control_labels: list[MarkLabel] = []
         self.labels: list[pg.TextItem] = []
         self.cross_v.hide()
         self.cross_h.hide()
@@ -431,7 +454,7 @@ class StereoPane(QtWidgets.QWidget):
         self.control_selected_item.setData(pos=item_from_pixels(pixels[chosen]) if chosen else np.zeros((0, 2)))
         self.selected_control = marks[chosen[0]][0] if chosen else None
         for (name, _), view in zip(marks, item_from_pixels(pixels), strict=True):
-            text = pg.TextItem(name, color=COLOURS["selected" if name == selected else "control"], anchor=(-0.3, 1.1))
+            text = MarkLabel(name, COLOURS["selected" if name == selected else "control"], (-0.3, 1.1))
             text.setPos(float(view[0]), float(view[1]))
             self.viewbox.addItem(text, ignoreBounds=True)
             self.control_labels.append(text)

@@ -8,15 +8,19 @@ see are transparent.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
-from usvips.core.planner import PrecisionMap, default_grid, precision_map
 from usvips.gui.panel_registry import Panel, register
 from usvips.gui.qt.worker import Cancelled, Worker, start
 from usvips.gui.window_context import WindowContext
 from usvips.gui.workspace import Workspace
+
+if TYPE_CHECKING:  # the planner's computation is imported with the first map asked for
+    from usvips.core.planner import PrecisionMap
 
 
 class PlannerDock(QtWidgets.QWidget):
@@ -98,6 +102,8 @@ class PlannerDock(QtWidgets.QWidget):
                 progress(done / total)
                 if cancelled():
                     raise Cancelled
+
+            from usvips.core.planner import default_grid, precision_map  # with the first map asked for
 
             across, ranges = default_grid(calibration)
             return precision_map(calibration, across, ranges, length, orientations=orientations, on_row=on_row)
