@@ -17,7 +17,12 @@ from typing import ClassVar
 import numpy as np
 
 from usvips.core.calibration_targets.detection import TargetDetection
+from usvips.core.kind_modules import KindTable
 from usvips.core.observations import ControlPoints
+
+#: the target kinds by name, filled as each kind's class is defined (a kind module of ``kinds/``, or any
+#: subclass that names its ``kind``); :mod:`usvips.core.calibration_targets.registry` answers from it
+KINDS: KindTable[CalibrationTarget] = KindTable(__package__, "calibration target")
 
 
 class CalibrationTarget:
@@ -34,9 +39,7 @@ class CalibrationTarget:
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
         if cls.__dict__.get("kind"):
-            from usvips.core.calibration_targets import registry
-
-            registry.register(cls)
+            KINDS.add(cls.__dict__["kind"], cls)
 
     # -------------------------------------------------------------------------------- description
     def describe(self) -> dict:

@@ -4,20 +4,9 @@ for. An unknown kind is an error naming the known ones."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+from usvips.core.calibration_targets.base import KINDS as _TABLE
+from usvips.core.calibration_targets.base import CalibrationTarget
 from usvips.core.errors import InvalidParameterError
-from usvips.core.kind_modules import KindTable
-
-if TYPE_CHECKING:
-    from usvips.core.calibration_targets.base import CalibrationTarget
-
-_TABLE: KindTable[CalibrationTarget] = KindTable(__package__, "calibration target")
-
-
-def register(cls: type[CalibrationTarget]) -> None:
-    """Called by ``CalibrationTarget.__init_subclass__`` for every class that names its ``kind``."""
-    _TABLE.add(cls.__dict__["kind"], cls)
 
 
 def names() -> tuple[str, ...]:

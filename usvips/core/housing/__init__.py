@@ -13,8 +13,8 @@ from usvips.core.housing.kinds.air import AirHousing
 from usvips.core.housing.kinds.dome_cover import DomeCoverHousing, dome_cover_from_object_space
 from usvips.core.housing.kinds.dome_port import DomePortHousing
 from usvips.core.housing.kinds.flat_port import FlatPortHousing, flat_port_from_object_space
+from usvips.core.housing.parameter import HousingParameter
 from usvips.core.housing.registry import (
-    HousingParameter,
     UnknownHousingError,
     kind,
     names,

@@ -9,7 +9,7 @@ the medium after crossing ``surfaces[i]``; the last is the water (n3).
 A housing *kind* (air, flat port, dome cover, dome port, ...) is one subclass of :class:`Housing` in one
 module of ``usvips.core.housing.kinds``; defining the class with a ``kind`` name registers it
 (``registry.py``). The class owns its surfaces, its parameters (names, units, meanings, default start
-values and priors, physical bounds: :class:`~usvips.core.housing.registry.HousingParameter`), which states
+values and priors, physical bounds: :class:`~usvips.core.housing.parameter.HousingParameter`), which states
 are physical (its constructor raises :class:`InvalidParameterError` naming the parameter), the start grid
 of the calibration, how the calibration's named parameters build the left and right housings
 (:meth:`Housing.build`), and its (de)serialisation to the calibration file and scene dicts
@@ -26,8 +26,8 @@ import numpy as np
 
 from usvips.core import validation
 from usvips.core.errors import InvalidParameterError
-from usvips.core.housing import registry
-from usvips.core.housing.registry import HousingParameter
+from usvips.core.housing.parameter import HousingParameter
+from usvips.core.kind_modules import KindTable
 from usvips.core.rays import RayBundle, RayStatus
 from usvips.core.surfaces import Plane, Sphere, Surface, _dot, refract_with_derivatives
 
@@ -36,6 +36,11 @@ from usvips.core.surfaces import Plane, Sphere, Surface, _dot, refract_with_deri
 GEOMETRY = {"distance": "distance of the port's or tank wall's inner face in front of the camera (m)",
             "thickness": "glass thickness (m)", "n_glass": "refractive index of the glass",
             "n_water": "refractive index of the water"}
+
+
+#: the housing kinds by name, filled as each kind's class is defined (a kind module of ``kinds/``, or any
+#: subclass that names its ``kind``); :mod:`usvips.core.housing.registry` answers from it
+KINDS: KindTable[Housing] = KindTable(__package__, "housing")
 
 
 class Housing:
@@ -68,7 +73,7 @@ class Housing:
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
         if "kind" in cls.__dict__:
-            registry.register(cls)
+            KINDS.add(cls.__dict__["kind"], cls)
 
     # ---------------------------------------------------------------- the kind's parameters
     @classmethod

@@ -11,37 +11,11 @@ fields per camera or shared) and its test; nothing else.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
 from usvips.core.errors import InvalidParameterError
-from usvips.core.kind_modules import KindTable
+from usvips.core.housing.base import KINDS as _TABLE
+from usvips.core.housing.base import Housing
 
-if TYPE_CHECKING:
-    from usvips.core.housing.base import Housing
-
-_TABLE: KindTable[Housing] = KindTable(__package__, "housing")
 _KINDS = _TABLE.kinds
-
-
-@dataclass(frozen=True)
-class HousingParameter:
-    """One parameter of a housing kind, by its symbol (``t``, ``dx``; camera frame, metres).
-
-    ``unit`` (``m``, or ``—`` for none) and ``meaning`` are shown to the user; ``start`` is the
-    calibration's default start value and ``sigma`` its default prior sigma (None: held fixed unless the
-    user frees it); ``lower``/``upper`` bound the physical range (open interval; None: unbounded); ``step``
-    is the numerical-derivative step.
-    """
-
-    symbol: str
-    unit: str
-    meaning: str
-    start: float
-    sigma: float | None
-    lower: float | None = None
-    upper: float | None = None
-    step: float = 1e-6
 
 
 class UnknownHousingError(InvalidParameterError):
@@ -49,12 +23,6 @@ class UnknownHousingError(InvalidParameterError):
 
     def __init__(self, name: object, known: tuple[str, ...] | None = None):
         super().__init__("housing", f"unknown housing kind {name!r}; known: {', '.join(known or names())}")
-
-
-def register(cls: type[Housing]) -> None:
-    """Called by ``Housing.__init_subclass__`` for every class that names its ``kind``."""
-    name = cls.__dict__["kind"]
-    _TABLE.add(name, cls)
 
 
 def names() -> tuple[str, ...]:

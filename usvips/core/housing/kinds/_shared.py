@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from usvips.core import validation
-from usvips.core.housing.registry import HousingParameter
+from usvips.core.housing.parameter import HousingParameter
 
 #: Water: fresh ≈ 1.333, sea ≈ 1.34 (temperature, salinity and wavelength move the third decimal).
 N3 = HousingParameter("n3", "—", "refractive index of the water (fresh ≈ 1.333, sea ≈ 1.34)", 1.34, 0.01,

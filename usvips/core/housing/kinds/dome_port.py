@@ -20,7 +20,7 @@ import numpy as np
 from usvips.core.errors import InvalidParameterError
 from usvips.core.housing.base import Housing
 from usvips.core.housing.kinds._shared import N3, check_indices, finite, positive
-from usvips.core.housing.registry import HousingParameter
+from usvips.core.housing.parameter import HousingParameter
 from usvips.core.surfaces import Sphere, Surface
 
 
