@@ -128,7 +128,7 @@ def test_tracked_instants_store_the_time_the_window_gives_their_frame_on_a_varia
     path, object_id, fish, stereo, start = _survey(tmp_path, times)
     frames = [2, 9, 15]
     with Project.open(path) as project:
-        assert project.video("drop")["fps"] > 0
+        assert project.video("drop").fps > 0
         stored = project.object(object_id)
         tracks = [track_in_video(project, "drop", start, (v.xl, v.yl), (v.xr, v.yr), 0, 100) for v in stored.vertices]
         source = FrameSource(project, "drop")
@@ -138,7 +138,7 @@ def test_tracked_instants_store_the_time_the_window_gives_their_frame_on_a_varia
             source.left.close()
             source.right.close()
         np.testing.assert_allclose([window[f] for f in frames], times[frames] - times[0], atol=1.5e-3)
-        nominal = np.array(frames) / project.video("drop")["fps"]
+        nominal = np.array(frames) / project.video("drop").fps
         assert np.max(np.abs(nominal - [window[f] for f in frames])) > 0.01  # the old frame / fps was wrong here
         ids = add_tracked_instants(project, object_id, tracks, frames, "drop")
         for frame, instant in zip(frames, ids, strict=True):

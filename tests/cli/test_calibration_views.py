@@ -56,7 +56,7 @@ def test_out_onto_the_project_s_own_video_is_refused_and_the_video_kept(tmp_path
     from usvips.store.opening import open_project
 
     with open_project(str(path), read_only=True) as project:
-        left = project.media_path(project.video("cal")["left"][0])
+        left = project.media_path(project.video("cal").left[0].path)
     before = left.read_bytes()
     code = main(["video", "calibration-views", str(path), "--pair", "cal", "--target", str(target), "--out",
                  str(left), "--quiet"])

@@ -97,10 +97,10 @@ def test_sync_by_sound_dry_run_stores_nothing_and_set_offset_by_hand(tmp_path, c
     assert estimate["method"] == "audio" and estimate["offset_frames_used"] == 7 and not estimate["stored"]
     assert estimate["confidence"] > 0.5
     with Project.open(project) as p:
-        assert p.video("v")["offset_frames"] == 0
+        assert p.video("v").offset_frames == 0
     assert _run(capsys, "video", "set-offset", project, "--pair", "v", "5")[0] == 0
     with Project.open(project) as p:
-        assert p.video("v")["offset_frames"] == 5 and p.video("v")["offset_estimate"] == {"method": "by hand"}
+        assert p.video("v").offset_frames == 5 and p.video("v").offset_estimate == {"method": "by hand"}
     code, out, _ = _run(capsys, "video", "sync", project, "--pair", "v")
     assert "offset +7.00 frames (+0.2800 s) by audio" in out and "stored" in out
     assert _run(capsys, "video", "period", project, "--pair", "v", "--add", "descent", "0", "20")[0] == 0
@@ -123,11 +123,11 @@ def test_an_estimate_of_little_confidence_is_not_stored_unless_forced(tmp_path, 
     estimate = json.loads(out)
     assert estimate["confidence"] < 0.5 and not estimate["stored"] and "--force" in estimate["not_stored"]
     with Project.open(project) as p:
-        assert p.video("v")["offset_frames"] == 2 and p.video("v")["offset_estimate"] == {"method": "by hand"}
+        assert p.video("v").offset_frames == 2 and p.video("v").offset_estimate == {"method": "by hand"}
     code, out, _ = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--force")
     assert code == 0 and out.rstrip().endswith("; stored")
     with Project.open(project) as p:
-        assert p.video("v")["offset_estimate"]["method"] == "flash"
+        assert p.video("v").offset_estimate["method"] == "flash"
 
 
 def test_an_offset_at_the_edge_of_its_window_is_never_stored_and_a_bad_window_is_one_line(tmp_path, capsys):
@@ -145,7 +145,7 @@ def test_an_offset_at_the_edge_of_its_window_is_never_stored_and_a_bad_window_is
         estimate = json.loads(out)
         assert estimate["at_edge"] and not estimate["stored"] and "search window" in estimate["not_stored"]
     with Project.open(project) as p:
-        assert p.video("v")["offset_frames"] == 20 and p.video("v")["offset_estimate"] == {"method": "by hand"}
+        assert p.video("v").offset_frames == 20 and p.video("v").offset_estimate == {"method": "by hand"}
     for window in ("-5", "-1", "0", "3", "nan", "1e8", "2.5", "x", "100000000"):
         code, _, err = _run(capsys, "video", "sync", project, "--pair", "v", "--method", "flash", "--max-offset",
                             window)

@@ -88,7 +88,7 @@ def test_the_video_and_tracking_controllers_work_without_a_window(qtbot, sample_
     video.auto_proxies = False
     tracking = TrackController(parent, context, panes, video, workspace.pick_tool.set_tool)
     workspace.open_project(open_project(sample_copy("rov_flatport")))
-    label = workspace.project.videos()[0]["label"]
+    label = workspace.project.videos()[0].label
     assert video.open_video(label) and forgotten == [True]
     qtbot.waitUntil(lambda: workspace.video_frame is not None and not context.jobs.busy, timeout=30000)
     assert workspace.pair == label and workspace.images["left"] is not None

@@ -30,7 +30,7 @@ def test_a_second_project_starts_with_fresh_video_controls_and_readouts(qtbot, m
     assert window.open_path(rov, "video")
     _wait_frame(qtbot, window, 0)
     d = window.video.dock_widget
-    assert d.offset.value() == window.workspace.project.video("video")["offset_frames"]
+    assert d.offset.value() == window.workspace.project.video("video").offset_frames
     d.goto.setText("5")
     d.goto.returnPressed.emit()
     _wait_frame(qtbot, window, 5)

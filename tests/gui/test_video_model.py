@@ -153,11 +153,11 @@ def test_a_video_session_stores_offsets_periods_and_taken_pairs_without_a_window
         new = session.store_offset(4, {"method": "by hand"})
         assert new is session.navigator and new is not nav and heard == [4]
         assert (new.offset, new.frame, new.last, new.marks, new.rate, new.jump) == (4, 20, 35, {12}, 2.0, 25)
-        assert project.video("v")["offset_frames"] == 4 and session.source.video["offset_frames"] == 4
+        assert project.video("v").offset_frames == 4 and session.source.video.offset_frames == 4
         assert session.source.pair(20)[2] == 24  # the source decodes at the new offset
         with pytest.raises(UsvipsError):
             session.store_offset(400, {"method": "by hand"})  # refused by the project: nothing changed
-        assert session.navigator is new and project.video("v")["offset_frames"] == 4 and heard == [4]
+        assert session.navigator is new and project.video("v").offset_frames == 4 and heard == [4]
         # decisions in words
         sure = session.sync_outcome(SyncEstimate(-3.1, 25.0, "flash", 0.95, window=(-10, 10)))
         assert (sure.action, sure.level, sure.question) == ("store", "info", None) and "stored" in sure.text
@@ -166,7 +166,7 @@ def test_a_video_session_stores_offsets_periods_and_taken_pairs_without_a_window
         edge = session.sync_outcome(SyncEstimate(10.0, 25.0, "flash", 0.95, window=(-10, 10)))
         assert edge.action == "refuse" and edge.question is None and "window" in edge.text
         session.store_estimate(SyncEstimate(-3.1, 25.0, "flash", 0.95, window=(-10, 10)))
-        assert project.video("v")["offset_frames"] == -3 and project.video("v")["offset_estimate"]["method"] == "flash"
+        assert project.video("v").offset_frames == -3 and project.video("v").offset_estimate["method"] == "flash"
         # periods
         assert session.mark_period("bait arrives 10 26") == ("bait arrives", 10, 26)
         with pytest.raises(UsvipsError, match=r"period '26': type a name, then the first and last frame"):

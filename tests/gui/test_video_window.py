@@ -96,12 +96,12 @@ def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tm
     window.video.dock_widget.offset.setValue(2)
     window.video.dock_widget.offset.editingFinished.emit()
     qtbot.waitUntil(lambda: frame_number(window.workspace.images["right"]) == 1002 and not window.busy, timeout=10000)
-    assert window.workspace.project.video("dive")["offset_frames"] == 2
+    assert window.workspace.project.video("dive").offset_frames == 2
     # a moved video is relocated; a wrong file is refused
     shutil.move(tmp_path / "left.mp4", tmp_path / "moved.mp4")
     assert media_dialogs.relocate_media(window, {"left.mp4": str(tmp_path / "right.mp4")}) == 0
     assert media_dialogs.relocate_media(window, {"left.mp4": str(tmp_path / "moved.mp4")}) == 1
-    assert window.workspace.project.video("dive")["left"] == ["moved.mp4"]
+    assert window.workspace.project.video("dive").paths("left") == ["moved.mp4"]
 
 
 def test_a_fish_measured_on_video_exports_its_frames_time_and_period(qtbot, make_window, sample_copy, tmp_path):
@@ -327,7 +327,7 @@ def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tm
     # the seek proxies built by themselves first (their message would otherwise replace the estimate's)
     qtbot.waitUntil(lambda: window.video.source is not None and window.video.source.has_proxies, timeout=20000)
     assert window.video.synchronise("flash") is not None
-    qtbot.waitUntil(lambda: window.workspace.project.video("dive")["offset_frames"] == lag and not window.busy,
+    qtbot.waitUntil(lambda: window.workspace.project.video("dive").offset_frames == lag and not window.busy,
                     timeout=60000)
     assert "by flash, confidence" in window.statusBar().currentMessage()
     assert window.video.dock_widget.offset.value() == lag
@@ -356,9 +356,9 @@ def test_an_estimate_of_little_confidence_is_stored_only_if_the_user_says_so(qtb
     qtbot.waitUntil(lambda: not question.isVisible(), timeout=5000)
     stored = window.workspace.project.video("video")
     if answer == "Yes":
-        assert stored["offset_estimate"]["method"] == "flash" and window.video.dock_widget.offset.value() != 3
+        assert stored.offset_estimate["method"] == "flash" and window.video.dock_widget.offset.value() != 3
     else:
-        assert stored["offset_frames"] == 3 and stored["offset_estimate"].get("method") != "flash"
+        assert stored.offset_frames == 3 and stored.offset_estimate.get("method") != "flash"
 
 
 def test_an_estimate_at_the_edge_of_its_window_is_not_offered_for_storing(qtbot, make_window, sample_copy,
@@ -373,15 +373,15 @@ def test_an_estimate_at_the_edge_of_its_window_is_not_offered_for_storing(qtbot,
     window = make_window()
     assert window.open_path(sample_copy("rov_flatport"), "video")
     _wait_frame(qtbot, window, 0)
-    before = dict(window.workspace.project.video("video"))
+    before = window.workspace.project.video("video")
     assert window.video.synchronise("flash") is not None
     qtbot.waitUntil(lambda: "not stored" in window.statusBar().currentMessage() and not window.busy, timeout=60000)
     message = window.statusBar().currentMessage()
     assert "edge of the search window" in message and "-8 to +8" in message
     assert window.video.question is None or not window.video.question.isVisible()
-    assert window.workspace.project.video("video")["offset_frames"] == before["offset_frames"]
-    assert window.workspace.project.video("video").get("offset_estimate") == before.get("offset_estimate")
-    assert window.video.dock_widget.offset.value() == before["offset_frames"]
+    assert window.workspace.project.video("video").offset_frames == before.offset_frames
+    assert window.workspace.project.video("video").offset_estimate == before.offset_estimate
+    assert window.video.dock_widget.offset.value() == before.offset_frames
 
 
 def test_quick_steps_add_up_while_a_frame_is_still_decoding(qtbot, make_window, sample_copy):

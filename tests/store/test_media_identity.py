@@ -58,7 +58,7 @@ def test_random_damages_to_media_are_named_and_their_use_refused_until_accepted(
         label = f"v{trial}"
         with Project.open(project_path) as project:
             project.add_video(label, [(files[0], 10, 25.0)], [(files[1], 10, 25.0)], 25.0, 10, (64, 48))
-            stored = project.video(label)["left"][0]
+            stored = project.video(label).left[0].path
         kind = str(rng.choice(DAMAGES))
         seen.add(kind)
         _damage(files[0], kind, rng)
@@ -78,7 +78,7 @@ def test_random_damages_to_media_are_named_and_their_use_refused_until_accepted(
             assert "missing" in fast
             with Project.open(project_path) as project:
                 project.relocate_media(stored, files[0].with_name("elsewhere.bin"))
-                assert project.media_identity(project.video(label)["left"][0], full=True) is None
+                assert project.media_identity(project.video(label).left[0].path, full=True) is None
         else:
             with Project.open(project_path) as project:
                 project.accept_media(stored)
@@ -114,6 +114,6 @@ def test_a_copy_in_another_folder_finds_its_media_as_they_were(tmp_path):
         copy = project.copy_to(tmp_path / "elsewhere" / "copy.usvips")
     with Project.open(copy) as other:
         video = other.video("v")
-        assert video["left"] == [str(files[0].resolve())] and other.media_problems() == []  # outside: absolute
-        assert [other.media_path(p) for p in video["left"] + video["right"]] == [f.resolve() for f in files]
+        assert video.paths("left") == [str(files[0].resolve())] and other.media_problems() == []  # outside: absolute
+        assert [other.media_path(p) for p in video.paths("left") + video.paths("right")] == [f.resolve() for f in files]
         assert other._query("SELECT count(*) FROM meta WHERE key LIKE 'media-sample:/%'") == [(2,)]

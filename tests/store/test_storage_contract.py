@@ -434,14 +434,14 @@ def test_videos_with_offsets_and_periods_round_trip(store, where):
             chapters[side].append((path, 100 + k, 25.0))
     store.add_video("dive", chapters["left"], chapters["right"], 25.0, 201, (1920, 1080), "fine")
     video = store.video("dive")
-    assert (video["label"], video["fps"], video["frame_count"], video["width"], video["height"]) == (
+    assert (video.label, video.fps, video.frame_count, video.width, video.height) == (
         "dive", 25.0, 201, 1920, 1080)
-    assert video["offset_frames"] == 0 and video["report"] == "fine"
-    assert [v["label"] for v in store.videos()] == ["dive"]
+    assert video.offset_frames == 0 and video.report == "fine"
+    assert [v.label for v in store.videos()] == ["dive"]
     assert "dive" in [p.label for p in store.pairs()]  # a video is measured like a pair
     store.set_video_offset("dive", -3, {"method": "audio", "confidence": 0.9})
     video = store.video("dive")
-    assert video["offset_frames"] == -3 and video["offset_estimate"] == {"method": "audio", "confidence": 0.9}
+    assert video.offset_frames == -3 and video.offset_estimate == {"method": "audio", "confidence": 0.9}
     store.add_period("dive", "transect 1", 10, 150)
     assert store.periods("dive") == [("transect 1", 10, 150)]
     with pytest.raises(ProjectError, match="dive"):
@@ -1282,7 +1282,7 @@ STALE = {
                                                                             replace=True, expected=v)),
     "activate_calibration": (lambda s, f: s.active_calibration("a"), lambda s, f: s.activate_calibration("a", 2),
                              lambda s, f, v: s.activate_calibration("a", 1, expected=v)),
-    "set_video_offset": (lambda s, f: s.video("v")["offset_frames"], lambda s, f: s.set_video_offset("v", 2),
+    "set_video_offset": (lambda s, f: s.video("v").offset_frames, lambda s, f: s.set_video_offset("v", 2),
                          lambda s, f, v: s.set_video_offset("v", 3, expected=v)),
     "set_enhancement": (lambda s, f: s.enhancement("k"), lambda s, f: s.set_enhancement("k", '{"bob": 1}'),
                         lambda s, f, v: s.set_enhancement("k", '{"ann": 1}', expected=v)),

@@ -1,6 +1,7 @@
 """Schema 4: videos with their files and offset, periods, and the frames and time of each vertex; an
 older project migrates to it and keeps its contents."""
 
+import dataclasses
 import shutil
 from pathlib import Path
 
@@ -8,6 +9,7 @@ import pytest
 
 from usvips.store import Project
 from usvips.store.project import ProjectError, Vertex
+from usvips.store.records import VideoFile
 from usvips.store.schema import SCHEMA_VERSION
 
 DATA = Path(__file__).parent / "data"
@@ -27,17 +29,30 @@ def project(tmp_path):
 
 def test_a_video_keeps_its_files_in_order_and_its_offset(project):
     video = project.video("dive")
-    assert video["left"] == ["media/l1.mp4", "media/l2.mp4"] and video["right"] == ["media/r1.mp4"]
-    assert (video["frame_count"], video["fps"], video["width"], video["offset_frames"]) == (100, 30.0, 1920, 0)
+    assert video.paths("left") == ["media/l1.mp4", "media/l2.mp4"] and video.paths("right") == ["media/r1.mp4"]
+    assert (video.frame_count, video.fps, video.width, video.offset_frames) == (100, 30.0, 1920, 0)
     project.set_video_offset("dive", -12, {"method": "flash", "confidence": 0.9})
-    assert project.video("dive")["offset_frames"] == -12
-    assert project.video("dive")["offset_estimate"]["method"] == "flash"
+    assert project.video("dive").offset_frames == -12
+    assert project.video("dive").offset_estimate["method"] == "flash"
     for bad in (100, -100, 2.5):
         with pytest.raises(ProjectError, match="not a whole number smaller than the video"):
             project.set_video_offset("dive", bad)
     with pytest.raises(ProjectError, match="label already used"):
         project.add_video("dive", [(project.path.parent / "media" / "l1.mp4", 1, 30.0)], [], 30.0, 1, (1, 1))
-    assert [v["label"] for v in project.videos()] == ["dive"]
+    assert [v.label for v in project.videos()] == ["dive"]
+
+
+def test_a_video_is_a_frozen_record_with_each_cameras_chapters(project):
+    """The store returns a :class:`Video` (no dict): each camera's chapter files with their frame counts and
+    frame rates, read only."""
+    video = project.video("dive")
+    assert video.files("left") == (VideoFile("media/l1.mp4", 60, 30.0), VideoFile("media/l2.mp4", 40, 30.0))
+    assert video.right == (VideoFile("media/r1.mp4", 100, 30.0),) and video.report == "" and video.height == 1080
+    assert video.offset_estimate is None and project.videos() == [video]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        video.offset_frames = 3
+    with pytest.raises(ValueError, match="'left' or 'right'"):
+        video.files("middle")
 
 
 def test_periods_and_vertex_frames_round_trip(project):

@@ -84,14 +84,14 @@ def media_size(project: ProjectStore, label: str) -> tuple[int, int] | None:
                 return declared_size(file.read(1 << 16))
         except (OSError, UsvipsError):
             return None
-    video = next((v for v in project.videos() if v["label"] == label), None)
+    video = next((v for v in project.videos() if v.label == label), None)
     if video is not None:
-        return int(video["width"]), int(video["height"])
+        return int(video.width), int(video.height)
     return None
 
 
 def _kind(project: ProjectStore, label: str) -> str:
-    return "video" if any(v["label"] == label for v in project.videos()) else "pair"
+    return "video" if any(v.label == label for v in project.videos()) else "pair"
 
 
 def _misfit(project: ProjectStore, calibration: StereoCalibration, label: str, calibration_name: str) -> str | None:

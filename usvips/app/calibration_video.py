@@ -130,7 +130,7 @@ def scan_video(project: ProjectStore, label: str, target: CalibrationTarget, eve
     """:func:`scan_streams` on the project's stereo video ``label``, with its stored offset."""
     video, left, right = open_streams(project, label)
     with left, right:
-        return scan_streams(left, right, int(video["offset_frames"]), target, label, every, max_views,
+        return scan_streams(left, right, int(video.offset_frames), target, label, every, max_views,
                             max_blur_px, duplicate_px, focal_px, progress, cancel)
 
 

@@ -166,7 +166,7 @@ def _source_and_time(project: ProjectStore, stored: StoredObject,
         if vertex.frame_left is None:
             return f"video {vertex.video}", math.nan, math.nan, False
         if vertex.video not in fps:
-            fps[vertex.video] = float(project.video(vertex.video)["fps"])
+            fps[vertex.video] = float(project.video(vertex.video).fps)
         return f"video {vertex.video}", float(vertex.frame_left) / fps[vertex.video], frame, True
     return (f"pair {vertex.pair}" if vertex.pair is not None else ""), math.nan, math.nan, True
 

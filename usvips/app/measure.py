@@ -102,12 +102,12 @@ def measure_into_project(project: ProjectStore, pair: str, objects: list[PickedO
         from usvips.app.video_project import left_frame_times, partner_frame
 
         video = project.video(pair)
-        count = int(video["frame_count"])
+        count = int(video.frame_count)
         if not 0 <= frame < count:
             raise UsvipsError(f"video {pair!r} has frames 0 to {count - 1}: there is no frame {frame}")
         partner = partner_frame(video, frame)
         video_frame = (pair, frame, partner, float(left_frame_times(project, pair, [frame])[0]))
-    elif pair in {v["label"] for v in project.videos()}:  # its picks would belong to no frame
+    elif pair in {v.label for v in project.videos()}:  # its picks would belong to no frame
         raise UsvipsError(f"{project.path}: {pair!r} is a stereo video, not an image pair: measure on one of its "
                           "frames")
     return store_measurements(project, pair, objects, rules, where, pointing_sigma_px, video_frame)

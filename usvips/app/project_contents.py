@@ -27,7 +27,7 @@ def media_files(project: ProjectStore) -> list[Path]:
     inputs a command working on the project must never write over. Missing or unreadable ones are left
     out (nothing can be destroyed there)."""
     stored = [path for pair in project.pairs() for path in (pair.left, pair.right) if path]
-    stored += [path for video in project.videos() for camera in ("left", "right") for path in video[camera]]
+    stored += [path for video in project.videos() for camera in ("left", "right") for path in video.paths(camera)]
     found = []
     for path in dict.fromkeys(stored):
         try:
@@ -135,16 +135,16 @@ def summarise(project: ProjectStore) -> ProjectSummary:
     """What ``project`` holds (reads only)."""
     pairs = project.pairs()
     videos = project.videos()
-    video_labels = {v["label"] for v in videos}
+    video_labels = {v.label for v in videos}
     media = {p.label: p.medium for p in pairs}
     objects, instants, reviews = review_counts(project)
     return ProjectSummary(
         project.version, len(pairs), len(project.control()), objects,
         tuple(PairSummary(p.label, p.medium, p.left, p.right, project.active_calibration(p.label))
               for p in pairs if p.label not in video_labels),
-        tuple(VideoSummary(v["label"], v["frame_count"], v["fps"], v["offset_frames"],
-                           project.active_calibration(v["label"]), proxy_bytes(project, v["label"]),
-                           media.get(v["label"], "water")) for v in videos),
+        tuple(VideoSummary(v.label, v.frame_count, v.fps, v.offset_frames,
+                           project.active_calibration(v.label), proxy_bytes(project, v.label),
+                           media.get(v.label, "water")) for v in videos),
         project.deployments(), project.georeference(), instants, reviews, calibration_summaries(project, pairs))
 
 

@@ -30,7 +30,7 @@ def checkem_samples(project: ProjectStore) -> list[tuple[Deployment, str]]:
     covers (a video's own deployment covers that video, the project's covers the rest), or once without a
     period when they have none."""
     stored = project.deployments()
-    videos = [v["label"] for v in project.videos()]
+    videos = [v.label for v in project.videos()]
     samples = []
     for scope, deployment in stored.items():
         covered = [scope] if scope else [v for v in videos if v not in stored]

@@ -38,6 +38,7 @@ from usvips.io.grey_pairs import GreyPairSource
 from usvips.io.video_stream import VideoStream
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
+from usvips.store.records import Video
 
 
 def _geometry(project: ProjectStore, label: str):
@@ -56,7 +57,7 @@ class VideoTracker:
     the project."""
 
     label: str
-    video: dict
+    video: Video
     rig: StereoRig
     left_paths: tuple[Path, ...]
     right_paths: tuple[Path, ...]
@@ -67,8 +68,8 @@ class VideoTracker:
         geometry = _geometry(project, label)
         video = project.video(label)
         return cls(label, video, geometry.calibration.rig(geometry.station, geometry.frame),
-                   tuple(project.media_path(p) for p in video["left"]),
-                   tuple(project.media_path(p) for p in video["right"]), proxy_folder(project))
+                   tuple(project.media_path(p) for p in video.paths("left")),
+                   tuple(project.media_path(p) for p in video.paths("right")), proxy_folder(project))
 
     def track(self, start: int, left: Sequence[float], right: Sequence[float], first: int, last: int,
               settings: TrackSettings | None = None, cancel: Callable[[], bool] | None = None,
@@ -99,7 +100,7 @@ class VideoTracker:
             shared = SHARED_FRAMES_BYTES if len(picks) > 1 else 0
             with GreyPairSource(left_stream, right_stream, partner, remember_bytes=shared) as frames:
                 first = max(int(first), 0)
-                last = min(int(last), self.video["frame_count"] - 1)
+                last = min(int(last), self.video.frame_count - 1)
                 tracks = [track_vertex(frames, self.rig, start, left, right, first, last, settings, cancel,
                                        progress) for left, right in picks]
             # each tracked frame's time, as the window gives a vertex picked on it (presentation time)

@@ -29,6 +29,7 @@ from usvips.io.images import read_image, write_image
 from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
 from usvips.io.video_stream import VideoStream
 from usvips.store.interface import ProjectStore
+from usvips.store.records import Video
 
 #: left and right frame rates further apart than this (relative) are not one stereo video
 FPS_TOLERANCE = 1e-3
@@ -205,13 +206,13 @@ def add_video(project: ProjectStore, left: Sequence[str | Path], right: Sequence
     return store_video(project, inspect_video(left, right, label, scan_pictures), medium)
 
 
-def open_streams(project: ProjectStore, label: str) -> tuple[dict, VideoStream, VideoStream]:
+def open_streams(project: ProjectStore, label: str) -> tuple[Video, VideoStream, VideoStream]:
     """The stored video (as :meth:`Project.video`) and its two streams, opened (seeking through their
     proxies where :func:`build_proxies` made them); close them after use."""
     video = project.video(label)
-    left = VideoStream([project.media_path(p) for p in video["left"]])
+    left = VideoStream([project.media_path(p) for p in video.paths("left")])
     try:
-        right = VideoStream([project.media_path(p) for p in video["right"]])
+        right = VideoStream([project.media_path(p) for p in video.paths("right")])
     except BaseException:
         left.close()
         raise
@@ -244,7 +245,7 @@ def proxy_states(project: ProjectStore, label: str) -> list[tuple[list[Path], vi
     video = project.video(label)
     states = []
     for side in ("left", "right"):
-        files = [project.media_path(p) for p in video[side]]
+        files = [project.media_path(p) for p in video.paths(side)]
         with VideoStream(files) as stream:
             states.append((files, video_proxy.proxy_state(proxy_folder(project), stream)))
     return states
@@ -257,7 +258,7 @@ def proxy_files(project: ProjectStore, label: str) -> list[Path]:
     folder = proxy_folder(project)
     # where the files were recorded, whether or not they are there now (a missing file's proxies still count)
     return [path for side in ("left", "right")
-            for path in video_proxy.related_proxies(folder, [project.media_location(p) for p in video[side]])]
+            for path in video_proxy.related_proxies(folder, [project.media_location(p) for p in video.paths(side)])]
 
 
 def proxy_bytes(project: ProjectStore, label: str) -> int:
@@ -303,16 +304,16 @@ def build_proxies(plan: Sequence[tuple[Sequence[Path], Path]], progress: Callabl
             stream.close()
 
 
-def partner_frame(video: dict, frame: int, right_count: int | None = None) -> int:
+def partner_frame(video: Video, frame: int, right_count: int | None = None) -> int:
     """The right frame showing left frame ``frame``'s instant; named error when outside either video."""
-    count = video["frame_count"]
+    count = video.frame_count
     right_count = count if right_count is None else right_count
-    partner = int(frame) + int(video["offset_frames"])
+    partner = int(frame) + int(video.offset_frames)
     if not 0 <= int(frame) < count:
-        raise VideoError(f"video {video['label']!r}: frame {frame} is out of range (0 to {count - 1})")
+        raise VideoError(f"video {video.label!r}: frame {frame} is out of range (0 to {count - 1})")
     if not 0 <= partner < right_count:
-        raise VideoError(f"video {video['label']!r}: left frame {frame} has no right partner (right frame {partner} "
-                         f"with offset {video['offset_frames']}; the right video has frames 0 to {right_count - 1})")
+        raise VideoError(f"video {video.label!r}: left frame {frame} has no right partner (right frame {partner} "
+                         f"with offset {video.offset_frames}; the right video has frames 0 to {right_count - 1})")
     return partner
 
 
@@ -328,7 +329,7 @@ def left_frame_times(project: ProjectStore, label: str, frames: Sequence[int]) -
     """:func:`left_frame_time` of each of ``frames`` of video ``label`` (s), the left stream opened for it
     (its packets indexed, nothing decoded)."""
     video = project.video(label)
-    with VideoStream([project.media_path(p) for p in video["left"]]) as left:
+    with VideoStream([project.media_path(p) for p in video.paths("left")]) as left:
         return np.array([left_frame_time(left, f) for f in frames], float)
 
 
@@ -411,7 +412,7 @@ def media_files(project: ProjectStore) -> list[Path]:
     """Where every media file the project records (image pairs' images, videos' files) should be, absolute
     (whether or not it is there)."""
     stored = [getattr(p, side) for p in project.pairs() for side in ("left", "right") if getattr(p, side)]
-    stored += [path for v in project.videos() for side in ("left", "right") for path in v[side]]
+    stored += [path for v in project.videos() for side in ("left", "right") for path in v.paths(side)]
     return [project.media_location(path) for path in stored]
 
 
@@ -492,12 +493,12 @@ def plan_sync(project: ProjectStore, label: str, calibration_id: int | None = No
     rig, why, sigma0 = None, "", 0.0
     try:
         calibration = _calibration_for(project, calibration_id, label)
-        check_size(calibration, (video["width"], video["height"]), f"video {label!r}")
+        check_size(calibration, (video.width, video.height), f"video {label!r}")
         rig, sigma0 = calibration.rig(0, "rig"), float(calibration.sigma0_px)
     except UsvipsError as error:
         why = str(error)
-    return SyncJob(label, tuple(project.media_path(p) for p in video["left"]),
-                   tuple(project.media_path(p) for p in video["right"]), rig, why, sigma0)
+    return SyncJob(label, tuple(project.media_path(p) for p in video.paths("left")),
+                   tuple(project.media_path(p) for p in video.paths("right")), rig, why, sigma0)
 
 
 #: an estimate is stored without asking only from this confidence up (0 … 1: how clearly the best offset
@@ -603,10 +604,10 @@ def eventmeasure_frame_columns(project: ProjectStore, vertex) -> tuple[str, str,
 
     def locate(camera: str, frame: int) -> tuple[str, str]:
         first = 0
-        for path, count in zip(video[camera], video[f"{camera}_frames"], strict=True):
-            if frame < first + count:
-                return Path(path).name, str(frame - first)
-            first += count
+        for file in video.files(camera):
+            if frame < first + file.frame_count:
+                return Path(file.path).name, str(frame - first)
+            first += file.frame_count
         return "", str(frame)
 
     (file_left, frame_left), (file_right, frame_right) = locate("left", vertex.frame_left), locate(
@@ -614,7 +615,7 @@ def eventmeasure_frame_columns(project: ProjectStore, vertex) -> tuple[str, str,
     period, period_time = "", ""
     for name, start, end in project.periods(vertex.video):
         if start <= vertex.frame_left <= end:
-            period, period_time = name, f"{(vertex.time_s - start / video['fps']) / 60:.5f}"
+            period, period_time = name, f"{(vertex.time_s - start / video.fps) / 60:.5f}"
     return file_left, frame_left, file_right, frame_right, f"{vertex.time_s / 60:.5f}", period, period_time
 
 

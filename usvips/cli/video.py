@@ -101,7 +101,7 @@ def run_export_frame(args: argparse.Namespace) -> int:
     with open_project(args.project) as project:
         video = project.video(args.pair)
         left, right = video_project.export_frame(project, args.pair, args.frame, args.out)
-    print(f"wrote {left} (left frame {args.frame}) and {right} (right frame {args.frame + video['offset_frames']})")
+    print(f"wrote {left} (left frame {args.frame}) and {right} (right frame {args.frame + video.offset_frames})")
     return 0
 
 

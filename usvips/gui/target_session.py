@@ -120,7 +120,7 @@ class TargetSession:
 
     def videos(self) -> list[str]:
         """The project's stereo videos."""
-        return [v["label"] for v in self.project.videos()]
+        return [v.label for v in self.project.videos()]
 
     def base_calibrations(self) -> list[dict]:
         """The project's phase-1 (in-air) calibrations, a phase-2 base."""
@@ -158,7 +158,7 @@ class TargetSession:
         video, every, max_views = self.video, self.every, self.max_views
         if source == "video":  # the project's database stays in this thread: open the streams here
             stored, left, right = open_streams(self.project, video)
-            offset = int(stored["offset_frames"])
+            offset = int(stored.offset_frames)
 
         def run(progress=None, cancelled=None) -> boards.BoardViews:
             def step(fraction: float, _message: str = "") -> None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 import threading
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -200,11 +200,11 @@ class FrameSource:
         return self.left.times_s
 
     def navigator(self) -> VideoNavigator:
-        return VideoNavigator(self.video["label"], self.left.frame_count, self.right.frame_count,
-                              int(self.video["offset_frames"]), self.left.fps)
+        return VideoNavigator(self.video.label, self.left.frame_count, self.right.frame_count,
+                              int(self.video.offset_frames), self.left.fps)
 
     def pictures(self, frame: int, offset: int | None = None) -> tuple[Picture, Picture, int, float]:
-        video = dict(self.video, offset_frames=self.video["offset_frames"] if offset is None else offset)
+        video = self.video if offset is None else replace(self.video, offset_frames=int(offset))
         with self._lock:
             partner = partner_frame(video, frame, self.right.frame_count)
             left, right = self._reader.pictures(frame, partner)  # both cameras at once
@@ -367,7 +367,7 @@ class VideoSession:
         clamped; marks kept). Raises by name when the project refuses it; nothing changes then."""
         old = self.navigator
         self.project.set_video_offset(old.label, int(value), how)
-        self.source.video["offset_frames"] = int(value)
+        self.source.video = replace(self.source.video, offset_frames=int(value))
         self.navigator = self.source.navigator()
         self.navigator.marks = old.marks
         self.navigator.frame = self.navigator.clamp(old.frame)

@@ -50,6 +50,7 @@ from usvips.store.records import (
     StoredCalibration,
     StoredObject,
     Vertex,
+    Video,
 )
 from usvips.store.versions import UNREAD
 
@@ -156,11 +157,12 @@ class ProjectStore(Protocol):
         ``medium`` "air" or "water" (what the cameras looked through: its pair's medium)."""
         ...
 
-    def video(self, label: str) -> dict:
-        """A stored video: label, fps, frame_count, width, height, offset_frames, offset_estimate, …"""
+    def video(self, label: str) -> Video:
+        """A stored video (:class:`~usvips.store.records.Video`: label, fps, frame_count, width, height,
+        offset_frames, offset_estimate, report, each camera's chapter files)."""
         ...
 
-    def videos(self) -> list[dict]:
+    def videos(self) -> list[Video]:
         """Every stored video."""
         ...
 

@@ -81,6 +81,50 @@ class Pair:
 
 
 @dataclass(frozen=True)
+class VideoFile:
+    """One chapter file of one camera of a stored video: its stored path (relative to the store's media
+    folder where possible; locate it with ``ProjectStore.media_path``), its number of frames and its frame
+    rate in frames per second as read when the video was added."""
+
+    path: str
+    frame_count: int
+    fps: float
+
+
+@dataclass(frozen=True)
+class Video:
+    """A stored stereo video (schema 4): its id and label (also the label of the pair it is measured as),
+    the pair's frame rate ``fps`` (frames per second) and ``frame_count`` (both the left stream's), the
+    frame size ``width`` × ``height`` in pixels, the synchronisation — left frame i and right frame
+    i + ``offset_frames`` show the same instant (0 until set), ``offset_estimate`` how it was found (the
+    JSON-shaped estimate: method, confidence …; None when never estimated) — the ``report`` of what was
+    found when the streams were read (frame-rate problems; '' when nothing) and each camera's chapter files
+    in order (``left``, ``right``)."""
+
+    id: int
+    label: str
+    fps: float
+    frame_count: int
+    width: int
+    height: int
+    offset_frames: int
+    offset_estimate: dict | None
+    report: str
+    left: tuple[VideoFile, ...]
+    right: tuple[VideoFile, ...]
+
+    def files(self, camera: str) -> tuple[VideoFile, ...]:
+        """The chapter files of ``camera`` ("left" or "right") in order."""
+        if camera not in ("left", "right"):
+            raise ValueError(f"a video's camera is 'left' or 'right', got {camera!r}")
+        return self.left if camera == "left" else self.right
+
+    def paths(self, camera: str) -> list[str]:
+        """The stored paths of ``camera``'s chapter files in order."""
+        return [file.path for file in self.files(camera)]
+
+
+@dataclass(frozen=True)
 class StoredCalibration:
     """A stored calibration as listed (its whole file dictionary is ``ProjectStore.calibration(id)``): its
     id, name, phase ("air", "water", "joint" …; None when its file names none), its reprojection sigma0 in

@@ -57,6 +57,8 @@ from usvips.store.records import (
     StoredCalibration,
     StoredObject,
     Vertex,
+    Video,
+    VideoFile,
 )
 from usvips.store.versions import UNREAD
 
@@ -1217,22 +1219,20 @@ class Survey:
                                                                           if known else " (the project has no videos)"))
         return row
 
-    def video(self, label: str) -> dict:
-        """label, fps, frame_count, width, height, offset_frames, offset_estimate (dict or None), report, and
-        ``left``/``right``: the stored paths of each camera's files in order, ``left_frames``/``right_frames``
-        their frame counts."""
+    def video(self, label: str) -> Video:
+        """The stored video ``label`` (:class:`~usvips.store.records.Video`)."""
         row = self._video_row(label)
-        keys = ("id", "label", "fps", "frame_count", "width", "height", "offset_frames", "offset_estimate", "report")
-        video = dict(zip(keys, row, strict=True))
-        video["offset_estimate"] = json.loads(row[7]) if row[7] else None
+        files = {}
         for camera in ("left", "right"):
-            files = self._query("SELECT path, frame_count FROM video_files WHERE video_id = ? AND camera = ? "
-                                "ORDER BY idx", (row[0], camera))
-            video[camera] = [r[0] for r in files]
-            video[f"{camera}_frames"] = [r[1] for r in files]
-        return video
+            files[camera] = tuple(VideoFile(r[0], int(r[1]), float(r[2])) for r in self._query(
+                "SELECT path, frame_count, fps FROM video_files WHERE video_id = ? AND camera = ? ORDER BY idx",
+                (row[0], camera)))
+        return Video(id=int(row[0]), label=row[1], fps=float(row[2]), frame_count=int(row[3]), width=int(row[4]),
+                     height=int(row[5]), offset_frames=int(row[6]),
+                     offset_estimate=json.loads(row[7]) if row[7] else None, report=row[8],
+                     left=files["left"], right=files["right"])
 
-    def videos(self) -> list[dict]:
+    def videos(self) -> list[Video]:
         """Every stereo video (none in a project older than schema 4, opened read-only)."""
         if not self._has_table("videos"):
             return []

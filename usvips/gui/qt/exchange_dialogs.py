@@ -390,7 +390,7 @@ class DeploymentDialog(QtWidgets.QDialog):
         self.scope = QtWidgets.QComboBox()  # the whole project, or one stereo video (a deployment of its own)
         self.scope.addItem("the whole project", "")
         for video in project.videos():
-            self.scope.addItem(f"video {video['label']}", video["label"])
+            self.scope.addItem(f"video {video.label}", video.label)
         form.addRow("Deployment of", self.scope)
         for name in DEPLOYMENT_FIELDS:
             widget = QtWidgets.QCheckBox() if name.startswith("successful_") else QtWidgets.QLineEdit()

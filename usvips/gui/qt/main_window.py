@@ -628,7 +628,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.show_message("info", f"opened {project.path}")
         labels = self.workspace.image_pairs()
         self.refresh_pair_box()
-        videos = [v["label"] for v in project.videos()]
+        videos = [v.label for v in project.videos()]
         if (not labels and videos) or (pair is not None and pair in videos):  # show a stereo video
             return self.video.open_video(pair if pair in videos else videos[0])
         if not labels and not project.pairs():

@@ -313,7 +313,7 @@ class VideoController(QtCore.QObject):
     def videos_changed(self, project) -> None:
         """The project's videos in the chooser (one was added): the dock is shown when there are any."""
         d = self.dock_widget
-        labels = [v["label"] for v in project.videos()] if project is not None else []
+        labels = [v.label for v in project.videos()] if project is not None else []
         if [d.chooser.itemText(i) for i in range(d.chooser.count())] != labels:
             d.chooser.clear()
             d.chooser.addItems(labels)
@@ -345,7 +345,7 @@ class VideoController(QtCore.QObject):
         d.offset.setValue(self.navigator.offset)
         self.messages.say("info", f"video {label!r}: {self.navigator.frame_count} frames at "
                                  f"{self.navigator.fps:.6g} fps, offset {self.navigator.offset:+d} "
-                                 + (f"— {self.source.video['report']}" if self.source.video["report"] else ""))
+                                 + (f"— {self.source.video.report}" if self.source.video.report else ""))
         self.request(self.navigator.first)
         self._show_proxy_status()
         if self.auto_proxies and not self.ask_before_proxies and self._proxy_key(label) not in self._proxies_deleted:
@@ -755,10 +755,10 @@ class VideoController(QtCore.QObject):
         label, niceness = nav.label, self.PROXY_NICENESS
         if automatic and self.ask_before_proxies:
             video = project.video(label)
-            low, high = proxy_disk_bytes(video["frame_count"], video["width"], video["height"])
+            low, high = proxy_disk_bytes(video.frame_count, video.width, video.height)
             question = (f"Build seek proxies for video {label}? They make a jump to any frame fast (an exact "
                         f"lossless copy of every frame, kept in {folder.name}/ beside the project): about "
-                        f"{format_bytes(low)} to {format_bytes(high)} on disk for its {video['frame_count']} frames "
+                        f"{format_bytes(low)} to {format_bytes(high)} on disk for its {video.frame_count} frames "
                         "a camera, both cameras together, built in the background at low priority. Without "
                         "them every frame is still exact; far jumps are slower. (The dock's Seek proxy button "
                         "builds or deletes them later.)")
