@@ -8,7 +8,7 @@ ratios, not absolute times, are what we track.
 
 An area is any module of this package that defines a top-level ``benchmarks(scale)`` (found without
 importing it: adding a module adds its area, no registration needed), plus the window's areas in the GUI
-package: ``usvips/gui/qt/bench.py`` is the area ``gui`` and ``usvips/gui/bench_NAME.py`` the area
+package: ``usvips/gui/qt/bench.py`` is the area ``gui`` and ``usvips/gui/qt/bench_NAME.py`` the area
 ``window_NAME`` (Qt stays inside the GUI package; it is imported only in the child process that runs the
 area). :func:`run` runs every area in a child process of its own (:mod:`usvips.bench.area_process`), so
 an area that fails, hangs or crashes names itself by a row holding its ``error`` and every other area
@@ -91,12 +91,12 @@ def areas() -> dict[str, str]:
     for module in pkgutil.iter_modules([str(here)] if here else []):
         if not module.ispkg and not module.name.startswith("_") and _defines_benchmarks(here / f"{module.name}.py"):
             found[module.name] = f"{__name__}.{module.name}"
-    gui = _package_folder("usvips.gui")
+    gui = _package_folder("usvips.gui.qt")
     for module in pkgutil.iter_modules([str(gui)] if gui else []):
         if module.name == "bench" or module.name.startswith("bench_"):
             if _defines_benchmarks(gui / f"{module.name}.py"):
                 name = "gui" if module.name == "bench" else "window_" + module.name.removeprefix("bench_")
-                found[name] = f"usvips.gui.{module.name}"
+                found[name] = f"usvips.gui.qt.{module.name}"
     ordered = {name: BENCH_PATHS.get(name, f"{__name__}.{name}") for name in BENCH_MODULES}
     ordered.update({name: found[name] for name in sorted(found) if name not in ordered})
     return ordered
