@@ -47,8 +47,8 @@ def test_a_label_running_past_the_right_edge_moves_left_to_be_read_whole():
 
 def test_the_pane_draws_a_label_near_its_right_edge_inside_the_view(qtbot):
     """Seen at 1366 × 768: "2 Pagrus aura" cut off by the left image's edge."""
-    from usvips.gui.app import configure
-    from usvips.gui.pane import StereoPane
+    from usvips.gui.qt.app import configure
+    from usvips.gui.qt.pane import StereoPane
 
     configure()
     pane = StereoPane("left")

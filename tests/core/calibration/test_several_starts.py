@@ -11,11 +11,11 @@ STICKY_RIG = 1011  # a draw of the Monte Carlo whose best exterior-only start le
 
 def test_a_rig_that_sticks_from_one_start_is_clean_from_several(monkeypatch):
     run = _one_rig(_system_one, STICKY_RIG)
-    assert _clean(run), run["report"]["notes"]
+    assert _clean(run), run["report"].notes
     monkeypatch.setattr(phases, "EXTRA_STARTS", 0)
     single = _one_rig(_system_one, STICKY_RIG)
     assert not _clean(single)  # the same rig from its best single start (the mechanism is what helps)
-    assert any("ends on its lower bound" in note for note in single["report"]["notes"])
+    assert any("ends on its lower bound" in note for note in single["report"].notes)
 
 
 def _run(sigma0_px: float, redundancy: int = 60, excluded: int = 0, converged: bool = True, on_bound=()):
