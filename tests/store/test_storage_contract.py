@@ -1433,3 +1433,31 @@ def test_an_object_id_is_never_used_twice_not_even_after_the_newest_object_is_de
     assert batch == [again + 1, again + 2, again + 3]
     assert [h.change for h in store.history(newest)] == ["add", "delete"]
     assert [h.change for h in store.history(again)] == ["add"]
+
+
+def test_two_writers_adding_at_once_never_get_the_same_id(impl, store, where):
+    """Two handles adding objects at the same time (each in its own thread, as two windows or processes)
+    reserve different ids: every add succeeds and no id is handed out twice."""
+    import threading
+
+    rng = np.random.default_rng(16)
+    vertices = [[_vertex(rng)] for _ in range(40)]
+    got: dict[str, list[int]] = {}
+    failures: list[BaseException] = []
+
+    def writer(name: str, part: list) -> None:
+        try:
+            with impl.open(where) as handle:
+                got[name] = [handle.add_object("point", v, name) for v in part]
+        except BaseException as error:  # noqa: BLE001 - reported by the assertion below
+            failures.append(error)
+
+    threads = [threading.Thread(target=writer, args=(name, vertices[k::2])) for k, name in enumerate(("a", "b"))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(120)
+    assert not failures, failures
+    ids = got["a"] + got["b"]
+    assert len(ids) == len(set(ids)) == 40
+    assert sorted(o.id for o in store.objects()) == sorted(ids)

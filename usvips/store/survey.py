@@ -540,11 +540,12 @@ class Survey:
         """The first of ``count`` new object ids, reserved from the counter (inside the caller's
         transaction): past every id an object or a history row ever held, so no id is ever used twice
         (a copied or pulled survey whose counter lags is caught up here)."""
+        # the counter row's own ``next`` (not a subquery of it): a server re-reads the row it updates after
+        # waiting for a concurrent writer's lock, so two writers never reserve the same ids
+        floor = ("(SELECT max(v) FROM (SELECT coalesce(max(id), 0) + 1 AS v FROM objects "
+                 "UNION ALL SELECT coalesce(max(object_id), 0) + 1 FROM history) AS floor)")
         row = self._db.execute(
-            "UPDATE id_counters SET next = ? + (SELECT max(v) FROM ("
-            "SELECT next AS v FROM id_counters WHERE name = 'objects' "
-            "UNION ALL SELECT coalesce(max(id), 0) + 1 FROM objects "
-            "UNION ALL SELECT coalesce(max(object_id), 0) + 1 FROM history) AS floor) "
+            f"UPDATE id_counters SET next = ? + CASE WHEN next >= {floor} THEN next ELSE {floor} END "
             "WHERE name = 'objects' RETURNING next - ?", (int(count), int(count))).fetchone()
         if row is None:
             raise ProjectError(f"{self.path}: the project has no object counter; open it with this version "
