@@ -12,8 +12,9 @@ def test_an_in_air_video_is_stored_as_air(qtbot, make_window, tmp_path):
     for side, base in (("left", 0), ("right", 1000)):
         encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(8)], 25, "h264", gop=8)
     window = make_window()
-    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
-    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "cal", medium="air")
+    assert media_dialogs.new_project(window.context, window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window.context, window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "cal",
+                            medium="air")
     project = window.workspace.project
     qtbot.waitUntil(lambda: "cal" in [p.label for p in project.pairs()], timeout=60000)
     assert {p.label: p.medium for p in project.pairs()} == {"cal": "air"}

@@ -94,9 +94,10 @@ def test_every_handler_names_a_method_its_owner_has(make_window):
         assert callable(getattr(owners[owner], method, None)), command.handler
 
 
-def test_a_dialog_modules_command_calls_its_function_with_the_window(make_window, monkeypatch):
+def test_a_dialog_modules_command_calls_its_function_with_the_context_and_a_parent(make_window, monkeypatch):
     """The dialog modules are imported when one of their commands is first run (not at start-up); the
-    command still reaches the module's function, handed the window and the command's arguments."""
+    command still reaches the module's function, handed the window's context, the window as the parent
+    widget of its dialogs, and the command's arguments."""
     from usvips.gui.qt import exchange_dialogs, media_dialogs
 
     window = make_window()
@@ -105,7 +106,7 @@ def test_a_dialog_modules_command_calls_its_function_with_the_window(make_window
     monkeypatch.setattr(exchange_dialogs, "edit_deployment", lambda *args: called.append(("deployment", args)))
     window.actions["add_video"].trigger()
     window.actions["deployment"].trigger()
-    assert called == [("add_video", (window,)), ("deployment", (window,))]
+    assert called == [("add_video", (window.context, window)), ("deployment", (window.context, window))]
 
 
 def test_the_menu_names_the_readme_gives_are_the_windows():

@@ -42,7 +42,7 @@ def test_the_model_estimates_the_clicks_sigma_and_leaves_misses_out():
 def test_the_dialog_by_mouse_and_keyboard_stores_the_estimate(qtbot, make_window, sample_copy):
     window = make_window()
     open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
-    dialog = pointing_test_dialog.PointingTestDialog(window, count=4, seed=1)
+    dialog = pointing_test_dialog.PointingTestDialog(window.context, window.annotator, count=4, seed=1)
     qtbot.addWidget(dialog)
     dialog.show()
     qtbot.waitUntil(lambda: dialog.model.current is not None, timeout=60000)

@@ -80,16 +80,17 @@ def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tm
         for n in range(2):
             write_image(tmp_path / f"{side}_images" / f"st{n}_{side[0].upper()}.png", numbered_frame(base + n))
     window = make_window()
-    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
+    assert media_dialogs.new_project(window.context, window, tmp_path / "mine.usvips")
     assert window.workspace.project.path.name == "mine.usvips"
     assert "is empty: add your images" in window.statusBar().currentMessage()  # not "observations only"
     shown = []
-    assert media_dialogs.add_image_pairs(window, [tmp_path / "left_images"], [tmp_path / "right_images"], "a-",
+    assert media_dialogs.add_image_pairs(window.context, window, [tmp_path / "left_images"],
+                                         [tmp_path / "right_images"], "a-",
                                          confirm=lambda w, model: shown.append(model) or True) == 2
     assert shown[0].rule == "shared stem" and [shown[0].label(i) for i in range(2)] == ["a-st0", "a-st1"]
     assert window.workspace.image_pairs() == ["a-st0", "a-st1"]
     qtbot.waitUntil(lambda: window.workspace.pair == "a-st0" and not window.busy, timeout=10000)
-    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    media_dialogs.add_video(window.context, window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
     assert "added video 'dive': left 30 frames, right 30 frames at 25 fps" in window.hint.text()
     assert frame_number(window.workspace.images["right"]) == 1000
@@ -99,8 +100,8 @@ def test_a_new_project_gets_its_own_video_and_image_pairs(qtbot, make_window, tm
     assert window.workspace.project.video("dive").offset_frames == 2
     # a moved video is relocated; a wrong file is refused
     shutil.move(tmp_path / "left.mp4", tmp_path / "moved.mp4")
-    assert media_dialogs.relocate_media(window, {"left.mp4": str(tmp_path / "right.mp4")}) == 0
-    assert media_dialogs.relocate_media(window, {"left.mp4": str(tmp_path / "moved.mp4")}) == 1
+    assert media_dialogs.relocate_media(window.context, window, {"left.mp4": str(tmp_path / "right.mp4")}) == 0
+    assert media_dialogs.relocate_media(window.context, window, {"left.mp4": str(tmp_path / "moved.mp4")}) == 1
     assert window.workspace.project.video("dive").paths("left") == ["moved.mp4"]
 
 
@@ -206,8 +207,8 @@ def test_seek_proxies_are_offered_at_the_first_slow_seek_built_in_the_background
     for side, base in (("left", 0), ("right", 1000)):
         encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(40)], 25, "h264", gop=40)
     window = make_window()
-    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
-    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    assert media_dialogs.new_project(window.context, window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window.context, window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     video, dock = window.video, window.video.dock_widget
     _wait_frame(qtbot, window, 0)  # shown from the originals, and nothing asked on opening
     assert video.question is None and video._proxy_worker is None
@@ -259,8 +260,8 @@ def test_the_video_dock_fits_1366_px_and_is_driven_by_the_keyboard(qtbot, make_w
         encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(60)], 25, "h264", gop=60)
     window = make_window()  # 1366 × 768
     window.video.auto_proxies = False
-    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
-    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    assert media_dialogs.new_project(window.context, window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window.context, window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
     dock = window.video.dock_widget
     qtbot.waitUntil(lambda: dock.isVisible() and dock.width() > 0, timeout=5000)
@@ -321,8 +322,8 @@ def test_the_offset_is_estimated_in_the_window_and_stored(qtbot, make_window, tm
         encode_video(tmp_path / f"{side}.mp4", frames, 25, "h264", gop=25)
     window = make_window()
     window.video.ask_before_proxies = False  # built without the question here (see the proxies' own test)
-    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
-    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    assert media_dialogs.new_project(window.context, window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window.context, window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
     # the seek proxies built by themselves first (their message would otherwise replace the estimate's)
     qtbot.waitUntil(lambda: window.video.source is not None and window.video.source.has_proxies, timeout=20000)
@@ -405,8 +406,8 @@ def test_a_proxy_folder_that_cannot_be_written_leaves_the_original_in_use_with_o
     said = []
     window.messages.said.connect(lambda kind, text: said.append((kind, text)))  # the controllers' messages
     window.video.ask_before_proxies = False  # built without the question here (see the proxies' own test)
-    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
-    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    assert media_dialogs.new_project(window.context, window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window.context, window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     _wait_frame(qtbot, window, 0)
     qtbot.waitUntil(lambda: any("not built" in text for _, text in said), timeout=20000)
     kind, message = next((k, text) for k, text in said if "not built" in text)
@@ -504,8 +505,8 @@ def test_seek_proxies_declined_are_not_offered_again_after_another_project(qtbot
     for side, base in (("left", 0), ("right", 1000)):
         encode_video(tmp_path / f"{side}.mp4", [numbered_frame(base + i) for i in range(12)], 25, "h264", gop=12)
     window = make_window()
-    assert media_dialogs.new_project(window, tmp_path / "mine.usvips")
-    media_dialogs.add_video(window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
+    assert media_dialogs.new_project(window.context, window, tmp_path / "mine.usvips")
+    media_dialogs.add_video(window.context, window, [tmp_path / "left.mp4"], [tmp_path / "right.mp4"], "dive")
     video = window.video
     video.slow_seek_s = 0.0  # every seek counts as slow here
     _wait_frame(qtbot, window, 0)

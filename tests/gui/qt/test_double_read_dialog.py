@@ -72,7 +72,7 @@ def test_the_report_in_a_worker_stops_when_cancelled(qtbot, make_window, sample_
     for reader in ("ann", "bob"):
         ws.project.annotator = reader
         _measure(window, left, right, name)
-    dialog = double_read_dialog.show_double_read(window)
+    dialog = double_read_dialog.show_double_read(window.context, window)
     qtbot.addWidget(dialog)
     original = double_read_dialog.compute
 
@@ -102,7 +102,7 @@ def test_the_table_sorts_by_column_and_rows_still_go_to_their_objects_and_the_to
     ann = [_measure(window, left, right, name) for name in names]
     ws.project.annotator = "bob"
     bob = _measure(window, left, right, names[0], shift=(25.0, 0.0))
-    dialog = double_read_dialog.show_double_read(window)
+    dialog = double_read_dialog.show_double_read(window.context, window)
     # the tolerance in frames: one of the two units, its own default; the report says which
     assert dialog.tolerances() == (0.5, None)
     dialog.tolerance_unit.setCurrentText("frames")
@@ -162,7 +162,7 @@ def test_another_project_opened_clears_the_report_and_its_readers(qtbot, make_wi
     for reader in ("ann", "bob"):
         ws.project.annotator = reader
         _measure(window, left, right, name)
-    dialog = double_read_dialog.show_double_read(window)
+    dialog = double_read_dialog.show_double_read(window.context, window)
     dialog.gate.setValue(0.5)
     dialog.compare()
     qtbot.waitUntil(lambda: dialog.report is not None, timeout=20000)

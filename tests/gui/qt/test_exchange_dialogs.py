@@ -51,7 +51,7 @@ def test_import_asks_the_image_size_the_file_lacks_and_stores_the_calibration(qt
     source = tmp_path / "stereo.yml"
     _opencv_file_without_size(source)
     asked = []
-    assert exchange_dialogs.import_calibration(window, [source], tmp_path / "cal.json",
+    assert exchange_dialogs.import_calibration(window.context, window, [source], tmp_path / "cal.json",
                                                ask_size=lambda w: asked.append(1) or None,
                                                ask_sigma=lambda w: asked.append(2) or None) is None
     assert asked and not (tmp_path / "cal.json").exists()
@@ -63,7 +63,8 @@ def test_import_asks_the_image_size_the_file_lacks_and_stores_the_calibration(qt
                         for i in range(dialog.labels.count())})
         return True
 
-    out = exchange_dialogs.import_calibration(window, [source], tmp_path / "cal.json", ask_size=lambda w: (640, 480),
+    out = exchange_dialogs.import_calibration(window.context, window, [source], tmp_path / "cal.json",
+                                              ask_size=lambda w: (640, 480),
                                               ask_sigma=lambda w: asked.append(2) or None, run=tick_the_shown_pair)
     imported = load_calibration(out)
     # the file states no residual: sigma0 was asked, declined, and stays assumed, said at import
@@ -80,14 +81,14 @@ def test_import_asks_the_image_size_the_file_lacks_and_stores_the_calibration(qt
     message = window.statusBar().currentMessage()
     assert "not made active" in message and size in message and "640 × 480 px" in message
     assert QtWidgets.QApplication.activeModalWidget() is None
-    exchange_dialogs.import_calibration(window, [tmp_path / "missing.yml"], tmp_path / "x.json")
+    exchange_dialogs.import_calibration(window.context, window, [tmp_path / "missing.yml"], tmp_path / "x.json")
     assert "import failed" in window.statusBar().currentMessage() and not (tmp_path / "x.json").exists()
 
 
 def test_export_to_opencv_shows_what_is_left_out_and_round_trips(qtbot, make_window, sample_copy, tmp_path):
     window = make_window()
     open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
-    left_out = exchange_dialogs.export_calibration(window, out=tmp_path / "stereo.yml")
+    left_out = exchange_dialogs.export_calibration(window.context, window, out=tmp_path / "stereo.yml")
     assert left_out  # an underwater calibration: the housing cannot be held by OpenCV
     assert "left out" in window.statusBar().currentMessage()
     assert window.log.toPlainText().count("OpenCV cannot hold") == len(left_out)
@@ -100,7 +101,7 @@ def test_export_to_opencv_shows_what_is_left_out_and_round_trips(qtbot, make_win
 def test_the_calibration_report_is_written_in_the_worker(qtbot, make_window, sample_copy, tmp_path):
     window = make_window()
     open_sample(qtbot, window, sample_copy("tank_system1"), "measure1")
-    worker = exchange_dialogs.calibration_report(window, out=tmp_path / "report.pdf")
+    worker = exchange_dialogs.calibration_report(window.context, window, out=tmp_path / "report.pdf")
     assert worker is not None and worker in window.workers or (tmp_path / "report.pdf").exists()
     _wait_idle(qtbot, window)
     assert (tmp_path / "report.pdf").read_bytes().startswith(b"%PDF")
@@ -140,11 +141,11 @@ def test_the_deployment_dialog_names_a_bad_value_keeps_the_typing_and_stores_bot
         dialog.geo_fields["heading_deg"].setText("45")
         assert dialog.store()
 
-    assert exchange_dialogs.edit_deployment(window, fill)
+    assert exchange_dialogs.edit_deployment(window.context, window, fill)
     assert "latitude: must be between -90 and 90" in seen["message"]
     assert project.deployment().opcode == "BRUV-07" and project.deployment().successful_length is False
     assert project.georeference().heading_deg == 45.0 and project.georeference().latitude == -32.2
-    assert exchange_dialogs.edit_deployment(window, lambda d: d.reject()) is False
+    assert exchange_dialogs.edit_deployment(window.context, window, lambda d: d.reject()) is False
     assert project.deployment().opcode == "BRUV-07"
     assert QtWidgets.QApplication.activeModalWidget() is None
 
@@ -167,7 +168,7 @@ def test_the_campaign_is_entered_in_the_deployment_dialog_and_a_bad_value_is_nam
         dialog.campaign_fields["campaign_id"].setText("2024-03_Reef_stereo-BRUVs")
         assert dialog.store()
 
-    assert exchange_dialogs.edit_deployment(window, fill)
+    assert exchange_dialogs.edit_deployment(window.context, window, fill)
     assert seen["message"].startswith("campaign: parameter campaign_id:")
     campaign = project.campaign()
     assert (campaign.campaign_id, campaign.method, campaign.image_analysis) == (
@@ -178,7 +179,7 @@ def test_the_campaign_is_entered_in_the_deployment_dialog_and_a_bad_value_is_nam
         dialog.campaigned.setChecked(False)
         assert dialog.store()
 
-    assert exchange_dialogs.edit_deployment(window, untick)
+    assert exchange_dialogs.edit_deployment(window.context, window, untick)
     assert project.campaign() is None
 def test_the_wizards_last_page_writes_the_report_of_its_result(qtbot, sample_copy, tmp_path):
     """The Save page's Report (PDF)… button writes the session's result with the observations it used,
@@ -234,7 +235,7 @@ def test_a_video_gets_a_deployment_of_its_own_in_the_dialog(qtbot, make_window, 
     from usvips.gui.qt import media_dialogs
 
     window = make_window()
-    assert media_dialogs.new_project(window, tmp_path / "p.usvips")
+    assert media_dialogs.new_project(window.context, window, tmp_path / "p.usvips")
     project = window.workspace.project
     files = []
     for side in ("l", "r"):
@@ -256,7 +257,7 @@ def test_a_video_gets_a_deployment_of_its_own_in_the_dialog(qtbot, make_window, 
         assert dialog.fields["opcode"].text() == "DOV-3"  # kept while switching
         assert dialog.store()
 
-    assert exchange_dialogs.edit_deployment(window, fill)
+    assert exchange_dialogs.edit_deployment(window.context, window, fill)
     assert project.deployment().site == "Reef"
     assert project.deployment("T1").opcode == "DOV-3" and not project.deployment("T1").successful_count
 
@@ -283,17 +284,18 @@ def test_a_usvips_calibration_is_imported_and_made_active_for_the_pairs_ticked(q
         qtbot.keyClick(dialog.labels, QtCore.Qt.Key.Key_Space)
         return True
 
-    new = exchange_dialogs.import_usvips_calibration(window, folder / "calibration.json", run=tick_water2_too)
+    new = exchange_dialogs.import_usvips_calibration(window.context, window, folder / "calibration.json",
+                                                     run=tick_water2_too)
     assert new is not None and new != before and seen["ticked"] == ["measure1"]
     assert project.active_calibration("measure1") == new and project.active_calibration("water2") == new
     assert window.workspace.geometry is not None and f"calibration {new} is active" in \
         window.statusBar().currentMessage()
-    assert exchange_dialogs.use_calibration(window, before, run=lambda d: True)
+    assert exchange_dialogs.use_calibration(window.context, window, before, run=lambda d: True)
     assert project.active_calibration("measure1") == before and project.active_calibration("water2") == new
     damaged = tmp_path / "damaged.json"
     damaged.write_text((folder / "calibration.json").read_text()[:500])
     count = len(project.calibrations())
-    assert exchange_dialogs.import_usvips_calibration(window, damaged, run=lambda d: True) is None
+    assert exchange_dialogs.import_usvips_calibration(window.context, window, damaged, run=lambda d: True) is None
     assert len(project.calibrations()) == count and "import failed, nothing stored" in \
         window.statusBar().currentMessage()
 

@@ -16,6 +16,7 @@ from PySide6 import QtCore, QtWidgets
 from usvips.app.double_read import COLUMNS, DoubleReadReport, ReportCancelled, annotators, compute, read_inputs
 from usvips.core.errors import UsvipsError
 from usvips.gui.qt.worker import Cancelled, Worker, start
+from usvips.gui.window_context import WindowContext
 from usvips.io.double_read_table import write_double_read_csv
 
 #: the units the time tolerance may be given in: (shown, suffix, decimals, default, largest)
@@ -59,11 +60,14 @@ class _Cell(QtWidgets.QTableWidgetItem):
 
 
 class DoubleReadDialog(QtWidgets.QDialog):
-    """Two readers compared; rows clickable to jump to their object in ``window`` (a MainWindow)."""
+    """Two readers compared over ``context``'s workspace (its project and rules); rows clickable to jump to
+    their object (the workspace's object request, which the views follow); messages said through
+    ``context.messages``."""
 
-    def __init__(self, window, parent: QtWidgets.QWidget | None = None) -> None:
-        super().__init__(parent if parent is not None else window)
-        self.window_ = window
+    def __init__(self, context: WindowContext, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.workspace = context.workspace
+        self.messages = context.messages
         self.setWindowTitle("Double-read report")
         self.report: DoubleReadReport | None = None
         self.rows: list[dict] = []
@@ -115,9 +119,9 @@ class DoubleReadDialog(QtWidgets.QDialog):
         layout.addLayout(buttons)
         layout.addWidget(self.summary)
         layout.addWidget(self.table, 1)
-        self._on_project_changed(window.workspace.project)
+        self._on_project_changed(self.workspace.project)
         # not modal: another project may be opened while it is up (its rows' ids are the old project's)
-        window.workspace.project_changed.connect(self._on_project_changed)
+        self.workspace.project_changed.connect(self._on_project_changed)
         self.resize(1000, 600)
 
     def _on_project_changed(self, project) -> None:
@@ -163,7 +167,7 @@ class DoubleReadDialog(QtWidgets.QDialog):
 
     def compare(self) -> Worker | None:
         """Read both readers' objects (here, on the project's thread) and compute the report in a worker."""
-        project = self.window_.workspace.project
+        project = self.workspace.project
         if project is None:
             self.summary.setText("open a project first")
             return None
@@ -178,7 +182,7 @@ class DoubleReadDialog(QtWidgets.QDialog):
 
         def job(progress, cancelled):
             try:
-                return compute(inputs, tolerance_s, gate, k, self.window_.workspace.rules, progress, cancelled,
+                return compute(inputs, tolerance_s, gate, k, self.workspace.rules, progress, cancelled,
                                tolerance_frames)
             except ReportCancelled:
                 raise Cancelled() from None
@@ -248,7 +252,7 @@ class DoubleReadDialog(QtWidgets.QDialog):
         row = self.report_row(table_row)
         object_id = None if row is None else self.object_of_row(row)
         if object_id is not None:
-            self.window_.workspace.request_object(object_id)  # the views go to it (the model's event)
+            self.workspace.request_object(object_id)  # the views go to it (the model's event)
 
     def save_csv(self, path: str | None = None) -> bool:
         """Write the report's table (every row, the statistics as comment lines) to a CSV file."""
@@ -262,23 +266,23 @@ class DoubleReadDialog(QtWidgets.QDialog):
         try:
             write_double_read_csv(path, COLUMNS, self.rows, self.report.summary())
         except UsvipsError as error:
-            self.window_.show_message("error", str(error))
+            self.messages.error(str(error))
             return False
-        self.window_.show_message("info", f"double-read report written to {path}")
+        self.messages.info(f"double-read report written to {path}")
         return True
 
     def done(self, result: int) -> None:  # noqa: D102 (Qt's name): a running report stops with the dialog
         self.cancel()
-        self.window_.workspace.project_changed.disconnect(self._on_project_changed)
+        self.workspace.project_changed.disconnect(self._on_project_changed)
         super().done(result)
 
 
-def show_double_read(window) -> DoubleReadDialog | None:
+def show_double_read(context: WindowContext, parent: QtWidgets.QWidget) -> DoubleReadDialog | None:
     """File › Double-read report…: the dialog on the open project (non-modal, so rows can be followed)."""
-    if window.workspace.project is None:
-        window.show_message("error", "open a project first")
+    if context.workspace.project is None:
+        context.messages.error("open a project first")
         return None
-    dialog = DoubleReadDialog(window)
+    dialog = DoubleReadDialog(context, parent)
     dialog.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
     dialog.show()
     return dialog

@@ -6,6 +6,9 @@ Each entry asks with dialogs, then does its work through io (the command line's 
 one writer); file names and answers can be handed in (tests, scripts), skipping the dialogs. Reports are
 written by a worker off the GUI thread (:mod:`usvips.gui.qt.worker`) with a real cancel: the PDF is written
 beside its target and moved into place only when the job was not cancelled.
+
+Each entry is handed the window's context (:class:`usvips.gui.window_context.WindowContext`: the workspace,
+the messages, the worker) and a parent widget for its dialogs — never the window itself.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from usvips.core.errors import UsvipsError
 from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.qt.worker import Cancelled, Worker, start
+from usvips.gui.window_context import WindowContext
 from usvips.io.calibration_file import load_calibration, save_calibration
 from usvips.io.opencv_calibration import (
     ASSUMED_SIGMA0_PX,
@@ -64,58 +68,53 @@ def report_job(calibration: StereoCalibration, out: str | Path, calibration_path
     return job
 
 
-def _need_project(window):
-    project = window.workspace.project
-    if project is None:
-        window.show_message("error", "open or create a project first (File › New project…)")
-    return project
-
-
-def _current_calibration(window) -> tuple[StereoCalibration, str] | None:
+def _current_calibration(context: WindowContext, parent: QtWidgets.QWidget) -> tuple[StereoCalibration, str] | None:
     """The open project's calibration for the current pair (its active one, else the newest stored), or
     one chosen from a file; with a name for messages. None when there is none or the choice was cancelled."""
-    project = window.workspace.project
+    project = context.workspace.project
     if project is not None and project.calibrations():
-        pair = window.workspace.pair
+        pair = context.workspace.pair
         chosen = project.active_calibration(pair) if pair else None
         chosen = chosen if chosen is not None else project.calibrations()[-1].id
         name = next(c.name for c in project.calibrations() if c.id == chosen)
         return read_calibration(project, chosen), name
-    path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
+    path, _ = QtWidgets.QFileDialog.getOpenFileName(parent, "USVIPS calibration", context.start_folder(),
                                                     "Calibrations (*.json)")
     if not path:
         return None
     return load_calibration(path), path
 
 
-def _source(window, source: str | Path | StereoCalibration | None) -> tuple[StereoCalibration, str] | None:
+def _source(context: WindowContext, parent: QtWidgets.QWidget,
+            source: str | Path | StereoCalibration | None) -> tuple[StereoCalibration, str] | None:
     if isinstance(source, StereoCalibration):
         return source, "calibration"
     if source is not None:
         return load_calibration(source), str(source)
-    return _current_calibration(window)
+    return _current_calibration(context, parent)
 
 
 # ---------------------------------------------------------------------------- File menu entries
-def ask_image_size(window) -> tuple[int, int] | None:
+def ask_image_size(parent: QtWidgets.QWidget) -> tuple[int, int] | None:
     """Ask the image size (pixels) that an OpenCV file does not carry."""
-    text, ok = QtWidgets.QInputDialog.getText(window, "Image size", "The file does not say the image size. "
+    text, ok = QtWidgets.QInputDialog.getText(parent, "Image size", "The file does not say the image size. "
                                               "Width x height in pixels (e.g. 1920x1080):")
     if not ok:
         return None
     return parse_image_size(text.strip(), "image size")
 
 
-def ask_sigma0(window) -> float | None:
+def ask_sigma0(parent: QtWidgets.QWidget) -> float | None:
     """Ask the sigma0 (pixels) that an OpenCV file does not state; None keeps the assumed one (marked so)."""
     value, ok = QtWidgets.QInputDialog.getDouble(
-        window, "Calibration sigma0", "The file states no reprojection residual (RMS). Its sigma0 in pixels per "
+        parent, "Calibration sigma0", "The file states no reprojection residual (RMS). Its sigma0 in pixels per "
         f"image coordinate, if you know it (Cancel keeps {ASSUMED_SIGMA0_PX:g} px, marked assumed in every "
         "figure made with it):", ASSUMED_SIGMA0_PX, 0.001, 100.0, 3)
     return float(value) if ok else None
 
 
-def import_calibration(window, files: list[str | Path] | None = None, out: str | Path | None = None,
+def import_calibration(context: WindowContext, parent: QtWidgets.QWidget, files: list[str | Path] | None = None,
+                       out: str | Path | None = None,
                        ask_size: Callable = ask_image_size, ask_sigma: Callable = ask_sigma0,
                        run: Callable[[UseCalibrationDialog], object] = lambda d: d.exec()) -> Path | None:
     """OpenCV YAML/XML (one file or intrinsics + extrinsics) or .npz → a USVIPS calibration file (and into
@@ -123,43 +122,43 @@ def import_calibration(window, files: list[str | Path] | None = None, out: str |
     :func:`import_usvips_calibration`). The image size is asked when the files lack it, and the sigma0
     when they state no residual (declined: it stays assumed, and says so)."""
     if files is None:
-        files, _ = QtWidgets.QFileDialog.getOpenFileNames(window, "OpenCV calibration (one file, or intrinsics + "
-                                                          "extrinsics)", window.start_folder(), OPENCV_FILTER)
+        files, _ = QtWidgets.QFileDialog.getOpenFileNames(parent, "OpenCV calibration (one file, or intrinsics + "
+                                                          "extrinsics)", context.start_folder(), OPENCV_FILTER)
         if not files:
             return None
     try:
         calibration = read_opencv_stereo(files)
         if calibration.left.width is None:
-            size = ask_size(window)
+            size = ask_size(parent)
             if size is None:
-                window.show_message("info", "import cancelled: the image size is needed")
+                context.messages.info("import cancelled: the image size is needed")
                 return None
             calibration = read_opencv_stereo(files, size)
         if calibration.sigma0_origin == "assumed":
-            sigma0 = ask_sigma(window)
+            sigma0 = ask_sigma(parent)
             if sigma0 is not None:
                 size = (calibration.left.width, calibration.left.height) if calibration.left.width else None
                 calibration = read_opencv_stereo(files, size, sigma0_px=sigma0)
         if out is None:
             start = str(Path(files[0]).with_name(Path(files[0]).stem + "_usvips.json"))
-            out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Save as a USVIPS calibration", start,
+            out, _ = QtWidgets.QFileDialog.getSaveFileName(parent, "Save as a USVIPS calibration", start,
                                                            "Calibrations (*.json)")
             if not out:
                 return None
         save_calibration(calibration, out)
-        project = window.workspace.project
+        project = context.workspace.project
         calibration_id = None
         if project is not None:
             calibration_id = store_calibration(project, Path(out).stem, calibration)
     except UsvipsError as error:
-        window.show_message("error", f"import failed, nothing written: {error}")
+        context.messages.error(f"import failed, nothing written: {error}")
         return None
-    where = " and stored in the project" if window.workspace.project is not None else ""
-    window.show_message("warning" if calibration.sigma0_origin == "assumed" else "info",
+    where = " and stored in the project" if context.workspace.project is not None else ""
+    context.messages.say("warning" if calibration.sigma0_origin == "assumed" else "info",
                         f"imported {len(files)} OpenCV file(s) into {out}{where} "
                         f"({calibration.left.width} × {calibration.left.height} px); {sigma0_statement(calibration)}")
     if calibration_id is not None:
-        use_calibration(window, calibration_id, run)
+        use_calibration(context, parent, calibration_id, run)
     return Path(out)
 
 
@@ -212,11 +211,12 @@ class UseCalibrationDialog(QtWidgets.QDialog):
                 if self.labels.item(i).checkState() == QtCore.Qt.CheckState.Checked]
 
 
-def activate_calibration(window, calibration_id: int, labels: list[str]) -> bool:
+def activate_calibration(context: WindowContext, parent: QtWidgets.QWidget, calibration_id: int,
+                         labels: list[str]) -> bool:
     """Make stored calibration ``calibration_id`` the active one of pairs/videos ``labels`` and show the
     current pair with it. Pairs or videos of another picture size than the calibration's are left as they
     were and named (both sizes); a failure is one message and changes nothing shown."""
-    project = _need_project(window)
+    project = context.need_project()
     if project is None:
         return False
     try:
@@ -227,44 +227,44 @@ def activate_calibration(window, calibration_id: int, labels: list[str]) -> bool
         for label in good:
             calibration_size.activate(project, label, calibration_id)
     except UsvipsError as error:
-        window.show_message("error", f"the calibration was not made active: {error}")
+        context.messages.error(f"the calibration was not made active: {error}")
         return False
-    if window.workspace.pair in good:
-        window.workspace.reshow_pair()
+    if context.workspace.pair in good:
+        context.workspace.reshow_pair()
     if bad:
-        window.show_message("error", f"calibration {calibration_id} was not made active for {len(bad)} of "
+        context.messages.error(f"calibration {calibration_id} was not made active for {len(bad)} of "
                                      f"{len(labels)}: " + "; ".join(bad.values()))
         return bool(good)
-    window.show_message("info", f"calibration {calibration_id} is active for {', '.join(labels) or 'no pair'}")
+    context.messages.info(f"calibration {calibration_id} is active for {', '.join(labels) or 'no pair'}")
     return True
 
 
-def use_calibration(window, chosen: int | None = None,
+def use_calibration(context: WindowContext, parent: QtWidgets.QWidget, chosen: int | None = None,
                     run: Callable[[UseCalibrationDialog], object] = lambda d: d.exec()) -> bool:
     """Calibration › Use a stored calibration…: choose one and the pairs and videos it is for."""
-    project = _need_project(window)
+    project = context.need_project()
     if project is None:
         return False
     if not project.calibrations():
-        window.show_message("error", "the project has no calibration yet: import one (Calibration › Import a "
+        context.messages.error("the project has no calibration yet: import one (Calibration › Import a "
                                      "USVIPS calibration…, File › Import calibration (OpenCV)…) or calibrate")
         return False
-    dialog = UseCalibrationDialog(project, window.workspace.pair, chosen, window)
+    dialog = UseCalibrationDialog(project, context.workspace.pair, chosen, parent)
     if not run(dialog) or dialog.calibration_id() is None:
         return False
-    return activate_calibration(window, dialog.calibration_id(), dialog.active_for())
+    return activate_calibration(context, parent, dialog.calibration_id(), dialog.active_for())
 
 
-def import_usvips_calibration(window, path: str | Path | None = None,
+def import_usvips_calibration(context: WindowContext, parent: QtWidgets.QWidget, path: str | Path | None = None,
                               run: Callable[[UseCalibrationDialog], object] = lambda d: d.exec()) -> int | None:
     """Calibration › Import a USVIPS calibration…: a calibration file (`usvips calibrate`, another
     project's) read and checked, stored in the project, then made active where the user says (the shown
     pair or video ticked)."""
-    project = _need_project(window)
+    project = context.need_project()
     if project is None:
         return None
     if path is None:
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(window, "USVIPS calibration", window.start_folder(),
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(parent, "USVIPS calibration", context.start_folder(),
                                                     "Calibrations (*.json)")
         if not path:
             return None
@@ -272,65 +272,67 @@ def import_usvips_calibration(window, path: str | Path | None = None,
         calibration = load_calibration(path)
         calibration_id = store_calibration(project, Path(path).stem, calibration)
     except UsvipsError as error:
-        window.show_message("error", f"import failed, nothing stored: {error}")
+        context.messages.error(f"import failed, nothing stored: {error}")
         return None
-    window.show_message("info", f"{Path(path).name} stored in the project as calibration {calibration_id}")
-    use_calibration(window, calibration_id, run)
+    context.messages.info(f"{Path(path).name} stored in the project as calibration {calibration_id}")
+    use_calibration(context, parent, calibration_id, run)
     return calibration_id
 
 
-def export_calibration(window, source: str | Path | StereoCalibration | None = None,
+def export_calibration(context: WindowContext, parent: QtWidgets.QWidget,
+                       source: str | Path | StereoCalibration | None = None,
                        out: str | Path | None = None) -> list[str] | None:
     """A calibration (default: the current pair's in the open project, else a file) → OpenCV's stereo
     file; what OpenCV cannot hold (the housing, …) is shown as warnings and returned."""
     try:
-        chosen = _source(window, source)
+        chosen = _source(context, parent, source)
         if chosen is None:
             return None
         calibration, name = chosen
         if out is None:
-            out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Export calibration (OpenCV)",
-                                                           window.start_folder("stereo.yml"),
+            out, _ = QtWidgets.QFileDialog.getSaveFileName(parent, "Export calibration (OpenCV)",
+                                                           context.start_folder("stereo.yml"),
                                                            "OpenCV FileStorage (*.yml *.yaml *.xml *.json)")
             if not out:
                 return None
         left_out = write_opencv_stereo(calibration, out)
     except UsvipsError as error:
-        window.show_message("error", f"export failed, nothing written: {error}")
+        context.messages.error(f"export failed, nothing written: {error}")
         return None
     for line in left_out:
-        window.show_message("warning", f"OpenCV cannot hold: {line}")
-    window.show_message("warning" if left_out else "info",
+        context.messages.warning(f"OpenCV cannot hold: {line}")
+    context.messages.say("warning" if left_out else "info",
                         f"exported {name} to {out}" + (f"; {len(left_out)} thing(s) left out (see the log)"
                                                        if left_out else ""))
     return left_out
 
 
-def calibration_report(window, source: str | Path | StereoCalibration | None = None,
+def calibration_report(context: WindowContext, parent: QtWidgets.QWidget,
+                       source: str | Path | StereoCalibration | None = None,
                        out: str | Path | None = None) -> Worker | None:
     """Write a calibration's PDF report in the window's worker (progress and Cancel in the status bar)."""
     try:
-        chosen = _source(window, source)
+        chosen = _source(context, parent, source)
     except UsvipsError as error:
-        window.show_message("error", str(error))
+        context.messages.error(str(error))
         return None
     if chosen is None:
         return None
     calibration, name = chosen
     if out is None:
-        out, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Calibration report",
-                                                       window.start_folder("calibration_report.pdf"),
+        out, _ = QtWidgets.QFileDialog.getSaveFileName(parent, "Calibration report",
+                                                       context.start_folder("calibration_report.pdf"),
                                                        "PDF (*.pdf)")
         if not out:
             return None
     path, data = (name if isinstance(source, str | Path) else None), None
-    project = window.workspace.project
+    project = context.workspace.project
     if source is None and project is not None and project.calibrations():
         # a calibration of the project: its data found as the command line finds them (the files it was
         # made from, beside the project), else the control and observations the project holds
         path, data = project.path, project_report_data(project, calibration)
-    return window.run_worker(report_job(calibration, out, path, data), "calibration report",
-                             lambda pages: window.show_message("info", f"wrote {out} ({pages} pages)"))
+    return context.jobs.run(report_job(calibration, out, path, data), "calibration report",
+                            lambda pages: context.messages.info(f"wrote {out} ({pages} pages)"))
 
 
 def project_report_data(project, calibration: StereoCalibration):
@@ -523,16 +525,17 @@ class DeploymentDialog(QtWidgets.QDialog):
         return True
 
 
-def edit_deployment(window, run: Callable[[DeploymentDialog], object] = lambda d: d.exec()) -> bool:
+def edit_deployment(context: WindowContext, parent: QtWidgets.QWidget,
+                    run: Callable[[DeploymentDialog], object] = lambda d: d.exec()) -> bool:
     """Project › Deployment and georeference…; ``run`` shows the dialog (tests fill it and press OK)."""
-    project = _need_project(window)
+    project = context.need_project()
     if project is None:
         return False
-    dialog = DeploymentDialog(project, window)
+    dialog = DeploymentDialog(project, parent)
     run(dialog)
     accepted = dialog.result() == QtWidgets.QDialog.DialogCode.Accepted
     if accepted:
-        window.show_message("info", "stored the deployment metadata, georeference and campaign")
+        context.messages.info("stored the deployment metadata, georeference and campaign")
     dialog.deleteLater()
     return accepted
 

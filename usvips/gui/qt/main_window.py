@@ -39,7 +39,7 @@ from usvips.gui.qt.track_controls import TrackController
 from usvips.gui.qt.video_controls import VideoController
 from usvips.gui.qt.worker import Cancelled, Worker
 from usvips.gui.video_model import format_timecode
-from usvips.gui.window_context import WindowContext
+from usvips.gui.window_context import Navigation, WindowContext
 from usvips.gui.wording import plural
 from usvips.gui.workspace import Workspace, pair_image_paths, read_pair
 from usvips.io.species_list import read_species_list
@@ -50,7 +50,8 @@ from usvips.store.records import StaleEditError
 
 SAMPLES = sample_projects()
 MAX_RECENT = 8
-#: the dialog modules (usvips.gui.qt) commands name as their owner: their functions take the window
+#: the dialog modules (usvips.gui.qt) commands name as their owner: their functions take the window's
+#: context (usvips.gui.window_context) and a parent widget, never the window
 DIALOG_MODULES = ("media_dialogs", "exchange_dialogs")
 #: a panel's area (usvips.gui.panel_registry) as Qt's dock area
 DOCK_AREAS = {area: getattr(QtCore.Qt.DockWidgetArea, f"{area.capitalize()}DockWidgetArea")
@@ -98,7 +99,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.jobs = Jobs(self.pool, self.messages)
         self.workers = self.jobs.workers
         #: what the panels and controllers are handed instead of the window
-        self.context = WindowContext(self.workspace, self.messages, self.jobs)
+        self.context = WindowContext(self.workspace, self.messages, self.jobs, Navigation(
+            self.open_path, self.load_pair, self.refresh_pair_box, self._videos_changed, self._show_video,
+            self.set_hint))
         self._display_tokens = dict.fromkeys(SIDES, 0)
         self._pair_worker: Worker | None = None
         self._front_before_observation: QtWidgets.QDockWidget | None = None  # raised again after a record
@@ -272,11 +275,12 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _command_handler(self, command: commands.Command):
         """The function a command runs: ``owner.method`` resolved against the window's controllers (a dialog
-        module's function is given the window), called with the command's ``args``."""
+        module's function is given the window's context and the window as its dialogs' parent widget), called
+        with the command's ``args``."""
         owner, _, method = command.handler.rpartition(".")
         if owner in DIALOG_MODULES:  # imported when one of its commands is first run, not at start-up
             module = f"usvips.gui.qt.{owner}"
-            return lambda *_: getattr(importlib.import_module(module), method)(self, *command.args)
+            return lambda *_: getattr(importlib.import_module(module), method)(self.context, self, *command.args)
         owners = {"window": self, "tracking": lambda: self.tracking}
         target = owners[owner]
         if owner == "window":
@@ -593,9 +597,25 @@ class MainWindow(QtWidgets.QMainWindow):
     # ------------------------------------------------------------------ project and pairs
     def start_folder(self, name: str = "") -> str:
         """Where a file dialog opens: the open project's folder (else the home folder), with ``name``."""
-        project = self.workspace.project
-        folder = project.path.parent if project is not None else Path.home()
-        return str(folder / name) if name else str(folder)
+        return self.context.start_folder(name)
+
+    def _videos_changed(self, project) -> None:
+        self.video.videos_changed(project)
+
+    def _show_video(self, label: str, after=None) -> bool:
+        """Show video ``label``'s first frame; ``after()`` once it is shown (:class:`Navigation`)."""
+        if after is None:
+            return self.video.open_video(label)
+
+        def shown(_frame: int) -> None:
+            self.video.shown.disconnect(shown)
+            after()
+
+        self.video.shown.connect(shown)
+        opened = self.video.open_video(label)
+        if not opened:
+            self.video.shown.disconnect(shown)
+        return opened
 
     def open_dialog(self) -> None:
         start = self.start_folder() if self.workspace.project is not None else str(
@@ -1126,25 +1146,28 @@ class MainWindow(QtWidgets.QMainWindow):
         showing a pair does not)."""
         from usvips.gui.qt import double_read_dialog
 
-        return double_read_dialog.show_double_read(self)
+        return double_read_dialog.show_double_read(self.context, self)
 
     def show_pointing_test(self):
         """Measure › Pointing test…: click rendered targets; your pointing σ, stored for you on request."""
         from usvips.gui.qt import pointing_test_dialog
 
-        return pointing_test_dialog.show_pointing_test(self)
+        return pointing_test_dialog.show_pointing_test(self.context, self.annotator, self)
 
     def show_target_field_tool(self) -> None:
         """Calibration › Find a target field… (imported when first asked for: not at start-up)."""
         from usvips.gui.qt import target_field_tool
 
-        target_field_tool.open_tool(self)
+        tool = target_field_tool.open_tool(self.context, self)
+        if tool is not None:
+            self.target_field_tool = tool
+            tool.confirmed.connect(lambda _text: self._draw_control())  # the pair's control drawn anew
 
     def show_sigma_check(self):
         """Measure › Check σ (Monte Carlo)…: whether the open project's stated σ hold (its own geometry)."""
         from usvips.gui.qt import pointing_test_dialog
 
-        return pointing_test_dialog.show_sigma_check(self)
+        return pointing_test_dialog.show_sigma_check(self.context, self)
 
     def show_review(self) -> None:
         """Ctrl+Shift+R: show the review panel, its queue read afresh (the objects unreviewed now, also by

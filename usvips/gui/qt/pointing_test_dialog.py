@@ -19,6 +19,7 @@ from usvips.core.errors import UsvipsError
 from usvips.core.pointing_test import HEIGHT, WIDTH
 from usvips.gui.pointing_test_model import COUNT, PointingTestModel
 from usvips.gui.qt.worker import Worker, start
+from usvips.gui.window_context import WindowContext
 
 #: how many screen pixels an image pixel is shown as
 ZOOM = 4
@@ -61,12 +62,15 @@ class _Canvas(QtWidgets.QWidget):
 
 
 class PointingTestDialog(QtWidgets.QDialog):
-    """The test for ``window`` (a MainWindow: its project, annotator and messages)."""
+    """The test of ``annotator`` (who is at the window) over ``context``'s workspace (the project an estimate
+    is stored in) and messages."""
 
-    def __init__(self, window, count: int = COUNT, seed: int | None = None,
+    def __init__(self, context: WindowContext, annotator: str, count: int = COUNT, seed: int | None = None,
                  parent: QtWidgets.QWidget | None = None) -> None:
-        super().__init__(parent if parent is not None else window)
-        self.window_ = window
+        super().__init__(parent)
+        self.workspace = context.workspace
+        self.messages = context.messages
+        self.annotator = annotator
         self.setWindowTitle("Pointing test")
         self.model = PointingTestModel(count, seed)
         self.canvas = _Canvas(self.model)
@@ -77,7 +81,7 @@ class PointingTestDialog(QtWidgets.QDialog):
         self.result = QtWidgets.QLabel()
         self.result.setWordWrap(True)
         self.result.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
-        self.store = QtWidgets.QPushButton(f"&Store for {window.annotator}")
+        self.store = QtWidgets.QPushButton(f"&Store for {annotator}")
         self.store.setEnabled(False)
         self.store.clicked.connect(self.store_estimate)
         close = QtWidgets.QPushButton("&Close")
@@ -136,21 +140,21 @@ class PointingTestDialog(QtWidgets.QDialog):
         try:
             self.estimate = self.model.estimate()
             self.result.setText("\n".join(self.model.summary()))
-            self.store.setEnabled(self.window_.workspace.project is not None)
+            self.store.setEnabled(self.workspace.project is not None)
             self.store.setFocus()
         except UsvipsError as error:
             self.result.setText(str(error))
 
     def store_estimate(self) -> None:
         """Store the estimate for the window's annotator (in use from now on) and recompute every figure."""
-        project = self.window_.workspace.project
+        project = self.workspace.project
         if self.estimate is None or project is None:
             return
-        add_estimate(project, self.estimate, self.window_.annotator,
+        add_estimate(project, self.estimate, self.annotator,
                      note=f"pointing test: {len(self.model.clicks)} clicks, {len(self.model.misses)} missed")
-        self.window_.workspace.pointing_changed()
-        self.window_.show_message("info", f"pointing σ {self.estimate.sigma_px:.2f} px stored for "
-                                          f"{self.window_.annotator}: every figure of your clicks uses it now")
+        self.workspace.pointing_changed()
+        self.messages.info(f"pointing σ {self.estimate.sigma_px:.2f} px stored for {self.annotator}: every figure "
+                           "of your clicks uses it now")
         self.store.setEnabled(False)
         self.store.setText("Stored")
 
@@ -159,27 +163,27 @@ class PointingTestDialog(QtWidgets.QDialog):
         super().reject()
 
 
-def show_pointing_test(window) -> PointingTestDialog:
-    dialog = PointingTestDialog(window)
+def show_pointing_test(context: WindowContext, annotator: str, parent: QtWidgets.QWidget) -> PointingTestDialog:
+    dialog = PointingTestDialog(context, annotator, parent=parent)
     dialog.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
     dialog.show()
     return dialog
 
 
-def show_sigma_check(window) -> QtWidgets.QDialog | None:
+def show_sigma_check(context: WindowContext, parent: QtWidgets.QWidget) -> QtWidgets.QDialog | None:
     """Measure › Check σ (Monte Carlo)…: the σ check of the open project, in a worker, its table shown."""
     from usvips.app.sigma_check import COLUMNS, read_check, run_check
 
-    project = window.workspace.project
+    project = context.workspace.project
     if project is None:
-        window.show_message("error", "open a project first: the σ check runs over its objects")
+        context.messages.error("open a project first: the σ check runs over its objects")
         return None
     try:
         read = read_check(project)
     except UsvipsError as error:
-        window.show_message("error", str(error))
+        context.messages.error(str(error))
         return None
-    dialog = QtWidgets.QDialog(window)
+    dialog = QtWidgets.QDialog(parent)
     dialog.setWindowTitle("Check σ (Monte Carlo)")
     dialog.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
     status = QtWidgets.QLabel(f"simulating {len(read.objects)} objects…")

@@ -19,6 +19,7 @@ from usvips.core.errors import UsvipsError
 from usvips.gui.qt.pane import StereoPane, item_from_pixels, pixel_from_item
 from usvips.gui.qt.worker import Worker, start
 from usvips.gui.target_field_model import SIDES, STATES, FieldModel
+from usvips.gui.window_context import WindowContext
 from usvips.io.tables import read_control
 
 #: colour (RGB) and symbol of each mark's state; the pending click and the selection
@@ -477,26 +478,18 @@ class TargetFieldTool(QtWidgets.QDialog):
         super().closeEvent(event)
 
 
-def open_tool(window) -> TargetFieldTool | None:
-    """Open the tool on the window's project and pair (an error in the status bar when it cannot)."""
-    project = window.workspace.project
+def open_tool(context: WindowContext, parent: QtWidgets.QWidget) -> TargetFieldTool | None:
+    """Open the tool on ``context``'s project and pair (an error said when it cannot); what it stores is
+    said through ``context.messages``."""
+    project = context.workspace.project
     if project is None:
-        window.show_message("error", "open a project first: the target field is found in its image pairs")
+        context.messages.error("open a project first: the target field is found in its image pairs")
         return None
     try:
-        tool = TargetFieldTool(project, window.workspace.pair, window)
+        tool = TargetFieldTool(project, context.workspace.pair, parent)
     except UsvipsError as error:
-        window.show_message("error", str(error))
+        context.messages.error(str(error))
         return None
-    tool.confirmed.connect(lambda text: _stored(window, text))
-    window.target_field_tool = tool
+    tool.confirmed.connect(context.messages.info)
     tool.show()
     return tool
-
-
-def _stored(window, text: str) -> None:
-    """Say what was stored, and draw the pair's control observations anew on the window's images."""
-    window.show_message("info", text)
-    redraw = getattr(window, "_draw_control", None)
-    if redraw is not None:
-        redraw()
