@@ -107,3 +107,20 @@ def test_a_missing_or_unreadable_model_file_is_named(tmp_path):
     (tmp_path / "m.yaml").write_text("a: 1")
     with pytest.raises(InputFileError, match="unknown description format '.yaml'"):
         read_model_description(tmp_path / "m.yaml")
+
+
+def test_the_measured_keypoint_sigma_is_read_and_checked(tmp_path):
+    path = tmp_path / "fish-pose.toml"
+    path.write_text(GOOD + '\n[keypoint_sigma]\nbasis = "validation, 400 rendered fish"\n'
+                    'px = {snout = 1.1, fork = 1.7}\n')
+    description = read_model_description(path)
+    assert description.measured_sigma("snout") == 1.1 and description.measured_sigma("fork") == 1.7
+    assert description.keypoint_sigma_basis == "validation, 400 rendered fish"
+    path.write_text(GOOD)
+    assert read_model_description(path).measured_sigma("snout") is None
+    for bad, key in (("px = {tail = 1.0}", "keypoint_sigma.px.tail"),
+                     ("px = {snout = -1.0}", "keypoint_sigma.px.snout"), ("px = 2.0", "keypoint_sigma.px"),
+                     ("basis = 3", "keypoint_sigma.basis")):
+        path.write_text(GOOD + f"\n[keypoint_sigma]\n{bad}\n")
+        with pytest.raises(InputFileError, match=key.replace(".", r"\.")):
+            read_model_description(path)

@@ -1,8 +1,9 @@
 """``Project.objects_with_ids``: the objects of some ids by one query, the same as a full listing has."""
 
 import numpy as np
+import pytest
 
-from usvips.store import Project
+from usvips.store import Project, ProjectError
 from usvips.store.project import Vertex
 
 
@@ -34,3 +35,28 @@ def test_objects_by_id_match_the_full_listing(tmp_path):
         assert project.objects_with_ids([]) == []
     finally:
         project.close()
+
+
+def test_covariances_read_at_once_are_each_vertex_s_own_and_a_damaged_one_is_named(tmp_path):
+    """The covariances of a listing are parsed together (one JSON text for the lot): each vertex still gets
+    exactly its own 3 × 3 (vertices without one: None, mixed among them), and one damaged covariance among
+    many — valid JSON of the wrong shape, or text that would shift its neighbours if joined — is named by its
+    object, as when they were parsed one by one."""
+    rng = np.random.default_rng(11)
+    with Project.create(tmp_path / "p.usvips") as project:
+        vertices = [[_vertex(rng) if rng.random() < 0.8 else Vertex(*rng.uniform(0, 600, size=4))
+                     for _ in range(2)] for _ in range(300)]
+        ids = project.add_objects([("length", pair, "", "", "test") for pair in vertices])
+        for stored, given in zip(project.objects(), vertices, strict=True):
+            for read, written in zip(stored.vertices, given, strict=True):
+                if written.covariance is None:
+                    assert read.covariance is None
+                else:
+                    assert read.covariance.shape == (3, 3) and np.array_equal(read.covariance, written.covariance)
+        victim = int(rng.choice(ids[1:-1]))
+        for damage in ("[1, 2, 3, 4, 5, 6, 7, 8]", "[1, 2, 3, 4, 5, 6, 7, 8, 9], [1, 2, 3, 4, 5, 6, 7, 8, 9]",
+                       '["a", 2, 3, 4, 5, 6, 7, 8, 9]'):
+            project._db.execute("UPDATE vertices SET covariance = ? WHERE object_id = ? AND idx = 0",
+                                (damage, victim))
+            with pytest.raises(ProjectError, match=f"object {victim}: a stored covariance is damaged"):
+                project.objects()

@@ -6,8 +6,9 @@ frame index it returns that left frame and its partner right frame (``partner(in
 
 - each camera decodes in its own thread (FFmpeg releases the GIL while it decodes), so a pair costs about
   one frame's decoding on two cores;
-- once two calls have shown the direction (frame after frame forward or backward), the next pair is
-  decoded while the caller tracks the one it has (prefetch);
+- once two calls have shown the direction (frame after frame forward or backward), the next
+  :data:`AHEAD_PAIRS` pairs are queued on the two decoders, which run on while the caller tracks the pair it
+  has: neither decoder waits for the other's frame or for the caller (prefetch);
 - backward, frame by frame, each step would be a seek decoding from the key frame before it (half a GOP on
   average, 15 frames at one key frame a second): instead the frames from that key frame up to the one
   asked for are decoded once, forward, and kept in grey (at most :data:`BACKWARD_CACHE_BYTES` a camera),
@@ -29,6 +30,10 @@ from usvips.io.video_stream import VideoStream
 
 #: the grey frames kept a camera when tracking backward (bytes): 64 frames of 1080p
 BACKWARD_CACHE_BYTES = 128 * 2**20
+#: frame pairs decoded ahead of a caller stepping frame by frame (4 pairs of 1080p: 16 MiB). One pair
+#: ahead kept the two decoders in step with each other and with the caller (each idled while the other,
+#: or the tracker, finished); a few pairs let each decoder run on and absorb the spread of frame costs.
+AHEAD_PAIRS = 4
 
 
 class _GreyReader:
@@ -83,7 +88,7 @@ class GreyPairSource:
         self._readers = (_GreyReader(left, cache_bytes), _GreyReader(right, cache_bytes))
         self._threads = tuple(ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"usvips-{side}-grey")
                               for side in ("left", "right"))
-        self._ahead: tuple[int, Future, Future] | None = None
+        self._ahead: dict[int, tuple[Future, Future]] = {}  # pairs queued ahead, in the order submitted
         self._previous: int | None = None
         self._remember_bytes = int(remember_bytes)
         self._remembered: dict[int, tuple[np.ndarray, np.ndarray]] = {}
@@ -97,29 +102,35 @@ class GreyPairSource:
         index = int(index)
         frames = self._remembered.get(index)
         if frames is None:
-            if self._ahead is not None and self._ahead[0] == index:
-                pending = self._ahead[1:]
-            else:
+            pending = self._ahead.pop(index, None)
+            if pending is None:
                 self._drop_ahead()
                 pending = self._submit(index, self.partner(index))
-            self._ahead = None
             for future in pending:
                 future.exception()  # both finish before either error is raised
             frames = (pending[0].result(), pending[1].result())
             self._remember(index, frames)
         step = index - self._previous if self._previous is not None else 0
         self._previous = index
-        following = index + step
-        if (abs(step) == 1 and 0 <= following < self._readers[0].stream.frame_count
-                and following not in self._remembered and (self._ahead is None or self._ahead[0] != following)):
+        if abs(step) == 1:
+            self._read_ahead(index, step)
+        return frames
+
+    def _read_ahead(self, index: int, step: int) -> None:
+        """Queue the :data:`AHEAD_PAIRS` pairs after ``index`` going ``step`` (±1) that are neither queued nor
+        remembered; a queued pair off that path is dropped first."""
+        path = [i for i in (index + k * step for k in range(1, AHEAD_PAIRS + 1))
+                if 0 <= i < self._readers[0].stream.frame_count]
+        if any(i not in path for i in self._ahead):
+            self._drop_ahead()
+        for following in path:
+            if following in self._remembered or following in self._ahead:
+                continue
             try:
                 partner = self.partner(following)
             except UsvipsError:
-                pass  # no partner there: the caller hears of it when it asks for that frame
-            else:
-                self._drop_ahead()
-                self._ahead = (following, *self._submit(following, partner))
-        return frames
+                return  # no partner there: the caller hears of it when it asks for that frame
+            self._ahead[following] = self._submit(following, partner)
 
     def _remember(self, index: int, frames: tuple[np.ndarray, np.ndarray]) -> None:
         """Keep a pair for a later call (another vertex tracked over the same frames), within the budget."""
@@ -131,11 +142,13 @@ class GreyPairSource:
             self._remembered_bytes += size
 
     def _drop_ahead(self) -> None:
-        """Wait for a prefetch nobody asked for (its decoder must be idle before the next request)."""
-        if self._ahead is not None:
-            for future in self._ahead[1:]:
-                future.exception()  # wait; an error of a frame not asked for is nobody's concern
-        self._ahead = None
+        """Drop the pairs queued ahead: those not started are cancelled, a running one is waited for (its
+        decoder must be idle before the next request)."""
+        for pending in self._ahead.values():
+            for future in pending:
+                if not future.cancel():
+                    future.exception()  # wait; an error of a frame not asked for is nobody's concern
+        self._ahead = {}
 
     def close(self) -> None:
         self._drop_ahead()

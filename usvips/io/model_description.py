@@ -27,7 +27,8 @@ from usvips.core.errors import InputFileError, InvalidParameterError
 SECTIONS = {"model": ("file", "family", "input_width", "input_height"),
             "normalisation": ("scale", "mean", "std", "channels"),
             "output": ("classes", "keypoints", "keypoint_values", "objectness", "score_threshold",
-                       "iou_threshold", "max_detections")}
+                       "iou_threshold", "max_detections"),
+            "keypoint_sigma": ("px", "basis")}
 REQUIRED = ("model.file", "model.family", "model.input_width", "model.input_height", "output.classes",
             "output.keypoints")
 
@@ -130,6 +131,20 @@ def _tables(path: Path) -> dict:
     return tables
 
 
+def _sigmas(fields: _Fields, keypoints: tuple[str, ...]) -> tuple[tuple[str, float], ...]:
+    table = fields.get("keypoint_sigma.px", {})
+    if not isinstance(table, dict):
+        raise fields.fail("keypoint_sigma.px", f"expected a table of keypoint = sigma (px), got {table!r}")
+    out = []
+    for name, value in table.items():
+        if name not in keypoints:
+            raise fields.fail(f"keypoint_sigma.px.{name}", f"not one of the model's keypoints ({', '.join(keypoints)})")
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
+            raise fields.fail(f"keypoint_sigma.px.{name}", f"expected a finite sigma > 0 (px), got {value!r}")
+        out.append((str(name), float(value)))
+    return tuple(out)
+
+
 def read_model_description(path: str | Path) -> ModelDescription:
     """The :class:`ModelDescription` a TOML or JSON file holds (the model file is not read)."""
     path = Path(path)
@@ -138,11 +153,15 @@ def read_model_description(path: str | Path) -> ModelDescription:
     if kind not in names():
         raise fields.fail("model.family", f"unknown model family {kind!r}; known: {', '.join(names())}")
     defaults = ModelDescription("", kind, 1, 1, (), ())
+    keypoints = fields.names("output.keypoints")
+    basis = fields.get("keypoint_sigma.basis", "")
+    if not isinstance(basis, str):
+        raise fields.fail("keypoint_sigma.basis", f"expected a text, got {basis!r}")
     description = ModelDescription(
         model=fields.text("model.file"), family=kind,
         input_width=fields.integer("model.input_width", high=16384),
         input_height=fields.integer("model.input_height", high=16384),
-        class_names=fields.names("output.classes"), keypoint_names=fields.names("output.keypoints"),
+        class_names=fields.names("output.classes"), keypoint_names=keypoints,
         scale=fields.number("normalisation.scale", defaults.scale, positive=True),
         mean=fields.triple("normalisation.mean", defaults.mean),
         std=fields.triple("normalisation.std", defaults.std, positive=True),
@@ -151,7 +170,8 @@ def read_model_description(path: str | Path) -> ModelDescription:
         objectness=fields.flag("output.objectness", defaults.objectness),
         score_threshold=fields.number("output.score_threshold", defaults.score_threshold, 0.0, 1.0),
         iou_threshold=fields.number("output.iou_threshold", defaults.iou_threshold, 0.0, 1.0),
-        max_detections=fields.integer("output.max_detections", defaults.max_detections))
+        max_detections=fields.integer("output.max_detections", defaults.max_detections),
+        keypoint_sigma_px=_sigmas(fields, keypoints), keypoint_sigma_basis=basis.strip())
     try:
         family(kind).check(description)
     except InvalidParameterError as error:

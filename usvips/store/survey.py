@@ -873,25 +873,44 @@ class Survey:
                 f"p.label, {pointing} FROM vertices v LEFT JOIN image_pairs p ON p.id = v.pair_id {wanted} "
                 "ORDER BY v.object_id, v.idx", parameters).fetchall()
             frame_rows = self._vertex_frame_rows(where, parameters)
-        frames = {(r[0], r[1]): r[2:] for r in frame_rows}
+        frames = {(r[0], r[1]): dict(zip(("video", "frame_left", "frame_right", "time_s"), r[2:], strict=True))
+                  for r in frame_rows}
+        covariances = self._covariances(vertex_rows)
         vertices: dict[int, list[Vertex]] = {}
-        for v in vertex_rows:
-            xyz = None if v[5] is None else (v[5], v[6], v[7])
-            cov = None
-            if v[8] is not None:
-                values = self._json(v[8], f"object {v[0]}: a stored covariance")
-                try:
-                    cov = np.array(values, dtype=float).reshape(3, 3)
-                except (TypeError, ValueError):
-                    raise ProjectError(f"{self.path}: object {v[0]}: a stored covariance is damaged "
-                                       "(not 9 numbers)") from None
-            vertex = Vertex(v[1], v[2], v[3], v[4], xyz, cov, v[9], v[10], **_pointing_fields(v[11:]))
-            frame = frames.get((v[0], len(vertices.get(v[0], ()))))
-            if frame is not None:
-                vertex = dataclasses.replace(vertex, video=frame[0], frame_left=frame[1], frame_right=frame[2],
-                                             time_s=frame[3])
-            vertices.setdefault(v[0], []).append(vertex)
+        for v, cov in zip(vertex_rows, covariances, strict=True):
+            own = vertices.setdefault(v[0], [])
+            on_video = frames.get((v[0], len(own)), {}) if frames else {}
+            own.append(Vertex(v[1], v[2], v[3], v[4], None if v[5] is None else (v[5], v[6], v[7]), cov, v[9], v[10],
+                              **_pointing_fields(v[11:]), **on_video))
         return [StoredObject(*row, vertices=tuple(vertices.get(row[0], ()))) for row in rows]
+
+    def _covariances(self, vertex_rows: list[tuple]) -> list[np.ndarray | None]:
+        """Each vertex row's covariance (its column 8: the JSON of 9 numbers, m²) as a 3 × 3 array, None where
+        none is stored. All are parsed at once — one ``json.loads`` and one array for the lot, each vertex
+        given its own 3 × 3 block of it (20,000 parses were most of reading a survey) — and, when that
+        fails, one by one, so that a damaged covariance is named by its object."""
+        texts = [v[8] for v in vertex_rows if v[8] is not None]
+        blocks = None
+        if texts:
+            try:
+                block = np.array(json.loads(f"[{','.join(texts)}]"), dtype=float)
+                if block.ndim >= 2 and block.shape[0] == len(texts) and block.size == 9 * len(texts):
+                    blocks = iter(block.reshape(len(texts), 3, 3))
+            except (ValueError, TypeError, RecursionError):
+                blocks = None  # a damaged one among them: found below
+        if blocks is None:
+            blocks = iter([self._covariance(v[0], v[8]) for v in vertex_rows if v[8] is not None])
+        return [None if v[8] is None else next(blocks) for v in vertex_rows]
+
+    def _covariance(self, object_id: int, text: str) -> np.ndarray:
+        """One stored covariance (JSON of 9 numbers) as a 3 × 3 array; damaged: a ``ProjectError`` naming
+        the object."""
+        values = self._json(text, f"object {object_id}: a stored covariance")
+        try:
+            return np.array(values, dtype=float).reshape(3, 3)
+        except (TypeError, ValueError):
+            raise ProjectError(f"{self.path}: object {object_id}: a stored covariance is damaged "
+                               "(not 9 numbers)") from None
 
     # ---------------------------------------------------------------------------- instants (schema 7)
     def add_instant(self, object_id: int, instant_id: int, tracked_from: int | None = None,

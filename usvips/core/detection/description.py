@@ -24,7 +24,9 @@ class ModelDescription:
     numbers per keypoint in the output (3: x, y, visibility; 2: x, y); ``objectness``: whether an objectness
     score precedes the class scores (YOLOv5/v7-pose; the score is then objectness × class score);
     ``score_threshold`` (0..1) and ``iou_threshold`` (0..1) of the non-maximum suppression; ``pad_value`` the
-    letterbox's grey (0..255); ``max_detections`` the most kept per image."""
+    letterbox's grey (0..255); ``max_detections`` the most kept per image; ``keypoint_sigma_px``: the
+    keypoints' MEASURED pointing sigmas ((name, px) pairs, one image coordinate; empty when never measured:
+    :mod:`usvips.core.detection.keypoint_sigma`) and ``keypoint_sigma_basis`` what they were measured on."""
 
     model: str
     family: str
@@ -42,6 +44,8 @@ class ModelDescription:
     iou_threshold: float = 0.45
     pad_value: int = 114
     max_detections: int = 300
+    keypoint_sigma_px: tuple[tuple[str, float], ...] = ()
+    keypoint_sigma_basis: str = ""
 
     def __post_init__(self) -> None:
         for name in ("input_width", "input_height", "max_detections"):
@@ -61,3 +65,13 @@ class ModelDescription:
                 raise InvalidParameterError(name, f"must lie in [0, 1], got {getattr(self, name)}")
         if len(set(self.keypoint_names)) != len(self.keypoint_names):
             raise InvalidParameterError("keypoints", f"names repeat: {self.keypoint_names}")
+        for name, sigma in self.keypoint_sigma_px:
+            if name not in self.keypoint_names:
+                raise InvalidParameterError("keypoint_sigma", f"{name!r} is not one of the model's keypoints "
+                                                              f"({', '.join(self.keypoint_names)})")
+            if not (math.isfinite(sigma) and sigma > 0):
+                raise InvalidParameterError("keypoint_sigma", f"{name}: expected a finite sigma > 0 px, got {sigma}")
+
+    def measured_sigma(self, name: str) -> float | None:
+        """The measured pointing sigma (px) of keypoint ``name``; None when it was never measured."""
+        return dict(self.keypoint_sigma_px).get(name)

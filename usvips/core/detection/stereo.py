@@ -171,9 +171,11 @@ def _sigma_of(keypoint_sigma_px: float | Mapping[str, float], name: str) -> floa
 def measure_pairs(pairs: Sequence[StereoPair], calibration: StereoCalibration,
                   keypoint_sigma_px: float | Mapping[str, float], keypoints: tuple[str, str] = ("snout", "fork"),
                   station: int | str = 0, frame: str = "object",
-                  rules: QualityRules | None = None) -> list[Measurement | UsvipsError]:
+                  rules: QualityRules | None = None, measured_basis: str = "") -> list[Measurement | UsvipsError]:
     """Each pair's length between ``keypoints`` (m, with its sigma) by the project's one figure path, the
-    keypoints' pointing sigma (px, one image coordinate; one value or one per keypoint name) as GIVEN.
+    keypoints' pointing sigma (px, one image coordinate; one value or one per keypoint name) as GIVEN —
+    or, with ``measured_basis`` (what the sigmas were measured on, :mod:`usvips.core.detection.keypoint_sigma`),
+    as measured: the figures then carry origin "estimated" and say what the sigma rests on.
     A pair lacking a keypoint, or whose rays fail, gives the :class:`UsvipsError` saying so in its place."""
     sigmas = np.array([_sigma_of(keypoint_sigma_px, name) for name in keypoints])
     out: list[Measurement | UsvipsError | None] = [None] * len(pairs)
@@ -188,7 +190,9 @@ def measure_pairs(pairs: Sequence[StereoPair], calibration: StereoCalibration,
         where.append(i)
     measured = measure_picks_many(["length"] * len(where), calibration, lefts, rights, station, frame,
                                   [sigmas] * len(where), rules)
+    origin, mark = (("estimated", f"keypoint pointing sigma measured on {measured_basis}") if measured_basis
+                    else ("given", STATED_KEYPOINT_SIGMA))
     for i, result in zip(where, measured, strict=True):
         out[i] = result if isinstance(result, UsvipsError) else replace(
-            result, pointing_origin="given", marks=result.marks + (STATED_KEYPOINT_SIGMA,))
+            result, pointing_origin=origin, marks=result.marks + (mark,))
     return out

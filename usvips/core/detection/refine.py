@@ -1,0 +1,113 @@
+"""Keypoints of a stereo pair refined along the refractive epipolar curve.
+
+A model points at the snout in the left image and, independently, in the right one: the two errors are
+independent, so their difference — the disparity — carries both, and the depth of the intersected point
+(and with it the length) suffers most. Refinement keeps the left keypoint and moves the right one to the
+conjugate of the LEFT keypoint: a small patch around the left keypoint is matched by normalised
+cross-correlation along the left keypoint's refractive epipolar curve in the right image
+(:func:`usvips.core.matching.match_along_curve`, the auto-match of hand picks), searched only within
+``radius_px`` of the model's right keypoint so that the match cannot jump to another fish.
+
+The refined right point then shows the same surface point as the left keypoint: the pair's 3-D point
+lies on the fish, and its error is the left keypoint's error carried along the surface. Its pointing
+sigma is therefore the left keypoint's sigma — the match is no better than the point it follows, the
+convention of an accepted auto-match (:mod:`usvips.core.pointing`); the match's own precision (a tenth of a
+pixel on a textured patch) is far below that and is not added. A match the matcher refuses (ambiguous,
+textureless, a low correlation) leaves the model's right keypoint as it was, and says why.
+
+Pixels: x right, y down, origin at the centre of the top-left pixel.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from usvips.core import validation
+from usvips.core.detection.detection import Detection, Keypoint
+from usvips.core.detection.stereo import StereoPair
+from usvips.core.errors import InvalidParameterError
+from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
+from usvips.core.rig import StereoRig
+
+
+@dataclass(frozen=True)
+class KeypointRefinement:
+    """What refinement did to one keypoint of a pair: its ``name``, the model's right pixel ``before`` and
+    the refined one ``after`` (equal when not refined), the correlation ``score`` (NCC, −1..1; None without a
+    candidate) and ``reason`` ('' when refined; else why the model's point was kept)."""
+
+    name: str
+    before: tuple[float, float]
+    after: tuple[float, float]
+    score: float | None
+    reason: str = ""
+
+    @property
+    def refined(self) -> bool:
+        return not self.reason
+
+    @property
+    def shift_px(self) -> float:
+        """How far refinement moved the right keypoint (px)."""
+        return float(np.hypot(self.after[0] - self.before[0], self.after[1] - self.before[1]))
+
+
+@dataclass(frozen=True)
+class RefinedPair:
+    """A pair whose right keypoints were refined (``pair.right`` holds the refined points) and what was
+    done to each keypoint asked for."""
+
+    pair: StereoPair
+    keypoints: tuple[KeypointRefinement, ...]
+
+
+def _near(curve: EpipolarCurve, centre: np.ndarray, radius: float) -> EpipolarCurve:
+    keep = np.linalg.norm(curve.pixels - centre, axis=1) <= radius
+    return EpipolarCurve(curve.pixels[keep], curve.depths[keep])
+
+
+def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: StereoRig, left: Keypoint,
+                    right: Keypoint, window: int = 15, radius_px: float = 12.0, near: float = 0.3,
+                    far: float = 10.0, min_score: float = 0.6) -> KeypointRefinement:
+    """The right keypoint moved to the match of a ``window`` px patch around the left keypoint along its
+    refractive epipolar curve, searched within ``radius_px`` of the model's right point (see the module
+    docstring); the model's point kept, with the reason, when the matcher refuses."""
+    radius = validation.positive("radius_px", radius_px)
+    before = (float(right.x), float(right.y))
+    curve = _near(epipolar_curve(rig.left, rig.right, left.pixel, near, far, samples=400), right.pixel, radius)
+    if len(curve.pixels) < 2:
+        return KeypointRefinement(left.name, before, before, None,
+                                  f"the epipolar curve passes no closer than {radius:g} px to the model's point")
+    try:
+        match = match_along_curve(left_image, right_image, left.pixel, curve, window=window, min_score=min_score)
+    except InvalidParameterError as error:  # a keypoint too near the edge for the patch
+        return KeypointRefinement(left.name, before, before, None, error.problem)
+    if not match:
+        return KeypointRefinement(left.name, before, before, match.score if match.pixel else None,
+                                  match.reason or "no match")
+    return KeypointRefinement(left.name, before, (float(match.pixel[0]), float(match.pixel[1])), float(match.score))
+
+
+def refine_pair(left_image: np.ndarray, right_image: np.ndarray, pair: StereoPair, rig: StereoRig,
+                keypoints: Sequence[str] = ("snout", "fork"), window: int = 15, radius_px: float = 12.0,
+                near: float = 0.3, far: float = 10.0, min_score: float = 0.6) -> RefinedPair:
+    """The pair with each of ``keypoints`` (those both detections give) refined in the right image by
+    :func:`refine_keypoint`; other keypoints are left as the model gave them."""
+    done: list[KeypointRefinement] = []
+    moved: dict[str, tuple[float, float]] = {}
+    for name in keypoints:
+        if name not in pair.left.keypoint_names or name not in pair.right.keypoint_names:
+            continue
+        step = refine_keypoint(left_image, right_image, rig, pair.left.keypoint(name), pair.right.keypoint(name),
+                               window, radius_px, near, far, min_score)
+        done.append(step)
+        if step.refined:
+            moved[name] = step.after
+    right: Detection = pair.right
+    if moved:
+        right = replace(right, keypoints=tuple(replace(k, x=moved[k.name][0], y=moved[k.name][1]) if k.name in moved
+                                               else k for k in right.keypoints))
+    return RefinedPair(replace(pair, right=right), tuple(done))
