@@ -227,28 +227,37 @@ def finished(grey: np.ndarray, ids: tuple[str, ...], pixels: np.ndarray, notes: 
     return TargetDetection(tuple(ids), pixels, _quality(gx, gy), size, "", tuple(notes), stage)
 
 
+def nearest_px(pixels: np.ndarray) -> np.ndarray:
+    """Each found point's distance (pixels) to its nearest neighbour (10 px for a point alone)."""
+    pixels = np.asarray(pixels, np.float64).reshape(-1, 2)
+    if len(pixels) < 2:
+        return np.full(len(pixels), 10.0)
+    d = np.linalg.norm(pixels[:, None, :] - pixels[None, :, :], axis=2)
+    np.fill_diagonal(d, np.inf)
+    return d.min(axis=1)
+
+
 def spacing_px(pixels: np.ndarray) -> float:
     """The median distance (pixels) from each found point to its nearest neighbour."""
     pixels = np.asarray(pixels, np.float64).reshape(-1, 2)
-    if len(pixels) < 2:
-        return 10.0
-    d = np.linalg.norm(pixels[:, None, :] - pixels[None, :, :], axis=2)
-    np.fill_diagonal(d, np.inf)
-    return float(np.median(d.min(axis=1)))
+    return float(np.median(nearest_px(pixels))) if len(pixels) >= 2 else 10.0
 
 
 def refine_corners(grey: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     """OpenCV's ``cornerSubPix`` on chessboard corners, over a window of 0.35 × the corner spacing each
     side (on boards rendered through every housing: about 0.04 px RMS, where findChessboardCornersSB's own
-    accuracy refinement gives about 0.12 px and costs five times its search). A corner nearer the image's
-    edge than that is refined over a window that stays inside the image (a window cut by the edge pulls the
-    corner by tenths of a pixel)."""
-    half = int(np.clip(round(0.35 * spacing_px(pixels)), 2, 25))
+    accuracy refinement gives about 0.12 px and costs five times its search). The spacing is each corner's
+    own (the distance to its nearest neighbour, at most the board's median): on a board seen obliquely the
+    squares on its far side are narrower than the median, and a window sized by the median reaches past a
+    border corner's outer square to the board's edge, which pulls the corner by pixels (seen on real
+    views). A corner nearer the image's edge than that is refined over a window that stays inside the
+    image (a window cut by the edge pulls the corner by tenths of a pixel)."""
     pixels = np.ascontiguousarray(pixels, np.float32).reshape(-1, 2)
+    halves = np.clip(np.round(0.35 * np.minimum(nearest_px(pixels), spacing_px(pixels))), 2, 25).astype(np.int64)
     height, width = grey.shape[:2]
     room = np.floor(np.minimum.reduce([pixels[:, 0], pixels[:, 1], width - 1 - pixels[:, 0],
                                        height - 1 - pixels[:, 1]])).astype(np.int64) - 1
-    windows = np.clip(room, 2, half)
+    windows = np.clip(np.minimum(room, halves), 2, None)
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 40, 0.001)
     refined = pixels.copy()
     for window in np.unique(windows):
