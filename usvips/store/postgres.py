@@ -91,8 +91,26 @@ def cache_folder(url: str) -> Path:
     return Path.home() / ".cache" / "usvips" / parse_server_location(url).name()
 
 
+#: libpq's words for a connection that broke under a statement (the server killed, restarted or gone away)
+LOST_CONNECTION = ("consuming input failed", "server closed the connection", "terminating connection",
+                   "could not receive data", "could not send data", "no connection to the server",
+                   "connection is lost", "connection is closed", "connection is bad", "ssl syscall error",
+                   "lost synchronization", "the database system is shutting down", "the database system is starting up",
+                   "the database system is in recovery mode")
+
+
+def _lost(error: BaseException) -> bool:
+    """Whether a psycopg error says the connection to the server broke (rather than what the server refused)."""
+    return isinstance(error, psycopg.OperationalError) and (
+        isinstance(error, pg_errors.AdminShutdown | pg_errors.CrashShutdown | pg_errors.CannotConnectNow)
+        or any(words in str(error).lower() for words in LOST_CONNECTION))
+
+
 def _one_line(error: BaseException) -> str:
-    """A server error in one line (psycopg's messages carry DETAIL/HINT lines and the socket's path)."""
+    """A server error in one line (psycopg's messages carry DETAIL/HINT lines and the socket's path); a
+    connection that broke is said in plain words, not libpq's ("consuming input failed …")."""
+    if _lost(error):
+        return "the connection to the server was lost"
     if isinstance(error, psycopg.Error) and error.diag.message_primary:
         text = error.diag.message_primary
         if error.diag.message_detail:
@@ -122,15 +140,34 @@ def _connect(url: str, read_only: bool) -> psycopg.Connection:
     try:
         connection = psycopg.connect(autocommit=True, connect_timeout=CONNECT_TIMEOUT_S, **parameters)
     except psycopg.Error as error:
-        raise ProjectError(f"{public_location(url)}: cannot connect: {connection_problem(error, url)}") from None
+        raise _not_connected(url, error, connection_problem(error, url)) from None
     try:
         if read_only:
             connection.execute("SET default_transaction_read_only = on")
         connection.execute(f"SET lock_timeout = '{int(LOCK_WAIT_S * 1000)}ms'")
     except psycopg.Error as error:
         connection.close()
-        raise ProjectError(f"{public_location(url)}: cannot connect: {_one_line(error)}") from None
+        raise _not_connected(url, error, _one_line(error)) from None
     return connection
+
+
+def _not_connected(url: str, error: psycopg.Error, problem: str) -> ProjectError:
+    """The refusal of a connection that failed for ``problem``: a :class:`ServerUnreachableError` when the
+    connection broke on the way (a server killed or restarting), else a ``ProjectError``; either keeps the
+    ``problem`` (for a reconnection's own message)."""
+    if _lost(error):
+        refused: ProjectError = ServerUnreachableError(f"{public_location(url)}: cannot connect: the server is "
+                                                       f"unreachable ({problem}); try again in a moment")
+    else:
+        refused = ProjectError(f"{public_location(url)}: cannot connect: {problem}")
+    refused.problem = problem
+    return refused
+
+
+def _unreachable_at_opening(location: str, error: psycopg.Error) -> ServerUnreachableError:
+    """A survey that could not be opened because its connection broke while it was being read."""
+    return ServerUnreachableError(f"{location}: the server is unreachable ({_one_line(error)}); the survey was not "
+                                  "opened — try again in a moment")
 
 
 #: the survey's roles (cluster-wide group roles, no login of their own): an annotator reads and writes
@@ -278,7 +315,7 @@ class PostgresBackend(Backend):
             try:
                 fresh = _connect(self.url, self.read_only)
             except ProjectError as error:
-                problem = str(error).split("cannot connect: ", 1)[-1]
+                problem = getattr(error, "problem", str(error))
                 continue
             with _quietly():
                 self.raw.close()
@@ -588,7 +625,11 @@ class ServerProject(Survey):
                 connection.close()
                 raise
         survey = cls(url, connection, read_only, Path(path) if path is not None else None)
-        survey.login_is_annotator()
+        try:
+            survey.login_is_annotator()
+        except BaseException:
+            survey.close()
+            raise
         return survey
 
     def login_is_annotator(self) -> None:
@@ -598,6 +639,8 @@ class ServerProject(Survey):
             login, administrator = self._db.raw.execute(
                 "SELECT session_user::text, usvips_is_role_member('usvips_administrator')").fetchone()
         except psycopg.Error as error:
+            if _lost(error):
+                raise _unreachable_at_opening(self.location, error) from None
             raise ProjectError(f"{self.path}: cannot open the survey: {_one_line(error)}") from None
         if not administrator:
             self.annotator = login
@@ -624,6 +667,8 @@ class ServerProject(Survey):
                 connection.execute("UPDATE meta SET value = %s WHERE key = 'schema_version'",
                                    (str(SCHEMA_VERSION),))
         except psycopg.Error as error:
+            if _lost(error):
+                raise _unreachable_at_opening(location, error) from None
             raise ProjectError(f"{location}: cannot upgrade the survey from schema {version}: {_one_line(error)} "
                                "(nothing was changed)") from None
 
@@ -638,6 +683,8 @@ class ServerProject(Survey):
             raise ProjectError(f"{location}: the login {login} is not one of this survey's annotators (its owner or "
                                f"an administrator gives it a role: GRANT usvips_annotator TO {login})") from None
         except psycopg.Error as error:
+            if _lost(error):
+                raise _unreachable_at_opening(location, error) from None
             raise ProjectError(f"{location}: cannot open the survey: {_one_line(error)}") from None
         if meta.get("format") != FORMAT or not str(meta.get("schema_version", "")).isdigit():
             raise ProjectError(f"{location}: not a USVIPS survey (its 'meta' table is something else's)")
