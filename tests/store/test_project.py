@@ -337,3 +337,38 @@ def test_a_full_disk_is_one_line_and_nothing_half_written(project):
         with pytest.raises(ProjectError, match="the disk is full.*nothing was changed"):
             edit()
     assert [(o.attribute, o.notes) for o in project.objects()] == [("kept", "")] and len(project.control()) == 0
+
+
+def _wal_header_then_garbage(rng) -> bytes:
+    """An SQLite header that says WAL mode (file format 2), then random pages: SQLite opens it and makes
+    its -wal and -shm before finding the damage."""
+    header = bytearray(b"SQLite format 3\x00" + bytes(84))
+    header[16:18] = (4096).to_bytes(2, "big")
+    header[18] = header[19] = 2
+    header[21:24] = bytes((64, 32, 32))
+    return bytes(header) + rng.bytes(3 * 4096 - len(header))
+
+
+@pytest.mark.parametrize("read_only", [True, False])
+def test_a_refused_file_is_left_alone_with_nothing_written_beside_it(tmp_path, read_only):
+    """Opening a file that is no USVIPS project — garbage behind a WAL-mode SQLite header, an SQLite database
+    of something else in WAL mode — is refused in one line, and nothing is written next to it (its -wal and
+    -shm, made by SQLite on the way, are gone again); a folder's other files and a refused file's own
+    existing -wal are left as they were."""
+    rng = np.random.default_rng(5)
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    (folder / "garbage.usvips").write_bytes(_wal_header_then_garbage(rng))
+    other = sqlite3.connect(folder / "other.usvips")
+    other.execute("PRAGMA journal_mode = WAL")
+    other.execute("CREATE TABLE fish (name TEXT)")
+    other.close()
+    (folder / "kept.usvips-wal").write_bytes(b"")  # someone else's, beside a file that is refused below
+    (folder / "kept.usvips").write_bytes(_wal_header_then_garbage(rng))
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    for name, reason in (("garbage.usvips", "damaged"), ("other.usvips", "an SQLite database of something else"),
+                         ("kept.usvips", "damaged")):
+        with pytest.raises(ProjectError, match=reason) as refused:
+            Project.open(folder / name, read_only=read_only)
+        assert "\n" not in str(refused.value) and name in str(refused.value)
+        assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # nothing added, nothing changed

@@ -127,3 +127,53 @@ def test_a_store_opened_while_the_server_is_down_is_refused_in_one_line(killable
         assert "\n" not in str(refused.value)
     finally:
         killable.start()
+
+
+def _cut(connection: psycopg.Connection, admin_url: str) -> None:
+    """Break ``connection`` as a server kill does: its server process is ended, and gone, before it returns."""
+    pid = connection.info.backend_pid
+    with psycopg.Connection.connect(admin_url, autocommit=True) as admin:
+        admin.execute("SELECT pg_terminate_backend(%s)", (pid,))
+        for _ in range(400):  # a bounded wait for the process to be gone (no time asserted)
+            if not admin.execute("SELECT 1 FROM pg_stat_activity WHERE pid = %s", (pid,)).fetchall():
+                return
+            time.sleep(0.01)
+
+
+@pytest.mark.parametrize("stage", ["connecting", "reading the survey"])
+def test_a_connection_broken_while_a_survey_opens_is_the_server_unreachable_never_a_driver_message(
+        postgres_server, new_database, monkeypatch, stage):
+    """A reopen just after a server kill may meet a connection that breaks under its first statements (libpq
+    then says "consuming input failed", "server closed the connection unexpectedly" or "terminating
+    connection"): it is refused as the server being unreachable, in one line in plain words, and the
+    connection is not left open. Fails without the fix: a plain ProjectError carrying libpq's words."""
+    import usvips.store.postgres as postgres
+
+    url = new_database("broken_open")
+    ServerProject.create(url).close()
+    made: list[psycopg.Connection] = []
+    real_connect, real_store_connect = psycopg.connect, postgres._connect
+
+    def connect_then_cut(*args, **kwargs):  # broken before the store's first statement on it
+        made.append(real_connect(*args, **kwargs))
+        _cut(made[-1], postgres_server)
+        return made[-1]
+
+    def store_connect_then_cut(*args, **kwargs):  # broken after the connection was made, before the survey is read
+        made.append(real_store_connect(*args, **kwargs))
+        _cut(made[-1], postgres_server)
+        return made[-1]
+
+    if stage == "connecting":
+        monkeypatch.setattr(psycopg, "connect", connect_then_cut)
+    else:
+        monkeypatch.setattr(postgres, "_connect", store_connect_then_cut)
+    with pytest.raises(ServerUnreachableError, match="the server is unreachable") as refused:
+        ServerProject.open(url)
+    message = str(refused.value)
+    assert "\n" not in message and "consuming input" not in message and "terminating connection" not in message
+    assert "server closed the connection" not in message and "broken_open" in message
+    assert made and all(connection.closed for connection in made)
+    monkeypatch.undo()
+    with ServerProject.open(url) as survey:  # the server itself was fine all along
+        assert survey.objects() == []

@@ -17,8 +17,10 @@ passes the unchanged contract suite, and one branch in :mod:`usvips.store.openin
 
 from __future__ import annotations
 
+import contextlib
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
@@ -57,6 +59,16 @@ class Result:
         return iter(self.rows)
 
 
+@dataclass(frozen=True)
+class Statement:
+    """One statement of a :meth:`Backend.batch`: ``sql`` (``?`` placeholders) with its ``parameters`` or, with
+    ``many``, a sequence of parameter rows (the statement once for each, as :meth:`Backend.executemany`)."""
+
+    sql: str
+    parameters: Sequence = ()
+    many: bool = False
+
+
 class Backend(ABC):
     """Where a survey's rows live (see the module docstring). ``where`` names the survey in messages;
     ``media_folder`` is what relative media paths resolve against; ``insertion_order`` is the column that
@@ -74,6 +86,30 @@ class Backend(ABC):
     @abstractmethod
     def executemany(self, sql: str, rows: Iterable[Sequence]) -> Result:
         """One statement for each row of ``rows``."""
+
+    def batch(self, statements: Sequence[Statement]) -> list[Result]:
+        """Several statements, in order, inside the transaction in progress: all of them or — when one fails —
+        none (the batch is undone alone, as a failing statement is); each one's :class:`Result` (a ``many``
+        statement's holds no rows). A backend whose round trips cost (a server) sends them at once; this one
+        runs them in turn within a savepoint."""
+        if not self.in_transaction or len(statements) < 2:
+            return [self._one(statement) for statement in statements]
+        self.execute("SAVEPOINT usvips_batch")
+        try:
+            results = [self._one(statement) for statement in statements]
+        except BackendError:
+            if self.in_transaction:  # (some failures — a full disk — have already undone the whole transaction)
+                with contextlib.suppress(BackendError):
+                    self.execute("ROLLBACK TO SAVEPOINT usvips_batch")
+                    self.execute("RELEASE SAVEPOINT usvips_batch")
+            raise
+        self.execute("RELEASE SAVEPOINT usvips_batch")
+        return results
+
+    def _one(self, statement: Statement) -> Result:
+        if statement.many:
+            return self.executemany(statement.sql, statement.parameters)
+        return self.execute(statement.sql, statement.parameters)
 
     @abstractmethod
     def begin(self, write: bool) -> None:

@@ -40,7 +40,7 @@ from psycopg import errors as pg_errors
 from psycopg import sql as pg_sql
 from psycopg.pq import TransactionStatus
 
-from usvips.store.backend import Backend, BackendError, ConstraintError, Result
+from usvips.store.backend import Backend, BackendError, ConstraintError, Result, Statement
 from usvips.store.change_watch import ChangeWatch
 from usvips.store.file_copy import SERVER_ONLY_META, check_new_file, table_order, write_file
 from usvips.store.location import parse_server_location, public_location
@@ -91,8 +91,26 @@ def cache_folder(url: str) -> Path:
     return Path.home() / ".cache" / "usvips" / parse_server_location(url).name()
 
 
+#: libpq's words for a connection that broke under a statement (the server killed, restarted or gone away)
+LOST_CONNECTION = ("consuming input failed", "server closed the connection", "terminating connection",
+                   "could not receive data", "could not send data", "no connection to the server",
+                   "connection is lost", "connection is closed", "connection is bad", "ssl syscall error",
+                   "lost synchronization", "the database system is shutting down", "the database system is starting up",
+                   "the database system is in recovery mode")
+
+
+def _lost(error: BaseException) -> bool:
+    """Whether a psycopg error says the connection to the server broke (rather than what the server refused)."""
+    return isinstance(error, psycopg.OperationalError) and (
+        isinstance(error, pg_errors.AdminShutdown | pg_errors.CrashShutdown | pg_errors.CannotConnectNow)
+        or any(words in str(error).lower() for words in LOST_CONNECTION))
+
+
 def _one_line(error: BaseException) -> str:
-    """A server error in one line (psycopg's messages carry DETAIL/HINT lines and the socket's path)."""
+    """A server error in one line (psycopg's messages carry DETAIL/HINT lines and the socket's path); a
+    connection that broke is said in plain words, not libpq's ("consuming input failed …")."""
+    if _lost(error):
+        return "the connection to the server was lost"
     if isinstance(error, psycopg.Error) and error.diag.message_primary:
         text = error.diag.message_primary
         if error.diag.message_detail:
@@ -122,15 +140,34 @@ def _connect(url: str, read_only: bool) -> psycopg.Connection:
     try:
         connection = psycopg.connect(autocommit=True, connect_timeout=CONNECT_TIMEOUT_S, **parameters)
     except psycopg.Error as error:
-        raise ProjectError(f"{public_location(url)}: cannot connect: {connection_problem(error, url)}") from None
+        raise _not_connected(url, error, connection_problem(error, url)) from None
     try:
         if read_only:
             connection.execute("SET default_transaction_read_only = on")
         connection.execute(f"SET lock_timeout = '{int(LOCK_WAIT_S * 1000)}ms'")
     except psycopg.Error as error:
         connection.close()
-        raise ProjectError(f"{public_location(url)}: cannot connect: {_one_line(error)}") from None
+        raise _not_connected(url, error, _one_line(error)) from None
     return connection
+
+
+def _not_connected(url: str, error: psycopg.Error, problem: str) -> ProjectError:
+    """The refusal of a connection that failed for ``problem``: a :class:`ServerUnreachableError` when the
+    connection broke on the way (a server killed or restarting), else a ``ProjectError``; either keeps the
+    ``problem`` (for a reconnection's own message)."""
+    if _lost(error):
+        refused: ProjectError = ServerUnreachableError(f"{public_location(url)}: cannot connect: the server is "
+                                                       f"unreachable ({problem}); try again in a moment")
+    else:
+        refused = ProjectError(f"{public_location(url)}: cannot connect: {problem}")
+    refused.problem = problem
+    return refused
+
+
+def _unreachable_at_opening(location: str, error: psycopg.Error) -> ServerUnreachableError:
+    """A survey that could not be opened because its connection broke while it was being read."""
+    return ServerUnreachableError(f"{location}: the server is unreachable ({_one_line(error)}); the survey was not "
+                                  "opened — try again in a moment")
 
 
 #: the survey's roles (cluster-wide group roles, no login of their own): an annotator reads and writes
@@ -252,6 +289,8 @@ class PostgresBackend(Backend):
         self.media_folder = media
         #: how often the connection was made again after the server went away
         self.reconnections = 0
+        #: the statements that start the transaction begun (:meth:`begin`), until its first statement takes them
+        self._starting: tuple[str, ...] | None = None
 
     # ------------------------------------------------------------------------ the connection
     def _alive(self) -> bool:
@@ -259,7 +298,8 @@ class PostgresBackend(Backend):
 
     @property
     def in_transaction(self) -> bool:
-        return self._alive() and self.raw.info.transaction_status != TransactionStatus.IDLE
+        return self._starting is not None or (self._alive() and
+                                              self.raw.info.transaction_status != TransactionStatus.IDLE)
 
     def _unreachable(self, why: str, committing: bool = False) -> ServerUnreachableError:
         written = ("the server did not confirm the change: read the survey again to see whether it was kept"
@@ -275,7 +315,7 @@ class PostgresBackend(Backend):
             try:
                 fresh = _connect(self.url, self.read_only)
             except ProjectError as error:
-                problem = str(error).split("cannot connect: ", 1)[-1]
+                problem = getattr(error, "problem", str(error))
                 continue
             with _quietly():
                 self.raw.close()
@@ -316,9 +356,63 @@ class PostgresBackend(Backend):
 
     # ------------------------------------------------------------------------ statements
     def execute(self, sql: str, parameters: Sequence = ()) -> Result:
-        lone = not self.in_transaction
+        return self._send([Statement(sql, parameters)])[0]
+
+    def executemany(self, sql: str, rows: Iterable[Sequence]) -> Result:
+        return self._send([Statement(sql, rows, many=True)])[0]
+
+    def batch(self, statements: Sequence[Statement]) -> list[Result]:
+        """The statements sent together in one round trip (psycopg's pipeline mode); inside a transaction
+        within one savepoint — SAVEPOINT, each statement, RELEASE — so that a failing one undoes the batch
+        alone."""
+        return self._send(statements)
+
+    @staticmethod
+    def _reads(sql: str) -> bool:
+        return sql.lstrip()[:6].upper() == "SELECT"
+
+    def _send(self, statements: Sequence[Statement]) -> list[Result]:
+        """Run ``statements`` and read their results. Sent at once, in one round trip: the start of the
+        transaction when it has not been sent yet (:meth:`begin`), and — for writes inside a transaction —
+        a savepoint around them, so that a failing one is undone alone (as in SQLite) and the transaction
+        may carry on. A start (or a lone read) that meets a connection the server has closed since its last
+        use is made again once on a new connection (:meth:`_afresh`)."""
+        statements = [Statement(s.sql, [tuple(row) for row in s.parameters], True) if s.many else
+                      Statement(s.sql, tuple(s.parameters)) for s in statements]
+        starting, self._starting = self._starting, None
+        reads = all(not s.many and self._reads(s.sql) for s in statements)
+        guarded = (starting is not None or self.in_transaction) and not reads
+
+        def attempt() -> list[Result]:
+            cursors = [self.raw.cursor() for _ in statements]
+            try:
+                try:
+                    if starting is None and not guarded and len(statements) == 1:  # one plain statement
+                        self._run(cursors[0], statements[0])
+                    else:
+                        with self.raw.pipeline():
+                            for sql in starting or ():
+                                self.raw.execute(sql)
+                            if guarded:
+                                self.raw.execute("SAVEPOINT usvips_statement")
+                            for cursor, statement in zip(cursors, statements, strict=True):
+                                self._run(cursor, statement)
+                            if guarded:
+                                self.raw.execute("RELEASE SAVEPOINT usvips_statement")
+                except psycopg.Error:
+                    if guarded and self._alive() and self.raw.info.transaction_status == TransactionStatus.INERROR:
+                        with _quietly():  # (no savepoint when the start itself failed: the caller rolls back)
+                            self.raw.execute("ROLLBACK TO SAVEPOINT usvips_statement")
+                            self.raw.execute("RELEASE SAVEPOINT usvips_statement")
+                    raise
+                return [Result(c.fetchall(), c.rowcount, tuple(column.name for column in c.description))
+                        if c.description is not None else Result([], max(c.rowcount, 0)) for c in cursors]
+            finally:
+                for cursor in cursors:
+                    cursor.close()
+
         try:
-            return self._afresh(lambda: self._run(sql, tuple(parameters)), lone and self._reads(sql))
+            return self._afresh(attempt, starting is not None or (reads and not self.in_transaction))
         except psycopg.OperationalError as error:
             if not self._alive():  # a transaction was under way: it is gone, nothing of it kept
                 raise self._unreachable(_one_line(error)) from None
@@ -327,69 +421,25 @@ class PostgresBackend(Backend):
             raise self._error(error) from None
 
     @staticmethod
-    def _reads(sql: str) -> bool:
-        return sql.lstrip()[:6].upper() == "SELECT"
-
-    def _run(self, sql: str, parameters: tuple) -> Result:
-        with self.raw.cursor() as cursor:
-            self._guarded(sql, lambda: cursor.execute(_placeholders(sql), parameters))
-            if cursor.description is None:
-                return Result([], cursor.rowcount)
-            return Result(cursor.fetchall(), cursor.rowcount, tuple(column.name for column in cursor.description))
-
-    def executemany(self, sql: str, rows: Iterable[Sequence]) -> Result:
-        rows = [tuple(r) for r in rows]
-        if not rows:
-            return Result([], 0)
-        try:
-            with self.raw.cursor() as cursor:
-                self._guarded(sql, lambda: cursor.executemany(_placeholders(sql), rows))
-                return Result([], cursor.rowcount)
-        except psycopg.Error as error:
-            if isinstance(error, psycopg.OperationalError) and not self._alive():
-                raise self._unreachable(_one_line(error)) from None
-            raise self._error(error) from None
-
-    def _guarded(self, sql: str, statement) -> None:
-        """Run ``statement()``; a write inside a transaction within a savepoint (a failed statement is undone
-        alone, as in SQLite), the SAVEPOINT, the statement and the RELEASE sent together in one round trip
-        (psycopg's pipeline mode)."""
-        if not self.in_transaction or self._reads(sql):
-            statement()
-            return
-        try:
-            with self.raw.pipeline():
-                self.raw.execute("SAVEPOINT usvips_statement")
-                statement()
-                self.raw.execute("RELEASE SAVEPOINT usvips_statement")
-        except psycopg.Error:
-            if self._alive() and self.raw.info.transaction_status == TransactionStatus.INERROR:
-                self.raw.execute("ROLLBACK TO SAVEPOINT usvips_statement")
-                self.raw.execute("RELEASE SAVEPOINT usvips_statement")
-            raise
+    def _run(cursor: psycopg.Cursor, statement: Statement) -> None:
+        if not statement.many:
+            cursor.execute(_placeholders(statement.sql), statement.parameters)
+        elif statement.parameters:
+            cursor.executemany(_placeholders(statement.sql), statement.parameters)
 
     # ------------------------------------------------------------------------ transactions
     def begin(self, write: bool) -> None:
-        def start() -> None:
-            try:
-                if write:  # writers take turns: the survey's write lock, waited for LOCK_WAIT_S at most (one
-                    # round trip: both statements sent at once)
-                    self.raw.execute("BEGIN ISOLATION LEVEL READ COMMITTED; "
-                                     f"SELECT pg_advisory_xact_lock({WRITE_LOCK})")
-                else:  # one snapshot: reads never wait
-                    self.raw.execute("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY")
-            except psycopg.Error:
-                if self.in_transaction:
-                    with _quietly():
-                        self.raw.execute("ROLLBACK")
-                raise
-
-        try:
-            self._afresh(start, lone=True)
-        except psycopg.Error as error:
-            raise self._error(error) from None
+        """Start a transaction: nothing is sent yet — its start goes with its first statement, in the same
+        round trip. A write transaction first takes the survey's write lock (writers take turns, each
+        waiting ``LOCK_WAIT_S`` at most: a writer refused it is refused that first statement, and the
+        caller rolls back); a read one is one snapshot (reads never wait)."""
+        self._starting = (("BEGIN ISOLATION LEVEL READ COMMITTED", f"SELECT pg_advisory_xact_lock({WRITE_LOCK})")
+                          if write else ("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY",))
 
     def commit(self) -> None:
+        if self._starting is not None:  # nothing was sent: nothing to commit
+            self._starting = None
+            return
         try:
             self.raw.execute("COMMIT")
         except psycopg.Error as error:
@@ -398,8 +448,9 @@ class PostgresBackend(Backend):
             raise self._error(error) from None
 
     def rollback(self) -> None:
-        if not self._alive():
-            return  # the server undid the transaction when the connection died
+        self._starting = None
+        if not self._alive() or self.raw.info.transaction_status == TransactionStatus.IDLE:
+            return  # nothing was sent, or the server undid the transaction when the connection died
         try:
             self.raw.execute("ROLLBACK")
         except psycopg.Error as error:
@@ -574,7 +625,11 @@ class ServerProject(Survey):
                 connection.close()
                 raise
         survey = cls(url, connection, read_only, Path(path) if path is not None else None)
-        survey.login_is_annotator()
+        try:
+            survey.login_is_annotator()
+        except BaseException:
+            survey.close()
+            raise
         return survey
 
     def login_is_annotator(self) -> None:
@@ -584,6 +639,8 @@ class ServerProject(Survey):
             login, administrator = self._db.raw.execute(
                 "SELECT session_user::text, usvips_is_role_member('usvips_administrator')").fetchone()
         except psycopg.Error as error:
+            if _lost(error):
+                raise _unreachable_at_opening(self.location, error) from None
             raise ProjectError(f"{self.path}: cannot open the survey: {_one_line(error)}") from None
         if not administrator:
             self.annotator = login
@@ -610,6 +667,8 @@ class ServerProject(Survey):
                 connection.execute("UPDATE meta SET value = %s WHERE key = 'schema_version'",
                                    (str(SCHEMA_VERSION),))
         except psycopg.Error as error:
+            if _lost(error):
+                raise _unreachable_at_opening(location, error) from None
             raise ProjectError(f"{location}: cannot upgrade the survey from schema {version}: {_one_line(error)} "
                                "(nothing was changed)") from None
 
@@ -624,6 +683,8 @@ class ServerProject(Survey):
             raise ProjectError(f"{location}: the login {login} is not one of this survey's annotators (its owner or "
                                f"an administrator gives it a role: GRANT usvips_annotator TO {login})") from None
         except psycopg.Error as error:
+            if _lost(error):
+                raise _unreachable_at_opening(location, error) from None
             raise ProjectError(f"{location}: cannot open the survey: {_one_line(error)}") from None
         if meta.get("format") != FORMAT or not str(meta.get("schema_version", "")).isdigit():
             raise ProjectError(f"{location}: not a USVIPS survey (its 'meta' table is something else's)")

@@ -242,10 +242,23 @@ class Project(Survey):
             raise ProjectError(f"{path}: cannot read the project: {error.strerror or error}") from None
         if magic != SQLITE_MAGIC:
             raise ProjectError(f"{path}: not a USVIPS project (not an SQLite database)")
+        # a read-only connection to a file in WAL mode still makes its -wal and -shm files beside it: those it
+        # made are removed again when the file is refused (nothing is left next to a file that is not opened)
+        beside = [Path(f"{path}{suffix}") for suffix in ("-wal", "-shm")]
+        there = [side.exists() for side in beside]
         try:
-            connection = Project._connect(path, read_only=True)
+            return Project._version(path)
         except ProjectError:
+            for side, existed in zip(beside, there, strict=True):
+                if not existed and side.is_file() and (side.name.endswith("-shm") or side.stat().st_size == 0):
+                    side.unlink(missing_ok=True)  # made by the check (a -wal of ours has nothing in it)
             raise
+
+    @staticmethod
+    def _version(path: Path) -> int:
+        """The schema version of the SQLite file ``path`` if it is a USVIPS project this USVIPS reads (read
+        through a read-only connection); else a ``ProjectError`` saying what it is."""
+        connection = Project._connect(path, read_only=True)
         try:
             version = connection.execute("PRAGMA user_version").fetchone()[0]
             tables = {r[0] for r in connection.execute("SELECT name FROM sqlite_master WHERE type='table'")}

@@ -43,7 +43,7 @@ from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.pointing import MIGRATED_SOURCE, PointingSigma, WeakMatch, per_vertex, source_from_label
 from usvips.store import checks, versions
 from usvips.store.annotator import current_annotator
-from usvips.store.backend import PUT_META, Backend, BackendError, ConstraintError, Result, upsert
+from usvips.store.backend import PUT_META, Backend, BackendError, ConstraintError, Result, Statement, upsert
 from usvips.store.change_watch import ChangeWatch
 from usvips.store.records import (
     REVIEW_STATES,
@@ -67,6 +67,14 @@ FORMAT = "usvips-project"
 ACTIVATE = upsert("active_calibrations", ("pair_id", "calibration_id"), ("pair_id",))
 #: an observation record's columns after its object's id
 RECORD_FIELDS = ("family", "genus", "species", "code", "number", "stage", "activity", "comment")
+#: a vertex row stored (:meth:`Survey._vertex_rows`)
+INSERT_VERTEX = ("INSERT INTO vertices (object_id, idx, pair_id, xl, yl, xr, yr, x, y, z, covariance, calibration_id, "
+                 "creator, created, pointing_source, sigma_left_px, sigma_right_px, pointing_origin, weak_score, "
+                 f"weak_reason) VALUES ({', '.join('?' * 20)})")
+#: a video vertex's frames stored: (object id, vertex index, video id, left frame, right frame, time s)
+INSERT_VERTEX_FRAMES = "INSERT INTO vertex_frames VALUES (?, ?, ?, ?, ?, ?)"
+#: a history row appended (:meth:`Survey._history_row`)
+INSERT_HISTORY = "INSERT INTO history (at, annotator, object_id, change, old, new) VALUES (?, ?, ?, ?, ?, ?)"
 #: the ``meta`` key holding the campaign (JSON of :class:`~usvips.core.campaign.Campaign`)
 CAMPAIGN_KEY = "campaign"
 #: the ``meta`` key holding the project's pointing estimates (a JSON list, see :meth:`Project.pointing_estimates`)
@@ -521,17 +529,29 @@ class Survey:
             checked.append((checks.object_kind(kind, vertices, self.path), vertices, attribute, notes,
                             creator or self.annotator))
         now = _now()
-        ids = []
         with self.transaction():
             try:
                 first = self._reserve_object_ids(len(checked))
-                for k, (kind, vertices, attribute, notes, creator) in enumerate(checked):
-                    self._db.execute("INSERT INTO objects (id, kind, attribute, notes, creator, created, modified) "
-                                     "VALUES (?, ?, ?, ?, ?, ?, ?)",
-                                     (first + k, kind, attribute, notes, creator, now, now))
-                    ids.append(first + k)
-                    self._insert_vertices(ids[-1], vertices, now)
-                    self._log(ids[-1], "add", None, _object_state(kind, attribute, notes, vertices))
+                ids = list(range(first, first + len(checked)))
+                # every row of every object sent as one batch (a server: one round trip), parents first
+                vertex_rows: list[tuple] = []
+                frame_rows: list[tuple] = []
+                known: dict[tuple[str, str], int] = {}
+                for object_id, (_, vertices, _, _, _) in zip(ids, checked, strict=True):
+                    rows, frames = self._vertex_rows(object_id, vertices, now, known=known)
+                    vertex_rows += rows
+                    frame_rows += frames
+                self._db.batch([
+                    Statement("INSERT INTO objects (id, kind, attribute, notes, creator, created, modified) "
+                              "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                              [(object_id, kind, attribute, notes, creator, now, now) for object_id,
+                               (kind, _, attribute, notes, creator) in zip(ids, checked, strict=True)], many=True),
+                    Statement(INSERT_VERTEX, vertex_rows, many=True),
+                    Statement(INSERT_VERTEX_FRAMES, frame_rows, many=True),
+                    Statement(INSERT_HISTORY, [self._history_row(object_id, "add", None,
+                                                                 _object_state(kind, attribute, notes, vertices))
+                                               for object_id, (kind, vertices, attribute, notes, _) in
+                                               zip(ids, checked, strict=True)], many=True)])
             except ConstraintError as error:
                 raise ProjectError(f"{self.path}: cannot store the object: {error.problem}") from None
         return ids
@@ -554,29 +574,52 @@ class Survey:
 
     def _insert_vertices(self, object_id: int, vertices: list[Vertex], now: str,
                          kept: dict[tuple, tuple[str, str]] | None = None) -> None:
-        """The object's vertex rows, each stamped with who picked it and when: this handle's annotator and
-        ``now``, or for a vertex whose picks are unchanged (``kept``: its pick key → (creator, created)) the
-        stamps it had."""
-        rows = []
+        """The object's vertex rows (and their frames on a video), as :meth:`_vertex_rows` makes them."""
+        rows, frames = self._vertex_rows(object_id, vertices, now, kept)
+        self._db.batch([Statement(INSERT_VERTEX, rows, many=True), Statement(INSERT_VERTEX_FRAMES, frames, many=True)])
+
+    def _vertex_rows(self, object_id: int, vertices: list[Vertex], now: str,
+                     kept: dict[tuple, tuple[str, str]] | None = None,
+                     known: dict[tuple[str, str], int] | None = None) -> tuple[list[tuple], list[tuple]]:
+        """The object's rows of ``vertices`` (:data:`INSERT_VERTEX`) and of their frames on a video
+        (:data:`INSERT_VERTEX_FRAMES`). Each vertex is stamped with who picked it and when: this handle's
+        annotator and ``now``, or for a vertex whose picks are unchanged (``kept``: its pick key → (creator,
+        created)) the stamps it had. ``known``: the ids of pairs and videos already looked up (by ("pair",
+        label) or ("video", label)), so that each is read once."""
+        known = {} if known is None else known
+
+        def id_of(what: str, label: str) -> int:
+            if (what, label) not in known:
+                known[(what, label)] = self.pair_id(label) if what == "pair" else int(self._video_row(label)[0])
+            return known[(what, label)]
+
+        rows, frames = [], []
         for i, v in enumerate(vertices):
             xyz = v.xyz if v.xyz is not None else (None, None, None)
             cov = json.dumps(np.asarray(v.covariance, float).reshape(9).tolist()) if v.covariance is not None else None
-            pair_id = self.pair_id(v.pair) if v.pair else None
+            pair_id = id_of("pair", v.pair) if v.pair else None
             creator, created = (kept or {}).get((i, *_pick_key(v)), (self.annotator, now))
             rows.append((object_id, i, pair_id, v.xl, v.yl, v.xr, v.yr, *xyz, cov, v.calibration_id, creator, created,
                          *_pointing_row(v, self.path)))
-        self._db.executemany("INSERT INTO vertices (object_id, idx, pair_id, xl, yl, xr, yr, x, y, z, covariance, "
-                             "calibration_id, creator, created, pointing_source, sigma_left_px, sigma_right_px, "
-                             "pointing_origin, weak_score, weak_reason) VALUES "
-                             f"({', '.join('?' * 20)})", rows)
-        self._insert_vertex_frames(object_id, vertices)
+            if v.video is None:
+                continue
+            if v.frame_left is None or v.frame_right is None or v.time_s is None:
+                raise ProjectError(f"vertex {i}: a vertex on video {v.video!r} needs its left and right frames "
+                                   "and time")
+            frames.append((object_id, i, id_of("video", v.video), int(v.frame_left), int(v.frame_right),
+                           float(v.time_s)))
+        return rows, frames
 
     # ---------------------------------------------------------------------------- who and when (schema 8)
     def _log(self, object_id: int, change: str, old: dict | None, new: dict | None) -> None:
         """Append one row to the history (inside the caller's transaction): never updated or deleted
         afterwards (the schema's triggers refuse it; the store only ever INSERTs here)."""
-        self._db.execute("INSERT INTO history (at, annotator, object_id, change, old, new) VALUES (?, ?, ?, ?, ?, ?)",
-                         (_now(), self.annotator, int(object_id), change, _history_json(old), _history_json(new)))
+        self._db.execute(INSERT_HISTORY, self._history_row(object_id, change, old, new))
+
+    def _history_row(self, object_id: int, change: str, old: dict | None, new: dict | None) -> tuple:
+        """One history row (:data:`INSERT_HISTORY`): now, this handle's annotator, the object, the change and
+        its old and new value."""
+        return (_now(), self.annotator, int(object_id), change, _history_json(old), _history_json(new))
 
     def _last_change(self, object_id: int) -> str:
         """Who last changed an object, what and when, from the history ('' before schema 8)."""
@@ -588,8 +631,14 @@ class Survey:
 
     def _refuse_stale(self, stored: StoredObject, expected_modified: str | None) -> None:
         """:func:`refuse_stale` naming who made the last change (inside the caller's transaction)."""
-        if expected_modified is not None and stored.modified != expected_modified:
-            refuse_stale(self.path, stored, expected_modified, self._last_change(stored.id))
+        self._refuse_stale_version(stored.id, stored.modified, expected_modified)
+
+    def _refuse_stale_version(self, object_id: int, modified: str, expected_modified: str | None) -> None:
+        """An edit of the object ``object_id``, now at version ``modified``, made on it as read at
+        ``expected_modified`` is refused when they differ, naming who made the last change."""
+        if expected_modified is not None and modified != expected_modified:
+            versions.refuse_stale_object(self.path, int(object_id), modified, expected_modified,
+                                         self._last_change(object_id))
 
     def _refuse_changed(self, item: str, stored: object, expected: object) -> None:
         """Inside the caller's write transaction: a project-wide ``item`` (the campaign, a deployment …)
@@ -699,11 +748,16 @@ class Survey:
         observation record): an accepted object goes back to unreviewed, and the history gains a 'review'
         row by the editor, accepted → unreviewed with the reason :data:`EDITED_AFTER_REVIEW`. A flagged
         object stays flagged (its reason still stands until a reviewer looks again)."""
-        old = self.review(object_id)
+        self._db.batch(self._unaccepted(object_id, self.review(object_id)))
+
+    def _unaccepted(self, object_id: int, old: Review) -> list[Statement]:
+        """What :meth:`_edited_after_review` writes for an object whose review is ``old`` (nothing unless it
+        was accepted)."""
         if old.state != "accepted":
-            return
-        self._db.execute("DELETE FROM reviews WHERE object_id = ?", (object_id,))
-        self._log(object_id, "review", _review_state(old), {"state": "unreviewed", "reason": EDITED_AFTER_REVIEW})
+            return []
+        return [Statement("DELETE FROM reviews WHERE object_id = ?", (object_id,)),
+                Statement(INSERT_HISTORY, self._history_row(object_id, "review", _review_state(old),
+                                                            {"state": "unreviewed", "reason": EDITED_AFTER_REVIEW}))]
 
     def review(self, object_id: int) -> Review:
         """An object's review (unreviewed when none was made, or before schema 9); an unknown id is a
@@ -1308,18 +1362,6 @@ class Survey:
         return [tuple(r) for r in self._db.execute("SELECT name, start_frame, end_frame FROM periods WHERE "
                                                    "video_id = ? ORDER BY start_frame, id", (row[0],))]
 
-    def _insert_vertex_frames(self, object_id: int, vertices: list[Vertex]) -> None:
-        rows = []
-        for i, v in enumerate(vertices):
-            if v.video is None:
-                continue
-            if v.frame_left is None or v.frame_right is None or v.time_s is None:
-                raise ProjectError(f"vertex {i}: a vertex on video {v.video!r} needs its left and right frames "
-                                   "and time")
-            rows.append((object_id, i, self._video_row(v.video)[0], int(v.frame_left), int(v.frame_right),
-                         float(v.time_s)))
-        self._db.executemany("INSERT INTO vertex_frames VALUES (?, ?, ?, ?, ?, ?)", rows)
-
     def _vertex_frame_rows(self, where: str, parameters: tuple) -> list[tuple]:
         """(object id, vertex index, video label, left frame, right frame, time s) of the vertices measured
         on a video; none in a project older than schema 4 (opened read-only, it is not migrated)."""
@@ -1358,20 +1400,33 @@ class Survey:
         and after; an accepted object whose record changed goes back to unreviewed (a second 'review' row,
         see :meth:`_edited_after_review`). One transaction."""
         with self.transaction():
-            stored = self.object(object_id)
-            self._refuse_stale(stored, expected_modified)
-            old = self.record(object_id)
+            # what the write needs to know, by one query: the object's version, its record and its review
+            found = self._db.execute(
+                f"SELECT o.modified, r.object_id, {', '.join('r.' + name for name in RECORD_FIELDS)}, v.state, "
+                "v.reason, v.reviewer, v.reviewed FROM objects o LEFT JOIN observation_records r ON r.object_id = o.id "
+                "LEFT JOIN reviews v ON v.object_id = o.id WHERE o.id = ?", (object_id,)).fetchone()
+            if found is None:
+                raise ProjectError(f"{self.path}: no object {object_id}")
+            modified, old, review = found[0], found[2:10], found[10:]
+            self._refuse_stale_version(object_id, modified, expected_modified)
+            old = None if found[1] is None else ObservationRecord(*old)
+            review = Review(object_id) if review[0] is None else Review(object_id, *review)
             if record is None:
-                self._edit("DELETE FROM observation_records WHERE object_id = ?", (object_id,))
+                written = Statement("DELETE FROM observation_records WHERE object_id = ?", (object_id,))
             else:
-                self._edit(upsert("observation_records", ("object_id", *RECORD_FIELDS, "creator", "created"),
-                                  ("object_id",)),
-                           (object_id, *(getattr(record, name) for name in RECORD_FIELDS), self.annotator, _now()))
-            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(stored.modified), object_id))
-            self._log(object_id, "record", None if old is None else dataclasses.asdict(old),
-                      None if record is None else dataclasses.asdict(record))
-            if old != record:
-                self._edited_after_review(object_id)
+                written = Statement(upsert("observation_records", ("object_id", *RECORD_FIELDS, "creator", "created"),
+                                           ("object_id",)),
+                                    (object_id, *(getattr(record, name) for name in RECORD_FIELDS), self.annotator,
+                                     _now()))
+            try:  # one batch (a server: one round trip)
+                self._db.batch([
+                    written, Statement("UPDATE objects SET modified = ? WHERE id = ?", (_later(modified), object_id)),
+                    Statement(INSERT_HISTORY, self._history_row(
+                        object_id, "record", None if old is None else dataclasses.asdict(old),
+                        None if record is None else dataclasses.asdict(record))),
+                    *(self._unaccepted(object_id, review) if old != record else ())])
+            except ConstraintError as error:
+                raise ProjectError(f"{self.path}: {error.problem}") from None
 
     def records(self) -> dict[int, ObservationRecord]:
         """Every object's observation record by object id, by one query (none before schema 5)."""
