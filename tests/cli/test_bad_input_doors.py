@@ -168,7 +168,7 @@ DOORS: dict[str, list[Door]] = {
              {"--tolerance-frames": ["-1", "x"]})],
     "project review": [
         Door("project review @rov.usvips --accept 1",
-             {"@rov.usvips": "file", "--accept": ["99999", "x", "-1"]}),
+             {"@rov.usvips": "file", "--accept": ["99999", "x", "-1", "1@fake-stamp"]}),
         Door("project review @rov.usvips --flag 1 --reason wrong", {"--flag": ["99999", "x@1"], "--reason": [""]}),
         Door("project review @rov.usvips --list unreviewed", {"--list": ["bogus"]}),
         Door("project review URL --list unreviewed", URL_SLOT)],

@@ -10,6 +10,7 @@ Works on a project file or a survey on a server (any location ``usvips.store.ope
 from __future__ import annotations
 
 import argparse
+from datetime import datetime
 
 from usvips.cli.common import add_annotator_option
 from usvips.core.errors import InvalidParameterError
@@ -40,6 +41,13 @@ def _object_version(text: str) -> tuple[int, str | None]:
         object_id = int(number)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not an object id (ID or ID@VERSION)") from None
+    if version:
+        try:
+            datetime.fromisoformat(version)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: {version!r} is not a version stamp; VERSION is the object's last change as the last "
+                "column of --list prints it (a date and time such as 2026-03-01T10:15:00.123456+00:00)") from None
     return object_id, (version or None)
 
 

@@ -99,7 +99,8 @@ class TargetSession:
 
     def describe_target(self, description: dict, save_to: str | Path | None = None) -> None:
         """A target from a description (``{"kind": …}``), optionally written to ``save_to`` as JSON."""
-        self.target = from_description(dict(description), "the target described")
+        # no file: a bad value is an error naming its field (the page names its own field for it)
+        self.target = from_description(dict(description))
         if save_to:
             Path(save_to).write_text(json.dumps(self.target.describe(), indent=2) + "\n", encoding="utf-8")
             self.target_source = str(save_to)

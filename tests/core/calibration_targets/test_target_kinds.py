@@ -89,6 +89,7 @@ def test_a_contradictory_description_is_refused_naming_the_field(name, change, f
     message = str(in_file.value)
     assert message.startswith("board.json: ") and repr(field) in message and words in message
     assert "\n" not in message
+    assert in_file.value.parameter == field  # the front ends can name their own field for it
 
 
 def test_missing_fields_and_unknown_kinds_are_named():

@@ -136,13 +136,14 @@ def test_the_deployment_dialog_names_a_bad_value_keeps_the_typing_and_stores_bot
         dialog.geo_fields["longitude"].setText("115.1")
         assert not dialog.store()
         seen["message"] = dialog.message.text()
+        assert dialog.field_errors["georeference"].marked() == ["origin latitude"]  # the field outlined
         assert dialog.fields["opcode"].text() == "BRUV-07" and project.deployment() is None
         dialog.geo_fields["latitude"].setText("-32.2")
         dialog.geo_fields["heading_deg"].setText("45")
         assert dialog.store()
 
     assert exchange_dialogs.edit_deployment(window.context, window, fill)
-    assert "latitude: must be between -90 and 90" in seen["message"]
+    assert seen["message"].startswith("georeference: Origin latitude (°): must be between -90 and 90")
     assert project.deployment().opcode == "BRUV-07" and project.deployment().successful_length is False
     assert project.georeference().heading_deg == 45.0 and project.georeference().latitude == -32.2
     assert exchange_dialogs.edit_deployment(window.context, window, lambda d: d.reject()) is False
@@ -164,12 +165,13 @@ def test_the_campaign_is_entered_in_the_deployment_dialog_and_a_bad_value_is_nam
         dialog.campaign_fields["method"].setText("stereo-BRUVs")
         assert not dialog.store()
         seen["message"] = dialog.message.text()
+        assert dialog.field_errors["campaign"].marked() == ["campaign_id"]
         assert project.campaign() is None
         dialog.campaign_fields["campaign_id"].setText("2024-03_Reef_stereo-BRUVs")
         assert dialog.store()
 
     assert exchange_dialogs.edit_deployment(window.context, window, fill)
-    assert seen["message"].startswith("campaign: parameter campaign_id:")
+    assert seen["message"].startswith("campaign: CampaignID: ")  # the field's label, not the library's name
     campaign = project.campaign()
     assert (campaign.campaign_id, campaign.method, campaign.image_analysis) == (
         "2024-03_Reef_stereo-BRUVs", "stereo-BRUVs", "USVIPS")

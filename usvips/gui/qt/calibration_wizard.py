@@ -22,10 +22,11 @@ from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.calibration.report import CalibrationReport, ResidualRow
 from usvips.core.errors import UsvipsError
 from usvips.gui.calibration_session import PHASES, CalibrationSession, CheckPoint, ParameterChange
-from usvips.gui.housing_values import parse_known
+from usvips.gui.housing_values import known_label, read_known
 from usvips.gui.pick_tool import OBSERVE, SIDES
 from usvips.gui.qt import active_pairs
 from usvips.gui.qt.exchange_dialogs import WizardReport
+from usvips.gui.qt.field_errors import FormFields
 from usvips.gui.qt.housing_value_form import fill_known_form
 from usvips.gui.qt.pane import StereoPane, item_from_pixels
 from usvips.gui.qt.worker import Worker, start
@@ -131,6 +132,7 @@ class SetupPage(QtWidgets.QWizardPage):
         from_target.clicked.connect(self._on_from_target)
         form.addRow("Or", from_target)
         self.known: dict[str, QtWidgets.QLineEdit] = {}
+        self._known_housing = session.housing
         if water:
             self.base = QtWidgets.QComboBox()
             for calibration in session.base_calibrations():
@@ -156,6 +158,9 @@ class SetupPage(QtWidgets.QWizardPage):
         self.message = QtWidgets.QLabel()
         self.message.setStyleSheet("color: #c0392b;")
         form.addRow(self.message)
+        #: the page's fields by the parameter an error names: each housing value by its symbol
+        self.field_errors = FormFields(lambda: {name: (edit, known_label(self._known_housing, name))
+                                                for name, edit in self.known.items()}, self.message.setText)
         self.setLayout(form)
         self._refresh_control()
 
@@ -177,6 +182,7 @@ class SetupPage(QtWidgets.QWizardPage):
     def _fill_known(self, housing: str) -> None:
         known = self.session.known if housing == self.session.housing else {}
         self.known = fill_known_form(self.known_form, housing, known)
+        self._known_housing = housing
 
     def _refresh_control(self) -> None:
         control = self.session.control
@@ -228,15 +234,16 @@ class SetupPage(QtWidgets.QWizardPage):
                 if self.housing.currentText() != session.housing:
                     session.known = {}
                 session.housing = self.housing.currentText()
-                for name, edit in self.known.items():
-                    parsed = parse_known(edit.text())
-                    if parsed is None:
-                        session.known.pop(name, None)
+                typed = read_known(session.housing, {name: edit.text() for name, edit in self.known.items()})
+                for name in self.known:
+                    if name in typed:
+                        session.set_known(name, *typed[name])
                     else:
-                        session.set_known(name, *parsed)
+                        session.known.pop(name, None)
         except UsvipsError as error:
-            self.message.setText(str(error))
+            self.field_errors.show(error)  # a housing value at fault: its field outlined and named
             return False
+        self.field_errors.clear()
         self.message.setText("")
         return True
 

@@ -15,6 +15,7 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.app.double_read import COLUMNS, DoubleReadReport, ReportCancelled, annotators, compute, read_inputs
 from usvips.core.errors import UsvipsError
+from usvips.gui.qt.field_errors import FormFields
 from usvips.gui.qt.worker import Cancelled, Worker, start
 from usvips.gui.window_context import WindowContext
 from usvips.io.double_read_table import write_double_read_csv
@@ -103,6 +104,13 @@ class DoubleReadDialog(QtWidgets.QDialog):
         self.summary = QtWidgets.QLabel("")
         self.summary.setWordWrap(True)
         self.summary.setTextInteractionFlags(QtCore.Qt.TextInteractionFlag.TextSelectableByMouse)
+        #: the form's fields by the parameter an error names (a bad choice said with the field's label, the
+        #: field outlined and given the keyboard)
+        self.field_errors = FormFields({"readers": (self.reader_b, "Reader B"),
+                                        "tolerance_s": (self.tolerance, "Same instant within"),
+                                        "tolerance_frames": (self.tolerance, "Same instant within"),
+                                        "gate_m": (self.gate, "Midpoints within"),
+                                        "k": (self.k, "k")}, self.summary.setText)
         self.table = QtWidgets.QTableWidget(0, len(SHOWN))
         self.table.setHorizontalHeaderLabels([header for header, _, _ in SHOWN])
         self.table.setEditTriggers(QtWidgets.QAbstractItemView.EditTrigger.NoEditTriggers)
@@ -176,8 +184,9 @@ class DoubleReadDialog(QtWidgets.QDialog):
         try:
             inputs = read_inputs(project, self.reader_a.currentText(), self.reader_b.currentText())
         except UsvipsError as error:
-            self.summary.setText(str(error))
+            self.field_errors.show(error)
             return None
+        self.field_errors.clear()
         (tolerance_s, tolerance_frames), gate, k = self.tolerances(), self.gate.value(), self.k.value()
 
         def job(progress, cancelled):

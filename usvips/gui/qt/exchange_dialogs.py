@@ -27,6 +27,7 @@ from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
 from usvips.core.errors import UsvipsError
 from usvips.core.observations import StereoObservations
 from usvips.core.stereo_calibration import StereoCalibration
+from usvips.gui.qt.field_errors import FormFields
 from usvips.gui.qt.worker import Cancelled, Worker, start
 from usvips.gui.window_context import WindowContext
 from usvips.io.calibration_file import load_calibration, save_calibration
@@ -374,6 +375,9 @@ _CAMPAIGN_HINTS = {"campaign_id": "YYYY-MM_Project.name_Method", "method": "e.g.
 TYPICAL_CAMPAIGN_ID = "2024-03_Abrolhos.Reef_stereo-BRUVs"
 _GEO = {"latitude": "Origin latitude (°)", "longitude": "Origin longitude (°)", "depth_m": "Origin depth (m)",
         "heading_deg": "Heading of +X (° from north, clockwise)"}
+#: the georeference's fields by the parameter its errors name (:class:`usvips.core.deployment.Georeference`)
+_GEO_PARAMETERS = {"latitude": "origin latitude", "longitude": "origin longitude", "depth_m": "origin depth",
+                   "heading_deg": "heading"}
 
 
 class DeploymentDialog(QtWidgets.QDialog):
@@ -453,6 +457,14 @@ class DeploymentDialog(QtWidgets.QDialog):
         layout.addWidget(scroll, 1)
         layout.addWidget(self.message)
         layout.addWidget(buttons)
+        #: each part's fields by the parameter an error names (a bad value is said with its label, its field
+        #: outlined and focused): the deployment's, the georeference's and the campaign's
+        self.field_errors = {
+            "deployment": FormFields({n: (w, _LABELS[n]) for n, w in self.fields.items()}, self.message.setText),
+            "georeference": FormFields({_GEO_PARAMETERS[n]: (w, _GEO[n]) for n, w in self.geo_fields.items()},
+                                       self.message.setText),
+            "campaign": FormFields({n: (w, _CAMPAIGN[n]) for n, w in self.campaign_fields.items()},
+                                   self.message.setText)}
 
     def _typed_now(self) -> dict:
         return {name: (w.isChecked() if isinstance(w, QtWidgets.QCheckBox) else w.text())
@@ -479,39 +491,55 @@ class DeploymentDialog(QtWidgets.QDialog):
         """Scope → the deployment typed for it (None: no OpCode, none); raises :class:`UsvipsError` naming
         a bad value and the scope."""
         self._typed[self._shown] = self._typed_now()
-        out = {}
-        for scope, typed in self._typed.items():
-            try:
-                out[scope] = Deployment(**typed) if str(typed["opcode"]).strip() else None
-            except UsvipsError as error:
-                raise UsvipsError(f"{'video ' + scope if scope else 'the project'}: {error}") from None
-        return out
+        return {scope: Deployment(**typed) if str(typed["opcode"]).strip() else None
+                for scope, typed in self._typed.items()}
+
+    def _deployment_of(self, scope: str) -> Deployment | None:
+        """The deployment typed for ``scope``; a bad value shows that scope's fields and raises."""
+        typed = self._typed[scope]
+        try:
+            return Deployment(**typed) if str(typed["opcode"]).strip() else None
+        except UsvipsError:
+            if scope != self._shown:
+                self.scope.setCurrentIndex(self.scope.findData(scope))  # its fields shown, to be corrected
+            raise
 
     def values(self) -> tuple[Deployment | None, Georeference | None]:
         """What the form shows (raises :class:`UsvipsError` naming a bad value); no OpCode: no deployment."""
-        deployment = self.deployments()[self._shown]
-        georeference = None
-        if self.georeferenced.isChecked():
-            georeference = Georeference(*(self.geo_fields[n].text() or None for n in ("latitude", "longitude")),
-                                        self.geo_fields["depth_m"].text() or 0.0,
-                                        self.geo_fields["heading_deg"].text() or 0.0)
-        return deployment, georeference
+        return self.deployments()[self._shown], self._georeference()
+
+    def _georeference(self) -> Georeference | None:
+        """The georeference typed (None when its box is unticked); raises :class:`UsvipsError` naming a bad value."""
+        if not self.georeferenced.isChecked():
+            return None
+        return Georeference(*(self.geo_fields[n].text() or None for n in ("latitude", "longitude")),
+                            self.geo_fields["depth_m"].text() or 0.0, self.geo_fields["heading_deg"].text() or 0.0)
 
     def campaign(self) -> Campaign | None:
         """The campaign typed (None when its box is unticked); raises :class:`UsvipsError` naming a bad value."""
         if not self.campaigned.isChecked():
             return None
-        try:
-            return Campaign(**{name: widget.text() for name, widget in self.campaign_fields.items()})
-        except UsvipsError as error:
-            raise UsvipsError(f"campaign: {error}") from None
+        return Campaign(**{name: widget.text() for name, widget in self.campaign_fields.items()})
 
     def store(self) -> bool:
         """Store the form (OK); on a bad value say which and stay open."""
+        self._typed[self._shown] = self._typed_now()
+        scopes = list(self._typed)
+        parts = [("deployment", f"{'video ' + scope if scope else 'the project'}: ",
+                  lambda scope=scope: self._deployment_of(scope)) for scope in scopes]
+        parts += [("georeference", "georeference: ", self._georeference), ("campaign", "campaign: ", self.campaign)]
+        typed = []
+        for part, where, read in parts:
+            try:
+                typed.append(read())
+            except UsvipsError as error:  # said in the form's terms, its field outlined and focused
+                self.field_errors[part].show(error, where)
+                return False
+        for errors in self.field_errors.values():
+            errors.clear()
+        *typed_deployments, georeference, campaign = typed
+        deployments = dict(zip(scopes, typed_deployments, strict=True))
         try:
-            deployments = self.deployments()
-            _, georeference = self.values()
-            campaign = self.campaign()
             read_deployments, read_georeference, read_campaign = self._read
             with self.project.transaction():
                 for scope, deployment in deployments.items():

@@ -24,8 +24,9 @@ from usvips.core.calibration.figures import parameter_table
 from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui import target_views_model as detail_model
-from usvips.gui.housing_values import parse_known
+from usvips.gui.housing_values import known_label, read_known
 from usvips.gui.qt import active_pairs
+from usvips.gui.qt.field_errors import FormFields
 from usvips.gui.qt.housing_value_form import fill_known_form
 from usvips.gui.qt.pane import StereoPane, item_from_pixels
 from usvips.gui.qt.worker import Cancelled, Worker, start
@@ -154,9 +155,22 @@ class SourcePage(QtWidgets.QWizardPage):
         self.message.setWordWrap(True)
         self.message.setStyleSheet(ERROR_STYLE)
         form.addRow(self.message)
+        #: the page's fields by the parameter an error names (the described chessboard's, the video's, each
+        #: housing value's by its symbol): a bad value is said with the field's label, the field outlined
+        self.field_errors = FormFields(self._fields_by_parameter, self.message.setText)
         if session.water and not self.base.count():
             self.message.setText("the project has no phase-1 (in-air) calibration yet: calibrate the cameras in air "
                                  "first (the phase-1 wizard), then come back")
+
+    def _fields_by_parameter(self) -> dict[str, tuple[QtWidgets.QWidget, str]]:
+        fields = {"cols": (self.cols, "inner corners across"), "rows": (self.rows, "inner corners down"),
+                  "square": (self.square, "square"), "upright": (self.cols, "inner corners"),
+                  "video": (self.video, "project video"),
+                  "every": (self.every, "every … frames"), "max_views": (self.max_views, "at most … views")}
+        if self.session.water:
+            housing = self.housing.currentText()
+            fields.update({name: (edit, known_label(housing, name)) for name, edit in self.known.items()})
+        return fields
 
     def _on_open_target(self) -> None:
         path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Target description", "", "Target (*.json)")
@@ -176,7 +190,7 @@ class SourcePage(QtWidgets.QWizardPage):
             self.session.describe_target({"kind": "chessboard", "cols": self.cols.value(), "rows": self.rows.value(),
                                           "square": self.square.value() / 1000.0})
         except UsvipsError as error:
-            self.message.setText(str(error))
+            self.field_errors.show(error)
             return
         self._show_target()
 
@@ -197,16 +211,8 @@ class SourcePage(QtWidgets.QWizardPage):
         self.known = fill_known_form(self.known_form, housing, known)
 
     def known_values(self) -> dict[str, tuple[float, float | None]]:
-        """The housing values typed: symbol → (value, σ or None)."""
-        known = {}
-        for name, edit in self.known.items():
-            try:
-                parsed = parse_known(edit.text())
-            except UsvipsError as error:
-                raise UsvipsError(f"housing value {name}: {error}") from None
-            if parsed is not None:
-                known[name] = parsed
-        return known
+        """The housing values typed: symbol → (value, σ or None); a bad one names its symbol."""
+        return read_known(self.housing.currentText(), {name: edit.text() for name, edit in self.known.items()})
 
     def _choose_images(self, side: str) -> None:
         paths, _ = QtWidgets.QFileDialog.getOpenFileNames(self, f"The {side} images", "",
@@ -234,8 +240,9 @@ class SourcePage(QtWidgets.QWizardPage):
                 session.cameras_unmoved = self.unmoved.isChecked()
             session.holdout = self.holdout.value() / 100.0 or None
         except UsvipsError as error:
-            self.message.setText(str(error))
+            self.field_errors.show(error)  # a value at fault: its field outlined and named
             return False
+        self.field_errors.clear()
         ready, why = session.readiness()
         if not ready:
             self.message.setText(why)

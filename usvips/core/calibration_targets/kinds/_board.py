@@ -12,7 +12,7 @@ import numpy as np
 
 from usvips.core.calibration_targets.base import CalibrationTarget
 from usvips.core.calibration_targets.detection import TargetDetection
-from usvips.core.errors import InputFileError, InvalidParameterError
+from usvips.core.errors import InputFileError, InvalidParameterError, concerning
 from usvips.core.observations import ControlPoints
 
 #: OpenCV's predefined ArUco/AprilTag dictionaries by the names the description files use.
@@ -21,9 +21,10 @@ DICTIONARIES: dict[str, int] = {name[5:].upper(): getattr(cv2.aruco, name) for n
 
 
 def fail(source: str, field: str, problem: str) -> None:
-    """Raise the one-line error of a bad description field (naming the file when there is one)."""
+    """Raise the one-line error of a bad description field (naming the file when there is one); either
+    error concerns ``field`` (:attr:`usvips.core.errors.UsvipsError.parameter`)."""
     if source:
-        raise InputFileError(source, f"field {field!r}: {problem}")
+        raise concerning(InputFileError(source, f"field {field!r}: {problem}"), field)
     raise InvalidParameterError(field, problem)
 
 
