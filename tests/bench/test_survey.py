@@ -30,4 +30,8 @@ def test_the_tracking_row_tracks_every_frame_and_reports_tracking_apart_from_dec
     assert track["before_s"] > 0 and track["speed_up_over_before"] == pytest.approx(
         track["before_s"] / track["ours_s"], rel=1e-2)
     assert track["cpu_s"] > 0 and track["load_1min"] >= 0
+    assert track["decoding_cpu_s"] > 0 and track["cpu_ratio"] == pytest.approx(
+        track["cpu_s"] / track["decoding_cpu_s"], rel=0.02)
+    assert track["ratio_target"] == survey.TRACK_TARGET_RATIO
+    assert track["ratio_met"] == (track["ours_s"] <= survey.TRACK_TARGET_RATIO * track["baseline_s"])
     assert track["backward_frames_tracked"] == 20 and track["backward_s"] > 0 and track["backward_before_s"] > 0

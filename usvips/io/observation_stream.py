@@ -3,15 +3,19 @@ rows, so that a file of any length is read with flat memory (``usvips intersect`
 
 Every chunk is checked as :func:`usvips.io.tables.read_observations` checks a whole file, with the same
 messages naming the file and line; a file with several faults names the first bad line (in line order).
-An id given twice in a pair is found across chunks by a hash set of 8 bytes per row
-(:class:`SeenKeys`); the earlier line it names is then found by reading the file again (only on that
-error). Chunked or whole, the rows are the same.
+An id given twice in a pair is found across chunks by a hash set (:class:`SeenKeys`) of the first
+:data:`MEMORY_KEYS` rows; the keys of further rows are looked up in it and then written to a temporary
+file (16 bytes a row) whose duplicates are found bucket by bucket when the file ends or a bad line is
+met, so memory stays flat however long the file (:class:`_Checked`). The lines named in that error
+are found by reading the file again (only on that error). Chunked or whole, the rows are the same, and
+the error is always the first bad line's.
 """
 
 from __future__ import annotations
 
 import math
 import re
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -35,6 +39,11 @@ from usvips.io.tables import (
 CHUNK_ROWS = 1 << 15
 #: bytes read from the file at a time
 BLOCK_BYTES = 1 << 22
+#: rows whose (pair, id) keys the duplicate check holds in memory (a hash table of 16 MiB); the keys of
+#: further rows go to a temporary file (see :class:`_Checked`)
+MEMORY_KEYS = 1 << 20
+#: spilled keys sorted at a time when the temporary file is checked (16 MiB of keys and lines)
+BUCKET_KEYS = 1 << 20
 #: a block of lines may take the quick path only when it holds nothing but these (no blanks, quotes, '#',
 #: controls or non-ASCII characters: those lines go through the line-by-line checks)
 _PLAIN = re.compile(r"[^\x21\x24-\x7e\n]")
@@ -93,6 +102,24 @@ class SeenKeys:
             pending = pending[~hit & ~placed]  # losers of a free slot look at it again (ascending order kept)
         return np.sort(np.concatenate(seen)) if seen else np.zeros(0, dtype=np.int64)
 
+    def __len__(self) -> int:
+        return self._count
+
+    def contains(self, keys: np.ndarray) -> np.ndarray:
+        """Which of ``keys`` (int64) are in the set (a boolean mask); nothing is inserted."""
+        keys = np.where(keys == 0, 1, np.asarray(keys, dtype=np.int64))
+        mask = len(self._table) - 1
+        slots = self._slots(keys)
+        found = np.zeros(len(keys), dtype=bool)
+        pending = np.arange(len(keys))
+        while pending.size:
+            current = self._table[slots[pending]]
+            found[pending[current == keys[pending]]] = True
+            moving = (current != keys[pending]) & (current != 0)  # another key holds the slot: probe on
+            pending = pending[moving]
+            slots[pending] = (slots[pending] + 1) & mask
+        return found
+
 
 def _lines(path: Path, block_bytes: int) -> Iterator[tuple[int, list[str]]]:
     """(number of the first line, lines) of the file, block by block, numbered and split as
@@ -129,24 +156,107 @@ def _lines(path: Path, block_bytes: int) -> Iterator[tuple[int, list[str]]]:
 
 
 class _Checked:
-    """The rows of a file checked so far: their (pair, id) keys (for duplicates) and count."""
+    """The (pair, id) keys of the rows checked so far, for duplicates: the first ``memory_keys`` in a hash
+    set; every further row's key is looked up in that set and among its own chunk's rows (such a
+    duplicate is found at once) and then written with its line to a temporary file, whose duplicates
+    across chunks :meth:`spilled_duplicate` finds bucket by bucket (at most :data:`BUCKET_KEYS` keys
+    sorted at a time): memory stays flat however long the file."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, memory_keys: int = MEMORY_KEYS) -> None:
         self.path = path
         self.keys = SeenKeys()
+        self.memory_keys = int(memory_keys)
+        self._spill = None  # the temporary file of (hash, line) int64 pairs
+        self._spilled = 0
 
     def duplicate(self, ids: list[str], pairs: list[str] | None, lines: list[int]) -> InputFileError | None:
-        """The error of the first row of the chunk whose (pair, id) an earlier row has (None: none)."""
+        """The error of the first row of the chunk whose (pair, id) a row of the set (an earlier row, or
+        one before it in this chunk) has; None: none. Rows beyond the set are spilled (see the class)."""
         keyed = list(zip(pairs, ids, strict=True)) if pairs is not None else [("1", i) for i in ids]
         hashes = np.fromiter(map(hash, keyed), dtype=np.int64, count=len(keyed))
-        for k in self.keys.add(hashes).tolist():
+        room = max(self.memory_keys - len(self.keys), 0)
+        candidates = self.keys.add(hashes[:room]).tolist()
+        if len(hashes) > room:
+            rest = hashes[room:]
+            within = SeenKeys(2 * len(rest)).add(rest)  # a chunk's own rows repeated: found here, at once
+            candidates += (room + np.union1d(np.flatnonzero(self.keys.contains(rest)), within)).tolist()
+            self._write_spill(rest, np.asarray(lines[room:], dtype=np.int64))
+        for k in sorted(candidates):
             earlier = keyed.index(keyed[k])
             first = lines[earlier] if earlier < k else self._first_line(keyed[k], lines[0])
             if first is not None:
-                pair, pid = keyed[k]
-                return InputFileError(str(self.path), f"duplicate id {_show(pid)} in pair {_show(pair)} (first on "
-                                      f"line {first})", lines[k])
+                return self._error(keyed[k], first, lines[k])
         return None
+
+    def _error(self, key: tuple[str, str], first: int, line: int) -> InputFileError:
+        pair, pid = key
+        return InputFileError(str(self.path), f"duplicate id {_show(pid)} in pair {_show(pair)} (first on line "
+                              f"{first})", line)
+
+    def _write_spill(self, hashes: np.ndarray, lines: np.ndarray) -> None:
+        if self._spill is None:
+            self._spill = tempfile.TemporaryFile(prefix="usvips-ids-")
+        self._spill.seek(0, 2)
+        self._spill.write(np.column_stack([hashes, lines]).tobytes())
+        self._spilled += len(hashes)
+
+    def _spilled_rows(self, bucket: int, buckets: int) -> np.ndarray:
+        """The spilled (hash, line) rows whose hash falls in ``bucket`` of ``buckets`` (read in blocks)."""
+        self._spill.seek(0)
+        parts = []
+        while True:
+            block = self._spill.read(16 * BUCKET_KEYS)
+            if not block:
+                break
+            rows = np.frombuffer(block, dtype=np.int64).reshape(-1, 2)
+            parts.append(rows[rows[:, 0].view(np.uint64) % np.uint64(buckets) == bucket] if buckets > 1 else rows)
+        return np.concatenate(parts) if parts else np.zeros((0, 2), dtype=np.int64)
+
+    def spilled_duplicate(self) -> InputFileError | None:
+        """The error of the first spilled row whose key an earlier spilled row has (None: none)."""
+        if not self._spilled:
+            return None
+        buckets = -(-self._spilled // BUCKET_KEYS)
+        found: list[tuple[int, int]] = []  # (line, the line of the first row with its hash)
+        for bucket in range(buckets):
+            rows = self._spilled_rows(bucket, buckets)
+            rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]  # by hash, then line
+            again = np.flatnonzero(rows[1:, 0] == rows[:-1, 0]) + 1
+            if again.size:
+                starts = np.flatnonzero(np.r_[True, rows[1:, 0] != rows[:-1, 0]])
+                group = np.searchsorted(starts, again, side="right") - 1
+                found.extend(zip(rows[again, 1].tolist(), rows[starts[group], 1].tolist(), strict=True))
+        if not found:
+            return None
+        found.sort()
+        keys = self._keys_at({line for pair in found for line in pair})
+        for line, first in found:  # a different key of the same hash is a collision, not a duplicate
+            if keys[line] == keys[first]:
+                return self._error(keys[line], first, line)
+        return None
+
+    def _keys_at(self, wanted: set[int]) -> dict[int, tuple[str, str]]:
+        """The (pair, id) keys of the rows on lines ``wanted`` (reading the file up to the last of them)."""
+        keys: dict[int, tuple[str, str]] = {}
+        columns: dict[str, int] | None = None
+        last = max(wanted)
+        for start, lines in _lines(self.path, BLOCK_BYTES):
+            for number, line in enumerate(lines, start=start):
+                if number > last:
+                    return keys
+                fields = split_line(self.path, number, line)
+                if fields is None:
+                    continue
+                if columns is None:
+                    columns = {name: k for k, name in enumerate(fields)}
+                elif number in wanted:
+                    keys[number] = (fields[columns["pair"]] if "pair" in columns else "1", fields[columns["id"]])
+        return keys
+
+    def close(self) -> None:
+        if self._spill is not None:
+            self._spill.close()
+            self._spill = None
 
     def _first_line(self, key: tuple[str, str], before: int) -> int | None:
         """The first line before line ``before`` whose row has ``key`` (None: a hash collision only)."""
@@ -167,16 +277,25 @@ class _Checked:
 
 
 def observation_chunks(path: str | Path, rows: int = CHUNK_ROWS, block_bytes: int = BLOCK_BYTES,
-                       check_duplicates: bool = True) -> Iterator[StereoObservations]:
+                       check_duplicates: bool = True, memory_keys: int = MEMORY_KEYS) -> Iterator[StereoObservations]:
     """The observation file at ``path`` as :class:`StereoObservations` of at most ``rows`` rows each, in
     file order (``lines`` gives each row's line); :class:`InputFileError` naming the file and the first
-    bad line, raised when the chunk holding it is reached (the rows before it were given)."""
+    bad line, raised when the chunk holding it is reached (the rows before it were given) — or, for an
+    id given twice beyond the first ``memory_keys`` rows (see :class:`_Checked`), when the file ends."""
     path = Path(path)
     if not path.is_file():
         raise InputFileError(str(path), "no such file")
+    checked = _Checked(path, memory_keys)
+    try:
+        yield from _checked_chunks(path, rows, block_bytes, check_duplicates, checked)
+    finally:
+        checked.close()
+
+
+def _checked_chunks(path: Path, rows: int, block_bytes: int, check_duplicates: bool,
+                    checked: _Checked) -> Iterator[StereoObservations]:
     header: list[str] | None = None
     columns: dict[str, int] = {}
-    checked = _Checked(path)
     given = 0
     try:
         waiting: list[str] = []  # lines read but not yet checked, and their numbers
@@ -207,6 +326,9 @@ def observation_chunks(path: str | Path, rows: int = CHUNK_ROWS, block_bytes: in
             if len(chunk):
                 given += len(chunk)
                 yield chunk
+        spilled = checked.spilled_duplicate()
+        if spilled is not None:
+            raise spilled
     except OSError as error:
         raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
     if header is None:
@@ -228,7 +350,8 @@ def _chunk(path: Path, header: list[str], columns: dict[str, int], lines: list[s
         if duplicate is not None and (failure is None or duplicate.line < failure.line):
             failure = duplicate
     if failure is not None:
-        raise failure
+        spilled = checked.spilled_duplicate() if check_duplicates else None  # an earlier one not yet found
+        raise spilled if spilled is not None and spilled.line < failure.line else failure
     return StereoObservations(tuple(ids), pixels[:, :2], pixels[:, 2:], tuple(pairs) if pairs else (), extra,
                               str(path), tuple(rows))
 

@@ -72,3 +72,26 @@ def test_the_window_loads_pyav_only_when_a_video_is_read():
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                             env=dict(os.environ, QT_QPA_PLATFORM="offscreen"))
     assert result.stderr.strip().splitlines()[-2:] == ["False", "FFmpegError True"]
+
+
+#: what the window's start, up to the first pair drawn, must not import: SciPy (calibration, detection),
+#: numba and its LLVM (the batch kernels), the server's client library, a detection model's runtime, the
+#: calibration's phases; PyAV is only registered for loading (``av.error`` would mean it ran)
+_NOT_AT_START = ("scipy", "numba", "llvmlite", "psycopg", "onnxruntime", "torch", "av.error",
+                 "usvips.core.calibration.phases")
+
+
+def test_the_whole_start_to_a_drawn_pair_leaves_the_heavy_modules_unloaded(tmp_path):
+    """The start as the bench's row times it (``usvips open`` with the probe, up to the first pair drawn):
+    none of :data:`_NOT_AT_START` is in ``sys.modules`` afterwards, so an eager import added anywhere on
+    that path (the window, its docks, the store, the first pair's reading and drawing) fails here."""
+    sample = shutil.copytree(sample_project("tank_system1"), tmp_path / "sample")
+    code = ("import sys\nfrom usvips.cli import main\ncode = main(['open', sys.argv[1]])\n"
+            f"loaded = sorted(m for m in sys.modules if m.startswith({_NOT_AT_START!r}))\n"
+            "print('loaded', loaded, file=sys.stderr)\nsys.exit(code)\n")
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", XDG_CONFIG_HOME=str(tmp_path / "config"),
+               XDG_DATA_HOME=str(tmp_path / "data"), USVIPS_QUIT_WHEN_READY="1")
+    result = subprocess.run([sys.executable, "-c", code, str(sample)], capture_output=True, text=True, env=env,
+                            timeout=300)
+    assert result.returncode == 0 and "ready, pair" in result.stderr, result.stderr
+    assert result.stderr.strip().splitlines()[-1] == "loaded []", result.stderr
