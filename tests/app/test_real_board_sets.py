@@ -250,6 +250,6 @@ def test_held_out_known_distances_no_worse_than_opencv(board_set):
     bound = stats.t.ppf(LEVEL, n - 1) * difference.std(ddof=1) / np.sqrt(n)
     print(f"held out ({folds} folds, {n} views): RMS relative error ours {100 * np.sqrt(ours_ms.mean()):.3f} %, "
           f"OpenCV {100 * np.sqrt(theirs_ms.mean()):.3f} %; ours better in {int((difference < 0).sum())} of {n} "
-          "views")
+          f"views; mean difference {difference.mean():.3g}, paired bound {bound:.3g}")
     assert difference.mean() <= bound, (f"ours worse than OpenCV by {difference.mean():.3g} (mean squared relative "
                                         f"error per view), beyond the paired bound {bound:.3g}")

@@ -10,6 +10,7 @@ from usvips.app.frame_source import FrameSet, StereoFrame
 from usvips.app.view_detection import ViewRules, detect_frames
 from usvips.core.calibration_targets import CalibrationTarget, TargetDetection
 from usvips.core.errors import InvalidParameterError
+from usvips.core.observations import ControlPoints
 
 SIZE = (200, 160)
 
@@ -34,6 +35,18 @@ class _Marked(CalibrationTarget):
 
     def __init__(self, where: dict[int, np.ndarray | None]):
         self.where = where
+
+    def describe(self):
+        return {"kind": "marked in the image"}
+
+    @classmethod
+    def from_description(cls, description, source=""):
+        return cls({})  # no image tells it where its points are
+
+    def control_points(self):
+        """The 5 × 4 grid of the pictures, 20 mm apart (metres)."""
+        xy = _grid(0.0) - 40.0
+        return ControlPoints(tuple(str(k) for k in range(len(xy))), np.column_stack([xy / 1000.0, np.zeros(len(xy))]))
 
     def detect(self, image):
         points = self.where.get(id(image))

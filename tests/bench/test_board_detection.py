@@ -10,12 +10,19 @@ from usvips.bench import board_detection, real_boards
 from usvips.io.target_file import write_target
 
 
-def test_without_real_sets_the_row_times_rendered_1080p_frames(monkeypatch):
-    monkeypatch.delenv(board_detection.REAL_BOARDS, raising=False)
+def test_without_real_sets_the_row_times_rendered_1080p_frames(monkeypatch, tmp_path):
+    monkeypatch.setenv(board_detection.REAL_BOARDS, str(tmp_path))  # a folder holding no set
     (row,) = list(board_detection.benchmarks(scale=0.1))
     assert "rendered views" in row["name"] and row["n"] == 3 and row["found"] == 3
     assert row["baseline"].startswith("cv2.findChessboardCornersSB without flags") and row["target"] == 1.2
     assert row["met"] == (row["ratio"] <= row["target"])
+
+
+def test_without_the_variable_the_committed_sets_are_used(monkeypatch):
+    monkeypatch.delenv(board_detection.REAL_BOARDS, raising=False)
+    sets = board_detection._real_sets()
+    assert sets and all(folder.parent == board_detection.COMMITTED_SETS for folder in sets)
+    assert all((folder / "SOURCE.md").is_file() for folder in sets)
 
 
 def test_a_small_image_is_upscaled_to_1080p_keeping_its_aspect():

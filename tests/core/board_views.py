@@ -118,6 +118,13 @@ class SectorChessboard(CalibrationTarget):
     def __init__(self, columns: int = COLUMNS, rows: int = ROWS, square: float = SQUARE) -> None:
         self.columns, self.rows, self.square = columns, rows, square
 
+    def describe(self) -> dict:
+        return {"kind": "sector-chessboard", "cols": self.columns, "rows": self.rows, "square": self.square}
+
+    @classmethod
+    def from_description(cls, description: dict, source: str = "") -> SectorChessboard:
+        return cls(description["cols"], description["rows"], description["square"])
+
     def control_points(self) -> ControlPoints:
         return board(self.columns, self.rows, self.square)
 

@@ -126,3 +126,42 @@ def test_the_calculator_review_and_qa_panel_give_one_verdict_per_object(survey, 
     assert panel.output.toPlainText().splitlines()[0] == f"object {ids['no maximum']}"  # not "objects 4"
     ws.select([ids["too long"]])
     qtbot.waitUntil(lambda: "maximum" in panel.output.toPlainText(), timeout=10000)
+
+
+def test_the_gui_thread_does_no_work_per_object(survey, monkeypatch):
+    """What runs per object (its place, weak vertices, the check, the rows and the summary line) runs in the
+    job, on the worker's thread: the GUI thread only takes references (job) and keeps the result (take), so
+    10,000 objects never freeze the window."""
+    import threading
+
+    from usvips.gui import qa_model
+
+    ws, ids = survey
+    threads: dict[str, set[int]] = {}
+    for name in ("Place", "weak_vertices", "check", "qa_rows", "summary"):
+        original = getattr(qa_model, name)
+        if name == "Place":
+            class Recorded(original):
+                @classmethod
+                def of(cls, stored, _original=original):
+                    threads.setdefault("Place", set()).add(threading.get_ident())
+                    return _original.of(stored)
+            monkeypatch.setattr(qa_model, "Place", Recorded)
+            continue
+
+        def recorded(*args, _name=name, _original=original, **kwargs):
+            threads.setdefault(_name, set()).add(threading.get_ident())
+            return _original(*args, **kwargs)
+        monkeypatch.setattr(qa_model, name, recorded)
+    model = QaModel(ws)
+    model.take(model.job(), model.job()())  # figures computed and cached first
+    threads.clear()
+    job = model.job()
+    done = []
+    worker = threading.Thread(target=lambda: done.append(job()))
+    worker.start()
+    worker.join()
+    model.take(job, done[0])
+    assert set(threads) == {"Place", "weak_vertices", "check", "qa_rows", "summary"}
+    assert all(seen == {worker.ident} for seen in threads.values()), threads
+    assert model.rows and "objects checked" in model.text

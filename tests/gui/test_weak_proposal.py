@@ -67,3 +67,22 @@ def test_a_vertex_proposed_from_elsewhere_is_drawn_said_and_kept_by_enter(qtbot,
         qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
     assert ws.pick_tool.state.source is None and np.allclose(ws.pick_tool.last_point.right, right[number])
     assert len(window.panes["right"].proposal_item.getData()[0]) == 0
+
+
+def test_a_match_proposed_off_the_zoomed_other_image_is_brought_into_view(qtbot, make_window, sample_copy):
+    """The right image zoomed far from the target: a click on it in the left image proposes its match
+    on the right, and the right pane pans to it (keeping the zoom) so that it is seen before Enter."""
+    window = make_window()
+    directory = sample_copy("tank_system1")
+    open_sample(qtbot, window, directory, "water1")
+    left, right = truth_pixels(directory, "water1", "targets")
+    ws, pane = window.workspace, window.panes["right"]
+    for number in (k for k in left if left[k] is not None and right.get(k) is not None):
+        window.cancel_pick()
+        pane.zoom_to(6.0, (3.0, 3.0))  # the top-left corner, far from every target
+        click_pixel(qtbot, window.panes["left"], left[number])
+        proposal = ws.pick_tool.state.proposal
+        if proposal is not None:
+            break
+    assert proposal is not None
+    assert pane.in_view(proposal) and abs(pane.zoom_level() - 6.0) < 0.5

@@ -1,11 +1,12 @@
 """Benchmarks of chessboard detection on 1080p frames, cascade included, against OpenCV's bare detector;
-and, for each real board set found under ``$USVIPS_REAL_BOARDS``, our calibration against OpenCV's
+and, for each real board set (those under ``$USVIPS_REAL_BOARDS``, else those committed with the tests,
+``tests/data/real_boards``, in a source checkout), our calibration against OpenCV's
 (:mod:`usvips.bench.real_boards`).
 
-**Speed row.** The frames: the views of the first real board set (its left images, each upscaled to
-1920 × 1080 by cubic interpolation, keeping the aspect and padding with the image's edge; the row says
-so), or without one, chessboards rendered at 1920 × 1080 in random poses. Per frame, our detection (the
-kind's cascade, corner order, ``cornerSubPix``, quality and blur) and OpenCV's bare
+**Speed row.** The frames: the views of the real board set with the most pairs (its left images, each
+upscaled to 1920 × 1080 by cubic interpolation, keeping the aspect and padding with the image's edge; the
+row says so), or without a set, chessboards rendered at 1920 × 1080 in random poses. Per frame, our
+detection (the kind's cascade, corner order, ``cornerSubPix``, quality and blur) and OpenCV's bare
 ``findChessboardCornersSB`` (no flags) are timed (best of repeats); the row's ratio is the median of the
 per-frame ratios.
 
@@ -62,9 +63,15 @@ def rendered_frames(count: int, seed: int = 0) -> tuple[object, list[np.ndarray]
     return board, frames
 
 
+#: the real board sets committed with the tests (public, licensed: each folder's SOURCE.md), used when
+#: ``$USVIPS_REAL_BOARDS`` is not set and the bench runs from a source checkout
+COMMITTED_SETS = Path(__file__).resolve().parents[2] / "tests" / "data" / "real_boards"
+
+
 def _real_sets() -> list[Path]:
-    root = os.environ.get(REAL_BOARDS)
-    if not root or not Path(root).is_dir():
+    """The sets under ``$USVIPS_REAL_BOARDS``, else the committed ones (:data:`COMMITTED_SETS`)."""
+    root = os.environ.get(REAL_BOARDS) or str(COMMITTED_SETS)
+    if not Path(root).is_dir():
         return []
     from usvips.bench.real_boards import sets_under
 
@@ -118,8 +125,11 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
     repeats = max(2, int(round(3 * scale)))
     sets = _real_sets()
     if sets:
-        board, frames = _real_frames(sets[0], count)
-        source = f"real set {sets[0].name}, upscaled to 1080p"
+        from usvips.bench.real_boards import set_pairs
+
+        largest = max(sets, key=lambda folder: len(set_pairs(folder)))
+        board, frames = _real_frames(largest, count)
+        source = f"real set {largest.name}, upscaled to 1080p"
     else:
         board, frames = rendered_frames(count)
         source = "rendered views"

@@ -18,8 +18,9 @@ number):
   the relative length error (corners where OpenCV's iterative undistortion does not invert are left out
   of OpenCV's figure and counted).
 
-``usvips bench`` runs it on every set under the folder named by ``$USVIPS_REAL_BOARDS`` (the sets are not
-shipped: see docs/calibration.md for the sets measured and where they come from).
+``usvips bench`` runs it on every set under the folder named by ``$USVIPS_REAL_BOARDS``, else on the sets
+committed with the tests (``tests/data/real_boards``: public, licensed, each with its SOURCE.md; the tests
+in ``tests/app/test_real_board_sets.py`` hold them to issue 33's acceptance).
 
 Conventions: pixels x right, y down; lengths in the board description's metres.
 """

@@ -7,9 +7,11 @@ figure). The figures come from the :class:`~usvips.gui.object_cache.ObjectCache`
 are cached under the current rules is not computed again; the others are computed in the same job (off
 the GUI thread) and remembered in the cache for the object list and the calculator.
 
-:meth:`QaModel.job` copies what the check needs on the GUI thread and returns a plain function
-``job(progress, cancelled)`` to run in a worker; :meth:`QaModel.take` keeps its result (the newest job
-wins; a job whose objects changed since is dropped by the cache, and the panel asks again).
+:meth:`QaModel.job` takes what the check needs on the GUI thread (references to the cached objects,
+records and figures: no per-object work) and returns a plain function ``job(progress, cancelled)`` to run in
+a worker, which checks and also makes the panel's rows and summary line; :meth:`QaModel.take` keeps that
+result (the newest job wins; a job whose objects changed since is dropped by the cache, and the panel asks
+again). So the GUI thread never computes or formats per object: 10,000 objects do not freeze the window.
 """
 
 from __future__ import annotations
@@ -67,6 +69,17 @@ def summary(report: QualityReport | None) -> str:
     return "checking…" if report is None else report.summary()
 
 
+@dataclass(frozen=True)
+class QaResult:
+    """What a check job gives the panel: the report, the figures it computed (for the cache), the rows
+    and the summary line (made in the worker)."""
+
+    report: QualityReport
+    computed: dict[int, Result]
+    rows: list[QaRow]
+    text: str
+
+
 class QaModel:
     """The survey's QA report over ``workspace``'s object cache (its quality rules, its species list).
     ``changed()`` fires when :attr:`rows` and :attr:`report` are new."""
@@ -75,11 +88,12 @@ class QaModel:
         self.workspace = workspace
         self.report: QualityReport | None = None
         self.rows: list[QaRow] = []
+        self.text = summary(None)  #: the line over the list
         self.changed = Signal()
 
-    def job(self) -> Callable[..., tuple[QualityReport, dict[int, Result]]]:
-        """Copy what the check needs (GUI thread: the cached objects, records and figures, the species
-        list) and return the check as ``job(progress, cancelled)`` → (report, figures computed)."""
+    def job(self) -> Callable[..., QaResult]:
+        """Take what the check needs (GUI thread: the cached objects, records and figures, the species
+        list) and return the check as ``job(progress, cancelled)`` → :class:`QaResult`."""
         ws = self.workspace
         cache = ws.cache
         project = cache.project
@@ -88,31 +102,30 @@ class QaModel:
         known = {o.id: cache.known_figures(o.id) for o in objects}
         missing = [i for i, result in known.items() if result is None]
         figures = cache.figures_job(missing) if missing else None
-        items = [(o.id, o.kind, cache.record(o.id), Place.of(o), weak_vertices(o)) for o in objects]
+        records = {o.id: cache.record(o.id) for o in objects}
         rules = ws.rules
         species = species_maxima(project.species_list()) if project is not None else {}
 
-        def run(progress=None, cancelled=None) -> tuple[QualityReport, dict[int, Result]]:
+        def run(progress=None, cancelled=None) -> QaResult:
             computed = figures(progress, cancelled) if figures is not None else {}
             checked = []
-            for object_id, kind, record, place, weak in items:
-                result = known[object_id] or computed.get(object_id)
+            for stored in objects:  # frozen records: read here, off the GUI thread
+                result = known[stored.id] or computed.get(stored.id)
                 if result is None:  # cancelled before its figures were computed
                     continue
-                checked.append(Checked(str(object_id), kind, result.measurement, record, place,
-                                       result.reason or "no figures", weak))
-            return check(checked, rules, species), computed
+                checked.append(Checked(str(stored.id), stored.kind, result.measurement, records[stored.id],
+                                       Place.of(stored), result.reason or "no figures", weak_vertices(stored)))
+            report = check(checked, rules, species)
+            return QaResult(report, computed, qa_rows(report), summary(report))
 
         run.figures = figures
         return run
 
-    def take(self, job, result: tuple[QualityReport, dict[int, Result]]) -> None:
-        """Keep a job's report (and its computed figures in the cache) and announce it."""
-        report, computed = result
+    def take(self, job, result: QaResult) -> None:
+        """Keep a job's report, rows and summary (and its computed figures in the cache) and announce them."""
         if job.figures is not None:
-            self.workspace.cache.remember(job.figures, computed)
-        self.report = report
-        self.rows = qa_rows(report)
+            self.workspace.cache.remember(job.figures, result.computed)
+        self.report, self.rows, self.text = result.report, result.rows, result.text
         self.changed.emit()
 
     def refresh_now(self) -> None:
@@ -121,5 +134,5 @@ class QaModel:
         self.take(job, job())
 
     def clear(self) -> None:
-        self.report, self.rows = None, []
+        self.report, self.rows, self.text = None, [], summary(None)
         self.changed.emit()

@@ -34,6 +34,28 @@ def test_a_description_round_trips(name):
     np.testing.assert_array_equal(again.control_points().xyz, target.control_points().xyz)
 
 
+def test_the_bases_are_abstract_and_every_kind_instantiates():
+    """A kind that leaves out a method of its base cannot be made (abc), and every registered kind does."""
+    import inspect
+
+    from usvips.core.calibration_targets import CalibrationTarget
+    from usvips.core.calibration_targets.kinds._board import PrintedBoard
+
+    assert inspect.isabstract(CalibrationTarget) and inspect.isabstract(PrintedBoard)
+    assert {"describe", "from_description", "control_points", "detect"} <= CalibrationTarget.__abstractmethods__
+    assert {"ink", "sheet", "shapes", "feature_size", "points"} <= PrintedBoard.__abstractmethods__
+
+    class Incomplete(PrintedBoard):
+        def points(self):
+            return (), np.zeros((0, 2))
+
+    with pytest.raises(TypeError, match="abstract"):
+        Incomplete()
+    for name, description in GOOD.items():
+        target = from_description(description)
+        assert not inspect.isabstract(type(target)) and type(target) is kind(name)
+
+
 def test_point_counts_and_planarity():
     counts = {"chessboard": 54, "charuco": 35, "marker-grid": 80, "circle-grid": 44, "target-field": 12}
     for name, description in GOOD.items():

@@ -158,3 +158,28 @@ def test_labels_of_objects_side_by_side_do_not_cover_each_other(qtbot, pane, zoo
              if pane.viewbox.viewRect().contains(label.home)]
     assert len(boxes) >= 2
     assert not any(a.intersects(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def _control_boxes(pane):
+    """Each target number's box on screen (its dark box: what the eye reads as one label)."""
+    view = pane.graphics
+    return [label.deviceTransform(view.viewportTransform()).mapRect(label.boundingRect())
+            for label in pane.control_labels]
+
+
+@pytest.mark.parametrize("zoom", [None, 3.0])
+def test_target_numbers_side_by_side_never_run_into_each_other(qtbot, pane, zoom):
+    """Targets 17 and 8 a few pixels apart (and 3 more in a cluster): their numbers are drawn apart, each on
+    its own dark box, so that "17" and "8" never read "178" — at the whole-image zoom and zoomed in."""
+    marks = [("17", (200.0, 150.0)), ("8", (204.0, 150.5)), ("9", (206.0, 152.0)), ("10", (202.0, 147.0)),
+             ("111", (300.0, 40.0))]
+    pane.set_control(marks)
+    if zoom is not None:
+        pane.zoom_to(zoom, (203.0, 150.0))
+        qtbot.waitUntil(lambda: not pane._label_timer.isActive(), timeout=2000)
+    boxes = _control_boxes(pane)
+    assert len(boxes) == len(marks) and all(box.width() > 4 for box in boxes)
+    assert not any(a.intersects(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    assert all(label.BOX.alpha() > 100 for label in pane.control_labels)
+    pane.set_control(marks[:1])  # alone: back beside its point
+    assert pane.control_labels[0].transform().dy() == pytest.approx(pane.control_labels[0].home_shift[1])

@@ -12,6 +12,7 @@ pixels as everywhere (x right, y down, origin at the centre of the top-left pixe
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import ClassVar
 
 import numpy as np
@@ -25,7 +26,7 @@ from usvips.core.observations import ControlPoints
 KINDS: KindTable[CalibrationTarget] = KindTable(__package__, "calibration target")
 
 
-class CalibrationTarget:
+class CalibrationTarget(ABC):
     """Base of every target kind. Subclasses set ``kind`` (registry name), ``description`` (one line for
     menus and ``--help``) and ``order`` (menu position), and implement the methods below."""
 
@@ -42,19 +43,19 @@ class CalibrationTarget:
             KINDS.add(cls.__dict__["kind"], cls)
 
     # -------------------------------------------------------------------------------- description
+    @abstractmethod
     def describe(self) -> dict:
         """The JSON-able description (with ``"kind"``) from which :meth:`from_description` rebuilds it."""
-        raise NotImplementedError
 
     @classmethod
+    @abstractmethod
     def from_description(cls, description: dict, source: str = "") -> CalibrationTarget:
         """Build and validate from a description; errors name ``source`` and the field."""
-        raise NotImplementedError
 
     # -------------------------------------------------------------------------------- geometry
+    @abstractmethod
     def control_points(self) -> ControlPoints:
         """Every point of the target: ids and coordinates (metres, target frame)."""
-        raise NotImplementedError
 
     @property
     def is_planar(self) -> bool:
@@ -65,7 +66,7 @@ class CalibrationTarget:
         return bool(singular[0] == 0 or singular[2] / singular[0] < 1e-6)
 
     # -------------------------------------------------------------------------------- detection
+    @abstractmethod
     def detect(self, image: np.ndarray) -> TargetDetection:
         """Find the target in ``image`` (grey or colour, uint8 or uint16). Never raises for an image in which
         the target is not found: the detection is then falsy with its reason."""
-        raise NotImplementedError

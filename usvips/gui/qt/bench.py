@@ -287,10 +287,12 @@ def _delete_row(window, label: str) -> dict:
 
 
 def _qa_row(window, label: str) -> dict:
-    """The QA panel checked again with every figure cached (what an edit costs it): the objects, records
-    and figures copied, the check, the rows and the table; against :func:`usvips.app.quality.check` alone
-    over the same objects. The range rule is tightened so that about half of the objects are listed. The
-    figures of 50 objects are computed and given to all (each costs ~15 ms with its calibration's share:
+    """The QA panel checked again with every figure cached (what an edit costs it), timed on the GUI thread
+    only — what could freeze the window: the job taken (references to the cached objects, records and
+    figures) and its result kept, listed and drawn; the check, the rows and the summary run in the job (a
+    worker in the window; here between the two timed parts, untimed). Against :func:`usvips.app.quality.check`
+    alone over the same objects. The range rule is tightened so that about half of the objects are listed.
+    The figures of 50 objects are computed and given to all (each costs ~15 ms with its calibration's share:
     minutes for 10,000, and not what is timed here)."""
     from usvips.app.quality import Checked, Place, check, species_maxima
     from usvips.core.measurements import QualityRules
@@ -309,17 +311,23 @@ def _qa_row(window, label: str) -> dict:
                for o in objects]
     species = species_maxima(ws.project.species_list())
 
-    def refresh() -> None:
+    def on_gui_thread() -> float:
+        start = time.perf_counter()
         job = qa.model.job()
-        qa.model.take(job, job())
+        taken = time.perf_counter() - start
+        result = job()  # the worker's part
+        start = time.perf_counter()
+        qa.model.take(job, result)
         qa.view.viewport().repaint()
+        return taken + time.perf_counter() - start
 
-    ours = min(_timed(refresh) for _ in range(3))
+    ours = min(on_gui_thread() for _ in range(3))
     base = min(_timed(lambda: check(checked, ws.rules, species)) for _ in range(3))
-    return {"name": f"gui: QA panel checked again, figures cached, {len(qa.model.rows):,} rows listed ({label})",
+    return {"name": f"gui: QA panel checked again, figures cached, {len(qa.model.rows):,} rows listed, GUI thread "
+                    f"(the check in a worker) ({label})",
             "n": len(objects), "ours_s": round(ours, 5), "baseline": "app.quality.check of the same objects alone",
-            "baseline_s": round(base, 5), "ratio": round(ours / base, 2), "target": None, "target_s": 0.5,
-            "met": bool(ours <= 0.5)}
+            "baseline_s": round(base, 5), "ratio": round(ours / base, 2), "target": None, "target_s": 0.1,
+            "met": bool(ours <= 0.1)}
 
 
 def _timed(function) -> float:

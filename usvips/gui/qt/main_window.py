@@ -1112,6 +1112,8 @@ class MainWindow(QtWidgets.QMainWindow):
             opposite = state.source is not None and state.source != side
             self.panes[side].set_picks(state.pick(side), state.proposal if opposite else None,
                                        state.curve if opposite else None, weak=state.weak)
+            if opposite and state.proposal is not None:  # a match proposed off a zoomed view: seen before Enter
+                self.panes[side].bring_into_view(state.proposal)
         if state.note:
             self.statusBar().showMessage(state.note, 15000)
             self.set_hint(state.note, "warning" if state.pending is not None or state.weak else "info")

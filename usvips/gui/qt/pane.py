@@ -61,15 +61,33 @@ class MarkLabel(QtWidgets.QGraphicsSimpleTextItem):
 
     #: screen pixels of blank around the text, as a ``TextItem``'s (its document's margin): placed alike
     MARGIN = 4.0
+    #: screen pixels of the dark box drawn behind the text beyond it: two numbers side by side read as two
+    #: ("17" and "8", never "178"), and a number stays legible on a bright or busy image
+    PAD = 1.5
+    BOX = QtGui.QColor(0, 0, 0, 170)
 
     def __init__(self, text: str, color: tuple[int, int, int], anchor: tuple[float, float]) -> None:
         super().__init__(text)
         self.color = QtGui.QColor(*color)
         self.setBrush(self.color)
         self.setFlag(QtWidgets.QGraphicsItem.GraphicsItemFlag.ItemIgnoresTransformations)
-        size, margin = self.boundingRect(), self.MARGIN
-        self.setTransform(QtGui.QTransform.fromTranslate(margin - anchor[0] * (size.width() + 2 * margin),
-                                                         margin - anchor[1] * (size.height() + 2 * margin)))
+        size, margin = super().boundingRect(), self.MARGIN
+        #: where the text sits off its point (screen pixels) when no other label is in its way
+        self.home_shift = (margin - anchor[0] * (size.width() + 2 * margin),
+                           margin - anchor[1] * (size.height() + 2 * margin))
+        self.shift_by(0.0)
+
+    def shift_by(self, dy: float) -> None:
+        """Move the text ``dy`` screen pixels down (up when negative) from its own place beside its point."""
+        self.setTransform(QtGui.QTransform.fromTranslate(self.home_shift[0], self.home_shift[1] + dy))
+
+    def boundingRect(self) -> QtCore.QRectF:  # noqa: N802 (Qt's name)
+        pad = self.PAD
+        return super().boundingRect().adjusted(-pad, -pad, pad, pad)
+
+    def paint(self, painter: QtGui.QPainter, option, widget=None) -> None:
+        painter.fillRect(self.boundingRect(), self.BOX)
+        super().paint(painter, option, widget)
 
     def toPlainText(self) -> str:  # noqa: N802 (named as Qt's text items name it)
         return self.text()
@@ -93,6 +111,7 @@ class StereoPane(QtWidgets.QWidget):
         self._label_timer.setSingleShot(True)
         self._label_timer.setInterval(50)
         self._label_timer.timeout.connect(self.layout_labels)
+        self._label_timer.timeout.connect(self.layout_control_labels)
         self.viewbox.sigRangeChanged.connect(lambda *_: self._label_timer.start())
         self.graphics.setCentralItem(self.viewbox)
         # no auto-downsampling: it re-samples the whole image at every zoom step (0.3 s at 4000 × 3000);
@@ -430,6 +449,26 @@ class StereoPane(QtWidgets.QWidget):
             if offset or shift:
                 item.setPos(self.viewbox.mapSceneToView(QtCore.QPointF(anchor[0], anchor[1] + offset)))
 
+    def layout_control_labels(self) -> None:
+        """Move the target numbers in view apart so that none runs into another ("17" beside "8" never reads
+        "178"): :func:`usvips.gui.label_layout.stack_labels` over their boxes in screen pixels, redone after a
+        zoom or pan; beyond :attr:`MAX_LAID_OUT` in view each keeps its place (its dark box still sets it
+        apart)."""
+        rect = self.viewbox.viewRect()
+        shown = [label for label in self.control_labels if rect.contains(label.pos())]
+        for label in self.control_labels:
+            label.shift_by(0.0)
+        if len(shown) < 2 or len(shown) > self.MAX_LAID_OUT or self.viewbox.scene() is None:
+            return
+        boxes = [label.boundingRect() for label in shown]
+        points = [self.viewbox.mapViewToScene(label.pos()) for label in shown]
+        anchors = np.array([[p.x() + label.home_shift[0] + box.left(), p.y() + label.home_shift[1] + box.bottom()]
+                            for p, label, box in zip(points, shown, boxes, strict=True)])
+        sizes = np.array([[box.width(), box.height()] for box in boxes])
+        for label, offset in zip(shown, stack_labels(anchors, sizes, gap=3.0), strict=True):
+            if offset:
+                label.shift_by(float(offset))
+
     def set_added_lines(self, lines: np.ndarray, count: int) -> None:
         """The outlines stored since the last :meth:`set_object_lines` (K, 2) pixels, NaN-separated, unselected
         and unlabelled; ``count`` outlines in all. The others' cached picture stays as it is."""
@@ -458,6 +497,7 @@ class StereoPane(QtWidgets.QWidget):
             text.setPos(float(view[0]), float(view[1]))
             self.viewbox.addItem(text, ignoreBounds=True)
             self.control_labels.append(text)
+        self.layout_control_labels()
 
     def centre_on(self, pixel: tuple[float, float]) -> None:
         """Pan so that ``pixel`` is in the middle, keeping the zoom."""

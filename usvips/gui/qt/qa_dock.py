@@ -170,7 +170,7 @@ class QaDock(QtWidgets.QWidget):
 
     def _on_model_changed(self) -> None:
         self.table_model.set_rows(self.model.rows)
-        self.summary.setText(summary(self.model.report))
+        self.summary.setText(self.model.text)  # made in the worker with the rows
         if len(self.model.rows) <= 500:
             self.view.resizeColumnsToContents()
 

@@ -7,6 +7,8 @@ it (right-handed); metres; every point of a board lies in z = 0.
 
 from __future__ import annotations
 
+from abc import abstractmethod
+
 import cv2
 import numpy as np
 
@@ -302,31 +304,31 @@ class PrintedBoard(CalibrationTarget):
 
         return from_description, (self.describe(),)
 
+    @abstractmethod
     def ink(self, xy: np.ndarray) -> np.ndarray:
         """The printed pattern at board points ``xy`` (N, 2), metres: 1 where black, 0 where white, NaN off
         the sheet (exact: supersample to anti-alias)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def sheet(self) -> tuple[float, float, float, float]:
         """The printed sheet's extent (x0, y0, x1, y1), metres, board frame (pattern and quiet zone)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def shapes(self) -> tuple[np.ndarray, np.ndarray]:
         """The black shapes to print: axis-aligned rectangles (N, 4) ``x0, y0, x1, y1`` and circles (M, 3)
         ``x, y, radius``, metres, board frame."""
-        raise NotImplementedError
 
+    @abstractmethod
     def feature_size(self) -> float:
         """The size (metres) of the board's smallest printed feature that a detector must resolve."""
-        raise NotImplementedError
 
     def control_points(self) -> ControlPoints:
         ids, xy = self.points()
         return ControlPoints(ids, np.column_stack([xy, np.zeros(len(xy))]), source=f"{self.kind} target")
 
+    @abstractmethod
     def points(self) -> tuple[tuple[str, ...], np.ndarray]:
         """Point ids and their board coordinates (N, 2), metres."""
-        raise NotImplementedError
 
     @property
     def is_planar(self) -> bool:
