@@ -51,7 +51,7 @@ from usvips.store.records import StaleEditError
 SAMPLES = sample_projects()
 MAX_RECENT = 8
 #: the dialog modules (usvips.gui.qt) commands name as their owner: their functions take the window
-DIALOG_MODULES = ("media_dialogs", "exchange_dialogs")
+DIALOG_MODULES = ("media_dialogs", "exchange_dialogs", "detection_dialogs")
 #: a panel's area (usvips.gui.panel_registry) as Qt's dock area
 DOCK_AREAS = {area: getattr(QtCore.Qt.DockWidgetArea, f"{area.capitalize()}DockWidgetArea")
               for area in ("left", "right", "top", "bottom")}

@@ -1,0 +1,62 @@
+"""The window's Detect, without a window: the pair shown is planned, the worker's job reports its progress
+and stops at a cancel, the proposals are stored unreviewed and the workspace's cache holds them at once
+(they are drawn and queued for review as every object is)."""
+
+import numpy as np
+import pytest
+
+from tests.app.detection_scenes import make_project, scene, write_switching_model
+from usvips.core.errors import InputFileError, UsvipsError
+from usvips.gui.detect_model import DetectSession
+from usvips.gui.review_model import ReviewModel
+from usvips.gui.workspace import Workspace
+from usvips.store import Project
+
+
+@pytest.fixture
+def workspace(tmp_path):
+    truth = scene(seed=11)
+    path = make_project(tmp_path)
+    model = write_switching_model(tmp_path, truth, sigma=1.0)
+    ws = Workspace()
+    project = Project.open(path)
+    ws.open_project(project)
+    yield ws, model
+    project.close()
+
+
+def test_detect_on_the_pair_shown_stores_unreviewed_proposals_the_views_see(workspace):
+    ws, model = workspace
+    session = DetectSession(ws)
+    with pytest.raises(UsvipsError, match="show an image pair"):
+        session.plan()
+    ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
+    with pytest.raises(UsvipsError, match="choose a detection model"):
+        session.job(session.plan())
+    session.choose_model(str(model))
+    fractions = []
+    run = session.job(session.plan())(fractions.append, lambda: False)
+    assert fractions == [1.0]
+    added = []
+    ws.objects_added.connect(added.append)
+    lines = session.store(run)
+    ids = [p.object_id for p in run.proposals]
+    assert len(ids) == 3 and all(i in ws.cache for i in ids) and added == [tuple(ids)]
+    assert lines[-2].startswith("dive: 1 of 1 pair(s) looked at") and "measured" in lines[-1]
+    review = ReviewModel()
+    review.load(ws.project)
+    assert sorted(review.queue) == sorted(ids)   # review mode walks them: A accepts, F flags
+    review.accept()
+    assert ws.project.review(review.queue[0]).state == "accepted"
+
+
+def test_a_stop_keeps_nothing_undone_and_a_bad_model_is_named(workspace, tmp_path):
+    ws, model = workspace
+    ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
+    session = DetectSession(ws)
+    session.choose_model(str(model))
+    run = session.job(session.plan())(lambda f: None, lambda: True)
+    assert run.cancelled and run.frames_done == 0
+    assert session.store(run)[-2].startswith("dive: 0 of 1 pair(s) looked at (cancelled)")
+    with pytest.raises(InputFileError, match="nowhere.toml"):
+        session.choose_model(str(tmp_path / "nowhere.toml"))

@@ -1,0 +1,70 @@
+"""The window's *Detect* (Qt-free): a detection model's proposals on the frame shown — the image pair, or
+the video's current frame — or on a range of a video's frames, run on the window's worker with progress and
+Stop, then stored as unreviewed objects made by the model (usvips/app/detection_service.py). The stored
+proposals are drawn on the images as every object is (their keypoints as vertices), the object list gives
+their lengths with σ, and review mode walks them: A accepts, F flags (rejects, with a reason), a vertex
+re-picked corrects a keypoint (the edit returns the object to unreviewed until accepted again).
+
+:meth:`DetectSession.plan` reads the project (the GUI thread); :meth:`DetectSession.job` is the worker's
+function ``job(progress, cancelled)``; :meth:`DetectSession.store` writes and tells the workspace.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from usvips.app.detection_model import DetectionModel, load_model
+from usvips.app.detection_service import DetectionPlan, DetectionRun, plan_detection, run_detection, store_proposals
+from usvips.core.errors import UsvipsError
+from usvips.gui.workspace import Workspace
+
+
+class DetectSession:
+    """Detect in ``workspace``'s project; ``model`` is loaded once per description file chosen."""
+
+    def __init__(self, workspace: Workspace) -> None:
+        self.workspace = workspace
+        self.model: DetectionModel | None = None
+        self.model_path: str | None = None
+
+    def choose_model(self, path: str) -> DetectionModel:
+        """Load the model a description file describes (refused by name when it is bad)."""
+        if self.model is None or path != self.model_path:
+            self.model, self.model_path = load_model(path), path
+        return self.model
+
+    def plan(self, frames: int = 1, every: int = 1) -> DetectionPlan:
+        """What to detect on: the image pair shown, or ``frames`` frames of the video shown from its current
+        frame on, every ``every``-th; a :class:`UsvipsError` saying what is missing."""
+        ws = self.workspace
+        if ws.project is None:
+            raise UsvipsError("open a project first")
+        if ws.pair is None:
+            raise UsvipsError("show an image pair or a video frame to detect on")
+        if ws.video_frame is None:
+            return plan_detection(ws.project, pair=ws.pair)
+        label, frame = ws.video_frame[0], int(ws.video_frame[1])
+        count = ws.project.video(label).frame_count
+        last = min(frame + max(int(frames), 1) * max(int(every), 1) - 1, count - 1)
+        return plan_detection(ws.project, video=label, every=every, frames=(frame, last))
+
+    def job(self, plan: DetectionPlan) -> Callable[[Callable[[float], None], Callable[[], bool]], DetectionRun]:
+        """The worker's function: detect on every frame of ``plan``, reporting the fraction done; a Stop
+        keeps the frames done."""
+        if self.model is None:
+            raise UsvipsError("choose a detection model first")
+        model = self.model
+
+        def run(progress: Callable[[float], None], cancelled: Callable[[], bool]) -> DetectionRun:
+            return run_detection(plan, model, cancelled, lambda done, total: progress(done / max(total, 1)))
+
+        return run
+
+    def store(self, run: DetectionRun) -> list[str]:
+        """Store the run's proposals (GUI thread), tell the workspace which objects are new, and return the
+        lines to show: one per proposal and the summary."""
+        store_proposals(self.workspace.project, run)
+        added = tuple(p.object_id for p in run.proposals if p.object_id is not None)
+        if added:
+            self.workspace.objects_changed_in_store(added=added)
+        return [p.line() for p in run.proposals] + run.summary()
