@@ -82,7 +82,7 @@ def _run(window, frames: int, every: int) -> None:
         lines = session.store(run)
         for line in lines[:-2]:
             window.messages.info(line)
-        window.show_message("info", " ".join(lines[-2:]))
+        window.show_message("info", "; ".join(lines[-2:]))
         if any(p.object_id is not None for p in run.proposals):
             window.show_review()
 
