@@ -79,3 +79,12 @@ def test_batch_detect_runs_on_a_local_dask_cluster_and_names_the_project_that_fa
     for path in (project, other / "survey.usvips"):
         with Project.open(path) as opened:
             assert len(opened.objects()) == 3
+
+
+def test_review_sigma_needs_enough_accepted_proposals_and_says_so(survey, capsys):
+    project, model, truth = survey
+    assert main(["detect", str(project), "--pair", "dive", "--model", str(model)]) == 0
+    capsys.readouterr()
+    assert main(["detect", str(project), "--review-sigma", "--model", str(model)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "0 points with a reference, at least 10" in err[0]

@@ -3,7 +3,9 @@ detection model's proposals on an image pair or a video's frames, paired through
 along the refractive epipolar curve and stored as unreviewed objects whose source is the model (its name
 and file hash recorded); one line per proposal, then a summary (usvips/app/detection_service.py). A
 proposal never overwrites a person's object: one that repeats a stored object is reported, not stored.
-Without ``--model``, the model shipped in resources/models/ (when exactly one is)."""
+Without ``--model``, the model shipped in resources/models/ (when exactly one is).
+``usvips detect PROJECT --review-sigma [--model M]`` measures the model's keypoint pointing sigma from the
+reviewers' corrections of its accepted proposals and prints the description file's [keypoint_sigma] table."""
 
 from __future__ import annotations
 
@@ -46,6 +48,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     where = parser.add_mutually_exclusive_group(required=True)
     where.add_argument("--pair", metavar="LABEL", help="an image pair of the project")
     where.add_argument("--video", metavar="LABEL", help="a stereo video of the project")
+    where.add_argument("--review-sigma", action="store_true", help="detect nothing: measure the model's keypoint "
+                       "pointing sigma from the reviewers' corrections of its accepted proposals, and print the "
+                       "[keypoint_sigma] table for its description file")
     parser.add_argument("--every", type=_every, default=1, metavar="K", help="every K-th left frame (video)")
     parser.add_argument("--frames", type=frame_range, metavar="A:B", help="left frames A to B, both included "
                         "(video; default: all)")
@@ -62,12 +67,31 @@ def load(given: str | None):
     return load_model(given if given is not None else bundled_model_path())
 
 
+def review_sigma(args: argparse.Namespace) -> int:
+    from datetime import date
+
+    from usvips.app.detection_review import description_table, sigma_from_reviews
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
+
+    model = load(args.model)
+    with open_project(args.project, read_only=True) as project:
+        measured = sigma_from_reviews(project, model, date=date.today().isoformat())
+    for value in measured.values():
+        print(f"{model.tag}: {value.text}")
+    print(description_table(measured, f"reviewers' corrections in {shown(args.project)}, {date.today().isoformat()}"),
+          end="")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     from usvips.app.detection_service import detect_in_project
     from usvips.core.errors import InvalidParameterError
     from usvips.store.location import shown
     from usvips.store.opening import open_project
 
+    if args.review_sigma:
+        return review_sigma(args)
     if args.pair is not None and (args.frames is not None or args.every != 1):
         raise InvalidParameterError("--frames" if args.frames is not None else "--every",
                                     "frames are chosen on a video, not on an image pair")
