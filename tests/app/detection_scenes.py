@@ -159,3 +159,15 @@ def write_switching_model(folder: Path, truth: Scene, sigma: float | None = 1.0,
                     f'input_height = {size}\n\n[output]\nclasses = ["fish"]\nkeypoints = ["snout", "fork"]\n'
                     + sigma_table)
     return path
+
+
+def add_video(folder: Path, project, label: str = "drop", frames: int = 6, size=(WIDTH, HEIGHT)) -> None:
+    """A stereo video ``label`` of ``frames`` frames (lossless): every left frame dark, every right one
+    bright, synchronised (offset 0)."""
+    from usvips.app.video_project import add_video as store_video
+    from usvips.io.video_writer import encode_video
+
+    for side, value in (("left", DARK), ("right", BRIGHT)):
+        encode_video(folder / f"{label}_{side}.mkv", [np.full((size[1], size[0], 3), value, np.uint8)] * frames,
+                     25.0, "ffv1")
+    store_video(project, [folder / f"{label}_left.mkv"], [folder / f"{label}_right.mkv"], label)

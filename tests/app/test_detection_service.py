@@ -111,3 +111,29 @@ def test_an_onnx_model_runs_from_its_description_and_a_mismatched_description_is
     description.write_text(text)
     with pytest.raises(InputFileError, match="does not match its model's output"):
         load_model(description)
+
+
+def test_on_a_video_every_kth_frame_of_a_range_is_detected_with_progress_and_a_stop_keeps_the_frames_done(survey):
+    from tests.app.detection_scenes import add_video, calibration
+    from usvips.io.calibration_file import calibration_to_dict
+
+    path, truth = survey
+    with Project.open(path) as project:
+        add_video(path.parent, project, "drop", frames=6)
+        project.add_calibration("cal", calibration_to_dict(calibration()), ("drop",))
+        with pytest.raises(UsvipsError, match="frames 2:9"):
+            plan_detection(project, video="drop", frames=(2, 9))
+        seen = []
+        run = detect_in_project(project, fake_model(truth), video="drop", every=2, frames=(1, 5), refine=False,
+                                progress=lambda done, total: seen.append((done, total)))
+        assert seen == [(1, 3), (2, 3), (3, 3)]
+        assert sorted({p.frame for p in run.proposals}) == [1, 3, 5] and len(run.proposals) == 9
+        stored = project.object(run.proposals[0].object_id)
+        assert all(v.video == "drop" and v.frame_left == v.frame_right == run.proposals[0].frame for v in
+                   stored.vertices)
+        assert stored.vertices[0].time_s == pytest.approx(run.proposals[0].frame / 25.0)
+        plan = plan_detection(project, video="drop")
+    done = []
+    stopped = run_detection(plan, fake_model(truth), cancel=lambda: len(done) >= 2,
+                            progress=lambda d, t: done.append(d))
+    assert stopped.cancelled and stopped.frames_done == 2 and {p.frame for p in stopped.proposals} == {0, 1}

@@ -5,7 +5,8 @@ and file hash recorded); one line per proposal, then a summary (usvips/app/detec
 proposal never overwrites a person's object: one that repeats a stored object is reported, not stored.
 Without ``--model``, the model shipped in resources/models/ (when exactly one is).
 ``usvips detect PROJECT --review-sigma [--model M]`` measures the model's keypoint pointing sigma from the
-reviewers' corrections of its accepted proposals and prints the description file's [keypoint_sigma] table."""
+reviewers' corrections of its accepted proposals and prints the description file's [keypoint_sigma] table;
+``usvips detect PROJECT --max-n`` prints MaxN per species on each video and pair from accepted objects."""
 
 from __future__ import annotations
 
@@ -51,6 +52,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     where.add_argument("--review-sigma", action="store_true", help="detect nothing: measure the model's keypoint "
                        "pointing sigma from the reviewers' corrections of its accepted proposals, and print the "
                        "[keypoint_sigma] table for its description file")
+    where.add_argument("--max-n", action="store_true", help="detect nothing: print MaxN per species on each video "
+                       "and pair from the accepted objects")
     parser.add_argument("--every", type=_every, default=1, metavar="K", help="every K-th left frame (video)")
     parser.add_argument("--frames", type=frame_range, metavar="A:B", help="left frames A to B, both included "
                         "(video; default: all)")
@@ -65,6 +68,19 @@ def load(given: str | None):
     from usvips.app.detection_model import bundled_model_path, load_model
 
     return load_model(given if given is not None else bundled_model_path())
+
+
+def print_max_n(args: argparse.Namespace) -> int:
+    from usvips.app.reviewed_max_n import reviewed_max_n
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
+
+    with open_project(args.project, read_only=True) as project:
+        found = reviewed_max_n(project)
+    for row in found:
+        print(row.line())
+    print(f"{shown(args.project)}: MaxN of {len({r.species for r in found})} species from accepted objects")
+    return 0
 
 
 def review_sigma(args: argparse.Namespace) -> int:
@@ -92,6 +108,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.review_sigma:
         return review_sigma(args)
+    if args.max_n:
+        return print_max_n(args)
     if args.pair is not None and (args.frames is not None or args.every != 1):
         raise InvalidParameterError("--frames" if args.frames is not None else "--every",
                                     "frames are chosen on a video, not on an image pair")
