@@ -60,3 +60,18 @@ def test_a_stop_keeps_nothing_undone_and_a_bad_model_is_named(workspace, tmp_pat
     assert session.store(run)[-2].startswith("dive: 0 of 1 pair(s) looked at (cancelled)")
     with pytest.raises(InputFileError, match="nowhere.toml"):
         session.choose_model(str(tmp_path / "nowhere.toml"))
+
+
+def test_the_unreviewed_proposals_keypoints_get_circles_of_95_percent_from_their_measured_sigma(workspace):
+    from usvips.gui.detect_model import CIRCLE_SIGMAS, sigma_circles
+
+    ws, model = workspace
+    ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
+    session = DetectSession(ws)
+    session.choose_model(str(model))
+    assert sigma_circles(ws)["left"].shape == (0, 3)
+    session.store(session.job(session.plan())(lambda f: None, lambda: False))
+    circles = sigma_circles(ws)
+    assert circles["left"].shape == circles["right"].shape == (6, 3)   # 3 fish, snout and fork
+    np.testing.assert_allclose(circles["left"][:, 2], CIRCLE_SIGMAS * 1.0)
+    assert abs(CIRCLE_SIGMAS - 2.4477) < 1e-4

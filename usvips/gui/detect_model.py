@@ -1,7 +1,8 @@
 """The window's *Detect* (Qt-free): a detection model's proposals on the frame shown — the image pair, or
 the video's current frame — or on a range of a video's frames, run on the window's worker with progress and
 Stop, then stored as unreviewed objects made by the model (usvips/app/detection_service.py). The stored
-proposals are drawn on the images as every object is (their keypoints as vertices), the object list gives
+proposals are drawn on the images as every object is (their keypoints as vertices) with a circle of 95 % around each
+keypoint from its measured σ (:func:`sigma_circles`), the object list gives
 their lengths with σ, and review mode walks them: A accepts, F flags (rejects, with a reason), a vertex
 re-picked corrects a keypoint (the edit returns the object to unreviewed until accepted again).
 
@@ -13,10 +14,40 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
+
 from usvips.app.detection_model import DetectionModel, load_model
-from usvips.app.detection_service import DetectionPlan, DetectionRun, plan_detection, run_detection, store_proposals
+from usvips.app.detection_service import (
+    DetectionPlan,
+    DetectionRun,
+    is_proposal,
+    plan_detection,
+    run_detection,
+    store_proposals,
+)
 from usvips.core.errors import UsvipsError
 from usvips.gui.workspace import Workspace
+
+#: a circle of radius k·σ holds a keypoint's true point with 95 % probability (σ per coordinate, 2-D
+#: normal: k² is the chi-square quantile of 2 degrees of freedom, −2 ln 0.05)
+CIRCLE_SIGMAS = float(np.sqrt(-2.0 * np.log(0.05)))
+
+
+def sigma_circles(workspace: Workspace) -> dict[str, np.ndarray]:
+    """Per side, (n, 3) circles (x, y px; radius px) around the keypoints of the model proposals on the
+    pair or frame shown whose vertices are all still the model's keypoints: radius :data:`CIRCLE_SIGMAS` ×
+    the keypoint's measured pointing σ (95 %); none for a proposal without a measured σ."""
+    out = {"left": [], "right": []}
+    place = workspace.place()
+    for stored in workspace.cache.objects():
+        if not is_proposal(stored) or workspace.place_of(stored.id) != place:
+            continue
+        for v in stored.vertices:
+            if v.pointing_px is None:
+                continue
+            out["left"].append((v.xl, v.yl, CIRCLE_SIGMAS * v.pointing_px[0]))
+            out["right"].append((v.xr, v.yr, CIRCLE_SIGMAS * v.pointing_px[1]))
+    return {side: np.array(rows, float).reshape(-1, 3) for side, rows in out.items()}
 
 
 class DetectSession:

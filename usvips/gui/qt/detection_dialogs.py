@@ -5,19 +5,48 @@ them (A accepts, F flags, a re-picked vertex corrects a keypoint). Every line of
 
 from __future__ import annotations
 
+import pyqtgraph as pg
 from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
-from usvips.gui.detect_model import DetectSession
+from usvips.gui.detect_model import DetectSession, sigma_circles
+from usvips.gui.qt.pane import item_from_pixels
 
 SETTING = "detection/model"
 MODEL_FILTER = "Model descriptions (*.toml *.json);;All files (*)"
+
+
+SIGMA_COLOUR = (255, 170, 0)
+
+
+class SigmaCircles:
+    """The 95 % circles of the unreviewed proposals' keypoints on the panes, redrawn when the pair or frame
+    shown, or the objects, change (usvips.gui.detect_model.sigma_circles)."""
+
+    def __init__(self, window) -> None:
+        self.window = window
+        self.items = {}
+        for side, pane in window.panes.items():
+            item = pg.ScatterPlotItem(pxMode=False, symbol="o", brush=None, pen=pg.mkPen(SIGMA_COLOUR, width=1.5))
+            pane.viewbox.addItem(item, ignoreBounds=True)
+            self.items[side] = item
+        ws = window.workspace
+        for event in (ws.pair_changed, ws.objects_changed):
+            event.connect(self.draw)
+
+    def draw(self, *_: object) -> None:
+        circles = sigma_circles(self.window.workspace)
+        for side, item in self.items.items():
+            rows = circles[side]
+            item.setData(pos=item_from_pixels(rows[:, :2]), size=2 * rows[:, 2])
 
 
 def _session(window) -> DetectSession:
     session = getattr(window, "_detect_session", None)
     if session is None or session.workspace is not window.workspace:
         session = window._detect_session = DetectSession(window.workspace)
+    if getattr(window, "_sigma_circles", None) is None:
+        window._sigma_circles = SigmaCircles(window)
     return session
 
 
@@ -80,6 +109,7 @@ def _run(window, frames: int, every: int) -> None:
 
     def done(run) -> None:
         lines = session.store(run)
+        window._sigma_circles.draw()
         for line in lines[:-2]:
             window.messages.info(line)
         window.show_message("info", "; ".join(lines[-2:]))
