@@ -258,6 +258,7 @@ DOORS: dict[str, list[Door]] = {
              {"--every": ["0", "-1", "x"], "--frames": ["3:1", "x", "0:99999", "-1:2", "1"],
               "--video": ["nosuch", "measure1"]}),
         Door("detect @rov.usvips --review-sigma --model @fish.toml", {"@rov.usvips": "file", "@fish.toml": "file"}),
+        Door("detect @rov.usvips --max-n", {"@rov.usvips": "file"}),
     ],
     "batch detect": [Door("batch detect @rov.usvips --model @fish.toml --every 5 --jobs 1",
                           {"@rov.usvips": "file", "@fish.toml": "file", "--every": ["0", "-1", "x"]}),
