@@ -36,7 +36,7 @@ from usvips.app.detection_model import DetectionModel
 from usvips.app.pair_geometry import PairGeometry, pair_geometry
 from usvips.app.video_project import left_frame_time, partner_frame
 from usvips.core.detection import Detection
-from usvips.core.detection.refine import refine_pair
+from usvips.core.detection.refine import refine_pairs
 from usvips.core.detection.stereo import StereoPair, measure_pairs, pair_detections
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements.evaluate import Measurement
@@ -208,16 +208,12 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
     gate = gate_px if gate_px is not None else (
         4 * math.sqrt(2) * max(sigmas.values()) if sigmas else DEFAULT_GATE_PX)
     pairing = pair_detections(found_left, found_right, rig, gate_px=gate, keypoints=KEYPOINTS)
-    pairs, refined = [], []
-    for pair in pairing.pairs:
-        if refine:
-            radius = max(2 * gate, 8.0)
-            result = refine_pair(left, right, pair, rig, KEYPOINTS, radius_px=radius)
-            pairs.append(result.pair)
-            refined.append(sum(k.refined for k in result.keypoints))
-        else:
-            pairs.append(pair)
-            refined.append(0)
+    if refine:
+        results = refine_pairs(left, right, pairing.pairs, rig, KEYPOINTS, radius_px=max(2 * gate, 8.0))
+        pairs = [result.pair for result in results]
+        refined = [sum(k.refined for k in result.keypoints) for result in results]
+    else:
+        pairs, refined = list(pairing.pairs), [0] * len(pairing.pairs)
     measured: list = [None] * len(pairs)
     if sigmas is not None and pairs:
         measured = measure_pairs(pairs, geometry.calibration, sigmas, KEYPOINTS, geometry.station, geometry.frame,
