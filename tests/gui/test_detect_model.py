@@ -75,3 +75,34 @@ def test_the_unreviewed_proposals_keypoints_get_circles_of_95_percent_from_their
     assert circles["left"].shape == circles["right"].shape == (6, 3)   # 3 fish, snout and fork
     np.testing.assert_allclose(circles["left"][:, 2], CIRCLE_SIGMAS * 1.0)
     assert abs(CIRCLE_SIGMAS - 2.4477) < 1e-4
+
+
+def test_dragging_a_keypoint_corrects_it_as_one_undoable_edit_measured_again(workspace):
+    from usvips.gui.detect_model import correct_keypoint, proposal_keypoints
+    from usvips.store.annotator import annotating_as
+
+    ws, model = workspace
+    ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
+    session = DetectSession(ws)
+    session.choose_model(str(model))
+    run = session.job(session.plan())(lambda f: None, lambda: False)
+    session.store(run)
+    assert len(proposal_keypoints(ws)) == 12  # 3 fish × 2 keypoints × 2 images
+    object_id = run.proposals[0].object_id
+    ws.project.set_review(object_id, "accepted")
+    ws.reload_objects()
+    before = ws.stored_object(object_id)
+    with annotating_as("ana"):
+        correct_keypoint(ws, object_id, 1, "right", (before.vertices[1].xr + 1.5, before.vertices[1].yr - 0.5))
+    after = ws.project.object(object_id)
+    fork = after.vertices[1]
+    assert (fork.xr, fork.yr) == (before.vertices[1].xr + 1.5, before.vertices[1].yr - 0.5)
+    assert fork.source == "hand click (fork, by ana)" and fork.pointing_px == (1.0, 0.5)
+    assert after.vertices[0].source == before.vertices[0].source                 # the snout is still the model's
+    assert fork.xyz is not None and not np.allclose(fork.xyz, before.vertices[1].xyz)
+    assert ws.project.review(object_id).state == "unreviewed"     # back to the reviewer
+    assert object_id not in {o for o, *_ in proposal_keypoints(ws)}  # a corrected one is no longer the model's
+    ws.undo.undo()
+    undone = ws.project.object(object_id).vertices[1]
+    assert (undone.xr, undone.yr, undone.source) == (before.vertices[1].xr, before.vertices[1].yr,
+                                                     before.vertices[1].source)

@@ -9,7 +9,7 @@ import pyqtgraph as pg
 from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
-from usvips.gui.detect_model import DetectSession, sigma_circles
+from usvips.gui.detect_model import DetectSession, correct_keypoint, proposal_keypoints, sigma_circles
 from usvips.gui.qt.pane import item_from_pixels
 
 SETTING = "detection/model"
@@ -20,11 +20,13 @@ SIGMA_COLOUR = (255, 170, 0)
 
 
 class SigmaCircles:
-    """The 95 % circles of the unreviewed proposals' keypoints on the panes, redrawn when the pair or frame
-    shown, or the objects, change (usvips.gui.detect_model.sigma_circles)."""
+    """The 95 % circles of the proposals' keypoints on the panes, and a handle on each keypoint that a
+    reviewer drags to correct it (one undoable edit), redrawn when the pair or frame shown, or the objects,
+    change (usvips.gui.detect_model.sigma_circles, proposal_keypoints, correct_keypoint)."""
 
     def __init__(self, window) -> None:
         self.window = window
+        self.handles: list = []
         self.items = {}
         for side, pane in window.panes.items():
             item = pg.ScatterPlotItem(pxMode=False, symbol="o", brush=None, pen=pg.mkPen(SIGMA_COLOUR, width=1.5))
@@ -35,10 +37,32 @@ class SigmaCircles:
             event.connect(self.draw)
 
     def draw(self, *_: object) -> None:
-        circles = sigma_circles(self.window.workspace)
+        ws = self.window.workspace
+        circles = sigma_circles(ws)
         for side, item in self.items.items():
             rows = circles[side]
             item.setData(pos=item_from_pixels(rows[:, :2]), size=2 * rows[:, 2])
+        for handle, pane in self.handles:
+            pane.viewbox.removeItem(handle)
+        self.handles = []
+        for object_id, index, side, pixel in proposal_keypoints(ws):
+            pane = self.window.panes[side]
+            handle = pg.TargetItem(tuple(item_from_pixels(pixel)[0]), size=9, symbol="o",
+                                   pen=pg.mkPen(SIGMA_COLOUR, width=1), hoverPen=pg.mkPen((255, 255, 255), width=2))
+            handle.setToolTip(f"object {object_id}: drag to correct this keypoint")
+            handle.sigPositionChangeFinished.connect(
+                lambda item, o=object_id, i=index, s=side: self._moved(o, i, s, item))
+            pane.viewbox.addItem(handle, ignoreBounds=True)
+            self.handles.append((handle, pane))
+
+    def _moved(self, object_id: int, index: int, side: str, item) -> None:
+        position = item.pos()
+        pixel = (position.x() - 0.5, position.y() - 0.5)
+        try:
+            correct_keypoint(self.window.workspace, object_id, index, side, pixel)
+        except UsvipsError as error:
+            self.window.show_message("error", str(error))
+        self.draw()
 
 
 def _session(window) -> DetectSession:
