@@ -77,6 +77,17 @@ def _reader(name: str) -> Callable[[Path, Path], None]:
     return door
 
 
+def _detection_model(project: Path, bad: Path) -> None:
+    from usvips.app.opening import open_project
+    from usvips.gui.detect_model import DetectSession
+    from usvips.gui.workspace import Workspace
+
+    workspace = Workspace()
+    with open_project(project) as store:
+        workspace.open_project(store)
+        DetectSession(workspace).choose_model(str(bad))
+
+
 #: door → (the valid file it is given, spoiled; the function the window's dialog calls with it)
 DOORS: dict[str, tuple[str, Callable[[Path, Path], None]]] = {
     "open a project": ("rov.usvips", _open),
@@ -92,6 +103,7 @@ DOORS: dict[str, tuple[str, Callable[[Path, Path], None]]] = {
     "the observations dialog's reader": ("obs_water.csv", _reader("observations")),
     "the calibration dialog's reader": ("cal.json", _reader("calibration")),
     "the target dialog's reader": ("target.json", _reader("target")),
+    "the detection model dialog": ("fish.toml", _detection_model),
 }
 
 

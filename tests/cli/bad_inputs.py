@@ -72,6 +72,19 @@ def silent(argv: list[str]) -> tuple[int, str, str]:
 
 
 @functools.cache
+def _detection_model(folder: Path) -> None:
+    """A valid detection model: fish.toml describing fish.onnx, a tiny network giving one fish."""
+    import numpy as np
+
+    from tests.core.detection.onnx_models import constant_output_model
+
+    table = np.array([[320.0, 320.0, 100.0, 40.0, 0.9, 280.0, 320.0, 0.9, 360.0, 320.0, 0.9]], np.float32).T[None]
+    (folder / "fish.onnx").write_bytes(constant_output_model(table, 640, 640))
+    (folder / "fish.toml").write_text('[model]\nfile = "fish.onnx"\nfamily = "yolo-pose"\ninput_width = 640\n'
+                                      'input_height = 640\n\n[output]\nclasses = ["fish"]\n'
+                                      'keypoints = ["snout", "fork"]\n')
+
+
 def valid_inputs() -> Path:
     """The valid inputs every door starts from (a project with objects, calibrations, CSV files, images, a
     video, a sample folder …), made once per test session in a scratch folder removed at exit."""
@@ -92,6 +105,7 @@ def valid_inputs() -> Path:
     (folder / "geo.csv").write_text("id,latitude,longitude,depth\n1,-32.0,115.0,110\n2,-32.00001,115.00001,110\n"
                                     "3,-32.0,115.00002,110.5\n")  # the control points are 100 m down (Z)
     _opencv_file(folder / "stereo.yml")
+    _detection_model(folder)
     scene = json.loads((ROV / "scene.json").read_text())
     for key in ("frame", "video", "description"):
         scene.pop(key)

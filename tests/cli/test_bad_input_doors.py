@@ -251,6 +251,18 @@ DOORS: dict[str, list[Door]] = {
     "species import": [Door("species import @rov.usvips @species.csv", {"@rov.usvips": "file",
                                                                        "@species.csv": "file"}),
                        Door("species import URL @species.csv", URL_SLOT)],
+    "detect": [
+        Door("detect @rov.usvips --pair measure1 --model @fish.toml",
+             {"@rov.usvips": "file", "--pair": ["nosuch", "video"], "@fish.toml": "file"}),
+        Door("detect @rov.usvips --video video --every 5 --frames 0:3 --model @fish.toml",
+             {"--every": ["0", "-1", "x"], "--frames": ["3:1", "x", "0:99999", "-1:2", "1"],
+              "--video": ["nosuch", "measure1"]}),
+        Door("detect @rov.usvips --review-sigma --model @fish.toml", {"@rov.usvips": "file", "@fish.toml": "file"}),
+        Door("detect @rov.usvips --max-n", {"@rov.usvips": "file"}),
+    ],
+    "batch detect": [Door("batch detect @rov.usvips --model @fish.toml --every 5 --jobs 1",
+                          {"@rov.usvips": "file", "@fish.toml": "file", "--every": ["0", "-1", "x"]}),
+                     Door("batch detect URL --model @fish.toml --jobs 1", URL_SLOT)],
     "species list": [Door("species list @rov.usvips", {"@rov.usvips": "file"}),
                      Door("species list URL", URL_SLOT)],
 }

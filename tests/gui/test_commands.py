@@ -84,11 +84,11 @@ def test_the_window_builds_its_menus_and_keys_from_the_declaration(make_window):
 
 
 def test_every_handler_names_a_method_its_owner_has(make_window):
-    from usvips.gui.qt import exchange_dialogs, media_dialogs
+    from usvips.gui.qt import detection_dialogs, exchange_dialogs, media_dialogs
 
     window = make_window()
     owners = {"window": window, "tracking": window.tracking, "media_dialogs": media_dialogs,
-              "exchange_dialogs": exchange_dialogs}
+              "exchange_dialogs": exchange_dialogs, "detection_dialogs": detection_dialogs}
     for command in commands.commands():
         owner, _, method = command.handler.rpartition(".")
         assert callable(getattr(owners[owner], method, None)), command.handler

@@ -3,7 +3,10 @@
 :func:`usvips.core.matching.epipolar_curve` per keypoint (the unbatched construction), and the YOLO-pose
 decoder on a full 640 × 640 head's output (8400 candidates) against an absolute target: a tenth of the
 0.2 s a stereo frame may take at the 5 frames per second issue 35 asks for, for one image's decoding.
-No model runs here (the project ships none yet): the network's own time is not in these rows.
+No model runs here (the project ships none yet): the network's own time is not in these rows. A third
+row refines every pair's snout and fork along the curve (:func:`usvips.core.detection.refine.refine_pairs`,
+a 15 px patch matched near the model's right point) on textured 1080p images, against an absolute target:
+half of the 0.2 s a stereo frame may take.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import numpy as np
 from usvips.bench import best_time, ratio_row
 from usvips.core.camera import Camera, Exterior
 from usvips.core.detection import Detection, Keypoint, Letterbox, ModelDescription
+from usvips.core.detection.refine import refine_pairs
 from usvips.core.detection.registry import family
 from usvips.core.detection.stereo import pair_detections
 from usvips.core.housing import FlatPortHousing
@@ -26,6 +30,17 @@ WIDTH, HEIGHT = 1920, 1080
 NAMES = ("snout", "fork")
 #: seconds one image's output may take to decode (a tenth of a stereo frame's 0.2 s at 5 frames per second)
 DECODE_TARGET_S = 0.02
+#: seconds refining a frame's pairs may take (half a stereo frame's 0.2 s at 5 frames per second)
+REFINE_TARGET_S = 0.1
+
+
+def _textured(rng: np.random.Generator) -> np.ndarray:
+    """A grey 1080p image of smooth random texture (what a match needs; its content does not change the
+    time much)."""
+    import cv2
+
+    noise = rng.uniform(0, 255, (HEIGHT // 8, WIDTH // 8)).astype(np.float32)
+    return np.clip(cv2.resize(noise, (WIDTH, HEIGHT), interpolation=cv2.INTER_CUBIC), 0, 255).astype(np.uint8)
 
 
 def _rig() -> StereoRig:
@@ -88,3 +103,13 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
     yield {"name": "decode a YOLO-pose output of 8400 candidates (640 × 640 input, 4 keypoints)", "n": 8400,
            "ours_s": round(ours_s, 6), "baseline": None, "baseline_s": None, "ratio": None, "target": None,
            "target_s": DECODE_TARGET_S, "met": bool(ours_s <= DECODE_TARGET_S), "detections": len(found)}
+    left_image, right_image = _textured(rng), _textured(rng)
+
+    def refine_all() -> list:
+        return refine_pairs(left_image, right_image, paired.pairs, rig, NAMES, radius_px=8.0)
+
+    refine_all()
+    refine_s = best_time(refine_all)
+    yield {"name": f"refine a 1080p stereo frame's {len(paired.pairs)} pairs' snout and fork along the curve",
+           "n": len(paired.pairs), "ours_s": round(refine_s, 6), "baseline": None, "baseline_s": None, "ratio": None,
+           "target": None, "target_s": REFINE_TARGET_S, "met": bool(refine_s <= REFINE_TARGET_S)}

@@ -28,6 +28,7 @@ COMMANDS += ("calibration_views",)  # after "video": it adds the action `video c
 COMMANDS += ("target",)
 COMMANDS += ("target_field",)  # after "target": it adds the action `target field`
 COMMANDS += ("species",)
+COMMANDS += ("detect",)
 
 #: modules that add actions to another command's parser (imported whenever that command is)
 EXTENDS: dict[str, str] = {"calibration_views": "video", "target_field": "target"}
@@ -51,6 +52,7 @@ SUMMARIES: dict[str, str] = {
     "batch": "run a task over many pairs or projects on every core",
     "target": "calibration targets: describe, print, detect, find a 3-D field from a few clicks",
     "species": "import or list a project's species list (and maximum lengths)",
+    "detect": "propose fish with a detection model: paired through the housing, stored as unreviewed objects",
 }
 
 

@@ -2,7 +2,9 @@
 
 ``usvips batch intersect --calibration CAL --out-dir DIR OBS...`` re-intersects each observations file
 with the calibration (DIR/<name>.points.csv); ``usvips batch export --out-dir DIR --format csv
-PROJECT...`` recomputes each project's figures and exports them (DIR/<name>.<format>). One progress line
+PROJECT...`` recomputes each project's figures and exports them (DIR/<name>.<format>); ``usvips batch
+detect --model M PROJECT...`` stores a detection model's proposals in every pair and video of each project
+(app/detection_batch.py). One progress line
 per finished task; a failing one prints one line and the others go on. ``--scheduler ADDRESS`` runs the
 same tasks on a Dask distributed cluster (``local:N``: N local worker processes; app/batch_cluster.py).
 Exit status: 0 when every task succeeded, 2 when any failed, 130 when interrupted (Ctrl-C: running tasks
@@ -38,13 +40,42 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     export = tasks.add_parser("export", help="recompute figures and export the objects of projects")
     export.add_argument("projects", nargs="+", help="project files (*.usvips) or surveys (postgresql://…)")
     export.add_argument("--format", choices=sorted(EXPORT_SUFFIXES), default="csv")
-    for sub in (intersect, export):
-        sub.add_argument("--out-dir", required=True, help="folder for the outputs (created if missing)")
+    detect = tasks.add_parser("detect", help="propose fish with a detection model in every pair and video of "
+                                             "projects (stored as unreviewed objects)")
+    detect.add_argument("projects", nargs="+", help="project files (*.usvips) or surveys (postgresql://…)")
+    detect.add_argument("--model", metavar="DESCRIPTION", help="the model's description file (default: the "
+                                                              "model shipped with USVIPS)")
+    detect.add_argument("--every", type=int, default=1, metavar="K", help="every K-th left frame of a video")
+    for sub in (intersect, export, detect):
+        if sub is not detect:
+            sub.add_argument("--out-dir", required=True, help="folder for the outputs (created if missing)")
         sub.add_argument("--jobs", type=int, default=None,
                          help=f"worker processes (default: every core, {batch.default_jobs()} here)")
         sub.add_argument("--scheduler", metavar="ADDRESS", help="run on a Dask distributed cluster instead: its "
                          "scheduler's address (tcp://HOST:PORT), or local:N for N local worker processes")
         sub.set_defaults(handler=run)
+
+
+def _detect_tasks(args: argparse.Namespace) -> list[batch.Task]:
+    from usvips.app.detection_batch import detect_project_task
+    from usvips.cli.detect import load
+
+    if args.every < 1:
+        raise InvalidParameterError("--every", f"must be a whole number >= 1, got {args.every}")
+    model = str(args.model) if args.model is not None else _bundled()
+    load(model)  # a bad model: one line, before any task starts
+    output_names(args.projects)  # the same project twice is refused
+    for given in args.projects:
+        if is_server_location(given):
+            parse_server_location(given)
+    return [batch.Task(shown(given), detect_project_task, {"project": given, "model": model, "every": args.every})
+            for given in args.projects]
+
+
+def _bundled() -> str:
+    from usvips.app.detection_model import bundled_model_path
+
+    return str(bundled_model_path())
 
 
 def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
@@ -106,7 +137,11 @@ def _line(outcome: batch.Outcome, finished: int, total: int) -> str:
     head = f"[{finished}/{total}]"
     if outcome.status == "ok":
         summary = outcome.summary or {}
-        if "files" in summary:
+        if "proposals" in summary:
+            counts = (f"{summary['proposals']} proposals stored, {summary['duplicates']} duplicates not stored, "
+                      f"{summary['looked_at']} pairs or videos" + (f", {len(summary['skipped'])} skipped"
+                                                                  if summary.get("skipped") else ""))
+        elif "files" in summary:
             counts = f"{summary['files']} tables" + (
                 f", {len(summary['skipped'])} objects skipped" if summary.get("skipped") else "")
         elif "points" in summary:
@@ -132,10 +167,13 @@ def run(args: argparse.Namespace) -> int:
             raise InvalidParameterError("--jobs", "the cluster's workers run the tasks with --scheduler; give one "
                                                   "of --jobs and --scheduler")
         local_workers(args.scheduler)
-    out_dir = Path(args.out_dir)
-    tasks = _tasks(args, out_dir)
-    made = not out_dir.exists()
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if args.task == "detect":
+        out_dir, tasks, made = None, _detect_tasks(args), False
+    else:
+        out_dir = Path(args.out_dir)
+        tasks = _tasks(args, out_dir)
+        made = not out_dir.exists()
+        out_dir.mkdir(parents=True, exist_ok=True)
 
     def progress(outcome: batch.Outcome, finished: int, total: int) -> None:
         print(_line(outcome, finished, total), flush=True)

@@ -73,10 +73,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "set-metadata); default: the project file's name")
     exp.add_argument("--force", action="store_true", help="replace OUT even when it is a USVIPS project or "
                      "calibration (the old file is kept as OUT.bak); never the project exported")
-    exp.add_argument("--format", choices=["globalarchive"], help="globalarchive: OUT is a folder (made if "
-                     "missing); the campaign's CAMPAIGNID_Metadata.csv, _Count.txt (MaxN) and _Length.txt with "
-                     "the EventMeasure-style tables CheckEM reads, all or nothing "
-                     "(needs set-campaign and set-metadata)")
+    exp.add_argument("--format", choices=["globalarchive", "training-set"], help="globalarchive: OUT is a folder "
+                     "(made if missing); the campaign's CAMPAIGNID_Metadata.csv, _Count.txt (MaxN) and _Length.txt "
+                     "with the EventMeasure-style tables CheckEM reads, all or nothing (needs set-campaign and "
+                     "set-metadata); training-set: OUT is a new folder of the accepted snout-fork lengths as "
+                     "crops with YOLO-pose labels and the reviewers' corrections of model proposals "
+                     "(docs/detection.md)")
     exp.add_argument("--reader", metavar="NAME", help="with --format globalarchive: only the objects this annotator "
                      "made (a double-read survey would otherwise count its fish twice)")
     exp.set_defaults(handler=run_export)
@@ -194,6 +196,8 @@ def run_import(args: argparse.Namespace) -> int:
 def run_export(args: argparse.Namespace) -> int:
     if args.format == "globalarchive":
         return run_archive_export(args)
+    if args.format == "training-set":
+        return run_training_set_export(args)
     if args.reader is not None:
         raise UsvipsError("--reader goes with --format globalarchive (the other exports hold every object)")
     from usvips.app.project_contents import media_files
@@ -209,6 +213,22 @@ def run_export(args: argparse.Namespace) -> int:
     for reason in skipped:
         print(f"skipped {reason}")
     print(f"exported {count} objects to {args.out}")
+    return 0
+
+
+def run_training_set_export(args: argparse.Namespace) -> int:
+    from usvips.app.training_set import export_training_set
+    from usvips.store.opening import open_project
+
+    if args.reader is not None or args.opcode is not None or args.force:
+        raise UsvipsError("--format training-set takes neither --reader, --opcode nor --force (it writes a new "
+                          "folder and never replaces one)")
+    with open_project(args.project, read_only=True) as project:
+        written, corrections, skipped = export_training_set(project, args.out)
+    for reason in skipped:
+        print(f"skipped {reason}")
+    print(f"exported {written} samples (crops with YOLO-pose labels) and {corrections} keypoint corrections to "
+          f"{args.out}")
     return 0
 
 

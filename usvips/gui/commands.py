@@ -191,6 +191,14 @@ ITEMS: tuple[Command | Submenu | Section, ...] = (
     Command("instants", "&Instants of the object…", "window.show_instants", menu="Measure", group="tracking",
             keys=("I",), tip="list the selected object's instants: each one's figure and weight, the combined figure "
                              "and the agreement test", scope="images"),
+    # issue 35: a detection model's proposals, stored unreviewed (usvips/gui/qt/detection_dialogs.py)
+    Command("detect", "&Detect fish on this frame", "detection_dialogs.detect_frame", menu="Measure",
+            group="detection", keys=("Ctrl+D",), tip="a detection model proposes fish on the pair or frame shown, "
+            "paired through the housing; stored unreviewed, then review mode: A accepts, F flags"),
+    Command("detect_range", "Detect fish on a &range of frames…", "detection_dialogs.detect_range",
+            menu="Measure", group="detection", tip="propose fish on frames of the video from the one shown"),
+    Command("detect_model", "Detection &model…", "detection_dialogs.choose_model", menu="Measure",
+            group="detection", tip="choose the model's description file (.toml; docs/detection.md)"),
     Command("pointing_test", "Pointin&g test…", "window.show_pointing_test", menu="Measure", group="sigma",
             tip="click rendered targets to estimate your pointing σ (stored for you on request)"),
     Command("sigma_check", "Check &σ (Monte Carlo)…", "window.show_sigma_check", menu="Measure", group="sigma",

@@ -4,7 +4,7 @@ calls no window method, so it can be made and tested without one (see :mod:`usvi
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -35,7 +35,8 @@ class Navigation:
     could not), ``show_pair(label)`` reads and shows an image pair, ``pairs_changed()`` relists the pairs,
     ``videos_changed(project)`` relists the videos, ``show_video(label, after)`` shows a video's first
     frame and calls ``after()`` once it is shown (False when it could not), ``hint(text, level)`` sets the
-    line above the images without logging it again."""
+    line above the images without logging it again, ``show_review()`` opens review mode on the unreviewed
+    objects (None where a part cannot)."""
 
     open_project: Callable[[str | Path], bool]
     show_pair: Callable[[str], None]
@@ -43,6 +44,7 @@ class Navigation:
     videos_changed: Callable[[Any], None]
     show_video: Callable[[str, Callable[[], None] | None], bool]
     hint: Callable[[str, str], None]
+    show_review: Callable[[], None] | None = None
 
 
 @dataclass(frozen=True)
@@ -50,12 +52,16 @@ class WindowContext:
     """``workspace``: the open project and its models; ``messages``: what to say to the user
     (:class:`usvips.gui.messages.Messages`); ``jobs``: long work off the GUI thread with progress and cancel
     (:class:`usvips.gui.qt.jobs.Jobs`), None where a part runs none; ``navigation``: what a dialog may ask
-    the window to show (:class:`Navigation`), None where a part asks nothing."""
+    the window to show (:class:`Navigation`), None where a part asks nothing; ``settings``: where choices are
+    kept between sessions (the window's ``QSettings``: ``value(key, default)``, ``setValue(key, value)``);
+    ``panes``: the stereo panes by side ("left", "right") for a tool that draws on the images."""
 
     workspace: Workspace
     messages: Messages
     jobs: Jobs | None = None
     navigation: Navigation | None = None
+    settings: Any | None = None
+    panes: Mapping[str, Any] | None = None
 
     def start_folder(self, name: str = "") -> str:
         """Where a file dialog opens: the open project's folder (else the home folder), with ``name``."""

@@ -27,7 +27,7 @@ import numpy as np
 
 from usvips.core import validation
 from usvips.core.detection.detection import Detection, Keypoint
-from usvips.core.detection.stereo import StereoPair
+from usvips.core.detection.stereo import StereoPair, epipolar_curves
 from usvips.core.errors import InvalidParameterError
 from usvips.core.matching import EpipolarCurve, epipolar_curve, match_along_curve
 from usvips.core.rig import StereoRig
@@ -69,15 +69,23 @@ def _near(curve: EpipolarCurve, centre: np.ndarray, radius: float) -> EpipolarCu
     return EpipolarCurve(curve.pixels[keep], curve.depths[keep])
 
 
+#: samples of each epipolar curve (geometrically spaced depths from near to far)
+CURVE_SAMPLES = 400
+
+
 def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: StereoRig, left: Keypoint,
                     right: Keypoint, window: int = 15, radius_px: float = 12.0, near: float = 0.3,
-                    far: float = 10.0, min_score: float = 0.6) -> KeypointRefinement:
+                    far: float = 10.0, min_score: float = 0.6, curve: EpipolarCurve | None = None
+                    ) -> KeypointRefinement:
     """The right keypoint moved to the match of a ``window`` px patch around the left keypoint along its
     refractive epipolar curve, searched within ``radius_px`` of the model's right point (see the module
-    docstring); the model's point kept, with the reason, when the matcher refuses."""
+    docstring); the model's point kept, with the reason, when the matcher refuses. ``curve``: the left
+    keypoint's curve when already traced (:func:`refine_pairs` traces a frame's curves at once)."""
     radius = validation.positive("radius_px", radius_px)
     before = (float(right.x), float(right.y))
-    curve = _near(epipolar_curve(rig.left, rig.right, left.pixel, near, far, samples=400), right.pixel, radius)
+    if curve is None:
+        curve = epipolar_curve(rig.left, rig.right, left.pixel, near, far, samples=CURVE_SAMPLES)
+    curve = _near(curve, right.pixel, radius)
     if len(curve.pixels) < 2:
         return KeypointRefinement(left.name, before, before, None,
                                   f"the epipolar curve passes no closer than {radius:g} px to the model's point")
@@ -91,23 +99,38 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     return KeypointRefinement(left.name, before, (float(match.pixel[0]), float(match.pixel[1])), float(match.score))
 
 
+def refine_pairs(left_image: np.ndarray, right_image: np.ndarray, pairs: Sequence[StereoPair], rig: StereoRig,
+                 keypoints: Sequence[str] = ("snout", "fork"), window: int = 15, radius_px: float = 12.0,
+                 near: float = 0.3, far: float = 10.0, min_score: float = 0.6) -> list[RefinedPair]:
+    """Each of a frame's pairs with each of ``keypoints`` (those both detections give) refined in the right
+    image by :func:`refine_keypoint`, every curve traced in one batch; other keypoints are left as the
+    model gave them."""
+    jobs = [(i, name) for i, pair in enumerate(pairs) for name in keypoints
+            if name in pair.left.keypoint_names and name in pair.right.keypoint_names]
+    curves: list[EpipolarCurve] = []
+    if jobs:
+        pixels = np.array([pairs[i].left.keypoint(name).pixel for i, name in jobs])
+        traced, seen = epipolar_curves(rig.left, rig.right, pixels, near, far, CURVE_SAMPLES)
+        depths = np.geomspace(near, far, CURVE_SAMPLES)
+        curves = [EpipolarCurve(traced[k][seen[k]], depths[seen[k]]) for k in range(len(jobs))]
+    steps: dict[int, list[KeypointRefinement]] = {i: [] for i in range(len(pairs))}
+    for (i, name), curve in zip(jobs, curves, strict=True):
+        pair = pairs[i]
+        steps[i].append(refine_keypoint(left_image, right_image, rig, pair.left.keypoint(name),
+                                        pair.right.keypoint(name), window, radius_px, near, far, min_score, curve))
+    out = []
+    for i, pair in enumerate(pairs):
+        moved = {step.name: step.after for step in steps[i] if step.refined}
+        right: Detection = pair.right
+        if moved:
+            right = replace(right, keypoints=tuple(replace(k, x=moved[k.name][0], y=moved[k.name][1])
+                                                   if k.name in moved else k for k in right.keypoints))
+        out.append(RefinedPair(replace(pair, right=right), tuple(steps[i])))
+    return out
+
+
 def refine_pair(left_image: np.ndarray, right_image: np.ndarray, pair: StereoPair, rig: StereoRig,
                 keypoints: Sequence[str] = ("snout", "fork"), window: int = 15, radius_px: float = 12.0,
                 near: float = 0.3, far: float = 10.0, min_score: float = 0.6) -> RefinedPair:
-    """The pair with each of ``keypoints`` (those both detections give) refined in the right image by
-    :func:`refine_keypoint`; other keypoints are left as the model gave them."""
-    done: list[KeypointRefinement] = []
-    moved: dict[str, tuple[float, float]] = {}
-    for name in keypoints:
-        if name not in pair.left.keypoint_names or name not in pair.right.keypoint_names:
-            continue
-        step = refine_keypoint(left_image, right_image, rig, pair.left.keypoint(name), pair.right.keypoint(name),
-                               window, radius_px, near, far, min_score)
-        done.append(step)
-        if step.refined:
-            moved[name] = step.after
-    right: Detection = pair.right
-    if moved:
-        right = replace(right, keypoints=tuple(replace(k, x=moved[k.name][0], y=moved[k.name][1]) if k.name in moved
-                                               else k for k in right.keypoints))
-    return RefinedPair(replace(pair, right=right), tuple(done))
+    """One pair refined by :func:`refine_pairs`."""
+    return refine_pairs(left_image, right_image, [pair], rig, keypoints, window, radius_px, near, far, min_score)[0]

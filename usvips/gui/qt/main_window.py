@@ -52,7 +52,7 @@ SAMPLES = sample_projects()
 MAX_RECENT = 8
 #: the dialog modules (usvips.gui.qt) commands name as their owner: their functions take the window's
 #: context (usvips.gui.window_context) and a parent widget, never the window
-DIALOG_MODULES = ("media_dialogs", "exchange_dialogs")
+DIALOG_MODULES = ("media_dialogs", "exchange_dialogs", "detection_dialogs")
 #: a panel's area (usvips.gui.panel_registry) as Qt's dock area
 DOCK_AREAS = {area: getattr(QtCore.Qt.DockWidgetArea, f"{area.capitalize()}DockWidgetArea")
               for area in ("left", "right", "top", "bottom")}
@@ -99,15 +99,15 @@ class MainWindow(QtWidgets.QMainWindow):
         self.jobs = Jobs(self.pool, self.messages)
         self.workers = self.jobs.workers
         #: what the panels and controllers are handed instead of the window
+        self.panes = {side: StereoPane(side) for side in SIDES}
         self.context = WindowContext(self.workspace, self.messages, self.jobs, Navigation(
             self.open_path, self.load_pair, self.refresh_pair_box, self._videos_changed, self._show_video,
-            self.set_hint))
+            self.set_hint, self.show_review), self.settings, self.panes)
         self._display_tokens = dict.fromkeys(SIDES, 0)
         self._pair_worker: Worker | None = None
         self._front_before_observation: QtWidgets.QDockWidget | None = None  # raised again after a record
         self._centre_pending = None  # centres the panes on an object asked for once its pair is shown
         self.selection: list[int] = []
-        self.panes = {side: StereoPane(side) for side in SIDES}
         self.splitter = QtWidgets.QSplitter(QtCore.Qt.Orientation.Horizontal)
         self.splitter.setObjectName("stereo_splitter")
         for side in SIDES:

@@ -1,0 +1,139 @@
+"""Detection in a project: proposals stored as unreviewed objects made by the model (its name and hash
+recorded), lengths with the model's measured sigma or none without one, never over a person's object."""
+
+import numpy as np
+import pytest
+
+from tests.app.detection_scenes import fake_model, make_project, scene, write_switching_model
+from usvips.app.detection_model import load_model
+from usvips.app.detection_service import detect_in_project, is_proposal, plan_detection, run_detection
+from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.pointing import source_from_label
+from usvips.store import Project
+from usvips.store.project import Vertex
+
+
+@pytest.fixture
+def survey(tmp_path):
+    return make_project(tmp_path), scene(seed=3)
+
+
+def test_proposals_are_stored_unreviewed_with_the_model_as_their_source_and_measured_lengths(survey):
+    path, truth = survey
+    model = fake_model(truth, sigma=0.8)
+    with Project.open(path) as project:
+        run = detect_in_project(project, model, pair="dive", refine=False)
+        assert len(run.proposals) == 3 and all(p.object_id is not None for p in run.proposals)
+        for proposal in run.proposals:
+            stored = project.object(proposal.object_id)
+            assert is_proposal(stored) and stored.kind == "length" and stored.creator == "model fake-fish"
+            assert project.review(stored.id).state == "unreviewed"
+            assert "sha256:abababababab" in stored.notes
+            for vertex, point in zip(stored.vertices, ("snout", "fork"), strict=True):
+                assert vertex.source == f"keypoint ({point}, model fake-fish sha256:abababababab)"
+                assert source_from_label(vertex.source).kind == "keypoint"
+                assert vertex.pointing_px == (0.8, 0.8) and vertex.pointing_origin == "estimated"
+            fish = int(np.argmin(np.linalg.norm(truth.left[:, 0] - proposal.pair.left.keypoint("snout").pixel, axis=1)))
+            main = proposal.measurement.main
+            assert abs(main.value - truth.lengths[fish]) < 1e-3  # noise-free keypoints: the true length
+            assert main.sigma > 0 and proposal.measurement.pointing_origin == "estimated"
+            assert any("measured on test scenes" in mark for mark in proposal.measurement.marks)
+        assert "3 stored as unreviewed proposals" in run.summary()[0]
+        assert "measured (test scenes)" in run.summary()[1]
+
+
+def test_a_proposal_never_repeats_a_persons_object_nor_an_earlier_proposal(survey):
+    path, truth = survey
+    model = fake_model(truth)
+    with Project.open(path) as project:
+        # a person measured fish 1 (clicked slightly off the model's keypoints)
+        (sl, fl), (sr, fr) = truth.left[1], truth.right[1]
+        person = project.add_object("length", [Vertex(*(sl + 3), *(sr + 3), pair="dive"),
+                                               Vertex(*(fl - 4), *(fr - 4), pair="dive")], "Pagrus auratus")
+        before = project.object(person)
+        run = detect_in_project(project, model, pair="dive", refine=False)
+        assert sorted(p.duplicate_of for p in run.proposals if p.duplicate_of) == [person]
+        assert sum(p.object_id is not None for p in run.proposals) == 2
+        assert project.object(person) == before           # the person's object is untouched
+        again = detect_in_project(project, model, pair="dive", refine=False)
+        assert all(p.object_id is None and p.duplicate_of is not None for p in again.proposals)
+        assert len(project.objects()) == 3
+        assert "0 stored" in again.summary()[0] and "3 not stored" in again.summary()[0]
+
+
+def test_without_a_measured_sigma_proposals_have_no_length_and_the_run_says_why(survey):
+    path, truth = survey
+    with Project.open(path) as project:
+        run = detect_in_project(project, fake_model(truth, sigma=None), pair="dive", refine=False)
+        assert run.proposals and all(p.measurement is None for p in run.proposals)
+        for proposal in run.proposals:
+            stored = project.object(proposal.object_id)
+            assert all(v.xyz is None and v.pointing_px is None for v in stored.vertices)
+            assert "no length" in proposal.line()
+        assert "no measured pointing sigma for snout, fork" in run.summary()[1]
+        assert "never assumed" in run.summary()[1]
+
+
+def test_a_run_reports_progress_and_stops_at_a_cancel(survey):
+    path, truth = survey
+    with Project.open(path) as project:
+        plan = plan_detection(project, pair="dive")
+    seen = []
+    run = run_detection(plan, fake_model(truth), progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(1, 1)] and run.frames_done == 1 and not run.cancelled
+    stopped = run_detection(plan, fake_model(truth), cancel=lambda: True)
+    assert stopped.cancelled and stopped.frames_done == 0 and not stopped.proposals
+
+
+def test_what_the_project_lacks_is_named(tmp_path, survey):
+    path, truth = survey
+    with Project.open(path) as project:
+        project.add_pair("bare")
+        with pytest.raises(UsvipsError, match="no image pair 'nowhere'"):
+            plan_detection(project, pair="nowhere")
+        with pytest.raises(UsvipsError, match="no video 'drop'"):
+            plan_detection(project, video="drop")
+        with pytest.raises(UsvipsError, match="no image files"):
+            plan_detection(project, pair="bare")
+
+
+def test_an_onnx_model_runs_from_its_description_and_a_mismatched_description_is_refused(tmp_path, survey):
+    path, truth = survey
+    description = write_switching_model(tmp_path, truth, sigma=1.2)
+    model = load_model(description)
+    assert model.name == "fish" and len(model.sha256) == 64
+    with Project.open(path) as project:
+        run = detect_in_project(project, model, pair="dive")
+    assert len(run.proposals) == 3 and all(p.measurement is not None for p in run.proposals)
+    assert all(p.refined == 0 for p in run.proposals)  # flat images: nothing to match, the model's points kept
+    text = description.read_text().replace('keypoints = ["snout", "fork"]', 'keypoints = ["snout", "fork", "eye"]')
+    text = text.replace("px = {snout = 1.2, fork = 1.2}", "px = {snout = 1.2}")
+    description.write_text(text)
+    with pytest.raises(InputFileError, match="does not match its model's output"):
+        load_model(description)
+
+
+def test_on_a_video_every_kth_frame_of_a_range_is_detected_with_progress_and_a_stop_keeps_the_frames_done(survey):
+    from tests.app.detection_scenes import add_video, calibration
+    from usvips.io.calibration_file import calibration_to_dict
+
+    path, truth = survey
+    with Project.open(path) as project:
+        add_video(path.parent, project, "drop", frames=6)
+        project.add_calibration("cal", calibration_to_dict(calibration()), ("drop",))
+        with pytest.raises(UsvipsError, match="frames 2:9"):
+            plan_detection(project, video="drop", frames=(2, 9))
+        seen = []
+        run = detect_in_project(project, fake_model(truth), video="drop", every=2, frames=(1, 5), refine=False,
+                                progress=lambda done, total: seen.append((done, total)))
+        assert seen == [(1, 3), (2, 3), (3, 3)]
+        assert sorted({p.frame for p in run.proposals}) == [1, 3, 5] and len(run.proposals) == 9
+        stored = project.object(run.proposals[0].object_id)
+        assert all(v.video == "drop" and v.frame_left == v.frame_right == run.proposals[0].frame for v in
+                   stored.vertices)
+        assert stored.vertices[0].time_s == pytest.approx(run.proposals[0].frame / 25.0)
+        plan = plan_detection(project, video="drop")
+    done = []
+    stopped = run_detection(plan, fake_model(truth), cancel=lambda: len(done) >= 2,
+                            progress=lambda d, t: done.append(d))
+    assert stopped.cancelled and stopped.frames_done == 2 and {p.frame for p in stopped.proposals} == {0, 1}

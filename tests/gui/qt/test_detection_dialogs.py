@@ -1,0 +1,35 @@
+"""Measure › Detect fish on this frame in a window: the remembered model is used, the run goes through the
+window's worker, the proposals are stored unreviewed, each keypoint's 95 % circle is drawn on both panes and
+review mode opens on them — with the dialogs handed the window's context, never the window."""
+
+from tests.app.detection_scenes import make_project, scene, write_switching_model
+from tests.gui.conftest import wait_for_pair
+from usvips.gui.qt.detection_dialogs import SETTING
+
+
+def test_detect_on_the_pair_shown_stores_draws_and_opens_review(qtbot, make_window, tmp_path):
+    truth = scene(seed=5)
+    project = make_project(tmp_path)
+    model = write_switching_model(tmp_path, truth, sigma=1.0)
+    window = make_window()
+    window.settings.setValue(SETTING, str(model))
+    assert window.open_path(project)
+    window.load_pair("dive")
+    wait_for_pair(qtbot, window, "dive")
+    assert window.workspace.project.objects() == []
+
+    window.actions["detect"].trigger()
+    qtbot.waitUntil(lambda: not window.busy and len(window.workspace.project.objects()) == 3, timeout=20000)
+    stored = window.workspace.project.objects()
+    assert all(o.creator.startswith("model ") for o in stored)
+    assert all(window.workspace.project.review(o.id) is None or window.workspace.project.review(o.id).state
+               not in ("accepted", "flagged") for o in stored)
+    qtbot.waitUntil(lambda: window.docks["review"].isVisible(), timeout=5000)
+    assert sorted(window.review.model.queue) == sorted(o.id for o in stored)
+    from usvips.gui.qt.detection_dialogs import _STATES
+    circles = _STATES[id(window.workspace)].circles
+    assert {side: len(item.data) for side, item in circles.items.items()} == {"left": 6, "right": 6}
+
+    window.actions["detect"].trigger()  # again: the same fish are duplicates, nothing is added
+    qtbot.waitUntil(lambda: not window.busy and "duplicate" in window.log.toPlainText(), timeout=20000)
+    assert len(window.workspace.project.objects()) == 3

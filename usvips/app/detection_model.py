@@ -1,0 +1,98 @@
+"""The detection model a project's proposals come from: its description file read, its ONNX model checked
+by one trial run (a description that does not match the model's output is refused here, naming the file),
+and its identity — the description's name and the model file's SHA-256 — recorded with every proposal.
+
+A model is chosen by its description file (docs/detection.md); without one, the model shipped in
+``resources/models/`` is used when exactly one is there.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from usvips.core.detection import Detector, ModelDescription
+from usvips.core.detection.runner import OnnxDetector
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.io.model_description import model_path, read_model_description
+from usvips.locations import resources_folder
+
+
+@dataclass(frozen=True)
+class DetectionModel:
+    """A model ready to run: its ``name`` (the description file's stem), the model file's ``sha256`` (hex),
+    its :class:`ModelDescription` and ``make_detector``, which gives a fresh detector for the calling thread
+    (a network is not shared between threads)."""
+
+    name: str
+    sha256: str
+    description: ModelDescription
+    make_detector: Callable[[], Detector]
+
+    @property
+    def tag(self) -> str:
+        """How proposals name their model: ``name sha256:<first 12 hex digits>``."""
+        return f"{self.name} sha256:{self.sha256[:12]}"
+
+    def keypoint_sigma(self, keypoints: tuple[str, ...]) -> dict[str, float] | None:
+        """The measured pointing sigma (px) of each of ``keypoints``; None when any was never measured."""
+        sigmas = {name: self.description.measured_sigma(name) for name in keypoints}
+        return None if any(v is None for v in sigmas.values()) else sigmas  # type: ignore[return-value]
+
+    def sigma_line(self, keypoints: tuple[str, ...]) -> str:
+        """One line on the keypoints' pointing sigma: measured (values and basis), or why lengths get none."""
+        sigmas = self.keypoint_sigma(keypoints)
+        if sigmas is None:
+            missing = [k for k in keypoints if self.description.measured_sigma(k) is None]
+            return (f"model {self.tag}: no measured pointing sigma for {', '.join(missing)}: proposals are stored "
+                    "as picks without a length (a length's sigma is never assumed; measure the model's keypoint "
+                    "sigma and record it in its description's [keypoint_sigma] table)")
+        values = ", ".join(f"{k} {v:.2f} px" for k, v in sigmas.items())
+        basis = self.description.keypoint_sigma_basis or "basis not stated"
+        return f"model {self.tag}: keypoint pointing sigma measured ({basis}): {values}"
+
+
+def load_model(path: str | Path) -> DetectionModel:
+    """The model a description file describes, its ONNX file read, hashed and run once on a blank image of
+    its input size: an output that does not match the description is an :class:`InputFileError` naming the
+    description file."""
+    path = Path(path)
+    description = read_model_description(path)
+    model = model_path(path, description)
+    if not model.is_file():
+        raise InputFileError(str(path), f"model.file: no such file {str(model)!r}")
+    try:
+        data = model.read_bytes()
+    except OSError as error:
+        raise InputFileError(str(model), f"cannot be read: {error}") from None
+
+    def make() -> OnnxDetector:
+        try:
+            return OnnxDetector(description, data)
+        except InvalidParameterError as error:
+            raise InputFileError(str(model), error.problem) from None
+
+    trial = make()
+    try:
+        trial.detect(np.full((description.input_height, description.input_width, 3), description.pad_value, np.uint8))
+    except InvalidParameterError as error:
+        raise InputFileError(str(path), f"does not match its model's output: {error.problem}") from None
+    except Exception as error:  # noqa: BLE001 (OpenCV's network refusing to run is the model's problem, named)
+        reason = str(error).strip().splitlines()[-1] if str(error).strip() else type(error).__name__
+        raise InputFileError(str(model), f"OpenCV cannot run the model: {reason}") from None
+    return DetectionModel(path.stem, hashlib.sha256(data).hexdigest(), description, make)
+
+
+def bundled_model_path() -> Path:
+    """The description file of the model shipped in ``resources/models/`` (the only ``.toml`` there); a
+    :class:`UsvipsError` when none or several are shipped."""
+    folder = resources_folder() / "models"
+    found = sorted(folder.glob("*.toml")) if folder.is_dir() else []
+    if len(found) != 1:
+        raise UsvipsError(f"no model was given and {'none' if not found else len(found)} "
+                          f"{'is' if len(found) < 2 else 'are'} shipped in {folder}: name a model description file")
+    return found[0]

@@ -1,0 +1,372 @@
+"""Detection in a project: a model's proposals found on an image pair or the frames of a stereo video,
+paired through the housing, refined along the curve, measured, and stored as UNREVIEWED objects whose
+source is the model.
+
+Three steps, so that the window can run the middle one on its worker:
+
+1. :func:`plan_detection` (the project's thread) reads what is needed: the calibration active for the
+   pair or video, the images' paths or the video's files, the frames.
+2. :func:`run_detection` (any thread) detects on left and right, pairs the detections by one assignment over
+   the frame (:func:`usvips.core.detection.stereo.pair_detections`), refines each right keypoint along the
+   left keypoint's refractive epipolar curve (:mod:`usvips.core.detection.refine`) and measures each pair's
+   length with the model's MEASURED keypoint sigma (:func:`usvips.core.detection.stereo.measure_pairs`).
+   A model without a measured sigma gives picks without a length (never an assumed sigma). It reports
+   progress per frame and stops at a cancel (the frames done are kept).
+3. :func:`store_proposals` (the project's thread) stores each proposal as a ``length`` object, unreviewed,
+   created by ``model <name>``, each vertex's source ``keypoint (<point>, model <name> sha256:<12 hex>)``
+   with its measured pointing sigma (origin "estimated").
+
+Proposals never overwrite a person's object, nor repeat an object already there: a proposal whose snout and
+fork lie, on the same pair (and left frame of a video), within a quarter of its pixel length of the two
+ends of a stored object (either way round), or whose box holds a stored single-point object, is NOT
+stored; it is reported as a duplicate of that object.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from usvips.app.detection_model import DetectionModel
+from usvips.app.pair_geometry import PairGeometry, pair_geometry
+from usvips.app.video_project import left_frame_time, partner_frame
+from usvips.core.detection import Detection
+from usvips.core.detection.refine import refine_pairs
+from usvips.core.detection.stereo import StereoPair, measure_pairs, pair_detections
+from usvips.core.errors import UsvipsError
+from usvips.core.measurements.evaluate import Measurement
+from usvips.io.images import read_image
+from usvips.io.video_stream import PairReader, VideoStream
+from usvips.store.interface import ProjectStore
+from usvips.store.records import StoredObject, Vertex
+
+#: the measured points of a proposal (a fork length)
+KEYPOINTS = ("snout", "fork")
+#: the pairing gate without a measured sigma (px): a threshold on the curve distance, no sigma claimed
+DEFAULT_GATE_PX = 10.0
+#: a proposal is the same fish as a stored object when both ends lie within this fraction of its length
+SAME_FISH_FRACTION = 0.25
+
+
+@dataclass(frozen=True)
+class DetectionPlan:
+    """What a run reads from the project: the pair or video ``label``, its geometry, the left frames to
+    detect on (None: an image pair) with their right partners and times, and the image or video files."""
+
+    label: str
+    geometry: PairGeometry
+    frames: tuple[int, ...] | None = None
+    partners: tuple[int, ...] = ()
+    left_paths: tuple[Path, ...] = ()
+    right_paths: tuple[Path, ...] = ()
+    project_path: str = ""
+
+    @property
+    def is_video(self) -> bool:
+        return self.frames is not None
+
+    @property
+    def count(self) -> int:
+        return 1 if self.frames is None else len(self.frames)
+
+    def where(self, frame: int | None) -> str:
+        return self.label if frame is None else f"{self.label} frame {frame}"
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """One proposed fish: where (``label``, left ``frame`` or None), its pair (refined), its measurement
+    (None without a measured sigma, or the reason it failed in ``problem``), how many right keypoints were
+    refined, and once stored its ``object_id`` — or ``duplicate_of`` the stored object it repeats."""
+
+    label: str
+    frame: int | None
+    pair: StereoPair
+    measurement: Measurement | None
+    refined: int
+    problem: str = ""
+    object_id: int | None = None
+    duplicate_of: int | None = None
+
+    def line(self) -> str:
+        """One line for a person: where, the model's score, the pairing cost, the length with its sigma."""
+        where = self.label if self.frame is None else f"{self.label} frame {self.frame}"
+        what = (f"object {self.object_id}" if self.object_id is not None
+                else f"not stored: duplicate of object {self.duplicate_of}" if self.duplicate_of is not None
+                else "not stored")
+        if self.measurement is not None:
+            main = self.measurement.main
+            length = f"length {main.value * 1000:.1f} ± {main.sigma * 1000:.1f} mm"
+        else:
+            length = self.problem or "no length (no measured keypoint sigma)"
+        return (f"{where}: {what}: {self.pair.left.class_name} score {self.pair.left.score:.2f}, pairing "
+                f"{self.pair.cost_px:.2f} px, right keypoints refined {self.refined}/{len(KEYPOINTS)}, {length}")
+
+
+@dataclass
+class DetectionRun:
+    """What a run found: its proposals, per frame the left and right detections and how many stayed
+    unpaired, the frames done, and whether it was cancelled."""
+
+    plan: DetectionPlan
+    model: DetectionModel
+    proposals: list[Proposal] = field(default_factory=list)
+    detections: dict[int | None, tuple[tuple[Detection, ...], tuple[Detection, ...]]] = field(default_factory=dict)
+    unpaired: int = 0
+    frames_done: int = 0
+    cancelled: bool = False
+
+    def summary(self) -> list[str]:
+        """Lines closing a run: what was looked at, found, stored, skipped, and the sigma used."""
+        stored = sum(p.object_id is not None for p in self.proposals)
+        duplicates = sum(p.duplicate_of is not None for p in self.proposals)
+        measured = sum(p.measurement is not None for p in self.proposals)
+        unit = "frame" if self.plan.is_video else "pair"
+        lines = [f"{self.plan.label}: {self.frames_done} of {self.plan.count} {unit}(s) looked at"
+                 f"{' (cancelled)' if self.cancelled else ''}; {len(self.proposals)} fish paired in both images, "
+                 f"{self.unpaired} detection(s) unpaired; {stored} stored as unreviewed proposals, {duplicates} not "
+                 f"stored (duplicates of stored objects); {measured} with a length",
+                 self.model.sigma_line(KEYPOINTS)]
+        return lines
+
+
+def _geometry(project: ProjectStore, label: str) -> PairGeometry:
+    geometry = pair_geometry(project, label)
+    if geometry is None:
+        raise UsvipsError(f"{label!r} has no active calibration: detections are paired through the housing, "
+                          "which needs one (make a calibration active for it)")
+    return geometry
+
+
+def plan_detection(project: ProjectStore, pair: str | None = None, video: str | None = None, every: int = 1,
+                   frames: tuple[int, int] | None = None) -> DetectionPlan:
+    """What detecting on image pair ``pair`` — or on every ``every``-th left frame of video ``video`` from
+    ``frames`` (first, last; inclusive; default the whole video) — needs; a pair, video or frame range the
+    project does not have is a :class:`UsvipsError` naming it."""
+    if (pair is None) == (video is None):
+        raise UsvipsError("detect on one image pair or one video")
+    if pair is not None:
+        pairs = {p.label: p for p in project.pairs()}
+        videos = {v.label for v in project.videos()}
+        if pair in videos:
+            raise UsvipsError(f"{pair!r} is a video, not an image pair: detect on its frames")
+        if pair not in pairs:
+            raise UsvipsError(f"the project has no image pair {pair!r}; it has: {', '.join(sorted(pairs)) or 'none'}")
+        stored = pairs[pair]
+        if stored.left is None or stored.right is None:
+            raise UsvipsError(f"image pair {pair!r} has no image files")
+        geometry = _geometry(project, pair)
+        return DetectionPlan(pair, geometry, None, (), (project.media_location(stored.left),),
+                             (project.media_location(stored.right),))
+    videos = {v.label: v for v in project.videos()}
+    if video not in videos:
+        raise UsvipsError(f"the project has no video {video!r}; it has: {', '.join(sorted(videos)) or 'none'}")
+    stored_video = videos[video]
+    if int(every) < 1:
+        raise UsvipsError(f"every: must be a whole number >= 1, got {every}")
+    first, last = frames if frames is not None else (0, stored_video.frame_count - 1)
+    if not 0 <= first <= last < stored_video.frame_count:
+        raise UsvipsError(f"video {video!r}: frames {first}:{last} are not within 0:{stored_video.frame_count - 1}")
+    geometry = _geometry(project, video)
+    chosen, partners = [], []
+    for frame in range(first, last + 1, int(every)):
+        try:
+            partners.append(partner_frame(stored_video, frame))
+        except UsvipsError:
+            continue  # a left frame without a right partner: nothing to pair
+        chosen.append(frame)
+    if not chosen:
+        raise UsvipsError(f"video {video!r}: no left frame in {first}:{last} has a right partner")
+    return DetectionPlan(video, geometry, tuple(chosen), tuple(partners),
+                         tuple(project.media_path(p) for p in stored_video.paths("left")),
+                         tuple(project.media_path(p) for p in stored_video.paths("right")))
+
+
+def _bgr(image: np.ndarray) -> np.ndarray:
+    """An image as the detector takes it: 8-bit BGR (or grey) from the RGB or grey, 8- or 16-bit files."""
+    if image.dtype == np.uint16:
+        image = (image >> 8).astype(np.uint8)
+    return cv2.cvtColor(image, cv2.COLOR_RGB2BGR) if image.ndim == 3 else image
+
+
+def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, model: DetectionModel,
+                 detector=None, refine: bool = True,
+                 gate_px: float | None = None) -> tuple[list[tuple[StereoPair, Measurement | None, int, str]],
+                                                        tuple[Detection, ...], tuple[Detection, ...], int]:
+    """One stereo frame (8-bit BGR or grey images): each fish paired in both images as (pair with refined
+    right keypoints, its measurement or None, right keypoints refined, why there is no length), the left
+    and right detections, and the number of detections left unpaired."""
+    detector = detector or model.make_detector()
+    found_left, found_right = tuple(detector.detect(left)), tuple(detector.detect(right))
+    rig = geometry.calibration.rig(geometry.station, geometry.frame)
+    sigmas = model.keypoint_sigma(KEYPOINTS)
+    gate = gate_px if gate_px is not None else (
+        4 * math.sqrt(2) * max(sigmas.values()) if sigmas else DEFAULT_GATE_PX)
+    pairing = pair_detections(found_left, found_right, rig, gate_px=gate, keypoints=KEYPOINTS)
+    if refine:
+        results = refine_pairs(left, right, pairing.pairs, rig, KEYPOINTS, radius_px=max(2 * gate, 8.0))
+        pairs = [result.pair for result in results]
+        refined = [sum(k.refined for k in result.keypoints) for result in results]
+    else:
+        pairs, refined = list(pairing.pairs), [0] * len(pairing.pairs)
+    measured: list = [None] * len(pairs)
+    if sigmas is not None and pairs:
+        measured = measure_pairs(pairs, geometry.calibration, sigmas, KEYPOINTS, geometry.station, geometry.frame,
+                                 measured_basis=model.description.keypoint_sigma_basis or "the model's validation")
+    out = []
+    for pair, m, count in zip(pairs, measured, refined, strict=True):
+        if isinstance(m, UsvipsError):
+            out.append((pair, None, count, f"no length: {m}"))
+        else:
+            out.append((pair, m, count, ""))
+    return out, found_left, found_right, len(pairing.unpaired_left) + len(pairing.unpaired_right)
+
+
+def _frames(plan: DetectionPlan):
+    """(left frame or None, left image, right image) of each frame of the plan, decoded lazily."""
+    if not plan.is_video:
+        yield None, _bgr(read_image(plan.left_paths[0])), _bgr(read_image(plan.right_paths[0]))
+        return
+    left, right = VideoStream(list(plan.left_paths)), VideoStream(list(plan.right_paths))
+    reader = PairReader(left, right)
+    try:
+        for frame, partner in zip(plan.frames, plan.partners, strict=True):
+            pictures = reader.pictures(frame, partner)
+            yield frame, *(cv2.cvtColor(p.array(), cv2.COLOR_RGB2BGR) for p in pictures)
+    finally:
+        reader.close()
+        left.close()
+        right.close()
+
+
+def run_detection(plan: DetectionPlan, model: DetectionModel, cancel: Callable[[], bool] | None = None,
+                  progress: Callable[[int, int], None] | None = None, refine: bool = True,
+                  gate_px: float | None = None) -> DetectionRun:
+    """Detect, pair, refine and measure on every frame of ``plan`` (any thread; reads no project), with
+    ``progress(done, total)`` after each frame and ``cancel()`` checked before each (the frames done are
+    kept)."""
+    run = DetectionRun(plan, model)
+    detector = model.make_detector()
+    frames = _frames(plan)
+    try:
+        for frame, left, right in frames:
+            if cancel is not None and cancel():
+                run.cancelled = True
+                break
+            found, seen_left, seen_right, unpaired = detect_frame(left, right, plan.geometry, model, detector, refine,
+                                                                  gate_px)
+            run.detections[frame] = (seen_left, seen_right)
+            run.unpaired += unpaired
+            run.proposals.extend(Proposal(plan.label, frame, pair, m, count, problem)
+                                 for pair, m, count, problem in found)
+            run.frames_done += 1
+            if progress is not None:
+                progress(run.frames_done, plan.count)
+    finally:
+        frames.close()
+    return run
+
+
+def _same_fish(proposal: Proposal, stored: StoredObject) -> bool:
+    ends = np.array([proposal.pair.left.keypoint(k).pixel for k in KEYPOINTS])
+    points = np.array([(v.xl, v.yl) for v in stored.vertices])
+    if len(points) == 1:
+        x0, y0, x1, y1 = proposal.pair.left.box
+        return bool(x0 <= points[0, 0] <= x1 and y0 <= points[0, 1] <= y1)
+    tolerance = SAME_FISH_FRACTION * max(float(np.linalg.norm(ends[1] - ends[0])), 1.0)
+    pair_ends = points[[0, -1]]
+    return bool(np.all(np.linalg.norm(pair_ends - ends, axis=1) <= tolerance)
+                or np.all(np.linalg.norm(pair_ends[::-1] - ends, axis=1) <= tolerance))
+
+
+def _on(stored: StoredObject, label: str, frame: int | None) -> bool:
+    if not stored.vertices or stored.vertices[0].pair != label:
+        return False
+    return frame is None or stored.vertices[0].frame_left == frame
+
+
+def source_label(point: str, model: DetectionModel) -> str:
+    """The stored source of a proposal's vertex: ``keypoint (<point>, model <name> sha256:<12 hex>)``."""
+    return f"keypoint ({point}, model {model.tag})"
+
+
+def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionModel,
+                      times: dict[int, float]) -> list[Vertex]:
+    """The vertices a proposal is stored as (snout, fork), with their 3-D points and covariance when it has
+    a length, the model's measured sigma, and on a video its frames and time."""
+    m = proposal.measurement
+    frame = proposal.frame
+    partner = None if frame is None else plan.partners[plan.frames.index(frame)]
+    vertices = []
+    for i, name in enumerate(KEYPOINTS):
+        left, right = proposal.pair.left.keypoint(name), proposal.pair.right.keypoint(name)
+        sigma = model.description.measured_sigma(name)
+        xyz = tuple(map(float, m.points[i])) if m is not None else None
+        covariance = m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] if m is not None else None
+        vertices.append(Vertex(float(left.x), float(left.y), float(right.x), float(right.y), xyz, covariance,
+                               plan.geometry.calibration_id if m is not None else None, plan.label,
+                               plan.label if frame is not None else None, frame, partner,
+                               times.get(frame) if frame is not None else None, source=source_label(name, model),
+                               pointing_px=(sigma, sigma) if sigma is not None else None,
+                               pointing_origin="estimated" if sigma is not None else "default"))
+    return vertices
+
+
+def proposal_note(proposal: Proposal, model: DetectionModel) -> str:
+    return (f"proposed by model {model.tag}: score {proposal.pair.left.score:.2f}, pairing "
+            f"{proposal.pair.cost_px:.2f} px, right keypoints refined {proposal.refined}/{len(KEYPOINTS)}")
+
+
+def _times(plan: DetectionPlan, frames: Sequence[int]) -> dict[int, float]:
+    if not frames:
+        return {}
+    with VideoStream(list(plan.left_paths)) as left:
+        return {f: left_frame_time(left, f) for f in frames}
+
+
+def store_proposals(project: ProjectStore, run: DetectionRun) -> DetectionRun:
+    """Store the run's proposals as unreviewed ``length`` objects made by the model (one transaction), each
+    one not already there (see the module docstring: a duplicate is reported, never stored); fills in each
+    proposal's ``object_id`` or ``duplicate_of``."""
+    plan, model = run.plan, run.model
+    existing = [o for o in project.objects() if o.vertices and o.vertices[0].pair == plan.label]
+    times = _times(plan, sorted({p.frame for p in run.proposals if p.frame is not None}))
+    rows, where = [], []
+    for i, proposal in enumerate(run.proposals):
+        twin = next((o for o in existing if _on(o, plan.label, proposal.frame) and _same_fish(proposal, o)), None)
+        if twin is not None:
+            run.proposals[i] = _with(proposal, duplicate_of=twin.id)
+            continue
+        rows.append(("length", proposal_vertices(proposal, plan, model, times), "", proposal_note(proposal, model),
+                     f"model {model.name}"))
+        where.append(i)
+    if rows:
+        with project.transaction():
+            ids = project.add_objects(rows)
+        for i, object_id in zip(where, ids, strict=True):
+            run.proposals[i] = _with(run.proposals[i], object_id=object_id)
+    return run
+
+
+def _with(proposal: Proposal, **changes) -> Proposal:
+    return replace(proposal, **changes)
+
+
+def detect_in_project(project: ProjectStore, model: DetectionModel, pair: str | None = None,
+                      video: str | None = None, every: int = 1, frames: tuple[int, int] | None = None,
+                      cancel: Callable[[], bool] | None = None, progress: Callable[[int, int], None] | None = None,
+                      refine: bool = True) -> DetectionRun:
+    """:func:`plan_detection`, :func:`run_detection` and :func:`store_proposals` in one go (the command line)."""
+    plan = plan_detection(project, pair, video, every, frames)
+    return store_proposals(project, run_detection(plan, model, cancel, progress, refine))
+
+
+def is_proposal(stored: StoredObject) -> bool:
+    """Whether a stored object was proposed by a model (its vertices' source is a model keypoint)."""
+    return bool(stored.vertices) and all(v.source.startswith("keypoint (") and "model " in v.source
+                                         for v in stored.vertices)

@@ -1,0 +1,123 @@
+"""``usvips detect PROJECT (--pair LABEL | --video LABEL [--every K] [--frames A:B]) [--model M]``: a
+detection model's proposals on an image pair or a video's frames, paired through the housing, refined
+along the refractive epipolar curve and stored as unreviewed objects whose source is the model (its name
+and file hash recorded); one line per proposal, then a summary (usvips/app/detection_service.py). A
+proposal never overwrites a person's object: one that repeats a stored object is reported, not stored.
+Without ``--model``, the model shipped in resources/models/ (when exactly one is).
+``usvips detect PROJECT --review-sigma [--model M]`` measures the model's keypoint pointing sigma from the
+reviewers' corrections of its accepted proposals and prints the description file's [keypoint_sigma] table;
+``usvips detect PROJECT --max-n`` prints MaxN per species on each video and pair from accepted objects."""
+
+from __future__ import annotations
+
+import argparse
+
+from usvips.cli import whole_number
+from usvips.cli.common import add_annotator_option
+
+
+def frame_range(text: str) -> tuple[int, int]:
+    """``A:B``: left frames A to B, both included (whole numbers, 0 ≤ A ≤ B)."""
+    first, colon, last = text.partition(":")
+    try:
+        if not colon:
+            raise ValueError
+        a, b = int(first), int(last)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a frame range A:B (two whole numbers)") from None
+    if a < 0 or b < a:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected 0 <= A <= B")
+    return a, b
+
+
+def _every(text: str) -> int:
+    value = whole_number(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
+    return value
+
+
+def add_model_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--model", metavar="DESCRIPTION", help="the model's description file (.toml or .json, "
+                        "naming its ONNX file; docs/detection.md); default: the model shipped with USVIPS")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("detect", help="propose fish with a detection model: paired through the "
+                                                  "housing, stored as unreviewed objects")
+    parser.add_argument("project", help="project file (*.usvips) or survey (postgresql://…)")
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument("--pair", metavar="LABEL", help="an image pair of the project")
+    where.add_argument("--video", metavar="LABEL", help="a stereo video of the project")
+    where.add_argument("--review-sigma", action="store_true", help="detect nothing: measure the model's keypoint "
+                       "pointing sigma from the reviewers' corrections of its accepted proposals, and print the "
+                       "[keypoint_sigma] table for its description file")
+    where.add_argument("--max-n", action="store_true", help="detect nothing: print MaxN per species on each video "
+                       "and pair from the accepted objects")
+    parser.add_argument("--every", type=_every, default=1, metavar="K", help="every K-th left frame (video)")
+    parser.add_argument("--frames", type=frame_range, metavar="A:B", help="left frames A to B, both included "
+                        "(video; default: all)")
+    add_model_option(parser)
+    parser.add_argument("--no-refine", action="store_true", help="keep the model's right keypoints (do not "
+                        "refine them along the epipolar curve)")
+    add_annotator_option(parser)
+    parser.set_defaults(handler=run)
+
+
+def load(given: str | None):
+    from usvips.app.detection_model import bundled_model_path, load_model
+
+    return load_model(given if given is not None else bundled_model_path())
+
+
+def print_max_n(args: argparse.Namespace) -> int:
+    from usvips.app.reviewed_max_n import reviewed_max_n
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
+
+    with open_project(args.project, read_only=True) as project:
+        found = reviewed_max_n(project)
+    for row in found:
+        print(row.line())
+    print(f"{shown(args.project)}: MaxN of {len({r.species for r in found})} species from accepted objects")
+    return 0
+
+
+def review_sigma(args: argparse.Namespace) -> int:
+    from datetime import date
+
+    from usvips.app.detection_review import description_table, sigma_from_reviews
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
+
+    model = load(args.model)
+    with open_project(args.project, read_only=True) as project:
+        measured = sigma_from_reviews(project, model, date=date.today().isoformat())
+    for value in measured.values():
+        print(f"{model.tag}: {value.text}")
+    print(description_table(measured, f"reviewers' corrections in {shown(args.project)}, {date.today().isoformat()}"),
+          end="")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    from usvips.app.detection_service import detect_in_project
+    from usvips.core.errors import InvalidParameterError
+    from usvips.store.location import shown
+    from usvips.store.opening import open_project
+
+    if args.review_sigma:
+        return review_sigma(args)
+    if args.max_n:
+        return print_max_n(args)
+    if args.pair is not None and (args.frames is not None or args.every != 1):
+        raise InvalidParameterError("--frames" if args.frames is not None else "--every",
+                                    "frames are chosen on a video, not on an image pair")
+    model = load(args.model)  # a bad model is refused before the project is opened
+    with open_project(args.project) as project:
+        run = detect_in_project(project, model, args.pair, args.video, args.every, args.frames,
+                                refine=not args.no_refine)
+    for proposal in run.proposals:
+        print(proposal.line())
+    print(f"{shown(args.project)}: " + "\n".join(run.summary()))
+    return 0
