@@ -173,3 +173,33 @@ def test_a_right_track_that_leaves_the_epipolar_curve_stops_as_a_ray_rms_jump():
 
     track = track_vertex(shifted, stereo, 0, left, right, 0, 20)
     assert track.reason(+1) == "ray RMS jumps" and track.frames[-1] == 4
+
+
+@pytest.mark.parametrize("rms_jump, min_rms_m", [(4.0, 0.005), (1.05, 1e-6), (1.5, 1e-6)])
+def test_the_ray_rms_of_several_frames_at_once_gives_the_track_of_frame_by_frame(monkeypatch, rms_jump, min_rms_m):
+    """The ray RMS only stops a track, so it is computed for a batch of frames at once: the tracks, their
+    scores and RMS values and where and why they stop are those of frame by frame (a batch of one), for
+    stops by the RMS itself (tight jumps), by the epipolar curve and by the end."""
+    import usvips.core.tracking as tracking
+
+    fish = _fish()
+    stereo, frames = video(fish)
+    left, right = truth(stereo, fish, 6, 0.12)
+
+    def shifted(i):
+        images = frames(i)
+        return images if i < 10 else (images[0], np.roll(images[1], 6, axis=0))
+
+    settings = TrackSettings(rms_jump=rms_jump, min_rms_m=min_rms_m)
+    reasons = set()
+    for source in (frames, shifted):
+        tracks = []
+        for batch in (1, tracking.RMS_BATCH, 3):
+            monkeypatch.setattr(tracking, "RMS_BATCH", batch)
+            tracks.append(track_vertex(source, stereo, 6, left, right, 0, 16, settings))
+        for track in tracks[1:]:
+            assert track.stopped == tracks[0].stopped
+            for name in ("frames", "left", "right", "scores", "ray_rms_m"):
+                np.testing.assert_array_equal(getattr(track, name), getattr(tracks[0], name))
+        reasons.update(why for _, _, why in tracks[0].stopped)
+    assert "ray RMS jumps" in reasons  # the cases did stop on the RMS

@@ -271,27 +271,81 @@ def track_vertex(frames: FrameSource, rig: StereoRig, start: int, left, right, f
 
 
 def _ray_rms(rig: StereoRig, left: np.ndarray, right: np.ndarray) -> float:
-    result = intersect([rig.left, rig.right], [left[None], right[None]])
-    if not result.ok[0]:
-        return float("inf")
-    return float(np.sqrt(np.mean(result.residuals_m[0] ** 2)))
+    return float(_ray_rms_many(rig, left[None], right[None])[0])
+
+
+def _ray_rms_many(rig: StereoRig, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """The stereo ray RMS (m) of each pair of pixels (N, 2) intersected on its own; inf where they do not
+    intersect. One intersection for several frames: a frame's own costs as much as a dozen's."""
+    result = intersect([rig.left, rig.right], [left, right])
+    return np.where(result.ok, np.sqrt(np.mean(result.residuals_m ** 2, axis=1)), np.inf)
+
+
+#: frames whose ray RMS is computed together (see :func:`_follow`)
+RMS_BATCH = 8
+
+
+@dataclass
+class _Step:
+    """A frame followed but not yet accepted: its ray RMS is computed with the next few frames'."""
+
+    frame: int
+    left: np.ndarray
+    right: np.ndarray
+    held: np.ndarray
+    scores: tuple[float, float]
+    leaves: bool  # the right point held to the curve leaves the frame: the track stops here either way
+
+
+def _settle(rig: StereoRig, steps: list[_Step], frame: int, rms_history: list[float], rows: dict,
+            settings: TrackSettings) -> tuple[int, str] | None:
+    """Accept ``steps`` in order (after ``frame``, the last frame accepted) while their ray RMS stays below
+    the jump; (the last frame accepted, why) where one stops the track, None when all are accepted."""
+    if not steps:
+        return None
+    rms_values = _ray_rms_many(rig, np.array([s.left for s in steps]), np.array([s.right for s in steps]))
+    for step, rms in zip(steps, rms_values.tolist(), strict=True):
+        if rms > max(settings.min_rms_m, settings.rms_jump * float(np.median(rms_history))):
+            return frame, RMS
+        if step.leaves:
+            return frame, LEAVES
+        rms_history.append(rms)
+        rows[step.frame] = (step.left, step.held, step.scores, rms)
+        frame = step.frame
+    return None
 
 
 def _follow(frames, rig, start, greys, left, right, direction, end, settings, cancel, progress, total, done, rows,
             near, far) -> tuple[int, str]:
-    """One direction of :func:`track_vertex`: (the last frame tracked, why it stopped)."""
+    """One direction of :func:`track_vertex`: (the last frame tracked, why it stopped).
+
+    The positions do not depend on the ray RMS (it only stops the track), so it is computed for
+    :data:`RMS_BATCH` frames at once and those frames are accepted in order after it: the same track and
+    the same stop as frame by frame (a stop found in a batch drops the frames followed after it)."""
     margin = settings.window / 2 + 1
     size = int(settings.window)
     previous, point_l, point_r, frame = greys, left, right, start
+    accepted = start  # the last frame whose ray RMS is known and accepted
     rms_history = [rows[start][3]]
+    steps: list[_Step] = []
+
+    def stop(why: str, last: int) -> tuple[int, str]:
+        """The earlier stop among the frames not yet accepted, else ``why`` at ``last``."""
+        return _settle(rig, steps, accepted, rms_history, rows, settings) or (last, why)
+
     while frame != end:
+        if len(steps) >= RMS_BATCH:
+            stopped = _settle(rig, steps, accepted, rms_history, rows, settings)
+            if stopped is not None:
+                return stopped
+            steps, accepted = [], frame
         if cancel is not None and cancel():
-            return frame, CANCELLED
+            return stop(CANCELLED, frame)
         following = frame + direction
         try:
             images = frames(following)
         except UsvipsError as error:
-            return frame, str(error)
+            return stop(str(error), frame)
         current = (_grey(images[0]), _grey(images[1]))
         new_l, fb_l = _flow(previous[0], current[0], point_l, settings)
         new_r, fb_r = _flow(previous[1], current[1], point_r, settings)
@@ -303,24 +357,22 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
             progress(done[0], total)
         for new in (new_l, new_r):
             if new is not None and not _inside(new, current[0].shape, margin):
-                return frame, LEAVES
+                return stop(LEAVES, frame)
         if new_l is None or new_r is None or fb_l > settings.max_fb_px or fb_r > settings.max_fb_px:
-            return frame, LOST
+            return stop(LOST, frame)
         score_l = _ncc(_window(previous[0], point_l, size), _window(current[0], new_l, size))
         score_r = _ncc(_window(previous[1], point_r, size), _window(current[1], new_r, size))
         if min(score_l, score_r) < settings.min_score:
-            return frame, LOW
+            return stop(LOW, frame)
         curve = epipolar_curve(rig.left, rig.right, new_l, near=near, far=far, samples=400)
         if len(curve.pixels) == 0:
-            return frame, RMS
+            return stop(RMS, frame)
         held, off = _nearest_on(curve.pixels, new_r)
-        rms = _ray_rms(rig, new_l, new_r)
-        typical = float(np.median(rms_history))
-        if off > settings.max_epipolar_px or rms > max(settings.min_rms_m, settings.rms_jump * typical):
-            return frame, RMS
-        if not _inside(held, current[1].shape, margin):
-            return frame, LEAVES
-        rms_history.append(rms)
-        rows[following] = (new_l, held, (score_l, score_r), rms)
+        if off > settings.max_epipolar_px:
+            return stop(RMS, frame)
+        steps.append(_Step(following, new_l, new_r, held, (score_l, score_r),
+                           not _inside(held, current[1].shape, margin)))
+        if steps[-1].leaves:
+            return stop(LEAVES, frame)  # unless this frame's own ray RMS stops the track first
         previous, point_l, point_r, frame = current, new_l, held, following
-    return frame, END
+    return stop(END, frame)
