@@ -61,3 +61,35 @@ def test_a_fish_stored_in_one_transaction_reads_back_whole(store):  # noqa: F811
         assert all(np.array_equal(a.covariance, b.covariance) for a, b in zip(stored.vertices, vertices, strict=True))
         assert store.record(stored.id) == record
         assert [h.change for h in store.history(stored.id)] == ["add", "record"]
+
+
+def test_a_fish_on_a_server_is_three_round_trips(new_database, monkeypatch):
+    """The bench's fish (issue 34: ≤ 3 × SQLite) on a server: the transaction's start, the id reservation,
+    the rows, the record's one read and the commit go in 3 round trips (it was 14: one per statement).
+    Every exchange with the server goes through ``PostgresBackend._send`` or a commit with nothing held."""
+    from usvips.store.postgres import PostgresBackend, ServerProject
+
+    rng = np.random.default_rng(10)
+    exchanges = []
+    send, commit = PostgresBackend._send, PostgresBackend.commit
+
+    def counted_send(self, statements, ending=()):
+        exchanges.append([s.sql.split()[0] for s in statements] + list(ending))
+        return send(self, statements, ending)
+
+    def counted_commit(self):
+        if not self._later and self._starting is None:
+            exchanges.append(["COMMIT"])
+        return commit(self)
+
+    with ServerProject.create(new_database("round_trips")) as survey:
+        survey.add_object("length", _fish(rng), "before")  # the survey's first write (its schema read once)
+        monkeypatch.setattr(PostgresBackend, "_send", counted_send)
+        monkeypatch.setattr(PostgresBackend, "commit", counted_commit)
+        with survey.transaction():
+            object_id = survey.add_object("length", _fish(rng), "snapper")
+            survey.set_record(object_id, ObservationRecord(genus="Pagrus", species="auratus"))
+        monkeypatch.undo()
+        assert exchanges == [["UPDATE"], ["SELECT"], ["COMMIT"]], exchanges
+        assert survey.record(object_id).genus == "Pagrus" and len(survey.object(object_id).vertices) == 2
+        assert [h.change for h in survey.history(object_id)] == ["add", "record"]
