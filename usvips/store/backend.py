@@ -106,6 +106,13 @@ class Backend(ABC):
         self.execute("RELEASE SAVEPOINT usvips_batch")
         return results
 
+    def write_later(self, statements: Sequence[Statement]) -> None:
+        """Writes whose results nobody reads, inside the transaction in progress: a backend whose round trips
+        cost may hold them and send them with the next statement or the commit (a failure of one then fails
+        that statement or the commit, and the whole transaction: nothing is changed). This one runs them now,
+        as one :meth:`batch`."""
+        self.batch(statements)
+
     def _one(self, statement: Statement) -> Result:
         if statement.many:
             return self.executemany(statement.sql, statement.parameters)

@@ -256,6 +256,13 @@ def database_command(url: str, command: str) -> None:
 
 
 # ------------------------------------------------------------------------------------------------ the backend
+def _result(cursor: psycopg.Cursor) -> Result:
+    """The cursor's current result as the backend's."""
+    if cursor.description is None:
+        return Result([], max(cursor.rowcount, 0))
+    return Result(cursor.fetchall(), cursor.rowcount, tuple(column.name for column in cursor.description))
+
+
 @lru_cache(maxsize=1024)
 def _placeholders(sql: str) -> str:
     """The one difference of the shared dialect: ``?`` placeholders are psycopg's ``%s`` (and a literal
@@ -291,6 +298,8 @@ class PostgresBackend(Backend):
         self.reconnections = 0
         #: the statements that start the transaction begun (:meth:`begin`), until its first statement takes them
         self._starting: tuple[str, ...] | None = None
+        #: writes held until the next statement or the commit (:meth:`write_later`)
+        self._later: list[Statement] = []
 
     # ------------------------------------------------------------------------ the connection
     def _alive(self) -> bool:
@@ -371,51 +380,76 @@ class PostgresBackend(Backend):
     def _reads(sql: str) -> bool:
         return sql.lstrip()[:6].upper() == "SELECT"
 
-    def _send(self, statements: Sequence[Statement]) -> list[Result]:
+    def write_later(self, statements: Sequence[Statement]) -> None:
+        """Inside a transaction: held, and sent with the next statement or the commit, in the same round trip
+        (see :meth:`Backend.write_later`)."""
+        if not self.in_transaction:
+            self.batch(statements)
+            return
+        self._later += [Statement(s.sql, [tuple(row) for row in s.parameters], True) if s.many else
+                        Statement(s.sql, tuple(s.parameters)) for s in statements]
+
+    def _send(self, statements: Sequence[Statement], ending: tuple[str, ...] = ()) -> list[Result]:
         """Run ``statements`` and read their results. Sent at once, in one round trip: the start of the
-        transaction when it has not been sent yet (:meth:`begin`), and — for writes inside a transaction —
-        a savepoint around them, so that a failing one is undone alone (as in SQLite) and the transaction
-        may carry on. A start (or a lone read) that meets a connection the server has closed since its last
+        transaction when it has not been sent yet (:meth:`begin`), the writes held for later
+        (:meth:`write_later`), and — for writes inside a transaction — a savepoint around ``statements``, so
+        that a failing one is undone alone (as in SQLite) and the transaction may carry on; then ``ending``
+        (a COMMIT). A failing held write fails the whole transaction: a ``ProjectError`` saying that nothing
+        was changed. A start (or a lone read) that meets a connection the server has closed since its last
         use is made again once on a new connection (:meth:`_afresh`)."""
         statements = [Statement(s.sql, [tuple(row) for row in s.parameters], True) if s.many else
                       Statement(s.sql, tuple(s.parameters)) for s in statements]
-        starting, self._starting = self._starting, None
+        starting, self._starting = self._starting or (), None
+        later, self._later = self._later, []
         reads = all(not s.many and self._reads(s.sql) for s in statements)
-        guarded = (starting is not None or self.in_transaction) and not reads
+        guarded = (bool(starting) or self.in_transaction) and not reads
 
         def attempt() -> list[Result]:
+            if not starting and not later and not guarded and not ending and len(statements) == 1:
+                with self.raw.cursor() as cursor:  # one plain statement
+                    self._run(cursor, statements[0])
+                    return [_result(cursor)]
+            # several: sent at once and answered at once (psycopg's pipeline mode: one round trip), each
+            # statement prepared on the server once it is used often (psycopg's automatic prepare)
+            held = [self.raw.cursor() for _ in later]
             cursors = [self.raw.cursor() for _ in statements]
             try:
                 try:
-                    if starting is None and not guarded and len(statements) == 1:  # one plain statement
-                        self._run(cursors[0], statements[0])
-                    else:
-                        with self.raw.pipeline():
-                            for sql in starting or ():
-                                self.raw.execute(sql)
-                            if guarded:
-                                self.raw.execute("SAVEPOINT usvips_statement")
-                            for cursor, statement in zip(cursors, statements, strict=True):
-                                self._run(cursor, statement)
-                            if guarded:
-                                self.raw.execute("RELEASE SAVEPOINT usvips_statement")
-                except psycopg.Error:
+                    with self.raw.pipeline():
+                        for sql in starting:
+                            self.raw.execute(sql)
+                        for cursor, statement in zip(held, later, strict=True):
+                            self._run(cursor, statement)
+                        if guarded:
+                            self.raw.execute("SAVEPOINT usvips_statement")
+                        for cursor, statement in zip(cursors, statements, strict=True):
+                            self._run(cursor, statement)
+                        if guarded:
+                            self.raw.execute("RELEASE SAVEPOINT usvips_statement")
+                        for sql in ending:
+                            self.raw.execute(sql)
+                except psycopg.Error as error:
+                    undone = False
                     if guarded and self._alive() and self.raw.info.transaction_status == TransactionStatus.INERROR:
-                        with _quietly():  # (no savepoint when the start itself failed: the caller rolls back)
+                        with _quietly():  # no savepoint when the start or a held write failed
                             self.raw.execute("ROLLBACK TO SAVEPOINT usvips_statement")
                             self.raw.execute("RELEASE SAVEPOINT usvips_statement")
+                            undone = True
+                    if later and not undone and isinstance(error, psycopg.IntegrityError | pg_errors.RaiseException):
+                        # a held write refused (a read cannot be): the whole transaction fails
+                        raise ProjectError(f"{self.where}: cannot write the project: {_one_line(error)} "
+                                           "(nothing was changed)") from None
                     raise
-                return [Result(c.fetchall(), c.rowcount, tuple(column.name for column in c.description))
-                        if c.description is not None else Result([], max(c.rowcount, 0)) for c in cursors]
+                return [_result(cursor) for cursor in cursors]
             finally:
-                for cursor in cursors:
+                for cursor in (*held, *cursors):
                     cursor.close()
 
         try:
-            return self._afresh(attempt, starting is not None or (reads and not self.in_transaction))
+            return self._afresh(attempt, bool(starting) or (reads and not self.in_transaction and not later))
         except psycopg.OperationalError as error:
             if not self._alive():  # a transaction was under way: it is gone, nothing of it kept
-                raise self._unreachable(_one_line(error)) from None
+                raise self._unreachable(_one_line(error), committing=bool(ending)) from None
             raise self._error(error) from None
         except psycopg.Error as error:
             raise self._error(error) from None
@@ -437,9 +471,16 @@ class PostgresBackend(Backend):
                           if write else ("BEGIN ISOLATION LEVEL REPEATABLE READ READ ONLY",))
 
     def commit(self) -> None:
+        if self._later:  # the held writes and the COMMIT in one round trip
+            self._send([], ending=("COMMIT",))
+            return
         if self._starting is not None:  # nothing was sent: nothing to commit
             self._starting = None
             return
+        if self._alive() and self.raw.info.transaction_status == TransactionStatus.INERROR:
+            # (a server answers COMMIT of a failed transaction by undoing it, without an error)
+            self.raw.execute("ROLLBACK")
+            raise BackendError(self.where, "a statement of the transaction failed; nothing was changed")
         try:
             self.raw.execute("COMMIT")
         except psycopg.Error as error:
@@ -448,7 +489,7 @@ class PostgresBackend(Backend):
             raise self._error(error) from None
 
     def rollback(self) -> None:
-        self._starting = None
+        self._starting, self._later = None, []
         if not self._alive() or self.raw.info.transaction_status == TransactionStatus.IDLE:
             return  # nothing was sent, or the server undid the transaction when the connection died
         try:

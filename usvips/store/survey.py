@@ -533,7 +533,8 @@ class Survey:
             try:
                 first = self._reserve_object_ids(len(checked))
                 ids = list(range(first, first + len(checked)))
-                # every row of every object sent as one batch (a server: one round trip), parents first
+                # every row of every object as one batch, parents first (nothing of it is read back: a server
+                # sends it with the next statement or the commit, in the same round trip)
                 vertex_rows: list[tuple] = []
                 frame_rows: list[tuple] = []
                 known: dict[tuple[str, str], int] = {}
@@ -541,7 +542,7 @@ class Survey:
                     rows, frames = self._vertex_rows(object_id, vertices, now, known=known)
                     vertex_rows += rows
                     frame_rows += frames
-                self._db.batch([
+                self._db.write_later([
                     Statement("INSERT INTO objects (id, kind, attribute, notes, creator, created, modified) "
                               "VALUES (?, ?, ?, ?, ?, ?, ?)",
                               [(object_id, kind, attribute, notes, creator, now, now) for object_id,
@@ -1418,8 +1419,8 @@ class Survey:
                                            ("object_id",)),
                                     (object_id, *(getattr(record, name) for name in RECORD_FIELDS), self.annotator,
                                      _now()))
-            try:  # one batch (a server: one round trip)
-                self._db.batch([
+            try:  # one batch, read by nobody (a server sends it with the next statement or the commit)
+                self._db.write_later([
                     written, Statement("UPDATE objects SET modified = ? WHERE id = ?", (_later(modified), object_id)),
                     Statement(INSERT_HISTORY, self._history_row(
                         object_id, "record", None if old is None else dataclasses.asdict(old),
