@@ -121,3 +121,13 @@ def click_pixel(qtbot, pane, pixel, zoom: float | None = 8.0):
         pane.zoom_to(zoom, tuple(pixel))
     qtbot.mouseClick(pane.graphics.viewport(), QtCore.Qt.MouseButton.LeftButton, pos=viewport_point(pane, pixel))
     return pane.zoom_level()
+
+
+def show_active(qtbot, widget):
+    """``widget`` shown, exposed and the active window (so that it has the keyboard), closed with the test."""
+    qtbot.addWidget(widget)
+    widget.show()
+    qtbot.waitExposed(widget)
+    widget.activateWindow()
+    qtbot.waitUntil(widget.isActiveWindow, timeout=5_000)
+    return widget

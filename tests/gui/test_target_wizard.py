@@ -13,6 +13,7 @@ import pytest
 from PySide6 import QtCore, QtWidgets
 
 from tests.app.board_images import air_scene, board_poses, render_pairs
+from tests.gui.conftest import show_active
 from usvips.app.video_project import add_video
 from usvips.core.calibration_targets import CalibrationTarget, kind
 from usvips.gui.calibration_session import CalibrationSession
@@ -40,13 +41,7 @@ def project(tmp_path):
 
 
 def _wizard(qtbot, project, phase="air"):
-    wizard = TargetWizard(TargetSession(project, phase))
-    qtbot.addWidget(wizard)
-    wizard.show()
-    qtbot.waitExposed(wizard)
-    wizard.activateWindow()
-    qtbot.waitUntil(wizard.isActiveWindow, timeout=5_000)
-    return wizard
+    return show_active(qtbot, TargetWizard(TargetSession(project, phase)))
 
 
 def _key(qtbot, wizard, key, modifier=QtCore.Qt.KeyboardModifier.NoModifier):

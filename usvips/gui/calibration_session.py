@@ -175,6 +175,10 @@ class CalibrationSession:
     def base_calibrations(self) -> list[dict]:
         return [c for c in self.project.calibrations() if c.phase == "air"]
 
+    def default_name(self) -> str:
+        """The calibration's name unless the user gives one: its phase and pairs."""
+        return f"{self.phase} {'+'.join(self.pairs)}"
+
     def set_known(self, name: str, value: float, sigma: float | None) -> None:
         """A housing value known beforehand: fixed (sigma None) or a prior (value ± sigma)."""
         if name not in DEFAULT_HOUSING.get(self.housing, {}):

@@ -201,7 +201,7 @@ def test_the_wizards_last_page_writes_the_report_of_its_result(qtbot, sample_cop
         page = SavePage(session)
         qtbot.addWidget(page)
         page.show()
-        assert page.report.button.text() == "Report (PDF)…"
+        assert page.report.button.text() == "&Report (PDF)…"  # Alt+R, as on the target path's Save page
         worker = page.report.write(tmp_path / "wizard.pdf")
         assert worker is not None and page.report.button.text() == "Cancel the report"
         assert QtCore.QThreadPool.globalInstance().waitForDone(WORK_BOUND_MS)

@@ -6,7 +6,7 @@ chessboard, the deployment dialog (in test_exchange_dialogs.py) and the double-r
 
 from PySide6 import QtWidgets
 
-from tests.gui.conftest import open_sample
+from tests.gui.conftest import open_sample, show_active
 from usvips.app.samples import open_or_create_from_manifest
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.gui.calibration_session import CalibrationSession
@@ -16,22 +16,13 @@ from usvips.gui.target_session import TargetSession
 from usvips.store import Project
 
 
-def _shown(qtbot, widget):
-    qtbot.addWidget(widget)
-    widget.show()
-    qtbot.waitExposed(widget)
-    widget.activateWindow()
-    qtbot.waitUntil(widget.isActiveWindow, timeout=5_000)
-    return widget
-
-
 def test_a_form_marks_focuses_and_names_the_field_an_error_concerns(qtbot):
     form = QtWidgets.QWidget()
     depth, count = QtWidgets.QLineEdit(form), QtWidgets.QSpinBox(form)
     layout = QtWidgets.QFormLayout(form)
     layout.addRow("Depth (m)", depth)
     layout.addRow("Count", count)
-    _shown(qtbot, form)
+    show_active(qtbot, form)
     said = []
     fields = FormFields({"depth_m": (depth, "Depth (m)"), "count": (count, "Count")}, said.append)
     depth.setText("-3")
@@ -49,7 +40,7 @@ def test_the_target_paths_phase_two_names_a_bad_housing_value(qtbot, tmp_path):
     from usvips.gui.qt.target_pages import TargetWizard
 
     with Project.create(tmp_path / "p.usvips") as project:
-        wizard = _shown(qtbot, TargetWizard(TargetSession(project, "water")))
+        wizard = show_active(qtbot, TargetWizard(TargetSession(project, "water")))
         page = wizard.source_page
         page.use_chessboard()
         page.housing.setCurrentText("flat-port")
@@ -69,7 +60,7 @@ def test_the_target_paths_chessboard_names_its_corners(qtbot, tmp_path):
     from usvips.gui.qt.target_pages import TargetWizard
 
     with Project.create(tmp_path / "p.usvips") as project:
-        wizard = _shown(qtbot, TargetWizard(TargetSession(project, "air")))
+        wizard = show_active(qtbot, TargetWizard(TargetSession(project, "air")))
         page = wizard.source_page
         page.cols.setValue(8)
         page.rows.setValue(8)
@@ -86,7 +77,7 @@ def test_the_classic_phase_two_page_names_a_bad_housing_value(qtbot, sample_copy
 
     project = open_or_create_from_manifest(sample_copy("tank_system1"))
     try:
-        wizard = _shown(qtbot, CalibrationWizard(CalibrationSession(project, "water")))
+        wizard = show_active(qtbot, CalibrationWizard(CalibrationSession(project, "water")))
         page = wizard.setup_page
         assert page.base.currentData() is not None  # the sample holds its phase-1 calibration
         page.known["n3"].setText("1.34 ± 0.01")

@@ -10,7 +10,6 @@ back never loses what was measured; "Save progress" keeps the wizard in the proj
 
 from __future__ import annotations
 
-import datetime
 import json
 import re
 
@@ -24,7 +23,7 @@ from usvips.core.errors import UsvipsError
 from usvips.gui.calibration_session import PHASES, CalibrationSession, CheckPoint, ParameterChange
 from usvips.gui.housing_values import known_label, read_known
 from usvips.gui.pick_tool import OBSERVE, SIDES
-from usvips.gui.qt import active_pairs
+from usvips.gui.qt import save_page
 from usvips.gui.qt.exchange_dialogs import WizardReport
 from usvips.gui.qt.field_errors import FormFields
 from usvips.gui.qt.housing_value_form import fill_known_form
@@ -797,45 +796,14 @@ class ResultsPage(QtWidgets.QWizardPage):
                 and (not self.implausible() or self.accept_anyway.isChecked()))
 
 
-class SavePage(QtWidgets.QWizardPage):
-    """Name the calibration and choose the pairs it becomes active for; Finish stores it."""
+class SavePage(save_page.SavePage):
+    """Name the calibration and choose the pairs it becomes active for; Finish stores it
+    (:class:`usvips.gui.qt.save_page.SavePage`, with the classic session's report)."""
 
     def __init__(self, session: CalibrationSession) -> None:
-        super().__init__()
-        self.session = session
-        self.setTitle("Save the calibration")
-        self.setSubTitle("It is stored in the project with the observations it used, and becomes the active "
+        super().__init__(session, lambda page: WizardReport(page, session),
+                         "It is stored in the project with the observations it used, and becomes the active "
                          "calibration of the pairs ticked below. Cancel discards it; the project stays as it was.")
-        self.name = QtWidgets.QLineEdit()
-        self.active = QtWidgets.QListWidget()
-        self.message = QtWidgets.QLabel()
-        self.message.setStyleSheet("color: #c0392b;")
-        form = QtWidgets.QFormLayout(self)
-        form.addRow("Name", self.name)
-        form.addRow("Active for", self.active)
-        form.addRow(self.message)
-        self.saved_id: int | None = None
-        self.report = WizardReport(self, session)  # Report (PDF)… (usvips/gui/qt/exchange_dialogs.py)
-        form.addRow(self.report.button, self.report.status)
-
-    def initializePage(self) -> None:  # noqa: N802 (Qt's name)
-        session = self.session
-        stamp = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
-        sigma = session.result.calibration.sigma0_px
-        self.name.setText(f"{session.phase} {'+'.join(session.pairs)} σ0 {sigma:.3f} px {stamp}")
-        active_pairs.fill(self.active, session.project, "air" if session.phase == "air" else "water")
-
-    def active_for(self) -> list[str]:
-        return active_pairs.ticked(self.active)
-
-    def validatePage(self) -> bool:  # noqa: N802 (Qt's name)
-        try:
-            self.saved_id = self.session.save(self.name.text(), self.active_for())
-        except UsvipsError as error:
-            self.message.setText(str(error))
-            return False
-        self.wizard().saved.emit(self.saved_id)
-        return True
 
 
 class CalibrationWizard(QtWidgets.QWizard):

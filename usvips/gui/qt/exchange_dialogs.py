@@ -95,6 +95,22 @@ def _source(context: WindowContext, parent: QtWidgets.QWidget,
     return _current_calibration(context, parent)
 
 
+def _calibration_to_write(context: WindowContext, parent: QtWidgets.QWidget,
+                          source: str | Path | StereoCalibration | None, out: str | Path | None, title: str,
+                          name: str, file_filter: str) -> tuple[StereoCalibration, str, str | Path] | None:
+    """The calibration to write out (:func:`_source`), its name for messages, and the file to write (``out``,
+    else asked with a save dialog titled ``title`` offering ``name`` in the project's folder); None when
+    either choice was cancelled. A calibration file that cannot be read raises :class:`UsvipsError`."""
+    chosen = _source(context, parent, source)
+    if chosen is None:
+        return None
+    if out is None:
+        out, _ = QtWidgets.QFileDialog.getSaveFileName(parent, title, context.start_folder(name), file_filter)
+        if not out:
+            return None
+    return (*chosen, out)
+
+
 # ---------------------------------------------------------------------------- File menu entries
 def ask_image_size(parent: QtWidgets.QWidget) -> tuple[int, int] | None:
     """Ask the image size (pixels) that an OpenCV file does not carry."""
@@ -286,16 +302,11 @@ def export_calibration(context: WindowContext, parent: QtWidgets.QWidget,
     """A calibration (default: the current pair's in the open project, else a file) → OpenCV's stereo
     file; what OpenCV cannot hold (the housing, …) is shown as warnings and returned."""
     try:
-        chosen = _source(context, parent, source)
+        chosen = _calibration_to_write(context, parent, source, out, "Export calibration (OpenCV)", "stereo.yml",
+                                       "OpenCV FileStorage (*.yml *.yaml *.xml *.json)")
         if chosen is None:
             return None
-        calibration, name = chosen
-        if out is None:
-            out, _ = QtWidgets.QFileDialog.getSaveFileName(parent, "Export calibration (OpenCV)",
-                                                           context.start_folder("stereo.yml"),
-                                                           "OpenCV FileStorage (*.yml *.yaml *.xml *.json)")
-            if not out:
-                return None
+        calibration, name, out = chosen
         left_out = write_opencv_stereo(calibration, out)
     except UsvipsError as error:
         context.messages.error(f"export failed, nothing written: {error}")
@@ -313,19 +324,14 @@ def calibration_report(context: WindowContext, parent: QtWidgets.QWidget,
                        out: str | Path | None = None) -> Worker | None:
     """Write a calibration's PDF report in the window's worker (progress and Cancel in the status bar)."""
     try:
-        chosen = _source(context, parent, source)
+        chosen = _calibration_to_write(context, parent, source, out, "Calibration report", "calibration_report.pdf",
+                                       "PDF (*.pdf)")
     except UsvipsError as error:
         context.messages.error(str(error))
         return None
     if chosen is None:
         return None
-    calibration, name = chosen
-    if out is None:
-        out, _ = QtWidgets.QFileDialog.getSaveFileName(parent, "Calibration report",
-                                                       context.start_folder("calibration_report.pdf"),
-                                                       "PDF (*.pdf)")
-        if not out:
-            return None
+    calibration, name, out = chosen
     path, data = (name if isinstance(source, str | Path) else None), None
     project = context.workspace.project
     if source is None and project is not None and project.calibrations():
@@ -576,7 +582,7 @@ class WizardReport(QtCore.QObject):
     def __init__(self, page: QtWidgets.QWizardPage, session, pool: QtCore.QThreadPool | None = None) -> None:
         super().__init__(page)
         self.page, self.session, self.pool = page, session, pool
-        self.button = QtWidgets.QPushButton("Report (PDF)…")
+        self.button = QtWidgets.QPushButton("&Report (PDF)…")  # Alt+R on a wizard's Save page
         self.button.setToolTip("A printable record of this calibration: parameters with sigmas, correlations, "
                                "residual plots, data and provenance")
         self.status = QtWidgets.QLabel()
@@ -622,5 +628,5 @@ class WizardReport(QtCore.QObject):
 
     def _ended(self, text: str) -> None:
         self.worker = None
-        self.button.setText("Report (PDF)…")
+        self.button.setText("&Report (PDF)…")
         self.status.setText(text)

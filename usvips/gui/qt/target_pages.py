@@ -12,7 +12,6 @@ goes on.
 
 from __future__ import annotations
 
-import datetime
 import html
 
 import numpy as np
@@ -25,7 +24,7 @@ from usvips.core.calibration.phases import DEFAULT_HOUSING
 from usvips.core.errors import UsvipsError
 from usvips.gui import target_views_model as detail_model
 from usvips.gui.housing_values import known_label, read_known
-from usvips.gui.qt import active_pairs
+from usvips.gui.qt import save_page
 from usvips.gui.qt.field_errors import FormFields
 from usvips.gui.qt.housing_value_form import fill_known_form
 from usvips.gui.qt.pane import StereoPane, item_from_pixels
@@ -50,6 +49,56 @@ def _job(job):
         except InterruptedError as error:
             raise Cancelled(str(error)) from None
     return run
+
+
+class PageJob:
+    """One job at a time of a wizard page, in a worker of ``pool``: while it runs, the page's ``start``
+    button is off, its ``stop`` button on (it stops the job) and ``busy`` (a progress bar, if any) shown; the
+    page's completeness is told again when the job starts and ends. ``finished(result)``,
+    ``failed(message)`` and ``cancelled()`` are the page's own, called once the job is over;
+    ``progress(fraction)`` (optional) follows the job."""
+
+    def __init__(self, page: QtWidgets.QWizardPage, start_button: QtWidgets.QAbstractButton,
+                 stop_button: QtWidgets.QAbstractButton, pool: QtCore.QThreadPool, finished, failed, cancelled,
+                 busy: QtWidgets.QWidget | None = None, progress=None) -> None:
+        self.page, self.start_button, self.stop_button, self.pool = page, start_button, stop_button, pool
+        self.finished, self.failed, self.cancelled = finished, failed, cancelled
+        self.busy, self.progress = busy, progress
+        self.worker: Worker | None = None
+        stop_button.clicked.connect(self.stop)
+        stop_button.setEnabled(False)
+
+    @property
+    def running(self) -> bool:
+        return self.worker is not None
+
+    def run(self, job, label: str) -> None:
+        """Run the session's ``job(progress, cancelled)`` (an :class:`InterruptedError` is a cancel)."""
+        worker = self.worker = Worker(_job(job), label)
+        if self.progress is not None:
+            worker.signals.progress.connect(self.progress)
+        worker.signals.finished.connect(lambda result: self._over(self.finished, result))
+        worker.signals.failed.connect(lambda message: self._over(self.failed, message))
+        worker.signals.cancelled.connect(lambda: self._over(self.cancelled))
+        self.start_button.setEnabled(False)
+        self.stop_button.setEnabled(True)
+        if self.busy is not None:
+            self.busy.show()
+        self.page.completeChanged.emit()
+        start(worker, self.pool)
+
+    def stop(self) -> None:
+        if self.worker is not None:
+            self.worker.cancel()
+
+    def _over(self, then, *args) -> None:
+        self.worker = None
+        self.start_button.setEnabled(True)
+        self.stop_button.setEnabled(False)
+        if self.busy is not None:
+            self.busy.hide()
+        self.page.completeChanged.emit()
+        then(*args)
 
 
 class SourcePage(QtWidgets.QWizardPage):
@@ -261,14 +310,13 @@ class ViewsPage(QtWidgets.QWizardPage):
         self.setSubTitle("The target is found in every view; untick the views you do not want (Space), open a "
                          "view to see its points (and why a view was set aside), and read the coverage and its "
                          "advice.")
-        self.worker: Worker | None = None
         self.detect_button = QtWidgets.QPushButton("&Detect again")
         self.detect_button.clicked.connect(self.detect)
         self.stop_button = QtWidgets.QPushButton("&Stop")
-        self.stop_button.clicked.connect(self.stop)
-        self.stop_button.setEnabled(False)
         self.progress = QtWidgets.QProgressBar()
         self.progress.setRange(0, 1000)
+        self.work = PageJob(self, self.detect_button, self.stop_button, pool, self._on_found, self._on_failed,
+                            self._on_cancelled, progress=lambda f: self.progress.setValue(int(1000 * f)))
         top = QtWidgets.QHBoxLayout()
         top.addWidget(self.detect_button)
         top.addWidget(self.stop_button)
@@ -360,7 +408,10 @@ class ViewsPage(QtWidgets.QWizardPage):
 
     @property
     def busy(self) -> bool:
-        return self.worker is not None
+        return self.work.running
+
+    def stop(self) -> None:
+        self.work.stop()
 
     def detect(self) -> None:
         if self.busy:
@@ -375,40 +426,19 @@ class ViewsPage(QtWidgets.QWizardPage):
         self._show_coverage()
         self.tally.setText("finding the target…")
         self.set_aside.clear()
-        self.worker = Worker(_job(job), "target detection")
-        self.worker.signals.progress.connect(lambda f: self.progress.setValue(int(1000 * f)))
-        self.worker.signals.finished.connect(self._on_found)
-        self.worker.signals.failed.connect(self._on_failed)
-        self.worker.signals.cancelled.connect(self._on_cancelled)
-        self.detect_button.setEnabled(False)
-        self.stop_button.setEnabled(True)
-        self.completeChanged.emit()
-        start(self.worker, self.pool)
-
-    def stop(self) -> None:
-        if self.worker is not None:
-            self.worker.cancel()
-
-    def _done(self) -> None:
-        self.worker = None
-        self.detect_button.setEnabled(True)
-        self.stop_button.setEnabled(False)
-        self.completeChanged.emit()
+        self.work.run(job, "target detection")
 
     def _on_found(self, views) -> None:
-        self._done()
         self.session.set_views(views)
         self.progress.setValue(1000)
         self._fill()
         self.completeChanged.emit()
 
     def _on_failed(self, message: str) -> None:
-        self._done()
         self.tally.clear()
         self.set_aside.setText(message)
 
     def _on_cancelled(self) -> None:
-        self._done()
         self.tally.clear()
         self.set_aside.setText("detection stopped: no views; Detect again (Alt+D) to start over")
 
@@ -580,15 +610,14 @@ class ComputePage(QtWidgets.QWizardPage):
         self.setTitle("Compute and judge")
         self.setSubTitle("The parameters with their σ; RMS over the kept and over all observations; held-out "
                          "views measured with the calibration; for boards in air, OpenCV's solution beside ours.")
-        self.worker: Worker | None = None
         self.compute_button = QtWidgets.QPushButton("&Compute again")
         self.compute_button.clicked.connect(self.compute)
         self.stop_button = QtWidgets.QPushButton("&Stop")
-        self.stop_button.clicked.connect(self.stop)
-        self.stop_button.setEnabled(False)
         self.progress = QtWidgets.QProgressBar()
         self.progress.setRange(0, 0)
         self.progress.hide()
+        self.work = PageJob(self, self.compute_button, self.stop_button, pool, self._on_finished, self._on_failed,
+                            self._on_cancelled, busy=self.progress)
         self.target_label = QtWidgets.QLabel()
         self.table = QtWidgets.QTableWidget(0, len(self.HEADERS))
         self.table.setObjectName("parameters")
@@ -631,7 +660,10 @@ class ComputePage(QtWidgets.QWizardPage):
 
     @property
     def busy(self) -> bool:
-        return self.worker is not None
+        return self.work.running
+
+    def stop(self) -> None:
+        self.work.stop()
 
     def compute(self) -> None:
         if self.busy:
@@ -644,41 +676,19 @@ class ComputePage(QtWidgets.QWizardPage):
         self.text.setPlainText(f"calibrating from {len(self.session.kept())} views… (Stop: Alt+S)")
         self.table.setRowCount(0)
         self.verdict.clear()
-        self.worker = Worker(_job(job), "calibration from target views")
-        self.worker.signals.finished.connect(self._on_finished)
-        self.worker.signals.failed.connect(self._on_failed)
-        self.worker.signals.cancelled.connect(self._on_cancelled)
-        self.compute_button.setEnabled(False)
-        self.stop_button.setEnabled(True)
-        self.progress.show()
-        self.completeChanged.emit()
-        start(self.worker, self.pool)
-
-    def stop(self) -> None:
-        if self.worker is not None:
-            self.worker.cancel()
-
-    def _done(self) -> None:
-        self.worker = None
-        self.compute_button.setEnabled(True)
-        self.stop_button.setEnabled(False)
-        self.progress.hide()
-        self.completeChanged.emit()
+        self.work.run(job, "calibration from target views")
 
     def _on_finished(self, result) -> None:
-        self._done()
         self.session.set_result(result)
         self._show()
 
     def _on_failed(self, message: str) -> None:
-        self._done()
         self.session.set_result(None)
         self.text.setPlainText(message)
         self.verdict.setStyleSheet("font-weight: bold; " + VERDICT_STYLE["poor"])
         self.verdict.setText("nothing is stored; change the views or the settings and compute again")
 
     def _on_cancelled(self) -> None:
-        self._done()
         self.session.set_result(None)
         self.text.setPlainText("the calibration was stopped: no result")
         self.verdict.setStyleSheet("font-weight: bold;")
@@ -714,57 +724,15 @@ class ComputePage(QtWidgets.QWizardPage):
         return not self.busy and self.session.result is not None
 
 
-class SavePage(QtWidgets.QWizardPage):
+class SavePage(save_page.SavePage):
     """Name the calibration and the pairs it becomes active for, write its report if wanted; Finish
-    stores it in the project."""
+    stores it in the project (:class:`usvips.gui.qt.save_page.SavePage`, with the target path's report)."""
 
     def __init__(self, session: TargetSession, pool: QtCore.QThreadPool | None = None) -> None:
-        super().__init__()
-        self.session = session
-        self.setTitle("Save the calibration")
-        self.setSubTitle("Finish stores it in the project; Cancel leaves the project as it was.")
-        self.name = QtWidgets.QLineEdit()
-        self.active = QtWidgets.QListWidget()
-        self.message = QtWidgets.QLabel()
-        self.message.setStyleSheet(ERROR_STYLE)
         from usvips.gui.qt.target_report import TargetReport
 
-        self.report = TargetReport(self, session, pool)
-        self.report.button.setText("&Report (PDF)…")
-        report_row = QtWidgets.QHBoxLayout()
-        report_row.addWidget(self.report.button)
-        report_row.addWidget(self.report.status, 1)
-        form = QtWidgets.QFormLayout(self)
-        name_label = QtWidgets.QLabel("&Name")
-        name_label.setBuddy(self.name)
-        active_label = QtWidgets.QLabel("&Active for")
-        active_label.setBuddy(self.active)
-        form.addRow(name_label, self.name)
-        form.addRow(active_label, self.active)
-        form.addRow("Report", report_row)
-        form.addRow(self.message)
-        self.saved_id: int | None = None
-
-    def initializePage(self) -> None:  # noqa: N802 (Qt's name)
-        stamp = datetime.datetime.now().strftime("%Y-%m-%d %H:%M")
-        sigma = self.session.result.calibration.sigma0_px
-        self.name.setText(f"{self.session.default_name()} σ0 {sigma:.3f} px {stamp}")
-        medium = "air" if self.session.phase == "air" else "water"
-        self.message.setText("" if active_pairs.fill(self.active, self.session.project, medium) else
-                             f"the project has no {medium} pairs yet: the calibration is stored, active for none; "
-                             "choose it for a pair later")
-
-    def active_for(self) -> list[str]:
-        return active_pairs.ticked(self.active)
-
-    def validatePage(self) -> bool:  # noqa: N802 (Qt's name)
-        try:
-            self.saved_id = self.session.save(self.name.text(), self.active_for())
-        except UsvipsError as error:
-            self.message.setText(str(error))
-            return False
-        self.wizard().saved.emit(self.saved_id)
-        return True
+        super().__init__(session, lambda page: TargetReport(page, session, pool),
+                         "Finish stores it in the project; Cancel leaves the project as it was.")
 
 
 class TargetWizard(QtWidgets.QWizard):

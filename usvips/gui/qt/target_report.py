@@ -27,7 +27,3 @@ class TargetReport(WizardReport):
             files += [("images", f"{Path(left).name}, {Path(right).name}", "image pair")
                       for left, right in session.pairs]
         return ReportData(session.target.control_points(), result.observations, files)
-
-    def _ended(self, text: str) -> None:
-        super()._ended(text)
-        self.button.setText("&Report (PDF)…")  # Alt+R on the Save page, again after a report
