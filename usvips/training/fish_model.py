@@ -22,6 +22,7 @@ import sys
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 import torch
 from torch import nn
@@ -265,7 +266,18 @@ def export(model: nn.Module, path: Path) -> None:
                       dynamo=False)
 
 
-def write_description(path: Path, threshold: float, sigma: dict[str, float] | None) -> None:
+def onnx_difference(model: nn.Module, path: Path, seed: int = 0) -> float:
+    """The largest absolute difference between the network in torch and its ONNX file run by OpenCV's DNN
+    module (as USVIPS runs it), on a random input."""
+    model.eval()
+    x = torch.from_numpy(np.random.default_rng(seed).uniform(0, 1, (1, 3, INPUT, INPUT)).astype(np.float32))
+    net = cv2.dnn.readNetFromONNX(str(path))
+    net.setInput(x.numpy())
+    with torch.no_grad():
+        return float(np.abs(net.forward() - model(x).numpy()).max())
+
+
+def write_description(path: Path, threshold: float) -> None:
     lines = ["# USVIPS's own fish keypoint model (docs/detection.md): trained on RENDERED fish only, to propose",
              "# snout and fork for a person to review. MIT licence, made by usvips/training/fish_model.py.",
              "[model]", f'file = "{NAME}.onnx"', f'family = "{CentrePose.kind}"', f"input_width = {INPUT}",
@@ -328,11 +340,14 @@ def main(argv: list[str] | None = None) -> int:
             break
     trained = time.time() - train_start
     export(model, args.out / f"{NAME}.onnx")
-    write_description(args.out / f"{NAME}.toml", args.threshold, None)
+    difference = onnx_difference(model, args.out / f"{NAME}.onnx")
+    print(f"ONNX (OpenCV) against torch: largest difference {difference:.2e}", flush=True)
+    write_description(args.out / f"{NAME}.toml", args.threshold)
     (args.out / "training.json").write_text(json.dumps({
         "command": " ".join(["python -m usvips.training.fish_model", *(argv if argv is not None else sys.argv[1:])]),
         "seed": args.seed, "torch": torch.__version__, "steps": step, "batch": args.batch, "frames": args.frames,
-        "render_seconds": round(rendered), "train_seconds": round(trained), "history": history}, indent=1,
+        "render_seconds": round(rendered), "train_seconds": round(trained), "onnx_difference": difference,
+        "history": history}, indent=1,
         default=lambda v: None if isinstance(v, float) and math.isnan(v) else v))
     return 0
 

@@ -24,7 +24,9 @@ class ModelDescription:
     numbers per keypoint in the output (3: x, y, visibility; 2: x, y); ``objectness``: whether an objectness
     score precedes the class scores (YOLOv5/v7-pose; the score is then objectness × class score);
     ``score_threshold`` (0..1) and ``iou_threshold`` (0..1) of the non-maximum suppression; ``pad_value`` the
-    letterbox's grey (0..255); ``max_detections`` the most kept per image."""
+    letterbox's grey (0..255); ``max_detections`` the most kept per image; ``keypoint_sigma``: each keypoint's
+    pointing σ measured on validation (pixels of the model's input, one coordinate; in the keypoints' order;
+    empty when not measured — :mod:`usvips.core.detection.validation`)."""
 
     model: str
     family: str
@@ -42,8 +44,13 @@ class ModelDescription:
     iou_threshold: float = 0.45
     pad_value: int = 114
     max_detections: int = 300
+    keypoint_sigma: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
+        if self.keypoint_sigma and (len(self.keypoint_sigma) != len(self.keypoint_names) or not all(
+                math.isfinite(v) and v > 0 for v in self.keypoint_sigma)):
+            raise InvalidParameterError("keypoint_sigma", f"expected {len(self.keypoint_names)} finite numbers > 0 "
+                                                          f"(one per keypoint), got {list(self.keypoint_sigma)}")
         for name in ("input_width", "input_height", "max_detections"):
             if int(getattr(self, name)) < 1:
                 raise InvalidParameterError(name, f"must be >= 1, got {getattr(self, name)}")
