@@ -299,6 +299,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--batch", type=int, default=16)
     parser.add_argument("--threshold", type=float, default=0.35, help="score threshold written in the description")
     parser.add_argument("--minutes", type=float, default=40.0, help="stop training after this long")
+    parser.add_argument("--resume", type=Path, help="a training's output folder to continue from (its .pt)")
+    parser.add_argument("--learning-rate", type=float, default=3e-3, help="the schedule's peak")
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
@@ -312,8 +314,14 @@ def main(argv: list[str] | None = None) -> int:
     rendered = time.time() - started
     print(f"rendered in {rendered:.0f} s", flush=True)
     model = FishNet()
-    optimiser = torch.optim.AdamW(model.parameters(), lr=3e-3, weight_decay=1e-4)
-    schedule = torch.optim.lr_scheduler.OneCycleLR(optimiser, max_lr=3e-3, total_steps=args.steps, pct_start=0.1)
+    previous = None
+    if args.resume:
+        model.load_state_dict(torch.load(args.resume / f"{NAME}.pt"))
+        previous = json.loads((args.resume / "training.json").read_text())
+        batch_seed = batch_seed.spawn(1)[0]  # new batches, not the first run's again
+    optimiser = torch.optim.AdamW(model.parameters(), lr=args.learning_rate, weight_decay=1e-4)
+    schedule = torch.optim.lr_scheduler.OneCycleLR(optimiser, max_lr=args.learning_rate, total_steps=args.steps,
+                                                   pct_start=0.1)
     rng = np.random.default_rng(batch_seed)
     args.out.mkdir(parents=True, exist_ok=True)
     train_start = time.time()
@@ -347,7 +355,7 @@ def main(argv: list[str] | None = None) -> int:
         "command": " ".join(["python -m usvips.training.fish_model", *(argv if argv is not None else sys.argv[1:])]),
         "seed": args.seed, "torch": torch.__version__, "steps": step, "batch": args.batch, "frames": args.frames,
         "render_seconds": round(rendered), "train_seconds": round(trained), "onnx_difference": difference,
-        "history": history}, indent=1,
+        "history": history, "resumed_from": previous}, indent=1,
         default=lambda v: None if isinstance(v, float) and math.isnan(v) else v))
     return 0
 
