@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.detection import Detector, ModelDescription
+from usvips.core.detection.letterbox import Letterbox
 from usvips.core.detection.runner import OnnxDetector
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
 from usvips.io.model_description import model_path, read_model_description
@@ -38,22 +39,51 @@ class DetectionModel:
         """How proposals name their model: ``name sha256:<first 12 hex digits>``."""
         return f"{self.name} sha256:{self.sha256[:12]}"
 
-    def keypoint_sigma(self, keypoints: tuple[str, ...]) -> dict[str, float] | None:
-        """The measured pointing sigma (px) of each of ``keypoints``; None when any was never measured."""
+    def keypoint_sigma(self, keypoints: tuple[str, ...],
+                       image_size: tuple[int, int] | None = None) -> dict[str, float] | None:
+        """The measured pointing sigma (image px) of each of ``keypoints``: the description's
+        ``[keypoint_sigma]`` table; else, for an image of ``image_size`` (width, height px), the held-out
+        validation's sigma (model input px) divided by the letterbox's scale; None when any was never measured."""
         sigmas = {name: self.description.measured_sigma(name) for name in keypoints}
-        return None if any(v is None for v in sigmas.values()) else sigmas  # type: ignore[return-value]
+        if any(v is None for v in sigmas.values()):
+            validated = self._validated_sigma(keypoints, image_size)
+            return validated
+        return sigmas  # type: ignore[return-value]
 
-    def sigma_line(self, keypoints: tuple[str, ...]) -> str:
+    def _validated_sigma(self, keypoints: tuple[str, ...],
+                         image_size: tuple[int, int] | None) -> dict[str, float] | None:
+        description = self.description
+        if not description.validated_keypoint_sigma or image_size is None:
+            return None
+        table = dict(zip(description.keypoint_names, description.validated_keypoint_sigma, strict=True))
+        if any(name not in table for name in keypoints):
+            return None
+        box = Letterbox.fit(image_size, (description.input_width, description.input_height))
+        scale = min(box.scale_x, box.scale_y)  # input px per image px: one scale when the aspect is kept
+        return {name: table[name] / scale for name in keypoints}
+
+    def sigma_basis(self, keypoints: tuple[str, ...]) -> str:
+        """What the sigmas :meth:`keypoint_sigma` gives were measured on."""
+        if all(self.description.measured_sigma(k) is not None for k in keypoints):
+            return self.description.keypoint_sigma_basis or "basis not stated"
+        return "the model's held-out validation, scaled from its input pixels to the image's"
+
+    def sigma_line(self, keypoints: tuple[str, ...], image_size: tuple[int, int] | None = None) -> str:
         """One line on the keypoints' pointing sigma: measured (values and basis), or why lengths get none."""
-        sigmas = self.keypoint_sigma(keypoints)
+        sigmas = self.keypoint_sigma(keypoints, image_size)
         if sigmas is None:
+            if self.description.validated_keypoint_sigma and image_size is None:
+                described = self.description
+                values = ", ".join(f"{k} {v:.2f}" for k, v in zip(described.keypoint_names,
+                                                                     described.validated_keypoint_sigma, strict=True))
+                return (f"model {self.tag}: keypoint pointing sigma measured on held-out validation, in the "
+                        f"model's input pixels: {values} (scaled to each image's pixels by its letterbox)")
             missing = [k for k in keypoints if self.description.measured_sigma(k) is None]
             return (f"model {self.tag}: no measured pointing sigma for {', '.join(missing)}: proposals are stored "
                     "as picks without a length (a length's sigma is never assumed; measure the model's keypoint "
                     "sigma and record it in its description's [keypoint_sigma] table)")
         values = ", ".join(f"{k} {v:.2f} px" for k, v in sigmas.items())
-        basis = self.description.keypoint_sigma_basis or "basis not stated"
-        return f"model {self.tag}: keypoint pointing sigma measured ({basis}): {values}"
+        return f"model {self.tag}: keypoint pointing sigma measured ({self.sigma_basis(keypoints)}): {values}"
 
 
 def load_model(path: str | Path) -> DetectionModel:

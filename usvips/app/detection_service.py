@@ -204,7 +204,7 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
     detector = detector or model.make_detector()
     found_left, found_right = tuple(detector.detect(left)), tuple(detector.detect(right))
     rig = geometry.calibration.rig(geometry.station, geometry.frame)
-    sigmas = model.keypoint_sigma(KEYPOINTS)
+    sigmas = model.keypoint_sigma(KEYPOINTS, (left.shape[1], left.shape[0]))
     gate = gate_px if gate_px is not None else (
         4 * math.sqrt(2) * max(sigmas.values()) if sigmas else DEFAULT_GATE_PX)
     pairing = pair_detections(found_left, found_right, rig, gate_px=gate, keypoints=KEYPOINTS)
@@ -217,7 +217,7 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
     measured: list = [None] * len(pairs)
     if sigmas is not None and pairs:
         measured = measure_pairs(pairs, geometry.calibration, sigmas, KEYPOINTS, geometry.station, geometry.frame,
-                                 measured_basis=model.description.keypoint_sigma_basis or "the model's validation")
+                                 measured_basis=model.sigma_basis(KEYPOINTS))
     out = []
     for pair, m, count in zip(pairs, measured, refined, strict=True):
         if isinstance(m, UsvipsError):

@@ -8,6 +8,11 @@ runs from its description alone (docs/detection.md). TOML (``.toml``) or JSON (`
     [output]         classes (names in the model's order), keypoints (names in order, e.g. snout, fork),
                      keypoint_values (3: x, y, visibility; 2: x, y), objectness (true: an objectness
                      score precedes the class scores), score_threshold, iou_threshold (0..1), max_detections
+    [keypoint_sigma] optional, each keypoint's measured pointing σ in IMAGE pixels: px = {snout = …, …},
+                     basis (what it was measured on); the σ lengths are given (usvips.core.detection.keypoint_sigma)
+    [validation]     optional, measured on held-out data: keypoint_sigma (pointing σ per keypoint, INPUT
+                     pixels: used, scaled by the letterbox, where [keypoint_sigma] gives none), recall,
+                     precision (0..1), median_error (per keypoint, input pixels), source (text)
 
 Every bad field is one :class:`~usvips.core.errors.InputFileError` naming the file and the key.
 """
@@ -28,7 +33,8 @@ SECTIONS = {"model": ("file", "family", "input_width", "input_height"),
             "normalisation": ("scale", "mean", "std", "channels"),
             "output": ("classes", "keypoints", "keypoint_values", "objectness", "score_threshold",
                        "iou_threshold", "max_detections"),
-            "keypoint_sigma": ("px", "basis")}
+            "keypoint_sigma": ("px", "basis"),
+            "validation": ("keypoint_sigma", "recall", "precision", "median_error", "source")}
 REQUIRED = ("model.file", "model.family", "model.input_width", "model.input_height", "output.classes",
             "output.keypoints")
 
@@ -75,6 +81,16 @@ class _Fields:
                 for v in value):
             raise self.fail(key, f"expected 3 finite numbers{' > 0' if positive else ''} (one per channel), "
                                  f"got {value!r}")
+        return tuple(float(v) for v in value)
+
+    def per_keypoint(self, key: str, count: int) -> tuple[float, ...]:
+        """A list of ``count`` finite numbers > 0 (one per keypoint), or () when the key is absent."""
+        value = self.get(key, ())
+        if value == ():
+            return ()
+        if not isinstance(value, list) or len(value) != count or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and v > 0 for v in value):
+            raise self.fail(key, f"expected {count} finite numbers > 0 (one per keypoint), got {value!r}")
         return tuple(float(v) for v in value)
 
     def flag(self, key: str, default: bool) -> bool:
@@ -171,7 +187,14 @@ def read_model_description(path: str | Path) -> ModelDescription:
         score_threshold=fields.number("output.score_threshold", defaults.score_threshold, 0.0, 1.0),
         iou_threshold=fields.number("output.iou_threshold", defaults.iou_threshold, 0.0, 1.0),
         max_detections=fields.integer("output.max_detections", defaults.max_detections),
-        keypoint_sigma_px=_sigmas(fields, keypoints), keypoint_sigma_basis=basis.strip())
+        keypoint_sigma_px=_sigmas(fields, keypoints), keypoint_sigma_basis=basis.strip(),
+        validated_keypoint_sigma=fields.per_keypoint("validation.keypoint_sigma",
+                                                     len(fields.names("output.keypoints"))))
+    fields.per_keypoint("validation.median_error", len(description.keypoint_names))
+    for key in ("validation.recall", "validation.precision"):
+        fields.number(key, 0.0, 0.0, 1.0)
+    if fields.get("validation.source") is not None:
+        fields.text("validation.source")
     try:
         family(kind).check(description)
     except InvalidParameterError as error:

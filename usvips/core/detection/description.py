@@ -26,7 +26,11 @@ class ModelDescription:
     ``score_threshold`` (0..1) and ``iou_threshold`` (0..1) of the non-maximum suppression; ``pad_value`` the
     letterbox's grey (0..255); ``max_detections`` the most kept per image; ``keypoint_sigma_px``: the
     keypoints' MEASURED pointing sigmas ((name, px) pairs, one image coordinate; empty when never measured:
-    :mod:`usvips.core.detection.keypoint_sigma`) and ``keypoint_sigma_basis`` what they were measured on."""
+    :mod:`usvips.core.detection.keypoint_sigma`) and ``keypoint_sigma_basis`` what they were measured on;
+    ``validated_keypoint_sigma``: each keypoint's pointing σ measured on held-out validation (pixels of the
+    model's INPUT, one coordinate; in the keypoints' order; empty when not measured —
+    :mod:`usvips.core.detection.validation`), used, scaled to image pixels by the letterbox, where the
+    ``keypoint_sigma_px`` table gives none."""
 
     model: str
     family: str
@@ -46,8 +50,15 @@ class ModelDescription:
     max_detections: int = 300
     keypoint_sigma_px: tuple[tuple[str, float], ...] = ()
     keypoint_sigma_basis: str = ""
+    validated_keypoint_sigma: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
+        validated = self.validated_keypoint_sigma
+        if validated and (len(validated) != len(self.keypoint_names) or not all(
+                math.isfinite(v) and v > 0 for v in validated)):
+            raise InvalidParameterError("validated_keypoint_sigma", f"expected {len(self.keypoint_names)} finite "
+                                                                    f"numbers > 0 (one per keypoint), got "
+                                                                    f"{list(validated)}")
         for name in ("input_width", "input_height", "max_detections"):
             if int(getattr(self, name)) < 1:
                 raise InvalidParameterError(name, f"must be >= 1, got {getattr(self, name)}")

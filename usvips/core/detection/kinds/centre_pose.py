@@ -1,0 +1,134 @@
+"""The centre-pose layout (CenterNet-style keypoints, the family of USVIPS's own fish model): one tensor
+[1, C, H, W] on a grid of ``stride`` = input width / W input pixels per cell, with, for one class and K
+keypoints, C = 1 + 2 + 4 + 2K + K + 2 channels in this order:
+
+| channels | meaning |
+|---|---|
+| 1 | centre heatmap (a probability): an object's centre (the mean of its keypoints) lies in this cell |
+| 2 | the centre's sub-cell offset x, y (cells, 0..1) |
+| 4 | the box's extent left, up, right, down from the centre (cells) |
+| 2K | each keypoint's displacement x, y from the cell (cells) |
+| K | keypoint heatmaps (probabilities): keypoint k lies in this cell |
+| 2 | the keypoints' sub-cell offset x, y (cells, 0..1; shared by the keypoint heatmaps) |
+
+A grid position (j, i) with offset (ox, oy) is the input point ((j + ox)·stride, (i + oy)·stride) (corner
+origin, as YOLO's). Decoding, vectorised: centres are the local maxima (3 × 3) of the centre heatmap at or
+above ``score_threshold`` (the score); each keypoint is first the centre's cell plus its displacement, then
+moved to the nearest local maximum of its own heatmap (≥ :data:`PEAK_THRESHOLD`) that lies in the
+detection's box grown by a quarter of its size and within half the box's larger side of the displaced
+point; its confidence is that peak's value (or the heatmap's value at the displaced point when no peak
+qualifies). Overlapping boxes are then suppressed (OpenCV's NMS at ``iou_threshold``) and the best
+``max_detections`` kept, mapped back through the letterbox.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from usvips.core.detection.description import ModelDescription
+from usvips.core.detection.detection import Detection, Keypoint
+from usvips.core.detection.letterbox import Letterbox
+from usvips.core.detection.registry import ModelFamily
+from usvips.core.errors import InvalidParameterError
+
+#: a keypoint heatmap's local maximum counts as a peak from this value
+PEAK_THRESHOLD = 0.1
+
+
+def channel_slices(keypoints: int) -> dict[str, slice]:
+    """The channels of each quantity for ``keypoints`` keypoints (one class)."""
+    k = int(keypoints)
+    starts = {"centre": 1, "centre_offset": 2, "extent": 4, "displacement": 2 * k, "keypoint_heat": k,
+              "keypoint_offset": 2}
+    out, first = {}, 0
+    for name, size in starts.items():
+        out[name] = slice(first, first + size)
+        first += size
+    return out
+
+
+def channel_count(keypoints: int) -> int:
+    """C: the channels the layout has for ``keypoints`` keypoints."""
+    return 9 + 3 * int(keypoints)
+
+
+def _peaks(heat: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the 3 × 3 local maxima of ``heat`` at or above ``threshold``."""
+    heat = np.ascontiguousarray(heat, dtype=np.float32)
+    peak = (heat >= cv2.dilate(heat, np.ones((3, 3), np.uint8))) & (heat >= threshold)
+    return np.nonzero(peak)
+
+
+class CentrePose(ModelFamily):
+    kind = "centre-pose"
+    order = 1
+
+    @classmethod
+    def check(cls, description: ModelDescription) -> None:
+        if len(description.class_names) != 1:
+            raise InvalidParameterError("classes", f"the centre-pose layout has exactly one class, got "
+                                                   f"{len(description.class_names)}")
+        if not description.keypoint_names:
+            raise InvalidParameterError("keypoints", "the centre-pose layout needs at least one keypoint")
+
+    @classmethod
+    def decode(cls, output: np.ndarray, description: ModelDescription, letterbox: Letterbox) -> tuple[Detection, ...]:
+        cls.check(description)
+        k = len(description.keypoint_names)
+        array = np.asarray(output, dtype=np.float64)
+        if array.ndim != 4 or array.shape[0] != 1 or array.shape[1] != channel_count(k):
+            raise InvalidParameterError("output", f"the model's output has shape {np.shape(output)}; the centre-pose "
+                                                  f"layout with {k} keypoints asks for [1, {channel_count(k)}, H, W]")
+        maps = array[0]
+        height, width = maps.shape[1:]
+        stride_x, stride_y = description.input_width / width, description.input_height / height
+        c = channel_slices(k)
+        rows, cols = _peaks(maps[c["centre"]][0], description.score_threshold)
+        if rows.size == 0:
+            return ()
+        scores = maps[0, rows, cols]
+        offset = maps[c["centre_offset"]][:, rows, cols]
+        cx, cy = (cols + offset[0]) * stride_x, (rows + offset[1]) * stride_y
+        extent = np.maximum(maps[c["extent"]][:, rows, cols], 0.0)
+        x0, y0 = cx - extent[0] * stride_x, cy - extent[1] * stride_y
+        x1, y1 = cx + extent[2] * stride_x, cy + extent[3] * stride_y
+        displacement = maps[c["displacement"]][:, rows, cols].reshape(k, 2, -1)
+        kx = (cols[None, :] + displacement[:, 0]) * stride_x  # (K, N) input pixels
+        ky = (rows[None, :] + displacement[:, 1]) * stride_y
+        heat = maps[c["keypoint_heat"]]
+        keypoint_offset = maps[c["keypoint_offset"]]
+        grid_x = np.clip(np.floor(kx / stride_x), 0, width - 1).astype(int)
+        grid_y = np.clip(np.floor(ky / stride_y), 0, height - 1).astype(int)
+        confidence = heat[np.arange(k)[:, None], grid_y, grid_x]
+        side = np.maximum(x1 - x0, y1 - y0)
+        grow_x, grow_y = (x1 - x0) / 4, (y1 - y0) / 4
+        for j in range(k):
+            pr, pc = _peaks(heat[j], PEAK_THRESHOLD)
+            if pr.size == 0:
+                continue
+            px = (pc + keypoint_offset[0, pr, pc]) * stride_x
+            py = (pr + keypoint_offset[1, pr, pc]) * stride_y
+            distance = np.hypot(px[None, :] - kx[j][:, None], py[None, :] - ky[j][:, None])  # (N, P)
+            inside = ((px[None, :] >= (x0 - grow_x)[:, None]) & (px[None, :] <= (x1 + grow_x)[:, None])
+                      & (py[None, :] >= (y0 - grow_y)[:, None]) & (py[None, :] <= (y1 + grow_y)[:, None])
+                      & (distance <= side[:, None] / 2))
+            distance = np.where(inside, distance, np.inf)
+            best = np.argmin(distance, axis=1)
+            found = np.isfinite(distance[np.arange(len(best)), best])
+            kx[j, found], ky[j, found] = px[best[found]], py[best[found]]
+            confidence[j, found] = heat[j, pr[best[found]], pc[best[found]]]
+        rects = np.column_stack([x0, y0, x1 - x0, y1 - y0])
+        chosen = np.asarray(cv2.dnn.NMSBoxes(rects.tolist(), scores.tolist(), float(description.score_threshold),
+                                             float(description.iou_threshold)), dtype=int).reshape(-1)
+        chosen = chosen[np.argsort(-scores[chosen], kind="stable")][:description.max_detections]
+        bx0, by0 = letterbox.to_image(x0[chosen], y0[chosen])
+        bx1, by1 = letterbox.to_image(x1[chosen], y1[chosen])
+        px, py = letterbox.to_image(kx[:, chosen], ky[:, chosen])
+        confidence = np.clip(confidence[:, chosen], 0.0, 1.0)
+        names, label = description.keypoint_names, description.class_names[0]
+        return tuple(
+            Detection((float(bx0[i]), float(by0[i]), float(bx1[i]), float(by1[i])), label, float(scores[chosen[i]]),
+                      tuple(Keypoint(name, float(px[j, i]), float(py[j, i]), float(confidence[j, i]))
+                            for j, name in enumerate(names)))
+            for i in range(len(chosen)))

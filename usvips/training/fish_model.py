@@ -1,0 +1,364 @@
+"""Train USVIPS's own fish keypoint model on rendered fish, and export it to ONNX with its description file.
+
+A development tool, never imported by USVIPS at run time; it needs PyTorch (the ``train`` extra). The model
+is a small CenterNet-style network (strided convolutions down to 1/32, a feature pyramid back up to 1/4;
+one output tensor in the ``centre-pose`` layout of :mod:`usvips.core.detection.kinds.centre_pose`, heatmaps
+through a sigmoid inside the graph). Training frames are rendered by :mod:`usvips.core.synth.fish_scene`
+through every housing kind, letterboxed into the input as the ONNX runner does, and cached in a folder;
+every random draw comes from the seed. Run (one thread, at low priority, on a shared machine):
+
+    nice -n 10 python -m usvips.training.fish_model --out resources/models --cache /tmp/fish_cache
+
+Writes ``<out>/fish-centre-pose.onnx``, ``<out>/fish-centre-pose.toml`` and ``<out>/training.json`` (the
+command, the seed, torch's version, the steps, the time, the held-out figures of the training's own check).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import torch
+from torch import nn
+from torch.nn import functional
+
+from usvips.core import housing as housings
+from usvips.core.detection.description import ModelDescription
+from usvips.core.detection.kinds.centre_pose import CentrePose, channel_count, channel_slices
+from usvips.core.detection.letterbox import Letterbox
+from usvips.core.detection.validation import TrueObject, ValidationFigures, match_image
+from usvips.core.synth.fish_scene import KEYPOINTS, random_camera, random_scene, render_fish_scene
+
+INPUT = 256
+STRIDE = 4
+NAME = "fish-centre-pose"
+FRAME_SIZES = ((320, 240), (320, 180), (288, 216))
+KEYPOINT_SIGMA_CELLS = 0.9
+
+
+def sample(seed: int) -> tuple[np.ndarray, list[dict]]:
+    """One letterboxed training frame (INPUT × INPUT × 3 BGR uint8) and its fish in input coordinates."""
+    rng = np.random.default_rng(seed)
+    kind = housings.names()[int(rng.integers(len(housings.names())))]
+    size = FRAME_SIZES[int(rng.integers(len(FRAME_SIZES)))]
+    camera = random_camera(rng, kind, size)
+    image, truths = render_fish_scene(camera, random_scene(rng, camera))
+    box = Letterbox.fit(size, (INPUT, INPUT))
+    boxed = box.apply(image, (INPUT, INPUT), 114)
+    fish = []
+    for truth in truths:
+        if not np.isfinite(truth.box[0]):
+            continue
+        u, v = box.to_input(truth.keypoints[:, 0], truth.keypoints[:, 1])
+        bu0, bv0 = box.to_input(np.array(truth.box[0]), np.array(truth.box[1]))
+        bu1, bv1 = box.to_input(np.array(truth.box[2]), np.array(truth.box[3]))
+        in_frame = (truth.keypoints[:, 0] >= -0.5) & (truth.keypoints[:, 0] <= size[0] - 0.5) \
+            & (truth.keypoints[:, 1] >= -0.5) & (truth.keypoints[:, 1] <= size[1] - 0.5)
+        fish.append({"keypoints": np.column_stack([u, v]), "visible": truth.visible, "in_frame": in_frame,
+                     "box": (float(bu0), float(bv0), float(bu1), float(bv1)), "required": truth.required})
+    return boxed, fish
+
+
+def build_cache(folder: Path, name: str, seeds: list[int]) -> tuple[np.ndarray, list[list[dict]]]:
+    """The frames of ``seeds`` rendered once and kept in ``folder`` (``name``.npy and .json)."""
+    images_path, fish_path = folder / f"{name}.npy", folder / f"{name}.json"
+    if images_path.is_file() and fish_path.is_file():
+        stored = json.loads(fish_path.read_text())
+        if stored["seeds"] == seeds:
+            fish = [[{k: (np.asarray(v) if k in ("keypoints", "visible", "in_frame") else v) for k, v in f.items()}
+                     for f in frame] for frame in stored["fish"]]
+            return np.load(images_path), fish
+    folder.mkdir(parents=True, exist_ok=True)
+    images = np.zeros((len(seeds), INPUT, INPUT, 3), np.uint8)
+    fish = []
+    start = time.time()
+    for i, seed in enumerate(seeds):
+        images[i], frame = sample(seed)
+        fish.append(frame)
+        if i % 200 == 0:
+            print(f"{name}: rendered {i}/{len(seeds)} in {time.time() - start:.0f} s", flush=True)
+    np.save(images_path, images)
+    plain = [[{k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in f.items()} for f in frame]
+             for frame in fish]
+    fish_path.write_text(json.dumps({"seeds": seeds, "fish": plain}))
+    return images, fish
+
+
+def _gaussian(shape: tuple[int, int], cx: float, cy: float, sigma: float) -> np.ndarray:
+    ys, xs = np.arange(shape[0])[:, None], np.arange(shape[1])[None, :]
+    return np.exp(-((xs - cx) ** 2 + (ys - cy) ** 2) / (2 * sigma**2))
+
+
+def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
+    """Training targets on the output grid for one frame's fish (input coordinates), optionally mirrored
+    left-right (the keypoints keep their names: a fish facing the other way)."""
+    g = INPUT // STRIDE
+    k = len(KEYPOINTS)
+    centre_heat = np.zeros((g, g), np.float32)
+    keypoint_heat = np.zeros((k, g, g), np.float32)
+    ignore = np.ones((g, g), np.float32)
+    centre_offset = np.zeros((2, g, g), np.float32)
+    extent = np.zeros((4, g, g), np.float32)
+    displacement = np.zeros((2 * k, g, g), np.float32)
+    displacement_mask = np.zeros((2 * k, g, g), np.float32)
+    centre_mask = np.zeros((g, g), np.float32)
+    keypoint_offset = np.zeros((2, g, g), np.float32)
+    keypoint_mask = np.zeros((g, g), np.float32)
+    for f in fish:
+        points = np.array(f["keypoints"], np.float64) / STRIDE
+        x0, y0, x1, y1 = (np.array(f["box"], np.float64) / STRIDE)
+        if flip:
+            points[:, 0] = g - points[:, 0]
+            x0, x1 = g - x1, g - x0
+        centre = points[:2].mean(axis=0)
+        size = max(np.hypot(*(points[0] - points[1])), 1.0)
+        sigma = max(0.8, 0.12 * size)
+        if not (0 <= centre[0] < g and 0 <= centre[1] < g):
+            continue
+        j, i = int(centre[0]), int(centre[1])
+        if not f["required"]:  # neither a fish to find nor background
+            ignore = np.minimum(ignore, 1 - (_gaussian((g, g), j, i, 1.5 * sigma) > 0.1))
+            continue
+        centre_heat = np.maximum(centre_heat, _gaussian((g, g), j, i, sigma))  # peaks of 1 at the cell
+        centre_mask[i, j] = 1
+        centre_offset[:, i, j] = centre - (j, i)
+        extent[:, i, j] = (centre[0] - x0, centre[1] - y0, x1 - centre[0], y1 - centre[1])
+        for n in range(k):
+            if not f["in_frame"][n]:
+                continue
+            displacement[2 * n:2 * n + 2, i, j] = points[n] - (j, i)
+            displacement_mask[2 * n:2 * n + 2, i, j] = 1
+            if not f["visible"][n]:
+                continue
+            pj, pi = int(points[n][0]), int(points[n][1])
+            if 0 <= pj < g and 0 <= pi < g:
+                keypoint_heat[n] = np.maximum(keypoint_heat[n], _gaussian((g, g), pj, pi, KEYPOINT_SIGMA_CELLS))
+                keypoint_offset[:, pi, pj] = points[n] - (pj, pi)
+                keypoint_mask[pi, pj] = 1
+    return {"centre_heat": centre_heat, "ignore": ignore, "centre_mask": centre_mask, "centre_offset": centre_offset,
+            "extent": extent, "displacement": displacement, "displacement_mask": displacement_mask,
+            "keypoint_heat": keypoint_heat, "keypoint_offset": keypoint_offset, "keypoint_mask": keypoint_mask}
+
+
+def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
+    return nn.Sequential(nn.Conv2d(cin, cout, 3, stride, 1, bias=False), nn.BatchNorm2d(cout), nn.ReLU(inplace=True))
+
+
+class FishNet(nn.Module):
+    """Encoder to 1/32, top-down pyramid back to 1/4, one head; heatmaps through a sigmoid."""
+
+    def __init__(self, keypoints: int = len(KEYPOINTS)) -> None:
+        super().__init__()
+        self.keypoints = keypoints
+        self.s2 = _block(3, 16, 2)
+        self.s4 = nn.Sequential(_block(16, 24, 2), _block(24, 24))
+        self.s8 = nn.Sequential(_block(24, 40, 2), _block(40, 40))
+        self.s16 = nn.Sequential(_block(40, 64, 2), _block(64, 64))
+        self.s32 = nn.Sequential(_block(64, 96, 2), _block(96, 96))
+        self.up16 = _block(96 + 64, 64)
+        self.up8 = _block(64 + 40, 40)
+        self.up4 = _block(40 + 24, 32)
+        self.head = nn.Sequential(_block(32, 32), nn.Conv2d(32, channel_count(keypoints), 1))
+        c = channel_slices(keypoints)
+        heat = torch.zeros(channel_count(keypoints), dtype=torch.bool)
+        heat[c["centre"]] = True
+        heat[c["keypoint_heat"]] = True
+        self.register_buffer("heat", heat.view(1, -1, 1, 1), persistent=False)
+        with torch.no_grad():
+            self.head[1].bias[heat] = -2.2
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        s4 = self.s4(self.s2(x))
+        s8 = self.s8(s4)
+        s16 = self.s16(s8)
+        s32 = self.s32(s16)
+        y = self.up16(torch.cat([functional.interpolate(s32, scale_factor=2.0, mode="nearest"), s16], 1))
+        y = self.up8(torch.cat([functional.interpolate(y, scale_factor=2.0, mode="nearest"), s8], 1))
+        y = self.up4(torch.cat([functional.interpolate(y, scale_factor=2.0, mode="nearest"), s4], 1))
+        raw = self.head(y)
+        return torch.where(self.heat, torch.sigmoid(raw), raw)
+
+
+def _focal(prediction: torch.Tensor, target: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
+    """CenterNet's penalty-reduced focal loss, normalised by the number of peaks."""
+    p = prediction.clamp(1e-4, 1 - 1e-4)
+    positive = (target >= 0.999).float()
+    negative = (1 - positive) * weight
+    loss = -(positive * (1 - p) ** 2 * torch.log(p) + negative * (1 - target) ** 4 * p**2 * torch.log(1 - p)).sum()
+    return loss / positive.sum().clamp(min=1.0)
+
+
+def _masked_l1(prediction: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    return (torch.abs(prediction - target) * mask).sum() / mask.sum().clamp(min=1.0)
+
+
+def loss(output: torch.Tensor, batch: dict[str, torch.Tensor]) -> tuple[torch.Tensor, dict[str, float]]:
+    c = channel_slices(len(KEYPOINTS))
+    centre_mask = batch["centre_mask"][:, None]
+    parts = {
+        "centre": _focal(output[:, c["centre"]], batch["centre_heat"][:, None], batch["ignore"][:, None]),
+        "keypoint_heat": _focal(output[:, c["keypoint_heat"]], batch["keypoint_heat"],
+                                batch["ignore"][:, None].expand_as(batch["keypoint_heat"])),
+        "centre_offset": _masked_l1(output[:, c["centre_offset"]], batch["centre_offset"],
+                                    centre_mask.expand(-1, 2, -1, -1)),
+        "extent": 0.1 * _masked_l1(output[:, c["extent"]], batch["extent"], centre_mask.expand(-1, 4, -1, -1)),
+        "displacement": 0.2 * _masked_l1(output[:, c["displacement"]], batch["displacement"],
+                                         batch["displacement_mask"]),
+        "keypoint_offset": _masked_l1(output[:, c["keypoint_offset"]], batch["keypoint_offset"],
+                                      batch["keypoint_mask"][:, None].expand(-1, 2, -1, -1)),
+    }
+    total = sum(parts.values())
+    return total, {k: float(v) for k, v in parts.items()}
+
+
+def _to_tensor(images: np.ndarray) -> torch.Tensor:
+    """BGR uint8 (N, H, W, 3) → the network's input (N, 3, H, W): RGB scaled to 0..1, as the description says."""
+    return torch.from_numpy(np.ascontiguousarray(images[..., ::-1].transpose(0, 3, 1, 2))).float() / 255.0
+
+
+def batch(images: np.ndarray, fish: list[list[dict]], indices: np.ndarray, rng: np.random.Generator
+          ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+    flips = rng.uniform(size=len(indices)) < 0.5
+    frames = np.stack([images[i][:, ::-1] if flip else images[i] for i, flip in zip(indices, flips, strict=True)])
+    gains = rng.uniform(0.8, 1.2, (len(indices), 1, 1, 3))
+    frames = np.clip(frames * gains + rng.normal(0, 8, (len(indices), 1, 1, 3)), 0, 255).astype(np.uint8)
+    all_targets = [targets(fish[i], flip) for i, flip in zip(indices, flips, strict=True)]
+    stacked = {k: torch.from_numpy(np.stack([t[k] for t in all_targets])) for k in all_targets[0]}
+    return _to_tensor(frames), stacked
+
+
+def description(threshold: float) -> ModelDescription:
+    return ModelDescription(model=f"{NAME}.onnx", family=CentrePose.kind, input_width=INPUT, input_height=INPUT,
+                            class_names=("fish",), keypoint_names=KEYPOINTS, channel_order="RGB",
+                            score_threshold=threshold, iou_threshold=0.5, max_detections=100)
+
+
+def evaluate(model: nn.Module, images: np.ndarray, fish: list[list[dict]], threshold: float) -> ValidationFigures:
+    """Figures on cached frames in input coordinates (the training's own check; the shipped figures come
+    from full frames through the ONNX runner)."""
+    model.eval()
+    figures = ValidationFigures()
+    desc = description(threshold)
+    identity = Letterbox(1.0, 1.0, 0, 0, (INPUT, INPUT))
+    with torch.no_grad():
+        for start in range(0, len(images), 16):
+            out = model(_to_tensor(images[start:start + 16])).numpy()
+            for n, frame in enumerate(fish[start:start + 16]):
+                found = CentrePose.decode(out[n:n + 1], desc, identity)
+                truths = [TrueObject({name: (float(x) - 0.5, float(y) - 0.5)
+                                      for name, (x, y) in zip(KEYPOINTS, f["keypoints"], strict=True)}, f["required"])
+                          for f in frame]
+                match_image(found, truths, figures)
+    model.train()
+    return figures
+
+
+def export(model: nn.Module, path: Path) -> None:
+    model.eval()
+    dummy = torch.zeros(1, 3, INPUT, INPUT)
+    torch.onnx.export(model, (dummy,), str(path), input_names=["images"], output_names=["maps"], opset_version=13,
+                      dynamo=False)
+
+
+def onnx_difference(model: nn.Module, path: Path, seed: int = 0) -> float:
+    """The largest absolute difference between the network in torch and its ONNX file run by OpenCV's DNN
+    module (as USVIPS runs it), on a random input."""
+    model.eval()
+    x = torch.from_numpy(np.random.default_rng(seed).uniform(0, 1, (1, 3, INPUT, INPUT)).astype(np.float32))
+    net = cv2.dnn.readNetFromONNX(str(path))
+    net.setInput(x.numpy())
+    with torch.no_grad():
+        return float(np.abs(net.forward() - model(x).numpy()).max())
+
+
+def write_description(path: Path, threshold: float) -> None:
+    lines = ["# USVIPS's own fish keypoint model (docs/detection.md): trained on RENDERED fish only, to propose",
+             "# snout and fork for a person to review. MIT licence, made by usvips/training/fish_model.py.",
+             "[model]", f'file = "{NAME}.onnx"', f'family = "{CentrePose.kind}"', f"input_width = {INPUT}",
+             f"input_height = {INPUT}", "", "[normalisation]", "scale = 0.00392156862745098",
+             "mean = [0.0, 0.0, 0.0]", "std = [1.0, 1.0, 1.0]", 'channels = "RGB"', "", "[output]",
+             'classes = ["fish"]', "keypoints = [" + ", ".join(f'"{k}"' for k in KEYPOINTS) + "]",
+             f"score_threshold = {threshold}", "iou_threshold = 0.5", "max_detections = 100"]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, required=True, help="folder for the .onnx, .toml and training.json")
+    parser.add_argument("--cache", type=Path, default=Path("/tmp/fish_cache"), help="rendered frames' folder")
+    parser.add_argument("--seed", type=int, default=20261128)
+    parser.add_argument("--frames", type=int, default=2400, help="training frames rendered")
+    parser.add_argument("--check-frames", type=int, default=200, help="held-out frames of the training's check")
+    parser.add_argument("--steps", type=int, default=1500)
+    parser.add_argument("--batch", type=int, default=16)
+    parser.add_argument("--threshold", type=float, default=0.35, help="score threshold written in the description")
+    parser.add_argument("--minutes", type=float, default=40.0, help="stop training after this long")
+    parser.add_argument("--resume", type=Path, help="a training's output folder to continue from (its .pt)")
+    parser.add_argument("--learning-rate", type=float, default=3e-3, help="the schedule's peak")
+    args = parser.parse_args(argv)
+    torch.set_num_threads(1)
+    torch.manual_seed(args.seed)
+    sequence = np.random.SeedSequence(args.seed)
+    train_seed, check_seed, batch_seed = sequence.spawn(3)
+    train_seeds = [int(s) for s in np.random.default_rng(train_seed).integers(0, 2**31, args.frames)]
+    check_seeds = [int(s) for s in np.random.default_rng(check_seed).integers(0, 2**31, args.check_frames)]
+    started = time.time()
+    images, fish = build_cache(args.cache, f"train{args.seed}_{args.frames}", train_seeds)
+    check_images, check_fish = build_cache(args.cache, f"check{args.seed}_{args.check_frames}", check_seeds)
+    rendered = time.time() - started
+    print(f"rendered in {rendered:.0f} s", flush=True)
+    model = FishNet()
+    previous = None
+    if args.resume:
+        model.load_state_dict(torch.load(args.resume / f"{NAME}.pt"))
+        previous = json.loads((args.resume / "training.json").read_text())
+        batch_seed = batch_seed.spawn(1)[0]  # new batches, not the first run's again
+    optimiser = torch.optim.AdamW(model.parameters(), lr=args.learning_rate, weight_decay=1e-4)
+    schedule = torch.optim.lr_scheduler.OneCycleLR(optimiser, max_lr=args.learning_rate, total_steps=args.steps,
+                                                   pct_start=0.1)
+    rng = np.random.default_rng(batch_seed)
+    args.out.mkdir(parents=True, exist_ok=True)
+    train_start = time.time()
+    history = []
+    step = 0
+    for step in range(1, args.steps + 1):
+        x, y = batch(images, fish, rng.integers(0, len(images), args.batch), rng)
+        total, parts = loss(model(x), y)
+        optimiser.zero_grad()
+        total.backward()
+        optimiser.step()
+        schedule.step()
+        if step % 25 == 0:
+            print(f"step {step} loss {float(total):.3f} " + " ".join(f"{k} {v:.3f}" for k, v in parts.items())
+                  + f" {time.time() - train_start:.0f} s", flush=True)
+        if step % 250 == 0 or step == args.steps:
+            figures = evaluate(model, check_images, check_fish, args.threshold)
+            summary = figures.summary(KEYPOINTS)
+            history.append({"step": step, **summary})
+            print("check", json.dumps(summary), flush=True)
+            torch.save(model.state_dict(), args.out / f"{NAME}.pt")
+        if time.time() - train_start > args.minutes * 60:
+            print(f"time limit at step {step}", flush=True)
+            break
+    trained = time.time() - train_start
+    export(model, args.out / f"{NAME}.onnx")
+    difference = onnx_difference(model, args.out / f"{NAME}.onnx")
+    print(f"ONNX (OpenCV) against torch: largest difference {difference:.2e}", flush=True)
+    write_description(args.out / f"{NAME}.toml", args.threshold)
+    (args.out / "training.json").write_text(json.dumps({
+        "command": " ".join(["python -m usvips.training.fish_model", *(argv if argv is not None else sys.argv[1:])]),
+        "seed": args.seed, "torch": torch.__version__, "steps": step, "batch": args.batch, "frames": args.frames,
+        "render_seconds": round(rendered), "train_seconds": round(trained), "onnx_difference": difference,
+        "history": history, "resumed_from": previous}, indent=1,
+        default=lambda v: None if isinstance(v, float) and math.isnan(v) else v))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
