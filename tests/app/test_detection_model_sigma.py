@@ -1,0 +1,45 @@
+"""Which keypoint sigma a model's lengths get: the description's [keypoint_sigma] table (image pixels) when
+it has one; else its held-out [validation] sigma (model input pixels) scaled to each image's pixels by the
+letterbox; else none (never assumed)."""
+
+import shutil
+
+import pytest
+
+from usvips.app.detection_model import load_model
+from usvips.locations import resources_folder
+
+KEYS = ("snout", "fork")
+
+
+@pytest.fixture
+def shipped(tmp_path):
+    folder = resources_folder() / "models"
+    for path in folder.glob("fish-centre-pose.*"):
+        shutil.copy(path, tmp_path / path.name)
+    return tmp_path / "fish-centre-pose.toml"
+
+
+@pytest.mark.parametrize("size", [(640, 480), (1920, 1080), (480, 640), (256, 256)])
+def test_validated_sigma_is_scaled_from_input_to_image_pixels(shipped, size):
+    model = load_model(shipped)
+    validated = dict(zip(model.description.keypoint_names, model.description.validated_keypoint_sigma, strict=True))
+    scale = min(256 / size[0], 256 / size[1])
+    sigmas = model.keypoint_sigma(KEYS, size)
+    assert sigmas == pytest.approx({k: validated[k] / scale for k in KEYS})
+    assert model.keypoint_sigma(KEYS) is None  # no image: no pixels to give it in
+    assert "input pixels" in model.sigma_line(KEYS) and "held-out" in model.sigma_basis(KEYS)
+
+
+def test_a_measured_table_wins_and_no_measure_gives_no_sigma(shipped):
+    text = shipped.read_text(encoding="utf-8")
+    shipped.write_text(text + '\n[keypoint_sigma]\nbasis = "reviews"\npx = {snout = 1.5, fork = 2.5}\n',
+                       encoding="utf-8")
+    model = load_model(shipped)
+    assert model.keypoint_sigma(KEYS, (1920, 1080)) == {"snout": 1.5, "fork": 2.5}
+    assert model.sigma_basis(KEYS) == "reviews"
+    cut = text[:text.index("[validation]")]
+    shipped.write_text(cut, encoding="utf-8")
+    model = load_model(shipped)
+    assert model.keypoint_sigma(KEYS, (1920, 1080)) is None
+    assert "no measured pointing sigma" in model.sigma_line(KEYS, (1920, 1080))
