@@ -37,8 +37,11 @@ def test_a_stated_pointing_sigma_is_the_figures_and_its_share_scales_with_it(tmp
                                                     pointing_origin="estimated"))
     assert default.pointing_origin == "default" and stated.pointing_origin == "estimated"
     np.testing.assert_allclose(default.pointing_sigma_px, HAND_CLICK_SIGMA_PX)
-    # the pointing share is linear in the pointing sigma; the calibration's share does not depend on it
-    assert stated.main.sigma_pointing == pytest.approx(default.main.sigma_pointing / HAND_CLICK_SIGMA_PX, rel=2e-3)
+    # the pointing share grows with the pointing sigma: in proportion at first order, a little faster with its
+    # second-order part (this 30 cm fish at 2.4 m has a depth σ of ~6 % of its length at 1 px); the
+    # calibration's share does not depend on it
+    growth = stated.main.sigma_pointing / (default.main.sigma_pointing / HAND_CLICK_SIGMA_PX)
+    assert 1 - 2e-3 <= growth <= 1.15
     assert stated.main.sigma_calibration == pytest.approx(default.main.sigma_calibration, rel=2e-3)
     cells = breakdown_cells(stated)
     assert (cells["pointing_sigma_px"], cells["pointing_origin"], cells["sigma_notes"]) == ("1", "estimated", "")

@@ -20,13 +20,14 @@ def test_length_bearing_and_slope_match_the_vector_formula_over_random_segments(
 
 
 def test_the_length_sigma_is_the_projection_of_the_covariance_on_the_segment():
-    """σ² of |b − a| = u·(Σa + Σb)·u (u the unit direction), over random segments and covariances."""
+    """The first-order σ² of |b − a| is u·(Σa + Σb)·u (u the unit direction), over random segments and
+    covariances (the second-order part, tested in tests/core/test_second_order_sigma.py, left out)."""
     rng = np.random.default_rng(12)
     for _ in range(200):
         points = rng.normal(size=(2, 3))
         roots = rng.normal(scale=1e-3, size=(2, 3, 3))
         covariances = roots @ roots.transpose(0, 2, 1)
-        values, covariance = propagate_all(Length.values, points, covariances)
+        values, covariance = propagate_all(Length.values, points, covariances, nonlinear=False)
         u = (points[1] - points[0]) / np.linalg.norm(points[1] - points[0])
         assert covariance[0, 0] == pytest.approx(u @ (covariances[0] + covariances[1]) @ u, rel=1e-4)
 

@@ -69,23 +69,31 @@ def test_stated_sigmas_hold_when_the_pointing_is_what_they_were_stated_with(cali
 
 
 def test_the_calibration_part_is_drawn(calibrated):
-    """Without the calibration's part in the stated σ (pointing only), the check sees the missing part."""
+    """Without the calibration's part in the stated σ (pointing only), the check sees the missing part: a
+    larger NEES than with the whole σ for the same objects. The calibration's covariance is scaled by 25 so
+    that its part is a fair share of the lengths' variance (as it is, ~1 %: too little to see)."""
+    from dataclasses import replace
+
     from usvips.core.calibration.uncertainty import intersect_with_calibration
     from usvips.core.measurements import measure
 
+    names, covariance = calibrated.covariance
+    calibrated = replace(calibrated, covariance=(names, 25 * covariance))
     rng = np.random.default_rng(2)
-    objects = []
+    pointing_only, whole = [], []
     for i, (m, _) in enumerate(_objects(calibrated, rng, 40)):
         rig = calibrated.rig(0, "object")
         left, right = rig.left.project(m.points).pixels, rig.right.project(m.points).pixels
         pointing = intersect_with_calibration(calibrated, left, right, 0, "object", include_calibration=False,
                                               pointing_sigma_px=POINTING)
         stated = measure("length", pointing.points, pointing.covariance).main.sigma
-        objects.append(CheckedObject(str(i), "length", m.points, stated, 0,
-                                     np.full((2, 2), POINTING)))
-    (row,) = check_sigmas(objects, [CheckGeometry(calibrated, 0, "object")], replicas=30).kinds
-    print(f"pointing-only σ: NEES {row.nees:.2f} ({row.low:.2f}–{row.high:.2f})")
-    assert row.nees > 1.0 and row.low > 0.7
+        pointing_only.append(CheckedObject(str(i), "length", m.points, stated, 0, np.full((2, 2), POINTING)))
+        whole.append(CheckedObject(str(i), "length", m.points, m.main.sigma, 0, np.full((2, 2), POINTING)))
+    geometry = [CheckGeometry(calibrated, 0, "object")]
+    (row,) = check_sigmas(pointing_only, geometry, replicas=30).kinds
+    (full,) = check_sigmas(whole, geometry, replicas=30).kinds
+    print(f"pointing-only σ: NEES {row.nees:.2f} ({row.low:.2f}–{row.high:.2f}); whole σ: NEES {full.nees:.2f}")
+    assert row.low > 1.0 and row.nees > 1.3 * full.nees
 
 
 def test_cancel_and_bad_input(calibrated):

@@ -34,7 +34,7 @@ from pathlib import Path
 #: GUI package; it is imported only when run).
 BENCH_MODULES: tuple[str, ...] = ("geometry", "scaling", "calibration", "imaging", "gui", "video", "survey",
                                   "window_tracking", "targets", "board_detection", "server", "startup",
-                                  "sigma_check", "pointing_experiment")
+                                  "sigma_check", "pointing_experiment", "figures")
 BENCH_PATHS: dict[str, str] = {"gui": "usvips.gui.qt.bench", "window_tracking": "usvips.gui.qt.bench_tracking"}
 
 
