@@ -178,3 +178,16 @@ def test_the_breakdown_still_adds_in_variance_and_angles_are_differenced_round_t
         assert figure.sigma >= np.sqrt(first[i, i]) * (1 - 1e-9)
     assert figures["bearing"].sigma < 0.5  # radians: a 2π jump would make it π-sized
     assert figures["length"].sigma > 1.05 * np.sqrt(first[0, 0])  # σ/L 0.2: the second-order part shows
+
+
+def test_a_circle_standing_vertical_has_the_sigma_of_its_normal_s_direction_not_of_its_sign():
+    """The "upward" rule flips the normal of a circle standing vertical between shifted vertex sets; the
+    normal is differenced as a direction (the kind's axial figures), so its σ is the direction's: before,
+    a circle standing exactly vertical had σ ≈ 4·10⁴ for the normal's main component."""
+    angles = np.linspace(0, 2 * np.pi, 7)[:-1]
+    for tilt in (0.0, 0.05, 0.3):
+        points = np.column_stack([0.1 * np.cos(angles), 2 + tilt * 0.1 * np.sin(angles), 0.1 * np.sin(angles)])
+        covariance = np.kron(np.eye(6), np.diag([1e-6, 4e-4, 1e-6]))  # 2 cm in depth (Y), 1 mm across
+        figures = {f.name: f for f in kind("circle").figures(points, covariance)}
+        assert figures["normal_Y"].sigma < 0.05, (tilt, figures["normal_Y"])
+        assert 0.05 < figures["normal_Z"].sigma < 0.2 and 0.05 < figures["normal_X"].sigma < 0.2

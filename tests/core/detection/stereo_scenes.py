@@ -84,7 +84,8 @@ def random_frame(rng: np.random.Generator, calibration: StereoCalibration, fish:
     ``missed``, and ``distractors`` detections per side that are no fish; the right side's detections shuffled.
 
     The defaults keep a fish's depth sigma well below its length: beyond that (a 15 cm fish at 4 m behind a
-    flat port) a length's first-order sigma no longer describes its error (NEES ≈ 2), whatever the pairing."""
+    flat port) a length's stated σ, second order there, is conservative (NEES 0.5-0.8, see
+    tests/core/test_second_order_sigma.py), whatever the pairing: 1-4 m and 0.15-0.6 m give NEES 0.7-1.0."""
     rig = calibration.rig(0, "object")
     sigma = {n: float(rng.uniform(0.3, 1.0)) for n in NAMES}
     bodies: list[np.ndarray] = []

@@ -173,7 +173,7 @@ def _stencil(r: int) -> tuple[np.ndarray, np.ndarray]:
 def propagate_all(function: Callable[[np.ndarray], np.ndarray], points: np.ndarray, covariance: np.ndarray,
                   step: float = 1e-6, many: Callable[[np.ndarray], np.ndarray] | None = None,
                   parts: tuple[np.ndarray, ...] | None = None, periodic: np.ndarray | None = None,
-                  nonlinear: bool = True) -> tuple[np.ndarray, ...]:
+                  nonlinear: bool = True, axial: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """Values (K,) of a vector-valued ``function(points)`` and their (K, K) mean squared error about them:
     J Σ Jᵀ plus, with ``nonlinear`` (the default), the second-order variance and the outer product of the
     second-order bias (see the module's text; ``periodic`` (K,) marks angles, differenced modulo 2π).
@@ -184,7 +184,9 @@ def propagate_all(function: Callable[[np.ndarray], np.ndarray], points: np.ndarr
     shares returned after it: J·part·Jᵀ each, plus of the second-order addition what would go without that
     part (the addition less that of ``covariance`` − part, within [0, the addition] for each figure) — with
     one part given, the rest (covariance − part) is then the second-order addition of the rest alone, and
-    the two still add up to the whole."""
+    the two still add up to the whole. ``axial`` (K,): marks the components of a unit vector without a sign
+    of its own (a circle's normal): at every shifted set it is taken on the side of the estimate's, so a
+    normal that the "upward" rule flips there is differenced as the direction it is."""
     points = np.asarray(points, dtype=np.float64)
     full = full_covariance(points.reshape(-1, 3), covariance)
     periodic = None if periodic is None else np.flatnonzero(periodic)
@@ -205,6 +207,8 @@ def propagate_all(function: Callable[[np.ndarray], np.ndarray], points: np.ndarr
         # degenerate somewhere: the object itself raises again here; else only at a second-order point
         out = _evaluated(function, many, points, rows[:1 + 2 * flat.size])
         directions = None
+    if axial is not None and np.any(axial):
+        out[(out[:, axial] @ out[0, axial]) < 0.0, np.flatnonzero(axial)[:, None]] *= -1.0
     values = out[0]
     jacobian = (_wrapped(out[1:1 + 2 * flat.size:2] - out[2:2 + 2 * flat.size:2], periodic) / (2 * step)).T
     first = jacobian @ full @ jacobian.T
@@ -238,17 +242,20 @@ def propagate(function: Callable[[np.ndarray], float], points: np.ndarray, covar
 def figures_of(function: Callable[[np.ndarray], np.ndarray], names_units: tuple[tuple[str, str], ...],
                points: np.ndarray, covariance: np.ndarray,
                many: Callable[[np.ndarray], np.ndarray] | None = None,
-               pointing: np.ndarray | None = None, nonlinear: bool = True) -> tuple[Figure, ...]:
+               pointing: np.ndarray | None = None, nonlinear: bool = True,
+               axial: tuple[str, ...] = ()) -> tuple[Figure, ...]:
     """Every figure a vector-valued formula gives, each with its sigma, from one Jacobian (``many``: the
     formula over a stack of vertex sets, see :func:`propagate_all`). ``pointing``: the pointing part
     (3N, 3N) m² of ``covariance`` (the rest is the calibration's): then each figure also carries its
     sigma's breakdown, J·pointing·Jᵀ and J·(covariance − pointing)·Jᵀ with the same Jacobian, each with its
     share of the second-order part (:func:`propagate_all`). Figures in "rad" are angles (differenced
-    modulo 2π). ``nonlinear=False``: first-order sigmas alone (to compare with; no figure shown is so)."""
+    modulo 2π); ``axial`` names the components of a sign-free unit vector (:func:`propagate_all`).
+    ``nonlinear=False``: first-order sigmas alone (to compare with; no figure shown is so)."""
     parts = None if pointing is None else (full_covariance(np.asarray(points).reshape(-1, 3), pointing),)
     periodic = np.array([unit == "rad" for _, unit in names_units])
-    values, covariance_f, *shares = propagate_all(function, points, covariance, many=many, parts=parts,
-                                                  periodic=periodic, nonlinear=nonlinear)
+    values, covariance_f, *shares = propagate_all(
+        function, points, covariance, many=many, parts=parts, periodic=periodic, nonlinear=nonlinear,
+        axial=np.array([name in axial for name, _ in names_units]) if axial else None)
     sigmas = np.sqrt(np.clip(np.diag(covariance_f), 0.0, None))
     if not shares:
         return tuple(Figure(name, float(v), float(s), unit)

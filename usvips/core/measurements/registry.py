@@ -5,7 +5,8 @@ module of that package the first time it is asked (nothing lists the kinds by ha
 A kind states its minimum (and maximum) number of vertices, whether its outline closes, how it is
 drawn (:data:`DRAWINGS`, a Qt-free word the panes and the exports translate), and its figures: their
 names and units and the formula (:meth:`MeasurementKind.values`); the sigmas from the joint (3N, 3N)
-covariance of its vertices follow by first-order propagation. An unknown kind is an error, never a default.
+covariance of its vertices follow by propagation (first order, and second order where it matters).
+An unknown kind is an error, never a default.
 
 Legacy name: projects of schema ≤ 2 and picks CSVs know ``line``: with two vertices it is a
 ``length``, with more an ``arc`` (:func:`resolve`; the store's migration to schema 3 renames stored rows
@@ -85,15 +86,19 @@ class MeasurementKind:
     #: ``values_many(stack)`` (optional): :meth:`values` of many vertex sets (M, N, 3) at once, (M, K) — the
     #: Jacobian's shifted vertices then cost one call (a survey's 10,000 objects' figures, 3× faster)
     values_many: ClassVar[Callable[[np.ndarray], np.ndarray] | None] = None
+    #: the figures that are the components of a unit vector without a sign of its own (a circle's normal):
+    #: differenced as a direction, not across the flip of its sign convention (:func:`figures_of`)
+    axial_figures: ClassVar[tuple[str, ...]] = ()
 
     @classmethod
     def compute(cls, points: np.ndarray, covariance: np.ndarray,
                 pointing: np.ndarray | None = None) -> tuple[Figure, ...]:
         """The figures of vertices (N, 3) m with their joint covariance (3N, 3N) m²: :meth:`values` with
-        first-order sigmas (one Jacobian by central differences); with ``pointing``, the pointing part of
-        the covariance, each sigma's breakdown too (:func:`figures_of`)."""
+        sigmas, their root mean square errors (one Jacobian by central differences, and the second-order
+        part where it matters); with ``pointing``, the pointing part of the covariance, each sigma's
+        breakdown too (:func:`figures_of`)."""
         return figures_of(cls.values, cls.figure_names, points, covariance, many=cls.values_many,
-                          pointing=pointing)
+                          pointing=pointing, axial=cls.axial_figures)
 
     @classmethod
     def outline(cls, points: np.ndarray) -> np.ndarray:

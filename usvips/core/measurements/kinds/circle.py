@@ -24,6 +24,7 @@ class Circle(MeasurementKind):
     figure_names = (("diameter", "m"), ("centre_X", "m"), ("centre_Y", "m"), ("centre_Z", "m"),
                     ("normal_X", "1"), ("normal_Y", "1"), ("normal_Z", "1"))
     eventmeasure = "Circles"
+    axial_figures = ("normal_X", "normal_Y", "normal_Z")
 
     @classmethod
     def values(cls, points: np.ndarray) -> np.ndarray:
