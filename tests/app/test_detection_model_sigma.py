@@ -29,6 +29,7 @@ def test_validated_sigma_is_scaled_from_input_to_image_pixels(shipped, size):
     assert sigmas == pytest.approx({k: validated[k] / scale for k in KEYS})
     assert model.keypoint_sigma(KEYS) is None  # no image: no pixels to give it in
     assert "input pixels" in model.sigma_line(KEYS) and "held-out" in model.sigma_basis(KEYS)
+    assert "rendered" in model.sigma_basis(KEYS)  # the shipped model's sigma says what it was measured on
 
 
 def test_a_measured_table_wins_and_no_measure_gives_no_sigma(shipped):

@@ -66,7 +66,8 @@ class DetectionModel:
         """What the sigmas :meth:`keypoint_sigma` gives were measured on."""
         if all(self.description.measured_sigma(k) is not None for k in keypoints):
             return self.description.keypoint_sigma_basis or "basis not stated"
-        return "the model's held-out validation, scaled from its input pixels to the image's"
+        source = self.description.validation_source or "data not stated"
+        return f"the model's held-out validation ({source}), scaled from its input pixels to the image's"
 
     def sigma_line(self, keypoints: tuple[str, ...], image_size: tuple[int, int] | None = None) -> str:
         """One line on the keypoints' pointing sigma: measured (values and basis), or why lengths get none."""

@@ -189,12 +189,12 @@ def read_model_description(path: str | Path) -> ModelDescription:
         max_detections=fields.integer("output.max_detections", defaults.max_detections),
         keypoint_sigma_px=_sigmas(fields, keypoints), keypoint_sigma_basis=basis.strip(),
         validated_keypoint_sigma=fields.per_keypoint("validation.keypoint_sigma",
-                                                     len(fields.names("output.keypoints"))))
+                                                     len(fields.names("output.keypoints"))),
+        validation_source=(fields.text("validation.source").strip()
+                           if fields.get("validation.source") is not None else ""))
     fields.per_keypoint("validation.median_error", len(description.keypoint_names))
     for key in ("validation.recall", "validation.precision"):
         fields.number(key, 0.0, 0.0, 1.0)
-    if fields.get("validation.source") is not None:
-        fields.text("validation.source")
     try:
         family(kind).check(description)
     except InvalidParameterError as error:

@@ -30,7 +30,8 @@ class ModelDescription:
     ``validated_keypoint_sigma``: each keypoint's pointing σ measured on held-out validation (pixels of the
     model's INPUT, one coordinate; in the keypoints' order; empty when not measured —
     :mod:`usvips.core.detection.validation`), used, scaled to image pixels by the letterbox, where the
-    ``keypoint_sigma_px`` table gives none."""
+    ``keypoint_sigma_px`` table gives none; ``validation_source`` what that validation was made on (one
+    phrase, e.g. "150 held-out rendered frames")."""
 
     model: str
     family: str
@@ -51,6 +52,7 @@ class ModelDescription:
     keypoint_sigma_px: tuple[tuple[str, float], ...] = ()
     keypoint_sigma_basis: str = ""
     validated_keypoint_sigma: tuple[float, ...] = ()
+    validation_source: str = ""
 
     def __post_init__(self) -> None:
         validated = self.validated_keypoint_sigma
