@@ -195,7 +195,7 @@ ITEMS: tuple[Command | Submenu | Section, ...] = (
     Command("detect", "&Detect fish on this frame", "detection_dialogs.detect_frame", menu="Measure",
             group="detection", keys=("Ctrl+D",), tip="a detection model proposes fish on the pair or frame shown, "
             "paired through the housing; stored unreviewed, then review mode: A accepts, F flags"),
-    Command("detect_range", "Detect fish on a &range of frames…", "detection_dialogs.detect_range",
+    Command("detect_range", "Detect fish on a range &of frames…", "detection_dialogs.detect_range",
             menu="Measure", group="detection", tip="propose fish on frames of the video from the one shown"),
     Command("detect_model", "Detection &model…", "detection_dialogs.choose_model", menu="Measure",
             group="detection", tip="choose the model's description file (.toml; docs/detection.md)"),
