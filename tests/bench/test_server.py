@@ -25,6 +25,6 @@ def test_the_server_rows_compare_with_sqlite_on_the_same_data_and_judge_their_ta
     assert window["objects_listed"] == window["baseline_objects_listed"] >= 110
     assert 0 < window["rows_s"] <= window["ours_s"] and 0 < window["baseline_rows_s"] <= window["baseline_s"]
     assert window["cpu_s"] > 0 and window["baseline_cpu_s"] > 0
-    # the longest the GUI thread went without handling events: File › Open's call at least, the whole wait at most
-    assert window["rows_s"] <= window["freeze_s"] <= window["ours_s"]
-    assert window["baseline_rows_s"] <= window["baseline_freeze_s"] <= window["baseline_s"]
+    # the longest the GUI thread went without handling events (the objects are read by a worker: File › Open's
+    # call or one turn of the event loop), the whole wait at most
+    assert 0 < window["freeze_s"] <= window["ours_s"] and 0 < window["baseline_freeze_s"] <= window["baseline_s"]

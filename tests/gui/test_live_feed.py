@@ -92,6 +92,7 @@ def test_the_window_says_once_that_the_server_went_away_and_shows_what_was_made_
         survey.add_object("length", [Vertex(10.0, 20.0, 8.0, 20.0), Vertex(40.0, 20.0, 38.0, 20.0)], "fish")
     window = make_window()
     assert window.open_path(url)
+    qtbot.waitUntil(lambda: not window.workspace.cache.loading, timeout=BOUND_MS)  # the objects read, then away
     live = window.live
     killable.kill()
     qtbot.waitUntil(lambda: live.paused != "", timeout=BOUND_MS)

@@ -39,13 +39,15 @@ def test_the_window_opens_a_survey_on_a_server_by_its_url(qtbot, make_window, ne
     window = make_window()
     assert window.open_path(url)
     listing = window.object_list
-    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    qtbot.waitUntil(lambda: not window.workspace.cache.loading and listing._worker is None, timeout=20000)
     assert type(window.workspace.project).__name__ == "ServerProject"
     assert listing.row_count() == 5
     assert all(listing.text(r, "figure") not in ("", "computing…") for r in range(5))
     assert window.recent_projects()[0] == without_password(url)
     window.workspace.close_project()
-    assert window.open_path(window.recent_projects()[0]) and listing.row_count() == 5
+    assert window.open_path(window.recent_projects()[0])
+    qtbot.waitUntil(lambda: not window.workspace.cache.loading, timeout=20000)  # the objects read in a worker
+    assert listing.row_count() == 5
 
 
 def test_a_password_is_not_remembered(qtbot, make_window, new_survey):

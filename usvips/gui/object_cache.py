@@ -1,10 +1,12 @@
 """The open project's stored objects and their figures, kept in memory, free of Qt.
 
 One :class:`ObjectCache` per open project (a new project gets a new cache: nothing of the previous one
-can survive). It reads every object by ONE query when made, then is kept up to date by id as edits are
-written (:meth:`ObjectCache.changed_in_store`); each object's figures are computed once per change of the
-object or of the quality rules, here or in a worker (:meth:`ObjectCache.figures_job`), and a worker's
-results for an object changed since are dropped.
+can survive). It reads every object by ONE query when made (or, made ``deferred``, is empty and
+:attr:`ObjectCache.loading` until the read made off the GUI thread on a handle of its own,
+:func:`read_stored_objects`, arrives whole through :meth:`ObjectCache.arrived`), then is kept up to date
+by id as edits are written (:meth:`ObjectCache.changed_in_store`); each object's figures are computed once
+per change of the object or of the quality rules, here or in a worker (:meth:`ObjectCache.figures_job`),
+and a worker's results for an object changed since are dropped.
 
 Its events live in :class:`ObjectEvents`, owned by the workspace and handed to each new cache, so a view
 connects once and hears every project's objects.
@@ -14,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 from usvips.app.live_changes import ColleagueChange
 from usvips.app.pointing_settings import pointing_in_use
@@ -25,6 +28,7 @@ from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.calculator import Geometry, Result, pair_figures, result_of
 from usvips.gui.signals import Signal
 from usvips.store.interface import ProjectStore
+from usvips.store.opening import open_project
 
 
 @dataclass
@@ -38,6 +42,36 @@ class ObjectEvents:
     removed: Signal = field(default_factory=Signal)
     reset: Signal = field(default_factory=Signal)
     changed: Signal = field(default_factory=Signal)
+
+
+@dataclass(frozen=True)
+class StoredObjects:
+    """Every stored object of a project by id (id order), their observation records and instant links:
+    what a cache holds, read at once."""
+
+    objects: dict[int, object]
+    records: dict[int, ObservationRecord]
+    links: dict[int, int]
+
+
+def project_location(project: ProjectStore) -> str | Path:
+    """Where the open ``project`` is, to open another handle on it: a server survey's URL, else its file."""
+    return getattr(project, "url", None) or project.path
+
+
+def read_stored_objects(location: str | Path, cancelled: Callable[[], bool] = lambda: False,
+                        opener: Callable[..., ProjectStore] = open_project) -> StoredObjects | None:
+    """Every stored object of the project at ``location``, read on a read-only handle of its own (any
+    thread: a SQLite connection is never shared between threads); None when ``cancelled()`` turned True
+    between the queries."""
+    with opener(location, read_only=True) as store:
+        objects = {o.id: o for o in store.objects()}
+        if cancelled():
+            return None
+        records = store.records()
+        if cancelled():
+            return None
+        return StoredObjects(objects, records, store.instant_links())
 
 
 def _figures_of(source: MeasurementInput, rules: QualityRules) -> Result:
@@ -54,19 +88,24 @@ class ObjectCache:
     the rules ``rules()`` gives (the workspace's current quality rules)."""
 
     def __init__(self, project: ProjectStore | None, events: ObjectEvents,
-                 rules: Callable[[], QualityRules]) -> None:
+                 rules: Callable[[], QualityRules], deferred: bool = False) -> None:
         self.project = project
         self.events = events
         self._rules = rules
-        self._objects: dict[int, object] = {} if project is None else {o.id: o for o in project.objects()}
+        #: True until the objects read elsewhere arrive (``deferred``): the cache holds none meanwhile
+        self.loading = bool(deferred and project is not None)
+        #: ids written while loading: read again by id once the objects arrive (the read may predate them)
+        self._pending: set[int] = set()
+        read = self.loading or project is None
+        self._objects: dict[int, object] = {} if read else {o.id: o for o in project.objects()}
         #: each object's observation record (the species is there, and only there)
-        self._records: dict[int, ObservationRecord] = {} if project is None else project.records()
+        self._records: dict[int, ObservationRecord] = {} if read else project.records()
         self._figures: dict[int, tuple[QualityRules, Result]] = {}  # id -> the rules and its figures under them
         self._versions: dict[int, int] = {}  # id -> how often it changed (stale worker results are dropped)
         #: calibrations read for figures and picks, by id (read once per project)
         self.calibrations: dict[int, StereoCalibration | None] = {}
         #: a further instant's id -> the id of the object it is an instant of (read again on every change)
-        self._links: dict[int, int] = {} if project is None else project.instant_links()
+        self._links: dict[int, int] = {} if read else project.instant_links()
         #: the store's count of connections made again (a server that went away): when it moves, every
         #: object is read afresh (what colleagues wrote meanwhile)
         self._reconnections = getattr(project, "reconnections", 0)
@@ -112,7 +151,11 @@ class ObjectCache:
         and announce it by id; returns the ids now gone. An object whose instants changed (one of them
         edited, deleted, linked or unlinked) is announced as updated too: its combined figure changed; so
         is an instant linked or unlinked (it is shown as its object's). After the store connected again
-        (a server that went away and came back) every object is read afresh instead."""
+        (a server that went away and came back) every object is read afresh instead. While the cache is
+        :attr:`loading` the ids are only kept (read again, quietly, when the objects arrive)."""
+        if self.loading:
+            self._pending.update(added + updated + removed)
+            return ()
         if getattr(self.project, "reconnections", 0) != self._reconnections:
             before = set(self._objects)
             self.reload()
@@ -154,8 +197,36 @@ class ObjectCache:
         self.events.changed.emit()
         return gone
 
+    def arrived(self, read: StoredObjects) -> None:
+        """The objects read elsewhere (:func:`read_stored_objects`) held at once, those written meanwhile
+        read again by id; then announced as every object new (``reset``, ``changed``). Ignored unless
+        :attr:`loading` (a :meth:`reload` since holds newer objects)."""
+        if not self.loading:
+            return
+        self._objects, self._records, self._links = dict(read.objects), dict(read.records), dict(read.links)
+        self.loading, pending, self._pending = False, self._pending, set()
+        if pending:
+            self._links = self.project.instant_links()
+            fresh = {o.id: o for o in self.project.objects_with_ids(tuple(sorted(pending)))}
+            for object_id in pending:
+                if object_id in fresh:
+                    self._objects[object_id] = fresh[object_id]
+                    record = self.project.record(object_id)
+                    if record is None:
+                        self._records.pop(object_id, None)
+                    else:
+                        self._records[object_id] = record
+                else:
+                    self._objects.pop(object_id, None)
+                    self._records.pop(object_id, None)
+            self._objects = dict(sorted(self._objects.items()))
+        self._figures, self._versions = {}, {}
+        self.events.reset.emit()
+        self.events.changed.emit()
+
     def reload(self) -> None:
         """Read every stored object again (by one query), e.g. after another program changed the project."""
+        self.loading, self._pending = False, set()
         self._objects = {} if self.project is None else {o.id: o for o in self.project.objects()}
         self._records = {} if self.project is None else self.project.records()
         self._links = {} if self.project is None else self.project.instant_links()

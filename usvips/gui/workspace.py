@@ -29,7 +29,7 @@ from usvips.core.measurements import QualityRules
 from usvips.core.measurements import kind as measurement_kind
 from usvips.gui.calculator import Result
 from usvips.gui.enhancement_model import Enhancement
-from usvips.gui.object_cache import ObjectCache, ObjectEvents
+from usvips.gui.object_cache import ObjectCache, ObjectEvents, StoredObjects
 from usvips.gui.object_edits import ObjectEdits
 from usvips.gui.pick_tool import SIDES, PickEvents, PickSettings, PickTool
 from usvips.gui.signals import Signal
@@ -128,19 +128,30 @@ class Workspace:
         self.selection: tuple[int, ...] = ()
 
     # ------------------------------------------------------------------ project and pair
-    def open_project(self, project: ProjectStore) -> None:
-        self._switch_project(project)
+    def open_project(self, project: ProjectStore, deferred: bool = False) -> None:
+        """Start afresh on ``project``; ``deferred``: its objects are not read here, the cache is empty and
+        ``loading`` until :meth:`objects_arrived` is handed them (read off the GUI thread,
+        :func:`usvips.gui.object_cache.read_stored_objects`)."""
+        self._switch_project(project, deferred)
+
+    def objects_arrived(self, cache: ObjectCache, read: StoredObjects) -> bool:
+        """The objects read for ``cache`` held and announced (``objects_reset``); False (nothing done) when
+        ``cache`` is no longer this workspace's (another project opened, or this one closed, meanwhile)."""
+        if cache is not self.cache:
+            return False
+        cache.arrived(read)
+        return True
 
     def close_project(self) -> None:
         self._switch_project(None)
 
-    def _switch_project(self, project: ProjectStore | None) -> None:
+    def _switch_project(self, project: ProjectStore | None, deferred: bool = False) -> None:
         """Close the open project (unless it is ``project``) and start afresh on ``project``: new models
         for it (object cache, enhancement, pick tool: nothing of the previous project can survive)."""
         if self.project is not None and self.project is not project:
             self.project.close()
         self.project = project
-        self.cache = ObjectCache(project, self.object_events, lambda: self.rules)
+        self.cache = ObjectCache(project, self.object_events, lambda: self.rules, deferred)
         self.pair, self.images, self.geometry, self.video_frame = None, {}, None, None
         self.enhancement = Enhancement(self.undo, self.enhancement_changed, self.message)
         self.pick_tool = PickTool(self, self.pick_events, self.settings, tool=self.pick_tool.tool)

@@ -7,6 +7,8 @@ Waits are conditions bounded by a timeout, never fixed sleeps."""
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 from PySide6 import QtCore, QtWidgets
@@ -16,6 +18,7 @@ from tests.store.conftest import new_database, postgres_server  # noqa: F401 - t
 from usvips.app.measure import measure_into_project
 from usvips.app.samples import open_or_create_from_manifest
 from usvips.core.observation_record import ObservationRecord, Species
+from usvips.gui.qt import main_window
 from usvips.store.opening import open_project
 from usvips.store.transfer import push
 
@@ -145,20 +148,28 @@ def test_anns_own_edits_are_not_marked_as_a_colleagues(qtbot, make_window, surve
 
 def test_a_change_committed_while_the_window_reads_the_survey_is_not_missed(qtbot, make_window, survey, bob,
                                                                             monkeypatch):
-    """bob commits between the window's read of the objects and its read of the newest history row."""
+    """bob commits after the window's worker has read the objects and before they arrive: the feed's batch
+    read meanwhile waits for them, then shows bob's fish marked as his."""
     location, directory = survey
-    kind, made = type(bob), []
-    original = kind.last_change_id
+    read, release = main_window.read_stored_objects, threading.Event()
 
-    def late(handle):
-        if handle is not bob and not made:  # ann's window has just read the objects: bob commits now
-            made.append(_fish(bob, directory, "fish2"))
-        return original(handle)
+    def held_read(where, cancelled):
+        objects = read(where, cancelled)
+        assert release.wait(BOUND_MS / 1000)  # the objects stay on their way until bob has committed
+        return objects
 
-    monkeypatch.setattr(kind, "last_change_id", late)
-    window = _ann(qtbot, make_window, location)
-    assert made  # made after the window's read of the objects: it comes by the feed
-    qtbot.waitUntil(lambda: _marked_by(window, made[0], "bob"), timeout=BOUND_MS)
+    monkeypatch.setattr(main_window, "read_stored_objects", held_read)
+    window = make_window()
+    window.set_annotator("ann")
+    assert window.open_path(location, "measure1")
+    assert window.workspace.cache.loading
+    fish = _fish(bob, directory, "fish2")
+    qtbot.waitUntil(lambda: any(fish in b.object_ids for b in window.live._waiting), timeout=BOUND_MS)
+    assert fish not in window.workspace.cache  # the batch waits: nothing folded against a cache being read
+    release.set()
+    wait_for_pair(qtbot, window, "measure1")
+    qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
+    assert fish in window.overlay.outlines
 
 
 def _edit_notes(qtbot, window, object_id: int, text: str) -> QtWidgets.QLineEdit:

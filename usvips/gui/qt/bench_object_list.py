@@ -54,6 +54,9 @@ def scroll_row(scale: float = 1.0) -> dict:
             start = time.perf_counter()
             if not window.open_path(survey, "measure1"):
                 raise RuntimeError("the window did not open the survey")
+            while window.workspace.cache.loading and time.perf_counter() - start < 300:  # read in a worker
+                app.processEvents()
+                time.sleep(0.001)
             opened = time.perf_counter() - start
             window.docks["objects"].raise_()
             window.resizeDocks([window.docks["objects"]], [420], QtCore.Qt.Orientation.Vertical)  # ~15 rows

@@ -39,6 +39,7 @@ from PySide6 import QtCore, QtGui, QtWidgets
 from usvips.app.live_changes import ChangeBatch, ColleagueChange, clock_text, fold, read_changes, summary
 from usvips.core.errors import UsvipsError
 from usvips.core.redaction import redact
+from usvips.gui.object_cache import project_location
 from usvips.store.opening import open_project
 from usvips.store.records import ServerUnreachableError
 
@@ -61,11 +62,6 @@ MANY = 500
 RECENT = 12
 #: the tint of a row (object list, QA panel) a colleague changed
 TINT = QtGui.QColor(255, 196, 64, 60)
-
-
-def project_location(project) -> str | Path:
-    """Where the open ``project`` is, to open another handle on it: a server survey's URL, else its file."""
-    return getattr(project, "url", None) or project.path
 
 
 def _reason(error: BaseException) -> str:
@@ -173,11 +169,14 @@ class LiveUpdates(QtCore.QObject):
         self.recent: list[ColleagueChange] = []
         self.paused = ""
         self._applying = False
+        #: batches read while the window's objects were still being read: folded once they arrive
+        self._waiting: list[ChangeBatch] = []
         self.label = QtWidgets.QLabel("")
         self.label.setObjectName("live_status")
         window.statusBar().addPermanentWidget(self.label)
         ws = self.workspace
         ws.project_changed.connect(self._on_project)
+        ws.objects_reset.connect(self._on_objects_read)
         for signal in (ws.objects_added, ws.objects_updated, ws.objects_removed):
             signal.connect(self._on_own_change)
         # a review stored here moves the object's version: the cache takes it (else the window's next edit
@@ -198,6 +197,7 @@ class LiveUpdates(QtCore.QObject):
         if stopped is not None and project is None:  # closed (the window too, maybe): its thread ends first
             stopped.join(JOIN_S)
         self.held, self._editing, self.recent, self.paused = {}, None, [], ""
+        self._waiting = []
         self._show_label()
         if project is None:
             return
@@ -228,9 +228,21 @@ class LiveUpdates(QtCore.QObject):
     def _on_batch(self, number: int, batch: ChangeBatch) -> None:
         if number != self._number or self.workspace.project is None:
             return  # a stopped feed's news
+        if self.workspace.cache.loading:  # folded against the objects once they arrive
+            self._waiting.append(batch)
+            return
         changes = fold(batch, {i: self._version(i) for i in batch.object_ids if i in self.workspace.cache})
         if changes:
             self.apply(changes)
+
+    def _on_objects_read(self, *_: object) -> None:
+        """The window's objects arrived: the batches read meanwhile are shown (those the read already
+        holds give nothing: :func:`~usvips.app.live_changes.fold` compares versions)."""
+        if self.workspace.cache.loading or not self._waiting:
+            return
+        waiting, self._waiting = self._waiting, []
+        for batch in waiting:
+            self._on_batch(self._number, batch)
 
     def _on_trouble(self, number: int, reason: str) -> None:
         if number != self._number:

@@ -23,6 +23,7 @@ from usvips.gui import commands, panel_registry
 from usvips.gui.commands import TOOL_TIPS
 from usvips.gui.lazy_panels import LazyPanels
 from usvips.gui.messages import Messages
+from usvips.gui.object_cache import project_location, read_stored_objects
 from usvips.gui.object_overlay import ObjectOverlay
 from usvips.gui.pick_tool import SIDES, TOOLS, describe_point
 from usvips.gui.qt import menu_keys
@@ -641,7 +642,8 @@ class MainWindow(QtWidgets.QMainWindow):
             return False
         self.media_check.project_closed()  # the previous project's check stops reading
         # every model is new and every view forgets the previous project by itself (project_changed)
-        self.workspace.open_project(project)
+        self.workspace.open_project(project, deferred=True)  # the objects arrive from a worker
+        self.read_objects()
         self.media_check.project_opened(project)  # every media file read whole in a worker, changed ones named
         self._remember(without_password(path) if server else project.path.resolve())
         self.setWindowTitle(self.title())
@@ -796,6 +798,38 @@ class MainWindow(QtWidgets.QMainWindow):
 
         self.forget_pair_loading()
         worker = self._pair_worker = self.run_worker(job, f"reading pair {label}", show)
+
+    def read_objects(self) -> None:
+        """Read the open project's objects in a worker on a read-only handle of its own (the window shows
+        the pair meanwhile; every view of the objects hears ``objects_reset`` when they arrive). Objects of
+        a project closed or replaced meanwhile are dropped; when the read fails or is cancelled the objects
+        are read here instead (the window waits for them: the views never stay waiting for objects)."""
+        ws = self.workspace
+        cache = ws.cache
+        if not cache.loading:
+            return
+        location = project_location(cache.project)
+
+        def job(progress, cancelled):
+            read = read_stored_objects(location, cancelled)
+            if read is None:
+                raise Cancelled
+            return read
+
+        def read_here(*_: object) -> None:
+            if cache is not ws.cache or not cache.loading:
+                return
+            self.show_message("info", "reading the objects here (the window waits)")
+            try:
+                cache.reload()
+            except UsvipsError as error:  # none shown (read again when the store is back: a live change)
+                self.show_message("error", f"the objects cannot be read: {error}")
+                if self.panels.is_built("objects"):
+                    self.object_list.reading.hide()  # the views stay as the project's opening left them: empty
+
+        worker = self.run_worker(job, "reading the objects", lambda read: ws.objects_arrived(cache, read),
+                                 read_here)
+        worker.signals.failed.connect(read_here)
 
     def forget_pair_loading(self) -> None:
         """A pair still being read is no longer wanted (another pair, or a video's frames, were asked for

@@ -108,6 +108,11 @@ class ObjectList(QtWidgets.QWidget):
         delete_vertex.clicked.connect(lambda: self._edit_vertex(self.workspace.edits.delete_vertex))
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(2, 2, 2, 2)
+        #: shown while the project's objects are being read (a worker): the rows follow when they arrive
+        self.reading = QtWidgets.QLabel("reading the objects…")
+        self.reading.setObjectName("objects_reading")
+        self.reading.hide()
+        layout.addWidget(self.reading)
         layout.addWidget(self.table)
         layout.addLayout(buttons)
         delete.clicked.connect(self._on_delete)
@@ -230,7 +235,8 @@ class ObjectList(QtWidgets.QWidget):
     def refresh(self, *_: object) -> None:
         """Every row again (another project, everything read again): the rows come from the model's cache;
         the figures of the first screenful are computed at once (a worker when many), the others' as they
-        are drawn."""
+        are drawn. While the objects are being read the list is empty and says so."""
+        self.reading.setVisible(self.workspace.cache.loading)
         self.model.reset(self.workspace.cache.instant_links(), self._read_reviews())
         self._pending, self._fitted = [], False
         self._compute(self._first_figures())
@@ -432,7 +438,7 @@ class ObjectList(QtWidgets.QWidget):
     def _read_reviews(self) -> dict[int, object]:
         """Every object's review, by one query (none without a project, or when it cannot be read)."""
         project = self.workspace.project
-        if project is None:
+        if project is None or self.workspace.cache.loading:  # read with the objects, once they arrive
             return {}
         try:
             return {r.object_id: r for r in project.reviews()}
