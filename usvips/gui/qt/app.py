@@ -12,6 +12,7 @@ import pyqtgraph as pg
 from PySide6 import QtWidgets
 
 from usvips.gui.qt.error_report import install_error_handler
+from usvips.gui.qt.gui_thread_gc import collect_on_the_gui_thread
 
 
 def configure() -> None:
@@ -32,6 +33,7 @@ def run(project: str | Path | None = None, pair: str | None = None) -> int:
     configure()
     app = application()
     install_error_handler()
+    collect_on_the_gui_thread()
     from usvips.gui.qt.main_window import MainWindow  # the window's modules only when a window is shown
 
     window = MainWindow()

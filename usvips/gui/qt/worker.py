@@ -13,6 +13,7 @@ from collections.abc import Callable
 from PySide6 import QtCore
 
 from usvips.core.errors import UsvipsError
+from usvips.gui.qt.gui_thread_gc import collect_on_the_gui_thread
 
 
 class Cancelled(Exception):
@@ -37,6 +38,7 @@ class Worker(QtCore.QRunnable):
         self.signals = _Signals()
         self._cancel = threading.Event()
         self.setAutoDelete(False)
+        collect_on_the_gui_thread()  # no garbage (a Qt object in a cycle) is ever collected in the worker
 
     def cancel(self) -> None:
         self._cancel.set()
