@@ -19,7 +19,7 @@ from usvips.core.detection import Detector, ModelDescription
 from usvips.core.detection.letterbox import Letterbox
 from usvips.core.detection.runner import OnnxDetector
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
-from usvips.io.model_description import model_path, read_model_description
+from usvips.io.model_description import onnx_detector, read_model_description, read_model_file
 from usvips.locations import resources_folder
 
 
@@ -93,19 +93,10 @@ def load_model(path: str | Path) -> DetectionModel:
     description file."""
     path = Path(path)
     description = read_model_description(path)
-    model = model_path(path, description)
-    if not model.is_file():
-        raise InputFileError(str(path), f"model.file: no such file {str(model)!r}")
-    try:
-        data = model.read_bytes()
-    except OSError as error:
-        raise InputFileError(str(model), f"cannot be read: {error}") from None
+    model, data = read_model_file(path, description)
 
     def make() -> OnnxDetector:
-        try:
-            return OnnxDetector(description, data)
-        except InvalidParameterError as error:
-            raise InputFileError(str(model), error.problem) from None
+        return onnx_detector(description, data, model)
 
     trial = make()
     try:

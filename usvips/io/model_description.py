@@ -207,17 +207,29 @@ def model_path(description_path: str | Path, description: ModelDescription) -> P
     return Path(description_path).parent / description.model
 
 
-def load_detector(path: str | Path) -> OnnxDetector:
-    """The detector a description file describes: its model file read and handed to OpenCV's DNN module."""
-    description = read_model_description(path)
-    model = model_path(path, description)
+def read_model_file(description_path: str | Path, description: ModelDescription) -> tuple[Path, bytes]:
+    """The model file a description names and its bytes; a missing or unreadable one is an
+    :class:`InputFileError` (naming the description for a missing file, the model for an unreadable one)."""
+    model = model_path(description_path, description)
     if not model.is_file():
-        raise InputFileError(str(path), f"model.file: no such file {str(model)!r}")
+        raise InputFileError(str(description_path), f"model.file: no such file {str(model)!r}")
     try:
-        data = model.read_bytes()
+        return model, model.read_bytes()
     except OSError as error:
         raise InputFileError(str(model), f"cannot be read: {error}") from None
+
+
+def onnx_detector(description: ModelDescription, data: bytes, model: Path) -> OnnxDetector:
+    """A detector on OpenCV's DNN module for ``data``, the bytes of the model file ``model``; a network
+    OpenCV refuses is an :class:`InputFileError` naming the model file."""
     try:
         return OnnxDetector(description, data)
     except InvalidParameterError as error:
         raise InputFileError(str(model), error.problem) from None
+
+
+def load_detector(path: str | Path) -> OnnxDetector:
+    """The detector a description file describes: its model file read and handed to OpenCV's DNN module."""
+    description = read_model_description(path)
+    model, data = read_model_file(path, description)
+    return onnx_detector(description, data, model)
