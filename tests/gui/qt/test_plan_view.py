@@ -80,3 +80,24 @@ def test_kinds_with_their_own_outline_are_drawn_by_it(qtbot, kind):
     closed = measurement_kind(kind).outline(np.array([v.xyz for v in vertices]))
     assert len(outline) == len(closed) + 1 and np.allclose(outline[:-1], closed[:, :2])
     assert rings.shape == (4 * 50, 2)
+
+
+def test_a_screen_watch_cleared_by_the_collector_ignores_its_widget_s_last_events(qtbot):
+    """A garbage collection clears a dead watch's attributes before Qt has destroyed its widget, whose last
+    events (shown, a dock's visibility) must then raise nothing in the event loop (seen in this file)."""
+    from PySide6 import QtWidgets
+
+    from usvips.gui.qt.on_screen import ScreenWatch
+
+    widget = QtWidgets.QWidget()
+    qtbot.addWidget(widget)
+    seen = []
+    watch = ScreenWatch(widget, lambda: seen.append(1))
+    widget.show()
+    qtbot.waitUntil(lambda: seen == [1], timeout=5000)
+    widget.hide()
+    watch.__dict__.clear()  # what the collector's clearing of a cycle leaves
+    widget.show()
+    qtbot.wait(50)
+    watch._on_visibility(True)
+    assert seen == [1]

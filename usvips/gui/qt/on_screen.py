@@ -31,7 +31,9 @@ class ScreenWatch(QtCore.QObject):
         widget.installEventFilter(self)
 
     def eventFilter(self, watched: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt's name)
-        if watched is self.widget and event.type() == QtCore.QEvent.Type.Show:
+        # getattr: a watch whose Python side a garbage collection has already cleared (its widget being
+        # destroyed with it) may still be asked about that widget's last events
+        if watched is getattr(self, "widget", None) and event.type() == QtCore.QEvent.Type.Show:
             self._find_dock()
             # laid out by the next turn of the event loop (a tab behind another is "shown" out of the window)
             QtCore.QTimer.singleShot(0, self, self._check)
@@ -48,9 +50,12 @@ class ScreenWatch(QtCore.QObject):
             parent.visibilityChanged.connect(self._on_visibility)
 
     def _on_visibility(self, visible: bool) -> None:
-        if visible:
-            self._shown()
+        shown = getattr(self, "_shown", None)
+        if visible and shown is not None:
+            shown()
 
     def _check(self) -> None:
-        if on_screen(self.widget):
-            self._shown()
+        widget = getattr(self, "widget", None)
+        shown = getattr(self, "_shown", None)
+        if widget is not None and shown is not None and on_screen(widget):
+            shown()
