@@ -36,16 +36,17 @@ def _record(record: dict | None) -> str:
     return f"{taxon} ×{record.get('number', 1)}"
 
 
-def moment_text(at: str) -> str:
+def moment_text(at: str, pattern: str = "%Y-%m-%d %H:%M:%S") -> str:
     """A history row's time (ISO 8601, UTC, to the microsecond) as a person reads it: this computer's local
-    date and time to the second (``2026-11-28 14:34:01``); text that is not such a time is given back."""
+    date and time, by default to the second (``2026-11-28 14:34:01``; ``pattern`` as :meth:`~datetime.strftime`
+    takes it); text that is not such a time is given back."""
     try:
         moment = datetime.fromisoformat(at)
     except (TypeError, ValueError):
         return str(at)
     if moment.tzinfo is not None:
         moment = moment.astimezone()
-    return moment.strftime("%Y-%m-%d %H:%M:%S")
+    return moment.strftime(pattern)
 
 
 def what_changed(entry: HistoryEntry) -> str:

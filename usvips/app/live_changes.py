@@ -23,8 +23,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from datetime import datetime
 
+from usvips.app.history_text import moment_text
 from usvips.store.interface import ProjectStore
 from usvips.store.records import HistoryEntry
 
@@ -81,13 +81,7 @@ class ColleagueChange:
 def clock_text(at: str) -> str:
     """An ISO 8601 time as the hour and minute of this computer's clock (``12:41``); text that is not such
     a time is given back as it is."""
-    try:
-        moment = datetime.fromisoformat(at)
-    except (TypeError, ValueError):
-        return str(at)
-    if moment.tzinfo is not None:
-        moment = moment.astimezone()
-    return moment.strftime("%H:%M")
+    return moment_text(at, "%H:%M")
 
 
 def read_changes(store: ProjectStore, after: int, page: int = PAGE) -> ChangeBatch:

@@ -63,9 +63,10 @@ def rendered_frames(count: int, seed: int = 0) -> tuple[object, list[np.ndarray]
     return board, frames
 
 
-#: the real board sets committed with the tests (public, licensed: each folder's SOURCE.md), used when
-#: ``$USVIPS_REAL_BOARDS`` is not set and the bench runs from a source checkout
-COMMITTED_SETS = Path(__file__).resolve().parents[2] / "tests" / "data" / "real_boards"
+#: the real board sets committed with the tests (public, licensed: each folder's SOURCE.md; test data, not
+#: shipped with the package), used when ``$USVIPS_REAL_BOARDS`` is not set and the bench runs at the root
+#: of a source checkout (as ``.ci/run`` and the docs run it)
+COMMITTED_SETS = Path("tests") / "data" / "real_boards"
 
 
 def _real_sets() -> list[Path]:

@@ -28,6 +28,7 @@ Pixels: x right, y down, origin at the centre of the top-left pixel; control in 
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -105,14 +106,16 @@ class FieldSearch:
 
 
 # ---------------------------------------------------------------------------------------------- models
-class _Model:
+class _Model(ABC):
     """Predicts pixels of control points: ``predict(xyz) -> (pixels (N, 2), visible (N,))``."""
 
     camera: Camera | None = None
     matrix: np.ndarray | None = None
 
+    @abstractmethod
     def predict(self, xyz: np.ndarray, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-        raise NotImplementedError
+        """Pixels (N, 2) of control points ``xyz`` (N, 3) m in an image of ``size`` (width, height) px,
+        and which of them are visible (N,)."""
 
 
 class _Projective(_Model):
