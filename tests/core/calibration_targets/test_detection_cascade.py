@@ -80,7 +80,8 @@ def test_a_clean_chessboard_is_found_by_the_first_stage_alone():
     board = kind("chessboard")(9, 6, 0.02)
     image, truth = _random_view(board, np.random.default_rng(3))
     detection = board.detect(image)
-    assert detection and detection.stage == board.stages(image)[0].name and not detection.notes
+    assert detection and detection.stage == cascade.tried_names(board.stages(image), image)[0]
+    assert not detection.notes
     assert _max_error(detection, truth) < 0.3
 
 
@@ -113,8 +114,48 @@ def test_a_large_frame_is_searched_reduced_and_refined_at_full_size():
     camera = _camera(2600, 1500, f=2400.0)
     image, truth = _random_view(board, np.random.default_rng(11), camera, supersample=1)
     detection = board.detect(image)
-    assert detection and detection.stage == board.stages(image)[0].name and board.stages(image)[0].factor == 2
+    stages = {stage.name: stage for stage in board.stages(image)}
+    assert detection and stages[detection.stage].factor >= 2
     assert _max_error(detection, truth) < 0.5
+
+
+def _searched_at_full_size_only(board):
+    class FullSizeOnly(type(board)):
+        def stages(self, grey):
+            return [stage for stage in super().stages(grey) if "halved" not in stage.name]
+    return FullSizeOnly(board.cols, board.rows, board.square)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_1080p_frame_is_searched_halved_first_with_the_corners_of_a_full_size_search(seed):
+    """A board filling a fair part of a 1080p frame: found on the frame halved (the first stage tried), and
+    its corners, refined on the full image, those that the full-size search's refined corners are."""
+    board = kind("chessboard")(9, 6, 0.02)
+    camera = _camera(1920, 1080, f=1700.0)
+    image, truth = _random_view(board, np.random.default_rng(40 + seed), camera, supersample=1)
+    stages = board.stages(image)
+    assert cascade.tried_names(stages, image)[0] == "findChessboardCornersSB on the frame halved"
+    detection = board.detect(image)
+    assert detection and detection.stage == "findChessboardCornersSB on the frame halved"
+    full_size = _searched_at_full_size_only(board).detect(image)
+    assert full_size and full_size.stage == "findChessboardCornersSB"
+    assert np.abs(detection.pixels - full_size.pixels).max() < 0.01
+    assert _max_error(detection, truth) < 0.5
+
+
+def test_a_small_board_in_a_1080p_frame_missed_halved_is_found_at_full_size():
+    board = kind("chessboard")(9, 6, 0.02)
+    camera = _camera(1920, 1080, f=1700.0)
+    centre = board.control_points().xyz.mean(axis=0)[:2]
+    pose = BoardPose.facing(camera, centre, (900.0, 560.0), 4.0, tilt=0.2, tilt_direction=0.5, spin=0.1)
+    ids, pixels, ok = board_pixels(camera, board, pose)
+    image = render_board(camera, board, pose, supersample=2)
+    halved = cascade.run(board.stages(image)[:1], image)
+    assert halved is None  # squares of 8.5 px at full size, about 4 px halved: too small there
+    detection = board.detect(image)
+    assert detection and detection.stage == "findChessboardCornersSB"
+    assert "found by findChessboardCornersSB" in detection.notes
+    assert _max_error(detection, dict(zip(ids, pixels, strict=True))) < 0.3
 
 
 def test_a_chessboard_not_in_view_names_what_was_tried():
