@@ -8,6 +8,10 @@ same however the file is cut into chunks. The points file is written to a tempor
 place at the end: bad input anywhere (named by its line), a pixel outside its image or, unless failed
 points are to be left out, a point that does not intersect, leaves no output file.
 
+The run's dense algebra (the calibration's covariance through each chunk's derivatives: products of
+(3n × P) by (P × P) for P of a few tens) runs on one BLAS thread (:mod:`usvips.core.batch_mode`): threaded
+OpenBLAS made those products 2-3 times slower in CPU and in wall time on this 2-core machine.
+
 What a chunk goes through is :func:`intersect_chunk` with the options of the run
 (:class:`IntersectOptions`); a per-row input such as another pointing precision goes into both.
 """
@@ -23,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.core.batch_mode import batch_computation
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.intersection import Intersection
@@ -146,6 +151,7 @@ class _OutsideImage:
                 raise outside_image_error(source, side, label, line, pixel, size, self.count[side])
 
 
+@batch_computation  # one BLAS thread: its products are tall and thin (core/batch_mode.py)
 def intersect_file(calibration: StereoCalibration, observations: str | Path, out: str | Path,
                    options: IntersectOptions = IntersectOptions()) -> IntersectSummary:
     """Read ``observations``, intersect every point and write the points file ``out`` (see the module
