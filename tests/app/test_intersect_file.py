@@ -156,3 +156,46 @@ def test_the_hash_set_finds_exactly_the_keys_seen_before():
                 expected.append(k)
             reference.add(key or 1)
         assert seen.add(keys).tolist() == expected
+
+
+def _points(path):
+    rows = list(csv.reader(io.StringIO(path.read_text())))
+    return [row[0] for row in rows[1:]], np.array([[float(v) for v in row[1:]] for row in rows[1:]])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_worker_processes_give_the_rows_of_this_process_alone(tmp_path, calibration, seed):
+    """Random files, chunk sizes, options and points that do not intersect: the chunks worked on two
+    processes give the rows, the summary and the failure of the same run in this process alone."""
+    rng = np.random.default_rng(seed)
+    obs = tmp_path / "obs.csv"
+    count = int(rng.integers(30, 90))
+    write_observations(calibration, count, obs, seed=seed + 20)
+    lines = obs.read_text().splitlines()
+    diverging = sorted(rng.choice(np.arange(1, count + 1), int(rng.integers(0, 3)), replace=False).tolist())
+    for line in diverging:  # the right ray diverges from the left one (the right image sees it left)
+        lines[line] = f"{lines[line].split(',')[0]},300,200,500,200"
+    obs.write_text("\n".join(lines) + "\n")
+    options = dict(chunk_rows=int(rng.integers(1, 12)), pointing_sigma_px=float(rng.uniform(0.2, 1.5)),
+                   include_calibration=bool(rng.integers(0, 2)), frame=str(rng.choice(["object", "rig"])))
+    for skip_failed in (False, True):
+        outcomes = []
+        for workers in (1, 2):
+            out = tmp_path / f"points_{workers}.csv"
+            try:
+                outcomes.append(intersect_file(calibration, obs, out, IntersectOptions(
+                    workers=workers, skip_failed=skip_failed, **options)))
+            except FailedPointsError as error:
+                outcomes.append((str(error), error.line))
+                assert not out.exists()
+        alone, pooled = outcomes
+        if isinstance(alone, tuple):
+            assert pooled == alone and alone[1] == diverging[0] + 1 and not skip_failed
+            continue
+        assert (pooled.points, pooled.written, pooled.skipped) == (alone.points, alone.written, alone.skipped)
+        assert pooled.written == count - len(diverging)
+        assert pooled.rms_px == pytest.approx(alone.rms_px, rel=1e-9)
+        (ids_alone, numbers_alone), (ids_pooled, numbers_pooled) = (_points(tmp_path / f"points_{w}.csv")
+                                                                    for w in (1, 2))
+        assert ids_pooled == ids_alone and len(ids_alone) == pooled.written
+        np.testing.assert_allclose(numbers_pooled, numbers_alone, rtol=1e-9, atol=2e-6)

@@ -8,6 +8,10 @@ same however the file is cut into chunks. The points file is written to a tempor
 place at the end: bad input anywhere (named by its line), a pixel outside its image or, unless failed
 points are to be left out, a point that does not intersect, leaves no output file.
 
+The run's dense algebra (the calibration's covariance through each chunk's derivatives: products of
+(3n × P) by (P × P) for P of a few tens) runs on one BLAS thread (:mod:`usvips.core.batch_mode`): threaded
+OpenBLAS made those products 2-3 times slower in CPU and in wall time on this 2-core machine.
+
 What a chunk goes through is :func:`intersect_chunk` with the options of the run
 (:class:`IntersectOptions`); a per-row input such as another pointing precision goes into both.
 """
@@ -18,11 +22,14 @@ import csv
 import io
 import re
 from collections.abc import Iterator
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from usvips.app.ordered_pool import available_cores, ordered_map
+from usvips.core.batch_mode import batch_computation
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.intersection import Intersection
@@ -44,7 +51,8 @@ class IntersectOptions:
     the calibration's own uncertainty (else the pointing precision alone); the picks' pointing sigma
     (px, one image coordinate; the hand-click default of :mod:`usvips.core.pointing` when None — never the
     calibration's sigma0); whether points that do not intersect are left out (listed) instead of failing
-    the run; the rows per chunk."""
+    the run; the rows per chunk; the processes that intersect the chunks (None: one per core; 1: this
+    process alone)."""
 
     station: int | str = 0
     frame: str = "object"
@@ -52,6 +60,7 @@ class IntersectOptions:
     pointing_sigma_px: float | None = None
     skip_failed: bool = False
     chunk_rows: int = CHUNK_ROWS
+    workers: int | None = None
 
 
 class FailedPointsError(DegenerateGeometryError):
@@ -86,6 +95,29 @@ def intersect_chunk(calibration: StereoCalibration, chunk: StereoObservations,
     return intersect_with_calibration(calibration, chunk.left, chunk.right, options.station, options.frame,
                                       include_calibration=options.include_calibration,
                                       pointing_sigma_px=options.pointing_sigma_px)
+
+
+@dataclass(frozen=True)
+class ChunkOutcome:
+    """What one chunk's intersection gives the run: the CSV text of its points that intersect
+    (:func:`points_text`), each row's :class:`~usvips.core.rays.RayStatus` and the sum of squares and the
+    count of those points' ray residuals (px)."""
+
+    text: str
+    status: np.ndarray
+    residual_square_sum: float
+    residual_count: int
+
+
+@batch_computation  # one BLAS thread: its products are tall and thin (core/batch_mode.py)
+def chunk_outcome(run: tuple[StereoCalibration, IntersectOptions], chunk: StereoObservations) -> ChunkOutcome:
+    """One chunk intersected and formatted (``run`` = the calibration and the options): the work a worker
+    does (:mod:`usvips.app.ordered_pool`)."""
+    calibration, options = run
+    result = intersect_chunk(calibration, chunk, options)
+    residuals = result.residuals_px[result.ok]
+    return ChunkOutcome(points_text(chunk.ids, result), np.asarray(result.status),
+                        float(np.sum(residuals ** 2)), int(residuals.size))
 
 
 def point_rows(ids: tuple[str, ...], result: Intersection) -> list[list[str]]:
@@ -156,28 +188,30 @@ def intersect_file(calibration: StereoCalibration, observations: str | Path, out
                              (calibration.right.width, calibration.right.height)))
     first_failure: tuple[int | None, str, str] | None = None
     failed = 0
+    chunks = _Counted(observations, options)
     with text_atomic(out) as stream:
         writer = csv.writer(stream, lineterminator="\n")
         writer.writerow(POINT_COLUMNS)
-        for chunk in _chunks(observations, options):
-            summary.points += len(chunk)
-            if outside.check(chunk) or outside.first:
-                continue  # the run fails: the rest of the file is only checked (and its outside pixels counted)
-            result = intersect_chunk(calibration, chunk, options)
-            bad = np.flatnonzero(~result.ok)
-            failed += bad.size
-            if bad.size and first_failure is None:
-                k = int(bad[0])
-                first_failure = (chunk.lines[k] if chunk.lines else None, chunk.ids[k],
-                                 RayStatus(int(result.status[k])).reason)
-            if failed and not options.skip_failed:
-                continue  # the run fails: the rest is intersected only to count the points that fail
-            stream.write(points_text(chunk.ids, result))
-            summary.written += int(result.ok.sum())
-            residuals = result.residuals_px[result.ok]
-            summary.residual_square_sum += float(np.sum(residuals ** 2))
-            summary.residual_count += residuals.size
-            summary.skipped.extend((chunk.ids[i], RayStatus(int(result.status[i])).reason) for i in bad.tolist())
+        with closing(ordered_map(chunk_outcome, (calibration, options), _checked(chunks, outside),
+                                 _workers(options))) as worked:
+            for chunk, outcome in worked:
+                if outside.first:
+                    continue  # the run fails: the rest of the file is only checked (and its outside pixels counted)
+                bad = np.flatnonzero(outcome.status != RayStatus.OK)
+                failed += bad.size
+                if bad.size and first_failure is None:
+                    k = int(bad[0])
+                    first_failure = (chunk.lines[k] if chunk.lines else None, chunk.ids[k],
+                                     RayStatus(int(outcome.status[k])).reason)
+                if failed and not options.skip_failed:
+                    continue  # the run fails: the rest is intersected only to count the points that fail
+                stream.write(outcome.text)
+                summary.written += len(chunk) - bad.size
+                summary.residual_square_sum += outcome.residual_square_sum
+                summary.residual_count += outcome.residual_count
+                summary.skipped.extend((chunk.ids[i], RayStatus(int(outcome.status[i])).reason)
+                                       for i in bad.tolist())
+        summary.points = chunks.rows
         outside.raise_any(str(observations))
         if failed and not options.skip_failed:
             line, point, reason = first_failure
@@ -185,5 +219,26 @@ def intersect_file(calibration: StereoCalibration, observations: str | Path, out
     return summary
 
 
-def _chunks(observations: str | Path, options: IntersectOptions) -> Iterator[StereoObservations]:
-    return observation_chunks(observations, rows=options.chunk_rows)
+class _Counted:
+    """The observation file's chunks, counting the rows read."""
+
+    def __init__(self, observations: str | Path, options: IntersectOptions) -> None:
+        self.chunks = observation_chunks(observations, rows=options.chunk_rows)
+        self.rows = 0
+
+    def __iter__(self) -> Iterator[StereoObservations]:
+        for chunk in self.chunks:
+            self.rows += len(chunk)
+            yield chunk
+
+
+def _checked(chunks: _Counted, outside: _OutsideImage) -> Iterator[StereoObservations]:
+    """The chunks to intersect, in order, each checked for pixels outside their images as it is read; from
+    the first such pixel on the rest of the file is only read (its outside pixels counted)."""
+    for chunk in chunks:
+        if not outside.check(chunk) and not outside.first:
+            yield chunk
+
+
+def _workers(options: IntersectOptions) -> int:
+    return available_cores() if options.workers is None else options.workers

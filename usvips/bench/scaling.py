@@ -4,13 +4,16 @@ Each row times the whole command in this process (read the observations CSV, int
 calibration's covariance propagated to every point, write the points CSV) at one size, against the same
 command at a tenth of that size timed in the same run: a linear path shows a ratio near 10 (less at small
 sizes, where fixed costs dominate), a quadratic one near 100. The calibration is the bundled ROV sample's
-(flat ports, 25 calibrated parameters with their covariance).
+(flat ports, 25 calibrated parameters with their covariance). The command intersects its chunks on one
+worker process per core (:mod:`usvips.app.ordered_pool`): ``ours_cpu_s`` counts this process's CPU time
+and its workers'.
 
 The memory row runs the command in a process of its own on ten times the largest size (10⁷ points at
 scale 1: the largest file repeated with other ids) with the pointing precision alone (the calibration's
 share is timed by the rows above), against the largest size run the same way:
 ``peak_rss_mb`` / ``baseline_peak_rss_mb`` (the processes' peak resident memory) is the promise of flat
-memory (≤ 1.5 as the input grows tenfold); ``ours_s`` and ``cpu_s`` its wall and CPU time.
+memory (≤ 1.5 as the input grows tenfold); ``worker_peak_rss_mb`` the largest worker's; ``ours_s`` and
+``cpu_s`` its wall and CPU time (workers included).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import argparse
 import contextlib
 import io
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -90,13 +94,20 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
             if not timed:
                 command()  # load the compiled kernels and warm caches once
             repeats = 3 if count <= 10_000 else 1
-            cpu_start = time.process_time()
+            cpu_start = _cpu()
             wall = best_time(command, repeats)
-            cpu = (time.process_time() - cpu_start) / repeats
+            cpu = (_cpu() - cpu_start) / repeats
             timed.append((count, wall, cpu))
         largest = max(sizes(scale))
         yield from _growth_rows(timed)
         yield memory_row(Path(folder) / f"obs_{largest}.csv", timed[-1][0], Path(folder))
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and of its finished worker processes (the command intersects its
+    chunks on one worker per core and stops them before it returns)."""
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
 
 
 def _growth_rows(timed: list[tuple[int, float, float]]) -> Iterator[dict]:
@@ -127,14 +138,18 @@ def repeated(source: Path, copies: int, path: Path) -> int:
 
 
 #: runs the command line given after it, then writes the process's peak resident memory (kB, VmHWM:
-#: this process's own, not the parent's it was started from) to stderr's last line
-_MEASURED = ("import sys\nfrom usvips.cli import main\ncode = main(sys.argv[1:])\n"
+#: this process's own, not the parent's it was started from) and the largest of its worker processes'
+#: (kB, ru_maxrss) to stderr's last lines
+_MEASURED = ("import resource, sys\nfrom usvips.cli import main\ncode = main(sys.argv[1:])\n"
              "peak = [line.split()[1] for line in open('/proc/self/status') if line.startswith('VmHWM:')]\n"
-             "print('peak_kb', peak[0] if peak else 0, file=sys.stderr)\nsys.exit(code)\n")
+             "print('peak_kb', peak[0] if peak else 0, file=sys.stderr)\n"
+             "print('worker_peak_kb', resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr)\n"
+             "sys.exit(code)\n")
 
 
-def child_run(arguments: list[str]) -> tuple[float, float, float]:
-    """(wall s, CPU s, peak resident MB) of ``usvips ARGUMENTS`` run in a process of its own."""
+def child_run(arguments: list[str]) -> tuple[float, float, float, float]:
+    """(wall s, CPU s, peak resident MB, the largest worker's peak resident MB) of ``usvips ARGUMENTS`` run
+    in a process of its own (the CPU time of its workers included)."""
     start = time.perf_counter()
     child = subprocess.Popen([sys.executable, "-c", _MEASURED, *arguments], stdout=subprocess.DEVNULL,
                              stderr=subprocess.PIPE)
@@ -145,8 +160,9 @@ def child_run(arguments: list[str]) -> tuple[float, float, float]:
     child.stderr.close()
     if child.returncode != 0:
         raise RuntimeError(f"usvips {' '.join(arguments[:1])} exited with {child.returncode}: {errors[-500:]}")
-    peak = next((line.split()[1] for line in reversed(errors.splitlines()) if line.startswith("peak_kb")), "0")
-    return wall, usage.ru_utime + usage.ru_stime, int(peak) / 1024
+    peaks = [next((line.split()[1] for line in reversed(errors.splitlines()) if line.startswith(f"{name} ")), "0")
+             for name in ("peak_kb", "worker_peak_kb")]
+    return wall, usage.ru_utime + usage.ru_stime, int(peaks[0]) / 1024, int(peaks[1]) / 1024
 
 
 def memory_row(largest: Path, count: int, folder: Path) -> dict:
@@ -154,18 +170,19 @@ def memory_row(largest: Path, count: int, folder: Path) -> dict:
     big = folder / "obs_ten_times.csv"
     rows = repeated(largest, 10, big)
 
-    def run(obs: Path) -> tuple[float, float, float]:
+    def run(obs: Path) -> tuple[float, float, float, float]:
         return child_run(["intersect", "--calibration", str(CALIBRATION), "--obs",
                           str(obs), "--out", str(folder / "points_child.csv"), "--pointing-only", "--skip-failed",
                           "--force"])
 
-    base_wall, base_cpu, base_rss = run(largest)
-    wall, cpu, rss = run(big)
+    base_wall, base_cpu, base_rss, base_worker_rss = run(largest)
+    wall, cpu, rss, worker_rss = run(big)
     big.unlink()
     ratio = rss / base_rss if base_rss > 0 else float("inf")
     return {"name": f"usvips intersect on {rows:,} points (pointing precision only), its own process: peak memory",
             "n": rows, "ours_s": round(wall, 3), "cpu_s": round(cpu, 3), "peak_rss_mb": round(rss, 1),
             "baseline": f"the same on {count:,} points", "baseline_s": round(base_wall, 3),
             "baseline_cpu_s": round(base_cpu, 3), "baseline_peak_rss_mb": round(base_rss, 1),
+            "worker_peak_rss_mb": round(worker_rss, 1), "baseline_worker_peak_rss_mb": round(base_worker_rss, 1),
             "ratio": round(ratio, 3), "target": MEMORY_TARGET, "met": bool(ratio <= MEMORY_TARGET),
             "load_1min": round(os.getloadavg()[0], 2)}

@@ -934,3 +934,42 @@ def trace_ideal(uv, camera, table, count, min_advance, origins, directions, stat
         directions[i, 2] = m02 * d0 + m12 * d1 + m22 * d2
         status[i] = code
         failed[i] = where
+
+
+# -------------------------------------------------------------------------------------------------
+# the pixel motions of a calibration's parameters (core/calibration/point_derivatives.pixel_motions)
+# -------------------------------------------------------------------------------------------------
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def add_pose_shifts(rows, origins, directions, along, centre, turns, shifts, columns, out):
+    """Add to ``out`` (N, 2, m) the pixel motions A m of rigid camera motions: for each e, column
+    ``columns[e]`` gains A ((Q − C_b) T_e + c_e), with A = ``rows`` (N, 2, 3), Q = origin + along·direction
+    the ray's point at the point's depth, C_b = ``centre``, T_e = ``turns[e]`` (3, 3) and c_e =
+    ``shifts[e]`` (3,) (object vectors are rows)."""
+    for n in range(rows.shape[0]):
+        q0 = origins[n, 0] + along[n] * directions[n, 0] - centre[0]
+        q1 = origins[n, 1] + along[n] * directions[n, 1] - centre[1]
+        q2 = origins[n, 2] + along[n] * directions[n, 2] - centre[2]
+        for e in range(columns.shape[0]):
+            k = columns[e]
+            m0 = q0 * turns[e, 0, 0] + q1 * turns[e, 1, 0] + q2 * turns[e, 2, 0] + shifts[e, 0]
+            m1 = q0 * turns[e, 0, 1] + q1 * turns[e, 1, 1] + q2 * turns[e, 2, 1] + shifts[e, 1]
+            m2 = q0 * turns[e, 0, 2] + q1 * turns[e, 1, 2] + q2 * turns[e, 2, 2] + shifts[e, 2]
+            out[n, 0, k] += rows[n, 0, 0] * m0 + rows[n, 0, 1] * m1 + rows[n, 0, 2] * m2
+            out[n, 1, k] += rows[n, 1, 0] * m0 + rows[n, 1, 1] * m1 + rows[n, 1, 2] * m2
+
+
+@njit(cache=True, error_model="numpy", fastmath=_FAST, nogil=True)
+def add_housing_shift(rows, along, minus_origins, minus_directions, minus_status, plus_origins, plus_directions,
+                      plus_status, span, column, out):
+    """Add to column ``column`` of ``out`` (N, 2, m) the pixel motion A m / span of a housing parameter
+    stepped by ``span``: m = (plus − minus) ray points at the point's depth ``along``; zero where either
+    stepped ray failed (status ≠ 0)."""
+    for n in range(rows.shape[0]):
+        if minus_status[n] != 0 or plus_status[n] != 0:
+            continue
+        m0 = (plus_directions[n, 0] - minus_directions[n, 0]) * along[n] + plus_origins[n, 0] - minus_origins[n, 0]
+        m1 = (plus_directions[n, 1] - minus_directions[n, 1]) * along[n] + plus_origins[n, 1] - minus_origins[n, 1]
+        m2 = (plus_directions[n, 2] - minus_directions[n, 2]) * along[n] + plus_origins[n, 2] - minus_origins[n, 2]
+        out[n, 0, column] += (rows[n, 0, 0] * m0 + rows[n, 0, 1] * m1 + rows[n, 0, 2] * m2) / span
+        out[n, 1, column] += (rows[n, 1, 0] * m0 + rows[n, 1, 1] * m1 + rows[n, 1, 2] * m2) / span

@@ -9,6 +9,11 @@ and the batch undistortion. A point at a time, the CPU waits on each ray's chain
 square roots and Newton steps; blocks of independent rows hide that latency (the intersection became
 about 4 × faster, see the README's speed section).
 
+Two small per-point kernels add the pose and housing columns' pixel motions of the calibration's share of
+a point's covariance (:func:`add_pose_shifts`, :func:`add_housing_shift`; the numpy of
+``core/calibration/point_derivatives.pixel_motions`` is their reference): one pass over the points instead
+of a dozen whole-array temporaries per column.
+
 Each kernel does exactly what the vectorised numpy code does over whole arrays
 (``Interior.undistort``, ``Housing.trace_with_tangents``, ``intersection.intersect``,
 ``camera._back_project_general``, ``camera._back_project_planar``); that numpy code stays the reference
@@ -245,3 +250,28 @@ def available() -> bool:
 __all__ = ["MIN_ROWS", "available", "back_project_general", "back_project_planar", "camera_table", "current_mode",
            "intersect_pixels", "intersect_rays", "mode", "surface_table", "trace_ideal", "trace_ideal_in_housing",
            "trace_into", "undistort", "wanted"]
+
+
+def add_pose_shifts(rows: np.ndarray, origins: np.ndarray, directions: np.ndarray, along: np.ndarray,
+                    centre: np.ndarray, turns: np.ndarray, shifts: np.ndarray, columns, out: np.ndarray) -> None:
+    """Compiled pose part of ``point_derivatives.pixel_motions``: adds A ((Q − C_b) T_e + c_e) to column
+    ``columns[e]`` of ``out`` (N, 2, m), A = ``rows`` (N, 2, 3), Q = origins + along · directions (N, 3),
+    C_b = ``centre``, ``turns`` (E, 3, 3), ``shifts`` (E, 3)."""
+    f64 = np.float64
+    _load().add_pose_shifts(np.ascontiguousarray(rows, f64), np.ascontiguousarray(origins, f64),
+                            np.ascontiguousarray(directions, f64), np.ascontiguousarray(along, f64),
+                            np.ascontiguousarray(centre, f64), np.ascontiguousarray(turns, f64),
+                            np.ascontiguousarray(shifts, f64), np.asarray(columns, dtype=np.int64), out)
+
+
+def add_housing_shift(rows: np.ndarray, along: np.ndarray, minus, plus, span: float, column: int,
+                      out: np.ndarray) -> None:
+    """Compiled housing part of ``point_derivatives.pixel_motions``: adds A m / span to column ``column`` of
+    ``out`` (N, 2, m), m the motion of the rays ``minus`` → ``plus`` (RayBundle) at the depths ``along``;
+    zero where either ray failed."""
+    f64 = np.float64
+    _load().add_housing_shift(np.ascontiguousarray(rows, f64), np.ascontiguousarray(along, f64),
+                              np.ascontiguousarray(minus.origins, f64), np.ascontiguousarray(minus.directions, f64),
+                              np.ascontiguousarray(minus.status), np.ascontiguousarray(plus.origins, f64),
+                              np.ascontiguousarray(plus.directions, f64), np.ascontiguousarray(plus.status),
+                              float(span), int(column), out)

@@ -75,8 +75,8 @@ class StereoObservations:
         object.__setattr__(self, "left", left)
         object.__setattr__(self, "right", right)
         object.__setattr__(self, "pairs", pairs)
-        if len(set(zip(pairs, self.ids, strict=True))) == n:  # one set built in C: fast for large chunks
-            return
+        if len(set(zip(pairs, self.ids, strict=True) if len(set(pairs)) > 1 else self.ids)) == n:
+            return  # one set built in C: fast for large chunks (of the ids alone in one pair: no tuples)
         seen: set[tuple[str, str]] = set()
         for pid, pair in zip(self.ids, pairs, strict=True):
             if (pair, pid) in seen:

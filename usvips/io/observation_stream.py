@@ -17,6 +17,7 @@ import math
 import re
 import tempfile
 from collections.abc import Iterator
+from itertools import repeat
 from pathlib import Path
 
 import numpy as np
@@ -172,8 +173,10 @@ class _Checked:
     def duplicate(self, ids: list[str], pairs: list[str] | None, lines: list[int]) -> InputFileError | None:
         """The error of the first row of the chunk whose (pair, id) a row of the set (an earlier row, or
         one before it in this chunk) has; None: none. Rows beyond the set are spilled (see the class)."""
-        keyed = list(zip(pairs, ids, strict=True)) if pairs is not None else [("1", i) for i in ids]
-        hashes = np.fromiter(map(hash, keyed), dtype=np.int64, count=len(keyed))
+        # a file without a pair column keys its rows by id alone (one pair): the ids' own hashes, which
+        # Python keeps with each string, without a tuple per row
+        hashes = np.fromiter(map(hash, zip(pairs, ids, strict=True) if pairs is not None else ids),
+                             dtype=np.int64, count=len(ids))
         room = max(self.memory_keys - len(self.keys), 0)
         candidates = self.keys.add(hashes[:room]).tolist()
         if len(hashes) > room:
@@ -181,6 +184,9 @@ class _Checked:
             within = SeenKeys(2 * len(rest)).add(rest)  # a chunk's own rows repeated: found here, at once
             candidates += (room + np.union1d(np.flatnonzero(self.keys.contains(rest)), within)).tolist()
             self._write_spill(rest, np.asarray(lines[room:], dtype=np.int64))
+        if not candidates:
+            return None
+        keyed = list(zip(pairs, ids, strict=True)) if pairs is not None else [("1", i) for i in ids]
         for k in sorted(candidates):
             earlier = keyed.index(keyed[k])
             first = lines[earlier] if earlier < k else self._first_line(keyed[k], lines[0])
@@ -366,7 +372,7 @@ def _quick(header: list[str], columns: dict[str, int], lines: list[str], numbers
     width = len(header)
     if not lines or "" in lines or max(map(len, lines)) > MAX_FIELD_CHARS:
         return None
-    if any(count != width - 1 for count in map(str.count, lines, [","] * len(lines))):
+    if set(map(str.count, lines, repeat(",", len(lines)))) != {width - 1}:
         return None
     block = "\n".join(lines)
     if _PLAIN.search(block):

@@ -24,7 +24,8 @@ import numpy as np
 import pytest
 
 from usvips.core import housing as housings
-from usvips.core.calibration import uncertainty
+from usvips.core import kernels
+from usvips.core.calibration import point_derivatives, uncertainty
 from usvips.core.calibration.model import stereo_cameras
 from usvips.core.calibration.parameter_names import exterior_of
 from usvips.core.camera import EXTERIOR_PARAMETERS, Exterior
@@ -171,6 +172,42 @@ def test_derivatives_agree_with_central_differences_over_random_rigs(kind):
             assert np.all(np.abs(derivatives[~moved]) == 0)
             worst = np.max(np.abs(derivatives - reference)[moved] / scale[moved, None, None])
             assert worst < 5e-6, worst
+
+
+@pytest.mark.parametrize("kind", housings.names())
+def test_the_compiled_pixel_motions_give_the_numpy_derivatives_over_random_rigs(kind, monkeypatch):
+    """The pose and housing columns' pixel motions in one compiled pass (kernels.add_pose_shifts,
+    add_housing_shift) against the numpy reference, from the same traced rays, on noisy picks of random rigs,
+    both frames and a further station: the same derivatives but for the order of the sums."""
+    calls = []
+    for name in ("add_pose_shifts", "add_housing_shift"):
+        compiled = getattr(kernels, name)
+        monkeypatch.setattr(kernels, name, lambda *args, name=name, compiled=compiled: (calls.append(name),
+                                                                                        compiled(*args)))
+    rng = np.random.default_rng(sum(map(ord, kind)) + 5)
+    calibration = _random_calibration(rng, kind)
+    for station, frame in ((0, "object"), (1, "object"), (0, "rig")):
+        left, right = _noisy_picks(rng, calibration, station, frame, 40)
+        sigma = rng.uniform(0.2, 1.0, (40, 2))
+        with kernels.mode("never"):
+            _, traced, result, _ = uncertainty._prepared(calibration, left, right, station, frame, True, sigma)
+            columns = uncertainty.stepped_cameras(calibration, station, frame)
+            motions = [[(k, c.motions[side]) for k, c in enumerate(columns) if c.motions[side] is not None]
+                       for side in range(2)]
+            ideal = [uncertainty._ideal(t, motions[j]) for j, t in enumerate(traced)]
+            moved = [point_derivatives.housing_rays(t, [m for _, m in motions[j]], ideal[j])
+                     for j, t in enumerate(traced)]
+        given = {}
+        for mode in ("never", "always"):
+            with kernels.mode(mode):
+                given[mode] = point_derivatives.point_jacobian(traced, result.points, result.covariance,
+                                                               1 / sigma ** 2, motions, len(columns), moved, ideal)
+        reference, compiled = given["never"], given["always"]
+        scale = np.abs(reference).max(axis=(0, 1))
+        assert (scale > 0).sum() >= 20 and any(m.housings is not None for side in motions for _, m in side) == (
+            kind != "air")
+        assert np.max(np.abs(compiled - reference) / scale) < 1e-12
+    assert set(calls) == ({"add_pose_shifts"} if kind == "air" else {"add_pose_shifts", "add_housing_shift"})
 
 
 @pytest.mark.parametrize("kind", housings.water_names())

@@ -29,7 +29,9 @@ parameter gives it in closed form from the rays traced once with their pixel der
 The cameras' derivatives by each parameter (∂M/∂θ, ∂C/∂θ, ∂x_d/∂θ, ∂D/∂θ, the two housings) come from
 the cameras the calibration's named values build at θ ± h (:class:`CameraMotion`): a pose or interior value
 enters them linearly or smoothly, so their central differences are exact to O(h²), and they are built once
-per calibration. Every per-point step is a vectorised array operation over all points.
+per calibration. Every per-point step is a vectorised array operation over all points; the pose and
+housing columns' pixel motions are one compiled pass over the points for large batches
+(:mod:`usvips.core.kernels`, numpy the reference).
 """
 
 from __future__ import annotations
@@ -154,7 +156,12 @@ def pixel_motions(rays: TracedRays, rows: np.ndarray, along: np.ndarray, motions
     n = len(along)
     out = np.zeros((n, 2, len(motions)))
     posed = [k for k, m in enumerate(motions) if m.turn is not None]
-    if posed:  # rigid: A m = A ((Q − C_b) T + c) for every pose column at once, as one matrix product
+    compiled = kernels.wanted(n)
+    if posed and compiled:  # one pass over the points, no temporaries (the numpy below is the reference)
+        kernels.add_pose_shifts(rows, rays.rays.origins, rays.rays.directions, along, rays.camera.exterior.position,
+                                np.stack([motions[k].turn for k in posed]), np.stack([motions[k].shift for k in posed]),
+                                posed, out)
+    elif posed:  # rigid: A m = A ((Q − C_b) T + c) for every pose column at once, as one matrix product
         on_ray = rays.rays.origins + along[:, None] * rays.rays.directions
         on_ray -= rays.camera.exterior.position
         # per point the products A_ci (Q − C_b)_k and A_ci (2 × 12), times the constant (12 × E) of T, c
@@ -168,6 +175,9 @@ def pixel_motions(rays: TracedRays, rows: np.ndarray, along: np.ndarray, motions
     if read:
         _add_interior_shifts(out, rays.camera.interior, rays.pixels, [(k, motions[k]) for k in read], ideal)
     for k, (minus, plus) in housings.items():
+        if compiled:
+            kernels.add_housing_shift(rows, along, minus, plus, motions[k].span, k, out)
+            continue
         moved = plus.directions - minus.directions
         moved *= along[:, None]
         moved += plus.origins
