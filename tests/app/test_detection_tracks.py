@@ -126,3 +126,15 @@ def test_a_bad_speed_is_refused_before_anything_is_stored(video):
             detect_in_project(project, _model(truth.fish, np.zeros((3, 3))), video="drop", refine=False,
                               max_speed_m_s=0.0)
         assert project.objects() == []
+
+
+def test_batch_detect_joins_each_video_fish_into_one_object(video):
+    from tests.app.detection_scenes import write_switching_model
+    from usvips.app.detection_batch import detect_project_task
+
+    path, truth = video
+    model = write_switching_model(path.parent, truth, sigma=1.0)  # the same keypoints on every frame: still fish
+    summary = detect_project_task(str(path), str(model))
+    assert summary["instants"] == 3 * 5 and summary["proposals"] == 3 + 3 * 6
+    with Project.open(path) as project:
+        assert len(survey_objects(project)) == 3 + 3  # the pair's three fish, and the video's three once each

@@ -112,13 +112,13 @@ def choose_model(context: WindowContext, parent: QtWidgets.QWidget, path: str | 
 
 def _ready(context: WindowContext, parent: QtWidgets.QWidget) -> DetectSession | None:
     session = _session(context)
+    try:  # the open project's default model first (another project opened in this window may have its own)
+        if session.project_model() is not None:
+            return session
+    except UsvipsError as error:  # the project's default is gone: say so, then ask for another
+        context.messages.error(str(error))
+        return session if choose_model(context, parent) else None
     if session.model is None:
-        try:
-            if session.project_model() is not None:
-                return session
-        except UsvipsError as error:  # the project's default is gone: say so, then ask for another
-            context.messages.error(str(error))
-            return session if choose_model(context, parent) else None
         remembered = str(context.settings.value(SETTING, "") or "") if context.settings is not None else ""
         if not (remembered and choose_model(context, parent, remembered)) and not choose_model(context, parent):
             return None
