@@ -2,8 +2,11 @@
 by one trial run (a description that does not match the model's output is refused here, naming the file),
 and its identity — the description's name and the model file's SHA-256 — recorded with every proposal.
 
-A model is chosen by its description file (docs/detection.md); without one, the model shipped in
-``resources/models/`` is used when exactly one is there.
+A model is chosen by its description file (docs/detection.md); without one, the project's default model
+(:func:`remember_model`) is used, else the model shipped in ``resources/models/`` when exactly one is there.
+The project's default is kept in the store's key/value drafts (``ProjectStore.set_draft``, key
+:data:`PROJECT_MODEL_KEY`: the store has no settings table of its own, and no schema change is made), so a
+file project and a server survey both keep it, for everyone who opens them.
 """
 
 from __future__ import annotations
@@ -21,6 +24,10 @@ from usvips.core.detection.runner import OnnxDetector
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
 from usvips.io.model_description import onnx_detector, read_model_description, read_model_file
 from usvips.locations import resources_folder
+from usvips.store.interface import ProjectStore
+
+#: the project's key/value entry naming its default detection model's description file (absolute path)
+PROJECT_MODEL_KEY = "detection-model"
 
 
 @dataclass(frozen=True)
@@ -118,3 +125,32 @@ def bundled_model_path() -> Path:
         raise UsvipsError(f"no model was given and {'none' if not found else len(found)} "
                           f"{'is' if len(found) < 2 else 'are'} shipped in {folder}: name a model description file")
     return found[0]
+
+
+def project_model_path(project: ProjectStore) -> Path | None:
+    """The description file of the project's default detection model; None when none was chosen."""
+    text = project.draft(PROJECT_MODEL_KEY)
+    return Path(text) if text else None
+
+
+def remember_model(project: ProjectStore, path: str | Path) -> Path:
+    """Make the model described by ``path`` the project's default (kept as an absolute path; the model is
+    loaded first, so a bad description is refused by name and nothing is kept); returns the path kept."""
+    kept = Path(path).expanduser().resolve()
+    load_model(kept)
+    project.set_draft(PROJECT_MODEL_KEY, str(kept))
+    return kept
+
+
+def model_path_for(project: ProjectStore | None, given: str | Path | None = None) -> Path:
+    """The description file a detection uses: ``given``; else the project's default, which must still be
+    there (a default that is gone is an :class:`InputFileError` naming it); else the shipped model."""
+    if given is not None:
+        return Path(given)
+    remembered = project_model_path(project) if project is not None else None
+    if remembered is None:
+        return bundled_model_path()
+    if not remembered.is_file():
+        raise InputFileError(str(remembered), "the project's default detection model is no longer there "
+                                              "(choose another model for the project)")
+    return remembered

@@ -20,6 +20,9 @@ Proposals never overwrite a person's object, nor repeat an object already there:
 fork lie, on the same pair (and left frame of a video), within a quarter of its pixel length of the two
 ends of a stored object (either way round), or whose box holds a stored single-point object, is NOT
 stored; it is reported as a duplicate of that object.
+
+On a video, the proposals a run stores on successive looked-at frames that are the same fish are joined as
+instants of one object (:mod:`usvips.app.detection_tracks`): the survey counts the fish once.
 """
 
 from __future__ import annotations
@@ -33,9 +36,12 @@ import cv2
 import numpy as np
 
 from usvips.app.detection_model import DetectionModel
+from usvips.app.detection_tracks import JoinedFish, StoredSighting, join_sightings
 from usvips.app.pair_geometry import PairGeometry, pair_geometry
 from usvips.app.video_project import left_frame_time, partner_frame
+from usvips.core import validation
 from usvips.core.detection import Detection
+from usvips.core.detection.association import DEFAULT_MAX_SPEED_M_S
 from usvips.core.detection.refine import refine_pairs
 from usvips.core.detection.stereo import StereoPair, measure_pairs, pair_detections
 from usvips.core.errors import UsvipsError
@@ -82,7 +88,8 @@ class DetectionPlan:
 class Proposal:
     """One proposed fish: where (``label``, left ``frame`` or None), its pair (refined), its measurement
     (None without a measured sigma, or the reason it failed in ``problem``), how many right keypoints were
-    refined, and once stored its ``object_id`` — or ``duplicate_of`` the stored object it repeats."""
+    refined, and once stored its ``object_id`` — or ``duplicate_of`` the stored object it repeats — and
+    ``instant_of``: the object (the same fish on an earlier frame) it was joined to as a further instant."""
 
     label: str
     frame: int | None
@@ -92,11 +99,13 @@ class Proposal:
     problem: str = ""
     object_id: int | None = None
     duplicate_of: int | None = None
+    instant_of: int | None = None
 
     def line(self) -> str:
         """One line for a person: where, the model's score, the pairing cost, the length with its sigma."""
         where = self.label if self.frame is None else f"{self.label} frame {self.frame}"
-        what = (f"object {self.object_id}" if self.object_id is not None
+        what = (f"object {self.object_id}, instant of object {self.instant_of}" if self.instant_of is not None
+                else f"object {self.object_id}" if self.object_id is not None
                 else f"not stored: duplicate of object {self.duplicate_of}" if self.duplicate_of is not None
                 else "not stored")
         if self.measurement is not None:
@@ -111,7 +120,8 @@ class Proposal:
 @dataclass
 class DetectionRun:
     """What a run found: its proposals, per frame the left and right detections and how many stayed
-    unpaired, the frames done, and whether it was cancelled."""
+    unpaired, the frames done, whether it was cancelled, and once stored on a video the fish joined over
+    its frames (``joined``)."""
 
     plan: DetectionPlan
     model: DetectionModel
@@ -120,6 +130,7 @@ class DetectionRun:
     unpaired: int = 0
     frames_done: int = 0
     cancelled: bool = False
+    joined: JoinedFish | None = None
 
     def summary(self) -> list[str]:
         """Lines closing a run: what was looked at, found, stored, skipped, and the sigma used."""
@@ -132,6 +143,10 @@ class DetectionRun:
                  f"{self.unpaired} detection(s) unpaired; {stored} stored as unreviewed proposals, {duplicates} not "
                  f"stored (duplicates of stored objects); {measured} with a length",
                  self.model.sigma_line(KEYPOINTS)]
+        if self.joined is not None:
+            unmeasured = sum(p.object_id is not None and p.measurement is None for p in self.proposals)
+            lines.insert(1, self.joined.line() + (f"; {unmeasured} proposal(s) without a length not joined"
+                                                  if unmeasured else ""))
         return lines
 
 
@@ -329,10 +344,14 @@ def _times(plan: DetectionPlan, frames: Sequence[int]) -> dict[int, float]:
         return {f: left_frame_time(left, f) for f in frames}
 
 
-def store_proposals(project: ProjectStore, run: DetectionRun) -> DetectionRun:
+def store_proposals(project: ProjectStore, run: DetectionRun,
+                    max_speed_m_s: float = DEFAULT_MAX_SPEED_M_S) -> DetectionRun:
     """Store the run's proposals as unreviewed ``length`` objects made by the model (one transaction), each
     one not already there (see the module docstring: a duplicate is reported, never stored); fills in each
-    proposal's ``object_id`` or ``duplicate_of``."""
+    proposal's ``object_id`` or ``duplicate_of``. On a video, the stored proposals of one fish on successive
+    frames are then joined as instants of one object (``max_speed_m_s``: the fastest a fish is taken to
+    swim, :mod:`usvips.app.detection_tracks`), filling in ``instant_of`` and the run's ``joined``."""
+    max_speed_m_s = validation.positive("max_speed", max_speed_m_s)
     plan, model = run.plan, run.model
     existing = [o for o in project.objects() if o.vertices and o.vertices[0].pair == plan.label]
     times = _times(plan, sorted({p.frame for p in run.proposals if p.frame is not None}))
@@ -350,7 +369,22 @@ def store_proposals(project: ProjectStore, run: DetectionRun) -> DetectionRun:
             ids = project.add_objects(rows)
         for i, object_id in zip(where, ids, strict=True):
             run.proposals[i] = _with(run.proposals[i], object_id=object_id)
+    if plan.is_video:
+        _join(project, run, times, max_speed_m_s)
     return run
+
+
+def _join(project: ProjectStore, run: DetectionRun, times: dict[int, float], max_speed_m_s: float) -> None:
+    """Join the run's stored, measured proposals into fish (instants of one object each)."""
+    chosen = [i for i, p in enumerate(run.proposals) if p.object_id is not None and p.measurement is not None]
+    stored = [StoredSighting(run.proposals[i].object_id, run.proposals[i].frame, times[run.proposals[i].frame],
+                             run.proposals[i].measurement) for i in chosen]
+    run.joined = join_sightings(project, stored, run.plan.frames[:run.frames_done], max_speed_m_s)
+    whole_of = {instant: whole for whole, rest in run.joined.fish for instant in rest}
+    for i in chosen:
+        whole = whole_of.get(run.proposals[i].object_id)
+        if whole is not None:
+            run.proposals[i] = _with(run.proposals[i], instant_of=whole)
 
 
 def _with(proposal: Proposal, **changes) -> Proposal:
@@ -360,10 +394,11 @@ def _with(proposal: Proposal, **changes) -> Proposal:
 def detect_in_project(project: ProjectStore, model: DetectionModel, pair: str | None = None,
                       video: str | None = None, every: int = 1, frames: tuple[int, int] | None = None,
                       cancel: Callable[[], bool] | None = None, progress: Callable[[int, int], None] | None = None,
-                      refine: bool = True) -> DetectionRun:
+                      refine: bool = True, max_speed_m_s: float = DEFAULT_MAX_SPEED_M_S) -> DetectionRun:
     """:func:`plan_detection`, :func:`run_detection` and :func:`store_proposals` in one go (the command line)."""
+    max_speed_m_s = validation.positive("max_speed", max_speed_m_s)
     plan = plan_detection(project, pair, video, every, frames)
-    return store_proposals(project, run_detection(plan, model, cancel, progress, refine))
+    return store_proposals(project, run_detection(plan, model, cancel, progress, refine), max_speed_m_s)
 
 
 def is_proposal(stored: StoredObject) -> bool:

@@ -43,8 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     detect = tasks.add_parser("detect", help="propose fish with a detection model in every pair and video of "
                                              "projects (stored as unreviewed objects)")
     detect.add_argument("projects", nargs="+", help="project files (*.usvips) or surveys (postgresql://…)")
-    detect.add_argument("--model", metavar="DESCRIPTION", help="the model's description file (default: the "
-                                                              "model shipped with USVIPS)")
+    detect.add_argument("--model", metavar="DESCRIPTION", help="the model's description file (default: each "
+                        "project's default model, else the model shipped with USVIPS)")
     detect.add_argument("--every", type=int, default=1, metavar="K", help="every K-th left frame of a video")
     for sub in (intersect, export, detect):
         if sub is not detect:
@@ -62,20 +62,15 @@ def _detect_tasks(args: argparse.Namespace) -> list[batch.Task]:
 
     if args.every < 1:
         raise InvalidParameterError("--every", f"must be a whole number >= 1, got {args.every}")
-    model = str(args.model) if args.model is not None else _bundled()
-    load(model)  # a bad model: one line, before any task starts
+    model = str(args.model) if args.model is not None else None
+    if model is not None:
+        load(model)  # a bad model: one line, before any task starts
     output_names(args.projects)  # the same project twice is refused
     for given in args.projects:
         if is_server_location(given):
             parse_server_location(given)
     return [batch.Task(shown(given), detect_project_task, {"project": given, "model": model, "every": args.every})
             for given in args.projects]
-
-
-def _bundled() -> str:
-    from usvips.app.detection_model import bundled_model_path
-
-    return str(bundled_model_path())
 
 
 def _tasks(args: argparse.Namespace, out_dir: Path) -> list[batch.Task]:
@@ -139,8 +134,11 @@ def _line(outcome: batch.Outcome, finished: int, total: int) -> str:
         summary = outcome.summary or {}
         if "proposals" in summary:
             counts = (f"{summary['proposals']} proposals stored, {summary['duplicates']} duplicates not stored, "
-                      f"{summary['looked_at']} pairs or videos" + (f", {len(summary['skipped'])} skipped"
-                                                                  if summary.get("skipped") else ""))
+                      f"{summary['looked_at']} pairs or videos")
+            if summary.get("instants"):
+                counts += f", {summary['instants']} joined as instants of a fish seen before"
+            if summary.get("skipped"):
+                counts += f", {len(summary['skipped'])} skipped"
         elif "files" in summary:
             counts = f"{summary['files']} tables" + (
                 f", {len(summary['skipped'])} objects skipped" if summary.get("skipped") else "")

@@ -3,7 +3,10 @@ detection model's proposals on an image pair or a video's frames, paired through
 along the refractive epipolar curve and stored as unreviewed objects whose source is the model (its name
 and file hash recorded); one line per proposal, then a summary (usvips/app/detection_service.py). A
 proposal never overwrites a person's object: one that repeats a stored object is reported, not stored.
-Without ``--model``, the model shipped in resources/models/ (when exactly one is).
+On a video, the proposals of one fish on successive frames are joined as instants of one object
+(``--max-speed``: the fastest a fish is taken to swim, m/s). Without ``--model``, the project's default model
+(``--model M --remember`` makes M the default), else the model shipped in resources/models/ (when exactly
+one is).
 ``usvips detect PROJECT --review-sigma [--model M]`` measures the model's keypoint pointing sigma from the
 reviewers' corrections of its accepted proposals and prints the description file's [keypoint_sigma] table;
 ``usvips detect PROJECT --max-n`` prints MaxN per species on each video and pair from accepted objects."""
@@ -39,7 +42,18 @@ def _every(text: str) -> int:
 
 def add_model_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", metavar="DESCRIPTION", help="the model's description file (.toml or .json, "
-                        "naming its ONNX file; docs/detection.md); default: the model shipped with USVIPS")
+                        "naming its ONNX file; docs/detection.md); default: the project's default model, else "
+                        "the model shipped with USVIPS")
+
+
+def _speed(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a speed in m/s") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a speed > 0 m/s, got {text!r}")
+    return value
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -58,16 +72,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--frames", type=frame_range, metavar="A:B", help="left frames A to B, both included "
                         "(video; default: all)")
     add_model_option(parser)
+    parser.add_argument("--remember", action="store_true", help="make --model the project's default detection "
+                        "model (used when --model is not given, here and in the window)")
+    parser.add_argument("--max-speed", type=_speed, default=None, metavar="M/S", help="video: the fastest a fish "
+                        "is taken to swim when its proposals on successive frames are joined as instants of one "
+                        "object (default 1.5)")
     parser.add_argument("--no-refine", action="store_true", help="keep the model's right keypoints (do not "
                         "refine them along the epipolar curve)")
     add_annotator_option(parser)
     parser.set_defaults(handler=run)
 
 
-def load(given: str | None):
-    from usvips.app.detection_model import bundled_model_path, load_model
+def load(given: str | None, project=None):
+    """The model ``given`` (a description file), else the project's default, else the shipped one."""
+    from usvips.app.detection_model import load_model, model_path_for
 
-    return load_model(given if given is not None else bundled_model_path())
+    return load_model(model_path_for(project, given))
 
 
 def print_max_n(args: argparse.Namespace) -> int:
@@ -90,8 +110,9 @@ def review_sigma(args: argparse.Namespace) -> int:
     from usvips.store.location import shown
     from usvips.store.opening import open_project
 
-    model = load(args.model)
+    model = load(args.model) if args.model is not None else None
     with open_project(args.project, read_only=True) as project:
+        model = model or load(None, project)
         measured = sigma_from_reviews(project, model, date=date.today().isoformat())
     for value in measured.values():
         print(f"{model.tag}: {value.text}")
@@ -106,6 +127,11 @@ def run(args: argparse.Namespace) -> int:
     from usvips.store.location import shown
     from usvips.store.opening import open_project
 
+    if args.remember and (args.model is None or args.pair is None and args.video is None):
+        raise InvalidParameterError("--remember", "needs --model and --pair or --video: it makes the model "
+                                    "detected with the project's default")
+    if args.max_speed is not None and args.video is None:
+        raise InvalidParameterError("--max-speed", "joins proposals over a video's frames: give --video")
     if args.review_sigma:
         return review_sigma(args)
     if args.max_n:
@@ -113,11 +139,19 @@ def run(args: argparse.Namespace) -> int:
     if args.pair is not None and (args.frames is not None or args.every != 1):
         raise InvalidParameterError("--frames" if args.frames is not None else "--every",
                                     "frames are chosen on a video, not on an image pair")
-    model = load(args.model)  # a bad model is refused before the project is opened
+    from usvips.app.detection_model import remember_model
+    from usvips.core.detection.association import DEFAULT_MAX_SPEED_M_S
+
+    model = load(args.model) if args.model is not None else None  # a bad model is refused before opening
     with open_project(args.project) as project:
+        model = model or load(None, project)
         run = detect_in_project(project, model, args.pair, args.video, args.every, args.frames,
-                                refine=not args.no_refine)
+                                refine=not args.no_refine, max_speed_m_s=args.max_speed or DEFAULT_MAX_SPEED_M_S)
+        if args.remember:
+            kept = remember_model(project, args.model)
     for proposal in run.proposals:
         print(proposal.line())
     print(f"{shown(args.project)}: " + "\n".join(run.summary()))
+    if args.remember:
+        print(f"{shown(args.project)}: default detection model is now {kept}")
     return 0

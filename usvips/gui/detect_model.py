@@ -7,7 +7,12 @@ their lengths with σ, and review mode walks them: A accepts, F flags (rejects, 
 re-picked corrects a keypoint (the edit returns the object to unreviewed until accepted again).
 
 :meth:`DetectSession.plan` reads the project (the GUI thread); :meth:`DetectSession.job` is the worker's
-function ``job(progress, cancelled)``; :meth:`DetectSession.store` writes and tells the workspace.
+function ``job(progress, cancelled)``; :meth:`DetectSession.store` writes and tells the workspace. On a
+range of a video's frames, the proposals of one fish on successive frames are stored as one object with
+further instants (usvips/app/detection_tracks.py): the object list shows the fish once, its length combined.
+
+The model is the one chosen (Detection model…), which becomes the project's default
+(:func:`usvips.app.detection_model.remember_model`), or else the project's default model.
 """
 
 from __future__ import annotations
@@ -17,7 +22,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from usvips.app.detection_model import DetectionModel, load_model
+from usvips.app.detection_model import (
+    DetectionModel,
+    load_model,
+    model_path_for,
+    project_model_path,
+    remember_model,
+)
 from usvips.app.detection_service import (
     DetectionPlan,
     DetectionRun,
@@ -63,11 +74,22 @@ class DetectSession:
         self.model: DetectionModel | None = None
         self.model_path: str | None = None
 
-    def choose_model(self, path: str) -> DetectionModel:
-        """Load the model a description file describes (refused by name when it is bad)."""
+    def choose_model(self, path: str, remember: bool = False) -> DetectionModel:
+        """Load the model a description file describes (refused by name when it is bad); ``remember``: make
+        it the open project's default model too."""
         if self.model is None or path != self.model_path:
             self.model, self.model_path = load_model(path), path
+        if remember and self.workspace.project is not None:
+            remember_model(self.workspace.project, path)
         return self.model
+
+    def project_model(self) -> DetectionModel | None:
+        """The open project's default model, loaded (None: the project has none); a default whose file is gone
+        is a :class:`UsvipsError` naming it."""
+        project = self.workspace.project
+        if project is None or project_model_path(project) is None:
+            return None
+        return self.choose_model(str(model_path_for(project)))
 
     def plan(self, frames: int = 1, every: int = 1) -> DetectionPlan:
         """What to detect on: the image pair shown, or ``frames`` frames of the video shown from its current

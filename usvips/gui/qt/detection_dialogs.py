@@ -1,5 +1,6 @@
 """Measure › Detect fish on this frame / on a range of frames (usvips/gui/detect_model.py): the model's
-description file asked once (kept in the settings), the detection run on the window's worker with its
+description file asked once — Detection model… makes it the project's default (kept in the project, and in
+the settings for new projects) — the detection run on the window's worker with its
 progress and Stop in the status bar, the proposals stored as unreviewed objects and review mode opened on
 them (A accepts, F flags, a re-picked vertex corrects a keypoint). Every line of the run goes to the log."""
 
@@ -90,7 +91,8 @@ def _session(context: WindowContext) -> DetectSession:
 
 
 def choose_model(context: WindowContext, parent: QtWidgets.QWidget, path: str | None = None) -> bool:
-    """Ask for a model's description file (or take ``path``); kept in the settings for the next time."""
+    """Ask for a model's description file (or take ``path``): the open project's default model from now
+    on, and kept in the settings for projects that have none."""
     settings = context.settings
     if path is None:
         remembered = settings.value(SETTING, "") if settings is not None else ""
@@ -99,7 +101,7 @@ def choose_model(context: WindowContext, parent: QtWidgets.QWidget, path: str | 
         if not path:
             return False
     try:
-        _session(context).choose_model(path)
+        _session(context).choose_model(path, remember=True)
     except UsvipsError as error:
         context.messages.error(str(error))
         return False
@@ -110,6 +112,12 @@ def choose_model(context: WindowContext, parent: QtWidgets.QWidget, path: str | 
 
 def _ready(context: WindowContext, parent: QtWidgets.QWidget) -> DetectSession | None:
     session = _session(context)
+    try:  # the open project's default model first (another project opened in this window may have its own)
+        if session.project_model() is not None:
+            return session
+    except UsvipsError as error:  # the project's default is gone: say so, then ask for another
+        context.messages.error(str(error))
+        return session if choose_model(context, parent) else None
     if session.model is None:
         remembered = str(context.settings.value(SETTING, "") or "") if context.settings is not None else ""
         if not (remembered and choose_model(context, parent, remembered)) and not choose_model(context, parent):
