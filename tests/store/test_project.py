@@ -372,3 +372,31 @@ def test_a_refused_file_is_left_alone_with_nothing_written_beside_it(tmp_path, r
             Project.open(folder / name, read_only=read_only)
         assert "\n" not in str(refused.value) and name in str(refused.value)
         assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # nothing added, nothing changed
+
+
+@pytest.mark.parametrize("left_behind", ["-wal", "-journal"])
+def test_a_journal_left_by_a_deleted_project_is_named_not_replayed_into_a_new_one(tmp_path, left_behind):
+    """SQLite replays a -wal (or rolls back a hot -journal) it finds beside a database without asking whose
+    it is: a project deleted without its journal would come back into a new project of the same name."""
+    path = tmp_path / "p.usvips"
+    project = Project.create(path)
+    project.add_term("from the deleted project")
+    journal = Path(f"{path}{left_behind}")
+    if left_behind == "-wal":
+        assert journal.exists() and journal.stat().st_size > 0  # the write is still in the -wal
+        kept = journal.read_bytes()
+    else:
+        kept = b"\xd9\xd5\x05\xf9\x20\xa1\x63\xd7" + bytes(504)  # a rollback journal's header
+    project.close()
+    for suffix in ("", "-wal", "-shm", "-journal"):
+        Path(f"{path}{suffix}").unlink(missing_ok=True)
+    journal.write_bytes(kept)
+    with pytest.raises(ProjectError) as refused:
+        Project.create(path)
+    message = str(refused.value)
+    assert str(journal) in message and "\n" not in message
+    assert not path.exists() and journal.read_bytes() == kept  # nothing made, the journal left for its owner
+    journal.unlink()
+    fresh = Project.create(path)
+    assert "from the deleted project" not in fresh.vocabulary()
+    fresh.close()

@@ -181,6 +181,12 @@ class Project(Survey):
             raise ProjectError(f"{path}: already exists; open it instead")
         if not path.parent.is_dir():
             raise ProjectError(f"{path}: the folder {path.parent} does not exist")
+        for suffix in ("-wal", "-journal"):
+            # SQLite replays a -wal (rolls back a hot -journal) it finds beside a database, whoever's it was
+            left = Path(f"{path}{suffix}")
+            if left.exists() or left.is_symlink():
+                raise ProjectError(f"{left}: a journal left by an earlier project of this name lies beside it and "
+                                   f"would be replayed into the new one; move it away (or delete it) first")
         temporary: Path | None = None
         try:
             handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=str(path.parent))
