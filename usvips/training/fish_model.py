@@ -64,7 +64,7 @@ def sample(seed: int) -> tuple[np.ndarray, list[dict]]:
         in_frame = (truth.keypoints[:, 0] >= -0.5) & (truth.keypoints[:, 0] <= size[0] - 0.5) \
             & (truth.keypoints[:, 1] >= -0.5) & (truth.keypoints[:, 1] <= size[1] - 0.5)
         fish.append({"keypoints": np.column_stack([u, v]), "visible": truth.visible, "in_frame": in_frame,
-                     "box": (float(bu0), float(bv0), float(bu1), float(bv1)), "required": truth.required})
+                     "box": (float(bu0), float(bv0), float(bu1), float(bv1)), "required": truth.unhidden})
     return boxed, fish
 
 
