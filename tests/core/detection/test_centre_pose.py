@@ -105,6 +105,25 @@ def test_keypoints_after_the_first_two_move_to_their_nearest_peak_inside_the_box
     assert found.keypoint("tail").confidence == pytest.approx(0.4)
 
 
+def test_a_later_keypoint_shifts_with_its_nearer_paired_keypoint_before_it_snaps():
+    names = ("snout", "fork", "tail")
+    c = channel_slices(3)
+    heat = c["keypoint_heat"].start
+    maps = np.zeros((channel_count(3), GRID, GRID))
+    maps[0, 5, 5] = 0.9
+    maps[c["extent"], 5, 5] = (4.0, 2.0, 4.0, 2.0)
+    maps[c["displacement"], 5, 5] = (-2.0, 0.0, 2.0, 0.0, 3.0, -1.0)  # all one cell short of the peaks in x
+    maps[heat, 5, 2] = maps[heat + 1, 5, 8] = 0.8  # snout (2, 5) and fork (8, 5): midpoint on the centre
+    maps[heat + 2, 4, 9] = 0.8  # the tail: the regressed (8, 4) shifted as the fork was, one cell right
+    maps[heat + 2, 4, 7] = 0.8  # a decoy nearer the regressed tail, (7.6, 4)
+    maps[c["keypoint_offset"], 4, 7] = (0.6, 0.0)
+    letterbox = Letterbox.fit(IMAGE, INPUT)
+    description = ModelDescription("m.onnx", "centre-pose", *INPUT, ("fish",), names, score_threshold=0.3)
+    (found,) = CentrePose.decode(maps[None], description, letterbox)
+    np.testing.assert_allclose(found.keypoint("fork").pixel, letterbox.to_image(8 * 4, 5 * 4), atol=1e-9)
+    np.testing.assert_allclose(found.keypoint("tail").pixel, letterbox.to_image(9 * 4, 4 * 4), atol=1e-9)
+
+
 def test_the_score_threshold_and_max_detections_apply():
     maps, _ = _maps()
     letterbox = Letterbox.fit(IMAGE, INPUT)

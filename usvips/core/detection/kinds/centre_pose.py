@@ -20,10 +20,11 @@ midpoint near the centre, each point near its displaced point, strong peaks befo
 below; a displaced point may stay where no peak fits). The centre heatmap places an object's midpoint far
 better than the displacements place its ends (measured on the shipped fish model: displacement errors of
 20-50 % of a fish's length, against a few pixels for the centre), so the midpoint binds the pair. Every
-later keypoint moves to its own heatmap's nearest local maximum in the grown box within half the box's
-larger side of its displaced point. A keypoint's confidence is its peak's value (or the heatmap's value at
-the displaced point when it kept it). Overlapping boxes are then suppressed (OpenCV's NMS at
-``iou_threshold``) and the best ``max_detections`` kept, mapped back through the letterbox.
+later keypoint is first shifted as the nearer of the first two was (from its displaced point to its peak:
+one detection's displacements share much of their error), then moves to its own heatmap's nearest local
+maximum in the grown box within half the box's larger side. A keypoint's confidence is its peak's value
+(or the heatmap's value at the displaced point when it kept it). Overlapping boxes are then suppressed
+(OpenCV's NMS at ``iou_threshold``) and the best ``max_detections`` kept, mapped back through the letterbox.
 """
 
 from __future__ import annotations
@@ -134,6 +135,17 @@ def _snap_pair(peaks: list[tuple[np.ndarray, ...]], kx: np.ndarray, ky: np.ndarr
     kx[1], ky[1], confidence[1] = bx[rows, b], by[rows, b], bv[rows, b]
 
 
+def _anchor_later(kx: np.ndarray, ky: np.ndarray, regressed_x: np.ndarray, regressed_y: np.ndarray) -> None:
+    """Move every keypoint after the first two (in place) by the shift its nearer one of the first two took
+    from its displaced point to its peak: the displacements of one detection share much of their error."""
+    for j in range(2, len(kx)):
+        gaps = np.hypot(regressed_x[:2] - regressed_x[j], regressed_y[:2] - regressed_y[j])  # (2, N)
+        anchor = np.argmin(gaps, axis=0)
+        n = np.arange(kx.shape[1])
+        kx[j] += kx[anchor, n] - regressed_x[anchor, n]
+        ky[j] += ky[anchor, n] - regressed_y[anchor, n]
+
+
 class CentrePose(ModelFamily):
     kind = "centre-pose"
     order = 1
@@ -179,7 +191,9 @@ class CentrePose(ModelFamily):
         peaks = [_peak_points(heat[j], keypoint_offset, stride_x, stride_y) for j in range(k)]
         paired = 2 if k >= 2 else 0
         if paired:
+            regressed_x, regressed_y = kx.copy(), ky.copy()
             _snap_pair(peaks[:2], kx, ky, confidence, (cx, cy), box)
+            _anchor_later(kx, ky, regressed_x, regressed_y)
         for j in range(paired, k):
             _snap_nearest(peaks[j], j, kx, ky, confidence, box)
         rects = np.column_stack([x0, y0, x1 - x0, y1 - y0])
