@@ -24,7 +24,8 @@ def shipped(tmp_path):
 def test_validated_sigma_is_scaled_from_input_to_image_pixels(shipped, size):
     model = load_model(shipped)
     validated = dict(zip(model.description.keypoint_names, model.description.validated_keypoint_sigma, strict=True))
-    scale = min(256 / size[0], 256 / size[1])
+    width, height = model.description.input_width, model.description.input_height
+    scale = min(width / size[0], height / size[1])
     sigmas = model.keypoint_sigma(KEYS, size)
     assert sigmas == pytest.approx({k: validated[k] / scale for k in KEYS})
     assert model.keypoint_sigma(KEYS) is None  # no image: no pixels to give it in

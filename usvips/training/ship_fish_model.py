@@ -1,5 +1,6 @@
 """Ship a trained fish model: measure it on held-out rendered frames through the ONNX runner (OpenCV's DNN
-module, exactly as USVIPS runs it), choose its score threshold on one set of seeds and report its figures on
+module, exactly as USVIPS runs it), choose its input size (the network is fully convolutional; the ONNX file's
+declared sizes are set to the choice) and score threshold on one set of seeds and report its figures on
 another, and write the model, its description (with the measured pointing σ per keypoint) and the training's
 record into the output folder. Needs no PyTorch:
 
@@ -13,12 +14,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
+import re
 import sys
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import onnx
 
 from usvips.core.detection.letterbox import Letterbox
 from usvips.core.detection.runner import OnnxDetector
@@ -32,15 +34,43 @@ SIZE = (640, 480)
 TUNING_SEEDS = 10_000_000
 REPORTED_SEEDS = 20_000_000
 THRESHOLDS = (0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6)
+STRIDE = 4  # the centre-pose network's output stride (input pixels per output cell)
+RULE = ("a detection matches a fish when its snout and fork lie within 0.2 snout-fork lengths of the truth on "
+        "average (one assignment per frame); a fish must be found when snout and fork are visible, at least half "
+        "of it is unhidden and it is at least 20 image px long; a detection of any other fish, or in its drawn box, "
+        "counts neither way")
 
 
-def _runs(detector: OnnxDetector, seeds: range) -> list[tuple[tuple, list]]:
-    """Each frame's detections at the lowest threshold and its truth."""
-    out = []
+def _runs(detectors: list[OnnxDetector], seeds: range) -> list[list[tuple[tuple, list]]]:
+    """Per detector, each frame's detections at the lowest threshold and its truth (each frame rendered once)."""
+    out: list[list[tuple[tuple, list]]] = [[] for _ in detectors]
     for seed in seeds:
         image, truths = validation_frame(seed, SIZE)
-        out.append((detector.detect(image), [t.true_object() for t in truths]))
+        for runs, detector in zip(out, detectors, strict=True):
+            runs.append((detector.detect(image), [t.true_object() for t in truths]))
     return out
+
+
+def _score(figures: ValidationFigures) -> tuple[bool, float]:
+    """How a choice ranks: precision ≥ 0.9 first, then recall there (else the F1 score, the harmonic mean of
+    recall and precision)."""
+    if figures.precision >= 0.9:
+        return True, figures.recall
+    f1 = 2 * figures.recall * figures.precision / (figures.recall + figures.precision) if figures.found else 0.0
+    return False, f1
+
+
+def resized_model(model: bytes, size: int) -> bytes:
+    """The ONNX model with its declared input (and output) sizes set for a ``size`` × ``size`` input: the
+    network is fully convolutional, so the weights serve any multiple of its stride."""
+    graph = onnx.load_from_string(model)
+    dims = graph.graph.input[0].type.tensor_type.shape.dim
+    dims[2].dim_value = dims[3].dim_value = size
+    out = graph.graph.output[0].type.tensor_type.shape.dim
+    out[2].dim_value = out[3].dim_value = size // STRIDE
+    del graph.graph.value_info[:]
+    onnx.checker.check_model(graph)
+    return graph.SerializeToString()
 
 
 def _figures(runs: list, threshold: float, scale: float) -> ValidationFigures:
@@ -50,41 +80,46 @@ def _figures(runs: list, threshold: float, scale: float) -> ValidationFigures:
     return figures
 
 
-def _choose(runs: list, scale: float) -> float:
-    """The threshold with the best recall among those with precision ≥ 0.9 on the tuning frames (else the
-    one with the best F1 score, the harmonic mean of recall and precision)."""
-    scored = [(t, _figures(runs, t, scale)) for t in THRESHOLDS]
-    good = [(f.recall, t) for t, f in scored if f.precision >= 0.9]
-    if good:
-        return max(good)[1]
-    return max((2 * f.recall * f.precision / (f.recall + f.precision) if f.found else 0.0, t) for t, f in scored)[1]
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trained", type=Path, required=True, help="the training's output folder")
     parser.add_argument("--out", type=Path, required=True, help="where the shipped files go")
     parser.add_argument("--tuning-frames", type=int, default=60)
     parser.add_argument("--frames", type=int, default=150, help="held-out frames the figures are reported on")
+    parser.add_argument("--input-sizes", type=int, nargs="+", default=[256, 320, 384],
+                        help="square input sizes (multiples of 32) to choose from on the tuning frames")
     args = parser.parse_args(argv)
     description = read_model_description(args.trained / f"{NAME}.toml")
-    model = (args.trained / f"{NAME}.onnx").read_bytes()
-    detector = OnnxDetector(replace(description, score_threshold=min(THRESHOLDS)), model)
-    scale = Letterbox.fit(SIZE, (description.input_width, description.input_height)).scale_x
-    threshold = _choose(_runs(detector, range(TUNING_SEEDS, TUNING_SEEDS + args.tuning_frames)), scale)
-    figures = _figures(_runs(detector, range(REPORTED_SEEDS, REPORTED_SEEDS + args.frames)), threshold, scale)
+    trained = (args.trained / f"{NAME}.onnx").read_bytes()
+    models = {size: resized_model(trained, size) for size in args.input_sizes}
+    detectors = [OnnxDetector(replace(description, input_width=size, input_height=size,
+                                      score_threshold=min(THRESHOLDS)), model) for size, model in models.items()]
+    tuning = _runs(detectors, range(TUNING_SEEDS, TUNING_SEEDS + args.tuning_frames))
+    choices = [(_score(_figures(runs, t, 1.0)), -size, t, n)
+               for n, (size, runs) in enumerate(zip(models, tuning, strict=True)) for t in THRESHOLDS]
+    _, _, threshold, chosen = max(choices)
+    size = args.input_sizes[chosen]
+    scale = Letterbox.fit(SIZE, (size, size)).scale_x
+    (runs,) = _runs([detectors[chosen]], range(REPORTED_SEEDS, REPORTED_SEEDS + args.frames))
+    figures = _figures(runs, threshold, scale)
     summary = figures.summary(KEYPOINTS)
     print(json.dumps({"threshold": threshold, **summary}, indent=1), flush=True)
     sigma = [round(figures.sigma(k), 3) for k in KEYPOINTS]  # (too few found keypoints stop here, nothing written)
     median = [round(figures.median_error(k), 3) for k in KEYPOINTS]
     args.out.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(args.trained / f"{NAME}.onnx", args.out / f"{NAME}.onnx")
+    (args.out / f"{NAME}.onnx").write_bytes(models[size])
     record = json.loads((args.trained / "training.json").read_text())
+    image_median = {k: figures.median_error(k) / scale for k in KEYPOINTS}
     record["held_out"] = {"frames": args.frames, "size": SIZE, "seeds": f"{REPORTED_SEEDS}..", "threshold": threshold,
-                          "tuning_frames": args.tuning_frames, **summary}
+                          "input": size, "letterbox_scale": scale, "tuning_frames": args.tuning_frames,
+                          "rule": RULE, **summary, "median_error_image_px": image_median,
+                          "command": " ".join(["python -m usvips.training.ship_fish_model",
+                                               *(argv if argv is not None else sys.argv[1:])])}
     (args.out / "training.json").write_text(json.dumps(record, indent=1))
     text = (args.trained / f"{NAME}.toml").read_text()
-    text = text.replace(f"score_threshold = {description.score_threshold}", f"score_threshold = {threshold}")
+    text = re.sub(r"score_threshold = [0-9.]+", f"score_threshold = {threshold}", text)
+    text = re.sub(r"input_width = [0-9]+", f"input_width = {size}", text)
+    text = re.sub(r"input_height = [0-9]+", f"input_height = {size}", text)
     text += ("\n[validation]  # measured on held-out rendered frames (640 x 480, every housing kind), input pixels\n"
              f"keypoint_sigma = {sigma}\nmedian_error = {median}\nrecall = {round(figures.recall, 3)}\n"
              f"precision = {round(figures.precision, 3)}\n"

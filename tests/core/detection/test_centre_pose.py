@@ -1,5 +1,6 @@
 """The centre-pose layout (USVIPS's own fish model) decoded exactly from synthetic output tensors: centres at
-the heatmap's local maxima, boxes from their extents, keypoints moved to their own heatmap's nearest peak
+the heatmap's local maxima, boxes from their extents, snout and fork moved to the pair of their heatmaps'
+peaks that fits the centre and the regressed points, later keypoints to their own heatmap's nearest peak
 within the box (or left at the displaced point when there is none), all mapped back through the letterbox."""
 
 import numpy as np
@@ -67,27 +68,60 @@ def test_centres_boxes_and_displaced_keypoints_without_keypoint_peaks():
         assert detection.keypoint_names == NAMES and detection.class_name == "fish"
 
 
-def test_keypoints_move_to_their_nearest_heatmap_peak_inside_the_box():
+def test_snout_and_fork_move_to_the_pair_of_peaks_whose_midpoint_is_the_centre():
     maps, objects = _maps()
     c = channel_slices(len(NAMES))
     heat, offsets = maps[c["keypoint_heat"]], maps[c["keypoint_offset"]]
-    # the first fish's snout regressed at cell column 2.6, row 2.8: a peak at (2, 3) with offset (0.9, 0.1)
-    heat[0, 3, 2] = 0.7
+    # the first fish: centre (5.25, 3.5) cells; snout regressed at (2.6, 2.8), fork at (8.7, 3.9)
+    heat[0, 3, 2] = 0.7  # a snout peak at (2.9, 3.1)
     offsets[:, 3, 2] = (0.9, 0.1)
-    # a stronger snout peak far outside both boxes: never taken
-    heat[0, 14, 0] = 0.99
-    # the first fish's fork regressed at (8.7, 3.9): two peaks inside the box, the nearer one wins
-    heat[1, 4, 8] = 0.5
-    offsets[:, 4, 8] = (0.5, 0.5)
-    heat[1, 2, 7] = 0.8
-    offsets[:, 2, 7] = (0.0, 0.0)
+    heat[0, 14, 0] = 0.99  # a stronger snout peak far outside both boxes: never taken
+    heat[1, 3, 7] = 0.6  # the fork peak that puts the pair's midpoint on the centre: (7.6, 3.9)
+    offsets[:, 3, 7] = (0.6, 0.9)
+    heat[1, 4, 9] = 0.6  # a fork peak nearer the regressed fork, (9.0, 4.0), but off the centre: not taken
     letterbox = Letterbox.fit(IMAGE, INPUT)
     first = CentrePose.decode(maps[None], _description(), letterbox)[0]
     np.testing.assert_allclose(first.keypoint("snout").pixel, letterbox.to_image(2.9 * 4, 3.1 * 4), atol=1e-9)
     assert first.keypoint("snout").confidence == pytest.approx(0.7)
-    np.testing.assert_allclose(first.keypoint("fork").pixel, letterbox.to_image(8.5 * 4, 4.5 * 4), atol=1e-9)
-    assert first.keypoint("fork").confidence == pytest.approx(0.5)
-    assert PEAK_THRESHOLD < 0.5
+    np.testing.assert_allclose(first.keypoint("fork").pixel, letterbox.to_image(7.6 * 4, 3.9 * 4), atol=1e-9)
+    assert first.keypoint("fork").confidence == pytest.approx(0.6)
+    assert PEAK_THRESHOLD < 0.6
+
+
+def test_keypoints_after_the_first_two_move_to_their_nearest_peak_inside_the_box():
+    names = ("snout", "fork", "tail")
+    c = channel_slices(3)
+    maps = np.zeros((channel_count(3), GRID, GRID))
+    maps[0, 5, 5] = 0.9
+    maps[c["extent"], 5, 5] = (3.0, 2.0, 3.0, 2.0)
+    maps[c["displacement"], 5, 5] = (-2.0, 0.0, 2.0, 0.0, 2.6, 0.4)
+    maps[c["keypoint_heat"].start + 2, 5, 8] = 0.4  # nearer the regressed tail (7.6, 5.4)
+    maps[c["keypoint_heat"].start + 2, 3, 6] = 0.9  # stronger but farther
+    maps[c["keypoint_heat"].start + 2, 15, 15] = 0.99  # outside the box
+    letterbox = Letterbox.fit(IMAGE, INPUT)
+    description = ModelDescription("m.onnx", "centre-pose", *INPUT, ("fish",), names, score_threshold=0.3)
+    (found,) = CentrePose.decode(maps[None], description, letterbox)
+    np.testing.assert_allclose(found.keypoint("tail").pixel, letterbox.to_image(8 * 4, 5 * 4), atol=1e-9)
+    assert found.keypoint("tail").confidence == pytest.approx(0.4)
+
+
+def test_a_later_keypoint_shifts_with_its_nearer_paired_keypoint_before_it_snaps():
+    names = ("snout", "fork", "tail")
+    c = channel_slices(3)
+    heat = c["keypoint_heat"].start
+    maps = np.zeros((channel_count(3), GRID, GRID))
+    maps[0, 5, 5] = 0.9
+    maps[c["extent"], 5, 5] = (4.0, 2.0, 4.0, 2.0)
+    maps[c["displacement"], 5, 5] = (-2.0, 0.0, 2.0, 0.0, 3.0, -1.0)  # all one cell short of the peaks in x
+    maps[heat, 5, 2] = maps[heat + 1, 5, 8] = 0.8  # snout (2, 5) and fork (8, 5): midpoint on the centre
+    maps[heat + 2, 4, 9] = 0.8  # the tail: the regressed (8, 4) shifted as the fork was, one cell right
+    maps[heat + 2, 4, 7] = 0.8  # a decoy nearer the regressed tail, (7.6, 4)
+    maps[c["keypoint_offset"], 4, 7] = (0.6, 0.0)
+    letterbox = Letterbox.fit(IMAGE, INPUT)
+    description = ModelDescription("m.onnx", "centre-pose", *INPUT, ("fish",), names, score_threshold=0.3)
+    (found,) = CentrePose.decode(maps[None], description, letterbox)
+    np.testing.assert_allclose(found.keypoint("fork").pixel, letterbox.to_image(8 * 4, 5 * 4), atol=1e-9)
+    np.testing.assert_allclose(found.keypoint("tail").pixel, letterbox.to_image(9 * 4, 4 * 4), atol=1e-9)
 
 
 def test_the_score_threshold_and_max_detections_apply():

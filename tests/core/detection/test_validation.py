@@ -68,3 +68,16 @@ def test_two_detections_of_one_fish_are_one_found_and_one_false_and_errors_scale
     empty = ValidationFigures()
     match_image([], truths, empty)
     assert (empty.found, empty.missed, empty.false) == (0, 1, 0) and np.isnan(empty.precision)
+
+
+def test_a_detection_in_the_box_of_an_object_not_required_counts_neither_way():
+    hidden = TrueObject({"snout": (400.0, 100.0), "fork": (500.0, 100.0)}, required=False, box=(390, 70, 530, 130))
+    cut = TrueObject({"snout": (-40.0, 300.0), "fork": (20.0, 300.0)}, required=False)  # no box: no region
+    found = TrueObject({"snout": (100.0, 100.0), "fork": (200.0, 100.0)}, box=(90, 70, 230, 130))
+    detections = [_detection((420.0, 110.0), (515.0, 90.0)),  # keypoints off the hidden fish, inside its box
+                  _detection((0.0, 300.0), (30.0, 300.0)),  # off the cut fish, which has no box: false
+                  _detection((101.0, 100.0), (199.0, 100.0)),  # the required fish
+                  _detection((120.0, 100.0), (150.0, 100.0))]  # off inside a REQUIRED fish's box: false
+    figures = ValidationFigures()
+    match_image(detections, [hidden, cut, found], figures)
+    assert (figures.found, figures.missed, figures.false) == (1, 0, 2)

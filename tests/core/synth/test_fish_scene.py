@@ -11,6 +11,7 @@ from usvips.core import housing as housings
 from usvips.core.synth.fish_scene import (
     BODY_PLANS,
     KEYPOINTS,
+    REQUIRED_LENGTH,
     Occluder,
     SceneFish,
     random_camera,
@@ -100,6 +101,22 @@ def test_a_keypoint_behind_an_occluder_is_hidden_and_the_rest_visible():
     assert 0.5 < truth.visible_fraction < 1.0
     assert not truth.required  # the snout is hidden: a detector need not find it
     np.testing.assert_allclose(truth.keypoints, open_truth.keypoints)
+
+
+def test_a_fish_too_small_to_measure_is_not_required_but_still_unhidden():
+    rng = np.random.default_rng(9)
+    camera = random_camera(rng, "flat-port", SIZE)
+    scene = random_scene(rng, camera, fish=(1, 1))
+    shape = scene.fish[0].shape
+    lengths = []
+    for length in (0.02, 0.3):  # m at 2 m: a few pixels, and far more than the limit
+        fish = SceneFish(shape, (-length / 2, 0.0, -2.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), length)
+        _, (truth,) = render_fish_scene(camera, _clear(scene, [fish]))
+        assert truth.unhidden
+        assert truth.required == (truth.length_pixels >= REQUIRED_LENGTH)
+        assert truth.true_object().box == truth.box
+        lengths.append(truth.length_pixels)
+    assert lengths[0] < REQUIRED_LENGTH < lengths[1]
 
 
 def test_a_frame_is_the_same_for_the_same_seed_and_renders_in_colour():

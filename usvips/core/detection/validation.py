@@ -8,7 +8,10 @@ keypoints (the ``match_keypoints``, snout and fork by default) is at most ``tole
 (the distance between those keypoints in the image; pixels). One assignment over the image
 (:func:`scipy.optimize.linear_sum_assignment`) pairs them, closest first. A *required* object that is paired
 is found (a true positive), one left unpaired is missed; a detection left unpaired is false; a detection paired
-with an object that is not required (mostly hidden, cut by the frame) counts neither way.
+with an object that is not required (mostly hidden, cut by the frame, too small) counts neither way, and so
+does an unpaired detection whose match keypoints' midpoint lies in the ``box`` of an object that is not
+required (an ignore region, as COCO's crowd boxes: a detector is neither asked for a fish it cannot be
+expected to point at, nor blamed for trying).
 
 The pointing σ of a keypoint is 1.4826 × the median of the absolute errors of its x and y coordinates pooled
 (pixels, one image coordinate): the standard deviation for Gaussian errors, robust to the few gross misses a
@@ -30,11 +33,13 @@ from usvips.core.errors import InvalidParameterError
 
 @dataclass(frozen=True)
 class TrueObject:
-    """One object's truth in one image: ``keypoints`` {name: (x, y) pixels} and whether a detector must
-    find it (``required``; an object mostly hidden or cut by the frame is not)."""
+    """One object's truth in one image: ``keypoints`` {name: (x, y) pixels}, whether a detector must
+    find it (``required``; an object mostly hidden, cut by the frame or too small is not) and its drawn box
+    (x0, y0, x1, y1 pixels, or ``None``): where it is not required, its ignore region."""
 
     keypoints: dict[str, tuple[float, float]]
     required: bool = True
+    box: tuple[float, float, float, float] | None = None
 
 
 @dataclass
@@ -128,6 +133,18 @@ def match_image(detections: Sequence[Detection], truths: Sequence[TrueObject], f
                     if point.name in truths[j].keypoints:
                         figures.errors.setdefault(point.name, []).append(
                             scale * (point.pixel - np.asarray(truths[j].keypoints[point.name], np.float64))[None, :])
+    ignored = np.array([not paired[i] and _in_ignore_region(d, truths, names) for i, d in enumerate(detections)],
+                       bool)
     figures.found += int(found.sum())
     figures.missed += int(sum(1 for j, t in enumerate(truths) if t.required and not found[j]))
-    figures.false += int((~paired).sum())
+    figures.false += int((~paired & ~ignored).sum())
+
+
+def _in_ignore_region(detection: Detection, truths: Sequence[TrueObject], names: Sequence[str]) -> bool:
+    """Whether the midpoint of ``detection``'s match keypoints lies in the box of an object not required."""
+    common = [n for n in names if n in detection.keypoint_names]
+    if not common:
+        return False
+    x, y = np.mean([detection.keypoint(n).pixel for n in common], axis=0)
+    return any(t.box is not None and not t.required and t.box[0] <= x <= t.box[2] and t.box[1] <= y <= t.box[3]
+               for t in truths)

@@ -34,6 +34,9 @@ from usvips.core.rays import RayStatus
 KEYPOINTS = ("snout", "fork", "upper caudal", "lower caudal")
 #: the share of a fish's drawn area that must stay unhidden for a detector to be required to find it
 REQUIRED_VISIBLE = 0.5
+#: the shortest fish (snout to fork, image pixels) a detector is required to find: one pixel of pointing error
+#: at each end is then at most 7 % of its length; a shorter fish is too small to measure
+REQUIRED_LENGTH = 20.0
 
 _SUPER = 2  # supersampling of the drawing (each axis)
 _NU, _NB = 40, 8  # body mesh: quads along and across
@@ -185,15 +188,28 @@ class FishTruth:
     length: float
 
     @property
-    def required(self) -> bool:
-        """Whether a detector must find this fish: snout and fork visible and at least
-        :data:`REQUIRED_VISIBLE` of its drawn area unhidden."""
+    def unhidden(self) -> bool:
+        """Snout and fork visible and at least :data:`REQUIRED_VISIBLE` of the drawn area unhidden (what the
+        training teaches as a fish, whatever its size)."""
         return bool(self.visible[0] and self.visible[1] and self.visible_fraction >= REQUIRED_VISIBLE)
 
+    @property
+    def length_pixels(self) -> float:
+        """The snout–fork distance in the image (pixels)."""
+        return float(np.hypot(*(self.keypoints[0] - self.keypoints[1])))
+
+    @property
+    def required(self) -> bool:
+        """Whether a detector must find this fish: :attr:`unhidden` and at least :data:`REQUIRED_LENGTH`
+        pixels from snout to fork."""
+        return self.unhidden and self.length_pixels >= REQUIRED_LENGTH
+
     def true_object(self) -> TrueObject:
-        """The fish as validation's truth (:mod:`usvips.core.detection.validation`)."""
+        """The fish as validation's truth (:mod:`usvips.core.detection.validation`), its drawn box the
+        ignore region when it is not required."""
+        box = self.box if np.all(np.isfinite(self.box)) else None
         return TrueObject({name: (float(x), float(y)) for name, (x, y) in zip(KEYPOINTS, self.keypoints, strict=True)},
-                          self.required)
+                          self.required, box)
 
 
 def _uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
