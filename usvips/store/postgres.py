@@ -38,6 +38,7 @@ from pathlib import Path
 import psycopg
 from psycopg import errors as pg_errors
 from psycopg import sql as pg_sql
+from psycopg.adapt import Transformer
 from psycopg.pq import TransactionStatus
 
 from usvips.store.backend import Backend, BackendError, ConstraintError, Result, Statement
@@ -58,6 +59,9 @@ LOCK_WAIT_S = 2.0
 #: network gone): one series per action; when all fail the action is refused ("the server is unreachable")
 #: and the next action tries again
 RECONNECT_WAITS_S = (0.0, 0.25, 0.5, 1.0, 2.0)
+#: up to this many statements (a ``many`` statement counts its rows) go as one string of statements; more, as a
+#: pipeline of prepared statements (:meth:`PostgresBackend._in_one_string`, ``_in_pipeline``)
+ONE_STRING_ROWS = 64
 WRITE_LOCK = 0x55535649  # "USVI": the advisory lock key of a survey's writers (per database)
 CONNECT_TIMEOUT_S = 5
 
@@ -258,9 +262,11 @@ def database_command(url: str, command: str) -> None:
 # ------------------------------------------------------------------------------------------------ the backend
 def _result(cursor: psycopg.Cursor) -> Result:
     """The cursor's current result as the backend's."""
-    if cursor.description is None:
+    result = cursor.pgresult
+    if result is None or not result.nfields:
         return Result([], max(cursor.rowcount, 0))
-    return Result(cursor.fetchall(), cursor.rowcount, tuple(column.name for column in cursor.description))
+    # (the names straight from the result: psycopg's ``description`` builds an object per column)
+    return Result(cursor.fetchall(), cursor.rowcount, tuple(result.fname(i).decode() for i in range(result.nfields)))
 
 
 @lru_cache(maxsize=1024)
@@ -268,6 +274,12 @@ def _placeholders(sql: str) -> str:
     """The one difference of the shared dialect: ``?`` placeholders are psycopg's ``%s`` (and a literal
     ``%`` is doubled). Nothing else of a statement is rewritten."""
     return sql.replace("%", "%%").replace("?", "%s")
+
+
+@lru_cache(maxsize=1024)
+def _template(sql: str, encoding: str) -> bytes:
+    """A statement (``?`` placeholders) as a template its values' literals are put into with ``%``."""
+    return sql.replace("%", "%%").replace("?", "%s").encode(encoding)
 
 
 class PostgresBackend(Backend):
@@ -402,48 +414,38 @@ class PostgresBackend(Backend):
         starting, self._starting = self._starting or (), None
         later, self._later = self._later, []
         reads = all(not s.many and self._reads(s.sql) for s in statements)
-        guarded = (bool(starting) or self.in_transaction) and not reads
+        # the first statements of a transaction need no savepoint: when one fails, the transaction — nothing
+        # in it yet — is undone and begun afresh with the next statement, which is the same as undoing them alone
+        first = bool(starting) and not later
+        guarded = (bool(starting) or self.in_transaction) and not reads and not first
 
         def attempt() -> list[Result]:
             if not starting and not later and not guarded and not ending and len(statements) == 1:
                 with self.raw.cursor() as cursor:  # one plain statement
                     self._run(cursor, statements[0])
                     return [_result(cursor)]
-            # several: sent at once and answered at once (psycopg's pipeline mode: one round trip), each
-            # statement prepared on the server once it is used often (psycopg's automatic prepare)
-            held = [self.raw.cursor() for _ in later]
-            cursors = [self.raw.cursor() for _ in statements]
             try:
-                try:
-                    with self.raw.pipeline():
-                        for sql in starting:
-                            self.raw.execute(sql)
-                        for cursor, statement in zip(held, later, strict=True):
-                            self._run(cursor, statement)
-                        if guarded:
-                            self.raw.execute("SAVEPOINT usvips_statement")
-                        for cursor, statement in zip(cursors, statements, strict=True):
-                            self._run(cursor, statement)
-                        if guarded:
-                            self.raw.execute("RELEASE SAVEPOINT usvips_statement")
-                        for sql in ending:
-                            self.raw.execute(sql)
-                except psycopg.Error as error:
-                    undone = False
-                    if guarded and self._alive() and self.raw.info.transaction_status == TransactionStatus.INERROR:
-                        with _quietly():  # no savepoint when the start or a held write failed
-                            self.raw.execute("ROLLBACK TO SAVEPOINT usvips_statement")
-                            self.raw.execute("RELEASE SAVEPOINT usvips_statement")
-                            undone = True
-                    if later and not undone and isinstance(error, psycopg.IntegrityError | pg_errors.RaiseException):
-                        # a held write refused (a read cannot be): the whole transaction fails
-                        raise ProjectError(f"{self.where}: cannot write the project: {_one_line(error)} "
-                                           "(nothing was changed)") from None
-                    raise
-                return [_result(cursor) for cursor in cursors]
-            finally:
-                for cursor in (*held, *cursors):
-                    cursor.close()
+                if sum(len(s.parameters) if s.many else 1 for s in (*later, *statements)) <= ONE_STRING_ROWS:
+                    return self._in_one_string(starting, later, guarded, statements, ending)
+                return self._in_pipeline(starting, later, guarded, statements, ending)
+            except psycopg.Error as error:
+                undone = False
+                failed = self._alive() and self.raw.info.transaction_status == TransactionStatus.INERROR
+                if guarded and failed:
+                    with _quietly():  # no savepoint when the start or a held write failed
+                        self.raw.execute("ROLLBACK TO SAVEPOINT usvips_statement")
+                        self.raw.execute("RELEASE SAVEPOINT usvips_statement")
+                        undone = True
+                elif first and failed and not ending:
+                    with _quietly():  # nothing else in the transaction: undone whole, begun again next
+                        self.raw.execute("ROLLBACK")
+                        self._starting = starting
+                        undone = True
+                if later and not undone and isinstance(error, psycopg.IntegrityError | pg_errors.RaiseException):
+                    # a held write refused (a read cannot be): the whole transaction fails
+                    raise ProjectError(f"{self.where}: cannot write the project: {_one_line(error)} "
+                                       "(nothing was changed)") from None
+                raise
 
         try:
             return self._afresh(attempt, bool(starting) or (reads and not self.in_transaction and not later))
@@ -454,10 +456,78 @@ class PostgresBackend(Backend):
         except psycopg.Error as error:
             raise self._error(error) from None
 
+    def _in_one_string(self, starting: Sequence[str], later: Sequence[Statement], guarded: bool,
+                       statements: Sequence[Statement], ending: Sequence[str]) -> list[Result]:
+        """A few statements (an edit's) as ONE string of statements, their values written into it as literals
+        by psycopg's own quoting (never by hand), in one round trip of PostgreSQL's simple protocol: the client
+        pays for one statement, where a pipeline costs it per statement. In order: the transaction's start,
+        held writes, a savepoint, ``statements``, then ``ending``; a failing one stops the rest."""
+        literal = Transformer.from_context(self.raw).as_literal
+        encoding = self.raw.info.encoding
+        texts: list[bytes] = [sql.encode(encoding) for sql in starting]
+
+        def add(statement: Statement) -> int:
+            rows = statement.parameters if statement.many else (statement.parameters,)
+            template = _template(statement.sql, encoding)
+            texts.extend(template % tuple(b"NULL" if value is None else literal(value) for value in row)
+                         for row in rows)
+            return len(rows)
+
+        for statement in later:
+            add(statement)
+        if guarded:
+            texts.append(b"SAVEPOINT usvips_statement")
+        spans = []
+        for statement in statements:
+            spans.append((len(texts), add(statement)))
+        if guarded:
+            texts.append(b"RELEASE SAVEPOINT usvips_statement")
+        texts += [sql.encode(encoding) for sql in ending]
+        with self.raw.cursor() as cursor:  # (no parameters: PostgreSQL's simple protocol, several statements)
+            cursor.execute(b"; ".join(texts))
+            answers: dict[int, Result] = {}
+            wanted = {index for index, count in spans if count}
+            for index in range(len(texts)):
+                if index in wanted:
+                    answers[index] = _result(cursor)
+                elif index > max(wanted, default=-1):
+                    break
+                cursor.nextset()
+        return [answers[index] if count == 1 and not statement.many else Result([], count)
+                for (index, count), statement in zip(spans, statements, strict=True)]
+
+    def _in_pipeline(self, starting: Sequence[str], later: Sequence[Statement], guarded: bool,
+                     statements: Sequence[Statement], ending: Sequence[str]) -> list[Result]:
+        """Many statements (an import's rows) sent at once and answered at once (psycopg's pipeline mode:
+        one round trip), each prepared on the server once it is used often (psycopg's automatic prepare);
+        the ones whose results nobody reads (the start, held writes, savepoints, the commit) share a cursor."""
+        unread = self.raw.cursor()
+        cursors = [self.raw.cursor() for _ in statements]
+        try:
+            with self.raw.pipeline():
+                for sql in starting:
+                    unread.execute(sql)
+                for statement in later:
+                    self._run(unread, statement)
+                if guarded:
+                    unread.execute("SAVEPOINT usvips_statement")
+                for cursor, statement in zip(cursors, statements, strict=True):
+                    self._run(cursor, statement)
+                if guarded:
+                    unread.execute("RELEASE SAVEPOINT usvips_statement")
+                for sql in ending:
+                    unread.execute(sql)
+            return [_result(cursor) for cursor in cursors]
+        finally:
+            for cursor in (unread, *cursors):
+                cursor.close()
+
     @staticmethod
     def _run(cursor: psycopg.Cursor, statement: Statement) -> None:
         if not statement.many:
             cursor.execute(_placeholders(statement.sql), statement.parameters)
+        elif len(statement.parameters) == 1:  # (psycopg's executemany costs more than one execute)
+            cursor.execute(_placeholders(statement.sql), statement.parameters[0])
         elif statement.parameters:
             cursor.executemany(_placeholders(statement.sql), statement.parameters)
 
