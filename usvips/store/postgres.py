@@ -59,9 +59,10 @@ LOCK_WAIT_S = 2.0
 #: network gone): one series per action; when all fail the action is refused ("the server is unreachable")
 #: and the next action tries again
 RECONNECT_WAITS_S = (0.0, 0.25, 0.5, 1.0, 2.0)
-#: up to this many statements (a ``many`` statement counts its rows) go as one string of statements; more, as a
-#: pipeline of prepared statements (:meth:`PostgresBackend._in_one_string`, ``_in_pipeline``)
-ONE_STRING_ROWS = 64
+#: statements with more values than this (a read of many ids), or beyond this many prepared on a connection, are
+#: sent with their values in place and not prepared (what a connection keeps on the server stays bounded)
+PREPARED_VALUES = 64
+PREPARED_STATEMENTS = 256
 WRITE_LOCK = 0x55535649  # "USVI": the advisory lock key of a survey's writers (per database)
 CONNECT_TIMEOUT_S = 5
 
@@ -145,6 +146,9 @@ def _connect(url: str, read_only: bool) -> psycopg.Connection:
         connection = psycopg.connect(autocommit=True, connect_timeout=CONNECT_TIMEOUT_S, **parameters)
     except psycopg.Error as error:
         raise _not_connected(url, error, connection_problem(error, url)) from None
+    # the backend prepares its statements itself (PostgresBackend._in_one_string); psycopg's own would be
+    # deallocated — with the backend's — after every ROLLBACK ("DEALLOCATE ALL")
+    connection.prepare_threshold = None
     try:
         if read_only:
             connection.execute("SET default_transaction_read_only = on")
@@ -276,10 +280,16 @@ def _placeholders(sql: str) -> str:
     return sql.replace("%", "%%").replace("?", "%s")
 
 
-@lru_cache(maxsize=1024)
+@lru_cache(maxsize=256)
 def _template(sql: str, encoding: str) -> bytes:
     """A statement (``?`` placeholders) as a template its values' literals are put into with ``%``."""
     return sql.replace("%", "%%").replace("?", "%s").encode(encoding)
+
+
+def _numbered(sql: str, encoding: str) -> bytes:
+    """A statement's ``?`` placeholders as a prepared statement's ``$1``, ``$2`` …"""
+    parts = sql.split("?")
+    return "".join(part + (f"${k + 1}" if k < len(parts) - 1 else "") for k, part in enumerate(parts)).encode(encoding)
 
 
 class PostgresBackend(Backend):
@@ -312,6 +322,10 @@ class PostgresBackend(Backend):
         self._starting: tuple[str, ...] | None = None
         #: writes held until the next statement or the commit (:meth:`write_later`)
         self._later: list[Statement] = []
+        #: the statements prepared on the connection ``_prepared_on`` (SQL → name), and how many names were given
+        self._prepared: dict[str, bytes] = {}
+        self._prepared_on: psycopg.Connection | None = None
+        self._names = 0
 
     # ------------------------------------------------------------------------ the connection
     def _alive(self) -> bool:
@@ -383,7 +397,7 @@ class PostgresBackend(Backend):
         return self._send([Statement(sql, rows, many=True)])[0]
 
     def batch(self, statements: Sequence[Statement]) -> list[Result]:
-        """The statements sent together in one round trip (psycopg's pipeline mode); inside a transaction
+        """The statements sent together in one round trip (:meth:`_in_one_string`); inside a transaction
         within one savepoint — SAVEPOINT, each statement, RELEASE — so that a failing one undoes the batch
         alone."""
         return self._send(statements)
@@ -420,14 +434,8 @@ class PostgresBackend(Backend):
         guarded = (bool(starting) or self.in_transaction) and not reads and not first
 
         def attempt() -> list[Result]:
-            if not starting and not later and not guarded and not ending and len(statements) == 1:
-                with self.raw.cursor() as cursor:  # one plain statement
-                    self._run(cursor, statements[0])
-                    return [_result(cursor)]
             try:
-                if sum(len(s.parameters) if s.many else 1 for s in (*later, *statements)) <= ONE_STRING_ROWS:
-                    return self._in_one_string(starting, later, guarded, statements, ending)
-                return self._in_pipeline(starting, later, guarded, statements, ending)
+                return self._in_one_string(starting, later, guarded, statements, ending)
             except psycopg.Error as error:
                 undone = False
                 failed = self._alive() and self.raw.info.transaction_status == TransactionStatus.INERROR
@@ -458,19 +466,38 @@ class PostgresBackend(Backend):
 
     def _in_one_string(self, starting: Sequence[str], later: Sequence[Statement], guarded: bool,
                        statements: Sequence[Statement], ending: Sequence[str]) -> list[Result]:
-        """A few statements (an edit's) as ONE string of statements, their values written into it as literals
-        by psycopg's own quoting (never by hand), in one round trip of PostgreSQL's simple protocol: the client
-        pays for one statement, where a pipeline costs it per statement. In order: the transaction's start,
-        held writes, a savepoint, ``statements``, then ``ending``; a failing one stops the rest."""
+        """Statements as ONE string of statements in one round trip of PostgreSQL's simple protocol: the client
+        pays for one statement (psycopg's pipeline costs it ~20 µs a statement and ~120 µs a round trip). Each statement
+        with values is prepared on the server once per connection (``PREPARE``, after the transaction's start
+        in the string that first uses it) and run as ``EXECUTE name (values …)``, its values written as literals by
+        psycopg's own quoting (never by hand): the server parses and plans it once, not on every edit. In
+        order: the transaction's start, held writes, a savepoint, ``statements``, then ``ending``; a failing
+        one stops the rest (a statement prepared then is not counted as prepared: a later use prepares it
+        again under a new name). Statements of many values (:data:`PREPARED_VALUES`) and any beyond
+        :data:`PREPARED_STATEMENTS` are sent with their values in place, unprepared."""
+        if self._prepared_on is not self.raw:  # a new connection knows none of them
+            self._prepared, self._prepared_on = {}, self.raw
         literal = Transformer.from_context(self.raw).as_literal
         encoding = self.raw.info.encoding
-        texts: list[bytes] = [sql.encode(encoding) for sql in starting]
+        preparing: dict[str, bytes] = {}
+        texts: list[bytes] = []
 
         def add(statement: Statement) -> int:
             rows = statement.parameters if statement.many else (statement.parameters,)
-            template = _template(statement.sql, encoding)
-            texts.extend(template % tuple(b"NULL" if value is None else literal(value) for value in row)
-                         for row in rows)
+            if not rows or not len(rows[0]):
+                texts.extend([statement.sql.encode(encoding)] * len(rows))
+                return len(rows)
+            name = self._prepared.get(statement.sql) or preparing.get(statement.sql)
+            if name is None and (len(rows[0]) > PREPARED_VALUES or len(self._prepared) >= PREPARED_STATEMENTS):
+                template = _template(statement.sql, encoding)  # (one of many shapes: parsed each time)
+                texts.extend(template % tuple(b"NULL" if value is None else literal(value) for value in row)
+                             for row in rows)
+                return len(rows)
+            if name is None:
+                self._names += 1
+                name = preparing[statement.sql] = f"usvips_{self._names}".encode()
+            texts.extend(b"EXECUTE " + name + b" (" + b", ".join(b"NULL" if value is None else literal(value)
+                                                              for value in row) + b")" for row in rows)
             return len(rows)
 
         for statement in later:
@@ -483,8 +510,14 @@ class PostgresBackend(Backend):
         if guarded:
             texts.append(b"RELEASE SAVEPOINT usvips_statement")
         texts += [sql.encode(encoding) for sql in ending]
+        # the start first (a transaction's isolation is set before any statement), then what is prepared
+        head = [sql.encode(encoding) for sql in starting] + [
+            b"PREPARE " + name + b" AS " + _numbered(sql, encoding) for sql, name in preparing.items()]
         with self.raw.cursor() as cursor:  # (no parameters: PostgreSQL's simple protocol, several statements)
-            cursor.execute(b"; ".join(texts))
+            cursor.execute(b"; ".join(head + texts))
+            self._prepared.update(preparing)
+            for _ in head:
+                cursor.nextset()
             answers: dict[int, Result] = {}
             wanted = {index for index, count in spans if count}
             for index in range(len(texts)):
@@ -495,41 +528,6 @@ class PostgresBackend(Backend):
                 cursor.nextset()
         return [answers[index] if count == 1 and not statement.many else Result([], count)
                 for (index, count), statement in zip(spans, statements, strict=True)]
-
-    def _in_pipeline(self, starting: Sequence[str], later: Sequence[Statement], guarded: bool,
-                     statements: Sequence[Statement], ending: Sequence[str]) -> list[Result]:
-        """Many statements (an import's rows) sent at once and answered at once (psycopg's pipeline mode:
-        one round trip), each prepared on the server once it is used often (psycopg's automatic prepare);
-        the ones whose results nobody reads (the start, held writes, savepoints, the commit) share a cursor."""
-        unread = self.raw.cursor()
-        cursors = [self.raw.cursor() for _ in statements]
-        try:
-            with self.raw.pipeline():
-                for sql in starting:
-                    unread.execute(sql)
-                for statement in later:
-                    self._run(unread, statement)
-                if guarded:
-                    unread.execute("SAVEPOINT usvips_statement")
-                for cursor, statement in zip(cursors, statements, strict=True):
-                    self._run(cursor, statement)
-                if guarded:
-                    unread.execute("RELEASE SAVEPOINT usvips_statement")
-                for sql in ending:
-                    unread.execute(sql)
-            return [_result(cursor) for cursor in cursors]
-        finally:
-            for cursor in (unread, *cursors):
-                cursor.close()
-
-    @staticmethod
-    def _run(cursor: psycopg.Cursor, statement: Statement) -> None:
-        if not statement.many:
-            cursor.execute(_placeholders(statement.sql), statement.parameters)
-        elif len(statement.parameters) == 1:  # (psycopg's executemany costs more than one execute)
-            cursor.execute(_placeholders(statement.sql), statement.parameters[0])
-        elif statement.parameters:
-            cursor.executemany(_placeholders(statement.sql), statement.parameters)
 
     # ------------------------------------------------------------------------ transactions
     def begin(self, write: bool) -> None:
