@@ -15,7 +15,8 @@ Several annotators work on one survey at once, each with their own connection:
 How: this module is the PostgreSQL backend (:class:`PostgresBackend`), a sibling of the SQLite file's
 (:mod:`usvips.store.project`) under the one set of survey rules (:class:`~usvips.store.survey.Survey`).
 The rules' SQL is written once in the dialect both share (``ON CONFLICT``, ``RETURNING``); the backend's only
-translation is the placeholder (``?`` → ``%s``), and psycopg's errors become the store's own
+translation is the placeholder (``?`` → ``$n`` of a statement it prepares: :meth:`PostgresBackend._in_one_string`),
+and psycopg's errors become the store's own
 (:class:`~usvips.store.backend.BackendError`, ``ConstraintError``, ``ServerUnreachableError``) here. No ORM:
 the statements are few and portable; an ORM would add a second description of the schema, a dependency and
 a layer between the contract suite and the SQL it checks, and buy nothing here.
@@ -271,13 +272,6 @@ def _result(cursor: psycopg.Cursor) -> Result:
         return Result([], max(cursor.rowcount, 0))
     # (the names straight from the result: psycopg's ``description`` builds an object per column)
     return Result(cursor.fetchall(), cursor.rowcount, tuple(result.fname(i).decode() for i in range(result.nfields)))
-
-
-@lru_cache(maxsize=1024)
-def _placeholders(sql: str) -> str:
-    """The one difference of the shared dialect: ``?`` placeholders are psycopg's ``%s`` (and a literal
-    ``%`` is doubled). Nothing else of a statement is rewritten."""
-    return sql.replace("%", "%%").replace("?", "%s")
 
 
 @lru_cache(maxsize=256)
