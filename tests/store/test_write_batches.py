@@ -93,3 +93,48 @@ def test_a_fish_on_a_server_is_three_round_trips(new_database, monkeypatch):
         assert exchanges == [["UPDATE"], ["SELECT"], ["COMMIT"]], exchanges
         assert survey.record(object_id).genus == "Pagrus" and len(survey.object(object_id).vertices) == 2
         assert [h.change for h in survey.history(object_id)] == ["add", "record"]
+
+
+def test_an_edit_of_a_fish_on_a_server_is_three_round_trips(new_database, monkeypatch):
+    """Issue 34: an edit of a fish on a server — kind, attribute, notes and its vertices re-picked on a pair, the
+    fish accepted before (so it goes back to unreviewed) — in 3 round trips (it was ~15): what the edit reads
+    (the object, its vertices' stamps, its review, the pair), then the held writes with the object read back as
+    changed, then the history rows with the commit. And what was written is what reads back."""
+    from usvips.store.postgres import PostgresBackend, ServerProject
+
+    rng = np.random.default_rng(11)
+    exchanges = []
+    send, commit = PostgresBackend._send, PostgresBackend.commit
+
+    def counted_send(self, statements, ending=()):
+        exchanges.append([s.sql.split()[0] for s in statements] + list(ending))
+        return send(self, statements, ending)
+
+    def counted_commit(self):
+        if not self._later and self._starting is None:
+            exchanges.append(["COMMIT"])
+        return commit(self)
+
+    with ServerProject.create(new_database("edit_round_trips")) as survey:
+        survey.add_pair("p1")
+        object_id = survey.add_object("length", _fish(rng), "before")
+        survey.set_review(object_id, "accepted")
+        modified = survey.object(object_id).modified
+        picked = [dataclasses.replace(v, pair="p1") for v in _fish(rng)] + [
+            dataclasses.replace(_fish(rng)[0], pair="p1")]
+        monkeypatch.setattr(PostgresBackend, "_send", counted_send)
+        monkeypatch.setattr(PostgresBackend, "commit", counted_commit)
+        survey.update_object(object_id, attribute="snapper", notes="re-picked", vertices=picked, kind="arc",
+                             expected_modified=modified)
+        monkeypatch.undo()
+        assert len(exchanges) == 3 and exchanges[-1][-1] == "COMMIT", exchanges
+        stored = survey.object(object_id)
+        assert (stored.kind, stored.attribute, stored.notes) == ("arc", "snapper", "re-picked")
+        assert [(v.xl, v.yl, v.xr, v.yr, v.pair) for v in stored.vertices] == \
+            [(v.xl, v.yl, v.xr, v.yr, "p1") for v in picked]
+        assert stored.modified > modified and survey.review(object_id).state == "unreviewed"
+        changes = survey.history(object_id)
+        assert [h.change for h in changes] == ["add", "review", "re-pick", "review"]
+        assert changes[2].new["attribute"] == "snapper" and len(changes[2].new["vertices"]) == 3
+        assert changes[3].new == {"state": "unreviewed", "reason": "edited after review"}
+        assert len(survey.vertex_history(object_id)) == 2  # the two 3-D values replaced

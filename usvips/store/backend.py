@@ -91,8 +91,8 @@ class Backend(ABC):
         """Several statements, in order, inside the transaction in progress: all of them or — when one fails —
         none (the batch is undone alone, as a failing statement is); each one's :class:`Result` (a ``many``
         statement's holds no rows). A backend whose round trips cost (a server) sends them at once; this one
-        runs them in turn within a savepoint."""
-        if not self.in_transaction or len(statements) < 2:
+        runs them in turn within a savepoint (reads alone need none: they change nothing to undo)."""
+        if not self.in_transaction or len(statements) < 2 or all(_reads(s) for s in statements):
             return [self._one(statement) for statement in statements]
         self.execute("SAVEPOINT usvips_batch")
         try:
@@ -152,6 +152,11 @@ class Backend(ABC):
 
     @abstractmethod
     def close(self) -> None: ...
+
+
+def _reads(statement: Statement) -> bool:
+    """Whether a statement only reads (a SELECT)."""
+    return not statement.many and statement.sql.lstrip()[:6].upper() == "SELECT"
 
 
 @lru_cache(maxsize=128)

@@ -573,12 +573,6 @@ class Survey:
                                "of USVIPS for writing once, so that it is brought up to date")
         return int(row[0])
 
-    def _insert_vertices(self, object_id: int, vertices: list[Vertex], now: str,
-                         kept: dict[tuple, tuple[str, str]] | None = None) -> None:
-        """The object's vertex rows (and their frames on a video), as :meth:`_vertex_rows` makes them."""
-        rows, frames = self._vertex_rows(object_id, vertices, now, kept)
-        self._db.batch([Statement(INSERT_VERTEX, rows, many=True), Statement(INSERT_VERTEX_FRAMES, frames, many=True)])
-
     def _vertex_rows(self, object_id: int, vertices: list[Vertex], now: str,
                      kept: dict[tuple, tuple[str, str]] | None = None,
                      known: dict[tuple[str, str], int] | None = None) -> tuple[list[tuple], list[tuple]]:
@@ -700,15 +694,6 @@ class Survey:
         return Provenance((stored.creator, stored.created, stored.modified), vertices,
                           None if record is None else tuple(record))
 
-    def _vertex_stamps(self, object_id: int) -> dict[tuple, tuple[str, str]]:
-        """(index, picks …) → (creator, created) of the object's stored vertices."""
-        stamps = {}
-        for stored, row in zip(self.object(object_id).vertices, self._db.execute(
-                "SELECT creator, created FROM vertices WHERE object_id = ? ORDER BY idx", (object_id,)).fetchall(),
-                strict=True):
-            stamps[(len(stamps), *_pick_key(stored))] = (row[0], row[1])
-        return stamps
-
     def _full_state(self, object_id: int) -> dict:
         """An object as the history shows it: kind, attribute, notes, vertices, observation record."""
         stored = self.object(object_id)
@@ -744,16 +729,12 @@ class Survey:
             self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (now, object_id))
             self._log(object_id, "review", _review_state(old), _review_state(self.review(object_id)))
 
-    def _edited_after_review(self, object_id: int) -> None:
-        """Inside the caller's transaction (an edit of what a review looked at: :data:`REVIEWED_FIELDS`, the
-        observation record): an accepted object goes back to unreviewed, and the history gains a 'review'
-        row by the editor, accepted → unreviewed with the reason :data:`EDITED_AFTER_REVIEW`. A flagged
-        object stays flagged (its reason still stands until a reviewer looks again)."""
-        self._db.batch(self._unaccepted(object_id, self.review(object_id)))
-
     def _unaccepted(self, object_id: int, old: Review) -> list[Statement]:
-        """What :meth:`_edited_after_review` writes for an object whose review is ``old`` (nothing unless it
-        was accepted)."""
+        """Inside the caller's transaction, after an edit of what a review looked at (:data:`REVIEWED_FIELDS`, the
+        observation record) of an object whose review is ``old``: an accepted object goes back to unreviewed, and
+        the history gains a 'review' row by the editor, accepted → unreviewed with the reason
+        :data:`EDITED_AFTER_REVIEW`; the statements that write it. A flagged object stays flagged (its reason
+        still stands until a reviewer looks again): nothing."""
         if old.state != "accepted":
             return []
         return [Statement("DELETE FROM reviews WHERE object_id = ?", (object_id,)),
@@ -792,40 +773,81 @@ class Survey:
         registered measurement kind that suits the (new) vertex count. ``expected_modified``: see
         :meth:`ProjectStore.update_object` (a stale edit is refused). An accepted object whose kind,
         attribute or vertices changed goes back to unreviewed in the same transaction (a second history
-        row, 'review', see :meth:`_edited_after_review`); notes alone do not."""
+        row, 'review', see :meth:`_unaccepted`); notes alone do not.
+
+        Few round trips on a server: what the edit needs is read at once (the object, its vertices' stamps,
+        its review, the pairs and videos the new vertices name), the writes are held and go with the
+        re-read of the object as changed, and its history rows with the commit."""
         with self.transaction():
-            stored = self.object(object_id)
+            stored, kept, review, known = self._edit_reads(object_id, vertices)
             self._refuse_stale(stored, expected_modified)
             before = _object_state(stored.kind, stored.attribute, stored.notes, list(stored.vertices))
-            kept = self._vertex_stamps(object_id) if vertices is not None else None
             if kind is not None:
                 count = len(vertices) if vertices is not None else len(stored.vertices)
                 try:
                     kind = checks.kind_for_count(kind, count)
                 except UsvipsError as error:
                     raise ProjectError(f"{self.path}: object {object_id}: {error}") from None
-                self._db.execute("UPDATE objects SET kind = ? WHERE id = ?", (kind, object_id))
-            if attribute is not None:
-                self._db.execute("UPDATE objects SET attribute = ? WHERE id = ?", (attribute, object_id))
-            if notes is not None:
-                self._db.execute("UPDATE objects SET notes = ? WHERE id = ?", (notes, object_id))
+            changes = [(name, value) for name, value in (("kind", kind), ("attribute", attribute), ("notes", notes))
+                       if value is not None] + [("modified", _later(stored.modified))]
+            writes = [Statement(f"UPDATE objects SET {', '.join(f'{name} = ?' for name, _ in changes)} WHERE id = ?",
+                                (*(value for _, value in changes), object_id))]
             if vertices is not None:
-                self._db.execute("INSERT INTO vertex_history (object_id, idx, x, y, z, covariance, calibration_id, "
-                                 "replaced) SELECT object_id, idx, x, y, z, covariance, calibration_id, ? "
-                                 "FROM vertices WHERE object_id = ? AND x IS NOT NULL", (_now(), object_id))
-                self._db.execute("DELETE FROM vertices WHERE object_id = ?", (object_id,))
                 vertices = [_kept_pointing(v, stored.vertices[i]) if i < len(stored.vertices) else v
                             for i, v in enumerate(vertices)]
-                self._insert_vertices(object_id, vertices, _now(), kept)
-            self._db.execute("UPDATE objects SET modified = ? WHERE id = ?", (_later(stored.modified), object_id))
+                rows, frames = self._vertex_rows(object_id, vertices, _now(), kept, known)
+                writes += [Statement("INSERT INTO vertex_history (object_id, idx, x, y, z, covariance, calibration_id, "
+                                     "replaced) SELECT object_id, idx, x, y, z, covariance, calibration_id, ? "
+                                     "FROM vertices WHERE object_id = ? AND x IS NOT NULL", (_now(), object_id)),
+                           Statement("DELETE FROM vertices WHERE object_id = ?", (object_id,)),
+                           Statement(INSERT_VERTEX, rows, many=True),
+                           Statement(INSERT_VERTEX_FRAMES, frames, many=True)]
+            self._db.write_later(writes)
             changed = self.object(object_id)
             after = _object_state(changed.kind, changed.attribute, changed.notes, list(changed.vertices))
             given = [name for name, value in (("kind", kind), ("attribute", attribute), ("notes", notes),
                                               ("vertices", vertices)) if value is not None]
-            self._log(object_id, "re-pick" if vertices is not None else "edit",
-                      {name: before[name] for name in given}, {name: after[name] for name in given})
+            history = [Statement(INSERT_HISTORY, self._history_row(
+                object_id, "re-pick" if vertices is not None else "edit", {name: before[name] for name in given},
+                {name: after[name] for name in given}))]
             if any(before[name] != after[name] for name in given if name in REVIEWED_FIELDS):
-                self._edited_after_review(object_id)
+                history += self._unaccepted(object_id, review)
+            self._db.write_later(history)
+
+    def _edit_reads(self, object_id: int, vertices: list[Vertex] | None
+                    ) -> tuple[StoredObject, dict[tuple, tuple[str, str]] | None, Review, dict[tuple[str, str], int]]:
+        """What :meth:`update_object` reads before it writes, in one batch (one round trip on a server): the
+        object as stored, its vertices' stamps by pick (when ``vertices`` are given: see :meth:`_vertex_rows`),
+        its review, and the ids of the pairs and videos ``vertices`` name (by ("pair" or "video", label);
+        one that does not exist is left out, for :meth:`_vertex_rows` to refuse by name)."""
+        queries = self._object_queries("WHERE id = ?", (int(object_id),))
+        queries.append(Statement("SELECT o.id, r.state, r.reason, r.reviewer, r.reviewed FROM objects o LEFT JOIN "
+                                 "reviews r ON r.object_id = o.id WHERE o.id = ?", (int(object_id),)))
+        looked_up = []
+        if vertices is not None:
+            queries.append(Statement("SELECT creator, created FROM vertices WHERE object_id = ? ORDER BY idx",
+                                     (int(object_id),)))
+            for what, table in (("pair", "image_pairs"), ("video", "videos")):
+                labels = sorted({getattr(v, what) for v in vertices if getattr(v, what)})
+                if labels:
+                    queries.append(Statement(f"SELECT label, id FROM {table} WHERE label IN "
+                                             f"({', '.join('?' * len(labels))})", tuple(labels)))
+                    looked_up.append(what)
+        results = self._db.batch(queries)
+        count = len(queries) - len(looked_up) - (2 if vertices is not None else 1)
+        found = self._stored_objects(results[:count])
+        if not found:
+            raise ProjectError(f"{self.path}: no object {object_id}")
+        stored = found[0]
+        review_row = results[count].fetchone()
+        review = Review(int(object_id)) if review_row[1] is None else Review(int(object_id), *review_row[1:])
+        kept = None
+        if vertices is not None:
+            kept = {(i, *_pick_key(v)): (row[0], row[1])
+                    for i, (v, row) in enumerate(zip(stored.vertices, results[count + 1].fetchall(), strict=True))}
+        known = {(what, label): int(identifier) for what, result in zip(looked_up, results[count + 2:], strict=True)
+                 for label, identifier in result.fetchall()}
+        return stored, kept, review, known
 
     def delete_object(self, object_id: int, expected_modified: str | None = None) -> None:
         with self.transaction():
@@ -919,15 +941,28 @@ class Survey:
 
     def _objects(self, where: str, parameters: tuple) -> list[StoredObject]:
         with self._reading():
-            rows = self._db.execute("SELECT id, kind, attribute, notes, creator, created, modified FROM objects "
-                                    f"{where} ORDER BY id", parameters).fetchall()
-            wanted = f"WHERE v.object_id IN (SELECT id FROM objects {where})" if where else ""
-            pointing = POINTING_COLUMNS if self._has_pointing() else POINTING_BEFORE_11
-            vertex_rows = self._db.execute(
-                "SELECT v.object_id, v.xl, v.yl, v.xr, v.yr, v.x, v.y, v.z, v.covariance, v.calibration_id, "
-                f"p.label, {pointing} FROM vertices v LEFT JOIN image_pairs p ON p.id = v.pair_id {wanted} "
-                "ORDER BY v.object_id, v.idx", parameters).fetchall()
-            frame_rows = self._vertex_frame_rows(where, parameters)
+            return self._stored_objects(self._db.batch(self._object_queries(where, parameters)))
+
+    def _object_queries(self, where: str, parameters: tuple) -> list[Statement]:
+        """The reads of the objects ``where`` selects (their rows, vertices and — on a video — frames), for
+        one :meth:`Backend.batch` (one round trip on a server); :meth:`_stored_objects` makes the objects."""
+        wanted = f"WHERE v.object_id IN (SELECT id FROM objects {where})" if where else ""
+        pointing = POINTING_COLUMNS if self._has_pointing() else POINTING_BEFORE_11
+        queries = [Statement("SELECT id, kind, attribute, notes, creator, created, modified FROM objects "
+                             f"{where} ORDER BY id", parameters),
+                   Statement("SELECT v.object_id, v.xl, v.yl, v.xr, v.yr, v.x, v.y, v.z, v.covariance, "
+                             f"v.calibration_id, p.label, {pointing} FROM vertices v LEFT JOIN image_pairs p "
+                             f"ON p.id = v.pair_id {wanted} ORDER BY v.object_id, v.idx", parameters)]
+        if self._has_table("vertex_frames"):  # (none in a project older than schema 4, opened read-only)
+            frames = f"WHERE f.object_id IN (SELECT id FROM objects {where})" if where else ""
+            queries.append(Statement("SELECT f.object_id, f.idx, v.label, f.frame_left, f.frame_right, f.time_s "
+                                     f"FROM vertex_frames f JOIN videos v ON v.id = f.video_id {frames}", parameters))
+        return queries
+
+    def _stored_objects(self, results: Sequence[Result]) -> list[StoredObject]:
+        """The objects read by the results of :meth:`_object_queries` (the rows, vertices and frames)."""
+        rows, vertex_rows = results[0].fetchall(), results[1].fetchall()
+        frame_rows = results[2].fetchall() if len(results) > 2 else []
         frames = {(r[0], r[1]): dict(zip(("video", "frame_left", "frame_right", "time_s"), r[2:], strict=True))
                   for r in frame_rows}
         covariances = self._covariances(vertex_rows)
@@ -1363,16 +1398,6 @@ class Survey:
         return [tuple(r) for r in self._db.execute("SELECT name, start_frame, end_frame FROM periods WHERE "
                                                    "video_id = ? ORDER BY start_frame, id", (row[0],))]
 
-    def _vertex_frame_rows(self, where: str, parameters: tuple) -> list[tuple]:
-        """(object id, vertex index, video label, left frame, right frame, time s) of the vertices measured
-        on a video; none in a project older than schema 4 (opened read-only, it is not migrated)."""
-        if not self._has_table("vertex_frames"):
-            return []
-        wanted = f"WHERE f.object_id IN (SELECT id FROM objects {where})" if where else ""
-        return self._db.execute("SELECT f.object_id, f.idx, v.label, f.frame_left, f.frame_right, f.time_s "
-                                f"FROM vertex_frames f JOIN videos v ON v.id = f.video_id {wanted}",
-                                parameters).fetchall()
-
     # ---------------------------------------------------------------------------- species and records
     def set_species_list(self, species: list[Species], expected: object = UNREAD) -> None:
         """Replace the project's species list (one transaction); ``expected``: the list as read."""
@@ -1399,7 +1424,7 @@ class Survey:
         """Store (or with None remove) an object's observation record, stamped with this handle's annotator
         and the time; the object's ``modified`` stamp moves forward and the history keeps the record before
         and after; an accepted object whose record changed goes back to unreviewed (a second 'review' row,
-        see :meth:`_edited_after_review`). One transaction."""
+        see :meth:`_unaccepted`). One transaction."""
         with self.transaction():
             # what the write needs to know, by one query: the object's version, its record and its review
             found = self._db.execute(
