@@ -121,9 +121,9 @@ def test_detect_on_a_rendered_video_stores_each_fish_once_with_its_frames_as_ins
         calibration = StereoCalibration.from_cameras(stereo.left, stereo.right, "water", 0.05)
         opened.add_calibration("cal", calibration_to_dict(calibration), ("drop",))
 
-    # the model's keypoints are the truth: refining the right ones along the curve is tested elsewhere (on this
-    # rendered fish it moved a few exact keypoints off by matching, and the links it spoiled were refused)
-    assert main(["detect", str(project), "--video", "drop", "--model", str(description), "--no-refine"]) == 0
+    # refined along the curve, as the window does: the model's keypoints are the truth, and the matches that
+    # would move them beyond 3√2 x their 0.5 px sigma are refused (taken, they spoil the links; fails without)
+    assert main(["detect", str(project), "--video", "drop", "--model", str(description)]) == 0
     out = capsys.readouterr().out
     assert out.count("instant of object") == 2 * (FRAMES - 1)
     assert f"2 fish seen on several frames joined into objects with {2 * (FRAMES - 1)} further instant(s)" in out

@@ -224,7 +224,10 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
         4 * math.sqrt(2) * max(sigmas.values()) if sigmas else DEFAULT_GATE_PX)
     pairing = pair_detections(found_left, found_right, rig, gate_px=gate, keypoints=KEYPOINTS)
     if refine:
-        results = refine_pairs(left, right, pairing.pairs, rig, KEYPOINTS, radius_px=max(2 * gate, 8.0))
+        # a move beyond 3√2 σ is not one the keypoints' own errors explain: a wrong match (refine's docstring)
+        limits = {name: 3 * math.sqrt(2) * sigma for name, sigma in sigmas.items()} if sigmas else None
+        results = refine_pairs(left, right, pairing.pairs, rig, KEYPOINTS, radius_px=max(2 * gate, 8.0),
+                               max_shift_px=limits)
         pairs = [result.pair for result in results]
         refined = [sum(k.refined for k in result.keypoints) for result in results]
     else:

@@ -88,3 +88,34 @@ def test_a_refused_match_keeps_the_models_point_and_says_why():
     assert step.reason
     far_off = refine_keypoint(blank, blank, stereo, left, Keypoint("snout", 150.0, 20.0, 0.9), radius_px=5.0)
     assert not far_off.refined and "passes no closer" in far_off.reason
+
+
+@pytest.mark.parametrize("housing", ["flat-port", "dome-cover"])
+def test_a_move_beyond_the_keypoints_own_errors_is_not_taken(housing):
+    """The TRUE keypoints (a model of 0.5 px sigma): unlimited, refinement moves some by several pixels (the
+    patch at a snout or fork is half background with its own disparity) and the 3-D keypoints go wrong by
+    that much; limited to 3√2 sigma, the moves beyond are refused with the reason, the model's point kept,
+    and the 3-D error is no larger than without the limit."""
+    rng = np.random.default_rng(70 + len(housing))
+    stereo = rig(housing)
+    limit = 3 * np.sqrt(2) * 0.5
+    unlimited_error, limited_error, refused, largest = [], [], 0, 0.0
+    for _ in range(8):
+        fish, (left_image, right_image), left_true, right_true = scene(rng, stereo)
+        pair = StereoPair(detection(left_true), detection(right_true), 0, 0, 0.0)
+        truth = np.array([fish.snout, fish.fork])
+        for limits, errors in ((None, unlimited_error), ({"snout": limit, "fork": limit}, limited_error)):
+            result = refine_pair(left_image, right_image, pair, stereo, window=15, radius_px=16.0,
+                                 max_shift_px=limits)
+            moved = np.array([result.pair.right.keypoint(n).pixel for n in ("snout", "fork")])
+            points = intersect([stereo.left, stereo.right], [left_true, moved], 0.5).points
+            errors.extend(np.linalg.norm(points - truth, axis=1))
+            if limits is None:
+                largest = max([largest, *(k.shift_px for k in result.keypoints)])
+            else:
+                assert all(k.shift_px <= limit for k in result.keypoints)
+                gone = [k for k in result.keypoints if k.reason.startswith("the match would move it")]
+                refused += len(gone)
+                assert all(k.after == k.before and k.score is not None for k in gone)
+    assert largest > limit and refused >= 1  # the wrong moves exist, and the limit refuses them
+    assert np.mean(limited_error) <= np.mean(unlimited_error) and np.max(limited_error) <= np.max(unlimited_error)

@@ -16,7 +16,8 @@ the true keypoints of rendered fish (``tests/core/detection/test_refine.py``'s s
 per housing) refinement moves them by a median of 0.4-1.7 px, 1.8-5 px at the 90th percentile and up to
 9-16 px. A pair's length is measured with the model's measured sigma in BOTH images, as if independent
 (:func:`usvips.core.detection.stereo.measure_pairs`): that covers a match error up to about the square root
-of two times the model's sigma, not the rare larger ones. A match the matcher refuses (ambiguous,
+of two times the model's sigma; a larger move is refused when ``max_shift_px`` is given (the detection
+service gives 3√2 × the model's measured sigma). A match the matcher refuses (ambiguous,
 textureless, a low correlation) leaves the model's right keypoint as it was, and says why.
 
 Pixels: x right, y down, origin at the centre of the top-left pixel.
@@ -24,7 +25,7 @@ Pixels: x right, y down, origin at the centre of the top-left pixel.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -79,12 +80,15 @@ CURVE_SAMPLES = 400
 
 def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: StereoRig, left: Keypoint,
                     right: Keypoint, window: int = 15, radius_px: float = 12.0, near: float = 0.3,
-                    far: float = 10.0, min_score: float = 0.6, curve: EpipolarCurve | None = None
-                    ) -> KeypointRefinement:
+                    far: float = 10.0, min_score: float = 0.6, curve: EpipolarCurve | None = None,
+                    max_shift_px: float | None = None) -> KeypointRefinement:
     """The right keypoint moved to the match of a ``window`` px patch around the left keypoint along its
     refractive epipolar curve, searched within ``radius_px`` of the model's right point (see the module
     docstring); the model's point kept, with the reason, when the matcher refuses. ``curve``: the left
-    keypoint's curve when already traced (:func:`refine_pairs` traces a frame's curves at once)."""
+    keypoint's curve when already traced (:func:`refine_pairs` traces a frame's curves at once).
+    ``max_shift_px``: a match that would move the model's point further than this is not taken (the model's
+    point kept, with the reason) — given as 3√2 × the model's measured sigma, a shift the two keypoints'
+    own errors reach in about 1 % of cases, it keeps the rare wrong matches of the module docstring out."""
     radius = validation.positive("radius_px", radius_px)
     before = (float(right.x), float(right.y))
     if curve is None:
@@ -100,15 +104,23 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     if not match:
         return KeypointRefinement(left.name, before, before, match.score if match.pixel else None,
                                   match.reason or "no match")
-    return KeypointRefinement(left.name, before, (float(match.pixel[0]), float(match.pixel[1])), float(match.score))
+    after = (float(match.pixel[0]), float(match.pixel[1]))
+    shift = float(np.hypot(after[0] - before[0], after[1] - before[1]))
+    if max_shift_px is not None and shift > max_shift_px:
+        return KeypointRefinement(left.name, before, before, float(match.score),
+                                  f"the match would move it {shift:.1f} px, more than {max_shift_px:.1f} px "
+                                  "(3√2 × the model's measured sigma): the model's point kept")
+    return KeypointRefinement(left.name, before, after, float(match.score))
 
 
 def refine_pairs(left_image: np.ndarray, right_image: np.ndarray, pairs: Sequence[StereoPair], rig: StereoRig,
                  keypoints: Sequence[str] = ("snout", "fork"), window: int = 15, radius_px: float = 12.0,
-                 near: float = 0.3, far: float = 10.0, min_score: float = 0.6) -> list[RefinedPair]:
+                 near: float = 0.3, far: float = 10.0, min_score: float = 0.6,
+                 max_shift_px: Mapping[str, float] | None = None) -> list[RefinedPair]:
     """Each of a frame's pairs with each of ``keypoints`` (those both detections give) refined in the right
     image by :func:`refine_keypoint`, every curve traced in one batch; other keypoints are left as the
-    model gave them."""
+    model gave them. ``max_shift_px``: per keypoint name, the largest move taken (see
+    :func:`refine_keypoint`); a name not in it, or None, has no limit."""
     jobs = [(i, name) for i, pair in enumerate(pairs) for name in keypoints
             if name in pair.left.keypoint_names and name in pair.right.keypoint_names]
     curves: list[EpipolarCurve] = []
@@ -121,7 +133,8 @@ def refine_pairs(left_image: np.ndarray, right_image: np.ndarray, pairs: Sequenc
     for (i, name), curve in zip(jobs, curves, strict=True):
         pair = pairs[i]
         steps[i].append(refine_keypoint(left_image, right_image, rig, pair.left.keypoint(name),
-                                        pair.right.keypoint(name), window, radius_px, near, far, min_score, curve))
+                                        pair.right.keypoint(name), window, radius_px, near, far, min_score, curve,
+                                        (max_shift_px or {}).get(name)))
     out = []
     for i, pair in enumerate(pairs):
         moved = {step.name: step.after for step in steps[i] if step.refined}
@@ -135,6 +148,8 @@ def refine_pairs(left_image: np.ndarray, right_image: np.ndarray, pairs: Sequenc
 
 def refine_pair(left_image: np.ndarray, right_image: np.ndarray, pair: StereoPair, rig: StereoRig,
                 keypoints: Sequence[str] = ("snout", "fork"), window: int = 15, radius_px: float = 12.0,
-                near: float = 0.3, far: float = 10.0, min_score: float = 0.6) -> RefinedPair:
+                near: float = 0.3, far: float = 10.0, min_score: float = 0.6,
+                max_shift_px: Mapping[str, float] | None = None) -> RefinedPair:
     """One pair refined by :func:`refine_pairs`."""
-    return refine_pairs(left_image, right_image, [pair], rig, keypoints, window, radius_px, near, far, min_score)[0]
+    return refine_pairs(left_image, right_image, [pair], rig, keypoints, window, radius_px, near, far, min_score,
+                        max_shift_px)[0]
