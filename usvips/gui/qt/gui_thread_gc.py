@@ -7,6 +7,11 @@ reference cycle), the object is destroyed in the worker: PySide then deadlocks �
 waits for that mutex to delete the object's parent (seen in the test suite, PySide6 6.11). So, as soon as
 background work starts, automatic collection is switched off and a timer on the GUI thread collects each
 generation when its threshold would have been crossed — the same thresholds, only never in a worker.
+
+CPython's own rule for the oldest generation is kept too: a full collection runs only when the objects
+promoted into it since the last full one exceed a quarter of those it held then (``long_lived_pending >
+long_lived_total / 4`` in CPython's collector). Without that rule every tenth middle collection was a full
+one: with a survey of 100,000 objects open, a scroll of the object list froze the window for 0.6 s.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ class GuiThreadCollector(QtCore.QObject):
     def __init__(self, parent: QtCore.QObject) -> None:
         super().__init__(parent)
         self.thresholds = gc.get_threshold()
+        #: objects in the oldest generation after the last full collection, and promoted into it since
+        self.long_lived_total, self.long_lived_pending = 0, 0
         self.timer = QtCore.QTimer(self)
         self.timer.setInterval(INTERVAL_MS)
         self.timer.timeout.connect(self.collect_due)
@@ -32,8 +39,9 @@ class GuiThreadCollector(QtCore.QObject):
         gc.disable()
 
     def collect_due(self) -> int:
-        """Collect the oldest generation whose count has passed its threshold (and the younger ones with it);
-        the number of unreachable objects found."""
+        """Collect the oldest generation whose count has passed its threshold (and the younger ones with it),
+        the oldest only under CPython's long-lived rule (see the module docstring); the number of unreachable
+        objects found."""
         counts = gc.get_count()
         due = -1
         for generation in range(3):
@@ -41,7 +49,19 @@ class GuiThreadCollector(QtCore.QObject):
                 due = generation
             else:
                 break
-        return gc.collect(due) if due >= 0 else 0
+        if due == 2 and self.long_lived_pending <= self.long_lived_total / 4:
+            due = 1
+        if due < 0:
+            return 0
+        if due == 2:
+            found = gc.collect(2)
+            self.long_lived_total, self.long_lived_pending = len(gc.get_objects(generation=2)), 0
+            return found
+        young = len(gc.get_objects(generation=0)) + (len(gc.get_objects(generation=1)) if due == 1 else 0)
+        found = gc.collect(due)
+        if due == 1:  # the survivors move into the oldest generation
+            self.long_lived_pending += max(young - found, 0)
+        return found
 
 
 def collect_on_the_gui_thread() -> GuiThreadCollector | None:
@@ -56,3 +76,25 @@ def collect_on_the_gui_thread() -> GuiThreadCollector | None:
     elif gc.isenabled():  # someone switched it back on (a test): keep the rule
         gc.disable()
     return collector
+
+
+def keep_long_lived() -> None:
+    """After a large read has arrived (a survey's objects, read in a worker while automatic collection is
+    off, so all still in the youngest generation): everything alive now is put out of the collector's reach
+    (``gc.freeze``), so that no later collection on the GUI thread scans it — the first ones after a read
+    of 100,000 objects took 0.2–0.45 s each. Reference counting frees frozen objects as always; cyclic
+    garbage alive at that moment waits for :func:`release_long_lived`."""
+    gc.freeze()
+    collector = collect_on_the_gui_thread()
+    if collector is not None:
+        collector.long_lived_total, collector.long_lived_pending = 0, 0
+
+
+def release_long_lived() -> None:
+    """Before another survey is read: what :func:`keep_long_lived` froze goes back to the oldest generation
+    (``gc.unfreeze``), counted as promoted there, so the long-lived rule collects it once in due course."""
+    frozen = gc.get_freeze_count()
+    gc.unfreeze()
+    collector = collect_on_the_gui_thread()
+    if collector is not None and frozen:
+        collector.long_lived_pending += frozen

@@ -29,6 +29,7 @@ from usvips.gui.pick_tool import SIDES, TOOLS, describe_point
 from usvips.gui.qt import menu_keys
 from usvips.gui.qt.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.qt.error_report import register_window
+from usvips.gui.qt.gui_thread_gc import keep_long_lived, release_long_lived
 from usvips.gui.qt.instants_view import InstantsView
 from usvips.gui.qt.jobs import Jobs
 from usvips.gui.qt.live_updates import LiveUpdates
@@ -808,6 +809,7 @@ class MainWindow(QtWidgets.QMainWindow):
         cache = ws.cache
         if not cache.loading:
             return
+        release_long_lived()  # the previous survey's objects, frozen when they arrived
         location = project_location(cache.project)
 
         def job(progress, cancelled):
@@ -827,8 +829,11 @@ class MainWindow(QtWidgets.QMainWindow):
                 if self.panels.is_built("objects"):
                     self.object_list.reading.hide()  # the views stay as the project's opening left them: empty
 
-        worker = self.run_worker(job, "reading the objects", lambda read: ws.objects_arrived(cache, read),
-                                 read_here)
+        def arrived(read: object) -> None:
+            if ws.objects_arrived(cache, read):
+                keep_long_lived()  # a survey's objects: no later collection on this thread scans them again
+
+        worker = self.run_worker(job, "reading the objects", arrived, read_here)
         worker.signals.failed.connect(read_here)
 
     def forget_pair_loading(self) -> None:
