@@ -11,7 +11,7 @@ generation when its threshold would have been crossed — the same thresholds, o
 CPython's own rule for the oldest generation is kept too: a full collection runs only when the objects
 promoted into it since the last full one exceed a quarter of those it held then (``long_lived_pending >
 long_lived_total / 4`` in CPython's collector). Without that rule every tenth middle collection was a full
-one: with a survey of 100,000 objects open, a scroll of the object list froze the window for 0.6 s.
+one, and with a survey of 100,000 objects open a full collection holds the GUI thread 0.1–0.45 s.
 """
 
 from __future__ import annotations
