@@ -171,3 +171,12 @@ def add_video(folder: Path, project, label: str = "drop", frames: int = 6, size=
         encode_video(folder / f"{label}_{side}.mkv", [np.full((size[1], size[0], 3), value, np.uint8)] * frames,
                      25.0, "ffv1")
     store_video(project, [folder / f"{label}_left.mkv"], [folder / f"{label}_right.mkv"], label)
+
+
+def make_video_project(folder: Path, label: str = "drop", frames: int = 6) -> Path:
+    """:func:`make_project` with the stereo video ``label`` (:func:`add_video`) and a calibration active for it."""
+    path = make_project(folder)
+    with Project.open(path) as project:
+        add_video(folder, project, label, frames=frames)
+        project.add_calibration("cal", calibration_to_dict(calibration()), (label,))
+    return path

@@ -5,9 +5,9 @@ figure function the window and the exports use (:mod:`usvips.app.project_figures
 normalised error near 1 against the true length, and a smaller error than one instant's."""
 
 import numpy as np
-from scipy.ndimage import map_coordinates
 
 from tests.core.scenes import HOUSINGS
+from tests.core.test_tracking import floor_seen
 from usvips.app.project_figures import evaluate, instant_measurements, measurement_input
 from usvips.app.tracking import VideoTracker, add_tracked_instants
 from usvips.app.video_project import add_video
@@ -26,7 +26,6 @@ from usvips.store.project import Vertex
 W, H, FRAMES, FPS = 320, 240, 24, 25.0
 VIDEOS, LENGTHS = 10, 6  # random videos, and lengths picked (each with its own pick noise) on each
 STEP = 4  # frames between the stored instants
-FLOOR = np.random.default_rng(5).uniform(40, 200, (300, 300))
 
 
 def _rig(rng) -> StereoRig:
@@ -50,12 +49,8 @@ def _fish(rng, seed: int) -> SwimmingFish:
 def _render(stereo: StereoRig, fish: SwimmingFish) -> list[list[np.ndarray]]:
     """Each camera's FRAMES frames (grey as RGB): the fish before a textured floor 3 m away."""
     videos = []
-    ys, xs = np.mgrid[0:H, 0:W]
     for camera in (stereo.left, stereo.right):
-        bundle = camera.rays(np.column_stack([xs.ravel(), ys.ravel()]).astype(float))
-        t = (-3.0 - bundle.origins[:, 2]) / bundle.directions[:, 2]
-        hit = bundle.origins + t[:, None] * bundle.directions
-        floor = map_coordinates(FLOOR, [(hit[:, 1] + 3.0) / 0.03, (hit[:, 0] + 3.0) / 0.03], order=3, mode="reflect")
+        bundle, floor = floor_seen(camera)
         frames = []
         for i in range(FRAMES):
             t, grey = fish.at(i / FPS).hit(bundle.origins, bundle.directions)

@@ -9,7 +9,7 @@ other frames as instants — the survey counts two fish, each length combined ov
 import numpy as np
 
 from tests.app.detection_scenes import model_table
-from tests.core.test_tracking import FLOOR, H, W, rig
+from tests.core.test_tracking import H, W, floor_seen, rig
 from usvips.app.object_instants import survey_objects
 from usvips.app.project_figures import evaluate, measurement_input
 from usvips.app.video_project import add_video
@@ -27,15 +27,9 @@ CODES = {"left": [20 + 12 * i for i in range(FRAMES)], "right": [130 + 12 * i fo
 
 def _render(stereo, fishes) -> dict[str, list[np.ndarray]]:
     """Each side's frames (grey as RGB): the fish before the textured floor, a frame code in the corner."""
-    from scipy.ndimage import map_coordinates
-
     out = {}
-    ys, xs = np.mgrid[0:H, 0:W]
     for side, camera in (("left", stereo.left), ("right", stereo.right)):
-        bundle = camera.rays(np.column_stack([xs.ravel(), ys.ravel()]).astype(float))
-        t = (-3.0 - bundle.origins[:, 2]) / bundle.directions[:, 2]
-        hit = bundle.origins + t[:, None] * bundle.directions
-        floor = map_coordinates(FLOOR, [(hit[:, 1] + 3.0) / 0.03, (hit[:, 0] + 3.0) / 0.03], order=3, mode="reflect")
+        bundle, floor = floor_seen(camera)
         frames = []
         for i in range(FRAMES):
             nearest, grey = np.full(len(floor), np.inf), floor.copy()

@@ -15,17 +15,21 @@ FPS = 25.0
 FLOOR = np.random.default_rng(5).uniform(40, 200, (300, 300))
 
 
+def floor_seen(camera, s: int = 1):
+    """The rays of ``camera``'s pixels (``s`` × ``s`` samples each, row-major) and the grey level of the
+    textured floor 3 m away (z = −3 m) that each sees."""
+    ys, xs = np.mgrid[0:camera.height * s, 0:camera.width * s]
+    bundle = camera.rays(np.column_stack([(xs.ravel() + 0.5) / s - 0.5, (ys.ravel() + 0.5) / s - 0.5]))
+    t = (-3.0 - bundle.origins[:, 2]) / bundle.directions[:, 2]
+    hit = bundle.origins + t[:, None] * bundle.directions
+    return bundle, map_coordinates(FLOOR, [(hit[:, 1] + 3.0) / 0.03, (hit[:, 0] + 3.0) / 0.03], order=3,
+                                   mode="reflect")
+
+
 def video(fish: SwimmingFish, housing: str = "flat-port", s: int = 2):
     """The rig and a frame source: frame i shows the fish at i / FPS s before a textured floor 3 m away."""
     stereo = rig(housing)
-    cameras = []
-    for camera in (stereo.left, stereo.right):
-        ys, xs = np.mgrid[0:H * s, 0:W * s]
-        bundle = camera.rays(np.column_stack([(xs.ravel() + 0.5) / s - 0.5, (ys.ravel() + 0.5) / s - 0.5]))
-        t = (-3.0 - bundle.origins[:, 2]) / bundle.directions[:, 2]
-        hit = bundle.origins + t[:, None] * bundle.directions
-        floor = map_coordinates(FLOOR, [(hit[:, 1] + 3.0) / 0.03, (hit[:, 0] + 3.0) / 0.03], order=3, mode="reflect")
-        cameras.append((bundle, floor))
+    cameras = [floor_seen(camera, s) for camera in (stereo.left, stereo.right)]
     cache = {}
 
     def frames(i: int) -> tuple[np.ndarray, np.ndarray]:

@@ -5,22 +5,18 @@ default whose file is gone is named."""
 
 import pytest
 
-from tests.app.detection_scenes import add_video, calibration, make_project, scene, write_switching_model
+from tests.app.detection_scenes import make_video_project, scene, write_switching_model
 from usvips.app.detection_model import project_model_path
 from usvips.core.errors import InputFileError
 from usvips.gui.detect_model import DetectSession
 from usvips.gui.workspace import Workspace
-from usvips.io.calibration_file import calibration_to_dict
 from usvips.store import Project
 
 
 @pytest.fixture
 def workspace(tmp_path):
     truth = scene(seed=11)
-    path = make_project(tmp_path)
-    with Project.open(path) as project:
-        add_video(tmp_path, project, "drop", frames=6)
-        project.add_calibration("cal", calibration_to_dict(calibration()), ("drop",))
+    path = make_video_project(tmp_path)
     model = write_switching_model(tmp_path, truth, sigma=1.0)
     ws = Workspace()
     project = Project.open(path)

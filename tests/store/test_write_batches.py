@@ -63,14 +63,13 @@ def test_a_fish_stored_in_one_transaction_reads_back_whole(store):  # noqa: F811
         assert [h.change for h in store.history(stored.id)] == ["add", "record"]
 
 
-def test_a_fish_on_a_server_is_three_round_trips(new_database, monkeypatch):
-    """The bench's fish (issue 34: ≤ 3 × SQLite) on a server: the transaction's start, the id reservation,
-    the rows, the record's one read and the commit go in 3 round trips (it was 14: one per statement).
-    Every exchange with the server goes through ``PostgresBackend._send`` or a commit with nothing held."""
-    from usvips.store.postgres import PostgresBackend, ServerProject
+def _count_exchanges(monkeypatch) -> list[list[str]]:
+    """From now until ``monkeypatch.undo()``, every exchange with the server (the first word of each statement
+    sent together), appended to the list returned: each goes through ``PostgresBackend._send``, or is a commit
+    with nothing held."""
+    from usvips.store.postgres import PostgresBackend
 
-    rng = np.random.default_rng(10)
-    exchanges = []
+    exchanges: list[list[str]] = []
     send, commit = PostgresBackend._send, PostgresBackend.commit
 
     def counted_send(self, statements, ending=()):
@@ -82,10 +81,22 @@ def test_a_fish_on_a_server_is_three_round_trips(new_database, monkeypatch):
             exchanges.append(["COMMIT"])
         return commit(self)
 
+    monkeypatch.setattr(PostgresBackend, "_send", counted_send)
+    monkeypatch.setattr(PostgresBackend, "commit", counted_commit)
+    return exchanges
+
+
+def test_a_fish_on_a_server_is_three_round_trips(new_database, monkeypatch):
+    """The bench's fish (issue 34: ≤ 3 × SQLite) on a server: the transaction's start, the id reservation,
+    the rows, the record's one read and the commit go in 3 round trips (it was 14: one per statement).
+    Every exchange with the server goes through ``PostgresBackend._send`` or a commit with nothing held."""
+    from usvips.store.postgres import ServerProject
+
+    rng = np.random.default_rng(10)
+
     with ServerProject.create(new_database("round_trips")) as survey:
         survey.add_object("length", _fish(rng), "before")  # the survey's first write (its schema read once)
-        monkeypatch.setattr(PostgresBackend, "_send", counted_send)
-        monkeypatch.setattr(PostgresBackend, "commit", counted_commit)
+        exchanges = _count_exchanges(monkeypatch)
         with survey.transaction():
             object_id = survey.add_object("length", _fish(rng), "snapper")
             survey.set_record(object_id, ObservationRecord(genus="Pagrus", species="auratus"))
@@ -100,20 +111,9 @@ def test_an_edit_of_a_fish_on_a_server_is_three_round_trips(new_database, monkey
     fish accepted before (so it goes back to unreviewed) — in 3 round trips (it was ~15): what the edit reads
     (the object, its vertices' stamps, its review, the pair), then the held writes with the object read back as
     changed, then the history rows with the commit. And what was written is what reads back."""
-    from usvips.store.postgres import PostgresBackend, ServerProject
+    from usvips.store.postgres import ServerProject
 
     rng = np.random.default_rng(11)
-    exchanges = []
-    send, commit = PostgresBackend._send, PostgresBackend.commit
-
-    def counted_send(self, statements, ending=()):
-        exchanges.append([s.sql.split()[0] for s in statements] + list(ending))
-        return send(self, statements, ending)
-
-    def counted_commit(self):
-        if not self._later and self._starting is None:
-            exchanges.append(["COMMIT"])
-        return commit(self)
 
     with ServerProject.create(new_database("edit_round_trips")) as survey:
         survey.add_pair("p1")
@@ -122,8 +122,7 @@ def test_an_edit_of_a_fish_on_a_server_is_three_round_trips(new_database, monkey
         modified = survey.object(object_id).modified
         picked = [dataclasses.replace(v, pair="p1") for v in _fish(rng)] + [
             dataclasses.replace(_fish(rng)[0], pair="p1")]
-        monkeypatch.setattr(PostgresBackend, "_send", counted_send)
-        monkeypatch.setattr(PostgresBackend, "commit", counted_commit)
+        exchanges = _count_exchanges(monkeypatch)
         survey.update_object(object_id, attribute="snapper", notes="re-picked", vertices=picked, kind="arc",
                              expected_modified=modified)
         monkeypatch.undo()

@@ -6,12 +6,13 @@ import argparse
 import csv
 import io
 import math
+from collections.abc import Callable
 
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import write_text_atomic
 
 __all__ = ["add_annotator_option", "add_pointing_option", "csv_text", "parse_assignment", "parse_prior",
-           "write_text_atomic"]
+           "positive_number", "write_text_atomic"]
 
 
 def add_annotator_option(parser) -> None:
@@ -21,14 +22,23 @@ def add_annotator_option(parser) -> None:
                         "writes and in the project's history (default: $USVIPS_ANNOTATOR, else your user name)")
 
 
-def _pointing_sigma(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of pixels") from None
-    if not math.isfinite(value) or value <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number of pixels > 0, got {text!r}")
-    return value
+def positive_number(not_a: str, must_be: str) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number > 0; else "'x' is not {not_a}" (not a number) or
+    "must be {must_be}, got 'x'" (zero, negative, infinite, NaN)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {not_a}") from None
+        if not math.isfinite(value) or value <= 0:
+            raise argparse.ArgumentTypeError(f"must be {must_be}, got {text!r}")
+        return value
+
+    return parse
+
+
+_pointing_sigma = positive_number("a number of pixels", "a finite number of pixels > 0")
 
 
 def add_pointing_option(parser) -> None:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 
 from usvips.cli import whole_number
-from usvips.cli.common import add_annotator_option
+from usvips.cli.common import add_annotator_option, positive_number
 
 
 def frame_range(text: str) -> tuple[int, int]:
@@ -46,14 +46,7 @@ def add_model_option(parser: argparse.ArgumentParser) -> None:
                         "the model shipped with USVIPS")
 
 
-def _speed(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a speed in m/s") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a speed > 0 m/s, got {text!r}")
-    return value
+_speed = positive_number("a speed in m/s", "a speed > 0 m/s")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -4,18 +4,13 @@ each fish's row with its instants counted and the instants' rows as "instant of 
 
 from PySide6 import QtCore
 
-from tests.app.detection_scenes import add_video, calibration, make_project, scene, write_switching_model
+from tests.app.detection_scenes import make_video_project, scene, write_switching_model
 from usvips.gui.qt.detection_dialogs import detect_range
-from usvips.io.calibration_file import calibration_to_dict
-from usvips.store import Project
 
 
 def test_a_range_of_frames_shows_each_fish_once_with_its_instants(qtbot, make_window, tmp_path):
     truth = scene(seed=5)
-    path = make_project(tmp_path)
-    with Project.open(path) as project:
-        add_video(tmp_path, project, "drop", frames=6)
-        project.add_calibration("cal", calibration_to_dict(calibration()), ("drop",))
+    path = make_video_project(tmp_path)
     model = write_switching_model(tmp_path, truth, sigma=1.0)
     window = make_window()
     assert window.open_path(path)

@@ -57,10 +57,11 @@ class GuiThreadCollector(QtCore.QObject):
             found = gc.collect(2)
             self.long_lived_total, self.long_lived_pending = len(gc.get_objects(generation=2)), 0
             return found
-        young = len(gc.get_objects(generation=0)) + (len(gc.get_objects(generation=1)) if due == 1 else 0)
-        found = gc.collect(due)
-        if due == 1:  # the survivors move into the oldest generation
-            self.long_lived_pending += max(young - found, 0)
+        if due == 0:
+            return gc.collect(0)
+        young = len(gc.get_objects(generation=0)) + len(gc.get_objects(generation=1))
+        found = gc.collect(1)
+        self.long_lived_pending += max(young - found, 0)  # the survivors move into the oldest generation
         return found
 
 
