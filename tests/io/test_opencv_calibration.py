@@ -187,6 +187,9 @@ GOOD = dict(M1=np.array([[810.0, 0, 641.5], [0, 798.0, 478.25], [0, 0, 1]]),
     ({"R": np.diag([1.0, 1.0, -1.0])}, r"R is not a rotation .*det R = -1"),
     ({"M1": np.array([[810.0, 3.0, 641.5], [0, 798.0, 478.25], [0, 0, 1]])}, "skew"),
     ({"T": np.zeros((3, 1))}, "T is zero"),
+    ({"D1": np.array([[-0.1, np.nan, 0, 0, 0]])}, "distortion vector holds nan at position 2 of 5"),
+    ({"T": np.array([[-0.39], [np.inf], [0.0]])}, "T holds inf at position 2 of 3"),
+    ({"M2": np.array([[805.0, 0, np.nan], [0, 801.0, 482.0], [0, 0, 1]])}, r"right camera .*holds nan at position 3"),
 ])
 def test_bad_files_are_refused_in_one_line(tmp_path, change, message):
     path = _write(tmp_path / "bad.yml", **(GOOD | change))

@@ -95,17 +95,29 @@ ROTATION_TOLERANCE = 1e-6
 
 
 # --------------------------------------------------------------------------------- the conventions
+def _refuse_non_finite(values: np.ndarray, path: str, what: str) -> None:
+    """An :class:`InputFileError` naming the first value of ``what`` that is not a finite number (its
+    position from 1 in the file's row-major order), if any."""
+    flat = np.asarray(values, dtype=np.float64).ravel()
+    bad = np.flatnonzero(~np.isfinite(flat))
+    if bad.size:
+        raise InputFileError(path, f"{what} holds {flat[bad[0]]} at position {bad[0] + 1} of {flat.size}: "
+                             "every value must be a finite number")
+
+
 def interior_from_opencv(matrix: np.ndarray, distortion: np.ndarray, path: str, which: str) -> Interior:
     """Camera matrix (3, 3) and distortion vector (4, 5, 8, 12 or 14 terms) → :class:`Interior`.
 
     ``path`` and ``which`` (the camera) name the source in errors. Raises :class:`InputFileError`."""
     matrix = np.asarray(matrix, dtype=np.float64)
-    if matrix.size != 9 or not np.all(np.isfinite(matrix)):
+    if matrix.size != 9:
         raise InputFileError(path, f"{which}: the camera matrix must be 3 × 3 finite numbers, got shape "
                              f"{matrix.shape}")
+    _refuse_non_finite(matrix, path, f"{which}: the camera matrix")
     matrix = matrix.reshape(3, 3)
     coefficients = np.asarray(distortion, dtype=np.float64).ravel()
-    if coefficients.size not in DISTORTION_LENGTHS or not np.all(np.isfinite(coefficients)):
+    _refuse_non_finite(coefficients, path, f"{which}: the distortion vector")
+    if coefficients.size not in DISTORTION_LENGTHS:
         raise InputFileError(path, f"{which}: the distortion vector must hold 4, 5, 8, 12 or 14 finite numbers "
                              f"(OpenCV's k1, k2, p1, p2[, k3[, k4, k5, k6[, s1..s4[, taux, tauy]]]]), got "
                              f"{coefficients.size}")
@@ -169,7 +181,8 @@ def stereo_from_opencv(arrays: dict[str, np.ndarray], size: tuple[int, int] | No
     right = interior_from_opencv(arrays["K2"], arrays["D2"], path, "right camera (M2, D2)")
     rotation = rotation_from_opencv(arrays["R"], path)
     translation = np.asarray(arrays["T"], dtype=np.float64).ravel()
-    if translation.size != 3 or not np.all(np.isfinite(translation)):
+    _refuse_non_finite(translation, path, "T")
+    if translation.size != 3:
         raise InputFileError(path, f"T must be 3 finite numbers, got {translation.size}")
     translation = translation * UNITS[unit]
     if np.linalg.norm(translation) == 0:
