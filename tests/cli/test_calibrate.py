@@ -109,3 +109,25 @@ def test_contradictory_options_are_refused_by_name(tmp_path, capsys, extra, mess
     assert code == 2 and not out.exists()
     error = capsys.readouterr().err.strip()
     assert len(error.splitlines()) == 1 and re.search(message, error)
+
+
+def test_intersect_warns_in_one_line_of_points_whose_rays_miss(tmp_path, capsys):
+    """The command's summary names the first point whose rays miss beyond the pointing sigma, with how
+    many such points there are and how many chance alone would give; the exit status stays 0."""
+    from usvips.bench.scaling import CALIBRATION, write_observations
+    from usvips.io.calibration_file import load_calibration
+
+    obs = tmp_path / "obs.csv"
+    write_observations(load_calibration(CALIBRATION), 5, obs, seed=2)
+    lines = obs.read_text().splitlines()
+    fields = lines[3].split(",")
+    fields[2] = f"{float(fields[2]) - 40:.4f}"
+    lines[3] = ",".join(fields)
+    obs.write_text("\n".join(lines) + "\n")
+    assert main(["intersect", "--calibration", str(CALIBRATION), "--obs", str(obs), "--out",
+                 str(tmp_path / "points.csv")]) == 0
+    out = capsys.readouterr().out
+    warning = [line for line in out.splitlines() if line.startswith("warning:")]
+    assert len(warning) == 1
+    assert "1 of 5 points' rays miss more than a 0.5 px pointing sigma explains" in warning[0]
+    assert f"point '{fields[0]}' (line 4)" in warning[0]

@@ -135,3 +135,41 @@ def test_traced_rays_are_kept_for_an_unchanged_camera_and_retraced_for_a_changed
     expected = intersect([rig.left, moved], pixels, 0.4)
     np.testing.assert_array_equal(shifted.points, expected.points)
     assert np.all(np.abs(shifted.points - direct.points).max(axis=1) > 1e-4)
+
+
+@pytest.mark.parametrize("name", sorted(HOUSINGS))
+def test_the_misfit_of_right_picks_follows_its_chi_square_and_a_mismatched_pair_is_beyond_the_limit(name):
+    """Normal pixel noise of the stated sigma: the misfit averages 1 (one degree of freedom for two rays)
+    and exceeds the 1 % limit about 1 % of the time (a binomial 4-sigma band); pairing each left pick
+    with the right pick of another point is beyond the default limit for nearly every point."""
+    from usvips.core.intersection import MISFIT_SIGNIFICANCE, misfit_limit, ray_misfit
+
+    rig = make_rig(name)
+    rng = np.random.default_rng(sorted(HOUSINGS).index(name))
+    points = scene_points(3000, seed=5)
+    left, right = rig.left.project(points), rig.right.project(points)
+    keep = left.ok & right.ok
+    sigma = rng.uniform(0.2, 1.5)
+    noisy = [p.pixels[keep] + rng.normal(0, sigma, p.pixels[keep].shape) for p in (left, right)]
+    result = intersect(rig.cameras, noisy, sigma_px=sigma)
+    misfit = ray_misfit(result.residuals_px[result.ok], sigma)
+    n = misfit.size
+    assert n > 1000
+    assert abs(misfit.mean() - 1.0) < 4 * np.sqrt(2 / n)
+    beyond = np.mean(misfit > misfit_limit(2, 0.01))
+    assert abs(beyond - 0.01) < 4 * np.sqrt(0.01 * 0.99 / n)
+    swapped = intersect(rig.cameras, [noisy[0], np.roll(noisy[1], 1, axis=0)], sigma_px=sigma)
+    far = np.linalg.norm(points[keep] - np.roll(points[keep], 1, axis=0), axis=1) > 0.2
+    wrong = ray_misfit(swapped.residuals_px, sigma)[swapped.ok & far]
+    assert np.mean(wrong > misfit_limit(2, MISFIT_SIGNIFICANCE)) > 0.9
+
+
+def test_the_misfit_limit_counts_the_degrees_of_freedom_and_refuses_what_is_not_a_point():
+    from usvips.core.intersection import misfit_limit, ray_misfit
+
+    assert misfit_limit(2, 0.05) == pytest.approx(3.841, abs=1e-3)  # chi-square, 1 degree of freedom
+    assert misfit_limit(3, 0.05) == pytest.approx(7.815, abs=1e-3)  # 3 degrees of freedom
+    with pytest.raises(InvalidParameterError, match="at least 2 rays"):
+        misfit_limit(1)
+    with pytest.raises(InvalidParameterError, match="pointing sigma"):
+        ray_misfit(np.ones((2, 2)), 0.0)

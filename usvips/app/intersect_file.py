@@ -32,8 +32,9 @@ from usvips.app.ordered_pool import available_cores, ordered_map
 from usvips.core.batch_mode import batch_computation
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError
-from usvips.core.intersection import Intersection
+from usvips.core.intersection import MISFIT_SIGNIFICANCE, Intersection, misfit_limit, ray_misfit
 from usvips.core.observations import StereoObservations
+from usvips.core.pointing import HAND_CLICK_SIGMA_PX
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.io.atomic import text_atomic
@@ -73,16 +74,40 @@ class FailedPointsError(DegenerateGeometryError):
         super().__init__(f"{source}{where}: point {point!r}: {reason} ({failed} of {total} points failed)")
 
 
+@dataclass(frozen=True)
+class Misfit:
+    """A written point whose rays miss more than its pointing sigma explains: its ``point`` id, file
+    ``line``, ``misfit`` (chi-square, 1 degree of freedom), the ``limit`` it passed and the RMS of its ray
+    residuals (px)."""
+
+    point: str
+    line: int | None
+    misfit: float
+    limit: float
+    rms_px: float
+
+    @property
+    def text(self) -> str:
+        where = f" (line {self.line})" if self.line is not None else ""
+        return (f"point {self.point!r}{where}: misfit {self.misfit:.3g} > {self.limit:.3g}, its rays "
+                f"{self.rms_px:.2f} px RMS from the point in the images")
+
+
 @dataclass
 class IntersectSummary:
     """What a run wrote: the points read and written, the RMS of the ray residuals of the written points
-    (pixels, over every ray) and each point left out (id, reason)."""
+    (pixels, over every ray), each point left out (id, reason), and the written points whose rays miss more
+    than their pointing sigma explains (:func:`usvips.core.intersection.ray_misfit` beyond
+    :func:`~usvips.core.intersection.misfit_limit`): how many, and the first in the file as a
+    :class:`Misfit`."""
 
     points: int = 0
     written: int = 0
     residual_square_sum: float = 0.0
     residual_count: int = 0
     skipped: list[tuple[str, str]] = field(default_factory=list)
+    misfits: int = 0
+    first_misfit: Misfit | None = None
 
     @property
     def rms_px(self) -> float:
@@ -101,12 +126,15 @@ def intersect_chunk(calibration: StereoCalibration, chunk: StereoObservations,
 class ChunkOutcome:
     """What one chunk's intersection gives the run: the CSV text of its points that intersect
     (:func:`points_text`), each row's :class:`~usvips.core.rays.RayStatus` and the sum of squares and the
-    count of those points' ray residuals (px)."""
+    count of those points' ray residuals (px); how many of those points miss beyond their pointing sigma,
+    and the first (its row in the chunk, misfit, limit, RMS px)."""
 
     text: str
     status: np.ndarray
     residual_square_sum: float
     residual_count: int
+    misfits: int = 0
+    first_misfit: tuple[int, float, float, float] | None = None
 
 
 @batch_computation  # one BLAS thread: its products are tall and thin (core/batch_mode.py)
@@ -116,8 +144,17 @@ def chunk_outcome(run: tuple[StereoCalibration, IntersectOptions], chunk: Stereo
     calibration, options = run
     result = intersect_chunk(calibration, chunk, options)
     residuals = result.residuals_px[result.ok]
+    misfit = np.zeros(len(chunk))
+    sigma = HAND_CLICK_SIGMA_PX if options.pointing_sigma_px is None else options.pointing_sigma_px
+    misfit[result.ok] = ray_misfit(residuals, sigma)
+    limit = misfit_limit(result.residuals_px.shape[1], MISFIT_SIGNIFICANCE)
+    beyond = np.flatnonzero(misfit > limit)
+    first = None
+    if beyond.size:
+        k = int(beyond[0])
+        first = (k, float(misfit[k]), limit, float(np.sqrt(np.mean(result.residuals_px[k] ** 2))))
     return ChunkOutcome(points_text(chunk.ids, result), np.asarray(result.status),
-                        float(np.sum(residuals ** 2)), int(residuals.size))
+                        float(np.sum(residuals ** 2)), int(residuals.size), int(beyond.size), first)
 
 
 def point_rows(ids: tuple[str, ...], result: Intersection) -> list[list[str]]:
@@ -209,6 +246,11 @@ def intersect_file(calibration: StereoCalibration, observations: str | Path, out
                 summary.written += len(chunk) - bad.size
                 summary.residual_square_sum += outcome.residual_square_sum
                 summary.residual_count += outcome.residual_count
+                summary.misfits += outcome.misfits
+                if outcome.first_misfit is not None and summary.first_misfit is None:
+                    k, misfit, limit, rms = outcome.first_misfit
+                    summary.first_misfit = Misfit(chunk.ids[k], chunk.lines[k] if chunk.lines else None, misfit,
+                                                  limit, rms)
                 summary.skipped.extend((chunk.ids[i], RayStatus(int(outcome.status[i])).reason)
                                        for i in bad.tolist())
         summary.points = chunks.rows

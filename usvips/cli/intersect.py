@@ -13,6 +13,7 @@ import argparse
 from usvips.app.intersect_file import FailedPointsError, IntersectOptions, intersect_file
 from usvips.cli.common import add_pointing_option
 from usvips.core.errors import DegenerateGeometryError
+from usvips.core.intersection import MISFIT_SIGNIFICANCE
 from usvips.core.measurements import calibration_marks
 from usvips.core.pointing import HAND_CLICK_SIGMA_PX
 from usvips.io.atomic import replacing
@@ -65,6 +66,12 @@ def _run(args: argparse.Namespace) -> int:
     pointing = HAND_CLICK_SIGMA_PX if args.pointing_sigma is None else args.pointing_sigma
     said = ("given" if args.pointing_sigma is not None else "the hand-click default; --pointing-sigma PX states yours")
     print("; ".join([f"pointing sigma {pointing:g} px ({said})", *calibration_marks(calibration)]))
+    if summary.misfits:
+        chance = summary.written * MISFIT_SIGNIFICANCE
+        print(f"warning: {summary.misfits} of {summary.written} points' rays miss more than a {pointing:g} px "
+              f"pointing sigma explains (about {chance:.2g} by chance); the first, {summary.first_misfit.text}: "
+              "a mismatched pair, picks less precise than --pointing-sigma, or a calibration that does not fit; "
+              "their sigmas do not include this miss")
     for point, reason in summary.skipped:
         print(f"  skipped point {point}: {reason}")
     return 0

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -19,6 +20,10 @@ from usvips.core import kernels, validation
 from usvips.core.camera import Camera
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError
 from usvips.core.rays import RayBundle, RayStatus, require_all_ok
+
+#: the chance that a point whose picks are right (pixel errors normal with the stated pointing sigma) is
+#: still said to miss by :func:`misfit_limit`: one point in ten thousand
+MISFIT_SIGNIFICANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -50,6 +55,33 @@ class Intersection:
     def require_ok(self) -> Intersection:
         require_all_ok(self.status, "point")
         return self
+
+
+def ray_misfit(residuals_px: np.ndarray, sigma_px: float | np.ndarray) -> np.ndarray:
+    """Each point's misfit (N,): the sum over its rays of (residual / pointing sigma)², the residuals
+    (N, k) in pixels as :class:`Intersection` gives them and ``sigma_px`` the picks' pointing sigma (px, one
+    image coordinate; a scalar or (N,)). When the pixel errors are normal with that sigma it follows a
+    chi-square distribution with 2k − 3 degrees of freedom (1 for a stereo pair: only the miss across the
+    epipolar curve is seen); the calibration's own error is not in it, so a poor calibration shows here
+    too."""
+    residuals = np.asarray(residuals_px, dtype=np.float64)
+    sigma = np.asarray(sigma_px, dtype=np.float64).reshape(-1)
+    if not np.all(np.isfinite(sigma)) or np.any(sigma <= 0):
+        raise InvalidParameterError("sigma_px", "a pointing sigma must be finite and > 0", label="pointing sigma")
+    return np.sum(residuals ** 2, axis=1) / sigma ** 2
+
+
+def misfit_limit(rays: int, significance: float = MISFIT_SIGNIFICANCE) -> float:
+    """The misfit (:func:`ray_misfit`) beyond which a point of ``rays`` rays misses more than its pointing
+    sigma explains: the chi-square quantile with 2·rays − 3 degrees of freedom exceeded by chance with
+    probability ``significance``."""
+    if rays < 2:
+        raise InvalidParameterError("rays", f"a point needs at least 2 rays, got {rays}", label="rays")
+    if rays == 2:  # a squared standard normal: no SciPy import in every worker of `usvips intersect`
+        return NormalDist().inv_cdf(1.0 - significance / 2.0) ** 2
+    from scipy.special import chdtri  # the chi-square's upper quantile
+
+    return float(chdtri(2 * rays - 3, significance))
 
 
 def _solve3(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
