@@ -155,3 +155,22 @@ def test_inputs_of_one_name_in_different_folders_are_named_by_their_folders(tmp_
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
     assert len(names) == 3 and "b_dive.points.csv" in names
     assert all(name.endswith("a_dive.points.csv") for name in names if name != "b_dive.points.csv")
+
+
+def test_batch_intersect_counts_points_whose_rays_miss(tmp_path, capsys):
+    """A right pick moved 30 px across the epipolar curve in one file: that file's line counts the point as
+    `usvips intersect` does; the clean file's line does not."""
+    lines = (ROV / "observations_water.csv").read_text().splitlines()
+    (tmp_path / "clean.csv").write_text("\n".join(lines) + "\n")
+    fields = lines[5].split(",")
+    fields[4] = f"{float(fields[4]) + 30:.4f}"
+    lines[5] = ",".join(fields)
+    (tmp_path / "moved.csv").write_text("\n".join(lines) + "\n")
+    code = main(["batch", "intersect", str(tmp_path / "clean.csv"), str(tmp_path / "moved.csv"), "--calibration",
+                 str(ROV / "calibration.json"), "--out-dir", str(tmp_path / "points")])
+    out = capsys.readouterr().out
+    assert code == 0
+    moved = [line for line in out.splitlines() if "moved.csv" in line]
+    clean = [line for line in out.splitlines() if "clean.csv" in line]
+    assert moved and "1 whose rays miss beyond the pointing sigma" in moved[0]
+    assert clean and "miss" not in " ".join(clean)

@@ -35,6 +35,7 @@ import numpy as np
 
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.core.intersection import misfit_limit, ray_misfit
 from usvips.core.pointing import HAND_CLICK_SIGMA_PX
 from usvips.io.atomic import write_text_atomic
 from usvips.io.calibration_file import load_calibration
@@ -48,7 +49,9 @@ def intersect_task(observations: str, calibration: str, out: str, station: str =
     at ``station`` (index or pair label) in ``frame`` (object | rig); write the points CSV ``out`` (metres,
     sigmas with the picks' pointing sigma ``pointing_sigma_px`` — px, None: the hand-click default, as
     ``usvips intersect`` — and the calibration's own uncertainty). Points that do not intersect are left
-    out and counted. Returns {"points": written, "failed": count, "out": out}."""
+    out and counted; written points whose rays miss more than the pointing sigma explains are counted as
+    ``usvips intersect`` counts them (:func:`usvips.core.intersection.ray_misfit`). Returns {"points": written,
+    "failed": count, "misfits": count, "out": out}."""
     rig_calibration = load_calibration(calibration)
     pixels = read_observations(observations)
     at: int | str = int(station) if station.isdigit() else station
@@ -61,7 +64,9 @@ def intersect_task(observations: str, calibration: str, out: str, station: str =
     lines = ["id,X,Y,Z,sX,sY,sZ"]
     lines += [",".join([_csv_cell(pixels.ids[i]), *numbers[6 * row:6 * row + 6]]) for row, i in enumerate(ok.tolist())]
     write_text_atomic(out, "\n".join(lines) + "\n")
-    return {"points": int(ok.size), "failed": int(len(pixels) - ok.size), "out": str(out)}
+    misfit = ray_misfit(result.residuals_px[ok], pointing)
+    misfits = int(np.sum(misfit > misfit_limit(result.residuals_px.shape[1])))
+    return {"points": int(ok.size), "failed": int(len(pixels) - ok.size), "misfits": misfits, "out": str(out)}
 
 
 def _csv_cell(text: str) -> str:

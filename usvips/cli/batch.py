@@ -144,7 +144,8 @@ def _line(outcome: batch.Outcome, finished: int, total: int) -> str:
                 f", {len(summary['skipped'])} objects skipped" if summary.get("skipped") else "")
         elif "points" in summary:
             counts = f"{summary['points']} points" + (
-                f", {summary['failed']} not intersected" if summary["failed"] else "")
+                f", {summary['failed']} not intersected" if summary["failed"] else "") + (
+                f", {summary['misfits']} whose rays miss beyond the pointing sigma" if summary.get("misfits") else "")
         else:
             counts = f"{summary.get('objects', 0)} objects" + (
                 f", {len(summary['skipped'])} skipped" if summary.get("skipped") else "")
