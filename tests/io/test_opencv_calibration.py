@@ -321,3 +321,49 @@ def test_the_residual_a_file_states_is_its_sigma0_and_one_that_states_none_is_ma
                                                                rig.right.project(points).pixels, 0, "rig").marks)
     with pytest.raises(InputFileError, match="rms"):
         read_opencv_stereo(written("bad.yml", [("rms", -1.0)]), size=(WIDTH, HEIGHT))
+
+
+def _write_camera(path, matrix, distortion, residual=None):
+    """One camera's file as OpenCV's calibration sample writes it."""
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    storage.write("image_width", 1280)
+    storage.write("image_height", 960)
+    storage.write("camera_matrix", matrix)
+    storage.write("distortion_coefficients", distortion)
+    if residual is not None:
+        storage.write("avg_reprojection_error", residual)
+    storage.release()
+    return path
+
+
+def test_each_cameras_own_file_then_r_and_t_is_the_same_rig_as_one_stereo_file(tmp_path):
+    """Left camera's file, right camera's file (OpenCV's calibration sample), then R and T: the same
+    calibration as the one stereo file; sigma0 from the files' residuals; a stereo residual wins."""
+    one = read_opencv_stereo(_write(tmp_path / "stereo.yml", **GOOD), size=(1280, 960), sigma0_px=0.3)
+    left = _write_camera(tmp_path / "left.yml", GOOD["M1"], GOOD["D1"], residual=0.3)
+    right = _write_camera(tmp_path / "right.yml", GOOD["M2"], GOOD["D2"], residual=0.5)
+    extrinsics = _write(tmp_path / "extrinsics.yml", R=GOOD["R"], T=GOOD["T"])
+    three = read_opencv_stereo([left, right, extrinsics])
+    for camera in ("left", "right"):
+        assert getattr(three, camera).interior == getattr(one, camera).interior
+    points = np.array([[0.1, -0.2, -2.0], [-0.3, 0.1, -3.5]])
+    np.testing.assert_allclose(three.rig(0).right.project(points).pixels, one.rig(0).right.project(points).pixels,
+                               atol=1e-9)
+    assert three.sigma0_origin == "stated"
+    assert three.sigma0_px == pytest.approx(np.sqrt((0.3 ** 2 + 0.5 ** 2) / 2) / np.sqrt(2))
+    stereo_residual = _write(tmp_path / "ext_rms.yml", R=GOOD["R"], T=GOOD["T"], rms=0.8)
+    assert read_opencv_stereo([left, right, stereo_residual]).sigma0_px == pytest.approx(0.8 / np.sqrt(2))
+
+
+def test_one_cameras_file_alone_or_three_of_them_are_refused_by_name(tmp_path):
+    left = _write_camera(tmp_path / "left.yml", GOOD["M1"], GOOD["D1"])
+    extrinsics = _write(tmp_path / "extrinsics.yml", R=GOOD["R"], T=GOOD["T"])
+    with pytest.raises(InputFileError, match="missing K2, D2 .*give the right camera's file after the left"):
+        read_opencv_stereo([left, extrinsics])
+    with pytest.raises(InputFileError, match="left.yml: a third file of one camera's calibration"):
+        read_opencv_stereo([left, left, left, extrinsics])
+    storage = cv2.FileStorage(str(tmp_path / "bare.yml"), cv2.FILE_STORAGE_WRITE)
+    storage.write("camera_matrix", GOOD["M1"])
+    storage.release()
+    with pytest.raises(InputFileError, match="bare.yml: a camera matrix without its distortion"):
+        read_opencv_stereo([tmp_path / "bare.yml", left, extrinsics])

@@ -1,7 +1,8 @@
 """Stereo calibrations exchanged with OpenCV, both directions.
 
 Read: ``cv2.FileStorage`` YAML/XML (one file, or OpenCV's stereo-sample pair ``intrinsics.yml`` (M1, D1,
-M2, D2) + ``extrinsics.yml`` (R, T, R1, R2, P1, P2, Q), the layout VIAME reads) and NumPy ``.npz``.
+M2, D2) + ``extrinsics.yml`` (R, T, R1, R2, P1, P2, Q), the layout VIAME reads, or each camera's own file
+(:data:`SINGLE_CAMERA_NAMES`, left then right) + the one with R and T) and NumPy ``.npz``.
 Write: one FileStorage file (YAML or XML by its extension) or that pair, for the in-air model.
 
 Conventions. OpenCV's camera frame is x right, y down, z forward; ours is x right, y up, looking along −z
@@ -63,6 +64,11 @@ NAMES = {"K1": ("M1", "K1", "cameraMatrix1", "camera_matrix_left", "mtx_l", "mtx
          "K2": ("M2", "K2", "cameraMatrix2", "camera_matrix_right", "mtx_r", "mtxR"),
          "D2": ("D2", "dist2", "distCoeffs2", "distortion_right", "dist_r", "distR"),
          "R": ("R", "rotation"), "T": ("T", "translation")}
+#: One camera's matrix and distortion in a file of its own (OpenCV's calibration sample writes
+#: ``camera_matrix`` and ``distortion_coefficients``): the first such file given is the left camera, the
+#: second the right one.
+SINGLE_CAMERA_NAMES = {"K": ("camera_matrix", "cameraMatrix", "mtx", "K"),
+                       "D": ("distortion_coefficients", "distCoeffs", "dist_coeffs", "dist", "D")}
 #: Where files carry the image size: (width key, height key) pairs, or one key holding (width, height).
 SIZE_PAIRS = (("image_width", "image_height"), ("imageWidth", "imageHeight"), ("width", "height"))
 SIZE_KEYS = ("image_size", "imageSize", "size")
@@ -403,10 +409,22 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
     merged: dict[str, np.ndarray] = {}
     origin: dict[str, Path] = {}
     file_size, size_origin = None, None
-    stated = None
+    stereo_stated, camera_stated = None, []
+    cameras = 0
     for path in paths:
         data = _read_file(path)
-        stated = stated or _stated(data, path)
+        single = _single_camera(data, path)
+        if single is not None:
+            if cameras == 2:
+                raise InputFileError(str(path), "a third file of one camera's calibration: give the left camera's "
+                                     "file, then the right camera's, then the one with R and T")
+            cameras += 1
+            data = {**data, **{f"{key}{cameras}": value for key, value in single.items()}}
+        found = _stated(data, path)
+        if found is not None and single is not None:
+            camera_stated.append(found)
+        elif found is not None and stereo_stated is None:
+            stereo_stated = found
         this_size = _size_of(data, str(path))
         if this_size is not None:
             if file_size is not None and this_size != file_size:
@@ -427,6 +445,8 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
         looked = "; ".join(f"{key}: {', '.join(NAMES[key])}" for key in missing)
         hint = " (OpenCV's stereo sample writes R and T to extrinsics.yml: give both files)" \
             if {"R", "T"} & set(missing) and len(paths) == 1 else ""
+        if cameras == 1 and {"K2", "D2"} & set(missing):
+            hint += " (one camera's own file was given: give the right camera's file after the left one's)"
         raise InputFileError(where, f"missing {', '.join(missing)} (looked for {looked}){hint}")
     if size is not None and file_size is not None and tuple(size) != file_size:
         raise concerning(InputFileError(str(size_origin), f"mismatched image sizes: the file says {file_size[0]}x"
@@ -434,7 +454,7 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
     source = {"opencv": [str(p) for p in paths], "unit": unit}
     if sigma0_px is not None:
         sigma0, origin, basis = float(sigma0_px), "given", "given at import"
-    elif stated is not None:
+    elif (stated := stereo_stated or _combined(camera_stated)) is not None:
         sigma0, origin, basis = stated[0], "stated", stated[1]
     else:
         sigma0, origin, basis = ASSUMED_SIGMA0_PX, "assumed", "assumed: the file states no reprojection residual"
@@ -450,6 +470,28 @@ def sigma0_statement(calibration: StereoCalibration) -> str:
                        "every figure made with this calibration says so"}.get(calibration.sigma0_origin,
                                                                              f"sigma0 {calibration.sigma0_px:.3g} px")
     return text + "; no parameter covariance: the figures' sigmas hold the pointing share only"
+
+
+def _single_camera(data: dict[str, object], path: Path) -> dict[str, object] | None:
+    """``{"K": matrix, "D": distortion}`` of a file that holds one camera (:data:`SINGLE_CAMERA_NAMES`) and no
+    stereo camera keys; None for any other file. A camera matrix without its distortion is refused."""
+    if any(name in data for key in ("K1", "D1", "K2", "D2") for name in NAMES[key]):
+        return None
+    found = {key: next((data[n] for n in names if n in data), None) for key, names in SINGLE_CAMERA_NAMES.items()}
+    if found["K"] is None:
+        return None
+    if found["D"] is None:
+        raise InputFileError(str(path), "a camera matrix without its distortion (looked for "
+                             f"{', '.join(SINGLE_CAMERA_NAMES['D'])})")
+    return found
+
+
+def _combined(stated: list[tuple[float, str]]) -> tuple[float, str] | None:
+    """σ0 of the two cameras' own calibrations: the root mean square of their σ0s, with what each rests on."""
+    if not stated:
+        return None
+    sigma0 = math.sqrt(sum(s ** 2 for s, _ in stated) / len(stated))
+    return sigma0, "; ".join(text for _, text in stated) + (" (their RMS)" if len(stated) > 1 else "")
 
 
 def _stated(data: dict[str, object], path: Path) -> tuple[float, str] | None:
