@@ -367,3 +367,50 @@ def test_one_cameras_file_alone_or_three_of_them_are_refused_by_name(tmp_path):
     storage.release()
     with pytest.raises(InputFileError, match="bare.yml: a camera matrix without its distortion"):
         read_opencv_stereo([tmp_path / "bare.yml", left, extrinsics])
+
+
+def _ros_camera_info(path, matrix, distortion, rectification, projection, model="plumb_bob"):
+    """One camera's file as ROS's camera_calibration writes it (plain YAML: rows, cols, data; no dt)."""
+    def block(name, value):
+        value = np.asarray(value, dtype=np.float64)
+        rows, cols = (1, value.size) if value.ndim == 1 or value.shape[0] == 1 else value.shape
+        numbers = ", ".join(repr(float(v)) for v in value.ravel())
+        return f"{name}:\n  rows: {rows}\n  cols: {cols}\n  data: [{numbers}]\n"
+
+    path.write_text(f"image_width: {WIDTH}\nimage_height: {HEIGHT}\ncamera_name: narrow_stereo/{path.stem}\n"
+                    + block("camera_matrix", matrix) + f"distortion_model: {model}\n"
+                    + block("distortion_coefficients", distortion) + block("rectification_matrix", rectification)
+                    + block("projection_matrix", projection))
+    return path
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_ros_camera_info_pair_is_the_rig_its_rectification_came_from(tmp_path, seed):
+    """Random OpenCV rigs rectified by cv2.stereoRectify and written as ROS's two camera_info files: R and
+    T recovered from the rectification rotations and projection matrices give OpenCV's own projections."""
+    rng = np.random.default_rng(100 + seed)
+    cams, rvec, tvec = _random_opencv_rig(rng)
+    rotation = cv2.Rodrigues(rvec)[0]
+    r1, r2, p1, p2, *_ = cv2.stereoRectify(cams[0][0], cams[0][1], cams[1][0], cams[1][1], (WIDTH, HEIGHT),
+                                           rotation, tvec.reshape(3, 1), alpha=rng.uniform(0, 1))
+    left = _ros_camera_info(tmp_path / "left.yaml", cams[0][0], cams[0][1], r1, p1)
+    right = _ros_camera_info(tmp_path / "right.yaml", cams[1][0], cams[1][1], r2, p2)
+    calibration = read_opencv_stereo([left, right])
+    _assert_projects_like_opencv(calibration, cams[0][0], cams[0][1], cams[1][0], cams[1][1], rotation, tvec, rng)
+    assert (calibration.left.width, calibration.left.height) == (WIDTH, HEIGHT)
+
+
+def test_a_ros_fisheye_model_or_a_broken_projection_is_refused_by_name(tmp_path):
+    matrix, distortion = GOOD["M1"], np.array([-0.1, 0.02, 0.0, 0.0, 0.0])
+    shifted = np.hstack([GOOD["M2"], np.array([[-300.0], [0.0], [0.0]])])
+    plain = np.hstack([GOOD["M1"], np.zeros((3, 1))])
+    right = _ros_camera_info(tmp_path / "right.yaml", GOOD["M2"], distortion, np.eye(3), shifted)
+    fisheye = _ros_camera_info(tmp_path / "left.yaml", matrix, distortion[:4], np.eye(3), plain, model="equidistant")
+    with pytest.raises(InputFileError, match="left.yaml: distortion_model 'equidistant' is not supported"):
+        read_opencv_stereo([fisheye, right])
+    flat = _ros_camera_info(tmp_path / "flat.yaml", matrix, distortion, np.eye(3), np.zeros((3, 4)))
+    with pytest.raises(InputFileError, match="left camera's projection_matrix has no inverse"):
+        read_opencv_stereo([flat, right])
+    skewed = _ros_camera_info(tmp_path / "skewed.yaml", matrix, distortion, np.diag([1.0, 1.0, 2.0]), plain)
+    with pytest.raises(InputFileError, match="left camera's rectification_matrix: R is not a rotation"):
+        read_opencv_stereo([skewed, right])

@@ -34,8 +34,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("calibration", help="import, export or report a calibration")
     verbs = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
 
-    importer = verbs.add_parser("import", help="OpenCV YAML/XML (one file or intrinsics + extrinsics) or .npz → JSON")
-    importer.add_argument("files", nargs="+", metavar="FILE", help="OpenCV stereo calibration file(s)")
+    importer = verbs.add_parser("import", help="OpenCV YAML/XML (one file, intrinsics + extrinsics, or each "
+                                "camera's file then R and T), ROS camera_info pairs, or .npz → JSON")
+    importer.add_argument("files", nargs="+", metavar="FILE", help="OpenCV stereo calibration file(s); one camera's "
+                          "files left first, then right")
     importer.add_argument("--out", required=True, help="USVIPS calibration file to write (JSON)")
     importer.add_argument("--image-size", metavar="WxH", help="image size in pixels, where the files do not carry it")
     importer.add_argument("--unit", choices=sorted(UNITS), default="m",

@@ -69,6 +69,8 @@ NAMES = {"K1": ("M1", "K1", "cameraMatrix1", "camera_matrix_left", "mtx_l", "mtx
 #: second the right one.
 SINGLE_CAMERA_NAMES = {"K": ("camera_matrix", "cameraMatrix", "mtx", "K"),
                        "D": ("distortion_coefficients", "distCoeffs", "dist_coeffs", "dist", "D")}
+#: ROS ``camera_info`` distortion models that are Brown's (OpenCV's default terms, its rational ones)
+BROWN_MODELS = ("plumb_bob", "rational_polynomial")
 #: Where files carry the image size: (width key, height key) pairs, or one key holding (width, height).
 SIZE_PAIRS = (("image_width", "image_height"), ("imageWidth", "imageHeight"), ("width", "height"))
 SIZE_KEYS = ("image_size", "imageSize", "size")
@@ -262,6 +264,9 @@ def _node_value(node) -> np.ndarray | float | None:
         return None
     if node.isMap():
         _check_matrix_node(node)
+        if node.getNode("dt").empty() and not node.getNode("data").empty():  # ROS camera_info: rows, cols, data
+            data, shape = node.getNode("data"), _declared_shape(node)
+            return np.array([data.at(i).real() for i in range(data.size())], dtype=np.float64).reshape(shape)
         value = node.mat()
         return None if value is None else np.asarray(value)
     return None
@@ -367,6 +372,9 @@ def _read_file(path: Path) -> dict[str, object]:
                                                 "not agree, or its data hold something that is not a number") from None
             if value is not None:
                 out[key] = value
+        model = storage.getNode("distortion_model")
+        if model.isString():
+            out["distortion_model"] = model.string()
         return out
     finally:
         storage.release()
@@ -410,16 +418,16 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
     origin: dict[str, Path] = {}
     file_size, size_origin = None, None
     stereo_stated, camera_stated = None, []
-    cameras = 0
+    singles: list[dict[str, object]] = []
     for path in paths:
         data = _read_file(path)
         single = _single_camera(data, path)
         if single is not None:
-            if cameras == 2:
+            if len(singles) == 2:
                 raise InputFileError(str(path), "a third file of one camera's calibration: give the left camera's "
                                      "file, then the right camera's, then the one with R and T")
-            cameras += 1
-            data = {**data, **{f"{key}{cameras}": value for key, value in single.items()}}
+            singles.append(single)
+            data = {**data, **{f"{key}{len(singles)}": single[key] for key in ("K", "D")}}
         found = _stated(data, path)
         if found is not None and single is not None:
             camera_stated.append(found)
@@ -440,6 +448,9 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
                 raise InputFileError(str(path), f"{name} differs from the one in {origin[key]}")
             merged[key], origin[key] = value, path
     where = " + ".join(str(p) for p in paths)
+    cameras = len(singles)
+    if cameras == 2 and "R" not in merged and "T" not in merged and all("projection" in c for c in singles):
+        merged.update(_relative_from_rectification(*singles, where))  # a ROS camera_info pair
     missing = [key for key in NAMES if key not in merged]
     if missing:
         looked = "; ".join(f"{key}: {', '.join(NAMES[key])}" for key in missing)
@@ -474,7 +485,9 @@ def sigma0_statement(calibration: StereoCalibration) -> str:
 
 def _single_camera(data: dict[str, object], path: Path) -> dict[str, object] | None:
     """``{"K": matrix, "D": distortion}`` of a file that holds one camera (:data:`SINGLE_CAMERA_NAMES`) and no
-    stereo camera keys; None for any other file. A camera matrix without its distortion is refused."""
+    stereo camera keys, with ``"rectification"`` and ``"projection"`` when it has ROS's (a ``camera_info``
+    file); None for any other file. A camera matrix without its distortion, or a distortion model other than
+    Brown's (ROS's ``plumb_bob`` or ``rational_polynomial``), is refused by name."""
     if any(name in data for key in ("K1", "D1", "K2", "D2") for name in NAMES[key]):
         return None
     found = {key: next((data[n] for n in names if n in data), None) for key, names in SINGLE_CAMERA_NAMES.items()}
@@ -483,7 +496,35 @@ def _single_camera(data: dict[str, object], path: Path) -> dict[str, object] | N
     if found["D"] is None:
         raise InputFileError(str(path), "a camera matrix without its distortion (looked for "
                              f"{', '.join(SINGLE_CAMERA_NAMES['D'])})")
+    model = data.get("distortion_model")
+    if model is not None and model not in BROWN_MODELS:
+        raise InputFileError(str(path), f"distortion_model {model!r} is not supported: USVIPS models Brown's "
+                             f"radial and tangential terms ({' or '.join(BROWN_MODELS)})")
+    if "rectification_matrix" in data and "projection_matrix" in data:
+        found["rectification"], found["projection"] = data["rectification_matrix"], data["projection_matrix"]
     return found
+
+
+def _relative_from_rectification(left: dict[str, object], right: dict[str, object], where: str
+                                 ) -> dict[str, np.ndarray]:
+    """R and T (x_r = R·x_l + T, the calibration's unit) from two ROS ``camera_info`` files: each camera's
+    rectification rotation R_i (camera → rectified frame) and rectified projection P_i = [K' | K'·t_i]. The
+    rectified frames differ by t = t_r − t_l only, so R = R_rᵀ·R_l and T = R_rᵀ·t."""
+    rotations, offsets = [], []
+    for camera, which in ((left, "left"), (right, "right")):
+        rotation = np.asarray(camera["rectification"], dtype=np.float64)
+        projection = np.asarray(camera["projection"], dtype=np.float64)
+        if rotation.shape != (3, 3) or projection.shape != (3, 4):
+            raise InputFileError(where, f"the {which} camera's rectification_matrix must be 3 × 3 and its "
+                                 f"projection_matrix 3 × 4, got {rotation.shape} and {projection.shape}")
+        _refuse_non_finite(projection, where, f"the {which} camera's projection_matrix")
+        rotations.append(rotation_from_opencv(rotation, where, f"the {which} camera's rectification_matrix"))
+        inner = projection[:, :3]
+        if abs(np.linalg.det(inner)) < 1e-12:
+            raise InputFileError(where, f"the {which} camera's projection_matrix has no inverse: not a camera's")
+        offsets.append(np.linalg.solve(inner, projection[:, 3]))
+    rotation = rotations[1].T @ rotations[0]
+    return {"R": rotation, "T": (rotations[1].T @ (offsets[1] - offsets[0])).reshape(3, 1)}
 
 
 def _combined(stated: list[tuple[float, str]]) -> tuple[float, str] | None:
