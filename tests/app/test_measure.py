@@ -50,6 +50,11 @@ def test_an_object_mixing_types_is_named_with_its_file_and_line(tmp_path):
     (tmp_path / "p.csv").write_text("object,type,vertex,xl,yl,xr,yr\nf,point,0,1,2,3,4\nf,length,1,1,2,3,4\n")
     with pytest.raises(InputFileError, match=r"p\.csv.*line 2.*object 'f' mixes types"):
         picked_objects(tmp_path / "p.csv")
+    # the same vertex number under two types: the types are what is wrong, not the number
+    (tmp_path / "p.csv").write_text("object,type,vertex,xl,yl,xr,yr\nf,point,1,1,2,3,4\nf,length,1,1,2,3,4\n"
+                                    "f,length,2,5,2,7,4\n")
+    with pytest.raises(InputFileError, match=r"object 'f' mixes types: point on line 2, length on line 3"):
+        picked_objects(tmp_path / "p.csv")
 
 
 def test_rays_that_do_not_meet_name_the_file_and_the_object(tmp_path):

@@ -48,13 +48,16 @@ def group_picks(path: str | Path, rows: list[dict]) -> list[PickedObject]:
         objects.setdefault(row["object"], []).append(row)
     out = []
     for object_id, vertices in objects.items():
+        other = next((v for v in vertices if v["type"] != vertices[0]["type"]), None)
+        if other is not None:  # before the vertex numbers: two objects under one id is the likelier slip
+            raise InputFileError(str(path), f"object {object_id!r} mixes types: {vertices[0]['type']} on line "
+                                 f"{vertices[0]['line']}, {other['type']} on line {other['line']} (two objects "
+                                 "under one id?)", vertices[0]["line"])
         vertices.sort(key=lambda r: r["vertex"])
         for previous, vertex in zip(vertices, vertices[1:], strict=False):
             if vertex["vertex"] == previous["vertex"]:
                 raise InputFileError(str(path), f"object {object_id!r}: vertex {vertex['vertex']} is given twice "
                                      f"(lines {previous['line']} and {vertex['line']})", vertex["line"])
-        if any(v["type"] != vertices[0]["type"] for v in vertices):
-            raise InputFileError(str(path), f"object {object_id!r} mixes types", vertices[0]["line"])
         try:
             name = resolve(vertices[0]["type"], len(vertices))
             kind(name).check_count(len(vertices))
