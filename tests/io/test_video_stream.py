@@ -259,3 +259,21 @@ def test_formats_without_an_8_bit_luma_plane_keep_the_scaler():
     frame = av.VideoFrame.from_ndarray(np.random.default_rng(5).integers(0, 256, (30, 40, 3), dtype=np.uint8),
                                        format="rgb24")
     assert np.array_equal(Picture(frame).grey(), frame.to_ndarray(format="gray"))
+
+
+@pytest.mark.parametrize("rate", [30.0, 30000 / 1001, 24.0, 60000 / 1001, 25.0])
+def test_a_constant_rate_in_whole_milliseconds_is_not_called_variable(tmp_path, rate):
+    """Matroska and WebM time frames in whole milliseconds: 30 fps becomes intervals of 33, 34, 33 ms. That
+    one-tick spread is rounding: the stream is constant, at its own rate (to the container's precision),
+    with no frame called dropped or duplicated; a spread of two ticks and more still is a variable rate."""
+    count = 75
+    path = tmp_path / "constant.mkv"
+    encode_video(path, (numbered(i) for i in range(count)), rate, "ffv1", times_s=np.arange(count) / rate)
+    with VideoStream(path) as video:
+        assert video.report.clean, video.report.summary()
+        assert video.fps == pytest.approx(rate, rel=1e-3)
+    jitter = np.arange(count) / rate + np.tile([0.0, 0.004], (count + 1) // 2)[:count]
+    path = tmp_path / "jitter.mkv"
+    encode_video(path, (numbered(i) for i in range(count)), rate, "ffv1", times_s=jitter)
+    with VideoStream(path) as video:
+        assert video.report.variable_frame_rate

@@ -56,6 +56,7 @@ class Chapter:
     keyframe: np.ndarray     # bool per frame: a decoder can start here
     time_base: float         # seconds per pts unit
     digests: tuple[str, ...] = field(repr=False, default=())  # hash of each frame's packet (duplicates)
+    stated_fps: float | None = None  # the frame rate the container states (average, else FFmpeg's guess)
 
 
 @dataclass(frozen=True)
@@ -153,14 +154,22 @@ def _index_chapter(path: Path, first: int) -> tuple[Chapter, tuple[int, int], st
         if size[0] <= 0 or size[1] <= 0:
             raise InputFileError(str(path), "the video stream has no picture size")
         _refuse_cut_short(path, container, stream, pts)
+        rate = stream.average_rate or stream.guessed_rate
         chapter = Chapter(path, first, len(rows), pts, keyframe, float(stream.time_base),
-                          tuple(r[2] for r in rows))
+                          tuple(r[2] for r in rows), float(rate) if rate else None)
         return chapter, size, stream.codec_context.name
     finally:
         container.close()
 
 
-def _report(times: np.ndarray, digests: Sequence[str], same_picture: Sequence[int] = ()) -> StreamReport:
+def _report(times: np.ndarray, digests: Sequence[str], same_picture: Sequence[int] = (),
+            tick_s: float = 0.0, stated_fps: float | None = None) -> StreamReport:
+    """What the frame times (s) and packet digests say (see :class:`StreamReport`). ``tick_s``: the
+    coarsest time base of the chapters (s per timestamp unit). Timestamps are whole ticks, so intervals of
+    a constant rate that is not a whole number of ticks alternate by one tick (30 fps in Matroska's 1 ms:
+    33, 34, 33 ms): a spread of one tick is rounding, not a variable rate, and the rate of such a stream
+    is the rate its container states (``stated_fps``) when the mean interval agrees with it to within a
+    tick, else its mean interval's."""
     if len(times) < 2:
         return StreamReport(float("nan"), False, 0.0, (), ())
     intervals = np.diff(times)
@@ -174,10 +183,15 @@ def _report(times: np.ndarray, digests: Sequence[str], same_picture: Sequence[in
     for i, _ in dropped:
         gap_free[i - 1] = False
     regular = intervals[(intervals > 0) & gap_free]
-    spread = float((regular.max() - regular.min()) / nominal) if regular.size else 0.0
+    rounding = 1.000001 * tick_s  # one tick, and the floating point of times made from ticks
+    spread = float(max(regular.max() - regular.min() - rounding, 0.0) / nominal) if regular.size else 0.0
     irregular_gaps = any(s > 1.5 and abs(s - round(s)) >= 0.25 for s in steps)
-    return StreamReport(1.0 / nominal, spread > VFR_TOLERANCE or irregular_gaps, spread, tuple(duplicated),
-                        tuple(dropped))
+    variable = spread > VFR_TOLERANCE or irregular_gaps
+    if regular.size and not variable:
+        nominal = float(np.mean(regular))
+        if stated_fps and abs(1.0 / stated_fps - nominal) <= rounding:
+            nominal = 1.0 / stated_fps
+    return StreamReport(1.0 / nominal, variable, spread, tuple(duplicated), tuple(dropped))
 
 
 class Picture:
@@ -325,7 +339,13 @@ class VideoStream:
                 offset = previous[-1] + step
             times.append(local + offset)
         self.times_s = np.concatenate(times)
-        self.report = _report(self.times_s, [d for c in chapters for d in c.digests])
+        #: the coarsest timestamp resolution of the chapters (s): what the times are rounded to
+        self.tick_s = max(c.time_base for c in chapters)
+        #: the frame rate the chapters' containers state, when they all state the same one
+        rates = {c.stated_fps for c in chapters}
+        self.stated_fps = rates.pop() if len(rates) == 1 else None
+        self.report = _report(self.times_s, [d for c in chapters for d in c.digests], tick_s=self.tick_s,
+                              stated_fps=self.stated_fps)
         self.fps = self.report.fps if np.isfinite(self.report.fps) else float("nan")
         #: FFmpeg's decoder threading ("AUTO", "FRAME", "SLICE" or "NONE") and whether a seek skips the
         #: non-reference frames before its target (see :meth:`_next_frames`); both leave frames exact.
@@ -569,7 +589,8 @@ class VideoStream:
                 if index - start != chapter.count:
                     raise InputFileError(str(chapter.path), f"{index - start} of its {chapter.count} frames could be "
                                          "decoded (a damaged file?)")
-        self.report = _report(self.times_s, [d for c in self.chapters for d in c.digests], same)
+        self.report = _report(self.times_s, [d for c in self.chapters for d in c.digests], same, self.tick_s,
+                              self.stated_fps)
         return self.report
 
     def audio(self) -> tuple[np.ndarray, float] | None:
