@@ -25,10 +25,14 @@ def test_a_list_without_the_column_has_no_maxima(tmp_path):
 @pytest.mark.parametrize("header, cell, words", [
     ("max_length", "450", r"line 1: the column 'max_length' needs its unit"),
     ("max_length_mm", "long", r"line 2: the maximum length 'long' is not a number"),
-    ("max_length_mm", "-3", r"line 2: parameter max_length: must be a positive length"),
+    ("max_length_mm", "-3", r"line 2: the maximum length -3 \(max_length_mm\) must be a positive number"),
+    ("max_length_cm", "nan", r"line 2: the maximum length nan \(max_length_cm\) must be a positive number"),
+    ("max_length_mm,max_length_cm", "1,2", r"line 1: 2 maximum-length columns \(max_length_mm, max_length_cm\)"),
+    ("caab", "1", r"line 1: the columns 'code' and 'caab' both give the code"),
 ])
 def test_a_bad_maximum_is_named_with_its_file_and_line(tmp_path, header, cell, words):
     path = tmp_path / "species.csv"
-    path.write_text(f"family,genus,species,{header}\nSparidae,Pagrus,auratus,{cell}\n")
+    code = ",code" if header == "caab" else ""
+    path.write_text(f"family,genus,species{code},{header}\nSparidae,Pagrus,auratus{',7' if code else ''},{cell}\n")
     with pytest.raises(InputFileError, match=words):
         read_species_list(path)

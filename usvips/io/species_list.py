@@ -10,6 +10,7 @@ An empty cell is a species without a maximum; a header ``max_length`` without a 
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 
 from usvips.core.errors import InputFileError, UsvipsError
@@ -37,13 +38,24 @@ def read_species_list(path: str | Path) -> list[Species]:
     if not lines:
         raise InputFileError(str(path), "is empty: expected a header family,genus,species,code and one line a taxon")
     header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))
-    columns = {ALIASES.get(h.strip().lower()): i for i, h in enumerate(header) if ALIASES.get(h.strip().lower())}
+    columns: dict[str, int] = {}
+    for i, h in enumerate(header):
+        name = ALIASES.get(h.strip().lower())
+        if name in columns:
+            raise InputFileError(str(path), f"the columns {header[columns[name]]!r} and {h!r} both give the "
+                                 f"{name}: keep one", header_line)
+        if name is not None:
+            columns[name] = i
     lowered = [h.strip().lower() for h in header]
     unitless = [h for h in lowered if h in ("max_length", "length_max", "maximum_length")]
     if unitless:
         raise InputFileError(str(path), f"the column {unitless[0]!r} needs its unit: name it {unitless[0]}_mm, "
                              f"{unitless[0]}_cm or {unitless[0]}_m", header_line)
-    maximum = next(((i, MAX_LENGTH[h]) for i, h in enumerate(lowered) if h in MAX_LENGTH), None)
+    lengths = [(i, MAX_LENGTH[h]) for i, h in enumerate(lowered) if h in MAX_LENGTH]
+    if len(lengths) > 1:
+        raise InputFileError(str(path), f"{len(lengths)} maximum-length columns ("
+                             f"{', '.join(header[i] for i, _ in lengths)}): keep one", header_line)
+    maximum = lengths[0] if lengths else None
     missing = [c for c in REQUIRED if c not in columns]
     if missing:
         raise InputFileError(str(path), f"the header lacks {', '.join(missing)} (has {', '.join(header)})",
@@ -57,9 +69,13 @@ def read_species_list(path: str | Path) -> list[Species]:
         if maximum is not None and maximum[0] < len(row) and row[maximum[0]].strip():
             text = row[maximum[0]].strip()
             try:
-                max_length = float(text) * maximum[1]
+                given = float(text)
             except ValueError:
                 raise InputFileError(str(path), f"the maximum length {text!r} is not a number", number) from None
+            if not (math.isfinite(given) and given > 0):
+                raise InputFileError(str(path), f"the maximum length {text} ({header[maximum[0]]}) must be a "
+                                     "positive number", number)
+            max_length = given * maximum[1]
         try:
             entry = Species(values["family"], values["genus"], values["species"], values.get("code", ""), max_length)
         except UsvipsError as error:
