@@ -27,6 +27,7 @@ def test_the_thesis_tables_read_as_published():
     ("id,X,Y,Z\n1,2,3,nan\n", "line 2: column Z: 'nan' is not a finite number"),
     ("id,X,Y,Z\n1,2,3,4\n1,5,6,7\n", "line 3: duplicate id '1' (first on line 2)"),
     ("id,X,Y,Z,sX,sY,sZ\n1,2,3,4,0.1,-1,0\n", "line 2: control sigmas must be >= 0"),
+    ("id,X,Y,Z,sZ\n1,2,3,4,0.1\n", "the header has sZ but not sX, sY: control sigmas need all of sX, sY, sZ"),
 ])
 def test_bad_control_files_name_file_and_line(tmp_path, text, message):
     path = tmp_path / "c.csv"

@@ -148,6 +148,11 @@ def read_control(path: str | Path) -> ControlPoints:
     header, rows = _rows(path)
     columns = _column_index(path, header, CONTROL_COLUMNS)
     has_sigma = all(c in columns for c in CONTROL_SIGMA_COLUMNS)
+    given = [c for c in CONTROL_SIGMA_COLUMNS if c in header]
+    if given and not has_sigma:  # a sigma in one axis only would be ignored without a word
+        missing = [c for c in CONTROL_SIGMA_COLUMNS if c not in given]
+        raise InputFileError(str(path), f"the header has {', '.join(given)} but not {', '.join(missing)}: control "
+                             f"sigmas need all of {', '.join(CONTROL_SIGMA_COLUMNS)} (metres) or none")
     ids, xyz, sig, lines = [], [], [], []
     first_line: dict[str, int] = {}
     for line, fields in rows:
