@@ -73,6 +73,9 @@ def _negative_eigenvalue(data):
     (lambda d: d["covariance"]["names"].__setitem__(0, "q_l"), "covariance: names q_l, which are not in parameters"),
     (lambda d: d["parameters"].pop([n for n in d["parameters"] if n.startswith("kappa_r")][0]),
      "parameters: missing kappa_r"),
+    (lambda d: d["stations"][0].update(label=[1]), "label must be a name or a number, got list"),
+    (lambda d: d["stations"][0].update(label=" "), 'label must be a name or a number, got " "'),
+    (lambda d: d["stations"].append(dict(d["stations"][0])), "is the label of stations"),
 ])
 def test_calibration_values_are_checked_by_name(tmp_path, edit, message):
     data = json.loads(CALIBRATION.read_text())

@@ -245,7 +245,13 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
         for i, station in enumerate(stations_data):
             if not isinstance(station, dict):
                 raise InputFileError(path, f"stations[{i}] must be an object")
-            labels.append(str(station.get("label", i + 1)))
+            label = station.get("label", i + 1)
+            if isinstance(label, bool) or not isinstance(label, str | int) or not str(label).strip():
+                raise InputFileError(path, f"stations[{i}].label must be a name or a number, got {_show(label)}")
+            if str(label) in labels:
+                raise InputFileError(path, f"stations[{i}].label {str(label)!r} is the label of stations["
+                                     f"{labels.index(str(label))}] too: a station is chosen by its label")
+            labels.append(str(label))
             poses.append(Exterior(**_numbers(path, f"stations[{i}]", station, EXTERIOR_PARAMETERS)))
         if not poses:
             raise InputFileError(path, "the calibration has no station")
