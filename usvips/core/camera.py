@@ -146,8 +146,16 @@ class Camera:
 
     def _rays_with_derivatives_reference(self, pixels: np.ndarray) -> tuple[RayBundle, np.ndarray, np.ndarray]:
         """The numpy path of :meth:`rays_with_derivatives` (the reference the compiled kernel matches)."""
+        return self.rays_with_derivatives_at_ideal(self.interior.pixels_to_normalised(pixels))
+
+    def rays_with_derivatives_at_ideal(self, uv: np.ndarray) -> tuple[RayBundle, np.ndarray, np.ndarray]:
+        """:meth:`rays_with_derivatives` of the pixels whose ideal normalised coordinates are ``uv`` (N, 2),
+        without undistorting them: also where a pixel lies beyond the fold of the lens distortion (two ideal
+        directions give it, and :meth:`Interior.undistort` refuses it), as a projection can compute one
+        (:meth:`ideal_of_points` gives its ``uv``). The derivatives per pixel use the distortion's local
+        inverse there (its Jacobian's determinant is not zero)."""
         interior = self.interior
-        uv = interior.pixels_to_normalised(pixels)
+        uv = np.asarray(uv, dtype=np.float64)
         jac = interior.distortion_jacobian(uv) if interior.has_distortion else None
         directions = np.column_stack([uv, -np.ones(len(uv))])
         tangents = []
@@ -211,6 +219,12 @@ class Camera:
             outside |= self.interior.folded(uv)
             status[(status == RayStatus.OK) & outside] = RayStatus.OUTSIDE_FRAME
         return Projection(pixels, status)
+
+    def ideal_of_points(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The ideal normalised coordinates (N, 2) of the rays that reach object points (N, 3), and their
+        :class:`RayStatus` codes: :meth:`project` before the lens (no frame, no fold check)."""
+        points = validation.finite_array("points", points, 3)
+        return _back_project(self.housing, self.exterior.to_camera(points))
 
     def project_point(self, point) -> np.ndarray:
         """Pixel (2,) of one object point (X, Y, Z) in metres; raises :class:`DegenerateGeometryError`
