@@ -238,9 +238,13 @@ def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: f
         try:
             interior = interior_of(values, side_name)
             camera = Camera(interior, ORIGIN, base[side])
-            uv, bundle, d_origin, d_direction, unreached = _side_rays(camera, pixels, local)
+            warm = [model._warm.get(b) for b in blocks]
+            warm = np.vstack(warm) if all(w is not None for w in warm) else None
+            uv, bundle, d_origin, d_direction, unreached = _side_rays(camera, pixels, local, warm,
+                                                                      model.rays_from_points[side])
         except UsvipsError:
             continue
+        model.rays_from_points[side] = unreached is not None
         for name, column in interior_columns(interior, uv).items():
             if unreached is not None:
                 column.reshape(-1, 2)[unreached] = 0.0
@@ -288,8 +292,8 @@ def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: f
     return out
 
 
-def _side_rays(camera, pixels: np.ndarray, local: np.ndarray
-               ) -> tuple[np.ndarray, object, np.ndarray, np.ndarray, np.ndarray | None]:
+def _side_rays(camera, pixels: np.ndarray, local: np.ndarray, warm: np.ndarray | None = None,
+               from_points: bool = False) -> tuple[np.ndarray, object, np.ndarray, np.ndarray, np.ndarray | None]:
     """The ideal normalised coordinates (N, 2) of a side's computed ``pixels``, their rays with the
     derivatives per pixel (camera frame, the camera at the origin), and the rows whose point no ray reaches
     (None: every row's is reached).
@@ -300,15 +304,20 @@ def _side_rays(camera, pixels: np.ndarray, local: np.ndarray
     cannot be undistorted: then the rays come from the points themselves (``local``, camera frame,
     back-projected through the housing as the evaluation does), an unreached row traced along the optical
     axis so that the others keep their exact columns (its own are zeroed by the caller, as forward
-    differences give a row that stays invalid on both sides of the step)."""
-    try:
-        uv = camera.interior.pixels_to_normalised(pixels)
-        return (uv, *camera.rays_with_derivatives(pixels), None)
-    except UsvipsError:
-        uv, status = camera.ideal_of_points(local)
-        unreached = status != RayStatus.OK
-        uv[unreached] = 0.0
-        return (uv, *camera.rays_with_derivatives_at_ideal(uv), unreached)
+    differences give a row that stays invalid on both sides of the step). ``warm``: the side's pixels at
+    the model's last evaluation (NaN where invalid), where the back-projection starts as the evaluation's
+    does; ``from_points``: go to the points at once (the side needed them at the last Jacobian: the
+    undistortion would fail again after all its iterations)."""
+    if not from_points:
+        try:
+            uv = camera.interior.pixels_to_normalised(pixels)
+            return (uv, *camera.rays_with_derivatives(pixels), None)
+        except UsvipsError:
+            pass
+    uv, status = camera.ideal_of_points(local, warm)
+    unreached = status != RayStatus.OK
+    uv[unreached] = 0.0
+    return (uv, *camera.rays_with_derivatives_at_ideal(uv), unreached if unreached.any() else None)
 
 
 def _station_rotations(values: dict[str, float], names: list[str]) -> tuple[np.ndarray, list[np.ndarray]]:
