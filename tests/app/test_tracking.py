@@ -99,6 +99,46 @@ def test_a_cancel_stops_tracking_and_a_video_without_calibration_is_refused(surv
             track_in_video(project, "other", start, (v.xl, v.yl), (v.xr, v.yr), 0, 20)
 
 
+def _readers() -> list[str]:
+    """The frame source's decoder threads alive (they read ahead of the tracker)."""
+    import threading
+
+    return [t.name for t in threading.enumerate() if t.name.startswith(("usvips-left-grey", "usvips-right-grey"))]
+
+
+def test_the_decoders_reading_ahead_are_stopped_and_joined_on_cancel_and_on_error(survey):
+    """A cancel and an error in the middle of a track both leave no decoder thread behind: the frame
+    source's threads read ahead while the tracker works (seen during the track), and are stopped and
+    joined before the call returns or raises."""
+    path, object_id, fish, stereo, start = survey
+    with Project.open(path) as project:
+        v = project.object(object_id).vertices[0]
+        seen, calls = [], [0]
+
+        def cancel() -> bool:
+            calls[0] += 1
+            return calls[0] > 6
+
+        def progress(done: int, total: int) -> None:
+            seen.extend(_readers())
+
+        track = track_in_video(project, "drop", start, (v.xl, v.yl), (v.xr, v.yr), 0, FRAMES - 1 - OFFSET,
+                               cancel=cancel, progress=progress)
+        assert "cancelled" in (track.reason(-1), track.reason(+1)) and 1 < len(track.frames) < 8
+        assert seen and not _readers()
+
+        def failing(done: int, total: int) -> None:
+            seen.extend(_readers())
+            if done == 3:
+                raise RuntimeError("the worker failed")
+
+        seen.clear()
+        with pytest.raises(RuntimeError, match="the worker failed"):
+            track_in_video(project, "drop", start, (v.xl, v.yl), (v.xr, v.yr), 0, FRAMES - 1 - OFFSET,
+                           progress=failing)
+        assert seen and not _readers()
+
+
 def test_an_objects_vertices_are_proposed_on_another_frame_by_tracking_them_there(survey):
     path, object_id, fish, stereo, start = survey
     with Project.open(path) as project:

@@ -33,5 +33,8 @@ def test_the_tracking_row_tracks_every_frame_and_reports_tracking_apart_from_dec
     assert track["decoding_cpu_s"] > 0 and track["cpu_ratio"] == pytest.approx(
         track["cpu_s"] / track["decoding_cpu_s"], rel=0.02)
     assert track["ratio_target"] == survey.TRACK_TARGET_RATIO
-    assert track["ratio_met"] == (track["ours_s"] <= survey.TRACK_TARGET_RATIO * track["baseline_s"])
+    # judged on the best CPU times of alternate runs (the wall times' verdict beside it)
+    assert track["repeats"] == 2 and track["ratio_judged_on"] == "cpu"
+    assert track["ratio_met"] == (track["cpu_s"] <= survey.TRACK_TARGET_RATIO * track["decoding_cpu_s"])
+    assert track["wall_ratio_met"] == (track["ours_s"] <= survey.TRACK_TARGET_RATIO * track["baseline_s"])
     assert track["backward_frames_tracked"] == 20 and track["backward_s"] > 0 and track["backward_before_s"] > 0

@@ -207,3 +207,59 @@ def test_the_ray_rms_of_several_frames_at_once_gives_the_track_of_frame_by_frame
                 np.testing.assert_array_equal(getattr(track, name), getattr(tracks[0], name))
         reasons.update(why for _, _, why in tracks[0].stopped)
     assert "ray RMS jumps" in reasons  # the cases did stop on the RMS
+
+
+def test_the_flow_split_at_its_finest_level_gives_the_whole_calls_points():
+    """The pyramidal flow runs its coarser levels on the neighbourhood halved and its finest level on small
+    crops (tracking._pyramidal_lk): over random textures and motions (up to what the coarsest level
+    follows, and past it) it loses the same points and finds the others where the whole
+    ``cv2.calcOpticalFlowPyrLK`` does, within the flow's own convergence (0.003 px a step)."""
+    import cv2
+
+    import usvips.core.tracking as tracking
+
+    rng = np.random.default_rng(17)
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
+    found, worst = 0, 0.0
+    for _ in range(150):
+        texture = cv2.GaussianBlur(rng.uniform(0, 255, (420, 420)), (0, 0), rng.uniform(1.0, 3.0))
+        shift = rng.normal(0, 12, 2) if rng.uniform() < 0.8 else rng.uniform(-70, 70, 2)
+        moved = cv2.warpAffine(texture, np.float32([[1, 0, shift[0]], [0, 1, shift[1]]]), (420, 420),
+                               flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+        before, after = (np.clip(np.rint(a), 0, 255).astype(np.uint8)[66:355, 66:355] for a in (texture, moved))
+        start = np.float32(rng.uniform(136, 152, 2)).reshape(1, 1, 2)
+        whole, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=(15, 15), maxLevel=3,
+                                                    criteria=criteria)
+        split = tracking._pyramidal_lk(before, after, start, (15, 15), 3, criteria)
+        assert (split is not None) == bool(status[0, 0])
+        if split is not None:
+            found += 1
+            worst = max(worst, float(np.abs(split - whole).max()))
+    assert found > 100 and worst < 0.01
+
+
+def test_tracks_through_the_split_flow_are_those_of_the_whole_flow(monkeypatch):
+    """A whole track on rendered video with the split flow (the default) and with the whole
+    ``cv2.calcOpticalFlowPyrLK`` at every step: the same frames, stops and scores, the same pixels within
+    the flow's own convergence."""
+    import cv2
+
+    import usvips.core.tracking as tracking
+
+    fish = _fish()
+    stereo, frames = video(fish)
+    left, right = truth(stereo, fish, 6, 0.12)
+    split = track_vertex(frames, stereo, 6, left, right, 0, 20)
+
+    def whole(before, after, start, size, levels, criteria):
+        found, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=size, maxLevel=levels,
+                                                    criteria=criteria)
+        return found if found is not None and status[0, 0] else None
+
+    monkeypatch.setattr(tracking, "_pyramidal_lk", whole)
+    reference = track_vertex(frames, stereo, 6, left, right, 0, 20)
+    assert split.stopped == reference.stopped and len(split.frames) > 8
+    np.testing.assert_array_equal(split.frames, reference.frames)
+    np.testing.assert_allclose(split.left, reference.left, atol=0.01)
+    np.testing.assert_allclose(split.right, reference.right, atol=0.01)
+    np.testing.assert_allclose(split.scores, reference.scores, atol=1e-3)

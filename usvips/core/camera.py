@@ -146,8 +146,16 @@ class Camera:
 
     def _rays_with_derivatives_reference(self, pixels: np.ndarray) -> tuple[RayBundle, np.ndarray, np.ndarray]:
         """The numpy path of :meth:`rays_with_derivatives` (the reference the compiled kernel matches)."""
+        return self.rays_with_derivatives_at_ideal(self.interior.pixels_to_normalised(pixels))
+
+    def rays_with_derivatives_at_ideal(self, uv: np.ndarray) -> tuple[RayBundle, np.ndarray, np.ndarray]:
+        """:meth:`rays_with_derivatives` of the pixels whose ideal normalised coordinates are ``uv`` (N, 2),
+        without undistorting them: also where a pixel lies beyond the fold of the lens distortion (two ideal
+        directions give it, and :meth:`Interior.undistort` refuses it), as a projection can compute one
+        (:meth:`ideal_of_points` gives its ``uv``). The derivatives per pixel use the distortion's local
+        inverse there (its Jacobian's determinant is not zero)."""
         interior = self.interior
-        uv = interior.pixels_to_normalised(pixels)
+        uv = np.asarray(uv, dtype=np.float64)
         jac = interior.distortion_jacobian(uv) if interior.has_distortion else None
         directions = np.column_stack([uv, -np.ones(len(uv))])
         tangents = []
@@ -186,6 +194,24 @@ class Camera:
         the camera reaches it), NOT_CONVERGED, OUTSIDE_FRAME (when the frame size is known; also a point
         whose direction lies beyond the fold of the lens distortion, which folds its pixel back).
         """
+        uv, status = self.ideal_of_points(points, start_pixels)
+        pixels = self.interior.normalised_to_pixels(uv)
+        if self.width is not None and self.height is not None:
+            outside = (
+                (pixels[:, 0] < -0.5) | (pixels[:, 0] > self.width - 0.5)
+                | (pixels[:, 1] < -0.5) | (pixels[:, 1] > self.height - 0.5)
+            )
+            # a direction beyond the distortion's fold folds back to a pixel that may lie in the frame,
+            # but the lens forms no such image: the point is outside what the camera sees
+            outside |= self.interior.folded(uv)
+            status[(status == RayStatus.OK) & outside] = RayStatus.OUTSIDE_FRAME
+        return Projection(pixels, status)
+
+    def ideal_of_points(self, points: np.ndarray, start_pixels: np.ndarray | None = None
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """The ideal normalised coordinates (N, 2) of the rays that reach object points (N, 3), and their
+        :class:`RayStatus` codes: :meth:`project` before the lens (no frame, no fold check; ``start_pixels``
+        as there)."""
         points = validation.finite_array("points", points, 3)
         local = self.exterior.to_camera(points)
         start = None
@@ -199,18 +225,7 @@ class Camera:
                     start[rows] = self.interior.pixels_to_normalised(start_pixels[rows])
                 except UsvipsError:  # a start the distortion cannot invert: use the default start
                     start = None
-        uv, status = _back_project(self.housing, local, start)
-        pixels = self.interior.normalised_to_pixels(uv)
-        if self.width is not None and self.height is not None:
-            outside = (
-                (pixels[:, 0] < -0.5) | (pixels[:, 0] > self.width - 0.5)
-                | (pixels[:, 1] < -0.5) | (pixels[:, 1] > self.height - 0.5)
-            )
-            # a direction beyond the distortion's fold folds back to a pixel that may lie in the frame,
-            # but the lens forms no such image: the point is outside what the camera sees
-            outside |= self.interior.folded(uv)
-            status[(status == RayStatus.OK) & outside] = RayStatus.OUTSIDE_FRAME
-        return Projection(pixels, status)
+        return _back_project(self.housing, local, start)
 
     def project_point(self, point) -> np.ndarray:
         """Pixel (2,) of one object point (X, Y, Z) in metres; raises :class:`DegenerateGeometryError`

@@ -164,15 +164,63 @@ def _flow(previous: np.ndarray, following: np.ndarray, point: np.ndarray, settin
     if before.shape != after.shape:
         return None, np.inf
     start = (point - corner).astype(np.float32).reshape(1, 1, 2)
-    ahead, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=size,
-                                                maxLevel=settings.levels, criteria=criteria)
-    if ahead is None or not status[0, 0]:
+    ahead = _pyramidal_lk(before, after, start, size, settings.levels, criteria)
+    if ahead is None:
         return None, np.inf
-    back, status_back, _ = cv2.calcOpticalFlowPyrLK(after, before, ahead, None, winSize=size,
-                                                    maxLevel=settings.levels, criteria=criteria)
-    if back is None or not status_back[0, 0]:
+    back = _pyramidal_lk(after, before, ahead, size, settings.levels, criteria)
+    if back is None:
         return None, np.inf
     return ahead.reshape(2).astype(np.float64) + corner, float(np.linalg.norm(back.reshape(2) - start.reshape(2)))
+
+
+#: how far (px) the finest level's iterations may move the point from the coarser levels' answer within the
+#: small crops of :func:`_pyramidal_lk`; a move nearer that edge is redone over the whole neighbourhood
+FINEST_DRIFT = 8
+
+
+def _pyramidal_lk(before: np.ndarray, after: np.ndarray, start: np.ndarray, size: tuple[int, int], levels: int,
+                  criteria) -> np.ndarray | None:
+    """``cv2.calcOpticalFlowPyrLK`` of one point (``start`` (1, 1, 2) float32, pixels of ``before``) from
+    ``before`` to ``after`` over ``levels`` pyramid levels, None where it loses the point; the same answer
+    for less work. The whole call builds both images' pyramids with the finest level's derivatives over
+    the whole neighbourhood, though the finest level's iterations read a window's width about the point
+    only: here the coarser levels run on the neighbourhood halved (``cv2.pyrDown``, the pyramid's own next
+    level), and the finest level on crops a window and :data:`FINEST_DRIFT` wide about the point and the
+    coarser levels' answer, from that answer (the same iterations on the same pixels, in coordinates
+    shifted by whole pixels: the point agrees within the flow's convergence). Where either part loses the
+    point or the finest level moves toward its crop's edge, the whole call decides (a coarser level
+    failing on its own is skipped by the whole call, not a loss)."""
+    if levels >= 1:
+        coarse, status, _ = cv2.calcOpticalFlowPyrLK(cv2.pyrDown(before), cv2.pyrDown(after), start / 2, None,
+                                                     winSize=size, maxLevel=levels - 1, criteria=criteria)
+        found = _finest_level(before, after, start, coarse, size, criteria) if status[0, 0] else None
+        if found is not None:
+            return found
+    found, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=size, maxLevel=levels,
+                                                criteria=criteria)
+    return found if found is not None and status[0, 0] else None
+
+
+def _finest_level(before: np.ndarray, after: np.ndarray, start: np.ndarray, coarse: np.ndarray,
+                  size: tuple[int, int], criteria) -> np.ndarray | None:
+    """The finest level of :func:`_pyramidal_lk` from the coarser levels' answer ``coarse`` (level-1
+    pixels) on small crops; None where the whole call must decide."""
+    guess = coarse.reshape(2).astype(np.float64) * 2
+    reach = size[0] // 2 + 3 + FINEST_DRIFT  # (the two crops of one size, as the call needs)
+    small_before, corner_before = _crop(before, start.reshape(2).astype(np.float64), reach)
+    small_after, corner_after = _crop(after, guess, reach)
+    if small_before.shape != (2 * reach + 1,) * 2 or small_after.shape != small_before.shape:
+        return None  # at the neighbourhood's edge
+    found, status, _ = cv2.calcOpticalFlowPyrLK(
+        small_before, small_after, (start.reshape(2) - corner_before).astype(np.float32).reshape(1, 1, 2),
+        (guess - corner_after).astype(np.float32).reshape(1, 1, 2), winSize=size, maxLevel=0, criteria=criteria,
+        flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
+    if found is None or not status[0, 0]:
+        return None
+    found = found.reshape(2).astype(np.float64) + corner_after
+    if np.max(np.abs(found - guess)) > FINEST_DRIFT - 2:  # moved toward the small crop's edge
+        return None
+    return found.astype(np.float32).reshape(1, 1, 2)
 
 
 def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, guess: np.ndarray,

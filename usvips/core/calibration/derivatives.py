@@ -229,27 +229,36 @@ def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: f
         if not blocks:
             continue
         pixels = np.vstack([computed[model.blocks[b]].reshape(-1, 2) for b in blocks])
-        try:
-            interior = interior_of(values, side_name)
-            uv = interior.pixels_to_normalised(pixels)
-            bundle, d_origin, d_direction = Camera(interior, ORIGIN, base[side]).rays_with_derivatives(pixels)
-        except UsvipsError:
-            continue
         counts = [len(model.block_points[b]) for b in blocks]
         ends = np.cumsum([0, *counts])
-        for name, column in interior_columns(interior, uv).items():
-            into = out.setdefault(f"{name}_{side_name}", {})
-            for k, b in enumerate(blocks):
-                into[b] = column[2 * ends[k]: 2 * ends[k + 1]]
         points = xyz[np.concatenate([model.block_points[b] for b in blocks])]
         which = np.repeat(model.block_station[blocks], counts)
         rotation = frames_m[which, side]
         local = np.einsum("nij,nj->ni", rotation, points - frames_c[which, side])
+        try:
+            interior = interior_of(values, side_name)
+            camera = Camera(interior, ORIGIN, base[side])
+            warm = [model._warm.get(b) for b in blocks]
+            warm = np.vstack(warm) if all(w is not None for w in warm) else None
+            uv, bundle, d_origin, d_direction, unreached = _side_rays(camera, pixels, local, warm,
+                                                                      model.rays_from_points[side])
+        except UsvipsError:
+            continue
+        model.rays_from_points[side] = unreached is not None
+        for name, column in interior_columns(interior, uv).items():
+            if unreached is not None:
+                column.reshape(-1, 2)[unreached] = 0.0
+            into = out.setdefault(f"{name}_{side_name}", {})
+            for k, b in enumerate(blocks):
+                into[b] = column[2 * ends[k]: 2 * ends[k + 1]]
         along = np.einsum("ij,ij->i", local - bundle.origins, bundle.directions)
         a0, a1, valid = pixel_jacobian(bundle.directions, d_origin, d_direction, along)
         a0 = np.einsum("ni,nij->nj", a0, rotation)
         a1 = np.einsum("ni,nij->nj", a1, rotation)
         good = bundle.ok & valid
+        if unreached is not None:  # an unreached row's pose and housing columns: zero (see _side_rays)
+            a0[unreached] = a1[unreached] = 0.0
+            good |= unreached
         due: list[tuple] = []
         vectorised = not (shared_plane and side == 1)
         if vectorised:  # every block's pose columns at once (the shared cover plane's right side: below)
@@ -281,6 +290,34 @@ def _side_batches(model, values: dict[str, float], computed: np.ndarray, free: f
                 out.setdefault(name, {}).update(columns)
     _add_rig_housing_terms(model, values, following, out)
     return out
+
+
+def _side_rays(camera, pixels: np.ndarray, local: np.ndarray, warm: np.ndarray | None = None,
+               from_points: bool = False) -> tuple[np.ndarray, object, np.ndarray, np.ndarray, np.ndarray | None]:
+    """The ideal normalised coordinates (N, 2) of a side's computed ``pixels``, their rays with the
+    derivatives per pixel (camera frame, the camera at the origin), and the rows whose point no ray reaches
+    (None: every row's is reached).
+
+    From the pixels, undistorted, where they all can be. A point the housing cannot image (behind the
+    camera, missing a surface: the evaluation marks its observation invalid and the adjustment leaves it
+    out) gets whatever pixel its failed solve left, often far beyond the lens distortion's fold, where it
+    cannot be undistorted: then the rays come from the points themselves (``local``, camera frame,
+    back-projected through the housing as the evaluation does), an unreached row traced along the optical
+    axis so that the others keep their exact columns (its own are zeroed by the caller, as forward
+    differences give a row that stays invalid on both sides of the step). ``warm``: the side's pixels at
+    the model's last evaluation (NaN where invalid), where the back-projection starts as the evaluation's
+    does; ``from_points``: go to the points at once (the side needed them at the last Jacobian: the
+    undistortion would fail again after all its iterations)."""
+    if not from_points:
+        try:
+            uv = camera.interior.pixels_to_normalised(pixels)
+            return (uv, *camera.rays_with_derivatives(pixels), None)
+        except UsvipsError:
+            pass
+    uv, status = camera.ideal_of_points(local, warm)
+    unreached = status != RayStatus.OK
+    uv[unreached] = 0.0
+    return (uv, *camera.rays_with_derivatives_at_ideal(uv), unreached if unreached.any() else None)
 
 
 def _station_rotations(values: dict[str, float], names: list[str]) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -372,11 +409,21 @@ def _add_rig_housing_terms(model, values, following: list[tuple], out: Columns) 
     if not rig_names:
         return
     terms = side_housing_columns(rig_housings, rig_names, 1, [entry for entry, _, _ in following])
+    _combine_rig_terms(following, terms, out)
+
+
+def _combine_rig_terms(following: list[tuple], terms: Columns, out: Columns) -> None:
+    """Each right block's first-station pose columns under a shared cover plane: the camera's motion plus
+    its housing's term; a pose that moves only the housing (the left camera's first pose, for the right
+    camera at the first station, which has its own pose) has the housing's term alone."""
     for entry, motion, _ in following:
         b = entry[0]
         for name, column in motion.items():
             if b in terms.get(name, {}):
                 out.setdefault(name, {})[b] = column + terms[name][b]
+        for name, columns in terms.items():
+            if name not in motion and b in columns:
+                out.setdefault(name, {})[b] = columns[b]
 
 
 def _per_block_derivatives(model, values: dict[str, float], computed: np.ndarray,
@@ -447,11 +494,7 @@ def _per_block_derivatives(model, values: dict[str, float], computed: np.ndarray
                     terms.setdefault(name, {})[b] = column
         else:
             terms = side_housing_columns(rig_housings, rig_names, 1, [entry for entry, _, _ in following])
-        for entry, motion, _ in following:
-            b = entry[0]
-            for name, column in motion.items():
-                if b in terms.get(name, {}):  # the camera's motion plus its housing's
-                    out.setdefault(name, {})[b] = column + terms[name][b]
+        _combine_rig_terms(following, terms, out)
     return out
 
 

@@ -118,6 +118,9 @@ class StereoModel:
                         group.append(station)
         values = np.concatenate(values)
         self._warm: dict[int, np.ndarray] = {}
+        #: per side (left, right): whether its exact derivatives took their rays from the points at the last
+        #: Jacobian (an observation no ray reaches: see ``derivatives._side_rays``), and so start there again
+        self.rays_from_points = [False, False]
         # per block: its station's place, its side's, and the control rows of its points (batched paths)
         self.block_station = np.array([self.stations.index(s) for s, _ in self.block_keys], dtype=int)
         self.block_side = np.array([SIDES.index(side) for _, side in self.block_keys], dtype=int)
