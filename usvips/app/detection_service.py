@@ -323,16 +323,26 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
     vertices = []
     for i, name in enumerate(KEYPOINTS):
         left, right = proposal.pair.left.keypoint(name), proposal.pair.right.keypoint(name)
-        sigma = model.description.measured_sigma(name)
+        sigma = _vertex_sigma(m, i) if m is not None else model.description.measured_sigma(name)
         xyz = tuple(map(float, m.points[i])) if m is not None else None
         covariance = m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] if m is not None else None
         vertices.append(Vertex(float(left.x), float(left.y), float(right.x), float(right.y), xyz, covariance,
                                plan.geometry.calibration_id if m is not None else None, plan.label,
                                plan.label if frame is not None else None, frame, partner,
                                times.get(frame) if frame is not None else None, source=source_label(name, model),
-                               pointing_px=(sigma, sigma) if sigma is not None else None,
+                               pointing_px=sigma if sigma is None or isinstance(sigma, tuple) else (sigma, sigma),
                                pointing_origin="estimated" if sigma is not None else "default"))
     return vertices
+
+
+def _vertex_sigma(measurement: Measurement, vertex: int) -> tuple[float, float] | None:
+    """The (left, right) pointing sigma (px) the proposal's length was measured with at ``vertex``: stored
+    with the vertex, so that the object's figure, recomputed from its picks, is the proposal's (the model's
+    validated sigma is scaled to the frame's pixels, which the description's table alone does not say)."""
+    if measurement.pointing_sigma_px is None:
+        return None
+    left, right = np.asarray(measurement.pointing_sigma_px, dtype=np.float64).reshape(-1, 2)[vertex]
+    return float(left), float(right)
 
 
 def proposal_note(proposal: Proposal, model: DetectionModel) -> str:
