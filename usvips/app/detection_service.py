@@ -42,7 +42,7 @@ from usvips.app.video_project import left_frame_time, partner_frame
 from usvips.core import validation
 from usvips.core.detection import Detection
 from usvips.core.detection.association import DEFAULT_MAX_SPEED_M_S
-from usvips.core.detection.refine import refine_pairs
+from usvips.core.detection.refine import RefinedPair, refine_pairs
 from usvips.core.detection.stereo import StereoPair, measure_pairs, pair_detections
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements.evaluate import Measurement
@@ -230,19 +230,37 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
                                max_shift_px=limits)
         pairs = [result.pair for result in results]
         refined = [sum(k.refined for k in result.keypoints) for result in results]
+        apart = [_disagreement(result) for result in results]
     else:
         pairs, refined = list(pairing.pairs), [0] * len(pairing.pairs)
+        apart = [""] * len(pairs)
     measured: list = [None] * len(pairs)
     if sigmas is not None and pairs:
-        measured = measure_pairs(pairs, geometry.calibration, sigmas, KEYPOINTS, geometry.station, geometry.frame,
-                                 measured_basis=model.sigma_basis(KEYPOINTS))
+        chosen = [i for i, why in enumerate(apart) if not why]
+        lengths = measure_pairs([pairs[i] for i in chosen], geometry.calibration, sigmas, KEYPOINTS,
+                                geometry.station, geometry.frame, measured_basis=model.sigma_basis(KEYPOINTS))
+        for i, m in zip(chosen, lengths, strict=True):
+            measured[i] = m
     out = []
-    for pair, m, count in zip(pairs, measured, refined, strict=True):
-        if isinstance(m, UsvipsError):
+    for pair, m, count, why in zip(pairs, measured, refined, apart, strict=True):
+        if why and sigmas is not None:
+            out.append((pair, None, count, f"no length: {why}"))
+        elif isinstance(m, UsvipsError):
             out.append((pair, None, count, f"no length: {m}"))
         else:
             out.append((pair, m, count, ""))
     return out, found_left, found_right, len(pairing.unpaired_left) + len(pairing.unpaired_right)
+
+
+def _disagreement(result: RefinedPair) -> str:
+    """Why a refined pair's keypoints are not one point of the fish in both images ('' when they are): a
+    keypoint whose match along the curve lay further from the model's right point than the model's measured
+    sigma explains (:attr:`usvips.core.detection.refine.KeypointRefinement.beyond_limit`). Such a pair's
+    length would rest on a keypoint off by more than its sigma — on rendered fish such lengths erred by six
+    times their sigma's variance (docs/detection.md, "Acceptance") — so it is given none, and a person
+    places the points."""
+    off = [k for k in result.keypoints if k.beyond_limit]
+    return "; ".join(f"the {k.name}s in the two images are not one point ({k.reason})" for k in off)
 
 
 def _frames(plan: DetectionPlan):

@@ -55,6 +55,13 @@ class KeypointRefinement:
         return not self.reason
 
     @property
+    def beyond_limit(self) -> bool:
+        """Whether the match was found but lay further from the model's right point than the limit: the
+        model's two keypoints are then not the same point of the fish (one of them is off by more than its
+        measured sigma explains), and the pair's length has no honest sigma."""
+        return not self.refined and self.reason.startswith(BEYOND_LIMIT)
+
+    @property
     def shift_px(self) -> float:
         """How far refinement moved the right keypoint (px)."""
         return float(np.hypot(self.after[0] - self.before[0], self.after[1] - self.before[1]))
@@ -74,6 +81,8 @@ def _near(curve: EpipolarCurve, centre: np.ndarray, radius: float) -> EpipolarCu
     return EpipolarCurve(curve.pixels[keep], curve.depths[keep])
 
 
+#: how the reason of a match refused for moving the model's point too far begins
+BEYOND_LIMIT = "the match would move it"
 #: samples of each epipolar curve (geometrically spaced depths from near to far)
 CURVE_SAMPLES = 400
 
@@ -108,7 +117,7 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     shift = float(np.hypot(after[0] - before[0], after[1] - before[1]))
     if max_shift_px is not None and shift > max_shift_px:
         return KeypointRefinement(left.name, before, before, float(match.score),
-                                  f"the match would move it {shift:.1f} px, more than {max_shift_px:.1f} px "
+                                  f"{BEYOND_LIMIT} {shift:.1f} px, more than {max_shift_px:.1f} px "
                                   "(3√2 × the model's measured sigma): the model's point kept")
     return KeypointRefinement(left.name, before, after, float(match.score))
 
