@@ -43,6 +43,7 @@ from usvips.core import validation
 from usvips.core.detection import Detection
 from usvips.core.detection.association import DEFAULT_MAX_SPEED_M_S
 from usvips.core.detection.refine import RefinedPair, refine_pairs
+from usvips.core.detection.stereo import MEASURED_KEYPOINT_SIGMA as SIGMA_MARK
 from usvips.core.detection.stereo import StereoPair, measure_pairs, pair_detections
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements.evaluate import Measurement
@@ -364,8 +365,15 @@ def _vertex_sigma(measurement: Measurement, vertex: int) -> tuple[float, float] 
 
 
 def proposal_note(proposal: Proposal, model: DetectionModel) -> str:
+    """The stored proposal's notes: the model, its score, the pairing, the refinement, and what its length's
+    keypoint sigma rests on (the object's figure, recomputed from its picks, carries the sigma but not its
+    basis) — or why it has no length."""
+    measured = proposal.measurement
+    basis = next((mark for mark in measured.marks if mark.startswith(SIGMA_MARK)), "") if measured else ""
+    why = basis or proposal.problem
     return (f"proposed by model {model.tag}: score {proposal.pair.left.score:.2f}, pairing "
-            f"{proposal.pair.cost_px:.2f} px, right keypoints refined {proposal.refined}/{len(KEYPOINTS)}")
+            f"{proposal.pair.cost_px:.2f} px, right keypoints refined {proposal.refined}/{len(KEYPOINTS)}"
+            + (f"; {why}" if why else ""))
 
 
 def _times(plan: DetectionPlan, frames: Sequence[int]) -> dict[int, float]:
