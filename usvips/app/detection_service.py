@@ -256,12 +256,16 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
 def _disagreement(result: RefinedPair) -> str:
     """Why a refined pair's keypoints are not one point of the fish in both images ('' when they are): a
     keypoint whose match along the curve lay further from the model's right point than the model's measured
-    sigma explains (:attr:`usvips.core.detection.refine.KeypointRefinement.beyond_limit`). Such a pair's
-    length would rest on a keypoint off by more than its sigma — on rendered fish such lengths erred by six
-    times their sigma's variance (docs/detection.md, "Acceptance") — so it is given none, and a person
-    places the points."""
-    off = [k for k in result.keypoints if k.beyond_limit]
-    return "; ".join(f"the {k.name}s in the two images are not one point ({k.reason})" for k in off)
+    sigma explains (:attr:`usvips.core.detection.refine.KeypointRefinement.beyond_limit`), or whose curve
+    passes further from it than the search radius (``off_curve``). Such a pair's length would rest on a
+    keypoint off by more than its sigma — on rendered fish such lengths erred by six times their sigma's
+    variance (docs/detection.md, "Acceptance") — so it is given none, and a person places the points. So is
+    a pair with a left keypoint at the image's edge (``at_edge``): the fish may be cut by the frame (on
+    rendered fish, a snout hidden beyond the edge gave a length 8.5 sigma short)."""
+    off = [k for k in result.keypoints if k.beyond_limit or k.off_curve]
+    edge = [k for k in result.keypoints if k.at_edge]
+    return "; ".join([f"the {k.name}s in the two images are not one point ({k.reason})" for k in off]
+                     + [f"the {k.name} is {k.reason} (the fish may be cut by the frame)" for k in edge])
 
 
 def _frames(plan: DetectionPlan):

@@ -87,7 +87,10 @@ def test_a_refused_match_keeps_the_models_point_and_says_why():
     assert not step.refined and step.after == step.before == (150.0, 150.0)
     assert step.reason
     far_off = refine_keypoint(blank, blank, stereo, left, Keypoint("snout", 150.0, 20.0, 0.9), radius_px=5.0)
-    assert not far_off.refined and "passes no closer" in far_off.reason
+    assert not far_off.refined and "passes no closer" in far_off.reason and far_off.off_curve
+    assert not step.off_curve and not step.at_edge and not step.beyond_limit
+    edge = refine_keypoint(blank, blank, stereo, Keypoint("snout", 200.0, 3.0, 0.9), Keypoint("snout", 150.0, 3.0, 0.9))
+    assert not edge.refined and edge.at_edge and "edge" in edge.reason and not edge.off_curve
 
 
 @pytest.mark.parametrize("housing", ["flat-port", "dome-cover"])

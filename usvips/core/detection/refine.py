@@ -62,6 +62,18 @@ class KeypointRefinement:
         return not self.refined and self.reason.startswith(BEYOND_LIMIT)
 
     @property
+    def at_edge(self) -> bool:
+        """Whether the left keypoint lies too near the image's edge for the patch: the fish may be cut by
+        the frame, its true point outside it, where the model cannot point."""
+        return not self.refined and self.reason.startswith(AT_EDGE)
+
+    @property
+    def off_curve(self) -> bool:
+        """Whether the left keypoint's epipolar curve passes further from the model's right point than the
+        search radius: the two keypoints cannot be one point of the fish."""
+        return not self.refined and self.reason.startswith(FAR_FROM_CURVE)
+
+    @property
     def shift_px(self) -> float:
         """How far refinement moved the right keypoint (px)."""
         return float(np.hypot(self.after[0] - self.before[0], self.after[1] - self.before[1]))
@@ -83,6 +95,10 @@ def _near(curve: EpipolarCurve, centre: np.ndarray, radius: float) -> EpipolarCu
 
 #: how the reason of a match refused for moving the model's point too far begins
 BEYOND_LIMIT = "the match would move it"
+#: how the reason of a left keypoint too near the image's edge for the patch begins
+AT_EDGE = "at the image's edge"
+#: how the reason of a keypoint whose curve misses the model's right point begins
+FAR_FROM_CURVE = "the epipolar curve passes no closer than"
 #: samples of each epipolar curve (geometrically spaced depths from near to far)
 CURVE_SAMPLES = 400
 
@@ -105,11 +121,11 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     curve = _near(curve, right.pixel, radius)
     if len(curve.pixels) < 2:
         return KeypointRefinement(left.name, before, before, None,
-                                  f"the epipolar curve passes no closer than {radius:g} px to the model's point")
+                                  f"{FAR_FROM_CURVE} {radius:g} px to the model's point")
     try:
         match = match_along_curve(left_image, right_image, left.pixel, curve, window=window, min_score=min_score)
     except InvalidParameterError as error:  # a keypoint too near the edge for the patch
-        return KeypointRefinement(left.name, before, before, None, error.problem)
+        return KeypointRefinement(left.name, before, before, None, f"{AT_EDGE}: {error.problem}")
     if not match:
         return KeypointRefinement(left.name, before, before, match.score if match.pixel else None,
                                   match.reason or "no match")
