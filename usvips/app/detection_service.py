@@ -260,7 +260,7 @@ def _disagreement(result: RefinedPair) -> str:
     passes further from it than the search radius (``off_curve``). Such a pair's length would rest on a
     keypoint off by more than its sigma — on rendered fish such lengths erred by six times their sigma's
     variance (docs/detection.md, "Acceptance") — so it is given none, and a person places the points. So is
-    a pair with a left keypoint at the image's edge (``at_edge``): the fish may be cut by the frame (on
+    a pair with a keypoint at either image's edge (``at_edge``): the fish may be cut by the frame (on
     rendered fish, a snout hidden beyond the edge gave a length 8.5 sigma short)."""
     off = [k for k in result.keypoints if k.beyond_limit or k.off_curve]
     edge = [k for k in result.keypoints if k.at_edge]

@@ -91,6 +91,9 @@ def test_a_refused_match_keeps_the_models_point_and_says_why():
     assert not step.off_curve and not step.at_edge and not step.beyond_limit
     edge = refine_keypoint(blank, blank, stereo, Keypoint("snout", 200.0, 3.0, 0.9), Keypoint("snout", 150.0, 3.0, 0.9))
     assert not edge.refined and edge.at_edge and "edge" in edge.reason and not edge.off_curve
+    right_edge = refine_keypoint(blank, blank, stereo, Keypoint("snout", 200.0, 150.0, 0.9),
+                                 Keypoint("snout", W - 3.0, 150.0, 0.9))
+    assert not right_edge.refined and right_edge.at_edge and "right image" in right_edge.reason
 
 
 @pytest.mark.parametrize("housing", ["flat-port", "dome-cover"])

@@ -63,8 +63,8 @@ class KeypointRefinement:
 
     @property
     def at_edge(self) -> bool:
-        """Whether the left keypoint lies too near the image's edge for the patch: the fish may be cut by
-        the frame, its true point outside it, where the model cannot point."""
+        """Whether the left keypoint, or the model's right one, lies too near its image's edge for the patch:
+        the fish may be cut by the frame, its true point outside it, where the model cannot point."""
         return not self.refined and self.reason.startswith(AT_EDGE)
 
     @property
@@ -95,7 +95,7 @@ def _near(curve: EpipolarCurve, centre: np.ndarray, radius: float) -> EpipolarCu
 
 #: how the reason of a match refused for moving the model's point too far begins
 BEYOND_LIMIT = "the match would move it"
-#: how the reason of a left keypoint too near the image's edge for the patch begins
+#: how the reason of a keypoint too near its image's edge for the patch begins
 AT_EDGE = "at the image's edge"
 #: how the reason of a keypoint whose curve misses the model's right point begins
 FAR_FROM_CURVE = "the epipolar curve passes no closer than"
@@ -116,6 +116,12 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     own errors reach in about 1 % of cases, it keeps the rare wrong matches of the module docstring out."""
     radius = validation.positive("radius_px", radius_px)
     before = (float(right.x), float(right.y))
+    height, width = right_image.shape[:2]
+    half = int(window) // 2
+    if not (half <= right.x <= width - 1 - half and half <= right.y <= height - 1 - half):
+        return KeypointRefinement(left.name, before, before, None,
+                                  f"{AT_EDGE}: the model's right point ({right.x:g}, {right.y:g}) is too close to "
+                                  f"the edge of the {width} × {height} right image for a {int(window)} px template")
     if curve is None:
         curve = epipolar_curve(rig.left, rig.right, left.pixel, near, far, samples=CURVE_SAMPLES)
     curve = _near(curve, right.pixel, radius)
