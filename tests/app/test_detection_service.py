@@ -1,12 +1,15 @@
 """Detection in a project: proposals stored as unreviewed objects made by the model (its name and hash
 recorded), lengths with the model's measured sigma or none without one, never over a person's object."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from tests.app.detection_scenes import fake_model, make_project, scene, write_switching_model
 from usvips.app.detection_model import load_model
 from usvips.app.detection_service import detect_in_project, is_proposal, plan_detection, run_detection
+from usvips.app.project_figures import measure_stored
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.pointing import source_from_label
 from usvips.store import Project
@@ -40,6 +43,28 @@ def test_proposals_are_stored_unreviewed_with_the_model_as_their_source_and_meas
             assert any("measured on test scenes" in mark for mark in proposal.measurement.marks)
         assert "3 stored as unreviewed proposals" in run.summary()[0]
         assert "measured (test scenes)" in run.summary()[1]
+
+
+def test_a_stored_proposals_figure_is_its_measured_length_with_the_validated_sigma_in_image_pixels(survey):
+    """A model whose σ is its held-out validation's (model input pixels, no [keypoint_sigma] table): the
+    stored vertices carry the σ scaled to the frame's pixels that the length was measured with, so the object's
+    figure recomputed from its picks (the object list, exports) is the proposal's, σ and all. (Before, the
+    vertices got no σ and the object's figure took the keypoint source's assumed 2 px: not what was measured.)"""
+    path, truth = survey
+    model = fake_model(truth, sigma=None)
+    model = replace(model, description=replace(model.description, validated_keypoint_sigma=(0.9, 1.3),
+                                               validation_source="test validation"))
+    with Project.open(path) as project:
+        run = detect_in_project(project, model, pair="dive", refine=False)
+        assert run.proposals and all(p.measurement is not None for p in run.proposals)
+        for proposal in run.proposals:
+            stored = project.object(proposal.object_id)
+            used = np.asarray(proposal.measurement.pointing_sigma_px)
+            assert used[0, 0] > 0.9 and used[1, 0] > 1.3  # scaled up from the input's pixels to the image's
+            assert [v.pointing_px for v in stored.vertices] == [tuple(row) for row in used]
+            figure = measure_stored(project, stored).main
+            assert figure.value == pytest.approx(proposal.measurement.main.value, rel=1e-9)
+            assert figure.sigma == pytest.approx(proposal.measurement.main.sigma, rel=1e-6)
 
 
 def test_a_proposal_never_repeats_a_persons_object_nor_an_earlier_proposal(survey):

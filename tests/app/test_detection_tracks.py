@@ -138,3 +138,19 @@ def test_batch_detect_joins_each_video_fish_into_one_object(video):
     assert summary["instants"] == 3 * 5 and summary["proposals"] == 3 + 3 * 6
     with Project.open(path) as project:
         assert len(survey_objects(project)) == 3 + 3  # the pair's three fish, and the video's three once each
+
+
+def test_a_fish_joined_over_frames_keeps_its_models_error_as_one_error(video):
+    """A model's error on one fish repeats on the frames that see it (on rendered survey clips the combined
+    lengths of fish joined over 4 frames erred by 1.7 times their sigma, NEES 3.0, when the instants counted
+    as independent: docs/detection.md, "Acceptance"), so combining a still fish's identical proposals does
+    not shrink the keypoints' share of its sigma by √6 — it stays the single proposal's."""
+    path, truth = video
+    with Project.open(path) as project:
+        run = detect_in_project(project, _model(truth.fish[:1], np.zeros((1, 3))), video="drop", refine=False)
+        assert len(run.joined.fish) == 1 and run.joined.instants == 5
+        whole = project.object(run.joined.fish[0][0])
+        single = evaluate(measurement_input(project, whole, with_instants=False)).main
+        combined = evaluate(measurement_input(project, whole)).main
+        assert combined.value == pytest.approx(single.value, abs=1e-9)
+        assert combined.sigma >= single.sigma * 0.999

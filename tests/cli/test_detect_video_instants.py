@@ -116,21 +116,29 @@ def test_detect_on_a_rendered_video_stores_each_fish_once_with_its_frames_as_ins
         opened.add_calibration("cal", calibration_to_dict(calibration), ("drop",))
 
     # refined along the curve, as the window does: the model's keypoints are the truth, and the matches that
-    # would move them beyond 3√2 x their 0.5 px sigma are refused (taken, they spoil the links; fails without)
+    # would move them beyond 3√2 x their 0.5 px sigma are refused (taken, they spoil the links; fails without).
+    # A pair with such a refusal gets no length (its keypoints are not shown to be one point) and is not joined;
+    # the chain bridges a frame without one.
     assert main(["detect", str(project), "--video", "drop", "--model", str(description)]) == 0
     out = capsys.readouterr().out
-    assert out.count("instant of object") == 2 * (FRAMES - 1)
-    assert f"2 fish seen on several frames joined into objects with {2 * (FRAMES - 1)} further instant(s)" in out
+    unmeasured = out.count("are not one point")
+    assert unmeasured <= FRAMES // 2  # on these sharp frames most pairs keep their length
+    joined = 2 * (FRAMES - 1) - unmeasured
+    assert out.count("instant of object") == joined
+    assert f"2 fish seen on several frames joined into objects with {joined} further instant(s)" in out
     with Project.open(project) as opened:
         assert len(opened.objects()) == 2 * FRAMES
         fish = survey_objects(opened)
-        assert len(fish) == 2  # the survey counts two fish
+        assert len(fish) == 2 + unmeasured  # two fish, and the proposals without a length on their own
+        fish = [stored for stored in fish if stored.vertices[0].xyz is not None]
+        assert len(fish) == 2 and sum(1 + len(opened.instants(f.id)) for f in fish) == 2 * FRAMES - unmeasured
         for stored in fish:
             instants = opened.instants(stored.id)
-            assert [opened.object(i).vertices[0].frame_left for i in instants] == list(range(1, FRAMES))
+            frames = [stored.vertices[0].frame_left] + [opened.object(i).vertices[0].frame_left for i in instants]
+            assert frames == sorted(set(frames)) and set(frames) <= set(range(FRAMES))
             nearest = {_nearest(fishes, o.vertices[0]) for o in [stored, *map(opened.object, instants)]}
             assert len(nearest) == 1  # one fish's proposals only
             nearest = nearest.pop()
             combined = evaluate(measurement_input(opened, stored))
-            assert combined.instant_count == FRAMES
+            assert combined.instant_count == 1 + len(instants)
             assert abs(combined.main.value - fishes[nearest].length) < 3 * combined.main.sigma

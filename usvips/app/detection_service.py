@@ -42,7 +42,8 @@ from usvips.app.video_project import left_frame_time, partner_frame
 from usvips.core import validation
 from usvips.core.detection import Detection
 from usvips.core.detection.association import DEFAULT_MAX_SPEED_M_S
-from usvips.core.detection.refine import refine_pairs
+from usvips.core.detection.refine import RefinedPair, refine_pairs
+from usvips.core.detection.stereo import MEASURED_KEYPOINT_SIGMA as SIGMA_MARK
 from usvips.core.detection.stereo import StereoPair, measure_pairs, pair_detections
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements.evaluate import Measurement
@@ -230,19 +231,41 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
                                max_shift_px=limits)
         pairs = [result.pair for result in results]
         refined = [sum(k.refined for k in result.keypoints) for result in results]
+        apart = [_disagreement(result) for result in results]
     else:
         pairs, refined = list(pairing.pairs), [0] * len(pairing.pairs)
+        apart = [""] * len(pairs)
     measured: list = [None] * len(pairs)
     if sigmas is not None and pairs:
-        measured = measure_pairs(pairs, geometry.calibration, sigmas, KEYPOINTS, geometry.station, geometry.frame,
-                                 measured_basis=model.sigma_basis(KEYPOINTS))
+        chosen = [i for i, why in enumerate(apart) if not why]
+        lengths = measure_pairs([pairs[i] for i in chosen], geometry.calibration, sigmas, KEYPOINTS,
+                                geometry.station, geometry.frame, measured_basis=model.sigma_basis(KEYPOINTS))
+        for i, m in zip(chosen, lengths, strict=True):
+            measured[i] = m
     out = []
-    for pair, m, count in zip(pairs, measured, refined, strict=True):
-        if isinstance(m, UsvipsError):
+    for pair, m, count, why in zip(pairs, measured, refined, apart, strict=True):
+        if why and sigmas is not None:
+            out.append((pair, None, count, f"no length: {why}"))
+        elif isinstance(m, UsvipsError):
             out.append((pair, None, count, f"no length: {m}"))
         else:
             out.append((pair, m, count, ""))
     return out, found_left, found_right, len(pairing.unpaired_left) + len(pairing.unpaired_right)
+
+
+def _disagreement(result: RefinedPair) -> str:
+    """Why a refined pair's keypoints are not one point of the fish in both images ('' when they are): a
+    keypoint whose match along the curve lay further from the model's right point than the model's measured
+    sigma explains (:attr:`usvips.core.detection.refine.KeypointRefinement.beyond_limit`), or whose curve
+    passes further from it than the search radius (``off_curve``). Such a pair's length would rest on a
+    keypoint off by more than its sigma — on rendered fish such lengths erred by six times their sigma's
+    variance (docs/detection.md, "Acceptance") — so it is given none, and a person places the points. So is
+    a pair with a keypoint at either image's edge (``at_edge``): the fish may be cut by the frame (on
+    rendered fish, a snout hidden beyond the edge gave a length 8.5 sigma short)."""
+    off = [k for k in result.keypoints if k.beyond_limit or k.off_curve]
+    edge = [k for k in result.keypoints if k.at_edge]
+    return "; ".join([f"the {k.name}s in the two images are not one point ({k.reason})" for k in off]
+                     + [f"the {k.name} is {k.reason} (the fish may be cut by the frame)" for k in edge])
 
 
 def _frames(plan: DetectionPlan):
@@ -323,21 +346,38 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
     vertices = []
     for i, name in enumerate(KEYPOINTS):
         left, right = proposal.pair.left.keypoint(name), proposal.pair.right.keypoint(name)
-        sigma = model.description.measured_sigma(name)
+        sigma = _vertex_sigma(m, i) if m is not None else model.description.measured_sigma(name)
         xyz = tuple(map(float, m.points[i])) if m is not None else None
         covariance = m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] if m is not None else None
         vertices.append(Vertex(float(left.x), float(left.y), float(right.x), float(right.y), xyz, covariance,
                                plan.geometry.calibration_id if m is not None else None, plan.label,
                                plan.label if frame is not None else None, frame, partner,
                                times.get(frame) if frame is not None else None, source=source_label(name, model),
-                               pointing_px=(sigma, sigma) if sigma is not None else None,
+                               pointing_px=sigma if sigma is None or isinstance(sigma, tuple) else (sigma, sigma),
                                pointing_origin="estimated" if sigma is not None else "default"))
     return vertices
 
 
+def _vertex_sigma(measurement: Measurement, vertex: int) -> tuple[float, float] | None:
+    """The (left, right) pointing sigma (px) the proposal's length was measured with at ``vertex``: stored
+    with the vertex, so that the object's figure, recomputed from its picks, is the proposal's (the model's
+    validated sigma is scaled to the frame's pixels, which the description's table alone does not say)."""
+    if measurement.pointing_sigma_px is None:
+        return None
+    left, right = np.asarray(measurement.pointing_sigma_px, dtype=np.float64).reshape(-1, 2)[vertex]
+    return float(left), float(right)
+
+
 def proposal_note(proposal: Proposal, model: DetectionModel) -> str:
+    """The stored proposal's notes: the model, its score, the pairing, the refinement, and what its length's
+    keypoint sigma rests on (the object's figure, recomputed from its picks, carries the sigma but not its
+    basis) — or why it has no length."""
+    measured = proposal.measurement
+    basis = next((mark for mark in measured.marks if mark.startswith(SIGMA_MARK)), "") if measured else ""
+    why = basis or proposal.problem
     return (f"proposed by model {model.tag}: score {proposal.pair.left.score:.2f}, pairing "
-            f"{proposal.pair.cost_px:.2f} px, right keypoints refined {proposal.refined}/{len(KEYPOINTS)}")
+            f"{proposal.pair.cost_px:.2f} px, right keypoints refined {proposal.refined}/{len(KEYPOINTS)}"
+            + (f"; {why}" if why else ""))
 
 
 def _times(plan: DetectionPlan, frames: Sequence[int]) -> dict[int, float]:

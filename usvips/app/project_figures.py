@@ -36,7 +36,7 @@ from usvips.app.calibrations import read_calibration
 from usvips.app.pair_geometry import pair_geometry
 from usvips.app.pointing_settings import pointing_in_use, pointing_with_estimates
 from usvips.core.calibration.uncertainty import intersect_with_calibration
-from usvips.core.errors import DegenerateGeometryError, UsvipsError
+from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
 from usvips.core.measurements import (
     Measurement,
     QualityRules,
@@ -46,7 +46,7 @@ from usvips.core.measurements import (
     placement,
 )
 from usvips.core.measurements.instants import combine_measurements
-from usvips.core.pointing import PointingSigma, vertex_pointing
+from usvips.core.pointing import PointingSigma, source_from_label, vertex_pointing
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
@@ -83,6 +83,9 @@ class MeasurementInput:
     pointing_px: np.ndarray | None = None
     pointing_origin: str = "default"
     pointing_marks: tuple[str, ...] = ()
+    # every vertex is a model's keypoint (a detection proposal): the model's error on one fish repeats on
+    # the frames that see it, so its instants' pointing errors are not independent either
+    model_keypoints: bool = False
 
 
 def stored_calibration(project: ProjectStore, calibration_id: int,
@@ -169,7 +172,15 @@ def _one_instant(project: ProjectStore, stored: StoredObject, cache: dict[int, S
     return MeasurementInput(str(stored.id), stored.kind, np.array([[v.xl, v.yl] for v in vertices], float),
                             np.array([[v.xr, v.yr] for v in vertices], float), xyz, covariances, calibration,
                             station, frame, stored.attribute, stored.notes, pair, where_measured(stored),
-                            calibration_id, pointing_px=pointing, pointing_origin=origin, pointing_marks=marks)
+                            calibration_id, pointing_px=pointing, pointing_origin=origin, pointing_marks=marks,
+                            model_keypoints=bool(vertices) and all(_is_keypoint(v.source) for v in vertices))
+
+
+def _is_keypoint(label: str) -> bool:
+    try:
+        return source_from_label(label).kind == "keypoint"
+    except InvalidParameterError:
+        return False
 
 
 def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Measurement:
@@ -192,7 +203,8 @@ def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Mea
         combined = combine_measurements(measured, [_pointing_only(i, m) for i, m in zip(everything, measured,
                                                                                            strict=True)],
                                         labels, [i.calibration_id for i in everything], rules,
-                                        shared_pointing=any(i.tracked_from is not None for i in source.instants))
+                                        shared_pointing=any(i.tracked_from is not None for i in source.instants)
+                                        or all(i.model_keypoints for i in everything))
     except UsvipsError as error:
         raise UsvipsError(f"object {source.id}: {error}") from None
     return replace(combined, id=source.id, attribute=source.attribute, notes=source.notes)

@@ -87,7 +87,13 @@ def test_a_refused_match_keeps_the_models_point_and_says_why():
     assert not step.refined and step.after == step.before == (150.0, 150.0)
     assert step.reason
     far_off = refine_keypoint(blank, blank, stereo, left, Keypoint("snout", 150.0, 20.0, 0.9), radius_px=5.0)
-    assert not far_off.refined and "passes no closer" in far_off.reason
+    assert not far_off.refined and "passes no closer" in far_off.reason and far_off.off_curve
+    assert not step.off_curve and not step.at_edge and not step.beyond_limit
+    edge = refine_keypoint(blank, blank, stereo, Keypoint("snout", 200.0, 3.0, 0.9), Keypoint("snout", 150.0, 3.0, 0.9))
+    assert not edge.refined and edge.at_edge and "edge" in edge.reason and not edge.off_curve
+    right_edge = refine_keypoint(blank, blank, stereo, Keypoint("snout", 200.0, 150.0, 0.9),
+                                 Keypoint("snout", W - 3.0, 150.0, 0.9))
+    assert not right_edge.refined and right_edge.at_edge and "right image" in right_edge.reason
 
 
 @pytest.mark.parametrize("housing", ["flat-port", "dome-cover"])
@@ -116,6 +122,7 @@ def test_a_move_beyond_the_keypoints_own_errors_is_not_taken(housing):
                 assert all(k.shift_px <= limit for k in result.keypoints)
                 gone = [k for k in result.keypoints if k.reason.startswith("the match would move it")]
                 refused += len(gone)
-                assert all(k.after == k.before and k.score is not None for k in gone)
+                assert all(k.after == k.before and k.score is not None and k.beyond_limit for k in gone)
+                assert not any(k.beyond_limit for k in result.keypoints if k not in gone)
     assert largest > limit and refused >= 1  # the wrong moves exist, and the limit refuses them
     assert np.mean(limited_error) <= np.mean(unlimited_error) and np.max(limited_error) <= np.max(unlimited_error)

@@ -55,6 +55,25 @@ class KeypointRefinement:
         return not self.reason
 
     @property
+    def beyond_limit(self) -> bool:
+        """Whether the match was found but lay further from the model's right point than the limit: the
+        model's two keypoints are then not the same point of the fish (one of them is off by more than its
+        measured sigma explains), and the pair's length has no honest sigma."""
+        return not self.refined and self.reason.startswith(BEYOND_LIMIT)
+
+    @property
+    def at_edge(self) -> bool:
+        """Whether the left keypoint, or the model's right one, lies too near its image's edge for the patch:
+        the fish may be cut by the frame, its true point outside it, where the model cannot point."""
+        return not self.refined and self.reason.startswith(AT_EDGE)
+
+    @property
+    def off_curve(self) -> bool:
+        """Whether the left keypoint's epipolar curve passes further from the model's right point than the
+        search radius: the two keypoints cannot be one point of the fish."""
+        return not self.refined and self.reason.startswith(FAR_FROM_CURVE)
+
+    @property
     def shift_px(self) -> float:
         """How far refinement moved the right keypoint (px)."""
         return float(np.hypot(self.after[0] - self.before[0], self.after[1] - self.before[1]))
@@ -74,6 +93,12 @@ def _near(curve: EpipolarCurve, centre: np.ndarray, radius: float) -> EpipolarCu
     return EpipolarCurve(curve.pixels[keep], curve.depths[keep])
 
 
+#: how the reason of a match refused for moving the model's point too far begins
+BEYOND_LIMIT = "the match would move it"
+#: how the reason of a keypoint too near its image's edge for the patch begins
+AT_EDGE = "at the image's edge"
+#: how the reason of a keypoint whose curve misses the model's right point begins
+FAR_FROM_CURVE = "the epipolar curve passes no closer than"
 #: samples of each epipolar curve (geometrically spaced depths from near to far)
 CURVE_SAMPLES = 400
 
@@ -91,16 +116,22 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     own errors reach in about 1 % of cases, it keeps the rare wrong matches of the module docstring out."""
     radius = validation.positive("radius_px", radius_px)
     before = (float(right.x), float(right.y))
+    height, width = right_image.shape[:2]
+    half = int(window) // 2
+    if not (half <= right.x <= width - 1 - half and half <= right.y <= height - 1 - half):
+        return KeypointRefinement(left.name, before, before, None,
+                                  f"{AT_EDGE}: the model's right point ({right.x:g}, {right.y:g}) is too close to "
+                                  f"the edge of the {width} × {height} right image for a {int(window)} px template")
     if curve is None:
         curve = epipolar_curve(rig.left, rig.right, left.pixel, near, far, samples=CURVE_SAMPLES)
     curve = _near(curve, right.pixel, radius)
     if len(curve.pixels) < 2:
         return KeypointRefinement(left.name, before, before, None,
-                                  f"the epipolar curve passes no closer than {radius:g} px to the model's point")
+                                  f"{FAR_FROM_CURVE} {radius:g} px to the model's point")
     try:
         match = match_along_curve(left_image, right_image, left.pixel, curve, window=window, min_score=min_score)
     except InvalidParameterError as error:  # a keypoint too near the edge for the patch
-        return KeypointRefinement(left.name, before, before, None, error.problem)
+        return KeypointRefinement(left.name, before, before, None, f"{AT_EDGE}: {error.problem}")
     if not match:
         return KeypointRefinement(left.name, before, before, match.score if match.pixel else None,
                                   match.reason or "no match")
@@ -108,7 +139,7 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     shift = float(np.hypot(after[0] - before[0], after[1] - before[1]))
     if max_shift_px is not None and shift > max_shift_px:
         return KeypointRefinement(left.name, before, before, float(match.score),
-                                  f"the match would move it {shift:.1f} px, more than {max_shift_px:.1f} px "
+                                  f"{BEYOND_LIMIT} {shift:.1f} px, more than {max_shift_px:.1f} px "
                                   "(3√2 × the model's measured sigma): the model's point kept")
     return KeypointRefinement(left.name, before, after, float(match.score))
 

@@ -37,6 +37,8 @@ from usvips.core.stereo_calibration import StereoCalibration
 
 #: what every length measured from model keypoints says of its pointing sigma
 STATED_KEYPOINT_SIGMA = "keypoint pointing sigma stated by the caller, not measured"
+#: how the mark of a length measured with a MEASURED keypoint sigma begins (its basis follows)
+MEASURED_KEYPOINT_SIGMA = "keypoint pointing sigma measured on"
 
 
 @dataclass(frozen=True)
@@ -190,7 +192,7 @@ def measure_pairs(pairs: Sequence[StereoPair], calibration: StereoCalibration,
         where.append(i)
     measured = measure_picks_many(["length"] * len(where), calibration, lefts, rights, station, frame,
                                   [sigmas] * len(where), rules)
-    origin, mark = (("estimated", f"keypoint pointing sigma measured on {measured_basis}") if measured_basis
+    origin, mark = (("estimated", f"{MEASURED_KEYPOINT_SIGMA} {measured_basis}") if measured_basis
                     else ("given", STATED_KEYPOINT_SIGMA))
     for i, result in zip(where, measured, strict=True):
         out[i] = result if isinstance(result, UsvipsError) else replace(
