@@ -86,3 +86,15 @@ def test_the_raster_draws_every_outline_end_and_nothing_far_from_them(seed):
         t = np.clip(((centres[:, None] - a) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-12), 0, 1)
         distance = np.linalg.norm(centres[:, None] - (a + t[..., None] * d), axis=-1).min(axis=1)
         assert np.all(distance <= 1.5 / s)
+
+
+def test_the_outlines_added_since_a_version_are_known_until_one_is_dropped():
+    outlines = OutlineSet()
+    outlines.put([1, 2], [2, 2], [False, False], np.arange(16.0).reshape(4, 4))
+    version, count = outlines.version, len(outlines)
+    outlines.put([3], [2], [False], np.ones((2, 4)))
+    outlines.put([4], [1], [False], np.ones((1, 4)))
+    assert outlines.ids[outlines.added_since(version, count)].tolist() == [3, 4]
+    outlines.put([2], [2], [False], np.zeros((2, 4)))  # replaced: no longer only additions
+    assert outlines.added_since(version, count) is None
+    assert len(outlines.added_since(outlines.version, len(outlines))) == 0

@@ -88,14 +88,23 @@ def test_a_survey_is_drawn_as_a_raster_zoomed_out_and_as_outlines_in_view_zoomed
     ws.select([])
     assert len(_points(left.selected_item)) == 0 and not left.labels
 
-    # a stored fish is drawn at once where it is in view; the raster is built again for the new set
+    # a fish stored zoomed out is stroked over the raster at once, until the raster is built again with it
+    left.fit()
+    left._draw_outlines()
+    qtbot.waitUntil(lambda: left.outline_form() == "raster" and left._raster_version == version)
     _store_fish(qtbot, window, 0.0)
     new = ws.cache.objects()[-1]
     assert new.id in overlay.outlines and overlay.outlines.version > version
+    left.fit()  # (the picks may have moved the view)
+    left._draw_outlines()
+    assert left._raster_version == version  # (the raster of the set without it is still shown)
+    new_picks = item_from_pixels(np.array([[v.xl, v.yl] for v in new.vertices]))
+    assert np.allclose(left.object_lines(), new_picks) and left.outline_form() == "raster"
     for pane in panes.values():  # (the raster is built only when it is shown: zoomed out)
         pane.fit()
         pane._draw_outlines()
         qtbot.waitUntil(lambda p=pane: p._raster_version == overlay.outlines.version and p.outline_form() == "raster")
+        assert len(pane.object_lines()) == 0  # the new fish is in the raster now
     left.zoom_to(12.0, (new.vertices[0].xl, new.vertices[0].yl))
     left._draw_outlines()
     picks = item_from_pixels(np.array([[v.xl, v.yl] for v in new.vertices]))

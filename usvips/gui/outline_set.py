@@ -30,6 +30,8 @@ class OutlineSet:
         self.counts = np.zeros(0, np.int64)  # points per outline, the closing point included
         self.points = np.zeros((0, 4))  # xl, yl, xr, yr (pixels)
         self.version = 0
+        #: the version after the last change that dropped an outline (since it, outlines were only added)
+        self.dropped_at = 0
         self._starts: np.ndarray | None = None
         self._boxes: dict[int, np.ndarray] = {}
 
@@ -72,6 +74,7 @@ class OutlineSet:
         self.points = self.points[~np.repeat(gone, self.counts)]
         self.ids, self.counts = self.ids[~gone], self.counts[~gone]
         self._changed()
+        self.dropped_at = self.version
 
     def clear(self) -> None:
         self.drop(self.ids)
@@ -81,7 +84,15 @@ class OutlineSet:
         written in place, so they are shared): what a worker thread reads."""
         other = OutlineSet()
         other.ids, other.counts, other.points, other.version = self.ids, self.counts, self.points, self.version
+        other.dropped_at = self.dropped_at
         return other
+
+    def added_since(self, version: int, count: int) -> np.ndarray | None:
+        """Indices of the outlines added since ``version``, when the set then held ``count`` outlines and none
+        has been dropped or replaced since (new ones go at the end); None when one has."""
+        if self.dropped_at > version or count > len(self.ids):
+            return None
+        return np.arange(count, len(self.ids))
 
     def _changed(self) -> None:
         self.version += 1

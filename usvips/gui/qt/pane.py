@@ -162,6 +162,7 @@ class StereoPane(QtWidgets.QWidget):
         self.outlines: OutlineSet | None = None
         self.outline_side = 0
         self._raster_version = -1  # the version of the outlines the raster item shows
+        self._raster_count = 0  # ... and how many outlines it holds
         self._raster_worker = None
         # the raster is built once the outlines stop changing for a moment (an open hands them over in slices)
         self._raster_timer = QtCore.QTimer(self)
@@ -400,7 +401,8 @@ class StereoPane(QtWidgets.QWidget):
         self._draw_outlines()
 
     def outline_form(self) -> str:
-        """How the stored outlines are drawn now: "paths" (stroked one by one), "raster" or "none"."""
+        """How the stored outlines are drawn now: "paths" (stroked one by one), "raster" (with, while it is
+        built again, the outlines stored since stroked over it) or "none"."""
         if self.raster_item.isVisible():
             return "raster"
         return "paths" if len(self.object_lines()) else "none"
@@ -426,9 +428,15 @@ class StereoPane(QtWidgets.QWidget):
             self._set_lines(self.outlines_item, outlines.lines(self.outline_side, near), thin)
             self.raster_item.hide()
             return
-        self._set_lines(self.outlines_item, (), True)
+        added = None
         if self._raster_version != outlines.version:
             self._raster_timer.start()
+            if self._raster_version >= 0:  # outlines stored since the raster: stroked over it meanwhile
+                added = outlines.added_since(self._raster_version, self._raster_count)
+        if added is not None and len(added) <= self.MAX_PATHS:
+            self._set_lines(self.outlines_item, outlines.lines(self.outline_side, added), True)
+        else:
+            self._set_lines(self.outlines_item, (), True)
         self.raster_item.setVisible(self._raster_version >= 0)
 
     def _build_raster(self) -> None:
@@ -445,7 +453,7 @@ class StereoPane(QtWidgets.QWidget):
             rgba = np.zeros(mask.shape + (4,), np.uint8)
             rgba[..., :3] = colour
             rgba[..., 3] = mask // 255 * RASTER_ALPHA
-            return outlines.version, raster_scale(w, h, longest), rgba
+            return outlines.version, len(outlines), raster_scale(w, h, longest), rgba
 
         self._raster_worker = worker.Worker(job, "drawing the stored outlines")
         self._raster_worker.signals.finished.connect(self._raster_built)
@@ -454,12 +462,12 @@ class StereoPane(QtWidgets.QWidget):
 
     def _raster_built(self, result) -> None:
         self._raster_worker = None
-        version, scale, rgba = result
+        version, count, scale, rgba = result
         h, w = rgba.shape[:2]
         image = QtGui.QImage(rgba.data, w, h, 4 * w, QtGui.QImage.Format.Format_RGBA8888)
         self.raster_item.setPixmap(QtGui.QPixmap.fromImage(image))
         self.raster_item.setTransform(QtGui.QTransform.fromScale(1.0 / scale, 1.0 / scale))
-        self._raster_version = version
+        self._raster_version, self._raster_count = version, count
         self._draw_outlines()  # shown now, or built again when the outlines changed meanwhile
 
     def _raster_failed(self, message: str) -> None:
