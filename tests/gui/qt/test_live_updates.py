@@ -101,7 +101,7 @@ def test_a_colleagues_new_changed_and_deleted_object_appears_updates_and_disappe
     qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
     assert listing.text(listing.row_of(fish), "species").startswith("Pagrus auratus")
     qtbot.waitUntil(lambda: fish in overlay.outlines, timeout=BOUND_MS)
-    assert overlay.outlines[fish][0].endswith("· bob")
+    assert overlay.label(fish).endswith("· bob")
     assert fish in queue.model.queue
     assert "added by bob at" in queue.list.row_text(queue.model.queue.index(fish))
     qtbot.waitUntil(lambda: any("added by bob at" in tip for tip in _qa_rows(window, fish)), timeout=BOUND_MS)
@@ -132,10 +132,10 @@ def test_anns_own_edits_are_not_marked_as_a_colleagues(qtbot, make_window, surve
     fish = _fish(bob, directory, "fish2")
     qtbot.waitUntil(lambda: _marked_by(window, fish, "bob"), timeout=BOUND_MS)
     qtbot.waitUntil(lambda: fish in window.overlay.outlines, timeout=BOUND_MS)
-    assert window.overlay.outlines[fish][0].endswith("· bob")
+    assert window.overlay.label(fish).endswith("· bob")
     ws.edits.edit_object(fish, "fish", "ann: checked")  # ann's own edit: no longer bob's change
     assert fish not in ws.cache.marks and not _marked_by(window, fish, "bob")
-    assert not window.overlay.outlines[fish][0].endswith("· bob")  # the label drawn again without the mark
+    assert not window.overlay.label(fish).endswith("· bob")  # the label drawn again without the mark
     window.show_review()
     window.review.model.go_to(fish)
     window.review.accept()  # ann's own review: stored, the window's version moves with it
@@ -323,4 +323,4 @@ def test_a_change_the_window_already_holds_is_not_shown_and_keeps_the_mark_it_ha
     shown = list(window.live.recent)
     window.live.apply([ColleagueChange(fish, "changed", "ann", "2026-11-28T12:41:00+00:00", ("review",))])
     assert window.workspace.cache.marks[fish].who == "bob" and _marked_by(window, fish, "bob")
-    assert window.live.recent == shown and window.overlay.outlines[fish][0].endswith("· bob")
+    assert window.live.recent == shown and window.overlay.label(fish).endswith("· bob")

@@ -65,8 +65,8 @@ def scroll_row(scale: float = 1.0) -> dict:
             listing = window.object_list
             table, bar = listing.table, listing.table.verticalScrollBar()
             deadline = time.time() + 300
-            while (window.busy or window.workspace.pair is None or listing._worker is not None) \
-                    and time.time() < deadline:
+            while (window.busy or window.workspace.pair is None or listing._worker is not None
+                   or window.overlay.refreshing) and time.time() < deadline:  # (the outlines come in slices)
                 app.processEvents()
                 time.sleep(0.005)
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -152,7 +153,14 @@ class MainWindow(QtWidgets.QMainWindow):
         ws.pair_changed.connect(self._on_pair_changed)
         ws.project_changed.connect(self._on_project_changed)
         ws.picks_changed.connect(self._on_picks_changed)
-        self.overlay = ObjectOverlay(ws, self.panes)  # the stored objects on the panes, redrawn by id
+        # the stored objects on the panes, redrawn by id; all of them (another project or pair) in slices, the
+        # next slice once the events pending are handled
+        self._slice_timer = QtCore.QTimer(self)
+        self._slice_timer.setSingleShot(True)
+        self._slice_timer.setInterval(1)
+        self._next_slice: Callable[[], None] | None = None
+        self._slice_timer.timeout.connect(self._run_slice)
+        self.overlay = ObjectOverlay(ws, self.panes, later=self._later)
         self.live = LiveUpdates(self)  # colleagues' changes to the open survey shown as they are made
         ws.selection_changed.connect(self._on_selection_changed)
         ws.enhancement_changed.connect(self._on_enhancement_changed)
@@ -880,6 +888,16 @@ class MainWindow(QtWidgets.QMainWindow):
             box.setPlaceholderText(placeholder)
             box.update()  # Qt repaints nothing when an empty box's placeholder is cleared: "(video)" stayed
         box.setCurrentIndex(labels.index(shown) if shown in labels else -1)
+
+    def _later(self, call: Callable[[], None]) -> None:
+        """Run ``call`` once the events pending are handled (the overlay's next slice; one at a time)."""
+        self._next_slice = call
+        self._slice_timer.start()
+
+    def _run_slice(self) -> None:
+        call, self._next_slice = self._next_slice, None
+        if call is not None:
+            call()
 
     def _on_pair_changed(self) -> None:
         ws = self.workspace

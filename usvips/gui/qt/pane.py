@@ -16,6 +16,7 @@ import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.gui.label_layout import keep_inside, stack_labels
+from usvips.gui.outline_set import OutlineSet, raster, raster_scale
 from usvips.gui.view_options import LOUPE_SCALES
 
 #: ImageItem coordinate of the centre of pixel 0.
@@ -25,6 +26,8 @@ LOUPE_SCALE = 8
 #: Magnifications the loupe offers (screen pixels per image pixel).
 #: Gap (screen pixels) between the cursor and the loupe's nearest corner: the loupe never covers the cursor.
 LOUPE_OFFSET = 24
+#: Opacity (of 255) of the raster drawn in place of many outlines: the image shows through where they crowd.
+RASTER_ALPHA = 190
 
 COLOURS = {"control": (60, 220, 120), "cursor": (0, 230, 0), "pick": (255, 40, 40), "proposal": (255, 220, 0),
            "weak proposal": (0, 255, 255),
@@ -112,6 +115,7 @@ class StereoPane(QtWidgets.QWidget):
         self._label_timer.setInterval(50)
         self._label_timer.timeout.connect(self.layout_labels)
         self._label_timer.timeout.connect(self.layout_control_labels)
+        self._label_timer.timeout.connect(self._draw_outlines)
         self.viewbox.sigRangeChanged.connect(lambda *_: self._label_timer.start())
         self.graphics.setCentralItem(self.viewbox)
         # no auto-downsampling: it re-samples the whole image at every zoom step (0.3 s at 4000 × 3000);
@@ -148,10 +152,23 @@ class StereoPane(QtWidgets.QWidget):
         self.cross_v = pg.InfiniteLine(angle=90, movable=False, pen=pen)
         self.cross_h = pg.InfiniteLine(angle=0, movable=False, pen=pen)
         self.curve_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["curve"], width=1.5, style=QtCore.Qt.PenStyle.DashLine))
-        self.objects_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
-        # outlines stored since the objects were last drawn whole: a small item of their own, so that storing
-        # one more object among thousands neither rebuilds nor redraws the cached picture of the others
-        self.added_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
+        # the stored objects' outlines, at a level of detail (:meth:`_draw_outlines`): those in or near the
+        # view stroked one by one when at most MAX_PATHS are there, else all of them as one raster
+        self.outlines_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
+        self.outlines_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+        self.raster_item = QtWidgets.QGraphicsPixmapItem()
+        self.raster_item.setShapeMode(QtWidgets.QGraphicsPixmapItem.ShapeMode.BoundingRectShape)
+        self.raster_item.hide()
+        self.outlines: OutlineSet | None = None
+        self.outline_side = 0
+        self._raster_version = -1  # the version of the outlines the raster item shows
+        self._raster_count = 0  # ... and how many outlines it holds
+        self._raster_worker = None
+        # the raster is built once the outlines stop changing for a moment (an open hands them over in slices)
+        self._raster_timer = QtCore.QTimer(self)
+        self._raster_timer.setSingleShot(True)
+        self._raster_timer.setInterval(self.RASTER_WAIT_MS)
+        self._raster_timer.timeout.connect(self._build_raster)
         self.selected_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["selected"], width=3), connect="finite")
         self.vertex_item = pg.ScatterPlotItem(size=7, pen=pg.mkPen(COLOURS["object"]), brush=None, symbol="s")
         self.pick_item = pg.ScatterPlotItem(size=15, pen=pg.mkPen(COLOURS["pick"], width=2), brush=None, symbol="+")
@@ -161,13 +178,8 @@ class StereoPane(QtWidgets.QWidget):
         # the object being digitised, drawn on its own: a pick redraws it, never the stored objects
         self.digitising_item = pg.PlotDataItem(pen=pg.mkPen(COLOURS["selected"], width=3), symbol="s", symbolSize=7,
                                                symbolPen=pg.mkPen(COLOURS["selected"]), symbolBrush=None)
-        # the stored objects change on a store or an edit, not on a pick: drawn from a cached pixmap meanwhile
-        self.objects_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
-        #: the stored outlines in chunks (:meth:`set_object_chunks`), each its own cached picture, so that a
-        #: removal or an edit redraws one chunk; the first chunk is ``objects_item``
-        self.object_items = [self.objects_item]
         self.vertex_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
-        for item in (self.objects_item, self.added_item, self.selected_item, self.vertex_item, self.digitising_item,
+        for item in (self.raster_item, self.outlines_item, self.selected_item, self.vertex_item, self.digitising_item,
                      self.curve_item, self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
             self.viewbox.addItem(item, ignoreBounds=True)
         self.control_item = pg.ScatterPlotItem(size=11, pen=pg.mkPen(COLOURS["control"], width=1.5), brush=None,
@@ -189,6 +201,8 @@ class StereoPane(QtWidgets.QWidget):
         top = 255 if display.dtype == np.uint8 else 65535
         self.image_item.setImage(display, autoLevels=False, levels=(0, top))
         if previous != display.shape[:2]:
+            self._raster_version = -1  # drawn for another size
+            self.raster_item.hide()
             self.fit()
 
     def image_size(self) -> tuple[int, int]:
@@ -364,44 +378,109 @@ class StereoPane(QtWidgets.QWidget):
         view = item_from_pixels(np.asarray(pixels, float).reshape(-1, 2))
         self.digitising_item.setData(view[:, 0], view[:, 1])
 
-    #: Above this many outlines the stored objects are drawn with a thin, aliased pen (a wide antialiased
-    #: pen costs Qt's stroker about a second per redraw of 10,000 outlines).
+    #: Above this many outlines in view they are drawn with a thin, aliased pen (a wide antialiased pen
+    #: costs Qt's stroker about a second per redraw of 10,000 outlines).
     THIN_ABOVE = 300
+    #: Above this many outlines in (or near) the view, the pane shows the raster of all of them instead of
+    #: stroking each (2,000 thin outlines cost Qt's stroker about 10 ms a redraw, 100,000 about 0.3 s).
+    MAX_PATHS = 2000
+    #: The raster's longer side at most (raster pixels; an image larger than this is drawn over at less
+    #: than its own resolution).
+    RASTER_SIDE = 2048
+    #: Outlines this fraction of the view's size beyond its edges are stroked too: a pan shows them at once.
+    MARGIN = 0.5
+    #: The raster is built when the outlines have not changed for this long (ms).
+    RASTER_WAIT_MS = 60
 
-    def set_object_lines(self, lines: np.ndarray, count: int) -> None:
-        """The stored objects' outlines (K, 2) pixels, NaN-separated, ``count`` of them: the cached picture,
-        redrawn only when it is set (the selected outlines are drawn over it, the added ones beside it)."""
-        self.set_object_chunks([lines], count)
+    def set_outlines(self, outlines: OutlineSet | None, side: int) -> None:
+        """The stored objects' outlines (image ``side`` of ``outlines``: 0 left, 1 right), drawn at a level of
+        detail: the ones in or near the view stroked one by one when there are at most :attr:`MAX_PATHS`,
+        else all of them as one raster at (at most) image resolution, built off the GUI thread once per change
+        of the set. Drawn again when the view moves (:meth:`_draw_outlines`) or this is called again."""
+        self.outlines, self.outline_side = outlines, side
+        self._draw_outlines()
 
-    def set_object_chunks(self, chunks: list[np.ndarray], count: int) -> None:
-        """The stored objects' outlines in chunks, each (K, 2) pixels, NaN-separated; ``count`` outlines in
-        all. Each chunk is a cached picture of its own (:meth:`set_object_chunk` redraws one); the added
-        outlines are cleared."""
-        while len(self.object_items) < len(chunks):
-            item = pg.PlotCurveItem(pen=self.objects_item.opts["pen"], connect="finite")
-            item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
-            item.setZValue(self.objects_item.zValue())
-            self.viewbox.addItem(item, ignoreBounds=True)
-            self.object_items.append(item)
-        thin = count > self.THIN_ABOVE
-        for k, item in enumerate(self.object_items):
-            item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
-            self._set_lines(item, chunks[k] if k < len(chunks) else (), thin)
-        self._set_lines(self.added_item, (), thin)
+    def outline_form(self) -> str:
+        """How the stored outlines are drawn now: "paths" (stroked one by one), "raster" (with, while it is
+        built again, the outlines stored since stroked over it) or "none"."""
+        if self.raster_item.isVisible():
+            return "raster"
+        return "paths" if len(self.object_lines()) else "none"
 
-    def set_object_chunk(self, k: int, lines: np.ndarray, count: int) -> None:
-        """Redraw chunk ``k`` of the stored outlines alone (its (K, 2) pixels, NaN-separated)."""
-        self._set_lines(self.object_items[k], lines, count > self.THIN_ABOVE)
+    def _outlines_in_view(self) -> np.ndarray:
+        """Indices of the outlines in or near the view (:attr:`MARGIN`)."""
+        rect = self.viewbox.viewRect()
+        dx, dy = rect.width() * self.MARGIN, rect.height() * self.MARGIN
+        return self.outlines.in_rect(self.outline_side, rect.left() - dx - PIXEL_CENTRE, rect.top() - dy - PIXEL_CENTRE,
+                                     rect.right() + dx - PIXEL_CENTRE, rect.bottom() + dy - PIXEL_CENTRE)
+
+    def _draw_outlines(self) -> None:
+        """Stroke the outlines near the view, or show the raster when there are too many (built when stale)."""
+        outlines = self.outlines
+        if outlines is None or not len(outlines):
+            self._set_lines(self.outlines_item, (), False)
+            self.raster_item.hide()
+            return
+        near = self._outlines_in_view()
+        if len(near) <= self.MAX_PATHS:
+            thin = len(near) > self.THIN_ABOVE
+            self.outlines_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+            self._set_lines(self.outlines_item, outlines.lines(self.outline_side, near), thin)
+            self.raster_item.hide()
+            return
+        added = None
+        if self._raster_version != outlines.version:
+            self._raster_timer.start()
+            if self._raster_version >= 0:  # outlines stored since the raster: stroked over it meanwhile
+                added = outlines.added_since(self._raster_version, self._raster_count)
+        if added is not None and len(added) <= self.MAX_PATHS:
+            self._set_lines(self.outlines_item, outlines.lines(self.outline_side, added), True)
+        else:
+            self._set_lines(self.outlines_item, (), True)
+        self.raster_item.setVisible(self._raster_version >= 0)
+
+    def _build_raster(self) -> None:
+        """Draw the raster of every outline in a worker (one at a time; a stale one is built again)."""
+        if self._raster_worker is not None or self.display is None or self.outlines is None:
+            return
+        from usvips.gui.qt import worker
+
+        outlines, side = self.outlines.copy(), self.outline_side
+        (w, h), colour, longest = self.image_size(), COLOURS["object"], self.RASTER_SIDE
+
+        def job(progress, cancelled):
+            mask = raster(outlines, side, w, h, longest)
+            rgba = np.zeros(mask.shape + (4,), np.uint8)
+            rgba[..., :3] = colour
+            rgba[..., 3] = mask // 255 * RASTER_ALPHA
+            return outlines.version, len(outlines), raster_scale(w, h, longest), rgba
+
+        self._raster_worker = worker.Worker(job, "drawing the stored outlines")
+        self._raster_worker.signals.finished.connect(self._raster_built)
+        self._raster_worker.signals.failed.connect(self._raster_failed)
+        worker.start(self._raster_worker)
+
+    def _raster_built(self, result) -> None:
+        self._raster_worker = None
+        version, count, scale, rgba = result
+        h, w = rgba.shape[:2]
+        image = QtGui.QImage(rgba.data, w, h, 4 * w, QtGui.QImage.Format.Format_RGBA8888)
+        self.raster_item.setPixmap(QtGui.QPixmap.fromImage(image))
+        self.raster_item.setTransform(QtGui.QTransform.fromScale(1.0 / scale, 1.0 / scale))
+        self._raster_version, self._raster_count = version, count
+        self._draw_outlines()  # shown now, or built again when the outlines changed meanwhile
+
+    def _raster_failed(self, message: str) -> None:
+        self._raster_worker = None
+        self._raster_version = -1
 
     def object_lines(self) -> np.ndarray:
-        """Every stored outline point drawn (view coordinates, NaN separators left out), chunk by chunk."""
-        parts = []
-        for item in self.object_items:
-            x, y = item.getData()
-            if x is not None and item.isVisible():
-                points = np.column_stack([x, y])
-                parts.append(points[np.isfinite(points).all(axis=1)])
-        return np.vstack(parts) if parts else np.zeros((0, 2))
+        """The stored outline points stroked one by one now (view coordinates, NaN separators left out)."""
+        x, y = self.outlines_item.getData()
+        if x is None or not self.outlines_item.isVisible():
+            return np.zeros((0, 2))
+        points = np.column_stack([x, y])
+        return points[np.isfinite(points).all(axis=1)]
 
     @staticmethod
     def _set_lines(item, lines, thin: bool) -> None:
@@ -468,14 +547,6 @@ class StereoPane(QtWidgets.QWidget):
         for label, offset in zip(shown, stack_labels(anchors, sizes, gap=3.0), strict=True):
             if offset:
                 label.shift_by(float(offset))
-
-    def set_added_lines(self, lines: np.ndarray, count: int) -> None:
-        """The outlines stored since the last :meth:`set_object_lines` (K, 2) pixels, NaN-separated, unselected
-        and unlabelled; ``count`` outlines in all. The others' cached picture stays as it is."""
-        thin = count > self.THIN_ABOVE
-        self.added_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
-        view = item_from_pixels(lines)
-        self.added_item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
 
     def set_control(self, marks: list[tuple[str, tuple[float, float]]], selected: str | None = None) -> None:
         """Measured control points of this image: (target number, pixel), drawn as green rings with numbers;
