@@ -7,6 +7,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from usvips.cli import main
 
 ROV = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport"
@@ -85,7 +87,17 @@ def test_bad_invocations_are_one_line(tmp_path, capsys):
     assert code == 2 and "--jobs" in capsys.readouterr().err
 
 
-def test_ctrl_c_cancels_what_has_not_started_and_keeps_whole_outputs(tmp_path, monkeypatch, capsys):
+@pytest.fixture
+def ctrl_c_raises():
+    """Ctrl-C raises KeyboardInterrupt here whatever this process inherited: a shell starts a background
+    job (`pytest … &`) with SIGINT ignored, and Python then keeps it ignored, so the test's Ctrl-C would be
+    lost and its worker would wait at the gate for its bound, task after task."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_cancels_what_has_not_started_and_keeps_whole_outputs(tmp_path, monkeypatch, capsys, ctrl_c_raises):
     """A real SIGINT, sent as the first task's line is printed, while the one worker is held at a gate
     after its first task (events, not a wall-clock race): at most three more tasks can have been handed
     to it (the one it waits in and the pool's call queue of two, no longer cancellable), so every other
