@@ -34,6 +34,7 @@ from usvips.core.detection.kinds.centre_pose import CentrePose, channel_count, c
 from usvips.core.detection.letterbox import Letterbox
 from usvips.core.detection.validation import TrueObject, ValidationFigures, match_image
 from usvips.core.synth.fish_scene import KEYPOINTS, random_camera, random_scene, render_fish_scene
+from usvips.training.fish_augment import random_zoom
 
 INPUT = 256
 STRIDE = 4
@@ -43,6 +44,10 @@ KEYPOINT_SIGMA_CELLS = 0.9
 #: the displacement loss's weight: 0.2 left the displacements under-trained (their median error was 20-50 % of
 #: a fish's length on held-out frames, so keypoints were snapped to the wrong heatmap peaks)
 DISPLACEMENT_WEIGHT = 0.5
+#: share of training frames zoomed (scale augmentation); the rest are shown as rendered
+ZOOM_PROBABILITY = 0.7
+WARMUP = 0.05  # share of the steps the learning rate climbs to its peak
+FLOOR = 0.02  # the learning rate at the end, a share of its peak
 
 
 def sample(seed: int) -> tuple[np.ndarray, list[dict]]:
@@ -68,21 +73,43 @@ def sample(seed: int) -> tuple[np.ndarray, list[dict]]:
     return boxed, fish
 
 
+def _read_cache(images_path: Path, fish_path: Path) -> tuple[list[int], np.ndarray, list[list[dict]]]:
+    stored = json.loads(fish_path.read_text())
+    fish = [[{k: (np.asarray(v) if k in ("keypoints", "visible", "in_frame") else v) for k, v in f.items()}
+             for f in frame] for frame in stored["fish"]]
+    return stored["seeds"], np.load(images_path), fish
+
+
+def _cached_prefix(folder: Path, seeds: list[int]) -> tuple[np.ndarray, list[list[dict]]]:
+    """The longest run of frames already cached in ``folder`` whose seeds begin ``seeds`` (a larger training
+    draws the same first seeds, so its frames need not be rendered again)."""
+    best: tuple[np.ndarray, list[list[dict]]] = (np.zeros((0, INPUT, INPUT, 3), np.uint8), [])
+    for fish_path in sorted(folder.glob("*.json")) if folder.is_dir() else []:
+        images_path = fish_path.with_suffix(".npy")
+        if not images_path.is_file():
+            continue
+        stored_seeds = json.loads(fish_path.read_text())["seeds"]
+        if len(best[1]) < len(stored_seeds) <= len(seeds) and stored_seeds == seeds[:len(stored_seeds)]:
+            _, images, fish = _read_cache(images_path, fish_path)
+            best = (images, fish)
+    return best
+
+
 def build_cache(folder: Path, name: str, seeds: list[int]) -> tuple[np.ndarray, list[list[dict]]]:
-    """The frames of ``seeds`` rendered once and kept in ``folder`` (``name``.npy and .json)."""
+    """The frames of ``seeds`` rendered once and kept in ``folder`` (``name``.npy and .json); frames of the
+    same seeds cached under another name (a smaller run's first seeds) are taken from there."""
     images_path, fish_path = folder / f"{name}.npy", folder / f"{name}.json"
     if images_path.is_file() and fish_path.is_file():
-        stored = json.loads(fish_path.read_text())
-        if stored["seeds"] == seeds:
-            fish = [[{k: (np.asarray(v) if k in ("keypoints", "visible", "in_frame") else v) for k, v in f.items()}
-                     for f in frame] for frame in stored["fish"]]
-            return np.load(images_path), fish
+        stored_seeds, images, fish = _read_cache(images_path, fish_path)
+        if stored_seeds == seeds:
+            return images, fish
+    cached_images, fish = _cached_prefix(folder, seeds)
     folder.mkdir(parents=True, exist_ok=True)
     images = np.zeros((len(seeds), INPUT, INPUT, 3), np.uint8)
-    fish = []
+    images[:len(fish)] = cached_images
     start = time.time()
-    for i, seed in enumerate(seeds):
-        images[i], frame = sample(seed)
+    for i in range(len(fish), len(seeds)):
+        images[i], frame = sample(seeds[i])
         fish.append(frame)
         if i % 200 == 0:
             print(f"{name}: rendered {i}/{len(seeds)} in {time.time() - start:.0f} s", flush=True)
@@ -238,15 +265,35 @@ def _to_tensor(images: np.ndarray) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(images[..., ::-1].transpose(0, 3, 1, 2))).float() / 255.0
 
 
-def batch(images: np.ndarray, fish: list[list[dict]], indices: np.ndarray, rng: np.random.Generator
-          ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+def batch(images: np.ndarray, fish: list[list[dict]], indices: np.ndarray, rng: np.random.Generator,
+          zoom: tuple[float, float] | None = None) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+    """A training batch: frames ``indices``, each zoomed (with probability ZOOM_PROBABILITY when ``zoom`` is
+    given), mirrored half the time, with random gains and offsets per channel."""
+    frames, frame_fish = [], []
+    for i in indices:
+        if zoom is not None and rng.uniform() < ZOOM_PROBABILITY:
+            image, f = random_zoom(images[i], fish[i], zoom, rng)
+        else:
+            image, f = images[i], fish[i]
+        frames.append(image)
+        frame_fish.append(f)
     flips = rng.uniform(size=len(indices)) < 0.5
-    frames = np.stack([images[i][:, ::-1] if flip else images[i] for i, flip in zip(indices, flips, strict=True)])
+    frames = np.stack([image[:, ::-1] if flip else image for image, flip in zip(frames, flips, strict=True)])
     gains = rng.uniform(0.8, 1.2, (len(indices), 1, 1, 3))
     frames = np.clip(frames * gains + rng.normal(0, 8, (len(indices), 1, 1, 3)), 0, 255).astype(np.uint8)
-    all_targets = [targets(fish[i], flip) for i, flip in zip(indices, flips, strict=True)]
+    all_targets = [targets(f, flip) for f, flip in zip(frame_fish, flips, strict=True)]
     stacked = {k: torch.from_numpy(np.stack([t[k] for t in all_targets])) for k in all_targets[0]}
     return _to_tensor(frames), stacked
+
+
+def learning_rate(peak: float, step_fraction: float, time_fraction: float) -> float:
+    """The schedule: a linear warm-up over the first WARMUP of the steps, then a cosine down to FLOOR × peak,
+    following whichever of the steps or the time limit is further on (so a run cut by its time limit has
+    still come down)."""
+    if step_fraction < WARMUP:
+        return peak * max(step_fraction / WARMUP, 0.02)
+    progress = min(max(step_fraction, time_fraction), 1.0)
+    return peak * (FLOOR + (1 - FLOOR) * 0.5 * (1 + math.cos(math.pi * progress)))
 
 
 def description(threshold: float) -> ModelDescription:
@@ -317,6 +364,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--minutes", type=float, default=40.0, help="stop training after this long")
     parser.add_argument("--resume", type=Path, help="a training's output folder to continue from (its .pt)")
     parser.add_argument("--learning-rate", type=float, default=3e-3, help="the schedule's peak")
+    parser.add_argument("--zoom", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                        help="scale augmentation: zoom frames by a factor drawn log-uniformly from LOW..HIGH")
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
@@ -336,27 +385,29 @@ def main(argv: list[str] | None = None) -> int:
         previous = json.loads((args.resume / "training.json").read_text())
         batch_seed = batch_seed.spawn(1)[0]  # new batches, not the first run's again
     optimiser = torch.optim.AdamW(model.parameters(), lr=args.learning_rate, weight_decay=1e-4)
-    schedule = torch.optim.lr_scheduler.OneCycleLR(optimiser, max_lr=args.learning_rate, total_steps=args.steps,
-                                                   pct_start=0.1)
+    zoom = tuple(args.zoom) if args.zoom else None
     rng = np.random.default_rng(batch_seed)
     args.out.mkdir(parents=True, exist_ok=True)
     train_start = time.time()
     history = []
     step = 0
     for step in range(1, args.steps + 1):
-        x, y = batch(images, fish, rng.integers(0, len(images), args.batch), rng)
+        rate = learning_rate(args.learning_rate, step / args.steps, (time.time() - train_start) / (args.minutes * 60))
+        for group in optimiser.param_groups:
+            group["lr"] = rate
+        x, y = batch(images, fish, rng.integers(0, len(images), args.batch), rng, zoom)
         total, parts = loss(model(x), y)
         optimiser.zero_grad()
         total.backward()
         optimiser.step()
-        schedule.step()
         if step % 25 == 0:
             print(f"step {step} loss {float(total):.3f} " + " ".join(f"{k} {v:.3f}" for k, v in parts.items())
-                  + f" {time.time() - train_start:.0f} s", flush=True)
+                  + f" lr {rate:.2e} {time.time() - train_start:.0f} s", flush=True)
         if step % 250 == 0 or step == args.steps:
             figures = evaluate(model, check_images, check_fish, args.threshold)
             summary = figures.summary(KEYPOINTS)
-            history.append({"step": step, **summary})
+            history.append({"step": step, "learning_rate": rate, "seconds": round(time.time() - train_start),
+                            **summary})
             print("check", json.dumps(summary), flush=True)
             torch.save(model.state_dict(), args.out / f"{NAME}.pt")
         if time.time() - train_start > args.minutes * 60:
