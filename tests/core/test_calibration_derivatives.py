@@ -68,6 +68,18 @@ def _symbol(name: str) -> str:
     return name.split("@")[0].rsplit("_", 1)[0]
 
 
+def _central_difference(model, truth: dict, name: str, block: int) -> tuple[np.ndarray, np.ndarray]:
+    """The model's central difference of block ``block``'s observations in parameter ``name`` (its step
+    from STEPS), and where both evaluations were valid."""
+    h = STEPS[_symbol(name)]
+    ahead, behind = dict(truth), dict(truth)
+    ahead[name] += h
+    behind[name] -= h
+    plus, ok_plus = model.evaluate(ahead, [block])
+    minus, ok_minus = model.evaluate(behind, [block])
+    return (plus - minus) / (2 * h), ok_plus & ok_minus
+
+
 @pytest.mark.parametrize("kind", ["air", "flat-port", "dome-cover"])
 def test_block_derivatives_match_central_differences_over_random_rigs(kind):
     rng = np.random.default_rng({"air": 1, "flat-port": 2, "dome-cover": 3}[kind])
@@ -83,15 +95,9 @@ def test_block_derivatives_match_central_differences_over_random_rigs(kind):
         expected |= set(housing_parameter_names(kind))
         assert expected <= set(exact)
         for name, blocks in exact.items():
-            h = STEPS[_symbol(name)]
-            ahead, behind = dict(truth), dict(truth)
-            ahead[name] += h
-            behind[name] -= h
             for b, column in blocks.items():
-                plus, ok_plus = model.evaluate(ahead, [b])
-                minus, ok_minus = model.evaluate(behind, [b])
-                assert ok_plus.all() and ok_minus.all()
-                reference = (plus - minus) / (2 * h)
+                reference, ok_both = _central_difference(model, truth, name, b)
+                assert ok_both.all()
                 # (plus 1e-6: the differences' own rounding, ~1e-13 px over 2h, where a column is about
                 # zero, as the left camera's first kappa is for the right camera's block under a shared cover)
                 scale = float(np.abs(reference).max())
@@ -233,16 +239,10 @@ def test_a_point_no_ray_reaches_keeps_the_other_rows_exact_and_its_own_rows_zero
         first_right = model.block_keys.index((model.stations[0], "r"))
         assert kind != "dome-cover" or all(first_right in exact[f"{p}_l"] for p in ("X0", "Y0", "Z0", "omega"))
         for name, blocks in exact.items():
-            h = STEPS[_symbol(name)]
-            ahead, behind = dict(truth), dict(truth)
-            ahead[name] += h
-            behind[name] -= h
             for b, column in blocks.items():
                 rows = model.blocks[b]
-                plus, ok_plus = model.evaluate(ahead, [b])
-                minus, ok_minus = model.evaluate(behind, [b])
-                fine = ok[rows] & ok_plus & ok_minus
-                reference = (plus - minus) / (2 * h)
+                reference, ok_both = _central_difference(model, truth, name, b)
+                fine = ok[rows] & ok_both
                 # (plus 1e-6: the differences' own rounding, ~1e-13 px over 2h, where a column is zero)
                 scale = float(np.abs(reference[fine]).max())
                 assert np.max(np.abs(column[fine] - reference[fine])) < 1e-5 * scale + 1e-6, (name, b)
