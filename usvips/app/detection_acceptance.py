@@ -35,6 +35,7 @@ import cv2
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from usvips.app.calibrations import store_calibration
 from usvips.app.detection_model import DetectionModel
 from usvips.app.detection_service import KEYPOINTS, DetectionRun, detect_in_project
 from usvips.app.project_figures import evaluate, measure_stored, measurement_input
@@ -45,10 +46,9 @@ from usvips.core.measurements.evaluate import Measurement
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.synth.fish_scene import FishTruth
 from usvips.core.synth.stereo_survey import SurveyClip, survey_clip
-from usvips.io.calibration_file import calibration_to_dict
 from usvips.io.video_writer import encode_video
-from usvips.store import Project
 from usvips.store.interface import ProjectStore
+from usvips.store.opening import create_project, open_project
 
 #: issue 35's acceptance targets
 TARGET_MEASURED = 0.9
@@ -158,7 +158,7 @@ def write_clip_project(folder: Path, clips: Sequence[SurveyClip]) -> Path:
     synchronised) and its rig's calibration (exact: no calibration error) active for it."""
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "acceptance.usvips"
-    with Project.create(path) as project:
+    with create_project(path) as project:
         for i, clip in enumerate(clips):
             label = f"clip{i}"
             files = []
@@ -168,7 +168,7 @@ def write_clip_project(folder: Path, clips: Sequence[SurveyClip]) -> Path:
                              clip.fps, "ffv1")
             add_video(project, [files[0]], [files[1]], label)
             calibration = StereoCalibration.from_cameras(clip.rig.left, clip.rig.right, "water", 0.3, station="s1")
-            project.add_calibration(f"{label} rig", calibration_to_dict(calibration), (label,))
+            store_calibration(project, f"{label} rig", calibration, (label,))
     return path
 
 
@@ -225,7 +225,7 @@ def measure_acceptance(model: DetectionModel, seeds: Iterable[int], folder: Path
     clips = [survey_clip(int(seed), size, frames, fps, step) for seed in seeds]
     path = write_clip_project(folder, clips)
     figures = AcceptanceFigures()
-    with Project.open(path) as project:
+    with open_project(path) as project:
         for i, clip in enumerate(clips):
             run = detect_in_project(project, model, video=f"clip{i}")
             score_run(project, run, clip, figures)
