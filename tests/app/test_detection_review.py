@@ -16,22 +16,7 @@ def test_reviewers_corrections_measure_the_models_keypoint_sigma(tmp_path):
     model_sigma, reviewer_sigma = 2.0, 0.5
     path = make_project(tmp_path)
     with Project.open(path) as project:
-        for round_ in range(12):
-            truth = scene(seed=100 + round_, count=3)
-            noisy = scene(seed=100 + round_, count=3)
-            noisy.left = truth.left + rng.normal(0, model_sigma, truth.left.shape)
-            run = detect_in_project(project, fake_model(noisy), pair="dive", refine=False)
-            for proposal in run.proposals:
-                if proposal.object_id is None:
-                    continue
-                stored = project.object(proposal.object_id)
-                fish = int(np.argmin(np.linalg.norm(noisy.left[:, 0] - (stored.vertices[0].xl, stored.vertices[0].yl),
-                                                    axis=1)))
-                clicked = truth.left[fish] + rng.normal(0, reviewer_sigma, (2, 2))
-                vertices = [Vertex(float(x), float(y), v.xr, v.yr, pair="dive") for (x, y), v in
-                            zip(clicked, stored.vertices, strict=True)]
-                project.update_object(stored.id, vertices=vertices)
-                project.set_review(stored.id, "accepted")
+        _reviewed_rounds(project, fake_model, rng, 12, 100, model_sigma, reviewer_sigma, right_noisy=False)
         model = fake_model(scene(seed=0))
         proposed, reviewed = review_corrections(project, model)
         assert len(proposed) == len(project.reviews("accepted")) >= 20
@@ -44,16 +29,17 @@ def test_reviewers_corrections_measure_the_models_keypoint_sigma(tmp_path):
     assert table.startswith("[keypoint_sigma]") and '"snout" = ' in table
 
 
-def _reviewed_rounds(project, model_of, rng, rounds, seed, model_sigma, reviewer_sigma=0.5):
-    """``rounds`` detections on the pair, the model's keypoints off the truth by ``model_sigma`` px in BOTH
-    images; each proposal's left keypoints re-picked onto the truth (reviewer noise) and accepted. Returns
-    each proposal's stored object id and its fish's true length."""
+def _reviewed_rounds(project, model_of, rng, rounds, seed, model_sigma, reviewer_sigma=0.5, right_noisy=True):
+    """``rounds`` detections on the pair, the model's keypoints off the truth by ``model_sigma`` px in the
+    left image (and the right one, ``right_noisy``); each proposal's left keypoints re-picked onto the truth
+    (reviewer noise) and accepted. Returns each proposal's stored object id and its fish's true length."""
     out = []
     for round_ in range(rounds):
         truth = scene(seed=seed + round_, count=3)
         noisy = scene(seed=seed + round_, count=3)
         noisy.left = truth.left + rng.normal(0, model_sigma, truth.left.shape)
-        noisy.right = truth.right + rng.normal(0, model_sigma, truth.right.shape)
+        if right_noisy:
+            noisy.right = truth.right + rng.normal(0, model_sigma, truth.right.shape)
         run = detect_in_project(project, model_of(noisy), pair="dive", refine=False)
         for proposal in run.proposals:
             if proposal.object_id is None:
