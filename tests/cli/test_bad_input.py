@@ -301,6 +301,7 @@ def test_an_overflowing_value_is_still_one_line(tmp_path):
     """numpy's overflow warnings on an absurd value do not print above the error line."""
     data = json.loads((ROV / "calibration.json").read_text())
     data["cameras"]["right"]["interior"]["k2"] = 1e300
+    data["parameters"]["k2_r"]["value"] = 1e300  # both, or the file is refused for their disagreement
     (tmp_path / "c.json").write_text(json.dumps(data))
     (tmp_path / "picks.csv").write_text(_measure_picks())
     code, err = run(["measure", "--calibration", str(tmp_path / "c.json"), "--picks", str(tmp_path / "picks.csv"),

@@ -129,7 +129,10 @@ def test_k3_bumps_the_file_version_so_an_older_usvips_refuses_rather_than_drops_
     assert calibration_to_dict(plain)["version"] == 1
     for side, k3 in (("left", 0.012), ("right", -3e-4)):
         camera = getattr(plain, side)
-        bent = replace(plain, **{side: replace(camera, interior=replace(camera.interior, k3=k3))})
+        key = f"k3_{side[0]}"
+        parameters = {**plain.parameters, key: replace(plain.parameters[key], value=k3)}
+        bent = replace(plain, parameters=parameters,
+                       **{side: replace(camera, interior=replace(camera.interior, k3=k3))})
         assert calibration_to_dict(bent)["version"] == 2
         save_calibration(bent, tmp_path / f"{side}.json")
         again = load_calibration(tmp_path / f"{side}.json")

@@ -33,11 +33,12 @@ import numpy as np
 
 from usvips.core import housing as housings
 from usvips.core.adjustment import STATUSES
+from usvips.core.calibration.parameter_names import build_housings, exterior_of
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.housing import Housing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
-from usvips.core.rig import RelativeOrientation
+from usvips.core.rig import RelativeOrientation, relative_orientation
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.atomic import write_text_atomic
 
@@ -266,6 +267,7 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
                                           ParameterEstimate(float(getattr(camera.interior, name)), None, "fixed"))
         if covariance is not None:
             _require_model_parameters(path, kind, tuple(labels), parameters, covariance)
+        _require_parameters_agree(path, kind, tuple(labels), parameters, left, right, poses, relative)
         sigma0 = _numbers(path, "calibration", data, ("sigma0_px",))["sigma0_px"]
         if sigma0 < 0:
             raise InputFileError(path, f"sigma0_px: must be >= 0, got {sigma0!r}")
@@ -299,6 +301,74 @@ def _require_model_parameters(path: str, kind: str, stations: tuple[str, ...],
     unknown = [name for name in covariance[0] if name not in parameters]
     if unknown:
         raise InputFileError(path, f"covariance: names {', '.join(unknown)}, which are not in parameters")
+
+
+#: Largest accepted |parameter − camera value| / max(1, |either|): far above a float's rounding through the
+#: relative orientation (1e-15), far below any edit a person makes.
+AGREEMENT_TOLERANCE = 1e-7
+
+
+def _disagreement(name: str, given: float, camera_value: float, where: str) -> str | None:
+    """A message when the parameter's value is not the camera's, else None."""
+    if abs(given - camera_value) <= AGREEMENT_TOLERANCE * max(1.0, abs(given), abs(camera_value)):
+        return None
+    return f"parameters.{name}: value {given!r} is not the cameras' {camera_value!r} ({where})"
+
+
+def _housing_disagreements(kind: str, values: dict[str, float], left: Camera, right: Camera) -> list[str]:
+    """Messages for each housing value the kind builds from the parameters that is not the camera's."""
+    names = ", ".join(housings.kind(kind).calibration_names)
+    try:
+        built = build_housings(kind, values)
+    except UsvipsError as error:
+        return [f"parameters {names}: they make no {kind} housing ({error})"]
+    problems = []
+    for word, housing, camera in zip(("left", "right"), built, (left, right), strict=True):
+        expected = camera.housing.to_values()
+        for key, value in housing.to_values().items():
+            if key in expected and _disagreement(key, value, float(expected[key]), "") is not None:
+                problems.append(f"parameters {names}: the {word} housing they make has {key} = {value!r}, not the "
+                                f"cameras' {float(expected[key])!r} (cameras.{word}.housing.{key})")
+    return problems
+
+
+def _require_parameters_agree(path: str, kind: str, stations: tuple[str, ...],
+                              parameters: dict[str, ParameterEstimate], left: Camera, right: Camera,
+                              poses: list[Exterior], relative: RelativeOrientation) -> None:
+    """Every parameter that names a part of the cameras holds the cameras' value: the uncertainty
+    propagation and a later phase's priors are built from ``parameters``, the measurements from
+    ``cameras``, ``stations`` and ``relative_orientation`` — a hand edit of one and not the other would be
+    used by half the program. Interior terms and the left poses are compared value by value; the right
+    camera's first pose as the relative orientation it makes (rotation and base); the housings as the
+    kind builds them from the parameters."""
+    values = {name: p.value for name, p in parameters.items()}
+    problems = []
+    for side, word, camera in (("l", "left", left), ("r", "right", right)):
+        problems += [_disagreement(f"{p}_{side}", values[f"{p}_{side}"], float(getattr(camera.interior, p)),
+                                   f"cameras.{word}.interior.{p}")
+                     for p in INTERIOR_PARAMETERS if f"{p}_{side}" in values]
+    for i, (label, pose) in enumerate(zip(stations, poses, strict=True)):
+        suffix = "_l" if i == 0 else f"_l@{label}"
+        problems += [_disagreement(p + suffix, values[p + suffix], float(getattr(pose, p)), f"stations[{i}].{p}")
+                     for p in EXTERIOR_PARAMETERS if p + suffix in values]
+    right_names = [f"{p}_r" for p in EXTERIOR_PARAMETERS]
+    left_names = [f"{p}_l" for p in EXTERIOR_PARAMETERS]
+    if all(n in values for n in right_names + left_names):
+        implied = relative_orientation(exterior_of(values, "l"), exterior_of(values, "r"))
+        if not (np.allclose(implied.rotation, relative.rotation, rtol=0, atol=AGREEMENT_TOLERANCE)
+                and np.allclose(implied.base, relative.base, rtol=0,
+                                atol=AGREEMENT_TOLERANCE * max(1.0, float(np.abs(relative.base).max())))):
+            problems.append(f"parameters {', '.join(right_names)}: the right camera's pose they give is not the "
+                            f"one relative_orientation gives")
+    housing_names = list(housings.kind(kind).calibration_names)
+    if housing_names and all(n in values for n in housing_names) and (
+            not housings.kind(kind).right_follows_rig or all(n in values for n in right_names + left_names)):
+        problems += _housing_disagreements(kind, values, left, right)
+    problems = [p for p in problems if p]
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise InputFileError(path, f"{problems[0]}{more}: a calibration's parameters and its cameras must hold "
+                                   f"the same values")
 
 
 def load_calibration(path: str | Path) -> StereoCalibration:
