@@ -49,8 +49,17 @@ class OnnxDetector:
             / np.asarray(d.std, np.float32)
         return np.ascontiguousarray(values.transpose(2, 0, 1)[None]), letterbox
 
-    def detect(self, image: np.ndarray) -> tuple[Detection, ...]:
-        """The detections in ``image`` (8-bit BGR or grey), best first, in image pixels."""
-        blob, letterbox = self.blob(image)
+    def forward(self, blob: np.ndarray) -> np.ndarray:
+        """The network's output for its input ``blob`` (what :meth:`blob` gives)."""
         self._net.setInput(blob)
-        return self.family.decode(self._net.forward(), self.description, letterbox)
+        return self._net.forward()
+
+    def decode(self, output: np.ndarray, letterbox: Letterbox) -> tuple[Detection, ...]:
+        """The detections the network's ``output`` holds, mapped back through the image's ``letterbox``."""
+        return self.family.decode(output, self.description, letterbox)
+
+    def detect(self, image: np.ndarray) -> tuple[Detection, ...]:
+        """The detections in ``image`` (8-bit BGR or grey), best first, in image pixels: :meth:`blob`,
+        :meth:`forward` and :meth:`decode` (the stages ``usvips bench`` times one by one)."""
+        blob, letterbox = self.blob(image)
+        return self.decode(self.forward(blob), letterbox)
