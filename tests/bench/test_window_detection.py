@@ -18,6 +18,7 @@ def test_the_detect_freeze_row_names_what_it_timed_its_baseline_and_the_promise(
     # the window detected on every frame in its worker and stored the shipped model's proposals
     assert row["n"] == row["frames"] == 3 and row["proposals"] >= 1
     assert row["ours_s"] > 0 and row["baseline_s"] > 0 and row["detect_s"] > 0 and row["ticks"] > 0
+    assert 0 < row["gui_cpu_s"] <= row["ours_s"] + 0.01  # the GUI thread's CPU between two ticks is within its gap
     assert row["ratio"] == pytest.approx(row["ours_s"] / row["baseline_s"], rel=0.02)
     assert set(row) >= {"name", "n", "ours_s", "baseline", "baseline_s", "ratio", "target", "target_s", "met",
                         "load_1min"}
