@@ -67,7 +67,7 @@ class SigmaCircles:
                 handle.setPos(position)
         if len(self.handles) < len(self._wanted) and not self._growing:
             self._growing = True
-            QtCore.QTimer.singleShot(1, self._grow)
+            self._next_turn()
 
     def _grow(self) -> None:
         """Make up to :data:`HANDLES_PER_TURN` of the missing handles; again next turn while some are missing."""
@@ -83,7 +83,11 @@ class SigmaCircles:
             self.handles[key] = (handle, pane)
         self._growing = len(self.handles) < len(self._wanted)
         if self._growing:
-            QtCore.QTimer.singleShot(1, self._grow)
+            self._next_turn()
+
+    def _next_turn(self) -> None:
+        # tied to a pane: a window closed and gone meanwhile takes the timer with it
+        QtCore.QTimer.singleShot(1, next(iter(self.context.panes.values())), self._grow)
 
     def _moved(self, object_id: int, index: int, side: str, item) -> None:
         position = item.pos()
@@ -202,19 +206,21 @@ def _run(context: WindowContext, parent: QtWidgets.QWidget, frames: int, every: 
         def lines() -> None:  # the proposals' lines, LINES_PER_TURN a turn, then the summary and review mode
             body = shown[:-2]
             steps = [lambda chunk=body[i:i + LINES_PER_TURN]: say(chunk) for i in range(0, len(body), LINES_PER_TURN)]
-            _in_turns([*steps, review], context.messages)
+            _in_turns([*steps, review], context.messages, parent)
 
         # one step per turn of the event loop, so that the window draws and answers between them (issue 35:
         # no freeze over 0.1 s): the proposals stored; shown (the views, their σ circles included, redraw
         # on the workspace's news); their lines; review mode
-        _in_turns([lambda: session.write(run), lambda: shown.extend(session.show(run)), lines], context.messages)
+        _in_turns([lambda: session.write(run), lambda: shown.extend(session.show(run)), lines], context.messages,
+                  parent)
 
     context.jobs.run(job, f"Detecting with {session.model.name}", done)
 
 
-def _in_turns(steps: list[Callable[[], None]], messages: Messages) -> None:
+def _in_turns(steps: list[Callable[[], None]], messages: Messages, owner: QtCore.QObject) -> None:
     """Call ``steps`` in order, each in a turn of the event loop of its own (the window draws between them);
-    a step that fails with a :class:`UsvipsError` is said as an error and ends the rest."""
+    a step that fails with a :class:`UsvipsError` is said as an error and ends the rest. The steps belong to
+    ``owner`` (the window): once it is gone, the rest are not called."""
     if not steps:
         return
 
@@ -224,6 +230,6 @@ def _in_turns(steps: list[Callable[[], None]], messages: Messages) -> None:
         except UsvipsError as error:
             messages.error(str(error))
             return
-        _in_turns(steps[1:], messages)
+        _in_turns(steps[1:], messages, owner)
 
-    QtCore.QTimer.singleShot(1, step)  # a timer, not a posted call: what came due meanwhile goes first
+    QtCore.QTimer.singleShot(1, owner, step)  # a timer, not a posted call: what came due meanwhile goes first
