@@ -106,3 +106,30 @@ def test_dragging_a_keypoint_corrects_it_as_one_undoable_edit_measured_again(wor
     undone = ws.project.object(object_id).vertices[1]
     assert (undone.xr, undone.yr, undone.source) == (before.vertices[1].xr, before.vertices[1].yr,
                                                      before.vertices[1].source)
+
+
+def test_the_model_is_loaded_once_however_its_path_is_spelt_and_the_project_remembers_it(workspace):
+    ws, model = workspace
+    session = DetectSession(ws)
+    first = session.choose_model(str(model), remember=True)
+    # the project keeps the path resolved; the first Detect asks for it so: the model is not loaded again (a
+    # load runs the network once, on the window's thread)
+    assert session.project_model() is first
+    assert session.choose_model(str(model.parent / "." / model.name)) is first
+    other = model.parent / "elsewhere"
+    other.mkdir()
+    (other / model.name).write_bytes(model.read_bytes())
+    for name in [p.name for p in model.parent.iterdir() if p.is_file() and p.suffix == ".onnx"]:
+        (other / name).write_bytes((model.parent / name).read_bytes())
+    assert session.choose_model(str(other / model.name)) is not first  # another file: loaded
+
+
+def test_a_run_whose_project_was_closed_is_not_stored_and_says_so(workspace):
+    ws, model = workspace
+    session = DetectSession(ws)
+    ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
+    session.choose_model(str(model))
+    run = session.job(session.plan())(lambda f: None, lambda: False)
+    ws.close_project()
+    with pytest.raises(UsvipsError, match="the project was closed: the 3 proposal"):
+        session.write(run)

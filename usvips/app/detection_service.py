@@ -132,6 +132,9 @@ class DetectionRun:
     frames_done: int = 0
     cancelled: bool = False
     joined: JoinedFish | None = None
+    #: on a video, each proposal's left frame's time (s), read by the run (on the worker) so that storing does
+    #: not open the video on the project's thread (None: read when stored)
+    times: dict[int, float] | None = None
 
     def summary(self) -> list[str]:
         """Lines closing a run: what was looked at, found, stored, skipped, and the sigma used."""
@@ -310,6 +313,8 @@ def run_detection(plan: DetectionPlan, model: DetectionModel, cancel: Callable[[
                 progress(run.frames_done, plan.count)
     finally:
         frames.close()
+    if plan.is_video:
+        run.times = _times(plan, sorted({p.frame for p in run.proposals if p.frame is not None}))
     return run
 
 
@@ -397,7 +402,8 @@ def store_proposals(project: ProjectStore, run: DetectionRun,
     max_speed_m_s = validation.positive("max_speed", max_speed_m_s)
     plan, model = run.plan, run.model
     existing = [o for o in project.objects() if o.vertices and o.vertices[0].pair == plan.label]
-    times = _times(plan, sorted({p.frame for p in run.proposals if p.frame is not None}))
+    times = run.times if run.times is not None else _times(plan, sorted({p.frame for p in run.proposals
+                                                                         if p.frame is not None}))
     rows, where = [], []
     for i, proposal in enumerate(run.proposals):
         twin = next((o for o in existing if _on(o, plan.label, proposal.frame) and _same_fish(proposal, o)), None)

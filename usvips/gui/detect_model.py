@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -77,7 +78,8 @@ class DetectSession:
     def choose_model(self, path: str, remember: bool = False) -> DetectionModel:
         """Load the model a description file describes (refused by name when it is bad); ``remember``: make
         it the open project's default model too."""
-        if self.model is None or path != self.model_path:
+        same = self.model_path is not None and Path(path).expanduser().resolve() == Path(self.model_path).resolve()
+        if self.model is None or not same:  # loaded once per file, however its path is spelt (remembered resolved)
             self.model, self.model_path = load_model(path), path
         if remember and self.workspace.project is not None:
             remember_model(self.workspace.project, path)
@@ -120,8 +122,20 @@ class DetectSession:
 
     def store(self, run: DetectionRun) -> list[str]:
         """Store the run's proposals (GUI thread), tell the workspace which objects are new, and return the
-        lines to show: one per proposal and the summary."""
+        lines to show: one per proposal and the summary (:meth:`write` then :meth:`show`)."""
+        self.write(run)
+        return self.show(run)
+
+    def write(self, run: DetectionRun) -> None:
+        """Store the run's proposals in the project (GUI thread: the project's); a :class:`UsvipsError` when
+        the project was closed while the run went on."""
+        if self.workspace.project is None:
+            raise UsvipsError(f"the project was closed: the {len(run.proposals)} proposal(s) found were not stored")
         store_proposals(self.workspace.project, run)
+
+    def show(self, run: DetectionRun) -> list[str]:
+        """Tell the workspace which of the stored run's objects are new (its views draw them), and return the
+        lines to show: one per proposal and the summary."""
         added = tuple(p.object_id for p in run.proposals if p.object_id is not None)
         if added:
             self.workspace.objects_changed_in_store(added=added)

@@ -43,6 +43,36 @@ def test_the_input_is_letterboxed_and_normalised_as_described():
     np.testing.assert_allclose(grey[0, :, 32, 32], [20.0, 7.5, 4.0])
 
 
+def _reference_blob(description: ModelDescription, image: np.ndarray) -> np.ndarray:
+    """The input as the description defines it, step by step in numpy (float32): letterboxed, channels in the
+    model's order, (pixel · scale − mean) / std, laid out (1, 3, H, W)."""
+    size = (description.input_width, description.input_height)
+    boxed = Letterbox.fit((image.shape[1], image.shape[0]), size).apply(image, size, description.pad_value)
+    if description.channel_order == "RGB":
+        boxed = boxed[:, :, ::-1]
+    values = (boxed.astype(np.float32) * np.float32(description.scale) - np.asarray(description.mean, np.float32)) \
+        / np.asarray(description.std, np.float32)
+    return values.transpose(2, 0, 1)[None]
+
+
+def test_the_input_is_the_same_bits_as_the_described_normalisation_over_many_random_cases():
+    rng = np.random.default_rng(35)
+    model = constant_output_model(np.zeros((1, 8, 3)), 64, 64)
+    for case in range(60):
+        plain = case % 3 == 0  # the usual YOLO normalisation: 1/255, no mean, unit std
+        description = ModelDescription(
+            "m.onnx", "yolo-pose", int(rng.integers(16, 97)), int(rng.integers(16, 97)), ("fish",), ("snout",),
+            scale=1 / 255 if plain else float(rng.uniform(0.001, 2.0)),
+            mean=(0.0, 0.0, 0.0) if plain else tuple(rng.uniform(-50, 50, 3)),
+            std=(1.0, 1.0, 1.0) if plain else tuple(rng.uniform(0.1, 80, 3)),
+            channel_order=str(rng.choice(["RGB", "BGR"])), pad_value=int(rng.integers(0, 256)))
+        detector = OnnxDetector(description, model)
+        image = rng.integers(0, 256, (int(rng.integers(20, 300)), int(rng.integers(20, 300)), 3), dtype=np.uint8)
+        blob, _ = detector.blob(image)
+        assert blob.dtype == np.float32 and blob.flags["C_CONTIGUOUS"]
+        np.testing.assert_array_equal(blob, _reference_blob(description, image))
+
+
 def test_bytes_that_are_no_model_and_an_image_that_is_no_image_are_clear_errors():
     description = ModelDescription("bad.onnx", "yolo-pose", 64, 64, ("fish",), ("snout",))
     with pytest.raises(InvalidParameterError, match="OpenCV cannot read the ONNX model 'bad.onnx'"):

@@ -24,11 +24,17 @@ def test_detect_on_the_pair_shown_stores_draws_and_opens_review(qtbot, make_wind
     assert all(o.creator.startswith("model ") for o in stored)
     assert all(window.workspace.project.review(o.id) is None or window.workspace.project.review(o.id).state
                not in ("accepted", "flagged") for o in stored)
-    qtbot.waitUntil(lambda: window.docks["review"].isVisible(), timeout=5000)
-    assert sorted(window.review.model.queue) == sorted(o.id for o in stored)
+    # the run's results reach the window a step a turn (stored, shown, said, review mode opened)
+    qtbot.waitUntil(lambda: window.docks["review"].isVisible() and sorted(window.review.model.queue)
+                    == sorted(o.id for o in stored), timeout=5000)
     from usvips.gui.qt.detection_dialogs import _STATES
     circles = _STATES[id(window.workspace)].circles
     assert {side: len(item.data) for side, item in circles.items.items()} == {"left": 6, "right": 6}
+    # a handle on each keypoint in each image, made a few a turn; drawn again, the same handles are kept
+    qtbot.waitUntil(lambda: len(circles.handles) == 12, timeout=5000)
+    made = {key: handle for key, (handle, _) in circles.handles.items()}
+    circles.draw()
+    assert {key: handle for key, (handle, _) in circles.handles.items()} == made
 
     window.actions["detect"].trigger()  # again: the same fish are duplicates, nothing is added
     qtbot.waitUntil(lambda: not window.busy and "duplicate" in window.log.toPlainText(), timeout=20000)

@@ -6,11 +6,14 @@ them (A accepts, F flags, a re-picked vertex corrects a keypoint). Every line of
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import pyqtgraph as pg
-from PySide6 import QtWidgets
+from PySide6 import QtCore, QtWidgets
 
 from usvips.core.errors import UsvipsError
 from usvips.gui.detect_model import DetectSession, correct_keypoint, proposal_keypoints, sigma_circles
+from usvips.gui.messages import Messages
 from usvips.gui.qt.pane import item_from_pixels
 from usvips.gui.window_context import WindowContext
 
@@ -19,16 +22,26 @@ MODEL_FILTER = "Model descriptions (*.toml *.json);;All files (*)"
 
 
 SIGMA_COLOUR = (255, 170, 0)
+#: the proposals' log lines the window adds in one turn of its event loop when a run ends
+LINES_PER_TURN = 25
+#: the keypoint handles the window makes in one turn of its event loop
+HANDLES_PER_TURN = 6
 
 
 class SigmaCircles:
     """The 95 % circles of the proposals' keypoints on the panes, and a handle on each keypoint that a
     reviewer drags to correct it (one undoable edit), redrawn when the pair or frame shown, or the objects,
-    change (usvips.gui.detect_model.sigma_circles, proposal_keypoints, correct_keypoint)."""
+    change (usvips.gui.detect_model.sigma_circles, proposal_keypoints, correct_keypoint).
+
+    A handle is a pyqtgraph item of its own (a few milliseconds each to make): the handles of keypoints
+    still shown are moved, not made again, and new ones are made :data:`HANDLES_PER_TURN` a turn of the
+    event loop, so that a run's many proposals, or a review's every accept, do not freeze the window."""
 
     def __init__(self, context: WindowContext) -> None:
         self.context = context
-        self.handles: list = []
+        self.handles: dict[tuple[int, int, str], tuple[pg.TargetItem, object]] = {}
+        self._wanted: dict[tuple[int, int, str], tuple[float, float]] = {}
+        self._growing = False
         self.items = {}
         for side, pane in context.panes.items():
             item = pg.ScatterPlotItem(pxMode=False, symbol="o", brush=None, pen=pg.mkPen(SIGMA_COLOUR, width=1.5))
@@ -44,18 +57,37 @@ class SigmaCircles:
         for side, item in self.items.items():
             rows = circles[side]
             item.setData(pos=item_from_pixels(rows[:, :2]), size=2 * rows[:, 2])
-        for handle, pane in self.handles:
+        self._wanted = {(object_id, index, side): pixel for object_id, index, side, pixel in proposal_keypoints(ws)}
+        for key in [key for key in self.handles if key not in self._wanted]:
+            handle, pane = self.handles.pop(key)
             pane.viewbox.removeItem(handle)
-        self.handles = []
-        for object_id, index, side, pixel in proposal_keypoints(ws):
+        for key, (handle, _) in self.handles.items():
+            position = tuple(item_from_pixels(self._wanted[key])[0])
+            if (handle.pos().x(), handle.pos().y()) != position:
+                handle.setPos(position)
+        if len(self.handles) < len(self._wanted) and not self._growing:
+            self._growing = True
+            self._next_turn()
+
+    def _grow(self) -> None:
+        """Make up to :data:`HANDLES_PER_TURN` of the missing handles; again next turn while some are missing."""
+        missing = [key for key in self._wanted if key not in self.handles][:HANDLES_PER_TURN]
+        for key in missing:
+            object_id, index, side = key
             pane = self.context.panes[side]
-            handle = pg.TargetItem(tuple(item_from_pixels(pixel)[0]), size=9, symbol="o",
+            handle = pg.TargetItem(tuple(item_from_pixels(self._wanted[key])[0]), size=9, symbol="o",
                                    pen=pg.mkPen(SIGMA_COLOUR, width=1), hoverPen=pg.mkPen((255, 255, 255), width=2))
             handle.setToolTip(f"object {object_id}: drag to correct this keypoint")
-            handle.sigPositionChangeFinished.connect(
-                lambda item, o=object_id, i=index, s=side: self._moved(o, i, s, item))
+            handle.sigPositionChangeFinished.connect(lambda item, key=key: self._moved(*key, item))
             pane.viewbox.addItem(handle, ignoreBounds=True)
-            self.handles.append((handle, pane))
+            self.handles[key] = (handle, pane)
+        self._growing = len(self.handles) < len(self._wanted)
+        if self._growing:
+            self._next_turn()
+
+    def _next_turn(self) -> None:
+        # tied to a pane: a window closed and gone meanwhile takes the timer with it
+        QtCore.QTimer.singleShot(1, next(iter(self.context.panes.values())), self._grow)
 
     def _moved(self, object_id: int, index: int, side: str, item) -> None:
         position = item.pos()
@@ -159,15 +191,45 @@ def _run(context: WindowContext, parent: QtWidgets.QWidget, frames: int, every: 
         return
 
     def done(run) -> None:
-        lines = session.store(run)
-        circles = _state(context).circles
-        if circles is not None:
-            circles.draw()
-        for line in lines[:-2]:
-            context.messages.info(line)
-        context.messages.info("; ".join(lines[-2:]))
-        navigation = context.navigation
-        if any(p.object_id is not None for p in run.proposals) and navigation and navigation.show_review:
-            navigation.show_review()
+        shown: list[str] = []
+
+        def say(lines: list[str]) -> None:
+            for line in lines:
+                context.messages.info(line)
+
+        def review() -> None:
+            context.messages.info("; ".join(shown[-2:]))
+            navigation = context.navigation
+            if any(p.object_id is not None for p in run.proposals) and navigation and navigation.show_review:
+                navigation.show_review()
+
+        def lines() -> None:  # the proposals' lines, LINES_PER_TURN a turn, then the summary and review mode
+            body = shown[:-2]
+            steps = [lambda chunk=body[i:i + LINES_PER_TURN]: say(chunk) for i in range(0, len(body), LINES_PER_TURN)]
+            _in_turns([*steps, review], context.messages, parent)
+
+        # one step per turn of the event loop, so that the window draws and answers between them (issue 35:
+        # no freeze over 0.1 s): the proposals stored; shown (the views, their σ circles included, redraw
+        # on the workspace's news); their lines; review mode
+        _in_turns([lambda: session.write(run), lambda: shown.extend(session.show(run)), lines], context.messages,
+                  parent)
 
     context.jobs.run(job, f"Detecting with {session.model.name}", done)
+
+
+def _in_turns(steps: list[Callable[[], None]], messages: Messages, owner: QtCore.QObject) -> None:
+    """Call ``steps`` in order, each in a turn of the event loop of its own (the window draws between them);
+    a step that fails with a :class:`UsvipsError` is said as an error and ends the rest. The steps belong to
+    ``owner`` (the window): once it is gone, the rest are not called."""
+    if not steps:
+        return
+
+    def step() -> None:
+        try:
+            steps[0]()
+        except UsvipsError as error:
+            messages.error(str(error))
+            return
+        _in_turns(steps[1:], messages, owner)
+
+    QtCore.QTimer.singleShot(1, owner, step)  # a timer, not a posted call: what came due meanwhile goes first
