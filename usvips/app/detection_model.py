@@ -69,12 +69,25 @@ class DetectionModel:
         scale = min(box.scale_x, box.scale_y)  # input px per image px: one scale when the aspect is kept
         return {name: table[name] / scale for name in keypoints}
 
+    def input_scale(self, image_size: tuple[int, int]) -> float:
+        """The model's input pixels per image pixel for an image of ``image_size`` (width, height px): the
+        letterbox's one scale (the aspect is kept)."""
+        box = Letterbox.fit(image_size, (self.description.input_width, self.description.input_height))
+        return min(box.scale_x, box.scale_y)
+
     def sigma_basis(self, keypoints: tuple[str, ...]) -> str:
-        """What the sigmas :meth:`keypoint_sigma` gives were measured on."""
+        """What the sigmas :meth:`keypoint_sigma` gives were measured on — and, when the description has a
+        ``[stereo_sigma]`` table, what the lengths' sigma by the fish's size rests on."""
         if all(self.description.measured_sigma(k) is not None for k in keypoints):
-            return self.description.keypoint_sigma_basis or "basis not stated"
-        source = self.description.validation_source or "data not stated"
-        return f"the model's held-out validation ({source}), scaled from its input pixels to the image's"
+            basis = self.description.keypoint_sigma_basis or "basis not stated"
+        else:
+            source = self.description.validation_source or "data not stated"
+            basis = f"the model's held-out validation ({source}), scaled from its input pixels to the image's"
+        stereo = self.description.stereo_sigma
+        if stereo is not None and all(k in stereo.left for k in keypoints):
+            basis = (f"rendered stereo clips by the fish's size, the refined right keypoints following the left "
+                     f"({stereo.basis or 'basis not stated'})")
+        return basis
 
     def sigma_line(self, keypoints: tuple[str, ...], image_size: tuple[int, int] | None = None) -> str:
         """One line on the keypoints' pointing sigma: measured (values and basis), or why lengths get none."""
