@@ -228,7 +228,7 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
     if sigmas is not None and pairs:
         chosen = [i for i, why in enumerate(apart) if not why]
         own = None
-        if model.description.stereo_sigma is not None:
+        if model.stereo_sigma(KEYPOINTS) is not None:
             own = [pair_pointing(model, pairs[i], _refined_flags(results[i]), (left.shape[1], left.shape[0]))
                    for i in chosen]
         lengths = measure_pairs([pairs[i] for i in chosen], geometry.calibration, sigmas, KEYPOINTS,
@@ -279,8 +279,8 @@ def pair_pointing(model: DetectionModel, pair: StereoPair, refined: Sequence[boo
     snout–fork length in the left image (the model's own keypoints), the refined right keypoints following
     the left ones (``refined``, per keypoint of :data:`KEYPOINTS`)."""
     ends = np.array([pair.left.keypoint(k).pixel for k in KEYPOINTS])
-    return model.description.stereo_sigma.pointing(KEYPOINTS, float(np.linalg.norm(ends[1] - ends[0])),
-                                                   model.input_scale(image_size), refined)
+    return model.stereo_sigma(KEYPOINTS).pointing(KEYPOINTS, float(np.linalg.norm(ends[1] - ends[0])),
+                                                  model.input_scale(image_size), refined)
 
 
 def _refined_flags(result: RefinedPair) -> list[bool]:

@@ -16,7 +16,9 @@ runs from its description alone (docs/detection.md). TOML (``.toml``) or JSON (`
     [stereo_sigma]   optional, how the refined stereo keypoints err by the fish's size, measured on rendered
                      clips (usvips.training.stereo_sigma): left = {snout = [a, b], …} (the left keypoint's σ,
                      INPUT pixels), match = {snout = [a, b], …} (the refined right keypoint about the left's
-                     conjugate, IMAGE pixels), each σ(s) = √(a² + (b·s)²) for a fish s px long; basis (text)
+                     conjugate, IMAGE pixels), optionally unmatched = {snout = [a, b], …} (a right keypoint
+                     the match did not refine, INPUT pixels), each σ(s) = √(a² + (b·s)²) for a fish s px
+                     long; basis (text)
 
 Every bad field is one :class:`~usvips.core.errors.InputFileError` naming the file and the key.
 """
@@ -40,7 +42,7 @@ SECTIONS = {"model": ("file", "family", "input_width", "input_height"),
                        "iou_threshold", "max_detections"),
             "keypoint_sigma": ("px", "basis"),
             "validation": ("keypoint_sigma", "recall", "precision", "median_error", "source"),
-            "stereo_sigma": ("left", "match", "basis")}
+            "stereo_sigma": ("left", "match", "unmatched", "basis")}
 REQUIRED = ("model.file", "model.family", "model.input_width", "model.input_height", "output.classes",
             "output.keypoints")
 
@@ -193,7 +195,9 @@ def _stereo_sigma(fields: _Fields, keypoints: tuple[str, ...]) -> StereoSigma | 
     if set(left) != set(match):
         raise fields.fail("stereo_sigma.match", f"names other keypoints ({', '.join(match)}) than stereo_sigma.left "
                                                 f"({', '.join(left)})")
-    return StereoSigma(left, match, basis.strip())
+    unmatched = (_size_sigmas(fields, "stereo_sigma.unmatched", keypoints)
+                 if fields.get("stereo_sigma.unmatched") is not None else {})
+    return StereoSigma(left, match, basis.strip(), unmatched)
 
 
 def read_model_description(path: str | Path) -> ModelDescription:

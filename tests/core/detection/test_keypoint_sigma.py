@@ -112,6 +112,9 @@ def test_a_refined_right_keypoint_follows_the_left_one():
     left = np.sqrt(1 + (0.01 * 100) ** 2) / 0.5  # the size in input px: 100; the sigma back in image px
     assert sigmas[0, 0] == pytest.approx(left) and sigmas[0, 1] == pytest.approx(np.hypot(left, 0.5))
     assert rho[0] == pytest.approx(left / np.hypot(left, 0.5))
-    assert sigmas[1].tolist() == [2.0, 2.0] and rho[1] == 0.0
+    assert sigmas[1].tolist() == [2.0, 2.0] and rho[1] == 0.0  # not refined, no unmatched sigma: the left's
+    stereo = StereoSigma(stereo.left, stereo.match, "", {"fork": SizeSigma(3.0, 0.0)})
+    sigmas, rho = stereo.pointing(("snout", "fork"), 200.0, 0.5, [True, False])
+    assert sigmas[1].tolist() == [2.0, 6.0] and rho[1] == 0.0
     with pytest.raises(InvalidParameterError):
         stereo.pointing(("snout", "upper caudal"), 100.0, 0.5, [True, True])

@@ -22,7 +22,7 @@ asymptotic efficiency under normality, 0.3675).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -160,23 +160,29 @@ class StereoSigma:
     keypoint's error about the left one's conjugate (``match``: image px, size in image px — the match is made
     on the image). The right error of a refined keypoint is the left one carried over plus the match's:
     σ_R² = σ_L² + σ_m², correlated with the left by σ_L / σ_R
-    (:mod:`usvips.core.measurements.correlated_pointing`). ``basis``: what they were measured on."""
+    (:mod:`usvips.core.measurements.correlated_pointing`). A right keypoint the match could not refine is
+    the model's own, independent of the left: ``unmatched`` (model input px, size in input px) is its σ,
+    measured on the pairs that got a length so (their gross misses are not caught in stereo); the left σ
+    where it gives none. ``basis``: what they were measured on."""
 
     left: dict[str, SizeSigma]
     match: dict[str, SizeSigma]
     basis: str = ""
+    unmatched: dict[str, SizeSigma] = field(default_factory=dict)
 
     def pointing(self, names: Sequence[str], size_image_px: float, input_per_image_px: float,
                  refined: Sequence[bool]) -> tuple[np.ndarray, np.ndarray]:
         """(sigmas (K, 2) image px [left, right], correlations (K,)) of a pair's keypoints ``names`` for a fish
         ``size_image_px`` long in the left image, ``input_per_image_px`` the letterbox's scale, and whether
-        each right keypoint was ``refined`` (else it is the model's own point: independent, σ_R = σ_L)."""
+        each right keypoint was ``refined`` (else it is the model's own point: independent, of the
+        ``unmatched`` σ)."""
         missing = [n for n in names if n not in self.left or n not in self.match]
         if missing:
             raise InvalidParameterError("stereo_sigma", f"no measured stereo sigma for {', '.join(missing)}")
         scale = float(input_per_image_px)
         left = np.array([float(self.left[n](size_image_px * scale)) / scale for n in names])
         match = np.array([float(self.match[n](size_image_px)) for n in names])
+        own = np.array([float(self.unmatched.get(n, self.left[n])(size_image_px * scale)) / scale for n in names])
         follows = np.asarray(refined, dtype=bool)
-        right = np.where(follows, np.sqrt(left ** 2 + match ** 2), left)
+        right = np.where(follows, np.sqrt(left ** 2 + match ** 2), own)
         return np.stack([left, right], axis=1), np.where(follows, left / right, 0.0)
