@@ -177,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
                                     progress=lambda line: print(line, file=sys.stderr, flush=True))
             if kept is not None:
                 errors.save(kept)
-        basis = (f"{errors.pairs} refined pairs on {errors.clips} rendered stereo survey clips of 640 x 480, "
+        basis = (f"{errors.pairs} pairs with a length on {errors.clips} rendered stereo survey clips of 640 x 480, "
                  f"seeds {first}..{first + count - 1}")
         stereo = fit_stereo_sigma(errors, model.input_scale((640, 480)), basis)
         out.write_text(text.rstrip("\n") + "\n" + stereo_sigma_table(stereo), encoding="utf-8")
