@@ -100,3 +100,11 @@ def test_correlations_are_checked_and_a_source_says_when_its_right_follows_its_l
     rho = vertex_correlation([label, "hand click", label], np.array([[1.0, 2.0], [1.0, 2.0], [2.0, 1.0]]))
     assert rho.tolist() == [0.5, 0.0, 0.0]
     assert vertex_correlation(["hand click"], np.array([[0.5, 0.5]])) is None
+
+
+def test_a_vertex_the_steps_cannot_intersect_keeps_its_independent_covariance():
+    from usvips.core.measurements.correlated_pointing import kept_where_failed
+
+    correlated = np.stack([np.eye(3), np.full((3, 3), np.nan)])
+    independent = np.stack([2 * np.eye(3), 3 * np.eye(3)])
+    assert np.array_equal(kept_where_failed(correlated, independent), np.stack([np.eye(3), 3 * np.eye(3)]))

@@ -16,7 +16,7 @@ import numpy as np
 
 from usvips.core.calibration.uncertainty import intersection_derivatives
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
-from usvips.core.measurements.correlated_pointing import correlations, with_correlation
+from usvips.core.measurements.correlated_pointing import correlated_covariances, correlations, kept_where_failed
 from usvips.core.measurements.evaluate import Measurement, calibration_marks, measure
 from usvips.core.measurements.figures import QualityRules, block_diagonal
 from usvips.core.measurements.registry import kind as kind_named
@@ -64,6 +64,8 @@ def measure_picks_many(kinds: Sequence[str], calibration: StereoCalibration, lef
                                                                          frame, sigma_all)
     camera = calibration.rig(station, frame).left.exterior.position
     marks = calibration_marks(calibration)
+    vertex_covariance = _with_correlations(calibration, left_all, right_all, sigma_all, rows, rhos, result,
+                                           station, frame)
     for i, where in rows:
         failed = np.flatnonzero(~result.ok[where])
         if failed.size:
@@ -71,8 +73,7 @@ def measure_picks_many(kinds: Sequence[str], calibration: StereoCalibration, lef
             out[i] = DegenerateGeometryError(f"vertex {int(failed[0])}: {status.reason}")
             continue
         points = result.points[where]
-        pointing = with_correlation(calibration, left_all[where], right_all[where], sigma_all[where], rhos[i],
-                                    block_diagonal(result.covariance[where]), station, frame)
+        pointing = block_diagonal(vertex_covariance[where])
         calibration_part = np.zeros_like(pointing)
         if derivatives is not None:
             flat = derivatives[:, where].reshape(len(derivatives), -1)
@@ -87,4 +88,21 @@ def measure_picks_many(kinds: Sequence[str], calibration: StereoCalibration, lef
                 out[i] = replace(out[i], pointing_correlation=rhos[i])
         except UsvipsError as error:
             out[i] = error
+    return out
+
+
+def _with_correlations(calibration, left, right, sigma, rows, rhos, result, station, frame) -> np.ndarray:
+    """The (M, 3, 3) pointing covariances of all objects' vertices: the intersection's, with those of the
+    vertices correlated left to right (``rhos``, per object) replaced by
+    :func:`~usvips.core.measurements.correlated_pointing.correlated_covariances`, all in one batch."""
+    rho = np.zeros(len(left))
+    for i, where in rows:
+        if rhos[i] is not None:
+            rho[where] = rhos[i]
+    chosen = np.flatnonzero((rho > 0) & result.ok)
+    if not chosen.size:
+        return result.covariance
+    out = np.array(result.covariance, copy=True)
+    out[chosen] = kept_where_failed(correlated_covariances(calibration, left[chosen], right[chosen], sigma[chosen],
+                                                           rho[chosen], station, frame), out[chosen])
     return out

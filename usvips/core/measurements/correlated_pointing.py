@@ -55,8 +55,8 @@ def correlated_covariances(calibration: StereoCalibration, left: np.ndarray, rig
                            frame: str = "object") -> np.ndarray:
     """(N, 3, 3) pointing covariances (m²) of the intersected picks ``left``/``right`` (N, 2) px with
     pointing sigmas ``sigma_px`` (N, 2) [left, right] px and left–right correlations ``correlation`` (N,)
-    (see the module docstring). Rays that fail give the intersection's placeholder (the caller refuses the
-    vertex by its status)."""
+    (see the module docstring). A vertex whose rays fail for a pixel a step away (at the edge of what the
+    housing sees) gets NaN: the caller keeps its independent covariance, the larger one."""
     left = np.asarray(left, dtype=np.float64).reshape(-1, 2)
     right = np.asarray(right, dtype=np.float64).reshape(-1, 2)
     sigma = np.asarray(sigma_px, dtype=np.float64).reshape(-1, 2)
@@ -70,6 +70,7 @@ def correlated_covariances(calibration: StereoCalibration, left: np.ndarray, rig
                                         station, frame, include_calibration=False,
                                         pointing_sigma_px=np.tile(sigma, (8, 1)))
     points = result.points.reshape(8, n, 3)
+    usable = result.ok.reshape(8, n).all(axis=0)
     jacobian = (points[0::2] - points[1::2]).transpose(1, 2, 0) / (2 * STEP_PX)  # (n, 3, 4)
     cross = rho * sigma[:, 0] * sigma[:, 1]
     pixels = np.zeros((n, 4, 4))
@@ -77,7 +78,14 @@ def correlated_covariances(calibration: StereoCalibration, left: np.ndarray, rig
         pixels[:, c, c] = sigma[:, 0] ** 2
         pixels[:, 2 + c, 2 + c] = sigma[:, 1] ** 2
         pixels[:, c, 2 + c] = pixels[:, 2 + c, c] = cross
-    return np.einsum("nij,njk,nlk->nil", jacobian, pixels, jacobian)
+    covariance = np.einsum("nij,njk,nlk->nil", jacobian, pixels, jacobian)
+    covariance[~usable] = np.nan
+    return covariance
+
+
+def kept_where_failed(correlated: np.ndarray, independent: np.ndarray) -> np.ndarray:
+    """``correlated`` (M, 3, 3) with the vertices it could not give (NaN) taken from ``independent``."""
+    return np.where(np.isnan(correlated).any(axis=(1, 2))[:, None, None], independent, correlated)
 
 
 def with_correlation(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray, sigma_px: np.ndarray,
@@ -93,6 +101,7 @@ def with_correlation(calibration: StereoCalibration, left: np.ndarray, right: np
                                     np.asarray(right).reshape(-1, 2)[chosen], np.asarray(sigma_px)[chosen],
                                     correlation[chosen], station, frame)
     out = np.array(pointing, dtype=np.float64, copy=True)
-    for block, i in zip(blocks, chosen, strict=True):
+    own = np.array([out[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in chosen])
+    for block, i in zip(kept_where_failed(blocks, own), chosen, strict=True):
         out[3 * i:3 * i + 3, 3 * i:3 * i + 3] = block
     return out
