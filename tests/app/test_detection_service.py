@@ -203,3 +203,26 @@ def test_a_proposal_measured_with_the_stereo_sigma_by_size_keeps_its_sigma_when_
                                         frame=plan.geometry.frame, pair_pointing=[(
                                             proposal.measurement.pointing_sigma_px, np.zeros(2))])[0].main
             assert independent.sigma > (1.2 if all(refined) else 1.0) * figure.sigma
+
+
+def test_an_accepted_proposal_whose_right_keypoints_follow_the_left_counts_in_the_reviews_sigma(survey):
+    """A proposal stored with 'right matched to left' sources is still the model's for the reviews' sigma."""
+    from usvips.app.detection_review import review_corrections
+    from usvips.app.detection_service import store_proposals
+    from usvips.core.detection.stereo import measure_pairs
+
+    path, truth = survey
+    model = fake_model(truth, sigma=1.0)
+    with Project.open(path) as project:
+        plan = plan_detection(project, pair="dive")
+        run = run_detection(plan, model, refine=False)
+        for i, proposal in enumerate(run.proposals):
+            again = measure_pairs([proposal.pair], plan.geometry.calibration, 1.0, station=plan.geometry.station,
+                                  frame=plan.geometry.frame, measured_basis="test",
+                                  pair_pointing=[(np.array([[1.0, 1.1]] * 2), np.array([1 / 1.1, 0.0]))])[0]
+            run.proposals[i] = replace(proposal, measurement=again)
+        store_proposals(project, run)
+        for proposal in run.proposals:
+            project.set_review(proposal.object_id, "accepted")
+        proposed, reviewed = review_corrections(project, model)
+        assert len(proposed) == len(run.proposals) and np.array_equal(proposed, reviewed)
