@@ -206,9 +206,11 @@ def test_a_proposal_measured_with_the_stereo_sigma_by_size_keeps_its_sigma_when_
 
 
 def test_an_accepted_proposal_whose_right_keypoints_follow_the_left_counts_in_the_reviews_sigma(survey):
-    """A proposal stored with 'right matched to left' sources is still the model's for the reviews' sigma."""
+    """A proposal stored with 'right matched to left' sources is still the model's for the reviews' sigma and
+    the training set's corrections."""
     from usvips.app.detection_review import review_corrections
     from usvips.app.detection_service import store_proposals
+    from usvips.app.training_set import reviewed_samples
     from usvips.core.detection.stereo import measure_pairs
 
     path, truth = survey
@@ -226,3 +228,5 @@ def test_an_accepted_proposal_whose_right_keypoints_follow_the_left_counts_in_th
             project.set_review(proposal.object_id, "accepted")
         proposed, reviewed = review_corrections(project, model)
         assert len(proposed) == len(run.proposals) and np.array_equal(proposed, reviewed)
+        samples, _ = reviewed_samples(project)  # the training set's corrections name the model's tag alone
+        assert {s.model for _, pair in samples for s in pair} == {"fake-fish sha256:abababababab"}
