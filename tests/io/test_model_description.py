@@ -137,7 +137,8 @@ def test_the_stereo_sigma_by_size_is_read_and_checked(tmp_path):
     path.write_text(GOOD)
     assert read_model_description(path).stereo_sigma is None
     for bad, key in (('left = {tail = [1.0, 0.0]}\nmatch = {tail = [1.0, 0.0]}', "stereo_sigma.left.tail"),
-                     ('left = {snout = [0.0, 0.1]}\nmatch = {snout = [1.0, 0.0]}', "stereo_sigma.left.snout"),
+                     ('left = {snout = [0.0, 0.0]}\nmatch = {snout = [1.0, 0.0]}', "stereo_sigma.left.snout"),
+                     ('left = {snout = [1.0, -0.1]}\nmatch = {snout = [1.0, 0.0]}', "stereo_sigma.left.snout"),
                      ('left = {snout = [1.0, 0.1]}\nmatch = {snout = [1.0]}', "stereo_sigma.match.snout"),
                      ('left = {snout = [1.0, 0.1]}\nmatch = {fork = [1.0, 0.0]}', "stereo_sigma.match"),
                      ('left = {snout = [1.0, 0.1]}', "stereo_sigma.match"),

@@ -179,8 +179,8 @@ def _size_sigmas(fields: _Fields, key: str, keypoints: tuple[str, ...]) -> dict[
             raise fields.fail(f"{key}.{name}", f"not one of the model's keypoints ({', '.join(keypoints)})")
         if not (isinstance(value, list) and len(value) == 2 and all(
                 not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v) and v >= 0 for v in value)
-                and value[0] > 0):
-            raise fields.fail(f"{key}.{name}", f"expected [a, b]: a > 0 px and b >= 0, finite, got {value!r}")
+                and value[0] + value[1] > 0):
+            raise fields.fail(f"{key}.{name}", f"expected [a, b]: finite, >= 0 and not both 0, got {value!r}")
         out[str(name)] = SizeSigma(float(value[0]), float(value[1]))
     return out
 
