@@ -1,6 +1,6 @@
 """Which keypoint sigma a model's lengths get: the description's [keypoint_sigma] table (image pixels) when
-it has one; else its held-out [validation] sigma (model input pixels) scaled to each image's pixels by the
-letterbox; else none (never assumed)."""
+it has one; else its [stereo_sigma] by the fish's size when it has one; else its held-out [validation] sigma
+(model input pixels) scaled to each image's pixels by the letterbox; else none (never assumed)."""
 
 import shutil
 
@@ -12,12 +12,21 @@ from usvips.locations import resources_folder
 KEYS = ("snout", "fork")
 
 
+STEREO = ('\n[stereo_sigma]\nbasis = "clips"\nleft = {snout = [0.8, 0.01], fork = [0.6, 0.04]}\n'
+          'match = {snout = [0.7, 0.0], fork = [0.1, 0.02]}\n')
+
+
 @pytest.fixture
 def shipped(tmp_path):
+    """The shipped model's files, its description without a [stereo_sigma] table."""
     folder = resources_folder() / "models"
     for path in folder.glob("fish-centre-pose.*"):
         shutil.copy(path, tmp_path / path.name)
-    return tmp_path / "fish-centre-pose.toml"
+    description = tmp_path / "fish-centre-pose.toml"
+    text = description.read_text(encoding="utf-8")
+    if "[stereo_sigma]" in text:
+        description.write_text(text[:text.index("\n[stereo_sigma]")] + "\n", encoding="utf-8")
+    return description
 
 
 @pytest.mark.parametrize("size", [(640, 480), (1920, 1080), (480, 640), (256, 256)])
@@ -45,3 +54,15 @@ def test_a_measured_table_wins_and_no_measure_gives_no_sigma(shipped):
     model = load_model(shipped)
     assert model.keypoint_sigma(KEYS, (1920, 1080)) is None
     assert "no measured pointing sigma" in model.sigma_line(KEYS, (1920, 1080))
+
+
+def test_the_stereo_sigma_by_size_is_used_unless_reviews_measured_a_table(shipped):
+    text = shipped.read_text(encoding="utf-8")
+    shipped.write_text(text + STEREO, encoding="utf-8")
+    model = load_model(shipped)
+    assert model.stereo_sigma(KEYS) is not None and "by the fish's size" in model.sigma_line(KEYS)
+    assert "clips" in model.sigma_basis(KEYS)
+    shipped.write_text(text + STEREO + '\n[keypoint_sigma]\nbasis = "reviews"\npx = {snout = 1.5, fork = 2.5}\n',
+                       encoding="utf-8")
+    model = load_model(shipped)
+    assert model.stereo_sigma(KEYS) is None and model.sigma_basis(KEYS) == "reviews"

@@ -162,3 +162,71 @@ def test_on_a_video_every_kth_frame_of_a_range_is_detected_with_progress_and_a_s
     stopped = run_detection(plan, fake_model(truth), cancel=lambda: len(done) >= 2,
                             progress=lambda d, t: done.append(d))
     assert stopped.cancelled and stopped.frames_done == 2 and {p.frame for p in stopped.proposals} == {0, 1}
+
+
+def test_a_proposal_measured_with_the_stereo_sigma_by_size_keeps_its_sigma_when_stored(survey):
+    """A model with a [stereo_sigma] table: each pair's keypoints get their sigma by the fish's size, and a
+    right keypoint refined along the left one's curve follows it (correlated). The stored vertices say so
+    (their source: 'right matched to left'), so the object's figure recomputed from its picks is the
+    proposal's, σ and all; taken as independent, the σ would be far larger. (The test scenes are flat, so
+    their keypoints cannot be refined: the pairs are measured here as refined ones are.)"""
+    from usvips.app.detection_service import pair_pointing, store_proposals
+    from usvips.core.detection.keypoint_sigma import SizeSigma, StereoSigma
+    from usvips.core.detection.stereo import measure_pairs
+    from usvips.core.pointing import RIGHT_FOLLOWS_LEFT
+
+    path, truth = survey
+    model = fake_model(truth, sigma=None)
+    stereo = StereoSigma({n: SizeSigma(1.0, 0.01) for n in ("snout", "fork")},
+                         {n: SizeSigma(0.3, 0.0) for n in ("snout", "fork")}, "test clips")
+    model = replace(model, description=replace(model.description, validated_keypoint_sigma=(0.9, 1.3),
+                                               validation_source="test validation", stereo_sigma=stereo))
+    with Project.open(path) as project:
+        plan = plan_detection(project, pair="dive")
+        run = run_detection(plan, model, refine=False)
+        assert run.proposals and "by the fish's size" in run.summary()[1]
+        assert all(p.measurement.pointing_correlation is None for p in run.proposals)  # none refined
+        follows = [[True, True], [True, False]] + [[False, True]] * (len(run.proposals) - 2)
+        calibration = plan.geometry.calibration
+        for i, (proposal, refined) in enumerate(zip(run.proposals, follows, strict=True)):
+            own = pair_pointing(model, proposal.pair, refined, (640, 480))
+            again = measure_pairs([proposal.pair], calibration, 1.0, station=plan.geometry.station,
+                                  frame=plan.geometry.frame, measured_basis="test clips", pair_pointing=[own])[0]
+            run.proposals[i] = replace(proposal, measurement=again)
+        store_proposals(project, run)
+        for proposal, refined in zip(run.proposals, follows, strict=True):
+            stored = project.object(proposal.object_id)
+            assert [RIGHT_FOLLOWS_LEFT in v.source for v in stored.vertices] == refined
+            figure = measure_stored(project, stored).main
+            assert figure.sigma == pytest.approx(proposal.measurement.main.sigma, rel=1e-6)
+            independent = measure_pairs([proposal.pair], calibration, 1.0, station=plan.geometry.station,
+                                        frame=plan.geometry.frame, pair_pointing=[(
+                                            proposal.measurement.pointing_sigma_px, np.zeros(2))])[0].main
+            assert independent.sigma > (1.2 if all(refined) else 1.0) * figure.sigma
+
+
+def test_an_accepted_proposal_whose_right_keypoints_follow_the_left_counts_in_the_reviews_sigma(survey):
+    """A proposal stored with 'right matched to left' sources is still the model's for the reviews' sigma and
+    the training set's corrections."""
+    from usvips.app.detection_review import review_corrections
+    from usvips.app.detection_service import store_proposals
+    from usvips.app.training_set import reviewed_samples
+    from usvips.core.detection.stereo import measure_pairs
+
+    path, truth = survey
+    model = fake_model(truth, sigma=1.0)
+    with Project.open(path) as project:
+        plan = plan_detection(project, pair="dive")
+        run = run_detection(plan, model, refine=False)
+        for i, proposal in enumerate(run.proposals):
+            again = measure_pairs([proposal.pair], plan.geometry.calibration, 1.0, station=plan.geometry.station,
+                                  frame=plan.geometry.frame, measured_basis="test",
+                                  pair_pointing=[(np.array([[1.0, 1.1]] * 2), np.array([1 / 1.1, 0.0]))])[0]
+            run.proposals[i] = replace(proposal, measurement=again)
+        store_proposals(project, run)
+        for proposal in run.proposals:
+            project.set_review(proposal.object_id, "accepted")
+        proposed, reviewed = review_corrections(project, model)
+        assert len(proposed) == len(run.proposals) and np.array_equal(proposed, reviewed)
+        samples, _ = reviewed_samples(project)  # the training set's corrections name the model's tag alone
+        assert {s.model for _, pair in samples for s in pair} == {"fake-fish sha256:abababababab"}

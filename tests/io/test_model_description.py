@@ -124,3 +124,25 @@ def test_the_measured_keypoint_sigma_is_read_and_checked(tmp_path):
         path.write_text(GOOD + f"\n[keypoint_sigma]\n{bad}\n")
         with pytest.raises(InputFileError, match=key.replace(".", r"\.")):
             read_model_description(path)
+
+
+def test_the_stereo_sigma_by_size_is_read_and_checked(tmp_path):
+    path = tmp_path / "fish-pose.toml"
+    path.write_text(GOOD + '\n[stereo_sigma]\nbasis = "40 rendered clips"\n'
+                    'left = {snout = [0.8, 0.01], fork = [0.6, 0.04]}\n'
+                    'match = {snout = [0.85, 0.0], fork = [0.7, 0.007]}\nunmatched = {fork = [2.0, 0.01]}\n')
+    stereo = read_model_description(path).stereo_sigma
+    assert stereo.basis == "40 rendered clips" and stereo.left["fork"](100.0) == pytest.approx(np.hypot(0.6, 4.0))
+    assert stereo.match["snout"].a == 0.85 and stereo.unmatched["fork"].a == 2.0 and "snout" not in stereo.unmatched
+    path.write_text(GOOD)
+    assert read_model_description(path).stereo_sigma is None
+    for bad, key in (('left = {tail = [1.0, 0.0]}\nmatch = {tail = [1.0, 0.0]}', "stereo_sigma.left.tail"),
+                     ('left = {snout = [0.0, 0.0]}\nmatch = {snout = [1.0, 0.0]}', "stereo_sigma.left.snout"),
+                     ('left = {snout = [1.0, -0.1]}\nmatch = {snout = [1.0, 0.0]}', "stereo_sigma.left.snout"),
+                     ('left = {snout = [1.0, 0.1]}\nmatch = {snout = [1.0]}', "stereo_sigma.match.snout"),
+                     ('left = {snout = [1.0, 0.1]}\nmatch = {fork = [1.0, 0.0]}', "stereo_sigma.match"),
+                     ('left = {snout = [1.0, 0.1]}', "stereo_sigma.match"),
+                     ('basis = 3\nleft = {snout = [1.0, 0.1]}\nmatch = {snout = [1.0, 0.0]}', "stereo_sigma.basis")):
+        path.write_text(GOOD + f"\n[stereo_sigma]\n{bad}\n")
+        with pytest.raises(InputFileError, match=key.replace(".", r"\.")):
+            read_model_description(path)

@@ -56,13 +56,16 @@ TARGET_WITHIN_2SIGMA = 0.9
 TARGET_NEES = (0.7, 1.5)
 #: a proposal is a fish when its snout and fork lie within this fraction of the fish's length of the truth
 MATCH_TOLERANCE = 0.2
+#: the bins of the fish's snout–fork length in the left image (px) the NEES is reported by
+SIZE_EDGES = (20.0, 50.0, 100.0, 200.0)
 
 
 @dataclass
 class AcceptanceFigures:
     """What a run of clips gave: fish to measure (per frame) and measured, fish seen on several frames,
     proposals, proposals paired across two fish, and the normalised errors (error / σ) of the lengths of
-    single proposals and of fish combined over their instants."""
+    single proposals and of fish combined over their instants; per single length, the fish's snout–fork
+    length in the left image (px) and which fish it is (clip, fish)."""
 
     clips: int = 0
     frames: int = 0
@@ -75,6 +78,7 @@ class AcceptanceFigures:
     combined: list[float] = field(default_factory=list)
     relative_sigma: list[float] = field(default_factory=list)
     length_pixels: list[float] = field(default_factory=list)
+    fish: list[tuple[int, int]] = field(default_factory=list)
 
     @property
     def measured_fraction(self) -> float:
@@ -97,16 +101,25 @@ class AcceptanceFigures:
     def within_2sigma(self) -> float:
         return self.within_of(self.single)
 
-    def by_size(self, edges: Sequence[float] = (20, 50, 100, 200)) -> list[dict]:
-        """The lengths' NEES and share within 2σ by the fish's snout–fork length in the left image (px)."""
+    def by_size(self, edges: Sequence[float] = SIZE_EDGES) -> list[dict]:
+        """The lengths' NEES and share within 2σ by the fish's snout–fork length in the left image (px), with
+        the NEES bounds an honest σ gives for each bin (:func:`nees_bounds`) — counted by FISH, not lengths: a
+        model's error on one fish repeats on the frames that see it, so a fish's lengths are not independent
+        draws (the bounds for as many independent lengths are given too)."""
         z, size = np.asarray(self.single), np.asarray(self.length_pixels)
+        fish = np.asarray(self.fish, dtype=np.int64).reshape(-1, 2)
         bounds = (0.0, *edges, math.inf)
         out = []
         for low, high in zip(bounds[:-1], bounds[1:], strict=True):
-            chosen = z[(size >= low) & (size < high)]
+            where = (size >= low) & (size < high)
+            chosen = z[where]
             if len(chosen):
-                out.append({"length_px": f"{low:g}-{high:g}", "lengths": len(chosen),
-                            "nees": round(self.nees_of(chosen), 3), "within_2sigma": round(self.within_of(chosen), 3)})
+                count = len({tuple(f) for f in fish[where]}) if len(fish) == len(z) else len(chosen)
+                out.append({"length_px": f"{low:g}-{high:g}", "lengths": len(chosen), "fish": count,
+                            "nees": round(self.nees_of(chosen), 3),
+                            "nees_bounds": [round(b, 3) for b in nees_bounds(count)],
+                            "nees_bounds_if_independent": [round(b, 3) for b in nees_bounds(len(chosen))],
+                            "within_2sigma": round(self.within_of(chosen), 3)})
         return out
 
     def summary(self) -> dict:
@@ -196,6 +209,7 @@ def score_run(project: ProjectStore, run: DetectionRun, clip: SurveyClip, figure
         figures.single.append((own.main.value - lengths[left]) / own.main.sigma)
         figures.relative_sigma.append(own.main.sigma / lengths[left])
         figures.length_pixels.append(frame.left_truth[left].length_pixels)
+        figures.fish.append((figures.clips, left))
         if frame.left_truth[left].required and frame.right_truth[left].required:
             measured.add((proposal.frame, left))
         fish_of_object[proposal.object_id] = left
@@ -240,3 +254,10 @@ def nees_bound(count: int, sigmas: float = 3.0) -> float:
     if count < 1:
         raise UsvipsError("a NEES bound needs at least one error")
     return 1.0 + sigmas * math.sqrt(2.0 / count)
+
+
+def nees_bounds(count: int, sigmas: float = 3.0) -> tuple[float, float]:
+    """The NEES an honest σ gives over ``count`` independent normalised errors: 1 ± ``sigmas`` standard
+    deviations of the mean of ``count`` χ²₁ values (√(2/count)), the lower bound not below 0."""
+    high = nees_bound(count, sigmas)
+    return max(0.0, 2.0 - high), high

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.detection import Detector, ModelDescription
+from usvips.core.detection.keypoint_sigma import StereoSigma
 from usvips.core.detection.letterbox import Letterbox
 from usvips.core.detection.runner import OnnxDetector
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
@@ -69,8 +70,30 @@ class DetectionModel:
         scale = min(box.scale_x, box.scale_y)  # input px per image px: one scale when the aspect is kept
         return {name: table[name] / scale for name in keypoints}
 
+    def input_scale(self, image_size: tuple[int, int]) -> float:
+        """The model's input pixels per image pixel for an image of ``image_size`` (width, height px): the
+        letterbox's one scale (the aspect is kept)."""
+        box = Letterbox.fit(image_size, (self.description.input_width, self.description.input_height))
+        return min(box.scale_x, box.scale_y)
+
+    def stereo_sigma(self, keypoints: tuple[str, ...]) -> StereoSigma | None:
+        """The description's ``[stereo_sigma]`` (how the refined stereo keypoints err by the fish's size) when
+        it covers ``keypoints`` and no ``[keypoint_sigma]`` table (measured from reviews of real proposals,
+        which then rules) gives theirs; else None: each keypoint's one sigma, alike and independent in both
+        images (:meth:`keypoint_sigma`)."""
+        stereo = self.description.stereo_sigma
+        if stereo is None or not all(k in stereo.left for k in keypoints) or all(
+                self.description.measured_sigma(k) is not None for k in keypoints):
+            return None
+        return stereo
+
     def sigma_basis(self, keypoints: tuple[str, ...]) -> str:
-        """What the sigmas :meth:`keypoint_sigma` gives were measured on."""
+        """What the lengths' keypoint sigma rests on: the ``[stereo_sigma]`` table (:meth:`stereo_sigma`), else
+        what the sigmas :meth:`keypoint_sigma` gives were measured on."""
+        stereo = self.stereo_sigma(keypoints)
+        if stereo is not None:
+            return (f"rendered stereo clips by the fish's size, the refined right keypoints following the left "
+                    f"({stereo.basis or 'basis not stated'})")
         if all(self.description.measured_sigma(k) is not None for k in keypoints):
             return self.description.keypoint_sigma_basis or "basis not stated"
         source = self.description.validation_source or "data not stated"
@@ -78,6 +101,13 @@ class DetectionModel:
 
     def sigma_line(self, keypoints: tuple[str, ...], image_size: tuple[int, int] | None = None) -> str:
         """One line on the keypoints' pointing sigma: measured (values and basis), or why lengths get none."""
+        stereo = self.stereo_sigma(keypoints)
+        if stereo is not None and self.keypoint_sigma(keypoints, image_size or (640, 480)) is not None:
+            values = ", ".join(f"{k} {stereo.left[k](50.0):.2f}-{stereo.left[k](200.0):.2f} input px, match "
+                               f"{stereo.match[k](50.0):.2f}-{stereo.match[k](200.0):.2f} image px" for k in keypoints)
+            return (f"model {self.tag}: lengths' keypoint pointing sigma by the fish's size, the refined right "
+                    f"keypoints following the left, measured ({self.sigma_basis(keypoints)}); for a fish 50-200 px "
+                    f"long: {values}")
         sigmas = self.keypoint_sigma(keypoints, image_size)
         if sigmas is None:
             if self.description.validated_keypoint_sigma and image_size is None:

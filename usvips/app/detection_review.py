@@ -21,8 +21,8 @@ from usvips.store.interface import ProjectStore
 
 def review_corrections(project: ProjectStore, model: DetectionModel) -> tuple[np.ndarray, np.ndarray]:
     """(proposed, reviewed) left keypoints (n, 2, 2) px — snout and fork — of the accepted proposals of
-    ``model`` in ``project``."""
-    labels = [source_label(point, model) for point in KEYPOINTS]
+    ``model`` in ``project`` (their right keypoints refined along the left's curve or not)."""
+    labels = [{source_label(point, model), source_label(point, model, right_follows=True)} for point in KEYPOINTS]
     accepted = {r.object_id for r in project.reviews("accepted")}
     proposed, reviewed = [], []
     for stored in project.objects_with_ids(sorted(accepted)):
@@ -30,7 +30,8 @@ def review_corrections(project: ProjectStore, model: DetectionModel) -> tuple[np
         if added is None or not added.new or len(stored.vertices) != len(KEYPOINTS):
             continue
         first = added.new.get("vertices", [])
-        if [v.get("source") for v in first] != labels:
+        if not all(v.get("source") in label for v, label in zip(first, labels, strict=False)) \
+                or len(first) != len(labels):
             continue
         proposed.append([(float(v["xl"]), float(v["yl"])) for v in first])
         reviewed.append([(v.xl, v.yl) for v in stored.vertices])

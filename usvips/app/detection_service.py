@@ -47,6 +47,7 @@ from usvips.core.detection.stereo import MEASURED_KEYPOINT_SIGMA as SIGMA_MARK
 from usvips.core.detection.stereo import StereoPair, measure_pairs, pair_detections
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements.evaluate import Measurement
+from usvips.core.pointing import RIGHT_FOLLOWS_LEFT
 from usvips.io.images import read_image
 from usvips.io.video_stream import PairReader, VideoStream
 from usvips.store.interface import ProjectStore
@@ -220,6 +221,43 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
     """One stereo frame (8-bit BGR or grey images): each fish paired in both images as (pair with refined
     right keypoints, its measurement or None, right keypoints refined, why there is no length), the left
     and right detections, and the number of detections left unpaired."""
+    sigmas = model.keypoint_sigma(KEYPOINTS, (left.shape[1], left.shape[0]))
+    results, found_left, found_right, unpaired = pair_and_refine(left, right, geometry, model, detector, refine,
+                                                                 gate_px)
+    pairs = [result.pair for result in results]
+    refined = [sum(k.refined for k in result.keypoints) for result in results]
+    apart = [_disagreement(result) for result in results]
+    measured: list = [None] * len(pairs)
+    if sigmas is not None and pairs:
+        chosen = [i for i, why in enumerate(apart) if not why]
+        own = None
+        if model.stereo_sigma(KEYPOINTS) is not None:
+            own = [pair_pointing(model, pairs[i], _refined_flags(results[i]), (left.shape[1], left.shape[0]))
+                   for i in chosen]
+        lengths = measure_pairs([pairs[i] for i in chosen], geometry.calibration, sigmas, KEYPOINTS,
+                                geometry.station, geometry.frame, measured_basis=model.sigma_basis(KEYPOINTS),
+                                pair_pointing=own)
+        for i, m in zip(chosen, lengths, strict=True):
+            measured[i] = m
+    out = []
+    for pair, m, count, why in zip(pairs, measured, refined, apart, strict=True):
+        if why and sigmas is not None:
+            out.append((pair, None, count, f"no length: {why}"))
+        elif isinstance(m, UsvipsError):
+            out.append((pair, None, count, f"no length: {m}"))
+        else:
+            out.append((pair, m, count, ""))
+    return out, found_left, found_right, unpaired
+
+
+def pair_and_refine(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, model: DetectionModel,
+                    detector=None, refine: bool = True, gate_px: float | None = None
+                    ) -> tuple[list[RefinedPair], tuple[Detection, ...], tuple[Detection, ...], int]:
+    """The first steps of :func:`detect_frame`: detect in both images, pair by one assignment over the frame
+    (gated at ``gate_px``, else 4√2 × the model's larger measured keypoint sigma, else
+    :data:`DEFAULT_GATE_PX`) and refine each right keypoint along the left one's curve (``refine``; else each
+    pair as found, no keypoint refined). Returns the refined pairs, the left and right detections and the
+    number of detections left unpaired."""
     detector = detector or model.make_detector()
     found_left, found_right = tuple(detector.detect(left)), tuple(detector.detect(right))
     rig = geometry.calibration.rig(geometry.station, geometry.frame)
@@ -232,28 +270,26 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
         limits = {name: 3 * math.sqrt(2) * sigma for name, sigma in sigmas.items()} if sigmas else None
         results = refine_pairs(left, right, pairing.pairs, rig, KEYPOINTS, radius_px=max(2 * gate, 8.0),
                                max_shift_px=limits)
-        pairs = [result.pair for result in results]
-        refined = [sum(k.refined for k in result.keypoints) for result in results]
-        apart = [_disagreement(result) for result in results]
     else:
-        pairs, refined = list(pairing.pairs), [0] * len(pairing.pairs)
-        apart = [""] * len(pairs)
-    measured: list = [None] * len(pairs)
-    if sigmas is not None and pairs:
-        chosen = [i for i, why in enumerate(apart) if not why]
-        lengths = measure_pairs([pairs[i] for i in chosen], geometry.calibration, sigmas, KEYPOINTS,
-                                geometry.station, geometry.frame, measured_basis=model.sigma_basis(KEYPOINTS))
-        for i, m in zip(chosen, lengths, strict=True):
-            measured[i] = m
-    out = []
-    for pair, m, count, why in zip(pairs, measured, refined, apart, strict=True):
-        if why and sigmas is not None:
-            out.append((pair, None, count, f"no length: {why}"))
-        elif isinstance(m, UsvipsError):
-            out.append((pair, None, count, f"no length: {m}"))
-        else:
-            out.append((pair, m, count, ""))
-    return out, found_left, found_right, len(pairing.unpaired_left) + len(pairing.unpaired_right)
+        results = [RefinedPair(pair, ()) for pair in pairing.pairs]
+    return results, found_left, found_right, len(pairing.unpaired_left) + len(pairing.unpaired_right)
+
+
+def pair_pointing(model: DetectionModel, pair: StereoPair, refined: Sequence[bool],
+                  image_size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """A pair's keypoints' pointing — sigmas (K, 2) image px [left, right] and left–right correlations (K,) —
+    from the model's measured :class:`~usvips.core.detection.keypoint_sigma.StereoSigma`: by the fish's
+    snout–fork length in the left image (the model's own keypoints), the refined right keypoints following
+    the left ones (``refined``, per keypoint of :data:`KEYPOINTS`)."""
+    ends = np.array([pair.left.keypoint(k).pixel for k in KEYPOINTS])
+    return model.stereo_sigma(KEYPOINTS).pointing(KEYPOINTS, float(np.linalg.norm(ends[1] - ends[0])),
+                                                  model.input_scale(image_size), refined)
+
+
+def _refined_flags(result: RefinedPair) -> list[bool]:
+    """Whether each keypoint of :data:`KEYPOINTS` was refined in the right image (False when not tried)."""
+    done = {k.name: k.refined for k in result.keypoints}
+    return [done.get(name, False) for name in KEYPOINTS]
 
 
 def _disagreement(result: RefinedPair) -> str:
@@ -336,9 +372,12 @@ def _on(stored: StoredObject, label: str, frame: int | None) -> bool:
     return frame is None or stored.vertices[0].frame_left == frame
 
 
-def source_label(point: str, model: DetectionModel) -> str:
-    """The stored source of a proposal's vertex: ``keypoint (<point>, model <name> sha256:<12 hex>)``."""
-    return f"keypoint ({point}, model {model.tag})"
+def source_label(point: str, model: DetectionModel, right_follows: bool = False) -> str:
+    """The stored source of a proposal's vertex: ``keypoint (<point>, model <name> sha256:<12 hex>)``, and
+    ``, right matched to left`` when its right point was refined along the left one's curve and its length
+    measured so (:data:`usvips.core.pointing.RIGHT_FOLLOWS_LEFT`: the object's figure, recomputed from its
+    picks, then keeps the left and right errors correlated)."""
+    return f"keypoint ({point}, model {model.tag}{', ' + RIGHT_FOLLOWS_LEFT if right_follows else ''})"
 
 
 def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionModel,
@@ -349,6 +388,8 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
     frame = proposal.frame
     partner = None if frame is None else plan.partners[plan.frames.index(frame)]
     vertices = []
+    follows = (m.pointing_correlation if m is not None and m.pointing_correlation is not None
+               else np.zeros(len(KEYPOINTS)))
     for i, name in enumerate(KEYPOINTS):
         left, right = proposal.pair.left.keypoint(name), proposal.pair.right.keypoint(name)
         sigma = _vertex_sigma(m, i) if m is not None else model.description.measured_sigma(name)
@@ -357,7 +398,8 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
         vertices.append(Vertex(float(left.x), float(left.y), float(right.x), float(right.y), xyz, covariance,
                                plan.geometry.calibration_id if m is not None else None, plan.label,
                                plan.label if frame is not None else None, frame, partner,
-                               times.get(frame) if frame is not None else None, source=source_label(name, model),
+                               times.get(frame) if frame is not None else None,
+                               source=source_label(name, model, bool(follows[i] > 0)),
                                pointing_px=sigma if sigma is None or isinstance(sigma, tuple) else (sigma, sigma),
                                pointing_origin="estimated" if sigma is not None else "default"))
     return vertices

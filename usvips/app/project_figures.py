@@ -45,8 +45,10 @@ from usvips.core.measurements import (
     measure_picks,
     placement,
 )
+from usvips.core.measurements.correlated_pointing import with_correlation
+from usvips.core.measurements.figures import block_diagonal
 from usvips.core.measurements.instants import combine_measurements
-from usvips.core.pointing import PointingSigma, source_from_label, vertex_pointing
+from usvips.core.pointing import PointingSigma, source_from_label, vertex_correlation, vertex_pointing
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
@@ -83,6 +85,9 @@ class MeasurementInput:
     pointing_px: np.ndarray | None = None
     pointing_origin: str = "default"
     pointing_marks: tuple[str, ...] = ()
+    # each vertex's left-right pointing correlation (N,) (usvips.core.pointing.vertex_correlation); None:
+    # independent
+    pointing_correlation: np.ndarray | None = None
     # every vertex is a model's keypoint (a detection proposal): the model's error on one fish repeats on
     # the frames that see it, so its instants' pointing errors are not independent either
     model_keypoints: bool = False
@@ -173,6 +178,7 @@ def _one_instant(project: ProjectStore, stored: StoredObject, cache: dict[int, S
                             np.array([[v.xr, v.yr] for v in vertices], float), xyz, covariances, calibration,
                             station, frame, stored.attribute, stored.notes, pair, where_measured(stored),
                             calibration_id, pointing_px=pointing, pointing_origin=origin, pointing_marks=marks,
+                            pointing_correlation=vertex_correlation([v.source for v in vertices], pointing),
                             model_keypoints=bool(vertices) and all(_is_keypoint(v.source) for v in vertices))
 
 
@@ -233,7 +239,12 @@ def _pointing_only(source: MeasurementInput, measured: Measurement) -> Measureme
         result = intersect_with_calibration(source.calibration, source.left, source.right, source.station,
                                             source.frame, include_calibration=False,
                                             pointing_sigma_px=measured.pointing_sigma_px)
-        return measure(source.kind, result.points, result.covariance, joint=False)
+        covariance = result.covariance
+        if measured.pointing_correlation is not None:
+            covariance = with_correlation(source.calibration, source.left, source.right, measured.pointing_sigma_px,
+                                          measured.pointing_correlation, block_diagonal(covariance), source.station,
+                                          source.frame)
+        return measure(source.kind, result.points, covariance, joint=False)
     except UsvipsError:
         return measured
 
@@ -245,7 +256,8 @@ def _evaluate_one(source: MeasurementInput, rules: QualityRules | None = None) -
             try:
                 return measure_picks(source.kind, source.calibration, source.left, source.right, source.station,
                                      source.frame, rules, **labels, pointing_sigma_px=source.pointing_px,
-                                     pointing_origin=source.pointing_origin, marks=source.pointing_marks)
+                                     pointing_origin=source.pointing_origin, marks=source.pointing_marks,
+                                     pointing_correlation=source.pointing_correlation)
             except DegenerateGeometryError:
                 pass  # rays that no longer meet with this calibration: the stored values still stand
         if not np.all(np.isfinite(source.xyz)) or not np.all(np.isfinite(source.covariances)):
@@ -262,7 +274,8 @@ def joint_vertices(source: MeasurementInput) -> tuple[np.ndarray, np.ndarray, bo
     if source.calibration is not None:
         try:
             points, covariance, _, _ = intersect_vertices(source.calibration, source.left, source.right,
-                                                          source.station, source.frame, source.pointing_px)
+                                                          source.station, source.frame, source.pointing_px,
+                                                          source.pointing_correlation)
             return points, covariance, True
         except UsvipsError:
             pass  # as in evaluate: the stored values still stand

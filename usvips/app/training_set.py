@@ -77,7 +77,7 @@ def reviewed_samples(project: ProjectStore) -> tuple[list[tuple[StoredObject, li
         first = (added.new or {}).get("vertices", []) if added is not None else []
         sources = [str(v.get("source", "")) for v in first]
         from_model = len(first) == 2 and all(s.startswith("keypoint (") and "model " in s for s in sources)
-        model = sources[0].split("model ", 1)[1].rstrip(")") if from_model else ""
+        model = sources[0].split("model ", 1)[1].rstrip(")").split(",", 1)[0] if from_model else ""
         samples = []
         for camera, keys in (("left", ("xl", "yl")), ("right", ("xr", "yr"))):
             reviewed = np.array([(getattr(v, keys[0]), getattr(v, keys[1])) for v in stored.vertices], float)

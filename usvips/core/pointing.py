@@ -82,6 +82,11 @@ SOURCES: dict[str, SourceKind] = {s.name: s for s in (
     SourceKind("keypoint", KEYPOINT_SIGMA_PX, "assumed: a conservative prior until a model's error is measured"),
 )}
 
+#: the qualifier of a source label whose RIGHT pixel was found by matching its LEFT pixel along the epipolar
+#: curve (a model's keypoint refined in the right image): its right error is the left error carried over plus
+#: the match's own, so the two are correlated (:func:`vertex_correlation`)
+RIGHT_FOLLOWS_LEFT = "right matched to left"
+
 #: the source of a vertex stored before pointing sources were (schema < 11): a hand click of unknown
 #: annotator and kind of point, with the hand-click default
 MIGRATED_SOURCE = "hand click (unknown)"
@@ -228,3 +233,22 @@ def vertex_pointing(sources: list[str], sigmas: list[tuple[float, float] | None]
     marks = (f"pointing sigma {HAND_CLICK_SIGMA_PX:.2f} px is the hand-click default for {unknown} vertex(es) of "
              "unknown source",) if unknown else ()
     return out, origin, marks
+
+
+def right_follows_left(label: str) -> bool:
+    """Whether a stored source label says its right pixel was matched to its left one
+    (:data:`RIGHT_FOLLOWS_LEFT` among its qualifiers)."""
+    _, _, rest = (label or "").partition(" (")
+    return RIGHT_FOLLOWS_LEFT in (p.strip() for p in rest.rstrip(")").split(","))
+
+
+def vertex_correlation(sources: list[str], sigmas: np.ndarray) -> np.ndarray | None:
+    """The correlation of each vertex's left and right pointing errors (N,), or None when every vertex's are
+    independent: for a vertex whose right pixel follows its left one (:func:`right_follows_left`), the right
+    error is the left error (σ_L) plus the match's own, independent error, so σ_R ≥ σ_L and the correlation
+    is σ_L / σ_R (:mod:`usvips.core.measurements.correlated_pointing`); a stated σ_R below σ_L cannot be such
+    a sum, and is taken as independent. ``sigmas``: (N, 2) [left, right] px as :func:`vertex_pointing` gives."""
+    sigmas = np.asarray(sigmas, dtype=np.float64).reshape(-1, 2)
+    follows = np.array([right_follows_left(s) for s in sources], dtype=bool)
+    rho = np.where(follows & (sigmas[:, 1] > sigmas[:, 0]), sigmas[:, 0] / sigmas[:, 1], 0.0)
+    return rho if np.any(rho > 0) else None

@@ -13,6 +13,12 @@ runs from its description alone (docs/detection.md). TOML (``.toml``) or JSON (`
     [validation]     optional, measured on held-out data: keypoint_sigma (pointing σ per keypoint, INPUT
                      pixels: used, scaled by the letterbox, where [keypoint_sigma] gives none), recall,
                      precision (0..1), median_error (per keypoint, input pixels), source (text)
+    [stereo_sigma]   optional, how the refined stereo keypoints err by the fish's size, measured on rendered
+                     clips (usvips.training.stereo_sigma): left = {snout = [a, b], …} (the left keypoint's σ,
+                     INPUT pixels), match = {snout = [a, b], …} (the refined right keypoint about the left's
+                     conjugate, IMAGE pixels), optionally unmatched = {snout = [a, b], …} (a right keypoint
+                     the match did not refine, INPUT pixels), each σ(s) = √(a² + (b·s)²) for a fish s px
+                     long; basis (text)
 
 Every bad field is one :class:`~usvips.core.errors.InputFileError` naming the file and the key.
 """
@@ -25,6 +31,7 @@ import tomllib
 from pathlib import Path
 
 from usvips.core.detection.description import CHANNEL_ORDERS, ModelDescription
+from usvips.core.detection.keypoint_sigma import SizeSigma, StereoSigma
 from usvips.core.detection.registry import family, names
 from usvips.core.detection.runner import OnnxDetector
 from usvips.core.errors import InputFileError, InvalidParameterError
@@ -34,7 +41,8 @@ SECTIONS = {"model": ("file", "family", "input_width", "input_height"),
             "output": ("classes", "keypoints", "keypoint_values", "objectness", "score_threshold",
                        "iou_threshold", "max_detections"),
             "keypoint_sigma": ("px", "basis"),
-            "validation": ("keypoint_sigma", "recall", "precision", "median_error", "source")}
+            "validation": ("keypoint_sigma", "recall", "precision", "median_error", "source"),
+            "stereo_sigma": ("left", "match", "unmatched", "basis")}
 REQUIRED = ("model.file", "model.family", "model.input_width", "model.input_height", "output.classes",
             "output.keypoints")
 
@@ -161,6 +169,37 @@ def _sigmas(fields: _Fields, keypoints: tuple[str, ...]) -> tuple[tuple[str, flo
     return tuple(out)
 
 
+def _size_sigmas(fields: _Fields, key: str, keypoints: tuple[str, ...]) -> dict[str, SizeSigma]:
+    table = fields.get(key, {})
+    if not isinstance(table, dict) or not table:
+        raise fields.fail(key, f"expected a table of keypoint = [a, b] (px, px per px), got {table!r}")
+    out = {}
+    for name, value in table.items():
+        if name not in keypoints:
+            raise fields.fail(f"{key}.{name}", f"not one of the model's keypoints ({', '.join(keypoints)})")
+        if not (isinstance(value, list) and len(value) == 2 and all(
+                not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v) and v >= 0 for v in value)
+                and value[0] + value[1] > 0):
+            raise fields.fail(f"{key}.{name}", f"expected [a, b]: finite, >= 0 and not both 0, got {value!r}")
+        out[str(name)] = SizeSigma(float(value[0]), float(value[1]))
+    return out
+
+
+def _stereo_sigma(fields: _Fields, keypoints: tuple[str, ...]) -> StereoSigma | None:
+    if "stereo_sigma" not in fields.tables:
+        return None
+    basis = fields.get("stereo_sigma.basis", "")
+    if not isinstance(basis, str):
+        raise fields.fail("stereo_sigma.basis", f"expected a text, got {basis!r}")
+    left, match = (_size_sigmas(fields, f"stereo_sigma.{k}", keypoints) for k in ("left", "match"))
+    if set(left) != set(match):
+        raise fields.fail("stereo_sigma.match", f"names other keypoints ({', '.join(match)}) than stereo_sigma.left "
+                                                f"({', '.join(left)})")
+    unmatched = (_size_sigmas(fields, "stereo_sigma.unmatched", keypoints)
+                 if fields.get("stereo_sigma.unmatched") is not None else {})
+    return StereoSigma(left, match, basis.strip(), unmatched)
+
+
 def read_model_description(path: str | Path) -> ModelDescription:
     """The :class:`ModelDescription` a TOML or JSON file holds (the model file is not read)."""
     path = Path(path)
@@ -191,7 +230,8 @@ def read_model_description(path: str | Path) -> ModelDescription:
         validated_keypoint_sigma=fields.per_keypoint("validation.keypoint_sigma",
                                                      len(fields.names("output.keypoints"))),
         validation_source=(fields.text("validation.source").strip()
-                           if fields.get("validation.source") is not None else ""))
+                           if fields.get("validation.source") is not None else ""),
+        stereo_sigma=_stereo_sigma(fields, keypoints))
     fields.per_keypoint("validation.median_error", len(description.keypoint_names))
     for key in ("validation.recall", "validation.precision"):
         fields.number(key, 0.0, 0.0, 1.0)

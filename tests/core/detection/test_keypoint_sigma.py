@@ -77,3 +77,44 @@ def test_too_few_points_or_a_model_no_worse_than_its_reviewer_are_refused():
         sigma_from_corrections(NAMES, truth + rng.normal(0, 0.3, truth.shape), truth, reviewer_sigma_px=0.5)
     with pytest.raises(InvalidParameterError, match="shape"):
         sigma_from_truth(NAMES, np.zeros((50, 3, 2)), np.zeros((50, 3, 2)))
+
+
+def test_a_sigma_growing_with_size_is_fitted_with_its_gross_misses():
+    """Over random cases: errors normal with σ(s) = √(a² + (b·s)²), 5 % of them gross misses (a larger normal
+    share growing with s). The fit recovers a and b of clean errors, and with misses it is the errors' second
+    moment by size: the normalised errors' mean square is near 1 in each third of the sizes."""
+    from usvips.core.detection.keypoint_sigma import fit_size_sigma
+
+    rng = np.random.default_rng(35)
+    for _ in range(12):
+        a, b = rng.uniform(0.3, 2.0), rng.uniform(0.0, 0.03)
+        size = rng.uniform(10, 300, 800)
+        sigma = np.sqrt(a ** 2 + (b * size) ** 2)
+        errors = rng.normal(size=(800, 2)) * sigma[:, None]
+        fitted = fit_size_sigma(size, errors)
+        assert fitted.a == pytest.approx(a, rel=0.15, abs=0.05) and fitted.b == pytest.approx(b, abs=0.004)
+        missed = rng.random(800) < 0.05
+        errors[missed] *= 3 + size[missed, None] / 50
+        fitted = fit_size_sigma(size, errors)
+        z2 = np.sum(errors ** 2, axis=1) / 2 / fitted(size) ** 2
+        for third in np.array_split(np.argsort(size), 3):
+            assert 0.6 < np.mean(z2[third]) < 1.6
+    with pytest.raises(InvalidParameterError):
+        fit_size_sigma(np.ones(5), np.ones((5, 2)))
+
+
+def test_a_refined_right_keypoint_follows_the_left_one():
+    from usvips.core.detection.keypoint_sigma import SizeSigma, StereoSigma
+
+    stereo = StereoSigma({"snout": SizeSigma(1.0, 0.01), "fork": SizeSigma(1.0, 0.0)},
+                         {"snout": SizeSigma(0.5, 0.0), "fork": SizeSigma(0.3, 0.002)})
+    sigmas, rho = stereo.pointing(("snout", "fork"), 200.0, 0.5, [True, False])
+    left = np.sqrt(1 + (0.01 * 100) ** 2) / 0.5  # the size in input px: 100; the sigma back in image px
+    assert sigmas[0, 0] == pytest.approx(left) and sigmas[0, 1] == pytest.approx(np.hypot(left, 0.5))
+    assert rho[0] == pytest.approx(left / np.hypot(left, 0.5))
+    assert sigmas[1].tolist() == [2.0, 2.0] and rho[1] == 0.0  # not refined, no unmatched sigma: the left's
+    stereo = StereoSigma(stereo.left, stereo.match, "", {"fork": SizeSigma(3.0, 0.0)})
+    sigmas, rho = stereo.pointing(("snout", "fork"), 200.0, 0.5, [True, False])
+    assert sigmas[1].tolist() == [2.0, 6.0] and rho[1] == 0.0
+    with pytest.raises(InvalidParameterError):
+        stereo.pointing(("snout", "upper caudal"), 100.0, 0.5, [True, True])

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from usvips.core.detection.keypoint_sigma import StereoSigma
 from usvips.core.errors import InvalidParameterError
 
 #: the orders of colour channels a model may expect
@@ -31,7 +32,9 @@ class ModelDescription:
     model's INPUT, one coordinate; in the keypoints' order; empty when not measured —
     :mod:`usvips.core.detection.validation`), used, scaled to image pixels by the letterbox, where the
     ``keypoint_sigma_px`` table gives none; ``validation_source`` what that validation was made on (one
-    phrase, e.g. "150 held-out rendered frames")."""
+    phrase, e.g. "150 held-out rendered frames"); ``stereo_sigma``: how its refined stereo keypoints err by the
+    fish's size (:class:`~usvips.core.detection.keypoint_sigma.StereoSigma`, measured on rendered clips; None
+    when never measured), which a length's σ then rests on."""
 
     model: str
     family: str
@@ -53,6 +56,7 @@ class ModelDescription:
     keypoint_sigma_basis: str = ""
     validated_keypoint_sigma: tuple[float, ...] = ()
     validation_source: str = ""
+    stereo_sigma: StereoSigma | None = None
 
     def __post_init__(self) -> None:
         validated = self.validated_keypoint_sigma

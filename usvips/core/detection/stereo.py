@@ -173,12 +173,17 @@ def _sigma_of(keypoint_sigma_px: float | Mapping[str, float], name: str) -> floa
 def measure_pairs(pairs: Sequence[StereoPair], calibration: StereoCalibration,
                   keypoint_sigma_px: float | Mapping[str, float], keypoints: tuple[str, str] = ("snout", "fork"),
                   station: int | str = 0, frame: str = "object",
-                  rules: QualityRules | None = None, measured_basis: str = "") -> list[Measurement | UsvipsError]:
+                  rules: QualityRules | None = None, measured_basis: str = "",
+                  pair_pointing: Sequence[tuple[np.ndarray, np.ndarray]] | None = None
+                  ) -> list[Measurement | UsvipsError]:
     """Each pair's length between ``keypoints`` (m, with its sigma) by the project's one figure path, the
     keypoints' pointing sigma (px, one image coordinate; one value or one per keypoint name) as GIVEN —
     or, with ``measured_basis`` (what the sigmas were measured on, :mod:`usvips.core.detection.keypoint_sigma`),
     as measured: the figures then carry origin "estimated" and say what the sigma rests on.
-    A pair lacking a keypoint, or whose rays fail, gives the :class:`UsvipsError` saying so in its place."""
+    A pair lacking a keypoint, or whose rays fail, gives the :class:`UsvipsError` saying so in its place.
+    ``pair_pointing``: per pair, its keypoints' own (sigmas (K, 2) px [left, right], left–right correlations
+    (K,)) — :meth:`usvips.core.detection.keypoint_sigma.StereoSigma.pointing` — in place of
+    ``keypoint_sigma_px`` alike in both images."""
     sigmas = np.array([_sigma_of(keypoint_sigma_px, name) for name in keypoints])
     out: list[Measurement | UsvipsError | None] = [None] * len(pairs)
     lefts, rights, where = [], [], []
@@ -190,8 +195,10 @@ def measure_pairs(pairs: Sequence[StereoPair], calibration: StereoCalibration,
             out[i] = error
             continue
         where.append(i)
+    own = [pair_pointing[i] for i in where] if pair_pointing is not None else None
     measured = measure_picks_many(["length"] * len(where), calibration, lefts, rights, station, frame,
-                                  [sigmas] * len(where), rules)
+                                  [p[0] for p in own] if own else [sigmas] * len(where), rules,
+                                  [p[1] for p in own] if own else None)
     origin, mark = (("estimated", f"{MEASURED_KEYPOINT_SIGMA} {measured_basis}") if measured_basis
                     else ("given", STATED_KEYPOINT_SIGMA))
     for i, result in zip(where, measured, strict=True):

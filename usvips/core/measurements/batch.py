@@ -10,11 +10,13 @@ stepped cameras (the σ check, :mod:`usvips.app.sigma_check`).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
 from usvips.core.calibration.uncertainty import intersection_derivatives
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
+from usvips.core.measurements.correlated_pointing import correlated_covariances, correlations, kept_where_failed
 from usvips.core.measurements.evaluate import Measurement, calibration_marks, measure
 from usvips.core.measurements.figures import QualityRules, block_diagonal
 from usvips.core.measurements.registry import kind as kind_named
@@ -26,22 +28,26 @@ from usvips.core.stereo_calibration import StereoCalibration
 def measure_picks_many(kinds: Sequence[str], calibration: StereoCalibration, left: Sequence[np.ndarray],
                        right: Sequence[np.ndarray], station: int | str = 0, frame: str = "object",
                        pointing_sigma_px: Sequence[float | np.ndarray | None] | None = None,
-                       rules: QualityRules | None = None) -> list[Measurement | UsvipsError]:
-    """Each object (``kinds[i]``, picks ``left[i]``/``right[i]`` (N_i, 2) px, ``pointing_sigma_px[i]`` as
-    :func:`measure_picks` takes it) measured with ``calibration`` at ``station`` in ``frame``: its
-    :class:`Measurement`, or the :class:`UsvipsError` that measuring it alone raises (an object's failure
-    does not stop the others)."""
+                       rules: QualityRules | None = None,
+                       pointing_correlation: Sequence[float | np.ndarray | None] | None = None
+                       ) -> list[Measurement | UsvipsError]:
+    """Each object (``kinds[i]``, picks ``left[i]``/``right[i]`` (N_i, 2) px, ``pointing_sigma_px[i]`` and
+    ``pointing_correlation[i]`` as :func:`measure_picks` takes them) measured with ``calibration`` at
+    ``station`` in ``frame``: its :class:`Measurement`, or the :class:`UsvipsError` that measuring it alone
+    raises (an object's failure does not stop the others)."""
     count = len(kinds)
     sigmas = list(pointing_sigma_px) if pointing_sigma_px is not None else [None] * count
+    linked = list(pointing_correlation) if pointing_correlation is not None else [None] * count
     out: list[Measurement | UsvipsError | None] = [None] * count
-    rows, blocks = [], []
+    rows, blocks, rhos = [], [], {}
     start = 0
-    for i, (kind, one_left, one_right, s) in enumerate(zip(kinds, left, right, sigmas, strict=True)):
+    for i, (kind, one_left, one_right, s, r) in enumerate(zip(kinds, left, right, sigmas, linked, strict=True)):
         one_left = np.asarray(one_left, dtype=np.float64).reshape(-1, 2)
         one_right = np.asarray(one_right, dtype=np.float64).reshape(-1, 2)
         try:
             kind_named(kind).check_count(len(one_left))
             sigma = per_vertex(s, len(one_left))
+            rhos[i] = correlations(r, len(one_left))
             if len(one_right) != len(one_left) or not (np.all(np.isfinite(one_left))
                                                        and np.all(np.isfinite(one_right))):
                 raise DegenerateGeometryError("its picks are not finite pixel pairs")
@@ -58,6 +64,8 @@ def measure_picks_many(kinds: Sequence[str], calibration: StereoCalibration, lef
                                                                          frame, sigma_all)
     camera = calibration.rig(station, frame).left.exterior.position
     marks = calibration_marks(calibration)
+    vertex_covariance = _with_correlations(calibration, left_all, right_all, sigma_all, rows, rhos, result,
+                                           station, frame)
     for i, where in rows:
         failed = np.flatnonzero(~result.ok[where])
         if failed.size:
@@ -65,7 +73,7 @@ def measure_picks_many(kinds: Sequence[str], calibration: StereoCalibration, lef
             out[i] = DegenerateGeometryError(f"vertex {int(failed[0])}: {status.reason}")
             continue
         points = result.points[where]
-        pointing = block_diagonal(result.covariance[where])
+        pointing = block_diagonal(vertex_covariance[where])
         calibration_part = np.zeros_like(pointing)
         if derivatives is not None:
             flat = derivatives[:, where].reshape(len(derivatives), -1)
@@ -76,6 +84,25 @@ def measure_picks_many(kinds: Sequence[str], calibration: StereoCalibration, lef
             out[i] = measure(kinds[i], points, pointing + calibration_part, ray_rms, range_m, rules, True,
                              pointing=pointing, pointing_sigma_px=sigma_all[where].copy(),
                              pointing_origin="default", marks=marks)
+            if rhos[i] is not None:
+                out[i] = replace(out[i], pointing_correlation=rhos[i])
         except UsvipsError as error:
             out[i] = error
+    return out
+
+
+def _with_correlations(calibration, left, right, sigma, rows, rhos, result, station, frame) -> np.ndarray:
+    """The (M, 3, 3) pointing covariances of all objects' vertices: the intersection's, with those of the
+    vertices correlated left to right (``rhos``, per object) replaced by
+    :func:`~usvips.core.measurements.correlated_pointing.correlated_covariances`, all in one batch."""
+    rho = np.zeros(len(left))
+    for i, where in rows:
+        if rhos[i] is not None:
+            rho[where] = rhos[i]
+    chosen = np.flatnonzero((rho > 0) & result.ok)
+    if not chosen.size:
+        return result.covariance
+    out = np.array(result.covariance, copy=True)
+    out[chosen] = kept_where_failed(correlated_covariances(calibration, left[chosen], right[chosen], sigma[chosen],
+                                                           rho[chosen], station, frame), out[chosen])
     return out

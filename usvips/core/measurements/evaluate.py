@@ -22,6 +22,7 @@ import numpy as np
 from usvips.core.calibration.uncertainty import covariance_parts
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.measurements.combined_figure import CombinedFigure
+from usvips.core.measurements.correlated_pointing import correlations, with_correlation
 from usvips.core.measurements.figures import Figure, QualityRules, full_covariance
 from usvips.core.measurements.registry import kind as kind_named
 from usvips.core.pointing import per_vertex
@@ -37,7 +38,9 @@ class Measurement:
     known; ``joint``: whether the covariance carries the correlation between the vertices (False for
     stored per-vertex covariances); ``combined``: when the object was measured on several instants, its
     figures combined over them (:mod:`usvips.core.measurements.instants`) — ``figures`` are then those
-    combined figures, ``points`` the first instant's."""
+    combined figures, ``points`` the first instant's. ``pointing_correlation``: each vertex's left–right
+    pointing correlation (N,) when any was correlated (:mod:`usvips.core.measurements.correlated_pointing`),
+    else None."""
 
     kind: str
     points: np.ndarray
@@ -55,6 +58,7 @@ class Measurement:
     pointing_origin: str = ""
     marks: tuple[str, ...] = ()
     camera: np.ndarray | None = None
+    pointing_correlation: np.ndarray | None = None
 
     @property
     def instant_count(self) -> int:
@@ -125,32 +129,38 @@ def placement(calibration: StereoCalibration, label: str | None) -> tuple[int | 
 
 def intersect_vertices(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
                        station: int | str = 0, frame: str = "object",
-                       pointing_sigma_px: float | np.ndarray | None = None
+                       pointing_sigma_px: float | np.ndarray | None = None,
+                       pointing_correlation: float | np.ndarray | None = None
                        ) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Vertices (N, 3) m of picks (N, 2) px with their JOINT covariance (3N, 3N) m², the ray-intersection
     RMS (m) over them and their largest range (m) from the left camera. ``pointing_sigma_px``: the picks'
     pointing sigmas (px, one image coordinate) — a scalar, (N,) per vertex or (N, 2) [left, right] per
     vertex; None: the documented default of an unspecified source (a hand click,
     :data:`usvips.core.pointing.HAND_CLICK_SIGMA_PX`), never the calibration's σ0. A vertex whose rays fail
-    is a :class:`DegenerateGeometryError` naming the vertex (0-based) and why."""
+    is a :class:`DegenerateGeometryError` naming the vertex (0-based) and why. ``pointing_correlation``: the
+    correlation of each vertex's left and right pointing errors (a scalar or (N,); None or 0: independent),
+    :mod:`usvips.core.measurements.correlated_pointing`."""
     points, pointing, calibration_part, ray_rms, range_m = vertex_covariance_parts(
-        calibration, left, right, station, frame, pointing_sigma_px)
+        calibration, left, right, station, frame, pointing_sigma_px, pointing_correlation)
     return points, pointing + calibration_part, ray_rms, range_m
 
 
 def vertex_covariance_parts(calibration: StereoCalibration, left: np.ndarray, right: np.ndarray,
                             station: int | str = 0, frame: str = "object",
-                            pointing_sigma_px: float | np.ndarray | None = None
+                            pointing_sigma_px: float | np.ndarray | None = None,
+                            pointing_correlation: float | np.ndarray | None = None
                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
     """:func:`intersect_vertices` with the joint covariance in its two parts (3N, 3N) m² that add up to
     it: vertices, pointing part, calibration part, ray RMS (m), range (m)."""
     left = np.asarray(left, dtype=np.float64).reshape(-1, 2)
     right = np.asarray(right, dtype=np.float64).reshape(-1, 2)
     sigma = per_vertex(pointing_sigma_px, len(left))
+    rho = correlations(pointing_correlation, len(left))
     result, pointing, calibration_part = covariance_parts(calibration, left, right, station, frame, sigma)
     failed = np.flatnonzero(~result.ok)
     if failed.size:
         raise DegenerateGeometryError(f"vertex {int(failed[0])}: {RayStatus(int(result.status[failed[0]])).reason}")
+    pointing = with_correlation(calibration, left, right, sigma, rho, pointing, station, frame)
     camera = calibration.rig(station, frame).left.exterior.position
     ray_rms = float(np.sqrt(np.mean(result.residuals_m ** 2)))
     range_m = float(np.max(np.linalg.norm(result.points - camera, axis=1)))
@@ -161,20 +171,23 @@ def measure_picks(kind: str, calibration: StereoCalibration, left: np.ndarray, r
                   station: int | str = 0, frame: str = "object", rules: QualityRules | None = None,
                   id: str = "", attribute: str = "", notes: str = "",
                   pointing_sigma_px: float | np.ndarray | None = None, pointing_origin: str = "default",
-                  marks: tuple[str, ...] = ()) -> Measurement:
+                  marks: tuple[str, ...] = (), pointing_correlation: float | np.ndarray | None = None) -> Measurement:
     """Intersect the picks (N, 2) px of an object's vertices with ``calibration`` at ``station`` in
     ``frame`` (:func:`intersect_vertices`, ``pointing_sigma_px`` as there) and :func:`measure` it from
     their joint covariance, every figure with its sigma's breakdown (pointing share, calibration share).
     ``pointing_origin``: where the pointing sigmas come from (``default`` when None is given); ``marks``:
-    further facts about the sigmas, after the calibration's own (:func:`calibration_marks`)."""
+    further facts about the sigmas, after the calibration's own (:func:`calibration_marks`).
+    ``pointing_correlation``: as :func:`intersect_vertices` takes it (None: independent left and right)."""
     measurement_kind = kind_named(kind)
     count = len(np.asarray(left).reshape(-1, 2))
     measurement_kind.check_count(count)
     sigma = per_vertex(pointing_sigma_px, count)
     points, pointing, calibration_part, ray_rms, range_m = vertex_covariance_parts(
-        calibration, left, right, station, frame, sigma)
+        calibration, left, right, station, frame, sigma, pointing_correlation)
     measured = measure(measurement_kind.name, points, pointing + calibration_part, ray_rms, range_m, rules, True, id,
                        attribute, notes, pointing=pointing, pointing_sigma_px=np.array(sigma),
                        pointing_origin="default" if pointing_sigma_px is None else pointing_origin,
                        marks=calibration_marks(calibration) + tuple(marks))
-    return replace(measured, camera=np.array(calibration.rig(station, frame).left.exterior.position, float))
+    rho = correlations(pointing_correlation, count)
+    return replace(measured, camera=np.array(calibration.rig(station, frame).left.exterior.position, float),
+                   pointing_correlation=rho)
