@@ -14,10 +14,11 @@ the surface plus the match's error carried through the disparity. The match's er
 pixel at a snout or a fork: the patch there is half background, which moves with its own disparity. With
 the true keypoints of rendered fish (``tests/core/detection/test_refine.py``'s scenes, 1-1.6 m, 12 fish
 per housing) refinement moves them by a median of 0.4-1.7 px, 1.8-5 px at the 90th percentile and up to
-9-16 px. A pair's length is measured with the model's measured sigma in BOTH images, as if independent
-(:func:`usvips.core.detection.stereo.measure_pairs`): that covers a match error up to about the square root
-of two times the model's sigma; a larger move is refused when ``max_shift_px`` is given (the detection
-service gives 3√2 × the model's measured sigma). A match the matcher refuses (ambiguous,
+9-16 px. A refined pair's length is measured with correlated left–right pointing
+(:func:`usvips.core.detection.stereo.measure_pairs` with ``pair_pointing``, as the detection service gives
+it from the model's measured ``[stereo_sigma]``): the right error is the left one carried over plus the
+match's own (:mod:`usvips.core.measurements.correlated_pointing`). A larger move than ``max_shift_px`` is
+refused when it is given (the detection service gives 3√2 × the model's measured sigma). A match the matcher refuses (ambiguous,
 textureless, a low correlation) leaves the model's right keypoint as it was, and says why.
 
 Pixels: x right, y down, origin at the centre of the top-left pixel.
