@@ -19,6 +19,7 @@ WINDOW_LEVEL = {
     "opening_probe.py": "times the window opening (bench)",
     "ready.py": "says when the window is ready to use (bench and start-up)",
     "bench.py": "drives a window to time it",
+    "bench_detection.py": "drives a window to time it",
     "bench_live.py": "drives a window to time it",
     "bench_object_list.py": "drives a window to time it",
     "bench_tracking.py": "drives a window to time it",
