@@ -308,9 +308,14 @@ def _require_model_parameters(path: str, kind: str, stations: tuple[str, ...],
 AGREEMENT_TOLERANCE = 1e-7
 
 
+def _agree(given: float, camera_value: float) -> bool:
+    """Whether a parameter's value is the camera's (within :data:`AGREEMENT_TOLERANCE` of its size)."""
+    return abs(given - camera_value) <= AGREEMENT_TOLERANCE * max(1.0, abs(given), abs(camera_value))
+
+
 def _disagreement(name: str, given: float, camera_value: float, where: str) -> str | None:
     """A message when the parameter's value is not the camera's, else None."""
-    if abs(given - camera_value) <= AGREEMENT_TOLERANCE * max(1.0, abs(given), abs(camera_value)):
+    if _agree(given, camera_value):
         return None
     return f"parameters.{name}: value {given!r} is not the cameras' {camera_value!r} ({where})"
 
@@ -326,7 +331,7 @@ def _housing_disagreements(kind: str, values: dict[str, float], left: Camera, ri
     for word, housing, camera in zip(("left", "right"), built, (left, right), strict=True):
         expected = camera.housing.to_values()
         for key, value in housing.to_values().items():
-            if key in expected and _disagreement(key, value, float(expected[key]), "") is not None:
+            if key in expected and not _agree(value, float(expected[key])):
                 problems.append(f"parameters {names}: the {word} housing they make has {key} = {value!r}, not the "
                                 f"cameras' {float(expected[key])!r} (cameras.{word}.housing.{key})")
     return problems
