@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from usvips.app.detection_acceptance import AcceptanceFigures, assign, measure_acceptance, nees_bound
+from usvips.app.detection_acceptance import AcceptanceFigures, assign, measure_acceptance, nees_bounds
 from usvips.app.detection_model import bundled_model_path, load_model
 
 #: the clips' seeds: a range nothing else renders
@@ -62,10 +62,13 @@ def test_the_lengths_sigma_holds_by_the_fishs_size_in_the_image(figures):
 
 def test_a_fish_joined_over_frames_has_an_honest_combined_sigma(figures):
     """Before the instants of a model's proposals shared their pointing error, the combined lengths of fish
-    joined over 4 frames had a NEES of 3.0 on the bench's clips."""
+    joined over 4 frames had a NEES of 3.0 on the bench's clips; sharing it whole gave 0.24 here (0.37 on the
+    bench's); by the shipped model's measured frame correlation ([frame_correlation]) 0.48 (0.74): within the
+    bounds an honest σ gives for this many fish, which are independent of each other."""
     count = len(figures.combined)
     assert count >= 8
-    assert AcceptanceFigures.nees_of(figures.combined) <= nees_bound(count)
+    low, high = nees_bounds(count)
+    assert low <= AcceptanceFigures.nees_of(figures.combined) <= high
 
 
 def test_a_detection_is_the_fish_its_snout_and_fork_lie_near():

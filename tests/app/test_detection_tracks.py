@@ -3,6 +3,8 @@ proposals of one fish on successive frames become one object with further instan
 the survey counts it once and its length combines its instants; a person's object, a duplicate, a proposal
 without a length are never joined; fish that cross near each other are kept apart."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -19,8 +21,9 @@ from tests.app.detection_scenes import (
 from usvips.app.detection_model import DetectionModel
 from usvips.app.detection_service import detect_in_project
 from usvips.app.object_instants import survey_objects
-from usvips.app.project_figures import evaluate, measurement_input
+from usvips.app.project_figures import evaluate, instant_measurements, instant_pointing, measurement_input
 from usvips.core.errors import InvalidParameterError
+from usvips.core.measurements.instants import combine_measurements
 from usvips.io.calibration_file import calibration_to_dict
 from usvips.store import Project
 from usvips.store.project import Vertex
@@ -154,3 +157,36 @@ def test_a_fish_joined_over_frames_keeps_its_models_error_as_one_error(video):
         combined = evaluate(measurement_input(project, whole)).main
         assert combined.value == pytest.approx(single.value, abs=1e-9)
         assert combined.sigma >= single.sigma * 0.999
+
+
+def test_a_joined_fish_keeps_whole_the_share_of_its_pointing_error_the_models_frame_correlation_says(tmp_path):
+    """A model with a measured frame correlation states it in its proposals' sources; the fish joined over
+    frames is combined with it: its σ lies between the independent instants' and the whole error's (what a
+    model without one gets), and equals the one combination computed from the instants directly."""
+    truth = scene(seed=3)
+    velocity = np.array([[0.3, 0.0, 0.0], [0.0, 0.2, 0.0], [-0.4, 0.1, 0.05]])
+    plain = _model(truth.fish, velocity)
+    correlated = DetectionModel("moving-fish", "cd" * 32, replace(plain.description, frame_correlation=0.4),
+                                lambda: MovingDetector(truth.fish, velocity))
+    sigmas = {}
+    for name, model in (("whole", plain), ("correlated", correlated)):
+        folder = tmp_path / name
+        folder.mkdir()
+        path = make_project(folder)
+        with Project.open(path) as project:
+            add_video(folder, project, "drop", frames=6)
+            project.add_calibration("cal", calibration_to_dict(calibration()), ("drop",))
+            detect_in_project(project, model, video="drop", refine=False)
+            fish = survey_objects(project)
+            assert len(fish) == 3
+            sources = {v.source for f in fish for i in (f.id, *project.instants(f.id))
+                       for v in project.object(i).vertices}
+            assert all(("frame correlation 0.400" in s) == (name == "correlated") for s in sources), sources
+            source = measurement_input(project, fish[0])
+            sigmas[name] = evaluate(source).main.sigma
+            measured, pointing = instant_measurements(source), instant_pointing(source)
+            independent = combine_measurements(measured, pointing).main.sigma
+            if name == "correlated":
+                assert sigmas[name] == pytest.approx(
+                    combine_measurements(measured, pointing, shared_fraction=0.4).main.sigma, rel=1e-12)
+    assert independent < sigmas["correlated"] < sigmas["whole"]

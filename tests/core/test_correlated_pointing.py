@@ -12,7 +12,14 @@ from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import measure_picks
 from usvips.core.measurements.batch import measure_picks_many
 from usvips.core.measurements.correlated_pointing import correlated_covariances, correlations
-from usvips.core.pointing import RIGHT_FOLLOWS_LEFT, right_follows_left, vertex_correlation
+from usvips.core.pointing import (
+    FRAME_CORRELATION,
+    RIGHT_FOLLOWS_LEFT,
+    frame_correlation_of,
+    frame_correlation_qualifier,
+    right_follows_left,
+    vertex_correlation,
+)
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.synth.stereo_survey import random_rig
 
@@ -108,3 +115,17 @@ def test_a_vertex_the_steps_cannot_intersect_keeps_its_independent_covariance():
     correlated = np.stack([np.eye(3), np.full((3, 3), np.nan)])
     independent = np.stack([2 * np.eye(3), 3 * np.eye(3)])
     assert np.array_equal(kept_where_failed(correlated, independent), np.stack([np.eye(3), 3 * np.eye(3)]))
+
+
+def test_a_model_keypoints_frame_correlation_is_stated_in_its_source_and_read_back():
+    label = (f"keypoint (snout, model fish sha256:0123456789ab, {RIGHT_FOLLOWS_LEFT}, "
+             f"{frame_correlation_qualifier(0.4123)})")
+    assert FRAME_CORRELATION in label and frame_correlation_of(label) == pytest.approx(0.412)
+    assert right_follows_left(label)
+    assert frame_correlation_of("keypoint (snout, model fish sha256:0123456789ab)") is None
+    assert frame_correlation_of("hand click (snout, by ana)") is None
+    assert frame_correlation_of("keypoint (snout, frame correlation x)") is None
+    assert frame_correlation_of("keypoint (snout, frame correlation 1.0)") is None
+    for bad in (1.0, -0.01, float("nan")):
+        with pytest.raises(InvalidParameterError, match="frame_correlation"):
+            frame_correlation_qualifier(bad)

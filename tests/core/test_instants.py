@@ -6,7 +6,12 @@ import pytest
 
 from usvips.core.errors import InvalidParameterError
 from usvips.core.measurements import measure
-from usvips.core.measurements.instants import combine_figure, combine_instants
+from usvips.core.measurements.instants import (
+    MAX_FRAME_CORRELATION,
+    combine_figure,
+    combine_instants,
+    frame_correlation,
+)
 from usvips.core.synth.swimming import SwimmingFish
 
 
@@ -178,3 +183,77 @@ def test_instants_tracked_from_one_pick_keep_its_error_whole_and_average_the_res
     print(f"MSNE tracked as shared {np.mean(shared):.3f}, as independent {np.mean(independent):.3f}")
     assert 0.7 <= np.mean(shared) <= 1.5, np.mean(shared)
     assert np.mean(independent) > 2.0  # what combining them as independent instants claimed
+
+
+def _correlated_errors(rng, rho: float, sigmas: np.ndarray) -> np.ndarray:
+    """Errors with cov(e_i, e_j) = rho sigma_i sigma_j between instants and var(e_i) = sigma_i²."""
+    return sigmas * (np.sqrt(rho) * rng.normal() + np.sqrt(1.0 - rho) * rng.normal(size=sigmas.size))
+
+
+def test_frame_correlation_recovers_the_correlation_of_instants_errors():
+    """Over random correlations, counts of instants and sigmas that differ by instant (and a sigma stated
+    twice too large: it is a correlation, so the scale does not bias it), the estimate lies within its
+    stated uncertainty: the mean squared normalised error of the estimates is near 1."""
+    rng = np.random.default_rng(23)
+    normalised = []
+    for _ in range(40):
+        rho = rng.uniform(0.0, 0.85)
+        stated = rng.choice([1.0, 2.0])
+        groups = []
+        for _ in range(int(rng.integers(60, 150))):
+            sigmas = rng.uniform(0.5, 3.0, int(rng.integers(2, 7)))
+            groups.append(_correlated_errors(rng, rho, sigmas) / (stated * sigmas))
+        found = frame_correlation(groups)
+        assert found.objects == len(groups) and found.uncertainty < 0.15
+        if not found.bound:
+            normalised.append((found.value - rho) / found.uncertainty)
+    print(f"MSNE of the frame correlation {np.mean(np.square(normalised)):.2f} over {len(normalised)} cases")
+    assert len(normalised) >= 30
+    assert 0.5 <= np.mean(np.square(normalised)) <= 1.8
+
+
+def test_frame_correlation_names_too_few_objects_and_says_when_on_its_bound():
+    rng = np.random.default_rng(5)
+    with pytest.raises(InvalidParameterError, match="at least 10"):
+        frame_correlation([rng.normal(size=3) for _ in range(9)] + [[0.5]] * 20)
+    with pytest.raises(InvalidParameterError, match="finite"):
+        frame_correlation([rng.normal(size=3) for _ in range(11)] + [[np.nan, 1.0]])
+    carried = frame_correlation([np.full(4, rng.normal()) for _ in range(30)])  # one error on every instant
+    assert carried.bound and carried.value == MAX_FRAME_CORRELATION
+    opposed = frame_correlation([np.array([z, -z]) for z in rng.normal(size=30)])
+    assert opposed.bound and opposed.value == 0.0
+
+
+def test_instants_whose_errors_correlate_are_combined_with_an_honest_sigma():
+    """A model pointing on its own at one fish on every frame errs partly alike on each (correlation rho):
+    combined with ``shared_fraction`` = rho the NEES is near 1; as independent instants the sigma is too
+    small, and with the whole error shared (as tracked instants) too large — what was done before."""
+    rng = np.random.default_rng(29)
+    honest, independent, whole = [], [], []
+    for _ in range(1500):
+        rho = rng.uniform(0.15, 0.6)
+        k = int(rng.integers(3, 9))
+        sigmas = rng.uniform(0.002, 0.006, k)  # m: each instant's pointing sigma of the length
+        calibration = rng.uniform(0.0, 0.002)  # m: common to every instant
+        truth = rng.uniform(0.2, 0.6)
+        values = truth + _correlated_errors(rng, rho, sigmas) + rng.normal(0.0, calibration)
+        for out, kwargs in ((honest, {"shared_fraction": rho}), (independent, {}),
+                            (whole, {"shared_pointing": True})):
+            common = (np.hypot(calibration, np.sqrt(np.mean(sigmas ** 2))) if "shared_pointing" in kwargs
+                      else calibration)
+            combined = combine_figure(values, sigmas, common, **kwargs)
+            out.append(((combined.value - truth) / combined.sigma) ** 2)
+    print(f"NEES with the frame correlation {np.mean(honest):.3f}, independent {np.mean(independent):.3f}, "
+          f"whole error shared {np.mean(whole):.3f}")
+    assert 0.85 <= np.mean(honest) <= 1.2
+    assert np.mean(independent) > 1.5
+    assert np.mean(whole) < 0.75
+
+
+@pytest.mark.parametrize("kwargs, words", [({"shared_fraction": 1.0}, "shared_fraction: must lie in"),
+                                           ({"shared_fraction": -0.1}, "shared_fraction: must lie in"),
+                                           ({"shared_fraction": float("nan")}, "shared_fraction: must lie in"),
+                                           ({"shared_fraction": 0.3, "shared_pointing": True}, "not with shared")])
+def test_a_frame_correlation_outside_its_range_is_refused_by_name(kwargs, words):
+    with pytest.raises(InvalidParameterError, match=words):
+        combine_figure([0.30, 0.31, 0.29], [0.004, 0.004, 0.005], **kwargs)

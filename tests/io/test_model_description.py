@@ -146,3 +146,23 @@ def test_the_stereo_sigma_by_size_is_read_and_checked(tmp_path):
         path.write_text(GOOD + f"\n[stereo_sigma]\n{bad}\n")
         with pytest.raises(InputFileError, match=key.replace(".", r"\.")):
             read_model_description(path)
+
+
+def test_the_frame_correlation_is_read_and_checked(tmp_path):
+    path = tmp_path / "fish-pose.toml"
+    path.write_text(GOOD + '\n[frame_correlation]\nlength = 0.42\nbasis = "62 fish on 40 rendered clips"\n')
+    description = read_model_description(path)
+    assert description.frame_correlation == 0.42
+    assert description.frame_correlation_basis == "62 fish on 40 rendered clips"
+    path.write_text(GOOD)
+    assert read_model_description(path).frame_correlation is None
+    for bad, key, words in (("length = 1.0", "frame_correlation.length", "below 1"),
+                            ("length = -0.1", "frame_correlation.length", "in \\[0, 1\\]"),
+                            ('length = "0.4"', "frame_correlation.length", "finite number"),
+                            ("length = nan", "frame_correlation.length", "finite number"),
+                            ('basis = "x"', "frame_correlation.length", "missing"),
+                            ("length = 0.4\nbasis = 2", "frame_correlation.basis", "a text"),
+                            ("length = 0.4\nfish = 2", "frame_correlation.fish", "unknown key")):
+        path.write_text(GOOD + f"\n[frame_correlation]\n{bad}\n")
+        with pytest.raises(InputFileError, match=f"{key.replace('.', chr(92) + '.')}: .*{words}"):
+            read_model_description(path)

@@ -47,7 +47,7 @@ from usvips.core.detection.stereo import MEASURED_KEYPOINT_SIGMA as SIGMA_MARK
 from usvips.core.detection.stereo import StereoPair, measure_pairs, pair_detections
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements.evaluate import Measurement
-from usvips.core.pointing import RIGHT_FOLLOWS_LEFT
+from usvips.core.pointing import RIGHT_FOLLOWS_LEFT, frame_correlation_qualifier
 from usvips.io.images import read_image
 from usvips.io.video_stream import PairReader, VideoStream
 from usvips.store.interface import ProjectStore
@@ -372,12 +372,18 @@ def _on(stored: StoredObject, label: str, frame: int | None) -> bool:
     return frame is None or stored.vertices[0].frame_left == frame
 
 
-def source_label(point: str, model: DetectionModel, right_follows: bool = False) -> str:
+def source_label(point: str, model: DetectionModel, right_follows: bool = False, measured: bool = False) -> str:
     """The stored source of a proposal's vertex: ``keypoint (<point>, model <name> sha256:<12 hex>)``, and
     ``, right matched to left`` when its right point was refined along the left one's curve and its length
     measured so (:data:`usvips.core.pointing.RIGHT_FOLLOWS_LEFT`: the object's figure, recomputed from its
-    picks, then keeps the left and right errors correlated)."""
-    return f"keypoint ({point}, model {model.tag}{', ' + RIGHT_FOLLOWS_LEFT if right_follows else ''})"
+    picks, then keeps the left and right errors correlated); for a ``measured`` proposal of a model whose
+    frame correlation was measured, ``, frame correlation <ρ>`` (:data:`usvips.core.pointing.FRAME_CORRELATION`:
+    the object's figure combined over its frames keeps that share of their pointing errors whole)."""
+    qualifiers = [f"model {model.tag}"] + ([RIGHT_FOLLOWS_LEFT] if right_follows else [])
+    correlation = model.description.frame_correlation
+    if measured and correlation is not None:
+        qualifiers.append(frame_correlation_qualifier(correlation))
+    return f"keypoint ({point}, {', '.join(qualifiers)})"
 
 
 def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionModel,
@@ -399,7 +405,7 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
                                plan.geometry.calibration_id if m is not None else None, plan.label,
                                plan.label if frame is not None else None, frame, partner,
                                times.get(frame) if frame is not None else None,
-                               source=source_label(name, model, bool(follows[i] > 0)),
+                               source=source_label(name, model, bool(follows[i] > 0), m is not None),
                                pointing_px=sigma if sigma is None or isinstance(sigma, tuple) else (sigma, sigma),
                                pointing_origin="estimated" if sigma is not None else "default"))
     return vertices

@@ -4,10 +4,12 @@ are the same fish (by their 3-D snout and fork, their σ and a largest fish spee
 sightings as its further instants (:func:`usvips.app.object_instants.add_instant`), so the survey counts
 the fish once and its length combines its instants (:mod:`usvips.app.project_figures`).
 
-Each instant was detected on its own frame, its keypoints' errors independent of the others': the links are
-stored as instants *picked*, not tracked (``tracked_from`` None), so combining them averages the keypoints'
-errors. Only proposals stored by the run and measured (with a length and its σ) are joined; a person's
-object, an earlier run's proposal, a duplicate not stored, or a proposal without a length is never touched.
+Each instant was detected on its own frame: the links are stored as instants *picked*, not tracked
+(``tracked_from`` None). The model's errors on one fish still repeat in part from frame to frame; combining
+them keeps that part whole by the model's measured frame correlation, which each vertex's source states
+(:func:`usvips.app.project_figures.evaluate`), and keeps the whole error when the model has none. Only
+proposals stored by the run and measured (with a length and its σ) are joined; a person's object, an
+earlier run's proposal, a duplicate not stored, or a proposal without a length is never touched.
 """
 
 from __future__ import annotations

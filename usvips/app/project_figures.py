@@ -23,7 +23,9 @@ figure; each instant stays inspectable through :func:`instant_measurements`. Ins
 they were tracked from, with its error, to every frame: their pointing errors are one error, which
 combining them cannot average out — it is kept whole in the combined sigma (``shared_pointing``); only the
 tracking noise and the object's own change between instants average out. (An object with tracked and
-hand-picked instants is treated so too: conservative for the hand-picked ones.)
+hand-picked instants is treated so too: conservative for the hand-picked ones.) Instants a model pointed at
+on each frame on its own keep whole the share of their pointing errors that the model's measured frame
+correlation says (stated in their vertices' sources), and the whole of it when none was measured.
 """
 
 from __future__ import annotations
@@ -48,7 +50,13 @@ from usvips.core.measurements import (
 from usvips.core.measurements.correlated_pointing import with_correlation
 from usvips.core.measurements.figures import block_diagonal
 from usvips.core.measurements.instants import combine_measurements
-from usvips.core.pointing import PointingSigma, source_from_label, vertex_correlation, vertex_pointing
+from usvips.core.pointing import (
+    PointingSigma,
+    frame_correlation_of,
+    source_from_label,
+    vertex_correlation,
+    vertex_pointing,
+)
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.store.interface import ProjectStore
 from usvips.store.project import StoredObject, Vertex
@@ -91,6 +99,7 @@ class MeasurementInput:
     # every vertex is a model's keypoint (a detection proposal): the model's error on one fish repeats on
     # the frames that see it, so its instants' pointing errors are not independent either
     model_keypoints: bool = False
+    frame_correlation: float | None = None
 
 
 def stored_calibration(project: ProjectStore, calibration_id: int,
@@ -179,7 +188,15 @@ def _one_instant(project: ProjectStore, stored: StoredObject, cache: dict[int, S
                             station, frame, stored.attribute, stored.notes, pair, where_measured(stored),
                             calibration_id, pointing_px=pointing, pointing_origin=origin, pointing_marks=marks,
                             pointing_correlation=vertex_correlation([v.source for v in vertices], pointing),
-                            model_keypoints=bool(vertices) and all(_is_keypoint(v.source) for v in vertices))
+                            model_keypoints=bool(vertices) and all(_is_keypoint(v.source) for v in vertices),
+                            frame_correlation=_stated_frame_correlation(vertices))
+
+
+def _stated_frame_correlation(vertices: list[Vertex]) -> float | None:
+    """The frame correlation every vertex's source states (the largest, should they differ: the cautious
+    one), None when any vertex states none."""
+    stated = [frame_correlation_of(v.source) for v in vertices]
+    return None if not stated or any(s is None for s in stated) else max(stated)
 
 
 def _is_keypoint(label: str) -> bool:
@@ -209,11 +226,25 @@ def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Mea
         combined = combine_measurements(measured, [_pointing_only(i, m) for i, m in zip(everything, measured,
                                                                                            strict=True)],
                                         labels, [i.calibration_id for i in everything], rules,
-                                        shared_pointing=any(i.tracked_from is not None for i in source.instants)
-                                        or all(i.model_keypoints for i in everything))
+                                        **_shared_pointing(source, everything))
     except UsvipsError as error:
         raise UsvipsError(f"object {source.id}: {error}") from None
     return replace(combined, id=source.id, attribute=source.attribute, notes=source.notes)
+
+
+def _shared_pointing(source: MeasurementInput, everything: tuple[MeasurementInput, ...]) -> dict:
+    """How the instants' pointing errors are shared (:func:`combine_measurements`' keywords): whole when any
+    instant was tracked (one pick carried along) or every instant is a model's keypoints without a measured
+    frame correlation; by the model's measured frame correlation (the largest stated) when every instant
+    states one; independent otherwise (each instant picked on its own)."""
+    if any(i.tracked_from is not None for i in source.instants):
+        return {"shared_pointing": True}
+    if all(i.model_keypoints for i in everything):
+        stated = [i.frame_correlation for i in everything]
+        if any(s is None for s in stated):
+            return {"shared_pointing": True}
+        return {"shared_fraction": max(stated)}
+    return {}
 
 
 def instant_measurements(source: MeasurementInput, rules: QualityRules | None = None) -> list[Measurement]:

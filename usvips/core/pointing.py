@@ -87,6 +87,11 @@ SOURCES: dict[str, SourceKind] = {s.name: s for s in (
 #: the match's own, so the two are correlated (:func:`vertex_correlation`)
 RIGHT_FOLLOWS_LEFT = "right matched to left"
 
+#: the qualifier of a model keypoint's source label that gives the correlation of the model's pointing errors
+#: on one fish between frames, as measured for the model (e.g. "frame correlation 0.42";
+#: :func:`frame_correlation_of`, :mod:`usvips.core.measurements.instants`)
+FRAME_CORRELATION = "frame correlation"
+
 #: the source of a vertex stored before pointing sources were (schema < 11): a hand click of unknown
 #: annotator and kind of point, with the hand-click default
 MIGRATED_SOURCE = "hand click (unknown)"
@@ -240,6 +245,27 @@ def right_follows_left(label: str) -> bool:
     (:data:`RIGHT_FOLLOWS_LEFT` among its qualifiers)."""
     _, _, rest = (label or "").partition(" (")
     return RIGHT_FOLLOWS_LEFT in (p.strip() for p in rest.rstrip(")").split(","))
+
+
+def frame_correlation_qualifier(value: float) -> str:
+    """The source label's qualifier stating the frame correlation ``value`` (0..1) of a model's keypoints."""
+    if not 0.0 <= value < 1.0:
+        raise InvalidParameterError("frame_correlation", f"must lie in [0, 1), got {value:g}")
+    return f"{FRAME_CORRELATION} {value:.3f}"
+
+
+def frame_correlation_of(label: str) -> float | None:
+    """The frame correlation a stored source label states (:data:`FRAME_CORRELATION`), None when it states
+    none or a value that is not a number in [0, 1)."""
+    _, _, rest = (label or "").partition(" (")
+    for part in (p.strip() for p in rest.rstrip(")").split(",")):
+        if part.startswith(FRAME_CORRELATION + " "):
+            try:
+                value = float(part[len(FRAME_CORRELATION) + 1:])
+            except ValueError:
+                return None
+            return value if 0.0 <= value < 1.0 else None
+    return None
 
 
 def vertex_correlation(sources: list[str], sigmas: np.ndarray) -> np.ndarray | None:

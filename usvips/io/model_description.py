@@ -19,6 +19,10 @@ runs from its description alone (docs/detection.md). TOML (``.toml``) or JSON (`
                      conjugate, IMAGE pixels), optionally unmatched = {snout = [a, b], …} (a right keypoint
                      the match did not refine, INPUT pixels), each σ(s) = √(a² + (b·s)²) for a fish s px
                      long; basis (text)
+    [frame_correlation] optional, how alike the model errs on one fish from frame to frame, measured on
+                     rendered clips (usvips.training.frame_correlation): length (the correlation of two
+                     frames' length errors, in [0, 1)), basis (text); a fish's lengths joined over frames are
+                     combined with it (usvips.core.measurements.instants)
 
 Every bad field is one :class:`~usvips.core.errors.InputFileError` naming the file and the key.
 """
@@ -42,7 +46,8 @@ SECTIONS = {"model": ("file", "family", "input_width", "input_height"),
                        "iou_threshold", "max_detections"),
             "keypoint_sigma": ("px", "basis"),
             "validation": ("keypoint_sigma", "recall", "precision", "median_error", "source"),
-            "stereo_sigma": ("left", "match", "unmatched", "basis")}
+            "stereo_sigma": ("left", "match", "unmatched", "basis"),
+            "frame_correlation": ("length", "basis")}
 REQUIRED = ("model.file", "model.family", "model.input_width", "model.input_height", "output.classes",
             "output.keypoints")
 
@@ -200,6 +205,21 @@ def _stereo_sigma(fields: _Fields, keypoints: tuple[str, ...]) -> StereoSigma | 
     return StereoSigma(left, match, basis.strip(), unmatched)
 
 
+def _frame_correlation(fields: _Fields) -> tuple[float | None, str]:
+    if "frame_correlation" not in fields.tables:
+        return None, ""
+    if fields.get("frame_correlation.length") is None:
+        raise fields.fail("frame_correlation.length", "missing")
+    value = fields.number("frame_correlation.length", 0.0, 0.0, 1.0)
+    if value >= 1.0:
+        raise fields.fail("frame_correlation.length", "must be below 1 (errors shared whole are not measured; "
+                                                      "they are instants tracked from one pick)")
+    basis = fields.get("frame_correlation.basis", "")
+    if not isinstance(basis, str):
+        raise fields.fail("frame_correlation.basis", f"expected a text, got {basis!r}")
+    return value, basis.strip()
+
+
 def read_model_description(path: str | Path) -> ModelDescription:
     """The :class:`ModelDescription` a TOML or JSON file holds (the model file is not read)."""
     path = Path(path)
@@ -212,6 +232,7 @@ def read_model_description(path: str | Path) -> ModelDescription:
     basis = fields.get("keypoint_sigma.basis", "")
     if not isinstance(basis, str):
         raise fields.fail("keypoint_sigma.basis", f"expected a text, got {basis!r}")
+    correlation, correlation_basis = _frame_correlation(fields)
     description = ModelDescription(
         model=fields.text("model.file"), family=kind,
         input_width=fields.integer("model.input_width", high=16384),
@@ -231,7 +252,8 @@ def read_model_description(path: str | Path) -> ModelDescription:
                                                      len(fields.names("output.keypoints"))),
         validation_source=(fields.text("validation.source").strip()
                            if fields.get("validation.source") is not None else ""),
-        stereo_sigma=_stereo_sigma(fields, keypoints))
+        stereo_sigma=_stereo_sigma(fields, keypoints),
+        frame_correlation=correlation, frame_correlation_basis=correlation_basis)
     fields.per_keypoint("validation.median_error", len(description.keypoint_names))
     for key in ("validation.recall", "validation.precision"):
         fields.number(key, 0.0, 0.0, 1.0)

@@ -34,7 +34,10 @@ class ModelDescription:
     ``keypoint_sigma_px`` table gives none; ``validation_source`` what that validation was made on (one
     phrase, e.g. "150 held-out rendered frames"); ``stereo_sigma``: how its refined stereo keypoints err by the
     fish's size (:class:`~usvips.core.detection.keypoint_sigma.StereoSigma`, measured on rendered clips; None
-    when never measured), which a length's σ then rests on."""
+    when never measured), which a length's σ then rests on; ``frame_correlation``: the correlation in [0, 1)
+    of its lengths' pointing errors on one fish between frames (measured on rendered clips; None when never
+    measured: a fish's lengths joined over frames then share their whole pointing error) and
+    ``frame_correlation_basis`` what it was measured on."""
 
     model: str
     family: str
@@ -57,8 +60,12 @@ class ModelDescription:
     validated_keypoint_sigma: tuple[float, ...] = ()
     validation_source: str = ""
     stereo_sigma: StereoSigma | None = None
+    frame_correlation: float | None = None
+    frame_correlation_basis: str = ""
 
     def __post_init__(self) -> None:
+        if self.frame_correlation is not None and not 0.0 <= self.frame_correlation < 1.0:
+            raise InvalidParameterError("frame_correlation", f"must lie in [0, 1), got {self.frame_correlation}")
         validated = self.validated_keypoint_sigma
         if validated and (len(validated) != len(self.keypoint_names) or not all(
                 math.isfinite(v) and v > 0 for v in validated)):

@@ -20,6 +20,15 @@ sigma of an instant is common (it does not average out) and only what makes the 
 tracking noise, the object's bending) does, measured by their spread: σ² = q/Σ w*_i + σ_common² (no
 floor: the floor assumes every instant carries its own pointing error) — ``shared_pointing``.
 
+Instants a MODEL pointed at on its own on every frame sit between the two: a model errs on one fish much
+the same way from frame to frame (the same fin shape, the same colour against the same seabed), but not
+exactly so. Their pointing errors correlate between instants with a correlation ρ measured for the model
+(``shared_fraction``; :func:`frame_correlation` estimates it from instants with truth): cov(e_i, e_j) =
+ρ σ_i σ_j. Of each instant's σ_i², (1 − ρ) σ_i² is its own and averages out (the random-effects mean and its
+Hartung–Knapp variance with its floor, on those variances), and the shared part is added whole for the
+weights a_i used: σ² = max(q, 1)/Σ w*_i + ρ (Σ a_i σ_i)² + σ_common². ρ = 0 is independent instants; ρ = 1
+is ``shared_pointing``.
+
 What μ is: the mean of the object's figure over its instants (for a bending fish, its mean snout–fork
 distance, which is shorter than its straight length; measure straight instants when that is wanted).
 
@@ -32,7 +41,7 @@ r_i = (y_i − μ̂_(−i)) / sqrt(σ_i² + τ̂²_(−i) + σ²(μ̂_(−i))) e
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -65,7 +74,7 @@ def _random_effects(values: np.ndarray, variances: np.ndarray,
 def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigma: float = 0.0,
                    name: str = "length", unit: str = "m", labels: Sequence[str] | None = None,
                    calibrations: Sequence[object] | None = None, alpha: float = ALPHA,
-                   shared_pointing: bool = False) -> CombinedFigure:
+                   shared_pointing: bool = False, shared_fraction: float = 0.0) -> CombinedFigure:
     """Combine one figure measured on k instants (see the module docstring).
 
     ``values`` (k,) and ``sigmas`` (k,) in ``unit``: each instant's figure and its sigma (independent
@@ -79,6 +88,10 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
     only what makes them differ (tracking noise, the object's own change), which their spread measures:
     the Hartung–Knapp variance is taken without its floor 1/Σ w*_i (that floor assumes each instant's own
     error is ``sigmas``); ``sigmas`` still weight them and make the agreement test.
+
+    ``shared_fraction``: ρ in [0, 1), the correlation of two instants' errors ``sigmas`` (a model's keypoints
+    on one fish, see the module docstring); (1 − ρ) σ_i² averages out, ρ σ_i σ_j does not. Not with
+    ``shared_pointing`` (which is ρ = 1 with the carried error given in ``common_sigma``).
     """
     values = np.asarray(values, dtype=np.float64).ravel()
     sigmas = np.asarray(sigmas, dtype=np.float64).ravel()
@@ -109,9 +122,19 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
                 "instants", f"{labels[0]} was measured with calibration {first} but {labels[other]} with "
                             f"calibration {calibrations[other]}: instants of one object must share one calibration "
                             "(re-measure them with one, or keep them as separate objects)")
-    variances = sigmas ** 2
+    shared_fraction = float(shared_fraction)
+    if not 0.0 <= shared_fraction < 1.0:
+        raise InvalidParameterError("shared_fraction", f"must lie in [0, 1) (a correlation between instants; 1 "
+                                                       f"is shared pointing), got {shared_fraction:g}")
+    if shared_pointing and shared_fraction:
+        raise InvalidParameterError("shared_fraction", "not with shared pointing, which shares the whole error")
+    variances = (1.0 - shared_fraction) * sigmas ** 2
     mean, variance, tau2, q, fixed_variance = _random_effects(values, variances, floor=not shared_pointing)
-    total = variance + common_sigma ** 2
+    shared = 0.0
+    if shared_fraction:
+        weights = 1.0 / (variances + tau2)
+        shared = shared_fraction * float((weights / weights.sum()) @ sigmas) ** 2
+    total = variance + shared + common_sigma ** 2
     between = max(0.0, variance - fixed_variance) / total if total > 0 else 0.0
     residuals = np.full(k, np.nan)
     if k >= 3:
@@ -131,13 +154,13 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
 
 def combine_instants(instants: Sequence[Sequence[Figure]], common_sigmas: dict[str, float] | None = None,
                      labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
-                     shared_pointing: bool = False) -> tuple[CombinedFigure, ...]:
+                     shared_pointing: bool = False, shared_fraction: float = 0.0) -> tuple[CombinedFigure, ...]:
     """Every figure of an object measured on several instants, combined figure by figure.
 
     ``instants``: per instant the figures of the one figure function (the same names in each);
     ``common_sigmas``: figure name → the sigma common to all instants (default 0); ``labels`` and
-    ``calibrations``, ``shared_pointing`` as :func:`combine_figure`. Returns the combined figures in the first
-    instant's order."""
+    ``calibrations``, ``shared_pointing``, ``shared_fraction`` as :func:`combine_figure`. Returns the combined
+    figures in the first instant's order."""
     if not instants:
         raise InvalidParameterError("instants", "none given: an object needs at least one instant")
     names = [f.name for f in instants[0]]
@@ -152,13 +175,14 @@ def combine_instants(instants: Sequence[Sequence[Figure]], common_sigmas: dict[s
         figures = [fs[j] for fs in instants]
         combined.append(combine_figure([f.value for f in figures], [f.sigma for f in figures],
                                        common_sigmas.get(name, 0.0), name, figures[0].unit, labels, calibrations,
-                                       shared_pointing=shared_pointing))
+                                       shared_pointing=shared_pointing, shared_fraction=shared_fraction))
     return tuple(combined)
 
 
 def combine_measurements(measurements: Sequence[Measurement], independent: Sequence[Measurement] | None = None,
                          labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
-                         rules: QualityRules | None = None, shared_pointing: bool = False) -> Measurement:
+                         rules: QualityRules | None = None, shared_pointing: bool = False,
+                         shared_fraction: float = 0.0) -> Measurement:
     """One object from its instants' measurements (each from the one figure function): the first
     instant's with its figures replaced by the combined ones and ``combined`` set, its ray RMS and range
     the largest of the instants', and the quality rules checked on the combined main figure.
@@ -172,8 +196,11 @@ def combine_measurements(measurements: Sequence[Measurement], independent: Seque
     instants TRACKED from one pick (a tracker follows the point picked, with its pick error, to the other
     frames). Averaging them cannot average that error out, so each figure's whole sigma (the mean of the
     instants' σ²_total: calibration and pointing) is the common part, and what averages out is measured by
-    the instants' spread alone (tracking noise, bending: see :func:`combine_figure`). One measurement is
-    returned as it is."""
+    the instants' spread alone (tracking noise, bending: see :func:`combine_figure`).
+
+    ``shared_fraction``: the correlation ρ in [0, 1) of the instants' pointing errors (a model's keypoints on
+    one fish, each instant pointed on its own): ρ of each instant's pointing variance does not average out
+    (:func:`combine_figure`). One measurement is returned as it is."""
     if not measurements:
         raise InvalidParameterError("instants", "none given: an object needs at least one instant")
     first = measurements[0]
@@ -200,7 +227,8 @@ def combine_measurements(measurements: Sequence[Measurement], independent: Seque
     instants = [tuple(Figure(f.name, f.value, max(p.sigma, 1e-15), f.unit) for f, p in zip(m.figures, w.figures,
                                                                                         strict=True))
                 for m, w in zip(measurements, weights, strict=True)]
-    combined = combine_instants(instants, common, labels, calibrations, shared_pointing=shared_pointing)
+    combined = combine_instants(instants, common, labels, calibrations, shared_pointing=shared_pointing,
+                                shared_fraction=shared_fraction)
     figures = tuple(c.figure for c in combined)
     rms = [m.ray_rms_m for m in measurements if m.ray_rms_m is not None]
     ranges = [m.range_m for m in measurements if m.range_m is not None]
@@ -211,3 +239,58 @@ def combine_measurements(measurements: Sequence[Measurement], independent: Seque
     failures = (rules or QualityRules()).check(main, ray_rms, range_m, relative=measurement_kind.relative_rule)
     return replace(first, figures=figures, failures=tuple(failures), ray_rms_m=ray_rms, range_m=range_m,
                    joint=all(m.joint for m in measurements), combined=combined)
+
+
+@dataclass(frozen=True)
+class FrameCorrelation:
+    """The correlation ρ of one object's pointing errors between its instants, estimated from instants with
+    truth (:func:`frame_correlation`): ``value`` in [0, 1), its jackknife standard ``uncertainty`` over the
+    objects, from ``objects`` objects with ``instants`` instants in all; ``bound``: the estimate fell outside
+    [0, :data:`MAX_FRAME_CORRELATION`] and ``value`` is that bound."""
+
+    value: float
+    uncertainty: float
+    objects: int
+    instants: int
+    bound: bool
+
+
+#: the largest frame correlation :func:`frame_correlation` gives: instants correlated further are one error
+#: carried along (``shared_pointing``), which is a fact of how they were made, not an estimate
+MAX_FRAME_CORRELATION = 0.95
+#: the fewest objects with two instants or more a frame correlation is estimated from
+MIN_FRAME_OBJECTS = 10
+
+
+def _pooled_correlation(groups: Sequence[np.ndarray]) -> float:
+    cross = sum(float(z.sum() ** 2 - z @ z) for z in groups)
+    square = sum(float((len(z) - 1) * (z @ z)) for z in groups)
+    return cross / square
+
+
+def frame_correlation(normalised_errors: Sequence[Sequence[float]]) -> FrameCorrelation:
+    """ρ of :func:`combine_figure`'s ``shared_fraction``, from each object's instants' normalised errors
+    z = (value − truth) / σ (σ: the instant's own sigma, its pointing part), one sequence per object.
+
+    The pooled moment estimator ρ̂ = Σ_objects Σ_{i≠j} z_i z_j / Σ_objects (k − 1) Σ_i z_i²: the mean product
+    of two instants' errors of one object over their mean square, so a σ that is too large or too small
+    overall does not bias it (it is a correlation). Objects with one instant add nothing and are left out;
+    fewer than :data:`MIN_FRAME_OBJECTS` objects with two or more, or a non-finite z, are an
+    :class:`InvalidParameterError`. Its standard uncertainty is the jackknife's, leaving out one object at a
+    time (the instants of one object are not independent)."""
+    groups = [np.asarray(z, dtype=np.float64).ravel() for z in normalised_errors]
+    groups = [z for z in groups if len(z) >= 2]
+    if any(not np.all(np.isfinite(z)) for z in groups):
+        raise InvalidParameterError("normalised_errors", "every normalised error must be finite")
+    if len(groups) < MIN_FRAME_OBJECTS:
+        raise InvalidParameterError("normalised_errors", f"{len(groups)} objects with two instants or more; at "
+                                                         f"least {MIN_FRAME_OBJECTS} are needed to estimate how "
+                                                         "their errors correlate")
+    if not any(z @ z > 0 for z in groups):
+        raise InvalidParameterError("normalised_errors", "every error is zero: no correlation can be estimated")
+    estimate = _pooled_correlation(groups)
+    n = len(groups)
+    leave_one_out = np.array([_pooled_correlation(groups[:i] + groups[i + 1:]) for i in range(n)])
+    uncertainty = float(np.sqrt((n - 1) / n * np.sum((leave_one_out - leave_one_out.mean()) ** 2)))
+    value = float(np.clip(estimate, 0.0, MAX_FRAME_CORRELATION))
+    return FrameCorrelation(value, uncertainty, n, int(sum(len(z) for z in groups)), value != estimate)
