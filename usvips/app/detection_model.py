@@ -166,8 +166,14 @@ def project_model_path(project: ProjectStore) -> Path | None:
 def remember_model(project: ProjectStore, path: str | Path) -> Path:
     """Make the model described by ``path`` the project's default (kept as an absolute path; the model is
     loaded first, so a bad description is refused by name and nothing is kept); returns the path kept."""
+    load_model(Path(path).expanduser().resolve())
+    return keep_model(project, path)
+
+
+def keep_model(project: ProjectStore, path: str | Path) -> Path:
+    """Make the model described by ``path``, which the caller has loaded, the project's default (kept as an
+    absolute path) without loading it again; returns the path kept."""
     kept = Path(path).expanduser().resolve()
-    load_model(kept)
     project.set_draft(PROJECT_MODEL_KEY, str(kept))
     return kept
 

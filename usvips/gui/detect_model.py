@@ -25,10 +25,10 @@ import numpy as np
 
 from usvips.app.detection_model import (
     DetectionModel,
+    keep_model,
     load_model,
     model_path_for,
     project_model_path,
-    remember_model,
 )
 from usvips.app.detection_service import (
     DetectionPlan,
@@ -78,12 +78,24 @@ class DetectSession:
     def choose_model(self, path: str, remember: bool = False) -> DetectionModel:
         """Load the model a description file describes (refused by name when it is bad); ``remember``: make
         it the open project's default model too."""
-        same = self.model_path is not None and Path(path).expanduser().resolve() == Path(self.model_path).resolve()
-        if self.model is None or not same:  # loaded once per file, however its path is spelt (remembered resolved)
+        if self.model is None or not self.is_loaded(path):  # once per file, however its path is spelt
             self.model, self.model_path = load_model(path), path
         if remember and self.workspace.project is not None:
-            remember_model(self.workspace.project, path)
+            keep_model(self.workspace.project, path)  # loaded above: not loaded again to check it
         return self.model
+
+    def is_loaded(self, path: str) -> bool:
+        """Whether the model ``path`` describes is the one loaded (however its path is spelt)."""
+        return self.model_path is not None and (
+            Path(path).expanduser().resolve() == Path(self.model_path).expanduser().resolve())
+
+    def adopt(self, model: DetectionModel, path: str, remember: bool = False) -> None:
+        """Keep ``model``, loaded from ``path`` on the worker, as the session's (GUI thread); ``remember``: make
+        it the open project's default too (it loaded, so it is not loaded again to check it)."""
+        if not self.is_loaded(path):
+            self.model, self.model_path = model, path
+        if remember and self.workspace.project is not None:
+            keep_model(self.workspace.project, path)
 
     def project_model(self) -> DetectionModel | None:
         """The open project's default model, loaded (None: the project has none); a default whose file is gone
@@ -108,15 +120,21 @@ class DetectSession:
         last = min(frame + max(int(frames), 1) * max(int(every), 1) - 1, count - 1)
         return plan_detection(ws.project, video=label, every=every, frames=(frame, last))
 
-    def job(self, plan: DetectionPlan) -> Callable[[Callable[[float], None], Callable[[], bool]], DetectionRun]:
+    def job(self, plan: DetectionPlan, path: str | None = None
+            ) -> Callable[[Callable[[float], None], Callable[[], bool]], DetectionRun]:
         """The worker's function: detect on every frame of ``plan``, reporting the fraction done; a Stop
-        keeps the frames done."""
-        if self.model is None:
+        keeps the frames done. ``path``: the model to detect with, loaded by the worker first unless it is the
+        one loaded (loading runs the network once: not on the window's thread); the run carries it
+        (:meth:`adopt` keeps it). Without ``path``, the model loaded."""
+        if path is not None and self.is_loaded(path):
+            path = None
+        if path is None and self.model is None:
             raise UsvipsError("choose a detection model first")
         model = self.model
 
         def run(progress: Callable[[float], None], cancelled: Callable[[], bool]) -> DetectionRun:
-            return run_detection(plan, model, cancelled, lambda done, total: progress(done / max(total, 1)))
+            used = model if path is None else load_model(path)
+            return run_detection(plan, used, cancelled, lambda done, total: progress(done / max(total, 1)))
 
         return run
 

@@ -39,3 +39,37 @@ def test_detect_on_the_pair_shown_stores_draws_and_opens_review(qtbot, make_wind
     window.actions["detect"].trigger()  # again: the same fish are duplicates, nothing is added
     qtbot.waitUntil(lambda: not window.busy and "duplicate" in window.log.toPlainText(), timeout=20000)
     assert len(window.workspace.project.objects()) == 3
+
+
+def test_the_model_is_loaded_by_the_worker_once_and_kept_as_the_projects_default(qtbot, make_window, tmp_path,
+                                                                                   monkeypatch):
+    """Loading a model runs its network once (0.15 s for the shipped one): the first Detect loads it on the
+    worker, never on the window's thread, and the next Detect uses it as loaded."""
+    import threading
+
+    from usvips.app.detection_model import project_model_path
+    from usvips.gui import detect_model
+
+    on_window_thread = []
+    real = detect_model.load_model
+
+    def recording(path):
+        on_window_thread.append(threading.current_thread() is threading.main_thread())
+        return real(path)
+
+    monkeypatch.setattr(detect_model, "load_model", recording)
+    truth = scene(seed=5)
+    project = make_project(tmp_path)
+    model = write_switching_model(tmp_path, truth, sigma=1.0)
+    window = make_window()
+    window.settings.setValue(SETTING, str(model))
+    assert window.open_path(project)
+    window.load_pair("dive")
+    wait_for_pair(qtbot, window, "dive")
+    window.actions["detect"].trigger()
+    qtbot.waitUntil(lambda: not window.busy and len(window.workspace.project.objects()) == 3, timeout=20000)
+    assert on_window_thread == [False]
+    assert project_model_path(window.workspace.project) == model.resolve()  # the project's default now
+    window.actions["detect"].trigger()
+    qtbot.waitUntil(lambda: not window.busy and "duplicate" in window.log.toPlainText(), timeout=20000)
+    assert on_window_thread == [False]  # the project's default is the model loaded: not loaded again

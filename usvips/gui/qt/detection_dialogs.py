@@ -7,10 +7,12 @@ them (A accepts, F flags, a re-picked vertex corrects a keypoint). Every line of
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
+from usvips.app.detection_model import model_path_for, project_model_path
 from usvips.core.errors import UsvipsError
 from usvips.gui.detect_model import DetectSession, correct_keypoint, proposal_keypoints, sigma_circles
 from usvips.gui.messages import Messages
@@ -142,19 +144,25 @@ def choose_model(context: WindowContext, parent: QtWidgets.QWidget, path: str | 
     return True
 
 
-def _ready(context: WindowContext, parent: QtWidgets.QWidget) -> DetectSession | None:
+def _ready(context: WindowContext, parent: QtWidgets.QWidget) -> tuple[DetectSession, str | None, bool] | None:
+    """The session and the model to detect with: (session, the description file the worker loads first —
+    None when the model loaded is used —, whether to make it the project's default once loaded); None when
+    the user chose no model. Nothing is loaded here: a load runs the network once, which is the worker's."""
     session = _session(context)
+    project = context.workspace.project
     try:  # the open project's default model first (another project opened in this window may have its own)
-        if session.project_model() is not None:
-            return session
+        default = model_path_for(project) if project is not None and project_model_path(project) else None
     except UsvipsError as error:  # the project's default is gone: say so, then ask for another
         context.messages.error(str(error))
-        return session if choose_model(context, parent) else None
-    if session.model is None:
-        remembered = str(context.settings.value(SETTING, "") or "") if context.settings is not None else ""
-        if not (remembered and choose_model(context, parent, remembered)) and not choose_model(context, parent):
-            return None
-    return session
+        return (session, None, False) if choose_model(context, parent) else None
+    if default is not None:
+        return session, str(default), False
+    if session.model is not None:
+        return session, None, False
+    remembered = str(context.settings.value(SETTING, "") or "") if context.settings is not None else ""
+    if remembered and Path(remembered).is_file():
+        return session, remembered, True
+    return (session, None, False) if choose_model(context, parent) else None
 
 
 def detect_frame(context: WindowContext, parent: QtWidgets.QWidget) -> None:
@@ -180,17 +188,23 @@ def detect_range(context: WindowContext, parent: QtWidgets.QWidget, frames: int 
 
 
 def _run(context: WindowContext, parent: QtWidgets.QWidget, frames: int, every: int) -> None:
-    session = _ready(context, parent)
-    if session is None:
+    ready = _ready(context, parent)
+    if ready is None:
         return
+    session, path, remember = ready
     try:
         plan = session.plan(frames, every)
-        job = session.job(plan)
+        job = session.job(plan, path)
     except UsvipsError as error:
         context.messages.error(str(error))
         return
+    name = session.model.name if path is None or session.is_loaded(path) else Path(path).stem
 
     def done(run) -> None:
+        if path is not None:
+            session.adopt(run.model, path, remember)
+            if remember and context.settings is not None:
+                context.settings.setValue(SETTING, path)
         shown: list[str] = []
 
         def say(lines: list[str]) -> None:
@@ -214,7 +228,7 @@ def _run(context: WindowContext, parent: QtWidgets.QWidget, frames: int, every: 
         _in_turns([lambda: session.write(run), lambda: shown.extend(session.show(run)), lines], context.messages,
                   parent)
 
-    context.jobs.run(job, f"Detecting with {session.model.name}", done)
+    context.jobs.run(job, f"Detecting with {name}", done)
 
 
 def _in_turns(steps: list[Callable[[], None]], messages: Messages, owner: QtCore.QObject) -> None:
