@@ -203,8 +203,10 @@ def test_the_ray_rms_of_several_frames_at_once_gives_the_track_of_frame_by_frame
             tracks.append(track_vertex(source, stereo, 6, left, right, 0, 16, settings))
         for track in tracks[1:]:
             assert track.stopped == tracks[0].stopped
-            for name in ("frames", "left", "right", "scores", "ray_rms_m"):
+            for name in ("frames", "left", "right", "scores"):
                 np.testing.assert_array_equal(getattr(track, name), getattr(tracks[0], name))
+            # one pair's RMS intersected among several or alone: the vectorised solve may round the last bit
+            np.testing.assert_allclose(track.ray_rms_m, tracks[0].ray_rms_m, rtol=1e-12, atol=0)
         reasons.update(why for _, _, why in tracks[0].stopped)
     assert "ray RMS jumps" in reasons  # the cases did stop on the RMS
 

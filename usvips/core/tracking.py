@@ -241,30 +241,33 @@ def _pyramidal_lk(before: _Neighbourhood, after: _Neighbourhood, start: np.ndarr
     level failing on its own is skipped by the whole call, not a loss)."""
     tight = min(int(levels), len(before.levels) - 1)
     if tight >= 1:
-        guess, status, _ = cv2.calcOpticalFlowPyrLK(before.levels[tight], after.levels[tight], start / 2 ** tight,
-                                                    None, winSize=size, maxLevel=int(levels) - tight, criteria=criteria)
-        guess = guess if guess is not None and status[0, 0] else None
-        for level in range(tight - 1, -1, -1):
-            if guess is None:
-                break
-            guess = _tight_level(before.levels[level], after.levels[level], start / 2 ** level, guess * 2, size,
-                                 criteria)
-        if guess is not None:
-            return guess
+        coarse, status, _ = cv2.calcOpticalFlowPyrLK(before.levels[tight], after.levels[tight], start / 2 ** tight,
+                                                     None, winSize=size, maxLevel=int(levels) - tight,
+                                                     criteria=criteria)
+        if coarse is not None and status[0, 0]:
+            (sx, sy), guess = start[0, 0].tolist(), coarse[0, 0].tolist()
+            for level in range(tight - 1, -1, -1):
+                guess = _tight_level(before.levels[level], after.levels[level], sx / 2 ** level, sy / 2 ** level,
+                                     2 * guess[0], 2 * guess[1], size, criteria)
+                if guess is None:
+                    break
+            if guess is not None:
+                return _point(*guess)
     found, status, _ = cv2.calcOpticalFlowPyrLK(before.levels[0], after.levels[0], start, None, winSize=size,
                                                 maxLevel=int(levels), criteria=criteria)
     return found if found is not None and status[0, 0] else None
 
 
-def _tight_level(before: np.ndarray, after: np.ndarray, start: np.ndarray, guess: np.ndarray,
-                 size: tuple[int, int], criteria) -> np.ndarray | None:
-    """One level of :func:`_pyramidal_lk` from the coarser levels' answer ``guess`` (1, 1, 2), both points
-    in this level's pixels, on small crops; None where the whole call must decide."""
-    (sx, sy), (gx, gy) = start[0, 0].tolist(), guess[0, 0].tolist()
+def _tight_level(before: np.ndarray, after: np.ndarray, sx: float, sy: float, gx: float, gy: float,
+                 size: tuple[int, int], criteria) -> tuple[float, float] | None:
+    """One level of :func:`_pyramidal_lk` from the coarser levels' answer (``gx``, ``gy``) for the point
+    (``sx``, ``sy``), both in this level's pixels, on small crops: the point found (this level's pixels);
+    None where the whole call must decide."""
     reach = size[0] // 2 + 3 + FINEST_DRIFT  # (the two crops of one size, as the call needs)
-    small_before, bx, by = _crop(before, sx, sy, reach)
-    small_after, ax, ay = _crop(after, gx, gy, reach)
-    if small_before.shape != (2 * reach + 1,) * 2 or small_after.shape != small_before.shape:
+    side = 2 * reach + 1
+    bx, by, ax, ay = int(sx) - reach, int(sy) - reach, int(gx) - reach, int(gy) - reach
+    small_before, small_after = before[by:by + side, bx:bx + side], after[ay:ay + side, ax:ax + side]
+    if min(bx, by, ax, ay) < 0 or small_before.shape != (side, side) or small_after.shape != (side, side):
         return None  # at the neighbourhood's edge
     found, status, _ = cv2.calcOpticalFlowPyrLK(small_before, small_after, _point(sx - bx, sy - by),
                                                 _point(gx - ax, gy - ay), winSize=size, maxLevel=0,
@@ -275,7 +278,7 @@ def _tight_level(before: np.ndarray, after: np.ndarray, start: np.ndarray, guess
     fx, fy = fx + ax, fy + ay
     if max(abs(fx - gx), abs(fy - gy)) > FINEST_DRIFT - 2:  # moved toward the small crop's edge
         return None
-    return _point(fx, fy)
+    return fx, fy
 
 
 def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, guess: np.ndarray,
