@@ -374,7 +374,8 @@ def track_vertex(frames: FrameSource, rig: StereoRig, start: int, left, right, f
     """Follow the vertex picked at ``left``/``right`` (px) on frame ``start`` backward to ``first`` and
     forward to ``last`` (inclusive) through ``frames`` with the cameras of ``rig`` (see the module
     docstring). ``near``/``far``: the depths (m along the left ray) the epipolar curve spans. A
-    featureless or edge start is an :class:`InvalidParameterError`."""
+    featureless or edge start, or depths not positive and increasing, is an :class:`InvalidParameterError`
+    (the depths are checked before any frame is read)."""
     settings = settings or TrackSettings()
     start, first, last = int(start), int(first), int(last)
     if not first <= start <= last:
