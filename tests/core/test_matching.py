@@ -7,7 +7,7 @@ from tests.core.scenes import HOUSINGS
 from usvips.core.camera import Camera, Exterior
 from usvips.core.errors import InvalidParameterError
 from usvips.core.interior import Interior
-from usvips.core.matching import epipolar_curve, match_along_curve
+from usvips.core.matching import epipolar_curve, epipolar_curve_at, match_along_curve
 from usvips.core.rig import RelativeOrientation, StereoRig
 
 W, H = 320, 240
@@ -55,6 +55,22 @@ def test_the_epipolar_curve_passes_through_the_true_conjugate(name):
     for pixel in ([200.0, 90.0], [230.5, 160.25], [280.0, 200.0]):
         curve = epipolar_curve(stereo.left, stereo.right, pixel, near=0.5, far=6.0, samples=400)
         assert curve.distance_to(true_conjugate(stereo, pixel)) < 0.05
+
+
+@pytest.mark.parametrize("name", ["flat-port", "dome-cover"])
+def test_the_curve_at_given_depths_is_the_curve_sampled_there(name):
+    stereo = rig(name)
+    seen = []
+    for pixel in ([200.0, 90.0], [5.0, 3.0], [318.0, 238.0]):  # the corners: samples the right camera misses
+        whole = epipolar_curve(stereo.left, stereo.right, pixel, near=0.4, far=9.0, samples=120)
+        at = epipolar_curve_at(stereo.left, stereo.right, np.array(pixel), np.geomspace(0.4, 9.0, 120))
+        np.testing.assert_array_equal(at.pixels, whole.pixels)
+        np.testing.assert_array_equal(at.depths, whole.depths)
+        seen.append(len(at.depths))
+    assert 0 < seen[0] and min(seen) < 120
+    few = epipolar_curve_at(stereo.left, stereo.right, np.array([200.0, 90.0]), np.array([0.7, 1.1]))
+    np.testing.assert_allclose(few.pixels, epipolar_curve(stereo.left, stereo.right, [200.0, 90.0], near=0.7, far=1.1,
+                                                          samples=2).pixels, atol=1e-9)
 
 
 def test_without_refraction_or_distortion_the_curve_is_a_line_and_with_a_port_it_is_not():

@@ -203,15 +203,17 @@ def test_the_ray_rms_of_several_frames_at_once_gives_the_track_of_frame_by_frame
             tracks.append(track_vertex(source, stereo, 6, left, right, 0, 16, settings))
         for track in tracks[1:]:
             assert track.stopped == tracks[0].stopped
-            for name in ("frames", "left", "right", "scores", "ray_rms_m"):
+            for name in ("frames", "left", "right", "scores"):
                 np.testing.assert_array_equal(getattr(track, name), getattr(tracks[0], name))
+            # one pair's RMS intersected among several or alone: the vectorised solve may round the last bit
+            np.testing.assert_allclose(track.ray_rms_m, tracks[0].ray_rms_m, rtol=1e-12, atol=0)
         reasons.update(why for _, _, why in tracks[0].stopped)
     assert "ray RMS jumps" in reasons  # the cases did stop on the RMS
 
 
 def test_the_flow_split_at_its_finest_level_gives_the_whole_calls_points():
-    """The pyramidal flow runs its coarser levels on the neighbourhood halved and its finest level on small
-    crops (tracking._pyramidal_lk): over random textures and motions (up to what the coarsest level
+    """The pyramidal flow runs its coarser levels on the neighbourhood quartered and its two finest levels on
+    small crops (tracking._pyramidal_lk): over random textures and motions (up to what the coarsest level
     follows, and past it) it loses the same points and finds the others where the whole
     ``cv2.calcOpticalFlowPyrLK`` does, within the flow's own convergence (0.003 px a step)."""
     import cv2
@@ -230,7 +232,8 @@ def test_the_flow_split_at_its_finest_level_gives_the_whole_calls_points():
         start = np.float32(rng.uniform(136, 152, 2)).reshape(1, 1, 2)
         whole, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=(15, 15), maxLevel=3,
                                                     criteria=criteria)
-        split = tracking._pyramidal_lk(before, after, start, (15, 15), 3, criteria)
+        hoods = [tracking._neighbourhood(image, (144, 144), 144, 3) for image in (before, after)]
+        split = tracking._pyramidal_lk(*hoods, start, (15, 15), 3, criteria)
         assert (split is not None) == bool(status[0, 0])
         if split is not None:
             found += 1
@@ -252,8 +255,8 @@ def test_tracks_through_the_split_flow_are_those_of_the_whole_flow(monkeypatch):
     split = track_vertex(frames, stereo, 6, left, right, 0, 20)
 
     def whole(before, after, start, size, levels, criteria):
-        found, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=size, maxLevel=levels,
-                                                    criteria=criteria)
+        found, status, _ = cv2.calcOpticalFlowPyrLK(before.levels[0], after.levels[0], start, None, winSize=size,
+                                                    maxLevel=levels, criteria=criteria)
         return found if found is not None and status[0, 0] else None
 
     monkeypatch.setattr(tracking, "_pyramidal_lk", whole)

@@ -54,10 +54,15 @@ def epipolar_curve(source: Camera, target: Camera, pixel, near: float = 0.3, far
     far = validation.positive("far", far)
     if far <= near:
         raise InvalidParameterError("far", f"must exceed near ({near:g} m), got {far:g}")
+    return epipolar_curve_at(source, target, pixel, np.geomspace(near, far, int(samples)))
+
+
+def epipolar_curve_at(source: Camera, target: Camera, pixel: np.ndarray, depths: np.ndarray) -> EpipolarCurve:
+    """:func:`epipolar_curve` at given ``depths`` (M,) metres along the ray in the water, increasing, for a
+    finite ``pixel`` (2,): a tracker asking for the curve of a new pixel every frame makes its depths once."""
     bundle = source.rays(pixel[None, :])
     if not bundle.ok[0]:
         return EpipolarCurve(np.zeros((0, 2)), np.zeros(0))
-    depths = np.geomspace(near, far, int(samples))
     points = bundle.origins[0] + depths[:, None] * bundle.directions[0]
     projection = target.project(points)
     keep = projection.ok

@@ -31,6 +31,7 @@ of the body, or expect up to a pixel of bias at the outline.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -41,7 +42,7 @@ from usvips.core import validation
 from usvips.core.enhance import luminance
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.intersection import intersect
-from usvips.core.matching import epipolar_curve
+from usvips.core.matching import epipolar_curve_at
 from usvips.core.rig import StereoRig
 
 FrameSource = Callable[[int], tuple[np.ndarray, np.ndarray]]
@@ -123,10 +124,11 @@ def _window(image: np.ndarray, point: np.ndarray, size: int) -> np.ndarray:
 
 
 def _ncc(a: np.ndarray, b: np.ndarray) -> float:
-    a = a - a.mean()
-    b = b - b.mean()
-    denominator = float(np.sqrt((a * a).sum() * (b * b).sum()))
-    return float((a * b).sum() / denominator) if denominator > 0 else 0.0
+    """The normalised cross-correlation (−1..1) of two float32 windows of one size; 0 where either is flat
+    (OpenCV's ``TM_CCOEFF_NORMED``: one call, where numpy took a dozen; it scores a flat ``b``, its
+    template, 1, which here is 0: an occluding blank patch must not pass for a match)."""
+    score = float(cv2.matchTemplate(a, b, cv2.TM_CCOEFF_NORMED)[0, 0])
+    return 0.0 if score == 1.0 and float(b.min()) == float(b.max()) else score
 
 
 def _inside(point: np.ndarray, shape: tuple[int, ...], margin: float) -> bool:
@@ -134,13 +136,18 @@ def _inside(point: np.ndarray, shape: tuple[int, ...], margin: float) -> bool:
     return bool(margin <= point[0] <= w - 1 - margin and margin <= point[1] <= h - 1 - margin)
 
 
-def _crop(image: np.ndarray, centre: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray]:
-    """The part of ``image`` within ``half`` px of ``centre`` and its top-left corner (x, y): the flow
-    needs its pyramid over the neighbourhood only, not over a whole 1080p frame."""
+def _crop(image: np.ndarray, x: float, y: float, half: int) -> tuple[np.ndarray, int, int]:
+    """The part of ``image`` within ``half`` px of the whole pixel of (``x``, ``y``) and its top-left corner
+    (x0, y0): the flow needs its pyramid over the neighbourhood only, not over a whole 1080p frame. (Plain
+    numbers: the flow's few-microsecond steps were paid several times over in small-array overhead.)"""
     h, w = image.shape[:2]
-    x0, y0 = max(int(centre[0]) - half, 0), max(int(centre[1]) - half, 0)
-    x1, y1 = min(int(centre[0]) + half + 1, w), min(int(centre[1]) + half + 1, h)
-    return image[y0:y1, x0:x1], np.array([x0, y0], float)
+    x0, y0 = max(int(x) - half, 0), max(int(y) - half, 0)
+    return image[y0:min(int(y) + half + 1, h), x0:min(int(x) + half + 1, w)], x0, y0
+
+
+def _point(x: float, y: float) -> np.ndarray:
+    """A point as ``cv2.calcOpticalFlowPyrLK`` takes it: float32 (1, 1, 2)."""
+    return np.array([[[x, y]]], np.float32)
 
 
 def _reach(settings: TrackSettings) -> int:
@@ -153,74 +160,125 @@ def _reach(settings: TrackSettings) -> int:
     return (2 * half_window + 4) * 2 ** int(settings.levels)
 
 
-def _flow(previous: np.ndarray, following: np.ndarray, point: np.ndarray, settings: TrackSettings
-          ) -> tuple[np.ndarray | None, float]:
-    """The point's position on ``following`` by LK, and its forward–backward disagreement (px)."""
+#: how far (px) the tracked point may drift from the centre of the neighbourhood cropped about it before the
+#: neighbourhood is cropped again about the point: the neighbourhood of a frame, cropped and reduced once as
+#: the frame a step goes to, serves again as the frame the next step starts from while the point stays
+#: within this of its centre (at 3 px a frame, five steps in six)
+SLACK = 16
+#: the pyramid levels of a neighbourhood reduced once and kept (the level-0 crop, half and quarter
+#: resolution); the flow's levels above them are built by ``cv2.calcOpticalFlowPyrLK`` on the quarter one
+KEPT_LEVELS = 2
+
+
+@dataclass(frozen=True)
+class _Neighbourhood:
+    """A frame's neighbourhood of a tracked point: ``levels[k]`` the crop reduced ``k`` times by
+    ``cv2.pyrDown`` (``levels[0]`` a view of the frame), ``corner`` its top-left pixel (x, y) in the frame,
+    ``centre`` the whole pixel it was cropped about. A pixel x of the frame is ``(x - corner) / 2**k`` on
+    level k (pyrDown's pixel i is centred on its source's pixel 2i, the flow's own convention)."""
+
+    levels: tuple[np.ndarray, ...]
+    corner: tuple[int, int]
+    centre: tuple[int, int]
+
+
+def _neighbourhood(image: np.ndarray, centre: tuple[int, int], half: int, levels: int) -> _Neighbourhood:
+    """The part of ``image`` within ``half`` px of ``centre`` and its ``min(levels, KEPT_LEVELS)`` reductions."""
+    crop, x0, y0 = _crop(image, centre[0], centre[1], half)
+    kept = [crop]
+    for _ in range(min(int(levels), KEPT_LEVELS)):
+        kept.append(cv2.pyrDown(kept[-1]))
+    return _Neighbourhood(tuple(kept), (x0, y0), centre)
+
+
+def _centre(point) -> tuple[int, int]:
+    return int(point[0]), int(point[1])
+
+
+#: the flow's stopping rule: 40 iterations or a step under 0.003 px
+_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
+
+
+def _flow(previous: _Neighbourhood, following: np.ndarray, point: np.ndarray, settings: TrackSettings
+          ) -> tuple[np.ndarray | None, float, _Neighbourhood]:
+    """The point's position on ``following`` by LK, its forward–backward disagreement (px), and the
+    neighbourhood of ``following`` it used (cropped about ``previous``'s centre, the next step's start).
+    ``previous`` is the neighbourhood of the frame the point is on, cropped about a centre within
+    :data:`SLACK` px of the point (:func:`_reach` + SLACK px about it)."""
     size = (int(settings.window), int(settings.window))
-    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
-    half = _reach(settings)
-    before, corner = _crop(previous, point, half)
-    after, _ = _crop(following, point, half)
-    if before.shape != after.shape:
-        return None, np.inf
-    start = (point - corner).astype(np.float32).reshape(1, 1, 2)
-    ahead = _pyramidal_lk(before, after, start, size, settings.levels, criteria)
+    after = _neighbourhood(following, previous.centre, _reach(settings) + SLACK, settings.levels)
+    if previous.levels[0].shape != after.levels[0].shape:
+        return None, np.inf, after
+    x0, y0 = previous.corner
+    start = _point(float(point[0]) - x0, float(point[1]) - y0)
+    ahead = _pyramidal_lk(previous, after, start, size, settings.levels, _CRITERIA)
     if ahead is None:
-        return None, np.inf
-    back = _pyramidal_lk(after, before, ahead, size, settings.levels, criteria)
+        return None, np.inf, after
+    back = _pyramidal_lk(after, previous, ahead, size, settings.levels, _CRITERIA)
     if back is None:
-        return None, np.inf
-    return ahead.reshape(2).astype(np.float64) + corner, float(np.linalg.norm(back.reshape(2) - start.reshape(2)))
+        return None, np.inf, after
+    (ax, ay), (bx, by), (sx, sy) = ahead[0, 0].tolist(), back[0, 0].tolist(), start[0, 0].tolist()
+    return np.array([ax + x0, ay + y0]), math.sqrt((bx - sx) ** 2 + (by - sy) ** 2), after
 
 
-#: how far (px) the finest level's iterations may move the point from the coarser levels' answer within the
+#: how far (px) a tight level's iterations may move the point from the coarser levels' answer within the
 #: small crops of :func:`_pyramidal_lk`; a move nearer that edge is redone over the whole neighbourhood
 FINEST_DRIFT = 8
 
 
-def _pyramidal_lk(before: np.ndarray, after: np.ndarray, start: np.ndarray, size: tuple[int, int], levels: int,
-                  criteria) -> np.ndarray | None:
-    """``cv2.calcOpticalFlowPyrLK`` of one point (``start`` (1, 1, 2) float32, pixels of ``before``) from
-    ``before`` to ``after`` over ``levels`` pyramid levels, None where it loses the point; the same answer
-    for less work. The whole call builds both images' pyramids with the finest level's derivatives over
-    the whole neighbourhood, though the finest level's iterations read a window's width about the point
-    only: here the coarser levels run on the neighbourhood halved (``cv2.pyrDown``, the pyramid's own next
-    level), and the finest level on crops a window and :data:`FINEST_DRIFT` wide about the point and the
-    coarser levels' answer, from that answer (the same iterations on the same pixels, in coordinates
-    shifted by whole pixels: the point agrees within the flow's convergence). Where either part loses the
-    point or the finest level moves toward its crop's edge, the whole call decides (a coarser level
-    failing on its own is skipped by the whole call, not a loss)."""
-    if levels >= 1:
-        coarse, status, _ = cv2.calcOpticalFlowPyrLK(cv2.pyrDown(before), cv2.pyrDown(after), start / 2, None,
-                                                     winSize=size, maxLevel=levels - 1, criteria=criteria)
-        found = _finest_level(before, after, start, coarse, size, criteria) if status[0, 0] else None
-        if found is not None:
-            return found
-    found, status, _ = cv2.calcOpticalFlowPyrLK(before, after, start, None, winSize=size, maxLevel=levels,
-                                                criteria=criteria)
+def _pyramidal_lk(before: _Neighbourhood, after: _Neighbourhood, start: np.ndarray, size: tuple[int, int],
+                  levels: int, criteria) -> np.ndarray | None:
+    """``cv2.calcOpticalFlowPyrLK`` of one point (``start`` (1, 1, 2) float32, pixels of ``before``'s
+    level 0) from ``before`` to ``after`` (neighbourhoods of one size cropped about one centre) over
+    ``levels`` pyramid levels, None where it loses the point; the same answer for less work. The whole
+    call builds both images' pyramids with every level's derivatives over the whole neighbourhood, though
+    each level's iterations read a window's width about the point only: here the coarsest levels run on
+    the neighbourhoods' kept reduction (:data:`KEPT_LEVELS`: the quarter resolution, built once a frame),
+    and the kept levels below it, finest last, on crops a window and :data:`FINEST_DRIFT` wide about the
+    point and the coarser levels' answer, from that answer (the same iterations on the same pixels, in
+    coordinates shifted by whole pixels: the point agrees within the flow's convergence). Where either
+    part loses the point or a tight level moves toward its crop's edge, the whole call decides (a coarser
+    level failing on its own is skipped by the whole call, not a loss)."""
+    tight = min(int(levels), len(before.levels) - 1)
+    if tight >= 1:
+        coarse, status, _ = cv2.calcOpticalFlowPyrLK(before.levels[tight], after.levels[tight], start / 2 ** tight,
+                                                     None, winSize=size, maxLevel=int(levels) - tight,
+                                                     criteria=criteria)
+        if coarse is not None and status[0, 0]:
+            (sx, sy), guess = start[0, 0].tolist(), coarse[0, 0].tolist()
+            for level in range(tight - 1, -1, -1):
+                guess = _tight_level(before.levels[level], after.levels[level], sx / 2 ** level, sy / 2 ** level,
+                                     2 * guess[0], 2 * guess[1], size, criteria)
+                if guess is None:
+                    break
+            if guess is not None:
+                return _point(*guess)
+    found, status, _ = cv2.calcOpticalFlowPyrLK(before.levels[0], after.levels[0], start, None, winSize=size,
+                                                maxLevel=int(levels), criteria=criteria)
     return found if found is not None and status[0, 0] else None
 
 
-def _finest_level(before: np.ndarray, after: np.ndarray, start: np.ndarray, coarse: np.ndarray,
-                  size: tuple[int, int], criteria) -> np.ndarray | None:
-    """The finest level of :func:`_pyramidal_lk` from the coarser levels' answer ``coarse`` (level-1
-    pixels) on small crops; None where the whole call must decide."""
-    guess = coarse.reshape(2).astype(np.float64) * 2
+def _tight_level(before: np.ndarray, after: np.ndarray, sx: float, sy: float, gx: float, gy: float,
+                 size: tuple[int, int], criteria) -> tuple[float, float] | None:
+    """One level of :func:`_pyramidal_lk` from the coarser levels' answer (``gx``, ``gy``) for the point
+    (``sx``, ``sy``), both in this level's pixels, on small crops: the point found (this level's pixels);
+    None where the whole call must decide."""
     reach = size[0] // 2 + 3 + FINEST_DRIFT  # (the two crops of one size, as the call needs)
-    small_before, corner_before = _crop(before, start.reshape(2).astype(np.float64), reach)
-    small_after, corner_after = _crop(after, guess, reach)
-    if small_before.shape != (2 * reach + 1,) * 2 or small_after.shape != small_before.shape:
+    side = 2 * reach + 1
+    bx, by, ax, ay = int(sx) - reach, int(sy) - reach, int(gx) - reach, int(gy) - reach
+    small_before, small_after = before[by:by + side, bx:bx + side], after[ay:ay + side, ax:ax + side]
+    if min(bx, by, ax, ay) < 0 or small_before.shape != (side, side) or small_after.shape != (side, side):
         return None  # at the neighbourhood's edge
-    found, status, _ = cv2.calcOpticalFlowPyrLK(
-        small_before, small_after, (start.reshape(2) - corner_before).astype(np.float32).reshape(1, 1, 2),
-        (guess - corner_after).astype(np.float32).reshape(1, 1, 2), winSize=size, maxLevel=0, criteria=criteria,
-        flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
+    found, status, _ = cv2.calcOpticalFlowPyrLK(small_before, small_after, _point(sx - bx, sy - by),
+                                                _point(gx - ax, gy - ay), winSize=size, maxLevel=0,
+                                                criteria=criteria, flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
     if found is None or not status[0, 0]:
         return None
-    found = found.reshape(2).astype(np.float64) + corner_after
-    if np.max(np.abs(found - guess)) > FINEST_DRIFT - 2:  # moved toward the small crop's edge
+    fx, fy = found[0, 0].tolist()
+    fx, fy = fx + ax, fy + ay
+    if max(abs(fx - gx), abs(fy - gy)) > FINEST_DRIFT - 2:  # moved toward the small crop's edge
         return None
-    return found.astype(np.float32).reshape(1, 1, 2)
+    return fx, fy
 
 
 def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, guess: np.ndarray,
@@ -228,33 +286,62 @@ def _refine(anchor: np.ndarray, anchor_point: np.ndarray, current: np.ndarray, g
     """The frame-to-frame position refined against the start frame's window (no drift accumulates):
     LK from the start frame with ``guess`` as initial flow, kept when it converges within 1 px of it."""
     size = (int(settings.window), int(settings.window))
-    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
     half = int(settings.window) + 8
-    before, corner_before = _crop(anchor, anchor_point, half)
-    after, corner_after = _crop(current, guess, half)
+    (px, py), (gx, gy) = anchor_point.tolist(), guess.tolist()
+    before, bx, by = _crop(anchor, px, py, half)
+    after, ax, ay = _crop(current, gx, gy, half)
     if before.shape != after.shape:  # at an image edge: the frame-to-frame position stands
         return guess
-    refined, status, _ = cv2.calcOpticalFlowPyrLK(
-        before, after, (anchor_point - corner_before).astype(np.float32).reshape(1, 1, 2),
-        (guess - corner_after).astype(np.float32).reshape(1, 1, 2), winSize=size, maxLevel=0, criteria=criteria,
-        flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
+    refined, status, _ = cv2.calcOpticalFlowPyrLK(before, after, _point(px - bx, py - by), _point(gx - ax, gy - ay),
+                                                  winSize=size, maxLevel=0, criteria=_CRITERIA,
+                                                  flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
     if refined is None or not status[0, 0]:
         return guess
-    refined = refined.reshape(2).astype(np.float64) + corner_after
-    return refined if np.linalg.norm(refined - guess) < 1.0 else guess
+    rx, ry = refined[0, 0].tolist()
+    rx, ry = rx + ax, ry + ay
+    return np.array([rx, ry]) if math.sqrt((rx - gx) ** 2 + (ry - gy) ** 2) < 1.0 else guess
 
 
-def _nearest_on(curve_pixels: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, float]:
-    """The nearest point of a polyline to ``point`` and its distance (px)."""
+def _nearest_on(curve_pixels: np.ndarray, point: np.ndarray) -> tuple[np.ndarray, float, int]:
+    """The nearest point of a polyline to ``point``, its distance (px) and the index of the segment (the
+    vertex it starts from) it lies on."""
     if len(curve_pixels) == 1:
-        return curve_pixels[0], float(np.linalg.norm(curve_pixels[0] - point))
+        return curve_pixels[0], float(np.linalg.norm(curve_pixels[0] - point)), 0
     a, b = curve_pixels[:-1], curve_pixels[1:]
     ab = b - a
     t = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
     candidates = a + t[:, None] * ab
     distances = np.linalg.norm(candidates - point, axis=1)
     best = int(np.argmin(distances))
-    return candidates[best], float(distances[best])
+    return candidates[best], float(distances[best]), best
+
+
+#: samples of the epipolar curve either side of the one held on the frame before, where the right point's
+#: nearest point of the curve is looked for first (at 0.9 % of depth a sample for the default 400 over
+#: 0.2–30 m: ±7 % of the depth a frame)
+CURVE_STRETCH = 8
+
+
+def _hold(rig: StereoRig, left: np.ndarray, right: np.ndarray, depths: np.ndarray, around: int | None
+          ) -> tuple[np.ndarray, float, int] | None:
+    """The nearest point to ``right`` of the epipolar curve of ``left`` sampled at ``depths``, its distance
+    (px) and the index of the depth sample its segment starts from; None where the right camera sees no
+    sample. Looked for first on the :data:`CURVE_STRETCH` samples either side of ``around`` (the index
+    held on the frame before: a few back-projections instead of the whole curve's); the whole curve decides
+    where that stretch is not seen whole or its nearest point lies on its first or last segment (a nearer
+    one may lie beyond), or ``around`` is None."""
+    if around is not None:
+        lo, hi = max(around - CURVE_STRETCH, 0), min(around + CURVE_STRETCH + 2, len(depths))
+        stretch = epipolar_curve_at(rig.left, rig.right, left, depths[lo:hi])
+        if len(stretch.depths) == hi - lo >= 2:
+            held, off, k = _nearest_on(stretch.pixels, right)
+            if (0 < k or lo == 0) and (k < hi - lo - 2 or hi == len(depths)):
+                return held, off, lo + k
+    curve = epipolar_curve_at(rig.left, rig.right, left, depths)
+    if len(curve.pixels) == 0:
+        return None
+    held, off, k = _nearest_on(curve.pixels, right)
+    return held, off, int(np.searchsorted(depths, curve.depths[k]))
 
 
 def check_trackable(image: np.ndarray, point, settings: TrackSettings | None = None, what: str = "left") -> None:
@@ -287,13 +374,17 @@ def track_vertex(frames: FrameSource, rig: StereoRig, start: int, left, right, f
     """Follow the vertex picked at ``left``/``right`` (px) on frame ``start`` backward to ``first`` and
     forward to ``last`` (inclusive) through ``frames`` with the cameras of ``rig`` (see the module
     docstring). ``near``/``far``: the depths (m along the left ray) the epipolar curve spans. A
-    featureless or edge start is an :class:`InvalidParameterError`."""
+    featureless or edge start, or depths not positive and increasing, is an :class:`InvalidParameterError`
+    (the depths are checked before any frame is read)."""
     settings = settings or TrackSettings()
     start, first, last = int(start), int(first), int(last)
     if not first <= start <= last:
         raise InvalidParameterError("start", f"frame {start} is not within frames {first} to {last}")
     left = validation.finite_vector("left pixel", left, 2)
     right = validation.finite_vector("right pixel", right, 2)
+    near, far = validation.positive("near", near), validation.positive("far", far)
+    if far <= near:
+        raise InvalidParameterError("far", f"must exceed near ({near:g} m), got {far:g}")
     images = frames(start)
     greys = (_grey(images[0]), _grey(images[1]))
     check_trackable(greys[0], left, settings, "left")
@@ -330,7 +421,9 @@ def _ray_rms_many(rig: StereoRig, left: np.ndarray, right: np.ndarray) -> np.nda
 
 
 #: frames whose ray RMS is computed together (see :func:`_follow`)
-RMS_BATCH = 8
+RMS_BATCH = 16
+#: the depths along the left ray (geometrically spaced) at which the epipolar curve is sampled
+CURVE_SAMPLES = 400
 
 
 @dataclass
@@ -373,6 +466,10 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
     margin = settings.window / 2 + 1
     size = int(settings.window)
     previous, point_l, point_r, frame = greys, left, right, start
+    half = _reach(settings) + SLACK
+    depths, around = np.geomspace(near, far, CURVE_SAMPLES), None  # (the depth sample held last)
+    hoods = tuple(_neighbourhood(grey, _centre(point), half, settings.levels)
+                  for grey, point in zip(greys, (left, right), strict=True))
     accepted = start  # the last frame whose ray RMS is known and accepted
     rms_history = [rows[start][3]]
     steps: list[_Step] = []
@@ -395,8 +492,8 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
         except UsvipsError as error:
             return stop(str(error), frame)
         current = (_grey(images[0]), _grey(images[1]))
-        new_l, fb_l = _flow(previous[0], current[0], point_l, settings)
-        new_r, fb_r = _flow(previous[1], current[1], point_r, settings)
+        new_l, fb_l, after_l = _flow(hoods[0], current[0], point_l, settings)
+        new_r, fb_r, after_r = _flow(hoods[1], current[1], point_r, settings)
         if new_l is not None and new_r is not None:
             new_l = _refine(greys[0], left, current[0], new_l, settings)
             new_r = _refine(greys[1], right, current[1], new_r, settings)
@@ -412,10 +509,10 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
         score_r = _ncc(_window(previous[1], point_r, size), _window(current[1], new_r, size))
         if min(score_l, score_r) < settings.min_score:
             return stop(LOW, frame)
-        curve = epipolar_curve(rig.left, rig.right, new_l, near=near, far=far, samples=400)
-        if len(curve.pixels) == 0:
+        found = _hold(rig, new_l, new_r, depths, around)
+        if found is None:
             return stop(RMS, frame)
-        held, off = _nearest_on(curve.pixels, new_r)
+        held, off, around = found
         if off > settings.max_epipolar_px:
             return stop(RMS, frame)
         steps.append(_Step(following, new_l, new_r, held, (score_l, score_r),
@@ -423,4 +520,7 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
         if steps[-1].leaves:
             return stop(LEAVES, frame)  # unless this frame's own ray RMS stops the track first
         previous, point_l, point_r, frame = current, new_l, held, following
+        hoods = tuple(after if max(abs(point[0] - after.centre[0]), abs(point[1] - after.centre[1])) <= SLACK
+                      else _neighbourhood(grey, _centre(point), half, settings.levels)
+                      for after, grey, point in zip((after_l, after_r), current, (point_l, point_r), strict=True))
     return stop(END, frame)

@@ -1,0 +1,149 @@
+"""The tracker's fast path against the plain one: the neighbourhoods cropped and reduced once a frame and
+kept while the point stays near their centre, the flow's levels split onto small crops, the correlation by
+OpenCV and the right point held on a stretch of the epipolar curve give the tracks of the whole
+``cv2.calcOpticalFlowPyrLK`` about the point at every step, numpy's correlation and the whole curve — over
+random rendered clips, within the flow's own convergence."""
+
+import cv2
+import numpy as np
+import pytest
+
+import usvips.core.tracking as tracking
+from tests.core.test_matching import rig
+from tests.core.test_tracking import truth, video
+from usvips.core.errors import InvalidParameterError
+from usvips.core.matching import epipolar_curve_at
+from usvips.core.synth.swimming import SwimmingFish
+from usvips.core.tracking import TrackSettings, track_vertex
+
+CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
+
+
+def whole_flow(previous, following, point, settings):
+    """The flow as it was first written: both frames cropped about the point itself (``_reach`` px) at every
+    step, the whole pyramidal call forward and backward."""
+    after = tracking._neighbourhood(following, previous.centre, tracking._reach(settings) + tracking.SLACK,
+                                    settings.levels)
+    x0, y0 = previous.corner
+    half, size = tracking._reach(settings), (settings.window, settings.window)
+    before, bx, by = tracking._crop(previous.levels[0], point[0] - x0, point[1] - y0, half)
+    ahead_image, _, _ = tracking._crop(after.levels[0], point[0] - x0, point[1] - y0, half)
+    if before.shape != ahead_image.shape:
+        return None, np.inf, after
+    corner = np.array([x0 + bx, y0 + by], float)
+    start = (point - corner).astype(np.float32).reshape(1, 1, 2)
+    ahead, status, _ = cv2.calcOpticalFlowPyrLK(before, ahead_image, start, None, winSize=size,
+                                                maxLevel=settings.levels, criteria=CRITERIA)
+    if ahead is None or not status[0, 0]:
+        return None, np.inf, after
+    back, status, _ = cv2.calcOpticalFlowPyrLK(ahead_image, before, ahead, None, winSize=size,
+                                               maxLevel=settings.levels, criteria=CRITERIA)
+    if back is None or not status[0, 0]:
+        return None, np.inf, after
+    fb = float(np.linalg.norm(back.reshape(2) - start.reshape(2)))
+    return ahead.reshape(2).astype(np.float64) + corner, fb, after
+
+
+def numpy_ncc(a, b):
+    a, b = a - a.mean(), b - b.mean()
+    denominator = float(np.sqrt((a * a).sum() * (b * b).sum()))
+    return float((a * b).sum() / denominator) if denominator > 0 else 0.0
+
+
+def _clip(seed):
+    rng = np.random.default_rng(seed)
+    fish = SwimmingFish(start=(rng.uniform(0.05, 0.15), rng.uniform(-0.05, 0.05), -rng.uniform(0.95, 1.2)),
+                        heading=(1.0, 0.0, rng.uniform(-0.1, 0.1)), length=rng.uniform(0.3, 0.4),
+                        speed=rng.uniform(0.2, 0.5), bend=rng.uniform(0.2, 0.6), beat_hz=rng.uniform(1.0, 2.0),
+                        seed=seed)
+    stereo, frames = video(fish, ["flat-port", "dome-cover"][seed % 2])
+    s, v = rng.uniform(0.2, 0.45) * fish.length, rng.uniform(-0.008, 0.008)
+    start = int(rng.integers(4, 10))
+    return stereo, frames, start, truth(stereo, fish, start, s, v)
+
+
+def _assert_same(ours, reference):
+    assert ours.stopped == reference.stopped and len(ours.frames) >= 8
+    np.testing.assert_array_equal(ours.frames, reference.frames)
+    np.testing.assert_allclose(ours.left, reference.left, atol=0.01)
+    np.testing.assert_allclose(ours.right, reference.right, atol=0.01)
+    np.testing.assert_allclose(ours.scores, reference.scores, atol=1e-3)
+    np.testing.assert_allclose(ours.ray_rms_m, reference.ray_rms_m, rtol=0.05, atol=1e-5)
+
+
+@pytest.mark.parametrize("seed", [11, 12, 13])
+def test_the_fast_path_gives_the_tracks_of_the_plain_one(monkeypatch, seed):
+    stereo, frames, start, (left, right) = _clip(seed)
+    ours = track_vertex(frames, stereo, start, left, right, 0, start + 24)
+    hold = tracking._hold
+    with monkeypatch.context() as plain:
+        plain.setattr(tracking, "_flow", whole_flow)
+        plain.setattr(tracking, "_ncc", numpy_ncc)
+        plain.setattr(tracking, "_hold", lambda rig, left, right, depths, around: hold(rig, left, right, depths, None))
+        reference = track_vertex(frames, stereo, start, left, right, 0, start + 24)
+    _assert_same(ours, reference)
+    with monkeypatch.context() as recropped:  # every step crops both frames again about the point
+        recropped.setattr(tracking, "SLACK", 0)
+        _assert_same(track_vertex(frames, stereo, start, left, right, 0, start + 24), ours)
+
+
+def test_a_neighbourhood_is_the_frame_cropped_about_its_centre_and_reduced():
+    frame = np.random.default_rng(2).integers(0, 256, (240, 320), dtype=np.uint8)
+    hood = tracking._neighbourhood(frame, (100, 60), 40, 3)
+    assert hood.corner == (60, 20) and hood.centre == (100, 60)
+    assert len(hood.levels) == 1 + tracking.KEPT_LEVELS
+    np.testing.assert_array_equal(hood.levels[0], frame[20:101, 60:141])
+    np.testing.assert_array_equal(hood.levels[1], cv2.pyrDown(frame[20:101, 60:141]))
+    np.testing.assert_array_equal(hood.levels[2], cv2.pyrDown(cv2.pyrDown(frame[20:101, 60:141])))
+    edge = tracking._neighbourhood(frame, (5, 230), 40, 1)  # clipped by the frame's edges, one level kept
+    assert edge.corner == (0, 190) and edge.levels[0].shape == (50, 46) and len(edge.levels) == 2
+
+
+def test_the_correlation_is_numpys_normalised_cross_correlation():
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        a = rng.integers(0, 256, (15, 15)).astype(np.float32)
+        b = np.clip(np.rint(a * rng.uniform(-2, 2) + rng.normal(0, rng.uniform(1, 80), a.shape)), 0, 255)
+        assert tracking._ncc(a, b.astype(np.float32)) == pytest.approx(numpy_ncc(a, b.astype(np.float32)), abs=1e-5)
+    flat = np.full((15, 15), 90, np.float32)
+    assert tracking._ncc(flat, a) == 0.0 and tracking._ncc(a, flat) == 0.0 and tracking._ncc(flat, flat) == 0.0
+    assert tracking._ncc(a, a) == pytest.approx(1.0, abs=1e-6) and tracking._ncc(a, 255 - a) == pytest.approx(-1.0)
+
+
+@pytest.mark.parametrize("housing", ["flat-port", "dome-cover"])
+def test_the_right_point_is_held_where_the_whole_curve_holds_it(housing):
+    """Looked for on a stretch of the curve about the depth held before, the nearest point is the whole
+    curve's, wherever that stretch starts (the whole curve decides where the stretch's answer is at its end)."""
+    stereo = rig(housing)
+    depths = np.geomspace(0.3, 12.0, 400)
+    rng = np.random.default_rng(8)
+    used = 0
+    for _ in range(40):
+        left = rng.uniform([20, 20], [300, 220])
+        whole = tracking._hold(stereo, left, np.zeros(2), depths, None)
+        if whole is None:
+            continue
+        curve = epipolar_curve_at(stereo.left, stereo.right, left, depths)
+        right = curve.pixels[rng.integers(len(curve.pixels))] + rng.normal(0, 2, 2)
+        whole = tracking._hold(stereo, left, right, depths, None)
+        for around in (whole[2], whole[2] + int(rng.integers(-6, 7)), whole[2] + 40, 0, 399):
+            held, off, index = tracking._hold(stereo, left, right, depths, int(np.clip(around, 0, 399)))
+            np.testing.assert_allclose(held, whole[0], atol=1e-9)
+            assert off == pytest.approx(whole[1], abs=1e-9) and index == whole[2]
+        used += 1
+    assert used > 20
+
+
+def test_the_depths_of_the_epipolar_curve_are_checked_before_any_frame_is_read():
+    asked = []
+
+    def frames(i):
+        asked.append(i)
+        raise AssertionError("no frame should be read")
+
+    stereo, _, _, (left, right) = _clip(11)
+    with pytest.raises(InvalidParameterError, match="far: must exceed near"):
+        track_vertex(frames, stereo, 0, left, right, 0, 5, near=2.0, far=1.0)
+    with pytest.raises(InvalidParameterError, match="near"):
+        track_vertex(frames, stereo, 0, left, right, 0, 5, near=-1.0)
+    assert asked == [] and TrackSettings().levels == 3
