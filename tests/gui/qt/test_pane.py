@@ -17,9 +17,7 @@ def test_item_and_pixel_conventions_are_inverse_and_half_a_pixel_apart():
 
 @pytest.fixture
 def pane(qtbot):
-    from usvips.gui.qt.app import configure
 
-    configure()
     pane = StereoPane("left")
     qtbot.addWidget(pane)
     pane.resize(640, 480)
@@ -93,7 +91,7 @@ def test_the_loupe_shows_the_neighbourhood_of_the_cursor(qtbot, pane):
 def _hover(qtbot, pane, pixel):
     pos = viewport_point(pane, pixel)
     qtbot.mouseMove(pane.graphics.viewport(), pos + QtCore.QPoint(3, 2))  # the cursor may already be there
-    qtbot.wait(60)  # pyqtgraph's scene drops mouse moves that follow one another too closely
+    qtbot.wait(60)  # two moves in a row: the second one is a move of its own
     with qtbot.waitSignal(pane.hovered, timeout=2000):
         qtbot.mouseMove(pane.graphics.viewport(), pos)
     return pos
@@ -141,7 +139,7 @@ def test_the_loupe_magnification_is_adjustable(qtbot, pane):
 
 
 def _label_boxes(pane):
-    return [label.sceneBoundingRect() for label in pane.labels]
+    return [label.screen_rect(pane.graphics) for label in pane.labels]
 
 
 @pytest.mark.parametrize("zoom", [None, 4.0])
@@ -155,7 +153,7 @@ def test_labels_of_objects_side_by_side_do_not_cover_each_other(qtbot, pane, zoo
         pane.zoom_to(zoom, (203.0, 150.0))
         qtbot.waitUntil(lambda: not pane._label_timer.isActive(), timeout=2000)
     boxes = [box for box, label in zip(_label_boxes(pane), pane.labels, strict=True)
-             if pane.viewbox.viewRect().contains(label.home)]
+             if pane.view_rect().contains(label.home)]
     assert len(boxes) >= 2
     assert not any(a.intersects(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
 

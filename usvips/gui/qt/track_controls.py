@@ -20,7 +20,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from usvips.app.object_instants import add_instant
@@ -29,6 +28,7 @@ from usvips.core.errors import UsvipsError
 from usvips.core.tracking import CANCELLED, TrackSettings
 from usvips.gui.instants_model import object_instants
 from usvips.gui.pick_tool import TOOLS
+from usvips.gui.qt.marks import Lines, Points
 from usvips.gui.qt.pane import item_from_pixels
 from usvips.gui.qt.worker import Cancelled
 from usvips.gui.track_model import TrackModel, parse_instant_frames
@@ -74,10 +74,10 @@ class TrackController(QtCore.QObject):
         self._joining_whole: int | None = None
         self.items = {}
         for side, pane in panes.items():
-            trail = pg.PlotCurveItem(pen=pg.mkPen(TRACK_COLOUR, width=1.5), connect="finite")
-            points = pg.ScatterPlotItem(size=13, pen=pg.mkPen(TRACK_COLOUR, width=2), brush=None, symbol="o")
+            trail = Lines(TRACK_COLOUR, width=1.5)
+            points = Points(13, TRACK_COLOUR, width=2, symbol="o")
             for item in (trail, points):
-                pane.viewbox.addItem(item, ignoreBounds=True)
+                pane.add_mark(item)
             self.items[side] = (trail, points)
         ws = self.workspace
         ws.stored.connect(self._on_stored)
@@ -306,21 +306,20 @@ class TrackController(QtCore.QObject):
         for side, (trail_item, points_item) in self.items.items():
             column = 0 if side == "left" else 1
             if not shown:
-                trail_item.setData([], [])
-                points_item.setData(pos=np.zeros((0, 2)))
+                trail_item.set_points(None)
+                points_item.set_points(None)
                 continue
-            at = self.model.points_at(frame[1])
-            spots = [{"pos": tuple(item_from_pixels(pixels[column])[0]),
-                      "symbol": "star" if frame[1] in self.model.corrected.get(vertex, set()) else "o"}
-                     for vertex, pixels in sorted(at.items())]
-            points_item.setData(spots)
+            at = sorted(self.model.points_at(frame[1]).items())
+            points_item.set_points(np.array([item_from_pixels(pixels[column])[0] for _, pixels in at]).reshape(-1, 2),
+                                   ["star" if frame[1] in self.model.corrected.get(vertex, set()) else "o"
+                                    for vertex, _ in at])
             pieces = []
             for vertex in range(self.model.vertex_count):
                 trail = self.model.trail(vertex, frame[1], self.TRAIL)[column]
                 if len(trail) > 1:
                     pieces.extend([item_from_pixels(trail), np.full((1, 2), np.nan)])
             line = np.vstack(pieces) if pieces else np.zeros((0, 2))
-            trail_item.setData(line[:, 0], line[:, 1])
+            trail_item.set_points(line)
         self.video.show_track(self.model.label, self.model.span(),
                               {s.frame for s in self.model.stops() if s.reason != CANCELLED})
 

@@ -1,0 +1,34 @@
+"""The window starts without pyqtgraph: the stereo panes are plain Qt and every plot imports pyqtgraph when
+it is first made (importing it costs about half a second of CPU, the window's whole start-up budget is
+0.5 s; see ``usvips bench --only startup``). Checked in a fresh interpreter, through the start-up probe's
+own path: ``usvips open SAMPLE`` with ``USVIPS_QUIT_WHEN_READY`` — the window shown, the sample opened,
+its first pair drawn."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+from usvips.locations import sample_project
+
+_SCRIPT = """
+import json, sys
+from usvips.cli import main
+code = main(["open", sys.argv[1]])
+print(json.dumps({"code": code, "modules": sorted(m.split(".")[0] for m in sys.modules)}))
+"""
+
+
+def test_the_window_is_shown_with_a_sample_pair_drawn_without_importing_pyqtgraph(tmp_path):
+    sample = shutil.copytree(sample_project("tank_system1"), tmp_path / "tank_system1")
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", USVIPS_QUIT_WHEN_READY="1",
+               XDG_CONFIG_HOME=str(tmp_path / "config"), XDG_DATA_HOME=str(tmp_path / "data"))
+    result = subprocess.run([sys.executable, "-c", _SCRIPT, str(sample)], capture_output=True, text=True, env=env,
+                            timeout=300, check=False)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "ready, pair" in result.stderr  # the pair was drawn before the check
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["code"] == 0
+    assert "PySide6" in report["modules"]  # the window was made in this interpreter
+    assert "pyqtgraph" not in report["modules"]
