@@ -147,6 +147,7 @@ class ImageView(QtWidgets.QGraphicsView):
             return
         at = self.canvas.mapToScene(self._cross)
         area = self.sceneRect()
+        painter.setRenderHint(QtGui.QPainter.RenderHint.Antialiasing, False)  # one crisp screen pixel wide
         painter.setPen(self._cross_pen)
         painter.drawLine(QtCore.QPointF(at.x(), area.top()), QtCore.QPointF(at.x(), area.bottom()))
         painter.drawLine(QtCore.QPointF(area.left(), at.y()), QtCore.QPointF(area.right(), at.y()))

@@ -66,8 +66,8 @@ def _symbol(name: str) -> QtGui.QPainterPath:
         path.addEllipse(QtCore.QPointF(0, 0), 0.5, 0.5)
     elif name == "s":
         path.addRect(QtCore.QRectF(-0.5, -0.5, 1, 1))
-    elif name in ("+", "x"):  # a cross one tenth as wide as long, outlined (turned 45° for "x")
-        arm, half = 0.5, 0.05
+    elif name in ("+", "x"):  # a cross a fifth as wide as long, outlined (turned 45° for "x")
+        arm, half = 0.5, 0.1
         corners = np.array([(-arm, -half), (-arm, half), (-half, half), (-half, arm), (half, arm), (half, half),
                             (arm, half), (arm, -half), (half, -half), (half, -arm), (-half, -arm), (-half, -half)])
         if name == "x":
@@ -79,7 +79,7 @@ def _symbol(name: str) -> QtGui.QPainterPath:
         path.closeSubpath()
     elif name == "star":
         angles = np.pi / 2 + np.arange(10) * np.pi / 5
-        radii = np.where(np.arange(10) % 2, 0.2, 0.5)
+        radii = np.where(np.arange(10) % 2, 0.191, 0.5)
         corners = np.column_stack([radii * np.cos(angles), -radii * np.sin(angles)])
         path.moveTo(*corners[0])
         for corner in corners[1:]:
