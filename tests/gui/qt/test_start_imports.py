@@ -33,5 +33,7 @@ def test_the_window_is_shown_with_a_sample_pair_drawn_without_importing_pyqtgrap
     loaded = set(report["modules"])
     assert "PySide6.QtWidgets" in loaded  # the window was made in this interpreter
     assert not {name for name in loaded if name.split(".")[0] == "pyqtgraph"}
-    # nor the calibration's model and uncertainty (needed to measure, not to show a pair)
-    assert not loaded & {"usvips.core.calibration.model", "usvips.core.calibration.uncertainty"}
+    # nor the calibration's model and uncertainty (needed to measure, not to show a pair), nor the video
+    # machinery and the tracker (a project of image pairs)
+    assert not loaded & {"usvips.core.calibration.model", "usvips.core.calibration.uncertainty",
+                         "usvips.app.video_project", "usvips.io.video_proxy", "usvips.app.tracking"}
