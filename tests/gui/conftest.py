@@ -70,10 +70,8 @@ def make_window(qtbot, tmp_path):
     """``make_window(settings_file=None)`` → a shown MainWindow using its own settings file."""
     from PySide6 import QtCore
 
-    from usvips.gui.qt.app import configure
     from usvips.gui.qt.main_window import MainWindow
 
-    configure()
     windows = []
 
     def make(settings_file: Path | None = None):
@@ -107,7 +105,7 @@ def viewport_point(pane, pixel):
 
     from usvips.gui.qt.pane import item_from_pixels
 
-    QtWidgets.QApplication.processEvents()  # pyqtgraph applies a new view range on the next event round
+    QtWidgets.QApplication.processEvents()  # a new view range (a resize) is applied on the next event round
     ix, iy = item_from_pixels(np.array(pixel))[0]
     scene = pane.image_item.mapToScene(QtCore.QPointF(ix, iy))
     return pane.graphics.mapFromScene(scene)

@@ -162,10 +162,8 @@ def test_measuring_keys_are_in_the_menus_and_the_guide():
 
 def test_enter_in_the_wizards_measure_page_accepts_and_never_advances(qtbot, sample_copy):
     from usvips.app.samples import open_or_create_from_manifest
-    from usvips.gui.qt.app import configure
     from usvips.gui.qt.calibration_wizard import CalibrationWizard
 
-    configure()
     directory = sample_copy("rov_flatport")
     project = open_or_create_from_manifest(directory)
     session = CalibrationSession(project, "water")

@@ -11,7 +11,7 @@ from usvips.store.project import Vertex
 def _centred_on(window, object_id) -> float:
     vertices = window.workspace.stored_object(object_id).vertices
     middle = np.mean([(v.xl, v.yl) for v in vertices], axis=0) + 0.5  # pixels to the view's coordinates
-    centre = window.panes["left"].viewbox.viewRect().center()
+    centre = window.panes["left"].view_rect().center()
     return float(np.hypot(centre.x() - middle[0], centre.y() - middle[1]))
 
 

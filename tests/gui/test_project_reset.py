@@ -82,8 +82,8 @@ def test_the_views_show_nothing_of_the_previous_project(qtbot, make_window, samp
     ws.select([ws.cache.objects()[0].id])
     window._on_hovered("left", *left[number])  # the pixel readout under the mouse
     window.attribute_box.setEditText("cod")
-    curve = window.enhancement.original_curve
-    qtbot.waitUntil(lambda: curve.getData()[0] is not None and len(curve.getData()[0]) > 0, timeout=5000)
+    histogram = window.enhancement.histogram
+    qtbot.waitUntil(lambda: len(histogram.counts("original")) > 0, timeout=5000)
     before = {"point": window.point_label.text(), "pixel": window.pixel_label.text(),
               "title": window.panes["left"].title.text(), "target": window.observation.target.text(),
               "rows": window.object_list.row_count()}
@@ -96,9 +96,8 @@ def test_the_views_show_nothing_of_the_previous_project(qtbot, make_window, samp
     assert window.point_label.text() == "" and window.pixel_label.text() == ""
     assert [window.panes[s].title.text() for s in ("left", "right")] == ["Left", "Right"]
     assert all(window.panes[s].image_size() == (0, 0) for s in ("left", "right"))
-    for item in (window.enhancement.original_curve, window.enhancement.processed_curve):
-        data = item.getData()[0]
-        assert data is None or len(data) == 0
+    for name in ("original", "processed"):
+        assert len(window.enhancement.histogram.counts(name)) == 0
     assert window.attribute_box.currentText() == "" and window.attribute_box.count() == 0
     assert window.pair_box.count() == 0 and window.pair_box.placeholderText() == ""
     assert window.observation.target.text() == "no object" and window.observation.species.currentText() == ""

@@ -15,10 +15,9 @@ MAX_PATHS = 250
 
 
 def _points(item) -> np.ndarray:
-    x, y = item.getData()
-    if x is None or not item.isVisible():  # pyqtgraph hides a curve given no data (and keeps the old)
+    if not item.isVisible():
         return np.zeros((0, 2))
-    points = np.column_stack([x, y])
+    points = item.points()
     return points[np.isfinite(points).all(axis=1)]
 
 
@@ -33,7 +32,7 @@ def _store_fish(qtbot, window, shift: float) -> None:
 
 def _near_view(pane) -> set[int]:
     """The ids whose outline meets the view grown by the pane's margin (worked out here on their own)."""
-    rect = pane.viewbox.viewRect()
+    rect = pane.view_rect()
     dx, dy = rect.width() * pane.MARGIN, rect.height() * pane.MARGIN
     x0, x1 = rect.left() - dx - 0.5, rect.right() + dx - 0.5
     y0, y1 = rect.top() - dy - 0.5, rect.bottom() + dy - 0.5

@@ -82,7 +82,7 @@ def test_calibrate_from_board_images_by_keys(qtbot, project, scene):
     # the first view's detections are drawn on its images
     qtbot.waitUntil(lambda: views.panes["left"].display is not None, timeout=30_000)
     left = views.panes["left"]
-    assert len(left.control_item.data) == 54  # a ring per corner found
+    assert len(left.control_item.points()) == 54  # a ring per corner found
     assert 1 <= sum(bool(label.toPlainText()) for label in left.control_labels) <= 14  # ids on a few
     # untick the second view with Space
     views.list.setFocus()
@@ -216,7 +216,7 @@ def test_phase_one_from_a_project_video_then_phase_two_from_images(qtbot, projec
     qtbot.waitUntil(lambda: not views.busy and wizard.session.views is not None, timeout=120_000)
     assert views.list.count() >= 3 and all(v.label.startswith("cal-") for v in wizard.session.views.views)
     qtbot.waitUntil(lambda: views.panes["right"].display is not None, timeout=30_000)  # decoded from the video
-    assert len(views.panes["right"].control_item.data) == 54
+    assert len(views.panes["right"].control_item.points()) == 54
     wizard.next()
     qtbot.waitUntil(lambda: not wizard.compute_page.busy, timeout=300_000)
     assert wizard.session.result is not None, wizard.compute_page.text.toPlainText()

@@ -121,18 +121,18 @@ def test_views_set_aside_are_listed_and_open_with_why(qtbot, project, scene):
     views.list.setCurrentRow(3)  # the set-aside view opens: why, and its images
     assert views.view_text.text().startswith("set aside:") and "right image" in views.view_text.text()
     qtbot.waitUntil(lambda: "set aside" in views.panes["left"].title.text(), timeout=30_000)
-    assert views.panes["left"].display is not None and len(views.panes["left"].control_item.data) == 0
+    assert views.panes["left"].display is not None and len(views.panes["left"].control_item.points()) == 0
     # the set-aside view cannot be ticked: three views are used
     assert len(wizard.session.kept()) == 3 and views.isComplete()
     # a found view opens with its points; after the calibration, back here, with its residual vectors
     views.list.setCurrentRow(0)
-    qtbot.waitUntil(lambda: len(views.panes["left"].control_item.data) == 54, timeout=30_000)
-    assert len(views.vectors["left"].xData if views.vectors["left"].xData is not None else []) == 0
+    qtbot.waitUntil(lambda: len(views.panes["left"].control_item.points()) == 54, timeout=30_000)
+    assert len(views.vectors["left"].points()) == 0
     wizard.next()
     qtbot.waitUntil(lambda: not wizard.compute_page.busy, timeout=300_000)
     assert wizard.session.result is not None
     wizard.back()
-    qtbot.waitUntil(lambda: views.vectors["left"].xData is not None and len(views.vectors["left"].xData) > 0,
+    qtbot.waitUntil(lambda: len(views.vectors["left"].points()) > 0,
                     timeout=30_000)
     assert "reprojection RMS" in views.view_text.text()
     # the coverage maps carry their scale, and the next pose is suggested

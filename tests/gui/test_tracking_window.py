@@ -78,10 +78,10 @@ def test_t_tracks_the_object_draws_it_and_ctrl_t_stores_instants_with_the_combin
     _wait_frame(qtbot, window, 10)
     for side, column in (("left", 0), ("right", 1)):
         trail, points = window.tracking.items[side]
-        drawn = np.array([[p.pos().x(), p.pos().y()] for p in points.points()])
+        drawn = points.points()
         expected = item_from_pixels(np.array([truth(stereo, fish, 10, f * fish.length)[column] for f in POINTS]))
         assert drawn.shape == (2, 2) and np.abs(drawn - expected).max() < 0.5
-        x, _ = trail.getData()
+        x = trail.points()[:, 0]
         assert np.isfinite(x).sum() == 2 * 11  # frames 0 to 10 of each vertex's trail
     # Ctrl+T: instants every 4 frames from the object's frame (2, 10, 14, 18; 22 has no right partner)
     ids = window.tracking.store_instants("4")
@@ -285,7 +285,7 @@ def test_shift_t_re_follows_a_vertex_from_the_point_re_picked_on_the_frame_shown
     assert np.allclose(after.left[12], true_left + (0.2, -0.1), atol=1e-6)  # the re-picked point, followed on
     assert "re-followed from frame 12" in _status(window)
     _, points = window.tracking.items["left"]
-    assert sorted(p.symbol() for p in points.points()) == ["o", "star"]  # the corrected vertex drawn apart
+    assert sorted(points.symbols()) == ["o", "star"]  # the corrected vertex drawn apart
 
 
 def test_an_instant_proposed_in_one_project_is_not_joined_in_the_next_one(qtbot, make_window, survey):

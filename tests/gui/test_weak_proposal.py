@@ -22,9 +22,9 @@ def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_w
         state = ws.pick_tool.state
         if state.proposal is None:
             continue
-        colour = pane.proposal_item.opts["pen"].color().getRgb()[:3]
-        style = pane.proposal_item.opts["pen"].style()
-        drawn = pane.proposal_item.getData()[0]
+        colour = pane.proposal_item.pen().color().getRgb()[:3]
+        style = pane.proposal_item.pen().style()
+        drawn = pane.proposal_item.points()
         assert len(drawn) == 1  # drawn, weak or not
         if not state.weak:
             seen["confident"] += 1
@@ -42,7 +42,7 @@ def test_a_weak_proposal_is_drawn_apart_said_and_accepted_by_enter(qtbot, make_w
             qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
         assert ws.pick_tool.state.source is None
         assert np.allclose(ws.pick_tool.last_point.right, proposal)
-        assert len(pane.proposal_item.getData()[0]) == 0 and not pane.proposal_weak
+        assert len(pane.proposal_item.points()) == 0 and not pane.proposal_weak
         if seen["confident"]:
             break
     assert seen["weak"] >= 1 and seen["confident"] >= 1, seen
@@ -58,7 +58,7 @@ def test_a_vertex_proposed_from_elsewhere_is_drawn_said_and_kept_by_enter(qtbot,
     number = next(k for k in left if left[k] is not None and right.get(k) is not None)
     ws = window.workspace
     ws.pick_tool.propose_vertex(left[number], right[number], "track 7, frame 40")
-    drawn = np.column_stack(window.panes["right"].proposal_item.getData())
+    drawn = window.panes["right"].proposal_item.points()
     assert np.allclose(drawn, item_from_pixels(right[number]))
     assert "track 7, frame 40" in window.hint.text() and "Enter accepts" in window.hint.text()
     window.focus_images()
@@ -66,7 +66,7 @@ def test_a_vertex_proposed_from_elsewhere_is_drawn_said_and_kept_by_enter(qtbot,
     if ws.pick_tool.state.pending is not None:  # a guard rail held it: Enter again keeps it, flagged
         qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Return)
     assert ws.pick_tool.state.source is None and np.allclose(ws.pick_tool.last_point.right, right[number])
-    assert len(window.panes["right"].proposal_item.getData()[0]) == 0
+    assert len(window.panes["right"].proposal_item.points()) == 0
 
 
 def test_a_match_proposed_off_the_zoomed_other_image_is_brought_into_view(qtbot, make_window, sample_copy):

@@ -51,7 +51,7 @@ def test_a_pick_and_a_store_update_one_row_among_many(qtbot, make_window, tmp_pa
     assert window.workspace.selection == (new_id,)
     assert str(new_id) in window.calculator.output.toPlainText()
     assert [label.toPlainText() for label in window.panes["left"].labels] == [str(new_id)]
-    x, _ = window.panes["left"].selected_item.getData()
+    x = window.panes["left"].selected_item.points()[:, 0]
     assert len(x) >= 2
     # the Delete key in the list deletes it (one row goes), Ctrl+Z brings it back as one new row
     table.setFocus()

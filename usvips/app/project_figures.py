@@ -37,7 +37,6 @@ import numpy as np
 from usvips.app.calibrations import read_calibration
 from usvips.app.pair_geometry import pair_geometry
 from usvips.app.pointing_settings import pointing_in_use, pointing_with_estimates
-from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, UsvipsError
 from usvips.core.measurements import (
     Measurement,
@@ -266,6 +265,8 @@ def _pointing_only(source: MeasurementInput, measured: Measurement) -> Measureme
     the measurement itself when the calibration's part cannot be told apart (stored per-vertex values)."""
     if source.calibration is None or not measured.joint:
         return measured
+    from usvips.core.calibration.uncertainty import intersect_with_calibration  # not on the window's start
+
     try:
         result = intersect_with_calibration(source.calibration, source.left, source.right, source.station,
                                             source.frame, include_calibration=False,

@@ -11,9 +11,11 @@ The window's row runs ``python -m usvips open SAMPLE`` offscreen (``QT_QPA_PLATF
 ``tank_system1`` opened (its project file made by an untimed first open, as a user's second start finds
 it), its first image pair read and drawn, and the process quits. Its settings and data folders are
 temporary ones, so the user's are not touched. ``qt_window_cpu_s`` is what an empty ``QMainWindow`` shown
-the same way costs (Qt's own floor); ``pyqtgraph_window_cpu_s`` what a window showing two 640 × 480 images
-in pyqtgraph views costs (the floor of the toolkit the panes are made with: importing pyqtgraph makes every
-Qt type and enum).
+the same way costs (Qt's own floor); ``images_window_cpu_s`` what a window showing two 640 × 480 images read
+with OpenCV in plain ``QGraphicsView`` widgets costs (the floor of what the panes are made with: Qt, numpy and
+OpenCV's decoder); ``pyqtgraph_window_cpu_s`` the same two images in pyqtgraph views (what the panes cost
+when they were made with pyqtgraph, which makes every Qt type and enum on import: the plots import it when
+they are first made, never at the start).
 
 The window's children run with their bytecode cached (``PYTHONPYCACHEPREFIX``, a temporary folder, written
 by the untimed first run), as an installed package has it: with ``PYTHONDONTWRITEBYTECODE`` in the
@@ -50,6 +52,21 @@ _PYQTGRAPH_WINDOW = ("import numpy as np\nimport pyqtgraph as pg\nfrom PySide6 i
                      "    box = views.addViewBox(row=0, col=column, lockAspect=True)\n"
                      "    box.addItem(pg.ImageItem(image))\n"
                      "window.show()\napp.processEvents()\nwindow.repaint()\n")
+#: the floor of the panes' toolkit: two 640 x 480 images written as PNG, read back with OpenCV and shown in
+#: plain QGraphicsViews (the script's first argument is a folder to write the images in)
+_IMAGES_WINDOW = ("import sys\nimport cv2\nimport numpy as np\nfrom PySide6 import QtGui, QtWidgets\n"
+                  "app = QtWidgets.QApplication([])\nwindow = QtWidgets.QMainWindow()\n"
+                  "split = QtWidgets.QSplitter()\nwindow.setCentralWidget(split)\n"
+                  "image = np.random.default_rng(0).integers(0, 255, (480, 640), dtype=np.uint8)\n"
+                  "for column in range(2):\n"
+                  "    path = f'{sys.argv[1]}/image{column}.png'\n"
+                  "    cv2.imwrite(path, image)\n"
+                  "    pixels = np.ascontiguousarray(cv2.imread(path, cv2.IMREAD_UNCHANGED))\n"
+                  "    shown = QtGui.QImage(pixels.data, 640, 480, 640, QtGui.QImage.Format.Format_Grayscale8).copy()\n"
+                  "    view = QtWidgets.QGraphicsView(QtWidgets.QGraphicsScene(split))\n"
+                  "    view.scene().addPixmap(QtGui.QPixmap.fromImage(shown))\n"
+                  "    split.addWidget(view)\n"
+                  "window.show()\napp.processEvents()\nwindow.repaint()\n")
 
 
 def child_cpu_s(arguments: list[str], repeats: int = 3, env: dict[str, str] | None = None,
@@ -82,12 +99,16 @@ def window_row(repeats: int, bare: float) -> dict:
         child_cpu_s(command, 1, env, check=True)  # makes the project file and the bytecode; not timed
         cpu = child_cpu_s(command, repeats, env, check=True)
         qt = child_cpu_s([sys.executable, "-c", _EMPTY_WINDOW], repeats, env, check=True)
+        images = [sys.executable, "-c", _IMAGES_WINDOW, folder]
+        child_cpu_s(images, 1, env, check=True)
+        plain = child_cpu_s(images, repeats, env, check=True)
         child_cpu_s([sys.executable, "-c", _PYQTGRAPH_WINDOW], 1, env, check=True)
         toolkit = child_cpu_s([sys.executable, "-c", _PYQTGRAPH_WINDOW], repeats, env, check=True)
     return {"name": "start-up CPU: the window, shown with a sample project's first pair drawn", "n": 1,
             "ours_s": round(cpu, 3), "cpu_s": round(cpu, 3), "baseline": "python -c pass",
             "baseline_s": round(bare, 3), "ratio": round(cpu / bare, 2) if bare > 0 else None,
-            "qt_window_cpu_s": round(qt, 3), "pyqtgraph_window_cpu_s": round(toolkit, 3), "target": None,
+            "qt_window_cpu_s": round(qt, 3), "images_window_cpu_s": round(plain, 3),
+            "pyqtgraph_window_cpu_s": round(toolkit, 3), "target": None,
             "target_s": WINDOW_TARGET_CPU_S,
             "met": bool(cpu <= WINDOW_TARGET_CPU_S), "sample": WINDOW_SAMPLE,
             "load_1min": round(os.getloadavg()[0], 2)}

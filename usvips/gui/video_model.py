@@ -13,17 +13,42 @@ import re
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from usvips.app import video_project
-from usvips.app.video_project import doubt_about, left_frame_time, open_streams, partner_frame
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.gui.signals import Signal
-from usvips.io import video_proxy
-from usvips.io.video_stream import PairReader, Picture
 from usvips.store.interface import ProjectStore
+
+if TYPE_CHECKING:
+    from usvips.io.video_stream import Picture
+
+
+def _video_project():
+    """:mod:`usvips.app.video_project`, imported when first used, not at the window's start (imported here, not
+    lazily at the top, so that any thread may be the first: the import lock guards it)."""
+    from usvips.app import video_project
+
+    return video_project
+
+
+def _video_proxy():
+    """:mod:`usvips.io.video_proxy`, imported when first used, not at the window's start (imported here, not
+    lazily at the top, so that any thread may be the first: the import lock guards it)."""
+    from usvips.io import video_proxy
+
+    return video_proxy
+
+
+def _video_stream():
+    """:mod:`usvips.io.video_stream`, imported when first used, not at the window's start (imported here, not
+    lazily at the top, so that any thread may be the first: the import lock guards it)."""
+    from usvips.io import video_stream
+
+    return video_stream
+
 
 #: bytes a pixel of a cached frame takes: frames are cached as the decoder returned them (YUV 4:2:0 for
 #: H.264/HEVC cameras) and converted to RGB only when shown (about 1 ms a 1080p frame)
@@ -139,7 +164,7 @@ def prefetch_order(frame: int, first: int, last: int, direction: int = 1, ahead:
 
 def _item_bytes(item: tuple) -> int:
     """Bytes of the pictures or arrays in a cached item (numbers, labels: none)."""
-    return sum(int(a.nbytes) for a in item if isinstance(a, (np.ndarray, Picture)))
+    return sum(int(a.nbytes) for a in item if isinstance(a, (np.ndarray, _video_stream().Picture)))
 
 
 class FrameCache:
@@ -191,8 +216,8 @@ class FrameSource:
     the compact form the cache holds; ``pair(frame)`` → the same with RGB arrays."""
 
     def __init__(self, project: ProjectStore, label: str) -> None:
-        self.video, self.left, self.right = open_streams(project, label)
-        self._reader = PairReader(self.left, self.right)
+        self.video, self.left, self.right = _video_project().open_streams(project, label)
+        self._reader = _video_stream().PairReader(self.left, self.right)
         self._lock = threading.Lock()
 
     @property
@@ -206,9 +231,9 @@ class FrameSource:
     def pictures(self, frame: int, offset: int | None = None) -> tuple[Picture, Picture, int, float]:
         video = self.video if offset is None else replace(self.video, offset_frames=int(offset))
         with self._lock:
-            partner = partner_frame(video, frame, self.right.frame_count)
+            partner = _video_project().partner_frame(video, frame, self.right.frame_count)
             left, right = self._reader.pictures(frame, partner)  # both cameras at once
-            return left, right, partner, left_frame_time(self.left, frame)
+            return left, right, partner, _video_project().left_frame_time(self.left, frame)
 
     def pair(self, frame: int, offset: int | None = None) -> tuple[np.ndarray, np.ndarray, int, float]:
         return rgb_pair(self.pictures(frame, offset))
@@ -223,7 +248,7 @@ class FrameSource:
         the proxies' stamps only: the recordings are indexed already)."""
         plan = []
         for stream in (self.left, self.right):
-            state = video_proxy.proxy_state(folder, stream)
+            state = _video_proxy().proxy_state(folder, stream)
             if state.state != "fresh":
                 plan.append((stream.paths, state.path))
         return plan
@@ -234,7 +259,7 @@ class FrameSource:
         with self._lock:
             for stream in (self.left, self.right):
                 if not stream.has_proxy:
-                    video_proxy.attach_proxy(stream, folder)
+                    _video_proxy().attach_proxy(stream, folder)
             return self.has_proxies
 
     def detach_proxies(self) -> None:
@@ -315,7 +340,7 @@ def sync_decision(estimate: SyncEstimate) -> tuple[str, str | None]:
     edge = estimate.edge_problem()
     if edge is not None:
         return "refuse", edge
-    doubt = doubt_about(estimate)
+    doubt = _video_project().doubt_about(estimate)
     return ("store", None) if doubt is None else ("ask", doubt)
 
 
@@ -378,7 +403,7 @@ class VideoSession:
     def sync_plan(self):
         """What the offset estimate needs, read from the project now (the estimate then runs in a worker
         on files only: :func:`usvips.app.video_project.run_sync`)."""
-        return video_project.plan_sync(self.project, self.label)
+        return _video_project().plan_sync(self.project, self.label)
 
     def sync_outcome(self, estimate: SyncEstimate) -> SyncOutcome:
         """The decision on a fresh estimate, in words (see :func:`sync_decision`)."""
@@ -412,14 +437,14 @@ class VideoSession:
         """(label, left frame, offset, folder) of the image pair the frames shown would become; refuses a
         label already used before anything is written."""
         nav = self.navigator
-        label, folder = video_project.plan_taken_pair(self.project, nav.label, nav.frame, pair_label)
+        label, folder = _video_project().plan_taken_pair(self.project, nav.label, nav.frame, pair_label)
         return label, nav.frame, nav.offset, folder
 
     def add_taken_pair(self, pair_label: str, paths, medium: str) -> None:
         """Add written frames as the image pair ``pair_label`` taken in ``medium``; on a refusal the files
         are removed (nothing half-made stays behind) and the error raised."""
         try:
-            video_project.add_taken_pair(self.project, pair_label, paths, medium)
+            _video_project().add_taken_pair(self.project, pair_label, paths, medium)
         except UsvipsError:
             for path in paths:
                 path.unlink(missing_ok=True)

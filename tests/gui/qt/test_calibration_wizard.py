@@ -44,10 +44,8 @@ def _wait_idle(qtbot, page):
 
 
 def _wizard(qtbot, session):
-    from usvips.gui.qt.app import configure
     from usvips.gui.qt.calibration_wizard import CalibrationWizard
 
-    configure()
     wizard = CalibrationWizard(session)
     qtbot.addWidget(wizard)
     wizard.show()
@@ -105,7 +103,7 @@ def test_each_wizard_reaches_the_command_lines_parameters(qtbot, project, tmp_pa
         assert result.calibration.parameters[name].value == pytest.approx(estimate["value"], rel=1e-6, abs=1e-9), name
     assert result.calibration.sigma0_px == pytest.approx(cli["sigma0_px"], rel=1e-6)
     assert wizard.results_page.parameters.rowCount() > 10
-    x, _ = wizard.results_page.vectors["left"].getData()
+    x = wizard.results_page.vectors["left"].points()[:, 0]
     assert len(x) >= 2 * 6  # residual vectors drawn on the first pair
     before = len(p.calibrations())
     wizard.next()

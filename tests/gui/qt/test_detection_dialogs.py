@@ -29,7 +29,7 @@ def test_detect_on_the_pair_shown_stores_draws_and_opens_review(qtbot, make_wind
                     == sorted(o.id for o in stored), timeout=5000)
     from usvips.gui.qt.detection_dialogs import _STATES
     circles = _STATES[id(window.workspace)].circles
-    assert {side: len(item.data) for side, item in circles.items.items()} == {"left": 6, "right": 6}
+    assert {side: len(item.points()) for side, item in circles.items.items()} == {"left": 6, "right": 6}
     # a handle on each keypoint in each image, made a few a turn; drawn again, the same handles are kept
     qtbot.waitUntil(lambda: len(circles.handles) == 12, timeout=5000)
     made = {key: handle for key, (handle, _) in circles.handles.items()}

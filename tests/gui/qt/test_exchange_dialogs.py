@@ -188,10 +188,8 @@ def test_the_wizards_last_page_writes_the_report_of_its_result(qtbot, sample_cop
     in a worker, and says so; pressed while it runs it would cancel."""
     from usvips.app.samples import open_or_create_from_manifest
     from usvips.gui.calibration_session import CalibrationSession
-    from usvips.gui.qt.app import configure
     from usvips.gui.qt.calibration_wizard import SavePage
 
-    configure()
     project = open_or_create_from_manifest(sample_copy("rov_flatport"))
     try:
         session = CalibrationSession(project, "air", automatic_blunders=True)

@@ -15,12 +15,11 @@ FIGURE = ObjectList.COLUMNS.index("figure")  # the object list's figure column
 
 
 def _drawn_curve(pane) -> np.ndarray:
-    x, y = pane.curve_item.getData()
-    return np.array([pixel_from_item(a, b) for a, b in zip(x, y, strict=True)])
+    return np.array([pixel_from_item(a, b) for a, b in pane.curve_item.points()])
 
 
 def _drawn_points(item) -> np.ndarray:
-    return np.array([pixel_from_item(p.x(), p.y()) for p in (s.pos() for s in item.points())]).reshape(-1, 2)
+    return np.array([pixel_from_item(x, y) for x, y in item.points()]).reshape(-1, 2)
 
 
 def test_the_window_opens_a_sample_and_shows_both_images(qtbot, make_window, sample_copy):
@@ -80,7 +79,7 @@ def test_measuring_a_fish_with_the_mouse_stores_it_with_its_true_length(qtbot, m
     assert "mm" in window.object_list.text(0, "figure")
     window.object_list.table.selectRow(0)
     assert "length" in window.calculator.output.toPlainText()
-    x, _ = window.panes["left"].selected_item.getData()
+    x = window.panes["left"].selected_item.points()[:, 0]
     assert len(x) >= 2  # the selected fish is drawn highlighted
     window.actions["undo"].trigger()
     assert window.workspace.project.objects() == [] and window.object_list.row_count() == 0
@@ -369,7 +368,7 @@ def test_linked_navigation_brings_the_other_pane_to_the_conjugate_region(qtbot, 
         tool = window.workspace.pick_tool
         tool.last_point = tool.intersect(left[number], right[number])  # working depth
         window.panes["left"].zoom_to(4.0, tuple(left[number]))  # zoom and pan the left pane only
-        rect = window.panes["right"].viewbox.viewRect()
+        rect = window.panes["right"].view_rect()
         centre = np.array(pixel_from_item(rect.center().x(), rect.center().y()))
         assert np.linalg.norm(centre - right[number]) < 1.0, number  # the same target, not the same pixel
         assert window.panes["right"].zoom_level() == pytest.approx(4.0, rel=1e-3)

@@ -17,9 +17,7 @@ def test_item_and_pixel_conventions_are_inverse_and_half_a_pixel_apart():
 
 @pytest.fixture
 def pane(qtbot):
-    from usvips.gui.qt.app import configure
 
-    configure()
     pane = StereoPane("left")
     qtbot.addWidget(pane)
     pane.resize(640, 480)
@@ -93,7 +91,7 @@ def test_the_loupe_shows_the_neighbourhood_of_the_cursor(qtbot, pane):
 def _hover(qtbot, pane, pixel):
     pos = viewport_point(pane, pixel)
     qtbot.mouseMove(pane.graphics.viewport(), pos + QtCore.QPoint(3, 2))  # the cursor may already be there
-    qtbot.wait(60)  # pyqtgraph's scene drops mouse moves that follow one another too closely
+    qtbot.wait(60)  # two moves in a row: the second one is a move of its own
     with qtbot.waitSignal(pane.hovered, timeout=2000):
         qtbot.mouseMove(pane.graphics.viewport(), pos)
     return pos
@@ -141,7 +139,7 @@ def test_the_loupe_magnification_is_adjustable(qtbot, pane):
 
 
 def _label_boxes(pane):
-    return [label.sceneBoundingRect() for label in pane.labels]
+    return [label.screen_rect(pane.graphics) for label in pane.labels]
 
 
 @pytest.mark.parametrize("zoom", [None, 4.0])
@@ -155,7 +153,7 @@ def test_labels_of_objects_side_by_side_do_not_cover_each_other(qtbot, pane, zoo
         pane.zoom_to(zoom, (203.0, 150.0))
         qtbot.waitUntil(lambda: not pane._label_timer.isActive(), timeout=2000)
     boxes = [box for box, label in zip(_label_boxes(pane), pane.labels, strict=True)
-             if pane.viewbox.viewRect().contains(label.home)]
+             if pane.view_rect().contains(label.home)]
     assert len(boxes) >= 2
     assert not any(a.intersects(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
 
@@ -183,3 +181,61 @@ def test_target_numbers_side_by_side_never_run_into_each_other(qtbot, pane, zoom
     assert all(label.BOX.alpha() > 100 for label in pane.control_labels)
     pane.set_control(marks[:1])  # alone: back beside its point
     assert pane.control_labels[0].transform().dy() == pytest.approx(pane.control_labels[0].home_shift[1])
+
+
+def _pixel_under(pane, point):
+    return np.array(pane.pixel_at_scene(pane.graphics.mapToScene(point)))
+
+
+def test_the_wheel_zooms_about_the_cursor(qtbot, pane):
+    from PySide6 import QtGui, QtWidgets
+
+    pane.zoom_to(2.0, (150.0, 120.0))
+    viewport = pane.graphics.viewport()
+    point = viewport_point(pane, (170.0, 100.0))
+    before, level = _pixel_under(pane, point), pane.zoom_level()
+    for _ in range(2):  # two notches forward
+        event = QtGui.QWheelEvent(QtCore.QPointF(point), QtCore.QPointF(viewport.mapToGlobal(point)), QtCore.QPoint(),
+                                  QtCore.QPoint(0, 120), QtCore.Qt.MouseButton.NoButton,
+                                  QtCore.Qt.KeyboardModifier.NoModifier, QtCore.Qt.ScrollPhase.NoScrollPhase, False)
+        QtWidgets.QApplication.sendEvent(viewport, event)
+    assert pane.zoom_level() == pytest.approx(level * 1.02 ** 30, rel=1e-6)  # zoomed in ...
+    assert np.allclose(_pixel_under(pane, point), before, atol=1e-6)  # ... about the pixel under the cursor
+
+
+def test_a_left_drag_pans_and_is_no_click(qtbot, pane):
+    pane.zoom_to(4.0, (200.0, 150.0))
+    viewport = pane.graphics.viewport()
+    start, end = QtCore.QPoint(300, 200), QtCore.QPoint(240, 170)
+    grabbed, level = _pixel_under(pane, start), pane.zoom_level()
+    received = []
+    pane.clicked.connect(lambda x, y: received.append((x, y)))
+    qtbot.mousePress(viewport, QtCore.Qt.MouseButton.LeftButton, pos=start)
+    for step in range(1, 7):
+        qtbot.mouseMove(viewport, start + (end - start) * step / 6)
+    qtbot.mouseRelease(viewport, QtCore.Qt.MouseButton.LeftButton, pos=end)
+    assert np.allclose(_pixel_under(pane, end), grabbed, atol=1e-6)  # the image followed the mouse
+    assert pane.zoom_level() == pytest.approx(level) and received == []
+
+
+def test_box_zoom_shows_the_box_drawn_and_makes_no_pick(qtbot, pane):
+    pane.fit()
+    pane.set_box_zoom(True)
+    viewport = pane.graphics.viewport()
+    corners = [viewport_point(pane, (100.0, 80.0)), viewport_point(pane, (180.0, 140.0))]
+    received = []
+    pane.clicked.connect(lambda x, y: received.append((x, y)))
+    qtbot.mousePress(viewport, QtCore.Qt.MouseButton.LeftButton, pos=corners[0])
+    for step in range(1, 5):
+        qtbot.mouseMove(viewport, corners[0] + (corners[1] - corners[0]) * step / 4)
+    qtbot.mouseRelease(viewport, QtCore.Qt.MouseButton.LeftButton, pos=corners[1])
+    shown = pane.view_rect()
+    drawn = QtCore.QRectF(*item_from_pixels(np.array([100.0, 80.0]))[0], 80.0, 60.0)
+    assert shown.contains(drawn.adjusted(1, 1, -1, -1))  # the box is shown whole (corners within a screen px)
+    assert shown.width() < 1.25 * drawn.width() or shown.height() < 1.25 * drawn.height()  # and fills the view
+    assert received == []
+    qtbot.mouseClick(viewport, QtCore.Qt.MouseButton.LeftButton, pos=viewport_point(pane, (140.0, 110.0)))
+    assert received == []  # a click in box-zoom mode is no pick
+    pane.set_box_zoom(False)
+    qtbot.mouseClick(viewport, QtCore.Qt.MouseButton.LeftButton, pos=viewport_point(pane, (140.0, 110.0)))
+    assert len(received) == 1

@@ -71,7 +71,7 @@ def test_the_qa_panel_lists_breaches_and_goes_to_their_pair(qtbot, make_window, 
     assert ws.selection == (too_long[0],)
     vertices = ws.stored_object(too_long[0]).vertices
     middle = np.mean([(v.xl, v.yl) for v in vertices], axis=0) + 0.5  # pixels to the view's coordinates
-    centre = window.panes["left"].viewbox.viewRect().center()
+    centre = window.panes["left"].view_rect().center()
     assert np.hypot(centre.x() - middle[0], centre.y() - middle[1]) < 2.0  # centred on the object
     assert window.object_list.selected_ids() == [too_long[0]]
     # deleting the object takes it off the list

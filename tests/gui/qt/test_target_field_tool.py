@@ -128,7 +128,7 @@ def test_the_dialog_by_mouse_and_keyboard(qtbot, scene_project, tmp_path):
     handle = tool.overlays["left"].handles[wrong]
     target = scene.truth["left"][scene.control.ids.index(wrong)]
     handle.setPos(QtCore.QPointF(*(target + 0.5)))  # view coordinates: pixel + half a pixel
-    handle.sigPositionChangeFinished.emit(handle)
+    handle.dropped.emit(handle)
     qtbot.waitUntil(lambda: tool.model.decision("left", wrong) == "placed", timeout=2000)
     assert np.allclose(tool.model.moved[("left", wrong)], target)
     assert "placed" in tool.hint.text()

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import InvalidParameterError
 from usvips.core.stereo_calibration import StereoCalibration
 
@@ -57,6 +56,8 @@ def correlated_covariances(calibration: StereoCalibration, left: np.ndarray, rig
     pointing sigmas ``sigma_px`` (N, 2) [left, right] px and left–right correlations ``correlation`` (N,)
     (see the module docstring). A vertex whose rays fail for a pixel a step away (at the edge of what the
     housing sees) gets NaN: the caller keeps its independent covariance, the larger one."""
+    from usvips.core.calibration.uncertainty import intersect_with_calibration  # not needed to import this
+
     left = np.asarray(left, dtype=np.float64).reshape(-1, 2)
     right = np.asarray(right, dtype=np.float64).reshape(-1, 2)
     sigma = np.asarray(sigma_px, dtype=np.float64).reshape(-1, 2)

@@ -19,7 +19,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from usvips.core.calibration.uncertainty import covariance_parts
 from usvips.core.errors import DegenerateGeometryError
 from usvips.core.measurements.combined_figure import CombinedFigure
 from usvips.core.measurements.correlated_pointing import correlations, with_correlation
@@ -152,6 +151,10 @@ def vertex_covariance_parts(calibration: StereoCalibration, left: np.ndarray, ri
                             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
     """:func:`intersect_vertices` with the joint covariance in its two parts (3N, 3N) m² that add up to
     it: vertices, pointing part, calibration part, ray RMS (m), range (m)."""
+    # here, not at the top: the calibration's model and uncertainty are not needed to read kinds, rules or a
+    # calibration's placement (the window's start)
+    from usvips.core.calibration.uncertainty import covariance_parts
+
     left = np.asarray(left, dtype=np.float64).reshape(-1, 2)
     right = np.asarray(right, dtype=np.float64).reshape(-1, 2)
     sigma = per_vertex(pointing_sigma_px, len(left))

@@ -8,16 +8,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import pyqtgraph as pg
 from PySide6 import QtWidgets
 
 from usvips.gui.qt.error_report import install_error_handler
 from usvips.gui.qt.gui_thread_gc import collect_on_the_gui_thread
-
-
-def configure() -> None:
-    """Global pyqtgraph settings, once at start-up: row-major images (ARCHITECTURE.md) and antialiased marks."""
-    pg.setConfigOptions(imageAxisOrder="row-major", antialias=True)
 
 
 def application() -> QtWidgets.QApplication:
@@ -30,7 +24,6 @@ def application() -> QtWidgets.QApplication:
 def run(project: str | Path | None = None, pair: str | None = None) -> int:
     """Show the main window (opening ``project``, a ``*.usvips`` file or a sample directory, on ``pair``)
     and run the event loop; returns the exit code."""
-    configure()
     app = application()
     install_error_handler()
     collect_on_the_gui_thread()

@@ -31,8 +31,7 @@ import sys, time
 start = float(sys.argv[1])
 from PySide6 import QtCore, QtWidgets
 if sys.argv[2] == "usvips":
-    from usvips.gui.qt.app import application, configure
-    configure()
+    from usvips.gui.qt.app import application
     app = application()
     from usvips.gui.qt.main_window import MainWindow
     window = MainWindow(settings=QtCore.QSettings(sys.argv[3], QtCore.QSettings.Format.IniFormat))
@@ -63,8 +62,7 @@ if mode == "baseline":  # Qt, a window and the two decoded images: what any view
     app.processEvents()
 else:
     from usvips.core.enhance import Pipeline
-    from usvips.gui.qt.app import application, configure
-    configure()
+    from usvips.gui.qt.app import application
     app = application()
     from usvips.gui.qt.main_window import MainWindow
     window = MainWindow(settings=QtCore.QSettings(settings, QtCore.QSettings.Format.IniFormat))
@@ -362,7 +360,7 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
 
     from usvips.app.samples import create_from_manifest
     from usvips.core.enhance import Pipeline
-    from usvips.gui.qt.app import application, configure
+    from usvips.gui.qt.app import application
     from usvips.gui.qt.main_window import MainWindow
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -371,7 +369,6 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
         yield _startup_row(settings)
         project = _big_pair(tmp / "big")
         yield _memory_row(tmp / "big", project, settings)
-        configure()
         app = application()
         window = MainWindow(settings=QtCore.QSettings(settings, QtCore.QSettings.Format.IniFormat))
         window.resize(1366, 768)

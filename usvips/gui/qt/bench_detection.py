@@ -88,7 +88,7 @@ def freeze_row(scale: float = 1.0) -> dict:
     from PySide6 import QtCore
 
     from usvips.app.detection_model import bundled_model_path
-    from usvips.gui.qt.app import application, configure
+    from usvips.gui.qt.app import application
     from usvips.gui.qt.detection_dialogs import choose_model, detect_range
     from usvips.gui.qt.main_window import MainWindow
 
@@ -97,7 +97,6 @@ def freeze_row(scale: float = 1.0) -> dict:
     with tempfile.TemporaryDirectory(prefix="usvips-bench-detect-") as tmp:
         folder = Path(tmp)
         path = _survey(folder, frames)
-        configure()
         app = application()
         window = MainWindow(settings=QtCore.QSettings(str(folder / "settings.ini"), QtCore.QSettings.Format.IniFormat))
         window.resize(1366, 768)

@@ -35,11 +35,10 @@ def _shown_times(location: str, folder: Path, trials: int) -> list[float]:
     """Seconds from each of bob's commits to ann's list showing it, on the survey at ``location``."""
     from PySide6 import QtCore
 
-    from usvips.gui.qt.app import application, configure
+    from usvips.gui.qt.app import application
     from usvips.gui.qt.main_window import MainWindow
     from usvips.store.opening import open_project
 
-    configure()
     app = application()
     settings = QtCore.QSettings(str(folder / f"{uuid.uuid4().hex}.ini"), QtCore.QSettings.Format.IniFormat)
     window = MainWindow(settings=settings)

@@ -37,7 +37,7 @@ PAGES, JUMPS = 60, 20
 def scroll_row(scale: float = 1.0) -> dict:
     from PySide6 import QtCore
 
-    from usvips.gui.qt.app import application, configure
+    from usvips.gui.qt.app import application
     from usvips.gui.qt.bench import survey_project
     from usvips.gui.qt.main_window import MainWindow
 
@@ -46,7 +46,6 @@ def scroll_row(scale: float = 1.0) -> dict:
     with tempfile.TemporaryDirectory(prefix="usvips-bench-list-") as folder:
         folder = Path(folder)
         survey = survey_project(folder / "survey", n)
-        configure()
         app = application()
         window = MainWindow(settings=QtCore.QSettings(str(folder / "settings.ini"), QtCore.QSettings.Format.IniFormat))
         window.resize(1366, 768)

@@ -137,7 +137,7 @@ def freeze_row(scale: float = 1.0) -> dict:
     """The row (see the module docstring); ``scale`` × 40 frames of video."""
     from PySide6 import QtCore
 
-    from usvips.gui.qt.app import application, configure
+    from usvips.gui.qt.app import application
     from usvips.gui.qt.main_window import MainWindow
 
     frames = max(12, round(40 * scale))
@@ -145,7 +145,6 @@ def freeze_row(scale: float = 1.0) -> dict:
     with tempfile.TemporaryDirectory(prefix="usvips-bench-freeze-") as tmp:
         folder = Path(tmp)
         path, object_id, start = _survey(folder, frames)
-        configure()
         app = application()
         window = MainWindow(settings=QtCore.QSettings(str(folder / "settings.ini"),
                                                       QtCore.QSettings.Format.IniFormat))

@@ -14,7 +14,6 @@ import json
 import re
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.calibration.phases import DEFAULT_HOUSING
@@ -27,6 +26,7 @@ from usvips.gui.qt import save_page
 from usvips.gui.qt.exchange_dialogs import WizardReport
 from usvips.gui.qt.field_errors import FormFields
 from usvips.gui.qt.housing_value_form import fill_known_form
+from usvips.gui.qt.marks import Lines
 from usvips.gui.qt.pane import StereoPane, item_from_pixels
 from usvips.gui.qt.worker import Worker, start
 from usvips.gui.workspace import Workspace, pair_image_paths, read_pair
@@ -571,8 +571,8 @@ class ResultsPage(QtWidgets.QWizardPage):
             self.panes[side].setMinimumSize(220, 180)
             self.panes[side].set_loupe_enabled(False)
             images.addWidget(self.panes[side])
-            self.vectors[side] = pg.PlotCurveItem(pen=pg.mkPen((255, 60, 60), width=2), connect="pairs")
-            self.panes[side].viewbox.addItem(self.vectors[side], ignoreBounds=True)
+            self.vectors[side] = Lines((255, 60, 60), width=2, connect="pairs")
+            self.panes[side].add_mark(self.vectors[side])
         self.legend = QtWidgets.QLabel(f"red: residual vectors ×{RESIDUAL_SCALE:g} (a 0.5 px residual is drawn "
                                        f"{0.5 * RESIDUAL_SCALE:g} image pixels long)")
         buttons = QtWidgets.QHBoxLayout()
@@ -763,7 +763,7 @@ class ResultsPage(QtWidgets.QWizardPage):
                 start = np.array(values[:2] if side == "left" else values[2:])
                 segments += [start, start + RESIDUAL_SCALE * np.array([r.vx, r.vy])]
             data = item_from_pixels(np.array(segments)) if segments else np.zeros((0, 2))
-            self.vectors[side].setData(data[:, 0], data[:, 1], connect="pairs")
+            self.vectors[side].set_points(data)
 
     def sigma0_ratio(self) -> float | None:
         """σ0 in units of the a-priori pointing σ (1: residuals as large as assumed), None before a result."""

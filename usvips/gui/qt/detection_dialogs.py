@@ -9,13 +9,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
-import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from usvips.app.detection_model import model_path_for, project_model_path
 from usvips.core.errors import UsvipsError
 from usvips.gui.detect_model import DetectSession, correct_keypoint, proposal_keypoints, sigma_circles
 from usvips.gui.messages import Messages
+from usvips.gui.qt.marks import Circles, Handle
 from usvips.gui.qt.pane import item_from_pixels
 from usvips.gui.window_context import WindowContext
 
@@ -35,19 +35,19 @@ class SigmaCircles:
     reviewer drags to correct it (one undoable edit), redrawn when the pair or frame shown, or the objects,
     change (usvips.gui.detect_model.sigma_circles, proposal_keypoints, correct_keypoint).
 
-    A handle is a pyqtgraph item of its own (a few milliseconds each to make): the handles of keypoints
+    A handle is a graphics item of its own (a few milliseconds each to make): the handles of keypoints
     still shown are moved, not made again, and new ones are made :data:`HANDLES_PER_TURN` a turn of the
     event loop, so that a run's many proposals, or a review's every accept, do not freeze the window."""
 
     def __init__(self, context: WindowContext) -> None:
         self.context = context
-        self.handles: dict[tuple[int, int, str], tuple[pg.TargetItem, object]] = {}
+        self.handles: dict[tuple[int, int, str], tuple[Handle, object]] = {}
         self._wanted: dict[tuple[int, int, str], tuple[float, float]] = {}
         self._growing = False
         self.items = {}
         for side, pane in context.panes.items():
-            item = pg.ScatterPlotItem(pxMode=False, symbol="o", brush=None, pen=pg.mkPen(SIGMA_COLOUR, width=1.5))
-            pane.viewbox.addItem(item, ignoreBounds=True)
+            item = Circles(SIGMA_COLOUR, width=1.5)
+            pane.add_mark(item)
             self.items[side] = item
         ws = context.workspace
         for event in (ws.pair_changed, ws.objects_changed):
@@ -58,15 +58,15 @@ class SigmaCircles:
         circles = sigma_circles(ws)
         for side, item in self.items.items():
             rows = circles[side]
-            item.setData(pos=item_from_pixels(rows[:, :2]), size=2 * rows[:, 2])
+            item.set_circles(item_from_pixels(rows[:, :2]), 2 * rows[:, 2])
         self._wanted = {(object_id, index, side): pixel for object_id, index, side, pixel in proposal_keypoints(ws)}
         for key in [key for key in self.handles if key not in self._wanted]:
             handle, pane = self.handles.pop(key)
-            pane.viewbox.removeItem(handle)
+            pane.remove_mark(handle)
         for key, (handle, _) in self.handles.items():
             position = tuple(item_from_pixels(self._wanted[key])[0])
             if (handle.pos().x(), handle.pos().y()) != position:
-                handle.setPos(position)
+                handle.setPos(*position)
         if len(self.handles) < len(self._wanted) and not self._growing:
             self._growing = True
             self._next_turn()
@@ -77,11 +77,11 @@ class SigmaCircles:
         for key in missing:
             object_id, index, side = key
             pane = self.context.panes[side]
-            handle = pg.TargetItem(tuple(item_from_pixels(self._wanted[key])[0]), size=9, symbol="o",
-                                   pen=pg.mkPen(SIGMA_COLOUR, width=1), hoverPen=pg.mkPen((255, 255, 255), width=2))
+            handle = Handle(tuple(item_from_pixels(self._wanted[key])[0]), 9, "o", SIGMA_COLOUR, 1,
+                            (255, 255, 255), 2)
             handle.setToolTip(f"object {object_id}: drag to correct this keypoint")
-            handle.sigPositionChangeFinished.connect(lambda item, key=key: self._moved(*key, item))
-            pane.viewbox.addItem(handle, ignoreBounds=True)
+            handle.dropped.connect(lambda item, key=key: self._moved(*key, item))
+            pane.add_mark(handle)
             self.handles[key] = (handle, pane)
         self._growing = len(self.handles) < len(self._wanted)
         if self._growing:

@@ -5,13 +5,13 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtWidgets
 
 from usvips.core.enhance import OPERATIONS, Operation, Pipeline, balance_pair
 from usvips.core.errors import UsvipsError
 from usvips.gui.panel_registry import Panel, register
 from usvips.gui.pick_tool import SIDES
+from usvips.gui.qt.histogram_view import HistogramView
 from usvips.gui.workspace import Workspace
 
 #: Starting values for operations whose parameters have no default in core.
@@ -45,13 +45,8 @@ class EnhancementPanel(QtWidgets.QWidget):
         reset.setToolTip("back to the original image(s)")
         balance = QtWidgets.QPushButton("Balance right to left")
         balance.setToolTip("levels on the right image so that its mean and spread match the left (thesis 3.4.3)")
-        self.histogram = pg.PlotWidget(background=None)
+        self.histogram = HistogramView({"original": ((150, 150, 150), 1.0), "processed": ((255, 140, 0), 1.5)})
         self.histogram.setMinimumHeight(120)
-        self.histogram.hideAxis("left")
-        self.histogram.setMouseEnabled(False, False)
-        self.histogram.addLegend(offset=(5, 5))
-        self.original_curve = self.histogram.plot(pen=pg.mkPen((150, 150, 150), width=1), name="original")
-        self.processed_curve = self.histogram.plot(pen=pg.mkPen((255, 140, 0), width=1.5), name="processed")
         self.status = QtWidgets.QLabel("")
         self.status.setWordWrap(True)
         row = QtWidgets.QHBoxLayout()
@@ -173,11 +168,8 @@ class EnhancementPanel(QtWidgets.QWidget):
 
     def show_histograms(self, original: np.ndarray | None, processed: np.ndarray | None) -> None:
         """Luminance histograms (counts per grey level, normalised) of the original and processed image."""
-        for curve, counts in ((self.original_curve, original), (self.processed_curve, processed)):
-            if counts is None:
-                curve.setData([], [])
-            else:
-                curve.setData(np.arange(len(counts)), counts / max(counts.max(), 1))
+        self.histogram.set_counts("original", original)
+        self.histogram.set_counts("processed", processed)
 
 
 #: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it

@@ -976,7 +976,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if not hasattr(self, "_following"):
             self._following = False
             for side in SIDES:
-                self.panes[side].viewbox.sigRangeChanged.connect(lambda *_, s=side: self._follow(s))
+                self.panes[side].range_changed.connect(lambda s=side: self._follow(s))
         if self.actions["link"].isChecked():
             self._follow("left")
 
@@ -986,7 +986,7 @@ class MainWindow(QtWidgets.QMainWindow):
         source, target = self.panes[side], self.panes["right" if side == "left" else "left"]
         if source.display is None or target.display is None:
             return
-        rect = source.viewbox.viewRect()
+        rect = source.view_rect()
         centre = pixel_from_item(rect.center().x(), rect.center().y())
         try:
             conjugate = self.workspace.pick_tool.conjugate(side, centre)

@@ -11,10 +11,18 @@ from __future__ import annotations
 
 from PySide6 import QtCore, QtWidgets
 
-from usvips.app import video_project
 from usvips.gui.qt.worker import Cancelled, Worker
 from usvips.gui.window_context import WindowContext
 from usvips.store.interface import ProjectStore
+
+
+def _video_project():
+    """:mod:`usvips.app.video_project`, imported when first used, not at the window's start (imported here, not
+    lazily at the top, so that any thread may be the first: the import lock guards it)."""
+    from usvips.app import video_project
+
+    return video_project
+
 
 #: how many changed files a warning names before it says "and N more"
 NAMED = 3
@@ -56,8 +64,8 @@ class MediaCheck:
             def report(done: int, total: int) -> None:
                 progress(done / max(total, 1))
             try:
-                return video_project.verify_media(records, report, cancelled)
-            except video_project.Cancelled:
+                return _video_project().verify_media(records, report, cancelled)
+            except _video_project().Cancelled:
                 raise Cancelled from None
 
         def done(problems: list[tuple[str, str]]) -> None:

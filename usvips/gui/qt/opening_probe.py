@@ -67,9 +67,8 @@ def main(argv: list[str]) -> int:
     settings_path, repeats, *locations = argv
     from PySide6 import QtCore
 
-    from usvips.gui.qt.app import application, configure
+    from usvips.gui.qt.app import application
 
-    configure()
     app = application()
     from usvips.gui.qt.main_window import MainWindow
 

@@ -1,25 +1,27 @@
-"""One stereo pane: an image in a pyqtgraph ViewBox with zoom, pan, a crosshair cursor, a loupe, and
-the marks (picks, proposal, epipolar curve, objects) the window asks it to draw.
+"""One stereo pane: an image in a plain-Qt view (:class:`usvips.gui.qt.image_view.ImageView`) with zoom,
+pan, a crosshair cursor, a loupe, and the marks (picks, proposal, epipolar curve, objects;
+:mod:`usvips.gui.qt.marks`) the window asks it to draw.
 
 The pane converts between the view and image pixels in exactly one place (:func:`pixel_from_item` and
-:func:`item_from_pixels`): pyqtgraph's ImageItem puts pixel (i, j) on the square [i, i+1) × [j, j+1) of
-its own coordinates, while USVIPS pixels have their origin at the centre of the top-left pixel
+:func:`item_from_pixels`): the image item puts pixel (i, j) on the square [i, i+1) × [j, j+1) of its own
+(= view) coordinates, while USVIPS pixels have their origin at the centre of the top-left pixel
 (ARCHITECTURE.md), so the two differ by half a pixel. Scene → item goes through the item's transform
-(``mapFromScene``), never by hand.
+(``mapFromScene``), never by hand. The pane is plain Qt so that the window starts without pyqtgraph (the
+plots import it when they are first shown).
 """
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.gui.label_layout import keep_inside, stack_labels
 from usvips.gui.outline_set import OutlineSet, raster, raster_scale
+from usvips.gui.qt.image_view import ImageView
+from usvips.gui.qt.marks import Lines, MarkLabel, Points, pen
 from usvips.gui.view_options import LOUPE_SCALES
 
-#: ImageItem coordinate of the centre of pixel 0.
+#: Image item (view) coordinate of the centre of pixel 0.
 PIXEL_CENTRE = 0.5
 LOUPE_RADIUS = 10  # image pixels each side of the cursor
 LOUPE_SCALE = 8
@@ -35,12 +37,12 @@ COLOURS = {"control": (60, 220, 120), "cursor": (0, 230, 0), "pick": (255, 40, 4
 
 
 def pixel_from_item(x: float, y: float) -> tuple[float, float]:
-    """ImageItem coordinates → USVIPS pixels."""
+    """Image item (view) coordinates → USVIPS pixels."""
     return x - PIXEL_CENTRE, y - PIXEL_CENTRE
 
 
 def item_from_pixels(pixels: np.ndarray) -> np.ndarray:
-    """USVIPS pixels (N, 2) → ImageItem (= view) coordinates."""
+    """USVIPS pixels (N, 2) → image item (= view) coordinates."""
     return np.asarray(pixels, dtype=np.float64).reshape(-1, 2) + PIXEL_CENTRE
 
 
@@ -55,45 +57,27 @@ def to_qimage(array: np.ndarray) -> QtGui.QImage:
     return QtGui.QImage(array.data, w, h, 3 * w, QtGui.QImage.Format.Format_RGB888).copy()
 
 
-class MarkLabel(QtWidgets.QGraphicsSimpleTextItem):
-    """A mark's name on a pane (a control point's target number): the same size on screen at every zoom,
-    beside its point — ``anchor`` as pyqtgraph's ``TextItem`` has it (the fraction of the text's width and
-    height that sits on the point; (0, 0) its top-left corner). Qt keeps it upright and unscaled, so a
-    view moved or zoomed costs no Python per label (a ``TextItem`` recomputes its transform each time);
-    ``color`` is its colour."""
+class ImageItem(QtWidgets.QGraphicsItem):
+    """The image, pixel (i, j) on [i, i+1) × [j, j+1) of its coordinates, drawn unsmoothed (a zoomed-in
+    pixel is a square; a zoomed-out image is scaled by the painter, never re-sampled in Python). Held as a
+    pixmap, converted once to the screen's format: a grey or RGB image drawn as it is would be converted
+    again at every repaint (about 40 ms for 4000 × 3000 colour)."""
 
-    #: screen pixels of blank around the text, as a ``TextItem``'s (its document's margin): placed alike
-    MARGIN = 4.0
-    #: screen pixels of the dark box drawn behind the text beyond it: two numbers side by side read as two
-    #: ("17" and "8", never "178"), and a number stays legible on a bright or busy image
-    PAD = 1.5
-    BOX = QtGui.QColor(0, 0, 0, 170)
+    def __init__(self) -> None:
+        super().__init__()
+        self.pixmap: QtGui.QPixmap | None = None
 
-    def __init__(self, text: str, color: tuple[int, int, int], anchor: tuple[float, float]) -> None:
-        super().__init__(text)
-        self.color = QtGui.QColor(*color)
-        self.setBrush(self.color)
-        self.setFlag(QtWidgets.QGraphicsItem.GraphicsItemFlag.ItemIgnoresTransformations)
-        size, margin = super().boundingRect(), self.MARGIN
-        #: where the text sits off its point (screen pixels) when no other label is in its way
-        self.home_shift = (margin - anchor[0] * (size.width() + 2 * margin),
-                           margin - anchor[1] * (size.height() + 2 * margin))
-        self.shift_by(0.0)
-
-    def shift_by(self, dy: float) -> None:
-        """Move the text ``dy`` screen pixels down (up when negative) from its own place beside its point."""
-        self.setTransform(QtGui.QTransform.fromTranslate(self.home_shift[0], self.home_shift[1] + dy))
+    def set_array(self, array: np.ndarray | None) -> None:
+        self.prepareGeometryChange()
+        self.pixmap = None if array is None else QtGui.QPixmap.fromImage(to_qimage(array))
+        self.update()
 
     def boundingRect(self) -> QtCore.QRectF:  # noqa: N802 (Qt's name)
-        pad = self.PAD
-        return super().boundingRect().adjusted(-pad, -pad, pad, pad)
+        return QtCore.QRectF() if self.pixmap is None else QtCore.QRectF(self.pixmap.rect())
 
     def paint(self, painter: QtGui.QPainter, option, widget=None) -> None:
-        painter.fillRect(self.boundingRect(), self.BOX)
-        super().paint(painter, option, widget)
-
-    def toPlainText(self) -> str:  # noqa: N802 (named as Qt's text items name it)
-        return self.text()
+        if self.pixmap is not None:
+            painter.drawPixmap(self.boundingRect(), self.pixmap, QtCore.QRectF(self.pixmap.rect()))
 
 
 class StereoPane(QtWidgets.QWidget):
@@ -107,8 +91,10 @@ class StereoPane(QtWidgets.QWidget):
         super().__init__(parent)
         self.side = side
         self.setObjectName(f"{side}_pane")
-        self.graphics = pg.GraphicsView(background=(24, 24, 28))
-        self.viewbox = pg.ViewBox(lockAspect=True, invertY=True, enableMenu=False)
+        self.graphics = ImageView(background=(24, 24, 28))
+        self.canvas = self.graphics.canvas
+        #: ``range_changed()`` when the part of the image shown changes (a zoom, a pan, a resize)
+        self.range_changed = self.graphics.range_changed
         # labels are laid out apart in screen pixels: again after a zoom or pan (at most every 50 ms)
         self._label_timer = QtCore.QTimer(self)
         self._label_timer.setSingleShot(True)
@@ -116,12 +102,10 @@ class StereoPane(QtWidgets.QWidget):
         self._label_timer.timeout.connect(self.layout_labels)
         self._label_timer.timeout.connect(self.layout_control_labels)
         self._label_timer.timeout.connect(self._draw_outlines)
-        self.viewbox.sigRangeChanged.connect(lambda *_: self._label_timer.start())
-        self.graphics.setCentralItem(self.viewbox)
-        # no auto-downsampling: it re-samples the whole image at every zoom step (0.3 s at 4000 × 3000);
-        # the painter scales the one rendered image instead (about 2 ms per step, see `usvips bench`)
-        self.image_item = pg.ImageItem(axisOrder="row-major", autoDownsample=False)
-        self.viewbox.addItem(self.image_item)
+        self.range_changed.connect(self._label_timer.start)
+        # never re-sampled on a zoom: the painter scales the one image (about 2 ms per step, see `usvips bench`)
+        self.image_item = ImageItem()
+        self.image_item.setParentItem(self.canvas)
         self.title = QtWidgets.QLabel(side.capitalize())
         self.title.setStyleSheet("font-weight: bold; padding: 2px 4px;")
         layout = QtWidgets.QVBoxLayout(self)
@@ -143,18 +127,14 @@ class StereoPane(QtWidgets.QWidget):
         # keys (accept, nudge, ...) reach the window's image shortcuts once an image has the focus
         self.graphics.setFocusPolicy(QtCore.Qt.FocusPolicy.StrongFocus)
         self.display: np.ndarray | None = None
-        scene = self.graphics.scene()
-        scene.sigMouseMoved.connect(self._on_mouse_moved)
-        scene.sigMouseClicked.connect(self._on_mouse_clicked)
+        self.graphics.mouse_moved.connect(self._on_mouse_moved)
+        self.graphics.clicked.connect(self._on_mouse_clicked)
 
     def _add_overlays(self) -> None:
-        pen = pg.mkPen(COLOURS["cursor"], width=1)
-        self.cross_v = pg.InfiniteLine(angle=90, movable=False, pen=pen)
-        self.cross_h = pg.InfiniteLine(angle=0, movable=False, pen=pen)
-        self.curve_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["curve"], width=1.5, style=QtCore.Qt.PenStyle.DashLine))
+        self.curve_item = Lines(COLOURS["curve"], width=1.5, dashed=True)
         # the stored objects' outlines, at a level of detail (:meth:`_draw_outlines`): those in or near the
         # view stroked one by one when at most MAX_PATHS are there, else all of them as one raster
-        self.outlines_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["object"], width=2), connect="finite")
+        self.outlines_item = Lines(COLOURS["object"], width=2)
         self.outlines_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
         self.raster_item = QtWidgets.QGraphicsPixmapItem()
         self.raster_item.setShapeMode(QtWidgets.QGraphicsPixmapItem.ShapeMode.BoundingRectShape)
@@ -169,37 +149,46 @@ class StereoPane(QtWidgets.QWidget):
         self._raster_timer.setSingleShot(True)
         self._raster_timer.setInterval(self.RASTER_WAIT_MS)
         self._raster_timer.timeout.connect(self._build_raster)
-        self.selected_item = pg.PlotCurveItem(pen=pg.mkPen(COLOURS["selected"], width=3), connect="finite")
-        self.vertex_item = pg.ScatterPlotItem(size=7, pen=pg.mkPen(COLOURS["object"]), brush=None, symbol="s")
-        self.pick_item = pg.ScatterPlotItem(size=15, pen=pg.mkPen(COLOURS["pick"], width=2), brush=None, symbol="+")
-        self.proposal_item = pg.ScatterPlotItem(size=17, pen=pg.mkPen(COLOURS["proposal"], width=2), brush=None,
-                                                symbol="o")
+        self.selected_item = Lines(COLOURS["selected"], width=3)
+        self.vertex_item = Points(7, COLOURS["object"], symbol="s")
+        self.pick_item = Points(15, COLOURS["pick"], width=2, symbol="+")
+        self.proposal_item = Points(17, COLOURS["proposal"], width=2, symbol="o")
         self.proposal_weak = False  # the proposal drawn is one auto-match refused (cyan, dashed)
         # the object being digitised, drawn on its own: a pick redraws it, never the stored objects
-        self.digitising_item = pg.PlotDataItem(pen=pg.mkPen(COLOURS["selected"], width=3), symbol="s", symbolSize=7,
-                                               symbolPen=pg.mkPen(COLOURS["selected"]), symbolBrush=None)
-        self.vertex_item.setCacheMode(QtWidgets.QGraphicsItem.CacheMode.DeviceCoordinateCache)
+        self.digitising_item = Lines(COLOURS["selected"], width=3)
+        self.digitising_vertices = Points(7, COLOURS["selected"], symbol="s")
         for item in (self.raster_item, self.outlines_item, self.selected_item, self.vertex_item, self.digitising_item,
-                     self.curve_item, self.pick_item, self.proposal_item, self.cross_v, self.cross_h):
-            self.viewbox.addItem(item, ignoreBounds=True)
-        self.control_item = pg.ScatterPlotItem(size=11, pen=pg.mkPen(COLOURS["control"], width=1.5), brush=None,
-                                               symbol="o")
-        self.viewbox.addItem(self.control_item, ignoreBounds=True)
+                     self.digitising_vertices, self.curve_item, self.pick_item, self.proposal_item):
+            self.add_mark(item)
+        self.control_item = Points(11, COLOURS["control"], width=1.5, symbol="o")
+        self.add_mark(self.control_item)
+        self.control_selected_item = Points(19, COLOURS["selected"], width=2.5, symbol="o")
+        self.add_mark(self.control_selected_item)
         self.control_labels: list[MarkLabel] = []
-        self.labels: list[pg.TextItem] = []
-        self.cross_v.hide()
-        self.cross_h.hide()
+        self.labels: list[MarkLabel] = []
+
+    def add_mark(self, item: QtWidgets.QGraphicsItem) -> None:
+        """Draw ``item`` over the image (placed in view coordinates, above the marks added before it)."""
+        item.setParentItem(self.canvas)
+
+    def remove_mark(self, item: QtWidgets.QGraphicsItem) -> None:
+        """Stop drawing ``item`` (one :meth:`add_mark` added)."""
+        scene = item.scene()
+        if scene is not None:
+            scene.removeItem(item)
+
+    def view_rect(self) -> QtCore.QRectF:
+        """The part of the image shown, in view coordinates (pixel (i, j) on [i, i+1) × [j, j+1))."""
+        return self.graphics.view_rect()
 
     # ------------------------------------------------------------------ image
     def set_image(self, display: np.ndarray | None) -> None:
         """Show an image (uint8/uint16, grey or RGB); keeps the current zoom when the size is unchanged."""
         previous = None if self.display is None else self.display.shape[:2]
         self.display = display
+        self.image_item.set_array(display)
         if display is None:
-            self.image_item.clear()
             return
-        top = 255 if display.dtype == np.uint8 else 65535
-        self.image_item.setImage(display, autoLevels=False, levels=(0, top))
         if previous != display.shape[:2]:
             self._raster_version = -1  # drawn for another size
             self.raster_item.hide()
@@ -213,7 +202,7 @@ class StereoPane(QtWidgets.QWidget):
     def fit(self) -> None:
         w, h = self.image_size()
         if w:
-            self.viewbox.setRange(xRange=(0, w), yRange=(0, h), padding=0.02)
+            self.graphics.set_range(QtCore.QRectF(0, 0, w, h), padding=0.02)
 
     def one_to_one(self, centre: tuple[float, float] | None = None) -> None:
         """One image pixel per screen pixel, around ``centre`` (pixels; default the view's centre)."""
@@ -221,26 +210,26 @@ class StereoPane(QtWidgets.QWidget):
 
     def zoom_to(self, screen_per_pixel: float, centre: tuple[float, float] | None = None) -> None:
         """Set the zoom (screen pixels per image pixel) around ``centre`` (image pixels)."""
-        rect = self.viewbox.viewRect()
+        rect = self.view_rect()
         if centre is None:
             cx, cy = rect.center().x(), rect.center().y()
         else:
             cx, cy = item_from_pixels(np.array(centre))[0]
-        size = self.viewbox.size()
+        size = self.graphics.viewport().size()
         half_w = size.width() / screen_per_pixel / 2
         half_h = size.height() / screen_per_pixel / 2
-        self.viewbox.setRange(xRange=(cx - half_w, cx + half_w), yRange=(cy - half_h, cy + half_h), padding=0)
+        self.graphics.set_range(QtCore.QRectF(cx - half_w, cy - half_h, 2 * half_w, 2 * half_h), padding=0)
 
     def zoom_by(self, factor: float) -> None:
         """Zoom in (factor > 1) or out around the view's centre."""
-        self.viewbox.scaleBy((1.0 / factor, 1.0 / factor))
+        self.graphics.scale_about(1.0 / factor)
 
     def zoom_level(self) -> float:
         """Screen pixels per image pixel (horizontally)."""
-        return self.viewbox.size().width() / max(self.viewbox.viewRect().width(), 1e-12)
+        return self.graphics.scale_factor()
 
     def set_box_zoom(self, on: bool) -> None:
-        self.viewbox.setMouseMode(pg.ViewBox.RectMode if on else pg.ViewBox.PanMode)
+        self.graphics.box_zoom = bool(on)
 
     # ------------------------------------------------------------------ mouse
     def pixel_at_scene(self, scene_pos: QtCore.QPointF) -> tuple[float, float]:
@@ -255,28 +244,22 @@ class StereoPane(QtWidgets.QWidget):
     def _on_mouse_moved(self, scene_pos: QtCore.QPointF) -> None:
         x, y = self.pixel_at_scene(scene_pos)
         if self.display is None or not self._inside(x, y):
-            self.cross_v.hide()
-            self.cross_h.hide()
+            self.graphics.set_cross(None)
             self.loupe.hide()
             self.hovered.emit(float("nan"), float("nan"))
             return
         vx, vy = item_from_pixels(np.array([x, y]))[0]
-        self.cross_v.setPos(vx)
-        self.cross_h.setPos(vy)
-        self.cross_v.show()
-        self.cross_h.show()
+        self.graphics.set_cross(QtCore.QPointF(vx, vy))
         self._update_loupe(x, y)
         self.hovered.emit(x, y)
 
-    def _on_mouse_clicked(self, event) -> None:
-        if event.button() != QtCore.Qt.MouseButton.LeftButton or event.double():
+    def _on_mouse_clicked(self, scene_pos: QtCore.QPointF) -> None:
+        """A left click without a drag (the view leaves out double clicks)."""
+        if self.graphics.box_zoom:
             return
-        if self.viewbox.state["mouseMode"] == pg.ViewBox.RectMode:
-            return
-        x, y = self.pixel_at_scene(event.scenePos())
+        x, y = self.pixel_at_scene(scene_pos)
         self.graphics.setFocus(QtCore.Qt.FocusReason.MouseFocusReason)
         if self.display is not None and self._inside(x, y):
-            event.accept()
             self.clicked.emit(x, y)
 
     def _fit_loupe(self) -> None:
@@ -314,6 +297,8 @@ class StereoPane(QtWidgets.QWidget):
         if not self.loupe_enabled or self.display is None:
             self.loupe.hide()
             return
+        import cv2  # here: not on the window's start path (about 0.1 s of CPU)
+
         self._fit_loupe()
         r, scale = self.loupe_radius, self.loupe_scale
         patch = cv2.getRectSubPix(self._grey_or_rgb8(), (2 * r + 1, 2 * r + 1), (float(round(x)), float(round(y))))
@@ -348,8 +333,7 @@ class StereoPane(QtWidgets.QWidget):
 
     def leaveEvent(self, event: QtCore.QEvent) -> None:  # noqa: N802 (Qt's name)
         self.loupe.hide()
-        self.cross_v.hide()
-        self.cross_h.hide()
+        self.graphics.set_cross(None)
         super().leaveEvent(event)
 
     # ------------------------------------------------------------------ marks
@@ -357,26 +341,18 @@ class StereoPane(QtWidgets.QWidget):
                   curve: np.ndarray | None, weak: bool = False) -> None:
         """The temporary marks: this image's pick (red), the proposed conjugate (yellow; a ``weak`` one,
         which auto-match refused, cyan and dashed), the epipolar curve (orange, dashed)."""
-        self.pick_item.setData(pos=item_from_pixels(np.array([pick])) if pick is not None else np.zeros((0, 2)))
-        pen = (pg.mkPen(COLOURS["weak proposal"], width=2, style=QtCore.Qt.PenStyle.DashLine) if weak
-               else pg.mkPen(COLOURS["proposal"], width=2))
-        self.proposal_item.setPen(pen)
+        self.pick_item.set_points(item_from_pixels(np.array([pick])) if pick is not None else None)
+        self.proposal_item.setPen(pen(COLOURS["weak proposal"], 2, dashed=True) if weak else
+                                  pen(COLOURS["proposal"], 2))
         self.proposal_weak = weak
-        self.proposal_item.setData(pos=item_from_pixels(np.array([proposal])) if proposal is not None
-                                   else np.zeros((0, 2)))
-        if curve is not None and len(curve) > 1:
-            view = item_from_pixels(curve)
-            self.curve_item.setData(view[:, 0], view[:, 1])
-        else:
-            self.curve_item.setData([], [])
+        self.proposal_item.set_points(item_from_pixels(np.array([proposal])) if proposal is not None else None)
+        self.curve_item.set_points(item_from_pixels(curve) if curve is not None and len(curve) > 1 else None)
 
     def set_digitising(self, pixels: np.ndarray | None) -> None:
         """The vertices (N, 2) of the object being digitised, joined in order (None or none: nothing)."""
-        if pixels is None or not len(pixels):
-            self.digitising_item.setData([], [])
-            return
-        view = item_from_pixels(np.asarray(pixels, float).reshape(-1, 2))
-        self.digitising_item.setData(view[:, 0], view[:, 1])
+        view = None if pixels is None or not len(pixels) else item_from_pixels(np.asarray(pixels, float).reshape(-1, 2))
+        self.digitising_item.set_points(view)
+        self.digitising_vertices.set_points(view)
 
     #: Above this many outlines in view they are drawn with a thin, aliased pen (a wide antialiased pen
     #: costs Qt's stroker about a second per redraw of 10,000 outlines).
@@ -409,7 +385,7 @@ class StereoPane(QtWidgets.QWidget):
 
     def _outlines_in_view(self) -> np.ndarray:
         """Indices of the outlines in or near the view (:attr:`MARGIN`)."""
-        rect = self.viewbox.viewRect()
+        rect = self.view_rect()
         dx, dy = rect.width() * self.MARGIN, rect.height() * self.MARGIN
         return self.outlines.in_rect(self.outline_side, rect.left() - dx - PIXEL_CENTRE, rect.top() - dy - PIXEL_CENTRE,
                                      rect.right() + dx - PIXEL_CENTRE, rect.bottom() + dy - PIXEL_CENTRE)
@@ -424,7 +400,7 @@ class StereoPane(QtWidgets.QWidget):
         near = self._outlines_in_view()
         if len(near) <= self.MAX_PATHS:
             thin = len(near) > self.THIN_ABOVE
-            self.outlines_item.setPen(pg.mkPen(COLOURS["object"], width=1 if thin else 2))
+            self.outlines_item.setPen(pen(COLOURS["object"], 1 if thin else 2))
             self._set_lines(self.outlines_item, outlines.lines(self.outline_side, near), thin)
             self.raster_item.hide()
             return
@@ -476,33 +452,28 @@ class StereoPane(QtWidgets.QWidget):
 
     def object_lines(self) -> np.ndarray:
         """The stored outline points stroked one by one now (view coordinates, NaN separators left out)."""
-        x, y = self.outlines_item.getData()
-        if x is None or not self.outlines_item.isVisible():
-            return np.zeros((0, 2))
-        points = np.column_stack([x, y])
+        points = self.outlines_item.points()
         return points[np.isfinite(points).all(axis=1)]
 
     @staticmethod
-    def _set_lines(item, lines, thin: bool) -> None:
-        view = item_from_pixels(lines)
-        item.setData(view[:, 0], view[:, 1], connect="finite", antialias=not thin)
+    def _set_lines(item: Lines, lines, thin: bool) -> None:
+        item.set_points(item_from_pixels(lines), antialias=not thin)
 
     def set_selection_marks(self, selected: np.ndarray, vertices: np.ndarray,
                             labels: list[tuple[str, tuple[float, float], bool]], count: int) -> None:
         """What changes with the selection: the selected outlines (K, 2) pixels, NaN-separated, drawn over
         the others; vertex marks (M, 2) pixels; labels (text, pixel of the first vertex, selected)."""
         for label in self.labels:
-            self.viewbox.removeItem(label)
+            self.remove_mark(label)
         self.labels = []
-        view = item_from_pixels(selected)
-        self.selected_item.setData(view[:, 0], view[:, 1], connect="finite", antialias=count <= self.THIN_ABOVE)
-        self.vertex_item.setData(pos=item_from_pixels(vertices))
+        self.selected_item.set_points(item_from_pixels(selected), antialias=count <= self.THIN_ABOVE)
+        self.vertex_item.set_points(item_from_pixels(vertices))
         for text, pixel, is_selected in labels:
-            item = pg.TextItem(text, color=COLOURS["selected" if is_selected else "label"], anchor=(0, 1))
+            item = MarkLabel(text, COLOURS["selected" if is_selected else "label"], (0, 1), boxed=False)
             view = item_from_pixels(np.array([pixel]))[0]
-            item.setPos(float(view[0]) + 4, float(view[1]) - 4)
-            item.home = QtCore.QPointF(float(view[0]) + 4, float(view[1]) - 4)  # where it goes when alone
-            self.viewbox.addItem(item, ignoreBounds=True)
+            item.home = QtCore.QPointF(float(view[0]) + 4, float(view[1]) - 4)  # its point (view coordinates)
+            item.setPos(item.home)
+            self.add_mark(item)
             self.labels.append(item)
         self.layout_labels()
 
@@ -513,36 +484,35 @@ class StereoPane(QtWidgets.QWidget):
         """Move the labels in view apart so that none covers another (:func:`usvips.gui.label_layout.
         stack_labels`, in screen pixels: labels keep their size on screen, so this is redone on a zoom), and
         left of the view's right edge (:func:`~usvips.gui.label_layout.keep_inside`)."""
-        rect = self.viewbox.viewRect()
+        rect = self.view_rect()
         shown = [item for item in self.labels if rect.contains(item.home)]
         for item in self.labels:
-            item.setPos(item.home)
-        if not shown or len(shown) > self.MAX_LAID_OUT or self.viewbox.scene() is None:
+            item.shift_by(0.0)
+        if not shown or len(shown) > self.MAX_LAID_OUT:
             return
-        anchors = np.array([[p.x(), p.y()] for p in (self.viewbox.mapViewToScene(i.home) for i in shown)])
-        sizes = np.array([[i.boundingRect().width(), i.boundingRect().height()] for i in shown])
-        shifts = keep_inside(anchors[:, 0], sizes[:, 0], self.viewbox.sceneBoundingRect().right())
+        boxes = [item.screen_rect(self.graphics) for item in shown]
+        anchors = np.array([[box.left(), box.bottom()] for box in boxes])
+        sizes = np.array([[box.width(), box.height()] for box in boxes])
+        shifts = keep_inside(anchors[:, 0], sizes[:, 0], self.graphics.viewport().width())
         anchors[:, 0] += shifts
         offsets = stack_labels(anchors, sizes) if len(shown) > 1 else np.zeros(1)
-        for item, anchor, shift, offset in zip(shown, anchors, shifts, offsets, strict=True):
+        for item, shift, offset in zip(shown, shifts, offsets, strict=True):
             if offset or shift:
-                item.setPos(self.viewbox.mapSceneToView(QtCore.QPointF(anchor[0], anchor[1] + offset)))
+                item.shift_by(float(offset), float(shift))
 
     def layout_control_labels(self) -> None:
         """Move the target numbers in view apart so that none runs into another ("17" beside "8" never reads
         "178"): :func:`usvips.gui.label_layout.stack_labels` over their boxes in screen pixels, redone after a
         zoom or pan; beyond :attr:`MAX_LAID_OUT` in view each keeps its place (its dark box still sets it
         apart)."""
-        rect = self.viewbox.viewRect()
+        rect = self.view_rect()
         shown = [label for label in self.control_labels if rect.contains(label.pos())]
         for label in self.control_labels:
             label.shift_by(0.0)
-        if len(shown) < 2 or len(shown) > self.MAX_LAID_OUT or self.viewbox.scene() is None:
+        if len(shown) < 2 or len(shown) > self.MAX_LAID_OUT:
             return
-        boxes = [label.boundingRect() for label in shown]
-        points = [self.viewbox.mapViewToScene(label.pos()) for label in shown]
-        anchors = np.array([[p.x() + label.home_shift[0] + box.left(), p.y() + label.home_shift[1] + box.bottom()]
-                            for p, label, box in zip(points, shown, boxes, strict=True)])
+        boxes = [label.screen_rect(self.graphics) for label in shown]
+        anchors = np.array([[box.left(), box.bottom()] for box in boxes])
         sizes = np.array([[box.width(), box.height()] for box in boxes])
         for label, offset in zip(shown, stack_labels(anchors, sizes, gap=3.0), strict=True):
             if offset:
@@ -552,21 +522,17 @@ class StereoPane(QtWidgets.QWidget):
         """Measured control points of this image: (target number, pixel), drawn as green rings with numbers;
         the ``selected`` one (e.g. the row chosen in a table) in the selection colour, with a larger ring."""
         for label in self.control_labels:
-            self.viewbox.removeItem(label)
+            self.remove_mark(label)
         self.control_labels = []
         pixels = np.array([pixel for _, pixel in marks], float).reshape(-1, 2)
-        self.control_item.setData(pos=item_from_pixels(pixels) if len(pixels) else np.zeros((0, 2)))
+        self.control_item.set_points(item_from_pixels(pixels))
         chosen = [k for k, (name, _) in enumerate(marks) if name == selected]
-        if not hasattr(self, "control_selected_item"):
-            self.control_selected_item = pg.ScatterPlotItem(size=19, pen=pg.mkPen(COLOURS["selected"], width=2.5),
-                                                            brush=None, pxMode=True)
-            self.viewbox.addItem(self.control_selected_item, ignoreBounds=True)
-        self.control_selected_item.setData(pos=item_from_pixels(pixels[chosen]) if chosen else np.zeros((0, 2)))
+        self.control_selected_item.set_points(item_from_pixels(pixels[chosen]) if chosen else None)
         self.selected_control = marks[chosen[0]][0] if chosen else None
         for (name, _), view in zip(marks, item_from_pixels(pixels), strict=True):
             text = MarkLabel(name, COLOURS["selected" if name == selected else "control"], (-0.3, 1.1))
             text.setPos(float(view[0]), float(view[1]))
-            self.viewbox.addItem(text, ignoreBounds=True)
+            self.add_mark(text)
             self.control_labels.append(text)
         self.layout_control_labels()
 
@@ -576,7 +542,7 @@ class StereoPane(QtWidgets.QWidget):
 
     def in_view(self, pixel: tuple[float, float], margin: float = 0.1) -> bool:
         """Whether ``pixel`` is shown, at least ``margin`` (a fraction of the view) inside its edges."""
-        rect = self.viewbox.viewRect()
+        rect = self.view_rect()
         x, y = item_from_pixels(np.array(pixel))[0]
         dx, dy = rect.width() * margin, rect.height() * margin
         return rect.left() + dx <= x <= rect.right() - dx and rect.top() + dy <= y <= rect.bottom() - dy

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtWidgets
 
 from usvips.core.errors import UsvipsError
@@ -11,6 +12,9 @@ from usvips.core.measurements import kind as measurement_kind
 from usvips.gui.panel_registry import Panel, register
 from usvips.gui.qt.on_screen import ScreenWatch, on_screen
 from usvips.gui.workspace import Workspace
+
+if TYPE_CHECKING:
+    import pyqtgraph as pg
 
 
 class PlanView(QtWidgets.QWidget):
@@ -54,6 +58,8 @@ class PlanView(QtWidgets.QWidget):
     def _build_plot(self) -> None:
         """The plot and its items (once, when first drawn: a survey opened with the view behind another tab
         makes none of it)."""
+        from usvips.gui.qt.plots import pg  # not on the window's start path
+
         if self.plot is not None:
             return
         self.plot = pg.PlotWidget(background=None)
@@ -79,6 +85,8 @@ class PlanView(QtWidgets.QWidget):
             signal.disconnect(slot)
 
     def _label(self, text: str, position, colour) -> None:
+        from usvips.gui.qt.plots import pg  # not on the window's start path
+
         item = pg.TextItem(text, color=colour, anchor=(0, 1))
         item.setPos(float(position[0]), float(position[1]))
         self.plot.addItem(item, ignoreBounds=True)
@@ -209,6 +217,8 @@ class PlanView(QtWidgets.QWidget):
         return parts
 
     def redraw(self) -> None:
+        from usvips.gui.qt.plots import pg  # not on the window's start path
+
         self._build_plot()
         self._update_parts()
         self._dirty = False

@@ -11,7 +11,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from usvips.gui.panel_registry import Panel, register
@@ -30,6 +29,8 @@ class PlannerDock(QtWidgets.QWidget):
 
     def __init__(self, workspace: Workspace, pool: QtCore.QThreadPool | None = None,
                  workers: set[Worker] | None = None, parent: QtWidgets.QWidget | None = None) -> None:
+        from usvips.gui.qt.plots import pg  # made when its dock is first shown: not on the window's start path
+
         super().__init__(parent)
         self.workspace = workspace
         self.pool = pool

@@ -12,10 +12,10 @@ R rejects, Delete forgets a click; Ctrl+Enter confirms.
 from __future__ import annotations
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.core.errors import UsvipsError
+from usvips.gui.qt.marks import Handle, MarkLabel, Points
 from usvips.gui.qt.pane import StereoPane, item_from_pixels, pixel_from_item
 from usvips.gui.qt.worker import Worker, start
 from usvips.gui.target_field_model import SIDES, STATES, FieldModel
@@ -43,63 +43,61 @@ class FieldOverlay:
     def __init__(self, pane: StereoPane, moved=None) -> None:
         self.pane = pane
         self.moved = moved
-        self.handles: dict[str, pg.TargetItem] = {}
+        self.handles: dict[str, Handle] = {}
         self.items = {}
         for state in STATES:
             colour, symbol = STYLE[state]
-            self.items[state] = pg.ScatterPlotItem(size=15, pen=pg.mkPen(colour, width=2), brush=None, symbol=symbol)
-            pane.viewbox.addItem(self.items[state], ignoreBounds=True)
-        self.predicted = pg.ScatterPlotItem(size=11, pen=pg.mkPen(STYLE["doubtful"][0], width=1.5), brush=None,
-                                            symbol="x")
-        pane.viewbox.addItem(self.predicted, ignoreBounds=True)
-        self.pending = pg.ScatterPlotItem(size=19, pen=pg.mkPen(PENDING, width=2), brush=None, symbol="+")
-        self.selected = pg.ScatterPlotItem(size=25, pen=pg.mkPen(SELECTED, width=2.5), brush=None, symbol="o")
+            self.items[state] = Points(15, colour, width=2, symbol=symbol)
+            pane.add_mark(self.items[state])
+        self.predicted = Points(11, STYLE["doubtful"][0], width=1.5, symbol="x")
+        pane.add_mark(self.predicted)
+        self.pending = Points(19, PENDING, width=2, symbol="+")
+        self.selected = Points(25, SELECTED, width=2.5, symbol="o")
         for item in (self.pending, self.selected):
-            pane.viewbox.addItem(item, ignoreBounds=True)
-        self.labels: list[pg.TextItem] = []
+            pane.add_mark(item)
+        self.labels: list[MarkLabel] = []
 
     def show(self, marks: list[tuple[str, tuple[float, float], str]], pending, selected: str | None,
              predicted: list[tuple[str, tuple[float, float]]] = ()) -> None:
         """``marks`` (id, pixel, state); the ``pending`` click (a pixel or None); the ``selected`` id; where
         the model ``predicted`` the doubtful targets (small amber crosses)."""
         guesses = np.array([p for _, p in predicted], float).reshape(-1, 2)
-        self.predicted.setData(pos=item_from_pixels(guesses) if len(guesses) else np.zeros((0, 2)))
+        self.predicted.set_points(item_from_pixels(guesses))
         for label in self.labels:
-            self.pane.viewbox.removeItem(label)
+            self.pane.remove_mark(label)
         self.labels = []
         for state in STATES:
             pixels = np.array([p for _, p, s in marks if s == state and s not in DRAGGED], float).reshape(-1, 2)
-            self.items[state].setData(pos=item_from_pixels(pixels) if len(pixels) else np.zeros((0, 2)))
+            self.items[state].set_points(item_from_pixels(pixels))
         self._handles([(pid, pixel, state) for pid, pixel, state in marks if state in DRAGGED])
         for pid, pixel, state in marks:
-            text = pg.TextItem(pid, color=SELECTED if pid == selected else STYLE[state][0], anchor=(-0.25, 1.1))
+            text = MarkLabel(pid, SELECTED if pid == selected else STYLE[state][0], (-0.25, 1.1), boxed=False)
             x, y = item_from_pixels(np.array(pixel))[0]
             text.setPos(float(x), float(y))
-            self.pane.viewbox.addItem(text, ignoreBounds=True)
+            self.pane.add_mark(text)
             self.labels.append(text)
         for pid, pixel in predicted:  # "T05?": where the model puts a doubtful target
-            text = pg.TextItem(f"{pid}?", color=STYLE["doubtful"][0], anchor=(-0.25, -0.1))
+            text = MarkLabel(f"{pid}?", STYLE["doubtful"][0], (-0.25, -0.1), boxed=False)
             x, y = item_from_pixels(np.array(pixel))[0]
             text.setPos(float(x), float(y))
-            self.pane.viewbox.addItem(text, ignoreBounds=True)
+            self.pane.add_mark(text)
             self.labels.append(text)
-        self.pending.setData(pos=item_from_pixels(np.array(pending)) if pending is not None else np.zeros((0, 2)))
+        self.pending.set_points(item_from_pixels(np.array(pending)) if pending is not None else None)
         chosen = [p for pid, p, _ in marks if pid == selected]
-        self.selected.setData(pos=item_from_pixels(np.array(chosen[0])) if chosen else np.zeros((0, 2)))
+        self.selected.set_points(item_from_pixels(np.array(chosen[0])) if chosen else None)
 
 
     def _handles(self, marks: list[tuple[str, tuple[float, float], str]]) -> None:
         for handle in self.handles.values():
-            self.pane.viewbox.removeItem(handle)
+            self.pane.remove_mark(handle)
         self.handles = {}
         for pid, pixel, state in marks:
             colour, symbol = STYLE[state]
             x, y = item_from_pixels(np.array(pixel))[0]
-            handle = pg.TargetItem((float(x), float(y)), size=15, symbol=symbol, pen=pg.mkPen(colour, width=2),
-                                   hoverPen=pg.mkPen(SELECTED, width=2), brush=None, movable=True)
+            handle = Handle((float(x), float(y)), 15, symbol, colour, 2, SELECTED)
             handle.setToolTip(f"{pid}: drag to where the target is")
-            handle.sigPositionChangeFinished.connect(lambda item, p=pid: self._dropped(p, item))
-            self.pane.viewbox.addItem(handle, ignoreBounds=True)
+            handle.dropped.connect(lambda item, p=pid: self._dropped(p, item))
+            self.pane.add_mark(handle)
             self.handles[pid] = handle
 
     def _dropped(self, pid: str, handle) -> None:

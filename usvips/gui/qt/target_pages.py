@@ -15,7 +15,6 @@ from __future__ import annotations
 import html
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtGui, QtWidgets
 
 from usvips.app.target_words import target_words
@@ -27,7 +26,9 @@ from usvips.gui.housing_values import known_label, read_known
 from usvips.gui.qt import save_page
 from usvips.gui.qt.field_errors import FormFields
 from usvips.gui.qt.housing_value_form import fill_known_form
+from usvips.gui.qt.marks import Lines
 from usvips.gui.qt.pane import StereoPane, item_from_pixels
+from usvips.gui.qt.plots import pg
 from usvips.gui.qt.worker import Cancelled, Worker, start
 from usvips.gui.target_session import TargetSession
 
@@ -331,8 +332,8 @@ class ViewsPage(QtWidgets.QWizardPage):
         self.vectors = {}
         for side, pane in self.panes.items():
             pane.set_loupe_enabled(False)
-            self.vectors[side] = pg.PlotCurveItem(pen=pg.mkPen((255, 60, 60), width=2), connect="pairs")
-            pane.viewbox.addItem(self.vectors[side], ignoreBounds=True)
+            self.vectors[side] = Lines((255, 60, 60), width=2, connect="pairs")
+            pane.add_mark(self.vectors[side])
         self.maps = pg.GraphicsLayoutWidget()
         self.maps.setFixedHeight(150)
         self.map_items = {}
@@ -559,7 +560,7 @@ class ViewsPage(QtWidgets.QWizardPage):
         for side, pane in self.panes.items():
             pane.set_image(None)
             pane.set_control([])
-            self.vectors[side].setData([], [])
+            self.vectors[side].set_points(None)
             pane.title.setText(f"{side.capitalize()} — {label}: images not available")
 
     def refresh_view(self) -> None:
@@ -579,7 +580,7 @@ class ViewsPage(QtWidgets.QWizardPage):
             pane.set_image(image)
             if view is None:
                 pane.set_control([])
-                self.vectors[side].setData([], [])
+                self.vectors[side].set_points(None)
                 pane.title.setText(f"{side.capitalize()} — {label}: set aside")
                 pane.fit()
                 continue
@@ -590,7 +591,7 @@ class ViewsPage(QtWidgets.QWizardPage):
                               for k, (pid, px) in enumerate(zip(detection.ids, detection.pixels, strict=True))])
             segments = detail_model.residual_segments(self.session, label, side)
             data = item_from_pixels(segments) if len(segments) else np.zeros((0, 2))
-            self.vectors[side].setData(data[:, 0], data[:, 1], connect="pairs")
+            self.vectors[side].set_points(data)
             pane.title.setText(f"{side.capitalize()} — {label}: {len(detection.ids)} points")
             pane.fit()
 

@@ -18,22 +18,34 @@ where a track stopped.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6 import QtCore, QtWidgets
 
 from usvips.app.object_instants import add_instant
-from usvips.app.tracking import VertexProposal, VideoTracker, add_tracked_instants, propose_with
 from usvips.core.errors import UsvipsError
 from usvips.core.tracking import CANCELLED, TrackSettings
 from usvips.gui.instants_model import object_instants
 from usvips.gui.pick_tool import TOOLS
+from usvips.gui.qt.marks import Lines, Points
 from usvips.gui.qt.pane import item_from_pixels
 from usvips.gui.qt.worker import Cancelled
 from usvips.gui.track_model import TrackModel, parse_instant_frames
 from usvips.gui.undo import Command
 from usvips.gui.window_context import WindowContext
+
+if TYPE_CHECKING:
+    from usvips.app.tracking import VertexProposal
+
+
+def _tracking():
+    """:mod:`usvips.app.tracking`, imported when first used, not at the window's start (imported here, not
+    lazily at the top, so that any thread may be the first: the import lock guards it)."""
+    from usvips.app import tracking
+
+    return tracking
+
 
 #: the colour of tracked points and their trails (RGB)
 TRACK_COLOUR = (40, 230, 110)
@@ -74,10 +86,10 @@ class TrackController(QtCore.QObject):
         self._joining_whole: int | None = None
         self.items = {}
         for side, pane in panes.items():
-            trail = pg.PlotCurveItem(pen=pg.mkPen(TRACK_COLOUR, width=1.5), connect="finite")
-            points = pg.ScatterPlotItem(size=13, pen=pg.mkPen(TRACK_COLOUR, width=2), brush=None, symbol="o")
+            trail = Lines(TRACK_COLOUR, width=1.5)
+            points = Points(13, TRACK_COLOUR, width=2, symbol="o")
             for item in (trail, points):
-                pane.viewbox.addItem(item, ignoreBounds=True)
+                pane.add_mark(item)
             self.items[side] = (trail, points)
         ws = self.workspace
         ws.stored.connect(self._on_stored)
@@ -210,7 +222,7 @@ class TrackController(QtCore.QObject):
             label, _ = self._frame()
             object_id = self.target()
             stored = self._object_on_video(object_id, label)
-            tracker = VideoTracker.read(self.workspace.project, label)
+            tracker = _tracking().VideoTracker.read(self.workspace.project, label)
         except UsvipsError as error:
             self.messages.say("error", str(error))
             return None
@@ -258,7 +270,7 @@ class TrackController(QtCore.QObject):
                                   "then its partner (pick tool), then Shift+T")
             left, right = ws.pick_tool.last_point.left, ws.pick_tool.last_point.right
             vertex = self.model.nearest_vertex(frame, left)
-            tracker = VideoTracker.read(ws.project, label)
+            tracker = _tracking().VideoTracker.read(ws.project, label)
         except UsvipsError as error:
             self.messages.say("error", str(error))
             return None
@@ -306,21 +318,20 @@ class TrackController(QtCore.QObject):
         for side, (trail_item, points_item) in self.items.items():
             column = 0 if side == "left" else 1
             if not shown:
-                trail_item.setData([], [])
-                points_item.setData(pos=np.zeros((0, 2)))
+                trail_item.set_points(None)
+                points_item.set_points(None)
                 continue
-            at = self.model.points_at(frame[1])
-            spots = [{"pos": tuple(item_from_pixels(pixels[column])[0]),
-                      "symbol": "star" if frame[1] in self.model.corrected.get(vertex, set()) else "o"}
-                     for vertex, pixels in sorted(at.items())]
-            points_item.setData(spots)
+            at = sorted(self.model.points_at(frame[1]).items())
+            points_item.set_points(np.array([item_from_pixels(pixels[column])[0] for _, pixels in at]).reshape(-1, 2),
+                                   ["star" if frame[1] in self.model.corrected.get(vertex, set()) else "o"
+                                    for vertex, _ in at])
             pieces = []
             for vertex in range(self.model.vertex_count):
                 trail = self.model.trail(vertex, frame[1], self.TRAIL)[column]
                 if len(trail) > 1:
                     pieces.extend([item_from_pixels(trail), np.full((1, 2), np.nan)])
             line = np.vstack(pieces) if pieces else np.zeros((0, 2))
-            trail_item.setData(line[:, 0], line[:, 1])
+            trail_item.set_points(line)
         self.video.show_track(self.model.label, self.model.span(),
                               {s.frame for s in self.model.stops() if s.reason != CANCELLED})
 
@@ -360,7 +371,7 @@ class TrackController(QtCore.QObject):
 
             def redo() -> None:
                 if not ids:
-                    ids.extend(add_tracked_instants(ws.project, object_id, tracks, frames, label))
+                    ids.extend(_tracking().add_tracked_instants(ws.project, object_id, tracks, frames, label))
                     versions.update({i: ws.project.object(i).modified for i in ids})
                 else:
                     with ws.project.transaction():
@@ -404,7 +415,7 @@ class TrackController(QtCore.QObject):
             if ws.pick_tool.digitising.vertices:
                 raise UsvipsError("finish (Ctrl+Enter) or cancel the object being digitised before proposing")
             known = self._known_proposals(object_id, frame)
-            tracker = None if known is not None else VideoTracker.read(ws.project, label)
+            tracker = None if known is not None else _tracking().VideoTracker.read(ws.project, label)
         except UsvipsError as error:
             self.messages.say("error", str(error))
             return None
@@ -413,7 +424,7 @@ class TrackController(QtCore.QObject):
             return None
 
         def job(progress, cancelled):
-            found = propose_with(tracker, stored, frame, self.settings, cancelled,
+            found = _tracking().propose_with(tracker, stored, frame, self.settings, cancelled,
                                  lambda done, total: progress(done / max(total, 1)))
             if cancelled():
                 raise Cancelled
@@ -429,7 +440,7 @@ class TrackController(QtCore.QObject):
         at = self.model.points_at(frame)
         if len(at) != self.model.vertex_count:
             return None
-        return [VertexProposal(tuple(map(float, at[k][0])), tuple(map(float, at[k][1])))
+        return [_tracking().VertexProposal(tuple(map(float, at[k][0])), tuple(map(float, at[k][1])))
                 for k in range(self.model.vertex_count)]
 
     def _start_proposals(self, object_id: int, frame: int, proposals: list[VertexProposal]) -> None:

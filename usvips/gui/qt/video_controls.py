@@ -17,7 +17,6 @@ from collections.abc import Callable
 
 from PySide6 import QtCore, QtGui, QtWidgets
 
-from usvips.app import video_project
 from usvips.core.errors import UsvipsError
 from usvips.gui.qt.worker import Cancelled, Worker
 from usvips.gui.video_model import (
@@ -34,7 +33,22 @@ from usvips.gui.video_model import (
     video_frame_of,
 )
 from usvips.gui.window_context import WindowContext
-from usvips.io import video_proxy
+
+
+def _video_project():
+    """:mod:`usvips.app.video_project`, imported when first used, not at the window's start (imported here, not
+    lazily at the top, so that any thread may be the first: the import lock guards it)."""
+    from usvips.app import video_project
+
+    return video_project
+
+
+def _video_proxy():
+    """:mod:`usvips.io.video_proxy`, imported when first used, not at the window's start (imported here, not
+    lazily at the top, so that any thread may be the first: the import lock guards it)."""
+    from usvips.io import video_proxy
+
+    return video_proxy
 
 
 class Timeline(QtWidgets.QSlider):
@@ -582,7 +596,7 @@ class VideoController(QtCore.QObject):
                 if cancelled():
                     raise Cancelled
                 progress(done / max(total, 1))
-            return video_project.run_sync(job_data, method, progress=report)
+            return _video_project().run_sync(job_data, method, progress=report)
 
         def done(estimate) -> None:
             if self.session is not session:  # another video (or project) since: not this one's offset
@@ -701,7 +715,7 @@ class VideoController(QtCore.QObject):
             left, right, partner, _ = source.pair(frame, offset)
             if cancelled():
                 raise Cancelled
-            return partner, video_project.write_frame_pair(left, right, folder)
+            return partner, _video_project().write_frame_pair(left, right, folder)
 
         def store(result) -> None:
             partner, paths = result
@@ -740,9 +754,9 @@ class VideoController(QtCore.QObject):
             if not automatic:
                 self.messages.say("info", f"seek proxies of {self._proxy_label} are being built")
             return None
-        if automatic and not (video_proxy.needs_proxy(source.left) or video_proxy.needs_proxy(source.right)):
+        if automatic and not (_video_proxy().needs_proxy(source.left) or _video_proxy().needs_proxy(source.right)):
             return None
-        folder = video_project.proxy_folder(project)
+        folder = _video_project().proxy_folder(project)
         try:
             plan = source.proxy_plan(folder)
         except UsvipsError as error:
@@ -774,7 +788,7 @@ class VideoController(QtCore.QObject):
         def job(progress, cancelled):
             _lower_thread_priority(niceness)
             try:
-                return video_project.build_proxies(plan, lambda done, total: progress(done / total), cancelled)
+                return _video_project().build_proxies(plan, lambda done, total: progress(done / total), cancelled)
             except InterruptedError:
                 raise Cancelled from None
 
@@ -831,7 +845,7 @@ class VideoController(QtCore.QObject):
         if self.source is not None:
             self.source.detach_proxies()
         try:
-            freed = video_project.delete_proxies(project, nav.label)
+            freed = _video_project().delete_proxies(project, nav.label)
         except UsvipsError as error:
             self.messages.say("error", str(error))
             return 0

@@ -1,0 +1,40 @@
+"""The window starts without pyqtgraph (nor the calibration's model): the stereo panes are plain Qt and
+every plot imports pyqtgraph when it is first made (importing it costs about half a second of CPU; the
+window's whole start-up budget is 0.5 s, see ``usvips bench --only startup``). Checked in a fresh
+interpreter, through the start-up probe's own path: ``usvips open SAMPLE`` with ``USVIPS_QUIT_WHEN_READY``
+— the window shown, the sample opened (its project file made by a first start), its first pair drawn."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+from usvips.locations import sample_project
+
+_SCRIPT = """
+import json, sys
+from usvips.cli import main
+code = main(["open", sys.argv[1]])
+print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
+"""
+
+
+def test_the_window_is_shown_with_a_sample_pair_drawn_without_importing_pyqtgraph(tmp_path):
+    sample = shutil.copytree(sample_project("tank_system1"), tmp_path / "tank_system1")
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", USVIPS_QUIT_WHEN_READY="1",
+               XDG_CONFIG_HOME=str(tmp_path / "config"), XDG_DATA_HOME=str(tmp_path / "data"))
+    for _ in range(2):  # the first open makes the sample's project file; the second is a user's next start
+        result = subprocess.run([sys.executable, "-c", _SCRIPT, str(sample)], capture_output=True, text=True,
+                                env=env, timeout=300, check=False)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "ready, pair" in result.stderr  # the pair was drawn before the check
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["code"] == 0
+    loaded = set(report["modules"])
+    assert "PySide6.QtWidgets" in loaded  # the window was made in this interpreter
+    assert not {name for name in loaded if name.split(".")[0] == "pyqtgraph"}
+    # nor the calibration's model and uncertainty (needed to measure, not to show a pair), nor the video
+    # machinery and the tracker (a project of image pairs)
+    assert not loaded & {"usvips.core.calibration.model", "usvips.core.calibration.uncertainty",
+                         "usvips.app.video_project", "usvips.io.video_proxy", "usvips.app.tracking"}
