@@ -18,7 +18,8 @@ per housing) refinement moves them by a median of 0.4-1.7 px, 1.8-5 px at the 90
 (:func:`usvips.core.detection.stereo.measure_pairs` with ``pair_pointing``, as the detection service gives
 it from the model's measured ``[stereo_sigma]``): the right error is the left one carried over plus the
 match's own (:mod:`usvips.core.measurements.correlated_pointing`). A larger move than ``max_shift_px`` is
-refused when it is given (the detection service gives 3√2 × the model's measured sigma). A match the
+refused when it is given (the detection service gives 3 standard deviations of the move the keypoints' measured
+sigma by the fish's size explains, :func:`usvips.app.detection_service.shift_limits`). A match the
 matcher refuses (ambiguous, textureless, a low correlation) leaves the model's right keypoint as it was,
 and says why.
 
