@@ -126,4 +126,3 @@ def test_a_move_beyond_the_keypoints_own_errors_is_not_taken(housing):
                 assert not any(k.beyond_limit for k in result.keypoints if k not in gone)
     assert largest > limit and refused >= 1  # the wrong moves exist, and the limit refuses them
     assert np.mean(limited_error) <= np.mean(unlimited_error) and np.max(limited_error) <= np.max(unlimited_error)
-
