@@ -230,3 +230,35 @@ def test_an_accepted_proposal_whose_right_keypoints_follow_the_left_counts_in_th
         assert len(proposed) == len(run.proposals) and np.array_equal(proposed, reviewed)
         samples, _ = reviewed_samples(project)  # the training set's corrections name the model's tag alone
         assert {s.model for _, pair in samples for s in pair} == {"fake-fish sha256:abababababab"}
+
+
+def test_refinements_move_limit_grows_with_the_fish_and_honest_errors_pass_it_in_99_percent_of_cases():
+    """The shipped model's [stereo_sigma]: the move refinement may make (shift_limits) grows with the fish's
+    size, and the moves that keypoint errors of exactly the measured σ make — the left error carried over,
+    plus the match's, minus the model's right keypoint's own (as the left's) — pass it in about 99 % of
+    cases (a 2-D move beyond 3σ: a Rayleigh tail of 1.1 %)."""
+    from usvips.app.detection_model import bundled_model_path
+    from usvips.app.detection_service import KEYPOINTS, shift_limits
+    from usvips.core.detection import Detection, Keypoint
+    from usvips.core.detection.stereo import StereoPair
+
+    model = load_model(bundled_model_path())
+    stereo, scale = model.stereo_sigma(KEYPOINTS), model.input_scale((640, 480))
+    sizes = np.array([25.0, 60.0, 120.0, 250.0])
+    pairs = []
+    for size in sizes:
+        detection = Detection((0, 0, size, 10), "fish", 0.9, (Keypoint("snout", 100.0, 100.0, 0.9),
+                                                            Keypoint("fork", 100.0 + size, 100.0, 0.9)))
+        pairs.append(StereoPair(detection, detection, 0, 0, 0.0))
+    limits = shift_limits(model, pairs, (640, 480), model.keypoint_sigma(KEYPOINTS, (640, 480)))
+    rng = np.random.default_rng(35)
+    for name in KEYPOINTS:
+        limit = np.array([table[name] for table in limits])
+        assert np.all(np.diff(limit) > 0)
+        for size, most in zip(sizes, limit, strict=True):
+            left = float(stereo.left[name](size * scale)) / scale
+            match = float(stereo.match[name](size))
+            move = (rng.normal(0, left, (20000, 2)) + rng.normal(0, match, (20000, 2))
+                    - rng.normal(0, left, (20000, 2)))
+            beyond = np.mean(np.linalg.norm(move, axis=1) > most)
+            assert 0.006 <= beyond <= 0.017, (name, size, beyond)

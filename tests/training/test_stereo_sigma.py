@@ -73,3 +73,24 @@ def test_the_run_never_writes_over_its_input(tmp_path, capsys):
     path.write_text(DESCRIPTION)
     assert main(["--model", str(path), "--seeds", "1", "1", "--out", str(path)]) == 2
     assert "write over" in capsys.readouterr().err and path.read_text() == DESCRIPTION
+
+
+def test_a_refit_replaces_the_descriptions_table_and_keeps_the_rest(tmp_path):
+    """A description that has a [stereo_sigma] table is refitted (its table sets refinement's limits while
+    the errors are collected): the output holds the new table only, every other table as it was."""
+    from usvips.training.stereo_sigma import without_stereo_sigma
+
+    rng = np.random.default_rng(9)
+    old = fit_stereo_sigma(_errors(rng, {"snout": (1.0, 0.01), "fork": (1.0, 0.02)},
+                                   {"snout": (0.3, 0.0), "fork": (0.3, 0.01)}, 0.5), 0.5, "old clips")
+    new = fit_stereo_sigma(_errors(rng, {"snout": (2.0, 0.01), "fork": (2.0, 0.02)},
+                                   {"snout": (0.6, 0.0), "fork": (0.6, 0.01)}, 0.5), 0.5, "new clips")
+    with_old = DESCRIPTION + stereo_sigma_table(old) + '\n[validation]\nsource = "held-out frames"\n'
+    refitted = without_stereo_sigma(with_old).rstrip("\n") + "\n" + stereo_sigma_table(new)
+    assert refitted.count("[stereo_sigma]") == 1 and "old clips" not in refitted and "held-out frames" in refitted
+    path = tmp_path / "fish.toml"
+    path.write_text(refitted, encoding="utf-8")
+    read = read_model_description(path).stereo_sigma
+    assert read.basis == "new clips"
+    assert read.left["snout"].a == pytest.approx(new.left["snout"].a, rel=1e-3)
+    assert without_stereo_sigma(DESCRIPTION) == DESCRIPTION

@@ -266,13 +266,35 @@ def pair_and_refine(left: np.ndarray, right: np.ndarray, geometry: PairGeometry,
         4 * math.sqrt(2) * max(sigmas.values()) if sigmas else DEFAULT_GATE_PX)
     pairing = pair_detections(found_left, found_right, rig, gate_px=gate, keypoints=KEYPOINTS)
     if refine:
-        # a move beyond 3√2 σ is not one the keypoints' own errors explain: a wrong match (refine's docstring)
-        limits = {name: 3 * math.sqrt(2) * sigma for name, sigma in sigmas.items()} if sigmas else None
+        limits = shift_limits(model, pairing.pairs, (left.shape[1], left.shape[0]), sigmas)
         results = refine_pairs(left, right, pairing.pairs, rig, KEYPOINTS, radius_px=max(2 * gate, 8.0),
                                max_shift_px=limits)
     else:
         results = [RefinedPair(pair, ()) for pair in pairing.pairs]
     return results, found_left, found_right, len(pairing.unpaired_left) + len(pairing.unpaired_right)
+
+
+def shift_limits(model: DetectionModel, pairs: Sequence[StereoPair], image_size: tuple[int, int],
+                 sigmas: dict[str, float] | None) -> list[dict[str, float]] | dict[str, float] | None:
+    """The largest move (image px) refinement may make to each pair's right keypoints: 3 standard deviations
+    of the move the keypoints' own errors make — a larger one is a wrong match or a gross keypoint miss
+    (refine's docstring), reached by honest errors in about 1 % of cases (the move is 2-D: a Rayleigh tail).
+    With the model's ``[stereo_sigma]``, per pair by the fish's size: the move is the left keypoint's error
+    carried over, plus the match's, minus the model's right keypoint's own (as the left's), so its σ per
+    coordinate is √(2 σ_L(s)² + σ_m(s)²) — a fixed limit refused most fish over 100 px, whose keypoints err
+    by more than the validated σ. Else 3√2 × the keypoint's one measured σ (one table for every pair);
+    None without a measured σ (no limit)."""
+    stereo = model.stereo_sigma(KEYPOINTS)
+    if stereo is None:
+        return {name: 3 * math.sqrt(2) * sigma for name, sigma in sigmas.items()} if sigmas else None
+    scale = model.input_scale(image_size)
+    out = []
+    for pair in pairs:
+        ends = np.array([pair.left.keypoint(k).pixel for k in KEYPOINTS])
+        size = float(np.linalg.norm(ends[1] - ends[0]))
+        out.append({k: 3.0 * math.sqrt(2 * (float(stereo.left[k](size * scale)) / scale) ** 2
+                                       + float(stereo.match[k](size)) ** 2) for k in KEYPOINTS})
+    return out
 
 
 def pair_pointing(model: DetectionModel, pair: StereoPair, refined: Sequence[bool],

@@ -22,8 +22,10 @@ counted. Run::
     python -m usvips.training.stereo_sigma --model resources/models/fish-centre-pose.toml \\
         --seeds 61000000 120 --out /tmp/fish-with-stereo-sigma.toml
 
-The output is the description with the table added (its model file beside it is not copied: put the table
-into the shipped description); it never writes over its input. Pixels: x right, y down.
+The output is the description with the table added, or replacing the one it had (its model file beside it is
+not copied: put the table into the shipped description); it never writes over its input. A model that has a
+table already keeps using it for refinement's limits while the errors are collected (they grow with the
+fish's size, :func:`usvips.app.detection_service.shift_limits`). Pixels: x right, y down.
 """
 
 from __future__ import annotations
@@ -147,6 +149,22 @@ def stereo_sigma_table(stereo: StereoSigma) -> str:
             f"unmatched = {{{pairs(stereo.unmatched)}}}  # a right keypoint not refined, model input px\n")
 
 
+def without_stereo_sigma(text: str) -> str:
+    """A description's text without its ``[stereo_sigma]`` table (from its header, and the comment lines just
+    above it, to the next table or the end): the table a new fit replaces. The model is still loaded with the
+    old table, whose σ by size sets refinement's limits while the errors are collected
+    (:func:`usvips.app.detection_service.shift_limits`): the new table describes the pairs those limits
+    pass."""
+    lines = text.splitlines(keepends=True)
+    start = next((i for i, line in enumerate(lines) if line.lstrip().startswith("[stereo_sigma]")), None)
+    if start is None:
+        return text
+    end = next((i for i in range(start + 1, len(lines)) if lines[i].lstrip().startswith("[")), len(lines))
+    while start > 0 and lines[start - 1].lstrip().startswith("#"):
+        start -= 1
+    return "".join(lines[:start] + lines[end:])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m usvips.training.stereo_sigma",
                                      description=__doc__.split("\n\n")[0])
@@ -162,9 +180,7 @@ def main(argv: list[str] | None = None) -> int:
         source, out = Path(args.model), Path(args.out)
         if out.resolve() == source.resolve():
             raise UsvipsError(f"{out}: would write over the model's description; name a new file")
-        text = source.read_text(encoding="utf-8")
-        if "[stereo_sigma]" in text:
-            raise UsvipsError(f"{source}: already has a [stereo_sigma] table; remove it first")
+        text = without_stereo_sigma(source.read_text(encoding="utf-8"))
         model = load_model(source)
         first, count = args.seeds
         if count < 1:

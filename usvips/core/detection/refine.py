@@ -18,7 +18,8 @@ per housing) refinement moves them by a median of 0.4-1.7 px, 1.8-5 px at the 90
 (:func:`usvips.core.detection.stereo.measure_pairs` with ``pair_pointing``, as the detection service gives
 it from the model's measured ``[stereo_sigma]``): the right error is the left one carried over plus the
 match's own (:mod:`usvips.core.measurements.correlated_pointing`). A larger move than ``max_shift_px`` is
-refused when it is given (the detection service gives 3√2 × the model's measured sigma). A match the
+refused when it is given (the detection service gives 3 standard deviations of the move the keypoints' measured
+sigma by the fish's size explains, :func:`usvips.app.detection_service.shift_limits`). A match the
 matcher refuses (ambiguous, textureless, a low correlation) leaves the model's right keypoint as it was,
 and says why.
 
@@ -114,8 +115,9 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     docstring); the model's point kept, with the reason, when the matcher refuses. ``curve``: the left
     keypoint's curve when already traced (:func:`refine_pairs` traces a frame's curves at once).
     ``max_shift_px``: a match that would move the model's point further than this is not taken (the model's
-    point kept, with the reason) — given as 3√2 × the model's measured sigma, a shift the two keypoints'
-    own errors reach in about 1 % of cases, it keeps the rare wrong matches of the module docstring out."""
+    point kept, with the reason) — given as 3 standard deviations of the move the two keypoints' own
+    errors make (:func:`usvips.app.detection_service.shift_limits`), reached by them in about 1 % of cases,
+    it keeps the wrong matches of the module docstring out."""
     radius = validation.positive("radius_px", radius_px)
     before = (float(right.x), float(right.y))
     height, width = right_image.shape[:2]
@@ -142,18 +144,25 @@ def refine_keypoint(left_image: np.ndarray, right_image: np.ndarray, rig: Stereo
     if max_shift_px is not None and shift > max_shift_px:
         return KeypointRefinement(left.name, before, before, float(match.score),
                                   f"{BEYOND_LIMIT} {shift:.1f} px, more than {max_shift_px:.1f} px "
-                                  "(3√2 × the model's measured sigma): the model's point kept")
+                                  "(what the keypoints' measured sigma explains): the model's point kept")
     return KeypointRefinement(left.name, before, after, float(match.score))
 
 
 def refine_pairs(left_image: np.ndarray, right_image: np.ndarray, pairs: Sequence[StereoPair], rig: StereoRig,
                  keypoints: Sequence[str] = ("snout", "fork"), window: int = 15, radius_px: float = 12.0,
                  near: float = 0.3, far: float = 10.0, min_score: float = 0.6,
-                 max_shift_px: Mapping[str, float] | None = None) -> list[RefinedPair]:
+                 max_shift_px: Mapping[str, float] | Sequence[Mapping[str, float]] | None = None
+                 ) -> list[RefinedPair]:
     """Each of a frame's pairs with each of ``keypoints`` (those both detections give) refined in the right
     image by :func:`refine_keypoint`, every curve traced in one batch; other keypoints are left as the
     model gave them. ``max_shift_px``: per keypoint name, the largest move taken (see
-    :func:`refine_keypoint`); a name not in it, or None, has no limit."""
+    :func:`refine_keypoint`) — one table for every pair, or one per pair (a limit that grows with the fish's
+    size); a name not in it, or None, has no limit. A keypoint's search radius is at least its limit (a
+    limit beyond the radius could never be reached)."""
+    per_pair = (list(max_shift_px) if max_shift_px is not None and not isinstance(max_shift_px, Mapping)
+                else [max_shift_px or {}] * len(pairs))
+    if len(per_pair) != len(pairs):
+        raise InvalidParameterError("max_shift_px", f"{len(per_pair)} tables of limits for {len(pairs)} pairs")
     jobs = [(i, name) for i, pair in enumerate(pairs) for name in keypoints
             if name in pair.left.keypoint_names and name in pair.right.keypoint_names]
     curves: list[EpipolarCurve] = []
@@ -165,9 +174,10 @@ def refine_pairs(left_image: np.ndarray, right_image: np.ndarray, pairs: Sequenc
     steps: dict[int, list[KeypointRefinement]] = {i: [] for i in range(len(pairs))}
     for (i, name), curve in zip(jobs, curves, strict=True):
         pair = pairs[i]
+        limit = per_pair[i].get(name)
         steps[i].append(refine_keypoint(left_image, right_image, rig, pair.left.keypoint(name),
-                                        pair.right.keypoint(name), window, radius_px, near, far, min_score, curve,
-                                        (max_shift_px or {}).get(name)))
+                                        pair.right.keypoint(name), window, max(radius_px, limit or 0.0), near,
+                                        far, min_score, curve, limit))
     out = []
     for i, pair in enumerate(pairs):
         moved = {step.name: step.after for step in steps[i] if step.refined}
