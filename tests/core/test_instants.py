@@ -218,6 +218,8 @@ def test_frame_correlation_names_too_few_objects_and_says_when_on_its_bound():
         frame_correlation([rng.normal(size=3) for _ in range(9)] + [[0.5]] * 20)
     with pytest.raises(InvalidParameterError, match="finite"):
         frame_correlation([rng.normal(size=3) for _ in range(11)] + [[np.nan, 1.0]])
+    with pytest.raises(InvalidParameterError, match="finite"):  # even an object seen once
+        frame_correlation([rng.normal(size=3) for _ in range(11)] + [[np.inf]])
     carried = frame_correlation([np.full(4, rng.normal()) for _ in range(30)])  # one error on every instant
     assert carried.bound and carried.value == MAX_FRAME_CORRELATION
     opposed = frame_correlation([np.array([z, -z]) for z in rng.normal(size=30)])

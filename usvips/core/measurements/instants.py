@@ -279,9 +279,9 @@ def frame_correlation(normalised_errors: Sequence[Sequence[float]]) -> FrameCorr
     :class:`InvalidParameterError`. Its standard uncertainty is the jackknife's, leaving out one object at a
     time (the instants of one object are not independent)."""
     groups = [np.asarray(z, dtype=np.float64).ravel() for z in normalised_errors]
-    groups = [z for z in groups if len(z) >= 2]
     if any(not np.all(np.isfinite(z)) for z in groups):
         raise InvalidParameterError("normalised_errors", "every normalised error must be finite")
+    groups = [z for z in groups if len(z) >= 2]
     if len(groups) < MIN_FRAME_OBJECTS:
         raise InvalidParameterError("normalised_errors", f"{len(groups)} objects with two instants or more; at "
                                                          f"least {MIN_FRAME_OBJECTS} are needed to estimate how "
