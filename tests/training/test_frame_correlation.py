@@ -6,22 +6,11 @@ held-out clips by tests/app/test_detection_acceptance.py.)"""
 import numpy as np
 import pytest
 
+from tests.training.test_stereo_sigma import DESCRIPTION
 from usvips.app.detection_acceptance import AcceptanceFigures
 from usvips.core.measurements.instants import frame_correlation
 from usvips.io.model_description import read_model_description
 from usvips.training.frame_correlation import fish_errors, frame_correlation_table, main
-
-DESCRIPTION = """
-[model]
-file = "fish.onnx"
-family = "yolo-pose"
-input_width = 320
-input_height = 320
-
-[output]
-classes = ["fish"]
-keypoints = ["snout", "fork"]
-"""
 
 
 def test_a_runs_lengths_are_grouped_by_fish_and_give_their_correlation():

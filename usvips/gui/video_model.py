@@ -20,34 +20,13 @@ import numpy as np
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.synchronisation import SyncEstimate
 from usvips.gui.signals import Signal
+from usvips.gui.video_modules import video_project as _video_project
+from usvips.gui.video_modules import video_proxy as _video_proxy
+from usvips.gui.video_modules import video_stream as _video_stream
 from usvips.store.interface import ProjectStore
 
 if TYPE_CHECKING:
     from usvips.io.video_stream import Picture
-
-
-def _video_project():
-    """:mod:`usvips.app.video_project`, imported when first used, not at the window's start (imported here, not
-    lazily at the top, so that any thread may be the first: the import lock guards it)."""
-    from usvips.app import video_project
-
-    return video_project
-
-
-def _video_proxy():
-    """:mod:`usvips.io.video_proxy`, imported when first used, not at the window's start (imported here, not
-    lazily at the top, so that any thread may be the first: the import lock guards it)."""
-    from usvips.io import video_proxy
-
-    return video_proxy
-
-
-def _video_stream():
-    """:mod:`usvips.io.video_stream`, imported when first used, not at the window's start (imported here, not
-    lazily at the top, so that any thread may be the first: the import lock guards it)."""
-    from usvips.io import video_stream
-
-    return video_stream
 
 
 #: bytes a pixel of a cached frame takes: frames are cached as the decoder returned them (YUV 4:2:0 for

@@ -7,7 +7,9 @@ from tests.gui.conftest import wait_for_pair
 from usvips.gui.qt.detection_dialogs import SETTING
 
 
-def test_detect_on_the_pair_shown_stores_draws_and_opens_review(qtbot, make_window, tmp_path):
+def _window_on_pair(qtbot, make_window, tmp_path):
+    """A window showing the pair "dive" of a new project, a model of its scene remembered in the settings;
+    the window and the model's description file."""
     truth = scene(seed=5)
     project = make_project(tmp_path)
     model = write_switching_model(tmp_path, truth, sigma=1.0)
@@ -16,6 +18,11 @@ def test_detect_on_the_pair_shown_stores_draws_and_opens_review(qtbot, make_wind
     assert window.open_path(project)
     window.load_pair("dive")
     wait_for_pair(qtbot, window, "dive")
+    return window, model
+
+
+def test_detect_on_the_pair_shown_stores_draws_and_opens_review(qtbot, make_window, tmp_path):
+    window, _ = _window_on_pair(qtbot, make_window, tmp_path)
     assert window.workspace.project.objects() == []
 
     window.actions["detect"].trigger()
@@ -58,14 +65,7 @@ def test_the_model_is_loaded_by_the_worker_once_and_kept_as_the_projects_default
         return real(path)
 
     monkeypatch.setattr(detect_model, "load_model", recording)
-    truth = scene(seed=5)
-    project = make_project(tmp_path)
-    model = write_switching_model(tmp_path, truth, sigma=1.0)
-    window = make_window()
-    window.settings.setValue(SETTING, str(model))
-    assert window.open_path(project)
-    window.load_pair("dive")
-    wait_for_pair(qtbot, window, "dive")
+    window, model = _window_on_pair(qtbot, make_window, tmp_path)
     window.actions["detect"].trigger()
     qtbot.waitUntil(lambda: not window.busy and len(window.workspace.project.objects()) == 3, timeout=20000)
     assert on_window_thread == [False]

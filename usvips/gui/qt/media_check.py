@@ -12,17 +12,9 @@ from __future__ import annotations
 from PySide6 import QtCore, QtWidgets
 
 from usvips.gui.qt.worker import Cancelled, Worker
+from usvips.gui.video_modules import video_project as _video_project
 from usvips.gui.window_context import WindowContext
 from usvips.store.interface import ProjectStore
-
-
-def _video_project():
-    """:mod:`usvips.app.video_project`, imported when first used, not at the window's start (imported here, not
-    lazily at the top, so that any thread may be the first: the import lock guards it)."""
-    from usvips.app import video_project
-
-    return video_project
-
 
 #: how many changed files a warning names before it says "and N more"
 NAMED = 3

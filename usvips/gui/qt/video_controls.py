@@ -32,23 +32,9 @@ from usvips.gui.video_model import (
     rgb_pair,
     video_frame_of,
 )
+from usvips.gui.video_modules import video_project as _video_project
+from usvips.gui.video_modules import video_proxy as _video_proxy
 from usvips.gui.window_context import WindowContext
-
-
-def _video_project():
-    """:mod:`usvips.app.video_project`, imported when first used, not at the window's start (imported here, not
-    lazily at the top, so that any thread may be the first: the import lock guards it)."""
-    from usvips.app import video_project
-
-    return video_project
-
-
-def _video_proxy():
-    """:mod:`usvips.io.video_proxy`, imported when first used, not at the window's start (imported here, not
-    lazily at the top, so that any thread may be the first: the import lock guards it)."""
-    from usvips.io import video_proxy
-
-    return video_proxy
 
 
 class Timeline(QtWidgets.QSlider):
