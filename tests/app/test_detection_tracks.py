@@ -190,3 +190,35 @@ def test_a_joined_fish_keeps_whole_the_share_of_its_pointing_error_the_models_fr
                 assert sigmas[name] == pytest.approx(
                     combine_measurements(measured, pointing, shared_fraction=0.4).main.sigma, rel=1e-12)
     assert independent < sigmas["correlated"] < sigmas["whole"]
+
+
+def test_a_reviewers_correction_of_one_instant_makes_only_that_instant_a_persons(tmp_path):
+    """A reviewer moves the snout of one instant of a fish joined over frames: that point is now a person's
+    click, independent of the model's other frames. The fish is still combined with the model's frame
+    correlation — per instant, ρ for the model's instants and ρ × ½ for the corrected one (one of its two
+    points is still the model's) — not as wholly independent instants (which it was before: too sure)."""
+    truth = scene(seed=3)
+    velocity = np.array([[0.3, 0.0, 0.0], [0.0, 0.2, 0.0], [-0.4, 0.1, 0.05]])
+    plain = _model(truth.fish, velocity)
+    model = DetectionModel("moving-fish", "cd" * 32, replace(plain.description, frame_correlation=0.4),
+                           lambda: MovingDetector(truth.fish, velocity))
+    path = make_project(tmp_path)
+    with Project.open(path) as project:
+        add_video(tmp_path, project, "drop", frames=6)
+        project.add_calibration("cal", calibration_to_dict(calibration()), ("drop",))
+        detect_in_project(project, model, video="drop", refine=False)
+        fish = survey_objects(project)[0]
+        instants = project.instants(fish.id)
+        assert len(instants) >= 3
+        corrected = project.object(instants[1])
+        snout = replace(corrected.vertices[0], xl=corrected.vertices[0].xl + 0.6, source="hand click",
+                        pointing_px=None, pointing_origin="default")
+        project.update_object(corrected.id, vertices=[snout, *corrected.vertices[1:]])
+        source = measurement_input(project, project.object(fish.id))
+        assert [i.model_share for i in (source, *source.instants)] == [1.0, 1.0, 0.5] + [1.0] * (len(instants) - 2)
+        sigma = evaluate(source).main.sigma
+        measured, pointing = instant_measurements(source), instant_pointing(source)
+        shares = [0.4, 0.4, 0.2] + [0.4] * (len(instants) - 2)
+        assert sigma == pytest.approx(combine_measurements(measured, pointing, shared_fraction=shares).main.sigma,
+                                      rel=1e-12)
+        assert combine_measurements(measured, pointing).main.sigma < sigma

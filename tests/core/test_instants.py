@@ -252,6 +252,49 @@ def test_instants_whose_errors_correlate_are_combined_with_an_honest_sigma():
     assert np.mean(whole) < 0.75
 
 
+def test_a_models_instants_among_a_persons_are_combined_with_an_honest_sigma():
+    """Some instants a model pointed at (their errors correlate by rho), others a person picked or corrected
+    (independent): one rho_i per instant (rho for the model's, 0 for the person's) gives a NEES near 1;
+    taking them all as independent — what a reviewer's correction of one instant used to do — is too sure.
+    An instant of which the person moved half the points (rho_i = rho / 2 for its share) errs cautious."""
+    rng = np.random.default_rng(31)
+    honest, independent, half = [], [], []
+    for _ in range(1500):
+        rho = rng.uniform(0.3, 0.6)
+        k = int(rng.integers(4, 9))
+        person = rng.permutation(k) < int(rng.integers(1, k - 2))  # at least three of the model's instants
+        sigmas = rng.uniform(0.002, 0.006, k)
+        calibration = rng.uniform(0.0, 0.002)
+        truth = rng.uniform(0.2, 0.6)
+        errors = np.where(person, sigmas * rng.normal(size=k), _correlated_errors(rng, rho, sigmas))
+        values = truth + errors + rng.normal(0.0, calibration)
+        fractions = np.where(person, 0.0, rho)
+        for out, shares in ((honest, fractions), (independent, 0.0), (half, np.where(person, rho / 2, rho))):
+            combined = combine_figure(values, sigmas, calibration, shared_fraction=shares)
+            out.append(((combined.value - truth) / combined.sigma) ** 2)
+    print(f"NEES per instant {np.mean(honest):.3f}, all independent {np.mean(independent):.3f}, a person's "
+          f"instants at half the share {np.mean(half):.3f}")
+    assert 0.85 <= np.mean(honest) <= 1.2
+    assert np.mean(independent) > 1.3
+    assert np.mean(half) < np.mean(honest)
+
+
+def test_one_share_for_every_instant_is_the_same_as_one_given_per_instant():
+    values, sigmas = [0.30, 0.31, 0.29, 0.305], [0.004, 0.003, 0.005, 0.004]
+    one = combine_figure(values, sigmas, 0.001, shared_fraction=0.4)
+    each = combine_figure(values, sigmas, 0.001, shared_fraction=[0.4] * 4)
+    assert (each.value, each.sigma) == (one.value, one.sigma)
+    assert combine_figure(values, sigmas, 0.001, shared_fraction=[0.4, 0.4, 0.0, 0.4]).sigma < one.sigma
+
+
+@pytest.mark.parametrize("fractions, words", [([0.3, 0.3], "expected one value or 3 for 3 instants"),
+                                              ([0.3, 1.0, 0.3], "instant 2: must lie in"),
+                                              ([0.3, 0.3, float("nan")], "instant 3: must lie in")])
+def test_a_share_per_instant_that_is_wrong_is_refused_naming_the_instant(fractions, words):
+    with pytest.raises(InvalidParameterError, match=words):
+        combine_figure([0.30, 0.31, 0.29], [0.004, 0.004, 0.005], shared_fraction=fractions)
+
+
 @pytest.mark.parametrize("kwargs, words", [({"shared_fraction": 1.0}, "shared_fraction: must lie in"),
                                            ({"shared_fraction": -0.1}, "shared_fraction: must lie in"),
                                            ({"shared_fraction": float("nan")}, "shared_fraction: must lie in"),

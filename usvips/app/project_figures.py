@@ -95,9 +95,10 @@ class MeasurementInput:
     # each vertex's left-right pointing correlation (N,) (usvips.core.pointing.vertex_correlation); None:
     # independent
     pointing_correlation: np.ndarray | None = None
-    # every vertex is a model's keypoint (a detection proposal): the model's error on one fish repeats on
-    # the frames that see it, so its instants' pointing errors are not independent either
-    model_keypoints: bool = False
+    # the fraction of the vertices that are a model's keypoints (1: a detection proposal as proposed; less
+    # once a reviewer moved some): the model's error on one fish repeats on the frames that see it, so its
+    # instants' pointing errors are not independent either; and the frame correlation those vertices state
+    model_share: float = 0.0
     frame_correlation: float | None = None
 
 
@@ -187,14 +188,19 @@ def _one_instant(project: ProjectStore, stored: StoredObject, cache: dict[int, S
                             station, frame, stored.attribute, stored.notes, pair, where_measured(stored),
                             calibration_id, pointing_px=pointing, pointing_origin=origin, pointing_marks=marks,
                             pointing_correlation=vertex_correlation([v.source for v in vertices], pointing),
-                            model_keypoints=bool(vertices) and all(_is_keypoint(v.source) for v in vertices),
+                            model_share=_model_share(vertices),
                             frame_correlation=_stated_frame_correlation(vertices))
 
 
+def _model_share(vertices: list[Vertex]) -> float:
+    """The fraction of ``vertices`` that are a model's keypoints (0 without vertices)."""
+    return sum(_is_keypoint(v.source) for v in vertices) / len(vertices) if vertices else 0.0
+
+
 def _stated_frame_correlation(vertices: list[Vertex]) -> float | None:
-    """The frame correlation every vertex's source states (the largest, should they differ: the cautious
-    one), None when any vertex states none."""
-    stated = [frame_correlation_of(v.source) for v in vertices]
+    """The frame correlation the sources of the model's keypoints among ``vertices`` state (the largest,
+    should they differ: the cautious one), None when one of them states none or there is none."""
+    stated = [frame_correlation_of(v.source) for v in vertices if _is_keypoint(v.source)]
     return None if not stated or any(s is None for s in stated) else max(stated)
 
 
@@ -233,17 +239,23 @@ def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Mea
 
 def _shared_pointing(source: MeasurementInput, everything: tuple[MeasurementInput, ...]) -> dict:
     """How the instants' pointing errors are shared (:func:`combine_measurements`' keywords): whole when any
-    instant was tracked (one pick carried along) or every instant is a model's keypoints without a measured
-    frame correlation; by the model's measured frame correlation (the largest stated) when every instant
-    states one; independent otherwise (each instant picked on its own)."""
+    instant was tracked (one pick carried along) or an instant with a model's keypoints states no measured
+    frame correlation; independent when no instant has a model's keypoint (each picked on its own); else by
+    the model's measured frame correlation ρ (the largest stated) — per instant ρ × its share of the model's
+    keypoints when a reviewer moved some of them (a person's point is independent of the model's other
+    frames; the share errs on the cautious side, :func:`usvips.core.measurements.instants.combine_figure`)."""
     if any(i.tracked_from is not None for i in source.instants):
         return {"shared_pointing": True}
-    if all(i.model_keypoints for i in everything):
-        stated = [i.frame_correlation for i in everything]
-        if any(s is None for s in stated):
-            return {"shared_pointing": True}
-        return {"shared_fraction": max(stated)}
-    return {}
+    shares = [i.model_share for i in everything]
+    if not any(shares):
+        return {}
+    stated = [i.frame_correlation for i, share in zip(everything, shares, strict=True) if share]
+    if any(s is None for s in stated):
+        return {"shared_pointing": True}
+    rho = max(stated)
+    if all(share == 1.0 for share in shares):
+        return {"shared_fraction": rho}
+    return {"shared_fraction": tuple(rho * share for share in shares)}
 
 
 def instant_measurements(source: MeasurementInput, rules: QualityRules | None = None) -> list[Measurement]:

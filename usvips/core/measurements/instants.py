@@ -27,7 +27,10 @@ exactly so. Their pointing errors correlate between instants with a correlation 
 ρ σ_i σ_j. Of each instant's σ_i², (1 − ρ) σ_i² is its own and averages out (the random-effects mean and its
 Hartung–Knapp variance with its floor, on those variances), and the shared part is added whole for the
 weights a_i used: σ² = max(q, 1)/Σ w*_i + ρ (Σ a_i σ_i)² + σ_common². ρ = 0 is independent instants; ρ = 1
-is ``shared_pointing``.
+is ``shared_pointing``. Instants of one object need not all share alike — a reviewer who moves a model's
+keypoint to where the fish is makes that point a person's, independent of the model's other frames — so
+each instant may have its own ρ_i (one factor shared in part: e_i = √ρ_i σ_i z + √(1 − ρ_i) σ_i z_i, so
+cov(e_i, e_j) = √(ρ_i ρ_j) σ_i σ_j): (1 − ρ_i) σ_i² averages out and (Σ a_i √ρ_i σ_i)² is kept whole.
 
 What μ is: the mean of the object's figure over its instants (for a bending fish, its mean snout–fork
 distance, which is shorter than its straight length; measure straight instants when that is wanted).
@@ -74,7 +77,8 @@ def _random_effects(values: np.ndarray, variances: np.ndarray,
 def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigma: float = 0.0,
                    name: str = "length", unit: str = "m", labels: Sequence[str] | None = None,
                    calibrations: Sequence[object] | None = None, alpha: float = ALPHA,
-                   shared_pointing: bool = False, shared_fraction: float = 0.0) -> CombinedFigure:
+                   shared_pointing: bool = False,
+                   shared_fraction: float | Sequence[float] = 0.0) -> CombinedFigure:
     """Combine one figure measured on k instants (see the module docstring).
 
     ``values`` (k,) and ``sigmas`` (k,) in ``unit``: each instant's figure and its sigma (independent
@@ -90,8 +94,10 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
     error is ``sigmas``); ``sigmas`` still weight them and make the agreement test.
 
     ``shared_fraction``: ρ in [0, 1), the correlation of two instants' errors ``sigmas`` (a model's keypoints
-    on one fish, see the module docstring); (1 − ρ) σ_i² averages out, ρ σ_i σ_j does not. Not with
-    ``shared_pointing`` (which is ρ = 1 with the carried error given in ``common_sigma``).
+    on one fish, see the module docstring); (1 − ρ) σ_i² averages out, ρ σ_i σ_j does not. Or one ρ_i per
+    instant (k,) — a model's instants with its ρ among instants a person picked (0) — the correlation of
+    instants i and j then being √(ρ_i ρ_j). Not with ``shared_pointing`` (which is ρ = 1 with the carried
+    error given in ``common_sigma``).
     """
     values = np.asarray(values, dtype=np.float64).ravel()
     sigmas = np.asarray(sigmas, dtype=np.float64).ravel()
@@ -122,18 +128,15 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
                 "instants", f"{labels[0]} was measured with calibration {first} but {labels[other]} with "
                             f"calibration {calibrations[other]}: instants of one object must share one calibration "
                             "(re-measure them with one, or keep them as separate objects)")
-    shared_fraction = float(shared_fraction)
-    if not 0.0 <= shared_fraction < 1.0:
-        raise InvalidParameterError("shared_fraction", f"must lie in [0, 1) (a correlation between instants; 1 "
-                                                       f"is shared pointing), got {shared_fraction:g}")
-    if shared_pointing and shared_fraction:
+    fractions = _shared_fractions(shared_fraction, labels)
+    if shared_pointing and fractions.any():
         raise InvalidParameterError("shared_fraction", "not with shared pointing, which shares the whole error")
-    variances = (1.0 - shared_fraction) * sigmas ** 2
+    variances = (1.0 - fractions) * sigmas ** 2
     mean, variance, tau2, q, fixed_variance = _random_effects(values, variances, floor=not shared_pointing)
     shared = 0.0
-    if shared_fraction:
+    if fractions.any():
         weights = 1.0 / (variances + tau2)
-        shared = shared_fraction * float((weights / weights.sum()) @ sigmas) ** 2
+        shared = float((weights / weights.sum()) @ (np.sqrt(fractions) * sigmas)) ** 2
     total = variance + shared + common_sigma ** 2
     between = max(0.0, variance - fixed_variance) / total if total > 0 else 0.0
     residuals = np.full(k, np.nan)
@@ -152,9 +155,29 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
                           p_value, residuals, limit, outliers, labels)
 
 
+def _shared_fractions(shared_fraction: float | Sequence[float], labels: Sequence[str]) -> np.ndarray:
+    """ρ_i per instant (k,) from one ρ for all or one per instant, each checked to lie in [0, 1)."""
+    k = len(labels)
+    fractions = np.asarray(shared_fraction, dtype=np.float64)
+    one = fractions.ndim == 0
+    if one:
+        fractions = np.full(k, float(fractions))
+    elif fractions.shape != (k,):
+        raise InvalidParameterError("shared_fraction", f"expected one value or {k} for {k} instants, got "
+                                                       f"{fractions.size}")
+    bad = np.flatnonzero(~((fractions >= 0.0) & (fractions < 1.0)))
+    if bad.size:
+        i = int(bad[0])
+        where = "" if one else f"{labels[i]}: "
+        raise InvalidParameterError("shared_fraction", f"{where}must lie in [0, 1) (a correlation between instants; "
+                                                       f"1 is shared pointing), got {fractions[i]:g}")
+    return fractions
+
+
 def combine_instants(instants: Sequence[Sequence[Figure]], common_sigmas: dict[str, float] | None = None,
                      labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
-                     shared_pointing: bool = False, shared_fraction: float = 0.0) -> tuple[CombinedFigure, ...]:
+                     shared_pointing: bool = False,
+                     shared_fraction: float | Sequence[float] = 0.0) -> tuple[CombinedFigure, ...]:
     """Every figure of an object measured on several instants, combined figure by figure.
 
     ``instants``: per instant the figures of the one figure function (the same names in each);
@@ -182,7 +205,7 @@ def combine_instants(instants: Sequence[Sequence[Figure]], common_sigmas: dict[s
 def combine_measurements(measurements: Sequence[Measurement], independent: Sequence[Measurement] | None = None,
                          labels: Sequence[str] | None = None, calibrations: Sequence[object] | None = None,
                          rules: QualityRules | None = None, shared_pointing: bool = False,
-                         shared_fraction: float = 0.0) -> Measurement:
+                         shared_fraction: float | Sequence[float] = 0.0) -> Measurement:
     """One object from its instants' measurements (each from the one figure function): the first
     instant's with its figures replaced by the combined ones and ``combined`` set, its ray RMS and range
     the largest of the instants', and the quality rules checked on the combined main figure.
