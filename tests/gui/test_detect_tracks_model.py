@@ -3,12 +3,15 @@ frames are stored as one object with further instants (the cache holds the links
 list shows each fish once); the model chosen becomes the project's default, a new session takes it, and a
 default whose file is gone is named."""
 
+import numpy as np
 import pytest
 
 from tests.app.detection_scenes import make_video_project, scene, write_switching_model
 from usvips.app.detection_model import project_model_path
+from usvips.app.project_figures import evaluate, instant_measurements, instant_pointing, measurement_input
 from usvips.core.errors import InputFileError
-from usvips.gui.detect_model import DetectSession
+from usvips.core.measurements.instants import combine_measurements
+from usvips.gui.detect_model import DetectSession, correct_keypoint
 from usvips.gui.workspace import Workspace
 from usvips.store import Project
 
@@ -52,3 +55,27 @@ def test_the_model_chosen_becomes_the_projects_default_and_a_gone_one_is_named(w
     model.unlink()
     with pytest.raises(InputFileError, match="no longer there"):
         DetectSession(ws).project_model()
+
+
+def test_a_reviewers_correction_in_the_window_keeps_the_fish_combined_by_the_models_frame_correlation(workspace):
+    """The window's correction of one instant's snout makes that point a hand click: the fish's figure, from
+    the store, combines that instant with half the model's frame correlation and the others with all of it —
+    larger than as independent instants (what one correction gave before), below the uncorrected fish's."""
+    ws, model = workspace
+    model.write_text(model.read_text() + '\n[frame_correlation]\nlength = 0.4\nbasis = "test scenes"\n')
+    blank = np.zeros((480, 640), np.uint8)
+    ws.set_pair("drop", blank, blank, ("drop", 1, 1, 0.04))  # a correction is measured with the pair's geometry
+    session = DetectSession(ws)
+    session.choose_model(str(model))
+    session.store(session.job(session.plan(frames=4))(lambda f: None, lambda: False))
+    whole = sorted(set(ws.cache.instant_links().values()))[0]
+    before = evaluate(measurement_input(ws.project, ws.project.object(whole))).main.sigma
+    corrected = ws.project.instants(whole)[0]
+    snout = ws.stored_object(corrected).vertices[0]
+    correct_keypoint(ws, corrected, 0, "left", (snout.xl + 0.7, snout.yl - 0.4))
+    assert ws.stored_object(corrected).vertices[0].source.startswith("hand click (snout")
+    source = measurement_input(ws.project, ws.project.object(whole))
+    assert [i.model_share for i in (source, *source.instants)] == [1.0, 0.5, 1.0, 1.0]
+    after = evaluate(source).main.sigma
+    independent = combine_measurements(instant_measurements(source), instant_pointing(source)).main.sigma
+    assert independent < after < before
