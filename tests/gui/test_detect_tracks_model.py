@@ -12,6 +12,7 @@ from usvips.app.project_figures import evaluate, instant_measurements, instant_p
 from usvips.core.errors import InputFileError
 from usvips.core.measurements.instants import combine_measurements
 from usvips.gui.detect_model import DetectSession, correct_keypoint
+from usvips.gui.instants_model import object_instants
 from usvips.gui.workspace import Workspace
 from usvips.store import Project
 
@@ -77,5 +78,9 @@ def test_a_reviewers_correction_in_the_window_keeps_the_fish_combined_by_the_mod
     source = measurement_input(ws.project, ws.project.object(whole))
     assert [i.model_share for i in (source, *source.instants)] == [1.0, 0.5, 1.0, 1.0]
     after = evaluate(source).main.sigma
-    independent = combine_measurements(instant_measurements(source), instant_pointing(source)).main.sigma
-    assert independent < after < before
+    measured, pointing = instant_measurements(source), instant_pointing(source)
+    assert combine_measurements(measured, pointing).main.sigma < after < before
+    listed = object_instants(ws.project, whole)  # the instants dialog: the weights the combination used
+    used = combine_measurements(measured, pointing, shared_fraction=[0.4, 0.2, 0.4, 0.4]).combined
+    np.testing.assert_allclose([r.weight for r in listed.rows], next(c for c in used if c.name == "length").weights)
+    assert "a model pointed at 4 of the instants: up to 40% of their pointing error repeats" in listed.summary()

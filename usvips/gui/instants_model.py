@@ -4,9 +4,10 @@ the combination, its standardised residual and outlier flag, and the combined fi
 
 The numbers are the one figure path's (:func:`usvips.app.project_figures.evaluate` for the combination,
 :func:`~usvips.app.project_figures.instant_measurements` for each instant): this module only arranges
-them. An instant's weight is its share of Σ w*_i with w*_i = 1 / (σ_i² + τ̂²), σ_i its pointing sigma (the
-part independent between instants) and τ̂ the between-instant standard deviation
-(:mod:`usvips.core.measurements.instants`).
+them. An instant's weight is the one the combination used (:attr:`CombinedFigure.weights`): its share of
+Σ w*_i with w*_i = 1 / ((1 − ρ_i) σ_i² + τ̂²), σ_i its pointing sigma (the part independent between
+instants), ρ_i the share of it a model repeats from frame to frame (0 for a person's picks) and τ̂ the
+between-instant standard deviation (:mod:`usvips.core.measurements.instants`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usvips.app.object_instants import has_tracked_instants
-from usvips.app.project_figures import evaluate, instant_measurements, instant_pointing, measurement_input
+from usvips.app.project_figures import evaluate, instant_measurements, measurement_input
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules, kind
 from usvips.core.measurements.figures import Figure
@@ -79,6 +80,11 @@ class ObjectInstants:
         if self.tracked:
             text += ("; tracked instants carry the error of the pick they were tracked from: it is kept whole "
                      "in σ (measure other frames by hand to average it out)")
+        elif c.shared_fractions is not None and np.any(c.shared_fractions > 0):
+            shared = c.shared_fractions[c.shared_fractions > 0]
+            text += (f"; a model pointed at {len(shared)} of the instants: up to {shared.max():.0%} of their pointing "
+                     "error repeats from frame to frame (the model's measured frame correlation) and is kept whole "
+                     "in σ")
         return text
 
 
@@ -101,9 +107,7 @@ def object_instants(project: ProjectStore, object_id: int, rules: QualityRules |
     combined = None
     if len(everything) > 1:
         combined = evaluate(source, rules).combined[main]
-        pointing = np.array([m.figures[main].sigma for m in instant_pointing(source, rules)])
-        weights = 1.0 / (pointing ** 2 + combined.tau ** 2)
-        weights = weights / weights.sum()
+        weights = combined.weights
         residuals = np.asarray(combined.residuals, float)
         outliers = set(combined.outliers)
     else:

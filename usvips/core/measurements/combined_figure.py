@@ -24,7 +24,10 @@ class CombinedFigure:
     sigma² that the between-instant spread contributes (0 when the instants agree within their sigmas);
     ``q``, ``dof``, ``p_value``: Cochran's χ² test that the instants agree (``agree`` when p ≥ α);
     ``residuals``: each instant's leave-one-out standardised residual (NaN with fewer than 3 instants);
-    ``outliers``: the indices of the instants beyond ``limit``; ``labels``: the instants' names.
+    ``outliers``: the indices of the instants beyond ``limit``; ``labels``: the instants' names;
+    ``weights``: each instant's weight in the mean (summing to 1); ``shared_fractions``: the share ρ_i of
+    each instant's pointing error that does not average out (0: independent; all 1 with
+    ``shared_pointing``: one pick's error carried along by tracking).
     """
 
     name: str
@@ -41,6 +44,9 @@ class CombinedFigure:
     limit: float
     outliers: tuple[int, ...]
     labels: tuple[str, ...]
+    weights: np.ndarray | None = None
+    shared_fractions: np.ndarray | None = None
+    shared_pointing: bool = False
 
     @property
     def agree(self) -> bool:

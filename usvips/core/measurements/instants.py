@@ -133,10 +133,9 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
         raise InvalidParameterError("shared_fraction", "not with shared pointing, which shares the whole error")
     variances = (1.0 - fractions) * sigmas ** 2
     mean, variance, tau2, q, fixed_variance = _random_effects(values, variances, floor=not shared_pointing)
-    shared = 0.0
-    if fractions.any():
-        weights = 1.0 / (variances + tau2)
-        shared = float((weights / weights.sum()) @ (np.sqrt(fractions) * sigmas)) ** 2
+    weights = 1.0 / (variances + tau2)
+    weights = weights / weights.sum()
+    shared = float(weights @ (np.sqrt(fractions) * sigmas)) ** 2 if fractions.any() else 0.0
     total = variance + shared + common_sigma ** 2
     between = max(0.0, variance - fixed_variance) / total if total > 0 else 0.0
     residuals = np.full(k, np.nan)
@@ -152,7 +151,8 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
     dof = k - 1
     p_value = float(stats.chi2.sf(q, dof)) if dof > 0 else 1.0
     return CombinedFigure(name, unit, mean, float(np.sqrt(total)), k, float(np.sqrt(tau2)), float(between), q, dof,
-                          p_value, residuals, limit, outliers, labels)
+                          p_value, residuals, limit, outliers, labels, weights,
+                          np.ones(k) if shared_pointing else fractions, bool(shared_pointing))
 
 
 def _shared_fractions(shared_fraction: float | Sequence[float], labels: Sequence[str]) -> np.ndarray:
