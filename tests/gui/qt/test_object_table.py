@@ -108,3 +108,17 @@ def test_a_sort_by_figure_computes_every_figure_first_and_says_so(qtbot, tmp_pat
     assert not listing.completing.isVisible()
     listing.cleanup()
     ws.close_project()
+
+
+def test_an_object_without_figures_is_not_called_ok_and_its_row_says_why_once():
+    """A stored proposal without a length (or any object whose figures cannot be computed) has no verdict:
+    its quality cell says there is no figure, never "ok", and its figure cell gives the reason without
+    repeating the object's id (the row's own)."""
+    from collections import Counter
+
+    from usvips.gui.calculator import Result
+    from usvips.gui.qt.object_table import NO_FIGURE, figure_texts
+
+    reason = Result((), (), "object 7: it has vertices without 3-D coordinates")
+    main, quality, _ = figure_texts(reason, 7, {}, Counter())
+    assert (main, quality) == ("it has vertices without 3-D coordinates", NO_FIGURE)

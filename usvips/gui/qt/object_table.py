@@ -26,6 +26,8 @@ _Role = QtCore.Qt.ItemDataRole
 
 #: what a figure cell says while its figures are being computed
 COMPUTING = "computing…"
+#: the quality cell of an object without figures (why is in its figure cell)
+NO_FIGURE = "no figure"
 _TEXT = {int(_Role.DisplayRole), int(_Role.EditRole)}
 _FOREGROUND, _TOOLTIP, _BACKGROUND = int(_Role.ForegroundRole), int(_Role.ToolTipRole), int(_Role.BackgroundRole)
 _ROLES = frozenset({*_TEXT, _FOREGROUND, _TOOLTIP, _BACKGROUND, int(_Role.UserRole)})
@@ -60,9 +62,10 @@ def figure_texts(result, object_id: int, links: dict[int, int], instants: Counte
     known yet). The one place the object list's figure texts and tooltip are made."""
     if result is None:
         main, quality = COMPUTING, ""
-    else:
-        main = format_figure(result.figures[0]) if result.figures else result.reason
-        quality = "; ".join(result.failures) or "ok"
+    elif result.figures:
+        main, quality = format_figure(result.figures[0]), "; ".join(result.failures) or "ok"
+    else:  # no figure, so no verdict on it: "ok" would pass an object nothing was measured of
+        main, quality = result.reason.removeprefix(f"object {object_id}: "), NO_FIGURE
     main, tip = instant_figure(object_id, main, result is not None and bool(result.figures), links, instants)
     if result is not None and result.measurement is not None:  # the sigma's breakdown (one Qt-free text)
         tip = "\n".join(filter(None, [tip, "sigma " + breakdown_text(result.measurement)]))
