@@ -27,7 +27,7 @@ _Role = QtCore.Qt.ItemDataRole
 #: what a figure cell says while its figures are being computed
 COMPUTING = "computing…"
 #: the quality cell of an object without figures (why is in its figure cell)
-NO_FIGURE = "no figure"
+NO_FIGURE = "no figures"  # the QA rule's words (usvips.app.quality)
 _TEXT = {int(_Role.DisplayRole), int(_Role.EditRole)}
 _FOREGROUND, _TOOLTIP, _BACKGROUND = int(_Role.ForegroundRole), int(_Role.ToolTipRole), int(_Role.BackgroundRole)
 _ROLES = frozenset({*_TEXT, _FOREGROUND, _TOOLTIP, _BACKGROUND, int(_Role.UserRole)})
