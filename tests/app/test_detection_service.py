@@ -262,3 +262,39 @@ def test_refinements_move_limit_grows_with_the_fish_and_honest_errors_pass_it_in
                     - rng.normal(0, left, (20000, 2)))
             beyond = np.mean(np.linalg.norm(move, axis=1) > most)
             assert 0.006 <= beyond <= 0.017, (name, size, beyond)
+
+
+def _pair(left_ends, right_ends, refined):
+    """A refined pair with snout and fork at ``left_ends``/``right_ends`` (px) and each right keypoint matched
+    to the left one or not (``refined``)."""
+    from usvips.core.detection import Detection, Keypoint
+    from usvips.core.detection.refine import KeypointRefinement, RefinedPair
+    from usvips.core.detection.stereo import StereoPair
+
+    def detection(ends):
+        points = tuple(Keypoint(name, float(x), float(y), 0.9) for name, (x, y) in zip(("snout", "fork"), ends,
+                                                                                          strict=True))
+        xs, ys = [p.x for p in points], [p.y for p in points]
+        return Detection((min(xs) - 5, min(ys) - 5, max(xs) + 5, max(ys) + 5), "fish", 0.9, points)
+
+    steps = tuple(KeypointRefinement(name, tuple(end), tuple(end), 0.9 if done else 0.2,
+                                     "" if done else "no match scored above the floor")
+                  for name, end, done in zip(("snout", "fork"), right_ends, refined, strict=True))
+    return RefinedPair(StereoPair(detection(left_ends), detection(right_ends), 0, 0, 0.5), steps)
+
+
+@pytest.mark.parametrize("right_fork, refined, refused", [
+    ((260.0, 100.0), (True, False), True),    # 160 px against 100 px with the fork the model's own: refused
+    ((140.0, 100.0), (False, True), True),    # 40 px against 100 px
+    ((140.0, 100.0), (True, True), False),    # both matched to the left ones: the left's points, not checked
+    ((140.0, 100.0), (False, False), True),
+    ((240.0, 100.0), (True, False), False),   # 140 / 100 = 1.4: within 1.5
+])
+def test_a_pair_whose_lengths_differ_in_the_two_images_with_an_unmatched_keypoint_gets_no_length(
+        right_fork, refined, refused):
+    from usvips.app.detection_service import _disagreement
+
+    why = _disagreement(_pair([(100.0, 100.0), (200.0, 100.0)], [(100.0, 100.0), right_fork], refined))
+    assert bool(why) == refused
+    if refused:
+        assert "differ by more than 1.5" in why and "one image's keypoints are not the fish's" in why

@@ -12,7 +12,10 @@ into fish as instants. The scoring reads back what a person would see:
   unhidden, at least 20 px from snout to fork);
 - a proposal *is* a fish in an image when its snout and fork lie within 0.2 of the fish's snout–fork length
   (image px) of the truth on average, one assignment per image (the validation's rule); a proposal whose
-  left and right detections are two different fish is **paired across two fish**;
+  left and right detections are two different fish is **paired across two fish**; a proposal with a length
+  of which one image's detection or both is no fish is counted apart (``lengths_not_a_fish``: a person
+  reviewing it sees a length of no fish), and where the other image's IS a fish, its length is scored against
+  that fish apart from the fish measured (``half_a_fish``: what it would mislead by);
 - **measured**: a fish to measure with a proposal of it in both images that has a length and σ;
 - each such length against the fish's true snout–fork length: its normalised error (error / σ), the
   fraction within 2σ and the NEES (mean squared normalised error; 1 for an honest σ). The σ is the stored
@@ -74,6 +77,10 @@ class AcceptanceFigures:
     proposals: int = 0
     unmatched: int = 0
     cross_fish: int = 0
+    #: proposals with a length of which one image's detection or both is no fish (not scored as measured)
+    lengths_not_a_fish: int = 0
+    #: of those, the ones of which one image's detection IS a fish: their normalised errors against it
+    half_matched: list[float] = field(default_factory=list)
     single: list[float] = field(default_factory=list)
     combined: list[float] = field(default_factory=list)
     relative_sigma: list[float] = field(default_factory=list)
@@ -129,6 +136,10 @@ class AcceptanceFigures:
         return {"clips": self.clips, "frames": self.frames, "fish_to_measure": self.to_measure,
                 "measured": self.measured, "measured_fraction": round(self.measured_fraction, 4),
                 "proposals": self.proposals, "proposals_not_a_fish": self.unmatched,
+                "lengths_not_a_fish": self.lengths_not_a_fish,
+                "lengths_half_a_fish": len(self.half_matched),
+                "half_a_fish_within_2sigma": round(self.within_of(self.half_matched), 4),
+                "half_a_fish_nees": round(self.nees_of(self.half_matched), 4),
                 "cross_fish_pairs": self.cross_fish, "lengths": len(single),
                 "within_2sigma": round(self.within_2sigma, 4), "nees": round(self.nees, 4),
                 "median_abs_z": round(float(np.median(np.abs(single))), 4) if len(single) else None,
@@ -202,6 +213,12 @@ def score_run(project: ProjectStore, run: DetectionRun, clip: SurveyClip, figure
             continue
         if left is None or right is None:
             figures.unmatched += 1
+            if proposal.object_id is not None and proposal.measurement is not None:
+                figures.lengths_not_a_fish += 1
+                seen = left if left is not None else right
+                if seen is not None:  # the length a person would read as that fish's
+                    own = _single(project, proposal.object_id)
+                    figures.half_matched.append((own.main.value - lengths[seen]) / own.main.sigma)
             continue
         if proposal.object_id is None or proposal.measurement is None:
             continue
