@@ -10,6 +10,8 @@ import shutil
 import subprocess
 import sys
 
+import pytest
+
 from usvips.locations import sample_project
 
 _SCRIPT = """
@@ -20,10 +22,13 @@ print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
 """
 
 
-def test_the_window_is_shown_with_a_sample_pair_drawn_without_importing_pyqtgraph(tmp_path):
-    sample = shutil.copytree(sample_project("tank_system1"), tmp_path / "tank_system1")
+@pytest.fixture(scope="module")
+def started(tmp_path_factory) -> dict:
+    """What a start of the window on a copy of the sample imported (the script's report)."""
+    folder = tmp_path_factory.mktemp("start")
+    sample = shutil.copytree(sample_project("tank_system1"), folder / "tank_system1")
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen", USVIPS_QUIT_WHEN_READY="1",
-               XDG_CONFIG_HOME=str(tmp_path / "config"), XDG_DATA_HOME=str(tmp_path / "data"))
+               XDG_CONFIG_HOME=str(folder / "config"), XDG_DATA_HOME=str(folder / "data"))
     for _ in range(2):  # the first open makes the sample's project file; the second is a user's next start
         result = subprocess.run([sys.executable, "-c", _SCRIPT, str(sample)], capture_output=True, text=True,
                                 env=env, timeout=300, check=False)
@@ -31,7 +36,11 @@ def test_the_window_is_shown_with_a_sample_pair_drawn_without_importing_pyqtgrap
     assert "ready, pair" in result.stderr  # the pair was drawn before the check
     report = json.loads(result.stdout.strip().splitlines()[-1])
     assert report["code"] == 0
-    loaded = set(report["modules"])
+    return report
+
+
+def test_the_window_is_shown_with_a_sample_pair_drawn_without_importing_pyqtgraph(started):
+    loaded = set(started["modules"])
     assert "PySide6.QtWidgets" in loaded  # the window was made in this interpreter
     assert not {name for name in loaded if name.split(".")[0] == "pyqtgraph"}
     # nor the calibration's model and uncertainty (needed to measure, not to show a pair), nor the video
