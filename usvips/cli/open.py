@@ -31,9 +31,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputFileError(args.project, "no such project file or sample directory")
     if args.pair and args.project is None:
         raise InvalidParameterError("--pair", "needs a project to open")
-    from usvips.gui.qt.gui_thread_gc import hold_collection_while_starting
+    from usvips.gui import start
 
-    hold_collection_while_starting()  # until the window is shown with the project open (see gui_thread_gc)
+    start.before_qt()  # no collection while starting; the window's Qt-free modules imported first
     from usvips.gui.qt import ready
     from usvips.gui.qt.app import application
     from usvips.gui.qt.app import run as run_window

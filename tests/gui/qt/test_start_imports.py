@@ -9,6 +9,7 @@ import os
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -18,13 +19,14 @@ _SCRIPT = """
 import json, sys
 from usvips.cli import main
 code = main(["open", sys.argv[1]])
-print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
+files = {name: getattr(module, "__file__", None) for name, module in sys.modules.items()}
+print(json.dumps({"code": code, "modules": list(sys.modules), "files": files}))
 """
 
 
 @pytest.fixture(scope="module")
 def started(tmp_path_factory) -> dict:
-    """What a start of the window on a copy of the sample imported (the script's report)."""
+    """What a start of the window on a copy of the sample imported, in the order it did (the script's report)."""
     folder = tmp_path_factory.mktemp("start")
     sample = shutil.copytree(sample_project("tank_system1"), folder / "tank_system1")
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen", USVIPS_QUIT_WHEN_READY="1",
@@ -47,3 +49,13 @@ def test_the_window_is_shown_with_a_sample_pair_drawn_without_importing_pyqtgrap
     # machinery and the tracker (a project of image pairs)
     assert not loaded & {"usvips.core.calibration.model", "usvips.core.calibration.uncertainty",
                          "usvips.app.video_project", "usvips.io.video_proxy", "usvips.app.tracking"}
+
+
+def test_the_windows_qt_free_modules_are_imported_before_qt(started):
+    # PySide's import hook reads the whole source of every module named after PySide6 was imported
+    # (usvips.gui.start): the Qt-free modules come first, so that only the few Qt modules name are read
+    order = started["modules"]
+    after_qt = order[order.index("PySide6"):]
+    qt_free = [name for name in after_qt if name.startswith("usvips.") and started["files"][name]
+               and "PySide6" not in Path(started["files"][name]).read_text(encoding="utf-8")]
+    assert len(qt_free) <= 5, qt_free

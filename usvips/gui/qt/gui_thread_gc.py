@@ -79,15 +79,6 @@ def collect_on_the_gui_thread() -> GuiThreadCollector | None:
     return collector
 
 
-def hold_collection_while_starting() -> None:
-    """No automatic collection while the window starts (``usvips open`` calls this before it imports the
-    window's modules): the modules, the window's widgets and the opened project live as long as the program,
-    and the automatic collector would scan them again and again while they are made (about 0.01-0.02 s of
-    the start's CPU). The window's start then hands what it made to :func:`keep_long_lived` (once shown,
-    with its project open) and the GUI thread's collector takes over (:func:`collect_on_the_gui_thread`)."""
-    gc.disable()
-
-
 def keep_long_lived() -> None:
     """After a large read has arrived (a survey's objects, read in a worker while automatic collection is
     off, so all still in the youngest generation): everything alive now is put out of the collector's reach
