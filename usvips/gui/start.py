@@ -26,7 +26,7 @@ MODELS = ("usvips.gui.workspace", "usvips.gui.window_context", "usvips.gui.panel
           "usvips.gui.pick_tool", "usvips.gui.object_cache", "usvips.gui.object_overlay", "usvips.gui.outline_set",
           "usvips.gui.label_layout", "usvips.gui.view_options", "usvips.gui.lazy_panels", "usvips.gui.messages",
           "usvips.gui.video_model", "usvips.gui.video_modules", "usvips.gui.track_model",
-          "usvips.gui.instants_model", "usvips.gui.qa_model", "usvips.gui.review_model", "usvips.gui.species_choice",
+          "usvips.gui.qa_model", "usvips.gui.review_model", "usvips.gui.species_choice",
           "usvips.app.opening", "usvips.app.quality", "usvips.app.live_changes", "usvips.io.species_list",
           "usvips.locations")
 

@@ -59,3 +59,11 @@ def test_the_windows_qt_free_modules_are_imported_before_qt(started):
     qt_free = [name for name in after_qt if name.startswith("usvips.") and started["files"][name]
                and "PySide6" not in Path(started["files"][name]).read_text(encoding="utf-8")]
     assert len(qt_free) <= 5, qt_free
+
+
+def test_the_instants_dialog_and_the_adjustment_engine_are_not_imported_at_start(started):
+    # the instants dialog and its model are made when first shown; reading the pair's calibration file
+    # needs the parameters' statuses (usvips.core.parameter_status), not the adjustment that estimates them
+    loaded = set(started["modules"])
+    assert not loaded & {"usvips.gui.qt.instants_view", "usvips.gui.instants_model", "usvips.core.adjustment",
+                         "usvips.core.normal_equations"}

@@ -26,7 +26,6 @@ from PySide6 import QtCore, QtWidgets
 from usvips.app.object_instants import add_instant
 from usvips.core.errors import UsvipsError
 from usvips.core.tracking import CANCELLED, TrackSettings
-from usvips.gui.instants_model import object_instants
 from usvips.gui.pick_tool import TOOLS
 from usvips.gui.qt.marks import Lines, Points
 from usvips.gui.qt.pane import item_from_pixels
@@ -49,6 +48,14 @@ def _tracking():
 
 #: the colour of tracked points and their trails (RGB)
 TRACK_COLOUR = (40, 230, 110)
+
+
+def _instants_summary(workspace, object_id: int) -> str:
+    """The one line on an object's instants (:mod:`usvips.gui.instants_model`, imported when first needed,
+    not at the window's start)."""
+    from usvips.gui.instants_model import object_instants
+
+    return object_instants(workspace.project, object_id, workspace.rules, workspace.cache.calibrations).summary()
 
 
 class TrackController(QtCore.QObject):
@@ -148,7 +155,7 @@ class TrackController(QtCore.QObject):
 
         try:
             ws.undo.push(Command(f"make object {instant_id} an instant of object {object_id}", redo, undo))
-            summary = object_instants(ws.project, object_id, ws.rules, ws.cache.calibrations).summary()
+            summary = _instants_summary(ws, object_id)
         except UsvipsError as error:
             self.messages.say("error", f"object {instant_id} stays an object of its own: {error}")
             return False
@@ -387,7 +394,7 @@ class TrackController(QtCore.QObject):
                 ws.select([i for i in ws.selection if i not in ids])
 
             ws.undo.push(Command(f"store {len(frames)} tracked instants of object {object_id}", redo, undo))
-            summary = object_instants(ws.project, object_id, ws.rules, ws.cache.calibrations).summary()
+            summary = _instants_summary(ws, object_id)
         except UsvipsError as error:
             self.messages.say("error", f"no instants stored: {error}")
             return []
