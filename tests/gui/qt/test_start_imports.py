@@ -67,3 +67,9 @@ def test_the_instants_dialog_and_the_adjustment_engine_are_not_imported_at_start
     loaded = set(started["modules"])
     assert not loaded & {"usvips.gui.qt.instants_view", "usvips.gui.instants_model", "usvips.core.adjustment",
                          "usvips.core.normal_equations"}
+
+
+def test_the_tracker_is_not_imported_at_start(started):
+    # the tracking controls and their (empty) model are made with the window; the tracker, its
+    # intersection and the statistics it imports come when something is first tracked
+    assert not set(started["modules"]) & {"usvips.core.tracking", "usvips.core.intersection"}
