@@ -1,6 +1,8 @@
 """The window starts without pyqtgraph (nor the calibration's model): the stereo panes are plain Qt and
 every plot imports pyqtgraph when it is first made (importing it costs about half a second of CPU; the
-window's whole start-up budget is 0.5 s, see ``usvips bench --only startup``). Checked in a fresh
+window's whole start-up budget is 0.5 s, see ``usvips bench --only startup``), nor what a pair does not
+need (the instants dialog, the adjustment engine, the tracker); its Qt-free modules come before Qt (PySide's
+import hook reads the source of every module named after it, ``usvips.gui.start``). Checked in a fresh
 interpreter, through the start-up probe's own path: ``usvips open SAMPLE`` with ``USVIPS_QUIT_WHEN_READY``
 — the window shown, the sample opened (its project file made by a first start), its first pair drawn."""
 
