@@ -71,6 +71,11 @@ def test_the_instants_dialog_and_the_adjustment_engine_are_not_imported_at_start
                          "usvips.core.normal_equations"}
 
 
+def test_the_media_files_hashing_is_not_imported_at_start(started):
+    # hashlib (OpenSSL's binding) is imported by the store where a media file's hash is computed, when it is
+    assert "hashlib" not in set(started["modules"])
+
+
 def test_the_tracker_is_not_imported_at_start(started):
     # the tracking controls and their (empty) model are made with the window; the tracker, its
     # intersection and the statistics it imports come when something is first tracked
