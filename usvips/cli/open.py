@@ -31,6 +31,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputFileError(args.project, "no such project file or sample directory")
     if args.pair and args.project is None:
         raise InvalidParameterError("--pair", "needs a project to open")
+    from usvips.gui import start
+
+    start.before_qt()  # no collection while starting; the window's Qt-free modules imported first
     from usvips.gui.qt import ready
     from usvips.gui.qt.app import application
     from usvips.gui.qt.app import run as run_window

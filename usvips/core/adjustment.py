@@ -37,8 +37,8 @@ import numpy as np
 from usvips.core import normal_equations
 from usvips.core.batch_mode import batch_computation
 from usvips.core.errors import ConvergenceError, DegenerateGeometryError, InvalidParameterError
+from usvips.core.parameter_status import STATUSES
 
-STATUSES = ("free", "fixed", "prior")
 W_CRITICAL = 3.29          # two-sided normal quantile for α0 = 0.1 % (tau's limit for large redundancy)
 ALPHA0 = 0.001             # data snooping's level per observation
 DELTA0 = 4.13              # non-centrality for α0 = 0.1 % and power 80 %

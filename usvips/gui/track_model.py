@@ -17,11 +17,24 @@ the top-left pixel; frames: left-video indices.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from usvips.core.errors import UsvipsError
-from usvips.core.tracking import CANCELLED, END, Track
+
+if TYPE_CHECKING:
+    from usvips.core.tracking import Track
+
+
+def tracking_core() -> ModuleType:
+    """:mod:`usvips.core.tracking`, imported when a track is first handled, not with the window (which
+    makes its model empty at start). Imported where it is called, so that any thread may be the first to
+    ask: the import lock guards it."""
+    from usvips.core import tracking
+
+    return tracking
 
 
 def merge_correction(old: Track, new: Track) -> Track:
@@ -44,7 +57,7 @@ def merge_correction(old: Track, new: Track) -> Track:
 
     stopped = tuple((d, last, why) for d, last, why in old.stopped if d != away)
     stopped += tuple((d, last, why) for d, last, why in new.stopped if d == away)
-    return Track(frames[order], joined(old.left, new.left), joined(old.right, new.right),
+    return tracking_core().Track(frames[order], joined(old.left, new.left), joined(old.right, new.right),
                  joined(old.scores, new.scores), joined(old.ray_rms_m, new.ray_rms_m), s, stopped)
 
 
@@ -173,7 +186,7 @@ class TrackModel:
         found = []
         for vertex, track in sorted(self.tracks.items()):
             for direction, frame, why in track.stopped:
-                if why not in (END, ""):
+                if why not in (tracking_core().END, ""):
                     found.append(Stop(vertex, direction, int(frame), why))
         return found
 
@@ -185,14 +198,15 @@ class TrackModel:
         text = (f"object {self.object_id}: {len(self.tracks)} of {self.vertex_count} vertices tracked"
                 + (f", frames {span[0]}–{span[1]}" if span is not None and span[0] <= span[1] else ""))
         grouped: dict[tuple[int, int, str], list[int]] = {}  # the same stop of several vertices said once
+        cancelled = tracking_core().CANCELLED
         for s in self.stops():
-            if s.reason != CANCELLED:
+            if s.reason != cancelled:
                 grouped.setdefault((s.direction, s.frame, s.reason), []).append(s.vertex + 1)
         if grouped:
             text += "; stopped: " + "; ".join(
                 f"{'vertex' if len(v) == 1 else 'vertices'} {', '.join(map(str, v))} "
                 f"{'after' if d > 0 else 'before'} frame {f} ({why})" for (d, f, why), v in grouped.items())
-        if any(s.reason == CANCELLED for s in self.stops()):
+        if any(s.reason == cancelled for s in self.stops()):
             text += "; cancelled"
         return text
 

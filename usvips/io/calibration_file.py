@@ -32,12 +32,12 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core import housing as housings
-from usvips.core.adjustment import STATUSES
 from usvips.core.calibration.parameter_names import build_housings, exterior_of
 from usvips.core.camera import EXTERIOR_PARAMETERS, Camera, Exterior
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.housing import Housing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
+from usvips.core.parameter_status import STATUSES
 from usvips.core.rig import RelativeOrientation, relative_orientation
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.atomic import write_text_atomic

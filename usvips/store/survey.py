@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import hashlib
 import json
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -214,6 +213,8 @@ def _history_json(value: dict | None) -> str | None:
 
 
 def file_hash(path: Path) -> str:
+    import hashlib  # here, not at the top: OpenSSL's binding is not loaded by every start of the window
+
     digest = hashlib.sha256()
     with open(path, "rb") as stream:
         for chunk in iter(lambda: stream.read(1 << 20), b""):
@@ -232,6 +233,8 @@ def sampled_hash(path: Path) -> str:
     :data:`SAMPLE_BLOCK_BYTES` spread evenly over it, first and last included (about 1 MiB read however
     large the file; the whole file when smaller). Another recording of the same name and size differs
     in its first block already (its own header, time stamps and pictures)."""
+    import hashlib  # here, not at the top (see file_hash)
+
     size = path.stat().st_size
     digest = hashlib.sha256(str(size).encode())
     with open(path, "rb") as stream:

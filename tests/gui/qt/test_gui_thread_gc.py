@@ -5,8 +5,9 @@ import gc
 import threading
 import weakref
 
-from PySide6 import QtCore
+from PySide6 import QtCore, QtWidgets
 
+from usvips.gui.qt import app, main_window
 from usvips.gui.qt.gui_thread_gc import GuiThreadCollector, collect_on_the_gui_thread
 from usvips.gui.qt.worker import Worker
 
@@ -103,3 +104,22 @@ def test_the_oldest_generation_is_collected_by_cpythons_long_lived_rule(qtbot):
     finally:
         gc.callbacks.remove(count)
     assert len(heap) == size
+
+
+def test_the_start_freezes_what_it_made_before_the_event_loop(qtbot, monkeypatch):
+    # the window's start makes objects that live as long as the program: they are out of the GUI thread
+    # collector's reach (gc.freeze, through keep_long_lived) before its first tick, which the event loop runs
+    seen = []
+
+    class Window:  # what app.run asks of the main window
+        def show(self) -> None:
+            seen.append("shown")
+
+        def open_path(self, project, pair) -> None:
+            seen.append(("opened", project, pair))
+
+    monkeypatch.setattr(main_window, "MainWindow", Window)
+    monkeypatch.setattr(app, "keep_long_lived", lambda: seen.append("frozen"))
+    monkeypatch.setattr(QtWidgets.QApplication, "exec", lambda self: seen.append("event loop") or 0)
+    assert app.run("survey.usvips", "air1") == 0
+    assert seen == ["shown", ("opened", "survey.usvips", "air1"), "frozen", "event loop"]

@@ -11,7 +11,7 @@ from pathlib import Path
 from PySide6 import QtWidgets
 
 from usvips.gui.qt.error_report import install_error_handler
-from usvips.gui.qt.gui_thread_gc import collect_on_the_gui_thread
+from usvips.gui.qt.gui_thread_gc import collect_on_the_gui_thread, keep_long_lived
 
 
 def application() -> QtWidgets.QApplication:
@@ -33,4 +33,5 @@ def run(project: str | Path | None = None, pair: str | None = None) -> int:
     window.show()
     if project is not None:
         window.open_path(project, pair)
+    keep_long_lived()  # the modules, the window and the project made so far: no collection scans them again
     return app.exec()

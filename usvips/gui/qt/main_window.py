@@ -31,7 +31,6 @@ from usvips.gui.qt import menu_keys
 from usvips.gui.qt.annotator_dialog import AnnotatorDialog, save_annotator, saved_annotator
 from usvips.gui.qt.error_report import register_window
 from usvips.gui.qt.gui_thread_gc import keep_long_lived, release_long_lived
-from usvips.gui.qt.instants_view import InstantsView
 from usvips.gui.qt.jobs import Jobs
 from usvips.gui.qt.live_updates import LiveUpdates
 from usvips.gui.qt.media_check import MediaCheck
@@ -143,8 +142,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.video.attach_dock(self.docks["video"])
         # issue 25: tracks drawn on the panes and the timeline, instants stored and listed
         self.tracking = TrackController(self, self.context, self.panes, self.video, self.set_tool)
-        self.instants_view = InstantsView(self.workspace, self)
-        self.instants_view.frame_requested.connect(self.workspace.request_object)  # the video hears the model
+        self._instants_view: QtWidgets.QDialog | None = None  # made when first shown (instants_view)
         table = self.object_list.table
         table.addAction(self.actions["instants_of_listed"])  # in the list's context menu (object_list._context_menu)
         self.video.dock_widget.setEnabled(False)
@@ -254,6 +252,17 @@ class MainWindow(QtWidgets.QMainWindow):
         review.reviewed.connect(self.object_list.show_review)
         review.review_read.connect(self.object_list.show_review)  # someone else's review, read again
         review.history_requested.connect(self.object_list.show_history)
+
+    @property
+    def instants_view(self) -> QtWidgets.QDialog:
+        """The instants of an object (``I``, Measure menu), a dialog made the first time it is wanted: its
+        module and model are not imported at start."""
+        if self._instants_view is None:
+            from usvips.gui.qt.instants_view import InstantsView
+
+            self._instants_view = InstantsView(self.workspace, self)
+            self._instants_view.frame_requested.connect(self.workspace.request_object)  # the video hears it
+        return self._instants_view
 
     #: the built-in panels the window itself talks to, by name (made when first read)
     enhancement = property(lambda self: self.panel("enhancement"))

@@ -25,13 +25,11 @@ from PySide6 import QtCore, QtWidgets
 
 from usvips.app.object_instants import add_instant
 from usvips.core.errors import UsvipsError
-from usvips.core.tracking import CANCELLED, TrackSettings
-from usvips.gui.instants_model import object_instants
 from usvips.gui.pick_tool import TOOLS
 from usvips.gui.qt.marks import Lines, Points
 from usvips.gui.qt.pane import item_from_pixels
 from usvips.gui.qt.worker import Cancelled
-from usvips.gui.track_model import TrackModel, parse_instant_frames
+from usvips.gui.track_model import TrackModel, parse_instant_frames, tracking_core
 from usvips.gui.undo import Command
 from usvips.gui.window_context import WindowContext
 
@@ -49,6 +47,14 @@ def _tracking():
 
 #: the colour of tracked points and their trails (RGB)
 TRACK_COLOUR = (40, 230, 110)
+
+
+def _instants_summary(workspace, object_id: int) -> str:
+    """The one line on an object's instants (:mod:`usvips.gui.instants_model`, imported when first needed,
+    not at the window's start)."""
+    from usvips.gui.instants_model import object_instants
+
+    return object_instants(workspace.project, object_id, workspace.rules, workspace.cache.calibrations).summary()
 
 
 class TrackController(QtCore.QObject):
@@ -69,7 +75,7 @@ class TrackController(QtCore.QObject):
         self.workspace, self.messages, self.jobs = context.workspace, context.messages, context.jobs
         self.panes, self.video, self.set_tool = panes, video, set_tool
         self.model = TrackModel()
-        self.settings = TrackSettings()
+        self._settings = None  # the tracker's settings, made when first read (settings)
         self.range: tuple[int, int] = (0, 0)  # the frames asked for when the object was tracked
         self.worker = None
         self._last_stored: int | None = None
@@ -98,6 +104,14 @@ class TrackController(QtCore.QObject):
         ws.project_changed.connect(self._on_project)
         ws.objects_removed.connect(self._on_removed)
         video.shown.connect(self.draw)
+
+    @property
+    def settings(self):
+        """The tracker's settings (:class:`usvips.core.tracking.TrackSettings`; the tracker is imported when
+        first used, not at the window's start)."""
+        if self._settings is None:
+            self._settings = tracking_core().TrackSettings()
+        return self._settings
 
     # ------------------------------------------------------------------ what to track
     def joins_as_instant(self, object_id: int) -> int | None:
@@ -148,7 +162,7 @@ class TrackController(QtCore.QObject):
 
         try:
             ws.undo.push(Command(f"make object {instant_id} an instant of object {object_id}", redo, undo))
-            summary = object_instants(ws.project, object_id, ws.rules, ws.cache.calibrations).summary()
+            summary = _instants_summary(ws, object_id)
         except UsvipsError as error:
             self.messages.say("error", f"object {instant_id} stays an object of its own: {error}")
             return False
@@ -242,7 +256,7 @@ class TrackController(QtCore.QObject):
 
             # every frame pair decoded once for all the vertices (VideoTracker.track_many)
             tracks = tracker.track_many(start, picks, first, last, settings, cancelled, report)
-            if cancelled() or any(CANCELLED in (t.reason(-1), t.reason(1)) for t in tracks):
+            if cancelled() or any(tracking_core().CANCELLED in (t.reason(-1), t.reason(1)) for t in tracks):
                 raise Cancelled
             return tracks
 
@@ -333,7 +347,7 @@ class TrackController(QtCore.QObject):
             line = np.vstack(pieces) if pieces else np.zeros((0, 2))
             trail_item.set_points(line)
         self.video.show_track(self.model.label, self.model.span(),
-                              {s.frame for s in self.model.stops() if s.reason != CANCELLED})
+                              {s.frame for s in self.model.stops() if s.reason != tracking_core().CANCELLED})
 
     # ------------------------------------------------------------------ instants
     def store_dialog(self) -> None:
@@ -387,7 +401,7 @@ class TrackController(QtCore.QObject):
                 ws.select([i for i in ws.selection if i not in ids])
 
             ws.undo.push(Command(f"store {len(frames)} tracked instants of object {object_id}", redo, undo))
-            summary = object_instants(ws.project, object_id, ws.rules, ws.cache.calibrations).summary()
+            summary = _instants_summary(ws, object_id)
         except UsvipsError as error:
             self.messages.say("error", f"no instants stored: {error}")
             return []
