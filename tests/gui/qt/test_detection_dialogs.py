@@ -73,3 +73,23 @@ def test_the_model_is_loaded_by_the_worker_once_and_kept_as_the_projects_default
     window.actions["detect"].trigger()
     qtbot.waitUntil(lambda: not window.busy and "duplicate" in window.log.toPlainText(), timeout=20000)
     assert on_window_thread == [False]  # the project's default is the model loaded: not loaded again
+
+
+def test_without_a_chosen_model_detect_uses_the_shipped_one_without_asking(qtbot, make_window, tmp_path,
+                                                                           monkeypatch):
+    """As ``usvips detect``: no project default and none remembered — the model shipped with USVIPS is used
+    (no file dialog opened in the project's folder, where it is not), and it does not become the project's
+    default."""
+    from PySide6 import QtWidgets
+
+    from usvips.app.detection_model import bundled_model_path, project_model_path
+
+    asked = []
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName", lambda *a, **k: asked.append(a) or ("", ""))
+    window, _ = _window_on_pair(qtbot, make_window, tmp_path)
+    window.settings.remove(SETTING)
+    window.actions["detect"].trigger()
+    qtbot.waitUntil(lambda: not window.busy and "looked at" in window.log.toPlainText(), timeout=30000)
+    assert asked == []
+    assert f"model {bundled_model_path().stem}" in window.log.toPlainText()
+    assert project_model_path(window.workspace.project) is None

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from PySide6 import QtCore, QtWidgets
 
-from usvips.app.detection_model import model_path_for, project_model_path
+from usvips.app.detection_model import bundled_model_path, model_path_for, project_model_path
 from usvips.core.errors import UsvipsError
 from usvips.gui.detect_model import DetectSession, correct_keypoint, proposal_keypoints, sigma_circles
 from usvips.gui.messages import Messages
@@ -147,7 +147,9 @@ def choose_model(context: WindowContext, parent: QtWidgets.QWidget, path: str | 
 def _ready(context: WindowContext, parent: QtWidgets.QWidget) -> tuple[DetectSession, str | None, bool] | None:
     """The session and the model to detect with: (session, the description file the worker loads first —
     None when the model loaded is used —, whether to make it the project's default once loaded); None when
-    the user chose no model. Nothing is loaded here: a load runs the network once, which is the worker's."""
+    the user chose no model. The project's default, else the model loaded, else the one remembered in the
+    settings, else the model shipped with USVIPS (as ``usvips detect`` takes them); a file is asked for only
+    when none is there. Nothing is loaded here: a load runs the network once, which is the worker's."""
     session = _session(context)
     project = context.workspace.project
     try:  # the open project's default model first (another project opened in this window may have its own)
@@ -162,7 +164,10 @@ def _ready(context: WindowContext, parent: QtWidgets.QWidget) -> tuple[DetectSes
     remembered = str(context.settings.value(SETTING, "") or "") if context.settings is not None else ""
     if remembered and Path(remembered).is_file():
         return session, remembered, True
-    return (session, None, False) if choose_model(context, parent) else None
+    try:  # as `usvips detect` does: the model shipped with USVIPS (it is no project's default for that)
+        return session, str(bundled_model_path()), False
+    except UsvipsError:
+        return (session, None, False) if choose_model(context, parent) else None
 
 
 def detect_frame(context: WindowContext, parent: QtWidgets.QWidget) -> None:
