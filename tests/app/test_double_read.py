@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from usvips.app.double_read import COLUMNS, annotators, double_read
-from usvips.app.project_figures import measure_stored
+from usvips.app.project_figures import UNMEASURED, measure_stored
 from usvips.core.errors import InvalidParameterError
 from usvips.core.observation_record import ObservationRecord
 from usvips.store.opening import create_project
@@ -80,7 +80,7 @@ def test_the_report_pairs_the_readers_and_finds_what_was_planted(survey):
                 figure = measure_stored(project, project.object(row[f"object_{side}"])).main
                 assert (row[f"value_{side}"], row[f"sigma_{side}"]) == (figure.value, figure.sigma)
     assert [line for line in report.summary() if "no figure" in line] == [
-        f"no figure, left out: ann: object {broken}: it has vertices without 3-D coordinates"]
+        f"no figure, left out: ann: object {broken}: {UNMEASURED}"]
     agreement = report.comparison.agreement
     assert agreement.n_a == 37 and agreement.n_b == 36 and agreement.n_matched == 32
     assert math.isclose(agreement.species_agreement, 32 / 33)

@@ -293,6 +293,11 @@ def _pointing_only(source: MeasurementInput, measured: Measurement) -> Measureme
         return measured
 
 
+#: why an object stored without 3-D points and without a calibration to measure its picks has no figures
+UNMEASURED = ("it has vertices without 3-D coordinates (stored unmeasured — a proposal's notes say why it got no "
+              "length; re-pick its points, or move a proposal's keypoints, with a calibration active)")
+
+
 def _evaluate_one(source: MeasurementInput, rules: QualityRules | None = None) -> Measurement:
     labels = {"id": source.id, "attribute": source.attribute, "notes": source.notes}
     try:
@@ -305,7 +310,7 @@ def _evaluate_one(source: MeasurementInput, rules: QualityRules | None = None) -
             except DegenerateGeometryError:
                 pass  # rays that no longer meet with this calibration: the stored values still stand
         if not np.all(np.isfinite(source.xyz)) or not np.all(np.isfinite(source.covariances)):
-            raise DegenerateGeometryError("it has vertices without 3-D coordinates")
+            raise DegenerateGeometryError(UNMEASURED)
         return measure(source.kind, source.xyz, source.covariances, rules=rules, joint=False, **labels)
     except UsvipsError as error:
         raise UsvipsError(f"object {source.id}: {error}") from None
