@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from PySide6 import QtCore
+from PySide6 import QtCore, QtWidgets
 
 from tests.gui.conftest import viewport_point
 from usvips.gui.qt.marks import Handle, Lines, Points, polyline_path, symbols_path
@@ -68,3 +68,22 @@ def test_a_handle_dragged_with_the_mouse_moves_there_and_the_view_stays(qtbot, p
     qtbot.mouseRelease(viewport, QtCore.Qt.MouseButton.LeftButton, pos=end)
     assert len(dropped) == 1 and np.allclose(dropped[0], (130.0, 105.0), atol=1.0 / pane.zoom_level() + 1e-6)
     assert pane.view_rect() == shown and picks == []  # the drag moved the handle, not the view; no pick
+
+
+def test_a_handle_moved_less_than_a_drag_is_moved_and_is_no_click_on_the_image(qtbot, pane):
+    """A reviewer's small correction (a keypoint moved 2–3 px, under the platform's drag distance) moves the
+    handle; the press was the handle's, so it is not also a click that starts a pick under it."""
+    pane.zoom_to(1.0, (120.0, 100.0))
+    handle = Handle(tuple(item_from_pixels(np.array([110.0, 95.0]))[0]), 15, "o", (255, 176, 0), 2, (255, 0, 255))
+    pane.add_mark(handle)
+    dropped, picks = [], []
+    handle.dropped.connect(lambda item: dropped.append(pixel_from_item(item.pos().x(), item.pos().y())))
+    pane.clicked.connect(lambda x, y: picks.append((x, y)))
+    viewport = pane.graphics.viewport()
+    start, end = viewport_point(pane, (110.0, 95.0)), viewport_point(pane, (113.0, 97.0))
+    assert (end - start).manhattanLength() < QtWidgets.QApplication.startDragDistance()
+    qtbot.mousePress(viewport, QtCore.Qt.MouseButton.LeftButton, pos=start)
+    qtbot.mouseMove(viewport, end)
+    qtbot.mouseRelease(viewport, QtCore.Qt.MouseButton.LeftButton, pos=end)
+    assert len(dropped) == 1 and np.allclose(dropped[0], (113.0, 97.0), atol=1.0)
+    assert picks == []

@@ -214,5 +214,7 @@ class ImageView(QtWidgets.QGraphicsView):
                 corners = QtCore.QRectF(press, event.position()).normalized()
                 self.set_range(self.canvas.mapRectFromScene(corners))
             return
-        if event.button() == QtCore.Qt.MouseButton.LeftButton and not double:
+        if event.button() == QtCore.Qt.MouseButton.LeftButton and not double and not self._item_press:
+            # a press an item took (a handle moved by less than a drag's distance: a small correction) is
+            # the item's, never also a click on the image beneath it
             self.clicked.emit(self.mapToScene(event.position().toPoint()))
