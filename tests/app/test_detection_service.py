@@ -8,8 +8,9 @@ import pytest
 
 from tests.app.detection_scenes import fake_model, make_project, scene, write_switching_model
 from usvips.app.detection_model import load_model
-from usvips.app.detection_service import detect_in_project, is_proposal, plan_detection, run_detection
+from usvips.app.detection_service import detect_in_project, plan_detection, run_detection
 from usvips.app.project_figures import measure_stored
+from usvips.app.proposals import is_proposal
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.pointing import source_from_label
 from usvips.store import Project

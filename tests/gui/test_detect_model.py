@@ -63,7 +63,7 @@ def test_a_stop_keeps_nothing_undone_and_a_bad_model_is_named(workspace, tmp_pat
 
 
 def test_the_unreviewed_proposals_keypoints_get_circles_of_95_percent_from_their_measured_sigma(workspace):
-    from usvips.gui.detect_model import CIRCLE_SIGMAS, sigma_circles
+    from usvips.gui.proposal_marks import CIRCLE_SIGMAS, sigma_circles
 
     ws, model = workspace
     ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
@@ -78,7 +78,7 @@ def test_the_unreviewed_proposals_keypoints_get_circles_of_95_percent_from_their
 
 
 def test_dragging_a_keypoint_corrects_it_as_one_undoable_edit_measured_again(workspace):
-    from usvips.gui.detect_model import correct_keypoint, proposal_keypoints
+    from usvips.gui.proposal_marks import correct_keypoint, proposal_keypoints
     from usvips.store.annotator import annotating_as
 
     ws, model = workspace

@@ -11,8 +11,9 @@ from usvips.app.detection_model import project_model_path
 from usvips.app.project_figures import evaluate, instant_measurements, instant_pointing, measurement_input
 from usvips.core.errors import InputFileError
 from usvips.core.measurements.instants import combine_measurements
-from usvips.gui.detect_model import DetectSession, correct_keypoint
+from usvips.gui.detect_model import DetectSession
 from usvips.gui.instants_model import object_instants
+from usvips.gui.proposal_marks import correct_keypoint
 from usvips.gui.workspace import Workspace
 from usvips.store import Project
 

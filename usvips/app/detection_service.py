@@ -541,9 +541,3 @@ def detect_in_project(project: ProjectStore, model: DetectionModel, pair: str | 
     max_speed_m_s = validation.positive("max_speed", max_speed_m_s)
     plan = plan_detection(project, pair, video, every, frames)
     return store_proposals(project, run_detection(plan, model, cancel, progress, refine), max_speed_m_s)
-
-
-def is_proposal(stored: StoredObject) -> bool:
-    """Whether a stored object was proposed by a model (its vertices' source is a model keypoint)."""
-    return bool(stored.vertices) and all(v.source.startswith("keypoint (") and "model " in v.source
-                                         for v in stored.vertices)

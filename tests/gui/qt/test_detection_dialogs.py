@@ -93,3 +93,30 @@ def test_without_a_chosen_model_detect_uses_the_shipped_one_without_asking(qtbot
     assert asked == []
     assert f"model {bundled_model_path().stem}" in window.log.toPlainText()
     assert project_model_path(window.workspace.project) is None
+
+
+def test_proposals_stored_before_the_window_opened_get_their_handles_when_review_opens(qtbot, make_window,
+                                                                                      tmp_path):
+    """Proposals from ``usvips detect`` (or an earlier session): once the review panel is made, their 95 %
+    circles and the handles that correct their keypoints are drawn, with no Detect run in this window —
+    before, only a Detect made them, so a reviewer of a command-line run could not drag a keypoint."""
+    from usvips.app.detection_model import load_model
+    from usvips.app.detection_service import detect_in_project
+    from usvips.gui.qt.proposal_handles import circles as proposal_circles
+    from usvips.store import Project
+
+    truth = scene(seed=5)
+    path = make_project(tmp_path)
+    model = write_switching_model(tmp_path, truth, sigma=1.0)
+    with Project.open(path) as project:
+        assert len(detect_in_project(project, load_model(model), pair="dive").proposals) == 3
+    window = make_window()
+    assert window.open_path(path)
+    window.load_pair("dive")
+    wait_for_pair(qtbot, window, "dive")
+    window.docks["review"].show()
+    window.docks["review"].raise_()
+    qtbot.waitUntil(lambda: window.panels.is_built("review"), timeout=5000)
+    circles = proposal_circles(window.context)
+    assert {side: len(item.points()) for side, item in circles.items.items()} == {"left": 6, "right": 6}
+    qtbot.waitUntil(lambda: len(circles.handles) == 12, timeout=5000)

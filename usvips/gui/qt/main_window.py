@@ -249,6 +249,11 @@ class MainWindow(QtWidgets.QMainWindow):
                 widget.on_shown(True)
 
     def _wire_review(self, review: QtWidgets.QWidget) -> None:
+        # the proposals on the images with the handles that correct their keypoints, also when they were
+        # stored before this window was opened (usvips detect, an earlier session)
+        from usvips.gui.qt.proposal_handles import show_proposals  # light: no detection imported
+
+        show_proposals(self.context)
         review.reviewed.connect(self.object_list.show_review)
         review.review_read.connect(self.object_list.show_review)  # someone else's review, read again
         review.history_requested.connect(self.object_list.show_history)
