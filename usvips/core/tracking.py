@@ -488,7 +488,8 @@ def _settle(rig: StereoRig, steps: list[_Step], frame: int, rms_history: list[fl
         return None
     rms_values = _ray_rms_many(rig, np.array([s.left for s in steps]), np.array([s.right for s in steps]))
     for step, rms in zip(steps, rms_values.tolist(), strict=True):
-        if rms > max(settings.min_rms_m, settings.rms_jump * float(np.median(rms_history))):
+        # (at or below min_rms_m no median can stop it: the median is looked at above it only)
+        if rms > settings.min_rms_m and rms > settings.rms_jump * float(np.median(rms_history)):
             return frame, RMS
         if step.leaves:
             return frame, LEAVES
