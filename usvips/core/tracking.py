@@ -375,9 +375,9 @@ class _SerialOpenCV:
     track running ends. The tracker's OpenCV calls work on neighbourhoods a few hundred pixels wide, too
     small to share out, yet OpenCV splits several of them (``cv2.pyrDown``, the flow's pyramid and
     derivatives) over its thread pool, whose worker then spins for its next share for about a millisecond:
-    called every few tens of microseconds, it spins all through the track, about doubling tracking's CPU
-    time (measured on the survey bench's 1080p clip, frames in memory: 0.19–0.26 s against 0.10 s per 100
-    frame pairs) for no gain in wall time. The thread count is the process's (OpenCV has no other): other
+    called every few tens of microseconds, it spins all through the track, up to doubling tracking's CPU
+    time (measured on the survey bench's 1080p clip, frames in memory, median of 7 runs: 0.12–0.26 s against
+    0.10 s per 100 frame pairs) for no gain in wall time. The thread count is the process's (OpenCV has no other): other
     OpenCV work meanwhile runs on one thread too — the same results, at worst slower."""
 
     def __init__(self) -> None:
