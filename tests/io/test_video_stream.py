@@ -8,6 +8,7 @@ import pytest
 
 from usvips.core.errors import InputFileError
 from usvips.core.synth.frame_numbers import frame_number, numbered_frame, panning_numbered_frame
+from usvips.io import video_stream
 from usvips.io.video import write_video
 from usvips.io.video_stream import Picture, VideoStream, grey_table
 from usvips.io.video_writer import CODECS, encode_video, encoders_available
@@ -277,3 +278,27 @@ def test_a_constant_rate_in_whole_milliseconds_is_not_called_variable(tmp_path, 
     encode_video(path, (numbered(i) for i in range(count)), rate, "ffv1", times_s=jitter)
     with VideoStream(path) as video:
         assert video.report.variable_frame_rate
+
+
+def test_grey_is_looked_up_in_blocks_that_opencv_keeps_on_the_calling_thread(monkeypatch):
+    """Each table look-up of a frame's luma covers fewer than SERIAL_LUT_PIXELS pixels (OpenCV shares a larger
+    one over its thread pool) and the blocks cover the frame once: the pixels of the scaler, also for a frame
+    narrower or wider than a block's rows divide evenly."""
+    blocks = []
+    look_up = video_stream.cv2.LUT
+
+    def recorded(src, table, dst=None):
+        blocks.append(src.shape)
+        return look_up(src, table, dst=dst)
+
+    monkeypatch.setattr(video_stream.cv2, "LUT", recorded)
+    rng = np.random.default_rng(9)
+    for width, height in [(1920, 1080), (3840, 2160), (1000, 263), (40, 30)]:
+        blocks.clear()
+        frame = av.VideoFrame(width, height, "yuv420p")
+        for plane in frame.planes:
+            values = np.frombuffer(plane, np.uint8)
+            values[:] = rng.integers(0, 256, values.size)
+        assert np.array_equal(Picture(frame).grey(), frame.to_ndarray(format="gray"))
+        assert all(rows * columns < video_stream.SERIAL_LUT_PIXELS for rows, columns in blocks)
+        assert sum(rows for rows, _ in blocks) == height and {columns for _, columns in blocks} == {width}

@@ -226,7 +226,25 @@ class Picture:
             return frame.to_ndarray(format="gray")
         plane = frame.planes[0]
         luma = np.frombuffer(plane, np.uint8).reshape(-1, plane.line_size)[:frame.height, :frame.width]
-        return cv2.LUT(luma, table).reshape(frame.height, frame.width)
+        return _look_up(luma, table)
+
+
+#: the pixels below which ``cv2.LUT`` runs on the calling thread: OpenCV shares a larger look-up out over its
+#: thread pool, whose worker then spins for a millisecond waiting for more, for no gain where the decoders
+#: already keep the cores busy (OpenCV's own threshold, 2**18; a later OpenCV may differ: the pixels do not)
+SERIAL_LUT_PIXELS = 1 << 18
+
+
+def _look_up(luma: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """``cv2.LUT(luma, table)`` in blocks of rows each below :data:`SERIAL_LUT_PIXELS`: the same pixels, on
+    the calling thread, whatever OpenCV's thread count (one while a track runs, see
+    :mod:`usvips.core.tracking`), so that a frame costs the same CPU read with or without a tracker."""
+    height, width = luma.shape
+    grey = np.empty((height, width), np.uint8)
+    rows = max(1, (SERIAL_LUT_PIXELS - 1) // max(width, 1))
+    for top in range(0, height, rows):
+        cv2.LUT(luma[top:top + rows], table, dst=grey[top:top + rows])
+    return grey
 
 
 #: decoders' pixel formats whose first plane is the 8-bit luma (Y) plane, one byte a pixel
