@@ -325,12 +325,13 @@ def _disagreement(result: RefinedPair) -> str:
     keypoint off by more than its sigma — on rendered fish such lengths erred by six times their sigma's
     variance (docs/detection.md, "Acceptance") — so it is given none, and a person places the points. So is
     a pair with a keypoint at either image's edge (``at_edge``): the fish may be cut by the frame (on
-    rendered fish, a snout hidden beyond the edge gave a length 8.5 sigma short)."""
-    off = [k for k in result.keypoints if k.beyond_limit or k.off_curve]
-    edge = [k for k in result.keypoints if k.at_edge]
-    return "; ".join([f"the {k.name}s in the two images are not one point ({k.reason})" for k in off]
-                     + [f"the {k.name} is {k.reason} (the fish may be cut by the frame)" for k in edge]
-                     + [_unmatched_lengths(result)] * bool(not off and not edge and _unmatched_lengths(result)))
+    rendered fish, a snout hidden beyond the edge gave a length 8.5 sigma short). And so is a pair with a
+    right keypoint the model's own whose lengths in the two images differ too much (:func:`_unmatched_lengths`)."""
+    reasons = ([f"the {k.name}s in the two images are not one point ({k.reason})" for k in result.keypoints
+                if k.beyond_limit or k.off_curve]
+               + [f"the {k.name} is {k.reason} (the fish may be cut by the frame)" for k in result.keypoints
+                  if k.at_edge])
+    return "; ".join(reasons) or _unmatched_lengths(result)
 
 
 def _unmatched_lengths(result: RefinedPair) -> str:
