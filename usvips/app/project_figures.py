@@ -295,7 +295,7 @@ def _pointing_only(source: MeasurementInput, measured: Measurement) -> Measureme
 
 #: why an object stored without 3-D points and without a calibration to measure its picks has no figures
 UNMEASURED = ("it has vertices without 3-D coordinates (stored unmeasured — a proposal's notes say why it got no "
-              "length; re-pick its points, or move a proposal's keypoints, with a calibration active)")
+              "length; re-pick every point with a calibration active to measure it)")
 
 
 def _evaluate_one(source: MeasurementInput, rules: QualityRules | None = None) -> Measurement:
