@@ -53,13 +53,20 @@ def pane(qtbot):
     return pane
 
 
-def test_a_handle_dragged_with_the_mouse_moves_there_and_the_view_stays(qtbot, pane):
-    pane.zoom_to(3.0, (120.0, 100.0))
-    handle = Handle(tuple(item_from_pixels(np.array([110.0, 95.0]))[0]), 15, "o", (255, 176, 0), 2, (255, 0, 255))
+def _handle_at(pane, pixel):
+    """A handle on ``pane`` at image ``pixel``; the lists of where it was dropped (image px) and of the
+    clicks on the image, filled as they happen."""
+    handle = Handle(tuple(item_from_pixels(np.array(pixel))[0]), 15, "o", (255, 176, 0), 2, (255, 0, 255))
     pane.add_mark(handle)
     dropped, picks = [], []
     handle.dropped.connect(lambda item: dropped.append(pixel_from_item(item.pos().x(), item.pos().y())))
     pane.clicked.connect(lambda x, y: picks.append((x, y)))
+    return dropped, picks
+
+
+def test_a_handle_dragged_with_the_mouse_moves_there_and_the_view_stays(qtbot, pane):
+    pane.zoom_to(3.0, (120.0, 100.0))
+    dropped, picks = _handle_at(pane, (110.0, 95.0))
     viewport, shown = pane.graphics.viewport(), pane.view_rect()
     start, end = viewport_point(pane, (110.0, 95.0)), viewport_point(pane, (130.0, 105.0))
     qtbot.mousePress(viewport, QtCore.Qt.MouseButton.LeftButton, pos=start)
@@ -74,11 +81,7 @@ def test_a_handle_moved_less_than_a_drag_is_moved_and_is_no_click_on_the_image(q
     """A reviewer's small correction (a keypoint moved 2–3 px, under the platform's drag distance) moves the
     handle; the press was the handle's, so it is not also a click that starts a pick under it."""
     pane.zoom_to(1.0, (120.0, 100.0))
-    handle = Handle(tuple(item_from_pixels(np.array([110.0, 95.0]))[0]), 15, "o", (255, 176, 0), 2, (255, 0, 255))
-    pane.add_mark(handle)
-    dropped, picks = [], []
-    handle.dropped.connect(lambda item: dropped.append(pixel_from_item(item.pos().x(), item.pos().y())))
-    pane.clicked.connect(lambda x, y: picks.append((x, y)))
+    dropped, picks = _handle_at(pane, (110.0, 95.0))
     viewport = pane.graphics.viewport()
     start, end = viewport_point(pane, (110.0, 95.0)), viewport_point(pane, (113.0, 97.0))
     assert (end - start).manhattanLength() < QtWidgets.QApplication.startDragDistance()
