@@ -38,3 +38,8 @@ def test_the_tracking_row_tracks_every_frame_and_reports_tracking_apart_from_dec
     assert track["ratio_met"] == (track["cpu_s"] <= survey.TRACK_TARGET_RATIO * track["decoding_cpu_s"])
     assert track["wall_ratio_met"] == (track["ours_s"] <= survey.TRACK_TARGET_RATIO * track["baseline_s"])
     assert track["backward_frames_tracked"] == 20 and track["backward_s"] > 0 and track["backward_before_s"] > 0
+    # the same track through flat ports: the same frames, its CPU against the same bare decode
+    assert track["flat_port_frames_tracked"] == 20 and track["flat_port_cpu_s"] > 0
+    assert track["flat_port_cpu_ratio"] == pytest.approx(track["flat_port_cpu_s"] / track["decoding_cpu_s"], rel=0.02)
+    assert track["flat_port_ratio_met"] == (track["flat_port_cpu_s"]
+                                            <= survey.TRACK_TARGET_RATIO * track["decoding_cpu_s"])
