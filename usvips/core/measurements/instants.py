@@ -24,13 +24,17 @@ Instants a MODEL pointed at on its own on every frame sit between the two: a mod
 the same way from frame to frame (the same fin shape, the same colour against the same seabed), but not
 exactly so. Their pointing errors correlate between instants with a correlation ρ measured for the model
 (``shared_fraction``; :func:`frame_correlation` estimates it from instants with truth): cov(e_i, e_j) =
-ρ σ_i σ_j. Of each instant's σ_i², (1 − ρ) σ_i² is its own and averages out (the random-effects mean and its
-Hartung–Knapp variance with its floor, on those variances), and the shared part is added whole for the
-weights a_i used: σ² = max(q, 1)/Σ w*_i + ρ (Σ a_i σ_i)² + σ_common². ρ = 0 is independent instants; ρ = 1
+ρ σ_i σ_j. Of each instant's σ_i², (1 − ρ) σ_i² is its own and averages out (τ̂² and the Hartung–Knapp
+factor h = max(q, 1) are estimated on those variances), and the shared part is kept whole for the weights
+a_i used: σ² = h Σ a_i² ((1 − ρ) σ_i² + τ̂²) + ρ (Σ a_i σ_i)² + σ_common². ρ = 0 is independent instants; ρ = 1
 is ``shared_pointing``. Instants of one object need not all share alike — a reviewer who moves a model's
 keypoint to where the fish is makes that point a person's, independent of the model's other frames — so
 each instant may have its own ρ_i (one factor shared in part: e_i = √ρ_i σ_i z + √(1 − ρ_i) σ_i z_i, so
 cov(e_i, e_j) = √(ρ_i ρ_j) σ_i σ_j): (1 − ρ_i) σ_i² averages out and (Σ a_i √ρ_i σ_i)² is kept whole.
+The weights a_i are those of least variance under that covariance — generalised least squares, kept ≥ 0
+(:func:`least_variance_weights`) — not the random-effects w*_i, which ignore the shared part: a fish seen at
+σ 16.9 and 56.8 mm by a model (ρ 0.4) was combined to 17.8 mm with them, more than its better instant
+alone; with the least-variance weights it is 16.9 mm. Without a shared part the two are the same.
 
 What μ is: the mean of the object's figure over its instants (for a bending fish, its mean snout–fork
 distance, which is shorter than its straight length; measure straight instants when that is wanted).
@@ -72,6 +76,37 @@ def _random_effects(values: np.ndarray, variances: np.ndarray,
     mean = float(w_star @ values / total)
     spread = float(w_star @ (values - mean) ** 2) / (k - 1)
     return mean, (max(spread, 1.0) if floor else spread) / total, tau2, q, 1.0 / s1
+
+
+def least_variance_weights(own: np.ndarray, loading: np.ndarray) -> np.ndarray:
+    """The weights a (k,), a_i ≥ 0, Σ a_i = 1, of the weighted mean Σ a_i y_i of least variance when the
+    errors of y have the covariance C = diag(``own``) + s sᵀ, s = ``loading`` (one factor shared in part,
+    see the module docstring): generalised least squares, C⁻¹1 / 1ᵀC⁻¹1, except that an instant whose GLS
+    weight would be negative (a far less precise one sharing the others' error: it would be subtracted to
+    cancel that error) gets none — a length is not made by subtracting a frame. Solved by an active set
+    (drop the most negative weight, take back an instant that would lower the variance), which ends at the
+    constrained minimum: no other weights ≥ 0 give a smaller variance a C aᵀ."""
+    own, loading = np.asarray(own, dtype=np.float64), np.asarray(loading, dtype=np.float64)
+    k = len(own)
+    covariance = np.diag(own) + np.outer(loading, loading)
+    free = np.ones(k, dtype=bool)
+    weights = np.full(k, 1.0 / k)
+    for _ in range(4 * k + 4):
+        index = np.flatnonzero(free)
+        solved = np.linalg.solve(covariance[np.ix_(index, index)], np.ones(len(index)))
+        trial = solved / solved.sum()
+        if trial.min() < 0.0:
+            free[index[int(np.argmin(trial))]] = False
+            continue
+        weights = np.zeros(k)
+        weights[index] = trial
+        gradient = covariance @ weights  # equal to the variance on the free instants
+        level = float(weights @ gradient)
+        lower = np.flatnonzero(~free & (gradient < level * (1.0 - 1e-12)))
+        if lower.size == 0:
+            break
+        free[lower[int(np.argmin(gradient[lower]))]] = True
+    return weights
 
 
 def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigma: float = 0.0,
@@ -135,7 +170,16 @@ def combine_figure(values: Sequence[float], sigmas: Sequence[float], common_sigm
     mean, variance, tau2, q, fixed_variance = _random_effects(values, variances, floor=not shared_pointing)
     weights = 1.0 / (variances + tau2)
     weights = weights / weights.sum()
-    shared = float(weights @ (np.sqrt(fractions) * sigmas)) ** 2 if fractions.any() else 0.0
+    shared = 0.0
+    if fractions.any():
+        # the independent parts' variance for any weights a: scale × Σ a_i² (v_i + τ²), scale the
+        # Hartung–Knapp factor (var(μ̂) = scale / Σ w*_i); the shared part (Σ a_i s_i)²
+        scale = variance * float((1.0 / (variances + tau2)).sum())
+        loading = np.sqrt(fractions) * sigmas
+        weights = least_variance_weights(scale * (variances + tau2), loading)
+        mean = float(weights @ values)
+        variance = scale * float(weights ** 2 @ (variances + tau2))
+        shared = float(weights @ loading) ** 2
     total = variance + shared + common_sigma ** 2
     between = max(0.0, variance - fixed_variance) / total if total > 0 else 0.0
     residuals = np.full(k, np.nan)
