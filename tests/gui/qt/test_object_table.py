@@ -122,3 +122,67 @@ def test_an_object_without_figures_is_not_called_ok_and_its_row_says_why_once():
     reason = Result((), (), "object 7: it has vertices without 3-D coordinates")
     main, quality, _ = figure_texts(reason, 7, {}, Counter())
     assert (main, quality) == ("it has vertices without 3-D coordinates", NO_FIGURE)
+
+
+def _survey_list(qtbot, tmp_path, monkeypatch, count: int):
+    """A list over a survey of ``count`` objects standing for 100,000 (drawn rows computed, jobs of 7)."""
+    monkeypatch.setattr(ObjectList, "EAGER", 10)
+    monkeypatch.setattr(ObjectList, "FIRST_ROWS", 5)
+    monkeypatch.setattr(ObjectList, "FIT_ROWS", 5)
+    monkeypatch.setattr(ObjectList, "JOB_OBJECTS", 7, raising=False)
+    ws = Workspace()
+    ws.open_project(Project.open(survey_project(tmp_path / "survey", count, seed=5)))
+    jobs: list[list[int]] = []
+    making = ws.cache.figures_job
+    monkeypatch.setattr(ws.cache, "figures_job", lambda ids: (jobs.append(list(ids)), making(ids))[1])
+    listing = ObjectList(ws)
+    qtbot.addWidget(listing)
+    listing.resize(900, 300)
+    listing.show()
+    qtbot.waitExposed(listing)
+    listing.refresh()
+    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    return ws, listing, jobs
+
+
+def test_a_sort_copies_the_figures_inputs_a_job_at_a_time(qtbot, tmp_path, monkeypatch):
+    """A sort by the figure needs every figure: their inputs are copied out of the project a job of
+    JOB_OBJECTS at a time (all at once froze the window 14 s on 100,000 objects), the progress counts over
+    the jobs, and every figure comes."""
+    ws, listing, jobs = _survey_list(qtbot, tmp_path, monkeypatch, 45)
+    jobs.clear()
+    shown = []
+    listing.completing.valueChanged.connect(shown.append)
+    listing.sort(ObjectList.COLUMNS.index("figure"), QtCore.Qt.SortOrder.AscendingOrder)
+    qtbot.waitUntil(lambda: not listing.completing.isVisible(), timeout=60000)
+    ids = ws.cache.ids()
+    assert all(ws.cache.known_figures(i) is not None for i in ids)
+    assert len(jobs) >= 5 and max(len(job) for job in jobs) <= 7
+    assert shown == sorted(shown) and 0 < max(shown) <= 100  # one progress over all the jobs
+    values = [ws.cache.known_figures(listing.object_id(r)).figures[0].value for r in range(listing.row_count())]
+    assert values == sorted(values)
+    listing.cleanup()
+    ws.close_project()
+
+
+def test_a_fast_scroll_computes_the_rows_on_screen_not_every_page_passed(qtbot, tmp_path, monkeypatch):
+    """Scrolling a page at a time faster than the figures come: each job holds the rows on screen (and those
+    not yet done that are still there), never the rows of the pages passed, which ask again when drawn."""
+    ws, listing, jobs = _survey_list(qtbot, tmp_path, monkeypatch, 80)
+    jobs.clear()
+    bar = listing.table.verticalScrollBar()
+    pages = range(0, bar.maximum() + 1, max(1, bar.pageStep()))
+    for value in pages:
+        bar.setValue(value)
+        listing.table.viewport().repaint()
+        made = len(jobs)
+        listing._compute_wanted()  # what the drawn rows' request does at the next turn of the event loop
+        shown = {listing.object_id(r) for r in listing.visible_rows()}
+        assert all(set(job) <= shown for job in jobs[made:])
+    assert len(jobs) >= len(pages) - 1  # (each page's rows asked while the one before was computed)
+    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    shown = {listing.object_id(r) for r in listing.visible_rows()}
+    assert all(ws.cache.known_figures(i) is not None for i in shown)
+    assert sum(ws.cache.known_figures(i) is not None for i in ws.cache.ids()) < 80
+    listing.cleanup()
+    ws.close_project()
