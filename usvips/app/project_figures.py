@@ -30,6 +30,7 @@ correlation says (stated in their vertices' sources), and the whole of it when n
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -41,6 +42,7 @@ from usvips.core.errors import DegenerateGeometryError, InvalidParameterError, U
 from usvips.core.measurements import (
     Measurement,
     QualityRules,
+    calibration_marks,
     intersect_vertices,
     measure,
     measure_picks,
@@ -236,6 +238,49 @@ def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Mea
         raise UsvipsError(f"object {source.id}: {error}") from None
     return replace(combined, id=source.id, attribute=source.attribute, notes=source.notes)
 
+
+
+def evaluate_many(sources: Sequence[MeasurementInput], rules: QualityRules | None = None
+                  ) -> list[Measurement | UsvipsError]:
+    """:func:`evaluate` of each source — the same :class:`Measurement`, or the :class:`UsvipsError` it
+    raises — with the objects measured once from their picks with one calibration (at one station, in one
+    frame) intersected together (:func:`usvips.core.measurements.batch.measure_picks_many`: the same
+    intersection and covariance parts, a whole batch's calibration derivatives at once; about 14 × less
+    time a fish than one at a time). An object with instants, or one the batch cannot measure (its rays do
+    not meet, too few vertices: the stored values may still stand), goes through :func:`evaluate` itself."""
+    from usvips.core.measurements.batch import measure_picks_many  # not on the window's start
+
+    out: list[Measurement | UsvipsError | None] = [None] * len(sources)
+    groups: dict[tuple[int, int | str, str], list[int]] = {}
+    for index, source in enumerate(sources):
+        if source.calibration is not None and not source.instants:
+            groups.setdefault((id(source.calibration), source.station, source.frame), []).append(index)
+        else:
+            out[index] = _evaluated(source, rules)
+    for members in groups.values():
+        batch = [sources[i] for i in members]
+        head = batch[0]
+        measured = measure_picks_many([s.kind for s in batch], head.calibration, [s.left for s in batch],
+                                      [s.right for s in batch], head.station, head.frame,
+                                      [s.pointing_px for s in batch], rules, [s.pointing_correlation for s in batch])
+        camera = np.array(head.calibration.rig(head.station, head.frame).left.exterior.position, float)
+        marks = calibration_marks(head.calibration)
+        for index, source, one in zip(members, batch, measured, strict=True):
+            if isinstance(one, Measurement):  # labelled as measure_picks labels it
+                origin = "default" if source.pointing_px is None else source.pointing_origin
+                out[index] = replace(one, id=source.id, attribute=source.attribute, notes=source.notes,
+                                     pointing_origin=origin, marks=marks + tuple(source.pointing_marks),
+                                     camera=camera)
+            else:
+                out[index] = _evaluated(source, rules)
+    return out
+
+
+def _evaluated(source: MeasurementInput, rules: QualityRules | None) -> Measurement | UsvipsError:
+    try:
+        return evaluate(source, rules)
+    except UsvipsError as error:
+        return error
 
 def _shared_pointing(source: MeasurementInput, everything: tuple[MeasurementInput, ...]) -> dict:
     """How the instants' pointing errors are shared (:func:`combine_measurements`' keywords): whole when any

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from usvips.app.live_changes import ColleagueChange
 from usvips.app.pointing_settings import pointing_in_use
-from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
+from usvips.app.project_figures import MeasurementInput, evaluate, evaluate_many, joint_vertices, measurement_input
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
 from usvips.core.observation_record import ObservationRecord
@@ -72,6 +72,12 @@ def read_stored_objects(location: str | Path, cancelled: Callable[[], bool] = la
         if cancelled():
             return None
         return StoredObjects(objects, records, store.instant_links())
+
+
+#: objects whose figures a worker computes together (``project_figures.evaluate_many``: one intersection with
+#: the calibration's derivatives for all): 0.45 ms a fish against 4.5 ms one at a time, 0.58 ms in batches of
+#: 16 and 0.34 ms of 128; 32 is ~15 ms of work, so a cancel is still heard at once
+FIGURES_BATCH = 32
 
 
 def _figures_of(source: MeasurementInput, rules: QualityRules) -> Result:
@@ -273,12 +279,15 @@ class ObjectCache:
 
         def run(progress=None, cancelled=None) -> dict[int, Result]:
             out = {}
-            for n, (object_id, source) in enumerate(inputs):
+            for begin in range(0, len(inputs), FIGURES_BATCH):
                 if cancelled is not None and cancelled():
                     break
-                out[object_id] = _figures_of(source, rules)
+                batch = inputs[begin:begin + FIGURES_BATCH]
+                for (object_id, _), measured in zip(batch, evaluate_many([s for _, s in batch], rules), strict=True):
+                    out[object_id] = (Result((), (), str(measured)) if isinstance(measured, UsvipsError)
+                                      else result_of(measured))
                 if progress is not None:
-                    progress((n + 1) / len(inputs))
+                    progress((begin + len(batch)) / len(inputs))
             return out
 
         run.versions = {i: self._versions.get(i, 0) for i in object_ids}  # what the results are of
