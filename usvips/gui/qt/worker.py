@@ -6,6 +6,8 @@ are callables) so that the work itself stays testable without Qt.
 
 from __future__ import annotations
 
+import os
+import sys
 import threading
 import traceback
 from collections.abc import Callable
@@ -48,6 +50,7 @@ class Worker(QtCore.QRunnable):
         return self._cancel.is_set()
 
     def run(self) -> None:
+        _yield_to_the_gui()
         try:
             result = self.job(self._progress, self._cancel.is_set)
         except Cancelled:
@@ -80,6 +83,24 @@ class Worker(QtCore.QRunnable):
             signal.emit(*args)
         except RuntimeError:  # "Signal source has been deleted": nobody is left to tell
             pass
+
+
+#: the niceness a worker's thread takes (Linux: per thread; the threads it starts, FFmpeg's decoders and
+#: OpenCV's pool among them, inherit it): on two busy cores the GUI thread then gets a core first
+BACKGROUND_NICE = 10
+
+
+def _yield_to_the_gui() -> None:
+    """Lower the calling worker thread's scheduling priority to :data:`BACKGROUND_NICE` (never raise it;
+    where a thread's own priority cannot be set — not Linux — nothing changes)."""
+    if not hasattr(os, "setpriority") or not sys.platform.startswith("linux"):
+        return
+    try:
+        thread = threading.get_native_id()
+        if os.getpriority(os.PRIO_PROCESS, thread) < BACKGROUND_NICE:
+            os.setpriority(os.PRIO_PROCESS, thread, BACKGROUND_NICE)
+    except OSError:
+        pass
 
 
 #: Workers still running, kept alive here so that a window or page closing before its worker reports

@@ -1,0 +1,46 @@
+"""A worker's thread yields the cores to the GUI thread: on Linux it runs at BACKGROUND_NICE (the threads it
+starts inherit it), the GUI thread keeps its own priority, and a thread already nicer is left as it is."""
+
+import os
+import sys
+import threading
+
+import pytest
+
+from usvips.gui.qt.worker import BACKGROUND_NICE, Worker, _yield_to_the_gui, start
+
+linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a thread's own priority is Linux's")
+
+
+@linux
+def test_a_workers_thread_runs_nicer_than_the_gui_thread(qtbot):
+    gui = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    seen = []
+
+    def job(progress, cancelled):
+        seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+        child = threading.Thread(target=lambda: seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id())))
+        child.start()
+        child.join()
+        return True
+
+    worker = Worker(job, "a job")
+    with qtbot.waitSignal(worker.signals.finished, timeout=10000):
+        start(worker)
+    assert seen == [max(gui, BACKGROUND_NICE)] * 2  # the worker and a thread it started
+    assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) == gui
+
+
+@linux
+def test_a_thread_already_nicer_is_left_as_it_is():
+    seen = []
+
+    def run():
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), BACKGROUND_NICE + 5)
+        _yield_to_the_gui()
+        seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    thread.join()
+    assert seen == [BACKGROUND_NICE + 5]
