@@ -186,3 +186,29 @@ def test_a_fast_scroll_computes_the_rows_on_screen_not_every_page_passed(qtbot, 
     assert sum(ws.cache.known_figures(i) is not None for i in ws.cache.ids()) < 80
     listing.cleanup()
     ws.close_project()
+
+
+def test_a_small_lists_columns_widen_to_an_added_object_without_measuring_every_row(qtbot, tmp_path, monkeypatch):
+    """In a list small enough to fit every row, an object stored later widens the columns its texts need
+    (its long attribute is shown whole), measuring its own row only: every row measured again on each
+    stored object cost 30 ms at 200 rows."""
+    ws = Workspace()
+    ws.open_project(Project.open(survey_project(tmp_path / "survey", 30, seed=7)))
+    listing = ObjectList(ws)
+    qtbot.addWidget(listing)
+    listing.resize(900, 300)
+    listing.show()
+    qtbot.waitExposed(listing)
+    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    fitted = []
+    monkeypatch.setattr(listing.table, "resizeColumnsToContents", lambda: fitted.append(True))
+    column = ObjectList.COLUMNS.index("attribute")
+    before = listing.table.columnWidth(column)
+    attribute = "a very long attribute that no fish of the survey has " * 2
+    new = ws.project.add_object("point", [Vertex(300.0, 200.0, 280.0, 200.0, pair="measure1")], attribute)
+    ws.objects_changed_in_store(added=(new,))
+    width = listing.table.columnWidth(column)
+    assert not fitted and width > before
+    assert width >= listing.table.fontMetrics().horizontalAdvance(attribute)
+    listing.cleanup()
+    ws.close_project()
