@@ -379,7 +379,7 @@ def resume(model: FishNet, source: Path) -> dict:
         model.load_state_dict(torch.load(weights))
         record = source / "training.json"
         return json.loads(record.read_text()) if record.is_file() else {"folder": str(source.resolve())}
-    if source.suffix.lower() != ".onnx" or not source.is_file():
+    if source.suffix.lower() != ".onnx":
         raise UsvipsError(f"{source}: neither a training's output folder nor an ONNX file")
     load_onnx(model, source)
     record = source.parent / "training.json"

@@ -80,8 +80,8 @@ def matched(path: str | Path, convolutions: list[Convolution], expected: list[tu
     """``convolutions`` (from the file at ``path``) when they fit the network's ``expected`` layouts (see
     :meth:`Convolution.layout`), one for one in order; otherwise a one-line refusal naming the first misfit."""
     if len(convolutions) != len(expected):
-        raise UsvipsError(f"{path}: {len(convolutions)} convolutions, the fish model has {len(expected)}: not a "
-                          "model of its architecture")
+        raise UsvipsError(f"{path}: {len(convolutions)} convolution{'' if len(convolutions) == 1 else 's'}, the fish "
+                          f"model has {len(expected)}: not a model of its architecture")
     for n, (convolution, layout) in enumerate(zip(convolutions, expected, strict=True), start=1):
         if convolution.layout() != tuple(layout):
             raise UsvipsError(f"{path}: convolution {n} is {_words(convolution.layout())}, the fish model's is "

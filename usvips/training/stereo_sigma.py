@@ -155,8 +155,14 @@ def without_stereo_sigma(text: str) -> str:
     old table, whose σ by size sets refinement's limits while the errors are collected
     (:func:`usvips.app.detection_service.shift_limits`): the new table describes the pairs those limits
     pass."""
+    return without_table(text, "stereo_sigma")
+
+
+def without_table(text: str, table: str) -> str:
+    """A description's text without its ``[table]`` (from its header, and the comment lines just above it, to
+    the next table or the end); the text unchanged when it has none."""
     lines = text.splitlines(keepends=True)
-    start = next((i for i, line in enumerate(lines) if line.lstrip().startswith("[stereo_sigma]")), None)
+    start = next((i for i, line in enumerate(lines) if line.lstrip().startswith(f"[{table}]")), None)
     if start is None:
         return text
     end = next((i for i in range(start + 1, len(lines)) if lines[i].lstrip().startswith("[")), len(lines))

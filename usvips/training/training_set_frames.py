@@ -89,8 +89,7 @@ def frame_from_crop(crop: np.ndarray, labels: list[tuple[np.ndarray, np.ndarray,
                     ) -> tuple[np.ndarray, list[dict]]:
     """A crop (BGR uint8) and its labels (see :func:`parse_label`) as one training frame and its fish."""
     h, w = crop.shape[:2]
-    fit = Letterbox.fit((w, h), (INPUT, INPUT))
-    scale = min(fit.scale_x, fit.scale_y, 1.0)
+    scale = min(INPUT / w, INPUT / h, 1.0)  # as Letterbox.fit, but never enlarged
     nw, nh = max(1, min(INPUT, round(w * scale))), max(1, min(INPUT, round(h * scale)))
     box = Letterbox(nw / w, nh / h, (INPUT - nw) // 2, (INPUT - nh) // 2, (nw, nh))
     image = box.apply(crop, (INPUT, INPUT), PAD_VALUE)
