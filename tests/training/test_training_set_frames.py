@@ -82,14 +82,16 @@ def test_each_crop_becomes_a_frame_whose_fish_lies_at_the_reviewed_pixels(export
     assert fitted == {True, False}  # crops fitted down and crops kept at their size were both checked
 
 
-def test_the_caudal_tips_of_a_reviewed_fish_are_ignored_not_taught_absent(exported):
+def test_a_reviewed_crop_teaches_its_fish_only_and_its_caudal_tips_not_at_all(exported):
+    """Other fish, unlabelled, may lie in a crop: its heatmaps' negatives are ignored; the caudal tips are not
+    labelled: their heatmaps and displacements are not taught; snout, fork and centre peaks are."""
     out, _ = exported
     frames = read_training_set(out)
     for fish in frames.fish:
         for flip in (False, True):
             t = targets(fish, flip)
-            assert (t["keypoint_ignore"][2:] == 0).all() and (t["keypoint_heat"][2:] == 0).all()
-            np.testing.assert_array_equal(t["keypoint_ignore"][:2], np.stack([t["ignore"]] * 2))
+            assert (t["ignore"] == 0).all() and (t["keypoint_ignore"] == 0).all()
+            assert (t["keypoint_heat"][2:] == 0).all() and t["centre_heat"].max() == 1.0
             assert t["keypoint_heat"][:2].max(axis=(1, 2)).tolist() == [1.0, 1.0]
             assert (t["displacement_mask"][4:] == 0).all() and (t["displacement_mask"][:4].sum(axis=(1, 2)) > 0).all()
             assert t["centre_mask"].sum() == 1
@@ -124,6 +126,11 @@ def test_a_rendered_frame_is_taught_as_before_and_a_mixed_frame_ignores_only_the
         mixed = targets([*fish, unknown], flip)
         assert (mixed["keypoint_ignore"][2:] == 0).all()
         np.testing.assert_array_equal(mixed["keypoint_ignore"][:2], np.stack([mixed["ignore"]] * 2))
+        assert mixed["ignore"].mean() > 0.5  # a rendered frame's background is taught
+        # a fish from a frame whose other fish are not labelled: no negatives taught anywhere on the frame
+        partial = targets([*fish, {**unknown, "background_known": False}], flip)
+        assert (partial["ignore"] == 0).all() and (partial["keypoint_ignore"] == 0).all()
+        np.testing.assert_array_equal(partial["centre_heat"], mixed["centre_heat"])
         g = INPUT // STRIDE
         assert mixed["keypoint_heat"].shape == (4, g, g)
 
@@ -163,3 +170,19 @@ def test_a_bad_export_is_refused_in_one_line_naming_the_file(exported, tmp_path,
         read_training_set(copy)
     message = str(caught.value)
     assert message.startswith(str(named)) and words in message and "\n" not in message
+
+
+def test_a_held_out_share_keeps_both_images_of_a_fish_on_one_side(exported):
+    out, reviewed = exported
+    frames = read_training_set(out)
+    for share, seed in ((0.25, 7), (0.5, 8), (0.0, 9)):
+        trained, held = frames.split(share, seed)
+        objects = [{name.split("_")[0] for name in part.names} for part in (trained, held)]
+        assert not objects[0] & objects[1] and objects[0] | objects[1] == {str(i) for i in reviewed}
+        assert len(objects[1]) == round(share * len(reviewed)) and len(held.names) == 2 * len(objects[1])
+        for part in (trained, held):
+            assert len(part.images) == len(part.fish) == len(part.names)
+            for image, name in zip(part.images, part.names, strict=True):
+                np.testing.assert_array_equal(image, frames.images[frames.names.index(name)])
+        again = frames.split(share, seed)[1]
+        assert again.names == held.names

@@ -25,11 +25,13 @@ statistics are too noisy to re-estimate, and the only one here, as the original 
 of ``usvips project export PROJECT OUT --format training-set`` is read by
 :mod:`usvips.training.training_set_frames`, and ``--real-share`` of every batch (rounded) is drawn from its
 crops, the rest from the rendered frames. Their caudal tips are not labelled, so those keypoints' heatmaps are
-ignored on those frames and their displacements not taught (:mod:`usvips.training.fish_targets`). Without
-``--resume`` a fine-tuning run starts from the shipped model (``resources/models/fish-centre-pose.onnx``):
+ignored on those frames and their displacements not taught (:mod:`usvips.training.fish_targets`).
+``--hold-out SHARE`` keeps that share of each set's objects (both images of one) out of training and checks the
+model on them beside the rendered check frames, at the start and at every check. Without ``--resume`` a
+fine-tuning run starts from the shipped model (``resources/models/fish-centre-pose.onnx``):
 
     nice -n 10 python -m usvips.training.fish_model --out /tmp/tuned --training-set /data/reviewed \
-        --frames 400 --steps 200 --learning-rate 0.0005
+        --hold-out 0.2 --frames 400 --steps 200 --batch 12 --learning-rate 0.0002 --zoom 0.6 2.2
 
 Bad input (an export, an ONNX file of another network, a missing folder) is refused in one line.
 """
@@ -151,8 +153,8 @@ def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
 class FishNet(nn.Module):
     """Encoder to 1/32, top-down pyramid back to 1/4, one head; heatmaps through a sigmoid.
 
-    ``frozen_statistics``: its BatchNorms stay in eval mode (their running statistics neither used from the
-    batch nor updated) even while the rest trains; set when continuing from an ONNX file."""
+    ``frozen_statistics``: its BatchNorms stay in eval mode even while the rest trains (they normalise with
+    their running statistics, never a batch's, and never update them); set when continuing from an ONNX file."""
 
     def __init__(self, keypoints: int = len(KEYPOINTS)) -> None:
         super().__init__()
@@ -317,7 +319,8 @@ def description(threshold: float) -> ModelDescription:
 
 def evaluate(model: nn.Module, images: np.ndarray, fish: list[list[dict]], threshold: float) -> ValidationFigures:
     """Figures on cached frames in input coordinates (the training's own check; the shipped figures come
-    from full frames through the ONNX runner)."""
+    from full frames through the ONNX runner); a keypoint a fish does not know (a reviewed crop's caudal
+    tips) is not measured."""
     model.eval()
     figures = ValidationFigures()
     desc = description(threshold)
@@ -327,8 +330,9 @@ def evaluate(model: nn.Module, images: np.ndarray, fish: list[list[dict]], thres
             out = model(_to_tensor(images[start:start + 16])).numpy()
             for n, frame in enumerate(fish[start:start + 16]):
                 found = CentrePose.decode(out[n:n + 1], desc, identity)
-                truths = [TrueObject({name: (float(x) - 0.5, float(y) - 0.5)
-                                      for name, (x, y) in zip(KEYPOINTS, f["keypoints"], strict=True)}, f["required"])
+                truths = [TrueObject({name: (float(x) - 0.5, float(y) - 0.5) for name, (x, y), known
+                                      in zip(KEYPOINTS, f["keypoints"], f.get("known", [True] * len(KEYPOINTS)),
+                                             strict=True) if known}, f["required"])
                           for f in frame]
                 match_image(found, truths, figures)
     model.train()
@@ -416,13 +420,25 @@ def _train(argv: list[str] | None) -> int:
                              "fine-tune on; repeatable")
     parser.add_argument("--real-share", type=float, default=0.3,
                         help="with --training-set: the share of each batch drawn from the training sets")
+    parser.add_argument("--hold-out", type=float, default=0.0, metavar="SHARE",
+                        help="with --training-set: hold out this share of each set's objects (both images of "
+                             "one) from training and check the model on them as on the rendered check frames")
     parser.add_argument("--learning-rate", type=float, default=3e-3, help="the schedule's peak")
     parser.add_argument("--zoom", type=float, nargs=2, metavar=("LOW", "HIGH"),
                         help="scale augmentation: zoom frames by a factor drawn log-uniformly from LOW..HIGH")
     args = parser.parse_args(argv)
     if not 0 < args.real_share <= 1:
         raise UsvipsError(f"--real-share {args.real_share}: must lie in (0, 1]")
-    real = [read_training_set(folder) for folder in args.training_set]  # refused before any rendering
+    if not 0 <= args.hold_out < 1:
+        raise UsvipsError(f"--hold-out {args.hold_out}: must lie in [0, 1)")
+    parts = [read_training_set(folder).split(args.hold_out, args.seed)  # refused before any rendering
+             for folder in args.training_set]
+    real = [trained for trained, _ in parts]
+    held = [frame for _, h in parts for frame in zip(h.images, h.fish, strict=True)]
+    held_images = np.stack([image for image, _ in held]) if held else None
+    held_fish = [fish for _, fish in held]
+    if any(not len(t.names) for t in real):
+        raise UsvipsError(f"--hold-out {args.hold_out} leaves a training set without a crop to train on")
     real_count = round(args.real_share * args.batch) if real else 0
     if real and real_count == 0:
         raise UsvipsError(f"--real-share {args.real_share} of a batch of {args.batch} draws no crop")
@@ -453,8 +469,20 @@ def _train(argv: list[str] | None) -> int:
     rng = np.random.default_rng(batch_seed)
     args.out.mkdir(parents=True, exist_ok=True)
     model.train()
-    train_start = time.time()
     history = []
+    def held_out_check() -> dict:
+        """The figures on the held-out crops (snout and fork only), empty without any."""
+        if held_images is None:
+            return {}
+        summary = evaluate(model, held_images, held_fish, args.threshold).summary(KEYPOINTS[:2])
+        print("held-out crops", json.dumps(summary), flush=True)
+        return {"held_out_crops": summary}
+
+    if source is not None:  # where the run starts, on the same check frames
+        summary = evaluate(model, check_images, check_fish, args.threshold).summary(KEYPOINTS)
+        print("check at the start", json.dumps(summary), flush=True)
+        history.append({"step": 0, "learning_rate": 0.0, "seconds": 0, **summary, **held_out_check()})
+    train_start = time.time()
     step = 0
     for step in range(1, args.steps + 1):
         rate = learning_rate(args.learning_rate, step / args.steps, (time.time() - train_start) / (args.minutes * 60))
@@ -476,9 +504,9 @@ def _train(argv: list[str] | None) -> int:
         if step % 250 == 0 or step == args.steps:
             figures = evaluate(model, check_images, check_fish, args.threshold)
             summary = figures.summary(KEYPOINTS)
-            history.append({"step": step, "learning_rate": rate, "seconds": round(time.time() - train_start),
-                            **summary})
             print("check", json.dumps(summary), flush=True)
+            history.append({"step": step, "learning_rate": rate, "seconds": round(time.time() - train_start),
+                            **summary, **held_out_check()})
             torch.save(model.state_dict(), args.out / f"{NAME}.pt")
         if time.time() - train_start > args.minutes * 60:
             print(f"time limit at step {step}", flush=True)
@@ -492,7 +520,9 @@ def _train(argv: list[str] | None) -> int:
         "command": " ".join(["python -m usvips.training.fish_model", *(argv if argv is not None else sys.argv[1:])]),
         "seed": args.seed, "torch": torch.__version__, "steps": step, "batch": args.batch, "frames": args.frames,
         "render_seconds": round(rendered), "train_seconds": round(trained), "onnx_difference": difference,
-        "training_sets": [t.record() for t in real], "real_share": args.real_share if real else None,
+        "training_sets": [{**t.record(), "held_out_samples": len(h.names)} for t, (_, h) in zip(real, parts,
+                                                                                                  strict=True)],
+        "real_share": args.real_share if real else None, "hold_out": args.hold_out if real else None,
         "real_per_batch": real_count, "frozen_batch_norm_statistics": model.frozen_statistics,
         "history": history, "resumed_from": previous}, indent=1,
         default=lambda v: None if isinstance(v, float) and math.isnan(v) else v))

@@ -4,10 +4,14 @@
 A training frame is an INPUT × INPUT input (BGR uint8) with its fish, each a dict (see
 :mod:`usvips.training.fish_augment`): ``keypoints`` (K × 2, input coordinates, origin at the input's top-left
 corner), ``visible`` and ``in_frame`` (K booleans), ``box`` (u0, v0, u1, v1), ``required`` (a fish the model
-must find) and, optionally, ``known`` (K booleans; all True when absent). A keypoint that is not ``known`` was
-never labelled — the caudal tips of a fish from a reviewed training set, which stores snout and fork only — so
-its heatmap is neither taught as present nor as absent on that frame (``keypoint_ignore``) and its
-displacements are not taught. Rendered frames know every keypoint, and their targets do not depend on this.
+must find) and, optionally, ``known`` (K booleans; all True when absent) and ``background_known`` (True when
+absent). A keypoint that is not ``known`` was never labelled — the caudal tips of a fish from a reviewed
+training set, which stores snout and fork only — so its heatmap is neither taught as present nor as absent on
+that frame (``keypoint_ignore``) and its displacements are not taught. A fish whose ``background_known`` is
+False comes from a frame where not every fish is labelled (a reviewed crop: a fish nobody accepted may lie in
+it), so the frame teaches no background: its heatmaps' negatives are ignored everywhere, and only the labelled
+fish's peaks, offsets, extent and displacements are taught. Rendered frames know every keypoint and their
+background, and their targets do not depend on either key.
 """
 
 from __future__ import annotations
@@ -40,8 +44,9 @@ def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
     left-right (the keypoints keep their names: a fish facing the other way).
 
     ``ignore`` (g × g) weighs the heatmaps' negatives (0 where a fish that is not required lies: neither a fish
-    nor background); ``keypoint_ignore`` (K × g × g) is the same per keypoint heatmap, and 0 over the whole
-    frame for a keypoint some fish of the frame does not know."""
+    nor background; 0 everywhere on a frame whose background is not known); ``keypoint_ignore`` (K × g × g) is
+    the same per keypoint heatmap, and 0 over the whole frame for a keypoint some fish of the frame does not
+    know."""
     g = INPUT // STRIDE
     k = len(KEYPOINTS)
     centre_heat = np.zeros((g, g), np.float32)
@@ -55,10 +60,12 @@ def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
     keypoint_offset = np.zeros((2, g, g), np.float32)
     keypoint_mask = np.zeros((g, g), np.float32)
     unknown = np.zeros(k, bool)  # a keypoint some fish of the frame does not know
+    background_known = True
     claimed = np.full((g, g), np.inf)  # distance (cells) from each cell to the centre whose displacements it holds
     for f in fish:
         known = np.asarray(f.get("known", np.ones(k, bool)), bool)
         unknown |= ~known
+        background_known &= bool(f.get("background_known", True))
         points = np.array(f["keypoints"], np.float64) / STRIDE
         x0, y0, x1, y1 = (np.array(f["box"], np.float64) / STRIDE)
         if flip:
@@ -94,6 +101,8 @@ def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
                 keypoint_heat[n] = np.maximum(keypoint_heat[n], _gaussian((g, g), pj, pi, KEYPOINT_SIGMA_CELLS))
                 keypoint_offset[:, pi, pj] = points[n] - (pj, pi)
                 keypoint_mask[pi, pj] = 1
+    if not background_known:
+        ignore[:] = 0.0
     keypoint_ignore = np.repeat(ignore[None], k, axis=0)
     keypoint_ignore[unknown] = 0.0
     return {"centre_heat": centre_heat, "ignore": ignore, "centre_mask": centre_mask, "centre_offset": centre_offset,

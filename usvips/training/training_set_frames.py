@@ -12,9 +12,11 @@ box's centre and size and the snout and fork with their visibility (0 not labell
 A fish is one to find (``required``) when snout and fork are visible and at least
 :data:`~usvips.training.fish_augment.MIN_REQUIRED_PX` input pixels apart.
 
-Everything else in a crop is taught as background: a fish nobody accepted that lies in another's crop is
-taught as no fish (crops are the reviewed fish padded by half its length, so such fish are rare, but a
-school's crops will hold some).
+Nothing else in a crop is taught as background (``background_known`` False): a crop is the reviewed fish
+padded by half its length, and other fish, which nobody accepted or which were accepted as objects of their
+own, often lie in it (on 80 crops of rendered survey clips the shipped model made 27 detections away from
+the labelled fish, those looked at mostly on other fish), so its heatmaps' negatives are ignored and only its
+labelled fish is taught; the rendered frames teach what is not a fish.
 
 A bad export is refused in one line naming the file (and line): no ``images`` folder or no crops, a crop
 that does not read, a crop without its label, a label line of the wrong layout or with a fraction outside
@@ -59,6 +61,22 @@ class TrainingSet:
         """What training.json keeps of it: the folder, the crops and the fish (and those to find)."""
         return {"path": str(self.folder.resolve()), "samples": len(self.names), "fish": self.fish_count,
                 "required": sum(bool(f["required"]) for frame in self.fish for f in frame)}
+
+    def subset(self, keep: np.ndarray) -> TrainingSet:
+        """The frames where ``keep`` (a boolean per frame) is True."""
+        return TrainingSet(self.folder, self.images[keep], [f for f, k in zip(self.fish, keep, strict=True) if k],
+                           [n for n, k in zip(self.names, keep, strict=True) if k])
+
+    def split(self, share: float, seed: int) -> tuple[TrainingSet, TrainingSet]:
+        """(trained on, held out): about ``share`` of the objects held out, drawn from ``seed``. Crops are
+        grouped by object (their name up to its last ``_``: ``<object id>_<left|right>``), so a fish's two
+        images are never split between the two parts."""
+        objects = [name.rsplit(".", 1)[0].rsplit("_", 1)[0] for name in self.names]
+        unique = sorted(set(objects))
+        order = np.random.default_rng(seed).permutation(len(unique))
+        held = {unique[i] for i in order[:round(share * len(unique))]}
+        keep = np.array([o not in held for o in objects], bool)
+        return self.subset(keep), self.subset(~keep)
 
 
 def parse_label(line: str, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -107,6 +125,7 @@ def frame_from_crop(crop: np.ndarray, labels: list[tuple[np.ndarray, np.ndarray,
         v0, v1 = (cy - bh / 2) * nh + box.pad_y, (cy + bh / 2) * nh + box.pad_y
         length = float(np.hypot(*(keypoints[0] - keypoints[1])))
         fish.append({"keypoints": keypoints, "visible": visible, "in_frame": known.copy(), "known": known,
+                     "background_known": False,
                      "box": (float(u0), float(v0), float(u1), float(v1)),
                      "required": bool(visible[0] and visible[1] and length >= MIN_REQUIRED_PX)})
     return image, fish
