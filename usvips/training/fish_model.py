@@ -431,10 +431,10 @@ def _train(argv: list[str] | None) -> int:
         raise UsvipsError(f"--real-share {args.real_share}: must lie in (0, 1]")
     if not 0 <= args.hold_out < 1:
         raise UsvipsError(f"--hold-out {args.hold_out}: must lie in [0, 1)")
-    parts = [read_training_set(folder).split(args.hold_out, args.seed)  # refused before any rendering
-             for folder in args.training_set]
-    real = [trained for trained, _ in parts]
-    held = [frame for _, h in parts for frame in zip(h.images, h.fish, strict=True)]
+    splits = [read_training_set(folder).split(args.hold_out, args.seed)  # refused before any rendering
+              for folder in args.training_set]
+    real = [trained for trained, _ in splits]
+    held = [frame for _, h in splits for frame in zip(h.images, h.fish, strict=True)]
     held_images = np.stack([image for image, _ in held]) if held else None
     held_fish = [fish for _, fish in held]
     if any(not len(t.names) for t in real):
@@ -520,8 +520,7 @@ def _train(argv: list[str] | None) -> int:
         "command": " ".join(["python -m usvips.training.fish_model", *(argv if argv is not None else sys.argv[1:])]),
         "seed": args.seed, "torch": torch.__version__, "steps": step, "batch": args.batch, "frames": args.frames,
         "render_seconds": round(rendered), "train_seconds": round(trained), "onnx_difference": difference,
-        "training_sets": [{**t.record(), "held_out_samples": len(h.names)} for t, (_, h) in zip(real, parts,
-                                                                                                  strict=True)],
+        "training_sets": [{**t.record(), "held_out_samples": len(h.names)} for t, h in splits],
         "real_share": args.real_share if real else None, "hold_out": args.hold_out if real else None,
         "real_per_batch": real_count, "frozen_batch_norm_statistics": model.frozen_statistics,
         "history": history, "resumed_from": previous}, indent=1,
