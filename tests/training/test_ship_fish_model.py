@@ -37,7 +37,7 @@ def test_measuring_a_shipped_model_again_replaces_its_validation_table_and_keeps
     """ship_fish_model appends the [validation] it measured; a description that has one already (the shipped
     model measured anew) loses the old one first, or the file would define the table twice."""
     from usvips.io.model_description import read_model_description
-    from usvips.training.stereo_sigma import without_table
+    from usvips.training.description_tables import without_table
 
     shipped = MODEL.with_suffix(".toml").read_text()
     assert shipped.count("[validation]") == 1

@@ -28,7 +28,7 @@ from usvips.core.detection.validation import ValidationFigures, match_image
 from usvips.core.synth.fish_scene import KEYPOINTS
 from usvips.core.synth.fish_validation import validation_frame
 from usvips.io.model_description import read_model_description
-from usvips.training.stereo_sigma import without_table
+from usvips.training.description_tables import without_table
 
 NAME = "fish-centre-pose"
 SIZE = (640, 480)

@@ -47,6 +47,7 @@ from usvips.core.detection.keypoint_sigma import StereoSigma, fit_size_sigma
 from usvips.core.errors import UsvipsError
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.synth.stereo_survey import survey_clip
+from usvips.training.description_tables import without_table
 
 
 @dataclass
@@ -156,19 +157,6 @@ def without_stereo_sigma(text: str) -> str:
     (:func:`usvips.app.detection_service.shift_limits`): the new table describes the pairs those limits
     pass."""
     return without_table(text, "stereo_sigma")
-
-
-def without_table(text: str, table: str) -> str:
-    """A description's text without its ``[table]`` (from its header, and the comment lines just above it, to
-    the next table or the end); the text unchanged when it has none."""
-    lines = text.splitlines(keepends=True)
-    start = next((i for i, line in enumerate(lines) if line.lstrip().startswith(f"[{table}]")), None)
-    if start is None:
-        return text
-    end = next((i for i in range(start + 1, len(lines)) if lines[i].lstrip().startswith("[")), len(lines))
-    while start > 0 and lines[start - 1].lstrip().startswith("#"):
-        start -= 1
-    return "".join(lines[:start] + lines[end:])
 
 
 def main(argv: list[str] | None = None) -> int:
