@@ -83,15 +83,24 @@ def test_each_crop_becomes_a_frame_whose_fish_lies_at_the_reviewed_pixels(export
 
 
 def test_a_reviewed_crop_teaches_its_fish_only_and_its_caudal_tips_not_at_all(exported):
-    """Other fish, unlabelled, may lie in a crop: its heatmaps' negatives are ignored; the caudal tips are not
-    labelled: their heatmaps and displacements are not taught; snout, fork and centre peaks are."""
+    """Other fish, unlabelled, may lie in a crop: its heatmaps' negatives are taught only inside its fish's
+    box; the caudal tips are not labelled: their heatmaps and displacements are not taught; snout, fork and
+    centre peaks are."""
     out, _ = exported
     frames = read_training_set(out)
     for fish in frames.fish:
         for flip in (False, True):
             t = targets(fish, flip)
-            assert (t["ignore"] == 0).all() and (t["keypoint_ignore"] == 0).all()
-            assert (t["keypoint_heat"][2:] == 0).all() and t["centre_heat"].max() == 1.0
+            (f,) = fish
+            u0, v0, u1, v1 = np.array(f["box"]) / STRIDE
+            if flip:
+                u0, u1 = INPUT // STRIDE - u1, INPUT // STRIDE - u0
+            rows, cols = np.nonzero(t["ignore"])
+            assert len(rows) and (rows >= np.floor(v0)).all() and (rows <= np.ceil(v1)).all()
+            assert (cols >= np.floor(u0)).all() and (cols <= np.ceil(u1)).all()
+            i, j = np.unravel_index(np.argmax(t["centre_heat"]), t["centre_heat"].shape)
+            assert t["ignore"][i, j] == 1 and t["centre_heat"][i, j] == 1.0  # its peak is shaped
+            assert (t["keypoint_ignore"][2:] == 0).all() and (t["keypoint_heat"][2:] == 0).all()
             assert t["keypoint_heat"][:2].max(axis=(1, 2)).tolist() == [1.0, 1.0]
             assert (t["displacement_mask"][4:] == 0).all() and (t["displacement_mask"][:4].sum(axis=(1, 2)) > 0).all()
             assert t["centre_mask"].sum() == 1
@@ -129,7 +138,8 @@ def test_a_rendered_frame_is_taught_as_before_and_a_mixed_frame_ignores_only_the
         assert mixed["ignore"].mean() > 0.5  # a rendered frame's background is taught
         # a fish from a frame whose other fish are not labelled: no negatives taught anywhere on the frame
         partial = targets([*fish, {**unknown, "background_known": False}], flip)
-        assert (partial["ignore"] == 0).all() and (partial["keypoint_ignore"] == 0).all()
+        assert (partial["ignore"] <= mixed["ignore"]).all() and (partial["keypoint_ignore"][2:] == 0).all()
+        assert partial["ignore"].sum() < 0.5 * mixed["ignore"].sum()  # taught only in that fish's box
         np.testing.assert_array_equal(partial["centre_heat"], mixed["centre_heat"])
         g = INPUT // STRIDE
         assert mixed["keypoint_heat"].shape == (4, g, g)

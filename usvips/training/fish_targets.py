@@ -9,9 +9,9 @@ absent). A keypoint that is not ``known`` was never labelled — the caudal tips
 training set, which stores snout and fork only — so its heatmap is neither taught as present nor as absent on
 that frame (``keypoint_ignore``) and its displacements are not taught. A fish whose ``background_known`` is
 False comes from a frame where not every fish is labelled (a reviewed crop: a fish nobody accepted may lie in
-it), so the frame teaches no background: its heatmaps' negatives are ignored everywhere, and only the labelled
-fish's peaks, offsets, extent and displacements are taught. Rendered frames know every keypoint and their
-background, and their targets do not depend on either key.
+it), so the frame teaches background only inside such fish's boxes (no second fish and no stray keypoint
+within a labelled fish's box, and the shape of its peaks): its heatmaps' negatives elsewhere are ignored.
+Rendered frames know every keypoint and their background, and their targets do not depend on either key.
 """
 
 from __future__ import annotations
@@ -44,9 +44,9 @@ def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
     left-right (the keypoints keep their names: a fish facing the other way).
 
     ``ignore`` (g × g) weighs the heatmaps' negatives (0 where a fish that is not required lies: neither a fish
-    nor background; 0 everywhere on a frame whose background is not known); ``keypoint_ignore`` (K × g × g) is
-    the same per keypoint heatmap, and 0 over the whole frame for a keypoint some fish of the frame does not
-    know."""
+    nor background; 0 outside the labelled fish's boxes on a frame whose background is not known);
+    ``keypoint_ignore`` (K × g × g) is the same per keypoint heatmap, and 0 over the whole frame for a keypoint
+    some fish of the frame does not know."""
     g = INPUT // STRIDE
     k = len(KEYPOINTS)
     centre_heat = np.zeros((g, g), np.float32)
@@ -61,11 +61,13 @@ def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
     keypoint_mask = np.zeros((g, g), np.float32)
     unknown = np.zeros(k, bool)  # a keypoint some fish of the frame does not know
     background_known = True
+    labelled = np.zeros((g, g), np.float32)  # the boxes of fish whose frame's background is not known
     claimed = np.full((g, g), np.inf)  # distance (cells) from each cell to the centre whose displacements it holds
     for f in fish:
         known = np.asarray(f.get("known", np.ones(k, bool)), bool)
         unknown |= ~known
-        background_known &= bool(f.get("background_known", True))
+        if not f.get("background_known", True):
+            background_known = False
         points = np.array(f["keypoints"], np.float64) / STRIDE
         x0, y0, x1, y1 = (np.array(f["box"], np.float64) / STRIDE)
         if flip:
@@ -80,6 +82,10 @@ def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
         if not f["required"]:  # neither a fish to find nor background
             ignore = np.minimum(ignore, 1 - (_gaussian((g, g), j, i, 1.5 * sigma) > 0.1))
             continue
+        if not f.get("background_known", True):
+            r0, r1 = max(int(np.floor(y0)), 0), min(int(np.ceil(y1)), g - 1)
+            c0, c1 = max(int(np.floor(x0)), 0), min(int(np.ceil(x1)), g - 1)
+            labelled[r0:r1 + 1, c0:c1 + 1] = 1.0
         centre_heat = np.maximum(centre_heat, _gaussian((g, g), j, i, sigma))  # peaks of 1 at the cell
         centre_mask[i, j] = 1
         centre_offset[:, i, j] = centre - (j, i)
@@ -102,7 +108,7 @@ def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
                 keypoint_offset[:, pi, pj] = points[n] - (pj, pi)
                 keypoint_mask[pi, pj] = 1
     if not background_known:
-        ignore[:] = 0.0
+        ignore *= labelled
     keypoint_ignore = np.repeat(ignore[None], k, axis=0)
     keypoint_ignore[unknown] = 0.0
     return {"centre_heat": centre_heat, "ignore": ignore, "centre_mask": centre_mask, "centre_offset": centre_offset,
