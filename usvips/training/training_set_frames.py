@@ -12,11 +12,11 @@ box's centre and size and the snout and fork with their visibility (0 not labell
 A fish is one to find (``required``) when snout and fork are visible and at least
 :data:`~usvips.training.fish_augment.MIN_REQUIRED_PX` input pixels apart.
 
-Nothing else in a crop is taught as background (``background_known`` False): a crop is the reviewed fish
-padded by half its length, and other fish, which nobody accepted or which were accepted as objects of their
-own, often lie in it (on 80 crops of rendered survey clips the shipped model made 27 detections away from
-the labelled fish, those looked at mostly on other fish), so its heatmaps' negatives are ignored and only its
-labelled fish is taught; the rendered frames teach what is not a fish.
+A crop teaches background only inside its fish's box (``background_known`` False,
+:func:`usvips.training.fish_targets.targets`): a crop is the reviewed fish padded by half its length, and other
+fish, which nobody accepted or which were accepted as objects of their own, often lie in it (on 80 crops of
+rendered survey clips the shipped model made 27 detections away from the labelled fish, those looked at
+mostly on other fish); the rendered frames teach what is not a fish.
 
 A bad export is refused in one line naming the file (and line): no ``images`` folder or no crops, a crop
 that does not read, a crop without its label, a label line of the wrong layout or with a fraction outside
