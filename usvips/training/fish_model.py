@@ -423,6 +423,9 @@ def _train(argv: list[str] | None) -> int:
     parser.add_argument("--hold-out", type=float, default=0.0, metavar="SHARE",
                         help="with --training-set: hold out this share of each set's objects (both images of "
                              "one) from training and check the model on them as on the rendered check frames")
+    parser.add_argument("--crop-background", choices=("box", "crop"), default="box",
+                        help="with --training-set: where a crop teaches background — inside its fish's box only "
+                             "(other fish, unlabelled, may lie in a crop) or over the whole crop")
     parser.add_argument("--learning-rate", type=float, default=3e-3, help="the schedule's peak")
     parser.add_argument("--zoom", type=float, nargs=2, metavar=("LOW", "HIGH"),
                         help="scale augmentation: zoom frames by a factor drawn log-uniformly from LOW..HIGH")
@@ -434,6 +437,9 @@ def _train(argv: list[str] | None) -> int:
     splits = [read_training_set(folder).split(args.hold_out, args.seed)  # refused before any rendering
               for folder in args.training_set]
     real = [trained for trained, _ in splits]
+    if args.crop_background == "crop":  # the whole crop taught as background, but for its labelled fish
+        for fish in (f for t in real for frame in t.fish for f in frame):
+            fish["background_known"] = True
     held = [frame for _, h in splits for frame in zip(h.images, h.fish, strict=True)]
     held_images = np.stack([image for image, _ in held]) if held else None
     held_fish = [fish for _, fish in held]
@@ -522,6 +528,7 @@ def _train(argv: list[str] | None) -> int:
         "render_seconds": round(rendered), "train_seconds": round(trained), "onnx_difference": difference,
         "training_sets": [{**t.record(), "held_out_samples": len(h.names)} for t, h in splits],
         "real_share": args.real_share if real else None, "hold_out": args.hold_out if real else None,
+        "crop_background": args.crop_background if real else None,
         "real_per_batch": real_count, "frozen_batch_norm_statistics": model.frozen_statistics,
         "history": history, "resumed_from": previous}, indent=1,
         default=lambda v: None if isinstance(v, float) and math.isnan(v) else v))
