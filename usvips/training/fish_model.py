@@ -25,7 +25,9 @@ statistics are too noisy to re-estimate, and the only one here, as the original 
 of ``usvips project export PROJECT OUT --format training-set`` is read by
 :mod:`usvips.training.training_set_frames`, and ``--real-share`` of every batch (rounded) is drawn from its
 crops, the rest from the rendered frames. Their caudal tips are not labelled, so those keypoints' heatmaps are
-ignored on those frames and their displacements not taught (:mod:`usvips.training.fish_targets`).
+ignored on those frames and their displacements not taught; and as other fish, unlabelled, may lie in a crop,
+it teaches background only inside its fish's box (``--crop-background crop``: over the whole crop)
+(:mod:`usvips.training.fish_targets`).
 ``--hold-out SHARE`` keeps that share of each set's objects (both images of one) out of training and checks the
 model on them beside the rendered check frames, at the start and at every check. Without ``--resume`` a
 fine-tuning run starts from the shipped model (``resources/models/fish-centre-pose.onnx``):
