@@ -10,12 +10,38 @@ every random draw comes from the seed. Run (one thread, at low priority, on a sh
     nice -n 10 python -m usvips.training.fish_model --out resources/models --cache /tmp/fish_cache
 
 Writes ``<out>/fish-centre-pose.onnx``, ``<out>/fish-centre-pose.toml`` and ``<out>/training.json`` (the
-command, the seed, torch's version, the steps, the time, the held-out figures of the training's own check).
+command, the seed, torch's version, the steps, the time, the held-out figures of the training's own check, the
+training sets used and what the run continued from).
+
+**Continuing a run** (``--resume``): from a training's output folder (its ``.pt``: every weight and BatchNorm
+statistic, trained on as before), or from an ONNX file of this architecture, such as the shipped model. The
+export folded each BatchNorm into its convolution (:mod:`usvips.training.folded_onnx`), so from an ONNX file
+each convolution takes the folded weight and its BatchNorm becomes an identity carrying the folded bias (mean 0,
+variance 1 − ε, scale 1, shift the bias); those BatchNorms keep their statistics FROZEN (eval mode) while
+training, their scale and shift still learned — the usual choice when fine-tuning with small batches, whose
+statistics are too noisy to re-estimate, and the only one here, as the original statistics are not in the file.
+
+**Fine-tuning on a team's reviewed fish** (``--training-set DIR``, repeatable; docs/detection.md): each export
+of ``usvips project export PROJECT OUT --format training-set`` is read by
+:mod:`usvips.training.training_set_frames`, and ``--real-share`` of every batch (rounded) is drawn from its
+crops, the rest from the rendered frames. Their caudal tips are not labelled, so those keypoints' heatmaps are
+ignored on those frames and their displacements not taught; and as other fish, unlabelled, may lie in a crop,
+it teaches background only inside its fish's box (``--crop-background crop``: over the whole crop)
+(:mod:`usvips.training.fish_targets`).
+``--hold-out SHARE`` keeps that share of each set's objects (both images of one) out of training and checks the
+model on them beside the rendered check frames, at the start and at every check. Without ``--resume`` a
+fine-tuning run starts from the shipped model (``resources/models/fish-centre-pose.onnx``):
+
+    nice -n 10 python -m usvips.training.fish_model --out /tmp/tuned --training-set /data/reviewed \
+        --hold-out 0.2 --frames 400 --steps 200 --batch 12 --learning-rate 0.0002 --zoom 0.6 2.2
+
+Bad input (an export, an ONNX file of another network, a missing folder) is refused in one line.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
 import sys
@@ -33,14 +59,16 @@ from usvips.core.detection.description import ModelDescription
 from usvips.core.detection.kinds.centre_pose import CentrePose, channel_count, channel_slices
 from usvips.core.detection.letterbox import Letterbox
 from usvips.core.detection.validation import TrueObject, ValidationFigures, match_image
+from usvips.core.errors import UsvipsError
 from usvips.core.synth.fish_scene import KEYPOINTS, random_camera, random_scene, render_fish_scene
+from usvips.locations import resources_folder
 from usvips.training.fish_augment import random_zoom
+from usvips.training.fish_targets import INPUT, targets
+from usvips.training.folded_onnx import folded_convolutions, matched
+from usvips.training.training_set_frames import read_training_set
 
-INPUT = 256
-STRIDE = 4
 NAME = "fish-centre-pose"
 FRAME_SIZES = ((320, 240), (320, 180), (288, 216))
-KEYPOINT_SIGMA_CELLS = 0.9
 #: the displacement loss's weight: 0.2 left the displacements under-trained (their median error was 20-50 % of
 #: a fish's length on held-out frames, so keypoints were snapped to the wrong heatmap peaks)
 DISPLACEMENT_WEIGHT = 0.5
@@ -120,85 +148,20 @@ def build_cache(folder: Path, name: str, seeds: list[int]) -> tuple[np.ndarray, 
     return images, fish
 
 
-def _gaussian(shape: tuple[int, int], cx: float, cy: float, sigma: float) -> np.ndarray:
-    ys, xs = np.arange(shape[0])[:, None], np.arange(shape[1])[None, :]
-    return np.exp(-((xs - cx) ** 2 + (ys - cy) ** 2) / (2 * sigma**2))
-
-
-def targets(fish: list[dict], flip: bool) -> dict[str, np.ndarray]:
-    """Training targets on the output grid for one frame's fish (input coordinates), optionally mirrored
-    left-right (the keypoints keep their names: a fish facing the other way)."""
-    g = INPUT // STRIDE
-    k = len(KEYPOINTS)
-    centre_heat = np.zeros((g, g), np.float32)
-    keypoint_heat = np.zeros((k, g, g), np.float32)
-    ignore = np.ones((g, g), np.float32)
-    centre_offset = np.zeros((2, g, g), np.float32)
-    extent = np.zeros((4, g, g), np.float32)
-    displacement = np.zeros((2 * k, g, g), np.float32)
-    displacement_mask = np.zeros((2 * k, g, g), np.float32)
-    centre_mask = np.zeros((g, g), np.float32)
-    keypoint_offset = np.zeros((2, g, g), np.float32)
-    keypoint_mask = np.zeros((g, g), np.float32)
-    claimed = np.full((g, g), np.inf)  # distance (cells) from each cell to the centre whose displacements it holds
-    for f in fish:
-        points = np.array(f["keypoints"], np.float64) / STRIDE
-        x0, y0, x1, y1 = (np.array(f["box"], np.float64) / STRIDE)
-        if flip:
-            points[:, 0] = g - points[:, 0]
-            x0, x1 = g - x1, g - x0
-        centre = points[:2].mean(axis=0)
-        size = max(np.hypot(*(points[0] - points[1])), 1.0)
-        sigma = max(0.8, 0.12 * size)
-        if not (0 <= centre[0] < g and 0 <= centre[1] < g):
-            continue
-        j, i = int(centre[0]), int(centre[1])
-        if not f["required"]:  # neither a fish to find nor background
-            ignore = np.minimum(ignore, 1 - (_gaussian((g, g), j, i, 1.5 * sigma) > 0.1))
-            continue
-        centre_heat = np.maximum(centre_heat, _gaussian((g, g), j, i, sigma))  # peaks of 1 at the cell
-        centre_mask[i, j] = 1
-        centre_offset[:, i, j] = centre - (j, i)
-        extent[:, i, j] = (centre[0] - x0, centre[1] - y0, x1 - centre[0], y1 - centre[1])
-        for ni, nj in _neighbourhood(i, j, g):
-            gap = math.hypot(centre[0] - nj - 0.5, centre[1] - ni - 0.5)
-            if gap >= claimed[ni, nj]:
-                continue
-            claimed[ni, nj] = gap
-            for n in range(k):
-                inside = bool(f["in_frame"][n])
-                displacement[2 * n:2 * n + 2, ni, nj] = points[n] - (nj, ni) if inside else 0.0
-                displacement_mask[2 * n:2 * n + 2, ni, nj] = float(inside)
-        for n in range(k):
-            if not f["in_frame"][n] or not f["visible"][n]:
-                continue
-            pj, pi = int(points[n][0]), int(points[n][1])
-            if 0 <= pj < g and 0 <= pi < g:
-                keypoint_heat[n] = np.maximum(keypoint_heat[n], _gaussian((g, g), pj, pi, KEYPOINT_SIGMA_CELLS))
-                keypoint_offset[:, pi, pj] = points[n] - (pj, pi)
-                keypoint_mask[pi, pj] = 1
-    return {"centre_heat": centre_heat, "ignore": ignore, "centre_mask": centre_mask, "centre_offset": centre_offset,
-            "extent": extent, "displacement": displacement, "displacement_mask": displacement_mask,
-            "keypoint_heat": keypoint_heat, "keypoint_offset": keypoint_offset, "keypoint_mask": keypoint_mask}
-
-
-def _neighbourhood(i: int, j: int, g: int) -> list[tuple[int, int]]:
-    """The cells (row, column) of the 3 × 3 block around cell (i, j) that lie in a g × g grid: a centre's
-    displacements are taught there, not only at its own cell, because the decoder reads them at the centre
-    heatmap's peak, which may fall one cell off."""
-    return [(i + di, j + dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if 0 <= i + di < g and 0 <= j + dj < g]
-
-
 def _block(cin: int, cout: int, stride: int = 1) -> nn.Sequential:
     return nn.Sequential(nn.Conv2d(cin, cout, 3, stride, 1, bias=False), nn.BatchNorm2d(cout), nn.ReLU(inplace=True))
 
 
 class FishNet(nn.Module):
-    """Encoder to 1/32, top-down pyramid back to 1/4, one head; heatmaps through a sigmoid."""
+    """Encoder to 1/32, top-down pyramid back to 1/4, one head; heatmaps through a sigmoid.
+
+    ``frozen_statistics``: its BatchNorms stay in eval mode even while the rest trains (they normalise with
+    their running statistics, never a batch's, and never update them); set when continuing from an ONNX file."""
 
     def __init__(self, keypoints: int = len(KEYPOINTS)) -> None:
         super().__init__()
         self.keypoints = keypoints
+        self.frozen_statistics = False
         self.s2 = _block(3, 16, 2)
         self.s4 = nn.Sequential(_block(16, 24, 2), _block(24, 24))
         self.s8 = nn.Sequential(_block(24, 40, 2), _block(40, 40))
@@ -216,6 +179,14 @@ class FishNet(nn.Module):
         with torch.no_grad():
             self.head[1].bias[heat] = -2.2
 
+    def train(self, mode: bool = True) -> FishNet:
+        super().train(mode)
+        if self.frozen_statistics:
+            for module in self.modules():
+                if isinstance(module, nn.BatchNorm2d):
+                    module.eval()
+        return self
+
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         s4 = self.s4(self.s2(x))
         s8 = self.s8(s4)
@@ -226,6 +197,38 @@ class FishNet(nn.Module):
         y = self.up4(torch.cat([functional.interpolate(y, scale_factor=2.0, mode="nearest"), s4], 1))
         raw = self.head(y)
         return torch.where(self.heat, torch.sigmoid(raw), raw)
+
+
+def _convolutions(model: nn.Module) -> list[tuple[nn.Conv2d, nn.BatchNorm2d | None]]:
+    """The network's convolutions in the order it runs them (its modules' order), each with the BatchNorm
+    that follows it (None for the head's last)."""
+    modules = list(model.modules())
+    return [(m, modules[n + 1] if n + 1 < len(modules) and isinstance(modules[n + 1], nn.BatchNorm2d) else None)
+            for n, m in enumerate(modules) if isinstance(m, nn.Conv2d)]
+
+
+def load_onnx(model: FishNet, path: Path) -> None:
+    """Set ``model``'s weights from the folded ONNX file at ``path`` (see the module docstring) and freeze its
+    BatchNorm statistics; a file that does not fit the architecture is refused (UsvipsError, one line)."""
+    pairs = _convolutions(model)
+    expected = [(tuple(conv.weight.shape), tuple(conv.stride), (*conv.padding, *conv.padding), tuple(conv.dilation),
+                 conv.groups) for conv, _ in pairs]
+    stored = matched(path, folded_convolutions(path), expected)
+    with torch.no_grad():
+        for n, ((conv, norm), folded) in enumerate(zip(pairs, stored, strict=True), start=1):
+            conv.weight.copy_(torch.from_numpy(folded.weight))
+            bias = torch.from_numpy(folded.bias)
+            if conv.bias is not None:
+                conv.bias.copy_(bias)
+            elif norm is not None:
+                norm.running_mean.zero_()
+                norm.running_var.fill_(1.0 - norm.eps)
+                norm.weight.fill_(1.0)
+                norm.bias.copy_(bias)
+            elif bool(torch.any(bias != 0)):
+                raise UsvipsError(f"{path}: convolution {n} has a bias the fish model cannot hold")
+    model.frozen_statistics = True
+    model.train(model.training)
 
 
 def _focal(prediction: torch.Tensor, target: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
@@ -246,8 +249,7 @@ def loss(output: torch.Tensor, batch: dict[str, torch.Tensor]) -> tuple[torch.Te
     centre_mask = batch["centre_mask"][:, None]
     parts = {
         "centre": _focal(output[:, c["centre"]], batch["centre_heat"][:, None], batch["ignore"][:, None]),
-        "keypoint_heat": _focal(output[:, c["keypoint_heat"]], batch["keypoint_heat"],
-                                batch["ignore"][:, None].expand_as(batch["keypoint_heat"])),
+        "keypoint_heat": _focal(output[:, c["keypoint_heat"]], batch["keypoint_heat"], batch["keypoint_ignore"]),
         "centre_offset": _masked_l1(output[:, c["centre_offset"]], batch["centre_offset"],
                                     centre_mask.expand(-1, 2, -1, -1)),
         "extent": 0.1 * _masked_l1(output[:, c["extent"]], batch["extent"], centre_mask.expand(-1, 4, -1, -1)),
@@ -265,7 +267,22 @@ def _to_tensor(images: np.ndarray) -> torch.Tensor:
     return torch.from_numpy(np.ascontiguousarray(images[..., ::-1].transpose(0, 3, 1, 2))).float() / 255.0
 
 
-def batch(images: np.ndarray, fish: list[list[dict]], indices: np.ndarray, rng: np.random.Generator,
+class Frames:
+    """Several arrays of frames (N × INPUT × INPUT × 3) indexed as one, in order, without copying them."""
+
+    def __init__(self, *parts: np.ndarray) -> None:
+        self.parts = parts
+        self.ends = np.cumsum([len(p) for p in parts])
+
+    def __len__(self) -> int:
+        return int(self.ends[-1]) if len(self.ends) else 0
+
+    def __getitem__(self, index: int) -> np.ndarray:
+        part = int(np.searchsorted(self.ends, index, side="right"))
+        return self.parts[part][index - (int(self.ends[part - 1]) if part else 0)]
+
+
+def batch(images: np.ndarray | Frames, fish: list[list[dict]], indices: np.ndarray, rng: np.random.Generator,
           zoom: tuple[float, float] | None = None) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """A training batch: frames ``indices``, each zoomed (with probability ZOOM_PROBABILITY when ``zoom`` is
     given), mirrored half the time, with random gains and offsets per channel."""
@@ -304,7 +321,8 @@ def description(threshold: float) -> ModelDescription:
 
 def evaluate(model: nn.Module, images: np.ndarray, fish: list[list[dict]], threshold: float) -> ValidationFigures:
     """Figures on cached frames in input coordinates (the training's own check; the shipped figures come
-    from full frames through the ONNX runner)."""
+    from full frames through the ONNX runner); a keypoint a fish does not know (a reviewed crop's caudal
+    tips) is not measured."""
     model.eval()
     figures = ValidationFigures()
     desc = description(threshold)
@@ -314,8 +332,9 @@ def evaluate(model: nn.Module, images: np.ndarray, fish: list[list[dict]], thres
             out = model(_to_tensor(images[start:start + 16])).numpy()
             for n, frame in enumerate(fish[start:start + 16]):
                 found = CentrePose.decode(out[n:n + 1], desc, identity)
-                truths = [TrueObject({name: (float(x) - 0.5, float(y) - 0.5)
-                                      for name, (x, y) in zip(KEYPOINTS, f["keypoints"], strict=True)}, f["required"])
+                truths = [TrueObject({name: (float(x) - 0.5, float(y) - 0.5) for name, (x, y), known
+                                      in zip(KEYPOINTS, f["keypoints"], f.get("known", [True] * len(KEYPOINTS)),
+                                             strict=True) if known}, f["required"])
                           for f in frame]
                 match_image(found, truths, figures)
     model.train()
@@ -351,7 +370,39 @@ def write_description(path: Path, threshold: float) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
+SHIPPED = resources_folder() / "models" / f"{NAME}.onnx"
+
+
+def resume(model: FishNet, source: Path) -> dict:
+    """Load ``source`` into ``model`` — a training's output folder (its .pt) or an ONNX file of this
+    architecture (frozen BatchNorm statistics, see the module docstring) — and say what it was, for
+    training.json."""
+    if source.is_dir():
+        weights = source / f"{NAME}.pt"
+        if not weights.is_file():
+            raise UsvipsError(f"{weights}: missing (a training's output folder holds it; to continue from an "
+                              f"exported model give its .onnx file: --resume {source / f'{NAME}.onnx'})")
+        model.load_state_dict(torch.load(weights))
+        record = source / "training.json"
+        return json.loads(record.read_text()) if record.is_file() else {"folder": str(source.resolve())}
+    if source.suffix.lower() != ".onnx":
+        raise UsvipsError(f"{source}: neither a training's output folder nor an ONNX file")
+    load_onnx(model, source)
+    record = source.parent / "training.json"
+    return {"onnx": str(source.resolve()), "sha256": hashlib.sha256(source.read_bytes()).hexdigest(),
+            "batch_norm": "folded in the file; loaded as identities carrying the folded bias, statistics frozen",
+            "training": json.loads(record.read_text()) if record.is_file() else None}
+
+
 def main(argv: list[str] | None = None) -> int:
+    try:
+        return _train(argv)
+    except UsvipsError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+
+def _train(argv: list[str] | None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, required=True, help="folder for the .onnx, .toml and training.json")
     parser.add_argument("--cache", type=Path, default=Path("/tmp/fish_cache"), help="rendered frames' folder")
@@ -362,13 +413,48 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--batch", type=int, default=16)
     parser.add_argument("--threshold", type=float, default=0.35, help="score threshold written in the description")
     parser.add_argument("--minutes", type=float, default=40.0, help="stop training after this long")
-    parser.add_argument("--resume", type=Path, help="a training's output folder to continue from (its .pt)")
+    parser.add_argument("--resume", type=Path,
+                        help="continue from a training's output folder (its .pt) or from an ONNX file of this "
+                             "architecture (BatchNorm statistics then frozen); with --training-set and no "
+                             "--resume, the shipped model")
+    parser.add_argument("--training-set", type=Path, action="append", default=[], metavar="DIR",
+                        help="a reviewed training set (usvips project export ... --format training-set) to "
+                             "fine-tune on; repeatable")
+    parser.add_argument("--real-share", type=float, default=0.3,
+                        help="with --training-set: the share of each batch drawn from the training sets")
+    parser.add_argument("--hold-out", type=float, default=0.0, metavar="SHARE",
+                        help="with --training-set: hold out this share of each set's objects (both images of "
+                             "one) from training and check the model on them as on the rendered check frames")
+    parser.add_argument("--crop-background", choices=("box", "crop"), default="box",
+                        help="with --training-set: where a crop teaches background — inside its fish's box only "
+                             "(other fish, unlabelled, may lie in a crop) or over the whole crop")
     parser.add_argument("--learning-rate", type=float, default=3e-3, help="the schedule's peak")
     parser.add_argument("--zoom", type=float, nargs=2, metavar=("LOW", "HIGH"),
                         help="scale augmentation: zoom frames by a factor drawn log-uniformly from LOW..HIGH")
     args = parser.parse_args(argv)
+    if not 0 < args.real_share <= 1:
+        raise UsvipsError(f"--real-share {args.real_share}: must lie in (0, 1]")
+    if not 0 <= args.hold_out < 1:
+        raise UsvipsError(f"--hold-out {args.hold_out}: must lie in [0, 1)")
+    splits = [read_training_set(folder).split(args.hold_out, args.seed)  # refused before any rendering
+              for folder in args.training_set]
+    real = [trained for trained, _ in splits]
+    if args.crop_background == "crop":  # the whole crop taught as background, but for its labelled fish
+        for fish in (f for t in real for frame in t.fish for f in frame):
+            fish["background_known"] = True
+    held = [frame for _, h in splits for frame in zip(h.images, h.fish, strict=True)]
+    held_images = np.stack([image for image, _ in held]) if held else None
+    held_fish = [fish for _, fish in held]
+    if any(not len(t.names) for t in real):
+        raise UsvipsError(f"--hold-out {args.hold_out} leaves a training set without a crop to train on")
+    real_count = round(args.real_share * args.batch) if real else 0
+    if real and real_count == 0:
+        raise UsvipsError(f"--real-share {args.real_share} of a batch of {args.batch} draws no crop")
+    source = args.resume if args.resume is not None else (SHIPPED if real else None)
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
+    model = FishNet()
+    previous = resume(model, source) if source is not None else None  # a bad file refused before rendering
     sequence = np.random.SeedSequence(args.seed)
     train_seed, check_seed, batch_seed = sequence.spawn(3)
     train_seeds = [int(s) for s in np.random.default_rng(train_seed).integers(0, 2**31, args.frames)]
@@ -378,24 +464,44 @@ def main(argv: list[str] | None = None) -> int:
     check_images, check_fish = build_cache(args.cache, f"check{args.seed}_{args.check_frames}", check_seeds)
     rendered = time.time() - started
     print(f"rendered in {rendered:.0f} s", flush=True)
-    model = FishNet()
-    previous = None
-    if args.resume:
-        model.load_state_dict(torch.load(args.resume / f"{NAME}.pt"))
-        previous = json.loads((args.resume / "training.json").read_text())
+    if source is not None:
         batch_seed = batch_seed.spawn(1)[0]  # new batches, not the first run's again
+    pool: np.ndarray | Frames = images
+    if real:
+        pool = Frames(images, *(t.images for t in real))
+        fish = fish + [frame for t in real for frame in t.fish]
+        print(f"training sets: {sum(len(t.names) for t in real)} crops, {real_count} of each batch of {args.batch}",
+              flush=True)
     optimiser = torch.optim.AdamW(model.parameters(), lr=args.learning_rate, weight_decay=1e-4)
     zoom = tuple(args.zoom) if args.zoom else None
     rng = np.random.default_rng(batch_seed)
     args.out.mkdir(parents=True, exist_ok=True)
-    train_start = time.time()
+    model.train()
     history = []
+    def held_out_check() -> dict:
+        """The figures on the held-out crops (snout and fork only), empty without any."""
+        if held_images is None:
+            return {}
+        summary = evaluate(model, held_images, held_fish, args.threshold).summary(KEYPOINTS[:2])
+        print("held-out crops", json.dumps(summary), flush=True)
+        return {"held_out_crops": summary}
+
+    if source is not None:  # where the run starts, on the same check frames
+        summary = evaluate(model, check_images, check_fish, args.threshold).summary(KEYPOINTS)
+        print("check at the start", json.dumps(summary), flush=True)
+        history.append({"step": 0, "learning_rate": 0.0, "seconds": 0, **summary, **held_out_check()})
+    train_start = time.time()
     step = 0
     for step in range(1, args.steps + 1):
         rate = learning_rate(args.learning_rate, step / args.steps, (time.time() - train_start) / (args.minutes * 60))
         for group in optimiser.param_groups:
             group["lr"] = rate
-        x, y = batch(images, fish, rng.integers(0, len(images), args.batch), rng, zoom)
+        if real:
+            indices = np.concatenate([rng.integers(0, len(images), args.batch - real_count),
+                                      rng.integers(len(images), len(pool), real_count)])
+        else:
+            indices = rng.integers(0, len(images), args.batch)
+        x, y = batch(pool, fish, indices, rng, zoom)
         total, parts = loss(model(x), y)
         optimiser.zero_grad()
         total.backward()
@@ -406,9 +512,9 @@ def main(argv: list[str] | None = None) -> int:
         if step % 250 == 0 or step == args.steps:
             figures = evaluate(model, check_images, check_fish, args.threshold)
             summary = figures.summary(KEYPOINTS)
-            history.append({"step": step, "learning_rate": rate, "seconds": round(time.time() - train_start),
-                            **summary})
             print("check", json.dumps(summary), flush=True)
+            history.append({"step": step, "learning_rate": rate, "seconds": round(time.time() - train_start),
+                            **summary, **held_out_check()})
             torch.save(model.state_dict(), args.out / f"{NAME}.pt")
         if time.time() - train_start > args.minutes * 60:
             print(f"time limit at step {step}", flush=True)
@@ -422,6 +528,10 @@ def main(argv: list[str] | None = None) -> int:
         "command": " ".join(["python -m usvips.training.fish_model", *(argv if argv is not None else sys.argv[1:])]),
         "seed": args.seed, "torch": torch.__version__, "steps": step, "batch": args.batch, "frames": args.frames,
         "render_seconds": round(rendered), "train_seconds": round(trained), "onnx_difference": difference,
+        "training_sets": [{**t.record(), "held_out_samples": len(h.names)} for t, h in splits],
+        "real_share": args.real_share if real else None, "hold_out": args.hold_out if real else None,
+        "crop_background": args.crop_background if real else None,
+        "real_per_batch": real_count, "frozen_batch_norm_statistics": model.frozen_statistics,
         "history": history, "resumed_from": previous}, indent=1,
         default=lambda v: None if isinstance(v, float) and math.isnan(v) else v))
     return 0

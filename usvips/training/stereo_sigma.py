@@ -47,6 +47,7 @@ from usvips.core.detection.keypoint_sigma import StereoSigma, fit_size_sigma
 from usvips.core.errors import UsvipsError
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.core.synth.stereo_survey import survey_clip
+from usvips.training.description_tables import without_table
 
 
 @dataclass
@@ -155,14 +156,7 @@ def without_stereo_sigma(text: str) -> str:
     old table, whose σ by size sets refinement's limits while the errors are collected
     (:func:`usvips.app.detection_service.shift_limits`): the new table describes the pairs those limits
     pass."""
-    lines = text.splitlines(keepends=True)
-    start = next((i for i, line in enumerate(lines) if line.lstrip().startswith("[stereo_sigma]")), None)
-    if start is None:
-        return text
-    end = next((i for i in range(start + 1, len(lines)) if lines[i].lstrip().startswith("[")), len(lines))
-    while start > 0 and lines[start - 1].lstrip().startswith("#"):
-        start -= 1
-    return "".join(lines[:start] + lines[end:])
+    return without_table(text, "stereo_sigma")
 
 
 def main(argv: list[str] | None = None) -> int:
