@@ -105,6 +105,13 @@ class Proposal:
     object_id: int | None = None
     duplicate_of: int | None = None
     instant_of: int | None = None
+    #: for a proposal WITHOUT a length of a model with a ``[stereo_sigma]``: each keypoint's (left, right)
+    #: pointing sigma (image px, by the fish's size: :func:`pair_pointing`), stored with its vertices so that a
+    #: reviewer's correction measures it (:func:`usvips.app.proposal_correction.corrected_vertices`); else ()
+    pointing: tuple[tuple[float, float], ...] = ()
+    #: with ``pointing``: whether each keypoint's right point was refined along the left one's curve (then it
+    #: follows the left, :data:`usvips.core.pointing.RIGHT_FOLLOWS_LEFT`; else it is the model's own)
+    right_follows: tuple[bool, ...] = ()
 
     def line(self) -> str:
         """One line for a person: where, the model's score, the pairing cost, the length with its sigma."""
@@ -224,7 +231,17 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
     """One stereo frame (8-bit BGR or grey images): each fish paired in both images as (pair with refined
     right keypoints, its measurement or None, right keypoints refined, why there is no length), the left
     and right detections, and the number of detections left unpaired."""
-    sigmas = model.keypoint_sigma(KEYPOINTS, (left.shape[1], left.shape[0]))
+    found, found_left, found_right, unpaired = _detect_frame(left, right, geometry, model, detector, refine, gate_px)
+    return [(pair, m, count, why) for pair, m, count, why, _ in found], found_left, found_right, unpaired
+
+
+def _detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, model: DetectionModel,
+                  detector=None, refine: bool = True, gate_px: float | None = None):
+    """:func:`detect_frame` with, per pair, a fifth item: for a pair without a length of a model with a
+    ``[stereo_sigma]``, its keypoints' (sigmas (K, 2) px, refined flags (K,)) by :func:`pair_pointing`
+    (what the pair knows: the fish's size, which right keypoints were refined); else None."""
+    size = (left.shape[1], left.shape[0])
+    sigmas = model.keypoint_sigma(KEYPOINTS, size)
     results, found_left, found_right, unpaired = pair_and_refine(left, right, geometry, model, detector, refine,
                                                                  gate_px)
     pairs = [result.pair for result in results]
@@ -242,14 +259,16 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
                                 pair_pointing=own)
         for i, m in zip(chosen, lengths, strict=True):
             measured[i] = m
+    stereo = sigmas is not None and model.stereo_sigma(KEYPOINTS) is not None
     out = []
-    for pair, m, count, why in zip(pairs, measured, refined, apart, strict=True):
-        if why and sigmas is not None:
-            out.append((pair, None, count, f"no length: {why}"))
-        elif isinstance(m, UsvipsError):
-            out.append((pair, None, count, f"no length: {m}"))
+    for result, m, count, why in zip(results, measured, refined, apart, strict=True):
+        pair = result.pair
+        if (why and sigmas is not None) or isinstance(m, UsvipsError):
+            flags = _refined_flags(result)
+            pointing = (pair_pointing(model, pair, flags, size)[0], flags) if stereo else None
+            out.append((pair, None, count, f"no length: {why or m}", pointing))
         else:
-            out.append((pair, m, count, ""))
+            out.append((pair, m, count, "", None))
     return out, found_left, found_right, unpaired
 
 
@@ -384,12 +403,12 @@ def run_detection(plan: DetectionPlan, model: DetectionModel, cancel: Callable[[
             if cancel is not None and cancel():
                 run.cancelled = True
                 break
-            found, seen_left, seen_right, unpaired = detect_frame(left, right, plan.geometry, model, detector, refine,
-                                                                  gate_px)
+            found, seen_left, seen_right, unpaired = _detect_frame(left, right, plan.geometry, model, detector,
+                                                                   refine, gate_px)
             run.detections[frame] = (seen_left, seen_right)
             run.unpaired += unpaired
-            run.proposals.extend(Proposal(plan.label, frame, pair, m, count, problem)
-                                 for pair, m, count, problem in found)
+            run.proposals.extend(Proposal(plan.label, frame, pair, m, count, problem, **_stated(pointing))
+                                 for pair, m, count, problem, pointing in found)
             run.frames_done += 1
             if progress is not None:
                 progress(run.frames_done, plan.count)
@@ -398,6 +417,15 @@ def run_detection(plan: DetectionPlan, model: DetectionModel, cancel: Callable[[
     if plan.is_video:
         run.times = _times(plan, sorted({p.frame for p in run.proposals if p.frame is not None}))
     return run
+
+
+def _stated(pointing: tuple[np.ndarray, Sequence[bool]] | None) -> dict:
+    """A proposal's ``pointing`` and ``right_follows`` fields from :func:`_detect_frame`'s fifth item."""
+    if pointing is None:
+        return {}
+    sigmas, flags = pointing
+    return {"pointing": tuple((float(a), float(b)) for a, b in np.asarray(sigmas, dtype=np.float64)),
+            "right_follows": tuple(bool(f) for f in flags)}
 
 
 def _same_fish(proposal: Proposal, stored: StoredObject) -> bool:
@@ -420,9 +448,10 @@ def _on(stored: StoredObject, label: str, frame: int | None) -> bool:
 
 def source_label(point: str, model: DetectionModel, right_follows: bool = False, measured: bool = False) -> str:
     """The stored source of a proposal's vertex: ``keypoint (<point>, model <name> sha256:<12 hex>)``, and
-    ``, right matched to left`` when its right point was refined along the left one's curve and its length
-    measured so (:data:`usvips.core.pointing.RIGHT_FOLLOWS_LEFT`: the object's figure, recomputed from its
-    picks, then keeps the left and right errors correlated); for a ``measured`` proposal of a model whose
+    ``, right matched to left`` when its right point was refined along the left one's curve (measured so, or
+    stored without a length with the sigma it would be measured with: :data:`usvips.core.pointing.
+    RIGHT_FOLLOWS_LEFT`: the object's figure, recomputed from its picks, then keeps the left and right errors
+    correlated); for a ``measured`` proposal of a model whose
     frame correlation was measured, ``, frame correlation <ρ>`` (:data:`usvips.core.pointing.FRAME_CORRELATION`:
     the object's figure combined over its frames keeps that share of their pointing errors whole)."""
     qualifiers = [f"model {model.tag}"] + ([RIGHT_FOLLOWS_LEFT] if right_follows else [])
@@ -435,23 +464,30 @@ def source_label(point: str, model: DetectionModel, right_follows: bool = False,
 def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionModel,
                       times: dict[int, float]) -> list[Vertex]:
     """The vertices a proposal is stored as (snout, fork), with their 3-D points and covariance when it has
-    a length, the model's measured sigma, and on a video its frames and time."""
+    a length, the model's measured sigma, and on a video its frames and time. A proposal without a length
+    keeps the sigma it would have been measured with (its ``pointing``, from the model's ``[stereo_sigma]``
+    by the fish's size, and whether each right keypoint follows the left one in its source) — else the
+    model's one measured sigma per keypoint, if any — so that a reviewer's correction measures it."""
     m = proposal.measurement
     frame = proposal.frame
     partner = None if frame is None else plan.partners[plan.frames.index(frame)]
     vertices = []
-    follows = (m.pointing_correlation if m is not None and m.pointing_correlation is not None
-               else np.zeros(len(KEYPOINTS)))
+    if m is not None:
+        follows = (m.pointing_correlation > 0 if m.pointing_correlation is not None
+                   else np.zeros(len(KEYPOINTS), dtype=bool))
+    else:
+        follows = np.array(proposal.right_follows or (False,) * len(KEYPOINTS), dtype=bool)
     for i, name in enumerate(KEYPOINTS):
         left, right = proposal.pair.left.keypoint(name), proposal.pair.right.keypoint(name)
-        sigma = _vertex_sigma(m, i) if m is not None else model.description.measured_sigma(name)
+        sigma = (_vertex_sigma(m, i) if m is not None else proposal.pointing[i] if proposal.pointing
+                 else model.description.measured_sigma(name))
         xyz = tuple(map(float, m.points[i])) if m is not None else None
         covariance = m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] if m is not None else None
         vertices.append(Vertex(float(left.x), float(left.y), float(right.x), float(right.y), xyz, covariance,
                                plan.geometry.calibration_id if m is not None else None, plan.label,
                                plan.label if frame is not None else None, frame, partner,
                                times.get(frame) if frame is not None else None,
-                               source=source_label(name, model, bool(follows[i] > 0), m is not None),
+                               source=source_label(name, model, bool(follows[i]), m is not None),
                                pointing_px=sigma if sigma is None or isinstance(sigma, tuple) else (sigma, sigma),
                                pointing_origin="estimated" if sigma is not None else "default"))
     return vertices
