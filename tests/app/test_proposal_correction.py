@@ -81,3 +81,15 @@ def test_a_correction_without_a_sigma_or_geometry_leaves_the_points_out_and_bad_
         corrected_vertices(stored, 0, "top", (10.0, 10.0), geometry, "ben")
     with pytest.raises(UsvipsError, match="vertices 1 to 2, not 3"):
         corrected_vertices(stored, 2, "left", (10.0, 10.0), geometry, "ben")
+
+
+def test_a_first_correction_whose_rays_do_not_meet_yet_is_stored_without_points_not_refused(stored_refined):
+    """The first keypoint a reviewer moves may leave the other side's wrong one with rays that do not meet in
+    front of the cameras (a negative disparity): the move is kept, without 3-D points, until the rest is
+    corrected."""
+    project, stored, _, _ = stored_refined
+    geometry = pair_geometry(project, "dive")
+    fork = stored.vertices[1]
+    vertices = corrected_vertices(stored, 1, "left", (fork.xr - 150.0, fork.yr), geometry, "ben")
+    assert (vertices[1].xl, vertices[1].source) == (fork.xr - 150.0, "hand click (fork, by ben)")
+    assert all(v.xyz is None and v.covariance is None and v.calibration_id is None for v in vertices)

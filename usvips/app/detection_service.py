@@ -14,7 +14,11 @@ Three steps, so that the window can run the middle one on its worker:
    progress per frame and stops at a cancel (the frames done are kept).
 3. :func:`store_proposals` (the project's thread) stores each proposal as a ``length`` object, unreviewed,
    created by ``model <name>``, each vertex's source ``keypoint (<point>, model <name> sha256:<12 hex>)``
-   with its measured pointing sigma (origin "estimated").
+   with its measured pointing sigma (origin "estimated"). A proposal without a length (its pair refused, or
+   its measurement failed) keeps the sigma its keypoints would have been measured with — from the model's
+   ``[stereo_sigma]`` by the fish's size, a right keypoint the model's own or following the left one as
+   refinement left it — so that a reviewer who drags its wrong keypoint gets it measured
+   (:mod:`usvips.app.proposal_correction`).
 
 Proposals never overwrite a person's object, nor repeat an object already there: a proposal whose snout and
 fork lie, on the same pair (and left frame of a video), within a quarter of its pixel length of the two

@@ -19,7 +19,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.measurements import measure_picks
 from usvips.core.pointing import HAND_CLICK_SIGMA_PX, Source, vertex_correlation
 from usvips.store.records import StoredObject, Vertex
@@ -31,7 +31,9 @@ def corrected_vertices(stored: StoredObject, index: int, side: str, pixel: tuple
     ``pixel`` (image px) by a reviewer ``annotator``: that vertex's source becomes the reviewer's hand click
     (its pointing σ on the moved side the hand-click default, the other side's kept) and the object is
     measured again with its pair's calibration (``geometry``: a :class:`usvips.app.pair_geometry.PairGeometry`;
-    None, or a vertex without a pointing σ, leaves the 3-D points out)."""
+    None, or a vertex without a pointing σ, leaves the 3-D points out; so do picks whose rays do not meet in
+    front of the cameras — another keypoint still wrong, as when the first of a refused pair's keypoints is
+    moved: the object is measured once the rest are corrected)."""
     if side not in ("left", "right"):
         raise UsvipsError(f"a keypoint is moved in the left or right image, not {side!r}")
     vertices = list(stored.vertices)
@@ -52,8 +54,11 @@ def corrected_vertices(stored: StoredObject, index: int, side: str, pixel: tuple
     left = np.array([(v.xl, v.yl) for v in vertices])
     right = np.array([(v.xr, v.yr) for v in vertices])
     sigmas = np.array([v.pointing_px for v in vertices], float)
-    m = measure_picks(stored.kind, geometry.calibration, left, right, geometry.station, geometry.frame,
-                      pointing_sigma_px=sigmas,
-                      pointing_correlation=vertex_correlation([v.source for v in vertices], sigmas))
+    try:
+        m = measure_picks(stored.kind, geometry.calibration, left, right, geometry.station, geometry.frame,
+                          pointing_sigma_px=sigmas,
+                          pointing_correlation=vertex_correlation([v.source for v in vertices], sigmas))
+    except DegenerateGeometryError:  # another keypoint still wrong: its rays do not meet until it is corrected
+        return [replace(v, xyz=None, covariance=None, calibration_id=None) for v in vertices]
     return [replace(v, xyz=tuple(map(float, m.points[i])), covariance=m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3],
                     calibration_id=geometry.calibration_id) for i, v in enumerate(vertices)]
