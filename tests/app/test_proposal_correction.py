@@ -10,7 +10,13 @@ import pytest
 
 from tests.app.detection_scenes import make_project
 from tests.app.test_unmeasured_proposals import refused_scene, stereo_model
-from usvips.app.detection_service import pair_pointing, plan_detection, run_detection, store_proposals
+from usvips.app.detection_service import (
+    pair_pointing,
+    plan_detection,
+    run_detection,
+    store_proposals,
+    with_model_sigma,
+)
 from usvips.app.pair_geometry import pair_geometry
 from usvips.app.project_figures import measure_stored
 from usvips.app.proposal_correction import corrected_vertices
@@ -22,7 +28,8 @@ from usvips.store import Project
 
 @pytest.fixture
 def stored_refined(tmp_path):
-    """A proposal stored without a length whose two right keypoints were refined (they follow the left)."""
+    """A proposal stored without a length whose two right keypoints were refined (they follow the left), given
+    the sigma it would have been measured with (usvips.app.detection_service.with_model_sigma)."""
     truth, true_fork = refused_scene()
     path = make_project(tmp_path)
     model = stereo_model(truth)
@@ -33,7 +40,9 @@ def stored_refined(tmp_path):
     run.proposals[i] = replace(run.proposals[i], pointing=tuple(map(tuple, sigmas.tolist())),
                                right_follows=(True, True))
     store_proposals(project, run)
-    yield project, project.object(run.proposals[i].object_id), truth, true_fork
+    stored = project.object(run.proposals[i].object_id)
+    project.update_object(stored.id, vertices=with_model_sigma(stored.vertices, run.proposals[i], model))
+    yield project, project.object(stored.id), truth, true_fork
     project.close()
 
 

@@ -1,6 +1,7 @@
-"""A proposal stored WITHOUT a length (its pair refused) keeps the pointing sigma the model's [stereo_sigma]
-gives its keypoints by the fish's size, so that a reviewer's correction of the wrong keypoint measures it
-(usvips.app.proposal_correction.corrected_vertices, the window's drag)."""
+"""A proposal WITHOUT a length (its pair refused) carries the pointing sigma the model's [stereo_sigma] gives
+its keypoints by the fish's size; given it, a reviewer's correction of the wrong keypoint measures it
+(usvips.app.proposal_correction.corrected_vertices, the window's drag). It is not stored
+(STORE_UNMEASURED_SIGMA off): such corrected lengths' σ was conservative (docs/detection.md)."""
 
 from dataclasses import replace
 
@@ -9,7 +10,14 @@ import pytest
 
 from tests.app.detection_scenes import calibration, fake_model, make_project, scene
 from tests.core.calibration_scenes import HEIGHT, WIDTH
-from usvips.app.detection_service import KEYPOINTS, detect_in_project, pair_pointing, plan_detection, run_detection
+from usvips.app.detection_service import (
+    KEYPOINTS,
+    detect_in_project,
+    pair_pointing,
+    plan_detection,
+    run_detection,
+    with_model_sigma,
+)
 from usvips.app.pair_geometry import pair_geometry
 from usvips.app.project_figures import UNMEASURED, measure_stored
 from usvips.app.proposal_correction import corrected_vertices
@@ -65,12 +73,29 @@ def test_a_proposal_without_a_length_is_stored_with_the_stereo_sigma_by_the_fish
         assert np.allclose(proposal.pointing, sigmas) and proposal.right_follows == (False, False)
         assert np.all(rho == 0) and np.all(sigmas[:, 1] > sigmas[:, 0])  # the right keypoints the model's own
         stored = project.object(proposal.object_id)
-        assert [v.pointing_px for v in stored.vertices] == [tuple(s) for s in sigmas.tolist()]
+        assert all(v.pointing_px is None and v.xyz is None for v in stored.vertices)  # not stored: see below
+        given = with_model_sigma(stored.vertices, proposal, model)
+        assert [v.pointing_px for v in given] == [tuple(s) for s in sigmas.tolist()]
         assert all(v.pointing_origin == "estimated" and v.xyz is None and v.calibration_id is None
-                   and RIGHT_FOLLOWS_LEFT not in v.source for v in stored.vertices)
+                   and RIGHT_FOLLOWS_LEFT not in v.source for v in given)
         with pytest.raises(UsvipsError, match="without 3-D coordinates"):
             measure_stored(project, stored)
-        assert UNMEASURED  # the object list's reason, until corrected
+        assert "re-pick every point" in UNMEASURED  # the object list's reason
+
+
+def test_with_the_switch_on_a_proposal_without_a_length_is_stored_with_that_sigma(refused, monkeypatch):
+    """STORE_UNMEASURED_SIGMA (off: the corrected lengths' σ was conservative, docs/detection.md) stores it."""
+    import usvips.app.detection_service as service
+
+    monkeypatch.setattr(service, "STORE_UNMEASURED_SIGMA", True)
+    path, truth, _ = refused
+    model = stereo_model(truth)
+    with Project.open(path) as project:
+        run = detect_in_project(project, model, pair="dive", refine=False)
+        proposal = next(p for p in run.proposals if p.measurement is None)
+        stored = project.object(proposal.object_id)
+        assert [v.pointing_px for v in stored.vertices] == list(proposal.pointing)
+        assert all(v.pointing_origin == "estimated" and v.xyz is None for v in stored.vertices)
 
 
 def test_a_refined_right_keypoint_of_a_proposal_without_a_length_is_stored_as_following_the_left(refused):
@@ -88,8 +113,9 @@ def test_a_refined_right_keypoint_of_a_proposal_without_a_length_is_stored_as_fo
                                    right_follows=(True, False))
         store_proposals(project, run)
         stored = project.object(run.proposals[i].object_id)
-        assert [RIGHT_FOLLOWS_LEFT in v.source for v in stored.vertices] == [True, False]
-        snout = stored.vertices[0].pointing_px
+        given = with_model_sigma(stored.vertices, run.proposals[i], model)
+        assert [RIGHT_FOLLOWS_LEFT in v.source for v in given] == [True, False]
+        snout = given[0].pointing_px
         assert snout[1] == pytest.approx(np.hypot(snout[0], 0.3))
 
 
@@ -103,10 +129,11 @@ def test_a_model_with_one_measured_sigma_stores_it_for_a_proposal_without_a_leng
         assert [v.pointing_px for v in stored.vertices] == [(1.2, 1.2)] * 2
 
 
-def test_correcting_the_wrong_keypoint_of_a_proposal_without_a_length_measures_it(refused):
-    """The reviewer drags the wrong right fork to the true one: the object is measured, its figure (recomputed
-    from the picks) the stored points', with the click's sigma on the moved point and the model's elsewhere;
-    its length lies near the truth."""
+def test_correcting_the_wrong_keypoint_of_a_proposal_given_its_sigma_measures_it(refused):
+    """As stored (no sigma) a correction does not measure it. Given the sigma it would have been measured with
+    (what the corrections' Monte Carlo does, and STORE_UNMEASURED_SIGMA would store), the reviewer who drags
+    the wrong right fork to the true one gets it measured: its figure (recomputed from the picks) the stored
+    points', with the click's sigma on the moved point and the model's elsewhere; its length near the truth."""
     path, truth, true_fork = refused
     model = stereo_model(truth)
     with Project.open(path) as project:
@@ -114,6 +141,8 @@ def test_correcting_the_wrong_keypoint_of_a_proposal_without_a_length_measures_i
         proposal = next(p for p in run.proposals if p.measurement is None)
         stored = project.object(proposal.object_id)
         geometry = pair_geometry(project, "dive")
+        assert all(v.xyz is None for v in corrected_vertices(stored, 1, "right", tuple(true_fork), geometry, "ana"))
+        stored = replace(stored, vertices=with_model_sigma(stored.vertices, proposal, model))
         vertices = corrected_vertices(stored, 1, "right", tuple(true_fork), geometry, "ana")
         assert vertices[1].source == "hand click (fork, by ana)"
         assert vertices[1].pointing_px == (proposal.pointing[1][0], HAND_CLICK_SIGMA_PX)

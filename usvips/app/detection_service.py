@@ -15,10 +15,9 @@ Three steps, so that the window can run the middle one on its worker:
 3. :func:`store_proposals` (the project's thread) stores each proposal as a ``length`` object, unreviewed,
    created by ``model <name>``, each vertex's source ``keypoint (<point>, model <name> sha256:<12 hex>)``
    with its measured pointing sigma (origin "estimated"). A proposal without a length (its pair refused, or
-   its measurement failed) keeps the sigma its keypoints would have been measured with — from the model's
-   ``[stereo_sigma]`` by the fish's size, a right keypoint the model's own or following the left one as
-   refinement left it — so that a reviewer who drags its wrong keypoint gets it measured
-   (:mod:`usvips.app.proposal_correction`).
+   its measurement failed) carries the sigma its keypoints would have been measured with (``pointing``: the
+   model's ``[stereo_sigma]`` by the fish's size, a right keypoint the model's own or following the left one
+   as refinement left it), but stores it only with :data:`STORE_UNMEASURED_SIGMA` (off: see there).
 
 Proposals never overwrite a person's object, nor repeat an object already there: a proposal whose snout and
 fork lie, on the same pair (and left frame of a video), within a quarter of its pixel length of the two
@@ -66,6 +65,12 @@ SAME_FISH_FRACTION = 0.25
 #: the largest factor between a pair's snout–fork lengths (px) in the two images when a right keypoint is the
 #: model's own (not matched to the left one): beyond it one image's keypoints are not the fish's
 MAX_UNMATCHED_LENGTH_RATIO = 1.5
+#: whether a proposal WITHOUT a length is stored with the pointing sigma by the fish's size it would have been
+#: measured with (:func:`with_model_sigma`), so that a reviewer who drags its wrong keypoint gets a length.
+#: Not done: on rendered survey clips (docs/detection.md, "A corrected proposal's σ") such corrected lengths'
+#: σ was conservative — NEES 0.43 (404 lengths) for a reviewer who moves each keypoint more than 2 px off —
+#: outside 0.7–1.5, since the keypoints the reviewer left are better than the model's σ says
+STORE_UNMEASURED_SIGMA = False
 
 
 @dataclass(frozen=True)
@@ -110,8 +115,8 @@ class Proposal:
     duplicate_of: int | None = None
     instant_of: int | None = None
     #: for a proposal WITHOUT a length of a model with a ``[stereo_sigma]``: each keypoint's (left, right)
-    #: pointing sigma (image px, by the fish's size: :func:`pair_pointing`), stored with its vertices so that a
-    #: reviewer's correction measures it (:func:`usvips.app.proposal_correction.corrected_vertices`); else ()
+    #: pointing sigma (image px, by the fish's size: :func:`pair_pointing`) it would have been measured with
+    #: (:func:`with_model_sigma`; stored only with :data:`STORE_UNMEASURED_SIGMA`); else ()
     pointing: tuple[tuple[float, float], ...] = ()
     #: with ``pointing``: whether each keypoint's right point was refined along the left one's curve (then it
     #: follows the left, :data:`usvips.core.pointing.RIGHT_FOLLOWS_LEFT`; else it is the model's own)
@@ -453,11 +458,11 @@ def _on(stored: StoredObject, label: str, frame: int | None) -> bool:
 def source_label(point: str, model: DetectionModel, right_follows: bool = False, measured: bool = False) -> str:
     """The stored source of a proposal's vertex: ``keypoint (<point>, model <name> sha256:<12 hex>)``, and
     ``, right matched to left`` when its right point was refined along the left one's curve (measured so, or
-    stored without a length with the sigma it would be measured with: :data:`usvips.core.pointing.
+    given the sigma it would be measured with, :func:`with_model_sigma`: :data:`usvips.core.pointing.
     RIGHT_FOLLOWS_LEFT`: the object's figure, recomputed from its picks, then keeps the left and right errors
-    correlated); for a ``measured`` proposal of a model whose
-    frame correlation was measured, ``, frame correlation <ρ>`` (:data:`usvips.core.pointing.FRAME_CORRELATION`:
-    the object's figure combined over its frames keeps that share of their pointing errors whole)."""
+    correlated); for a ``measured`` proposal of a model whose frame correlation was measured,
+    ``, frame correlation <ρ>`` (:data:`usvips.core.pointing.FRAME_CORRELATION`: the object's figure combined
+    over its frames keeps that share of their pointing errors whole)."""
     qualifiers = [f"model {model.tag}"] + ([RIGHT_FOLLOWS_LEFT] if right_follows else [])
     correlation = model.description.frame_correlation
     if measured and correlation is not None:
@@ -469,9 +474,8 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
                       times: dict[int, float]) -> list[Vertex]:
     """The vertices a proposal is stored as (snout, fork), with their 3-D points and covariance when it has
     a length, the model's measured sigma, and on a video its frames and time. A proposal without a length
-    keeps the sigma it would have been measured with (its ``pointing``, from the model's ``[stereo_sigma]``
-    by the fish's size, and whether each right keypoint follows the left one in its source) — else the
-    model's one measured sigma per keypoint, if any — so that a reviewer's correction measures it."""
+    keeps the model's one measured sigma per keypoint, if any; the sigma by the fish's size it would have
+    been measured with (its ``pointing``) only with :data:`STORE_UNMEASURED_SIGMA` (see there)."""
     m = proposal.measurement
     frame = proposal.frame
     partner = None if frame is None else plan.partners[plan.frames.index(frame)]
@@ -480,11 +484,10 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
         follows = (m.pointing_correlation > 0 if m.pointing_correlation is not None
                    else np.zeros(len(KEYPOINTS), dtype=bool))
     else:
-        follows = np.array(proposal.right_follows or (False,) * len(KEYPOINTS), dtype=bool)
+        follows = np.zeros(len(KEYPOINTS), dtype=bool)
     for i, name in enumerate(KEYPOINTS):
         left, right = proposal.pair.left.keypoint(name), proposal.pair.right.keypoint(name)
-        sigma = (_vertex_sigma(m, i) if m is not None else proposal.pointing[i] if proposal.pointing
-                 else model.description.measured_sigma(name))
+        sigma = _vertex_sigma(m, i) if m is not None else model.description.measured_sigma(name)
         xyz = tuple(map(float, m.points[i])) if m is not None else None
         covariance = m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3] if m is not None else None
         vertices.append(Vertex(float(left.x), float(left.y), float(right.x), float(right.y), xyz, covariance,
@@ -494,7 +497,22 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
                                source=source_label(name, model, bool(follows[i]), m is not None),
                                pointing_px=sigma if sigma is None or isinstance(sigma, tuple) else (sigma, sigma),
                                pointing_origin="estimated" if sigma is not None else "default"))
+    if m is None and proposal.pointing and STORE_UNMEASURED_SIGMA:
+        return with_model_sigma(vertices, proposal, model)
     return vertices
+
+
+def with_model_sigma(vertices: Sequence[Vertex], proposal: Proposal, model: DetectionModel) -> list[Vertex]:
+    """A stored proposal without a length's ``vertices`` (snout, fork) with the pointing sigma its keypoints
+    would have been measured with (``proposal.pointing``: the model's ``[stereo_sigma]`` by the fish's size)
+    and sources that say which right keypoints follow the left ones — what a reviewer's correction
+    (:func:`usvips.app.proposal_correction.corrected_vertices`) then measures with. Unchanged when the
+    proposal carries no such sigma."""
+    if not proposal.pointing:
+        return list(vertices)
+    return [replace(v, pointing_px=tuple(map(float, proposal.pointing[i])), pointing_origin="estimated",
+                    source=source_label(name, model, bool(proposal.right_follows[i])))
+            for i, (v, name) in enumerate(zip(vertices, KEYPOINTS, strict=True))]
 
 
 def _vertex_sigma(measurement: Measurement, vertex: int) -> tuple[float, float] | None:

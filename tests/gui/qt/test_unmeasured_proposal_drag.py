@@ -1,5 +1,6 @@
-"""In a window: a proposal stored by ``usvips detect`` WITHOUT a length (its pair refused) gets its 95 %
-circles, and dragging its wrong keypoint's handle to the right place measures it — its length appears."""
+"""In a window: a proposal stored by ``usvips detect`` WITHOUT a length (its pair refused) but with the sigma
+it would have been measured with (usvips.app.detection_service.STORE_UNMEASURED_SIGMA) gets its 95 % circles,
+and dragging its wrong keypoint's handle to the right place measures it — its length appears."""
 
 import numpy as np
 import pytest
@@ -13,8 +14,13 @@ from usvips.app.project_figures import measure_stored
 from usvips.store import Project
 
 
-def test_dragging_the_wrong_keypoint_of_a_proposal_without_a_length_measures_it(qtbot, make_window, tmp_path):
+def test_dragging_the_wrong_keypoint_of_a_proposal_without_a_length_measures_it(qtbot, make_window, tmp_path,
+                                                                                monkeypatch):
+    """With STORE_UNMEASURED_SIGMA on (off in the shipped code: docs/detection.md, "A corrected proposal's σ")."""
+    import usvips.app.detection_service as service
     from usvips.gui.qt.proposal_handles import circles as proposal_circles
+
+    monkeypatch.setattr(service, "STORE_UNMEASURED_SIGMA", True)
 
     truth, true_fork = refused_scene()
     path = make_project(tmp_path)
