@@ -14,7 +14,10 @@ Three steps, so that the window can run the middle one on its worker:
    progress per frame and stops at a cancel (the frames done are kept).
 3. :func:`store_proposals` (the project's thread) stores each proposal as a ``length`` object, unreviewed,
    created by ``model <name>``, each vertex's source ``keypoint (<point>, model <name> sha256:<12 hex>)``
-   with its measured pointing sigma (origin "estimated").
+   with its measured pointing sigma (origin "estimated"). A proposal without a length (its pair refused, or
+   its measurement failed) carries the sigma its keypoints would have been measured with (``pointing``: the
+   model's ``[stereo_sigma]`` by the fish's size, a right keypoint the model's own or following the left one
+   as refinement left it), but stores it only with :data:`STORE_UNMEASURED_SIGMA` (off: see there).
 
 Proposals never overwrite a person's object, nor repeat an object already there: a proposal whose snout and
 fork lie, on the same pair (and left frame of a video), within a quarter of its pixel length of the two
@@ -62,6 +65,12 @@ SAME_FISH_FRACTION = 0.25
 #: the largest factor between a pair's snout–fork lengths (px) in the two images when a right keypoint is the
 #: model's own (not matched to the left one): beyond it one image's keypoints are not the fish's
 MAX_UNMATCHED_LENGTH_RATIO = 1.5
+#: whether a proposal WITHOUT a length is stored with the pointing sigma by the fish's size it would have been
+#: measured with (:func:`with_model_sigma`), so that a reviewer who drags its wrong keypoint gets a length.
+#: Not done: on rendered survey clips (docs/detection.md, "A corrected proposal's σ") such corrected lengths'
+#: σ was conservative — NEES 0.43 (404 lengths) for a reviewer who moves each keypoint more than 2 px off —
+#: outside 0.7–1.5, since the keypoints the reviewer left are better than the model's σ says
+STORE_UNMEASURED_SIGMA = False
 
 
 @dataclass(frozen=True)
@@ -105,6 +114,13 @@ class Proposal:
     object_id: int | None = None
     duplicate_of: int | None = None
     instant_of: int | None = None
+    #: for a proposal WITHOUT a length of a model with a ``[stereo_sigma]``: each keypoint's (left, right)
+    #: pointing sigma (image px, by the fish's size: :func:`pair_pointing`) it would have been measured with
+    #: (:func:`with_model_sigma`; stored only with :data:`STORE_UNMEASURED_SIGMA`); else ()
+    pointing: tuple[tuple[float, float], ...] = ()
+    #: with ``pointing``: whether each keypoint's right point was refined along the left one's curve (then it
+    #: follows the left, :data:`usvips.core.pointing.RIGHT_FOLLOWS_LEFT`; else it is the model's own)
+    right_follows: tuple[bool, ...] = ()
 
     def line(self) -> str:
         """One line for a person: where, the model's score, the pairing cost, the length with its sigma."""
@@ -224,7 +240,17 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
     """One stereo frame (8-bit BGR or grey images): each fish paired in both images as (pair with refined
     right keypoints, its measurement or None, right keypoints refined, why there is no length), the left
     and right detections, and the number of detections left unpaired."""
-    sigmas = model.keypoint_sigma(KEYPOINTS, (left.shape[1], left.shape[0]))
+    found, found_left, found_right, unpaired = _detect_frame(left, right, geometry, model, detector, refine, gate_px)
+    return [(pair, m, count, why) for pair, m, count, why, _ in found], found_left, found_right, unpaired
+
+
+def _detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, model: DetectionModel,
+                  detector=None, refine: bool = True, gate_px: float | None = None):
+    """:func:`detect_frame` with, per pair, a fifth item: for a pair without a length of a model with a
+    ``[stereo_sigma]``, its keypoints' (sigmas (K, 2) px, refined flags (K,)) by :func:`pair_pointing`
+    (what the pair knows: the fish's size, which right keypoints were refined); else None."""
+    size = (left.shape[1], left.shape[0])
+    sigmas = model.keypoint_sigma(KEYPOINTS, size)
     results, found_left, found_right, unpaired = pair_and_refine(left, right, geometry, model, detector, refine,
                                                                  gate_px)
     pairs = [result.pair for result in results]
@@ -242,14 +268,16 @@ def detect_frame(left: np.ndarray, right: np.ndarray, geometry: PairGeometry, mo
                                 pair_pointing=own)
         for i, m in zip(chosen, lengths, strict=True):
             measured[i] = m
+    stereo = sigmas is not None and model.stereo_sigma(KEYPOINTS) is not None
     out = []
-    for pair, m, count, why in zip(pairs, measured, refined, apart, strict=True):
-        if why and sigmas is not None:
-            out.append((pair, None, count, f"no length: {why}"))
-        elif isinstance(m, UsvipsError):
-            out.append((pair, None, count, f"no length: {m}"))
+    for result, m, count, why in zip(results, measured, refined, apart, strict=True):
+        pair = result.pair
+        if (why and sigmas is not None) or isinstance(m, UsvipsError):
+            flags = _refined_flags(result)
+            pointing = (pair_pointing(model, pair, flags, size)[0], flags) if stereo else None
+            out.append((pair, None, count, f"no length: {why or m}", pointing))
         else:
-            out.append((pair, m, count, ""))
+            out.append((pair, m, count, "", None))
     return out, found_left, found_right, unpaired
 
 
@@ -384,12 +412,12 @@ def run_detection(plan: DetectionPlan, model: DetectionModel, cancel: Callable[[
             if cancel is not None and cancel():
                 run.cancelled = True
                 break
-            found, seen_left, seen_right, unpaired = detect_frame(left, right, plan.geometry, model, detector, refine,
-                                                                  gate_px)
+            found, seen_left, seen_right, unpaired = _detect_frame(left, right, plan.geometry, model, detector,
+                                                                   refine, gate_px)
             run.detections[frame] = (seen_left, seen_right)
             run.unpaired += unpaired
-            run.proposals.extend(Proposal(plan.label, frame, pair, m, count, problem)
-                                 for pair, m, count, problem in found)
+            run.proposals.extend(Proposal(plan.label, frame, pair, m, count, problem, **_stated(pointing))
+                                 for pair, m, count, problem, pointing in found)
             run.frames_done += 1
             if progress is not None:
                 progress(run.frames_done, plan.count)
@@ -398,6 +426,15 @@ def run_detection(plan: DetectionPlan, model: DetectionModel, cancel: Callable[[
     if plan.is_video:
         run.times = _times(plan, sorted({p.frame for p in run.proposals if p.frame is not None}))
     return run
+
+
+def _stated(pointing: tuple[np.ndarray, Sequence[bool]] | None) -> dict:
+    """A proposal's ``pointing`` and ``right_follows`` fields from :func:`_detect_frame`'s fifth item."""
+    if pointing is None:
+        return {}
+    sigmas, flags = pointing
+    return {"pointing": tuple((float(a), float(b)) for a, b in np.asarray(sigmas, dtype=np.float64)),
+            "right_follows": tuple(bool(f) for f in flags)}
 
 
 def _same_fish(proposal: Proposal, stored: StoredObject) -> bool:
@@ -420,11 +457,12 @@ def _on(stored: StoredObject, label: str, frame: int | None) -> bool:
 
 def source_label(point: str, model: DetectionModel, right_follows: bool = False, measured: bool = False) -> str:
     """The stored source of a proposal's vertex: ``keypoint (<point>, model <name> sha256:<12 hex>)``, and
-    ``, right matched to left`` when its right point was refined along the left one's curve and its length
-    measured so (:data:`usvips.core.pointing.RIGHT_FOLLOWS_LEFT`: the object's figure, recomputed from its
-    picks, then keeps the left and right errors correlated); for a ``measured`` proposal of a model whose
-    frame correlation was measured, ``, frame correlation <ρ>`` (:data:`usvips.core.pointing.FRAME_CORRELATION`:
-    the object's figure combined over its frames keeps that share of their pointing errors whole)."""
+    ``, right matched to left`` when its right point was refined along the left one's curve (measured so, or
+    given the sigma it would be measured with, :func:`with_model_sigma`: :data:`usvips.core.pointing.
+    RIGHT_FOLLOWS_LEFT`: the object's figure, recomputed from its picks, then keeps the left and right errors
+    correlated); for a ``measured`` proposal of a model whose frame correlation was measured,
+    ``, frame correlation <ρ>`` (:data:`usvips.core.pointing.FRAME_CORRELATION`: the object's figure combined
+    over its frames keeps that share of their pointing errors whole)."""
     qualifiers = [f"model {model.tag}"] + ([RIGHT_FOLLOWS_LEFT] if right_follows else [])
     correlation = model.description.frame_correlation
     if measured and correlation is not None:
@@ -435,13 +473,18 @@ def source_label(point: str, model: DetectionModel, right_follows: bool = False,
 def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionModel,
                       times: dict[int, float]) -> list[Vertex]:
     """The vertices a proposal is stored as (snout, fork), with their 3-D points and covariance when it has
-    a length, the model's measured sigma, and on a video its frames and time."""
+    a length, the model's measured sigma, and on a video its frames and time. A proposal without a length
+    keeps the model's one measured sigma per keypoint, if any; the sigma by the fish's size it would have
+    been measured with (its ``pointing``) only with :data:`STORE_UNMEASURED_SIGMA` (see there)."""
     m = proposal.measurement
     frame = proposal.frame
     partner = None if frame is None else plan.partners[plan.frames.index(frame)]
     vertices = []
-    follows = (m.pointing_correlation if m is not None and m.pointing_correlation is not None
-               else np.zeros(len(KEYPOINTS)))
+    if m is not None:
+        follows = (m.pointing_correlation > 0 if m.pointing_correlation is not None
+                   else np.zeros(len(KEYPOINTS), dtype=bool))
+    else:
+        follows = np.zeros(len(KEYPOINTS), dtype=bool)
     for i, name in enumerate(KEYPOINTS):
         left, right = proposal.pair.left.keypoint(name), proposal.pair.right.keypoint(name)
         sigma = _vertex_sigma(m, i) if m is not None else model.description.measured_sigma(name)
@@ -451,10 +494,25 @@ def proposal_vertices(proposal: Proposal, plan: DetectionPlan, model: DetectionM
                                plan.geometry.calibration_id if m is not None else None, plan.label,
                                plan.label if frame is not None else None, frame, partner,
                                times.get(frame) if frame is not None else None,
-                               source=source_label(name, model, bool(follows[i] > 0), m is not None),
+                               source=source_label(name, model, bool(follows[i]), m is not None),
                                pointing_px=sigma if sigma is None or isinstance(sigma, tuple) else (sigma, sigma),
                                pointing_origin="estimated" if sigma is not None else "default"))
+    if m is None and proposal.pointing and STORE_UNMEASURED_SIGMA:
+        return with_model_sigma(vertices, proposal, model)
     return vertices
+
+
+def with_model_sigma(vertices: Sequence[Vertex], proposal: Proposal, model: DetectionModel) -> list[Vertex]:
+    """A stored proposal without a length's ``vertices`` (snout, fork) with the pointing sigma its keypoints
+    would have been measured with (``proposal.pointing``: the model's ``[stereo_sigma]`` by the fish's size)
+    and sources that say which right keypoints follow the left ones — what a reviewer's correction
+    (:func:`usvips.app.proposal_correction.corrected_vertices`) then measures with. Unchanged when the
+    proposal carries no such sigma."""
+    if not proposal.pointing:
+        return list(vertices)
+    return [replace(v, pointing_px=tuple(map(float, proposal.pointing[i])), pointing_origin="estimated",
+                    source=source_label(name, model, bool(proposal.right_follows[i])))
+            for i, (v, name) in enumerate(zip(vertices, KEYPOINTS, strict=True))]
 
 
 def _vertex_sigma(measurement: Measurement, vertex: int) -> tuple[float, float] | None:

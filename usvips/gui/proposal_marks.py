@@ -1,23 +1,19 @@
 """A detection model's proposals on the images shown, for review (Qt-free): a circle of 95 % around each
 keypoint from its measured σ (:func:`sigma_circles`), the keypoints a reviewer may drag
 (:func:`proposal_keypoints`), and a dragged keypoint's correction as one undoable edit
-(:func:`correct_keypoint`). Light on purpose — no detection, no model — so that the window draws the
-proposals stored by ``usvips detect`` or an earlier session without importing the detector
-(:mod:`usvips.gui.detect_model` runs *Detect*)."""
+(:func:`correct_keypoint`, measured again by :func:`usvips.app.proposal_correction.corrected_vertices`).
+Light on purpose — no detection, no model — so that the window draws the proposals stored by
+``usvips detect`` or an earlier session without importing the detector (:mod:`usvips.gui.detect_model` runs
+*Detect*)."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
+from usvips.app.proposal_correction import corrected_vertices
 from usvips.app.proposals import is_proposal
-from usvips.core.errors import UsvipsError
-from usvips.core.measurements import measure_picks
-from usvips.core.pointing import HAND_CLICK_SIGMA_PX, Source
 from usvips.gui.workspace import Workspace
 from usvips.store.annotator import current_annotator
-from usvips.store.records import StoredObject, Vertex
 
 #: a circle of radius k·σ holds a keypoint's true point with 95 % probability (σ per coordinate, 2-D
 #: normal: k² is the chi-square quantile of 2 degrees of freedom, −2 ln 0.05)
@@ -51,38 +47,6 @@ def proposal_keypoints(workspace: Workspace) -> list[tuple[int, int, str, tuple[
             for index, v in enumerate(stored.vertices):
                 out += [(stored.id, index, "left", (v.xl, v.yl)), (stored.id, index, "right", (v.xr, v.yr))]
     return out
-
-
-def corrected_vertices(stored: StoredObject, index: int, side: str, pixel: tuple[float, float], geometry,
-                       annotator: str) -> list[Vertex]:
-    """The vertices of a proposal with vertex ``index``'s ``side`` ("left" or "right") point moved to
-    ``pixel`` by a reviewer: that vertex's source becomes the reviewer's hand click (its pointing σ on the
-    moved side the hand-click default, the other side's kept) and the object is measured again with its
-    calibration (``geometry``: the pair's, None leaves the 3-D points out)."""
-    if side not in ("left", "right"):
-        raise UsvipsError(f"a keypoint is moved in the left or right image, not {side!r}")
-    vertices = list(stored.vertices)
-    if not 0 <= index < len(vertices):
-        raise UsvipsError(f"object {stored.id} has vertices 1 to {len(vertices)}, not {index + 1}")
-    old = vertices[index]
-    x, y = float(pixel[0]), float(pixel[1])
-    point = old.source.split("(", 1)[1].split(",", 1)[0].strip() if "(" in old.source else ""
-    label = Source("hand click", point if point in ("snout", "fork") else "", annotator).label
-    sigma = old.pointing_px if old.pointing_px is not None else None
-    if sigma is not None:
-        sigma = (HAND_CLICK_SIGMA_PX, sigma[1]) if side == "left" else (sigma[0], HAND_CLICK_SIGMA_PX)
-    moved = replace(old, **({"xl": x, "yl": y} if side == "left" else {"xr": x, "yr": y}), source=label,
-                    pointing_px=sigma)
-    vertices[index] = moved
-    if geometry is None or any(v.pointing_px is None for v in vertices):
-        return [replace(v, xyz=None, covariance=None, calibration_id=None) for v in vertices]
-    left = np.array([(v.xl, v.yl) for v in vertices])
-    right = np.array([(v.xr, v.yr) for v in vertices])
-    sigmas = np.array([v.pointing_px for v in vertices], float)
-    m = measure_picks(stored.kind, geometry.calibration, left, right, geometry.station, geometry.frame,
-                      pointing_sigma_px=sigmas)
-    return [replace(v, xyz=tuple(map(float, m.points[i])), covariance=m.covariance[3 * i:3 * i + 3, 3 * i:3 * i + 3],
-                    calibration_id=geometry.calibration_id) for i, v in enumerate(vertices)]
 
 
 def correct_keypoint(workspace: Workspace, object_id: int, index: int, side: str, pixel: tuple[float, float]) -> None:
