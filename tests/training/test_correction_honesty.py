@@ -1,4 +1,4 @@
-"""The Monte Carlo of a corrected proposal's σ (usvips.app.correction_honesty): its simulated reviewer moves
+"""The Monte Carlo of a corrected proposal's σ (usvips.training.correction_honesty): its simulated reviewer moves
 exactly the keypoints further than its threshold from the truth, with heavy-tailed clicks of the stated RMS;
 and a small run on rendered survey clips scores every corrected length. The full run's figures are in
 docs/detection.md ("A corrected proposal's σ")."""
@@ -11,11 +11,11 @@ import pytest
 
 from tests.app.detection_scenes import make_project
 from tests.app.test_unmeasured_proposals import refused_scene, stereo_model
-from usvips.app.correction_honesty import CIRCLE_SIGMAS, Reviewer, correct, measure_corrections
 from usvips.app.detection_service import detect_in_project, with_model_sigma
 from usvips.app.pair_geometry import pair_geometry
 from usvips.app.project_figures import evaluate, measurement_input
 from usvips.store import Project
+from usvips.training.correction_honesty import CIRCLE_SIGMAS, Reviewer, correct, measure_corrections
 
 
 @pytest.mark.parametrize("dof, heavy", [(5.0, True), (math.inf, False)])

@@ -245,7 +245,7 @@ def _as_proposed(stored, geometry):
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    """``python -m usvips.app.correction_honesty FIRST_SEED COUNT FOLDER [CPU_BUDGET_S]``: the run of the
+    """``python -m usvips.training.correction_honesty FIRST_SEED COUNT FOLDER [CPU_BUDGET_S]``: the run of the
     report with the shipped model, its summary printed as JSON."""
     import json
     import sys
