@@ -4,7 +4,10 @@ the frames; a new project gets its own video and image pairs through the File me
 
 import csv
 import json
+import os
 import shutil
+import sys
+import threading
 
 import numpy as np
 import pytest
@@ -525,3 +528,32 @@ def test_seek_proxies_declined_are_not_offered_again_after_another_project(qtbot
     for _ in range(5):
         QtWidgets.QApplication.processEvents()
     assert not asked() and video._proxy_worker is None
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a thread's own priority is Linux's")
+def test_a_frame_stepped_to_is_decoded_at_the_guis_priority_after_bulk_work(qtbot, make_window, sample_copy):
+    """Bulk work (figures, tracking, detection) runs nicer than the GUI thread and its pool threads stay so;
+    the frame a user steps to is decoded in the video controls' own pool, at the GUI thread's priority."""
+    from usvips.gui.qt.worker import Worker, start
+
+    window = make_window()
+    assert window.open_path(sample_copy("rov_flatport"), "video")
+    _wait_frame(qtbot, window, 0)
+    for _ in range(4):  # bulk work in the window's pools first
+        bulk = Worker(lambda progress, cancelled: None, "bulk work")
+        with qtbot.waitSignal(bulk.signals.finished, timeout=10000):
+            start(bulk, window.pool)
+    gui = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    seen = []
+    source = window.video.source
+    decode = source.pictures
+
+    def pictures(*args, **kwargs):
+        seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+        return decode(*args, **kwargs)
+
+    source.pictures = pictures
+    window.video.cache.clear()
+    qtbot.keyClick(window.panes["left"].graphics, QtCore.Qt.Key.Key_Right)
+    _wait_frame(qtbot, window, 1)
+    assert seen and all(priority == gui for priority in seen)

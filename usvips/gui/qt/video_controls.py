@@ -230,6 +230,10 @@ class VideoController(QtCore.QObject):
         self._target: int | None = None  # the frame last asked for
         self.timer = QtCore.QTimer(self)
         self.timer.timeout.connect(self._tick)
+        # the frames a user steps to are decoded in a pool of their own, at the GUI's priority (the window's
+        # pool also runs bulk work, whose threads run nicer: gui/qt/worker.py)
+        self.display_pool = QtCore.QThreadPool(self)
+        self.display_pool.setMaxThreadCount(2)
         # seek proxies are built one at a time in a pool of their own, whose thread runs at low priority
         self.proxy_pool = QtCore.QThreadPool(self)
         self.proxy_pool.setMaxThreadCount(1)
@@ -434,10 +438,10 @@ class VideoController(QtCore.QObject):
             pictures = source.pictures(frame, offset)
             return frame, pictures, time.perf_counter() - started
 
-        worker = self._request = Worker(job, f"decoding frame {frame}")
+        worker = self._request = Worker(job, f"decoding frame {frame}", background=False)
         worker.signals.finished.connect(lambda result, w=worker: self._decoded(w, *result))
         worker.signals.failed.connect(lambda message: self._failed(message))
-        self.jobs.pool.start(worker)
+        self.display_pool.start(worker)
 
     def _failed(self, message: str) -> None:
         self._target = None  # step on from the frame shown
@@ -499,8 +503,8 @@ class VideoController(QtCore.QObject):
                     cache.put(f, source.pictures(f, offset))
             return len(todo)
 
-        self._prefetch = Worker(job, "prefetching frames")
-        self.jobs.pool.start(self._prefetch)
+        self._prefetch = Worker(job, "prefetching frames", background=False)
+        self.display_pool.start(self._prefetch)
 
     # ------------------------------------------------------------------ controls
     def set_playing(self, on: bool) -> None:
@@ -858,10 +862,15 @@ class VideoController(QtCore.QObject):
         d.build_proxy_action.setEnabled(not building)
 
     def shutdown(self) -> None:
-        """Before the window closes: stop the proxy build and wait for its thread (it stops within a frame)."""
+        """Before the window closes: stop the proxy build and the frames' decoding and wait for their threads
+        (each stops within a frame)."""
         self.workspace.project_changed.disconnect(self.project_opened)
         self.cancel_proxies()
+        for worker in (self._request, self._prefetch):
+            if worker is not None:
+                worker.cancel()
         self.proxy_pool.waitForDone(10000)
+        self.display_pool.waitForDone(5000)
 
     def focus_goto(self) -> None:
         """Ctrl+G: type a frame, seconds or a time code into the go-to field (the video chosen is opened

@@ -33,10 +33,15 @@ class Worker(QtCore.QRunnable):
     """Runs ``job(progress, cancelled)`` in the global thread pool; results arrive as signals on the GUI
     thread. ``cancel()`` asks the job to stop; a job that stops early emits ``cancelled``."""
 
-    def __init__(self, job: Callable[[Callable[[float], None], Callable[[], bool]], object], label: str) -> None:
+    def __init__(self, job: Callable[[Callable[[float], None], Callable[[], bool]], object], label: str,
+                 background: bool = True) -> None:
         super().__init__()
         self.job = job
         self.label = label
+        #: bulk work (the default) lowers its thread's priority below the GUI thread's (:data:`BACKGROUND_NICE`);
+        #: work a user waits on to see (the video frame asked for) does not, and runs in a pool of its own
+        #: whose threads no bulk work has lowered (a thread's priority cannot be raised back)
+        self.background = bool(background)
         self.signals = _Signals()
         self._cancel = threading.Event()
         self.setAutoDelete(False)
@@ -50,7 +55,8 @@ class Worker(QtCore.QRunnable):
         return self._cancel.is_set()
 
     def run(self) -> None:
-        _yield_to_the_gui()
+        if self.background:
+            _yield_to_the_gui()
         try:
             result = self.job(self._progress, self._cancel.is_set)
         except Cancelled:
