@@ -21,7 +21,7 @@ from pathlib import Path
 from usvips.app.detection_acceptance import write_clip_project
 from usvips.core.errors import UsvipsError
 from usvips.core.synth.stereo_survey import SurveyClip, survey_clip
-from usvips.store import Project
+from usvips.store.opening import open_project
 from usvips.store.records import Vertex
 
 FIRST_SEED = 50_000_000  # used by no test, validation or shipped measurement
@@ -31,7 +31,7 @@ SIZE = (640, 480)
 def accept_truth(project_path: Path, clips: list[SurveyClip]) -> int:
     """Add each clip's fish to find in both images as accepted lengths at their true pixels; returns how many."""
     added = 0
-    with Project.open(project_path) as project:
+    with open_project(project_path) as project:
         for c, clip in enumerate(clips):
             label = f"clip{c}"
             for f, frame in enumerate(clip.frames):
