@@ -50,9 +50,9 @@ class ObjectList(QtWidgets.QWidget):
     #: change; in a larger survey only the drawn rows' figures are (as they are drawn)
     EAGER = 1000
     #: Objects a figures worker takes at a time: their inputs are copied out of the project on the GUI
-    #: thread (~0.15 ms an object; a sort by length of 100,000 copied them all at once, a 14 s freeze), the
-    #: others wait in a queue and are copied job by job
-    JOB_OBJECTS = 200
+    #: thread (0.15-0.25 ms an object; a sort by length of 100,000 copied them all at once, a 14 s freeze),
+    #: the others wait in a queue and are copied job by job (~15-25 ms a job)
+    JOB_OBJECTS = 100
 
     def __init__(self, workspace: Workspace, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -368,9 +368,20 @@ class ObjectList(QtWidgets.QWidget):
             self._start_job(missing)
 
     def _start_job(self, ids: list[int]) -> None:
-        """A figures worker for the first :data:`JOB_OBJECTS` of ``ids``; the rest queued for the next."""
-        self._pending, self._queue = ids[:self.JOB_OBJECTS], ids[self.JOB_OBJECTS:]
-        job = self.workspace.cache.figures_job(self._pending)
+        """A figures worker for the first :data:`JOB_OBJECTS` of ``ids`` still without figures; the rest
+        queued for the next (looked at only as their turn comes: the whole queue of a sort of 100,000 looked
+        at for every job would itself be a step of the GUI thread that grows with the survey)."""
+        cache = self.workspace.cache
+        taken, looked = [], 0
+        while looked < len(ids) and len(taken) < self.JOB_OBJECTS:
+            object_id = ids[looked]
+            looked += 1
+            if object_id in cache and cache.known_figures(object_id) is None:
+                taken.append(object_id)
+        self._pending, self._queue = taken, ids[looked:]
+        if not taken:
+            return
+        job = cache.figures_job(self._pending)
         worker = self._worker = Worker(job, "computing the objects' figures")
         worker.signals.finished.connect(lambda results, j=job, w=worker: self._on_figures(j, w, results))
         worker.signals.cancelled.connect(lambda w=worker: self._on_cancelled(w))
@@ -404,11 +415,7 @@ class ObjectList(QtWidgets.QWidget):
         self.model.requested -= set(kept)
         self.model.changed(kept)
         if current and self._queue:  # the next job of the queue (its inputs copied now, a job's worth)
-            cache = self.workspace.cache
-            waiting = [i for i in self._queue if i in cache and cache.known_figures(i) is None]
-            self._queue = []
-            if waiting:
-                self._start_job(waiting)
+            self._start_job(self._queue)
         if self._worker is None:
             self._completed()
         self._fit(kept)
