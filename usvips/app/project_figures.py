@@ -239,7 +239,6 @@ def evaluate(source: MeasurementInput, rules: QualityRules | None = None) -> Mea
     return replace(combined, id=source.id, attribute=source.attribute, notes=source.notes)
 
 
-
 def evaluate_many(sources: Sequence[MeasurementInput], rules: QualityRules | None = None
                   ) -> list[Measurement | UsvipsError]:
     """:func:`evaluate` of each source — the same :class:`Measurement`, or the :class:`UsvipsError` it
@@ -281,6 +280,7 @@ def _evaluated(source: MeasurementInput, rules: QualityRules | None) -> Measurem
         return evaluate(source, rules)
     except UsvipsError as error:
         return error
+
 
 def _shared_pointing(source: MeasurementInput, everything: tuple[MeasurementInput, ...]) -> dict:
     """How the instants' pointing errors are shared (:func:`combine_measurements`' keywords): whole when any

@@ -33,6 +33,13 @@ def test_a_workers_thread_runs_nicer_than_the_gui_thread(qtbot):
 
 
 @linux
+def test_the_main_thread_is_never_made_nicer():
+    before = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+    _yield_to_the_gui()  # a job run directly on the GUI thread
+    assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) == before
+
+
+@linux
 def test_a_thread_already_nicer_is_left_as_it_is():
     seen = []
 

@@ -91,15 +91,17 @@ class Worker(QtCore.QRunnable):
             pass
 
 
-#: the niceness a worker's thread takes (Linux: per thread; the threads it starts, FFmpeg's decoders and
-#: OpenCV's pool among them, inherit it): on two busy cores the GUI thread then gets a core first
+#: the niceness a worker's thread takes (Linux: per thread; the threads it starts, FFmpeg's decoders among
+#: them, inherit it): on two busy cores the GUI thread then gets a core first
 BACKGROUND_NICE = 10
 
 
 def _yield_to_the_gui() -> None:
     """Lower the calling worker thread's scheduling priority to :data:`BACKGROUND_NICE` (never raise it;
-    where a thread's own priority cannot be set — not Linux — nothing changes)."""
-    if not hasattr(os, "setpriority") or not sys.platform.startswith("linux"):
+    never the main, GUI, thread — a job run there directly; where a thread's own priority cannot be set —
+    not Linux — nothing changes)."""
+    if (not hasattr(os, "setpriority") or not sys.platform.startswith("linux")
+            or threading.current_thread() is threading.main_thread()):
         return
     try:
         thread = threading.get_native_id()
