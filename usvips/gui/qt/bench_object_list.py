@@ -27,6 +27,7 @@ import os
 import tempfile
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -45,82 +46,92 @@ SORTED = 20_000
 IDLE_S = 2.0
 
 
-def scroll_row(scale: float = 1.0) -> dict:
+@contextmanager
+def _survey_window(count: int, seed: int = 0):
+    """(the application, a shown 1366 × 768 window, a survey project of ``count`` objects in a temporary
+    folder with its own settings), the project closed and the window too when done."""
     from PySide6 import QtCore
 
     from usvips.gui.qt.app import application
     from usvips.gui.qt.bench import survey_project
     from usvips.gui.qt.main_window import MainWindow
 
-    n = OBJECTS if scale >= 1 else max(300, int(OBJECTS * scale))
-    load = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="usvips-bench-list-") as folder:
         folder = Path(folder)
-        survey = survey_project(folder / "survey", n)
+        survey = survey_project(folder / "survey", count, seed)
         app = application()
         window = MainWindow(settings=QtCore.QSettings(str(folder / "settings.ini"), QtCore.QSettings.Format.IniFormat))
         window.resize(1366, 768)
         window.show()
         try:
             app.processEvents()
-            start = time.perf_counter()
-            if not window.open_path(survey, "measure1"):
-                raise RuntimeError("the window did not open the survey")
-            while window.workspace.cache.loading and time.perf_counter() - start < 300:  # read in a worker
-                app.processEvents()
-                time.sleep(0.001)
-            opened = time.perf_counter() - start
-            window.docks["objects"].raise_()
-            window.resizeDocks([window.docks["objects"]], [420], QtCore.Qt.Orientation.Vertical)  # ~15 rows
-            listing = window.object_list
-            table, bar = listing.table, listing.table.verticalScrollBar()
-            deadline = time.time() + 300
-            while (window.busy or window.workspace.pair is None or listing._worker is not None
-                   or window.overlay.refreshing) and time.time() < deadline:  # (the outlines come in slices)
-                app.processEvents()
-                time.sleep(0.005)
-
-            # the panes' first drawing of the survey's outlines (every object is on this pair) comes before
-            # any scroll: it is timed on its own (``first_draw_s``), not counted as a scroll step
-            begin_draw = time.perf_counter()
-            window.repaint()
-            app.processEvents()
-            first_draw = time.perf_counter() - begin_draw
-            cpu: list[float] = []
-
-            def step(value: int) -> float:
-                begin, begin_cpu = time.perf_counter(), time.thread_time()
-                bar.setValue(value)
-                table.viewport().repaint()
-                app.processEvents()
-                cpu.append(time.thread_time() - begin_cpu)
-                return time.perf_counter() - begin
-
-            rng = np.random.default_rng(7)
-            page = max(1, bar.pageStep())
-            steps = []
-            for k in range(PAGES):
-                steps.append(step(min(bar.maximum(), k * page)))
-                if k % (PAGES // JUMPS) == 0:
-                    steps.append(step(int(rng.integers(0, bar.maximum() + 1))))
-            steps.append(step(bar.maximum()))
-            while listing._worker is not None and time.time() < deadline:  # the last figures land
-                steps.append(step(bar.value()))
-                time.sleep(0.01)
-
-            def repaint() -> float:
-                begin = time.perf_counter()
-                table.viewport().repaint()
-                app.processEvents()
-                return time.perf_counter() - begin
-
-            baseline = min(repaint() for _ in range(5))
-            rows = listing.row_count()
-            computed = sum(window.workspace.cache.known_figures(i) is not None for i in window.workspace.cache.ids())
-            on_screen = len(listing.visible_rows())
+            yield app, window, survey
         finally:
             window.workspace.close_project()
             window.close()
+
+
+def scroll_row(scale: float = 1.0) -> dict:
+    from PySide6 import QtCore
+
+    n = OBJECTS if scale >= 1 else max(300, int(OBJECTS * scale))
+    load = os.getloadavg()[0]
+    with _survey_window(n) as (app, window, survey):
+        start = time.perf_counter()
+        if not window.open_path(survey, "measure1"):
+            raise RuntimeError("the window did not open the survey")
+        while window.workspace.cache.loading and time.perf_counter() - start < 300:  # read in a worker
+            app.processEvents()
+            time.sleep(0.001)
+        opened = time.perf_counter() - start
+        window.docks["objects"].raise_()
+        window.resizeDocks([window.docks["objects"]], [420], QtCore.Qt.Orientation.Vertical)  # ~15 rows
+        listing = window.object_list
+        table, bar = listing.table, listing.table.verticalScrollBar()
+        deadline = time.time() + 300
+        while (window.busy or window.workspace.pair is None or listing._worker is not None
+               or window.overlay.refreshing) and time.time() < deadline:  # (the outlines come in slices)
+            app.processEvents()
+            time.sleep(0.005)
+
+        # the panes' first drawing of the survey's outlines (every object is on this pair) comes before
+        # any scroll: it is timed on its own (``first_draw_s``), not counted as a scroll step
+        begin_draw = time.perf_counter()
+        window.repaint()
+        app.processEvents()
+        first_draw = time.perf_counter() - begin_draw
+        cpu: list[float] = []
+
+        def step(value: int) -> float:
+            begin, begin_cpu = time.perf_counter(), time.thread_time()
+            bar.setValue(value)
+            table.viewport().repaint()
+            app.processEvents()
+            cpu.append(time.thread_time() - begin_cpu)
+            return time.perf_counter() - begin
+
+        rng = np.random.default_rng(7)
+        page = max(1, bar.pageStep())
+        steps = []
+        for k in range(PAGES):
+            steps.append(step(min(bar.maximum(), k * page)))
+            if k % (PAGES // JUMPS) == 0:
+                steps.append(step(int(rng.integers(0, bar.maximum() + 1))))
+        steps.append(step(bar.maximum()))
+        while listing._worker is not None and time.time() < deadline:  # the last figures land
+            steps.append(step(bar.value()))
+            time.sleep(0.01)
+
+        def repaint() -> float:
+            begin = time.perf_counter()
+            table.viewport().repaint()
+            app.processEvents()
+            return time.perf_counter() - begin
+
+        baseline = min(repaint() for _ in range(5))
+        rows = listing.row_count()
+        computed = sum(window.workspace.cache.known_figures(i) is not None for i in window.workspace.cache.ids())
+        on_screen = len(listing.visible_rows())
     worst = max(steps)
     return {"name": f"gui: scroll the object list through {n:,} objects, a page at a time and jumps (longest step)",
             "n": n, "ours_s": round(worst, 5), "first_draw_s": round(first_draw, 5),
@@ -162,43 +173,28 @@ def _longest_tick_gap(app, until, timeout_s: float) -> tuple[float, int]:
 def sort_row(scale: float = 1.0) -> dict:
     from PySide6 import QtCore
 
-    from usvips.gui.qt.app import application
-    from usvips.gui.qt.bench import survey_project
-    from usvips.gui.qt.main_window import MainWindow
-
     n = SORTED if scale >= 1 else max(300, int(SORTED * scale))
     load = os.getloadavg()[0]
-    with tempfile.TemporaryDirectory(prefix="usvips-bench-sort-") as folder:
-        folder = Path(folder)
-        survey = survey_project(folder / "survey", n, seed=1)
-        app = application()
-        window = MainWindow(settings=QtCore.QSettings(str(folder / "settings.ini"), QtCore.QSettings.Format.IniFormat))
-        window.resize(1366, 768)
-        window.show()
-        try:
-            app.processEvents()
-            if not window.open_path(survey, "measure1"):
-                raise RuntimeError("the window did not open the survey")
-            listing = window.object_list
+    with _survey_window(n, seed=1) as (app, window, survey):
+        if not window.open_path(survey, "measure1"):
+            raise RuntimeError("the window did not open the survey")
+        listing = window.object_list
 
-            def settled() -> bool:
-                return not (window.workspace.cache.loading or window.busy or window.workspace.pair is None
-                            or listing._worker is not None or window.overlay.refreshing)
+        def settled() -> bool:
+            return not (window.workspace.cache.loading or window.busy or window.workspace.pair is None
+                        or listing._worker is not None or window.overlay.refreshing)
 
-            _longest_tick_gap(app, settled, 300)
-            idle, _ = _longest_tick_gap(app, lambda: False, IDLE_S)
-            cache = window.workspace.cache
-            known_before = sum(cache.known_figures(i) is not None for i in cache.ids())
-            begin = time.perf_counter()
-            QtCore.QTimer.singleShot(0, lambda: listing.sort(listing.COLUMNS.index("figure")))
-            worst, ticks = _longest_tick_gap(app, lambda: time.perf_counter() - begin > 0.05 and listing._worker is None
-                                             and listing._completing is None, 600)
-            sorted_s = time.perf_counter() - begin
-            ids = window.workspace.cache.ids()
-            known = sum(window.workspace.cache.known_figures(i) is not None for i in ids)
-        finally:
-            window.workspace.close_project()
-            window.close()
+        _longest_tick_gap(app, settled, 300)
+        idle, _ = _longest_tick_gap(app, lambda: False, IDLE_S)
+        cache = window.workspace.cache
+        known_before = sum(cache.known_figures(i) is not None for i in cache.ids())
+        begin = time.perf_counter()
+        QtCore.QTimer.singleShot(0, lambda: listing.sort(listing.COLUMNS.index("figure")))
+        worst, ticks = _longest_tick_gap(app, lambda: time.perf_counter() - begin > 0.05 and listing._worker is None
+                                         and listing._completing is None, 600)
+        sorted_s = time.perf_counter() - begin
+        ids = window.workspace.cache.ids()
+        known = sum(window.workspace.cache.known_figures(i) is not None for i in ids)
     return {"name": f"gui: sort the object list of {n:,} objects by length, every figure computed first "
                     "(longest freeze)",
             "n": n, "ours_s": round(worst, 5), "baseline": f"the same timer, the window idle for {IDLE_S:g} s",
