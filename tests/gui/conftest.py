@@ -99,6 +99,16 @@ def open_sample(qtbot, window, directory: Path, pair: str) -> None:
     wait_for_pair(qtbot, window, pair)
 
 
+def review_circles(qtbot, window):
+    """The review panel shown (made when first seen) and the proposals' 95 % circles and handles it drew."""
+    from usvips.gui.qt.proposal_handles import circles
+
+    window.docks["review"].show()
+    window.docks["review"].raise_()
+    qtbot.waitUntil(lambda: window.panels.is_built("review"), timeout=5000)
+    return circles(window.context)
+
+
 def viewport_point(pane, pixel):
     """The viewport position (integer screen pixels) that shows image ``pixel``, through the view."""
     from PySide6 import QtCore, QtWidgets

@@ -3,7 +3,7 @@ window's worker, the proposals are stored unreviewed, each keypoint's 95 % circl
 review mode opens on them — with the dialogs handed the window's context, never the window."""
 
 from tests.app.detection_scenes import make_project, scene, write_switching_model
-from tests.gui.conftest import wait_for_pair
+from tests.gui.conftest import open_sample, review_circles, wait_for_pair
 from usvips.gui.qt.detection_dialogs import SETTING
 
 
@@ -102,7 +102,6 @@ def test_proposals_stored_before_the_window_opened_get_their_handles_when_review
     before, only a Detect made them, so a reviewer of a command-line run could not drag a keypoint."""
     from usvips.app.detection_model import load_model
     from usvips.app.detection_service import detect_in_project
-    from usvips.gui.qt.proposal_handles import circles as proposal_circles
     from usvips.store import Project
 
     truth = scene(seed=5)
@@ -111,12 +110,7 @@ def test_proposals_stored_before_the_window_opened_get_their_handles_when_review
     with Project.open(path) as project:
         assert len(detect_in_project(project, load_model(model), pair="dive").proposals) == 3
     window = make_window()
-    assert window.open_path(path)
-    window.load_pair("dive")
-    wait_for_pair(qtbot, window, "dive")
-    window.docks["review"].show()
-    window.docks["review"].raise_()
-    qtbot.waitUntil(lambda: window.panels.is_built("review"), timeout=5000)
-    circles = proposal_circles(window.context)
+    open_sample(qtbot, window, path, "dive")
+    circles = review_circles(qtbot, window)
     assert {side: len(item.points()) for side, item in circles.items.items()} == {"left": 6, "right": 6}
     qtbot.waitUntil(lambda: len(circles.handles) == 12, timeout=5000)

@@ -11,6 +11,18 @@ from usvips.store import Project
 from usvips.store.records import Vertex
 
 
+def _shown_list(qtbot, ws: Workspace) -> ObjectList:
+    """The list over ``ws`` shown 900 × 300, refreshed once laid out (the rows on screen), its first figures in."""
+    listing = ObjectList(ws)
+    qtbot.addWidget(listing)
+    listing.resize(900, 300)
+    listing.show()
+    qtbot.waitExposed(listing)
+    listing.refresh()  # laid out now: the rows on screen
+    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    return listing
+
+
 def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_filters_in_the_model(
         qtbot, tmp_path, monkeypatch):
     monkeypatch.setattr(ObjectList, "EAGER", 10)  # a survey of 60 stands for one of 100,000 ...
@@ -18,14 +30,8 @@ def test_a_large_survey_computes_the_figures_of_the_rows_drawn_and_sorts_and_fil
     monkeypatch.setattr(ObjectList, "FIT_ROWS", 5)  # ... and its columns are not fitted to every row
     ws = Workspace()
     ws.open_project(Project.open(survey_project(tmp_path / "survey", 60)))
-    listing = ObjectList(ws)
-    qtbot.addWidget(listing)
-    listing.resize(900, 300)
-    listing.show()
-    qtbot.waitExposed(listing)
+    listing = _shown_list(qtbot, ws)
     model = listing.model
-    listing.refresh()  # laid out now: the rows on screen
-    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
     ids = ws.cache.ids()
     assert model.rowCount() == 60 and model.ids() == ids
     drawn = {listing.object_id(r) for r in listing.visible_rows()}
@@ -82,13 +88,7 @@ def test_a_sort_by_figure_computes_every_figure_first_and_says_so(qtbot, tmp_pat
     ws.open_project(Project.open(survey_project(tmp_path / "survey", 40, seed=3)))
     messages = []
     ws.message.connect(lambda level, text: messages.append(text))
-    listing = ObjectList(ws)
-    qtbot.addWidget(listing)
-    listing.resize(900, 300)
-    listing.show()
-    qtbot.waitExposed(listing)
-    listing.refresh()
-    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    listing = _shown_list(qtbot, ws)
     ids = ws.cache.ids()
     assert sum(ws.cache.known_figures(i) is not None for i in ids) < 40
     column = ObjectList.COLUMNS.index("figure")
@@ -135,13 +135,7 @@ def _survey_list(qtbot, tmp_path, monkeypatch, count: int):
     jobs: list[list[int]] = []
     making = ws.cache.figures_job
     monkeypatch.setattr(ws.cache, "figures_job", lambda ids: (jobs.append(list(ids)), making(ids))[1])
-    listing = ObjectList(ws)
-    qtbot.addWidget(listing)
-    listing.resize(900, 300)
-    listing.show()
-    qtbot.waitExposed(listing)
-    listing.refresh()
-    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    listing = _shown_list(qtbot, ws)
     return ws, listing, jobs
 
 
@@ -194,12 +188,7 @@ def test_a_small_lists_columns_widen_to_an_added_object_without_measuring_every_
     stored object cost 30 ms at 200 rows."""
     ws = Workspace()
     ws.open_project(Project.open(survey_project(tmp_path / "survey", 30, seed=7)))
-    listing = ObjectList(ws)
-    qtbot.addWidget(listing)
-    listing.resize(900, 300)
-    listing.show()
-    qtbot.waitExposed(listing)
-    qtbot.waitUntil(lambda: listing._worker is None, timeout=20000)
+    listing = _shown_list(qtbot, ws)
     fitted = []
     monkeypatch.setattr(listing.table, "resizeColumnsToContents", lambda: fitted.append(True))
     column = ObjectList.COLUMNS.index("attribute")

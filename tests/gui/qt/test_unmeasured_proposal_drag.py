@@ -8,7 +8,7 @@ from PySide6 import QtCore
 
 from tests.app.detection_scenes import make_project
 from tests.app.test_unmeasured_proposals import refused_scene, stereo_model
-from tests.gui.conftest import wait_for_pair
+from tests.gui.conftest import open_sample, review_circles
 from usvips.app.detection_service import detect_in_project
 from usvips.app.project_figures import measure_stored
 from usvips.store import Project
@@ -18,7 +18,6 @@ def test_dragging_the_wrong_keypoint_of_a_proposal_without_a_length_measures_it(
                                                                                 monkeypatch):
     """With STORE_UNMEASURED_SIGMA on (off in the shipped code: docs/detection.md, "A corrected proposal's σ")."""
     import usvips.app.detection_service as service
-    from usvips.gui.qt.proposal_handles import circles as proposal_circles
 
     monkeypatch.setattr(service, "STORE_UNMEASURED_SIGMA", True)
 
@@ -28,13 +27,8 @@ def test_dragging_the_wrong_keypoint_of_a_proposal_without_a_length_measures_it(
         run = detect_in_project(project, stereo_model(truth), pair="dive", refine=False)
     lacking = next(p for p in run.proposals if p.measurement is None)
     window = make_window()
-    assert window.open_path(path)
-    window.load_pair("dive")
-    wait_for_pair(qtbot, window, "dive")
-    window.docks["review"].show()
-    window.docks["review"].raise_()
-    qtbot.waitUntil(lambda: window.panels.is_built("review"), timeout=5000)
-    circles = proposal_circles(window.context)
+    open_sample(qtbot, window, path, "dive")
+    circles = review_circles(qtbot, window)
     # every proposal's keypoints get their circles, the one without a length's too (3 fish × snout, fork)
     assert {side: len(item.points()) for side, item in circles.items.items()} == {"left": 6, "right": 6}
     qtbot.waitUntil(lambda: len(circles.handles) == 12, timeout=5000)
