@@ -12,6 +12,7 @@ import usvips.core.tracking as tracking
 from tests.core.test_matching import rig
 from tests.core.test_tracking import truth, video
 from usvips.core.errors import InvalidParameterError
+from usvips.core.intersection import intersect_traced, trace
 from usvips.core.matching import epipolar_curve_at
 from usvips.core.synth.swimming import SwimmingFish
 from usvips.core.tracking import TrackSettings, track_vertex
@@ -75,11 +76,10 @@ def _assert_same(ours, reference):
 def test_the_fast_path_gives_the_tracks_of_the_plain_one(monkeypatch, seed):
     stereo, frames, start, (left, right) = _clip(seed)
     ours = track_vertex(frames, stereo, start, left, right, 0, start + 24)
-    hold = tracking._hold
-    with monkeypatch.context() as plain:
+    with monkeypatch.context() as plain:  # (no stretch decides: the whole curve holds every frame's point)
         plain.setattr(tracking, "_flow", whole_flow)
         plain.setattr(tracking, "_ncc", numpy_ncc)
-        plain.setattr(tracking, "_hold", lambda rig, left, right, depths, around: hold(rig, left, right, depths, None))
+        plain.setattr(tracking, "_hold_many", lambda rig, traced, right, *rest: [None] * len(right))
         reference = track_vertex(frames, stereo, start, left, right, 0, start + 24)
     _assert_same(ours, reference)
     with monkeypatch.context() as recropped:  # every step crops both frames again about the point
@@ -132,6 +132,50 @@ def test_the_right_point_is_held_where_the_whole_curve_holds_it(housing):
             assert off == pytest.approx(whole[1], abs=1e-9) and index == whole[2]
         used += 1
     assert used > 20
+
+
+@pytest.mark.parametrize("housing", ["flat-port", "dome-cover"])
+def test_the_right_points_of_a_batch_of_frames_are_held_where_the_whole_curve_holds_them(housing):
+    """Held for many frames at once on stretches about each pair's intersection, the nearest points are the
+    whole curve's wherever a stretch decides, and the stretches decide for nearly every pair near its curve."""
+    stereo = rig(housing)
+    depths = np.geomspace(0.3, 12.0, 400)
+    rng = np.random.default_rng(9)
+    lefts, rights = [], []
+    while len(lefts) < 60:
+        left = rng.uniform([20, 20], [300, 220])
+        curve = epipolar_curve_at(stereo.left, stereo.right, left, depths)
+        if len(curve.pixels) > 40:
+            lefts.append(left)
+            rights.append(curve.pixels[rng.integers(20, len(curve.pixels) - 20)] + rng.normal(0, 1.5, 2))
+    lefts, rights = np.array(lefts), np.array(rights)
+    traced = (trace(stereo.left, lefts), trace(stereo.right, rights))
+    met = intersect_traced(traced)
+    holds = tracking._hold_many(stereo, traced[0], rights, met.points, met.ok, depths)
+    decided = 0
+    for left, right, hold in zip(lefts, rights, holds, strict=True):
+        if hold is None:
+            continue
+        whole = tracking._hold(stereo, left, right, depths, None)
+        np.testing.assert_allclose(hold[0], whole[0], atol=1e-9)
+        assert hold[1] == pytest.approx(whole[1], abs=1e-9) and hold[2] == whole[2]
+        decided += 1
+    assert decided >= 55
+    assert tracking._hold_many(stereo, traced[0], rights, met.points, np.zeros(60, bool), depths) == [None] * 60
+
+
+def test_a_track_holds_its_right_points_a_batch_of_frames_at_a_time(monkeypatch):
+    """The hold back-projects a batch's stretches of curve in one call: a track of 24 frames asks for a
+    batched hold once a batch (:data:`~usvips.core.tracking.RMS_BATCH` frames), not once a frame, and the
+    whole curve almost never."""
+    stereo, frames, start, (left, right) = _clip(12)
+    batches, whole = [], []
+    many, single = tracking._hold_many, tracking._hold
+    monkeypatch.setattr(tracking, "_hold_many", lambda *a: batches.append(len(a[2])) or many(*a))
+    monkeypatch.setattr(tracking, "_hold", lambda *a: whole.append(1) or single(*a))
+    track = track_vertex(frames, stereo, start, left, right, start, start + 24)
+    assert len(track.frames) - 1 == sum(batches) >= 20
+    assert len(batches) <= -(-len(track.frames) // tracking.RMS_BATCH) + 1 and len(whole) <= 2
 
 
 def test_the_depths_of_the_epipolar_curve_are_checked_before_any_frame_is_read():

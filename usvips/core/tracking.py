@@ -2,8 +2,11 @@
 
 From a vertex picked on one instant (its left and right pixels on frame ``start``), the left point is
 followed by pyramidal Lucas–Kanade optical flow (``cv2.calcOpticalFlowPyrLK``) with a forward–backward
-check; the right point is followed the same way and then held to the refractive epipolar curve of the new
-left point (:func:`usvips.core.matching.epipolar_curve`): it is moved to the nearest point of the curve.
+check; the right point is followed the same way, and the point stored for it is held to the refractive
+epipolar curve of the new left point (:func:`usvips.core.matching.epipolar_curve`): moved to the nearest
+point of the curve. (The flow follows the right point as found, not as held: the hold needs the curve traced
+through the housing, which costs as much for one frame as for a batch, so it is done for a batch of frames at
+once.)
 Each frame-to-frame position is refined against the start frame's window (LK from the start frame with the
 frame-to-frame position as its first guess, kept when it converges within a pixel), so that the small
 errors of successive steps do not add up to a drift. Each step is scored by the normalised
@@ -43,7 +46,7 @@ import numpy as np
 from usvips.core import validation
 from usvips.core.enhance import luminance
 from usvips.core.errors import InvalidParameterError, UsvipsError
-from usvips.core.intersection import intersect
+from usvips.core.intersection import intersect, intersect_traced, trace
 from usvips.core.matching import epipolar_curve_at
 from usvips.core.rig import StereoRig
 
@@ -318,9 +321,9 @@ def _nearest_on(curve_pixels: np.ndarray, point: np.ndarray) -> tuple[np.ndarray
     return candidates[best], float(distances[best]), best
 
 
-#: samples of the epipolar curve either side of the one held on the frame before, where the right point's
-#: nearest point of the curve is looked for first (at 0.9 % of depth a sample for the default 400 over
-#: 0.2–30 m: ±7 % of the depth a frame)
+#: samples of the epipolar curve either side of the depth looked about (the unconstrained pair's
+#: intersection, or the one held before), where the right point's nearest point of the curve is looked for
+#: first (at 0.9 % of depth a sample for the default 400 over 0.2–30 m: ±7 % of the depth)
 CURVE_STRETCH = 8
 
 
@@ -333,17 +336,62 @@ def _hold(rig: StereoRig, left: np.ndarray, right: np.ndarray, depths: np.ndarra
     where that stretch is not seen whole or its nearest point lies on its first or last segment (a nearer
     one may lie beyond), or ``around`` is None."""
     if around is not None:
-        lo, hi = max(around - CURVE_STRETCH, 0), min(around + CURVE_STRETCH + 2, len(depths))
+        lo, hi = _stretch(around, len(depths))
         stretch = epipolar_curve_at(rig.left, rig.right, left, depths[lo:hi])
         if len(stretch.depths) == hi - lo >= 2:
             held, off, k = _nearest_on(stretch.pixels, right)
-            if (0 < k or lo == 0) and (k < hi - lo - 2 or hi == len(depths)):
+            if _decided(k, lo, hi, len(depths)):
                 return held, off, lo + k
     curve = epipolar_curve_at(rig.left, rig.right, left, depths)
     if len(curve.pixels) == 0:
         return None
     held, off, k = _nearest_on(curve.pixels, right)
     return held, off, int(np.searchsorted(depths, curve.depths[k]))
+
+
+def _stretch(around: int, count: int) -> tuple[int, int]:
+    """The depth samples [lo, hi) of the stretch of :data:`CURVE_STRETCH` samples either side of ``around``."""
+    return max(around - CURVE_STRETCH, 0), min(around + CURVE_STRETCH + 2, count)
+
+
+def _decided(k: int, lo: int, hi: int, count: int) -> bool:
+    """Whether the nearest point found on segment ``k`` of the stretch [lo, hi) is the whole curve's: not on
+    the stretch's first or last segment, unless that is also the whole curve's end (a nearer point may lie
+    beyond)."""
+    return (0 < k or lo == 0) and (k < hi - lo - 2 or hi == count)
+
+
+def _hold_many(rig: StereoRig, traced_left, right: np.ndarray, points: np.ndarray, met: np.ndarray,
+               depths: np.ndarray) -> list[tuple[np.ndarray, float, int] | None]:
+    """:func:`_hold` of N frames at once: for each left pixel (its rays ``traced_left``, a
+    :class:`~usvips.core.intersection.TracedRays`) the nearest point to ``right`` (N, 2) of its epipolar
+    curve, its distance (px) and depth sample, looked for on the stretch about the depth of the pair's
+    intersection (``points`` (N, 3) m, ``met`` (N,) where they intersect): every frame's stretch is
+    back-projected into the right camera in ONE call (a flat port's solve costs the same for a few points as
+    for hundreds: the call's overhead is most of it). None where the stretch does not decide (not seen whole,
+    the nearest point at its end, no intersection): :func:`_hold` of the whole curve decides there."""
+    bundle = traced_left.rays
+    along = np.einsum("ij,ij->i", points - bundle.origins, bundle.directions)
+    count = len(depths)
+    spans = [_stretch(int(np.clip(np.searchsorted(depths, a), 0, count - 1)), count) if ok and bundle.ok[i]
+             else None for i, (a, ok) in enumerate(zip(along.tolist(), met.tolist(), strict=True))]
+    chosen = [i for i, span in enumerate(spans) if span is not None]
+    out: list[tuple[np.ndarray, float, int] | None] = [None] * len(right)
+    if not chosen:
+        return out
+    samples = np.concatenate([bundle.origins[i] + depths[spans[i][0]:spans[i][1], None] * bundle.directions[i]
+                              for i in chosen])
+    projection = rig.right.project(samples)
+    first = 0
+    for i in chosen:
+        lo, hi = spans[i]
+        pixels, seen = projection.pixels[first:first + hi - lo], projection.ok[first:first + hi - lo]
+        first += hi - lo
+        if hi - lo >= 2 and seen.all():
+            held, off, k = _nearest_on(pixels, right[i])
+            if _decided(k, lo, hi, count):
+                out[i] = (held, off, lo + k)
+    return out
 
 
 def check_trackable(image: np.ndarray, point, settings: TrackSettings | None = None, what: str = "left") -> None:
@@ -470,31 +518,40 @@ CURVE_SAMPLES = 400
 
 @dataclass
 class _Step:
-    """A frame followed but not yet accepted: its ray RMS is computed with the next few frames'."""
+    """A frame followed but not yet accepted: its right point is held to the epipolar curve, and its ray RMS
+    computed, with the next few frames'."""
 
     frame: int
     left: np.ndarray
     right: np.ndarray
-    held: np.ndarray
     scores: tuple[float, float]
-    leaves: bool  # the right point held to the curve leaves the frame: the track stops here either way
 
 
 def _settle(rig: StereoRig, steps: list[_Step], frame: int, rms_history: list[float], rows: dict,
-            settings: TrackSettings) -> tuple[int, str] | None:
-    """Accept ``steps`` in order (after ``frame``, the last frame accepted) while their ray RMS stays below
-    the jump; (the last frame accepted, why) where one stops the track, None when all are accepted."""
+            settings: TrackSettings, depths: np.ndarray, shape: tuple[int, ...]) -> tuple[int, str] | None:
+    """Accept ``steps`` in order (after ``frame``, the last frame accepted), each with its right point held
+    to the left point's epipolar curve, while their ray RMS stays below the jump, the right point within
+    ``max_epipolar_px`` of the curve and the held point inside the right image (``shape``); (the last frame
+    accepted, why) where one stops the track, None when all are accepted."""
     if not steps:
         return None
-    rms_values = _ray_rms_many(rig, np.array([s.left for s in steps]), np.array([s.right for s in steps]))
-    for step, rms in zip(steps, rms_values.tolist(), strict=True):
+    traced = (trace(rig.left, np.array([s.left for s in steps])), trace(rig.right, np.array([s.right for s in steps])))
+    met = intersect_traced(traced)
+    rms_values = np.where(met.ok, np.sqrt(np.mean(met.residuals_m ** 2, axis=1)), np.inf)
+    holds = _hold_many(rig, traced[0], traced[1].pixels, met.points, met.ok, depths)
+    margin = settings.window / 2 + 1
+    for step, rms, hold in zip(steps, rms_values.tolist(), holds, strict=True):
         # (at or below min_rms_m no median can stop it: the median is looked at above it only)
         if rms > settings.min_rms_m and rms > settings.rms_jump * float(np.median(rms_history)):
             return frame, RMS
-        if step.leaves:
+        if hold is None:  # the stretch did not decide: the whole curve does
+            hold = _hold(rig, step.left, step.right, depths, None)
+        if hold is None or hold[1] > settings.max_epipolar_px:
+            return frame, RMS
+        if not _inside(hold[0], shape, margin):
             return frame, LEAVES
         rms_history.append(rms)
-        rows[step.frame] = (step.left, step.held, step.scores, rms)
+        rows[step.frame] = (step.left, hold[0], step.scores, rms)
         frame = step.frame
     return None
 
@@ -503,14 +560,19 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
             near, far) -> tuple[int, str]:
     """One direction of :func:`track_vertex`: (the last frame tracked, why it stopped).
 
-    The positions do not depend on the ray RMS (it only stops the track), so it is computed for
-    :data:`RMS_BATCH` frames at once and those frames are accepted in order after it: the same track and
+    The flow follows each camera's point on its own (the right one is not moved to the curve between
+    frames: the refinement against the start frame keeps it from drifting), so the hold to the epipolar
+    curve and the ray RMS, which only place the right point and stop the track, are computed for
+    :data:`RMS_BATCH` frames at once and those frames are accepted in order after them: the same track and
     the same stop as frame by frame (a stop found in a batch drops the frames followed after it)."""
     margin = settings.window / 2 + 1
     size = int(settings.window)
-    previous, point_l, point_r, frame = greys, left, right, start
+    point_l, point_r, frame = left, right, start
+    # each point's window on the frame it is on: the next step's correlation compares the window it finds with
+    # this one (the point followed is the one found, so a step's windows serve as the next step's)
+    windows = (_window(greys[0], left, size), _window(greys[1], right, size))
     half = _reach(settings) + SLACK
-    depths, around = np.geomspace(near, far, CURVE_SAMPLES), None  # (the depth sample held last)
+    depths = np.geomspace(near, far, CURVE_SAMPLES)
     hoods = tuple(_neighbourhood(grey, _centre(point), half, settings.levels)
                   for grey, point in zip(greys, (left, right), strict=True))
     accepted = start  # the last frame whose ray RMS is known and accepted
@@ -519,11 +581,11 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
 
     def stop(why: str, last: int) -> tuple[int, str]:
         """The earlier stop among the frames not yet accepted, else ``why`` at ``last``."""
-        return _settle(rig, steps, accepted, rms_history, rows, settings) or (last, why)
+        return _settle(rig, steps, accepted, rms_history, rows, settings, depths, greys[1].shape) or (last, why)
 
     while frame != end:
         if len(steps) >= RMS_BATCH:
-            stopped = _settle(rig, steps, accepted, rms_history, rows, settings)
+            stopped = _settle(rig, steps, accepted, rms_history, rows, settings, depths, greys[1].shape)
             if stopped is not None:
                 return stopped
             steps, accepted = [], frame
@@ -548,21 +610,12 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
                 return stop(LEAVES, frame)
         if new_l is None or new_r is None or fb_l > settings.max_fb_px or fb_r > settings.max_fb_px:
             return stop(LOST, frame)
-        score_l = _ncc(_window(previous[0], point_l, size), _window(current[0], new_l, size))
-        score_r = _ncc(_window(previous[1], point_r, size), _window(current[1], new_r, size))
+        ahead = (_window(current[0], new_l, size), _window(current[1], new_r, size))
+        score_l, score_r = _ncc(windows[0], ahead[0]), _ncc(windows[1], ahead[1])
         if min(score_l, score_r) < settings.min_score:
             return stop(LOW, frame)
-        found = _hold(rig, new_l, new_r, depths, around)
-        if found is None:
-            return stop(RMS, frame)
-        held, off, around = found
-        if off > settings.max_epipolar_px:
-            return stop(RMS, frame)
-        steps.append(_Step(following, new_l, new_r, held, (score_l, score_r),
-                           not _inside(held, current[1].shape, margin)))
-        if steps[-1].leaves:
-            return stop(LEAVES, frame)  # unless this frame's own ray RMS stops the track first
-        previous, point_l, point_r, frame = current, new_l, held, following
+        steps.append(_Step(following, new_l, new_r, (score_l, score_r)))
+        windows, point_l, point_r, frame = ahead, new_l, new_r, following
         hoods = tuple(after if max(abs(point[0] - after.centre[0]), abs(point[1] - after.centre[1])) <= SLACK
                       else _neighbourhood(grey, _centre(point), half, settings.levels)
                       for after, grey, point in zip((after_l, after_r), current, (point_l, point_r), strict=True))
