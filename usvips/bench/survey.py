@@ -21,8 +21,8 @@ the CPU ratio is also the wall ratio's bound on a quiet machine, where the decod
 cores idle for the tracker to fill); ``wall_ratio_met`` says the same of the best wall times.
 The cameras of those runs are in air; ``flat_port_cpu_s``/``flat_port_cpu_ratio``/``flat_port_ratio_met``
 give the same forward track with the cameras behind flat ports (:data:`FLAT_PORT`), as an underwater rig
-has them: the frames are the same, but the hold to each frame's epipolar curve traces it through the port
-(``flat_port_frames_tracked`` says the track went as far).
+has them: the frames are the same, but the hold to the epipolar curve traces it through the port (a batch of
+frames' stretches of curve at a time; ``flat_port_frames_tracked`` says the track went as far).
 ``load_1min`` is the machine's load average when the row started (the machine is shared).
 
 The QA row times :func:`usvips.app.quality.check` over objects whose figures are already computed (the
