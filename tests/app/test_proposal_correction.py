@@ -102,3 +102,35 @@ def test_a_first_correction_whose_rays_do_not_meet_yet_is_stored_without_points_
     vertices = corrected_vertices(stored, 1, "left", (fork.xr - 150.0, fork.yr), geometry, "ben")
     assert (vertices[1].xl, vertices[1].source) == (fork.xr - 150.0, "hand click (fork, by ben)")
     assert all(v.xyz is None and v.covariance is None and v.calibration_id is None for v in vertices)
+
+
+def test_a_moved_keypoint_takes_the_reviewers_hand_click_estimate_in_use(stored_refined):
+    """A dragged keypoint is the reviewer's click: its σ is the project's hand-click estimate in use for them
+    (their own, else anyone's), as their other clicks take — not the 0.5 px default while an estimate is in
+    use — and the stored 3-D points are measured with it."""
+    from usvips.app.pointing_settings import add_estimate
+    from usvips.app.proposal_correction import hand_click_sigma
+    from usvips.core.pointing_estimates import from_pointing_test
+
+    project, stored, truth, _ = stored_refined
+    geometry = pair_geometry(project, "dive")
+    assert hand_click_sigma(project, "ben") == HAND_CLICK_SIGMA_PX
+    rng = np.random.default_rng(3)
+    clicks = rng.uniform(0, 900, (40, 2))
+    bens = from_pointing_test(clicks + rng.normal(0, 1.6, clicks.shape), clicks)
+    anyones = from_pointing_test(clicks + rng.normal(0, 0.9, clicks.shape), clicks)
+    add_estimate(project, bens, "ben")
+    add_estimate(project, anyones, "")
+    assert hand_click_sigma(project, "ben") == pytest.approx(bens.sigma_px)
+    assert hand_click_sigma(project, "ana") == pytest.approx(anyones.sigma_px)
+    assert abs(bens.sigma_px - HAND_CLICK_SIGMA_PX) > 0.5
+    fork = stored.vertices[1]
+    moved = corrected_vertices(stored, 1, "right", (fork.xr + 0.8, fork.yr), geometry, "ben",
+                               hand_click_sigma(project, "ben"))
+    assert moved[1].pointing_px == (fork.pointing_px[0], pytest.approx(bens.sigma_px))
+    default = corrected_vertices(stored, 1, "right", (fork.xr + 0.8, fork.yr), geometry, "ben")
+    assert default[1].pointing_px == (fork.pointing_px[0], HAND_CLICK_SIGMA_PX)
+    # a larger click σ widens the stored point's covariance
+    assert np.trace(moved[1].covariance) > np.trace(default[1].covariance)
+    with pytest.raises(UsvipsError, match="click_sigma_px"):
+        corrected_vertices(stored, 1, "right", (fork.xr, fork.yr), geometry, "ben", 0.0)

@@ -108,6 +108,31 @@ def test_dragging_a_keypoint_corrects_it_as_one_undoable_edit_measured_again(wor
                                                      before.vertices[1].source)
 
 
+def test_a_dragged_keypoint_takes_the_reviewers_hand_click_estimate_in_use(workspace):
+    from usvips.app.pointing_settings import add_estimate
+    from usvips.core.pointing_estimates import from_pointing_test
+    from usvips.gui.proposal_marks import correct_keypoint
+    from usvips.store.annotator import annotating_as
+
+    ws, model = workspace
+    ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
+    session = DetectSession(ws)
+    session.choose_model(str(model))
+    run = session.job(session.plan())(lambda f: None, lambda: False)
+    session.store(run)
+    rng = np.random.default_rng(5)
+    clicks = rng.uniform(0, 900, (40, 2))
+    estimate = from_pointing_test(clicks + rng.normal(0, 1.4, clicks.shape), clicks)
+    add_estimate(ws.project, estimate, "ana")
+    object_id = run.proposals[0].object_id
+    before = ws.stored_object(object_id).vertices[0]
+    with annotating_as("ana"):
+        correct_keypoint(ws, object_id, 0, "left", (before.xl - 1.0, before.yl + 0.5))
+    snout = ws.project.object(object_id).vertices[0]
+    assert snout.source == "hand click (snout, by ana)"
+    assert snout.pointing_px[0] == pytest.approx(estimate.sigma_px) and snout.pointing_px[1] == before.pointing_px[1]
+
+
 def test_the_model_is_loaded_once_however_its_path_is_spelt_and_the_project_remembers_it(workspace):
     ws, model = workspace
     session = DetectSession(ws)

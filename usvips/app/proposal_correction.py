@@ -2,7 +2,8 @@
 to where the reviewer put it, and the object measured again (:func:`corrected_vertices`; the window's drag,
 :func:`usvips.gui.proposal_marks.correct_keypoint`, stores it as one undoable edit).
 
-The moved point is the reviewer's hand click (its pointing σ the hand-click default,
+The moved point is the reviewer's hand click (its pointing σ the project's hand-click estimate in use for the
+reviewer, :func:`hand_click_sigma`, as their other clicks take; without one the hand-click default,
 :data:`usvips.core.pointing.HAND_CLICK_SIGMA_PX`); every other point keeps the model's σ stored with the
 proposal — for a proposal stored without a length too, which keeps the σ it would have been measured with
 (:func:`usvips.app.detection_service.proposal_vertices`). The moved vertex's source becomes the hand click,
@@ -19,17 +20,30 @@ from dataclasses import replace
 
 import numpy as np
 
+from usvips.app.pointing_settings import pointing_in_use, resolve
 from usvips.core.errors import DegenerateGeometryError, UsvipsError
 from usvips.core.measurements import measure_picks
 from usvips.core.pointing import HAND_CLICK_SIGMA_PX, Source, vertex_correlation
+from usvips.core.validation import positive
+from usvips.store.interface import ProjectStore
 from usvips.store.records import StoredObject, Vertex
 
 
+def hand_click_sigma(project: ProjectStore, annotator: str) -> float:
+    """The pointing σ (px, one image coordinate) a click of ``annotator`` takes in ``project``: the hand-click
+    estimate in use for them, else anyone's (:mod:`usvips.app.pointing_settings`), else the hand-click
+    default. A moved keypoint stores it: the vertex keeps the model's σ on its other side, so the figure path
+    cannot apply the estimate to the moved side later."""
+    found = resolve(pointing_in_use(project), "hand click", annotator)
+    return HAND_CLICK_SIGMA_PX if found is None else float(found.value_px)
+
+
 def corrected_vertices(stored: StoredObject, index: int, side: str, pixel: tuple[float, float], geometry,
-                       annotator: str) -> list[Vertex]:
+                       annotator: str, click_sigma_px: float = HAND_CLICK_SIGMA_PX) -> list[Vertex]:
     """The vertices of a proposal with vertex ``index``'s ``side`` ("left" or "right") point moved to
     ``pixel`` (image px) by a reviewer ``annotator``: that vertex's source becomes the reviewer's hand click
-    (its pointing σ on the moved side the hand-click default, the other side's kept) and the object is
+    (its pointing σ on the moved side ``click_sigma_px``, the reviewer's :func:`hand_click_sigma`; the other
+    side's kept) and the object is
     measured again with its pair's calibration (``geometry``: a :class:`usvips.app.pair_geometry.PairGeometry`;
     None, or a vertex without a pointing σ, leaves the 3-D points out; so do picks whose rays do not meet in
     front of the cameras — another keypoint still wrong, as when the first of a refused pair's keypoints is
@@ -43,9 +57,10 @@ def corrected_vertices(stored: StoredObject, index: int, side: str, pixel: tuple
     x, y = float(pixel[0]), float(pixel[1])
     point = old.source.split("(", 1)[1].split(",", 1)[0].strip() if "(" in old.source else ""
     label = Source("hand click", point if point in ("snout", "fork") else "", annotator).label
+    click = positive("click_sigma_px", click_sigma_px)
     sigma = old.pointing_px
     if sigma is not None:
-        sigma = (HAND_CLICK_SIGMA_PX, sigma[1]) if side == "left" else (sigma[0], HAND_CLICK_SIGMA_PX)
+        sigma = (click, sigma[1]) if side == "left" else (sigma[0], click)
     moved = replace(old, **({"xl": x, "yl": y} if side == "left" else {"xr": x, "yr": y}), source=label,
                     pointing_px=sigma)
     vertices[index] = moved

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from usvips.app.proposal_correction import corrected_vertices
+from usvips.app.proposal_correction import corrected_vertices, hand_click_sigma
 from usvips.app.proposals import is_proposal
 from usvips.gui.workspace import Workspace
 from usvips.store.annotator import current_annotator
@@ -53,8 +53,9 @@ def correct_keypoint(workspace: Workspace, object_id: int, index: int, side: str
     """Move a proposal's keypoint (vertex ``index``, in the ``side`` image) to ``pixel`` as one undoable
     edit (the object returns to unreviewed until accepted again)."""
     stored = workspace.stored_object(object_id)
-    vertices = corrected_vertices(stored, index, side, pixel, workspace.geometry, current_annotator())
-    project = workspace.project
+    project, annotator = workspace.project, current_annotator()
+    vertices = corrected_vertices(stored, index, side, pixel, workspace.geometry, annotator,
+                                  hand_click_sigma(project, annotator))
     name = "snout" if index == 0 else "fork" if index == len(vertices) - 1 else f"vertex {index + 1}"
     workspace.edit_stored(f"correct the {side} {name} of object {object_id}", object_id,
                           lambda version: project.update_object(object_id, vertices=vertices,
