@@ -29,6 +29,29 @@ def test_reviewers_corrections_measure_the_models_keypoint_sigma(tmp_path):
     assert table.startswith("[keypoint_sigma]") and '"snout" = ' in table
 
 
+def test_the_reviews_of_a_model_with_a_frame_correlation_are_all_found(tmp_path):
+    """A measured proposal of a model that states a frame correlation stores it in its vertices' source
+    (``, frame correlation ρ``): its accepted proposals are the model's all the same."""
+    from dataclasses import replace
+
+    from tests.app.detection_scenes import FakeDetector, description
+    from usvips.app.detection_model import DetectionModel
+
+    def correlated(truth):
+        return DetectionModel("fake-fish", "ab" * 32, replace(description(1.0), frame_correlation=0.3),
+                              lambda: FakeDetector(truth))
+
+    rng = np.random.default_rng(36)
+    path = make_project(tmp_path)
+    with Project.open(path) as project:
+        ids = _reviewed_rounds(project, correlated, rng, 6, 200, 2.0, right_noisy=False)
+        model = correlated(scene(seed=0))
+        first = project.history(ids[0][0])[0].new["vertices"][0]["source"]
+        assert "frame correlation" in first  # stored measured, with the correlation
+        proposed, reviewed = review_corrections(project, model)
+        assert len(proposed) == len(project.reviews("accepted")) == len(ids) >= 10
+
+
 def _reviewed_rounds(project, model_of, rng, rounds, seed, model_sigma, reviewer_sigma=0.5, right_noisy=True):
     """``rounds`` detections on the pair, the model's keypoints off the truth by ``model_sigma`` px in the
     left image (and the right one, ``right_noisy``); each proposal's left keypoints re-picked onto the truth

@@ -21,8 +21,12 @@ from usvips.store.interface import ProjectStore
 
 def review_corrections(project: ProjectStore, model: DetectionModel) -> tuple[np.ndarray, np.ndarray]:
     """(proposed, reviewed) left keypoints (n, 2, 2) px — snout and fork — of the accepted proposals of
-    ``model`` in ``project`` (their right keypoints refined along the left's curve or not)."""
-    labels = [{source_label(point, model), source_label(point, model, right_follows=True)} for point in KEYPOINTS]
+    ``model`` in ``project`` (their right keypoints refined along the left's curve or not, stored with a
+    length or without)."""
+    # every source the service stores a keypoint of the model under: its right point refined or not, measured
+    # or not (a measured proposal of a model with a frame correlation says so in its source)
+    labels = [{source_label(point, model, follows, measured) for follows in (False, True) for measured in (False, True)}
+              for point in KEYPOINTS]
     accepted = {r.object_id for r in project.reviews("accepted")}
     proposed, reviewed = [], []
     for stored in project.objects_with_ids(sorted(accepted)):
