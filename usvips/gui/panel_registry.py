@@ -34,8 +34,10 @@ class Panel:
     ``factory(context)`` → the panel's widget, ``group`` (panels of one area and group are tabbed
     together; the first in ``order`` is in front), ``order`` (docks are added, tabbed and listed in this
     order), ``size`` (pixels across its area at first start: width for left/right, height for
-    top/bottom; None: as the panel asks), ``at_start`` (made with the window, not when its dock is first
-    shown: a panel that must hear everything from the start, such as the log)."""
+    top/bottom; None: as the panel asks), ``length`` (pixels along its area at first start, where docks
+    share it: height for left/right, width for top/bottom; None: an even share), ``at_start`` (made with
+    the window, not when its dock is first shown: a panel that must hear everything from the start, such as
+    the log)."""
 
     id: str
     title: str
@@ -44,6 +46,7 @@ class Panel:
     group: str = ""
     order: int = 100
     size: int | None = None
+    length: int | None = None
     at_start: bool = False
 
     def __post_init__(self) -> None:

@@ -395,3 +395,28 @@ def test_the_object_list_changes_an_objects_kind_with_the_mouse(qtbot, make_wind
     qtbot.mouseClick(window.object_list.set_kind_button, QtCore.Qt.MouseButton.LeftButton)
     assert window.workspace.project.object(stored.id).kind == "polygon"
     assert "polygon" in window.object_list.text(0, "type")
+
+
+def test_at_first_start_the_right_hand_panels_fit_without_scrolling_beside_the_object_list(qtbot, tmp_path):
+    """A first start (no saved layout) on a 1600 × 1000 window: the right-hand column runs the window's full
+    height beside the object list, the Enhancement panel shows its steps and histogram without a scroll bar
+    and the object list keeps its buttons in view."""
+    from PySide6 import QtCore as Core
+
+    from usvips.gui.qt.main_window import MainWindow
+
+    settings = Core.QSettings(str(tmp_path / "settings.ini"), Core.QSettings.Format.IniFormat)
+    window = MainWindow(settings=settings)
+    qtbot.addWidget(window)
+    window.resize(1600, 1000)
+    window.show()
+    qtbot.waitExposed(window)
+    qtbot.waitUntil(lambda: "enhancement" in window.panels.built(), timeout=5000)
+    qtbot.wait(50)
+    assert window.corner(Core.Qt.Corner.BottomRightCorner) == Core.Qt.DockWidgetArea.RightDockWidgetArea
+    enhancement, objects = window.docks["enhancement"], window.docks["objects"]
+    assert not enhancement.widget().verticalScrollBar().isVisible()
+    assert not enhancement.widget().horizontalScrollBar().isVisible()
+    assert objects.geometry().right() < enhancement.geometry().left()       # the list beside the column
+    assert not objects.widget().verticalScrollBar().isVisible()
+    window.close()

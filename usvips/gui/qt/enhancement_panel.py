@@ -174,4 +174,5 @@ class EnhancementPanel(QtWidgets.QWidget):
 
 #: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
 PANEL = register(Panel("enhancement", "Enhancement", "right", lambda context: EnhancementPanel(context.workspace),
-                     group="enhancement", order=10, size=330))
+                     group="enhancement", order=10, size=330,
+                     length=400))  # (its steps, parameters, buttons and histogram without a scroll bar)

@@ -198,6 +198,9 @@ class MainWindow(QtWidgets.QMainWindow):
         context when the dock is first shown or the panel is first asked for (:meth:`panel`), except the
         panels declared ``at_start``."""
         ws = self.workspace
+        # the right-hand panels run the window's full height beside the bottom ones (the object list sits under
+        # the image panes): stacked in a column, each gets room without squeezing the list
+        self.setCorner(QtCore.Qt.Corner.BottomRightCorner, QtCore.Qt.DockWidgetArea.RightDockWidgetArea)
         self._declared = {panel.id: panel for panel in panel_registry.panels()}
         #: the panels' widgets by panel id, each made when first read (usvips.gui.lazy_panels)
         self.panels = LazyPanels(self._declared, self._make_panel)
@@ -211,19 +214,27 @@ class MainWindow(QtWidgets.QMainWindow):
             dock = self.docks[panel.id] = self._dock(panel.title, None, DOCK_AREAS[panel.area])
             dock.visibilityChanged.connect(lambda visible, panel_id=panel.id: self._on_dock_shown(panel_id, visible))
             groups.setdefault((panel.area, panel.group), []).append(dock)
-            if panel.size is not None:
-                across = panel.area in ("left", "right")
-                self.resizeDocks([dock], [panel.size], QtCore.Qt.Orientation.Horizontal if across
-                                 else QtCore.Qt.Orientation.Vertical)
         for tabbed in groups.values():
             for first, second in zip(tabbed, tabbed[1:], strict=False):
                 self.tabifyDockWidget(first, second)
             tabbed[0].raise_()
+        self._size_docks()
         for panel in self._declared.values():
             if panel.at_start:
                 self.panel(panel.id)
         ws.object_requested.connect(self._on_object_requested)  # an object on an image pair: that pair, centred
         ws.stored.connect(self._on_stored)
+
+    def _size_docks(self) -> None:
+        """The docks at the sizes their panels ask for at first start (:class:`usvips.gui.panel_registry.Panel`'s
+        ``size`` across their area and ``length`` along it); a saved layout restored later replaces them."""
+        horizontal, vertical = QtCore.Qt.Orientation.Horizontal, QtCore.Qt.Orientation.Vertical
+        for panel in self._declared.values():
+            across = panel.area in ("left", "right")
+            if panel.size is not None:
+                self.resizeDocks([self.docks[panel.id]], [panel.size], horizontal if across else vertical)
+            if panel.length is not None:
+                self.resizeDocks([self.docks[panel.id]], [panel.length], vertical if across else horizontal)
 
     def panel(self, panel_id: str) -> QtWidgets.QWidget:
         """The panel ``panel_id``'s widget, made now if it has not been (commands, controllers and tests
@@ -494,6 +505,7 @@ class MainWindow(QtWidgets.QMainWindow):
             available = self.screen().availableGeometry()
             self.resize(int(available.width() * 0.9), int(available.height() * 0.9))
             self.move(available.center() - self.rect().center())
+            self._size_docks()  # again at the window's own size (the first were asked of a window not yet sized)
         state = self.settings.value("window/state")
         if state is not None:
             self.restoreState(state)
