@@ -443,13 +443,16 @@ class ObjectList(QtWidgets.QWidget):
     def _widen_to(self, rows: Iterable[int], shrink: bool) -> None:
         """Each column (but the last, which stretches) as wide as its title and the texts of ``rows``; with
         ``shrink`` False never narrower than it is."""
-        rows = list(rows)
-        if not rows:
+        ids = [self.model.object_id(r) for r in rows]
+        if not ids:
             return
+        cache = self.workspace.cache
+        # each row's cells made once (a row whose figures are not known yet — one just stored — keeps no texts:
+        # asked cell by cell, its whole row was made again for each of its 11 cells)
+        rows_texts = [self.model.texts(i) if i in cache else ("",) * len(self.COLUMNS) for i in ids]
         metrics, header = self.table.fontMetrics(), self.table.horizontalHeader()
         for column in range(len(self.COLUMNS) - 1):
-            texts = [self.model.index(r, column).data() or "" for r in rows]
-            widest = max([metrics.horizontalAdvance(t) for t in texts], default=0)
+            widest = max([metrics.horizontalAdvance(texts[column]) for texts in rows_texts], default=0)
             title = header.fontMetrics().horizontalAdvance(self.COLUMNS[column].capitalize())
             width = max(widest, title) + 16
             if shrink or width > self.table.columnWidth(column):
