@@ -222,3 +222,25 @@ def test_objects_stored_together_widen_the_columns_making_each_rows_cells_once(q
     assert listing.table.columnWidth(column) >= listing.table.fontMetrics().horizontalAdvance("a long attribute " * 6)
     listing.cleanup()
     ws.close_project()
+
+
+def test_a_sort_by_figure_asks_for_each_figure_once_and_the_rules_once(qtbot, tmp_path, monkeypatch):
+    """Arranging a survey's rows by the figure asks the cache for the rules once, not once a row (a sort of
+    20,000 objects did 20,000 times, on the window's thread), and keeps the order: by value, then id, the
+    objects without a figure last in the stored order."""
+    ws = Workspace()
+    ws.open_project(Project.open(survey_project(tmp_path / "survey", 40, seed=3)))
+    listing = _shown_list(qtbot, ws)
+    unknown = ws.cache.ids()[::7]
+    for object_id in unknown:
+        ws.cache._figures.pop(object_id, None)
+    asked = []
+    rules = ws.cache._rules
+    monkeypatch.setattr(ws.cache, "_rules", lambda: asked.append(True) or rules())
+    listing.model.sort(ObjectList.COLUMNS.index("figure"), QtCore.Qt.SortOrder.DescendingOrder)
+    assert len(asked) == 1
+    ids = listing.model.ids()
+    valued = [(ws.cache.known_figures(i).figures[0].value, i) for i in ids[:len(ids) - len(unknown)]]
+    assert valued == sorted(valued, reverse=True) and ids[len(valued):] == unknown
+    listing.cleanup()
+    ws.close_project()

@@ -218,7 +218,8 @@ class ObjectList(QtWidgets.QWidget):
             self._complete_figures("filtering")
 
     def _complete_figures(self, why: str) -> None:
-        missing = [i for i in self.workspace.cache.ids() if self.workspace.cache.known_figures(i) is None]
+        missing = [i for i, known in self.workspace.cache.figures_known(self.workspace.cache.ids()).items()
+                   if known is None]
         if not missing:
             return
         self._completing = why
@@ -345,7 +346,7 @@ class ObjectList(QtWidgets.QWidget):
         the job for each slice copied the inputs of every slice before it again on the window's thread; an id
         of the running job changed meanwhile is computed again after it, :meth:`_on_figures`)."""
         cache = self.workspace.cache
-        missing = [i for i in ids if i in cache and self.workspace.cache.known_figures(i) is None]
+        missing = [i for i, known in cache.figures_known(i for i in ids if i in cache).items() if known is None]
         running = self._worker is not None and not self._worker.is_cancelled
         pending, waiting = (set(self._pending), set(self._queue)) if running else (set(), set())
         if 0 < len(missing) <= self.SYNCHRONOUS and not set(missing) & (pending | waiting):
