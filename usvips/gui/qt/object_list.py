@@ -226,7 +226,7 @@ class ObjectList(QtWidgets.QWidget):
         if len(missing) > self.SYNCHRONOUS:
             self.workspace.message.emit("info", f"{why}: computing the figures of {len(missing):,} objects first "
                                                 "(the rows are arranged again when they are in)")
-        self._compute(missing)
+        self._compute(missing, checked=True)
         if self._worker is None:  # computed at once
             self._completed()
 
@@ -337,16 +337,18 @@ class ObjectList(QtWidgets.QWidget):
         wanted = [i for i in sorted(self.model.requested) if i in self.workspace.cache]
         self._compute(wanted)
 
-    def _compute(self, ids: list[int], queue: bool = False) -> None:
+    def _compute(self, ids: list[int], queue: bool = False, checked: bool = False) -> None:
         """Figures of ``ids`` not yet known: at once for a few, else in workers of :data:`JOB_OBJECTS` objects
         at a time, ``ids`` first. A job replaced by a newer one hands on the ids still wanted — all of them
         while a sort or filter waits for every figure or in a small list, else only the rows drawn (a fast
         scroll through a survey asked for every page it passed). With ``queue`` (objects stored or changed) a
         running job is not replaced: ``ids`` wait next in line (a run's proposals come a slice a turn; replacing
         the job for each slice copied the inputs of every slice before it again on the window's thread; an id
-        of the running job changed meanwhile is computed again after it, :meth:`_on_figures`)."""
+        of the running job changed meanwhile is computed again after it, :meth:`_on_figures`). ``checked``:
+        ``ids`` are held objects whose figures are not known, just looked at (a sort's 20,000: not again)."""
         cache = self.workspace.cache
-        missing = [i for i, known in cache.figures_known(i for i in ids if i in cache).items() if known is None]
+        missing = ids if checked else [i for i, known in cache.figures_known(i for i in ids if i in cache).items()
+                                       if known is None]
         running = self._worker is not None and not self._worker.is_cancelled
         pending, waiting = (set(self._pending), set(self._queue)) if running else (set(), set())
         if 0 < len(missing) <= self.SYNCHRONOUS and not set(missing) & (pending | waiting):
