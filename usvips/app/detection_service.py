@@ -31,7 +31,7 @@ instants of one object (:mod:`usvips.app.detection_tracks`): the survey counts t
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -39,7 +39,7 @@ import cv2
 import numpy as np
 
 from usvips.app.detection_model import DetectionModel
-from usvips.app.detection_tracks import JoinedFish, StoredSighting, join_sightings
+from usvips.app.detection_tracks import JoinedFish, StoredSighting, fish_links, fish_of, link_instants
 from usvips.app.pair_geometry import PairGeometry, pair_geometry
 from usvips.app.video_project import left_frame_time, partner_frame
 from usvips.core import validation
@@ -71,6 +71,10 @@ MAX_UNMATCHED_LENGTH_RATIO = 1.5
 #: σ was conservative — NEES 0.43 (404 lengths) for a reviewer who moves each keypoint more than 2 px off —
 #: outside 0.7–1.5, since the keypoints the reviewer left are better than the model's σ says
 STORE_UNMEASURED_SIGMA = False
+#: proposals stored (or instants linked) in one step of :func:`storing_proposals`: the window stores a run a
+#: step a turn of its event loop (each proposal ~0.3 ms, each instant ~0.6 ms on its thread: issue 35 asks
+#: for no freeze over 0.1 s, and a run over many frames finds hundreds)
+STORE_STEP = 10
 
 
 @dataclass(frozen=True)
@@ -550,38 +554,80 @@ def store_proposals(project: ProjectStore, run: DetectionRun,
     one not already there (see the module docstring: a duplicate is reported, never stored); fills in each
     proposal's ``object_id`` or ``duplicate_of``. On a video, the stored proposals of one fish on successive
     frames are then joined as instants of one object (``max_speed_m_s``: the fastest a fish is taken to
-    swim, :mod:`usvips.app.detection_tracks`), filling in ``instant_of`` and the run's ``joined``."""
+    swim, :mod:`usvips.app.detection_tracks`; one more transaction), filling in ``instant_of`` and the run's
+    ``joined``. (:func:`storing_proposals` with every proposal in one step.)"""
+    for _ in storing_proposals(project, run, max_speed_m_s, per_step=max(len(run.proposals), 1)):
+        pass
+    return run
+
+
+@dataclass(frozen=True)
+class StoringStep:
+    """What one step of :func:`storing_proposals` stored: the objects it ``added`` (proposals), or the
+    ``links`` it made, each (further instant, the object it is an instant of)."""
+
+    added: tuple[int, ...] = ()
+    links: tuple[tuple[int, int], ...] = ()
+
+    @property
+    def changed(self) -> tuple[int, ...]:
+        """The stored objects the links changed (each instant and its object), by id."""
+        return tuple(sorted({i for link in self.links for i in link}))
+
+
+def storing_proposals(project: ProjectStore, run: DetectionRun, max_speed_m_s: float = DEFAULT_MAX_SPEED_M_S,
+                      per_step: int = STORE_STEP) -> Iterator[StoringStep]:
+    """:func:`store_proposals` a slice at a time, for a caller that must answer between slices (the window's
+    thread, the project's): each step — one ``next`` — stores at most ``per_step`` proposals (one transaction),
+    then each further step links at most ``per_step`` instants of the fish joined (one transaction), and yields
+    what it stored (a window tells its views of it before the next turn of its event loop: else its feed of
+    colleagues' changes would take them for a colleague's). Once exhausted, the run is as
+    :func:`store_proposals` leaves it (the same objects, duplicates and instants); stopped part-way, the
+    slices done are stored and the rest are not."""
     max_speed_m_s = validation.positive("max_speed", max_speed_m_s)
+    per_step = validation.count("per_step", per_step, 1, 10**9)
     plan, model = run.plan, run.model
     existing = [o for o in project.objects() if o.vertices and o.vertices[0].pair == plan.label]
     times = run.times if run.times is not None else _times(plan, sorted({p.frame for p in run.proposals
                                                                          if p.frame is not None}))
-    rows, where = [], []
-    for i, proposal in enumerate(run.proposals):
-        twin = next((o for o in existing if _on(o, plan.label, proposal.frame) and _same_fish(proposal, o)), None)
-        if twin is not None:
-            run.proposals[i] = _with(proposal, duplicate_of=twin.id)
-            continue
-        rows.append(("length", proposal_vertices(proposal, plan, model, times), "", proposal_note(proposal, model),
-                     f"model {model.name}"))
-        where.append(i)
-    if rows:
-        with project.transaction():
-            ids = project.add_objects(rows)
-        for i, object_id in zip(where, ids, strict=True):
-            run.proposals[i] = _with(run.proposals[i], object_id=object_id)
+    for begin in range(0, len(run.proposals), per_step):
+        rows, where = [], []
+        for i in range(begin, min(begin + per_step, len(run.proposals))):
+            proposal = run.proposals[i]
+            twin = next((o for o in existing if _on(o, plan.label, proposal.frame) and _same_fish(proposal, o)), None)
+            if twin is not None:
+                run.proposals[i] = _with(proposal, duplicate_of=twin.id)
+                continue
+            rows.append(("length", proposal_vertices(proposal, plan, model, times), "",
+                         proposal_note(proposal, model), f"model {model.name}"))
+            where.append(i)
+        if rows:
+            ids = project.add_objects(rows)  # (one transaction)
+            for i, object_id in zip(where, ids, strict=True):
+                run.proposals[i] = _with(run.proposals[i], object_id=object_id)
+        yield StoringStep(added=tuple(run.proposals[i].object_id for i in where))
     if plan.is_video:
-        _join(project, run, times, max_speed_m_s)
-    return run
+        yield from _joining(project, run, times, max_speed_m_s, per_step)
 
 
-def _join(project: ProjectStore, run: DetectionRun, times: dict[int, float], max_speed_m_s: float) -> None:
-    """Join the run's stored, measured proposals into fish (instants of one object each)."""
+def _joining(project: ProjectStore, run: DetectionRun, times: dict[int, float], max_speed_m_s: float,
+             per_step: int) -> Iterator[StoringStep]:
+    """Join the run's stored, measured proposals into fish (instants of one object each), linking at most
+    ``per_step`` instants a step (one transaction each; a fish with more is linked over several)."""
     chosen = [i for i, p in enumerate(run.proposals) if p.object_id is not None and p.measurement is not None]
     stored = [StoredSighting(run.proposals[i].object_id, run.proposals[i].frame, times[run.proposals[i].frame],
                              run.proposals[i].measurement) for i in chosen]
-    run.joined = join_sightings(project, stored, run.plan.frames[:run.frames_done], max_speed_m_s)
-    whole_of = {instant: whole for whole, rest in run.joined.fish for instant in rest}
+    found = fish_of(stored, run.plan.frames[:run.frames_done], max_speed_m_s)
+    links = fish_links(stored, found)
+    pairs = [(whole, instant) for whole, rest in links for instant in rest]
+    for begin in range(0, len(pairs), per_step):
+        step: dict[int, list[int]] = {}
+        for whole, instant in pairs[begin:begin + per_step]:
+            step.setdefault(whole, []).append(instant)
+        link_instants(project, list(step.items()))
+        yield StoringStep(links=tuple((instant, whole) for whole, instant in pairs[begin:begin + per_step]))
+    run.joined = JoinedFish(tuple(links), found.ambiguous, float(max_speed_m_s))
+    whole_of = {instant: whole for whole, rest in links for instant in rest}
     for i in chosen:
         whole = whole_of.get(run.proposals[i].object_id)
         if whole is not None:

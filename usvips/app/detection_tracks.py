@@ -67,13 +67,32 @@ def join_sightings(project: ProjectStore, stored: Sequence[StoredSighting], fram
                    max_speed_m_s: float = DEFAULT_MAX_SPEED_M_S) -> JoinedFish:
     """Join ``stored`` (proposals of one run on one video, ``frames`` the left frames looked at in order) into
     fish and link each fish's later sightings as further instants of its first (one transaction)."""
-    found: Association = associate([sighting(s) for s in stored], max_speed_m_s, frames=frames)
-    fish = []
-    if found.joined:
-        with project.transaction():
-            for chain in found.joined:
-                whole, *rest = (stored[i].object_id for i in chain)
-                for instant in rest:
-                    add_instant(project, whole, instant)
-                fish.append((whole, tuple(rest)))
-    return JoinedFish(tuple(fish), found.ambiguous, float(max_speed_m_s))
+    found = fish_of(stored, frames, max_speed_m_s)
+    links = fish_links(stored, found)
+    link_instants(project, links)
+    return JoinedFish(tuple(links), found.ambiguous, float(max_speed_m_s))
+
+
+def fish_of(stored: Sequence[StoredSighting], frames: Sequence[int],
+            max_speed_m_s: float = DEFAULT_MAX_SPEED_M_S) -> Association:
+    """Which of ``stored`` are one fish (:func:`usvips.core.detection.association.associate`; nothing stored)."""
+    return associate([sighting(s) for s in stored], max_speed_m_s, frames=frames)
+
+
+def fish_links(stored: Sequence[StoredSighting], found: Association) -> list[tuple[int, tuple[int, ...]]]:
+    """Each fish of ``found`` as (its first sighting's object id, its later sightings' ids): the links to store."""
+    links = []
+    for chain in found.joined:
+        whole, *rest = (stored[i].object_id for i in chain)
+        links.append((whole, tuple(rest)))
+    return links
+
+
+def link_instants(project: ProjectStore, links: Sequence[tuple[int, Sequence[int]]]) -> None:
+    """Store ``links`` — (object id, the ids to make its further instants) — in one transaction (none: nothing)."""
+    if not any(rest for _, rest in links):
+        return
+    with project.transaction():
+        for whole, rest in links:
+            for instant in rest:
+                add_instant(project, whole, instant)

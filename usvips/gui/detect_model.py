@@ -17,7 +17,7 @@ The model is the one chosen (Detection model…), which becomes the project's de
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from usvips.app.detection_model import (
@@ -28,11 +28,13 @@ from usvips.app.detection_model import (
     project_model_path,
 )
 from usvips.app.detection_service import (
+    STORE_STEP,
     DetectionPlan,
     DetectionRun,
+    StoringStep,
     plan_detection,
     run_detection,
-    store_proposals,
+    storing_proposals,
 )
 from usvips.core.errors import UsvipsError
 from usvips.gui.workspace import Workspace
@@ -111,21 +113,37 @@ class DetectSession:
 
     def store(self, run: DetectionRun) -> list[str]:
         """Store the run's proposals (GUI thread), tell the workspace which objects are new, and return the
-        lines to show: one per proposal and the summary (:meth:`write` then :meth:`show`)."""
+        lines to show: one per proposal and the summary (:meth:`write` then :meth:`lines`)."""
         self.write(run)
-        return self.show(run)
+        return self.lines(run)
 
     def write(self, run: DetectionRun) -> None:
-        """Store the run's proposals in the project (GUI thread: the project's); a :class:`UsvipsError` when
-        the project was closed while the run went on."""
-        if self.workspace.project is None:
-            raise UsvipsError(f"the project was closed: the {len(run.proposals)} proposal(s) found were not stored")
-        store_proposals(self.workspace.project, run)
+        """Store the run's proposals in the project (GUI thread: the project's) and tell the workspace (its views
+        draw them); a :class:`UsvipsError` when the project was closed while the run went on."""
+        for _ in self.writing(run, per_step=max(len(run.proposals), 1)):
+            pass
 
-    def show(self, run: DetectionRun) -> list[str]:
-        """Tell the workspace which of the stored run's objects are new (its views draw them), and return the
-        lines to show: one per proposal and the summary."""
-        added = tuple(p.object_id for p in run.proposals if p.object_id is not None)
-        if added:
-            self.workspace.objects_changed_in_store(added=added)
+    def writing(self, run: DetectionRun, per_step: int = STORE_STEP) -> Iterator[StoringStep]:
+        """:meth:`write` a slice at a time (:func:`usvips.app.detection_service.storing_proposals`), for the
+        window to take a step a turn of its event loop: each step stores at most ``per_step`` proposals or
+        links at most ``per_step`` instants, tells the workspace of them at once (its views — the object list,
+        the panes, the σ circles — take them in the same step; what this window stored but had not told would
+        reach it as a colleague's change) and yields what it stored. A :class:`UsvipsError` when the project
+        was closed while the run went on, or is closed (another opened) between two steps: the steps done are
+        stored, the rest not, and the error says how many were."""
+        project = self.workspace.project
+        if project is None:
+            raise UsvipsError(f"the project was closed: the {len(run.proposals)} proposal(s) found were not stored")
+        for step in storing_proposals(project, run, per_step=per_step):
+            if step.added or step.links:
+                self.workspace.objects_changed_in_store(added=step.added, updated=step.changed)
+            yield step
+            if self.workspace.project is not project:
+                stored = sum(p.object_id is not None for p in run.proposals)
+                raise UsvipsError(f"the project was closed while the run's proposals were being stored: {stored} of "
+                                  f"the {len(run.proposals)} proposal(s) found were stored (unreviewed), the rest not")
+
+    @staticmethod
+    def lines(run: DetectionRun) -> list[str]:
+        """The lines a stored run shows: one per proposal and the summary."""
         return [p.line() for p in run.proposals] + run.summary()

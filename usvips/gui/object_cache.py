@@ -14,7 +14,7 @@ connects once and hears every project's objects.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -251,7 +251,19 @@ class ObjectCache:
     def known_figures(self, object_id: int) -> Result | None:
         """An object's figures when known under the current rules (None: not yet computed)."""
         known = self._figures.get(object_id)
-        return known[1] if known is not None and known[0] == self._rules() else None
+        if known is None:
+            return None
+        rules = self._rules()
+        return known[1] if known[0] is rules or known[0] == rules else None
+
+    def figures_known(self, object_ids: Iterable[int]) -> dict[int, Result | None]:
+        """:meth:`known_figures` of many objects (the rules asked for once: a sort of a survey asks for all)."""
+        rules, figures = self._rules(), self._figures
+        known = {}
+        for object_id in object_ids:
+            held = figures.get(object_id)
+            known[object_id] = held[1] if held is not None and (held[0] is rules or held[0] == rules) else None
+        return known
 
     def input(self, stored, instants: dict[int, list[int]] | None = None) -> MeasurementInput:
         """What the figures of a stored object need, read from the project now (GUI thread); ``instants``:

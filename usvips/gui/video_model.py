@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 import threading
 from collections import OrderedDict
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -260,9 +261,10 @@ def rgb_pair(item: tuple) -> tuple[np.ndarray, np.ndarray, int, float]:
     return left.array(), right.array(), partner, time_s
 
 
-def measured_frames(project: ProjectStore, label: str) -> set[int]:
-    """Left frames of the video that hold vertices of stored objects."""
-    return {v.frame_left for o in project.objects() for v in o.vertices
+def measured_frames(project: ProjectStore, label: str, objects: Iterable | None = None) -> set[int]:
+    """Left frames of the video that hold vertices of stored objects (``objects``: the stored objects as the
+    window holds them already; None: read from ``project``)."""
+    return {v.frame_left for o in (project.objects() if objects is None else objects) for v in o.vertices
             if v.video == label and v.frame_left is not None}
 
 
@@ -356,9 +358,10 @@ class VideoSession:
     def label(self) -> str:
         return self.navigator.label
 
-    def refresh_marks(self) -> set[int]:
-        """Read the measured frames again (objects changed); returns them."""
-        self.navigator.marks = measured_frames(self.project, self.label)
+    def refresh_marks(self, objects: Iterable | None = None) -> set[int]:
+        """The measured frames again (objects changed): of ``objects`` (the window's cache of the stored ones),
+        else read from the project; returns them."""
+        self.navigator.marks = measured_frames(self.project, self.label, objects)
         return self.navigator.marks
 
     def close(self) -> None:

@@ -6,7 +6,7 @@ them (A accepts, F flags, a re-picked vertex corrects a keypoint). Every line of
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Iterator
 from pathlib import Path
 
 from PySide6 import QtCore, QtWidgets
@@ -135,45 +135,42 @@ def _run(context: WindowContext, parent: QtWidgets.QWidget, frames: int, every: 
             session.adopt(run.model, path, remember)
             if remember and context.settings is not None:
                 context.settings.setValue(SETTING, path)
-        shown: list[str] = []
 
-        def say(lines: list[str]) -> None:
-            for line in lines:
-                context.messages.info(line)
-
-        def review() -> None:
-            context.messages.info("; ".join(shown[-2:]))
+        def ending():  # each step a turn of the event loop of its own (see _in_turns)
+            yield from session.writing(run)  # the proposals stored and told to the views, STORE_STEP a turn
+            shown = session.lines(run)
+            body = shown[:-2]
+            for i in range(0, len(body), LINES_PER_TURN):  # the proposals' lines, LINES_PER_TURN a turn
+                for line in body[i:i + LINES_PER_TURN]:
+                    context.messages.info(line)
+                yield
+            context.messages.info("; ".join(shown[-2:]))  # the summary, then review mode
             navigation = context.navigation
             if any(p.object_id is not None for p in run.proposals) and navigation and navigation.show_review:
                 navigation.show_review()
 
-        def lines() -> None:  # the proposals' lines, LINES_PER_TURN a turn, then the summary and review mode
-            body = shown[:-2]
-            steps = [lambda chunk=body[i:i + LINES_PER_TURN]: say(chunk) for i in range(0, len(body), LINES_PER_TURN)]
-            _in_turns([*steps, review], context.messages, parent)
-
         # one step per turn of the event loop, so that the window draws and answers between them (issue 35:
-        # no freeze over 0.1 s): the proposals stored; shown (the views, their σ circles included, redraw
-        # on the workspace's news); their lines; review mode
-        _in_turns([lambda: session.write(run), lambda: shown.extend(session.show(run)), lines], context.messages,
-                  parent)
+        # no freeze over 0.1 s): the proposals stored and shown, a slice a step (the views, their σ circles
+        # included, redraw on the workspace's news); their lines; review mode
+        _in_turns(ending(), context.messages, parent)
 
     context.jobs.run(job, f"Detecting with {name}", done)
 
 
-def _in_turns(steps: list[Callable[[], None]], messages: Messages, owner: QtCore.QObject) -> None:
-    """Call ``steps`` in order, each in a turn of the event loop of its own (the window draws between them);
-    a step that fails with a :class:`UsvipsError` is said as an error and ends the rest. The steps belong to
-    ``owner`` (the window): once it is gone, the rest are not called."""
-    if not steps:
-        return
+def _in_turns(steps: Iterator[object], messages: Messages, owner: QtCore.QObject) -> None:
+    """Advance ``steps`` (a generator doing a step of work up to each ``yield``) once a turn of the event loop
+    (the window draws between them) until it is done; a step that fails with a :class:`UsvipsError` is said as
+    an error and ends the rest. The steps belong to ``owner`` (the window): once it is gone, the rest are not
+    taken."""
 
     def step() -> None:
         try:
-            steps[0]()
+            next(steps)
+        except StopIteration:
+            return
         except UsvipsError as error:
             messages.error(str(error))
             return
-        _in_turns(steps[1:], messages, owner)
+        QtCore.QTimer.singleShot(1, owner, step)
 
     QtCore.QTimer.singleShot(1, owner, step)  # a timer, not a posted call: what came due meanwhile goes first

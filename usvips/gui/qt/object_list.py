@@ -218,14 +218,15 @@ class ObjectList(QtWidgets.QWidget):
             self._complete_figures("filtering")
 
     def _complete_figures(self, why: str) -> None:
-        missing = [i for i in self.workspace.cache.ids() if self.workspace.cache.known_figures(i) is None]
+        missing = [i for i, known in self.workspace.cache.figures_known(self.workspace.cache.ids()).items()
+                   if known is None]
         if not missing:
             return
         self._completing = why
         if len(missing) > self.SYNCHRONOUS:
             self.workspace.message.emit("info", f"{why}: computing the figures of {len(missing):,} objects first "
                                                 "(the rows are arranged again when they are in)")
-        self._compute(missing)
+        self._compute(missing, checked=True)
         if self._worker is None:  # computed at once
             self._completed()
 
@@ -256,14 +257,14 @@ class ObjectList(QtWidgets.QWidget):
     def _on_added(self, ids: tuple[int, ...]) -> None:
         self._read_links()
         self.model.add(ids)
-        self._compute(list(ids))
+        self._compute(list(ids), queue=True)
         self._fit(ids)
 
     def _on_updated(self, ids: tuple[int, ...]) -> None:
         self._read_links()
         self._read_reviews_of(ids)  # an edit returns an accepted object to unreviewed
         self.model.changed(ids)
-        self._compute(list(ids))
+        self._compute(list(ids), queue=True)
         self._on_vertex_range()
 
     def _on_removed(self, ids: tuple[int, ...]) -> None:
@@ -336,24 +337,31 @@ class ObjectList(QtWidgets.QWidget):
         wanted = [i for i in sorted(self.model.requested) if i in self.workspace.cache]
         self._compute(wanted)
 
-    def _compute(self, ids: list[int]) -> None:
+    def _compute(self, ids: list[int], queue: bool = False, checked: bool = False) -> None:
         """Figures of ``ids`` not yet known: at once for a few, else in workers of :data:`JOB_OBJECTS` objects
         at a time, ``ids`` first. A job replaced by a newer one hands on the ids still wanted — all of them
         while a sort or filter waits for every figure or in a small list, else only the rows drawn (a fast
-        scroll through a survey asked for every page it passed)."""
+        scroll through a survey asked for every page it passed). With ``queue`` (objects stored or changed) a
+        running job is not replaced: ``ids`` wait next in line (a run's proposals come a slice a turn; replacing
+        the job for each slice copied the inputs of every slice before it again on the window's thread; an id
+        of the running job changed meanwhile is computed again after it, :meth:`_on_figures`). ``checked``:
+        ``ids`` are held objects whose figures are not known, just looked at (a sort's 20,000: not again)."""
         cache = self.workspace.cache
-        missing = [i for i in ids if i in cache and self.workspace.cache.known_figures(i) is None]
-        if 0 < len(missing) <= self.SYNCHRONOUS:
-            for object_id in missing:
-                self.workspace.figures([object_id])
+        missing = ids if checked else [i for i, known in cache.figures_known(i for i in ids if i in cache).items()
+                                       if known is None]
+        running = self._worker is not None and not self._worker.is_cancelled
+        pending, waiting = (set(self._pending), set(self._queue)) if running else (set(), set())
+        if 0 < len(missing) <= self.SYNCHRONOUS and not set(missing) & (pending | waiting):
+            for object_id in missing:  # (one a worker holds is not computed here too: an object of many
+                self.workspace.figures([object_id])  # instants takes tens of ms on the window's thread)
             self.model.changed(missing)
         elif missing:
-            if self._worker is not None and not self._worker.is_cancelled:
-                if set(missing) <= set(self._pending):
+            if running:
+                if set(missing) <= pending:
                     return  # being computed
-                if set(missing) <= set(self._pending) | set(self._queue):  # waiting: next in line
-                    self._queue = list(dict.fromkeys([*(i for i in missing if i not in self._pending),
-                                                      *self._queue]))
+                if queue or len(missing) <= self.SYNCHRONOUS or set(missing) <= pending | waiting:  # next in line
+                    self._queued_total += sum(i not in pending and i not in waiting for i in missing)
+                    self._queue = list(dict.fromkeys([*(i for i in missing if i not in pending), *self._queue]))
                     return
             if self._worker is not None:
                 done = max(self._queued_total - len(self._pending) - len(self._queue), 0)
@@ -411,9 +419,15 @@ class ObjectList(QtWidgets.QWidget):
         current = worker is self._worker
         if current:
             self._worker, self._pending = None, []
-        kept = self.workspace.cache.remember(job, results)
+        cache = self.workspace.cache
+        kept = cache.remember(job, results)
         self.model.requested -= set(kept)
         self.model.changed(kept)
+        done = set(kept)
+        stale = [i for i in job.versions if i not in done and i in cache and cache.known_figures(i) is None]
+        if current and stale:  # changed while computed (a fish's object told again with its later instants): next
+            self._queue = list(dict.fromkeys([*stale, *self._queue]))
+            self._queued_total += len(stale)
         if current and self._queue:  # the next job of the queue (its inputs copied now, a job's worth)
             self._start_job(self._queue)
         if self._worker is None:
@@ -443,13 +457,16 @@ class ObjectList(QtWidgets.QWidget):
     def _widen_to(self, rows: Iterable[int], shrink: bool) -> None:
         """Each column (but the last, which stretches) as wide as its title and the texts of ``rows``; with
         ``shrink`` False never narrower than it is."""
-        rows = list(rows)
-        if not rows:
+        ids = [self.model.object_id(r) for r in rows]
+        if not ids:
             return
+        cache = self.workspace.cache
+        # each row's cells made once (a row whose figures are not known yet — one just stored — keeps no texts:
+        # asked cell by cell, its whole row was made again for each of its 11 cells)
+        rows_texts = [self.model.texts(i) if i in cache else ("",) * len(self.COLUMNS) for i in ids]
         metrics, header = self.table.fontMetrics(), self.table.horizontalHeader()
         for column in range(len(self.COLUMNS) - 1):
-            texts = [self.model.index(r, column).data() or "" for r in rows]
-            widest = max([metrics.horizontalAdvance(t) for t in texts], default=0)
+            widest = max([metrics.horizontalAdvance(texts[column]) for texts in rows_texts], default=0)
             title = header.fontMetrics().horizontalAdvance(self.COLUMNS[column].capitalize())
             width = max(widest, title) + 16
             if shrink or width > self.table.columnWidth(column):

@@ -896,7 +896,9 @@ class VideoController(QtCore.QObject):
     def objects_changed(self) -> None:
         # the session's project only (another project's objects are announced before its project_changed)
         if self.session is not None and self.session.project is self.workspace.project:
-            self.dock_widget.timeline.marks = set(self.session.refresh_marks())
+            cache = self.workspace.cache  # the objects held in memory: reading every stored object again on each
+            held = None if cache.loading else cache.objects()  # change (each slice of a Detect) grows with the survey
+            self.dock_widget.timeline.marks = set(self.session.refresh_marks(held))
             self.dock_widget.timeline.update()
 
     def eventFilter(self, watched: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt's name)
