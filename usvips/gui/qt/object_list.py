@@ -612,4 +612,4 @@ class ObjectList(QtWidgets.QWidget):
 
 #: the panel's declaration (usvips.gui.panel_registry): the window builds its dock from it
 PANEL = register(Panel("objects", "Objects", "bottom", lambda context: ObjectList(context.workspace),
-                     group="records", order=40, size=170))
+                     group="records", order=40, size=240))  # (about six rows with its buttons)
