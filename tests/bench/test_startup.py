@@ -2,7 +2,9 @@
 window's start to usable (the start-up probe), against a bare interpreter started the same way, with the
 absolute promises (0.3 s and 0.5 s of CPU) stated in the rows."""
 
+import os
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -35,3 +37,19 @@ def test_a_child_that_fails_is_an_error_not_a_time():
         startup.child_cpu_s([sys.executable, "-c", "import sys; print('the project did not open', file=sys.stderr); "
                                                    "sys.exit(4)"], 1, check=True)
     assert startup.child_cpu_s([sys.executable, "-c", "raise SystemExit(3)"], 1) > 0  # unchecked: timed
+
+
+def test_the_window_starts_as_a_users_whatever_the_bench_inherited(monkeypatch, tmp_path):
+    """The bench's own environment (one BLAS thread, no bytecode written, a busy-wait of its choosing, import
+    tracing) never reaches the window's starts; the floors get the brief busy-wait usvips sets itself."""
+    for name, value in {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "PYTHONDONTWRITEBYTECODE": "1",
+                        "OPENBLAS_THREAD_TIMEOUT": "4", "PYTHONPROFILEIMPORTTIME": "1"}.items():
+        monkeypatch.setenv(name, value)
+    env = startup.window_environment(tmp_path)
+    assert not set(env) & set(startup.NOT_A_USERS)
+    assert env["USVIPS_QUIT_WHEN_READY"] == "1" and env["QT_QPA_PLATFORM"] == "offscreen"
+    folders = ("XDG_CONFIG_HOME", "XDG_DATA_HOME", "PYTHONPYCACHEPREFIX")
+    assert {Path(env[name]).parent for name in folders} == {tmp_path}
+    assert env["PATH"] == os.environ["PATH"]  # the rest is the bench's
+    floor = startup.floor_environment(env)
+    assert floor["OPENBLAS_THREAD_TIMEOUT"] == "20" and "OPENBLAS_THREAD_TIMEOUT" not in env

@@ -2,12 +2,22 @@
 the overview lists them by their summaries, which must stay the modules' own help lines; a subcommand
 still gets its full parser. (Its CPU time is a row of ``usvips bench --only startup``, not a timed test.)"""
 
+import os
 import subprocess
 import sys
 
 import pytest
 
-from usvips.cli import COMMANDS, EXTENDS, SUMMARIES, build_parser, main
+from usvips.cli import (
+    BLAS_SPIN_LOG2_CYCLES,
+    BLAS_SPIN_VARIABLE,
+    COMMANDS,
+    EXTENDS,
+    SUMMARIES,
+    brief_blas_spin,
+    build_parser,
+    main,
+)
 
 
 def _helps(parser) -> dict[str, str]:
@@ -56,3 +66,26 @@ def test_the_project_command_parses_without_numpy_scipy_opencv_or_pyav(action):
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stderr.strip().splitlines()[-1] == "[]"
     assert f"usvips project {action}".strip() in result.stdout
+
+
+def test_openblas_threads_busy_wait_briefly_unless_the_user_set_how_long(monkeypatch):
+    monkeypatch.delenv(BLAS_SPIN_VARIABLE, raising=False)
+    brief_blas_spin()
+    assert os.environ[BLAS_SPIN_VARIABLE] == str(BLAS_SPIN_LOG2_CYCLES) == "20"  # OpenBLAS's default is 28
+    monkeypatch.setenv(BLAS_SPIN_VARIABLE, "28")
+    brief_blas_spin()
+    assert os.environ[BLAS_SPIN_VARIABLE] == "28"
+
+
+def test_the_brief_spin_is_set_before_a_command_loads_numpy():
+    """OpenBLAS reads its variables when it is loaded (with numpy): a command whose module imports numpy
+    finds the variable already set."""
+    code = (f"import os, sys\nos.environ.pop({BLAS_SPIN_VARIABLE!r}, None)\nseen = []\n"
+            "class Spy:\n    def find_spec(self, name, path=None, target=None):\n"
+            "        if name == 'numpy' and not seen:\n"
+            f"            seen.append(os.environ.get({BLAS_SPIN_VARIABLE!r}))\n"
+            "sys.meta_path.insert(0, Spy())\nfrom usvips.cli import main\n"
+            "try:\n    main(['intersect', '--help'])\nexcept SystemExit:\n    pass\n"
+            "print(seen, file=sys.stderr)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert result.stderr.strip().splitlines()[-1] == f"[{str(BLAS_SPIN_LOG2_CYCLES)!r}]"

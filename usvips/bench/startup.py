@@ -22,7 +22,13 @@ they are first made, never at the start).
 The window's children run with their bytecode cached (``PYTHONPYCACHEPREFIX``, a temporary folder, written
 by the untimed first run), as an installed package has it: with ``PYTHONDONTWRITEBYTECODE`` in the
 environment every module of the package would be compiled from source on every start, about half a second
-of CPU that no user pays.
+of CPU that no user pays. Nor do they inherit the bench's settings of what the libraries' threads do
+(:data:`NOT_A_USERS`: thread counts of OpenBLAS and OpenMP, how long OpenBLAS's idle threads busy-wait) or
+Python's tracing modes: the window's start is timed as a user's, with what ``usvips`` sets itself
+(:func:`usvips.cli.brief_blas_spin`). The floors, which are not ``usvips`` commands, are given the same
+brief busy-wait, so that they are the floors of the same start: with OpenBLAS's default each copy of it
+(numpy's, OpenCV's) spins a thread for 0.1 s of CPU after it is loaded whenever a core is idle, which
+swung the window's start between 0.5 and 0.8 s of CPU with what else the machine ran.
 """
 
 from __future__ import annotations
@@ -46,6 +52,11 @@ WINDOW_TARGET_CPU_S = 0.5
 WINDOW_STARTS = 5
 #: the bundled sample the window's row opens (image pairs, a calibration)
 WINDOW_SAMPLE = "tank_system1"
+#: environment variables the window's starts do not inherit from the bench: a user's start has none of them
+#: (bytecode not written, the libraries' thread counts and busy-wait, Python's tracing and development modes)
+NOT_A_USERS = ("PYTHONDONTWRITEBYTECODE", "OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
+               "OPENBLAS_THREAD_TIMEOUT", "PYTHONPROFILEIMPORTTIME", "PYTHONDEVMODE", "PYTHONTRACEMALLOC",
+               "PYTHONMALLOC", "PYTHONVERBOSE")
 
 _EMPTY_WINDOW = ("from PySide6 import QtWidgets\napp = QtWidgets.QApplication([])\nwindow = QtWidgets.QMainWindow()\n"
                  "window.show()\napp.processEvents()\nwindow.repaint()\n")
@@ -98,26 +109,42 @@ def child_cpu_s(arguments: list[str], repeats: int = 3, env: dict[str, str] | No
     return min(child_cpu_times(arguments, repeats, env, check))
 
 
+def window_environment(folder: Path) -> dict[str, str]:
+    """The environment of the window's starts: the bench's, offscreen, with the probe asked for, settings,
+    data and bytecode in ``folder``, and none of :data:`NOT_A_USERS` (see the module docstring)."""
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen", USVIPS_QUIT_WHEN_READY="1",
+               XDG_CONFIG_HOME=str(folder / "config"), XDG_DATA_HOME=str(folder / "data"),
+               PYTHONPYCACHEPREFIX=str(folder / "bytecode"))
+    for name in NOT_A_USERS:
+        env.pop(name, None)
+    return env
+
+
+def floor_environment(window: dict[str, str]) -> dict[str, str]:
+    """The floors' environment: the window's, with the brief busy-wait ``usvips`` sets itself."""
+    from usvips.cli import BLAS_SPIN_LOG2_CYCLES, BLAS_SPIN_VARIABLE
+
+    return {**window, BLAS_SPIN_VARIABLE: str(BLAS_SPIN_LOG2_CYCLES)}
+
+
 def window_row(repeats: int, bare: float) -> dict:
     """The window's start to usable on a copy of the sample (see the module docstring)."""
     from usvips.locations import sample_project
 
     with tempfile.TemporaryDirectory(prefix="usvips-bench-window-") as folder:
         sample = shutil.copytree(sample_project(WINDOW_SAMPLE), Path(folder) / WINDOW_SAMPLE)
-        env = dict(os.environ, QT_QPA_PLATFORM="offscreen", USVIPS_QUIT_WHEN_READY="1",
-                   XDG_CONFIG_HOME=str(Path(folder) / "config"), XDG_DATA_HOME=str(Path(folder) / "data"),
-                   PYTHONPYCACHEPREFIX=str(Path(folder) / "bytecode"))
-        env.pop("PYTHONDONTWRITEBYTECODE", None)  # cached as an installed package's (see the module docstring)
+        env = window_environment(Path(folder))
         command = [sys.executable, "-m", "usvips", "open", str(sample)]
         child_cpu_s(command, 1, env, check=True)  # makes the project file and the bytecode; not timed
         starts = child_cpu_times(command, repeats, env, check=True)
         cpu = min(starts)
-        qt = child_cpu_s([sys.executable, "-c", _EMPTY_WINDOW], repeats, env, check=True)
+        floor = floor_environment(env)
+        qt = child_cpu_s([sys.executable, "-c", _EMPTY_WINDOW], repeats, floor, check=True)
         images = [sys.executable, "-c", _IMAGES_WINDOW, folder]
-        child_cpu_s(images, 1, env, check=True)
-        plain = child_cpu_s(images, repeats, env, check=True)
-        child_cpu_s([sys.executable, "-c", _PYQTGRAPH_WINDOW], 1, env, check=True)
-        toolkit = child_cpu_s([sys.executable, "-c", _PYQTGRAPH_WINDOW], repeats, env, check=True)
+        child_cpu_s(images, 1, floor, check=True)
+        plain = child_cpu_s(images, repeats, floor, check=True)
+        child_cpu_s([sys.executable, "-c", _PYQTGRAPH_WINDOW], 1, floor, check=True)
+        toolkit = child_cpu_s([sys.executable, "-c", _PYQTGRAPH_WINDOW], repeats, floor, check=True)
     return {"name": "start-up CPU: the window, shown with a sample project's first pair drawn", "n": 1,
             "ours_s": round(cpu, 3), "cpu_s": round(cpu, 3), "baseline": "python -c pass",
             "baseline_s": round(bare, 3), "ratio": round(cpu / bare, 2) if bare > 0 else None,

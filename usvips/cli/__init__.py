@@ -117,6 +117,7 @@ def _command_in(argv: Sequence[str]) -> str | None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    brief_blas_spin()  # before any command's module imports numpy
     argv = list(sys.argv[1:] if argv is None else argv) or ["open"]  # no arguments: the workstation window
     parser = build_parser(_command_in(argv))
     try:
@@ -247,6 +248,30 @@ def quiet_libraries() -> None:
     if "av" in sys.modules:
         with contextlib.suppress(AttributeError):
             sys.modules["av"].logging.set_level(None)
+
+
+#: how long OpenBLAS's idle worker threads busy-wait for work before they sleep, as log2 of CPU cycles
+#: (OpenBLAS's ``OPENBLAS_THREAD_TIMEOUT``, 4–30; its default, 28, is 0.1 s at 2.6 GHz; 20 is 0.4 ms)
+BLAS_SPIN_LOG2_CYCLES = 20
+#: the environment variable OpenBLAS reads :data:`BLAS_SPIN_LOG2_CYCLES` from when it is loaded
+BLAS_SPIN_VARIABLE = "OPENBLAS_THREAD_TIMEOUT"
+
+
+def brief_blas_spin() -> None:
+    """OpenBLAS's idle threads busy-wait for :data:`BLAS_SPIN_LOG2_CYCLES`, not for 0.1 s, unless the
+    environment says otherwise; read by each OpenBLAS loaded afterwards (numpy's, OpenCV's and SciPy's
+    each bring their own), so it is set before any command imports numpy.
+
+    Each OpenBLAS starts a worker thread per further core when it is loaded, and a worker that runs out of
+    work busy-waits for 2**28 cycles (0.1 s here) before it sleeps: once after it is made, again after every
+    call that used it. Where a core is idle that is CPU time burnt for nothing: the window's start
+    (``usvips open SAMPLE`` until its first pair is drawn, 0.45 s of CPU on its own thread) spent 0.10 s
+    more in each of two such threads (numpy's and OpenCV's), and how much of it a start paid depended on
+    whether the machine's other core was free (the start's CPU swung between 0.5 and 0.8 s with what
+    else ran). With 2**20 cycles the threads still work in parallel and calls in quick succession still
+    find them awake (a loop of 128 × 128 and 300 × 300 products and solves ran as fast as with the
+    default); with 2**4 the 128 × 128 loop took twice as long."""
+    os.environ.setdefault(BLAS_SPIN_VARIABLE, str(BLAS_SPIN_LOG2_CYCLES))
 
 
 #: how many unrecognised words an error names before it counts the rest

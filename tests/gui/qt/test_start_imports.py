@@ -18,11 +18,17 @@ import pytest
 from usvips.locations import sample_project
 
 _SCRIPT = """
-import json, sys
+import json, os, sys
+blas_spin = []  # OPENBLAS_THREAD_TIMEOUT as numpy (and its OpenBLAS) is first imported
+class Spy:
+    def find_spec(self, name, path=None, target=None):
+        if name == "numpy" and not blas_spin:
+            blas_spin.append(os.environ.get("OPENBLAS_THREAD_TIMEOUT"))
+sys.meta_path.insert(0, Spy())
 from usvips.cli import main
 code = main(["open", sys.argv[1]])
 files = {name: getattr(module, "__file__", None) for name, module in sys.modules.items()}
-print(json.dumps({"code": code, "modules": list(sys.modules), "files": files}))
+print(json.dumps({"code": code, "modules": list(sys.modules), "files": files, "blas_spin": blas_spin}))
 """
 
 
@@ -33,6 +39,7 @@ def started(tmp_path_factory) -> dict:
     sample = shutil.copytree(sample_project("tank_system1"), folder / "tank_system1")
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen", USVIPS_QUIT_WHEN_READY="1",
                XDG_CONFIG_HOME=str(folder / "config"), XDG_DATA_HOME=str(folder / "data"))
+    env.pop("OPENBLAS_THREAD_TIMEOUT", None)  # as a user's start has it
     for _ in range(2):  # the first open makes the sample's project file; the second is a user's next start
         result = subprocess.run([sys.executable, "-c", _SCRIPT, str(sample)], capture_output=True, text=True,
                                 env=env, timeout=300, check=False)
@@ -80,3 +87,9 @@ def test_the_tracker_is_not_imported_at_start(started):
     # the tracking controls and their (empty) model are made with the window; the tracker, its
     # intersection and the statistics it imports come when something is first tracked
     assert not set(started["modules"]) & {"usvips.core.tracking", "usvips.core.intersection"}
+
+
+def test_openblas_threads_busy_wait_briefly_in_the_window(started):
+    # numpy's OpenBLAS (and OpenCV's) start a thread per further core that busy-waits 0.1 s of CPU for work
+    # after it is made: the window's start sets the wait short before numpy is loaded (usvips.cli.brief_blas_spin)
+    assert started["blas_spin"] == ["20"]
