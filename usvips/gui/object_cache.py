@@ -265,6 +265,21 @@ class ObjectCache:
             known[object_id] = held[1] if held is not None and (held[0] is rules or held[0] == rules) else None
         return known
 
+    def main_figures(self, object_ids: Iterable[int]) -> tuple[list[tuple[float, int]], list[int]]:
+        """(value of the main figure, id) of each of ``object_ids`` whose figures are known under the current
+        rules and hold one, and the ids of the others, each in the order given: what a sort by the figure
+        needs, in one pass (a sort of a 20,000-object survey arranges them on the window's thread)."""
+        rules, figures = self._rules(), self._figures
+        valued, rest = [], []
+        for object_id in object_ids:
+            held = figures.get(object_id)
+            result = held[1] if held is not None and (held[0] is rules or held[0] == rules) else None
+            if result is not None and result.figures:
+                valued.append((result.figures[0].value, object_id))
+            else:
+                rest.append(object_id)
+        return valued, rest
+
     def input(self, stored, instants: dict[int, list[int]] | None = None) -> MeasurementInput:
         """What the figures of a stored object need, read from the project now (GUI thread); ``instants``:
         every object's further instants (:meth:`instants_by_object`) when reading many."""

@@ -124,10 +124,8 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
         column = self.columns[self.sort_column]
         descending = self.sort_order == QtCore.Qt.SortOrder.DescendingOrder
         if column == "figure":  # objects without a figure (not computed, or none) last in either order
-            figures = self.workspace.cache.figures_known(chosen)
-            keyed = [(f.figures[0].value, i) for i, f in figures.items() if f is not None and f.figures]
+            keyed, rest = self.workspace.cache.main_figures(chosen)
             keyed.sort(reverse=descending)  # (keys made once, each figure asked for once: no key function)
-            rest = [i for i, f in figures.items() if f is None or not f.figures]
             return [i for _, i in keyed] + rest
         return sorted(chosen, key=self._sort_key(column), reverse=descending)
 
