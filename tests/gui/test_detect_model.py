@@ -77,16 +77,22 @@ def test_the_unreviewed_proposals_keypoints_get_circles_of_95_percent_from_their
     assert abs(CIRCLE_SIGMAS - 2.4477) < 1e-4
 
 
-def test_dragging_a_keypoint_corrects_it_as_one_undoable_edit_measured_again(workspace):
-    from usvips.gui.proposal_marks import correct_keypoint, proposal_keypoints
-    from usvips.store.annotator import annotating_as
-
+def _detected_on_the_pair(workspace):
+    """The workspace with the fake model's proposals on pair "dive" detected and stored, and the run."""
     ws, model = workspace
     ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
     session = DetectSession(ws)
     session.choose_model(str(model))
     run = session.job(session.plan())(lambda f: None, lambda: False)
     session.store(run)
+    return ws, run
+
+
+def test_dragging_a_keypoint_corrects_it_as_one_undoable_edit_measured_again(workspace):
+    from usvips.gui.proposal_marks import correct_keypoint, proposal_keypoints
+    from usvips.store.annotator import annotating_as
+
+    ws, run = _detected_on_the_pair(workspace)
     assert len(proposal_keypoints(ws)) == 12  # 3 fish × 2 keypoints × 2 images
     object_id = run.proposals[0].object_id
     ws.project.set_review(object_id, "accepted")
@@ -114,12 +120,7 @@ def test_a_dragged_keypoint_takes_the_reviewers_hand_click_estimate_in_use(works
     from usvips.gui.proposal_marks import correct_keypoint
     from usvips.store.annotator import annotating_as
 
-    ws, model = workspace
-    ws.set_pair("dive", np.zeros((960, 1280), np.uint8), np.zeros((960, 1280), np.uint8))
-    session = DetectSession(ws)
-    session.choose_model(str(model))
-    run = session.job(session.plan())(lambda f: None, lambda: False)
-    session.store(run)
+    ws, run = _detected_on_the_pair(workspace)
     rng = np.random.default_rng(5)
     clicks = rng.uniform(0, 900, (40, 2))
     estimate = from_pointing_test(clicks + rng.normal(0, 1.4, clicks.shape), clicks)
