@@ -61,6 +61,13 @@ def refused(tmp_path):
     return make_project(tmp_path), truth, true_fork
 
 
+def _proposal_without_a_length(project, model):
+    """``usvips detect``'s run on pair "dive": its proposal stored without a length, and that object as stored."""
+    run = detect_in_project(project, model, pair="dive", refine=False)
+    proposal = next(p for p in run.proposals if p.measurement is None)
+    return proposal, project.object(proposal.object_id)
+
+
 def test_a_proposal_without_a_length_is_stored_with_the_stereo_sigma_by_the_fishs_size(refused):
     path, truth, _ = refused
     model = stereo_model(truth)
@@ -91,9 +98,7 @@ def test_with_the_switch_on_a_proposal_without_a_length_is_stored_with_that_sigm
     path, truth, _ = refused
     model = stereo_model(truth)
     with Project.open(path) as project:
-        run = detect_in_project(project, model, pair="dive", refine=False)
-        proposal = next(p for p in run.proposals if p.measurement is None)
-        stored = project.object(proposal.object_id)
+        proposal, stored = _proposal_without_a_length(project, model)
         assert [v.pointing_px for v in stored.vertices] == list(proposal.pointing)
         assert all(v.pointing_origin == "estimated" and v.xyz is None for v in stored.vertices)
 
@@ -137,9 +142,7 @@ def test_correcting_the_wrong_keypoint_of_a_proposal_given_its_sigma_measures_it
     path, truth, true_fork = refused
     model = stereo_model(truth)
     with Project.open(path) as project:
-        run = detect_in_project(project, model, pair="dive", refine=False)
-        proposal = next(p for p in run.proposals if p.measurement is None)
-        stored = project.object(proposal.object_id)
+        proposal, stored = _proposal_without_a_length(project, model)
         geometry = pair_geometry(project, "dive")
         assert all(v.xyz is None for v in corrected_vertices(stored, 1, "right", tuple(true_fork), geometry, "ana"))
         stored = replace(stored, vertices=with_model_sigma(stored.vertices, proposal, model))
