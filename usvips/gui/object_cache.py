@@ -258,27 +258,31 @@ class ObjectCache:
 
     def figures_known(self, object_ids: Iterable[int]) -> dict[int, Result | None]:
         """:meth:`known_figures` of many objects (the rules asked for once: a sort of a survey asks for all)."""
-        rules, figures = self._rules(), self._figures
-        known = {}
-        for object_id in object_ids:
-            held = figures.get(object_id)
-            known[object_id] = held[1] if held is not None and (held[0] is rules or held[0] == rules) else None
+        rules, get = self._rules(), self._figures.get
+        known = dict.fromkeys(object_ids)  # None: not known (most of a survey just opened: one lookup each)
+        for object_id in known:
+            held = get(object_id)
+            if held is not None and (held[0] is rules or held[0] == rules):
+                known[object_id] = held[1]
         return known
 
-    def main_figures(self, object_ids: Iterable[int]) -> tuple[list[tuple[float, int]], list[int]]:
-        """(value of the main figure, id) of each of ``object_ids`` whose figures are known under the current
-        rules and hold one, and the ids of the others, each in the order given: what a sort by the figure
-        needs, in one pass (a sort of a 20,000-object survey arranges them on the window's thread)."""
-        rules, figures = self._rules(), self._figures
-        valued, rest = [], []
+    def main_figures(self, object_ids: Iterable[int]) -> tuple[list[float], list[int], list[int]]:
+        """The value of the main figure and the id of each of ``object_ids`` whose figures are known under the
+        current rules and hold one, and the ids of the others, each in the order given: what a sort by the
+        figure needs, in one pass (a sort of a 20,000-object survey arranges them on the window's thread)."""
+        rules, get = self._rules(), self._figures.get
+        values, valued, rest = [], [], []
+        value, known, other = values.append, valued.append, rest.append
         for object_id in object_ids:
-            held = figures.get(object_id)
-            result = held[1] if held is not None and (held[0] is rules or held[0] == rules) else None
-            if result is not None and result.figures:
-                valued.append((result.figures[0].value, object_id))
+            held = get(object_id)
+            if held is None:  # (the common case while a sort waits for them: one lookup an object)
+                other(object_id)
+            elif (held[0] is rules or held[0] == rules) and held[1].figures:
+                value(held[1].figures[0].value)
+                known(object_id)
             else:
-                rest.append(object_id)
-        return valued, rest
+                other(object_id)
+        return values, valued, rest
 
     def input(self, stored, instants: dict[int, list[int]] | None = None) -> MeasurementInput:
         """What the figures of a stored object need, read from the project now (GUI thread); ``instants``:

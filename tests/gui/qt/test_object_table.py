@@ -2,10 +2,12 @@
 computed; rows sort by a column's header and filter by a text in any cell, the selection and the ids
 following; no row is made per object."""
 
+import numpy as np
 from PySide6 import QtCore
 
 from usvips.gui.qt.bench import survey_project
 from usvips.gui.qt.object_list import ObjectList
+from usvips.gui.qt.object_table import figure_order
 from usvips.gui.workspace import Workspace
 from usvips.store import Project
 from usvips.store.records import Vertex
@@ -244,3 +246,19 @@ def test_a_sort_by_figure_asks_for_each_figure_once_and_the_rules_once(qtbot, tm
     assert valued == sorted(valued, reverse=True) and ids[len(valued):] == unknown
     listing.cleanup()
     ws.close_project()
+
+
+def test_rows_by_figure_are_ordered_by_value_then_id_with_a_nan_last_in_either_order():
+    """The sort by the figure (numpy's, for speed) orders as sorting (value, id) pairs does, ascending and
+    descending, over random values with many ties; a NaN value comes after every number either way."""
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(0, 40))
+        values = rng.integers(0, 6, n).astype(float) * 0.25  # many equal values
+        ids = rng.permutation(1000)[:n].tolist()
+        pairs = list(zip(values.tolist(), ids, strict=True))
+        assert figure_order(values.tolist(), ids) == [i for _, i in sorted(pairs)]
+        assert figure_order(values.tolist(), ids, descending=True) == [i for _, i in sorted(pairs, reverse=True)]
+    values, ids = [2.0, float("nan"), 1.0, float("nan")], [4, 3, 2, 1]
+    assert figure_order(values, ids) == [2, 4, 1, 3]
+    assert figure_order(values, ids, descending=True) == [4, 2, 3, 1]
