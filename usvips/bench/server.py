@@ -25,6 +25,7 @@ from urllib.parse import urlsplit, urlunsplit
 import numpy as np
 
 from usvips.bench import best_time, ratio_row
+from usvips.bench.postgres_server import bench_server
 from usvips.core.observation_record import ObservationRecord
 from usvips.store.opening import create_project, open_project
 from usvips.store.records import Vertex
@@ -35,21 +36,6 @@ STORE_TARGET_S = 0.050
 STORE_RATIO_TARGET = 3.0  # × SQLite (issue 34)
 OPEN_TARGET_S = 2.0
 WINDOW_OPEN_TARGET_S = 0.5  # either backend (issue 37)
-
-
-def _server() -> tuple[str | None, object]:
-    """(URL of a server's maintenance database, handle to stop) or (None, reason)."""
-    given = os.environ.get("USVIPS_BENCH_POSTGRES")
-    if given:
-        return given, None
-    try:
-        folder = tempfile.mkdtemp(prefix="usvips-bench-pg-")
-        os.environ.setdefault("XDG_RUNTIME_DIR", folder)
-        import pgserver
-    except ImportError:
-        return None, "no server: set USVIPS_BENCH_POSTGRES or pip install pgserver"
-    server = pgserver.get_server(Path(folder) / "data", cleanup_mode="delete")
-    return server.get_uri(), server
 
 
 def _database(server_url: str, name: str) -> str:
@@ -96,11 +82,15 @@ def window_row(n: int, url: str, local: Path, folder: Path, repeats: int = 3) ->
 
 
 def benchmarks(scale: float = 1.0) -> Iterator[dict]:
-    server_url, handle = _server()
-    if server_url is None:
-        yield {"name": "survey on a PostgreSQL server", "n": 0, "ours_s": None, "baseline": str(handle),
-               "baseline_s": None, "ratio": None, "target": None, "met": None}
-        return
+    with bench_server("usvips-bench-pg-") as (server_url, why_not):
+        if server_url is None:
+            yield {"name": "survey on a PostgreSQL server", "n": 0, "ours_s": None, "baseline": why_not,
+                   "baseline_s": None, "ratio": None, "target": None, "met": None}
+            return
+        yield from _rows(server_url, scale)
+
+
+def _rows(server_url: str, scale: float) -> Iterator[dict]:
     n = OBJECTS if scale >= 1 else max(50, int(OBJECTS * scale))
     rng = np.random.default_rng(2)
     folder = Path(tempfile.mkdtemp(prefix="usvips-bench-"))
@@ -146,5 +136,3 @@ def benchmarks(scale: float = 1.0) -> Iterator[dict]:
         from usvips.store.postgres import database_command
 
         database_command(url, "DROP DATABASE IF EXISTS {}")
-        if handle is not None:
-            handle.cleanup()

@@ -21,6 +21,8 @@ import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
+from usvips.bench.postgres_server import bench_server
+
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
 #: the longest a colleague's change may take to show (s)
@@ -77,21 +79,6 @@ def _shown_times(location: str, folder: Path, trials: int) -> list[float]:
     return times
 
 
-def _server() -> tuple[str | None, object]:
-    """(the URL of a server where databases may be made, a handle to stop it) or (None, why not)."""
-    given = os.environ.get("USVIPS_BENCH_POSTGRES")
-    if given:
-        return given, None
-    try:
-        import pgserver
-    except ImportError:
-        return None, "no server: set USVIPS_BENCH_POSTGRES or pip install pgserver"
-    folder = tempfile.mkdtemp(prefix="usvips-bench-live-pg-")
-    os.environ.setdefault("XDG_RUNTIME_DIR", folder)
-    server = pgserver.get_server(Path(folder) / "data", cleanup_mode="delete")
-    return server.get_uri(), server
-
-
 def live_row(scale: float = 1.0) -> dict:
     from urllib.parse import urlsplit, urlunsplit
 
@@ -103,28 +90,27 @@ def live_row(scale: float = 1.0) -> dict:
     with tempfile.TemporaryDirectory(prefix="usvips-bench-live-") as folder:
         folder = Path(folder)
         survey = survey_project(folder / "survey", n)
-        server_url, handle = _server()
         file_times = _shown_times(str(survey), folder, trials)
         server_times: list[float] = []
-        if server_url is not None:
-            parts = urlsplit(server_url)
-            url = urlunsplit((parts.scheme, parts.netloc, f"/bench_live_{uuid.uuid4().hex[:12]}", parts.query, ""))
-            os.environ.setdefault("USVIPS_MEDIA_ROOT", str(survey.parent))
-            try:
-                push(survey, url)
-                server_times = _shown_times(url, folder, trials)
-            finally:
-                from usvips.store.postgres import database_command
+        with bench_server("usvips-bench-live-pg-") as (server_url, why_not):
+            if server_url is not None:
+                parts = urlsplit(server_url)
+                url = urlunsplit((parts.scheme, parts.netloc, f"/bench_live_{uuid.uuid4().hex[:12]}", parts.query,
+                                  ""))
+                os.environ.setdefault("USVIPS_MEDIA_ROOT", str(survey.parent))
+                try:
+                    push(survey, url)
+                    server_times = _shown_times(url, folder, trials)
+                finally:
+                    from usvips.store.postgres import database_command
 
-                database_command(url, "DROP DATABASE IF EXISTS {}")
-                if handle is not None:
-                    handle.cleanup()
+                    database_command(url, "DROP DATABASE IF EXISTS {}")
     ours = max(server_times) if server_times else max(file_times)
     baseline = max(file_times) if server_times else None
     worst = max(server_times + file_times)
     return {"name": "a colleague's change shown: bob's commit until ann's object list shows it (slowest of "
                     f"{trials} additions and edits)", "n": n, "ours_s": round(ours, 4),
-            "baseline": "the same on the SQLite file" if server_times else f"none ({handle})",
+            "baseline": "the same on the SQLite file" if server_times else f"none ({why_not})",
             "baseline_s": None if baseline is None else round(baseline, 4),
             "ratio": round(ours / baseline, 2) if baseline else None, "target": None, "target_s": TARGET_S,
             "met": bool(worst <= TARGET_S), "server_s": [round(t, 4) for t in server_times],
