@@ -266,6 +266,36 @@ def test_how_an_instant_was_made_is_stored_with_its_link_and_no_notes_change_it(
     assert store.instant_sources() == {picked: None}
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_the_objects_on_a_pair_or_on_a_videos_frames_are_read_without_the_rest(store, where, seed):
+    """What a detection run compares its proposals with: the objects whose first vertex is on the pair or
+    video, on a video between two left frames (inclusive), each as ``object`` reads it."""
+    rng = np.random.default_rng(seed)
+    folder = where.parent
+    for label in ("v", "w"):
+        (folder / f"{label}.mp4").write_bytes(label.encode())
+        store.add_video(label, [(folder / f"{label}.mp4", 50, 25.0)], [(folder / f"{label}.mp4", 50, 25.0)], 25.0,
+                        50, (64, 48))
+    first: dict[int, tuple[str, int]] = {}
+    for _ in range(12):
+        label = ("v", "w")[int(rng.integers(0, 2))]
+        frames = [int(f) for f in rng.integers(0, 40, int(rng.integers(2, 5)))]
+        vertices = [dataclasses.replace(_vertex(rng, label), video=label, frame_left=f, frame_right=f + 1,
+                                        time_s=f / 25.0) for f in frames]
+        first[store.add_object("arc", vertices, "cod")] = (label, frames[0])
+    for _ in range(6):
+        low = int(rng.integers(0, 40))
+        high = low + int(rng.integers(0, 15))
+        found = store.objects_on("v", low, high)
+        expected = sorted(i for i, (label, f) in first.items() if label == "v" and low <= f <= high)
+        assert [o.id for o in found] == expected
+        assert repr(found) == repr([store.object(i) for i in expected])  # (covariances are arrays)
+    assert [o.id for o in store.objects_on("w")] == sorted(i for i, (label, _) in first.items() if label == "w")
+    assert store.objects_on("no such pair") == [] and store.objects_on("v", 41, 60) == []
+    with pytest.raises(UsvipsError, match="last_frame"):
+        store.objects_on("v", 3)
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_an_object_taken_and_put_back_is_exactly_what_it_was(store, where, seed):
     rng = np.random.default_rng(seed)

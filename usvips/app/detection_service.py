@@ -587,7 +587,9 @@ def storing_proposals(project: ProjectStore, run: DetectionRun, max_speed_m_s: f
     max_speed_m_s = validation.positive("max_speed", max_speed_m_s)
     per_step = validation.count("per_step", per_step, 1, 10**9)
     plan, model = run.plan, run.model
-    existing = [o for o in project.objects() if o.vertices and o.vertices[0].pair == plan.label]
+    frames = [p.frame for p in run.proposals if p.frame is not None]
+    existing = (project.objects_on(plan.label, min(frames), max(frames)) if frames  # (not a whole survey read)
+                else project.objects_on(plan.label))
     times = run.times if run.times is not None else _times(plan, sorted({p.frame for p in run.proposals
                                                                          if p.frame is not None}))
     for begin in range(0, len(run.proposals), per_step):

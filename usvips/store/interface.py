@@ -291,6 +291,14 @@ class ProjectStore(Protocol):
         is simply absent)."""
         ...
 
+    def objects_on(self, pair: str, first_frame: int | None = None, last_frame: int | None = None
+                   ) -> list[StoredObject]:
+        """The objects whose first vertex is on the image pair or video labelled ``pair`` — on a video, with
+        ``first_frame``/``last_frame``, only those whose first vertex's left frame lies between them
+        (inclusive) — by id, in one consistent read (what a detection run compares its proposals with,
+        without reading a whole survey)."""
+        ...
+
     def set_record(self, object_id: int, record: ObservationRecord | None,
                    expected_modified: str | None = None) -> None:
         """Store (None: remove) an object's observation record; its ``modified`` stamp moves forward, and a

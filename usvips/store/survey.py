@@ -36,7 +36,7 @@ import numpy as np
 
 from usvips.core.campaign import Campaign
 from usvips.core.deployment import DEPLOYMENT_FIELDS, Deployment, Georeference
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.observation_record import ObservationRecord, Species
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.core.pointing import MIGRATED_SOURCE, PointingSigma, WeakMatch, per_vertex, source_from_label
@@ -941,6 +941,22 @@ class Survey:
             chunk = tuple(ids[start:start + 500])
             found.extend(self._objects(f"WHERE id IN ({', '.join('?' * len(chunk))})", chunk))
         return found
+
+    def objects_on(self, pair: str, first_frame: int | None = None, last_frame: int | None = None
+                   ) -> list[StoredObject]:
+        where = ("WHERE id IN (SELECT v.object_id FROM vertices v JOIN image_pairs p ON p.id = v.pair_id "
+                 "WHERE v.idx = 0 AND p.label = ?)")
+        parameters: tuple = (str(pair),)
+        if (first_frame is None) != (last_frame is None):
+            raise InvalidParameterError("last_frame" if last_frame is None else "first_frame",
+                                        "give both the first and the last frame, or neither")
+        if first_frame is not None:
+            if not self._has_table("vertex_frames"):
+                return []
+            where += (" AND id IN (SELECT object_id FROM vertex_frames WHERE idx = 0 AND frame_left >= ? "
+                      "AND frame_left <= ?)")
+            parameters += (int(first_frame), int(last_frame))
+        return self._objects(where, parameters)
 
     def _objects(self, where: str, parameters: tuple) -> list[StoredObject]:
         with self._reading():
