@@ -118,6 +118,7 @@ class SqliteBackend(Backend):
     def __init__(self, path: Path, connection: sqlite3.Connection, read_only: bool = False):
         self.where, self.raw, self.read_only = path, connection, read_only
         self.media_folder = path.parent
+        self._tables: set[str] = set()  # tables known to exist (see has_table)
 
     def execute(self, sql: str, parameters: Sequence = ()) -> Result:
         try:
@@ -151,7 +152,14 @@ class SqliteBackend(Backend):
         return int(self.execute("PRAGMA user_version").fetchone()[0])
 
     def has_table(self, name: str) -> bool:
-        return bool(self.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)).rows)
+        """Whether the file has the table ``name``. A table found is remembered: no migration removes one, and
+        the store asks before most reads (a window storing a Detect run asked hundreds of times)."""
+        if name in self._tables:
+            return True
+        found = bool(self.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", (name,)).rows)
+        if found:
+            self._tables.add(name)
+        return found
 
     def derived_media_folder(self) -> Path:
         """The folder of the project file: seek proxies and exported frames are kept beside it."""
