@@ -161,8 +161,10 @@ def measurement_input(project: ProjectStore, stored: StoredObject,
         further = list(made) if made is not None else instants.get(stored.id, [])
         if further:
             made = project.instant_sources(stored.id) if made is None else made
-            instants = tuple(replace(_one_instant(project, project.object(i), cache, pointing, stored.creator),
-                                     tracked_from=made.get(i)) for i in further)
+            read = {o.id: o for o in project.objects_with_ids(further)}  # (one read, not one an instant)
+            instants = tuple(replace(_one_instant(project, read[i] if i in read else project.object(i), cache,
+                                                  pointing, stored.creator), tracked_from=made.get(i))
+                             for i in further)
             source = replace(source, instants=instants)
     return source
 
