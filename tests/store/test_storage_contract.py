@@ -267,6 +267,24 @@ def test_how_an_instant_was_made_is_stored_with_its_link_and_no_notes_change_it(
 
 
 @pytest.mark.parametrize("seed", range(3))
+def test_the_links_of_some_objects_are_every_link_they_take_part_in(store, seed):
+    """``instant_links_of``: the links in which the ids take part, as the instant or as its object — what
+    ``instant_links`` holds for them, the other links left unread."""
+    rng = np.random.default_rng(seed)
+    ids = [store.add_object("arc", [_vertex(rng), _vertex(rng)], "cod") for _ in range(30)]
+    wholes = [int(i) for i in rng.choice(ids, 6, replace=False)]
+    free = [i for i in ids if i not in wholes]
+    for instant in rng.choice(free, 15, replace=False):
+        store.add_instant(wholes[int(rng.integers(0, len(wholes)))], int(instant))
+    every = store.instant_links()
+    for _ in range(8):
+        asked = [int(i) for i in rng.choice(ids, int(rng.integers(1, 8)), replace=False)]
+        assert store.instant_links_of(asked) == {i: w for i, w in every.items() if i in asked or w in asked}
+    assert store.instant_links_of([]) == {} and store.instant_links_of(ids) == every
+    assert store.instant_links_of([10**9]) == {}
+
+
+@pytest.mark.parametrize("seed", range(3))
 def test_the_objects_on_a_pair_or_on_a_videos_frames_are_read_without_the_rest(store, where, seed):
     """What a detection run compares its proposals with: the objects whose first vertex is on the pair or
     video, on a video between two left frames (inclusive), each as ``object`` reads it."""

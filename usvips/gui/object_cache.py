@@ -166,9 +166,9 @@ class ObjectCache:
             before = set(self._objects)
             self.reload()
             return tuple(sorted(before - set(self._objects)))
-        old, self._links = self._links, self.project.instant_links()
-        moved = set(old.items()) ^ set(self._links.items())
         named = added + updated + removed
+        old, self._links = self._links, self._links_after(named)
+        moved = set(old.items()) ^ set(self._links.items())
         touched = {i for link in moved for i in link} | {links.get(i) for links in (old, self._links) for i in named}
         updated = updated + tuple(sorted(i for i in touched if i is not None and i not in named and i in self._objects))
         fresh = {o.id: o for o in self.project.objects_with_ids(added + updated)} if added + updated else {}
@@ -202,6 +202,16 @@ class ObjectCache:
             self.events.updated.emit(changed)
         self.events.changed.emit()
         return gone
+
+    def _links_after(self, named: tuple[int, ...]) -> dict[int, int]:
+        """The project's instant links after a write to the objects ``named``: the links held here, those in
+        which a named object takes part (as instant or as object: a deleted object's instants are unlinked
+        with it) read again — not every link of a survey, on the window's thread after each write."""
+        if not named:
+            return self._links
+        ids = set(named)
+        kept = {i: whole for i, whole in self._links.items() if i not in ids and whole not in ids}
+        return dict(sorted({**kept, **self.project.instant_links_of(sorted(ids))}.items()))
 
     def arrived(self, read: StoredObjects) -> None:
         """The objects read elsewhere (:func:`read_stored_objects`) held at once, those written meanwhile

@@ -402,6 +402,12 @@ class ProjectStore(Protocol):
         """Every further instant's id → the id of the object it is an instant of."""
         ...
 
+    def instant_links_of(self, object_ids: Sequence[int]) -> dict[int, int]:
+        """The links (a further instant's id → the id of its object) in which any of ``object_ids`` takes part,
+        as the instant or as the object: :meth:`instant_links` restricted to them, without reading every link
+        of a survey (what a view re-reads after a change to those objects)."""
+        ...
+
     def instant_sources(self, object_id: int | None = None) -> dict[int, int | None]:
         """How each further instant was made: its id → the left frame its track started from, None when
         picked by hand (what :meth:`add_instant` was given; never read from the notes); of ``object_id``, or

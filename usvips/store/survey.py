@@ -1038,14 +1038,14 @@ class Survey:
             if whole.kind != instant.kind:
                 raise ProjectError(f"{self.path}: object {instant_id} is a {instant.kind}, object {object_id} a "
                                    f"{whole.kind}: the instants of an object are of one kind")
-            links = self._links_of((object_id, instant_id))  # (these ids' links, not a survey's)
+            links = self.instant_links_of((object_id, instant_id))  # (these ids' links, not a survey's)
             if object_id in links:
                 raise ProjectError(f"{self.path}: object {object_id} is itself an instant of object "
                                    f"{links[object_id]}; add the instant to that object")
             if instant_id in links:
                 raise ProjectError(f"{self.path}: object {instant_id} is already an instant of object "
                                    f"{links[instant_id]}")
-            if self._query("SELECT 1 FROM object_instants WHERE of_object = ? LIMIT 1", (instant_id,)):
+            if any(of == instant_id for of in links.values()):
                 raise ProjectError(f"{self.path}: object {instant_id} has instants of its own; add them to "
                                    f"object {object_id} one by one")
             tracked = None if tracked_from is None else int(tracked_from)
@@ -1074,14 +1074,17 @@ class Survey:
         return [r[0] for r in self._query("SELECT object_id FROM object_instants WHERE of_object = ? "
                                           "ORDER BY object_id", (int(object_id),))]
 
-    def _links_of(self, object_ids: Sequence[int]) -> dict[int, int]:
-        """:meth:`instant_links` of ``object_ids`` only (each that is a further instant → its object): one
-        indexed query, where a survey's every link would be read."""
-        ids = tuple(int(i) for i in object_ids)
+    def instant_links_of(self, object_ids: Sequence[int]) -> dict[int, int]:
+        ids = sorted({int(i) for i in object_ids})
         if not ids or not self._has_table("object_instants"):
             return {}
-        return dict(self._query(f"SELECT object_id, of_object FROM object_instants WHERE object_id IN "
-                                f"({', '.join('?' * len(ids))})", ids))
+        links: dict[int, int] = {}
+        for start in range(0, len(ids), 250):  # (SQLite's limit on bound parameters: each id is bound twice)
+            chunk = tuple(ids[start:start + 250])
+            marks = ", ".join("?" * len(chunk))
+            links.update(self._query(f"SELECT object_id, of_object FROM object_instants WHERE object_id IN ({marks}) "
+                                     f"OR of_object IN ({marks})", chunk + chunk))
+        return dict(sorted(links.items()))
 
     def instant_links(self) -> dict[int, int]:
         """Every further instant's id → the id of the object it is an instant of (none before schema 7)."""

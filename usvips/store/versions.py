@@ -34,9 +34,9 @@ READS = frozenset({
     "videos",
     "periods", "control", "control_observations", "calibration", "calibrations", "active_calibration",
     "object", "objects", "objects_with_ids", "objects_on", "object_rows", "records", "record", "provenance", "history",
-    "review", "reviews", "instants", "instant_links", "instant_sources", "deployments", "deployment",
-    "georeference", "campaign", "vocabulary", "species_list", "enhancement", "draft", "pointing_estimates",
-    "last_change_id", "changes_since", "watch"})
+    "review", "reviews", "instants", "instant_links", "instant_links_of", "instant_sources", "deployments",
+    "deployment", "georeference", "campaign", "vocabulary", "species_list", "enhancement", "draft",
+    "pointing_estimates", "last_change_id", "changes_since", "watch"})
 
 #: writes that only add something new (a used label, id or term is refused or ignored on its own): there
 #: is no version to read
