@@ -8,15 +8,7 @@ import threading
 
 import pytest
 
-from usvips.gui.qt.app import application
-from usvips.gui.qt.worker import (
-    BACKGROUND_NICE,
-    GUI_SWITCH_INTERVAL_S,
-    Worker,
-    _yield_to_the_gui,
-    share_the_gil_with_the_gui,
-    start,
-)
+from usvips.gui.qt.worker import BACKGROUND_NICE, Worker, _yield_to_the_gui, start
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a thread's own priority is Linux's")
 
@@ -84,29 +76,3 @@ def test_work_a_user_waits_on_keeps_the_guis_priority_in_a_pool_of_its_own(qtbot
     pool.waitForDone(5000)
     nicer = max(gui, BACKGROUND_NICE)
     assert seen == [gui, nicer, nicer]  # one thread: after bulk work it stays nicer, hence the own pool
-
-
-
-@pytest.fixture
-def python_default_switch_interval():
-    """Python's own 5 ms switch interval for the test, the process's own restored after it."""
-    before = sys.getswitchinterval()
-    sys.setswitchinterval(0.005)
-    yield
-    sys.setswitchinterval(before)
-
-
-def test_a_worker_makes_the_gil_change_hands_within_the_guis_interval(qtbot, python_default_switch_interval):
-    Worker(lambda progress, cancelled: None, "a job")
-    assert sys.getswitchinterval() == pytest.approx(GUI_SWITCH_INTERVAL_S)
-
-
-def test_the_application_makes_the_gil_change_hands_within_the_guis_interval(qtbot, python_default_switch_interval):
-    application()
-    assert sys.getswitchinterval() == pytest.approx(GUI_SWITCH_INTERVAL_S)
-
-
-def test_a_shorter_interval_chosen_by_the_user_is_kept(python_default_switch_interval):
-    sys.setswitchinterval(GUI_SWITCH_INTERVAL_S / 4)
-    share_the_gil_with_the_gui()
-    assert sys.getswitchinterval() == pytest.approx(GUI_SWITCH_INTERVAL_S / 4)

@@ -12,14 +12,10 @@ from PySide6 import QtWidgets
 
 from usvips.gui.qt.error_report import install_error_handler
 from usvips.gui.qt.gui_thread_gc import collect_on_the_gui_thread, keep_long_lived
-from usvips.gui.qt.worker import share_the_gil_with_the_gui
 
 
 def application() -> QtWidgets.QApplication:
-    """The process's QApplication (made once), its GUI thread given the GIL promptly
-    (:func:`~usvips.gui.qt.worker.share_the_gil_with_the_gui`)."""
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
-    share_the_gil_with_the_gui()
     app.setOrganizationName("USVIPS")
     app.setApplicationName("usvips")
     return app

@@ -46,7 +46,6 @@ class Worker(QtCore.QRunnable):
         self._cancel = threading.Event()
         self.setAutoDelete(False)
         collect_on_the_gui_thread()  # no garbage (a Qt object in a cycle) is ever collected in the worker
-        share_the_gil_with_the_gui()
 
     def cancel(self) -> None:
         self._cancel.set()
@@ -90,26 +89,6 @@ class Worker(QtCore.QRunnable):
             signal.emit(*args)
         except RuntimeError:  # "Signal source has been deleted": nobody is left to tell
             pass
-
-
-#: Python's switch interval (s) in a process whose GUI thread shares the GIL with workers. Each call Qt makes
-#: into Python on the GUI thread (a paint, a model's ``data``/``headerData``, a slot) first takes the GIL; while a
-#: worker runs Python (a figures job) that waits for the switch interval, 5 ms by default: the worker drops the
-#: GIL only when asked after a whole interval. A repaint of the object list and the panes makes hundreds of such
-#: calls, so a window step of 40-50 ms of the GUI thread's own CPU froze the window for 150-260 ms while Detect's
-#: proposals were stored and their figures computed (`usvips bench`'s Detect row, 1080p). At 0.1 ms the same
-#: row's longest freeze was 0.08-0.11 s (0.18-0.27 s at 5 ms, 0.14-0.17 s at 0.5 ms, 0.11-0.14 s at 0.2 ms).
-#: The cost falls only on two threads that both run Python at once: two such workers together did 26 % less
-#: work (18 % at 0.2 ms, 12 % at 0.5 ms); a thread alone, or in OpenCV or FFmpeg (which let go of the GIL),
-#: runs as fast.
-GUI_SWITCH_INTERVAL_S = 1e-4
-
-
-def share_the_gil_with_the_gui() -> None:
-    """Set Python's switch interval to :data:`GUI_SWITCH_INTERVAL_S` unless it is shorter already (a user's
-    own choice is never lengthened)."""
-    if sys.getswitchinterval() > GUI_SWITCH_INTERVAL_S:
-        sys.setswitchinterval(GUI_SWITCH_INTERVAL_S)
 
 
 #: the niceness a worker's thread takes (Linux: per thread; the threads it starts, FFmpeg's decoders among
