@@ -76,3 +76,4 @@ def test_work_a_user_waits_on_keeps_the_guis_priority_in_a_pool_of_its_own(qtbot
     pool.waitForDone(5000)
     nicer = max(gui, BACKGROUND_NICE)
     assert seen == [gui, nicer, nicer]  # one thread: after bulk work it stays nicer, hence the own pool
+
