@@ -223,25 +223,9 @@ class ObjectList(QtWidgets.QWidget):
         if not missing:
             return
         self._completing = why
-        if len(missing) <= self.SYNCHRONOUS:
-            self._compute_missing(missing, why, self.workspace.project)
-            return
-        self.workspace.message.emit("info", f"{why}: computing the figures of {len(missing):,} objects first "
-                                            "(the rows are arranged again when they are in)")
-        self.completing.setFormat(f"{why}: %p%")
-        self.completing.setValue(0)
-        self.completing.show()
-        # the first job's inputs (a job's worth of objects read on this thread) are copied at a later turn of
-        # the event loop: the rows arranged by what is known are drawn, and input is handled, first (one step
-        # was 0.1 s at 20,000 objects). A timer, not a queued call: that would run with the paint, in one step.
-        project = self.workspace.project
-        QtCore.QTimer.singleShot(1, self, lambda: self._compute_missing(missing, why, project))
-
-    def _compute_missing(self, missing: list[int], why: str, project: object) -> None:
-        """The figures a sort or filter (``why``) waits for: computed, or a worker started; nothing when the
-        wait ended meanwhile (cancelled, another sort, another project)."""
-        if self._completing != why or self.workspace.project is not project:
-            return
+        if len(missing) > self.SYNCHRONOUS:
+            self.workspace.message.emit("info", f"{why}: computing the figures of {len(missing):,} objects first "
+                                                "(the rows are arranged again when they are in)")
         self._compute(missing, checked=True)
         if self._worker is None:  # computed at once
             self._completed()
