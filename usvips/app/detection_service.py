@@ -587,11 +587,10 @@ def storing_proposals(project: ProjectStore, run: DetectionRun, max_speed_m_s: f
     max_speed_m_s = validation.positive("max_speed", max_speed_m_s)
     per_step = validation.count("per_step", per_step, 1, 10**9)
     plan, model = run.plan, run.model
-    frames = [p.frame for p in run.proposals if p.frame is not None]
-    existing = (project.objects_on(plan.label, min(frames), max(frames)) if frames  # (not a whole survey read)
+    frames = sorted({p.frame for p in run.proposals if p.frame is not None})
+    existing = (project.objects_on(plan.label, frames[0], frames[-1]) if frames  # (not a whole survey read)
                 else project.objects_on(plan.label))
-    times = run.times if run.times is not None else _times(plan, sorted({p.frame for p in run.proposals
-                                                                         if p.frame is not None}))
+    times = run.times if run.times is not None else _times(plan, frames)
     for begin in range(0, len(run.proposals), per_step):
         rows, where = [], []
         for i in range(begin, min(begin + per_step, len(run.proposals))):
