@@ -20,12 +20,13 @@ from pathlib import Path
 
 from usvips.app.live_changes import ColleagueChange
 from usvips.app.pointing_settings import pointing_in_use
-from usvips.app.project_figures import MeasurementInput, evaluate, evaluate_many, joint_vertices, measurement_input
+from usvips.app.project_figures import MeasurementInput, evaluate, joint_vertices, measurement_input
 from usvips.core.errors import UsvipsError
 from usvips.core.measurements import QualityRules
 from usvips.core.observation_record import ObservationRecord
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.calculator import Geometry, Result, pair_figures, result_of
+from usvips.gui.figures_process import shared_process
 from usvips.gui.signals import Signal
 from usvips.store.interface import ProjectStore
 from usvips.store.opening import open_project
@@ -313,20 +314,21 @@ class ObjectCache:
     def figures_job(self, object_ids: list[int]) -> Callable[..., dict[int, Result]]:
         """The figures of many objects as a function of copied inputs (run it off the GUI thread); give its
         result to :meth:`remember`. The inputs are copied with no query an object (the instants from the
-        links held here, each calibration read once)."""
+        links held here, each calibration read once); the job computes them, :data:`FIGURES_BATCH` at a time,
+        in the window process's figures child (:mod:`usvips.gui.figures_process`: the window's thread never
+        waits on it for the GIL), or in its own thread while the child starts or when it cannot."""
         instants = self.instants_by_object()
         inputs = [(i, self.input(self.get(i), instants)) for i in object_ids]
         rules = self._rules()
 
         def run(progress=None, cancelled=None) -> dict[int, Result]:
             out = {}
+            process = shared_process()
             for begin in range(0, len(inputs), FIGURES_BATCH):
                 if cancelled is not None and cancelled():
                     break
                 batch = inputs[begin:begin + FIGURES_BATCH]
-                for (object_id, _), measured in zip(batch, evaluate_many([s for _, s in batch], rules), strict=True):
-                    out[object_id] = (Result((), (), str(measured)) if isinstance(measured, UsvipsError)
-                                      else result_of(measured))
+                out.update(zip((i for i, _ in batch), process.figures([s for _, s in batch], rules), strict=True))
                 if progress is not None:
                     progress((begin + len(batch)) / len(inputs))
             return out
