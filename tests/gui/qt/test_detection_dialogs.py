@@ -114,3 +114,93 @@ def test_proposals_stored_before_the_window_opened_get_their_handles_when_review
     circles = review_circles(qtbot, window)
     assert {side: len(item.points()) for side, item in circles.items.items()} == {"left": 6, "right": 6}
     qtbot.waitUntil(lambda: len(circles.handles) == 12, timeout=5000)
+
+
+def test_detection_model_loads_on_the_worker_and_becomes_the_projects_default(qtbot, make_window, tmp_path,
+                                                                             monkeypatch):
+    """Measure › Detection model…: the file chosen in the dialog is loaded (its network run once) on the
+    window's worker, never on the window's thread; once loaded it is the window's model, the project's
+    default and the settings' remembered model."""
+    import threading
+
+    from PySide6 import QtWidgets
+
+    from usvips.app.detection_model import project_model_path
+    from usvips.gui.qt import detection_dialogs
+
+    window, model = _window_on_pair(qtbot, make_window, tmp_path)
+    window.settings.remove(SETTING)
+    on_window_thread = []
+    real = detection_dialogs.load_model
+
+    def recording(path):
+        on_window_thread.append(threading.current_thread() is threading.main_thread())
+        return real(path)
+
+    monkeypatch.setattr(detection_dialogs, "load_model", recording)
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName", lambda *a, **k: (str(model), ""))
+    window.actions["detect_model"].trigger()
+    qtbot.waitUntil(lambda: detection_dialogs.loaded_model(window.context) is not None and not window.busy,
+                    timeout=20000)
+    assert on_window_thread == [False]
+    assert project_model_path(window.workspace.project) == model.resolve()
+    assert window.settings.value(SETTING) == str(model)
+    assert "loaded from" in window.log.toPlainText()
+    window.actions["detect"].trigger()  # the model loaded is used: not loaded again
+    qtbot.waitUntil(lambda: not window.busy and len(window.workspace.project.objects()) == 3, timeout=20000)
+    assert on_window_thread == [False]
+
+
+def test_a_file_that_is_no_model_is_named_and_changes_nothing(qtbot, make_window, tmp_path, monkeypatch):
+    from PySide6 import QtWidgets
+
+    from usvips.app.detection_model import project_model_path
+    from usvips.gui.qt import detection_dialogs
+
+    window, model = _window_on_pair(qtbot, make_window, tmp_path)
+    bad = tmp_path / "not_a_model.toml"
+    bad.write_text("input_size = [\n")
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName", lambda *a, **k: (str(bad), ""))
+    window.actions["detect_model"].trigger()
+    qtbot.waitUntil(lambda: not window.busy and "not_a_model.toml" in window.log.toPlainText(), timeout=20000)
+    assert detection_dialogs.loaded_model(window.context) is None
+    assert project_model_path(window.workspace.project) is None
+    assert window.settings.value(SETTING) == str(model)  # the model remembered before is kept
+    assert _loading(window) is None  # a Detect now uses the remembered model, not the bad file
+    window.actions["detect"].trigger()
+    qtbot.waitUntil(lambda: not window.busy and len(window.workspace.project.objects()) == 3, timeout=20000)
+
+
+def test_a_detect_asked_while_the_model_loads_uses_that_model(qtbot, make_window, tmp_path, monkeypatch):
+    """The chosen model is still loading when Detect is asked for: the run loads the chosen file (not the one
+    remembered before, nor the shipped one) and makes it the project's default."""
+    import threading
+
+    from usvips.app.detection_model import project_model_path
+    from usvips.gui.qt import detection_dialogs
+
+    window, remembered = _window_on_pair(qtbot, make_window, tmp_path)
+    chosen_dir = tmp_path / "chosen"
+    chosen_dir.mkdir()
+    chosen = write_switching_model(chosen_dir, scene(seed=5), sigma=1.0)
+    release = threading.Event()
+    real = detection_dialogs.load_model
+
+    def slow(path):
+        release.wait(20)
+        return real(path)
+
+    monkeypatch.setattr(detection_dialogs, "load_model", slow)
+    assert detection_dialogs.choose_model(window.context, window, str(chosen))
+    assert _loading(window) == str(chosen)
+    window.actions["detect"].trigger()
+    release.set()
+    qtbot.waitUntil(lambda: not window.busy and len(window.workspace.project.objects()) == 3, timeout=30000)
+    assert project_model_path(window.workspace.project) == chosen.resolve() != remembered.resolve()
+    assert _loading(window) is None
+
+
+def _loading(window):
+    from usvips.gui.qt.detection_dialogs import _STATES
+
+    return _STATES[id(window.workspace)].loading

@@ -89,7 +89,7 @@ def freeze_row(scale: float = 1.0) -> dict:
 
     from usvips.app.detection_model import bundled_model_path
     from usvips.gui.qt.app import application
-    from usvips.gui.qt.detection_dialogs import choose_model, detect_range
+    from usvips.gui.qt.detection_dialogs import choose_model, detect_range, loaded_model
     from usvips.gui.qt.main_window import MainWindow
 
     frames = max(3, round(FRAMES * scale))
@@ -115,7 +115,9 @@ def freeze_row(scale: float = 1.0) -> dict:
             ticks.run(shown, 30.0)
             if not shown():
                 raise RuntimeError(f"{path}: frame 0 was not shown within 30 s")
-            if not choose_model(window.context, window, str(bundled_model_path())):
+            choose_model(window.context, window, str(bundled_model_path()))  # loaded on the worker
+            ticks.run(lambda: not window.busy, 30.0)
+            if loaded_model(window.context) is None:
                 raise RuntimeError(f"the window did not take the model: {window.statusBar().currentMessage()}")
             app.processEvents()
             ticks.count = 0

@@ -11,12 +11,19 @@ from pathlib import Path
 
 from PySide6 import QtCore, QtWidgets
 
-from usvips.app.detection_model import bundled_model_path, model_path_for, project_model_path
+from usvips.app.detection_model import (
+    DetectionModel,
+    bundled_model_path,
+    load_model,
+    model_path_for,
+    project_model_path,
+)
 from usvips.core.errors import UsvipsError
 from usvips.gui.detect_model import DetectSession
 from usvips.gui.messages import Messages
 from usvips.gui.qt import proposal_handles
 from usvips.gui.window_context import WindowContext
+from usvips.store.interface import ProjectStore
 
 SETTING = "detection/model"
 MODEL_FILTER = "Model descriptions (*.toml *.json);;All files (*)"
@@ -32,6 +39,8 @@ class _Detecting:
     def __init__(self, context: WindowContext) -> None:
         self.session = DetectSession(context.workspace)
         self.circles = proposal_handles.circles(context)
+        #: the description file *Detection model…* is loading on the worker (None: none)
+        self.loading: str | None = None
 
 
 #: each window's detection state, by its workspace's identity (a workspace is a dataclass: not hashable)
@@ -50,38 +59,80 @@ def _session(context: WindowContext) -> DetectSession:
 
 
 def choose_model(context: WindowContext, parent: QtWidgets.QWidget, path: str | None = None) -> bool:
-    """Ask for a model's description file (or take ``path``): the open project's default model from now
-    on, and kept in the settings for projects that have none."""
-    settings = context.settings
+    """Ask for a model's description file (or take ``path``) and load it on the window's worker (a load reads,
+    hashes and runs the network once: ~0.2 s, never on the window's thread): once loaded, the open project's
+    default model, and kept in the settings for projects that have none. A file that is not a model is said
+    as an error naming it and changes nothing. False when no file was chosen; True when the load started (or
+    the file's model was loaded already). A Detect asked for while it loads uses this file."""
     if path is None:
-        remembered = settings.value(SETTING, "") if settings is not None else ""
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(parent, "Detection model", str(
-            remembered or context.start_folder()), MODEL_FILTER)
-        if not path:
+        path = _ask_model_file(context, parent)
+        if path is None:
             return False
-    try:
-        _session(context).choose_model(path, remember=True)
-    except UsvipsError as error:
-        context.messages.error(str(error))
-        return False
-    if settings is not None:
-        settings.setValue(SETTING, path)
+    state = _state(context)
+    session, project = state.session, context.workspace.project
+    if session.is_loaded(path):
+        _adopted(context, session.model, path, project)
+        return True
+    state.loading = path
+
+    def settled() -> None:
+        if state.loading == path:
+            state.loading = None
+
+    def loaded(model: DetectionModel) -> None:
+        settled()
+        _adopted(context, model, path, project)
+        context.messages.info(f"detection model {model.name}: loaded from {path}")
+
+    def stopped() -> None:
+        settled()
+        context.messages.info(f"loading the detection model {Path(path).name}: cancelled")
+
+    context.jobs.run(lambda progress, cancelled: load_model(path), f"Loading the detection model {Path(path).name}",
+                     loaded, stopped, lambda _message: settled())
     return True
+
+
+def loaded_model(context: WindowContext) -> DetectionModel | None:
+    """The detection model the window has loaded (None: none yet)."""
+    return _session(context).model
+
+
+def _ask_model_file(context: WindowContext, parent: QtWidgets.QWidget) -> str | None:
+    """The description file the user picks (starting where the last one was); None when cancelled."""
+    settings = context.settings
+    remembered = settings.value(SETTING, "") if settings is not None else ""
+    path, _ = QtWidgets.QFileDialog.getOpenFileName(parent, "Detection model", str(
+        remembered or context.start_folder()), MODEL_FILTER)
+    return path or None
+
+
+def _adopted(context: WindowContext, model: DetectionModel, path: str, project: ProjectStore | None) -> None:
+    """``model`` (loaded from ``path``) the session's; the default of ``project`` when it is still the one open
+    (another opened meanwhile keeps its own), and remembered in the settings."""
+    _session(context).adopt(model, path, remember=project is not None and context.workspace.project is project)
+    if context.settings is not None:
+        context.settings.setValue(SETTING, path)
 
 
 def _ready(context: WindowContext, parent: QtWidgets.QWidget) -> tuple[DetectSession, str | None, bool] | None:
     """The session and the model to detect with: (session, the description file the worker loads first —
     None when the model loaded is used —, whether to make it the project's default once loaded); None when
-    the user chose no model. The project's default, else the model loaded, else the one remembered in the
-    settings, else the model shipped with USVIPS (as ``usvips detect`` takes them); a file is asked for only
-    when none is there. Nothing is loaded here: a load runs the network once, which is the worker's."""
-    session = _session(context)
+    the user chose no model. The model being loaded (*Detection model…*), else the project's default, else the
+    model loaded, else the one remembered in the settings, else the model shipped with USVIPS (as ``usvips
+    detect`` takes them); a file is asked for only when none is there. Nothing is loaded here: a load runs
+    the network once, which is the worker's."""
+    state = _state(context)
+    session = state.session
+    if state.loading is not None:
+        return session, state.loading, True
     project = context.workspace.project
     try:  # the open project's default model first (another project opened in this window may have its own)
         default = model_path_for(project) if project is not None and project_model_path(project) else None
     except UsvipsError as error:  # the project's default is gone: say so, then ask for another
         context.messages.error(str(error))
-        return (session, None, False) if choose_model(context, parent) else None
+        chosen = _ask_model_file(context, parent)
+        return None if chosen is None else (session, chosen, True)
     if default is not None:
         return session, str(default), False
     if session.model is not None:
@@ -92,7 +143,8 @@ def _ready(context: WindowContext, parent: QtWidgets.QWidget) -> tuple[DetectSes
     try:  # as `usvips detect` does: the model shipped with USVIPS (it is no project's default for that)
         return session, str(bundled_model_path()), False
     except UsvipsError:
-        return (session, None, False) if choose_model(context, parent) else None
+        chosen = _ask_model_file(context, parent)
+        return None if chosen is None else (session, chosen, True)
 
 
 def detect_frame(context: WindowContext, parent: QtWidgets.QWidget) -> None:

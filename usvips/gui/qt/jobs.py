@@ -28,9 +28,11 @@ class Jobs:
         return bool(self.workers)
 
     def run(self, job, label: str, on_done: Callable[[object], None],
-            on_cancelled: Callable[[], None] | None = None) -> Worker:
+            on_cancelled: Callable[[], None] | None = None,
+            on_failed: Callable[[str], None] | None = None) -> Worker:
         """Run ``job`` in a worker; ``on_done(result)`` when it finishes (a :class:`UsvipsError` it raises
-        is said as an error), ``on_cancelled()`` (default: a message saying so) when it stops early."""
+        is said as an error), ``on_cancelled()`` (default: a message saying so) when it stops early,
+        ``on_failed(message)`` after the message saying why it failed."""
         worker = Worker(job, label)
         self.workers.add(worker)
 
@@ -44,6 +46,8 @@ class Jobs:
         def failed(message: str) -> None:
             self._ended(worker)
             self.messages.error(message)
+            if on_failed is not None:
+                on_failed(message)
 
         def cancelled() -> None:
             self._ended(worker)
