@@ -198,7 +198,7 @@ def sort_row(scale: float = 1.0) -> dict:
         begin = time.perf_counter()
         QtCore.QTimer.singleShot(0, lambda: listing.sort(listing.COLUMNS.index("figure")))
         worst, ticks, busy = _longest_tick_gap(app, lambda: time.perf_counter() - begin > 0.05
-                                               and listing._worker is None and listing._completing is None, 600)
+                                               and listing._worker is None and not listing.arranging, 600)
         sorted_s = time.perf_counter() - begin
         ids = window.workspace.cache.ids()
         known = sum(window.workspace.cache.known_figures(i) is not None for i in ids)

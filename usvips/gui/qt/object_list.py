@@ -146,6 +146,7 @@ class ObjectList(QtWidgets.QWidget):
         #: why every figure is being computed (a sort by a figure, a filter), the rows arranged again when done
         self._completing: str | None = None
         self._fitted = False  # a large list's columns fitted to the rows on screen with their figures
+        self._sorts_due = 0  # sorts by a figure whose missing figures are yet to be looked for (see sort)
         # the figures of drawn rows not known yet: gathered while the rows are drawn, computed after
         self._wanted_timer = QtCore.QTimer(self)
         self._wanted_timer.setSingleShot(True)
@@ -205,10 +206,38 @@ class ObjectList(QtWidgets.QWidget):
     def sort(self, column: int, order: QtCore.Qt.SortOrder = QtCore.Qt.SortOrder.AscendingOrder) -> None:
         """Rows by ``column`` (-1: by id). By a figure column in a survey whose figures are not all known
         yet: sorted at once by what is known (the others last), every missing figure computed in the worker
-        (progress beside the filter) and the rows sorted again when they are in."""
+        (progress beside the filter) and the rows sorted again when they are in (:attr:`arranging` until
+        then).
+
+        The missing figures are looked for, and the first job's inputs copied, at a later turn of the event
+        loop, so that the rows arranged by what is known are drawn (and a key or click handled) first: the
+        click was one step of ~0.12 s at 20,000 objects. Nothing is marked as waiting meanwhile — a figures
+        job that ends in between cannot complete the sort early — and the later turn looks again at what is
+        missing then."""
         self.model.sort(column, order)
         if column >= 0 and self.COLUMNS[column] in self.FIGURE_COLUMNS:
+            project = self.workspace.project
+            self._sorts_due += 1
+            if self._completing is None and self.model.rowCount() > self.EAGER:  # said at once, counted from 0
+                self.completing.setFormat(f"sorting by {self.COLUMNS[column]}: %p%")
+                self.completing.setValue(0)
+                self.completing.show()
+            # a timer, not a queued call: that would run with the paint, in one step
+            QtCore.QTimer.singleShot(1, self, lambda: self._complete_sort(column, order, project))
+
+    @property
+    def arranging(self) -> bool:
+        """A sort or filter is waiting for figures (its rows are arranged again when they are in)."""
+        return self._sorts_due > 0 or self._completing is not None
+
+    def _complete_sort(self, column: int, order: QtCore.Qt.SortOrder, project: object) -> None:
+        """A sort's missing figures computed (see :meth:`sort`); nothing when the rows are sorted otherwise or
+        another project is open by now."""
+        self._sorts_due -= 1
+        if (self.model.sort_column, self.model.sort_order) == (column, order) and self.workspace.project is project:
             self._complete_figures(f"sorting by {self.COLUMNS[column]}")
+        if self._completing is None and self._sorts_due == 0:  # every figure was known: nothing to wait for
+            self.completing.hide()
 
     def set_filter(self, text: str) -> None:
         """Only the rows with ``text`` in a cell; a figure's text counts too, so the missing figures are
