@@ -122,7 +122,7 @@ class ObjectTableModel(QtCore.QAbstractTableModel):
 
     def row_of(self, object_id: int) -> int | None:
         if self._row is None:
-            self._row = dict(zip(self._ids, range(len(self._ids))))
+            self._row = dict(zip(self._ids, range(len(self._ids)), strict=True))
         return self._row.get(object_id)
 
     def _arranged(self, ids: Iterable[int]) -> list[int]:
