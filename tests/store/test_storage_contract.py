@@ -285,6 +285,24 @@ def test_the_links_of_some_objects_are_every_link_they_take_part_in(store, seed)
 
 
 @pytest.mark.parametrize("seed", range(3))
+def test_the_records_of_some_objects_are_theirs_alone(store, seed):
+    """``records_of``: what ``records`` holds for the ids asked (an object without a record, or no object, is
+    absent), the other records left unread — over more ids than one statement binds."""
+    rng = np.random.default_rng(seed)
+    ids = [store.add_object("arc", [_vertex(rng), _vertex(rng)], "cod") for _ in range(40)]
+    for object_id in rng.choice(ids, 25, replace=False):
+        store.set_record(int(object_id), ObservationRecord(genus=f"G{int(rng.integers(0, 99))}",
+                                                           number=int(rng.integers(1, 9)), comment=f"c {object_id}"))
+    every = store.records()
+    for _ in range(8):
+        asked = [int(i) for i in rng.choice(ids, int(rng.integers(1, 12)), replace=False)]
+        assert store.records_of(asked) == {i: r for i, r in every.items() if i in asked}
+    assert store.records_of([]) == {} and store.records_of(ids) == every
+    assert store.records_of([10**9]) == {}
+    assert store.records_of([*ids] * 30) == every  # 1,200 ids asked (duplicates): read in slices
+
+
+@pytest.mark.parametrize("seed", range(3))
 def test_the_objects_on_a_pair_or_on_a_videos_frames_are_read_without_the_rest(store, where, seed):
     """What a detection run compares its proposals with: the objects whose first vertex is on the pair or
     video, on a video between two left frames (inclusive), each as ``object`` reads it."""

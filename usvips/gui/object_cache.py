@@ -185,8 +185,9 @@ class ObjectCache:
         for object_id in gone:
             del self._objects[object_id]
             self._records.pop(object_id, None)
+        records = self.project.records_of(list(fresh)) if fresh else {}  # one query, not one an object
         for object_id in fresh:
-            record = self.project.record(object_id)
+            record = records.get(object_id)
             if record is None:
                 self._records.pop(object_id, None)
             else:

@@ -314,6 +314,11 @@ class ProjectStore(Protocol):
         """An object's observation record, None when none was entered."""
         ...
 
+    def records_of(self, object_ids: Sequence[int]) -> dict[int, ObservationRecord]:
+        """The observation records of ``object_ids`` (those without one absent): :meth:`records` restricted to
+        them, without reading every record of a survey (what a view re-reads after a change to those objects)."""
+        ...
+
     def provenance(self, object_id: int) -> Provenance:
         """Who made what of an object and when (a :class:`~usvips.store.records.Provenance`: the object's
         creator and times, who picked each vertex, who made its observation record)."""

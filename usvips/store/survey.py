@@ -1493,6 +1493,18 @@ class Survey:
                            "observation_records ORDER BY object_id")
         return {int(row[0]): ObservationRecord(*row[1:]) for row in rows}
 
+    def records_of(self, object_ids: Sequence[int]) -> dict[int, ObservationRecord]:
+        ids = sorted({int(i) for i in object_ids})
+        if not ids or not self._has_table("observation_records"):
+            return {}
+        records: dict[int, ObservationRecord] = {}
+        for start in range(0, len(ids), 500):  # (SQLite's limit on bound parameters)
+            chunk = tuple(ids[start:start + 500])
+            rows = self._query("SELECT object_id, family, genus, species, code, number, stage, activity, comment "
+                               f"FROM observation_records WHERE object_id IN ({', '.join('?' * len(chunk))})", chunk)
+            records.update((int(row[0]), ObservationRecord(*row[1:])) for row in rows)
+        return dict(sorted(records.items()))
+
     def record(self, object_id: int) -> ObservationRecord | None:
         """An object's observation record, None when none was entered (or before schema 5)."""
         if not self._has_table("observation_records"):

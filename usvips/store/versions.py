@@ -33,7 +33,8 @@ READS = frozenset({
     "image_path", "media_location", "media_path", "media_problems", "media_identity", "media_records", "video",
     "videos",
     "periods", "control", "control_observations", "calibration", "calibrations", "active_calibration",
-    "object", "objects", "objects_with_ids", "objects_on", "object_rows", "records", "record", "provenance", "history",
+    "object", "objects", "objects_with_ids", "objects_on", "object_rows", "records", "record", "records_of",
+    "provenance", "history",
     "review", "reviews", "instants", "instant_links", "instant_links_of", "instant_sources", "deployments",
     "deployment", "georeference", "campaign", "vocabulary", "species_list", "enhancement", "draft",
     "pointing_estimates", "last_change_id", "changes_since", "watch"})
