@@ -52,19 +52,9 @@ def test_the_model_is_loaded_by_the_worker_once_and_kept_as_the_projects_default
                                                                                    monkeypatch):
     """Loading a model runs its network once (0.15 s for the shipped one): the first Detect loads it on the
     worker, never on the window's thread, and the next Detect uses it as loaded."""
-    import threading
-
     from usvips.app.detection_model import project_model_path
-    from usvips.gui import detect_model
 
-    on_window_thread = []
-    real = detect_model.load_model
-
-    def recording(path):
-        on_window_thread.append(threading.current_thread() is threading.main_thread())
-        return real(path)
-
-    monkeypatch.setattr(detect_model, "load_model", recording)
+    on_window_thread = _loads_recorded(monkeypatch)
     window, model = _window_on_pair(qtbot, make_window, tmp_path)
     window.actions["detect"].trigger()
     qtbot.waitUntil(lambda: not window.busy and len(window.workspace.project.objects()) == 3, timeout=20000)
@@ -73,6 +63,26 @@ def test_the_model_is_loaded_by_the_worker_once_and_kept_as_the_projects_default
     window.actions["detect"].trigger()
     qtbot.waitUntil(lambda: not window.busy and "duplicate" in window.log.toPlainText(), timeout=20000)
     assert on_window_thread == [False]  # the project's default is the model loaded: not loaded again
+
+
+def _loads_recorded(monkeypatch) -> list[bool]:
+    """Every model load from now on (by Detect's worker or by *Detection model…*), recorded as whether it ran
+    on the window's thread."""
+    import threading
+
+    from usvips.gui import detect_model
+    from usvips.gui.qt import detection_dialogs
+
+    on_window_thread: list[bool] = []
+    real = detect_model.load_model
+
+    def recording(path):
+        on_window_thread.append(threading.current_thread() is threading.main_thread())
+        return real(path)
+
+    monkeypatch.setattr(detect_model, "load_model", recording)
+    monkeypatch.setattr(detection_dialogs, "load_model", recording)
+    return on_window_thread
 
 
 def test_without_a_chosen_model_detect_uses_the_shipped_one_without_asking(qtbot, make_window, tmp_path,
@@ -121,7 +131,6 @@ def test_detection_model_loads_on_the_worker_and_becomes_the_projects_default(qt
     """Measure › Detection model…: the file chosen in the dialog is loaded (its network run once) on the
     window's worker, never on the window's thread; once loaded it is the window's model, the project's
     default and the settings' remembered model."""
-    import threading
 
     from PySide6 import QtWidgets
 
@@ -130,14 +139,7 @@ def test_detection_model_loads_on_the_worker_and_becomes_the_projects_default(qt
 
     window, model = _window_on_pair(qtbot, make_window, tmp_path)
     window.settings.remove(SETTING)
-    on_window_thread = []
-    real = detection_dialogs.load_model
-
-    def recording(path):
-        on_window_thread.append(threading.current_thread() is threading.main_thread())
-        return real(path)
-
-    monkeypatch.setattr(detection_dialogs, "load_model", recording)
+    on_window_thread = _loads_recorded(monkeypatch)
     monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName", lambda *a, **k: (str(model), ""))
     window.actions["detect_model"].trigger()
     qtbot.waitUntil(lambda: detection_dialogs.loaded_model(window.context) is not None and not window.busy,
