@@ -206,3 +206,37 @@ def _loading(window):
     from usvips.gui.qt.detection_dialogs import _STATES
 
     return _STATES[id(window.workspace)].loading
+
+
+def test_of_two_models_chosen_one_after_the_other_the_later_stands(qtbot, make_window, tmp_path, monkeypatch):
+    """The first file chosen loads slowly, the second at once: when the first ends loading it is not adopted
+    over the second (the later choice stands, as the window's model and the project's default)."""
+    import threading
+
+    from usvips.app.detection_model import project_model_path
+    from usvips.gui.qt import detection_dialogs
+
+    window, first = _window_on_pair(qtbot, make_window, tmp_path)
+    second_dir = tmp_path / "second"
+    second_dir.mkdir()
+    second = write_switching_model(second_dir, scene(seed=5), sigma=1.0)
+    release = threading.Event()
+    real = detection_dialogs.load_model
+
+    def slow_for_the_first(path):
+        if path == str(first):
+            release.wait(20)
+        return real(path)
+
+    monkeypatch.setattr(detection_dialogs, "load_model", slow_for_the_first)
+    qtbot.waitUntil(lambda: not window.busy, timeout=20000)  # the window's own start-up work done
+    assert detection_dialogs.choose_model(window.context, window, str(first))
+    assert detection_dialogs.choose_model(window.context, window, str(second))
+    if window.pool.maxThreadCount() > 1:  # the second ends first (else they queue)
+        qtbot.waitUntil(lambda: detection_dialogs.loaded_model(window.context) is not None, timeout=20000)
+    release.set()
+    qtbot.waitUntil(lambda: not window.busy and "another was chosen since" in window.log.toPlainText(),
+                    timeout=20000)
+    assert project_model_path(window.workspace.project) == second.resolve()
+    assert _loading(window) is None and window.settings.value(SETTING) == str(second)
+    assert detection_dialogs._session(window.context).is_loaded(str(second))

@@ -39,8 +39,10 @@ class _Detecting:
     def __init__(self, context: WindowContext) -> None:
         self.session = DetectSession(context.workspace)
         self.circles = proposal_handles.circles(context)
-        #: the description file *Detection model…* is loading on the worker (None: none)
+        #: the description file *Detection model…* is loading on the worker (None: none), and how many files
+        #: were chosen so far (a load that ends after a later choice is not adopted)
         self.loading: str | None = None
+        self.choices = 0
 
 
 #: each window's detection state, by its workspace's identity (a workspace is a dataclass: not hashable)
@@ -70,17 +72,25 @@ def choose_model(context: WindowContext, parent: QtWidgets.QWidget, path: str | 
             return False
     state = _state(context)
     session, project = state.session, context.workspace.project
+    state.choices += 1
+    choice = state.choices
     if session.is_loaded(path):
+        state.loading = None
         _adopted(context, session.model, path, project)
         return True
     state.loading = path
 
-    def settled() -> None:
-        if state.loading == path:
-            state.loading = None
+    def settled() -> bool:
+        """Whether this is still the latest choice (then nothing is loading any more)."""
+        if choice != state.choices:
+            return False
+        state.loading = None
+        return True
 
     def loaded(model: DetectionModel) -> None:
-        settled()
+        if not settled():  # another file was chosen while this one loaded: the later choice stands
+            context.messages.info(f"detection model {model.name}: loaded from {path}, but another was chosen since")
+            return
         _adopted(context, model, path, project)
         context.messages.info(f"detection model {model.name}: loaded from {path}")
 
