@@ -52,6 +52,7 @@ def test_main_figures_are_the_known_figures_after_any_changes(tmp_path, seed):
             expected_values, expected_valued, expected_rest = _asked_one_by_one(cache, order)
             assert valued.tolist() == expected_valued and rest == expected_rest
             assert values.tolist() == expected_values
+            assert cache.missing_figures() == sum(cache.known_figures(i) is None for i in cache.ids())
         assert any(cache.known_figures(i) is not None for i in cache.ids())
     finally:
         ws.close_project()

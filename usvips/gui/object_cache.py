@@ -308,16 +308,25 @@ class ObjectCache:
         under the current rules and hold one, and the ids of the others, each in the order given: what a sort by
         the figure needs (a sort of a 20,000-object survey arranges them on the window's thread: ~3 ms, where
         a lookup an object in Python took ~40 ms)."""
-        rules = self._rules()
-        if not (self._main_rules is rules or self._main_rules == rules):  # other rules: what they hold, once
-            self._main_rules = rules
-            self._main = {i: (held[1].figures[0].value if held[1].figures else math.nan)
-                          for i, held in self._figures.items() if held[0] is rules or held[0] == rules}
+        self._main_under_rules()
         listed = object_ids if isinstance(object_ids, list) else list(object_ids)
         values = np.fromiter(map(self._main.get, listed, itertools.repeat(math.nan)), dtype=np.float64,
                              count=len(listed))
         ids, valued = np.array(listed, dtype=np.int64), ~np.isnan(values)
         return values[valued], ids[valued], ids[~valued].tolist()
+
+    def missing_figures(self) -> int:
+        """How many held objects have no figures known under the current rules (no look at each object)."""
+        self._main_under_rules()
+        return len(self._objects) - len(self._main)
+
+    def _main_under_rules(self) -> None:
+        """The table of main figures made anew from the figures held when the rules are other than its own."""
+        rules = self._rules()
+        if not (self._main_rules is rules or self._main_rules == rules):  # other rules: what they hold, once
+            self._main_rules = rules
+            self._main = {i: (held[1].figures[0].value if held[1].figures else math.nan)
+                          for i, held in self._figures.items() if held[0] is rules or held[0] == rules}
 
     def input(self, stored, instants: dict[int, list[int]] | None = None) -> MeasurementInput:
         """What the figures of a stored object need, read from the project now (GUI thread); ``instants``:

@@ -103,6 +103,10 @@ def test_a_sort_by_figure_computes_every_figure_first_and_says_so(qtbot, tmp_pat
     assert all(ws.cache.known_figures(i) is not None for i in ids)
     values = [ws.cache.known_figures(listing.object_id(r)).figures[0].value for r in range(listing.row_count())]
     assert values == sorted(values, reverse=True) and sorted(listing.model.ids()) == ids
+    listing.sort(column, QtCore.Qt.SortOrder.AscendingOrder)  # every figure known: nothing shown to wait for
+    assert not listing.completing.isVisible()
+    qtbot.waitUntil(lambda: not listing.arranging, timeout=5000)
+    assert not listing.completing.isVisible()
     # a figure's text filters as any other cell's (every figure is known now: filtered at once)
     text = listing.text(0, "figure")
     listing.filter.setText(text)

@@ -218,7 +218,7 @@ class ObjectList(QtWidgets.QWidget):
         if column >= 0 and self.COLUMNS[column] in self.FIGURE_COLUMNS:
             project = self.workspace.project
             self._sorts_due += 1
-            if self._completing is None and self.model.rowCount() > self.EAGER:  # said at once, counted from 0
+            if self._completing is None and self.workspace.cache.missing_figures() > self.SYNCHRONOUS:  # said now
                 self.completing.setFormat(f"sorting by {self.COLUMNS[column]}: %p%")
                 self.completing.setValue(0)
                 self.completing.show()
