@@ -168,6 +168,32 @@ def test_a_print_in_the_child_does_not_break_its_answers(surveys):
         process.close()
 
 
+def test_warming_starts_the_child_at_once_and_never_waits(surveys):
+    """``warm`` (called on the window's thread when a Detect run starts) starts the child and returns without
+    waiting for it; while a request holds the process it does nothing rather than wait."""
+    import threading
+
+    sources, rules = surveys[0]
+    process = FiguresProcess()
+    try:
+        process.warm()
+        assert process._child is not None  # started (its readiness is not waited for)
+        first = process._child
+        process.warm()
+        assert process._child is first  # one child
+        _same(process.figures(sources[:4], rules), figures_of(sources[:4], rules))
+        assert process.running
+        process._lock.acquire()  # a request in progress
+        try:
+            done = threading.Event()
+            threading.Thread(target=lambda: (process.warm(), done.set()), daemon=True).start()
+            assert done.wait(60.0)  # returned while the lock is held: it did not wait for the request
+        finally:
+            process._lock.release()
+    finally:
+        process.close()
+
+
 def test_frames_round_trip_and_a_cut_frame_is_the_end():
     stream = io.BytesIO()
     payloads = [b"x" * 3, {"a": np.arange(5.0)}, [1, "two", None]]

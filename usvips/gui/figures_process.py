@@ -139,6 +139,15 @@ class FiguresProcess:
                            else f"the figures process was not ready within {READY_WAIT_S:g} s")
         return figures_of(sources, rules)
 
+    def warm(self) -> None:
+        """Start the child now, if none runs and no request holds it (returns at once, never waiting: safe on
+        the window's thread), so that the figures asked for soon do not wait for its imports."""
+        if self._lock.acquire(blocking=False):
+            try:
+                self._start_locked()
+            finally:
+                self._lock.release()
+
     def _packed(self, source: MeasurementInput, held: dict[int, tuple[int, StereoCalibration]],
                 new: dict[int, tuple[int, StereoCalibration]]) -> MeasurementInput:
         """``source`` (and its instants) with each calibration as the token the child knows it by (``held``:

@@ -20,6 +20,7 @@ from usvips.app.detection_model import (
 )
 from usvips.core.errors import UsvipsError
 from usvips.gui.detect_model import DetectSession
+from usvips.gui.figures_process import shared_process
 from usvips.gui.messages import Messages
 from usvips.gui.qt import proposal_handles
 from usvips.gui.window_context import WindowContext
@@ -191,6 +192,7 @@ def _run(context: WindowContext, parent: QtWidgets.QWidget, frames: int, every: 
         context.messages.error(str(error))
         return
     name = session.model.name if path is None or session.is_loaded(path) else Path(path).stem
+    shared_process().warm()  # the proposals' figures are asked for when the run ends: the child ready by then
 
     def done(run) -> None:
         if path is not None:
