@@ -48,6 +48,20 @@ def surveys(tmp_path_factory):
     return made
 
 
+@pytest.fixture
+def computed_here(monkeypatch):
+    """The batches this process computed itself (the child's fallback): a list of their sizes."""
+    sizes = []
+    computing = figures_process.figures_of
+
+    def counted(sources, rules):
+        sizes.append(len(sources))
+        return computing(sources, rules)
+
+    monkeypatch.setattr(figures_process, "figures_of", counted)
+    return sizes
+
+
 def _same(first, second) -> None:
     assert len(first) == len(second)
     for a, b in zip(first, second, strict=True):
@@ -58,7 +72,7 @@ def _same(first, second) -> None:
             assert fa.sigma == pytest.approx(fb.sigma, rel=1e-12, abs=1e-15)
 
 
-def test_the_child_computes_what_the_thread_computes(surveys):
+def test_the_child_computes_what_the_thread_computes(surveys, computed_here):
     process = FiguresProcess()
     try:
         for sources, rules in surveys:
@@ -69,7 +83,7 @@ def test_the_child_computes_what_the_thread_computes(surveys):
             computed = figures_of(batch, rules)
             assert any(r.figures for r in computed) and any(r.reason for r in computed)
             assert any(r.failures for r in computed)
-        assert process.running and process.failure == ""
+        assert process.running and process.failure == "" and computed_here == []  # all in the child
     finally:
         process.close()
     assert not process.running
@@ -89,7 +103,7 @@ def test_a_child_that_ends_before_it_is_ready(surveys):
     assert not process.running and "ended before it was ready" in process.failure
 
 
-def test_each_calibration_is_sent_once_and_the_child_is_told_to_forget(surveys, monkeypatch):
+def test_each_calibration_is_sent_once_and_the_child_is_told_to_forget(surveys, monkeypatch, computed_here):
     """The child keeps the calibrations it was sent (and what it caches on them) by token: a calibration goes
     over the pipe with its first request only, and after :data:`MAX_CALIBRATIONS` the child forgets them all
     and is sent them again."""
@@ -114,11 +128,12 @@ def test_each_calibration_is_sent_once_and_the_child_is_told_to_forget(surveys, 
         sources, rules = surveys[0]
         _same(process.figures(sources, rules), figures_of(sources, rules))
         assert sent[-1] == (1, True, True)
+        assert computed_here == []  # the child used the calibrations it held
     finally:
         process.close()
 
 
-def test_a_child_killed_between_requests_is_replaced_and_nothing_is_lost(surveys):
+def test_a_child_killed_between_requests_is_replaced_and_nothing_is_lost(surveys, computed_here):
     sources, rules = surveys[1]
     process = FiguresProcess()
     try:
@@ -129,8 +144,9 @@ def test_a_child_killed_between_requests_is_replaced_and_nothing_is_lost(surveys
         first.wait()
         _same(process.figures(sources, rules), figures_of(sources, rules))  # computed here: the pipe broke
         assert "the figures process failed" in process.failure
+        assert computed_here == [len(sources)]
         _same(process.figures(sources, rules), figures_of(sources, rules))  # a new child
-        assert process.running and process._child is not first
+        assert process.running and process._child is not first and computed_here == [len(sources)]
     finally:
         process.close()
 
@@ -143,18 +159,19 @@ def test_children_stop_being_started_after_repeated_failures(surveys):
     assert process._starts == figures_process.MAX_STARTS
 
 
-def test_an_error_in_the_computation_is_raised_where_it_was_asked(surveys):
+def test_an_error_in_the_computation_is_raised_where_it_was_asked(surveys, computed_here):
     _, rules = surveys[0]
     process = FiguresProcess()
     try:
         with pytest.raises(AttributeError):
             process.figures(["not a measurement input"], rules)
         assert process.running  # the child answered with the error; it is still there for the next request
+        assert computed_here == [1]  # computed again here, where it raised
     finally:
         process.close()
 
 
-def test_a_print_in_the_child_does_not_break_its_answers(surveys):
+def test_a_print_in_the_child_does_not_break_its_answers(surveys, computed_here):
     sources, rules = surveys[0]
     noisy = ("import usvips.gui.figures_process as f\n"
              "computed = f.figures_of\n"
@@ -163,12 +180,12 @@ def test_a_print_in_the_child_does_not_break_its_answers(surveys):
     process = FiguresProcess([sys.executable, "-c", noisy])
     try:
         _same(process.figures(sources[:8], rules), figures_of(sources[:8], rules))
-        assert process.running and process.failure == ""
+        assert process.running and process.failure == "" and computed_here == []
     finally:
         process.close()
 
 
-def test_warming_starts_the_child_at_once_and_never_waits(surveys):
+def test_warming_starts_the_child_at_once_and_never_waits(surveys, computed_here):
     """``warm`` (called on the window's thread when a Detect run starts) starts the child and returns without
     waiting for it; while a request holds the process it does nothing rather than wait."""
     import threading
@@ -182,7 +199,7 @@ def test_warming_starts_the_child_at_once_and_never_waits(surveys):
         process.warm()
         assert process._child is first  # one child
         _same(process.figures(sources[:4], rules), figures_of(sources[:4], rules))
-        assert process.running
+        assert process.running and computed_here == []
         process._lock.acquire()  # a request in progress
         try:
             done = threading.Event()

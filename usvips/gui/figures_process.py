@@ -275,4 +275,8 @@ def _child_main() -> None:
 
 
 if __name__ == "__main__":
-    _child_main()
+    # run as ``-m``, this file is ``__main__``; the requests' pickles name ``usvips.gui.figures_process`` (its
+    # SentCalibration): that module serves them, so that what they hold is of the classes it checks
+    from usvips.gui.figures_process import _child_main as serve_as_the_package
+
+    serve_as_the_package()
