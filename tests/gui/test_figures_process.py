@@ -176,7 +176,7 @@ def test_a_print_in_the_child_does_not_break_its_answers(surveys, computed_here)
     noisy = ("import usvips.gui.figures_process as f\n"
              "computed = f.figures_of\n"
              "f.figures_of = lambda *a: (print('a stray print', flush=True), computed(*a))[1]\n"
-             "f._child_main()\n")
+             "f.serve_stdio()\n")
     process = FiguresProcess([sys.executable, "-c", noisy])
     try:
         _same(process.figures(sources[:8], rules), figures_of(sources[:8], rules))

@@ -13,7 +13,7 @@ child runs it, and so does the asking thread whenever the child cannot (not star
 the computation: then the same exception is raised where it is asked, with its real traceback). The
 results are the same either way.
 
-The child is ``python -m usvips.gui.figures_process``, one per window process, started when figures are first
+The child is ``python -m usvips.gui.figures_child``, one per window process, started when figures are first
 asked of it and ended when the window's process ends (or when its stdin closes). Requests and answers are
 pickled frames on its stdin and stdout — an 8-byte little-endian length, then the pickle — between this
 process and the child it started, nothing else. The child lowers its own scheduling priority (as bulk
@@ -41,6 +41,10 @@ from usvips.core.measurements import QualityRules
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.gui.calculator import Result, result_of
 
+#: the module the child runs (``python -m``): one of its own, so that the requests are served by this module
+#: imported under its name — run as ``-m`` itself, this file would be ``__main__``, whose classes are not the
+#: ones the requests' pickles name (every batch then failed in the child and was computed in the asker)
+CHILD_MODULE = "usvips.gui.figures_child"
 #: the child's scheduling niceness (as ``usvips.gui.qt.worker.BACKGROUND_NICE``; no Qt is imported here)
 CHILD_NICE = 10
 #: after this many failed children in one process, figures stay in the asking thread
@@ -90,7 +94,7 @@ class FiguresProcess:
     request at a time; a second asker waits on a lock, without the GIL)."""
 
     def __init__(self, command: Sequence[str] | None = None) -> None:
-        self._command = list(command) if command is not None else [sys.executable, "-m", __name__]
+        self._command = list(command) if command is not None else [sys.executable, "-m", CHILD_MODULE]
         self._lock = threading.Lock()
         self._child: subprocess.Popen | None = None
         self._settled = threading.Event()  # the child said it is ready, or ended before it did
@@ -264,7 +268,9 @@ def serve(requests: BinaryIO, answers: BinaryIO) -> None:
         write_frame(answers, answer)
 
 
-def _child_main() -> None:
+def serve_stdio() -> None:
+    """The child's whole life (:mod:`usvips.gui.figures_child` runs it): lower its priority, keep its stdout for
+    the frames, and :func:`serve` stdin until it ends."""
     try:
         os.nice(CHILD_NICE)
     except (AttributeError, OSError):
@@ -272,11 +278,3 @@ def _child_main() -> None:
     answers = os.fdopen(os.dup(sys.stdout.fileno()), "wb")  # the frames only: a stray print goes to stderr
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
     serve(sys.stdin.buffer, answers)
-
-
-if __name__ == "__main__":
-    # run as ``-m``, this file is ``__main__``; the requests' pickles name ``usvips.gui.figures_process`` (its
-    # SentCalibration): that module serves them, so that what they hold is of the classes it checks
-    from usvips.gui.figures_process import _child_main as serve_as_the_package
-
-    serve_as_the_package()
