@@ -176,23 +176,13 @@ def test_a_file_that_is_no_model_is_named_and_changes_nothing(qtbot, make_window
 def test_a_detect_asked_while_the_model_loads_uses_that_model(qtbot, make_window, tmp_path, monkeypatch):
     """The chosen model is still loading when Detect is asked for: the run loads the chosen file (not the one
     remembered before, nor the shipped one) and makes it the project's default."""
-    import threading
 
     from usvips.app.detection_model import project_model_path
     from usvips.gui.qt import detection_dialogs
 
     window, remembered = _window_on_pair(qtbot, make_window, tmp_path)
-    chosen_dir = tmp_path / "chosen"
-    chosen_dir.mkdir()
-    chosen = write_switching_model(chosen_dir, scene(seed=5), sigma=1.0)
-    release = threading.Event()
-    real = detection_dialogs.load_model
-
-    def slow(path):
-        release.wait(20)
-        return real(path)
-
-    monkeypatch.setattr(detection_dialogs, "load_model", slow)
+    chosen = _another_model(tmp_path, "chosen")
+    release = _loads_held_back(monkeypatch)
     assert detection_dialogs.choose_model(window.context, window, str(chosen))
     assert _loading(window) == str(chosen)
     window.actions["detect"].trigger()
@@ -211,24 +201,13 @@ def _loading(window):
 def test_of_two_models_chosen_one_after_the_other_the_later_stands(qtbot, make_window, tmp_path, monkeypatch):
     """The first file chosen loads slowly, the second at once: when the first ends loading it is not adopted
     over the second (the later choice stands, as the window's model and the project's default)."""
-    import threading
 
     from usvips.app.detection_model import project_model_path
     from usvips.gui.qt import detection_dialogs
 
     window, first = _window_on_pair(qtbot, make_window, tmp_path)
-    second_dir = tmp_path / "second"
-    second_dir.mkdir()
-    second = write_switching_model(second_dir, scene(seed=5), sigma=1.0)
-    release = threading.Event()
-    real = detection_dialogs.load_model
-
-    def slow_for_the_first(path):
-        if path == str(first):
-            release.wait(20)
-        return real(path)
-
-    monkeypatch.setattr(detection_dialogs, "load_model", slow_for_the_first)
+    second = _another_model(tmp_path, "second")
+    release = _loads_held_back(monkeypatch, only=first)
     qtbot.waitUntil(lambda: not window.busy, timeout=20000)  # the window's own start-up work done
     assert detection_dialogs.choose_model(window.context, window, str(first))
     assert detection_dialogs.choose_model(window.context, window, str(second))
@@ -240,3 +219,28 @@ def test_of_two_models_chosen_one_after_the_other_the_later_stands(qtbot, make_w
     assert project_model_path(window.workspace.project) == second.resolve()
     assert _loading(window) is None and window.settings.value(SETTING) == str(second)
     assert detection_dialogs._session(window.context).is_loaded(str(second))
+
+
+def _another_model(tmp_path, name: str):
+    """A second description file of the same scene's model, in a folder of its own."""
+    folder = tmp_path / name
+    folder.mkdir()
+    return write_switching_model(folder, scene(seed=5), sigma=1.0)
+
+
+def _loads_held_back(monkeypatch, only=None):
+    """*Detection model…*'s loads (of ``only``'s file, or of every file) wait until the event returned is set."""
+    import threading
+
+    from usvips.gui.qt import detection_dialogs
+
+    release = threading.Event()
+    real = detection_dialogs.load_model
+
+    def held(path):
+        if only is None or path == str(only):
+            release.wait(20)
+        return real(path)
+
+    monkeypatch.setattr(detection_dialogs, "load_model", held)
+    return release
