@@ -23,6 +23,7 @@ workers do) so the window's thread gets a core first.
 from __future__ import annotations
 
 import atexit
+import importlib.util
 import itertools
 import os
 import pickle
@@ -32,7 +33,6 @@ import sys
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import BinaryIO
 
 from usvips.app.project_figures import MeasurementInput, evaluate_many
@@ -177,7 +177,7 @@ class FiguresProcess:
         self._starts += 1
         self._settled.clear()
         self._ready = False
-        package_root = str(Path(__file__).resolve().parents[2])  # the child imports this very usvips
+        package_root = _package_root()  # the child imports this very usvips
         environment = dict(os.environ, PYTHONPATH=os.pathsep.join(
             p for p in (package_root, os.environ.get("PYTHONPATH", "")) if p))
         try:
@@ -217,6 +217,13 @@ class FiguresProcess:
             child.wait()
         finally:
             child.stdout.close()
+
+
+def _package_root() -> str:
+    """The folder the import system found the ``usvips`` package in (for the child's ``PYTHONPATH``)."""
+    spec = importlib.util.find_spec("usvips")
+    locations = list(spec.submodule_search_locations or []) if spec is not None else []
+    return os.path.dirname(os.path.abspath(locations[0])) if locations else ""
 
 
 _PROCESS: FiguresProcess | None = None
