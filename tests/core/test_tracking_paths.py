@@ -164,6 +164,62 @@ def test_the_right_points_of_a_batch_of_frames_are_held_where_the_whole_curve_ho
     assert tracking._hold_many(stereo, traced[0], rights, met.points, np.zeros(60, bool), depths) == [None] * 60
 
 
+@pytest.mark.parametrize("housing", ["flat-port", "dome-cover"])
+def test_stretches_cut_by_the_curves_ends_are_held_where_the_whole_curve_holds_them(housing):
+    """Pairs whose depth lies near the last depth sample have stretches shorter than the rest (cut at the
+    curve's end); held in one batch with whole stretches, each is the whole curve's where it decides."""
+    stereo = rig(housing)
+    depths = np.geomspace(0.3, 12.0, 400)
+    rng = np.random.default_rng(10)
+    lefts, rights, cut = [], [], 0
+    while len(lefts) < 60:
+        left = rng.uniform([20, 20], [300, 220])
+        curve = epipolar_curve_at(stereo.left, stereo.right, left, depths)
+        if len(curve.pixels) < 40 or curve.depths[-1] != depths[-1]:
+            continue
+        near_end = len(lefts) % 2 == 0
+        last = len(curve.pixels) - 1
+        index = last - int(rng.integers(0, 4)) if near_end else int(rng.integers(20, last - 19))
+        lefts.append(left)
+        rights.append(curve.pixels[index] + rng.normal(0, 0.3, 2))
+    lefts, rights = np.array(lefts), np.array(rights)
+    traced = (trace(stereo.left, lefts), trace(stereo.right, rights))
+    met = intersect_traced(traced)
+    holds = tracking._hold_many(stereo, traced[0], rights, met.points, met.ok, depths)
+    for i, (left, right, hold) in enumerate(zip(lefts, rights, holds, strict=True)):
+        if hold is None:
+            continue
+        whole = tracking._hold(stereo, left, right, depths, None)
+        np.testing.assert_allclose(hold[0], whole[0], atol=1e-9)
+        assert hold[1] == pytest.approx(whole[1], abs=1e-9) and hold[2] == whole[2]
+        cut += i % 2 == 0 and hold[2] > len(depths) - tracking.CURVE_STRETCH - 2
+    assert cut >= 20  # the cut stretches did decide
+
+
+def test_the_nearest_points_of_many_polylines_are_each_ones_own():
+    """:func:`_nearest_on_many` against the nearest point found segment by segment in plain arithmetic."""
+    rng = np.random.default_rng(4)
+    curves = np.cumsum(rng.normal(0, 3, (50, 18, 2)), axis=1)
+    curves[5, 7] = curves[5, 6]  # a segment of no length
+    points = curves[:, 9] + rng.normal(0, 4, (50, 2))
+    held, off, k = tracking._nearest_on_many(curves, points)
+    for curve, point, h, o, j in zip(curves, points, held, off, k, strict=True):
+        best = (np.inf, None, None)
+        for i, (a, b) in enumerate(zip(curve[:-1], curve[1:], strict=True)):
+            ab = b - a
+            length2 = float(ab @ ab)
+            t = 0.0 if length2 == 0 else min(max(float((point - a) @ ab) / length2, 0.0), 1.0)
+            candidate = a + t * ab
+            distance = float(np.hypot(*(candidate - point)))
+            if distance < best[0]:
+                best = (distance, candidate, i)
+        assert o == pytest.approx(best[0], abs=1e-9) and j == best[2]
+        np.testing.assert_allclose(h, best[1], atol=1e-9)
+    single = tracking._nearest_on(curves[3], points[3])
+    np.testing.assert_array_equal(single[0], held[3])
+    assert single[1:] == (off[3], k[3])
+
+
 def test_a_track_holds_its_right_points_a_batch_of_frames_at_a_time(monkeypatch):
     """The hold back-projects a batch's stretches of curve in one call: a track of 24 frames asks for a
     batched hold once a batch (:data:`~usvips.core.tracking.RMS_BATCH` frames), not once a frame, and the
