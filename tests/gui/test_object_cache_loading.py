@@ -5,6 +5,7 @@ full read again (``reload``) has overtaken is dropped. Qt-free."""
 from __future__ import annotations
 
 from usvips.core.measurements import QualityRules
+from usvips.core.observation_record import ObservationRecord
 from usvips.gui.object_cache import ObjectCache, ObjectEvents, read_stored_objects
 from usvips.store.opening import create_project
 from usvips.store.records import Vertex
@@ -40,6 +41,34 @@ def test_writes_made_while_the_objects_are_read_are_read_again_when_they_arrive(
         assert not cache.loading and cache.ids() == [kept, edited, added]
         assert cache.get(edited).attribute == "haddock" and cache.get(added).attribute == "ling"
         assert said == ["reset", "changed"]
+
+
+def test_records_and_instant_links_written_while_the_objects_are_read_are_those_of_a_full_read(tmp_path):
+    """Records set, changed and removed and instants linked and unlinked while the objects are read: on arrival
+    the cache holds what a cache reading the whole project afresh holds (objects, records, links)."""
+    path = tmp_path / "survey.usvips"
+    with create_project(path) as project:
+        ids = [project.add_object("length", _vertices(10.0 * k), "cod") for k in range(1, 9)]
+        project.set_record(ids[0], ObservationRecord(species="Gadus morhua"))
+        project.set_record(ids[1], ObservationRecord(species="Pollachius virens"))
+        project.set_record(ids[7], ObservationRecord(species="Molva molva"))
+        project.add_instant(ids[2], ids[3])
+        project.add_instant(ids[4], ids[5])
+        cache = ObjectCache(project, ObjectEvents(), QualityRules, deferred=True)
+        read = read_stored_objects(path)
+        project.set_record(ids[0], ObservationRecord(species="Melanogrammus aeglefinus"))  # changed
+        project.set_record(ids[1], None)  # removed
+        project.set_record(ids[6], ObservationRecord(species="Brosme brosme"))  # new
+        project.remove_instant(ids[5])  # unlinked
+        project.add_instant(ids[2], ids[6])  # linked
+        project.delete_object(ids[7])
+        cache.changed_in_store(updated=(ids[0], ids[1], ids[6], ids[5], ids[4], ids[2]), removed=(ids[7],))
+        cache.arrived(read)
+        fresh = ObjectCache(project, ObjectEvents(), QualityRules)
+        assert cache.ids() == fresh.ids() and cache.instant_links() == fresh.instant_links()
+        assert {i: cache.record(i) for i in cache.ids()} == {i: fresh.record(i) for i in fresh.ids()}
+        assert cache.record(ids[0]).species == "Melanogrammus aeglefinus" and cache.record(ids[1]) is None
+        assert cache.instant_links() == {ids[3]: ids[2], ids[6]: ids[2]}
 
 
 def test_a_read_overtaken_by_a_full_read_again_is_dropped(tmp_path):

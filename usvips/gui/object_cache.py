@@ -226,26 +226,26 @@ class ObjectCache:
 
     def arrived(self, read: StoredObjects) -> None:
         """The objects read elsewhere (:func:`read_stored_objects`) held at once, those written meanwhile
-        read again by id; then announced as every object new (``reset``, ``changed``). Ignored unless
-        :attr:`loading` (a :meth:`reload` since holds newer objects)."""
+        read again by id (their records by one query, and only the links they take part in); then announced as
+        every object new (``reset``, ``changed``). Ignored unless :attr:`loading` (a :meth:`reload` since holds
+        newer objects)."""
         if not self.loading:
             return
         self._objects, self._records, self._links = dict(read.objects), dict(read.records), dict(read.links)
         self.loading, pending, self._pending = False, self._pending, set()
         if pending:
-            self._links = self.project.instant_links()
-            fresh = {o.id: o for o in self.project.objects_with_ids(tuple(sorted(pending)))}
-            for object_id in pending:
+            named = tuple(sorted(pending))
+            self._links = self._links_after(named)
+            fresh = {o.id: o for o in self.project.objects_with_ids(named)}
+            records = self.project.records_of(list(fresh)) if fresh else {}  # one query, not one an object
+            for object_id in named:
+                self._records.pop(object_id, None)
                 if object_id in fresh:
                     self._objects[object_id] = fresh[object_id]
-                    record = self.project.record(object_id)
-                    if record is None:
-                        self._records.pop(object_id, None)
-                    else:
-                        self._records[object_id] = record
+                    if object_id in records:
+                        self._records[object_id] = records[object_id]
                 else:
                     self._objects.pop(object_id, None)
-                    self._records.pop(object_id, None)
             self._objects = dict(sorted(self._objects.items()))
         self._figures, self._versions, self._main = {}, {}, {}
         self.events.reset.emit()
