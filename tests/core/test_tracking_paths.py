@@ -247,3 +247,35 @@ def test_the_depths_of_the_epipolar_curve_are_checked_before_any_frame_is_read()
     with pytest.raises(InvalidParameterError, match="near"):
         track_vertex(frames, stereo, 0, left, right, 0, 5, near=-1.0)
     assert asked == [] and TrackSettings().levels == 3
+
+
+def test_a_right_point_leaving_a_right_image_smaller_than_the_left_stops_the_track_as_leaving():
+    """A right camera of fewer columns than the left: a texture drifting right takes the right point out of
+    its image while the left point is still well inside the left image, and the track stops there, as
+    leaving the frame (each point is checked against its own image's size)."""
+    from usvips.core.camera import Camera, Exterior
+    from usvips.core.housing import AirHousing
+    from usvips.core.interior import Interior
+    from usvips.core.rig import RelativeOrientation, StereoRig
+    from usvips.core.tracking import LEAVES
+
+    width, narrow, height, disparity = 640, 480, 360, 60
+    texture = cv2.GaussianBlur(np.random.default_rng(21).uniform(0, 255, (height + 200, width + 800)), (0, 0), 2.0)
+    texture = cv2.normalize(texture, None, 20, 235, cv2.NORM_MINMAX).astype(np.uint8)
+
+    def frames(i: int) -> tuple[np.ndarray, np.ndarray]:
+        x0 = 400 - 6 * i  # the scene drifts right by 6 px a frame
+        return (np.ascontiguousarray(texture[100:100 + height, x0:x0 + width]),
+                np.ascontiguousarray(texture[100:100 + height, x0 + disparity:x0 + disparity + narrow]))
+
+    f = 1.2 * width
+    interior = Interior(f, (width - 1) / 2, (height - 1) / 2, 1.0)
+    left_camera = Camera(interior, Exterior(0, 0, 0, 0, 0, 0), AirHousing(), width, height)
+    right_camera = Camera(interior, Exterior(0, 0, 0, 0, 0, 0), AirHousing(), narrow, height)
+    stereo = StereoRig.from_relative(left_camera, right_camera, RelativeOrientation(disparity * 2.0 / f, 0, 0, 0, 0, 0))
+    track = track_vertex(frames, stereo, 0, (400.0, 180.0), (340.0, 180.0), 0, 40, near=0.5, far=20.0)
+    margin = TrackSettings().window / 2 + 1
+    assert track.reason(+1) == LEAVES
+    last_left, last_right = track.left[-1], track.right[-1]
+    assert last_right[0] <= narrow - 1 - margin and last_right[0] + 6 > narrow - 1 - margin  # the next step leaves
+    assert last_left[0] < width - 1 - margin - 50  # the left point was far from its edge
