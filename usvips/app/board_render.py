@@ -88,6 +88,8 @@ class Rehearsal:
             raise InvalidParameterError("noise", f"must be >= 0 grey levels, got {self.noise}")
         if not 1 <= self.fps <= 240:
             raise InvalidParameterError("fps", f"must be a whole number 1 to 240, got {self.fps}")
+        if not 0 <= self.seed < 2**63:
+            raise InvalidParameterError("seed", f"must be a whole number 0 to 2**63 - 1, got {self.seed}")
 
 
 def default_cameras(size: tuple[int, int]) -> tuple[Interior, Interior, RelativeOrientation]:

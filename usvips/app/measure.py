@@ -58,13 +58,31 @@ def group_picks(path: str | Path, rows: list[dict]) -> list[PickedObject]:
             if vertex["vertex"] == previous["vertex"]:
                 raise InputFileError(str(path), f"object {object_id!r}: vertex {vertex['vertex']} is given twice "
                                      f"(lines {previous['line']} and {vertex['line']})", vertex["line"])
+        written = vertices[0]["type"]
         try:
-            name = resolve(vertices[0]["type"], len(vertices))
-            kind(name).check_count(len(vertices))
+            name = resolve(written, len(vertices))
         except UsvipsError as error:
             raise InputFileError(str(path), f"object {object_id!r}: {error}", vertices[0]["line"]) from None
-        out.append((object_id, name, np.array([v["pixels"] for v in vertices]), vertices[0]["attribute"]))
+        try:
+            kind(name).check_count(len(vertices))
+        except UsvipsError as error:  # (a legacy type word is read as the kind its vertex count makes)
+            count = f"{len(vertices)} vertex" if len(vertices) == 1 else f"{len(vertices)} vertices"
+            read_as = f" (type {written!r} with {count} is read as {name})" if name != written else ""
+            raise InputFileError(str(path), f"object {object_id!r}{read_as}: {error}", vertices[0]["line"]) from None
+        out.append((object_id, name, np.array([v["pixels"] for v in vertices]), _attribute(path, object_id, vertices)))
     return out
+
+
+def _attribute(path: str | Path, object_id: str, vertices: list[dict]) -> str:
+    """The object's attribute: the one its rows give (on any of them; rows may leave it empty); two different
+    attributes for one object is an :class:`InputFileError` naming both lines."""
+    given = [v for v in vertices if v["attribute"]]
+    other = next((v for v in given if v["attribute"] != given[0]["attribute"]), None)
+    if other is not None:
+        raise InputFileError(str(path), f"object {object_id!r} has two attributes: {given[0]['attribute']!r} on "
+                             f"line {given[0]['line']}, {other['attribute']!r} on line {other['line']}",
+                             other["line"])
+    return given[0]["attribute"] if given else ""
 
 
 def picked_objects(path: str | Path) -> list[PickedObject]:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from usvips.app import board_calibration as boards
 from usvips.app.calibration_video import DEFAULT_MAX_VIEWS
+from usvips.cli.common import whole_number_from
 from usvips.core.calibration import CalibrationOptions
 from usvips.core.errors import InvalidParameterError
 from usvips.core.stereo_calibration import StereoCalibration
@@ -30,9 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--project", metavar="PROJECT", help="with --video: the project holding the video")
     parser.add_argument("--video", metavar="LABEL",
                         help="with --target and --project: find the views in the project's stereo video LABEL")
-    parser.add_argument("--every", type=int, default=5, metavar="K",
+    parser.add_argument("--every", type=whole_number_from(1), default=5, metavar="K",
                         help="with --video: look at every K-th instant (default 5)")
-    parser.add_argument("--max-views", type=int, default=DEFAULT_MAX_VIEWS, metavar="N",
+    parser.add_argument("--max-views", type=whole_number_from(1), default=DEFAULT_MAX_VIEWS, metavar="N",
                         help=f"with --video: keep at most N diverse views (default {DEFAULT_MAX_VIEWS})")
     parser.set_defaults(parameter_options={"maximum views": "--max-views", "every": "--every"})
 

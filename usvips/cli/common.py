@@ -38,7 +38,33 @@ def positive_number(not_a: str, must_be: str) -> Callable[[str], float]:
     return parse
 
 
-_pointing_sigma = positive_number("a number of pixels", "a finite number of pixels > 0")
+def whole_number_from(least: int) -> Callable[[str], int]:
+    """An argparse ``type``: a whole number ``least`` or more; else "must be a whole number >= least, got 'x'"."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a whole number >= {least}, got {text!r}") from None
+        if value < least:
+            raise argparse.ArgumentTypeError(f"must be a whole number >= {least}, got {text!r}")
+        return value
+
+    return parse
+
+
+#: the pointing precisions (px, one image coordinate) a pick may be given: finer than a thousandth of a pixel
+#: no image point is found (and the weights of the intersection underflow); coarser than 1000 px it is no pick
+POINTING_SIGMA_RANGE_PX = (1e-3, 1e3)
+
+
+def _pointing_sigma(text: str) -> float:
+    value = positive_number("a number of pixels", "a finite number of pixels > 0")(text)
+    least, most = POINTING_SIGMA_RANGE_PX
+    if not least <= value <= most:
+        raise argparse.ArgumentTypeError(f"must be {least:g} to {most:g} pixels (a pick's pointing precision), "
+                                         f"got {text!r}")
+    return value
 
 
 def add_pointing_option(parser) -> None:

@@ -69,6 +69,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.project is None and (args.calibration is None or args.out is None):
         raise UsvipsError("measure needs --calibration and --out, or --project with --pair")
+    if args.project is None and args.pair is not None:
+        raise UsvipsError("--pair goes with --project (the pair's active calibration measures); with "
+                          "--calibration, leave it out")
     args.video_frame = None
     if args.video is not None:
         if args.project is None or args.pair is not None or args.frame is None:

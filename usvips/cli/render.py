@@ -62,7 +62,7 @@ def run_board(args: argparse.Namespace) -> int:
                      supersample=args.supersample, noise=args.noise, seed=args.seed)
     names = {"views": "--views", "video_frames": "--video-frames",
              "distances": "--distance", "tilts": "--tilt", "size": "--image-size",
-             "supersample": "--supersample", "noise": "--noise", "fps": "--fps"}
+             "supersample": "--supersample", "noise": "--noise", "fps": "--fps", "seed": "--seed"}
     try:
         plan.check()
     except InvalidParameterError as error:

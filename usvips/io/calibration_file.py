@@ -127,6 +127,14 @@ def _numbers(path: str, where: str, data: dict, keys: tuple[str, ...], optional:
     return out
 
 
+def _known_only(path: str, where: str, data: dict, keys: tuple[str, ...], what: str) -> None:
+    """Refuse a key of ``data`` that is none of ``keys`` (a term this file format has not, e.g. a fourth radial
+    term: read as absent, it would be silently dropped)."""
+    unknown = [key for key in data if key not in keys]
+    if unknown:
+        raise InputFileError(path, f"{where}.{unknown[0]}: not {what} (they are {', '.join(keys)})")
+
+
 def _show(value: object) -> str:
     text = json.dumps(value) if isinstance(value, int | float | bool | str | None) else type(value).__name__
     return text if len(text) <= 24 else text[:23] + "…"
@@ -220,6 +228,8 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
         built = {}
         for side in ("left", "right"):
             cam = _require(path, cameras, side, dict)
+            _known_only(path, f"cameras.{side}.interior", _require(path, cam, "interior", dict), INTERIOR_PARAMETERS,
+                        "an interior parameter")
             interior = Interior(**_numbers(path, f"{side} interior", _require(path, cam, "interior", dict),
                                            INTERIOR_PARAMETERS[:3]) |
                                 _numbers(path, f"{side} interior", cam["interior"], INTERIOR_PARAMETERS[3:], True))
@@ -239,6 +249,8 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
                     raise InputFileError(path, f"cameras.{side}.{key}: must be a positive whole number of pixels, "
                                          f"got {_show(value)}")
             built[side] = (interior, housing, width, height)
+        _known_only(path, "relative_orientation", _require(path, data, "relative_orientation", dict), RELATIVE_KEYS,
+                    "a relative orientation parameter")
         relative = RelativeOrientation(**_numbers(path, "relative_orientation",
                                                   _require(path, data, "relative_orientation", dict), RELATIVE_KEYS))
         stations_data = _require(path, data, "stations", list)

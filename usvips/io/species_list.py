@@ -26,7 +26,7 @@ MAX_LENGTH = {"max_length_mm": 0.001, "length_max_mm": 0.001, "maximum_length_mm
 
 
 def read_species_list(path: str | Path) -> list[Species]:
-    """The species of a list file, in file order (duplicates of genus and species refused)."""
+    """The species of a list file, in file order (a genus and species, or a code, given twice refused)."""
     path = Path(path)
     if not path.is_file():
         raise InputFileError(str(path), "no such file")
@@ -51,6 +51,11 @@ def read_species_list(path: str | Path) -> list[Species]:
     if unitless:
         raise InputFileError(str(path), f"the column {unitless[0]!r} needs its unit: name it {unitless[0]}_mm, "
                              f"{unitless[0]}_cm or {unitless[0]}_m", header_line)
+    odd_unit = [header[i] for i, h in enumerate(lowered) if h not in MAX_LENGTH
+                and h.startswith(("max_length_", "length_max_", "maximum_length_", "fb_length_max_"))]
+    if odd_unit:
+        raise InputFileError(str(path), f"the column {odd_unit[0]!r} gives a maximum length in a unit this list "
+                             "does not read: name it with _mm, _cm or _m", header_line)
     lengths = [(i, MAX_LENGTH[h]) for i, h in enumerate(lowered) if h in MAX_LENGTH]
     if len(lengths) > 1:
         raise InputFileError(str(path), f"{len(lengths)} maximum-length columns ("
@@ -62,6 +67,7 @@ def read_species_list(path: str | Path) -> list[Species]:
                              header_line)
     species: list[Species] = []
     seen: dict[str, int] = {}
+    codes: dict[str, int] = {}
     for number, line in lines[1:]:
         row = next(csv.reader([line]))
         values = {name: (row[i] if i < len(row) else "") for name, i in columns.items()}
@@ -84,6 +90,11 @@ def read_species_list(path: str | Path) -> list[Species]:
             raise InputFileError(str(path), f"{entry.name} is listed twice (also on line {seen[entry.name]})",
                                  number)
         seen[entry.name] = number
+        if entry.code:
+            if entry.code in codes:
+                raise InputFileError(str(path), f"the code {entry.code!r} is given to two taxa (also on line "
+                                     f"{codes[entry.code]})", number)
+            codes[entry.code] = number
         species.append(entry)
     if not species:  # it would replace the project's list with nothing
         raise InputFileError(str(path), "lists no species, only its header (a list replaces the project's whole "

@@ -114,11 +114,12 @@ class MeasurementKind:
     @classmethod
     def check_count(cls, count: int) -> None:
         """Raise :class:`DegenerateGeometryError` when ``count`` vertices cannot make this kind."""
+        a = "an" if cls.name[:1] in "aeiou" else "a"
         if count < cls.minimum_vertices:
-            raise DegenerateGeometryError(f"a {cls.name} needs at least {cls.minimum_vertices} vertices, "
+            raise DegenerateGeometryError(f"{a} {cls.name} needs at least {cls.minimum_vertices} vertices, "
                                           f"got {count}")
         if cls.maximum_vertices is not None and count > cls.maximum_vertices:
-            raise DegenerateGeometryError(f"a {cls.name} has at most {cls.maximum_vertices} vertices, got {count}")
+            raise DegenerateGeometryError(f"{a} {cls.name} has at most {cls.maximum_vertices} vertices, got {count}")
 
     @classmethod
     def figures(cls, points: np.ndarray, covariance: np.ndarray,

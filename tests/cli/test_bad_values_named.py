@@ -1,0 +1,115 @@
+"""Values that were once accepted without a word, or refused with a message that blamed the wrong thing: each
+is now one line on stderr, status 2, naming the file and line or the option, and nothing is written."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.cli.test_bad_input import ROV, run
+
+PICKS_HEADER = "object,type,vertex,xl,yl,xr,yr,attribute\n"
+#: two vertices of the ROV sample's observations (a left and a right pixel each)
+FIRST, SECOND = "455.9729,27.2609,227.7779,29.8239", "448.3771,244.2345,222.6491,246.0577"
+
+
+def refused(args: list[str], *named: str) -> str:
+    code, err = run(args)
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    for word in named:
+        assert word in err, err
+    return err
+
+
+def measure(tmp_path: Path, picks: str, *extra: str) -> list[str]:
+    path = tmp_path / "picks.csv"
+    path.write_text(PICKS_HEADER + picks)
+    return ["measure", "--calibration", str(ROV / "calibration.json"), "--picks", str(path),
+            "--out", str(tmp_path / "out.csv"), *extra]
+
+
+def test_two_attributes_for_one_object_name_both_lines(tmp_path):
+    args = measure(tmp_path, f"f1,length,0,{FIRST},Bream\nf1,length,1,{SECOND},Snapper\n")
+    refused(args, "picks.csv", "line 3", "'Bream' on line 2", "'Snapper' on line 3")
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_an_attribute_given_on_a_later_vertex_only_is_the_objects(tmp_path):
+    args = measure(tmp_path, f"f1,length,0,{FIRST},\nf1,length,1,{SECOND},Bream\n")
+    assert run(args)[0] == 0
+    assert ",Bream," in (tmp_path / "out.csv").read_text()
+
+
+def test_an_arc_with_a_vertex_given_twice_in_a_row_is_degenerate(tmp_path):
+    args = measure(tmp_path, f"a,arc,0,{FIRST},\na,arc,1,{FIRST},\na,arc,2,{SECOND},\n")
+    refused(args, "picks.csv", "object 'a'", "the arc's vertices 0 and 1 coincide")
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_a_line_of_one_vertex_is_named_as_the_type_written(tmp_path):
+    refused(measure(tmp_path, f"f1,line,0,{FIRST},\n"), "line 2", "type 'line' with 1 vertex is read as arc",
+            "an arc needs at least 2 vertices")
+
+
+def test_pair_without_a_project_is_refused(tmp_path):
+    refused(measure(tmp_path, f"f1,length,0,{FIRST},\nf1,length,1,{SECOND},\n", "--pair", "water1"), "--pair")
+    assert not (tmp_path / "out.csv").exists()
+
+
+@pytest.mark.parametrize("where", ["interior", "relative"])
+def test_an_unknown_calibration_parameter_is_named_not_dropped(tmp_path, where):
+    data = json.loads((ROV / "calibration.json").read_text())
+    if where == "interior":
+        data["cameras"]["left"]["interior"]["k4"] = 0.5
+        named = "cameras.left.interior.k4"
+    else:
+        data["relative_orientation"]["bw"] = 0.1
+        named = "relative_orientation.bw"
+    calibration = tmp_path / "calibration.json"
+    calibration.write_text(json.dumps(data))
+    refused(["intersect", "--calibration", str(calibration), "--obs", str(ROV / "observations_water.csv"),
+             "--out", str(tmp_path / "points.csv")], "calibration.json", named)
+    assert not (tmp_path / "points.csv").exists()
+
+
+@pytest.mark.parametrize("sigma", ["1e-300", "1e-4", "1e6"])
+def test_an_implausible_pointing_sigma_is_named_not_blamed_on_the_rays(tmp_path, sigma):
+    err = refused(["intersect", "--calibration", str(ROV / "calibration.json"), "--obs",
+                   str(ROV / "observations_water.csv"), "--out", str(tmp_path / "p.csv"), f"--pointing-sigma={sigma}"],
+                  "--pointing-sigma", "0.001 to 1000 pixels")
+    assert "parallel" not in err
+
+
+def test_a_species_code_given_to_two_taxa_is_refused_by_line(tmp_path):
+    project = tmp_path / "survey.usvips"
+    assert run(["project", "new", str(project)])[0] == 0
+    species = tmp_path / "species.csv"
+    species.write_text("family,genus,species,code,max_length_mm\nSparidae,Pagrus,auratus,SNA,1300\n"
+                       "Labridae,Notolabrus,fucicola,SNA,500\n")
+    refused(["species", "import", str(project), str(species)], "species.csv", "line 3", "'SNA'", "line 2")
+
+
+def test_a_maximum_length_in_a_unit_not_read_is_refused(tmp_path):
+    project = tmp_path / "survey.usvips"
+    assert run(["project", "new", str(project)])[0] == 0
+    species = tmp_path / "species.csv"
+    species.write_text("family,genus,species,max_length_in\nSparidae,Pagrus,auratus,40\n")
+    refused(["species", "import", str(project), str(species)], "species.csv", "'max_length_in'", "_mm, _cm or _m")
+
+
+def test_a_negative_render_seed_is_named(tmp_path):
+    target = tmp_path / "board.json"
+    assert run(["target", "describe", "chessboard", "--cols", "9", "--rows", "6", "--square", "30",
+                "--out", str(target)])[0] == 0
+    refused(["render", "--target", str(target), "--views", "2", "--image-size", "320x240", "--supersample", "1",
+             "--out", str(tmp_path / "views"), "--seed", "-1"], "--seed")
+    assert not (tmp_path / "views").exists()
+
+
+@pytest.mark.parametrize("option", ["--max-views", "--every"])
+def test_a_count_of_zero_views_is_refused(tmp_path, option):
+    refused(["calibrate", "air", "--control", str(ROV / "control.csv"), "--obs", str(ROV / "observations_air.csv"),
+             "--out", str(tmp_path / "air.json"), option, "0"], option)
+    assert not (tmp_path / "air.json").exists()
