@@ -113,3 +113,35 @@ def test_a_count_of_zero_views_is_refused(tmp_path, option):
     refused(["calibrate", "air", "--control", str(ROV / "control.csv"), "--obs", str(ROV / "observations_air.csv"),
              "--out", str(tmp_path / "air.json"), option, "0"], option)
     assert not (tmp_path / "air.json").exists()
+
+
+def test_observations_outside_the_given_image_size_are_refused_by_line(tmp_path):
+    refused(["calibrate", "air", "--control", str(ROV / "control.csv"), "--obs", str(ROV / "observations_air.csv"),
+             "--out", str(tmp_path / "air.json"), "--image-size", "64x48"],
+            "observations_air.csv", "line 2", "outside the left image (64 × 48 px")
+    assert not (tmp_path / "air.json").exists()
+
+
+@pytest.mark.parametrize("option,value,named", [("--fix", "f_l=0", "f_l must be > 0"),
+                                                ("--fix", "sy_r=-1", "sy_r must be > 0"),
+                                                ("--prior", "f=0:10", "f (f_")])
+def test_a_focal_length_fixed_or_believed_at_zero_is_named(tmp_path, option, value, named):
+    refused(["calibrate", "air", "--control", str(ROV / "control.csv"), "--obs", str(ROV / "observations_air.csv"),
+             "--out", str(tmp_path / "air.json"), option, value], named, option)
+    assert not (tmp_path / "air.json").exists()
+
+
+@pytest.mark.parametrize("option,value,named", [("--range", "1:1", "FROM must be less than TO"),
+                                                ("--range", "2:1", "FROM must be less than TO"),
+                                                ("--range", "0:3", "FROM must be > 0 m"),
+                                                ("--across", "0:0", "FROM must be less than TO"),
+                                                ("--across", "1:-1", "FROM must be less than TO"),
+                                                ("--focal-px", "1e-9", "1 to 1e+06 pixels")])
+def test_plan_spans_that_are_no_span_and_a_focal_length_of_no_camera_are_named(option, value, named):
+    base = ["plan", "--json", "--focal-px", "1000", "--image-size", "1280x960", "--baseline", "0.3"]
+    refused([*base, f"{option}={value}"], option, named)
+
+
+def test_a_single_range_is_a_span_of_one():
+    assert run(["plan", "--json", "--focal-px", "1000", "--image-size", "1280x960", "--baseline", "0.3",
+                "--range", "2:2:1"])[0] == 0

@@ -21,7 +21,7 @@ from usvips.core.observations import ControlPoints
 from usvips.io.adjustment_report import report_text
 from usvips.io.atomic import guard_output, replacing
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
-from usvips.io.tables import read_control, read_observations
+from usvips.io.tables import read_control, read_observations, refuse_outside_image
 from usvips.io.target_file import read_target
 
 #: the longest image side accepted (pixels; the largest sensors are ~10^5 px wide)
@@ -237,6 +237,16 @@ def _source(args: argparse.Namespace) -> dict:
             **({"base": str(args.base)} if getattr(args, "base", None) else {})}
 
 
+def _observations(args: argparse.Namespace, options: CalibrationOptions):
+    """The observations of ``--obs``; with ``--image-size``, one outside the image is an error naming its line
+    (an image size smaller than the pictures, or a pixel in other units)."""
+    observations = read_observations(args.obs)
+    if options.image_size != (None, None):
+        refuse_outside_image(args.obs, list(observations.ids), list(observations.lines),
+                             observations.left, observations.right, (options.image_size, options.image_size))
+    return observations
+
+
 def run_air(args: argparse.Namespace) -> int:
     options = _options(args)
     _check_outputs(args)
@@ -244,7 +254,7 @@ def run_air(args: argparse.Namespace) -> int:
         done = board_sources.calibrate(args, "air", options)
         return _finish(done.result, args, done.validation)
     control = _control(args, options)
-    observations = read_observations(args.obs)
+    observations = _observations(args, options)
     result, validation = _calibrate(lambda obs: calibrate_air(control, obs, options, _source(args)), control,
                                     observations, args, options, compare_opencv=True)
     return _finish(result, args, validation)
@@ -261,7 +271,7 @@ def run_water(args: argparse.Namespace) -> int:
         done = board_sources.calibrate(args, "water", options, base, args.housing)
         return _finish(done.result, args, done.validation, base)
     control = _control(args, options)
-    observations = read_observations(args.obs)
+    observations = _observations(args, options)
     result, validation = _calibrate(
         lambda obs: calibrate_water(base, args.housing, control, obs, options, _source(args)), control,
         observations, args, options, compare_opencv=False)

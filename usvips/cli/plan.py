@@ -50,7 +50,11 @@ MAX_GRID = 500
 MAX_ORIENTATIONS = 1000
 
 
-def _span(option: str, text: str, count: int) -> np.ndarray:
+#: the largest principal distance (px) planned for: a 1000 mm lens on 1 µm pixels
+MAX_FOCAL_PX = 1e6
+
+
+def _span(option: str, text: str, count: int, positive: bool = False) -> np.ndarray:
     parts = text.split(":")
     try:
         values = [float(p) for p in parts[:2]]
@@ -59,6 +63,11 @@ def _span(option: str, text: str, count: int) -> np.ndarray:
     if len(parts) not in (2, 3) or len(values) != 2 or not np.all(np.isfinite(values)):
         raise InvalidParameterError(option, f"expected FROM:TO[:COUNT] in metres, got {text!r}")
     n = validation.count(f"{option} COUNT", parts[2], 1, MAX_GRID) if len(parts) == 3 else count
+    if not (values[0] < values[1] or values[0] == values[1] and n == 1):
+        raise InvalidParameterError(option, f"FROM must be less than TO (or equal with a COUNT of 1), got {text!r}")
+    if positive and values[0] <= 0:
+        raise InvalidParameterError(option, f"ranges are distances in front of the rig: FROM must be > 0 m, "
+                                    f"got {text!r}")
     return np.linspace(values[0], values[1], n)
 
 
@@ -72,6 +81,9 @@ def _check_numbers(args: argparse.Namespace) -> None:
         number = validation.finite(option, value)
         if low is not None and number <= low:
             raise InvalidParameterError(option, f"must be > {low:g}, got {number:g}")
+    if args.focal_px is not None and not 1.0 <= args.focal_px <= MAX_FOCAL_PX:
+        raise InvalidParameterError("--focal-px", f"must be 1 to {MAX_FOCAL_PX:g} pixels (a camera's principal "
+                                    f"distance), got {args.focal_px:g}")
     if abs(args.toe_in) >= 90:
         raise InvalidParameterError("--toe-in", f"must be less than 90 degrees either way, got {args.toe_in:g}")
     args.orientations = validation.count("--orientations", args.orientations, 1, MAX_ORIENTATIONS)
@@ -115,7 +127,7 @@ def _run(args: argparse.Namespace) -> int:
     calibration, label = _rig(args)
     across, ranges = default_grid(calibration)
     if args.ranges:
-        ranges = _span("--range", args.ranges, 10)
+        ranges = _span("--range", args.ranges, 10, positive=True)
     if args.across:
         across = _span("--across", args.across, 15)
     plan = precision_map(calibration, across, ranges, args.length, args.height, args.orientations,

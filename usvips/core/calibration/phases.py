@@ -163,15 +163,29 @@ def _apply_options(parameters: list[Parameter], options: CalibrationOptions) -> 
         by_name[name].status = "fixed"
     for key, value in options.fix_values.items():
         for name in _expand([key], names, "fix"):
+            _refuse_non_positive("fix", key, name, value)
             by_name[name].status, by_name[name].value = "fixed", float(value)
             by_name[name].group = None
     for key, (value, sigma) in options.priors.items():
         if not sigma > 0:
             raise InvalidParameterError("prior", f"{key}: the sigma must be > 0, got {sigma}", label="prior")
         for name in _expand([key], names, "prior"):
+            _refuse_non_positive("prior", key, name, value)
             p = by_name[name]
             p.status, p.value, p.prior, p.sigma = "prior", float(value), float(value), float(sigma)
             p.group = None  # the user's own prior replaces phase 1's
+
+
+#: interior parameters (by the name before a camera's suffix) that only a positive value makes a camera of
+POSITIVE_INTERIOR = ("f", "sy")
+
+
+def _refuse_non_positive(option: str, key: str, name: str, value: float) -> None:
+    """A fixed or prior value of a focal length or pixel aspect that is not > 0: no camera has it."""
+    if name.split("_")[0] in POSITIVE_INTERIOR and not float(value) > 0:
+        which = name if key == name else f"{key} ({name})"
+        raise InvalidParameterError(option, f"{which} must be > 0 (a focal length or a pixel aspect), got "
+                                    f"{float(value):g}", label=option)
 
 
 def _snoop_unit(model: StereoModel):
