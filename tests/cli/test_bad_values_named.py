@@ -145,3 +145,13 @@ def test_plan_spans_that_are_no_span_and_a_focal_length_of_no_camera_are_named(o
 def test_a_single_range_is_a_span_of_one():
     assert run(["plan", "--json", "--focal-px", "1000", "--image-size", "1280x960", "--baseline", "0.3",
                 "--range", "2:2:1"])[0] == 0
+
+
+def test_a_folder_given_for_a_file_is_said_to_be_a_folder(tmp_path):
+    folder = tmp_path / "observations.csv"
+    folder.mkdir()
+    refused(["intersect", "--calibration", str(ROV / "calibration.json"), "--obs", str(folder),
+             "--out", str(tmp_path / "p.csv")], "observations.csv", "is a folder, not a file")
+    project = tmp_path / "survey.usvips"
+    assert run(["project", "new", str(project)])[0] == 0
+    refused(["species", "import", str(project), str(folder)], "is a folder, not a file")

@@ -39,6 +39,7 @@ from usvips.core.detection.keypoint_sigma import SizeSigma, StereoSigma
 from usvips.core.detection.registry import family, names
 from usvips.core.detection.runner import OnnxDetector
 from usvips.core.errors import InputFileError, InvalidParameterError
+from usvips.io.file_errors import not_a_file
 
 SECTIONS = {"model": ("file", "family", "input_width", "input_height"),
             "normalisation": ("scale", "mean", "std", "channels"),
@@ -130,7 +131,7 @@ class _Fields:
 
 def _tables(path: Path) -> dict:
     if not path.is_file():
-        raise InputFileError(str(path), "no such file")
+        raise not_a_file(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as error:

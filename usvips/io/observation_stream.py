@@ -24,6 +24,7 @@ import numpy as np
 
 from usvips.core.errors import InputFileError
 from usvips.core.observations import StereoObservations
+from usvips.io.file_errors import not_a_file
 from usvips.io.tables import (
     MAX_FIELD_CHARS,
     OBSERVATION_COLUMNS,
@@ -290,7 +291,7 @@ def observation_chunks(path: str | Path, rows: int = CHUNK_ROWS, block_bytes: in
     id given twice beyond the first ``memory_keys`` rows (see :class:`_Checked`), when the file ends."""
     path = Path(path)
     if not path.is_file():
-        raise InputFileError(str(path), "no such file")
+        raise not_a_file(path)
     checked = _Checked(path, memory_keys)
     try:
         yield from _checked_chunks(path, rows, block_bytes, check_duplicates, checked)

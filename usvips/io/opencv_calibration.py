@@ -46,6 +46,7 @@ from usvips.core.interior import Interior
 from usvips.core.rotation import angles_from_matrix
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.atomic import write_text_atomic
+from usvips.io.file_errors import not_a_file
 
 # OpenCV's camera axes ↔ ours, and our interior as OpenCV's camera matrix: the core's conversions (the
 # planar calibration start uses them too)
@@ -339,7 +340,7 @@ def _read_npz(path: Path) -> dict[str, object]:
 def _read_file(path: Path) -> dict[str, object]:
     """Every top-level numeric entry of one file (arrays and numbers), by its name in the file."""
     if not path.is_file():
-        raise InputFileError(str(path), "no such file")
+        raise not_a_file(path)
     if path.suffix.lower() == ".npz":
         return _read_npz(path)
     try:

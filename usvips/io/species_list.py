@@ -15,6 +15,7 @@ from pathlib import Path
 
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.observation_record import Species
+from usvips.io.file_errors import not_a_file
 
 ALIASES = {"family": "family", "genus": "genus", "species": "species", "code": "code", "caab": "code",
            "caab_code": "code", "species_code": "code", "speciescode": "code"}
@@ -29,7 +30,7 @@ def read_species_list(path: str | Path) -> list[Species]:
     """The species of a list file, in file order (a genus and species, or a code, given twice refused)."""
     path = Path(path)
     if not path.is_file():
-        raise InputFileError(str(path), "no such file")
+        raise not_a_file(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as error:

@@ -22,6 +22,7 @@ from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.measurements import LEGACY, names
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.io.atomic import write_text_atomic
+from usvips.io.file_errors import not_a_file
 
 CONTROL_COLUMNS = ("id", "X", "Y", "Z")
 CONTROL_SIGMA_COLUMNS = ("sX", "sY", "sZ")
@@ -42,7 +43,7 @@ def _show(text: str) -> str:
 
 def _rows(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
     if not path.is_file():
-        raise InputFileError(str(path), "no such file")
+        raise not_a_file(path)
     try:
         if path.stat().st_size > MAX_FILE_BYTES:
             raise InputFileError(str(path), f"too large for a CSV table (over {MAX_FILE_BYTES >> 20} MiB)")
