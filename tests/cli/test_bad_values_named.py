@@ -155,3 +155,19 @@ def test_a_folder_given_for_a_file_is_said_to_be_a_folder(tmp_path):
     project = tmp_path / "survey.usvips"
     assert run(["project", "new", str(project)])[0] == 0
     refused(["species", "import", str(project), str(folder)], "is a folder, not a file")
+
+
+def test_imported_observations_off_every_image_or_off_the_calibrations_are_refused_by_line(tmp_path):
+    project = tmp_path / "survey.usvips"
+    assert run(["project", "new", str(project)])[0] == 0
+    before = project.read_bytes()
+    left_of_all = tmp_path / "left_of_all.csv"
+    left_of_all.write_text("id,xl,yl,xr,yr\n1,100,100,100,100\n2,-5000,100,100,100\n")
+    refused(["project", "import", str(project), "--obs", str(left_of_all), "--pair", "measure1"],
+            "left_of_all.csv", "line 3", "point '2'", "outside every image")
+    beyond = tmp_path / "beyond.csv"
+    beyond.write_text("id,xl,yl,xr,yr\n1,100,100,5000,100\n")
+    refused(["project", "import", str(project), "--obs", str(beyond), "--pair", "measure1", "--calibration",
+             str(ROV / "calibration.json"), "--active-for", "measure1"], "beyond.csv", "line 2",
+            "outside the right image (640 × 480 px")
+    assert project.read_bytes() == before

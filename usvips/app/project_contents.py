@@ -17,7 +17,7 @@ from usvips.core.deployment import Deployment, Georeference
 from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError, concerning
 from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.manifest import ROLES
-from usvips.io.tables import read_control, read_observations
+from usvips.io.tables import read_control, read_observations, refuse_off_every_image, refuse_outside_image
 from usvips.store.interface import ProjectStore
 from usvips.store.records import Pair
 
@@ -195,6 +195,14 @@ def plan_import(control: str | Path | None = None, observations: str | Path | No
                                             "the image pair"), "pair")
         rows = rows.pair(pair)
     data = calibration_to_dict(load_calibration(calibration)) if calibration else None
+    if rows is not None:
+        labels, lines = list(rows.ids), list(rows.lines)
+        refuse_off_every_image(observations, labels, lines, rows.left, rows.right)
+        if data is not None and pair in active_for:  # the pair's images are the calibration's
+            cameras = data["cameras"]
+            refuse_outside_image(observations, labels, lines, rows.left, rows.right,
+                                 tuple((cameras[side].get("width"), cameras[side].get("height"))
+                                       for side in ("left", "right")))
     return ImportPlan(control_points, rows, pair, role, data, Path(calibration).stem if calibration else "",
                       tuple(active_for))
 

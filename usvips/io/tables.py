@@ -306,6 +306,22 @@ def refuse_outside_image(path: str | Path, labels: list[str], lines: list[int | 
                                       int(outside.sum()))
 
 
+def refuse_off_every_image(path: str | Path, labels: list[str], lines: list[int | None], left: np.ndarray,
+                           right: np.ndarray) -> None:
+    """An :class:`InputFileError` naming the file, line and point when a pixel lies left of or above every
+    image (x or y below −0.5: pixels start at the centre of the top-left pixel), whatever the images' size:
+    what can be checked of pixels whose image is not known yet (:func:`refuse_outside_image` when it is)."""
+    for side, pixels in (("left", left), ("right", right)):
+        pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+        off = (pixels[:, 0] < -0.5) | (pixels[:, 1] < -0.5)
+        if off.any():
+            k = int(np.flatnonzero(off)[0])
+            more = f"; {int(off.sum())} such pixels in all" if off.sum() > 1 else ""
+            raise InputFileError(str(path), f"point {labels[k]!r}: the {side} pixel ({pixels[k, 0]:g}, "
+                                 f"{pixels[k, 1]:g}) lies outside every image (x and y start at -0.5, the "
+                                 f"top-left pixel's edge){more}", lines[k] if k < len(lines) else None)
+
+
 def outside_image(pixels: np.ndarray, size: tuple[int | None, int | None]) -> np.ndarray:
     """Which of the (N, 2) ``pixels`` lie outside an image of ``size`` (width, height; None: not known,
     none is outside); see :func:`refuse_outside_image` for the convention."""
