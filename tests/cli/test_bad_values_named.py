@@ -171,3 +171,12 @@ def test_imported_observations_off_every_image_or_off_the_calibrations_are_refus
              str(ROV / "calibration.json"), "--active-for", "measure1"], "beyond.csv", "line 2",
             "outside the right image (640 × 480 px")
     assert project.read_bytes() == before
+
+
+def test_a_scene_whose_cameras_are_in_one_place_is_named_by_its_file(tmp_path):
+    scene = json.loads((ROV / "scene.json").read_text())
+    scene["relative"].update(bx=0, by=0, bz=0)
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    refused(["render", str(path), "--out", str(tmp_path / "rendered")], "scene.json", "relative: bx, by and bz")
+    assert not (tmp_path / "rendered").exists()

@@ -253,6 +253,9 @@ def read_scene(path: str | Path) -> Scene:
         _check_values(path, side, side, data[side])
     _keys(path, "relative", data["relative"], {"bx"}, {"bx", "by", "bz", "omega", "phi", "kappa"})
     _check_values(path, "relative", "relative", data["relative"])
+    if not any(data["relative"].get(key, 0) for key in ("bx", "by", "bz")):
+        raise InputFileError(str(path), "relative: bx, by and bz are all 0: the two cameras are in one place, a "
+                             "stereo rig needs a baseline (metres)")
     housing = _keys(path, "housing", data["housing"], {"kind"}, {"kind", "left", "right", "known"})
     if not isinstance(housing["kind"], str) or housing["kind"] not in housings.names():
         raise InputFileError(str(path), f"housing.kind: must be one of {', '.join(housings.names())}")
