@@ -11,9 +11,11 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import signal
 import sys
+import threading
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import NoReturn
 
 from usvips import __version__
@@ -128,10 +130,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     if handler is None:
         parser.print_help()
         return 0
-    with warnings.catch_warnings(), _redacted_output():  # the caller's warning filters are back afterwards
-        if not os.environ.get("USVIPS_DEBUG"):
+    with warnings.catch_warnings(), _redacted_output(), _terminated_as_interrupted(args):
+        if not os.environ.get("USVIPS_DEBUG"):  # (the caller's warning filters are back afterwards)
             quiet_libraries()
         return _run(args, handler, _options_of(parser, argv))
+
+
+@contextlib.contextmanager
+def _terminated_as_interrupted(args: argparse.Namespace) -> Iterator[None]:
+    """A SIGTERM (``kill``, a job's time limit) ends a command as Ctrl+C does: the interruption unwinds it, so
+    what it was writing into a staging folder or temporary file is removed on the way out rather than left
+    beside its output. Not for the window (``open``: Qt ends it) nor off the main thread (where Python lets no
+    handler be set); the handler before is restored."""
+    if getattr(args, "command", "") == "open" or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame) -> None:
+        raise KeyboardInterrupt
+
+    before = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
 
 
 #: unit suffixes a parameter's name may carry beyond its option's (``max_blur_px`` is ``--max-blur``)
@@ -227,6 +249,9 @@ def _run(args: argparse.Namespace, handler: Callable[[argparse.Namespace], int],
     except RecursionError:
         return _fail(args.command, "an input is nested too deeply")
     except Exception as error:  # a bug: one line saying so (USVIPS_DEBUG=1 shows the traceback)
+        if isinstance(error.__cause__ or error.__context__, KeyboardInterrupt):  # raised inside compiled code
+            print(f"usvips {args.command}: interrupted", file=sys.stderr)
+            return 130
         if os.environ.get("USVIPS_DEBUG"):
             raise
         print(f"usvips {args.command}: internal error: {type(error).__name__}: {_one_line(str(error))} "
