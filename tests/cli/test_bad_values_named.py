@@ -180,3 +180,17 @@ def test_a_scene_whose_cameras_are_in_one_place_is_named_by_its_file(tmp_path):
     path.write_text(json.dumps(scene))
     refused(["render", str(path), "--out", str(tmp_path / "rendered")], "scene.json", "relative: bx, by and bz")
     assert not (tmp_path / "rendered").exists()
+
+
+@pytest.mark.parametrize("rows", [1, 3000])  # one line read line by line; many read as a block
+def test_python_digit_separators_are_no_number_in_a_table(tmp_path, rows):
+    observations = tmp_path / "observations.csv"
+    good = [f"{i},{100 + i % 400}.5,200.25,{90 + i % 400}.5,200.75" for i in range(rows)]
+    good[-1] = f"{rows - 1},1_00.5,200.25,90.5,200.75"
+    observations.write_text("id,xl,yl,xr,yr\n" + "\n".join(good) + "\n")
+    refused(["intersect", "--calibration", str(ROV / "calibration.json"), "--obs", str(observations),
+             "--out", str(tmp_path / "p.csv")], "observations.csv", f"line {rows + 1}", "'1_00.5' is not a number")
+    picks = tmp_path / "picks.csv"
+    picks.write_text(PICKS_HEADER + f"a,point,1_0,{FIRST},\n")
+    refused(["measure", "--calibration", str(ROV / "calibration.json"), "--picks", str(picks), "--out",
+             str(tmp_path / "m.csv")], "picks.csv", "line 2", "'1_0'")

@@ -383,6 +383,8 @@ def _quick(header: list[str], columns: dict[str, int], lines: list[str], numbers
     pairs = fields[columns["pair"]::width] if "pair" in columns else None
     if "" in ids or (pairs is not None and "" in pairs):
         return None
+    if any("_" in "".join(fields[columns[c]::width]) for c in ("xl", "yl", "xr", "yr", *_extra_names(header))):
+        return None  # Python's digit separators (1_000), which numpy reads: refused by name on the slow path
     try:
         pixels = np.array([fields[columns[c]::width] for c in ("xl", "yl", "xr", "yr")], dtype=np.float64).T
         extra = {c: np.array([float(t) if t else math.nan for t in fields[columns[c]::width]])

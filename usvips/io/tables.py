@@ -116,10 +116,25 @@ MAX_PIXEL = 1e6
 MAX_COORDINATE = 1e8
 
 
+def _plain_float(text: str) -> float:
+    """``float(text)`` of a number as a table writes it: Python's own digit separators (``1_000``) are no
+    number in a CSV file (another program reads them as text), so they are refused like text."""
+    if "_" in text:
+        raise ValueError(text)
+    return float(text)
+
+
+def _plain_int(text: str) -> int:
+    """``int(text)`` of a whole number as a table writes it (no ``1_000``, as :func:`_plain_float`)."""
+    if "_" in text:
+        raise ValueError(text)
+    return int(text)
+
+
 def _number(path: Path, line: int, column: str, text: str, limit: tuple[float, str] | None = None) -> float:
     """The number in one field; ``limit``: (largest magnitude, its unit) beyond which it is no value."""
     try:
-        value = float(text)
+        value = _plain_float(text)
     except ValueError:
         raise InputFileError(str(path), f"column {column}: {_show(text)} is not a number", line) from None
     if not math.isfinite(value):
@@ -243,7 +258,7 @@ def read_picks(path: str | Path) -> list[dict]:
         for column in ("vertex", "xl", "yl", "xr", "yr"):
             text = fields[columns[column]]
             try:
-                value = float(text) if column != "vertex" else int(text)
+                value = _plain_float(text) if column != "vertex" else _plain_int(text)
             except ValueError:
                 value = math.nan
             if not math.isfinite(value):
