@@ -194,3 +194,24 @@ def test_python_digit_separators_are_no_number_in_a_table(tmp_path, rows):
     picks.write_text(PICKS_HEADER + f"a,point,1_0,{FIRST},\n")
     refused(["measure", "--calibration", str(ROV / "calibration.json"), "--picks", str(picks), "--out",
              str(tmp_path / "m.csv")], "picks.csv", "line 2", "'1_0'")
+
+
+@pytest.mark.parametrize("value", ["1e-300", "0.01", "200000"])
+def test_a_maximum_length_of_no_organism_is_refused(tmp_path, value):
+    project = tmp_path / "survey.usvips"
+    assert run(["project", "new", str(project)])[0] == 0
+    species = tmp_path / "species.csv"
+    species.write_text(f"family,genus,species,max_length_mm\nSparidae,Pagrus,auratus,{value}\n")
+    refused(["species", "import", str(project), str(species)], "species.csv", "line 2", "no organism's")
+
+
+def test_json_and_toml_files_saved_with_a_byte_order_mark_are_read(tmp_path):
+    calibration = tmp_path / "calibration.json"
+    calibration.write_bytes(b"\xef\xbb\xbf" + (ROV / "calibration.json").read_bytes())
+    code, err = run(["intersect", "--calibration", str(calibration), "--obs", str(ROV / "observations_water.csv"),
+                     "--out", str(tmp_path / "p.csv")])
+    assert code == 0, err
+    scene = tmp_path / "scene.json"
+    scene.write_bytes(b"\xef\xbb\xbf" + (ROV / "scene.json").read_bytes())
+    from usvips.io.scene import read_scene
+    assert read_scene(scene).seed == json.loads((ROV / "scene.json").read_text())["seed"]

@@ -396,7 +396,7 @@ def load_calibration(path: str | Path) -> StereoCalibration:
     try:
         if path.stat().st_size > MAX_FILE_BYTES:
             raise InputFileError(str(path), f"too large for a calibration file (over {MAX_FILE_BYTES >> 20} MiB)")
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(path.read_text(encoding="utf-8-sig"))
     except json.JSONDecodeError as error:
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
     except UnicodeDecodeError:

@@ -144,7 +144,7 @@ def read_manifest(path: str | Path) -> Manifest:
     try:
         if path.stat().st_size > MAX_FILE_BYTES:
             raise InputFileError(str(path), f"too large for a manifest (over {MAX_FILE_BYTES >> 20} MiB)")
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(path.read_text(encoding="utf-8-sig"))
     except json.JSONDecodeError as error:
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
     except UnicodeDecodeError:

@@ -133,7 +133,7 @@ def _tables(path: Path) -> dict:
     if not path.is_file():
         raise not_a_file(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as error:
         raise InputFileError(str(path), f"cannot be read as UTF-8 text: {error}") from None
     suffix = path.suffix.lower()

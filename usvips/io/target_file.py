@@ -68,7 +68,7 @@ def read_target(path: str | Path) -> CalibrationTarget:
     try:
         if path.stat().st_size > MAX_BYTES:
             raise InputFileError(str(path), f"larger than {MAX_BYTES // 1_000_000} MB: not a target description")
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputFileError(str(path), "no such file") from None
     except IsADirectoryError:
