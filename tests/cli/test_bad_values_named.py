@@ -215,3 +215,21 @@ def test_json_and_toml_files_saved_with_a_byte_order_mark_are_read(tmp_path):
     scene.write_bytes(b"\xef\xbb\xbf" + (ROV / "scene.json").read_bytes())
     from usvips.io.scene import read_scene
     assert read_scene(scene).seed == json.loads((ROV / "scene.json").read_text())["seed"]
+
+
+def test_control_points_in_one_place_are_refused_by_line(tmp_path):
+    control = tmp_path / "control.csv"
+    control.write_text("id,X,Y,Z\na,0,0,0\nb,0.1,0,0\nc,0,0,0\n")
+    refused(["calibrate", "air", "--control", str(control), "--obs", str(ROV / "observations_air.csv"),
+             "--out", str(tmp_path / "air.json")], "control.csv", "line 4", "point 'c'", "point 'a' (line 2)")
+
+
+@pytest.mark.parametrize("kind", ["calibration", "scene"])
+def test_a_json_key_given_twice_is_named(tmp_path, kind):
+    text = (ROV / f"{kind}.json").read_text()
+    key = '"f":' if kind == "calibration" else '"seed":'
+    path = tmp_path / f"{kind}.json"
+    path.write_text(text.replace(key, f"{key} 1, {key}", 1))
+    args = (["intersect", "--calibration", str(path), "--obs", str(ROV / "observations_water.csv"), "--out",
+             str(tmp_path / "p.csv")] if kind == "calibration" else ["render", str(path), "--out", str(tmp_path / "r")])
+    refused(args, f"{kind}.json", f"the key {key[:-1]!r}".replace('"', ""), "given twice")

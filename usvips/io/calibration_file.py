@@ -41,6 +41,7 @@ from usvips.core.parameter_status import STATUSES
 from usvips.core.rig import RelativeOrientation, relative_orientation
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.atomic import write_text_atomic
+from usvips.io.json_text import loads_strict
 
 FORMAT = "usvips-calibration"
 #: The newest file version read; written only when needed (:func:`file_version`).
@@ -396,7 +397,7 @@ def load_calibration(path: str | Path) -> StereoCalibration:
     try:
         if path.stat().st_size > MAX_FILE_BYTES:
             raise InputFileError(str(path), f"too large for a calibration file (over {MAX_FILE_BYTES >> 20} MiB)")
-        data = json.loads(path.read_text(encoding="utf-8-sig"))
+        data = loads_strict(path.read_text(encoding="utf-8-sig"), path)
     except json.JSONDecodeError as error:
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
     except UnicodeDecodeError:

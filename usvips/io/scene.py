@@ -47,6 +47,7 @@ from usvips.core.housing import AirHousing, Housing
 from usvips.core.interior import INTERIOR_PARAMETERS, Interior
 from usvips.core.rig import RelativeOrientation, StereoRig
 from usvips.core.synth import Fish, Pipe, Rock
+from usvips.io.json_text import loads_strict
 from usvips.io.manifest import housing_known_values
 
 FORMAT = "usvips-scene"
@@ -228,7 +229,7 @@ def read_scene(path: str | Path) -> Scene:
     if path.stat().st_size > MAX_FILE_BYTES:
         raise InputFileError(str(path), f"too large for a scene description (over {MAX_FILE_BYTES >> 20} MiB)")
     try:
-        data = json.loads(path.read_text(encoding="utf-8-sig"))
+        data = loads_strict(path.read_text(encoding="utf-8-sig"), path)
     except json.JSONDecodeError as error:
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
     except UnicodeDecodeError:

@@ -171,6 +171,7 @@ def read_control(path: str | Path) -> ControlPoints:
                              f"sigmas need all of {', '.join(CONTROL_SIGMA_COLUMNS)} (metres) or none")
     ids, xyz, sig, lines = [], [], [], []
     first_line: dict[str, int] = {}
+    places: dict[tuple[float, ...], int] = {}
     for line, fields in rows:
         _check_width(path, line, fields, header)
         pid = _check_id(path, line, fields[columns["id"]])
@@ -180,6 +181,10 @@ def read_control(path: str | Path) -> ControlPoints:
         ids.append(pid)
         lines.append(line)
         xyz.append([_number(path, line, c, fields[columns[c]], (MAX_COORDINATE, "m")) for c in ("X", "Y", "Z")])
+        same = places.setdefault(tuple(xyz[-1]), len(ids) - 1)
+        if same != len(ids) - 1:
+            raise InputFileError(str(path), f"point {_show(pid)} has the coordinates of point {_show(ids[same])} "
+                                 f"(line {lines[same]}): two targets cannot be in one place", line)
         if has_sigma:
             values = [_number(path, line, c, fields[columns[c]], (MAX_COORDINATE, "m")) for c in CONTROL_SIGMA_COLUMNS]
             if any(v < 0 for v in values):
