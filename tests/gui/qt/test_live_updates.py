@@ -203,7 +203,9 @@ def test_an_object_ann_is_editing_that_bob_changes_shows_the_conflict_and_keeps_
     qtbot.waitUntil(lambda: listing.text(listing.row_of(fish), "notes") == "bob: snout hidden", timeout=BOUND_MS)
     assert bob.object(fish).notes == "bob: snout hidden"  # bob's change is not lost
     assert list(ws.edits.unsaved) == [(fish, f"edit object {fish}")]  # ann's edit is kept …
-    assert "“ann: tail bent”" in window.hint.text() and "Retry unsaved edits" in window.hint.text()
+    # said once the editor has closed (a turn of the event loop after the refused save's own line)
+    qtbot.waitUntil(lambda: "“ann: tail bent”" in window.hint.text(), timeout=BOUND_MS)
+    assert "Retry unsaved edits" in window.hint.text()
     assert _marked_by(window, fish, "bob")
     window.retry_unsaved_edits()  # … and saved over bob's when she says so
     assert bob.object(fish).notes == "ann: tail bent" and not ws.edits.unsaved
