@@ -202,7 +202,8 @@ def test_a_maximum_length_of_no_organism_is_refused(tmp_path, value):
     assert run(["project", "new", str(project)])[0] == 0
     species = tmp_path / "species.csv"
     species.write_text(f"family,genus,species,max_length_mm\nSparidae,Pagrus,auratus,{value}\n")
-    refused(["species", "import", str(project), str(species)], "species.csv", "line 2", "no organism's")
+    refused(["species", "import", str(project), str(species)], "species.csv", "line 2", "than any",
+            "is the unit right?")
 
 
 def test_json_and_toml_files_saved_with_a_byte_order_mark_are_read(tmp_path):

@@ -39,15 +39,16 @@ def positive_number(not_a: str, must_be: str) -> Callable[[str], float]:
 
 
 def whole_number_from(least: int) -> Callable[[str], int]:
-    """An argparse ``type``: a whole number ``least`` or more; else "must be a whole number >= least, got 'x'"."""
+    """An argparse ``type``: a whole number from ``least`` to 2**63 − 1; else one line saying so."""
 
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"must be a whole number >= {least}, got {text!r}") from None
-        if value < least:
-            raise argparse.ArgumentTypeError(f"must be a whole number >= {least}, got {text!r}")
+            raise argparse.ArgumentTypeError(f"must be a whole number from {least} to 2**63 - 1, got {text!r}") \
+                from None
+        if value < least or value > 2**63 - 1:  # (a 64-bit whole number at most, as every int option)
+            raise argparse.ArgumentTypeError(f"must be a whole number from {least} to 2**63 - 1, got {text!r}")
         return value
 
     return parse

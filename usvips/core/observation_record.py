@@ -22,6 +22,8 @@ def _clean(name: str, value: object) -> str:
 
 #: the longest maximum length a species list may give (metres: a blue whale is about 30 m)
 MAX_LENGTH_M = 40.0
+#: the shortest maximum length (m) a species list may give: a copepod's; shorter is a unit slip
+MIN_LENGTH_M = 1e-4
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,9 @@ class Species:
             value = self.max_length_m
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise InvalidParameterError("max_length", f"must be a positive length, got {value!r}")
+            if value < MIN_LENGTH_M:
+                raise InvalidParameterError("max_length", f"{value:g} m is shorter than any organism's maximum (at "
+                                            f"least {MIN_LENGTH_M * 1000:g} mm; is the unit right?)")
             if value > MAX_LENGTH_M:
                 raise InvalidParameterError("max_length", f"{value:g} m is longer than any animal (at most "
                                             f"{MAX_LENGTH_M:g} m; is the unit right?)")

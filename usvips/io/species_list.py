@@ -26,10 +26,6 @@ MAX_LENGTH = {"max_length_mm": 0.001, "length_max_mm": 0.001, "maximum_length_mm
               "max_length_m": 1.0, "length_max_m": 1.0, "maximum_length_m": 1.0}
 
 
-#: the maximum lengths (m) a list may give: from a copepod's to beyond a whale shark's; outside, a unit slip
-MAX_LENGTH_RANGE_M = (1e-4, 100.0)
-
-
 def read_species_list(path: str | Path) -> list[Species]:
     """The species of a list file, in file order (a genus and species, or a code, given twice refused)."""
     path = Path(path)
@@ -87,10 +83,6 @@ def read_species_list(path: str | Path) -> list[Species]:
                 raise InputFileError(str(path), f"the maximum length {text} ({header[maximum[0]]}) must be a "
                                      "positive number", number)
             max_length = given * maximum[1]
-            if not MAX_LENGTH_RANGE_M[0] <= max_length <= MAX_LENGTH_RANGE_M[1]:
-                raise InputFileError(str(path), f"the maximum length {text} ({header[maximum[0]]}) is no "
-                                     f"organism's: a maximum length lies between {MAX_LENGTH_RANGE_M[0] * 1000:g} mm "
-                                     f"and {MAX_LENGTH_RANGE_M[1]:g} m (a unit slip?)", number)
         try:
             entry = Species(values["family"], values["genus"], values["species"], values.get("code", ""), max_length)
         except UsvipsError as error:
