@@ -234,3 +234,11 @@ def test_a_json_key_given_twice_is_named(tmp_path, kind):
     args = (["intersect", "--calibration", str(path), "--obs", str(ROV / "observations_water.csv"), "--out",
              str(tmp_path / "p.csv")] if kind == "calibration" else ["render", str(path), "--out", str(tmp_path / "r")])
     refused(args, f"{kind}.json", f"the key {key[:-1]!r}".replace('"', ""), "given twice")
+
+
+def test_a_taxon_name_too_long_to_be_one_is_refused_by_line(tmp_path):
+    project = tmp_path / "survey.usvips"
+    assert run(["project", "new", str(project)])[0] == 0
+    species = tmp_path / "species.csv"
+    species.write_text("family,genus,species\nSparidae,Pagrus,auratus\nSparidae,Pagrus," + "a" * 100_000 + "\n")
+    refused(["species", "import", str(project), str(species)], "species.csv", "line 3", "100,000 characters")

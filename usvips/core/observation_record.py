@@ -24,6 +24,8 @@ def _clean(name: str, value: object) -> str:
 MAX_LENGTH_M = 40.0
 #: the shortest maximum length (m) a species list may give: a copepod's; shorter is a unit slip
 MIN_LENGTH_M = 1e-4
+#: the longest family, genus, species or code (characters; the longest binomials are about 60)
+MAX_TAXON_TEXT = 200
 
 
 @dataclass(frozen=True)
@@ -45,6 +47,10 @@ class Species:
                 object.__setattr__(self, f.name, _clean(f.name, getattr(self, f.name)))
         if not self.genus:
             raise InvalidParameterError("genus", "must not be empty")
+        for name in ("family", "genus", "species", "code"):
+            if len(getattr(self, name)) > MAX_TAXON_TEXT:
+                raise InvalidParameterError(name, f"is {len(getattr(self, name)):,} characters long: a taxon's name or "
+                                            f"code has at most {MAX_TAXON_TEXT} (a column slipped?)")
         if self.max_length_m is not None:
             value = self.max_length_m
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
