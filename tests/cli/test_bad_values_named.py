@@ -242,3 +242,54 @@ def test_a_taxon_name_too_long_to_be_one_is_refused_by_line(tmp_path):
     species = tmp_path / "species.csv"
     species.write_text("family,genus,species\nSparidae,Pagrus,auratus\nSparidae,Pagrus," + "a" * 100_000 + "\n")
     refused(["species", "import", str(project), str(species)], "species.csv", "line 3", "100,000 characters")
+
+
+@pytest.fixture
+def video_survey(tmp_path):
+    """A new project holding the ROV sample's stereo video as pair 'V'."""
+    project = tmp_path / "survey.usvips"
+    assert run(["project", "new", str(project)])[0] == 0
+    code, err = run(["project", "add-video", str(project), "--left", str(ROV / "video_left.mp4"),
+                     "--right", str(ROV / "video_right.mp4"), "--label", "V"])
+    assert code == 0, err
+    return project
+
+
+def test_a_period_name_given_twice_is_named_not_left_to_the_store(video_survey):
+    assert run(["video", "period", str(video_survey), "--pair", "V", "--add", "p1", "0", "5"])[0] == 0
+    err = refused(["video", "period", str(video_survey), "--pair", "V", "--add", "p1", "2", "8"],
+                  "--add NAME", "already has a period 'p1'")
+    assert "UNIQUE" not in err
+
+
+def test_an_empty_frame_folder_is_refused(video_survey, tmp_path):
+    refused(["video", "export-frame", str(video_survey), "--pair", "V", "--frame", "5", "--out", ""], "--out")
+    assert not (tmp_path / "left.png").exists()
+
+
+@pytest.mark.parametrize("opcode", ["", "a\nb"])
+def test_an_empty_or_two_line_opcode_is_refused(video_survey, tmp_path, opcode):
+    refused(["project", "export", str(video_survey), str(tmp_path / "z.em.txt"), "--opcode", opcode], "--opcode")
+    assert not list(tmp_path.glob("z*"))
+
+
+def test_an_empty_campaign_value_is_refused_not_stored_over_the_one_before(video_survey):
+    assert run(["project", "set-campaign", str(video_survey), "--campaign-id", "2024-01_Test_stereo-BRUVs"])[0] == 0
+    refused(["project", "set-campaign", str(video_survey), "--campaign-id", ""], "--campaign-id", "--clear")
+    from usvips.store.opening import open_project
+    with open_project(video_survey, read_only=True) as project:
+        assert project.campaign().campaign_id == "2024-01_Test_stereo-BRUVs"
+
+
+@pytest.mark.parametrize("option", [["--replicas", "5"], ["--seed", "3"], ["--pointing-sigma", "0.5"]])
+def test_monte_carlo_options_without_sigma_are_refused(video_survey, option):
+    refused(["project", "check", str(video_survey), *option], option[0], "--sigma")
+
+
+def test_an_output_folder_that_is_a_file_is_named(tmp_path):
+    observations = tmp_path / "obs.csv"
+    observations.write_bytes((ROV / "observations_water.csv").read_bytes())
+    before = observations.read_bytes()
+    refused(["batch", "intersect", str(observations), "--calibration", str(ROV / "calibration.json"),
+             "--out-dir", str(observations)], "--out-dir", "is a file, not a folder")
+    assert observations.read_bytes() == before

@@ -170,6 +170,8 @@ def run(args: argparse.Namespace) -> int:
         out_dir, tasks, made = None, _detect_tasks(args), False
     else:
         out_dir = Path(args.out_dir)
+        if out_dir.exists() and not out_dir.is_dir():
+            raise InvalidParameterError("--out-dir", f"{out_dir} is a file, not a folder")
         tasks = _tasks(args, out_dir)
         made = not out_dir.exists()
         out_dir.mkdir(parents=True, exist_ok=True)

@@ -16,7 +16,7 @@ from usvips.cli.project_media import register_project_actions
 from usvips.cli.project_pointing import register_pointing_action
 from usvips.cli.project_review import register_review_action
 from usvips.cli.project_sync import register_sync_actions
-from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
 
 if TYPE_CHECKING:
     from usvips.core.deployment import Georeference
@@ -205,6 +205,13 @@ def run_export(args: argparse.Namespace) -> int:
     from usvips.io.atomic import replacing
     from usvips.store.opening import open_project
 
+    if args.opcode is not None:
+        from usvips.core import validation
+
+        validation.printable("--opcode", args.opcode)
+        if not args.opcode.strip():
+            raise InvalidParameterError("--opcode", "must not be empty (leave the option out for the stored "
+                                        "deployments' OpCodes)")
     skipped: list[str] = []
     with open_project(args.project, read_only=True) as project, \
             replacing(export_targets(args.out), media_files(project), project=args.project, replace=args.force,

@@ -44,6 +44,9 @@ def run_set_campaign(args: argparse.Namespace) -> int:
              if getattr(args, f"campaign_{name}") is not None}
     for name, value in given.items():
         validation.printable(CAMPAIGN_OPTIONS[name][0], value)
+        if not str(value).strip():
+            raise InvalidParameterError(CAMPAIGN_OPTIONS[name][0], "is empty: give a value (--clear removes the "
+                                        "whole campaign)")
     with open_project(args.project) as project:
         stored = project.campaign()  # the version this command read: a colleague's change since is refused
         if args.clear:

@@ -11,7 +11,7 @@ import json
 from typing import TYPE_CHECKING
 
 from usvips.cli.common import csv_text, write_text_atomic
-from usvips.core.errors import InvalidParameterError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.io.atomic import replacing
 
 if TYPE_CHECKING:
@@ -42,8 +42,8 @@ def register_check_action(actions: argparse._SubParsersAction) -> None:
     check.add_argument("--sigma", action="store_true",
                        help="instead: check whether the stated σ hold, by a Monte Carlo of the project's own "
                             "geometry (its calibrations, picks and pointing σ): NEES per object kind")
-    check.add_argument("--replicas", type=int, default=40, help="with --sigma: Monte Carlo replicas (default 40)")
-    check.add_argument("--seed", type=int, default=0, help="with --sigma: the random seed (default 0)")
+    check.add_argument("--replicas", type=int, help="with --sigma: Monte Carlo replicas (default 40)")
+    check.add_argument("--seed", type=int, help="with --sigma: the random seed (default 0)")
     check.add_argument("--pointing-sigma", type=float, metavar="PX",
                        help="with --sigma: the pointing σ (pixels, one coordinate) believed true of every pick "
                             "(default: the project's estimates in use, else each figure's own)")
@@ -95,7 +95,14 @@ def run_check(args: argparse.Namespace) -> int:
     from usvips.app.quality import REPORT_COLUMNS, check_project, report_rows
 
     if args.sigma:
+        args.replicas = 40 if args.replicas is None else args.replicas
+        args.seed = 0 if args.seed is None else args.seed
         return run_sigma_check(args)
+    alone = [o for o, v in (("--replicas", args.replicas), ("--seed", args.seed),
+                            ("--pointing-sigma", args.pointing_sigma)) if v is not None]
+    if alone:
+        raise UsvipsError(f"{alone[0]} goes with --sigma (the Monte Carlo check of the stated σ); without it the "
+                          "rules are checked and it would be ignored")
     from usvips.store.opening import open_project
 
     rules = _rules(args)

@@ -9,7 +9,7 @@ import json
 
 from usvips.app import video_project
 from usvips.core import validation
-from usvips.core.errors import UsvipsError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.store.opening import open_project
 
 
@@ -98,6 +98,8 @@ def run_set_offset(args: argparse.Namespace) -> int:
 
 
 def run_export_frame(args: argparse.Namespace) -> int:
+    if not str(args.out).strip():
+        raise InvalidParameterError("--out", "must name a folder (empty)")
     with open_project(args.project) as project:
         video = project.video(args.pair)
         left, right = video_project.export_frame(project, args.pair, args.frame, args.out)
@@ -114,6 +116,9 @@ def run_period(args: argparse.Namespace) -> int:
                 start, end = int(start), int(end)
             except ValueError:
                 raise UsvipsError(f"--add {name} {start} {end}: START and END must be frame numbers") from None
+            if any(name == taken for taken, _, _ in project.periods(args.pair)):
+                raise InvalidParameterError("--add NAME", f"video {args.pair!r} already has a period {name!r}: "
+                                            "choose another name")
             project.add_period(args.pair, name, start, end)
         for name, start, end in project.periods(args.pair):
             print(f"{name}: frames {start} to {end}")
