@@ -293,3 +293,10 @@ def test_an_output_folder_that_is_a_file_is_named(tmp_path):
     refused(["batch", "intersect", str(observations), "--calibration", str(ROV / "calibration.json"),
              "--out-dir", str(observations)], "--out-dir", "is a file, not a folder")
     assert observations.read_bytes() == before
+
+
+def test_a_folder_given_for_a_project_is_said_to_be_a_folder(tmp_path):
+    folder = tmp_path / "survey.usvips"
+    folder.mkdir()
+    refused(["video", "sync", str(folder), "--pair", "V"], "survey.usvips", "is a folder, not a project file")
+    refused(["project", "check", str(folder)], "is a folder, not a project file")

@@ -34,11 +34,12 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.calibration.uncertainty import intersect_with_calibration
-from usvips.core.errors import InputFileError, InvalidParameterError, UsvipsError
+from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.intersection import misfit_limit, ray_misfit
 from usvips.core.pointing import HAND_CLICK_SIGMA_PX
 from usvips.io.atomic import write_text_atomic
 from usvips.io.calibration_file import load_calibration
+from usvips.io.file_errors import not_a_file
 from usvips.io.tables import read_observations
 
 
@@ -82,7 +83,7 @@ def export_project_task(project: str, out: str, opcode: str | None = None) -> di
 
     skipped: list[str] = []
     if not is_server_location(project) and not Path(project).is_file():
-        raise InputFileError(project, "no such project file")
+        raise not_a_file(project, "project file")
     with open_project(project, read_only=True) as opened:
         count = export_project(opened, out, opcode, skipped=skipped)
     return {"objects": count, "skipped": skipped, "out": str(out)}
@@ -99,7 +100,7 @@ def export_archive_task(project: str, out: str) -> dict:
     skipped: list[str] = []
     local = None if is_server_location(project) else project
     if local is not None and not Path(project).is_file():
-        raise InputFileError(project, "no such project file")
+        raise not_a_file(project, "project file")
     with open_project(project, read_only=True) as opened:
         written = export_archive_folder(opened, out, local, skipped=skipped)
     return {"files": len(written), "skipped": skipped, "out": str(out)}

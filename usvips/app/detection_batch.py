@@ -14,7 +14,8 @@ from pathlib import Path
 from usvips.app.calibrations import active_calibration_id
 from usvips.app.detection_model import load_model, model_path_for
 from usvips.app.detection_service import detect_in_project
-from usvips.core.errors import InputFileError, UsvipsError
+from usvips.core.errors import UsvipsError
+from usvips.io.file_errors import not_a_file
 
 
 def detect_project_task(project: str, model: str | None = None, every: int = 1) -> dict:
@@ -26,7 +27,7 @@ def detect_project_task(project: str, model: str | None = None, every: int = 1) 
     from usvips.store.opening import open_project
 
     if not is_server_location(project) and not Path(project).is_file():
-        raise InputFileError(project, "no such project file")
+        raise not_a_file(project, "project file")
     loaded = load_model(model) if model is not None else None
     stored = duplicates = looked = instants = 0
     skipped: list[str] = []

@@ -9,5 +9,5 @@ from usvips.core.errors import InputFileError
 
 
 def not_a_file(path: str | Path, what: str = "file") -> InputFileError:
-    """An :class:`InputFileError` naming ``path``: "is a folder, not a {what}" or "no such file"."""
-    return InputFileError(str(path), f"is a folder, not a {what}" if Path(path).is_dir() else "no such file")
+    """An :class:`InputFileError` naming ``path``: "is a folder, not a {what}" or "no such {what}"."""
+    return InputFileError(str(path), f"is a folder, not a {what}" if Path(path).is_dir() else f"no such {what}")

@@ -248,7 +248,8 @@ class Project(Survey):
         if path.is_symlink() and not path.exists():
             raise ProjectError(f"{path}: a symbolic link to a file that does not exist")
         if not path.is_file():
-            raise ProjectError(f"{path}: no such project file")
+            raise ProjectError(f"{path}: is a folder, not a project file" if path.is_dir() else
+                               f"{path}: no such project file")
         try:
             with open(path, "rb") as stream:
                 magic = stream.read(16)
