@@ -22,10 +22,6 @@ def _clean(name: str, value: object) -> str:
 
 #: the longest maximum length a species list may give (metres: a blue whale is about 30 m)
 MAX_LENGTH_M = 40.0
-#: the shortest maximum length (m) a species list may give: a copepod's; shorter is a unit slip
-MIN_LENGTH_M = 1e-4
-#: the longest family, genus, species or code (characters; the longest binomials are about 60)
-MAX_TAXON_TEXT = 200
 
 
 @dataclass(frozen=True)
@@ -47,17 +43,10 @@ class Species:
                 object.__setattr__(self, f.name, _clean(f.name, getattr(self, f.name)))
         if not self.genus:
             raise InvalidParameterError("genus", "must not be empty")
-        for name in ("family", "genus", "species", "code"):
-            if len(getattr(self, name)) > MAX_TAXON_TEXT:
-                raise InvalidParameterError(name, f"is {len(getattr(self, name)):,} characters long: a taxon's name or "
-                                            f"code has at most {MAX_TAXON_TEXT} (a column slipped?)")
         if self.max_length_m is not None:
             value = self.max_length_m
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise InvalidParameterError("max_length", f"must be a positive length, got {value!r}")
-            if value < MIN_LENGTH_M:
-                raise InvalidParameterError("max_length", f"{value:g} m is shorter than any organism's maximum (at "
-                                            f"least {MIN_LENGTH_M * 1000:g} mm; is the unit right?)")
             if value > MAX_LENGTH_M:
                 raise InvalidParameterError("max_length", f"{value:g} m is longer than any animal (at most "
                                             f"{MAX_LENGTH_M:g} m; is the unit right?)")

@@ -26,6 +26,13 @@ MAX_LENGTH = {"max_length_mm": 0.001, "length_max_mm": 0.001, "maximum_length_mm
               "max_length_m": 1.0, "length_max_m": 1.0, "maximum_length_m": 1.0}
 
 
+#: the shortest maximum length (m) a list may give: a copepod's; shorter is a unit slip. (Checked here, where a
+#: list comes in, not in :class:`Species`, so that a project stored before it still reads.)
+MIN_LENGTH_M = 1e-4
+#: the longest family, genus, species or code a list may give (characters; the longest binomials are about 60)
+MAX_TAXON_TEXT = 200
+
+
 def read_species_list(path: str | Path) -> list[Species]:
     """The species of a list file, in file order (a genus and species, or a code, given twice refused)."""
     path = Path(path)
@@ -83,6 +90,14 @@ def read_species_list(path: str | Path) -> list[Species]:
                 raise InputFileError(str(path), f"the maximum length {text} ({header[maximum[0]]}) must be a "
                                      "positive number", number)
             max_length = given * maximum[1]
+            if max_length < MIN_LENGTH_M:
+                raise InputFileError(str(path), f"the maximum length {text} ({header[maximum[0]]}) is shorter than "
+                                     f"any organism's maximum (at least {MIN_LENGTH_M * 1000:g} mm; is the unit "
+                                     "right?)", number)
+        too_long = next((name for name, value in values.items() if len(value) > MAX_TAXON_TEXT), None)
+        if too_long is not None:
+            raise InputFileError(str(path), f"the {too_long} is {len(values[too_long]):,} characters long: a taxon's "
+                                 f"name or code has at most {MAX_TAXON_TEXT} (a column slipped?)", number)
         try:
             entry = Species(values["family"], values["genus"], values["species"], values.get("code", ""), max_length)
         except UsvipsError as error:
