@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from usvips.app.ordered_pool import forking_safely, reset_worker_signals
 from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import InvalidParameterError, UsvipsError
 from usvips.core.intersection import misfit_limit, ray_misfit
@@ -134,6 +135,7 @@ def _worker_start() -> None:
     """In each worker: Ctrl-C is the parent's to handle (a running task finishes its output), and each
     process keeps to one BLAS thread (the pool already uses every core)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    reset_worker_signals()
     try:
         from threadpoolctl import threadpool_limits
 
@@ -189,7 +191,8 @@ def run(tasks: Iterable[Task], jobs: int | None = None,
     executor = ProcessPoolExecutor(max_workers=min(jobs, len(tasks)), initializer=_worker_start)
     pending: dict[Future, int] = {}
     try:
-        pending = {executor.submit(_execute, task.function, task.arguments): i for i, task in enumerate(tasks)}
+        with forking_safely():  # (the first submit forks every worker)
+            pending = {executor.submit(_execute, task.function, task.arguments): i for i, task in enumerate(tasks)}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:

@@ -18,9 +18,12 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
+import sys
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
+from contextlib import contextmanager
 from typing import Any, TypeVar
 
 Item = TypeVar("Item")
@@ -40,8 +43,33 @@ def available_cores() -> int:
         return os.cpu_count() or 1
 
 
+@contextmanager
+def forking_safely() -> Iterator[None]:
+    """OpenCV held to one thread while worker processes are forked (the count before restored after). Its
+    thread pool's threads are not copied by a fork, and a child that inherits a pool believing in them waits
+    for them forever in its first parallel call (seen: a ``batch detect`` worker hung in the network's
+    forward, forked from a process that had run OpenCV's DNN before). Nothing when OpenCV is not loaded."""
+    cv2 = sys.modules.get("cv2")
+    if cv2 is None:
+        yield
+        return
+    before = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(before)
+
+
+def reset_worker_signals() -> None:
+    """In a forked worker: SIGTERM back to its default (the command line's handler, copied by the fork, would
+    turn the pool's own termination of a worker into an interruption the worker unwinds)."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def _start_worker(state: Any, initializer: Callable[[], None] | None) -> None:
     global _state
+    reset_worker_signals()
     _state = state
     if initializer is not None:
         initializer()
@@ -76,7 +104,11 @@ def ordered_map(function: Callable[[Any, Item], Result], state: Any, items: Iter
     waiting: deque[tuple[Item, Future]] = deque()
     try:
         for item in stream:
-            waiting.append((item, pool.submit(_work, function, item)))
+            if waiting:
+                waiting.append((item, pool.submit(_work, function, item)))
+            else:  # (the first submit forks every worker)
+                with forking_safely():
+                    waiting.append((item, pool.submit(_work, function, item)))
             while len(waiting) >= workers * ahead:
                 yield _done(function, state, *waiting.popleft())
         while waiting:
