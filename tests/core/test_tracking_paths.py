@@ -20,7 +20,7 @@ from usvips.core.tracking import TrackSettings, track_vertex
 CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
 
 
-def whole_flow(previous, following, point, settings):
+def whole_flow(previous, following, point, settings, motion=None):
     """The flow as it was first written: both frames cropped about the point itself (``_reach`` px) at every
     step, the whole pyramidal call forward and backward."""
     after = tracking._neighbourhood(following, previous.centre, tracking._reach(settings) + tracking.SLACK,
@@ -97,6 +97,12 @@ def test_a_neighbourhood_is_the_frame_cropped_about_its_centre_and_reduced():
     np.testing.assert_array_equal(hood.levels[2], cv2.pyrDown(cv2.pyrDown(frame[20:101, 60:141])))
     edge = tracking._neighbourhood(frame, (5, 230), 40, 1)  # clipped by the frame's edges, one level kept
     assert edge.corner == (0, 190) and edge.levels[0].shape == (50, 46) and len(edge.levels) == 2
+    lazy = tracking._neighbourhood(frame, (100, 60), 40)  # the crop alone until the flow asks for more
+    assert len(lazy.levels) == 1 and np.shares_memory(lazy.levels[0], frame)  # (a view: a step may read no more)
+    assert tracking._levels(lazy, 5) is lazy.levels and len(lazy.levels) == 1 + tracking.KEPT_LEVELS
+    assert not np.shares_memory(lazy.levels[0], frame)  # copied before it was reduced
+    np.testing.assert_array_equal(lazy.levels[0], hood.levels[0])
+    np.testing.assert_array_equal(lazy.levels[2], hood.levels[2])
 
 
 def test_the_correlation_is_numpys_normalised_cross_correlation():
@@ -279,3 +285,94 @@ def test_a_right_point_leaving_a_right_image_smaller_than_the_left_stops_the_tra
     last_left, last_right = track.left[-1], track.right[-1]
     assert last_right[0] <= narrow - 1 - margin and last_right[0] + 6 > narrow - 1 - margin  # the next step leaves
     assert last_left[0] < width - 1 - margin - 50  # the left point was far from its edge
+
+
+def _drifting_clip(seed: int, frames: int = 36, jumps: bool = True):
+    """A textured plane drifting past an in-air rig (the right image the left one shifted by the disparity):
+    a random velocity with random accelerations (px per frame) and, with ``jumps``, sudden moves of tens of
+    px; the frame source, the rig, the start frame and pixels, and the truth: each frame's offset of the
+    plane (a point p on frame i is p + offset[i] on the plane)."""
+    from usvips.core.camera import Camera, Exterior
+    from usvips.core.housing import AirHousing
+    from usvips.core.interior import Interior
+    from usvips.core.rig import RelativeOrientation, StereoRig
+
+    rng = np.random.default_rng(seed)
+    width, height, disparity = 480, 360, int(rng.integers(20, 60))
+    texture = cv2.GaussianBlur(rng.uniform(0, 255, (height + 500, width + 600)), (0, 0), rng.uniform(1.0, 3.0))
+    texture = cv2.normalize(texture, None, 20, 235, cv2.NORM_MINMAX).astype(np.uint8)
+    velocity, offset, offsets = rng.normal(0, 4, 2), np.array([250.0, 250.0]), []
+    for _ in range(frames):
+        offsets.append(offset.copy())
+        velocity = velocity + rng.normal(0, 1.5, 2)
+        jump = rng.normal(0, 25, 2) if jumps and rng.uniform() < 0.08 else 0.0
+        offset = np.clip(offset + velocity + jump, 5, 490)
+
+    def view(i, shift):
+        move = np.float32([[1, 0, -offsets[i][0] - shift], [0, 1, -offsets[i][1]]])
+        return cv2.warpAffine(texture, move, (width, height), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+
+    pairs = [(view(i, 0), view(i, disparity)) for i in range(frames)]
+    f = 1.2 * width
+    camera = Camera(Interior(f, (width - 1) / 2, (height - 1) / 2, 1.0), Exterior(0, 0, 0, 0, 0, 0), AirHousing(),
+                    width, height)
+    stereo = StereoRig.from_relative(camera, camera, RelativeOrientation(disparity * 2.0 / f, 0, 0, 0, 0, 0))
+    start = (float(rng.uniform(200, 280)), float(rng.uniform(150, 210)))
+    return (lambda i: pairs[i]), stereo, int(rng.integers(0, frames)), start, disparity, np.array(offsets)
+
+
+def _track_drifting(frames, stereo, start, point, disparity, count):
+    return track_vertex(frames, stereo, start, point, (point[0] - disparity, point[1]), 0, count - 1, near=0.5,
+                        far=20.0)
+
+
+def test_steps_started_from_the_last_move_track_as_far_and_as_true_as_the_whole_pyramid(monkeypatch):
+    """The flow first runs its finest level alone from the point's last move (tracking._predicted_flow) and
+    falls back to the whole pyramid where that fails, or where the step it gives stops the track: over random
+    drifts with accelerations and sudden jumps, the tracks reach as many frames as with the pyramid at every
+    step, and where both track a frame they agree within the flow's convergence and lie on the truth."""
+    reached, reached_whole, worst_gap, worst_error = 0, 0, 0.0, 0.0
+    for seed in range(24):
+        frames, stereo, start, point, disparity, offsets = _drifting_clip(100 + seed)
+        ours = _track_drifting(frames, stereo, start, point, disparity, len(offsets))
+        with monkeypatch.context() as whole:
+            whole.setattr(tracking, "_predicted_flow", lambda *args: None)
+            reference = _track_drifting(frames, stereo, start, point, disparity, len(offsets))
+        reached, reached_whole = reached + len(ours.frames), reached_whole + len(reference.frames)
+        common, mine, theirs = np.intersect1d(ours.frames, reference.frames, return_indices=True)
+        worst_gap = max(worst_gap, float(np.abs(ours.left[mine] - reference.left[theirs]).max()))
+        on_plane = ours.left + offsets[ours.frames]
+        worst_error = max(worst_error, float(np.abs(on_plane - on_plane[ours.frames == start]).max()))
+    assert reached >= reached_whole > 24 * 12
+    assert worst_gap < 0.01 and worst_error < 1.0
+
+
+def test_a_smooth_drift_is_followed_without_the_pyramid_and_a_jump_with_it(monkeypatch):
+    """On a steady drift the steps after the first few need no pyramid (the speed-up is real); a sudden move
+    the last move cannot predict is found by the pyramid, and the track goes on, on the truth."""
+    calls = []
+    whole = tracking._pyramidal_lk
+    monkeypatch.setattr(tracking, "_pyramidal_lk", lambda *args: calls.append(1) or whole(*args))
+    frames, stereo, start, point, disparity, offsets = _drifting_clip(7, frames=40, jumps=False)
+    count = len(offsets)
+    steady = _track_drifting(frames, stereo, 0, point, disparity, count)
+    assert len(steady.frames) == count and len(calls) <= 0.2 * (4 * (count - 1))  # two cameras, both ways
+
+    jumped = offsets.copy()
+    jumped[20:] += (30.0, -20.0)  # the plane jumps between frames 19 and 20
+    moved = _drifting_source(frames, offsets, jumped)
+    calls.clear()
+    track = _track_drifting(moved, stereo, 0, point, disparity, count)
+    assert len(track.frames) == count and calls  # the pyramid found the jump
+    on_plane = track.left + jumped[track.frames]
+    assert np.abs(on_plane - on_plane[0]).max() < 0.1
+
+
+def _drifting_source(frames, offsets, wanted):
+    """``frames`` (a drifting clip) with frame i shifted so that the plane's offset is ``wanted[i]``."""
+    def source(i):
+        dx, dy = offsets[i] - wanted[i]
+        move = np.float32([[1, 0, dx], [0, 1, dy]])
+        return tuple(cv2.warpAffine(image, move, image.shape[::-1], flags=cv2.INTER_LINEAR,
+                                    borderMode=cv2.BORDER_REFLECT) for image in frames(i))
+    return source

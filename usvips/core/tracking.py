@@ -2,7 +2,9 @@
 
 From a vertex picked on one instant (its left and right pixels on frame ``start``), the left point is
 followed by pyramidal Lucas–Kanade optical flow (``cv2.calcOpticalFlowPyrLK``) with a forward–backward
-check; the right point is followed the same way, and the point stored for it is held to the refractive
+check (each step first tries the finest level alone, started from the point's last move; where that loses
+the point, disagrees with itself both ways or gives a step that would stop the track, the whole pyramid
+decides); the right point is followed the same way, and the point stored for it is held to the refractive
 epipolar curve of the new left point (:func:`usvips.core.matching.epipolar_curve`): moved to the nearest
 point of the curve. (The flow follows the right point as found, not as held: the hold needs the curve traced
 through the housing, which costs as much for one frame as for a batch, so it is done for a batch of frames at
@@ -178,25 +180,38 @@ KEPT_LEVELS = 2
 
 class _Neighbourhood(NamedTuple):
     """A frame's neighbourhood of a tracked point: ``levels[k]`` the crop reduced ``k`` times by
-    ``cv2.pyrDown`` (``levels[0]`` a copy of the frame's pixels), ``corner`` its top-left pixel (x, y) in the frame,
+    ``cv2.pyrDown`` (``levels[0]`` the frame's pixels), ``corner`` its top-left pixel (x, y) in the frame,
     ``centre`` the whole pixel it was cropped about. A pixel x of the frame is ``(x - corner) / 2**k`` on
-    level k (pyrDown's pixel i is centred on its source's pixel 2i, the flow's own convention)."""
+    level k (pyrDown's pixel i is centred on its source's pixel 2i, the flow's own convention). The reduced
+    levels are built when the flow first needs them (:func:`_levels`): a step the motion predicts needs
+    the crop alone."""
 
-    levels: tuple[np.ndarray, ...]
+    levels: list[np.ndarray]
     corner: tuple[int, int]
     centre: tuple[int, int]
 
 
-def _neighbourhood(image: np.ndarray, centre: tuple[int, int], half: int, levels: int) -> _Neighbourhood:
-    """The part of ``image`` within ``half`` px of ``centre`` and its ``min(levels, KEPT_LEVELS)`` reductions.
-    The part is copied: ``cv2.pyrDown`` read it from the frame's rows (a row every frame's width apart)
-    several times slower than numpy copies them, and the flow's small crops of it then read it from the
-    cache (the survey bench's 1080p clip, frames in memory: tracking's own CPU about 12 % less)."""
+def _neighbourhood(image: np.ndarray, centre: tuple[int, int], half: int, levels: int = 0) -> _Neighbourhood:
+    """The part of ``image`` within ``half`` px of ``centre``, with its first ``min(levels, KEPT_LEVELS)``
+    reductions (more are added by :func:`_levels` when needed)."""
     crop, x0, y0 = _crop(image, centre[0], centre[1], half)
-    kept = [crop.copy()]
-    for _ in range(min(int(levels), KEPT_LEVELS)):
-        kept.append(cv2.pyrDown(kept[-1]))
-    return _Neighbourhood(tuple(kept), (x0, y0), centre)
+    hood = _Neighbourhood([crop], (x0, y0), centre)
+    _levels(hood, levels)
+    return hood
+
+
+def _levels(hood: _Neighbourhood, levels: int) -> list[np.ndarray]:
+    """``hood``'s levels with its first ``min(levels, KEPT_LEVELS)`` reductions built (once per neighbourhood).
+    The crop is copied before it is first reduced: ``cv2.pyrDown`` reads a view of the frame's rows (a row
+    every frame's width apart) several times slower than numpy copies them, and the flow's small crops then
+    read the copy from the cache. A step the motion predicts reads a window's width of the crop only, and
+    needs neither the copy (a cold 1080p frame's 321 rows cost more to copy than the step's flow) nor the
+    reductions."""
+    if len(hood.levels) <= min(int(levels), KEPT_LEVELS) and hood.levels[0].base is not None:
+        hood.levels[0] = hood.levels[0].copy()
+    while len(hood.levels) <= min(int(levels), KEPT_LEVELS):
+        hood.levels.append(cv2.pyrDown(hood.levels[-1]))
+    return hood.levels
 
 
 def _centre(point) -> tuple[int, int]:
@@ -207,18 +222,25 @@ def _centre(point) -> tuple[int, int]:
 _CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 40, 0.003)
 
 
-def _flow(previous: _Neighbourhood, following: np.ndarray, point: tuple[float, float], settings: TrackSettings
-          ) -> tuple[tuple[float, float] | None, float, _Neighbourhood]:
+def _flow(previous: _Neighbourhood, following: np.ndarray, point: tuple[float, float], settings: TrackSettings,
+          motion: tuple[float, float] | None = None) -> tuple[tuple[float, float] | None, float, _Neighbourhood]:
     """The point's position (x, y) on ``following`` by LK, its forward–backward disagreement (px), and the
     neighbourhood of ``following`` it used (cropped about ``previous``'s centre, the next step's start).
     ``previous`` is the neighbourhood of the frame the point is on, cropped about a centre within
-    :data:`SLACK` px of the point (:func:`_reach` + SLACK px about it)."""
+    :data:`SLACK` px of the point (:func:`_reach` + SLACK px about it). ``motion`` (px) is the point's
+    expected move, its last step's: where the finest level alone, started from it, finds the point both
+    ways within ``max_fb_px`` (:func:`_predicted_flow`), that is the answer; else the whole pyramid decides."""
     size = (int(settings.window), int(settings.window))
-    after = _neighbourhood(following, previous.centre, _reach(settings) + SLACK, settings.levels)
+    after = _neighbourhood(following, previous.centre, _reach(settings) + SLACK)
     if previous.levels[0].shape != after.levels[0].shape:
         return None, np.inf, after
     x0, y0 = previous.corner
-    start = _point(point[0] - x0, point[1] - y0)
+    sx, sy = point[0] - x0, point[1] - y0
+    predicted = None if motion is None else _predicted_flow(previous.levels[0], after.levels[0], sx, sy, motion, size)
+    if predicted is not None and predicted[1] <= settings.max_fb_px:
+        (ax, ay), fb = predicted
+        return (ax + x0, ay + y0), fb, after
+    start = _point(sx, sy)
     ahead = _pyramidal_lk(previous, after, start, size, settings.levels, _CRITERIA)
     if ahead is None:
         return None, np.inf, after
@@ -227,6 +249,26 @@ def _flow(previous: _Neighbourhood, following: np.ndarray, point: tuple[float, f
         return None, np.inf, after
     (ax, ay), (bx, by), (sx, sy) = ahead[0, 0].tolist(), back[0, 0].tolist(), start[0, 0].tolist()
     return (ax + x0, ay + y0), math.sqrt((bx - sx) ** 2 + (by - sy) ** 2), after
+
+
+def _predicted_flow(before: np.ndarray, after: np.ndarray, sx: float, sy: float, motion: tuple[float, float],
+                    size: tuple[int, int]) -> tuple[tuple[float, float], float] | None:
+    """The flow at the finest level only, forward from the point (``sx``, ``sy``) moved by ``motion`` and
+    back from the point found moved by ``-motion`` (pixels of ``before``/``after``, one crop's): the point
+    found and the forward–backward disagreement (px); None where either way loses the point or moves further
+    from its start than a tight level allows (:func:`_tight_level`), for the whole pyramid to decide. In a
+    video a point moves much as it did a frame before, and the coarser levels and their pyramids (two
+    thirds of a step's flow) are then work that changes nothing; a move the prediction misses by more than
+    a few pixels falls back, and a point found only one way is never taken from here."""
+    criteria = _CRITERIA
+    ahead = _tight_level(before, after, sx, sy, sx + motion[0], sy + motion[1], size, criteria)
+    if ahead is None:
+        return None
+    back = _tight_level(after, before, ahead[0], ahead[1], ahead[0] - motion[0], ahead[1] - motion[1], size,
+                        criteria)
+    if back is None:
+        return None
+    return ahead, math.sqrt((back[0] - sx) ** 2 + (back[1] - sy) ** 2)
 
 
 #: how far (px) a tight level's iterations may move the point from the coarser levels' answer within the
@@ -247,8 +289,10 @@ def _pyramidal_lk(before: _Neighbourhood, after: _Neighbourhood, start: np.ndarr
     coordinates shifted by whole pixels: the point agrees within the flow's convergence). Where either
     part loses the point or a tight level moves toward its crop's edge, the whole call decides (a coarser
     level failing on its own is skipped by the whole call, not a loss)."""
-    tight = min(int(levels), len(before.levels) - 1)
+    tight = min(int(levels), KEPT_LEVELS)
     if tight >= 1:
+        _levels(before, tight)
+        _levels(after, tight)
         coarse, status, _ = cv2.calcOpticalFlowPyrLK(before.levels[tight], after.levels[tight], start / 2 ** tight,
                                                      None, winSize=size, maxLevel=int(levels) - tight,
                                                      criteria=criteria)
@@ -577,6 +621,48 @@ def _settle(rig: StereoRig, steps: list[_Step], frame: int, rms_history: list[fl
     return None
 
 
+class _Advance(NamedTuple):
+    """One step of both cameras' points onto the following frame: the points found (x, y; None where the
+    flow lost one), their forward–backward disagreements (px), the neighbourhoods the flow cropped, and
+    once both are found their windows and correlations with the previous windows."""
+
+    points: tuple[tuple[float, float] | None, tuple[float, float] | None]
+    fbs: tuple[float, float]
+    hoods: tuple[_Neighbourhood, _Neighbourhood]
+    windows: tuple[np.ndarray, np.ndarray] | None
+    scores: tuple[float, float]
+
+    def why(self, images: tuple[np.ndarray, np.ndarray], settings: TrackSettings) -> str:
+        """Why the step stops the track ('' when it does not): a point out of its image, lost or too far
+        off on its way back, or a window unlike the previous one; in that order."""
+        margin = settings.window / 2 + 1
+        for new, image in zip(self.points, images, strict=True):
+            if new is not None and not _inside(new, image.shape, margin):
+                return LEAVES
+        if any(point is None for point in self.points) or max(self.fbs) > settings.max_fb_px:
+            return LOST
+        return LOW if min(self.scores) < settings.min_score else ""
+
+
+def _advance(hoods, current, points, greys, anchors, windows, settings: TrackSettings,
+             motions: tuple[tuple[float, float], tuple[float, float]] | None) -> _Advance:
+    """Both points from their frames onto ``current`` (grey left and right): the flow from each point's
+    neighbourhood, started from its expected move (``motions``; None: the whole pyramid, no prediction),
+    refined against the start frame (``greys``, ``anchors``) and correlated with ``windows``."""
+    size = int(settings.window)
+    found = [_flow(hood, image, point, settings, motion)
+             for hood, image, point, motion in zip(hoods, current, points, motions or (None, None), strict=True)]
+    news = tuple(f[0] for f in found)
+    fbs = (found[0][1], found[1][1])
+    after = (found[0][2], found[1][2])
+    if news[0] is None or news[1] is None:
+        return _Advance(news, fbs, after, None, (-1.0, -1.0))
+    news = tuple(_refine(grey, anchor, image, new, settings)
+                 for grey, anchor, image, new in zip(greys, anchors, current, news, strict=True))
+    ahead = (_window(current[0], news[0], size), _window(current[1], news[1], size))
+    return _Advance(news, fbs, after, ahead, (_ncc(windows[0], ahead[0]), _ncc(windows[1], ahead[1])))
+
+
 def _follow(frames, rig, start, greys, left, right, direction, end, settings, cancel, progress, total, done, rows,
             near, far) -> tuple[int, str]:
     """One direction of :func:`track_vertex`: (the last frame tracked, why it stopped).
@@ -586,7 +672,6 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
     curve and the ray RMS, which only place the right point and stop the track, are computed for
     :data:`RMS_BATCH` frames at once and those frames are accepted in order after them: the same track and
     the same stop as frame by frame (a stop found in a batch drops the frames followed after it)."""
-    margin = settings.window / 2 + 1
     size = int(settings.window)
     point_l, point_r, frame = tuple(left.tolist()), tuple(right.tolist()), start
     # each point's window on the frame it is on: the next step's correlation compares the window it finds with
@@ -594,9 +679,10 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
     windows = (_window(greys[0], left, size), _window(greys[1], right, size))
     half = _reach(settings) + SLACK
     depths = np.geomspace(near, far, CURVE_SAMPLES)
-    hoods = tuple(_neighbourhood(grey, _centre(point), half, settings.levels)
+    hoods = tuple(_neighbourhood(grey, _centre(point), half)
                   for grey, point in zip(greys, (point_l, point_r), strict=True))
     anchors = point_l, point_r
+    motions = ((0.0, 0.0), (0.0, 0.0))  # each point's last move (px): where the flow looks first
     accepted = start  # the last frame whose ray RMS is known and accepted
     rms_history = [rows[start][3]]
     steps: list[_Step] = []
@@ -619,26 +705,21 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
         except UsvipsError as error:
             return stop(str(error), frame)
         current = (_grey(images[0]), _grey(images[1]))
-        new_l, fb_l, after_l = _flow(hoods[0], current[0], point_l, settings)
-        new_r, fb_r, after_r = _flow(hoods[1], current[1], point_r, settings)
-        if new_l is not None and new_r is not None:
-            new_l = _refine(greys[0], anchors[0], current[0], new_l, settings)
-            new_r = _refine(greys[1], anchors[1], current[1], new_r, settings)
+        points = (point_l, point_r)
+        moved = _advance(hoods, current, points, greys, anchors, windows, settings, motions)
+        if moved.why(current, settings) and motions is not None:  # a predicted step that fails: the pyramid decides
+            moved = _advance(hoods, current, points, greys, anchors, windows, settings, None)
         done[0] += 1
         if progress is not None:
             progress(done[0], total)
-        for new, image in ((new_l, current[0]), (new_r, current[1])):
-            if new is not None and not _inside(new, image.shape, margin):
-                return stop(LEAVES, frame)
-        if new_l is None or new_r is None or fb_l > settings.max_fb_px or fb_r > settings.max_fb_px:
-            return stop(LOST, frame)
-        ahead = (_window(current[0], new_l, size), _window(current[1], new_r, size))
-        score_l, score_r = _ncc(windows[0], ahead[0]), _ncc(windows[1], ahead[1])
-        if min(score_l, score_r) < settings.min_score:
-            return stop(LOW, frame)
-        steps.append(_Step(following, new_l, new_r, (score_l, score_r)))
-        windows, point_l, point_r, frame = ahead, new_l, new_r, following
+        why = moved.why(current, settings)
+        if why:
+            return stop(why, frame)
+        (new_l, new_r), (after_l, after_r) = moved.points, moved.hoods
+        steps.append(_Step(following, new_l, new_r, moved.scores))
+        motions = ((new_l[0] - point_l[0], new_l[1] - point_l[1]), (new_r[0] - point_r[0], new_r[1] - point_r[1]))
+        windows, point_l, point_r, frame = moved.windows, new_l, new_r, following
         hoods = tuple(after if max(abs(point[0] - after.centre[0]), abs(point[1] - after.centre[1])) <= SLACK
-                      else _neighbourhood(grey, _centre(point), half, settings.levels)
+                      else _neighbourhood(grey, _centre(point), half)
                       for after, grey, point in zip((after_l, after_r), current, (point_l, point_r), strict=True))
     return stop(END, frame)
