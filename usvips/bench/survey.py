@@ -16,9 +16,10 @@ source going backward. ``cpu_s`` is the process's CPU time (user + system, every
 tracking run and ``decoding_cpu_s`` that of a bare decode, the best of the runs; ``cpu_ratio`` their ratio,
 which a loaded machine blurs less than the wall times'.
 ``ratio_target``/``ratio_met``: issue 37's promise, tracking within 1.1 × the bare decode, judged on the
-CPU times (``ratio_judged_on``: the wall times of a shared machine swing by more than the 10 % at stake;
-the CPU ratio is also the wall ratio's bound on a quiet machine, where the decoders leave part of the two
-cores idle for the tracker to fill); ``wall_ratio_met`` says the same of the best wall times.
+CPU times (``ratio_judged_on``: the wall times of a shared machine swing by more than the 10 % at stake);
+``wall_ratio_met`` says the same of the best wall times. The wall ratio reads a few hundredths above the CPU
+ratio even on a quiet machine: the two decoders keep both cores nearly busy, so the tracker's work adds to
+the wall time more than its share of the CPU (docs/benchmarks.md).
 The cameras of those runs are in air; ``flat_port_cpu_s``/``flat_port_cpu_ratio``/``flat_port_ratio_met``
 give the same forward track with the cameras behind flat ports (:data:`FLAT_PORT`), as an underwater rig
 has them: the frames are the same, but the hold to the epipolar curve traces it through the port (a batch of
