@@ -357,3 +357,55 @@ def test_seek_proxies_are_built_listed_by_project_info_rebuilt_when_stale_and_de
     assert "no seek proxies" in _run(capsys, "video", "proxy", project, "--pair", "v", "--delete")[1]
     code, out, err = _run(capsys, "video", "proxy", project, "--pair", "nope", "--delete")
     assert code == 2 and len(err.strip().splitlines()) == 1
+
+
+def test_a_replacement_is_accepted_only_with_the_recordings_frames_rate_and_size(tmp_path, capsys):
+    """``project accept-media`` takes a changed file for the recorded one only when the stored picks can
+    still point into it: a video chapter with the recorded frame count, frame rate and size; an image of
+    the pair's size. Anything else is refused in one line naming the file and what differs, and the
+    project keeps what it had recorded."""
+    left, right = _stereo(tmp_path / "media", lag=0, frames=30)
+    project = tmp_path / "p.usvips"
+    assert _run(capsys, "project", "new", project)[0] == 0
+    assert _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right, "--label", "v")[0] == 0
+    stored = "media/left_GX010042.mp4"
+    def record():
+        with Project.open(project) as p:
+            return next(r for r in p.media_records() if r[0] == stored)
+
+    recorded = record()
+    replacements = {
+        "not a video": lambda: left[0].write_text("not a video\n"),
+        "10 frames, but the left chapter of video v had 30": lambda: encode_video(
+            left[0], (numbered_frame(i, 160, 120, seed=2) for i in range(10)), FPS, "h264"),
+        "is 320 × 240 px, but the left chapter of video v was 160 × 120 px": lambda: encode_video(
+            left[0], (numbered_frame(i, 320, 240, seed=2) for i in range(30)), FPS, "h264"),
+        "runs at 30 fps, but the left chapter of video v ran at 25": lambda: encode_video(
+            left[0], (numbered_frame(i, 160, 120, seed=2) for i in range(30)), 30, "h264"),
+    }
+    for expected, replace in replacements.items():
+        replace()
+        code, out, err = _run(capsys, "project", "accept-media", project, stored)
+        assert code == 2 and len(err.strip().splitlines()) == 1 and "left_GX010042.mp4" in err, err
+        assert expected in err, err
+        assert record() == recorded  # nothing recorded anew
+    encode_video(left[0], (numbered_frame(i, 160, 120, seed=2) for i in range(30)), FPS, "h264")
+    assert _run(capsys, "project", "accept-media", project, stored)[0] == 0  # a re-export of the same shape
+    assert record() != recorded
+
+    images = tmp_path / "images"
+    images.mkdir()
+    picture = numbered_frame(1, 160, 120, seed=3)
+    write_image(images / "left.png", picture)
+    write_image(images / "right.png", picture)
+    code, _, err = _run(capsys, "project", "add-pairs", project, "--left", images / "left.png", "--right",
+                        images / "right.png", "--pair-by", "order")
+    assert code == 0, err
+    with Project.open(project) as p:
+        pair = next(q for q in p.pairs() if q.left is not None)
+    where = p.media_location(pair.left)
+    write_image(where, numbered_frame(1, 200, 100, seed=3))
+    code, _, err = _run(capsys, "project", "accept-media", project, pair.left)
+    assert code == 2 and "is 200 × 100 px, but the left image of pair" in err and "160 × 120 px" in err, err
+    write_image(where, numbered_frame(2, 160, 120, seed=3))
+    assert _run(capsys, "project", "accept-media", project, pair.left)[0] == 0

@@ -182,8 +182,7 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
             report = stream.scan_pictures() if scan_pictures else stream.report
             if not report.clean:
                 warnings.append(f"{files[0]} ({side}): {report.summary()}")
-        files = {side: tuple((p, c.count, 1.0 / float(np.median(np.diff(c.pts)) * c.time_base) if c.count > 1
-                              else s.fps) for p, c in zip(s.paths, s.chapters, strict=True))
+        files = {side: tuple((p, c.count, chapter_fps(c, s.fps)) for p, c in zip(s.paths, s.chapters, strict=True))
                  for side, s in (("left", a), ("right", b))}
         if a.frame_count != b.frame_count:  # both counts, at add time (the offset pairs them; say it)
             warnings.append(f"the cameras' frame counts differ: left {_frames(a.frame_count)}, right "
@@ -204,6 +203,14 @@ def add_video(project: ProjectStore, left: Sequence[str | Path], right: Sequence
               scan_pictures: bool = False, medium: str = "water") -> AddedVideo:
     """:func:`inspect_video` then :func:`store_video` (``medium`` "air" or "water")."""
     return store_video(project, inspect_video(left, right, label, scan_pictures), medium)
+
+
+def chapter_fps(chapter, stream_fps: float) -> float:
+    """A chapter file's frame rate as recorded with a video (frames per second): from the median step of its
+    presentation timestamps, the stream's rate for a one-frame chapter."""
+    if chapter.count > 1:
+        return 1.0 / float(np.median(np.diff(chapter.pts)) * chapter.time_base)
+    return stream_fps
 
 
 def open_streams(project: ProjectStore, label: str) -> tuple[Video, VideoStream, VideoStream]:

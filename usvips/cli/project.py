@@ -157,11 +157,14 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_accept_media(args: argparse.Namespace) -> int:
+    from usvips.app.media_acceptance import refuse_unlike_recorded
     from usvips.store.opening import open_project
 
     with open_project(args.project) as project:
         recorded = {path: sha for path, _, _, sha in project.media_records()}
         for stored in args.media:
+            if stored in recorded and project.media_location(stored).is_file():
+                refuse_unlike_recorded(project, stored)
             project.accept_media(stored, expected_sha256=recorded.get(stored))
             print(f"accepted {stored} as it is now")
     return 0
