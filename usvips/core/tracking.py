@@ -189,6 +189,8 @@ class _Neighbourhood(NamedTuple):
     levels: list[np.ndarray]
     corner: tuple[int, int]
     centre: tuple[int, int]
+    #: whether the step that cropped it found the point from its last move alone (:func:`_flow`)
+    predicted: bool = False
 
 
 def _neighbourhood(image: np.ndarray, centre: tuple[int, int], half: int, levels: int = 0) -> _Neighbourhood:
@@ -229,7 +231,8 @@ def _flow(previous: _Neighbourhood, following: np.ndarray, point: tuple[float, f
     ``previous`` is the neighbourhood of the frame the point is on, cropped about a centre within
     :data:`SLACK` px of the point (:func:`_reach` + SLACK px about it). ``motion`` (px) is the point's
     expected move, its last step's: where the finest level alone, started from it, finds the point both
-    ways within ``max_fb_px`` (:func:`_predicted_flow`), that is the answer; else the whole pyramid decides."""
+    ways within ``max_fb_px`` (:func:`_predicted_flow`), that is the answer (the neighbourhood returned says
+    so: ``predicted``); else the whole pyramid decides."""
     size = (int(settings.window), int(settings.window))
     after = _neighbourhood(following, previous.centre, _reach(settings) + SLACK)
     if previous.levels[0].shape != after.levels[0].shape:
@@ -239,7 +242,7 @@ def _flow(previous: _Neighbourhood, following: np.ndarray, point: tuple[float, f
     predicted = None if motion is None else _predicted_flow(previous.levels[0], after.levels[0], sx, sy, motion, size)
     if predicted is not None and predicted[1] <= settings.max_fb_px:
         (ax, ay), fb = predicted
-        return (ax + x0, ay + y0), fb, after
+        return (ax + x0, ay + y0), fb, after._replace(predicted=True)
     start = _point(sx, sy)
     ahead = _pyramidal_lk(previous, after, start, size, settings.levels, _CRITERIA)
     if ahead is None:
@@ -632,6 +635,11 @@ class _Advance(NamedTuple):
     windows: tuple[np.ndarray, np.ndarray] | None
     scores: tuple[float, float]
 
+    @property
+    def predicted(self) -> bool:
+        """Whether either point was found from its last move alone (not by the whole pyramid)."""
+        return any(hood.predicted for hood in self.hoods)
+
     def why(self, images: tuple[np.ndarray, np.ndarray], settings: TrackSettings) -> str:
         """Why the step stops the track ('' when it does not): a point out of its image, lost or too far
         off on its way back, or a window unlike the previous one; in that order."""
@@ -707,7 +715,7 @@ def _follow(frames, rig, start, greys, left, right, direction, end, settings, ca
         current = (_grey(images[0]), _grey(images[1]))
         points = (point_l, point_r)
         moved = _advance(hoods, current, points, greys, anchors, windows, settings, motions)
-        if moved.why(current, settings) and motions is not None:  # a predicted step that fails: the pyramid decides
+        if moved.predicted and moved.why(current, settings):  # a predicted step that fails: the pyramid decides
             moved = _advance(hoods, current, points, greys, anchors, windows, settings, None)
         done[0] += 1
         if progress is not None:
