@@ -369,9 +369,9 @@ def test_a_replacement_is_accepted_only_with_the_recordings_frames_rate_and_size
     assert _run(capsys, "project", "new", project)[0] == 0
     assert _run(capsys, "project", "add-video", project, "--left", *left, "--right", *right, "--label", "v")[0] == 0
     stored = "media/left_GX010042.mp4"
-    def record():
+    def record(path=stored):
         with Project.open(project) as p:
-            return next(r for r in p.media_records() if r[0] == stored)
+            return next(r for r in p.media_records() if r[0] == path)
 
     recorded = record()
     replacements = {
@@ -390,6 +390,11 @@ def test_a_replacement_is_accepted_only_with_the_recordings_frames_rate_and_size
         assert expected in err, err
         assert record() == recorded  # nothing recorded anew
     encode_video(left[0], (numbered_frame(i, 160, 120, seed=2) for i in range(30)), FPS, "h264")
+    right_record = record("media/right_GX010042.mp4")
+    right[0].write_text("not a video\n")  # one of two refused: neither is accepted
+    code, _, err = _run(capsys, "project", "accept-media", project, stored, "media/right_GX010042.mp4")
+    assert code == 2 and "right_GX010042.mp4" in err and record() == recorded, err
+    assert record("media/right_GX010042.mp4") == right_record
     assert _run(capsys, "project", "accept-media", project, stored)[0] == 0  # a re-export of the same shape
     assert record() != recorded
 

@@ -11,6 +11,7 @@ and every stored pick on it would point at the wrong frame or pixel.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 from usvips.app.video_project import chapter_fps
 from usvips.core.errors import InputFileError
@@ -43,7 +44,7 @@ def refuse_unlike_recorded(project: ProjectStore, stored: str) -> None:
                                          f"{pair.label} was {pair.width} × {pair.height} px: not accepted")
 
 
-def _refuse_unlike_chapter(path, frames: int, fps: float, size: tuple[int, int], what: str) -> None:
+def _refuse_unlike_chapter(path: Path, frames: int, fps: float, size: tuple[int, int], what: str) -> None:
     with VideoStream(path) as stream:
         now = (stream.frame_count, chapter_fps(stream.chapters[0], stream.fps), stream.size)
     if now[2] != size:

@@ -27,7 +27,7 @@ from usvips.io import video_proxy
 from usvips.io.atomic import guard_output
 from usvips.io.images import read_image, write_image
 from usvips.io.pairing import IMAGE_SUFFIXES, VIDEO_SUFFIXES, check_chapters, expand, pair_images, shared_stem
-from usvips.io.video_stream import VideoStream
+from usvips.io.video_stream import Chapter, VideoStream
 from usvips.store.interface import ProjectStore
 from usvips.store.records import Video
 
@@ -205,7 +205,7 @@ def add_video(project: ProjectStore, left: Sequence[str | Path], right: Sequence
     return store_video(project, inspect_video(left, right, label, scan_pictures), medium)
 
 
-def chapter_fps(chapter, stream_fps: float) -> float:
+def chapter_fps(chapter: Chapter, stream_fps: float) -> float:
     """A chapter file's frame rate as recorded with a video (frames per second): from the median step of its
     presentation timestamps, the stream's rate for a one-frame chapter."""
     if chapter.count > 1:

@@ -162,9 +162,10 @@ def run_accept_media(args: argparse.Namespace) -> int:
 
     with open_project(args.project) as project:
         recorded = {path: sha for path, _, _, sha in project.media_records()}
-        for stored in args.media:
+        for stored in args.media:  # every file checked before any is accepted
             if stored in recorded and project.media_location(stored).is_file():
                 refuse_unlike_recorded(project, stored)
+        for stored in args.media:
             project.accept_media(stored, expected_sha256=recorded.get(stored))
             print(f"accepted {stored} as it is now")
     return 0
