@@ -8,6 +8,7 @@ import io
 import math
 from collections.abc import Callable
 
+from usvips.cli import whole_number
 from usvips.core.errors import InvalidParameterError
 from usvips.io.atomic import write_text_atomic
 
@@ -42,12 +43,11 @@ def whole_number_from(least: int) -> Callable[[str], int]:
     """An argparse ``type``: a whole number from ``least`` to 2**63 − 1; else one line saying so."""
 
     def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be a whole number from {least} to 2**63 - 1, got {text!r}") \
-                from None
-        if value < least or value > 2**63 - 1:  # (a 64-bit whole number at most, as every int option)
+        try:  # (whole_number: the 64-bit bound of every int option)
+            value = whole_number(text)
+        except argparse.ArgumentTypeError:
+            value = None
+        if value is None or value < least:
             raise argparse.ArgumentTypeError(f"must be a whole number from {least} to 2**63 - 1, got {text!r}")
         return value
 
@@ -59,8 +59,11 @@ def whole_number_from(least: int) -> Callable[[str], int]:
 POINTING_SIGMA_RANGE_PX = (1e-3, 1e3)
 
 
+_positive_pixels = positive_number("a number of pixels", "a finite number of pixels > 0")
+
+
 def _pointing_sigma(text: str) -> float:
-    value = positive_number("a number of pixels", "a finite number of pixels > 0")(text)
+    value = _positive_pixels(text)
     least, most = POINTING_SIGMA_RANGE_PX
     if not least <= value <= most:
         raise argparse.ArgumentTypeError(f"must be {least:g} to {most:g} pixels (a pick's pointing precision), "

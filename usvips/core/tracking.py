@@ -209,9 +209,10 @@ def _levels(hood: _Neighbourhood, levels: int) -> list[np.ndarray]:
     read the copy from the cache. A step the motion predicts reads a window's width of the crop only, and
     needs neither the copy (a cold 1080p frame's 321 rows cost more to copy than the step's flow) nor the
     reductions."""
-    if len(hood.levels) <= min(int(levels), KEPT_LEVELS) and hood.levels[0].base is not None:
+    wanted = min(int(levels), KEPT_LEVELS)
+    if len(hood.levels) == 1 and wanted >= 1:  # (the crop alone is still the frame's view)
         hood.levels[0] = hood.levels[0].copy()
-    while len(hood.levels) <= min(int(levels), KEPT_LEVELS):
+    while len(hood.levels) <= wanted:
         hood.levels.append(cv2.pyrDown(hood.levels[-1]))
     return hood.levels
 
