@@ -401,18 +401,30 @@ def verify_media(records: Sequence[tuple[str, Path, int, str]], progress: Callab
             problems.append((stored, f"{now} bytes, but {size} when it was added"))
             done += size
             continue
-        digest = hashlib.sha256()
-        with open(path, "rb") as stream:
-            while block := stream.read(chunk):
-                if cancelled is not None and cancelled():
-                    raise Cancelled("the check of the media files was cancelled")
-                digest.update(block)
-                done += len(block)
-                if progress is not None:
-                    progress(min(done, total), total)
-        if digest.hexdigest() != sha:
+        def read(count: int) -> None:
+            nonlocal done
+            done += count
+            if progress is not None:
+                progress(min(done, total), total)
+
+        if file_sha256(path, read, cancelled, chunk) != sha:
             problems.append((stored, "its contents differ from the file added (SHA-256; same size)"))
     return problems
+
+
+def file_sha256(path: Path, read: Callable[[int], None] | None = None, cancelled: Callable[[], bool] | None = None,
+                chunk: int = 1 << 22) -> str:
+    """The SHA-256 (hex) of the whole file at ``path``, read ``chunk`` bytes at a time: ``read(bytes)`` after
+    each block; ``cancelled()`` asked before each stops the reading at once (:class:`Cancelled`)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as stream:
+        while block := stream.read(chunk):
+            if cancelled is not None and cancelled():
+                raise Cancelled("the check of the media files was cancelled")
+            digest.update(block)
+            if read is not None:
+                read(len(block))
+    return digest.hexdigest()
 
 
 def media_files(project: ProjectStore) -> list[Path]:

@@ -139,10 +139,13 @@ class ProjectStore(Protocol):
         """(stored path, absolute path, size, SHA-256) of every recorded media file."""
         ...
 
-    def accept_media(self, stored: str, expected_sha256: str | None = None) -> None:
+    def accept_media(self, stored: str, expected_sha256: str | None = None,
+                     hashed: tuple[int, str, str] | None = None) -> None:
         """Take the file now at a recorded media path as the one meant (size and hashes recorded anew).
         ``expected_sha256``: the SHA-256 recorded when the caller read it (:meth:`media_records`); accepted
-        anew or relocated since by someone else is a ``StaleEditError`` naming who and when."""
+        anew or relocated since by someone else is a ``StaleEditError`` naming who and when. ``hashed``:
+        (size in bytes, SHA-256, sampled hash) as the caller read the file — not read whole again, and
+        refused when its size or sampled hash differs now; None: hashed here."""
         ...
 
     def relocate_media(self, stored: str, new_path: str | Path, expected_sha256: str | None = None) -> str:

@@ -1211,22 +1211,33 @@ class Survey:
             raise ProjectError(f"{self.path}: no media file {stored!r} in the project")
         self._refuse_changed(f"media file {stored}", row[0], UNREAD if expected_sha256 is None else expected_sha256)
 
-    def accept_media(self, stored: str, expected_sha256: str | None = None) -> None:
+    def accept_media(self, stored: str, expected_sha256: str | None = None,
+                     hashed: tuple[int, str, str] | None = None) -> None:
         """Take the file now at a recorded media path as the one the project means (after the user has
         looked at it): its size, SHA-256 and sampled hash are recorded anew. ``expected_sha256``: the
         SHA-256 recorded when the caller read it (:meth:`media_records`); accepted or relocated since by
-        someone else is a ``StaleEditError`` naming who and when."""
+        someone else is a ``StaleEditError`` naming who and when. ``hashed``: (size in bytes, SHA-256,
+        sampled hash) of the file as the caller read it (a worker hashes a large file away from the window);
+        the file is then not read whole again, and one whose size or sampled hash differs from those is
+        refused as changed since it was read; None: the file is hashed here."""
         if self._db.execute("SELECT 1 FROM media WHERE path = ?", (stored,)).fetchone() is None:
             with self.transaction():
                 self._refuse_changed_media(stored, expected_sha256)
         path = self._db.media_folder / stored
         if not path.is_file():
             raise ProjectError(f"{self.path}: the media file {stored} is missing; relocate it instead")
-        size, sha = path.stat().st_size, file_hash(path)
+        sample = sampled_hash(path)
+        if hashed is None:
+            size, sha = path.stat().st_size, file_hash(path)
+        else:
+            size, sha = hashed[0], hashed[1]
+            if path.stat().st_size != size or sample != hashed[2]:
+                raise ProjectError(f"{path}: changed again since it was read for accepting; look at it and "
+                                   "accept it again")
         with self.transaction():
             self._refuse_changed_media(stored, expected_sha256)
             self._db.execute("UPDATE media SET size = ?, sha256 = ? WHERE path = ?", (size, sha, stored))
-            self._db.execute(PUT_META, (_sample_key(stored), sampled_hash(path)))
+            self._db.execute(PUT_META, (_sample_key(stored), sample))
             self._db.execute("UPDATE image_pairs SET left_hash = ? WHERE left_path = ?", (sha, stored))
             self._db.execute("UPDATE image_pairs SET right_hash = ? WHERE right_path = ?", (sha, stored))
 
