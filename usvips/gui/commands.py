@@ -104,6 +104,9 @@ ITEMS: tuple[Command | Submenu | Section, ...] = (
     Command("add_pairs", "Add &image pairs…", "media_dialogs.add_image_pairs", menu="File"),
     Command("add_video", "Add stereo &video…", "media_dialogs.add_video", menu="File"),
     Command("relocate", "Re&locate missing media…", "media_dialogs.relocate_media", menu="File"),
+    Command("accept_media", "Accept c&hanged media…", "media_dialogs.accept_changed_media", menu="File",
+            tip="take a media file that changed since it was added (re-exported, repaired) as the recording the "
+                "project means, after reading it whole"),
     Submenu("File/Open sample", "Open &sample", filled_by="samples"),
     Submenu("File/Recent projects", "&Recent projects", filled_by="recent"),
     Command("save_as", "Save &as… (a copy, then work on it)", "window.save_as_dialog", menu="File",

@@ -26,7 +26,8 @@ def media_warning(project_name: str, problems: list[tuple[str, str]]) -> str:
     more = f"; and {len(problems) - NAMED} more" if len(problems) > NAMED else ""
     files = "a media file is" if len(problems) == 1 else f"{len(problems)} media files are"
     return (f"{project_name}: {files} not the one added — {named}{more}. Measurements on it may be on "
-            "the wrong recording: put the right file back, or use usvips project relocate-media / accept-media")
+            "the wrong recording: put the right file back, or File › Relocate missing media… / Accept changed "
+            "media… (usvips project relocate-media / accept-media)")
 
 
 class MediaCheck:
@@ -36,7 +37,7 @@ class MediaCheck:
 
     def __init__(self, parent: QtWidgets.QWidget, context: WindowContext) -> None:
         """``parent``: the widget its warning box belongs to; ``context``: the messages and the jobs."""
-        self.parent, self.messages, self.jobs = parent, context.messages, context.jobs
+        self.parent, self.context, self.messages, self.jobs = parent, context, context.messages, context.jobs
         self.worker: Worker | None = None
         self.problems: list[tuple[str, str]] | None = None
         self.box: QtWidgets.QMessageBox | None = None
@@ -68,7 +69,7 @@ class MediaCheck:
             if problems:
                 text = media_warning(name, problems)
                 self.messages.warning(text)
-                self._show_box(text)
+                self._show_box(text, any(not problem.startswith("missing") for _, problem in problems))
 
         def cancelled() -> None:
             if self.worker is worker:
@@ -87,12 +88,24 @@ class MediaCheck:
             self.box.close()
             self.box = None
 
-    def _show_box(self, text: str) -> None:
+    def _show_box(self, text: str, changed: bool = False) -> None:
         """The warning in a box that stays until closed (a later status message cannot hide it) and blocks
-        nothing."""
+        nothing; with ``changed`` files (not only missing ones) its *Accept changed media…* button starts
+        File › Accept changed media…"""
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Icon.Warning, "Media files changed", text,
                                     QtWidgets.QMessageBox.StandardButton.Ok, self.parent)
         box.setWindowModality(QtCore.Qt.WindowModality.NonModal)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        if changed:
+            from usvips.gui.qt.media_dialogs import accept_changed_media
+
+            button = box.addButton("Accept changed media…", QtWidgets.QMessageBox.ButtonRole.ActionRole)
+            button.clicked.connect(lambda: accept_changed_media(self.context, self.parent))
+        box.finished.connect(lambda _result: self._box_closed(box))
         box.show()
         self.box = box
+
+    def _box_closed(self, box: QtWidgets.QMessageBox) -> None:
+        """The user closed the warning: it deletes itself (it must not be closed again later)."""
+        if self.box is box:
+            self.box = None

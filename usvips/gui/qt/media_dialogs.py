@@ -1,4 +1,5 @@
-"""File › New project…, Add image pairs…, Add stereo video…, Relocate missing media…: a user's own
+"""File › New project…, Add image pairs…, Add stereo video…, Relocate missing media…, Accept changed media…:
+a user's own
 material into the open project. Each action asks with dialogs, then does its work through
 :mod:`usvips.app.video_project`; the paths can also be handed in (tests, scripts), skipping the dialogs.
 Reading a video's files runs in a worker; the project is written on the GUI thread.
@@ -13,10 +14,11 @@ from pathlib import Path
 
 from PySide6 import QtWidgets
 
-from usvips.app import video_project
+from usvips.app import media_acceptance, video_project
 from usvips.core.errors import UsvipsError
 from usvips.gui.pair_import import PairImport
 from usvips.gui.qt.pair_import_dialog import PairImportDialog
+from usvips.gui.qt.worker import Cancelled
 from usvips.gui.window_context import WindowContext
 from usvips.gui.wording import plural
 from usvips.io.pairing import RULE_NAMES
@@ -165,3 +167,51 @@ def relocate_media(context: WindowContext, parent: QtWidgets.QWidget, answers: d
             context.messages.error(str(error))
     context.messages.info(f"relocated {done} of {len(missing)} missing media files")
     return done
+
+
+def accept_changed_media(context: WindowContext, parent: QtWidgets.QWidget,
+                         answers: set[str] | None = None) -> None:
+    """Find the media files changed since they were added (each read whole in a worker, with progress and
+    Cancel), list them with how each differs (:class:`usvips.gui.qt.accept_media_dialog.AcceptMediaDialog`),
+    and take those the user ticks — or the stored paths in ``answers`` — as the recordings the project
+    means (:mod:`usvips.app.media_acceptance`: a file that cannot stand in for its recording is refused)."""
+    project = context.need_project()
+    if project is None:
+        return
+    records, shapes = project.media_records(), media_acceptance.recorded_shapes(project)
+
+    def job(progress, cancelled):
+        try:
+            return media_acceptance.find_changed_media(records, shapes, lambda done, total: progress(done / total),
+                                                       cancelled)
+        except video_project.Cancelled:
+            raise Cancelled from None
+
+    def found(changed: list[media_acceptance.ChangedMedia]) -> None:
+        if context.workspace.project is not project:
+            return  # another project opened meanwhile
+        if not changed:
+            context.messages.info("no media file has changed since it was added (a missing one: File › Relocate "
+                                  "missing media…)")
+            return
+        if answers is not None:
+            chosen = [media for media in changed if media.stored in answers]
+        else:
+            from usvips.gui.qt.accept_media_dialog import AcceptMediaDialog
+
+            dialog = AcceptMediaDialog(changed, parent)
+            if dialog.exec() != QtWidgets.QDialog.DialogCode.Accepted:
+                return
+            chosen = dialog.chosen()
+        if not chosen:
+            context.messages.info(f"{plural(len(changed), 'changed media file')} found; none accepted")
+            return
+        try:
+            accepted = media_acceptance.accept_changed(project, chosen)
+        except UsvipsError as error:
+            context.messages.error(str(error))
+            return
+        context.messages.info(f"accepted {', '.join(accepted)} as the recording{'s' if len(accepted) > 1 else ''} "
+                              "the project means")
+
+    context.jobs.run(job, "reading the media files for changes", found)
