@@ -36,6 +36,7 @@ from usvips.io.tables import (
     check_header,
     split_line,
 )
+from usvips.io.text_lines import last_break_end, line_of_offset, refuse_control_characters, split_lines
 
 #: data rows per chunk (each chunk is read, intersected and written before the next)
 CHUNK_ROWS = 1 << 15
@@ -124,8 +125,9 @@ class SeenKeys:
 
 
 def _lines(path: Path, block_bytes: int) -> Iterator[tuple[int, list[str]]]:
-    """(number of the first line, lines) of the file, block by block, numbered and split as
-    ``read_text().splitlines()`` would; a file that is not UTF-8 is named with its line."""
+    """(number of the first line, lines) of the file, block by block, numbered and split as an editor does
+    (:mod:`usvips.io.text_lines`: at ``\r\n``, ``\r`` or ``\n``); a file that is not UTF-8 is named with its
+    line."""
     number, carry, first = 1, b"", True
     with open(path, "rb") as stream:
         while True:
@@ -134,7 +136,7 @@ def _lines(path: Path, block_bytes: int) -> Iterator[tuple[int, list[str]]]:
             if not data:
                 carry = b""
             else:
-                cut = block.rfind(b"\n") + 1
+                cut = last_break_end(block, more=True)
                 block, carry = block[:cut], block[cut:]
                 if not block:
                     carry = block + carry
@@ -145,11 +147,10 @@ def _lines(path: Path, block_bytes: int) -> Iterator[tuple[int, list[str]]]:
             try:
                 text = block.decode("utf-8")
             except UnicodeDecodeError as error:
-                line = number + block[:error.start].count(b"\n")
+                line = number - 1 + line_of_offset(block, error.start)
                 raise InputFileError(str(path), "not a text (UTF-8) CSV file", line) from None
-            if "\r" in text:
-                text = text.replace("\r\n", "\n").replace("\r", "\n")
-            lines = text.splitlines()
+            refuse_control_characters(str(path), text, number)
+            lines = split_lines(text)
             if lines:
                 yield number, lines
             number += len(lines)

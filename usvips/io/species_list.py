@@ -16,6 +16,7 @@ from pathlib import Path
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.observation_record import Species
 from usvips.io.file_errors import not_a_file
+from usvips.io.text_lines import refuse_control_characters, split_lines
 
 ALIASES = {"family": "family", "genus": "genus", "species": "species", "code": "code", "caab": "code",
            "caab_code": "code", "species_code": "code", "speciescode": "code"}
@@ -42,7 +43,8 @@ def read_species_list(path: str | Path) -> list[Species]:
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as error:
         raise InputFileError(str(path), f"cannot be read as UTF-8 text: {error}") from None
-    lines = [(n, line) for n, line in enumerate(text.splitlines(), 1) if line.strip() and not line.startswith("#")]
+    refuse_control_characters(str(path), text)
+    lines = [(n, line) for n, line in enumerate(split_lines(text), 1) if line.strip() and not line.startswith("#")]
     if not lines:
         raise InputFileError(str(path), "is empty: expected a header family,genus,species,code and one line a taxon")
     header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))

@@ -23,6 +23,7 @@ from usvips.core.measurements import LEGACY, names
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.io.atomic import write_text_atomic
 from usvips.io.file_errors import not_a_file
+from usvips.io.text_lines import line_of_offset, refuse_control_characters, split_lines
 
 CONTROL_COLUMNS = ("id", "X", "Y", "Z")
 CONTROL_SIGMA_COLUMNS = ("sX", "sY", "sZ")
@@ -49,13 +50,14 @@ def _rows(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
             raise InputFileError(str(path), f"too large for a CSV table (over {MAX_FILE_BYTES >> 20} MiB)")
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as error:
-        line = error.object[:error.start].count(b"\n") + 1
+        line = line_of_offset(error.object, error.start)
         raise InputFileError(str(path), "not a text (UTF-8) CSV file", line) from None
     except OSError as error:
         raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
+    refuse_control_characters(str(path), text)
     header: list[str] | None = None
     rows: list[tuple[int, list[str]]] = []
-    for number, line in enumerate(text.splitlines(), start=1):
+    for number, line in enumerate(split_lines(text), start=1):
         fields = split_line(path, number, line)
         if fields is None:
             continue
