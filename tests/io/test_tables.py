@@ -113,3 +113,24 @@ def test_quoted_fields_are_read_as_csv(tmp_path):
     assert obs.ids == ("fish 1, snout", "plain")
     np.testing.assert_array_equal(obs.left, [[1.5, 2.0], [5.0, 6.0]])
     np.testing.assert_array_equal(obs.right, [[3.0, 4.0], [7.0, 8.0]])
+
+
+SPREADSHEET_EXPORTS = [
+    (b"id,X,Y,Z,,\n1,0,0,0,,\n2,1,0,0,,\n", r"line 1: column 5 of the header has no name \(and 1 more\): a value "
+                                             r"under it would be read by no one"),
+    (b"id,X,Y,Z,\n1,0,0,0,7\n", r"line 1: column 5 of the header has no name: "),
+    (b"id;X;Y;Z\n1;0;0;0\n", r"separated by semicolons, not commas; save it as comma-separated CSV"),
+    (b"id\tX\tY\tZ\n1\t0\t0\t0\n", r"the header has id X Y Z .*separated by tabs, not commas"),
+    ("id,X,Y,Z\n1,0,0,0\n".encode("utf-16"), r"is UTF-16 text, not UTF-8: save it as a UTF-8 CSV file"),
+]
+
+
+@pytest.mark.parametrize(("content", "message"), SPREADSHEET_EXPORTS)
+def test_what_a_spreadsheet_writes_is_named_with_what_to_do(tmp_path, content, message):
+    """Empty columns (a value under one would be read by no one, never silently dropped), another separator
+    and UTF-16 text are each named in one line that says how to save the file."""
+    path = tmp_path / "control.csv"
+    path.write_bytes(content)
+    with pytest.raises(InputFileError, match=message) as raised:
+        read_control(path)
+    assert "\n" not in str(raised.value) and "\t" not in str(raised.value)

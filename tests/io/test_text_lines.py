@@ -80,3 +80,11 @@ def test_a_control_character_in_a_field_is_refused_by_its_line(tmp_path, charact
                        encoding="utf-8", newline="")
     with pytest.raises(InputFileError, match=message.replace("line 4", "line 3")):
         read_species_list(species)
+
+
+def test_a_utf16_observation_file_is_named_as_such_by_the_stream_too(tmp_path):
+    path = tmp_path / "obs.csv"
+    path.write_bytes(_observations(["1,1,2,3,4,p"], "\r\n").encode("utf-16"))
+    for read in (read_observations, lambda p: list(observation_chunks(p))):
+        with pytest.raises(InputFileError, match=r"is UTF-16 text, not UTF-8: save it as a UTF-8 CSV file"):
+            read(path)

@@ -36,7 +36,7 @@ from usvips.io.tables import (
     check_header,
     split_line,
 )
-from usvips.io.text_lines import last_break_end, line_of_offset, refuse_control_characters, split_lines
+from usvips.io.text_lines import last_break_end, line_of_offset, not_utf8, refuse_control_characters, split_lines
 
 #: data rows per chunk (each chunk is read, intersected and written before the next)
 CHUNK_ROWS = 1 << 15
@@ -147,6 +147,8 @@ def _lines(path: Path, block_bytes: int) -> Iterator[tuple[int, list[str]]]:
             try:
                 text = block.decode("utf-8")
             except UnicodeDecodeError as error:
+                if number == 1:
+                    raise not_utf8(str(path), block, error.start) from None
                 line = number - 1 + line_of_offset(block, error.start)
                 raise InputFileError(str(path), "not a text (UTF-8) CSV file", line) from None
             refuse_control_characters(str(path), text, number)

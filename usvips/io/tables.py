@@ -23,7 +23,7 @@ from usvips.core.measurements import LEGACY, names
 from usvips.core.observations import ControlPoints, StereoObservations
 from usvips.io.atomic import write_text_atomic
 from usvips.io.file_errors import not_a_file
-from usvips.io.text_lines import line_of_offset, refuse_control_characters, split_lines
+from usvips.io.text_lines import not_utf8, refuse_control_characters, split_lines
 
 CONTROL_COLUMNS = ("id", "X", "Y", "Z")
 CONTROL_SIGMA_COLUMNS = ("sX", "sY", "sZ")
@@ -50,8 +50,7 @@ def _rows(path: Path) -> tuple[list[str], list[tuple[int, list[str]]]]:
             raise InputFileError(str(path), f"too large for a CSV table (over {MAX_FILE_BYTES >> 20} MiB)")
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as error:
-        line = line_of_offset(error.object, error.start)
-        raise InputFileError(str(path), "not a text (UTF-8) CSV file", line) from None
+        raise not_utf8(str(path), error.object, error.start) from None
     except OSError as error:
         raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
     refuse_control_characters(str(path), text)
@@ -99,7 +98,14 @@ def split_line(path: Path, number: int, line: str) -> list[str] | None:
 
 
 def check_header(path: Path, header: list[str], line: int) -> None:
-    """:class:`InputFileError` when a column name is given twice."""
+    """:class:`InputFileError` when a column has no name (a value under it would be read by no one) or a
+    column name is given twice."""
+    unnamed = [i + 1 for i, name in enumerate(header) if not name]
+    if unnamed:
+        more = f" (and {len(unnamed) - 1} more)" if len(unnamed) > 1 else ""
+        raise InputFileError(str(path), f"column {unnamed[0]} of the header has no name{more}: a value under it "
+                             "would be read by no one; name it or delete it (a spreadsheet may add empty columns)",
+                             line)
     if len(set(header)) != len(header):
         raise InputFileError(str(path), f"duplicate column names in the header {','.join(header)[:80]}", line)
 
@@ -107,8 +113,13 @@ def check_header(path: Path, header: list[str], line: int) -> None:
 def _column_index(path: Path, header: list[str], required: tuple[str, ...]) -> dict[str, int]:
     missing = [c for c in required if c not in header]
     if missing:
-        raise InputFileError(str(path), f"missing column(s) {', '.join(missing)}; the header has "
-                             f"{', '.join(header)[:80]} (expected {','.join(required)})")
+        separator = next((name for mark, name in ((";", "semicolons"), ("\t", "tabs")) if len(header) == 1
+                          and mark in header[0]), None)
+        hint = f": its fields are separated by {separator}, not commas; save it as comma-separated CSV" \
+            if separator else ""
+        shown = ", ".join(header)[:80].replace("\t", " ")
+        raise InputFileError(str(path), f"missing column(s) {', '.join(missing)}; the header has {shown} (expected "
+                             f"{','.join(required)}){hint}")
     return {name: header.index(name) for name in header}
 
 

@@ -51,3 +51,11 @@ def refuse_control_characters(path: str, text: str, first_line: int = 1) -> None
     line = first_line + len(split_lines(text[:found.start()] + "x")) - 1
     raise InputFileError(str(path), f"a control character (U+{ord(found.group()):04X}) in the line: not plain CSV "
                          "text", line)
+
+
+def not_utf8(path: str, data: bytes, offset: int, what: str = "CSV file") -> InputFileError:
+    """The error of a text file whose bytes ``data`` do not decode as UTF-8 at ``offset``: by its line, or as
+    UTF-16 when it begins with that byte-order mark (a spreadsheet's "Unicode text" export)."""
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return InputFileError(str(path), f"is UTF-16 text, not UTF-8: save it as a UTF-8 {what}")
+    return InputFileError(str(path), f"not a text (UTF-8) {what}", line_of_offset(data, offset))
