@@ -36,3 +36,15 @@ def test_a_bad_maximum_is_named_with_its_file_and_line(tmp_path, header, cell, w
     path.write_text(f"family,genus,species{code},{header}\nSparidae,Pagrus,auratus{',7' if code else ''},{cell}\n")
     with pytest.raises(InputFileError, match=words):
         read_species_list(path)
+
+
+def test_a_species_list_not_in_utf8_is_named_by_its_line_or_as_utf16(tmp_path):
+    from usvips.core.errors import InputFileError
+
+    path = tmp_path / "species.csv"
+    path.write_bytes("family,genus,species\nSparidae,Pagrus,auratus\n".encode("utf-16"))
+    with pytest.raises(InputFileError, match="is UTF-16 text, not UTF-8: save it as a UTF-8 species list"):
+        read_species_list(path)
+    path.write_bytes(b"family,genus,species\rSparidae,Pagrus,auratus\rLabridae,Noto\xfflabrus,celidotus\r")
+    with pytest.raises(InputFileError, match=r"line 3: not a text \(UTF-8\) species list"):
+        read_species_list(path)

@@ -16,7 +16,7 @@ from pathlib import Path
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.observation_record import Species
 from usvips.io.file_errors import not_a_file
-from usvips.io.text_lines import refuse_control_characters, split_lines
+from usvips.io.text_lines import not_utf8, refuse_control_characters, split_lines
 
 ALIASES = {"family": "family", "genus": "genus", "species": "species", "code": "code", "caab": "code",
            "caab_code": "code", "species_code": "code", "speciescode": "code"}
@@ -41,8 +41,10 @@ def read_species_list(path: str | Path) -> list[Species]:
         raise not_a_file(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as error:
-        raise InputFileError(str(path), f"cannot be read as UTF-8 text: {error}") from None
+    except UnicodeDecodeError as error:
+        raise not_utf8(str(path), error.object, error.start, "species list (CSV)") from None
+    except OSError as error:
+        raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
     refuse_control_characters(str(path), text)
     lines = [(n, line) for n, line in enumerate(split_lines(text), 1) if line.strip() and not line.startswith("#")]
     if not lines:
