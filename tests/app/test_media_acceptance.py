@@ -81,3 +81,19 @@ def test_the_reading_reports_its_progress_and_stops_when_cancelled(project, tmp_
     with pytest.raises(Cancelled):
         find_changed_media(records, shapes, cancelled=lambda: asked.append(1) or True)
     assert len(asked) == 1  # stopped at the first block
+
+
+def test_camera_files_swapped_are_named_and_never_accepted(project, tmp_path):
+    """The left and right recordings have the same frames, rate and size: only their contents tell that the
+    files were swapped (camera file names repeat across cards), and accepting them would put every left pick
+    on the right recording."""
+    left, right = tmp_path / "left.mp4", tmp_path / "right.mp4"
+    left_bytes, right_bytes = left.read_bytes(), right.read_bytes()
+    left.write_bytes(right_bytes)
+    right.write_bytes(left_bytes)
+    changed = {media.stored: media for media in _changed(project)}
+    assert set(changed) == {"left.mp4", "right.mp4"}
+    assert not changed["left.mp4"].acceptable and "holds what right.mp4 held" in changed["left.mp4"].refusal
+    assert "swapped" in changed["right.mp4"].problem and not changed["right.mp4"].acceptable
+    with Project.open(project) as opened, pytest.raises(InputFileError, match="swapped"):
+        accept_changed(opened, [changed["left.mp4"]])

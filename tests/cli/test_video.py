@@ -397,6 +397,14 @@ def test_a_replacement_is_accepted_only_with_the_recordings_frames_rate_and_size
     assert record("media/right_GX010042.mp4") == right_record
     assert _run(capsys, "project", "accept-media", project, stored)[0] == 0  # a re-export of the same shape
     assert record() != recorded
+    accepted = record()
+    left_bytes = left[0].read_bytes()
+    encode_video(right[0], (numbered_frame(i, 160, 120, seed=5) for i in range(30)), FPS, "h264")
+    assert _run(capsys, "project", "accept-media", project, "media/right_GX010042.mp4")[0] == 0
+    right[0].write_bytes(left_bytes)  # the left recording copied over the right: same frames, rate and size
+    code, _, err = _run(capsys, "project", "accept-media", project, "media/right_GX010042.mp4")
+    assert code == 2 and "holds what media/left_GX010042.mp4 held when it was added (swapped?)" in err, err
+    assert record() == accepted
 
     images = tmp_path / "images"
     images.mkdir()

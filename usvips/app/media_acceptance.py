@@ -139,12 +139,31 @@ def find_changed_media(records: Sequence[tuple[str, Path, int, str]], shapes: di
         problem = (f"{now_size} bytes, but {size} when it was added" if now_size != size
                    else "its contents differ from the file added (SHA-256; same size)")
         try:
-            refuse_unlike(path, shapes.get(stored, ()))
-            refusal = ""
-        except UsvipsError as error:
-            refusal = error.problem if isinstance(error, InputFileError) else str(error)
+            refuse_swapped(records, stored, path, now_sha)
+            refusal = _refusal(path, shapes.get(stored, ()))
+        except InputFileError as error:
+            problem, refusal = "another recorded file's recording (swapped?)", error.problem
         changed.append(ChangedMedia(stored, path, problem, refusal, sha, (now_size, now_sha, sampled_hash(path))))
     return changed
+
+
+def refuse_swapped(records: Sequence[tuple[str, Path, int, str]], stored: str, path: Path, sha256: str) -> None:
+    """Raise an :class:`InputFileError` naming ``path`` when the file now at the recorded path ``stored``
+    (its SHA-256 ``sha256``) is another recorded file's recording (:meth:`ProjectStore.media_records`):
+    camera files swapped or copied over each other, which no frame count or size tells apart."""
+    other = next((other for other, _, _, sha in records if sha == sha256 and other != stored), None)
+    if other is not None:
+        raise InputFileError(str(path), f"holds what {other} held when it was added (swapped?): it is the "
+                             f"recording of {other}, not accepted; put each file back in its place")
+
+
+def _refusal(path: Path, shapes: Sequence[RecordedShape]) -> str:
+    """Why the file at ``path`` cannot stand in for ``shapes`` ('' when it can)."""
+    try:
+        refuse_unlike(path, shapes)
+    except UsvipsError as error:
+        return error.problem if isinstance(error, InputFileError) else str(error)
+    return ""
 
 
 def accept_changed(project: ProjectStore, changed: Sequence[ChangedMedia]) -> list[str]:

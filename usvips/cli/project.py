@@ -157,16 +157,23 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_accept_media(args: argparse.Namespace) -> int:
-    from usvips.app.media_acceptance import refuse_unlike_recorded
+    from usvips.app.media_acceptance import refuse_swapped, refuse_unlike_recorded
+    from usvips.app.video_project import file_sha256
     from usvips.store.opening import open_project
+    from usvips.store.survey import sampled_hash
 
     with open_project(args.project) as project:
-        recorded = {path: sha for path, _, _, sha in project.media_records()}
+        records = project.media_records()
+        recorded = {path: sha for path, _, _, sha in records}
+        hashed = {}
         for stored in args.media:  # every file checked before any is accepted
-            if stored in recorded and project.media_location(stored).is_file():
+            where = project.media_location(stored)
+            if stored in recorded and where.is_file():
+                hashed[stored] = (where.stat().st_size, file_sha256(where), sampled_hash(where))
+                refuse_swapped(records, stored, where, hashed[stored][1])
                 refuse_unlike_recorded(project, stored)
         for stored in args.media:
-            project.accept_media(stored, expected_sha256=recorded.get(stored))
+            project.accept_media(stored, expected_sha256=recorded.get(stored), hashed=hashed.get(stored))
             print(f"accepted {stored} as it is now")
     return 0
 
