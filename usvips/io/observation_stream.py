@@ -126,7 +126,7 @@ class SeenKeys:
 
 def _lines(path: Path, block_bytes: int) -> Iterator[tuple[int, list[str]]]:
     """(number of the first line, lines) of the file, block by block, numbered and split as an editor does
-    (:mod:`usvips.io.text_lines`: at ``\r\n``, ``\r`` or ``\n``); a file that is not UTF-8 is named with its
+    (:mod:`usvips.io.text_lines`: at CR LF, CR or LF); a file that is not UTF-8 is named with its
     line."""
     number, carry, first = 1, b"", True
     with open(path, "rb") as stream:

@@ -1,8 +1,8 @@
 """File › New project…, Add image pairs…, Add stereo video…, Relocate missing media…, Accept changed media…:
-a user's own
-material into the open project. Each action asks with dialogs, then does its work through
-:mod:`usvips.app.video_project`; the paths can also be handed in (tests, scripts), skipping the dialogs.
-Reading a video's files runs in a worker; the project is written on the GUI thread.
+a user's own material into the open project. Each action asks with dialogs, then does its work through
+:mod:`usvips.app.video_project` and :mod:`usvips.app.media_acceptance`; the paths can also be handed in
+(tests, scripts), skipping the dialogs. Reading a video's files runs in a worker; the project is written on
+the GUI thread.
 
 Each is handed the window's context (:class:`usvips.gui.window_context.WindowContext`: the workspace, the
 messages, the worker, what the window may be asked to show) and a parent widget for its dialogs — never the
