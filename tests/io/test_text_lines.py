@@ -88,3 +88,22 @@ def test_a_utf16_observation_file_is_named_as_such_by_the_stream_too(tmp_path):
     for read in (read_observations, lambda p: list(observation_chunks(p))):
         with pytest.raises(InputFileError, match=r"is UTF-16 text, not UTF-8: save it as a UTF-8 CSV file"):
             read(path)
+
+
+@pytest.mark.parametrize("reader", ["calibration", "target", "dlt"])
+def test_json_and_dlt_files_not_in_utf8_are_named_by_line_or_as_utf16(tmp_path, reader):
+    """A calibration, target or DLT file saved as UTF-16 (Windows PowerShell's default) says so; a bad byte
+    is named by its line, counted as an editor counts it (here a classic-Mac file, CR only)."""
+    from usvips.io.calibration_file import load_calibration
+    from usvips.io.dlt_coefficients import read_coefficients
+    from usvips.io.target_file import read_target
+
+    read, what = {"calibration": (load_calibration, "calibration file"), "target": (read_target, "target file"),
+                  "dlt": (read_coefficients, "file of DLT coefficients")}[reader]
+    path = tmp_path / "file.txt"
+    path.write_bytes('{\n  "version": 1\n}\n'.encode("utf-16"))
+    with pytest.raises(InputFileError, match=f"is UTF-16 text, not UTF-8: save it as a UTF-8 {what}"):
+        read(path)
+    path.write_bytes(b'{\r  "version": 1,\r  "name": "b\xffd"\r}\r')
+    with pytest.raises(InputFileError, match=rf"line 3: not a text \(UTF-8\) {what}"):
+        read(path)

@@ -42,6 +42,7 @@ from usvips.core.rig import RelativeOrientation, relative_orientation
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.atomic import write_text_atomic
 from usvips.io.json_text import loads_strict
+from usvips.io.text_lines import not_utf8
 
 FORMAT = "usvips-calibration"
 #: The newest file version read; written only when needed (:func:`file_version`).
@@ -400,8 +401,8 @@ def load_calibration(path: str | Path) -> StereoCalibration:
         data = loads_strict(path.read_text(encoding="utf-8-sig"), path)
     except json.JSONDecodeError as error:
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
-    except UnicodeDecodeError:
-        raise InputFileError(str(path), "not a text file") from None
+    except UnicodeDecodeError as error:
+        raise not_utf8(str(path), error.object, error.start, "calibration file (JSON)") from None
     except RecursionError:
         raise InputFileError(str(path), "nested too deeply to be a calibration file") from None
     except OSError as error:

@@ -31,7 +31,7 @@ from usvips.core.errors import DegenerateGeometryError, InputFileError, InvalidP
 from usvips.core.interior import Interior
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.opencv_calibration import ASSUMED_SIGMA0_PX
-from usvips.io.text_lines import split_lines
+from usvips.io.text_lines import not_utf8, split_lines
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 ORIGINS = ("top-left", "bottom-left")
@@ -45,8 +45,8 @@ def read_coefficients(path: str | Path) -> tuple[np.ndarray, float | None]:
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputFileError(str(path), "is not a text file of DLT coefficients") from None
+    except UnicodeDecodeError as error:
+        raise not_utf8(str(path), error.object, error.start, "file of DLT coefficients") from None
     rows: list[tuple[int, list[float]]] = []
     rms = None
     for number, line in enumerate(split_lines(text), start=1):

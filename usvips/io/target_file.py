@@ -23,6 +23,7 @@ import numpy as np
 from usvips.core.calibration_targets import CalibrationTarget, from_description
 from usvips.core.errors import InputFileError
 from usvips.io.atomic import write_bytes_atomic, write_text_atomic
+from usvips.io.text_lines import not_utf8
 
 FORMAT = "usvips-target"
 VERSION = 1
@@ -73,8 +74,8 @@ def read_target(path: str | Path) -> CalibrationTarget:
         raise InputFileError(str(path), "no such file") from None
     except IsADirectoryError:
         raise InputFileError(str(path), "is a folder, not a target file") from None
-    except UnicodeDecodeError:
-        raise InputFileError(str(path), "not a text file (a target file is JSON)") from None
+    except UnicodeDecodeError as error:
+        raise not_utf8(str(path), error.object, error.start, "target file (JSON)") from None
     except OSError as error:
         raise InputFileError(str(path), f"cannot read: {error.strerror or error}") from None
     try:
