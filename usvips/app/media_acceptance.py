@@ -20,7 +20,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from usvips.app.video_project import chapter_fps, file_sha256
+from usvips.app.video_project import ByteProgress, chapter_fps, file_sha256
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.io.images import read_image
 from usvips.io.video_stream import VideoStream
@@ -86,13 +86,6 @@ def refuse_unlike(path: Path, shapes: Sequence[RecordedShape]) -> None:
                                  "not accepted")
 
 
-def refuse_unlike_recorded(project: ProjectStore, stored: str) -> None:
-    """Raise an :class:`InputFileError` naming the file at the recorded media path ``stored`` when it cannot
-    stand in for the recording there (see the module docstring); nothing when it can, or when no video
-    or pair of the project uses that path."""
-    refuse_unlike(project.media_location(stored), recorded_shapes(project).get(stored, ()))
-
-
 @dataclass(frozen=True)
 class ChangedMedia:
     """A recorded media file that is there but not the one added: its ``stored`` path, absolute ``path``,
@@ -120,19 +113,11 @@ def find_changed_media(records: Sequence[tuple[str, Path, int, str]], shapes: di
     (:func:`refuse_unlike` with ``shapes``, :func:`recorded_shapes`); missing files are left to relocating.
     Any thread: ``progress(bytes done, bytes in all)``, and ``cancelled()`` stops the reading at once
     (:class:`usvips.app.video_project.Cancelled`)."""
-    present = [(stored, path, size, sha) for stored, path, size, sha in records if path.is_file()]
-    total = sum(path.stat().st_size for _, path, _, _ in present) or 1
-    done = 0
-
-    def read(count: int) -> None:
-        nonlocal done
-        done += count
-        if progress is not None:
-            progress(min(done, total), total)
-
+    present = [(stored, path, size, sha, path.stat().st_size) for stored, path, size, sha in records
+               if path.is_file()]
+    read = ByteProgress(sum(now for *_, now in present), progress)
     changed = []
-    for stored, path, size, sha in present:
-        now_size = path.stat().st_size
+    for stored, path, size, sha, now_size in present:
         now_sha = file_sha256(path, read, cancelled)
         if now_size == size and now_sha == sha:
             continue

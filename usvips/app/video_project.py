@@ -388,28 +388,37 @@ def verify_media(records: Sequence[tuple[str, Path, int, str]], progress: Callab
     (stored path, problem) for each that is missing, resized or changed. ``progress(bytes done, bytes in
     all)`` after every ``chunk`` bytes; ``cancelled()`` is asked as often and stops the reading at once
     (:class:`Cancelled`)."""
-    total = sum(size for _, _, size, _ in records) or 1
-    done = 0
+    read = ByteProgress(sum(size for _, _, size, _ in records), progress)
     problems = []
     for stored, path, size, sha in records:
         if not path.is_file():
             problems.append((stored, "missing (moved or deleted?)"))
-            done += size
+            read.skip(size)
             continue
         now = path.stat().st_size
         if now != size:
             problems.append((stored, f"{now} bytes, but {size} when it was added"))
-            done += size
+            read.skip(size)
             continue
-        def read(count: int) -> None:
-            nonlocal done
-            done += count
-            if progress is not None:
-                progress(min(done, total), total)
-
         if file_sha256(path, read, cancelled, chunk) != sha:
             problems.append((stored, "its contents differ from the file added (SHA-256; same size)"))
     return problems
+
+
+class ByteProgress:
+    """Bytes read so far out of ``total``: called with each block's byte count, it reports
+    ``progress(bytes done, bytes in all)`` (the total at least 1); :meth:`skip` counts bytes not read."""
+
+    def __init__(self, total: int, progress: Callable[[int, int], None] | None) -> None:
+        self.total, self.done, self.progress = max(int(total), 1), 0, progress
+
+    def __call__(self, count: int) -> None:
+        self.done += count
+        if self.progress is not None:
+            self.progress(min(self.done, self.total), self.total)
+
+    def skip(self, count: int) -> None:
+        self.done += count
 
 
 def file_sha256(path: Path, read: Callable[[int], None] | None = None, cancelled: Callable[[], bool] | None = None,

@@ -157,7 +157,7 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_accept_media(args: argparse.Namespace) -> int:
-    from usvips.app.media_acceptance import refuse_swapped, refuse_unlike_recorded
+    from usvips.app.media_acceptance import recorded_shapes, refuse_swapped, refuse_unlike
     from usvips.app.video_project import file_sha256
     from usvips.store.opening import open_project
     from usvips.store.survey import sampled_hash
@@ -165,13 +165,14 @@ def run_accept_media(args: argparse.Namespace) -> int:
     with open_project(args.project) as project:
         records = project.media_records()
         recorded = {path: sha for path, _, _, sha in records}
+        shapes = recorded_shapes(project)
         hashed = {}
         for stored in args.media:  # every file checked before any is accepted
             where = project.media_location(stored)
             if stored in recorded and where.is_file():
                 hashed[stored] = (where.stat().st_size, file_sha256(where), sampled_hash(where))
                 refuse_swapped(records, stored, where, hashed[stored][1])
-                refuse_unlike_recorded(project, stored)
+                refuse_unlike(where, shapes.get(stored, ()))
         for stored in args.media:
             project.accept_media(stored, expected_sha256=recorded.get(stored), hashed=hashed.get(stored))
             print(f"accepted {stored} as it is now")
