@@ -8,7 +8,7 @@ import pytest
 
 from usvips.app.media_acceptance import accept_changed, find_changed_media, recorded_shapes
 from usvips.app.video_project import Cancelled, add_image_pairs, add_video
-from usvips.core.errors import InputFileError
+from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.synth.frame_numbers import numbered_frame
 from usvips.io.images import write_image
 from usvips.io.video_writer import encode_video
@@ -67,6 +67,20 @@ def test_a_file_changed_again_after_it_was_read_is_not_accepted(project, tmp_pat
         with pytest.raises(ProjectError, match="changed again since it was read"):
             accept_changed(opened, [read])
         assert opened.media_identity("left.mp4", full=True) is not None  # nothing recorded anew
+
+
+def test_a_refusal_after_some_files_were_accepted_names_them(project, tmp_path):
+    _video(tmp_path / "right.mp4", seed=7)
+    write_image(tmp_path / "left.png", numbered_frame(6, 80, 60, seed=4))
+    read = {media.stored: media for media in _changed(project)}
+    write_image(tmp_path / "left.png", numbered_frame(7, 80, 60, seed=4))  # changed again before the user said yes
+    accepted = []
+    with Project.open(project) as opened:
+        with pytest.raises(UsvipsError, match="left.png: changed again .*; accepted before it: right.mp4$"):
+            accept_changed(opened, [read["right.mp4"], read["left.png"]], accepted)
+        assert accepted == ["right.mp4"]  # the caller knows which were taken
+        assert opened.media_identity("right.mp4", full=True) is None
+        assert opened.media_identity("left.png", full=True) is not None
 
 
 def test_the_reading_reports_its_progress_and_stops_when_cancelled(project, tmp_path):

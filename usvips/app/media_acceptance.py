@@ -151,17 +151,24 @@ def _refusal(path: Path, shapes: Sequence[RecordedShape]) -> str:
     return ""
 
 
-def accept_changed(project: ProjectStore, changed: Sequence[ChangedMedia]) -> list[str]:
+def accept_changed(project: ProjectStore, changed: Sequence[ChangedMedia],
+                   accepted: list[str] | None = None) -> list[str]:
     """Each of ``changed`` taken as the one the project means, on the store's thread; returns the stored
-    paths accepted. One that cannot stand in for its recording is an error naming it, before any is
-    accepted; the files are not read whole again, and one changed since it was read is refused by the
-    store (those before it stay accepted)."""
+    paths accepted, appended to ``accepted`` (when given) as each is taken. One that cannot stand in for its
+    recording is an error naming it, before any is accepted; the files are not read whole again, and one
+    changed since it was read is refused by the store: those before it stay accepted (each is its own
+    transaction), and the error names them."""
     for media in changed:
         if not media.acceptable:
             raise InputFileError(str(media.path), media.refusal)
-    accepted = []
+    accepted = [] if accepted is None else accepted
     for media in changed:
-        project.accept_media(media.stored, expected_sha256=media.recorded_sha256, hashed=media.hashed)
+        try:
+            project.accept_media(media.stored, expected_sha256=media.recorded_sha256, hashed=media.hashed)
+        except UsvipsError as error:
+            if accepted:
+                raise UsvipsError(f"{error}; accepted before it: {', '.join(accepted)}") from error
+            raise
         accepted.append(media.stored)
     return accepted
 

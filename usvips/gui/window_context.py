@@ -4,7 +4,7 @@ calls no window method, so it can be made and tested without one (see :mod:`usvi
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -36,7 +36,8 @@ class Navigation:
     ``videos_changed(project)`` relists the videos, ``show_video(label, after)`` shows a video's first
     frame and calls ``after()`` once it is shown (False when it could not), ``hint(text, level)`` sets the
     line above the images without logging it again, ``show_review()`` opens review mode on the unreviewed
-    objects (None where a part cannot)."""
+    objects, ``media_resolved(stored_paths)`` says that those media files were accepted or relocated, so
+    that the media warning no longer names them (None where a part cannot)."""
 
     open_project: Callable[[str | Path], bool]
     show_pair: Callable[[str], None]
@@ -45,6 +46,7 @@ class Navigation:
     show_video: Callable[[str, Callable[[], None] | None], bool]
     hint: Callable[[str, str], None]
     show_review: Callable[[], None] | None = None
+    media_resolved: Callable[[Sequence[str]], None] | None = None
 
 
 @dataclass(frozen=True)

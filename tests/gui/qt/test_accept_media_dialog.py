@@ -4,6 +4,7 @@ ticked file that can stand in is taken as the recording."""
 
 from pathlib import Path
 
+import shiboken6
 from PySide6 import QtCore, QtWidgets
 
 from usvips.app.media_acceptance import ChangedMedia
@@ -98,3 +99,68 @@ def test_the_media_warning_offers_to_accept_a_changed_file(qtbot, make_window, s
     assert listed == [[stored]]
     assert window.workspace.project.media_identity(stored, full=True) is not None  # cancelled: nothing accepted
     assert window.media_check.box is None  # closed by the click: never touched again
+
+
+def _flip_a_byte(path: Path) -> None:
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2 + 1] ^= 0x01  # a repaired copy: same size, same frames, other bytes
+    path.write_bytes(bytes(data))
+
+
+def test_the_media_warning_forgets_each_file_accepted_and_closes_when_none_is_left(qtbot, make_window, sample_copy):
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "video")
+    qtbot.waitUntil(lambda: window.media_check.problems is not None and not window.busy, timeout=60000)
+    path = window.workspace.project.path
+    (first, first_path, _, _), (second, second_path, _, _) = window.workspace.project.media_records()[-2:]
+    _flip_a_byte(first_path)
+    _flip_a_byte(second_path)
+    assert window.open_path(path, "video")
+    qtbot.waitUntil(lambda: window.media_check.box is not None and not window.busy, timeout=60000)
+    box = window.media_check.box
+    assert "2 media files are not the one added" in box.text()
+    media_dialogs.accept_changed_media(window.context, window, answers={first})
+    qtbot.waitUntil(lambda: not window.busy, timeout=60000)
+    assert window.media_check.box is box and box.isVisible()  # the other file is still changed
+    assert first not in box.text() and second in box.text() and "a media file is not the one added" in box.text()
+    assert [stored for stored, _ in window.media_check.problems] == [second]
+    assert any(b.text() == "Accept changed media…" for b in box.buttons())
+    assert box.escapeButton() is box.button(QtWidgets.QMessageBox.StandardButton.Ok)  # Escape and close() close it
+    media_dialogs.accept_changed_media(window.context, window, answers={second})
+    qtbot.waitUntil(lambda: not window.busy, timeout=60000)
+    assert window.media_check.box is None and window.media_check.problems == []
+    assert not shiboken6.isValid(box) or not box.isVisible()  # closed (and deleted)
+
+
+def test_the_media_warning_forgets_a_relocated_file(qtbot, make_window, sample_copy):
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "video")
+    qtbot.waitUntil(lambda: window.media_check.problems is not None and not window.busy, timeout=60000)
+    path = window.workspace.project.path
+    stored, recorded, _, _ = window.workspace.project.media_records()[-1]
+    moved = recorded.parent / "elsewhere" / recorded.name
+    moved.parent.mkdir()
+    recorded.rename(moved)
+    window.open_path(path, "video")  # the project opens; its missing video cannot be shown
+    qtbot.waitUntil(lambda: window.media_check.box is not None and not window.busy, timeout=60000)
+    assert not any(b.text() == "Accept changed media…" for b in window.media_check.box.buttons())  # only missing
+    assert media_dialogs.relocate_media(window.context, window, answers={stored: str(moved)}) == 1
+    assert window.media_check.box is None and window.media_check.problems == []
+
+
+def test_escape_closes_the_media_warning_that_offers_to_accept(qtbot, make_window, sample_copy):
+    directory = sample_copy("rov_flatport")
+    window = make_window()
+    assert window.open_path(directory, "video")
+    qtbot.waitUntil(lambda: window.media_check.problems is not None and not window.busy, timeout=60000)
+    path = window.workspace.project.path
+    _flip_a_byte(window.workspace.project.media_records()[-1][1])
+    assert window.open_path(path, "video")
+    qtbot.waitUntil(lambda: window.media_check.box is not None and not window.busy, timeout=60000)
+    box = window.media_check.box
+    assert len(box.buttons()) == 2
+    qtbot.keyClick(box, QtCore.Qt.Key.Key_Escape)
+    assert window.media_check.box is None
+    assert not shiboken6.isValid(box) or not box.isVisible()

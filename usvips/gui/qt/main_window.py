@@ -104,7 +104,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.panes = {side: StereoPane(side) for side in SIDES}
         self.context = WindowContext(self.workspace, self.messages, self.jobs, Navigation(
             self.open_path, self.load_pair, self.refresh_pair_box, self._videos_changed, self._show_video,
-            self.set_hint, self.show_review), self.settings, self.panes)
+            self.set_hint, self.show_review, self._media_resolved), self.settings, self.panes)
         self._display_tokens = dict.fromkeys(SIDES, 0)
         self._pair_worker: Worker | None = None
         self._front_before_observation: QtWidgets.QDockWidget | None = None  # raised again after a record
@@ -637,6 +637,9 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _videos_changed(self, project) -> None:
         self.video.videos_changed(project)
+
+    def _media_resolved(self, stored_paths) -> None:
+        self.media_check.resolved(stored_paths)
 
     def _show_video(self, label: str, after=None) -> bool:
         """Show video ``label``'s first frame; ``after()`` once it is shown (:class:`Navigation`)."""

@@ -9,6 +9,8 @@ is noticed before anything is measured on it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from PySide6 import QtCore, QtWidgets
 
 from usvips.gui.qt.worker import Cancelled, Worker
@@ -88,6 +90,26 @@ class MediaCheck:
             self.box.close()
             self.box = None
 
+    def resolved(self, stored_paths: Sequence[str]) -> None:
+        """The media files at ``stored_paths`` were accepted or relocated: the last check's problems and its
+        warning box no longer name them, and the box closes when none is left."""
+        if not self.problems:
+            return
+        gone = set(stored_paths)
+        self.problems = [(stored, problem) for stored, problem in self.problems if stored not in gone]
+        if self.box is None:
+            return
+        if not self.problems:
+            self.box.close()
+            self.box = None
+            return
+        project = self.context.workspace.project
+        self.box.setText(media_warning(project.path.name if project is not None else "the project", self.problems))
+        if all(problem.startswith("missing") for _, problem in self.problems):
+            for button in self.box.buttons():
+                if self.box.buttonRole(button) == QtWidgets.QMessageBox.ButtonRole.ActionRole:
+                    self.box.removeButton(button)
+
     def _show_box(self, text: str, changed: bool = False) -> None:
         """The warning in a box that stays until closed (a later status message cannot hide it) and blocks
         nothing; with ``changed`` files (not only missing ones) its *Accept changed media…* button starts
@@ -96,6 +118,9 @@ class MediaCheck:
                                     QtWidgets.QMessageBox.StandardButton.Ok, self.parent)
         box.setWindowModality(QtCore.Qt.WindowModality.NonModal)
         box.setAttribute(QtCore.Qt.WidgetAttribute.WA_DeleteOnClose)
+        # with a second button a QMessageBox has no escape button of its own, and then neither Escape, nor its
+        # title bar's close, nor close() closes it
+        box.setEscapeButton(QtWidgets.QMessageBox.StandardButton.Ok)
         if changed:
             from usvips.gui.qt.media_dialogs import accept_changed_media
 

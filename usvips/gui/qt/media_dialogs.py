@@ -142,6 +142,12 @@ def add_video(context: WindowContext, parent: QtWidgets.QWidget, left: list | No
     context.jobs.run(job, "reading the video files", store)
 
 
+def _media_resolved(context: WindowContext, stored_paths: list[str]) -> None:
+    """Tell the window (when there is one) that these media files no longer need a warning."""
+    if stored_paths and context.navigation is not None and context.navigation.media_resolved is not None:
+        context.navigation.media_resolved(stored_paths)
+
+
 def relocate_media(context: WindowContext, parent: QtWidgets.QWidget, answers: dict[str, str] | None = None) -> int:
     """For every missing media file, ask where it is now (or take ``answers``: stored path → new path);
     a file that is not the one added (size, SHA-256) is refused. Returns the number relocated."""
@@ -163,6 +169,7 @@ def relocate_media(context: WindowContext, parent: QtWidgets.QWidget, answers: d
         try:
             project.relocate_media(stored, new)
             done += 1
+            _media_resolved(context, [stored])
         except UsvipsError as error:
             context.messages.error(str(error))
     context.messages.info(f"relocated {done} of {len(missing)} missing media files")
@@ -206,11 +213,14 @@ def accept_changed_media(context: WindowContext, parent: QtWidgets.QWidget,
         if not chosen:
             context.messages.info(f"{plural(len(changed), 'changed media file')} found; none accepted")
             return
+        accepted: list[str] = []
         try:
-            accepted = media_acceptance.accept_changed(project, chosen)
+            media_acceptance.accept_changed(project, chosen, accepted)
         except UsvipsError as error:
             context.messages.error(str(error))
             return
+        finally:
+            _media_resolved(context, accepted)
         context.messages.info(f"accepted {', '.join(accepted)} as the recording{'s' if len(accepted) > 1 else ''} "
                               "the project means")
 
