@@ -255,7 +255,7 @@ DOORS: dict[str, list[Door]] = {
         Door("detect @rov.usvips --pair measure1 --model @fish.toml",
              {"@rov.usvips": "file", "--pair": ["nosuch", "video"], "@fish.toml": "file"}),
         Door("detect @rov.usvips --video video --every 5 --frames 0:3 --model @fish.toml",
-             {"--every": ["0", "-1", "x"], "--frames": ["3:1", "x", "0:99999", "-1:2", "1"],
+             {"--every": ["0", "-1", "x"], "--frames": ["3:1", "x", "0:99999", "-1:2", "1", "0:" + "9" * 25],
               "--video": ["nosuch", "measure1"]}),
         Door("detect @rov.usvips --review-sigma --model @fish.toml", {"@rov.usvips": "file", "@fish.toml": "file"}),
         Door("detect @rov.usvips --max-n", {"@rov.usvips": "file"}),

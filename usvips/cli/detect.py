@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 
 from usvips.cli import whole_number
-from usvips.cli.common import add_annotator_option, positive_number
+from usvips.cli.common import add_annotator_option, positive_number, whole_number_from
 
 
 def frame_range(text: str) -> tuple[int, int]:
@@ -25,19 +25,13 @@ def frame_range(text: str) -> tuple[int, int]:
     try:
         if not colon:
             raise ValueError
-        a, b = int(first), int(last)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a frame range A:B (two whole numbers)") from None
+        a, b = whole_number(first), whole_number(last)
+    except (ValueError, argparse.ArgumentTypeError):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a frame range A:B (two whole numbers of at most "
+                                         "2**63 - 1)") from None
     if a < 0 or b < a:
         raise argparse.ArgumentTypeError(f"{text!r}: expected 0 <= A <= B")
     return a, b
-
-
-def _every(text: str) -> int:
-    value = whole_number(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
-    return value
 
 
 def add_model_option(parser: argparse.ArgumentParser) -> None:
@@ -61,7 +55,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        "[keypoint_sigma] table for its description file")
     where.add_argument("--max-n", action="store_true", help="detect nothing: print MaxN per species on each video "
                        "and pair from the accepted objects")
-    parser.add_argument("--every", type=_every, default=1, metavar="K", help="every K-th left frame (video)")
+    parser.add_argument("--every", type=whole_number_from(1), default=1, metavar="K",
+                        help="every K-th left frame (video)")
     parser.add_argument("--frames", type=frame_range, metavar="A:B", help="left frames A to B, both included "
                         "(video; default: all)")
     add_model_option(parser)
