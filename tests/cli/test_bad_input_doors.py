@@ -120,7 +120,8 @@ DOORS: dict[str, list[Door]] = {
                             {"--format": ["bogus"]})],
     "project add-pairs": [
         Door("project add-pairs @rov.usvips --left @left.png --right @right.png --label-prefix fz- --pair-by order",
-             {"@rov.usvips": "file", "@left.png": "file", "@right.png": "file", "--pair-by": ["bogus"]}),
+             {"@rov.usvips": "file", "@left.png": "file", "@right.png": "file", "--pair-by": ["bogus"],
+              "--label-prefix": ["a/b", "../", ".x", "a\\b"]}),
         Door("project add-pairs @rov.usvips --left @left.png --right @right.png --label-prefix fz- --pair-by time "
              "--max-dt 2", {"--max-dt": ["nan", "-1", "inf", "x"]}),
     ],
@@ -216,7 +217,8 @@ DOORS: dict[str, list[Door]] = {
                                 {"@rov.usvips": "file", "--frame": ["-1", "100000"],
                                  "--pair": ["nosuch", "measure1"]})],
     "video take-pair": [Door("video take-pair @rov.usvips --pair video --frame 5 --label fz",
-                             {"@rov.usvips": "file", "--frame": ["-1", "100000"], "--label": ["measure1", ""],
+                             {"@rov.usvips": "file", "--frame": ["-1", "100000"],
+                              "--label": ["measure1", "", "../x", ".hidden", "a/b"],
                               "--pair": ["nosuch"]})],
     "video proxy": [Door("video proxy @rov.usvips --pair video --delete", {"@rov.usvips": "file",
                                                                            "--pair": ["nosuch", "measure1"]})],

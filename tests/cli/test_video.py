@@ -330,6 +330,42 @@ def test_jpeg_pairs_by_exif_capture_time(tmp_path, capsys):
     assert code == 2 and "no right image captured within 0.01 s" in err
 
 
+def test_a_damaged_capture_time_is_named_not_paired_around_and_an_unset_clock_pairs_by_order(tmp_path, capsys):
+    """Automatic pairing of JPEGs by capture time: one left image's EXIF time unreadable is refused by its
+    name (pairing by order instead would pair captures by chance), with the way to pair by order anyway; a
+    camera whose clock was never set (0000:00:00 00:00:00) has no time, and its images pair by order."""
+    from datetime import datetime
+
+    import cv2
+
+    from usvips.io.exif import exif_jpeg
+
+    when = datetime(2026, 5, 1, 9, 30, 0)
+    stamp = when.strftime("%Y:%m:%d %H:%M:%S").encode()
+    for case, bad in (("damaged", b"2026:13:45 99:00:00"), ("unset", b"0000:00:00 00:00:00")):
+        for side in ("left", "right"):
+            (tmp_path / case / side).mkdir(parents=True)
+            for k in range(2):
+                jpeg = exif_jpeg(cv2.imencode(".jpg", numbered_frame(k)[:, :, ::-1])[1].tobytes(), when)
+                if side == "left" or case == "unset":
+                    jpeg = jpeg.replace(stamp, bad)
+                (tmp_path / case / side / f"{'DSC' if side == 'left' else 'IMG'}{k + 40}.jpg").write_bytes(jpeg)
+    project = tmp_path / "p.usvips"
+    main(["project", "new", str(project)])
+    code, out, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "damaged" / "left", "--right",
+                          tmp_path / "damaged" / "right", "--dry-run")
+    assert code == 2 and "DSC40.jpg: damaged EXIF" in err and "--pair-by order" in err and len(err.splitlines()) == 1
+    code, out, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "damaged" / "left", "--right",
+                          tmp_path / "damaged" / "right", "--pair-by", "order", "--dry-run")
+    assert code == 0 and "2 pairs by name order" in out, err
+    code, out, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "unset" / "left", "--right",
+                          tmp_path / "unset" / "right", "--dry-run")
+    assert code == 0 and "2 pairs by name order" in out, err
+    code, out, err = _run(capsys, "project", "add-pairs", project, "--left", "", "--right",
+                          tmp_path / "unset" / "right", "--dry-run")  # an empty value is not the working folder
+    assert code == 2 and "--left: the left camera's files: an empty path" in err
+
+
 def test_seek_proxies_are_built_listed_by_project_info_rebuilt_when_stale_and_deleted(tmp_path, capsys):
     left, right = _stereo(tmp_path / "media", lag=2, frames=40)
     project = tmp_path / "p.usvips"

@@ -64,6 +64,7 @@ def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], la
     """The (label, left, right) pairs that :func:`add_image_pairs` would add, and the rule used (for a
     person to confirm). Labels: prefix + the shared stem (or the pair's number when paired by order)."""
     label_prefix = validation.name("label_prefix", label_prefix, allow_empty=True) if label_prefix else ""
+    label_prefix = validation.folder_name("label_prefix", label_prefix) if label_prefix else ""
     max_dt = validation.finite("max_dt", max_dt)
     if max_dt <= 0:
         raise InvalidParameterError("max_dt", f"must be > 0 seconds, got {max_dt:g}",
@@ -74,7 +75,7 @@ def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], la
     pairs, rule = pair_images(left_files, right_files, by, max_dt)
     labels = [f"{label_prefix}{shared_stem(a) if rule == 'stem' else f'{n + 1:03d}'}" for n, (a, _) in enumerate(pairs)]
     for label, (a, _) in zip(labels, pairs, strict=True):
-        validation.name(f"pair label (from {a.name})", label)
+        validation.folder_name(f"pair label (from {a.name})", label)
     return [(label, a, b) for label, (a, b) in zip(labels, pairs, strict=True)], rule
 
 
@@ -448,9 +449,7 @@ def plan_taken_pair(project: ProjectStore, label: str, frame: int, pair_label: s
     """The label (default ``VIDEO-FRAME``) and folder (``frames/LABEL`` beside the project) of the image
     pair :func:`take_pair` makes of left frame ``frame``; refuses a label already used before anything
     is written (so no stored pair's images are overwritten)."""
-    pair_label = validation.name("label", f"{label}-{frame}" if pair_label is None else pair_label)
-    if not pair_label or "/" in pair_label or "\\" in pair_label or pair_label.startswith("."):
-        raise VideoError(f"pair label {pair_label!r}: give a name without slashes that does not start with '.'")
+    pair_label = validation.folder_name("label", f"{label}-{frame}" if pair_label is None else pair_label)
     if pair_label in {p.label for p in project.pairs()}:
         raise VideoError(f"{project.path}: pair label {pair_label!r} is already used; choose another")
     active = project.active_calibration(label)

@@ -91,6 +91,16 @@ def name(parameter: str, text: str, allow_empty: bool = False) -> str:
     return text
 
 
+def folder_name(parameter: str, text: str) -> str:
+    """:func:`name`, also refused when it could not be one folder's or file's name: a slash or a backslash
+    in it, or a leading '.' (a hidden name, or '..' out of its folder). Pair labels are such names: a pair
+    taken from a video is written under ``frames/LABEL``."""
+    text = name(parameter, text)
+    if "/" in text or "\\" in text or text.startswith("."):
+        raise InvalidParameterError(parameter, f"{text!r}: give a name without slashes that does not start with '.'")
+    return text
+
+
 def count(parameter: str, value, low: int, high: int) -> int:
     """``value`` as a whole number from ``low`` to ``high``, or raise naming ``parameter`` (a count of 10⁸
     is refused here, by name, rather than by the memory it would take)."""

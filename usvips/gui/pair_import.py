@@ -113,8 +113,8 @@ class PairImport:
         elif found.left_size != found.right_size:
             problems.append(f"left {found.left_size[0]} × {found.left_size[1]} px, right "
                             f"{found.right_size[0]} × {found.right_size[1]} px")
-        if not label or "/" in label or "\\" in label:
-            problems.append("needs a label without slashes")
+        if not label or "/" in label or "\\" in label or label.startswith("."):
+            problems.append("needs a label without slashes that does not start with '.'")
         elif label in self._taken:
             problems.append("label already in the project: give a prefix or another label")
         elif found.ticked and sum(self.label(i) == label for i, r in enumerate(self.rows) if r.ticked) > 1:

@@ -47,8 +47,17 @@ def _ifd(tiff: bytes, offset: int, order: str) -> dict[int, bytes | int]:
     return tags
 
 
+class DamagedExifError(InputFileError):
+    """A JPEG's EXIF is there but cannot be read: a damaged file, unlike one without a capture time."""
+
+
+#: what cameras whose clock was never set write as the capture time: no time, not a damaged one
+_UNSET_STAMP = frozenset(b"0: ")
+
+
 def capture_time(path: str | Path) -> datetime:
-    """The capture time of a JPEG; a file without it is named."""
+    """The capture time of a JPEG; a file without it is named (:class:`DamagedExifError` when its EXIF
+    cannot be read)."""
     path = Path(path)
     with open(path, "rb") as stream:
         data = stream.read(1 << 17)  # EXIF lives in the first 64 KB segment
@@ -62,6 +71,9 @@ def capture_time(path: str | Path) -> datetime:
         stamp = exif.get(_DATETIME_ORIGINAL) or main.get(_DATETIME)
         if not stamp:
             raise InputFileError(str(path), "the EXIF holds no capture time (DateTimeOriginal)")
+        if isinstance(stamp, bytes) and set(stamp) <= _UNSET_STAMP:
+            raise InputFileError(str(path), f"the EXIF capture time is unset ({stamp.decode('ascii')!r}: the "
+                                 "camera's clock was not set)")
         when = datetime.strptime(stamp.decode("ascii"), "%Y:%m:%d %H:%M:%S")
         subsec = exif.get(_SUBSEC_ORIGINAL)
         if subsec and subsec.decode("ascii").isdigit():
@@ -69,7 +81,7 @@ def capture_time(path: str | Path) -> datetime:
             when = when.replace(microsecond=int(round(int(digits) / 10 ** len(digits) * 1e6)) % 1_000_000)
         return when
     except (struct.error, ValueError, UnicodeDecodeError, KeyError) as error:
-        raise InputFileError(str(path), f"damaged EXIF ({error})") from None
+        raise DamagedExifError(str(path), f"damaged EXIF ({error})") from None
 
 
 def exif_jpeg(jpeg: bytes, when: datetime) -> bytes:

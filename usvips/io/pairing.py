@@ -17,12 +17,12 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from usvips.core.errors import InputFileError, InvalidParameterError, concerning
-from usvips.io.exif import capture_time
+from usvips.io.exif import DamagedExifError, capture_time
 
 #: how each pairing rule is named to a person
 RULE_NAMES = {"stem": "shared stem", "time": "capture time", "order": "name order"}
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
-VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".mts", ".m4v")
+VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".mts", ".m4v", ".webm")
 _CAMERA_MARK = re.compile(r"(^|[_\-. ])(l|r|left|right|links|rechts|cam[12])($|[_\-. ])|^(l|r)(?=\d)",
                           re.IGNORECASE)
 
@@ -43,6 +43,9 @@ def expand(items: Sequence[str | Path], suffixes: Sequence[str], parameter: str)
     what = SIDE_WORDS.get(parameter, parameter)
     files: list[Path] = []
     for item in items:
+        if not str(item).strip():  # Path("") is the working folder: an empty value would read it silently
+            raise concerning(InvalidParameterError(parameter, f"{what}: an empty path; name a file or a folder"),
+                             parameter)
         path = Path(item)
         if path.is_dir():
             found = sorted((p for p in path.iterdir() if p.is_file() and p.suffix.lower() in suffixes), key=natural_key)
@@ -106,6 +109,9 @@ def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto",
     if by == "auto" and all(p.suffix.lower() in (".jpg", ".jpeg") for p in (*left, *right)):
         try:
             return pair_by_time(left, right, max_dt), "time"
+        except DamagedExifError as error:  # not paired silently by order with one image's time unread
+            raise DamagedExifError(error.path, f"{error.problem}: capture times cannot pair these images; pair "
+                                   "them by order (--pair-by order) to ignore capture times") from None
         except InputFileError:
             pass  # no usable capture times: by order below
     if len(left) != len(right):

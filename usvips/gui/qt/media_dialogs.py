@@ -21,6 +21,7 @@ from usvips.gui.qt.pair_import_dialog import PairImportDialog
 from usvips.gui.qt.worker import Cancelled
 from usvips.gui.window_context import WindowContext
 from usvips.gui.wording import plural
+from usvips.io.exif import DamagedExifError
 from usvips.io.pairing import RULE_NAMES
 from usvips.store.opening import create_project
 
@@ -69,7 +70,12 @@ def add_image_pairs(context: WindowContext, parent: QtWidgets.QWidget, left: lis
             return 0
         left, right = [folder], [other]
     try:
-        plan, rule = video_project.plan_image_pairs(left, right)
+        try:
+            plan, rule = video_project.plan_image_pairs(left, right)
+        except DamagedExifError as error:  # the window offers no rule: by order, said, and confirmed below
+            plan, rule = video_project.plan_image_pairs(left, right, by="order")
+            context.messages.warning(f"{Path(error.path).name}: damaged EXIF, its capture time cannot be read: "
+                                     "paired by name order instead; check each pair before adding")
         model = PairImport(project, plan, RULE_NAMES[rule], prefix)
         if not confirm(parent, model):
             return 0
