@@ -146,6 +146,32 @@ def test_variable_frame_rate_is_detected_and_frames_are_numbered_by_timestamp(tm
             assert video.frame_at(t) == index
 
 
+@pytest.mark.parametrize(("codec", "bframes"), [("h264", 0), ("h264", 2), ("ffv1", 0)])
+def test_a_frame_whose_timestamp_repeats_the_one_before_is_still_its_own_picture(tmp_path, codec, bframes):
+    """Two or three frames with one timestamp (a capture that stamped a frame twice), key frames among them
+    or not: each frame number gives its own picture whether it is reached by a seek, by stepping on, or
+    after going past and back."""
+    rng = np.random.default_rng(7)
+    for case in range(4):
+        times = np.arange(40) / 25.0
+        repeated = sorted(rng.choice(np.arange(1, 40), size=case + 1, replace=False))
+        if case == 3:  # three frames with one timestamp
+            repeated = [*repeated[:-1], int(repeated[0]) + 1] if repeated[0] < 38 else repeated
+        for k in repeated:
+            times[k] = times[k - 1]
+        path = tmp_path / f"stamped_twice_{case}.mkv"
+        encode_video(path, (numbered(i) for i in range(40)), 25, codec, times_s=times, gop=10, bframes=bframes)
+        order = [int(i) for i in rng.permutation(40)]
+        with VideoStream(path) as video:
+            assert set(video.report.duplicated) >= set(repeated)
+            assert [number_of(video.frame(i)) for i in order] == order
+            assert [number_of(video.frame(i)) for i in range(40)] == list(range(40))
+        for k in repeated:
+            with VideoStream(path) as video:  # a fresh decoder's first seek
+                assert number_of(video.frame(k)) == k
+                assert number_of(video.frame(k - 1)) == k - 1 and number_of(video.frame(k)) == k
+
+
 def test_duplicated_and_dropped_frames_are_reported(tmp_path):
     content = [0, 1, 2, 3, 3, 4, 5, 6, 7, 8]  # frame 4 repeats frame 3
     intra = tmp_path / "duplicated.avi"  # Motion-JPEG at constant quality: the same bytes, found at opening

@@ -443,12 +443,16 @@ class VideoStream:
                       and self._packets is not None)
         if not continuing and self._proxy is not None and behind > self._proxy_after:
             return self._proxy.picture(index)  # the same planes, one intra frame away
+        # a frame whose timestamp repeats an earlier one's (a duplicated frame) is told apart by its place in
+        # the run of equal timestamps, counted from the first of the run this decoder has not returned yet
+        run_start = int(np.searchsorted(chapter.pts, target, side="left"))
         frame = None
         while frame is None:
             if not continuing:
                 self._seek(k, local)
+            returned = self._position - chapter.first + 1 if continuing else run_start
             frame = self._decode_until(chapter, target, index, int(chapter.pts[keys[-1]]) if keys.size else target,
-                                       continuing)
+                                       continuing, later=local - max(run_start, returned))
             if frame is None:  # the seek landed after the key frame the target needs: start earlier
                 self._seek_unreliable()
                 continuing = False
@@ -506,7 +510,14 @@ class VideoStream:
         seeked by byte position and land just after the key frame asked for); at key frame 0 the file is
         read from its start, which needs no seek at all."""
         self._open_chapter(k)
+        pts = self.chapters[k].pts
         keys = np.flatnonzero(self.chapters[k].keyframe[: local + 1])
+        # a key frame that shares its timestamp with another frame is no place to seek to: the seek may land
+        # on either of the two (then a run of equal timestamps could not be counted from its first frame)
+        shared = np.zeros(len(pts), dtype=bool)
+        shared[1:] |= pts[1:] == pts[:-1]
+        shared[:-1] |= pts[:-1] == pts[1:]
+        keys = keys[~shared[keys]]
         chosen = len(keys) - 1 - self._keys_back
         if chosen < 0 or (chosen == 0 and self._keys_back > 0):
             self._start_from_beginning(k)
@@ -546,10 +557,11 @@ class VideoStream:
         self._ready.extend(context.decode(packet))
         return True
 
-    def _decode_until(self, chapter: Chapter, target: int, index: int, key: int, continuing: bool):
-        """The decoded frame with timestamp ``target``, or None when the decoder cannot have decoded it
-        from all its references: the key frame it needs (timestamp ``key``) was not among the frames this
-        run of the decoder returned (a seek that landed after it), or the target never came."""
+    def _decode_until(self, chapter: Chapter, target: int, index: int, key: int, continuing: bool, later: int = 0):
+        """The decoded frame with timestamp ``target`` (the one after ``later`` others with that timestamp),
+        or None when the decoder cannot have decoded it from all its references: the key frame it needs
+        (timestamp ``key``) was not among the frames this run of the decoder returned (a seek that landed
+        after it), or the target never came."""
         # a running decoder already passed its key frame; one that started at the file's first packet, or
         # at its first key frame, has every reference there is (a file cut or edited at its start may never
         # show its first frame)
@@ -567,6 +579,9 @@ class VideoStream:
                 if timestamp is None or timestamp < target:
                     continue
                 if timestamp == target and seen_key:
+                    if later > 0:  # an earlier frame of a run of equal timestamps
+                        later -= 1
+                        continue
                     return frame
                 break  # overshot, or the target came without its key frame
         except av.error.FFmpegError as error:
