@@ -83,3 +83,20 @@ def test_the_full_media_check_runs_away_from_the_project_finds_every_damage_and_
         verify_media(records, lambda done, total: calls.append(done), cancelled=lambda: len(calls) >= 2,
                      chunk=1 << 16)
     assert len(calls) == 2  # nothing more was read once cancelled
+
+
+def test_adding_a_pair_refuses_a_damaged_jpeg_and_stores_nothing(tmp_path):
+    import cv2
+
+    from usvips.app.video_project import add_image_pairs
+    from usvips.core.errors import InputFileError
+
+    rng = np.random.default_rng(13)
+    picture = cv2.GaussianBlur((rng.random((120, 160, 3)) * 255).astype(np.uint8), (0, 0), 2)
+    good = cv2.imencode(".jpg", picture)[1].tobytes()
+    (tmp_path / "left.jpg").write_bytes(good[:len(good) // 2] + b"\xff\xd9")
+    (tmp_path / "right.jpg").write_bytes(good)
+    with Project.create(tmp_path / "p.usvips") as project:
+        with pytest.raises(InputFileError, match="left.jpg: the JPEG's compressed data is damaged"):
+            add_image_pairs(project, [("a", tmp_path / "left.jpg", tmp_path / "right.jpg")])
+        assert project.pairs() == []

@@ -65,3 +65,72 @@ def test_the_declared_size_is_read_from_every_common_header(tmp_path, suffix):
         image = rng.integers(0, 255, (height, width) if suffix == ".pgm" else (height, width, 3), dtype=np.uint8)
         ok, encoded = cv2.imencode(suffix, image)
         assert ok and declared_size(encoded.tobytes()) == (width, height)
+
+
+def _smooth_picture(rng, height=120, width=160):
+    import cv2
+
+    return cv2.GaussianBlur((rng.random((height, width, 3)) * 255).astype(np.uint8), (0, 0), 2)
+
+
+def test_valid_jpegs_of_every_common_kind_are_read_strictly(tmp_path):
+    """Baseline and progressive, optimised or not, 4:4:4 / 4:2:2 / 4:2:0, grey, CMYK, restart markers,
+    data after the end of the image (a camera's trailer, a second embedded JPEG): none is called damaged."""
+    import io
+
+    import cv2
+    from PIL import Image
+
+    from usvips.io.images import jpeg_damage
+
+    rng = np.random.default_rng(11)
+    picture = _smooth_picture(rng)
+    variants = []
+    for quality in (10, 75, 100):
+        for progressive in (0, 1):
+            for optimise in (0, 1):
+                variants.append(cv2.imencode(".jpg", picture, [cv2.IMWRITE_JPEG_QUALITY, quality,
+                                                               cv2.IMWRITE_JPEG_PROGRESSIVE, progressive,
+                                                               cv2.IMWRITE_JPEG_OPTIMIZE, optimise])[1].tobytes())
+    variants.append(cv2.imencode(".jpg", picture[:, :, 0], [cv2.IMWRITE_JPEG_RST_INTERVAL, 3])[1].tobytes())
+    for subsampling in (0, 1, 2):
+        for mode in ("L", "RGB", "CMYK"):
+            stream = io.BytesIO()
+            Image.fromarray(picture).convert(mode).save(stream, "JPEG", quality=90, subsampling=subsampling)
+            variants.append(stream.getvalue())
+    variants += [variants[0] + bytes(3000), variants[1] + b"camera trailer" * 40, variants[2] + variants[3]]
+    for k, data in enumerate(variants):
+        assert jpeg_damage(data) is None, k
+        (tmp_path / f"{k}.jpg").write_bytes(data)
+        assert read_image(tmp_path / f"{k}.jpg", strict=True).shape[:2] == (120, 160)
+
+
+def test_a_jpeg_whose_compressed_data_is_damaged_is_refused_when_added(tmp_path):
+    """Bytes overwritten inside the compressed data: OpenCV alone returns a partly wrong picture; a strict
+    read refuses every such file a decoder can tell, naming it. (JPEG has no checksum: damage that still
+    decodes as valid data is found by no decoder, so not every overwritten file is caught.)"""
+    import cv2
+
+    rng = np.random.default_rng(12)
+    good = cv2.imencode(".jpg", _smooth_picture(rng, 240, 320), [cv2.IMWRITE_JPEG_QUALITY, 90])[1].tobytes()
+    start_of_scan = good.index(b"\xff\xda")
+    refused = 0
+    for k in range(40):
+        damaged = bytearray(good)
+        at = int(rng.integers(start_of_scan + 200, len(good) - 100))
+        damaged[at:at + 40] = rng.integers(0, 256, 40, dtype=np.uint8).tobytes()
+        path = tmp_path / f"damaged{k}.jpg"
+        path.write_bytes(bytes(damaged))
+        assert read_image(path).shape == (240, 320, 3)  # OpenCV conceals it
+        try:
+            read_image(path, strict=True)
+        except InputFileError as error:
+            assert str(error).startswith(f"{path}: the JPEG's compressed data is damaged")
+            assert "\n" not in str(error)
+            refused += 1
+    assert refused >= 5  # about a quarter of such files (the rest decode without an error anywhere)
+    cut = tmp_path / "cut.jpg"
+    cut.write_bytes(good[:len(good) // 2] + b"\xff\xd9")  # cut in the compressed data, then an end marker
+    with pytest.raises(InputFileError, match="cut.jpg: the JPEG's compressed data is damaged"):
+        read_image(cut, strict=True)
+

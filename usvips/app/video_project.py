@@ -118,7 +118,7 @@ def add_image_pairs(project: ProjectStore, plan: Sequence[tuple[str, Path, Path]
                                      f"pair {label!r} cannot have it too (one image in two pairs)")
     sizes = []
     for label, left, right in plan:
-        a, b = read_image(left), read_image(right)
+        a, b = read_image(left, strict=True), read_image(right, strict=True)
         if a.shape[:2] != b.shape[:2]:
             raise InputFileError(str(right), f"pair {label!r}: {b.shape[1]} × {b.shape[0]} px, but the left image "
                                  f"{left.name} is {a.shape[1]} × {a.shape[0]} px")

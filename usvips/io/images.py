@@ -6,6 +6,7 @@ Arrays are numpy, row-major ``[row, col]`` (y down, x right, as the pixel conven
 
 from __future__ import annotations
 
+import io
 import os
 import re
 import struct
@@ -16,6 +17,9 @@ import numpy as np
 
 from usvips.core.errors import InputFileError, InvalidParameterError
 from usvips.io.atomic import write_bytes_atomic
+from usvips.io.lazy_import import lazy_module
+
+av = lazy_module("av")  # PyAV (FFmpeg's decoders) loaded when a JPEG is first checked for damage
 
 SUPPORTED_DTYPES = (np.uint8, np.uint16)
 #: Environment variable that raises (or lowers) the largest image read, in pixels (width × height).
@@ -106,11 +110,46 @@ def _webp_size(head: bytes) -> tuple[int, int] | None:
     return None
 
 
-def read_image(path: str | Path, limit: int | None = None) -> np.ndarray:
+def jpeg_damage(data: bytes) -> str | None:
+    """Why a JPEG's compressed data is damaged, or None when no decoder error shows (always None for
+    other formats).
+
+    OpenCV's decoder (libjpeg) conceals damage in a JPEG's entropy-coded data: it returns a picture, partly
+    grey or smeared, and only prints a warning. FFmpeg's decoder, made strict (``err_detect=explode``),
+    refuses such data instead. A file that FFmpeg's decoder cannot read at all even when lenient (a JPEG
+    variant it lacks) is not judged. JPEG carries no checksum: damage that still decodes as valid data
+    (changed coefficients) shows in no decoder."""
+    if data[:3] != b"\xff\xd8\xff":
+        return None
+    strict = _ffmpeg_first_picture(data, strict=True)
+    if strict is None:
+        return None
+    if _ffmpeg_first_picture(data, strict=False) is not None:
+        return None  # not even the lenient decoder reads it: a variant FFmpeg lacks, not judged
+    return f"the JPEG's compressed data is damaged ({strict}); copy it again from the camera's card"
+
+
+def _ffmpeg_first_picture(data: bytes, strict: bool) -> str | None:
+    """None when FFmpeg's JPEG decoder returns the file's first picture, else its error."""
+    try:
+        with av.open(io.BytesIO(data), format="jpeg_pipe") as container:
+            stream = container.streams.video[0]
+            if strict:
+                stream.codec_context.options = {"err_detect": "explode"}
+            for _frame in container.decode(stream):
+                return None
+            return "no picture decoded"
+    except (av.error.FFmpegError, ValueError, IndexError) as error:
+        return str(getattr(error, "strerror", None) or error.__class__.__name__)
+
+
+def read_image(path: str | Path, limit: int | None = None, strict: bool = False) -> np.ndarray:
     """Read an image file as uint8 or uint16, grey (H, W) or RGB (H, W, 3); alpha is dropped.
 
     The size the file's header declares is checked BEFORE decoding: an image over ``limit`` pixels
     (default :func:`max_pixels`, raised with ``$USVIPS_MAX_IMAGE_PIXELS``) is refused, naming the file.
+    ``strict`` (when a file is added to a project): a JPEG whose compressed data a decoder finds damaged is
+    refused too (:func:`jpeg_damage`; OpenCV's decoder would return a partly wrong picture).
     """
     path = Path(path)
     limit = max_pixels() if limit is None else limit
@@ -126,6 +165,9 @@ def read_image(path: str | Path, limit: int | None = None) -> np.ndarray:
     if size is not None and size[0] * size[1] > limit:
         raise InputFileError(str(path), f"declares {size[0]} × {size[1]} pixels, more than the limit of {limit:,} "
                              f"(raise it with the environment variable {MAX_PIXELS_VARIABLE})")
+    damage = jpeg_damage(data.tobytes()) if strict else None  # (before OpenCV, which would print a warning)
+    if damage is not None:
+        raise InputFileError(str(path), damage)
     image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
     if image is None:
         raise InputFileError(str(path), "not an image OpenCV can read (PNG, TIFF, JPEG, BMP ...)")
