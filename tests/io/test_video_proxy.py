@@ -77,6 +77,10 @@ def test_a_cancelled_build_leaves_nothing_and_a_proxy_of_other_files_is_not_used
             build_proxy(stream, out, cancelled=lambda: True)
         assert not out.exists() and not any((tmp_path / "proxies").iterdir())
         build_proxy(stream, out)
+        umask = os.umask(0o022)
+        os.umask(umask)
+        for made in (tmp_path / "proxies").iterdir():  # the proxy and its stamp: readable as any new file
+            assert made.stat().st_mode & 0o777 == 0o666 & ~umask, made.name
     encode_video(path, (panning_numbered_frame(i, W, H) for i in range(61)), 30, "h264", gop=30)  # re-recorded
     with VideoStream(path) as changed:
         assert not attach_proxy(changed, tmp_path / "proxies") and not changed.has_proxy

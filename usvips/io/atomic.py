@@ -36,6 +36,23 @@ class OutputFileError(InputFileError):
     replace_parameter: str | None = None
 
 
+def _process_umask() -> int:
+    """The process's file-mode mask (read once: setting it to read it back is not safe while other threads
+    create files)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
+_UMASK = _process_umask()
+
+
+def give_normal_mode(path: str | Path) -> None:
+    """Give a file made by :func:`tempfile.mkstemp` (mode 0600) the mode any new file gets here (0666 less
+    the umask), so that a colleague sharing the folder can read what USVIPS wrote."""
+    os.chmod(path, 0o666 & ~_UMASK)
+
+
 def check_output_path(path: str | Path) -> Path:
     """``path`` as a :class:`Path` if a file can be written there; else :class:`OutputFileError`."""
     path = Path(path)
@@ -87,9 +104,7 @@ def _replaced_atomically(path: str | Path, mode: str, **options) -> Iterator:
                 yield stream
             except OSError as error:
                 raise OutputFileError(str(path), f"cannot write: {error.strerror or error}") from None
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the file a normal file's mode
+        give_normal_mode(temporary)
         os.replace(temporary, path)
     except OSError as error:
         Path(temporary).unlink(missing_ok=True)
@@ -118,9 +133,7 @@ def write_files_atomic(files: dict[Path, str]) -> None:
             temporaries[path] = temporary
             with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
                 stream.write(text)
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(temporary, 0o666 & ~umask)
+            give_normal_mode(temporary)
         for path, temporary in temporaries.items():
             if path.exists():
                 handle, backup = tempfile.mkstemp(prefix=f".{path.name}.old.", dir=str(path.parent))

@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from usvips.core.errors import InputFileError
+from usvips.io.atomic import give_normal_mode
 
 JPEG_QUALITY = 95
 
@@ -123,9 +124,7 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float) -> i
             raise InputFileError(str(path), "no frames to write")
         writer.release()
         writer = None
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the file a normal file's mode
+        give_normal_mode(temporary)
         os.replace(temporary, path)
     finally:
         if writer is not None:

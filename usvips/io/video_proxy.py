@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.errors import InputFileError
+from usvips.io.atomic import give_normal_mode
 from usvips.io.lazy_import import lazy_module
 from usvips.io.video_stream import VideoStream
 
@@ -183,6 +184,8 @@ def build_proxy(stream: VideoStream, out: str | Path, progress: Callable[[int, i
             json.dump(stamp, file)
         for old in related_proxies(out.parent, stream):
             old.unlink(missing_ok=True)  # the stamp first: a proxy without its stamp is never used
+        give_normal_mode(temporary)
+        give_normal_mode(stamp_temporary)
         os.replace(temporary, out)
         os.replace(stamp_temporary, stamp_path(out))
     except InterruptedError:

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from usvips.core.errors import InputFileError
+from usvips.io.atomic import give_normal_mode
 from usvips.io.lazy_import import lazy_module
 from usvips.io.video_stream import VideoStream
 
@@ -101,9 +102,7 @@ def encode_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, cod
             container.mux(stream.encode(None))
             if sound is not None:
                 _write_audio(container, sound, *audio)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)
+        give_normal_mode(temporary)
         os.replace(temporary, path)
     except av.error.FFmpegError as error:
         raise InputFileError(str(path), f"FFmpeg cannot write the video: {error}") from None
