@@ -147,6 +147,10 @@ def _frames(count: int) -> str:
     return f"{count} frame" + ("" if count == 1 else "s")
 
 
+#: how a player turns a picture, by its clockwise display rotation in degrees
+TURN_WORDS = {90: "90° clockwise", 180: "upside down (180°)", 270: "90° counter-clockwise"}
+
+
 def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label: str | None = None,
                   scan_pictures: bool = False) -> VideoPlan:
     """Read a stereo video's files (each camera's files in order: chapters of one recording). Refuses
@@ -180,6 +184,12 @@ def inspect_video(left: Sequence[str | Path], right: Sequence[str | Path], label
                     except UsvipsError as error:
                         raise VideoError(f"{chapter.path} ({side}) is damaged: "
                                          f"{str(error).removeprefix(str(chapter.path) + ': ')}") from None
+            turned = stream.picture(0).display_rotation
+            if turned:
+                how = TURN_WORDS.get(turned, f"{turned}° clockwise")
+                warnings.append(f"{files[0]} ({side}): players show this video turned {how} (its "
+                                "display matrix); USVIPS measures the pictures as recorded, unturned, and so must its "
+                                "calibration have been made")
             report = stream.scan_pictures() if scan_pictures else stream.report
             if not report.clean:
                 warnings.append(f"{files[0]} ({side}): {report.summary()}")

@@ -210,6 +210,14 @@ class Picture:
         """(width, height) in pixels."""
         return int(self._frame.width), int(self._frame.height)
 
+    @property
+    def display_rotation(self) -> int:
+        """Degrees clockwise (0, 90, 180 or 270) a player turns this picture by, from the display matrix a
+        phone or a camera mounted upside down writes; USVIPS never turns it (pixels as recorded). (FFmpeg
+        states the matrix's rotation counter-clockwise; a player undoes it.)"""
+        rotation = getattr(self._frame, "rotation", 0) or 0
+        return int(round(-float(rotation))) % 360
+
     def array(self, grey: bool = False) -> np.ndarray:
         """RGB uint8 (H, W, 3) or grey (H, W)."""
         if grey:
