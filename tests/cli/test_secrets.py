@@ -163,3 +163,16 @@ def test_a_server_address_that_cannot_be_read_is_one_line_exit_2_and_nothing_cha
     assert "Traceback" not in text and "internal error" not in text
     _assert_no_secret(text, case)
     assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+@pytest.mark.parametrize("encoded", [False, True])
+def test_a_usage_error_quoting_a_server_url_hides_its_password(encoded):
+    """argparse's own errors quote what was typed (an extra argument, a value not among the choices): the
+    password in a server URL is not printed there either."""
+    password = quote(SECRET, safe="") if encoded else SECRET
+    url = f"postgresql://alice:{password}@127.0.0.1:1/survey"
+    for args in (["project", "info", "x.usvips", url], ["project", "export", "m.usvips", "out", "--format", url],
+                 ["project", "info", url, "--bogus-option"], [url]):
+        code, text = run(args)
+        assert code == 2 and text.count("\n") == 1, text
+        _assert_no_secret(text, " ".join(args[:2]))

@@ -65,3 +65,25 @@ def test_a_forced_replacement_keeps_a_backup_only_when_the_writing_succeeds(tmp_
     with pytest.raises(OutputFileError):  # refused before anything happens
         with replacing(target, [target]):
             raise AssertionError("the block must not run")
+
+
+def test_a_pipe_or_a_device_is_never_written_over_nor_waited_on(tmp_path):
+    """A named pipe as the output would block opening it (to see whether it holds a project); a device
+    would be replaced by a regular file by the rename. Both are refused, before anything is opened; as an
+    input, each is named for what it is (not "no such file")."""
+    import os
+
+    from usvips.io.file_errors import not_a_file
+
+    pipe = tmp_path / "pipe.csv"
+    os.mkfifo(pipe)
+    for output in (pipe, "/dev/null"):
+        with pytest.raises(OutputFileError, match="not a regular file; give a file name"):
+            write_text_atomic(output, "x")
+        with pytest.raises(OutputFileError, match="not a regular file"):
+            guard_output(output)
+    assert precious_kind(pipe) is None  # answered without opening it (an open would wait for a writer)
+    assert pipe.exists() and not pipe.is_file()
+    assert str(not_a_file(pipe)) == f"{pipe}: is a named pipe, not a regular file: save it to a file first"
+    assert str(not_a_file("/dev/null")).endswith("is a device, not a regular file: save it to a file first")
+    assert str(not_a_file(tmp_path / "missing.csv")).endswith("no such file")

@@ -123,7 +123,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv) or ["open"]  # no arguments: the workstation window
     parser = build_parser(_command_in(argv))
     try:
-        args = parser.parse_args(argv)
+        with _redacted_output():  # a usage error quotes what was typed: a server URL's password too
+            args = parser.parse_args(argv)
     except SystemExit as stop:  # --help, --version, or a usage error already printed as one line
         return stop.code if isinstance(stop.code, int) else 0 if stop.code is None else 2
     handler: Callable[[argparse.Namespace], int] | None = getattr(args, "handler", None)

@@ -23,6 +23,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from usvips.core.errors import InputFileError, concerning
+from usvips.io.file_errors import special_kind
 
 #: The longest file name (one path component, in bytes) most file systems accept.
 NAME_MAX = 255
@@ -63,6 +64,9 @@ def check_output_path(path: str | Path) -> Path:
                               f"bytes; at most {NAME_MAX})")
     if path.is_dir():
         raise OutputFileError(str(path), "is a folder; give a file name")
+    kind = special_kind(path)
+    if kind is not None:  # renaming onto it would replace the device; opening a pipe would wait forever
+        raise OutputFileError(str(path), f"is {kind}, not a regular file; give a file name")
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise OutputFileError(str(path), f"the folder {folder} does not exist")
@@ -177,6 +181,8 @@ def backup_path(path: str | Path) -> Path:
 def precious_kind(path: str | Path) -> str | None:
     """What kind of work an existing file at ``path`` holds ("a USVIPS project …", "a USVIPS calibration"),
     or None for any other file (or none): judged by its first bytes, never by its name."""
+    if special_kind(path) is not None:
+        return None  # a pipe would block the open; a device holds no one's work
     try:
         with open(path, "rb") as stream:
             head = stream.read(4096)
