@@ -48,3 +48,37 @@ def test_a_species_list_not_in_utf8_is_named_by_its_line_or_as_utf16(tmp_path):
     path.write_bytes(b"family,genus,species\rSparidae,Pagrus,auratus\rLabridae,Noto\xfflabrus,celidotus\r")
     with pytest.raises(InputFileError, match=r"line 3: not a text \(UTF-8\) species list"):
         read_species_list(path)
+
+
+@pytest.mark.parametrize(("rows", "line", "words"), [
+    ('Sparidae,Chrysophrys,"aur\natus",1', 2, "not a valid CSV line"),  # a quoted line break
+    ('Sparidae,Chrysophrys,"auratus,1', 2, "not a valid CSV line"),  # a quote left open
+    ("Sparidae,Chrysophrys", 2, "2 fields but the header has 4"),  # a short row
+    ("Sparidae,Chrysophrys,auratus,1,extra", 2, "5 fields but the header has 4"),  # a value slipped
+    ("Sparidae,Chry\x00sophrys,auratus,1", 2, "NUL byte"),
+    ("Sparidae,Chrysophrys,auratus,1\nsparidae,chrysophrys,Auratus,2", 3, r"listed twice \(also on line 2\)"),
+])
+def test_a_row_that_is_not_one_clean_taxon_is_refused_by_its_line(tmp_path, rows, line, words):
+    path = tmp_path / "species.csv"
+    path.write_text("family,genus,species,code\n" + rows + "\n", encoding="utf-8")
+    with pytest.raises(InputFileError, match=words) as raised:
+        read_species_list(path)
+    assert raised.value.line == line and "\n" not in str(raised.value)
+
+
+@pytest.mark.parametrize("cell", ["1_30", "١٣٠", "130,5"])
+def test_a_maximum_length_that_another_program_reads_as_text_is_refused(tmp_path, cell):
+    path = tmp_path / "species.csv"
+    path.write_text(f'family,genus,species,max_length_cm\nSparidae,Chrysophrys,auratus,"{cell}"\n', encoding="utf-8")
+    with pytest.raises(InputFileError, match="is not a number"):
+        read_species_list(path)
+
+
+def test_indented_comments_and_padded_fields_are_read_as_every_table_reads_them(tmp_path):
+    path = tmp_path / "species.csv"
+    path.write_text("family, genus ,species,code\n   # a comment\nSparidae , Chrysophrys,auratus,1\n"
+                    '"Labridae","Notolabrus","gymnogenis",2\n', encoding="utf-8")
+    assert [s.name for s in read_species_list(path)] == ["Chrysophrys auratus", "Notolabrus gymnogenis"]
+    path.write_text("family;genus;species\nSparidae;Chrysophrys;auratus\n", encoding="utf-8")
+    with pytest.raises(InputFileError, match="separated by semicolons, not commas"):
+        read_species_list(path)

@@ -1,7 +1,9 @@
 """Species lists (CSV): one taxon a line with the columns ``family``, ``genus``, ``species`` and
 ``code`` — the columns of EventMeasure's and CheckEM's species lists (header names are matched without
 case; ``caab``, ``caab_code`` and ``species_code`` are read as ``code``, which may be missing). Lines
-starting with ``#`` and blank lines are ignored. Every error names the file and the line.
+starting with ``#`` (after white space) and blank lines are ignored; every line is read as every CSV
+table's (:func:`usvips.io.tables.split_line`) and has the header's number of fields. A taxon is one however
+its names are capitalised. Every error names the file and the line.
 
 An optional column gives each species' maximum length, its unit in the header: ``max_length_mm``,
 ``max_length_cm``, ``max_length_m`` (or ``length_max_mm`` …), or ``fb_length_max`` (FishBase's, in cm).
@@ -9,13 +11,13 @@ An empty cell is a species without a maximum; a header ``max_length`` without a 
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.observation_record import Species
 from usvips.io.file_errors import not_a_file
+from usvips.io.tables import plain_number, separator_hint, split_line
 from usvips.io.text_lines import not_utf8, refuse_control_characters, split_lines
 
 ALIASES = {"family": "family", "genus": "genus", "species": "species", "code": "code", "caab": "code",
@@ -46,10 +48,12 @@ def read_species_list(path: str | Path) -> list[Species]:
     except OSError as error:
         raise InputFileError(str(path), f"cannot read the file: {error.strerror or error}") from None
     refuse_control_characters(str(path), text)
-    lines = [(n, line) for n, line in enumerate(split_lines(text), 1) if line.strip() and not line.startswith("#")]
-    if not lines:
+    # each line read as every CSV table's (strict quoting, no NUL, fields and lines of a bounded length)
+    rows = [(n, fields) for n, line in enumerate(split_lines(text), 1)
+            if (fields := split_line(path, n, line)) is not None]
+    if not rows:
         raise InputFileError(str(path), "is empty: expected a header family,genus,species,code and one line a taxon")
-    header_line, header = lines[0][0], next(csv.reader([lines[0][1]]))
+    header_line, header = rows[0]
     columns: dict[str, int] = {}
     for i, h in enumerate(header):
         name = ALIASES.get(h.strip().lower())
@@ -75,19 +79,22 @@ def read_species_list(path: str | Path) -> list[Species]:
     maximum = lengths[0] if lengths else None
     missing = [c for c in REQUIRED if c not in columns]
     if missing:
-        raise InputFileError(str(path), f"the header lacks {', '.join(missing)} (has {', '.join(header)})",
-                             header_line)
+        shown = ", ".join(header)[:80].replace("\t", " ")
+        raise InputFileError(str(path), f"the header lacks {', '.join(missing)} (has {shown})"
+                             f"{separator_hint(header)}", header_line)
     species: list[Species] = []
     seen: dict[str, int] = {}
     codes: dict[str, int] = {}
-    for number, line in lines[1:]:
-        row = next(csv.reader([line]))
-        values = {name: (row[i] if i < len(row) else "") for name, i in columns.items()}
+    for number, row in rows[1:]:
+        if len(row) != len(header):  # a quote left open, a value with a comma, or a column slipped
+            raise InputFileError(str(path), f"{len(row)} fields but the header has {len(header)} "
+                                 f"({','.join(header)[:80]})", number)
+        values = {name: row[i] for name, i in columns.items()}
         max_length = None
-        if maximum is not None and maximum[0] < len(row) and row[maximum[0]].strip():
-            text = row[maximum[0]].strip()
+        if maximum is not None and row[maximum[0]]:
+            text = row[maximum[0]]
             try:
-                given = float(text)
+                given = plain_number(text)
             except ValueError:
                 raise InputFileError(str(path), f"the maximum length {text!r} is not a number", number) from None
             if not (math.isfinite(given) and given > 0):
@@ -106,10 +113,10 @@ def read_species_list(path: str | Path) -> list[Species]:
             entry = Species(values["family"], values["genus"], values["species"], values.get("code", ""), max_length)
         except UsvipsError as error:
             raise InputFileError(str(path), str(error), number) from None
-        if entry.name in seen:
-            raise InputFileError(str(path), f"{entry.name} is listed twice (also on line {seen[entry.name]})",
-                                 number)
-        seen[entry.name] = number
+        key = entry.name.casefold()  # "Chrysophrys auratus" and "chrysophrys Auratus" are one taxon
+        if key in seen:
+            raise InputFileError(str(path), f"{entry.name} is listed twice (also on line {seen[key]})", number)
+        seen[key] = number
         if entry.code:
             if entry.code in codes:
                 raise InputFileError(str(path), f"the code {entry.code!r} is given to two taxa (also on line "

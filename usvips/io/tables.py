@@ -110,13 +110,19 @@ def check_header(path: Path, header: list[str], line: int) -> None:
         raise InputFileError(str(path), f"duplicate column names in the header {','.join(header)[:80]}", line)
 
 
+def separator_hint(header: list[str]) -> str:
+    """": its fields are separated by semicolons (or tabs), not commas; …" when the header read as one
+    column holds that separator (a spreadsheet's export in a comma-decimal locale), else ""."""
+    separator = next((name for mark, name in ((";", "semicolons"), ("\t", "tabs")) if len(header) == 1
+                      and mark in header[0]), None)
+    return f": its fields are separated by {separator}, not commas; save it as comma-separated CSV" \
+        if separator else ""
+
+
 def _column_index(path: Path, header: list[str], required: tuple[str, ...]) -> dict[str, int]:
     missing = [c for c in required if c not in header]
     if missing:
-        separator = next((name for mark, name in ((";", "semicolons"), ("\t", "tabs")) if len(header) == 1
-                          and mark in header[0]), None)
-        hint = f": its fields are separated by {separator}, not commas; save it as comma-separated CSV" \
-            if separator else ""
+        hint = separator_hint(header)
         shown = ", ".join(header)[:80].replace("\t", " ")
         raise InputFileError(str(path), f"missing column(s) {', '.join(missing)}; the header has {shown} (expected "
                              f"{','.join(required)}){hint}")
@@ -129,25 +135,19 @@ MAX_PIXEL = 1e6
 MAX_COORDINATE = 1e8
 
 
-def _plain_float(text: str) -> float:
-    """``float(text)`` of a number as a table writes it: Python's own digit separators (``1_000``) are no
-    number in a CSV file (another program reads them as text), so they are refused like text."""
-    if "_" in text:
+def plain_number(text: str, kind: type = float) -> float | int:
+    """``kind(text)`` (``float`` or ``int``) of a number as a table writes it: ASCII digits only. Python
+    also reads its own digit separators (``1_000``) and other scripts' digits (``١٢``), which another
+    program reads as text; both are refused like text (:class:`ValueError`)."""
+    if "_" in text or not text.isascii():
         raise ValueError(text)
-    return float(text)
-
-
-def _plain_int(text: str) -> int:
-    """``int(text)`` of a whole number as a table writes it (no ``1_000``, as :func:`_plain_float`)."""
-    if "_" in text:
-        raise ValueError(text)
-    return int(text)
+    return kind(text)
 
 
 def _number(path: Path, line: int, column: str, text: str, limit: tuple[float, str] | None = None) -> float:
     """The number in one field; ``limit``: (largest magnitude, its unit) beyond which it is no value."""
     try:
-        value = _plain_float(text)
+        value = plain_number(text)
     except ValueError:
         raise InputFileError(str(path), f"column {column}: {_show(text)} is not a number", line) from None
     if not math.isfinite(value):
@@ -276,7 +276,7 @@ def read_picks(path: str | Path) -> list[dict]:
         for column in ("vertex", "xl", "yl", "xr", "yr"):
             text = fields[columns[column]]
             try:
-                value = _plain_float(text) if column != "vertex" else _plain_int(text)
+                value = plain_number(text, float if column != "vertex" else int)
             except ValueError:
                 value = math.nan
             if not math.isfinite(value):
