@@ -75,3 +75,37 @@ def test_an_import_is_checked_before_anything_is_stored_and_stored_all_or_nothin
         with pytest.raises(ProjectError):  # the same observation again: the new control must not stay either
             store_import(project, plan.__class__(moved, plan.observations, "a"))
         assert project.control().ids == ("1", "2", "3")
+
+
+def test_an_import_says_what_it_replaced_added_and_left_without_control(tmp_path):
+    """Control points replace the stored ones (said, with how many were there); observations are added to
+    the pair's (a point observed again is named); points observed but no longer control points are named."""
+    rng = np.random.default_rng(2)
+    write_control(tmp_path / "c3.csv", ControlPoints(("1", "2", "3"), rng.normal(size=(3, 3))))
+    write_control(tmp_path / "c1.csv", ControlPoints(("1",), rng.normal(size=(1, 3))))
+    write_observations(tmp_path / "o.csv", StereoObservations(("1", "2", "3"), rng.uniform(0, 99, (3, 2)),
+                                                              rng.uniform(0, 99, (3, 2)), ("a", "a", "a")))
+    write_observations(tmp_path / "more.csv", StereoObservations(("3", "4"), rng.uniform(0, 99, (2, 2)),
+                                                                 rng.uniform(0, 99, (2, 2)), ("a", "a")))
+    with Project.create(tmp_path / "p.usvips") as project:
+        assert store_import(project, plan_import(tmp_path / "c3.csv", tmp_path / "o.csv", "a")) == [
+            "3 control points", "3 calibration-water observations of pair 'a'"]
+        with pytest.raises(ProjectError, match="pair 'a', role 'calibration-water': point.s. 3 already have "
+                                               "observations stored; nothing was imported"):
+            store_import(project, plan_import(observations=tmp_path / "more.csv", pair="a"))
+        said = store_import(project, plan_import(tmp_path / "c1.csv"))
+        assert said == ["1 control point (replacing the 3 stored)", "observed points that are no longer control "
+                        "points: 2, 3 (their observations stay, unused until they are given again)"]
+        assert project.control().ids == ("1",) and len(project.control_observations("calibration-water", "a")) == 3
+
+
+def test_observations_of_one_pair_are_not_filed_under_another_pair_given(tmp_path):
+    rng = np.random.default_rng(3)
+    write_observations(tmp_path / "o.csv", StereoObservations(("1", "2"), rng.uniform(0, 99, (2, 2)),
+                                                              rng.uniform(0, 99, (2, 2)), ("water1", "water1")))
+    with pytest.raises(InputFileError, match="its pair column says 'water1', but the image pair given is 'watr1'"):
+        plan_import(observations=tmp_path / "o.csv", pair="watr1")
+    assert plan_import(observations=tmp_path / "o.csv", pair="water1").pair == "water1"
+    write_observations(tmp_path / "bare.csv", StereoObservations(("1",), rng.uniform(0, 99, (1, 2)),
+                                                                 rng.uniform(0, 99, (1, 2))), with_pair=False)
+    assert plan_import(observations=tmp_path / "bare.csv", pair="any").pair == "any"  # no pair column

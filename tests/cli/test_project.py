@@ -108,7 +108,7 @@ def test_a_failed_import_changes_nothing(tmp_path, capsys):
     assert main(["project", "import", str(out), "--control", str(SAMPLE / "control_table3_2.csv"),
                  "--obs", str(good_obs), "--pair", "fresh"]) == 2
     err = capsys.readouterr().err
-    assert "already stored" in err and err.count("\n") == 1
+    assert "point(s) 1 already have observations stored" in err and err.count("\n") == 1
     assert _snapshot(out) == with_fresh and before["control"] == with_fresh["control"]
 
 

@@ -19,7 +19,7 @@ from usvips.io.calibration_file import calibration_to_dict, load_calibration
 from usvips.io.manifest import ROLES
 from usvips.io.tables import read_control, read_observations, refuse_off_every_image, refuse_outside_image
 from usvips.store.interface import ProjectStore
-from usvips.store.records import Pair
+from usvips.store.records import Pair, ProjectError
 
 
 def media_files(project: ProjectStore) -> list[Path]:
@@ -178,7 +178,8 @@ def plan_import(control: str | Path | None = None, observations: str | Path | No
                 role: str = "calibration-water", calibration: str | Path | None = None,
                 active_for: tuple[str, ...] = ()) -> ImportPlan:
     """Read and check every file to import, before any project is touched. ``observations`` needs
-    ``pair``; a file holding several pairs gives that pair's rows (it must be one of them)."""
+    ``pair``; a file holding several pairs gives that pair's rows (it must be one of them), and a file
+    of one pair must name ``pair`` in its pair column, if it has one."""
     if not (control or observations or calibration):
         raise UsvipsError("nothing to import: give control points, observations or a calibration")
     if observations and not pair:
@@ -194,6 +195,10 @@ def plan_import(control: str | Path | None = None, observations: str | Path | No
                                             f"pairs ({', '.join(rows.pair_labels)[:80]}); name one of them as "
                                             "the image pair"), "pair")
         rows = rows.pair(pair)
+    elif rows is not None and rows.pair_labels[0] not in (pair, "1"):  # ("1": the file has no pair column)
+        raise concerning(InputFileError(str(observations), f"its pair column says {rows.pair_labels[0]!r}, but "
+                                        f"the image pair given is {pair!r}: name the pair the file says (or "
+                                        "remove its pair column)"), "pair")
     data = calibration_to_dict(load_calibration(calibration)) if calibration else None
     if rows is not None:
         labels, lines = list(rows.ids), list(rows.lines)
@@ -207,15 +212,55 @@ def plan_import(control: str | Path | None = None, observations: str | Path | No
                       tuple(active_for))
 
 
-def store_import(project: ProjectStore, plan: ImportPlan) -> None:
-    """Store a checked :class:`ImportPlan` in ``project`` in one transaction (a new pair is created)."""
+def store_import(project: ProjectStore, plan: ImportPlan) -> list[str]:
+    """Store a checked :class:`ImportPlan` in ``project`` in one transaction (a new pair is created); returns
+    what changed, a phrase each. Control points REPLACE the stored ones (the phrase says how many were
+    there); a pair's observations of a role are added to those stored (a point observed again is refused
+    by its id); observations of points no longer given as control points are named: they stay, unused
+    until those points are given again."""
+    said = []
     with project.transaction():
         if plan.control is not None:
+            before = len(project.control())
             project.set_control(plan.control)
+            said.append(f"{_count(len(plan.control), 'control point')}" + (f" (replacing the {before} stored)"
+                                                                          if before else ""))
         if plan.observations is not None:
             if plan.pair not in {p.label for p in project.pairs()}:
                 project.add_pair(plan.pair)
+            stored = project.control_observations(plan.role, plan.pair).ids
+            again = sorted(set(stored) & set(plan.observations.ids), key=plan.observations.ids.index)
+            if again:
+                shown = ", ".join(again[:5]) + (f" and {len(again) - 5} more" if len(again) > 5 else "")
+                raise ProjectError(f"{project.path}: pair {plan.pair!r}, role {plan.role!r}: point(s) {shown} "
+                                   "already have observations stored; nothing was imported")
             project.add_control_observations(plan.observations, plan.role, plan.pair)
+            said.append(f"{_count(len(plan.observations), plan.role + ' observation')} of pair {plan.pair!r}"
+                        + (f" (added to the {len(stored)} stored)" if stored else ""))
         if plan.calibration is not None:
             calibration_dict_size_check(project, plan.calibration, plan.active_for, plan.calibration_name + ".json")
             store_calibration(project, plan.calibration_name, plan.calibration, plan.active_for)
+            said.append(f"calibration {plan.calibration_name!r}")
+        if plan.control is not None:
+            orphans = _observed_without_control(project)
+            if orphans:
+                shown = ", ".join(orphans[:5]) + (f" and {len(orphans) - 5} more" if len(orphans) > 5 else "")
+                said.append(f"observed points that are no longer control points: {shown} (their observations "
+                            "stay, unused until they are given again)")
+    return said
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
+def _observed_without_control(project: ProjectStore) -> list[str]:
+    """Ids of points observed in any pair and role that the project's control points do not give."""
+    given = set(project.control().ids)
+    missing: dict[str, None] = {}
+    for pair in project.pairs():
+        for role in ROLES:
+            for pid in project.control_observations(role, pair.label).ids:
+                if pid not in given:
+                    missing[pid] = None
+    return list(missing)

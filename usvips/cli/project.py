@@ -200,8 +200,8 @@ def run_import(args: argparse.Namespace) -> int:
     # every file is read and checked before the project is opened; then all goes in one transaction
     plan = plan_import(args.control, args.obs, args.pair, args.role, args.calibration, tuple(args.active_for))
     with open_project(args.project) as project:
-        store_import(project, plan)
-    print(f"imported into {shown(args.project)}")
+        said = store_import(project, plan)
+    print(f"imported into {shown(args.project)}: {'; '.join(said)}")
     return 0
 
 
