@@ -220,3 +220,46 @@ def test_a_mismatched_pair_is_counted_and_named_and_still_written(tmp_path, cali
     first = summary.first_misfit
     assert (first.point, first.line) == (fields[0], 9) and first.misfit > first.limit
     assert first.rms_px > 3
+
+
+def test_each_row_is_intersected_at_the_station_its_pair_column_names(tmp_path):
+    """A calibration of two stations (water1, water2) and one observation file of both pairs: each row at
+    its own pair's station lands on its control point (the sample's truth), chunked or whole, and the
+    output names each row's pair (an id repeats across pairs). A row of another calibrated station than
+    the one given, or of a pair that is no calibrated station, is refused by its line; in the rig frame the
+    station does not matter."""
+    from pathlib import Path
+
+    from usvips.io.tables import read_control
+
+    sample = Path(__file__).resolve().parents[2] / "sample_projects" / "rov_flatport"
+    calibration = load_calibration(sample / "calibration.json")
+    assert calibration.stations == ("water1", "water2")
+    observed = sample / "observations_water.csv"
+    control = read_control(sample / "control.csv")
+    truth = dict(zip(control.ids, control.xyz, strict=True))
+    texts = []
+    for rows in (WHOLE, 3):
+        _run(calibration, observed, tmp_path / "points.csv", rows)
+        texts.append((tmp_path / "points.csv").read_text())
+    assert texts[0] == texts[1]
+    table = list(csv.reader(io.StringIO(texts[0])))
+    assert table[0] == ["id", "pair", "X", "Y", "Z", "sX", "sY", "sZ"]
+    pairs = {row[1] for row in table[1:]}
+    assert pairs == {"water1", "water2"}
+    z = np.array([(np.array(row[2:5], float) - truth[row[0]]) / np.array(row[5:8], float) for row in table[1:]])
+    assert np.all(np.abs(z) < 5) and 0.05 < np.mean(z ** 2) < 3
+    with pytest.raises(InputFileError, match=r"line \d+: pair 'water2' is calibrated station 1 \(water2\), not the "
+                                             r"station given \(water1\)"):
+        _run(calibration, observed, tmp_path / "one.csv", station="water1")
+    assert not (tmp_path / "one.csv").exists()
+    renamed = tmp_path / "renamed.csv"
+    renamed.write_text(observed.read_text().replace("water2", "nosuch"))
+    with pytest.raises(InputFileError, match="pair 'nosuch' is not a calibrated station .water1, water2."):
+        _run(calibration, renamed, tmp_path / "two.csv")
+    assert _run(calibration, renamed, tmp_path / "rig.csv", frame="rig").written == len(table) - 1
+    # the water2 rows put in water1's frame (what one station for every row did) miss their points
+    wrong = _run(calibration, renamed, tmp_path / "wrong.csv", station="water1")
+    rows = [row for row in csv.reader(io.StringIO((tmp_path / "wrong.csv").read_text())) if row[1] == "nosuch"]
+    assert wrong.written == len(table) - 1 and rows
+    assert np.median([np.linalg.norm(np.array(row[2:5], float) - truth[row[0]]) for row in rows]) > 0.05

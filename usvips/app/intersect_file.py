@@ -31,14 +31,14 @@ import numpy as np
 from usvips.app.ordered_pool import available_cores, ordered_map
 from usvips.core.batch_mode import batch_computation
 from usvips.core.calibration.uncertainty import intersect_with_calibration
-from usvips.core.errors import DegenerateGeometryError
+from usvips.core.errors import DegenerateGeometryError, InputFileError
 from usvips.core.intersection import MISFIT_SIGNIFICANCE, Intersection, misfit_limit, ray_misfit
 from usvips.core.observations import StereoObservations
 from usvips.core.pointing import HAND_CLICK_SIGMA_PX
 from usvips.core.rays import RayStatus
 from usvips.core.stereo_calibration import StereoCalibration
 from usvips.io.atomic import text_atomic
-from usvips.io.observation_stream import CHUNK_ROWS, observation_chunks
+from usvips.io.observation_stream import CHUNK_ROWS, observation_chunks, observation_header
 from usvips.io.tables import outside_image, outside_image_error
 
 #: the points file's columns
@@ -47,15 +47,16 @@ POINT_COLUMNS = ("id", "X", "Y", "Z", "sX", "sY", "sZ")
 
 @dataclass(frozen=True)
 class IntersectOptions:
-    """How to intersect: the calibrated ``station`` (index or pair label) and ``frame`` (``object``: the
-    control frame at the station; ``rig``: left perspective centre, left axes); whether the sigmas include
+    """How to intersect: the calibrated ``station`` (index or pair label; None: each row at the station its
+    pair column names, see :func:`row_stations`) and ``frame`` (``object``: the control frame at the
+    station; ``rig``: left perspective centre, left axes); whether the sigmas include
     the calibration's own uncertainty (else the pointing precision alone); the picks' pointing sigma
     (px, one image coordinate; the hand-click default of :mod:`usvips.core.pointing` when None — never the
     calibration's sigma0); whether points that do not intersect are left out (listed) instead of failing
     the run; the rows per chunk; the processes that intersect the chunks (None: one per core; 1: this
     process alone)."""
 
-    station: int | str = 0
+    station: int | str | None = None
     frame: str = "object"
     include_calibration: bool = True
     pointing_sigma_px: float | None = None
@@ -114,10 +115,54 @@ class IntersectSummary:
         return float(np.sqrt(self.residual_square_sum / self.residual_count)) if self.residual_count else 0.0
 
 
+def row_stations(calibration: StereoCalibration, chunk: StereoObservations, station: int | str | None,
+                 frame: str, source: str = "") -> np.ndarray:
+    """The calibrated station (index) each row of ``chunk`` is intersected at.
+
+    In the rig frame the station does not matter (one relative orientation): station 0 or ``station``.
+    In a station's object frame, with ``station`` None, a row whose pair label names a calibrated station
+    is intersected there; a file without a pair column (every label ``"1"``) or a calibration of one
+    station uses station 0; any other label is an error naming its line (which station's frame is meant
+    cannot be told). With ``station`` given, every row is intersected there, but a row whose pair label
+    names ANOTHER calibrated station is an error: its cameras stood elsewhere."""
+    labels = calibration.stations
+    if frame == "rig" or (station is None and len(labels) == 1):
+        return np.full(len(chunk), 0 if station is None else calibration.station_index(station), dtype=np.intp)
+    fixed = None if station is None else calibration.station_index(station)
+    indices = np.empty(len(chunk), dtype=np.intp)
+    for k, pair in enumerate(chunk.pairs):
+        own = labels.index(pair) if pair in labels else None
+        if fixed is not None and own is not None and own != fixed:
+            raise _row_error(source, chunk, k, f"pair {pair!r} is calibrated station {own} ({pair}), not the station "
+                             f"given ({labels[fixed]}): leave the station out to intersect each row at its own "
+                             "pair's station")
+        if fixed is None and own is None and pair != "1":
+            raise _row_error(source, chunk, k, f"pair {pair!r} is not a calibrated station ({', '.join(labels)}): "
+                             "give the station whose frame to use, or the rig frame")
+        indices[k] = fixed if fixed is not None else (own if own is not None else 0)
+    return indices
+
+
+def _row_error(source: str, chunk: StereoObservations, k: int, problem: str) -> InputFileError:
+    return InputFileError(source or chunk.source, problem, chunk.lines[k] if chunk.lines else None)
+
+
 def intersect_chunk(calibration: StereoCalibration, chunk: StereoObservations,
                     options: IntersectOptions) -> Intersection:
-    """The intersection of one chunk's conjugate pixels (each point on its own)."""
-    return intersect_with_calibration(calibration, chunk.left, chunk.right, options.station, options.frame,
+    """The intersection of one chunk's conjugate pixels (each point on its own, at its station:
+    :func:`row_stations`)."""
+    stations = row_stations(calibration, chunk, options.station, options.frame)
+    first = int(stations[0]) if len(stations) else 0
+    if np.all(stations == first):
+        return _intersect_at(calibration, chunk, first, options)
+    parts = {int(s): np.flatnonzero(stations == s) for s in np.unique(stations)}
+    results = {s: _intersect_at(calibration, chunk.take(rows), s, options) for s, rows in parts.items()}
+    return Intersection.gathered([(rows, results[s]) for s, rows in parts.items()], len(chunk))
+
+
+def _intersect_at(calibration: StereoCalibration, chunk: StereoObservations, station: int,
+                  options: IntersectOptions) -> Intersection:
+    return intersect_with_calibration(calibration, chunk.left, chunk.right, station, options.frame,
                                       include_calibration=options.include_calibration,
                                       pointing_sigma_px=options.pointing_sigma_px)
 
@@ -138,10 +183,10 @@ class ChunkOutcome:
 
 
 @batch_computation  # one BLAS thread: its products are tall and thin (core/batch_mode.py)
-def chunk_outcome(run: tuple[StereoCalibration, IntersectOptions], chunk: StereoObservations) -> ChunkOutcome:
-    """One chunk intersected and formatted (``run`` = the calibration and the options): the work a worker
-    does (:mod:`usvips.app.ordered_pool`)."""
-    calibration, options = run
+def chunk_outcome(run: tuple[StereoCalibration, IntersectOptions, bool], chunk: StereoObservations) -> ChunkOutcome:
+    """One chunk intersected and formatted (``run`` = the calibration, the options and whether the rows
+    carry their pair label): the work a worker does (:mod:`usvips.app.ordered_pool`)."""
+    calibration, options, with_pair = run
     result = intersect_chunk(calibration, chunk, options)
     residuals = result.residuals_px[result.ok]
     misfit = np.zeros(len(chunk))
@@ -153,17 +198,18 @@ def chunk_outcome(run: tuple[StereoCalibration, IntersectOptions], chunk: Stereo
     if beyond.size:
         k = int(beyond[0])
         first = (k, float(misfit[k]), limit, float(np.sqrt(np.mean(result.residuals_px[k] ** 2))))
-    return ChunkOutcome(points_text(chunk.ids, result), np.asarray(result.status),
+    return ChunkOutcome(points_text(chunk.ids, result, chunk.pairs if with_pair else None), np.asarray(result.status),
                         float(np.sum(residuals ** 2)), int(residuals.size), int(beyond.size), first)
 
 
-def point_rows(ids: tuple[str, ...], result: Intersection) -> list[list[str]]:
-    """CSV rows ``id, X, Y, Z, sX, sY, sZ`` (metres, 6 decimals) of the intersected points, in input order
-    (every number formatted in one pass over a flat list)."""
+def point_rows(ids: tuple[str, ...], result: Intersection, pairs: tuple[str, ...] | None = None) -> list[list[str]]:
+    """CSV rows ``id, X, Y, Z, sX, sY, sZ`` (metres, 6 decimals; ``id, pair, X, …`` with ``pairs``) of the
+    intersected points, in input order (every number formatted in one pass over a flat list)."""
     ok = np.flatnonzero(result.ok)
     table = np.column_stack([result.points[ok], result.sigmas[ok]])
     texts = [f"{v:.6f}" for v in table.ravel().tolist()]
-    return [[ids[i], *texts[6 * row:6 * row + 6]] for row, i in enumerate(ok.tolist())]
+    first = [[ids[i]] if pairs is None else [ids[i], pairs[i]] for i in ok.tolist()]
+    return [[*head, *texts[6 * row:6 * row + 6]] for row, head in enumerate(first)]
 
 
 #: one points row as text: the id, then X, Y, Z, sX, sY, sZ to 6 decimals (as ``f"{v:.6f}"`` writes them)
@@ -172,15 +218,18 @@ _ROW = "%s" + ",%.6f" * 6 + "\n"
 _QUOTED = re.compile(r'[,"\r\n]')
 
 
-def points_text(ids: tuple[str, ...], result: Intersection) -> str:
+def points_text(ids: tuple[str, ...], result: Intersection, pairs: tuple[str, ...] | None = None) -> str:
     """The rows of :func:`point_rows` as CSV text (as ``csv.writer`` writes them), formatted by one
     ``%`` over the whole chunk."""
     ok = np.flatnonzero(result.ok)
     chosen = [ids[i] for i in ok.tolist()]
-    if _QUOTED.search("".join(chosen)):  # an id the csv module would quote: written by it
+    labels = [] if pairs is None else [pairs[i] for i in ok.tolist()]
+    if _QUOTED.search("".join(chosen)) or _QUOTED.search("".join(labels)):  # a field the csv module would quote
         buffer = io.StringIO()
-        csv.writer(buffer, lineterminator="\n").writerows(point_rows(ids, result))
+        csv.writer(buffer, lineterminator="\n").writerows(point_rows(ids, result, pairs))
         return buffer.getvalue()
+    if pairs is not None:
+        chosen = [f"{pid},{pair}" for pid, pair in zip(chosen, labels, strict=True)]
     flat: list = [None] * (7 * len(chosen))
     flat[0::7] = chosen
     for column, values in enumerate((*result.points[ok].T, *result.sigmas[ok].T), start=1):
@@ -225,11 +274,12 @@ def intersect_file(calibration: StereoCalibration, observations: str | Path, out
                              (calibration.right.width, calibration.right.height)))
     first_failure: tuple[int | None, str, str] | None = None
     failed = 0
-    chunks = _Counted(observations, options)
+    with_pair = "pair" in (observation_header(observations) or [])  # rows of several pairs: said which
+    chunks = _Counted(observations, options, calibration)
     with text_atomic(out) as stream:
         writer = csv.writer(stream, lineterminator="\n")
-        writer.writerow(POINT_COLUMNS)
-        with closing(ordered_map(chunk_outcome, (calibration, options), _checked(chunks, outside),
+        writer.writerow(POINT_COLUMNS if not with_pair else (POINT_COLUMNS[0], "pair", *POINT_COLUMNS[1:]))
+        with closing(ordered_map(chunk_outcome, (calibration, options, with_pair), _checked(chunks, outside),
                                  _workers(options))) as worked:
             for chunk, outcome in worked:
                 if outside.first:
@@ -262,14 +312,17 @@ def intersect_file(calibration: StereoCalibration, observations: str | Path, out
 
 
 class _Counted:
-    """The observation file's chunks, counting the rows read."""
+    """The observation file's chunks, counting the rows read, each row's station checked as it is read
+    (:func:`row_stations`: a row of another station's pair is named by its line, as bad input is)."""
 
-    def __init__(self, observations: str | Path, options: IntersectOptions) -> None:
+    def __init__(self, observations: str | Path, options: IntersectOptions, calibration: StereoCalibration) -> None:
         self.chunks = observation_chunks(observations, rows=options.chunk_rows)
+        self.source, self.options, self.calibration = str(observations), options, calibration
         self.rows = 0
 
     def __iter__(self) -> Iterator[StereoObservations]:
         for chunk in self.chunks:
+            row_stations(self.calibration, chunk, self.options.station, self.options.frame, self.source)
             self.rows += len(chunk)
             yield chunk
 

@@ -25,8 +25,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--calibration", required=True, help="calibration file (JSON)")
     parser.add_argument("--obs", required=True, help="observations CSV: id,xl,yl,xr,yr (pixels)")
     parser.add_argument("--out", required=True, help="points CSV to write")
-    parser.add_argument("--station", default="0",
-                        help="calibrated station (index or pair label) whose object frame to use (default: first)")
+    parser.add_argument("--station", default=None,
+                        help="calibrated station (index or pair label) whose object frame to use (default: each "
+                        "row at the station its pair column names; without a pair column, the first)")
     parser.add_argument("--frame", choices=["object", "rig"], default="object",
                         help="object: the control frame at the station; rig: left perspective centre, left axes")
     parser.add_argument("--pointing-only", action="store_true",
@@ -41,7 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def options(args: argparse.Namespace) -> IntersectOptions:
     """The run's options from the command line."""
-    return IntersectOptions(station=int(args.station) if args.station.isdigit() else args.station, frame=args.frame,
+    station = None if args.station is None else int(args.station) if args.station.isdigit() else args.station
+    return IntersectOptions(station=station, frame=args.frame,
                             include_calibration=not args.pointing_only, skip_failed=args.skip_failed,
                             pointing_sigma_px=HAND_CLICK_SIGMA_PX if args.pointing_sigma is None
                             else args.pointing_sigma)

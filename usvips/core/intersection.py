@@ -56,6 +56,19 @@ class Intersection:
         require_all_ok(self.status, "point")
         return self
 
+    @classmethod
+    def gathered(cls, parts: list[tuple[np.ndarray, Intersection]], count: int) -> Intersection:
+        """One intersection of ``count`` rows put together from ``parts``: (the rows' indices, the
+        intersection of those rows), e.g. rows intersected at different stations; every row in one part."""
+        arrays = {}
+        for name in ("points", "covariance", "residuals_m", "residuals_px", "status"):
+            template = getattr(parts[0][1], name)
+            gathered = np.zeros((count, *template.shape[1:]), dtype=template.dtype)
+            for rows, part in parts:
+                gathered[rows] = getattr(part, name)
+            arrays[name] = gathered
+        return cls(**arrays)
+
 
 def ray_misfit(residuals_px: np.ndarray, sigma_px: float | np.ndarray) -> np.ndarray:
     """Each point's misfit (N,): the sum over its rays of (residual / pointing sigma)², the residuals

@@ -302,6 +302,21 @@ def observation_chunks(path: str | Path, rows: int = CHUNK_ROWS, block_bytes: in
         checked.close()
 
 
+def observation_header(path: str | Path, block_bytes: int = BLOCK_BYTES) -> list[str] | None:
+    """The column names of the observation file's header line (None: no header before the file ends), read
+    as :func:`observation_chunks` reads it: a caller that writes one row per observation learns here
+    whether the file has a ``pair`` column before its chunks arrive."""
+    path = Path(path)
+    if not path.is_file():
+        raise not_a_file(path)
+    for start, lines in _lines(path, block_bytes):
+        for number, line in enumerate(lines, start):
+            fields = split_line(path, number, line)
+            if fields is not None:
+                return fields
+    return None
+
+
 def _checked_chunks(path: Path, rows: int, block_bytes: int, check_duplicates: bool,
                     checked: _Checked) -> Iterator[StereoObservations]:
     header: list[str] | None = None
