@@ -31,48 +31,31 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
+from usvips.app.intersect_file import IntersectOptions, intersect_file
 from usvips.app.ordered_pool import forking_safely, reset_worker_signals
-from usvips.core.calibration.uncertainty import intersect_with_calibration
 from usvips.core.errors import InvalidParameterError, UsvipsError
-from usvips.core.intersection import misfit_limit, ray_misfit
 from usvips.core.pointing import HAND_CLICK_SIGMA_PX
-from usvips.io.atomic import write_text_atomic
 from usvips.io.calibration_file import load_calibration
 from usvips.io.file_errors import not_a_file
-from usvips.io.tables import read_observations
 
 
 # ------------------------------------------------------------------------------------------------ tasks
-def intersect_task(observations: str, calibration: str, out: str, station: str = "0",
+def intersect_task(observations: str, calibration: str, out: str, station: str | None = None,
                    frame: str = "object", pointing_sigma_px: float | None = None) -> dict:
-    """Intersect the conjugate pixels of ``observations`` (CSV id,xl,yl,xr,yr) with ``calibration`` (JSON)
-    at ``station`` (index or pair label) in ``frame`` (object | rig); write the points CSV ``out`` (metres,
-    sigmas with the picks' pointing sigma ``pointing_sigma_px`` — px, None: the hand-click default, as
-    ``usvips intersect`` — and the calibration's own uncertainty). Points that do not intersect are left
-    out and counted; written points whose rays miss more than the pointing sigma explains are counted as
-    ``usvips intersect`` counts them (:func:`usvips.core.intersection.ray_misfit`). Returns {"points": written,
+    """Intersect the conjugate pixels of ``observations`` (CSV id,xl,yl,xr,yr[,pair]) with ``calibration``
+    (JSON) and write the points CSV ``out`` as ``usvips intersect`` does (:func:`usvips.app.intersect_file.
+    intersect_file`, in this process: the batch runs its tasks on the cores): at ``station`` (index or pair
+    label; None: each row at the station its pair column names) in ``frame`` (object | rig), sigmas with
+    the picks' pointing sigma ``pointing_sigma_px`` (px; None: the hand-click default) and the
+    calibration's own uncertainty. Points that do not intersect are left out and counted; written points
+    whose rays miss more than the pointing sigma explains are counted. Returns {"points": written,
     "failed": count, "misfits": count, "out": out}."""
-    rig_calibration = load_calibration(calibration)
-    pixels = read_observations(observations)
-    at: int | str = int(station) if station.isdigit() else station
+    at: int | str | None = None if station is None else int(station) if station.isdigit() else station
     pointing = HAND_CLICK_SIGMA_PX if pointing_sigma_px is None else pointing_sigma_px
-    result = intersect_with_calibration(rig_calibration, pixels.left, pixels.right, at, frame,
-                                        pointing_sigma_px=pointing)
-    ok = np.flatnonzero(result.ok)
-    table = np.column_stack([result.points[ok], result.sigmas[ok]])
-    numbers = [f"{v:.6f}" for v in table.ravel().tolist()]
-    lines = ["id,X,Y,Z,sX,sY,sZ"]
-    lines += [",".join([_csv_cell(pixels.ids[i]), *numbers[6 * row:6 * row + 6]]) for row, i in enumerate(ok.tolist())]
-    write_text_atomic(out, "\n".join(lines) + "\n")
-    misfit = ray_misfit(result.residuals_px[ok], pointing)
-    misfits = int(np.sum(misfit > misfit_limit(result.residuals_px.shape[1])))
-    return {"points": int(ok.size), "failed": int(len(pixels) - ok.size), "misfits": misfits, "out": str(out)}
-
-
-def _csv_cell(text: str) -> str:
-    return '"' + text.replace('"', '""') + '"' if any(c in text for c in ',"\n\r') else text
+    summary = intersect_file(load_calibration(calibration), observations, out,
+                             IntersectOptions(station=at, frame=frame, pointing_sigma_px=pointing, skip_failed=True,
+                                              workers=1))
+    return {"points": summary.written, "failed": len(summary.skipped), "misfits": summary.misfits, "out": str(out)}
 
 
 def export_project_task(project: str, out: str, opcode: str | None = None) -> dict:

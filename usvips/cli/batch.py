@@ -35,7 +35,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     intersect = tasks.add_parser("intersect", help="re-intersect observation files with a calibration")
     intersect.add_argument("observations", nargs="+", help="observations CSV files (id,xl,yl,xr,yr)")
     intersect.add_argument("--calibration", required=True, help="calibration file (JSON)")
-    intersect.add_argument("--station", default="0", help="calibrated station (index or pair label; default first)")
+    intersect.add_argument("--station", default=None, help="calibrated station (index or pair label; default: each "
+                           "row at the station its pair column names, without one the first)")
     intersect.add_argument("--frame", choices=["object", "rig"], default="object")
     export = tasks.add_parser("export", help="recompute figures and export the objects of projects")
     export.add_argument("projects", nargs="+", help="project files (*.usvips) or surveys (postgresql://…)")
