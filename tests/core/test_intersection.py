@@ -89,7 +89,7 @@ def test_parallel_and_diverging_rays_are_reported():
     left = rig.left.project(np.array([[0.1, 0.0, -2.0]])).pixels
     right = rig.right.project(np.array([[0.1, 0.0, -2.0]])).pixels + [[-400.0, 0.0]]
     result = intersect(rig.cameras, [left, right], 0.5)
-    assert result.status[0] in (RayStatus.BEHIND_CAMERA, RayStatus.OK)
+    assert result.status[0] in (RayStatus.DIVERGING_RAYS, RayStatus.OK)
     assert np.all(np.isfinite(result.points))
 
 
@@ -173,3 +173,16 @@ def test_the_misfit_limit_counts_the_degrees_of_freedom_and_refuses_what_is_not_
         misfit_limit(1)
     with pytest.raises(InvalidParameterError, match="pointing sigma"):
         ray_misfit(np.ones((2, 2)), 0.0)
+
+
+def test_swapped_picks_are_named_as_diverging_rays_not_a_point_behind_a_camera():
+    """Left and right picks of points swapped: the rays part in front of the rig and come nearest each other
+    behind it. That is named as diverging rays (what the user got wrong), for every point."""
+    rng = np.random.default_rng(8)
+    rig = make_rig("air", baseline=0.3)
+    points = np.column_stack([rng.uniform(-0.3, 0.6, 30), rng.uniform(-0.3, 0.3, 30), rng.uniform(-4.0, -1.0, 30)])
+    left, right = rig.left.project(points).pixels, rig.right.project(points).pixels
+    assert np.all(intersect(rig.cameras, [left, right], 0.5).ok)
+    swapped = intersect(rig.cameras, [right, left], 0.5)
+    assert np.all(swapped.status == RayStatus.DIVERGING_RAYS)
+    assert "swapped" in RayStatus.DIVERGING_RAYS.reason

@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 OK, MISSED_SURFACE, TOTAL_INTERNAL_REFLECTION, BEHIND_CAMERA = 0, 1, 2, 3
-NOT_CONVERGED, PARALLEL_RAYS, FAILED_RAY = 4, 6, 7
+NOT_CONVERGED, PARALLEL_RAYS, FAILED_RAY, DIVERGING_RAYS = 4, 6, 7, 8
 
 #: LLVM fast-math flags that keep IEEE semantics for NaN and infinity (the status logic tests them):
 #: fused multiply-add, reciprocal multiplication, no signed zeros.
@@ -614,11 +614,11 @@ def _residuals_block(m, s, shared, residuals_m, residuals_px, first):
 
 @njit(**_OPTIONS)
 def _write_points(m, shared, points, covariance, status):
-    """The block's status (FAILED_RAY, else PARALLEL_RAYS, else BEHIND_CAMERA, else OK), points (m, 3)
+    """The block's status (FAILED_RAY, else PARALLEL_RAYS, else DIVERGING_RAYS, else OK), points (m, 3)
     and covariances (m, 3, 3); rows that are not OK get zeros."""
     for i in range(m):
         failed, good, behind = shared[FAILED + i] != 0.0, shared[GOOD + i] != 0.0, shared[BEHIND + i] != 0.0
-        code = FAILED_RAY if failed else (PARALLEL_RAYS if not good else (BEHIND_CAMERA if behind else OK))
+        code = FAILED_RAY if failed else (PARALLEL_RAYS if not good else (DIVERGING_RAYS if behind else OK))
         ok = code == OK
         status[i] = code
         x0, x1, x2 = (shared[X0 + i], shared[X1 + i], shared[X2 + i]) if ok else (0.0, 0.0, 0.0)

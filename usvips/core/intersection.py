@@ -33,7 +33,7 @@ class Intersection:
     points (N, 3) metres; covariance (N, 3, 3) m² for the given pixel sigma; residuals_m (N, k) the
     perpendicular distance of the point from each ray (metres); residuals_px (N, k) the same expressed
     as an image-measurement error (pixels, first order); status (N,) :class:`RayStatus` (PARALLEL_RAYS,
-    FAILED_RAY, BEHIND_CAMERA when the point lies behind a ray's origin). Rows that are not OK hold
+    FAILED_RAY, DIVERGING_RAYS when the point lies behind a ray's origin). Rows that are not OK hold
     finite placeholders and must not be used.
     """
 
@@ -314,7 +314,7 @@ def _intersect_reference(traced: Sequence[TracedRays], sigma: np.ndarray) -> Int
         residuals_m[:, j] = np.sqrt(_dot(perpendicular, perpendicular))
         residuals_px[:, j] = np.hypot(_dot(a0, perpendicular), _dot(a1, perpendicular))
     status[~good & (status == RayStatus.OK)] = RayStatus.PARALLEL_RAYS
-    status[behind & (status == RayStatus.OK)] = RayStatus.BEHIND_CAMERA
+    status[behind & (status == RayStatus.OK)] = RayStatus.DIVERGING_RAYS
     bad = status != RayStatus.OK
     if np.any(bad):
         points[bad] = 0.0

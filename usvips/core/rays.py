@@ -26,6 +26,7 @@ class RayStatus(IntEnum):
     OUTSIDE_FRAME = 5
     PARALLEL_RAYS = 6
     FAILED_RAY = 7
+    DIVERGING_RAYS = 8
 
     @property
     def reason(self) -> str:
@@ -41,6 +42,8 @@ _REASONS = {
     RayStatus.OUTSIDE_FRAME: "the point projects outside the image frame",
     RayStatus.PARALLEL_RAYS: "the rays are (nearly) parallel: no intersection",
     RayStatus.FAILED_RAY: "one of the rays could not be traced",
+    RayStatus.DIVERGING_RAYS: "the rays diverge: they come nearest each other behind the cameras (left and right "
+                              "picks swapped, or not of one point?)",
 }
 
 
