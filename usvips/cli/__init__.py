@@ -20,6 +20,7 @@ from typing import NoReturn
 
 from usvips import __version__
 from usvips.core.errors import InvalidParameterError, UsvipsError
+from usvips.core.plain_numbers import plain_number
 from usvips.core.redaction import redact
 
 #: (module name, description) of every subcommand; each module defines ``register(subparsers)``.
@@ -94,7 +95,7 @@ def whole_number(text: str) -> int:
     """An option's whole number (``type=int``), refused when it is no 64-bit integer (a count, an id or a
     seed of 30 digits is a typing slip, and would overflow the store or numpy)."""
     try:
-        value = int(text)
+        value = plain_number(text, int)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
     if abs(value) > LARGEST_WHOLE:
@@ -102,14 +103,25 @@ def whole_number(text: str) -> int:
     return value
 
 
+def plain_float(text: str) -> float:
+    """An option's number (``type=float``) in ASCII digits (:mod:`usvips.core.plain_numbers`)."""
+    try:
+        return float(plain_number(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
 def _bound_whole_numbers(parser: argparse.ArgumentParser) -> None:
-    """Every ``type=int`` option of ``parser`` and its subcommands read by :func:`whole_number`."""
+    """Every ``type=int`` option of ``parser`` and its subcommands read by :func:`whole_number`, every
+    ``type=float`` one by :func:`plain_float`."""
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for sub in action.choices.values():
                 _bound_whole_numbers(sub)
         elif action.type is int:
             action.type = whole_number
+        elif action.type is float:
+            action.type = plain_float
 
 
 def _command_in(argv: Sequence[str]) -> str | None:

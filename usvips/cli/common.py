@@ -10,6 +10,7 @@ from collections.abc import Callable
 
 from usvips.cli import whole_number
 from usvips.core.errors import InvalidParameterError
+from usvips.core.plain_numbers import plain_number
 from usvips.io.atomic import write_text_atomic
 
 __all__ = ["add_annotator_option", "add_pointing_option", "csv_text", "parse_assignment", "parse_prior",
@@ -29,7 +30,7 @@ def positive_number(not_a: str, must_be: str) -> Callable[[str], float]:
 
     def parse(text: str) -> float:
         try:
-            value = float(text)
+            value = float(plain_number(text))
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not {not_a}") from None
         if not math.isfinite(value) or value <= 0:
@@ -85,7 +86,7 @@ def parse_assignment(option: str, text: str) -> tuple[str, float]:
     if not sep or not name:
         raise InvalidParameterError(option, f"expected NAME=VALUE, got {text!r}")
     try:
-        number = float(value)
+        number = float(plain_number(value))
     except ValueError:
         raise InvalidParameterError(option, f"{text!r}: {value!r} is not a number") from None
     if not math.isfinite(number):
@@ -100,7 +101,7 @@ def parse_prior(text: str) -> tuple[str, tuple[float, float]]:
     if not sep or not sep2 or not name:
         raise InvalidParameterError("--prior", f"expected NAME=VALUE:SIGMA, got {text!r}")
     try:
-        numbers = float(value), float(sigma)
+        numbers = float(plain_number(value)), float(plain_number(sigma))
     except ValueError:
         raise InvalidParameterError("--prior", f"{text!r}: value and sigma must be numbers") from None
     if not all(math.isfinite(n) for n in numbers):

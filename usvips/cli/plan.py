@@ -11,6 +11,7 @@ import numpy as np
 from usvips.core import housing as housings
 from usvips.core import validation
 from usvips.core.errors import InvalidParameterError
+from usvips.core.plain_numbers import plain_number
 from usvips.core.planner import default_grid, planned_rig, precision_map
 from usvips.io.atomic import replacing
 from usvips.io.calibration_file import load_calibration
@@ -105,7 +106,7 @@ def _rig(args: argparse.Namespace):
             raise InvalidParameterError("--port", f"unknown {name!r}; the {kind.kind} housing takes "
                                         f"{', '.join(kind.priors()) or 'no values'} as NAME=VALUE")
         try:
-            values[name] = float(value)
+            values[name] = float(plain_number(value))
         except ValueError:
             raise InvalidParameterError("--port", f"{item!r}: {value!r} is not a number") from None
     housing = kind.from_symbols(values)

@@ -16,8 +16,9 @@ from pathlib import Path
 
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.observation_record import Species
+from usvips.core.plain_numbers import plain_number
 from usvips.io.file_errors import not_a_file
-from usvips.io.tables import plain_number, separator_hint, split_line
+from usvips.io.tables import separator_hint, split_line
 from usvips.io.text_lines import not_utf8, refuse_control_characters, split_lines
 
 ALIASES = {"family": "family", "genus": "genus", "species": "species", "code": "code", "caab": "code",

@@ -21,6 +21,7 @@ import numpy as np
 from usvips.core.errors import InputFileError, UsvipsError
 from usvips.core.measurements import LEGACY, names
 from usvips.core.observations import ControlPoints, StereoObservations
+from usvips.core.plain_numbers import plain_number
 from usvips.io.atomic import write_text_atomic
 from usvips.io.file_errors import not_a_file
 from usvips.io.text_lines import not_utf8, refuse_control_characters, split_lines
@@ -133,15 +134,6 @@ def _column_index(path: Path, header: list[str], required: tuple[str, ...]) -> d
 MAX_PIXEL = 1e6
 #: no control coordinate lies this far from its origin (metres; Earth-centred coordinates are ~6.4e6 m)
 MAX_COORDINATE = 1e8
-
-
-def plain_number(text: str, kind: type = float) -> float | int:
-    """``kind(text)`` (``float`` or ``int``) of a number as a table writes it: ASCII digits only. Python
-    also reads its own digit separators (``1_000``) and other scripts' digits (``١٢``), which another
-    program reads as text; both are refused like text (:class:`ValueError`)."""
-    if "_" in text or not text.isascii():
-        raise ValueError(text)
-    return kind(text)
 
 
 def _number(path: Path, line: int, column: str, text: str, limit: tuple[float, str] | None = None) -> float:
