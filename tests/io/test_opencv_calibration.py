@@ -414,3 +414,88 @@ def test_a_ros_fisheye_model_or_a_broken_projection_is_refused_by_name(tmp_path)
     skewed = _ros_camera_info(tmp_path / "skewed.yaml", matrix, distortion, np.diag([1.0, 1.0, 2.0]), plain)
     with pytest.raises(InputFileError, match="left camera's rectification_matrix: R is not a rotation"):
         read_opencv_stereo([skewed, right])
+
+
+def _write_with(path, strings: dict[str, str] | None = None, numbers: dict[str, float] | None = None, **arrays):
+    storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    for name, value in arrays.items():
+        storage.write(name, value)
+    for name, value in (strings or {}).items():
+        storage.write(name, value)
+    for name, value in (numbers or {}).items():
+        storage.write(name, value)
+    storage.release()
+    return path
+
+
+@pytest.mark.parametrize(("strings", "numbers", "message"), [
+    ({"distortion_model": "fisheye"}, None, "distortion_model 'fisheye' is not supported"),
+    ({"distortion_model": "equidistant"}, None, "distortion_model 'equidistant' is not supported"),
+    ({"camera_model": "omni"}, None, "camera_model 'omni' is not supported"),
+    (None, {"fisheye_model": 1}, r"a fisheye calibration \(fisheye_model: 1"),
+])
+def test_a_fisheye_or_omnidirectional_calibration_is_refused_never_read_as_brown(tmp_path, strings, numbers,
+                                                                                 message):
+    """A stereo file from cv2.fisheye (four distortion numbers, as Brown's k1, k2, p1, p2 would be) that
+    says its model: refused by name, in a stereo file or a camera's own file."""
+    fisheye = GOOD | {"D1": np.array([[0.05, -0.01, 0.002, -0.0005]]), "D2": np.array([[0.04, -0.01, 0.001, 0.0]])}
+    path = _write_with(tmp_path / "fisheye.yml", strings, numbers, **fisheye)
+    with pytest.raises(InputFileError, match=message):
+        read_opencv_stereo(path)
+    left = _write_with(tmp_path / "left.yml", strings, numbers, camera_matrix=GOOD["M1"],
+                       distortion_coefficients=fisheye["D1"])
+    right = _write(tmp_path / "right.yml", camera_matrix=GOOD["M2"], distortion_coefficients=fisheye["D2"])
+    extrinsics = _write(tmp_path / "rt.yml", R=GOOD["R"], T=GOOD["T"])
+    with pytest.raises(InputFileError, match=message):
+        read_opencv_stereo([left, right, extrinsics])
+    for model in ("plumb_bob", "radtan"):  # Brown's, by ROS's and Kalibr's names
+        assert read_opencv_stereo(_write_with(tmp_path / f"{model}.yml", {"distortion_model": model}, **GOOD))
+
+
+def test_other_tools_entries_are_not_read_and_conflicting_ones_are_refused(tmp_path):
+    """A board description, a ROS header (maps that are no matrices) and a long list of image points are
+    another tool's: the file still imports, quickly. Two names for one matrix, or two image sizes, that
+    disagree are refused rather than one chosen."""
+    from usvips.io.opencv_calibration import _read_file
+
+    path = _write(tmp_path / "plus.yml", **GOOD, image_width=1280, image_height=960)
+    text = path.read_text() + "board:\n   width: 9\n   height: 6\nheader:\n   frame_id: cam\nimage_points: [ " + \
+        ", ".join(["1.5"] * 60000) + " ]\n"
+    path.write_text(text)
+    assert read_opencv_stereo(path).left.width == 1280
+    assert not {"board", "header", "image_points"} & set(_read_file(path))  # (a long list read took minutes)
+    twice = _write(tmp_path / "twice.yml", **GOOD, cameraMatrix1=GOOD["M2"])
+    with pytest.raises(InputFileError, match="M1 and cameraMatrix1 both give K1 and differ"):
+        read_opencv_stereo(twice)
+    assert read_opencv_stereo(_write(tmp_path / "same.yml", **GOOD, cameraMatrix1=GOOD["M1"]))
+    sizes = _write(tmp_path / "sizes.yml", **GOOD, image_width=1920, image_height=1080,
+                   image_size=np.array([1280, 720]))
+    with pytest.raises(InputFileError, match="states two image sizes: image_width/image_height 1920x1080, "
+                                             "image_size 1280x720"):
+        read_opencv_stereo(sizes)
+    with pytest.raises(InputFileError, match="from 1 to 65536"):
+        read_opencv_stereo(_write(tmp_path / "huge.yml", **GOOD, image_width=10**9, image_height=1080))
+
+
+def test_whole_number_matrices_that_hold_fractions_empty_bom_and_utf16_files(tmp_path):
+    path = _write(tmp_path / "good.yml", **GOOD)
+    text = path.read_text()
+    declared = tmp_path / "declared.yml"
+    declared.write_text(text.replace("dt: d", "dt: i", 1))  # M1's data are 810., 641.5 …: rounded by OpenCV
+    with pytest.raises(InputFileError, match=r"entry 'M1': it declares whole numbers \(dt: i\) but holds 641.5"):
+        read_opencv_stereo(declared)
+    whole = tmp_path / "whole.yml"
+    whole.write_text(text.replace("641.5", "641.").replace("478.25", "478.").replace("dt: d", "dt: i", 1))
+    assert read_opencv_stereo(whole).left.interior.xp == pytest.approx(641.0)
+    (tmp_path / "empty.yml").write_bytes(b"")
+    with pytest.raises(InputFileError, match="empty.yml: the file is empty$"):
+        read_opencv_stereo(tmp_path / "empty.yml")
+    (tmp_path / "bom.yml").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert read_opencv_stereo(tmp_path / "bom.yml").left.interior.f == pytest.approx(810.0)
+    (tmp_path / "utf16.yml").write_bytes(text.encode("utf-16"))
+    with pytest.raises(InputFileError, match="is UTF-16 text, not UTF-8"):
+        read_opencv_stereo(tmp_path / "utf16.yml")
+    np.save(tmp_path / "single.npy", GOOD["M1"])
+    (tmp_path / "single.npy").rename(tmp_path / "single.npz")
+    with pytest.raises(InputFileError, match=r"not a .npz archive \(a single array saved by np.save"):
+        read_opencv_stereo(tmp_path / "single.npz")

@@ -70,8 +70,14 @@ NAMES = {"K1": ("M1", "K1", "cameraMatrix1", "camera_matrix_left", "mtx_l", "mtx
 #: second the right one.
 SINGLE_CAMERA_NAMES = {"K": ("camera_matrix", "cameraMatrix", "mtx", "K"),
                        "D": ("distortion_coefficients", "distCoeffs", "dist_coeffs", "dist", "D")}
-#: ROS ``camera_info`` distortion models that are Brown's (OpenCV's default terms, its rational ones)
-BROWN_MODELS = ("plumb_bob", "rational_polynomial")
+#: distortion models that are Brown's (OpenCV's default terms, its rational ones), as ROS ``camera_info``
+#: and Kalibr name them
+BROWN_MODELS = ("plumb_bob", "rational_polynomial", "radtan")
+#: string entries that name a file's camera or distortion model (OpenCV's fisheye model, Kalibr's
+#: equidistant and omnidirectional ones are not Brown's: such a file is refused, never read as Brown's)
+MODEL_KEYS = ("distortion_model", "camera_model")
+#: camera models that are pinhole projections (Kalibr's ``camera_model``)
+PINHOLE_MODELS = ("pinhole",)
 #: Where files carry the image size: (width key, height key) pairs, or one key holding (width, height).
 SIZE_PAIRS = (("image_width", "image_height"), ("imageWidth", "imageHeight"), ("width", "height"))
 SIZE_KEYS = ("image_size", "imageSize", "size")
@@ -291,6 +297,13 @@ def _check_matrix_node(node) -> None:
         raise ValueError(f"its data hold {count} numbers, its size says {expected}")
     if data.isSeq() and not all(data.at(i).isInt() or data.at(i).isReal() for i in range(count)):
         raise ValueError("its data hold something that is not a number")
+    kind = (node.getNode("dt").string() or "")[len(channels.group()):]
+    if kind in _INTEGER_TYPES:  # OpenCV would round the data to the declared type, silently
+        values = [data.at(i).real() for i in range(count)] if data.isSeq() else [data.real()]
+        fraction = next((v for v in values if not float(v).is_integer()), None)
+        if fraction is not None:
+            raise ValueError(f"it declares whole numbers (dt: {kind}) but holds {fraction:g}, which OpenCV would "
+                             "round: write dt: d")
 
 
 def _declared_shape(node) -> list[int] | None:
@@ -302,6 +315,18 @@ def _declared_shape(node) -> list[int] | None:
     if sizes.isSeq() and sizes.size() and all(sizes.at(i).isInt() for i in range(sizes.size())):
         return [int(sizes.at(i).real()) for i in range(sizes.size())]
     return None
+
+
+#: the entries an import reads: the cameras' matrices and distortions, R and T, the image size, the stated
+#: residual, ROS's rectification and projection (any other entry is another tool's and is not read)
+_USED_KEYS = frozenset({*(n for names in NAMES.values() for n in names),
+                        *(n for names in SINGLE_CAMERA_NAMES.values() for n in names),
+                        *(k for pair in SIZE_PAIRS for k in pair), *SIZE_KEYS, *RESIDUAL_KEYS, *PER_VIEW_KEYS,
+                        "rectification_matrix", "projection_matrix"})
+
+
+#: OpenCV FileStorage element types of whole numbers (``dt``): they round what the data hold
+_INTEGER_TYPES = frozenset("ucwsi")
 
 
 #: the largest matrix side a calibration file holds (a 4 × 4 Q, a 1 × 14 distortion vector, …) with
@@ -318,6 +343,12 @@ def _read_npz(path: Path) -> dict[str, object]:
     member, a corrupt header), an array of text, objects or complex numbers, or one that would unpack to
     more than :data:`_MAX_NPZ_ARRAY_BYTES` is an :class:`InputFileError` naming the file (and the array)."""
     out = {}
+    with open(path, "rb") as stream:
+        magic = stream.read(6)
+    if not magic.startswith(b"PK"):
+        saved = " (a single array saved by np.save: save the arrays by name with np.savez)" \
+            if magic == b"\x93NUMPY" else ""
+        raise InputFileError(str(path), f"not a .npz archive{saved}")
     try:
         with np.load(path, allow_pickle=False) as data:
             for key in data.files:
@@ -343,8 +374,19 @@ def _read_file(path: Path) -> dict[str, object]:
         raise not_a_file(path)
     if path.suffix.lower() == ".npz":
         return _read_npz(path)
+    with open(path, "rb") as stream:
+        head = stream.read(4)
+    if not head:
+        raise InputFileError(str(path), "the file is empty")
+    if head.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise InputFileError(str(path), "is UTF-16 text, not UTF-8: save it as UTF-8 (OpenCV reads UTF-8 YAML/XML)")
+    source, flags = str(path), cv2.FILE_STORAGE_READ
+    if head.startswith(b"\xef\xbb\xbf"):  # a byte-order mark (Windows Notepad), which OpenCV does not skip
+        source = path.read_bytes()[3:].decode("utf-8", errors="replace")
+        flags |= cv2.FILE_STORAGE_MEMORY | (cv2.FILE_STORAGE_FORMAT_XML if path.suffix.lower() == ".xml"
+                                             else cv2.FILE_STORAGE_FORMAT_YAML)
     try:
-        storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+        storage = cv2.FileStorage(source, flags)
     except (cv2.error, SystemError) as error:
         cause = error.__cause__ if isinstance(error, SystemError) and error.__cause__ is not None else error
         lines = str(cause).strip().splitlines() or ["the file is damaged or cut short"]
@@ -364,6 +406,8 @@ def _read_file(path: Path) -> dict[str, object]:
             raise InputFileError(str(path), "an entry's name is not UTF-8 text: the file is damaged or not an "
                                             "OpenCV calibration") from None
         for key in keys:
+            if key not in _USED_KEYS:
+                continue  # another tool's entry (a board, a header, image points): not read, whatever it holds
             try:
                 value = _node_value(storage.getNode(key))
             except ValueError as error:
@@ -373,34 +417,45 @@ def _read_file(path: Path) -> dict[str, object]:
                                                 "not agree, or its data hold something that is not a number") from None
             if value is not None:
                 out[key] = value
-        model = storage.getNode("distortion_model")
-        if model.isString():
-            out["distortion_model"] = model.string()
+        for key in MODEL_KEYS:
+            model = storage.getNode(key)
+            if model.isString():
+                out[key] = model.string()
+        fisheye = storage.getNode("fisheye_model")  # OpenCV's calibration sample (camera_calibration.cpp)
+        if fisheye.isInt() or fisheye.isReal():
+            out["fisheye_model"] = float(fisheye.real())
         return out
     finally:
         storage.release()
 
 
 def _size_of(data: dict[str, object], path: str) -> tuple[int, int] | None:
-    found = None
+    """The image size (width, height) the file states; two statements of it that differ are refused."""
+    stated = []
     for width_key, height_key in SIZE_PAIRS:
         if width_key in data and height_key in data:
-            found = (data[width_key], data[height_key])
-            break
-    else:
-        for key in SIZE_KEYS:
-            if key in data:
-                value = np.asarray(data[key], dtype=np.float64).ravel()
-                if value.size != 2:
-                    raise InputFileError(path, f"{key} must hold (width, height), got {value.size} numbers")
-                found = tuple(value)
-                break
-    if found is None:
+            stated.append((f"{width_key}/{height_key}", (data[width_key], data[height_key])))
+    for key in SIZE_KEYS:
+        if key in data:
+            value = np.asarray(data[key], dtype=np.float64).ravel()
+            if value.size != 2:
+                raise InputFileError(path, f"{key} must hold (width, height), got {value.size} numbers")
+            stated.append((key, tuple(value)))
+    sizes = []
+    for name, found in stated:
+        width, height = (float(np.asarray(v).ravel()[0]) for v in found)
+        if not (width.is_integer() and height.is_integer() and 0 < width <= MAX_IMAGE_SIDE
+                and 0 < height <= MAX_IMAGE_SIDE):
+            raise InputFileError(path, f"{name}: image size {width:g} × {height:g} is not a whole number of pixels "
+                                 f"from 1 to {MAX_IMAGE_SIDE}")
+        sizes.append((name, (int(width), int(height))))
+    if not sizes:
         return None
-    width, height = (float(np.asarray(v).ravel()[0]) for v in found)
-    if not (width.is_integer() and height.is_integer() and width > 0 and height > 0):
-        raise InputFileError(path, f"image size {width:g} × {height:g} is not a whole number of pixels > 0")
-    return int(width), int(height)
+    for name, size in sizes[1:]:
+        if size != sizes[0][1]:
+            raise InputFileError(path, f"the file states two image sizes: {sizes[0][0]} {sizes[0][1][0]}x"
+                                 f"{sizes[0][1][1]}, {name} {size[0]}x{size[1]}")
+    return sizes[0][1]
 
 
 def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int, int] | None = None,
@@ -422,6 +477,7 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
     singles: list[dict[str, object]] = []
     for path in paths:
         data = _read_file(path)
+        _refuse_other_models(data, path)
         single = _single_camera(data, path)
         if single is not None:
             if len(singles) == 2:
@@ -441,10 +497,14 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
                                      f"{file_size[0]}x{file_size[1]} in {size_origin}")
             file_size, size_origin = this_size, path
         for key, names in NAMES.items():
-            name = next((n for n in names if n in data), None)
-            if name is None:
+            given = [n for n in names if n in data]
+            if not given:
                 continue
-            value = np.asarray(data[name], dtype=np.float64)
+            name, value = given[0], np.asarray(data[given[0]], dtype=np.float64)
+            for other in given[1:]:
+                again = np.asarray(data[other], dtype=np.float64)
+                if again.shape != value.shape or not np.array_equal(again, value):
+                    raise InputFileError(str(path), f"{name} and {other} both give {key} and differ: keep one")
             if key in merged and (merged[key].shape != value.shape or not np.array_equal(merged[key], value)):
                 raise InputFileError(str(path), f"{name} differs from the one in {origin[key]}")
             merged[key], origin[key] = value, path
@@ -484,11 +544,27 @@ def sigma0_statement(calibration: StereoCalibration) -> str:
     return text + "; no parameter covariance: the figures' sigmas hold the pointing share only"
 
 
+def _refuse_other_models(data: dict[str, object], path: Path) -> None:
+    """A file that says its camera or distortion model is not a pinhole with Brown's distortion (OpenCV's
+    fisheye model, Kalibr's equidistant or omnidirectional ones) is refused by name: its four distortion
+    numbers would be read as Brown's k1, k2, p1, p2 and every ray would be wrong, silently."""
+    if data.get("fisheye_model"):
+        raise InputFileError(str(path), "a fisheye calibration (fisheye_model: 1, OpenCV's cv2.fisheye model): "
+                             "USVIPS models Brown's radial and tangential distortion; calibrate with the "
+                             "standard model (or in USVIPS)")
+    for key in MODEL_KEYS:
+        model = data.get(key)
+        known = BROWN_MODELS if key == "distortion_model" else PINHOLE_MODELS
+        if isinstance(model, str) and model.strip().lower() not in known:
+            raise InputFileError(str(path), f"{key} {model!r} is not supported: USVIPS models a pinhole camera "
+                                 f"with Brown's radial and tangential distortion ({' or '.join(known)})")
+
+
 def _single_camera(data: dict[str, object], path: Path) -> dict[str, object] | None:
     """``{"K": matrix, "D": distortion}`` of a file that holds one camera (:data:`SINGLE_CAMERA_NAMES`) and no
     stereo camera keys, with ``"rectification"`` and ``"projection"`` when it has ROS's (a ``camera_info``
-    file); None for any other file. A camera matrix without its distortion, or a distortion model other than
-    Brown's (ROS's ``plumb_bob`` or ``rational_polynomial``), is refused by name."""
+    file); None for any other file. A camera matrix without its distortion is refused by name (another
+    model than Brown's: :func:`_refuse_other_models`)."""
     if any(name in data for key in ("K1", "D1", "K2", "D2") for name in NAMES[key]):
         return None
     found = {key: next((data[n] for n in names if n in data), None) for key, names in SINGLE_CAMERA_NAMES.items()}
@@ -497,10 +573,6 @@ def _single_camera(data: dict[str, object], path: Path) -> dict[str, object] | N
     if found["D"] is None:
         raise InputFileError(str(path), "a camera matrix without its distortion (looked for "
                              f"{', '.join(SINGLE_CAMERA_NAMES['D'])})")
-    model = data.get("distortion_model")
-    if model is not None and model not in BROWN_MODELS:
-        raise InputFileError(str(path), f"distortion_model {model!r} is not supported: USVIPS models Brown's "
-                             f"radial and tangential terms ({' or '.join(BROWN_MODELS)})")
     if "rectification_matrix" in data and "projection_matrix" in data:
         found["rectification"], found["projection"] = data["rectification_matrix"], data["projection_matrix"]
     return found
