@@ -76,6 +76,19 @@ def _negative_eigenvalue(data):
     (lambda d: d["stations"][0].update(label=[1]), "label must be a name or a number, got list"),
     (lambda d: d["stations"][0].update(label=" "), 'label must be a name or a number, got " "'),
     (lambda d: d["stations"].append(dict(d["stations"][0])), "is the label of stations"),
+    # a misspelt or unknown key would be dropped silently (a misspelt covariance: every sigma without the
+    # calibration's own uncertainty)
+    (lambda d: d.update(covarience=d.pop("covariance")), "calibration.covarience: not a key of a calibration file"),
+    (lambda d: d["cameras"]["left"].update(widht=640), "cameras.left.widht: not a key of a camera"),
+    (lambda d: d["cameras"].update(middle={}), "cameras.middle: not a camera"),
+    (lambda d: d["stations"][0].update(Z=1.0), "0].Z: not a key of a station"),
+    # a missing interior term or housing value would be read as its default (sy 1, k1 0, n2 …), silently
+    (lambda d: [d.pop("parameters"), d.pop("covariance"), d["cameras"]["left"]["interior"].pop("sy")],
+     "left interior: missing parameter 'sy'"),
+    (lambda d: [d.pop("parameters"), d.pop("covariance"), d["cameras"]["right"]["interior"].pop("k1")],
+     "right interior: missing parameter 'k1'"),
+    (lambda d: [d.pop("parameters"), d.pop("covariance"), d["cameras"]["left"]["housing"].pop("n2")],
+     "cameras.left.housing: missing parameter 'n2'"),
 ])
 def test_calibration_values_are_checked_by_name(tmp_path, edit, message):
     data = json.loads(CALIBRATION.read_text())

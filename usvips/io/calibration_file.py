@@ -18,7 +18,10 @@ Layout (version 1; lengths in metres, angles in radians, image quantities in pix
 The interior's ``k3`` (OpenCV's third radial term) is optional: files written before it existed load
 with k3 = 0. A calibration with k3 ≠ 0 is written as version 2 (:data:`K3_VERSION`), so that a USVIPS
 from before k3 refuses it ("newer than this USVIPS reads") instead of dropping the term silently;
-with k3 = 0 the file stays version 1, readable by every USVIPS. Both versions load.
+with k3 = 0 the file stays version 1, readable by every USVIPS. Both versions load. Every other interior
+term and every housing value (but ``n1``, air's 1 unless written) must be there, and a key the layout
+has not is refused: read as absent, a missing term would take its default and a misspelt key would be
+dropped, silently.
 
 Files are written atomically (temporary file, then rename).
 """
@@ -102,6 +105,14 @@ def calibration_to_dict(calibration: StereoCalibration) -> dict:
     return data
 
 
+#: every key a calibration file's top level may hold (a misspelt "covariance" would drop the calibration's
+#: uncertainty from every sigma, silently)
+TOP_KEYS = ("format", "version", "phase", "housing", "cameras", "relative_orientation", "stations", "sigma0_px",
+            "parameters", "covariance", "statistics", "source")
+#: every key of a camera in a calibration file
+CAMERA_KEYS = ("interior", "housing", "width", "height")
+
+
 def _require(path: str, data: dict, key: str, kind: type | tuple[type, ...]) -> object:
     if key not in data:
         raise InputFileError(path, f"missing key {key!r}")
@@ -131,7 +142,7 @@ def _numbers(path: str, where: str, data: dict, keys: tuple[str, ...], optional:
 
 def _known_only(path: str, where: str, data: dict, keys: tuple[str, ...], what: str) -> None:
     """Refuse a key of ``data`` that is none of ``keys`` (a term this file format has not, e.g. a fourth radial
-    term: read as absent, it would be silently dropped)."""
+    term, or a misspelt key: read as absent, it would be silently dropped)."""
     unknown = [key for key in data if key not in keys]
     if unknown:
         raise InputFileError(path, f"{where}.{unknown[0]}: not {what} (they are {', '.join(keys)})")
@@ -225,16 +236,19 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
         raise InputFileError(path, f"calibration file version {version!r} is newer than this USVIPS reads "
                              f"({VERSION}); update USVIPS")
     try:
+        _known_only(path, "calibration", data, TOP_KEYS, "a key of a calibration file")
         kind = _require(path, data, "housing", str)
         cameras = _require(path, data, "cameras", dict)
+        _known_only(path, "cameras", cameras, ("left", "right"), "a camera")
         built = {}
         for side in ("left", "right"):
             cam = _require(path, cameras, side, dict)
             _known_only(path, f"cameras.{side}.interior", _require(path, cam, "interior", dict), INTERIOR_PARAMETERS,
                         "an interior parameter")
+            _known_only(path, f"cameras.{side}", cam, CAMERA_KEYS, "a key of a camera")
             interior = Interior(**_numbers(path, f"{side} interior", _require(path, cam, "interior", dict),
-                                           INTERIOR_PARAMETERS[:3]) |
-                                _numbers(path, f"{side} interior", cam["interior"], INTERIOR_PARAMETERS[3:], True))
+                                           INTERIOR_PARAMETERS[:-1]) |
+                                _numbers(path, f"{side} interior", cam["interior"], INTERIOR_PARAMETERS[-1:], True))
             housing_values = _require(path, cam, "housing", dict)
             housing_numbers = _numbers(path, f"{side} housing", housing_values, tuple(housing_values))
             for key, value in housing_numbers.items():
@@ -242,6 +256,11 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
                     raise InputFileError(path, f"cameras.{side}.housing.{key}: {value:g} is not a housing value "
                                                f"(metres, slopes and indices are within ±{HOUSING_VALUE_LIMIT:g})")
             housing = housing_from_dict(kind, housing_numbers)
+            # a value with a default (a refractive index) left out would be read as the default, silently
+            missing = [key for key in housing.to_values() if key not in housing_numbers and key != "n1"]
+            if missing:
+                raise InputFileError(path, f"cameras.{side}.housing: missing parameter {missing[0]!r} of the {kind} "
+                                     "housing")
             width, height = cam.get("width"), cam.get("height")
             if (width is None) != (height is None):
                 raise InputFileError(path, f"cameras.{side}: give both width and height, or neither")
@@ -267,6 +286,7 @@ def calibration_from_dict(data: dict, path: str = "<calibration>") -> StereoCali
                 raise InputFileError(path, f"stations[{i}].label {str(label)!r} is the label of stations["
                                      f"{labels.index(str(label))}] too: a station is chosen by its label")
             labels.append(str(label))
+            _known_only(path, f"stations[{i}]", station, ("label", *EXTERIOR_PARAMETERS), "a key of a station")
             poses.append(Exterior(**_numbers(path, f"stations[{i}]", station, EXTERIOR_PARAMETERS)))
         if not poses:
             raise InputFileError(path, "the calibration has no station")
