@@ -263,3 +263,33 @@ def test_each_row_is_intersected_at_the_station_its_pair_column_names(tmp_path):
     rows = [row for row in csv.reader(io.StringIO((tmp_path / "wrong.csv").read_text())) if row[1] == "nosuch"]
     assert wrong.written == len(table) - 1 and rows
     assert np.median([np.linalg.norm(np.array(row[2:5], float) - truth[row[0]]) for row in rows]) > 0.05
+
+
+def test_a_pixel_the_lens_distortion_cannot_undo_is_one_failed_point_named_by_its_line(tmp_path, calibration):
+    """A calibration whose distortion folds over before the image's corner: a pick there has no ray. It is
+    that point that fails, named by its line and why (not the whole run, unnamed), and --skip-failed
+    writes the others."""
+    import dataclasses
+
+    obs = tmp_path / "obs.csv"
+    write_observations(calibration, 12, obs, seed=5)
+    lines = obs.read_text().splitlines()
+    interior = calibration.left.interior
+    corner = np.hypot(*interior.pixels_to_image(np.array([[0.0, 0.0]]))[0]) / interior.f  # normalised radius
+    # r + k2 r⁵ is largest, 0.8 r0, at r0 = (−1 / 5 k2)^¼: no ray for a pick beyond 0.97 of the corner's radius
+    fold = 0.97 * corner / 0.8
+    folding = interior.with_values(k1=0.0, k2=-1.0 / (5 * fold ** 4), k3=0.0, p1=0.0, p2=0.0)
+    left = dataclasses.replace(calibration.left, interior=folding)
+    folded = dataclasses.replace(calibration, left=left, covariance=None, parameters={})
+    good = _run(folded, obs, tmp_path / "first.csv", frame="rig", skip_failed=True)
+    assert not [why for _, why in good.skipped if "distortion" in why]
+    fields = lines[7].split(",")
+    lines[7] = ",".join([fields[0], "0.5", "0.5", *fields[3:]])  # the left pick in the image's corner
+    obs.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FailedPointsError, match=rf"obs.csv, line 8: point '{fields[0]}': the calibration's lens "
+                                                "distortion cannot be undone at this pixel"):
+        _run(folded, obs, tmp_path / "points.csv", frame="rig")
+    assert not (tmp_path / "points.csv").exists()
+    summary = _run(folded, obs, tmp_path / "points.csv", frame="rig", skip_failed=True, rows=5)
+    assert summary.written == good.written - 1
+    assert [point for point, _ in summary.skipped if "distortion" in _] == [fields[0]]

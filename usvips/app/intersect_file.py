@@ -31,7 +31,7 @@ import numpy as np
 from usvips.app.ordered_pool import available_cores, ordered_map
 from usvips.core.batch_mode import batch_computation
 from usvips.core.calibration.uncertainty import intersect_with_calibration
-from usvips.core.errors import DegenerateGeometryError, InputFileError
+from usvips.core.errors import ConvergenceError, DegenerateGeometryError, InputFileError
 from usvips.core.intersection import MISFIT_SIGNIFICANCE, Intersection, misfit_limit, ray_misfit
 from usvips.core.observations import StereoObservations
 from usvips.core.pointing import HAND_CLICK_SIGMA_PX
@@ -162,9 +162,27 @@ def intersect_chunk(calibration: StereoCalibration, chunk: StereoObservations,
 
 def _intersect_at(calibration: StereoCalibration, chunk: StereoObservations, station: int,
                   options: IntersectOptions) -> Intersection:
-    return intersect_with_calibration(calibration, chunk.left, chunk.right, station, options.frame,
-                                      include_calibration=options.include_calibration,
-                                      pointing_sigma_px=options.pointing_sigma_px)
+    """The chunk's rows at one station; a row whose pixel the lens distortion cannot undo (the whole
+    computation stops there) is found by halving the rows, and marked :attr:`RayStatus.DISTORTION_FOLDS`
+    while the others are intersected."""
+    try:
+        return intersect_with_calibration(calibration, chunk.left, chunk.right, station, options.frame,
+                                          include_calibration=options.include_calibration,
+                                          pointing_sigma_px=options.pointing_sigma_px)
+    except ConvergenceError:
+        if len(chunk) == 1:
+            return _not_intersected(RayStatus.DISTORTION_FOLDS)
+        half = len(chunk) // 2
+        parts = [np.arange(half), np.arange(half, len(chunk))]
+        return Intersection.gathered([(rows, _intersect_at(calibration, chunk.take(rows), station, options))
+                                      for rows in parts], len(chunk))
+
+
+def _not_intersected(status: RayStatus) -> Intersection:
+    """One row that has no intersection, for ``status``'s reason (placeholders of zeros, as every row that
+    is not OK holds)."""
+    return Intersection(np.zeros((1, 3)), np.zeros((1, 3, 3)), np.zeros((1, 2)), np.zeros((1, 2)),
+                        np.array([status], dtype=np.uint8))
 
 
 @dataclass(frozen=True)

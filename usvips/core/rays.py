@@ -27,6 +27,7 @@ class RayStatus(IntEnum):
     PARALLEL_RAYS = 6
     FAILED_RAY = 7
     DIVERGING_RAYS = 8
+    DISTORTION_FOLDS = 9
 
     @property
     def reason(self) -> str:
@@ -44,6 +45,8 @@ _REASONS = {
     RayStatus.FAILED_RAY: "one of the rays could not be traced",
     RayStatus.DIVERGING_RAYS: "the rays diverge: they come nearest each other behind the cameras (left and right "
                               "picks swapped, or not of one point?)",
+    RayStatus.DISTORTION_FOLDS: "the calibration's lens distortion cannot be undone at this pixel (its polynomial "
+                                "folds over there: the calibration does not hold so far from the centre)",
 }
 
 
