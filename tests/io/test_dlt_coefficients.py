@@ -57,6 +57,7 @@ def test_a_known_rig_is_read_back_in_every_layout_and_origin(tmp_path, origin, o
             seen = camera.project(points)
             assert np.abs(seen.pixels - dlt_pixels(coefficients, points)).max() < 1e-6
         assert calibration.sigma0_origin == "assumed" and calibration.sigma0_px == 0.5
+        assert calibration.source["origin"] == origin and calibration.source["one_based"] == one_based
 
 
 def test_skew_is_dropped_and_its_effect_stated_and_a_stated_rms_is_sigma0(tmp_path):

@@ -148,14 +148,14 @@ def calibration_from_dlt(path: str | Path, cameras: tuple[int, int] = (1, 2), or
         for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3"):
             parameters[f"{name}_{suffix}"] = ParameterEstimate(float(getattr(camera.interior, name)), None, "fixed")
     if sigma0_px is not None:
-        sigma0, origin = float(sigma0_px), "given"
+        sigma0, sigma0_origin = float(sigma0_px), "given"
     elif rms is not None:
-        sigma0, origin = float(rms), "stated"
+        sigma0, sigma0_origin = float(rms), "stated"
     else:
-        sigma0, origin = ASSUMED_SIGMA0_PX, "assumed"
-    statistics = {"sigma0_origin": origin,
+        sigma0, sigma0_origin = ASSUMED_SIGMA0_PX, "assumed"
+    statistics = {"sigma0_origin": sigma0_origin,
                   "skew_px": {side: {"skew": c.skew, **skew_effect(c, height)} for side, c in decomposed.items()}}
-    if origin == "stated":
+    if sigma0_origin == "stated":
         statistics["sigma0_basis"] = "the reprojection RMS the DLT file states"
     source = {"dlt": str(path), "cameras": list(cameras), "origin": origin, "one_based": one_based, "unit": unit}
     calibration = StereoCalibration.from_cameras(placed[0], placed[1], "air", sigma0,
