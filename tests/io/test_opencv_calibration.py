@@ -499,3 +499,16 @@ def test_whole_number_matrices_that_hold_fractions_empty_bom_and_utf16_files(tmp
     (tmp_path / "single.npy").rename(tmp_path / "single.npz")
     with pytest.raises(InputFileError, match=r"not a .npz archive \(a single array saved by np.save"):
         read_opencv_stereo(tmp_path / "single.npz")
+
+
+def test_a_calibration_given_to_the_wrong_door_is_named_for_what_it_is(tmp_path):
+    """A USVIPS calibration given to the OpenCV import, and an OpenCV one where a USVIPS one is read."""
+    rng = np.random.default_rng(3)
+    save_calibration(_random_usvips_calibration(rng), tmp_path / "ours.json")
+    with pytest.raises(InputFileError, match="ours.json: is already a USVIPS calibration"):
+        read_opencv_stereo(tmp_path / "ours.json")
+    for name in ("theirs.yml", "theirs.xml"):
+        _write(tmp_path / name, **GOOD)
+        with pytest.raises(InputFileError, match=f"{name}: an OpenCV calibration .YAML/XML., not a USVIPS one: "
+                                                 "convert it first with usvips calibration import"):
+            load_calibration(tmp_path / name)

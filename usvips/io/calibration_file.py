@@ -413,13 +413,18 @@ def _require_parameters_agree(path: str, kind: str, stations: tuple[str, ...],
 def load_calibration(path: str | Path) -> StereoCalibration:
     """Read a calibration file; raises :class:`InputFileError` naming the file and what is wrong."""
     path = Path(path)
+    text = ""
     if not path.is_file():
         raise InputFileError(str(path), "no such calibration file")
     try:
         if path.stat().st_size > MAX_FILE_BYTES:
             raise InputFileError(str(path), f"too large for a calibration file (over {MAX_FILE_BYTES >> 20} MiB)")
-        data = loads_strict(path.read_text(encoding="utf-8-sig"), path)
+        text = path.read_text(encoding="utf-8-sig")
+        data = loads_strict(text, path)
     except json.JSONDecodeError as error:
+        if text.lstrip().startswith(("%YAML", "<?xml", "<opencv_storage")) or "!!opencv-matrix" in text:
+            raise InputFileError(str(path), "an OpenCV calibration (YAML/XML), not a USVIPS one: convert it first "
+                                 "with usvips calibration import") from None
         raise InputFileError(str(path), f"not valid JSON: {error.msg}", error.lineno) from None
     except UnicodeDecodeError as error:
         raise not_utf8(str(path), error.object, error.start, "calibration file (JSON)") from None

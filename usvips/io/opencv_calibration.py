@@ -476,6 +476,7 @@ def read_opencv_stereo(paths: str | Path | Sequence[str | Path], size: tuple[int
     stereo_stated, camera_stated = None, []
     singles: list[dict[str, object]] = []
     for path in paths:
+        _refuse_usvips_file(path)
         data = _read_file(path)
         _refuse_other_models(data, path)
         single = _single_camera(data, path)
@@ -542,6 +543,19 @@ def sigma0_statement(calibration: StereoCalibration) -> str:
                        "every figure made with this calibration says so"}.get(calibration.sigma0_origin,
                                                                              f"sigma0 {calibration.sigma0_px:.3g} px")
     return text + "; no parameter covariance: the figures' sigmas hold the pointing share only"
+
+
+def _refuse_usvips_file(path: Path) -> None:
+    """A USVIPS calibration given to the OpenCV import is named as such (OpenCV would read its JSON and
+    find no camera matrix)."""
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(4096)
+    except OSError:
+        return  # named where it is read
+    if b'"usvips-calibration"' in head:
+        raise InputFileError(str(path), "is already a USVIPS calibration: use it as it is (e.g. usvips project "
+                             "import --calibration)")
 
 
 def _refuse_other_models(data: dict[str, object], path: Path) -> None:
