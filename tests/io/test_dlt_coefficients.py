@@ -101,3 +101,30 @@ def test_bad_choices_are_named(tmp_path):
     one.write_text("\n".join(f"{v:.17g}" for v in coefficients_of(*cameras[0])) + "\n")
     with pytest.raises(InputFileError, match="one camera"):
         calibration_from_dlt(one)
+
+
+def test_quoted_numbers_are_read_and_a_second_header_decimal_commas_and_separators_are_refused(tmp_path):
+    _, cameras = _rig(3)
+    table = np.array([coefficients_of(k, pose) for k, pose in cameras])
+    rows = ["\t".join(f"{v:.17g}" for v in row) for row in table.T]
+    quoted = tmp_path / "quoted.csv"
+    quoted.write_text('"cam1","cam2"\n' + "\n".join(",".join(f'"{v}"' for v in r.split("\t")) for r in rows) + "\n")
+    plain = tmp_path / "plain.csv"
+    plain.write_text("cam1,cam2\n" + "\n".join(r.replace("\t", ",") for r in rows) + "\n")
+    read, _ = calibration_from_dlt(quoted, size=(1280, HEIGHT))
+    again, _ = calibration_from_dlt(plain, size=(1280, HEIGHT))
+    assert read.left.interior.f == again.left.interior.f
+    for name, text, message in (
+            ("headers.csv", "cam1,cam2\nx,y\n" + "\n".join(rows), "headers.csv line 2: 'x' is not a number"),
+            ("comma.csv", "cam1;cam2\n" + "\n".join(r.replace(".", ",").replace("\t", ";") for r in rows),
+             "comma.csv line 2: fields separated by semicolons with decimal commas"),
+            ("underscore.csv", "\n".join(rows).replace("\t", ",1_0,", 1),
+             "underscore.csv line 1: '1_0' is not a number"),
+    ):
+        (tmp_path / name).write_text(text + "\n")
+        with pytest.raises(InputFileError, match=message):
+            calibration_from_dlt(tmp_path / name, size=(1280, HEIGHT))
+    (tmp_path / "zeros.csv").write_text("\n".join(["0,0"] * 11) + "\n")
+    with pytest.raises(InputFileError, match=r"zeros.csv: camera 1: the DLT coefficients are singular") as caught:
+        calibration_from_dlt(tmp_path / "zeros.csv", size=(1280, HEIGHT))
+    assert str(caught.value).count("zeros.csv") == 1

@@ -29,6 +29,7 @@ from usvips.core.camera import Camera
 from usvips.core.dlt import DltCamera, camera_from_matrix, matrix_from_coefficients, skew_effect
 from usvips.core.errors import DegenerateGeometryError, InputFileError, InvalidParameterError
 from usvips.core.interior import Interior
+from usvips.core.plain_numbers import plain_number
 from usvips.core.stereo_calibration import ParameterEstimate, StereoCalibration
 from usvips.io.opencv_calibration import ASSUMED_SIGMA0_PX
 from usvips.io.text_lines import not_utf8, split_lines
@@ -48,7 +49,7 @@ def read_coefficients(path: str | Path) -> tuple[np.ndarray, float | None]:
     except UnicodeDecodeError as error:
         raise not_utf8(str(path), error.object, error.start, "file of DLT coefficients") from None
     rows: list[tuple[int, list[float]]] = []
-    rms = None
+    rms, header = None, None
     for number, line in enumerate(split_lines(text), start=1):
         stated = _RMS.match(line)
         if stated:
@@ -62,15 +63,19 @@ def read_coefficients(path: str | Path) -> tuple[np.ndarray, float | None]:
             continue
         if not line.strip() or line.lstrip().startswith("#"):
             continue
-        fields = [f for f in _SPLIT.split(line.strip()) if f]
+        if ";" in line and "," in line:  # 1,5;2,25: a spreadsheet's export with decimal commas
+            raise InputFileError(f"{path} line {number}", "fields separated by semicolons with decimal commas: "
+                                 "save the numbers with decimal points (and commas or tabs between them)")
+        fields = [f.strip().strip('"') for f in _SPLIT.split(line.strip()) if f]
         values = []
         for field in fields:
             try:
-                values.append(float(field))
+                values.append(float(plain_number(field)))
             except ValueError:
                 values.append(None)
         if any(v is None for v in values):
-            if not rows and all(v is None for v in values):
+            if not rows and header is None and all(v is None for v in values):
+                header = number
                 continue  # one header line of words
             bad = next(f for f, v in zip(fields, values, strict=True) if v is None)
             raise InputFileError(f"{path} line {number}", f"{bad!r} is not a number")
@@ -135,7 +140,7 @@ def calibration_from_dlt(path: str | Path, cameras: tuple[int, int] = (1, 2), or
     for side, number in zip(("left", "right"), cameras, strict=True):
         matrix = to_usvips_pixels(matrix_from_coefficients(coefficients[number - 1]), origin, one_based, height)
         try:
-            camera = camera_from_matrix(matrix @ scale, f"{Path(path).name} camera {number}")
+            camera = camera_from_matrix(matrix @ scale, f"camera {number}")
         except DegenerateGeometryError as error:
             raise InputFileError(str(path), str(error)) from None
         decomposed[side] = camera
