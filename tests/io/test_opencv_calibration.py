@@ -122,8 +122,9 @@ def test_export_projects_in_opencv_as_we_do(tmp_path, seed):
     storage.release()
     _assert_projects_like_opencv(calibration, arrays["M1"], arrays["D1"], arrays["M2"], arrays["D2"], arrays["R"],
                                  arrays["T"], rng)
-    # and in again: the same calibration
+    # and in again: the same calibration, with its sigma0 (written as OpenCV's 2-D RMS)
     again = read_opencv_stereo(tmp_path / "stereo.xml")
+    assert again.sigma0_px == pytest.approx(calibration.sigma0_px) and again.sigma0_origin == "stated"
     for side in ("left", "right"):
         ours, theirs = getattr(calibration, side).interior, getattr(again, side).interior
         for name in ("f", "xp", "yp", "sy", "k1", "k2", "p1", "p2", "k3"):
@@ -398,6 +399,8 @@ def test_a_ros_camera_info_pair_is_the_rig_its_rectification_came_from(tmp_path,
     calibration = read_opencv_stereo([left, right])
     _assert_projects_like_opencv(calibration, cams[0][0], cams[0][1], cams[1][0], cams[1][1], rotation, tvec, rng)
     assert (calibration.left.width, calibration.left.height) == (WIDTH, HEIGHT)
+    with pytest.raises(InputFileError, match="the first camera_info file is the right camera's"):
+        read_opencv_stereo([right, left])  # given the other way round: refused, not a swapped rig
 
 
 def test_a_ros_fisheye_model_or_a_broken_projection_is_refused_by_name(tmp_path):

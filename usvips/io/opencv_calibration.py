@@ -243,6 +243,8 @@ def opencv_from_stereo(calibration: StereoCalibration) -> tuple[dict[str, np.nda
                         "OpenCV's stereo file holds the rig (left camera at the origin) only")
     if calibration.covariance is not None or any(p.sigma for p in calibration.parameters.values()):
         left_out.append("the parameters' sigmas and covariance are left out (OpenCV's file has no place for them)")
+    if calibration.sigma0_origin != "assumed" and calibration.sigma0_px > 0:  # (an assumed one is no residual)
+        out["rms"] = float(calibration.sigma0_px * math.sqrt(2.0))  # OpenCV's 2-D RMS: read back as this σ0
     sizes = {(c.width, c.height) for c in (calibration.left, calibration.right)}
     if len(sizes) == 1 and None not in next(iter(sizes)):
         width, height = next(iter(sizes))
@@ -610,6 +612,9 @@ def _relative_from_rectification(left: dict[str, object], right: dict[str, objec
         if abs(np.linalg.det(inner)) < 1e-12:
             raise InputFileError(where, f"the {which} camera's projection_matrix has no inverse: not a camera's")
         offsets.append(np.linalg.solve(inner, projection[:, 3]))
+    if np.any(offsets[0] != 0.0) and not np.any(offsets[1] != 0.0):  # ROS: Tx = Ty = 0 for the first camera
+        raise InputFileError(where, "the first camera_info file is the right camera's (its projection_matrix has "
+                             "Tx or Ty ≠ 0, the second's none): give the left camera's file first")
     rotation = rotations[1].T @ rotations[0]
     return {"R": rotation, "T": (rotations[1].T @ (offsets[1] - offsets[0])).reshape(3, 1)}
 
@@ -655,7 +660,8 @@ def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> lis
     arrays, left_out = opencv_from_stereo(calibration)
     comment = "written by USVIPS from a calibration; T in metres; USVIPS's in-air model of each camera"
     if path.is_dir():
-        intrinsics = {k: arrays[k] for k in ("M1", "D1", "M2", "D2", "image_width", "image_height") if k in arrays}
+        intrinsics = {k: arrays[k] for k in ("M1", "D1", "M2", "D2", "image_width", "image_height", "rms")
+                      if k in arrays}
         extrinsics = {k: v for k, v in arrays.items() if k not in intrinsics or k.startswith("image_")}
         inner, outer = opencv_targets(path)
         texts = [(inner, _storage_text(inner, intrinsics, comment)), (outer, _storage_text(outer, extrinsics, comment))]
