@@ -202,6 +202,9 @@ def stereo_from_opencv(arrays: dict[str, np.ndarray], size: tuple[int, int] | No
     translation = translation * UNITS[unit]
     if np.linalg.norm(translation) == 0:
         raise InputFileError(path, "T is zero: the two cameras share one centre, which is not a stereo rig")
+    if np.linalg.norm(translation) < MIN_BASELINE_M:  # (any unit: a micrometre is no rig's baseline)
+        raise InputFileError(path, f"T puts the cameras {np.linalg.norm(translation):.3g} m apart: they share "
+                             "one centre for every purpose, which is not a stereo rig")
     centre_cv = -rotation.T @ translation  # the right centre in the left camera frame (OpenCV axes)
     m_right = FLIP @ rotation @ FLIP      # left frame (our axes) → right image frame (our axes)
     width, height = size if size else (None, None)
@@ -672,6 +675,8 @@ def write_opencv_stereo(calibration: StereoCalibration, path: str | Path) -> lis
     return left_out
 
 
+#: the shortest baseline (m) an import takes: below it every ray pair meets at the cameras
+MIN_BASELINE_M = 1e-6
 #: baselines (m) of the stereo rigs the field uses, diver-held to ROV frames, with a wide margin
 PLAUSIBLE_BASELINE_M = (0.01, 5.0)
 #: the unit suggested first is the one that gives the baseline nearest this (m)
