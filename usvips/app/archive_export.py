@@ -16,6 +16,7 @@ deployment covers.
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 
 from usvips.app.project_export import collect_export
@@ -45,22 +46,31 @@ def archive_targets(project: ProjectStore, folder: str | Path) -> list[Path]:
 
 
 def export_archive(project: ProjectStore, folder: str | Path, rules: QualityRules | None = None,
-                   skipped: list[str] | None = None, reader: str | None = None) -> list[Path]:
+                   skipped: list[str] | None = None, reader: str | None = None,
+                   warnings: list[str] | None = None) -> list[Path]:
     """Write the campaign's tables into ``folder`` (an existing folder): ``CAMPAIGNID_Metadata.csv``
     (CheckEM's sample columns and the campaign's), ``_Count.txt`` (MaxN), ``_Length.txt``, and the
     EventMeasure-style ``_Lengths.txt``, ``_3DPoints.txt`` (and tables of their own kinds); returns the
     files written. Objects without figures are left out and named in ``skipped``. ``reader``: only the
     objects this annotator made (a double-read survey, whose fish would otherwise be counted twice); a
-    name who made none is refused by name."""
+    name who made none is refused by name; without ``reader``, objects of several annotators are counted
+    together, and ``warnings`` says so (a team that split the videos counts right; a double-read survey
+    would count its fish twice)."""
     where = str(project.path)
     folder = Path(folder)
     if not folder.is_dir():
         raise InvalidParameterError("folder", f"{folder}: not an existing folder (the GlobalArchive tables are "
                                     "written into a folder, named by the CampaignID)")
     campaign = check_campaign(project.campaign(), where)
-    if reader is not None and reader not in {o.creator for o in project.objects()}:
+    creators = Counter(o.creator for o in project.objects())
+    if reader is not None and reader not in creators:
         raise InvalidParameterError("reader", f"{where}: annotator {reader!r} measured no object of this survey",
                                     label="reader")
+    if reader is None and len(creators) > 1 and warnings is not None:
+        made = ", ".join(f"{name or 'unnamed'} {count}" for name, count in creators.most_common())
+        warnings.append(f"the objects of {len(creators)} annotators ({made}) are counted together: right when "
+                        "they measured different fish, twice over when the survey was double-read (--reader NAME "
+                        "exports one reader's)")
     content = collect_export(project, rules=rules, skipped=skipped, creator=reader)
     check_samples(content.samples, where)
     known = {deployment.opcode for deployment, _ in content.samples}
@@ -97,7 +107,7 @@ def export_archive(project: ProjectStore, folder: str | Path, rules: QualityRule
 
 def export_archive_folder(project: ProjectStore, folder: str | Path, local: str | None = None,
                           replace: bool = False, reader: str | None = None,
-                          skipped: list[str] | None = None) -> list[Path]:
+                          skipped: list[str] | None = None, warnings: list[str] | None = None) -> list[Path]:
     """:func:`export_archive` into ``folder``, made when it does not exist (its parent must) and removed
     again when the export is refused: all or nothing. Existing tables are replaced only with ``replace``
     (kept as NAME.bak), never when one is ``local`` (the project file) — the rule of every output."""
@@ -110,7 +120,7 @@ def export_archive_folder(project: ProjectStore, folder: str | Path, local: str 
         folder.mkdir()
     try:
         with replacing(targets, project=local, replace=replace):
-            return export_archive(project, folder, skipped=skipped, reader=reader)
+            return export_archive(project, folder, skipped=skipped, reader=reader, warnings=warnings)
     except BaseException:
         if made and not any(folder.iterdir()):
             folder.rmdir()

@@ -7,6 +7,7 @@ named by the CampaignID (:mod:`usvips.app.archive_export`)."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from usvips.core.errors import InvalidParameterError, UsvipsError
 
@@ -77,16 +78,19 @@ def run_archive_export(args: argparse.Namespace) -> int:
     from usvips.store.opening import open_project
 
     skipped: list[str] = []
+    warnings: list[str] = []
     local = None if is_server_location(args.project) else args.project
     with open_project(args.project, read_only=True) as project:
         try:
-            written = export_archive_folder(project, args.out, local, args.force, args.reader, skipped)
+            written = export_archive_folder(project, args.out, local, args.force, args.reader, skipped, warnings)
         except InvalidParameterError as error:
             if error.parameter != "folder":
                 raise
             raise InvalidParameterError("OUT", error.problem) from None
     for reason in skipped:
         print(f"skipped {reason}")
+    for warning in warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     print(f"wrote {len(written)} GlobalArchive/CheckEM tables to {args.out}: "
           + ", ".join(path.name for path in written))
     return 0
