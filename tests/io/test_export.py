@@ -235,3 +235,16 @@ def test_unknown_sigmas_and_rms_are_empty_cells_and_a_missing_length_is_refused(
                                                            for f in objects[1].figures))
     with pytest.raises(InvalidParameterError, match="object 2: its Length"):
         eventmeasure_tables([broken], opcode="BRUV1")
+
+
+@pytest.mark.parametrize(("attribute", "taxon"), [
+    ("Sparidae Chrysophrys auratus", ("Sparidae", "Chrysophrys", "auratus")),
+    ("Laminariaceae Ecklonia radiata", ("Laminariaceae", "Ecklonia", "radiata")),
+    ("left side only", ("", "", "left side only")),  # three words that are no taxon stay whole
+    ("Fork partly hidden", ("", "", "Fork partly hidden")),
+])
+def test_a_free_text_attribute_is_a_taxon_only_when_it_reads_as_one(attribute, taxon):
+    fish = [measure("length", np.array([[0, 0, -2.0], [0.3, 0.0, -2.0]]), np.stack([COV, COV]), 0.003, 2.0,
+                    id="1", attribute=attribute)]
+    rows = list(csv.DictReader(io.StringIO(eventmeasure_tables(fish, opcode="OP")["Lengths"]), dialect="excel-tab"))
+    assert (rows[0]["Family"], rows[0]["Genus"], rows[0]["Species"]) == taxon

@@ -469,10 +469,12 @@ def _camel(name: str) -> str:
 
 def _taxonomy(attribute: str) -> tuple[str, str, str]:
     """Family, genus, species of a free-text attribute when no observation record says them: "Family
-    Genus species" (three words), "Genus species" (a binomial, two words); anything else stays whole in
-    Species. Records typed from the species list (:class:`ObservationRecord`) are used instead when given."""
+    Genus species" (three words, the family's name ending as zoological and botanical families' do, -idae
+    or -aceae: "left side only" is no taxon), "Genus species" (a binomial, two words); anything else stays
+    whole in Species. Records typed from the species list (:class:`ObservationRecord`) are used instead when
+    given."""
     words = attribute.split()
-    if len(words) == 3:
+    if len(words) == 3 and words[0].lower().endswith(("idae", "aceae")) and words[1][:1].isupper():
         return words[0], words[1], words[2]
     if len(words) == 2 and words[0][:1].isupper() and words[1][:1].islower():
         return "", words[0], words[1]
