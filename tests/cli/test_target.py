@@ -94,3 +94,12 @@ def test_detect_reports_each_image(tmp_path, capsys):
     assert lines[2] == "found in 1 of 2 images"
     assert main(["target", "detect", str(target), str(tmp_path / "missing.png")]) == 2
     assert "missing.png" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("value", ["1e308", "nan", "0", "20000"])
+def test_a_board_size_out_of_range_is_said_in_the_millimetres_it_was_given_in(tmp_path, capsys, value):
+    assert main(["target", "describe", "chessboard", "--cols", "9", "--rows", "6", "--square", value,
+                 "--out", str(tmp_path / "t.json")]) == 2
+    err = capsys.readouterr().err
+    assert "--square: must be a length in millimetres" in err and "metres are expected" not in err
+    assert not (tmp_path / "t.json").exists()

@@ -8,6 +8,7 @@ Sizes on the command line are in millimetres (``--square 24``); the file holds m
 from __future__ import annotations
 
 import argparse
+import math
 
 import numpy as np
 
@@ -17,6 +18,8 @@ from usvips.io.atomic import replacing
 from usvips.io.images import read_image
 from usvips.io.target_file import read_target, write_printable, write_target
 
+#: the largest length (mm) a describe option takes: a board of 10 m (the file's own limit)
+MAX_TARGET_MM = 10_000
 #: Command-line options of ``describe`` → (description field, converter). Lengths are given in mm.
 OPTIONS = {
     "cols": ("cols", int), "rows": ("rows", int), "square": ("square", "mm"), "marker": ("marker", "mm"),
@@ -82,6 +85,9 @@ def description_from_args(args: argparse.Namespace) -> dict:
         value = getattr(args, option, None)
         if value is None or value is False:
             continue
+        if convert == "mm" and not (math.isfinite(value) and 0 < value <= MAX_TARGET_MM):
+            raise InvalidParameterError(option, f"must be a length in millimetres from 0 to "
+                                        f"{MAX_TARGET_MM:g}, got {value:g}")
         description[name] = value * 1e-3 if convert == "mm" else value
     if args.kind == "target-field":
         if not args.control:
