@@ -305,3 +305,16 @@ def test_coarser_identifications_pair_and_wrong_ones_conflict_over_random_survey
         assert len(report.pairs) == n - len(wrong)
         assert set(report.species_conflicts[:, 0].tolist()) == set(wrong.tolist())
         assert report.agreement.species_agreement == pytest.approx((n - len(wrong)) / n)
+
+
+@pytest.mark.parametrize(("gate_m", "k", "words"), [(0.3, -1.0, "k: must be a finite number > 0"),
+                                                    (0.3, 0.0, "k: must be a finite number > 0"),
+                                                    (0.0, 2.0, "gate_m: must be a finite number > 0"),
+                                                    (float("nan"), 2.0, "gate_m: must be a finite number > 0")])
+def test_a_bad_gate_or_k_is_refused_with_the_one_bound_it_has(gate_m, k, words):
+    """-1 and 0 get the same words (a negative k was told "≥ 0", and then 0 was told "> 0")."""
+    from usvips.core.double_reading import check_parameters
+
+    with pytest.raises(InvalidParameterError, match=words):
+        check_parameters(0.5, gate_m, k)
+    check_parameters(0.0, 0.3, 2.0)  # a tolerance of 0 is allowed

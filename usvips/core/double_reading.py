@@ -179,13 +179,13 @@ def check_parameters(tolerance_s: float | None, gate_m: float, k: float,
                                     "give the time tolerance in exactly one of seconds (tolerance_s) or frames "
                                     "(tolerance_frames)")
     tolerance = ("tolerance_s", tolerance_s) if tolerance_s is not None else ("tolerance_frames", tolerance_frames)
+    why = {"gate_m": " (the largest distance between two readings of one object)",
+           "k": " (how many combined σ a difference may reach)"}
     for name, value in (tolerance, ("gate_m", gate_m), ("k", k)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-            raise InvalidParameterError(name, f"must be a finite number ≥ 0, got {value!r}")
-    if gate_m == 0:
-        raise InvalidParameterError("gate_m", "must be > 0 (the largest distance between two readings of one object)")
-    if k == 0:
-        raise InvalidParameterError("k", "must be > 0 (how many combined σ a difference may reach)")
+        least = "≥ 0" if name == tolerance[0] else "> 0"  # (only a tolerance may be 0)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0 \
+                or (least == "> 0" and value == 0):
+            raise InvalidParameterError(name, f"must be a finite number {least}{why.get(name, '')}, got {value!r}")
 
 
 def match_objects(a: ReaderObjects, b: ReaderObjects, tolerance_s: float | None, gate_m: float,
