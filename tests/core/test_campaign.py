@@ -18,6 +18,7 @@ def test_a_campaign_round_trips_through_its_dict_and_names_what_an_export_needs(
 
 @pytest.mark.parametrize(("values", "name"), [
     ({"campaign_id": "2024/03 reef"}, "campaign_id"), ({"campaign_id": "../x"}, "campaign_id"),
+    ({"campaign_id": "2024-13_Reef_stereo-BRUVs"}, "campaign_id"), ({"campaign_id": "2024-00_Reef_M"}, "campaign_id"),
     ({"project": "two\tcolumns"}, "project"), ({"comment": "line\nbreak"}, "comment"),
     ({"start_date": "2024-3-1"}, "start_date"), ({"end_date": "tomorrow"}, "end_date"),
     ({"start_date": "2024-03-05", "end_date": "2024-03-01"}, "end_date")])

@@ -64,6 +64,10 @@ class Campaign:
             raise InvalidParameterError("campaign_id", "starts the exported file names: letters, digits, '.', '_' "
                                         f"and '-' only (GlobalArchive: YYYY-MM_Project.name_Method), got "
                                         f"{self.campaign_id[:60]!r}")
+        dated = re.match(r"(\d{4})-(\d{2})_", self.campaign_id)
+        if dated and not 1 <= int(dated.group(2)) <= 12:  # GlobalArchive's YYYY-MM: a month that is none
+            raise InvalidParameterError("campaign_id", f"{self.campaign_id[:60]!r} starts with the month "
+                                        f"{dated.group(2)}, which is none (GlobalArchive: YYYY-MM_Project.name_Method)")
         dates = {}
         for name in ("start_date", "end_date"):
             value = getattr(self, name)
