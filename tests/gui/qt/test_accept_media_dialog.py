@@ -107,17 +107,26 @@ def _flip_a_byte(path: Path) -> None:
     path.write_bytes(bytes(data))
 
 
-def test_the_media_warning_forgets_each_file_accepted_and_closes_when_none_is_left(qtbot, make_window, sample_copy):
-    directory = sample_copy("rov_flatport")
+def _opened_sample(qtbot, make_window, sample_copy):
+    """A window on a copy of the video sample, its first media check done (nothing changed yet)."""
     window = make_window()
-    assert window.open_path(directory, "video")
+    assert window.open_path(sample_copy("rov_flatport"), "video")
     qtbot.waitUntil(lambda: window.media_check.problems is not None and not window.busy, timeout=60000)
-    path = window.workspace.project.path
+    return window
+
+
+def _reopened_with_warning(qtbot, window) -> None:
+    """The project opened again, after its media changed: the check's warning box is up."""
+    window.open_path(window.workspace.project.path, "video")
+    qtbot.waitUntil(lambda: window.media_check.box is not None and not window.busy, timeout=60000)
+
+
+def test_the_media_warning_forgets_each_file_accepted_and_closes_when_none_is_left(qtbot, make_window, sample_copy):
+    window = _opened_sample(qtbot, make_window, sample_copy)
     (first, first_path, _, _), (second, second_path, _, _) = window.workspace.project.media_records()[-2:]
     _flip_a_byte(first_path)
     _flip_a_byte(second_path)
-    assert window.open_path(path, "video")
-    qtbot.waitUntil(lambda: window.media_check.box is not None and not window.busy, timeout=60000)
+    _reopened_with_warning(qtbot, window)
     box = window.media_check.box
     assert "2 media files are not the one added" in box.text()
     media_dialogs.accept_changed_media(window.context, window, answers={first})
@@ -134,31 +143,21 @@ def test_the_media_warning_forgets_each_file_accepted_and_closes_when_none_is_le
 
 
 def test_the_media_warning_forgets_a_relocated_file(qtbot, make_window, sample_copy):
-    directory = sample_copy("rov_flatport")
-    window = make_window()
-    assert window.open_path(directory, "video")
-    qtbot.waitUntil(lambda: window.media_check.problems is not None and not window.busy, timeout=60000)
-    path = window.workspace.project.path
+    window = _opened_sample(qtbot, make_window, sample_copy)
     stored, recorded, _, _ = window.workspace.project.media_records()[-1]
     moved = recorded.parent / "elsewhere" / recorded.name
     moved.parent.mkdir()
     recorded.rename(moved)
-    window.open_path(path, "video")  # the project opens; its missing video cannot be shown
-    qtbot.waitUntil(lambda: window.media_check.box is not None and not window.busy, timeout=60000)
+    _reopened_with_warning(qtbot, window)  # the project opens; its missing video cannot be shown
     assert not any(b.text() == "Accept changed media…" for b in window.media_check.box.buttons())  # only missing
     assert media_dialogs.relocate_media(window.context, window, answers={stored: str(moved)}) == 1
     assert window.media_check.box is None and window.media_check.problems == []
 
 
 def test_escape_closes_the_media_warning_that_offers_to_accept(qtbot, make_window, sample_copy):
-    directory = sample_copy("rov_flatport")
-    window = make_window()
-    assert window.open_path(directory, "video")
-    qtbot.waitUntil(lambda: window.media_check.problems is not None and not window.busy, timeout=60000)
-    path = window.workspace.project.path
+    window = _opened_sample(qtbot, make_window, sample_copy)
     _flip_a_byte(window.workspace.project.media_records()[-1][1])
-    assert window.open_path(path, "video")
-    qtbot.waitUntil(lambda: window.media_check.box is not None and not window.busy, timeout=60000)
+    _reopened_with_warning(qtbot, window)
     box = window.media_check.box
     assert len(box.buttons()) == 2
     qtbot.keyClick(box, QtCore.Qt.Key.Key_Escape)
