@@ -159,3 +159,24 @@ def test_the_590_mm_fish_of_a_wrong_accepted_match_is_listed_by_the_weak_match_a
     geometry = next(i for i in report.issues if i.rule == "geometry")
     assert geometry.status == FAIL and geometry.value > geometry.limit == 45.0
     assert len(facts) == 2 and "weak match accepted" in facts[0] and "0.46" in facts[0]
+
+
+def test_a_damaged_calibration_stops_the_check_and_the_export_rather_than_change_their_figures(tmp_path):
+    """Figures of objects whose calibration cannot be read would come from the vertices' stored values
+    and differ from the calibration's, silently: the check and the export name the calibration instead."""
+    import sqlite3
+
+    from usvips.app.project_export import export_project
+    from usvips.core.errors import UsvipsError
+
+    build_survey(tmp_path / "survey.usvips")
+    connection = sqlite3.connect(tmp_path / "survey.usvips")
+    with connection:
+        connection.execute("UPDATE calibrations SET json = '{not json'")
+    connection.close()
+    with Project.open(tmp_path / "survey.usvips", read_only=True) as project:
+        with pytest.raises(UsvipsError, match="calibration 1 is damaged"):
+            check_project(project)
+        with pytest.raises(UsvipsError, match="calibration 1 is damaged"):
+            export_project(project, tmp_path / "objects.csv")
+    assert not (tmp_path / "objects.csv").exists()

@@ -19,6 +19,14 @@ def read_calibration(project: ProjectStore, calibration_id: int) -> StereoCalibr
     return calibration_from_dict(project.calibration(calibration_id), f"{project.path} calibration {calibration_id}")
 
 
+def require_readable_calibrations(project: ProjectStore) -> None:
+    """Every stored calibration read and checked: one that cannot be read (damaged) is its error. Exports
+    and checks call this first: their figures would otherwise come from the vertices' stored values for
+    the objects measured with it, and differ from the calibration's own without a word."""
+    for stored in project.calibrations():
+        read_calibration(project, stored.id)
+
+
 def active_calibration_id(project: ProjectStore, label: str) -> int | None:
     """The id of the calibration active for the pair or video ``label``; None when none is."""
     return project.active_calibration(label)

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from usvips.app.calibrations import require_readable_calibrations
 from usvips.app.object_instants import survey_objects
 from usvips.app.pointing_settings import pointing_in_use
 from usvips.app.project_figures import evaluate, instants_by_object, measurement_input
@@ -72,7 +73,10 @@ def collect_export(project: ProjectStore, geographic: bool = False, opcode: str 
                    rules: QualityRules | None = None, skipped: list[str] | None = None,
                    creator: str | None = None) -> ExportContent:
     """Read and measure what :func:`export_project` writes (see there); ``geographic``: only the objects
-    measured in the object frame (for GeoJSON); ``creator``: only the objects this annotator made."""
+    measured in the object frame (for GeoJSON); ``creator``: only the objects this annotator made. A
+    stored calibration that cannot be read is an error (:func:`usvips.app.calibrations.
+    require_readable_calibrations`)."""
+    require_readable_calibrations(project)
     objects, centres, images, cache, opcodes, where = [], {}, {}, {}, {}, {}
     fallback = opcode if opcode is not None else project.path.stem
     deployments = project.deployments()

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
+from usvips.app.calibrations import require_readable_calibrations
 from usvips.app.object_instants import survey_objects
 from usvips.app.pointing_settings import pointing_in_use
 from usvips.app.project_figures import evaluate, instants_by_object, measurement_input, where_measured
@@ -257,7 +258,9 @@ def checked_objects(project: ProjectStore, rules: QualityRules | None = None) ->
 
 
 def check_project(project: ProjectStore, rules: QualityRules | None = None) -> QualityReport:
-    """The quality report of a whole project (its species list's maxima included)."""
+    """The quality report of a whole project (its species list's maxima included); a stored calibration
+    that cannot be read is an error (:func:`usvips.app.calibrations.require_readable_calibrations`)."""
+    require_readable_calibrations(project)
     return check(checked_objects(project, rules), rules, species_maxima(project.species_list()))
 
 
