@@ -52,3 +52,17 @@ def test_a_stamp_that_is_not_the_objects_version_names_both(option, tmp_path, ca
     assert "\n" not in error and _state(location) == before
     assert main(["project", "review", location, option, f"{ids[1]}@{now}", *reason]) == 0  # its own stamp
     assert _state(location)[1][0] == ("accepted" if option == "--accept" else "flagged")
+
+
+def test_accepting_over_another_reviewers_flag_says_whose_flag_it_replaced(tmp_path, capsys):
+    location = str(tmp_path / "r.usvips")
+    ids = _survey(location)
+    assert main(["project", "review", location, "--flag", str(ids[0]), "--reason", "fork hidden",
+                 "--annotator", "bea"]) == 0
+    capsys.readouterr()
+    assert main(["project", "review", location, "--accept", str(ids[0]), "--annotator", "cid"]) == 0
+    out = capsys.readouterr().out
+    assert "accepted 1 as cid" in out
+    assert f"replaced bea's flag of object {ids[0]} (" in out and "): fork hidden" in out
+    assert main(["project", "review", location, "--flag", str(ids[0]), "--reason", "no", "--annotator", "cid"]) == 0
+    assert "replaced" not in capsys.readouterr().out  # one's own verdict changed: nothing to say

@@ -71,16 +71,21 @@ def run_review(args: argparse.Namespace) -> int:
     with open_project(args.project, read_only=not writing) as project:
         if writing:
             already = 0  # accepted before (no reason): accepting again writes nothing
+            overturned: list[str] = []  # another reviewer's verdict replaced: said, with theirs
             with project.transaction():
                 for object_id in args.accept:
                     review = project.review(object_id)
                     already += (review.state, review.reason) == ("accepted", "")
+                    overturned += _overturned(review, "accepted", project.annotator)
                     project.set_review(object_id, "accepted", expected_modified=versions.get(object_id))
                 if args.flag is not None:
+                    overturned += _overturned(project.review(args.flag), "flagged", project.annotator)
                     project.set_review(args.flag, "flagged", args.reason, expected_modified=versions.get(args.flag))
             done = [_accepted_text(len(args.accept) - already, already)] if args.accept else []
             done += [f"flagged object {args.flag}"] if args.flag is not None else []
             print(f"{shown(args.project)}: {', '.join(done)} as {project.annotator}")
+            for text in overturned:
+                print(f"  replaced {text}")
         if args.list is not None:
             objects = {o.id: o for o in project.objects()}
             for review in project.reviews(args.list):
@@ -96,6 +101,16 @@ def run_review(args: argparse.Namespace) -> int:
             print(f"{shown(args.project)}: {objects_text(objects, instants)}: {reviews_text(counts)}"
                   + (" (each instant reviewed on its own)" if instants else ""))
     return 0
+
+
+def _overturned(review, state: str, annotator: str) -> list[str]:
+    """One phrase when ``review`` is another reviewer's verdict that ``state`` replaces ("bea's flag of
+    object 7 (2026-…): fork hidden"), else none: the history keeps it, the person replacing it is told."""
+    if review.state in ("unreviewed", state) or review.reviewer == annotator:
+        return []
+    verdict = {"flagged": "flag", "accepted": "acceptance"}.get(review.state, review.state)
+    reason = f": {review.reason}" if review.reason else ""
+    return [f"{review.reviewer or 'someone'}'s {verdict} of object {review.object_id} ({review.reviewed}){reason}"]
 
 
 def _accepted_text(newly: int, already: int) -> str:
