@@ -152,7 +152,7 @@ def test_a_double_read_survey_is_counted_from_one_readers_objects(tmp_path):
             # counted together, the two readers' objects are said to be (a double read counts twice)
             assert warnings == ([] if reader else [
                 "the objects of 2 annotators (ann 3, bob 3) are counted together: right when they measured "
-                "different fish, twice over when the survey was double-read (--reader NAME exports one reader's)"])
+                "different fish, twice over when the survey was double-read (then export one reader's objects)"])
             (row,) = _table(folder / f"{CAMPAIGN.campaign_id}_Count.txt", "\t")
             counts[reader] = int(row["Count"])
             lengths = _table(folder / f"{CAMPAIGN.campaign_id}_Length.txt", "\t")

@@ -354,7 +354,8 @@ def test_a_damaged_capture_time_is_named_not_paired_around_and_an_unset_clock_pa
     main(["project", "new", str(project)])
     code, out, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "damaged" / "left", "--right",
                           tmp_path / "damaged" / "right", "--dry-run")
-    assert code == 2 and "DSC40.jpg: damaged EXIF" in err and "--pair-by order" in err and len(err.splitlines()) == 1
+    assert code == 2 and "DSC40.jpg: damaged EXIF" in err and "by order" in err and "--pair-by" in err
+    assert len(err.splitlines()) == 1
     code, out, err = _run(capsys, "project", "add-pairs", project, "--left", tmp_path / "damaged" / "left", "--right",
                           tmp_path / "damaged" / "right", "--pair-by", "order", "--dry-run")
     assert code == 0 and "2 pairs by name order" in out, err

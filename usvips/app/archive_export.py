@@ -69,8 +69,8 @@ def export_archive(project: ProjectStore, folder: str | Path, rules: QualityRule
     if reader is None and len(creators) > 1 and warnings is not None:
         made = ", ".join(f"{name or 'unnamed'} {count}" for name, count in creators.most_common())
         warnings.append(f"the objects of {len(creators)} annotators ({made}) are counted together: right when "
-                        "they measured different fish, twice over when the survey was double-read (--reader NAME "
-                        "exports one reader's)")
+                        "they measured different fish, twice over when the survey was double-read (then export one "
+                        "reader's objects)")
     content = collect_export(project, rules=rules, skipped=skipped, creator=reader)
     check_samples(content.samples, where)
     known = {deployment.opcode for deployment, _ in content.samples}

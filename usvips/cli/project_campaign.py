@@ -90,7 +90,7 @@ def run_archive_export(args: argparse.Namespace) -> int:
     for reason in skipped:
         print(f"skipped {reason}")
     for warning in warnings:
-        print(f"warning: {warning}", file=sys.stderr)
+        print(f"warning: {warning}; --reader NAME exports one reader's", file=sys.stderr)
     print(f"wrote {len(written)} GlobalArchive/CheckEM tables to {args.out}: "
           + ", ".join(path.name for path in written))
     return 0

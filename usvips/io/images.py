@@ -17,9 +17,6 @@ import numpy as np
 
 from usvips.core.errors import InputFileError, InvalidParameterError
 from usvips.io.atomic import write_bytes_atomic
-from usvips.io.lazy_import import lazy_module
-
-av = lazy_module("av")  # PyAV (FFmpeg's decoders) loaded when a JPEG is first checked for damage
 
 SUPPORTED_DTYPES = (np.uint8, np.uint16)
 #: Environment variable that raises (or lowers) the largest image read, in pixels (width × height).
@@ -131,6 +128,8 @@ def jpeg_damage(data: bytes) -> str | None:
 
 def _ffmpeg_first_picture(data: bytes, strict: bool) -> str | None:
     """None when FFmpeg's JPEG decoder returns the file's first picture, else its error."""
+    import av  # PyAV (FFmpeg's decoders) imported when a JPEG is first checked, not with the window
+
     try:
         with av.open(io.BytesIO(data), format="jpeg_pipe") as container:
             stream = container.streams.video[0]

@@ -559,8 +559,8 @@ def _refuse_usvips_file(path: Path) -> None:
     except OSError:
         return  # named where it is read
     if b'"usvips-calibration"' in head:
-        raise InputFileError(str(path), "is already a USVIPS calibration: use it as it is (e.g. usvips project "
-                             "import --calibration)")
+        raise InputFileError(str(path), "is already a USVIPS calibration: use it as it is (a project imports it as "
+                             "a calibration)")
 
 
 def _refuse_other_models(data: dict[str, object], path: Path) -> None:

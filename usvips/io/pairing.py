@@ -110,8 +110,9 @@ def pair_images(left: Sequence[Path], right: Sequence[Path], by: str = "auto",
         try:
             return pair_by_time(left, right, max_dt), "time"
         except DamagedExifError as error:  # not paired silently by order with one image's time unread
-            raise DamagedExifError(error.path, f"{error.problem}: capture times cannot pair these images; pair "
-                                   "them by order (--pair-by order) to ignore capture times") from None
+            raise concerning(DamagedExifError(error.path, f"{error.problem}: capture times cannot pair these "
+                                              "images; pair them by order to ignore capture times"),
+                             "pair_by") from None
         except InputFileError:
             pass  # no usable capture times: by order below
     if len(left) != len(right):
