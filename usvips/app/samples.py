@@ -7,10 +7,12 @@ line and the workstation both open samples through here.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 from usvips.core.errors import InputFileError
 from usvips.store.interface import ProjectStore
+from usvips.store.location import is_server_location
 from usvips.store.opening import create_project, open_project
 from usvips.store.records import ProjectError
 
@@ -38,16 +40,34 @@ def create_from_manifest(directory: str | Path, out: str | Path) -> ProjectStore
             calibrations.append((entry, json.loads(entry.file.read_text(encoding="utf-8"))))
         except (OSError, ValueError) as error:
             raise InputFileError(str(entry.file), f"cannot read the calibration: {error}") from None
-    project = create_project(out)
+    if is_server_location(out):
+        project = create_project(out)
+        try:
+            with project.transaction():
+                _fill(project, manifest, control, observation_files, calibrations)
+        except BaseException:
+            project.close()
+            raise
+        return project
+    # a project file is made whole under a hidden name beside its place, then linked there: a run stopped
+    # half-way (killed, the power gone) never leaves a half-made project under the name, which a next
+    # start would open as if it were whole
+    out = Path(out)
+    if out.exists() or out.is_symlink():
+        raise ProjectError(f"{out}: already exists; open it instead")
+    partial = out.with_name(f".{out.stem}.{os.getpid()}.partial{out.suffix}")
     try:
-        with project.transaction():
-            _fill(project, manifest, control, observation_files, calibrations)
-    except BaseException:
-        project.close()
+        with create_project(partial) as project:
+            with project.transaction():
+                _fill(project, manifest, control, observation_files, calibrations)
+        try:
+            os.link(partial, out)  # never replaces a file that appeared meanwhile
+        except FileExistsError:
+            raise ProjectError(f"{out}: already exists; open it instead") from None
+    finally:
         for suffix in ("", "-wal", "-shm", "-journal"):
-            Path(f"{out}{suffix}").unlink(missing_ok=True)
-        raise
-    return project
+            Path(f"{partial}{suffix}").unlink(missing_ok=True)
+    return open_project(out)
 
 
 def _fill(project: ProjectStore, manifest, control, observation_files, calibrations) -> None:
