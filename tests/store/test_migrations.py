@@ -81,3 +81,48 @@ def test_a_survey_of_every_earlier_schema_is_migrated_to_what_a_new_one_is(new_d
         assert (stored.kind, stored.attribute, stored.vertices[0].xl) == ("point", "cod", 1.5)
         survey.add_object("length", [stored.vertices[0], stored.vertices[0]], "ling")
     assert _server_schema(url) == _server_schema(fresh)
+
+
+_OPEN_FOR_WRITING = """
+import sys, time
+from usvips.store import Project
+from usvips.store.records import ProjectError
+while time.time() < float(sys.argv[2]):  # both start together
+    pass
+try:
+    with Project.open(sys.argv[1]) as project:
+        print(project.version, len(project.objects()))
+except ProjectError as error:
+    print("refused", error)
+"""
+
+
+def test_two_programs_upgrading_one_file_at_once_keep_a_copy_of_the_old_schema(tmp_path):
+    """Two starts open an old file for writing at the same moment: each is upgraded or said to be locked
+    (never "table already exists"), the file is upgraded once, and the copy aside holds the OLD schema
+    (a copy of the upgraded file made by the second would replace it)."""
+    import subprocess
+    import sys
+    import time
+
+    version = EARLIER[0]
+    for attempt in range(6):
+        old = tmp_path / f"old{attempt}.usvips"
+        connection = sqlite3.connect(old, isolation_level=None)
+        migrate(connection, version)
+        connection.executescript(f"BEGIN; INSERT INTO meta VALUES ('format', '{FORMAT}'); {AN_OBJECT} COMMIT;")
+        connection.close()
+        start = time.time() + 1.5
+        runs = [subprocess.Popen([sys.executable, "-c", _OPEN_FOR_WRITING, str(old), str(start)],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]
+        outputs = [run.communicate(timeout=120)[0].strip() for run in runs]
+        for output in outputs:
+            assert output == f"{SCHEMA_VERSION} 1" or ("refused" in output and "locked" in output), output
+        with Project.open(old) as project:  # upgraded once, whole (or now, when both were told it was locked)
+            assert project.version == SCHEMA_VERSION and len(project.objects()) == 1
+        backups = list(tmp_path.glob(f"old{attempt}.usvips.schema*.bak"))
+        for backup in backups:
+            kept = sqlite3.connect(backup)
+            assert kept.execute("PRAGMA user_version").fetchone()[0] == version, backup.name
+            kept.close()
+        assert not list(tmp_path.glob(f".old{attempt}*.tmp"))  # no copy in progress left behind

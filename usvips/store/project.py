@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 import sqlite3
 import tempfile
+import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -66,6 +67,10 @@ def migrate(connection: sqlite3.Connection, target: int = SCHEMA_VERSION) -> int
     except sqlite3.Error:
         if connection.in_transaction:
             connection.execute("ROLLBACK")
+        # another program opening the same file may have upgraded it between the version read above and
+        # this transaction (its steps then fail here: "table … already exists"): the file is upgraded
+        if connection.execute("PRAGMA user_version").fetchone()[0] >= target:
+            return connection.execute("PRAGMA user_version").fetchone()[0]
         raise
     return connection.execute("PRAGMA user_version").fetchone()[0]
 
@@ -295,20 +300,31 @@ class Project(Survey):
     def _migrate(path: Path, version: int) -> None:
         """Copy the project aside (a consistent copy, WAL included), then migrate it in one transaction."""
         backup = backup_path(path, version)
+        temporary, started = None, time.time()
         try:
             source = sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=2.0)
             try:
-                temporary = backup.with_name(backup.name + ".tmp")
+                # a name of its own: two programs upgrading the same file at once each copy to their own
+                handle, name = tempfile.mkstemp(prefix=f".{backup.name}.", suffix=".tmp", dir=str(backup.parent))
+                os.close(handle)
+                temporary = Path(name)
                 target = sqlite3.connect(str(temporary))
                 try:
                     source.backup(target)
+                    copied = target.execute("PRAGMA user_version").fetchone()[0]
                 finally:
                     target.close()
-                os.replace(temporary, backup)
+                if copied == version:  # (another program may have upgraded the file since: not this schema)
+                    try:
+                        os.link(temporary, backup)
+                    except FileExistsError:  # a copy from an earlier upgrade is replaced; one another program
+                        if backup.stat().st_mtime < started:  # made while this one copied is kept
+                            os.replace(temporary, backup)
             finally:
                 source.close()
+                if temporary is not None:
+                    temporary.unlink(missing_ok=True)
         except (sqlite3.Error, OSError) as error:
-            Path(f"{backup}.tmp").unlink(missing_ok=True)
             problem = database_problem(error) if isinstance(error, sqlite3.Error) else (error.strerror or str(error))
             raise ProjectError(f"{path}: cannot copy the project aside to {backup.name} before upgrading it "
                                f"from schema {version}: {problem} (nothing was changed)") from None
