@@ -400,3 +400,24 @@ def test_a_journal_left_by_a_deleted_project_is_named_not_replayed_into_a_new_on
     fresh = Project.create(path)
     assert "from the deleted project" not in fresh.vocabulary()
     fresh.close()
+
+
+def test_a_text_damaged_into_bytes_that_are_not_utf8_is_named_as_damage(tmp_path):
+    """A few bytes changed inside a text column: reading it says the file is damaged and to restore a
+    backup, naming the column, not SQLite's raw "Could not decode to UTF-8" with the bytes."""
+    import sqlite3
+
+    from usvips.store.records import Vertex
+
+    path = tmp_path / "p.usvips"
+    with Project.create(path) as project:
+        project.annotator = "anne"
+        project.add_object("point", [Vertex(1.0, 2.0, 3.0, 4.0)], "cod")
+    connection = sqlite3.connect(path)
+    with connection:
+        connection.execute("UPDATE objects SET creator = CAST(X'fffe65' AS TEXT)")
+    connection.close()
+    with Project.open(path, read_only=True) as project:
+        with pytest.raises(ProjectError, match=r"the file is damaged \(a text in column 'creator' is not UTF-8\); "
+                                               "restore it from a backup$"):
+            project.objects()

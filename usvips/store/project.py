@@ -85,6 +85,10 @@ def database_problem(error: sqlite3.Error) -> str:
         return "the disk is full; free some space and try again"
     if "malformed" in lowered or "not a database" in lowered or "corrupt" in lowered:
         return f"the file is damaged ({message}); restore it from a backup"
+    if "could not decode to utf-8" in lowered:  # bytes of a text column changed: the file is damaged
+        column = message.split("column", 1)[-1].split("with text", 1)[0].strip() if "column" in message else ""
+        return (f"the file is damaged (a text{' in column ' + column if column else ''} is not UTF-8); restore it "
+                "from a backup")
     if "readonly" in lowered or "read-only" in lowered:
         return "the file or its folder is read-only"
     if "unable to open" in lowered or "permission" in lowered or "access" in lowered:
