@@ -87,3 +87,29 @@ def test_a_pipe_or_a_device_is_never_written_over_nor_waited_on(tmp_path):
     assert str(not_a_file(pipe)) == f"{pipe}: is a named pipe, not a regular file: save it to a file first"
     assert str(not_a_file("/dev/null")).endswith("is a device, not a regular file: save it to a file first")
     assert str(not_a_file(tmp_path / "missing.csv")).endswith("no such file")
+
+
+def test_a_set_of_files_stopped_by_a_full_disk_is_named_by_the_file_and_leaves_nothing(tmp_path, monkeypatch):
+    import errno
+    import os
+
+    from usvips.io import atomic
+    from usvips.io.atomic import write_files_atomic
+
+    (tmp_path / "a.txt").write_text("old a")
+    opened = os.fdopen
+    calls = []
+
+    def full_on_second(handle, *args, **kwargs):
+        calls.append(handle)
+        stream = opened(handle, *args, **kwargs)
+        if len(calls) == 2:
+            def full(text):
+                raise OSError(errno.ENOSPC, "No space left on device")
+            stream.write = full
+        return stream
+
+    monkeypatch.setattr(atomic.os, "fdopen", full_on_second)
+    with pytest.raises(OutputFileError, match=r"b\.txt: cannot write: No space left on device"):
+        write_files_atomic({tmp_path / "a.txt": "new a", tmp_path / "b.txt": "new b"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"] and (tmp_path / "a.txt").read_text() == "old a"

@@ -133,11 +133,14 @@ def write_files_atomic(files: dict[Path, str]) -> None:
         for path, text in files.items():
             path = check_output_path(path)
             folder = path.parent if str(path.parent) else Path(".")
-            handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=str(folder))
-            temporaries[path] = temporary
-            with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
-                stream.write(text)
-            give_normal_mode(temporary)
+            try:
+                handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=str(folder))
+                temporaries[path] = temporary
+                with os.fdopen(handle, "w", encoding="utf-8", newline="") as stream:
+                    stream.write(text)
+                give_normal_mode(temporary)
+            except OSError as error:  # a full disk, say: named by the file it stopped (nothing is in place)
+                raise OutputFileError(str(path), f"cannot write: {error.strerror or error}") from None
         for path, temporary in temporaries.items():
             if path.exists():
                 handle, backup = tempfile.mkstemp(prefix=f".{path.name}.old.", dir=str(path.parent))
