@@ -61,9 +61,10 @@ def test_the_text_is_what_the_csv_module_writes(calibration, observations):
     result = intersect_with_calibration(calibration, read.left, read.right)
     result.status[[3, 17]] = 1  # two points that failed are left out
     for ids in (read.ids, tuple(f"q{i}" for i in range(len(read.ids)))):  # with and without an id to quote
-        buffer = io.StringIO()
-        csv.writer(buffer, lineterminator="\n").writerows(point_rows(ids, result))
-        assert points_text(ids, result) == buffer.getvalue()
+        for pairs in (None, tuple(f"w{i % 3}" for i in range(len(ids))), tuple('w,"1"' for _ in ids)):
+            buffer = io.StringIO()
+            csv.writer(buffer, lineterminator="\n").writerows(point_rows(ids, result, pairs))
+            assert points_text(ids, result, pairs) == buffer.getvalue()
 
 
 @pytest.mark.parametrize("block_bytes", [1, 7, 64, 1 << 22])
@@ -244,10 +245,10 @@ def test_each_row_is_intersected_at_the_station_its_pair_column_names(tmp_path):
         texts.append((tmp_path / "points.csv").read_text())
     assert texts[0] == texts[1]
     table = list(csv.reader(io.StringIO(texts[0])))
-    assert table[0] == ["id", "pair", "X", "Y", "Z", "sX", "sY", "sZ"]
-    pairs = {row[1] for row in table[1:]}
+    assert table[0] == ["id", "X", "Y", "Z", "sX", "sY", "sZ", "pair"]  # (the columns keep their places)
+    pairs = {row[7] for row in table[1:]}
     assert pairs == {"water1", "water2"}
-    z = np.array([(np.array(row[2:5], float) - truth[row[0]]) / np.array(row[5:8], float) for row in table[1:]])
+    z = np.array([(np.array(row[1:4], float) - truth[row[0]]) / np.array(row[4:7], float) for row in table[1:]])
     assert np.all(np.abs(z) < 5) and 0.05 < np.mean(z ** 2) < 3
     with pytest.raises(InputFileError, match=r"line \d+: pair 'water2' is calibrated station 1 \(water2\), not the "
                                              r"station given \(water1\)"):
@@ -260,9 +261,9 @@ def test_each_row_is_intersected_at_the_station_its_pair_column_names(tmp_path):
     assert _run(calibration, renamed, tmp_path / "rig.csv", frame="rig").written == len(table) - 1
     # the water2 rows put in water1's frame (what one station for every row did) miss their points
     wrong = _run(calibration, renamed, tmp_path / "wrong.csv", station="water1")
-    rows = [row for row in csv.reader(io.StringIO((tmp_path / "wrong.csv").read_text())) if row[1] == "nosuch"]
+    rows = [row for row in csv.reader(io.StringIO((tmp_path / "wrong.csv").read_text())) if row[7] == "nosuch"]
     assert wrong.written == len(table) - 1 and rows
-    assert np.median([np.linalg.norm(np.array(row[2:5], float) - truth[row[0]]) for row in rows]) > 0.05
+    assert np.median([np.linalg.norm(np.array(row[1:4], float) - truth[row[0]]) for row in rows]) > 0.05
 
 
 def test_a_pixel_the_lens_distortion_cannot_undo_is_one_failed_point_named_by_its_line(tmp_path, calibration):

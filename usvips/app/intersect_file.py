@@ -221,17 +221,20 @@ def chunk_outcome(run: tuple[StereoCalibration, IntersectOptions, bool], chunk: 
 
 
 def point_rows(ids: tuple[str, ...], result: Intersection, pairs: tuple[str, ...] | None = None) -> list[list[str]]:
-    """CSV rows ``id, X, Y, Z, sX, sY, sZ`` (metres, 6 decimals; ``id, pair, X, …`` with ``pairs``) of the
+    """CSV rows ``id, X, Y, Z, sX, sY, sZ`` (metres, 6 decimals; with ``pairs``, the row's pair last) of the
     intersected points, in input order (every number formatted in one pass over a flat list)."""
     ok = np.flatnonzero(result.ok)
     table = np.column_stack([result.points[ok], result.sigmas[ok]])
     texts = [f"{v:.6f}" for v in table.ravel().tolist()]
-    first = [[ids[i]] if pairs is None else [ids[i], pairs[i]] for i in ok.tolist()]
-    return [[*head, *texts[6 * row:6 * row + 6]] for row, head in enumerate(first)]
+    last = [[] if pairs is None else [pairs[i]] for i in ok.tolist()]
+    return [[ids[i], *texts[6 * row:6 * row + 6], *tail] for row, (i, tail) in enumerate(zip(ok.tolist(), last,
+                                                                                             strict=True))]
 
 
 #: one points row as text: the id, then X, Y, Z, sX, sY, sZ to 6 decimals (as ``f"{v:.6f}"`` writes them)
 _ROW = "%s" + ",%.6f" * 6 + "\n"
+#: the same with the row's pair label last
+_ROW_PAIR = "%s" + ",%.6f" * 6 + ",%s\n"
 #: characters that make the csv module quote a field
 _QUOTED = re.compile(r'[,"\r\n]')
 
@@ -246,13 +249,14 @@ def points_text(ids: tuple[str, ...], result: Intersection, pairs: tuple[str, ..
         buffer = io.StringIO()
         csv.writer(buffer, lineterminator="\n").writerows(point_rows(ids, result, pairs))
         return buffer.getvalue()
-    if pairs is not None:
-        chosen = [f"{pid},{pair}" for pid, pair in zip(chosen, labels, strict=True)]
-    flat: list = [None] * (7 * len(chosen))
-    flat[0::7] = chosen
+    width = 7 if pairs is None else 8
+    flat: list = [None] * (width * len(chosen))
+    flat[0::width] = chosen
     for column, values in enumerate((*result.points[ok].T, *result.sigmas[ok].T), start=1):
-        flat[column::7] = values.tolist()
-    return (_ROW * len(chosen)) % tuple(flat)
+        flat[column::width] = values.tolist()
+    if pairs is not None:
+        flat[7::width] = labels
+    return ((_ROW if pairs is None else _ROW_PAIR) * len(chosen)) % tuple(flat)
 
 
 class _OutsideImage:
@@ -296,7 +300,8 @@ def intersect_file(calibration: StereoCalibration, observations: str | Path, out
     chunks = _Counted(observations, options, calibration)
     with text_atomic(out) as stream:
         writer = csv.writer(stream, lineterminator="\n")
-        writer.writerow(POINT_COLUMNS if not with_pair else (POINT_COLUMNS[0], "pair", *POINT_COLUMNS[1:]))
+        writer.writerow(POINT_COLUMNS if not with_pair else (*POINT_COLUMNS, "pair"))  # (pair last: the
+        # columns of a file without pairs keep their places)
         with closing(ordered_map(chunk_outcome, (calibration, options, with_pair), _checked(chunks, outside),
                                  _workers(options))) as worked:
             for chunk, outcome in worked:
