@@ -227,8 +227,8 @@ def test_each_row_is_intersected_at_the_station_its_pair_column_names(tmp_path):
     """A calibration of two stations (water1, water2) and one observation file of both pairs: each row at
     its own pair's station lands on its control point (the sample's truth), chunked or whole, and the
     output names each row's pair (an id repeats across pairs). A row of another calibrated station than
-    the one given, or of a pair that is no calibrated station, is refused by its line; in the rig frame the
-    station does not matter."""
+    the one given is refused by its line; a pair that is no calibrated station goes to the first station,
+    and the run says which pairs did; in the rig frame the station does not matter."""
     from pathlib import Path
 
     from usvips.io.tables import read_control
@@ -256,9 +256,10 @@ def test_each_row_is_intersected_at_the_station_its_pair_column_names(tmp_path):
     assert not (tmp_path / "one.csv").exists()
     renamed = tmp_path / "renamed.csv"
     renamed.write_text(observed.read_text().replace("water2", "nosuch"))
-    with pytest.raises(InputFileError, match="pair 'nosuch' is not a calibrated station .water1, water2."):
-        _run(calibration, renamed, tmp_path / "two.csv")
-    assert _run(calibration, renamed, tmp_path / "rig.csv", frame="rig").written == len(table) - 1
+    assert _run(calibration, renamed, tmp_path / "two.csv").unplaced == ["nosuch"]  # the first station's, said
+    assert _run(calibration, observed, tmp_path / "two.csv").unplaced == []
+    rig = _run(calibration, renamed, tmp_path / "rig.csv", frame="rig")
+    assert rig.written == len(table) - 1 and rig.unplaced == []
     # the water2 rows put in water1's frame (what one station for every row did) miss their points
     wrong = _run(calibration, renamed, tmp_path / "wrong.csv", station="water1")
     rows = [row for row in csv.reader(io.StringIO((tmp_path / "wrong.csv").read_text())) if row[7] == "nosuch"]

@@ -109,6 +109,7 @@ class IntersectSummary:
     skipped: list[tuple[str, str]] = field(default_factory=list)
     misfits: int = 0
     first_misfit: Misfit | None = None
+    unplaced: list[str] = field(default_factory=list)
 
     @property
     def rms_px(self) -> float:
@@ -121,10 +122,11 @@ def row_stations(calibration: StereoCalibration, chunk: StereoObservations, stat
 
     In the rig frame the station does not matter (one relative orientation): station 0 or ``station``.
     In a station's object frame, with ``station`` None, a row whose pair label names a calibrated station
-    is intersected there; a file without a pair column (every label ``"1"``) or a calibration of one
-    station uses station 0; any other label is an error naming its line (which station's frame is meant
-    cannot be told). With ``station`` given, every row is intersected there, but a row whose pair label
-    names ANOTHER calibrated station is an error: its cameras stood elsewhere."""
+    is intersected there; any other row (a file without a pair column, every label ``"1"``; a pair that is
+    no station, such as a measurement pair) at the first station, as before there were pair columns
+    (:func:`unplaced_pairs` names those pairs, for the run to say so). With ``station`` given, every row is
+    intersected there, but a row whose pair label names ANOTHER calibrated station is an error naming its
+    line: its cameras stood elsewhere."""
     labels = calibration.stations
     if frame == "rig" or (station is None and len(labels) == 1):
         return np.full(len(chunk), 0 if station is None else calibration.station_index(station), dtype=np.intp)
@@ -136,11 +138,16 @@ def row_stations(calibration: StereoCalibration, chunk: StereoObservations, stat
             raise _row_error(source, chunk, k, f"pair {pair!r} is calibrated station {own} ({pair}), not the station "
                              f"given ({labels[fixed]}): leave the station out to intersect each row at its own "
                              "pair's station")
-        if fixed is None and own is None and pair != "1":
-            raise _row_error(source, chunk, k, f"pair {pair!r} is not a calibrated station ({', '.join(labels)}): "
-                             "give the station whose frame to use, or the rig frame")
         indices[k] = fixed if fixed is not None else (own if own is not None else 0)
     return indices
+
+
+def unplaced_pairs(calibration: StereoCalibration, chunk: StereoObservations, options: IntersectOptions) -> list[str]:
+    """The pair labels of ``chunk`` that are no calibrated station but are intersected in one's object frame
+    (the first's, :func:`row_stations`): their points are placed as if the rig stood there."""
+    if options.frame == "rig" or options.station is not None or len(calibration.stations) == 1:
+        return []
+    return [pair for pair in dict.fromkeys(chunk.pairs) if pair != "1" and pair not in calibration.stations]
 
 
 def _row_error(source: str, chunk: StereoObservations, k: int, problem: str) -> InputFileError:
@@ -327,6 +334,7 @@ def intersect_file(calibration: StereoCalibration, observations: str | Path, out
                 summary.skipped.extend((chunk.ids[i], RayStatus(int(outcome.status[i])).reason)
                                        for i in bad.tolist())
         summary.points = chunks.rows
+        summary.unplaced = list(chunks.unplaced)
         outside.raise_any(str(observations))
         if failed and not options.skip_failed:
             line, point, reason = first_failure
@@ -342,10 +350,12 @@ class _Counted:
         self.chunks = observation_chunks(observations, rows=options.chunk_rows)
         self.source, self.options, self.calibration = str(observations), options, calibration
         self.rows = 0
+        self.unplaced: dict[str, None] = {}
 
     def __iter__(self) -> Iterator[StereoObservations]:
         for chunk in self.chunks:
             row_stations(self.calibration, chunk, self.options.station, self.options.frame, self.source)
+            self.unplaced.update(dict.fromkeys(unplaced_pairs(self.calibration, chunk, self.options)))
             self.rows += len(chunk)
             yield chunk
 

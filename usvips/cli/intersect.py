@@ -74,6 +74,12 @@ def _run(args: argparse.Namespace) -> int:
               f"pointing sigma explains (about {chance:.2g} by chance); the first, {summary.first_misfit.text}: "
               "a mismatched pair, picks less precise than --pointing-sigma, or a calibration that does not fit; "
               "their sigmas do not include this miss")
+    if summary.unplaced:
+        names = ", ".join(summary.unplaced[:5]) + (f" and {len(summary.unplaced) - 5} more"
+                                                   if len(summary.unplaced) > 5 else "")
+        print(f"note: pair(s) {names} are no calibrated station: their points are in the first station's "
+              f"({calibration.stations[0]}) object frame, as if the rig stood there (--station to choose one, "
+              "--frame rig for the left camera's frame)")
     for point, reason in summary.skipped:
         print(f"  skipped point {point}: {reason}")
     return 0
