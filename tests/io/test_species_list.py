@@ -53,7 +53,7 @@ def test_a_species_list_not_in_utf8_is_named_by_its_line_or_as_utf16(tmp_path):
 @pytest.mark.parametrize(("rows", "line", "words"), [
     ('Sparidae,Chrysophrys,"aur\natus",1', 2, "not a valid CSV line"),  # a quoted line break
     ('Sparidae,Chrysophrys,"auratus,1', 2, "not a valid CSV line"),  # a quote left open
-    ("Sparidae,Chrysophrys", 2, "2 fields but the header has 4"),  # a short row
+    ("Sparidae,Chrysophrys", 2, "2 fields but the header has 4"),  # a row short of a required field
     ("Sparidae,Chrysophrys,auratus,1,extra", 2, "5 fields but the header has 4"),  # a value slipped
     ("Sparidae,Chry\x00sophrys,auratus,1", 2, "NUL byte"),
     ("Sparidae,Chrysophrys,auratus,1\nsparidae,chrysophrys,Auratus,2", 3, r"listed twice \(also on line 2\)"),
@@ -82,3 +82,13 @@ def test_indented_comments_and_padded_fields_are_read_as_every_table_reads_them(
     path.write_text("family;genus;species\nSparidae;Chrysophrys;auratus\n", encoding="utf-8")
     with pytest.raises(InputFileError, match="separated by semicolons, not commas"):
         read_species_list(path)
+
+
+def test_a_row_may_leave_off_its_optional_fields(tmp_path):
+    path = tmp_path / "species.csv"
+    path.write_text("family,genus,species,code,max_length_cm\nSparidae,Chrysophrys,auratus\n"
+                    "Labridae,Notolabrus,gymnogenis,37384005\nLabridae,Achoerodus,gouldii,,120\n", encoding="utf-8")
+    taxa = read_species_list(path)
+    assert [(s.name, s.code, s.max_length_m) for s in taxa] == [("Chrysophrys auratus", "", None),
+                                                               ("Notolabrus gymnogenis", "37384005", None),
+                                                               ("Achoerodus gouldii", "", 1.2)]

@@ -2,8 +2,9 @@
 ``code`` — the columns of EventMeasure's and CheckEM's species lists (header names are matched without
 case; ``caab``, ``caab_code`` and ``species_code`` are read as ``code``, which may be missing). Lines
 starting with ``#`` (after white space) and blank lines are ignored; every line is read as every CSV
-table's (:func:`usvips.io.tables.split_line`) and has the header's number of fields. A taxon is one however
-its names are capitalised. Every error names the file and the line.
+table's (:func:`usvips.io.tables.split_line`) and has the header's number of fields, or stops after its
+last required one (the optional fields after it empty). A taxon is one however its names are
+capitalised. Every error names the file and the line.
 
 An optional column gives each species' maximum length, its unit in the header: ``max_length_mm``,
 ``max_length_cm``, ``max_length_m`` (or ``length_max_mm`` …), or ``fb_length_max`` (FishBase's, in cm).
@@ -86,10 +87,12 @@ def read_species_list(path: str | Path) -> list[Species]:
     species: list[Species] = []
     seen: dict[str, int] = {}
     codes: dict[str, int] = {}
+    needed = max(columns[name] for name in REQUIRED) + 1  # a row may stop after its last required field
     for number, row in rows[1:]:
-        if len(row) != len(header):  # a quote left open, a value with a comma, or a column slipped
+        if not needed <= len(row) <= len(header):  # a value with a comma, or a column slipped
             raise InputFileError(str(path), f"{len(row)} fields but the header has {len(header)} "
                                  f"({','.join(header)[:80]})", number)
+        row = row + [""] * (len(header) - len(row))  # the optional fields a spreadsheet left off: empty
         values = {name: row[i] for name, i in columns.items()}
         max_length = None
         if maximum is not None and row[maximum[0]]:
