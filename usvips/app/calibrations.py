@@ -20,11 +20,12 @@ def read_calibration(project: ProjectStore, calibration_id: int) -> StereoCalibr
 
 
 def require_readable_calibrations(project: ProjectStore) -> None:
-    """Every stored calibration read and checked: one that cannot be read (damaged) is its error. Exports
-    and checks call this first: their figures would otherwise come from the vertices' stored values for
-    the objects measured with it, and differ from the calibration's own without a word."""
+    """Every stored calibration's record read: one whose stored text is damaged (no longer JSON) is its
+    error. Exports and checks call this first: their figures would otherwise come from the vertices' stored
+    values for the objects measured with it, and differ from the calibration's own without a word. (A
+    record that reads but holds no calibration the figures can use keeps the stored values, as before.)"""
     for stored in project.calibrations():
-        read_calibration(project, stored.id)
+        project.calibration(stored.id)
 
 
 def active_calibration_id(project: ProjectStore, label: str) -> int | None:
