@@ -74,21 +74,21 @@ def test_a_maximum_length_that_another_program_reads_as_text_is_refused(tmp_path
         read_species_list(path)
 
 
-def test_indented_comments_and_padded_fields_are_read_as_every_table_reads_them(tmp_path):
+def _read(tmp_path, text: str):
     path = tmp_path / "species.csv"
-    path.write_text("family, genus ,species,code\n   # a comment\nSparidae , Chrysophrys,auratus,1\n"
-                    '"Labridae","Notolabrus","gymnogenis",2\n', encoding="utf-8")
-    assert [s.name for s in read_species_list(path)] == ["Chrysophrys auratus", "Notolabrus gymnogenis"]
-    path.write_text("family;genus;species\nSparidae;Chrysophrys;auratus\n", encoding="utf-8")
+    path.write_text(text, encoding="utf-8")
+    return read_species_list(path)
+
+
+def test_indented_comments_padded_fields_and_optional_fields_left_off_are_read(tmp_path):
+    """As every table reads them; and a row may stop after its last required field, as spreadsheets write."""
+    taxa = _read(tmp_path, "family, genus ,species,code\n   # a comment\nSparidae , Chrysophrys,auratus,1\n"
+                           '"Labridae","Notolabrus","gymnogenis",2\n')
+    assert [s.name for s in taxa] == ["Chrysophrys auratus", "Notolabrus gymnogenis"]
     with pytest.raises(InputFileError, match="separated by semicolons, not commas"):
-        read_species_list(path)
-
-
-def test_a_row_may_leave_off_its_optional_fields(tmp_path):
-    path = tmp_path / "species.csv"
-    path.write_text("family,genus,species,code,max_length_cm\nSparidae,Chrysophrys,auratus\n"
-                    "Labridae,Notolabrus,gymnogenis,37384005\nLabridae,Achoerodus,gouldii,,120\n", encoding="utf-8")
-    taxa = read_species_list(path)
+        _read(tmp_path, "family;genus;species\nSparidae;Chrysophrys;auratus\n")
+    taxa = _read(tmp_path, "family,genus,species,code,max_length_cm\nSparidae,Chrysophrys,auratus\n"
+                           "Labridae,Notolabrus,gymnogenis,37384005\nLabridae,Achoerodus,gouldii,,120\n")
     assert [(s.name, s.code, s.max_length_m) for s in taxa] == [("Chrysophrys auratus", "", None),
                                                                ("Notolabrus gymnogenis", "37384005", None),
                                                                ("Achoerodus gouldii", "", 1.2)]
