@@ -4,6 +4,7 @@ with exactly the tables, columns and triggers a new one has."""
 
 from __future__ import annotations
 
+import os
 import sqlite3
 
 import psycopg
@@ -122,6 +123,9 @@ def test_two_programs_upgrading_one_file_at_once_keep_a_copy_of_the_old_schema(t
             assert project.version == SCHEMA_VERSION and len(project.objects()) == 1
         backups = list(tmp_path.glob(f"old{attempt}.usvips.schema*.bak"))
         for backup in backups:
+            umask = os.umask(0o022)
+            os.umask(umask)
+            assert backup.stat().st_mode & 0o777 == 0o666 & ~umask  # as readable as the project
             kept = sqlite3.connect(backup)
             assert kept.execute("PRAGMA user_version").fetchone()[0] == version, backup.name
             kept.close()

@@ -75,6 +75,13 @@ def migrate(connection: sqlite3.Connection, target: int = SCHEMA_VERSION) -> int
     return connection.execute("PRAGMA user_version").fetchone()[0]
 
 
+def _umask() -> int:
+    """The process's file-mode mask (read by setting it and back, as the store has no other way)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
 def database_problem(error: sqlite3.Error) -> str:
     """What an SQLite error means for the person using the project, in a few words (no traceback)."""
     message = str(error)
@@ -217,9 +224,7 @@ class Project(Survey):
                                          f"INSERT INTO meta VALUES ('created', '{_now()}'); COMMIT;")
             finally:
                 connection.close()
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(temporary, 0o666 & ~umask)
+            os.chmod(temporary, 0o666 & ~_umask())
             try:
                 os.link(temporary, path)          # never replaces a file that appeared meanwhile
             except FileExistsError:
@@ -312,6 +317,7 @@ class Project(Survey):
                 handle, name = tempfile.mkstemp(prefix=f".{backup.name}.", suffix=".tmp", dir=str(backup.parent))
                 os.close(handle)
                 temporary = Path(name)
+                os.chmod(temporary, 0o666 & ~_umask())  # mkstemp makes 0600: the copy is the project's to read
                 target = sqlite3.connect(str(temporary))
                 try:
                     source.backup(target)
