@@ -31,7 +31,7 @@ from pathlib import Path
 import pytest
 
 from tests.cli.bad_inputs import BAD_URLS, PASSWORDS, ROV, dump, file_spoilings, silent, valid_inputs
-from usvips.cli import build_parser, whole_number
+from usvips.cli import build_parser, plain_float, whole_number
 
 
 @dataclass(frozen=True)
@@ -386,13 +386,14 @@ def _value_culprits(word: str, words: list[str]) -> tuple[str, ...]:
 
 
 def _number_options(command: str) -> dict[str, type]:
-    """Every option of ``command`` that takes one number (float or int), by its long name."""
+    """Every option of ``command`` that takes one number (float or int), by its long name (the parser reads
+    ``type=float`` options through :func:`usvips.cli.plain_float`, ``type=int`` ones through ``whole_number``)."""
     parser = build_parser("*")
     for word in command.split():
         sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
         parser = sub.choices[word]
-    return {max(a.option_strings, key=len): a.type for a in parser._actions
-            if a.option_strings and a.type in (float, int, whole_number) and a.nargs is None}
+    return {max(a.option_strings, key=len): float if a.type is plain_float else a.type for a in parser._actions
+            if a.option_strings and a.type in (float, int, whole_number, plain_float) and a.nargs is None}
 
 
 def _non_finite_cases(command: str, doors: list[Door]) -> list[Case]:
