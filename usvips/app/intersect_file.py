@@ -131,15 +131,22 @@ def row_stations(calibration: StereoCalibration, chunk: StereoObservations, stat
     if frame == "rig" or (station is None and len(labels) == 1):
         return np.full(len(chunk), 0 if station is None else calibration.station_index(station), dtype=np.intp)
     fixed = None if station is None else calibration.station_index(station)
-    indices = np.empty(len(chunk), dtype=np.intp)
-    for k, pair in enumerate(chunk.pairs):
+    # one look-up per distinct pair label, not per row (a chunk holds up to 10⁵ rows of a few pairs)
+    pairs, rows_of = np.unique(np.asarray(chunk.pairs, dtype=object), return_inverse=True)
+    rows_of = rows_of.reshape(-1)
+    stations = np.empty(len(pairs), dtype=np.intp)
+    elsewhere = []  # (first row, label, its station) of the labels of another calibrated station than the one given
+    for p, pair in enumerate(pairs):
         own = labels.index(pair) if pair in labels else None
         if fixed is not None and own is not None and own != fixed:
-            raise _row_error(source, chunk, k, f"pair {pair!r} is calibrated station {own} ({pair}), not the station "
-                             f"given ({labels[fixed]}): leave the station out to intersect each row at its own "
-                             "pair's station")
-        indices[k] = fixed if fixed is not None else (own if own is not None else 0)
-    return indices
+            elsewhere.append((int(np.argmax(rows_of == p)), pair, own))
+        stations[p] = fixed if fixed is not None else (own if own is not None else 0)
+    if elsewhere:  # the first such row in the file
+        row, pair, own = min(elsewhere)
+        raise _row_error(source, chunk, row, f"pair {pair!r} is calibrated station {own} ({pair}), not the station "
+                         f"given ({labels[fixed]}): leave the station out to intersect each row at its own pair's "
+                         "station")
+    return stations[rows_of]
 
 
 def unplaced_pairs(calibration: StereoCalibration, chunk: StereoObservations, options: IntersectOptions) -> list[str]:
