@@ -63,7 +63,9 @@ def plan_image_pairs(left: Sequence[str | Path], right: Sequence[str | Path], la
                      by: str = "auto", max_dt: float = 1.0) -> tuple[list[tuple[str, Path, Path]], str]:
     """The (label, left, right) pairs that :func:`add_image_pairs` would add, and the rule used (for a
     person to confirm). Labels: prefix + the shared stem (or the pair's number when paired by order)."""
-    label_prefix = validation.folder_name("label_prefix", label_prefix) if label_prefix.strip() else ""
+    label_prefix = validation.name("label_prefix", label_prefix, allow_empty=True) if label_prefix else ""
+    label_prefix = validation.folder_name("label_prefix", label_prefix) if label_prefix else ""  # (a tab: refused
+    # by name above, which allows a prefix of white space only; folder_name does not)
     max_dt = validation.finite("max_dt", max_dt)
     if max_dt <= 0:
         raise InvalidParameterError("max_dt", f"must be > 0 seconds, got {max_dt:g}",
